@@ -1,0 +1,93 @@
+# shapematch — one entry point: deps, all, test, demo, bench, install, clean.
+#
+# Two build variants live side by side:
+#   build/release  -O2, what users run and what `make bench` measures
+#   build/asan     AddressSanitizer + UndefinedBehaviorSanitizer, for tests
+# Each top-level part (core, proto, server, client, tests, bench) adds its
+# targets through a small `module.mk` fragment, so a part can grow without
+# editing this file.
+
+SHELL := /bin/bash
+.DEFAULT_GOAL := all
+
+PREFIX ?= /usr/local
+VERSION := 0.1.0
+
+# Debian packages the build, the tests, the demo and the benchmarks need.
+DEB_PACKAGES := gcc make pkg-config libc6-dev \
+  libsuitesparse-dev zlib1g-dev libcmocka-dev libjansson-dev \
+  libmicrohttpd-dev libcurl4-openssl-dev curl gmsh wrk
+
+CC ?= cc
+BASE_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror \
+  -Wno-missing-field-initializers -g -I core -I proto -I /usr/include/suitesparse \
+  -DSM_VERSION='"$(VERSION)"'
+RELEASE_CFLAGS := $(BASE_CFLAGS) -O2
+ASAN_CFLAGS := $(BASE_CFLAGS) -O1 -fno-omit-frame-pointer \
+  -fsanitize=address,undefined -fno-sanitize-recover=all
+RELEASE_LDFLAGS :=
+ASAN_LDFLAGS := -fsanitize=address,undefined
+
+CORE_LIBS := -lcholmod -lz -lm
+PROTO_LIBS := -ljansson
+HTTP_LIBS := -lmicrohttpd
+CURL_LIBS := -lcurl
+
+VARIANTS := release asan
+release_DIR := build/release
+asan_DIR := build/asan
+release_CFLAGS := $(RELEASE_CFLAGS)
+asan_CFLAGS := $(ASAN_CFLAGS)
+release_LDFLAGS := $(RELEASE_LDFLAGS)
+asan_LDFLAGS := $(ASAN_LDFLAGS)
+
+# Filled by the module fragments: programs built in every variant.
+ALL_TARGETS :=
+
+# compile rule for every variant: build/<variant>/obj/<path>.o
+define variant_rules
+build/$(1)/obj/%.o: %.c
+	@mkdir -p $$(dir $$@)
+	$$(CC) $$($(1)_CFLAGS) -MMD -MP -c $$< -o $$@
+endef
+$(foreach v,$(VARIANTS),$(eval $(call variant_rules,$(v))))
+
+include $(wildcard core/module.mk proto/module.mk server/module.mk \
+  client/module.mk tests/module.mk bench/module.mk)
+
+.PHONY: all deps test demo bench install clean release asan
+all: $(foreach v,$(VARIANTS),$(ALL_TARGETS:%=build/$(v)/%))
+release: $(ALL_TARGETS:%=build/release/%)
+asan: $(ALL_TARGETS:%=build/asan/%)
+
+# Idempotent: only touches apt when something is missing.
+deps:
+	@missing=""; for p in $(DEB_PACKAGES); do \
+	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  echo "deps: installing$$missing"; \
+	  if [ "$$(id -u)" != 0 ]; then echo "deps: run as root (or install:$$missing)" >&2; exit 1; fi; \
+	  apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $$missing; \
+	else echo "deps: all Debian packages present"; fi
+
+test: deps
+	$(MAKE) all
+	tests/run.sh
+
+bench: deps
+	$(MAKE) release
+	bench/run.sh
+
+demo: deps
+	$(MAKE) release
+	scripts/demo.sh
+
+install: release
+	install -d $(DESTDIR)$(PREFIX)/bin
+	install -m 755 $(wildcard $(INSTALL_PROGRAMS:%=build/release/%)) $(DESTDIR)$(PREFIX)/bin/
+
+clean:
+	rm -rf build demo-out
+
+-include $(shell find build -name '*.d' 2>/dev/null)

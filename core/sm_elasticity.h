@@ -1,0 +1,120 @@
+/* Linear elasticity with P1 Lagrange elements:
+ *   find u with u = g on the clamped vertices such that for all v
+ *   (v = 0 there):  int sigma(u):eps(v) + alpha int u.v = F(v),
+ * sigma(u) = 2 mu eps(u) + lambda tr(eps(u)) I, Lame coefficients from
+ * Young's modulus E and Poisson ratio nu (plane strain in 2D).
+ *
+ * Dirichlet degrees of freedom are eliminated (not penalised): the system
+ * is assembled on the free DOFs only, the clamped values move to the
+ * right-hand side.  The sparsity pattern depends only on the topology, so
+ * it is built once together with an element-to-CSR-slot map and CHOLMOD's
+ * symbolic analysis; each sm_elasticity_factorize() only refills values
+ * and refactorizes numerically. */
+#ifndef SM_ELASTICITY_H
+#define SM_ELASTICITY_H
+
+#include <stdint.h>
+
+#include "sm_error.h"
+#include "sm_mesh.h"
+
+typedef struct sm_elasticity sm_elasticity;
+
+/* clamped: nverts flags (all components of a flagged vertex are fixed),
+ * may be NULL for none.  With no clamped vertex alpha must be > 0.
+ * The mesh topology (m->elems) is borrowed and must outlive the object. */
+sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
+                            double young, double poisson, double alpha,
+                            sm_elasticity **out, sm_error *err);
+void sm_elasticity_free(sm_elasticity *el);
+
+/* Assembles the stiffness (+ alpha mass) matrix on the vertex positions
+ * coords (nverts*dim) and factorizes it (numeric Cholesky). */
+sm_status sm_elasticity_factorize(sm_elasticity *el, const double *coords,
+                                  sm_error *err);
+
+/* Solves with the last factorization.  load: nodal forces (nverts*dim,
+ * the assembled F(phi_i e_c)); dirichlet: values on clamped vertices
+ * (nverts*dim, only clamped entries read) or NULL for 0; u: output
+ * nverts*dim (clamped entries set to the Dirichlet values). */
+sm_status sm_elasticity_solve(sm_elasticity *el, const double *load,
+                              const double *dirichlet, double *u,
+                              sm_error *err);
+
+/* Free-DOF matrix in CSR form with the full symmetric pattern (both
+ * triangles stored, each assembled from the element matrices), for tests
+ * and diagnostics.  Valid after sm_elasticity_factorize.  Free DOF k of
+ * vertex v, component c is given by sm_elasticity_dof(). */
+typedef struct sm_csr_view {
+    int32_t n;              /* number of free DOFs */
+    const int32_t *rowptr;  /* n+1 */
+    const int32_t *colind;  /* rowptr[n] entries, sorted in each row */
+    const double *values;   /* nnz */
+} sm_csr_view;
+void sm_elasticity_matrix(const sm_elasticity *el, sm_csr_view *view);
+/* Free DOF index of (vertex, component), or -1 if clamped. */
+int32_t sm_elasticity_dof(const sm_elasticity *el, int32_t vertex, int comp);
+
+/* Timings (seconds) of the last factorize: assembly, numeric factor. */
+void sm_elasticity_timings(const sm_elasticity *el, double *assembly,
+                           double *factor);
+
+/* ---- Additions: options, diagnostics and a per-element helper. ---- */
+
+/* Lame coefficients from Young's modulus and Poisson ratio (plane strain
+ * in 2D uses the same formulas):
+ *   lambda = E nu / ((1+nu)(1-2nu)),  mu = E / (2(1+nu)). */
+void sm_lame(double young, double poisson, double *lambda, double *mu);
+
+/* Which Cholesky CHOLMOD computes.  AUTO lets CHOLMOD decide from the
+ * flop count of the symbolic analysis (what sm_elasticity_new does);
+ * the other two force one kind, for benchmarks. */
+typedef enum sm_factor_kind {
+    SM_FACTOR_AUTO = 0,
+    SM_FACTOR_SIMPLICIAL = 1,
+    SM_FACTOR_SUPERNODAL = 2
+} sm_factor_kind;
+
+/* sm_elasticity_new with an explicit factor kind. */
+sm_status sm_elasticity_new_ex(const sm_mesh *m, const uint8_t *clamped,
+                               double young, double poisson, double alpha,
+                               sm_factor_kind kind, sm_elasticity **out,
+                               sm_error *err);
+
+typedef struct sm_elasticity_info {
+    int32_t nfree;          /* free DOFs (order of the system) */
+    int32_t nclamped;       /* clamped DOFs */
+    int64_t nnz;            /* entries of the free x free CSR (both triangles) */
+    int64_t nnz_coupling;   /* entries of the free x clamped CSR block */
+    double nnz_factor;      /* entries of L (from the symbolic analysis) */
+    double flops;           /* flop count of one numeric factorization */
+    int supernodal;         /* 1 if the factor is supernodal */
+    const char *ordering;   /* fill-reducing ordering CHOLMOD selected */
+    double analyze_time;    /* seconds: pattern, slot map and analysis */
+    double solve_time;      /* seconds: last sm_elasticity_solve */
+} sm_elasticity_info;
+void sm_elasticity_get_info(const sm_elasticity *el, sm_elasticity_info *info);
+
+/* Element matrix of one simplex, for tests and diagnostics: vertex_coords
+ * holds the dim+1 vertices (dim doubles each, any orientation); ke
+ * receives the ((dim+1)*dim)^2 entries row-major, local DOF i*dim+c for
+ * vertex i, component c:
+ *   |K| (mu (grad phi_i . grad phi_j) delta_cd + mu d_d phi_i d_c phi_j
+ *        + lambda d_c phi_i d_d phi_j) + alpha int_K phi_i phi_j delta_cd.
+ * *volume receives the signed volume.  SM_ERR_NUMERIC if the simplex is
+ * degenerate (|volume| <= 1e-12 * (longest edge)^dim) or not finite. */
+sm_status sm_elasticity_element_matrix(int dim, const double *vertex_coords,
+                                       double lambda, double mu, double alpha,
+                                       double *ke, double *volume,
+                                       sm_error *err);
+
+/* Behaviour notes:
+ * - Element orientation is irrelevant (|volume| is used); a degenerate
+ *   element (see above) or non-finite coordinates make
+ *   sm_elasticity_factorize fail with SM_ERR_NUMERIC naming the element.
+ * - load may be NULL (no load).  sm_elasticity_solve before a successful
+ *   factorize returns SM_ERR_INVALID.
+ * - When every vertex is clamped there is no system: solve returns the
+ *   Dirichlet values. */
+
+#endif

@@ -1,0 +1,269 @@
+/* Mesh model: orientation, boundary extraction, outward normals, volumes,
+ * quality, reference transfer and rejection of broken topologies. */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "sm_mesh.h"
+
+/* Structured mesh of [0,2]x[0,1] (2D, n x n squares split in 2) or of
+ * [0,2]x[0,1]x[0,1] (3D, n^3 cubes split in 6 Kuhn tetrahedra), with the
+ * vertices of each element listed in a random order, so about half of
+ * the elements are negatively oriented. */
+static sm_mesh *structured(int dim, int n, unsigned seed)
+{
+    int np = n + 1;
+    int32_t nverts = dim == 2 ? np * np : np * np * np;
+    int32_t nelems = dim == 2 ? 2 * n * n : 6 * n * n * n;
+    sm_mesh *m = NULL;
+    sm_error err;
+    assert_int_equal(sm_mesh_alloc(&m, dim, nverts, nelems, 0, &err), SM_OK);
+    srand(seed);
+    for (int32_t v = 0; v < nverts; v++) {
+        int i = v % np, j = (v / np) % np, k = v / (np * np);
+        m->coords[v * dim + 0] = 2.0 * i / n;
+        m->coords[v * dim + 1] = 1.0 * j / n;
+        if (dim == 3)
+            m->coords[v * dim + 2] = 1.0 * k / n;
+    }
+    int32_t e = 0;
+    if (dim == 2) {
+        for (int j = 0; j < n; j++)
+            for (int i = 0; i < n; i++) {
+                int32_t a = j * np + i, b = a + 1, c = a + np + 1, d = a + np;
+                int32_t t[2][3] = {{a, b, c}, {a, c, d}};
+                for (int s = 0; s < 2; s++, e++)
+                    for (int q = 0; q < 3; q++)
+                        m->elems[e * 3 + q] = t[s][q];
+            }
+    } else {
+        static const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2},
+                                        {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+        for (int k = 0; k < n; k++)
+            for (int j = 0; j < n; j++)
+                for (int i = 0; i < n; i++)
+                    for (int p = 0; p < 6; p++, e++) {
+                        int cur[3] = {i, j, k};
+                        m->elems[e * 4] = (k * np + j) * np + i;
+                        for (int s = 0; s < 3; s++) {
+                            cur[perms[p][s]]++;
+                            m->elems[e * 4 + s + 1] = (cur[2] * np + cur[1]) * np + cur[0];
+                        }
+                    }
+    }
+    /* random vertex order inside each element */
+    int nv = dim + 1;
+    for (int32_t f = 0; f < nelems; f++)
+        for (int q = nv - 1; q > 0; q--) {
+            int r = rand() % (q + 1);
+            int32_t t = m->elems[f * nv + q];
+            m->elems[f * nv + q] = m->elems[f * nv + r];
+            m->elems[f * nv + r] = t;
+        }
+    return m;
+}
+
+static void check_closed_boundary(sm_mesh *m, double expected_volume, int32_t expected_bfacets)
+{
+    sm_error err;
+    assert_int_equal(sm_mesh_build_boundary(m, &err), SM_OK);
+    double vol = 0.0;
+    for (int32_t e = 0; e < m->nelems; e++) {
+        double v = sm_elem_volume(m, m->coords, e);
+        assert_true(v > 0.0);
+        vol += v;
+    }
+    assert_true(fabs(vol - expected_volume) < 1e-12);
+    assert_int_equal(m->nbfacets, expected_bfacets);
+    /* closed surface: sum of area vectors is 0; divergence theorem for x:
+     * sum over facets of (centroid . n) |f| = dim * |Omega| */
+    double sum_n[3] = {0, 0, 0}, flux = 0.0;
+    double center[3] = {1.0, 0.5, 0.5};
+    for (int32_t f = 0; f < m->nbfacets; f++) {
+        double n[3];
+        double area = sm_bfacet_normal(m, m->coords, f, n);
+        double mid[3] = {0, 0, 0};
+        for (int i = 0; i < m->dim; i++)
+            for (int c = 0; c < m->dim; c++)
+                mid[c] += m->coords[m->bfacets[f * m->dim + i] * m->dim + c] / m->dim;
+        double out = 0.0;
+        for (int c = 0; c < m->dim; c++) {
+            sum_n[c] += area * n[c];
+            flux += area * n[c] * mid[c];
+            out += n[c] * (mid[c] - center[c]);
+        }
+        assert_true(out > 0.0); /* convex box: outward means away from its center */
+    }
+    for (int c = 0; c < m->dim; c++)
+        assert_true(fabs(sum_n[c]) < 1e-12);
+    assert_true(fabs(flux - m->dim * expected_volume) < 1e-12);
+}
+
+static void test_orientation_and_normals_2d(void **state)
+{
+    (void)state;
+    sm_mesh *m = structured(2, 8, 1);
+    check_closed_boundary(m, 2.0, 4 * 8);
+    for (int32_t v = 0; v < m->nverts; v++) {
+        double x = m->coords[2 * v], y = m->coords[2 * v + 1];
+        int expect = x == 0.0 || x == 2.0 || y == 0.0 || y == 1.0;
+        assert_int_equal(m->on_boundary[v], expect);
+    }
+    sm_mesh_free(m);
+}
+
+static void test_orientation_and_normals_3d(void **state)
+{
+    (void)state;
+    sm_mesh *m = structured(3, 5, 2);
+    check_closed_boundary(m, 2.0, 6 * 5 * 5 * 2);
+    sm_mesh_free(m);
+}
+
+static void test_quality(void **state)
+{
+    (void)state;
+    sm_mesh *m = NULL;
+    sm_error err;
+    assert_int_equal(sm_mesh_alloc(&m, 2, 4, 2, 0, &err), SM_OK);
+    double c[] = {0, 0, 1, 0, 0.5, sqrt(3.0) / 2, 2, 0};
+    for (int i = 0; i < 8; i++)
+        m->coords[i] = c[i];
+    int32_t el[] = {0, 1, 2, 0, 2, 1};
+    for (int i = 0; i < 6; i++)
+        m->elems[i] = el[i];
+    assert_true(fabs(sm_elem_quality(m, m->coords, 0) - 1.0) < 1e-14);
+    assert_true(fabs(sm_elem_quality(m, m->coords, 1) + 1.0) < 1e-14); /* inverted */
+    m->coords[5] = 0.0; /* flatten */
+    assert_true(fabs(sm_elem_quality(m, m->coords, 0)) < 1e-14);
+    sm_mesh_free(m);
+
+    assert_int_equal(sm_mesh_alloc(&m, 3, 4, 1, 0, &err), SM_OK);
+    double t[] = {1, 1, 1, 1, -1, -1, -1, 1, -1, -1, -1, 1}; /* regular tetrahedron */
+    for (int i = 0; i < 12; i++)
+        m->coords[i] = t[i];
+    for (int i = 0; i < 4; i++)
+        m->elems[i] = i;
+    assert_true(fabs(fabs(sm_elem_quality(m, m->coords, 0)) - 1.0) < 1e-12);
+    sm_quality_stats qs;
+    sm_mesh_quality(m, m->coords, &qs);
+    assert_true(fabs(fabs(qs.min) - 1.0) < 1e-12);
+    assert_true(fabs(sm_mesh_diameter(m, m->coords) - sqrt(12.0)) < 1e-14);
+    sm_mesh_free(m);
+}
+
+/* Two triangles sharing an edge; the file lists the shared (interior)
+ * edge with reference 10 and two boundary edges with references 1 and 2. */
+static void test_reference_transfer(void **state)
+{
+    (void)state;
+    sm_mesh *m = NULL;
+    sm_error err;
+    assert_int_equal(sm_mesh_alloc(&m, 2, 4, 2, 3, &err), SM_OK);
+    double c[] = {0, 0, 1, 0, 1, 1, 0, 1};
+    for (int i = 0; i < 8; i++)
+        m->coords[i] = c[i];
+    int32_t el[] = {0, 2, 1, 0, 2, 3}; /* first one clockwise, second counter */
+    for (int i = 0; i < 6; i++)
+        m->elems[i] = el[i];
+    int32_t fa[] = {2, 0, 1, 0, 3, 2};
+    int32_t fr[] = {10, 1, 2};
+    for (int i = 0; i < 6; i++)
+        m->facets[i] = fa[i];
+    for (int i = 0; i < 3; i++)
+        m->facet_refs[i] = fr[i];
+    assert_int_equal(sm_mesh_build_boundary(m, &err), SM_OK);
+    assert_int_equal(m->nbfacets, 4);
+    int seen1 = 0, seen2 = 0, seen0 = 0;
+    for (int32_t f = 0; f < 4; f++) {
+        int32_t a = m->bfacets[2 * f], b = m->bfacets[2 * f + 1];
+        assert_false((a == 0 && b == 2) || (a == 2 && b == 0)); /* interior edge excluded */
+        if (m->bfacet_refs[f] == 1) {
+            seen1++;
+            assert_true((a == 0 && b == 1) || (a == 1 && b == 0));
+        } else if (m->bfacet_refs[f] == 2) {
+            seen2++;
+        } else {
+            assert_int_equal(m->bfacet_refs[f], 0);
+            seen0++;
+        }
+    }
+    assert_int_equal(seen1, 1);
+    assert_int_equal(seen2, 1);
+    assert_int_equal(seen0, 2);
+    /* the file's facet list is left as it was */
+    assert_int_equal(m->nfacets, 3);
+    assert_int_equal(m->facet_refs[0], 10);
+    sm_mesh_free(m);
+}
+
+static void test_rejections(void **state)
+{
+    (void)state;
+    sm_error err;
+    sm_mesh *m = structured(2, 2, 3);
+    m->elems[4] = 99;
+    assert_int_equal(sm_mesh_build_boundary(m, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "vertex 100"));
+    sm_mesh_free(m);
+
+    m = structured(2, 2, 3);
+    m->elems[1] = m->elems[0]; /* repeated vertex: degenerate */
+    assert_int_equal(sm_mesh_build_boundary(m, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "degenerate"));
+    sm_mesh_free(m);
+
+    m = structured(2, 2, 3);
+    m->coords[3] = NAN;
+    assert_int_equal(sm_mesh_build_boundary(m, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "non-finite"));
+    sm_mesh_free(m);
+
+    /* three triangles on one edge: not a manifold */
+    assert_int_equal(sm_mesh_alloc(&m, 2, 5, 3, 0, &err), SM_OK);
+    double c[] = {0, 0, 1, 0, 0.5, 1, 0.5, -1, 2, 2};
+    for (int i = 0; i < 10; i++)
+        m->coords[i] = c[i];
+    int32_t el[] = {0, 1, 2, 0, 1, 3, 0, 1, 4};
+    for (int i = 0; i < 9; i++)
+        m->elems[i] = el[i];
+    assert_int_equal(sm_mesh_build_boundary(m, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "not manifold"));
+    sm_mesh_free(m);
+
+    assert_int_equal(sm_mesh_alloc(&m, 4, 1, 1, 0, &err), SM_ERR_INVALID);
+    assert_int_equal(sm_mesh_alloc(&m, 2, -1, 1, 0, &err), SM_ERR_NOMEM);
+    assert_null(m);
+}
+
+static void test_clone(void **state)
+{
+    (void)state;
+    sm_error err;
+    sm_mesh *m = structured(3, 2, 4), *c = NULL;
+    assert_int_equal(sm_mesh_build_boundary(m, &err), SM_OK);
+    assert_int_equal(sm_mesh_clone(m, &c, &err), SM_OK);
+    assert_int_equal(c->nbfacets, m->nbfacets);
+    assert_memory_equal(c->bfacets, m->bfacets, sizeof(int32_t) * 3 * m->nbfacets);
+    assert_memory_equal(c->coords, m->coords, sizeof(double) * 3 * m->nverts);
+    sm_mesh_free(c);
+    sm_mesh_free(m);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_orientation_and_normals_2d),
+        cmocka_unit_test(test_orientation_and_normals_3d),
+        cmocka_unit_test(test_quality),
+        cmocka_unit_test(test_reference_transfer),
+        cmocka_unit_test(test_rejections),
+        cmocka_unit_test(test_clone),
+    };
+    return cmocka_run_group_tests_name("mesh", tests, NULL, NULL);
+}

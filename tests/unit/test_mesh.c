@@ -10,61 +10,13 @@
 #include <cmocka.h>
 
 #include "sm_mesh.h"
+#include "util_mesh.h"
 
-/* Structured mesh of [0,2]x[0,1] (2D, n x n squares split in 2) or of
- * [0,2]x[0,1]x[0,1] (3D, n^3 cubes split in 6 Kuhn tetrahedra), with the
- * vertices of each element listed in a random order, so about half of
- * the elements are negatively oriented. */
 static sm_mesh *structured(int dim, int n, unsigned seed)
 {
-    int np = n + 1;
-    int32_t nverts = dim == 2 ? np * np : np * np * np;
-    int32_t nelems = dim == 2 ? 2 * n * n : 6 * n * n * n;
-    sm_mesh *m = NULL;
-    sm_error err;
-    assert_int_equal(sm_mesh_alloc(&m, dim, nverts, nelems, 0, &err), SM_OK);
-    srand(seed);
-    for (int32_t v = 0; v < nverts; v++) {
-        int i = v % np, j = (v / np) % np, k = v / (np * np);
-        m->coords[v * dim + 0] = 2.0 * i / n;
-        m->coords[v * dim + 1] = 1.0 * j / n;
-        if (dim == 3)
-            m->coords[v * dim + 2] = 1.0 * k / n;
-    }
-    int32_t e = 0;
-    if (dim == 2) {
-        for (int j = 0; j < n; j++)
-            for (int i = 0; i < n; i++) {
-                int32_t a = j * np + i, b = a + 1, c = a + np + 1, d = a + np;
-                int32_t t[2][3] = {{a, b, c}, {a, c, d}};
-                for (int s = 0; s < 2; s++, e++)
-                    for (int q = 0; q < 3; q++)
-                        m->elems[e * 3 + q] = t[s][q];
-            }
-    } else {
-        static const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2},
-                                        {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
-        for (int k = 0; k < n; k++)
-            for (int j = 0; j < n; j++)
-                for (int i = 0; i < n; i++)
-                    for (int p = 0; p < 6; p++, e++) {
-                        int cur[3] = {i, j, k};
-                        m->elems[e * 4] = (k * np + j) * np + i;
-                        for (int s = 0; s < 3; s++) {
-                            cur[perms[p][s]]++;
-                            m->elems[e * 4 + s + 1] = (cur[2] * np + cur[1]) * np + cur[0];
-                        }
-                    }
-    }
-    /* random vertex order inside each element */
-    int nv = dim + 1;
-    for (int32_t f = 0; f < nelems; f++)
-        for (int q = nv - 1; q > 0; q--) {
-            int r = rand() % (q + 1);
-            int32_t t = m->elems[f * nv + q];
-            m->elems[f * nv + q] = m->elems[f * nv + r];
-            m->elems[f * nv + r] = t;
-        }
+    const double lo[3] = {0, 0, 0}, hi[3] = {2, 1, 1};
+    sm_mesh *m = util_box_mesh(dim, n, lo, hi, seed);
+    assert_non_null(m);
     return m;
 }
 
@@ -241,6 +193,26 @@ static void test_rejections(void **state)
     assert_null(m);
 }
 
+static void test_disk_helper(void **state)
+{
+    (void)state;
+    sm_error err;
+    const double c[2] = {0.5, 0.5};
+    sm_mesh *m = util_disk_mesh(c, 0.25, 6);
+    assert_non_null(m);
+    assert_int_equal(m->nelems, 6 * 36);
+    assert_int_equal(sm_mesh_build_boundary(m, &err), SM_OK);
+    assert_int_equal(m->nbfacets, 36);
+    for (int32_t f = 0; f < m->nbfacets; f++)
+        assert_int_equal(m->bfacet_refs[f], 1);
+    double area = 0.0;
+    for (int32_t e = 0; e < m->nelems; e++)
+        area += sm_elem_volume(m, m->coords, e);
+    /* inscribed 36-gon */
+    assert_true(fabs(area - 0.5 * 36 * 0.0625 * sin(2 * M_PI / 36)) < 1e-12);
+    sm_mesh_free(m);
+}
+
 static void test_clone(void **state)
 {
     (void)state;
@@ -264,6 +236,7 @@ int main(void)
         cmocka_unit_test(test_reference_transfer),
         cmocka_unit_test(test_rejections),
         cmocka_unit_test(test_clone),
+        cmocka_unit_test(test_disk_helper),
     };
     return cmocka_run_group_tests_name("mesh", tests, NULL, NULL);
 }

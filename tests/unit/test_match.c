@@ -1,0 +1,266 @@
+/* The descent end to end on meshes built in code: it converges onto an
+ * analytic target, J never increases, the elastic direction is a descent
+ * direction (J'(u) < 0, checked against an independent volume
+ * quadrature), the result is the template plus the cumulative
+ * displacement, and cancellation and bad clamps are reported. */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "sm_elasticity.h"
+#include "sm_field.h"
+#include "sm_match.h"
+#include "sm_shape.h"
+#include "util_mesh.h"
+
+/* target: ellipse (x-0.5)^2/a^2 + (y-0.5)^2/b^2 = 1 given by an
+ * approximate signed distance (exact for a circle, a=b) */
+static double ellipse_d(const double *x, double a, double b)
+{
+    double dx = x[0] - 0.5, dy = x[1] - 0.5;
+    double r = sqrt(dx * dx + dy * dy);
+    if (r == 0)
+        return -(a < b ? a : b);
+    double c = dx / r, s = dy / r;
+    double rb = 1.0 / sqrt(c * c / (a * a) + s * s / (b * b));
+    return r - rb;
+}
+
+typedef struct target {
+    sm_mesh *bg;
+    double *d;
+} target;
+
+static void make_target(target *t, int cells, double a, double b)
+{
+    const double lo[2] = {0, 0}, hi[2] = {1, 1};
+    t->bg = util_box_mesh(2, cells, lo, hi, 11);
+    t->d = malloc(sizeof(double) * t->bg->nverts);
+    for (int32_t v = 0; v < t->bg->nverts; v++)
+        t->d[v] = ellipse_d(t->bg->coords + 2 * v, a, b);
+}
+
+static void free_target(target *t)
+{
+    sm_mesh_free(t->bg);
+    free(t->d);
+}
+
+typedef struct history {
+    int n;
+    double J[4096];
+    double l2[4096];
+    double qmin[4096];
+    int cancel_at;
+} history;
+
+static int record(const sm_progress *p, const double *coords, void *user)
+{
+    (void)coords;
+    history *h = user;
+    if (h->n < 4096) {
+        h->J[h->n] = p->J;
+        h->l2[h->n] = p->boundary_l2;
+        h->qmin[h->n] = p->min_quality;
+        h->n++;
+    }
+    return h->cancel_at > 0 && p->iteration >= h->cancel_at;
+}
+
+static void test_converges_on_ellipse(void **state)
+{
+    (void)state;
+    target t;
+    make_target(&t, 160, 0.32, 0.22);
+    const double c[2] = {0.5, 0.5};
+    sm_mesh *tm = util_disk_mesh(c, 0.25, 12);
+    sm_params p;
+    sm_params_default(&p);
+    p.clamp = SM_CLAMP_BALL;
+    p.clamp_center[0] = p.clamp_center[1] = 0.5;
+    p.clamp_radius = 0.05;
+    p.max_iter = 400;
+    p.tol_boundary = 2e-4;
+    double *out = malloc(sizeof(double) * tm->nverts * 2);
+    sm_result res;
+    sm_error err;
+    history *h = calloc(1, sizeof *h);
+    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, record, h, NULL, out, &res, &err), SM_OK);
+    if (getenv("SM_DEBUG"))
+        print_message("stop %s it %d l2 %.3g -> %.3g J %.6g -> %.6g acc %d rej %d q %.3f\n",
+                      sm_stop_reason_name(res.stop), res.iterations, h->l2[0], res.boundary_l2,
+                      res.J_initial, res.J, res.accepted, res.rejected, res.min_quality);
+    assert_int_equal(res.stop, SM_STOP_BOUNDARY);
+    assert_true(res.boundary_l2 <= 2e-4);
+    assert_int_equal(h->n, res.iterations + 1);
+    for (int i = 1; i < h->n; i++) {
+        assert_true(h->J[i] < h->J[i - 1]); /* Armijo: strictly decreasing */
+        assert_true(h->qmin[i] > 0.0);
+    }
+    /* the final mesh is valid, and the clamped vertex did not move */
+    sm_mesh *res_mesh;
+    assert_int_equal(sm_mesh_clone(tm, &res_mesh, &err), SM_OK);
+    memcpy(res_mesh->coords, out, sizeof(double) * tm->nverts * 2);
+    sm_quality_stats qs;
+    assert_int_equal(sm_mesh_build_boundary(res_mesh, &err), SM_OK);
+    sm_mesh_quality(res_mesh, out, &qs);
+    assert_int_equal(qs.ninverted, 0);
+    assert_true(out[0] == 0.5 && out[1] == 0.5);
+    /* J accumulated from swept regions agrees with a volume quadrature */
+    sm_field *f;
+    assert_int_equal(sm_field_new(t.bg, t.d, &f, &err), SM_OK);
+    sm_shape *sh;
+    assert_int_equal(sm_shape_new(res_mesh, f, NULL, 0, &sh, &err), SM_OK);
+    double jv = sm_shape_volume_j(sh, out);
+    assert_true(fabs(jv - res.J) < 1e-3 * fabs(res.J_initial - res.J));
+    sm_shape_free(sh);
+    sm_field_free(f);
+    sm_mesh_free(res_mesh);
+    free(h);
+    free(out);
+    sm_mesh_free(tm);
+    free_target(&t);
+}
+
+/* J'(Omega)(u) = int d u.n < 0 for the elastic direction u, computed
+ * independently: finite differences of the volume quadrature of J. */
+static void test_elastic_direction_descends(void **state)
+{
+    (void)state;
+    target t;
+    make_target(&t, 120, 0.3, 0.3);
+    const double c[2] = {0.5, 0.5};
+    sm_mesh *tm = util_disk_mesh(c, 0.2, 10);
+    sm_error err;
+    assert_int_equal(sm_mesh_build_boundary(tm, &err), SM_OK);
+    sm_field *f;
+    assert_int_equal(sm_field_new(t.bg, t.d, &f, &err), SM_OK);
+    sm_shape *sh;
+    assert_int_equal(sm_shape_new(tm, f, NULL, 0, &sh, &err), SM_OK);
+    uint8_t *clamped = calloc(tm->nverts, 1);
+    clamped[0] = 1;
+    sm_elasticity *el;
+    assert_int_equal(sm_elasticity_new(tm, clamped, 1.0, 0.3, 0.0, &el, &err), SM_OK);
+    assert_int_equal(sm_elasticity_factorize(el, tm->coords, &err), SM_OK);
+    size_t ndof = (size_t)tm->nverts * 2;
+    double *load = malloc(sizeof(double) * ndof), *u = malloc(sizeof(double) * ndof);
+    double *x = malloc(sizeof(double) * ndof);
+    sm_boundary_error be;
+    sm_shape_load(sh, tm->coords, load, &be);
+    assert_int_equal(sm_elasticity_solve(el, load, NULL, u, &err), SM_OK);
+    double dj = 0.0;
+    for (size_t i = 0; i < ndof; i++)
+        dj -= load[i] * u[i];
+    assert_true(dj < 0.0);
+    double umax = 0;
+    for (size_t i = 0; i < ndof; i++)
+        umax = fmax(umax, fabs(u[i]));
+    double eps = 1e-5 / umax;
+    for (size_t i = 0; i < ndof; i++)
+        x[i] = tm->coords[i] + eps * u[i];
+    double jp = sm_shape_volume_j(sh, x);
+    for (size_t i = 0; i < ndof; i++)
+        x[i] = tm->coords[i] - eps * u[i];
+    double jm = sm_shape_volume_j(sh, x);
+    double fd = (jp - jm) / (2 * eps);
+    assert_true(fd < 0.0);
+    assert_true(fabs(fd - dj) < 0.05 * fabs(dj));
+    free(load);
+    free(u);
+    free(x);
+    free(clamped);
+    sm_elasticity_free(el);
+    sm_shape_free(sh);
+    sm_field_free(f);
+    sm_mesh_free(tm);
+    free_target(&t);
+}
+
+static void test_cancel_and_no_clamp(void **state)
+{
+    (void)state;
+    target t;
+    make_target(&t, 60, 0.3, 0.25);
+    const double c[2] = {0.52, 0.47};
+    sm_mesh *tm = util_disk_mesh(c, 0.2, 6);
+    sm_params p;
+    sm_params_default(&p);
+    p.clamp = SM_CLAMP_NONE;
+    p.alpha = 0.1;
+    double *out = malloc(sizeof(double) * tm->nverts * 2);
+    sm_result res;
+    sm_error err;
+    history *h = calloc(1, sizeof *h);
+    h->cancel_at = 3;
+    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, record, h, NULL, out, &res, &err), SM_OK);
+    assert_int_equal(res.stop, SM_STOP_CANCELLED);
+    assert_int_equal(res.iterations, 3);
+    assert_true(res.J < res.J_initial);
+    /* cancellation through the flag */
+    volatile int flag = 1;
+    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, NULL, NULL, &flag, out, &res, &err), SM_OK);
+    assert_int_equal(res.stop, SM_STOP_CANCELLED);
+    assert_int_equal(res.iterations, 0);
+    assert_memory_equal(out, tm->coords, sizeof(double) * tm->nverts * 2);
+    free(h);
+    free(out);
+    sm_mesh_free(tm);
+    free_target(&t);
+}
+
+static void test_bad_inputs(void **state)
+{
+    (void)state;
+    target t;
+    make_target(&t, 20, 0.3, 0.3);
+    const double c[2] = {0.5, 0.5};
+    sm_mesh *tm = util_disk_mesh(c, 0.2, 4);
+    double *out = malloc(sizeof(double) * tm->nverts * 2);
+    sm_result res;
+    sm_error err;
+    sm_params p;
+    sm_params_default(&p);
+    p.clamp = SM_CLAMP_BALL;
+    p.clamp_center[0] = 5.0;
+    p.clamp_center[1] = 5.0;
+    p.clamp_radius = 0.1;
+    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "clamp set is empty"));
+    p.clamp = SM_CLAMP_ELEMENTS;
+    p.n_clamp_refs = 1;
+    p.clamp_refs[0] = 42;
+    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "clamp set is empty"));
+    p.clamp = SM_CLAMP_NONE;
+    p.alpha = 0;
+    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "alpha"));
+    sm_params_default(&p);
+    p.poisson = 0.5;
+    assert_int_equal(sm_params_validate(&p, 2, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "poisson"));
+    sm_params_default(&p);
+    p.free_refs[0] = 1;
+    p.n_free_refs = 1;
+    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "free boundary"));
+    free(out);
+    sm_mesh_free(tm);
+    free_target(&t);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_converges_on_ellipse),
+        cmocka_unit_test(test_elastic_direction_descends),
+        cmocka_unit_test(test_cancel_and_no_clamp),
+        cmocka_unit_test(test_bad_inputs),
+    };
+    return cmocka_run_group_tests_name("match", tests, NULL, NULL);
+}

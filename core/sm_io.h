@@ -1,5 +1,24 @@
 /* File formats: Medit .mesh/.meshb and .sol/.solb (any of them .gz), and
- * the VTK XML .vtu writer.  Readers treat their input as hostile. */
+ * the VTK XML .vtu writer.
+ *
+ * Readers treat their input as hostile: every count is checked against
+ * SM_MAX_ENTITIES and against what the rest of the file could possibly
+ * hold before anything is allocated, every index against [1, nverts],
+ * every real for NaN/Inf.  Errors are SM_ERR_FORMAT (SM_ERR_IO when the
+ * file cannot be opened or read) with a message naming the place:
+ *   "dir/x.mesh:12: expected 3 vertex indices and a reference in
+ *    Triangles record 4 of 10, found 'End'"
+ *   "x.meshb: byte 1234: Triangles record 2 of 2: vertex index 0 out of
+ *    range [1, 4]"
+ * On error *out is NULL and nothing leaks.
+ *
+ * Writers pick the format from the file name (.mesh/.meshb, .sol/.solb,
+ * optionally followed by .gz), write to a temporary file in the same
+ * directory and rename it into place, so a failed write (SM_ERR_IO,
+ * including ENOSPC) never leaves a truncated file under the final name
+ * (devices and pipes such as /dev/stdout are written in place).  Numbers
+ * are written with "%.17g": an ASCII round trip is bitwise exact.  Both
+ * directions use the C numeric locale whatever the application's is. */
 #ifndef SM_IO_H
 #define SM_IO_H
 
@@ -14,35 +33,58 @@ typedef struct sm_sol {
     double *values;     /* nverts * ncomp */
 } sm_sol;
 
+/* Zero-filled solution; ncomp must be 1 or dim.  Free with sm_sol_free. */
 sm_status sm_sol_alloc(sm_sol **out, int dim, int32_t nverts, int ncomp,
                        sm_error *err);
 void sm_sol_free(sm_sol *s);
 
-/* Reads .mesh, .meshb, .mesh.gz, .meshb.gz.  The format is decided by the
- * content (binary files start with the 32-bit code 1 in either byte
- * order), compression is detected transparently.  A "Dimension 3" file
- * with Triangles but no Tetrahedra whose z coordinates are all 0 (as Gmsh
- * writes planar meshes) is read as a 2D mesh.  Does not build the
- * boundary (see sm_mesh_build_boundary). */
+/* Reads .mesh, .meshb, .mesh.gz, .meshb.gz into a new mesh (free with
+ * sm_mesh_free).  The format is decided by the content (binary files
+ * start with the 32-bit code 1 in either byte order; libMeshb versions
+ * 1 to 4 are read), compression is detected transparently.
+ *
+ * ASCII: keywords are case-insensitive, '#' starts a comment; sections
+ * shapematch does not use (Corners, Ridges, Required*, Normals,
+ * NormalAtVertices, Tangents, TangentAtVertices, Identifier, Geometry...)
+ * are read and discarded; an unknown keyword is an error.  Binary:
+ * unknown keywords are skipped through their next-keyword position.
+ * Quadrilaterals, Prisms, Hexahedra and Pyramids are rejected (shapematch
+ * needs simplices).
+ *
+ * Dimension 2: Triangles are the elements and Edges the facets.
+ * Dimension 3 with Tetrahedra: Tetrahedra are the elements, Triangles the
+ * facets (Edges are ignored).  A "Dimension 3" file with Triangles but no
+ * Tetrahedra whose z coordinates are all 0 (as Gmsh writes planar meshes)
+ * is read as a 2D mesh; any other surface mesh is an error.  Elements of
+ * either orientation are accepted.  Does not build the boundary (see
+ * sm_mesh_build_boundary). */
 sm_status sm_mesh_read(const char *path, sm_mesh **out, sm_error *err);
 
-/* Writes by extension: .mesh (ASCII), .meshb (binary, version 2), with an
- * optional trailing .gz (zlib).  Writes Vertices, Edges/Triangles
- * (the file facets), Triangles/Tetrahedra. */
+/* Writes by extension: .mesh (ASCII, Dimension = m->dim) or .meshb
+ * (binary, version 2; version 3 if the file would exceed 2 GiB), with an
+ * optional trailing .gz.  Writes Vertices, the file facets (Edges in 2D,
+ * Triangles in 3D) and the elements (Triangles/Tetrahedra), all with
+ * their references.  A mesh with out-of-range indices or non-finite
+ * coordinates is refused (SM_ERR_INVALID) before anything is written. */
 sm_status sm_mesh_write(const char *path, const sm_mesh *m, sm_error *err);
 
-/* Same, with coordinates taken from coords instead of m->coords. */
+/* Same, with coordinates taken from coords (nverts*dim) instead of
+ * m->coords (NULL means m->coords). */
 sm_status sm_mesh_write_coords(const char *path, const sm_mesh *m,
                                const double *coords, sm_error *err);
 
 /* .sol, .solb, optionally .gz; SolAtVertices with exactly one field of
- * type 1 (scalar) or 2 (vector). */
+ * type 1 (scalar) or 2 (vector); Time and Iterations are ignored.  The
+ * writer uses ASCII for .sol and binary version 2 for .solb. */
 sm_status sm_sol_read(const char *path, sm_sol **out, sm_error *err);
 sm_status sm_sol_write(const char *path, const sm_sol *s, sm_error *err);
 
-/* VTK XML UnstructuredGrid (ascii-free: appended raw base64 not needed;
- * written as inline ascii for portability).  Point fields are optional
- * (NULL to skip): displacement (nverts*dim), distance (nverts). */
+/* VTK XML UnstructuredGrid with inline ASCII data (ParaView, VTK):
+ * points padded to 3D, cells VTK_TRIANGLE (5) / VTK_TETRA (10), cell
+ * data "ref" (element references).  coords NULL means m->coords.  Point
+ * fields are optional (NULL to skip): "displacement" (nverts*dim, written
+ * with 3 components) and "distance" (nverts).  Non-finite values are
+ * written as 0, which VTK's ASCII parser can read. */
 sm_status sm_vtu_write(const char *path, const sm_mesh *m,
                        const double *coords, const double *displacement,
                        const double *distance, sm_error *err);

@@ -1,0 +1,107 @@
+/* VTK XML UnstructuredGrid writer (.vtu) with inline ASCII data, which
+ * ParaView and VTK read directly.  Points are padded to 3D; cells are
+ * VTK_TRIANGLE (5) in 2D and VTK_TETRA (10) in 3D. */
+#include "sm_io.h"
+
+#include <math.h>
+
+#include "sm_reader.h"
+
+enum { VTK_TRIANGLE = 5, VTK_TETRA = 10 };
+
+/* VTK's ASCII parser does not read "nan"/"inf"; such values (a diverged
+ * computation being inspected) are written as 0 so the file still opens. */
+static double finite_or_zero(double x)
+{
+    return isfinite(x) ? x : 0.0;
+}
+
+sm_status sm_vtu_write(const char *path, const sm_mesh *m, const double *coords,
+                       const double *displacement, const double *distance, sm_error *err)
+{
+    if (!path)
+        return sm_error_set(err, SM_ERR_INVALID, "no .vtu file name");
+    if (!m || (m->dim != 2 && m->dim != 3) || m->nverts < 0 || m->nelems < 0)
+        return sm_error_set(err, SM_ERR_INVALID, "sm_vtu_write: invalid mesh");
+    if (!coords)
+        coords = m->coords;
+    int d = m->dim, k = m->dim + 1;
+    for (size_t i = 0; i < (size_t)m->nelems * (size_t)k; i++)
+        if (m->elems[i] < 0 || m->elems[i] >= m->nverts)
+            return sm_error_set(err, SM_ERR_INVALID,
+                                "sm_vtu_write: element %zu has vertex index %ld out of range",
+                                i / (size_t)k + 1, (long)m->elems[i]);
+    sm_writer *w;
+    sm_status st = sm_writer_open(&w, path, err);
+    if (st != SM_OK)
+        return st;
+    sm_writer_printf(w,
+                     "<?xml version=\"1.0\"?>\n"
+                     "<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" "
+                     "byte_order=\"LittleEndian\">\n"
+                     "  <UnstructuredGrid>\n"
+                     "    <Piece NumberOfPoints=\"%ld\" NumberOfCells=\"%ld\">\n",
+                     (long)m->nverts, (long)m->nelems);
+
+    if (displacement || distance) {
+        sm_writer_printf(w, "      <PointData%s%s>\n", distance ? " Scalars=\"distance\"" : "",
+                         displacement ? " Vectors=\"displacement\"" : "");
+        if (displacement) {
+            sm_writer_printf(w, "        <DataArray type=\"Float64\" Name=\"displacement\" "
+                                "NumberOfComponents=\"3\" format=\"ascii\">\n");
+            for (int32_t i = 0; i < m->nverts; i++) {
+                const double *u = displacement + (size_t)i * (size_t)d;
+                sm_writer_printf(w, "%.17g %.17g %.17g\n", finite_or_zero(u[0]),
+                                 finite_or_zero(u[1]), d == 3 ? finite_or_zero(u[2]) : 0.0);
+            }
+            sm_writer_printf(w, "        </DataArray>\n");
+        }
+        if (distance) {
+            sm_writer_printf(w, "        <DataArray type=\"Float64\" Name=\"distance\" "
+                                "format=\"ascii\">\n");
+            for (int32_t i = 0; i < m->nverts; i++)
+                sm_writer_printf(w, "%.17g\n", finite_or_zero(distance[i]));
+            sm_writer_printf(w, "        </DataArray>\n");
+        }
+        sm_writer_printf(w, "      </PointData>\n");
+    }
+
+    sm_writer_printf(w, "      <CellData Scalars=\"ref\">\n"
+                        "        <DataArray type=\"Int32\" Name=\"ref\" format=\"ascii\">\n");
+    for (int32_t e = 0; e < m->nelems; e++)
+        sm_writer_printf(w, "%ld\n", (long)m->elem_refs[e]);
+    sm_writer_printf(w, "        </DataArray>\n      </CellData>\n");
+
+    sm_writer_printf(w, "      <Points>\n        <DataArray type=\"Float64\" "
+                        "NumberOfComponents=\"3\" format=\"ascii\">\n");
+    for (int32_t i = 0; i < m->nverts; i++) {
+        const double *x = coords + (size_t)i * (size_t)d;
+        sm_writer_printf(w, "%.17g %.17g %.17g\n", finite_or_zero(x[0]), finite_or_zero(x[1]),
+                         d == 3 ? finite_or_zero(x[2]) : 0.0);
+    }
+    sm_writer_printf(w, "        </DataArray>\n      </Points>\n");
+
+    sm_writer_printf(w, "      <Cells>\n        <DataArray type=\"Int32\" Name=\"connectivity\" "
+                        "format=\"ascii\">\n");
+    for (int32_t e = 0; e < m->nelems; e++) {
+        const int32_t *v = m->elems + (size_t)e * (size_t)k;
+        if (k == 3)
+            sm_writer_printf(w, "%ld %ld %ld\n", (long)v[0], (long)v[1], (long)v[2]);
+        else
+            sm_writer_printf(w, "%ld %ld %ld %ld\n", (long)v[0], (long)v[1], (long)v[2],
+                             (long)v[3]);
+    }
+    /* Offsets are 64-bit: nelems * 4 can exceed the Int32 range. */
+    sm_writer_printf(w, "        </DataArray>\n        <DataArray type=\"Int64\" "
+                        "Name=\"offsets\" format=\"ascii\">\n");
+    for (int32_t e = 0; e < m->nelems; e++)
+        sm_writer_printf(w, "%lld\n", (long long)(e + 1) * k);
+    sm_writer_printf(w, "        </DataArray>\n        <DataArray type=\"UInt8\" Name=\"types\" "
+                        "format=\"ascii\">\n");
+    int type = d == 2 ? VTK_TRIANGLE : VTK_TETRA;
+    for (int32_t e = 0; e < m->nelems; e++)
+        sm_writer_printf(w, "%d\n", type);
+    sm_writer_printf(w, "        </DataArray>\n      </Cells>\n"
+                        "    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
+    return sm_writer_close(w, err);
+}

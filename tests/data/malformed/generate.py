@@ -1,0 +1,366 @@
+#!/usr/bin/env python3
+"""Regenerates the malformed-input corpus read by tests/unit/test_malformed.c.
+
+Each case is a folder <case>/ holding
+  input.<ext>  the hostile file (.mesh .meshb .sol .solb, optionally .gz)
+  error        a substring the reader's error message must contain
+  status       (optional) the expected sm_status name, e.g. "format"
+
+Run from anywhere: python3 tests/data/malformed/generate.py
+Binary files are little-endian (the byte order of the machines we run on);
+one case uses the swapped order on purpose.
+"""
+import gzip
+import os
+import shutil
+import struct
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+# --------------------------------------------------------------------------
+# ASCII helpers
+
+SQUARE_VERTS = [(0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]
+SQUARE_TRIS = [(1, 2, 3, 0), (1, 3, 4, 0)]
+SQUARE_EDGES = [(1, 2, 1), (2, 3, 1), (3, 4, 1), (4, 1, 1)]
+
+
+def ascii_mesh(head="MeshVersionFormatted 2\nDimension 2\n", verts=None, edges=None,
+               tris=None, tail="End\n", nverts=None, ntris=None):
+    verts = SQUARE_VERTS if verts is None else verts
+    edges = SQUARE_EDGES if edges is None else edges
+    tris = SQUARE_TRIS if tris is None else tris
+    out = head
+    out += "Vertices\n%s\n" % (len(verts) if nverts is None else nverts)
+    # padded columns, as Gmsh writes them
+    out += "".join(" ".join(str(x).rjust(12) for x in v) + "\n" for v in verts)
+    if edges:
+        out += "Edges\n%d\n" % len(edges)
+        out += "".join(" ".join(str(x).rjust(6) for x in e) + "\n" for e in edges)
+    out += "Triangles\n%s\n" % (len(tris) if ntris is None else ntris)
+    out += "".join(" ".join(str(x).rjust(6) for x in t) + "\n" for t in tris)
+    return (out + tail).encode()
+
+
+def ascii_sol(dim=2, n=3, fields="1 1", values=None, head=None):
+    values = ["0.5", "1.5", "-2"] if values is None else values
+    out = head if head is not None else "MeshVersionFormatted 2\nDimension %d\n" % dim
+    out += "SolAtVertices\n%d\n%s\n" % (n, fields)
+    out += "".join(v + "\n" for v in values)
+    return (out + "End\n").encode()
+
+
+# --------------------------------------------------------------------------
+# binary helpers (libMeshb layout)
+
+class Meshb:
+    def __init__(self, version=2, swap=False, code=1):
+        self.version = version
+        self.bo = ">" if swap else "<"
+        self.pos_fmt = "q" if version >= 3 else "i"
+        self.int_fmt = "q" if version == 4 else "i"
+        self.real_fmt = "f" if version == 1 else "d"
+        self.data = struct.pack(self.bo + "ii", code, version)
+
+    def pack(self, fmt, *vals):
+        return struct.pack(self.bo + fmt, *vals)
+
+    def keyword(self, code, body, next_pos=None):
+        """Appends a keyword; next_pos overrides the computed position."""
+        header = 4 + struct.calcsize(self.pos_fmt)
+        nxt = len(self.data) + header + len(body) if next_pos is None else next_pos
+        self.data += self.pack("i", code) + self.pack(self.pos_fmt, nxt) + body
+
+    def dimension(self, dim):
+        self.keyword(3, self.pack("i", dim))
+
+    def count(self, n):
+        return self.pack(self.int_fmt, n)
+
+    def vertices(self, verts, dim=2, n=None, next_pos=None):
+        body = self.count(len(verts) if n is None else n)
+        for v in verts:
+            body += self.pack(self.real_fmt * dim, *v[:dim]) + self.pack(self.int_fmt, v[dim])
+        self.keyword(4, body, next_pos)
+
+    def elements(self, code, recs, n=None, next_pos=None):
+        body = self.count(len(recs) if n is None else n)
+        for r in recs:
+            body += self.pack(self.int_fmt * len(r), *r)
+        self.keyword(code, body, next_pos)
+
+    def solution(self, values, ncomp, types=(1,), n=None, next_pos=None):
+        body = self.count(len(values) // ncomp if n is None else n)
+        body += self.pack("i", len(types)) + b"".join(self.pack("i", t) for t in types)
+        body += b"".join(self.pack(self.real_fmt, v) for v in values)
+        self.keyword(62, body, next_pos)
+
+    def end(self):
+        self.data += self.pack("i", 54) + self.pack(self.pos_fmt, 0)
+        return self.data
+
+
+def square_meshb(version=2, swap=False, tris=None, verts=None):
+    b = Meshb(version, swap)
+    b.dimension(2)
+    b.vertices(SQUARE_VERTS if verts is None else verts)
+    b.elements(5, SQUARE_EDGES)
+    b.elements(6, SQUARE_TRIS if tris is None else tris)
+    return b.end()
+
+
+def scalar_solb(values=(0.5, 1.5, -2.0), types=(1,), dim=2, ncomp=1, n=None):
+    b = Meshb(2)
+    b.dimension(dim)
+    b.solution(list(values), ncomp, types, n=n)
+    return b.end()
+
+
+# --------------------------------------------------------------------------
+# the cases: name -> (file name, bytes, error substring, status or None)
+
+CASES = {}
+
+
+def case(name, filename, data, error, status="format"):
+    assert name not in CASES, name
+    CASES[name] = (filename, data, error, status)
+
+
+# ASCII meshes
+case("mesh-empty-file", "input.mesh", b"", "empty file")
+case("mesh-only-comments", "input.mesh", b"# nothing here\n\n   # really\n", "missing Dimension")
+full = ascii_mesh()
+case("mesh-truncated-in-vertices", "input.mesh", full[:full.index(b"1            1            1")],
+     "expected 2 coordinates and a reference in Vertices record 3 of 4")
+case("mesh-truncated-in-triangles", "input.mesh", full[:full.rindex(b"     1      3      4")],
+     "expected 3 vertex indices and a reference in Triangles record 2 of 2")
+case("mesh-truncated-mid-record", "input.mesh", full[:full.rindex(b"4      0")],
+     "Triangles record 2 of 2, found end of file")
+case("mesh-more-records-than-count", "input.mesh", ascii_mesh(nverts=3),
+     "where a keyword was expected")
+case("mesh-fewer-records-than-count", "input.mesh", ascii_mesh(ntris=3),
+     "Triangles record 3 of 3, found 'End'")
+case("mesh-index-zero", "input.mesh", ascii_mesh(tris=[(1, 2, 3, 0), (0, 3, 4, 0)]),
+     "vertex index 0 out of range [1, 4] in Triangles record 2 of 2")
+case("mesh-index-above-nverts", "input.mesh", ascii_mesh(tris=[(1, 2, 5, 0), (1, 3, 4, 0)]),
+     "vertex index 5 out of range [1, 4] in Triangles record 1 of 2")
+case("mesh-index-negative", "input.mesh", ascii_mesh(tris=[(1, 2, 3, 0), (1, -3, 4, 0)]),
+     "vertex index -3 out of range")
+case("mesh-index-before-vertices", "input.mesh",
+     b"MeshVersionFormatted 2\nDimension 2\nTriangles\n1\n1 2 9 0\n"
+     b"Vertices\n3\n0 0 0\n1 0 0\n0 1 0\nEnd\n",
+     "vertex index 9 out of range [1, 3] in Triangles record 1 of 1")
+case("mesh-index-not-integer", "input.mesh", ascii_mesh(tris=[(1, 2, 3, 0), (1, "3.0", 4, 0)]),
+     "expected 3 vertex indices and a reference in Triangles record 2 of 2, found '3.0'")
+case("mesh-negative-count", "input.mesh", ascii_mesh(nverts=-4), "negative count -4 for Vertices")
+case("mesh-huge-count-1e9", "input.mesh", ascii_mesh(nverts=10**9),
+     "Vertices count 1000000000 exceeds the limit")
+case("mesh-huge-count-int32-max", "input.mesh", ascii_mesh(ntris=2**31 - 1),
+     "Triangles count 2147483647 exceeds the limit")
+case("mesh-count-beyond-file-size", "input.mesh", ascii_mesh(nverts=150000000),
+     "Vertices count 150000000 cannot fit")
+case("mesh-count-not-a-number", "input.mesh", ascii_mesh(nverts="four"),
+     "expected the number of Vertices, found 'four'")
+case("mesh-count-overflow", "input.mesh", ascii_mesh(nverts="99999999999999999999999"),
+     "is out of range")
+case("mesh-nan-coordinate", "input.mesh",
+     ascii_mesh(verts=[(0, 0, 1), (1, "nan", 1), (1, 1, 1), (0, 1, 1)]),
+     "'nan' is not a finite number")
+case("mesh-inf-coordinate", "input.mesh",
+     ascii_mesh(verts=[(0, 0, 1), (1, 0, 1), ("-inf", 1, 1), (0, 1, 1)]),
+     "'-inf' is not a finite number")
+case("mesh-overflowing-coordinate", "input.mesh",
+     ascii_mesh(verts=[(0, 0, 1), (1, 0, 1), (1, "1e999", 1), (0, 1, 1)]),
+     "'1e999' is not a finite number")
+case("mesh-trailing-garbage-after-number", "input.mesh",
+     ascii_mesh(verts=[(0, 0, 1), ("1.0abc", 0, 1), (1, 1, 1), (0, 1, 1)]),
+     "trailing characters after the number")
+case("mesh-reference-out-of-range", "input.mesh",
+     ascii_mesh(tris=[(1, 2, 3, 9999999999), (1, 3, 4, 0)]),
+     "reference 9999999999 out of the 32-bit range")
+case("mesh-unknown-keyword", "input.mesh",
+     b"MeshVersionFormatted 2\nDimension 2\nVertexes\n4\n", "input.mesh:3: unknown keyword 'Vertexes'")
+case("mesh-missing-dimension", "input.mesh", ascii_mesh(head="MeshVersionFormatted 2\n"),
+     "Vertices before Dimension")
+case("mesh-missing-vertices", "input.mesh",
+     b"MeshVersionFormatted 2\nDimension 2\nEnd\n", "missing Vertices")
+case("mesh-dimension-4", "input.mesh", ascii_mesh(head="MeshVersionFormatted 2\nDimension 4\n"),
+     "Dimension 4 is not supported")
+case("mesh-bad-version", "input.mesh", ascii_mesh(head="MeshVersionFormatted 7\nDimension 2\n"),
+     "bad MeshVersionFormatted 7")
+case("mesh-duplicate-dimension", "input.mesh",
+     ascii_mesh(head="MeshVersionFormatted 2\nDimension 2\nDimension 2\n"), "duplicate Dimension")
+case("mesh-duplicate-vertices", "input.mesh",
+     ascii_mesh(head="MeshVersionFormatted 2\nDimension 2\nVertices\n1\n0 0 0\n"),
+     "duplicate Vertices section")
+case("mesh-quadrilaterals", "input.mesh",
+     ascii_mesh(tris=[]).replace(b"Triangles\n0\n", b"Quadrilaterals\n1\n1 2 3 4 0\n"),
+     "Quadrilaterals are not supported, shapematch needs simplices")
+case("mesh-hexahedra", "input.mesh",
+     b"MeshVersionFormatted 2\nDimension 3\nVertices\n1\n0 0 0 0\nHexahedra\n1\n"
+     b"1 1 1 1 1 1 1 1 0\nEnd\n", "Hexahedra are not supported")
+case("mesh-tetrahedra-in-2d", "input.mesh",
+     ascii_mesh(tail="Tetrahedra\n1\n1 2 3 4 0\nEnd\n"), "Tetrahedra in a Dimension 2 mesh")
+case("mesh-3d-surface-only", "input.mesh",
+     ascii_mesh(head="MeshVersionFormatted 2\nDimension 3\n",
+                verts=[(0, 0, 0, 1), (1, 0, 0, 1), (1, 1, 0.5, 1), (0, 1, 0, 1)]),
+     "a surface mesh is not supported")
+case("mesh-no-elements", "input.mesh", ascii_mesh(tris=[], edges=[]), "no elements")
+case("mesh-sol-content", "input.mesh", ascii_sol(), "SolAtVertices in a mesh file")
+case("mesh-token-too-long", "input.mesh",
+     b"MeshVersionFormatted 2\nDimension 2\n" + b"V" * 500 + b"\n", "longer than")
+case("mesh-unterminated-identifier", "input.mesh",
+     b"MeshVersionFormatted 2\nIdentifier \"my mesh\nDimension 2\n", "unterminated string")
+case("mesh-binary-garbage", "input.mesh",
+     bytes((i * 151 + 7) % 256 for i in range(300)), "input.mesh:1:")
+
+# gzip layers
+case("gz-garbage-after-header", "input.mesh.gz",
+     gzip.compress(full)[:10] + bytes((i * 37 + 11) % 256 for i in range(100)),
+     "corrupt gzip data")
+case("gz-truncated", "input.mesh.gz", gzip.compress(full * 1)[:-20],
+     "truncated or corrupt gzip stream")
+case("gz-huge-count", "input.mesh.gz", gzip.compress(ascii_mesh(nverts=100000000)),
+     "Vertices count 100000000 cannot fit")
+case("gz-truncated-meshb", "input.meshb.gz", gzip.compress(square_meshb())[:-12],
+     "truncated or corrupt gzip stream")
+
+# binary meshes
+good = square_meshb()
+case("meshb-truncated-in-vertices", "input.meshb", good[:40], "next keyword position 112 is past the end of the file")
+b = Meshb(3)
+b.dimension(2)
+b.vertices(SQUARE_VERTS, next_pos=0)  # last keyword: no successor to check against
+case("meshb-truncated-last-keyword", "input.meshb", b.data[:-7],
+     "Vertices count 4 cannot fit")
+case("meshb-truncated-in-header", "input.meshb", good[:6], "header: unexpected end of file")
+cut = Meshb(2)
+cut.dimension(2)
+cut.vertices(SQUARE_VERTS)
+case("meshb-no-end-keyword", "input.meshb", cut.data, "no End keyword")
+case("meshb-bad-version", "input.meshb", struct.pack("<ii", 1, 5) + good[8:],
+     "unsupported version 5")
+case("meshb-garbage-after-header", "input.meshb",
+     struct.pack("<ii", 1, 2) + bytes((i * 97 + 3) % 256 for i in range(64)),
+     "points backwards")
+b = Meshb(2)
+b.dimension(2)
+b.vertices(SQUARE_VERTS, next_pos=12)
+case("meshb-next-position-backwards", "input.meshb", b.end(), "points backwards")
+b = Meshb(2)
+b.dimension(2)
+b.keyword(40, b"\0" * 8, next_pos=10**6)
+case("meshb-next-position-past-eof", "input.meshb", b.end(), "past the end of the file")
+b = Meshb(2)
+b.dimension(2)
+b.vertices(SQUARE_VERTS, next_pos=len(b.data) + 8 + 4 + 4 * 20 + 4)
+b.elements(6, SQUARE_TRIS)
+case("meshb-next-position-inside-block", "input.meshb", b.end(),
+     "Vertices block ends here but the next keyword position says")
+b = Meshb(2)
+b.dimension(2)
+b.vertices(SQUARE_VERTS, n=10**9)
+case("meshb-huge-count-1e9", "input.meshb", b.end(), "Vertices count 1000000000 exceeds the limit")
+b = Meshb(2)
+b.dimension(2)
+b.vertices(SQUARE_VERTS)
+b.elements(6, SQUARE_TRIS, n=2**31 - 1)
+case("meshb-huge-count-int32-max", "input.meshb", b.end(), "exceeds the limit")
+b = Meshb(2)
+b.dimension(2)
+b.vertices(SQUARE_VERTS, n=100000000)
+case("meshb-count-beyond-file-size", "input.meshb", b.end(), "cannot fit")
+b = Meshb(2)
+b.dimension(2)
+b.vertices(SQUARE_VERTS, n=-1)
+case("meshb-negative-count", "input.meshb", b.end(), "negative count -1 for Vertices")
+case("meshb-index-zero", "input.meshb", square_meshb(tris=[(1, 2, 3, 0), (0, 3, 4, 0)]),
+     "Triangles record 2 of 2: vertex index 0 out of range [1, 4]")
+case("meshb-index-above-nverts-swapped", "input.meshb",
+     square_meshb(swap=True, tris=[(1, 2, 3, 0), (1, 3, 77, 0)]),
+     "vertex index 77 out of range [1, 4]")
+case("meshb-nan-coordinate", "input.meshb",
+     square_meshb(verts=[(0, 0, 1), (1, float("nan"), 1), (1, 1, 1), (0, 1, 1)]),
+     "coordinate 2 is not a finite number")
+case("meshb-v1-inf-coordinate", "input.meshb",
+     square_meshb(version=1, verts=[(0, 0, 1), (1, 0, 1), (float("inf"), 1, 1), (0, 1, 1)]),
+     "not a finite number")
+b = Meshb(2)
+b.dimension(4)
+case("meshb-dimension-4", "input.meshb", b.end(), "Dimension 4 is not supported")
+b = Meshb(2)
+b.vertices(SQUARE_VERTS)
+case("meshb-missing-dimension", "input.meshb", b.end(), "Vertices before Dimension")
+b = Meshb(2)
+b.dimension(2)
+b.vertices(SQUARE_VERTS)
+b.elements(7, [(1, 2, 3, 4, 0)])
+case("meshb-quadrilaterals", "input.meshb", b.end(),
+     "Quadrilaterals are not supported, shapematch needs simplices")
+b = Meshb(4)
+b.dimension(2)
+b.vertices(SQUARE_VERTS)
+b.elements(6, [(1, 2, 3, 2**40)])
+case("meshb-v4-reference-out-of-range", "input.meshb", b.end(), "out of the 32-bit range")
+
+# ASCII solutions
+case("sol-empty-file", "input.sol", b"", "empty file")
+case("sol-two-fields", "input.sol", ascii_sol(fields="2 1 1"),
+     "SolAtVertices has 2 fields; exactly one field is supported")
+case("sol-type-3", "input.sol", ascii_sol(fields="1 3"), "solution type 3 (symmetric matrix)")
+case("sol-type-unknown", "input.sol", ascii_sol(fields="1 9"), "solution type 9 (unknown type)")
+case("sol-size-mismatch-vs-dimension", "input.sol",
+     ascii_sol(dim=3, n=3, fields="1 2", values=["1 2", "3 4", "5 6"]),
+     "expected 3 values in SolAtVertices record 3 of 3, found 'End'")
+case("sol-more-values-than-count", "input.sol", ascii_sol(n=2),
+     "where a keyword was expected")
+case("sol-nan-value", "input.sol", ascii_sol(values=["0.5", "NaN", "1"]),
+     "'NaN' is not a finite number")
+case("sol-missing-dimension", "input.sol", ascii_sol(head="MeshVersionFormatted 2\n"),
+     "SolAtVertices before Dimension")
+case("sol-dimension-4", "input.sol", ascii_sol(dim=4), "Dimension 4 is not supported")
+case("sol-missing-solution", "input.sol", b"MeshVersionFormatted 2\nDimension 2\nEnd\n",
+     "missing SolAtVertices")
+case("sol-huge-count", "input.sol", ascii_sol(n=2**31 - 1), "exceeds the limit")
+case("sol-mesh-keyword", "input.sol", ascii_mesh(), "unexpected keyword 'Vertices'")
+case("sol-truncated-gz", "input.sol.gz", gzip.compress(ascii_sol())[:-10],
+     "truncated or corrupt gzip stream")
+
+# binary solutions
+case("solb-two-fields", "input.solb", scalar_solb(types=(1, 1)),
+     "SolAtVertices has 2 fields; exactly one field is supported")
+case("solb-type-4", "input.solb", scalar_solb(types=(4,)), "solution type 4 (matrix)")
+case("solb-size-mismatch-vs-dimension", "input.solb",
+     # 2D vectors (4 records) under a Dimension 3 header claiming 2 records
+     scalar_solb(values=[1, 2, 3, 4, 5, 6, 7, 8], types=(2,), dim=3, ncomp=2, n=2),
+     "next keyword position says")
+case("solb-truncated", "input.solb", scalar_solb()[:-20], "past the end of the file")
+case("solb-huge-count", "input.solb", scalar_solb()[:28] + struct.pack("<i", 10**9)
+     + scalar_solb()[32:], "exceeds the limit")
+case("solb-inf-value", "input.solb", scalar_solb(values=(1.0, float("-inf"), 2.0)),
+     "value is not a finite number")
+
+
+def main():
+    for name in os.listdir(HERE):
+        path = os.path.join(HERE, name)
+        if os.path.isdir(path) and name not in CASES:
+            shutil.rmtree(path)
+    for name, (filename, data, error, status) in sorted(CASES.items()):
+        d = os.path.join(HERE, name)
+        if os.path.isdir(d):
+            shutil.rmtree(d)
+        os.makedirs(d)
+        with open(os.path.join(d, filename), "wb") as f:
+            f.write(data)
+        with open(os.path.join(d, "error"), "w") as f:
+            f.write(error + "\n")
+        if status:
+            with open(os.path.join(d, "status"), "w") as f:
+                f.write(status + "\n")
+    print("%d cases" % len(CASES))
+
+
+if __name__ == "__main__":
+    main()

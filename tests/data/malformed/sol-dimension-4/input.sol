@@ -1,0 +1,9 @@
+MeshVersionFormatted 2
+Dimension 4
+SolAtVertices
+3
+1 1
+0.5
+1.5
+-2
+End

@@ -1,0 +1,9 @@
+MeshVersionFormatted 2
+Dimension 2
+SolAtVertices
+2147483647
+1 1
+0.5
+1.5
+-2
+End

@@ -1,0 +1,8 @@
+MeshVersionFormatted 2
+SolAtVertices
+3
+1 1
+0.5
+1.5
+-2
+End

@@ -15,20 +15,20 @@ VERSION := 0.1.0
 
 # Debian packages the build, the tests, the demo and the benchmarks need.
 DEB_PACKAGES := gcc make pkg-config libc6-dev \
-  libsuitesparse-dev zlib1g-dev libcmocka-dev libjansson-dev \
+  libsuitesparse-dev libopenblas0-pthread zlib1g-dev libcmocka-dev libjansson-dev \
   libmicrohttpd-dev libcurl4-openssl-dev curl gmsh wrk
 
 CC ?= cc
-BASE_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror \
+BASE_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror -fopenmp \
   -Wno-missing-field-initializers -g -I core -I proto -I /usr/include/suitesparse \
   -DSM_VERSION='"$(VERSION)"'
 RELEASE_CFLAGS := $(BASE_CFLAGS) -O2
 ASAN_CFLAGS := $(BASE_CFLAGS) -O1 -fno-omit-frame-pointer \
   -fsanitize=address,undefined -fno-sanitize-recover=all
-RELEASE_LDFLAGS :=
-ASAN_LDFLAGS := -fsanitize=address,undefined
+RELEASE_LDFLAGS := -fopenmp
+ASAN_LDFLAGS := -fopenmp -fsanitize=address,undefined
 
-CORE_LIBS := -lcholmod -lz -lm
+CORE_LIBS := -fopenmp -lcholmod -lz -lm
 PROTO_LIBS := -ljansson
 HTTP_LIBS := -lmicrohttpd
 CURL_LIBS := -lcurl
@@ -81,7 +81,7 @@ bench: deps
 
 demo: deps
 	$(MAKE) release
-	scripts/demo.sh
+	examples/demo.sh
 
 install: release
 	install -d $(DESTDIR)$(PREFIX)/bin

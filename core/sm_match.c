@@ -170,19 +170,14 @@ static void run_state_free(run_state *rs)
 static double trial_quality(const sm_mesh *m, const double *coords, double floor_q, int *ok)
 {
     double qmin = INFINITY;
-    *ok = 1;
+#pragma omp parallel for schedule(static) reduction(min : qmin)
     for (int32_t e = 0; e < m->nelems; e++) {
         double q = sm_elem_quality(m, coords, e);
-        if (!(q > 0.0)) {
-            *ok = 0;
-            return -1.0;
-        }
         if (q < qmin)
             qmin = q;
     }
-    if (qmin < floor_q)
-        *ok = 0;
-    return qmin;
+    *ok = qmin > 0.0 && qmin >= floor_q;
+    return qmin > 0.0 ? qmin : -1.0;
 }
 
 sm_status sm_match_run(const sm_mesh *template_mesh, const sm_mesh *background, const double *d,

@@ -154,7 +154,8 @@ double sm_elem_quality(const sm_mesh *m, const double *coords, int32_t e)
         return 0.0;
     if (m->dim == 2)
         return 4.0 * sqrt(3.0) * vol / l2;
-    double q = 12.0 * pow(3.0 * fabs(vol), 2.0 / 3.0) / l2;
+    double v3 = 3.0 * fabs(vol);
+    double q = 12.0 * cbrt(v3 * v3) / l2;
     return vol < 0 ? -q : q;
 }
 

@@ -13,6 +13,7 @@ struct sm_shape {
     int32_t *vertex_hint;  /* per vertex */
     int32_t *elem_hint;    /* per element (volume quadrature) */
     uint8_t *active_vertex;/* vertex touches an active facet */
+    double *contrib;       /* per active facet load contributions (dim*dim) */
 };
 
 /* Facet rules on the reference simplex, exact for degree 2 (enough for
@@ -56,7 +57,9 @@ sm_status sm_shape_new(const sm_mesh *m, const sm_field *field, const int32_t *f
     s->vertex_hint = malloc(nv * sizeof(int32_t));
     s->elem_hint = malloc(ne * sizeof(int32_t));
     s->active_vertex = calloc(nv, 1);
-    if (!s->active || !s->facet_hint || !s->vertex_hint || !s->elem_hint || !s->active_vertex) {
+    s->contrib = malloc(nb * (size_t)(m->dim * m->dim) * sizeof(double));
+    if (!s->active || !s->facet_hint || !s->vertex_hint || !s->elem_hint || !s->active_vertex ||
+        !s->contrib) {
         sm_shape_free(s);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     }
@@ -86,6 +89,7 @@ void sm_shape_free(sm_shape *s)
     free(s->vertex_hint);
     free(s->elem_hint);
     free(s->active_vertex);
+    free(s->contrib);
     free(s);
 }
 
@@ -103,14 +107,20 @@ void sm_shape_load(sm_shape *s, const double *coords, double *load, sm_boundary_
 {
     const sm_mesh *m = s->mesh;
     const int dim = m->dim;
-    memset(load, 0, (size_t)m->nverts * (size_t)dim * sizeof(double));
+    const int nq = dim == 2 ? SEG_NQ : TRI_NQ;
+    double *contrib = s->contrib; /* per active facet: dim vertices x dim components */
     double sum_sq = 0.0, maxabs = 0.0;
+    /* facets are independent (each owns its hint and its slot of contrib),
+     * so they are sampled in parallel and scattered afterwards */
+#pragma omp parallel for schedule(static) reduction(+ : sum_sq) reduction(max : maxabs)
     for (int32_t k = 0; k < s->nactive; k++) {
         int32_t f = s->active[k];
         const int32_t *fv = m->bfacets + (size_t)f * (size_t)dim;
         double n[3];
         double measure = sm_bfacet_normal(m, coords, f, n);
-        int nq = dim == 2 ? SEG_NQ : TRI_NQ;
+        double *ck = contrib + (size_t)k * (size_t)(dim * dim);
+        for (int i = 0; i < dim * dim; i++)
+            ck[i] = 0.0;
         for (int q = 0; q < nq; q++) {
             double lam[3], w, x[3] = {0, 0, 0};
             if (dim == 2) {
@@ -131,15 +141,24 @@ void sm_shape_load(sm_shape *s, const double *coords, double *load, sm_boundary_
                 maxabs = fabs(d);
             for (int i = 0; i < dim; i++)
                 for (int c = 0; c < dim; c++)
-                    load[(size_t)fv[i] * (size_t)dim + (size_t)c] -= wd * lam[i] * n[c];
+                    ck[i * dim + c] -= wd * lam[i] * n[c];
         }
     }
+#pragma omp parallel for schedule(static) reduction(max : maxabs)
     for (int32_t v = 0; v < m->nverts; v++) {
         if (!s->active_vertex[v])
             continue;
         double d = sm_field_eval(s->field, vtx(coords, dim, v), &s->vertex_hint[v]);
         if (fabs(d) > maxabs)
             maxabs = fabs(d);
+    }
+    memset(load, 0, (size_t)m->nverts * (size_t)dim * sizeof(double));
+    for (int32_t k = 0; k < s->nactive; k++) {
+        const int32_t *fv = m->bfacets + (size_t)s->active[k] * (size_t)dim;
+        const double *ck = contrib + (size_t)k * (size_t)(dim * dim);
+        for (int i = 0; i < dim; i++)
+            for (int c = 0; c < dim; c++)
+                load[(size_t)fv[i] * (size_t)dim + (size_t)c] += ck[i * dim + c];
     }
     be->l2 = sqrt(sum_sq);
     be->max = maxabs;
@@ -208,6 +227,7 @@ static double swept_integral(sm_shape *s, const double *coords, const double *di
 double sm_shape_delta_j(sm_shape *s, const double *coords, const double *disp)
 {
     double total = 0.0;
+#pragma omp parallel for schedule(static) reduction(+ : total)
     for (int32_t k = 0; k < s->nactive; k++)
         total += swept_integral(s, coords, disp, k);
     return total;
@@ -218,6 +238,7 @@ double sm_shape_volume_j(sm_shape *s, const double *coords)
     const sm_mesh *m = s->mesh;
     const int dim = m->dim, nv = dim + 1;
     double total = 0.0;
+#pragma omp parallel for schedule(static) reduction(+ : total)
     for (int32_t e = 0; e < m->nelems; e++) {
         const int32_t *ev = m->elems + (size_t)e * (size_t)nv;
         double vol = fabs(sm_elem_volume(m, coords, e));
@@ -245,6 +266,7 @@ double sm_shape_volume_j(sm_shape *s, const double *coords)
 void sm_shape_sample_vertices(sm_shape *s, const double *coords, double *values)
 {
     const sm_mesh *m = s->mesh;
+#pragma omp parallel for schedule(static)
     for (int32_t v = 0; v < m->nverts; v++)
         values[v] = sm_field_eval(s->field, vtx(coords, m->dim, v), &s->vertex_hint[v]);
 }

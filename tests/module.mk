@@ -1,11 +1,11 @@
 # Unit and numerical-verification tests: every tests/unit/test_*.c is one
-# cmocka program linked with the core (and proto, when present) and the
+# cmocka program linked with the core and proto libraries and the
 # shared helpers tests/unit/util_*.c.
 TEST_SRCS := $(wildcard tests/unit/test_*.c)
 TEST_UTIL_SRCS := $(wildcard tests/unit/util_*.c)
 TEST_NAMES := $(TEST_SRCS:tests/unit/%.c=%)
 define test_rules
-build/$(1)/tests/%: build/$(1)/obj/tests/unit/%.o $$(TEST_UTIL_SRCS:%.c=build/$(1)/obj/%.o) $$(wildcard build/$(1)/libsmproto.a) build/$(1)/libshapematch.a
+build/$(1)/tests/%: build/$(1)/obj/tests/unit/%.o $$(TEST_UTIL_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/libsmproto.a build/$(1)/libshapematch.a
 	@mkdir -p $$(dir $$@)
 	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(PROTO_LIBS) $$(CORE_LIBS) -lcmocka
 endef

@@ -1,0 +1,140 @@
+/* match_bench: runs one matching case and prints where the time goes.
+ *
+ *   match_bench DIR CLAMP_X,CLAMP_Y[,CLAMP_Z],R [MAX_ITER [REFACTOR_EVERY]]
+ *
+ * DIR holds template.mesh, background.mesh(.gz) and background.sol(.gz).
+ * Prints reading time, iterations, seconds per iteration split into
+ * sampling / assembly / factorization / solve / step search, the wall
+ * time until ||d||_L2(boundary) <= 3e-4 and 1.5e-4 first held, the best
+ * error reached, and the peak resident set size. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "sm_io.h"
+#include "sm_match.h"
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+typedef struct watch {
+    double t_start;     /* before reading the files */
+    double t_3e4, t_15e5;
+    int it_3e4, it_15e5;
+    double best;
+} watch;
+
+static int on_progress(const sm_progress *p, const double *coords, void *user)
+{
+    (void)coords;
+    watch *w = user;
+    double t = now() - w->t_start;
+    if (p->boundary_l2 < w->best)
+        w->best = p->boundary_l2;
+    if (w->t_3e4 < 0 && p->boundary_l2 <= 3e-4) {
+        w->t_3e4 = t;
+        w->it_3e4 = p->iteration;
+    }
+    if (w->t_15e5 < 0 && p->boundary_l2 <= 1.5e-4) {
+        w->t_15e5 = t;
+        w->it_15e5 = p->iteration;
+    }
+    return 0;
+}
+
+static const char *first_existing(const char *dir, const char *base, char *buf, size_t n)
+{
+    static const char *suffix[] = {"", ".gz", "b", "b.gz"};
+    for (int i = 0; i < 4; i++) {
+        snprintf(buf, n, "%s/%s%s", dir, base, suffix[i]);
+        if (access(buf, R_OK) == 0)
+            return buf;
+    }
+    return NULL;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 3) {
+        fprintf(stderr, "usage: %s DIR X,Y[,Z],R [MAX_ITER]\n", argv[0]);
+        return 1;
+    }
+    sm_params p;
+    sm_params_default(&p);
+    double v[4];
+    int nv = sscanf(argv[2], "%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2], &v[3]);
+    p.clamp = SM_CLAMP_BALL;
+    for (int c = 0; c < nv - 1; c++)
+        p.clamp_center[c] = v[c];
+    p.clamp_radius = v[nv - 1];
+    p.max_iter = argc > 3 ? atoi(argv[3]) : 300;
+    if (argc > 4)
+        p.refactor_every = atoi(argv[4]);
+
+    char tpath[4096], bpath[4096], spath[4096];
+    if (!first_existing(argv[1], "template.mesh", tpath, sizeof tpath) ||
+        !first_existing(argv[1], "background.mesh", bpath, sizeof bpath) ||
+        !first_existing(argv[1], "background.sol", spath, sizeof spath)) {
+        fprintf(stderr, "%s: missing template/background files\n", argv[1]);
+        return 1;
+    }
+    watch w = {now(), -1, -1, -1, -1, INFINITY};
+    sm_error err;
+    sm_mesh *tm = NULL, *bg = NULL;
+    sm_sol *sol = NULL;
+    if (sm_mesh_read(tpath, &tm, &err) || sm_mesh_read(bpath, &bg, &err) ||
+        sm_sol_read(spath, &sol, &err)) {
+        fprintf(stderr, "%s\n", err.msg);
+        return 1;
+    }
+    double t_read = now() - w.t_start;
+    double *out = malloc(sizeof(double) * (size_t)tm->nverts * (size_t)tm->dim);
+    sm_result r;
+    if (sm_match_run(tm, bg, sol->values, &p, on_progress, &w, NULL, out, &r, &err)) {
+        fprintf(stderr, "%s\n", err.msg);
+        return 1;
+    }
+    double wall = now() - w.t_start;
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    int it = r.iterations > 0 ? r.iterations : 1;
+    printf("case %s: %dD, template %d vertices / %d elements, background %d vertices / %d elements\n",
+           argv[1], tm->dim, tm->nverts, tm->nelems, bg->nverts, bg->nelems);
+    printf("  read inputs          %8.3f s\n", t_read);
+    printf("  setup                %8.3f s\n", r.time.setup);
+    printf("  iterations           %8d   (stop: %s, %d accepted / %d rejected trials)\n",
+           r.iterations, sm_stop_reason_name(r.stop), r.accepted, r.rejected);
+    printf("  per iteration        %8.2f ms = sampling %.2f + assembly %.2f + factorization %.2f"
+           " + solve %.2f + step search %.2f\n",
+           1e3 * (r.time.total - r.time.setup) / it, 1e3 * r.time.sample / it,
+           1e3 * r.time.assembly / it, 1e3 * r.time.factor / it, 1e3 * r.time.solve / it,
+           1e3 * r.time.step / it);
+    printf("  boundary error       final %.3g, best %.3g, min quality %.3f\n", r.boundary_l2,
+           w.best, r.min_quality);
+    if (w.t_3e4 >= 0)
+        printf("  reached 3e-4         %8.3f s wall incl. reading (iteration %d)\n", w.t_3e4, w.it_3e4);
+    else
+        printf("  reached 3e-4         never\n");
+    if (w.t_15e5 >= 0)
+        printf("  reached 1.5e-4       %8.3f s wall incl. reading (iteration %d)\n", w.t_15e5, w.it_15e5);
+    else
+        printf("  reached 1.5e-4       never\n");
+    printf("  total wall           %8.3f s, peak RSS %.1f MiB\n", wall, ru.ru_maxrss / 1024.0);
+    /* machine-readable line for scripts */
+    printf("RESULT dim=%d iters=%d read=%.4f per_iter=%.5f t3e4=%.4f t15e5=%.4f best=%.4g rss_mib=%.1f\n",
+           tm->dim, r.iterations, t_read, (r.time.total - r.time.setup) / it, w.t_3e4, w.t_15e5,
+           w.best, ru.ru_maxrss / 1024.0);
+    free(out);
+    sm_sol_free(sol);
+    sm_mesh_free(tm);
+    sm_mesh_free(bg);
+    return 0;
+}

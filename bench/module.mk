@@ -1,0 +1,6 @@
+# Benchmarks (release only: figures from a sanitized build mean nothing).
+build/release/match_bench: build/release/obj/bench/match_bench.o build/release/libshapematch.a
+	@mkdir -p $(dir $@)
+	$(CC) -o $@ $^ $(CORE_LIBS)
+release: build/release/match_bench
+all: build/release/match_bench

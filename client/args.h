@@ -1,0 +1,90 @@
+/* Command-line parsing for the shapematch client.
+ *
+ * The job parameters (clamp, material, stopping criteria, ...) are parsed
+ * by a part shared between commands (`run` today; `submit` for a daemon
+ * later takes the same ones), the command-specific options (input files,
+ * output directory, display) by a per-command parser on top of it.
+ *
+ * Options are GNU-style: `--name value` or `--name=value`; `-o DIR`.
+ * Every number must be fully parsed, finite and in range; every message
+ * names the offending flag. */
+#ifndef CLI_ARGS_H
+#define CLI_ARGS_H
+
+#include <stdio.h>
+#include <stddef.h>
+
+#include "sm_match.h"
+
+#define ARGS_MSG_LEN 2048
+
+typedef enum args_result {
+    ARGS_OK = 0,
+    ARGS_HELP = 1,   /* -h/--help was given: print help, exit 0 */
+    ARGS_ERROR = 2   /* usage error, message filled */
+} args_result;
+
+/* Job parameters plus what the command line said about them (needed for
+ * the checks that involve several flags or the input dimension). */
+typedef struct job_options {
+    sm_params params;          /* starts from sm_params_default() */
+    const char *clamp_flag;    /* clamp option given ("--clamp-ball", ...) */
+    int clamp_ball_dim;        /* 2 or 3: coordinates given to --clamp-ball */
+    int alpha_given;
+} job_options;
+
+typedef struct run_options {
+    const char *template_path;
+    const char *target_mesh_path;
+    const char *target_sol_path;
+    const char *outdir;
+    int quiet;
+    int json;
+    job_options job;
+} run_options;
+
+/* ---- number parsing (exported for the other commands and tests) ---- */
+
+/* Whole text as a finite real.  Returns 0, or -1 with msg naming flag. */
+int args_parse_real(const char *flag, const char *text, double *out,
+                    char *msg, size_t cap);
+/* Whole text as a decimal integer in [lo, hi]. */
+int args_parse_int(const char *flag, const char *text, long lo, long hi,
+                   long *out, char *msg, size_t cap);
+/* Comma-separated integers (int32), 1..max of them. */
+int args_parse_refs(const char *flag, const char *text, int32_t *refs,
+                    int max, int *count, char *msg, size_t cap);
+/* Comma-separated reals, 1..max of them, all finite. */
+int args_parse_reals(const char *flag, const char *text, double *vals,
+                     int max, int *count, char *msg, size_t cap);
+
+/* ---- job options ---- */
+
+/* Sets defaults (sm_params_default) and clears the bookkeeping. */
+void job_options_init(job_options *j);
+/* Whether flag (e.g. "--young") is a job option: -1 no, 0 yes without a
+ * value (--no-clamp), 1 yes with a value. */
+int job_option_lookup(const char *flag);
+/* Applies a job option known to job_option_lookup (value NULL for the
+ * ones without a value).  Returns 0, or -1 with msg naming the flag. */
+int job_option_apply(job_options *j, const char *flag, const char *value,
+                     char *msg, size_t cap);
+/* Checks that involve several flags: exactly one clamp option, --alpha
+ * only with --no-clamp, --step-initial <= --step-max. */
+int job_options_finish(job_options *j, char *msg, size_t cap);
+/* Checks that involve the template dimension (--clamp-ball arity). */
+int job_options_check_dim(const job_options *j, int dim, char *msg,
+                          size_t cap);
+/* Help text of the job options with the current defaults. */
+void job_options_help(FILE *out);
+
+/* ---- run ---- */
+
+/* argv[0] is the command name ("run").  o is fully initialised. */
+args_result args_parse_run(int argc, char **argv, run_options *o,
+                           char *msg, size_t cap);
+
+/* Name of a clamp kind as used in the outputs ("ball", ...). */
+const char *args_clamp_name(sm_clamp_kind k);
+
+#endif

@@ -1,0 +1,93 @@
+/* shapematch: command-line client.  Dispatches to a subcommand
+ * (`shapematch COMMAND [options]`); each command parses its own options.
+ * Exit codes: see cli.h (and `shapematch --help`). */
+#include <stdio.h>
+#include <string.h>
+
+#include "cli.h"
+
+const char cli_exit_codes_help[] =
+    "Exit codes:\n"
+    "  0  finished: converged (step or boundary tolerance) or iteration cap reached\n"
+    "  1  usage error (unknown option, missing or malformed argument)\n"
+    "  2  bad input file (unreadable, malformed, dimension or size mismatch)\n"
+    "  3  numerical failure (factorization failed, no valid step at the start)\n"
+    "  4  cannot write the outputs\n"
+    "  5  cancelled (Ctrl-C / SIGTERM); outputs of the state reached are written\n";
+
+typedef struct command {
+    const char *name;
+    cli_command_fn run;
+    void (*help)(void);
+    const char *summary;
+} command;
+
+/* Daemon commands (submit, watch, fetch, status, list, cancel) go here. */
+static const command commands[] = {
+    {"run", cmd_run, cmd_run_help, "run a matching job locally (no daemon)"},
+};
+#define N_COMMANDS (sizeof commands / sizeof commands[0])
+
+static const command *find_command(const char *name)
+{
+    for (size_t i = 0; i < N_COMMANDS; i++)
+        if (strcmp(commands[i].name, name) == 0)
+            return &commands[i];
+    return NULL;
+}
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "Usage: shapematch COMMAND [OPTIONS]\n"
+            "       shapematch --help | --version\n"
+            "\n"
+            "Elastic shape matching: deforms a template mesh onto a target shape given by\n"
+            "its signed distance function (de Buhan, Dapogny, Frey, Nardoni 2016).\n"
+            "\n"
+            "Commands:\n");
+    for (size_t i = 0; i < N_COMMANDS; i++)
+        fprintf(out, "  %-10s %s\n", commands[i].name, commands[i].summary);
+    fprintf(out,
+            "  %-10s %s\n"
+            "\n"
+            "Run 'shapematch COMMAND --help' for the options of a command.\n"
+            "\n%s",
+            "help", "show this help, or a command's help ('shapematch help run')",
+            cli_exit_codes_help);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        usage(stderr);
+        return CLI_EXIT_USAGE;
+    }
+    const char *name = argv[1];
+    if (strcmp(name, "--help") == 0 || strcmp(name, "-h") == 0 || strcmp(name, "help") == 0) {
+        if (argc > 2 && strcmp(name, "help") == 0) {
+            const command *c = find_command(argv[2]);
+            if (!c) {
+                fprintf(stderr, "shapematch: unknown command '%s'\n", argv[2]);
+                return CLI_EXIT_USAGE;
+            }
+            c->help();
+            return CLI_EXIT_OK;
+        }
+        usage(stdout);
+        return CLI_EXIT_OK;
+    }
+    if (strcmp(name, "--version") == 0 || strcmp(name, "-V") == 0 ||
+        strcmp(name, "version") == 0) {
+        printf("shapematch %s\n", SM_VERSION);
+        return CLI_EXIT_OK;
+    }
+    const command *c = find_command(name);
+    if (!c) {
+        fprintf(stderr, "shapematch: %s '%s'\nTry 'shapematch --help' for more information.\n",
+                name[0] == '-' ? "unknown option" : "unknown command", name);
+        return CLI_EXIT_USAGE;
+    }
+    /* the command sees argv[0] = its own name */
+    return c->run(argc - 1, argv + 1);
+}

@@ -1,0 +1,586 @@
+/* Job events (NDJSON lines) and the result summary document; see
+ * proto/sm_proto_events.h and proto/events.schema.json. */
+#include "sm_proto_events.h"
+
+#include <limits.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "sm_proto_json.h"
+#include "sm_proto_params.h"
+
+/* Decoding errors of a well-formed JSON document are format errors. */
+static sm_status as_format(sm_error *err)
+{
+    if (err)
+        err->code = SM_ERR_FORMAT;
+    return SM_ERR_FORMAT;
+}
+
+/* ------------------------------------------------------------------ names */
+
+static const char *const event_names[] = {"accepted", "started",   "progress", "finished",
+                                          "failed",   "cancelled", "status"};
+static const char *const state_names[] = {"accepted", "running", "successful", "failed",
+                                          "dismissed"};
+#define COUNT(a) (sizeof(a) / sizeof((a)[0]))
+
+const char *sm_event_type_name(sm_event_type type)
+{
+    if ((int)type < 0 || (size_t)type >= COUNT(event_names))
+        return NULL;
+    return event_names[type];
+}
+
+int sm_event_type_from_name(const char *name, sm_event_type *out)
+{
+    for (size_t i = 0; name && i < COUNT(event_names); i++)
+        if (strcmp(name, event_names[i]) == 0) {
+            *out = (sm_event_type)i;
+            return 0;
+        }
+    return -1;
+}
+
+const char *sm_job_state_name(sm_job_state state)
+{
+    if ((int)state < 0 || (size_t)state >= COUNT(state_names))
+        return NULL;
+    return state_names[state];
+}
+
+int sm_job_state_from_name(const char *name, sm_job_state *out)
+{
+    for (size_t i = 0; name && i < COUNT(state_names); i++)
+        if (strcmp(name, state_names[i]) == 0) {
+            *out = (sm_job_state)i;
+            return 0;
+        }
+    return -1;
+}
+
+int sm_stop_reason_from_name(const char *name, sm_stop_reason *out)
+{
+    /* Inverse of the core's own naming, so the two never drift apart. */
+    static const sm_stop_reason all[] = {SM_STOP_STEP, SM_STOP_BOUNDARY, SM_STOP_MAX_ITER,
+                                         SM_STOP_CANCELLED};
+    for (size_t i = 0; name && i < COUNT(all); i++) {
+        const char *n = sm_stop_reason_name(all[i]);
+        if (n && strcmp(name, n) == 0) {
+            *out = all[i];
+            return 0;
+        }
+    }
+    return -1;
+}
+
+/* ------------------------------------------------------------------- time */
+
+/* Days since 1970-01-01 of a proleptic Gregorian date (H. Hinnant's
+ * days_from_civil), so parsing needs neither timegm nor the TZ. */
+static long long days_from_civil(long long y, unsigned m, unsigned d)
+{
+    y -= m <= 2;
+    const long long era = (y >= 0 ? y : y - 399) / 400;
+    const unsigned yoe = (unsigned)(y - era * 400);
+    const unsigned doy = (153 * (m + (m > 2 ? -3 : 9)) + 2) / 5 + d - 1;
+    const unsigned doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+    return era * 146097 + (long long)doe - 719468;
+}
+
+static void civil_from_days(long long z, int *y, unsigned *m, unsigned *d)
+{
+    z += 719468;
+    const long long era = (z >= 0 ? z : z - 146096) / 146097;
+    const unsigned doe = (unsigned)(z - era * 146097);
+    const unsigned yoe = (doe - doe / 1460 + doe / 36524 - doe / 146096) / 365;
+    const long long yy = (long long)yoe + era * 400;
+    const unsigned doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    const unsigned mp = (5 * doy + 2) / 153;
+    *d = doy - (153 * mp + 2) / 5 + 1;
+    *m = mp < 10 ? mp + 3 : mp - 9;
+    *y = (int)(yy + (*m <= 2));
+}
+
+#define MAX_UNIX_TIME 253402300799.0 /* 9999-12-31T23:59:59Z */
+
+int sm_time_format_rfc3339(double t, char buf[SM_RFC3339_LEN])
+{
+    if (!isfinite(t) || t < 0 || t > MAX_UNIX_TIME)
+        return -1;
+    long long ms = llround(t * 1000.0);
+    long long secs = ms / 1000;
+    int millis = (int)(ms % 1000);
+    long long days = secs / 86400;
+    int sod = (int)(secs % 86400);
+    int y;
+    unsigned m, d;
+    civil_from_days(days, &y, &m, &d);
+    if (y > 9999)
+        return -1;
+    /* the modulos cannot change anything (ranges checked above); they let
+     * the compiler see that the text fits */
+    snprintf(buf, SM_RFC3339_LEN, "%04u-%02u-%02uT%02u:%02u:%02u.%03uZ", (unsigned)y % 10000u,
+             m % 13u, d % 32u, (unsigned)sod / 3600u % 24u, (unsigned)sod / 60u % 60u,
+             (unsigned)sod % 60u, (unsigned)millis % 1000u);
+    return 0;
+}
+
+static int read_digits(const char **s, int n, int *out)
+{
+    int v = 0;
+    for (int i = 0; i < n; i++) {
+        char c = (*s)[i];
+        if (c < '0' || c > '9')
+            return -1;
+        v = v * 10 + (c - '0');
+    }
+    *s += n;
+    *out = v;
+    return 0;
+}
+
+static int expect(const char **s, char c)
+{
+    if (**s != c)
+        return -1;
+    (*s)++;
+    return 0;
+}
+
+int sm_time_parse_rfc3339(const char *text, double *out)
+{
+    static const int mdays[] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
+    const char *s = text;
+    int y, mo, d, h, mi, se;
+    if (!s || read_digits(&s, 4, &y) || expect(&s, '-') || read_digits(&s, 2, &mo) ||
+        expect(&s, '-') || read_digits(&s, 2, &d))
+        return -1;
+    if (*s != 'T' && *s != 't')
+        return -1;
+    s++;
+    if (read_digits(&s, 2, &h) || expect(&s, ':') || read_digits(&s, 2, &mi) ||
+        expect(&s, ':') || read_digits(&s, 2, &se))
+        return -1;
+    if (mo < 1 || mo > 12 || d < 1 || h > 23 || mi > 59 || se > 60)
+        return -1;
+    int leap = (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
+    if (d > mdays[mo - 1] + (mo == 2 && leap))
+        return -1;
+    double frac = 0.0, scale = 0.1;
+    if (*s == '.') {
+        s++;
+        if (*s < '0' || *s > '9')
+            return -1;
+        for (int n = 0; *s >= '0' && *s <= '9'; s++, n++) {
+            if (n > 64) /* absurdly long fraction: refuse rather than loop on */
+                return -1;
+            frac += (*s - '0') * scale;
+            scale /= 10;
+        }
+    }
+    long offset = 0;
+    if (*s == 'Z' || *s == 'z') {
+        s++;
+    } else if (*s == '+' || *s == '-') {
+        int sign = *s == '-' ? -1 : 1, oh, om;
+        s++;
+        if (read_digits(&s, 2, &oh) || expect(&s, ':') || read_digits(&s, 2, &om) || oh > 23 ||
+            om > 59)
+            return -1;
+        offset = sign * (oh * 3600L + om * 60L);
+    } else {
+        return -1;
+    }
+    if (*s != '\0')
+        return -1;
+    long long secs = days_from_civil(y, (unsigned)mo, (unsigned)d) * 86400LL + h * 3600LL +
+                     mi * 60LL + se - offset;
+    *out = (double)secs + frac;
+    return 0;
+}
+
+double sm_time_now(void)
+{
+    struct timespec ts;
+    if (clock_gettime(CLOCK_REALTIME, &ts) != 0)
+        return (double)time(NULL);
+    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+/* --------------------------------------------------------- result summary */
+
+json_t *sm_result_to_jansson(const sm_result *r, const sm_params *params, int dim)
+{
+    const char *stop = sm_stop_reason_name(r->stop);
+    json_t *obj = json_object();
+    json_t *timings = json_object();
+    int bad = !obj || !timings || !stop;
+    bad = bad || smp_set(obj, "stop_reason", json_string(stop));
+    bad = bad || smp_set(obj, "iterations", json_integer(r->iterations));
+    bad = bad || smp_set(obj, "J_initial", smp_real_or_null(r->J_initial));
+    bad = bad || smp_set(obj, "J_final", smp_real_or_null(r->J));
+    bad = bad || smp_set(obj, "boundary_l2", smp_real_or_null(r->boundary_l2));
+    bad = bad || smp_set(obj, "boundary_max", smp_real_or_null(r->boundary_max));
+    bad = bad || smp_set(obj, "min_quality", smp_real_or_null(r->min_quality));
+    bad = bad || smp_set(obj, "accepted", json_integer(r->accepted));
+    bad = bad || smp_set(obj, "rejected", json_integer(r->rejected));
+    bad = bad || smp_set(timings, "setup", smp_real_or_null(r->time.setup));
+    bad = bad || smp_set(timings, "sample", smp_real_or_null(r->time.sample));
+    bad = bad || smp_set(timings, "assembly", smp_real_or_null(r->time.assembly));
+    bad = bad || smp_set(timings, "factor", smp_real_or_null(r->time.factor));
+    bad = bad || smp_set(timings, "solve", smp_real_or_null(r->time.solve));
+    bad = bad || smp_set(timings, "step", smp_real_or_null(r->time.step));
+    bad = bad || smp_set(timings, "total", smp_real_or_null(r->time.total));
+    if (bad) {
+        json_decref(obj);
+        json_decref(timings);
+        return NULL;
+    }
+    if (smp_set(obj, "timings", timings) != 0 ||
+        (params && smp_set(obj, "parameters", sm_params_to_jansson(params, dim)) != 0)) {
+        json_decref(obj);
+        return NULL;
+    }
+    return obj;
+}
+
+char *sm_result_to_json(const sm_result *r, const sm_params *params, int dim)
+{
+    json_t *obj = sm_result_to_jansson(r, params, dim);
+    if (!obj)
+        return NULL;
+    char *text = sm_json_dumps(obj, 2);
+    json_decref(obj);
+    if (!text)
+        return NULL;
+    size_t n = strlen(text);
+    char *with_newline = realloc(text, n + 2);
+    if (!with_newline) {
+        free(text);
+        return NULL;
+    }
+    with_newline[n] = '\n';
+    with_newline[n + 1] = '\0';
+    return with_newline;
+}
+
+/* Required member of obj, or an error naming it. */
+static sm_status member(const json_t *obj, const char *path, const char *key,
+                        const json_t **out, sm_error *err)
+{
+    *out = json_object_get(obj, key);
+    if (!*out) {
+        char sub[SMP_PATH_MAX];
+        smp_path_join(sub, path, key);
+        return sm_error_set(err, SM_ERR_FORMAT, "%s: required member missing", sub);
+    }
+    return SM_OK;
+}
+
+static sm_status read_number(const json_t *obj, const char *path, const char *key,
+                             double *out, sm_error *err)
+{
+    const json_t *v;
+    char sub[SMP_PATH_MAX];
+    sm_status st = member(obj, path, key, &v, err);
+    if (st != SM_OK)
+        return st;
+    smp_path_join(sub, path, key);
+    if (smp_get_number(v, sub, 1, out, err) != SM_OK)
+        return as_format(err);
+    return SM_OK;
+}
+
+static sm_status read_count(const json_t *obj, const char *path, const char *key, int *out,
+                            sm_error *err)
+{
+    const json_t *v;
+    char sub[SMP_PATH_MAX];
+    long long x;
+    sm_status st = member(obj, path, key, &v, err);
+    if (st != SM_OK)
+        return st;
+    smp_path_join(sub, path, key);
+    if (smp_get_integer(v, sub, 0, INT_MAX, &x, err) != SM_OK)
+        return as_format(err);
+    *out = (int)x;
+    return SM_OK;
+}
+
+sm_status sm_result_from_jansson(const json_t *obj, const char *path, sm_result *out,
+                                 sm_error *err)
+{
+    char sub[SMP_PATH_MAX];
+    const json_t *v;
+    sm_result r;
+    memset(&r, 0, sizeof r);
+    if (!path)
+        path = "result";
+    if (!json_is_object(obj))
+        return sm_error_set(err, SM_ERR_FORMAT, "%s: must be an object (got %s)", path,
+                            obj ? smp_type_name(obj) : "nothing");
+    sm_status st = member(obj, path, "stop_reason", &v, err);
+    if (st != SM_OK)
+        return st;
+    if (!json_is_string(v) || sm_stop_reason_from_name(json_string_value(v), &r.stop) != 0) {
+        smp_path_join(sub, path, "stop_reason");
+        return sm_error_set(err, SM_ERR_FORMAT,
+                            "%s: must be one of \"%s\", \"%s\", \"%s\", \"%s\"", sub,
+                            sm_stop_reason_name(SM_STOP_STEP),
+                            sm_stop_reason_name(SM_STOP_BOUNDARY),
+                            sm_stop_reason_name(SM_STOP_MAX_ITER),
+                            sm_stop_reason_name(SM_STOP_CANCELLED));
+    }
+    if ((st = read_count(obj, path, "iterations", &r.iterations, err)) ||
+        (st = read_number(obj, path, "J_initial", &r.J_initial, err)) ||
+        (st = read_number(obj, path, "J_final", &r.J, err)) ||
+        (st = read_number(obj, path, "boundary_l2", &r.boundary_l2, err)) ||
+        (st = read_number(obj, path, "boundary_max", &r.boundary_max, err)) ||
+        (st = read_number(obj, path, "min_quality", &r.min_quality, err)) ||
+        (st = read_count(obj, path, "accepted", &r.accepted, err)) ||
+        (st = read_count(obj, path, "rejected", &r.rejected, err)))
+        return st;
+    const json_t *t;
+    if ((st = member(obj, path, "timings", &t, err)))
+        return st;
+    smp_path_join(sub, path, "timings");
+    if (!json_is_object(t))
+        return sm_error_set(err, SM_ERR_FORMAT, "%s: must be an object (got %s)", sub,
+                            smp_type_name(t));
+    if ((st = read_number(t, sub, "setup", &r.time.setup, err)) ||
+        (st = read_number(t, sub, "sample", &r.time.sample, err)) ||
+        (st = read_number(t, sub, "assembly", &r.time.assembly, err)) ||
+        (st = read_number(t, sub, "factor", &r.time.factor, err)) ||
+        (st = read_number(t, sub, "solve", &r.time.solve, err)) ||
+        (st = read_number(t, sub, "step", &r.time.step, err)) ||
+        (st = read_number(t, sub, "total", &r.time.total, err)))
+        return st;
+    *out = r;
+    return SM_OK;
+}
+
+sm_status sm_result_from_json(const char *text, size_t len, sm_result *out, sm_error *err)
+{
+    json_t *root;
+    sm_status st = smp_load(text, len, SM_EVENT_LINE_MAX, "result", &root, err);
+    if (st != SM_OK)
+        return st;
+    st = sm_result_from_jansson(root, "result", out, err);
+    json_decref(root);
+    return st;
+}
+
+/* ----------------------------------------------------------------- events */
+
+void sm_event_init(sm_event *ev, sm_event_type type)
+{
+    memset(ev, 0, sizeof *ev);
+    ev->type = type;
+    ev->time = -1.0;
+}
+
+/* Copies at most cap-1 bytes of s, never cutting a UTF-8 sequence. */
+static void copy_utf8(char *dst, size_t cap, const char *s)
+{
+    size_t n = strnlen(s, cap); /* s may be a full, unterminated array */
+    if (n >= cap) {
+        n = cap - 1;
+        while (n > 0 && ((unsigned char)s[n] & 0xC0) == 0x80)
+            n--; /* s[n] would be a continuation byte: back up to a lead */
+    }
+    memcpy(dst, s, n);
+    dst[n] = '\0';
+}
+
+json_t *sm_event_to_jansson(const sm_event *ev)
+{
+    const char *type = sm_event_type_name(ev->type);
+    if (!type)
+        return NULL;
+    json_t *obj = json_object();
+    int bad = !obj;
+    bad = bad || smp_set(obj, "type", json_string(type));
+    if (ev->job_id[0]) {
+        char id[SM_JOB_ID_MAX + 1];
+        copy_utf8(id, sizeof id, ev->job_id); /* also NUL-terminates a full array */
+        bad = bad || smp_set(obj, "jobID", json_string(id));
+    }
+    if (ev->seq > 0)
+        bad = bad || smp_set(obj, "seq", json_integer(ev->seq));
+    if (ev->time >= 0) {
+        char when[SM_RFC3339_LEN];
+        if (sm_time_format_rfc3339(ev->time, when) != 0)
+            bad = 1;
+        bad = bad || smp_set(obj, "time", json_string(when));
+    }
+    if (ev->type == SM_EVENT_STARTED && ev->attempt > 0)
+        bad = bad || smp_set(obj, "attempt", json_integer(ev->attempt));
+    if (ev->type == SM_EVENT_PROGRESS) {
+        const sm_progress *p = &ev->progress;
+        bad = bad || smp_set(obj, "iteration", json_integer(p->iteration));
+        bad = bad || smp_set(obj, "J", smp_real_or_null(p->J));
+        bad = bad || smp_set(obj, "step", smp_real_or_null(p->step));
+        bad = bad || smp_set(obj, "boundary_l2", smp_real_or_null(p->boundary_l2));
+        bad = bad || smp_set(obj, "boundary_max", smp_real_or_null(p->boundary_max));
+        bad = bad || smp_set(obj, "min_quality", smp_real_or_null(p->min_quality));
+        bad = bad || smp_set(obj, "elapsed", smp_real_or_null(p->elapsed));
+        bad = bad || smp_set(obj, "accepted", json_integer(p->accepted));
+        bad = bad || smp_set(obj, "rejected", json_integer(p->rejected));
+    }
+    if (ev->type == SM_EVENT_FINISHED)
+        bad = bad || smp_set(obj, "result", sm_result_to_jansson(&ev->result, NULL, 0));
+    if (ev->type == SM_EVENT_STATUS) {
+        const char *state = sm_job_state_name(ev->state);
+        bad = bad || !state || smp_set(obj, "status", json_string(state));
+    }
+    if (ev->message[0] || ev->type == SM_EVENT_FAILED) {
+        char msg[SM_EVENT_MESSAGE_MAX];
+        copy_utf8(msg, sizeof msg, ev->message);
+        /* json_string refuses invalid UTF-8 (e.g. a raw strerror in some
+         * locale): fall back to a placeholder instead of losing the event */
+        json_t *s = json_string(msg);
+        if (!s)
+            s = json_string("(message not valid UTF-8)");
+        bad = bad || smp_set(obj, "message", s);
+    }
+    if (bad) {
+        json_decref(obj);
+        return NULL;
+    }
+    return obj;
+}
+
+char *sm_event_to_json(const sm_event *ev)
+{
+    json_t *obj = sm_event_to_jansson(ev);
+    if (!obj)
+        return NULL;
+    char *text = sm_json_dumps(obj, 0);
+    json_decref(obj);
+    return text;
+}
+
+static sm_status fail(sm_error *err, const char *path, const char *key, const char *what)
+{
+    char sub[SMP_PATH_MAX];
+    smp_path_join(sub, path, key);
+    return sm_error_set(err, SM_ERR_FORMAT, "%s: %s", sub, what);
+}
+
+sm_status sm_event_from_jansson(const json_t *obj, sm_event *out, sm_error *err)
+{
+    const char *path = "event";
+    sm_event ev;
+    sm_event_init(&ev, SM_EVENT_PROGRESS);
+    sm_event_init(out, SM_EVENT_PROGRESS);
+    if (!json_is_object(obj))
+        return sm_error_set(err, SM_ERR_FORMAT, "%s: must be an object (got %s)", path,
+                            obj ? smp_type_name(obj) : "nothing");
+    const json_t *v = json_object_get(obj, "type");
+    if (!v)
+        return fail(err, path, "type", "required member missing");
+    if (!json_is_string(v) || sm_event_type_from_name(json_string_value(v), &ev.type) != 0)
+        return fail(err, path, "type",
+                    "must be one of \"accepted\", \"started\", \"progress\", \"finished\", "
+                    "\"failed\", \"cancelled\", \"status\"");
+    char sub[SMP_PATH_MAX];
+    snprintf(sub, sizeof sub, "%s.%s", path, sm_event_type_name(ev.type));
+
+    if ((v = json_object_get(obj, "jobID"))) {
+        if (!json_is_string(v))
+            return fail(err, path, "jobID", "must be a string");
+        if (json_string_length(v) == 0 || json_string_length(v) > SM_JOB_ID_MAX ||
+            strlen(json_string_value(v)) != json_string_length(v))
+            return fail(err, path, "jobID", "must be 1 to 64 characters");
+        memcpy(ev.job_id, json_string_value(v), json_string_length(v) + 1);
+    }
+    if ((v = json_object_get(obj, "seq"))) {
+        long long seq;
+        if (smp_get_integer(v, "event.seq", 0, LLONG_MAX, &seq, err) != SM_OK)
+            return as_format(err);
+        ev.seq = seq;
+    }
+    if ((v = json_object_get(obj, "time"))) {
+        if (!json_is_string(v) || sm_time_parse_rfc3339(json_string_value(v), &ev.time) != 0)
+            return fail(err, path, "time",
+                        "must be an RFC 3339 date-time string such as "
+                        "\"2024-05-01T12:00:00.000Z\"");
+    }
+    if ((v = json_object_get(obj, "message"))) {
+        if (!json_is_string(v))
+            return fail(err, path, "message", "must be a string");
+        copy_utf8(ev.message, sizeof ev.message, json_string_value(v));
+    }
+    sm_status st = SM_OK;
+    switch (ev.type) {
+    case SM_EVENT_ACCEPTED:
+    case SM_EVENT_CANCELLED:
+        break;
+    case SM_EVENT_STARTED:
+        if ((v = json_object_get(obj, "attempt"))) {
+            long long a;
+            if (smp_get_integer(v, "event.started.attempt", 1, INT_MAX, &a, err) != SM_OK)
+                return as_format(err);
+            ev.attempt = (int)a;
+        }
+        break;
+    case SM_EVENT_PROGRESS: {
+        sm_progress *p = &ev.progress;
+        if ((st = read_count(obj, sub, "iteration", &p->iteration, err)) ||
+            (st = read_number(obj, sub, "J", &p->J, err)) ||
+            (st = read_number(obj, sub, "step", &p->step, err)) ||
+            (st = read_number(obj, sub, "boundary_l2", &p->boundary_l2, err)) ||
+            (st = read_number(obj, sub, "boundary_max", &p->boundary_max, err)) ||
+            (st = read_number(obj, sub, "min_quality", &p->min_quality, err)) ||
+            (st = read_number(obj, sub, "elapsed", &p->elapsed, err)) ||
+            (st = read_count(obj, sub, "accepted", &p->accepted, err)) ||
+            (st = read_count(obj, sub, "rejected", &p->rejected, err)))
+            return st;
+        break;
+    }
+    case SM_EVENT_FINISHED: {
+        char rpath[SMP_PATH_MAX];
+        smp_path_join(rpath, sub, "result");
+        if (!(v = json_object_get(obj, "result")))
+            return fail(err, sub, "result", "required member missing");
+        if ((st = sm_result_from_jansson(v, rpath, &ev.result, err)))
+            return st;
+        break;
+    }
+    case SM_EVENT_FAILED:
+        if (!json_object_get(obj, "message"))
+            return fail(err, sub, "message", "required member missing (the reason)");
+        break;
+    case SM_EVENT_STATUS:
+        if (!(v = json_object_get(obj, "status")))
+            return fail(err, sub, "status", "required member missing");
+        if (!json_is_string(v) || sm_job_state_from_name(json_string_value(v), &ev.state) != 0)
+            return fail(err, sub, "status",
+                        "must be one of \"accepted\", \"running\", \"successful\", "
+                        "\"failed\", \"dismissed\"");
+        break;
+    }
+    *out = ev;
+    return SM_OK;
+}
+
+sm_status sm_event_from_json(const char *line, size_t len, sm_event *out, sm_error *err)
+{
+    json_t *root;
+    sm_event_init(out, SM_EVENT_PROGRESS);
+    /* NDJSON readers hand over the line with its terminator. */
+    if (line && len > 0 && line[len - 1] == '\n')
+        len--;
+    if (line && len > 0 && line[len - 1] == '\r')
+        len--;
+    sm_status st = smp_load(line, len, SM_EVENT_LINE_MAX, "event", &root, err);
+    if (st != SM_OK)
+        return st;
+    st = sm_event_from_jansson(root, out, err);
+    json_decref(root);
+    return st;
+}

@@ -1,0 +1,76 @@
+/* Job parameters on the wire: JSON <-> sm_params (core/sm_match.h).
+ *
+ * The JSON shape is described by proto/params.schema.json.  Only "clamp" is
+ * required; every other field has the default of sm_params_default():
+ *
+ *   {"clamp": {"kind": "ball", "center": [0.5, 0.5], "radius": 0.04}}
+ *   {"clamp": {"kind": "elements", "refs": [3]}, "free_boundary": [7]}
+ *   {"clamp": {"kind": "vertices", "refs": [1, 2]}, "young": 2.0}
+ *   {"clamp": {"kind": "none", "alpha": 0.01}, "max_iter": 100}
+ *
+ * Top-level fields: clamp, free_boundary, young, poisson, max_iter,
+ * tol_step, tol_boundary, min_quality, save_every, step_initial, step_max,
+ * refactor_every.  Decoding is strict: unknown fields, wrong types,
+ * out-of-range values and duplicate keys are errors, and the message
+ * starts with the JSON path of the offending field, e.g.
+ *   "params.clamp.radius: must be > 0 (got -1)".
+ *
+ * Link with libsmproto.a and -ljansson. */
+#ifndef SM_PROTO_PARAMS_H
+#define SM_PROTO_PARAMS_H
+
+#include <stddef.h>
+
+#include <jansson.h>
+
+#include "sm_error.h"
+#include "sm_match.h"
+
+/* Largest params document accepted (bytes).  A complete params with two
+ * full reference lists is well under 2 KiB. */
+#define SM_PARAMS_JSON_MAX_BYTES (64 * 1024)
+
+/* Wire names of the clamp kinds: "ball", "elements", "vertices", "none".
+ * sm_clamp_kind_name returns NULL for a value outside the enum. */
+const char *sm_clamp_kind_name(sm_clamp_kind kind);
+/* Returns 0 and sets *out when name is one of the wire names, -1 otherwise. */
+int sm_clamp_kind_from_name(const char *name, sm_clamp_kind *out);
+
+/* Decodes a params document (text need not be NUL-terminated; len bytes
+ * are read).  dim is the mesh dimension (2 or 3) when known; with dim = 0
+ * ("not known yet") clamp.center may have 2 or 3 entries (missing ones are
+ * 0) and sm_params_validate is not called: call sm_params_from_json again
+ * with the template's dimension once the mesh is parsed (the daemon does
+ * this before accepting a job).  With dim 2 or 3 the result has also
+ * passed sm_params_validate(out, dim).
+ *
+ * On error: returns SM_ERR_FORMAT (not JSON, duplicate key, too large) or
+ * SM_ERR_INVALID (well-formed JSON with a bad field), err->msg names the
+ * field path ("params.max_iter: must be an integer >= 1 (got 0)") or the
+ * position of a syntax error, and *out is left filled with defaults. */
+sm_status sm_params_from_json(const char *text, size_t len, int dim,
+                              sm_params *out, sm_error *err);
+
+/* Same, from an already parsed JSON value (e.g. a member of a larger
+ * document).  root must be an object.  path is the prefix used in
+ * messages ("params" when NULL). */
+sm_status sm_params_from_jansson(const json_t *root, int dim,
+                                 const char *path, sm_params *out,
+                                 sm_error *err);
+
+/* Encodes every field (defaults included), compact, one line, keys in a
+ * stable order; fields that do not apply to the clamp kind are left out
+ * (center/radius only for ball, refs only for elements/vertices, alpha
+ * only for none).  dim (2 or 3) is the number of center entries written;
+ * dim = 0 writes 2 entries when clamp_center[2] == 0 and 3 otherwise.
+ * Returns a malloc'd NUL-terminated string (caller frees with free()), or
+ * NULL when p holds something JSON cannot carry (NaN/Inf, a bad kind, a
+ * ref count outside 0..SM_MAX_REFS) or memory runs out.
+ * sm_params_from_json(sm_params_to_json(p, dim), dim) gives back p
+ * exactly (doubles are printed with 17 significant digits). */
+char *sm_params_to_json(const sm_params *p, int dim);
+
+/* Same as a new jansson object (caller owns the reference), or NULL. */
+json_t *sm_params_to_jansson(const sm_params *p, int dim);
+
+#endif

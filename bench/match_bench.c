@@ -110,8 +110,8 @@ int main(int argc, char **argv)
            argv[1], tm->dim, tm->nverts, tm->nelems, bg->nverts, bg->nelems);
     printf("  read inputs          %8.3f s\n", t_read);
     printf("  setup                %8.3f s\n", r.time.setup);
-    printf("  iterations           %8d   (stop: %s, %d accepted / %d rejected trials)\n",
-           r.iterations, sm_stop_reason_name(r.stop), r.accepted, r.rejected);
+    printf("  iterations           %8d   (stop: %s, %d accepted / %d rejected trials, %d factorizations)\n",
+           r.iterations, sm_stop_reason_name(r.stop), r.accepted, r.rejected, r.factorizations);
     printf("  per iteration        %8.2f ms = sampling %.2f + assembly %.2f + factorization %.2f"
            " + solve %.2f + step search %.2f\n",
            1e3 * (r.time.total - r.time.setup) / it, 1e3 * r.time.sample / it,

@@ -40,7 +40,9 @@ typedef struct sm_params {
     int save_every;          /* snapshot callback period (0 = never) */
     double step_initial;     /* first step as a fraction of the diameter; 0.01 */
     double step_max;         /* largest step as a fraction of the diameter; 0.1 */
-    int refactor_every;      /* refactorize elasticity every k iterations; 1 */
+    int refactor_every;      /* refactorize the elastic operator on the current
+                              * mesh every k iterations (1 = every iteration,
+                              * as in the paper); 100 */
 } sm_params;
 
 void sm_params_default(sm_params *p);
@@ -82,6 +84,7 @@ typedef struct sm_result {
     double J_initial, J;
     double boundary_l2, boundary_max, min_quality;
     int accepted, rejected;
+    int factorizations;      /* numeric factorizations of the elastic operator */
     sm_timings time;
 } sm_result;
 

@@ -33,11 +33,44 @@ int32_t sm_field_locate(const sm_field *f, const double *x, int32_t hint,
 /* Value of d at x.  *hint (may be NULL) is read as the walk's start and
  * updated with the element found.  Points outside the background mesh get
  * a positive extension: the value at the nearest point of the background
- * mesh plus the distance to it (so never a crash, never a silent 0). */
+ * mesh plus the distance to it (so never a crash, never a silent 0).
+ * Never NaN: a non-finite x gives +INFINITY (and leaves *hint alone).
+ * For an outside point *hint becomes the element holding the nearest
+ * point.  Any hint (stale, out of range, -1) gives the same value up to
+ * rounding; only the cost changes. */
 double sm_field_eval(const sm_field *f, const double *x, int32_t *hint);
 
 /* Number of elements visited by walks so far is not tracked (read-only
  * structure); these expose the grid geometry for tests and benchmarks. */
 int sm_field_dim(const sm_field *f);
+
+/* Value and gradient of d at x (grad has dim entries; hint as for
+ * sm_field_eval).  Inside: the P1 gradient of the element found.  Outside:
+ * the gradient of the extension where it is smooth, i.e. the unit vector
+ * from the nearest point p to x plus the tangential part of the P1
+ * gradient at p. */
+double sm_field_eval_grad(const sm_field *f, const double *x, int32_t *hint,
+                          double *grad);
+
+/* Nearest point of the background mesh to x (dim entries) and its
+ * distance (0 when x is inside within the location tolerance); returns
+ * the element holding that point, or -1 for a non-finite x. */
+int32_t sm_field_nearest(const sm_field *f, const double *x, double *nearest,
+                         double *distance);
+
+typedef struct sm_field_stats {
+    int32_t grid[3];          /* cells per axis (grid[2] = 1 in 2D) */
+    int64_t ncells;
+    int64_t elem_entries;     /* total length of the cell -> element lists */
+    int32_t max_cell_elems;   /* longest cell list */
+    int32_t nboundary_facets; /* facets with no neighbour (outside search) */
+    int64_t facet_entries;    /* total length of the cell -> facet lists */
+    int64_t coarse_cells;     /* coarse facet grid (far outside points) */
+    int64_t coarse_facet_entries;
+    int32_t ndegenerate;      /* zero-volume elements, skipped */
+    double lo[3], hi[3];      /* grid box (bounding box of the valid elements) */
+    size_t bytes;             /* memory held by the field */
+} sm_field_stats;
+void sm_field_get_stats(const sm_field *f, sm_field_stats *st);
 
 #endif

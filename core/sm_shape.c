@@ -9,7 +9,8 @@ struct sm_shape {
     const sm_field *field;
     int32_t nactive;
     int32_t *active;       /* indices of the active boundary facets */
-    int32_t *facet_hint;   /* background element last found per active facet */
+    int32_t *load_hint;    /* background element last found, per facet quadrature point */
+    int32_t *swept_hint;   /* same, per quadrature point of the swept region */
     int32_t *vertex_hint;  /* per vertex */
     int32_t *elem_hint;    /* per element (volume quadrature) */
     uint8_t *active_vertex;/* vertex touches an active facet */
@@ -26,6 +27,7 @@ static const double tri_l[TRI_NQ][3] = {{2.0 / 3, 1.0 / 6, 1.0 / 6},
                                          {1.0 / 6, 2.0 / 3, 1.0 / 6},
                                          {1.0 / 6, 1.0 / 6, 2.0 / 3}};
 static const double tri_w[TRI_NQ] = {1.0 / 3, 1.0 / 3, 1.0 / 3};
+#define NQ_MAX 3
 /* 2-point Gauss on [0,1] along the motion. */
 static const double gauss_s[2] = {0.21132486540518711775, 0.78867513459481288225};
 /* Degree-2 volume rules (weights sum to 1): edge midpoints of a triangle,
@@ -53,12 +55,15 @@ sm_status sm_shape_new(const sm_mesh *m, const sm_field *field, const int32_t *f
     s->field = field;
     size_t nb = (size_t)m->nbfacets + 1, nv = (size_t)m->nverts + 1, ne = (size_t)m->nelems + 1;
     s->active = malloc(nb * sizeof(int32_t));
-    s->facet_hint = malloc(nb * sizeof(int32_t));
+    /* one hint per quadrature point: consecutive evaluations of the same
+     * point (between iterations and trials) then walk only a few elements */
+    s->load_hint = malloc(nb * NQ_MAX * sizeof(int32_t));
+    s->swept_hint = malloc(nb * 2 * NQ_MAX * sizeof(int32_t));
     s->vertex_hint = malloc(nv * sizeof(int32_t));
     s->elem_hint = malloc(ne * sizeof(int32_t));
     s->active_vertex = calloc(nv, 1);
     s->contrib = malloc(nb * (size_t)(m->dim * m->dim) * sizeof(double));
-    if (!s->active || !s->facet_hint || !s->vertex_hint || !s->elem_hint || !s->active_vertex ||
+    if (!s->active || !s->load_hint || !s->swept_hint || !s->vertex_hint || !s->elem_hint || !s->active_vertex ||
         !s->contrib) {
         sm_shape_free(s);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
@@ -70,8 +75,10 @@ sm_status sm_shape_new(const sm_mesh *m, const sm_field *field, const int32_t *f
         for (int c = 0; c < m->dim; c++)
             s->active_vertex[m->bfacets[(size_t)f * (size_t)m->dim + (size_t)c]] = 1;
     }
-    for (size_t i = 0; i < nb; i++)
-        s->facet_hint[i] = -1;
+    for (size_t i = 0; i < nb * NQ_MAX; i++)
+        s->load_hint[i] = -1;
+    for (size_t i = 0; i < nb * 2 * NQ_MAX; i++)
+        s->swept_hint[i] = -1;
     for (size_t i = 0; i < nv; i++)
         s->vertex_hint[i] = -1;
     for (size_t i = 0; i < ne; i++)
@@ -85,7 +92,8 @@ void sm_shape_free(sm_shape *s)
     if (!s)
         return;
     free(s->active);
-    free(s->facet_hint);
+    free(s->load_hint);
+    free(s->swept_hint);
     free(s->vertex_hint);
     free(s->elem_hint);
     free(s->active_vertex);
@@ -134,7 +142,7 @@ void sm_shape_load(sm_shape *s, const double *coords, double *load, sm_boundary_
             for (int i = 0; i < dim; i++)
                 for (int c = 0; c < dim; c++)
                     x[c] += lam[i] * vtx(coords, dim, fv[i])[c];
-            double d = sm_field_eval(s->field, x, &s->facet_hint[k]);
+            double d = sm_field_eval(s->field, x, &s->load_hint[(size_t)k * NQ_MAX + (size_t)q]);
             double wd = w * measure * d;
             sum_sq += w * measure * d * d;
             if (fabs(d) > maxabs)
@@ -197,7 +205,10 @@ static double swept_integral(sm_shape *s, const double *coords, const double *di
                 }
                 /* outward normal times length is (t_y, -t_x) */
                 double jac = t[1] * th[0] - t[0] * th[1];
-                total += 0.5 * seg_w[q] * jac * sm_field_eval(s->field, x, &s->facet_hint[k]);
+                int32_t *hint = &s->swept_hint[((size_t)k * 2 + (size_t)g) * NQ_MAX + (size_t)q];
+                if (*hint < 0)
+                    *hint = s->load_hint[(size_t)k * NQ_MAX + (size_t)q];
+                total += 0.5 * seg_w[q] * jac * sm_field_eval(s->field, x, hint);
             }
         } else {
             double e1[3], e2[3], cr[3];
@@ -217,7 +228,10 @@ static double swept_integral(sm_shape *s, const double *coords, const double *di
                     }
                 /* |cross| is twice the area; reference triangle area 1/2 */
                 double jac = 0.5 * (cr[0] * th[0] + cr[1] * th[1] + cr[2] * th[2]);
-                total += 0.5 * tri_w[q] * jac * sm_field_eval(s->field, x, &s->facet_hint[k]);
+                int32_t *hint = &s->swept_hint[((size_t)k * 2 + (size_t)g) * NQ_MAX + (size_t)q];
+                if (*hint < 0)
+                    *hint = s->load_hint[(size_t)k * NQ_MAX + (size_t)q];
+                total += 0.5 * tri_w[q] * jac * sm_field_eval(s->field, x, hint);
             }
         }
     }

@@ -214,19 +214,6 @@ sm_status sm_match_run(const sm_mesh *template_mesh, const sm_mesh *background, 
         sm_error_prefix(err, "template");
         goto done;
     }
-    if ((st = sm_field_new(background, d, &rs.field, err)) != SM_OK) {
-        sm_error_prefix(err, "target");
-        goto done;
-    }
-    if ((st = sm_shape_new(rs.mesh, rs.field, params->free_refs, params->n_free_refs, &rs.shape,
-                           err)) != SM_OK)
-        goto done;
-    if (sm_shape_active_facets(rs.shape) == 0) {
-        st = sm_error_set(err, SM_ERR_INVALID,
-                          "no boundary facet carries the load (all are in the free boundary)");
-        goto done;
-    }
-
     rs.clamped = malloc((size_t)rs.mesh->nverts + 1);
     rs.x = malloc(ndof * sizeof(double));
     rs.trial = malloc(ndof * sizeof(double));
@@ -254,11 +241,6 @@ sm_status sm_match_run(const sm_mesh *template_mesh, const sm_mesh *background, 
         st = sm_error_set(err, SM_ERR_INVALID, "every template vertex is clamped: nothing can move");
         goto done;
     }
-    if ((st = sm_elasticity_new(rs.mesh, rs.clamped, params->young, params->poisson,
-                                params->clamp == SM_CLAMP_NONE ? params->alpha : 0.0,
-                                &rs.elasticity, err)) != SM_OK)
-        goto done;
-
     memcpy(rs.x, rs.mesh->coords, ndof * sizeof(double));
     const double diameter = sm_mesh_diameter(rs.mesh, rs.x);
     const double step_min = params->tol_step * diameter;
@@ -270,13 +252,59 @@ sm_status sm_match_run(const sm_mesh *template_mesh, const sm_mesh *background, 
     const double floor_q = qs.min < params->min_quality ? qs.min : params->min_quality;
     double qmin = qs.min;
 
+    /* The two expensive set-up tasks are independent: the target's search
+     * structures with the initial samples, and the elastic operator's
+     * symbolic analysis with its first factorization.  They run side by
+     * side (each may use more threads inside). */
     sm_timings *tm = &result->time;
-    double t0 = now_seconds();
-    tm->setup = t0 - t_start;
-    sm_boundary_error be;
-    sm_shape_load(rs.shape, rs.x, rs.load, &be);
-    double J = sm_shape_volume_j(rs.shape, rs.x);
-    tm->sample += now_seconds() - t0;
+    sm_status st_target = SM_OK, st_elastic = SM_OK;
+    sm_error err_target, err_elastic;
+    sm_error_clear(&err_target);
+    sm_error_clear(&err_elastic);
+    sm_boundary_error be = {0, 0};
+    double J = 0.0, t_sample = 0.0, t0;
+#pragma omp parallel sections num_threads(2)
+    {
+#pragma omp section
+        {
+            st_target = sm_field_new(background, d, &rs.field, &err_target);
+            if (st_target != SM_OK)
+                sm_error_prefix(&err_target, "target");
+            else
+                st_target = sm_shape_new(rs.mesh, rs.field, params->free_refs, params->n_free_refs,
+                                         &rs.shape, &err_target);
+            if (st_target == SM_OK && sm_shape_active_facets(rs.shape) == 0)
+                st_target = sm_error_set(&err_target, SM_ERR_INVALID,
+                                         "no boundary facet carries the load (all are in the free boundary)");
+            if (st_target == SM_OK) {
+                double t = now_seconds();
+                sm_shape_load(rs.shape, rs.x, rs.load, &be);
+                J = sm_shape_volume_j(rs.shape, rs.x);
+                t_sample = now_seconds() - t;
+            }
+        }
+#pragma omp section
+        {
+            st_elastic = sm_elasticity_new(rs.mesh, rs.clamped, params->young, params->poisson,
+                                           params->clamp == SM_CLAMP_NONE ? params->alpha : 0.0,
+                                           &rs.elasticity, &err_elastic);
+            if (st_elastic == SM_OK)
+                st_elastic = sm_elasticity_factorize(rs.elasticity, rs.x, &err_elastic);
+        }
+    }
+    if (st_target != SM_OK || st_elastic != SM_OK) {
+        st = st_target != SM_OK ? st_target : st_elastic;
+        if (err)
+            *err = st_target != SM_OK ? err_target : err_elastic;
+        goto done;
+    }
+    double ta, tf;
+    sm_elasticity_timings(rs.elasticity, &ta, &tf);
+    tm->assembly += ta;
+    tm->factor += tf;
+    result->factorizations = 1;
+    tm->sample += t_sample;
+    tm->setup = now_seconds() - t_start - ta - tf - t_sample;
     result->J_initial = J;
 
     int iteration = 0, accepted = 0, rejected = 0;
@@ -292,7 +320,7 @@ sm_status sm_match_run(const sm_mesh *template_mesh, const sm_mesh *background, 
     }
 
     double tau = params->step_initial * diameter;
-    int since_factor = params->refactor_every; /* factorize at the first iteration */
+    int since_factor = 0; /* factorized during the set-up */
     result->stop = SM_STOP_MAX_ITER;
     for (;;) {
         if (params->tol_boundary > 0 && be.l2 <= params->tol_boundary) {
@@ -314,7 +342,6 @@ sm_status sm_match_run(const sm_mesh *template_mesh, const sm_mesh *background, 
                 goto done;
             since_factor = 0;
             result->factorizations++;
-            double ta, tf;
             sm_elasticity_timings(rs.elasticity, &ta, &tf);
             tm->assembly += ta;
             tm->factor += tf;

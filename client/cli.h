@@ -12,7 +12,19 @@
  *      start, out of memory during the run)
  *   4  cannot write the outputs
  *   5  cancelled (SIGINT/SIGTERM); the outputs of the state reached are
- *      still written
+ *      still written.  Daemon commands (watch, submit --wait): the job was
+ *      cancelled (dismissed) on the daemon
+ *
+ * The daemon commands (submit, watch, fetch, status, list, cancel) add:
+ *   6  cannot connect to the daemon (refused, unknown host, 10 s connect
+ *      timeout), or the connection was lost during a request (watch: and
+ *      not re-established within --reconnect-timeout)
+ *   7  the daemon refused the request: HTTP 4xx, with the problem+json
+ *      "detail" printed (401: no or wrong token, 404: unknown job or no
+ *      results yet, 422: the job's inputs or parameters are invalid)
+ *   8  the job failed on the daemon (the reason is printed)
+ *   9  daemon error: HTTP 5xx, or a response the client cannot understand
+ * Interrupting watch (Ctrl-C) leaves the job running on the daemon.
  */
 #ifndef CLI_H
 #define CLI_H
@@ -23,7 +35,11 @@ enum cli_exit_code {
     CLI_EXIT_INPUT = 2,
     CLI_EXIT_NUMERIC = 3,
     CLI_EXIT_OUTPUT = 4,
-    CLI_EXIT_CANCELLED = 5
+    CLI_EXIT_CANCELLED = 5,
+    CLI_EXIT_CONNECT = 6,
+    CLI_EXIT_REFUSED = 7,
+    CLI_EXIT_JOB_FAILED = 8,
+    CLI_EXIT_SERVER = 9
 };
 
 #ifndef SM_VERSION
@@ -40,5 +56,19 @@ typedef int (*cli_command_fn)(int argc, char **argv);
 int cmd_run(int argc, char **argv);
 /* Writes the help page of `shapematch run` to stdout. */
 void cmd_run_help(void);
+
+/* Daemon commands (HTTP client of shapematchd). */
+int cmd_submit(int argc, char **argv);
+void cmd_submit_help(void);
+int cmd_watch(int argc, char **argv);
+void cmd_watch_help(void);
+int cmd_fetch(int argc, char **argv);
+void cmd_fetch_help(void);
+int cmd_status(int argc, char **argv);
+void cmd_status_help(void);
+int cmd_list(int argc, char **argv);
+void cmd_list_help(void);
+int cmd_cancel(int argc, char **argv);
+void cmd_cancel_help(void);
 
 #endif

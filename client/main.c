@@ -1,6 +1,7 @@
 /* shapematch: command-line client.  Dispatches to a subcommand
  * (`shapematch COMMAND [options]`); each command parses its own options.
- * Exit codes: see cli.h (and `shapematch --help`). */
+ * `run` works locally; the other commands talk to a shapematchd daemon
+ * over HTTP (remote.h).  Exit codes: see cli.h (and `shapematch --help`). */
 #include <stdio.h>
 #include <string.h>
 
@@ -13,7 +14,13 @@ const char cli_exit_codes_help[] =
     "  2  bad input file (unreadable, malformed, dimension or size mismatch)\n"
     "  3  numerical failure (factorization failed, no valid step at the start)\n"
     "  4  cannot write the outputs\n"
-    "  5  cancelled (Ctrl-C / SIGTERM); outputs of the state reached are written\n";
+    "  5  cancelled (Ctrl-C / SIGTERM); outputs of the state reached are written;\n"
+    "     daemon commands: the job was cancelled (dismissed) on the daemon\n"
+    "  6  cannot connect to the daemon, or the connection was lost\n"
+    "  7  the daemon refused the request (HTTP 4xx, its detail is printed): 401 no or\n"
+    "     wrong token, 404 unknown job or no results yet, 422 invalid job\n"
+    "  8  the job failed on the daemon (the reason is printed)\n"
+    "  9  daemon error (HTTP 5xx) or a response the client cannot understand\n";
 
 typedef struct command {
     const char *name;
@@ -22,9 +29,15 @@ typedef struct command {
     const char *summary;
 } command;
 
-/* Daemon commands (submit, watch, fetch, status, list, cancel) go here. */
 static const command commands[] = {
     {"run", cmd_run, cmd_run_help, "run a matching job locally (no daemon)"},
+    {"submit", cmd_submit, cmd_submit_help,
+     "send a job to the daemon (--wait: and follow it, fetch its results)"},
+    {"watch", cmd_watch, cmd_watch_help, "follow a job's progress to its end"},
+    {"fetch", cmd_fetch, cmd_fetch_help, "download a finished job's results"},
+    {"status", cmd_status, cmd_status_help, "show a job's state"},
+    {"list", cmd_list, cmd_list_help, "list the daemon's jobs"},
+    {"cancel", cmd_cancel, cmd_cancel_help, "cancel a job (or delete a finished one)"},
 };
 #define N_COMMANDS (sizeof commands / sizeof commands[0])
 
@@ -52,6 +65,10 @@ static void usage(FILE *out)
             "  %-10s %s\n"
             "\n"
             "Run 'shapematch COMMAND --help' for the options of a command.\n"
+            "\n"
+            "The daemon commands reach shapematchd at --server URL (default: the\n"
+            "environment variable SHAPEMATCH_SERVER, else http://127.0.0.1:8080) and send\n"
+            "--token T (default: SHAPEMATCH_TOKEN) as 'Authorization: Bearer T'.\n"
             "\n%s",
             "help", "show this help, or a command's help ('shapematch help run')",
             cli_exit_codes_help);

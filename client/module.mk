@@ -1,9 +1,12 @@
-# shapematch: the command-line client (local runs; daemon commands later).
+# shapematch: the command-line client (local runs with `run`; submit, watch,
+# fetch, status, list, cancel talk to shapematchd over HTTP with libcurl).
+# Links libsmproto.a (params/events codecs) before libshapematch.a.
 CLIENT_SRCS := $(wildcard client/*.c)
+CLIENT_LIBS := $(PROTO_LIBS) $(CURL_LIBS) $(CORE_LIBS)
 define client_rules
-build/$(1)/shapematch: $$(CLIENT_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/libshapematch.a
+build/$(1)/shapematch: $$(CLIENT_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/libsmproto.a build/$(1)/libshapematch.a
 	@mkdir -p $$(dir $$@)
-	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(CORE_LIBS)
+	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(CLIENT_LIBS)
 endef
 $(foreach v,$(VARIANTS),$(eval $(call client_rules,$(v))))
 ALL_TARGETS += shapematch

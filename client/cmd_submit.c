@@ -1,0 +1,469 @@
+/* `shapematch submit`: sends a matching job to the daemon (POST /v1/jobs,
+ * multipart/form-data with the parts template, target_mesh, target_sol and
+ * params) and prints its id; `--wait -o OUTDIR` then follows it (watch)
+ * and downloads its results (fetch).
+ *
+ * The job parameters are the options of `shapematch run` (args.c), sent as
+ * the params JSON of proto/ (sm_params_to_json).  The files are streamed
+ * from disk, never read whole into memory; files that are not gzip yet are
+ * compressed on the way (the daemon recognises gzip from the content), so
+ * an ASCII mesh crosses the network at a fraction of its size
+ * (--no-compress sends them as they are). */
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <zlib.h>
+
+#include "cli.h"
+#include "remote.h"
+#include "sm_proto_events.h"
+#include "sm_proto_params.h"
+
+/* zlib level for the uploads: the fastest; a mesh's text compresses well
+ * even so, and the daemon is often on a fast link */
+#define UPLOAD_GZIP_LEVEL 1
+#define IDEMPOTENCY_KEY_MAX 255
+
+/* ------------------------------------------------------------ uploads */
+
+typedef struct upload {
+    const char *part;            /* "template", ... */
+    const char *path;
+    FILE *f;
+    curl_off_t size;             /* of the file on disk */
+    int compress;                /* deflate on the fly into gzip */
+    z_stream z;
+    int z_ready;
+    int in_eof, z_done;
+    int err;                     /* errno of a failed read, or EIO for zlib */
+    unsigned char in[64 * 1024];
+} upload;
+
+static size_t upload_read(char *buffer, size_t size, size_t nitems, void *arg)
+{
+    upload *u = arg;
+    size_t max = size * nitems;
+    if (!u->compress) {
+        size_t n = fread(buffer, 1, max, u->f);
+        if (n == 0 && ferror(u->f)) {
+            u->err = errno ? errno : EIO;
+            return CURL_READFUNC_ABORT;
+        }
+        return n;
+    }
+    u->z.next_out = (Bytef *)buffer;
+    u->z.avail_out = (uInt)(max > (1u << 30) ? (1u << 30) : max);
+    uInt avail = u->z.avail_out;
+    while (u->z.avail_out > 0 && !u->z_done) {
+        if (u->z.avail_in == 0 && !u->in_eof) {
+            size_t n = fread(u->in, 1, sizeof u->in, u->f);
+            if (n == 0) {
+                if (ferror(u->f)) {
+                    u->err = errno ? errno : EIO;
+                    return CURL_READFUNC_ABORT;
+                }
+                u->in_eof = 1;
+            }
+            u->z.next_in = u->in;
+            u->z.avail_in = (uInt)n;
+        }
+        int rc = deflate(&u->z, u->in_eof ? Z_FINISH : Z_NO_FLUSH);
+        if (rc == Z_STREAM_END) {
+            u->z_done = 1;
+        } else if (rc != Z_OK && rc != Z_BUF_ERROR) {
+            u->err = EIO;
+            return CURL_READFUNC_ABORT;
+        }
+    }
+    return avail - u->z.avail_out;
+}
+
+/* libcurl rewinds a body it must send again (e.g. after a redirect or an
+ * authentication round trip); only a rewind to the start is needed. */
+static int upload_seek(void *arg, curl_off_t offset, int origin)
+{
+    upload *u = arg;
+    if (offset != 0 || origin != SEEK_SET)
+        return CURL_SEEKFUNC_CANTSEEK;
+    if (fseek(u->f, 0, SEEK_SET) != 0)
+        return CURL_SEEKFUNC_FAIL;
+    clearerr(u->f);
+    if (u->compress) {
+        if (deflateReset(&u->z) != Z_OK)
+            return CURL_SEEKFUNC_FAIL;
+        u->z.avail_in = 0;
+        u->in_eof = u->z_done = 0;
+    }
+    return CURL_SEEKFUNC_OK;
+}
+
+static void upload_close(upload *u)
+{
+    if (u->z_ready)
+        deflateEnd(&u->z);
+    if (u->f)
+        fclose(u->f);
+    u->f = NULL;
+    u->z_ready = 0;
+}
+
+/* Opens the file (a bad path is reported now, exit 2) and decides
+ * whether it gets compressed. */
+static int upload_open(upload *u, const char *part, const char *path, int allow_compress,
+                       char *msg, size_t cap)
+{
+    memset(u, 0, sizeof *u);
+    u->part = part;
+    u->path = path;
+    u->f = fopen(path, "rb");
+    struct stat st;
+    if (!u->f || fstat(fileno(u->f), &st) != 0) {
+        snprintf(msg, cap, "%s: cannot read '%s': %s", part, path, strerror(errno));
+        upload_close(u);
+        return -1;
+    }
+    if (!S_ISREG(st.st_mode)) {
+        snprintf(msg, cap, "%s: '%s' is not a regular file", part, path);
+        upload_close(u);
+        return -1;
+    }
+    u->size = (curl_off_t)st.st_size;
+    unsigned char magic[2] = {0, 0};
+    size_t n = fread(magic, 1, 2, u->f);
+    int gzipped = n == 2 && magic[0] == 0x1f && magic[1] == 0x8b;
+    if (fseek(u->f, 0, SEEK_SET) != 0) {
+        snprintf(msg, cap, "%s: cannot read '%s': %s", part, path, strerror(errno));
+        upload_close(u);
+        return -1;
+    }
+    u->compress = allow_compress && !gzipped && u->size > 0;
+    if (u->compress) {
+        if (deflateInit2(&u->z, UPLOAD_GZIP_LEVEL, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) !=
+            Z_OK) {
+            snprintf(msg, cap, "out of memory");
+            upload_close(u);
+            return -1;
+        }
+        u->z_ready = 1;
+    }
+    return 0;
+}
+
+static int add_file_part(curl_mime *mime, upload *u)
+{
+    curl_mimepart *part = curl_mime_addpart(mime);
+    if (!part)
+        return -1;
+    const char *slash = strrchr(u->path, '/');
+    const char *base = slash ? slash + 1 : u->path;
+    char name[256];
+    snprintf(name, sizeof name, "%s%s", base, u->compress ? ".gz" : "");
+    if (curl_mime_name(part, u->part) != CURLE_OK || curl_mime_filename(part, name) != CURLE_OK ||
+        curl_mime_type(part, u->compress ? "application/gzip" : "application/octet-stream") !=
+            CURLE_OK)
+        return -1;
+    /* compressed: size unknown beforehand (chunked request body) */
+    return curl_mime_data_cb(part, u->compress ? -1 : u->size, upload_read, upload_seek, NULL,
+                             u) == CURLE_OK
+               ? 0
+               : -1;
+}
+
+/* ------------------------------------------------------------ options */
+
+enum {
+    SB_TEMPLATE,
+    SB_TARGET_MESH,
+    SB_TARGET_SOL,
+    SB_OUTPUT,
+    SB_WAIT,
+    SB_JSON,
+    SB_QUIET,
+    SB_KEY,
+    SB_FORMAT,
+    SB_RECONNECT,
+    SB_NO_COMPRESS
+};
+
+typedef struct submit_args {
+    const char *template_path, *target_mesh_path, *target_sol_path;
+    const char *outdir;
+    const char *idempotency_key;
+    int wait, json, quiet, no_compress;
+    unsigned formats;
+    int formats_given;
+    double reconnect_timeout;
+    job_options job;
+} submit_args;
+
+static int key_ok(const char *k)
+{
+    size_t n = strlen(k);
+    if (n < 1 || n > IDEMPOTENCY_KEY_MAX)
+        return 0;
+    for (size_t i = 0; i < n; i++)
+        if ((unsigned char)k[i] < 0x21 || (unsigned char)k[i] > 0x7e)
+            return 0;
+    return 1;
+}
+
+static int submit_flag(void *user, int id, const char *flag, const char *value, char *msg,
+                       size_t cap)
+{
+    submit_args *a = user;
+    switch (id) {
+    case CLI_ARG_POSITIONAL:
+        snprintf(msg, cap, "unexpected argument '%.80s' (submit takes options only)", value);
+        return -1;
+    case CLI_ARG_JOB:
+        return job_option_apply(&a->job, flag, value, msg, cap);
+    case SB_TEMPLATE:
+    case SB_TARGET_MESH:
+    case SB_TARGET_SOL:
+    case SB_OUTPUT:
+        if (!value[0]) {
+            snprintf(msg, cap, "%s: empty path", flag);
+            return -1;
+        }
+        if (id == SB_TEMPLATE)
+            a->template_path = value;
+        else if (id == SB_TARGET_MESH)
+            a->target_mesh_path = value;
+        else if (id == SB_TARGET_SOL)
+            a->target_sol_path = value;
+        else
+            a->outdir = value;
+        return 0;
+    case SB_WAIT:
+        a->wait = 1;
+        return 0;
+    case SB_JSON:
+        a->json = 1;
+        return 0;
+    case SB_QUIET:
+        a->quiet = 1;
+        return 0;
+    case SB_NO_COMPRESS:
+        a->no_compress = 1;
+        return 0;
+    case SB_KEY:
+        if (!key_ok(value)) {
+            snprintf(msg, cap, "%s: a key is 1 to %d printable ASCII characters without spaces",
+                     flag, IDEMPOTENCY_KEY_MAX);
+            return -1;
+        }
+        a->idempotency_key = value;
+        return 0;
+    case SB_FORMAT:
+        a->formats_given = 1;
+        return fetch_parse_formats(flag, value, &a->formats, msg, cap);
+    case SB_RECONNECT:
+        return watch_parse_reconnect(flag, value, &a->reconnect_timeout, msg, cap);
+    }
+    return -1;
+}
+
+void cmd_submit_help(void)
+{
+    printf("Usage: shapematch submit --template T.mesh --target-mesh B.mesh --target-sol B.sol\n"
+           "                         CLAMP [PARAMETERS] [--json] [--idempotency-key K]\n"
+           "       shapematch submit ... --wait -o OUTDIR [--format LIST]\n"
+           "\n"
+           "Sends a matching job to the daemon and prints its id on stdout.  The inputs\n"
+           "and parameters are those of 'shapematch run'; the daemon checks them before it\n"
+           "accepts the job (422 and exit code 7 when they cannot make a job).\n"
+           "With --wait, follows the job to its end like 'shapematch watch' and downloads\n"
+           "its results into OUTDIR like 'shapematch fetch'.\n"
+           "\n"
+           "Inputs:\n"
+           "  --template FILE         template mesh (.mesh/.meshb, optionally .gz)\n"
+           "  --target-mesh FILE      background mesh carrying the target distance\n"
+           "  --target-sol FILE       signed distance, one value per background vertex\n"
+           "  --no-compress           send the files as they are (by default files that are\n"
+           "                          not gzip yet are compressed on the way)\n"
+           "\n");
+    job_options_help(stdout);
+    printf("\n"
+           "Submission:\n"
+           "  --idempotency-key K     a retried submission with the same key returns the\n"
+           "                          job the first one created instead of a new one\n"
+           "  --json                  print the job's status document (JSON) instead of its\n"
+           "                          id; with --wait, every event as one JSON line\n"
+           "  --wait                  follow the job to its end, then fetch its results\n"
+           "  -o, --output DIR        with --wait: where the results go (as for fetch)\n"
+           "  --format LIST           with --wait: mesh formats to fetch (default "
+           FETCH_DEFAULT_FORMATS_TEXT ")\n"
+           "  --reconnect-timeout S   with --wait: as for watch (default %g)\n"
+           "  -q, --quiet             no progress display\n"
+           "  -h, --help              this help\n"
+           "\n",
+           REMOTE_RECONNECT_DEFAULT);
+    remote_help_connection(stdout);
+    printf("\n");
+    remote_help_exit_codes(stdout);
+}
+
+/* ------------------------------------------------------------ command */
+
+int cmd_submit(int argc, char **argv)
+{
+    static const cli_flag flags[] = {
+        {"--template", 1, SB_TEMPLATE},
+        {"--target-mesh", 1, SB_TARGET_MESH},
+        {"--target-sol", 1, SB_TARGET_SOL},
+        {"--output", 1, SB_OUTPUT},
+        {"-o", 1, SB_OUTPUT},
+        {"--wait", 0, SB_WAIT},
+        {"--json", 0, SB_JSON},
+        {"--quiet", 0, SB_QUIET},
+        {"-q", 0, SB_QUIET},
+        {"--idempotency-key", 1, SB_KEY},
+        {"--format", 1, SB_FORMAT},
+        {"--reconnect-timeout", 1, SB_RECONNECT},
+        {"--no-compress", 0, SB_NO_COMPRESS},
+    };
+    submit_args a;
+    memset(&a, 0, sizeof a);
+    job_options_init(&a.job);
+    a.formats = FETCH_DEFAULT_FORMATS;
+    a.reconnect_timeout = REMOTE_RECONNECT_DEFAULT;
+    remote_options conn;
+    char msg[ARGS_MSG_LEN];
+    switch (remote_parse(argc, argv, flags, sizeof flags / sizeof flags[0], 1, &conn, submit_flag,
+                         &a, msg, sizeof msg)) {
+    case ARGS_HELP:
+        cmd_submit_help();
+        return CLI_EXIT_OK;
+    case ARGS_ERROR:
+        return remote_usage_error("submit", msg);
+    case ARGS_OK:
+        break;
+    }
+    if (!a.template_path)
+        return remote_usage_error("submit", "missing required option --template");
+    if (!a.target_mesh_path)
+        return remote_usage_error("submit", "missing required option --target-mesh");
+    if (!a.target_sol_path)
+        return remote_usage_error("submit", "missing required option --target-sol");
+    if (job_options_finish(&a.job, msg, sizeof msg) != 0)
+        return remote_usage_error("submit", msg);
+    if (a.wait && !a.outdir)
+        return remote_usage_error("submit", "--wait needs -o/--output DIR for the results");
+    if (!a.wait && a.outdir)
+        return remote_usage_error("submit", "-o/--output is for --wait (or use 'shapematch "
+                                            "fetch ID -o DIR' later)");
+    if (!a.wait && a.formats_given)
+        return remote_usage_error("submit", "--format is for --wait");
+    if (a.job.params.save_every > 0 && !a.quiet)
+        fprintf(stderr, "shapematch submit: warning: --save-every: the daemon does not serve "
+                        "intermediate meshes\n");
+
+    /* the daemon learns the dimension from the template; a ball clamp
+     * already says how many coordinates it has */
+    int dim = a.job.params.clamp == SM_CLAMP_BALL ? a.job.clamp_ball_dim : 0;
+    char *params = sm_params_to_json(&a.job.params, dim);
+    if (!params)
+        return remote_usage_error("submit", "the parameters cannot be encoded as JSON");
+
+    upload up[3];
+    memset(up, 0, sizeof up);
+    const char *parts[3] = {"template", "target_mesh", "target_sol"};
+    const char *paths[3] = {a.template_path, a.target_mesh_path, a.target_sol_path};
+    int code = 0;
+    for (int i = 0; i < 3 && code == 0; i++)
+        if (upload_open(&up[i], parts[i], paths[i], !a.no_compress, msg, sizeof msg) != 0) {
+            fprintf(stderr, "shapematch submit: error: %s\n", msg);
+            code = CLI_EXIT_INPUT;
+        }
+    http_client c;
+    int client_open = 0;
+    curl_mime *mime = NULL;
+    json_t *doc = NULL;
+    char id[SM_JOB_ID_MAX + 1] = "";
+    if (code == 0) {
+        code = remote_open("submit", &conn, &c);
+        client_open = code == 0;
+    }
+    if (code == 0) {
+        mime = curl_mime_init(c.curl);
+        curl_mimepart *pp = NULL;
+        int bad = !mime;
+        for (int i = 0; i < 3 && !bad; i++)
+            bad = add_file_part(mime, &up[i]) != 0;
+        if (!bad) {
+            pp = curl_mime_addpart(mime);
+            bad = !pp || curl_mime_name(pp, "params") != CURLE_OK ||
+                  curl_mime_data(pp, params, CURL_ZERO_TERMINATED) != CURLE_OK ||
+                  curl_mime_type(pp, "application/json") != CURLE_OK;
+        }
+        if (bad) {
+            fprintf(stderr, "shapematch submit: error: out of memory\n");
+            code = CLI_EXIT_INPUT;
+        }
+    }
+    if (code == 0) {
+        char key_header[IDEMPOTENCY_KEY_MAX + 32];
+        http_request rq = {.method = "POST", .path = "/v1/jobs", .accept = "application/json",
+                           .mime = mime, .gzip = 1};
+        if (a.idempotency_key) {
+            snprintf(key_header, sizeof key_header, "Idempotency-Key: %s", a.idempotency_key);
+            rq.headers[0] = key_header;
+        }
+        http_response rs;
+        http_outcome out = http_perform(&c, &rq, &rs);
+        int read_failed = -1;
+        for (int i = 0; i < 3; i++)
+            if (up[i].err && read_failed < 0)
+                read_failed = i;
+        if (read_failed >= 0) {
+            fprintf(stderr, "shapematch submit: error: %s: cannot read '%s': %s\n",
+                    up[read_failed].part, up[read_failed].path, strerror(up[read_failed].err));
+            code = CLI_EXIT_INPUT;
+        } else if (out != HTTP_DONE || (rs.status != 201 && rs.status != 200)) {
+            code = remote_report("submit", &c, conn.token != NULL, out, &rs, "submitting the job");
+        } else {
+            doc = remote_json_object(&rs);
+            const char *jid = doc ? json_string_value(json_object_get(doc, "jobID")) : NULL;
+            if (!jid || remote_check_id(jid, msg, sizeof msg) != 0) {
+                fprintf(stderr, "shapematch submit: error: bad response from %s: no valid jobID "
+                                "in the job's status document\n",
+                        c.base);
+                code = CLI_EXIT_SERVER;
+            } else {
+                snprintf(id, sizeof id, "%s", jid);
+                if (rs.status == 200 && !a.quiet)
+                    fprintf(stderr, "shapematch: the daemon already has a job for this "
+                                    "Idempotency-Key: %s (not submitted again)\n",
+                            id);
+                if (a.json && !a.wait)
+                    remote_print_body(&rs);
+                else if (!a.json) {
+                    printf("%s\n", id);
+                    fflush(stdout);
+                }
+            }
+        }
+        http_response_free(&rs);
+    }
+    /* the files are sent: release them before a long wait */
+    for (int i = 0; i < 3; i++)
+        upload_close(&up[i]);
+    if (mime)
+        curl_mime_free(mime);
+    free(params);
+    json_decref(doc);
+    if (code == 0 && a.wait) {
+        watch_options wo = {.quiet = a.quiet, .json = a.json,
+                            .reconnect_timeout = a.reconnect_timeout};
+        code = remote_watch(&c, "submit", conn.token != NULL, id, &wo);
+        if (code == 0) {
+            fetch_options fo = {.outdir = a.outdir, .formats = a.formats, .quiet = a.quiet,
+                                .show_result = 0};
+            code = remote_fetch(&c, "submit", conn.token != NULL, id, &fo);
+        }
+    }
+    if (client_open)
+        remote_close(&c);
+    return code;
+}

@@ -92,6 +92,8 @@ typedef struct sm_elasticity_info {
     const char *ordering;   /* fill-reducing ordering CHOLMOD selected */
     double analyze_time;    /* seconds: pattern, slot map and analysis */
     double solve_time;      /* seconds: last sm_elasticity_solve */
+    double rcond;           /* last factorization: (min/max pivot) estimate
+                             * of 1/cond (cholmod_rcond); 0 if none */
 } sm_elasticity_info;
 void sm_elasticity_get_info(const sm_elasticity *el, sm_elasticity_info *info);
 
@@ -112,9 +114,16 @@ sm_status sm_elasticity_element_matrix(int dim, const double *vertex_coords,
  * - Element orientation is irrelevant (|volume| is used); a degenerate
  *   element (see above) or non-finite coordinates make
  *   sm_elasticity_factorize fail with SM_ERR_NUMERIC naming the element.
+ * - A matrix CHOLMOD finds not positive definite, or numerically singular
+ *   (pivot ratio estimate below SM_ELASTICITY_MIN_RCOND, e.g. a clamp
+ *   that leaves a rigid motion free), fails with SM_ERR_NUMERIC and the
+ *   CHOLMOD status in the message.
  * - load may be NULL (no load).  sm_elasticity_solve before a successful
  *   factorize returns SM_ERR_INVALID.
  * - When every vertex is clamped there is no system: solve returns the
- *   Dirichlet values. */
+ *   Dirichlet values.  Vertices used by no element carry no unknown and
+ *   are treated like clamped ones (0 or their Dirichlet value).
+ * - Error messages number elements and vertices from 1, as in the files. */
+#define SM_ELASTICITY_MIN_RCOND 1e-14
 
 #endif

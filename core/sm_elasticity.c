@@ -1,0 +1,880 @@
+/* P1 linear elasticity with Dirichlet elimination and CHOLMOD.
+ *
+ * Layout of the unknowns: every vertex referenced by an element and not
+ * clamped carries dim free DOFs, numbered vertex-major, component-minor in
+ * vertex order.  Because all components of a vertex are free or clamped
+ * together, the columns of vertex b in any row are dim consecutive,
+ * sorted entries; the CSR position of a coupling is therefore
+ * rowptr[row] + (rank of b among the row vertex's free neighbours)*dim + d.
+ *
+ * Everything that depends only on the topology is computed once in
+ * sm_elasticity_new: the CSR pattern of the free x free block (both
+ * triangles), the CSR pattern of the free x clamped block (it carries the
+ * Dirichlet values to the right-hand side), a slot map telling where each
+ * entry of each element matrix goes, and CHOLMOD's symbolic analysis.
+ * sm_elasticity_factorize then computes the element matrices, scatters
+ * them through the map (no search) and refactorizes numerically. */
+#include "sm_elasticity.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <cholmod.h>
+
+/* Slot map encoding: s >= 0 is a position in the free x free values;
+ * SLOT_ELIMINATED marks a row of a clamped vertex (the equation is
+ * removed); s <= -2 is position -(s + 2) in the free x clamped values. */
+#define SLOT_ELIMINATED (-1)
+#define SLOT_COUPLING(p) (-2 - (p))
+
+/* Relative volume below which a simplex counts as degenerate. */
+#define DEGENERATE_TOL 1e-12
+
+struct sm_elasticity {
+    int dim;
+    int32_t nverts;
+    int32_t nelems;
+    const int32_t *elems;   /* borrowed from the mesh */
+    double lambda, mu, alpha;
+
+    int32_t nfree;          /* free DOFs */
+    int32_t nclamped_dofs;  /* clamped DOFs (of vertices used by elements) */
+    int32_t *dof;           /* nverts*dim: free DOF index or -1 */
+    int32_t *clamped_global;/* nclamped_dofs: global index v*dim+c */
+
+    /* free x free block, full symmetric pattern */
+    int32_t *rowptr, *colind;
+    double *values;
+    /* free x clamped block; columns are clamped DOF indices */
+    int32_t *cpl_rowptr, *cpl_colind;
+    double *cpl_values;
+
+    int32_t *slots;         /* nelems * ndof_elem^2 */
+    uint8_t *elem_clamped;  /* element has a clamped vertex */
+
+    cholmod_common cc;
+    int cc_started;
+    cholmod_sparse A;       /* wraps rowptr/colind/values */
+    cholmod_factor *L;
+    cholmod_dense *X, *Y, *E; /* cholmod_solve2 workspaces, reused */
+    double *rhs;            /* nfree */
+    int factorized;
+
+    double lnz, flops;      /* from the symbolic analysis */
+    double rcond;           /* of the last numeric factorization */
+    double t_analyze, t_assembly, t_factor, t_solve;
+};
+
+static double now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+void sm_lame(double young, double poisson, double *lambda, double *mu)
+{
+    *lambda = young * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson));
+    *mu = young / (2.0 * (1.0 + poisson));
+}
+
+/* ---------------------------------------------------------------------- */
+/* Element matrix                                                          */
+/* ---------------------------------------------------------------------- */
+
+/* Computes the element matrix of the simplex x[(dim+1)*dim] into ke.
+ * Returns 0 on success, -1 when the simplex is degenerate or not finite.
+ * Written for a compile-time dim (the callers pass a constant) so the
+ * small loops unroll. */
+static inline int element_kernel(const int dim, const double *x, double lambda,
+                                 double mu, double alpha, double *ke,
+                                 double *signed_volume, double *longest_edge)
+{
+    double grad[4][3];
+    double det, vol, lmax2 = 0.0;
+    if (dim == 2) {
+        double a0 = x[2] - x[0], a1 = x[3] - x[1];
+        double b0 = x[4] - x[0], b1 = x[5] - x[1];
+        det = a0 * b1 - a1 * b0;
+        double inv = 1.0 / det;
+        /* rows of J^{-1}, J = [a b] */
+        grad[1][0] = b1 * inv;  grad[1][1] = -b0 * inv;
+        grad[2][0] = -a1 * inv; grad[2][1] = a0 * inv;
+        grad[0][0] = -grad[1][0] - grad[2][0];
+        grad[0][1] = -grad[1][1] - grad[2][1];
+        vol = 0.5 * det;
+        double c0 = b0 - a0, c1 = b1 - a1;
+        double la = a0 * a0 + a1 * a1, lb = b0 * b0 + b1 * b1, lc = c0 * c0 + c1 * c1;
+        lmax2 = la > lb ? la : lb;
+        lmax2 = lmax2 > lc ? lmax2 : lc;
+    } else {
+        double a[3], b[3], c[3];
+        for (int r = 0; r < 3; r++) {
+            a[r] = x[3 + r] - x[r];
+            b[r] = x[6 + r] - x[r];
+            c[r] = x[9 + r] - x[r];
+        }
+        double bxc[3] = {b[1] * c[2] - b[2] * c[1], b[2] * c[0] - b[0] * c[2],
+                         b[0] * c[1] - b[1] * c[0]};
+        double cxa[3] = {c[1] * a[2] - c[2] * a[1], c[2] * a[0] - c[0] * a[2],
+                         c[0] * a[1] - c[1] * a[0]};
+        double axb[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                         a[0] * b[1] - a[1] * b[0]};
+        det = a[0] * bxc[0] + a[1] * bxc[1] + a[2] * bxc[2];
+        double inv = 1.0 / det;
+        for (int r = 0; r < 3; r++) {
+            grad[1][r] = bxc[r] * inv;
+            grad[2][r] = cxa[r] * inv;
+            grad[3][r] = axb[r] * inv;
+            grad[0][r] = -grad[1][r] - grad[2][r] - grad[3][r];
+        }
+        vol = det / 6.0;
+        double e[6][3];
+        for (int r = 0; r < 3; r++) {
+            e[0][r] = a[r];
+            e[1][r] = b[r];
+            e[2][r] = c[r];
+            e[3][r] = b[r] - a[r];
+            e[4][r] = c[r] - a[r];
+            e[5][r] = c[r] - b[r];
+        }
+        for (int k = 0; k < 6; k++) {
+            double l2 = e[k][0] * e[k][0] + e[k][1] * e[k][1] + e[k][2] * e[k][2];
+            lmax2 = l2 > lmax2 ? l2 : lmax2;
+        }
+    }
+    *signed_volume = vol;
+    double lmax = sqrt(lmax2);
+    *longest_edge = lmax;
+    double scale = dim == 2 ? lmax2 : lmax2 * lmax;
+    double w = fabs(vol);
+    /* The negated comparison also rejects NaN. */
+    if (!(w > DEGENERATE_TOL * scale) || !isfinite(w) || !isfinite(scale))
+        return -1;
+
+    const int nv = dim + 1, n = nv * dim;
+    /* consistent P1 mass: |K| (1 + delta_ij) / ((d+1)(d+2)) */
+    const double mass_off = alpha * w / (double)((dim + 1) * (dim + 2));
+    const double wl = w * lambda, wm = w * mu;
+    /* Blocks j >= i only, mirrored: half the work, and the matrix is
+     * exactly (bitwise) symmetric. */
+    for (int i = 0; i < nv; i++) {
+        for (int j = i; j < nv; j++) {
+            double gg = 0.0;
+            for (int r = 0; r < dim; r++)
+                gg += grad[i][r] * grad[j][r];
+            double diag = wm * gg + (i == j ? 2.0 * mass_off : mass_off);
+            for (int c = 0; c < dim; c++) {
+                for (int d = 0; d < dim; d++) {
+                    double v = wm * grad[j][c] * grad[i][d] + wl * grad[i][c] * grad[j][d] +
+                               (c == d ? diag : 0.0);
+                    ke[(i * dim + c) * n + j * dim + d] = v;
+                    ke[(j * dim + d) * n + i * dim + c] = v;
+                }
+            }
+        }
+    }
+    return 0;
+}
+
+sm_status sm_elasticity_element_matrix(int dim, const double *vertex_coords,
+                                       double lambda, double mu, double alpha,
+                                       double *ke, double *volume, sm_error *err)
+{
+    double vol = 0.0, lmax = 0.0;
+    int rc;
+    if (dim == 2)
+        rc = element_kernel(2, vertex_coords, lambda, mu, alpha, ke, &vol, &lmax);
+    else if (dim == 3)
+        rc = element_kernel(3, vertex_coords, lambda, mu, alpha, ke, &vol, &lmax);
+    else
+        return sm_error_set(err, SM_ERR_INVALID, "elasticity: dimension %d is not 2 or 3", dim);
+    if (volume)
+        *volume = vol;
+    if (rc != 0)
+        return sm_error_set(err, SM_ERR_NUMERIC,
+                            "elasticity: degenerate or non-finite simplex (volume %g, longest edge %g)",
+                            vol, lmax);
+    return SM_OK;
+}
+
+/* ---------------------------------------------------------------------- */
+/* Setup                                                                   */
+/* ---------------------------------------------------------------------- */
+
+static int cmp_int32(const void *a, const void *b)
+{
+    int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* Position of key in the sorted list, or -1. */
+static int32_t find_sorted(const int32_t *list, int32_t n, int32_t key)
+{
+    int32_t lo = 0, hi = n;
+    while (lo < hi) {
+        int32_t mid = lo + (hi - lo) / 2;
+        if (list[mid] < key)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return (lo < n && list[lo] == key) ? lo : -1;
+}
+
+static const char *cholmod_status_text(int status)
+{
+    switch (status) {
+    case CHOLMOD_OK: return "ok";
+    case CHOLMOD_NOT_INSTALLED: return "method not installed";
+    case CHOLMOD_OUT_OF_MEMORY: return "out of memory";
+    case CHOLMOD_TOO_LARGE: return "problem too large (integer overflow)";
+    case CHOLMOD_INVALID: return "invalid input";
+    case CHOLMOD_GPU_PROBLEM: return "GPU problem";
+    case CHOLMOD_NOT_POSDEF: return "matrix not positive definite";
+    case CHOLMOD_DSMALL: return "diagonal entry too small";
+    }
+    return "unknown status";
+}
+
+static const char *ordering_name(int ordering)
+{
+    switch (ordering) {
+    case CHOLMOD_NATURAL: return "natural";
+    case CHOLMOD_GIVEN: return "given";
+    case CHOLMOD_AMD: return "amd";
+    case CHOLMOD_METIS: return "metis";
+    case CHOLMOD_NESDIS: return "nesdis";
+    case CHOLMOD_COLAMD: return "colamd";
+    case CHOLMOD_POSTORDERED: return "postordered";
+    }
+    return "unknown";
+}
+
+void sm_elasticity_free(sm_elasticity *el)
+{
+    if (!el)
+        return;
+    if (el->cc_started) {
+        if (el->L)
+            cholmod_free_factor(&el->L, &el->cc);
+        if (el->X)
+            cholmod_free_dense(&el->X, &el->cc);
+        if (el->Y)
+            cholmod_free_dense(&el->Y, &el->cc);
+        if (el->E)
+            cholmod_free_dense(&el->E, &el->cc);
+        cholmod_finish(&el->cc);
+    }
+    free(el->dof);
+    free(el->clamped_global);
+    free(el->rowptr);
+    free(el->colind);
+    free(el->values);
+    free(el->cpl_rowptr);
+    free(el->cpl_colind);
+    free(el->cpl_values);
+    free(el->slots);
+    free(el->elem_clamped);
+    free(el->rhs);
+    free(el);
+}
+
+static void *alloc_n(size_t count, size_t size)
+{
+    return calloc(count ? count : 1, size);
+}
+
+/* Vertex adjacency (through elements) split into free and clamped
+ * neighbours, each list sorted; only built for free vertices.  Lives only
+ * during setup. */
+typedef struct adjacency {
+    int64_t *free_ptr, *cpl_ptr; /* nverts+1 */
+    int32_t *free_adj, *cpl_adj;
+} adjacency;
+
+static void adjacency_free(adjacency *adj)
+{
+    free(adj->free_ptr);
+    free(adj->cpl_ptr);
+    free(adj->free_adj);
+    free(adj->cpl_adj);
+}
+
+static sm_status build_adjacency(const sm_elasticity *el, const uint8_t *is_clamped,
+                                 adjacency *adj, sm_error *err)
+{
+    const int nv = el->dim + 1;
+    const int32_t nverts = el->nverts, nelems = el->nelems;
+    sm_status st = SM_OK;
+    int64_t *elem_ptr = alloc_n((size_t)nverts + 1, sizeof *elem_ptr);
+    int32_t *elem_list = alloc_n((size_t)nelems * (size_t)nv, sizeof *elem_list);
+    int32_t *mark = malloc(((size_t)nverts + 1) * sizeof *mark);
+    adj->free_ptr = alloc_n((size_t)nverts + 1, sizeof *adj->free_ptr);
+    adj->cpl_ptr = alloc_n((size_t)nverts + 1, sizeof *adj->cpl_ptr);
+    if (!elem_ptr || !elem_list || !mark || !adj->free_ptr || !adj->cpl_ptr) {
+        st = sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory building the vertex adjacency");
+        goto done;
+    }
+    /* vertex -> elements */
+    for (int64_t k = 0; k < (int64_t)nelems * nv; k++)
+        elem_ptr[el->elems[k] + 1]++;
+    for (int32_t v = 0; v < nverts; v++)
+        elem_ptr[v + 1] += elem_ptr[v];
+    {
+        int64_t *fill = malloc(((size_t)nverts + 1) * sizeof *fill);
+        if (!fill) {
+            st = sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory building the vertex adjacency");
+            goto done;
+        }
+        memcpy(fill, elem_ptr, ((size_t)nverts + 1) * sizeof *fill);
+        for (int32_t e = 0; e < nelems; e++)
+            for (int i = 0; i < nv; i++)
+                elem_list[fill[el->elems[(int64_t)e * nv + i]]++] = e;
+        free(fill);
+    }
+    /* two passes over the free vertices: count, then fill */
+    for (int pass = 0; pass < 2; pass++) {
+        for (int32_t v = 0; v < nverts; v++)
+            mark[v] = -1;
+        for (int32_t a = 0; a < nverts; a++) {
+            int64_t nfree = 0, ncpl = 0;
+            if (el->dof[(int64_t)a * el->dim] >= 0) {
+                for (int64_t k = elem_ptr[a]; k < elem_ptr[a + 1]; k++) {
+                    const int32_t *ev = el->elems + (int64_t)elem_list[k] * nv;
+                    for (int i = 0; i < nv; i++) {
+                        int32_t b = ev[i];
+                        if (mark[b] == a)
+                            continue;
+                        mark[b] = a;
+                        if (is_clamped[b]) {
+                            if (pass)
+                                adj->cpl_adj[adj->cpl_ptr[a] + ncpl] = b;
+                            ncpl++;
+                        } else {
+                            if (pass)
+                                adj->free_adj[adj->free_ptr[a] + nfree] = b;
+                            nfree++;
+                        }
+                    }
+                }
+            }
+            if (pass == 0) {
+                adj->free_ptr[a + 1] = adj->free_ptr[a] + nfree;
+                adj->cpl_ptr[a + 1] = adj->cpl_ptr[a] + ncpl;
+            } else {
+                qsort(adj->free_adj + adj->free_ptr[a], (size_t)nfree, sizeof(int32_t), cmp_int32);
+                qsort(adj->cpl_adj + adj->cpl_ptr[a], (size_t)ncpl, sizeof(int32_t), cmp_int32);
+            }
+        }
+        if (pass == 0) {
+            adj->free_adj = alloc_n((size_t)adj->free_ptr[nverts], sizeof(int32_t));
+            adj->cpl_adj = alloc_n((size_t)adj->cpl_ptr[nverts], sizeof(int32_t));
+            if (!adj->free_adj || !adj->cpl_adj) {
+                st = sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory building the vertex adjacency");
+                goto done;
+            }
+        }
+    }
+done:
+    free(elem_ptr);
+    free(elem_list);
+    free(mark);
+    return st;
+}
+
+/* Builds the two CSR patterns from the adjacency. */
+static sm_status build_patterns(sm_elasticity *el, const adjacency *adj, sm_error *err)
+{
+    const int dim = el->dim;
+    const int32_t nverts = el->nverts;
+    int64_t nnz = 0, nnz_cpl = 0;
+    for (int32_t a = 0; a < nverts; a++) {
+        if (el->dof[(int64_t)a * dim] < 0)
+            continue;
+        nnz += (int64_t)dim * dim * (adj->free_ptr[a + 1] - adj->free_ptr[a]);
+        nnz_cpl += (int64_t)dim * dim * (adj->cpl_ptr[a + 1] - adj->cpl_ptr[a]);
+    }
+    /* CHOLMOD_INT and the slot encoding need 32-bit positions. */
+    if (nnz > INT32_MAX - 2 || nnz_cpl > INT32_MAX - 2)
+        return sm_error_set(err, SM_ERR_NOMEM,
+                            "elasticity: matrix too large (%lld entries, %lld coupling entries; limit %d)",
+                            (long long)nnz, (long long)nnz_cpl, INT32_MAX - 2);
+    el->rowptr = alloc_n((size_t)el->nfree + 1, sizeof(int32_t));
+    el->colind = alloc_n((size_t)nnz, sizeof(int32_t));
+    el->values = alloc_n((size_t)nnz, sizeof(double));
+    el->cpl_rowptr = alloc_n((size_t)el->nfree + 1, sizeof(int32_t));
+    el->cpl_colind = alloc_n((size_t)nnz_cpl, sizeof(int32_t));
+    el->cpl_values = alloc_n((size_t)nnz_cpl, sizeof(double));
+    if (!el->rowptr || !el->colind || !el->values || !el->cpl_rowptr || !el->cpl_colind ||
+        !el->cpl_values)
+        return sm_error_set(err, SM_ERR_NOMEM,
+                            "elasticity: out of memory for a matrix of %lld entries", (long long)nnz);
+    int32_t p = 0, q = 0, row = 0;
+    for (int32_t a = 0; a < nverts; a++) {
+        if (el->dof[(int64_t)a * dim] < 0)
+            continue;
+        for (int c = 0; c < dim; c++, row++) {
+            el->rowptr[row] = p;
+            el->cpl_rowptr[row] = q;
+            for (int64_t k = adj->free_ptr[a]; k < adj->free_ptr[a + 1]; k++) {
+                int32_t first = el->dof[(int64_t)adj->free_adj[k] * dim];
+                for (int d = 0; d < dim; d++)
+                    el->colind[p++] = first + d;
+            }
+            for (int64_t k = adj->cpl_ptr[a]; k < adj->cpl_ptr[a + 1]; k++) {
+                /* clamped DOF index of the vertex: clamped_global is
+                 * sorted, so the vertex-major numbering is found by search */
+                int32_t b = adj->cpl_adj[k];
+                int32_t first = find_sorted(el->clamped_global, el->nclamped_dofs,
+                                            (int32_t)((int64_t)b * dim));
+                for (int d = 0; d < dim; d++)
+                    el->cpl_colind[q++] = first + d;
+            }
+        }
+    }
+    el->rowptr[row] = p;
+    el->cpl_rowptr[row] = q;
+    return SM_OK;
+}
+
+static sm_status build_slot_map(sm_elasticity *el, const adjacency *adj, sm_error *err)
+{
+    const int dim = el->dim, nv = dim + 1, n = nv * dim;
+    const size_t per_elem = (size_t)n * (size_t)n;
+    el->slots = alloc_n((size_t)el->nelems * per_elem, sizeof(int32_t));
+    el->elem_clamped = alloc_n((size_t)el->nelems, 1);
+    if (!el->slots || !el->elem_clamped)
+        return sm_error_set(err, SM_ERR_NOMEM,
+                            "elasticity: out of memory for the slot map of %ld elements",
+                            (long)el->nelems);
+    for (int32_t e = 0; e < el->nelems; e++) {
+        const int32_t *ev = el->elems + (int64_t)e * nv;
+        int32_t *slot = el->slots + (size_t)e * per_elem;
+        for (int i = 0; i < nv; i++)
+            if (el->dof[(int64_t)ev[i] * dim] < 0)
+                el->elem_clamped[e] = 1;
+        for (int i = 0; i < nv; i++) {
+            int32_t a = ev[i];
+            int32_t row0 = el->dof[(int64_t)a * dim];
+            for (int j = 0; j < nv; j++) {
+                int32_t b = ev[j];
+                int32_t rank = -1, base_free = 0;
+                int coupling = 0;
+                if (row0 >= 0) {
+                    if (el->dof[(int64_t)b * dim] >= 0) {
+                        rank = find_sorted(adj->free_adj + adj->free_ptr[a],
+                                           (int32_t)(adj->free_ptr[a + 1] - adj->free_ptr[a]), b);
+                    } else {
+                        coupling = 1;
+                        rank = find_sorted(adj->cpl_adj + adj->cpl_ptr[a],
+                                           (int32_t)(adj->cpl_ptr[a + 1] - adj->cpl_ptr[a]), b);
+                    }
+                    if (rank < 0) /* cannot happen: b is a neighbour of a */
+                        return sm_error_set(err, SM_ERR_INVALID,
+                                            "elasticity: internal error, vertex %ld missing from the pattern of vertex %ld",
+                                            (long)b, (long)a);
+                }
+                for (int c = 0; c < dim; c++) {
+                    int32_t *dst = slot + (i * dim + c) * n + j * dim;
+                    if (row0 < 0) {
+                        for (int d = 0; d < dim; d++)
+                            dst[d] = SLOT_ELIMINATED;
+                    } else if (!coupling) {
+                        base_free = el->rowptr[row0 + c] + rank * dim;
+                        for (int d = 0; d < dim; d++)
+                            dst[d] = base_free + d;
+                    } else {
+                        int32_t base = el->cpl_rowptr[row0 + c] + rank * dim;
+                        for (int d = 0; d < dim; d++)
+                            dst[d] = SLOT_COUPLING(base + d);
+                    }
+                }
+            }
+        }
+    }
+    return SM_OK;
+}
+
+sm_status sm_elasticity_new_ex(const sm_mesh *m, const uint8_t *clamped,
+                               double young, double poisson, double alpha,
+                               sm_factor_kind kind, sm_elasticity **out,
+                               sm_error *err)
+{
+    double t0 = now_seconds();
+    if (!out)
+        return sm_error_set(err, SM_ERR_INVALID, "elasticity: NULL output pointer");
+    *out = NULL;
+    if (!m)
+        return sm_error_set(err, SM_ERR_INVALID, "elasticity: NULL mesh");
+    if (m->dim != 2 && m->dim != 3)
+        return sm_error_set(err, SM_ERR_INVALID, "elasticity: mesh dimension %d is not 2 or 3", m->dim);
+    if (m->nverts < 0 || m->nelems < 0 || m->nverts > SM_MAX_ENTITIES ||
+        m->nelems > SM_MAX_ENTITIES || (m->nelems > 0 && !m->elems))
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "elasticity: invalid mesh sizes (%ld vertices, %ld elements)",
+                            (long)m->nverts, (long)m->nelems);
+    if (!(young > 0.0) || !isfinite(young))
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "elasticity: Young's modulus must be finite and > 0 (got %g)", young);
+    if (!(poisson > -1.0 && poisson < 0.5))
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "elasticity: Poisson ratio must lie in (-1, 0.5) (got %g)", poisson);
+    if (!(alpha >= 0.0) || !isfinite(alpha))
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "elasticity: alpha must be finite and >= 0 (got %g)", alpha);
+    if (kind != SM_FACTOR_AUTO && kind != SM_FACTOR_SIMPLICIAL && kind != SM_FACTOR_SUPERNODAL)
+        return sm_error_set(err, SM_ERR_INVALID, "elasticity: unknown factor kind %d", (int)kind);
+
+    const int dim = m->dim, nv = dim + 1;
+    for (int32_t e = 0; e < m->nelems; e++) {
+        const int32_t *ev = m->elems + (int64_t)e * nv;
+        for (int i = 0; i < nv; i++) {
+            if (ev[i] < 0 || ev[i] >= m->nverts)
+                return sm_error_set(err, SM_ERR_INVALID,
+                                    "elasticity: element %ld references vertex %ld (mesh has %ld vertices)",
+                                    (long)e + 1, (long)ev[i] + 1, (long)m->nverts);
+            for (int j = 0; j < i; j++)
+                if (ev[j] == ev[i])
+                    return sm_error_set(err, SM_ERR_INVALID,
+                                        "elasticity: element %ld repeats vertex %ld",
+                                        (long)e + 1, (long)ev[i] + 1);
+        }
+    }
+
+    sm_elasticity *el = calloc(1, sizeof *el);
+    uint8_t *is_clamped = alloc_n((size_t)m->nverts, 1);
+    uint8_t *used = alloc_n((size_t)m->nverts, 1);
+    adjacency adj = {0};
+    sm_status st = SM_OK;
+    if (!el || !is_clamped || !used) {
+        free(el);
+        free(is_clamped);
+        free(used);
+        return sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory");
+    }
+    el->dim = dim;
+    el->nverts = m->nverts;
+    el->nelems = m->nelems;
+    el->elems = m->elems;
+    el->alpha = alpha;
+    sm_lame(young, poisson, &el->lambda, &el->mu);
+
+    /* Vertices used by no element carry no unknown: they are treated as
+     * clamped (their displacement is the Dirichlet value, or 0). */
+    for (int64_t k = 0; k < (int64_t)m->nelems * nv; k++)
+        used[m->elems[k]] = 1;
+    int32_t nclamped_verts = 0, nfree_verts = 0;
+    for (int32_t v = 0; v < m->nverts; v++) {
+        is_clamped[v] = (uint8_t)((clamped && clamped[v]) || !used[v]);
+        if (used[v]) {
+            if (is_clamped[v])
+                nclamped_verts++;
+            else
+                nfree_verts++;
+        }
+    }
+    if (nclamped_verts == 0 && nfree_verts > 0 && !(alpha > 0.0)) {
+        st = sm_error_set(err, SM_ERR_INVALID,
+                          "elasticity: no vertex is clamped and alpha = %g: rigid motions make the "
+                          "system singular; clamp some vertices or use alpha > 0", alpha);
+        goto fail;
+    }
+    if ((int64_t)nfree_verts * dim > INT32_MAX - 2) {
+        st = sm_error_set(err, SM_ERR_NOMEM, "elasticity: too many unknowns");
+        goto fail;
+    }
+    el->nfree = nfree_verts * dim;
+    el->nclamped_dofs = nclamped_verts * dim;
+    el->dof = malloc(((size_t)m->nverts * dim + 1) * sizeof *el->dof);
+    el->clamped_global = alloc_n((size_t)el->nclamped_dofs, sizeof *el->clamped_global);
+    el->rhs = alloc_n((size_t)el->nfree, sizeof *el->rhs);
+    if (!el->dof || !el->clamped_global || !el->rhs) {
+        st = sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory");
+        goto fail;
+    }
+    {
+        int32_t next_free = 0, next_clamped = 0;
+        for (int32_t v = 0; v < m->nverts; v++) {
+            for (int c = 0; c < dim; c++) {
+                int64_t g = (int64_t)v * dim + c;
+                if (!used[v]) {
+                    el->dof[g] = -1;
+                } else if (is_clamped[v]) {
+                    el->dof[g] = -1;
+                    el->clamped_global[next_clamped++] = (int32_t)g;
+                } else {
+                    el->dof[g] = next_free++;
+                }
+            }
+        }
+    }
+
+    if ((st = build_adjacency(el, is_clamped, &adj, err)) != SM_OK)
+        goto fail;
+    if ((st = build_patterns(el, &adj, err)) != SM_OK)
+        goto fail;
+    if ((st = build_slot_map(el, &adj, err)) != SM_OK)
+        goto fail;
+    adjacency_free(&adj);
+    memset(&adj, 0, sizeof adj);
+
+    /* CHOLMOD: a CSR of a symmetric matrix is its CSC; stype = 1 makes
+     * CHOLMOD read only the upper triangle (row <= column). */
+    if (!cholmod_start(&el->cc)) {
+        st = sm_error_set(err, SM_ERR_NOMEM, "elasticity: cholmod_start failed");
+        goto fail;
+    }
+    el->cc_started = 1;
+    el->cc.print = 0; /* errors are reported through sm_error, not stdout */
+    el->cc.quick_return_if_not_posdef = 1;
+    if (kind == SM_FACTOR_SIMPLICIAL)
+        el->cc.supernodal = CHOLMOD_SIMPLICIAL;
+    else if (kind == SM_FACTOR_SUPERNODAL)
+        el->cc.supernodal = CHOLMOD_SUPERNODAL;
+    el->A.nrow = el->A.ncol = (size_t)el->nfree;
+    el->A.nzmax = (size_t)el->rowptr[el->nfree];
+    el->A.p = el->rowptr;
+    el->A.i = el->colind;
+    el->A.nz = NULL;
+    el->A.x = el->values;
+    el->A.z = NULL;
+    el->A.stype = 1;
+    el->A.itype = CHOLMOD_INT;
+    el->A.xtype = CHOLMOD_REAL;
+    el->A.dtype = CHOLMOD_DOUBLE;
+    el->A.sorted = 1;
+    el->A.packed = 1;
+    if (el->nfree > 0) {
+        el->L = cholmod_analyze(&el->A, &el->cc);
+        if (!el->L || el->cc.status < CHOLMOD_OK) {
+            st = sm_error_set(err, el->cc.status == CHOLMOD_OUT_OF_MEMORY ? SM_ERR_NOMEM : SM_ERR_NUMERIC,
+                              "elasticity: CHOLMOD symbolic analysis failed (status %d: %s) for %ld unknowns",
+                              el->cc.status, cholmod_status_text(el->cc.status), (long)el->nfree);
+            goto fail;
+        }
+        el->lnz = el->cc.lnz;
+        el->flops = el->cc.fl;
+    }
+    free(is_clamped);
+    free(used);
+    el->t_analyze = now_seconds() - t0;
+    *out = el;
+    return SM_OK;
+
+fail:
+    adjacency_free(&adj);
+    free(is_clamped);
+    free(used);
+    sm_elasticity_free(el);
+    return st;
+}
+
+sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
+                            double young, double poisson, double alpha,
+                            sm_elasticity **out, sm_error *err)
+{
+    return sm_elasticity_new_ex(m, clamped, young, poisson, alpha, SM_FACTOR_AUTO, out, err);
+}
+
+/* ---------------------------------------------------------------------- */
+/* Assembly and factorization                                              */
+/* ---------------------------------------------------------------------- */
+
+/* Assembles for a compile-time dim; returns the first degenerate element
+ * or -1. */
+static inline int32_t assemble(sm_elasticity *el, const int dim, const double *coords,
+                               double *bad_volume, double *bad_edge)
+{
+    const int nv = dim + 1, n = nv * dim;
+    const size_t per_elem = (size_t)n * (size_t)n;
+    double *values = el->values, *cpl = el->cpl_values;
+    double x[12], ke[144];
+    for (int32_t e = 0; e < el->nelems; e++) {
+        const int32_t *ev = el->elems + (int64_t)e * nv;
+        for (int i = 0; i < nv; i++)
+            for (int r = 0; r < dim; r++)
+                x[i * dim + r] = coords[(int64_t)ev[i] * dim + r];
+        double vol, lmax;
+        if (element_kernel(dim, x, el->lambda, el->mu, el->alpha, ke, &vol, &lmax) != 0) {
+            *bad_volume = vol;
+            *bad_edge = lmax;
+            return e;
+        }
+        const int32_t *slot = el->slots + (size_t)e * per_elem;
+        if (!el->elem_clamped[e]) {
+            for (size_t k = 0; k < per_elem; k++)
+                values[slot[k]] += ke[k];
+        } else {
+            for (size_t k = 0; k < per_elem; k++) {
+                int32_t s = slot[k];
+                if (s >= 0)
+                    values[s] += ke[k];
+                else if (s != SLOT_ELIMINATED)
+                    cpl[-2 - s] += ke[k];
+            }
+        }
+    }
+    return -1;
+}
+
+sm_status sm_elasticity_factorize(sm_elasticity *el, const double *coords, sm_error *err)
+{
+    if (!el || !coords)
+        return sm_error_set(err, SM_ERR_INVALID, "elasticity: NULL argument to factorize");
+    el->factorized = 0;
+    double t0 = now_seconds();
+    memset(el->values, 0, (size_t)el->rowptr[el->nfree] * sizeof(double));
+    memset(el->cpl_values, 0, (size_t)el->cpl_rowptr[el->nfree] * sizeof(double));
+    double bad_volume = 0.0, bad_edge = 0.0;
+    int32_t bad = el->dim == 2 ? assemble(el, 2, coords, &bad_volume, &bad_edge)
+                               : assemble(el, 3, coords, &bad_volume, &bad_edge);
+    double t1 = now_seconds();
+    el->t_assembly = t1 - t0;
+    el->t_factor = 0.0;
+    if (bad >= 0)
+        return sm_error_set(err, SM_ERR_NUMERIC,
+                            "elasticity: element %ld is degenerate or has non-finite coordinates "
+                            "(volume %g, longest edge %g)",
+                            (long)bad + 1, bad_volume, bad_edge);
+    el->rcond = 0.0;
+    if (el->nfree > 0) {
+        int ok = cholmod_factorize(&el->A, el->L, &el->cc);
+        int status = el->cc.status;
+        el->t_factor = now_seconds() - t1;
+        if (!ok || status < CHOLMOD_OK || status == CHOLMOD_NOT_POSDEF)
+            return sm_error_set(err, status == CHOLMOD_OUT_OF_MEMORY ? SM_ERR_NOMEM : SM_ERR_NUMERIC,
+                                "elasticity: CHOLMOD factorization failed (status %d: %s; pivot %ld of "
+                                "%ld unknowns)%s",
+                                status, cholmod_status_text(status), (long)el->L->minor + 1,
+                                (long)el->nfree,
+                                status == CHOLMOD_NOT_POSDEF
+                                    ? "; the clamp may not remove all rigid motions"
+                                    : "");
+        /* A simplicial LDL' factorization does not stop on negative
+         * pivots (D may be indefinite); check D so that every kind of
+         * factor rejects a matrix that is not positive definite. */
+        if (!el->L->is_super && !el->L->is_ll) {
+            const int *lp = el->L->p;
+            const double *lx = el->L->x;
+            for (size_t j = 0; j < el->L->n; j++)
+                if (!(lx[lp[j]] > 0.0))
+                    return sm_error_set(err, SM_ERR_NUMERIC,
+                                        "elasticity: CHOLMOD factorization failed (status %d: %s; "
+                                        "pivot %zu of %ld unknowns is %g); the clamp may not remove "
+                                        "all rigid motions",
+                                        CHOLMOD_NOT_POSDEF, cholmod_status_text(CHOLMOD_NOT_POSDEF),
+                                        j + 1, (long)el->nfree, lx[lp[j]]);
+        }
+        el->rcond = cholmod_rcond(el->L, &el->cc);
+        if (!(el->rcond >= SM_ELASTICITY_MIN_RCOND))
+            return sm_error_set(err, SM_ERR_NUMERIC,
+                                "elasticity: CHOLMOD factorization is numerically singular "
+                                "(rcond estimate %.3g < %g, status %d: %s); the clamp may not "
+                                "remove all rigid motions",
+                                el->rcond, SM_ELASTICITY_MIN_RCOND, el->cc.status,
+                                cholmod_status_text(el->cc.status));
+    }
+    el->factorized = 1;
+    return SM_OK;
+}
+
+sm_status sm_elasticity_solve(sm_elasticity *el, const double *load,
+                              const double *dirichlet, double *u, sm_error *err)
+{
+    if (!el || !u)
+        return sm_error_set(err, SM_ERR_INVALID, "elasticity: NULL argument to solve");
+    if (!el->factorized)
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "elasticity: solve called without a successful factorize");
+    double t0 = now_seconds();
+    const int dim = el->dim;
+    const int64_t nglobal = (int64_t)el->nverts * dim;
+    double *rhs = el->rhs;
+    for (int64_t g = 0; g < nglobal; g++) {
+        int32_t k = el->dof[g];
+        if (k >= 0)
+            rhs[k] = load ? load[g] : 0.0;
+    }
+    if (dirichlet) {
+        /* rhs_f -= K_fc g_c */
+        for (int32_t r = 0; r < el->nfree; r++) {
+            double s = 0.0;
+            for (int32_t p = el->cpl_rowptr[r]; p < el->cpl_rowptr[r + 1]; p++)
+                s += el->cpl_values[p] * dirichlet[el->clamped_global[el->cpl_colind[p]]];
+            rhs[r] -= s;
+        }
+    }
+    const double *x = NULL;
+    if (el->nfree > 0) {
+        cholmod_dense B = {0};
+        B.nrow = (size_t)el->nfree;
+        B.ncol = 1;
+        B.nzmax = (size_t)el->nfree;
+        B.d = (size_t)el->nfree;
+        B.x = rhs;
+        B.z = NULL;
+        B.xtype = CHOLMOD_REAL;
+        B.dtype = CHOLMOD_DOUBLE;
+        if (!cholmod_solve2(CHOLMOD_A, el->L, &B, NULL, &el->X, NULL, &el->Y, &el->E, &el->cc) ||
+            el->cc.status < CHOLMOD_OK)
+            return sm_error_set(err, el->cc.status == CHOLMOD_OUT_OF_MEMORY ? SM_ERR_NOMEM : SM_ERR_NUMERIC,
+                                "elasticity: CHOLMOD solve failed (status %d: %s)", el->cc.status,
+                                cholmod_status_text(el->cc.status));
+        x = el->X->x;
+    }
+    for (int64_t g = 0; g < nglobal; g++) {
+        int32_t k = el->dof[g];
+        u[g] = k >= 0 ? x[k] : (dirichlet ? dirichlet[g] : 0.0);
+    }
+    el->t_solve = now_seconds() - t0;
+    return SM_OK;
+}
+
+/* ---------------------------------------------------------------------- */
+/* Accessors                                                               */
+/* ---------------------------------------------------------------------- */
+
+void sm_elasticity_matrix(const sm_elasticity *el, sm_csr_view *view)
+{
+    view->n = el->nfree;
+    view->rowptr = el->rowptr;
+    view->colind = el->colind;
+    view->values = el->values;
+}
+
+int32_t sm_elasticity_dof(const sm_elasticity *el, int32_t vertex, int comp)
+{
+    if (vertex < 0 || vertex >= el->nverts || comp < 0 || comp >= el->dim)
+        return -1;
+    return el->dof[(int64_t)vertex * el->dim + comp];
+}
+
+void sm_elasticity_timings(const sm_elasticity *el, double *assembly, double *factor)
+{
+    if (assembly)
+        *assembly = el->t_assembly;
+    if (factor)
+        *factor = el->t_factor;
+}
+
+void sm_elasticity_get_info(const sm_elasticity *el, sm_elasticity_info *info)
+{
+    memset(info, 0, sizeof *info);
+    info->nfree = el->nfree;
+    info->nclamped = el->nclamped_dofs;
+    info->nnz = el->rowptr[el->nfree];
+    info->nnz_coupling = el->cpl_rowptr[el->nfree];
+    info->ordering = "none";
+    if (el->L) {
+        info->nnz_factor = el->lnz;
+        info->flops = el->flops;
+        info->supernodal = el->L->is_super;
+        info->ordering = ordering_name(el->L->ordering);
+    }
+    info->rcond = el->rcond;
+    info->analyze_time = el->t_analyze;
+    info->solve_time = el->t_solve;
+}

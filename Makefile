@@ -16,7 +16,7 @@ VERSION := 0.1.0
 # Debian packages the build, the tests, the demo and the benchmarks need.
 DEB_PACKAGES := gcc make pkg-config libc6-dev \
   libsuitesparse-dev libopenblas0-pthread zlib1g-dev libcmocka-dev libjansson-dev \
-  libmicrohttpd-dev libcurl4-openssl-dev curl gmsh wrk
+  libmicrohttpd-dev libcurl4-openssl-dev curl gmsh wrk jq systemd python3 python3-yaml strace
 
 CC ?= cc
 BASE_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror -fopenmp \
@@ -83,9 +83,22 @@ demo: deps
 	$(MAKE) release
 	examples/demo.sh
 
+# The unit goes to /etc/systemd/system (UNITDIR=... to change) with its
+# program path rewritten to $(PREFIX)/bin.
 install: release
-	install -d $(DESTDIR)$(PREFIX)/bin
-	install -m 755 $(wildcard $(INSTALL_PROGRAMS:%=build/release/%)) $(DESTDIR)$(PREFIX)/bin/
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(or $(UNITDIR),/etc/systemd/system)
+	install -m 755 $(INSTALL_PROGRAMS:%=build/release/%) $(DESTDIR)$(PREFIX)/bin/
+	sed 's|/usr/local/bin/|$(PREFIX)/bin/|g' deploy/systemd/shapematchd.service \
+	  >$(DESTDIR)$(or $(UNITDIR),/etc/systemd/system)/shapematchd.service.tmp
+	chmod 644 $(DESTDIR)$(or $(UNITDIR),/etc/systemd/system)/shapematchd.service.tmp
+	mv $(DESTDIR)$(or $(UNITDIR),/etc/systemd/system)/shapematchd.service.tmp \
+	  $(DESTDIR)$(or $(UNITDIR),/etc/systemd/system)/shapematchd.service
+	@echo "installed; start the daemon with: systemctl daemon-reload && systemctl enable --now shapematchd"
+
+.PHONY: uninstall
+uninstall:
+	rm -f $(INSTALL_PROGRAMS:%=$(DESTDIR)$(PREFIX)/bin/%) \
+	  $(DESTDIR)$(or $(UNITDIR),/etc/systemd/system)/shapematchd.service
 
 clean:
 	rm -rf build demo-out

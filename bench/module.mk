@@ -4,3 +4,8 @@ build/release/match_bench: build/release/obj/bench/match_bench.o build/release/l
 	$(CC) -o $@ $^ $(CORE_LIBS)
 release: build/release/match_bench
 all: build/release/match_bench
+build/release/field_bench: build/release/obj/bench/field_bench.o build/release/libshapematch.a
+	@mkdir -p $(dir $@)
+	$(CC) -o $@ $^ $(CORE_LIBS)
+release: build/release/field_bench
+all: build/release/field_bench

@@ -1,0 +1,43 @@
+# shapematchd (the HTTP job daemon) and shapematch-worker (one job per
+# process).  The daemon's parts are built into libsmserver.a, which the two
+# programs and the server unit tests (tests/unit/test_server_*.c) link.
+SERVER_MAIN_SRCS := server/shapematchd.c server/shapematch_worker.c
+SERVER_LIB_SRCS := $(filter-out $(SERVER_MAIN_SRCS),$(wildcard server/*.c))
+SERVER_TEST_NAMES := $(patsubst tests/unit/%.c,%,$(wildcard tests/unit/test_server_*.c))
+SERVER_TEST_UTIL_SRCS := $(wildcard tests/unit/util_*.c)
+# the OpenAPI document and the params schema are served by the daemon
+SERVER_EMBEDDED := proto/params.schema.json $(wildcard proto/openapi.yaml)
+SERVER_LIBS := $(HTTP_LIBS) $(PROTO_LIBS) $(CORE_LIBS) -lpthread
+
+define server_rules
+build/$(1)/gen/server/smd_embedded.c: server/embed.sh $$(SERVER_EMBEDDED)
+	@mkdir -p $$(dir $$@)
+	server/embed.sh $$@ smd_params_schema proto/params.schema.json smd_openapi_yaml proto/openapi.yaml
+
+build/$(1)/obj/gen/server/smd_embedded.o: build/$(1)/gen/server/smd_embedded.c
+	@mkdir -p $$(dir $$@)
+	$$(CC) $$($(1)_CFLAGS) -c $$< -o $$@
+
+build/$(1)/libsmserver.a: $$(SERVER_LIB_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/obj/gen/server/smd_embedded.o
+	@mkdir -p $$(dir $$@)
+	rm -f $$@ && ar rcs $$@ $$^
+
+build/$(1)/shapematchd: build/$(1)/obj/server/shapematchd.o build/$(1)/libsmserver.a build/$(1)/libsmproto.a build/$(1)/libshapematch.a
+	@mkdir -p $$(dir $$@)
+	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(SERVER_LIBS)
+
+# the worker takes only the spool and input helpers from libsmserver.a: no HTTP
+build/$(1)/shapematch-worker: build/$(1)/obj/server/shapematch_worker.o build/$(1)/libsmserver.a build/$(1)/libsmproto.a build/$(1)/libshapematch.a
+	@mkdir -p $$(dir $$@)
+	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(PROTO_LIBS) $$(CORE_LIBS)
+
+# server unit tests see the server headers and also link libsmserver.a
+# (explicit rules win over the generic pattern of tests/module.mk)
+build/$(1)/obj/tests/unit/test_server_%.o: $(1)_CFLAGS += -I server
+$$(SERVER_TEST_NAMES:%=build/$(1)/tests/%): build/$(1)/tests/%: build/$(1)/obj/tests/unit/%.o $$(SERVER_TEST_UTIL_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/libsmserver.a build/$(1)/libsmproto.a build/$(1)/libshapematch.a
+	@mkdir -p $$(dir $$@)
+	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(SERVER_LIBS) -lcmocka
+endef
+$(foreach v,$(VARIANTS),$(eval $(call server_rules,$(v))))
+ALL_TARGETS += shapematchd shapematch-worker
+INSTALL_PROGRAMS += shapematchd shapematch-worker

@@ -1,0 +1,276 @@
+/* shapematchd: the HTTP job daemon of shapematch.
+ *
+ * main: configuration, the spool (with crash recovery), the worker pool,
+ * the HTTP front, then it waits for SIGTERM/SIGINT and stops gracefully:
+ * no new job (503, /readyz 503); running jobs get --shutdown-grace to
+ * finish, then are stopped and stay queued for the next start; then no
+ * new connection, event streams end, everything is freed.  A second signal cuts the grace.
+ * Signals are blocked in every thread we start and taken by the main
+ * thread with sigwaitinfo/sigtimedwait.  Threads that libraries start
+ * before main (OpenBLAS, pulled in by CHOLMOD) do not block them, so a
+ * tiny handler forwards a signal that lands there to the main thread. */
+#include <errno.h>
+#include <limits.h>
+#include <pthread.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include "sm_proto_events.h"
+#include "smd_http.h"
+#include "smd_pool.h"
+#include "smd_server.h"
+#include "smd_stream.h"
+
+/* The one global: the main thread's id, written once before the handler
+ * is installed. */
+static pid_t main_tid;
+
+static void forward_signal(int sig)
+{
+    int saved = errno;
+    syscall(SYS_tgkill, getpid(), main_tid, sig); /* pending there until taken */
+    errno = saved;
+}
+
+static const char *env_lookup(const char *name, void *user)
+{
+    (void)user;
+    return getenv(name);
+}
+
+/* shapematch-worker next to this executable. */
+static int default_worker_path(char *out, size_t cap)
+{
+    char self[PATH_MAX];
+    ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
+    if (n <= 0)
+        return -1;
+    self[n] = '\0';
+    char *slash = strrchr(self, '/');
+    if (!slash)
+        return -1;
+    *slash = '\0';
+    return smd_pathf(out, cap, "%s/shapematch-worker", self);
+}
+
+/* Event streams and uploads hold descriptors: use what the system allows. */
+static void raise_fd_limit(smd_server *srv)
+{
+    struct rlimit rl;
+    if (getrlimit(RLIMIT_NOFILE, &rl) != 0)
+        return;
+    rlim_t want = rl.rlim_max == RLIM_INFINITY ? 65536 : rl.rlim_max;
+    if (want > 65536)
+        want = 65536;
+    if (rl.rlim_cur < want) {
+        rl.rlim_cur = want;
+        setrlimit(RLIMIT_NOFILE, &rl);
+        getrlimit(RLIMIT_NOFILE, &rl);
+    }
+    if ((rlim_t)srv->cfg.max_connections + 64 > rl.rlim_cur)
+        smd_logf(&srv->log, SMD_LOG_WARN, "config",
+                 "--max-connections %u is close to the descriptor limit %llu",
+                 srv->cfg.max_connections, (unsigned long long)rl.rlim_cur);
+}
+
+typedef struct stopper {
+    smd_server *srv;
+    volatile int done;
+} stopper;
+
+static void *stop_pool(void *arg)
+{
+    stopper *s = arg;
+    smd_pool_stop(s->srv, s->srv->cfg.shutdown_grace);
+    __atomic_store_n(&s->done, 1, __ATOMIC_RELEASE);
+    return NULL;
+}
+
+static void shutdown_daemon(smd_server *srv, const sigset_t *signals)
+{
+    /* Keep listening while running jobs finish: clients can still follow
+     * them and fetch results, /readyz says 503 (a balancer stops sending
+     * work here) and new jobs get 503 with Retry-After. */
+    atomic_store(&srv->draining, 1);
+    pthread_mutex_lock(&srv->lock);
+    size_t busy = smd_pool_busy(srv->pool);
+    pthread_mutex_unlock(&srv->lock);
+    smd_log(&srv->log, SMD_LOG_INFO, "shutting_down",
+            json_pack("{s:I,s:f}", "running_jobs", (json_int_t)busy, "grace_seconds",
+                      srv->cfg.shutdown_grace));
+    stopper st = {srv, 0};
+    pthread_t thread;
+    if (pthread_create(&thread, NULL, stop_pool, &st) != 0) {
+        smd_pool_hurry(srv->pool);
+        stop_pool(&st);
+    } else {
+        struct timespec tick = {0, 100 * 1000 * 1000};
+        while (!__atomic_load_n(&st.done, __ATOMIC_ACQUIRE)) {
+            int sig = sigtimedwait(signals, NULL, &tick);
+            if (sig == SIGTERM || sig == SIGINT) {
+                smd_logf(&srv->log, SMD_LOG_WARN, "shutting_down",
+                         "second signal: stopping running jobs now");
+                smd_pool_hurry(srv->pool);
+            }
+        }
+        pthread_join(thread, NULL);
+    }
+    smd_http_quiesce(srv);
+    /* end the event streams: they must all be resumed before MHD stops */
+    atomic_store(&srv->stopping, 1);
+    smd_wake_list wake = {0};
+    pthread_mutex_lock(&srv->lock);
+    smd_stream_collect_all(srv, &wake);
+    pthread_mutex_unlock(&srv->lock);
+    smd_wake_list_resume(&wake);
+    smd_wake_list_free(&wake);
+    smd_http_stop(srv);
+}
+
+int main(int argc, char **argv)
+{
+    smd_server *srv = calloc(1, sizeof *srv);
+    if (!srv) {
+        fprintf(stderr, "shapematchd: out of memory\n");
+        return 1;
+    }
+    char msg[512];
+    int code = 1;
+    switch (smd_config_parse(&srv->cfg, argc, argv, env_lookup, NULL, msg, sizeof msg)) {
+    case SMD_CONFIG_HELP:
+        smd_config_help(stdout);
+        free(srv);
+        return 0;
+    case SMD_CONFIG_VERSION:
+        printf("shapematchd %s\n", SM_VERSION);
+        free(srv);
+        return 0;
+    case SMD_CONFIG_ERROR:
+        fprintf(stderr, "shapematchd: %s\n", msg);
+        free(srv);
+        return 2;
+    case SMD_CONFIG_OK:
+        break;
+    }
+    srv->log.fd = 2;
+    srv->log.level = (smd_log_level)srv->cfg.log_level;
+    srv->start_time = sm_time_now();
+    if (!srv->cfg.worker_path[0] &&
+        default_worker_path(srv->cfg.worker_path, sizeof srv->cfg.worker_path) != 0) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "config", "cannot locate shapematch-worker: use --worker");
+        free(srv);
+        return 2;
+    }
+    if (access(srv->cfg.worker_path, X_OK) != 0) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "config", "worker program %s: %s (--worker)",
+                 srv->cfg.worker_path, strerror(errno));
+        free(srv);
+        return 2;
+    }
+    if (srv->cfg.tokens_file[0] &&
+        smd_tokens_load(srv->cfg.tokens_file, &srv->tokens, msg, sizeof msg) != 0) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "config", "--tokens-file %s", msg);
+        free(srv);
+        return 2;
+    }
+#if defined(__SANITIZE_ADDRESS__)
+    if (srv->cfg.memory_limit > 0)
+        smd_logf(&srv->log, SMD_LOG_WARN, "config",
+                 "ASan build: the worker memory limit (RLIMIT_AS) is not applied");
+#endif
+
+    /* every thread inherits this mask; signals are taken with sigtimedwait */
+    sigset_t signals;
+    sigemptyset(&signals);
+    sigaddset(&signals, SIGTERM);
+    sigaddset(&signals, SIGINT);
+    sigaddset(&signals, SIGHUP);
+    pthread_sigmask(SIG_BLOCK, &signals, NULL);
+    main_tid = gettid();
+    struct sigaction fwd;
+    memset(&fwd, 0, sizeof fwd);
+    fwd.sa_handler = forward_signal;
+    sigfillset(&fwd.sa_mask);
+    fwd.sa_flags = SA_RESTART;
+    sigaction(SIGTERM, &fwd, NULL);
+    sigaction(SIGINT, &fwd, NULL);
+    sigaction(SIGHUP, &fwd, NULL);
+    struct sigaction ign;
+    memset(&ign, 0, sizeof ign);
+    ign.sa_handler = SIG_IGN;
+    sigaction(SIGPIPE, &ign, NULL);
+    raise_fd_limit(srv);
+
+    sm_error err;
+    sm_error_clear(&err);
+    int metrics_ok = smd_metrics_init(&srv->metrics) == 0;
+    int lock_ok = pthread_mutex_init(&srv->lock, NULL) == 0;
+    if (!metrics_ok || !lock_ok) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "cannot initialise locks");
+        goto out;
+    }
+    if (smd_store_open(srv->cfg.spool, &srv->log, &srv->store, &err) != SM_OK) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "spool: %s", err.msg);
+        goto out;
+    }
+    srv->queue = smd_queue_local_new();
+    if (!srv->queue) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "out of memory");
+        goto out;
+    }
+    size_t queued = 0;
+    for (size_t i = 0; i < smd_store_count(srv->store); i++) {
+        smd_job *job = smd_store_at(srv->store, i);
+        if (job->state == SM_JOB_ACCEPTED) {
+            if (smd_queue_push(srv->queue, job->id) != 0) {
+                smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "out of memory");
+                goto out;
+            }
+            queued++;
+        }
+    }
+    if (smd_pool_start(srv, &err) != SM_OK) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "%s", err.msg);
+        goto out;
+    }
+    if (smd_http_start(srv, &err) != SM_OK) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "%s", err.msg);
+        smd_pool_stop(srv, 0);
+        goto out;
+    }
+    smd_log(&srv->log, SMD_LOG_INFO, "listening",
+            json_pack("{s:s,s:i,s:s,s:i,s:i,s:I,s:I,s:b,s:s,s:s}", "address", srv->cfg.listen_host,
+                      "port", (int)srv->port, "spool", srv->cfg.spool, "workers", srv->cfg.workers,
+                      "http_threads", srv->cfg.http_threads, "jobs",
+                      (json_int_t)smd_store_count(srv->store), "queued", (json_int_t)queued, "auth",
+                      srv->tokens != NULL, "worker", srv->cfg.worker_path, "version", SM_VERSION));
+    for (;;) {
+        int sig = sigwaitinfo(&signals, NULL);
+        if (sig == SIGTERM || sig == SIGINT) {
+            smd_logf(&srv->log, SMD_LOG_INFO, "signal", "%s: shutting down",
+                     sig == SIGTERM ? "SIGTERM" : "SIGINT");
+            break;
+        }
+        if (sig == SIGHUP)
+            smd_logf(&srv->log, SMD_LOG_INFO, "signal", "SIGHUP ignored (restart to reload)");
+    }
+    shutdown_daemon(srv, &signals);
+    code = 0;
+out:
+    smd_pool_free(srv->pool);
+    smd_queue_free(srv->queue);
+    smd_store_close(srv->store);
+    smd_tokens_free(srv->tokens);
+    if (lock_ok)
+        pthread_mutex_destroy(&srv->lock);
+    if (metrics_ok)
+        smd_metrics_destroy(&srv->metrics);
+    smd_logf(&srv->log, code == 0 ? SMD_LOG_INFO : SMD_LOG_ERROR, "stopped", "shapematchd stopped");
+    free(srv);
+    return code;
+}

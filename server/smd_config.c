@@ -1,0 +1,285 @@
+/* Flags and SHAPEMATCH_* variables of shapematchd (see smd_config.h).
+ * One table drives parsing, the environment and --help, so the three
+ * cannot disagree. */
+#include "smd_config.h"
+
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "smd_log.h"
+#include "smd_util.h"
+
+typedef enum opt_kind { OPT_LISTEN, OPT_PATH, OPT_INT, OPT_UINT, OPT_SIZE, OPT_DURATION, OPT_LEVEL } opt_kind;
+
+typedef struct opt {
+    const char *flag;     /* "--spool" */
+    const char *env;      /* "SHAPEMATCH_SPOOL" */
+    const char *metavar;
+    opt_kind kind;
+    size_t offset;        /* into smd_config */
+    double lo, hi;        /* range for numbers */
+    const char *help;
+    const char *default_text;
+} opt;
+
+#define OFF(field) offsetof(smd_config, field)
+
+static const opt options[] = {
+    {"--listen", "SHAPEMATCH_LISTEN", "HOST:PORT", OPT_LISTEN, OFF(listen_host), 0, 0,
+     "address and port to listen on ([::1]:8080 for IPv6; port 0 picks a free one)",
+     "127.0.0.1:8080"},
+    {"--spool", "SHAPEMATCH_SPOOL", "DIR", OPT_PATH, OFF(spool), 0, 0,
+     "job store: one folder per job (created if missing)", "./spool"},
+    {"--workers", "SHAPEMATCH_WORKERS", "N", OPT_INT, OFF(workers), 1, 1024,
+     "worker processes running at the same time", "number of cores"},
+    {"--tokens-file", "SHAPEMATCH_TOKENS_FILE", "FILE", OPT_PATH, OFF(tokens_file), 0, 0,
+     "bearer tokens, one per line ('#' comments); requests without one get 401 "
+     "(/healthz and /readyz stay open)", "none: no authentication"},
+    {"--max-upload", "SHAPEMATCH_MAX_UPLOAD", "BYTES", OPT_SIZE, OFF(max_upload), 1024, 1e15,
+     "largest POST /v1/jobs body (K, M, G suffixes); larger ones get 413", "256M"},
+    {"--job-timeout", "SHAPEMATCH_JOB_TIMEOUT", "SECONDS", OPT_DURATION, OFF(job_timeout), 0, 1e9,
+     "wall time a run may take before it is killed (s, m, h, d suffixes; 0 = none)", "1h"},
+    {"--retention", "SHAPEMATCH_RETENTION", "SECONDS", OPT_DURATION, OFF(retention), 0, 1e12,
+     "finished jobs are deleted this long after they end (0 = keep)", "7d"},
+    {"--cpu-limit", "SHAPEMATCH_CPU_LIMIT", "SECONDS", OPT_DURATION, OFF(cpu_limit), 0, 1e9,
+     "CPU time of one worker (RLIMIT_CPU; 0 = none)", "0"},
+    {"--memory-limit", "SHAPEMATCH_MEMORY_LIMIT", "BYTES", OPT_SIZE, OFF(memory_limit), 0, 1e18,
+     "address space of one worker (RLIMIT_AS; 0 = none; not applied by "
+     "AddressSanitizer builds)", "4G"},
+    {"--worker", "SHAPEMATCH_WORKER", "PATH", OPT_PATH, OFF(worker_path), 0, 0,
+     "worker program", "shapematch-worker next to shapematchd"},
+    {"--worker-threads", "SHAPEMATCH_WORKER_THREADS", "N", OPT_INT, OFF(worker_threads), 0, 1024,
+     "OpenMP/BLAS threads of one worker (OMP_NUM_THREADS, OPENBLAS_NUM_THREADS); 0 = "
+     "cores / workers, so that a full pool does not oversubscribe the machine", "0"},
+    {"--http-threads", "SHAPEMATCH_HTTP_THREADS", "N", OPT_INT, OFF(http_threads), 1, 64,
+     "HTTP event-loop threads (epoll each)", "2 to 4, from the cores"},
+    {"--max-connections", "SHAPEMATCH_MAX_CONNECTIONS", "N", OPT_UINT, OFF(max_connections), 1, 100000,
+     "open connections in total (event followers included)", "1000"},
+    {"--max-connections-per-ip", "SHAPEMATCH_MAX_CONNECTIONS_PER_IP", "N", OPT_UINT,
+     OFF(max_connections_per_ip), 1, 100000, "open connections from one client address", "200"},
+    {"--connection-timeout", "SHAPEMATCH_CONNECTION_TIMEOUT", "SECONDS", OPT_UINT,
+     OFF(connection_timeout), 1, 86400,
+     "a connection idle this long (e.g. a half-sent request) is closed; "
+     "event streams waiting for events are exempt", "60"},
+    {"--connection-memory", "SHAPEMATCH_CONNECTION_MEMORY", "BYTES", OPT_SIZE,
+     OFF(connection_memory), 16384, 16777216,
+     "memory pool of one connection (request line, headers, send buffer)", "64K"},
+    {"--shutdown-grace", "SHAPEMATCH_SHUTDOWN_GRACE", "SECONDS", OPT_DURATION, OFF(shutdown_grace),
+     0, 86400, "on SIGTERM/SIGINT, how long running jobs may finish before they "
+     "are stopped and kept queued for the next start", "10s"},
+    {"--keepalive", "SHAPEMATCH_KEEPALIVE", "SECONDS", OPT_DURATION, OFF(keepalive), 0.1, 3600,
+     "idle event streams get a keepalive (SSE comment / empty NDJSON line)", "15s"},
+    {"--kill-grace", "SHAPEMATCH_KILL_GRACE", "SECONDS", OPT_DURATION, OFF(kill_grace), 0, 3600,
+     "delay between SIGTERM and SIGKILL when a worker is stopped", "5s"},
+    {"--log-level", "SHAPEMATCH_LOG_LEVEL", "LEVEL", OPT_LEVEL, OFF(log_level), 0, 0,
+     "debug, info (one line per request and job change), warn or error", "info"},
+};
+
+#define NOPTIONS (sizeof options / sizeof options[0])
+
+int smd_default_workers(void)
+{
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return n < 1 ? 1 : (n > 1024 ? 1024 : (int)n);
+}
+
+static void set_defaults(smd_config *c)
+{
+    memset(c, 0, sizeof *c);
+    strcpy(c->listen_host, "127.0.0.1");
+    c->listen_port = 8080;
+    strcpy(c->spool, "./spool");
+    c->workers = smd_default_workers();
+    c->max_upload = (uint64_t)256 << 20;
+    c->job_timeout = 3600;
+    c->retention = 7 * 86400;
+    c->cpu_limit = 0;
+    c->memory_limit = (uint64_t)4 << 30;
+    c->http_threads = c->workers < 4 ? (c->workers < 2 ? 2 : c->workers) : 4;
+    c->max_connections = 1000;
+    c->max_connections_per_ip = 200;
+    c->connection_timeout = 60;
+    c->connection_memory = 64 << 10;
+    c->shutdown_grace = 10;
+    c->keepalive = 15;
+    c->kill_grace = 5;
+    c->log_level = SMD_LOG_INFO;
+}
+
+/* "HOST:PORT", "[v6]:PORT" or ":PORT" (all interfaces). */
+static int parse_listen(const char *text, smd_config *c)
+{
+    const char *colon;
+    size_t hostlen;
+    const char *host = text;
+    if (text[0] == '[') {
+        const char *close = strchr(text, ']');
+        if (!close || close[1] != ':')
+            return -1;
+        host = text + 1;
+        hostlen = (size_t)(close - host);
+        colon = close + 1;
+    } else {
+        colon = strrchr(text, ':');
+        if (!colon)
+            return -1;
+        hostlen = (size_t)(colon - text);
+    }
+    if (hostlen >= sizeof c->listen_host)
+        return -1;
+    char *end;
+    errno = 0;
+    if (!(colon[1] >= '0' && colon[1] <= '9'))
+        return -1;
+    unsigned long port = strtoul(colon + 1, &end, 10);
+    if (errno || *end || port > 65535)
+        return -1;
+    memcpy(c->listen_host, host, hostlen);
+    c->listen_host[hostlen] = '\0';
+    if (hostlen == 0)
+        strcpy(c->listen_host, "0.0.0.0");
+    c->listen_port = (unsigned)port;
+    return 0;
+}
+
+static int apply(smd_config *c, const opt *o, const char *value, const char *source,
+                 char *msg, size_t cap)
+{
+    char *field = (char *)c + o->offset;
+    switch (o->kind) {
+    case OPT_LISTEN:
+        if (parse_listen(value, c) != 0) {
+            snprintf(msg, cap, "%s: expected HOST:PORT (e.g. 127.0.0.1:8080), got '%s'", source, value);
+            return -1;
+        }
+        return 0;
+    case OPT_PATH:
+        if (strlen(value) >= PATH_MAX) {
+            snprintf(msg, cap, "%s: path too long", source);
+            return -1;
+        }
+        strcpy(field, value);
+        return 0;
+    case OPT_INT:
+    case OPT_UINT: {
+        char *end;
+        errno = 0;
+        long v = strtol(value, &end, 10);
+        if (errno || end == value || *end || v < (long)o->lo || v > (long)o->hi) {
+            snprintf(msg, cap, "%s: expected an integer in [%.0f, %.0f], got '%s'", source, o->lo,
+                     o->hi, value);
+            return -1;
+        }
+        if (o->kind == OPT_INT)
+            *(int *)field = (int)v;
+        else
+            *(unsigned *)field = (unsigned)v;
+        return 0;
+    }
+    case OPT_SIZE: {
+        uint64_t v;
+        if (smd_parse_size(value, &v) != 0 || (double)v < o->lo || (double)v > o->hi) {
+            snprintf(msg, cap, "%s: expected a size in bytes (K, M, G suffixes) in [%.0f, %.0f], got '%s'",
+                     source, o->lo, o->hi, value);
+            return -1;
+        }
+        *(uint64_t *)field = v;
+        return 0;
+    }
+    case OPT_DURATION: {
+        double v;
+        if (smd_parse_duration(value, &v) != 0 || v < o->lo || v > o->hi) {
+            snprintf(msg, cap, "%s: expected a duration in seconds (s, m, h, d suffixes) in [%g, %g], got '%s'",
+                     source, o->lo, o->hi, value);
+            return -1;
+        }
+        *(double *)field = v;
+        return 0;
+    }
+    case OPT_LEVEL: {
+        int level = smd_log_level_from_name(value);
+        if (level < 0) {
+            snprintf(msg, cap, "%s: expected debug, info, warn or error, got '%s'", source, value);
+            return -1;
+        }
+        *(int *)field = level;
+        return 0;
+    }
+    }
+    return -1;
+}
+
+smd_config_result smd_config_parse(smd_config *c, int argc, char **argv,
+                                   smd_env_fn env, void *env_user, char *msg,
+                                   size_t cap)
+{
+    set_defaults(c);
+    msg[0] = '\0';
+    for (size_t i = 0; env && i < NOPTIONS; i++) {
+        const char *value = env(options[i].env, env_user);
+        if (!value)
+            continue;
+        if (apply(c, &options[i], value, options[i].env, msg, cap) != 0)
+            return SMD_CONFIG_ERROR;
+    }
+    for (int a = 1; a < argc; a++) {
+        const char *arg = argv[a];
+        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0)
+            return SMD_CONFIG_HELP;
+        if (strcmp(arg, "--version") == 0)
+            return SMD_CONFIG_VERSION;
+        const char *eq = strchr(arg, '=');
+        size_t namelen = eq ? (size_t)(eq - arg) : strlen(arg);
+        const opt *o = NULL;
+        for (size_t i = 0; i < NOPTIONS; i++)
+            if (strlen(options[i].flag) == namelen && strncmp(options[i].flag, arg, namelen) == 0)
+                o = &options[i];
+        if (!o) {
+            snprintf(msg, cap, "unknown option '%.*s' (see --help)", (int)namelen, arg);
+            return SMD_CONFIG_ERROR;
+        }
+        const char *value;
+        if (eq) {
+            value = eq + 1;
+        } else {
+            if (a + 1 >= argc) {
+                snprintf(msg, cap, "%s: missing value (%s)", o->flag, o->metavar);
+                return SMD_CONFIG_ERROR;
+            }
+            value = argv[++a];
+        }
+        if (apply(c, o, value, o->flag, msg, cap) != 0)
+            return SMD_CONFIG_ERROR;
+    }
+    if (c->spool[0] == '\0') {
+        snprintf(msg, cap, "--spool: must not be empty");
+        return SMD_CONFIG_ERROR;
+    }
+    return SMD_CONFIG_OK;
+}
+
+void smd_config_help(FILE *out)
+{
+    fprintf(out,
+            "Usage: shapematchd [OPTIONS]\n"
+            "\n"
+            "HTTP daemon of shapematch: accepts matching jobs (POST /v1/jobs, multipart\n"
+            "upload of a template mesh, a target mesh, its distance field and JSON\n"
+            "parameters), runs each in a worker process, streams progress\n"
+            "(GET /v1/jobs/{id}/events) and serves the results.  API: proto/openapi.yaml.\n"
+            "\n"
+            "Options (each also read from the environment variable shown; a flag wins):\n");
+    for (size_t i = 0; i < NOPTIONS; i++) {
+        const opt *o = &options[i];
+        fprintf(out, "  %s %s\n      %s\n      [env %s; default: %s]\n", o->flag, o->metavar, o->help,
+                o->env, o->default_text);
+    }
+    fprintf(out,
+            "  -h, --help      this text\n"
+            "  --version       print the version\n"
+            "\n"
+            "Signals: SIGTERM/SIGINT stop gracefully (a second one stops at once).\n"
+            "Logs: JSON lines on stderr.\n");
+}

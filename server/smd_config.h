@@ -1,0 +1,58 @@
+/* shapematchd configuration: command-line flags, each with a matching
+ * SHAPEMATCH_* environment variable (for containers).  A flag wins over
+ * its variable, the variable over the default.  `shapematchd --help`
+ * prints the table below with the defaults. */
+#ifndef SMD_CONFIG_H
+#define SMD_CONFIG_H
+
+#include <limits.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
+typedef struct smd_config {
+    char listen_host[256];        /* --listen HOST:PORT (IPv6 as [::1]:8080) */
+    unsigned listen_port;         /* 0 = any free port (printed in the log) */
+    char spool[PATH_MAX];         /* --spool DIR */
+    int workers;                  /* --workers N: concurrent worker processes */
+    char tokens_file[PATH_MAX];   /* --tokens-file FILE ("" = no auth) */
+    uint64_t max_upload;          /* --max-upload BYTES: whole request body */
+    double job_timeout;           /* --job-timeout: wall time per run, 0 = none */
+    double retention;             /* --retention: keep finished jobs, 0 = forever */
+    double cpu_limit;             /* --cpu-limit: RLIMIT_CPU seconds, 0 = none */
+    uint64_t memory_limit;        /* --memory-limit: RLIMIT_AS bytes, 0 = none */
+    char worker_path[PATH_MAX];   /* --worker PATH ("" = next to shapematchd) */
+    int worker_threads;           /* --worker-threads: OpenMP/BLAS threads per worker, 0 = cores/workers */
+    int http_threads;             /* --http-threads: MHD polling threads */
+    unsigned max_connections;     /* --max-connections */
+    unsigned max_connections_per_ip; /* --max-connections-per-ip */
+    unsigned connection_timeout;  /* --connection-timeout: idle seconds */
+    uint64_t connection_memory;   /* --connection-memory: per-connection pool */
+    double shutdown_grace;        /* --shutdown-grace: wait for running jobs */
+    double keepalive;             /* --keepalive: idle event streams get ": keepalive" */
+    double kill_grace;            /* --kill-grace: SIGTERM -> SIGKILL delay */
+    int log_level;                /* --log-level debug|info|warn|error */
+} smd_config;
+
+/* Looks up an environment variable (getenv in the daemon; a table in
+ * tests).  Returns NULL when unset. */
+typedef const char *(*smd_env_fn)(const char *name, void *user);
+
+typedef enum smd_config_result {
+    SMD_CONFIG_OK = 0,
+    SMD_CONFIG_HELP = 1,    /* --help: print smd_config_help, exit 0 */
+    SMD_CONFIG_VERSION = 2, /* --version */
+    SMD_CONFIG_ERROR = 3    /* msg names the flag or variable */
+} smd_config_result;
+
+/* Fills c with the defaults, then the environment, then argv[1..]. */
+smd_config_result smd_config_parse(smd_config *c, int argc, char **argv,
+                                   smd_env_fn env, void *env_user, char *msg,
+                                   size_t cap);
+
+void smd_config_help(FILE *out);
+
+/* Number of online processors (default of --workers), at least 1. */
+int smd_default_workers(void);
+
+#endif

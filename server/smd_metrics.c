@@ -1,0 +1,220 @@
+/* Prometheus metrics (see smd_metrics.h). */
+#include "smd_metrics.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+static const char *const route_labels[SMD_ROUTE_COUNT] = {
+    "other", "/", "/v1/openapi.yaml", "/healthz", "/readyz", "/metrics", "/v1/processes", "/v1/processes/{id}",
+    "/v1/jobs", "/v1/jobs/{id}", "/v1/jobs/{id}/events", "/v1/jobs/{id}/results",
+    "/v1/jobs/{id}/results/mesh", "/v1/jobs/{id}/results/displacement",
+    "/v1/jobs/{id}/results/history",
+};
+
+static const char *const method_labels[SMD_METHODS] = {"GET", "POST", "DELETE", "HEAD", "other"};
+
+static const double bucket_bounds[SMD_LATENCY_BUCKETS] = {
+    0.0001, 0.00025, 0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025,
+    0.05,   0.1,     0.25,   0.5,   1,      2.5,   10,
+};
+
+static const char *const final_states[3] = {"successful", "failed", "dismissed"};
+static const char *const all_states[5] = {"accepted", "running", "successful", "failed",
+                                          "dismissed"};
+
+const char *smd_route_label(smd_route r)
+{
+    return (r >= 0 && r < SMD_ROUTE_COUNT) ? route_labels[r] : "other";
+}
+
+int smd_metrics_init(smd_metrics *m)
+{
+    memset(m, 0, sizeof *m);
+    return pthread_mutex_init(&m->lock, NULL) == 0 ? 0 : -1;
+}
+
+void smd_metrics_destroy(smd_metrics *m)
+{
+    pthread_mutex_destroy(&m->lock);
+}
+
+static int method_index(const char *method)
+{
+    for (int i = 0; i < SMD_METHODS - 1; i++)
+        if (method && strcmp(method, method_labels[i]) == 0)
+            return i;
+    return SMD_METHODS - 1;
+}
+
+void smd_metrics_request(smd_metrics *m, smd_route route, const char *method, unsigned status,
+                         double seconds, uint64_t bytes_in, uint64_t bytes_out)
+{
+    if (route < 0 || route >= SMD_ROUTE_COUNT)
+        route = SMD_ROUTE_OTHER;
+    pthread_mutex_lock(&m->lock);
+    if (status >= 100 && status <= 599)
+        m->requests[route][method_index(method)][status - 100]++;
+    for (int b = 0; b < SMD_LATENCY_BUCKETS; b++)
+        if (seconds <= bucket_bounds[b])
+            m->latency_bucket[route][b]++; /* cumulative, as Prometheus wants */
+    m->latency_sum[route] += seconds;
+    m->latency_count[route]++;
+    m->bytes_in += bytes_in;
+    m->bytes_out += bytes_out;
+    pthread_mutex_unlock(&m->lock);
+}
+
+void smd_metrics_job_finished(smd_metrics *m, int state)
+{
+    if (state < 2 || state > 4)
+        return;
+    pthread_mutex_lock(&m->lock);
+    m->jobs_finished[state - 2]++;
+    pthread_mutex_unlock(&m->lock);
+}
+
+void smd_metrics_add(smd_metrics *m, uint64_t *counter, uint64_t n)
+{
+    pthread_mutex_lock(&m->lock);
+    *counter += n;
+    pthread_mutex_unlock(&m->lock);
+}
+
+typedef struct outbuf {
+    char *data;
+    size_t len, cap;
+    int failed;
+} outbuf;
+
+static void out(outbuf *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void out(outbuf *b, const char *fmt, ...)
+{
+    if (b->failed)
+        return;
+    for (;;) {
+        va_list ap;
+        va_start(ap, fmt);
+        int n = vsnprintf(b->data + b->len, b->cap - b->len, fmt, ap);
+        va_end(ap);
+        if (n < 0) {
+            b->failed = 1;
+            return;
+        }
+        if ((size_t)n < b->cap - b->len) {
+            b->len += (size_t)n;
+            return;
+        }
+        size_t ncap = 2 * b->cap + (size_t)n;
+        char *d = realloc(b->data, ncap);
+        if (!d) {
+            b->failed = 1;
+            return;
+        }
+        b->data = d;
+        b->cap = ncap;
+    }
+}
+
+static long resident_bytes(void)
+{
+    FILE *f = fopen("/proc/self/statm", "r");
+    if (!f)
+        return -1;
+    long size = 0, rss = -1;
+    if (fscanf(f, "%ld %ld", &size, &rss) != 2)
+        rss = -1;
+    fclose(f);
+    return rss < 0 ? -1 : rss * sysconf(_SC_PAGESIZE);
+}
+
+char *smd_metrics_render(smd_metrics *m, const smd_gauges *g, size_t *len)
+{
+    outbuf b = {malloc(16384), 0, 16384, 0};
+    if (!b.data)
+        return NULL;
+    b.data[0] = '\0';
+    out(&b, "# HELP shapematch_jobs Jobs in the store by state.\n# TYPE shapematch_jobs gauge\n");
+    for (int s = 0; s < 5; s++)
+        out(&b, "shapematch_jobs{state=\"%s\"} %llu\n", all_states[s],
+            (unsigned long long)g->jobs_by_state[s]);
+    out(&b, "# HELP shapematch_queue_depth Jobs waiting for a worker.\n"
+            "# TYPE shapematch_queue_depth gauge\nshapematch_queue_depth %llu\n",
+        (unsigned long long)g->queue_depth);
+    out(&b, "# HELP shapematch_workers_busy Worker processes running.\n"
+            "# TYPE shapematch_workers_busy gauge\nshapematch_workers_busy %llu\n",
+        (unsigned long long)g->workers_busy);
+    out(&b, "# HELP shapematch_workers Worker slots.\n"
+            "# TYPE shapematch_workers gauge\nshapematch_workers %llu\n",
+        (unsigned long long)g->workers_total);
+    out(&b, "# HELP shapematch_event_streams Open event streams.\n"
+            "# TYPE shapematch_event_streams gauge\nshapematch_event_streams %llu\n",
+        (unsigned long long)g->followers);
+    out(&b, "# HELP shapematch_ready 1 when accepting jobs.\n"
+            "# TYPE shapematch_ready gauge\nshapematch_ready %d\n", g->ready);
+    long rss = resident_bytes();
+    if (rss >= 0)
+        out(&b, "# HELP process_resident_memory_bytes Resident memory of the daemon.\n"
+                "# TYPE process_resident_memory_bytes gauge\nprocess_resident_memory_bytes %ld\n",
+            rss);
+    out(&b, "# HELP process_start_time_seconds Start time of the daemon (Unix seconds).\n"
+            "# TYPE process_start_time_seconds gauge\nprocess_start_time_seconds %.3f\n",
+        g->start_time);
+
+    pthread_mutex_lock(&m->lock);
+    out(&b, "# HELP shapematch_jobs_submitted_total Jobs accepted.\n"
+            "# TYPE shapematch_jobs_submitted_total counter\nshapematch_jobs_submitted_total %llu\n",
+        (unsigned long long)m->jobs_submitted);
+    out(&b, "# HELP shapematch_jobs_finished_total Jobs that reached a final state.\n"
+            "# TYPE shapematch_jobs_finished_total counter\n");
+    for (int s = 0; s < 3; s++)
+        out(&b, "shapematch_jobs_finished_total{state=\"%s\"} %llu\n", final_states[s],
+            (unsigned long long)m->jobs_finished[s]);
+    out(&b, "# HELP shapematch_workers_started_total Worker processes started.\n"
+            "# TYPE shapematch_workers_started_total counter\nshapematch_workers_started_total %llu\n",
+        (unsigned long long)m->workers_started);
+    out(&b, "# HELP shapematch_events_total Events appended to job logs.\n"
+            "# TYPE shapematch_events_total counter\nshapematch_events_total %llu\n",
+        (unsigned long long)m->events_appended);
+    out(&b, "# HELP shapematch_http_requests_total HTTP requests by route, method and status.\n"
+            "# TYPE shapematch_http_requests_total counter\n");
+    for (int r = 0; r < SMD_ROUTE_COUNT; r++)
+        for (int k = 0; k < SMD_METHODS; k++)
+            for (int c = 0; c < 500; c++)
+                if (m->requests[r][k][c])
+                    out(&b, "shapematch_http_requests_total{route=\"%s\",method=\"%s\",code=\"%d\"} %llu\n",
+                        route_labels[r], method_labels[k], c + 100,
+                        (unsigned long long)m->requests[r][k][c]);
+    out(&b, "# HELP shapematch_http_request_duration_seconds Time from request to the end of the "
+            "response (event streams: the whole stream).\n"
+            "# TYPE shapematch_http_request_duration_seconds histogram\n");
+    for (int r = 0; r < SMD_ROUTE_COUNT; r++) {
+        if (!m->latency_count[r])
+            continue;
+        for (int k = 0; k < SMD_LATENCY_BUCKETS; k++)
+            out(&b, "shapematch_http_request_duration_seconds_bucket{route=\"%s\",le=\"%g\"} %llu\n",
+                route_labels[r], bucket_bounds[k], (unsigned long long)m->latency_bucket[r][k]);
+        out(&b, "shapematch_http_request_duration_seconds_bucket{route=\"%s\",le=\"+Inf\"} %llu\n",
+            route_labels[r], (unsigned long long)m->latency_count[r]);
+        out(&b, "shapematch_http_request_duration_seconds_sum{route=\"%s\"} %.6f\n", route_labels[r],
+            m->latency_sum[r]);
+        out(&b, "shapematch_http_request_duration_seconds_count{route=\"%s\"} %llu\n",
+            route_labels[r], (unsigned long long)m->latency_count[r]);
+    }
+    out(&b, "# HELP shapematch_http_received_bytes_total Request bytes received (bodies).\n"
+            "# TYPE shapematch_http_received_bytes_total counter\nshapematch_http_received_bytes_total %llu\n",
+        (unsigned long long)m->bytes_in);
+    out(&b, "# HELP shapematch_http_sent_bytes_total Response body bytes sent.\n"
+            "# TYPE shapematch_http_sent_bytes_total counter\nshapematch_http_sent_bytes_total %llu\n",
+        (unsigned long long)m->bytes_out);
+    pthread_mutex_unlock(&m->lock);
+    if (b.failed) {
+        free(b.data);
+        return NULL;
+    }
+    if (len)
+        *len = b.len;
+    return b.data;
+}

@@ -1,0 +1,300 @@
+/* GET /v1/jobs/{id}/results[/mesh|/displacement|/history].
+ *
+ * The worker writes every format once (results/, see smd_worker.h), so
+ * serving is a matter of choosing a file: by ?format=, else by Accept,
+ * else the first (default) format.  Files go out with sendfile, or
+ * through a streaming gzip encoder when Accept-Encoding allows gzip, so a
+ * large result never sits in memory. */
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zlib.h>
+
+#include "sm_payload.h"
+#include "smd_routes.h"
+#include "smd_worker.h"
+
+typedef struct result_format {
+    const char *name;      /* ?format= value */
+    const char *media;     /* Content-Type */
+    const char *file;      /* in results/ */
+} result_format;
+
+static const result_format mesh_formats[] = {
+    {"mesh", "application/x-medit-mesh", SMD_RESULT_MESH},
+    {"meshb", "application/x-medit-meshb", SMD_RESULT_MESHB},
+    {"vtu", "application/vnd.vtk.vtu+xml", SMD_RESULT_VTU},
+    {"binary", SM_PAYLOAD_MEDIA_TYPE, SMD_RESULT_PAYLOAD},
+};
+static const result_format displacement_formats[] = {
+    {"sol", "application/x-medit-sol", SMD_RESULT_DISPLACEMENT},
+    {"solb", "application/x-medit-solb", SMD_RESULT_DISPLACEMENT_B},
+};
+static const result_format history_formats[] = {
+    {"csv", "text/csv", SMD_RESULT_HISTORY_CSV},
+    {"json", "application/json", SMD_RESULT_HISTORY_JSON},
+};
+
+/* ---------------------------------------------------- streaming gzip */
+
+typedef struct gz_stream {
+    int fd;
+    z_stream z;
+    int eof, done;
+    uint64_t *bytes_out;
+    unsigned char in[65536];
+} gz_stream;
+
+static ssize_t gz_read(void *cls, uint64_t pos, char *buf, size_t max)
+{
+    gz_stream *g = cls;
+    (void)pos;
+    if (g->done)
+        return MHD_CONTENT_READER_END_OF_STREAM;
+    g->z.next_out = (Bytef *)buf;
+    g->z.avail_out = (uInt)(max > (1u << 30) ? (1u << 30) : max);
+    uInt avail = g->z.avail_out;
+    while (g->z.avail_out > 0) {
+        if (g->z.avail_in == 0 && !g->eof) {
+            ssize_t n = read(g->fd, g->in, sizeof g->in);
+            if (n < 0 && errno == EINTR)
+                continue;
+            if (n < 0)
+                return MHD_CONTENT_READER_END_WITH_ERROR;
+            if (n == 0)
+                g->eof = 1;
+            g->z.next_in = g->in;
+            g->z.avail_in = (uInt)n;
+        }
+        int rc = deflate(&g->z, g->eof ? Z_FINISH : Z_NO_FLUSH);
+        if (rc == Z_STREAM_END) {
+            g->done = 1;
+            break;
+        }
+        if (rc != Z_OK && rc != Z_BUF_ERROR)
+            return MHD_CONTENT_READER_END_WITH_ERROR;
+        if (g->z.avail_out < avail && g->z.avail_in == 0 && !g->eof)
+            break; /* hand over what we have before reading more */
+    }
+    size_t produced = avail - g->z.avail_out;
+    if (g->bytes_out)
+        *g->bytes_out += produced;
+    if (produced == 0 && g->done)
+        return MHD_CONTENT_READER_END_OF_STREAM;
+    return (ssize_t)produced;
+}
+
+static void gz_free(void *cls)
+{
+    gz_stream *g = cls;
+    deflateEnd(&g->z);
+    close(g->fd);
+    free(g);
+}
+
+static struct MHD_Response *gzip_file_response(int fd, uint64_t *bytes_out)
+{
+    gz_stream *g = calloc(1, sizeof *g);
+    if (!g)
+        return NULL;
+    if (deflateInit2(&g->z, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK) {
+        free(g);
+        return NULL;
+    }
+    g->fd = fd;
+    g->bytes_out = bytes_out;
+    struct MHD_Response *resp =
+        MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 64 * 1024, gz_read, g, gz_free);
+    if (!resp) {
+        deflateEnd(&g->z);
+        free(g);
+    }
+    return resp;
+}
+
+/* -------------------------------------------------------------- files */
+
+static enum MHD_Result send_file(struct MHD_Connection *conn, smd_request *req,
+                                 const result_format *f, const char *disposition_name)
+{
+    smd_server *srv = req->srv;
+    char path[PATH_MAX], name[SMD_ID_LEN + 64];
+    snprintf(name, sizeof name, SMD_RESULTS_DIR "/%s", f->file);
+    if (smd_store_path(srv->store, req->id, name, path, sizeof path) != 0)
+        return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "path too long");
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    struct stat st;
+    if (fd < 0 || fstat(fd, &st) != 0) {
+        int missing = errno == ENOENT;
+        if (fd >= 0)
+            close(fd);
+        pthread_mutex_lock(&srv->lock);
+        int exists = smd_store_get(srv->store, req->id) != NULL;
+        pthread_mutex_unlock(&srv->lock);
+        if (missing && !exists) /* deleted since its state was read */
+            return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
+        return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL,
+                                 "the result file %s of job %s is missing", f->file, req->id);
+    }
+    const char *ae =
+        MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_ACCEPT_ENCODING);
+    int gzip = smd_accepts_gzip(ae);
+    struct MHD_Response *resp;
+    if (gzip) {
+        resp = gzip_file_response(fd, &req->bytes_out);
+    } else {
+        resp = MHD_create_response_from_fd((uint64_t)st.st_size, fd);
+        if (resp)
+            req->bytes_out += (uint64_t)st.st_size;
+    }
+    if (!resp) {
+        close(fd);
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
+    }
+    char disposition[128];
+    snprintf(disposition, sizeof disposition, "attachment; filename=\"%s\"", disposition_name);
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, f->media);
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_DISPOSITION, disposition);
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_VARY, "Accept, Accept-Encoding");
+    if (gzip)
+        MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_ENCODING, "gzip");
+    return smd_reply(conn, req, 200, resp);
+}
+
+/* Picks the format: ?format=, else Accept, else the first. */
+static enum MHD_Result serve(struct MHD_Connection *conn, smd_request *req,
+                             const result_format *formats, int n)
+{
+    const char *format = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "format");
+    int choice = -1;
+    char names[96] = "";
+    for (int i = 0; i < n; i++) {
+        strncat(names, i ? (i + 1 == n ? " or " : ", ") : "", sizeof names - strlen(names) - 1);
+        strncat(names, formats[i].name, sizeof names - strlen(names) - 1);
+    }
+    if (format) {
+        for (int i = 0; i < n; i++)
+            if (strcmp(format, formats[i].name) == 0)
+                choice = i;
+        if (choice < 0)
+            return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
+                                     "format: expected %s", names);
+    } else {
+        const char *offered[8];
+        for (int i = 0; i < n; i++)
+            offered[i] = formats[i].media;
+        const char *accept = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_ACCEPT);
+        choice = smd_accept_choose(accept, offered, n);
+        if (choice < 0)
+            return smd_reply_problem(conn, req, 406, SMD_PROBLEM_NOT_ACCEPTABLE,
+                                     "Accept allows none of the formats offered (%s; or use "
+                                     "?format=%s)",
+                                     names, names);
+    }
+    const result_format *f = &formats[choice];
+    const char *dot = strrchr(f->file, '.');
+    char disposition[64];
+    if (formats == mesh_formats)
+        snprintf(disposition, sizeof disposition, "result%s", dot ? dot : "");
+    else
+        snprintf(disposition, sizeof disposition, "%s", f->file);
+    return send_file(conn, req, f, disposition);
+}
+
+/* ------------------------------------------------------------ summary */
+
+static json_t *item(const char *id, const char *what, const result_format *f, const char *title)
+{
+    char href[160];
+    snprintf(href, sizeof href, "/v1/jobs/%s/results/%s?format=%s", id, what, f->name);
+    return json_pack("{s:s,s:s,s:s,s:s}", "href", href, "rel", "item", "type", f->media, "title",
+                     title);
+}
+
+static enum MHD_Result summary(struct MHD_Connection *conn, smd_request *req)
+{
+    char path[PATH_MAX];
+    if (smd_store_path(req->srv->store, req->id, SMD_RESULTS_DIR "/" SMD_RESULT_SUMMARY, path,
+                       sizeof path) != 0)
+        return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "path too long");
+    char *text;
+    size_t len;
+    if (smd_read_file(path, 1 << 20, &text, &len) != 0) {
+        int saved = errno;
+        pthread_mutex_lock(&req->srv->lock);
+        int exists = smd_store_get(req->srv->store, req->id) != NULL;
+        pthread_mutex_unlock(&req->srv->lock);
+        if (saved == ENOENT && !exists) /* deleted since its state was read */
+            return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
+        return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL,
+                                 "the summary of job %s is missing: %s", req->id, strerror(saved));
+    }
+    json_t *doc = json_loadb(text, len, 0, NULL);
+    free(text);
+    if (!json_is_object(doc)) {
+        json_decref(doc);
+        return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL,
+                                 "the summary of job %s is unreadable", req->id);
+    }
+    json_object_set_new(doc, "jobID", json_string(req->id));
+    json_t *links = json_array();
+    char self[96], up[64];
+    snprintf(self, sizeof self, "/v1/jobs/%s/results", req->id);
+    snprintf(up, sizeof up, "/v1/jobs/%s", req->id);
+    json_array_append_new(links, json_pack("{s:s,s:s,s:s,s:s}", "href", self, "rel", "self", "type",
+                                           "application/json", "title", "this summary"));
+    json_array_append_new(links, json_pack("{s:s,s:s,s:s,s:s}", "href", up, "rel", "up", "type",
+                                           "application/json", "title", "the job"));
+    static const char *const mesh_titles[] = {"deformed mesh (Medit ASCII)",
+                                              "deformed mesh (Medit binary)",
+                                              "deformed mesh with displacement and distance (VTK)",
+                                              "deformed mesh (binary payload)"};
+    for (int i = 0; i < 4; i++)
+        json_array_append_new(links, item(req->id, "mesh", &mesh_formats[i], mesh_titles[i]));
+    json_array_append_new(links, item(req->id, "displacement", &displacement_formats[0],
+                                      "displacement (Medit .sol)"));
+    json_array_append_new(links, item(req->id, "displacement", &displacement_formats[1],
+                                      "displacement (Medit .solb)"));
+    json_array_append_new(links, item(req->id, "history", &history_formats[0], "history (CSV)"));
+    json_array_append_new(links, item(req->id, "history", &history_formats[1], "history (JSON)"));
+    json_object_set_new(doc, "links", links);
+    return smd_reply_json(conn, req, 200, doc);
+}
+
+enum MHD_Result smd_route_results(struct MHD_Connection *conn, smd_request *req)
+{
+    smd_server *srv = req->srv;
+    pthread_mutex_lock(&srv->lock);
+    smd_job *job = smd_store_get(srv->store, req->id);
+    sm_job_state state = job ? job->state : SM_JOB_ACCEPTED;
+    char message[SM_EVENT_MESSAGE_MAX] = "";
+    if (job)
+        snprintf(message, sizeof message, "%s", job->message);
+    pthread_mutex_unlock(&srv->lock);
+    if (!job)
+        return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
+    if (state != SM_JOB_SUCCESSFUL) {
+        const char *what = state == SM_JOB_ACCEPTED ? "is queued"
+                           : state == SM_JOB_RUNNING ? "is running"
+                           : state == SM_JOB_FAILED  ? "failed"
+                                                     : "was dismissed";
+        return smd_reply_problem(conn, req, 404, SMD_PROBLEM_RESULT_NOT_READY,
+                                 "job %s %s%s%s%s: it has no results", req->id, what,
+                                 message[0] ? " (" : "", message, message[0] ? ")" : "");
+    }
+    switch (req->route) {
+    case SMD_ROUTE_RESULT_MESH:
+        return serve(conn, req, mesh_formats, 4);
+    case SMD_ROUTE_RESULT_DISPLACEMENT:
+        return serve(conn, req, displacement_formats, 2);
+    case SMD_ROUTE_RESULT_HISTORY:
+        return serve(conn, req, history_formats, 2);
+    default:
+        return summary(conn, req);
+    }
+}

@@ -1,0 +1,401 @@
+/* Route handlers: landing page, OpenAPI document, health, metrics,
+ * processes, job list, job status, cancel/delete, event streams. */
+#include "smd_routes.h"
+
+#include <errno.h>
+#include <inttypes.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "smd_pool.h"
+#include "smd_stream.h"
+
+#define OGC_REL "http://www.opengis.net/def/rel/ogc/1.0/"
+
+static json_t *mklink(const char *href, const char *rel, const char *type, const char *title)
+{
+    return json_pack("{s:s,s:s,s:s,s:s}", "href", href, "rel", rel, "type", type, "title", title);
+}
+
+/* ------------------------------------------------------- landing, docs */
+
+enum MHD_Result smd_route_landing(struct MHD_Connection *conn, smd_request *req)
+{
+    json_t *links = json_array();
+    json_array_append_new(links, mklink("/v1", "self", "application/json", "this document"));
+    json_array_append_new(links, mklink("/v1/openapi.yaml", "service-desc",
+                                      "application/vnd.oai.openapi;version=3.1",
+                                      "the API definition (OpenAPI 3.1)"));
+    json_array_append_new(links, mklink("/v1/processes", OGC_REL "processes", "application/json",
+                                      "the processes (one: match)"));
+    json_array_append_new(links, mklink("/v1/jobs", OGC_REL "job-list", "application/json", "jobs"));
+    json_array_append_new(links, mklink("/healthz", "service-status", "application/json", "liveness"));
+    json_array_append_new(links, mklink("/metrics", "service-meta", "text/plain", "Prometheus metrics"));
+    json_t *doc = json_pack("{s:s,s:s,s:s,s:o}", "title", "shapematch", "description",
+                            "Elastic shape matching jobs: upload a template mesh and a target "
+                            "signed distance, follow the progress, fetch the deformed mesh.",
+                            "version", SM_VERSION, "links", links);
+    return smd_reply_json(conn, req, 200, doc);
+}
+
+enum MHD_Result smd_route_openapi(struct MHD_Connection *conn, smd_request *req)
+{
+    if (smd_openapi_yaml_len == 0)
+        return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NOT_FOUND,
+                                 "this build carries no OpenAPI document");
+    char *copy = malloc(smd_openapi_yaml_len);
+    if (!copy)
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
+    memcpy(copy, smd_openapi_yaml, smd_openapi_yaml_len);
+    return smd_reply(conn, req, 200,
+                     smd_buffer_response(conn, req, "application/vnd.oai.openapi;version=3.1", copy,
+                                         smd_openapi_yaml_len));
+}
+
+/* ---------------------------------------------------- health, metrics */
+
+enum MHD_Result smd_route_healthz(struct MHD_Connection *conn, smd_request *req)
+{
+    return smd_reply_json(conn, req, 200, json_pack("{s:s}", "status", "ok"));
+}
+
+enum MHD_Result smd_route_readyz(struct MHD_Connection *conn, smd_request *req)
+{
+    smd_server *srv = req->srv;
+    if (atomic_load(&srv->draining))
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
+                                 "shutting down: no new job is accepted");
+    char jobs_dir[PATH_MAX];
+    if (smd_pathf(jobs_dir, sizeof jobs_dir, "%s/jobs", smd_store_root(srv->store)) != 0 ||
+        access(jobs_dir, W_OK) != 0)
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
+                                 "the spool is not writable: %s", strerror(errno));
+    pthread_mutex_lock(&srv->lock);
+    size_t depth = smd_queue_depth(srv->queue), busy = smd_pool_busy(srv->pool),
+           slots = smd_pool_slots(srv->pool);
+    pthread_mutex_unlock(&srv->lock);
+    return smd_reply_json(conn, req, 200,
+                          json_pack("{s:s,s:I,s:I,s:I}", "status", "ready", "queued",
+                                    (json_int_t)depth, "workers_busy", (json_int_t)busy, "workers",
+                                    (json_int_t)slots));
+}
+
+enum MHD_Result smd_route_metrics(struct MHD_Connection *conn, smd_request *req)
+{
+    smd_server *srv = req->srv;
+    smd_gauges g;
+    memset(&g, 0, sizeof g);
+    pthread_mutex_lock(&srv->lock);
+    for (size_t i = 0; i < smd_store_count(srv->store); i++) {
+        unsigned s = (unsigned)smd_store_at(srv->store, i)->state;
+        if (s < 5)
+            g.jobs_by_state[s]++;
+    }
+    g.queue_depth = smd_queue_depth(srv->queue);
+    g.workers_busy = smd_pool_busy(srv->pool);
+    g.workers_total = smd_pool_slots(srv->pool);
+    g.followers = srv->nfollowers;
+    pthread_mutex_unlock(&srv->lock);
+    g.start_time = srv->start_time;
+    g.ready = !atomic_load(&srv->draining);
+    size_t len;
+    char *text = smd_metrics_render(&srv->metrics, &g, &len);
+    if (!text)
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
+    return smd_reply(conn, req, 200,
+                     smd_buffer_response(conn, req, "text/plain; version=0.0.4; charset=utf-8", text,
+                                         len));
+}
+
+/* ------------------------------------------------------------ processes */
+
+static json_t *process_summary(void)
+{
+    json_t *links = json_array();
+    json_array_append_new(links, mklink("/v1/processes/match", "self", "application/json",
+                                      "process description"));
+    json_array_append_new(links, mklink("/v1/jobs", OGC_REL "execute", "multipart/form-data",
+                                      "submit a job: POST multipart/form-data"));
+    return json_pack("{s:s,s:s,s:s,s:s,s:[s],s:[s],s:o}", "id", "match", "title",
+                     "Elastic shape matching", "description",
+                     "Deforms a template simplicial mesh onto a target shape given by its signed "
+                     "distance function, by a sequence of linear-elastic displacements that "
+                     "decrease J = integral of d over the mesh (de Buhan, Dapogny, Frey, Nardoni "
+                     "2016).",
+                     "version", SM_VERSION, "jobControlOptions", "async-execute",
+                     "outputTransmission", "reference", "links", links);
+}
+
+enum MHD_Result smd_route_processes(struct MHD_Connection *conn, smd_request *req)
+{
+    json_t *links = json_array();
+    json_array_append_new(links, mklink("/v1/processes", "self", "application/json", "processes"));
+    return smd_reply_json(conn, req, 200,
+                          json_pack("{s:[o],s:o}", "processes", process_summary(), "links", links));
+}
+
+static json_t *file_input(const char *title, const char *description)
+{
+    return json_pack("{s:s,s:s,s:i,s:i,s:{s:s,s:s,s:s}}", "title", title, "description",
+                     description, "minOccurs", 1, "maxOccurs", 1, "schema", "type", "string",
+                     "format", "binary", "contentMediaType", "application/octet-stream");
+}
+
+static json_t *output(const char *title, const char *href_suffix, const char *formats)
+{
+    return json_pack("{s:s,s:s,s:s}", "title", title, "href", href_suffix, "formats", formats);
+}
+
+enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req, const char *pid)
+{
+    if (strcmp(pid, "match") != 0)
+        return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_PROCESS,
+                                 "no process \"%s\" (the only process is \"match\")", pid);
+    json_t *doc = process_summary();
+    json_t *schema = smd_params_schema_len
+                         ? json_loadb((const char *)smd_params_schema, smd_params_schema_len, 0, NULL)
+                         : NULL;
+    if (!schema)
+        schema = json_pack("{s:s}", "type", "object");
+    json_t *inputs = json_object();
+    json_object_set_new(inputs, "template",
+                        file_input("Template mesh", "The mesh to deform: Medit .mesh or .meshb "
+                                                    "(triangles in 2D, tetrahedra in 3D), optionally "
+                                                    "gzip-compressed."));
+    json_object_set_new(inputs, "target_mesh",
+                        file_input("Target (background) mesh",
+                                   "The mesh carrying the target's signed distance: .mesh or "
+                                   ".meshb, optionally gzip-compressed; same dimension as the "
+                                   "template."));
+    json_object_set_new(inputs, "target_sol",
+                        file_input("Target signed distance",
+                                   "SolAtVertices scalar field (.sol or .solb, optionally "
+                                   "gzip-compressed), one value per target mesh vertex, negative "
+                                   "inside the target."));
+    json_object_set_new(inputs, "params",
+                        json_pack("{s:s,s:s,s:i,s:i,s:o}", "title", "Parameters", "description",
+                                  "JSON document; only clamp is required.", "minOccurs", 1,
+                                  "maxOccurs", 1, "schema", schema));
+    json_object_set_new(doc, "inputs", inputs);
+    json_t *outputs = json_object();
+    json_object_set_new(outputs, "summary",
+                        output("Summary: stop reason, iterations, J, boundary error, quality, "
+                               "timings",
+                               "results", "application/json"));
+    json_object_set_new(outputs, "mesh", output("Deformed template mesh", "results/mesh",
+                                                "format=mesh|meshb|vtu|binary"));
+    json_object_set_new(outputs, "displacement",
+                        output("Cumulative displacement per template vertex",
+                               "results/displacement", "format=sol|solb"));
+    json_object_set_new(outputs, "history",
+                        output("One row per iteration", "results/history", "format=csv|json"));
+    json_object_set_new(doc, "outputs", outputs);
+    return smd_reply_json(conn, req, 200, doc);
+}
+
+/* ----------------------------------------------------------------- jobs */
+
+static int parse_long(const char *text, long lo, long hi, long *out)
+{
+    if (!text || !(*text >= '0' && *text <= '9'))
+        return -1;
+    char *end;
+    errno = 0;
+    long v = strtol(text, &end, 10);
+    if (errno || *end || v < lo || v > hi)
+        return -1;
+    *out = v;
+    return 0;
+}
+
+enum MHD_Result smd_route_jobs_list(struct MHD_Connection *conn, smd_request *req)
+{
+    smd_server *srv = req->srv;
+    const char *status = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "status");
+    const char *limit_s = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "limit");
+    const char *offset_s = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "offset");
+    unsigned wanted = 0; /* bit per state; 0 = all */
+    if (status && *status) {
+        char buf[128];
+        snprintf(buf, sizeof buf, "%s", status);
+        char *save = NULL;
+        for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
+            sm_job_state st;
+            if (sm_job_state_from_name(tok, &st) != 0)
+                return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
+                                         "status: expected a comma-separated list of accepted, "
+                                         "running, successful, failed, dismissed");
+            wanted |= 1u << st;
+        }
+    }
+    long limit = 100, offset = 0;
+    if (limit_s && parse_long(limit_s, 1, 1000, &limit) != 0)
+        return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
+                                 "limit: expected an integer in [1, 1000]");
+    if (offset_s && parse_long(offset_s, 0, LONG_MAX, &offset) != 0)
+        return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
+                                 "offset: expected an integer >= 0");
+    json_t *jobs = json_array();
+    long matched = 0;
+    pthread_mutex_lock(&srv->lock);
+    size_t n = smd_store_count(srv->store);
+    for (size_t k = 0; k < n; k++) { /* oldest first */
+        smd_job *job = smd_store_at(srv->store, k);
+        if (wanted && !(wanted & (1u << job->state)))
+            continue;
+        if (matched >= offset && matched < offset + limit)
+            json_array_append_new(jobs, smd_status_document(job));
+        matched++;
+    }
+    pthread_mutex_unlock(&srv->lock);
+    json_t *links = json_array();
+    char href[256], filter[160] = "";
+    if (wanted) {
+        snprintf(filter, sizeof filter, "&status=");
+        int first = 1;
+        for (int s = 0; s < 5; s++)
+            if (wanted & (1u << s)) {
+                strncat(filter, first ? "" : ",", sizeof filter - strlen(filter) - 1);
+                strncat(filter, sm_job_state_name((sm_job_state)s), sizeof filter - strlen(filter) - 1);
+                first = 0;
+            }
+    }
+    snprintf(href, sizeof href, "/v1/jobs?limit=%ld&offset=%ld%s", limit, offset, filter);
+    json_array_append_new(links, mklink(href, "self", "application/json", "this page"));
+    if (offset + limit < matched) {
+        snprintf(href, sizeof href, "/v1/jobs?limit=%ld&offset=%ld%s", limit, offset + limit, filter);
+        json_array_append_new(links, mklink(href, "next", "application/json", "next page"));
+    }
+    if (offset > 0) {
+        snprintf(href, sizeof href, "/v1/jobs?limit=%ld&offset=%ld%s", limit,
+                 offset > limit ? offset - limit : 0, filter);
+        json_array_append_new(links, mklink(href, "prev", "application/json", "previous page"));
+    }
+    json_t *doc = json_pack("{s:o,s:I,s:I,s:o}", "jobs", jobs, "numberMatched", (json_int_t)matched,
+                            "numberReturned", (json_int_t)json_array_size(jobs), "links", links);
+    return smd_reply_json(conn, req, 200, doc);
+}
+
+static enum MHD_Result no_such_job(struct MHD_Connection *conn, smd_request *req)
+{
+    return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
+}
+
+enum MHD_Result smd_route_job_get(struct MHD_Connection *conn, smd_request *req)
+{
+    smd_server *srv = req->srv;
+    pthread_mutex_lock(&srv->lock);
+    smd_job *job = smd_store_get(srv->store, req->id);
+    json_t *doc = job ? smd_status_document(job) : NULL;
+    pthread_mutex_unlock(&srv->lock);
+    if (!job)
+        return no_such_job(conn, req);
+    return smd_reply_json(conn, req, 200, doc);
+}
+
+enum MHD_Result smd_route_job_delete(struct MHD_Connection *conn, smd_request *req)
+{
+    smd_server *srv = req->srv;
+    smd_wake_list wake = {0};
+    char trash[PATH_MAX] = "";
+    json_t *doc = NULL;
+    int wake_pool = 0;
+    sm_error err;
+    pthread_mutex_lock(&srv->lock);
+    smd_job *job = smd_store_get(srv->store, req->id);
+    if (!job) {
+        pthread_mutex_unlock(&srv->lock);
+        return no_such_job(conn, req);
+    }
+    double now = sm_time_now();
+    if (job->state == SM_JOB_ACCEPTED || job->state == SM_JOB_RUNNING) {
+        /* cancel: the job is dismissed at once; a running worker gets
+         * SIGTERM (then SIGKILL) from the supervisor, which appends the
+         * "cancelled" event when it is gone */
+        int running = job->state == SM_JOB_RUNNING;
+        job->state = SM_JOB_DISMISSED;
+        job->updated = now;
+        snprintf(job->message, sizeof job->message, "cancelled by request (DELETE)");
+        if (running) {
+            job->cancel_requested = 1;
+            wake_pool = 1;
+        } else {
+            smd_queue_remove(srv->queue, job->id);
+            job->finished = now;
+            sm_event ev;
+            sm_event_init(&ev, SM_EVENT_CANCELLED);
+            snprintf(ev.message, sizeof ev.message, "%s", job->message);
+            if (smd_store_append_event(srv->store, job, &ev, &err) != SM_OK)
+                smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
+            smd_job_close_log(job);
+            smd_metrics_job_finished(&srv->metrics, SM_JOB_DISMISSED);
+        }
+        if (smd_store_save(srv->store, job, &err) != SM_OK)
+            smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
+        smd_log(&srv->log, SMD_LOG_INFO, running ? "job_cancel_requested" : "job_cancelled",
+                json_pack("{s:s,s:s}", "job", job->id, "message", job->message));
+        smd_stream_collect_job(job, &wake);
+        doc = smd_status_document(job);
+    } else {
+        /* final: delete the job and its files */
+        doc = smd_status_document(job);
+        json_object_set_new(doc, "message", json_string("deleted"));
+        json_object_del(doc, "links");
+        smd_stream_collect_job(job, &wake);
+        if (job->worker_active) {
+            job->delete_requested = 1; /* files go when the worker is reaped */
+        } else if (smd_store_trash(srv->store, job->id, trash, sizeof trash) != 0) {
+            smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "job %s: cannot delete: %s", job->id,
+                     strerror(errno));
+            trash[0] = '\0';
+        }
+        smd_log(&srv->log, SMD_LOG_INFO, "job_deleted", json_pack("{s:s}", "job", job->id));
+        smd_store_unlink(srv->store, job);
+    }
+    pthread_mutex_unlock(&srv->lock);
+    smd_wake_list_resume(&wake);
+    smd_wake_list_free(&wake);
+    if (wake_pool)
+        smd_pool_wake(srv->pool);
+    if (trash[0])
+        smd_rmtree(trash);
+    return smd_reply_json(conn, req, 200, doc);
+}
+
+/* --------------------------------------------------------------- events */
+
+enum MHD_Result smd_route_events(struct MHD_Connection *conn, smd_request *req)
+{
+    smd_server *srv = req->srv;
+    static const char *const offered[] = {"application/x-ndjson", "text/event-stream"};
+    const char *accept = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_ACCEPT);
+    int choice = smd_accept_choose(accept, offered, 2);
+    if (choice < 0)
+        return smd_reply_problem(conn, req, 406, SMD_PROBLEM_NOT_ACCEPTABLE,
+                                 "events are served as text/event-stream or application/x-ndjson");
+    long after = 0;
+    const char *last = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, "Last-Event-ID");
+    const char *after_q = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "after");
+    if (last && *last && parse_long(last, 0, LONG_MAX, &after) != 0)
+        return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
+                                 "Last-Event-ID: expected an event sequence number");
+    if (!(last && *last) && after_q && parse_long(after_q, 0, LONG_MAX, &after) != 0)
+        return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
+                                 "after: expected an event sequence number");
+    char msg[256];
+    pthread_mutex_lock(&srv->lock);
+    smd_job *job = smd_store_get(srv->store, req->id);
+    struct MHD_Response *resp =
+        job ? smd_stream_response(srv, job, conn, choice == 1, after, &req->bytes_out, msg, sizeof msg)
+            : NULL;
+    pthread_mutex_unlock(&srv->lock);
+    if (!job)
+        return no_such_job(conn, req);
+    if (!resp)
+        return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "cannot open the event log: %s",
+                                 msg);
+    return smd_reply(conn, req, 200, resp);
+}

@@ -1,0 +1,49 @@
+/* The daemon's shared state, passed to every part (no globals).
+ *
+ * Threads: libmicrohttpd's polling threads (HTTP handlers), the
+ * supervisor (worker processes, timeouts, keepalives, retention) and the
+ * main thread (signals).  One mutex, `lock`, guards the store, the queue,
+ * the worker slots and the followers; it is held only for short, bounded
+ * work (table updates, one status.json write, one event append), never
+ * while waiting for a worker or the network.  libmicrohttpd is never
+ * called with `lock` held except MHD_suspend_connection from a content
+ * reader (see smd_stream.c for why that order is safe). */
+#ifndef SMD_SERVER_H
+#define SMD_SERVER_H
+
+#include <pthread.h>
+#include <stdatomic.h>
+
+#include "smd_auth.h"
+#include "smd_config.h"
+#include "smd_log.h"
+#include "smd_metrics.h"
+#include "smd_queue.h"
+#include "smd_store.h"
+
+struct MHD_Daemon;
+struct smd_pool;
+struct smd_follower;
+
+typedef struct smd_server {
+    smd_config cfg;
+    smd_logger log;
+    smd_tokens *tokens;         /* NULL: no authentication */
+    smd_metrics metrics;
+    double start_time;          /* Unix seconds */
+
+    pthread_mutex_t lock;
+    smd_store *store;
+    smd_queue *queue;
+    struct smd_pool *pool;
+    struct smd_follower *followers; /* every event stream */
+    size_t nfollowers;
+
+    struct MHD_Daemon *httpd;
+    unsigned port;              /* the port actually bound */
+
+    atomic_int draining;        /* shutdown began: refuse new jobs, /readyz 503 */
+    atomic_int stopping;        /* event streams end */
+} smd_server;
+
+#endif

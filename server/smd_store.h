@@ -1,0 +1,149 @@
+/* The job store: a spool folder with one folder per job,
+ *
+ *   SPOOL/jobs/<id>/status.json     job record (OGC status fields plus
+ *                                   bookkeeping), replaced atomically
+ *                   params.json     canonical parameters (sm_params_to_json)
+ *                   inputs/         template.*, target_mesh.*, target_sol.*
+ *                   events.ndjson   append-only event log, seq 1, 2, ...
+ *                   results/        written by the worker, renamed into
+ *                                   place when complete
+ *                   worker.log      the worker's stdout and stderr
+ *   SPOOL/lock      flock'ed by the daemon using the spool (holds its pid)
+ *   SPOOL/tmp/      uploads being received (emptied at start)
+ *   SPOOL/trash/    folders being deleted (emptied at start)
+ *
+ * and an in-memory table of the jobs (hash by id plus a list in
+ * submission order).  status.json is rewritten by temporary file, fsync
+ * and rename on every state change, so a crash leaves the old or the new
+ * record; events.ndjson is appended one whole line per write(2), and a
+ * torn last line (crash in the middle of a write) is cut at the next
+ * start.
+ *
+ * Threading: none inside; the daemon calls every function with its lock
+ * held (file writes included: they are short). */
+#ifndef SMD_STORE_H
+#define SMD_STORE_H
+
+#include <stdint.h>
+
+#include <jansson.h>
+
+#include "sm_error.h"
+#include "sm_proto_events.h"
+#include "smd_log.h"
+#include "smd_util.h"
+
+#define SMD_IDEMPOTENCY_KEY_MAX 255
+
+struct smd_follower;
+
+typedef struct smd_job {
+    char id[SMD_ID_LEN + 1];
+    sm_job_state state;
+    char message[SM_EVENT_MESSAGE_MAX];
+    double created, started, finished, updated; /* Unix seconds, < 0 = unset */
+    int progress;             /* 0..100 */
+    int attempt;              /* runs started so far */
+    int64_t order;            /* submission order (FIFO across restarts) */
+    int dim;                  /* template dimension */
+    int max_iter;             /* for the progress estimate */
+    char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1]; /* "" = none */
+
+    /* last progress event, shown in the status document */
+    int have_progress;
+    sm_progress last_progress;
+
+    /* event log: event_end[i] is the byte offset just past event seq i+1 */
+    int events_loaded;
+    int64_t nevents;
+    uint64_t *event_end;
+    size_t event_cap;
+    int log_fd;               /* append descriptor while the job is live, or -1 */
+
+    /* runtime state (not persisted) */
+    int refs;                 /* the table's reference + followers + worker */
+    int removed;              /* no longer in the table (deleted) */
+    int worker_active;        /* a worker process runs (or is being reaped) */
+    int cancel_requested;     /* DELETE while running: stop the worker */
+    int delete_requested;     /* DELETE of a job whose worker is stopping */
+    struct smd_follower *followers; /* streams following this job */
+    struct smd_job *hash_next;
+} smd_job;
+
+typedef struct smd_store smd_store;
+
+/* Opens (creating) the spool and locks it (a second daemon on the same
+ * spool is refused), empties tmp/ and trash/, loads every job:
+ * running jobs become accepted again ("re-queued after a daemon
+ * restart") and their partial results are removed; unreadable records
+ * are logged and skipped.  Jobs are kept in submission order. */
+sm_status smd_store_open(const char *spool, const smd_logger *log,
+                         smd_store **out, sm_error *err);
+void smd_store_close(smd_store *s);
+
+const char *smd_store_root(const smd_store *s);
+/* SPOOL/tmp, where uploads are received. */
+const char *smd_store_tmp_dir(const smd_store *s);
+
+smd_job *smd_store_get(smd_store *s, const char *id);
+/* The job submitted with this Idempotency-Key, or NULL. */
+smd_job *smd_store_find_key(smd_store *s, const char *key);
+size_t smd_store_count(const smd_store *s);
+/* i-th job in submission order (0 <= i < count). */
+smd_job *smd_store_at(smd_store *s, size_t i);
+
+/* SPOOL/jobs/<id>/<name> (name "" gives the folder).  -1 on overflow. */
+int smd_store_path(const smd_store *s, const char *id, const char *name,
+                   char *buf, size_t cap);
+
+/* Turns a prepared upload folder (inputs/ and params.json inside) into an
+ * accepted job: writes status.json and events.ndjson (the "accepted"
+ * event), renames the folder to jobs/<id>, and adds the job to the table.
+ * *out is borrowed from the table. */
+sm_status smd_store_commit(smd_store *s, const char *upload_dir,
+                           const char *id, int dim, int max_iter,
+                           const char *idempotency_key, smd_job **out,
+                           sm_error *err);
+
+void smd_job_ref(smd_job *job);
+/* Drops a reference; the job is freed when it is removed from the table
+ * and no reference is left. */
+void smd_job_unref(smd_job *job);
+
+/* Removes the job from the table (lookups fail from now on) and marks it
+ * removed; its files stay until smd_store_delete_files. */
+void smd_store_unlink(smd_store *s, smd_job *job);
+
+/* Moves the job's folder to trash/ (instant, atomic); the caller then
+ * removes trash_path (smd_rmtree) without the lock.  -1 on failure. */
+int smd_store_trash(smd_store *s, const char *id, char *trash_path,
+                    size_t cap);
+
+/* Persists the record (status.json) after a state change. */
+sm_status smd_store_save(smd_store *s, smd_job *job, sm_error *err);
+
+/* Loads the event index from events.ndjson if not done yet, cutting a
+ * torn last line. */
+sm_status smd_store_load_events(smd_store *s, smd_job *job, sm_error *err);
+
+/* Appends ev to the job's log: sets ev->seq (next number), ev->job_id and
+ * ev->time (now, unless already set).  One write(2) of a whole line. */
+sm_status smd_store_append_event(smd_store *s, smd_job *job, sm_event *ev,
+                                 sm_error *err);
+
+/* Byte offset where event seq starts (seq in 1..nevents+1; nevents+1
+ * gives the end of the log).  The index must be loaded. */
+uint64_t smd_job_event_offset(const smd_job *job, int64_t seq);
+
+/* Closes the append descriptor (the job reached a final state). */
+void smd_job_close_log(smd_job *job);
+
+/* 1 for successful, failed, dismissed. */
+int smd_job_state_final(sm_job_state state);
+
+/* OGC statusInfo members (jobID, processID, type, status, message,
+ * created, started, finished, updated, progress) plus the last progress
+ * figures; no links.  New reference or NULL. */
+json_t *smd_job_status_fields(const smd_job *job);
+
+#endif

@@ -1,0 +1,482 @@
+/* Streaming multipart uploads of POST /v1/jobs (see smd_upload.h). */
+#include "smd_upload.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <limits.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zlib.h>
+
+#include "sm_proto_params.h"
+#include "smd_inputs.h"
+#include "smd_pool.h"
+#include "smd_worker.h"
+
+typedef enum part_id { PART_TEMPLATE = 0, PART_TARGET_MESH, PART_TARGET_SOL, PART_PARAMS, NPARTS } part_id;
+
+static const char *const part_names[NPARTS] = {"template", "target_mesh", "target_sol", "params"};
+
+struct smd_upload {
+    struct MHD_PostProcessor *pp;
+    char dir[PATH_MAX];            /* SPOOL/tmp/up-XXXXXX */
+    int committed;                 /* dir became a job: do not remove */
+    uint64_t received;
+    int current;                   /* part being received, -1 none */
+    uint64_t current_bytes;
+    int fd;                        /* its file, -1 none */
+    int seen[NPARTS];
+    char path[NPARTS][PATH_MAX];   /* files of the file parts */
+    char *params;                  /* params text */
+    size_t params_len;
+    char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1];
+    /* first error met while parsing; replied at the next call */
+    unsigned err_status;
+    const char *err_type;
+    char err_detail[768];
+};
+
+static void fail(smd_upload *u, unsigned status, const char *type, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+static void fail(smd_upload *u, unsigned status, const char *type, const char *fmt, ...)
+{
+    if (u->err_status)
+        return; /* keep the first reason */
+    u->err_status = status;
+    u->err_type = type;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(u->err_detail, sizeof u->err_detail, fmt, ap);
+    va_end(ap);
+}
+
+int smd_idempotency_key_valid(const char *key)
+{
+    size_t n = key ? strlen(key) : 0;
+    if (n == 0 || n > SMD_IDEMPOTENCY_KEY_MAX)
+        return 0;
+    for (size_t i = 0; i < n; i++)
+        if ((unsigned char)key[i] < 0x21 || (unsigned char)key[i] > 0x7e)
+            return 0;
+    return 1;
+}
+
+/* Client-supplied text made safe to quote in a message. */
+static void printable(char *dst, size_t cap, const char *src)
+{
+    size_t k = 0;
+    for (; src && *src && k + 4 < cap; src++)
+        dst[k++] = ((unsigned char)*src >= 0x20 && (unsigned char)*src < 0x7f && *src != '"') ? *src : '?';
+    if (src && *src && k + 4 <= cap) {
+        memcpy(dst + k, "...", 3);
+        k += 3;
+    }
+    dst[k] = '\0';
+}
+
+int smd_sniff_medit(const char *path, int *binary, int *gzip)
+{
+    unsigned char magic[4] = {0};
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return -1;
+    size_t n = fread(magic, 1, 2, f);
+    fclose(f);
+    *gzip = n == 2 && magic[0] == 0x1f && magic[1] == 0x8b;
+    gzFile gz = gzopen(path, "rb");
+    if (!gz)
+        return -1;
+    int got = gzread(gz, magic, 4);
+    gzclose(gz);
+    *binary = got == 4 && ((magic[0] == 1 && !magic[1] && !magic[2] && !magic[3]) ||
+                           (!magic[0] && !magic[1] && !magic[2] && magic[3] == 1));
+    return 0;
+}
+
+/* ------------------------------------------------------------ parts */
+
+static void close_part(smd_upload *u)
+{
+    if (u->fd >= 0) {
+        if (close(u->fd) != 0)
+            fail(u, 507, SMD_PROBLEM_STORAGE, "cannot store part '%s': %s", part_names[u->current],
+                 strerror(errno));
+        u->fd = -1;
+    }
+    u->current = -1;
+    u->current_bytes = 0;
+}
+
+static int open_part(smd_upload *u, part_id id)
+{
+    if (smd_pathf(u->path[id], sizeof u->path[id], "%s/inputs/%s.upload", u->dir, part_names[id]) != 0) {
+        fail(u, 500, SMD_PROBLEM_INTERNAL, "spool path too long");
+        return -1;
+    }
+    u->fd = open(u->path[id], O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0640);
+    if (u->fd < 0) {
+        fail(u, 507, SMD_PROBLEM_STORAGE, "cannot store part '%s': %s", part_names[id], strerror(errno));
+        return -1;
+    }
+    return 0;
+}
+
+static enum MHD_Result on_part(void *cls, enum MHD_ValueKind kind, const char *key,
+                               const char *filename, const char *content_type,
+                               const char *transfer_encoding, const char *data, uint64_t off,
+                               size_t size)
+{
+    smd_upload *u = cls;
+    (void)kind;
+    (void)filename;
+    (void)content_type;
+    if (u->err_status)
+        return MHD_NO;
+    int id = -1;
+    for (int i = 0; i < NPARTS; i++)
+        if (key && strcmp(key, part_names[i]) == 0)
+            id = i;
+    if (id < 0) {
+        char shown[64];
+        printable(shown, sizeof shown, key ? key : "");
+        fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
+             "unknown part \"%s\": the parts are template, target_mesh, target_sol and params", shown);
+        return MHD_NO;
+    }
+    if (id != u->current || (off == 0 && u->current_bytes > 0)) {
+        /* a new part begins */
+        close_part(u);
+        if (u->seen[id]) {
+            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART, "part \"%s\" given more than once", part_names[id]);
+            return MHD_NO;
+        }
+        if (transfer_encoding && strcasecmp(transfer_encoding, "binary") != 0 &&
+            strcasecmp(transfer_encoding, "7bit") != 0 && strcasecmp(transfer_encoding, "8bit") != 0) {
+            char shown[64];
+            printable(shown, sizeof shown, transfer_encoding);
+            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
+                 "part \"%s\": Content-Transfer-Encoding \"%s\" is not supported (send it as binary)",
+                 part_names[id], shown);
+            return MHD_NO;
+        }
+        u->seen[id] = 1;
+        u->current = id;
+        if (id != PART_PARAMS && open_part(u, (part_id)id) != 0)
+            return MHD_NO;
+    }
+    if (size == 0)
+        return MHD_YES;
+    u->current_bytes += size;
+    if (id == PART_PARAMS) {
+        if (u->params_len + size > SM_PARAMS_JSON_MAX_BYTES) {
+            fail(u, 422, SMD_PROBLEM_INVALID_INPUT, "params: larger than %d bytes",
+                 SM_PARAMS_JSON_MAX_BYTES);
+            return MHD_NO;
+        }
+        char *p = realloc(u->params, u->params_len + size + 1);
+        if (!p) {
+            fail(u, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
+            return MHD_NO;
+        }
+        u->params = p;
+        memcpy(u->params + u->params_len, data, size);
+        u->params_len += size;
+        u->params[u->params_len] = '\0';
+        return MHD_YES;
+    }
+    while (size > 0) {
+        ssize_t n = write(u->fd, data, size);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n <= 0) {
+            fail(u, 507, SMD_PROBLEM_STORAGE, "cannot store part \"%s\": %s", part_names[id],
+                 n < 0 ? strerror(errno) : "short write");
+            return MHD_NO;
+        }
+        data += n;
+        size -= (size_t)n;
+    }
+    return MHD_YES;
+}
+
+/* Gives each uploaded file its final name: inputs/<part>.<ext>, with
+ * the extension from the content, never from the client. */
+static int name_file(smd_upload *u, part_id id)
+{
+    int binary = 0, gzip = 0;
+    if (smd_sniff_medit(u->path[id], &binary, &gzip) != 0) {
+        fail(u, 500, SMD_PROBLEM_INTERNAL, "cannot read back part \"%s\"", part_names[id]);
+        return -1;
+    }
+    const char *ext = id == PART_TARGET_SOL ? (binary ? "solb" : "sol") : (binary ? "meshb" : "mesh");
+    char final[PATH_MAX];
+    if (smd_pathf(final, sizeof final, "%s/inputs/%s.%s%s", u->dir, part_names[id], ext,
+                  gzip ? ".gz" : "") != 0 ||
+        rename(u->path[id], final) != 0) {
+        fail(u, 500, SMD_PROBLEM_INTERNAL, "cannot store part \"%s\"", part_names[id]);
+        return -1;
+    }
+    memcpy(u->path[id], final, sizeof final);
+    return 0;
+}
+
+/* ---------------------------------------------------------- requests */
+
+static enum MHD_Result reply_error(struct MHD_Connection *conn, smd_request *req, smd_upload *u)
+{
+    return smd_reply_problem(conn, req, u->err_status, u->err_type, "%s", u->err_detail);
+}
+
+static enum MHD_Result reply_existing(struct MHD_Connection *conn, smd_request *req, smd_job *job)
+{
+    /* lock held by the caller */
+    json_t *doc = smd_status_document(job);
+    char location[64];
+    snprintf(location, sizeof location, "/v1/jobs/%s", job->id);
+    memcpy(req->id, job->id, sizeof req->id);
+    char *text = doc ? json_dumps(doc, JSON_INDENT(2) | JSON_PRESERVE_ORDER) : NULL;
+    json_decref(doc);
+    if (!text)
+        return MHD_NO;
+    struct MHD_Response *resp = smd_buffer_response(conn, req, "application/json", text, strlen(text));
+    if (!resp)
+        return MHD_NO;
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_LOCATION, location);
+    MHD_add_response_header(resp, "Idempotent-Replayed", "true");
+    return smd_reply(conn, req, MHD_HTTP_OK, resp);
+}
+
+enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
+{
+    smd_server *srv = req->srv;
+    if (atomic_load(&srv->draining))
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
+                                 "the daemon is shutting down and accepts no new job");
+    const char *length = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
+    if (length) {
+        char *end;
+        errno = 0;
+        unsigned long long n = strtoull(length, &end, 10);
+        if (errno == 0 && *end == '\0' && n > srv->cfg.max_upload)
+            return smd_reply_problem(conn, req, 413, SMD_PROBLEM_TOO_LARGE,
+                                     "the request body (%llu bytes) exceeds the limit of %" PRIu64
+                                     " bytes (--max-upload)",
+                                     n, srv->cfg.max_upload);
+    }
+    const char *ctype = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
+    if (!ctype || strncasecmp(ctype, "multipart/form-data", 19) != 0)
+        return smd_reply_problem(conn, req, 415, SMD_PROBLEM_UNSUPPORTED_MEDIA,
+                                 "POST /v1/jobs takes multipart/form-data with the parts template, "
+                                 "target_mesh, target_sol and params (e.g. curl -F)");
+    const char *key = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, "Idempotency-Key");
+    if (key && !smd_idempotency_key_valid(key))
+        return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
+                                 "Idempotency-Key must be 1 to %d visible ASCII characters",
+                                 SMD_IDEMPOTENCY_KEY_MAX);
+    if (key) {
+        pthread_mutex_lock(&srv->lock);
+        smd_job *job = smd_store_find_key(srv->store, key);
+        enum MHD_Result r = MHD_YES;
+        if (job)
+            r = reply_existing(conn, req, job);
+        pthread_mutex_unlock(&srv->lock);
+        if (job)
+            return r;
+    }
+
+    smd_upload *u = calloc(1, sizeof *u);
+    if (!u)
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
+    u->fd = -1;
+    u->current = -1;
+    if (key)
+        snprintf(u->idempotency_key, sizeof u->idempotency_key, "%s", key);
+    char inputs[PATH_MAX];
+    if (smd_pathf(u->dir, sizeof u->dir, "%s/up-XXXXXX", smd_store_tmp_dir(srv->store)) != 0 ||
+        !mkdtemp(u->dir)) {
+        u->dir[0] = '\0';
+        smd_upload_free(u);
+        return smd_reply_problem(conn, req, 507, SMD_PROBLEM_STORAGE,
+                                 "cannot create an upload folder in the spool: %s", strerror(errno));
+    }
+    if (smd_pathf(inputs, sizeof inputs, "%s/inputs", u->dir) != 0 || mkdir(inputs, 0750) != 0) {
+        smd_upload_free(u);
+        return smd_reply_problem(conn, req, 507, SMD_PROBLEM_STORAGE,
+                                 "cannot create an upload folder in the spool: %s", strerror(errno));
+    }
+    u->pp = MHD_create_post_processor(conn, 65536, on_part, u);
+    if (!u->pp) {
+        smd_upload_free(u);
+        return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_MULTIPART,
+                                 "malformed multipart/form-data Content-Type (missing boundary?)");
+    }
+    req->upload = u;
+    return MHD_YES;
+}
+
+/* Writes job.json: inputs and canonical params. */
+static int write_job_file(smd_upload *u, const smd_inputs *in)
+{
+    json_t *params = sm_params_to_jansson(&in->params, in->dim);
+    json_t *doc = json_object();
+    size_t prefix = strlen(u->dir) + 1; /* paths relative to the job folder */
+    if (!params || !doc) {
+        json_decref(params);
+        json_decref(doc);
+        return -1;
+    }
+    for (int i = 0; i < PART_PARAMS; i++)
+        json_object_set_new(doc, part_names[i], json_string(u->path[i] + prefix));
+    json_object_set_new(doc, "params", params);
+    char *text = json_dumps(doc, JSON_INDENT(2) | JSON_PRESERVE_ORDER);
+    json_decref(doc);
+    if (!text)
+        return -1;
+    char path[PATH_MAX];
+    int rc = smd_pathf(path, sizeof path, "%s/" SMD_JOB_FILE, u->dir);
+    if (rc == 0)
+        rc = smd_write_file_atomic(path, text, strlen(text));
+    free(text);
+    return rc;
+}
+
+static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *req, smd_upload *u)
+{
+    smd_server *srv = req->srv;
+    close_part(u);
+    if (u->pp) {
+        enum MHD_Result clean = MHD_destroy_post_processor(u->pp);
+        u->pp = NULL;
+        if (clean != MHD_YES)
+            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
+                 "malformed or truncated multipart/form-data body (no closing boundary)");
+    }
+    if (u->err_status)
+        return reply_error(conn, req, u);
+    for (int i = 0; i < NPARTS; i++)
+        if (!u->seen[i])
+            return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_MULTIPART,
+                                     "missing part \"%s\": the parts are template, target_mesh, "
+                                     "target_sol and params",
+                                     part_names[i]);
+    for (int i = 0; i < PART_PARAMS; i++)
+        if (name_file(u, (part_id)i) != 0)
+            return reply_error(conn, req, u);
+
+    smd_inputs in;
+    sm_error err;
+    sm_error_clear(&err);
+    sm_status st = smd_inputs_load(u->path[PART_TEMPLATE], u->path[PART_TARGET_MESH],
+                                   u->path[PART_TARGET_SOL], u->params ? u->params : "",
+                                   u->params_len, &in, &err);
+    if (st != SM_OK) {
+        if (st == SM_ERR_IO)
+            return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "%s", err.msg);
+        return smd_reply_problem(conn, req, 422, SMD_PROBLEM_INVALID_INPUT, "%s", err.msg);
+    }
+    int dim = in.dim, max_iter = in.params.max_iter;
+    int32_t nverts = in.template_mesh->nverts, nelems = in.template_mesh->nelems;
+    int rc = write_job_file(u, &in);
+    smd_inputs_free(&in);
+    if (rc != 0)
+        return smd_reply_problem(conn, req, 507, SMD_PROBLEM_STORAGE, "cannot write job.json: %s",
+                                 strerror(errno));
+
+    char id[SMD_ID_LEN + 1];
+    if (smd_random_id(id) != 0)
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
+                                 "no random source for the job id: %s", strerror(errno));
+    pthread_mutex_lock(&srv->lock);
+    smd_job *job = u->idempotency_key[0] ? smd_store_find_key(srv->store, u->idempotency_key) : NULL;
+    if (job) {
+        /* a concurrent retry with the same key won the race */
+        enum MHD_Result r = reply_existing(conn, req, job);
+        pthread_mutex_unlock(&srv->lock);
+        return r;
+    }
+    st = smd_store_commit(srv->store, u->dir, id, dim, max_iter,
+                          u->idempotency_key[0] ? u->idempotency_key : NULL, &job, &err);
+    if (st != SM_OK) {
+        pthread_mutex_unlock(&srv->lock);
+        smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
+        return smd_reply_problem(conn, req, 507, SMD_PROBLEM_STORAGE, "cannot store the job: %s",
+                                 err.msg);
+    }
+    u->committed = 1;
+    if (smd_queue_push(srv->queue, job->id) != 0)
+        smd_logf(&srv->log, SMD_LOG_ERROR, "queue_error", "job %s: out of memory queueing it",
+                 job->id);
+    smd_metrics_add(&srv->metrics, &srv->metrics.jobs_submitted, 1);
+    memcpy(req->id, job->id, sizeof req->id);
+    json_t *fields = json_pack("{s:s,s:i,s:i,s:i,s:I}", "job", job->id, "dimension", dim,
+                               "vertices", (int)nverts, "elements", (int)nelems, "bytes",
+                               (json_int_t)u->received);
+    smd_log(&srv->log, SMD_LOG_INFO, "job_accepted", fields);
+    json_t *doc = smd_status_document(job);
+    pthread_mutex_unlock(&srv->lock);
+    smd_pool_wake(srv->pool);
+
+    char location[64];
+    snprintf(location, sizeof location, "/v1/jobs/%s", id);
+    char *text = doc ? json_dumps(doc, JSON_INDENT(2) | JSON_PRESERVE_ORDER) : NULL;
+    json_decref(doc);
+    if (!text)
+        return MHD_NO;
+    struct MHD_Response *resp = smd_buffer_response(conn, req, "application/json", text, strlen(text));
+    if (!resp)
+        return MHD_NO;
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_LOCATION, location);
+    return smd_reply(conn, req, MHD_HTTP_CREATED, resp);
+}
+
+enum MHD_Result smd_upload_continue(struct MHD_Connection *conn, smd_request *req,
+                                    const char *data, size_t *size)
+{
+    smd_upload *u = req->upload;
+    if (*size == 0)
+        return finish_upload(conn, req, u);
+    size_t n = *size;
+    *size = 0;
+    req->bytes_in += n;
+    u->received += n;
+    uint64_t limit = req->srv->cfg.max_upload;
+    if (u->received > limit && !u->err_status) {
+        fail(u, 413, SMD_PROBLEM_TOO_LARGE,
+             "the request body exceeds the limit of %" PRIu64 " bytes (--max-upload)", limit);
+        close_part(u);
+    }
+    if (u->err_status) {
+        /* libmicrohttpd only lets a reply be queued before the body or
+         * after all of it: read the rest without keeping it, and answer at
+         * the end.  A body that goes on far past the limit is cut by
+         * closing the connection instead (the client sees no reply). */
+        if (u->received > 4 * limit + (16u << 20))
+            return MHD_NO;
+        return MHD_YES;
+    }
+    if (MHD_post_process(u->pp, data, n) != MHD_YES)
+        fail(u, 400, SMD_PROBLEM_BAD_MULTIPART, "malformed multipart/form-data body");
+    if (u->err_status)
+        close_part(u);
+    return MHD_YES;
+}
+
+void smd_upload_free(smd_upload *u)
+{
+    if (!u)
+        return;
+    if (u->pp)
+        MHD_destroy_post_processor(u->pp);
+    if (u->fd >= 0)
+        close(u->fd);
+    if (!u->committed && u->dir[0])
+        smd_rmtree(u->dir);
+    free(u->params);
+    free(u);
+}

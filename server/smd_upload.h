@@ -1,0 +1,44 @@
+/* POST /v1/jobs: a multipart/form-data upload streamed to disk.
+ *
+ * Parts (each at most once): template, target_mesh, target_sol (files:
+ * .mesh/.meshb/.sol/.solb, any of them gzip'ed: the format is sniffed
+ * from the content, the client's file name is never used as a path) and
+ * params (JSON text, as a field or a file).  libmicrohttpd's
+ * PostProcessor hands the parts over in pieces, which go straight into
+ * SPOOL/tmp/up-XXXXXX/inputs/; nothing but params is held in memory.
+ *
+ * The whole body is capped at --max-upload (413, before reading anything
+ * when Content-Length says so).  When the body is complete, the inputs
+ * are validated (smd_inputs.h) and a bad job is refused with 422 and the
+ * reason; a good one becomes jobs/<id> (rename) and is queued, 201.  An
+ * unfinished upload (client gone, error) leaves nothing behind. */
+#ifndef SMD_UPLOAD_H
+#define SMD_UPLOAD_H
+
+#include <stddef.h>
+
+#include "smd_http.h"
+
+typedef struct smd_upload smd_upload;
+
+/* First call of the request (headers received).  Replies itself and
+ * returns its result when the request is refused at once (413, 415, 400,
+ * 503, or the Idempotency-Key names an existing job); otherwise attaches
+ * an upload to req and returns MHD_YES. */
+enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req);
+
+/* Later calls: a piece of body (size > 0) or the end (size 0). */
+enum MHD_Result smd_upload_continue(struct MHD_Connection *conn, smd_request *req,
+                                    const char *data, size_t *size);
+
+/* Request over (completed or aborted): removes what was not committed. */
+void smd_upload_free(smd_upload *u);
+
+/* Sniffs a file's Medit flavour: sets *binary (first int32 is 1 in either
+ * byte order) and *gzip (gzip magic).  -1 when unreadable.  For tests. */
+int smd_sniff_medit(const char *path, int *binary, int *gzip);
+
+/* 1 when key is an acceptable Idempotency-Key (1..255 visible ASCII). */
+int smd_idempotency_key_valid(const char *key);
+
+#endif

@@ -1,0 +1,306 @@
+# Helpers of the shapematchd integration suites (sourced, not run).
+#
+# Each suite gets a fresh folder build/test-integration/<variant>-<suite>-<pid>/
+# (spools, daemon logs, test meshes), real daemons on free loopback ports
+# (--listen 127.0.0.1:0, the port is read back from the "listening" log
+# line), real curl, and prints TAP lines.  Daemons started here are killed
+# on exit (by their pid).  Waiting is always polling with a deadline, never
+# a bare sleep.
+# Shared by the daemon, client, demo and deploy suites: keep its functions'
+# meaning stable.
+# Env: SM_BIN (binaries of the variant), SM_ROOT (repo root), SM_VARIANT;
+# SM_TEST_KEEP=1 keeps the folder of a passing run, SM_TEST_TIMING=1 prints
+# the elapsed time after each ok line.
+set -u
+ROOT=${SM_ROOT:-$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)}
+BIN=${SM_BIN:-$ROOT/build/release}
+VARIANT=${SM_VARIANT:-release}
+SUITE=$(basename "$0" .sh)
+WORK=$ROOT/build/test-integration/$VARIANT-$SUITE-$$
+rm -rf "$WORK"
+mkdir -p "$WORK"
+# sanitizer builds run slower: deadlines scale
+SLOW=1
+[ "$VARIANT" = asan ] && SLOW=4
+
+n=0
+failed=0
+ok() {
+    n=$((n + 1))
+    echo "ok $n - $1"
+    if [ -n "${SM_TEST_TIMING:-}" ]; then echo "# at ${SECONDS}s"; fi
+    return 0
+}
+not_ok() {
+    n=$((n + 1))
+    failed=$((failed + 1))
+    echo "not ok $n - $1"
+    shift
+    local line
+    for line in "$@"; do printf '%s\n' "$line" | head -c 2000 | sed 's/^/#   /'; done
+}
+skip() { n=$((n + 1)); echo "ok $n # SKIP $1"; }
+# check DESC COMMAND...: ok when the command succeeds
+check() {
+    local desc=$1
+    shift
+    if "$@"; then ok "$desc"; else not_ok "$desc" "failed: $*"; fi
+}
+
+DAEMON_PIDS=()
+cleanup() {
+    local pid
+    for pid in "${DAEMON_PIDS[@]}"; do
+        kill -0 "$pid" 2>/dev/null && kill -KILL "$pid" 2>/dev/null
+    done
+    for pid in "${DAEMON_PIDS[@]}"; do wait "$pid" 2>/dev/null; done
+    if [ "$failed" -eq 0 ] && [ -z "${SM_TEST_KEEP:-}" ]; then
+        rm -rf "$WORK"
+    else
+        echo "# kept $WORK for inspection"
+    fi
+}
+trap cleanup EXIT
+
+# poll SECONDS COMMAND...: runs COMMAND every 0.1 s until it succeeds or
+# the deadline (scaled for sanitizer builds) passes.
+poll() {
+    local limit
+    limit=$(awk -v s="$1" -v k="$SLOW" 'BEGIN { printf "%d", s * k * 10 }')
+    shift
+    local i
+    for ((i = 0; i < limit; i++)); do
+        "$@" && return 0
+        sleep 0.1
+    done
+    "$@"
+}
+
+# ---------------------------------------------------------------- daemons
+
+DPID=
+BASE=
+DLOG=
+SPOOL=
+# start_daemon NAME [ARGS...]: a daemon with spool $WORK/NAME-spool (or
+# $SPOOL if set by the caller), log $WORK/NAME.log; sets DPID, BASE, DLOG.
+start_daemon() {
+    local name=$1
+    shift
+    SPOOL=${SPOOL:-$WORK/$name-spool}
+    DLOG=$WORK/$name.log
+    # a restart appends to the same log: wait for one more "listening" line
+    local before=0
+    [ -f "$DLOG" ] && before=$(grep -c '"event":"listening"' "$DLOG")
+    # one numerical thread per worker: small jobs gain nothing from more,
+    # and on a loaded machine spinning BLAS threads make run times erratic
+    "$BIN/shapematchd" --listen 127.0.0.1:0 --spool "$SPOOL" --worker-threads 1 "$@" 2>>"$DLOG" &
+    DPID=$!
+    DAEMON_PIDS+=("$DPID")
+    local port=
+    local i
+    for ((i = 0; i < 400 * SLOW; i++)); do
+        if [ -f "$DLOG" ] && [ "$(grep -c '"event":"listening"' "$DLOG")" -gt "$before" ]; then
+            port=$(jq -r 'select(.event == "listening") | .port' "$DLOG" 2>/dev/null | tail -1)
+            break
+        fi
+        kill -0 "$DPID" 2>/dev/null || break
+        sleep 0.05
+    done
+    if [ -z "$port" ]; then
+        echo "# daemon $name did not start:" >&2
+        sed 's/^/#   /' "$DLOG" >&2
+        return 1
+    fi
+    BASE=http://127.0.0.1:$port
+    return 0
+}
+
+# stop_daemon: SIGTERM and wait for a clean exit; returns its status.
+stop_daemon() {
+    [ -n "$DPID" ] || return 0
+    kill -TERM "$DPID" 2>/dev/null
+    local i
+    for ((i = 0; i < 600 * SLOW; i++)); do
+        kill -0 "$DPID" 2>/dev/null || break
+        sleep 0.05
+    done
+    if kill -0 "$DPID" 2>/dev/null; then
+        kill -KILL "$DPID" 2>/dev/null
+        wait "$DPID" 2>/dev/null
+        DPID=
+        return 124
+    fi
+    wait "$DPID"
+    local rc=$?
+    DPID=
+    return $rc
+}
+
+# wait_daemon_exit SECONDS: the daemon (already signalled) exits by itself;
+# returns its status (124 when it does not: it is then killed).
+wait_daemon_exit() {
+    local i
+    for ((i = 0; i < $1 * 20 * SLOW; i++)); do
+        kill -0 "$DPID" 2>/dev/null || break
+        sleep 0.05
+    done
+    if kill -0 "$DPID" 2>/dev/null; then
+        kill9_daemon
+        return 124
+    fi
+    wait "$DPID"
+    local rc=$?
+    DPID=
+    return $rc
+}
+
+# kill9_daemon: SIGKILL, no chance to clean up.
+kill9_daemon() {
+    kill -KILL "$DPID" 2>/dev/null
+    wait "$DPID" 2>/dev/null
+    DPID=
+}
+
+# sanitizer or runtime-error reports in the daemon log or any worker log
+reports_clean() {
+    ! grep -lE 'Sanitizer|runtime error|LeakSanitizer' "$WORK"/*.log \
+        "$WORK"/*-spool/jobs/*/worker.log 2>/dev/null | grep -q .
+}
+
+# ------------------------------------------------------------------- jobs
+
+# curl with the common options; the body on stdout
+hcurl() { curl -sS --max-time $((30 * SLOW)) "$@"; }
+
+# job_state ID: the job's status, or the HTTP code when it is not 200
+job_state() {
+    local body code
+    body=$(curl -sS --max-time 10 -w '\n%{http_code}' "${AUTH[@]}" "$BASE/v1/jobs/$1")
+    code=${body##*$'\n'}
+    # no jq here: this runs in polling loops on a busy machine
+    if [ "$code" = 200 ] && [[ $body =~ \"status\":\ \"([a-z]+)\" ]]; then
+        echo "${BASH_REMATCH[1]}"
+    else
+        echo "$code"
+    fi
+}
+AUTH=()
+state_is() { [ "$(job_state "$1")" = "$2" ]; }
+state_in() { # ID STATE... : the state is one of these
+    local s
+    s=$(job_state "$1")
+    shift
+    local want
+    for want in "$@"; do [ "$s" = "$want" ] && return 0; done
+    return 1
+}
+# wait_state ID STATE SECONDS: gives up early when the job ends in another
+# final state (or is gone)
+state_reached() {
+    local s
+    s=$(job_state "$1")
+    [ "$s" = "$2" ] && return 0
+    case $s in successful | failed | dismissed | 404) [ "$2" = running ] || [ "$2" = accepted ] || return 2 ;; esac
+    return 1
+}
+wait_state() {
+    local limit i rc
+    limit=$(awk -v s="$3" -v k="$SLOW" 'BEGIN { printf "%d", s * k * 10 }')
+    for ((i = 0; i <= limit; i++)); do
+        state_reached "$1" "$2"
+        rc=$?
+        [ "$rc" = 0 ] && return 0
+        [ "$rc" = 2 ] && return 1
+        sleep 0.1
+    done
+    return 1
+}
+# wait_final ID SECONDS: successful, failed or dismissed
+wait_final() { poll "$2" state_in "$1" successful failed dismissed; }
+
+# submit TEMPLATE TARGET_MESH TARGET_SOL PARAMS_JSON [CURL ARGS...]: prints
+# the new job's id (empty on failure; the response is in $WORK/submit.out)
+submit() {
+    local t=$1 m=$2 s=$3 p=$4
+    shift 4
+    hcurl "${AUTH[@]}" -o "$WORK/submit.out" -w '%{http_code}' -F "template=@$t" \
+        -F "target_mesh=@$m" -F "target_sol=@$s" -F "params=$p" "$@" "$BASE/v1/jobs" \
+        >"$WORK/submit.code" 2>"$WORK/submit.err"
+    jq -r '.jobID // empty' "$WORK/submit.out" 2>/dev/null
+}
+
+# worker_pid ID: pid of the job's worker from the daemon log (last start)
+worker_pid() {
+    jq -r --arg id "$1" 'select(.event == "job_started" and .job == $id) | .pid' "$DLOG" | tail -1
+}
+
+# ------------------------------------------------------------ test meshes
+
+# A small case made with gmsh: a disk of radius 0.5 (template), a fine disk
+# (slow jobs), a box background with the signed distance to the circle of
+# radius 0.8, and a 3D cube (for dimension mismatches).  Sets DISK, FINE,
+# BOX, BOXSOL, CUBE, CUBESOL, BALL_PARAMS.
+make_case() {
+    local d=$WORK/case
+    mkdir -p "$d"
+    cat >"$d/disk.geo" <<'EOF'
+SetFactory("OpenCASCADE");
+Disk(1) = {0, 0, 0, 0.5};
+Mesh.CharacteristicLengthMax = 0.08;
+EOF
+    cat >"$d/fine.geo" <<'EOF'
+SetFactory("OpenCASCADE");
+Disk(1) = {0, 0, 0, 0.5};
+Mesh.CharacteristicLengthMax = 0.03;
+EOF
+    cat >"$d/box.geo" <<'EOF'
+SetFactory("OpenCASCADE");
+Rectangle(1) = {-1.5, -1.5, 0, 3, 3};
+Mesh.CharacteristicLengthMax = 0.1;
+EOF
+    cat >"$d/cube.geo" <<'EOF'
+SetFactory("OpenCASCADE");
+Box(1) = {-1, -1, -1, 2, 2, 2};
+Mesh.CharacteristicLengthMax = 0.5;
+EOF
+    # signed distance to the circle (sphere) of radius R at the vertices
+    cat >"$d/sdf.awk" <<'EOF'
+{ for (i = 1; i <= NF; i++) tok[++n] = $i }
+END {
+    for (k = 1; k <= n; k++) {
+        if (tok[k] == "Dimension") dim = tok[++k] + 0
+        else if (tok[k] == "Vertices") { nv = tok[++k] + 0; start = k; break }
+    }
+    flat = 1
+    for (v = 0; v < nv; v++) {
+        b = start + v * (dim + 1)
+        x[v] = tok[b + 1] + 0; y[v] = tok[b + 2] + 0; z[v] = dim == 3 ? tok[b + 3] + 0 : 0
+        if (z[v] != 0) flat = 0
+    }
+    sdim = (dim == 3 && !flat) ? 3 : 2
+    printf "MeshVersionFormatted 2\n\nDimension %d\n\nSolAtVertices\n%d\n1 1\n", sdim, nv
+    for (v = 0; v < nv; v++)
+        printf "%.17g\n", sqrt(x[v]^2 + y[v]^2 + (sdim == 3 ? z[v]^2 : 0)) - R
+    printf "\nEnd\n"
+}
+EOF
+    (cd "$d" && gmsh -2 disk.geo -format mesh -o disk.mesh -v 0 &&
+        gmsh -2 fine.geo -format mesh -o fine.mesh -v 0 &&
+        gmsh -2 box.geo -format mesh -o box.mesh -v 0 &&
+        gmsh -3 cube.geo -format mesh -o cube.mesh -v 0 &&
+        awk -v R=0.8 -f sdf.awk box.mesh >box.sol &&
+        awk -v R=0.8 -f sdf.awk cube.mesh >cube.sol) >"$d/gmsh.log" 2>&1 || return 1
+    DISK=$d/disk.mesh
+    FINE=$d/fine.mesh
+    BOX=$d/box.mesh
+    BOXSOL=$d/box.sol
+    CUBE=$d/cube.mesh
+    CUBESOL=$d/cube.sol
+    BALL_PARAMS='{"clamp": {"kind": "ball", "center": [0, 0], "radius": 0.1}'
+    return 0
+}
+# params for the disk case: a quick job (~0.1 s) and one that runs until
+# it is stopped (fine mesh, huge iteration cap)
+quick_params() { echo "$BALL_PARAMS, \"max_iter\": ${1:-50}}"; }
+endless_params() { echo "$BALL_PARAMS, \"max_iter\": 100000000, \"tol_step\": 1e-15}"; }

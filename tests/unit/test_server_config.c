@@ -1,0 +1,182 @@
+/* Daemon configuration (flags over SHAPEMATCH_* variables over defaults)
+ * and the bearer tokens file. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "smd_auth.h"
+#include "smd_config.h"
+#include "smd_log.h"
+
+/* environment given as a NULL-terminated list of "NAME=value" */
+static const char *table_env(const char *name, void *user)
+{
+    const char *const *env = user;
+    size_t n = strlen(name);
+    for (; env && *env; env++)
+        if (strncmp(*env, name, n) == 0 && (*env)[n] == '=')
+            return *env + n + 1;
+    return NULL;
+}
+
+static smd_config_result parse(smd_config *c, const char *const *env, char *msg, ...)
+{
+    char *argv[32] = {"shapematchd"};
+    int argc = 1;
+    va_list ap;
+    va_start(ap, msg);
+    const char *a;
+    while ((a = va_arg(ap, const char *)) != NULL && argc < 31)
+        argv[argc++] = (char *)a;
+    va_end(ap);
+    return smd_config_parse(c, argc, argv, table_env, (void *)env, msg, 512);
+}
+
+static void test_defaults(void **state)
+{
+    (void)state;
+    smd_config c;
+    char msg[512];
+    assert_int_equal(parse(&c, NULL, msg, NULL), SMD_CONFIG_OK);
+    assert_string_equal(c.listen_host, "127.0.0.1");
+    assert_int_equal(c.listen_port, 8080);
+    assert_string_equal(c.spool, "./spool");
+    assert_int_equal(c.workers, smd_default_workers());
+    assert_true(c.max_upload == (uint64_t)256 << 20);
+    assert_true(c.job_timeout == 3600);
+    assert_true(c.retention == 7 * 86400);
+    assert_string_equal(c.tokens_file, "");
+    assert_int_equal(c.log_level, SMD_LOG_INFO);
+    assert_true(c.keepalive == 15);
+}
+
+static void test_env_and_flags(void **state)
+{
+    (void)state;
+    const char *env[] = {"SHAPEMATCH_LISTEN=0.0.0.0:9000", "SHAPEMATCH_SPOOL=/var/lib/sm",
+                         "SHAPEMATCH_WORKERS=3", "SHAPEMATCH_MAX_UPLOAD=64M",
+                         "SHAPEMATCH_JOB_TIMEOUT=30m", "SHAPEMATCH_RETENTION=2d",
+                         "SHAPEMATCH_TOKENS_FILE=/run/secrets/tokens", "SHAPEMATCH_LOG_LEVEL=warn",
+                         NULL};
+    smd_config c;
+    char msg[512];
+    assert_int_equal(parse(&c, env, msg, NULL), SMD_CONFIG_OK);
+    assert_string_equal(c.listen_host, "0.0.0.0");
+    assert_int_equal(c.listen_port, 9000);
+    assert_string_equal(c.spool, "/var/lib/sm");
+    assert_int_equal(c.workers, 3);
+    assert_true(c.max_upload == (uint64_t)64 << 20);
+    assert_true(c.job_timeout == 1800);
+    assert_true(c.retention == 2 * 86400);
+    assert_string_equal(c.tokens_file, "/run/secrets/tokens");
+    assert_int_equal(c.log_level, SMD_LOG_WARN);
+    /* a flag wins over its variable; both --flag value and --flag=value */
+    assert_int_equal(parse(&c, env, msg, "--workers", "5", "--spool=/tmp/s", "--listen", "[::1]:8443",
+                           "--cpu-limit", "90", "--memory-limit", "1G", NULL),
+                     SMD_CONFIG_OK);
+    assert_int_equal(c.workers, 5);
+    assert_string_equal(c.spool, "/tmp/s");
+    assert_string_equal(c.listen_host, "::1");
+    assert_int_equal(c.listen_port, 8443);
+    assert_true(c.cpu_limit == 90);
+    assert_true(c.memory_limit == (uint64_t)1 << 30);
+    assert_true(c.max_upload == (uint64_t)64 << 20); /* still from the environment */
+    assert_int_equal(parse(&c, NULL, msg, "--listen", ":8081", NULL), SMD_CONFIG_OK);
+    assert_string_equal(c.listen_host, "0.0.0.0");
+    assert_int_equal(c.listen_port, 8081);
+}
+
+static void test_errors(void **state)
+{
+    (void)state;
+    smd_config c;
+    char msg[512];
+    assert_int_equal(parse(&c, NULL, msg, "--help", NULL), SMD_CONFIG_HELP);
+    assert_int_equal(parse(&c, NULL, msg, "--version", NULL), SMD_CONFIG_VERSION);
+    assert_int_equal(parse(&c, NULL, msg, "--frobnicate", NULL), SMD_CONFIG_ERROR);
+    assert_non_null(strstr(msg, "--frobnicate"));
+    assert_int_equal(parse(&c, NULL, msg, "--workers", NULL), SMD_CONFIG_ERROR);
+    assert_non_null(strstr(msg, "--workers: missing value"));
+    assert_int_equal(parse(&c, NULL, msg, "--workers", "0", NULL), SMD_CONFIG_ERROR);
+    assert_non_null(strstr(msg, "--workers"));
+    assert_int_equal(parse(&c, NULL, msg, "--workers", "2x", NULL), SMD_CONFIG_ERROR);
+    assert_int_equal(parse(&c, NULL, msg, "--listen", "localhost", NULL), SMD_CONFIG_ERROR);
+    assert_non_null(strstr(msg, "HOST:PORT"));
+    assert_int_equal(parse(&c, NULL, msg, "--listen", "1.2.3.4:99999", NULL), SMD_CONFIG_ERROR);
+    assert_int_equal(parse(&c, NULL, msg, "--listen", "[::1:80", NULL), SMD_CONFIG_ERROR);
+    assert_int_equal(parse(&c, NULL, msg, "--max-upload", "lots", NULL), SMD_CONFIG_ERROR);
+    assert_int_equal(parse(&c, NULL, msg, "--job-timeout", "-5", NULL), SMD_CONFIG_ERROR);
+    assert_int_equal(parse(&c, NULL, msg, "--log-level", "loud", NULL), SMD_CONFIG_ERROR);
+    assert_int_equal(parse(&c, NULL, msg, "--spool", "", NULL), SMD_CONFIG_ERROR);
+    const char *bad_env[] = {"SHAPEMATCH_WORKERS=many", NULL};
+    assert_int_equal(parse(&c, bad_env, msg, NULL), SMD_CONFIG_ERROR);
+    assert_non_null(strstr(msg, "SHAPEMATCH_WORKERS"));
+}
+
+static void test_help_lists_everything(void **state)
+{
+    (void)state;
+    char *text = NULL;
+    size_t len = 0;
+    FILE *f = open_memstream(&text, &len);
+    assert_non_null(f);
+    smd_config_help(f);
+    fclose(f);
+    const char *must[] = {"--listen", "--spool", "--workers", "--tokens-file", "--max-upload",
+                          "--job-timeout", "--retention", "--cpu-limit", "--memory-limit",
+                          "SHAPEMATCH_LISTEN", "SHAPEMATCH_SPOOL", "SHAPEMATCH_RETENTION",
+                          "--connection-timeout", "--max-connections-per-ip"};
+    for (size_t i = 0; i < sizeof must / sizeof must[0]; i++)
+        assert_non_null(strstr(text, must[i]));
+    free(text);
+}
+
+static void test_tokens(void **state)
+{
+    (void)state;
+    const char *file = "# ops tokens\n\n   alpha-0123456789   \r\n# beta retired\ngamma-9876543210\n";
+    smd_tokens *t;
+    char msg[256];
+    assert_int_equal(smd_tokens_parse(file, strlen(file), "tokens", &t, msg, sizeof msg), 0);
+    assert_int_equal(smd_tokens_count(t), 2);
+    assert_int_equal(smd_tokens_check(t, "Bearer alpha-0123456789"), SMD_AUTH_OK);
+    assert_int_equal(smd_tokens_check(t, "bearer gamma-9876543210"), SMD_AUTH_OK);
+    assert_int_equal(smd_tokens_check(t, "Bearer   gamma-9876543210  "), SMD_AUTH_OK);
+    assert_int_equal(smd_tokens_check(t, NULL), SMD_AUTH_MISSING);
+    assert_int_equal(smd_tokens_check(t, ""), SMD_AUTH_MISSING);
+    assert_int_equal(smd_tokens_check(t, "Basic alpha-0123456789"), SMD_AUTH_MISSING);
+    assert_int_equal(smd_tokens_check(t, "Beareralpha-0123456789"), SMD_AUTH_MISSING);
+    assert_int_equal(smd_tokens_check(t, "Bearer alpha-012345678"), SMD_AUTH_INVALID);
+    assert_int_equal(smd_tokens_check(t, "Bearer alpha-01234567890"), SMD_AUTH_INVALID);
+    assert_int_equal(smd_tokens_check(t, "Bearer beta"), SMD_AUTH_INVALID);
+    assert_int_equal(smd_tokens_check(t, "Bearer # ops tokens"), SMD_AUTH_INVALID);
+    assert_int_equal(smd_tokens_check(t, "Bearer "), SMD_AUTH_INVALID);
+    smd_tokens_free(t);
+
+    const char *inner = "good-token\nbad token\n";
+    assert_int_equal(smd_tokens_parse(inner, strlen(inner), "tokens", &t, msg, sizeof msg), -1);
+    assert_non_null(strstr(msg, "tokens:2:"));
+    assert_null(t);
+    const char *none = "# nothing\n\n";
+    assert_int_equal(smd_tokens_parse(none, strlen(none), "tokens", &t, msg, sizeof msg), -1);
+    assert_non_null(strstr(msg, "no token"));
+    assert_int_equal(smd_tokens_load("/nonexistent/tokens", &t, msg, sizeof msg), -1);
+    assert_non_null(strstr(msg, "/nonexistent/tokens"));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_defaults),
+        cmocka_unit_test(test_env_and_flags),
+        cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_help_lists_everything),
+        cmocka_unit_test(test_tokens),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,281 @@
+/* The job store: committing an upload folder, status records that
+ * survive a reopen, crash recovery (running jobs become queued again,
+ * partial results go, a torn event line is cut), the event index, stray
+ * and corrupt folders, deletion. */
+#include <errno.h>
+#include <fcntl.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <cmocka.h>
+
+#include "smd_store.h"
+
+typedef struct fixture {
+    char spool[256];
+    smd_logger log;
+} fixture;
+
+static int setup(void **state)
+{
+    fixture *f = calloc(1, sizeof *f);
+    snprintf(f->spool, sizeof f->spool, "/tmp/sm-test-store-XXXXXX");
+    if (!mkdtemp(f->spool))
+        return -1;
+    f->log.fd = open("/dev/null", O_WRONLY);
+    f->log.level = SMD_LOG_DEBUG;
+    *state = f;
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    fixture *f = *state;
+    smd_rmtree(f->spool);
+    close(f->log.fd);
+    free(f);
+    return 0;
+}
+
+/* An upload folder as the daemon prepares it. */
+static void make_upload(const char *spool, char *dir, size_t cap)
+{
+    snprintf(dir, cap, "%s/tmp/up-test", spool);
+    assert_int_equal(smd_mkdirs(dir, 0700), 0);
+    char p[600];
+    snprintf(p, sizeof p, "%s/job.json", dir);
+    assert_int_equal(smd_write_file_atomic(p, "{}", 2), 0);
+}
+
+static smd_job *commit(fixture *f, smd_store *s, const char *id, const char *key)
+{
+    char dir[512];
+    make_upload(f->spool, dir, sizeof dir);
+    smd_job *job;
+    sm_error err;
+    assert_int_equal(smd_store_commit(s, dir, id, 2, 100, key, &job, &err), SM_OK);
+    struct stat st;
+    assert_int_equal(stat(dir, &st), -1); /* moved */
+    return job;
+}
+
+static int64_t count_lines(const char *path)
+{
+    FILE *fp = fopen(path, "r");
+    assert_non_null(fp);
+    int64_t n = 0;
+    int c;
+    while ((c = fgetc(fp)) != EOF)
+        n += c == '\n';
+    fclose(fp);
+    return n;
+}
+
+static void test_commit_and_reopen(void **state)
+{
+    fixture *f = *state;
+    smd_store *s;
+    sm_error err;
+    assert_int_equal(smd_store_open(f->spool, &f->log, &s, &err), SM_OK);
+    /* one daemon per spool */
+    smd_store *other;
+    assert_int_not_equal(smd_store_open(f->spool, &f->log, &other, &err), SM_OK);
+    assert_non_null(strstr(err.msg, "in use by another shapematchd (pid "));
+    assert_null(other);
+    const char *a = "aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa", *b = "bbbbbbbbbbbbbbbbbbbbbbbbbbbbbbbb";
+    smd_job *ja = commit(f, s, a, "key-1");
+    smd_job *jb = commit(f, s, b, NULL);
+    assert_int_equal(smd_store_count(s), 2);
+    assert_ptr_equal(smd_store_get(s, a), ja);
+    assert_ptr_equal(smd_store_get(s, b), jb);
+    assert_null(smd_store_get(s, "cccccccccccccccccccccccccccccccc"));
+    assert_null(smd_store_get(s, "../../etc"));
+    assert_ptr_equal(smd_store_find_key(s, "key-1"), ja);
+    assert_null(smd_store_find_key(s, "key-2"));
+    assert_true(ja->order < jb->order);
+    assert_int_equal(ja->state, SM_JOB_ACCEPTED);
+    assert_int_equal(ja->nevents, 1); /* "accepted" */
+
+    /* events: seq numbering and the offset index */
+    for (int i = 0; i < 5; i++) {
+        sm_event ev;
+        sm_event_init(&ev, SM_EVENT_PROGRESS);
+        ev.progress.iteration = i;
+        assert_int_equal(smd_store_append_event(s, ja, &ev, &err), SM_OK);
+        assert_int_equal(ev.seq, i + 2);
+        assert_string_equal(ev.job_id, a);
+        assert_true(ev.time > 1e9);
+    }
+    char path[512];
+    assert_int_equal(smd_store_path(s, a, "events.ndjson", path, sizeof path), 0);
+    assert_int_equal(count_lines(path), 6);
+    struct stat st;
+    assert_int_equal(stat(path, &st), 0);
+    assert_true(smd_job_event_offset(ja, 7) == (uint64_t)st.st_size);
+    assert_true(smd_job_event_offset(ja, 1) == 0);
+    /* each indexed event starts with '{' and the one before ends with '\n' */
+    FILE *fp = fopen(path, "r");
+    for (int64_t seq = 1; seq <= 6; seq++) {
+        fseek(fp, (long)smd_job_event_offset(ja, seq), SEEK_SET);
+        char line[1024];
+        assert_non_null(fgets(line, sizeof line, fp));
+        sm_event ev;
+        assert_int_equal(sm_event_from_json(line, strlen(line), &ev, &err), SM_OK);
+        assert_int_equal(ev.seq, seq);
+    }
+    fclose(fp);
+
+    /* state changes persist */
+    jb->state = SM_JOB_SUCCESSFUL;
+    jb->progress = 100;
+    jb->started = 1700000000.5;
+    jb->finished = 1700000001.25;
+    snprintf(jb->message, sizeof jb->message, "finished");
+    assert_int_equal(smd_store_save(s, jb, &err), SM_OK);
+    ja->state = SM_JOB_RUNNING;
+    ja->attempt = 1;
+    assert_int_equal(smd_store_save(s, ja, &err), SM_OK);
+    smd_store_close(s);
+
+
+    assert_int_equal(smd_store_open(f->spool, &f->log, &s, &err), SM_OK);
+    assert_int_equal(smd_store_count(s), 2);
+    assert_string_equal(smd_store_at(s, 0)->id, a); /* submission order */
+    assert_string_equal(smd_store_at(s, 1)->id, b);
+    jb = smd_store_get(s, b);
+    assert_int_equal(jb->state, SM_JOB_SUCCESSFUL);
+    assert_int_equal(jb->progress, 100);
+    assert_true(jb->started == 1700000000.5);
+    assert_true(jb->finished == 1700000001.25);
+    assert_string_equal(jb->message, "finished");
+    /* the running job is queued again, its attempt count kept */
+    ja = smd_store_get(s, a);
+    assert_int_equal(ja->state, SM_JOB_ACCEPTED);
+    assert_int_equal(ja->attempt, 1);
+    assert_non_null(strstr(ja->message, "re-queued"));
+    assert_int_equal(ja->nevents, 6);
+    assert_ptr_equal(smd_store_find_key(s, "key-1"), ja);
+    /* the next job sorts after the reloaded ones */
+    smd_job *jc = commit(f, s, "cccccccccccccccccccccccccccccccc", NULL);
+    assert_true(jc->order > jb->order);
+    smd_store_close(s);
+}
+
+static void put(const char *path, const char *text)
+{
+    FILE *fp = fopen(path, "a");
+    assert_non_null(fp);
+    fputs(text, fp);
+    fclose(fp);
+}
+
+static void test_crash_leftovers(void **state)
+{
+    fixture *f = *state;
+    smd_store *s;
+    sm_error err;
+    const char *a = "0123456789abcdef0123456789abcdef";
+    assert_int_equal(smd_store_open(f->spool, &f->log, &s, &err), SM_OK);
+    smd_job *ja = commit(f, s, a, NULL);
+    ja->state = SM_JOB_RUNNING;
+    assert_int_equal(smd_store_save(s, ja, &err), SM_OK);
+    char dir[512], p[600];
+    assert_int_equal(smd_store_path(s, a, "", dir, sizeof dir), 0);
+    smd_store_close(s);
+
+    /* what a kill -9 in the middle of things leaves */
+    snprintf(p, sizeof p, "%s/results.tmp", dir);
+    assert_int_equal(smd_mkdirs(p, 0700), 0);
+    snprintf(p, sizeof p, "%s/results", dir);
+    assert_int_equal(smd_mkdirs(p, 0700), 0);
+    snprintf(p, sizeof p, "%s/events.ndjson", dir);
+    put(p, "{\"type\":\"progress\",\"iter");
+    snprintf(p, sizeof p, "%s/jobs/not-a-job", f->spool);
+    assert_int_equal(smd_mkdirs(p, 0700), 0);
+    snprintf(p, sizeof p, "%s/jobs/ffffffffffffffffffffffffffffffff", f->spool);
+    assert_int_equal(smd_mkdirs(p, 0700), 0);
+    snprintf(p, sizeof p, "%s/jobs/ffffffffffffffffffffffffffffffff/status.json", f->spool);
+    put(p, "{ not json");
+    snprintf(p, sizeof p, "%s/jobs/eeeeeeeeeeeeeeeeeeeeeeeeeeeeeeee", f->spool);
+    assert_int_equal(smd_mkdirs(p, 0700), 0);
+    snprintf(p, sizeof p, "%s/jobs/eeeeeeeeeeeeeeeeeeeeeeeeeeeeeeee/status.json", f->spool);
+    put(p, "{\"jobID\": \"0123456789abcdef0123456789abcdef\", \"status\": \"accepted\"}");
+    snprintf(p, sizeof p, "%s/tmp/up-half", f->spool);
+    assert_int_equal(smd_mkdirs(p, 0700), 0);
+    snprintf(p, sizeof p, "%s/trash/old", f->spool);
+    assert_int_equal(smd_mkdirs(p, 0700), 0);
+
+    assert_int_equal(smd_store_open(f->spool, &f->log, &s, &err), SM_OK);
+    assert_int_equal(smd_store_count(s), 1); /* corrupt and foreign records skipped */
+    ja = smd_store_get(s, a);
+    assert_non_null(ja);
+    assert_int_equal(ja->state, SM_JOB_ACCEPTED);
+    assert_int_equal(ja->nevents, 1);
+    struct stat st;
+    snprintf(p, sizeof p, "%s/results.tmp", dir);
+    assert_int_equal(stat(p, &st), -1);
+    snprintf(p, sizeof p, "%s/results", dir);
+    assert_int_equal(stat(p, &st), -1);
+    snprintf(p, sizeof p, "%s/events.ndjson", dir);
+    assert_int_equal(stat(p, &st), 0);
+    assert_true((uint64_t)st.st_size == smd_job_event_offset(ja, 2)); /* torn line cut */
+    assert_int_equal(count_lines(p), 1);
+    snprintf(p, sizeof p, "%s/jobs/not-a-job", f->spool);
+    assert_int_equal(stat(p, &st), 0); /* not ours: left alone */
+    snprintf(p, sizeof p, "%s/tmp/up-half", f->spool);
+    assert_int_equal(stat(p, &st), -1);
+    snprintf(p, sizeof p, "%s/trash/old", f->spool);
+    assert_int_equal(stat(p, &st), -1);
+    /* appending after the repair continues the numbering */
+    sm_event ev;
+    sm_event_init(&ev, SM_EVENT_STARTED);
+    ev.attempt = 2;
+    assert_int_equal(smd_store_append_event(s, ja, &ev, &err), SM_OK);
+    assert_int_equal(ev.seq, 2);
+    smd_store_close(s);
+}
+
+static void test_unlink_and_trash(void **state)
+{
+    fixture *f = *state;
+    smd_store *s;
+    sm_error err;
+    const char *a = "abcdefabcdefabcdefabcdefabcdefab";
+    assert_int_equal(smd_store_open(f->spool, &f->log, &s, &err), SM_OK);
+    smd_job *ja = commit(f, s, a, NULL);
+    smd_job_ref(ja); /* as a follower would */
+    char trash[512], dir[512];
+    assert_int_equal(smd_store_path(s, a, "", dir, sizeof dir), 0);
+    assert_int_equal(smd_store_trash(s, a, trash, sizeof trash), 0);
+    smd_store_unlink(s, ja);
+    assert_null(smd_store_get(s, a));
+    assert_int_equal(smd_store_count(s), 0);
+    assert_true(ja->removed);
+    assert_string_equal(ja->id, a); /* still valid for its holder */
+    struct stat st;
+    assert_int_equal(stat(dir, &st), -1);
+    assert_int_equal(stat(trash, &st), 0);
+    assert_non_null(strstr(trash, "/trash/"));
+    assert_int_equal(smd_rmtree(trash), 0);
+    smd_job_unref(ja); /* frees it (ASan checks) */
+    /* paths are only built for valid ids */
+    assert_int_equal(smd_store_path(s, "../x", "status.json", dir, sizeof dir), -1);
+    assert_int_equal(smd_store_trash(s, "../../etc", trash, sizeof trash), -1);
+    smd_store_close(s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(test_commit_and_reopen, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_crash_leftovers, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_unlink_and_trash, setup, teardown),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

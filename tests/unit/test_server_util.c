@@ -1,0 +1,332 @@
+/* Daemon helpers: job ids, constant-time comparison, bounded paths,
+ * durable writes, folder removal that never follows links, sizes and
+ * durations, wait statuses, the job queue and the content negotiation. */
+#include <dirent.h>
+#include <errno.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zlib.h>
+#include <cmocka.h>
+
+#include "smd_http.h"
+#include "smd_queue.h"
+#include "smd_util.h"
+
+static void test_random_ids(void **state)
+{
+    (void)state;
+    enum { N = 2000 };
+    static char ids[N][SMD_ID_LEN + 1];
+    int seen_digit[16] = {0};
+    for (int i = 0; i < N; i++) {
+        assert_int_equal(smd_random_id(ids[i]), 0);
+        assert_true(smd_id_valid(ids[i]));
+        for (int k = 0; k < SMD_ID_LEN; k++) {
+            char c = ids[i][k];
+            seen_digit[c <= '9' ? c - '0' : c - 'a' + 10]++;
+        }
+    }
+    for (int i = 0; i < N; i++)
+        for (int j = i + 1; j < N; j++)
+            assert_string_not_equal(ids[i], ids[j]);
+    /* 64000 digits: each of the 16 values ~4000 times; a stuck bit
+     * (half the values never seen) or a constant would show */
+    for (int d = 0; d < 16; d++)
+        assert_in_range(seen_digit[d], 3500, 4500);
+}
+
+static void test_id_valid(void **state)
+{
+    (void)state;
+    assert_true(smd_id_valid("0123456789abcdef0123456789abcdef"));
+    assert_false(smd_id_valid("0123456789ABCDEF0123456789abcdef"));
+    assert_false(smd_id_valid("0123456789abcdef0123456789abcde"));
+    assert_false(smd_id_valid("0123456789abcdef0123456789abcdef0"));
+    assert_false(smd_id_valid("../../../../etc/passwd0123456789a"));
+    assert_false(smd_id_valid("0123456789abcdef0123456789abcde/"));
+    assert_false(smd_id_valid(""));
+    assert_false(smd_id_valid(NULL));
+}
+
+static void test_secret_equal(void **state)
+{
+    (void)state;
+    assert_true(smd_secret_equal("token", 5, "token", 5));
+    assert_false(smd_secret_equal("tokem", 5, "token", 5));
+    assert_false(smd_secret_equal("Token", 5, "token", 5));
+    assert_false(smd_secret_equal("tok", 3, "token", 5));
+    assert_false(smd_secret_equal("tokens", 6, "token", 5));
+    assert_false(smd_secret_equal("", 0, "token", 5));
+    /* a NUL inside the given bytes is not a terminator */
+    assert_false(smd_secret_equal("tok\0n", 5, "token", 5));
+    assert_true(smd_secret_equal("", 0, "", 0));
+}
+
+static void test_pathf(void **state)
+{
+    (void)state;
+    char buf[16];
+    assert_int_equal(smd_pathf(buf, sizeof buf, "%s/%s", "ab", "cd"), 0);
+    assert_string_equal(buf, "ab/cd");
+    assert_int_equal(smd_pathf(buf, sizeof buf, "%s/%s", "0123456789", "abcdef"), -1);
+    assert_int_equal(errno, ENAMETOOLONG);
+    assert_int_equal(smd_pathf(buf, sizeof buf, "%s", "012345678901234"), 0);
+    assert_int_equal(smd_pathf(buf, sizeof buf, "%s", "0123456789012345"), -1);
+}
+
+static void test_sizes_and_durations(void **state)
+{
+    (void)state;
+    uint64_t v;
+    assert_int_equal(smd_parse_size("1048576", &v), 0);
+    assert_true(v == 1048576);
+    assert_int_equal(smd_parse_size("64K", &v), 0);
+    assert_true(v == 65536);
+    assert_int_equal(smd_parse_size("256M", &v), 0);
+    assert_true(v == (uint64_t)256 << 20);
+    assert_int_equal(smd_parse_size("2GiB", &v), 0);
+    assert_true(v == (uint64_t)2 << 30);
+    assert_int_equal(smd_parse_size("1.5G", &v), -1);
+    assert_int_equal(smd_parse_size("-1", &v), -1);
+    assert_int_equal(smd_parse_size("", &v), -1);
+    assert_int_equal(smd_parse_size("12Q", &v), -1);
+    assert_int_equal(smd_parse_size("99999999999999T", &v), -1);
+    assert_int_equal(smd_parse_size("18446744073709551616", &v), -1);
+
+    double d;
+    assert_int_equal(smd_parse_duration("30", &d), 0);
+    assert_true(d == 30);
+    assert_int_equal(smd_parse_duration("0.5s", &d), 0);
+    assert_true(d == 0.5);
+    assert_int_equal(smd_parse_duration("15m", &d), 0);
+    assert_true(d == 900);
+    assert_int_equal(smd_parse_duration("2h", &d), 0);
+    assert_true(d == 7200);
+    assert_int_equal(smd_parse_duration("7d", &d), 0);
+    assert_true(d == 7 * 86400);
+    assert_int_equal(smd_parse_duration("-1", &d), -1);
+    assert_int_equal(smd_parse_duration("1x", &d), -1);
+    assert_int_equal(smd_parse_duration("1hh", &d), -1);
+    assert_int_equal(smd_parse_duration("", &d), -1);
+    assert_int_equal(smd_parse_duration("nan", &d), -1);
+    assert_int_equal(smd_parse_duration("1e999", &d), -1);
+}
+
+static void test_wait_status(void **state)
+{
+    (void)state;
+    char buf[128];
+    smd_describe_wait_status(2 << 8, buf, sizeof buf);
+    assert_string_equal(buf, "exited with status 2");
+    smd_describe_wait_status(9, buf, sizeof buf);
+    assert_string_equal(buf, "killed by signal 9 (SIGKILL)");
+    smd_describe_wait_status(24, buf, sizeof buf);
+    assert_string_equal(buf, "killed by signal 24 (SIGXCPU)");
+    smd_describe_wait_status(11 | 0x80, buf, sizeof buf);
+    assert_string_equal(buf, "killed by signal 11 (SIGSEGV), core dumped");
+}
+
+static char *temp_dir(void)
+{
+    char *d = strdup("/tmp/sm-test-server-XXXXXX");
+    assert_non_null(mkdtemp(d));
+    return d;
+}
+
+static int count_entries(const char *dir)
+{
+    DIR *d = opendir(dir);
+    assert_non_null(d);
+    int n = 0;
+    struct dirent *de;
+    while ((de = readdir(d)))
+        n += de->d_name[0] != '.';
+    closedir(d);
+    return n;
+}
+
+static void test_atomic_write_and_read(void **state)
+{
+    (void)state;
+    char *dir = temp_dir();
+    char path[512];
+    snprintf(path, sizeof path, "%s/status.json", dir);
+    assert_int_equal(smd_write_file_atomic(path, "first", 5), 0);
+    assert_int_equal(smd_write_file_atomic(path, "second!", 7), 0);
+    char *text;
+    size_t len;
+    assert_int_equal(smd_read_file(path, 100, &text, &len), 0);
+    assert_int_equal(len, 7);
+    assert_string_equal(text, "second!");
+    free(text);
+    /* no temporary file left next to it */
+    assert_int_equal(count_entries(dir), 1);
+    /* the bound is enforced */
+    assert_int_equal(smd_read_file(path, 6, &text, &len), -1);
+    assert_int_equal(errno, EFBIG);
+    assert_null(text);
+    /* a folder cannot be read as a file */
+    assert_int_equal(smd_read_file(dir, 100, &text, &len), -1);
+    assert_int_equal(smd_rmtree(dir), 0);
+    free(dir);
+}
+
+static void test_rmtree_keeps_link_targets(void **state)
+{
+    (void)state;
+    char *outside = temp_dir();
+    char *dir = temp_dir();
+    char p[512], q[512];
+    snprintf(p, sizeof p, "%s/precious", outside);
+    assert_int_equal(smd_write_file_atomic(p, "keep me", 7), 0);
+    snprintf(q, sizeof q, "%s/a/b/c", dir);
+    assert_int_equal(smd_mkdirs(q, 0700), 0);
+    snprintf(q, sizeof q, "%s/a/b/c/file", dir);
+    assert_int_equal(smd_write_file_atomic(q, "x", 1), 0);
+    snprintf(q, sizeof q, "%s/a/link-to-outside", dir);
+    assert_int_equal(symlink(outside, q), 0);
+    snprintf(q, sizeof q, "%s/a/link-to-file", dir);
+    assert_int_equal(symlink(p, q), 0);
+    assert_int_equal(smd_rmtree(dir), 0);
+    struct stat st;
+    assert_int_equal(stat(dir, &st), -1);
+    assert_int_equal(stat(p, &st), 0); /* the link target survives */
+    assert_int_equal(smd_rmtree(dir), 0); /* missing: fine */
+    assert_int_equal(smd_rmtree(outside), 0);
+    free(dir);
+    free(outside);
+}
+
+static void test_queue_fifo(void **state)
+{
+    (void)state;
+    smd_queue *q = smd_queue_local_new();
+    assert_non_null(q);
+    char id[SMD_ID_LEN + 1], got[SMD_ID_LEN + 1];
+    /* interleaved pushes and pops wrap the ring and make it grow */
+    int next_in = 0, next_out = 0;
+    for (int round = 0; round < 50; round++) {
+        for (int k = 0; k < 7; k++) {
+            snprintf(id, sizeof id, "%032d", next_in++);
+            assert_int_equal(smd_queue_push(q, id), 0);
+        }
+        for (int k = 0; k < 5; k++) {
+            assert_int_equal(smd_queue_pop(q, got), 1);
+            snprintf(id, sizeof id, "%032d", next_out++);
+            assert_string_equal(got, id);
+        }
+    }
+    assert_int_equal(smd_queue_depth(q), 100);
+    /* position and removal in the middle */
+    int removed = next_out + 10;
+    snprintf(id, sizeof id, "%032d", removed);
+    assert_int_equal(smd_queue_position(q, id), 10);
+    assert_int_equal(smd_queue_remove(q, id), 1);
+    assert_int_equal(smd_queue_remove(q, id), 0);
+    assert_int_equal(smd_queue_position(q, id), -1);
+    assert_int_equal(smd_queue_depth(q), 99);
+    for (int k = 0; k < 99; k++) {
+        if (next_out == removed)
+            next_out++;
+        assert_int_equal(smd_queue_pop(q, got), 1);
+        snprintf(id, sizeof id, "%032d", next_out++);
+        assert_string_equal(got, id);
+    }
+    assert_int_equal(next_out, next_in);
+    assert_int_equal(smd_queue_pop(q, got), 0);
+    smd_queue_free(q);
+}
+
+static void test_accept(void **state)
+{
+    (void)state;
+    const char *mesh[] = {"application/x-medit-mesh", "application/x-medit-meshb",
+                          "application/vnd.vtk.vtu+xml", "application/vnd.shapematch.mesh"};
+    assert_int_equal(smd_accept_choose(NULL, mesh, 4), 0);
+    assert_int_equal(smd_accept_choose("", mesh, 4), 0);
+    assert_int_equal(smd_accept_choose("*/*", mesh, 4), 0);
+    assert_int_equal(smd_accept_choose("application/vnd.shapematch.mesh", mesh, 4), 3);
+    assert_int_equal(smd_accept_choose("APPLICATION/X-MEDIT-MESHB", mesh, 4), 1);
+    assert_int_equal(smd_accept_choose("text/html, application/vnd.vtk.vtu+xml;q=0.5", mesh, 4), 2);
+    /* the higher q wins whatever the order */
+    assert_int_equal(smd_accept_choose("application/x-medit-mesh;q=0.2, application/x-medit-meshb;q=0.9",
+                                       mesh, 4), 1);
+    /* the most specific range decides: any type at 0.5 but mesh refused */
+    assert_int_equal(smd_accept_choose("application/x-medit-mesh;q=0, */*;q=0.5", mesh, 4), 1);
+    assert_int_equal(smd_accept_choose("application/*", mesh, 4), 0);
+    assert_int_equal(smd_accept_choose("text/html", mesh, 4), -1);
+    assert_int_equal(smd_accept_choose("*/*;q=0", mesh, 4), -1);
+    assert_int_equal(smd_accept_choose("application/x-medit-mesh; q=0.0", mesh, 1), -1);
+    const char *events[] = {"application/x-ndjson", "text/event-stream"};
+    assert_int_equal(smd_accept_choose("text/event-stream", events, 2), 1);
+    assert_int_equal(smd_accept_choose("text/*", events, 2), 1);
+    assert_int_equal(smd_accept_choose("*/*", events, 2), 0);
+    /* garbage does not crash and matches nothing */
+    assert_int_equal(smd_accept_choose(";;;,,,q=,/", events, 2), -1);
+
+    assert_true(smd_accepts_gzip("gzip"));
+    assert_true(smd_accepts_gzip("deflate, gzip;q=0.5"));
+    assert_true(smd_accepts_gzip("*"));
+    assert_true(smd_accepts_gzip("x-gzip"));
+    assert_false(smd_accepts_gzip(NULL));
+    assert_false(smd_accepts_gzip("identity"));
+    assert_false(smd_accepts_gzip("gzip;q=0"));
+    assert_false(smd_accepts_gzip("*, gzip;q=0"));
+    assert_false(smd_accepts_gzip("*;q=0"));
+}
+
+static void test_gzip_buffer(void **state)
+{
+    (void)state;
+    size_t n = 100000;
+    char *data = malloc(n);
+    assert_non_null(data);
+    for (size_t i = 0; i < n; i++)
+        data[i] = (char)("0123456789 ,.\n"[(i * 7 + i / 13) % 14]);
+    char *z;
+    size_t zlen;
+    assert_int_equal(smd_gzip_buffer(data, n, &z, &zlen), 0);
+    assert_true(zlen < n / 4);
+    assert_int_equal((unsigned char)z[0], 0x1f);
+    assert_int_equal((unsigned char)z[1], 0x8b);
+    z_stream s;
+    memset(&s, 0, sizeof s);
+    assert_int_equal(inflateInit2(&s, 15 + 16), Z_OK);
+    char *back = malloc(n + 16);
+    s.next_in = (Bytef *)z;
+    s.avail_in = (uInt)zlen;
+    s.next_out = (Bytef *)back;
+    s.avail_out = (uInt)(n + 16);
+    assert_int_equal(inflate(&s, Z_FINISH), Z_STREAM_END);
+    assert_int_equal(s.total_out, n);
+    assert_memory_equal(back, data, n);
+    inflateEnd(&s);
+    free(back);
+    free(z);
+    free(data);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_random_ids),
+        cmocka_unit_test(test_id_valid),
+        cmocka_unit_test(test_secret_equal),
+        cmocka_unit_test(test_pathf),
+        cmocka_unit_test(test_sizes_and_durations),
+        cmocka_unit_test(test_wait_status),
+        cmocka_unit_test(test_atomic_write_and_read),
+        cmocka_unit_test(test_rmtree_keeps_link_targets),
+        cmocka_unit_test(test_queue_fifo),
+        cmocka_unit_test(test_accept),
+        cmocka_unit_test(test_gzip_buffer),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -59,6 +59,7 @@ for variant in $variants; do
     for s in tests/cli/*.sh tests/integration/*.sh; do
         [ -f "$s" ] || continue
         name=$(basename "$s" .sh)
+        [ "$name" = lib ] && continue # shared helpers, sourced by the suites
         [ -n "$only" ] && [[ "$name" != *$only* ]] && continue
         run_suite "$variant" "$name" bash "$s"
     done

@@ -27,6 +27,7 @@
 #include "fsutil.h"
 #include "jsonw.h"
 #include "progress.h"
+#include "sm_clamp.h"
 #include "sm_field.h"
 #include "sm_io.h"
 #include "sm_match.h"
@@ -281,125 +282,17 @@ static int on_progress(const sm_progress *p, const double *coords, void *user)
 
 /* ---- input checks ---- */
 
-static int ref_listed(int32_t ref, const int32_t *refs, int n)
-{
-    for (int i = 0; i < n; i++)
-        if (refs[i] == ref)
-            return 1;
-    return 0;
-}
-
-/* Affine rank of the clamped vertices, capped at 2: 0 for one point, 1
- * for points on a line, 2 otherwise.  A clamp of rank < dim-1 leaves a
- * rotation free. */
-static int clamp_rank(const sm_mesh *m, const uint8_t *clamped)
-{
-    const int dim = m->dim;
-    const double *x = m->coords;
-    int32_t first = -1, far = -1;
-    double far_d2 = 0.0;
-    for (int32_t v = 0; v < m->nverts; v++) {
-        if (!clamped[v])
-            continue;
-        if (first < 0) {
-            first = v;
-            continue;
-        }
-        double d2 = 0.0;
-        for (int k = 0; k < dim; k++) {
-            double d = x[(size_t)v * (size_t)dim + (size_t)k] - x[(size_t)first * (size_t)dim + (size_t)k];
-            d2 += d * d;
-        }
-        if (d2 > far_d2) {
-            far_d2 = d2;
-            far = v;
-        }
-    }
-    /* "distinct" relative to the template size, not to rounding */
-    double diam = sm_mesh_diameter(m, x);
-    if (far < 0 || !(far_d2 > 1e-20 * diam * diam))
-        return 0;
-    if (dim == 2)
-        return 1;
-    double a[3], best = 0.0;
-    for (int k = 0; k < 3; k++)
-        a[k] = x[(size_t)far * 3 + (size_t)k] - x[(size_t)first * 3 + (size_t)k];
-    for (int32_t v = 0; v < m->nverts; v++) {
-        if (!clamped[v])
-            continue;
-        double b[3];
-        for (int k = 0; k < 3; k++)
-            b[k] = x[(size_t)v * 3 + (size_t)k] - x[(size_t)first * 3 + (size_t)k];
-        double c0 = a[1] * b[2] - a[2] * b[1], c1 = a[2] * b[0] - a[0] * b[2],
-               c2 = a[0] * b[1] - a[1] * b[0];
-        double c2n = c0 * c0 + c1 * c1 + c2 * c2;
-        if (c2n > best)
-            best = c2n;
-    }
-    /* |a x b|^2 compared with |a|^2 |b|^2 ~ far_d2^2 */
-    return best > 1e-20 * far_d2 * far_d2 ? 2 : 1;
-}
-
 /* The clamp must hold at least one vertex but not all of them: an empty
  * clamp set leaves rigid motions free (singular system), a full one
  * leaves nothing to move.  The core refuses both too; checked here so
  * that the message names the flag. */
 static int check_clamp_set(const job_options *j, const sm_mesh *m, char *msg, size_t cap)
 {
-    const sm_params *p = &j->params;
-    if (p->clamp == SM_CLAMP_NONE)
+    sm_error err;
+    if (sm_clamp_check(m, &j->params, NULL, &err) == SM_OK)
         return 0;
-    int32_t hits = 0;
-    const int nv = m->dim + 1;
-    uint8_t *clamped = calloc(m->nverts ? (size_t)m->nverts : 1, 1);
-    if (!clamped) {
-        snprintf(msg, cap, "out of memory");
-        return -1;
-    }
-    for (int32_t v = 0; v < m->nverts && p->clamp == SM_CLAMP_BALL; v++) {
-        double r2 = 0.0;
-        for (int k = 0; k < m->dim; k++) {
-            double dx = m->coords[(size_t)v * (size_t)m->dim + (size_t)k] - p->clamp_center[k];
-            r2 += dx * dx;
-        }
-        /* same relative tolerance as the core: a vertex placed exactly
-         * on the sphere counts as inside */
-        clamped[v] = r2 <= p->clamp_radius * p->clamp_radius * (1.0 + 1e-9);
-    }
-    for (int32_t e = 0; e < m->nelems && p->clamp == SM_CLAMP_ELEMENTS; e++)
-        if (ref_listed(m->elem_refs[e], p->clamp_refs, p->n_clamp_refs))
-            for (int i = 0; i < nv; i++)
-                clamped[m->elems[(size_t)e * (size_t)nv + (size_t)i]] = 1;
-    for (int32_t v = 0; v < m->nverts && p->clamp == SM_CLAMP_VERTICES; v++)
-        clamped[v] = (uint8_t)ref_listed(m->vert_refs[v], p->clamp_refs, p->n_clamp_refs);
-    for (int32_t v = 0; v < m->nverts; v++)
-        hits += clamped[v];
-    int rank = clamp_rank(m, clamped);
-    free(clamped);
-
-    const char *what = p->clamp == SM_CLAMP_BALL     ? "lies inside the ball"
-                       : p->clamp == SM_CLAMP_ELEMENTS ? "belongs to an element with these references"
-                                                       : "has one of these references";
-    if (hits == 0) {
-        snprintf(msg, cap, "%s: no template vertex %s: nothing would be clamped",
-                 j->clamp_flag, what);
-        return -1;
-    }
-    if (hits == m->nverts) {
-        snprintf(msg, cap, "%s: every template vertex %s: nothing could move",
-                 j->clamp_flag, what);
-        return -1;
-    }
-    if (rank < m->dim - 1) {
-        snprintf(msg, cap,
-                 "%s: the clamp holds %s %ld vert%s: rigid rotations stay free (the "
-                 "elasticity system is singular); clamp at least %d %s vertices",
-                 j->clamp_flag, hits == 1 ? "only" : "collinear", (long)hits,
-                 hits == 1 ? "ex" : "ices", m->dim,
-                 m->dim == 2 ? "distinct" : "non-collinear");
-        return -1;
-    }
-    return 0;
+    snprintf(msg, cap, "%s: %s", j->clamp_flag, err.msg);
+    return -1;
 }
 
 static void warn_unknown_free_refs(run_ctx *c, const sm_mesh *m)

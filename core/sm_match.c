@@ -5,6 +5,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "sm_clamp.h"
 #include "sm_elasticity.h"
 #include "sm_field.h"
 #include "sm_shape.h"
@@ -100,54 +101,6 @@ static double now_seconds(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static int ref_listed(int32_t ref, const int32_t *refs, int n)
-{
-    for (int i = 0; i < n; i++)
-        if (refs[i] == ref)
-            return 1;
-    return 0;
-}
-
-/* Flags the clamped vertices; returns how many. */
-static int32_t mark_clamped(const sm_mesh *m, const sm_params *p, uint8_t *clamped)
-{
-    int32_t count = 0;
-    const int dim = m->dim, nv = dim + 1;
-    memset(clamped, 0, (size_t)m->nverts);
-    switch (p->clamp) {
-    case SM_CLAMP_BALL: {
-        double r2 = p->clamp_radius * p->clamp_radius;
-        for (int32_t v = 0; v < m->nverts; v++) {
-            double s = 0.0;
-            for (int c = 0; c < dim; c++) {
-                double dx = m->coords[(size_t)v * (size_t)dim + (size_t)c] - p->clamp_center[c];
-                s += dx * dx;
-            }
-            /* a relative tolerance keeps vertices placed exactly on the sphere */
-            if (s <= r2 * (1.0 + 1e-9))
-                clamped[v] = 1;
-        }
-        break;
-    }
-    case SM_CLAMP_ELEMENTS:
-        for (int32_t e = 0; e < m->nelems; e++)
-            if (ref_listed(m->elem_refs[e], p->clamp_refs, p->n_clamp_refs))
-                for (int i = 0; i < nv; i++)
-                    clamped[m->elems[(size_t)e * (size_t)nv + (size_t)i]] = 1;
-        break;
-    case SM_CLAMP_VERTICES:
-        for (int32_t v = 0; v < m->nverts; v++)
-            if (ref_listed(m->vert_refs[v], p->clamp_refs, p->n_clamp_refs))
-                clamped[v] = 1;
-        break;
-    case SM_CLAMP_NONE:
-        break;
-    }
-    for (int32_t v = 0; v < m->nverts; v++)
-        count += clamped[v];
-    return count;
-}
-
 /* Everything one run owns; freed in one place. */
 typedef struct run_state {
     sm_mesh *mesh;            /* private copy of the template, boundary built */
@@ -225,22 +178,10 @@ sm_status sm_match_run(const sm_mesh *template_mesh, const sm_mesh *background, 
                           (long)rs.mesh->nverts);
         goto done;
     }
-    int32_t nclamped = mark_clamped(rs.mesh, params, rs.clamped);
-    if (params->clamp != SM_CLAMP_NONE && nclamped == 0) {
-        if (params->clamp == SM_CLAMP_BALL)
-            st = sm_error_set(err, SM_ERR_INVALID,
-                              "the clamp set is empty: no template vertex lies in the ball of radius %g",
-                              params->clamp_radius);
-        else
-            st = sm_error_set(err, SM_ERR_INVALID,
-                              "the clamp set is empty: no template %s has the given references",
-                              params->clamp == SM_CLAMP_ELEMENTS ? "element" : "vertex");
+    if ((st = sm_clamp_check(rs.mesh, params, NULL, err)) != SM_OK)
         goto done;
-    }
-    if (nclamped == rs.mesh->nverts) {
-        st = sm_error_set(err, SM_ERR_INVALID, "every template vertex is clamped: nothing can move");
-        goto done;
-    }
+    sm_clamp_mark(rs.mesh, params, rs.clamped);
+
     memcpy(rs.x, rs.mesh->coords, ndof * sizeof(double));
     const double diameter = sm_mesh_diameter(rs.mesh, rs.x);
     const double step_min = params->tol_step * diameter;

@@ -6,98 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "sm_clamp.h"
 #include "sm_proto_params.h"
-
-static int ref_listed(int32_t ref, const int32_t *refs, int n)
-{
-    for (int i = 0; i < n; i++)
-        if (refs[i] == ref)
-            return 1;
-    return 0;
-}
-
-int32_t smd_clamp_mark(const sm_mesh *m, const sm_params *p, uint8_t *clamped)
-{
-    const int dim = m->dim, nv = dim + 1;
-    memset(clamped, 0, (size_t)m->nverts);
-    switch (p->clamp) {
-    case SM_CLAMP_BALL: {
-        double r2 = p->clamp_radius * p->clamp_radius;
-        for (int32_t v = 0; v < m->nverts; v++) {
-            double s = 0;
-            for (int c = 0; c < dim; c++) {
-                double dx = m->coords[(size_t)v * (size_t)dim + (size_t)c] - p->clamp_center[c];
-                s += dx * dx;
-            }
-            clamped[v] = s <= r2 * (1.0 + 1e-9);
-        }
-        break;
-    }
-    case SM_CLAMP_VERTICES:
-        for (int32_t v = 0; v < m->nverts; v++)
-            clamped[v] = (uint8_t)ref_listed(m->vert_refs[v], p->clamp_refs, p->n_clamp_refs);
-        break;
-    case SM_CLAMP_ELEMENTS:
-        for (int32_t e = 0; e < m->nelems; e++)
-            if (ref_listed(m->elem_refs[e], p->clamp_refs, p->n_clamp_refs))
-                for (int i = 0; i < nv; i++)
-                    clamped[m->elems[(size_t)e * (size_t)nv + (size_t)i]] = 1;
-        break;
-    case SM_CLAMP_NONE:
-        break;
-    }
-    int32_t count = 0;
-    for (int32_t v = 0; v < m->nverts; v++)
-        count += clamped[v];
-    return count;
-}
-
-int smd_clamp_rank(const sm_mesh *m, const uint8_t *clamped)
-{
-    const int dim = m->dim;
-    const double *x = m->coords;
-    int32_t first = -1, far = -1;
-    double far_d2 = 0;
-    for (int32_t v = 0; v < m->nverts; v++) {
-        if (!clamped[v])
-            continue;
-        if (first < 0) {
-            first = v;
-            continue;
-        }
-        double d2 = 0;
-        for (int k = 0; k < dim; k++) {
-            double d = x[(size_t)v * (size_t)dim + (size_t)k] - x[(size_t)first * (size_t)dim + (size_t)k];
-            d2 += d * d;
-        }
-        if (d2 > far_d2) {
-            far_d2 = d2;
-            far = v;
-        }
-    }
-    /* "distinct" relative to the template's size, not to rounding */
-    double diam = sm_mesh_diameter(m, x);
-    if (far < 0 || !(far_d2 > 1e-20 * diam * diam))
-        return 0;
-    if (dim == 2)
-        return 1;
-    double a[3], best = 0;
-    for (int k = 0; k < 3; k++)
-        a[k] = x[(size_t)far * 3 + (size_t)k] - x[(size_t)first * 3 + (size_t)k];
-    for (int32_t v = 0; v < m->nverts; v++) {
-        if (!clamped[v])
-            continue;
-        double b[3];
-        for (int k = 0; k < 3; k++)
-            b[k] = x[(size_t)v * 3 + (size_t)k] - x[(size_t)first * 3 + (size_t)k];
-        double c0 = a[1] * b[2] - a[2] * b[1], c1 = a[2] * b[0] - a[0] * b[2],
-               c2 = a[0] * b[1] - a[1] * b[0];
-        double n2 = c0 * c0 + c1 * c1 + c2 * c2;
-        if (n2 > best)
-            best = n2;
-    }
-    return best > 1e-20 * far_d2 * far_d2 ? 2 : 1;
-}
 
 void smd_inputs_free(smd_inputs *in)
 {
@@ -210,40 +120,9 @@ sm_status smd_inputs_load(const char *template_path, const char *target_mesh_pat
     }
     if ((st = sm_params_from_json(params_text, params_len, out->dim, &out->params, err)) != SM_OK)
         goto fail;
-    if (out->params.clamp != SM_CLAMP_NONE) {
-        const sm_mesh *m = out->template_mesh;
-        uint8_t *clamped = malloc((size_t)m->nverts + 1);
-        if (!clamped) {
-            st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
-            goto fail;
-        }
-        out->nclamped = smd_clamp_mark(m, &out->params, clamped);
-        int rank = smd_clamp_rank(m, clamped);
-        free(clamped);
-        const char *what = out->params.clamp == SM_CLAMP_BALL ? "lies in the ball"
-                           : out->params.clamp == SM_CLAMP_ELEMENTS
-                               ? "belongs to an element with these references"
-                               : "has one of these references";
-        const char *field = out->params.clamp == SM_CLAMP_BALL ? "params.clamp" : "params.clamp.refs";
-        if (out->nclamped == 0) {
-            st = sm_error_set(err, SM_ERR_INVALID,
-                              "%s: the clamp set is empty: no template vertex %s", field, what);
-            goto fail;
-        }
-        if (out->nclamped == m->nverts) {
-            st = sm_error_set(err, SM_ERR_INVALID,
-                              "%s: every template vertex %s: nothing could move", field, what);
-            goto fail;
-        }
-        if (rank < m->dim - 1) {
-            st = sm_error_set(err, SM_ERR_INVALID,
-                              "%s: the clamp holds %s %ld vert%s: rigid rotations stay free (the "
-                              "elasticity system is singular); clamp at least %d %s vertices",
-                              field, out->nclamped == 1 ? "only" : "collinear",
-                              (long)out->nclamped, out->nclamped == 1 ? "ex" : "ices", m->dim,
-                              m->dim == 2 ? "distinct" : "non-collinear");
-            goto fail;
-        }
+    if ((st = sm_clamp_check(out->template_mesh, &out->params, &out->nclamped, err)) != SM_OK) {
+        sm_error_prefix(err, "%s", out->params.clamp == SM_CLAMP_BALL ? "params.clamp" : "params.clamp.refs");
+        goto fail;
     }
     return SM_OK;
 fail:

@@ -47,14 +47,4 @@ sm_status smd_inputs_load(const char *template_path, const char *target_mesh_pat
                           size_t params_len, smd_inputs *out, sm_error *err);
 void smd_inputs_free(smd_inputs *in);
 
-/* Flags (nverts bytes) the vertices of m (as read) in the clamp set of
- * p, with the core's rule (ball: |x - c|^2 <= r^2 (1 + 1e-9)); returns
- * how many. */
-int32_t smd_clamp_mark(const sm_mesh *m, const sm_params *p, uint8_t *clamped);
-
-/* Affine rank of the flagged vertices, capped at 2: 0 for one point (or
- * none), 1 for points on a line, 2 otherwise.  A clamp of rank < dim-1
- * leaves a rigid rotation free (singular elasticity system). */
-int smd_clamp_rank(const sm_mesh *m, const uint8_t *clamped);
-
 #endif

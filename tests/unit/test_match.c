@@ -232,6 +232,13 @@ static void test_bad_inputs(void **state)
     p.clamp_radius = 0.1;
     assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "clamp set is empty"));
+    p.clamp_center[0] = p.clamp_center[1] = 0.5; /* only the center vertex */
+    p.clamp_radius = 1e-3;
+    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "rigid rotations stay free"));
+    p.clamp_radius = 10.0; /* every vertex */
+    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "nothing could move"));
     p.clamp = SM_CLAMP_ELEMENTS;
     p.n_clamp_refs = 1;
     p.clamp_refs[0] = 42;

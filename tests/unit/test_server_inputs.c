@@ -13,6 +13,7 @@
 #include <cmocka.h>
 
 #include "sm_io.h"
+#include "sm_clamp.h"
 #include "smd_inputs.h"
 #include "smd_metrics.h"
 #include "smd_stream.h"
@@ -162,9 +163,9 @@ static void test_clamp_rank(void **state)
     sm_mesh *m = util_box_mesh(3, 2, lo, hi, 0); /* 27 vertices on a 3x3x3 grid */
     uint8_t mark[27];
     memset(mark, 0, sizeof mark);
-    assert_int_equal(smd_clamp_rank(m, mark), 0);
+    assert_int_equal(sm_clamp_rank(m, mark), 0);
     mark[0] = 1;
-    assert_int_equal(smd_clamp_rank(m, mark), 0);
+    assert_int_equal(sm_clamp_rank(m, mark), 0);
     /* the vertices with y = z = 0 lie on a line */
     int on_line = 0;
     for (int v = 0; v < 27; v++)
@@ -173,17 +174,17 @@ static void test_clamp_rank(void **state)
             on_line++;
         }
     assert_int_equal(on_line, 3);
-    assert_int_equal(smd_clamp_rank(m, mark), 1);
+    assert_int_equal(sm_clamp_rank(m, mark), 1);
     for (int v = 0; v < 27; v++)
         if (m->coords[3 * v + 2] == 0)
             mark[v] = 1; /* the face z = 0 */
-    assert_int_equal(smd_clamp_rank(m, mark), 2);
+    assert_int_equal(sm_clamp_rank(m, mark), 2);
     sm_params p;
     sm_params_default(&p);
     p.clamp = SM_CLAMP_BALL;
     p.clamp_center[0] = p.clamp_center[1] = p.clamp_center[2] = 0.5;
     p.clamp_radius = 0.5; /* the centre and its 6 face neighbours, exactly on the sphere */
-    assert_int_equal(smd_clamp_mark(m, &p, mark), 7);
+    assert_int_equal(sm_clamp_mark(m, &p, mark), 7);
     sm_mesh_free(m);
 }
 

@@ -1,0 +1,32 @@
+/* The clamp set omega of the paper: which template vertices are held
+ * fixed, and whether that makes the elasticity problem well posed. */
+#ifndef SM_CLAMP_H
+#define SM_CLAMP_H
+
+#include <stdint.h>
+
+#include "sm_error.h"
+#include "sm_match.h"
+#include "sm_mesh.h"
+
+/* Flags (clamped[v] = 1) the vertices held by the clamp of p: inside the
+ * ball (a relative tolerance keeps vertices placed exactly on its
+ * sphere), vertices of elements with the listed references, or vertices
+ * with the listed references; none for SM_CLAMP_NONE.  Returns how many. */
+int32_t sm_clamp_mark(const sm_mesh *m, const sm_params *p, uint8_t *clamped);
+
+/* Affine rank of the clamped vertices, capped at 2: 0 for one point (or
+ * none), 1 for points on a line, 2 otherwise.  A clamp of rank < dim-1
+ * leaves a rigid rotation free. */
+int sm_clamp_rank(const sm_mesh *m, const uint8_t *clamped);
+
+/* Checks the clamp of p on m: it must hold a vertex, not every vertex,
+ * and leave no rigid rotation free.  SM_ERR_INVALID otherwise, with a
+ * message that callers prefix with the option or field name ("the clamp
+ * set is empty: no template vertex lies in the ball").  *nclamped (may be
+ * NULL) receives the number of clamped vertices.  SM_CLAMP_NONE is always
+ * fine (the alpha term makes the problem well posed). */
+sm_status sm_clamp_check(const sm_mesh *m, const sm_params *p, int32_t *nclamped,
+                         sm_error *err);
+
+#endif

@@ -1,27 +1,14 @@
 /* Command-line parsing of the shapematch client (see args.h). */
 #include "args.h"
+#include "msg.h"
 
 #include <ctype.h>
 #include <errno.h>
 #include <limits.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 
-static int fail(char *msg, size_t cap, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
-
-static int fail(char *msg, size_t cap, const char *fmt, ...)
-{
-    if (msg && cap) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(msg, cap, fmt, ap);
-        va_end(ap);
-    }
-    return -1;
-}
 
 /* Quotes user text for a message, cut short so that a huge argument
  * cannot drown the message. */
@@ -44,16 +31,16 @@ int args_parse_real(const char *flag, const char *text, double *out,
     /* strtod would skip leading blanks and accept "nan"/"inf": reject
      * both explicitly so that only plain finite numbers get through */
     if (text[0] == '\0' || isspace((unsigned char)text[0]))
-        return fail(msg, cap, "%s: expected a number, got '%s'", flag,
+        return cli_fail(msg, cap, "%s: expected a number, got '%s'", flag,
                     shorten(text, q, sizeof q));
     char *end = NULL;
     errno = 0;
     double v = strtod(text, &end);
     if (end == text || *end != '\0')
-        return fail(msg, cap, "%s: '%s' is not a number", flag,
+        return cli_fail(msg, cap, "%s: '%s' is not a number", flag,
                     shorten(text, q, sizeof q));
     if (!isfinite(v) || (errno == ERANGE && fabs(v) > 1.0))
-        return fail(msg, cap, "%s: '%s' is not a finite number", flag,
+        return cli_fail(msg, cap, "%s: '%s' is not a finite number", flag,
                     shorten(text, q, sizeof q));
     *out = v;
     return 0;
@@ -64,16 +51,16 @@ int args_parse_int(const char *flag, const char *text, long lo, long hi,
 {
     char q[48];
     if (text[0] == '\0' || isspace((unsigned char)text[0]))
-        return fail(msg, cap, "%s: expected an integer, got '%s'", flag,
+        return cli_fail(msg, cap, "%s: expected an integer, got '%s'", flag,
                     shorten(text, q, sizeof q));
     char *end = NULL;
     errno = 0;
     long v = strtol(text, &end, 10);
     if (end == text || *end != '\0')
-        return fail(msg, cap, "%s: '%s' is not an integer", flag,
+        return cli_fail(msg, cap, "%s: '%s' is not an integer", flag,
                     shorten(text, q, sizeof q));
     if (errno == ERANGE || v < lo || v > hi)
-        return fail(msg, cap, "%s: %s is out of range (%ld..%ld)", flag,
+        return cli_fail(msg, cap, "%s: %s is out of range (%ld..%ld)", flag,
                     shorten(text, q, sizeof q), lo, hi);
     *out = v;
     return 0;
@@ -95,13 +82,13 @@ static int split_commas(const char *flag, const char *text, int max,
         const char *comma = strchr(p, ',');
         size_t len = comma ? (size_t)(comma - p) : strlen(p);
         if (len == 0)
-            return fail(msg, cap, "%s: empty item in '%s' (expected a comma-separated list)",
+            return cli_fail(msg, cap, "%s: empty item in '%s' (expected a comma-separated list)",
                         flag, shorten(text, q, sizeof q));
         if (n >= max)
-            return fail(msg, cap, "%s: too many values (at most %d)", flag, max);
+            return cli_fail(msg, cap, "%s: too many values (at most %d)", flag, max);
         char item[64];
         if (len >= sizeof item)
-            return fail(msg, cap, "%s: value too long in '%s'", flag,
+            return cli_fail(msg, cap, "%s: value too long in '%s'", flag,
                         shorten(text, q, sizeof q));
         memcpy(item, p, len);
         item[len] = '\0';
@@ -214,7 +201,7 @@ static int apply_scalar(sm_params *p, const scalar_option *o,
         if (args_parse_int(o->flag, value, LONG_MIN, LONG_MAX, &v, msg, cap) != 0)
             return -1;
         if (v < (long)o->lo || v > (long)o->hi)
-            return fail(msg, cap, "%s: %ld is out of range (must be %s)",
+            return cli_fail(msg, cap, "%s: %ld is out of range (must be %s)",
                         o->flag, v, range);
         *(int *)((char *)p + o->offset) = (int)v;
         return 0;
@@ -225,7 +212,7 @@ static int apply_scalar(sm_params *p, const scalar_option *o,
     int below = o->lo_open ? !(v > o->lo) : !(v >= o->lo);
     int above = o->hi_open ? !(v < o->hi) : !(v <= o->hi);
     if (below || above)
-        return fail(msg, cap, "%s: %s is out of range (must be %s)", o->flag,
+        return cli_fail(msg, cap, "%s: %s is out of range (must be %s)", o->flag,
                     value, range);
     *(double *)((char *)p + o->offset) = v;
     return 0;
@@ -268,8 +255,8 @@ static int set_clamp(job_options *j, const char *flag, char *msg, size_t cap)
 {
     if (j->clamp_flag) {
         if (strcmp(j->clamp_flag, flag) == 0)
-            return fail(msg, cap, "%s given twice: give exactly one clamp option", flag);
-        return fail(msg, cap,
+            return cli_fail(msg, cap, "%s given twice: give exactly one clamp option", flag);
+        return cli_fail(msg, cap,
                     "%s and %s both given: give exactly one of --clamp-ball, "
                     "--clamp-elements, --clamp-vertices, --no-clamp",
                     j->clamp_flag, flag);
@@ -298,11 +285,11 @@ int job_option_apply(job_options *j, const char *flag, const char *value,
         if (args_parse_reals(flag, value, v, 4, &n, msg, cap) != 0)
             return -1;
         if (n != 3 && n != 4)
-            return fail(msg, cap,
+            return cli_fail(msg, cap,
                         "%s: expected x,y,r (2D) or x,y,z,r (3D), got %d value%s",
                         flag, n, n == 1 ? "" : "s");
         if (!(v[n - 1] > 0))
-            return fail(msg, cap, "%s: the radius must be > 0, got %g", flag, v[n - 1]);
+            return cli_fail(msg, cap, "%s: the radius must be > 0, got %g", flag, v[n - 1]);
         p->clamp = SM_CLAMP_BALL;
         p->clamp_center[0] = v[0];
         p->clamp_center[1] = v[1];
@@ -326,7 +313,7 @@ int job_option_apply(job_options *j, const char *flag, const char *value,
                                &p->n_free_refs, msg, cap);
     const scalar_option *o = find_scalar(flag);
     if (!o)
-        return fail(msg, cap, "unknown option '%s'", flag);
+        return cli_fail(msg, cap, "unknown option '%s'", flag);
     if (apply_scalar(p, o, value, msg, cap) != 0)
         return -1;
     if (strcmp(flag, "--alpha") == 0)
@@ -337,14 +324,14 @@ int job_option_apply(job_options *j, const char *flag, const char *value,
 int job_options_finish(job_options *j, char *msg, size_t cap)
 {
     if (!j->clamp_flag)
-        return fail(msg, cap,
+        return cli_fail(msg, cap,
                     "missing clamp option: give exactly one of --clamp-ball, "
                     "--clamp-elements, --clamp-vertices, --no-clamp");
     if (j->alpha_given && j->params.clamp != SM_CLAMP_NONE)
-        return fail(msg, cap, "--alpha is only valid with --no-clamp (got %s)",
+        return cli_fail(msg, cap, "--alpha is only valid with --no-clamp (got %s)",
                     j->clamp_flag);
     if (j->params.step_initial > j->params.step_max)
-        return fail(msg, cap, "--step-initial (%g) must not exceed --step-max (%g)",
+        return cli_fail(msg, cap, "--step-initial (%g) must not exceed --step-max (%g)",
                     j->params.step_initial, j->params.step_max);
     return 0;
 }
@@ -353,7 +340,7 @@ int job_options_check_dim(const job_options *j, int dim, char *msg,
                           size_t cap)
 {
     if (j->params.clamp == SM_CLAMP_BALL && j->clamp_ball_dim != dim)
-        return fail(msg, cap,
+        return cli_fail(msg, cap,
                     "--clamp-ball: the template is %dD, so give %s (got %d coordinates)",
                     dim, dim == 2 ? "x,y,r" : "x,y,z,r", j->clamp_ball_dim);
     return 0;
@@ -469,7 +456,7 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
         if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0)
             return ARGS_HELP;
         if (arg[0] != '-' || arg[1] == '\0' || strcmp(arg, "--") == 0) {
-            fail(msg, cap, "unexpected argument '%s' (run takes options only)",
+            cli_fail(msg, cap, "unexpected argument '%s' (run takes options only)",
                  shorten(arg, q, sizeof q));
             return ARGS_ERROR;
         }
@@ -479,7 +466,7 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
         const char *eq = arg[1] == '-' ? strchr(arg, '=') : NULL;
         size_t flen = eq ? (size_t)(eq - arg) : strlen(arg);
         if (flen >= sizeof flag) {
-            fail(msg, cap, "unknown option '%s'", shorten(arg, q, sizeof q));
+            cli_fail(msg, cap, "unknown option '%s'", shorten(arg, q, sizeof q));
             return ARGS_ERROR;
         }
         memcpy(flag, arg, flen);
@@ -490,7 +477,7 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
         int takes_value = 0;
         run_flag_kind kind = classify_run_flag(flag, &takes_value);
         if (kind == RUN_FLAG_UNKNOWN) {
-            fail(msg, cap, "unknown option '%s'", flag);
+            cli_fail(msg, cap, "unknown option '%s'", flag);
             return ARGS_ERROR;
         }
         const char *value = NULL;
@@ -501,13 +488,13 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
                 /* a following "--something" is taken as a forgotten value,
                  * not as a file name; "--flag=--x" still allows one */
                 if (i + 1 >= argc || (argv[i + 1][0] == '-' && argv[i + 1][1] == '-')) {
-                    fail(msg, cap, "%s requires a value", flag);
+                    cli_fail(msg, cap, "%s requires a value", flag);
                     return ARGS_ERROR;
                 }
                 value = argv[++i];
             }
         } else if (inline_value) {
-            fail(msg, cap, "%s does not take a value", flag);
+            cli_fail(msg, cap, "%s does not take a value", flag);
             return ARGS_ERROR;
         }
 
@@ -517,7 +504,7 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
         case RUN_FLAG_TARGET_SOL:
         case RUN_FLAG_OUTPUT:
             if (value[0] == '\0') {
-                fail(msg, cap, "%s: empty path", flag);
+                cli_fail(msg, cap, "%s: empty path", flag);
                 return ARGS_ERROR;
             }
             if (kind == RUN_FLAG_TEMPLATE)
@@ -554,7 +541,7 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
     };
     for (size_t k = 0; k < sizeof required / sizeof required[0]; k++)
         if (!*(const char *const *)((const char *)o + required[k].offset)) {
-            fail(msg, cap, "missing required option %s", required[k].flag);
+            cli_fail(msg, cap, "missing required option %s", required[k].flag);
             return ARGS_ERROR;
         }
     if (job_options_finish(&o->job, msg, cap) != 0)

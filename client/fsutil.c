@@ -1,27 +1,14 @@
 /* File-system helpers of the client (see fsutil.h). */
 #include "fsutil.h"
+#include "msg.h"
 
 #include <errno.h>
 #include <fcntl.h>
-#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
-static int fail(char *msg, size_t cap, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
-
-static int fail(char *msg, size_t cap, const char *fmt, ...)
-{
-    if (msg && cap) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(msg, cap, fmt, ap);
-        va_end(ap);
-    }
-    return -1;
-}
 
 char *fs_join(const char *dir, const char *name)
 {
@@ -46,16 +33,16 @@ static int mkdir_one(const char *path, char *msg, size_t cap)
     if (e == EEXIST && stat(path, &st) == 0) {
         if (S_ISDIR(st.st_mode))
             return 0;
-        return fail(msg, cap, "cannot create directory '%s': a file of that name exists", path);
+        return cli_fail(msg, cap, "cannot create directory '%s': a file of that name exists", path);
     }
-    return fail(msg, cap, "cannot create directory '%s': %s", path, strerror(e));
+    return cli_fail(msg, cap, "cannot create directory '%s': %s", path, strerror(e));
 }
 
 int fs_mkdir_p(const char *path, char *msg, size_t cap)
 {
     char *buf = strdup(path);
     if (!buf)
-        return fail(msg, cap, "out of memory");
+        return cli_fail(msg, cap, "out of memory");
     size_t n = strlen(buf);
     while (n > 1 && buf[n - 1] == '/')
         buf[--n] = '\0';
@@ -125,19 +112,19 @@ int fs_commit_file(const char *tmp, const char *path, char *msg, size_t cap)
 {
     int fd = open(tmp, O_RDONLY | O_CLOEXEC);
     if (fd < 0)
-        return fail(msg, cap, "cannot open '%s': %s", tmp, strerror(errno));
+        return cli_fail(msg, cap, "cannot open '%s': %s", tmp, strerror(errno));
     /* EINVAL: the file system does not support syncing; not an error */
     if (fsync(fd) != 0 && errno != EINVAL) {
         int e = errno;
         close(fd);
         unlink(tmp);
-        return fail(msg, cap, "cannot write '%s': %s", path, strerror(e));
+        return cli_fail(msg, cap, "cannot write '%s': %s", path, strerror(e));
     }
     close(fd);
     if (rename(tmp, path) != 0) {
         int e = errno;
         unlink(tmp);
-        return fail(msg, cap, "cannot rename '%s' to '%s': %s", tmp, path, strerror(e));
+        return cli_fail(msg, cap, "cannot rename '%s' to '%s': %s", tmp, path, strerror(e));
     }
     sync_dir_of(path);
     return 0;
@@ -150,12 +137,12 @@ int fs_atomic_open(fs_atomic *a, const char *path, char *msg, size_t cap)
     a->tmp_path = temp_name(path, ".tmp-%ld", 1);
     if (!a->final_path || !a->tmp_path) {
         fs_atomic_abort(a);
-        return fail(msg, cap, "out of memory");
+        return cli_fail(msg, cap, "out of memory");
     }
     int fd = open(a->tmp_path, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
     if (fd < 0) {
         int e = errno;
-        fail(msg, cap, "cannot create '%s': %s", a->tmp_path, strerror(e));
+        cli_fail(msg, cap, "cannot create '%s': %s", a->tmp_path, strerror(e));
         free(a->tmp_path);
         a->tmp_path = NULL;
         fs_atomic_abort(a);
@@ -166,7 +153,7 @@ int fs_atomic_open(fs_atomic *a, const char *path, char *msg, size_t cap)
         int e = errno;
         close(fd);
         fs_atomic_abort(a);
-        return fail(msg, cap, "cannot open '%s': %s", path, strerror(e));
+        return cli_fail(msg, cap, "cannot open '%s': %s", path, strerror(e));
     }
     return 0;
 }
@@ -201,13 +188,13 @@ int fs_atomic_commit(fs_atomic *a, char *msg, size_t cap)
     }
     a->f = NULL;
     if (bad) {
-        fail(msg, cap, "cannot write '%s': %s", a->final_path, strerror(e ? e : EIO));
+        cli_fail(msg, cap, "cannot write '%s': %s", a->final_path, strerror(e ? e : EIO));
         fs_atomic_abort(a);
         return -1;
     }
     if (rename(a->tmp_path, a->final_path) != 0) {
         e = errno;
-        fail(msg, cap, "cannot rename '%s' to '%s': %s", a->tmp_path, a->final_path,
+        cli_fail(msg, cap, "cannot rename '%s' to '%s': %s", a->tmp_path, a->final_path,
              strerror(e));
         fs_atomic_abort(a);
         return -1;
@@ -221,12 +208,12 @@ int fs_check_writable(const char *dir, char *msg, size_t cap)
 {
     char *probe = fs_join(dir, "write-probe");
     if (!probe)
-        return fail(msg, cap, "out of memory");
+        return cli_fail(msg, cap, "out of memory");
     fs_atomic a;
     int rc = fs_atomic_open(&a, probe, msg, cap);
     if (rc == 0) {
         if (fputs("probe\n", a.f) == EOF || fflush(a.f) != 0)
-            rc = fail(msg, cap, "cannot write in '%s': %s", dir, strerror(errno));
+            rc = cli_fail(msg, cap, "cannot write in '%s': %s", dir, strerror(errno));
         fs_atomic_abort(&a);
     }
     free(probe);

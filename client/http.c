@@ -1,7 +1,7 @@
 /* The client's HTTP layer over libcurl (see http.h). */
 #include "http.h"
+#include "msg.h"
 
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -13,25 +13,12 @@
 #define SM_VERSION "unknown"
 #endif
 
-static int fail(char *msg, size_t cap, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
-
-static int fail(char *msg, size_t cap, const char *fmt, ...)
-{
-    if (msg && cap) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(msg, cap, fmt, ap);
-        va_end(ap);
-    }
-    return -1;
-}
 
 int http_global_init(char *msg, size_t cap)
 {
     CURLcode rc = curl_global_init(CURL_GLOBAL_DEFAULT);
     if (rc != CURLE_OK)
-        return fail(msg, cap, "cannot initialise libcurl: %s", curl_easy_strerror(rc));
+        return cli_fail(msg, cap, "cannot initialise libcurl: %s", curl_easy_strerror(rc));
     return 0;
 }
 
@@ -59,14 +46,14 @@ int http_client_init(http_client *c, const char *server, const char *token,
     memset(c, 0, sizeof *c);
     c->connect_timeout_ms = HTTP_CONNECT_TIMEOUT_MS;
     if (!server || !server[0])
-        return fail(msg, cap, "--server: empty URL");
+        return cli_fail(msg, cap, "--server: empty URL");
     /* "host:port" alone means http://host:port (not curl's https) */
     char *with_scheme = NULL;
     if (!strstr(server, "://")) {
         size_t n = strlen(server) + 8;
         with_scheme = malloc(n);
         if (!with_scheme)
-            return fail(msg, cap, "out of memory");
+            return cli_fail(msg, cap, "out of memory");
         snprintf(with_scheme, n, "http://%s", server);
     }
     const char *text = with_scheme ? with_scheme : server;
@@ -74,28 +61,28 @@ int http_client_init(http_client *c, const char *server, const char *token,
     char *scheme = NULL, *query = NULL, *fragment = NULL, *full = NULL;
     int rc = -1;
     if (!u) {
-        fail(msg, cap, "out of memory");
+        cli_fail(msg, cap, "out of memory");
         goto done;
     }
     CURLUcode uc = curl_url_set(u, CURLUPART_URL, text, 0);
     if (uc != CURLUE_OK) {
-        fail(msg, cap, "--server: '%.200s' is not a URL (%s); expected e.g. http://127.0.0.1:8080",
+        cli_fail(msg, cap, "--server: '%.200s' is not a URL (%s); expected e.g. http://127.0.0.1:8080",
              server, curl_url_strerror(uc));
         goto done;
     }
     if (curl_url_get(u, CURLUPART_SCHEME, &scheme, 0) != CURLUE_OK ||
         (strcmp(scheme, "http") != 0 && strcmp(scheme, "https") != 0)) {
-        fail(msg, cap, "--server: '%.200s': only http:// and https:// URLs are supported", server);
+        cli_fail(msg, cap, "--server: '%.200s': only http:// and https:// URLs are supported", server);
         goto done;
     }
     if (curl_url_get(u, CURLUPART_QUERY, &query, 0) == CURLUE_OK ||
         curl_url_get(u, CURLUPART_FRAGMENT, &fragment, 0) == CURLUE_OK) {
-        fail(msg, cap, "--server: '%.200s': give the daemon's base URL, without ?query or #fragment",
+        cli_fail(msg, cap, "--server: '%.200s': give the daemon's base URL, without ?query or #fragment",
              server);
         goto done;
     }
     if (curl_url_get(u, CURLUPART_URL, &full, 0) != CURLUE_OK) {
-        fail(msg, cap, "--server: '%.200s' is not a usable URL", server);
+        cli_fail(msg, cap, "--server: '%.200s' is not a usable URL", server);
         goto done;
     }
     size_t n = strlen(full);
@@ -103,26 +90,26 @@ int http_client_init(http_client *c, const char *server, const char *token,
         n--;
     c->base = strndup(full, n);
     if (!c->base) {
-        fail(msg, cap, "out of memory");
+        cli_fail(msg, cap, "out of memory");
         goto done;
     }
     if (token && token[0]) {
         if (!token_ok(token)) {
-            fail(msg, cap, "--token: a token is 1 to 4096 printable ASCII characters without "
+            cli_fail(msg, cap, "--token: a token is 1 to 4096 printable ASCII characters without "
                            "spaces");
             goto done;
         }
         size_t hn = strlen(token) + 32;
         c->auth_header = malloc(hn);
         if (!c->auth_header) {
-            fail(msg, cap, "out of memory");
+            cli_fail(msg, cap, "out of memory");
             goto done;
         }
         snprintf(c->auth_header, hn, "Authorization: Bearer %s", token);
     }
     c->curl = curl_easy_init();
     if (!c->curl) {
-        fail(msg, cap, "cannot initialise libcurl");
+        cli_fail(msg, cap, "cannot initialise libcurl");
         goto done;
     }
     rc = 0;

@@ -1,25 +1,12 @@
 /* Shared parts of the daemon commands (see remote.h). */
 #include "remote.h"
+#include "msg.h"
 
-#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "cli.h"
 
-static int fail(char *msg, size_t cap, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
-
-static int fail(char *msg, size_t cap, const char *fmt, ...)
-{
-    if (msg && cap) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(msg, cap, fmt, ap);
-        va_end(ap);
-    }
-    return -1;
-}
 
 /* ------------------------------------------------------------ parsing */
 
@@ -65,7 +52,7 @@ args_result remote_parse(int argc, char **argv, const cli_flag *flags, size_t nf
         const char *eq = arg[1] == '-' ? strchr(arg, '=') : NULL;
         size_t flen = eq ? (size_t)(eq - arg) : strlen(arg);
         if (flen >= sizeof flag) {
-            fail(msg, cap, "unknown option '%.40s...'", arg);
+            cli_fail(msg, cap, "unknown option '%.40s...'", arg);
             return ARGS_ERROR;
         }
         memcpy(flag, arg, flen);
@@ -83,7 +70,7 @@ args_result remote_parse(int argc, char **argv, const cli_flag *flags, size_t nf
         } else if (allow_job && (takes_value = job_option_lookup(flag)) >= 0) {
             id = CLI_ARG_JOB;
         } else {
-            fail(msg, cap, "unknown option '%s'", flag);
+            cli_fail(msg, cap, "unknown option '%s'", flag);
             return ARGS_ERROR;
         }
         const char *value = NULL;
@@ -93,18 +80,18 @@ args_result remote_parse(int argc, char **argv, const cli_flag *flags, size_t nf
             } else {
                 /* a following "--something" is a forgotten value, not the value */
                 if (i + 1 >= argc || (argv[i + 1][0] == '-' && argv[i + 1][1] == '-')) {
-                    fail(msg, cap, "%s requires a value", flag);
+                    cli_fail(msg, cap, "%s requires a value", flag);
                     return ARGS_ERROR;
                 }
                 value = argv[++i];
             }
         } else if (inline_value) {
-            fail(msg, cap, "%s does not take a value", flag);
+            cli_fail(msg, cap, "%s does not take a value", flag);
             return ARGS_ERROR;
         }
         if (id == FLAG_SERVER) {
             if (!value[0]) {
-                fail(msg, cap, "--server: empty URL");
+                cli_fail(msg, cap, "--server: empty URL");
                 return ARGS_ERROR;
             }
             conn->server = value;
@@ -236,7 +223,7 @@ int remote_check_id(const char *id, char *msg, size_t cap)
                ch == '_' || ch == '-';
     }
     if (!good)
-        return fail(msg, cap, "'%.80s' is not a job id (the daemon's ids are 32 hex digits)",
+        return cli_fail(msg, cap, "'%.80s' is not a job id (the daemon's ids are 32 hex digits)",
                     id);
     return 0;
 }

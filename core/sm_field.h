@@ -40,6 +40,17 @@ int32_t sm_field_locate(const sm_field *f, const double *x, int32_t hint,
  * rounding; only the cost changes. */
 double sm_field_eval(const sm_field *f, const double *x, int32_t *hint);
 
+/* sm_field_eval on n points in turn (xs: n*dim coordinates; hints: n
+ * entries, each read and updated as by sm_field_eval, or NULL; values: n
+ * results; the three arrays must not overlap), with exactly the same
+ * results.  Each point has its own hint, so the points are independent,
+ * and the walks of a group of points advance together: their cache
+ * misses overlap, which makes many scattered points (the vertices or
+ * quadrature points of a mesh, each with the element found for it at the
+ * previous iteration) several times cheaper than one call each. */
+void sm_field_eval_many(const sm_field *f, int64_t n, const double *xs, int32_t *hints,
+                        double *values);
+
 /* Number of elements visited by walks so far is not tracked (read-only
  * structure); these expose the grid geometry for tests and benchmarks. */
 int sm_field_dim(const sm_field *f);

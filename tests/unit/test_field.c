@@ -15,6 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <cmocka.h>
+#include <omp.h>
 
 #include "sm_field.h"
 #include "sm_mesh.h"
@@ -1080,6 +1081,257 @@ static void test_hostile_sizes(void **state)
     sm_mesh_free(small);
 }
 
+/* ------------------------------------------------------------------ */
+/* Numbering, shared facets, threads                                   */
+
+/* Copy of m with its vertices and elements in a random order (as mesh
+ * generators write them); each element keeps its local vertex order.
+ * new_elem[e] is the index of element e of m in the copy. */
+static sm_mesh *renumbered(const sm_mesh *m, uint64_t seed, int32_t *new_elem)
+{
+    const int d = m->dim;
+    sm_mesh *r = NULL;
+    assert_int_equal(sm_mesh_alloc(&r, d, m->nverts, m->nelems, 0, NULL), SM_OK);
+    int32_t *new_vert = malloc(sizeof(int32_t) * (size_t)m->nverts);
+    assert_non_null(new_vert);
+    uint64_t s = seed | 1;
+    for (int32_t v = 0; v < m->nverts; v++)
+        new_vert[v] = v;
+    for (int32_t v = m->nverts - 1; v > 0; v--) {
+        int32_t w = (int32_t)(urand(&s) * (v + 1)), t = new_vert[v];
+        new_vert[v] = new_vert[w];
+        new_vert[w] = t;
+    }
+    for (int32_t e = 0; e < m->nelems; e++)
+        new_elem[e] = e;
+    for (int32_t e = m->nelems - 1; e > 0; e--) {
+        int32_t w = (int32_t)(urand(&s) * (e + 1)), t = new_elem[e];
+        new_elem[e] = new_elem[w];
+        new_elem[w] = t;
+    }
+    for (int32_t v = 0; v < m->nverts; v++)
+        memcpy(r->coords + (size_t)new_vert[v] * d, vx(m, v), sizeof(double) * d);
+    for (int32_t e = 0; e < m->nelems; e++)
+        for (int k = 0; k <= d; k++)
+            r->elems[(size_t)new_elem[e] * (d + 1) + k] = new_vert[m->elems[(size_t)e * (d + 1) + k]];
+    free(new_vert);
+    return r;
+}
+
+static double wavy(const double *x, int d)
+{
+    return sin(3.0 * x[0]) * cos(2.0 * x[1]) + (d == 3 ? 0.5 * x[2] * x[2] : 0.0);
+}
+
+/* A box mesh and the same mesh in random order, large enough for the
+ * facet matching to split its buckets twice: both find every interior
+ * facet (the boundary is the box's), locate the same elements and give
+ * bitwise the same values inside (same element records), and the
+ * renumbered one agrees with brute force. */
+static void test_renumbered(void **state)
+{
+    (void)state;
+    for (int d = 2; d <= 3; d++) {
+        const double lo[3] = {-2, 1, 5}, hi[3] = {1, 2.5, 6};
+        const int n = d == 2 ? 66 : 16;
+        sm_mesh *m = util_box_mesh(d, n, lo, hi, 7);
+        assert_true(m->nverts > 4096);
+        int32_t *new_elem = malloc(sizeof(int32_t) * (size_t)m->nelems);
+        assert_non_null(new_elem);
+        sm_mesh *r = renumbered(m, 0xabcdef + d, new_elem);
+        double *vm = malloc(sizeof(double) * m->nverts), *vr = malloc(sizeof(double) * r->nverts);
+        assert_true(vm && vr);
+        for (int32_t v = 0; v < m->nverts; v++)
+            vm[v] = wavy(vx(m, v), d);
+        for (int32_t v = 0; v < r->nverts; v++)
+            vr[v] = wavy(vx(r, v), d);
+        sm_field *fm = NULL, *fr = NULL;
+        sm_error err;
+        assert_int_equal(sm_field_new(m, vm, &fm, &err), SM_OK);
+        assert_int_equal(sm_field_new(r, vr, &fr, &err), SM_OK);
+        sm_field_stats sm, sr;
+        sm_field_get_stats(fm, &sm);
+        sm_field_get_stats(fr, &sr);
+        int32_t expected = d == 2 ? 4 * n : 12 * n * n;
+        assert_int_equal(sm.nboundary_facets, expected);
+        assert_int_equal(sr.nboundary_facets, expected);
+        assert_int_equal(sr.ndegenerate, 0);
+        uint64_t s = 77 + d;
+        int32_t hm = -1, hr = -1;
+        for (int j = 0; j < 20000; j++) {
+            double x[3] = {0, 0, 0};
+            for (int i = 0; i < d; i++)
+                x[i] = lo[i] + (hi[i] - lo[i]) * (1.2 * urand(&s) - 0.1);
+            int32_t em = sm_field_locate(fm, x, -1, NULL), er = sm_field_locate(fr, x, -1, NULL);
+            assert_true((em < 0) == (er < 0));
+            if (em >= 0)
+                assert_int_equal(new_elem[em], er);
+            /* outside, the nearest point may be shared by facets whose
+             * order differs: the same value up to rounding */
+            double a = sm_field_eval(fm, x, &hm), b = sm_field_eval(fr, x, &hr);
+            if (em >= 0 ? a != b : fabs(a - b) > 1e-14 * (1 + fabs(a))) {
+                print_error("(%g %g %g): %.17g ordered, %.17g renumbered\n", x[0], x[1], x[2], a, b);
+                fail();
+            }
+        }
+        check_points(r, vr, 2000, 0x5151 + d, NULL, NULL);
+        sm_field_free(fm);
+        sm_field_free(fr);
+        free(vm);
+        free(vr);
+        free(new_elem);
+        sm_mesh_free(m);
+        sm_mesh_free(r);
+    }
+}
+
+/* Three elements on one facet (two on the same side): a non-manifold
+ * facet links none of them, so it stays a boundary facet of each, and
+ * location still agrees with brute force. */
+static void test_nonmanifold_facet(void **state)
+{
+    (void)state;
+    for (int d = 2; d <= 3; d++) {
+        sm_mesh *m = NULL;
+        assert_int_equal(sm_mesh_alloc(&m, d, d + 3, 3, 0, NULL), SM_OK);
+        /* the facet: the unit simplex of the plane x_last = 0 */
+        for (int k = 0; k < d; k++)
+            for (int i = 0; i < d; i++)
+                m->coords[k * d + i] = (i == k - 1) ? 1.0 : 0.0;
+        const double apex_z[3] = {0.8, 0.4, -0.6};
+        for (int a = 0; a < 3; a++) {
+            double *p = m->coords + (size_t)(d + a) * d;
+            for (int i = 0; i < d - 1; i++)
+                p[i] = 0.2 + 0.1 * a;
+            p[d - 1] = apex_z[a];
+            for (int k = 0; k < d; k++)
+                m->elems[a * (d + 1) + k] = k;
+            m->elems[a * (d + 1) + d] = d + a;
+        }
+        double *v = affine_values(m);
+        sm_field *f = NULL;
+        sm_error err;
+        assert_int_equal(sm_field_new(m, v, &f, &err), SM_OK);
+        sm_field_stats st;
+        sm_field_get_stats(f, &st);
+        assert_int_equal(st.nboundary_facets, 3 * (d + 1));
+        sm_field_free(f);
+        check_points(m, v, 3000, 0x3e3e + d, NULL, NULL);
+        free(v);
+        sm_mesh_free(m);
+    }
+}
+
+/* The construction runs on the OpenMP threads; the structure, hence every
+ * answer, must not depend on their number. */
+static void test_threads(void **state)
+{
+    (void)state;
+    const double c[3] = {0.5, 0.5, 0.5}, lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    sm_mesh *box = util_box_mesh(3, 12, lo, hi, 3);
+    sm_mesh *meshes[2] = {drill(box, c, 0.3), overlap_mesh(3)};
+    int saved = omp_get_max_threads();
+    for (int mi = 0; mi < 2; mi++) {
+        const sm_mesh *m = meshes[mi];
+        double *v = malloc(sizeof(double) * m->nverts);
+        assert_non_null(v);
+        for (int32_t i = 0; i < m->nverts; i++)
+            v[i] = wavy(vx(m, i), 3);
+        enum { NPTS = 5000 };
+        double *pts = test_points(m, NPTS, 0x7e7e + mi);
+        double ref_val[NPTS];
+        int32_t ref_elem[NPTS];
+        sm_field_stats ref_st;
+        for (int threads = 1; threads <= 3; threads++) {
+            omp_set_num_threads(threads);
+            sm_field *f = NULL;
+            sm_error err;
+            assert_int_equal(sm_field_new(m, v, &f, &err), SM_OK);
+            sm_field_stats st;
+            sm_field_get_stats(f, &st);
+            int32_t hint = -1;
+            for (int j = 0; j < NPTS; j++) {
+                const double *x = pts + (size_t)j * 3;
+                int32_t e = sm_field_locate(f, x, -1, NULL);
+                double val = sm_field_eval(f, x, &hint);
+                if (threads == 1) {
+                    ref_elem[j] = e;
+                    ref_val[j] = val;
+                } else {
+                    assert_int_equal(e, ref_elem[j]);
+                    assert_memory_equal(&val, &ref_val[j], sizeof val);
+                }
+            }
+            if (threads == 1)
+                ref_st = st;
+            else
+                assert_memory_equal(&st, &ref_st, sizeof st);
+            sm_field_free(f);
+        }
+        free(pts);
+        free(v);
+    }
+    omp_set_num_threads(saved);
+    sm_mesh_free(meshes[0]);
+    sm_mesh_free(meshes[1]);
+    sm_mesh_free(box);
+}
+
+/* sm_field_eval_many against sm_field_eval one point at a time: the same
+ * values and the same hints, bitwise, over inside, outside and on-facet
+ * points, good, stale, invalid and far hints, non-finite points, and no
+ * hints at all; several successive passes, as in a descent. */
+static void test_eval_many(void **state)
+{
+    (void)state;
+    for (int d = 2; d <= 3; d++) {
+        const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1}, c[3] = {0.5, 0.5, 0.5};
+        sm_mesh *box = util_box_mesh(d, d == 2 ? 40 : 10, lo, hi, 5);
+        sm_mesh *m = drill(box, c, 0.25);
+        double *v = malloc(sizeof(double) * m->nverts);
+        assert_non_null(v);
+        for (int32_t i = 0; i < m->nverts; i++)
+            v[i] = wavy(vx(m, i), d);
+        sm_field *f = NULL;
+        sm_error err;
+        assert_int_equal(sm_field_new(m, v, &f, &err), SM_OK);
+        enum { NPTS = 3001 };
+        double *pts = test_points(m, NPTS, 0x6e6e + d);
+        int32_t h1[NPTS], h2[NPTS];
+        double v1[NPTS], v2[NPTS];
+        uint64_t s = 99 + d;
+        for (int j = 0; j < NPTS; j++) {
+            int kind = j % 5;
+            h1[j] = kind == 0 ? -1 : kind == 1 ? m->nelems + 3 : (int32_t)(urand(&s) * m->nelems);
+            h2[j] = h1[j];
+        }
+        pts[7 * d] = NAN;
+        pts[11 * d + d - 1] = INFINITY;
+        for (int pass = 0; pass < 3; pass++) {
+            for (int j = 0; j < NPTS; j++)
+                v1[j] = sm_field_eval(f, pts + (size_t)j * d, &h1[j]);
+            sm_field_eval_many(f, NPTS, pts, h2, v2);
+            assert_memory_equal(h1, h2, sizeof h1);
+            assert_memory_equal(v1, v2, sizeof v1);
+            /* the next pass starts from moved points */
+            for (int j = 0; j < NPTS * d; j++)
+                if (isfinite(pts[j]))
+                    pts[j] += 0.02 * (urand(&s) - 0.5);
+        }
+        sm_field_eval_many(f, NPTS, pts, NULL, v2);
+        for (int j = 0; j < NPTS; j++) {
+            double ref = sm_field_eval(f, pts + (size_t)j * d, NULL);
+            assert_memory_equal(&ref, &v2[j], sizeof ref);
+        }
+        sm_field_eval_many(f, 0, pts, h2, v2);
+        free(pts);
+        sm_field_free(f);
+        free(v);
+        sm_mesh_free(m);
+        sm_mesh_free(box);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1096,6 +1348,10 @@ int main(void)
         cmocka_unit_test(test_concurrent),
         cmocka_unit_test(test_hostile),
         cmocka_unit_test(test_hostile_sizes),
+        cmocka_unit_test(test_renumbered),
+        cmocka_unit_test(test_nonmanifold_facet),
+        cmocka_unit_test(test_threads),
+        cmocka_unit_test(test_eval_many),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

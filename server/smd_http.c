@@ -320,6 +320,33 @@ static enum MHD_Result dispatch(struct MHD_Connection *conn, smd_request *req, c
                              req->path);
 }
 
+/* Authentication, then the route's handler. */
+static enum MHD_Result handle(struct MHD_Connection *conn, smd_request *req)
+{
+    smd_server *srv = req->srv;
+    req->dispatched = 1;
+    if (srv->tokens && req->route != SMD_ROUTE_HEALTHZ && req->route != SMD_ROUTE_READYZ) {
+        const char *auth = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
+                                                       MHD_HTTP_HEADER_AUTHORIZATION);
+        smd_auth_result a = smd_tokens_check(srv->tokens, auth);
+        if (a != SMD_AUTH_OK)
+            return smd_reply_problem(conn, req, 401, SMD_PROBLEM_UNAUTHORIZED,
+                                     a == SMD_AUTH_MISSING
+                                         ? "this daemon requires a bearer token "
+                                           "(Authorization: Bearer <token>)"
+                                         : "the bearer token is not valid");
+    }
+    enum MHD_Result r = dispatch(conn, req, req->pid, req->bad_id);
+    if (r == MHD_YES && !req->replied && !req->upload)
+        return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "no response produced");
+    if (req->upload && req->deferred) {
+        /* an upload cannot have a reply waiting as well */
+        smd_upload_free(req->upload);
+        req->upload = NULL;
+    }
+    return r;
+}
+
 static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const char *url,
                                   const char *method, const char *version, const char *upload_data,
                                   size_t *upload_data_size, void **req_cls)
@@ -328,6 +355,14 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
     (void)version;
     smd_request *req = *req_cls;
     if (req) {
+        if (!req->dispatched) {
+            if (*upload_data_size > 0) { /* an unexpected body: read and dropped */
+                req->bytes_in += *upload_data_size;
+                *upload_data_size = 0;
+                return MHD_YES;
+            }
+            return handle(conn, req);
+        }
         if (*upload_data_size == 0)
             req->body_pending = 0; /* the body is complete: replies go out now */
         if (req->deferred) {
@@ -357,9 +392,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
     req->t0 = smd_monotonic();
     snprintf(req->method, sizeof req->method, "%s", method);
     snprintf(req->path, sizeof req->path, "%s", url);
-    char pid[64] = "";
-    int bad_id;
-    req->route = classify(url, req->id, &bad_id, pid, sizeof pid);
+    req->route = classify(url, req->id, &req->bad_id, req->pid, sizeof req->pid);
     /* a body is coming (and not one refused outright for its size) */
     const char *length = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
                                                      MHD_HTTP_HEADER_CONTENT_LENGTH);
@@ -367,27 +400,10 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
                                                       MHD_HTTP_HEADER_TRANSFER_ENCODING);
     unsigned long long body = length ? strtoull(length, NULL, 10) : 0;
     req->body_pending = (body > 0 && body <= srv->cfg.max_upload) || (!length && chunked);
-
-    if (srv->tokens && req->route != SMD_ROUTE_HEALTHZ && req->route != SMD_ROUTE_READYZ) {
-        const char *auth = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
-                                                       MHD_HTTP_HEADER_AUTHORIZATION);
-        smd_auth_result a = smd_tokens_check(srv->tokens, auth);
-        if (a != SMD_AUTH_OK)
-            return smd_reply_problem(conn, req, 401, SMD_PROBLEM_UNAUTHORIZED,
-                                     a == SMD_AUTH_MISSING
-                                         ? "this daemon requires a bearer token "
-                                           "(Authorization: Bearer <token>)"
-                                         : "the bearer token is not valid");
-    }
-    enum MHD_Result r = dispatch(conn, req, pid, bad_id);
-    if (r == MHD_YES && !req->replied && !req->upload)
-        return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "no response produced");
-    if (req->upload && req->deferred) {
-        /* an upload cannot have a reply waiting as well */
-        smd_upload_free(req->upload);
-        req->upload = NULL;
-    }
-    return r;
+    /* no body: answer on the next call (keeps the connection alive) */
+    if (!req->body_pending && !length && !chunked && strcmp(method, MHD_HTTP_METHOD_POST) != 0)
+        return MHD_YES;
+    return handle(conn, req);
 }
 
 static void on_completed(void *cls, struct MHD_Connection *conn, void **req_cls,

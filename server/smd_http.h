@@ -63,6 +63,13 @@ typedef struct smd_request {
     int body_pending;
     struct MHD_Response *deferred;
     unsigned deferred_status;
+    /* Requests without a body are answered on libmicrohttpd's second call,
+     * once the whole request has been read: a response queued on the first
+     * call counts as an early reply and costs the connection its
+     * keep-alive. */
+    int dispatched;
+    char pid[64];                /* process id in the path */
+    int bad_id;                  /* the path's job id is malformed */
 } smd_request;
 
 sm_status smd_http_start(smd_server *srv, sm_error *err);

@@ -18,29 +18,7 @@ EX=$ROOT/examples/2d
 SLOW=1
 [ "$VARIANT" = asan ] && SLOW=4
 
-n=0
-failed=0
-T0=${EPOCHREALTIME/,/.}
-ok() {
-    n=$((n + 1))
-    echo "ok $n - $1"
-    # SM_TEST_TIMING=1: where the time goes
-    if [ -n "${SM_TEST_TIMING:-}" ]; then awk -v a="$T0" -v b="${EPOCHREALTIME/,/.}" 'BEGIN { printf "# at %.2f s\n", b - a }'; fi
-    return 0
-}
-not_ok() {
-    n=$((n + 1))
-    failed=$((failed + 1))
-    echo "not ok $n - $1"
-    shift
-    local line
-    for line in "$@"; do printf '%s\n' "$line" | head -c 3000 | sed 's/^/#   /'; done
-}
-check() { # DESC COMMAND...
-    local desc=$1
-    shift
-    if "$@"; then ok "$desc"; else not_ok "$desc" "failed: $*"; fi
-}
+source "$(dirname "$0")/../lib/tap.sh"
 STARTED=() # pids of demo runs started in the background here
 cleanup() {
     local pid

@@ -23,29 +23,7 @@ mkdir -p "$WORK"
 SLOW=1
 [ "$VARIANT" = asan ] && SLOW=4
 
-n=0
-failed=0
-ok() {
-    n=$((n + 1))
-    echo "ok $n - $1"
-    if [ -n "${SM_TEST_TIMING:-}" ]; then echo "# at ${SECONDS}s"; fi
-    return 0
-}
-not_ok() {
-    n=$((n + 1))
-    failed=$((failed + 1))
-    echo "not ok $n - $1"
-    shift
-    local line
-    for line in "$@"; do printf '%s\n' "$line" | head -c 2000 | sed 's/^/#   /'; done
-}
-skip() { n=$((n + 1)); echo "ok $n # SKIP $1"; }
-# check DESC COMMAND...: ok when the command succeeds
-check() {
-    local desc=$1
-    shift
-    if "$@"; then ok "$desc"; else not_ok "$desc" "failed: $*"; fi
-}
+source "$(dirname "${BASH_SOURCE[0]}")/../lib/tap.sh"
 
 DAEMON_PIDS=()
 cleanup() {

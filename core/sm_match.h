@@ -69,7 +69,11 @@ typedef enum sm_stop_reason {
 const char *sm_stop_reason_name(sm_stop_reason r);
 
 typedef struct sm_timings {
-    double setup;            /* topology, point location grid, analysis */
+    double setup;            /* wall time before the first iteration: topology,
+                              * the target's search structures and initial
+                              * samples, and, side by side, the elastic
+                              * analysis and first factorization; the other
+                              * fields count the iterations only */
     double sample;           /* sampling d (load, boundary error, J) */
     double assembly;
     double factor;

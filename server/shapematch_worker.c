@@ -3,9 +3,11 @@
  * Reads JOB_DIR/job.json and the inputs it names, checks them with the
  * same rules as the daemon (smd_inputs.h), runs the core with a progress
  * callback that writes one NDJSON event per iteration to fd 3 (stdout
- * when fd 3 is not open, for running it by hand), writes every result
- * format into JOB_DIR/results.tmp/ and renames it to JOB_DIR/results/,
- * then reports "finished" with the summary.  SIGTERM stops the run at
+ * when fd 3 is not open, for running it by hand) and, when
+ * params.save_every = K > 0, a snapshot of the mesh every K iterations
+ * into JOB_DIR/results.tmp/snapshots/, writes every result format into
+ * JOB_DIR/results.tmp/ and renames it to JOB_DIR/results/, then reports
+ * "finished" with the summary.  SIGTERM stops the run at
  * the next iteration ("cancelled", exit 5).  Exit codes: smd_worker.h. */
 #include <errno.h>
 #include <fcntl.h>
@@ -46,6 +48,10 @@ typedef struct worker {
     sm_progress *history;
     size_t nhistory, cap;
     int history_failed;
+    const sm_mesh *template_mesh;
+    int save_every;              /* params.save_every: K > 0 writes snapshots */
+    int snapshot_failed;
+    char snapshot_error[512];
 } worker;
 
 /* One event line; a failing pipe means the daemon is gone: nothing to
@@ -92,10 +98,54 @@ static int fail(worker *w, int code, const char *fmt, ...)
     return code;
 }
 
+/* fsync of a file written by the core (which closes it without one). */
+static int fsync_path(const char *path)
+{
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0)
+        return -1;
+    int rc = fsync(fd);
+    int saved = errno;
+    close(fd);
+    errno = saved;
+    return rc;
+}
+
+/* JOB_DIR/results.tmp/snapshots/iter-NNNNN.mesh (as `shapematch run
+ * --save-every` names them), written under a temporary name that keeps
+ * the .mesh extension (the core picks the format from it), fsync'ed and
+ * renamed: a reader of the folder never sees a torn snapshot.  The folder
+ * is published with the other results when the run ends. */
+static int write_snapshot(worker *w, int iteration, const double *coords)
+{
+    char dir[PATH_MAX], tmp[PATH_MAX], path[PATH_MAX];
+    if (smd_pathf(dir, sizeof dir, "%s/" SMD_RESULTS_TMP_DIR "/" SMD_SNAPSHOTS_DIR, w->job_dir) != 0 ||
+        smd_pathf(path, sizeof path, "%s/" SMD_SNAPSHOT_FORMAT, dir, iteration) != 0 ||
+        smd_pathf(tmp, sizeof tmp, "%s/.tmp-" SMD_SNAPSHOT_FORMAT, dir, iteration) != 0) {
+        snprintf(w->snapshot_error, sizeof w->snapshot_error, "job folder path too long");
+        return -1;
+    }
+    sm_error err;
+    sm_error_clear(&err);
+    if (sm_mesh_write_coords(tmp, w->template_mesh, coords, &err) != SM_OK) {
+        unlink(tmp);
+        smd_textf(w->snapshot_error, sizeof w->snapshot_error,
+                  "cannot write the snapshot of iteration %d: %s", iteration, err.msg);
+        return -1;
+    }
+    if (fsync_path(tmp) != 0 || rename(tmp, path) != 0 || smd_fsync_dir(dir) != 0) {
+        int saved = errno;
+        unlink(tmp);
+        snprintf(w->snapshot_error, sizeof w->snapshot_error,
+                 "cannot write the snapshot of iteration %d: %s", iteration, strerror(saved));
+        return -1;
+    }
+    return 0;
+}
+
 static int on_progress(const sm_progress *p, const double *coords, void *user)
 {
     worker *w = user;
-    (void)coords;
     if (w->nhistory == w->cap) {
         size_t ncap = w->cap ? 2 * w->cap : 256;
         sm_progress *h = realloc(w->history, ncap * sizeof *h);
@@ -111,6 +161,12 @@ static int on_progress(const sm_progress *p, const double *coords, void *user)
     sm_event_init(&ev, SM_EVENT_PROGRESS);
     ev.progress = *p;
     emit(w, &ev);
+    /* the iterations `shapematch run --save-every K` writes: K, 2K, ... */
+    if (w->save_every > 0 && p->iteration > 0 && p->iteration % w->save_every == 0 && coords &&
+        write_snapshot(w, p->iteration, coords) != 0) {
+        w->snapshot_failed = 1;
+        return 1;
+    }
     return stop_requested != 0;
 }
 
@@ -186,6 +242,26 @@ static int write_history_json(const char *path, const worker *w)
     return rc;
 }
 
+/* An empty JOB_DIR/results.tmp/ (with snapshots/ when they are asked
+ * for), before the run: what an earlier attempt left is removed. */
+static int prepare_results(const worker *w, char *msg, size_t cap)
+{
+    char dir[PATH_MAX], final_dir[PATH_MAX], snaps[PATH_MAX];
+    if (smd_pathf(dir, sizeof dir, "%s/" SMD_RESULTS_TMP_DIR, w->job_dir) != 0 ||
+        smd_pathf(final_dir, sizeof final_dir, "%s/" SMD_RESULTS_DIR, w->job_dir) != 0 ||
+        smd_pathf(snaps, sizeof snaps, "%s/" SMD_SNAPSHOTS_DIR, dir) != 0) {
+        snprintf(msg, cap, "job folder path too long");
+        return -1;
+    }
+    smd_rmtree(dir);
+    smd_rmtree(final_dir);
+    if (mkdir(dir, 0750) != 0 || (w->save_every > 0 && mkdir(snaps, 0750) != 0)) {
+        snprintf(msg, cap, "cannot create %s: %s", SMD_RESULTS_TMP_DIR, strerror(errno));
+        return -1;
+    }
+    return 0;
+}
+
 static int write_outputs(worker *w, const smd_inputs *in, const double *coords,
                          const sm_result *result, char *msg, size_t cap)
 {
@@ -197,12 +273,7 @@ static int write_outputs(worker *w, const smd_inputs *in, const double *coords,
         snprintf(msg, cap, "job folder path too long");
         return -1;
     }
-    smd_rmtree(dir);
     smd_rmtree(final_dir);
-    if (mkdir(dir, 0750) != 0) {
-        snprintf(msg, cap, "cannot create %s: %s", SMD_RESULTS_TMP_DIR, strerror(errno));
-        return -1;
-    }
     int rc = -1;
     sm_error err;
     sm_error_clear(&err);
@@ -315,11 +386,18 @@ int main(int argc, char **argv)
                     err.msg);
 
     int code = SMD_WORKER_EXIT_OK;
+    char msg[512];
+    w.template_mesh = in.template_mesh;
+    w.save_every = in.params.save_every;
     size_t n = (size_t)in.template_mesh->nverts * (size_t)in.template_mesh->dim;
     double *coords = malloc((n ? n : 1) * sizeof *coords);
     if (!coords) {
         code = fail(&w, SMD_WORKER_EXIT_NOMEM, "out of memory for a mesh of %ld vertices",
                     (long)in.template_mesh->nverts);
+        goto done;
+    }
+    if (prepare_results(&w, msg, sizeof msg) != 0) {
+        code = fail(&w, SMD_WORKER_EXIT_OUTPUT, "%s", msg);
         goto done;
     }
     sm_result result;
@@ -328,6 +406,10 @@ int main(int argc, char **argv)
                       &w, (const volatile int *)&stop_requested, coords, &result, &err);
     if (w.history_failed) {
         code = fail(&w, SMD_WORKER_EXIT_NOMEM, "out of memory recording the history");
+        goto done;
+    }
+    if (w.snapshot_failed) {
+        code = fail(&w, SMD_WORKER_EXIT_OUTPUT, "%s", w.snapshot_error);
         goto done;
     }
     if (st == SM_ERR_CANCELLED || (st == SM_OK && result.stop == SM_STOP_CANCELLED) || stop_requested) {
@@ -343,7 +425,6 @@ int main(int argc, char **argv)
                     "the run failed (%s): %s", sm_status_name(st), err.msg);
         goto done;
     }
-    char msg[512];
     if (write_outputs(&w, &in, coords, &result, msg, sizeof msg) != 0) {
         code = fail(&w, SMD_WORKER_EXIT_OUTPUT, "%s", msg);
         goto done;

@@ -252,6 +252,16 @@ static smd_route classify(const char *url, char id[SMD_ID_LEN + 1], int *bad_id,
         return SMD_ROUTE_RESULT_DISPLACEMENT;
     if (strcmp(slash, "/results/history") == 0)
         return SMD_ROUTE_RESULT_HISTORY;
+    /* /results/snapshots[/{iteration}]: counted under /results (the metrics
+     * have no label of their own for them); smd_results.c tells them apart
+     * by the path, parses the iteration as a number and answers 404 for
+     * anything else.  A segment longer than any iteration is not a route
+     * (so req->path, which truncates, always holds it whole). */
+    if (strcmp(slash, "/results/snapshots") == 0)
+        return SMD_ROUTE_RESULTS;
+    if (strncmp(slash, "/results/snapshots/", 19) == 0 && slash[19] && !strchr(slash + 19, '/') &&
+        strlen(slash + 19) <= 16)
+        return SMD_ROUTE_RESULTS;
     *bad_id = 0;
     id[0] = '\0';
     return SMD_ROUTE_OTHER;

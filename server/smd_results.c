@@ -1,10 +1,19 @@
-/* GET /v1/jobs/{id}/results[/mesh|/displacement|/history].
+/* GET /v1/jobs/{id}/results[/mesh|/displacement|/history|/snapshots[/{n}]].
  *
  * The worker writes every format once (results/, see smd_worker.h), so
  * serving is a matter of choosing a file: by ?format=, else by Accept,
  * else the first (default) format.  Files go out with sendfile, or
  * through a streaming gzip encoder when Accept-Encoding allows gzip, so a
- * large result never sits in memory. */
+ * large result never sits in memory.
+ *
+ * Snapshots (params.save_every = K > 0): the worker writes the mesh every
+ * K iterations to results/snapshots/iter-NNNNN.mesh; /results/snapshots
+ * lists them (read from the folder, names parsed strictly), and
+ * /results/snapshots/{n} serves one, its file name built from the number
+ * parsed out of the path, never from the path itself.  They are results
+ * like the others: served once the job is successful. */
+#include <ctype.h>
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
@@ -39,6 +48,14 @@ static const result_format history_formats[] = {
     {"csv", "text/csv", SMD_RESULT_HISTORY_CSV},
     {"json", "application/json", SMD_RESULT_HISTORY_JSON},
 };
+/* the file is per iteration (SMD_SNAPSHOT_FORMAT) */
+static const result_format snapshot_formats[] = {
+    {"mesh", "application/x-medit-mesh", NULL},
+};
+
+/* Iterations in URLs: a decimal number without sign or leading zero, at
+ * most this many digits (the core's iteration count is an int). */
+#define SNAPSHOT_ITERATION_DIGITS 9
 
 /* ---------------------------------------------------- streaming gzip */
 
@@ -119,13 +136,16 @@ static struct MHD_Response *gzip_file_response(int fd, uint64_t *bytes_out)
 
 /* -------------------------------------------------------------- files */
 
+/* Sends results/<file>.  A missing file is a 500 (the worker wrote them
+ * all), or 404 with missing_detail when one may legitimately be absent. */
 static enum MHD_Result send_file(struct MHD_Connection *conn, smd_request *req,
-                                 const result_format *f, const char *disposition_name)
+                                 const result_format *f, const char *file,
+                                 const char *disposition_name, const char *missing_detail)
 {
     smd_server *srv = req->srv;
-    char path[PATH_MAX], name[SMD_ID_LEN + 64];
-    snprintf(name, sizeof name, SMD_RESULTS_DIR "/%s", f->file);
-    if (smd_store_path(srv->store, req->id, name, path, sizeof path) != 0)
+    char path[PATH_MAX], name[128];
+    if (smd_pathf(name, sizeof name, SMD_RESULTS_DIR "/%s", file) != 0 ||
+        smd_store_path(srv->store, req->id, name, path, sizeof path) != 0)
         return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "path too long");
     int fd = open(path, O_RDONLY | O_CLOEXEC);
     struct stat st;
@@ -138,8 +158,10 @@ static enum MHD_Result send_file(struct MHD_Connection *conn, smd_request *req,
         pthread_mutex_unlock(&srv->lock);
         if (missing && !exists) /* deleted since its state was read */
             return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
+        if (missing && missing_detail)
+            return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NOT_FOUND, "%s", missing_detail);
         return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL,
-                                 "the result file %s of job %s is missing", f->file, req->id);
+                                 "the result file %s of job %s is missing", file, req->id);
     }
     const char *ae =
         MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_ACCEPT_ENCODING);
@@ -166,9 +188,10 @@ static enum MHD_Result send_file(struct MHD_Connection *conn, smd_request *req,
     return smd_reply(conn, req, 200, resp);
 }
 
-/* Picks the format: ?format=, else Accept, else the first. */
-static enum MHD_Result serve(struct MHD_Connection *conn, smd_request *req,
-                             const result_format *formats, int n)
+/* Picks the format: ?format=, else Accept, else the first.  Returns its
+ * index, or -1 after replying 400 / 406. */
+static int choose_format(struct MHD_Connection *conn, smd_request *req,
+                         const result_format *formats, int n, enum MHD_Result *replied)
 {
     const char *format = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "format");
     int choice = -1;
@@ -182,8 +205,8 @@ static enum MHD_Result serve(struct MHD_Connection *conn, smd_request *req,
             if (strcmp(format, formats[i].name) == 0)
                 choice = i;
         if (choice < 0)
-            return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
-                                     "format: expected %s", names);
+            *replied = smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
+                                         "format: expected %s", names);
     } else {
         const char *offered[8];
         for (int i = 0; i < n; i++)
@@ -191,11 +214,21 @@ static enum MHD_Result serve(struct MHD_Connection *conn, smd_request *req,
         const char *accept = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_ACCEPT);
         choice = smd_accept_choose(accept, offered, n);
         if (choice < 0)
-            return smd_reply_problem(conn, req, 406, SMD_PROBLEM_NOT_ACCEPTABLE,
-                                     "Accept allows none of the formats offered (%s; or use "
-                                     "?format=%s)",
-                                     names, names);
+            *replied = smd_reply_problem(conn, req, 406, SMD_PROBLEM_NOT_ACCEPTABLE,
+                                         "Accept allows none of the formats offered (%s; or use "
+                                         "?format=%s)",
+                                         names, names);
     }
+    return choice;
+}
+
+static enum MHD_Result serve(struct MHD_Connection *conn, smd_request *req,
+                             const result_format *formats, int n)
+{
+    enum MHD_Result replied = MHD_YES;
+    int choice = choose_format(conn, req, formats, n, &replied);
+    if (choice < 0)
+        return replied;
     const result_format *f = &formats[choice];
     const char *dot = strrchr(f->file, '.');
     char disposition[64];
@@ -203,7 +236,131 @@ static enum MHD_Result serve(struct MHD_Connection *conn, smd_request *req,
         snprintf(disposition, sizeof disposition, "result%s", dot ? dot : "");
     else
         snprintf(disposition, sizeof disposition, "%s", f->file);
-    return send_file(conn, req, f, disposition);
+    return send_file(conn, req, f, f->file, disposition, NULL);
+}
+
+/* ---------------------------------------------------------- snapshots */
+
+typedef struct snapshot {
+    int iteration;
+    uint64_t bytes;
+} snapshot;
+
+/* The iteration of a worker's snapshot name "iter-<digits>.mesh" (at
+ * least 5 digits, as SMD_SNAPSHOT_FORMAT writes them), or -1 for any other
+ * name (temporary files, strays). */
+static int snapshot_name_iteration(const char *name)
+{
+    if (strncmp(name, "iter-", 5) != 0)
+        return -1;
+    const char *p = name + 5;
+    long v = 0;
+    int digits = 0;
+    for (; isdigit((unsigned char)*p); p++, digits++) {
+        if (digits >= SNAPSHOT_ITERATION_DIGITS)
+            return -1;
+        v = v * 10 + (*p - '0');
+    }
+    if (digits < 5 || strcmp(p, ".mesh") != 0 || v < 1)
+        return -1;
+    return (int)v;
+}
+
+/* The {iteration} segment of the path: canonical decimal, 1 or more. */
+static int parse_iteration(const char *seg)
+{
+    size_t len = strlen(seg);
+    if (len == 0 || len > SNAPSHOT_ITERATION_DIGITS || seg[0] == '0')
+        return -1;
+    int v = 0;
+    for (size_t i = 0; i < len; i++) {
+        if (!isdigit((unsigned char)seg[i]))
+            return -1;
+        v = v * 10 + (seg[i] - '0');
+    }
+    return v;
+}
+
+static int by_iteration(const void *a, const void *b)
+{
+    int x = ((const snapshot *)a)->iteration, y = ((const snapshot *)b)->iteration;
+    return (x > y) - (x < y);
+}
+
+static enum MHD_Result snapshot_list(struct MHD_Connection *conn, smd_request *req)
+{
+    char dir[PATH_MAX];
+    if (smd_store_path(req->srv->store, req->id, SMD_RESULTS_DIR "/" SMD_SNAPSHOTS_DIR, dir,
+                       sizeof dir) != 0)
+        return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "path too long");
+    snapshot *list = NULL;
+    size_t count = 0, cap = 0;
+    DIR *d = opendir(dir);
+    if (!d && errno != ENOENT) /* no folder: the job asked for none */
+        return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL,
+                                 "cannot read the snapshots of job %s: %s", req->id, strerror(errno));
+    for (struct dirent *e; d && (e = readdir(d)) != NULL;) {
+        int iteration = snapshot_name_iteration(e->d_name);
+        struct stat st;
+        if (iteration < 0 || fstatat(dirfd(d), e->d_name, &st, AT_SYMLINK_NOFOLLOW) != 0 ||
+            !S_ISREG(st.st_mode))
+            continue;
+        if (count == cap) {
+            size_t ncap = cap ? 2 * cap : 64;
+            snapshot *grown = realloc(list, ncap * sizeof *grown);
+            if (!grown) {
+                free(list);
+                closedir(d);
+                return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
+            }
+            list = grown;
+            cap = ncap;
+        }
+        list[count++] = (snapshot){iteration, (uint64_t)st.st_size};
+    }
+    if (d)
+        closedir(d);
+    if (count > 1)
+        qsort(list, count, sizeof *list, by_iteration);
+    json_t *items = json_array();
+    for (size_t i = 0; items && i < count; i++) {
+        char href[128];
+        snprintf(href, sizeof href, "/v1/jobs/%s/results/snapshots/%d", req->id, list[i].iteration);
+        json_array_append_new(items, json_pack("{s:i,s:s,s:I,s:s}", "iteration", list[i].iteration,
+                                               "href", href, "bytes", (json_int_t)list[i].bytes,
+                                               "type", snapshot_formats[0].media));
+    }
+    free(list);
+    char self[96], up[96];
+    snprintf(self, sizeof self, "/v1/jobs/%s/results/snapshots", req->id);
+    snprintf(up, sizeof up, "/v1/jobs/%s/results", req->id);
+    json_t *links = json_pack("[{s:s,s:s,s:s},{s:s,s:s,s:s}]", "href", self, "rel", "self", "type",
+                              "application/json", "href", up, "rel", "up", "type",
+                              "application/json");
+    json_t *doc = json_pack("{s:s,s:o*,s:o*}", "jobID", req->id, "snapshots", items, "links", links);
+    if (!doc)
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
+    return smd_reply_json(conn, req, 200, doc);
+}
+
+static enum MHD_Result snapshot_item(struct MHD_Connection *conn, smd_request *req, const char *seg)
+{
+    int iteration = parse_iteration(seg);
+    if (iteration < 0)
+        return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NOT_FOUND,
+                                 "no such snapshot: the last segment is an iteration, a decimal "
+                                 "number 1, 2, ... (see /v1/jobs/%s/results/snapshots)",
+                                 req->id);
+    enum MHD_Result replied = MHD_YES;
+    if (choose_format(conn, req, snapshot_formats, 1, &replied) < 0)
+        return replied;
+    char file[64], disposition[48], missing[160];
+    snprintf(file, sizeof file, SMD_SNAPSHOTS_DIR "/" SMD_SNAPSHOT_FORMAT, iteration);
+    snprintf(disposition, sizeof disposition, SMD_SNAPSHOT_FORMAT, iteration);
+    snprintf(missing, sizeof missing,
+             "job %s has no snapshot at iteration %d (see /v1/jobs/%s/results/snapshots)", req->id,
+             iteration, req->id);
+    return send_file(conn, req, &snapshot_formats[0], file, disposition, missing);
 }
 
 /* ------------------------------------------------------------ summary */
@@ -262,6 +419,11 @@ static enum MHD_Result summary(struct MHD_Connection *conn, smd_request *req)
                                       "displacement (Medit .solb)"));
     json_array_append_new(links, item(req->id, "history", &history_formats[0], "history (CSV)"));
     json_array_append_new(links, item(req->id, "history", &history_formats[1], "history (JSON)"));
+    char snapshots[96];
+    snprintf(snapshots, sizeof snapshots, "/v1/jobs/%s/results/snapshots", req->id);
+    json_array_append_new(links, json_pack("{s:s,s:s,s:s,s:s}", "href", snapshots, "rel", "related",
+                                           "type", "application/json", "title",
+                                           "mesh snapshots every save_every iterations"));
     json_object_set_new(doc, "links", links);
     return smd_reply_json(conn, req, 200, doc);
 }
@@ -295,6 +457,16 @@ enum MHD_Result smd_route_results(struct MHD_Connection *conn, smd_request *req)
     case SMD_ROUTE_RESULT_HISTORY:
         return serve(conn, req, history_formats, 2);
     default:
-        return summary(conn, req);
+        break;
     }
+    /* /results, or /results/snapshots[/{iteration}] (smd_http.c routes
+     * them here with a valid id and the whole path in req->path) */
+    const char *tail = req->path + 9 + SMD_ID_LEN; /* after "/v1/jobs/<id>" */
+    if (strlen(req->path) >= 9 + SMD_ID_LEN && strncmp(tail, "/results/snapshots", 18) == 0) {
+        if (tail[18] == '\0')
+            return snapshot_list(conn, req);
+        if (tail[18] == '/')
+            return snapshot_item(conn, req, tail + 19);
+    }
+    return summary(conn, req);
 }

@@ -192,6 +192,10 @@ enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req,
                                "results/displacement", "format=sol|solb"));
     json_object_set_new(outputs, "history",
                         output("One row per iteration", "results/history", "format=csv|json"));
+    json_object_set_new(outputs, "snapshots",
+                        output("The mesh every save_every iterations (a list, then one per "
+                               "iteration: results/snapshots/{iteration})",
+                               "results/snapshots", "format=mesh"));
     json_object_set_new(doc, "outputs", outputs);
     return smd_reply_json(conn, req, 200, doc);
 }

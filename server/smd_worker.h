@@ -35,6 +35,10 @@
 #define SMD_RESULT_HISTORY_CSV "history.csv"
 #define SMD_RESULT_HISTORY_JSON "history.json"
 #define SMD_RESULT_SUMMARY "summary.json"
+/* Snapshots (params.save_every K): results/snapshots/iter-NNNNN.mesh after
+ * iterations K, 2K, ..., the names `shapematch run --save-every` uses. */
+#define SMD_SNAPSHOTS_DIR "snapshots"
+#define SMD_SNAPSHOT_FORMAT "iter-%05d.mesh"
 
 /* Exit codes of shapematch-worker. */
 enum smd_worker_exit {

@@ -127,11 +127,13 @@ probe "unknown process" GET '/v1/processes/{processID}' 404 /v1/processes/fit '.
 # ---------------------------------------------------------------- jobs
 F=(-F "template=@$DISK" -F "target_mesh=@$BOX" -F "target_sol=@$BOXSOL")
 noauth_probe "no token" POST /v1/jobs /v1/jobs "${F[@]}" -F "params=$(quick_params 5)"
+# (with snapshots every 10 iterations, for the snapshot routes)
+JP="$BALL_PARAMS, \"max_iter\": 20, \"save_every\": 10}"
 probe "submit" POST /v1/jobs 201 /v1/jobs '.status == "accepted" and (.jobID | test("^[0-9a-f]{32}$")) and .type == "process"' \
-    "${AUTH[@]}" "${F[@]}" -F "params=$(quick_params 20)" -H 'Idempotency-Key: api-1'
+    "${AUTH[@]}" "${F[@]}" -F "params=$JP" -H 'Idempotency-Key: api-1'
 J=$(jq -r .jobID "$WORK/body")
 probe "replay with the same Idempotency-Key" POST /v1/jobs 200 /v1/jobs ".jobID == \"$J\"" \
-    "${AUTH[@]}" "${F[@]}" -F "params=$(quick_params 20)" -H 'Idempotency-Key: api-1'
+    "${AUTH[@]}" "${F[@]}" -F "params=$JP" -H 'Idempotency-Key: api-1'
 probe "missing part" POST /v1/jobs 400 /v1/jobs '' "${AUTH[@]}" "${F[@]}"
 head -c 1500000 /dev/urandom >"$WORK/big.bin"
 probe "over --max-upload" POST /v1/jobs 413 /v1/jobs '' "${AUTH[@]}" -F "template=@$WORK/big.bin" \
@@ -174,6 +176,19 @@ for what in mesh displacement history; do
     probe "nothing acceptable" GET "$tmpl" 406 "/v1/jobs/$J/results/$what" '' "${AUTH[@]}" -H 'Accept: image/png'
     probe "unknown job" GET "$tmpl" 404 "/v1/jobs/0123456789abcdef0123456789abcdef/results/$what" '' "${AUTH[@]}"
 done
+tmpl='/v1/jobs/{jobID}/results/snapshots'
+noauth_probe "no token" GET "$tmpl" "/v1/jobs/$J/results/snapshots"
+probe "snapshot list" GET "$tmpl" 200 "/v1/jobs/$J/results/snapshots" \
+    ".jobID == \"$J\" and .snapshots[0].iteration == 10 and all(.snapshots[]; .iteration % 10 == 0 and .bytes > 0)" "${AUTH[@]}"
+probe "unknown job" GET "$tmpl" 404 /v1/jobs/0123456789abcdef0123456789abcdef/results/snapshots \
+    '.type | endswith("no-such-job")' "${AUTH[@]}"
+tmpl='/v1/jobs/{jobID}/results/snapshots/{iteration}'
+noauth_probe "no token" GET "$tmpl" "/v1/jobs/$J/results/snapshots/10"
+probe "snapshot" GET "$tmpl" 200 "/v1/jobs/$J/results/snapshots/10" '' "${AUTH[@]}"
+probe "unknown format" GET "$tmpl" 400 "/v1/jobs/$J/results/snapshots/10?format=vtu" '' "${AUTH[@]}"
+probe "nothing acceptable" GET "$tmpl" 406 "/v1/jobs/$J/results/snapshots/10" '' "${AUTH[@]}" -H 'Accept: image/png'
+probe "no snapshot at this iteration" GET "$tmpl" 404 "/v1/jobs/$J/results/snapshots/15" '' "${AUTH[@]}"
+probe "not an iteration" GET "$tmpl" 404 "/v1/jobs/$J/results/snapshots/..%2Fsummary.json" '' "${AUTH[@]}"
 
 # a queued job has no results yet; DELETE cancels it
 E=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")

@@ -72,15 +72,15 @@ deps:
 	else echo "deps: all Debian packages present"; fi
 
 test: deps
-	$(MAKE) all
+	$(MAKE) -j$$(nproc) all
 	tests/run.sh
 
 bench: deps
-	$(MAKE) release
+	$(MAKE) -j$$(nproc) release
 	bench/run.sh
 
 demo: deps
-	$(MAKE) release
+	$(MAKE) -j$$(nproc) release
 	examples/demo.sh
 
 # The unit goes to /etc/systemd/system (UNITDIR=... to change) with its

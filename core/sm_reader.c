@@ -453,7 +453,9 @@ sm_status sm_reader_skip(sm_reader *r, uint64_t n)
     return SM_OK;
 }
 
-sm_status sm_reader_i32(sm_reader *r, int32_t *out)
+/* 4 or 8 bytes in the file's byte order, stored into out unchanged in
+ * meaning (integer or IEEE float alike). */
+static sm_status read_word32(sm_reader *r, void *out)
 {
     uint32_t v;
     sm_status st = sm_reader_bytes(r, &v, 4);
@@ -463,42 +465,38 @@ sm_status sm_reader_i32(sm_reader *r, int32_t *out)
         v = sm_bswap32(v);
     memcpy(out, &v, 4);
     return SM_OK;
+}
+
+static sm_status read_word64(sm_reader *r, void *out)
+{
+    uint64_t v;
+    sm_status st = sm_reader_bytes(r, &v, 8);
+    if (st != SM_OK)
+        return st;
+    if (r->swap)
+        v = sm_bswap64(v);
+    memcpy(out, &v, 8);
+    return SM_OK;
+}
+
+sm_status sm_reader_i32(sm_reader *r, int32_t *out)
+{
+    return read_word32(r, out);
 }
 
 sm_status sm_reader_i64(sm_reader *r, int64_t *out)
 {
-    uint64_t v;
-    sm_status st = sm_reader_bytes(r, &v, 8);
-    if (st != SM_OK)
-        return st;
-    if (r->swap)
-        v = sm_bswap64(v);
-    memcpy(out, &v, 8);
-    return SM_OK;
+    return read_word64(r, out);
 }
 
 sm_status sm_reader_f32(sm_reader *r, float *out)
 {
-    uint32_t v;
-    sm_status st = sm_reader_bytes(r, &v, 4);
-    if (st != SM_OK)
-        return st;
-    if (r->swap)
-        v = sm_bswap32(v);
-    memcpy(out, &v, 4);
-    return SM_OK;
+    return read_word32(r, out);
 }
 
 sm_status sm_reader_f64(sm_reader *r, double *out)
 {
-    uint64_t v;
-    sm_status st = sm_reader_bytes(r, &v, 8);
-    if (st != SM_OK)
-        return st;
-    if (r->swap)
-        v = sm_bswap64(v);
-    memcpy(out, &v, 8);
-    return SM_OK;
+    return read_word64(r, out);
 }
 
 sm_status sm_reader_int_sized(sm_reader *r, int size, int64_t *out)

@@ -222,7 +222,7 @@ make_targets = re.findall(r"\bmake\b((?:\s+-\S+)*)\s+([a-z]+)", build_cmds)
 targets = [t for _, t in make_targets]
 ci = open(os.path.join(root, ".ci", "run")).read()
 test_recipe = re.search(r"^test:([^\n]*)\n((?:\t[^\n]*\n)+)", makefile, re.M)
-ci_steps = "make test" in ci and test_recipe and "deps" in test_recipe.group(1) and "$(MAKE) all" in test_recipe.group(2)
+ci_steps = "make test" in ci and test_recipe and "deps" in test_recipe.group(1) and re.search(r"\$\(MAKE\)( -j\S+)? all\b", test_recipe.group(2))
 all_has_release = re.search(r"^all: \$\(foreach v,\$\(VARIANTS\)", makefile, re.M) and "VARIANTS := release" in makefile
 result(targets[:2] == ["deps", "release"] and "install" in targets and ci_steps and all_has_release
        and all(re.search(r"^%s:" % t, makefile, re.M) for t in targets),

@@ -222,6 +222,22 @@ static const char *const clamp_flags[] = {
     "--clamp-ball", "--clamp-elements", "--clamp-vertices", "--no-clamp",
 };
 
+int args_take_value(int argc, char **argv, int *i, const char *flag, const char *inline_value,
+                    int takes_value, const char **value, char *msg, size_t cap)
+{
+    *value = NULL;
+    if (!takes_value)
+        return inline_value ? cli_fail(msg, cap, "%s does not take a value", flag) : 0;
+    if (inline_value) {
+        *value = inline_value;
+        return 0;
+    }
+    if (*i + 1 >= argc || (argv[*i + 1][0] == '-' && argv[*i + 1][1] == '-'))
+        return cli_fail(msg, cap, "%s requires a value", flag);
+    *value = argv[++*i];
+    return 0;
+}
+
 const char *args_clamp_name(sm_clamp_kind k)
 {
     switch (k) {
@@ -481,22 +497,8 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
             return ARGS_ERROR;
         }
         const char *value = NULL;
-        if (takes_value) {
-            if (inline_value) {
-                value = inline_value;
-            } else {
-                /* a following "--something" is taken as a forgotten value,
-                 * not as a file name; "--flag=--x" still allows one */
-                if (i + 1 >= argc || (argv[i + 1][0] == '-' && argv[i + 1][1] == '-')) {
-                    cli_fail(msg, cap, "%s requires a value", flag);
-                    return ARGS_ERROR;
-                }
-                value = argv[++i];
-            }
-        } else if (inline_value) {
-            cli_fail(msg, cap, "%s does not take a value", flag);
+        if (args_take_value(argc, argv, &i, flag, inline_value, takes_value, &value, msg, cap) != 0)
             return ARGS_ERROR;
-        }
 
         switch (kind) {
         case RUN_FLAG_TEMPLATE:

@@ -87,4 +87,13 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
 /* Name of a clamp kind as used in the outputs ("ball", ...). */
 const char *args_clamp_name(sm_clamp_kind k);
 
+/* The value of option `flag` when it takes one: the text after '=' in
+ * "--flag=value" (inline_value, or NULL), else the next argument, which
+ * must not itself look like an option ("--something" is taken as a
+ * forgotten value; "--flag=--x" still allows one).  Advances *i past a
+ * consumed argument.  An inline value given to a flag that takes none is
+ * an error.  Returns 0, or -1 with the message in msg. */
+int args_take_value(int argc, char **argv, int *i, const char *flag, const char *inline_value,
+                    int takes_value, const char **value, char *msg, size_t cap);
+
 #endif

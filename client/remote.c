@@ -74,21 +74,8 @@ args_result remote_parse(int argc, char **argv, const cli_flag *flags, size_t nf
             return ARGS_ERROR;
         }
         const char *value = NULL;
-        if (takes_value) {
-            if (inline_value) {
-                value = inline_value;
-            } else {
-                /* a following "--something" is a forgotten value, not the value */
-                if (i + 1 >= argc || (argv[i + 1][0] == '-' && argv[i + 1][1] == '-')) {
-                    cli_fail(msg, cap, "%s requires a value", flag);
-                    return ARGS_ERROR;
-                }
-                value = argv[++i];
-            }
-        } else if (inline_value) {
-            cli_fail(msg, cap, "%s does not take a value", flag);
+        if (args_take_value(argc, argv, &i, flag, inline_value, takes_value, &value, msg, cap) != 0)
             return ARGS_ERROR;
-        }
         if (id == FLAG_SERVER) {
             if (!value[0]) {
                 cli_fail(msg, cap, "--server: empty URL");

@@ -51,8 +51,8 @@ double sm_field_eval(const sm_field *f, const double *x, int32_t *hint);
 void sm_field_eval_many(const sm_field *f, int64_t n, const double *xs, int32_t *hints,
                         double *values);
 
-/* Number of elements visited by walks so far is not tracked (read-only
- * structure); these expose the grid geometry for tests and benchmarks. */
+/* Dimension of the background mesh (2 or 3): the number of coordinates
+ * of a point and of entries of a gradient. */
 int sm_field_dim(const sm_field *f);
 
 /* Value and gradient of d at x (grad has dim entries; hint as for
@@ -69,6 +69,8 @@ double sm_field_eval_grad(const sm_field *f, const double *x, int32_t *hint,
 int32_t sm_field_nearest(const sm_field *f, const double *x, double *nearest,
                          double *distance);
 
+/* The geometry and size of the search structures, for tests and
+ * benchmarks. */
 typedef struct sm_field_stats {
     int32_t grid[3];          /* cells per axis (grid[2] = 1 in 2D) */
     int64_t ncells;

@@ -1,0 +1,259 @@
+/* Private to the target field (core/sm_field*.c): the structure, the
+ * tuning constants and the small inline kernels the parts share.  Not
+ * installed, not for callers of sm_field.h.
+ *
+ * The field is built and used in five files, one per part:
+ *   sm_field.c            allocation, element records, construction, stats
+ *   sm_field_adjacency.c  neighbours across shared facets
+ *   sm_field_grid.c       the bucket grids (element and facet lists, seeds)
+ *   sm_field_locate.c     the walk, point location and evaluation
+ *   sm_field_nearest.c    nearest point of the mesh for outside points
+ * Functions shared between the parts carry the internal prefix sm__field_
+ * (global symbols of the library, not part of its API). */
+#ifndef SM_FIELD_INTERNAL_H
+#define SM_FIELD_INTERNAL_H
+
+#include <math.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "sm_error.h"
+#include "sm_field.h"
+#include "sm_mesh.h"
+
+/* Barycentric tolerance: a point is in an element when every coordinate is
+ * >= -BARY_TOL.  Barycentric coordinates are dimensionless, so this is a
+ * tolerance relative to the element size. */
+#define BARY_TOL 1e-10
+/* An element is degenerate when |det J| <= DEGENERATE_REL * hmax^dim. */
+#define DEGENERATE_REL 1e-12
+/* Element bounding boxes are inflated by this fraction of their extent
+ * when binned, so points accepted within BARY_TOL are in a listed cell. */
+#define BBOX_INFLATE 1e-8
+/* Walk budget.  A good hint (the element of the same point at the previous
+ * iteration) needs a handful of steps; past the budget the grid is
+ * cheaper.  A hint whose barycentric coordinates put x more than
+ * WALK_FAR_LAMBDA element heights away is not walked from at all: the walk
+ * would take about that many steps, each a likely cache miss. */
+#define WALK_MAX_STEPS 32
+#define WALK_FAR_LAMBDA 8.0
+/* Grid sizing: cells per valid element, and hard caps for hostile inputs
+ * (few huge elements among tiny ones, extreme aspect ratios).  Elements are
+ * binned by bounding box, and a tetrahedron's box is large compared to its
+ * volume, so finer cells multiply the list entries quickly (about 25 per
+ * tetrahedron at one cell per element for Gmsh meshes, 16 at one cell per
+ * two); since a lookup walks from the cell's seed element, the number of
+ * candidates per cell only matters for the exhaustive scan (points outside
+ * the mesh but inside its box), and coarser 3D cells are the better deal. */
+#define GRID_CELLS_PER_ELEM_2D 1.0
+#define GRID_CELLS_PER_ELEM_3D 0.5
+/* The coarse facet grid (far points) has about this many cells per
+ * boundary facet: a few facets per non-empty cell. */
+#define GRID_CELLS_PER_BFACET 1.0
+/* Rings of the element grid searched for the nearest facet before moving
+ * to the coarse facet grid. */
+#define NEAR_RINGS 2
+#define GRID_MAX_CELLS (1 << 24)
+#define GRID_MAX_AXIS (1 << 20)
+/* Arrays of at least this size are aligned to it and advised as huge pages
+ * (the usual x86-64 and arm64 huge page: smaller arrays gain nothing). */
+#define HUGE_PAGE_BYTES ((size_t)2 << 20)
+/* Facets are matched in buckets of their smallest vertex, distributed in
+ * two rounds of this fan-out: few enough write streams to stay in the
+ * first-level cache, and small enough final buckets for their hash
+ * tables to. */
+#define ADJ_FANOUT_BITS 6
+#define ADJ_FANOUT (1 << ADJ_FANOUT_BITS)
+/* Elements whose vertex coordinates are requested ahead of their turn. */
+#define PREFETCH_AHEAD 8
+/* Values of the validity byte: usable, with det J > 0 or < 0. */
+#define ELEM_VALID_POSITIVE 1
+#define ELEM_VALID_NEGATIVE 2
+/* Elements are sorted by blocks of cells, at most this many blocks. */
+#define SORT_BLOCKS 1024
+/* The parallel passes over the elements work on this many contiguous
+ * chunks, whatever the number of threads (so their output does not
+ * depend on it). */
+#define BUILD_CHUNKS 16
+/* sm_field_eval_many walks this many points together: enough misses in
+ * flight to cover the memory latency, few enough to stay in registers
+ * and first-level cache. */
+#define EVAL_GROUP 16
+/* Probes per entry a facet hash table may take before its bucket is
+ * sorted instead (a fair table takes about one). */
+#define HASH_PROBE_BUDGET 8
+
+/* A uniform grid over a box; cells are numbered x fastest. */
+typedef struct grid {
+    int dim;
+    double lo[3], hi[3], cell[3], inv_cell[3];
+    int32_t n[3];
+    int64_t ncells;
+    double min_cell;
+} grid;
+
+struct sm_field {
+    const sm_mesh *bg;
+    const double *values;
+    int dim;
+    int stride;          /* doubles per element record */
+    int32_t nelems;
+    int32_t nvalid;
+    double *rec;         /* nelems * stride (zeros for degenerate elements);
+                          * from sm__field_alloc_large (sm__field_free_large) */
+    uint8_t *valid;      /* nelems: 0 for a degenerate element, else
+                          * ELEM_VALID_POSITIVE or _NEGATIVE (sign of det J) */
+    int32_t *neigh;      /* nelems*(dim+1): across the facet opposite local
+                          * vertex k, or -1 (boundary, gap, non-manifold);
+                          * from sm__field_alloc_large (sm__field_free_large) */
+
+    /* element grid over the bounding box of the valid elements */
+    grid g;
+    int32_t *cell_seed;  /* ncells: start of the walk for points of the
+                          * cell, -1 when no element's box meets the cell */
+    int32_t *elem_start; /* ncells+1 */
+    int32_t *elem_list;  /* elements whose inflated bbox meets the cell */
+    int32_t max_cell_elems;
+
+    /* Facets without neighbour (the boundary of the union of the
+     * elements, plus gaps), for the nearest point of outside points.  They
+     * are binned twice: in the element grid, for points close to the mesh
+     * (a couple of rings of small cells), and in a coarser grid sized by
+     * their number, for points far from it (e.g. deep in a hole), where
+     * rings of small cells would be mostly empty.  Cell entries index
+     * bfacet_id / bfacet_xyz. */
+    int32_t nbfacets;
+    int32_t *bfacet_id;  /* e*(dim+1)+k */
+    double *bfacet_xyz;  /* dim*dim: the facet's vertex coordinates */
+    int32_t *facet_start;
+    int32_t *facet_list;
+    grid cg;
+    int32_t *cfacet_start;
+    int32_t *cfacet_list;
+};
+
+/* Allocation of the large arrays (sm_field.c has the details); free with
+ * sm__field_free_large(p, bytes), bytes as allocated. */
+void *sm__field_alloc_large(size_t bytes);
+void sm__field_free_large(void *p, size_t bytes);
+
+/* First index of chunk c of n items split into BUILD_CHUNKS. */
+static inline int32_t chunk_begin(int32_t n, int c)
+{
+    return (int32_t)((int64_t)n * c / BUILD_CHUNKS);
+}
+
+/* ------------------------------------------------------------------ */
+/* Element records: barycentric coordinates and values                 */
+
+static inline __attribute__((always_inline)) void
+bary_of(const double *r, const double *x, double *lam, const int D)
+{
+    if (D == 2) {
+        double y0 = x[0] - r[0], y1 = x[1] - r[1];
+        double l1 = r[2] * y0 + r[3] * y1;
+        double l2 = r[4] * y0 + r[5] * y1;
+        lam[0] = 1.0 - l1 - l2;
+        lam[1] = l1;
+        lam[2] = l2;
+    } else {
+        double y0 = x[0] - r[0], y1 = x[1] - r[1], y2 = x[2] - r[2];
+        double l1 = r[3] * y0 + r[4] * y1 + r[5] * y2;
+        double l2 = r[6] * y0 + r[7] * y1 + r[8] * y2;
+        double l3 = r[9] * y0 + r[10] * y1 + r[11] * y2;
+        lam[0] = 1.0 - l1 - l2 - l3;
+        lam[1] = l1;
+        lam[2] = l2;
+        lam[3] = l3;
+    }
+}
+
+static inline __attribute__((always_inline)) double
+affine_value(const double *r, const double *x, const int D)
+{
+    const double *val = r + D + D * D;
+    double v = val[0];
+    for (int i = 0; i < D; i++)
+        v += val[1 + i] * (x[i] - r[i]);
+    return v;
+}
+
+static inline __attribute__((always_inline)) int
+argmin_lam(const double *lam, const int D, double *lmin)
+{
+    int k = 0;
+    double m = lam[0];
+    for (int i = 1; i <= D; i++)
+        if (lam[i] < m) {
+            m = lam[i];
+            k = i;
+        }
+    *lmin = m;
+    return k;
+}
+
+static inline const double *vcoord(const sm_field *f, int32_t v)
+{
+    return f->bg->coords + (size_t)v * (size_t)f->dim;
+}
+
+/* The vertices of an element in ascending order (s) with their local
+ * indices (loc); returns the parity of the permutation (1 when odd). */
+static inline __attribute__((always_inline)) int
+sorted_vertices(const int32_t *ev, const int nv, int32_t *s, int *loc)
+{
+    int parity = 0;
+    for (int i = 0; i < nv; i++) {
+        int32_t v = ev[i];
+        int j = i;
+        while (j > 0 && s[j - 1] > v) {
+            s[j] = s[j - 1];
+            loc[j] = loc[j - 1];
+            parity ^= 1;
+            j--;
+        }
+        s[j] = v;
+        loc[j] = i;
+    }
+    return parity;
+}
+
+/* ------------------------------------------------------------------ */
+/* Grid geometry                                                       */
+
+static inline int32_t axis_cell(const grid *g, int i, double x)
+{
+    double t = (x - g->lo[i]) * g->inv_cell[i];
+    if (!(t >= 0.0))
+        return 0;
+    if (t >= (double)g->n[i])
+        return g->n[i] - 1;
+    return (int32_t)t;
+}
+
+static inline int64_t cell_index(const grid *g, const int32_t *c)
+{
+    return c[0] + (int64_t)g->n[0] * (c[1] + (int64_t)g->n[1] * c[2]);
+}
+
+/* Neighbours across shared facets (sm_field_adjacency.c): fills f->neigh
+ * from the bucket counts of the element pass (shift: the bucket of vertex
+ * v is v >> shift); counts is overwritten. */
+sm_status sm__field_build_adjacency(sm_field *f, int shift, size_t *counts, sm_error *err);
+
+/* Vertices of facet k (opposite local vertex k) of element e, ascending
+ * (sm_field_adjacency.c). */
+void sm__field_facet_vertices(const sm_field *f, int32_t e, int k, int32_t *out);
+
+/* The element grid, the boundary facets and both facet grids over the
+ * bounding box lo, hi of the valid elements (sm_field_grid.c); needs the
+ * records, validity and neighbours. */
+sm_status sm__field_build_grids(sm_field *f, const double *lo, const double *hi, sm_error *err);
+
+/* Value (and gradient, when grad is not NULL) of the extension at a point
+ * x outside the mesh: the value at the nearest point plus the distance to
+ * it (sm_field_nearest.c); *hint (may be NULL) becomes the element holding
+ * the nearest point. */
+double sm__field_extension(const sm_field *f, const double *x, int32_t *hint, double *grad);
+
+#endif

@@ -1,0 +1,253 @@
+/* Target field, point location and evaluation: the walk through element
+ * neighbours, the grid lookup, and the evaluation of the value (one point,
+ * with gradient, many points) built on them (sm_field.c has the overview,
+ * sm_field_internal.h the structure). */
+#include "sm_field_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+/* ------------------------------------------------------------------ */
+/* Location                                                            */
+
+/* Visibility walk from element e: cross the facet with the most negative
+ * barycentric coordinate.  Returns the element containing x (bary in lam)
+ * or -1 when the walk leaves the mesh or runs out of steps.  With
+ * far_lambda > 0, gives up at once when x is that many element heights
+ * beyond the start element.  The neighbours of e are requested before its
+ * record is read: both are cache misses, and this way they overlap. */
+static inline __attribute__((always_inline)) int32_t
+walk_dim(const sm_field *f, const double *x, int32_t e, double far_lambda, double *lam,
+         const int D)
+{
+    const double *rec = f->rec;
+    const int32_t *neigh = f->neigh;
+    double lmin;
+    for (int step = 0; step < WALK_MAX_STEPS; step++) {
+        __builtin_prefetch(neigh + (size_t)e * (D + 1));
+        bary_of(rec + (size_t)e * (size_t)(D + D * D + 1 + D), x, lam, D);
+        int k = argmin_lam(lam, D, &lmin);
+        if (lmin >= -BARY_TOL)
+            return e;
+        if (step == 0 && far_lambda > 0.0 && lmin < -far_lambda)
+            return -1;
+        e = neigh[(size_t)e * (D + 1) + k];
+        if (e < 0)
+            return -1;
+    }
+    return -1;
+}
+
+static inline __attribute__((always_inline)) int32_t
+locate_dim(const sm_field *f, const double *x, int32_t hint, double *bary, const int D)
+{
+    double lam[4], lmin;
+    int32_t e = -1;
+    for (int i = 0; i < D; i++)
+        if (!isfinite(x[i]))
+            return -1;
+    if (hint >= 0 && hint < f->nelems && f->valid[hint]) {
+        e = walk_dim(f, x, hint, WALK_FAR_LAMBDA, lam, D);
+        if (e >= 0)
+            goto found;
+    }
+    for (int i = 0; i < D; i++)
+        if (!(x[i] >= f->g.lo[i] && x[i] <= f->g.hi[i]))
+            return -1;
+    int32_t c[3] = {0, 0, 0};
+    for (int i = 0; i < D; i++)
+        c[i] = axis_cell(&f->g, i, x[i]);
+    int64_t idx = cell_index(&f->g, c);
+    int32_t seed = f->cell_seed[idx];
+    if (seed < 0)
+        return -1; /* no element's box meets the cell */
+    e = walk_dim(f, x, seed, 0.0, lam, D);
+    if (e >= 0)
+        goto found;
+    /* The cell lists are exhaustive: scanning one is the final answer
+     * (non-convex or non-conforming parts, points outside). */
+    int32_t j0 = f->elem_start[idx], j1 = f->elem_start[idx + 1];
+    double best_min = -INFINITY, best_lam[4] = {0, 0, 0, 0};
+    e = -1;
+    for (int32_t j = j0; j < j1; j++) {
+        int32_t cand = f->elem_list[j];
+        bary_of(f->rec + (size_t)cand * (size_t)(D + D * D + 1 + D), x, lam, D);
+        argmin_lam(lam, D, &lmin);
+        if (lmin > best_min) {
+            best_min = lmin;
+            e = cand;
+            memcpy(best_lam, lam, sizeof lam);
+            if (lmin >= 0.0)
+                break; /* inside or on it: no better answer */
+        }
+    }
+    if (e < 0 || best_min < -BARY_TOL)
+        return -1;
+    memcpy(lam, best_lam, sizeof lam);
+found:
+    if (bary)
+        memcpy(bary, lam, (size_t)(D + 1) * sizeof *bary);
+    return e;
+}
+
+int32_t sm_field_locate(const sm_field *f, const double *x, int32_t hint, double *bary)
+{
+    if (f->dim == 2)
+        return locate_dim(f, x, hint, bary, 2);
+    return locate_dim(f, x, hint, bary, 3);
+}
+
+/* ------------------------------------------------------------------ */
+/* Evaluation                                                          */
+
+double sm_field_eval_grad(const sm_field *f, const double *x, int32_t *hint, double *grad)
+{
+    const int D = f->dim;
+    for (int i = 0; i < D; i++)
+        if (!isfinite(x[i])) {
+            if (grad)
+                for (int j = 0; j < D; j++)
+                    grad[j] = 0.0;
+            return INFINITY;
+        }
+    int32_t e = sm_field_locate(f, x, hint ? *hint : -1, NULL);
+    if (e < 0)
+        return sm__field_extension(f, x, hint, grad);
+    if (hint)
+        *hint = e;
+    const double *r = f->rec + (size_t)e * (size_t)f->stride;
+    if (grad)
+        memcpy(grad, r + D + D * D + 1, (size_t)D * sizeof *grad);
+    return D == 2 ? affine_value(r, x, 2) : affine_value(r, x, 3);
+}
+
+double sm_field_eval(const sm_field *f, const double *x, int32_t *hint)
+{
+    if (f->dim == 2) {
+        int32_t e = locate_dim(f, x, hint ? *hint : -1, NULL, 2);
+        if (e >= 0) {
+            if (hint)
+                *hint = e;
+            return affine_value(f->rec + (size_t)e * 9, x, 2);
+        }
+    } else {
+        int32_t e = locate_dim(f, x, hint ? *hint : -1, NULL, 3);
+        if (e >= 0) {
+            if (hint)
+                *hint = e;
+            return affine_value(f->rec + (size_t)e * 16, x, 3);
+        }
+    }
+    for (int i = 0; i < f->dim; i++)
+        if (!isfinite(x[i]))
+            return INFINITY;
+    return sm__field_extension(f, x, hint, NULL);
+}
+
+/* sm_field_eval_many keeps EVAL_GROUP walks in flight: each visit of a
+ * slot does one step of its walk, whose record and neighbours were
+ * requested one round earlier, then requests the next element's (or, when
+ * the walk ends, the next point's hint's).  The misses of all the slots
+ * overlap instead of following each other.  Each walk is exactly
+ * walk_dim's from the point's hint (same steps, same exits); a point whose
+ * walk fails, or that cannot use its hint, gets sm_field_eval, so every
+ * result is that of sm_field_eval. */
+typedef struct eval_slot {
+    int64_t point; /* -1: free */
+    int32_t elem;
+    int step;
+} eval_slot;
+
+static inline __attribute__((always_inline)) void
+request_elem(const sm_field *f, int32_t e, const int D)
+{
+    const double *r = f->rec + (size_t)e * (size_t)(D + D * D + 1 + D);
+    __builtin_prefetch(r);
+    __builtin_prefetch(r + 8);
+    __builtin_prefetch(f->neigh + (size_t)e * (size_t)(D + 1));
+}
+
+/* Next point from *next on that can start a walk from its hint (the
+ * others are evaluated at once); -1 when none is left. */
+static inline __attribute__((always_inline)) int64_t
+next_walk(const sm_field *f, int64_t n, const double *xs, int32_t *hints, double *values,
+          int64_t *next, const int D)
+{
+    while (*next < n) {
+        int64_t i = (*next)++;
+        const double *x = xs + (size_t)i * (size_t)D;
+        int32_t h = hints ? hints[i] : -1;
+        int ok = h >= 0 && h < f->nelems;
+        for (int k = 0; k < D; k++)
+            ok = ok && isfinite(x[k]);
+        if (ok && f->valid[h]) {
+            request_elem(f, h, D);
+            return i;
+        }
+        values[i] = sm_field_eval(f, x, hints ? &hints[i] : NULL);
+    }
+    return -1;
+}
+
+static inline __attribute__((always_inline)) void
+eval_many_dim(const sm_field *f, int64_t n, const double *xs, int32_t *hints, double *values,
+              const int D)
+{
+    eval_slot slot[EVAL_GROUP];
+    int64_t next = 0;
+    int busy = 0;
+    for (int s = 0; s < EVAL_GROUP; s++) {
+        slot[s].point = next_walk(f, n, xs, hints, values, &next, D);
+        if (slot[s].point >= 0) {
+            slot[s].elem = hints[slot[s].point];
+            slot[s].step = 0;
+            busy++;
+        }
+    }
+    while (busy > 0) {
+        for (int s = 0; s < EVAL_GROUP; s++) {
+            eval_slot *sl = &slot[s];
+            if (sl->point < 0)
+                continue;
+            const double *x = xs + (size_t)sl->point * (size_t)D;
+            const double *r = f->rec + (size_t)sl->elem * (size_t)(D + D * D + 1 + D);
+            double lam[4], lmin;
+            bary_of(r, x, lam, D);
+            int k = argmin_lam(lam, D, &lmin);
+            int done = 1;
+            if (lmin >= -BARY_TOL) {
+                values[sl->point] = affine_value(r, x, D);
+                hints[sl->point] = sl->elem;
+            } else {
+                int32_t e = sl->step == 0 && lmin < -WALK_FAR_LAMBDA
+                                ? -1
+                                : f->neigh[(size_t)sl->elem * (size_t)(D + 1) + (size_t)k];
+                if (e >= 0 && ++sl->step < WALK_MAX_STEPS) {
+                    sl->elem = e;
+                    request_elem(f, e, D);
+                    done = 0;
+                } else {
+                    values[sl->point] = sm_field_eval(f, x, &hints[sl->point]);
+                }
+            }
+            if (done) {
+                sl->point = next_walk(f, n, xs, hints, values, &next, D);
+                if (sl->point >= 0) {
+                    sl->elem = hints[sl->point];
+                    sl->step = 0;
+                } else {
+                    busy--;
+                }
+            }
+        }
+    }
+}
+
+void sm_field_eval_many(const sm_field *f, int64_t n, const double *xs, int32_t *hints,
+                        double *values)
+{
+    if (f->dim == 2)
+        eval_many_dim(f, n, xs, hints, values, 2);
+    else
+        eval_many_dim(f, n, xs, hints, values, 3);
+}

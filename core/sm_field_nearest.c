@@ -1,0 +1,290 @@
+/* Target field, nearest point of the mesh for outside points: the
+ * closest point on the boundary facets, searched in rings of the facet
+ * grids, and the extension of the value outside the mesh (sm_field.c has
+ * the overview, sm_field_internal.h the structure). */
+#include "sm_field_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+static void closest_on_segment(const double *x, const double *a, const double *b,
+                               double *p)
+{
+    double ab[2] = {b[0] - a[0], b[1] - a[1]};
+    double ax[2] = {x[0] - a[0], x[1] - a[1]};
+    double l2 = ab[0] * ab[0] + ab[1] * ab[1];
+    double t = l2 > 0.0 ? (ax[0] * ab[0] + ax[1] * ab[1]) / l2 : 0.0;
+    if (!(t > 0.0))
+        t = 0.0;
+    else if (t > 1.0)
+        t = 1.0;
+    p[0] = a[0] + t * ab[0];
+    p[1] = a[1] + t * ab[1];
+}
+
+static double dot3(const double *u, const double *v)
+{
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+}
+
+/* Closest point of triangle abc to x, by the Voronoi regions of the
+ * vertices, edges and face (no division by a vanishing quantity: the
+ * face case divides by the sum of three positive terms). */
+static void closest_on_triangle(const double *x, const double *a, const double *b,
+                                const double *c, double *p)
+{
+    double ab[3], ac[3], ax[3], bx[3], cx[3];
+    for (int i = 0; i < 3; i++) {
+        ab[i] = b[i] - a[i];
+        ac[i] = c[i] - a[i];
+        ax[i] = x[i] - a[i];
+        bx[i] = x[i] - b[i];
+        cx[i] = x[i] - c[i];
+    }
+    double d1 = dot3(ab, ax), d2 = dot3(ac, ax);
+    if (d1 <= 0.0 && d2 <= 0.0) {
+        memcpy(p, a, 3 * sizeof *p);
+        return;
+    }
+    double d3 = dot3(ab, bx), d4 = dot3(ac, bx);
+    if (d3 >= 0.0 && d4 <= d3) {
+        memcpy(p, b, 3 * sizeof *p);
+        return;
+    }
+    double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+        double t = d1 - d3 > 0.0 ? d1 / (d1 - d3) : 0.0;
+        for (int i = 0; i < 3; i++)
+            p[i] = a[i] + t * ab[i];
+        return;
+    }
+    double d5 = dot3(ab, cx), d6 = dot3(ac, cx);
+    if (d6 >= 0.0 && d5 <= d6) {
+        memcpy(p, c, 3 * sizeof *p);
+        return;
+    }
+    double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+        double t = d2 - d6 > 0.0 ? d2 / (d2 - d6) : 0.0;
+        for (int i = 0; i < 3; i++)
+            p[i] = a[i] + t * ac[i];
+        return;
+    }
+    double va = d3 * d6 - d5 * d4;
+    if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0) {
+        double den = (d4 - d3) + (d5 - d6);
+        double t = den > 0.0 ? (d4 - d3) / den : 0.0;
+        for (int i = 0; i < 3; i++)
+            p[i] = b[i] + t * (c[i] - b[i]);
+        return;
+    }
+    double sum = va + vb + vc;
+    double v = sum > 0.0 ? vb / sum : 0.0, w = sum > 0.0 ? vc / sum : 0.0;
+    for (int i = 0; i < 3; i++)
+        p[i] = a[i] + v * ab[i] + w * ac[i];
+}
+
+/* Squared distance from x to grid cell c. */
+static double cell_dist2(const grid *g, const int32_t *c, const double *x)
+{
+    double d2 = 0.0;
+    for (int i = 0; i < g->dim; i++) {
+        double a = g->lo[i] + c[i] * g->cell[i], b = a + g->cell[i];
+        double t = x[i] < a ? a - x[i] : x[i] > b ? x[i] - b : 0.0;
+        d2 += t * t;
+    }
+    return d2;
+}
+
+typedef struct nearest_state {
+    double best2;   /* squared distance of the best facet so far */
+    int32_t facet;  /* e*(dim+1)+k, or -1 */
+    double p[3];
+    int64_t cells_visited;
+} nearest_state;
+
+/* Candidate boundary facet b for the nearest point; ties go to the
+ * smallest facet id, so the answer does not depend on the visiting order. */
+static void try_facet(const sm_field *f, int32_t b, const double *x, nearest_state *s)
+{
+    const int D = f->dim;
+    const double *v = f->bfacet_xyz + (size_t)b * (size_t)(D * D);
+    int32_t id = f->bfacet_id[b];
+    double p[3];
+    if (D == 2)
+        closest_on_segment(x, v, v + 2, p);
+    else
+        closest_on_triangle(x, v, v + 3, v + 6, p);
+    double d2 = 0.0;
+    for (int i = 0; i < D; i++)
+        d2 += (x[i] - p[i]) * (x[i] - p[i]);
+    if (d2 < s->best2 || (d2 == s->best2 && s->facet >= 0 && id < s->facet)) {
+        s->best2 = d2;
+        s->facet = id;
+        memcpy(s->p, p, sizeof p);
+    }
+}
+
+typedef struct facet_bins {
+    const grid *g;
+    const int32_t *start, *list;
+} facet_bins;
+
+static void scan_cell(const sm_field *f, const facet_bins *fb, const int32_t *c,
+                      const double *x, nearest_state *s)
+{
+    s->cells_visited++;
+    if (cell_dist2(fb->g, c, x) >= s->best2)
+        return;
+    int64_t idx = cell_index(fb->g, c);
+    for (int32_t j = fb->start[idx]; j < fb->start[idx + 1]; j++)
+        try_facet(f, fb->list[j], x, s);
+}
+
+/* Rings of cells around the cell of the projection p0 of x onto the grid
+ * box, until the next ring cannot hold anything closer: for q in the box
+ * |x-q|^2 >= |x-p0|^2 + |p0-q|^2, and a cell of ring r is at least
+ * (r-1)*min_cell from p0.  Returns 1 when the answer is final, 0 when it
+ * stopped at max_ring or after cell_budget cells. */
+static int ring_search(const sm_field *f, const facet_bins *fb, const double *x,
+                       int32_t max_ring, int64_t cell_budget, nearest_state *s)
+{
+    const grid *g = fb->g;
+    const int D = g->dim;
+    double p0[3] = {0, 0, 0}, d02 = 0.0;
+    int32_t sc[3] = {0, 0, 0};
+    int32_t last = 0;
+    for (int i = 0; i < D; i++) {
+        p0[i] = x[i] < g->lo[i] ? g->lo[i] : x[i] > g->hi[i] ? g->hi[i] : x[i];
+        d02 += (x[i] - p0[i]) * (x[i] - p0[i]);
+        sc[i] = axis_cell(g, i, p0[i]);
+        int32_t m = sc[i] > g->n[i] - 1 - sc[i] ? sc[i] : g->n[i] - 1 - sc[i];
+        if (m > last)
+            last = m;
+    }
+    int64_t visited0 = s->cells_visited;
+    for (int32_t r = 0; r <= last; r++) {
+        if (r >= 1) {
+            double gap = (double)(r - 1) * g->min_cell;
+            if (d02 + gap * gap >= s->best2)
+                return 1;
+        }
+        if (r > max_ring || s->cells_visited - visited0 > cell_budget)
+            return 0;
+        int32_t lo[3], hi[3], c[3] = {0, 0, 0};
+        for (int i = 0; i < D; i++) {
+            lo[i] = sc[i] - r < 0 ? 0 : sc[i] - r;
+            hi[i] = sc[i] + r > g->n[i] - 1 ? g->n[i] - 1 : sc[i] + r;
+        }
+        if (D == 2) {
+            for (c[0] = lo[0]; c[0] <= hi[0]; c[0]++) {
+                if (c[0] == sc[0] - r || c[0] == sc[0] + r) {
+                    for (c[1] = lo[1]; c[1] <= hi[1]; c[1]++)
+                        scan_cell(f, fb, c, x, s);
+                } else {
+                    c[1] = sc[1] - r;
+                    if (c[1] >= 0)
+                        scan_cell(f, fb, c, x, s);
+                    c[1] = sc[1] + r;
+                    if (r > 0 && c[1] < g->n[1])
+                        scan_cell(f, fb, c, x, s);
+                }
+            }
+        } else {
+            for (c[0] = lo[0]; c[0] <= hi[0]; c[0]++)
+                for (c[1] = lo[1]; c[1] <= hi[1]; c[1]++) {
+                    if (c[0] == sc[0] - r || c[0] == sc[0] + r || c[1] == sc[1] - r ||
+                        c[1] == sc[1] + r) {
+                        for (c[2] = lo[2]; c[2] <= hi[2]; c[2]++)
+                            scan_cell(f, fb, c, x, s);
+                    } else {
+                        c[2] = sc[2] - r;
+                        if (c[2] >= 0)
+                            scan_cell(f, fb, c, x, s);
+                        c[2] = sc[2] + r;
+                        if (r > 0 && c[2] < g->n[2])
+                            scan_cell(f, fb, c, x, s);
+                    }
+                }
+        }
+    }
+    return 1;
+}
+
+/* Nearest point on the facets without neighbour: a few rings of the fine
+ * element grid (points close to the mesh, the common case), then rings of
+ * the coarse facet grid with the best distance so far as the bound, and,
+ * if even those grow too many (far from a non-convex background), one
+ * plain pass over the facets, which bounds the cost. */
+static void nearest_facet(const sm_field *f, const double *x, nearest_state *s)
+{
+    s->best2 = INFINITY;
+    s->facet = -1;
+    s->cells_visited = 0;
+    const facet_bins fine = {&f->g, f->facet_start, f->facet_list};
+    if (ring_search(f, &fine, x, NEAR_RINGS, INT64_MAX, s))
+        return;
+    const facet_bins coarse = {&f->cg, f->cfacet_start, f->cfacet_list};
+    if (ring_search(f, &coarse, x, INT32_MAX, f->nbfacets / 2 + 64, s))
+        return;
+    for (int32_t b = 0; b < f->nbfacets; b++)
+        try_facet(f, b, x, s);
+}
+
+double sm__field_extension(const sm_field *f, const double *x, int32_t *hint, double *grad)
+{
+    const int D = f->dim;
+    nearest_state s;
+    nearest_facet(f, x, &s);
+    if (s.facet < 0) {
+        /* only when every distance overflows (|x| ~ 1e154 and beyond) */
+        if (grad)
+            for (int i = 0; i < D; i++)
+                grad[i] = 0.0;
+        return INFINITY;
+    }
+    int32_t e = s.facet / (D + 1);
+    const double *r = f->rec + (size_t)e * (size_t)f->stride;
+    double dist = sqrt(s.best2);
+    if (hint)
+        *hint = e;
+    if (grad) {
+        /* grad = n + (I - n n^T) g, n the unit vector from p to x */
+        const double *g = r + D + D * D + 1;
+        double n[3] = {0, 0, 0}, gn = 0.0;
+        if (dist > 0.0)
+            for (int i = 0; i < D; i++) {
+                n[i] = (x[i] - s.p[i]) / dist;
+                gn += g[i] * n[i];
+            }
+        for (int i = 0; i < D; i++)
+            grad[i] = n[i] + g[i] - gn * n[i];
+    }
+    return (D == 2 ? affine_value(r, s.p, 2) : affine_value(r, s.p, 3)) + dist;
+}
+
+int32_t sm_field_nearest(const sm_field *f, const double *x, double *nearest,
+                         double *distance)
+{
+    const int D = f->dim;
+    for (int i = 0; i < D; i++)
+        if (!isfinite(x[i]))
+            return -1;
+    int32_t e = sm_field_locate(f, x, -1, NULL);
+    if (e >= 0) {
+        if (nearest)
+            memcpy(nearest, x, (size_t)D * sizeof *nearest);
+        if (distance)
+            *distance = 0.0;
+        return e;
+    }
+    nearest_state s;
+    nearest_facet(f, x, &s);
+    if (s.facet < 0)
+        return -1;
+    if (nearest)
+        memcpy(nearest, s.p, (size_t)D * sizeof *nearest);
+    if (distance)
+        *distance = sqrt(s.best2);
+    return s.facet / (D + 1);
+}

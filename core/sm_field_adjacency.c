@@ -212,6 +212,10 @@ sm_status sm__field_build_adjacency(sm_field *f, int shift, size_t *counts, sm_e
         for (int b = 0; b < ADJ_FANOUT; b++) {
             const facet_key *bk = keys + start[b];
             size_t m = start[b + 1] - start[b], sstart[ADJ_FANOUT + 1], sfill[ADJ_FANOUT];
+            /* an empty bucket links nothing, and until a bucket holds
+             * something sub is NULL, which takes no offset (not even 0) */
+            if (m == 0)
+                continue;
             if (m > subcap) {
                 free(sub);
                 sub = malloc(m * sizeof *sub);
@@ -232,6 +236,8 @@ sm_status sm__field_build_adjacency(sm_field *f, int shift, size_t *counts, sm_e
                 sub[sfill[(bk[i].a >> shift2) & low]++] = bk[i];
             for (int c = 0; c < ADJ_FANOUT; c++) {
                 size_t ms = sstart[c + 1] - sstart[c];
+                if (ms == 0)
+                    continue;
                 if (2 * ms > cap) {
                     size_t newcap = 16;
                     while (newcap < 2 * ms)

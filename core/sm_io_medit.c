@@ -11,7 +11,10 @@
 #include <string.h>
 #include <strings.h>
 
+#include "sm_medit_common.h"
 #include "sm_reader.h"
+#include "sm_stream.h"
+#include "sm_writer.h"
 
 /* One block of simplices (or edges) as read from the file. */
 typedef struct idx_block {

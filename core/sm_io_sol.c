@@ -8,7 +8,10 @@
 #include <string.h>
 #include <strings.h>
 
+#include "sm_medit_common.h"
 #include "sm_reader.h"
+#include "sm_stream.h"
+#include "sm_writer.h"
 
 enum { SOL_SCALAR = 1, SOL_VECTOR = 2, SOL_SYMMETRIC_MATRIX = 3, SOL_MATRIX = 4 };
 

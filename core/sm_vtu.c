@@ -5,7 +5,7 @@
 
 #include <math.h>
 
-#include "sm_reader.h"
+#include "sm_writer.h"
 
 enum { VTK_TRIANGLE = 5, VTK_TETRA = 10 };
 

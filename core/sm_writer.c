@@ -1,0 +1,278 @@
+#include "sm_writer.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <locale.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zlib.h>
+
+#include "sm_stream.h"
+
+#define WRITE_BUF_SIZE (1u << 16)
+
+/* ------------------------------------------------------------------ */
+/* writer                                                              */
+/* ------------------------------------------------------------------ */
+
+struct sm_writer {
+    char *final_path;
+    char *tmp_path;       /* NULL when writing in place (devices, pipes) */
+    int fd;
+    gzFile gz;
+    unsigned char *buf;
+    size_t len;
+    uint64_t offset;
+    int failed;
+    int saved_errno;      /* 0 when the failure has no errno (zlib) */
+    char zmsg[96];
+    locale_t c_locale, saved_locale;
+};
+
+static void writer_free(sm_writer *w)
+{
+    sm__stream_restore_locale(w->c_locale, w->saved_locale);
+    free(w->final_path);
+    free(w->tmp_path);
+    free(w->buf);
+    free(w);
+}
+
+sm_status sm_writer_open(sm_writer **out, const char *path, sm_error *err)
+{
+    *out = NULL;
+    sm_writer *w = calloc(1, sizeof *w);
+    if (!w)
+        return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", path);
+    w->fd = -1;
+    w->final_path = strdup(path);
+    w->buf = malloc(WRITE_BUF_SIZE);
+    if (!w->final_path || !w->buf) {
+        writer_free(w);
+        return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", path);
+    }
+    struct stat st;
+    if (stat(path, &st) == 0 && !S_ISREG(st.st_mode)) {
+        /* A device or a pipe (/dev/stdout, /dev/full): write in place. */
+        if (S_ISDIR(st.st_mode)) {
+            writer_free(w);
+            return sm_error_set(err, SM_ERR_IO, "%s: is a directory", path);
+        }
+        w->fd = open(path, O_WRONLY | O_CLOEXEC);
+    } else {
+        size_t n = strlen(path) + 48;
+        w->tmp_path = malloc(n);
+        if (!w->tmp_path) {
+            writer_free(w);
+            return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", path);
+        }
+        for (int attempt = 0; attempt < 1000; attempt++) {
+            snprintf(w->tmp_path, n, "%s.tmp-%ld-%d", path, (long)getpid(), attempt);
+            w->fd = open(w->tmp_path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+            if (w->fd >= 0 || errno != EEXIST)
+                break;
+        }
+    }
+    if (w->fd < 0) {
+        int e = errno;
+        writer_free(w);
+        return sm_error_set(err, SM_ERR_IO, "%s: cannot create: %s", path, strerror(e));
+    }
+    if (sm_path_has_suffix(path, ".gz")) {
+        /* Level 1: on a 1M-vertex ASCII mesh it writes 4x faster than the
+         * default level 6 (7.5 s vs 29 s) for a file 30% larger. */
+        int fd2 = dup(w->fd);
+        w->gz = fd2 >= 0 ? gzdopen(fd2, "wb1") : NULL;
+        if (!w->gz) {
+            if (fd2 >= 0)
+                close(fd2);
+            close(w->fd);
+            if (w->tmp_path)
+                unlink(w->tmp_path);
+            writer_free(w);
+            return sm_error_set(err, SM_ERR_NOMEM, "%s: cannot start gzip compression", path);
+        }
+        gzbuffer(w->gz, SM_STREAM_ZLIB_BUF_SIZE);
+    }
+    sm__stream_use_c_locale(&w->c_locale, &w->saved_locale);
+    *out = w;
+    return SM_OK;
+}
+
+static void writer_fail(sm_writer *w, int e, const char *zmsg)
+{
+    if (w->failed)
+        return;
+    w->failed = 1;
+    w->saved_errno = e;
+    snprintf(w->zmsg, sizeof w->zmsg, "%s", zmsg ? zmsg : "");
+}
+
+static void write_out(sm_writer *w, const unsigned char *p, size_t n)
+{
+    if (w->failed)
+        return;
+    if (w->gz) {
+        while (n > 0) {
+            unsigned k = n > (1u << 30) ? (1u << 30) : (unsigned)n;
+            errno = 0;
+            if (gzwrite(w->gz, p, k) != (int)k) {
+                int errnum;
+                int e = errno;
+                const char *msg = gzerror(w->gz, &errnum);
+                writer_fail(w, errnum == Z_ERRNO ? e : 0, sm__stream_zlib_message(msg));
+                return;
+            }
+            p += k;
+            n -= k;
+        }
+        return;
+    }
+    while (n > 0) {
+        ssize_t k = write(w->fd, p, n);
+        if (k < 0) {
+            if (errno == EINTR)
+                continue;
+            writer_fail(w, errno, NULL);
+            return;
+        }
+        if (k == 0) {
+            writer_fail(w, EIO, NULL);
+            return;
+        }
+        p += k;
+        n -= (size_t)k;
+    }
+}
+
+static void flush_buf(sm_writer *w)
+{
+    write_out(w, w->buf, w->len);
+    w->len = 0;
+}
+
+void sm_writer_bytes(sm_writer *w, const void *data, size_t n)
+{
+    w->offset += n;
+    if (n > WRITE_BUF_SIZE / 2) {
+        flush_buf(w);
+        write_out(w, data, n);
+        return;
+    }
+    if (w->len + n > WRITE_BUF_SIZE)
+        flush_buf(w);
+    memcpy(w->buf + w->len, data, n);
+    w->len += n;
+}
+
+void sm_writer_printf(sm_writer *w, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    size_t room = WRITE_BUF_SIZE - w->len;
+    int n = vsnprintf((char *)w->buf + w->len, room, fmt, ap);
+    va_end(ap);
+    if (n < 0) {
+        writer_fail(w, EINVAL, NULL);
+        return;
+    }
+    if ((size_t)n < room) {
+        w->len += (size_t)n;
+        w->offset += (size_t)n;
+        return;
+    }
+    /* Did not fit: flush and format again into the empty buffer, or into
+     * a temporary one for a line longer than the buffer. */
+    flush_buf(w);
+    va_start(ap, fmt);
+    if ((size_t)n < WRITE_BUF_SIZE) {
+        vsnprintf((char *)w->buf, WRITE_BUF_SIZE, fmt, ap);
+        w->len = (size_t)n;
+        w->offset += (size_t)n;
+    } else {
+        char *tmp = malloc((size_t)n + 1);
+        if (!tmp) {
+            writer_fail(w, ENOMEM, NULL);
+        } else {
+            vsnprintf(tmp, (size_t)n + 1, fmt, ap);
+            w->offset += (size_t)n;
+            write_out(w, (unsigned char *)tmp, (size_t)n);
+            free(tmp);
+        }
+    }
+    va_end(ap);
+}
+
+void sm_writer_i32(sm_writer *w, int32_t v)
+{
+    sm_writer_bytes(w, &v, 4);
+}
+
+void sm_writer_i64(sm_writer *w, int64_t v)
+{
+    sm_writer_bytes(w, &v, 8);
+}
+
+void sm_writer_f64(sm_writer *w, double v)
+{
+    sm_writer_bytes(w, &v, 8);
+}
+
+uint64_t sm_writer_offset(const sm_writer *w)
+{
+    return w->offset;
+}
+
+static const char *failure_text(const sm_writer *w)
+{
+    if (w->saved_errno)
+        return strerror(w->saved_errno);
+    return w->zmsg[0] ? w->zmsg : "unknown error";
+}
+
+sm_status sm_writer_close(sm_writer *w, sm_error *err)
+{
+    flush_buf(w);
+    if (w->gz) {
+        errno = 0;
+        int rc = gzclose(w->gz);
+        int e = errno;
+        w->gz = NULL;
+        if (rc != Z_OK)
+            writer_fail(w, rc == Z_ERRNO ? (e ? e : EIO) : 0, "gzip close failed");
+    }
+    if (close(w->fd) != 0)
+        writer_fail(w, errno, NULL);
+    w->fd = -1;
+    sm_status st = SM_OK;
+    if (w->failed) {
+        st = sm_error_set(err, SM_ERR_IO, "%s: write failed: %s", w->final_path,
+                          failure_text(w));
+        if (w->tmp_path)
+            unlink(w->tmp_path);
+    } else if (w->tmp_path && rename(w->tmp_path, w->final_path) != 0) {
+        int e = errno;
+        st = sm_error_set(err, SM_ERR_IO, "%s: cannot rename %s into place: %s",
+                          w->final_path, w->tmp_path, strerror(e));
+        unlink(w->tmp_path);
+    }
+    writer_free(w);
+    return st;
+}
+
+void sm_writer_abort(sm_writer *w)
+{
+    if (!w)
+        return;
+    if (w->gz)
+        gzclose(w->gz);
+    if (w->fd >= 0)
+        close(w->fd);
+    if (w->tmp_path)
+        unlink(w->tmp_path);
+    writer_free(w);
+}

@@ -1,0 +1,40 @@
+/* Internal output stream shared by the file-format writers (not part of
+ * the public API).
+ *
+ * sm_writer: a buffered output stream to a plain or gzip file (chosen by
+ * a ".gz" suffix).  Regular files are written to a temporary name in the
+ * same directory and renamed on success, so a failed write never leaves
+ * a half-written file under the final name.  Errors are sticky and
+ * reported (with errno, e.g. ENOSPC) by sm_writer_close.
+ *
+ * The writer sets the C numeric locale for the calling thread while open
+ * (sm_stream.h), so "%.17g" writes '.' whatever the application's locale. */
+#ifndef SM_WRITER_H
+#define SM_WRITER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "sm_error.h"
+
+typedef struct sm_writer sm_writer;
+
+/* Opens path for writing; compression when the name ends in ".gz". */
+sm_status sm_writer_open(sm_writer **out, const char *path, sm_error *err);
+/* Flushes, closes and renames into place; on any error (including one
+ * that happened during earlier writes) removes the partial file and
+ * returns SM_ERR_IO.  Always frees w. */
+sm_status sm_writer_close(sm_writer *w, sm_error *err);
+/* Discards everything written (error paths of the callers). */
+void sm_writer_abort(sm_writer *w);
+
+void sm_writer_printf(sm_writer *w, const char *fmt, ...)
+    __attribute__((format(printf, 2, 3)));
+void sm_writer_bytes(sm_writer *w, const void *data, size_t n);
+void sm_writer_i32(sm_writer *w, int32_t v);
+void sm_writer_i64(sm_writer *w, int64_t v);
+void sm_writer_f64(sm_writer *w, double v);
+/* Logical bytes written so far (uncompressed). */
+uint64_t sm_writer_offset(const sm_writer *w);
+
+#endif

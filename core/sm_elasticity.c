@@ -498,17 +498,14 @@ static sm_status build_slot_map(sm_elasticity *el, const adjacency *adj, sm_erro
     return SM_OK;
 }
 
-sm_status sm_elasticity_new_ex(const sm_mesh *m, const uint8_t *clamped,
-                               double young, double poisson, double alpha,
-                               sm_factor_kind kind, sm_elasticity **out,
-                               sm_error *err)
+/* The arguments of sm_elasticity_new: sizes, material, alpha, factor kind
+ * and every element's vertices (in range, distinct). */
+static sm_status validate(const sm_mesh *m, const sm_elasticity_opts *opts, sm_error *err)
 {
-    double t0 = now_seconds();
-    if (!out)
-        return sm_error_set(err, SM_ERR_INVALID, "elasticity: NULL output pointer");
-    *out = NULL;
     if (!m)
         return sm_error_set(err, SM_ERR_INVALID, "elasticity: NULL mesh");
+    if (!opts)
+        return sm_error_set(err, SM_ERR_INVALID, "elasticity: NULL options");
     if (m->dim != 2 && m->dim != 3)
         return sm_error_set(err, SM_ERR_INVALID, "elasticity: mesh dimension %d is not 2 or 3", m->dim);
     if (m->nverts < 0 || m->nelems < 0 || m->nverts > SM_MAX_ENTITIES ||
@@ -516,6 +513,8 @@ sm_status sm_elasticity_new_ex(const sm_mesh *m, const uint8_t *clamped,
         return sm_error_set(err, SM_ERR_INVALID,
                             "elasticity: invalid mesh sizes (%ld vertices, %ld elements)",
                             (long)m->nverts, (long)m->nelems);
+    const double young = opts->young, poisson = opts->poisson, alpha = opts->alpha;
+    const sm_factor_kind kind = opts->factor;
     if (!(young > 0.0) || !isfinite(young))
         return sm_error_set(err, SM_ERR_INVALID,
                             "elasticity: Young's modulus must be finite and > 0 (got %g)", young);
@@ -528,7 +527,7 @@ sm_status sm_elasticity_new_ex(const sm_mesh *m, const uint8_t *clamped,
     if (kind != SM_FACTOR_AUTO && kind != SM_FACTOR_SIMPLICIAL && kind != SM_FACTOR_SUPERNODAL)
         return sm_error_set(err, SM_ERR_INVALID, "elasticity: unknown factor kind %d", (int)kind);
 
-    const int dim = m->dim, nv = dim + 1;
+    const int nv = m->dim + 1;
     for (int32_t e = 0; e < m->nelems; e++) {
         const int32_t *ev = m->elems + (int64_t)e * nv;
         for (int i = 0; i < nv; i++) {
@@ -543,25 +542,17 @@ sm_status sm_elasticity_new_ex(const sm_mesh *m, const uint8_t *clamped,
                                         (long)e + 1, (long)ev[i] + 1);
         }
     }
+    return SM_OK;
+}
 
-    sm_elasticity *el = calloc(1, sizeof *el);
-    uint8_t *is_clamped = alloc_n((size_t)m->nverts, 1);
-    uint8_t *used = alloc_n((size_t)m->nverts, 1);
-    adjacency adj = {0};
-    sm_status st = SM_OK;
-    if (!el || !is_clamped || !used) {
-        free(el);
-        free(is_clamped);
-        free(used);
-        return sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory");
-    }
-    el->dim = dim;
-    el->nverts = m->nverts;
-    el->nelems = m->nelems;
-    el->elems = m->elems;
-    el->alpha = alpha;
-    sm_lame(young, poisson, &el->lambda, &el->mu);
-
+/* Which vertices are clamped (is_clamped: nverts flags, filled) and the
+ * numbering of the DOFs: el->dof (free DOFs in vertex order, -1 for
+ * clamped or unused ones), el->clamped_global, and the sizes nfree and
+ * nclamped_dofs; allocates el->rhs.  used: nverts zeroed scratch. */
+static sm_status number_dofs(sm_elasticity *el, const sm_mesh *m, const uint8_t *clamped,
+                             uint8_t *is_clamped, uint8_t *used, sm_error *err)
+{
+    const int dim = m->dim, nv = dim + 1;
     /* Vertices used by no element carry no unknown: they are treated as
      * clamped (their displacement is the Dirichlet value, or 0). */
     for (int64_t k = 0; k < (int64_t)m->nelems * nv; k++)
@@ -576,57 +567,45 @@ sm_status sm_elasticity_new_ex(const sm_mesh *m, const uint8_t *clamped,
                 nfree_verts++;
         }
     }
-    if (nclamped_verts == 0 && nfree_verts > 0 && !(alpha > 0.0)) {
-        st = sm_error_set(err, SM_ERR_INVALID,
-                          "elasticity: no vertex is clamped and alpha = %g: rigid motions make the "
-                          "system singular; clamp some vertices or use alpha > 0", alpha);
-        goto fail;
-    }
-    if ((int64_t)nfree_verts * dim > INT32_MAX - 2) {
-        st = sm_error_set(err, SM_ERR_NOMEM, "elasticity: too many unknowns");
-        goto fail;
-    }
+    if (nclamped_verts == 0 && nfree_verts > 0 && !(el->alpha > 0.0))
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "elasticity: no vertex is clamped and alpha = %g: rigid motions make the "
+                            "system singular; clamp some vertices or use alpha > 0", el->alpha);
+    if ((int64_t)nfree_verts * dim > INT32_MAX - 2)
+        return sm_error_set(err, SM_ERR_NOMEM, "elasticity: too many unknowns");
     el->nfree = nfree_verts * dim;
     el->nclamped_dofs = nclamped_verts * dim;
     el->dof = malloc(((size_t)m->nverts * dim + 1) * sizeof *el->dof);
     el->clamped_global = alloc_n((size_t)el->nclamped_dofs, sizeof *el->clamped_global);
     el->rhs = alloc_n((size_t)el->nfree, sizeof *el->rhs);
-    if (!el->dof || !el->clamped_global || !el->rhs) {
-        st = sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory");
-        goto fail;
-    }
-    {
-        int32_t next_free = 0, next_clamped = 0;
-        for (int32_t v = 0; v < m->nverts; v++) {
-            for (int c = 0; c < dim; c++) {
-                int64_t g = (int64_t)v * dim + c;
-                if (!used[v]) {
-                    el->dof[g] = -1;
-                } else if (is_clamped[v]) {
-                    el->dof[g] = -1;
-                    el->clamped_global[next_clamped++] = (int32_t)g;
-                } else {
-                    el->dof[g] = next_free++;
-                }
+    if (!el->dof || !el->clamped_global || !el->rhs)
+        return sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory");
+    int32_t next_free = 0, next_clamped = 0;
+    for (int32_t v = 0; v < m->nverts; v++) {
+        for (int c = 0; c < dim; c++) {
+            int64_t g = (int64_t)v * dim + c;
+            if (!used[v]) {
+                el->dof[g] = -1;
+            } else if (is_clamped[v]) {
+                el->dof[g] = -1;
+                el->clamped_global[next_clamped++] = (int32_t)g;
+            } else {
+                el->dof[g] = next_free++;
             }
         }
     }
+    return SM_OK;
+}
 
-    if ((st = build_adjacency(el, is_clamped, &adj, err)) != SM_OK)
-        goto fail;
-    if ((st = build_patterns(el, &adj, err)) != SM_OK)
-        goto fail;
-    if ((st = build_slot_map(el, &adj, err)) != SM_OK)
-        goto fail;
-    adjacency_free(&adj);
-    memset(&adj, 0, sizeof adj);
-
+/* CHOLMOD on the free x free pattern: its common block (factor kind
+ * forced or not), the matrix header over el's CSR arrays, and the
+ * symbolic analysis. */
+static sm_status setup_solver(sm_elasticity *el, sm_factor_kind kind, sm_error *err)
+{
     /* CHOLMOD: a CSR of a symmetric matrix is its CSC; stype = 1 makes
      * CHOLMOD read only the upper triangle (row <= column). */
-    if (!cholmod_start(&el->cc)) {
-        st = sm_error_set(err, SM_ERR_NOMEM, "elasticity: cholmod_start failed");
-        goto fail;
-    }
+    if (!cholmod_start(&el->cc))
+        return sm_error_set(err, SM_ERR_NOMEM, "elasticity: cholmod_start failed");
     el->cc_started = 1;
     el->cc.print = 0; /* errors are reported through sm_error, not stdout */
     el->cc.quick_return_if_not_posdef = 1;
@@ -649,15 +628,57 @@ sm_status sm_elasticity_new_ex(const sm_mesh *m, const uint8_t *clamped,
     el->A.packed = 1;
     if (el->nfree > 0) {
         el->L = cholmod_analyze(&el->A, &el->cc);
-        if (!el->L || el->cc.status < CHOLMOD_OK) {
-            st = sm_error_set(err, el->cc.status == CHOLMOD_OUT_OF_MEMORY ? SM_ERR_NOMEM : SM_ERR_NUMERIC,
-                              "elasticity: CHOLMOD symbolic analysis failed (status %d: %s) for %ld unknowns",
-                              el->cc.status, cholmod_status_text(el->cc.status), (long)el->nfree);
-            goto fail;
-        }
+        if (!el->L || el->cc.status < CHOLMOD_OK)
+            return sm_error_set(err, el->cc.status == CHOLMOD_OUT_OF_MEMORY ? SM_ERR_NOMEM : SM_ERR_NUMERIC,
+                                "elasticity: CHOLMOD symbolic analysis failed (status %d: %s) for %ld unknowns",
+                                el->cc.status, cholmod_status_text(el->cc.status), (long)el->nfree);
         el->lnz = el->cc.lnz;
         el->flops = el->cc.fl;
     }
+    return SM_OK;
+}
+
+sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
+                            const sm_elasticity_opts *opts, sm_elasticity **out,
+                            sm_error *err)
+{
+    double t0 = now_seconds();
+    if (!out)
+        return sm_error_set(err, SM_ERR_INVALID, "elasticity: NULL output pointer");
+    *out = NULL;
+    sm_status st = validate(m, opts, err);
+    if (st != SM_OK)
+        return st;
+
+    sm_elasticity *el = calloc(1, sizeof *el);
+    uint8_t *is_clamped = alloc_n((size_t)m->nverts, 1);
+    uint8_t *used = alloc_n((size_t)m->nverts, 1);
+    adjacency adj = {0};
+    if (!el || !is_clamped || !used) {
+        free(el);
+        free(is_clamped);
+        free(used);
+        return sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory");
+    }
+    el->dim = m->dim;
+    el->nverts = m->nverts;
+    el->nelems = m->nelems;
+    el->elems = m->elems;
+    el->alpha = opts->alpha;
+    sm_lame(opts->young, opts->poisson, &el->lambda, &el->mu);
+
+    if ((st = number_dofs(el, m, clamped, is_clamped, used, err)) != SM_OK)
+        goto fail;
+    if ((st = build_adjacency(el, is_clamped, &adj, err)) != SM_OK)
+        goto fail;
+    if ((st = build_patterns(el, &adj, err)) != SM_OK)
+        goto fail;
+    if ((st = build_slot_map(el, &adj, err)) != SM_OK)
+        goto fail;
+    adjacency_free(&adj);
+    memset(&adj, 0, sizeof adj);
+    if ((st = setup_solver(el, opts->factor, err)) != SM_OK)
+        goto fail;
     free(is_clamped);
     free(used);
     el->t_analyze = now_seconds() - t0;
@@ -670,13 +691,6 @@ fail:
     free(used);
     sm_elasticity_free(el);
     return st;
-}
-
-sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
-                            double young, double poisson, double alpha,
-                            sm_elasticity **out, sm_error *err)
-{
-    return sm_elasticity_new_ex(m, clamped, young, poisson, alpha, SM_FACTOR_AUTO, out, err);
 }
 
 /* ---------------------------------------------------------------------- */

@@ -20,12 +20,36 @@
 
 typedef struct sm_elasticity sm_elasticity;
 
+/* Which Cholesky CHOLMOD computes.  AUTO (the default) lets CHOLMOD
+ * decide from the flop count of the symbolic analysis; the other two
+ * force one kind, for benchmarks. */
+typedef enum sm_factor_kind {
+    SM_FACTOR_AUTO = 0,
+    SM_FACTOR_SIMPLICIAL = 1,
+    SM_FACTOR_SUPERNODAL = 2
+} sm_factor_kind;
+
+/* What sm_elasticity_new builds: the material, the zero-order term and
+ * the factor kind.  A compound literal names only what it sets:
+ *   sm_elasticity_new(m, clamped, &(sm_elasticity_opts){.young = 1,
+ *                     .poisson = 0.3}, &el, &err)
+ * (alpha 0, SM_FACTOR_AUTO). */
+typedef struct sm_elasticity_opts {
+    double young;          /* Young's modulus E: finite, > 0 */
+    double poisson;        /* Poisson ratio nu: in (-1, 0.5) */
+    double alpha;          /* zero-order (mass) term: finite, >= 0 */
+    sm_factor_kind factor; /* SM_FACTOR_AUTO (0) unless forced */
+} sm_elasticity_opts;
+
 /* clamped: nverts flags (all components of a flagged vertex are fixed),
- * may be NULL for none.  With no clamped vertex alpha must be > 0.
- * The mesh topology (m->elems) is borrowed and must outlive the object. */
+ * may be NULL for none.  With no clamped vertex opts->alpha must be > 0.
+ * Checks the mesh and the options (SM_ERR_INVALID naming what is wrong),
+ * numbers the DOFs and runs CHOLMOD's symbolic analysis.  opts is read
+ * only during the call; the mesh topology (m->elems) is borrowed and must
+ * outlive the object. */
 sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
-                            double young, double poisson, double alpha,
-                            sm_elasticity **out, sm_error *err);
+                            const sm_elasticity_opts *opts, sm_elasticity **out,
+                            sm_error *err);
 void sm_elasticity_free(sm_elasticity *el);
 
 /* Assembles the stiffness (+ alpha mass) matrix on the vertex positions
@@ -65,21 +89,6 @@ void sm_elasticity_timings(const sm_elasticity *el, double *assembly,
  * in 2D uses the same formulas):
  *   lambda = E nu / ((1+nu)(1-2nu)),  mu = E / (2(1+nu)). */
 void sm_lame(double young, double poisson, double *lambda, double *mu);
-
-/* Which Cholesky CHOLMOD computes.  AUTO lets CHOLMOD decide from the
- * flop count of the symbolic analysis (what sm_elasticity_new does);
- * the other two force one kind, for benchmarks. */
-typedef enum sm_factor_kind {
-    SM_FACTOR_AUTO = 0,
-    SM_FACTOR_SIMPLICIAL = 1,
-    SM_FACTOR_SUPERNODAL = 2
-} sm_factor_kind;
-
-/* sm_elasticity_new with an explicit factor kind. */
-sm_status sm_elasticity_new_ex(const sm_mesh *m, const uint8_t *clamped,
-                               double young, double poisson, double alpha,
-                               sm_factor_kind kind, sm_elasticity **out,
-                               sm_error *err);
 
 typedef struct sm_elasticity_info {
     int32_t nfree;          /* free DOFs (order of the system) */

@@ -224,9 +224,10 @@ sm_status sm_match_run(const sm_mesh *template_mesh, const sm_mesh *background, 
         }
 #pragma omp section
         {
-            st_elastic = sm_elasticity_new(rs.mesh, rs.clamped, params->young, params->poisson,
-                                           params->clamp == SM_CLAMP_NONE ? params->alpha : 0.0,
-                                           &rs.elasticity, &err_elastic);
+            sm_elasticity_opts eopts = {
+                .young = params->young, .poisson = params->poisson,
+                .alpha = params->clamp == SM_CLAMP_NONE ? params->alpha : 0.0};
+            st_elastic = sm_elasticity_new(rs.mesh, rs.clamped, &eopts, &rs.elasticity, &err_elastic);
             if (st_elastic == SM_OK)
                 st_elastic = sm_elasticity_factorize(rs.elasticity, rs.x, &err_elastic);
         }

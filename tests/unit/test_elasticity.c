@@ -20,6 +20,9 @@
 #include "util_mesh.h"
 
 #define PI 3.14159265358979323846
+/* Options of sm_elasticity_new with the automatic factor kind. */
+#define OPTS(e, nu, a) \
+    (&(sm_elasticity_opts){.young = (e), .poisson = (nu), .alpha = (a)})
 
 static const double YOUNG = 1.0, POISSON = 0.3;
 
@@ -481,7 +484,7 @@ static void patch_test(int dim, double h, double poisson)
     assert_true(ninterior > 10);
     sm_elasticity *el = NULL;
     sm_error err;
-    if (sm_elasticity_new(m, m->on_boundary, YOUNG, poisson, 0.0, &el, &err) != SM_OK)
+    if (sm_elasticity_new(m, m->on_boundary, OPTS(YOUNG, poisson, 0.0), &el, &err) != SM_OK)
         fail_msg("%s", err.msg);
     if (sm_elasticity_factorize(el, m->coords, &err) != SM_OK)
         fail_msg("%s", err.msg);
@@ -550,7 +553,7 @@ static double manufactured_error(int dim, double h, double *h_eff)
     }
     sm_elasticity *el = NULL;
     sm_error err;
-    if (sm_elasticity_new(m, m->on_boundary, YOUNG, POISSON, 0.0, &el, &err) != SM_OK)
+    if (sm_elasticity_new(m, m->on_boundary, OPTS(YOUNG, POISSON, 0.0), &el, &err) != SM_OK)
         fail_msg("%s", err.msg);
     if (sm_elasticity_factorize(el, m->coords, &err) != SM_OK)
         fail_msg("%s", err.msg);
@@ -690,7 +693,8 @@ static void test_symmetry(void **state)
         sm_mesh *m = unit_mesh(dim, dim == 2 ? 0.1 : 0.25);
         sm_elasticity *el = NULL;
         sm_error err;
-        assert_int_equal(sm_elasticity_new(m, m->on_boundary, YOUNG, POISSON, 0.0, &el, &err), SM_OK);
+        assert_int_equal(sm_elasticity_new(m, m->on_boundary, OPTS(YOUNG, POISSON, 0.0),
+                                           &el, &err), SM_OK);
         assert_int_equal(sm_elasticity_factorize(el, m->coords, &err), SM_OK);
         int32_t nfree = 0;
         for (int32_t v = 0; v < m->nverts; v++) {
@@ -729,7 +733,7 @@ static void rigid_test(int dim, double h)
     const double alpha = 0.05;
     sm_elasticity *el = NULL;
     sm_error err;
-    assert_int_equal(sm_elasticity_new(m, NULL, YOUNG, POISSON, alpha, &el, &err), SM_OK);
+    assert_int_equal(sm_elasticity_new(m, NULL, OPTS(YOUNG, POISSON, alpha), &el, &err), SM_OK);
     assert_int_equal(sm_elasticity_factorize(el, m->coords, &err), SM_OK);
     check_csr(el, (int32_t)n);
     sm_csr_view a;
@@ -812,7 +816,7 @@ static void dense_test(int dim, int n_cells)
     }
     sm_elasticity *el = NULL;
     sm_error err;
-    assert_int_equal(sm_elasticity_new(m, clamped, young, poisson, alpha, &el, &err), SM_OK);
+    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(young, poisson, alpha), &el, &err), SM_OK);
     assert_int_equal(sm_elasticity_factorize(el, m->coords, &err), SM_OK);
     assert_int_equal(sm_elasticity_solve(el, load, g, u, &err), SM_OK);
 
@@ -900,10 +904,14 @@ static void test_factor_kinds(void **state)
     }
     sm_elasticity *simp = NULL, *super = NULL;
     sm_error err;
-    assert_int_equal(sm_elasticity_new_ex(m, m->on_boundary, YOUNG, POISSON, 0, SM_FACTOR_SIMPLICIAL,
-                                          &simp, &err), SM_OK);
-    assert_int_equal(sm_elasticity_new_ex(m, m->on_boundary, YOUNG, POISSON, 0, SM_FACTOR_SUPERNODAL,
-                                          &super, &err), SM_OK);
+    assert_int_equal(sm_elasticity_new(m, m->on_boundary,
+                                       &(sm_elasticity_opts){.young = YOUNG, .poisson = POISSON,
+                                                              .alpha = 0, .factor = SM_FACTOR_SIMPLICIAL},
+                                       &simp, &err), SM_OK);
+    assert_int_equal(sm_elasticity_new(m, m->on_boundary,
+                                       &(sm_elasticity_opts){.young = YOUNG, .poisson = POISSON,
+                                                              .alpha = 0, .factor = SM_FACTOR_SUPERNODAL},
+                                       &super, &err), SM_OK);
     for (int pass = 0; pass < 2; pass++) {
         const double *coords = pass ? moved : m->coords;
         assert_int_equal(sm_elasticity_factorize(simp, coords, &err), SM_OK);
@@ -920,7 +928,8 @@ static void test_factor_kinds(void **state)
     }
     /* a fresh object on the moved coordinates agrees with the refactorized one */
     sm_elasticity *fresh = NULL;
-    assert_int_equal(sm_elasticity_new(m, m->on_boundary, YOUNG, POISSON, 0, &fresh, &err), SM_OK);
+    assert_int_equal(sm_elasticity_new(m, m->on_boundary, OPTS(YOUNG, POISSON, 0),
+                                       &fresh, &err), SM_OK);
     assert_int_equal(sm_elasticity_factorize(fresh, moved, &err), SM_OK);
     assert_int_equal(sm_elasticity_solve(fresh, load, NULL, u2, &err), SM_OK);
     for (size_t i = 0; i < n; i++)
@@ -962,24 +971,39 @@ static void test_errors(void **state)
     clamped[0] = clamped[1] = 1;
 
     /* no clamp and alpha = 0: singular, refused with a message */
-    assert_int_equal(sm_elasticity_new(m, NULL, YOUNG, POISSON, 0.0, &el, &err), SM_ERR_INVALID);
+    assert_int_equal(sm_elasticity_new(m, NULL, OPTS(YOUNG, POISSON, 0.0),
+                                       &el, &err), SM_ERR_INVALID);
     assert_null(el);
     assert_non_null(strstr(err.msg, "alpha"));
-    assert_int_equal(sm_elasticity_new(m, clamped, YOUNG, POISSON, -1.0, &el, &err), SM_ERR_INVALID);
+    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(YOUNG, POISSON, -1.0),
+                                       &el, &err), SM_ERR_INVALID);
     /* material parameters */
-    assert_int_equal(sm_elasticity_new(m, clamped, 0.0, POISSON, 0.0, &el, &err), SM_ERR_INVALID);
-    assert_int_equal(sm_elasticity_new(m, clamped, YOUNG, 0.5, 0.0, &el, &err), SM_ERR_INVALID);
-    assert_int_equal(sm_elasticity_new(m, clamped, NAN, POISSON, 0.0, &el, &err), SM_ERR_INVALID);
+    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(0.0, POISSON, 0.0),
+                                       &el, &err), SM_ERR_INVALID);
+    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(YOUNG, 0.5, 0.0),
+                                       &el, &err), SM_ERR_INVALID);
+    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(NAN, POISSON, 0.0),
+                                       &el, &err), SM_ERR_INVALID);
+    /* options */
+    assert_int_equal(sm_elasticity_new(m, clamped, NULL, &el, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "options"));
+    assert_int_equal(sm_elasticity_new(m, clamped,
+                                       &(sm_elasticity_opts){.young = YOUNG, .poisson = POISSON,
+                                                              .factor = (sm_factor_kind)7},
+                                       &el, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "factor kind"));
     /* topology */
     int32_t saved = m->elems[4];
     m->elems[4] = m->nverts;
-    assert_int_equal(sm_elasticity_new(m, clamped, YOUNG, POISSON, 0.0, &el, &err), SM_ERR_INVALID);
+    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(YOUNG, POISSON, 0.0),
+                                       &el, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "element 2 "));
     m->elems[4] = m->elems[3];
-    assert_int_equal(sm_elasticity_new(m, clamped, YOUNG, POISSON, 0.0, &el, &err), SM_ERR_INVALID);
+    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(YOUNG, POISSON, 0.0),
+                                       &el, &err), SM_ERR_INVALID);
     m->elems[4] = saved;
 
-    assert_int_equal(sm_elasticity_new(m, clamped, YOUNG, POISSON, 0.0, &el, &err), SM_OK);
+    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(YOUNG, POISSON, 0.0), &el, &err), SM_OK);
     size_t n = (size_t)m->nverts * 2;
     double *u = malloc(n * sizeof *u), *coords = malloc(n * sizeof *coords);
     assert_non_null(u);
@@ -1008,7 +1032,7 @@ static void test_errors(void **state)
 
     /* everything clamped: no system, the Dirichlet values come back */
     memset(clamped, 1, (size_t)m->nverts);
-    assert_int_equal(sm_elasticity_new(m, clamped, YOUNG, POISSON, 0.0, &el, &err), SM_OK);
+    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(YOUNG, POISSON, 0.0), &el, &err), SM_OK);
     assert_int_equal(sm_elasticity_factorize(el, m->coords, &err), SM_OK);
     assert_int_equal(sm_elasticity_solve(el, NULL, m->coords, u, &err), SM_OK);
     for (size_t k = 0; k < n; k++)
@@ -1021,8 +1045,11 @@ static void test_errors(void **state)
     memset(clamped, 0, (size_t)m->nverts);
     clamped[5] = 1;
     for (int kind = SM_FACTOR_AUTO; kind <= SM_FACTOR_SUPERNODAL; kind++) {
-        assert_int_equal(sm_elasticity_new_ex(m, clamped, YOUNG, POISSON, 0.0, (sm_factor_kind)kind,
-                                              &el, &err), SM_OK);
+        assert_int_equal(sm_elasticity_new(m, clamped,
+                                           &(sm_elasticity_opts){.young = YOUNG, .poisson = POISSON,
+                                                                  .alpha = 0.0,
+                                                                  .factor = (sm_factor_kind)kind},
+                                           &el, &err), SM_OK);
         assert_int_equal(sm_elasticity_factorize(el, m->coords, &err), SM_ERR_NUMERIC);
         assert_non_null(strstr(err.msg, "CHOLMOD"));
         assert_non_null(strstr(err.msg, "rigid motion"));
@@ -1033,7 +1060,7 @@ static void test_errors(void **state)
     /* no element at all: nothing to solve, not an error */
     sm_mesh *empty = NULL;
     assert_int_equal(sm_mesh_alloc(&empty, 3, 2, 0, 0, &err), SM_OK);
-    assert_int_equal(sm_elasticity_new(empty, NULL, YOUNG, POISSON, 0.0, &el, &err), SM_OK);
+    assert_int_equal(sm_elasticity_new(empty, NULL, OPTS(YOUNG, POISSON, 0.0), &el, &err), SM_OK);
     assert_int_equal(sm_elasticity_factorize(el, empty->coords, &err), SM_OK);
     u[0] = 1;
     assert_int_equal(sm_elasticity_solve(el, NULL, NULL, u, &err), SM_OK);
@@ -1076,8 +1103,9 @@ static void test_unused_vertex(void **state)
     for (size_t k = 0; k < n; k++)
         load[k] = 0.1 * (double)(k % 5) - 0.2;
     sm_elasticity *el = NULL, *elb = NULL;
-    assert_int_equal(sm_elasticity_new(m, cl, YOUNG, POISSON, 0.0, &el, &err), SM_OK);
-    assert_int_equal(sm_elasticity_new(base, cl_base, YOUNG, POISSON, 0.0, &elb, &err), SM_OK);
+    assert_int_equal(sm_elasticity_new(m, cl, OPTS(YOUNG, POISSON, 0.0), &el, &err), SM_OK);
+    assert_int_equal(sm_elasticity_new(base, cl_base, OPTS(YOUNG, POISSON, 0.0),
+                                       &elb, &err), SM_OK);
     assert_int_equal(sm_elasticity_dof(el, 0, 0), -1);
     assert_int_equal(sm_elasticity_factorize(el, m->coords, &err), SM_OK);
     assert_int_equal(sm_elasticity_factorize(elb, base->coords, &err), SM_OK);

@@ -146,7 +146,8 @@ static void test_elastic_direction_descends(void **state)
     for (int32_t v = 0; v < tm->nverts; v++) /* a small disk: no rigid motion left */
         clamped[v] = hypot(tm->coords[2 * v] - 0.5, tm->coords[2 * v + 1] - 0.5) <= 0.05;
     sm_elasticity *el;
-    assert_int_equal(sm_elasticity_new(tm, clamped, 1.0, 0.3, 0.0, &el, &err), SM_OK);
+    sm_elasticity_opts eopts = {.young = 1.0, .poisson = 0.3, .alpha = 0.0};
+    assert_int_equal(sm_elasticity_new(tm, clamped, &eopts, &el, &err), SM_OK);
     assert_int_equal(sm_elasticity_factorize(el, tm->coords, &err), SM_OK);
     size_t ndof = (size_t)tm->nverts * 2;
     double *load = malloc(sizeof(double) * ndof), *u = malloc(sizeof(double) * ndof);

@@ -1,4 +1,4 @@
-# shapematch — one entry point: deps, all, test, demo, bench, install, clean.
+# shapematch — one entry point: deps, all, test, demo, bench, lint, install, clean.
 #
 # Two build variants live side by side:
 #   build/release  -O2, what users run and what `make bench` measures
@@ -16,7 +16,8 @@ VERSION := 0.1.0
 # Debian packages the build, the tests, the demo and the benchmarks need.
 DEB_PACKAGES := gcc make pkg-config libc6-dev \
   libsuitesparse-dev libopenblas0-pthread zlib1g-dev libcmocka-dev libjansson-dev \
-  libmicrohttpd-dev libcurl4-openssl-dev curl gmsh wrk jq systemd python3 python3-yaml strace
+  libmicrohttpd-dev libcurl4-openssl-dev curl gmsh wrk jq systemd python3 python3-yaml strace \
+  pmccabe
 
 CC ?= cc
 BASE_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror -fopenmp \
@@ -55,7 +56,7 @@ $(foreach v,$(VARIANTS),$(eval $(call variant_rules,$(v))))
 include $(wildcard core/module.mk proto/module.mk server/module.mk \
   client/module.mk tests/module.mk bench/module.mk)
 
-.PHONY: all deps test demo bench install clean release asan
+.PHONY: all deps test demo bench lint install clean release asan
 all: $(foreach v,$(VARIANTS),$(ALL_TARGETS:%=build/$(v)/%))
 release: $(ALL_TARGETS:%=build/release/%)
 asan: $(ALL_TARGETS:%=build/asan/%)
@@ -78,6 +79,12 @@ test: deps
 bench: deps
 	$(MAKE) -j$$(nproc) release
 	bench/run.sh
+
+# Where the house is crowded: the longest files and the longest and most
+# complex functions (pmccabe) against the guide of STYLE.md.  Informative,
+# never fails.
+lint:
+	@tests/lint.sh
 
 demo: deps
 	$(MAKE) -j$$(nproc) release

@@ -325,20 +325,16 @@ static sm_status orient_elements(sm_mesh *m, sm_error *err)
     return SM_OK;
 }
 
-sm_status sm_mesh_build_boundary(sm_mesh *m, sm_error *err)
+/* The dim+1 facets of every element (key: its vertices sorted), sorted
+ * by key so that the copies of one facet are adjacent; NULL when out of
+ * memory. */
+static facet_entry *element_facets(const sm_mesh *m, size_t *nentries)
 {
-    sm_status st = check_mesh(m, err);
-    if (st != SM_OK)
-        return st;
-    if ((st = orient_elements(m, err)) != SM_OK)
-        return st;
-    free_boundary(m);
-
     const int dim = m->dim, nv = dim + 1;
-    size_t nentries = (size_t)m->nelems * (size_t)nv;
-    facet_entry *ent = malloc(nentries * sizeof *ent);
+    *nentries = (size_t)m->nelems * (size_t)nv;
+    facet_entry *ent = malloc(*nentries * sizeof *ent);
     if (!ent)
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory building the boundary");
+        return NULL;
     for (int32_t e = 0; e < m->nelems; e++) {
         const int32_t *ev = m->elems + (size_t)e * (size_t)nv;
         for (int opp = 0; opp < nv; opp++) {
@@ -354,40 +350,44 @@ sm_status sm_mesh_build_boundary(sm_mesh *m, sm_error *err)
             fe->opposite = opp;
         }
     }
-    qsort(ent, nentries, sizeof *ent, compare_facet_entries);
+    qsort(ent, *nentries, sizeof *ent, compare_facet_entries);
+    return ent;
+}
 
-    /* count facets owned by exactly one element; >2 owners is non-manifold */
-    size_t nb = 0;
+/* End of the run of entries equal to ent[i] (sorted entries). */
+static size_t run_end(const facet_entry *ent, size_t nentries, size_t i)
+{
+    size_t j = i + 1;
+    while (j < nentries && memcmp(ent[j].key, ent[i].key, sizeof ent[i].key) == 0)
+        j++;
+    return j;
+}
+
+/* Counts the facets owned by exactly one element; a facet with more
+ * than two owners makes the mesh non-manifold (SM_ERR_INVALID). */
+static sm_status count_boundary(const facet_entry *ent, size_t nentries, int dim, size_t *nb,
+                                sm_error *err)
+{
+    *nb = 0;
     for (size_t i = 0; i < nentries;) {
-        size_t j = i + 1;
-        while (j < nentries && memcmp(ent[j].key, ent[i].key, sizeof ent[i].key) == 0)
-            j++;
-        if (j - i > 2) {
-            sm_error_set(err, SM_ERR_INVALID,
-                         "facet (%ld %ld%s) is shared by %zu elements: the mesh is not manifold",
-                         (long)ent[i].key[0] + 1, (long)ent[i].key[1] + 1,
-                         dim == 3 ? " ..." : "", j - i);
-            free(ent);
-            return SM_ERR_INVALID;
-        }
+        size_t j = run_end(ent, nentries, i);
+        if (j - i > 2)
+            return sm_error_set(err, SM_ERR_INVALID,
+                                "facet (%ld %ld%s) is shared by %zu elements: the mesh is not manifold",
+                                (long)ent[i].key[0] + 1, (long)ent[i].key[1] + 1,
+                                dim == 3 ? " ..." : "", j - i);
         if (j - i == 1)
-            nb++;
+            (*nb)++;
         i = j;
     }
+    return SM_OK;
+}
 
-    m->nbfacets = (int32_t)nb;
-    m->bfacets = malloc((nb ? nb : 1) * (size_t)dim * sizeof(int32_t));
-    m->bfacet_refs = calloc(nb ? nb : 1, sizeof(int32_t));
-    m->bfacet_elem = malloc((nb ? nb : 1) * sizeof(int32_t));
-    m->on_boundary = calloc(m->nverts ? (size_t)m->nverts : 1, 1);
-    /* file facets, sorted by key, to carry their references over */
-    facet_entry *file = malloc((m->nfacets ? (size_t)m->nfacets : 1) * sizeof *file);
-    if (!m->bfacets || !m->bfacet_refs || !m->bfacet_elem || !m->on_boundary || !file) {
-        free(ent);
-        free(file);
-        free_boundary(m);
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory building the boundary");
-    }
+/* The facets of the file (m->facets), sorted by key to carry their
+ * references over; elem holds the index of the file facet. */
+static void sort_file_facets(const sm_mesh *m, facet_entry *file)
+{
+    const int dim = m->dim;
     for (int32_t f = 0; f < m->nfacets; f++) {
         for (int i = 0; i < dim; i++)
             file[f].key[i] = m->facets[(size_t)f * (size_t)dim + (size_t)i];
@@ -398,48 +398,88 @@ sm_status sm_mesh_build_boundary(sm_mesh *m, sm_error *err)
         file[f].opposite = 0;
     }
     qsort(file, (size_t)m->nfacets, sizeof *file, compare_facet_entries);
+}
+
+/* Boundary facet b from its element entry fe: vertices oriented outward,
+ * owning element, boundary vertex flags, and the reference of the
+ * matching file facet if any. */
+static void add_boundary_facet(sm_mesh *m, const facet_entry *fe, const facet_entry *file,
+                               size_t b)
+{
+    const int dim = m->dim, nv = dim + 1;
+    const int32_t *ev = m->elems + (size_t)fe->elem * (size_t)nv;
+    int32_t *fv = m->bfacets + b * (size_t)dim;
+    int k = 0;
+    for (int q = 0; q < nv; q++)
+        if (q != fe->opposite)
+            fv[k++] = ev[q];
+    /* orient outward: the normal must point away from the opposite vertex */
+    double n[3] = {0, 0, 0}, dot = 0.0;
+    facet_area_normal(dim, m->coords, fv, n);
+    const double *opp = vertex(m->coords, dim, ev[fe->opposite]);
+    const double *p0 = vertex(m->coords, dim, fv[0]);
+    for (int c = 0; c < dim; c++)
+        dot += n[c] * (p0[c] - opp[c]);
+    if (dot < 0) {
+        int32_t t = fv[0];
+        fv[0] = fv[1];
+        fv[1] = t;
+    }
+    m->bfacet_elem[b] = fe->elem;
+    for (int c = 0; c < dim; c++)
+        m->on_boundary[fv[c]] = 1;
+    /* reference of the matching file facet, if any */
+    size_t lo = 0, hi = (size_t)m->nfacets;
+    while (lo < hi) {
+        size_t mid = (lo + hi) / 2;
+        if (compare_keys(file[mid].key, fe->key) < 0)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    if (lo < (size_t)m->nfacets && compare_keys(file[lo].key, fe->key) == 0)
+        m->bfacet_refs[b] = m->facet_refs[file[lo].elem];
+}
+
+sm_status sm_mesh_build_boundary(sm_mesh *m, sm_error *err)
+{
+    sm_status st = check_mesh(m, err);
+    if (st != SM_OK)
+        return st;
+    if ((st = orient_elements(m, err)) != SM_OK)
+        return st;
+    free_boundary(m);
+
+    const int dim = m->dim;
+    size_t nentries;
+    facet_entry *ent = element_facets(m, &nentries);
+    if (!ent)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory building the boundary");
+    size_t nb;
+    if ((st = count_boundary(ent, nentries, dim, &nb, err)) != SM_OK) {
+        free(ent);
+        return st;
+    }
+
+    m->nbfacets = (int32_t)nb;
+    m->bfacets = malloc((nb ? nb : 1) * (size_t)dim * sizeof(int32_t));
+    m->bfacet_refs = calloc(nb ? nb : 1, sizeof(int32_t));
+    m->bfacet_elem = malloc((nb ? nb : 1) * sizeof(int32_t));
+    m->on_boundary = calloc(m->nverts ? (size_t)m->nverts : 1, 1);
+    facet_entry *file = malloc((m->nfacets ? (size_t)m->nfacets : 1) * sizeof *file);
+    if (!m->bfacets || !m->bfacet_refs || !m->bfacet_elem || !m->on_boundary || !file) {
+        free(ent);
+        free(file);
+        free_boundary(m);
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory building the boundary");
+    }
+    sort_file_facets(m, file);
 
     size_t b = 0;
     for (size_t i = 0; i < nentries;) {
-        size_t j = i + 1;
-        while (j < nentries && memcmp(ent[j].key, ent[i].key, sizeof ent[i].key) == 0)
-            j++;
-        if (j - i == 1) {
-            const facet_entry *fe = &ent[i];
-            const int32_t *ev = m->elems + (size_t)fe->elem * (size_t)nv;
-            int32_t *fv = m->bfacets + b * (size_t)dim;
-            int k = 0;
-            for (int q = 0; q < nv; q++)
-                if (q != fe->opposite)
-                    fv[k++] = ev[q];
-            /* orient outward: the normal must point away from the opposite vertex */
-            double n[3] = {0, 0, 0}, dot = 0.0;
-            facet_area_normal(dim, m->coords, fv, n);
-            const double *opp = vertex(m->coords, dim, ev[fe->opposite]);
-            const double *p0 = vertex(m->coords, dim, fv[0]);
-            for (int c = 0; c < dim; c++)
-                dot += n[c] * (p0[c] - opp[c]);
-            if (dot < 0) {
-                int32_t t = fv[0];
-                fv[0] = fv[1];
-                fv[1] = t;
-            }
-            m->bfacet_elem[b] = fe->elem;
-            for (int c = 0; c < dim; c++)
-                m->on_boundary[fv[c]] = 1;
-            /* reference of the matching file facet, if any */
-            size_t lo = 0, hi = (size_t)m->nfacets;
-            while (lo < hi) {
-                size_t mid = (lo + hi) / 2;
-                if (compare_keys(file[mid].key, fe->key) < 0)
-                    lo = mid + 1;
-                else
-                    hi = mid;
-            }
-            if (lo < (size_t)m->nfacets && compare_keys(file[lo].key, fe->key) == 0)
-                m->bfacet_refs[b] = m->facet_refs[file[lo].elem];
-            b++;
-        }
+        size_t j = run_end(ent, nentries, i);
+        if (j - i == 1)
+            add_boundary_facet(m, &ent[i], file, b++);
         i = j;
     }
     free(ent);

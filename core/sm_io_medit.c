@@ -1,5 +1,5 @@
 /* Medit meshes: .mesh (ASCII) and .meshb (libMeshb binary, versions 1-4),
- * plain or gzip.  The reader collects the sections it needs (Dimension,
+ * plain or gzip; reading (sm_io_medit_write.c has the writer).  The reader collects the sections it needs (Dimension,
  * Vertices, Edges, Triangles, Tetrahedra) into temporary arrays, since
  * whether Triangles are elements or facets is only known at the end
  * (a "Dimension 3" planar file is a 2D mesh), then builds the sm_mesh. */
@@ -13,8 +13,6 @@
 
 #include "sm_medit_common.h"
 #include "sm_reader.h"
-#include "sm_stream.h"
-#include "sm_writer.h"
 
 /* One block of simplices (or edges) as read from the file. */
 typedef struct idx_block {
@@ -509,6 +507,56 @@ static sm_status binary_block(medit_in *c, int nidx)
     return SM_OK;
 }
 
+/* The Dimension keyword at byte start (its value follows). */
+static sm_status binary_dimension(medit_in *c, uint64_t start)
+{
+    sm_reader *r = &c->r;
+    if (c->dim)
+        return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start, "duplicate Dimension");
+    int32_t d;
+    uint64_t at = sm_reader_offset(r);
+    sm_status st = sm_reader_i32(r, &d);
+    if (st != SM_OK)
+        return sm_reader_fail_byte(r, c->err, st, at, "Dimension: %s", r->why);
+    if (d != 2 && d != 3)
+        return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
+                                   "Dimension %ld is not supported (expected 2 or 3)",
+                                   (long)d);
+    c->dim = d;
+    return SM_OK;
+}
+
+/* An Edges, Triangles or Tetrahedra section (nidx vertices a record) at
+ * byte start: after Dimension, once, no tetrahedra in 2D. */
+static sm_status binary_section(medit_in *c, int nidx, uint64_t start)
+{
+    sm_reader *r = &c->r;
+    const char *name = block_name(nidx);
+    if (!c->dim)
+        return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
+                                   "%s before Dimension (missing Dimension)", name);
+    if (block_of(c, nidx)->present)
+        return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
+                                   "duplicate %s section", name);
+    if (nidx == 4 && c->dim == 2)
+        return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
+                                   "Tetrahedra in a Dimension 2 mesh");
+    return binary_block(c, nidx);
+}
+
+/* The error for a section of non-simplicial elements at byte start. */
+static sm_status binary_unsupported(medit_in *c, int32_t code, uint64_t start)
+{
+    const char *what = code == SM_KW_QUADRILATERALS ? "Quadrilaterals"
+                       : code == SM_KW_PRISMS       ? "Prisms"
+                       : code == SM_KW_HEXAHEDRA    ? "Hexahedra"
+                                                    : "Pyramids";
+    return sm_reader_fail_byte(&c->r, c->err, SM_ERR_FORMAT, start,
+                               "%s are not supported, shapematch needs simplices "
+                               "(triangles or tetrahedra)",
+                               what);
+}
+
 static sm_status read_binary(medit_in *c)
 {
     sm_reader *r = &c->r;
@@ -527,21 +575,11 @@ static sm_status read_binary(medit_in *c)
         int known = 1;
         const char *name = "";
         switch (code) {
-        case SM_KW_DIMENSION: {
-            if (c->dim)
-                return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start, "duplicate Dimension");
-            int32_t d;
-            uint64_t at = sm_reader_offset(r);
-            if ((st = sm_reader_i32(r, &d)) != SM_OK)
-                return sm_reader_fail_byte(r, c->err, st, at, "Dimension: %s", r->why);
-            if (d != 2 && d != 3)
-                return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
-                                           "Dimension %ld is not supported (expected 2 or 3)",
-                                           (long)d);
-            c->dim = d;
+        case SM_KW_DIMENSION:
+            if ((st = binary_dimension(c, start)) != SM_OK)
+                return st;
             name = "Dimension";
             break;
-        }
         case SM_KW_VERTICES:
             if (!c->dim)
                 return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
@@ -558,32 +596,15 @@ static sm_status read_binary(medit_in *c)
         case SM_KW_TETRAHEDRA: {
             int nidx = code == SM_KW_EDGES ? 2 : code == SM_KW_TRIANGLES ? 3 : 4;
             name = block_name(nidx);
-            if (!c->dim)
-                return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
-                                           "%s before Dimension (missing Dimension)", name);
-            if (block_of(c, nidx)->present)
-                return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
-                                           "duplicate %s section", name);
-            if (nidx == 4 && c->dim == 2)
-                return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
-                                           "Tetrahedra in a Dimension 2 mesh");
-            if ((st = binary_block(c, nidx)) != SM_OK)
+            if ((st = binary_section(c, nidx, start)) != SM_OK)
                 return st;
             break;
         }
         case SM_KW_QUADRILATERALS:
         case SM_KW_PRISMS:
         case SM_KW_HEXAHEDRA:
-        case SM_KW_PYRAMIDS: {
-            const char *what = code == SM_KW_QUADRILATERALS ? "Quadrilaterals"
-                               : code == SM_KW_PRISMS       ? "Prisms"
-                               : code == SM_KW_HEXAHEDRA    ? "Hexahedra"
-                                                            : "Pyramids";
-            return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
-                                       "%s are not supported, shapematch needs simplices "
-                                       "(triangles or tetrahedra)",
-                                       what);
-        }
+        case SM_KW_PYRAMIDS:
+            return binary_unsupported(c, code, start);
         case SM_KW_END:
             return SM_OK;
         default:
@@ -720,189 +741,4 @@ sm_status sm_mesh_read(const char *path, sm_mesh **out, sm_error *err)
     sm_reader_close(&c.r);
     medit_in_free(&c);
     return st;
-}
-
-/* ------------------------------------------------------------------ */
-/* writing                                                             */
-/* ------------------------------------------------------------------ */
-
-/* Decides ASCII/binary from the name, ignoring a trailing ".gz". */
-static int is_binary_name(const char *path, const char *ascii_ext, const char *binary_ext,
-                          int *binary)
-{
-    size_t n = strlen(path);
-    if (sm_path_has_suffix(path, ".gz"))
-        n -= 3;
-    size_t kb = strlen(binary_ext), ka = strlen(ascii_ext);
-    if (n >= kb && strncasecmp(path + n - kb, binary_ext, kb) == 0) {
-        *binary = 1;
-        return 1;
-    }
-    if (n >= ka && strncasecmp(path + n - ka, ascii_ext, ka) == 0) {
-        *binary = 0;
-        return 1;
-    }
-    return 0;
-}
-
-static sm_status check_mesh(const sm_mesh *m, const double *coords, sm_error *err)
-{
-    if (!m || (m->dim != 2 && m->dim != 3) || m->nverts < 0 || m->nelems < 0 ||
-        m->nfacets < 0 || (m->nverts > 0 && !coords))
-        return sm_error_set(err, SM_ERR_INVALID, "sm_mesh_write: invalid mesh");
-    size_t nc = (size_t)m->nverts * (size_t)m->dim;
-    for (size_t i = 0; i < nc; i++)
-        if (!isfinite(coords[i]))
-            return sm_error_set(err, SM_ERR_INVALID,
-                                "sm_mesh_write: vertex %zu has a non-finite coordinate",
-                                i / (size_t)m->dim + 1);
-    const struct { int32_t n; int k; const int32_t *idx; } blocks[2] = {
-        {m->nelems, m->dim + 1, m->elems}, {m->nfacets, m->dim, m->facets}};
-    for (int b = 0; b < 2; b++)
-        for (size_t i = 0; i < (size_t)blocks[b].n * (size_t)blocks[b].k; i++)
-            if (blocks[b].idx[i] < 0 || blocks[b].idx[i] >= m->nverts)
-                return sm_error_set(err, SM_ERR_INVALID,
-                                    "sm_mesh_write: %s %zu has vertex index %ld out of range",
-                                    b == 0 ? "element" : "facet", i / (size_t)blocks[b].k + 1,
-                                    (long)blocks[b].idx[i]);
-    return SM_OK;
-}
-
-static void write_ascii_block(sm_writer *w, const char *name, int32_t n, int k,
-                              const int32_t *idx, const int32_t *refs)
-{
-    if (n == 0)
-        return;
-    sm_writer_printf(w, "\n%s\n%ld\n", name, (long)n);
-    for (int32_t i = 0; i < n; i++) {
-        const int32_t *v = idx + (size_t)i * (size_t)k;
-        if (k == 2)
-            sm_writer_printf(w, "%ld %ld %ld\n", (long)v[0] + 1, (long)v[1] + 1, (long)refs[i]);
-        else if (k == 3)
-            sm_writer_printf(w, "%ld %ld %ld %ld\n", (long)v[0] + 1, (long)v[1] + 1,
-                             (long)v[2] + 1, (long)refs[i]);
-        else
-            sm_writer_printf(w, "%ld %ld %ld %ld %ld\n", (long)v[0] + 1, (long)v[1] + 1,
-                             (long)v[2] + 1, (long)v[3] + 1, (long)refs[i]);
-    }
-}
-
-static void write_ascii(sm_writer *w, const sm_mesh *m, const double *coords)
-{
-    int d = m->dim;
-    sm_writer_printf(w, "MeshVersionFormatted 2\n\nDimension %d\n\nVertices\n%ld\n", d,
-                     (long)m->nverts);
-    for (int32_t i = 0; i < m->nverts; i++) {
-        const double *x = coords + (size_t)i * (size_t)d;
-        if (d == 2)
-            sm_writer_printf(w, "%.17g %.17g %ld\n", x[0], x[1], (long)m->vert_refs[i]);
-        else
-            sm_writer_printf(w, "%.17g %.17g %.17g %ld\n", x[0], x[1], x[2],
-                             (long)m->vert_refs[i]);
-    }
-    if (d == 2) {
-        write_ascii_block(w, "Edges", m->nfacets, 2, m->facets, m->facet_refs);
-        write_ascii_block(w, "Triangles", m->nelems, 3, m->elems, m->elem_refs);
-    } else {
-        write_ascii_block(w, "Triangles", m->nfacets, 3, m->facets, m->facet_refs);
-        write_ascii_block(w, "Tetrahedra", m->nelems, 4, m->elems, m->elem_refs);
-    }
-    sm_writer_printf(w, "\nEnd\n");
-}
-
-static void write_pos(sm_writer *w, int pos_size, uint64_t pos)
-{
-    if (pos_size == 8)
-        sm_writer_i64(w, (int64_t)pos);
-    else
-        sm_writer_i32(w, (int32_t)pos);
-}
-
-/* Keyword code and the position right after its block. */
-static void write_kw(sm_writer *w, int pos_size, int32_t code, uint64_t block_bytes)
-{
-    uint64_t next = sm_writer_offset(w) + 4 + (uint64_t)pos_size + block_bytes;
-    sm_writer_i32(w, code);
-    write_pos(w, pos_size, next);
-}
-
-static void write_binary_block(sm_writer *w, int pos_size, int32_t code, int32_t n, int k,
-                               const int32_t *idx, const int32_t *refs)
-{
-    if (n == 0)
-        return;
-    write_kw(w, pos_size, code, 4 + (uint64_t)n * (uint64_t)(k + 1) * 4);
-    sm_writer_i32(w, n);
-    int32_t rec[5];
-    for (int32_t i = 0; i < n; i++) {
-        for (int j = 0; j < k; j++)
-            rec[j] = idx[(size_t)i * (size_t)k + (size_t)j] + 1;
-        rec[k] = refs[i];
-        sm_writer_bytes(w, rec, (size_t)(k + 1) * 4);
-    }
-}
-
-static void write_binary(sm_writer *w, const sm_mesh *m, const double *coords)
-{
-    int d = m->dim;
-    uint64_t vrec = (uint64_t)d * 8 + 4;
-    uint64_t total = 64 + (uint64_t)m->nverts * vrec +
-                     (uint64_t)m->nelems * (uint64_t)(d + 2) * 4 +
-                     (uint64_t)m->nfacets * (uint64_t)(d + 1) * 4;
-    /* Version 2 has 32-bit positions; larger files need version 3. */
-    int version = total < INT32_MAX ? 2 : 3;
-    int pos_size = version >= 3 ? 8 : 4;
-    sm_writer_i32(w, 1);
-    sm_writer_i32(w, version);
-    write_kw(w, pos_size, SM_KW_DIMENSION, 4);
-    sm_writer_i32(w, d);
-    write_kw(w, pos_size, SM_KW_VERTICES, 4 + (uint64_t)m->nverts * vrec);
-    sm_writer_i32(w, m->nverts);
-    unsigned char rec[3 * 8 + 4];
-    for (int32_t i = 0; i < m->nverts; i++) {
-        memcpy(rec, coords + (size_t)i * (size_t)d, (size_t)d * 8);
-        memcpy(rec + (size_t)d * 8, &m->vert_refs[i], 4);
-        sm_writer_bytes(w, rec, (size_t)vrec);
-    }
-    if (d == 2) {
-        write_binary_block(w, pos_size, SM_KW_EDGES, m->nfacets, 2, m->facets, m->facet_refs);
-        write_binary_block(w, pos_size, SM_KW_TRIANGLES, m->nelems, 3, m->elems, m->elem_refs);
-    } else {
-        write_binary_block(w, pos_size, SM_KW_TRIANGLES, m->nfacets, 3, m->facets,
-                           m->facet_refs);
-        write_binary_block(w, pos_size, SM_KW_TETRAHEDRA, m->nelems, 4, m->elems, m->elem_refs);
-    }
-    sm_writer_i32(w, SM_KW_END);
-    write_pos(w, pos_size, 0);
-}
-
-sm_status sm_mesh_write_coords(const char *path, const sm_mesh *m, const double *coords,
-                               sm_error *err)
-{
-    if (!path)
-        return sm_error_set(err, SM_ERR_INVALID, "no mesh file name");
-    if (!coords && m)
-        coords = m->coords;
-    int binary;
-    if (!is_binary_name(path, ".mesh", ".meshb", &binary))
-        return sm_error_set(err, SM_ERR_INVALID,
-                            "%s: cannot tell the mesh format from the name (expected .mesh or "
-                            ".meshb, optionally followed by .gz)",
-                            path);
-    sm_status st = check_mesh(m, coords, err);
-    if (st != SM_OK)
-        return st;
-    sm_writer *w;
-    if ((st = sm_writer_open(&w, path, err)) != SM_OK)
-        return st;
-    if (binary)
-        write_binary(w, m, coords);
-    else
-        write_ascii(w, m, coords);
-    return sm_writer_close(w, err);
-}
-
-sm_status sm_mesh_write(const char *path, const sm_mesh *m, sm_error *err)
-{
-    return sm_mesh_write_coords(path, m, m ? m->coords : NULL, err);
 }

@@ -23,7 +23,7 @@
 #include "util_mesh.h"
 
 /* ------------------------------------------------------------------ */
-/* Reference computations, written independently of core/sm_field.c    */
+/* Reference computations, written independently of core/sm_field*.c   */
 
 static double urand(uint64_t *s)
 {

@@ -17,7 +17,7 @@ VERSION := 0.1.0
 DEB_PACKAGES := gcc make pkg-config libc6-dev \
   libsuitesparse-dev libopenblas0-pthread zlib1g-dev libcmocka-dev libjansson-dev \
   libmicrohttpd-dev libcurl4-openssl-dev curl gmsh wrk jq systemd python3 python3-yaml strace \
-  pmccabe
+  pmccabe clang libclang-rt-14-dev libomp-14-dev
 
 CC ?= cc
 BASE_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror -fopenmp \
@@ -73,7 +73,7 @@ deps:
 	else echo "deps: all Debian packages present"; fi
 
 test: deps
-	$(MAKE) -j$$(nproc) all
+	$(MAKE) -j$$(nproc) all fuzz-build
 	tests/run.sh
 
 bench: deps

@@ -11,3 +11,6 @@ build/$(1)/tests/%: build/$(1)/obj/tests/unit/%.o $$(TEST_UTIL_SRCS:%.c=build/$(
 endef
 $(foreach v,$(VARIANTS),$(eval $(call test_rules,$(v))))
 ALL_TARGETS += $(TEST_NAMES:%=tests/%)
+
+# the libFuzzer targets (clang) have their own fragment
+include tests/fuzz/module.mk

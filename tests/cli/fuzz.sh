@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# The libFuzzer targets of every parser (tests/fuzz/), built by clang with
+# ASan+UBSan into build/fuzz/.  In the release pass each target replays its
+# seed corpus (tests/data and tests/fuzz/seeds: format samples, the whole
+# malformed corpus, params and payload cases); in the asan pass each one
+# also fuzzes for SM_FUZZ_SECONDS (default 10).  `make fuzz` runs them long.
+set -u
+ROOT=${SM_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
+cd "$ROOT"
+targets=()
+for t in build/fuzz/fuzz_*; do
+    [ -x "$t" ] && targets+=("$(basename "$t")")
+done
+if [ "${#targets[@]}" -eq 0 ]; then
+    echo "not ok 1 - fuzz targets are built (make fuzz-build)"
+    exit 1
+fi
+seconds=0
+[ "${SM_VARIANT:-release}" = asan ] && seconds=${SM_FUZZ_SECONDS:-10}
+exec tests/fuzz/run.sh "$seconds" "${targets[@]}"

@@ -1,0 +1,44 @@
+/* The job parameters document (the `params` part of POST /v1/jobs and
+ * `shapematch run --params`).  The first byte picks the dimension the
+ * decoder is told (0 = not known yet, 2, 3); the rest is the document.
+ * An accepted document must survive an encode/decode round trip
+ * unchanged, which checks the encoder on every value the decoder lets
+ * through. */
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "sm_proto_params.h"
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    if (size < 1)
+        return 0;
+    static const int dims[3] = {0, 2, 3};
+    int dim = dims[data[0] % 3];
+    const char *text = (const char *)data + 1;
+    size_t len = size - 1;
+
+    sm_params p;
+    sm_error err;
+    sm_error_clear(&err);
+    if (sm_params_from_json(text, len, dim, &p, &err) != SM_OK) {
+        if (err.msg[0] == '\0')
+            abort();
+        return 0;
+    }
+    char *again = sm_params_to_json(&p, dim);
+    if (!again)
+        abort(); /* the decoder accepted something the encoder cannot write */
+    sm_params q;
+    if (sm_params_from_json(again, strlen(again), dim, &q, &err) != SM_OK)
+        abort();
+    char *third = sm_params_to_json(&q, dim);
+    if (!third || strcmp(again, third) != 0)
+        abort(); /* encode(decode(x)) is not a fixed point */
+    free(again);
+    free(third);
+    return 0;
+}

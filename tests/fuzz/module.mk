@@ -1,0 +1,37 @@
+# libFuzzer targets for every parser (tests/fuzz/fuzz_*.c), built with
+# clang into build/fuzz/ with AddressSanitizer and UndefinedBehaviorSanitizer
+# (gcc has no libFuzzer).  The core, proto and client sources a target
+# needs are compiled again with clang: its sanitizer checks things gcc's
+# does not (e.g. a zero offset applied to a null pointer).
+#   make fuzz                 each target for FUZZ_SECONDS (default 300)
+#   make fuzz-build           build only (make test runs each briefly)
+# Seeds: tests/fuzz/seeds.sh collects them from tests/data.
+FUZZ_CC := clang
+FUZZ_DIR := build/fuzz
+FUZZ_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror \
+  -Wno-missing-field-initializers -g -O1 -fno-omit-frame-pointer -fopenmp \
+  -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all \
+  -I core -I proto -I client -I tests/fuzz -I /usr/include/suitesparse \
+  -DSM_VERSION='"$(VERSION)"'
+FUZZ_LDFLAGS := -fopenmp -fsanitize=fuzzer,address,undefined
+FUZZ_LIB_SRCS := $(wildcard core/*.c) $(wildcard proto/*.c) client/sse.c tests/fuzz/fuzz_input.c
+FUZZ_TARGETS := $(patsubst tests/fuzz/%.c,%,$(wildcard tests/fuzz/fuzz_*.c))
+FUZZ_TARGETS := $(filter-out fuzz_input,$(FUZZ_TARGETS))
+
+$(FUZZ_DIR)/obj/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(FUZZ_CC) $(FUZZ_CFLAGS) -MMD -MP -c $< -o $@
+
+$(FUZZ_DIR)/libfuzzdeps.a: $(FUZZ_LIB_SRCS:%.c=$(FUZZ_DIR)/obj/%.o)
+	rm -f $@ && ar rcs $@ $^
+
+$(FUZZ_TARGETS:%=$(FUZZ_DIR)/%): $(FUZZ_DIR)/%: $(FUZZ_DIR)/obj/tests/fuzz/%.o $(FUZZ_DIR)/libfuzzdeps.a
+	$(FUZZ_CC) $(FUZZ_LDFLAGS) -o $@ $^ $(PROTO_LIBS) -lcholmod -lz -lm
+
+.PHONY: fuzz fuzz-build
+fuzz-build: $(FUZZ_TARGETS:%=$(FUZZ_DIR)/%)
+
+FUZZ_SECONDS ?= 300
+fuzz: deps
+	$(MAKE) -j$$(nproc) fuzz-build
+	tests/fuzz/run.sh $(FUZZ_SECONDS) $(FUZZ_TARGETS)

@@ -762,8 +762,10 @@ int cmd_run(int argc, char **argv)
     }
     sm_result result;
     memset(&result, 0, sizeof result);
-    sm_status st = sm_match_run(tmpl, bg, target->values, &opt.job.params, on_progress, &ctx,
-                                &cancel_requested, coords, &result, &err);
+    sm_match_opts mopts = {.template_mesh = tmpl, .prepared = checked, .target = field,
+                           .params = &opt.job.params};
+    sm_match_callbacks cb = {.progress = on_progress, .user = &ctx, .cancel = &cancel_requested};
+    sm_status st = sm_match_run(&mopts, &cb, coords, &result, &err);
     progress_finish(&ctx.display);
     if (ctx.failed) {
         code = run_error(&opt, ctx.failed, "%s", ctx.failure);

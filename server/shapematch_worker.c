@@ -402,8 +402,10 @@ int main(int argc, char **argv)
     }
     sm_result result;
     memset(&result, 0, sizeof result);
-    st = sm_match_run(in.template_mesh, in.background, in.distance->values, &in.params, on_progress,
-                      &w, (const volatile int *)&stop_requested, coords, &result, &err);
+    sm_match_opts opts = {.template_mesh = in.template_mesh, .target = in.field, .params = &in.params};
+    sm_match_callbacks cb = {.progress = on_progress, .user = &w,
+                             .cancel = (const volatile int *)&stop_requested};
+    st = sm_match_run(&opts, &cb, coords, &result, &err);
     if (w.history_failed) {
         code = fail(&w, SMD_WORKER_EXIT_NOMEM, "out of memory recording the history");
         goto done;
@@ -412,7 +414,7 @@ int main(int argc, char **argv)
         code = fail(&w, SMD_WORKER_EXIT_OUTPUT, "%s", w.snapshot_error);
         goto done;
     }
-    if (st == SM_ERR_CANCELLED || (st == SM_OK && result.stop == SM_STOP_CANCELLED) || stop_requested) {
+    if ((st == SM_OK && result.stop == SM_STOP_CANCELLED) || stop_requested) {
         sm_event ev;
         sm_event_init(&ev, SM_EVENT_CANCELLED);
         snprintf(ev.message, sizeof ev.message, "stopped by SIGTERM");

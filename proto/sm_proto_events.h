@@ -111,10 +111,10 @@ sm_status sm_event_from_json(const char *line, size_t len, sm_event *out,
 sm_status sm_event_from_jansson(const json_t *obj, sm_event *out,
                                 sm_error *err);
 
-/* Result summary: the document of GET /v1/jobs/{id}/results and the
- * common part of the CLI's summary.json (same member names; the CLI adds
- * status, exit_code, inverted_elements, timings.read, inputs, template,
- * outputs, and the daemon may add links and the like):
+/* Result summary: the core of summary.json, to which the job runner
+ * (sm_job_runner.h) adds status, exit_code, inverted_elements,
+ * field_builds, timings.read, inputs, template, outputs and the version
+ * (the daemon's GET /v1/jobs/{id}/results adds jobID and links):
  *   {"stop_reason":"step_tolerance","iterations":42,"J_initial":..,
  *    "J_final":..,"boundary_l2":..,"boundary_max":..,"min_quality":..,
  *    "accepted":..,"rejected":..,

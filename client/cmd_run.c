@@ -251,8 +251,8 @@ void cmd_run_help(void)
            "  -o, --output DIR        output directory (created if missing); receives\n"
            "                          result.mesh, result.meshb, result.vtu,\n"
            "                          result.smmesh, displacement.sol, displacement.solb,\n"
-           "                          history.csv, history.json, summary.json (the\n"
-           "                          files `shapematch fetch` gets from the daemon)\n"
+           "                          history.csv, history.json, summary.json (a\n"
+           "                          daemon job's result set)\n"
            "\n");
     job_options_help(stdout);
     printf("\n"

@@ -18,21 +18,23 @@
 #include "cli.h"
 #include "fsutil.h"
 #include "remote.h"
-#include "sm_payload.h"
+#include "sm_atomic.h"
+#include "sm_json.h"
 #include "sm_proto_events.h"
+#include "sm_proto_vocab.h"
 
+/* --format bits of proto's mesh formats (sm_proto_vocab.h: file names and
+ * media types) */
 typedef struct mesh_format {
     unsigned bit;
     const char *name;      /* ?format= and --format value */
-    const char *file;
-    const char *media;
 } mesh_format;
 
 static const mesh_format mesh_formats[] = {
-    {FETCH_MESH, "mesh", "result.mesh", "application/x-medit-mesh"},
-    {FETCH_MESHB, "meshb", "result.meshb", "application/x-medit-meshb"},
-    {FETCH_VTU, "vtu", "result.vtu", "application/vnd.vtk.vtu+xml"},
-    {FETCH_BINARY, "binary", "result.smmesh", SM_PAYLOAD_MEDIA_TYPE},
+    {FETCH_MESH, "mesh"},
+    {FETCH_MESHB, "meshb"},
+    {FETCH_VTU, "vtu"},
+    {FETCH_BINARY, "binary"},
 };
 #define N_MESH_FORMATS (sizeof mesh_formats / sizeof mesh_formats[0])
 
@@ -80,20 +82,25 @@ static int write_to_file(void *user, const char *data, size_t len)
     return 0;
 }
 
-/* GET path into outdir/name (atomically), checking the media type. */
+/* GET /v1/jobs/ID/results/KIND?format=F into outdir/FILE (atomically),
+ * checking the media type. */
 static int download(http_client *c, const char *cmd, int token_given, const char *outdir,
-                    const char *path, const char *name, const char *media)
+                    const char *id, const sm_result_format *f)
 {
-    char msg[ARGS_MSG_LEN], what[160];
+    char what[160], path[192];
+    const char *name = f->file, *media = f->media;
     snprintf(what, sizeof what, "downloading %s", name);
+    snprintf(path, sizeof path, "/v1/jobs/%s/results/%s?format=%s", id,
+             sm_result_kind_name(f->kind), f->name);
     char *final = fs_join(outdir, name);
     if (!final) {
         fprintf(stderr, "shapematch %s: error: out of memory\n", cmd);
         return CLI_EXIT_OUTPUT;
     }
-    fs_atomic a;
-    if (fs_atomic_open(&a, final, msg, sizeof msg) != 0) {
-        fprintf(stderr, "shapematch %s: error: %s\n", cmd, msg);
+    sm_atomic a;
+    sm_error err;
+    if (sm_atomic_open(&a, final, &err) != SM_OK) {
+        fprintf(stderr, "shapematch %s: error: %s\n", cmd, err.msg);
         free(final);
         return CLI_EXIT_OUTPUT;
     }
@@ -116,9 +123,9 @@ static int download(http_client *c, const char *cmd, int token_given, const char
     }
     http_response_free(&rs);
     if (code != 0) {
-        fs_atomic_abort(&a);
-    } else if (fs_atomic_commit(&a, msg, sizeof msg) != 0) {
-        fprintf(stderr, "shapematch %s: error: %s\n", cmd, msg);
+        sm_atomic_abort(&a);
+    } else if (sm_atomic_commit(&a, SM_ATOMIC_FSYNC, &err) != SM_OK) {
+        fprintf(stderr, "shapematch %s: error: %s\n", cmd, err.msg);
         code = CLI_EXIT_OUTPUT;
     }
     free(final);
@@ -198,22 +205,18 @@ static int get_summary(http_client *c, const char *cmd, int token_given, const c
 
 static int write_summary(const char *cmd, const char *outdir, const json_t *doc)
 {
-    char msg[ARGS_MSG_LEN];
     char *text = sm_json_dumps(doc, 2);
-    char *path = fs_join(outdir, "summary.json");
+    char *path = fs_join(outdir, SM_RESULT_SUMMARY_FILE);
     int code = 0;
-    fs_atomic a;
+    sm_error err;
     if (!text || !path) {
         fprintf(stderr, "shapematch %s: error: out of memory\n", cmd);
         code = CLI_EXIT_OUTPUT;
-    } else if (fs_atomic_open(&a, path, msg, sizeof msg) != 0) {
-        fprintf(stderr, "shapematch %s: error: %s\n", cmd, msg);
-        code = CLI_EXIT_OUTPUT;
     } else {
-        fputs(text, a.f);
-        fputc('\n', a.f);
-        if (fs_atomic_commit(&a, msg, sizeof msg) != 0) {
-            fprintf(stderr, "shapematch %s: error: %s\n", cmd, msg);
+        size_t n = strlen(text);
+        text[n] = '\n'; /* replaces the NUL: written with its length */
+        if (sm_atomic_write_file(path, text, n + 1, SM_ATOMIC_FSYNC, &err) != SM_OK) {
+            fprintf(stderr, "shapematch %s: error: %s\n", cmd, err.msg);
             code = CLI_EXIT_OUTPUT;
         }
     }
@@ -225,7 +228,7 @@ static int write_summary(const char *cmd, const char *outdir, const json_t *doc)
 int remote_fetch(http_client *c, const char *cmd, int token_given, const char *id,
                  const fetch_options *o)
 {
-    char msg[ARGS_MSG_LEN], path[192];
+    char msg[ARGS_MSG_LEN];
     int code = check_job_state(c, cmd, token_given, id);
     if (code != 0)
         return code;
@@ -235,7 +238,7 @@ int remote_fetch(http_client *c, const char *cmd, int token_given, const char *i
         return CLI_EXIT_OUTPUT;
     }
     /* an older summary.json must not vouch for files only partly replaced */
-    char *old_summary = fs_join(o->outdir, "summary.json");
+    char *old_summary = fs_join(o->outdir, SM_RESULT_SUMMARY_FILE);
     if (!old_summary) {
         fprintf(stderr, "shapematch %s: error: out of memory\n", cmd);
         return CLI_EXIT_OUTPUT;
@@ -258,22 +261,17 @@ int remote_fetch(http_client *c, const char *cmd, int token_given, const char *i
     for (size_t k = 0; k < N_MESH_FORMATS && code == 0; k++) {
         if (!(o->formats & mesh_formats[k].bit))
             continue;
-        snprintf(path, sizeof path, "/v1/jobs/%s/results/mesh?format=%s", id,
-                 mesh_formats[k].name);
-        code = download(c, cmd, token_given, o->outdir, path, mesh_formats[k].file,
-                        mesh_formats[k].media);
-        strncat(files, mesh_formats[k].file, sizeof files - strlen(files) - 1);
+        const sm_result_format *f = sm_result_format_find(SM_RESULT_MESH, mesh_formats[k].name);
+        code = download(c, cmd, token_given, o->outdir, id, f);
+        strncat(files, f->file, sizeof files - strlen(files) - 1);
         strncat(files, ", ", sizeof files - strlen(files) - 1);
     }
-    if (code == 0) {
-        snprintf(path, sizeof path, "/v1/jobs/%s/results/displacement?format=sol", id);
-        code = download(c, cmd, token_given, o->outdir, path, "displacement.sol",
-                        "application/x-medit-sol");
-    }
-    if (code == 0) {
-        snprintf(path, sizeof path, "/v1/jobs/%s/results/history?format=csv", id);
-        code = download(c, cmd, token_given, o->outdir, path, "history.csv", "text/csv");
-    }
+    const sm_result_format *displacement = sm_result_format_find(SM_RESULT_DISPLACEMENT, "sol");
+    const sm_result_format *history = sm_result_format_find(SM_RESULT_HISTORY, "csv");
+    if (code == 0)
+        code = download(c, cmd, token_given, o->outdir, id, displacement);
+    if (code == 0)
+        code = download(c, cmd, token_given, o->outdir, id, history);
     if (code == 0)
         code = write_summary(cmd, o->outdir, summary);
     json_decref(summary);
@@ -283,8 +281,8 @@ int remote_fetch(http_client *c, const char *cmd, int token_given, const char *i
             remote_format_result(line, sizeof line, &result);
             fprintf(stderr, "shapematch: job %s: %s\n", id, line);
         }
-        fprintf(stderr, "shapematch: results in %s: %sdisplacement.sol, history.csv, summary.json\n",
-                o->outdir, files);
+        fprintf(stderr, "shapematch: results in %s: %s%s, %s, %s\n", o->outdir, files,
+                displacement->file, history->file, SM_RESULT_SUMMARY_FILE);
     }
     return code;
 }

@@ -19,11 +19,12 @@
 #include "remote.h"
 #include "sm_proto_events.h"
 #include "sm_proto_params.h"
+#include "sm_proto_vocab.h"
 
 /* zlib level for the uploads: the fastest; a mesh's text compresses well
  * even so, and the daemon is often on a fast link */
 #define UPLOAD_GZIP_LEVEL 1
-#define IDEMPOTENCY_KEY_MAX 255
+#define IDEMPOTENCY_KEY_MAX SM_IDEMPOTENCY_KEY_MAX /* proto/sm_proto_vocab.h */
 
 /* ------------------------------------------------------------ uploads */
 
@@ -368,7 +369,7 @@ int cmd_submit(int argc, char **argv)
 
     upload up[3];
     memset(up, 0, sizeof up);
-    const char *parts[3] = {"template", "target_mesh", "target_sol"};
+    const char *const *parts = sm_part_names; /* SM_PART_TEMPLATE, ... */
     const char *paths[3] = {a.template_path, a.target_mesh_path, a.target_sol_path};
     int code = 0;
     for (int i = 0; i < 3 && code == 0; i++)
@@ -393,7 +394,7 @@ int cmd_submit(int argc, char **argv)
             bad = add_file_part(mime, &up[i]) != 0;
         if (!bad) {
             pp = curl_mime_addpart(mime);
-            bad = !pp || curl_mime_name(pp, "params") != CURLE_OK ||
+            bad = !pp || curl_mime_name(pp, sm_part_name(SM_PART_PARAMS)) != CURLE_OK ||
                   curl_mime_data(pp, params, CURL_ZERO_TERMINATED) != CURLE_OK ||
                   curl_mime_type(pp, "application/json") != CURLE_OK;
         }

@@ -6,8 +6,8 @@
 #include <stdint.h>
 
 #include "sm_error.h"
-#include "sm_match.h"
 #include "sm_mesh.h"
+#include "sm_params.h"
 
 /* Flags (clamped[v] = 1) the vertices held by the clamp of p: inside the
  * ball (a relative tolerance keeps vertices placed exactly on its

@@ -7,47 +7,9 @@
 #include <stdint.h>
 
 #include "sm_error.h"
+#include "sm_field.h"
 #include "sm_mesh.h"
-
-#define SM_MAX_REFS 64
-
-typedef enum sm_clamp_kind {
-    SM_CLAMP_BALL = 0,     /* vertices inside a disk/ball */
-    SM_CLAMP_ELEMENTS = 1, /* vertices of elements with given references */
-    SM_CLAMP_VERTICES = 2, /* vertices with given references */
-    SM_CLAMP_NONE = 3      /* no clamp: 0th-order term alpha int u.v */
-} sm_clamp_kind;
-
-typedef struct sm_params {
-    sm_clamp_kind clamp;
-    double clamp_center[3];
-    double clamp_radius;
-    int32_t clamp_refs[SM_MAX_REFS];
-    int n_clamp_refs;
-    double alpha;            /* 0th-order coefficient (clamp none); default 1e-2 */
-
-    /* boundary facet references excluded from the load ("bref") */
-    int32_t free_refs[SM_MAX_REFS];
-    int n_free_refs;
-
-    double young;            /* default 1 */
-    double poisson;          /* default 0.3 */
-
-    int max_iter;            /* default 500 */
-    double tol_step;         /* stop when step < tol_step*diameter; 1e-6 */
-    double tol_boundary;     /* stop when ||d||_L2(boundary) <= this; 0=off */
-    double min_quality;      /* quality floor for accepted steps; 0.02 */
-    int save_every;          /* snapshot callback period (0 = never) */
-    double step_initial;     /* first step as a fraction of the diameter; 0.01 */
-    double step_max;         /* largest step as a fraction of the diameter; 0.1 */
-    int refactor_every;      /* refactorize the elastic operator on the current
-                              * mesh every k iterations (1 = every iteration,
-                              * as in the paper); 100 */
-} sm_params;
-
-void sm_params_default(sm_params *p);
-/* Checks ranges; message names the offending parameter. */
-sm_status sm_params_validate(const sm_params *p, int dim, sm_error *err);
+#include "sm_params.h"
 
 typedef struct sm_progress {
     int iteration;           /* accepted iterations so far (0 = initial) */
@@ -98,18 +60,35 @@ typedef struct sm_result {
 typedef int (*sm_progress_fn)(const sm_progress *p, const double *coords,
                               void *user);
 
-/* Runs a matching job.  template and background need not have their
- * boundary built (copies are made as needed; inputs are not modified).
- * d has background->nverts values.  coords_out (template->nverts*dim)
- * receives the final vertex positions; the cumulative displacement is
- * coords_out - template->coords.  cancel (may be NULL) is polled between
- * iterations.  On SM_ERR_CANCELLED-free return, result->stop says why
- * the descent ended.  progress may be NULL. */
-sm_status sm_match_run(const sm_mesh *template_mesh,
-                       const sm_mesh *background, const double *d,
-                       const sm_params *params, sm_progress_fn progress,
-                       void *user, const volatile int *cancel,
-                       double *coords_out, sm_result *result,
-                       sm_error *err);
+/* What a run works on.  Everything is borrowed and only read, so one
+ * target field can serve checks, the run and the outputs of a job: the
+ * caller builds it once (sm_field_new) and frees it after the run. */
+typedef struct sm_match_opts {
+    const sm_mesh *template_mesh; /* as read; need not have its boundary */
+    const sm_mesh *prepared;      /* optional: a copy of template_mesh with
+                                   * its boundary built (sm_mesh_build_boundary),
+                                   * as an input check makes it; NULL = the
+                                   * run makes its own */
+    const sm_field *target;       /* the target's signed distance on its
+                                   * background mesh */
+    const sm_params *params;
+} sm_match_opts;
+
+/* How a run talks back; every member may be NULL (zeroed struct). */
+typedef struct sm_match_callbacks {
+    sm_progress_fn progress;      /* after each iteration, see above */
+    void *user;                   /* passed to progress */
+    const volatile int *cancel;   /* polled between iterations */
+} sm_match_callbacks;
+
+/* Runs a matching job.  coords_out (template->nverts*dim) receives the
+ * final vertex positions; the cumulative displacement is coords_out -
+ * template->coords.  cb may be NULL.  A cancel (the flag, or progress
+ * returning nonzero) is not an error: the run returns SM_OK with
+ * result->stop = SM_STOP_CANCELLED and coords_out and *result describe
+ * the state reached (sm_match_run never returns SM_ERR_CANCELLED).  On
+ * SM_OK, result->stop says why the descent ended. */
+sm_status sm_match_run(const sm_match_opts *opts, const sm_match_callbacks *cb,
+                       double *coords_out, sm_result *result, sm_error *err);
 
 #endif

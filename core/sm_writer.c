@@ -11,6 +11,7 @@
 #include <unistd.h>
 #include <zlib.h>
 
+#include "sm_atomic.h"
 #include "sm_stream.h"
 
 #define WRITE_BUF_SIZE (1u << 16)
@@ -21,7 +22,8 @@
 
 struct sm_writer {
     char *final_path;
-    char *tmp_path;       /* NULL when writing in place (devices, pipes) */
+    sm_atomic atomic;     /* the temporary file; zeroed when writing in
+                           * place (devices, pipes) */
     int fd;
     gzFile gz;
     unsigned char *buf;
@@ -37,7 +39,6 @@ static void writer_free(sm_writer *w)
 {
     sm__stream_restore_locale(w->c_locale, w->saved_locale);
     free(w->final_path);
-    free(w->tmp_path);
     free(w->buf);
     free(w);
 }
@@ -64,18 +65,15 @@ sm_status sm_writer_open(sm_writer **out, const char *path, sm_error *err)
         }
         w->fd = open(path, O_WRONLY | O_CLOEXEC);
     } else {
-        size_t n = strlen(path) + 48;
-        w->tmp_path = malloc(n);
-        if (!w->tmp_path) {
+        /* the tree's one temporary-file-and-rename implementation */
+        sm_status rst = sm_atomic_reserve(&w->atomic, path, err);
+        if (rst != SM_OK) {
             writer_free(w);
-            return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", path);
+            return rst;
         }
-        for (int attempt = 0; attempt < 1000; attempt++) {
-            snprintf(w->tmp_path, n, "%s.tmp-%ld-%d", path, (long)getpid(), attempt);
-            w->fd = open(w->tmp_path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-            if (w->fd >= 0 || errno != EEXIST)
-                break;
-        }
+        w->fd = open(w->atomic.tmp_path, O_WRONLY | O_TRUNC | O_CLOEXEC);
+        if (w->fd < 0)
+            sm_atomic_abort(&w->atomic);
     }
     if (w->fd < 0) {
         int e = errno;
@@ -91,8 +89,7 @@ sm_status sm_writer_open(sm_writer **out, const char *path, sm_error *err)
             if (fd2 >= 0)
                 close(fd2);
             close(w->fd);
-            if (w->tmp_path)
-                unlink(w->tmp_path);
+            sm_atomic_abort(&w->atomic);
             writer_free(w);
             return sm_error_set(err, SM_ERR_NOMEM, "%s: cannot start gzip compression", path);
         }
@@ -252,13 +249,9 @@ sm_status sm_writer_close(sm_writer *w, sm_error *err)
     if (w->failed) {
         st = sm_error_set(err, SM_ERR_IO, "%s: write failed: %s", w->final_path,
                           failure_text(w));
-        if (w->tmp_path)
-            unlink(w->tmp_path);
-    } else if (w->tmp_path && rename(w->tmp_path, w->final_path) != 0) {
-        int e = errno;
-        st = sm_error_set(err, SM_ERR_IO, "%s: cannot rename %s into place: %s",
-                          w->final_path, w->tmp_path, strerror(e));
-        unlink(w->tmp_path);
+        sm_atomic_abort(&w->atomic);
+    } else if (w->atomic.tmp_path) {
+        st = sm_atomic_commit(&w->atomic, 0, err);
     }
     writer_free(w);
     return st;
@@ -272,7 +265,6 @@ void sm_writer_abort(sm_writer *w)
         gzclose(w->gz);
     if (w->fd >= 0)
         close(w->fd);
-    if (w->tmp_path)
-        unlink(w->tmp_path);
+    sm_atomic_abort(&w->atomic);
     writer_free(w);
 }

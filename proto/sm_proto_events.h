@@ -37,6 +37,7 @@
 #include <jansson.h>
 
 #include "sm_error.h"
+#include "sm_json.h"
 #include "sm_match.h"
 
 /* Longest job id carried (the daemon's ids are 32 hex digits). */
@@ -110,10 +111,10 @@ sm_status sm_event_from_json(const char *line, size_t len, sm_event *out,
 sm_status sm_event_from_jansson(const json_t *obj, sm_event *out,
                                 sm_error *err);
 
-/* Result summary: the document of GET /v1/jobs/{id}/results and the
- * common part of the CLI's summary.json (same member names; the CLI adds
- * status, exit_code, inverted_elements, timings.read, inputs, template,
- * outputs, and the daemon may add links and the like):
+/* Result summary: the core of summary.json, to which the job runner
+ * (sm_job_runner.h) adds status, exit_code, inverted_elements,
+ * field_builds, timings.read, inputs, template, outputs and the version
+ * (the daemon's GET /v1/jobs/{id}/results adds jobID and links):
  *   {"stop_reason":"step_tolerance","iterations":42,"J_initial":..,
  *    "J_final":..,"boundary_l2":..,"boundary_max":..,"min_quality":..,
  *    "accepted":..,"rejected":..,
@@ -136,14 +137,6 @@ sm_status sm_result_from_jansson(const json_t *obj, const char *path,
                                  sm_result *out, sm_error *err);
 sm_status sm_result_from_json(const char *text, size_t len, sm_result *out,
                               sm_error *err);
-
-/* Serializes any JSON value like json_dumps, but prints each real with
- * the fewest digits that read back to the same double (0.3, not
- * 0.29999999999999999) and integral reals as "1.0".  indent 0: compact,
- * one line; 1..8: pretty, that many spaces per level.  Members in
- * insertion order.  Returns a malloc'd string without a trailing newline,
- * or NULL (out of memory, bad indent).  Every encoder here uses it. */
-char *sm_json_dumps(const json_t *value, int indent);
 
 /* RFC 3339 UTC with milliseconds, "2024-05-01T12:00:00.123Z".  t is Unix
  * seconds; buf has SM_RFC3339_LEN bytes.  Returns 0, or -1 when t is not

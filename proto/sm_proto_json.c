@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "sm_json.h"
 #include "sm_proto_events.h"
 
 void smp_path_join(char buf[SMP_PATH_MAX], const char *parent,
@@ -292,4 +293,62 @@ char *sm_json_dumps(const json_t *value, int indent)
         return NULL;
     }
     return b.data;
+}
+
+/* Length of the valid UTF-8 sequence at s (1..4), or 0 if invalid
+ * (overlong forms, surrogates and values above U+10FFFF included). */
+static int utf8_sequence(const unsigned char *s)
+{
+    unsigned c = s[0];
+    if (c < 0x80)
+        return 1;
+    int n;
+    unsigned cp;
+    if (c >= 0xc2 && c <= 0xdf) {
+        n = 2;
+        cp = c & 0x1f;
+    } else if (c >= 0xe0 && c <= 0xef) {
+        n = 3;
+        cp = c & 0x0f;
+    } else if (c >= 0xf0 && c <= 0xf4) {
+        n = 4;
+        cp = c & 0x07;
+    } else {
+        return 0;
+    }
+    for (int i = 1; i < n; i++) {
+        if ((s[i] & 0xc0) != 0x80)
+            return 0;
+        cp = (cp << 6) | (s[i] & 0x3f);
+    }
+    if ((n == 3 && cp < 0x800) || (n == 4 && (cp < 0x10000 || cp > 0x10ffff)) ||
+        (cp >= 0xd800 && cp <= 0xdfff))
+        return 0;
+    return n;
+}
+
+json_t *sm_json_string_lossy(const char *s)
+{
+    if (!s)
+        return NULL;
+    size_t len = strlen(s);
+    char *buf = malloc(3 * len + 1); /* each invalid byte: 3 bytes of U+FFFD */
+    if (!buf)
+        return NULL;
+    size_t k = 0;
+    for (const unsigned char *p = (const unsigned char *)s; *p;) {
+        int n = utf8_sequence(p);
+        if (n == 0) {
+            memcpy(buf + k, "\xef\xbf\xbd", 3);
+            k += 3;
+            p++;
+        } else {
+            memcpy(buf + k, p, (size_t)n);
+            k += (size_t)n;
+            p += n;
+        }
+    }
+    json_t *v = json_stringn(buf, k);
+    free(buf);
+    return v;
 }

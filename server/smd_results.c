@@ -25,32 +25,19 @@
 #include <zlib.h>
 
 #include "sm_payload.h"
+#include "sm_proto_vocab.h"
 #include "smd_routes.h"
 #include "smd_worker.h"
 
-typedef struct result_format {
-    const char *name;      /* ?format= value */
-    const char *media;     /* Content-Type */
-    const char *file;      /* in results/ */
-} result_format;
-
-static const result_format mesh_formats[] = {
-    {"mesh", "application/x-medit-mesh", SMD_RESULT_MESH},
-    {"meshb", "application/x-medit-meshb", SMD_RESULT_MESHB},
-    {"vtu", "application/vnd.vtk.vtu+xml", SMD_RESULT_VTU},
-    {"binary", SM_PAYLOAD_MEDIA_TYPE, SMD_RESULT_PAYLOAD},
-};
-static const result_format displacement_formats[] = {
-    {"sol", "application/x-medit-sol", SMD_RESULT_DISPLACEMENT},
-    {"solb", "application/x-medit-solb", SMD_RESULT_DISPLACEMENT_B},
-};
-static const result_format history_formats[] = {
-    {"csv", "text/csv", SMD_RESULT_HISTORY_CSV},
-    {"json", "application/json", SMD_RESULT_HISTORY_JSON},
-};
-/* the file is per iteration (SMD_SNAPSHOT_FORMAT) */
+/* proto's table of result formats (sm_proto_vocab.h), by kind: the
+ * default format of each kind first */
+typedef sm_result_format result_format;
+static const result_format *const mesh_formats = &sm_result_formats[0];
+static const result_format *const displacement_formats = &sm_result_formats[4];
+static const result_format *const history_formats = &sm_result_formats[6];
+/* the file is per iteration (SM_SNAPSHOT_FORMAT) */
 static const result_format snapshot_formats[] = {
-    {"mesh", "application/x-medit-mesh", NULL},
+    {SM_RESULT_MESH, "mesh", SM_SNAPSHOT_MEDIA, NULL},
 };
 
 /* Iterations in URLs: a decimal number without sign or leading zero, at
@@ -247,7 +234,7 @@ typedef struct snapshot {
 } snapshot;
 
 /* The iteration of a worker's snapshot name "iter-<digits>.mesh" (at
- * least 5 digits, as SMD_SNAPSHOT_FORMAT writes them), or -1 for any other
+ * least 5 digits, as SM_SNAPSHOT_FORMAT writes them), or -1 for any other
  * name (temporary files, strays). */
 static int snapshot_name_iteration(const char *name)
 {
@@ -290,7 +277,7 @@ static int by_iteration(const void *a, const void *b)
 static enum MHD_Result snapshot_list(struct MHD_Connection *conn, smd_request *req)
 {
     char dir[PATH_MAX];
-    if (smd_store_path(req->srv->store, req->id, SMD_RESULTS_DIR "/" SMD_SNAPSHOTS_DIR, dir,
+    if (smd_store_path(req->srv->store, req->id, SMD_RESULTS_DIR "/" SM_SNAPSHOTS_DIR, dir,
                        sizeof dir) != 0)
         return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "path too long");
     snapshot *list = NULL;
@@ -355,8 +342,8 @@ static enum MHD_Result snapshot_item(struct MHD_Connection *conn, smd_request *r
     if (choose_format(conn, req, snapshot_formats, 1, &replied) < 0)
         return replied;
     char file[64], disposition[48], missing[160];
-    snprintf(file, sizeof file, SMD_SNAPSHOTS_DIR "/" SMD_SNAPSHOT_FORMAT, iteration);
-    snprintf(disposition, sizeof disposition, SMD_SNAPSHOT_FORMAT, iteration);
+    snprintf(file, sizeof file, SM_SNAPSHOTS_DIR "/" SM_SNAPSHOT_FORMAT, iteration);
+    snprintf(disposition, sizeof disposition, SM_SNAPSHOT_FORMAT, iteration);
     snprintf(missing, sizeof missing,
              "job %s has no snapshot at iteration %d (see /v1/jobs/%s/results/snapshots)", req->id,
              iteration, req->id);
@@ -376,7 +363,7 @@ static json_t *item(const char *id, const char *what, const result_format *f, co
 static enum MHD_Result summary(struct MHD_Connection *conn, smd_request *req)
 {
     char path[PATH_MAX];
-    if (smd_store_path(req->srv->store, req->id, SMD_RESULTS_DIR "/" SMD_RESULT_SUMMARY, path,
+    if (smd_store_path(req->srv->store, req->id, SMD_RESULTS_DIR "/" SM_RESULT_SUMMARY_FILE, path,
                        sizeof path) != 0)
         return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "path too long");
     char *text;

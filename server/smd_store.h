@@ -30,10 +30,11 @@
 
 #include "sm_error.h"
 #include "sm_proto_events.h"
+#include "sm_proto_vocab.h"
 #include "smd_log.h"
 #include "smd_util.h"
 
-#define SMD_IDEMPOTENCY_KEY_MAX 255
+#define SMD_IDEMPOTENCY_KEY_MAX SM_IDEMPOTENCY_KEY_MAX /* proto/sm_proto_vocab.h */
 
 struct smd_follower;
 

@@ -14,14 +14,20 @@
 #include <unistd.h>
 #include <zlib.h>
 
+#include "sm_job_inputs.h"
 #include "sm_proto_params.h"
-#include "smd_inputs.h"
 #include "smd_pool.h"
 #include "smd_worker.h"
 
-typedef enum part_id { PART_TEMPLATE = 0, PART_TARGET_MESH, PART_TARGET_SOL, PART_PARAMS, NPARTS } part_id;
+/* proto's part names (sm_proto_vocab.h) */
+typedef sm_part part_id;
+#define PART_TEMPLATE SM_PART_TEMPLATE
+#define PART_TARGET_MESH SM_PART_TARGET_MESH
+#define PART_TARGET_SOL SM_PART_TARGET_SOL
+#define PART_PARAMS SM_PART_PARAMS
+#define NPARTS SM_NPARTS
 
-static const char *const part_names[NPARTS] = {"template", "target_mesh", "target_sol", "params"};
+static const char *const *const part_names = sm_part_names; /* proto/sm_proto_vocab.h */
 
 struct smd_upload {
     struct MHD_PostProcessor *pp;
@@ -321,7 +327,7 @@ enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
 }
 
 /* Writes job.json: inputs and canonical params. */
-static int write_job_file(smd_upload *u, const smd_inputs *in)
+static int write_job_file(smd_upload *u, const sm_job_inputs *in)
 {
     json_t *params = sm_params_to_jansson(&in->params, in->dim);
     json_t *doc = json_object();
@@ -369,12 +375,13 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
         if (name_file(u, (part_id)i) != 0)
             return reply_error(conn, req, u);
 
-    smd_inputs in;
+    sm_job_inputs in;
     sm_error err;
     sm_error_clear(&err);
-    sm_status st = smd_inputs_load(u->path[PART_TEMPLATE], u->path[PART_TARGET_MESH],
-                                   u->path[PART_TARGET_SOL], u->params ? u->params : "",
-                                   u->params_len, &in, &err);
+    sm_job_files files = {.template_mesh = u->path[PART_TEMPLATE],
+                          .target_mesh = u->path[PART_TARGET_MESH],
+                          .target_sol = u->path[PART_TARGET_SOL]};
+    sm_status st = sm_job_inputs_load(&files, u->params ? u->params : "", u->params_len, &in, &err);
     if (st != SM_OK) {
         if (st == SM_ERR_IO)
             return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "%s", err.msg);
@@ -383,7 +390,7 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
     int dim = in.dim, max_iter = in.params.max_iter;
     int32_t nverts = in.template_mesh->nverts, nelems = in.template_mesh->nelems;
     int rc = write_job_file(u, &in);
-    smd_inputs_free(&in);
+    sm_job_inputs_free(&in);
     if (rc != 0)
         return smd_reply_problem(conn, req, 507, SMD_PROBLEM_STORAGE, "cannot write job.json: %s",
                                  strerror(errno));

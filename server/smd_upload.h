@@ -9,7 +9,7 @@
  *
  * The whole body is capped at --max-upload (413, before reading anything
  * when Content-Length says so).  When the body is complete, the inputs
- * are validated (smd_inputs.h) and a bad job is refused with 422 and the
+ * are validated (sm_job_inputs.h) and a bad job is refused with 422 and the
  * reason; a good one becomes jobs/<id> (rename) and is queued, 201.  An
  * unfinished upload (client gone, error) leaves nothing behind. */
 #ifndef SMD_UPLOAD_H

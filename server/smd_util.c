@@ -17,6 +17,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "sm_atomic.h"
+
 int smd_random_id(char out[SMD_ID_LEN + 1])
 {
     unsigned char bytes[SMD_ID_LEN / 2];
@@ -86,22 +88,6 @@ void smd_textf(char *buf, size_t cap, const char *fmt, ...)
     va_end(ap);
 }
 
-static int write_all(int fd, const void *data, size_t len)
-{
-    const char *p = data;
-    while (len > 0) {
-        ssize_t n = write(fd, p, len);
-        if (n < 0) {
-            if (errno == EINTR)
-                continue;
-            return -1;
-        }
-        p += n;
-        len -= (size_t)n;
-    }
-    return 0;
-}
-
 int smd_fsync_dir(const char *dir)
 {
     int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
@@ -116,36 +102,8 @@ int smd_fsync_dir(const char *dir)
 
 int smd_write_file_atomic(const char *path, const void *data, size_t len)
 {
-    char tmp[PATH_MAX], dir[PATH_MAX];
-    if (smd_pathf(tmp, sizeof tmp, "%s.tmp.%ld.%ld", path, (long)getpid(), (long)gettid()) != 0)
-        return -1;
-    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    if (fd < 0)
-        return -1;
-    if (write_all(fd, data, len) != 0 || fsync(fd) != 0) {
-        int saved = errno;
-        close(fd);
-        unlink(tmp);
-        errno = saved;
-        return -1;
-    }
-    if (close(fd) != 0 || rename(tmp, path) != 0) {
-        int saved = errno;
-        unlink(tmp);
-        errno = saved;
-        return -1;
-    }
-    /* the folder entry must be durable too */
-    if (smd_pathf(dir, sizeof dir, "%s", path) != 0)
-        return -1;
-    char *slash = strrchr(dir, '/');
-    if (slash == dir)
-        slash[1] = '\0';
-    else if (slash)
-        *slash = '\0';
-    else
-        strcpy(dir, ".");
-    return smd_fsync_dir(dir);
+    /* core's one atomic write; errno is left as the failing call set it */
+    return sm_atomic_write_file(path, data, len, SM_ATOMIC_FSYNC, NULL) == SM_OK ? 0 : -1;
 }
 
 int smd_mkdirs(const char *path, mode_t mode)

@@ -18,6 +18,8 @@
 #ifndef SMD_WORKER_H
 #define SMD_WORKER_H
 
+#include "sm_job_runner.h"
+
 #define SMD_WORKER_EVENT_FD 3
 
 #define SMD_JOB_FILE "job.json"
@@ -25,29 +27,19 @@
 #define SMD_RESULTS_TMP_DIR "results.tmp"
 #define SMD_WORKER_LOG "worker.log"
 
-/* Files of JOB_DIR/results/. */
-#define SMD_RESULT_MESH "result.mesh"
-#define SMD_RESULT_MESHB "result.meshb"
-#define SMD_RESULT_VTU "result.vtu"
-#define SMD_RESULT_PAYLOAD "result.smmesh"
-#define SMD_RESULT_DISPLACEMENT "displacement.sol"
-#define SMD_RESULT_DISPLACEMENT_B "displacement.solb"
-#define SMD_RESULT_HISTORY_CSV "history.csv"
-#define SMD_RESULT_HISTORY_JSON "history.json"
-#define SMD_RESULT_SUMMARY "summary.json"
-/* Snapshots (params.save_every K): results/snapshots/iter-NNNNN.mesh after
- * iterations K, 2K, ..., the names `shapematch run --save-every` uses. */
-#define SMD_SNAPSHOTS_DIR "snapshots"
-#define SMD_SNAPSHOT_FORMAT "iter-%05d.mesh"
+/* JOB_DIR/results/ holds the job runner's result set (file names:
+ * proto/sm_proto_vocab.h, sm_result_formats and SM_RESULT_SUMMARY_FILE),
+ * snapshots in results/snapshots/ (SM_SNAPSHOTS_DIR, SM_SNAPSHOT_FORMAT). */
 
 /* Exit codes of shapematch-worker. */
 enum smd_worker_exit {
-    SMD_WORKER_EXIT_OK = 0,
-    SMD_WORKER_EXIT_USAGE = 1,     /* bad arguments or job folder */
-    SMD_WORKER_EXIT_INPUT = 2,     /* inputs unreadable or inconsistent */
-    SMD_WORKER_EXIT_NUMERIC = 3,   /* the core failed (factorization, ...) */
-    SMD_WORKER_EXIT_OUTPUT = 4,    /* cannot write the results */
-    SMD_WORKER_EXIT_CANCELLED = 5, /* SIGTERM */
+    SMD_WORKER_EXIT_OK = SM_JOB_EXIT_OK,
+    SMD_WORKER_EXIT_USAGE = SM_JOB_EXIT_USAGE,         /* bad arguments or job folder */
+    SMD_WORKER_EXIT_INPUT = SM_JOB_EXIT_INPUT,         /* inputs unreadable or inconsistent */
+    SMD_WORKER_EXIT_NUMERIC = SM_JOB_EXIT_NUMERIC,     /* the core failed (factorization,
+                                                        * ...) or no step was possible */
+    SMD_WORKER_EXIT_OUTPUT = SM_JOB_EXIT_OUTPUT,       /* cannot write the results */
+    SMD_WORKER_EXIT_CANCELLED = SM_JOB_EXIT_CANCELLED, /* SIGTERM */
     SMD_WORKER_EXIT_NOMEM = 6,     /* out of memory (memory limit) */
     SMD_WORKER_EXIT_EXEC = 127     /* the program could not be executed */
 };

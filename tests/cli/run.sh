@@ -163,11 +163,13 @@ if [ "$have_case" = 1 ]; then
     rc=$?
     [ "$rc" -eq 0 ] && ok "end-to-end run exits 0" || not_ok "end-to-end run exits 0" "exit $rc" "$(tail -5 e2e.err)"
     missing=""
-    for f in result.mesh result.vtu displacement.sol history.csv summary.json; do
+    # the daemon's result set (one job runner): README's Outputs table
+    for f in result.mesh result.meshb result.vtu result.smmesh displacement.sol displacement.solb \
+        history.csv history.json summary.json; do
         [ -s "out/nested/$f" ] || missing="$missing $f"
     done
-    [ -z "$missing" ] && ok "the five outputs exist (nested directory created)" ||
-        not_ok "the five outputs exist (nested directory created)" "missing:$missing"
+    [ -z "$missing" ] && ok "the nine outputs exist (nested directory created)" ||
+        not_ok "the nine outputs exist (nested directory created)" "missing:$missing"
     leftovers=$(find out/nested -name '.*' | head -3)
     [ -z "$leftovers" ] && ok "no temporary file left behind" || not_ok "no temporary file left behind" "$leftovers"
     snaps=$(cd out/nested && ls iter-*.mesh 2>/dev/null | tr '\n' ' ')
@@ -308,6 +310,7 @@ def _():
     assert p["clamp"] == {"kind": "ball", "center": [0, 0], "radius": 0.1}, p["clamp"]
     assert p["max_iter"] == 30 and p["save_every"] == 10 and p["young"] == 1
     assert s["shapematch_version"] and s["inverted_elements"] == 0
+    assert s["field_builds"] == 1, s.get("field_builds")  # the target field is built once
     return "%s after %d iterations, J %.4f -> %.4f" % (s["stop_reason"], s["iterations"], s["J_initial"], s["J_final"])
 
 @check("history.csv has iterations+1 rows and non-increasing J", have_case)

@@ -34,6 +34,7 @@ static double ellipse_d(const double *x, double a, double b)
 typedef struct target {
     sm_mesh *bg;
     double *d;
+    sm_field *field; /* built once, shared by every run on this target */
 } target;
 
 static void make_target(target *t, int cells, double a, double b)
@@ -43,12 +44,25 @@ static void make_target(target *t, int cells, double a, double b)
     t->d = malloc(sizeof(double) * t->bg->nverts);
     for (int32_t v = 0; v < t->bg->nverts; v++)
         t->d[v] = ellipse_d(t->bg->coords + 2 * v, a, b);
+    sm_error err;
+    assert_int_equal(sm_field_new(t->bg, t->d, &t->field, &err), SM_OK);
 }
 
 static void free_target(target *t)
 {
+    sm_field_free(t->field);
     sm_mesh_free(t->bg);
     free(t->d);
+}
+
+/* sm_match_run on the target's prebuilt field. */
+static sm_status run_match(const sm_mesh *tm, const target *t, const sm_params *p,
+                           sm_progress_fn progress, void *user, const volatile int *cancel,
+                           double *out, sm_result *res, sm_error *err)
+{
+    sm_match_opts opts = {.template_mesh = tm, .target = t->field, .params = p};
+    sm_match_callbacks cb = {.progress = progress, .user = user, .cancel = cancel};
+    return sm_match_run(&opts, &cb, out, res, err);
 }
 
 typedef struct history {
@@ -90,7 +104,7 @@ static void test_converges_on_ellipse(void **state)
     sm_result res;
     sm_error err;
     history *h = calloc(1, sizeof *h);
-    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, record, h, NULL, out, &res, &err), SM_OK);
+    assert_int_equal(run_match(tm, &t, &p, record, h, NULL, out, &res, &err), SM_OK);
     if (getenv("SM_DEBUG"))
         print_message("stop %s it %d l2 %.3g -> %.3g J %.6g -> %.6g acc %d rej %d q %.3f\n",
                       sm_stop_reason_name(res.stop), res.iterations, h->l2[0], res.boundary_l2,
@@ -199,18 +213,70 @@ static void test_cancel_and_no_clamp(void **state)
     sm_error err;
     history *h = calloc(1, sizeof *h);
     h->cancel_at = 3;
-    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, record, h, NULL, out, &res, &err), SM_OK);
+    assert_int_equal(run_match(tm, &t, &p, record, h, NULL, out, &res, &err), SM_OK);
     assert_int_equal(res.stop, SM_STOP_CANCELLED);
     assert_int_equal(res.iterations, 3);
     assert_true(res.J < res.J_initial);
     /* cancellation through the flag */
     volatile int flag = 1;
-    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, NULL, NULL, &flag, out, &res, &err), SM_OK);
+    assert_int_equal(run_match(tm, &t, &p, NULL, NULL, &flag, out, &res, &err), SM_OK);
     assert_int_equal(res.stop, SM_STOP_CANCELLED);
     assert_int_equal(res.iterations, 0);
     assert_memory_equal(out, tm->coords, sizeof(double) * tm->nverts * 2);
     free(h);
     free(out);
+    sm_mesh_free(tm);
+    free_target(&t);
+}
+
+/* A prepared template (boundary built by the caller, as the job runner's
+ * input check does) gives the same descent, bit for bit, as the run's own
+ * copy; and a field of the wrong dimension is refused. */
+static void test_prepared_template_same_descent(void **state)
+{
+    (void)state;
+    target t;
+    make_target(&t, 60, 0.3, 0.25);
+    const double c[2] = {0.5, 0.5};
+    sm_mesh *tm = util_disk_mesh(c, 0.2, 6);
+    sm_params p;
+    sm_params_default(&p);
+    p.clamp = SM_CLAMP_BALL;
+    p.clamp_center[0] = p.clamp_center[1] = 0.5;
+    p.clamp_radius = 0.05;
+    p.max_iter = 12;
+    size_t n = (size_t)tm->nverts * 2;
+    double *a = malloc(sizeof(double) * n), *b = malloc(sizeof(double) * n);
+    sm_result ra, rb;
+    sm_error err;
+    assert_int_equal(run_match(tm, &t, &p, NULL, NULL, NULL, a, &ra, &err), SM_OK);
+    sm_mesh *prepared;
+    assert_int_equal(sm_mesh_clone(tm, &prepared, &err), SM_OK);
+    assert_int_equal(sm_mesh_build_boundary(prepared, &err), SM_OK);
+    sm_match_opts opts = {.template_mesh = tm, .prepared = prepared, .target = t.field, .params = &p};
+    assert_int_equal(sm_match_run(&opts, NULL, b, &rb, &err), SM_OK);
+    assert_int_equal(ra.iterations, 12);
+    assert_int_equal(rb.iterations, ra.iterations);
+    assert_int_equal(rb.accepted, ra.accepted);
+    assert_int_equal(rb.rejected, ra.rejected);
+    assert_true(rb.J == ra.J && rb.boundary_l2 == ra.boundary_l2);
+    assert_memory_equal(a, b, sizeof(double) * n);
+    /* a 3D field under a 2D template */
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    sm_mesh *bg3 = util_box_mesh(3, 2, lo, hi, 1);
+    double *d3 = calloc((size_t)bg3->nverts, sizeof(double));
+    sm_field *f3;
+    assert_int_equal(sm_field_new(bg3, d3, &f3, &err), SM_OK);
+    opts.prepared = NULL;
+    opts.target = f3;
+    assert_int_equal(sm_match_run(&opts, NULL, b, &rb, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "the template is 2D but the target background mesh is 3D"));
+    sm_field_free(f3);
+    free(d3);
+    sm_mesh_free(bg3);
+    sm_mesh_free(prepared);
+    free(a);
+    free(b);
     sm_mesh_free(tm);
     free_target(&t);
 }
@@ -231,23 +297,23 @@ static void test_bad_inputs(void **state)
     p.clamp_center[0] = 5.0;
     p.clamp_center[1] = 5.0;
     p.clamp_radius = 0.1;
-    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
+    assert_int_equal(run_match(tm, &t, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "clamp set is empty"));
     p.clamp_center[0] = p.clamp_center[1] = 0.5; /* only the center vertex */
     p.clamp_radius = 1e-3;
-    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
+    assert_int_equal(run_match(tm, &t, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "rigid rotations stay free"));
     p.clamp_radius = 10.0; /* every vertex */
-    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
+    assert_int_equal(run_match(tm, &t, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "nothing could move"));
     p.clamp = SM_CLAMP_ELEMENTS;
     p.n_clamp_refs = 1;
     p.clamp_refs[0] = 42;
-    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
+    assert_int_equal(run_match(tm, &t, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "clamp set is empty"));
     p.clamp = SM_CLAMP_NONE;
     p.alpha = 0;
-    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
+    assert_int_equal(run_match(tm, &t, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "alpha"));
     sm_params_default(&p);
     p.poisson = 0.5;
@@ -256,7 +322,7 @@ static void test_bad_inputs(void **state)
     sm_params_default(&p);
     p.free_refs[0] = 1;
     p.n_free_refs = 1;
-    assert_int_equal(sm_match_run(tm, t.bg, t.d, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
+    assert_int_equal(run_match(tm, &t, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "free boundary"));
     free(out);
     sm_mesh_free(tm);
@@ -269,6 +335,7 @@ int main(void)
         cmocka_unit_test(test_converges_on_ellipse),
         cmocka_unit_test(test_elastic_direction_descends),
         cmocka_unit_test(test_cancel_and_no_clamp),
+        cmocka_unit_test(test_prepared_template_same_descent),
         cmocka_unit_test(test_bad_inputs),
     };
     return cmocka_run_group_tests_name("match", tests, NULL, NULL);

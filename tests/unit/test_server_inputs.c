@@ -1,4 +1,4 @@
-/* What the daemon checks before accepting a job (smd_inputs), the clamp
+/* What the daemon checks before accepting a job (sm_job_inputs, proto/sm_job_inputs.h), the clamp
  * set rules (shared with the core), format sniffing of uploads, the SSE
  * framing of events and the Prometheus rendering. */
 #include <math.h>
@@ -14,7 +14,7 @@
 
 #include "sm_io.h"
 #include "sm_clamp.h"
-#include "smd_inputs.h"
+#include "sm_job_inputs.h"
 #include "smd_metrics.h"
 #include "smd_stream.h"
 #include "smd_upload.h"
@@ -83,16 +83,17 @@ static int teardown(void **state)
 }
 
 static sm_status load(const char *tpl, const char *bg, const char *sol, const char *params,
-                      smd_inputs *in, sm_error *err)
+                      sm_job_inputs *in, sm_error *err)
 {
     sm_error_clear(err);
-    return smd_inputs_load(tpl, bg, sol, params, strlen(params), in, err);
+    sm_job_files files = {.template_mesh = tpl, .target_mesh = bg, .target_sol = sol};
+    return sm_job_inputs_load(&files, params, strlen(params), in, err);
 }
 
 static void expect_error(files *f, const char *tpl, const char *bg, const char *sol,
                          const char *params, const char *prefix, const char *contains)
 {
-    smd_inputs in;
+    sm_job_inputs in;
     sm_error err;
     assert_int_not_equal(load(tpl, bg, sol, params, &in, &err), SM_OK);
     if (strncmp(err.msg, prefix, strlen(prefix)) != 0 || !strstr(err.msg, contains))
@@ -107,7 +108,7 @@ static void expect_error(files *f, const char *tpl, const char *bg, const char *
 static void test_inputs_good(void **state)
 {
     files *f = *state;
-    smd_inputs in;
+    sm_job_inputs in;
     sm_error err;
     assert_int_equal(load(f->tpl, f->bg, f->sol,
                           "{\"clamp\": {\"kind\": \"ball\", \"center\": [0.5, 0.5], \"radius\": 0.07}}",
@@ -120,10 +121,10 @@ static void test_inputs_good(void **state)
     assert_int_equal(in.params.clamp, SM_CLAMP_BALL);
     double x[2] = {0.5, 0.5};
     assert_true(fabs(sm_field_eval(in.field, x, NULL) + 0.3) < 1e-12);
-    smd_inputs_free(&in);
+    sm_job_inputs_free(&in);
     assert_int_equal(load(f->tpl, f->bg, f->sol, "{\"clamp\": {\"kind\": \"none\"}}", &in, &err), SM_OK);
     assert_int_equal(in.nclamped, 0);
-    smd_inputs_free(&in);
+    sm_job_inputs_free(&in);
 }
 
 static void test_inputs_bad(void **state)

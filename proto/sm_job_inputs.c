@@ -1,0 +1,219 @@
+/* Reading and checking a job's inputs (see sm_job_inputs.h). */
+#include "sm_job_inputs.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "sm_clamp.h"
+#include "sm_proto_params.h"
+
+static double now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+void sm_job_inputs_free(sm_job_inputs *in)
+{
+    if (!in)
+        return;
+    sm_field_free(in->field);
+    sm_sol_free(in->distance);
+    sm_mesh_free(in->background);
+    sm_mesh_free(in->prepared);
+    sm_mesh_free(in->template_mesh);
+    in->field = NULL;
+    in->distance = NULL;
+    in->background = NULL;
+    in->prepared = NULL;
+    in->template_mesh = NULL;
+}
+
+/* "PART: message" with every occurrence of path replaced by PART. */
+static sm_status part_error(sm_error *err, const char *part, const char *path)
+{
+    char msg[SM_ERROR_MSG_LEN];
+    size_t k = 0, plen = path ? strlen(path) : 0;
+    const char *src = err->msg;
+    while (*src && k + 1 < sizeof msg) {
+        if (plen && strncmp(src, path, plen) == 0) {
+            size_t n = strlen(part);
+            if (k + n >= sizeof msg)
+                break;
+            memcpy(msg + k, part, n);
+            k += n;
+            src += plen;
+        } else {
+            msg[k++] = *src++;
+        }
+    }
+    msg[k] = '\0';
+    size_t n = strlen(part);
+    if (strncmp(msg, part, n) == 0 && msg[n] == ':') {
+        /* the readers say "FILE:LINE: what": make it "PART: line LINE: what" */
+        const char *p = msg + n + 1;
+        const char *digits = p;
+        while (*p >= '0' && *p <= '9')
+            p++;
+        if (p > digits && *p == ':')
+            return sm_error_set(err, err->code, "%s: line %.*s:%s", part, (int)(p - digits), digits, p + 1);
+        /* already "PART: what" */
+        return sm_error_set(err, err->code, "%s: %s", part, msg);
+    }
+    return sm_error_set(err, err->code, "%s: %s", part, msg);
+}
+
+/* A core error about one input file, named the way naming says: "PART:
+ * ..." with the path replaced, or "PART: PATH...: ..." with the path as
+ * given (added when the core's message does not show it). */
+static sm_status file_error(sm_error *err, sm_job_naming naming, sm_part part, const char *path,
+                            sm_job_inputs *in)
+{
+    in->failed = part;
+    const char *name = sm_part_name(part);
+    if (naming == SM_JOB_NAME_PARTS)
+        return part_error(err, name, path);
+    if (strstr(err->msg, path))
+        sm_error_prefix(err, "%s", name);
+    else
+        sm_error_prefix(err, "%s: %s", name, path);
+    return err->code;
+}
+
+/* How a message names a file of its own: "target_sol" or
+ * "target_sol 'b.sol'". */
+static const char *label(char *buf, size_t cap, sm_job_naming naming, sm_part part,
+                         const char *path)
+{
+    if (naming == SM_JOB_NAME_PARTS)
+        snprintf(buf, cap, "%s", sm_part_name(part));
+    else
+        snprintf(buf, cap, "%s '%s'", sm_part_name(part), path);
+    return buf;
+}
+
+/* The distance: scalar, one finite value per background vertex. */
+static sm_status check_distance(const sm_job_files *files, sm_job_naming naming,
+                                sm_job_inputs *out, sm_error *err)
+{
+    char sol[512], bg[512];
+    label(sol, sizeof sol, naming, SM_PART_TARGET_SOL, files->target_sol);
+    out->failed = SM_PART_TARGET_SOL;
+    if (out->distance->ncomp != 1)
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "%s: a scalar signed distance is expected, got a field of %d "
+                            "components",
+                            sol, out->distance->ncomp);
+    if (out->distance->nverts != out->background->nverts) {
+        if (naming == SM_JOB_NAME_PARTS)
+            snprintf(bg, sizeof bg, "the target mesh");
+        else
+            snprintf(bg, sizeof bg, "the target mesh '%s'", files->target_mesh);
+        return sm_error_set(err, SM_ERR_INVALID, "%s: has %ld values but %s has %ld vertices", sol,
+                            (long)out->distance->nverts, bg, (long)out->background->nverts);
+    }
+    for (int32_t v = 0; v < out->distance->nverts; v++)
+        if (!isfinite(out->distance->values[v]))
+            return sm_error_set(err, SM_ERR_INVALID, "%s: value %ld is not finite", sol,
+                                (long)v + 1);
+    out->failed = SM_NPARTS;
+    return SM_OK;
+}
+
+sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
+                             sm_job_inputs *out, sm_error *err)
+{
+    memset(out, 0, sizeof *out);
+    sm_params_default(&out->params);
+    out->failed = SM_NPARTS;
+    double t0 = now_seconds();
+    sm_status st;
+    if ((st = sm_mesh_read(files->template_mesh, &out->template_mesh, err)) != SM_OK) {
+        file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
+        goto fail;
+    }
+    if ((st = sm_mesh_read(files->target_mesh, &out->background, err)) != SM_OK) {
+        file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
+        goto fail;
+    }
+    out->dim = out->template_mesh->dim;
+    if (out->background->dim != out->dim) {
+        st = sm_error_set(err, SM_ERR_INVALID,
+                          "dimension mismatch: the template is %dD but the target mesh is %dD",
+                          out->dim, out->background->dim);
+        goto fail;
+    }
+    if ((st = sm_sol_read(files->target_sol, &out->distance, err)) != SM_OK) {
+        file_error(err, naming, SM_PART_TARGET_SOL, files->target_sol, out);
+        goto fail;
+    }
+    if ((st = check_distance(files, naming, out, err)) != SM_OK)
+        goto fail;
+    /* topology checks on a copy: building the boundary reorients
+     * elements, and the outputs keep the input's connectivity as is; the
+     * run works on this copy */
+    if ((st = sm_mesh_clone(out->template_mesh, &out->prepared, err)) != SM_OK ||
+        (st = sm_mesh_build_boundary(out->prepared, err)) != SM_OK) {
+        file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
+        goto fail;
+    }
+    double tf = now_seconds();
+    st = sm_field_new(out->background, out->distance->values, &out->field, err);
+    out->field_builds++;
+    out->field_build_seconds = now_seconds() - tf;
+    if (st != SM_OK) {
+        file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
+        goto fail;
+    }
+    out->read_seconds = now_seconds() - t0;
+    return SM_OK;
+fail:
+    if (st == SM_ERR_NOMEM)
+        out->failed = SM_NPARTS;
+    sm_job_inputs_free(out);
+    return st;
+}
+
+sm_status sm_job_inputs_set_params(sm_job_inputs *in, const sm_params *params, sm_error *err)
+{
+    sm_status st;
+    int32_t nclamped = 0;
+    in->failed = SM_PART_PARAMS;
+    if ((st = sm_params_validate(params, in->dim, err)) != SM_OK ||
+        (st = sm_clamp_check(in->template_mesh, params, &nclamped, err)) != SM_OK)
+        return st;
+    in->failed = SM_NPARTS;
+    in->params = *params;
+    in->nclamped = nclamped;
+    return SM_OK;
+}
+
+sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
+                             size_t params_len, sm_job_inputs *out, sm_error *err)
+{
+    sm_params params;
+    sm_status st;
+    /* cheap syntax check first: no mesh parsing for a garbled params */
+    if ((st = sm_params_from_json(params_text, params_len, 0, &params, err)) != SM_OK) {
+        memset(out, 0, sizeof *out);
+        out->failed = SM_PART_PARAMS;
+        return st;
+    }
+    if ((st = sm_job_inputs_read(files, SM_JOB_NAME_PARTS, out, err)) != SM_OK)
+        return st;
+    if ((st = sm_params_from_json(params_text, params_len, out->dim, &params, err)) != SM_OK)
+        goto fail;
+    if ((st = sm_job_inputs_set_params(out, &params, err)) != SM_OK) {
+        sm_error_prefix(err, "%s", params.clamp == SM_CLAMP_BALL ? "params.clamp" : "params.clamp.refs");
+        goto fail;
+    }
+    return SM_OK;
+fail:
+    sm_job_inputs_free(out);
+    out->failed = SM_PART_PARAMS;
+    return st;
+}

@@ -1,0 +1,88 @@
+/* A job's inputs, read and checked together: the template mesh, the
+ * target (background) mesh, the target's signed distance and the
+ * parameters.  One set of rules for every way a job is run: the daemon
+ * applies them to an upload before accepting it (a job known to be bad is
+ * never queued), and the job runner (sm_job_runner.h) applies them again
+ * in `shapematch-worker` and in `shapematch run`:
+ *
+ *   - each file parses (core readers, hostile-input safe);
+ *   - template and target have the same dimension;
+ *   - the distance is a scalar field with one finite value per target
+ *     vertex;
+ *   - the template has a valid topology (sm_mesh_build_boundary on a
+ *     copy, kept as `prepared` for the run) and the target mesh supports
+ *     point location (sm_field_new: the field is built here, once, and
+ *     the run and the outputs use it);
+ *   - the parameters are in range for that dimension, and the clamp set
+ *     is not empty (ball, element or vertex references that match
+ *     nothing), does not hold every vertex, and pins rigid rotations.
+ *
+ * Messages start with the part they are about ("template: ...",
+ * "target_sol: ...", "params.clamp.radius: ...").  With SM_JOB_NAME_PARTS
+ * (the daemon: its paths are its own business) every path in a message
+ * is replaced by the part name; with SM_JOB_NAME_PATHS (a local run) the
+ * files are named as the user gave them. */
+#ifndef SM_JOB_INPUTS_H
+#define SM_JOB_INPUTS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "sm_error.h"
+#include "sm_field.h"
+#include "sm_io.h"
+#include "sm_mesh.h"
+#include "sm_params.h"
+#include "sm_proto_vocab.h"
+
+typedef struct sm_job_files {
+    const char *template_mesh;
+    const char *target_mesh;
+    const char *target_sol;
+} sm_job_files;
+
+typedef enum sm_job_naming {
+    SM_JOB_NAME_PARTS = 0,
+    SM_JOB_NAME_PATHS = 1
+} sm_job_naming;
+
+typedef struct sm_job_inputs {
+    sm_mesh *template_mesh;   /* as read (outputs keep its connectivity) */
+    sm_mesh *prepared;        /* copy with its boundary built (the run's) */
+    sm_mesh *background;
+    sm_sol *distance;
+    sm_field *field;          /* d on the background (borrows both) */
+    sm_params params;         /* defaults until parameters are set */
+    int dim;
+    int32_t nclamped;         /* template vertices in the clamp set */
+    int field_builds;         /* sm_field_new calls for this job (1) */
+    double read_seconds;      /* reading and checking the files, the
+                               * field included */
+    double field_build_seconds;
+    sm_part failed;           /* after a failure: the part the message is
+                               * about; SM_NPARTS when none (dimension
+                               * mismatch, out of memory) */
+} sm_job_inputs;
+
+/* Reads and checks the three files and builds the field; parameters are
+ * left at their defaults.  On failure every member is freed and NULL. */
+sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
+                             sm_job_inputs *out, sm_error *err);
+
+/* Sets the parameters after checking them against the inputs
+ * (sm_params_validate for the dimension, then the clamp set).  Messages
+ * are the core's, unprefixed: callers name the option or field.  On
+ * failure in->params is unchanged. */
+sm_status sm_job_inputs_set_params(sm_job_inputs *in, const sm_params *params,
+                                   sm_error *err);
+
+/* The daemon's and the worker's way: params as JSON (params_text need not
+ * be NUL-terminated; its syntax is checked before any mesh is parsed),
+ * messages with part names.  On failure every member is freed and NULL. */
+sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
+                             size_t params_len, sm_job_inputs *out,
+                             sm_error *err);
+
+void sm_job_inputs_free(sm_job_inputs *in);
+
+#endif

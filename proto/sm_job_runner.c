@@ -1,0 +1,423 @@
+/* The job runner (see sm_job_runner.h). */
+#include "sm_job_runner.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "sm_atomic.h"
+#include "sm_io.h"
+#include "sm_json.h"
+#include "sm_payload.h"
+#include "sm_proto_events.h"
+#include "sm_proto_json.h"
+#include "sm_proto_vocab.h"
+
+#ifndef SM_VERSION
+#define SM_VERSION "unknown"
+#endif
+
+const char *sm_job_outcome_name(sm_job_outcome outcome)
+{
+    switch (outcome) {
+    case SM_JOB_OUTCOME_FINISHED: return "finished";
+    case SM_JOB_OUTCOME_CANCELLED: return "cancelled";
+    case SM_JOB_OUTCOME_FAILED: return "failed";
+    }
+    return "unknown";
+}
+
+/* ------------------------------------------------------------- the run */
+
+typedef struct run_ctx {
+    const sm_job_inputs *in;
+    const sm_job_hooks *hooks;
+    sm_job_run *run;
+    sm_status failed;            /* SM_OK, or why the hook stopped the run */
+    sm_error error;
+} run_ctx;
+
+/* One row per iteration: a repeated report replaces the previous. */
+static int history_push(sm_job_run *run, const sm_progress *p)
+{
+    if (run->nhistory > 0 && run->history[run->nhistory - 1].iteration == p->iteration) {
+        run->history[run->nhistory - 1] = *p;
+        return 0;
+    }
+    if (run->nhistory == run->history_cap) {
+        size_t cap = run->history_cap ? 2 * run->history_cap : 256;
+        sm_progress *rows = realloc(run->history, cap * sizeof *rows);
+        if (!rows)
+            return -1;
+        run->history = rows;
+        run->history_cap = cap;
+    }
+    run->history[run->nhistory++] = *p;
+    return 0;
+}
+
+/* SNAPSHOT_DIR/iter-NNNNN.mesh, atomically. */
+static sm_status write_snapshot(run_ctx *c, int iteration, const double *coords)
+{
+    char name[64];
+    snprintf(name, sizeof name, SM_SNAPSHOT_FORMAT, iteration);
+    size_t n = strlen(c->hooks->snapshot_dir) + strlen(name) + 2;
+    char *path = malloc(n);
+    if (!path)
+        return sm_error_set(&c->error, SM_ERR_NOMEM, "out of memory");
+    snprintf(path, n, "%s/%s", c->hooks->snapshot_dir, name);
+    sm_atomic a;
+    sm_status st = sm_atomic_reserve(&a, path, &c->error);
+    if (st == SM_OK) {
+        st = sm_mesh_write_coords(a.tmp_path, c->in->template_mesh, coords, &c->error);
+        if (st == SM_OK)
+            st = sm_atomic_commit(&a, c->hooks->write_flags, &c->error);
+        else
+            sm_atomic_abort(&a);
+    }
+    if (st != SM_OK)
+        sm_error_prefix(&c->error, "cannot write the snapshot of iteration %d", iteration);
+    free(path);
+    return st;
+}
+
+static int on_progress(const sm_progress *p, const double *coords, void *user)
+{
+    run_ctx *c = user;
+    if (history_push(c->run, p) != 0) {
+        c->failed = sm_error_set(&c->error, SM_ERR_NOMEM, "out of memory recording the history");
+        return 1;
+    }
+    const sm_job_hooks *h = c->hooks;
+    int every = c->in->params.save_every;
+    if (h->snapshot_dir && every > 0 && p->iteration > 0 && p->iteration % every == 0 && coords &&
+        (c->failed = write_snapshot(c, p->iteration, coords)) != SM_OK)
+        return 1;
+    return h->progress ? h->progress(p, h->user) : 0;
+}
+
+sm_status sm_job_run_exec(const sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_run *run,
+                          sm_error *err)
+{
+    memset(run, 0, sizeof *run);
+    const sm_mesh *m = in->template_mesh;
+    size_t n = (size_t)m->nverts * (size_t)m->dim;
+    run->coords = malloc((n ? n : 1) * sizeof *run->coords);
+    if (!run->coords)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for a mesh of %ld vertices",
+                            (long)m->nverts);
+    sm_job_hooks none = {0};
+    run_ctx c = {.in = in, .hooks = hooks ? hooks : &none, .run = run, .failed = SM_OK};
+    sm_error_clear(&c.error);
+    sm_match_opts opts = {.template_mesh = m, .prepared = in->prepared, .target = in->field,
+                          .params = &in->params};
+    sm_match_callbacks cb = {.progress = on_progress, .user = &c, .cancel = c.hooks->cancel};
+    sm_status st = sm_match_run(&opts, &cb, run->coords, &run->result, err);
+    if (c.failed != SM_OK) {
+        if (err)
+            *err = c.error;
+        return c.failed;
+    }
+    if (st != SM_OK)
+        return st;
+    const sm_result *r = &run->result;
+    if (r->stop == SM_STOP_CANCELLED) {
+        run->outcome = SM_JOB_OUTCOME_CANCELLED;
+        run->exit_code = SM_JOB_EXIT_CANCELLED;
+    } else if (r->stop == SM_STOP_STEP && r->iterations == 0) {
+        run->outcome = SM_JOB_OUTCOME_FAILED;
+        run->exit_code = SM_JOB_EXIT_NUMERIC;
+        snprintf(run->message, sizeof run->message,
+                 "no valid step from the initial mesh (boundary error %.3e); the template may "
+                 "already match the target (see tol_boundary) or the parameters prevent any "
+                 "move (min_quality, tol_step)",
+                 r->boundary_l2);
+    } else {
+        run->outcome = SM_JOB_OUTCOME_FINISHED;
+        run->exit_code = SM_JOB_EXIT_OK;
+    }
+    sm_quality_stats q;
+    sm_mesh_quality(in->prepared, run->coords, &q);
+    run->inverted = q.ninverted;
+    return SM_OK;
+}
+
+void sm_job_run_free(sm_job_run *run)
+{
+    if (!run)
+        return;
+    free(run->coords);
+    free(run->history);
+    run->coords = NULL;
+    run->history = NULL;
+    run->nhistory = run->history_cap = 0;
+}
+
+/* --------------------------------------------------------- the summary */
+
+static int set_string(json_t *obj, const char *key, const char *value)
+{
+    json_t *v = sm_json_string_lossy(value ? value : "");
+    return v ? smp_set(obj, key, v) : -1;
+}
+
+static json_t *outputs_object(void)
+{
+    json_t *outputs = json_object();
+    int bad = !outputs;
+    for (int k = 0; !bad && k < SM_NRESULT_KINDS; k++) {
+        size_t n;
+        const sm_result_format *f = sm_result_formats_of((sm_result_kind)k, &n);
+        json_t *files = json_object();
+        bad = !files || smp_set(outputs, sm_result_kind_name((sm_result_kind)k), files) != 0;
+        for (size_t i = 0; !bad && i < n; i++)
+            bad = smp_set(files, f[i].name, json_string(f[i].file)) != 0;
+    }
+    bad = bad || smp_set(outputs, "summary", json_string(SM_RESULT_SUMMARY_FILE)) != 0;
+    if (bad) {
+        json_decref(outputs);
+        return NULL;
+    }
+    return outputs;
+}
+
+json_t *sm_job_summary_to_jansson(const sm_job_inputs *in, const sm_job_run *run,
+                                  const sm_job_files *names)
+{
+    const sm_mesh *m = in->template_mesh;
+    json_t *res = sm_result_to_jansson(&run->result, &in->params, in->dim);
+    json_t *doc = json_object();
+    json_t *inputs = json_object(), *tmpl = json_object();
+    int bad = !res || !doc || !inputs || !tmpl;
+    bad = bad || smp_set(doc, "shapematch_version", json_string(SM_VERSION));
+    bad = bad || smp_set(doc, "status", json_string(sm_job_outcome_name(run->outcome)));
+    bad = bad || smp_set(doc, "exit_code", json_integer(run->exit_code));
+    if (!bad) {
+        /* the result members, in their order, with timings.read first */
+        json_t *timings = json_object_get(res, "timings");
+        json_t *t = json_object();
+        const char *key;
+        json_t *value;
+        bad = !timings || !t || smp_set(t, "read", smp_real_or_null(in->read_seconds)) ||
+              smp_set(t, "field_build", smp_real_or_null(in->field_build_seconds));
+        json_object_foreach(timings, key, value) bad = bad || smp_set(t, key, json_incref(value));
+        json_object_foreach(res, key, value)
+        {
+            if (strcmp(key, "timings") == 0)
+                bad = bad || smp_set(doc, key, json_incref(t));
+            else
+                bad = bad || smp_set(doc, key, json_incref(value));
+        }
+        json_decref(t);
+    }
+    bad = bad || smp_set(doc, "inverted_elements", json_integer(run->inverted));
+    bad = bad || smp_set(doc, "field_builds", json_integer(in->field_builds));
+    bad = bad || set_string(inputs, "template", names->template_mesh) ||
+          set_string(inputs, "target_mesh", names->target_mesh) ||
+          set_string(inputs, "target_sol", names->target_sol);
+    bad = bad || smp_set(tmpl, "dimension", json_integer(m->dim)) ||
+          smp_set(tmpl, "vertices", json_integer(m->nverts)) ||
+          smp_set(tmpl, "elements", json_integer(m->nelems)) ||
+          smp_set(tmpl, "facets", json_integer(m->nfacets));
+    if (!bad) {
+        bad = smp_set(doc, "inputs", inputs) != 0;
+        inputs = NULL;
+        bad = bad || smp_set(doc, "template", tmpl) != 0;
+        tmpl = NULL;
+        bad = bad || smp_set(doc, "outputs", outputs_object()) != 0;
+    }
+    json_decref(res);
+    json_decref(inputs);
+    json_decref(tmpl);
+    if (bad) {
+        json_decref(doc);
+        return NULL;
+    }
+    return doc;
+}
+
+/* --------------------------------------------------------- the results */
+
+static void csv_number(FILE *f, double v)
+{
+    if (!isfinite(v)) {
+        fputs(isnan(v) ? "nan" : v > 0 ? "inf" : "-inf", f);
+        return;
+    }
+    /* the shortest of 15..17 digits that reads back exactly */
+    char buf[40];
+    for (int digits = 15; digits <= 17; digits++) {
+        snprintf(buf, sizeof buf, "%.*g", digits, v);
+        if (digits == 17 || strtod(buf, NULL) == v)
+            break;
+    }
+    fputs(buf, f);
+}
+
+static void write_history_csv(FILE *f, const sm_job_run *run)
+{
+    fputs("iteration,J,step,boundary_l2,boundary_max,min_quality,elapsed,accepted,rejected\n", f);
+    for (size_t i = 0; i < run->nhistory; i++) {
+        const sm_progress *p = &run->history[i];
+        fprintf(f, "%d,", p->iteration);
+        const double vals[] = {p->J, p->step, p->boundary_l2, p->boundary_max, p->min_quality,
+                               p->elapsed};
+        for (size_t k = 0; k < sizeof vals / sizeof vals[0]; k++) {
+            csv_number(f, vals[k]);
+            fputc(',', f);
+        }
+        fprintf(f, "%d,%d\n", p->accepted, p->rejected);
+    }
+}
+
+static char *history_json(const sm_job_run *run)
+{
+    json_t *rows = json_array();
+    for (size_t i = 0; rows && i < run->nhistory; i++) {
+        sm_event ev;
+        sm_event_init(&ev, SM_EVENT_PROGRESS);
+        ev.progress = run->history[i];
+        json_t *row = sm_event_to_jansson(&ev);
+        if (!row || json_object_del(row, "type") != 0 || json_array_append_new(rows, row) != 0) {
+            json_decref(rows);
+            rows = NULL;
+        }
+    }
+    char *text = rows ? sm_json_dumps(rows, 0) : NULL;
+    json_decref(rows);
+    return text;
+}
+
+/* DIR/NAME as a string, malloc'd. */
+static char *join(const char *dir, const char *name)
+{
+    size_t n = strlen(dir) + strlen(name) + 2;
+    char *p = malloc(n);
+    if (p)
+        snprintf(p, n, "%s/%s", dir, name);
+    return p;
+}
+
+typedef struct result_data {
+    const sm_mesh *mesh;
+    const double *coords, *displacement, *distance;
+    const sm_sol *sol;
+    const sm_job_run *run;
+    const char *text;            /* the summary or history.json */
+} result_data;
+
+/* One file of the set: a core writer on a reserved temporary name, or
+ * text through the temporary's stream. */
+static sm_status write_one(const char *dir, const sm_result_format *f, const result_data *d,
+                           unsigned flags, sm_error *err)
+{
+    char *path = join(dir, f->file);
+    if (!path)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    sm_atomic a;
+    sm_status st;
+    if (f->kind == SM_RESULT_HISTORY) {
+        st = sm_atomic_open(&a, path, err);
+        if (st == SM_OK) {
+            if (strcmp(f->name, "csv") == 0)
+                write_history_csv(a.f, d->run);
+            else
+                fprintf(a.f, "%s\n", d->text);
+            st = sm_atomic_commit(&a, flags, err);
+        }
+    } else if ((st = sm_atomic_reserve(&a, path, err)) == SM_OK) {
+        const char *tmp = a.tmp_path;
+        if (f->kind == SM_RESULT_DISPLACEMENT)
+            st = sm_sol_write(tmp, d->sol, err);
+        else if (strcmp(f->name, "vtu") == 0)
+            st = sm_vtu_write(tmp, d->mesh, d->coords, d->displacement, d->distance, err);
+        else if (strcmp(f->name, "binary") == 0)
+            st = sm_payload_write_file(tmp, d->mesh, d->coords, d->displacement, d->distance, err);
+        else
+            st = sm_mesh_write_coords(tmp, d->mesh, d->coords, err);
+        if (st == SM_OK)
+            st = sm_atomic_commit(&a, flags, err);
+        else
+            sm_atomic_abort(&a);
+    }
+    if (st != SM_OK && err && !strstr(err->msg, f->file))
+        sm_error_prefix(err, "cannot write %s", f->file);
+    free(path);
+    return st;
+}
+
+static sm_status write_summary(const sm_job_inputs *in, const sm_job_run *run,
+                               const sm_job_files *names, const char *dir, unsigned flags,
+                               sm_error *err)
+{
+    json_t *doc = sm_job_summary_to_jansson(in, run, names);
+    char *text = doc ? sm_json_dumps(doc, 2) : NULL;
+    char *path = join(dir, SM_RESULT_SUMMARY_FILE);
+    json_decref(doc);
+    sm_status st;
+    if (!text || !path) {
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory writing the summary");
+    } else {
+        size_t n = strlen(text);
+        text[n] = '\n'; /* replaces the NUL: written with its length */
+        st = sm_atomic_write_file(path, text, n + 1, flags, err);
+    }
+    free(text);
+    free(path);
+    return st;
+}
+
+sm_status sm_job_write_results(const sm_job_inputs *in, const sm_job_run *run,
+                               const sm_job_files *names, const char *dir, unsigned flags,
+                               sm_error *err)
+{
+    const sm_mesh *m = in->template_mesh;
+    size_t n = (size_t)m->nverts * (size_t)m->dim;
+    sm_status st;
+    sm_sol *sol = NULL;
+    char *history = NULL;
+    double *disp = malloc((n ? n : 1) * sizeof *disp);
+    double *dist = malloc(((size_t)m->nverts + 1) * sizeof *dist);
+    char *old_summary = join(dir, SM_RESULT_SUMMARY_FILE);
+    if (!disp || !dist || !old_summary) {
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory preparing the results");
+        goto done;
+    }
+    /* a summary.json left by an earlier run in the same folder must not
+     * vouch for a set of files this run only partly replaced */
+    if (unlink(old_summary) != 0 && errno != ENOENT) {
+        st = sm_error_set(err, SM_ERR_IO, "cannot remove the previous '%s': %s", old_summary,
+                          strerror(errno));
+        goto done;
+    }
+    for (size_t i = 0; i < n; i++)
+        disp[i] = run->coords[i] - m->coords[i];
+    /* consecutive vertices are usually close: the element found for one
+     * is a good start for the next walk */
+    int32_t hint = -1;
+    for (int32_t v = 0; v < m->nverts; v++)
+        dist[v] = sm_field_eval(in->field, run->coords + (size_t)v * (size_t)m->dim, &hint);
+    if ((st = sm_sol_alloc(&sol, m->dim, m->nverts, m->dim, err)) != SM_OK)
+        goto done;
+    memcpy(sol->values, disp, n * sizeof *disp);
+    if (!(history = history_json(run))) {
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory writing the history");
+        goto done;
+    }
+    result_data d = {.mesh = m, .coords = run->coords, .displacement = disp, .distance = dist,
+                     .sol = sol, .run = run, .text = history};
+    for (size_t i = 0; i < SM_RESULT_FORMATS_N; i++)
+        if ((st = write_one(dir, &sm_result_formats[i], &d, flags, err)) != SM_OK)
+            goto done;
+    st = write_summary(in, run, names, dir, flags, err);
+done:
+    free(old_summary);
+    free(history);
+    sm_sol_free(sol);
+    free(disp);
+    free(dist);
+    return st;
+}

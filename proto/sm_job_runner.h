@@ -1,0 +1,108 @@
+/* The one job runner: checked inputs (sm_job_inputs.h) -> sm_match_run ->
+ * the whole result set and its summary.  `shapematch run` and
+ * `shapematch-worker` both run jobs through it, so a job has one outcome
+ * and one summary.json whichever way it is run; each program only adds
+ * its own I/O framing (the CLI: progress line, NDJSON, exit codes; the
+ * worker: events on its pipe, the results folder it publishes).
+ *
+ * Outcome of a run that returned SM_OK:
+ *   finished   the descent ended by its rules (stop reason);
+ *   cancelled  the cancel flag, or the progress hook, asked to stop;
+ *   failed     not even the first step could be taken (stop
+ *              step_tolerance after 0 iterations): nothing moved, which
+ *              for a user is a failure, not a result.
+ *
+ * The result set (file names: sm_proto_vocab.h), written into one folder,
+ * each file atomically (sm_atomic.h), summary.json last after an older
+ * one is removed, so its presence vouches for a complete set from one run:
+ *   result.mesh, result.meshb   deformed template (same topology, refs)
+ *   result.vtu                  with point fields displacement, distance
+ *   result.smmesh               the binary payload (proto/PAYLOAD.md)
+ *   displacement.sol, .solb     cumulative displacement x_k - x_0
+ *   history.csv, history.json   one row per iteration
+ *   summary.json                the summary document below
+ * and, with params.save_every K > 0, iter-NNNNN.mesh after iterations K,
+ * 2K, ... into the snapshot folder the caller names.
+ *
+ * summary.json: sm_result_to_jansson's members (stop_reason, iterations,
+ * J_initial, J_final, boundary_l2, boundary_max, min_quality, accepted,
+ * rejected, timings, parameters) plus shapematch_version, status,
+ * exit_code, inverted_elements, field_builds, timings.read and
+ * timings.field_build, inputs (the names the caller gives), template
+ * (dimension and counts) and outputs (the file of each result format).
+ * The daemon serves it as GET /v1/jobs/{id}/results, adding jobID and
+ * links. */
+#ifndef SM_JOB_RUNNER_H
+#define SM_JOB_RUNNER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include <jansson.h>
+
+#include "sm_error.h"
+#include "sm_job_inputs.h"
+#include "sm_match.h"
+
+/* Exit codes shared by `shapematch run` and `shapematch-worker` (the
+ * programs add their own above these). */
+enum sm_job_exit {
+    SM_JOB_EXIT_OK = 0,
+    SM_JOB_EXIT_USAGE = 1,
+    SM_JOB_EXIT_INPUT = 2,
+    SM_JOB_EXIT_NUMERIC = 3,
+    SM_JOB_EXIT_OUTPUT = 4,
+    SM_JOB_EXIT_CANCELLED = 5
+};
+
+typedef enum sm_job_outcome {
+    SM_JOB_OUTCOME_FINISHED = 0,
+    SM_JOB_OUTCOME_CANCELLED = 1,
+    SM_JOB_OUTCOME_FAILED = 2
+} sm_job_outcome;
+/* "finished", "cancelled", "failed". */
+const char *sm_job_outcome_name(sm_job_outcome outcome);
+
+typedef struct sm_job_hooks {
+    /* After each iteration (and the initial state), once the runner has
+     * recorded it and written its snapshot.  Nonzero stops the run
+     * (outcome cancelled).  May be NULL. */
+    int (*progress)(const sm_progress *p, void *user);
+    void *user;
+    const volatile int *cancel;  /* polled between iterations; may be NULL */
+    const char *snapshot_dir;    /* iter-NNNNN.mesh go here (NULL: none) */
+    unsigned write_flags;        /* SM_ATOMIC_FSYNC: snapshots durable */
+} sm_job_hooks;
+
+typedef struct sm_job_run {
+    sm_result result;
+    double *coords;              /* final vertex positions (nverts*dim) */
+    sm_progress *history;        /* one row per iteration, 0 first */
+    size_t nhistory, history_cap;
+    sm_job_outcome outcome;
+    int exit_code;               /* SM_JOB_EXIT_OK, _NUMERIC or _CANCELLED */
+    int32_t inverted;            /* elements with volume <= 0 at the end */
+    char message[512];           /* failed: why, for the user */
+} sm_job_run;
+
+/* Runs the job on in (field and prepared template reused, nothing is
+ * built again).  SM_OK: run->outcome says how it ended, run->coords and
+ * run->result describe the state reached.  Errors: the core's (with its
+ * message), SM_ERR_IO when a snapshot cannot be written, SM_ERR_NOMEM.
+ * Free run with sm_job_run_free in every case. */
+sm_status sm_job_run_exec(const sm_job_inputs *in, const sm_job_hooks *hooks,
+                          sm_job_run *run, sm_error *err);
+void sm_job_run_free(sm_job_run *run);
+
+/* The summary document (a new reference; NULL when out of memory).
+ * names: what "inputs" reports for each file. */
+json_t *sm_job_summary_to_jansson(const sm_job_inputs *in, const sm_job_run *run,
+                                  const sm_job_files *names);
+
+/* Writes the whole result set into dir (which exists).  flags:
+ * SM_ATOMIC_FSYNC makes every file durable. */
+sm_status sm_job_write_results(const sm_job_inputs *in, const sm_job_run *run,
+                               const sm_job_files *names, const char *dir,
+                               unsigned flags, sm_error *err);
+
+#endif

@@ -1,0 +1,53 @@
+/* The wire vocabulary tables (see sm_proto_vocab.h). */
+#include "sm_proto_vocab.h"
+
+#include <string.h>
+
+#include "sm_payload.h"
+
+const char *const sm_part_names[SM_NPARTS] = {"template", "target_mesh", "target_sol", "params"};
+
+const char *sm_part_name(sm_part part)
+{
+    return part >= 0 && part < SM_NPARTS ? sm_part_names[part] : NULL;
+}
+
+const sm_result_format sm_result_formats[SM_RESULT_FORMATS_N] = {
+    {SM_RESULT_MESH, "mesh", "application/x-medit-mesh", "result.mesh"},
+    {SM_RESULT_MESH, "meshb", "application/x-medit-meshb", "result.meshb"},
+    {SM_RESULT_MESH, "vtu", "application/vnd.vtk.vtu+xml", "result.vtu"},
+    {SM_RESULT_MESH, "binary", SM_PAYLOAD_MEDIA_TYPE, "result.smmesh"},
+    {SM_RESULT_DISPLACEMENT, "sol", "application/x-medit-sol", "displacement.sol"},
+    {SM_RESULT_DISPLACEMENT, "solb", "application/x-medit-solb", "displacement.solb"},
+    {SM_RESULT_HISTORY, "csv", "text/csv", "history.csv"},
+    {SM_RESULT_HISTORY, "json", "application/json", "history.json"},
+};
+
+static const char *const kind_names[SM_NRESULT_KINDS] = {"mesh", "displacement", "history"};
+
+const char *sm_result_kind_name(sm_result_kind kind)
+{
+    return kind >= 0 && kind < SM_NRESULT_KINDS ? kind_names[kind] : NULL;
+}
+
+const sm_result_format *sm_result_formats_of(sm_result_kind kind, size_t *n)
+{
+    const sm_result_format *first = NULL;
+    size_t count = 0;
+    for (size_t i = 0; i < SM_RESULT_FORMATS_N; i++)
+        if (sm_result_formats[i].kind == kind) {
+            if (!first)
+                first = &sm_result_formats[i];
+            count++;
+        }
+    *n = count;
+    return first;
+}
+
+const sm_result_format *sm_result_format_find(sm_result_kind kind, const char *name)
+{
+    for (size_t i = 0; i < SM_RESULT_FORMATS_N; i++)
+        if (sm_result_formats[i].kind == kind && strcmp(sm_result_formats[i].name, name) == 0)
+            return &sm_result_formats[i];
+    return NULL;
+}

@@ -1,0 +1,72 @@
+/* The wire vocabulary: the names the daemon, the worker and the client
+ * must spell the same way, one table each.
+ *
+ *   - the parts of a job submission (multipart part names, job.json keys);
+ *   - the result set: every file a run writes (sm_job_runner.h), grouped by
+ *     what GET /v1/jobs/{id}/results/{what}?format=F serves, with the
+ *     format names, media types and file names;
+ *   - the Idempotency-Key length limit.
+ *
+ * The OpenAPI document (proto/openapi.yaml) describes the same names; a
+ * change here is a change of the contract. */
+#ifndef SM_PROTO_VOCAB_H
+#define SM_PROTO_VOCAB_H
+
+#include <stddef.h>
+
+/* ---- job inputs: multipart parts and job.json members ---- */
+typedef enum sm_part {
+    SM_PART_TEMPLATE = 0,
+    SM_PART_TARGET_MESH = 1,
+    SM_PART_TARGET_SOL = 2,
+    SM_PART_PARAMS = 3,
+    SM_NPARTS = 4
+} sm_part;
+/* "template", "target_mesh", "target_sol", "params", indexed by sm_part. */
+extern const char *const sm_part_names[SM_NPARTS];
+/* sm_part_names[part], NULL outside. */
+const char *sm_part_name(sm_part part);
+
+/* ---- the result set ---- */
+/* What /results/{what} serves: one resource, several formats. */
+typedef enum sm_result_kind {
+    SM_RESULT_MESH = 0,         /* the deformed mesh */
+    SM_RESULT_DISPLACEMENT = 1, /* cumulative displacement per vertex */
+    SM_RESULT_HISTORY = 2,      /* one row per iteration */
+    SM_NRESULT_KINDS = 3
+} sm_result_kind;
+
+typedef struct sm_result_format {
+    sm_result_kind kind;
+    const char *name;   /* ?format= value ("mesh", "vtu", "csv", ...) */
+    const char *media;  /* Content-Type */
+    const char *file;   /* file name in a result folder */
+} sm_result_format;
+
+/* Every result file but the summary, by kind, the default format of each
+ * kind first.  SM_RESULT_FORMATS_N entries. */
+extern const sm_result_format sm_result_formats[];
+#define SM_RESULT_FORMATS_N 8
+/* The path segment of a kind: "mesh", "displacement", "history". */
+const char *sm_result_kind_name(sm_result_kind kind);
+/* The format `name` of kind, or NULL. */
+const sm_result_format *sm_result_format_find(sm_result_kind kind, const char *name);
+/* The formats of kind: *n entries from the returned one (NULL for a bad
+ * kind). */
+const sm_result_format *sm_result_formats_of(sm_result_kind kind, size_t *n);
+
+/* The summary document (sm_job_runner.h) and its media type. */
+#define SM_RESULT_SUMMARY_FILE "summary.json"
+#define SM_RESULT_SUMMARY_MEDIA "application/json"
+/* Snapshots (params.save_every K): iter-NNNNN.mesh after iterations K,
+ * 2K, ... (the daemon keeps them in results/snapshots/, `shapematch run`
+ * in its output folder). */
+#define SM_SNAPSHOTS_DIR "snapshots"
+#define SM_SNAPSHOT_FORMAT "iter-%05d.mesh"
+#define SM_SNAPSHOT_MEDIA "application/x-medit-mesh"
+
+/* ---- requests ---- */
+/* Longest Idempotency-Key (visible ASCII characters, at least 1). */
+#define SM_IDEMPOTENCY_KEY_MAX 255
+
+#endif

@@ -408,7 +408,11 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
                                                      MHD_HTTP_HEADER_CONTENT_LENGTH);
     const char *chunked = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
                                                       MHD_HTTP_HEADER_TRANSFER_ENCODING);
-    unsigned long long body = length ? strtoull(length, NULL, 10) : 0;
+    /* a malformed or huge length is no body worth waiting for (libmicrohttpd
+     * refuses malformed ones itself; the upload route answers 413) */
+    uint64_t body = 0;
+    if (length && smd_parse_uint(length, 0, UINT64_MAX, &body) != SMD_NUM_OK)
+        body = 0;
     req->body_pending = (body > 0 && body <= srv->cfg.max_upload) || (!length && chunked);
     /* no body: answer on the next call (keeps the connection alive) */
     if (!req->body_pending && !length && !chunked && strcmp(method, MHD_HTTP_METHOD_POST) != 0)

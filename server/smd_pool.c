@@ -226,7 +226,8 @@ static int start_next(smd_pool *p, smd_wake_list *wake)
     }
     double now = sm_time_now();
     job->state = SM_JOB_RUNNING;
-    job->attempt++;
+    if (job->attempt < SMD_ATTEMPT_MAX)
+        job->attempt++;
     job->started = job->updated = now;
     job->finished = -1;
     job->progress = 0;

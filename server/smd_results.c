@@ -269,16 +269,11 @@ static int snapshot_name_iteration(const char *name)
 /* The {iteration} segment of the path: canonical decimal, 1 or more. */
 static int parse_iteration(const char *seg)
 {
-    size_t len = strlen(seg);
-    if (len == 0 || len > SNAPSHOT_ITERATION_DIGITS || seg[0] == '0')
+    uint64_t v;
+    if (strlen(seg) > SNAPSHOT_ITERATION_DIGITS || seg[0] == '0' ||
+        smd_parse_uint(seg, 1, INT_MAX, &v) != SMD_NUM_OK)
         return -1;
-    int v = 0;
-    for (size_t i = 0; i < len; i++) {
-        if (!isdigit((unsigned char)seg[i]))
-            return -1;
-        v = v * 10 + (seg[i] - '0');
-    }
-    return v;
+    return (int)v;
 }
 
 static int by_iteration(const void *a, const void *b)

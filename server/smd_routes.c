@@ -14,6 +14,9 @@
 #include "smd_stream.h"
 
 #define OGC_REL "http://www.opengis.net/def/rel/ogc/1.0/"
+/* largest page of GET /v1/jobs (bounds the status documents built under
+ * the lock by one request) */
+#define SMD_LIST_LIMIT_MAX 1000
 
 static json_t *mklink(const char *href, const char *rel, const char *type, const char *title)
 {
@@ -202,19 +205,6 @@ enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req,
 
 /* ----------------------------------------------------------------- jobs */
 
-static int parse_long(const char *text, long lo, long hi, long *out)
-{
-    if (!text || !(*text >= '0' && *text <= '9'))
-        return -1;
-    char *end;
-    errno = 0;
-    long v = strtol(text, &end, 10);
-    if (errno || *end || v < lo || v > hi)
-        return -1;
-    *out = v;
-    return 0;
-}
-
 enum MHD_Result smd_route_jobs_list(struct MHD_Connection *conn, smd_request *req)
 {
     smd_server *srv = req->srv;
@@ -235,15 +225,17 @@ enum MHD_Result smd_route_jobs_list(struct MHD_Connection *conn, smd_request *re
             wanted |= 1u << st;
         }
     }
-    long limit = 100, offset = 0;
-    if (limit_s && parse_long(limit_s, 1, 1000, &limit) != 0)
+    uint64_t limit_u = 100, offset_u = 0;
+    if (limit_s && smd_parse_uint(limit_s, 1, SMD_LIST_LIMIT_MAX, &limit_u) != SMD_NUM_OK)
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
-                                 "limit: expected an integer in [1, 1000]");
-    if (offset_s && parse_long(offset_s, 0, LONG_MAX, &offset) != 0)
+                                 "limit: expected an integer in [1, %d]", SMD_LIST_LIMIT_MAX);
+    if (offset_s && smd_parse_uint(offset_s, 0, SMD_REQUEST_INT_MAX, &offset_u) != SMD_NUM_OK)
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
-                                 "offset: expected an integer >= 0");
+                                 "offset: expected an integer in [0, %lld]", SMD_REQUEST_INT_MAX);
+    /* both bounded (limit <= 1000, offset < 2^53): every sum below fits */
+    int64_t limit = (int64_t)limit_u, offset = (int64_t)offset_u;
     json_t *jobs = json_array();
-    long matched = 0;
+    int64_t matched = 0;
     pthread_mutex_lock(&srv->lock);
     size_t n = smd_store_count(srv->store);
     for (size_t k = 0; k < n; k++) { /* oldest first */
@@ -267,14 +259,16 @@ enum MHD_Result smd_route_jobs_list(struct MHD_Connection *conn, smd_request *re
                 first = 0;
             }
     }
-    snprintf(href, sizeof href, "/v1/jobs?limit=%ld&offset=%ld%s", limit, offset, filter);
+    snprintf(href, sizeof href, "/v1/jobs?limit=%" PRId64 "&offset=%" PRId64 "%s", limit, offset,
+             filter);
     json_array_append_new(links, mklink(href, "self", "application/json", "this page"));
     if (offset + limit < matched) {
-        snprintf(href, sizeof href, "/v1/jobs?limit=%ld&offset=%ld%s", limit, offset + limit, filter);
+        snprintf(href, sizeof href, "/v1/jobs?limit=%" PRId64 "&offset=%" PRId64 "%s", limit,
+                 offset + limit, filter);
         json_array_append_new(links, mklink(href, "next", "application/json", "next page"));
     }
     if (offset > 0) {
-        snprintf(href, sizeof href, "/v1/jobs?limit=%ld&offset=%ld%s", limit,
+        snprintf(href, sizeof href, "/v1/jobs?limit=%" PRId64 "&offset=%" PRId64 "%s", limit,
                  offset > limit ? offset - limit : 0, filter);
         json_array_append_new(links, mklink(href, "prev", "application/json", "previous page"));
     }
@@ -380,20 +374,25 @@ enum MHD_Result smd_route_events(struct MHD_Connection *conn, smd_request *req)
     if (choice < 0)
         return smd_reply_problem(conn, req, 406, SMD_PROBLEM_NOT_ACCEPTABLE,
                                  "events are served as text/event-stream or application/x-ndjson");
-    long after = 0;
+    /* a sequence number beyond the log is fine (nothing to replay: the
+     * stream waits for the job's end); one beyond 2^53 - 1 is refused */
+    uint64_t after = 0;
     const char *last = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, "Last-Event-ID");
     const char *after_q = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "after");
-    if (last && *last && parse_long(last, 0, LONG_MAX, &after) != 0)
+    if (last && *last && smd_parse_uint(last, 0, SMD_REQUEST_INT_MAX, &after) != SMD_NUM_OK)
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
-                                 "Last-Event-ID: expected an event sequence number");
-    if (!(last && *last) && after_q && parse_long(after_q, 0, LONG_MAX, &after) != 0)
+                                 "Last-Event-ID: expected an event sequence number in [0, %lld]",
+                                 SMD_REQUEST_INT_MAX);
+    if (!(last && *last) && after_q &&
+        smd_parse_uint(after_q, 0, SMD_REQUEST_INT_MAX, &after) != SMD_NUM_OK)
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
-                                 "after: expected an event sequence number");
+                                 "after: expected an event sequence number in [0, %lld]",
+                                 SMD_REQUEST_INT_MAX);
     char msg[256];
     pthread_mutex_lock(&srv->lock);
     smd_job *job = smd_store_get(srv->store, req->id);
     struct MHD_Response *resp =
-        job ? smd_stream_response(srv, job, conn, choice == 1, after, &req->bytes_out, msg, sizeof msg)
+        job ? smd_stream_response(srv, job, conn, choice == 1, (int64_t)after, &req->bytes_out, msg, sizeof msg)
             : NULL;
     pthread_mutex_unlock(&srv->lock);
     if (!job)

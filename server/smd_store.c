@@ -31,6 +31,13 @@ struct smd_store {
     int64_t next_order;
 };
 
+/* The order given to the job after one of order o: saturates at
+ * SMD_ORDER_MAX (see smd_store.h). */
+static int64_t next_order_after(int64_t o)
+{
+    return o < SMD_ORDER_MAX ? o + 1 : SMD_ORDER_MAX;
+}
+
 int smd_job_state_final(sm_job_state state)
 {
     return state == SM_JOB_SUCCESSFUL || state == SM_JOB_FAILED || state == SM_JOB_DISMISSED;
@@ -300,12 +307,12 @@ static int record_from_json(json_t *o, const char *id, smd_job *job, char *why, 
         return -1;
     }
     job->progress = (int)x;
-    if (get_int(o, "attempt", 0, INT_MAX, &x) != 0) {
+    if (get_int(o, "attempt", 0, SMD_ATTEMPT_MAX, &x) != 0) {
         snprintf(why, cap, "bad attempt");
         return -1;
     }
     job->attempt = (int)x;
-    if (get_int(o, "order", 0, INT64_MAX, &x) != 0) {
+    if (get_int(o, "order", 0, SMD_ORDER_MAX, &x) != 0) {
         snprintf(why, cap, "bad order");
         return -1;
     }
@@ -554,7 +561,7 @@ sm_status smd_store_commit(smd_store *s, const char *upload_dir, const char *id,
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
         goto fail;
     }
-    s->next_order++;
+    s->next_order = next_order_after(s->next_order);
     *out = job;
     return SM_OK;
 fail:
@@ -575,10 +582,16 @@ int smd_store_trash(smd_store *s, const char *id, char *trash_path, size_t cap)
 
 /* ------------------------------------------------------------ open/close */
 
+/* Submission order, then (for orders that reached SMD_ORDER_MAX) the
+ * creation time, then the id: a total order, whatever the records say. */
 static int cmp_order(const void *a, const void *b)
 {
     const smd_job *x = *(smd_job *const *)a, *y = *(smd_job *const *)b;
-    return (x->order > y->order) - (x->order < y->order);
+    if (x->order != y->order)
+        return (x->order > y->order) - (x->order < y->order);
+    if (x->created != y->created)
+        return (x->created > y->created) - (x->created < y->created);
+    return strcmp(x->id, y->id);
 }
 
 /* Loads jobs/<id>; returns NULL (logged) when the folder is not a job. */
@@ -741,7 +754,7 @@ sm_status smd_store_open(const char *spool, const smd_logger *log, smd_store **o
             return sm_error_set(err, SM_ERR_NOMEM, "out of memory loading the spool");
         }
         if (job->order >= s->next_order)
-            s->next_order = job->order + 1;
+            s->next_order = next_order_after(job->order);
     }
     closedir(d);
     if (s->njobs > 1)

@@ -35,6 +35,15 @@
 
 #define SMD_IDEMPOTENCY_KEY_MAX 255
 
+/* Bounds of the numbers of a record (status.json is outside input: a
+ * restored backup, a hand edit).  A record whose "order" or "attempt" is
+ * outside them is damaged: logged ("job_skipped") and left alone on disk.
+ * Inside them nothing overflows: the order of the next job saturates at
+ * SMD_ORDER_MAX (jobs with equal orders run by creation time, then id),
+ * and the attempt count stops at SMD_ATTEMPT_MAX. */
+#define SMD_ORDER_MAX INT64_MAX
+#define SMD_ATTEMPT_MAX 1000000
+
 struct smd_follower;
 
 typedef struct smd_job {
@@ -43,8 +52,8 @@ typedef struct smd_job {
     char message[SM_EVENT_MESSAGE_MAX];
     double created, started, finished, updated; /* Unix seconds, < 0 = unset */
     int progress;             /* 0..100 */
-    int attempt;              /* runs started so far */
-    int64_t order;            /* submission order (FIFO across restarts) */
+    int attempt;              /* runs started so far, <= SMD_ATTEMPT_MAX */
+    int64_t order;            /* submission order (FIFO across restarts), saturates */
     int dim;                  /* template dimension */
     int max_iter;             /* for the progress estimate */
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1]; /* "" = none */

@@ -220,6 +220,8 @@ static ssize_t follower_read(void *cls, uint64_t pos, char *out, size_t max)
         return MHD_CONTENT_READER_END_OF_STREAM;
     }
     if (f->next_seq <= job->nevents) {
+        /* next_seq >= 1 (smd_stream_response): the batch walks existing
+         * events only, at most READ_BATCH bytes of them */
         int64_t first = f->next_seq, last = first;
         uint64_t from = smd_job_event_offset(job, first);
         while (last < job->nevents && smd_job_event_offset(job, last + 2) - from <= READ_BATCH)
@@ -312,7 +314,9 @@ struct MHD_Response *smd_stream_response(smd_server *srv, smd_job *job,
     f->job = job;
     f->conn = conn;
     f->sse = sse;
-    f->next_seq = after_seq < 0 ? 1 : after_seq + 1;
+    /* after_seq is bounded by the caller (<= SMD_REQUEST_INT_MAX); the
+     * saturation only keeps this line free of overflow whatever it gets */
+    f->next_seq = after_seq < 0 ? 1 : after_seq < INT64_MAX ? after_seq + 1 : INT64_MAX;
     atomic_store(&f->last_send, smd_monotonic());
     f->bytes_out = bytes_out;
     struct MHD_Response *resp =

@@ -259,16 +259,13 @@ enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "the daemon is shutting down and accepts no new job");
     const char *length = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
-    if (length) {
-        char *end;
-        errno = 0;
-        unsigned long long n = strtoull(length, &end, 10);
-        if (errno == 0 && *end == '\0' && n > srv->cfg.max_upload)
-            return smd_reply_problem(conn, req, 413, SMD_PROBLEM_TOO_LARGE,
-                                     "the request body (%llu bytes) exceeds the limit of %" PRIu64
-                                     " bytes (--max-upload)",
-                                     n, srv->cfg.max_upload);
-    }
+    uint64_t n;
+    int lrc = length ? smd_parse_uint(length, 0, srv->cfg.max_upload, &n) : SMD_NUM_OK;
+    if (lrc == SMD_NUM_RANGE)
+        return smd_reply_problem(conn, req, 413, SMD_PROBLEM_TOO_LARGE,
+                                 "the request body (%.40s bytes) exceeds the limit of %" PRIu64
+                                 " bytes (--max-upload)",
+                                 length, srv->cfg.max_upload);
     const char *ctype = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
     if (!ctype || strncasecmp(ctype, "multipart/form-data", 19) != 0)
         return smd_reply_problem(conn, req, 415, SMD_PROBLEM_UNSUPPORTED_MEDIA,

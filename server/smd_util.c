@@ -258,15 +258,42 @@ void smd_describe_wait_status(int wstatus, char *buf, size_t cap)
     }
 }
 
+int smd_parse_uint(const char *text, uint64_t lo, uint64_t hi, uint64_t *out)
+{
+    if (!text || !*text)
+        return SMD_NUM_MALFORMED;
+    uint64_t v = 0;
+    int over = 0;
+    for (const char *c = text; *c; c++) {
+        if (*c < '0' || *c > '9')
+            return SMD_NUM_MALFORMED;
+        unsigned d = (unsigned)(*c - '0');
+        /* v * 10 + d > hi, written so that nothing overflows */
+        if (over || d > hi || v > (hi - d) / 10)
+            over = 1;
+        else
+            v = v * 10 + d;
+    }
+    if (over || v < lo)
+        return SMD_NUM_RANGE;
+    *out = v;
+    return SMD_NUM_OK;
+}
+
 int smd_parse_size(const char *text, uint64_t *out)
 {
-    if (!text || !(*text >= '0' && *text <= '9'))
+    char digits[24];
+    size_t n = 0;
+    while (text && text[n] >= '0' && text[n] <= '9')
+        n++;
+    if (n == 0 || n >= sizeof digits)
         return -1;
-    errno = 0;
-    char *end;
-    unsigned long long v = strtoull(text, &end, 10);
-    if (errno != 0 || end == text)
+    memcpy(digits, text, n);
+    digits[n] = '\0';
+    uint64_t v;
+    if (smd_parse_uint(digits, 0, UINT64_MAX, &v) != SMD_NUM_OK)
         return -1;
+    const char *end = text + n;
     unsigned shift = 0;
     if (*end) {
         switch (*end) {
@@ -284,7 +311,7 @@ int smd_parse_size(const char *text, uint64_t *out)
         if (*end)
             return -1;
     }
-    if (shift && v > (ULLONG_MAX >> shift))
+    if (shift && v > (UINT64_MAX >> shift))
         return -1;
     *out = (uint64_t)v << shift;
     return 0;

@@ -66,6 +66,24 @@ double smd_monotonic(void);
  * "killed by signal 9 (SIGKILL)". */
 void smd_describe_wait_status(int wstatus, char *buf, size_t cap);
 
+/* The one parser of numbers taken from requests, headers and the spool's
+ * text: a plain decimal integer (digits only: no sign, no space, no
+ * suffix; leading zeros allowed) in [lo, hi].  Accumulates without
+ * overflow whatever the length of the text.  Returns SMD_NUM_OK and sets
+ * *out, SMD_NUM_MALFORMED when text is not such a number (NULL or empty
+ * included), SMD_NUM_RANGE when it is one outside [lo, hi] (*out is then
+ * left alone), so callers can say which. */
+#define SMD_NUM_OK 0
+#define SMD_NUM_MALFORMED (-1)
+#define SMD_NUM_RANGE (-2)
+int smd_parse_uint(const char *text, uint64_t lo, uint64_t hi, uint64_t *out);
+
+/* The largest number a request may carry in a count, offset or event
+ * sequence number: 2^53 - 1, the largest integer every JSON client
+ * (JavaScript's Number included) represents exactly.  Sums of two such
+ * numbers, and of one with a page limit, fit in int64_t with room. */
+#define SMD_REQUEST_INT_MAX 9007199254740991LL
+
 /* Parses a size such as "1048576", "64K", "512M", "2G" (binary units).
  * Returns 0, or -1 when malformed or out of range. */
 int smd_parse_size(const char *text, uint64_t *out);

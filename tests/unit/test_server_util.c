@@ -81,6 +81,39 @@ static void test_pathf(void **state)
     assert_int_equal(smd_pathf(buf, sizeof buf, "%s", "0123456789012345"), -1);
 }
 
+static void test_bounded_integers(void **state)
+{
+    (void)state;
+    uint64_t v = 7;
+    assert_int_equal(smd_parse_uint("0", 0, 10, &v), SMD_NUM_OK);
+    assert_true(v == 0);
+    assert_int_equal(smd_parse_uint("0010", 0, 10, &v), SMD_NUM_OK);
+    assert_true(v == 10);
+    assert_int_equal(smd_parse_uint("11", 0, 10, &v), SMD_NUM_RANGE);
+    assert_true(v == 10); /* left alone */
+    assert_int_equal(smd_parse_uint("0", 1, 10, &v), SMD_NUM_RANGE);
+    assert_int_equal(smd_parse_uint("", 0, 10, &v), SMD_NUM_MALFORMED);
+    assert_int_equal(smd_parse_uint(NULL, 0, 10, &v), SMD_NUM_MALFORMED);
+    assert_int_equal(smd_parse_uint("-1", 0, 10, &v), SMD_NUM_MALFORMED);
+    assert_int_equal(smd_parse_uint("+1", 0, 10, &v), SMD_NUM_MALFORMED);
+    assert_int_equal(smd_parse_uint(" 1", 0, 10, &v), SMD_NUM_MALFORMED);
+    assert_int_equal(smd_parse_uint("1x", 0, 10, &v), SMD_NUM_MALFORMED);
+    /* the overflow edges: INT64_MAX, UINT64_MAX and one past it */
+    assert_int_equal(smd_parse_uint("9223372036854775807", 0, SMD_REQUEST_INT_MAX, &v),
+                     SMD_NUM_RANGE);
+    assert_int_equal(smd_parse_uint("9007199254740991", 0, SMD_REQUEST_INT_MAX, &v), SMD_NUM_OK);
+    assert_true(v == 9007199254740991ULL);
+    assert_int_equal(smd_parse_uint("9007199254740992", 0, SMD_REQUEST_INT_MAX, &v), SMD_NUM_RANGE);
+    assert_int_equal(smd_parse_uint("18446744073709551615", 0, UINT64_MAX, &v), SMD_NUM_OK);
+    assert_true(v == UINT64_MAX);
+    assert_int_equal(smd_parse_uint("18446744073709551616", 0, UINT64_MAX, &v), SMD_NUM_RANGE);
+    assert_int_equal(smd_parse_uint("99999999999999999999999999999999999999", 0, UINT64_MAX, &v),
+                     SMD_NUM_RANGE);
+    assert_int_equal(smd_parse_uint("9999999999999999999999999999999999999x", 0, UINT64_MAX, &v),
+                     SMD_NUM_MALFORMED);
+    assert_int_equal(smd_parse_uint("5", 0, 0, &v), SMD_NUM_RANGE);
+}
+
 static void test_sizes_and_durations(void **state)
 {
     (void)state;
@@ -318,6 +351,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_random_ids),
         cmocka_unit_test(test_id_valid),
+        cmocka_unit_test(test_bounded_integers),
         cmocka_unit_test(test_secret_equal),
         cmocka_unit_test(test_pathf),
         cmocka_unit_test(test_sizes_and_durations),

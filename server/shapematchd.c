@@ -23,6 +23,7 @@
 #include "sm_proto_events.h"
 #include "smd_http.h"
 #include "smd_pool.h"
+#include "smd_route_table.h"
 #include "smd_server.h"
 #include "smd_stream.h"
 
@@ -208,7 +209,9 @@ int main(int argc, char **argv)
 
     sm_error err;
     sm_error_clear(&err);
-    int metrics_ok = smd_metrics_init(&srv->metrics) == 0;
+    const char *route_labels[64]; /* outlives the metrics: main's frame */
+    size_t nlabels = smd_route_labels(route_labels, sizeof route_labels / sizeof route_labels[0]);
+    int metrics_ok = smd_metrics_init(&srv->metrics, route_labels, nlabels) == 0;
     int lock_ok = pthread_mutex_init(&srv->lock, NULL) == 0;
     if (!metrics_ok || !lock_ok) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "cannot initialise locks");

@@ -1,5 +1,6 @@
 /* Route handlers: landing page, OpenAPI document, health, metrics,
- * processes, job list, job status, cancel/delete, event streams. */
+ * processes, job list, job status, cancel/delete, event streams (see
+ * smd_routes.h). */
 #include "smd_routes.h"
 
 #include <errno.h>
@@ -10,6 +11,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "smd_negotiate.h"
 #include "smd_pool.h"
 #include "smd_stream.h"
 
@@ -21,6 +23,29 @@
 static json_t *mklink(const char *href, const char *rel, const char *type, const char *title)
 {
     return json_pack("{s:s,s:s,s:s,s:s}", "href", href, "rel", rel, "type", type, "title", title);
+}
+
+json_t *smd_status_document(const smd_job *job)
+{
+    json_t *doc = smd_job_status_fields(job);
+    if (!doc)
+        return NULL;
+    char self[64], events[80], results[80];
+    snprintf(self, sizeof self, "/v1/jobs/%s", job->id);
+    snprintf(events, sizeof events, "/v1/jobs/%s/events", job->id);
+    snprintf(results, sizeof results, "/v1/jobs/%s/results", job->id);
+    json_t *links = json_array();
+    json_array_append_new(links, json_pack("{s:s,s:s,s:s,s:s}", "href", self, "rel", "self", "type",
+                                           "application/json", "title", "this job"));
+    json_array_append_new(links, json_pack("{s:s,s:s,s:s,s:s}", "href", events, "rel", "monitor",
+                                           "type", "text/event-stream", "title",
+                                           "progress events (SSE, or NDJSON)"));
+    if (job->state == SM_JOB_SUCCESSFUL)
+        json_array_append_new(links, json_pack("{s:s,s:s,s:s,s:s}", "href", results, "rel",
+                                               "http://www.opengis.net/def/rel/ogc/1.0/results",
+                                               "type", "application/json", "title", "results"));
+    json_object_set_new(doc, "links", links);
+    return doc;
 }
 
 /* ------------------------------------------------------- landing, docs */
@@ -152,8 +177,9 @@ static json_t *output(const char *title, const char *href_suffix, const char *fo
     return json_pack("{s:s,s:s,s:s}", "title", title, "href", href_suffix, "formats", formats);
 }
 
-enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req, const char *pid)
+enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req)
 {
+    const char *pid = req->pid;
     if (strcmp(pid, "match") != 0)
         return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_PROCESS,
                                  "no process \"%s\" (the only process is \"match\")", pid);

@@ -17,6 +17,7 @@
 #include "sm_proto_params.h"
 #include "smd_inputs.h"
 #include "smd_pool.h"
+#include "smd_routes.h"
 #include "smd_worker.h"
 
 typedef enum part_id { PART_TEMPLATE = 0, PART_TARGET_MESH, PART_TARGET_SOL, PART_PARAMS, NPARTS } part_id;
@@ -453,7 +454,7 @@ enum MHD_Result smd_upload_continue(struct MHD_Connection *conn, smd_request *re
          * after all of it: read the rest without keeping it, and answer at
          * the end.  A body that goes on far past the limit is cut by
          * closing the connection instead (the client sees no reply). */
-        if (u->received > 4 * limit + (16u << 20))
+        if (u->received > smd_drain_limit(limit))
             return MHD_NO;
         return MHD_YES;
     }

@@ -17,7 +17,7 @@
 
 #include <stddef.h>
 
-#include "smd_http.h"
+#include "smd_reply.h"
 
 typedef struct smd_upload smd_upload;
 

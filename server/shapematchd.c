@@ -22,6 +22,7 @@
 
 #include "sm_proto_events.h"
 #include "smd_http.h"
+#include "smd_jobs.h"
 #include "smd_pool.h"
 #include "smd_route_table.h"
 #include "smd_server.h"
@@ -227,15 +228,9 @@ int main(int argc, char **argv)
         goto out;
     }
     size_t queued = 0;
-    for (size_t i = 0; i < smd_store_count(srv->store); i++) {
-        smd_job *job = smd_store_at(srv->store, i);
-        if (job->state == SM_JOB_ACCEPTED) {
-            if (smd_queue_push(srv->queue, job->id) != 0) {
-                smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "out of memory");
-                goto out;
-            }
-            queued++;
-        }
+    if (smd_jobs_recover(srv, &queued, &err) != SM_OK) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "%s", err.msg);
+        goto out;
     }
     if (smd_pool_start(srv, &err) != SM_OK) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "%s", err.msg);

@@ -11,6 +11,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "smd_jobs.h"
 #include "smd_negotiate.h"
 #include "smd_pool.h"
 #include "smd_stream.h"
@@ -323,69 +324,29 @@ enum MHD_Result smd_route_job_get(struct MHD_Connection *conn, smd_request *req)
 enum MHD_Result smd_route_job_delete(struct MHD_Connection *conn, smd_request *req)
 {
     smd_server *srv = req->srv;
-    smd_wake_list wake = {0};
-    char trash[PATH_MAX] = "";
+    smd_jobs_after after = {0};
     json_t *doc = NULL;
-    int wake_pool = 0;
-    sm_error err;
     pthread_mutex_lock(&srv->lock);
     smd_job *job = smd_store_get(srv->store, req->id);
     if (!job) {
         pthread_mutex_unlock(&srv->lock);
         return no_such_job(conn, req);
     }
-    double now = sm_time_now();
-    if (job->state == SM_JOB_ACCEPTED || job->state == SM_JOB_RUNNING) {
-        /* cancel: the job is dismissed at once; a running worker gets
-         * SIGTERM (then SIGKILL) from the supervisor, which appends the
-         * "cancelled" event when it is gone */
-        int running = job->state == SM_JOB_RUNNING;
-        job->state = SM_JOB_DISMISSED;
-        job->updated = now;
-        snprintf(job->message, sizeof job->message, "cancelled by request (DELETE)");
-        if (running) {
-            job->cancel_requested = 1;
-            wake_pool = 1;
-        } else {
-            smd_queue_remove(srv->queue, job->id);
-            job->finished = now;
-            sm_event ev;
-            sm_event_init(&ev, SM_EVENT_CANCELLED);
-            snprintf(ev.message, sizeof ev.message, "%s", job->message);
-            if (smd_store_append_event(srv->store, job, &ev, &err) != SM_OK)
-                smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
-            smd_job_close_log(job);
-            smd_metrics_job_finished(&srv->metrics, SM_JOB_DISMISSED);
-        }
-        if (smd_store_save(srv->store, job, &err) != SM_OK)
-            smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
-        smd_log(&srv->log, SMD_LOG_INFO, running ? "job_cancel_requested" : "job_cancelled",
-                json_pack("{s:s,s:s}", "job", job->id, "message", job->message));
-        smd_stream_collect_job(job, &wake);
+    if (!smd_job_state_final(job->state)) {
+        /* cancel: dismissed at once (a running worker is stopped) */
+        smd_jobs_cancel(srv, job, &after);
         doc = smd_status_document(job);
     } else {
-        /* final: delete the job and its files */
+        /* final: the job and its files go; the reply is its last status */
         doc = smd_status_document(job);
         json_object_set_new(doc, "message", json_string("deleted"));
         json_object_del(doc, "links");
-        smd_stream_collect_job(job, &wake);
-        if (job->worker_active) {
-            job->delete_requested = 1; /* files go when the worker is reaped */
-        } else if (smd_store_trash(srv->store, job->id, trash, sizeof trash) != 0) {
-            smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "job %s: cannot delete: %s", job->id,
-                     strerror(errno));
-            trash[0] = '\0';
-        }
-        smd_log(&srv->log, SMD_LOG_INFO, "job_deleted", json_pack("{s:s}", "job", job->id));
-        smd_store_unlink(srv->store, job);
+        smd_jobs_delete(srv, job, &after);
     }
     pthread_mutex_unlock(&srv->lock);
-    smd_wake_list_resume(&wake);
-    smd_wake_list_free(&wake);
-    if (wake_pool)
+    smd_jobs_after_free(&after);
+    if (after.wake_pool)
         smd_pool_wake(srv->pool);
-    if (trash[0])
-        smd_rmtree(trash);
     return smd_reply_json(conn, req, 200, doc);
 }
 

@@ -45,7 +45,7 @@ int smd_job_state_final(sm_job_state state)
 
 /* ------------------------------------------------------------ job memory */
 
-static smd_job *job_alloc(const char *id)
+smd_job *smd_job_new(const char *id)
 {
     smd_job *job = calloc(1, sizeof *job);
     if (!job)
@@ -497,33 +497,18 @@ sm_status smd_store_append_event(smd_store *s, smd_job *job, sm_event *ev, sm_er
 
 /* ---------------------------------------------------------------- commit */
 
-sm_status smd_store_commit(smd_store *s, const char *upload_dir, const char *id, int dim,
-                           int max_iter, const char *idempotency_key, smd_job **out,
+sm_status smd_store_commit(smd_store *s, const char *upload_dir, smd_job *job, sm_event *first,
                            sm_error *err)
 {
-    *out = NULL;
-    if (!smd_id_valid(id))
-        return sm_error_set(err, SM_ERR_INVALID, "bad job id");
-    smd_job *job = job_alloc(id);
-    if (!job)
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
-    job->state = SM_JOB_ACCEPTED;
-    snprintf(job->message, sizeof job->message, "queued");
-    job->created = job->updated = sm_time_now();
-    job->order = s->next_order;
-    job->dim = dim;
-    job->max_iter = max_iter;
-    if (idempotency_key)
-        snprintf(job->idempotency_key, sizeof job->idempotency_key, "%s", idempotency_key);
-
-    sm_event ev;
-    sm_event_init(&ev, SM_EVENT_ACCEPTED);
-    ev.seq = 1;
-    ev.time = job->created;
-    snprintf(ev.job_id, sizeof ev.job_id, "%s", id);
-    char *line = sm_event_to_json(&ev);
+    const char *id = job->id;
     char path[PATH_MAX], final_dir[PATH_MAX];
     sm_status st = SM_OK;
+    job->order = s->next_order;
+    first->seq = 1;
+    if (first->time < 0)
+        first->time = job->created;
+    snprintf(first->job_id, sizeof first->job_id, "%s", id);
+    char *line = sm_event_to_json(first);
     if (!line) {
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
         goto fail;
@@ -562,11 +547,19 @@ sm_status smd_store_commit(smd_store *s, const char *upload_dir, const char *id,
         goto fail;
     }
     s->next_order = next_order_after(s->next_order);
-    *out = job;
     return SM_OK;
 fail:
     job_free(job);
     return st;
+}
+
+void smd_store_remove_results(smd_store *s, const smd_job *job, int partial_only)
+{
+    char path[PATH_MAX];
+    if (smd_store_path(s, job->id, "results.tmp", path, sizeof path) == 0)
+        smd_rmtree(path);
+    if (!partial_only && smd_store_path(s, job->id, "results", path, sizeof path) == 0)
+        smd_rmtree(path);
 }
 
 int smd_store_trash(smd_store *s, const char *id, char *trash_path, size_t cap)
@@ -609,7 +602,7 @@ static smd_job *load_job(smd_store *s, const char *id)
     json_error_t jerr;
     json_t *o = json_loadb(text, len, JSON_REJECT_DUPLICATES, &jerr);
     free(text);
-    smd_job *job = job_alloc(id);
+    smd_job *job = smd_job_new(id);
     if (!o || !job || record_from_json(o, id, job, why, sizeof why) != 0) {
         smd_logf(s->log, SMD_LOG_WARN, "job_skipped", "%s: %s", path,
                  !o ? jerr.text : !job ? "out of memory" : why);
@@ -619,35 +612,6 @@ static smd_job *load_job(smd_store *s, const char *id)
     }
     json_decref(o);
     return job;
-}
-
-/* A job that was queued or running when the daemon stopped: make it
- * runnable again. */
-static int recover_job(smd_store *s, smd_job *job)
-{
-    sm_error err;
-    char path[PATH_MAX];
-    if (smd_store_path(s, job->id, "results.tmp", path, sizeof path) == 0)
-        smd_rmtree(path);
-    if (job->state == SM_JOB_RUNNING) {
-        if (smd_store_path(s, job->id, "results", path, sizeof path) == 0)
-            smd_rmtree(path);
-        job->state = SM_JOB_ACCEPTED;
-        job->progress = 0;
-        job->updated = sm_time_now();
-        snprintf(job->message, sizeof job->message,
-                 "re-queued after a daemon restart (run %d was interrupted)", job->attempt);
-        if (smd_store_save(s, job, &err) != SM_OK) {
-            smd_logf(s->log, SMD_LOG_ERROR, "job_recovery_failed", "%s", err.msg);
-            return -1;
-        }
-        smd_logf(s->log, SMD_LOG_INFO, "job_requeued", "job %s was running: queued again", job->id);
-    }
-    if (smd_store_load_events(s, job, &err) != SM_OK) {
-        smd_logf(s->log, SMD_LOG_ERROR, "job_recovery_failed", "%s", err.msg);
-        return -1;
-    }
-    return 0;
 }
 
 static int empty_dir(const char *dir)
@@ -743,10 +707,6 @@ sm_status smd_store_open(const char *spool, const smd_logger *log, smd_store **o
         smd_job *job = load_job(s, de->d_name);
         if (!job)
             continue;
-        if (!smd_job_state_final(job->state) && recover_job(s, job) != 0) {
-            job_free(job);
-            continue;
-        }
         if (table_add(s, job) != 0) {
             job_free(job);
             closedir(d);

@@ -16,6 +16,7 @@
 
 #include "sm_proto_params.h"
 #include "smd_inputs.h"
+#include "smd_jobs.h"
 #include "smd_pool.h"
 #include "smd_routes.h"
 #include "smd_worker.h"
@@ -390,16 +391,20 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
     if (smd_random_id(id) != 0)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "no random source for the job id: %s", strerror(errno));
+    smd_submission sub = {.dir = u->dir, .id = id, .idempotency_key = u->idempotency_key,
+                          .dim = dim, .max_iter = max_iter, .nverts = nverts, .nelems = nelems,
+                          .bytes = u->received};
+    smd_jobs_after after = {0};
+    smd_job *job;
+    int created;
     pthread_mutex_lock(&srv->lock);
-    smd_job *job = u->idempotency_key[0] ? smd_store_find_key(srv->store, u->idempotency_key) : NULL;
-    if (job) {
+    st = smd_jobs_submit(srv, &sub, &job, &created, &after, &err);
+    if (st == SM_OK && !created) {
         /* a concurrent retry with the same key won the race */
         enum MHD_Result r = reply_existing(conn, req, job);
         pthread_mutex_unlock(&srv->lock);
         return r;
     }
-    st = smd_store_commit(srv->store, u->dir, id, dim, max_iter,
-                          u->idempotency_key[0] ? u->idempotency_key : NULL, &job, &err);
     if (st != SM_OK) {
         pthread_mutex_unlock(&srv->lock);
         smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
@@ -407,18 +412,12 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
                                  err.msg);
     }
     u->committed = 1;
-    if (smd_queue_push(srv->queue, job->id) != 0)
-        smd_logf(&srv->log, SMD_LOG_ERROR, "queue_error", "job %s: out of memory queueing it",
-                 job->id);
-    smd_metrics_add(&srv->metrics, &srv->metrics.jobs_submitted, 1);
     memcpy(req->id, job->id, sizeof req->id);
-    json_t *fields = json_pack("{s:s,s:i,s:i,s:i,s:I}", "job", job->id, "dimension", dim,
-                               "vertices", (int)nverts, "elements", (int)nelems, "bytes",
-                               (json_int_t)u->received);
-    smd_log(&srv->log, SMD_LOG_INFO, "job_accepted", fields);
     json_t *doc = smd_status_document(job);
     pthread_mutex_unlock(&srv->lock);
-    smd_pool_wake(srv->pool);
+    smd_jobs_after_free(&after);
+    if (after.wake_pool)
+        smd_pool_wake(srv->pool);
 
     char location[64];
     snprintf(location, sizeof location, "/v1/jobs/%s", id);

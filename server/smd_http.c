@@ -13,6 +13,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include "sm_proto_text.h"
 #include "smd_reply.h"
 #include "smd_route_table.h"
 #include "smd_upload.h"
@@ -164,9 +165,7 @@ static void on_completed(void *cls, struct MHD_Connection *conn, void **req_cls,
         }
         char path[sizeof req->path];
         snprintf(path, sizeof path, "%s", req->path);
-        for (char *c = path; *c; c++)
-            if ((unsigned char)*c < 0x20 || (unsigned char)*c >= 0x7f)
-                *c = '?';
+        sm_text_make_printable(path, NULL);
         json_t *f = json_pack("{s:s,s:s,s:s,s:i,s:f,s:I,s:I,s:s}", "method", req->method, "path",
                               path, "route", req->route_label, "status", (int)status,
                               "ms", seconds * 1000.0, "bytes_in", (json_int_t)req->bytes_in,

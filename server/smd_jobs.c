@@ -7,6 +7,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* the metrics count the states by proto's numbering */
+_Static_assert(SM_JOB_ACCEPTED == 0 && SM_JOB_SUCCESSFUL == SMD_JOB_FIRST_FINAL &&
+                   SM_JOB_DISMISSED + 1 == SMD_JOB_STATES,
+               "smd_metrics.h's job state count follows sm_job_state");
+
 /* ------------------------------------------------------------- helpers */
 
 static json_t *log_fields(const smd_job *job, json_t *extra)

@@ -7,6 +7,8 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "smd_util.h"
+
 static const char *const method_labels[SMD_METHODS] = {"GET", "POST", "DELETE", "HEAD", "other"};
 
 static const double bucket_bounds[SMD_LATENCY_BUCKETS] = {
@@ -14,9 +16,8 @@ static const double bucket_bounds[SMD_LATENCY_BUCKETS] = {
     0.05,   0.1,     0.25,   0.5,   1,      2.5,   10,
 };
 
-static const char *const final_states[3] = {"successful", "failed", "dismissed"};
-static const char *const all_states[5] = {"accepted", "running", "successful", "failed",
-                                          "dismissed"};
+static const char *const all_states[SMD_JOB_STATES] = {"accepted", "running", "successful",
+                                                       "failed", "dismissed"};
 
 int smd_metrics_init(smd_metrics *m, const char *const *routes, size_t nroutes)
 {
@@ -88,10 +89,10 @@ void smd_metrics_request(smd_metrics *m, const char *route_label, const char *me
 
 void smd_metrics_job_finished(smd_metrics *m, int state)
 {
-    if (state < 2 || state > 4)
+    if (state < SMD_JOB_FIRST_FINAL || state >= SMD_JOB_STATES)
         return;
     pthread_mutex_lock(&m->lock);
-    m->jobs_finished[state - 2]++;
+    m->jobs_finished[state - SMD_JOB_FIRST_FINAL]++;
     pthread_mutex_unlock(&m->lock);
 }
 
@@ -102,6 +103,7 @@ void smd_metrics_add(smd_metrics *m, uint64_t *counter, uint64_t n)
     pthread_mutex_unlock(&m->lock);
 }
 
+/* The exposition text: one growable buffer; the first failure sticks. */
 typedef struct outbuf {
     char *data;
     size_t len, cap;
@@ -113,28 +115,11 @@ static void out(outbuf *b, const char *fmt, ...)
 {
     if (b->failed)
         return;
-    for (;;) {
-        va_list ap;
-        va_start(ap, fmt);
-        int n = vsnprintf(b->data + b->len, b->cap - b->len, fmt, ap);
-        va_end(ap);
-        if (n < 0) {
-            b->failed = 1;
-            return;
-        }
-        if ((size_t)n < b->cap - b->len) {
-            b->len += (size_t)n;
-            return;
-        }
-        size_t ncap = 2 * b->cap + (size_t)n;
-        char *d = realloc(b->data, ncap);
-        if (!d) {
-            b->failed = 1;
-            return;
-        }
-        b->data = d;
-        b->cap = ncap;
-    }
+    va_list ap;
+    va_start(ap, fmt);
+    if (smd_buf_vprintf(&b->data, &b->len, &b->cap, fmt, ap) != 0)
+        b->failed = 1;
+    va_end(ap);
 }
 
 static long resident_bytes(void)
@@ -156,7 +141,7 @@ char *smd_metrics_render(smd_metrics *m, const smd_gauges *g, size_t *len)
         return NULL;
     b.data[0] = '\0';
     out(&b, "# HELP shapematch_jobs Jobs in the store by state.\n# TYPE shapematch_jobs gauge\n");
-    for (int s = 0; s < 5; s++)
+    for (int s = 0; s < SMD_JOB_STATES; s++)
         out(&b, "shapematch_jobs{state=\"%s\"} %llu\n", all_states[s],
             (unsigned long long)g->jobs_by_state[s]);
     out(&b, "# HELP shapematch_queue_depth Jobs waiting for a worker.\n"
@@ -188,8 +173,8 @@ char *smd_metrics_render(smd_metrics *m, const smd_gauges *g, size_t *len)
         (unsigned long long)m->jobs_submitted);
     out(&b, "# HELP shapematch_jobs_finished_total Jobs that reached a final state.\n"
             "# TYPE shapematch_jobs_finished_total counter\n");
-    for (int s = 0; s < 3; s++)
-        out(&b, "shapematch_jobs_finished_total{state=\"%s\"} %llu\n", final_states[s],
+    for (int s = 0; s < SMD_JOB_FINAL_STATES; s++)
+        out(&b, "shapematch_jobs_finished_total{state=\"%s\"} %llu\n", all_states[SMD_JOB_FIRST_FINAL + s],
             (unsigned long long)m->jobs_finished[s]);
     out(&b, "# HELP shapematch_workers_started_total Worker processes started.\n"
             "# TYPE shapematch_workers_started_total counter\nshapematch_workers_started_total %llu\n",

@@ -10,6 +10,13 @@
 #include <stddef.h>
 #include <stdint.h>
 
+/* The job states, in the order of proto's sm_job_state (accepted,
+ * running, successful, failed, dismissed; smd_jobs.c checks the match at
+ * compile time), and the final ones among them (from successful on). */
+#define SMD_JOB_STATES 5
+#define SMD_JOB_FIRST_FINAL 2
+#define SMD_JOB_FINAL_STATES (SMD_JOB_STATES - SMD_JOB_FIRST_FINAL)
+
 #define SMD_LATENCY_BUCKETS 15
 #define SMD_METHODS 5 /* GET, POST, DELETE, HEAD, other */
 
@@ -25,14 +32,14 @@ typedef struct smd_metrics {
     uint64_t *latency_count;   /* [route] */
     uint64_t bytes_in, bytes_out;
     uint64_t jobs_submitted;
-    uint64_t jobs_finished[3]; /* successful, failed, dismissed */
+    uint64_t jobs_finished[SMD_JOB_FINAL_STATES]; /* successful, failed, dismissed */
     uint64_t events_appended;
     uint64_t workers_started;
 } smd_metrics;
 
 /* Values read at scrape time from the daemon's state. */
 typedef struct smd_gauges {
-    uint64_t jobs_by_state[5]; /* accepted, running, successful, failed, dismissed */
+    uint64_t jobs_by_state[SMD_JOB_STATES]; /* accepted, running, successful, failed, dismissed */
     uint64_t queue_depth;
     uint64_t workers_busy, workers_total;
     uint64_t followers;
@@ -52,7 +59,7 @@ void smd_metrics_destroy(smd_metrics *m);
 void smd_metrics_request(smd_metrics *m, const char *route, const char *method,
                          unsigned status, double seconds, uint64_t bytes_in,
                          uint64_t bytes_out);
-/* state index as in smd_gauges.jobs_by_state (2..4 for the final ones). */
+/* state index as in smd_gauges.jobs_by_state (final ones only). */
 void smd_metrics_job_finished(smd_metrics *m, int state);
 void smd_metrics_add(smd_metrics *m, uint64_t *counter, uint64_t n);
 

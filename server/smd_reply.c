@@ -7,6 +7,7 @@
 #include <string.h>
 #include <zlib.h>
 
+#include "sm_proto_text.h"
 #include "smd_negotiate.h"
 
 uint64_t smd_drain_limit(uint64_t max_upload)
@@ -128,9 +129,7 @@ static struct MHD_Response *problem_response(struct MHD_Connection *conn, smd_re
     json_object_set_new(body, "detail", json_string(detail));
     char instance[300];
     snprintf(instance, sizeof instance, "%s", req->path);
-    for (char *c = instance; *c; c++)
-        if ((unsigned char)*c < 0x21 || (unsigned char)*c >= 0x7f)
-            *c = '?';
+    sm_text_make_printable(instance, " ");
     json_object_set_new(body, "instance", json_string(instance));
     if (status == 400 || status == 422) {
         json_t *ip = invalid_params(detail);
@@ -152,10 +151,7 @@ enum MHD_Result smd_reply_problem(struct MHD_Connection *conn, smd_request *req,
     va_start(ap, detail_fmt);
     vsnprintf(detail, sizeof detail, detail_fmt, ap);
     va_end(ap);
-    /* detail may quote client input: keep valid UTF-8 / JSON */
-    for (char *c = detail; *c; c++)
-        if ((unsigned char)*c < 0x20 || (unsigned char)*c >= 0x7f)
-            *c = '?';
+    sm_text_make_printable(detail, NULL); /* it may quote client input: valid UTF-8 / JSON */
     struct MHD_Response *resp = problem_response(conn, req, status, type, detail);
     if (!resp)
         return MHD_NO;
@@ -177,9 +173,7 @@ enum MHD_Result smd_reply_method_not_allowed(struct MHD_Connection *conn, smd_re
     char detail[1024];
     snprintf(detail, sizeof detail, "%s is not allowed on %s (allowed: %s)", req->method, req->path,
              allow);
-    for (char *c = detail; *c; c++)
-        if ((unsigned char)*c < 0x20 || (unsigned char)*c >= 0x7f)
-            *c = '?';
+    sm_text_make_printable(detail, NULL);
     struct MHD_Response *resp = problem_response(conn, req, 405, SMD_PROBLEM_METHOD, detail);
     if (!resp)
         return MHD_NO;

@@ -120,7 +120,7 @@ enum MHD_Result smd_route_metrics(struct MHD_Connection *conn, smd_request *req)
     pthread_mutex_lock(&srv->lock);
     for (size_t i = 0; i < smd_store_count(srv->store); i++) {
         unsigned s = (unsigned)smd_store_at(srv->store, i)->state;
-        if (s < 5)
+        if (s < SMD_JOB_STATES)
             g.jobs_by_state[s]++;
     }
     g.queue_depth = smd_queue_depth(srv->queue);
@@ -279,7 +279,7 @@ enum MHD_Result smd_route_jobs_list(struct MHD_Connection *conn, smd_request *re
     if (wanted) {
         snprintf(filter, sizeof filter, "&status=");
         int first = 1;
-        for (int s = 0; s < 5; s++)
+        for (int s = 0; s < SMD_JOB_STATES; s++)
             if (wanted & (1u << s)) {
                 strncat(filter, first ? "" : ",", sizeof filter - strlen(filter) - 1);
                 strncat(filter, sm_job_state_name((sm_job_state)s), sizeof filter - strlen(filter) - 1);

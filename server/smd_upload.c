@@ -15,6 +15,7 @@
 #include <zlib.h>
 
 #include "sm_proto_params.h"
+#include "sm_proto_text.h"
 #include "smd_inputs.h"
 #include "smd_jobs.h"
 #include "smd_pool.h"
@@ -67,19 +68,6 @@ int smd_idempotency_key_valid(const char *key)
         if ((unsigned char)key[i] < 0x21 || (unsigned char)key[i] > 0x7e)
             return 0;
     return 1;
-}
-
-/* Client-supplied text made safe to quote in a message. */
-static void printable(char *dst, size_t cap, const char *src)
-{
-    size_t k = 0;
-    for (; src && *src && k + 4 < cap; src++)
-        dst[k++] = ((unsigned char)*src >= 0x20 && (unsigned char)*src < 0x7f && *src != '"') ? *src : '?';
-    if (src && *src && k + 4 <= cap) {
-        memcpy(dst + k, "...", 3);
-        k += 3;
-    }
-    dst[k] = '\0';
 }
 
 int smd_sniff_medit(const char *path, int *binary, int *gzip)
@@ -146,7 +134,7 @@ static enum MHD_Result on_part(void *cls, enum MHD_ValueKind kind, const char *k
             id = i;
     if (id < 0) {
         char shown[64];
-        printable(shown, sizeof shown, key ? key : "");
+        sm_text_printable_copy(shown, sizeof shown, key, "\"");
         fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
              "unknown part \"%s\": the parts are template, target_mesh, target_sol and params", shown);
         return MHD_NO;
@@ -161,7 +149,7 @@ static enum MHD_Result on_part(void *cls, enum MHD_ValueKind kind, const char *k
         if (transfer_encoding && strcasecmp(transfer_encoding, "binary") != 0 &&
             strcasecmp(transfer_encoding, "7bit") != 0 && strcasecmp(transfer_encoding, "8bit") != 0) {
             char shown[64];
-            printable(shown, sizeof shown, transfer_encoding);
+            sm_text_printable_copy(shown, sizeof shown, transfer_encoding, "\"");
             fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
                  "part \"%s\": Content-Transfer-Encoding \"%s\" is not supported (send it as binary)",
                  part_names[id], shown);

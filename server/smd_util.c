@@ -258,6 +258,58 @@ void smd_describe_wait_status(int wstatus, char *buf, size_t cap)
     }
 }
 
+static int buf_reserve(char **buf, size_t *cap, size_t need)
+{
+    if (need <= *cap)
+        return 0;
+    size_t ncap = *cap ? *cap : 4096;
+    while (ncap < need) {
+        if (ncap > SIZE_MAX / 2)
+            return -1;
+        ncap *= 2;
+    }
+    char *b = realloc(*buf, ncap);
+    if (!b)
+        return -1;
+    *buf = b;
+    *cap = ncap;
+    return 0;
+}
+
+int smd_buf_append(char **buf, size_t *len, size_t *cap, const void *data, size_t n)
+{
+    if (n > SIZE_MAX - *len - 1 || buf_reserve(buf, cap, *len + n + 1) != 0)
+        return -1;
+    memcpy(*buf + *len, data, n);
+    *len += n;
+    (*buf)[*len] = '\0';
+    return 0;
+}
+
+int smd_buf_vprintf(char **buf, size_t *len, size_t *cap, const char *fmt, va_list ap)
+{
+    va_list again;
+    va_copy(again, ap);
+    int n = vsnprintf(NULL, 0, fmt, ap);
+    int rc = -1;
+    if (n >= 0 && buf_reserve(buf, cap, *len + (size_t)n + 1) == 0) {
+        vsnprintf(*buf + *len, *cap - *len, fmt, again);
+        *len += (size_t)n;
+        rc = 0;
+    }
+    va_end(again);
+    return rc;
+}
+
+int smd_buf_printf(char **buf, size_t *len, size_t *cap, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    int rc = smd_buf_vprintf(buf, len, cap, fmt, ap);
+    va_end(ap);
+    return rc;
+}
+
 int smd_parse_uint(const char *text, uint64_t lo, uint64_t hi, uint64_t *out)
 {
     if (!text || !*text)

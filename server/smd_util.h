@@ -8,6 +8,7 @@
 #ifndef SMD_UTIL_H
 #define SMD_UTIL_H
 
+#include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <sys/types.h>
@@ -58,6 +59,16 @@ int smd_rmtree(const char *path);
 /* Reads a whole file of at most max bytes into a NUL-terminated malloc'd
  * buffer.  Returns 0, or -1 with errno (EFBIG when larger than max). */
 int smd_read_file(const char *path, size_t max, char **out, size_t *len);
+
+/* A growable text buffer: *buf (malloc'd, NULL to start) holds *len bytes
+ * and a NUL in *cap bytes.  Appends n bytes of data (smd_buf_append) or
+ * formatted text (smd_buf_printf), doubling the capacity as needed.  0,
+ * or -1 when out of memory (the buffer is then unchanged). */
+int smd_buf_append(char **buf, size_t *len, size_t *cap, const void *data, size_t n);
+int smd_buf_printf(char **buf, size_t *len, size_t *cap, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+int smd_buf_vprintf(char **buf, size_t *len, size_t *cap, const char *fmt, va_list ap)
+    __attribute__((format(printf, 4, 0)));
 
 /* Seconds on the monotonic clock (for deadlines and latencies). */
 double smd_monotonic(void);

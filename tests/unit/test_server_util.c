@@ -15,6 +15,7 @@
 #include <zlib.h>
 #include <cmocka.h>
 
+#include "sm_proto_text.h"
 #include "smd_metrics.h"
 #include "smd_negotiate.h"
 #include "smd_reply.h"
@@ -481,6 +482,34 @@ static void test_route_table(void **state)
     }
 }
 
+static void test_text_and_buffers(void **state)
+{
+    (void)state;
+    char s[] = "a\tb\x7f\xc3\xa9 \"q\"";
+    assert_string_equal(sm_text_make_printable(s, NULL), "a?b??? \"q\"");
+    char t[] = "GET /a b";
+    assert_string_equal(sm_text_make_printable(t, " "), "GET?/a?b");
+    char d[8];
+    assert_string_equal(sm_text_printable_copy(d, sizeof d, "ab\"c", "\""), "ab?c");
+    assert_string_equal(sm_text_printable_copy(d, sizeof d, "abcdefghij", NULL), "abcd...");
+    assert_string_equal(sm_text_printable_copy(d, sizeof d, NULL, NULL), "");
+
+    char *buf = NULL;
+    size_t len = 0, cap = 0;
+    assert_int_equal(smd_buf_append(&buf, &len, &cap, "abc", 3), 0);
+    assert_int_equal(smd_buf_printf(&buf, &len, &cap, "-%d-%s", 42, "x"), 0);
+    assert_string_equal(buf, "abc-42-x");
+    assert_int_equal(len, 8);
+    for (int i = 0; i < 2000; i++) /* grows past the first 4 KiB */
+        assert_int_equal(smd_buf_printf(&buf, &len, &cap, "%04d", i), 0);
+    assert_int_equal(len, 8 + 8000);
+    assert_int_equal(strlen(buf), len);
+    assert_true(cap > len);
+    assert_int_equal(smd_buf_append(&buf, &len, &cap, "x", SIZE_MAX), -1); /* no overflow */
+    assert_int_equal(len, 8008);
+    free(buf);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -489,6 +518,7 @@ int main(void)
         cmocka_unit_test(test_bounded_integers),
         cmocka_unit_test(test_metrics),
         cmocka_unit_test(test_route_table),
+        cmocka_unit_test(test_text_and_buffers),
         cmocka_unit_test(test_secret_equal),
         cmocka_unit_test(test_pathf),
         cmocka_unit_test(test_sizes_and_durations),

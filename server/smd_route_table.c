@@ -85,13 +85,20 @@ static int capture(const char *name, size_t name_len, const char *s, size_t n, c
             c->id[0] = '\0';
         return 1;
     }
-    char *dst = name_len == 3 && memcmp(name, "pid", 3) == 0 ? c->pid : c->arg;
-    size_t cap = dst == c->pid ? sizeof c->pid : sizeof c->arg;
-    size_t max = dst == c->pid ? cap - 1 : 16;
-    if (n == 0 || n > max)
+    if (n == 0)
         return 0;
-    memcpy(dst, s, n);
-    dst[n] = '\0';
+    if (name_len == 3 && memcmp(name, "pid", 3) == 0) {
+        /* any process id matches (an unknown one is the handler's 404),
+         * kept truncated */
+        size_t k = n < sizeof c->pid ? n : sizeof c->pid - 1;
+        memcpy(c->pid, s, k);
+        c->pid[k] = '\0';
+        return 1;
+    }
+    if (n > 16) /* {iteration}: longer is no route */
+        return 0;
+    memcpy(c->arg, s, n);
+    c->arg[n] = '\0';
     return 1;
 }
 

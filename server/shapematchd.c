@@ -22,7 +22,9 @@
 
 #include "sm_proto_events.h"
 #include "smd_http.h"
+#include "smd_jobs.h"
 #include "smd_pool.h"
+#include "smd_route_table.h"
 #include "smd_server.h"
 #include "smd_stream.h"
 
@@ -132,27 +134,21 @@ static void shutdown_daemon(smd_server *srv, const sigset_t *signals)
     smd_http_stop(srv);
 }
 
-int main(int argc, char **argv)
+/* Step 1: flags, environment, the worker program, the tokens.  Returns
+ * -1 to go on, or the exit code (0 for --help / --version, 2 for a bad
+ * configuration). */
+static int configure(smd_server *srv, int argc, char **argv)
 {
-    smd_server *srv = calloc(1, sizeof *srv);
-    if (!srv) {
-        fprintf(stderr, "shapematchd: out of memory\n");
-        return 1;
-    }
     char msg[512];
-    int code = 1;
     switch (smd_config_parse(&srv->cfg, argc, argv, env_lookup, NULL, msg, sizeof msg)) {
     case SMD_CONFIG_HELP:
         smd_config_help(stdout);
-        free(srv);
         return 0;
     case SMD_CONFIG_VERSION:
         printf("shapematchd %s\n", SM_VERSION);
-        free(srv);
         return 0;
     case SMD_CONFIG_ERROR:
         fprintf(stderr, "shapematchd: %s\n", msg);
-        free(srv);
         return 2;
     case SMD_CONFIG_OK:
         break;
@@ -163,19 +159,16 @@ int main(int argc, char **argv)
     if (!srv->cfg.worker_path[0] &&
         default_worker_path(srv->cfg.worker_path, sizeof srv->cfg.worker_path) != 0) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "config", "cannot locate shapematch-worker: use --worker");
-        free(srv);
         return 2;
     }
     if (access(srv->cfg.worker_path, X_OK) != 0) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "config", "worker program %s: %s (--worker)",
                  srv->cfg.worker_path, strerror(errno));
-        free(srv);
         return 2;
     }
     if (srv->cfg.tokens_file[0] &&
         smd_tokens_load(srv->cfg.tokens_file, &srv->tokens, msg, sizeof msg) != 0) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "config", "--tokens-file %s", msg);
-        free(srv);
         return 2;
     }
 #if defined(__SANITIZE_ADDRESS__)
@@ -183,14 +176,18 @@ int main(int argc, char **argv)
         smd_logf(&srv->log, SMD_LOG_WARN, "config",
                  "ASan build: the worker memory limit (RLIMIT_AS) is not applied");
 #endif
+    return -1;
+}
 
-    /* every thread inherits this mask; signals are taken with sigtimedwait */
-    sigset_t signals;
-    sigemptyset(&signals);
-    sigaddset(&signals, SIGTERM);
-    sigaddset(&signals, SIGINT);
-    sigaddset(&signals, SIGHUP);
-    pthread_sigmask(SIG_BLOCK, &signals, NULL);
+/* Step 2: every thread inherits the blocked mask; signals are taken with
+ * sigwaitinfo / sigtimedwait by the main thread. */
+static void take_signals(sigset_t *signals)
+{
+    sigemptyset(signals);
+    sigaddset(signals, SIGTERM);
+    sigaddset(signals, SIGINT);
+    sigaddset(signals, SIGHUP);
+    pthread_sigmask(SIG_BLOCK, signals, NULL);
     main_tid = gettid();
     struct sigaction fwd;
     memset(&fwd, 0, sizeof fwd);
@@ -204,64 +201,90 @@ int main(int argc, char **argv)
     memset(&ign, 0, sizeof ign);
     ign.sa_handler = SIG_IGN;
     sigaction(SIGPIPE, &ign, NULL);
-    raise_fd_limit(srv);
+}
 
+/* Step 3: the spool (and the recovery of interrupted jobs), the queue,
+ * the worker pool, the HTTP front.  0, or -1 (logged). */
+static int start_parts(smd_server *srv, size_t *queued)
+{
     sm_error err;
     sm_error_clear(&err);
-    int metrics_ok = smd_metrics_init(&srv->metrics) == 0;
-    int lock_ok = pthread_mutex_init(&srv->lock, NULL) == 0;
-    if (!metrics_ok || !lock_ok) {
-        smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "cannot initialise locks");
-        goto out;
-    }
     if (smd_store_open(srv->cfg.spool, &srv->log, &srv->store, &err) != SM_OK) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "spool: %s", err.msg);
-        goto out;
+        return -1;
     }
     srv->queue = smd_queue_local_new();
     if (!srv->queue) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "out of memory");
-        goto out;
+        return -1;
     }
-    size_t queued = 0;
-    for (size_t i = 0; i < smd_store_count(srv->store); i++) {
-        smd_job *job = smd_store_at(srv->store, i);
-        if (job->state == SM_JOB_ACCEPTED) {
-            if (smd_queue_push(srv->queue, job->id) != 0) {
-                smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "out of memory");
-                goto out;
-            }
-            queued++;
-        }
+    if (smd_jobs_recover(srv, queued, &err) != SM_OK) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "%s", err.msg);
+        return -1;
     }
     if (smd_pool_start(srv, &err) != SM_OK) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "%s", err.msg);
-        goto out;
+        return -1;
     }
     if (smd_http_start(srv, &err) != SM_OK) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "%s", err.msg);
         smd_pool_stop(srv, 0);
-        goto out;
+        return -1;
     }
     smd_log(&srv->log, SMD_LOG_INFO, "listening",
             json_pack("{s:s,s:i,s:s,s:i,s:i,s:I,s:I,s:b,s:s,s:s}", "address", srv->cfg.listen_host,
                       "port", (int)srv->port, "spool", srv->cfg.spool, "workers", srv->cfg.workers,
                       "http_threads", srv->cfg.http_threads, "jobs",
-                      (json_int_t)smd_store_count(srv->store), "queued", (json_int_t)queued, "auth",
+                      (json_int_t)smd_store_count(srv->store), "queued", (json_int_t)*queued, "auth",
                       srv->tokens != NULL, "worker", srv->cfg.worker_path, "version", SM_VERSION));
+    return 0;
+}
+
+/* Step 4: serve until SIGTERM or SIGINT. */
+static void wait_for_stop(smd_server *srv, const sigset_t *signals)
+{
     for (;;) {
-        int sig = sigwaitinfo(&signals, NULL);
+        int sig = sigwaitinfo(signals, NULL);
         if (sig == SIGTERM || sig == SIGINT) {
             smd_logf(&srv->log, SMD_LOG_INFO, "signal", "%s: shutting down",
                      sig == SIGTERM ? "SIGTERM" : "SIGINT");
-            break;
+            return;
         }
         if (sig == SIGHUP)
             smd_logf(&srv->log, SMD_LOG_INFO, "signal", "SIGHUP ignored (restart to reload)");
     }
-    shutdown_daemon(srv, &signals);
-    code = 0;
-out:
+}
+
+int main(int argc, char **argv)
+{
+    smd_server *srv = calloc(1, sizeof *srv);
+    if (!srv) {
+        fprintf(stderr, "shapematchd: out of memory\n");
+        return 1;
+    }
+    int code = configure(srv, argc, argv);
+    if (code >= 0) {
+        smd_tokens_free(srv->tokens);
+        free(srv);
+        return code;
+    }
+    code = 1;
+    sigset_t signals;
+    take_signals(&signals);
+    raise_fd_limit(srv);
+
+    const char *route_labels[64]; /* outlives the metrics: main's frame */
+    size_t nlabels = smd_route_labels(route_labels, sizeof route_labels / sizeof route_labels[0]);
+    int metrics_ok = smd_metrics_init(&srv->metrics, route_labels, nlabels) == 0;
+    int lock_ok = pthread_mutex_init(&srv->lock, NULL) == 0;
+    size_t queued = 0;
+    if (!metrics_ok || !lock_ok) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "cannot initialise locks");
+    } else if (start_parts(srv, &queued) == 0) {
+        wait_for_stop(srv, &signals);
+        shutdown_daemon(srv, &signals);
+        code = 0;
+    }
     smd_pool_free(srv->pool);
     smd_queue_free(srv->queue);
     smd_store_close(srv->store);

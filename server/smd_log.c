@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "sm_proto_events.h"
+#include "sm_proto_text.h"
 
 static const char *const level_names[] = {"debug", "info", "warn", "error"};
 
@@ -89,8 +90,6 @@ void smd_logf(const smd_logger *log, smd_log_level level, const char *event,
     va_end(ap);
     /* messages may quote file names or client input: keep the line
      * valid JSON whatever bytes they hold */
-    for (char *c = msg; *c; c++)
-        if ((unsigned char)*c < 0x20 || (unsigned char)*c >= 0x7f)
-            *c = '?';
+    sm_text_make_printable(msg, NULL);
     smd_log(log, level, event, json_pack("{s:s}", "msg", msg));
 }

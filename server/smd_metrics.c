@@ -7,12 +7,7 @@
 #include <string.h>
 #include <unistd.h>
 
-static const char *const route_labels[SMD_ROUTE_COUNT] = {
-    "other", "/", "/v1/openapi.yaml", "/healthz", "/readyz", "/metrics", "/v1/processes", "/v1/processes/{id}",
-    "/v1/jobs", "/v1/jobs/{id}", "/v1/jobs/{id}/events", "/v1/jobs/{id}/results",
-    "/v1/jobs/{id}/results/mesh", "/v1/jobs/{id}/results/displacement",
-    "/v1/jobs/{id}/results/history",
-};
+#include "smd_util.h"
 
 static const char *const method_labels[SMD_METHODS] = {"GET", "POST", "DELETE", "HEAD", "other"};
 
@@ -21,25 +16,51 @@ static const double bucket_bounds[SMD_LATENCY_BUCKETS] = {
     0.05,   0.1,     0.25,   0.5,   1,      2.5,   10,
 };
 
-static const char *const final_states[3] = {"successful", "failed", "dismissed"};
-static const char *const all_states[5] = {"accepted", "running", "successful", "failed",
-                                          "dismissed"};
+static const char *const all_states[SMD_JOB_STATES] = {"accepted", "running", "successful",
+                                                       "failed", "dismissed"};
 
-const char *smd_route_label(smd_route r)
-{
-    return (r >= 0 && r < SMD_ROUTE_COUNT) ? route_labels[r] : "other";
-}
-
-int smd_metrics_init(smd_metrics *m)
+int smd_metrics_init(smd_metrics *m, const char *const *routes, size_t nroutes)
 {
     memset(m, 0, sizeof *m);
-    return pthread_mutex_init(&m->lock, NULL) == 0 ? 0 : -1;
+    if (nroutes == 0)
+        return -1;
+    m->routes = routes;
+    m->nroutes = nroutes;
+    m->requests = calloc(nroutes * SMD_METHODS * SMD_STATUS_CODES, sizeof *m->requests);
+    m->latency_bucket = calloc(nroutes * SMD_LATENCY_BUCKETS, sizeof *m->latency_bucket);
+    m->latency_sum = calloc(nroutes, sizeof *m->latency_sum);
+    m->latency_count = calloc(nroutes, sizeof *m->latency_count);
+    if (!m->requests || !m->latency_bucket || !m->latency_sum || !m->latency_count ||
+        pthread_mutex_init(&m->lock, NULL) != 0) {
+        free(m->requests);
+        free(m->latency_bucket);
+        free(m->latency_sum);
+        free(m->latency_count);
+        memset(m, 0, sizeof *m);
+        return -1;
+    }
+    return 0;
 }
 
 void smd_metrics_destroy(smd_metrics *m)
 {
     pthread_mutex_destroy(&m->lock);
+    free(m->requests);
+    free(m->latency_bucket);
+    free(m->latency_sum);
+    free(m->latency_count);
 }
+
+static size_t route_index(const smd_metrics *m, const char *route)
+{
+    for (size_t i = 0; route && i < m->nroutes; i++)
+        if (route == m->routes[i] || strcmp(route, m->routes[i]) == 0)
+            return i;
+    return 0;
+}
+
+#define REQUESTS(m, r, k, c) (m)->requests[((r) * SMD_METHODS + (k)) * SMD_STATUS_CODES + (c)]
+#define BUCKET(m, r, b) (m)->latency_bucket[(r) * SMD_LATENCY_BUCKETS + (b)]
 
 static int method_index(const char *method)
 {
@@ -49,17 +70,16 @@ static int method_index(const char *method)
     return SMD_METHODS - 1;
 }
 
-void smd_metrics_request(smd_metrics *m, smd_route route, const char *method, unsigned status,
-                         double seconds, uint64_t bytes_in, uint64_t bytes_out)
+void smd_metrics_request(smd_metrics *m, const char *route_label, const char *method,
+                         unsigned status, double seconds, uint64_t bytes_in, uint64_t bytes_out)
 {
-    if (route < 0 || route >= SMD_ROUTE_COUNT)
-        route = SMD_ROUTE_OTHER;
+    size_t route = route_index(m, route_label);
     pthread_mutex_lock(&m->lock);
     if (status >= 100 && status <= 599)
-        m->requests[route][method_index(method)][status - 100]++;
+        REQUESTS(m, route, (size_t)method_index(method), status - 100)++;
     for (int b = 0; b < SMD_LATENCY_BUCKETS; b++)
         if (seconds <= bucket_bounds[b])
-            m->latency_bucket[route][b]++; /* cumulative, as Prometheus wants */
+            BUCKET(m, route, (size_t)b)++; /* cumulative, as Prometheus wants */
     m->latency_sum[route] += seconds;
     m->latency_count[route]++;
     m->bytes_in += bytes_in;
@@ -69,10 +89,10 @@ void smd_metrics_request(smd_metrics *m, smd_route route, const char *method, un
 
 void smd_metrics_job_finished(smd_metrics *m, int state)
 {
-    if (state < 2 || state > 4)
+    if (state < SMD_JOB_FIRST_FINAL || state >= SMD_JOB_STATES)
         return;
     pthread_mutex_lock(&m->lock);
-    m->jobs_finished[state - 2]++;
+    m->jobs_finished[state - SMD_JOB_FIRST_FINAL]++;
     pthread_mutex_unlock(&m->lock);
 }
 
@@ -83,6 +103,7 @@ void smd_metrics_add(smd_metrics *m, uint64_t *counter, uint64_t n)
     pthread_mutex_unlock(&m->lock);
 }
 
+/* The exposition text: one growable buffer; the first failure sticks. */
 typedef struct outbuf {
     char *data;
     size_t len, cap;
@@ -94,28 +115,11 @@ static void out(outbuf *b, const char *fmt, ...)
 {
     if (b->failed)
         return;
-    for (;;) {
-        va_list ap;
-        va_start(ap, fmt);
-        int n = vsnprintf(b->data + b->len, b->cap - b->len, fmt, ap);
-        va_end(ap);
-        if (n < 0) {
-            b->failed = 1;
-            return;
-        }
-        if ((size_t)n < b->cap - b->len) {
-            b->len += (size_t)n;
-            return;
-        }
-        size_t ncap = 2 * b->cap + (size_t)n;
-        char *d = realloc(b->data, ncap);
-        if (!d) {
-            b->failed = 1;
-            return;
-        }
-        b->data = d;
-        b->cap = ncap;
-    }
+    va_list ap;
+    va_start(ap, fmt);
+    if (smd_buf_vprintf(&b->data, &b->len, &b->cap, fmt, ap) != 0)
+        b->failed = 1;
+    va_end(ap);
 }
 
 static long resident_bytes(void)
@@ -137,7 +141,7 @@ char *smd_metrics_render(smd_metrics *m, const smd_gauges *g, size_t *len)
         return NULL;
     b.data[0] = '\0';
     out(&b, "# HELP shapematch_jobs Jobs in the store by state.\n# TYPE shapematch_jobs gauge\n");
-    for (int s = 0; s < 5; s++)
+    for (int s = 0; s < SMD_JOB_STATES; s++)
         out(&b, "shapematch_jobs{state=\"%s\"} %llu\n", all_states[s],
             (unsigned long long)g->jobs_by_state[s]);
     out(&b, "# HELP shapematch_queue_depth Jobs waiting for a worker.\n"
@@ -169,8 +173,8 @@ char *smd_metrics_render(smd_metrics *m, const smd_gauges *g, size_t *len)
         (unsigned long long)m->jobs_submitted);
     out(&b, "# HELP shapematch_jobs_finished_total Jobs that reached a final state.\n"
             "# TYPE shapematch_jobs_finished_total counter\n");
-    for (int s = 0; s < 3; s++)
-        out(&b, "shapematch_jobs_finished_total{state=\"%s\"} %llu\n", final_states[s],
+    for (int s = 0; s < SMD_JOB_FINAL_STATES; s++)
+        out(&b, "shapematch_jobs_finished_total{state=\"%s\"} %llu\n", all_states[SMD_JOB_FIRST_FINAL + s],
             (unsigned long long)m->jobs_finished[s]);
     out(&b, "# HELP shapematch_workers_started_total Worker processes started.\n"
             "# TYPE shapematch_workers_started_total counter\nshapematch_workers_started_total %llu\n",
@@ -180,28 +184,28 @@ char *smd_metrics_render(smd_metrics *m, const smd_gauges *g, size_t *len)
         (unsigned long long)m->events_appended);
     out(&b, "# HELP shapematch_http_requests_total HTTP requests by route, method and status.\n"
             "# TYPE shapematch_http_requests_total counter\n");
-    for (int r = 0; r < SMD_ROUTE_COUNT; r++)
-        for (int k = 0; k < SMD_METHODS; k++)
-            for (int c = 0; c < 500; c++)
-                if (m->requests[r][k][c])
-                    out(&b, "shapematch_http_requests_total{route=\"%s\",method=\"%s\",code=\"%d\"} %llu\n",
-                        route_labels[r], method_labels[k], c + 100,
-                        (unsigned long long)m->requests[r][k][c]);
+    for (size_t r = 0; r < m->nroutes; r++)
+        for (size_t k = 0; k < SMD_METHODS; k++)
+            for (size_t c = 0; c < SMD_STATUS_CODES; c++)
+                if (REQUESTS(m, r, k, c))
+                    out(&b, "shapematch_http_requests_total{route=\"%s\",method=\"%s\",code=\"%zu\"} %llu\n",
+                        m->routes[r], method_labels[k], c + 100,
+                        (unsigned long long)REQUESTS(m, r, k, c));
     out(&b, "# HELP shapematch_http_request_duration_seconds Time from request to the end of the "
             "response (event streams: the whole stream).\n"
             "# TYPE shapematch_http_request_duration_seconds histogram\n");
-    for (int r = 0; r < SMD_ROUTE_COUNT; r++) {
+    for (size_t r = 0; r < m->nroutes; r++) {
         if (!m->latency_count[r])
             continue;
-        for (int k = 0; k < SMD_LATENCY_BUCKETS; k++)
+        for (size_t k = 0; k < SMD_LATENCY_BUCKETS; k++)
             out(&b, "shapematch_http_request_duration_seconds_bucket{route=\"%s\",le=\"%g\"} %llu\n",
-                route_labels[r], bucket_bounds[k], (unsigned long long)m->latency_bucket[r][k]);
+                m->routes[r], bucket_bounds[k], (unsigned long long)BUCKET(m, r, k));
         out(&b, "shapematch_http_request_duration_seconds_bucket{route=\"%s\",le=\"+Inf\"} %llu\n",
-            route_labels[r], (unsigned long long)m->latency_count[r]);
-        out(&b, "shapematch_http_request_duration_seconds_sum{route=\"%s\"} %.6f\n", route_labels[r],
+            m->routes[r], (unsigned long long)m->latency_count[r]);
+        out(&b, "shapematch_http_request_duration_seconds_sum{route=\"%s\"} %.6f\n", m->routes[r],
             m->latency_sum[r]);
         out(&b, "shapematch_http_request_duration_seconds_count{route=\"%s\"} %llu\n",
-            route_labels[r], (unsigned long long)m->latency_count[r]);
+            m->routes[r], (unsigned long long)m->latency_count[r]);
     }
     out(&b, "# HELP shapematch_http_received_bytes_total Request bytes received (bodies).\n"
             "# TYPE shapematch_http_received_bytes_total counter\nshapematch_http_received_bytes_total %llu\n",

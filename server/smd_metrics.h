@@ -1,7 +1,8 @@
 /* Counters and histograms of the daemon, rendered in the Prometheus text
  * exposition format (GET /metrics).  Requests are counted by route
- * template (never by raw path, so the label set stays bounded), method
- * and status code; latency is a histogram per route. */
+ * template (never by raw path, so the label set stays bounded: the labels
+ * are fixed at init), method and status code; latency is a histogram per
+ * route. */
 #ifndef SMD_METRICS_H
 #define SMD_METRICS_H
 
@@ -9,47 +10,36 @@
 #include <stddef.h>
 #include <stdint.h>
 
-typedef enum smd_route {
-    SMD_ROUTE_OTHER = 0,
-    SMD_ROUTE_ROOT,
-    SMD_ROUTE_OPENAPI,
-    SMD_ROUTE_HEALTHZ,
-    SMD_ROUTE_READYZ,
-    SMD_ROUTE_METRICS,
-    SMD_ROUTE_PROCESSES,
-    SMD_ROUTE_PROCESS,
-    SMD_ROUTE_JOBS,
-    SMD_ROUTE_JOB,
-    SMD_ROUTE_EVENTS,
-    SMD_ROUTE_RESULTS,
-    SMD_ROUTE_RESULT_MESH,
-    SMD_ROUTE_RESULT_DISPLACEMENT,
-    SMD_ROUTE_RESULT_HISTORY,
-    SMD_ROUTE_COUNT
-} smd_route;
-
-/* Route template, e.g. "/v1/jobs/{id}/events"; "other" for unknown. */
-const char *smd_route_label(smd_route r);
+/* The job states, in the order of proto's sm_job_state (accepted,
+ * running, successful, failed, dismissed; smd_jobs.c checks the match at
+ * compile time), and the final ones among them (from successful on). */
+#define SMD_JOB_STATES 5
+#define SMD_JOB_FIRST_FINAL 2
+#define SMD_JOB_FINAL_STATES (SMD_JOB_STATES - SMD_JOB_FIRST_FINAL)
 
 #define SMD_LATENCY_BUCKETS 15
 #define SMD_METHODS 5 /* GET, POST, DELETE, HEAD, other */
 
+#define SMD_STATUS_CODES 500 /* 100..599 */
+
 typedef struct smd_metrics {
     pthread_mutex_t lock;
-    uint64_t requests[SMD_ROUTE_COUNT][SMD_METHODS][500]; /* status 100..599 */
-    uint64_t latency_bucket[SMD_ROUTE_COUNT][SMD_LATENCY_BUCKETS];
-    double latency_sum[SMD_ROUTE_COUNT];
-    uint64_t latency_count[SMD_ROUTE_COUNT];
+    const char *const *routes; /* route labels (the first: unknown routes) */
+    size_t nroutes;
+    uint64_t *requests;        /* [route][method][status - 100] */
+    uint64_t *latency_bucket;  /* [route][bucket] */
+    double *latency_sum;       /* [route] */
+    uint64_t *latency_count;   /* [route] */
     uint64_t bytes_in, bytes_out;
     uint64_t jobs_submitted;
-    uint64_t jobs_finished[3]; /* successful, failed, dismissed */
+    uint64_t jobs_finished[SMD_JOB_FINAL_STATES]; /* successful, failed, dismissed */
     uint64_t events_appended;
     uint64_t workers_started;
 } smd_metrics;
 
 /* Values read at scrape time from the daemon's state. */
 typedef struct smd_gauges {
-    uint64_t jobs_by_state[5]; /* accepted, running, successful, failed, dismissed */
+    uint64_t jobs_by_state[SMD_JOB_STATES]; /* accepted, running, successful, failed, dismissed */
     uint64_t queue_depth;
     uint64_t workers_busy, workers_total;
     uint64_t followers;
@@ -57,14 +47,19 @@ typedef struct smd_gauges {
     int ready;
 } smd_gauges;
 
-int smd_metrics_init(smd_metrics *m);
+/* routes: the label of each route (strings that outlive m; the daemon's
+ * come from its route table, smd_route_labels), routes[0] used for any
+ * label not in the list.  0, or -1 when out of memory. */
+int smd_metrics_init(smd_metrics *m, const char *const *routes, size_t nroutes);
 void smd_metrics_destroy(smd_metrics *m);
 
-/* method: "GET", ...; status: HTTP code; seconds: handling time. */
-void smd_metrics_request(smd_metrics *m, smd_route route, const char *method,
+/* route: one of the labels given to smd_metrics_init (any other counts
+ * as the first); method: "GET", ...; status: HTTP code; seconds:
+ * handling time. */
+void smd_metrics_request(smd_metrics *m, const char *route, const char *method,
                          unsigned status, double seconds, uint64_t bytes_in,
                          uint64_t bytes_out);
-/* state index as in smd_gauges.jobs_by_state (2..4 for the final ones). */
+/* state index as in smd_gauges.jobs_by_state (final ones only). */
 void smd_metrics_job_finished(smd_metrics *m, int state);
 void smd_metrics_add(smd_metrics *m, uint64_t *counter, uint64_t n);
 

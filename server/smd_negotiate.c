@@ -4,7 +4,7 @@
 #include <string.h>
 #include <strings.h>
 
-#include "smd_http.h"
+#include "smd_negotiate.h"
 
 /* One element of a comma-separated header: the value before ';' (trimmed)
  * and its q parameter (1 when absent, 0..1). */

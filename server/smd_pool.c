@@ -19,6 +19,7 @@
 #include <unistd.h>
 
 #include "sm_proto_events.h"
+#include "smd_jobs.h"
 #include "smd_stream.h"
 #include "smd_worker.h"
 
@@ -84,30 +85,6 @@ size_t smd_pool_busy(const smd_pool *p)
 size_t smd_pool_slots(const smd_pool *p)
 {
     return p->nslots;
-}
-
-static json_t *job_log_fields(const smd_job *job)
-{
-    return json_pack("{s:s,s:s,s:s}", "job", job->id, "status", sm_job_state_name(job->state),
-                     "message", job->message);
-}
-
-static void save_or_log(smd_server *srv, smd_job *job)
-{
-    sm_error err;
-    if (smd_store_save(srv->store, job, &err) != SM_OK)
-        smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
-}
-
-static void append_or_log(smd_server *srv, smd_job *job, sm_event *ev, smd_wake_list *wake)
-{
-    sm_error err;
-    if (smd_store_append_event(srv->store, job, ev, &err) != SM_OK) {
-        smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
-        return;
-    }
-    smd_metrics_add(&srv->metrics, &srv->metrics.events_appended, 1);
-    smd_stream_collect_job(job, wake);
 }
 
 static void signal_group(slot *s, int sig)
@@ -206,7 +183,7 @@ static int spawn(smd_pool *p, slot *s, char *msg, size_t cap)
 }
 
 /* Lock held: moves the next queued job into a free slot. */
-static int start_next(smd_pool *p, smd_wake_list *wake)
+static int start_next(smd_pool *p, smd_jobs_after *after)
 {
     smd_server *srv = p->srv;
     slot *s = NULL;
@@ -215,62 +192,28 @@ static int start_next(smd_pool *p, smd_wake_list *wake)
             s = &p->slots[i];
     if (!s)
         return 0;
-    char id[SMD_ID_LEN + 1];
-    smd_job *job = NULL;
-    while (!job) {
-        if (!smd_queue_pop(srv->queue, id))
-            return 0;
-        job = smd_store_get(srv->store, id);
-        if (job && job->state != SM_JOB_ACCEPTED)
-            job = NULL; /* cancelled or deleted while queued */
-    }
-    double now = sm_time_now();
-    job->state = SM_JOB_RUNNING;
-    job->attempt++;
-    job->started = job->updated = now;
-    job->finished = -1;
-    job->progress = 0;
-    job->have_progress = 0;
-    snprintf(job->message, sizeof job->message, "running");
+    smd_job *job = smd_jobs_take_next(srv);
+    if (!job)
+        return 0;
     s->job = job;
     smd_job_ref(job);
-    char msg[256];
+    char msg[256], why[SM_EVENT_MESSAGE_MAX];
     if (spawn(p, s, msg, sizeof msg) != 0) {
         /* no process: fail the job right here */
-        job->state = SM_JOB_FAILED;
-        job->finished = job->updated = sm_time_now();
-        snprintf(job->message, sizeof job->message, "cannot start the worker: %s", msg);
-        save_or_log(srv, job);
-        sm_event ev;
-        sm_event_init(&ev, SM_EVENT_FAILED);
-        snprintf(ev.message, sizeof ev.message, "%s", job->message);
-        append_or_log(srv, job, &ev, wake);
-        smd_job_close_log(job);
-        smd_metrics_job_finished(&srv->metrics, SM_JOB_FAILED);
-        smd_log(&srv->log, SMD_LOG_ERROR, "job_failed", job_log_fields(job));
+        smd_textf(why, sizeof why, "cannot start the worker: %s", msg);
+        smd_jobs_fail(srv, job, why, NULL, after);
         s->job = NULL;
         smd_job_unref(job);
         return 1;
     }
-    job->worker_active = 1;
     p->busy++;
-    save_or_log(srv, job);
-    sm_event ev;
-    sm_event_init(&ev, SM_EVENT_STARTED);
-    ev.attempt = job->attempt;
-    ev.time = now;
-    append_or_log(srv, job, &ev, wake);
-    smd_metrics_add(&srv->metrics, &srv->metrics.workers_started, 1);
-    json_t *f = job_log_fields(job);
-    json_object_set_new(f, "pid", json_integer(s->pid));
-    json_object_set_new(f, "attempt", json_integer(job->attempt));
-    smd_log(&srv->log, SMD_LOG_INFO, "job_started", f);
+    smd_jobs_started(srv, job, (long)s->pid, after);
     return 1;
 }
 
 /* ------------------------------------------------------- worker events */
 
-static void handle_line(smd_pool *p, slot *s, const char *line, size_t len, smd_wake_list *wake)
+static void handle_line(smd_pool *p, slot *s, const char *line, size_t len, smd_jobs_after *after)
 {
     smd_server *srv = p->srv;
     smd_job *job = s->job;
@@ -282,20 +225,9 @@ static void handle_line(smd_pool *p, slot *s, const char *line, size_t len, smd_
         smd_logf(&srv->log, SMD_LOG_WARN, "worker_bad_event", "job %s: %s", job->id, err.msg);
         return;
     }
-    ev.seq = 0; /* numbered by the store */
     switch (ev.type) {
     case SM_EVENT_PROGRESS:
-        if (job->state != SM_JOB_RUNNING)
-            return; /* cancelled: the log ends with "cancelled" */
-        ev.time = sm_time_now();
-        append_or_log(srv, job, &ev, wake);
-        job->have_progress = 1;
-        job->last_progress = ev.progress;
-        job->updated = ev.time;
-        if (job->max_iter > 0) {
-            long pct = (long)ev.progress.iteration * 100 / job->max_iter;
-            job->progress = (int)(pct > 99 ? 99 : pct < 0 ? 0 : pct);
-        }
+        smd_jobs_progress(srv, job, &ev, after); /* refused once cancelled */
         break;
     case SM_EVENT_FINISHED:
         s->have_finished = 1;
@@ -309,7 +241,7 @@ static void handle_line(smd_pool *p, slot *s, const char *line, size_t len, smd_
     }
 }
 
-static void read_pipe(smd_pool *p, slot *s, smd_wake_list *wake)
+static void read_pipe(smd_pool *p, slot *s, smd_jobs_after *after)
 {
     char buf[65536];
     for (int rounds = 0; rounds < 16; rounds++) { /* bounded: others need service too */
@@ -334,10 +266,10 @@ static void read_pipe(smd_pool *p, slot *s, smd_wake_list *wake)
             } else if (s->line_len > 0) {
                 if (s->line_len + part <= LINE_MAX_BYTES) {
                     memcpy(s->line + s->line_len, buf + start, part);
-                    handle_line(p, s, s->line, s->line_len + part, wake);
+                    handle_line(p, s, s->line, s->line_len + part, after);
                 }
             } else if (part <= LINE_MAX_BYTES) {
-                handle_line(p, s, buf + start, part, wake);
+                handle_line(p, s, buf + start, part, after);
             }
             s->line_len = 0;
             start = i + 1;
@@ -454,86 +386,27 @@ static void apply_limits(smd_pool *p, slot *s, double now)
     }
 }
 
-/* Lock held: moves the job's folder to trash/ and remembers it, to be
- * removed once the lock is released. */
-static void trash_job(smd_server *srv, const char *id, char ***trash, size_t *ntrash)
-{
-    char path[PATH_MAX];
-    if (smd_store_trash(srv->store, id, path, sizeof path) != 0) {
-        smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "job %s: cannot delete: %s", id,
-                 strerror(errno));
-        return;
-    }
-    char **t = path[0] ? realloc(*trash, (*ntrash + 1) * sizeof **trash) : NULL;
-    if (!t)
-        return; /* left in trash/: emptied at the next start */
-    *trash = t;
-    if ((t[*ntrash] = strdup(path)) != NULL)
-        (*ntrash)++;
-}
-
-/* Lock held: the worker of s is gone (pipe closed and reaped). */
-static void finish(smd_pool *p, slot *s, smd_wake_list *wake, char ***trash, size_t *ntrash)
+/* Lock held: the worker of s is gone (pipe closed and reaped): the job's
+ * state follows from how it ended. */
+static void finish(smd_pool *p, slot *s, smd_jobs_after *after)
 {
     smd_server *srv = p->srv;
     smd_job *job = s->job;
-    double now = sm_time_now();
-    sm_event ev;
-    int log_level = SMD_LOG_INFO;
-    const char *log_event = "job_finished";
+    json_t *f = json_pack("{s:i,s:f,s:f}", "pid", (int)s->pid, "cpu_seconds", s->cpu_seconds,
+                          "wall_seconds", smd_monotonic() - s->started_mono);
     if (s->stop == STOP_SHUTDOWN && job->state == SM_JOB_RUNNING) {
-        job->state = SM_JOB_ACCEPTED;
-        job->progress = 0;
-        job->updated = now;
-        snprintf(job->message, sizeof job->message,
-                 "interrupted by a daemon shutdown: runs again at the next start");
-        save_or_log(srv, job);
-        log_event = "job_requeued";
+        smd_jobs_requeue(srv, job, f);
     } else if (job->state == SM_JOB_DISMISSED) {
-        job->finished = job->updated = now;
-        save_or_log(srv, job);
-        sm_event_init(&ev, SM_EVENT_CANCELLED);
-        snprintf(ev.message, sizeof ev.message, "%s", job->message);
-        append_or_log(srv, job, &ev, wake);
-        smd_metrics_job_finished(&srv->metrics, SM_JOB_DISMISSED);
-        log_event = "job_cancelled";
+        smd_jobs_cancelled(srv, job, f, after);
     } else if (s->stop == STOP_NONE && WIFEXITED(s->wstatus) && WEXITSTATUS(s->wstatus) == 0 &&
                s->have_finished) {
-        job->state = SM_JOB_SUCCESSFUL;
-        job->progress = 100;
-        job->finished = job->updated = now;
-        snprintf(job->message, sizeof job->message, "finished: %s after %d iterations",
-                 sm_stop_reason_name(s->finished.result.stop), s->finished.result.iterations);
-        save_or_log(srv, job);
-        ev = s->finished;
-        ev.time = now;
-        snprintf(ev.message, sizeof ev.message, "%s", job->message);
-        append_or_log(srv, job, &ev, wake);
-        smd_metrics_job_finished(&srv->metrics, SM_JOB_SUCCESSFUL);
+        smd_jobs_finish(srv, job, &s->finished, f, after);
     } else {
-        job->state = SM_JOB_FAILED;
-        job->finished = job->updated = now;
-        failure_reason(p, s, job->message, sizeof job->message);
-        save_or_log(srv, job);
-        sm_event_init(&ev, SM_EVENT_FAILED);
-        snprintf(ev.message, sizeof ev.message, "%s", job->message);
-        append_or_log(srv, job, &ev, wake);
-        smd_metrics_job_finished(&srv->metrics, SM_JOB_FAILED);
-        log_level = SMD_LOG_WARN;
-        log_event = "job_failed";
+        char why[SM_EVENT_MESSAGE_MAX];
+        failure_reason(p, s, why, sizeof why);
+        smd_jobs_fail(srv, job, why, f, after);
     }
-    if (job->state != SM_JOB_ACCEPTED)
-        smd_job_close_log(job);
-    json_t *f = job_log_fields(job);
-    json_object_set_new(f, "pid", json_integer(s->pid));
-    json_object_set_new(f, "cpu_seconds", json_real(s->cpu_seconds));
-    json_object_set_new(f, "wall_seconds", json_real(smd_monotonic() - s->started_mono));
-    smd_log(&srv->log, log_level, log_event, f);
-
-    job->worker_active = 0;
-    smd_stream_collect_job(job, wake);
-    if (job->delete_requested)
-        trash_job(srv, job->id, trash, ntrash); /* DELETE came while it was stopping */
+    smd_jobs_worker_gone(srv, job, after);
     if (s->pipe_fd >= 0)
         close(s->pipe_fd);
     if (s->pidfd >= 0)
@@ -546,7 +419,7 @@ static void finish(smd_pool *p, slot *s, smd_wake_list *wake, char ***trash, siz
 }
 
 /* Lock held: deletes jobs whose retention ran out. */
-static void sweep_retention(smd_pool *p, smd_wake_list *wake, char ***trash, size_t *ntrash)
+static void sweep_retention(smd_pool *p, smd_jobs_after *after)
 {
     smd_server *srv = p->srv;
     if (srv->cfg.retention <= 0)
@@ -559,142 +432,180 @@ static void sweep_retention(smd_pool *p, smd_wake_list *wake, char ***trash, siz
             i++;
             continue;
         }
-        smd_logf(&srv->log, SMD_LOG_INFO, "job_expired", "job %s deleted after the retention time",
-                 job->id);
-        trash_job(srv, job->id, trash, ntrash);
-        smd_stream_collect_job(job, wake);
-        smd_store_unlink(srv->store, job); /* shifts the list: do not advance i */
+        smd_jobs_expire(srv, job, after); /* shifts the list: do not advance i */
     }
 }
 
 /* ----------------------------------------------------------- the loop */
 
+/* What the supervisor waits on: the wake-up eventfd first, then the
+ * pipes and pidfds of the running workers (owner: their slots). */
+typedef struct poll_set {
+    struct pollfd *fds;
+    slot **owner;
+    size_t n, cap;
+} poll_set;
+
+static void poll_add(poll_set *ps, int fd, slot *owner)
+{
+    ps->fds[ps->n] = (struct pollfd){.fd = fd, .events = POLLIN};
+    ps->owner[ps->n++] = owner;
+}
+
+/* The nearest deadline of a running slot still to act on (a passed one is
+ * acted on in this round and must not turn the wait into a spin). */
+static double slot_wait(const smd_pool *p, const slot *s, double now, double wait)
+{
+    if (s->stop == STOP_NONE && s->deadline_mono > 0 && s->deadline_mono - now < wait)
+        wait = s->deadline_mono - now;
+    if (s->kill_at_mono > 0 && s->kill_at_mono - now < wait)
+        wait = s->kill_at_mono - now;
+    if (s->stop == STOP_NONE && p->quit && p->grace_deadline - now < wait)
+        wait = p->grace_deadline - now;
+    return wait;
+}
+
+/* Lock held: fills ps and returns the poll timeout in milliseconds. */
+static int prepare_poll(smd_pool *p, poll_set *ps)
+{
+    ps->n = 0;
+    poll_add(ps, p->wake_fd, NULL);
+    double now = smd_monotonic();
+    double wait = p->next_tick - now;
+    int need_reap_poll = 0;
+    for (size_t i = 0; i < p->nslots; i++) {
+        slot *s = &p->slots[i];
+        if (!s->job)
+            continue;
+        if (s->pipe_fd >= 0)
+            poll_add(ps, s->pipe_fd, s);
+        if (!s->exited && s->pidfd >= 0)
+            poll_add(ps, s->pidfd, s);
+        else if (!s->exited)
+            need_reap_poll = 1; /* no pidfd: poll for the exit */
+        wait = slot_wait(p, s, now, wait);
+    }
+    if (need_reap_poll && wait > 0.05)
+        wait = 0.05;
+    return wait <= 0 ? 0 : (int)ceil(wait * 1000);
+}
+
+/* Lock NOT held: waits; returns poll's result. */
+static int wait_events(smd_pool *p, poll_set *ps, int timeout_ms)
+{
+    int rc = poll(ps->fds, ps->n, timeout_ms);
+    if (rc < 0 && errno != EINTR) {
+        smd_logf(&p->srv->log, SMD_LOG_ERROR, "supervisor_error", "poll: %s", strerror(errno));
+        usleep(100000);
+    }
+    if (rc > 0 && (ps->fds[0].revents & POLLIN)) {
+        uint64_t v;
+        ssize_t n = read(p->wake_fd, &v, sizeof v);
+        (void)n;
+    }
+    return rc;
+}
+
+/* Lock held: reads the pipes and reaps the workers that poll reported. */
+static void service_fds(smd_pool *p, const poll_set *ps, int rc, smd_jobs_after *after)
+{
+    for (size_t k = 1; rc > 0 && k < ps->n; k++) {
+        slot *s = ps->owner[k];
+        if (!ps->fds[k].revents || !s->job)
+            continue;
+        if (ps->fds[k].fd == s->pipe_fd)
+            read_pipe(p, s, after);
+        else if (ps->fds[k].fd == s->pidfd)
+            try_reap(s);
+    }
+}
+
+/* Lock held: ends the runs whose worker is gone, applies the limits to
+ * the others. */
+static void service_slots(smd_pool *p, double now, smd_jobs_after *after)
+{
+    for (size_t i = 0; i < p->nslots; i++) {
+        slot *s = &p->slots[i];
+        if (!s->job)
+            continue;
+        if (!s->exited && (s->pidfd < 0 || s->pipe_fd < 0))
+            try_reap(s);
+        if (s->exited && s->pipe_fd >= 0) {
+            /* the worker is gone: take what is left in the pipe and close
+             * it without waiting for EOF (a helper it started may still
+             * hold the write end; the group was killed in try_reap) */
+            read_pipe(p, s, after);
+            if (s->pipe_fd >= 0) {
+                close(s->pipe_fd);
+                s->pipe_fd = -1;
+                s->line_len = 0;
+            }
+        }
+        if (s->exited && s->pipe_fd < 0) {
+            finish(p, s, after);
+            continue;
+        }
+        apply_limits(p, s, now);
+    }
+}
+
+/* Lock held: keepalives for idle streams, the retention sweep. */
+static void periodic(smd_pool *p, double now, smd_jobs_after *after)
+{
+    smd_server *srv = p->srv;
+    if (now >= p->next_tick) {
+        p->next_tick = now + p->tick;
+        smd_stream_collect_idle(srv, now, &after->wake);
+    }
+    if (now >= p->next_sweep) {
+        /* often enough that a job outlives its retention by at most half
+         * of it (and by 5 s at most) */
+        double every = srv->cfg.retention / 2;
+        p->next_sweep = now + (every < 0.5                       ? 0.5
+                               : every > RETENTION_SWEEP_SECONDS ? RETENTION_SWEEP_SECONDS
+                                                                 : every);
+        sweep_retention(p, after);
+    }
+}
+
 static void *supervise(void *arg)
 {
     smd_pool *p = arg;
     smd_server *srv = p->srv;
-    smd_wake_list wake = {0};
-    size_t nfds_cap = 1 + 2 * p->nslots;
-    struct pollfd *fds = calloc(nfds_cap, sizeof *fds);
-    slot **owner = calloc(nfds_cap, sizeof *owner);
-    if (!fds || !owner) {
+    smd_jobs_after after = {0};
+    poll_set ps = {0};
+    ps.cap = 1 + 2 * p->nslots;
+    ps.fds = calloc(ps.cap, sizeof *ps.fds);
+    ps.owner = calloc(ps.cap, sizeof *ps.owner);
+    if (!ps.fds || !ps.owner) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "supervisor_error", "out of memory");
-        free(fds);
-        free(owner);
+        free(ps.fds);
+        free(ps.owner);
         return NULL;
     }
     for (;;) {
-        /* what to wait for */
         pthread_mutex_lock(&srv->lock);
-        size_t nfds = 0;
-        fds[nfds] = (struct pollfd){.fd = p->wake_fd, .events = POLLIN};
-        owner[nfds++] = NULL;
-        double now = smd_monotonic();
-        double wait = p->next_tick - now;
-        int need_reap_poll = 0;
-        for (size_t i = 0; i < p->nslots; i++) {
-            slot *s = &p->slots[i];
-            if (!s->job)
-                continue;
-            if (s->pipe_fd >= 0) {
-                fds[nfds] = (struct pollfd){.fd = s->pipe_fd, .events = POLLIN};
-                owner[nfds++] = s;
-            }
-            if (!s->exited && s->pidfd >= 0) {
-                fds[nfds] = (struct pollfd){.fd = s->pidfd, .events = POLLIN};
-                owner[nfds++] = s;
-            } else if (!s->exited) {
-                need_reap_poll = 1;
-            }
-            /* only deadlines still to act on (a passed one is acted on in
-             * this round and must not turn the wait into a spin) */
-            if (s->stop == STOP_NONE && s->deadline_mono > 0 && s->deadline_mono - now < wait)
-                wait = s->deadline_mono - now;
-            if (s->kill_at_mono > 0 && s->kill_at_mono - now < wait)
-                wait = s->kill_at_mono - now;
-            if (s->stop == STOP_NONE && p->quit && p->grace_deadline - now < wait)
-                wait = p->grace_deadline - now;
-        }
-        if (need_reap_poll && wait > 0.05)
-            wait = 0.05;
+        int timeout_ms = prepare_poll(p, &ps);
         int done = p->quit && p->busy == 0;
         pthread_mutex_unlock(&srv->lock);
         if (done)
             break;
+        int rc = wait_events(p, &ps, timeout_ms);
 
-        int timeout_ms = wait <= 0 ? 0 : (int)ceil(wait * 1000);
-        int rc = poll(fds, nfds, timeout_ms);
-        if (rc < 0 && errno != EINTR) {
-            smd_logf(&srv->log, SMD_LOG_ERROR, "supervisor_error", "poll: %s", strerror(errno));
-            usleep(100000);
-        }
-        if (rc > 0 && (fds[0].revents & POLLIN)) {
-            uint64_t v;
-            ssize_t n = read(p->wake_fd, &v, sizeof v);
-            (void)n;
-        }
-
-        char **trash = NULL;
-        size_t ntrash = 0;
         pthread_mutex_lock(&srv->lock);
-        now = smd_monotonic();
-        for (size_t k = 1; rc > 0 && k < nfds; k++) {
-            slot *s = owner[k];
-            if (!fds[k].revents || !s->job)
-                continue;
-            if (fds[k].fd == s->pipe_fd)
-                read_pipe(p, s, &wake);
-            else if (fds[k].fd == s->pidfd)
-                try_reap(s);
+        double now = smd_monotonic();
+        service_fds(p, &ps, rc, &after);
+        service_slots(p, now, &after);
+        while (!p->quit && !atomic_load(&srv->draining) && start_next(p, &after)) {
         }
-        for (size_t i = 0; i < p->nslots; i++) {
-            slot *s = &p->slots[i];
-            if (!s->job)
-                continue;
-            if (!s->exited && (s->pidfd < 0 || s->pipe_fd < 0))
-                try_reap(s);
-            if (s->exited && s->pipe_fd >= 0) {
-                /* the worker is gone: take what is left in the pipe and close
-                 * it without waiting for EOF (a helper it started may still
-                 * hold the write end; the group was killed in try_reap) */
-                read_pipe(p, s, &wake);
-                if (s->pipe_fd >= 0) {
-                    close(s->pipe_fd);
-                    s->pipe_fd = -1;
-                    s->line_len = 0;
-                }
-            }
-            if (s->exited && s->pipe_fd < 0) {
-                finish(p, s, &wake, &trash, &ntrash);
-                continue;
-            }
-            apply_limits(p, s, now);
-        }
-        while (!p->quit && !atomic_load(&srv->draining) && start_next(p, &wake)) {
-        }
-        if (now >= p->next_tick) {
-            p->next_tick = now + p->tick;
-            smd_stream_collect_idle(srv, now, &wake);
-        }
-        if (now >= p->next_sweep) {
-            /* often enough that a job outlives its retention by at most
-             * half of it (and by 5 s at most) */
-            double every = srv->cfg.retention / 2;
-            p->next_sweep = now + (every < 0.5 ? 0.5 : every > RETENTION_SWEEP_SECONDS ? RETENTION_SWEEP_SECONDS : every);
-            sweep_retention(p, &wake, &trash, &ntrash);
-        }
+        periodic(p, now, &after);
         pthread_mutex_unlock(&srv->lock);
-
-        smd_wake_list_resume(&wake);
-        for (size_t i = 0; i < ntrash; i++) {
-            smd_rmtree(trash[i]);
-            free(trash[i]);
-        }
-        free(trash);
+        smd_jobs_after_run(&after); /* the pool wakes itself: no wake_pool needed */
+        after.wake_pool = 0;
     }
-    smd_wake_list_free(&wake);
-    free(fds);
-    free(owner);
+    smd_jobs_after_free(&after);
+    free(ps.fds);
+    free(ps.owner);
     return NULL;
 }
 

@@ -12,8 +12,10 @@
  * Once a second it also sends keepalives to idle event streams, and
  * deletes finished jobs past --retention.
  *
- * HTTP handlers never wait for it: they change job state under the lock
- * and call smd_pool_wake. */
+ * Every state change goes through the state machine (smd_jobs.h), from
+ * the supervisor and from HTTP handlers alike; handlers never wait for
+ * the supervisor: they call the state machine under the lock and then
+ * smd_pool_wake. */
 #ifndef SMD_POOL_H
 #define SMD_POOL_H
 

@@ -26,7 +26,8 @@
 
 #include "sm_payload.h"
 #include "sm_proto_vocab.h"
-#include "smd_routes.h"
+#include "smd_negotiate.h"
+#include "smd_results.h"
 #include "smd_worker.h"
 
 /* proto's table of result formats (sm_proto_vocab.h), by kind: the
@@ -256,16 +257,11 @@ static int snapshot_name_iteration(const char *name)
 /* The {iteration} segment of the path: canonical decimal, 1 or more. */
 static int parse_iteration(const char *seg)
 {
-    size_t len = strlen(seg);
-    if (len == 0 || len > SNAPSHOT_ITERATION_DIGITS || seg[0] == '0')
+    uint64_t v;
+    if (strlen(seg) > SNAPSHOT_ITERATION_DIGITS || seg[0] == '0' ||
+        smd_parse_uint(seg, 1, INT_MAX, &v) != SMD_NUM_OK)
         return -1;
-    int v = 0;
-    for (size_t i = 0; i < len; i++) {
-        if (!isdigit((unsigned char)seg[i]))
-            return -1;
-        v = v * 10 + (seg[i] - '0');
-    }
-    return v;
+    return (int)v;
 }
 
 static int by_iteration(const void *a, const void *b)
@@ -415,7 +411,9 @@ static enum MHD_Result summary(struct MHD_Connection *conn, smd_request *req)
     return smd_reply_json(conn, req, 200, doc);
 }
 
-enum MHD_Result smd_route_results(struct MHD_Connection *conn, smd_request *req)
+/* 1 when the job is successful; otherwise the 404 (no such job, or
+ * result-not-ready with its state and message) is sent and *r set. */
+static int results_ready(struct MHD_Connection *conn, smd_request *req, enum MHD_Result *r)
 {
     smd_server *srv = req->srv;
     pthread_mutex_lock(&srv->lock);
@@ -425,35 +423,55 @@ enum MHD_Result smd_route_results(struct MHD_Connection *conn, smd_request *req)
     if (job)
         snprintf(message, sizeof message, "%s", job->message);
     pthread_mutex_unlock(&srv->lock);
-    if (!job)
-        return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
+    if (!job) {
+        *r = smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
+        return 0;
+    }
     if (state != SM_JOB_SUCCESSFUL) {
         const char *what = state == SM_JOB_ACCEPTED ? "is queued"
                            : state == SM_JOB_RUNNING ? "is running"
                            : state == SM_JOB_FAILED  ? "failed"
                                                      : "was dismissed";
-        return smd_reply_problem(conn, req, 404, SMD_PROBLEM_RESULT_NOT_READY,
-                                 "job %s %s%s%s%s: it has no results", req->id, what,
-                                 message[0] ? " (" : "", message, message[0] ? ")" : "");
+        *r = smd_reply_problem(conn, req, 404, SMD_PROBLEM_RESULT_NOT_READY,
+                               "job %s %s%s%s%s: it has no results", req->id, what,
+                               message[0] ? " (" : "", message, message[0] ? ")" : "");
+        return 0;
     }
-    switch (req->route) {
-    case SMD_ROUTE_RESULT_MESH:
-        return serve(conn, req, mesh_formats, 4);
-    case SMD_ROUTE_RESULT_DISPLACEMENT:
-        return serve(conn, req, displacement_formats, 2);
-    case SMD_ROUTE_RESULT_HISTORY:
-        return serve(conn, req, history_formats, 2);
-    default:
-        break;
-    }
-    /* /results, or /results/snapshots[/{iteration}] (smd_http.c routes
-     * them here with a valid id and the whole path in req->path) */
-    const char *tail = req->path + 9 + SMD_ID_LEN; /* after "/v1/jobs/<id>" */
-    if (strlen(req->path) >= 9 + SMD_ID_LEN && strncmp(tail, "/results/snapshots", 18) == 0) {
-        if (tail[18] == '\0')
-            return snapshot_list(conn, req);
-        if (tail[18] == '/')
-            return snapshot_item(conn, req, tail + 19);
-    }
-    return summary(conn, req);
+    return 1;
+}
+
+enum MHD_Result smd_route_results(struct MHD_Connection *conn, smd_request *req)
+{
+    enum MHD_Result r;
+    return results_ready(conn, req, &r) ? summary(conn, req) : r;
+}
+
+enum MHD_Result smd_route_result_mesh(struct MHD_Connection *conn, smd_request *req)
+{
+    enum MHD_Result r;
+    return results_ready(conn, req, &r) ? serve(conn, req, mesh_formats, 4) : r;
+}
+
+enum MHD_Result smd_route_result_displacement(struct MHD_Connection *conn, smd_request *req)
+{
+    enum MHD_Result r;
+    return results_ready(conn, req, &r) ? serve(conn, req, displacement_formats, 2) : r;
+}
+
+enum MHD_Result smd_route_result_history(struct MHD_Connection *conn, smd_request *req)
+{
+    enum MHD_Result r;
+    return results_ready(conn, req, &r) ? serve(conn, req, history_formats, 2) : r;
+}
+
+enum MHD_Result smd_route_snapshots(struct MHD_Connection *conn, smd_request *req)
+{
+    enum MHD_Result r;
+    return results_ready(conn, req, &r) ? snapshot_list(conn, req) : r;
+}
+
+enum MHD_Result smd_route_snapshot(struct MHD_Connection *conn, smd_request *req)
+{
+    enum MHD_Result r;
+    return results_ready(conn, req, &r) ? snapshot_item(conn, req, req->arg) : r;
 }

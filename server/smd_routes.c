@@ -1,5 +1,6 @@
 /* Route handlers: landing page, OpenAPI document, health, metrics,
- * processes, job list, job status, cancel/delete, event streams. */
+ * processes, job list, job status, cancel/delete, event streams (see
+ * smd_routes.h). */
 #include "smd_routes.h"
 
 #include <errno.h>
@@ -10,14 +11,43 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "sm_proto_vocab.h"
+#include "smd_jobs.h"
+#include "smd_negotiate.h"
 #include "smd_pool.h"
 #include "smd_stream.h"
 
 #define OGC_REL "http://www.opengis.net/def/rel/ogc/1.0/"
+/* largest page of GET /v1/jobs (bounds the status documents built under
+ * the lock by one request) */
+#define SMD_LIST_LIMIT_MAX 1000
 
 static json_t *mklink(const char *href, const char *rel, const char *type, const char *title)
 {
     return json_pack("{s:s,s:s,s:s,s:s}", "href", href, "rel", rel, "type", type, "title", title);
+}
+
+json_t *smd_status_document(const smd_job *job)
+{
+    json_t *doc = smd_job_status_fields(job);
+    if (!doc)
+        return NULL;
+    char self[64], events[80], results[80];
+    snprintf(self, sizeof self, "/v1/jobs/%s", job->id);
+    snprintf(events, sizeof events, "/v1/jobs/%s/events", job->id);
+    snprintf(results, sizeof results, "/v1/jobs/%s/results", job->id);
+    json_t *links = json_array();
+    json_array_append_new(links, json_pack("{s:s,s:s,s:s,s:s}", "href", self, "rel", "self", "type",
+                                           "application/json", "title", "this job"));
+    json_array_append_new(links, json_pack("{s:s,s:s,s:s,s:s}", "href", events, "rel", "monitor",
+                                           "type", "text/event-stream", "title",
+                                           "progress events (SSE, or NDJSON)"));
+    if (job->state == SM_JOB_SUCCESSFUL)
+        json_array_append_new(links, json_pack("{s:s,s:s,s:s,s:s}", "href", results, "rel",
+                                               "http://www.opengis.net/def/rel/ogc/1.0/results",
+                                               "type", "application/json", "title", "results"));
+    json_object_set_new(doc, "links", links);
+    return doc;
 }
 
 /* ------------------------------------------------------- landing, docs */
@@ -91,7 +121,7 @@ enum MHD_Result smd_route_metrics(struct MHD_Connection *conn, smd_request *req)
     pthread_mutex_lock(&srv->lock);
     for (size_t i = 0; i < smd_store_count(srv->store); i++) {
         unsigned s = (unsigned)smd_store_at(srv->store, i)->state;
-        if (s < 5)
+        if (s < SMD_JOB_STATES)
             g.jobs_by_state[s]++;
     }
     g.queue_depth = smd_queue_depth(srv->queue);
@@ -149,8 +179,9 @@ static json_t *output(const char *title, const char *href_suffix, const char *fo
     return json_pack("{s:s,s:s,s:s}", "title", title, "href", href_suffix, "formats", formats);
 }
 
-enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req, const char *pid)
+enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req)
 {
+    const char *pid = req->pid;
     if (strcmp(pid, "match") != 0)
         return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_PROCESS,
                                  "no process \"%s\" (the only process is \"match\")", pid);
@@ -161,21 +192,21 @@ enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req,
     if (!schema)
         schema = json_pack("{s:s}", "type", "object");
     json_t *inputs = json_object();
-    json_object_set_new(inputs, "template",
+    json_object_set_new(inputs, sm_part_names[SM_PART_TEMPLATE],
                         file_input("Template mesh", "The mesh to deform: Medit .mesh or .meshb "
                                                     "(triangles in 2D, tetrahedra in 3D), optionally "
                                                     "gzip-compressed."));
-    json_object_set_new(inputs, "target_mesh",
+    json_object_set_new(inputs, sm_part_names[SM_PART_TARGET_MESH],
                         file_input("Target (background) mesh",
                                    "The mesh carrying the target's signed distance: .mesh or "
                                    ".meshb, optionally gzip-compressed; same dimension as the "
                                    "template."));
-    json_object_set_new(inputs, "target_sol",
+    json_object_set_new(inputs, sm_part_names[SM_PART_TARGET_SOL],
                         file_input("Target signed distance",
                                    "SolAtVertices scalar field (.sol or .solb, optionally "
                                    "gzip-compressed), one value per target mesh vertex, negative "
                                    "inside the target."));
-    json_object_set_new(inputs, "params",
+    json_object_set_new(inputs, sm_part_names[SM_PART_PARAMS],
                         json_pack("{s:s,s:s,s:i,s:i,s:o}", "title", "Parameters", "description",
                                   "JSON document; only clamp is required.", "minOccurs", 1,
                                   "maxOccurs", 1, "schema", schema));
@@ -202,19 +233,6 @@ enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req,
 
 /* ----------------------------------------------------------------- jobs */
 
-static int parse_long(const char *text, long lo, long hi, long *out)
-{
-    if (!text || !(*text >= '0' && *text <= '9'))
-        return -1;
-    char *end;
-    errno = 0;
-    long v = strtol(text, &end, 10);
-    if (errno || *end || v < lo || v > hi)
-        return -1;
-    *out = v;
-    return 0;
-}
-
 enum MHD_Result smd_route_jobs_list(struct MHD_Connection *conn, smd_request *req)
 {
     smd_server *srv = req->srv;
@@ -235,15 +253,17 @@ enum MHD_Result smd_route_jobs_list(struct MHD_Connection *conn, smd_request *re
             wanted |= 1u << st;
         }
     }
-    long limit = 100, offset = 0;
-    if (limit_s && parse_long(limit_s, 1, 1000, &limit) != 0)
+    uint64_t limit_u = 100, offset_u = 0;
+    if (limit_s && smd_parse_uint(limit_s, 1, SMD_LIST_LIMIT_MAX, &limit_u) != SMD_NUM_OK)
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
-                                 "limit: expected an integer in [1, 1000]");
-    if (offset_s && parse_long(offset_s, 0, LONG_MAX, &offset) != 0)
+                                 "limit: expected an integer in [1, %d]", SMD_LIST_LIMIT_MAX);
+    if (offset_s && smd_parse_uint(offset_s, 0, SMD_REQUEST_INT_MAX, &offset_u) != SMD_NUM_OK)
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
-                                 "offset: expected an integer >= 0");
+                                 "offset: expected an integer in [0, %lld]", SMD_REQUEST_INT_MAX);
+    /* both bounded (limit <= 1000, offset < 2^53): every sum below fits */
+    int64_t limit = (int64_t)limit_u, offset = (int64_t)offset_u;
     json_t *jobs = json_array();
-    long matched = 0;
+    int64_t matched = 0;
     pthread_mutex_lock(&srv->lock);
     size_t n = smd_store_count(srv->store);
     for (size_t k = 0; k < n; k++) { /* oldest first */
@@ -260,21 +280,23 @@ enum MHD_Result smd_route_jobs_list(struct MHD_Connection *conn, smd_request *re
     if (wanted) {
         snprintf(filter, sizeof filter, "&status=");
         int first = 1;
-        for (int s = 0; s < 5; s++)
+        for (int s = 0; s < SMD_JOB_STATES; s++)
             if (wanted & (1u << s)) {
                 strncat(filter, first ? "" : ",", sizeof filter - strlen(filter) - 1);
                 strncat(filter, sm_job_state_name((sm_job_state)s), sizeof filter - strlen(filter) - 1);
                 first = 0;
             }
     }
-    snprintf(href, sizeof href, "/v1/jobs?limit=%ld&offset=%ld%s", limit, offset, filter);
+    snprintf(href, sizeof href, "/v1/jobs?limit=%" PRId64 "&offset=%" PRId64 "%s", limit, offset,
+             filter);
     json_array_append_new(links, mklink(href, "self", "application/json", "this page"));
     if (offset + limit < matched) {
-        snprintf(href, sizeof href, "/v1/jobs?limit=%ld&offset=%ld%s", limit, offset + limit, filter);
+        snprintf(href, sizeof href, "/v1/jobs?limit=%" PRId64 "&offset=%" PRId64 "%s", limit,
+                 offset + limit, filter);
         json_array_append_new(links, mklink(href, "next", "application/json", "next page"));
     }
     if (offset > 0) {
-        snprintf(href, sizeof href, "/v1/jobs?limit=%ld&offset=%ld%s", limit,
+        snprintf(href, sizeof href, "/v1/jobs?limit=%" PRId64 "&offset=%" PRId64 "%s", limit,
                  offset > limit ? offset - limit : 0, filter);
         json_array_append_new(links, mklink(href, "prev", "application/json", "previous page"));
     }
@@ -303,69 +325,29 @@ enum MHD_Result smd_route_job_get(struct MHD_Connection *conn, smd_request *req)
 enum MHD_Result smd_route_job_delete(struct MHD_Connection *conn, smd_request *req)
 {
     smd_server *srv = req->srv;
-    smd_wake_list wake = {0};
-    char trash[PATH_MAX] = "";
+    smd_jobs_after after = {0};
     json_t *doc = NULL;
-    int wake_pool = 0;
-    sm_error err;
     pthread_mutex_lock(&srv->lock);
     smd_job *job = smd_store_get(srv->store, req->id);
     if (!job) {
         pthread_mutex_unlock(&srv->lock);
         return no_such_job(conn, req);
     }
-    double now = sm_time_now();
-    if (job->state == SM_JOB_ACCEPTED || job->state == SM_JOB_RUNNING) {
-        /* cancel: the job is dismissed at once; a running worker gets
-         * SIGTERM (then SIGKILL) from the supervisor, which appends the
-         * "cancelled" event when it is gone */
-        int running = job->state == SM_JOB_RUNNING;
-        job->state = SM_JOB_DISMISSED;
-        job->updated = now;
-        snprintf(job->message, sizeof job->message, "cancelled by request (DELETE)");
-        if (running) {
-            job->cancel_requested = 1;
-            wake_pool = 1;
-        } else {
-            smd_queue_remove(srv->queue, job->id);
-            job->finished = now;
-            sm_event ev;
-            sm_event_init(&ev, SM_EVENT_CANCELLED);
-            snprintf(ev.message, sizeof ev.message, "%s", job->message);
-            if (smd_store_append_event(srv->store, job, &ev, &err) != SM_OK)
-                smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
-            smd_job_close_log(job);
-            smd_metrics_job_finished(&srv->metrics, SM_JOB_DISMISSED);
-        }
-        if (smd_store_save(srv->store, job, &err) != SM_OK)
-            smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
-        smd_log(&srv->log, SMD_LOG_INFO, running ? "job_cancel_requested" : "job_cancelled",
-                json_pack("{s:s,s:s}", "job", job->id, "message", job->message));
-        smd_stream_collect_job(job, &wake);
+    if (!smd_job_state_final(job->state)) {
+        /* cancel: dismissed at once (a running worker is stopped) */
+        smd_jobs_cancel(srv, job, &after);
         doc = smd_status_document(job);
     } else {
-        /* final: delete the job and its files */
+        /* final: the job and its files go; the reply is its last status */
         doc = smd_status_document(job);
         json_object_set_new(doc, "message", json_string("deleted"));
         json_object_del(doc, "links");
-        smd_stream_collect_job(job, &wake);
-        if (job->worker_active) {
-            job->delete_requested = 1; /* files go when the worker is reaped */
-        } else if (smd_store_trash(srv->store, job->id, trash, sizeof trash) != 0) {
-            smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "job %s: cannot delete: %s", job->id,
-                     strerror(errno));
-            trash[0] = '\0';
-        }
-        smd_log(&srv->log, SMD_LOG_INFO, "job_deleted", json_pack("{s:s}", "job", job->id));
-        smd_store_unlink(srv->store, job);
+        smd_jobs_delete(srv, job, &after);
     }
     pthread_mutex_unlock(&srv->lock);
-    smd_wake_list_resume(&wake);
-    smd_wake_list_free(&wake);
-    if (wake_pool)
+    smd_jobs_after_free(&after);
+    if (after.wake_pool)
         smd_pool_wake(srv->pool);
-    if (trash[0])
-        smd_rmtree(trash);
     return smd_reply_json(conn, req, 200, doc);
 }
 
@@ -380,20 +362,25 @@ enum MHD_Result smd_route_events(struct MHD_Connection *conn, smd_request *req)
     if (choice < 0)
         return smd_reply_problem(conn, req, 406, SMD_PROBLEM_NOT_ACCEPTABLE,
                                  "events are served as text/event-stream or application/x-ndjson");
-    long after = 0;
+    /* a sequence number beyond the log is fine (nothing to replay: the
+     * stream waits for the job's end); one beyond 2^53 - 1 is refused */
+    uint64_t after = 0;
     const char *last = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, "Last-Event-ID");
     const char *after_q = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "after");
-    if (last && *last && parse_long(last, 0, LONG_MAX, &after) != 0)
+    if (last && *last && smd_parse_uint(last, 0, SMD_REQUEST_INT_MAX, &after) != SMD_NUM_OK)
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
-                                 "Last-Event-ID: expected an event sequence number");
-    if (!(last && *last) && after_q && parse_long(after_q, 0, LONG_MAX, &after) != 0)
+                                 "Last-Event-ID: expected an event sequence number in [0, %lld]",
+                                 SMD_REQUEST_INT_MAX);
+    if (!(last && *last) && after_q &&
+        smd_parse_uint(after_q, 0, SMD_REQUEST_INT_MAX, &after) != SMD_NUM_OK)
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
-                                 "after: expected an event sequence number");
+                                 "after: expected an event sequence number in [0, %lld]",
+                                 SMD_REQUEST_INT_MAX);
     char msg[256];
     pthread_mutex_lock(&srv->lock);
     smd_job *job = smd_store_get(srv->store, req->id);
     struct MHD_Response *resp =
-        job ? smd_stream_response(srv, job, conn, choice == 1, after, &req->bytes_out, msg, sizeof msg)
+        job ? smd_stream_response(srv, job, conn, choice == 1, (int64_t)after, &req->bytes_out, msg, sizeof msg)
             : NULL;
     pthread_mutex_unlock(&srv->lock);
     if (!job)

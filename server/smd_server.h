@@ -7,7 +7,20 @@
  * work (table updates, one status.json write, one event append), never
  * while waiting for a worker or the network.  libmicrohttpd is never
  * called with `lock` held except MHD_suspend_connection from a content
- * reader (see smd_stream.c for why that order is safe). */
+ * reader (see smd_stream.c for why that order is safe).
+ *
+ * The most work done under `lock` by one holder, and none of it grows
+ * with a number taken from a request, a header or the spool's records:
+ * - scans of the job table, O(jobs in the spool): the job list (plus at
+ *   most 1000 status documents, the page limit), /metrics, the
+ *   Idempotency-Key lookup, the retention sweep, unlinking a job;
+ * - one event-stream refill: walks the in-memory index of events that
+ *   exist (never from a requested sequence number upwards) for at most
+ *   256 KiB of log (READ_BATCH), then reads and formats them unlocked;
+ * - one status.json write (temporary file, fsync, rename) and one event
+ *   append (write, fdatasync for lifecycle events) per state change;
+ * - the supervisor's round: at most 16 reads of 64 KiB per worker pipe,
+ *   and a fork per job started. */
 #ifndef SMD_SERVER_H
 #define SMD_SERVER_H
 

@@ -31,6 +31,13 @@ struct smd_store {
     int64_t next_order;
 };
 
+/* The order given to the job after one of order o: saturates at
+ * SMD_ORDER_MAX (see smd_store.h). */
+static int64_t next_order_after(int64_t o)
+{
+    return o < SMD_ORDER_MAX ? o + 1 : SMD_ORDER_MAX;
+}
+
 int smd_job_state_final(sm_job_state state)
 {
     return state == SM_JOB_SUCCESSFUL || state == SM_JOB_FAILED || state == SM_JOB_DISMISSED;
@@ -38,7 +45,7 @@ int smd_job_state_final(sm_job_state state)
 
 /* ------------------------------------------------------------ job memory */
 
-static smd_job *job_alloc(const char *id)
+smd_job *smd_job_new(const char *id)
 {
     smd_job *job = calloc(1, sizeof *job);
     if (!job)
@@ -300,12 +307,12 @@ static int record_from_json(json_t *o, const char *id, smd_job *job, char *why, 
         return -1;
     }
     job->progress = (int)x;
-    if (get_int(o, "attempt", 0, INT_MAX, &x) != 0) {
+    if (get_int(o, "attempt", 0, SMD_ATTEMPT_MAX, &x) != 0) {
         snprintf(why, cap, "bad attempt");
         return -1;
     }
     job->attempt = (int)x;
-    if (get_int(o, "order", 0, INT64_MAX, &x) != 0) {
+    if (get_int(o, "order", 0, SMD_ORDER_MAX, &x) != 0) {
         snprintf(why, cap, "bad order");
         return -1;
     }
@@ -490,33 +497,18 @@ sm_status smd_store_append_event(smd_store *s, smd_job *job, sm_event *ev, sm_er
 
 /* ---------------------------------------------------------------- commit */
 
-sm_status smd_store_commit(smd_store *s, const char *upload_dir, const char *id, int dim,
-                           int max_iter, const char *idempotency_key, smd_job **out,
+sm_status smd_store_commit(smd_store *s, const char *upload_dir, smd_job *job, sm_event *first,
                            sm_error *err)
 {
-    *out = NULL;
-    if (!smd_id_valid(id))
-        return sm_error_set(err, SM_ERR_INVALID, "bad job id");
-    smd_job *job = job_alloc(id);
-    if (!job)
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
-    job->state = SM_JOB_ACCEPTED;
-    snprintf(job->message, sizeof job->message, "queued");
-    job->created = job->updated = sm_time_now();
-    job->order = s->next_order;
-    job->dim = dim;
-    job->max_iter = max_iter;
-    if (idempotency_key)
-        snprintf(job->idempotency_key, sizeof job->idempotency_key, "%s", idempotency_key);
-
-    sm_event ev;
-    sm_event_init(&ev, SM_EVENT_ACCEPTED);
-    ev.seq = 1;
-    ev.time = job->created;
-    snprintf(ev.job_id, sizeof ev.job_id, "%s", id);
-    char *line = sm_event_to_json(&ev);
+    const char *id = job->id;
     char path[PATH_MAX], final_dir[PATH_MAX];
     sm_status st = SM_OK;
+    job->order = s->next_order;
+    first->seq = 1;
+    if (first->time < 0)
+        first->time = job->created;
+    snprintf(first->job_id, sizeof first->job_id, "%s", id);
+    char *line = sm_event_to_json(first);
     if (!line) {
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
         goto fail;
@@ -554,12 +546,20 @@ sm_status smd_store_commit(smd_store *s, const char *upload_dir, const char *id,
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
         goto fail;
     }
-    s->next_order++;
-    *out = job;
+    s->next_order = next_order_after(s->next_order);
     return SM_OK;
 fail:
     job_free(job);
     return st;
+}
+
+void smd_store_remove_results(smd_store *s, const smd_job *job, int partial_only)
+{
+    char path[PATH_MAX];
+    if (smd_store_path(s, job->id, "results.tmp", path, sizeof path) == 0)
+        smd_rmtree(path);
+    if (!partial_only && smd_store_path(s, job->id, "results", path, sizeof path) == 0)
+        smd_rmtree(path);
 }
 
 int smd_store_trash(smd_store *s, const char *id, char *trash_path, size_t cap)
@@ -575,10 +575,16 @@ int smd_store_trash(smd_store *s, const char *id, char *trash_path, size_t cap)
 
 /* ------------------------------------------------------------ open/close */
 
+/* Submission order, then (for orders that reached SMD_ORDER_MAX) the
+ * creation time, then the id: a total order, whatever the records say. */
 static int cmp_order(const void *a, const void *b)
 {
     const smd_job *x = *(smd_job *const *)a, *y = *(smd_job *const *)b;
-    return (x->order > y->order) - (x->order < y->order);
+    if (x->order != y->order)
+        return (x->order > y->order) - (x->order < y->order);
+    if (x->created != y->created)
+        return (x->created > y->created) - (x->created < y->created);
+    return strcmp(x->id, y->id);
 }
 
 /* Loads jobs/<id>; returns NULL (logged) when the folder is not a job. */
@@ -596,7 +602,7 @@ static smd_job *load_job(smd_store *s, const char *id)
     json_error_t jerr;
     json_t *o = json_loadb(text, len, JSON_REJECT_DUPLICATES, &jerr);
     free(text);
-    smd_job *job = job_alloc(id);
+    smd_job *job = smd_job_new(id);
     if (!o || !job || record_from_json(o, id, job, why, sizeof why) != 0) {
         smd_logf(s->log, SMD_LOG_WARN, "job_skipped", "%s: %s", path,
                  !o ? jerr.text : !job ? "out of memory" : why);
@@ -606,35 +612,6 @@ static smd_job *load_job(smd_store *s, const char *id)
     }
     json_decref(o);
     return job;
-}
-
-/* A job that was queued or running when the daemon stopped: make it
- * runnable again. */
-static int recover_job(smd_store *s, smd_job *job)
-{
-    sm_error err;
-    char path[PATH_MAX];
-    if (smd_store_path(s, job->id, "results.tmp", path, sizeof path) == 0)
-        smd_rmtree(path);
-    if (job->state == SM_JOB_RUNNING) {
-        if (smd_store_path(s, job->id, "results", path, sizeof path) == 0)
-            smd_rmtree(path);
-        job->state = SM_JOB_ACCEPTED;
-        job->progress = 0;
-        job->updated = sm_time_now();
-        snprintf(job->message, sizeof job->message,
-                 "re-queued after a daemon restart (run %d was interrupted)", job->attempt);
-        if (smd_store_save(s, job, &err) != SM_OK) {
-            smd_logf(s->log, SMD_LOG_ERROR, "job_recovery_failed", "%s", err.msg);
-            return -1;
-        }
-        smd_logf(s->log, SMD_LOG_INFO, "job_requeued", "job %s was running: queued again", job->id);
-    }
-    if (smd_store_load_events(s, job, &err) != SM_OK) {
-        smd_logf(s->log, SMD_LOG_ERROR, "job_recovery_failed", "%s", err.msg);
-        return -1;
-    }
-    return 0;
 }
 
 static int empty_dir(const char *dir)
@@ -730,10 +707,6 @@ sm_status smd_store_open(const char *spool, const smd_logger *log, smd_store **o
         smd_job *job = load_job(s, de->d_name);
         if (!job)
             continue;
-        if (!smd_job_state_final(job->state) && recover_job(s, job) != 0) {
-            job_free(job);
-            continue;
-        }
         if (table_add(s, job) != 0) {
             job_free(job);
             closedir(d);
@@ -741,7 +714,7 @@ sm_status smd_store_open(const char *spool, const smd_logger *log, smd_store **o
             return sm_error_set(err, SM_ERR_NOMEM, "out of memory loading the spool");
         }
         if (job->order >= s->next_order)
-            s->next_order = job->order + 1;
+            s->next_order = next_order_after(job->order);
     }
     closedir(d);
     if (s->njobs > 1)

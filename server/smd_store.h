@@ -2,7 +2,8 @@
  *
  *   SPOOL/jobs/<id>/status.json     job record (OGC status fields plus
  *                                   bookkeeping), replaced atomically
- *                   params.json     canonical parameters (sm_params_to_json)
+ *                   job.json        the inputs' file names and the
+ *                                   canonical parameters (written at upload)
  *                   inputs/         template.*, target_mesh.*, target_sol.*
  *                   events.ndjson   append-only event log, seq 1, 2, ...
  *                   results/        written by the worker, renamed into
@@ -36,6 +37,15 @@
 
 #define SMD_IDEMPOTENCY_KEY_MAX SM_IDEMPOTENCY_KEY_MAX /* proto/sm_proto_vocab.h */
 
+/* Bounds of the numbers of a record (status.json is outside input: a
+ * restored backup, a hand edit).  A record whose "order" or "attempt" is
+ * outside them is damaged: logged ("job_skipped") and left alone on disk.
+ * Inside them nothing overflows: the order of the next job saturates at
+ * SMD_ORDER_MAX (jobs with equal orders run by creation time, then id),
+ * and the attempt count stops at SMD_ATTEMPT_MAX. */
+#define SMD_ORDER_MAX INT64_MAX
+#define SMD_ATTEMPT_MAX 1000000
+
 struct smd_follower;
 
 typedef struct smd_job {
@@ -44,8 +54,8 @@ typedef struct smd_job {
     char message[SM_EVENT_MESSAGE_MAX];
     double created, started, finished, updated; /* Unix seconds, < 0 = unset */
     int progress;             /* 0..100 */
-    int attempt;              /* runs started so far */
-    int64_t order;            /* submission order (FIFO across restarts) */
+    int attempt;              /* runs started so far, <= SMD_ATTEMPT_MAX */
+    int64_t order;            /* submission order (FIFO across restarts), saturates */
     int dim;                  /* template dimension */
     int max_iter;             /* for the progress estimate */
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1]; /* "" = none */
@@ -74,10 +84,10 @@ typedef struct smd_job {
 typedef struct smd_store smd_store;
 
 /* Opens (creating) the spool and locks it (a second daemon on the same
- * spool is refused), empties tmp/ and trash/, loads every job:
- * running jobs become accepted again ("re-queued after a daemon
- * restart") and their partial results are removed; unreadable records
- * are logged and skipped.  Jobs are kept in submission order. */
+ * spool is refused), empties tmp/ and trash/, loads every job record as
+ * it is on disk (recovery of interrupted jobs is the state machine's:
+ * smd_jobs_recover); unreadable records are logged and skipped.  Jobs
+ * are kept in submission order. */
 sm_status smd_store_open(const char *spool, const smd_logger *log,
                          smd_store **out, sm_error *err);
 void smd_store_close(smd_store *s);
@@ -97,14 +107,22 @@ smd_job *smd_store_at(smd_store *s, size_t i);
 int smd_store_path(const smd_store *s, const char *id, const char *name,
                    char *buf, size_t cap);
 
-/* Turns a prepared upload folder (inputs/ and params.json inside) into an
- * accepted job: writes status.json and events.ndjson (the "accepted"
- * event), renames the folder to jobs/<id>, and adds the job to the table.
- * *out is borrowed from the table. */
-sm_status smd_store_commit(smd_store *s, const char *upload_dir,
-                           const char *id, int dim, int max_iter,
-                           const char *idempotency_key, smd_job **out,
+/* A job record in memory (no times set, no log), not in any table: the
+ * state machine fills it in and hands it to smd_store_commit.  NULL when
+ * out of memory. */
+smd_job *smd_job_new(const char *id);
+
+/* Turns a prepared upload folder (inputs/ and job.json inside) into a
+ * job: gives job its submission order, writes first (the "accepted"
+ * event, seq 1) as events.ndjson and job as status.json, renames the
+ * folder to jobs/<id>, and adds job to the table (which takes it over;
+ * on failure it is freed). */
+sm_status smd_store_commit(smd_store *s, const char *upload_dir, smd_job *job, sm_event *first,
                            sm_error *err);
+
+/* Removes a job's results.tmp/ (a run in progress), and also results/
+ * unless partial_only. */
+void smd_store_remove_results(smd_store *s, const smd_job *job, int partial_only);
 
 void smd_job_ref(smd_job *job);
 /* Drops a reference; the job is freed when it is removed from the table

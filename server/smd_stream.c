@@ -46,31 +46,6 @@ typedef struct smd_follower {
 
 /* ------------------------------------------------------------ formatting */
 
-static int buf_reserve(char **buf, size_t *cap, size_t need)
-{
-    if (need <= *cap)
-        return 0;
-    size_t ncap = *cap ? *cap : 4096;
-    while (ncap < need)
-        ncap *= 2;
-    char *b = realloc(*buf, ncap);
-    if (!b)
-        return -1;
-    *buf = b;
-    *cap = ncap;
-    return 0;
-}
-
-static int buf_append(char **buf, size_t *len, size_t *cap, const char *data, size_t n)
-{
-    if (buf_reserve(buf, cap, *len + n + 1) != 0)
-        return -1;
-    memcpy(*buf + *len, data, n);
-    *len += n;
-    (*buf)[*len] = '\0';
-    return 0;
-}
-
 int smd_sse_format(char **buf, size_t *len, size_t *cap, int64_t seq, const char *type,
                    const char *line, size_t line_len)
 {
@@ -82,8 +57,8 @@ int smd_sse_format(char **buf, size_t *len, size_t *cap, int64_t seq, const char
         n = snprintf(head, sizeof head, "event: %s\ndata: ", type);
     if (n < 0 || (size_t)n >= sizeof head)
         return -1;
-    if (buf_append(buf, len, cap, head, (size_t)n) != 0 ||
-        buf_append(buf, len, cap, line, line_len) != 0 || buf_append(buf, len, cap, "\n\n", 2) != 0)
+    if (smd_buf_append(buf, len, cap, head, (size_t)n) != 0 ||
+        smd_buf_append(buf, len, cap, line, line_len) != 0 || smd_buf_append(buf, len, cap, "\n\n", 2) != 0)
         return -1;
     return 0;
 }
@@ -137,8 +112,8 @@ static int format_status(smd_follower *f)
         return -1;
     size_t n = strlen(line);
     int rc = f->sse ? smd_sse_format(&f->buf, &f->len, &f->cap, 0, "status", line, n)
-                    : (buf_append(&f->buf, &f->len, &f->cap, line, n) == 0 &&
-                               buf_append(&f->buf, &f->len, &f->cap, "\n", 1) == 0
+                    : (smd_buf_append(&f->buf, &f->len, &f->cap, line, n) == 0 &&
+                               smd_buf_append(&f->buf, &f->len, &f->cap, "\n", 1) == 0
                            ? 0
                            : -1);
     free(line);
@@ -169,7 +144,7 @@ static int format_events(smd_follower *f, uint64_t from, uint64_t to, int64_t fi
     }
     int rc = 0;
     if (!f->sse) {
-        rc = buf_append(&f->buf, &f->len, &f->cap, raw, n);
+        rc = smd_buf_append(&f->buf, &f->len, &f->cap, raw, n);
     } else {
         int64_t seq = first_seq;
         size_t start = 0;
@@ -220,6 +195,8 @@ static ssize_t follower_read(void *cls, uint64_t pos, char *out, size_t max)
         return MHD_CONTENT_READER_END_OF_STREAM;
     }
     if (f->next_seq <= job->nevents) {
+        /* next_seq >= 1 (smd_stream_response): the batch walks existing
+         * events only, at most READ_BATCH bytes of them */
         int64_t first = f->next_seq, last = first;
         uint64_t from = smd_job_event_offset(job, first);
         while (last < job->nevents && smd_job_event_offset(job, last + 2) - from <= READ_BATCH)
@@ -244,7 +221,7 @@ static ssize_t follower_read(void *cls, uint64_t pos, char *out, size_t max)
         f->keepalive_due = 0;
         pthread_mutex_unlock(&srv->lock);
         const char *ka = f->sse ? ": keepalive\n\n" : "\n";
-        if (buf_append(&f->buf, &f->len, &f->cap, ka, strlen(ka)) != 0)
+        if (smd_buf_append(&f->buf, &f->len, &f->cap, ka, strlen(ka)) != 0)
             return MHD_CONTENT_READER_END_WITH_ERROR;
         return copy_out(f, out, max);
     }
@@ -312,7 +289,9 @@ struct MHD_Response *smd_stream_response(smd_server *srv, smd_job *job,
     f->job = job;
     f->conn = conn;
     f->sse = sse;
-    f->next_seq = after_seq < 0 ? 1 : after_seq + 1;
+    /* after_seq is bounded by the caller (<= SMD_REQUEST_INT_MAX); the
+     * saturation only keeps this line free of overflow whatever it gets */
+    f->next_seq = after_seq < 0 ? 1 : after_seq < INT64_MAX ? after_seq + 1 : INT64_MAX;
     atomic_store(&f->last_send, smd_monotonic());
     f->bytes_out = bytes_out;
     struct MHD_Response *resp =

@@ -31,7 +31,8 @@ typedef struct smd_wake_list {
 } smd_wake_list;
 
 /* Creates the response of an event stream for job, starting after
- * sequence number after_seq (0: from the start).  Lock held.  bytes_out
+ * sequence number after_seq (0: from the start; beyond the log: nothing
+ * is replayed, the stream follows the job until it ends).  Lock held.  bytes_out
  * (may be NULL) is incremented by what is sent.  NULL when out of memory
  * or when the log cannot be opened (msg says why). */
 struct MHD_Response *smd_stream_response(smd_server *srv, smd_job *job,

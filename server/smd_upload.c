@@ -16,18 +16,13 @@
 
 #include "sm_job_inputs.h"
 #include "sm_proto_params.h"
+#include "sm_proto_vocab.h"
+#include "sm_proto_text.h"
+#include "smd_jobs.h"
 #include "smd_pool.h"
+#include "smd_routes.h"
 #include "smd_worker.h"
 
-/* proto's part names (sm_proto_vocab.h) */
-typedef sm_part part_id;
-#define PART_TEMPLATE SM_PART_TEMPLATE
-#define PART_TARGET_MESH SM_PART_TARGET_MESH
-#define PART_TARGET_SOL SM_PART_TARGET_SOL
-#define PART_PARAMS SM_PART_PARAMS
-#define NPARTS SM_NPARTS
-
-static const char *const *const part_names = sm_part_names; /* proto/sm_proto_vocab.h */
 
 struct smd_upload {
     struct MHD_PostProcessor *pp;
@@ -37,8 +32,8 @@ struct smd_upload {
     int current;                   /* part being received, -1 none */
     uint64_t current_bytes;
     int fd;                        /* its file, -1 none */
-    int seen[NPARTS];
-    char path[NPARTS][PATH_MAX];   /* files of the file parts */
+    int seen[SM_NPARTS];
+    char path[SM_NPARTS][PATH_MAX];   /* files of the file parts */
     char *params;                  /* params text */
     size_t params_len;
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1];
@@ -73,19 +68,6 @@ int smd_idempotency_key_valid(const char *key)
     return 1;
 }
 
-/* Client-supplied text made safe to quote in a message. */
-static void printable(char *dst, size_t cap, const char *src)
-{
-    size_t k = 0;
-    for (; src && *src && k + 4 < cap; src++)
-        dst[k++] = ((unsigned char)*src >= 0x20 && (unsigned char)*src < 0x7f && *src != '"') ? *src : '?';
-    if (src && *src && k + 4 <= cap) {
-        memcpy(dst + k, "...", 3);
-        k += 3;
-    }
-    dst[k] = '\0';
-}
-
 int smd_sniff_medit(const char *path, int *binary, int *gzip)
 {
     unsigned char magic[4] = {0};
@@ -111,7 +93,7 @@ static void close_part(smd_upload *u)
 {
     if (u->fd >= 0) {
         if (close(u->fd) != 0)
-            fail(u, 507, SMD_PROBLEM_STORAGE, "cannot store part '%s': %s", part_names[u->current],
+            fail(u, 507, SMD_PROBLEM_STORAGE, "cannot store part '%s': %s", sm_part_names[u->current],
                  strerror(errno));
         u->fd = -1;
     }
@@ -119,15 +101,15 @@ static void close_part(smd_upload *u)
     u->current_bytes = 0;
 }
 
-static int open_part(smd_upload *u, part_id id)
+static int open_part(smd_upload *u, sm_part id)
 {
-    if (smd_pathf(u->path[id], sizeof u->path[id], "%s/inputs/%s.upload", u->dir, part_names[id]) != 0) {
+    if (smd_pathf(u->path[id], sizeof u->path[id], "%s/inputs/%s.upload", u->dir, sm_part_names[id]) != 0) {
         fail(u, 500, SMD_PROBLEM_INTERNAL, "spool path too long");
         return -1;
     }
     u->fd = open(u->path[id], O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0640);
     if (u->fd < 0) {
-        fail(u, 507, SMD_PROBLEM_STORAGE, "cannot store part '%s': %s", part_names[id], strerror(errno));
+        fail(u, 507, SMD_PROBLEM_STORAGE, "cannot store part '%s': %s", sm_part_names[id], strerror(errno));
         return -1;
     }
     return 0;
@@ -145,12 +127,12 @@ static enum MHD_Result on_part(void *cls, enum MHD_ValueKind kind, const char *k
     if (u->err_status)
         return MHD_NO;
     int id = -1;
-    for (int i = 0; i < NPARTS; i++)
-        if (key && strcmp(key, part_names[i]) == 0)
+    for (int i = 0; i < SM_NPARTS; i++)
+        if (key && strcmp(key, sm_part_names[i]) == 0)
             id = i;
     if (id < 0) {
         char shown[64];
-        printable(shown, sizeof shown, key ? key : "");
+        sm_text_printable_copy(shown, sizeof shown, key, "\"");
         fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
              "unknown part \"%s\": the parts are template, target_mesh, target_sol and params", shown);
         return MHD_NO;
@@ -159,27 +141,27 @@ static enum MHD_Result on_part(void *cls, enum MHD_ValueKind kind, const char *k
         /* a new part begins */
         close_part(u);
         if (u->seen[id]) {
-            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART, "part \"%s\" given more than once", part_names[id]);
+            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART, "part \"%s\" given more than once", sm_part_names[id]);
             return MHD_NO;
         }
         if (transfer_encoding && strcasecmp(transfer_encoding, "binary") != 0 &&
             strcasecmp(transfer_encoding, "7bit") != 0 && strcasecmp(transfer_encoding, "8bit") != 0) {
             char shown[64];
-            printable(shown, sizeof shown, transfer_encoding);
+            sm_text_printable_copy(shown, sizeof shown, transfer_encoding, "\"");
             fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
                  "part \"%s\": Content-Transfer-Encoding \"%s\" is not supported (send it as binary)",
-                 part_names[id], shown);
+                 sm_part_names[id], shown);
             return MHD_NO;
         }
         u->seen[id] = 1;
         u->current = id;
-        if (id != PART_PARAMS && open_part(u, (part_id)id) != 0)
+        if (id != SM_PART_PARAMS && open_part(u, (sm_part)id) != 0)
             return MHD_NO;
     }
     if (size == 0)
         return MHD_YES;
     u->current_bytes += size;
-    if (id == PART_PARAMS) {
+    if (id == SM_PART_PARAMS) {
         if (u->params_len + size > SM_PARAMS_JSON_MAX_BYTES) {
             fail(u, 422, SMD_PROBLEM_INVALID_INPUT, "params: larger than %d bytes",
                  SM_PARAMS_JSON_MAX_BYTES);
@@ -201,7 +183,7 @@ static enum MHD_Result on_part(void *cls, enum MHD_ValueKind kind, const char *k
         if (n < 0 && errno == EINTR)
             continue;
         if (n <= 0) {
-            fail(u, 507, SMD_PROBLEM_STORAGE, "cannot store part \"%s\": %s", part_names[id],
+            fail(u, 507, SMD_PROBLEM_STORAGE, "cannot store part \"%s\": %s", sm_part_names[id],
                  n < 0 ? strerror(errno) : "short write");
             return MHD_NO;
         }
@@ -213,19 +195,19 @@ static enum MHD_Result on_part(void *cls, enum MHD_ValueKind kind, const char *k
 
 /* Gives each uploaded file its final name: inputs/<part>.<ext>, with
  * the extension from the content, never from the client. */
-static int name_file(smd_upload *u, part_id id)
+static int name_file(smd_upload *u, sm_part id)
 {
     int binary = 0, gzip = 0;
     if (smd_sniff_medit(u->path[id], &binary, &gzip) != 0) {
-        fail(u, 500, SMD_PROBLEM_INTERNAL, "cannot read back part \"%s\"", part_names[id]);
+        fail(u, 500, SMD_PROBLEM_INTERNAL, "cannot read back part \"%s\"", sm_part_names[id]);
         return -1;
     }
-    const char *ext = id == PART_TARGET_SOL ? (binary ? "solb" : "sol") : (binary ? "meshb" : "mesh");
+    const char *ext = id == SM_PART_TARGET_SOL ? (binary ? "solb" : "sol") : (binary ? "meshb" : "mesh");
     char final[PATH_MAX];
-    if (smd_pathf(final, sizeof final, "%s/inputs/%s.%s%s", u->dir, part_names[id], ext,
+    if (smd_pathf(final, sizeof final, "%s/inputs/%s.%s%s", u->dir, sm_part_names[id], ext,
                   gzip ? ".gz" : "") != 0 ||
         rename(u->path[id], final) != 0) {
-        fail(u, 500, SMD_PROBLEM_INTERNAL, "cannot store part \"%s\"", part_names[id]);
+        fail(u, 500, SMD_PROBLEM_INTERNAL, "cannot store part \"%s\"", sm_part_names[id]);
         return -1;
     }
     memcpy(u->path[id], final, sizeof final);
@@ -265,16 +247,13 @@ enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "the daemon is shutting down and accepts no new job");
     const char *length = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
-    if (length) {
-        char *end;
-        errno = 0;
-        unsigned long long n = strtoull(length, &end, 10);
-        if (errno == 0 && *end == '\0' && n > srv->cfg.max_upload)
-            return smd_reply_problem(conn, req, 413, SMD_PROBLEM_TOO_LARGE,
-                                     "the request body (%llu bytes) exceeds the limit of %" PRIu64
-                                     " bytes (--max-upload)",
-                                     n, srv->cfg.max_upload);
-    }
+    uint64_t n;
+    int lrc = length ? smd_parse_uint(length, 0, srv->cfg.max_upload, &n) : SMD_NUM_OK;
+    if (lrc == SMD_NUM_RANGE)
+        return smd_reply_problem(conn, req, 413, SMD_PROBLEM_TOO_LARGE,
+                                 "the request body (%.40s bytes) exceeds the limit of %" PRIu64
+                                 " bytes (--max-upload)",
+                                 length, srv->cfg.max_upload);
     const char *ctype = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
     if (!ctype || strncasecmp(ctype, "multipart/form-data", 19) != 0)
         return smd_reply_problem(conn, req, 415, SMD_PROBLEM_UNSUPPORTED_MEDIA,
@@ -337,8 +316,8 @@ static int write_job_file(smd_upload *u, const sm_job_inputs *in)
         json_decref(doc);
         return -1;
     }
-    for (int i = 0; i < PART_PARAMS; i++)
-        json_object_set_new(doc, part_names[i], json_string(u->path[i] + prefix));
+    for (int i = 0; i < SM_PART_PARAMS; i++)
+        json_object_set_new(doc, sm_part_names[i], json_string(u->path[i] + prefix));
     json_object_set_new(doc, "params", params);
     char *text = json_dumps(doc, JSON_INDENT(2) | JSON_PRESERVE_ORDER);
     json_decref(doc);
@@ -365,22 +344,22 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
     }
     if (u->err_status)
         return reply_error(conn, req, u);
-    for (int i = 0; i < NPARTS; i++)
+    for (int i = 0; i < SM_NPARTS; i++)
         if (!u->seen[i])
             return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_MULTIPART,
                                      "missing part \"%s\": the parts are template, target_mesh, "
                                      "target_sol and params",
-                                     part_names[i]);
-    for (int i = 0; i < PART_PARAMS; i++)
-        if (name_file(u, (part_id)i) != 0)
+                                     sm_part_names[i]);
+    for (int i = 0; i < SM_PART_PARAMS; i++)
+        if (name_file(u, (sm_part)i) != 0)
             return reply_error(conn, req, u);
 
     sm_job_inputs in;
     sm_error err;
     sm_error_clear(&err);
-    sm_job_files files = {.template_mesh = u->path[PART_TEMPLATE],
-                          .target_mesh = u->path[PART_TARGET_MESH],
-                          .target_sol = u->path[PART_TARGET_SOL]};
+    sm_job_files files = {.template_mesh = u->path[SM_PART_TEMPLATE],
+                          .target_mesh = u->path[SM_PART_TARGET_MESH],
+                          .target_sol = u->path[SM_PART_TARGET_SOL]};
     sm_status st = sm_job_inputs_load(&files, u->params ? u->params : "", u->params_len, &in, &err);
     if (st != SM_OK) {
         if (st == SM_ERR_IO)
@@ -399,16 +378,20 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
     if (smd_random_id(id) != 0)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "no random source for the job id: %s", strerror(errno));
+    smd_submission sub = {.dir = u->dir, .id = id, .idempotency_key = u->idempotency_key,
+                          .dim = dim, .max_iter = max_iter, .nverts = nverts, .nelems = nelems,
+                          .bytes = u->received};
+    smd_jobs_after after = {0};
+    smd_job *job;
+    int created;
     pthread_mutex_lock(&srv->lock);
-    smd_job *job = u->idempotency_key[0] ? smd_store_find_key(srv->store, u->idempotency_key) : NULL;
-    if (job) {
+    st = smd_jobs_submit(srv, &sub, &job, &created, &after, &err);
+    if (st == SM_OK && !created) {
         /* a concurrent retry with the same key won the race */
         enum MHD_Result r = reply_existing(conn, req, job);
         pthread_mutex_unlock(&srv->lock);
         return r;
     }
-    st = smd_store_commit(srv->store, u->dir, id, dim, max_iter,
-                          u->idempotency_key[0] ? u->idempotency_key : NULL, &job, &err);
     if (st != SM_OK) {
         pthread_mutex_unlock(&srv->lock);
         smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
@@ -416,18 +399,12 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
                                  err.msg);
     }
     u->committed = 1;
-    if (smd_queue_push(srv->queue, job->id) != 0)
-        smd_logf(&srv->log, SMD_LOG_ERROR, "queue_error", "job %s: out of memory queueing it",
-                 job->id);
-    smd_metrics_add(&srv->metrics, &srv->metrics.jobs_submitted, 1);
     memcpy(req->id, job->id, sizeof req->id);
-    json_t *fields = json_pack("{s:s,s:i,s:i,s:i,s:I}", "job", job->id, "dimension", dim,
-                               "vertices", (int)nverts, "elements", (int)nelems, "bytes",
-                               (json_int_t)u->received);
-    smd_log(&srv->log, SMD_LOG_INFO, "job_accepted", fields);
     json_t *doc = smd_status_document(job);
     pthread_mutex_unlock(&srv->lock);
-    smd_pool_wake(srv->pool);
+    smd_jobs_after_free(&after);
+    if (after.wake_pool)
+        smd_pool_wake(srv->pool);
 
     char location[64];
     snprintf(location, sizeof location, "/v1/jobs/%s", id);
@@ -463,7 +440,7 @@ enum MHD_Result smd_upload_continue(struct MHD_Connection *conn, smd_request *re
          * after all of it: read the rest without keeping it, and answer at
          * the end.  A body that goes on far past the limit is cut by
          * closing the connection instead (the client sees no reply). */
-        if (u->received > 4 * limit + (16u << 20))
+        if (u->received > smd_drain_limit(limit))
             return MHD_NO;
         return MHD_YES;
     }

@@ -10,14 +10,15 @@
  * The whole body is capped at --max-upload (413, before reading anything
  * when Content-Length says so).  When the body is complete, the inputs
  * are validated (sm_job_inputs.h) and a bad job is refused with 422 and the
- * reason; a good one becomes jobs/<id> (rename) and is queued, 201.  An
+ * reason; a good one is handed to the state machine (smd_jobs_submit:
+ * jobs/<id> by rename, queued), 201.  An
  * unfinished upload (client gone, error) leaves nothing behind. */
 #ifndef SMD_UPLOAD_H
 #define SMD_UPLOAD_H
 
 #include <stddef.h>
 
-#include "smd_http.h"
+#include "smd_reply.h"
 
 typedef struct smd_upload smd_upload;
 

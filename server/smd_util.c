@@ -216,15 +216,94 @@ void smd_describe_wait_status(int wstatus, char *buf, size_t cap)
     }
 }
 
+static int buf_reserve(char **buf, size_t *cap, size_t need)
+{
+    if (need <= *cap)
+        return 0;
+    size_t ncap = *cap ? *cap : 4096;
+    while (ncap < need) {
+        if (ncap > SIZE_MAX / 2)
+            return -1;
+        ncap *= 2;
+    }
+    char *b = realloc(*buf, ncap);
+    if (!b)
+        return -1;
+    *buf = b;
+    *cap = ncap;
+    return 0;
+}
+
+int smd_buf_append(char **buf, size_t *len, size_t *cap, const void *data, size_t n)
+{
+    if (n > SIZE_MAX - *len - 1 || buf_reserve(buf, cap, *len + n + 1) != 0)
+        return -1;
+    memcpy(*buf + *len, data, n);
+    *len += n;
+    (*buf)[*len] = '\0';
+    return 0;
+}
+
+int smd_buf_vprintf(char **buf, size_t *len, size_t *cap, const char *fmt, va_list ap)
+{
+    va_list again;
+    va_copy(again, ap);
+    int n = vsnprintf(NULL, 0, fmt, ap);
+    int rc = -1;
+    if (n >= 0 && buf_reserve(buf, cap, *len + (size_t)n + 1) == 0) {
+        vsnprintf(*buf + *len, *cap - *len, fmt, again);
+        *len += (size_t)n;
+        rc = 0;
+    }
+    va_end(again);
+    return rc;
+}
+
+int smd_buf_printf(char **buf, size_t *len, size_t *cap, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    int rc = smd_buf_vprintf(buf, len, cap, fmt, ap);
+    va_end(ap);
+    return rc;
+}
+
+int smd_parse_uint(const char *text, uint64_t lo, uint64_t hi, uint64_t *out)
+{
+    if (!text || !*text)
+        return SMD_NUM_MALFORMED;
+    uint64_t v = 0;
+    int over = 0;
+    for (const char *c = text; *c; c++) {
+        if (*c < '0' || *c > '9')
+            return SMD_NUM_MALFORMED;
+        unsigned d = (unsigned)(*c - '0');
+        /* v * 10 + d > hi, written so that nothing overflows */
+        if (over || d > hi || v > (hi - d) / 10)
+            over = 1;
+        else
+            v = v * 10 + d;
+    }
+    if (over || v < lo)
+        return SMD_NUM_RANGE;
+    *out = v;
+    return SMD_NUM_OK;
+}
+
 int smd_parse_size(const char *text, uint64_t *out)
 {
-    if (!text || !(*text >= '0' && *text <= '9'))
+    char digits[24];
+    size_t n = 0;
+    while (text && text[n] >= '0' && text[n] <= '9')
+        n++;
+    if (n == 0 || n >= sizeof digits)
         return -1;
-    errno = 0;
-    char *end;
-    unsigned long long v = strtoull(text, &end, 10);
-    if (errno != 0 || end == text)
+    memcpy(digits, text, n);
+    digits[n] = '\0';
+    uint64_t v;
+    if (smd_parse_uint(digits, 0, UINT64_MAX, &v) != SMD_NUM_OK)
         return -1;
+    const char *end = text + n;
     unsigned shift = 0;
     if (*end) {
         switch (*end) {
@@ -242,7 +321,7 @@ int smd_parse_size(const char *text, uint64_t *out)
         if (*end)
             return -1;
     }
-    if (shift && v > (ULLONG_MAX >> shift))
+    if (shift && v > (UINT64_MAX >> shift))
         return -1;
     *out = (uint64_t)v << shift;
     return 0;

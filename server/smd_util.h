@@ -8,6 +8,7 @@
 #ifndef SMD_UTIL_H
 #define SMD_UTIL_H
 
+#include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <sys/types.h>
@@ -59,12 +60,40 @@ int smd_rmtree(const char *path);
  * buffer.  Returns 0, or -1 with errno (EFBIG when larger than max). */
 int smd_read_file(const char *path, size_t max, char **out, size_t *len);
 
+/* A growable text buffer: *buf (malloc'd, NULL to start) holds *len bytes
+ * and a NUL in *cap bytes.  Appends n bytes of data (smd_buf_append) or
+ * formatted text (smd_buf_printf), doubling the capacity as needed.  0,
+ * or -1 when out of memory (the buffer is then unchanged). */
+int smd_buf_append(char **buf, size_t *len, size_t *cap, const void *data, size_t n);
+int smd_buf_printf(char **buf, size_t *len, size_t *cap, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+int smd_buf_vprintf(char **buf, size_t *len, size_t *cap, const char *fmt, va_list ap)
+    __attribute__((format(printf, 4, 0)));
+
 /* Seconds on the monotonic clock (for deadlines and latencies). */
 double smd_monotonic(void);
 
 /* Describes a wait status in words, e.g. "exited with status 2",
  * "killed by signal 9 (SIGKILL)". */
 void smd_describe_wait_status(int wstatus, char *buf, size_t cap);
+
+/* The one parser of numbers taken from requests, headers and the spool's
+ * text: a plain decimal integer (digits only: no sign, no space, no
+ * suffix; leading zeros allowed) in [lo, hi].  Accumulates without
+ * overflow whatever the length of the text.  Returns SMD_NUM_OK and sets
+ * *out, SMD_NUM_MALFORMED when text is not such a number (NULL or empty
+ * included), SMD_NUM_RANGE when it is one outside [lo, hi] (*out is then
+ * left alone), so callers can say which. */
+#define SMD_NUM_OK 0
+#define SMD_NUM_MALFORMED (-1)
+#define SMD_NUM_RANGE (-2)
+int smd_parse_uint(const char *text, uint64_t lo, uint64_t hi, uint64_t *out);
+
+/* The largest number a request may carry in a count, offset or event
+ * sequence number: 2^53 - 1, the largest integer every JSON client
+ * (JavaScript's Number included) represents exactly.  Sums of two such
+ * numbers, and of one with a page limit, fit in int64_t with room. */
+#define SMD_REQUEST_INT_MAX 9007199254740991LL
 
 /* Parses a size such as "1048576", "64K", "512M", "2G" (binary units).
  * Returns 0, or -1 when malformed or out of range. */

@@ -144,7 +144,10 @@ fi
 # ------------------------------------------------- graceful shutdown
 stop_daemon
 SPOOL=$WORK/grace-spool
-start_daemon grace --workers 1 --shutdown-grace 60 || { not_ok "daemon starts"; exit 1; }
+# the slow worker keeps the job running for a second at least: the
+# requests below must reach a daemon that is still draining
+start_daemon grace --workers 1 --shutdown-grace 60 --worker "$WORK/slow-worker.sh" ||
+    { not_ok "daemon starts"; exit 1; }
 G=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 400)")
 poll 20 state_is "$G" running
 kill -TERM "$DPID"

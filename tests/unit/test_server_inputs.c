@@ -239,57 +239,6 @@ static void test_sse_framing(void **state)
     assert_string_equal(type, "message"); /* never copies a newline into the frame */
 }
 
-static void test_metrics(void **state)
-{
-    (void)state;
-    smd_metrics m;
-    assert_int_equal(smd_metrics_init(&m), 0);
-    smd_metrics_request(&m, SMD_ROUTE_JOB, "GET", 200, 0.0003, 0, 100);
-    smd_metrics_request(&m, SMD_ROUTE_JOB, "GET", 200, 0.02, 0, 100);
-    smd_metrics_request(&m, SMD_ROUTE_JOB, "GET", 404, 5.0, 0, 50);
-    smd_metrics_request(&m, SMD_ROUTE_JOBS, "POST", 201, 0.5, 123456, 600);
-    smd_metrics_job_finished(&m, 2);
-    smd_gauges g = {.jobs_by_state = {1, 2, 3, 4, 5}, .queue_depth = 1, .workers_busy = 2,
-                    .workers_total = 4, .start_time = 1700000000, .ready = 1};
-    size_t len;
-    char *text = smd_metrics_render(&m, &g, &len);
-    assert_non_null(text);
-    assert_int_equal(len, strlen(text));
-    const char *must[] = {
-        "shapematch_jobs{state=\"running\"} 2\n",
-        "shapematch_queue_depth 1\n",
-        "shapematch_workers_busy 2\n",
-        "shapematch_http_requests_total{route=\"/v1/jobs/{id}\",method=\"GET\",code=\"200\"} 2\n",
-        "shapematch_http_requests_total{route=\"/v1/jobs/{id}\",method=\"GET\",code=\"404\"} 1\n",
-        "shapematch_http_requests_total{route=\"/v1/jobs\",method=\"POST\",code=\"201\"} 1\n",
-        "shapematch_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"0.0005\"} 1\n",
-        "shapematch_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"0.025\"} 2\n",
-        "shapematch_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"10\"} 3\n",
-        "shapematch_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"+Inf\"} 3\n",
-        "shapematch_http_request_duration_seconds_count{route=\"/v1/jobs/{id}\"} 3\n",
-        "shapematch_http_received_bytes_total 123456\n",
-        "shapematch_http_sent_bytes_total 850\n",
-        "shapematch_jobs_finished_total{state=\"successful\"} 1\n",
-        "# TYPE shapematch_http_request_duration_seconds histogram\n",
-    };
-    for (size_t i = 0; i < sizeof must / sizeof must[0]; i++)
-        if (!strstr(text, must[i]))
-            fail_msg("missing: %s", must[i]);
-    /* buckets are cumulative: never decreasing along a route */
-    const char *p = text;
-    long prev = -1;
-    while ((p = strstr(p, "route=\"/v1/jobs/{id}\",le=\"")) != NULL) {
-        const char *close = strstr(p, "} ");
-        long v = strtol(close + 2, NULL, 10);
-        assert_true(v >= prev);
-        prev = v;
-        p = close;
-    }
-    assert_int_equal(prev, 3);
-    free(text);
-    smd_metrics_destroy(&m);
-}
-
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -298,7 +247,6 @@ int main(void)
         cmocka_unit_test(test_clamp_rank),
         cmocka_unit_test_setup_teardown(test_sniff, setup, teardown),
         cmocka_unit_test(test_sse_framing),
-        cmocka_unit_test(test_metrics),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -15,6 +15,8 @@
 #include <unistd.h>
 #include <cmocka.h>
 
+#include "smd_jobs.h"
+#include "smd_queue.h"
 #include "smd_store.h"
 
 typedef struct fixture {
@@ -57,12 +59,44 @@ static smd_job *commit(fixture *f, smd_store *s, const char *id, const char *key
 {
     char dir[512];
     make_upload(f->spool, dir, sizeof dir);
-    smd_job *job;
+    /* the record as the state machine makes it (smd_jobs_submit) */
+    smd_job *job = smd_job_new(id);
+    assert_non_null(job);
+    job->state = SM_JOB_ACCEPTED;
+    job->created = job->updated = 1700000000;
+    job->dim = 2;
+    job->max_iter = 100;
+    if (key)
+        snprintf(job->idempotency_key, sizeof job->idempotency_key, "%s", key);
+    sm_event ev;
+    sm_event_init(&ev, SM_EVENT_ACCEPTED);
     sm_error err;
-    assert_int_equal(smd_store_commit(s, dir, id, 2, 100, key, &job, &err), SM_OK);
+    assert_int_equal(smd_store_commit(s, dir, job, &ev, &err), SM_OK);
+    assert_int_equal(ev.seq, 1);
     struct stat st;
     assert_int_equal(stat(dir, &st), -1); /* moved */
     return job;
+}
+
+/* A daemon start: the store opened, then the state machine's recovery
+ * (running jobs queued again, partial results removed, logs repaired). */
+static sm_status open_recovered(fixture *f, smd_store **s, size_t *queued, sm_error *err)
+{
+    sm_status st = smd_store_open(f->spool, &f->log, s, err);
+    if (st != SM_OK)
+        return st;
+    static smd_server srv; /* zeroed; only what recovery uses is set */
+    static const char *const labels[] = {"other"};
+    memset(&srv, 0, sizeof srv);
+    srv.log = f->log;
+    srv.store = *s;
+    srv.queue = smd_queue_local_new();
+    assert_non_null(srv.queue);
+    assert_int_equal(smd_metrics_init(&srv.metrics, labels, 1), 0);
+    st = smd_jobs_recover(&srv, queued, err);
+    smd_queue_free(srv.queue);
+    smd_metrics_destroy(&srv.metrics);
+    return st;
 }
 
 static int64_t count_lines(const char *path)
@@ -143,8 +177,9 @@ static void test_commit_and_reopen(void **state)
     assert_int_equal(smd_store_save(s, ja, &err), SM_OK);
     smd_store_close(s);
 
-
-    assert_int_equal(smd_store_open(f->spool, &f->log, &s, &err), SM_OK);
+    size_t queued;
+    assert_int_equal(open_recovered(f, &s, &queued, &err), SM_OK);
+    assert_int_equal(queued, 1);
     assert_int_equal(smd_store_count(s), 2);
     assert_string_equal(smd_store_at(s, 0)->id, a); /* submission order */
     assert_string_equal(smd_store_at(s, 1)->id, b);
@@ -211,7 +246,9 @@ static void test_crash_leftovers(void **state)
     snprintf(p, sizeof p, "%s/trash/old", f->spool);
     assert_int_equal(smd_mkdirs(p, 0700), 0);
 
-    assert_int_equal(smd_store_open(f->spool, &f->log, &s, &err), SM_OK);
+    size_t queued;
+    assert_int_equal(open_recovered(f, &s, &queued, &err), SM_OK);
+    assert_int_equal(queued, 1);
     assert_int_equal(smd_store_count(s), 1); /* corrupt and foreign records skipped */
     ja = smd_store_get(s, a);
     assert_non_null(ja);

@@ -15,7 +15,12 @@
 #include <zlib.h>
 #include <cmocka.h>
 
-#include "smd_http.h"
+#include "sm_proto_text.h"
+#include "smd_metrics.h"
+#include "smd_negotiate.h"
+#include "smd_reply.h"
+#include "smd_route_table.h"
+#include "smd_upload.h"
 #include "smd_queue.h"
 #include "smd_util.h"
 
@@ -79,6 +84,39 @@ static void test_pathf(void **state)
     assert_int_equal(errno, ENAMETOOLONG);
     assert_int_equal(smd_pathf(buf, sizeof buf, "%s", "012345678901234"), 0);
     assert_int_equal(smd_pathf(buf, sizeof buf, "%s", "0123456789012345"), -1);
+}
+
+static void test_bounded_integers(void **state)
+{
+    (void)state;
+    uint64_t v = 7;
+    assert_int_equal(smd_parse_uint("0", 0, 10, &v), SMD_NUM_OK);
+    assert_true(v == 0);
+    assert_int_equal(smd_parse_uint("0010", 0, 10, &v), SMD_NUM_OK);
+    assert_true(v == 10);
+    assert_int_equal(smd_parse_uint("11", 0, 10, &v), SMD_NUM_RANGE);
+    assert_true(v == 10); /* left alone */
+    assert_int_equal(smd_parse_uint("0", 1, 10, &v), SMD_NUM_RANGE);
+    assert_int_equal(smd_parse_uint("", 0, 10, &v), SMD_NUM_MALFORMED);
+    assert_int_equal(smd_parse_uint(NULL, 0, 10, &v), SMD_NUM_MALFORMED);
+    assert_int_equal(smd_parse_uint("-1", 0, 10, &v), SMD_NUM_MALFORMED);
+    assert_int_equal(smd_parse_uint("+1", 0, 10, &v), SMD_NUM_MALFORMED);
+    assert_int_equal(smd_parse_uint(" 1", 0, 10, &v), SMD_NUM_MALFORMED);
+    assert_int_equal(smd_parse_uint("1x", 0, 10, &v), SMD_NUM_MALFORMED);
+    /* the overflow edges: INT64_MAX, UINT64_MAX and one past it */
+    assert_int_equal(smd_parse_uint("9223372036854775807", 0, SMD_REQUEST_INT_MAX, &v),
+                     SMD_NUM_RANGE);
+    assert_int_equal(smd_parse_uint("9007199254740991", 0, SMD_REQUEST_INT_MAX, &v), SMD_NUM_OK);
+    assert_true(v == 9007199254740991ULL);
+    assert_int_equal(smd_parse_uint("9007199254740992", 0, SMD_REQUEST_INT_MAX, &v), SMD_NUM_RANGE);
+    assert_int_equal(smd_parse_uint("18446744073709551615", 0, UINT64_MAX, &v), SMD_NUM_OK);
+    assert_true(v == UINT64_MAX);
+    assert_int_equal(smd_parse_uint("18446744073709551616", 0, UINT64_MAX, &v), SMD_NUM_RANGE);
+    assert_int_equal(smd_parse_uint("99999999999999999999999999999999999999", 0, UINT64_MAX, &v),
+                     SMD_NUM_RANGE);
+    assert_int_equal(smd_parse_uint("9999999999999999999999999999999999999x", 0, UINT64_MAX, &v),
+                     SMD_NUM_MALFORMED);
+    assert_int_equal(smd_parse_uint("5", 0, 0, &v), SMD_NUM_RANGE);
 }
 
 static void test_sizes_and_durations(void **state)
@@ -313,11 +351,174 @@ static void test_gzip_buffer(void **state)
     free(data);
 }
 
+static void test_metrics(void **state)
+{
+    (void)state;
+    smd_metrics m;
+    static const char *const labels[] = {"other", "/v1/jobs", "/v1/jobs/{id}"};
+    assert_int_equal(smd_metrics_init(&m, labels, 3), 0);
+    smd_metrics_request(&m, "/v1/jobs/{id}", "GET", 200, 0.0003, 0, 100);
+    smd_metrics_request(&m, labels[2], "GET", 200, 0.02, 0, 100);
+    smd_metrics_request(&m, "/v1/jobs/{id}", "GET", 404, 5.0, 0, 50);
+    smd_metrics_request(&m, "/v1/jobs", "POST", 201, 0.5, 123456, 600);
+    smd_metrics_request(&m, "/nowhere", "GET", 404, 0.001, 0, 0); /* counted as "other" */
+    smd_metrics_job_finished(&m, 2);
+    smd_gauges g = {.jobs_by_state = {1, 2, 3, 4, 5}, .queue_depth = 1, .workers_busy = 2,
+                    .workers_total = 4, .start_time = 1700000000, .ready = 1};
+    size_t len;
+    char *text = smd_metrics_render(&m, &g, &len);
+    assert_non_null(text);
+    assert_int_equal(len, strlen(text));
+    const char *must[] = {
+        "shapematch_jobs{state=\"running\"} 2\n",
+        "shapematch_queue_depth 1\n",
+        "shapematch_workers_busy 2\n",
+        "shapematch_http_requests_total{route=\"/v1/jobs/{id}\",method=\"GET\",code=\"200\"} 2\n",
+        "shapematch_http_requests_total{route=\"/v1/jobs/{id}\",method=\"GET\",code=\"404\"} 1\n",
+        "shapematch_http_requests_total{route=\"/v1/jobs\",method=\"POST\",code=\"201\"} 1\n",
+        "shapematch_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"0.0005\"} 1\n",
+        "shapematch_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"0.025\"} 2\n",
+        "shapematch_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"10\"} 3\n",
+        "shapematch_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"+Inf\"} 3\n",
+        "shapematch_http_request_duration_seconds_count{route=\"/v1/jobs/{id}\"} 3\n",
+        "shapematch_http_received_bytes_total 123456\n",
+        "shapematch_http_sent_bytes_total 850\n",
+        "shapematch_jobs_finished_total{state=\"successful\"} 1\n",
+        "shapematch_http_requests_total{route=\"other\",method=\"GET\",code=\"404\"} 1\n",
+        "# TYPE shapematch_http_request_duration_seconds histogram\n",
+    };
+    for (size_t i = 0; i < sizeof must / sizeof must[0]; i++)
+        if (!strstr(text, must[i]))
+            fail_msg("missing: %s", must[i]);
+    /* buckets are cumulative: never decreasing along a route */
+    const char *p = text;
+    long prev = -1;
+    while ((p = strstr(p, "route=\"/v1/jobs/{id}\",le=\"")) != NULL) {
+        const char *close = strstr(p, "} ");
+        long v = strtol(close + 2, NULL, 10);
+        assert_true(v >= prev);
+        prev = v;
+        p = close;
+    }
+    assert_int_equal(prev, 3);
+    free(text);
+    smd_metrics_destroy(&m);
+}
+
+
+static void test_route_table(void **state)
+{
+    (void)state;
+    smd_request req;
+    unsigned allowed;
+    const smd_route *route, *first;
+    const char *id = "0123456789abcdef0123456789abcdef";
+    char path[128];
+
+    memset(&req, 0, sizeof req);
+    first = smd_route_find("/v1/jobs", SMD_METHOD_POST, &req, &allowed, &route);
+    assert_non_null(first);
+    assert_non_null(route);
+    assert_true(route->handler == smd_upload_begin);
+    assert_int_equal(allowed, SMD_METHOD_GET | SMD_METHOD_HEAD | SMD_METHOD_POST);
+    assert_string_equal(first->label, "/v1/jobs");
+
+    snprintf(path, sizeof path, "/v1/jobs/%s", id);
+    first = smd_route_find(path, smd_method_bit("PUT"), &req, &allowed, &route);
+    assert_non_null(first);
+    assert_null(route); /* 405 */
+    assert_string_equal(req.id, id);
+    assert_int_equal(req.bad_id, 0);
+    char allow[64];
+    smd_methods_format(allowed, allow, sizeof allow);
+    assert_string_equal(allow, "GET, HEAD, DELETE");
+
+    /* a malformed id matches (404 no-such-job) but is never kept */
+    first = smd_route_find("/v1/jobs/../../etc/events", SMD_METHOD_GET, &req, &allowed, &route);
+    assert_null(first);
+    first = smd_route_find("/v1/jobs/XYZ/events", SMD_METHOD_GET, &req, &allowed, &route);
+    assert_non_null(first);
+    assert_int_equal(req.bad_id, 1);
+    assert_string_equal(req.id, "");
+    first = smd_route_find("/v1/jobs/", SMD_METHOD_GET, &req, &allowed, &route);
+    assert_non_null(first);
+    assert_int_equal(req.bad_id, 1);
+
+    /* snapshots: counted under /results; the iteration segment is bounded */
+    snprintf(path, sizeof path, "/v1/jobs/%s/results/snapshots/12", id);
+    first = smd_route_find(path, SMD_METHOD_GET, &req, &allowed, &route);
+    assert_non_null(route);
+    assert_string_equal(req.arg, "12");
+    assert_string_equal(route->label, "/v1/jobs/{id}/results");
+    snprintf(path, sizeof path, "/v1/jobs/%s/results/snapshots/12345678901234567", id);
+    assert_null(smd_route_find(path, SMD_METHOD_GET, &req, &allowed, &route));
+    snprintf(path, sizeof path, "/v1/jobs/%s/results/snapshots/", id);
+    assert_null(smd_route_find(path, SMD_METHOD_GET, &req, &allowed, &route));
+
+    first = smd_route_find("/v1/processes/match", SMD_METHOD_HEAD, &req, &allowed, &route);
+    assert_non_null(route);
+    assert_string_equal(req.pid, "match");
+    assert_null(smd_route_find("/v1/processes/", SMD_METHOD_GET, &req, &allowed, &route));
+    assert_null(smd_route_find("/v1/processes/match/x", SMD_METHOD_GET, &req, &allowed, &route));
+    first = smd_route_find("/healthz", SMD_METHOD_GET, &req, &allowed, &route);
+    assert_true(first && first->public);
+    first = smd_route_find("/metrics", SMD_METHOD_GET, &req, &allowed, &route);
+    assert_true(first && !first->public);
+    assert_null(smd_route_find("/v1/jobsx", SMD_METHOD_GET, &req, &allowed, &route));
+    assert_null(smd_route_find("/healthz/", SMD_METHOD_GET, &req, &allowed, &route));
+
+    /* the labels: "other" first, each once */
+    const char *labels[64];
+    size_t n = smd_route_labels(labels, 64);
+    assert_string_equal(labels[0], "other");
+    assert_int_equal(n, 15);
+    for (size_t i = 0; i < n; i++)
+        for (size_t k = i + 1; k < n; k++)
+            assert_true(strcmp(labels[i], labels[k]) != 0);
+    /* every row has a handler and methods */
+    for (size_t i = 0; i < smd_route_table_len; i++) {
+        assert_non_null(smd_route_table[i].handler);
+        assert_true(smd_route_table[i].methods != 0);
+    }
+}
+
+static void test_text_and_buffers(void **state)
+{
+    (void)state;
+    char s[] = "a\tb\x7f\xc3\xa9 \"q\"";
+    assert_string_equal(sm_text_make_printable(s, NULL), "a?b??? \"q\"");
+    char t[] = "GET /a b";
+    assert_string_equal(sm_text_make_printable(t, " "), "GET?/a?b");
+    char d[8];
+    assert_string_equal(sm_text_printable_copy(d, sizeof d, "ab\"c", "\""), "ab?c");
+    assert_string_equal(sm_text_printable_copy(d, sizeof d, "abcdefghij", NULL), "abcd...");
+    assert_string_equal(sm_text_printable_copy(d, sizeof d, NULL, NULL), "");
+
+    char *buf = NULL;
+    size_t len = 0, cap = 0;
+    assert_int_equal(smd_buf_append(&buf, &len, &cap, "abc", 3), 0);
+    assert_int_equal(smd_buf_printf(&buf, &len, &cap, "-%d-%s", 42, "x"), 0);
+    assert_string_equal(buf, "abc-42-x");
+    assert_int_equal(len, 8);
+    for (int i = 0; i < 2000; i++) /* grows past the first 4 KiB */
+        assert_int_equal(smd_buf_printf(&buf, &len, &cap, "%04d", i), 0);
+    assert_int_equal(len, 8 + 8000);
+    assert_int_equal(strlen(buf), len);
+    assert_true(cap > len);
+    assert_int_equal(smd_buf_append(&buf, &len, &cap, "x", SIZE_MAX), -1); /* no overflow */
+    assert_int_equal(len, 8008);
+    free(buf);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_random_ids),
         cmocka_unit_test(test_id_valid),
+        cmocka_unit_test(test_bounded_integers),
+        cmocka_unit_test(test_metrics),
+        cmocka_unit_test(test_route_table),
+        cmocka_unit_test(test_text_and_buffers),
         cmocka_unit_test(test_secret_equal),
         cmocka_unit_test(test_pathf),
         cmocka_unit_test(test_sizes_and_durations),

@@ -1,0 +1,388 @@
+/* The job state machine (see smd_jobs.h). */
+#include "smd_jobs.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* the metrics count the states by proto's numbering */
+_Static_assert(SM_JOB_ACCEPTED == 0 && SM_JOB_SUCCESSFUL == SMD_JOB_FIRST_FINAL &&
+                   SM_JOB_DISMISSED + 1 == SMD_JOB_STATES,
+               "smd_metrics.h's job state count follows sm_job_state");
+
+/* ------------------------------------------------------------- helpers */
+
+static json_t *log_fields(const smd_job *job, json_t *extra)
+{
+    json_t *f = json_pack("{s:s,s:s,s:s}", "job", job->id, "status", sm_job_state_name(job->state),
+                          "message", job->message);
+    if (f && extra)
+        json_object_update(f, extra);
+    json_decref(extra);
+    return f;
+}
+
+static void save_or_log(smd_server *srv, smd_job *job)
+{
+    sm_error err;
+    if (smd_store_save(srv->store, job, &err) != SM_OK)
+        smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
+}
+
+/* Appends ev to the job's log, counts it and collects the followers. */
+static void append_or_log(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_after *after)
+{
+    sm_error err;
+    if (smd_store_append_event(srv->store, job, ev, &err) != SM_OK) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
+        return;
+    }
+    smd_metrics_add(&srv->metrics, &srv->metrics.events_appended, 1);
+    smd_stream_collect_job(job, &after->wake);
+}
+
+static sm_status refuse(const smd_job *job, const char *what, sm_error *err)
+{
+    return sm_error_set(err, SM_ERR_INVALID, "job %s: cannot %s a job that is %s", job->id, what,
+                        sm_job_state_name(job->state));
+}
+
+/* The end of a run or of a cancel: the final state, its record, its
+ * event, the metrics, the log line. */
+static void end_job(smd_server *srv, smd_job *job, sm_job_state state, sm_event *ev,
+                    int log_level, const char *log_event, json_t *extra, smd_jobs_after *after)
+{
+    double now = sm_time_now();
+    job->state = state;
+    job->finished = job->updated = now;
+    if (state == SM_JOB_SUCCESSFUL)
+        job->progress = 100;
+    save_or_log(srv, job);
+    ev->time = now;
+    snprintf(ev->message, sizeof ev->message, "%s", job->message);
+    append_or_log(srv, job, ev, after);
+    smd_job_close_log(job);
+    smd_metrics_job_finished(&srv->metrics, state);
+    smd_log(&srv->log, log_level, log_event, log_fields(job, extra));
+}
+
+/* Moves the job's folder to trash/ and remembers it for after the lock. */
+static void trash_job(smd_server *srv, const smd_job *job, smd_jobs_after *after)
+{
+    char path[PATH_MAX];
+    if (smd_store_trash(srv->store, job->id, path, sizeof path) != 0) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "job %s: cannot delete: %s", job->id,
+                 strerror(errno));
+        return;
+    }
+    char **t = path[0] ? realloc(after->trash, (after->ntrash + 1) * sizeof *after->trash) : NULL;
+    if (!t)
+        return; /* left in trash/: emptied at the next start */
+    after->trash = t;
+    if ((t[after->ntrash] = strdup(path)) != NULL)
+        after->ntrash++;
+}
+
+/* The job leaves the table: its followers end; its folder goes now, or
+ * when its worker is gone. */
+static void remove_job(smd_server *srv, smd_job *job, smd_jobs_after *after)
+{
+    smd_stream_collect_job(job, &after->wake);
+    if (job->worker_active)
+        job->delete_requested = 1;
+    else
+        trash_job(srv, job, after);
+    smd_store_unlink(srv->store, job);
+}
+
+void smd_jobs_after_run(smd_jobs_after *a)
+{
+    smd_wake_list_resume(&a->wake);
+    for (size_t i = 0; i < a->ntrash; i++) {
+        smd_rmtree(a->trash[i]);
+        free(a->trash[i]);
+    }
+    free(a->trash);
+    a->trash = NULL;
+    a->ntrash = 0;
+}
+
+void smd_jobs_after_free(smd_jobs_after *a)
+{
+    smd_jobs_after_run(a);
+    smd_wake_list_free(&a->wake);
+}
+
+/* -------------------------------------------------------------- submit */
+
+sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **out,
+                          int *created, smd_jobs_after *after, sm_error *err)
+{
+    const char *key = sub->idempotency_key && sub->idempotency_key[0] ? sub->idempotency_key : NULL;
+    *created = 0;
+    *out = key ? smd_store_find_key(srv->store, key) : NULL;
+    if (*out)
+        return SM_OK; /* a retry with the same key */
+    if (!smd_id_valid(sub->id))
+        return sm_error_set(err, SM_ERR_INVALID, "bad job id");
+    smd_job *job = smd_job_new(sub->id);
+    if (!job)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    job->state = SM_JOB_ACCEPTED;
+    snprintf(job->message, sizeof job->message, "queued");
+    job->created = job->updated = sm_time_now();
+    job->dim = sub->dim;
+    job->max_iter = sub->max_iter;
+    if (key)
+        snprintf(job->idempotency_key, sizeof job->idempotency_key, "%s", key);
+    sm_event ev;
+    sm_event_init(&ev, SM_EVENT_ACCEPTED);
+    ev.time = job->created;
+    sm_status st = smd_store_commit(srv->store, sub->dir, job, &ev, err);
+    if (st != SM_OK)
+        return st;
+    if (smd_queue_push(srv->queue, job->id) != 0)
+        smd_logf(&srv->log, SMD_LOG_ERROR, "queue_error", "job %s: out of memory queueing it",
+                 job->id);
+    smd_metrics_add(&srv->metrics, &srv->metrics.jobs_submitted, 1);
+    json_t *fields = json_pack("{s:s,s:i,s:i,s:i,s:I}", "job", job->id, "dimension", sub->dim,
+                               "vertices", (int)sub->nverts, "elements", (int)sub->nelems, "bytes",
+                               (json_int_t)sub->bytes);
+    smd_log(&srv->log, SMD_LOG_INFO, "job_accepted", fields);
+    after->wake_pool = 1;
+    *out = job;
+    *created = 1;
+    return SM_OK;
+}
+
+/* --------------------------------------------------------------- runs */
+
+smd_job *smd_jobs_take_next(smd_server *srv)
+{
+    char id[SMD_ID_LEN + 1];
+    smd_job *job = NULL;
+    while (!job) {
+        if (!smd_queue_pop(srv->queue, id))
+            return NULL;
+        job = smd_store_get(srv->store, id);
+        if (job && job->state != SM_JOB_ACCEPTED)
+            job = NULL; /* cancelled or deleted while queued */
+    }
+    job->state = SM_JOB_RUNNING;
+    if (job->attempt < SMD_ATTEMPT_MAX)
+        job->attempt++;
+    job->started = job->updated = sm_time_now();
+    job->finished = -1;
+    job->progress = 0;
+    job->have_progress = 0;
+    snprintf(job->message, sizeof job->message, "running");
+    return job;
+}
+
+sm_status smd_jobs_started(smd_server *srv, smd_job *job, long pid, smd_jobs_after *after)
+{
+    sm_error err;
+    if (job->state != SM_JOB_RUNNING || job->worker_active)
+        return refuse(job, "start", &err);
+    job->worker_active = 1;
+    save_or_log(srv, job);
+    sm_event ev;
+    sm_event_init(&ev, SM_EVENT_STARTED);
+    ev.attempt = job->attempt;
+    ev.time = job->started;
+    append_or_log(srv, job, &ev, after);
+    smd_metrics_add(&srv->metrics, &srv->metrics.workers_started, 1);
+    json_t *f = log_fields(job, NULL);
+    json_object_set_new(f, "pid", json_integer(pid));
+    json_object_set_new(f, "attempt", json_integer(job->attempt));
+    smd_log(&srv->log, SMD_LOG_INFO, "job_started", f);
+    return SM_OK;
+}
+
+sm_status smd_jobs_progress(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_after *after)
+{
+    sm_error err;
+    if (job->state != SM_JOB_RUNNING)
+        return refuse(job, "report progress of", &err); /* cancelled: the log ends with "cancelled" */
+    ev->seq = 0; /* numbered by the store */
+    ev->time = sm_time_now();
+    append_or_log(srv, job, ev, after);
+    job->have_progress = 1;
+    job->last_progress = ev->progress;
+    job->updated = ev->time;
+    if (job->max_iter > 0) {
+        long pct = (long)ev->progress.iteration * 100 / job->max_iter;
+        job->progress = (int)(pct > 99 ? 99 : pct < 0 ? 0 : pct);
+    }
+    return SM_OK;
+}
+
+sm_status smd_jobs_finish(smd_server *srv, smd_job *job, const sm_event *finished,
+                          json_t *extra, smd_jobs_after *after)
+{
+    sm_error err;
+    if (job->state != SM_JOB_RUNNING) {
+        json_decref(extra);
+        return refuse(job, "finish", &err);
+    }
+    snprintf(job->message, sizeof job->message, "finished: %s after %d iterations",
+             sm_stop_reason_name(finished->result.stop), finished->result.iterations);
+    sm_event ev = *finished;
+    ev.seq = 0;
+    end_job(srv, job, SM_JOB_SUCCESSFUL, &ev, SMD_LOG_INFO, "job_finished", extra, after);
+    return SM_OK;
+}
+
+sm_status smd_jobs_fail(smd_server *srv, smd_job *job, const char *message, json_t *extra,
+                        smd_jobs_after *after)
+{
+    sm_error err;
+    if (job->state != SM_JOB_RUNNING && job->state != SM_JOB_ACCEPTED) {
+        json_decref(extra);
+        return refuse(job, "fail", &err);
+    }
+    /* a worker that could not start is an error of the daemon's; one that
+     * ended without a result, of the job's */
+    int level = job->worker_active ? SMD_LOG_WARN : SMD_LOG_ERROR;
+    snprintf(job->message, sizeof job->message, "%s", message);
+    sm_event ev;
+    sm_event_init(&ev, SM_EVENT_FAILED);
+    end_job(srv, job, SM_JOB_FAILED, &ev, level, "job_failed", extra, after);
+    return SM_OK;
+}
+
+sm_status smd_jobs_requeue(smd_server *srv, smd_job *job, json_t *extra)
+{
+    sm_error err;
+    if (job->state != SM_JOB_RUNNING) {
+        json_decref(extra);
+        return refuse(job, "queue again", &err);
+    }
+    job->state = SM_JOB_ACCEPTED;
+    job->progress = 0;
+    job->updated = sm_time_now();
+    snprintf(job->message, sizeof job->message,
+             "interrupted by a daemon shutdown: runs again at the next start");
+    save_or_log(srv, job);
+    smd_log(&srv->log, SMD_LOG_INFO, "job_requeued", log_fields(job, extra));
+    return SM_OK;
+}
+
+void smd_jobs_worker_gone(smd_server *srv, smd_job *job, smd_jobs_after *after)
+{
+    job->worker_active = 0;
+    smd_stream_collect_job(job, &after->wake);
+    if (job->delete_requested)
+        trash_job(srv, job, after); /* DELETE came while it was stopping */
+}
+
+/* ------------------------------------------------------ cancel, delete */
+
+sm_status smd_jobs_cancel(smd_server *srv, smd_job *job, smd_jobs_after *after)
+{
+    sm_error err;
+    if (job->state != SM_JOB_ACCEPTED && job->state != SM_JOB_RUNNING)
+        return refuse(job, "cancel", &err);
+    int running = job->state == SM_JOB_RUNNING;
+    snprintf(job->message, sizeof job->message, "cancelled by request (DELETE)");
+    if (!running) {
+        smd_queue_remove(srv->queue, job->id);
+        sm_event ev;
+        sm_event_init(&ev, SM_EVENT_CANCELLED);
+        end_job(srv, job, SM_JOB_DISMISSED, &ev, SMD_LOG_INFO, "job_cancelled", NULL, after);
+        return SM_OK;
+    }
+    /* the worker gets SIGTERM (then SIGKILL) from the supervisor, which
+     * calls smd_jobs_cancelled when it is gone */
+    job->state = SM_JOB_DISMISSED;
+    job->updated = sm_time_now();
+    job->cancel_requested = 1;
+    after->wake_pool = 1;
+    save_or_log(srv, job);
+    smd_log(&srv->log, SMD_LOG_INFO, "job_cancel_requested", log_fields(job, NULL));
+    smd_stream_collect_job(job, &after->wake);
+    return SM_OK;
+}
+
+sm_status smd_jobs_cancelled(smd_server *srv, smd_job *job, json_t *extra, smd_jobs_after *after)
+{
+    sm_error err;
+    if (job->state != SM_JOB_DISMISSED || !job->cancel_requested) {
+        json_decref(extra);
+        return refuse(job, "end the cancel of", &err);
+    }
+    sm_event ev;
+    sm_event_init(&ev, SM_EVENT_CANCELLED);
+    end_job(srv, job, SM_JOB_DISMISSED, &ev, SMD_LOG_INFO, "job_cancelled", extra, after);
+    return SM_OK;
+}
+
+sm_status smd_jobs_delete(smd_server *srv, smd_job *job, smd_jobs_after *after)
+{
+    sm_error err;
+    if (!smd_job_state_final(job->state))
+        return refuse(job, "delete", &err);
+    smd_log(&srv->log, SMD_LOG_INFO, "job_deleted", json_pack("{s:s}", "job", job->id));
+    remove_job(srv, job, after);
+    return SM_OK;
+}
+
+sm_status smd_jobs_expire(smd_server *srv, smd_job *job, smd_jobs_after *after)
+{
+    sm_error err;
+    if (!smd_job_state_final(job->state) || job->worker_active)
+        return refuse(job, "expire", &err);
+    smd_logf(&srv->log, SMD_LOG_INFO, "job_expired", "job %s deleted after the retention time",
+             job->id);
+    remove_job(srv, job, after);
+    return SM_OK;
+}
+
+/* ------------------------------------------------------------ recovery */
+
+/* A job that was queued or running when the daemon stopped: runnable
+ * again.  -1 (logged) when it cannot be. */
+static int recover_job(smd_server *srv, smd_job *job)
+{
+    sm_error err;
+    smd_store_remove_results(srv->store, job, job->state != SM_JOB_RUNNING);
+    if (job->state == SM_JOB_RUNNING) {
+        job->state = SM_JOB_ACCEPTED;
+        job->progress = 0;
+        job->updated = sm_time_now();
+        snprintf(job->message, sizeof job->message,
+                 "re-queued after a daemon restart (run %d was interrupted)", job->attempt);
+        if (smd_store_save(srv->store, job, &err) != SM_OK) {
+            smd_logf(&srv->log, SMD_LOG_ERROR, "job_recovery_failed", "%s", err.msg);
+            return -1;
+        }
+        smd_logf(&srv->log, SMD_LOG_INFO, "job_requeued", "job %s was running: queued again",
+                 job->id);
+    }
+    if (smd_store_load_events(srv->store, job, &err) != SM_OK) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "job_recovery_failed", "%s", err.msg);
+        return -1;
+    }
+    return 0;
+}
+
+sm_status smd_jobs_recover(smd_server *srv, size_t *queued, sm_error *err)
+{
+    *queued = 0;
+    for (size_t i = 0; i < smd_store_count(srv->store);) {
+        smd_job *job = smd_store_at(srv->store, i);
+        if (!smd_job_state_final(job->state) && recover_job(srv, job) != 0) {
+            smd_store_unlink(srv->store, job); /* shifts the list: do not advance i */
+            continue;
+        }
+        if (job->state == SM_JOB_ACCEPTED) {
+            if (smd_queue_push(srv->queue, job->id) != 0)
+                return sm_error_set(err, SM_ERR_NOMEM, "out of memory queueing the jobs");
+            (*queued)++;
+        }
+        i++;
+    }
+    return SM_OK;
+}

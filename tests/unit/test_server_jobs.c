@@ -1,0 +1,257 @@
+/* The job state machine (smd_jobs.h) without HTTP or workers: every
+ * allowed transition changes the state, writes its event and counts it;
+ * every refused one answers SM_ERR_INVALID and changes nothing. */
+#include <fcntl.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <cmocka.h>
+
+#include "smd_jobs.h"
+#include "smd_queue.h"
+#include "smd_store.h"
+
+typedef struct fixture {
+    char spool[256];
+    smd_server srv;
+    int nupload;
+} fixture;
+
+static const char *const labels[] = {"other"};
+
+static int setup(void **state)
+{
+    fixture *f = calloc(1, sizeof *f);
+    snprintf(f->spool, sizeof f->spool, "/tmp/sm-test-jobs-XXXXXX");
+    if (!f || !mkdtemp(f->spool))
+        return -1;
+    f->srv.log.fd = open("/dev/null", O_WRONLY);
+    f->srv.log.level = SMD_LOG_DEBUG;
+    sm_error err;
+    if (smd_store_open(f->spool, &f->srv.log, &f->srv.store, &err) != SM_OK ||
+        !(f->srv.queue = smd_queue_local_new()) ||
+        smd_metrics_init(&f->srv.metrics, labels, 1) != 0)
+        return -1;
+    *state = f;
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    fixture *f = *state;
+    smd_queue_free(f->srv.queue);
+    smd_store_close(f->srv.store);
+    smd_metrics_destroy(&f->srv.metrics);
+    close(f->srv.log.fd);
+    smd_rmtree(f->spool);
+    free(f);
+    return 0;
+}
+
+/* A new job as an upload hands it over. */
+static smd_job *submit(fixture *f, const char *id, const char *key, smd_jobs_after *after)
+{
+    char dir[512], p[600];
+    snprintf(dir, sizeof dir, "%s/tmp/up-%d", f->spool, f->nupload++);
+    assert_int_equal(smd_mkdirs(dir, 0700), 0);
+    snprintf(p, sizeof p, "%s/job.json", dir);
+    assert_int_equal(smd_write_file_atomic(p, "{}", 2), 0);
+    smd_submission sub = {.dir = dir, .id = id, .idempotency_key = key, .dim = 2, .max_iter = 10};
+    smd_job *job = NULL;
+    int created = -1;
+    sm_error err;
+    assert_int_equal(smd_jobs_submit(&f->srv, &sub, &job, &created, after, &err), SM_OK);
+    assert_non_null(job);
+    if (created)
+        rmdir(dir); /* moved: nothing left (rmdir fails, fine) */
+    return job;
+}
+
+/* The type of the job's last event in its log. */
+static void last_event(fixture *f, smd_job *job, char *type, size_t cap)
+{
+    char path[512];
+    assert_int_equal(smd_store_path(f->srv.store, job->id, "events.ndjson", path, sizeof path), 0);
+    FILE *fp = fopen(path, "r");
+    assert_non_null(fp);
+    char line[4096], last[4096] = "";
+    while (fgets(line, sizeof line, fp))
+        snprintf(last, sizeof last, "%s", line);
+    fclose(fp);
+    sm_event ev;
+    sm_error err;
+    assert_int_equal(sm_event_from_json(last, strlen(last), &ev, &err), SM_OK);
+    snprintf(type, cap, "%s", sm_event_type_name(ev.type));
+}
+
+static void test_run_to_success(void **state)
+{
+    fixture *f = *state;
+    smd_server *srv = &f->srv;
+    smd_jobs_after after = {0};
+    char type[32];
+    smd_job *job = submit(f, "aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa", "k1", &after);
+    assert_int_equal(job->state, SM_JOB_ACCEPTED);
+    assert_true(after.wake_pool);
+    assert_int_equal(smd_queue_depth(srv->queue), 1);
+    assert_true(srv->metrics.jobs_submitted == 1);
+    /* the same key again: the same job, nothing new */
+    int created;
+    smd_job *again;
+    sm_error err;
+    smd_submission sub = {.dir = "/nonexistent", .id = "bbbbbbbbbbbbbbbbbbbbbbbbbbbbbbbb",
+                          .idempotency_key = "k1", .dim = 2, .max_iter = 10};
+    assert_int_equal(smd_jobs_submit(srv, &sub, &again, &created, &after, &err), SM_OK);
+    assert_int_equal(created, 0);
+    assert_ptr_equal(again, job);
+    assert_true(srv->metrics.jobs_submitted == 1);
+
+    /* refused from accepted: finish, requeue, delete, expire, start without take */
+    sm_event fin;
+    sm_event_init(&fin, SM_EVENT_FINISHED);
+    fin.result.iterations = 3;
+    assert_int_equal(smd_jobs_finish(srv, job, &fin, NULL, &after), SM_ERR_INVALID);
+    assert_int_equal(smd_jobs_requeue(srv, job, NULL), SM_ERR_INVALID);
+    assert_int_equal(smd_jobs_delete(srv, job, &after), SM_ERR_INVALID);
+    assert_int_equal(smd_jobs_expire(srv, job, &after), SM_ERR_INVALID);
+    assert_int_equal(smd_jobs_started(srv, job, 1, &after), SM_ERR_INVALID);
+    assert_int_equal(smd_jobs_cancelled(srv, job, NULL, &after), SM_ERR_INVALID);
+    sm_event prog;
+    sm_event_init(&prog, SM_EVENT_PROGRESS);
+    assert_int_equal(smd_jobs_progress(srv, job, &prog, &after), SM_ERR_INVALID);
+    assert_int_equal(job->state, SM_JOB_ACCEPTED);
+    assert_int_equal(job->nevents, 1);
+
+    /* accepted -> running */
+    assert_ptr_equal(smd_jobs_take_next(srv), job);
+    assert_null(smd_jobs_take_next(srv));
+    assert_int_equal(job->state, SM_JOB_RUNNING);
+    assert_int_equal(job->attempt, 1);
+    assert_int_equal(smd_jobs_started(srv, job, 4242, &after), SM_OK);
+    assert_true(job->worker_active);
+    assert_true(srv->metrics.workers_started == 1);
+    last_event(f, job, type, sizeof type);
+    assert_string_equal(type, "started");
+    assert_int_equal(smd_jobs_started(srv, job, 4242, &after), SM_ERR_INVALID); /* twice */
+
+    /* progress */
+    prog.progress.iteration = 5;
+    assert_int_equal(smd_jobs_progress(srv, job, &prog, &after), SM_OK);
+    assert_int_equal(job->progress, 50);
+    assert_int_equal(job->nevents, 3);
+
+    /* running -> successful; then only delete is allowed */
+    assert_int_equal(smd_jobs_finish(srv, job, &fin, NULL, &after), SM_OK);
+    assert_int_equal(job->state, SM_JOB_SUCCESSFUL);
+    assert_int_equal(job->progress, 100);
+    assert_true(srv->metrics.jobs_finished[0] == 1);
+    last_event(f, job, type, sizeof type);
+    assert_string_equal(type, "finished");
+    assert_int_equal(smd_jobs_fail(srv, job, "x", NULL, &after), SM_ERR_INVALID);
+    assert_int_equal(smd_jobs_cancel(srv, job, &after), SM_ERR_INVALID);
+    assert_int_equal(smd_jobs_finish(srv, job, &fin, NULL, &after), SM_ERR_INVALID);
+    assert_int_equal(smd_jobs_expire(srv, job, &after), SM_ERR_INVALID); /* worker still active */
+    smd_jobs_worker_gone(srv, job, &after);
+    assert_false(job->worker_active);
+    assert_int_equal(job->state, SM_JOB_SUCCESSFUL);
+
+    /* delete: out of the table, folder to trash, removed after the lock */
+    char dir[512];
+    assert_int_equal(smd_store_path(srv->store, job->id, "", dir, sizeof dir), 0);
+    assert_int_equal(smd_jobs_delete(srv, job, &after), SM_OK);
+    assert_null(smd_store_get(srv->store, "aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa"));
+    assert_int_equal(after.ntrash, 1);
+    smd_jobs_after_free(&after);
+    struct stat st;
+    assert_int_equal(stat(dir, &st), -1);
+    assert_int_equal(after.ntrash, 0);
+}
+
+static void test_cancel_fail_requeue(void **state)
+{
+    fixture *f = *state;
+    smd_server *srv = &f->srv;
+    smd_jobs_after after = {0};
+    char type[32];
+    /* a queued job is dismissed at once */
+    smd_job *a = submit(f, "0123456789abcdef0123456789abcdef", NULL, &after);
+    smd_job *b = submit(f, "fedcba9876543210fedcba9876543210", NULL, &after);
+    after.wake_pool = 0;
+    assert_int_equal(smd_jobs_cancel(srv, a, &after), SM_OK);
+    assert_int_equal(a->state, SM_JOB_DISMISSED);
+    assert_false(after.wake_pool);
+    assert_true(a->finished > 0);
+    assert_true(srv->metrics.jobs_finished[2] == 1);
+    last_event(f, a, type, sizeof type);
+    assert_string_equal(type, "cancelled");
+    assert_int_equal(smd_jobs_cancel(srv, a, &after), SM_ERR_INVALID);
+    assert_int_equal(smd_jobs_cancelled(srv, a, NULL, &after), SM_ERR_INVALID);
+    /* the queue skips it */
+    assert_ptr_equal(smd_jobs_take_next(srv), b);
+
+    /* a running job: dismissed, its worker asked to stop, then gone */
+    assert_int_equal(smd_jobs_started(srv, b, 1, &after), SM_OK);
+    assert_int_equal(smd_jobs_cancel(srv, b, &after), SM_OK);
+    assert_int_equal(b->state, SM_JOB_DISMISSED);
+    assert_true(b->cancel_requested);
+    assert_true(after.wake_pool);
+    last_event(f, b, type, sizeof type);
+    assert_string_equal(type, "started"); /* "cancelled" when the worker is gone */
+    sm_event prog;
+    sm_event_init(&prog, SM_EVENT_PROGRESS);
+    assert_int_equal(smd_jobs_progress(srv, b, &prog, &after), SM_ERR_INVALID);
+    assert_int_equal(smd_jobs_cancelled(srv, b, NULL, &after), SM_OK);
+    last_event(f, b, type, sizeof type);
+    assert_string_equal(type, "cancelled");
+    assert_true(srv->metrics.jobs_finished[2] == 2);
+    /* a DELETE while the worker is stopping removes the files when it is gone */
+    smd_job_ref(b); /* the pool's reference */
+    assert_int_equal(smd_jobs_delete(srv, b, &after), SM_OK);
+    assert_true(b->delete_requested);
+    assert_true(b->removed);
+    assert_int_equal(after.ntrash, 0);
+    smd_jobs_worker_gone(srv, b, &after);
+    assert_int_equal(after.ntrash, 1);
+    smd_job_unref(b);
+
+    /* fail from running and from a worker that never started */
+    smd_job *c = submit(f, "cccccccccccccccccccccccccccccccc", NULL, &after);
+    smd_job *d = submit(f, "dddddddddddddddddddddddddddddddd", NULL, &after);
+    assert_ptr_equal(smd_jobs_take_next(srv), c);
+    assert_int_equal(smd_jobs_fail(srv, c, "cannot start the worker: test", NULL, &after), SM_OK);
+    assert_int_equal(c->state, SM_JOB_FAILED);
+    assert_string_equal(c->message, "cannot start the worker: test");
+    last_event(f, c, type, sizeof type);
+    assert_string_equal(type, "failed");
+    assert_true(srv->metrics.jobs_finished[1] == 1);
+
+    /* running -> accepted at a shutdown; recovered at the next start */
+    assert_ptr_equal(smd_jobs_take_next(srv), d);
+    assert_int_equal(smd_jobs_started(srv, d, 2, &after), SM_OK);
+    assert_int_equal(smd_jobs_requeue(srv, d, NULL), SM_OK);
+    assert_int_equal(d->state, SM_JOB_ACCEPTED);
+    assert_int_equal(smd_jobs_requeue(srv, d, NULL), SM_ERR_INVALID);
+    assert_int_equal(smd_queue_depth(srv->queue), 0);
+    size_t queued;
+    sm_error err;
+    assert_int_equal(smd_jobs_recover(srv, &queued, &err), SM_OK);
+    assert_int_equal(queued, 1);
+    assert_ptr_equal(smd_jobs_take_next(srv), d);
+    assert_int_equal(d->attempt, 2);
+    smd_jobs_after_free(&after);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(test_run_to_success, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_cancel_fail_requeue, setup, teardown),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

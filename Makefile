@@ -21,7 +21,7 @@ DEB_PACKAGES := gcc make pkg-config libc6-dev \
 
 CC ?= cc
 BASE_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror -fopenmp \
-  -Wno-missing-field-initializers -g -I core -I proto -I /usr/include/suitesparse \
+  -Wno-missing-field-initializers -g -I core/include -I proto -I /usr/include/suitesparse \
   -DSM_VERSION='"$(VERSION)"'
 RELEASE_CFLAGS := $(BASE_CFLAGS) -O2
 ASAN_CFLAGS := $(BASE_CFLAGS) -O1 -fno-omit-frame-pointer \

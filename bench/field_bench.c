@@ -26,9 +26,9 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "sm_field.h"
-#include "sm_io.h"
-#include "sm_mesh.h"
+#include "shapematch/sm_field.h"
+#include "shapematch/sm_io.h"
+#include "shapematch/sm_mesh.h"
 
 /* Declared again, weak: the benchmark also builds and runs against the
  * library from before sm_field_eval_many, for the figures "before". */

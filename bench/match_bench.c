@@ -15,9 +15,9 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "sm_io.h"
-#include "sm_field.h"
-#include "sm_match.h"
+#include "shapematch/sm_io.h"
+#include "shapematch/sm_field.h"
+#include "shapematch/sm_match.h"
 
 static double now(void)
 {

@@ -14,7 +14,7 @@
 #include <stdio.h>
 #include <stddef.h>
 
-#include "sm_match.h"
+#include "shapematch/sm_match.h"
 
 #define ARGS_MSG_LEN 2048
 

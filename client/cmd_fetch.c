@@ -18,7 +18,7 @@
 #include "cli.h"
 #include "fsutil.h"
 #include "remote.h"
-#include "sm_atomic.h"
+#include "shapematch/sm_atomic.h"
 #include "sm_json.h"
 #include "sm_proto_events.h"
 #include "sm_proto_vocab.h"

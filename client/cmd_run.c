@@ -17,7 +17,7 @@
 #include "cli.h"
 #include "fsutil.h"
 #include "progress.h"
-#include "sm_atomic.h"
+#include "shapematch/sm_atomic.h"
 #include "sm_job_inputs.h"
 #include "sm_job_runner.h"
 #include "sm_json.h"

@@ -7,7 +7,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "sm_atomic.h"
+#include "shapematch/sm_atomic.h"
 
 
 char *fs_join(const char *dir, const char *name)

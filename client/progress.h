@@ -10,7 +10,7 @@
 
 #include <stdio.h>
 
-#include "sm_match.h"
+#include "shapematch/sm_match.h"
 
 #define PROGRESS_LINE_EVERY 10
 

@@ -1,5 +1,5 @@
 /* Atomic file writes (see sm_atomic.h). */
-#include "sm_atomic.h"
+#include "shapematch/sm_atomic.h"
 
 #include <errno.h>
 #include <fcntl.h>

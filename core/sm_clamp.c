@@ -1,4 +1,4 @@
-#include "sm_clamp.h"
+#include "shapematch/sm_clamp.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -15,8 +15,8 @@
 
 #include <stdint.h>
 
-#include "sm_error.h"
-#include "sm_mesh.h"
+#include "shapematch/sm_error.h"
+#include "shapematch/sm_mesh.h"
 
 typedef struct sm_elasticity sm_elasticity;
 

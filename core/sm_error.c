@@ -1,4 +1,4 @@
-#include "sm_error.h"
+#include "shapematch/sm_error.h"
 
 #include <stdarg.h>
 #include <stdio.h>

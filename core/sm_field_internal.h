@@ -17,9 +17,9 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "sm_error.h"
-#include "sm_field.h"
-#include "sm_mesh.h"
+#include "shapematch/sm_error.h"
+#include "shapematch/sm_field.h"
+#include "shapematch/sm_mesh.h"
 
 /* Barycentric tolerance: a point is in an element when every coordinate is
  * >= -BARY_TOL.  Barycentric coordinates are dimensionless, so this is a

@@ -3,7 +3,7 @@
  * Vertices, Edges, Triangles, Tetrahedra) into temporary arrays, since
  * whether Triangles are elements or facets is only known at the end
  * (a "Dimension 3" planar file is a 2D mesh), then builds the sm_mesh. */
-#include "sm_io.h"
+#include "shapematch/sm_io.h"
 
 #include <inttypes.h>
 #include <math.h>

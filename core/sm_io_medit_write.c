@@ -1,7 +1,7 @@
 /* Medit meshes, writing: .mesh (ASCII) or .meshb (libMeshb binary,
  * version 2 or 3 as the offsets need), plain or gzip, chosen by the file
  * name (sm_io_medit.c has the reader). */
-#include "sm_io.h"
+#include "shapematch/sm_io.h"
 
 #include <math.h>
 #include <string.h>

@@ -1,6 +1,6 @@
 /* Medit solutions: .sol (ASCII) and .solb (binary, libMeshb versions 1-4),
  * plain or gzip, holding one SolAtVertices field, scalar or vector. */
-#include "sm_io.h"
+#include "shapematch/sm_io.h"
 
 #include <inttypes.h>
 #include <math.h>

@@ -1,13 +1,13 @@
-#include "sm_match.h"
+#include "shapematch/sm_match.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
-#include "sm_clamp.h"
+#include "shapematch/sm_clamp.h"
 #include "sm_elasticity.h"
-#include "sm_field.h"
+#include "shapematch/sm_field.h"
 #include "sm_shape.h"
 
 /* Sufficient-decrease constant of the Armijo test. */

@@ -2,7 +2,7 @@
 
 #include <string.h>
 
-#include "sm_mesh.h"
+#include "shapematch/sm_mesh.h"
 
 /* ------------------------------------------------------------------ */
 /* Medit helpers                                                       */

@@ -7,7 +7,7 @@
 
 #include <stdint.h>
 
-#include "sm_error.h"
+#include "shapematch/sm_error.h"
 #include "sm_reader.h"
 
 /* libMeshb keyword codes. */

@@ -1,4 +1,4 @@
-#include "sm_mesh.h"
+#include "shapematch/sm_mesh.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -1,5 +1,5 @@
 /* Defaults and range checks of sm_params (see sm_params.h). */
-#include "sm_params.h"
+#include "shapematch/sm_params.h"
 
 #include <math.h>
 #include <string.h>

@@ -25,7 +25,7 @@
 #include <stdint.h>
 #include <zlib.h>
 
-#include "sm_error.h"
+#include "shapematch/sm_error.h"
 
 #define SM_READER_WHY_LEN 160
 #define SM_TOKEN_LEN 128

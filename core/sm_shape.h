@@ -20,9 +20,9 @@
 
 #include <stdint.h>
 
-#include "sm_error.h"
-#include "sm_field.h"
-#include "sm_mesh.h"
+#include "shapematch/sm_error.h"
+#include "shapematch/sm_field.h"
+#include "shapematch/sm_mesh.h"
 
 typedef struct sm_shape sm_shape;
 

@@ -1,7 +1,7 @@
 /* VTK XML UnstructuredGrid writer (.vtu) with inline ASCII data, which
  * ParaView and VTK read directly.  Points are padded to 3D; cells are
  * VTK_TRIANGLE (5) in 2D and VTK_TETRA (10) in 3D. */
-#include "sm_io.h"
+#include "shapematch/sm_io.h"
 
 #include <math.h>
 

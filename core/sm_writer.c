@@ -11,7 +11,7 @@
 #include <unistd.h>
 #include <zlib.h>
 
-#include "sm_atomic.h"
+#include "shapematch/sm_atomic.h"
 #include "sm_stream.h"
 
 #define WRITE_BUF_SIZE (1u << 16)

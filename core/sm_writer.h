@@ -15,7 +15,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "sm_error.h"
+#include "shapematch/sm_error.h"
 
 typedef struct sm_writer sm_writer;
 

@@ -58,7 +58,7 @@ make -s build/release/libshapematch.a
 tools=build/release/examples
 mkdir -p "$tools"
 tool_flags=(-std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror -O2
-    -I core -I examples/tools)
+    -I core/include -I examples/tools)
 for tool in sdf check; do
     "$CC" "${tool_flags[@]}" "examples/tools/$tool.c" \
         build/release/libshapematch.a -lcholmod -lz -lm -o "$tools/$tool"

@@ -7,7 +7,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "sm_clamp.h"
+#include "shapematch/sm_clamp.h"
 #include "sm_proto_params.h"
 
 static double now_seconds(void)

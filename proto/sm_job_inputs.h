@@ -28,11 +28,11 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "sm_error.h"
-#include "sm_field.h"
-#include "sm_io.h"
-#include "sm_mesh.h"
-#include "sm_params.h"
+#include "shapematch/sm_error.h"
+#include "shapematch/sm_field.h"
+#include "shapematch/sm_io.h"
+#include "shapematch/sm_mesh.h"
+#include "shapematch/sm_params.h"
 #include "sm_proto_vocab.h"
 
 typedef struct sm_job_files {

@@ -8,8 +8,8 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "sm_atomic.h"
-#include "sm_io.h"
+#include "shapematch/sm_atomic.h"
+#include "shapematch/sm_io.h"
 #include "sm_json.h"
 #include "sm_payload.h"
 #include "sm_proto_events.h"

@@ -40,9 +40,9 @@
 
 #include <jansson.h>
 
-#include "sm_error.h"
+#include "shapematch/sm_error.h"
 #include "sm_job_inputs.h"
-#include "sm_match.h"
+#include "shapematch/sm_match.h"
 
 /* Exit codes shared by `shapematch run` and `shapematch-worker` (the
  * programs add their own above these). */

@@ -27,8 +27,8 @@
 #include <stdint.h>
 #include <stdio.h>
 
-#include "sm_error.h"
-#include "sm_mesh.h"
+#include "shapematch/sm_error.h"
+#include "shapematch/sm_mesh.h"
 
 #define SM_PAYLOAD_MEDIA_TYPE "application/vnd.shapematch.mesh"
 #define SM_PAYLOAD_MAGIC "SMMESH\0\0" /* 8 bytes, the last two are NUL */

@@ -36,9 +36,9 @@
 
 #include <jansson.h>
 
-#include "sm_error.h"
+#include "shapematch/sm_error.h"
 #include "sm_json.h"
-#include "sm_match.h"
+#include "shapematch/sm_match.h"
 
 /* Longest job id carried (the daemon's ids are 32 hex digits). */
 #define SM_JOB_ID_MAX 64

@@ -9,7 +9,7 @@
 
 #include <jansson.h>
 
-#include "sm_error.h"
+#include "shapematch/sm_error.h"
 
 /* Longest path kept in messages; deeper paths are cut (still readable). */
 #define SMP_PATH_MAX 160

@@ -23,8 +23,8 @@
 
 #include <jansson.h>
 
-#include "sm_error.h"
-#include "sm_params.h"
+#include "shapematch/sm_error.h"
+#include "shapematch/sm_params.h"
 
 /* Largest params document accepted (bytes).  A complete params with two
  * full reference lists is well under 2 KiB. */

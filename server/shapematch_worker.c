@@ -24,7 +24,7 @@
 
 #include <jansson.h>
 
-#include "sm_atomic.h"
+#include "shapematch/sm_atomic.h"
 #include "sm_job_inputs.h"
 #include "sm_job_runner.h"
 #include "sm_proto_events.h"

@@ -13,7 +13,7 @@
 #ifndef SMD_HTTP_H
 #define SMD_HTTP_H
 
-#include "sm_error.h"
+#include "shapematch/sm_error.h"
 #include "smd_server.h"
 
 sm_status smd_http_start(smd_server *srv, sm_error *err);

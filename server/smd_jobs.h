@@ -30,7 +30,7 @@
 
 #include <stdint.h>
 
-#include "sm_error.h"
+#include "shapematch/sm_error.h"
 #include "smd_server.h"
 #include "smd_stream.h"
 

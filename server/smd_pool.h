@@ -21,7 +21,7 @@
 
 #include <stddef.h>
 
-#include "sm_error.h"
+#include "shapematch/sm_error.h"
 #include "smd_server.h"
 
 typedef struct smd_pool smd_pool;

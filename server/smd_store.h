@@ -29,7 +29,7 @@
 
 #include <jansson.h>
 
-#include "sm_error.h"
+#include "shapematch/sm_error.h"
 #include "sm_proto_events.h"
 #include "sm_proto_vocab.h"
 #include "smd_log.h"

@@ -17,7 +17,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "sm_atomic.h"
+#include "shapematch/sm_atomic.h"
 
 int smd_random_id(char out[SMD_ID_LEN + 1])
 {

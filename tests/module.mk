@@ -4,7 +4,10 @@
 TEST_SRCS := $(wildcard tests/unit/test_*.c)
 TEST_UTIL_SRCS := $(wildcard tests/unit/util_*.c)
 TEST_NAMES := $(TEST_SRCS:tests/unit/%.c=%)
+# The unit tests are white-box: they also see the core's private headers
+# (sm_shape.h, sm_elasticity.h, ...); the programs see core/include only.
 define test_rules
+build/$(1)/obj/tests/unit/%.o: $(1)_CFLAGS += -I core
 build/$(1)/tests/%: build/$(1)/obj/tests/unit/%.o $$(TEST_UTIL_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/libsmproto.a build/$(1)/libshapematch.a
 	@mkdir -p $$(dir $$@)
 	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(PROTO_LIBS) $$(CORE_LIBS) -lcmocka

@@ -28,10 +28,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "sm_error.h"
-#include "sm_field.h"
-#include "sm_io.h"
-#include "sm_mesh.h"
+#include "shapematch/sm_error.h"
+#include "shapematch/sm_field.h"
+#include "shapematch/sm_io.h"
+#include "shapematch/sm_mesh.h"
 
 #include "geometry.h"
 #include "shapes.h"

@@ -37,9 +37,9 @@
 #include <string.h>
 #include <time.h>
 
-#include "sm_error.h"
-#include "sm_io.h"
-#include "sm_mesh.h"
+#include "shapematch/sm_error.h"
+#include "shapematch/sm_io.h"
+#include "shapematch/sm_mesh.h"
 
 #include "geometry.h"
 #include "shapes.h"

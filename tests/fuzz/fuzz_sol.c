@@ -5,7 +5,7 @@
 #include <unistd.h>
 
 #include "fuzz_input.h"
-#include "sm_io.h"
+#include "shapematch/sm_io.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

@@ -15,7 +15,7 @@
 #include <cmocka.h>
 
 #include "sm_elasticity.h"
-#include "sm_mesh.h"
+#include "shapematch/sm_mesh.h"
 #include "util_gmsh.h"
 #include "util_mesh.h"
 

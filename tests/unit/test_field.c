@@ -17,8 +17,8 @@
 #include <cmocka.h>
 #include <omp.h>
 
-#include "sm_field.h"
-#include "sm_mesh.h"
+#include "shapematch/sm_field.h"
+#include "shapematch/sm_mesh.h"
 #include "util_gmsh.h"
 #include "util_mesh.h"
 

@@ -16,7 +16,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "sm_io.h"
+#include "shapematch/sm_io.h"
 
 /* ------------------------------------------------------------------ */
 /* helpers                                                             */

@@ -18,7 +18,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "sm_io.h"
+#include "shapematch/sm_io.h"
 
 typedef struct malformed_case {
     char name[256];

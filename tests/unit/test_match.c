@@ -13,8 +13,8 @@
 #include <cmocka.h>
 
 #include "sm_elasticity.h"
-#include "sm_field.h"
-#include "sm_match.h"
+#include "shapematch/sm_field.h"
+#include "shapematch/sm_match.h"
 #include "sm_shape.h"
 #include "util_mesh.h"
 

@@ -9,7 +9,7 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "sm_mesh.h"
+#include "shapematch/sm_mesh.h"
 #include "util_mesh.h"
 
 static sm_mesh *structured(int dim, int n, unsigned seed)

@@ -17,8 +17,8 @@
 #include <unistd.h>
 #include <cmocka.h>
 
-#include "sm_atomic.h"
-#include "sm_io.h"
+#include "shapematch/sm_atomic.h"
+#include "shapematch/sm_io.h"
 #include "sm_job_inputs.h"
 #include "sm_job_runner.h"
 #include "sm_json.h"

@@ -12,8 +12,8 @@
 #include <unistd.h>
 #include <cmocka.h>
 
-#include "sm_io.h"
-#include "sm_clamp.h"
+#include "shapematch/sm_io.h"
+#include "shapematch/sm_clamp.h"
 #include "sm_job_inputs.h"
 #include "smd_metrics.h"
 #include "smd_stream.h"

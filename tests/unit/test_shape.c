@@ -11,7 +11,7 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "sm_field.h"
+#include "shapematch/sm_field.h"
 #include "sm_shape.h"
 #include "util_mesh.h"
 

@@ -10,7 +10,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "sm_io.h"
+#include "shapematch/sm_io.h"
 
 static int ends_with(const char *s, const char *suffix)
 {

@@ -6,8 +6,8 @@
 
 #include <stddef.h>
 
-#include "sm_error.h"
-#include "sm_mesh.h"
+#include "shapematch/sm_error.h"
+#include "shapematch/sm_mesh.h"
 
 /* Ready-made geometries (the mesh size comes from the clmax argument). */
 #define UTIL_GMSH_UNIT_SQUARE                                                  \

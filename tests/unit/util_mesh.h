@@ -3,7 +3,7 @@
 #ifndef UTIL_MESH_H
 #define UTIL_MESH_H
 
-#include "sm_mesh.h"
+#include "shapematch/sm_mesh.h"
 
 /* Box [lo,hi] split in n^dim cells (2 triangles / 6 Kuhn tetrahedra each).
  * With shuffle != 0 the vertex order inside each element is randomized

@@ -307,6 +307,156 @@ void cmd_submit_help(void)
 
 /* ------------------------------------------------------------ command */
 
+/* The usage rules beyond what each flag checks alone; NULL when fine. */
+static const char *submit_usage_problem(submit_args *a, char *msg, size_t cap)
+{
+    if (!a->template_path)
+        return "missing required option --template";
+    if (!a->target_mesh_path)
+        return "missing required option --target-mesh";
+    if (!a->target_sol_path)
+        return "missing required option --target-sol";
+    if (job_options_finish(&a->job, msg, cap) != 0)
+        return msg;
+    if (a->wait && !a->outdir)
+        return "--wait needs -o/--output DIR for the results";
+    if (!a->wait && a->outdir)
+        return "-o/--output is for --wait (or use 'shapematch fetch ID -o DIR' later)";
+    if (!a->wait && a->formats_given)
+        return "--format is for --wait";
+    return NULL;
+}
+
+/* What one submission holds between its steps; released by
+ * submission_release whatever step failed. */
+typedef struct submission {
+    upload up[3];     /* template, target_mesh, target_sol */
+    char *params;     /* the params JSON part */
+    curl_mime *mime;
+    char id[SM_JOB_ID_MAX + 1];
+} submission;
+
+static void submission_release_files(submission *s)
+{
+    for (int i = 0; i < 3; i++)
+        upload_close(&s->up[i]);
+    if (s->mime)
+        curl_mime_free(s->mime);
+    s->mime = NULL;
+    free(s->params);
+    s->params = NULL;
+}
+
+/* Opens the three files (a bad path is an input error, exit 2, before any
+ * connection is made). */
+static int submission_open_files(submission *s, const submit_args *a)
+{
+    const char *paths[3] = {a->template_path, a->target_mesh_path, a->target_sol_path};
+    char msg[ARGS_MSG_LEN];
+    for (int i = 0; i < 3; i++)
+        if (upload_open(&s->up[i], sm_part_names[i], paths[i], !a->no_compress, msg,
+                        sizeof msg) != 0) {
+            fprintf(stderr, "shapematch submit: error: %s\n", msg);
+            return CLI_EXIT_INPUT;
+        }
+    return 0;
+}
+
+/* The multipart body: the three file parts (streamed) and params. */
+static int submission_build_form(submission *s, http_client *c)
+{
+    s->mime = curl_mime_init(c->curl);
+    int bad = !s->mime;
+    for (int i = 0; i < 3 && !bad; i++)
+        bad = add_file_part(s->mime, &s->up[i]) != 0;
+    if (!bad) {
+        curl_mimepart *pp = curl_mime_addpart(s->mime);
+        bad = !pp || curl_mime_name(pp, sm_part_name(SM_PART_PARAMS)) != CURLE_OK ||
+              curl_mime_data(pp, s->params, CURL_ZERO_TERMINATED) != CURLE_OK ||
+              curl_mime_type(pp, "application/json") != CURLE_OK;
+    }
+    if (bad) {
+        fprintf(stderr, "shapematch submit: error: out of memory\n");
+        return CLI_EXIT_INPUT;
+    }
+    return 0;
+}
+
+/* Reads the job id from a 201/200 answer and prints it (or the status
+ * document with --json). */
+static int submission_take_answer(submission *s, const submit_args *a, const http_client *c,
+                                  http_response *rs)
+{
+    char msg[ARGS_MSG_LEN];
+    json_t *doc = remote_json_object(rs);
+    const char *jid = doc ? json_string_value(json_object_get(doc, "jobID")) : NULL;
+    if (!jid || remote_check_id(jid, msg, sizeof msg) != 0) {
+        fprintf(stderr, "shapematch submit: error: bad response from %s: no valid jobID "
+                        "in the job's status document\n",
+                c->base);
+        json_decref(doc);
+        return CLI_EXIT_SERVER;
+    }
+    snprintf(s->id, sizeof s->id, "%s", jid);
+    json_decref(doc);
+    if (rs->status == 200 && !a->quiet)
+        fprintf(stderr, "shapematch: the daemon already has a job for this "
+                        "Idempotency-Key: %s (not submitted again)\n",
+                s->id);
+    if (a->json && !a->wait)
+        remote_print_body(rs);
+    else if (!a->json) {
+        printf("%s\n", s->id);
+        fflush(stdout);
+    }
+    return 0;
+}
+
+/* POST /v1/jobs and its answer. */
+static int submission_post(submission *s, const submit_args *a, http_client *c,
+                           const remote_options *conn)
+{
+    char key_header[IDEMPOTENCY_KEY_MAX + 32];
+    http_request rq = {.method = "POST", .path = "/v1/jobs", .accept = "application/json",
+                       .mime = s->mime, .gzip = 1};
+    if (a->idempotency_key) {
+        snprintf(key_header, sizeof key_header, "Idempotency-Key: %s", a->idempotency_key);
+        rq.headers[0] = key_header;
+    }
+    http_response rs;
+    http_outcome out = http_perform(c, &rq, &rs);
+    int code = 0;
+    const upload *failed = NULL;
+    for (int i = 0; i < 3 && !failed; i++)
+        if (s->up[i].err)
+            failed = &s->up[i];
+    if (failed) {
+        fprintf(stderr, "shapematch submit: error: %s: cannot read '%s': %s\n", failed->part,
+                failed->path, strerror(failed->err));
+        code = CLI_EXIT_INPUT;
+    } else if (out != HTTP_DONE || (rs.status != 201 && rs.status != 200)) {
+        code = remote_report("submit", c, conn->token != NULL, out, &rs, "submitting the job");
+    } else {
+        code = submission_take_answer(s, a, c, &rs);
+    }
+    http_response_free(&rs);
+    return code;
+}
+
+/* --wait: follow the job to its end like watch, then download like fetch. */
+static int submission_wait(const submission *s, const submit_args *a, http_client *c,
+                           const remote_options *conn)
+{
+    watch_options wo = {.quiet = a->quiet, .json = a->json,
+                        .reconnect_timeout = a->reconnect_timeout};
+    int code = remote_watch(c, "submit", conn->token != NULL, s->id, &wo);
+    if (code != 0)
+        return code;
+    fetch_options fo = {.outdir = a->outdir, .formats = a->formats, .quiet = a->quiet,
+                        .show_result = 0};
+    return remote_fetch(c, "submit", conn->token != NULL, s->id, &fo);
+}
+
 int cmd_submit(int argc, char **argv)
 {
     static const cli_flag flags[] = {
@@ -341,129 +491,36 @@ int cmd_submit(int argc, char **argv)
     case ARGS_OK:
         break;
     }
-    if (!a.template_path)
-        return remote_usage_error("submit", "missing required option --template");
-    if (!a.target_mesh_path)
-        return remote_usage_error("submit", "missing required option --target-mesh");
-    if (!a.target_sol_path)
-        return remote_usage_error("submit", "missing required option --target-sol");
-    if (job_options_finish(&a.job, msg, sizeof msg) != 0)
-        return remote_usage_error("submit", msg);
-    if (a.wait && !a.outdir)
-        return remote_usage_error("submit", "--wait needs -o/--output DIR for the results");
-    if (!a.wait && a.outdir)
-        return remote_usage_error("submit", "-o/--output is for --wait (or use 'shapematch "
-                                            "fetch ID -o DIR' later)");
-    if (!a.wait && a.formats_given)
-        return remote_usage_error("submit", "--format is for --wait");
+    const char *problem = submit_usage_problem(&a, msg, sizeof msg);
+    if (problem)
+        return remote_usage_error("submit", problem);
     if (a.job.params.save_every > 0 && !a.quiet)
         fprintf(stderr, "shapematch submit: warning: --save-every: the daemon does not serve "
                         "intermediate meshes\n");
 
+    submission s;
+    memset(&s, 0, sizeof s);
     /* the daemon learns the dimension from the template; a ball clamp
      * already says how many coordinates it has */
     int dim = a.job.params.clamp == SM_CLAMP_BALL ? a.job.clamp_ball_dim : 0;
-    char *params = sm_params_to_json(&a.job.params, dim);
-    if (!params)
+    s.params = sm_params_to_json(&a.job.params, dim);
+    if (!s.params)
         return remote_usage_error("submit", "the parameters cannot be encoded as JSON");
 
-    upload up[3];
-    memset(up, 0, sizeof up);
-    const char *const *parts = sm_part_names; /* SM_PART_TEMPLATE, ... */
-    const char *paths[3] = {a.template_path, a.target_mesh_path, a.target_sol_path};
-    int code = 0;
-    for (int i = 0; i < 3 && code == 0; i++)
-        if (upload_open(&up[i], parts[i], paths[i], !a.no_compress, msg, sizeof msg) != 0) {
-            fprintf(stderr, "shapematch submit: error: %s\n", msg);
-            code = CLI_EXIT_INPUT;
-        }
     http_client c;
     int client_open = 0;
-    curl_mime *mime = NULL;
-    json_t *doc = NULL;
-    char id[SM_JOB_ID_MAX + 1] = "";
+    int code = submission_open_files(&s, &a);
     if (code == 0) {
         code = remote_open("submit", &conn, &c);
         client_open = code == 0;
     }
-    if (code == 0) {
-        mime = curl_mime_init(c.curl);
-        curl_mimepart *pp = NULL;
-        int bad = !mime;
-        for (int i = 0; i < 3 && !bad; i++)
-            bad = add_file_part(mime, &up[i]) != 0;
-        if (!bad) {
-            pp = curl_mime_addpart(mime);
-            bad = !pp || curl_mime_name(pp, sm_part_name(SM_PART_PARAMS)) != CURLE_OK ||
-                  curl_mime_data(pp, params, CURL_ZERO_TERMINATED) != CURLE_OK ||
-                  curl_mime_type(pp, "application/json") != CURLE_OK;
-        }
-        if (bad) {
-            fprintf(stderr, "shapematch submit: error: out of memory\n");
-            code = CLI_EXIT_INPUT;
-        }
-    }
-    if (code == 0) {
-        char key_header[IDEMPOTENCY_KEY_MAX + 32];
-        http_request rq = {.method = "POST", .path = "/v1/jobs", .accept = "application/json",
-                           .mime = mime, .gzip = 1};
-        if (a.idempotency_key) {
-            snprintf(key_header, sizeof key_header, "Idempotency-Key: %s", a.idempotency_key);
-            rq.headers[0] = key_header;
-        }
-        http_response rs;
-        http_outcome out = http_perform(&c, &rq, &rs);
-        int read_failed = -1;
-        for (int i = 0; i < 3; i++)
-            if (up[i].err && read_failed < 0)
-                read_failed = i;
-        if (read_failed >= 0) {
-            fprintf(stderr, "shapematch submit: error: %s: cannot read '%s': %s\n",
-                    up[read_failed].part, up[read_failed].path, strerror(up[read_failed].err));
-            code = CLI_EXIT_INPUT;
-        } else if (out != HTTP_DONE || (rs.status != 201 && rs.status != 200)) {
-            code = remote_report("submit", &c, conn.token != NULL, out, &rs, "submitting the job");
-        } else {
-            doc = remote_json_object(&rs);
-            const char *jid = doc ? json_string_value(json_object_get(doc, "jobID")) : NULL;
-            if (!jid || remote_check_id(jid, msg, sizeof msg) != 0) {
-                fprintf(stderr, "shapematch submit: error: bad response from %s: no valid jobID "
-                                "in the job's status document\n",
-                        c.base);
-                code = CLI_EXIT_SERVER;
-            } else {
-                snprintf(id, sizeof id, "%s", jid);
-                if (rs.status == 200 && !a.quiet)
-                    fprintf(stderr, "shapematch: the daemon already has a job for this "
-                                    "Idempotency-Key: %s (not submitted again)\n",
-                            id);
-                if (a.json && !a.wait)
-                    remote_print_body(&rs);
-                else if (!a.json) {
-                    printf("%s\n", id);
-                    fflush(stdout);
-                }
-            }
-        }
-        http_response_free(&rs);
-    }
-    /* the files are sent: release them before a long wait */
-    for (int i = 0; i < 3; i++)
-        upload_close(&up[i]);
-    if (mime)
-        curl_mime_free(mime);
-    free(params);
-    json_decref(doc);
-    if (code == 0 && a.wait) {
-        watch_options wo = {.quiet = a.quiet, .json = a.json,
-                            .reconnect_timeout = a.reconnect_timeout};
-        code = remote_watch(&c, "submit", conn.token != NULL, id, &wo);
-        if (code == 0) {
-            fetch_options fo = {.outdir = a.outdir, .formats = a.formats, .quiet = a.quiet,
-                                .show_result = 0};
-            code = remote_fetch(&c, "submit", conn.token != NULL, id, &fo);
-        }
-    }
+    if (code == 0)
+        code = submission_build_form(&s, &c);
+    if (code == 0)
+        code = submission_post(&s, &a, &c, &conn);
+    submission_release_files(&s); /* the files are sent: release them before a long wait */
+    if (code == 0 && a.wait)
+        code = submission_wait(&s, &a, &c, &conn);
     if (client_open)
         remote_close(&c);
     return code;

@@ -1,4 +1,4 @@
-/* Job parameters on the wire: JSON <-> sm_params (core/sm_match.h).
+/* Job parameters on the wire: JSON <-> sm_params (shapematch/sm_params.h).
  *
  * The JSON shape is described by proto/params.schema.json.  Only "clamp" is
  * required; every other field has the default of sm_params_default():

@@ -58,7 +58,6 @@ const char *sm_status_name(sm_status code)
     case SM_ERR_INVALID: return "invalid";
     case SM_ERR_NOMEM: return "nomem";
     case SM_ERR_NUMERIC: return "numeric";
-    case SM_ERR_CANCELLED: return "cancelled";
     }
     return "unknown";
 }

@@ -12,8 +12,9 @@ typedef enum sm_status {
     SM_ERR_FORMAT = 2,    /* malformed input file */
     SM_ERR_INVALID = 3,   /* inconsistent inputs or parameters */
     SM_ERR_NOMEM = 4,     /* allocation failed or size limit exceeded */
-    SM_ERR_NUMERIC = 5,   /* factorization failed, mesh inverted, ... */
-    SM_ERR_CANCELLED = 6  /* the caller asked to stop */
+    SM_ERR_NUMERIC = 5    /* factorization failed, mesh inverted, ... */
+    /* no "cancelled" status: a cancelled descent is a normal end
+     * (SM_OK, stop reason SM_STOP_CANCELLED) and keeps its result */
 } sm_status;
 
 #define SM_ERROR_MSG_LEN 512

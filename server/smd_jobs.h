@@ -24,7 +24,8 @@
  * released (resume followers, remove folders, wake the supervisor) is
  * collected in an smd_jobs_after that the caller runs.
  *
- * Every function but smd_jobs_after_run is called with srv->lock held. */
+ * Every function but smd_jobs_after_run is called with srv->lock held
+ * (smd_jobs_recover: at start, before any other thread runs). */
 #ifndef SMD_JOBS_H
 #define SMD_JOBS_H
 

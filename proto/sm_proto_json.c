@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "sm_json.h"
+#include "sm_proto_text.h"
 #include "sm_proto_events.h"
 
 void smp_path_join(char buf[SMP_PATH_MAX], const char *parent,
@@ -13,16 +14,7 @@ void smp_path_join(char buf[SMP_PATH_MAX], const char *parent,
 {
     /* Keys come from hostile input: keep messages printable and short. */
     char shown[64];
-    size_t n = 0, i;
-    for (i = 0; key[i] && n < sizeof shown - 4; i++) {
-        unsigned char c = (unsigned char)key[i];
-        shown[n++] = (c >= 0x20 && c < 0x7f) ? (char)c : '?';
-    }
-    if (key[i]) {
-        memcpy(shown + n, "...", 3);
-        n += 3;
-    }
-    shown[n] = '\0';
+    sm_text_printable_copy(shown, sizeof shown, key, NULL);
     snprintf(buf, SMP_PATH_MAX, "%s.%s", parent, shown);
 }
 

@@ -199,6 +199,11 @@ probe "cancel a queued job" DELETE '/v1/jobs/{jobID}' 200 "/v1/jobs/$Q" '.status
 probe "delete a finished job" DELETE '/v1/jobs/{jobID}' 200 "/v1/jobs/$J" ".jobID == \"$J\"" "${AUTH[@]}"
 probe "deleted" GET '/v1/jobs/{jobID}' 404 "/v1/jobs/$J" '' "${AUTH[@]}"
 probe "unknown job" DELETE '/v1/jobs/{jobID}' 404 /v1/jobs/0123456789abcdef0123456789abcdef '' "${AUTH[@]}"
+# cross-site safety (issue 11; more in web_cors.sh)
+probe "foreign Origin" DELETE '/v1/jobs/{jobID}' 403 /v1/jobs/0123456789abcdef0123456789abcdef \
+    '.status == 403' "${AUTH[@]}" -H 'Origin: http://elsewhere.example.test'
+probe "foreign Origin" POST /v1/jobs 403 /v1/jobs '.status == 403' "${AUTH[@]}" \
+    -H 'Origin: http://elsewhere.example.test' "${F[@]}" -F "params=$(quick_params 5)"
 
 # conventions: unknown path 404, unsupported method 405 with Allow
 code=$(curl -sS -o "$WORK/body" -w '%{http_code} %{content_type}' "${AUTH[@]}" "$BASE/v1/nothing")

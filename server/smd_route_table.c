@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "smd_live.h"
 #include "smd_results.h"
 #include "smd_routes.h"
 #include "smd_upload.h"
@@ -26,6 +27,7 @@ const smd_route smd_route_table[] = {
     {SMD_METHOD_READ, JOB, smd_route_job_get, JOB, 0},
     {SMD_METHOD_DELETE, JOB, smd_route_job_delete, JOB, 0},
     {SMD_METHOD_READ, JOB "/events", smd_route_events, JOB "/events", 0},
+    {SMD_METHOD_READ, JOB "/mesh/latest", smd_route_live_mesh, JOB "/mesh/latest", 0},
     {SMD_METHOD_READ, RESULTS, smd_route_results, RESULTS, 0},
     {SMD_METHOD_READ, RESULTS "/mesh", smd_route_result_mesh, RESULTS "/mesh", 0},
     {SMD_METHOD_READ, RESULTS "/displacement", smd_route_result_displacement,

@@ -194,6 +194,13 @@ probe "not an iteration" GET "$tmpl" 404 "/v1/jobs/$J/results/snapshots/..%2Fsum
 E=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
 Q=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
 probe "queued: no result yet" GET '/v1/jobs/{jobID}/results' 404 "/v1/jobs/$Q/results" '.type | endswith("result-not-ready")' "${AUTH[@]}"
+# the live mesh (issue 11; more in web_live.sh)
+tmpl='/v1/jobs/{jobID}/mesh/latest'
+noauth_probe "no token" GET "$tmpl" "/v1/jobs/$J/mesh/latest"
+probe "the last shape of a finished job" GET "$tmpl" 200 "/v1/jobs/$J/mesh/latest" '' "${AUTH[@]}"
+probe "as Medit" GET "$tmpl" 200 "/v1/jobs/$J/mesh/latest?format=mesh" '' "${AUTH[@]}"
+probe "unknown format" GET "$tmpl" 400 "/v1/jobs/$J/mesh/latest?format=vtu" '' "${AUTH[@]}"
+probe "queued: no shape yet" GET "$tmpl" 404 "/v1/jobs/$Q/mesh/latest" '.type | endswith("result-not-ready")' "${AUTH[@]}"
 noauth_probe "no token" DELETE '/v1/jobs/{jobID}' "/v1/jobs/$Q"
 probe "cancel a queued job" DELETE '/v1/jobs/{jobID}' 200 "/v1/jobs/$Q" '.status == "dismissed"' "${AUTH[@]}"
 probe "delete a finished job" DELETE '/v1/jobs/{jobID}' 200 "/v1/jobs/$J" ".jobID == \"$J\"" "${AUTH[@]}"

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "smd_live.h"
+#include "smd_ogc.h"
 #include "smd_results.h"
 #include "smd_routes.h"
 #include "smd_upload.h"
@@ -17,6 +18,9 @@ const smd_route smd_route_table[] = {
     {SMD_METHOD_READ, "/v1", smd_route_landing, "/", 0},
     {SMD_METHOD_READ, "/v1/", smd_route_landing, "/", 0},
     {SMD_METHOD_READ, "/v1/openapi.yaml", smd_route_openapi, "/v1/openapi.yaml", 0},
+    {SMD_METHOD_READ, "/v1/params.schema.json", smd_route_params_schema, "/v1/params.schema.json", 0},
+    {SMD_METHOD_READ, "/v1/events.schema.json", smd_route_events_schema, "/v1/events.schema.json", 0},
+    {SMD_METHOD_READ, "/v1/conformance", smd_route_conformance, "/v1/conformance", 0},
     {SMD_METHOD_READ, "/healthz", smd_route_healthz, "/healthz", 1},
     {SMD_METHOD_READ, "/readyz", smd_route_readyz, "/readyz", 1},
     {SMD_METHOD_READ, "/metrics", smd_route_metrics, "/metrics", 0},

@@ -114,6 +114,10 @@ if [ "$code" = 401 ]; then ok "the token under another scheme (Basic) is refused
 noauth_probe "no token" GET /v1/openapi.yaml /v1/openapi.yaml
 probe "the OpenAPI document" GET /v1/openapi.yaml 200 /v1/openapi.yaml '' "${AUTH[@]}"
 if cmp -s "$WORK/body" "$SPEC"; then ok "/v1/openapi.yaml is proto/openapi.yaml"; else not_ok "/v1/openapi.yaml is proto/openapi.yaml"; fi
+for doc in conformance params.schema.json events.schema.json; do # issue 11
+    noauth_probe "no token" GET "/v1/$doc" "/v1/$doc"
+    probe "served" GET "/v1/$doc" 200 "/v1/$doc" '' "${AUTH[@]}"
+done
 noauth_probe "no token" GET /metrics /metrics
 probe "metrics" GET /metrics 200 /metrics '' "${AUTH[@]}"
 noauth_probe "no token" GET /v1/processes /v1/processes

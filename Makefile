@@ -17,7 +17,7 @@ VERSION := 0.1.0
 DEB_PACKAGES := gcc make pkg-config libc6-dev \
   libsuitesparse-dev libopenblas0-pthread zlib1g-dev libcmocka-dev libjansson-dev \
   libmicrohttpd-dev libcurl4-openssl-dev curl gmsh wrk jq systemd python3 python3-yaml strace \
-  pmccabe clang libclang-rt-14-dev libomp-14-dev
+  pmccabe clang libclang-rt-14-dev libomp-14-dev nodejs
 
 CC ?= cc
 BASE_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror -fopenmp \
@@ -71,6 +71,13 @@ deps:
 	  if [ "$$(id -u)" != 0 ]; then echo "deps: run as root (or install:$$missing)" >&2; exit 1; fi; \
 	  apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $$missing; \
 	else echo "deps: all Debian packages present"; fi
+	@# npm: Debian's package, unless the nodejs installed brings its own
+	@command -v npm >/dev/null || { echo "deps: installing npm"; \
+	  DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends npm; }
+	@# npm packages of the tests, from package-lock.json (again when it changes)
+	@if [ ! -f node_modules/.package-lock.json ] || [ package-lock.json -nt node_modules/.package-lock.json ]; then \
+	  echo "deps: npm ci"; npm ci --no-audit --no-fund --ignore-scripts; \
+	else echo "deps: npm packages present"; fi
 
 test: deps
 	$(MAKE) -j$$(nproc) all fuzz-build

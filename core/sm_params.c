@@ -26,6 +26,7 @@ void sm_params_default(sm_params *p)
      * quality as good, while the numeric factorization is 80-90% of the cost of
      * an iteration in 3D.  refactor_every = 1 gives the paper's exact scheme. */
     p->refactor_every = 100;
+    p->live_every = 0;
 }
 
 sm_status sm_params_validate(const sm_params *p, int dim, sm_error *err)
@@ -67,5 +68,7 @@ sm_status sm_params_validate(const sm_params *p, int dim, sm_error *err)
                             "maximum step must be in [initial step, 1] (got %g)", p->step_max);
     if (p->refactor_every < 1)
         return sm_error_set(err, SM_ERR_INVALID, "refactor-every must be >= 1 (got %d)", p->refactor_every);
+    if (p->live_every < 0)
+        return sm_error_set(err, SM_ERR_INVALID, "live-every must be >= 0 (got %d)", p->live_every);
     return SM_OK;
 }

@@ -96,6 +96,8 @@ static int on_progress(const sm_progress *p, const double *coords, void *user)
     if (h->snapshot_dir && every > 0 && p->iteration > 0 && p->iteration % every == 0 && coords &&
         (c->failed = write_snapshot(c, p->iteration, coords)) != SM_OK)
         return 1;
+    if (h->shape && coords && h->shape(p, coords, h->user))
+        return 1;
     return h->progress ? h->progress(p, h->user) : 0;
 }
 

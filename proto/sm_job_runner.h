@@ -68,6 +68,10 @@ typedef struct sm_job_hooks {
      * recorded it and written its snapshot.  Nonzero stops the run
      * (outcome cancelled).  May be NULL. */
     int (*progress)(const sm_progress *p, void *user);
+    /* Before progress, with the current vertex positions (nverts*dim),
+     * for callers that show the shape as it moves (the worker's live
+     * mesh); nonzero stops the run like progress.  May be NULL. */
+    int (*shape)(const sm_progress *p, const double *coords, void *user);
     void *user;
     const volatile int *cancel;  /* polled between iterations; may be NULL */
     const char *snapshot_dir;    /* iter-NNNNN.mesh go here (NULL: none) */

@@ -196,7 +196,7 @@ static sm_status decode_clamp(const json_t *clamp, const char *path, int dim,
 
 static const char top_fields[] =
     "clamp, free_boundary, young, poisson, max_iter, tol_step, tol_boundary, "
-    "min_quality, save_every, step_initial, step_max, refactor_every";
+    "min_quality, save_every, step_initial, step_max, refactor_every, live_every";
 
 static sm_status decode_field(const char *key, const json_t *value, const char *sub,
                               int dim, sm_params *out, sm_error *err)
@@ -225,6 +225,8 @@ static sm_status decode_field(const char *key, const json_t *value, const char *
         return get_ranged(value, sub, EXCL, 0, INCL, 1, &out->step_max, err);
     if (strcmp(key, "refactor_every") == 0)
         return get_int_field(value, sub, 1, INT_MAX, &out->refactor_every, err);
+    if (strcmp(key, "live_every") == 0)
+        return get_int_field(value, sub, 0, INT_MAX, &out->live_every, err);
     return sm_error_set(err, SM_ERR_INVALID, "%s: unknown field (known fields: %s)", sub,
                         top_fields);
 }
@@ -375,6 +377,7 @@ json_t *sm_params_to_jansson(const sm_params *p, int dim)
     bad = bad || smp_set(root, "step_initial", json_real(p->step_initial));
     bad = bad || smp_set(root, "step_max", json_real(p->step_max));
     bad = bad || smp_set(root, "refactor_every", json_integer(p->refactor_every));
+    bad = bad || smp_set(root, "live_every", json_integer(p->live_every));
     if (bad) {
         json_decref(root);
         return NULL;

@@ -6,13 +6,14 @@ SERVER_LIB_SRCS := $(filter-out $(SERVER_MAIN_SRCS),$(wildcard server/*.c))
 SERVER_TEST_NAMES := $(patsubst tests/unit/%.c,%,$(wildcard tests/unit/test_server_*.c))
 SERVER_TEST_UTIL_SRCS := $(wildcard tests/unit/util_*.c)
 # the OpenAPI document and the params schema are served by the daemon
-SERVER_EMBEDDED := proto/params.schema.json $(wildcard proto/openapi.yaml)
+SERVER_EMBEDDED := proto/params.schema.json proto/events.schema.json $(wildcard proto/openapi.yaml)
 SERVER_LIBS := $(HTTP_LIBS) $(PROTO_LIBS) $(CORE_LIBS) -lpthread
 
 define server_rules
 build/$(1)/gen/server/smd_embedded.c: server/embed.sh $$(SERVER_EMBEDDED)
 	@mkdir -p $$(dir $$@)
-	server/embed.sh $$@ smd_params_schema proto/params.schema.json smd_openapi_yaml proto/openapi.yaml
+	server/embed.sh $$@ smd_params_schema proto/params.schema.json smd_openapi_yaml proto/openapi.yaml \
+	    smd_events_schema proto/events.schema.json
 
 build/$(1)/obj/gen/server/smd_embedded.o: build/$(1)/gen/server/smd_embedded.c
 	@mkdir -p $$(dir $$@)

@@ -25,8 +25,11 @@
 #include <jansson.h>
 
 #include "shapematch/sm_atomic.h"
+#include "shapematch/sm_field.h"
+#include "shapematch/sm_io.h"
 #include "sm_job_inputs.h"
 #include "sm_job_runner.h"
+#include "sm_payload.h"
 #include "sm_proto_events.h"
 #include "sm_proto_vocab.h"
 #include "smd_util.h"
@@ -42,10 +45,21 @@ static void on_stop_signal(int sig)
     stop_requested = 1;
 }
 
+/* The live mesh (GET /v1/jobs/{id}/mesh/latest): the current shape,
+ * replaced atomically (not fsync'ed: it is a view, not a result). */
+typedef struct live_mesh {
+    const sm_job_inputs *in;
+    int every;                   /* params.live_every: also every k iterations */
+    double last;                 /* monotonic time of the last publication */
+    double *disp, *dist;         /* scratch: nverts*dim, nverts */
+    int warned;                  /* a failed publication is reported once */
+} live_mesh;
+
 typedef struct worker {
     int events_fd;
     const char *job_dir;
     int save_every;              /* params.save_every: K > 0 writes snapshots */
+    live_mesh live;
 } worker;
 
 /* One event line; a failing pipe means the daemon is gone: nothing to
@@ -100,6 +114,84 @@ static int on_progress(const sm_progress *p, void *user)
     ev.progress = *p;
     emit(w, &ev);
     return stop_requested != 0;
+}
+
+/* Writes one live file: name under JOB_DIR, via a temporary file. */
+static sm_status live_write(worker *w, const char *name, const double *coords, sm_error *err)
+{
+    char path[PATH_MAX];
+    if (smd_pathf(path, sizeof path, "%s/%s", w->job_dir, name) != 0)
+        return sm_error_set(err, SM_ERR_IO, "job folder path too long");
+    sm_atomic a;
+    sm_status st = sm_atomic_reserve(&a, path, err);
+    if (st != SM_OK)
+        return st;
+    const sm_mesh *m = w->live.in->template_mesh;
+    if (strcmp(name, SMD_LIVE_PAYLOAD) == 0)
+        st = sm_payload_write_file(a.tmp_path, m, coords, w->live.disp, w->live.dist, err);
+    else
+        st = sm_mesh_write_coords(a.tmp_path, m, coords, err);
+    if (st != SM_OK) {
+        sm_atomic_abort(&a);
+        return st;
+    }
+    return sm_atomic_commit(&a, 0, err);
+}
+
+/* The shape hook: publishes the live mesh (binary payload with the
+ * displacement and |d|, and Medit) at the first call, every live_every
+ * iterations and whenever 0.5 s have passed since the last one.  Its
+ * cost is one pass over the vertices (a field evaluation each) and two
+ * file writes, so by time at most twice a second.  A failure is reported
+ * in the worker's log and does not stop the run. */
+static int on_shape(const sm_progress *p, const double *coords, void *user)
+{
+    worker *w = user;
+    live_mesh *l = &w->live;
+    double now = smd_monotonic();
+    int due = l->last == 0 || (l->every > 0 && p->iteration % l->every == 0) ||
+              now - l->last >= SMD_LIVE_PERIOD;
+    if (!due || !l->disp)
+        return 0;
+    const sm_mesh *m = l->in->template_mesh;
+    size_t n = (size_t)m->nverts * (size_t)m->dim;
+    for (size_t i = 0; i < n; i++)
+        l->disp[i] = coords[i] - m->coords[i];
+    int32_t hint = -1;
+    for (int32_t v = 0; v < m->nverts; v++)
+        l->dist[v] = sm_field_eval(l->in->field, coords + (size_t)v * (size_t)m->dim, &hint);
+    sm_error err;
+    sm_error_clear(&err);
+    /* Medit first: a reader that finds the payload finds both */
+    if ((live_write(w, SMD_LIVE_MESH, coords, &err) != SM_OK ||
+         live_write(w, SMD_LIVE_PAYLOAD, coords, &err) != SM_OK) && !l->warned) {
+        fprintf(stderr, "shapematch-worker: live mesh not published: %s\n", err.msg);
+        l->warned = 1;
+    }
+    l->last = now > 0 ? now : 1e-9;
+    return 0;
+}
+
+/* The live mesh's scratch, for in (none when out of memory: no live
+ * mesh, the run goes on). */
+static void live_init(live_mesh *l, const sm_job_inputs *in, const char *w_dir)
+{
+    const sm_mesh *m = in->template_mesh;
+    l->in = in;
+    l->every = in->params.live_every;
+    /* an earlier attempt's shape is not this run's */
+    char path[PATH_MAX];
+    if (smd_pathf(path, sizeof path, "%s/" SMD_LIVE_PAYLOAD, w_dir) == 0)
+        unlink(path);
+    if (smd_pathf(path, sizeof path, "%s/" SMD_LIVE_MESH, w_dir) == 0)
+        unlink(path);
+    l->disp = malloc(((size_t)m->nverts * (size_t)m->dim + 1) * sizeof *l->disp);
+    l->dist = malloc(((size_t)m->nverts + 1) * sizeof *l->dist);
+    if (!l->disp || !l->dist) {
+        free(l->disp);
+        free(l->dist);
+        l->disp = l->dist = NULL;
+    }
 }
 
 /* An empty JOB_DIR/results.tmp/ (with snapshots/ when they are asked
@@ -219,7 +311,8 @@ int main(int argc, char **argv)
         code = fail(&w, SMD_WORKER_EXIT_OUTPUT, "%s", msg);
         goto done;
     }
-    sm_job_hooks hooks = {.progress = on_progress, .user = &w,
+    live_init(&w.live, &in, w.job_dir);
+    sm_job_hooks hooks = {.progress = on_progress, .shape = on_shape, .user = &w,
                           .cancel = (const volatile int *)&stop_requested,
                           .snapshot_dir = w.save_every > 0 ? snaps : NULL,
                           .write_flags = SM_ATOMIC_FSYNC};
@@ -255,6 +348,8 @@ int main(int argc, char **argv)
     ev.result = run.result;
     emit(&w, &ev);
 done:
+    free(w.live.disp);
+    free(w.live.dist);
     sm_job_run_free(&run);
     sm_job_inputs_free(&in);
     return code;

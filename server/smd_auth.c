@@ -146,3 +146,14 @@ smd_auth_result smd_tokens_check(const smd_tokens *t, const char *authorization)
         match |= smd_secret_equal(given, given_len, t->token[i], t->len[i]);
     return match ? SMD_AUTH_OK : SMD_AUTH_INVALID;
 }
+
+smd_auth_result smd_tokens_check_token(const smd_tokens *t, const char *token)
+{
+    if (!token || !*token)
+        return SMD_AUTH_MISSING;
+    size_t len = strlen(token);
+    int match = 0;
+    for (size_t i = 0; i < t->count; i++)
+        match |= smd_secret_equal(token, len, t->token[i], t->len[i]);
+    return match ? SMD_AUTH_OK : SMD_AUTH_INVALID;
+}

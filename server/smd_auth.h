@@ -32,5 +32,8 @@ typedef enum smd_auth_result {
 
 /* Checks an Authorization header value (NULL when absent). */
 smd_auth_result smd_tokens_check(const smd_tokens *t, const char *authorization);
+/* Checks a bare token (the access_token query parameter of RFC 6750
+ * section 2.3; NULL when absent), the same way. */
+smd_auth_result smd_tokens_check_token(const smd_tokens *t, const char *token);
 
 #endif

@@ -11,7 +11,8 @@
 #include "smd_log.h"
 #include "smd_util.h"
 
-typedef enum opt_kind { OPT_LISTEN, OPT_PATH, OPT_INT, OPT_UINT, OPT_SIZE, OPT_DURATION, OPT_LEVEL } opt_kind;
+typedef enum opt_kind { OPT_LISTEN, OPT_PATH, OPT_INT, OPT_UINT, OPT_SIZE, OPT_DURATION, OPT_LEVEL,
+                        OPT_ORIGINS, OPT_URL } opt_kind;
 
 typedef struct opt {
     const char *flag;     /* "--spool" */
@@ -75,6 +76,13 @@ static const opt options[] = {
      "delay between SIGTERM and SIGKILL when a worker is stopped", "5s"},
     {"--log-level", "SHAPEMATCH_LOG_LEVEL", "LEVEL", OPT_LEVEL, OFF(log_level), 0, 0,
      "debug, info (one line per request and job change), warn or error", "info"},
+    {"--cors-origin", "SHAPEMATCH_CORS_ORIGINS", "ORIGIN", OPT_ORIGINS, OFF(cors_origins), 0, 0,
+     "a web origin (https://app.example.org) whose pages may call the API; repeatable "
+     "(the variable: comma-separated); '*' for any, only without --tokens-file.  POST and "
+     "DELETE from other origins get 403", "none"},
+    {"--public-url", "SHAPEMATCH_PUBLIC_URL", "URL", OPT_URL, OFF(public_url), 0, 0,
+     "the daemon's URL as browsers see it behind a reverse proxy "
+     "(https://host/prefix): its origin counts as the daemon's own", "none: the Host header"},
 };
 
 #define NOPTIONS (sizeof options / sizeof options[0])
@@ -144,6 +152,59 @@ static int parse_listen(const char *text, smd_config *c)
     return 0;
 }
 
+/* 0 when origin is "*" or an exact origin: http(s)://host[:port], no
+ * path, query, user info or comma; -1 otherwise. */
+static int origin_valid(const char *origin)
+{
+    if (strcmp(origin, "*") == 0)
+        return 0;
+    if (strncmp(origin, "http://", 7) != 0 && strncmp(origin, "https://", 8) != 0)
+        return -1;
+    const char *host = strstr(origin, "://") + 3;
+    if (*host == '\0' || *host == ':' || strchr(host, '@'))
+        return -1;
+    for (const char *p = host; *p; p++)
+        if ((unsigned char)*p <= 0x20 || (unsigned char)*p >= 0x7f || strchr("/?#,@", *p))
+            return -1;
+    return 0;
+}
+
+/* Appends the comma-separated origins of value to c->cors_origins. */
+static int add_origins(smd_config *c, const char *value, const char *source, char *msg, size_t cap)
+{
+    const char *p = value;
+    for (;;) {
+        size_t n = strcspn(p, ",");
+        while (n > 0 && (*p == ' ' || *p == '\t')) {
+            p++;
+            n--;
+        }
+        size_t k = n;
+        while (k > 0 && (p[k - 1] == ' ' || p[k - 1] == '\t'))
+            k--;
+        char origin[SMD_ORIGIN_MAX];
+        if (k == 0 || k >= sizeof origin) {
+            snprintf(msg, cap, "%s: expected origins like https://app.example.org, got '%s'", source, value);
+            return -1;
+        }
+        memcpy(origin, p, k);
+        origin[k] = '\0';
+        if (origin_valid(origin) != 0) {
+            snprintf(msg, cap, "%s: '%s' is not an origin (scheme://host[:port], no path) nor '*'",
+                     source, origin);
+            return -1;
+        }
+        if (c->ncors_origins == SMD_CORS_ORIGINS_MAX) {
+            snprintf(msg, cap, "%s: at most %d origins", source, SMD_CORS_ORIGINS_MAX);
+            return -1;
+        }
+        strcpy(c->cors_origins[c->ncors_origins++], origin);
+        if (p[n] == '\0')
+            return 0;
+        p += n + 1;
+    }
+}
+
 static int apply(smd_config *c, const opt *o, const char *value, const char *source,
                  char *msg, size_t cap)
 {
@@ -198,6 +259,17 @@ static int apply(smd_config *c, const opt *o, const char *value, const char *sou
         *(double *)field = v;
         return 0;
     }
+    case OPT_ORIGINS:
+        return add_origins(c, value, source, msg, cap);
+    case OPT_URL:
+        if (strlen(value) >= SMD_ORIGIN_MAX ||
+            (strncmp(value, "http://", 7) != 0 && strncmp(value, "https://", 8) != 0)) {
+            snprintf(msg, cap, "%s: expected an http:// or https:// URL (at most %d bytes), got '%s'",
+                     source, SMD_ORIGIN_MAX - 1, value);
+            return -1;
+        }
+        strcpy(field, value);
+        return 0;
     case OPT_LEVEL: {
         int level = smd_log_level_from_name(value);
         if (level < 0) {
@@ -224,6 +296,7 @@ smd_config_result smd_config_parse(smd_config *c, int argc, char **argv,
         if (apply(c, &options[i], value, options[i].env, msg, cap) != 0)
             return SMD_CONFIG_ERROR;
     }
+    int origins_from_flags = 0; /* the first --cors-origin replaces the variable's list */
     for (int a = 1; a < argc; a++) {
         const char *arg = argv[a];
         if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0)
@@ -250,9 +323,19 @@ smd_config_result smd_config_parse(smd_config *c, int argc, char **argv,
             }
             value = argv[++a];
         }
+        if (o->kind == OPT_ORIGINS && !origins_from_flags) {
+            c->ncors_origins = 0;
+            origins_from_flags = 1;
+        }
         if (apply(c, o, value, o->flag, msg, cap) != 0)
             return SMD_CONFIG_ERROR;
     }
+    for (unsigned i = 0; i < c->ncors_origins; i++)
+        if (c->tokens_file[0] && strcmp(c->cors_origins[i], "*") == 0) {
+            snprintf(msg, cap, "--cors-origin: '*' is refused with --tokens-file "
+                               "(list the origins of the pages that hold tokens)");
+            return SMD_CONFIG_ERROR;
+        }
     if (c->spool[0] == '\0') {
         snprintf(msg, cap, "--spool: must not be empty");
         return SMD_CONFIG_ERROR;

@@ -10,6 +10,10 @@
 #include <stdint.h>
 #include <stdio.h>
 
+/* Listed CORS origins at most, and the longest origin or public URL. */
+#define SMD_CORS_ORIGINS_MAX 32
+#define SMD_ORIGIN_MAX 256
+
 typedef struct smd_config {
     char listen_host[256];        /* --listen HOST:PORT (IPv6 as [::1]:8080) */
     unsigned listen_port;         /* 0 = any free port (printed in the log) */
@@ -32,6 +36,11 @@ typedef struct smd_config {
     double keepalive;             /* --keepalive: idle event streams get ": keepalive" */
     double kill_grace;            /* --kill-grace: SIGTERM -> SIGKILL delay */
     int log_level;                /* --log-level debug|info|warn|error */
+    /* --cors-origin ORIGIN (repeatable; SHAPEMATCH_CORS_ORIGINS a comma
+     * list): exact origins, or "*" (refused with --tokens-file) */
+    char cors_origins[SMD_CORS_ORIGINS_MAX][SMD_ORIGIN_MAX];
+    unsigned ncors_origins;
+    char public_url[SMD_ORIGIN_MAX]; /* --public-url: the daemon's URL seen by browsers ("" = none) */
 } smd_config;
 
 /* Looks up an environment variable (getenv in the daemon; a table in

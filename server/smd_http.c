@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include "sm_proto_text.h"
+#include "smd_cors.h"
 #include "smd_reply.h"
 #include "smd_route_table.h"
 #include "smd_upload.h"
@@ -36,15 +37,56 @@ static enum MHD_Result dispatch(struct MHD_Connection *conn, smd_request *req)
                              req->path);
 }
 
-/* Authentication, then the route's handler. */
+/* A CORS preflight (or any OPTIONS): 204 with the path's methods from the
+ * route table, and the CORS headers for a listed Origin (smd_cors.h).
+ * Preflights carry no credentials: answered before authentication. */
+static enum MHD_Result preflight(struct MHD_Connection *conn, smd_request *req)
+{
+    if (!req->allowed)
+        return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NOT_FOUND,
+                                 "no such resource: %s (see /v1)", req->path);
+    char methods[64], allow[80];
+    smd_methods_format(req->allowed, methods, sizeof methods);
+    snprintf(allow, sizeof allow, "%s, OPTIONS", methods);
+    struct MHD_Response *resp = MHD_create_response_from_buffer(0, NULL, MHD_RESPMEM_PERSISTENT);
+    if (!resp)
+        return MHD_NO;
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_ALLOW, allow);
+    smd_cors_preflight(&req->srv->cfg, conn, resp, methods);
+    return smd_reply(conn, req, 204, resp);
+}
+
+/* Whether the request's credentials are good: the Authorization header,
+ * or on GET and HEAD the access_token query parameter (RFC 6750 2.3: what
+ * EventSource and download links can send).  MHD hands the handlers the
+ * path without its query, so the token reaches no log line nor label. */
+static smd_auth_result authenticate(struct MHD_Connection *conn, smd_request *req)
+{
+    const char *auth = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
+                                                   MHD_HTTP_HEADER_AUTHORIZATION);
+    unsigned m = smd_method_bit(req->method);
+    if (!auth && (m & SMD_METHOD_READ)) {
+        const char *token = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "access_token");
+        if (token)
+            return smd_tokens_check_token(req->srv->tokens, token);
+    }
+    return smd_tokens_check(req->srv->tokens, auth);
+}
+
+/* Cross-site safety, authentication, then the route's handler. */
 static enum MHD_Result handle(struct MHD_Connection *conn, smd_request *req)
 {
     smd_server *srv = req->srv;
     req->dispatched = 1;
+    if (strcmp(req->method, MHD_HTTP_METHOD_OPTIONS) == 0)
+        return preflight(conn, req);
+    unsigned m = smd_method_bit(req->method);
+    if (smd_cors_cross_site(&srv->cfg, conn, (m & (SMD_METHOD_POST | SMD_METHOD_DELETE)) != 0))
+        return smd_reply_problem(conn, req, 403, SMD_PROBLEM_FORBIDDEN,
+                                 "cross-site request refused: its Origin is neither this "
+                                 "daemon's nor one listed with --cors-origin");
     if (srv->tokens && !req->public_path) {
-        const char *auth = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
-                                                       MHD_HTTP_HEADER_AUTHORIZATION);
-        smd_auth_result a = smd_tokens_check(srv->tokens, auth);
+        smd_auth_result a = authenticate(conn, req);
         if (a != SMD_AUTH_OK)
             return smd_reply_problem(conn, req, 401, SMD_PROBLEM_UNAUTHORIZED,
                                      a == SMD_AUTH_MISSING

@@ -9,6 +9,7 @@
 
 #include "sm_proto_text.h"
 #include "sm_proto_vocab.h"
+#include "smd_cors.h"
 #include "smd_negotiate.h"
 
 uint64_t smd_drain_limit(uint64_t max_upload)
@@ -23,6 +24,7 @@ enum MHD_Result smd_reply(struct MHD_Connection *conn, smd_request *req, unsigne
 {
     if (!resp)
         return MHD_NO;
+    smd_cors_decorate(&req->srv->cfg, conn, resp);
     if (req->body_pending && !req->deferred) {
         req->deferred = resp;
         req->deferred_status = status;

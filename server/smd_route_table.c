@@ -4,6 +4,8 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "smd_live.h"
+#include "smd_ogc.h"
 #include "smd_results.h"
 #include "smd_routes.h"
 #include "smd_upload.h"
@@ -16,6 +18,9 @@ const smd_route smd_route_table[] = {
     {SMD_METHOD_READ, "/v1", smd_route_landing, "/", 0},
     {SMD_METHOD_READ, "/v1/", smd_route_landing, "/", 0},
     {SMD_METHOD_READ, "/v1/openapi.yaml", smd_route_openapi, "/v1/openapi.yaml", 0},
+    {SMD_METHOD_READ, "/v1/params.schema.json", smd_route_params_schema, "/v1/params.schema.json", 0},
+    {SMD_METHOD_READ, "/v1/events.schema.json", smd_route_events_schema, "/v1/events.schema.json", 0},
+    {SMD_METHOD_READ, "/v1/conformance", smd_route_conformance, "/v1/conformance", 0},
     {SMD_METHOD_READ, "/healthz", smd_route_healthz, "/healthz", 1},
     {SMD_METHOD_READ, "/readyz", smd_route_readyz, "/readyz", 1},
     {SMD_METHOD_READ, "/metrics", smd_route_metrics, "/metrics", 0},
@@ -26,6 +31,7 @@ const smd_route smd_route_table[] = {
     {SMD_METHOD_READ, JOB, smd_route_job_get, JOB, 0},
     {SMD_METHOD_DELETE, JOB, smd_route_job_delete, JOB, 0},
     {SMD_METHOD_READ, JOB "/events", smd_route_events, JOB "/events", 0},
+    {SMD_METHOD_READ, JOB "/mesh/latest", smd_route_live_mesh, JOB "/mesh/latest", 0},
     {SMD_METHOD_READ, RESULTS, smd_route_results, RESULTS, 0},
     {SMD_METHOD_READ, RESULTS "/mesh", smd_route_result_mesh, RESULTS "/mesh", 0},
     {SMD_METHOD_READ, RESULTS "/displacement", smd_route_result_displacement,

@@ -59,6 +59,8 @@ enum MHD_Result smd_route_landing(struct MHD_Connection *conn, smd_request *req)
     json_array_append_new(links, mklink("/v1/openapi.yaml", "service-desc",
                                       "application/vnd.oai.openapi;version=3.1",
                                       "the API definition (OpenAPI 3.1)"));
+    json_array_append_new(links, mklink("/v1/conformance", OGC_REL "conformance", "application/json",
+                                      "the OGC API - Processes conformance classes implemented"));
     json_array_append_new(links, mklink("/v1/processes", OGC_REL "processes", "application/json",
                                       "the processes (one: match)"));
     json_array_append_new(links, mklink("/v1/jobs", OGC_REL "job-list", "application/json", "jobs"));
@@ -174,9 +176,15 @@ static json_t *file_input(const char *title, const char *description)
                      "format", "binary", "contentMediaType", "application/octet-stream");
 }
 
-static json_t *output(const char *title, const char *href_suffix, const char *formats)
+/* An output; media: the default format's media type (its schema's
+ * contentMediaType, as OGC's output description requires a schema). */
+static json_t *output(const char *title, const char *href_suffix, const char *formats,
+                      const char *media)
 {
-    return json_pack("{s:s,s:s,s:s}", "title", title, "href", href_suffix, "formats", formats);
+    int json = strcmp(media, "application/json") == 0;
+    return json_pack("{s:s,s:s,s:s,s:{s:s,s:s}}", "title", title, "href", href_suffix, "formats",
+                     formats, "schema", "type", json ? "object" : "string", "contentMediaType",
+                     media);
 }
 
 enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req)
@@ -215,18 +223,20 @@ enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req)
     json_object_set_new(outputs, "summary",
                         output("Summary: stop reason, iterations, J, boundary error, quality, "
                                "timings",
-                               "results", "application/json"));
+                               "results", "application/json", "application/json"));
     json_object_set_new(outputs, "mesh", output("Deformed template mesh", "results/mesh",
-                                                "format=mesh|meshb|vtu|binary"));
+                                                "format=mesh|meshb|vtu|binary",
+                                                "application/x-medit-mesh"));
     json_object_set_new(outputs, "displacement",
                         output("Cumulative displacement per template vertex",
-                               "results/displacement", "format=sol|solb"));
+                               "results/displacement", "format=sol|solb", "application/x-medit-sol"));
     json_object_set_new(outputs, "history",
-                        output("One row per iteration", "results/history", "format=csv|json"));
+                        output("One row per iteration", "results/history", "format=csv|json",
+                               "text/csv"));
     json_object_set_new(outputs, "snapshots",
                         output("The mesh every save_every iterations (a list, then one per "
                                "iteration: results/snapshots/{iteration})",
-                               "results/snapshots", "format=mesh"));
+                               "results/snapshots", "format=mesh", "application/json"));
     json_object_set_new(doc, "outputs", outputs);
     return smd_reply_json(conn, req, 200, doc);
 }

@@ -28,5 +28,7 @@ extern const unsigned char smd_openapi_yaml[];
 extern const size_t smd_openapi_yaml_len;
 extern const unsigned char smd_params_schema[];
 extern const size_t smd_params_schema_len;
+extern const unsigned char smd_events_schema[];
+extern const size_t smd_events_schema_len;
 
 #endif

@@ -26,6 +26,12 @@
 #define SMD_RESULTS_DIR "results"
 #define SMD_RESULTS_TMP_DIR "results.tmp"
 #define SMD_WORKER_LOG "worker.log"
+/* The live mesh while a job runs (the worker replaces both atomically,
+ * the Medit file first; served by GET /v1/jobs/{id}/mesh/latest), and
+ * the longest time between two publications. */
+#define SMD_LIVE_PAYLOAD "live.smmesh"
+#define SMD_LIVE_MESH "live.mesh"
+#define SMD_LIVE_PERIOD 0.5
 
 /* JOB_DIR/results/ holds the job runner's result set (file names:
  * proto/sm_proto_vocab.h, sm_result_formats and SM_RESULT_SUMMARY_FILE),

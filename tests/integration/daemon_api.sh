@@ -114,6 +114,10 @@ if [ "$code" = 401 ]; then ok "the token under another scheme (Basic) is refused
 noauth_probe "no token" GET /v1/openapi.yaml /v1/openapi.yaml
 probe "the OpenAPI document" GET /v1/openapi.yaml 200 /v1/openapi.yaml '' "${AUTH[@]}"
 if cmp -s "$WORK/body" "$SPEC"; then ok "/v1/openapi.yaml is proto/openapi.yaml"; else not_ok "/v1/openapi.yaml is proto/openapi.yaml"; fi
+for doc in conformance params.schema.json events.schema.json; do # issue 11
+    noauth_probe "no token" GET "/v1/$doc" "/v1/$doc"
+    probe "served" GET "/v1/$doc" 200 "/v1/$doc" '' "${AUTH[@]}"
+done
 noauth_probe "no token" GET /metrics /metrics
 probe "metrics" GET /metrics 200 /metrics '' "${AUTH[@]}"
 noauth_probe "no token" GET /v1/processes /v1/processes
@@ -194,11 +198,23 @@ probe "not an iteration" GET "$tmpl" 404 "/v1/jobs/$J/results/snapshots/..%2Fsum
 E=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
 Q=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
 probe "queued: no result yet" GET '/v1/jobs/{jobID}/results' 404 "/v1/jobs/$Q/results" '.type | endswith("result-not-ready")' "${AUTH[@]}"
+# the live mesh (issue 11; more in web_live.sh)
+tmpl='/v1/jobs/{jobID}/mesh/latest'
+noauth_probe "no token" GET "$tmpl" "/v1/jobs/$J/mesh/latest"
+probe "the last shape of a finished job" GET "$tmpl" 200 "/v1/jobs/$J/mesh/latest" '' "${AUTH[@]}"
+probe "as Medit" GET "$tmpl" 200 "/v1/jobs/$J/mesh/latest?format=mesh" '' "${AUTH[@]}"
+probe "unknown format" GET "$tmpl" 400 "/v1/jobs/$J/mesh/latest?format=vtu" '' "${AUTH[@]}"
+probe "queued: no shape yet" GET "$tmpl" 404 "/v1/jobs/$Q/mesh/latest" '.type | endswith("result-not-ready")' "${AUTH[@]}"
 noauth_probe "no token" DELETE '/v1/jobs/{jobID}' "/v1/jobs/$Q"
 probe "cancel a queued job" DELETE '/v1/jobs/{jobID}' 200 "/v1/jobs/$Q" '.status == "dismissed"' "${AUTH[@]}"
 probe "delete a finished job" DELETE '/v1/jobs/{jobID}' 200 "/v1/jobs/$J" ".jobID == \"$J\"" "${AUTH[@]}"
 probe "deleted" GET '/v1/jobs/{jobID}' 404 "/v1/jobs/$J" '' "${AUTH[@]}"
 probe "unknown job" DELETE '/v1/jobs/{jobID}' 404 /v1/jobs/0123456789abcdef0123456789abcdef '' "${AUTH[@]}"
+# cross-site safety (issue 11; more in web_cors.sh)
+probe "foreign Origin" DELETE '/v1/jobs/{jobID}' 403 /v1/jobs/0123456789abcdef0123456789abcdef \
+    '.status == 403' "${AUTH[@]}" -H 'Origin: http://elsewhere.example.test'
+probe "foreign Origin" POST /v1/jobs 403 /v1/jobs '.status == 403' "${AUTH[@]}" \
+    -H 'Origin: http://elsewhere.example.test' "${F[@]}" -F "params=$(quick_params 5)"
 
 # conventions: unknown path 404, unsupported method 405 with Allow
 code=$(curl -sS -o "$WORK/body" -w '%{http_code} %{content_type}' "${AUTH[@]}" "$BASE/v1/nothing")

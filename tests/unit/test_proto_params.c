@@ -86,6 +86,7 @@ static void assert_params_equal(const sm_params *a, const sm_params *b, int dim)
     assert_true(same_double(a->step_initial, b->step_initial));
     assert_true(same_double(a->step_max, b->step_max));
     assert_int_equal(a->refactor_every, b->refactor_every);
+    assert_int_equal(a->live_every, b->live_every);
 }
 
 static sm_status decode_str(const char *text, int dim, sm_params *p, sm_error *err)
@@ -376,6 +377,7 @@ static void random_params(sm_params *p, int dim, uint64_t *s)
     p->step_max = uniform(s) * 0.99 + 0.01;
     p->step_initial = p->step_max * (uniform(s) * 0.99 + 0.01);
     p->refactor_every = 1 + (int)(next_u64(s) % 10);
+    p->live_every = (int)(next_u64(s) % 10);
 }
 
 static void test_random_round_trip(void **state)

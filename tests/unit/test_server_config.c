@@ -169,6 +169,37 @@ static void test_tokens(void **state)
     assert_non_null(strstr(msg, "/nonexistent/tokens"));
 }
 
+/* --cors-origin: repeatable, the variable a comma list that the first
+ * flag replaces; exact origins only; '*' refused with tokens. */
+static void test_cors_origins(void **state)
+{
+    (void)state;
+    smd_config c;
+    char msg[512];
+    const char *env[] = {"SHAPEMATCH_CORS_ORIGINS=http://a.test, https://b.test:8443", NULL};
+    assert_int_equal(parse(&c, env, msg, NULL), SMD_CONFIG_OK);
+    assert_int_equal(c.ncors_origins, 2);
+    assert_string_equal(c.cors_origins[0], "http://a.test");
+    assert_string_equal(c.cors_origins[1], "https://b.test:8443");
+    assert_int_equal(parse(&c, env, msg, "--cors-origin", "http://c.test", "--cors-origin=*", NULL),
+                     SMD_CONFIG_OK);
+    assert_int_equal(c.ncors_origins, 2);
+    assert_string_equal(c.cors_origins[0], "http://c.test");
+    assert_string_equal(c.cors_origins[1], "*");
+    const char *bad[] = {"https://a.test/", "a.test", "ftp://a.test", "http://", "http://u@a.test",
+                         "http://a.test?x", ""};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        assert_int_equal(parse(&c, NULL, msg, "--cors-origin", bad[i], NULL), SMD_CONFIG_ERROR);
+        assert_non_null(strstr(msg, "--cors-origin"));
+    }
+    assert_int_equal(parse(&c, NULL, msg, "--tokens-file", "t", "--cors-origin", "*", NULL),
+                     SMD_CONFIG_ERROR);
+    assert_non_null(strstr(msg, "refused with --tokens-file"));
+    assert_int_equal(parse(&c, NULL, msg, "--public-url", "https://x.test/p", NULL), SMD_CONFIG_OK);
+    assert_string_equal(c.public_url, "https://x.test/p");
+    assert_int_equal(parse(&c, NULL, msg, "--public-url", "x.test", NULL), SMD_CONFIG_ERROR);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -177,6 +208,7 @@ int main(void)
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_help_lists_everything),
         cmocka_unit_test(test_tokens),
+        cmocka_unit_test(test_cors_origins),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -466,12 +466,20 @@ static void test_route_table(void **state)
     assert_true(first && !first->public);
     assert_null(smd_route_find("/v1/jobsx", SMD_METHOD_GET, &req, &allowed, &route));
     assert_null(smd_route_find("/healthz/", SMD_METHOD_GET, &req, &allowed, &route));
+    /* the live mesh has its own label; a preflight reads its methods */
+    snprintf(path, sizeof path, "/v1/jobs/%s/mesh/latest", id);
+    first = smd_route_find(path, SMD_METHOD_GET, &req, &allowed, &route);
+    assert_true(route && strcmp(route->label, "/v1/jobs/{id}/mesh/latest") == 0);
+    assert_int_equal(allowed, SMD_METHOD_READ);
+    snprintf(path, sizeof path, "/v1/jobs/%s", id);
+    smd_route_find(path, 0, &req, &allowed, &route);
+    assert_int_equal(allowed, SMD_METHOD_READ | SMD_METHOD_DELETE);
 
     /* the labels: "other" first, each once */
     const char *labels[64];
     size_t n = smd_route_labels(labels, 64);
     assert_string_equal(labels[0], "other");
-    assert_int_equal(n, 15);
+    assert_int_equal(n, 19); /* with mesh/latest, the two schemas and /v1/conformance (issue 11) */
     for (size_t i = 0; i < n; i++)
         for (size_t k = i + 1; k < n; k++)
             assert_true(strcmp(labels[i], labels[k]) != 0);

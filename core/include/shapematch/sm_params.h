@@ -43,6 +43,9 @@ typedef struct sm_params {
     int refactor_every;      /* refactorize the elastic operator on the current
                               * mesh every k iterations (1 = every iteration,
                               * as in the paper); 100 */
+    int live_every;          /* the daemon's live mesh (mesh/latest): published
+                              * every k iterations, and at least every 0.5 s
+                              * of a run; 0 = by time only (default) */
 } sm_params;
 
 void sm_params_default(sm_params *p);

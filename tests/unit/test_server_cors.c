@@ -1,0 +1,72 @@
+/* CORS and cross-site safety (smd_cors.h) without HTTP: which origins
+ * are listed (exact, case-insensitive; "*" lists all), and which are the
+ * daemon's own (the Host header, or the origin of --public-url). */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "smd_config.h"
+#include "smd_cors.h"
+
+static void config(smd_config *c, const char *const *origins, const char *public_url)
+{
+    memset(c, 0, sizeof *c);
+    for (; origins && *origins; origins++)
+        strcpy(c->cors_origins[c->ncors_origins++], *origins);
+    strcpy(c->public_url, public_url ? public_url : "");
+}
+
+static void test_listed(void **state)
+{
+    (void)state;
+    smd_config c;
+    const char *const two[] = {"https://app.example.test", "http://localhost:5173", NULL};
+    config(&c, two, NULL);
+    assert_true(smd_cors_listed(&c, "https://app.example.test"));
+    assert_true(smd_cors_listed(&c, "HTTPS://APP.example.test"));
+    assert_true(smd_cors_listed(&c, "http://localhost:5173"));
+    assert_false(smd_cors_listed(&c, "http://localhost:5174"));
+    assert_false(smd_cors_listed(&c, "http://app.example.test"));      /* scheme counts */
+    assert_false(smd_cors_listed(&c, "https://app.example.test.evil")); /* exact, no prefix */
+    assert_false(smd_cors_listed(&c, "https://app.example.tes"));
+    assert_false(smd_cors_listed(&c, "null"));
+    assert_false(smd_cors_listed(&c, NULL));
+    config(&c, NULL, NULL);
+    assert_false(smd_cors_listed(&c, "https://app.example.test"));
+    const char *const star[] = {"*", NULL};
+    config(&c, star, NULL);
+    assert_true(smd_cors_listed(&c, "https://anything.example.test"));
+    assert_false(smd_cors_listed(&c, NULL));
+}
+
+static void test_same_origin(void **state)
+{
+    (void)state;
+    smd_config c;
+    config(&c, NULL, NULL);
+    assert_true(smd_cors_same_origin(&c, "http://127.0.0.1:8080", "127.0.0.1:8080"));
+    assert_true(smd_cors_same_origin(&c, "http://Daemon.example.test", "daemon.example.test"));
+    assert_false(smd_cors_same_origin(&c, "http://127.0.0.1:8081", "127.0.0.1:8080"));
+    assert_false(smd_cors_same_origin(&c, "http://127.0.0.1:8080", NULL));
+    assert_false(smd_cors_same_origin(&c, "null", "null"));
+    assert_false(smd_cors_same_origin(&c, "127.0.0.1:8080", "127.0.0.1:8080")); /* no scheme */
+    assert_false(smd_cors_same_origin(&c, "http://127.0.0.1:8080/x", "127.0.0.1:8080"));
+    /* behind a proxy: the public URL's origin, its path aside */
+    config(&c, NULL, "https://maps.example.test/shapematch/");
+    assert_true(smd_cors_same_origin(&c, "https://maps.example.test", "10.0.0.5:8080"));
+    assert_false(smd_cors_same_origin(&c, "http://maps.example.test", "10.0.0.5:8080"));
+    assert_false(smd_cors_same_origin(&c, "https://maps.example.test:8443", "10.0.0.5:8080"));
+    assert_true(smd_cors_same_origin(&c, "http://10.0.0.5:8080", "10.0.0.5:8080"));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_listed),
+        cmocka_unit_test(test_same_origin),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

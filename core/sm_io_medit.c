@@ -11,6 +11,7 @@
 #include <string.h>
 #include <strings.h>
 
+#include "sm_io_msh.h"
 #include "sm_medit_common.h"
 #include "sm_reader.h"
 
@@ -303,6 +304,10 @@ static sm_status read_ascii(medit_in *c)
                                            "found the number %s where a keyword was expected "
                                            "(more records than the section count says?)",
                                            q);
+            if (!c->have_version && !c->dim && !c->have_vertices)
+                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                                           "unknown format: the file starts with %s; meshes "
+                                           "are read as " SM_MESH_FORMATS, q);
             return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT, "unknown keyword %s", q);
         }
         int64_t v;
@@ -733,6 +738,15 @@ sm_status sm_mesh_read(const char *path, sm_mesh **out, sm_error *err)
     sm_status st = sm_reader_open(&c.r, path, err);
     if (st != SM_OK)
         return st;
+    if (sm__msh_detect(&c.r)) {
+        sm_msh_data d;
+        st = sm__msh_parse(&c.r, &d, err);
+        if (st == SM_OK)
+            st = sm__msh_to_mesh(path, &d, out, err);
+        sm__msh_data_free(&d);
+        sm_reader_close(&c.r);
+        return st;
+    }
     st = sm_medit_detect(&c.r, &c.binary, err);
     if (st == SM_OK)
         st = c.binary ? read_binary(&c) : read_ascii(&c);

@@ -9,8 +9,8 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=$1
 rm -rf "$out"
-mkdir -p "$out"/{mesh,sol,params,events,payload,sse}
-for t in mesh sol params events payload sse; do
+mkdir -p "$out"/{mesh,msh,sol,params,events,payload,sse}
+for t in mesh msh sol params events payload sse; do
     [ -d tests/fuzz/seeds/$t ] && cp tests/fuzz/seeds/$t/* "$out/$t/" 2>/dev/null || true
 done
 add() { # target name file [prefix-byte-octal...]
@@ -32,6 +32,10 @@ for d in tests/data/malformed/*/; do
         case $f in
             *.sol|*.solb|*.sol.gz|*.solb.gz) add sol "$c" "$f" ;;
             *) add mesh "$c" "$f" ;;
+        esac
+        # .msh cases also seed the .msh target, without its first line
+        case $f in
+            *.msh) tail -c +13 "$f" >"$out/msh/$c" ;;
         esac
     done
 done

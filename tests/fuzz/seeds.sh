@@ -9,8 +9,8 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=$1
 rm -rf "$out"
-mkdir -p "$out"/{mesh,msh,sol,params,events,payload,sse}
-for t in mesh msh sol params events payload sse; do
+mkdir -p "$out"/{mesh,msh,stl,obj,sol,params,events,payload,sse}
+for t in mesh msh stl obj sol params events payload sse; do
     [ -d tests/fuzz/seeds/$t ] && cp tests/fuzz/seeds/$t/* "$out/$t/" 2>/dev/null || true
 done
 add() { # target name file [prefix-byte-octal...]
@@ -29,6 +29,10 @@ for d in tests/data/malformed/*/; do
     c=$(basename "$d")
     for f in "$d"input.*; do
         [ -f "$f" ] || continue
+        case $f in
+            *.stl|*.stl.gz) add stl "$c" "$f"; continue ;;
+            *.obj) tail -n +1 "$f" >"$out/obj/$c"; continue ;;
+        esac
         case $f in
             *.sol|*.solb|*.sol.gz|*.solb.gz) add sol "$c" "$f" ;;
             *) add mesh "$c" "$f" ;;

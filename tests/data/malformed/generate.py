@@ -440,6 +440,80 @@ case("mesh-unknown-format", "input.mesh", b"solid x\nfacet normal 0 0 1\n",
      "unknown format: the file starts with 'solid'")
 
 
+# --------------------------------------------------------------------------
+# target surfaces (cases named surface-*: read by sm_surface_read)
+
+TET_V = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]
+TET_F = [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)]
+
+
+def stl_binary(n=None, header=b"solid tetrahedron", extra=b"", coord=None, cut=None):
+    b = header.ljust(80, b" ") + struct.pack("<I", len(TET_F) if n is None else n)
+    for k, f in enumerate(TET_F):
+        b += struct.pack("<3f", 0, 0, 0)
+        for j, v in enumerate(f):
+            p = TET_V[v]
+            if coord is not None and k == 1 and j == 2:
+                p = (coord, p[1], p[2])
+            b += struct.pack("<3f", *p)
+        b += b"\0\0"
+    b += extra
+    return b if cut is None else b[:cut]
+
+
+def stl_ascii(facets=None, tail="endsolid t\n"):
+    out = "solid t\n"
+    for f in (TET_F if facets is None else facets):
+        out += "facet normal 0 0 0\n outer loop\n"
+        out += "".join("  vertex %s %s %s\n" % TET_V[v] for v in f)
+        out += " endloop\nendfacet\n"
+    return (out + tail).encode()
+
+
+def obj(faces=("f 1 3 2", "f 1 2 4", "f 1 4 3", "f 2 3 4"), verts=None):
+    verts = ["v %s %s %s" % v for v in TET_V] if verts is None else verts
+    return ("\n".join(list(verts) + list(faces)) + "\n").encode()
+
+
+case("surface-stl-binary-count-past-size", "input.stl", stl_binary(n=10**6),
+     "binary STL facet count 1000000 does not fit")
+case("surface-stl-binary-truncated", "input.stl", stl_binary(cut=84 + 50 * 3 + 20),
+     "does not fit")
+case("surface-stl-binary-trailing-bytes", "input.stl", stl_binary(n=3, header=b"binary"),
+     "bytes after its 3 facets")
+case("surface-stl-binary-nan", "input.stl", stl_binary(coord=float("nan"), header=b"nan"),
+     "coordinate is not a finite number")
+case("surface-stl-binary-zero-facets", "input.stl", stl_binary(n=0, header=b"x")[:84],
+     "binary STL with 0 facets")
+case("surface-stl-ascii-truncated", "input.stl", stl_ascii()[:-40], "input.stl:")
+case("surface-stl-ascii-missing-endsolid", "input.stl", stl_ascii(tail=""),
+     "missing 'endsolid'")
+case("surface-stl-ascii-bad-keyword", "input.stl",
+     stl_ascii().replace(b"outer loop", b"outer lop", 1), "expected 'loop', found 'lop'")
+case("surface-stl-ascii-nan", "input.stl", stl_ascii().replace(b"vertex 1 0 0", b"vertex nan 0 0", 1),
+     "is not a finite number")
+case("surface-stl-gz-truncated", "input.stl.gz", gzip.compress(stl_ascii(), mtime=0)[:-12],
+     "gzip")
+case("surface-obj-index-zero", "input.obj", obj(faces=["f 0 1 2"]), "vertex index 0 out of range")
+case("surface-obj-index-past-end", "input.obj", obj(faces=["f 1 2 5"]),
+     "input.obj:5: vertex index 5 out of range")
+case("surface-obj-negative-past-start", "input.obj", obj(faces=["f -1 -2 -5"]),
+     "vertex index -5 out of range")
+case("surface-obj-nan", "input.obj", obj(verts=["v 0 0 nan", "v 1 0 0", "v 0 1 0"],
+                                         faces=["f 1 2 3"]), "3 finite coordinates")
+case("surface-obj-two-vertex-face", "input.obj", obj(faces=["f 1 2"]), "at least 3 vertices")
+case("surface-obj-bad-reference", "input.obj", obj(faces=["f 1 2x 3"]), "bad vertex reference")
+case("surface-obj-no-faces", "input.obj", obj(faces=[]), "OBJ without faces")
+case("surface-obj-unknown-statement", "input.obj", obj(faces=["f 1 2 3", "bogus 1"]),
+     "unknown OBJ statement 'bogus'")
+case("surface-obj-huge-line", "input.obj", b"v " + b"1" * 70000 + b"\n", "line longer than")
+case("surface-unknown-format", "input.dat", b"\x00\x01garbage", "unknown surface format")
+case("surface-msh-no-surface", "input.msh", _full41.replace(b"2 1 2 2", b"2 1 15 2")
+     .replace(b"1 1 2 3\n2 1 3 4", b"1 1\n2 3"), "no surface")
+case("surface-mesh-no-surface", "input.mesh",
+     b"MeshVersionFormatted 2\nDimension 3\nVertices\n1\n0 0 0 0\nEnd\n", "no surface")
+
+
 def main():
     for name in os.listdir(HERE):
         path = os.path.join(HERE, name)

@@ -43,6 +43,25 @@ void sm_surface_free(sm_surface *s);
  * An unknown format is an error naming the formats read. */
 sm_status sm_surface_read(const char *path, sm_surface **out, sm_error *err);
 
+/* What sm_surface_repair found (and did): the surface health report.
+ * Edges are the facets' sides in 3D and their end points in 2D. */
+typedef struct sm_surface_health {
+    int64_t open_edges;        /* on one facet only: holes, borders */
+    int64_t nonmanifold_edges; /* on three facets or more */
+    int64_t reoriented;        /* facets whose orientation was flipped */
+    int64_t duplicates;        /* facets on the same vertices as another */
+    int64_t degenerate;        /* zero area (length in 2D) */
+    int64_t components;        /* connected over shared edges */
+    double lo[3], hi[3];       /* bounding box (z = 0 in 2D) */
+} sm_surface_health;
+
+/* Orients the facets consistently and outward: the orientation of the
+ * first facet of each connected component (over edges shared by exactly
+ * two facets) is propagated to its neighbours, then each component is
+ * flipped as a whole when its enclosed signed volume (area in 2D) is
+ * negative.  Fills h (may be NULL).  Nothing is removed. */
+sm_status sm_surface_repair(sm_surface *s, sm_surface_health *h, sm_error *err);
+
 /* The formats sm_surface_read reads, for messages. */
 #define SM_SURFACE_FORMATS                                                    \
     "STL (ASCII or binary), OBJ, Medit .mesh/.meshb or Gmsh .msh surfaces, " \

@@ -27,6 +27,7 @@
 #include <stdint.h>
 
 #include "sm_error.h"
+#include "sm_mesh.h"
 #include "sm_surface.h"
 
 #define SM_SDF_FAR_RATIO 2.0
@@ -52,6 +53,16 @@ void sm_sdf_winding(const sm_sdf *d, int64_t n, const double *pts, double *w);
  * enclosed volume that is zero) is SM_ERR_INVALID with a message. */
 sm_status sm_sdf_signed(const sm_sdf *d, int64_t n, const double *pts, double *out,
                         sm_error *err);
+
+/* A background mesh for a surface target when the user has none: the
+ * box lo..hi (dim entries; the caller pads it) cut into cubes (squares)
+ * of side close to h, each split into 6 tetrahedra (2 triangles) along
+ * its main diagonal (Kuhn), so neighbouring cells conform.  Uniform, not
+ * graded.  More than SM_BACKGROUND_MAX_VERTS vertices is SM_ERR_INVALID
+ * (asks for a larger h). */
+#define SM_BACKGROUND_MAX_VERTS 8000000
+sm_status sm_background_new(int dim, const double *lo, const double *hi, double h,
+                            sm_mesh **out, sm_error *err);
 
 /* Exact distance squared from p to triangle abc (3D) / segment ab (2D). */
 double sm_sdf_point_triangle2(const double *p, const double *a, const double *b,

@@ -103,3 +103,38 @@ check $? "an unknown surface format names the formats read (exit $rc)" "$(head -
 check $(($? == 1 ? 0 : 1)) "--background-size with --background is a usage error"
 "$BIN" sdf --surface "$WORK/sphere.stl" 2>/dev/null
 check $(($? == 1 ? 0 : 1)) "-o is required"
+
+# run --target-surface: the 2D example's template onto a Gmsh-made circle;
+# on a generated background the boundary error is within 1.5x of the same
+# match on the example's hand-made background (exact distance there too)
+EX=$ROOT/examples/2d
+cat >"$WORK/circle.geo" <<'GEO'
+SetFactory("OpenCASCADE");
+Circle(1) = {0.5, 0.5, 0, 0.3};
+Mesh.MeshSizeFromPoints = 0;
+GEO
+gmsh "$WORK/circle.geo" -2 -format mesh -clmax 0.01 -nt 1 -v 1 -o "$WORK/circle.mesh" >/dev/null 2>&1
+common=(--template "$EX/template.mesh" --target-surface "$WORK/circle.mesh"
+        --clamp-ball "$(tr -d ' \n' <"$EX/clamp")" --tol-boundary 1e-3 --max-iter 100 --quiet)
+"$BIN" run "${common[@]}" -o "$WORK/gen-run" >/dev/null 2>"$WORK/gen-run.err"
+check $? "run --target-surface (generated background)" "$(head -c 400 "$WORK/gen-run.err")"
+grep -q "target surface .*open edges (holes) 0" "$WORK/gen-run.err"
+check $? "run prints the surface health report on stderr" "$(head -c 400 "$WORK/gen-run.err")"
+"$BIN" run "${common[@]}" --target-mesh "$EX/background.mesh.gz" -o "$WORK/bg-run" >/dev/null 2>"$WORK/bg-run.err"
+check $? "run --target-surface --target-mesh B" "$(head -c 400 "$WORK/bg-run.err")"
+msg=$(python3 - "$WORK/gen-run/summary.json" "$WORK/bg-run/summary.json" <<'PY'
+import json, sys
+a, b = (json.load(open(p)) for p in sys.argv[1:3])
+ea, eb = a["boundary_l2"], b["boundary_l2"]
+ok = a["inputs"]["target_surface"].endswith("circle.mesh") and a["target_surface"]["background_generated"] \
+     and not b["target_surface"]["background_generated"] and a["target_surface"]["open_edges"] == 0
+print("boundary error %.3e (generated, %d vertices) vs %.3e (hand-made, %d vertices): ratio %.2f"
+      % (ea, a["target_surface"]["background_vertices"], eb, b["target_surface"]["background_vertices"], ea / eb))
+sys.exit(0 if ok and ea <= 1.5 * eb else 1)
+PY
+)
+check $? "summary has the surface report; $msg" "$msg"
+"$BIN" run "${common[@]}" --target-sol "$EX/background.sol.gz" -o "$WORK/no" >/dev/null 2>"$WORK/ex.err"
+rc=$?
+[ $rc = 1 ] && grep -q "excludes --target-sol" "$WORK/ex.err"
+check $? "--target-surface excludes --target-sol (exit $rc)" "$(head -c 300 "$WORK/ex.err")"

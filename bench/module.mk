@@ -9,3 +9,8 @@ build/release/field_bench: build/release/obj/bench/field_bench.o build/release/l
 	$(CC) -o $@ $^ $(CORE_LIBS)
 release: build/release/field_bench
 all: build/release/field_bench
+build/release/sdf_bench: build/release/obj/bench/sdf_bench.o build/release/libshapematch.a
+	@mkdir -p $(dir $@)
+	$(CC) -o $@ $^ $(CORE_LIBS)
+release: build/release/sdf_bench
+all: build/release/sdf_bench

@@ -28,6 +28,55 @@ awk -v ref_it="$REF_PER_ITER" -v ref_t="$REF_T3E4" '
     }
   }' build/bench-3d.txt
 
+echo
+echo "== distance to a surface (goal: 57k points in <= 0.3 s, exact) =="
+SD=build/bench-sdf
+mkdir -p "$SD"
+# 3D: a sphere of ~20k triangles where the 3D example's target is; the
+# query points are the vertices of the example's background (57k), then
+# 1M random points; 2D: a circle of ~2k segments, the 2D background
+printf 'SetFactory("OpenCASCADE");\nSphere(1) = {0.5, 0.5, 0.5, 0.3};\nMesh.MeshSizeFromPoints = 0;\n' >"$SD/sphere.geo"
+printf 'SetFactory("OpenCASCADE");\nCircle(1) = {0.5, 0.5, 0, 0.3};\nMesh.MeshSizeFromPoints = 0;\n' >"$SD/circle.geo"
+gmsh "$SD/sphere.geo" -2 -format stl -clmax 0.0115 -nt 1 -v 1 -o "$SD/sphere.stl" >/dev/null
+gmsh "$SD/circle.geo" -2 -format mesh -clmax 0.00094 -nt 1 -v 1 -o "$SD/circle.mesh" >/dev/null
+# the 3D example's own target ("blob3d", examples/3d/background.geo): the
+# sphere's vertices moved radially onto r = R(u), written as OBJ
+python3 - "$SD/sphere.stl" "$SD/blob.obj" <<'PY'
+import math, struct, sys
+text = open(sys.argv[1], "rb").read()
+tris = []
+if text[:5] == b"solid" and b"facet" in text[:400]:
+    vs = [tuple(map(float, l.split()[1:4])) for l in text.decode().splitlines() if l.strip().startswith("vertex")]
+    tris = [vs[i:i + 3] for i in range(0, len(vs), 3)]
+else:
+    n = struct.unpack("<I", text[80:84])[0]
+    for k in range(n):
+        f = struct.unpack("<12f", text[84 + 50 * k: 84 + 50 * k + 48])
+        tris.append([f[3:6], f[6:9], f[9:12]])
+def blob(p):
+    u = [p[i] - 0.5 for i in range(3)]
+    r = math.sqrt(sum(x * x for x in u)); u = [x / r for x in u]
+    R = (1 + 0.12 * (u[0]**3 - 3 * u[0] * u[1]**2) + 0.08 * (5 * u[2]**3 - 3 * u[2]) / 2) \
+        / math.sqrt((u[0] / 0.34)**2 + (u[1] / 0.26)**2 + (u[2] / 0.22)**2)
+    return [0.5 + R * x for x in u]
+index, out = {}, open(sys.argv[2], "w")
+for t in tris:
+    ids = []
+    for v in t:
+        if v not in index:
+            index[v] = len(index) + 1
+            out.write("v %.17g %.17g %.17g\n" % tuple(blob(v)))
+        ids.append(index[v])
+    out.write("f %d %d %d\n" % tuple(ids))
+PY
+$BIN/sdf_bench "$SD/blob.obj" examples/3d/background.mesh.gz 2000
+$BIN/sdf_bench "$SD/blob.obj" random:1000000:0:1 500
+$BIN/sdf_bench "$SD/sphere.stl" examples/3d/background.mesh.gz 500
+$BIN/sdf_bench "$SD/circle.mesh" examples/2d/background.mesh.gz 2000
+start=$(date +%s.%N)
+$BIN/shapematch sdf --surface "$SD/blob.obj" -o "$SD/out" 2>/dev/null
+echo "shapematch sdf --surface blob.obj -o DIR (generated background included): $(echo "$(date +%s.%N) - $start" | bc) s"
+
 if [ -x bench/server_bench.sh ] && [ -x "$BIN/shapematchd" ]; then
     echo
     echo "== daemon =="

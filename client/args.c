@@ -427,6 +427,7 @@ typedef enum run_flag_kind {
     RUN_FLAG_TARGET_MESH,
     RUN_FLAG_TARGET_SOL,
     RUN_FLAG_OUTPUT,
+    RUN_FLAG_TARGET_SURFACE,
     RUN_FLAG_QUIET,
     RUN_FLAG_JSON,
     RUN_FLAG_JOB
@@ -442,6 +443,7 @@ static run_flag_kind classify_run_flag(const char *flag, int *takes_value)
         {"--template", RUN_FLAG_TEMPLATE, 1},
         {"--target-mesh", RUN_FLAG_TARGET_MESH, 1},
         {"--target-sol", RUN_FLAG_TARGET_SOL, 1},
+        {"--target-surface", RUN_FLAG_TARGET_SURFACE, 1},
         {"--output", RUN_FLAG_OUTPUT, 1},
         {"-o", RUN_FLAG_OUTPUT, 1},
         {"--quiet", RUN_FLAG_QUIET, 0},
@@ -504,6 +506,7 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
         case RUN_FLAG_TEMPLATE:
         case RUN_FLAG_TARGET_MESH:
         case RUN_FLAG_TARGET_SOL:
+        case RUN_FLAG_TARGET_SURFACE:
         case RUN_FLAG_OUTPUT:
             if (value[0] == '\0') {
                 cli_fail(msg, cap, "%s: empty path", flag);
@@ -515,6 +518,8 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
                 o->target_mesh_path = value;
             else if (kind == RUN_FLAG_TARGET_SOL)
                 o->target_sol_path = value;
+            else if (kind == RUN_FLAG_TARGET_SURFACE)
+                o->target_surface_path = value;
             else
                 o->outdir = value;
             break;
@@ -541,8 +546,13 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
         {offsetof(run_options, target_sol_path), "--target-sol"},
         {offsetof(run_options, outdir), "-o/--output"},
     };
+    if (o->target_surface_path && o->target_sol_path) {
+        cli_fail(msg, cap, "--target-surface excludes --target-sol: give one target");
+        return ARGS_ERROR;
+    }
     for (size_t k = 0; k < sizeof required / sizeof required[0]; k++)
-        if (!*(const char *const *)((const char *)o + required[k].offset)) {
+        if (!*(const char *const *)((const char *)o + required[k].offset) &&
+            !(o->target_surface_path && k >= 1 && k <= 2)) {
             cli_fail(msg, cap, "missing required option %s", required[k].flag);
             return ARGS_ERROR;
         }

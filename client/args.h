@@ -37,6 +37,7 @@ typedef struct run_options {
     const char *template_path;
     const char *target_mesh_path;
     const char *target_sol_path;
+    const char *target_surface_path; /* --target-surface (excludes --target-sol) */
     const char *outdir;
     int quiet;
     int json;

@@ -54,6 +54,9 @@ extern const char cli_exit_codes_help[];
 typedef int (*cli_command_fn)(int argc, char **argv);
 
 int cmd_run(int argc, char **argv);
+/* `shapematch sdf`: signed distance to a surface on a background mesh. */
+int cmd_sdf(int argc, char **argv);
+void cmd_sdf_help(void);
 /* Writes the help page of `shapematch run` to stdout. */
 void cmd_run_help(void);
 

@@ -171,6 +171,21 @@ static int on_progress(const sm_progress *p, void *user)
 /* Parameters against the inputs: the dimension of the ball, the ranges,
  * then the clamp set (which must hold a vertex, not all of them, and
  * leave no rigid rotation free), each message naming the option. */
+/* The target surface's health report, on stderr (also with --quiet:
+ * it says what was repaired). */
+static void print_surface_health(const run_options *o, const sm_job_inputs *in)
+{
+    const sm_surface_health *h = &in->health;
+    fprintf(stderr,
+            "shapematch: target surface %s: %lld component(s), open edges (holes) %lld, "
+            "non-manifold edges %lld, reoriented %lld, duplicate %lld, degenerate %lld; "
+            "distance on %s (%d vertices) in %.3f s\n",
+            o->target_surface_path, (long long)h->components, (long long)h->open_edges,
+            (long long)h->nonmanifold_edges, (long long)h->reoriented, (long long)h->duplicates,
+            (long long)h->degenerate, in->background_generated ? "a generated background" :
+            o->target_mesh_path, in->background->nverts, in->sdf_seconds);
+}
+
 static int apply_params(const run_options *o, sm_job_inputs *in)
 {
     char msg[ARGS_MSG_LEN];
@@ -241,13 +256,18 @@ void cmd_run_help(void)
            "\n"
            "Deforms the template mesh onto the target shape given by its signed distance\n"
            "function (P1 on the background mesh B, negative inside), locally, no daemon.\n"
-           "Mesh and solution files may be .mesh/.meshb and .sol/.solb, optionally .gz.\n"
+           "Mesh and solution files may be .mesh/.meshb (or Gmsh .msh) and .sol/.solb,\n"
+           "optionally .gz.  Or: --target-surface S [--target-mesh B] matches onto a\n"
+           "surface (STL, OBJ, Medit, Gmsh): its exact signed distance is computed on B,\n"
+           "or on a background generated around template and surface.\n"
            "\n"
            "Inputs and outputs:\n"
            "  --template FILE         template mesh (triangles in 2D, tetrahedra in 3D)\n"
            "  --target-mesh FILE      background mesh carrying the target distance\n"
            "  --target-sol FILE       signed distance of the target, one value per\n"
            "                          background vertex (scalar SolAtVertices)\n"
+           "  --target-surface FILE   target surface instead of --target-sol; its health\n"
+           "                          report (holes, reoriented facets, ...) on stderr\n"
            "  -o, --output DIR        output directory (created if missing); receives\n"
            "                          result.mesh, result.meshb, result.vtu,\n"
            "                          result.smmesh, displacement.sol, displacement.solb,\n"
@@ -302,12 +322,15 @@ int cmd_run(int argc, char **argv)
     sm_error_clear(&err);
     const sm_job_files files = {.template_mesh = opt.template_path,
                                 .target_mesh = opt.target_mesh_path,
-                                .target_sol = opt.target_sol_path};
+                                .target_sol = opt.target_sol_path,
+                                .target_surface = opt.target_surface_path};
 
     /* ---- inputs, then the parameters against them ---- */
     sm_status st = sm_job_inputs_read(&files, SM_JOB_NAME_PATHS, &in, &err);
     if (st != SM_OK)
         return run_error(&opt, st == SM_ERR_NOMEM ? CLI_EXIT_NUMERIC : CLI_EXIT_INPUT, "%s", err.msg);
+    if (in.has_surface)
+        print_surface_health(&opt, &in);
     if ((code = apply_params(&opt, &in)) != 0)
         goto done;
     warn_unknown_free_refs(&ctx, in.prepared);

@@ -31,6 +31,7 @@ typedef struct command {
 
 static const command commands[] = {
     {"run", cmd_run, cmd_run_help, "run a matching job locally (no daemon)"},
+    {"sdf", cmd_sdf, cmd_sdf_help, "signed distance to a surface (STL, OBJ, ...) on a mesh"},
     {"submit", cmd_submit, cmd_submit_help,
      "send a job to the daemon (--wait: and follow it, fetch its results)"},
     {"watch", cmd_watch, cmd_watch_help, "follow a job's progress to its end"},

@@ -11,8 +11,10 @@
 #include <string.h>
 #include <strings.h>
 
+#include "sm_io_msh.h"
 #include "sm_medit_common.h"
 #include "sm_reader.h"
+#include "sm_surface_io.h"
 
 /* One block of simplices (or edges) as read from the file. */
 typedef struct idx_block {
@@ -303,6 +305,10 @@ static sm_status read_ascii(medit_in *c)
                                            "found the number %s where a keyword was expected "
                                            "(more records than the section count says?)",
                                            q);
+            if (!c->have_version && !c->dim && !c->have_vertices)
+                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                                           "unknown format: the file starts with %s; meshes "
+                                           "are read as " SM_MESH_FORMATS, q);
             return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT, "unknown keyword %s", q);
         }
         int64_t v;
@@ -733,11 +739,75 @@ sm_status sm_mesh_read(const char *path, sm_mesh **out, sm_error *err)
     sm_status st = sm_reader_open(&c.r, path, err);
     if (st != SM_OK)
         return st;
+    if (sm__msh_detect(&c.r)) {
+        sm_msh_data d;
+        st = sm__msh_parse(&c.r, &d, err);
+        if (st == SM_OK)
+            st = sm__msh_to_mesh(path, &d, out, err);
+        sm__msh_data_free(&d);
+        sm_reader_close(&c.r);
+        return st;
+    }
     st = sm_medit_detect(&c.r, &c.binary, err);
     if (st == SM_OK)
         st = c.binary ? read_binary(&c) : read_ascii(&c);
     if (st == SM_OK)
         st = build_mesh(&c, out);
+    sm_reader_close(&c.r);
+    medit_in_free(&c);
+    return st;
+}
+
+/* ------------------------------------------------------------------ */
+/* surfaces (sm_surface_read's Medit reader)                           */
+/* ------------------------------------------------------------------ */
+
+static sm_status build_surface(medit_in *c, sm_surface **out)
+{
+    const char *path = c->r.path;
+    if (!c->dim)
+        return sm_error_set(c->err, SM_ERR_FORMAT, "%s: missing Dimension", path);
+    if (!c->have_vertices)
+        return sm_error_set(c->err, SM_ERR_FORMAT, "%s: missing Vertices", path);
+    sm_status st;
+    if ((st = finish_block(c, &c->edges, "Edges")) != SM_OK ||
+        (st = finish_block(c, &c->triangles, "Triangles")) != SM_OK)
+        return st;
+    int planar = 1;
+    for (int64_t i = 0; c->dim == 3 && i < c->nverts; i++)
+        planar = planar && c->coords[3 * i + 2] == 0.0;
+    int dim = c->dim == 3 && c->triangles.count > 0 ? 3 : 2;
+    idx_block *b = dim == 3 ? &c->triangles : &c->edges;
+    if (b->count == 0 || (dim == 2 && !planar))
+        return sm_error_set(c->err, SM_ERR_FORMAT,
+                            "%s: no surface: Triangles in 3D, or Edges in 2D (a Dimension 3 "
+                            "file with all z = 0) are needed", path);
+    sm_surface *s;
+    if ((st = sm_surface_alloc(&s, dim, (int32_t)c->nverts, (int32_t)b->count, c->err)) != SM_OK)
+        return st;
+    for (int64_t i = 0; i < c->nverts; i++)
+        for (int k = 0; k < dim; k++)
+            s->coords[dim * i + k] = c->coords[c->dim * i + k];
+    memcpy(s->facets, b->idx, (size_t)b->count * (size_t)dim * sizeof(int32_t));
+    memcpy(s->facet_refs, b->refs, (size_t)b->count * sizeof(int32_t));
+    *out = s;
+    return SM_OK;
+}
+
+sm_status sm__medit_surface_read(const char *path, sm_surface **out, sm_error *err)
+{
+    *out = NULL;
+    medit_in c;
+    memset(&c, 0, sizeof c);
+    c.err = err;
+    sm_status st = sm_reader_open(&c.r, path, err);
+    if (st != SM_OK)
+        return st;
+    st = sm_medit_detect(&c.r, &c.binary, err);
+    if (st == SM_OK)
+        st = c.binary ? read_binary(&c) : read_ascii(&c);
+    if (st == SM_OK)
+        st = build_surface(&c, out);
     sm_reader_close(&c.r);
     medit_in_free(&c);
     return st;

@@ -8,6 +8,7 @@
 #include <time.h>
 
 #include "shapematch/sm_clamp.h"
+#include "shapematch/sm_sdf.h"
 #include "sm_proto_params.h"
 
 static double now_seconds(void)
@@ -124,6 +125,113 @@ static sm_status check_distance(const sm_job_files *files, sm_job_naming naming,
     return SM_OK;
 }
 
+/* "target_surface: ..." with the path replaced or kept, as naming says
+ * (target_surface is not a daemon part yet, see sm_proto_vocab.h). */
+static sm_status surface_error(sm_error *err, sm_job_naming naming, const char *path)
+{
+    if (naming == SM_JOB_NAME_PARTS)
+        return part_error(err, SM_PART_NAME_TARGET_SURFACE, path);
+    if (strstr(err->msg, path))
+        sm_error_prefix(err, "%s", SM_PART_NAME_TARGET_SURFACE);
+    else
+        sm_error_prefix(err, "%s: %s", SM_PART_NAME_TARGET_SURFACE, path);
+    return err->code;
+}
+
+/* Mean edge length of the template's elements. */
+static double mean_edge(const sm_mesh *m)
+{
+    int n = m->dim + 1;
+    double sum = 0;
+    int64_t count = 0;
+    for (int32_t e = 0; e < m->nelems; e++)
+        for (int a = 0; a < n; a++)
+            for (int b = a + 1; b < n; b++) {
+                const double *p = m->coords + (size_t)m->elems[(size_t)e * n + a] * m->dim;
+                const double *q = m->coords + (size_t)m->elems[(size_t)e * n + b] * m->dim;
+                double d2 = 0;
+                for (int k = 0; k < m->dim; k++)
+                    d2 += (p[k] - q[k]) * (p[k] - q[k]);
+                sum += sqrt(d2);
+                count++;
+            }
+    return count ? sum / (double)count : 0;
+}
+
+/* The padded box of template and surface, cells of the template's mean
+ * edge length (larger when that would exceed the vertex limit). */
+static sm_status generate_background(sm_job_inputs *out, sm_error *err)
+{
+    int dim = out->dim;
+    double lo[3], hi[3], tlo[3], thi[3], diag = 0, cells = 1;
+    sm_mesh_bbox(out->template_mesh, out->template_mesh->coords, tlo, thi);
+    for (int k = 0; k < dim; k++) {
+        lo[k] = fmin(tlo[k], out->health.lo[k]);
+        hi[k] = fmax(thi[k], out->health.hi[k]);
+        diag += (hi[k] - lo[k]) * (hi[k] - lo[k]);
+    }
+    diag = sqrt(diag);
+    for (int k = 0; k < dim; k++) {
+        lo[k] -= 0.1 * diag;
+        hi[k] += 0.1 * diag;
+        cells *= hi[k] - lo[k];
+    }
+    double h = mean_edge(out->template_mesh);
+    double hmin = pow(cells / 250000.0, 1.0 / dim); /* at most ~250k vertices */
+    if (!(h >= hmin))
+        h = hmin;
+    out->background_generated = 1;
+    return sm_background_new(dim, lo, hi, h, &out->background, err);
+}
+
+/* The target from a surface: background given or generated, then the
+ * exact signed distance at its vertices. */
+static sm_status read_surface_target(const sm_job_files *files, sm_job_naming naming,
+                                     sm_job_inputs *out, sm_error *err)
+{
+    sm_surface *s = NULL;
+    sm_sdf *d = NULL;
+    sm_status st = sm_surface_read(files->target_surface, &s, err);
+    if (st == SM_OK)
+        st = sm_surface_repair(s, &out->health, err);
+    if (st != SM_OK) {
+        surface_error(err, naming, files->target_surface);
+        goto done;
+    }
+    out->has_surface = 1;
+    if (s->dim != out->dim) {
+        st = sm_error_set(err, SM_ERR_INVALID, "dimension mismatch: the template is %dD but the "
+                          "target surface is %dD", out->dim, s->dim);
+        goto done;
+    }
+    if (files->target_mesh) {
+        if ((st = sm_mesh_read(files->target_mesh, &out->background, err)) != SM_OK) {
+            file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
+            goto done;
+        }
+    } else if ((st = generate_background(out, err)) != SM_OK) {
+        goto done;
+    }
+    if (out->background->dim != out->dim) {
+        st = sm_error_set(err, SM_ERR_INVALID,
+                          "dimension mismatch: the template is %dD but the target mesh is %dD",
+                          out->dim, out->background->dim);
+        goto done;
+    }
+    double t0 = now_seconds();
+    if ((st = sm_sdf_new(s, &d, err)) == SM_OK &&
+        (st = sm_sol_alloc(&out->distance, out->dim, out->background->nverts, 1, err)) == SM_OK)
+        st = sm_sdf_signed(d, out->background->nverts, out->background->coords,
+                           out->distance->values, err);
+    out->sdf_seconds = now_seconds() - t0;
+    if (st != SM_OK && st != SM_ERR_NOMEM)
+        surface_error(err, naming, files->target_surface);
+done:
+    sm_sdf_free(d);
+    sm_surface_free(s);
+    return st;
+}
+
 sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
                              sm_job_inputs *out, sm_error *err)
 {
@@ -136,11 +244,21 @@ sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
         file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
         goto fail;
     }
+    out->dim = out->template_mesh->dim;
+    if (files->target_surface) {
+        if (files->target_sol) {
+            st = sm_error_set(err, SM_ERR_INVALID, "%s excludes %s: give one target",
+                              SM_PART_NAME_TARGET_SURFACE, sm_part_name(SM_PART_TARGET_SOL));
+            goto fail;
+        }
+        if ((st = read_surface_target(files, naming, out, err)) != SM_OK)
+            goto fail;
+        goto prepare;
+    }
     if ((st = sm_mesh_read(files->target_mesh, &out->background, err)) != SM_OK) {
         file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
         goto fail;
     }
-    out->dim = out->template_mesh->dim;
     if (out->background->dim != out->dim) {
         st = sm_error_set(err, SM_ERR_INVALID,
                           "dimension mismatch: the template is %dD but the target mesh is %dD",
@@ -153,6 +271,7 @@ sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
     }
     if ((st = check_distance(files, naming, out, err)) != SM_OK)
         goto fail;
+prepare:
     /* topology checks on a copy: building the boundary reorients
      * elements, and the outputs keep the input's connectivity as is; the
      * run works on this copy */

@@ -33,12 +33,22 @@
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_mesh.h"
 #include "shapematch/sm_params.h"
+#include "shapematch/sm_surface.h"
 #include "sm_proto_vocab.h"
 
+/* The target is either target_mesh + target_sol (a sampled distance), or
+ * target_surface (STL, OBJ, Medit or Gmsh surface; sm_surface.h) with an
+ * optional target_mesh: the distance to the surface is then computed
+ * exactly at the vertices of target_mesh, or of a background generated
+ * around the template and the surface when target_mesh is NULL
+ * (sm_background_new: the box of both padded by 10% of its diagonal,
+ * cells of the template's mean edge length, coarser when that would give
+ * more than about 250k vertices).  target_surface excludes target_sol. */
 typedef struct sm_job_files {
     const char *template_mesh;
     const char *target_mesh;
     const char *target_sol;
+    const char *target_surface;
 } sm_job_files;
 
 typedef enum sm_job_naming {
@@ -59,6 +69,10 @@ typedef struct sm_job_inputs {
     double read_seconds;      /* reading and checking the files, the
                                * field included */
     double field_build_seconds;
+    int has_surface;          /* the target came from target_surface: */
+    sm_surface_health health; /* its health report (after repair) */
+    int background_generated; /* no target_mesh: generated background */
+    double sdf_seconds;       /* distance computation (surface targets) */
     sm_part failed;           /* after a failure: the part the message is
                                * about; SM_NPARTS when none (dimension
                                * mismatch, out of memory) */

@@ -186,6 +186,28 @@ static json_t *outputs_object(void)
     return outputs;
 }
 
+static json_t *surface_health_object(const sm_job_inputs *in)
+{
+    const sm_surface_health *h = &in->health;
+    json_t *o = json_object(), *lo = json_array(), *hi = json_array();
+    for (int k = 0; k < in->dim; k++) {
+        json_array_append_new(lo, json_real(h->lo[k]));
+        json_array_append_new(hi, json_real(h->hi[k]));
+    }
+    json_object_set_new(o, "open_edges", json_integer(h->open_edges));
+    json_object_set_new(o, "nonmanifold_edges", json_integer(h->nonmanifold_edges));
+    json_object_set_new(o, "reoriented", json_integer(h->reoriented));
+    json_object_set_new(o, "duplicates", json_integer(h->duplicates));
+    json_object_set_new(o, "degenerate", json_integer(h->degenerate));
+    json_object_set_new(o, "components", json_integer(h->components));
+    json_object_set_new(o, "bbox_min", lo);
+    json_object_set_new(o, "bbox_max", hi);
+    json_object_set_new(o, "background_generated", json_boolean(in->background_generated));
+    json_object_set_new(o, "background_vertices", json_integer(in->background->nverts));
+    json_object_set_new(o, "sdf_seconds", json_real(in->sdf_seconds));
+    return o;
+}
+
 json_t *sm_job_summary_to_jansson(const sm_job_inputs *in, const sm_job_run *run,
                                   const sm_job_files *names)
 {
@@ -220,6 +242,9 @@ json_t *sm_job_summary_to_jansson(const sm_job_inputs *in, const sm_job_run *run
     bad = bad || set_string(inputs, "template", names->template_mesh) ||
           set_string(inputs, "target_mesh", names->target_mesh) ||
           set_string(inputs, "target_sol", names->target_sol);
+    if (in->has_surface) /* a surface target: its name and health report */
+        bad = bad || set_string(inputs, SM_PART_NAME_TARGET_SURFACE, names->target_surface) ||
+              smp_set(doc, "target_surface", surface_health_object(in));
     bad = bad || smp_set(tmpl, "dimension", json_integer(m->dim)) ||
           smp_set(tmpl, "vertices", json_integer(m->nverts)) ||
           smp_set(tmpl, "elements", json_integer(m->nelems)) ||

@@ -22,6 +22,11 @@ typedef enum sm_part {
     SM_PART_PARAMS = 3,
     SM_NPARTS = 4
 } sm_part;
+/* The target surface of a job (sm_job_files.target_surface): the name
+ * its messages and summaries use.  Local runs (`shapematch run
+ * --target-surface`) take it; it is not yet a multipart part of the
+ * daemon (not in sm_part, whose every member the upload requires). */
+#define SM_PART_NAME_TARGET_SURFACE "target_surface"
 /* "template", "target_mesh", "target_sol", "params", indexed by sm_part. */
 extern const char *const sm_part_names[SM_NPARTS];
 /* sm_part_names[part], NULL outside. */

@@ -9,8 +9,8 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=$1
 rm -rf "$out"
-mkdir -p "$out"/{mesh,sol,params,events,payload,sse}
-for t in mesh sol params events payload sse; do
+mkdir -p "$out"/{mesh,msh,stl,obj,sol,params,events,payload,sse}
+for t in mesh msh stl obj sol params events payload sse; do
     [ -d tests/fuzz/seeds/$t ] && cp tests/fuzz/seeds/$t/* "$out/$t/" 2>/dev/null || true
 done
 add() { # target name file [prefix-byte-octal...]
@@ -30,8 +30,16 @@ for d in tests/data/malformed/*/; do
     for f in "$d"input.*; do
         [ -f "$f" ] || continue
         case $f in
+            *.stl|*.stl.gz) add stl "$c" "$f"; continue ;;
+            *.obj) tail -n +1 "$f" >"$out/obj/$c"; continue ;;
+        esac
+        case $f in
             *.sol|*.solb|*.sol.gz|*.solb.gz) add sol "$c" "$f" ;;
             *) add mesh "$c" "$f" ;;
+        esac
+        # .msh cases also seed the .msh target, without its first line
+        case $f in
+            *.msh) tail -c +13 "$f" >"$out/msh/$c" ;;
         esac
     done
 done

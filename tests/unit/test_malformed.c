@@ -1,6 +1,8 @@
 /* Data-driven hostile-input corpus, in the manner of jansson's test
  * suites: every folder tests/data/malformed/<case>/ holds
- *   input.<ext>  a malformed .mesh/.meshb/.sol/.solb file (optionally .gz)
+ *   input.<ext>  a malformed .mesh/.meshb/.msh/.sol/.solb file (optionally
+ *                .gz), or for cases named surface-*, a malformed target
+ *                surface (.stl, .obj, ...) read by sm_surface_read
  *   error        a substring the error message must contain
  *   status       (optional) the expected sm_status name ("format", ...)
  * and becomes one TAP test.  The reader must fail (never crash, never
@@ -19,6 +21,7 @@
 #include <sys/stat.h>
 
 #include "shapematch/sm_io.h"
+#include "shapematch/sm_surface.h"
 
 typedef struct malformed_case {
     char name[256];
@@ -46,6 +49,12 @@ static int is_solution_file(const char *name)
     return strstr(name, ".sol") != NULL;
 }
 
+/* Cases named surface-* are read as target surfaces (STL, OBJ, ...). */
+static int is_surface_case(const char *name)
+{
+    return strncmp(name, "surface-", 8) == 0;
+}
+
 static void run_case(void **state)
 {
     const malformed_case *c = *state;
@@ -54,7 +63,11 @@ static void run_case(void **state)
     sm_error err;
     sm_error_clear(&err);
     sm_status st;
-    if (is_solution_file(c->input)) {
+    if (is_surface_case(c->name)) {
+        sm_surface *s = (sm_surface *)(uintptr_t)1;
+        st = sm_surface_read(c->input, &s, &err);
+        assert_null(s);
+    } else if (is_solution_file(c->input)) {
         sm_sol *s = (sm_sol *)(uintptr_t)1;
         st = sm_sol_read(c->input, &s, &err);
         assert_null(s);

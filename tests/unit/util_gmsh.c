@@ -49,7 +49,8 @@ static void tail_of_log(const char *log_path, const char *prefix, char *msg, siz
 
 /* dir must exist; geo, log and output file names are built inside it. */
 static sm_status run_gmsh(const char *dir, const char *geo, int dim, double clmax,
-                          const char *out_path, char *msg, size_t msglen)
+                          const char *fmt, int binary, const char *out_path, char *msg,
+                          size_t msglen)
 {
     char geo_path[4200], log_path[4200], clmax_text[64];
     snprintf(geo_path, sizeof geo_path, "%s/input.geo", dir);
@@ -59,7 +60,7 @@ static sm_status run_gmsh(const char *dir, const char *geo, int dim, double clma
         snprintf(msg, msglen, "dimension %d is not 2 or 3", dim);
         return SM_ERR_INVALID;
     }
-    const char *format = ends_with(out_path, ".msh") ? "msh41" : "mesh";
+    const char *format = fmt ? fmt : ends_with(out_path, ".msh") ? "msh41" : "mesh";
     if (write_text(geo_path, geo) != 0) {
         snprintf(msg, msglen, "cannot write %s: %s", geo_path, strerror(errno));
         return SM_ERR_IO;
@@ -77,7 +78,8 @@ static sm_status run_gmsh(const char *dir, const char *geo, int dim, double clma
             close(fd);
         }
         execlp("gmsh", "gmsh", geo_path, dim == 2 ? "-2" : "-3", "-format", format, "-clmax",
-               clmax_text, "-nt", "1", "-v", "2", "-o", out_path, (char *)NULL);
+               clmax_text, "-nt", "1", "-v", "2", "-o", out_path, binary ? "-bin" : (char *)NULL,
+               (char *)NULL);
         _exit(127);
     }
     int status = 0;
@@ -127,7 +129,20 @@ sm_status util_gmsh_write(const char *geo, int dim, double clmax, const char *ou
         snprintf(msg, msglen, "mkdtemp %s: %s", dir, strerror(errno));
         return SM_ERR_IO;
     }
-    sm_status st = run_gmsh(dir, geo, dim, clmax, out_path, msg, msglen);
+    sm_status st = run_gmsh(dir, geo, dim, clmax, NULL, 0, out_path, msg, msglen);
+    remove_temp_dir(dir);
+    return st;
+}
+
+sm_status util_gmsh_write_format(const char *geo, int dim, double clmax, const char *format,
+                                 int binary, const char *out_path, char *msg, size_t msglen)
+{
+    char dir[4096];
+    if (make_temp_dir(dir, sizeof dir) != 0) {
+        snprintf(msg, msglen, "mkdtemp %s: %s", dir, strerror(errno));
+        return SM_ERR_IO;
+    }
+    sm_status st = run_gmsh(dir, geo, dim, clmax, format, binary, out_path, msg, msglen);
     remove_temp_dir(dir);
     return st;
 }
@@ -142,7 +157,7 @@ sm_status util_gmsh_mesh(const char *geo, int dim, double clmax, sm_mesh **out, 
         return SM_ERR_IO;
     }
     snprintf(mesh_path, sizeof mesh_path, "%s/mesh.mesh", dir);
-    sm_status st = run_gmsh(dir, geo, dim, clmax, mesh_path, msg, msglen);
+    sm_status st = run_gmsh(dir, geo, dim, clmax, NULL, 0, mesh_path, msg, msglen);
     if (st == SM_OK) {
         sm_error err;
         sm_error_clear(&err);

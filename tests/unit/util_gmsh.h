@@ -33,6 +33,11 @@
 sm_status util_gmsh_write(const char *geo, int dim, double clmax, const char *out_path,
                           char *msg, size_t msglen);
 
+/* Same with an explicit Gmsh format name ("msh41", "msh22", "mesh",
+ * "stl", ...) and, when binary is set, Gmsh's -bin option. */
+sm_status util_gmsh_write_format(const char *geo, int dim, double clmax, const char *format,
+                                 int binary, const char *out_path, char *msg, size_t msglen);
+
 /* Same into a temporary .mesh, read with sm_mesh_read (boundary not
  * built), temporary directory removed.  *out is owned by the caller. */
 sm_status util_gmsh_mesh(const char *geo, int dim, double clmax, sm_mesh **out, char *msg,

@@ -1,4 +1,5 @@
-/* File formats: Medit .mesh/.meshb and .sol/.solb (any of them .gz), and
+/* File formats: Medit .mesh/.meshb and .sol/.solb, Gmsh .msh meshes (any
+ * of them .gz), and
  * the VTK XML .vtu writer.
  *
  * Readers treat their input as hostile: every count is checked against
@@ -59,6 +60,16 @@ void sm_sol_free(sm_sol *s);
  * either orientation are accepted.  Does not build the boundary (see
  * sm_mesh_build_boundary). */
 sm_status sm_mesh_read(const char *path, sm_mesh **out, sm_error *err);
+/* A file that starts with "$MeshFormat" is read as a Gmsh .msh mesh
+ * instead: format 4.1 ASCII or binary, or 2.2 ASCII, gzip or not;
+ * elements are tetrahedra (facets: triangles) or, without tetrahedra,
+ * planar triangles (a 2D mesh; facets: lines); references are physical
+ * tags (0 when an entity has none); other element types are errors. */
+
+/* The formats sm_mesh_read reads, for messages. */
+#define SM_MESH_FORMATS                                                          \
+    "Medit .mesh/.meshb or Gmsh .msh (4.1 ASCII/binary, 2.2 ASCII), optionally " \
+    "gzip-compressed"
 
 /* Writes by extension: .mesh (ASCII, Dimension = m->dim) or .meshb
  * (binary, version 2; version 3 if the file would exceed 2 GiB), with an

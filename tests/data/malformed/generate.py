@@ -342,6 +342,178 @@ case("solb-inf-value", "input.solb", scalar_solb(values=(1.0, float("-inf"), 2.0
      "value is not a finite number")
 
 
+# --------------------------------------------------------------------------
+# Gmsh .msh: a unit square of two triangles on surface 1 (physical 5)
+
+MSH_NODES = [(1, 0.0, 0.0), (2, 1.0, 0.0), (3, 1.0, 1.0), (4, 0.0, 1.0)]
+MSH_TRIS = [(1, 1, 2, 3), (2, 1, 3, 4)]
+
+
+def msh41_ascii(nodes=None, tris=None, nnodes=None, ntris=None, etype=2, extra="",
+                coord=None, head="$MeshFormat\n4.1 0 8\n$EndMeshFormat\n"):
+    nodes = MSH_NODES if nodes is None else nodes
+    tris = MSH_TRIS if tris is None else tris
+    out = head + extra
+    out += "$Entities\n0 0 1 0\n1 0 0 0 1 1 0 1 5 0\n$EndEntities\n"
+    n = len(nodes) if nnodes is None else nnodes
+    out += "$Nodes\n1 %s 1 %d\n2 1 0 %s\n" % (n, len(nodes), n)
+    out += "".join("%d\n" % t for t, _, _ in nodes)
+    out += "".join("%s %s 0\n" % (x if coord is None or t != 3 else coord, y)
+                   for t, x, y in nodes)
+    out += "$EndNodes\n"
+    m = len(tris) if ntris is None else ntris
+    out += "$Elements\n1 %s 1 %d\n2 1 %d %s\n" % (m, len(tris), etype, m)
+    out += "".join(" ".join(str(v) for v in t) + "\n" for t in tris)
+    return (out + "$EndElements\n").encode()
+
+
+def msh41_binary(nnodes=None, node_tag=None, truncate=None, size=8, one=1):
+    b = b"$MeshFormat\n4.1 1 %d\n" % size + struct.pack("<i", one) + b"\n$EndMeshFormat\n"
+    b += b"$Entities\n" + struct.pack("<4Q", 0, 0, 1, 0)
+    b += struct.pack("<i6dQiQ", 1, 0, 0, 0, 1, 1, 0, 1, 5, 0) + b"\n$EndEntities\n"
+    n = 4 if nnodes is None else nnodes
+    b += b"$Nodes\n" + struct.pack("<4Q", 1, n, 1, 4) + struct.pack("<3iQ", 2, 1, 0, n)
+    tags = [1, 2, 3, 4] if node_tag is None else [1, 2, 3, node_tag]
+    b += struct.pack("<4Q", *tags)
+    for _, x, y in MSH_NODES:
+        b += struct.pack("<3d", x, y, 0.0)
+    b += b"\n$EndNodes\n$Elements\n" + struct.pack("<4Q", 1, 2, 1, 2)
+    b += struct.pack("<3iQ", 2, 1, 2, 2)
+    for t in MSH_TRIS:
+        b += struct.pack("<4Q", *t)
+    b += b"\n$EndElements\n"
+    return b if truncate is None else b[:truncate]
+
+
+def msh22(nodes=None, elems=None, nnodes=None):
+    nodes = MSH_NODES if nodes is None else nodes
+    elems = ["1 2 2 5 1 1 2 3", "2 2 2 5 1 1 3 4"] if elems is None else elems
+    out = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n"
+    out += "$Nodes\n%s\n" % (len(nodes) if nnodes is None else nnodes)
+    out += "".join("%d %s %s 0\n" % n for n in nodes) + "$EndNodes\n"
+    out += "$Elements\n%d\n" % len(elems) + "".join(e + "\n" for e in elems)
+    return (out + "$EndElements\n").encode()
+
+
+_full41 = msh41_ascii()
+case("msh-truncated", "input.msh", _full41[:_full41.index(b"$Elements")], "no $Elements section")
+case("msh-truncated-mid-block", "input.msh", _full41[:_full41.rindex(b"1 3 4")],
+     "expected a node tag of an element, found end of file")
+case("msh-node-count-beyond-file-size", "input.msh", msh41_ascii(nnodes=10**8),
+     "$Nodes count 100000000 cannot fit")
+case("msh-huge-count", "input.msh", msh41_ascii(ntris=10**12), "exceeds the limit")
+case("msh-node-tag-unknown", "input.msh", msh41_ascii(tris=[(1, 1, 2, 3), (2, 1, 3, 9)]),
+     "input.msh:24: node tag 9 is not in $Nodes")
+case("msh-nan-coordinate", "input.msh", msh41_ascii(coord="nan"), "is not a finite number")
+case("msh-quadrangles", "input.msh", msh41_ascii(etype=3, tris=[(1, 1, 2, 3, 4)], ntris=1),
+     "element type 3 (4-node quadrangle) is not supported")
+case("msh-second-order", "input.msh", msh41_ascii(etype=9), "element type 9 (6-node second-order")
+case("msh-bad-version", "input.msh",
+     msh41_ascii(head="$MeshFormat\n3.0 0 8\n$EndMeshFormat\n"), "unsupported .msh version '3.0'")
+case("msh-unterminated-section", "input.msh",
+     msh41_ascii(extra="$NodeData\n1\n\"d\"\n"), "section $NodeData has no $EndNodeData")
+case("msh-block-exceeds-header", "input.msh",
+     _full41.replace(b"2 1 0 4\n", b"2 1 0 5\n"), "node block of 5 nodes exceeds")
+case("msh-binary-truncated", "input.msh", msh41_binary(truncate=-60),
+     "unexpected end of file")
+case("msh-binary-count-beyond-file-size", "input.msh", msh41_binary(nnodes=10**7),
+     "cannot fit in the at most")
+case("msh-binary-unknown-node-tag", "input.msh", msh41_binary(node_tag=7),
+     "node tag 4 is not in $Nodes")
+case("msh-binary-data-size-4", "input.msh", msh41_binary(size=4), "data size 4 is not supported")
+case("msh-binary-bad-endianness", "input.msh", msh41_binary(one=7),
+     "endianness word is 7")
+case("msh-binary-node-byte-offset", "input.msh", msh41_binary(nnodes=2**62),
+     "input.msh: byte ")
+case("msh22-bad-index", "input.msh", msh22(elems=["1 2 2 5 1 1 2 3", "2 2 2 5 1 1 3 0"]),
+     "node tag 0 is not in $Nodes")
+case("msh22-too-many-tags", "input.msh", msh22(elems=["1 2 1000 5 1 1 2 3"]),
+     "1000 element tags is not in [0, 64]")
+case("msh22-hexahedra", "input.msh", msh22(elems=["1 5 2 5 1 1 2 3 4 1 2 3 4"]),
+     "element type 5 (8-node hexahedron)")
+case("msh22-binary", "input.msh", b"$MeshFormat\n2.2 1 8\n", "binary .msh 2.2 is not supported")
+case("msh-gz-truncated", "input.msh.gz", gzip.compress(_full41, mtime=0)[:-30],
+     "gzip")
+case("msh-surface-only", "input.msh", _full41.replace(b"1.0 1.0 0\n", b"1.0 1.0 0.5\n"),
+     "surface mesh is not a volume mesh")
+case("mesh-unknown-format", "input.mesh", b"solid x\nfacet normal 0 0 1\n",
+     "unknown format: the file starts with 'solid'")
+
+
+# --------------------------------------------------------------------------
+# target surfaces (cases named surface-*: read by sm_surface_read)
+
+TET_V = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]
+TET_F = [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)]
+
+
+def stl_binary(n=None, header=b"solid tetrahedron", extra=b"", coord=None, cut=None):
+    b = header.ljust(80, b" ") + struct.pack("<I", len(TET_F) if n is None else n)
+    for k, f in enumerate(TET_F):
+        b += struct.pack("<3f", 0, 0, 0)
+        for j, v in enumerate(f):
+            p = TET_V[v]
+            if coord is not None and k == 1 and j == 2:
+                p = (coord, p[1], p[2])
+            b += struct.pack("<3f", *p)
+        b += b"\0\0"
+    b += extra
+    return b if cut is None else b[:cut]
+
+
+def stl_ascii(facets=None, tail="endsolid t\n"):
+    out = "solid t\n"
+    for f in (TET_F if facets is None else facets):
+        out += "facet normal 0 0 0\n outer loop\n"
+        out += "".join("  vertex %s %s %s\n" % TET_V[v] for v in f)
+        out += " endloop\nendfacet\n"
+    return (out + tail).encode()
+
+
+def obj(faces=("f 1 3 2", "f 1 2 4", "f 1 4 3", "f 2 3 4"), verts=None):
+    verts = ["v %s %s %s" % v for v in TET_V] if verts is None else verts
+    return ("\n".join(list(verts) + list(faces)) + "\n").encode()
+
+
+case("surface-stl-binary-count-past-size", "input.stl", stl_binary(n=10**6),
+     "binary STL facet count 1000000 does not fit")
+case("surface-stl-binary-truncated", "input.stl", stl_binary(cut=84 + 50 * 3 + 20),
+     "does not fit")
+case("surface-stl-binary-trailing-bytes", "input.stl", stl_binary(n=3, header=b"binary"),
+     "bytes after its 3 facets")
+case("surface-stl-binary-nan", "input.stl", stl_binary(coord=float("nan"), header=b"nan"),
+     "coordinate is not a finite number")
+case("surface-stl-binary-zero-facets", "input.stl", stl_binary(n=0, header=b"x")[:84],
+     "binary STL with 0 facets")
+case("surface-stl-ascii-truncated", "input.stl", stl_ascii()[:-40], "input.stl:")
+case("surface-stl-ascii-missing-endsolid", "input.stl", stl_ascii(tail=""),
+     "missing 'endsolid'")
+case("surface-stl-ascii-bad-keyword", "input.stl",
+     stl_ascii().replace(b"outer loop", b"outer lop", 1), "expected 'loop', found 'lop'")
+case("surface-stl-ascii-nan", "input.stl", stl_ascii().replace(b"vertex 1 0 0", b"vertex nan 0 0", 1),
+     "is not a finite number")
+case("surface-stl-gz-truncated", "input.stl.gz", gzip.compress(stl_ascii(), mtime=0)[:-12],
+     "gzip")
+case("surface-obj-index-zero", "input.obj", obj(faces=["f 0 1 2"]), "vertex index 0 out of range")
+case("surface-obj-index-past-end", "input.obj", obj(faces=["f 1 2 5"]),
+     "input.obj:5: vertex index 5 out of range")
+case("surface-obj-negative-past-start", "input.obj", obj(faces=["f -1 -2 -5"]),
+     "vertex index -5 out of range")
+case("surface-obj-nan", "input.obj", obj(verts=["v 0 0 nan", "v 1 0 0", "v 0 1 0"],
+                                         faces=["f 1 2 3"]), "3 finite coordinates")
+case("surface-obj-two-vertex-face", "input.obj", obj(faces=["f 1 2"]), "at least 3 vertices")
+case("surface-obj-bad-reference", "input.obj", obj(faces=["f 1 2x 3"]), "bad vertex reference")
+case("surface-obj-no-faces", "input.obj", obj(faces=[]), "OBJ without faces")
+case("surface-obj-unknown-statement", "input.obj", obj(faces=["f 1 2 3", "bogus 1"]),
+     "unknown OBJ statement 'bogus'")
+case("surface-obj-huge-line", "input.obj", b"v " + b"1" * 70000 + b"\n", "line longer than")
+case("surface-unknown-format", "input.dat", b"\x00\x01garbage", "unknown surface format")
+case("surface-msh-no-surface", "input.msh", _full41.replace(b"2 1 2 2", b"2 1 15 2")
+     .replace(b"1 1 2 3\n2 1 3 4", b"1 1\n2 3"), "no surface")
+case("surface-mesh-no-surface", "input.mesh",
+     b"MeshVersionFormatted 2\nDimension 3\nVertices\n1\n0 0 0 0\nEnd\n", "no surface")
+
+
 def main():
     for name in os.listdir(HERE):
         path = os.path.join(HERE, name)

@@ -1,0 +1,70 @@
+/* Target surfaces: what users have instead of a sampled distance — a
+ * triangle surface in 3D (STL from a scanner or a segmentation, OBJ, a
+ * Medit or Gmsh surface) or a polyline in 2D (Medit edges, Gmsh lines).
+ * The surface need not be closed, manifold or consistently oriented: the
+ * distance (sm_sdf.h) copes with that.
+ *
+ * Indices are 0-based.  Readers treat their input as hostile, like the
+ * mesh readers (sm_io.h): counts checked against the file size before
+ * allocation, indices checked, reals finite, errors with file:line or
+ * byte offset; on error *out is NULL and nothing leaks. */
+#ifndef SM_SURFACE_H
+#define SM_SURFACE_H
+
+#include <stdint.h>
+
+#include "sm_error.h"
+
+typedef struct sm_surface {
+    int dim;             /* 3: triangles, 2: segments */
+    int32_t nverts;
+    double *coords;      /* nverts * dim */
+    int32_t nfacets;
+    int32_t *facets;     /* nfacets * dim */
+    int32_t *facet_refs; /* nfacets (0 when the format has none) */
+} sm_surface;
+
+/* Zero-filled surface of the given sizes; free with sm_surface_free. */
+sm_status sm_surface_alloc(sm_surface **out, int dim, int32_t nverts, int32_t nfacets,
+                           sm_error *err);
+void sm_surface_free(sm_surface *s);
+
+/* Reads a surface, the format decided by the content, gzip or not:
+ *   - Gmsh .msh ("$MeshFormat", the versions sm_mesh_read reads):
+ *     triangles (3D), or lines when there are no triangles and all z = 0;
+ *   - Medit .mesh/.meshb: Triangles in 3D (a volume file's Triangles),
+ *     Edges of a Dimension 2 file (or Dimension 3 with all z = 0);
+ *   - STL binary (84 + 50 n bytes; the 80-byte header may start with
+ *     "solid") or ASCII ("solid" ... "facet" ... "endsolid"); coincident
+ *     STL vertices are merged (exactly equal coordinates);
+ *   - OBJ (v, f; negative indices count back from the last vertex;
+ *     polygons are fan-triangulated; vt, vn, groups, materials and other
+ *     statements are skipped); coincident vertices are merged as for STL.
+ * An unknown format is an error naming the formats read. */
+sm_status sm_surface_read(const char *path, sm_surface **out, sm_error *err);
+
+/* What sm_surface_repair found (and did): the surface health report.
+ * Edges are the facets' sides in 3D and their end points in 2D. */
+typedef struct sm_surface_health {
+    int64_t open_edges;        /* on one facet only: holes, borders */
+    int64_t nonmanifold_edges; /* on three facets or more */
+    int64_t reoriented;        /* facets whose orientation was flipped */
+    int64_t duplicates;        /* facets on the same vertices as another */
+    int64_t degenerate;        /* zero area (length in 2D) */
+    int64_t components;        /* connected over shared edges */
+    double lo[3], hi[3];       /* bounding box (z = 0 in 2D) */
+} sm_surface_health;
+
+/* Orients the facets consistently and outward: the orientation of the
+ * first facet of each connected component (over edges shared by exactly
+ * two facets) is propagated to its neighbours, then each component is
+ * flipped as a whole when its enclosed signed volume (area in 2D) is
+ * negative.  Fills h (may be NULL).  Nothing is removed. */
+sm_status sm_surface_repair(sm_surface *s, sm_surface_health *h, sm_error *err);
+
+/* The formats sm_surface_read reads, for messages. */
+#define SM_SURFACE_FORMATS                                                    \
+    "STL (ASCII or binary), OBJ, Medit .mesh/.meshb or Gmsh .msh surfaces, " \
+    "optionally gzip-compressed"
+
+#endif

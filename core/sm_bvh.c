@@ -1,0 +1,325 @@
+/* Bounding-volume hierarchy over the facets of a target surface, with the
+ * exact point-facet distances and the nearest-facet query (sm_sdf.h).
+ * Built top-down: a node's facets are split at the midpoint of the longest
+ * side of their centroids' box (half by count when that leaves one side
+ * empty), leaves hold at most BVH_LEAF facets.  Each node also keeps what
+ * the winding number's far field needs (sm_winding.c): the area-weighted
+ * normal sum, the centroid and the radius about it. */
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "sm_bvh.h"
+
+#define BVH_LEAF 4
+
+/* ---- exact distances ---- */
+
+static double dot3(const double *a, const double *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+double sm_sdf_point_segment2(const double *p, const double *a, const double *b)
+{
+    double ab[2] = {b[0] - a[0], b[1] - a[1]}, ap[2] = {p[0] - a[0], p[1] - a[1]};
+    double l2 = ab[0] * ab[0] + ab[1] * ab[1];
+    double t = l2 > 0 ? (ap[0] * ab[0] + ap[1] * ab[1]) / l2 : 0;
+    t = t < 0 ? 0 : t > 1 ? 1 : t;
+    double dx = ap[0] - t * ab[0], dy = ap[1] - t * ab[1];
+    return dx * dx + dy * dy;
+}
+
+static double dist2_to(const double *p, const double *q)
+{
+    double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
+    return dot3(d, d);
+}
+
+/* Closest point by Voronoi region of the triangle: the vertices, then the
+ * edges, then the face (barycentric coordinates from the same dot
+ * products). */
+double sm_sdf_point_triangle2(const double *p, const double *a, const double *b,
+                              const double *c)
+{
+    double ab[3], ac[3], ap[3], q[3];
+    for (int k = 0; k < 3; k++) {
+        ab[k] = b[k] - a[k];
+        ac[k] = c[k] - a[k];
+        ap[k] = p[k] - a[k];
+    }
+    double d1 = dot3(ab, ap), d2 = dot3(ac, ap);
+    if (d1 <= 0 && d2 <= 0)
+        return dist2_to(p, a);
+    double bp[3] = {p[0] - b[0], p[1] - b[1], p[2] - b[2]};
+    double d3 = dot3(ab, bp), d4 = dot3(ac, bp);
+    if (d3 >= 0 && d4 <= d3)
+        return dist2_to(p, b);
+    double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+        double t = d1 / (d1 - d3);
+        for (int k = 0; k < 3; k++)
+            q[k] = a[k] + t * ab[k];
+        return dist2_to(p, q);
+    }
+    double cp[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
+    double d5 = dot3(ab, cp), d6 = dot3(ac, cp);
+    if (d6 >= 0 && d5 <= d6)
+        return dist2_to(p, c);
+    double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+        double t = d2 / (d2 - d6);
+        for (int k = 0; k < 3; k++)
+            q[k] = a[k] + t * ac[k];
+        return dist2_to(p, q);
+    }
+    double va = d3 * d6 - d5 * d4;
+    if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+        double t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        for (int k = 0; k < 3; k++)
+            q[k] = b[k] + t * (c[k] - b[k]);
+        return dist2_to(p, q);
+    }
+    double den = va + vb + vc;
+    if (!(den > 0)) /* degenerate triangle: its edges */
+        return fmin(sm_sdf_point_segment3_2(p, a, b),
+                    fmin(sm_sdf_point_segment3_2(p, b, c), sm_sdf_point_segment3_2(p, a, c)));
+    double v = vb / den, w = vc / den;
+    for (int k = 0; k < 3; k++)
+        q[k] = a[k] + v * ab[k] + w * ac[k];
+    return dist2_to(p, q);
+}
+
+double sm_sdf_point_segment3_2(const double *p, const double *a, const double *b)
+{
+    double ab[3], ap[3];
+    for (int k = 0; k < 3; k++) {
+        ab[k] = b[k] - a[k];
+        ap[k] = p[k] - a[k];
+    }
+    double l2 = dot3(ab, ab);
+    double t = l2 > 0 ? dot3(ap, ab) / l2 : 0;
+    t = t < 0 ? 0 : t > 1 ? 1 : t;
+    double q[3] = {a[0] + t * ab[0], a[1] + t * ab[1], a[2] + t * ab[2]};
+    return dist2_to(p, q);
+}
+
+double sm__bvh_facet_dist2(const sm_bvh *t, int32_t f, const double *p)
+{
+    const sm_surface *s = t->s;
+    const int32_t *v = s->facets + (size_t)f * s->dim;
+    if (s->dim == 3)
+        return sm_sdf_point_triangle2(p, s->coords + 3 * (size_t)v[0], s->coords + 3 * (size_t)v[1],
+                                      s->coords + 3 * (size_t)v[2]);
+    return sm_sdf_point_segment2(p, s->coords + 2 * (size_t)v[0], s->coords + 2 * (size_t)v[1]);
+}
+
+/* ---- build ---- */
+
+/* Area vector (3D: half the cross product; 2D: the outward normal of
+ * length |ab|, for a counter-clockwise boundary) and centroid of f. */
+void sm__bvh_facet_moments(const sm_surface *s, int32_t f, double *n, double *c)
+{
+    const int32_t *v = s->facets + (size_t)f * s->dim;
+    int dim = s->dim;
+    const double *a = s->coords + (size_t)v[0] * dim, *b = s->coords + (size_t)v[1] * dim;
+    if (dim == 2) {
+        n[0] = b[1] - a[1];
+        n[1] = a[0] - b[0];
+        n[2] = 0;
+        for (int k = 0; k < 2; k++)
+            c[k] = (a[k] + b[k]) / 2;
+        c[2] = 0;
+        return;
+    }
+    const double *q = s->coords + (size_t)v[2] * 3;
+    double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    double w[3] = {q[0] - a[0], q[1] - a[1], q[2] - a[2]};
+    n[0] = (u[1] * w[2] - u[2] * w[1]) / 2;
+    n[1] = (u[2] * w[0] - u[0] * w[2]) / 2;
+    n[2] = (u[0] * w[1] - u[1] * w[0]) / 2;
+    for (int k = 0; k < 3; k++)
+        c[k] = (a[k] + b[k] + q[k]) / 3;
+}
+
+typedef struct build_ctx {
+    sm_bvh *t;
+    double *cent; /* 3 per facet */
+} build_ctx;
+
+static void node_box(build_ctx *b, sm_bvh_node *nd)
+{
+    const sm_surface *s = b->t->s;
+    int dim = s->dim;
+    for (int k = 0; k < 3; k++) {
+        nd->lo[k] = k < dim ? DBL_MAX : 0;
+        nd->hi[k] = k < dim ? -DBL_MAX : 0;
+    }
+    double wsum = 0, csum[3] = {0, 0, 0};
+    memset(nd->n, 0, sizeof nd->n);
+    for (int32_t i = nd->first; i < nd->first + nd->count; i++) {
+        int32_t f = b->t->order[i];
+        const int32_t *v = s->facets + (size_t)f * dim;
+        for (int j = 0; j < dim; j++)
+            for (int k = 0; k < dim; k++) {
+                double x = s->coords[(size_t)v[j] * dim + k];
+                nd->lo[k] = fmin(nd->lo[k], x);
+                nd->hi[k] = fmax(nd->hi[k], x);
+            }
+        double n[3], c[3];
+        sm__bvh_facet_moments(s, f, n, c);
+        double area = sqrt(dot3(n, n));
+        for (int k = 0; k < 3; k++) {
+            nd->n[k] += n[k];
+            csum[k] += area * c[k];
+        }
+        wsum += area;
+    }
+    for (int k = 0; k < 3; k++)
+        nd->c[k] = wsum > 0 ? csum[k] / wsum : (nd->lo[k] + nd->hi[k]) / 2;
+    double r2 = 0;
+    for (int corner = 0; corner < 8; corner++) {
+        double q[3];
+        for (int k = 0; k < 3; k++)
+            q[k] = (corner >> k) & 1 ? nd->hi[k] : nd->lo[k];
+        r2 = fmax(r2, dist2_to(q, nd->c));
+    }
+    nd->r = sqrt(r2);
+}
+
+/* Splits node i's range; returns the split position. */
+static int32_t split(build_ctx *b, const sm_bvh_node *nd)
+{
+    double lo[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, hi[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
+    int32_t *o = b->t->order;
+    for (int32_t i = nd->first; i < nd->first + nd->count; i++)
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fmin(lo[k], b->cent[3 * (size_t)o[i] + k]);
+            hi[k] = fmax(hi[k], b->cent[3 * (size_t)o[i] + k]);
+        }
+    int axis = 0;
+    for (int k = 1; k < 3; k++)
+        if (hi[k] - lo[k] > hi[axis] - lo[axis])
+            axis = k;
+    double mid = (lo[axis] + hi[axis]) / 2;
+    int32_t i = nd->first, j = nd->first + nd->count - 1;
+    while (i <= j) {
+        if (b->cent[3 * (size_t)o[i] + axis] < mid) {
+            i++;
+        } else {
+            int32_t tmp = o[i];
+            o[i] = o[j];
+            o[j--] = tmp;
+        }
+    }
+    if (i == nd->first || i == nd->first + nd->count)
+        i = nd->first + nd->count / 2;
+    return i;
+}
+
+static void build(build_ctx *b, int32_t node, int depth)
+{
+    sm_bvh *t = b->t;
+    sm_bvh_node *nd = &t->nodes[node];
+    node_box(b, nd);
+    if (depth > t->depth)
+        t->depth = depth;
+    nd->left = nd->right = -1;
+    if (nd->count <= BVH_LEAF)
+        return;
+    int32_t m = split(b, nd);
+    int32_t first = nd->first, count = nd->count;
+    int32_t l = t->nnodes++, r = t->nnodes++;
+    t->nodes[l].first = first;
+    t->nodes[l].count = m - first;
+    t->nodes[r].first = m;
+    t->nodes[r].count = first + count - m;
+    t->nodes[node].left = l;
+    t->nodes[node].right = r;
+    build(b, l, depth + 1);
+    build(b, r, depth + 1);
+}
+
+sm_status sm__bvh_build(const sm_surface *s, sm_bvh *t, sm_error *err)
+{
+    memset(t, 0, sizeof *t);
+    t->s = s;
+    if (s->nfacets <= 0)
+        return sm_error_set(err, SM_ERR_INVALID, "the surface has no facets");
+    build_ctx b = {t, malloc(3 * (size_t)s->nfacets * sizeof(double))};
+    t->order = malloc((size_t)s->nfacets * sizeof(int32_t));
+    t->nodes = malloc(2 * (size_t)s->nfacets * sizeof(sm_bvh_node));
+    if (!b.cent || !t->order || !t->nodes) {
+        free(b.cent);
+        sm__bvh_free(t);
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the hierarchy of %ld facets",
+                            (long)s->nfacets);
+    }
+    for (int32_t f = 0; f < s->nfacets; f++) {
+        double n[3];
+        sm__bvh_facet_moments(s, f, n, b.cent + 3 * (size_t)f);
+        t->order[f] = f;
+    }
+    t->nnodes = 1;
+    t->nodes[0].first = 0;
+    t->nodes[0].count = s->nfacets;
+    build(&b, 0, 1);
+    free(b.cent);
+    return SM_OK;
+}
+
+void sm__bvh_free(sm_bvh *t)
+{
+    free(t->order);
+    free(t->nodes);
+    t->order = NULL;
+    t->nodes = NULL;
+}
+
+/* ---- nearest facet ---- */
+
+static double box_dist2(const sm_bvh_node *nd, const double *p, int dim)
+{
+    double d2 = 0;
+    for (int k = 0; k < dim; k++) {
+        double e = p[k] < nd->lo[k] ? nd->lo[k] - p[k] : p[k] > nd->hi[k] ? p[k] - nd->hi[k] : 0;
+        d2 += e * e;
+    }
+    return d2;
+}
+
+double sm__bvh_nearest(const sm_bvh *t, const double *p, int32_t *hint, int32_t *stack)
+{
+    int dim = t->s->dim;
+    double best = DBL_MAX;
+    int32_t bestf = -1;
+    if (*hint >= 0) {
+        best = sm__bvh_facet_dist2(t, *hint, p);
+        bestf = *hint;
+    }
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+        const sm_bvh_node *nd = &t->nodes[stack[--top]];
+        if (box_dist2(nd, p, dim) >= best && bestf >= 0)
+            continue;
+        if (nd->left < 0) {
+            for (int32_t i = nd->first; i < nd->first + nd->count; i++) {
+                double d2 = sm__bvh_facet_dist2(t, t->order[i], p);
+                if (d2 < best) {
+                    best = d2;
+                    bestf = t->order[i];
+                }
+            }
+            continue;
+        }
+        double dl = box_dist2(&t->nodes[nd->left], p, dim);
+        double dr = box_dist2(&t->nodes[nd->right], p, dim);
+        /* the nearer child is popped first */
+        stack[top++] = dl < dr ? nd->right : nd->left;
+        stack[top++] = dl < dr ? nd->left : nd->right;
+    }
+    *hint = bestf;
+    return sqrt(best);
+}

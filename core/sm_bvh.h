@@ -1,0 +1,42 @@
+/* The facet hierarchy behind sm_sdf (internal; see sm_bvh.c). */
+#ifndef SM_BVH_H
+#define SM_BVH_H
+
+#include <stdint.h>
+
+#include "shapematch/sm_error.h"
+#include "shapematch/sm_sdf.h"
+#include "shapematch/sm_surface.h"
+
+typedef struct sm_bvh_node {
+    double lo[3], hi[3];   /* box of the facets (z = 0 in 2D) */
+    double n[3];           /* sum of the facets' area vectors */
+    double c[3];           /* area-weighted centroid */
+    double r;              /* radius of the box about c */
+    int32_t left, right;   /* children, -1 for a leaf */
+    int32_t first, count;  /* the node's facets: order[first .. first+count) */
+} sm_bvh_node;
+
+typedef struct sm_bvh {
+    const sm_surface *s;   /* borrowed */
+    int32_t *order;        /* facet ids, grouped by node */
+    sm_bvh_node *nodes;    /* nodes[0] is the root */
+    int32_t nnodes;
+    int depth;             /* traversal stacks need 2 * depth + 2 entries */
+} sm_bvh;
+
+sm_status sm__bvh_build(const sm_surface *s, sm_bvh *t, sm_error *err);
+void sm__bvh_free(sm_bvh *t);
+
+/* Distance from p to the nearest facet; *hint (a facet id or -1) seeds
+ * the search and receives the nearest facet.  stack: 2 * depth + 2. */
+double sm__bvh_nearest(const sm_bvh *t, const double *p, int32_t *hint, int32_t *stack);
+double sm__bvh_facet_dist2(const sm_bvh *t, int32_t f, const double *p);
+/* Area vector (outward for an outward facet) and centroid of facet f. */
+void sm__bvh_facet_moments(const sm_surface *s, int32_t f, double *n, double *c);
+double sm_sdf_point_segment3_2(const double *p, const double *a, const double *b);
+
+/* Generalized winding number at p (sm_winding.c). */
+double sm__winding_at(const sm_bvh *t, const double *p, int32_t *stack);
+
+#endif

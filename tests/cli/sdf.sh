@@ -1,0 +1,140 @@
+#!/usr/bin/env bash
+# `shapematch sdf` end to end on surfaces made by the real gmsh at test
+# time: a unit sphere as STL against a Gmsh .msh ball background, and the
+# generated background; the distances are checked here against the exact
+# |x| - 1 up to the surface's chord error; a matching run takes the .msh
+# template and the computed target; bad inputs and options fail with the
+# documented exit codes.
+set -u
+ROOT=${SM_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
+BIN=${SM_BIN:-$ROOT/build/release}/shapematch
+WORK=$(mktemp -d)
+trap 'rm -rf "$WORK"' EXIT
+ok() { echo "ok - $1"; }
+not_ok() { echo "not ok - $1"; [ -n "${2:-}" ] && echo "# $2"; }
+check() { if [ "$1" = 0 ]; then ok "$2"; else not_ok "$2" "${3:-}"; fi; }
+
+cat >"$WORK/ball.geo" <<'GEO'
+SetFactory("OpenCASCADE");
+Sphere(1) = {0, 0, 0, 1};
+Mesh.MeshSizeFromPoints = 0;
+GEO
+cat >"$WORK/small.geo" <<'GEO'
+SetFactory("OpenCASCADE");
+Sphere(1) = {0, 0, 0, 0.8};
+Mesh.MeshSizeFromPoints = 0;
+GEO
+gmsh "$WORK/ball.geo" -2 -format stl -clmax 0.08 -nt 1 -v 1 -o "$WORK/sphere.stl" >/dev/null 2>&1
+gmsh "$WORK/ball.geo" -3 -format msh41 -clmax 0.2 -nt 1 -v 1 -o "$WORK/ball.msh" >/dev/null 2>&1
+gmsh "$WORK/small.geo" -3 -format msh41 -bin -clmax 0.25 -nt 1 -v 1 -o "$WORK/small.msh" >/dev/null 2>&1
+[ -s "$WORK/sphere.stl" ] && [ -s "$WORK/ball.msh" ] && [ -s "$WORK/small.msh" ]
+check $? "gmsh made the sphere STL and the .msh balls"
+
+# distances at mesh vertices vs |x| - 1 (chord error of h = 0.08 is < 4e-3)
+verify() { # mesh sol
+    python3 - "$1" "$2" <<'PY'
+import math, re, sys
+def numbers(path, start):
+    text = open(path).read()
+    return text
+mesh, sol = sys.argv[1], sys.argv[2]
+def read_medit_vertices(path):
+    toks = open(path).read().split()
+    i = toks.index("Vertices")
+    n = int(toks[i + 1])
+    return [tuple(map(float, toks[i + 2 + 4 * k: i + 5 + 4 * k])) for k in range(n)]
+def read_msh_vertices(path):
+    lines = open(path).read().split("\n")
+    i = lines.index("$Nodes")
+    nb, n = map(int, lines[i + 1].split()[:2])
+    pts, j = [], i + 2
+    for _ in range(nb):
+        m = int(lines[j].split()[3]); j += 1 + m
+        for k in range(m):
+            pts.append(tuple(map(float, lines[j + k].split()[:3])))
+        j += m
+    return pts
+pts = read_msh_vertices(mesh) if mesh.endswith(".msh") else read_medit_vertices(mesh)
+toks = open(sol).read().split()
+i = toks.index("SolAtVertices")
+n = int(toks[i + 1])
+vals = list(map(float, toks[i + 4: i + 4 + n]))
+assert n == len(pts), (n, len(pts))
+worst = max(abs(v - (math.sqrt(x * x + y * y + z * z) - 1)) for v, (x, y, z) in zip(vals, pts))
+bad_sign = sum(1 for v, (x, y, z) in zip(vals, pts)
+               if abs(math.sqrt(x*x+y*y+z*z) - 1) > 0.01 and (v < 0) != (math.sqrt(x*x+y*y+z*z) < 1))
+print("%d vertices, max |d - (|x| - 1)| = %.2e, sign errors %d" % (n, worst, bad_sign))
+sys.exit(0 if worst < 4e-3 and bad_sign == 0 else 1)
+PY
+}
+
+"$BIN" sdf --surface "$WORK/sphere.stl" --background "$WORK/ball.msh" -o "$WORK/d.sol" 2>"$WORK/err1"
+check $? "sdf --surface S --background B.msh -o OUT.sol" "$(head -c 400 "$WORK/err1")"
+grep -q "open edges (holes) 0, non-manifold edges 0" "$WORK/err1"
+check $? "the health report is on stderr" "$(head -c 400 "$WORK/err1")"
+msg=$(verify "$WORK/ball.msh" "$WORK/d.sol")
+check $? "distances on the given background match |x| - 1 to the chord error ($msg)" "$msg"
+
+"$BIN" sdf --surface "$WORK/sphere.stl" -o "$WORK/gen" --background-size 0.1 2>"$WORK/err2"
+rc=$?
+check $rc "sdf --surface S -o DIR (generated background)" "$(head -c 400 "$WORK/err2")"
+[ -s "$WORK/gen/background.mesh" ] && [ -s "$WORK/gen/background.sol" ]
+check $? "DIR/background.mesh and DIR/background.sol are written"
+msg=$(verify "$WORK/gen/background.mesh" "$WORK/gen/background.sol")
+check $? "distances on the generated background match |x| - 1 to the chord error ($msg)" "$msg"
+
+"$BIN" run --template "$WORK/small.msh" --target-mesh "$WORK/gen/background.mesh" \
+    --target-sol "$WORK/gen/background.sol" --clamp-ball 0,0,0,0.4 --max-iter 3 --quiet \
+    -o "$WORK/run" >"$WORK/run.out" 2>"$WORK/run.err"
+check $? "run takes a binary .msh template and the computed target" "$(head -c 400 "$WORK/run.err")"
+
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' >"$WORK/flat.obj"
+"$BIN" sdf --surface "$WORK/flat.obj" --background "$WORK/ball.msh" -o "$WORK/x.sol" 2>"$WORK/err3"
+rc=$?
+[ $rc = 2 ] && grep -q "encloses nothing" "$WORK/err3"
+check $? "a surface that encloses nothing is an input error (exit $rc)" "$(head -c 300 "$WORK/err3")"
+printf 'hello\n' >"$WORK/what.txt"
+"$BIN" sdf --surface "$WORK/what.txt" -o "$WORK/y" 2>"$WORK/err4"
+rc=$?
+[ $rc = 2 ] && grep -q "unknown surface format; surfaces are read as STL" "$WORK/err4"
+check $? "an unknown surface format names the formats read (exit $rc)" "$(head -c 300 "$WORK/err4")"
+"$BIN" sdf --surface "$WORK/sphere.stl" --background "$WORK/ball.msh" --background-size 0.1 \
+    -o "$WORK/z.sol" 2>/dev/null
+check $(($? == 1 ? 0 : 1)) "--background-size with --background is a usage error"
+"$BIN" sdf --surface "$WORK/sphere.stl" 2>/dev/null
+check $(($? == 1 ? 0 : 1)) "-o is required"
+
+# run --target-surface: the 2D example's template onto a Gmsh-made circle;
+# on a generated background the boundary error is within 1.5x of the same
+# match on the example's hand-made background (exact distance there too)
+EX=$ROOT/examples/2d
+cat >"$WORK/circle.geo" <<'GEO'
+SetFactory("OpenCASCADE");
+Circle(1) = {0.5, 0.5, 0, 0.3};
+Mesh.MeshSizeFromPoints = 0;
+GEO
+gmsh "$WORK/circle.geo" -2 -format mesh -clmax 0.01 -nt 1 -v 1 -o "$WORK/circle.mesh" >/dev/null 2>&1
+common=(--template "$EX/template.mesh" --target-surface "$WORK/circle.mesh"
+        --clamp-ball "$(tr -d ' \n' <"$EX/clamp")" --tol-boundary 1e-3 --max-iter 100 --quiet)
+"$BIN" run "${common[@]}" -o "$WORK/gen-run" >/dev/null 2>"$WORK/gen-run.err"
+check $? "run --target-surface (generated background)" "$(head -c 400 "$WORK/gen-run.err")"
+grep -q "target surface .*open edges (holes) 0" "$WORK/gen-run.err"
+check $? "run prints the surface health report on stderr" "$(head -c 400 "$WORK/gen-run.err")"
+"$BIN" run "${common[@]}" --target-mesh "$EX/background.mesh.gz" -o "$WORK/bg-run" >/dev/null 2>"$WORK/bg-run.err"
+check $? "run --target-surface --target-mesh B" "$(head -c 400 "$WORK/bg-run.err")"
+msg=$(python3 - "$WORK/gen-run/summary.json" "$WORK/bg-run/summary.json" <<'PY'
+import json, sys
+a, b = (json.load(open(p)) for p in sys.argv[1:3])
+ea, eb = a["boundary_l2"], b["boundary_l2"]
+ok = a["inputs"]["target_surface"].endswith("circle.mesh") and a["target_surface"]["background_generated"] \
+     and not b["target_surface"]["background_generated"] and a["target_surface"]["open_edges"] == 0
+print("boundary error %.3e (generated, %d vertices) vs %.3e (hand-made, %d vertices): ratio %.2f"
+      % (ea, a["target_surface"]["background_vertices"], eb, b["target_surface"]["background_vertices"], ea / eb))
+sys.exit(0 if ok and ea <= 1.5 * eb else 1)
+PY
+)
+check $? "summary has the surface report; $msg" "$msg"
+"$BIN" run "${common[@]}" --target-sol "$EX/background.sol.gz" -o "$WORK/no" >/dev/null 2>"$WORK/ex.err"
+rc=$?
+[ $rc = 1 ] && grep -q "excludes --target-sol" "$WORK/ex.err"
+check $? "--target-surface excludes --target-sol (exit $rc)" "$(head -c 300 "$WORK/ex.err")"

@@ -1,0 +1,374 @@
+/* Distance and sign to target surfaces (sm_sdf.h, sm_surface_repair):
+ *  - the hierarchy's distance equals brute force (all points x all facets,
+ *    with this file's own point-facet formula) to 1e-12, at random points
+ *    inside and outside and at points on the surface (vertices, edge
+ *    midpoints, centroids), on Gmsh-made sphere, torus and box (sharp
+ *    edges), and on 2D polylines;
+ *  - the sign: 0 errors on closed surfaces in random orientation mixes
+ *    (after repair) against the analytic inside test away from the
+ *    surface; with holes, duplicated patches and flipped facets, 0 errors
+ *    farther than twice the defect size from the defect. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "shapematch/sm_sdf.h"
+#include "shapematch/sm_surface.h"
+#include "util_gmsh.h"
+
+#define TORUS_GEO "SetFactory(\"OpenCASCADE\");\nTorus(1) = {0, 0, 0, 1, 0.4};\n" \
+                  "Mesh.MeshSizeFromPoints = 0;\n"
+#define BOX_GEO "SetFactory(\"OpenCASCADE\");\nBox(1) = {-1, -0.7, -0.5, 2, 1.4, 1};\n" \
+                "Mesh.MeshSizeFromPoints = 0;\n"
+/* a curve only: gmsh -2 meshes it into a polyline (Medit Edges, z = 0) */
+#define CIRCLE_GEO "SetFactory(\"OpenCASCADE\");\nCircle(1) = {0, 0, 0, 1};\n" \
+                   "Mesh.MeshSizeFromPoints = 0;\n"
+
+enum shape { SPHERE, TORUS, BOX, CIRCLE };
+
+static uint64_t rng = 88172645463325252ull;
+static double urand(void)
+{
+    rng ^= rng << 13;
+    rng ^= rng >> 7;
+    rng ^= rng << 17;
+    return (double)(rng >> 11) / 9007199254740992.0;
+}
+
+/* Analytic signed distance-like function: < 0 inside. */
+static double analytic(enum shape k, const double *p)
+{
+    switch (k) {
+    case SPHERE: return sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) - 1;
+    case TORUS: return hypot(hypot(p[0], p[1]) - 1, p[2]) - 0.4;
+    case BOX: {
+        double q[3] = {fabs(p[0]) - 1, fabs(p[1]) - 0.7, fabs(p[2]) - 0.5};
+        double m = fmax(q[0], fmax(q[1], q[2]));
+        return m;
+    }
+    default: return hypot(p[0], p[1]) - 1;
+    }
+}
+
+static sm_surface *make_surface(enum shape k, double h)
+{
+    const char *geo = k == SPHERE ? UTIL_GMSH_UNIT_BALL : k == TORUS ? TORUS_GEO : k == BOX ? BOX_GEO : CIRCLE_GEO;
+    char dir[] = "/tmp/sm_sdf_XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    char path[64], msg[1024];
+    snprintf(path, sizeof path, "%s/s.mesh", dir);
+    if (util_gmsh_write_format(geo, 2, h, "mesh", 0, path, msg, sizeof msg) != SM_OK)
+        fail_msg("gmsh: %s", msg);
+    sm_surface *s = NULL;
+    sm_error err;
+    sm_error_clear(&err);
+    if (sm_surface_read(path, &s, &err) != SM_OK)
+        fail_msg("%s", err.msg);
+    assert_int_equal(s->dim, k == CIRCLE ? 2 : 3);
+    unlink(path);
+    rmdir(dir);
+    return s;
+}
+
+/* ---- independent brute force ---- */
+
+static double seg2(const double *p, const double *a, const double *b, int dim)
+{
+    double ab2 = 0, t = 0;
+    for (int k = 0; k < dim; k++) {
+        ab2 += (b[k] - a[k]) * (b[k] - a[k]);
+        t += (p[k] - a[k]) * (b[k] - a[k]);
+    }
+    t = ab2 > 0 ? fmin(1, fmax(0, t / ab2)) : 0;
+    double d2 = 0;
+    for (int k = 0; k < dim; k++) {
+        double e = p[k] - (a[k] + t * (b[k] - a[k]));
+        d2 += e * e;
+    }
+    return d2;
+}
+
+/* projection onto the plane if inside the triangle, else the edges */
+static double tri2(const double *p, const double *a, const double *b, const double *c)
+{
+    double u[3], v[3], w[3], n[3];
+    for (int k = 0; k < 3; k++) {
+        u[k] = b[k] - a[k];
+        v[k] = c[k] - a[k];
+        w[k] = p[k] - a[k];
+    }
+    n[0] = u[1] * v[2] - u[2] * v[1];
+    n[1] = u[2] * v[0] - u[0] * v[2];
+    n[2] = u[0] * v[1] - u[1] * v[0];
+    double nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+    double edges = fmin(seg2(p, a, b, 3), fmin(seg2(p, b, c, 3), seg2(p, c, a, 3)));
+    if (nn == 0)
+        return edges;
+    double s = (w[0] * n[0] + w[1] * n[1] + w[2] * n[2]) / nn;
+    double q[3] = {p[0] - s * n[0], p[1] - s * n[1], p[2] - s * n[2]};
+    /* barycentric signs via sub-triangle normals */
+    const double *P[3] = {a, b, c};
+    int inside = 1;
+    for (int e = 0; e < 3; e++) {
+        const double *x = P[e], *y = P[(e + 1) % 3];
+        double xy[3] = {y[0] - x[0], y[1] - x[1], y[2] - x[2]};
+        double xq[3] = {q[0] - x[0], q[1] - x[1], q[2] - x[2]};
+        double m[3] = {xy[1] * xq[2] - xy[2] * xq[1], xy[2] * xq[0] - xy[0] * xq[2],
+                       xy[0] * xq[1] - xy[1] * xq[0]};
+        if (m[0] * n[0] + m[1] * n[1] + m[2] * n[2] < 0)
+            inside = 0;
+    }
+    return inside ? fmin(s * s * nn, edges) : edges;
+}
+
+static double brute(const sm_surface *s, const double *p)
+{
+    double best = INFINITY;
+    for (int32_t f = 0; f < s->nfacets; f++) {
+        const int32_t *v = s->facets + (size_t)f * s->dim;
+        double d2 = s->dim == 3 ? tri2(p, s->coords + 3 * v[0], s->coords + 3 * v[1], s->coords + 3 * v[2])
+                                : seg2(p, s->coords + 2 * v[0], s->coords + 2 * v[1], 2);
+        best = fmin(best, d2);
+    }
+    return sqrt(best);
+}
+
+/* random points in the padded box, plus points on the surface */
+static double *query_points(const sm_surface *s, int64_t nrand, int64_t *n)
+{
+    int dim = s->dim;
+    int64_t total = nrand + s->nverts + 2 * (int64_t)s->nfacets;
+    double *p = malloc((size_t)total * dim * sizeof *p);
+    int64_t m = 0;
+    for (int64_t i = 0; i < nrand; i++, m++)
+        for (int k = 0; k < dim; k++)
+            p[m * dim + k] = -1.6 + 3.2 * urand();
+    for (int32_t i = 0; i < s->nverts; i++, m++)
+        memcpy(p + m * dim, s->coords + (size_t)i * dim, dim * sizeof *p);
+    for (int32_t f = 0; f < s->nfacets; f++) {
+        const int32_t *v = s->facets + (size_t)f * dim;
+        for (int k = 0; k < dim; k++) {
+            double c = 0;
+            for (int j = 0; j < dim; j++)
+                c += s->coords[(size_t)v[j] * dim + k] / dim;
+            p[m * dim + k] = c;
+            p[(m + 1) * dim + k] = (s->coords[(size_t)v[0] * dim + k] + s->coords[(size_t)v[1] * dim + k]) / 2;
+        }
+        m += 2;
+    }
+    *n = m;
+    return p;
+}
+
+static void check_against_brute(enum shape k, double h, const char *name)
+{
+    sm_surface *s = make_surface(k, h);
+    sm_sdf *d;
+    sm_error err;
+    sm_error_clear(&err);
+    assert_int_equal(sm_sdf_new(s, &d, &err), SM_OK);
+    int64_t n;
+    double *p = query_points(s, 3000, &n);
+    double *dist = malloc((size_t)n * sizeof *dist);
+    sm_sdf_distance(d, n, p, dist, NULL);
+    double worst = 0;
+    for (int64_t i = 0; i < n; i++)
+        worst = fmax(worst, fabs(dist[i] - brute(s, p + i * s->dim)));
+    print_message("# %s: %d facets, %lld points, max |bvh - brute| = %.3g\n", name, s->nfacets,
+                  (long long)n, worst);
+    assert_true(worst <= 1e-12);
+    free(p);
+    free(dist);
+    sm_sdf_free(d);
+    sm_surface_free(s);
+}
+
+static void test_distance_sphere(void **state) { (void)state; check_against_brute(SPHERE, 0.15, "sphere"); }
+static void test_distance_torus(void **state) { (void)state; check_against_brute(TORUS, 0.15, "torus"); }
+static void test_distance_box(void **state) { (void)state; check_against_brute(BOX, 0.2, "box"); }
+static void test_distance_circle(void **state) { (void)state; check_against_brute(CIRCLE, 0.05, "circle"); }
+
+/* ---- sign ---- */
+
+/* Counts sign errors at random points whose analytic distance exceeds
+ * margin and (when center is given) that are farther than keep from it. */
+static int64_t sign_errors(sm_surface *s, enum shape k, double margin, const double *center,
+                           double keep, int64_t *checked)
+{
+    sm_error err;
+    sm_error_clear(&err);
+    sm_surface_health h;
+    assert_int_equal(sm_surface_repair(s, &h, &err), SM_OK);
+    sm_sdf *d;
+    assert_int_equal(sm_sdf_new(s, &d, &err), SM_OK);
+    int dim = s->dim;
+    int64_t n = 4000;
+    double *p = malloc((size_t)n * dim * sizeof *p), *sd = malloc((size_t)n * sizeof *sd);
+    for (int64_t i = 0; i < n * dim; i++)
+        p[i] = -1.6 + 3.2 * urand();
+    if (sm_sdf_signed(d, n, p, sd, &err) != SM_OK)
+        fail_msg("%s", err.msg);
+    int64_t bad = 0;
+    *checked = 0;
+    for (int64_t i = 0; i < n; i++) {
+        double a = analytic(k, p + i * dim);
+        if (fabs(a) < margin)
+            continue;
+        if (center) {
+            double r2 = 0;
+            for (int j = 0; j < dim; j++)
+                r2 += (p[i * dim + j] - center[j]) * (p[i * dim + j] - center[j]);
+            if (sqrt(r2) < keep)
+                continue;
+        }
+        (*checked)++;
+        bad += (a < 0) != (sd[i] < 0);
+    }
+    free(p);
+    free(sd);
+    sm_sdf_free(d);
+    return bad;
+}
+
+static void flip(sm_surface *s, int32_t f)
+{
+    int32_t t = s->facets[(size_t)f * s->dim];
+    s->facets[(size_t)f * s->dim] = s->facets[(size_t)f * s->dim + 1];
+    s->facets[(size_t)f * s->dim + 1] = t;
+}
+
+static void test_sign_orientation_mixes(void **state)
+{
+    (void)state;
+    enum shape shapes[] = {SPHERE, TORUS, BOX, CIRCLE};
+    for (int i = 0; i < 4; i++) {
+        sm_surface *s = make_surface(shapes[i], shapes[i] == CIRCLE ? 0.05 : 0.15);
+        /* all one way, all the other way, random mixes */
+        for (int mix = 0; mix < 4; mix++) {
+            for (int32_t f = 0; f < s->nfacets; f++)
+                if (mix == 1 || (mix >= 2 && urand() < 0.5))
+                    flip(s, f);
+            int64_t checked, bad = sign_errors(s, shapes[i], 0.02, NULL, 0, &checked);
+            print_message("# shape %d mix %d: %lld sign errors in %lld points\n", i, mix,
+                          (long long)bad, (long long)checked);
+            assert_int_equal(bad, 0);
+            assert_true(checked > 1000);
+        }
+        sm_surface_free(s);
+    }
+}
+
+/* removes (hole), duplicates (patch) or flips the facets near center */
+static void damage(sm_surface *s, const double *center, double radius, int kind)
+{
+    int dim = s->dim;
+    int32_t m = 0, n = s->nfacets;
+    int32_t *keep = malloc(((size_t)n * 2 + 1) * dim * sizeof *keep);
+    for (int32_t f = 0; f < n; f++) {
+        const int32_t *v = s->facets + (size_t)f * dim;
+        double r2 = 0;
+        for (int j = 0; j < dim; j++) {
+            double e = s->coords[(size_t)v[0] * dim + j] - center[j];
+            r2 += e * e;
+        }
+        int near = sqrt(r2) < radius;
+        if (near && kind == 0)
+            continue;
+        memcpy(keep + (size_t)m * dim, v, dim * sizeof *keep);
+        m++;
+        if (near && kind == 1) { /* a reversed duplicate */
+            memcpy(keep + (size_t)m * dim, v, dim * sizeof *keep);
+            int32_t t = keep[(size_t)m * dim];
+            keep[(size_t)m * dim] = keep[(size_t)m * dim + 1];
+            keep[(size_t)m * dim + 1] = t;
+            m++;
+        }
+    }
+    free(s->facets);
+    free(s->facet_refs);
+    s->facets = keep;
+    s->facet_refs = calloc((size_t)m + 1, sizeof(int32_t));
+    s->nfacets = m;
+    if (kind == 2)
+        for (int32_t f = 0; f < m; f++)
+            if (urand() < 0.3)
+                flip(s, f);
+}
+
+static void test_sign_defects(void **state)
+{
+    (void)state;
+    enum shape shapes[] = {SPHERE, TORUS, BOX, CIRCLE};
+    for (int i = 0; i < 4; i++) {
+        for (int kind = 0; kind < 3; kind++) {
+            sm_surface *s = make_surface(shapes[i], shapes[i] == CIRCLE ? 0.05 : 0.15);
+            double c[3] = {1, 0, 0};
+            if (shapes[i] == TORUS)
+                c[0] = 1.4;
+            double radius = 0.3;
+            damage(s, c, radius, kind);
+            sm_surface_health h;
+            sm_error err;
+            sm_error_clear(&err);
+            sm_surface *t = s;
+            int64_t checked, bad = sign_errors(t, shapes[i], 0.02, c, 2 * radius, &checked);
+            assert_int_equal(sm_surface_repair(s, &h, &err), SM_OK);
+            print_message("# shape %d defect %d: %lld facets, %lld open edges, %lld non-manifold, "
+                          "%lld duplicates, %lld components: %lld sign errors in %lld points\n",
+                          i, kind, (long long)s->nfacets, (long long)h.open_edges,
+                          (long long)h.nonmanifold_edges, (long long)h.duplicates,
+                          (long long)h.components, (long long)bad, (long long)checked);
+            if (kind == 0)
+                assert_true(h.open_edges > 0);
+            if (kind == 1)
+                assert_true(h.duplicates > 0);
+            assert_int_equal(bad, 0);
+            assert_true(checked > 500);
+            sm_surface_free(s);
+        }
+    }
+}
+
+/* A surface that encloses nothing is an error, not a silent zero. */
+static void test_encloses_nothing(void **state)
+{
+    (void)state;
+    sm_surface *s;
+    sm_error err;
+    sm_error_clear(&err);
+    assert_int_equal(sm_surface_alloc(&s, 3, 3, 1, &err), SM_OK);
+    double x[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    memcpy(s->coords, x, sizeof x);
+    for (int k = 0; k < 3; k++)
+        s->facets[k] = k;
+    sm_sdf *d;
+    assert_int_equal(sm_sdf_new(s, &d, &err), SM_OK);
+    double p[3] = {0.2, 0.2, 0.5}, out;
+    assert_int_equal(sm_sdf_signed(d, 1, p, &out, &err), SM_ERR_INVALID);
+    print_message("# %s\n", err.msg);
+    assert_non_null(strstr(err.msg, "encloses nothing"));
+    sm_sdf_free(d);
+    sm_surface_free(s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_distance_sphere),
+        cmocka_unit_test(test_distance_torus),
+        cmocka_unit_test(test_distance_box),
+        cmocka_unit_test(test_distance_circle),
+        cmocka_unit_test(test_sign_orientation_mixes),
+        cmocka_unit_test(test_sign_defects),
+        cmocka_unit_test(test_encloses_nothing),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

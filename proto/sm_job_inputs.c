@@ -157,7 +157,8 @@ sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
      * elements, and the outputs keep the input's connectivity as is; the
      * run works on this copy */
     if ((st = sm_mesh_clone(out->template_mesh, &out->prepared, err)) != SM_OK ||
-        (st = sm_mesh_build_boundary(out->prepared, err)) != SM_OK) {
+        (st = sm_mesh_build_boundary(out->prepared, err)) != SM_OK ||
+        (st = sm_mesh_check_manifold(out->prepared, err)) != SM_OK) {
         file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
         goto fail;
     }
@@ -184,7 +185,8 @@ sm_status sm_job_inputs_set_params(sm_job_inputs *in, const sm_params *params, s
     int32_t nclamped = 0;
     in->failed = SM_PART_PARAMS;
     if ((st = sm_params_validate(params, in->dim, err)) != SM_OK ||
-        (st = sm_clamp_check(in->template_mesh, params, &nclamped, err)) != SM_OK)
+        (st = sm_clamp_check(in->template_mesh, params, &nclamped, err)) != SM_OK ||
+        (st = sm_clamp_check_parts(in->template_mesh, params, err)) != SM_OK)
         return st;
     in->failed = SM_NPARTS;
     in->params = *params;

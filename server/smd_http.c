@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -17,6 +18,50 @@
 #include "smd_reply.h"
 #include "smd_route_table.h"
 #include "smd_upload.h"
+
+/* ------------------------------------------------------------ strictness */
+
+/* Headers that must appear at most once: a second Content-Length makes the
+ * body's framing ambiguous (request smuggling behind a proxy that reads the
+ * other one), a second Authorization makes it unclear which credential was
+ * meant. */
+typedef struct {
+    unsigned content_length;
+    unsigned authorization;
+    unsigned host;
+} header_counts;
+
+static enum MHD_Result count_header(void *cls, enum MHD_ValueKind kind, const char *key,
+                                    const char *value)
+{
+    header_counts *c = cls;
+    (void)kind;
+    (void)value;
+    if (strcasecmp(key, MHD_HTTP_HEADER_CONTENT_LENGTH) == 0)
+        c->content_length++;
+    else if (strcasecmp(key, MHD_HTTP_HEADER_AUTHORIZATION) == 0)
+        c->authorization++;
+    else if (strcasecmp(key, MHD_HTTP_HEADER_HOST) == 0)
+        c->host++;
+    return MHD_YES;
+}
+
+/* The framing and credential rules libmicrohttpd leaves to us: NULL when
+ * the request may go on, else the detail of its 400. */
+static const char *request_strictness(struct MHD_Connection *conn, const char *version)
+{
+    header_counts c = {0, 0, 0};
+    MHD_get_connection_values(conn, MHD_HEADER_KIND, count_header, &c);
+    if (c.content_length > 1)
+        return "Content-Length: given more than once (the body's length is ambiguous)";
+    if (c.authorization > 1)
+        return "Authorization: given more than once (send one credential)";
+    if (c.host == 0 && version && strcmp(version, MHD_HTTP_VERSION_1_1) == 0)
+        return "Host: an HTTP/1.1 request must carry a Host header (RFC 9112, 3.2)";
+    if (c.host > 1)
+        return "Host: given more than once";
+    return NULL;
+}
 
 /* ---------------------------------------------------------------- routing */
 
@@ -86,7 +131,6 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
                                   size_t *upload_data_size, void **req_cls)
 {
     smd_server *srv = cls;
-    (void)version;
     smd_request *req = *req_cls;
     if (req) {
         if (!req->dispatched) {
@@ -122,6 +166,13 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
     if (!req)
         return MHD_NO;
     *req_cls = req;
+    const char *strict = request_strictness(conn, version);
+    if (strict) {
+        /* answered at once; the body (if any) is not read: the connection
+         * closes after the reply */
+        req->dispatched = 1;
+        return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST, "%s", strict);
+    }
     /* a body is coming (and not one refused outright for its size) */
     const char *length = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
                                                      MHD_HTTP_HEADER_CONTENT_LENGTH);

@@ -68,33 +68,45 @@ static void end_job(smd_server *srv, smd_job *job, sm_job_state state, sm_event 
     smd_log(&srv->log, log_level, log_event, log_fields(job, extra));
 }
 
-/* Moves the job's folder to trash/ and remembers it for after the lock. */
-static void trash_job(smd_server *srv, const smd_job *job, smd_jobs_after *after)
+/* Moves the job's folder to trash/ and remembers it for after the lock;
+ * -1 (logged, errno kept) when the spool refuses the rename. */
+static int trash_job(smd_server *srv, const smd_job *job, smd_jobs_after *after)
 {
     char path[PATH_MAX];
     if (smd_store_trash(srv->store, job->id, path, sizeof path) != 0) {
+        int saved = errno;
         smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "job %s: cannot delete: %s", job->id,
-                 strerror(errno));
-        return;
+                 strerror(saved));
+        errno = saved;
+        return -1;
     }
     char **t = path[0] ? realloc(after->trash, (after->ntrash + 1) * sizeof *after->trash) : NULL;
     if (!t)
-        return; /* left in trash/: emptied at the next start */
+        return 0; /* left in trash/: emptied at the next start */
     after->trash = t;
     if ((t[after->ntrash] = strdup(path)) != NULL)
         after->ntrash++;
+    return 0;
 }
 
-/* The job leaves the table: its followers end; its folder goes now, or
- * when its worker is gone. */
-static void remove_job(smd_server *srv, smd_job *job, smd_jobs_after *after)
+/* The job leaves the table: its followers end (with its final status);
+ * its folder goes now, or when its worker is gone.  Durable or refused:
+ * when the spool cannot take the rename the job stays as it was and
+ * SM_ERR_IO is returned (never "deleted" and back after a restart). */
+static sm_status remove_job(smd_server *srv, smd_job *job, smd_jobs_after *after, sm_error *err)
 {
-    smd_stream_collect_job(job, &after->wake);
-    if (job->worker_active)
+    if (job->worker_active) {
+        if (!smd_store_can_trash(srv->store))
+            return sm_error_set(err, SM_ERR_IO, "the spool cannot be written (%s): job %s kept",
+                                strerror(errno), job->id);
         job->delete_requested = 1;
-    else
-        trash_job(srv, job, after);
+    } else if (trash_job(srv, job, after) != 0) {
+        return sm_error_set(err, SM_ERR_IO, "the spool cannot be written (%s): job %s kept",
+                            strerror(errno), job->id);
+    }
+    smd_stream_collect_job(job, &after->wake);
     smd_store_unlink(srv->store, job);
+    return SM_OK;
 }
 
 void smd_jobs_after_run(smd_jobs_after *a)
@@ -324,9 +336,10 @@ sm_status smd_jobs_delete(smd_server *srv, smd_job *job, smd_jobs_after *after)
     sm_error err;
     if (!smd_job_state_final(job->state))
         return refuse(job, "delete", &err);
-    smd_log(&srv->log, SMD_LOG_INFO, "job_deleted", json_pack("{s:s}", "job", job->id));
-    remove_job(srv, job, after);
-    return SM_OK;
+    sm_status st = remove_job(srv, job, after, &err);
+    if (st == SM_OK)
+        smd_log(&srv->log, SMD_LOG_INFO, "job_deleted", json_pack("{s:s}", "job", job->id));
+    return st; /* errno says why the spool refused */
 }
 
 sm_status smd_jobs_expire(smd_server *srv, smd_job *job, smd_jobs_after *after)
@@ -334,9 +347,11 @@ sm_status smd_jobs_expire(smd_server *srv, smd_job *job, smd_jobs_after *after)
     sm_error err;
     if (!smd_job_state_final(job->state) || job->worker_active)
         return refuse(job, "expire", &err);
+    sm_error e;
+    if (remove_job(srv, job, after, &e) != SM_OK)
+        return SM_ERR_IO; /* logged by trash_job; retried next sweep */
     smd_logf(&srv->log, SMD_LOG_INFO, "job_expired", "job %s deleted after the retention time",
              job->id);
-    remove_job(srv, job, after);
     return SM_OK;
 }
 

@@ -94,7 +94,9 @@ void smd_jobs_worker_gone(smd_server *srv, smd_job *job, smd_jobs_after *after);
 
 /* DELETE of a final job, and the retention sweep: the job leaves the
  * table (its followers end) and its folder goes to trash/ (at once, or
- * when its worker is gone). */
+ * when its worker is gone).  When the spool refuses the rename (read-only,
+ * no permission) the job stays, visible and unchanged, and SM_ERR_IO is
+ * returned with errno set: a delete is durable or refused. */
 sm_status smd_jobs_delete(smd_server *srv, smd_job *job, smd_jobs_after *after);
 sm_status smd_jobs_expire(smd_server *srv, smd_job *job, smd_jobs_after *after);
 

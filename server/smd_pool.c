@@ -432,7 +432,9 @@ static void sweep_retention(smd_pool *p, smd_jobs_after *after)
             i++;
             continue;
         }
-        smd_jobs_expire(srv, job, after); /* shifts the list: do not advance i */
+        if (smd_jobs_expire(srv, job, after) != SM_OK)
+            i++; /* the spool refused: kept, tried again next round */
+        /* else it shifted the list: do not advance i */
     }
 }
 

@@ -322,6 +322,19 @@ enum MHD_Result smd_route_job_get(struct MHD_Connection *conn, smd_request *req)
     return smd_reply_json(conn, req, 200, doc);
 }
 
+/* Lock held: the spool refused the delete; the job is kept as it was. */
+static enum MHD_Result delete_refused(struct MHD_Connection *conn, smd_request *req,
+                                      smd_jobs_after *after, json_t *doc, int why)
+{
+    pthread_mutex_unlock(&req->srv->lock);
+    smd_jobs_after_free(after);
+    json_decref(doc);
+    return smd_reply_problem(conn, req, 503, SMD_PROBLEM_STORAGE,
+                             "cannot delete job %s: the spool cannot be written (%s); the job is "
+                             "kept, try again when the spool is writable",
+                             req->id, strerror(why));
+}
+
 enum MHD_Result smd_route_job_delete(struct MHD_Connection *conn, smd_request *req)
 {
     smd_server *srv = req->srv;
@@ -342,7 +355,8 @@ enum MHD_Result smd_route_job_delete(struct MHD_Connection *conn, smd_request *r
         doc = smd_status_document(job);
         json_object_set_new(doc, "message", json_string("deleted"));
         json_object_del(doc, "links");
-        smd_jobs_delete(srv, job, &after);
+        if (smd_jobs_delete(srv, job, &after) != SM_OK)
+            return delete_refused(conn, req, &after, doc, errno);
     }
     pthread_mutex_unlock(&srv->lock);
     smd_jobs_after_free(&after);

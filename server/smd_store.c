@@ -570,7 +570,16 @@ int smd_store_trash(smd_store *s, const char *id, char *trash_path, size_t cap)
         return -1;
     if (rename(dir, trash_path) != 0)
         return errno == ENOENT ? (trash_path[0] = '\0', 0) : -1;
+    /* the rename is the delete: on disk before the caller says "deleted"
+     * (an unsynced rename can come back after a crash) */
+    (void)smd_fsync_dir(s->jobs_dir);
+    (void)smd_fsync_dir(s->trash_dir);
     return 0;
+}
+
+int smd_store_can_trash(const smd_store *s)
+{
+    return access(s->jobs_dir, W_OK) == 0 && access(s->trash_dir, W_OK) == 0;
 }
 
 /* ------------------------------------------------------------ open/close */

@@ -133,10 +133,16 @@ void smd_job_unref(smd_job *job);
  * removed; its files stay until smd_store_delete_files. */
 void smd_store_unlink(smd_store *s, smd_job *job);
 
-/* Moves the job's folder to trash/ (instant, atomic); the caller then
- * removes trash_path (smd_rmtree) without the lock.  -1 on failure. */
+/* Moves the job's folder to trash/ (instant, atomic, both folders
+ * fsync'ed); the caller then removes trash_path (smd_rmtree) without the
+ * lock.  -1 on failure (errno), the folder then stays where it was. */
 int smd_store_trash(smd_store *s, const char *id, char *trash_path,
                     size_t cap);
+
+/* Whether jobs/ and trash/ accept the rename of smd_store_trash now (a
+ * read-only or unwritable spool refuses): the check of a delete that
+ * must wait for its worker to be gone. */
+int smd_store_can_trash(const smd_store *s);
 
 /* Persists the record (status.json) after a state change. */
 sm_status smd_store_save(smd_store *s, smd_job *job, sm_error *err);

@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* the metrics count the states by proto's numbering */
 _Static_assert(SM_JOB_ACCEPTED == 0 && SM_JOB_SUCCESSFUL == SMD_JOB_FIRST_FINAL &&
@@ -24,11 +25,38 @@ static json_t *log_fields(const smd_job *job, json_t *extra)
     return f;
 }
 
+/* The spool refused a write: stop taking work until it takes them again. */
+static void spool_refused(smd_server *srv, const char *msg)
+{
+    smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", msg);
+    if (!atomic_exchange(&srv->unwritable, 1))
+        smd_logf(&srv->log, SMD_LOG_ERROR, "spool_unwritable",
+                 "a record could not be written: no job is accepted or started until it can be");
+}
+
 static void save_or_log(smd_server *srv, smd_job *job)
 {
     sm_error err;
-    if (smd_store_save(srv->store, job, &err) != SM_OK)
-        smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
+    job->unsaved = smd_store_save(srv->store, job, &err) != SM_OK;
+    if (job->unsaved)
+        spool_refused(srv, err.msg);
+}
+
+void smd_jobs_retry_saves(smd_server *srv)
+{
+    if (!atomic_load(&srv->unwritable))
+        return;
+    sm_error err;
+    size_t left = 0;
+    for (size_t i = 0; i < smd_store_count(srv->store); i++) {
+        smd_job *job = smd_store_at(srv->store, i);
+        if (job->unsaved && (job->unsaved = smd_store_save(srv->store, job, &err) != SM_OK) != 0)
+            left++;
+    }
+    if (left == 0 && access(smd_store_root(srv->store), W_OK) == 0) {
+        atomic_store(&srv->unwritable, 0);
+        smd_logf(&srv->log, SMD_LOG_INFO, "spool_writable", "every record is written again: jobs are accepted");
+    }
 }
 
 /* Appends ev to the job's log, counts it and collects the followers. */
@@ -36,7 +64,7 @@ static void append_or_log(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_
 {
     sm_error err;
     if (smd_store_append_event(srv->store, job, ev, &err) != SM_OK) {
-        smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
+        spool_refused(srv, err.msg);
         return;
     }
     smd_metrics_add(&srv->metrics, &srv->metrics.events_appended, 1);

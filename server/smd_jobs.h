@@ -90,6 +90,13 @@ sm_status smd_jobs_requeue(smd_server *srv, smd_job *job, json_t *log_fields);
 
 /* The worker slot of job is free again (after one of the above); a DELETE
  * that came while it was stopping now removes the job's files. */
+/* Lock held, once a second by the supervisor: while srv->unwritable is
+ * set (a record or event write failed), writes the records that failed
+ * again; when all are written (and the spool is writable) the flag
+ * clears and jobs are accepted and started again.  A scan of the job
+ * table, one status.json write per unsaved job. */
+void smd_jobs_retry_saves(smd_server *srv);
+
 void smd_jobs_worker_gone(smd_server *srv, smd_job *job, smd_jobs_after *after);
 
 /* DELETE of a final job, and the retention sweep: the job leaves the

@@ -98,6 +98,10 @@ enum MHD_Result smd_route_readyz(struct MHD_Connection *conn, smd_request *req)
     if (atomic_load(&srv->draining))
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "shutting down: no new job is accepted");
+    if (atomic_load(&srv->unwritable))
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
+                                 "a job record could not be written (disk full?): no job is "
+                                 "accepted or started until the spool takes writes again");
     char jobs_dir[PATH_MAX];
     if (smd_pathf(jobs_dir, sizeof jobs_dir, "%s/jobs", smd_store_root(srv->store)) != 0 ||
         access(jobs_dir, W_OK) != 0)
@@ -128,6 +132,7 @@ enum MHD_Result smd_route_metrics(struct MHD_Connection *conn, smd_request *req)
     g.workers_busy = smd_pool_busy(srv->pool);
     g.workers_total = smd_pool_slots(srv->pool);
     g.followers = srv->nfollowers;
+    g.quarantined = smd_store_quarantined(srv->store);
     pthread_mutex_unlock(&srv->lock);
     g.start_time = srv->start_time;
     g.ready = !atomic_load(&srv->draining);

@@ -57,6 +57,10 @@ typedef struct smd_server {
 
     atomic_int draining;        /* shutdown began: refuse new jobs, /readyz 503 */
     atomic_int stopping;        /* event streams end */
+    atomic_int unwritable;      /* a record or event could not be written:
+                                 * /readyz 503, no new job accepted or
+                                 * started until the records are written
+                                 * again (smd_jobs_retry_saves) */
 } smd_server;
 
 #endif

@@ -77,6 +77,7 @@ typedef struct smd_job {
     int worker_active;        /* a worker process runs (or is being reaped) */
     int cancel_requested;     /* DELETE while running: stop the worker */
     int delete_requested;     /* DELETE of a job whose worker is stopping */
+    int unsaved;              /* its last record write failed: retried */
     struct smd_follower *followers; /* streams following this job */
     struct smd_job *hash_next;
 } smd_job;
@@ -143,6 +144,12 @@ int smd_store_trash(smd_store *s, const char *id, char *trash_path,
  * read-only or unwritable spool refuses): the check of a delete that
  * must wait for its worker to be gone. */
 int smd_store_can_trash(const smd_store *s);
+
+/* Records found damaged at open (unreadable or invalid status.json): each
+ * job folder was moved to SPOOL/quarantine/<id>-<8 hex>, logged
+ * (job_quarantined), and replaced by a record of a failed job whose
+ * message says "record damaged" and where the folder went. */
+size_t smd_store_quarantined(const smd_store *s);
 
 /* Persists the record (status.json) after a state change. */
 sm_status smd_store_save(smd_store *s, smd_job *job, sm_error *err);

@@ -246,6 +246,10 @@ enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
     if (atomic_load(&srv->draining))
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "the daemon is shutting down and accepts no new job");
+    if (atomic_load(&srv->unwritable))
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
+                                 "a job record could not be written (disk full?): no new job "
+                                 "until the spool takes writes again (see /readyz)");
     const char *length = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
     uint64_t n;
     int lrc = length ? smd_parse_uint(length, 0, srv->cfg.max_upload, &n) : SMD_NUM_OK;

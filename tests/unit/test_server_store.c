@@ -249,7 +249,17 @@ static void test_crash_leftovers(void **state)
     size_t queued;
     assert_int_equal(open_recovered(f, &s, &queued, &err), SM_OK);
     assert_int_equal(queued, 1);
-    assert_int_equal(smd_store_count(s), 1); /* corrupt and foreign records skipped */
+    /* the foreign folder is left alone; the two damaged records are
+     * quarantined and answer as failed jobs */
+    assert_int_equal(smd_store_count(s), 3);
+    assert_int_equal(smd_store_quarantined(s), 2);
+    const char *damaged[] = {"ffffffffffffffffffffffffffffffff", "eeeeeeeeeeeeeeeeeeeeeeeeeeeeeeee"};
+    for (int k = 0; k < 2; k++) {
+        smd_job *jd = smd_store_get(s, damaged[k]);
+        assert_non_null(jd);
+        assert_int_equal(jd->state, SM_JOB_FAILED);
+        assert_non_null(strstr(jd->message, "record damaged"));
+    }
     ja = smd_store_get(s, a);
     assert_non_null(ja);
     assert_int_equal(ja->state, SM_JOB_ACCEPTED);

@@ -132,11 +132,13 @@ sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
     out->failed = SM_NPARTS;
     double t0 = now_seconds();
     sm_status st;
-    if ((st = sm_mesh_read(files->template_mesh, &out->template_mesh, err)) != SM_OK) {
+    if ((st = sm_mesh_read_limited(files->template_mesh, files->limits, &out->template_mesh, err)) !=
+        SM_OK) {
         file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
         goto fail;
     }
-    if ((st = sm_mesh_read(files->target_mesh, &out->background, err)) != SM_OK) {
+    if ((st = sm_mesh_read_limited(files->target_mesh, files->limits, &out->background, err)) !=
+        SM_OK) {
         file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
         goto fail;
     }
@@ -147,7 +149,7 @@ sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
                           out->dim, out->background->dim);
         goto fail;
     }
-    if ((st = sm_sol_read(files->target_sol, &out->distance, err)) != SM_OK) {
+    if ((st = sm_sol_read_limited(files->target_sol, files->limits, &out->distance, err)) != SM_OK) {
         file_error(err, naming, SM_PART_TARGET_SOL, files->target_sol, out);
         goto fail;
     }
@@ -173,7 +175,7 @@ sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
     out->read_seconds = now_seconds() - t0;
     return SM_OK;
 fail:
-    if (st == SM_ERR_NOMEM)
+    if (st == SM_ERR_NOMEM && !(files->limits && files->limits->hit))
         out->failed = SM_NPARTS;
     sm_job_inputs_free(out);
     return st;

@@ -335,6 +335,18 @@ static int write_job_file(smd_upload *u, const sm_job_inputs *in)
     return rc;
 }
 
+/* An input beyond one of the configured bounds: 413 naming the flag. */
+static enum MHD_Result limit_refused(struct MHD_Connection *conn, smd_request *req,
+                                     const sm_read_limits *limits, const sm_error *err)
+{
+    const char *flag = limits->hit == SM_LIMIT_INFLATED   ? "--max-inflated"
+                       : limits->hit == SM_LIMIT_VERTICES ? "--max-vertices"
+                                                          : "--max-elements";
+    return smd_reply_problem(conn, req, 413, SMD_PROBLEM_TOO_LARGE,
+                             "%s (the daemon's %s; its operator can raise it%s)", err->msg, flag,
+                             limits->hit == SM_LIMIT_INFLATED ? "" : ", or --memory-limit");
+}
+
 static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *req, smd_upload *u)
 {
     smd_server *srv = req->srv;
@@ -361,10 +373,16 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
     sm_job_inputs in;
     sm_error err;
     sm_error_clear(&err);
+    sm_read_limits limits = {.max_inflated = srv->cfg.max_inflated,
+                             .max_vertices = (int64_t)srv->cfg.max_vertices,
+                             .max_elements = (int64_t)srv->cfg.max_elements};
     sm_job_files files = {.template_mesh = u->path[SM_PART_TEMPLATE],
                           .target_mesh = u->path[SM_PART_TARGET_MESH],
-                          .target_sol = u->path[SM_PART_TARGET_SOL]};
+                          .target_sol = u->path[SM_PART_TARGET_SOL],
+                          .limits = &limits};
     sm_status st = sm_job_inputs_load(&files, u->params ? u->params : "", u->params_len, &in, &err);
+    if (st != SM_OK && limits.hit)
+        return limit_refused(conn, req, &limits, &err);
     if (st != SM_OK) {
         if (st == SM_ERR_IO)
             return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "%s", err.msg);

@@ -35,8 +35,9 @@ static const opt options[] = {
     {"--workers", "SHAPEMATCH_WORKERS", "N", OPT_INT, OFF(workers), 1, 1024,
      "worker processes running at the same time", "number of cores"},
     {"--tokens-file", "SHAPEMATCH_TOKENS_FILE", "FILE", OPT_PATH, OFF(tokens_file), 0, 0,
-     "bearer tokens, one per line ('#' comments); requests without one get 401 "
-     "(/healthz and /readyz stay open)", "none: no authentication"},
+     "bearer tokens, one per line as TOKEN [TENANT [admin]] ('#' comments); requests "
+     "without one get 401 (/healthz and /readyz stay open); tenants see their own jobs "
+     "only, admins all; SIGHUP reloads it", "none: no authentication"},
     {"--max-upload", "SHAPEMATCH_MAX_UPLOAD", "BYTES", OPT_SIZE, OFF(max_upload), 1024, 1e15,
      "largest POST /v1/jobs body (K, M, G suffixes); larger ones get 413", "256M"},
     {"--max-inflated", "SHAPEMATCH_MAX_INFLATED", "BYTES", OPT_SIZE, OFF(max_inflated), 0, 1e15,

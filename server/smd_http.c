@@ -81,15 +81,25 @@ static enum MHD_Result dispatch(struct MHD_Connection *conn, smd_request *req)
                              req->path);
 }
 
+/* The token's tenant; the tokens may be replaced by SIGHUP meanwhile. */
+static smd_auth_result identify(smd_server *srv, const char *auth, smd_identity *who)
+{
+    pthread_mutex_lock(&srv->tokens_lock);
+    smd_auth_result a = smd_tokens_identify(srv->tokens, auth, who);
+    pthread_mutex_unlock(&srv->tokens_lock);
+    return a;
+}
+
 /* Authentication, then the route's handler. */
 static enum MHD_Result handle(struct MHD_Connection *conn, smd_request *req)
 {
     smd_server *srv = req->srv;
     req->dispatched = 1;
+    req->who.admin = 1; /* no tokens: one tenant that sees everything */
     if (srv->tokens && !req->public_path) {
         const char *auth = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
                                                        MHD_HTTP_HEADER_AUTHORIZATION);
-        smd_auth_result a = smd_tokens_check(srv->tokens, auth);
+        smd_auth_result a = identify(srv, auth, &req->who);
         if (a != SMD_AUTH_OK)
             return smd_reply_problem(conn, req, 401, SMD_PROBLEM_UNAUTHORIZED,
                                      a == SMD_AUTH_MISSING

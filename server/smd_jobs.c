@@ -162,7 +162,7 @@ sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **
 {
     const char *key = sub->idempotency_key && sub->idempotency_key[0] ? sub->idempotency_key : NULL;
     *created = 0;
-    *out = key ? smd_store_find_key(srv->store, key) : NULL;
+    *out = key ? smd_store_find_key(srv->store, sub->owner, key) : NULL;
     if (*out)
         return SM_OK; /* a retry with the same key */
     if (!smd_id_valid(sub->id))
@@ -177,6 +177,8 @@ sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **
     job->max_iter = sub->max_iter;
     if (key)
         snprintf(job->idempotency_key, sizeof job->idempotency_key, "%s", key);
+    if (sub->owner)
+        snprintf(job->owner, sizeof job->owner, "%s", sub->owner);
     sm_event ev;
     sm_event_init(&ev, SM_EVENT_ACCEPTED);
     ev.time = job->created;

@@ -52,6 +52,8 @@ typedef struct smd_submission {
     const char *dir;              /* prepared folder: inputs/ and job.json */
     const char *id;               /* fresh job id */
     const char *idempotency_key;  /* NULL or "" for none */
+    const char *owner;            /* tenant, NULL or "" for none; the key is
+                                   * looked up among its jobs only */
     int dim, max_iter;
     int32_t nverts, nelems;       /* for the log */
     uint64_t bytes;               /* upload size, for the log */

@@ -273,7 +273,8 @@ enum MHD_Result smd_route_jobs_list(struct MHD_Connection *conn, smd_request *re
     size_t n = smd_store_count(srv->store);
     for (size_t k = 0; k < n; k++) { /* oldest first */
         smd_job *job = smd_store_at(srv->store, k);
-        if (wanted && !(wanted & (1u << job->state)))
+        if ((wanted && !(wanted & (1u << job->state))) ||
+            !smd_job_visible(job, req->who.tenant, req->who.admin))
             continue;
         if (matched >= offset && matched < offset + limit)
             json_array_append_new(jobs, smd_status_document(job));
@@ -319,7 +320,7 @@ enum MHD_Result smd_route_job_get(struct MHD_Connection *conn, smd_request *req)
 {
     smd_server *srv = req->srv;
     pthread_mutex_lock(&srv->lock);
-    smd_job *job = smd_store_get(srv->store, req->id);
+    smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
     json_t *doc = job ? smd_status_document(job) : NULL;
     pthread_mutex_unlock(&srv->lock);
     if (!job)
@@ -346,7 +347,7 @@ enum MHD_Result smd_route_job_delete(struct MHD_Connection *conn, smd_request *r
     smd_jobs_after after = {0};
     json_t *doc = NULL;
     pthread_mutex_lock(&srv->lock);
-    smd_job *job = smd_store_get(srv->store, req->id);
+    smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
     if (!job) {
         pthread_mutex_unlock(&srv->lock);
         return no_such_job(conn, req);
@@ -397,7 +398,7 @@ enum MHD_Result smd_route_events(struct MHD_Connection *conn, smd_request *req)
                                  SMD_REQUEST_INT_MAX);
     char msg[256];
     pthread_mutex_lock(&srv->lock);
-    smd_job *job = smd_store_get(srv->store, req->id);
+    smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
     struct MHD_Response *resp =
         job ? smd_stream_response(srv, job, conn, choice == 1, (int64_t)after, &req->bytes_out, msg, sizeof msg)
             : NULL;

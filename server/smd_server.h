@@ -41,7 +41,9 @@ struct smd_follower;
 typedef struct smd_server {
     smd_config cfg;
     smd_logger log;
-    smd_tokens *tokens;         /* NULL: no authentication */
+    smd_tokens *tokens;         /* NULL: no authentication; replaced on
+                                 * SIGHUP under tokens_lock */
+    pthread_mutex_t tokens_lock;
     smd_metrics metrics;
     double start_time;          /* Unix seconds */
 

@@ -148,14 +148,26 @@ smd_job *smd_store_get(smd_store *s, const char *id)
     return NULL;
 }
 
-smd_job *smd_store_find_key(smd_store *s, const char *key)
+smd_job *smd_store_find_key(smd_store *s, const char *owner, const char *key)
 {
     if (!key || !*key)
         return NULL;
     for (size_t i = 0; i < s->njobs; i++)
-        if (strcmp(s->jobs[i]->idempotency_key, key) == 0)
+        if (strcmp(s->jobs[i]->idempotency_key, key) == 0 &&
+            strcmp(s->jobs[i]->owner, owner ? owner : "") == 0)
             return s->jobs[i];
     return NULL;
+}
+
+int smd_job_visible(const smd_job *job, const char *tenant, int admin)
+{
+    return admin || strcmp(job->owner, tenant ? tenant : "") == 0;
+}
+
+smd_job *smd_store_get_visible(smd_store *s, const char *id, const char *tenant, int admin)
+{
+    smd_job *job = smd_store_get(s, id);
+    return job && smd_job_visible(job, tenant, admin) ? job : NULL;
 }
 
 size_t smd_store_count(const smd_store *s)
@@ -261,6 +273,8 @@ static json_t *record_to_json(const smd_job *job)
     json_object_set_new(o, "maxIter", json_integer(job->max_iter));
     if (job->idempotency_key[0])
         json_object_set_new(o, "idempotencyKey", json_string(job->idempotency_key));
+    if (job->owner[0])
+        json_object_set_new(o, "owner", json_string(job->owner));
     return o;
 }
 
@@ -335,6 +349,9 @@ static int record_from_json(json_t *o, const char *id, smd_job *job, char *why, 
         snprintf(why, cap, "bad time stamp");
         return -1;
     }
+    v = json_object_get(o, "owner");
+    if (json_is_string(v) && strlen(json_string_value(v)) <= SMD_OWNER_MAX)
+        strcpy(job->owner, json_string_value(v));
     v = json_object_get(o, "idempotencyKey");
     if (json_is_string(v) && strlen(json_string_value(v)) <= SMD_IDEMPOTENCY_KEY_MAX)
         strcpy(job->idempotency_key, json_string_value(v));

@@ -36,6 +36,7 @@
 #include "smd_util.h"
 
 #define SMD_IDEMPOTENCY_KEY_MAX SM_IDEMPOTENCY_KEY_MAX /* proto/sm_proto_vocab.h */
+#define SMD_OWNER_MAX 64 /* = SMD_TENANT_MAX (smd_auth.h) */
 
 /* Bounds of the numbers of a record (status.json is outside input: a
  * restored backup, a hand edit).  A record whose "order" or "attempt" is
@@ -59,6 +60,7 @@ typedef struct smd_job {
     int dim;                  /* template dimension */
     int max_iter;             /* for the progress estimate */
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1]; /* "" = none */
+    char owner[SMD_OWNER_MAX + 1]; /* tenant of the submitting token, "" = none */
 
     /* last progress event, shown in the status document */
     int have_progress;
@@ -99,7 +101,12 @@ const char *smd_store_tmp_dir(const smd_store *s);
 
 smd_job *smd_store_get(smd_store *s, const char *id);
 /* The job submitted with this Idempotency-Key, or NULL. */
-smd_job *smd_store_find_key(smd_store *s, const char *key);
+smd_job *smd_store_find_key(smd_store *s, const char *owner, const char *key);
+/* smd_store_get, NULL as well when the job is another tenant's (admin:
+ * every job is visible): other tenants learn nothing, not even that the
+ * id exists. */
+smd_job *smd_store_get_visible(smd_store *s, const char *id, const char *tenant, int admin);
+int smd_job_visible(const smd_job *job, const char *tenant, int admin);
 size_t smd_store_count(const smd_store *s);
 /* i-th job in submission order (0 <= i < count). */
 smd_job *smd_store_at(smd_store *s, size_t i);

@@ -270,7 +270,7 @@ enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
                                  SMD_IDEMPOTENCY_KEY_MAX);
     if (key) {
         pthread_mutex_lock(&srv->lock);
-        smd_job *job = smd_store_find_key(srv->store, key);
+        smd_job *job = smd_store_find_key(srv->store, req->who.tenant, key);
         enum MHD_Result r = MHD_YES;
         if (job)
             r = reply_existing(conn, req, job);
@@ -401,6 +401,7 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "no random source for the job id: %s", strerror(errno));
     smd_submission sub = {.dir = u->dir, .id = id, .idempotency_key = u->idempotency_key,
+                          .owner = req->who.tenant,
                           .dim = dim, .max_iter = max_iter, .nverts = nverts, .nelems = nelems,
                           .bytes = u->received};
     smd_jobs_after after = {0};

@@ -130,8 +130,8 @@ static void test_commit_and_reopen(void **state)
     assert_ptr_equal(smd_store_get(s, b), jb);
     assert_null(smd_store_get(s, "cccccccccccccccccccccccccccccccc"));
     assert_null(smd_store_get(s, "../../etc"));
-    assert_ptr_equal(smd_store_find_key(s, "key-1"), ja);
-    assert_null(smd_store_find_key(s, "key-2"));
+    assert_ptr_equal(smd_store_find_key(s, NULL, "key-1"), ja);
+    assert_null(smd_store_find_key(s, NULL, "key-2"));
     assert_true(ja->order < jb->order);
     assert_int_equal(ja->state, SM_JOB_ACCEPTED);
     assert_int_equal(ja->nevents, 1); /* "accepted" */
@@ -195,7 +195,7 @@ static void test_commit_and_reopen(void **state)
     assert_int_equal(ja->attempt, 1);
     assert_non_null(strstr(ja->message, "re-queued"));
     assert_int_equal(ja->nevents, 6);
-    assert_ptr_equal(smd_store_find_key(s, "key-1"), ja);
+    assert_ptr_equal(smd_store_find_key(s, NULL, "key-1"), ja);
     /* the next job sorts after the reloaded ones */
     smd_job *jc = commit(f, s, "cccccccccccccccccccccccccccccccc", NULL);
     assert_true(jc->order > jb->order);

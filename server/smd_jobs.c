@@ -366,9 +366,11 @@ sm_status smd_jobs_delete(smd_server *srv, smd_job *job, smd_jobs_after *after)
     sm_error err;
     if (!smd_job_state_final(job->state))
         return refuse(job, "delete", &err);
+    char id[sizeof job->id];
+    memcpy(id, job->id, sizeof id); /* job may be freed by the removal */
     sm_status st = remove_job(srv, job, after, &err);
     if (st == SM_OK)
-        smd_log(&srv->log, SMD_LOG_INFO, "job_deleted", json_pack("{s:s}", "job", job->id));
+        smd_log(&srv->log, SMD_LOG_INFO, "job_deleted", json_pack("{s:s}", "job", id));
     return st; /* errno says why the spool refused */
 }
 
@@ -378,10 +380,11 @@ sm_status smd_jobs_expire(smd_server *srv, smd_job *job, smd_jobs_after *after)
     if (!smd_job_state_final(job->state) || job->worker_active)
         return refuse(job, "expire", &err);
     sm_error e;
+    char id[sizeof job->id];
+    memcpy(id, job->id, sizeof id); /* job may be freed by the removal */
     if (remove_job(srv, job, after, &e) != SM_OK)
         return SM_ERR_IO; /* logged by trash_job; retried next sweep */
-    smd_logf(&srv->log, SMD_LOG_INFO, "job_expired", "job %s deleted after the retention time",
-             job->id);
+    smd_logf(&srv->log, SMD_LOG_INFO, "job_expired", "job %s deleted after the retention time", id);
     return SM_OK;
 }
 

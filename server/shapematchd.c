@@ -27,6 +27,7 @@
 #include "smd_route_table.h"
 #include "smd_server.h"
 #include "smd_stream.h"
+#include "smd_tls.h"
 
 /* The one global: the main thread's id, written once before the handler
  * is installed. */
@@ -171,6 +172,10 @@ static int configure(smd_server *srv, int argc, char **argv)
         smd_logf(&srv->log, SMD_LOG_ERROR, "config", "--tokens-file %s", msg);
         return 2;
     }
+    if (srv->cfg.tls_cert[0] && smd_tls_load(srv->cfg.tls_cert, srv->cfg.tls_key, msg, sizeof msg) != 0) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "config", "--tls-cert/--tls-key: %s", msg);
+        return 2;
+    }
 #if defined(__SANITIZE_ADDRESS__)
     if (srv->cfg.memory_limit > 0)
         smd_logf(&srv->log, SMD_LOG_WARN, "config",
@@ -240,10 +245,25 @@ static int start_parts(smd_server *srv, size_t *queued)
     return 0;
 }
 
+/* SIGHUP, TLS part: the next handshakes use the new pair. */
+static void reload_tls(smd_server *srv)
+{
+    char msg[512];
+    if (!srv->cfg.tls_cert[0])
+        return;
+    if (smd_tls_load(srv->cfg.tls_cert, srv->cfg.tls_key, msg, sizeof msg) != 0)
+        smd_logf(&srv->log, SMD_LOG_ERROR, "reload", "SIGHUP: %s; the certificate in use is kept",
+                 msg);
+    else
+        smd_log(&srv->log, SMD_LOG_INFO, "tls_reloaded",
+                json_pack("{s:s,s:s}", "cert", srv->cfg.tls_cert, "key", srv->cfg.tls_key));
+}
+
 /* SIGHUP: the tokens file again (a daemon started without one stays
  * open); a file that does not load keeps the tokens in use. */
 static void reload(smd_server *srv)
 {
+    reload_tls(srv);
     if (!srv->cfg.tokens_file[0]) {
         smd_logf(&srv->log, SMD_LOG_INFO, "reload", "SIGHUP: no --tokens-file, nothing to reload");
         return;

@@ -38,6 +38,11 @@ static const opt options[] = {
      "bearer tokens, one per line as TOKEN [TENANT [admin]] ('#' comments); requests "
      "without one get 401 (/healthz and /readyz stay open); tenants see their own jobs "
      "only, admins all; SIGHUP reloads it", "none: no authentication"},
+    {"--tls-cert", "SHAPEMATCH_TLS_CERT", "FILE", OPT_PATH, OFF(tls_cert), 0, 0,
+     "serve HTTPS (TLS 1.2 and 1.3) with this PEM certificate chain, leaf first; needs "
+     "--tls-key; SIGHUP reloads both", "none: plain HTTP"},
+    {"--tls-key", "SHAPEMATCH_TLS_KEY", "FILE", OPT_PATH, OFF(tls_key), 0, 0,
+     "the PEM private key of --tls-cert", "none"},
     {"--max-upload", "SHAPEMATCH_MAX_UPLOAD", "BYTES", OPT_SIZE, OFF(max_upload), 1024, 1e15,
      "largest POST /v1/jobs body (K, M, G suffixes); larger ones get 413", "256M"},
     {"--max-inflated", "SHAPEMATCH_MAX_INFLATED", "BYTES", OPT_SIZE, OFF(max_inflated), 0, 1e15,
@@ -286,6 +291,10 @@ smd_config_result smd_config_parse(smd_config *c, int argc, char **argv,
     }
     if (c->spool[0] == '\0') {
         snprintf(msg, cap, "--spool: must not be empty");
+        return SMD_CONFIG_ERROR;
+    }
+    if (!c->tls_cert[0] != !c->tls_key[0]) {
+        snprintf(msg, cap, "--tls-cert and --tls-key go together");
         return SMD_CONFIG_ERROR;
     }
     derive_limits(c);

@@ -16,6 +16,8 @@ typedef struct smd_config {
     char spool[PATH_MAX];         /* --spool DIR */
     int workers;                  /* --workers N: concurrent worker processes */
     char tokens_file[PATH_MAX];   /* --tokens-file FILE ("" = no auth) */
+    char tls_cert[PATH_MAX];      /* --tls-cert FILE: PEM chain ("" = plain HTTP) */
+    char tls_key[PATH_MAX];       /* --tls-key FILE: PEM key (with --tls-cert) */
     uint64_t max_upload;          /* --max-upload BYTES: whole request body */
     uint64_t max_inflated;        /* --max-inflated: decompressed bytes of one
                                    * .gz part (0 given: 4 x --max-upload) */

@@ -17,6 +17,7 @@
 #include "sm_proto_text.h"
 #include "smd_reply.h"
 #include "smd_route_table.h"
+#include "smd_tls.h"
 #include "smd_upload.h"
 
 /* ------------------------------------------------------------ strictness */
@@ -284,6 +285,15 @@ sm_status smd_http_start(smd_server *srv, sm_error *err)
                             "--listen: '%s' is not a numeric IPv4/IPv6 address (or localhost)",
                             cfg->listen_host);
     }
+    /* TLS: the certificate comes from smd_tls at each handshake */
+    struct MHD_OptionItem tls[] = {
+        {MHD_OPTION_HTTPS_CERT_CALLBACK, 0, smd_tls_callback()},
+        {MHD_OPTION_HTTPS_PRIORITIES, 0, (void *)SMD_TLS_PRIORITIES},
+        {MHD_OPTION_END, 0, NULL}};
+    if (cfg->tls_cert[0])
+        flags |= MHD_USE_TLS;
+    else
+        tls[0].option = MHD_OPTION_END;
     /* Per-connection buffers come from the connection's pool, and the
      * pool must hold the request headers plus a send buffer. */
     srv->httpd = MHD_start_daemon(
@@ -293,7 +303,7 @@ sm_status smd_http_start(smd_server *srv, sm_error *err)
         MHD_OPTION_CONNECTION_LIMIT, cfg->max_connections, MHD_OPTION_PER_IP_CONNECTION_LIMIT,
         cfg->max_connections_per_ip, MHD_OPTION_CONNECTION_TIMEOUT, cfg->connection_timeout,
         MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)cfg->connection_memory,
-        MHD_OPTION_NOTIFY_COMPLETED, on_completed, srv, MHD_OPTION_END);
+        MHD_OPTION_NOTIFY_COMPLETED, on_completed, srv, MHD_OPTION_ARRAY, tls, MHD_OPTION_END);
     if (!srv->httpd)
         return sm_error_set(err, SM_ERR_IO, "cannot listen on %s:%u (address in use, or not local?)",
                             cfg->listen_host, cfg->listen_port);
@@ -317,5 +327,6 @@ void smd_http_stop(smd_server *srv)
         MHD_stop_daemon(srv->httpd);
         srv->httpd = NULL;
     }
+    smd_tls_shutdown();
 }
 

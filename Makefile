@@ -16,7 +16,7 @@ VERSION := 0.1.0
 # Debian packages the build, the tests, the demo and the benchmarks need.
 DEB_PACKAGES := gcc make pkg-config libc6-dev \
   libsuitesparse-dev libopenblas0-pthread zlib1g-dev libcmocka-dev libjansson-dev \
-  libmicrohttpd-dev libcurl4-openssl-dev curl gmsh wrk jq systemd python3 python3-yaml strace \
+  libmicrohttpd-dev libgnutls28-dev libcurl4-openssl-dev curl gmsh wrk jq systemd python3 python3-yaml strace \
   pmccabe clang libclang-rt-14-dev libomp-14-dev nodejs
 
 CC ?= cc
@@ -31,7 +31,7 @@ ASAN_LDFLAGS := -fopenmp -fsanitize=address,undefined
 
 CORE_LIBS := -fopenmp -lcholmod -lz -lm
 PROTO_LIBS := -ljansson
-HTTP_LIBS := -lmicrohttpd
+HTTP_LIBS := -lmicrohttpd -lgnutls
 CURL_LIBS := -lcurl
 
 VARIANTS := release asan

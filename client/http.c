@@ -284,6 +284,8 @@ http_outcome http_perform(http_client *c, const http_request *rq, http_response 
         headers = h;
     }
     curl_easy_setopt(curl, CURLOPT_URL, url);
+    if (c->cacert)
+        curl_easy_setopt(curl, CURLOPT_CAINFO, c->cacert);
     curl_easy_setopt(curl, CURLOPT_PROTOCOLS_STR, "http,https");
     curl_easy_setopt(curl, CURLOPT_FOLLOWLOCATION, 0L);
     curl_easy_setopt(curl, CURLOPT_USERAGENT, "shapematch/" SM_VERSION);

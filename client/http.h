@@ -32,6 +32,7 @@ typedef struct http_client {
     char *base;            /* "http://host:port[/prefix]", no trailing '/' */
     char *auth_header;     /* "Authorization: Bearer ...", or NULL */
     long connect_timeout_ms;
+    const char *cacert;    /* PEM CA file for https (borrowed), NULL: the system's */
 } http_client;
 
 /* curl_global_init / curl_global_cleanup, once per process. */

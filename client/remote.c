@@ -10,11 +10,12 @@
 
 /* ------------------------------------------------------------ parsing */
 
-enum { FLAG_SERVER = -10, FLAG_TOKEN = -11 };
+enum { FLAG_SERVER = -10, FLAG_TOKEN = -11, FLAG_CACERT = -12 };
 
 static const cli_flag connection_flags[] = {
     {"--server", 1, FLAG_SERVER},
     {"--token", 1, FLAG_TOKEN},
+    {"--cacert", 1, FLAG_CACERT},
 };
 
 static const cli_flag *find_flag(const cli_flag *flags, size_t n, const char *name)
@@ -33,6 +34,8 @@ args_result remote_parse(int argc, char **argv, const cli_flag *flags, size_t nf
     const char *env_token = getenv("SHAPEMATCH_TOKEN");
     conn->server = env_server && env_server[0] ? env_server : REMOTE_DEFAULT_SERVER;
     conn->token = env_token && env_token[0] ? env_token : NULL;
+    const char *env_cacert = getenv("SHAPEMATCH_CACERT");
+    conn->cacert = env_cacert && env_cacert[0] ? env_cacert : NULL;
     int only_positional = 0;
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i];
@@ -84,6 +87,8 @@ args_result remote_parse(int argc, char **argv, const cli_flag *flags, size_t nf
             conn->server = value;
         } else if (id == FLAG_TOKEN) {
             conn->token = value[0] ? value : NULL;
+        } else if (id == FLAG_CACERT) {
+            conn->cacert = value[0] ? value : NULL;
         } else if (fn(user, id, flag, value, msg, cap) != 0) {
             return ARGS_ERROR;
         }
@@ -98,7 +103,10 @@ void remote_help_connection(FILE *out)
           "                          else " REMOTE_DEFAULT_SERVER ")\n"
           "  --token TOKEN           bearer token, sent as 'Authorization: Bearer TOKEN'\n"
           "                          (default: $SHAPEMATCH_TOKEN; prefer the variable: a\n"
-          "                          command line is visible to other users)\n",
+          "                          command line is visible to other users)\n"
+          "  --cacert FILE           trust the CA certificates (PEM) of FILE for an https://\n"
+          "                          daemon, e.g. a self-signed one (default:\n"
+          "                          $SHAPEMATCH_CACERT, else the system's CAs)\n",
           out);
 }
 
@@ -139,6 +147,7 @@ int remote_open(const char *cmd, const remote_options *conn, http_client *c)
         http_global_cleanup();
         return remote_usage_error(cmd, msg);
     }
+    c->cacert = conn->cacert; /* borrowed: argv or the environment */
     return 0;
 }
 

@@ -38,6 +38,7 @@ typedef int (*cli_flag_fn)(void *user, int id, const char *flag, const char *val
 typedef struct remote_options {
     const char *server;        /* --server, else $SHAPEMATCH_SERVER, else the default */
     const char *token;         /* --token, else $SHAPEMATCH_TOKEN, else none */
+    const char *cacert;        /* --cacert, else $SHAPEMATCH_CACERT, else the system CAs */
 } remote_options;
 
 /* Parses argv[1..] GNU-style ("--name value", "--name=value"; "--" ends

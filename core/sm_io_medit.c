@@ -730,6 +730,12 @@ static sm_status build_mesh(medit_in *c, sm_mesh **out)
 
 sm_status sm_mesh_read(const char *path, sm_mesh **out, sm_error *err)
 {
+    return sm_mesh_read_limited(path, NULL, out, err);
+}
+
+sm_status sm_mesh_read_limited(const char *path, sm_read_limits *limits, sm_mesh **out,
+                               sm_error *err)
+{
     *out = NULL;
     if (!path)
         return sm_error_set(err, SM_ERR_INVALID, "no mesh file name");
@@ -739,6 +745,7 @@ sm_status sm_mesh_read(const char *path, sm_mesh **out, sm_error *err)
     sm_status st = sm_reader_open(&c.r, path, err);
     if (st != SM_OK)
         return st;
+    c.r.limits = limits;
     if (sm__msh_detect(&c.r)) {
         sm_msh_data d;
         st = sm__msh_parse(&c.r, &d, err);

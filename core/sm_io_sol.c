@@ -317,6 +317,12 @@ static sm_status read_binary(sol_in *c)
 
 sm_status sm_sol_read(const char *path, sm_sol **out, sm_error *err)
 {
+    return sm_sol_read_limited(path, NULL, out, err);
+}
+
+sm_status sm_sol_read_limited(const char *path, sm_read_limits *limits, sm_sol **out,
+                              sm_error *err)
+{
     *out = NULL;
     if (!path)
         return sm_error_set(err, SM_ERR_INVALID, "no solution file name");
@@ -326,6 +332,7 @@ sm_status sm_sol_read(const char *path, sm_sol **out, sm_error *err)
     sm_status st = sm_reader_open(&c.r, path, err);
     if (st != SM_OK)
         return st;
+    c.r.limits = limits;
     int binary;
     st = sm_medit_detect(&c.r, &binary, err);
     if (st == SM_OK)

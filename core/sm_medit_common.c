@@ -111,6 +111,18 @@ sm_status sm_medit_check_count(sm_reader *r, int binary, const char *section, in
                                             (long long)n, SM_MAX_ENTITIES)
                       : sm_reader_fail_line(r, err, SM_ERR_FORMAT, fmt_big, section, (long long)n,
                                             SM_MAX_ENTITIES);
+    const sm_read_limits *lim = r->limits;
+    int vertices = strcmp(section, "Vertices") == 0 || strcmp(section, "SolAtVertices") == 0;
+    int64_t most = !lim ? 0 : vertices ? lim->max_vertices : lim->max_elements;
+    if (most > 0 && n > most) {
+        const char *fmt_lim = "%s count %lld exceeds the limit of %lld %s";
+        r->limits->hit = vertices ? SM_LIMIT_VERTICES : SM_LIMIT_ELEMENTS;
+        const char *what = vertices ? "vertices" : "records";
+        return binary ? sm_reader_fail_byte(r, err, SM_ERR_NOMEM, where, fmt_lim, section,
+                                            (long long)n, (long long)most, what)
+                      : sm_reader_fail_line(r, err, SM_ERR_NOMEM, fmt_lim, section, (long long)n,
+                                            (long long)most, what);
+    }
     /* An ASCII record's last token needs no separator after it. */
     uint64_t need = (uint64_t)n * min_record_bytes;
     if (!binary && need > 0)

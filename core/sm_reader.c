@@ -106,7 +106,13 @@ uint64_t sm_reader_max_remaining(const sm_reader *r)
         return UINT64_MAX / 2;
     /* The whole decompressed size bounds what is left; the slack covers
      * gzip headers and zlib's internal buffering. */
-    return r->file_size * DEFLATE_MAX_RATIO + 2 * SM_STREAM_ZLIB_BUF_SIZE + READ_BUF_SIZE;
+    uint64_t most = r->file_size * DEFLATE_MAX_RATIO + 2 * SM_STREAM_ZLIB_BUF_SIZE + READ_BUF_SIZE;
+    if (r->limits && r->limits->max_inflated) {
+        uint64_t cap = r->limits->max_inflated > off ? r->limits->max_inflated - off : 0;
+        if (cap < most)
+            most = cap;
+    }
+    return most;
 }
 
 /* Appends more bytes to the buffer; sets at_eof or stream_status. */
@@ -146,6 +152,13 @@ static void refill(sm_reader *r)
         return;
     }
     r->len += (size_t)n;
+    if (r->compressed && r->limits && r->limits->max_inflated &&
+        r->buf_offset + r->len > r->limits->max_inflated) {
+        r->stream_status = SM_ERR_NOMEM;
+        r->limits->hit = SM_LIMIT_INFLATED;
+        why(r, "decompresses to more than the limit of %llu bytes",
+            (unsigned long long)r->limits->max_inflated);
+    }
 }
 
 static inline int peek_byte(sm_reader *r)

@@ -26,6 +26,7 @@
 #include <zlib.h>
 
 #include "shapematch/sm_error.h"
+#include "shapematch/sm_io.h"
 
 #define SM_READER_WHY_LEN 160
 #define SM_TOKEN_LEN 128
@@ -46,6 +47,7 @@ typedef struct sm_reader {
     int swap;                /* binary: byte order differs from ours */
     char why[SM_READER_WHY_LEN];
     locale_t c_locale, saved_locale;
+    sm_read_limits *limits;  /* borrowed; NULL: none (sm_io.h) */
 } sm_reader;
 
 /* Opens path for reading (plain or gzip).  On failure nothing needs to

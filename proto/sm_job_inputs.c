@@ -240,7 +240,8 @@ sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
     out->failed = SM_NPARTS;
     double t0 = now_seconds();
     sm_status st;
-    if ((st = sm_mesh_read(files->template_mesh, &out->template_mesh, err)) != SM_OK) {
+    if ((st = sm_mesh_read_limited(files->template_mesh, files->limits, &out->template_mesh, err)) !=
+        SM_OK) {
         file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
         goto fail;
     }
@@ -255,7 +256,8 @@ sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
             goto fail;
         goto prepare;
     }
-    if ((st = sm_mesh_read(files->target_mesh, &out->background, err)) != SM_OK) {
+    if ((st = sm_mesh_read_limited(files->target_mesh, files->limits, &out->background, err)) !=
+        SM_OK) {
         file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
         goto fail;
     }
@@ -265,7 +267,7 @@ sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
                           out->dim, out->background->dim);
         goto fail;
     }
-    if ((st = sm_sol_read(files->target_sol, &out->distance, err)) != SM_OK) {
+    if ((st = sm_sol_read_limited(files->target_sol, files->limits, &out->distance, err)) != SM_OK) {
         file_error(err, naming, SM_PART_TARGET_SOL, files->target_sol, out);
         goto fail;
     }
@@ -276,7 +278,8 @@ prepare:
      * elements, and the outputs keep the input's connectivity as is; the
      * run works on this copy */
     if ((st = sm_mesh_clone(out->template_mesh, &out->prepared, err)) != SM_OK ||
-        (st = sm_mesh_build_boundary(out->prepared, err)) != SM_OK) {
+        (st = sm_mesh_build_boundary(out->prepared, err)) != SM_OK ||
+        (st = sm_mesh_check_manifold(out->prepared, err)) != SM_OK) {
         file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
         goto fail;
     }
@@ -291,7 +294,7 @@ prepare:
     out->read_seconds = now_seconds() - t0;
     return SM_OK;
 fail:
-    if (st == SM_ERR_NOMEM)
+    if (st == SM_ERR_NOMEM && !(files->limits && files->limits->hit))
         out->failed = SM_NPARTS;
     sm_job_inputs_free(out);
     return st;
@@ -303,7 +306,8 @@ sm_status sm_job_inputs_set_params(sm_job_inputs *in, const sm_params *params, s
     int32_t nclamped = 0;
     in->failed = SM_PART_PARAMS;
     if ((st = sm_params_validate(params, in->dim, err)) != SM_OK ||
-        (st = sm_clamp_check(in->template_mesh, params, &nclamped, err)) != SM_OK)
+        (st = sm_clamp_check(in->template_mesh, params, &nclamped, err)) != SM_OK ||
+        (st = sm_clamp_check_parts(in->template_mesh, params, err)) != SM_OK)
         return st;
     in->failed = SM_NPARTS;
     in->params = *params;

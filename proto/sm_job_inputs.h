@@ -49,6 +49,10 @@ typedef struct sm_job_files {
     const char *target_mesh;
     const char *target_sol;
     const char *target_surface;
+    /* bounds of the readers (sm_io.h) for untrusted files, NULL: none.
+     * After a refusal limits->hit names the bound and `failed` the part
+     * (the daemon answers 413 naming its flag). */
+    sm_read_limits *limits;
 } sm_job_files;
 
 typedef enum sm_job_naming {

@@ -27,6 +27,7 @@
 #include "smd_route_table.h"
 #include "smd_server.h"
 #include "smd_stream.h"
+#include "smd_tls.h"
 
 /* The one global: the main thread's id, written once before the handler
  * is installed. */
@@ -171,6 +172,10 @@ static int configure(smd_server *srv, int argc, char **argv)
         smd_logf(&srv->log, SMD_LOG_ERROR, "config", "--tokens-file %s", msg);
         return 2;
     }
+    if (srv->cfg.tls_cert[0] && smd_tls_load(srv->cfg.tls_cert, srv->cfg.tls_key, msg, sizeof msg) != 0) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "config", "--tls-cert/--tls-key: %s", msg);
+        return 2;
+    }
 #if defined(__SANITIZE_ADDRESS__)
     if (srv->cfg.memory_limit > 0)
         smd_logf(&srv->log, SMD_LOG_WARN, "config",
@@ -240,6 +245,46 @@ static int start_parts(smd_server *srv, size_t *queued)
     return 0;
 }
 
+/* SIGHUP, TLS part: the next handshakes use the new pair. */
+static void reload_tls(smd_server *srv)
+{
+    char msg[512];
+    if (!srv->cfg.tls_cert[0])
+        return;
+    if (smd_tls_load(srv->cfg.tls_cert, srv->cfg.tls_key, msg, sizeof msg) != 0)
+        smd_logf(&srv->log, SMD_LOG_ERROR, "reload", "SIGHUP: %s; the certificate in use is kept",
+                 msg);
+    else
+        smd_log(&srv->log, SMD_LOG_INFO, "tls_reloaded",
+                json_pack("{s:s,s:s}", "cert", srv->cfg.tls_cert, "key", srv->cfg.tls_key));
+}
+
+/* SIGHUP: the tokens file again (a daemon started without one stays
+ * open); a file that does not load keeps the tokens in use. */
+static void reload(smd_server *srv)
+{
+    reload_tls(srv);
+    if (!srv->cfg.tokens_file[0]) {
+        smd_logf(&srv->log, SMD_LOG_INFO, "reload", "SIGHUP: no --tokens-file, nothing to reload");
+        return;
+    }
+    char msg[512];
+    smd_tokens *fresh;
+    if (smd_tokens_load(srv->cfg.tokens_file, &fresh, msg, sizeof msg) != 0) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "reload", "SIGHUP: --tokens-file %s; the tokens in use are kept",
+                 msg);
+        return;
+    }
+    pthread_mutex_lock(&srv->tokens_lock);
+    smd_tokens *old = srv->tokens;
+    srv->tokens = fresh;
+    pthread_mutex_unlock(&srv->tokens_lock);
+    smd_tokens_free(old);
+    smd_log(&srv->log, SMD_LOG_INFO, "tokens_reloaded",
+            json_pack("{s:s,s:I}", "file", srv->cfg.tokens_file, "tokens",
+                      (json_int_t)smd_tokens_count(fresh)));
+}
+
 /* Step 4: serve until SIGTERM or SIGINT. */
 static void wait_for_stop(smd_server *srv, const sigset_t *signals)
 {
@@ -251,7 +296,7 @@ static void wait_for_stop(smd_server *srv, const sigset_t *signals)
             return;
         }
         if (sig == SIGHUP)
-            smd_logf(&srv->log, SMD_LOG_INFO, "signal", "SIGHUP ignored (restart to reload)");
+            reload(srv);
     }
 }
 
@@ -276,7 +321,8 @@ int main(int argc, char **argv)
     const char *route_labels[64]; /* outlives the metrics: main's frame */
     size_t nlabels = smd_route_labels(route_labels, sizeof route_labels / sizeof route_labels[0]);
     int metrics_ok = smd_metrics_init(&srv->metrics, route_labels, nlabels) == 0;
-    int lock_ok = pthread_mutex_init(&srv->lock, NULL) == 0;
+    int lock_ok = pthread_mutex_init(&srv->lock, NULL) == 0 &&
+                  pthread_mutex_init(&srv->tokens_lock, NULL) == 0;
     size_t queued = 0;
     if (!metrics_ok || !lock_ok) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "cannot initialise locks");

@@ -36,10 +36,26 @@ static const opt options[] = {
     {"--workers", "SHAPEMATCH_WORKERS", "N", OPT_INT, OFF(workers), 1, 1024,
      "worker processes running at the same time", "number of cores"},
     {"--tokens-file", "SHAPEMATCH_TOKENS_FILE", "FILE", OPT_PATH, OFF(tokens_file), 0, 0,
-     "bearer tokens, one per line ('#' comments); requests without one get 401 "
-     "(/healthz and /readyz stay open)", "none: no authentication"},
+     "bearer tokens, one per line as TOKEN [TENANT [admin]] ('#' comments); requests "
+     "without one get 401 (/healthz and /readyz stay open); tenants see their own jobs "
+     "only, admins all; SIGHUP reloads it", "none: no authentication"},
+    {"--tls-cert", "SHAPEMATCH_TLS_CERT", "FILE", OPT_PATH, OFF(tls_cert), 0, 0,
+     "serve HTTPS (TLS 1.2 and 1.3) with this PEM certificate chain, leaf first; needs "
+     "--tls-key; SIGHUP reloads both", "none: plain HTTP"},
+    {"--tls-key", "SHAPEMATCH_TLS_KEY", "FILE", OPT_PATH, OFF(tls_key), 0, 0,
+     "the PEM private key of --tls-cert", "none"},
     {"--max-upload", "SHAPEMATCH_MAX_UPLOAD", "BYTES", OPT_SIZE, OFF(max_upload), 1024, 1e15,
      "largest POST /v1/jobs body (K, M, G suffixes); larger ones get 413", "256M"},
+    {"--max-inflated", "SHAPEMATCH_MAX_INFLATED", "BYTES", OPT_SIZE, OFF(max_inflated), 0, 1e15,
+     "largest decompressed size of one gzip-compressed part; larger ones get 413 "
+     "(0 = 4 x --max-upload)", "4 x --max-upload"},
+    {"--max-vertices", "SHAPEMATCH_MAX_VERTICES", "N", OPT_SIZE, OFF(max_vertices), 0, 2e8,
+     "most vertices a mesh or solution part may declare; more get 413 before anything is "
+     "allocated (0 = --memory-limit / 4096, 1M for 4G; 200M without a memory limit)",
+     "--memory-limit / 4096"},
+    {"--max-elements", "SHAPEMATCH_MAX_ELEMENTS", "N", OPT_SIZE, OFF(max_elements), 0, 2e8,
+     "most elements (or facets) a mesh part may declare; more get 413 "
+     "(0 = --memory-limit / 4096)", "--memory-limit / 4096"},
     {"--job-timeout", "SHAPEMATCH_JOB_TIMEOUT", "SECONDS", OPT_DURATION, OFF(job_timeout), 0, 1e9,
      "wall time a run may take before it is killed (s, m, h, d suffixes; 0 = none)", "1h"},
     {"--retention", "SHAPEMATCH_RETENTION", "SECONDS", OPT_DURATION, OFF(retention), 0, 1e12,
@@ -91,6 +107,26 @@ int smd_default_workers(void)
 {
     long n = sysconf(_SC_NPROCESSORS_ONLN);
     return n < 1 ? 1 : (n > 1024 ? 1024 : (int)n);
+}
+
+/* The input bounds left at 0: a gzip part may inflate to 4 x the upload
+ * limit; a worker needs roughly 4 KiB per template element or vertex
+ * (the 3D run's factorization dominates), so --memory-limit / 4096 of
+ * each (1M for the 4 GiB default), capped at the readers' 200M. */
+static void derive_limits(smd_config *c)
+{
+    const uint64_t cap = 200000000;
+    if (!c->max_inflated)
+        c->max_inflated = c->max_upload > UINT64_MAX / 4 ? UINT64_MAX : 4 * c->max_upload;
+    uint64_t from_memory = c->memory_limit ? c->memory_limit / 4096 : cap;
+    if (from_memory > cap)
+        from_memory = cap;
+    if (from_memory < 1024)
+        from_memory = 1024;
+    if (!c->max_vertices)
+        c->max_vertices = from_memory;
+    if (!c->max_elements)
+        c->max_elements = from_memory;
 }
 
 static void set_defaults(smd_config *c)
@@ -340,6 +376,11 @@ smd_config_result smd_config_parse(smd_config *c, int argc, char **argv,
         snprintf(msg, cap, "--spool: must not be empty");
         return SMD_CONFIG_ERROR;
     }
+    if (!c->tls_cert[0] != !c->tls_key[0]) {
+        snprintf(msg, cap, "--tls-cert and --tls-key go together");
+        return SMD_CONFIG_ERROR;
+    }
+    derive_limits(c);
     return SMD_CONFIG_OK;
 }
 

@@ -20,7 +20,14 @@ typedef struct smd_config {
     char spool[PATH_MAX];         /* --spool DIR */
     int workers;                  /* --workers N: concurrent worker processes */
     char tokens_file[PATH_MAX];   /* --tokens-file FILE ("" = no auth) */
+    char tls_cert[PATH_MAX];      /* --tls-cert FILE: PEM chain ("" = plain HTTP) */
+    char tls_key[PATH_MAX];       /* --tls-key FILE: PEM key (with --tls-cert) */
     uint64_t max_upload;          /* --max-upload BYTES: whole request body */
+    uint64_t max_inflated;        /* --max-inflated: decompressed bytes of one
+                                   * .gz part (0 given: 4 x --max-upload) */
+    uint64_t max_vertices;        /* --max-vertices, --max-elements: declared */
+    uint64_t max_elements;        /* counts of one part (0 given: from
+                                   * --memory-limit, see smd_config_limits) */
     double job_timeout;           /* --job-timeout: wall time per run, 0 = none */
     double retention;             /* --retention: keep finished jobs, 0 = forever */
     double cpu_limit;             /* --cpu-limit: RLIMIT_CPU seconds, 0 = none */

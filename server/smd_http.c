@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -17,7 +18,52 @@
 #include "smd_cors.h"
 #include "smd_reply.h"
 #include "smd_route_table.h"
+#include "smd_tls.h"
 #include "smd_upload.h"
+
+/* ------------------------------------------------------------ strictness */
+
+/* Headers that must appear at most once: a second Content-Length makes the
+ * body's framing ambiguous (request smuggling behind a proxy that reads the
+ * other one), a second Authorization makes it unclear which credential was
+ * meant. */
+typedef struct {
+    unsigned content_length;
+    unsigned authorization;
+    unsigned host;
+} header_counts;
+
+static enum MHD_Result count_header(void *cls, enum MHD_ValueKind kind, const char *key,
+                                    const char *value)
+{
+    header_counts *c = cls;
+    (void)kind;
+    (void)value;
+    if (strcasecmp(key, MHD_HTTP_HEADER_CONTENT_LENGTH) == 0)
+        c->content_length++;
+    else if (strcasecmp(key, MHD_HTTP_HEADER_AUTHORIZATION) == 0)
+        c->authorization++;
+    else if (strcasecmp(key, MHD_HTTP_HEADER_HOST) == 0)
+        c->host++;
+    return MHD_YES;
+}
+
+/* The framing and credential rules libmicrohttpd leaves to us: NULL when
+ * the request may go on, else the detail of its 400. */
+static const char *request_strictness(struct MHD_Connection *conn, const char *version)
+{
+    header_counts c = {0, 0, 0};
+    MHD_get_connection_values(conn, MHD_HEADER_KIND, count_header, &c);
+    if (c.content_length > 1)
+        return "Content-Length: given more than once (the body's length is ambiguous)";
+    if (c.authorization > 1)
+        return "Authorization: given more than once (send one credential)";
+    if (c.host == 0 && version && strcmp(version, MHD_HTTP_VERSION_1_1) == 0)
+        return "Host: an HTTP/1.1 request must carry a Host header (RFC 9112, 3.2)";
+    if (c.host > 1)
+        return "Host: given more than once";
+    return NULL;
+}
 
 /* ---------------------------------------------------------------- routing */
 
@@ -56,21 +102,24 @@ static enum MHD_Result preflight(struct MHD_Connection *conn, smd_request *req)
     return smd_reply(conn, req, 204, resp);
 }
 
-/* Whether the request's credentials are good: the Authorization header,
+/* The request's tenant from its credentials: the Authorization header,
  * or on GET and HEAD the access_token query parameter (RFC 6750 2.3: what
  * EventSource and download links can send).  MHD hands the handlers the
- * path without its query, so the token reaches no log line nor label. */
+ * path without its query, so the token reaches no log line nor label.
+ * The tokens may be replaced by SIGHUP meanwhile. */
 static smd_auth_result authenticate(struct MHD_Connection *conn, smd_request *req)
 {
+    smd_server *srv = req->srv;
     const char *auth = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
                                                    MHD_HTTP_HEADER_AUTHORIZATION);
-    unsigned m = smd_method_bit(req->method);
-    if (!auth && (m & SMD_METHOD_READ)) {
-        const char *token = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "access_token");
-        if (token)
-            return smd_tokens_check_token(req->srv->tokens, token);
-    }
-    return smd_tokens_check(req->srv->tokens, auth);
+    const char *token = NULL;
+    if (!auth && (smd_method_bit(req->method) & SMD_METHOD_READ))
+        token = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "access_token");
+    pthread_mutex_lock(&srv->tokens_lock);
+    smd_auth_result a = token ? smd_tokens_identify_token(srv->tokens, token, &req->who)
+                              : smd_tokens_identify(srv->tokens, auth, &req->who);
+    pthread_mutex_unlock(&srv->tokens_lock);
+    return a;
 }
 
 /* Cross-site safety, authentication, then the route's handler. */
@@ -85,6 +134,7 @@ static enum MHD_Result handle(struct MHD_Connection *conn, smd_request *req)
         return smd_reply_problem(conn, req, 403, SMD_PROBLEM_FORBIDDEN,
                                  "cross-site request refused: its Origin is neither this "
                                  "daemon's nor one listed with --cors-origin");
+    req->who.admin = 1; /* no tokens: one tenant that sees everything */
     if (srv->tokens && !req->public_path) {
         smd_auth_result a = authenticate(conn, req);
         if (a != SMD_AUTH_OK)
@@ -128,7 +178,6 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
                                   size_t *upload_data_size, void **req_cls)
 {
     smd_server *srv = cls;
-    (void)version;
     smd_request *req = *req_cls;
     if (req) {
         if (!req->dispatched) {
@@ -164,6 +213,13 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
     if (!req)
         return MHD_NO;
     *req_cls = req;
+    const char *strict = request_strictness(conn, version);
+    if (strict) {
+        /* answered at once; the body (if any) is not read: the connection
+         * closes after the reply */
+        req->dispatched = 1;
+        return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST, "%s", strict);
+    }
     /* a body is coming (and not one refused outright for its size) */
     const char *length = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
                                                      MHD_HTTP_HEADER_CONTENT_LENGTH);
@@ -265,6 +321,15 @@ sm_status smd_http_start(smd_server *srv, sm_error *err)
                             "--listen: '%s' is not a numeric IPv4/IPv6 address (or localhost)",
                             cfg->listen_host);
     }
+    /* TLS: the certificate comes from smd_tls at each handshake */
+    struct MHD_OptionItem tls[] = {
+        {MHD_OPTION_HTTPS_CERT_CALLBACK, 0, smd_tls_callback()},
+        {MHD_OPTION_HTTPS_PRIORITIES, 0, (void *)SMD_TLS_PRIORITIES},
+        {MHD_OPTION_END, 0, NULL}};
+    if (cfg->tls_cert[0])
+        flags |= MHD_USE_TLS;
+    else
+        tls[0].option = MHD_OPTION_END;
     /* Per-connection buffers come from the connection's pool, and the
      * pool must hold the request headers plus a send buffer. */
     srv->httpd = MHD_start_daemon(
@@ -274,7 +339,7 @@ sm_status smd_http_start(smd_server *srv, sm_error *err)
         MHD_OPTION_CONNECTION_LIMIT, cfg->max_connections, MHD_OPTION_PER_IP_CONNECTION_LIMIT,
         cfg->max_connections_per_ip, MHD_OPTION_CONNECTION_TIMEOUT, cfg->connection_timeout,
         MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)cfg->connection_memory,
-        MHD_OPTION_NOTIFY_COMPLETED, on_completed, srv, MHD_OPTION_END);
+        MHD_OPTION_NOTIFY_COMPLETED, on_completed, srv, MHD_OPTION_ARRAY, tls, MHD_OPTION_END);
     if (!srv->httpd)
         return sm_error_set(err, SM_ERR_IO, "cannot listen on %s:%u (address in use, or not local?)",
                             cfg->listen_host, cfg->listen_port);
@@ -298,5 +363,6 @@ void smd_http_stop(smd_server *srv)
         MHD_stop_daemon(srv->httpd);
         srv->httpd = NULL;
     }
+    smd_tls_shutdown();
 }
 

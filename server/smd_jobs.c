@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* the metrics count the states by proto's numbering */
 _Static_assert(SM_JOB_ACCEPTED == 0 && SM_JOB_SUCCESSFUL == SMD_JOB_FIRST_FINAL &&
@@ -24,11 +25,38 @@ static json_t *log_fields(const smd_job *job, json_t *extra)
     return f;
 }
 
+/* The spool refused a write: stop taking work until it takes them again. */
+static void spool_refused(smd_server *srv, const char *msg)
+{
+    smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", msg);
+    if (!atomic_exchange(&srv->unwritable, 1))
+        smd_logf(&srv->log, SMD_LOG_ERROR, "spool_unwritable",
+                 "a record could not be written: no job is accepted or started until it can be");
+}
+
 static void save_or_log(smd_server *srv, smd_job *job)
 {
     sm_error err;
-    if (smd_store_save(srv->store, job, &err) != SM_OK)
-        smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
+    job->unsaved = smd_store_save(srv->store, job, &err) != SM_OK;
+    if (job->unsaved)
+        spool_refused(srv, err.msg);
+}
+
+void smd_jobs_retry_saves(smd_server *srv)
+{
+    if (!atomic_load(&srv->unwritable))
+        return;
+    sm_error err;
+    size_t left = 0;
+    for (size_t i = 0; i < smd_store_count(srv->store); i++) {
+        smd_job *job = smd_store_at(srv->store, i);
+        if (job->unsaved && (job->unsaved = smd_store_save(srv->store, job, &err) != SM_OK) != 0)
+            left++;
+    }
+    if (left == 0 && access(smd_store_root(srv->store), W_OK) == 0) {
+        atomic_store(&srv->unwritable, 0);
+        smd_logf(&srv->log, SMD_LOG_INFO, "spool_writable", "every record is written again: jobs are accepted");
+    }
 }
 
 /* Appends ev to the job's log, counts it and collects the followers. */
@@ -36,7 +64,7 @@ static void append_or_log(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_
 {
     sm_error err;
     if (smd_store_append_event(srv->store, job, ev, &err) != SM_OK) {
-        smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
+        spool_refused(srv, err.msg);
         return;
     }
     smd_metrics_add(&srv->metrics, &srv->metrics.events_appended, 1);
@@ -68,33 +96,45 @@ static void end_job(smd_server *srv, smd_job *job, sm_job_state state, sm_event 
     smd_log(&srv->log, log_level, log_event, log_fields(job, extra));
 }
 
-/* Moves the job's folder to trash/ and remembers it for after the lock. */
-static void trash_job(smd_server *srv, const smd_job *job, smd_jobs_after *after)
+/* Moves the job's folder to trash/ and remembers it for after the lock;
+ * -1 (logged, errno kept) when the spool refuses the rename. */
+static int trash_job(smd_server *srv, const smd_job *job, smd_jobs_after *after)
 {
     char path[PATH_MAX];
     if (smd_store_trash(srv->store, job->id, path, sizeof path) != 0) {
+        int saved = errno;
         smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "job %s: cannot delete: %s", job->id,
-                 strerror(errno));
-        return;
+                 strerror(saved));
+        errno = saved;
+        return -1;
     }
     char **t = path[0] ? realloc(after->trash, (after->ntrash + 1) * sizeof *after->trash) : NULL;
     if (!t)
-        return; /* left in trash/: emptied at the next start */
+        return 0; /* left in trash/: emptied at the next start */
     after->trash = t;
     if ((t[after->ntrash] = strdup(path)) != NULL)
         after->ntrash++;
+    return 0;
 }
 
-/* The job leaves the table: its followers end; its folder goes now, or
- * when its worker is gone. */
-static void remove_job(smd_server *srv, smd_job *job, smd_jobs_after *after)
+/* The job leaves the table: its followers end (with its final status);
+ * its folder goes now, or when its worker is gone.  Durable or refused:
+ * when the spool cannot take the rename the job stays as it was and
+ * SM_ERR_IO is returned (never "deleted" and back after a restart). */
+static sm_status remove_job(smd_server *srv, smd_job *job, smd_jobs_after *after, sm_error *err)
 {
-    smd_stream_collect_job(job, &after->wake);
-    if (job->worker_active)
+    if (job->worker_active) {
+        if (!smd_store_can_trash(srv->store))
+            return sm_error_set(err, SM_ERR_IO, "the spool cannot be written (%s): job %s kept",
+                                strerror(errno), job->id);
         job->delete_requested = 1;
-    else
-        trash_job(srv, job, after);
+    } else if (trash_job(srv, job, after) != 0) {
+        return sm_error_set(err, SM_ERR_IO, "the spool cannot be written (%s): job %s kept",
+                            strerror(errno), job->id);
+    }
+    smd_stream_collect_job(job, &after->wake);
     smd_store_unlink(srv->store, job);
+    return SM_OK;
 }
 
 void smd_jobs_after_run(smd_jobs_after *a)
@@ -122,7 +162,7 @@ sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **
 {
     const char *key = sub->idempotency_key && sub->idempotency_key[0] ? sub->idempotency_key : NULL;
     *created = 0;
-    *out = key ? smd_store_find_key(srv->store, key) : NULL;
+    *out = key ? smd_store_find_key(srv->store, sub->owner, key) : NULL;
     if (*out)
         return SM_OK; /* a retry with the same key */
     if (!smd_id_valid(sub->id))
@@ -137,6 +177,8 @@ sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **
     job->max_iter = sub->max_iter;
     if (key)
         snprintf(job->idempotency_key, sizeof job->idempotency_key, "%s", key);
+    if (sub->owner)
+        snprintf(job->owner, sizeof job->owner, "%s", sub->owner);
     sm_event ev;
     sm_event_init(&ev, SM_EVENT_ACCEPTED);
     ev.time = job->created;
@@ -324,9 +366,12 @@ sm_status smd_jobs_delete(smd_server *srv, smd_job *job, smd_jobs_after *after)
     sm_error err;
     if (!smd_job_state_final(job->state))
         return refuse(job, "delete", &err);
-    smd_log(&srv->log, SMD_LOG_INFO, "job_deleted", json_pack("{s:s}", "job", job->id));
-    remove_job(srv, job, after);
-    return SM_OK;
+    char id[sizeof job->id];
+    memcpy(id, job->id, sizeof id); /* job may be freed by the removal */
+    sm_status st = remove_job(srv, job, after, &err);
+    if (st == SM_OK)
+        smd_log(&srv->log, SMD_LOG_INFO, "job_deleted", json_pack("{s:s}", "job", id));
+    return st; /* errno says why the spool refused */
 }
 
 sm_status smd_jobs_expire(smd_server *srv, smd_job *job, smd_jobs_after *after)
@@ -334,9 +379,12 @@ sm_status smd_jobs_expire(smd_server *srv, smd_job *job, smd_jobs_after *after)
     sm_error err;
     if (!smd_job_state_final(job->state) || job->worker_active)
         return refuse(job, "expire", &err);
-    smd_logf(&srv->log, SMD_LOG_INFO, "job_expired", "job %s deleted after the retention time",
-             job->id);
-    remove_job(srv, job, after);
+    sm_error e;
+    char id[sizeof job->id];
+    memcpy(id, job->id, sizeof id); /* job may be freed by the removal */
+    if (remove_job(srv, job, after, &e) != SM_OK)
+        return SM_ERR_IO; /* logged by trash_job; retried next sweep */
+    smd_logf(&srv->log, SMD_LOG_INFO, "job_expired", "job %s deleted after the retention time", id);
     return SM_OK;
 }
 

@@ -53,6 +53,8 @@ typedef struct smd_submission {
     const char *dir;              /* prepared folder: inputs/ and job.json */
     const char *id;               /* fresh job id */
     const char *idempotency_key;  /* NULL or "" for none */
+    const char *owner;            /* tenant, NULL or "" for none; the key is
+                                   * looked up among its jobs only */
     int dim, max_iter;
     int32_t nverts, nelems;       /* for the log */
     uint64_t bytes;               /* upload size, for the log */
@@ -91,11 +93,20 @@ sm_status smd_jobs_requeue(smd_server *srv, smd_job *job, json_t *log_fields);
 
 /* The worker slot of job is free again (after one of the above); a DELETE
  * that came while it was stopping now removes the job's files. */
+/* Lock held, once a second by the supervisor: while srv->unwritable is
+ * set (a record or event write failed), writes the records that failed
+ * again; when all are written (and the spool is writable) the flag
+ * clears and jobs are accepted and started again.  A scan of the job
+ * table, one status.json write per unsaved job. */
+void smd_jobs_retry_saves(smd_server *srv);
+
 void smd_jobs_worker_gone(smd_server *srv, smd_job *job, smd_jobs_after *after);
 
 /* DELETE of a final job, and the retention sweep: the job leaves the
  * table (its followers end) and its folder goes to trash/ (at once, or
- * when its worker is gone). */
+ * when its worker is gone).  When the spool refuses the rename (read-only,
+ * no permission) the job stays, visible and unchanged, and SM_ERR_IO is
+ * returned with errno set: a delete is durable or refused. */
 sm_status smd_jobs_delete(smd_server *srv, smd_job *job, smd_jobs_after *after);
 sm_status smd_jobs_expire(smd_server *srv, smd_job *job, smd_jobs_after *after);
 

@@ -156,6 +156,10 @@ char *smd_metrics_render(smd_metrics *m, const smd_gauges *g, size_t *len)
     out(&b, "# HELP shapematch_event_streams Open event streams.\n"
             "# TYPE shapematch_event_streams gauge\nshapematch_event_streams %llu\n",
         (unsigned long long)g->followers);
+    out(&b, "# HELP shapematch_records_quarantined Damaged job records moved to "
+            "SPOOL/quarantine/ at start.\n# TYPE shapematch_records_quarantined gauge\n"
+            "shapematch_records_quarantined %llu\n",
+        (unsigned long long)g->quarantined);
     out(&b, "# HELP shapematch_ready 1 when accepting jobs.\n"
             "# TYPE shapematch_ready gauge\nshapematch_ready %d\n", g->ready);
     long rss = resident_bytes();

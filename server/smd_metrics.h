@@ -43,6 +43,7 @@ typedef struct smd_gauges {
     uint64_t queue_depth;
     uint64_t workers_busy, workers_total;
     uint64_t followers;
+    uint64_t quarantined;      /* damaged records moved aside at start */
     double start_time;         /* Unix seconds */
     int ready;
 } smd_gauges;

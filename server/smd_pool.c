@@ -64,7 +64,7 @@ struct smd_pool {
     char **env;            /* environment of the workers */
     char *env_threads[2];  /* its OMP_NUM_THREADS / OPENBLAS_NUM_THREADS entries */
     double tick;           /* period of keepalive checks */
-    double next_tick, next_sweep;
+    double next_tick, next_sweep, next_save_retry;
     pid_t daemon_pid;
 };
 
@@ -432,7 +432,9 @@ static void sweep_retention(smd_pool *p, smd_jobs_after *after)
             i++;
             continue;
         }
-        smd_jobs_expire(srv, job, after); /* shifts the list: do not advance i */
+        if (smd_jobs_expire(srv, job, after) != SM_OK)
+            i++; /* the spool refused: kept, tried again next round */
+        /* else it shifted the list: do not advance i */
     }
 }
 
@@ -472,6 +474,8 @@ static int prepare_poll(smd_pool *p, poll_set *ps)
     poll_add(ps, p->wake_fd, NULL);
     double now = smd_monotonic();
     double wait = p->next_tick - now;
+    if (atomic_load(&p->srv->unwritable) && p->next_save_retry - now < wait)
+        wait = p->next_save_retry - now; /* retry the refused writes each second */
     int need_reap_poll = 0;
     for (size_t i = 0; i < p->nslots; i++) {
         slot *s = &p->slots[i];
@@ -553,6 +557,10 @@ static void service_slots(smd_pool *p, double now, smd_jobs_after *after)
 static void periodic(smd_pool *p, double now, smd_jobs_after *after)
 {
     smd_server *srv = p->srv;
+    if (now >= p->next_save_retry) {
+        p->next_save_retry = now + 1.0;
+        smd_jobs_retry_saves(srv);
+    }
     if (now >= p->next_tick) {
         p->next_tick = now + p->tick;
         smd_stream_collect_idle(srv, now, &after->wake);
@@ -596,7 +604,8 @@ static void *supervise(void *arg)
         double now = smd_monotonic();
         service_fds(p, &ps, rc, &after);
         service_slots(p, now, &after);
-        while (!p->quit && !atomic_load(&srv->draining) && start_next(p, &after)) {
+        while (!p->quit && !atomic_load(&srv->draining) && !atomic_load(&srv->unwritable) &&
+               start_next(p, &after)) {
         }
         periodic(p, now, &after);
         pthread_mutex_unlock(&srv->lock);

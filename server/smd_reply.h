@@ -49,6 +49,7 @@ typedef struct smd_request {
     const struct smd_route *route; /* the row for this path and method, or NULL */
     unsigned allowed;            /* methods of the path (0: no route has it) */
     int public_path;             /* answered without a bearer token */
+    smd_identity who;            /* tenant of the token (admin without tokens) */
     const char *route_label;     /* metrics label of the path ("other" if none) */
     char method[8];
     char path[256];              /* for the log, truncated */

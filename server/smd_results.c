@@ -142,7 +142,8 @@ static enum MHD_Result send_file(struct MHD_Connection *conn, smd_request *req,
         if (fd >= 0)
             close(fd);
         pthread_mutex_lock(&srv->lock);
-        int exists = smd_store_get(srv->store, req->id) != NULL;
+        int exists =
+            smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin) != NULL;
         pthread_mutex_unlock(&srv->lock);
         if (missing && !exists) /* deleted since its state was read */
             return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
@@ -367,7 +368,8 @@ static enum MHD_Result summary(struct MHD_Connection *conn, smd_request *req)
     if (smd_read_file(path, 1 << 20, &text, &len) != 0) {
         int saved = errno;
         pthread_mutex_lock(&req->srv->lock);
-        int exists = smd_store_get(req->srv->store, req->id) != NULL;
+        int exists = smd_store_get_visible(req->srv->store, req->id, req->who.tenant,
+                                           req->who.admin) != NULL;
         pthread_mutex_unlock(&req->srv->lock);
         if (saved == ENOENT && !exists) /* deleted since its state was read */
             return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
@@ -417,7 +419,7 @@ static int results_ready(struct MHD_Connection *conn, smd_request *req, enum MHD
 {
     smd_server *srv = req->srv;
     pthread_mutex_lock(&srv->lock);
-    smd_job *job = smd_store_get(srv->store, req->id);
+    smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
     sm_job_state state = job ? job->state : SM_JOB_ACCEPTED;
     char message[SM_EVENT_MESSAGE_MAX] = "";
     if (job)

@@ -100,6 +100,10 @@ enum MHD_Result smd_route_readyz(struct MHD_Connection *conn, smd_request *req)
     if (atomic_load(&srv->draining))
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "shutting down: no new job is accepted");
+    if (atomic_load(&srv->unwritable))
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
+                                 "a job record could not be written (disk full?): no job is "
+                                 "accepted or started until the spool takes writes again");
     char jobs_dir[PATH_MAX];
     if (smd_pathf(jobs_dir, sizeof jobs_dir, "%s/jobs", smd_store_root(srv->store)) != 0 ||
         access(jobs_dir, W_OK) != 0)
@@ -130,6 +134,7 @@ enum MHD_Result smd_route_metrics(struct MHD_Connection *conn, smd_request *req)
     g.workers_busy = smd_pool_busy(srv->pool);
     g.workers_total = smd_pool_slots(srv->pool);
     g.followers = srv->nfollowers;
+    g.quarantined = smd_store_quarantined(srv->store);
     pthread_mutex_unlock(&srv->lock);
     g.start_time = srv->start_time;
     g.ready = !atomic_load(&srv->draining);
@@ -278,7 +283,8 @@ enum MHD_Result smd_route_jobs_list(struct MHD_Connection *conn, smd_request *re
     size_t n = smd_store_count(srv->store);
     for (size_t k = 0; k < n; k++) { /* oldest first */
         smd_job *job = smd_store_at(srv->store, k);
-        if (wanted && !(wanted & (1u << job->state)))
+        if ((wanted && !(wanted & (1u << job->state))) ||
+            !smd_job_visible(job, req->who.tenant, req->who.admin))
             continue;
         if (matched >= offset && matched < offset + limit)
             json_array_append_new(jobs, smd_status_document(job));
@@ -324,12 +330,25 @@ enum MHD_Result smd_route_job_get(struct MHD_Connection *conn, smd_request *req)
 {
     smd_server *srv = req->srv;
     pthread_mutex_lock(&srv->lock);
-    smd_job *job = smd_store_get(srv->store, req->id);
+    smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
     json_t *doc = job ? smd_status_document(job) : NULL;
     pthread_mutex_unlock(&srv->lock);
     if (!job)
         return no_such_job(conn, req);
     return smd_reply_json(conn, req, 200, doc);
+}
+
+/* Lock held: the spool refused the delete; the job is kept as it was. */
+static enum MHD_Result delete_refused(struct MHD_Connection *conn, smd_request *req,
+                                      smd_jobs_after *after, json_t *doc, int why)
+{
+    pthread_mutex_unlock(&req->srv->lock);
+    smd_jobs_after_free(after);
+    json_decref(doc);
+    return smd_reply_problem(conn, req, 503, SMD_PROBLEM_STORAGE,
+                             "cannot delete job %s: the spool cannot be written (%s); the job is "
+                             "kept, try again when the spool is writable",
+                             req->id, strerror(why));
 }
 
 enum MHD_Result smd_route_job_delete(struct MHD_Connection *conn, smd_request *req)
@@ -338,7 +357,7 @@ enum MHD_Result smd_route_job_delete(struct MHD_Connection *conn, smd_request *r
     smd_jobs_after after = {0};
     json_t *doc = NULL;
     pthread_mutex_lock(&srv->lock);
-    smd_job *job = smd_store_get(srv->store, req->id);
+    smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
     if (!job) {
         pthread_mutex_unlock(&srv->lock);
         return no_such_job(conn, req);
@@ -352,7 +371,8 @@ enum MHD_Result smd_route_job_delete(struct MHD_Connection *conn, smd_request *r
         doc = smd_status_document(job);
         json_object_set_new(doc, "message", json_string("deleted"));
         json_object_del(doc, "links");
-        smd_jobs_delete(srv, job, &after);
+        if (smd_jobs_delete(srv, job, &after) != SM_OK)
+            return delete_refused(conn, req, &after, doc, errno);
     }
     pthread_mutex_unlock(&srv->lock);
     smd_jobs_after_free(&after);
@@ -388,7 +408,7 @@ enum MHD_Result smd_route_events(struct MHD_Connection *conn, smd_request *req)
                                  SMD_REQUEST_INT_MAX);
     char msg[256];
     pthread_mutex_lock(&srv->lock);
-    smd_job *job = smd_store_get(srv->store, req->id);
+    smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
     struct MHD_Response *resp =
         job ? smd_stream_response(srv, job, conn, choice == 1, (int64_t)after, &req->bytes_out, msg, sizeof msg)
             : NULL;

@@ -41,7 +41,9 @@ struct smd_follower;
 typedef struct smd_server {
     smd_config cfg;
     smd_logger log;
-    smd_tokens *tokens;         /* NULL: no authentication */
+    smd_tokens *tokens;         /* NULL: no authentication; replaced on
+                                 * SIGHUP under tokens_lock */
+    pthread_mutex_t tokens_lock;
     smd_metrics metrics;
     double start_time;          /* Unix seconds */
 
@@ -57,6 +59,10 @@ typedef struct smd_server {
 
     atomic_int draining;        /* shutdown began: refuse new jobs, /readyz 503 */
     atomic_int stopping;        /* event streams end */
+    atomic_int unwritable;      /* a record or event could not be written:
+                                 * /readyz 503, no new job accepted or
+                                 * started until the records are written
+                                 * again (smd_jobs_retry_saves) */
 } smd_server;
 
 #endif

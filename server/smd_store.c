@@ -23,6 +23,8 @@ struct smd_store {
     char jobs_dir[PATH_MAX];
     char tmp_dir[PATH_MAX];
     char trash_dir[PATH_MAX];
+    char quarantine_dir[PATH_MAX];
+    size_t nquarantined;   /* damaged records moved aside at this start */
     const smd_logger *log;
     smd_job **jobs;        /* submission order */
     size_t njobs, cap;
@@ -146,14 +148,26 @@ smd_job *smd_store_get(smd_store *s, const char *id)
     return NULL;
 }
 
-smd_job *smd_store_find_key(smd_store *s, const char *key)
+smd_job *smd_store_find_key(smd_store *s, const char *owner, const char *key)
 {
     if (!key || !*key)
         return NULL;
     for (size_t i = 0; i < s->njobs; i++)
-        if (strcmp(s->jobs[i]->idempotency_key, key) == 0)
+        if (strcmp(s->jobs[i]->idempotency_key, key) == 0 &&
+            strcmp(s->jobs[i]->owner, owner ? owner : "") == 0)
             return s->jobs[i];
     return NULL;
+}
+
+int smd_job_visible(const smd_job *job, const char *tenant, int admin)
+{
+    return admin || strcmp(job->owner, tenant ? tenant : "") == 0;
+}
+
+smd_job *smd_store_get_visible(smd_store *s, const char *id, const char *tenant, int admin)
+{
+    smd_job *job = smd_store_get(s, id);
+    return job && smd_job_visible(job, tenant, admin) ? job : NULL;
 }
 
 size_t smd_store_count(const smd_store *s)
@@ -259,6 +273,8 @@ static json_t *record_to_json(const smd_job *job)
     json_object_set_new(o, "maxIter", json_integer(job->max_iter));
     if (job->idempotency_key[0])
         json_object_set_new(o, "idempotencyKey", json_string(job->idempotency_key));
+    if (job->owner[0])
+        json_object_set_new(o, "owner", json_string(job->owner));
     return o;
 }
 
@@ -333,6 +349,9 @@ static int record_from_json(json_t *o, const char *id, smd_job *job, char *why, 
         snprintf(why, cap, "bad time stamp");
         return -1;
     }
+    v = json_object_get(o, "owner");
+    if (json_is_string(v) && strlen(json_string_value(v)) <= SMD_OWNER_MAX)
+        strcpy(job->owner, json_string_value(v));
     v = json_object_get(o, "idempotencyKey");
     if (json_is_string(v) && strlen(json_string_value(v)) <= SMD_IDEMPOTENCY_KEY_MAX)
         strcpy(job->idempotency_key, json_string_value(v));
@@ -570,7 +589,16 @@ int smd_store_trash(smd_store *s, const char *id, char *trash_path, size_t cap)
         return -1;
     if (rename(dir, trash_path) != 0)
         return errno == ENOENT ? (trash_path[0] = '\0', 0) : -1;
+    /* the rename is the delete: on disk before the caller says "deleted"
+     * (an unsynced rename can come back after a crash) */
+    (void)smd_fsync_dir(s->jobs_dir);
+    (void)smd_fsync_dir(s->trash_dir);
     return 0;
+}
+
+int smd_store_can_trash(const smd_store *s)
+{
+    return access(s->jobs_dir, W_OK) == 0 && access(s->trash_dir, W_OK) == 0;
 }
 
 /* ------------------------------------------------------------ open/close */
@@ -587,7 +615,50 @@ static int cmp_order(const void *a, const void *b)
     return strcmp(x->id, y->id);
 }
 
-/* Loads jobs/<id>; returns NULL (logged) when the folder is not a job. */
+/* A record that cannot be read: jobs/<id> moves to quarantine/<id>-<8 hex>
+ * (kept for a post-mortem, fsync'ed), and jobs/<id> gets a new record of
+ * a failed job saying so: the job answers "failed, record damaged" and
+ * can be deleted, instead of vanishing (404).  dimension and maxIter of
+ * the new record are placeholders (record fields, not in the status
+ * document).  NULL (logged) when the spool refuses. */
+static smd_job *quarantine_job(smd_store *s, const char *id, const char *why)
+{
+    char dir[PATH_MAX], dest[PATH_MAX], suffix[SMD_ID_LEN + 1];
+    sm_error err;
+    smd_job *job = NULL;
+    if (smd_store_path(s, id, "", dir, sizeof dir) != 0 || smd_random_id(suffix) != 0 ||
+        smd_pathf(dest, sizeof dest, "%s/%s-%.8s", s->quarantine_dir, id, suffix) != 0)
+        return NULL;
+    if (rename(dir, dest) != 0 || mkdir(dir, 0750) != 0 || (job = smd_job_new(id)) == NULL) {
+        smd_logf(s->log, SMD_LOG_ERROR, "store_error", "job %s: cannot quarantine its damaged record: %s",
+                 id, strerror(errno));
+        return NULL;
+    }
+    (void)smd_fsync_dir(s->quarantine_dir);
+    job->state = SM_JOB_FAILED;
+    job->created = job->updated = job->finished = sm_time_now();
+    job->dim = 2;
+    job->max_iter = 1;
+    snprintf(job->message, sizeof job->message, "record damaged (%s); moved to quarantine/%s-%.8s",
+             why, id, suffix);
+    if (write_record(dir, job, &err) != SM_OK) {
+        smd_logf(s->log, SMD_LOG_ERROR, "store_error", "job %s: %s", id, err.msg);
+        free(job);
+        return NULL;
+    }
+    (void)smd_fsync_dir(s->jobs_dir);
+    s->nquarantined++;
+    smd_log(s->log, SMD_LOG_WARN, "job_quarantined",
+            json_pack("{s:s,s:s,s:s}", "job", id, "why", why, "moved_to", dest));
+    return job;
+}
+
+size_t smd_store_quarantined(const smd_store *s)
+{
+    return s->nquarantined;
+}
+
+/* Loads jobs/<id>; a record that cannot be read is quarantined. */
 static smd_job *load_job(smd_store *s, const char *id)
 {
     char path[PATH_MAX], why[256];
@@ -596,19 +667,24 @@ static smd_job *load_job(smd_store *s, const char *id)
     char *text = NULL;
     size_t len = 0;
     if (smd_read_file(path, STATUS_MAX_BYTES, &text, &len) != 0) {
-        smd_logf(s->log, SMD_LOG_WARN, "job_skipped", "%s: %s", path, strerror(errno));
-        return NULL;
+        snprintf(why, sizeof why, "status.json: %s", strerror(errno));
+        return quarantine_job(s, id, why);
     }
     json_error_t jerr;
     json_t *o = json_loadb(text, len, JSON_REJECT_DUPLICATES, &jerr);
     free(text);
     smd_job *job = smd_job_new(id);
     if (!o || !job || record_from_json(o, id, job, why, sizeof why) != 0) {
-        smd_logf(s->log, SMD_LOG_WARN, "job_skipped", "%s: %s", path,
-                 !o ? jerr.text : !job ? "out of memory" : why);
+        if (!job) {
+            smd_logf(s->log, SMD_LOG_WARN, "job_skipped", "%s: out of memory", path);
+            json_decref(o);
+            return NULL;
+        }
+        if (!o)
+            snprintf(why, sizeof why, "status.json: %s", jerr.text);
         json_decref(o);
         free(job);
-        return NULL;
+        return quarantine_job(s, id, why);
     }
     json_decref(o);
     return job;
@@ -643,12 +719,13 @@ sm_status smd_store_open(const char *spool, const smd_logger *log, smd_store **o
     if (smd_pathf(s->root, sizeof s->root, "%s", spool) != 0 ||
         smd_pathf(s->jobs_dir, sizeof s->jobs_dir, "%s/jobs", spool) != 0 ||
         smd_pathf(s->tmp_dir, sizeof s->tmp_dir, "%s/tmp", spool) != 0 ||
-        smd_pathf(s->trash_dir, sizeof s->trash_dir, "%s/trash", spool) != 0) {
+        smd_pathf(s->trash_dir, sizeof s->trash_dir, "%s/trash", spool) != 0 ||
+        smd_pathf(s->quarantine_dir, sizeof s->quarantine_dir, "%s/quarantine", spool) != 0) {
         free(s);
         return sm_error_set(err, SM_ERR_INVALID, "spool path too long: %s", spool);
     }
-    const char *dirs[] = {s->root, s->jobs_dir, s->tmp_dir, s->trash_dir};
-    for (int i = 0; i < 4; i++)
+    const char *dirs[] = {s->root, s->jobs_dir, s->tmp_dir, s->trash_dir, s->quarantine_dir};
+    for (int i = 0; i < 5; i++)
         if (smd_mkdirs(dirs[i], 0750) != 0) {
             sm_status st = sm_error_set(err, SM_ERR_IO, "cannot create %s: %s", dirs[i],
                                         strerror(errno));

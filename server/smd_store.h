@@ -36,6 +36,7 @@
 #include "smd_util.h"
 
 #define SMD_IDEMPOTENCY_KEY_MAX SM_IDEMPOTENCY_KEY_MAX /* proto/sm_proto_vocab.h */
+#define SMD_OWNER_MAX 64 /* = SMD_TENANT_MAX (smd_auth.h) */
 
 /* Bounds of the numbers of a record (status.json is outside input: a
  * restored backup, a hand edit).  A record whose "order" or "attempt" is
@@ -59,6 +60,7 @@ typedef struct smd_job {
     int dim;                  /* template dimension */
     int max_iter;             /* for the progress estimate */
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1]; /* "" = none */
+    char owner[SMD_OWNER_MAX + 1]; /* tenant of the submitting token, "" = none */
 
     /* last progress event, shown in the status document */
     int have_progress;
@@ -77,6 +79,7 @@ typedef struct smd_job {
     int worker_active;        /* a worker process runs (or is being reaped) */
     int cancel_requested;     /* DELETE while running: stop the worker */
     int delete_requested;     /* DELETE of a job whose worker is stopping */
+    int unsaved;              /* its last record write failed: retried */
     struct smd_follower *followers; /* streams following this job */
     struct smd_job *hash_next;
 } smd_job;
@@ -98,7 +101,12 @@ const char *smd_store_tmp_dir(const smd_store *s);
 
 smd_job *smd_store_get(smd_store *s, const char *id);
 /* The job submitted with this Idempotency-Key, or NULL. */
-smd_job *smd_store_find_key(smd_store *s, const char *key);
+smd_job *smd_store_find_key(smd_store *s, const char *owner, const char *key);
+/* smd_store_get, NULL as well when the job is another tenant's (admin:
+ * every job is visible): other tenants learn nothing, not even that the
+ * id exists. */
+smd_job *smd_store_get_visible(smd_store *s, const char *id, const char *tenant, int admin);
+int smd_job_visible(const smd_job *job, const char *tenant, int admin);
 size_t smd_store_count(const smd_store *s);
 /* i-th job in submission order (0 <= i < count). */
 smd_job *smd_store_at(smd_store *s, size_t i);
@@ -133,10 +141,22 @@ void smd_job_unref(smd_job *job);
  * removed; its files stay until smd_store_delete_files. */
 void smd_store_unlink(smd_store *s, smd_job *job);
 
-/* Moves the job's folder to trash/ (instant, atomic); the caller then
- * removes trash_path (smd_rmtree) without the lock.  -1 on failure. */
+/* Moves the job's folder to trash/ (instant, atomic, both folders
+ * fsync'ed); the caller then removes trash_path (smd_rmtree) without the
+ * lock.  -1 on failure (errno), the folder then stays where it was. */
 int smd_store_trash(smd_store *s, const char *id, char *trash_path,
                     size_t cap);
+
+/* Whether jobs/ and trash/ accept the rename of smd_store_trash now (a
+ * read-only or unwritable spool refuses): the check of a delete that
+ * must wait for its worker to be gone. */
+int smd_store_can_trash(const smd_store *s);
+
+/* Records found damaged at open (unreadable or invalid status.json): each
+ * job folder was moved to SPOOL/quarantine/<id>-<8 hex>, logged
+ * (job_quarantined), and replaced by a record of a failed job whose
+ * message says "record damaged" and where the folder went. */
+size_t smd_store_quarantined(const smd_store *s);
 
 /* Persists the record (status.json) after a state change. */
 sm_status smd_store_save(smd_store *s, smd_job *job, sm_error *err);

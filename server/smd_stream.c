@@ -91,7 +91,7 @@ static int format_status(smd_follower *f)
     snprintf(ev.job_id, sizeof ev.job_id, "%s", job->id);
     ev.time = sm_time_now();
     ev.state = job->state;
-    snprintf(ev.message, sizeof ev.message, "%s", job->message);
+    snprintf(ev.message, sizeof ev.message, "%s", job->removed ? "deleted" : job->message);
     json_t *o = sm_event_to_jansson(&ev);
     json_t *fields = smd_job_status_fields(job);
     if (!o || !fields) {
@@ -178,6 +178,17 @@ static ssize_t copy_out(smd_follower *f, char *out, size_t max)
     return (ssize_t)n;
 }
 
+/* Lock held (released here): the final status event, then the end. */
+static ssize_t end_with_status(smd_follower *f, char *out, size_t max)
+{
+    int rc = format_status(f);
+    pthread_mutex_unlock(&f->srv->lock);
+    if (rc != 0)
+        return MHD_CONTENT_READER_END_WITH_ERROR;
+    f->done = 1;
+    return copy_out(f, out, max);
+}
+
 static ssize_t follower_read(void *cls, uint64_t pos, char *out, size_t max)
 {
     smd_follower *f = cls;
@@ -190,10 +201,12 @@ static ssize_t follower_read(void *cls, uint64_t pos, char *out, size_t max)
 
     pthread_mutex_lock(&srv->lock);
     smd_job *job = f->job;
-    if (atomic_load(&srv->stopping) || job->removed) {
+    if (atomic_load(&srv->stopping)) {
         pthread_mutex_unlock(&srv->lock);
         return MHD_CONTENT_READER_END_OF_STREAM;
     }
+    if (job->removed) /* deleted: its log is gone, its final status is not */
+        return end_with_status(f, out, max);
     if (f->next_seq <= job->nevents) {
         /* next_seq >= 1 (smd_stream_response): the batch walks existing
          * events only, at most READ_BATCH bytes of them */
@@ -209,14 +222,8 @@ static ssize_t follower_read(void *cls, uint64_t pos, char *out, size_t max)
             return MHD_CONTENT_READER_END_WITH_ERROR;
         return f->len ? copy_out(f, out, max) : 0;
     }
-    if (smd_job_state_final(job->state) && !job->worker_active) {
-        int rc = format_status(f);
-        pthread_mutex_unlock(&srv->lock);
-        if (rc != 0)
-            return MHD_CONTENT_READER_END_WITH_ERROR;
-        f->done = 1;
-        return copy_out(f, out, max);
-    }
+    if (smd_job_state_final(job->state) && !job->worker_active)
+        return end_with_status(f, out, max);
     if (f->keepalive_due) {
         f->keepalive_due = 0;
         pthread_mutex_unlock(&srv->lock);

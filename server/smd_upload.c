@@ -246,6 +246,10 @@ enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
     if (atomic_load(&srv->draining))
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "the daemon is shutting down and accepts no new job");
+    if (atomic_load(&srv->unwritable))
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
+                                 "a job record could not be written (disk full?): no new job "
+                                 "until the spool takes writes again (see /readyz)");
     const char *length = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
     uint64_t n;
     int lrc = length ? smd_parse_uint(length, 0, srv->cfg.max_upload, &n) : SMD_NUM_OK;
@@ -266,7 +270,7 @@ enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
                                  SMD_IDEMPOTENCY_KEY_MAX);
     if (key) {
         pthread_mutex_lock(&srv->lock);
-        smd_job *job = smd_store_find_key(srv->store, key);
+        smd_job *job = smd_store_find_key(srv->store, req->who.tenant, key);
         enum MHD_Result r = MHD_YES;
         if (job)
             r = reply_existing(conn, req, job);
@@ -331,6 +335,18 @@ static int write_job_file(smd_upload *u, const sm_job_inputs *in)
     return rc;
 }
 
+/* An input beyond one of the configured bounds: 413 naming the flag. */
+static enum MHD_Result limit_refused(struct MHD_Connection *conn, smd_request *req,
+                                     const sm_read_limits *limits, const sm_error *err)
+{
+    const char *flag = limits->hit == SM_LIMIT_INFLATED   ? "--max-inflated"
+                       : limits->hit == SM_LIMIT_VERTICES ? "--max-vertices"
+                                                          : "--max-elements";
+    return smd_reply_problem(conn, req, 413, SMD_PROBLEM_TOO_LARGE,
+                             "%s (the daemon's %s; its operator can raise it%s)", err->msg, flag,
+                             limits->hit == SM_LIMIT_INFLATED ? "" : ", or --memory-limit");
+}
+
 static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *req, smd_upload *u)
 {
     smd_server *srv = req->srv;
@@ -357,10 +373,16 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
     sm_job_inputs in;
     sm_error err;
     sm_error_clear(&err);
+    sm_read_limits limits = {.max_inflated = srv->cfg.max_inflated,
+                             .max_vertices = (int64_t)srv->cfg.max_vertices,
+                             .max_elements = (int64_t)srv->cfg.max_elements};
     sm_job_files files = {.template_mesh = u->path[SM_PART_TEMPLATE],
                           .target_mesh = u->path[SM_PART_TARGET_MESH],
-                          .target_sol = u->path[SM_PART_TARGET_SOL]};
+                          .target_sol = u->path[SM_PART_TARGET_SOL],
+                          .limits = &limits};
     sm_status st = sm_job_inputs_load(&files, u->params ? u->params : "", u->params_len, &in, &err);
+    if (st != SM_OK && limits.hit)
+        return limit_refused(conn, req, &limits, &err);
     if (st != SM_OK) {
         if (st == SM_ERR_IO)
             return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "%s", err.msg);
@@ -379,6 +401,7 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "no random source for the job id: %s", strerror(errno));
     smd_submission sub = {.dir = u->dir, .id = id, .idempotency_key = u->idempotency_key,
+                          .owner = req->who.tenant,
                           .dim = dim, .max_iter = max_iter, .nverts = nverts, .nelems = nelems,
                           .bytes = u->received};
     smd_jobs_after after = {0};

@@ -1,7 +1,8 @@
 # libFuzzer targets for every parser (tests/fuzz/fuzz_*.c), built with
 # clang into build/fuzz/ with AddressSanitizer and UndefinedBehaviorSanitizer
-# (gcc has no libFuzzer).  The core, proto and client sources a target
-# needs are compiled again with clang: its sanitizer checks things gcc's
+# (gcc has no libFuzzer).  The core, proto, client and server sources a
+# target needs (the server's: header negotiation and the bounded integer
+# parser) are compiled again with clang: its sanitizer checks things gcc's
 # does not (e.g. a zero offset applied to a null pointer).
 #   make fuzz                 each target for FUZZ_SECONDS (default 300)
 #   make fuzz-build           build only (make test runs each briefly)
@@ -11,10 +12,11 @@ FUZZ_DIR := build/fuzz
 FUZZ_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror \
   -Wno-missing-field-initializers -g -O1 -fno-omit-frame-pointer -fopenmp \
   -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all \
-  -I core/include -I proto -I client -I tests/fuzz -I /usr/include/suitesparse \
+  -I core/include -I proto -I client -I server -I tests/fuzz -I /usr/include/suitesparse \
   -DSM_VERSION='"$(VERSION)"'
 FUZZ_LDFLAGS := -fopenmp -fsanitize=fuzzer,address,undefined
-FUZZ_LIB_SRCS := $(wildcard core/*.c) $(wildcard proto/*.c) client/sse.c tests/fuzz/fuzz_input.c
+FUZZ_LIB_SRCS := $(wildcard core/*.c) $(wildcard proto/*.c) client/sse.c tests/fuzz/fuzz_input.c \
+  server/smd_negotiate.c server/smd_util.c
 FUZZ_TARGETS := $(patsubst tests/fuzz/%.c,%,$(wildcard tests/fuzz/fuzz_*.c))
 FUZZ_TARGETS := $(filter-out fuzz_input,$(FUZZ_TARGETS))
 

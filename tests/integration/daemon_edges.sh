@@ -5,7 +5,8 @@
 # parameter) while /healthz keeps answering and SIGTERM still stops the
 # daemon; a spool record with "order": INT64_MAX followed by a submission
 # and a restart loses no job; a record with an attempt count out of range
-# is skipped as damaged.
+# is quarantined as damaged (SPOOL/quarantine/, logged, /metrics, the job
+# answers failed "record damaged").
 source "$(dirname "$0")/lib.sh"
 
 if ! make_case; then
@@ -140,15 +141,18 @@ else
 fi
 stop_daemon
 
-# an attempt count out of range: the record is damaged, skipped and logged
+# an attempt count out of range: the record is damaged, quarantined and
+# logged; the job answers failed "record damaged"
 sed -E 's/"attempt": *[0-9]+/"attempt": 99999999999/' "$SPOOL/jobs/$B/status.json" >"$WORK/rec" &&
     mv "$WORK/rec" "$SPOOL/jobs/$B/status.json"
 start_daemon edges --workers 1 || { not_ok "the daemon starts with a damaged record"; exit 1; }
-if [ "$(job_state "$B")" = 404 ] && state_is "$A" successful &&
-    grep -q "\"event\":\"job_skipped\".*$B.*bad attempt" "$DLOG"; then
-    ok "a record with attempt out of range is skipped as damaged (logged), the others load"
+if state_is "$B" failed && hcurl "$BASE/v1/jobs/$B" | jq -e '.message | test("record damaged")' >/dev/null &&
+    state_is "$A" successful && grep -q "\"event\":\"job_quarantined\".*$B.*bad attempt" "$DLOG" &&
+    ls "$SPOOL/quarantine/" | grep -q "^$B-" &&
+    hcurl "$BASE/metrics" | grep -q '^shapematch_records_quarantined 1$'; then
+    ok "a record with attempt out of range is quarantined (logged, /metrics), answers failed, the others load"
 else
-    not_ok "attempt out of range" "$(job_state "$B")" "$(grep job_skipped "$DLOG")"
+    not_ok "attempt out of range" "$(job_state "$B")" "$(grep job_quarantined "$DLOG")"
 fi
 if stop_daemon; then
     ok "SIGTERM stops the daemon (exit 0)"

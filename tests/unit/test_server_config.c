@@ -158,10 +158,32 @@ static void test_tokens(void **state)
     assert_int_equal(smd_tokens_check(t, "Bearer "), SMD_AUTH_INVALID);
     smd_tokens_free(t);
 
-    const char *inner = "good-token\nbad token\n";
+    /* "TOKEN NAME [admin]": a third word must be "admin", a name is a
+     * plain word */
+    const char *inner = "good-token\nbad token extra\n";
     assert_int_equal(smd_tokens_parse(inner, strlen(inner), "tokens", &t, msg, sizeof msg), -1);
     assert_non_null(strstr(msg, "tokens:2:"));
     assert_null(t);
+    const char *badname = "tok-1 al/ice\n";
+    assert_int_equal(smd_tokens_parse(badname, strlen(badname), "tokens", &t, msg, sizeof msg), -1);
+    assert_non_null(strstr(msg, "tokens:1: a tenant name"));
+    const char *ctl = "tok\x01en alice\n";
+    assert_int_equal(smd_tokens_parse(ctl, strlen(ctl), "tokens", &t, msg, sizeof msg), -1);
+    const char *tenants = "tok-a alice\ntok-b\tbob  admin\ntok-c\n";
+    assert_int_equal(smd_tokens_parse(tenants, strlen(tenants), "tokens", &t, msg, sizeof msg), 0);
+    assert_int_equal(smd_tokens_count(t), 3);
+    smd_identity who;
+    assert_int_equal(smd_tokens_identify(t, "Bearer tok-a", &who), SMD_AUTH_OK);
+    assert_string_equal(who.tenant, "alice");
+    assert_int_equal(who.admin, 0);
+    assert_int_equal(smd_tokens_identify(t, "Bearer tok-b", &who), SMD_AUTH_OK);
+    assert_string_equal(who.tenant, "bob");
+    assert_int_equal(who.admin, 1);
+    assert_int_equal(smd_tokens_identify(t, "Bearer tok-c", &who), SMD_AUTH_OK);
+    assert_string_equal(who.tenant, ""); /* the original form: an unnamed admin */
+    assert_int_equal(who.admin, 1);
+    assert_int_equal(smd_tokens_identify(t, "Bearer alice", &who), SMD_AUTH_INVALID);
+    smd_tokens_free(t);
     const char *none = "# nothing\n\n";
     assert_int_equal(smd_tokens_parse(none, strlen(none), "tokens", &t, msg, sizeof msg), -1);
     assert_non_null(strstr(msg, "no token"));

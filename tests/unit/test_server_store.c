@@ -130,8 +130,8 @@ static void test_commit_and_reopen(void **state)
     assert_ptr_equal(smd_store_get(s, b), jb);
     assert_null(smd_store_get(s, "cccccccccccccccccccccccccccccccc"));
     assert_null(smd_store_get(s, "../../etc"));
-    assert_ptr_equal(smd_store_find_key(s, "key-1"), ja);
-    assert_null(smd_store_find_key(s, "key-2"));
+    assert_ptr_equal(smd_store_find_key(s, NULL, "key-1"), ja);
+    assert_null(smd_store_find_key(s, NULL, "key-2"));
     assert_true(ja->order < jb->order);
     assert_int_equal(ja->state, SM_JOB_ACCEPTED);
     assert_int_equal(ja->nevents, 1); /* "accepted" */
@@ -195,7 +195,7 @@ static void test_commit_and_reopen(void **state)
     assert_int_equal(ja->attempt, 1);
     assert_non_null(strstr(ja->message, "re-queued"));
     assert_int_equal(ja->nevents, 6);
-    assert_ptr_equal(smd_store_find_key(s, "key-1"), ja);
+    assert_ptr_equal(smd_store_find_key(s, NULL, "key-1"), ja);
     /* the next job sorts after the reloaded ones */
     smd_job *jc = commit(f, s, "cccccccccccccccccccccccccccccccc", NULL);
     assert_true(jc->order > jb->order);
@@ -249,7 +249,17 @@ static void test_crash_leftovers(void **state)
     size_t queued;
     assert_int_equal(open_recovered(f, &s, &queued, &err), SM_OK);
     assert_int_equal(queued, 1);
-    assert_int_equal(smd_store_count(s), 1); /* corrupt and foreign records skipped */
+    /* the foreign folder is left alone; the two damaged records are
+     * quarantined and answer as failed jobs */
+    assert_int_equal(smd_store_count(s), 3);
+    assert_int_equal(smd_store_quarantined(s), 2);
+    const char *damaged[] = {"ffffffffffffffffffffffffffffffff", "eeeeeeeeeeeeeeeeeeeeeeeeeeeeeeee"};
+    for (int k = 0; k < 2; k++) {
+        smd_job *jd = smd_store_get(s, damaged[k]);
+        assert_non_null(jd);
+        assert_int_equal(jd->state, SM_JOB_FAILED);
+        assert_non_null(strstr(jd->message, "record damaged"));
+    }
     ja = smd_store_get(s, a);
     assert_non_null(ja);
     assert_int_equal(ja->state, SM_JOB_ACCEPTED);

@@ -29,4 +29,13 @@ int sm_clamp_rank(const sm_mesh *m, const uint8_t *clamped);
 sm_status sm_clamp_check(const sm_mesh *m, const sm_params *p, int32_t *nclamped,
                          sm_error *err);
 
+/* The clamp of every connected part of m (vertices joined by elements;
+ * vertices of no element are ignored): a template in several pieces is
+ * well posed only when each piece is held like a whole template (a
+ * vertex and no rigid rotation free, as sm_clamp_check).  SM_OK for one
+ * part (sm_clamp_check covers it) and for SM_CLAMP_NONE; SM_ERR_INVALID
+ * naming a vertex of the first loose part otherwise.  O(vertices +
+ * elements). */
+sm_status sm_clamp_check_parts(const sm_mesh *m, const sm_params *p, sm_error *err);
+
 #endif

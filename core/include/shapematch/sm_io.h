@@ -39,6 +39,21 @@ sm_status sm_sol_alloc(sm_sol **out, int dim, int32_t nverts, int ncomp,
                        sm_error *err);
 void sm_sol_free(sm_sol *s);
 
+/* Bounds on the work one file may cause, for readers of untrusted files
+ * (a daemon's uploads): a gzip file that decompresses beyond max_inflated
+ * bytes, or a declared record count beyond max_vertices (Vertices,
+ * SolAtVertices) or max_elements (every other section), is refused as
+ * SM_ERR_NOMEM ("size limit exceeded") before the records are allocated,
+ * and `hit` says which bound (SM_LIMIT_*).  A zero bound is no bound
+ * beyond the readers' own (SM_MAX_ENTITIES, the file's size). */
+enum { SM_LIMIT_NONE = 0, SM_LIMIT_INFLATED, SM_LIMIT_VERTICES, SM_LIMIT_ELEMENTS };
+typedef struct sm_read_limits {
+    uint64_t max_inflated;
+    int64_t max_vertices;
+    int64_t max_elements;
+    int hit; /* out: the bound that refused the file, SM_LIMIT_NONE if none */
+} sm_read_limits;
+
 /* Reads .mesh, .meshb, .mesh.gz, .meshb.gz into a new mesh (free with
  * sm_mesh_free).  The format is decided by the content (binary files
  * start with the 32-bit code 1 in either byte order; libMeshb versions
@@ -71,6 +86,10 @@ sm_status sm_mesh_read(const char *path, sm_mesh **out, sm_error *err);
     "Medit .mesh/.meshb or Gmsh .msh (4.1 ASCII/binary, 2.2 ASCII), optionally " \
     "gzip-compressed"
 
+/* The same within limits (NULL: none). */
+sm_status sm_mesh_read_limited(const char *path, sm_read_limits *limits, sm_mesh **out,
+                               sm_error *err);
+
 /* Writes by extension: .mesh (ASCII, Dimension = m->dim) or .meshb
  * (binary, version 2; version 3 if the file would exceed 2 GiB), with an
  * optional trailing .gz.  Writes Vertices, the file facets (Edges in 2D,
@@ -88,6 +107,8 @@ sm_status sm_mesh_write_coords(const char *path, const sm_mesh *m,
  * type 1 (scalar) or 2 (vector); Time and Iterations are ignored.  The
  * writer uses ASCII for .sol and binary version 2 for .solb. */
 sm_status sm_sol_read(const char *path, sm_sol **out, sm_error *err);
+sm_status sm_sol_read_limited(const char *path, sm_read_limits *limits, sm_sol **out,
+                              sm_error *err);
 sm_status sm_sol_write(const char *path, const sm_sol *s, sm_error *err);
 
 /* VTK XML UnstructuredGrid with inline ASCII data (ParaView, VTK):

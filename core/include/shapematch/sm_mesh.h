@@ -56,6 +56,13 @@ sm_status sm_mesh_clone(const sm_mesh *m, sm_mesh **out, sm_error *err);
  * geometric use; the readers do not call it. */
 sm_status sm_mesh_build_boundary(sm_mesh *m, sm_error *err);
 
+/* Checks that the elements around each vertex are joined through facets
+ * holding it (no bowtie: two triangles, or tetrahedra, touching at one
+ * vertex only), which the boundary and the solver assume.  Call after
+ * sm_mesh_build_boundary (indices checked).  SM_ERR_INVALID naming the
+ * vertex and two of its elements; O(elements log elements). */
+sm_status sm_mesh_check_manifold(const sm_mesh *m, sm_error *err);
+
 /* Signed volume (area in 2D) of element e with vertex coordinates taken
  * from coords (nverts*dim, e.g. a deformed copy of m->coords). */
 double sm_elem_volume(const sm_mesh *m, const double *coords, int32_t e);

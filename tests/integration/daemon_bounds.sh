@@ -1,0 +1,92 @@
+#!/usr/bin/env bash
+# Bounded work for every input (issue 8): the two decompression bombs of
+# the issue — a 437 KB .mesh.gz declaring 50 million vertices, and a small
+# gzip holding 64 MiB of blanks — are refused with 413 problem+json naming
+# the limit (--max-vertices, --max-inflated) within seconds, the daemon's
+# peak RSS stays small and /healthz answers meanwhile; --max-elements and
+# --max-vertices refuse a declared count before anything is allocated.
+source "$(dirname "$0")/lib.sh"
+
+if ! make_case; then
+    not_ok "gmsh builds the test meshes" "$(tail -5 "$WORK/case/gmsh.log")"
+    exit 1
+fi
+ok "gmsh builds the test meshes"
+python3 - "$WORK" <<'EOF'
+import gzip, sys
+w = sys.argv[1]
+with gzip.open(w + "/verts.mesh.gz", "wb", compresslevel=9) as f:
+    f.write(b"MeshVersionFormatted 2\nDimension 2\nVertices\n50000000\n")
+    chunk = b"0 0 0\n" * 1000000
+    for i in range(50):
+        f.write(chunk)
+    f.write(b"Triangles\n1\n1 2 3 0\nEnd\n")
+with gzip.open(w + "/blanks.mesh.gz", "wb", compresslevel=9) as f:
+    f.write(b"MeshVersionFormatted 2\nDimension 2\n")
+    chunk = b" " * (1 << 20)
+    for i in range(64):
+        f.write(chunk)
+    f.write(b"Vertices\n3\n0 0 0\n1 0 0\n0 1 0\nTriangles\n1\n1 2 3 0\nEnd\n")
+EOF
+ok "bombs: $(stat -c %s "$WORK/verts.mesh.gz") bytes (50M vertices), $(stat -c %s "$WORK/blanks.mesh.gz") bytes (64 MiB of blanks)"
+
+start_daemon bounds --workers 1 --max-upload 1M || { not_ok "the daemon starts"; exit 1; }
+ok "the daemon starts (--max-upload 1M: --max-inflated 4M, --max-vertices 1M from --memory-limit 4G)"
+
+# bomb DESC FILE FLAG: 413 naming FLAG within seconds, /healthz answering
+# during the upload
+bomb() {
+    local t0 t1 c healthy=0 i
+    t0=${EPOCHREALTIME/,/.}
+    curl -sS --max-time $((30 * SLOW)) -o "$WORK/bomb.json" -w '%{http_code}' -F "template=@$2" \
+        -F "target_mesh=@$BOX" -F "target_sol=@$BOXSOL" -F "params=$(quick_params 5)" \
+        "$BASE/v1/jobs" >"$WORK/bomb.code" 2>/dev/null &
+    local cpid=$!
+    for ((i = 0; i < 3; i++)); do
+        [ "$(curl -sS --max-time 5 -o /dev/null -w '%{http_code}' "$BASE/healthz")" = 200 ] && healthy=$((healthy + 1))
+    done
+    wait "$cpid"
+    t1=${EPOCHREALTIME/,/.}
+    c=$(cat "$WORK/bomb.code")
+    local secs
+    secs=$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.2f", b - a }')
+    if [ "$c" = 413 ] && [ "$healthy" = 3 ] &&
+        jq -e --arg f "$3" '.status == 413 and (.detail | contains($f))' "$WORK/bomb.json" >/dev/null &&
+        awk -v s="$secs" -v k="$SLOW" 'BEGIN { exit !(s < 10 * k) }'; then
+        ok "$1: 413 in $secs s, /healthz answered 3/3: \"$(jq -r .detail "$WORK/bomb.json")\""
+    else
+        not_ok "$1: 413 naming $3" "code $c in $secs s, healthz $healthy/3" "$(cat "$WORK/bomb.json")"
+    fi
+}
+bomb "50M vertices in 437 KB of gzip" "$WORK/verts.mesh.gz" --max-vertices
+bomb "64 MiB of blanks in a small gzip" "$WORK/blanks.mesh.gz" --max-inflated
+hwm=$(awk '/^VmHWM/ { print $2 }' "/proc/$DPID/status")
+if [ -n "$hwm" ] && [ "$hwm" -lt $((150 * 1024 * SLOW)) ]; then
+    ok "the daemon's peak RSS after both bombs: $((hwm / 1024)) MiB"
+else
+    not_ok "the daemon's peak RSS stays bounded" "VmHWM ${hwm:-?} kB"
+fi
+id=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
+if [ -n "$id" ] && wait_final "$id" 60 && state_is "$id" successful; then
+    ok "an ordinary job is still accepted and runs"
+else
+    not_ok "an ordinary job runs" "$(cat "$WORK/submit.out")"
+fi
+stop_daemon
+
+start_daemon counts --workers 1 --max-elements 20 || { not_ok "the daemon starts"; exit 1; }
+submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)" >/dev/null
+if [ "$(cat "$WORK/submit.code")" = 413 ] &&
+    jq -e '.detail | test("^template: .*(Triangles|Edges) count [0-9]+ exceeds the limit of 20 records.*--max-elements")' \
+        "$WORK/submit.out" >/dev/null; then
+    ok "--max-elements 20: 413 \"$(jq -r .detail "$WORK/submit.out")\""
+else
+    not_ok "--max-elements 20: 413" "$(cat "$WORK/submit.code")" "$(cat "$WORK/submit.out")"
+fi
+stop_daemon
+if reports_clean; then
+    ok "no sanitizer report"
+else
+    not_ok "no sanitizer report"
+fi
+echo "1..$n"

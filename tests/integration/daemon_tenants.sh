@@ -1,0 +1,99 @@
+#!/usr/bin/env bash
+# Tenants (issue 8): a tokens file with "TOKEN NAME [admin]" lines; a job
+# belongs to the submitting token's tenant; another tenant gets 404 on its
+# status, events, results, cancel and delete and does not see it in the
+# list; an admin sees every job; an Idempotency-Key is scoped to its
+# tenant; SIGHUP reloads the tokens (logged), a broken file keeps the old
+# ones.
+source "$(dirname "$0")/lib.sh"
+
+if ! make_case; then
+    not_ok "gmsh builds the test meshes" "$(tail -5 "$WORK/case/gmsh.log")"
+    exit 1
+fi
+ok "gmsh builds the test meshes"
+TOKENS=$WORK/tokens
+printf '# tenants\ntok-alice alice\ntok-bob bob\ntok-ops ops admin\n' >"$TOKENS"
+start_daemon ten --workers 1 --tokens-file "$TOKENS" || { not_ok "the daemon starts"; exit 1; }
+ok "the daemon starts with a tenants file"
+
+as() { AUTH=(-H "Authorization: Bearer tok-$1"); }
+code_as() { # TENANT METHOD URL: the HTTP status
+    curl -sS --max-time $((10 * SLOW)) -o "$WORK/reply.json" -w '%{http_code}' \
+        -H "Authorization: Bearer tok-$1" -X "$2" "$3"
+}
+as alice
+A=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
+as bob
+B=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
+if [ -n "$A" ] && [ -n "$B" ] && as alice && wait_final "$A" 60 && as bob && wait_final "$B" 60; then
+    ok "alice and bob each submit a job"
+else
+    not_ok "two tenants submit" "$(cat "$WORK/submit.out")"
+fi
+
+for route in "GET /v1/jobs/$A" "GET /v1/jobs/$A/events" "GET /v1/jobs/$A/results" \
+    "GET /v1/jobs/$A/results/mesh" "DELETE /v1/jobs/$A"; do
+    c=$(code_as bob ${route% *} "$BASE${route#* }")
+    if [ "$c" = 404 ] && jq -e '.status == 404' "$WORK/reply.json" >/dev/null; then
+        ok "bob: $route of alice's job: 404"
+    else
+        not_ok "bob: $route of alice's job: 404" "code $c" "$(head -c 300 "$WORK/reply.json")"
+    fi
+done
+ids() { jq -r '[.jobs[].jobID] | sort | join(" ")' "$WORK/reply.json"; }
+code_as bob GET "$BASE/v1/jobs" >/dev/null
+if [ "$(ids)" = "$B" ]; then ok "bob's list holds his job only"; else not_ok "bob's list" "$(ids)"; fi
+code_as alice GET "$BASE/v1/jobs" >/dev/null
+if [ "$(ids)" = "$A" ]; then ok "alice's list holds her job only"; else not_ok "alice's list" "$(ids)"; fi
+code_as ops GET "$BASE/v1/jobs" >/dev/null
+if [ "$(ids)" = "$(printf '%s\n' "$A" "$B" | sort | tr '\n' ' ' | sed 's/ $//')" ] &&
+    [ "$(code_as ops GET "$BASE/v1/jobs/$A")" = 200 ] && [ "$(code_as ops GET "$BASE/v1/jobs/$B/results")" = 200 ]; then
+    ok "the admin sees both jobs and their results"
+else
+    not_ok "the admin sees every job" "$(ids)"
+fi
+if [ "$(code_as alice GET "$BASE/v1/jobs/$A")" = 200 ] && jq -e '.status == "successful"' "$WORK/reply.json" >/dev/null; then
+    ok "alice still has her job (bob's DELETE changed nothing)"
+else
+    not_ok "alice's job survived bob's DELETE" "$(cat "$WORK/reply.json")"
+fi
+
+# Idempotency-Key per tenant
+as alice
+K1=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)" -H 'Idempotency-Key: same-key')
+as bob
+K2=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)" -H 'Idempotency-Key: same-key')
+as alice
+K3=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)" -H 'Idempotency-Key: same-key')
+if [ -n "$K1" ] && [ -n "$K2" ] && [ "$K1" != "$K2" ] && [ "$K1" = "$K3" ]; then
+    ok "an Idempotency-Key is scoped to its tenant (bob's gets a job of his own, alice's retry hers)"
+else
+    not_ok "Idempotency-Key per tenant" "$K1 / $K2 / $K3"
+fi
+
+# SIGHUP: bob's token goes, carol's comes
+printf 'tok-alice alice\ntok-carol carol\ntok-ops ops admin\n' >"$TOKENS"
+kill -HUP "$DPID"
+reloaded() { [ "$(grep -c '"event":"tokens_reloaded"' "$DLOG")" -ge "$1" ]; }
+if poll 10 reloaded 1 && [ "$(code_as carol GET "$BASE/v1/jobs")" = 200 ] && [ "$(ids)" = "" ] &&
+    [ "$(code_as bob GET "$BASE/v1/jobs")" = 401 ] && [ "$(code_as alice GET "$BASE/v1/jobs/$A")" = 200 ]; then
+    ok "SIGHUP reloads the tokens (logged): carol is in, bob is out, alice keeps her jobs"
+else
+    not_ok "SIGHUP reloads the tokens" "$(grep -E 'reload|tokens' "$DLOG" | tail -3)"
+fi
+printf 'tok-x one two three\n' >"$TOKENS"
+kill -HUP "$DPID"
+broken() { grep -q '"event":"reload".*kept' "$DLOG"; }
+if poll 10 broken && [ "$(code_as carol GET "$BASE/v1/jobs")" = 200 ]; then
+    ok "a broken tokens file on SIGHUP is refused (logged), the tokens in use stay"
+else
+    not_ok "a broken tokens file keeps the old tokens" "$(grep reload "$DLOG" | tail -2)"
+fi
+
+if stop_daemon && reports_clean; then
+    ok "SIGTERM stops the daemon, no sanitizer report"
+else
+    not_ok "clean stop"
+fi
+echo "1..$n"

@@ -28,6 +28,10 @@ awk -v ref_it="$REF_PER_ITER" -v ref_t="$REF_T3E4" '
     }
   }' build/bench-3d.txt
 
+echo
+echo "== stop rules: the stall rule on the examples and on Gmsh-made cases (bench/stall_cases.py) =="
+python3 bench/stall_cases.py "$BIN" --examples
+
 if [ -x bench/server_bench.sh ] && [ -x "$BIN/shapematchd" ]; then
     echo
     echo "== daemon =="

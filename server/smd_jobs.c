@@ -137,6 +137,7 @@ sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **
     job->max_iter = sub->max_iter;
     if (key)
         snprintf(job->idempotency_key, sizeof job->idempotency_key, "%s", key);
+    job->request_hash = sub->request_hash;
     sm_event ev;
     sm_event_init(&ev, SM_EVENT_ACCEPTED);
     ev.time = job->created;

@@ -52,6 +52,7 @@ typedef struct smd_submission {
     const char *dir;              /* prepared folder: inputs/ and job.json */
     const char *id;               /* fresh job id */
     const char *idempotency_key;  /* NULL or "" for none */
+    uint64_t request_hash;        /* of the parts, kept with the key */
     int dim, max_iter;
     int32_t nverts, nelems;       /* for the log */
     uint64_t bytes;               /* upload size, for the log */

@@ -59,6 +59,7 @@ typedef struct smd_job {
     int dim;                  /* template dimension */
     int max_iter;             /* for the progress estimate */
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1]; /* "" = none */
+    uint64_t request_hash;    /* of the request that used the key; 0 unknown */
 
     /* last progress event, shown in the status document */
     int have_progress;

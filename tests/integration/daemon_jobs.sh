@@ -293,6 +293,18 @@ if [ "$k1code" = 201 ] && [ "$k2code" = 200 ] && [ -n "$k1" ] && [ "$k1" = "$k2"
 else
     not_ok "Idempotency-Key" "$k1code $k1 / $k2code $k2 / $k3"
 fi
+k4=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 6)" -H 'Idempotency-Key: retry-1')
+k4code=$(cat "$WORK/submit.code")
+k4type=$(jq -r '.type + " " + (.status|tostring)' "$WORK/submit.out" 2>/dev/null)
+k4why=$(jq -r .detail "$WORK/submit.out" 2>/dev/null)
+k5=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)" -H 'Idempotency-Key: retry-1')
+if [ "$k4code" = 422 ] && [ -z "$k4" ] &&
+    [ "$k4type" = "https://shapematch.invalid/problems/idempotency-key-mismatch 422" ] &&
+    [ "${k4why#*different request}" != "$k4why" ] && [ "$k5" = "$k1" ]; then
+    ok "Idempotency-Key reused with different params: 422 idempotency-key-mismatch; the same request still replays"
+else
+    not_ok "Idempotency-Key mismatch" "$k4code $k4type / $k5 vs $k1: $k4why"
+fi
 
 # ------------------------------------------------------- 20 at once
 pids=()

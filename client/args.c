@@ -147,8 +147,9 @@ typedef struct scalar_option {
 } scalar_option;
 
 static const scalar_option scalar_options[] = {
-    {"--alpha", offsetof(sm_params, alpha), 0, 0.0, INFINITY, 1, 1, "A",
-     "0th-order term alpha*int u.v of the unclamped problem (only with --no-clamp)"},
+    {"--alpha", offsetof(sm_params, alpha), 0, 0.0, INFINITY, 0, 1, "A",
+     "0th-order term alpha*int u.v of the unclamped problem (only with --no-clamp; "
+     "0: from the scale, E/diameter^2)"},
     {"--young", offsetof(sm_params, young), 0, 0.0, INFINITY, 1, 1, "E",
      "Young's modulus of the elastic model"},
     {"--poisson", offsetof(sm_params, poisson), 0, -1.0, 0.5, 1, 1, "NU",

@@ -53,6 +53,7 @@ typedef struct run_state {
     double t_start;
     double diameter, step_min, step_max;
     double floor_q;           /* quality floor of accepted steps */
+    double alpha;             /* effective 0th-order coefficient (no clamp) */
     double J, qmin;
     sm_boundary_error be;
     double tau;               /* current trial step (a length) */
@@ -128,6 +129,8 @@ static sm_status setup_mesh(run_state *rs, const sm_match_opts *opts, sm_error *
     rs->diameter = sm_mesh_diameter(rs->mesh, rs->x);
     rs->step_min = params->tol_step * rs->diameter;
     rs->step_max = params->step_max * rs->diameter;
+    /* alpha int u.v against E int eps:eps: the two balance at E / L^2 */
+    rs->alpha = params->alpha > 0 ? params->alpha : params->young / (rs->diameter * rs->diameter);
 
     sm_quality_stats qs;
     sm_mesh_quality(rs->mesh, rs->x, &qs);
@@ -166,7 +169,7 @@ static sm_status setup_operators(run_state *rs, const sm_field *target, sm_error
         {
             sm_elasticity_opts eopts = {
                 .young = params->young, .poisson = params->poisson,
-                .alpha = params->clamp == SM_CLAMP_NONE ? params->alpha : 0.0};
+                .alpha = params->clamp == SM_CLAMP_NONE ? rs->alpha : 0.0};
             st_elastic = sm_elasticity_new(rs->mesh, rs->clamped, &eopts, &rs->elasticity,
                                            &err_elastic);
             if (st_elastic == SM_OK)
@@ -438,6 +441,7 @@ sm_status sm_match_run(const sm_match_opts *opts, const sm_match_callbacks *cb,
     result->boundary_max = rs.be.max;
     result->boundary_rms = boundary_rms(&rs.be);
     result->diameter = rs.diameter;
+    result->alpha = rs.params->clamp == SM_CLAMP_NONE ? rs.alpha : 0.0;
     result->min_quality = rs.qmin;
     result->accepted = rs.accepted;
     result->rejected = rs.rejected;

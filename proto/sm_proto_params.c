@@ -169,7 +169,7 @@ static sm_status decode_clamp(const json_t *clamp, const char *path, int dim,
             st = get_refs(value, sub, 1, out->clamp_refs, &out->n_clamp_refs, err);
             seen_refs = 1;
         } else if (strcmp(key, "alpha") == 0 && out->clamp == SM_CLAMP_NONE) {
-            st = get_ranged(value, sub, EXCL, 0, NONE, 0, &out->alpha, err);
+            st = get_ranged(value, sub, INCL, 0, NONE, 0, &out->alpha, err); /* 0: from the scale */
         } else if (strcmp(key, "center") == 0 || strcmp(key, "radius") == 0 ||
                    strcmp(key, "refs") == 0 || strcmp(key, "alpha") == 0) {
             st = sm_error_set(err, SM_ERR_INVALID, "%s: not allowed with kind \"%s\"", sub,

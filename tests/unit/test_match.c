@@ -312,7 +312,7 @@ static void test_bad_inputs(void **state)
     assert_int_equal(run_match(tm, &t, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "clamp set is empty"));
     p.clamp = SM_CLAMP_NONE;
-    p.alpha = 0;
+    p.alpha = -1;
     assert_int_equal(run_match(tm, &t, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "alpha"));
     sm_params_default(&p);

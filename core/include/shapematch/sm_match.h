@@ -55,6 +55,8 @@ typedef struct sm_result {
     double boundary_rms;     /* boundary_l2 / sqrt(|dOmega|), a length */
     double diameter;         /* of the template: boundary_rms / diameter is
                               * the unit-free relative error */
+    double alpha;            /* the 0th-order coefficient used (no clamp;
+                              * params alpha, or young / diameter^2 for 0) */
     int accepted, rejected;
     int factorizations;      /* numeric factorizations of the elastic operator */
     sm_timings time;

@@ -24,7 +24,8 @@ typedef struct sm_params {
     double clamp_radius;
     int32_t clamp_refs[SM_MAX_REFS];
     int n_clamp_refs;
-    double alpha;            /* 0th-order coefficient (clamp none); default 1e-2 */
+    double alpha;            /* 0th-order coefficient (clamp none); 0 (default)
+                              * = from the scale, young / diameter^2 */
 
     /* boundary facet references excluded from the load ("bref") */
     int32_t free_refs[SM_MAX_REFS];

@@ -34,6 +34,7 @@ check(ref["stop_reason"] != "stalled" and len(h) == ref["iterations"] + 1,
 check(s["stop_reason"] == "stalled", "a default run ends by the stall rule (%s)" % s["stop_reason"])
 check(needed <= s["iterations"] <= 2 * needed,
       "stops in [needed, 2 needed]: %d in [%d, %d]" % (s["iterations"], needed, 2 * needed))
+check(s["warnings"] == [] and ref["warnings"] == [], "no warning on the clean example", json.dumps(s["warnings"]))
 p = s["parameters"]
 check(p["tol_stall"] == 0.01 and p["stall_window"] == 15 and p["tol_boundary_rel"] == 0,
       "the summary's parameters carry the stall rule", json.dumps(p))

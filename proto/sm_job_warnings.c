@@ -3,6 +3,7 @@
 
 #include <math.h>
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 
@@ -146,5 +147,19 @@ void sm_job_check_result(const sm_job_inputs *in, const double *coords, const sm
                 "alpha %.3g is small for the problem's scale (alpha L^2 / E = %.3g with L = %.3g): "
                 "the unclamped descent barely moves; leave --alpha out (0: E / L^2 = %.3g)",
                 r->alpha, scale, r->diameter, in->params.young / (r->diameter * r->diameter));
+    }
+}
+
+void sm_job_warnings_text(const sm_job_warnings *ws, char *buf, size_t cap)
+{
+    size_t used = 0;
+    if (cap)
+        buf[0] = '\0';
+    for (int i = 0; i < ws->n && used + 1 < cap; i++) {
+        int k = snprintf(buf + used, cap - used, "%swarning: %s: %s", i ? "; " : "",
+                         ws->w[i].code, ws->w[i].message);
+        if (k < 0)
+            break;
+        used += (size_t)k < cap - used ? (size_t)k : cap - used - 1;
     }
 }

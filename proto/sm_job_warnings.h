@@ -19,6 +19,8 @@
 
 #include "shapematch/sm_error.h"
 #include "shapematch/sm_match.h"
+#include <stddef.h>
+
 #include "sm_job_inputs.h"
 
 #define SM_JOB_WARNINGS_MAX 8
@@ -45,5 +47,10 @@ sm_status sm_job_check_sign(const sm_job_inputs *in, sm_job_warnings *out, sm_er
  * above-resolution (finished runs only), alpha-small. */
 void sm_job_check_result(const sm_job_inputs *in, const double *coords, const sm_result *r,
                          int finished, sm_job_warnings *out);
+
+/* "warning: CODE: MESSAGE; warning: ..." into buf (cap bytes, truncated),
+ * "" when there is none: the message of the finished event, which the
+ * daemon adds to the job's status message. */
+void sm_job_warnings_text(const sm_job_warnings *ws, char *buf, size_t cap);
 
 #endif

@@ -253,6 +253,7 @@ int main(int argc, char **argv)
     sm_event ev;
     sm_event_init(&ev, SM_EVENT_FINISHED);
     ev.result = run.result;
+    sm_job_warnings_text(&run.warnings, ev.message, sizeof ev.message);
     emit(&w, &ev);
 done:
     sm_job_run_free(&run);

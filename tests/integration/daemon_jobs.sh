@@ -282,6 +282,25 @@ c=$(curl -sS -o /dev/null -w '%{http_code}' -X DELETE "$BASE/v1/jobs/0123456789a
 [ "$c" = 404 ] || bad=1
 if [ "$bad" = 0 ]; then ok "unknown and malformed ids: 404 no-such-job (GET, DELETE, events, results); an escaped ../ path is 404"; else not_ok "unknown ids"; fi
 
+# ------------------------------------------------------------ warnings
+# a background covering part of the template: the job succeeds, and says so
+mkdir -p "$WORK/warn"
+if python3 "$ROOT/tests/cli/warnings_inputs.py" "$WORK/warn"; then
+    EXT=$ROOT/examples/2d/template.mesh
+    wj=$(submit "$EXT" "$WORK/warn/part.mesh" "$WORK/warn/part.sol" \
+        '{"clamp": {"kind": "ball", "center": [0.5, 0.5], "radius": 0.04}, "max_iter": 20}')
+    if [ -n "$wj" ] && wait_final "$wj" 60 && state_is "$wj" successful &&
+        hcurl "${AUTH[@]}" "$BASE/v1/jobs/$wj" | jq -e '.message | test("finished: .*; warning: outside-background: ")' >/dev/null &&
+        hcurl "${AUTH[@]}" "$BASE/v1/jobs/$wj/results" | jq -e '.warnings[0].code == "outside-background" and .warnings[0].figure > 0.2' >/dev/null &&
+        hcurl "${AUTH[@]}" "$BASE/v1/jobs/$wj/events" | jq -se 'map(select(.type == "finished"))[0].message | test("; warning: outside-background: ")' >/dev/null; then
+        ok "warnings reach the job's status message, its finished event and its results (outside-background)"
+    else
+        not_ok "warnings in the daemon's job" "$(hcurl "${AUTH[@]}" "$BASE/v1/jobs/$wj/results" | jq -c .warnings | head -c 300) / $(hcurl "${AUTH[@]}" "$BASE/v1/jobs/$wj/events" | jq -c "[.type, .message]" | tail -n 4)"
+    fi
+else
+    not_ok "crafted inputs for the warnings"
+fi
+
 # -------------------------------------------------------- idempotency
 k1=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)" -H 'Idempotency-Key: retry-1')
 k1code=$(cat "$WORK/submit.code")

@@ -314,6 +314,7 @@ int cmd_run(int argc, char **argv)
         return run_error(&opt, st == SM_ERR_NOMEM ? CLI_EXIT_NUMERIC : CLI_EXIT_INPUT, "%s", err.msg);
     if ((code = apply_params(&opt, &in)) != 0)
         goto done;
+    progress_set_goal(&ctx.display, in.params.max_iter, in.params.tol_boundary);
     warn_unknown_free_refs(&ctx, in.prepared);
 
     /* ---- output directory, before the long part ---- */

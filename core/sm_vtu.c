@@ -20,6 +20,63 @@ static double finite_or_zero(double x)
     return isfinite(x) ? x : 0.0;
 }
 
+/* The cell fields: ref and cell_dim of the elements, then of the facets. */
+static void write_cell_data(sm_writer *w, const sm_mesh *m, int32_t nf)
+{
+    const int d = m->dim;
+    sm_writer_printf(w, "      <CellData Scalars=\"ref\">\n"
+                        "        <DataArray type=\"Int32\" Name=\"ref\" format=\"ascii\">\n");
+    for (int32_t e = 0; e < m->nelems; e++)
+        sm_writer_printf(w, "%ld\n", (long)m->elem_refs[e]);
+    for (int32_t f = 0; f < nf; f++)
+        sm_writer_printf(w, "%ld\n", m->facet_refs ? (long)m->facet_refs[f] : 0L);
+    sm_writer_printf(w, "        </DataArray>\n"
+                        "        <DataArray type=\"UInt8\" Name=\"cell_dim\" format=\"ascii\">\n");
+    for (int32_t e = 0; e < m->nelems; e++)
+        sm_writer_printf(w, "%d\n", d);
+    for (int32_t f = 0; f < nf; f++)
+        sm_writer_printf(w, "%d\n", d - 1);
+    sm_writer_printf(w, "        </DataArray>\n      </CellData>\n");
+
+}
+
+/* Connectivity, offsets and types of the elements, then of the facets. */
+static void write_cells(sm_writer *w, const sm_mesh *m, int32_t nf)
+{
+    const int d = m->dim, k = m->dim + 1;
+    sm_writer_printf(w, "      <Cells>\n        <DataArray type=\"Int32\" Name=\"connectivity\" "
+                        "format=\"ascii\">\n");
+    for (int32_t e = 0; e < m->nelems; e++) {
+        const int32_t *v = m->elems + (size_t)e * (size_t)k;
+        if (k == 3)
+            sm_writer_printf(w, "%ld %ld %ld\n", (long)v[0], (long)v[1], (long)v[2]);
+        else
+            sm_writer_printf(w, "%ld %ld %ld %ld\n", (long)v[0], (long)v[1], (long)v[2],
+                             (long)v[3]);
+    }
+    for (int32_t f = 0; f < nf; f++) {
+        const int32_t *v = m->facets + (size_t)f * (size_t)d;
+        if (d == 2)
+            sm_writer_printf(w, "%ld %ld\n", (long)v[0], (long)v[1]);
+        else
+            sm_writer_printf(w, "%ld %ld %ld\n", (long)v[0], (long)v[1], (long)v[2]);
+    }
+    /* Offsets are 64-bit: nelems * 4 can exceed the Int32 range. */
+    sm_writer_printf(w, "        </DataArray>\n        <DataArray type=\"Int64\" "
+                        "Name=\"offsets\" format=\"ascii\">\n");
+    for (int32_t e = 0; e < m->nelems; e++)
+        sm_writer_printf(w, "%lld\n", (long long)(e + 1) * k);
+    for (int32_t f = 0; f < nf; f++)
+        sm_writer_printf(w, "%lld\n", (long long)m->nelems * k + (long long)(f + 1) * d);
+    sm_writer_printf(w, "        </DataArray>\n        <DataArray type=\"UInt8\" Name=\"types\" "
+                        "format=\"ascii\">\n");
+    int type = d == 2 ? VTK_TRIANGLE : VTK_TETRA;
+    for (int32_t e = 0; e < m->nelems; e++)
+        sm_writer_printf(w, "%d\n", type);
+    for (int32_t f = 0; f < nf; f++)
+        sm_writer_printf(w, "%d\n", d == 2 ? VTK_LINE : VTK_TRIANGLE);
+}
+
 sm_status sm_vtu_write(const char *path, const sm_mesh *m, const double *coords,
                        const double *displacement, const double *distance, sm_error *err)
 {
@@ -76,19 +133,7 @@ sm_status sm_vtu_write(const char *path, const sm_mesh *m, const double *coords,
         sm_writer_printf(w, "      </PointData>\n");
     }
 
-    sm_writer_printf(w, "      <CellData Scalars=\"ref\">\n"
-                        "        <DataArray type=\"Int32\" Name=\"ref\" format=\"ascii\">\n");
-    for (int32_t e = 0; e < m->nelems; e++)
-        sm_writer_printf(w, "%ld\n", (long)m->elem_refs[e]);
-    for (int32_t f = 0; f < nf; f++)
-        sm_writer_printf(w, "%ld\n", m->facet_refs ? (long)m->facet_refs[f] : 0L);
-    sm_writer_printf(w, "        </DataArray>\n"
-                        "        <DataArray type=\"UInt8\" Name=\"cell_dim\" format=\"ascii\">\n");
-    for (int32_t e = 0; e < m->nelems; e++)
-        sm_writer_printf(w, "%d\n", d);
-    for (int32_t f = 0; f < nf; f++)
-        sm_writer_printf(w, "%d\n", d - 1);
-    sm_writer_printf(w, "        </DataArray>\n      </CellData>\n");
+    write_cell_data(w, m, nf);
 
     sm_writer_printf(w, "      <Points>\n        <DataArray type=\"Float64\" "
                         "NumberOfComponents=\"3\" format=\"ascii\">\n");
@@ -99,37 +144,7 @@ sm_status sm_vtu_write(const char *path, const sm_mesh *m, const double *coords,
     }
     sm_writer_printf(w, "        </DataArray>\n      </Points>\n");
 
-    sm_writer_printf(w, "      <Cells>\n        <DataArray type=\"Int32\" Name=\"connectivity\" "
-                        "format=\"ascii\">\n");
-    for (int32_t e = 0; e < m->nelems; e++) {
-        const int32_t *v = m->elems + (size_t)e * (size_t)k;
-        if (k == 3)
-            sm_writer_printf(w, "%ld %ld %ld\n", (long)v[0], (long)v[1], (long)v[2]);
-        else
-            sm_writer_printf(w, "%ld %ld %ld %ld\n", (long)v[0], (long)v[1], (long)v[2],
-                             (long)v[3]);
-    }
-    for (int32_t f = 0; f < nf; f++) {
-        const int32_t *v = m->facets + (size_t)f * (size_t)d;
-        if (d == 2)
-            sm_writer_printf(w, "%ld %ld\n", (long)v[0], (long)v[1]);
-        else
-            sm_writer_printf(w, "%ld %ld %ld\n", (long)v[0], (long)v[1], (long)v[2]);
-    }
-    /* Offsets are 64-bit: nelems * 4 can exceed the Int32 range. */
-    sm_writer_printf(w, "        </DataArray>\n        <DataArray type=\"Int64\" "
-                        "Name=\"offsets\" format=\"ascii\">\n");
-    for (int32_t e = 0; e < m->nelems; e++)
-        sm_writer_printf(w, "%lld\n", (long long)(e + 1) * k);
-    for (int32_t f = 0; f < nf; f++)
-        sm_writer_printf(w, "%lld\n", (long long)m->nelems * k + (long long)(f + 1) * d);
-    sm_writer_printf(w, "        </DataArray>\n        <DataArray type=\"UInt8\" Name=\"types\" "
-                        "format=\"ascii\">\n");
-    int type = d == 2 ? VTK_TRIANGLE : VTK_TETRA;
-    for (int32_t e = 0; e < m->nelems; e++)
-        sm_writer_printf(w, "%d\n", type);
-    for (int32_t f = 0; f < nf; f++)
-        sm_writer_printf(w, "%d\n", d == 2 ? VTK_LINE : VTK_TRIANGLE);
+    write_cells(w, m, nf);
     sm_writer_printf(w, "        </DataArray>\n      </Cells>\n"
                         "    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
     return sm_writer_close(w, err);

@@ -77,6 +77,7 @@ int main(int argc, char **argv)
         p.clamp_center[c] = v[c];
     p.clamp_radius = v[nv - 1];
     p.max_iter = argc > 3 ? atoi(argv[3]) : 300;
+    p.tol_stall = 0.0; /* the fixed-length descent the figures below compare */
     if (argc > 4)
         p.refactor_every = atoi(argv[4]);
 

@@ -147,8 +147,9 @@ typedef struct scalar_option {
 } scalar_option;
 
 static const scalar_option scalar_options[] = {
-    {"--alpha", offsetof(sm_params, alpha), 0, 0.0, INFINITY, 1, 1, "A",
-     "0th-order term alpha*int u.v of the unclamped problem (only with --no-clamp)"},
+    {"--alpha", offsetof(sm_params, alpha), 0, 0.0, INFINITY, 0, 1, "A",
+     "0th-order term alpha*int u.v of the unclamped problem (only with --no-clamp; "
+     "0: from the scale, E/diameter^2)"},
     {"--young", offsetof(sm_params, young), 0, 0.0, INFINITY, 1, 1, "E",
      "Young's modulus of the elastic model"},
     {"--poisson", offsetof(sm_params, poisson), 0, -1.0, 0.5, 1, 1, "NU",
@@ -158,7 +159,13 @@ static const scalar_option scalar_options[] = {
     {"--tol-step", offsetof(sm_params, tol_step), 0, 0.0, 1.0, 1, 1, "EPS",
      "stop when the step falls below EPS times the template diameter"},
     {"--tol-boundary", offsetof(sm_params, tol_boundary), 0, 0.0, INFINITY, 0, 1, "TOL",
-     "stop when the boundary error ||d||_L2 is <= TOL (0: off)"},
+     "stop when the boundary error ||d||_L2 is <= TOL (0: off; absolute, unit-dependent)"},
+    {"--tol-boundary-rel", offsetof(sm_params, tol_boundary_rel), 0, 0.0, INFINITY, 0, 1, "R",
+     "stop when the RMS boundary error is <= R times the template diameter (0: off; unit-free)"},
+    {"--tol-stall", offsetof(sm_params, tol_stall), 0, 0.0, 1.0, 0, 1, "F",
+     "stop (stalled) when the best boundary error improved by < F over the stall window (0: off)"},
+    {"--stall-window", offsetof(sm_params, stall_window), 1, 1.0, 100000, 0, 0, "K",
+     "iterations of the stall rule's window"},
     {"--min-quality", offsetof(sm_params, min_quality), 0, 0.0, 1.0, 0, 1, "Q",
      "element quality floor for an accepted step, in [0,1)"},
     {"--save-every", offsetof(sm_params, save_every), 1, 0.0, INT_MAX, 0, 0, "K",

@@ -245,6 +245,10 @@ static void print_final_line(const run_options *o, const sm_job_run *run)
                 sm_stop_reason_name(r->stop), r->iterations, r->iterations == 1 ? "" : "s",
                 r->J_initial, r->J, r->boundary_l2, r->boundary_max, r->min_quality,
                 run->inverted ? " (INVERTED ELEMENTS)" : "", o->outdir);
+    /* warnings even with --quiet: they are about the result, not progress */
+    for (int i = 0; i < run->warnings.n; i++)
+        fprintf(stderr, "shapematch: warning: %s: %s\n", run->warnings.w[i].code,
+                run->warnings.w[i].message);
 }
 
 /* ---- the command ---- */
@@ -333,6 +337,7 @@ int cmd_run(int argc, char **argv)
         print_surface_health(&opt, &in);
     if ((code = apply_params(&opt, &in)) != 0)
         goto done;
+    progress_set_goal(&ctx.display, in.params.max_iter, in.params.tol_boundary);
     warn_unknown_free_refs(&ctx, in.prepared);
 
     /* ---- output directory, before the long part ---- */

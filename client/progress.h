@@ -1,6 +1,8 @@
 /* Progress display on a terminal stream (stderr):
  *   - a TTY gets one line updated in place ("\r"), redrawn at most ~10
- *     times a second, ended by a newline when the run finishes;
+ *     times a second, ended by a newline when the run finishes: with a
+ *     goal (progress_set_goal) a bar toward it, the percentage, the
+ *     iteration rate and an ETA, then the figures;
  *   - anything else (a log file, a pipe, CI) gets one plain line every
  *     PROGRESS_LINE_EVERY iterations plus the final state;
  *   - quiet prints nothing.
@@ -28,10 +30,23 @@ typedef struct progress_display {
     int last_printed;       /* iteration of the last line shown, -1 none */
     sm_progress last;       /* latest state received */
     int have_last;
+    int max_iter;           /* goal: iteration cap (0 = unknown) */
+    double tol_l2;          /* goal: boundary error target (0 = none) */
+    int have_first;         /* the first state seen (start of the rate) */
+    int first_iter;
+    double first_elapsed, first_l2;
 } progress_display;
 
 /* Chooses the mode from quiet and isatty(fileno(out)). */
 void progress_init(progress_display *d, FILE *out, int quiet);
+/* What the bar advances toward: the boundary error tol_l2 (> 0: on a log
+ * scale from the first error seen) or else the iteration cap max_iter
+ * (> 0); the larger of the two fractions is shown (whichever ends the
+ * run first).  Without a goal the TTY line shows the rate only. */
+void progress_set_goal(progress_display *d, int max_iter, double tol_l2);
+/* Fraction of the goal reached in [0, 1], -1 without a goal; *eta gets
+ * the estimated seconds left (-1 unknown).  For tests. */
+double progress_fraction(const progress_display *d, const sm_progress *p, double *eta);
 void progress_update(progress_display *d, const sm_progress *p);
 /* Shows the final state (if not shown yet) and ends the TTY line. */
 void progress_finish(progress_display *d);

@@ -25,6 +25,7 @@ const char *sm_stop_reason_name(sm_stop_reason r)
     case SM_STOP_BOUNDARY: return "boundary_tolerance";
     case SM_STOP_MAX_ITER: return "max_iterations";
     case SM_STOP_CANCELLED: return "cancelled";
+    case SM_STOP_STALLED: return "stalled";
     }
     return "unknown";
 }
@@ -52,12 +53,15 @@ typedef struct run_state {
     double t_start;
     double diameter, step_min, step_max;
     double floor_q;           /* quality floor of accepted steps */
+    double alpha;             /* effective 0th-order coefficient (no clamp) */
     double J, qmin;
     sm_boundary_error be;
     double tau;               /* current trial step (a length) */
     double slope;             /* -dJ/dtau along the normalized direction */
     int since_factor;         /* accepted iterations since the last factorization */
     int iteration, accepted, rejected;
+    double *best;             /* stall rule: best ||d||_L2 up to iteration
+                               * i, at best[i % (stall_window + 1)] */
 } run_state;
 
 static void run_state_free(run_state *rs)
@@ -71,6 +75,7 @@ static void run_state_free(run_state *rs)
     free(rs->load);
     free(rs->u);
     free(rs->step);
+    free(rs->best);
 }
 
 /* A trial mesh is valid when no element is inverted and its worst quality
@@ -112,7 +117,8 @@ static sm_status setup_mesh(run_state *rs, const sm_match_opts *opts, sm_error *
     rs->load = malloc(ndof * sizeof(double));
     rs->u = malloc(ndof * sizeof(double));
     rs->step = malloc(ndof * sizeof(double));
-    if (!rs->clamped || !rs->x || !rs->trial || !rs->load || !rs->u || !rs->step)
+    rs->best = malloc(((size_t)params->stall_window + 1) * sizeof(double));
+    if (!rs->clamped || !rs->x || !rs->trial || !rs->load || !rs->u || !rs->step || !rs->best)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for a mesh of %ld vertices",
                             (long)rs->mesh->nverts);
     if ((st = sm_clamp_check(rs->mesh, params, NULL, err)) != SM_OK)
@@ -123,6 +129,8 @@ static sm_status setup_mesh(run_state *rs, const sm_match_opts *opts, sm_error *
     rs->diameter = sm_mesh_diameter(rs->mesh, rs->x);
     rs->step_min = params->tol_step * rs->diameter;
     rs->step_max = params->step_max * rs->diameter;
+    /* alpha int u.v against E int eps:eps: the two balance at E / L^2 */
+    rs->alpha = params->alpha > 0 ? params->alpha : params->young / (rs->diameter * rs->diameter);
 
     sm_quality_stats qs;
     sm_mesh_quality(rs->mesh, rs->x, &qs);
@@ -161,7 +169,7 @@ static sm_status setup_operators(run_state *rs, const sm_field *target, sm_error
         {
             sm_elasticity_opts eopts = {
                 .young = params->young, .poisson = params->poisson,
-                .alpha = params->clamp == SM_CLAMP_NONE ? params->alpha : 0.0};
+                .alpha = params->clamp == SM_CLAMP_NONE ? rs->alpha : 0.0};
             st_elastic = sm_elasticity_new(rs->mesh, rs->clamped, &eopts, &rs->elasticity,
                                            &err_elastic);
             if (st_elastic == SM_OK)
@@ -263,6 +271,39 @@ static int line_search(run_state *rs, double *dJ, double *q_trial)
     return found;
 }
 
+static double boundary_rms(const sm_boundary_error *be)
+{
+    return be->measure > 0 ? be->l2 / sqrt(be->measure) : 0.0;
+}
+
+/* Records the best boundary error up to the current iteration. */
+static void track_best(run_state *rs)
+{
+    const size_t slots = (size_t)rs->params->stall_window + 1;
+    double b = rs->be.l2;
+    if (rs->iteration > 0) {
+        double prev = rs->best[(size_t)(rs->iteration - 1) % slots];
+        if (prev < b)
+            b = prev;
+    }
+    rs->best[(size_t)rs->iteration % slots] = b;
+}
+
+/* The stall rule: over the last stall_window iterations the best error
+ * so far improved by less than the fraction tol_stall.  The best so far,
+ * not the current error, so that one lucky or unlucky iteration neither
+ * triggers nor delays it. */
+static int stalled(const run_state *rs)
+{
+    const sm_params *p = rs->params;
+    if (!(p->tol_stall > 0) || rs->iteration < p->stall_window)
+        return 0;
+    const size_t slots = (size_t)p->stall_window + 1;
+    double then = rs->best[(size_t)(rs->iteration - p->stall_window) % slots];
+    double now = rs->best[(size_t)rs->iteration % slots];
+    return then - now < p->tol_stall * then;
+}
+
 /* Reports the current state; nonzero when the callback asks to stop. */
 static int report(const run_state *rs, const sm_match_callbacks *cb)
 {
@@ -274,6 +315,7 @@ static int report(const run_state *rs, const sm_match_callbacks *cb)
     pg.step = rs->iteration > 0 ? rs->tau : 0.0;
     pg.boundary_l2 = rs->be.l2;
     pg.boundary_max = rs->be.max;
+    pg.boundary_rms = boundary_rms(&rs->be);
     pg.min_quality = rs->qmin;
     pg.elapsed = now_seconds() - rs->t_start;
     pg.accepted = rs->accepted;
@@ -284,8 +326,13 @@ static int report(const run_state *rs, const sm_match_callbacks *cb)
 /* Why the loop stops before the next iteration, or -1 to go on. */
 static int stop_before_iteration(const run_state *rs, const sm_match_callbacks *cb)
 {
-    if (rs->params->tol_boundary > 0 && rs->be.l2 <= rs->params->tol_boundary)
+    const sm_params *p = rs->params;
+    if (p->tol_boundary > 0 && rs->be.l2 <= p->tol_boundary)
         return SM_STOP_BOUNDARY;
+    if (p->tol_boundary_rel > 0 && boundary_rms(&rs->be) <= p->tol_boundary_rel * rs->diameter)
+        return SM_STOP_BOUNDARY;
+    if (stalled(rs))
+        return SM_STOP_STALLED;
     if (rs->iteration >= rs->params->max_iter)
         return SM_STOP_MAX_ITER;
     if (cb && cb->cancel && *cb->cancel)
@@ -336,6 +383,7 @@ static sm_status descend(run_state *rs, const sm_match_callbacks *cb, sm_result 
         t0 = now_seconds();
         sm_shape_load(rs->shape, rs->x, rs->load, &rs->be);
         tm->sample += now_seconds() - t0;
+        track_best(rs);
 
         if (report(rs, cb)) {
             result->stop = SM_STOP_CANCELLED;
@@ -379,6 +427,7 @@ sm_status sm_match_run(const sm_match_opts *opts, const sm_match_callbacks *cb,
     result->factorizations = 1;
     result->time.setup = now_seconds() - rs.t_start;
     result->J_initial = rs.J;
+    track_best(&rs);
 
     if (report(&rs, cb))
         result->stop = SM_STOP_CANCELLED;
@@ -390,6 +439,9 @@ sm_status sm_match_run(const sm_match_opts *opts, const sm_match_callbacks *cb,
     result->J = rs.J;
     result->boundary_l2 = rs.be.l2;
     result->boundary_max = rs.be.max;
+    result->boundary_rms = boundary_rms(&rs.be);
+    result->diameter = rs.diameter;
+    result->alpha = rs.params->clamp == SM_CLAMP_NONE ? rs.alpha : 0.0;
     result->min_quality = rs.qmin;
     result->accepted = rs.accepted;
     result->rejected = rs.rejected;

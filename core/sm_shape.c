@@ -203,7 +203,7 @@ void sm_shape_load(sm_shape *s, const double *coords, double *load, sm_boundary_
 
     /* scatter (serial: facets share vertices) */
     memset(load, 0, (size_t)m->nverts * (size_t)dim * sizeof(double));
-    double sum_sq = 0.0, maxabs = 0.0;
+    double sum_sq = 0.0, maxabs = 0.0, measure = 0.0;
     for (int32_t k = 0; k < na; k++) {
         const int32_t *fv = m->bfacets + (size_t)s->active[k] * (size_t)dim;
         const double *nk = s->normals + (size_t)k * (size_t)(dim + 1);
@@ -213,6 +213,7 @@ void sm_shape_load(sm_shape *s, const double *coords, double *load, sm_boundary_
             double d = s->values[(size_t)k * (size_t)nq + (size_t)q];
             double wd = w * nk[dim] * d;
             sum_sq += wd * d;
+            measure += w * nk[dim];
             if (fabs(d) > maxabs)
                 maxabs = fabs(d);
             for (int i = 0; i < dim; i++)
@@ -238,6 +239,7 @@ void sm_shape_load(sm_shape *s, const double *coords, double *load, sm_boundary_
         }
     be->l2 = sqrt(sum_sq);
     be->max = maxabs;
+    be->measure = measure;
 }
 
 double sm_shape_delta_j(sm_shape *s, const double *coords, const double *disp)

@@ -41,6 +41,7 @@ int32_t sm_shape_active_facets(const sm_shape *s);
 typedef struct sm_boundary_error {
     double l2;   /* ||d||_L2(active boundary), facet quadrature */
     double max;  /* max |d| over boundary vertices and quadrature points */
+    double measure; /* |active boundary| (length 2D, area 3D) */
 } sm_boundary_error;
 
 /* load (nverts*dim) = nodal forces of F(v) = -int_{dOmega} d v.n ds on the

@@ -1,19 +1,80 @@
 /* VTK XML UnstructuredGrid writer (.vtu) with inline ASCII data, which
- * ParaView and VTK read directly.  Points are padded to 3D; cells are
- * VTK_TRIANGLE (5) in 2D and VTK_TETRA (10) in 3D. */
+ * ParaView and VTK read directly.  Points are padded to 3D.  Cells: the
+ * elements (VTK_TRIANGLE 5 in 2D, VTK_TETRA 10 in 3D), then the mesh's
+ * facets with their references (VTK_LINE 3 in 2D, VTK_TRIANGLE in 3D),
+ * so boundary parts can be coloured and selected by reference: cell field
+ * "ref" (element or facet reference) and "cell_dim" (dim for elements,
+ * dim - 1 for facets; ParaView: Threshold on cell_dim, then on ref). */
 #include "shapematch/sm_io.h"
 
 #include <math.h>
 
 #include "sm_writer.h"
 
-enum { VTK_TRIANGLE = 5, VTK_TETRA = 10 };
+enum { VTK_LINE = 3, VTK_TRIANGLE = 5, VTK_TETRA = 10 };
 
 /* VTK's ASCII parser does not read "nan"/"inf"; such values (a diverged
  * computation being inspected) are written as 0 so the file still opens. */
 static double finite_or_zero(double x)
 {
     return isfinite(x) ? x : 0.0;
+}
+
+/* The cell fields: ref and cell_dim of the elements, then of the facets. */
+static void write_cell_data(sm_writer *w, const sm_mesh *m, int32_t nf)
+{
+    const int d = m->dim;
+    sm_writer_printf(w, "      <CellData Scalars=\"ref\">\n"
+                        "        <DataArray type=\"Int32\" Name=\"ref\" format=\"ascii\">\n");
+    for (int32_t e = 0; e < m->nelems; e++)
+        sm_writer_printf(w, "%ld\n", (long)m->elem_refs[e]);
+    for (int32_t f = 0; f < nf; f++)
+        sm_writer_printf(w, "%ld\n", m->facet_refs ? (long)m->facet_refs[f] : 0L);
+    sm_writer_printf(w, "        </DataArray>\n"
+                        "        <DataArray type=\"UInt8\" Name=\"cell_dim\" format=\"ascii\">\n");
+    for (int32_t e = 0; e < m->nelems; e++)
+        sm_writer_printf(w, "%d\n", d);
+    for (int32_t f = 0; f < nf; f++)
+        sm_writer_printf(w, "%d\n", d - 1);
+    sm_writer_printf(w, "        </DataArray>\n      </CellData>\n");
+
+}
+
+/* Connectivity, offsets and types of the elements, then of the facets. */
+static void write_cells(sm_writer *w, const sm_mesh *m, int32_t nf)
+{
+    const int d = m->dim, k = m->dim + 1;
+    sm_writer_printf(w, "      <Cells>\n        <DataArray type=\"Int32\" Name=\"connectivity\" "
+                        "format=\"ascii\">\n");
+    for (int32_t e = 0; e < m->nelems; e++) {
+        const int32_t *v = m->elems + (size_t)e * (size_t)k;
+        if (k == 3)
+            sm_writer_printf(w, "%ld %ld %ld\n", (long)v[0], (long)v[1], (long)v[2]);
+        else
+            sm_writer_printf(w, "%ld %ld %ld %ld\n", (long)v[0], (long)v[1], (long)v[2],
+                             (long)v[3]);
+    }
+    for (int32_t f = 0; f < nf; f++) {
+        const int32_t *v = m->facets + (size_t)f * (size_t)d;
+        if (d == 2)
+            sm_writer_printf(w, "%ld %ld\n", (long)v[0], (long)v[1]);
+        else
+            sm_writer_printf(w, "%ld %ld %ld\n", (long)v[0], (long)v[1], (long)v[2]);
+    }
+    /* Offsets are 64-bit: nelems * 4 can exceed the Int32 range. */
+    sm_writer_printf(w, "        </DataArray>\n        <DataArray type=\"Int64\" "
+                        "Name=\"offsets\" format=\"ascii\">\n");
+    for (int32_t e = 0; e < m->nelems; e++)
+        sm_writer_printf(w, "%lld\n", (long long)(e + 1) * k);
+    for (int32_t f = 0; f < nf; f++)
+        sm_writer_printf(w, "%lld\n", (long long)m->nelems * k + (long long)(f + 1) * d);
+    sm_writer_printf(w, "        </DataArray>\n        <DataArray type=\"UInt8\" Name=\"types\" "
+                        "format=\"ascii\">\n");
+    int type = d == 2 ? VTK_TRIANGLE : VTK_TETRA;
+    for (int32_t e = 0; e < m->nelems; e++)
+        sm_writer_printf(w, "%d\n", type);
+    for (int32_t f = 0; f < nf; f++)
+        sm_writer_printf(w, "%d\n", d == 2 ? VTK_LINE : VTK_TRIANGLE);
 }
 
 sm_status sm_vtu_write(const char *path, const sm_mesh *m, const double *coords,
@@ -31,6 +92,12 @@ sm_status sm_vtu_write(const char *path, const sm_mesh *m, const double *coords,
             return sm_error_set(err, SM_ERR_INVALID,
                                 "sm_vtu_write: element %zu has vertex index %ld out of range",
                                 i / (size_t)k + 1, (long)m->elems[i]);
+    const int32_t nf = m->facets && m->nfacets > 0 ? m->nfacets : 0;
+    for (size_t i = 0; i < (size_t)nf * (size_t)d; i++)
+        if (m->facets[i] < 0 || m->facets[i] >= m->nverts)
+            return sm_error_set(err, SM_ERR_INVALID,
+                                "sm_vtu_write: facet %zu has vertex index %ld out of range",
+                                i / (size_t)d + 1, (long)m->facets[i]);
     sm_writer *w;
     sm_status st = sm_writer_open(&w, path, err);
     if (st != SM_OK)
@@ -41,7 +108,7 @@ sm_status sm_vtu_write(const char *path, const sm_mesh *m, const double *coords,
                      "byte_order=\"LittleEndian\">\n"
                      "  <UnstructuredGrid>\n"
                      "    <Piece NumberOfPoints=\"%ld\" NumberOfCells=\"%ld\">\n",
-                     (long)m->nverts, (long)m->nelems);
+                     (long)m->nverts, (long)m->nelems + (long)nf);
 
     if (displacement || distance) {
         sm_writer_printf(w, "      <PointData%s%s>\n", distance ? " Scalars=\"distance\"" : "",
@@ -66,11 +133,7 @@ sm_status sm_vtu_write(const char *path, const sm_mesh *m, const double *coords,
         sm_writer_printf(w, "      </PointData>\n");
     }
 
-    sm_writer_printf(w, "      <CellData Scalars=\"ref\">\n"
-                        "        <DataArray type=\"Int32\" Name=\"ref\" format=\"ascii\">\n");
-    for (int32_t e = 0; e < m->nelems; e++)
-        sm_writer_printf(w, "%ld\n", (long)m->elem_refs[e]);
-    sm_writer_printf(w, "        </DataArray>\n      </CellData>\n");
+    write_cell_data(w, m, nf);
 
     sm_writer_printf(w, "      <Points>\n        <DataArray type=\"Float64\" "
                         "NumberOfComponents=\"3\" format=\"ascii\">\n");
@@ -81,26 +144,7 @@ sm_status sm_vtu_write(const char *path, const sm_mesh *m, const double *coords,
     }
     sm_writer_printf(w, "        </DataArray>\n      </Points>\n");
 
-    sm_writer_printf(w, "      <Cells>\n        <DataArray type=\"Int32\" Name=\"connectivity\" "
-                        "format=\"ascii\">\n");
-    for (int32_t e = 0; e < m->nelems; e++) {
-        const int32_t *v = m->elems + (size_t)e * (size_t)k;
-        if (k == 3)
-            sm_writer_printf(w, "%ld %ld %ld\n", (long)v[0], (long)v[1], (long)v[2]);
-        else
-            sm_writer_printf(w, "%ld %ld %ld %ld\n", (long)v[0], (long)v[1], (long)v[2],
-                             (long)v[3]);
-    }
-    /* Offsets are 64-bit: nelems * 4 can exceed the Int32 range. */
-    sm_writer_printf(w, "        </DataArray>\n        <DataArray type=\"Int64\" "
-                        "Name=\"offsets\" format=\"ascii\">\n");
-    for (int32_t e = 0; e < m->nelems; e++)
-        sm_writer_printf(w, "%lld\n", (long long)(e + 1) * k);
-    sm_writer_printf(w, "        </DataArray>\n        <DataArray type=\"UInt8\" Name=\"types\" "
-                        "format=\"ascii\">\n");
-    int type = d == 2 ? VTK_TRIANGLE : VTK_TETRA;
-    for (int32_t e = 0; e < m->nelems; e++)
-        sm_writer_printf(w, "%d\n", type);
+    write_cells(w, m, nf);
     sm_writer_printf(w, "        </DataArray>\n      </Cells>\n"
                         "    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
     return sm_writer_close(w, err);

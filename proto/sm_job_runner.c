@@ -117,7 +117,10 @@ sm_status sm_job_run_exec(const sm_job_inputs *in, const sm_job_hooks *hooks, sm
     sm_match_opts opts = {.template_mesh = m, .prepared = in->prepared, .target = in->field,
                           .params = &in->params};
     sm_match_callbacks cb = {.progress = on_progress, .user = &c, .cancel = c.hooks->cancel};
-    sm_status st = sm_match_run(&opts, &cb, run->coords, &run->result, err);
+    sm_status st = sm_job_check_sign(in, &run->warnings, err);
+    if (st != SM_OK)
+        return st;
+    st = sm_match_run(&opts, &cb, run->coords, &run->result, err);
     if (c.failed != SM_OK) {
         if (err)
             *err = c.error;
@@ -144,6 +147,8 @@ sm_status sm_job_run_exec(const sm_job_inputs *in, const sm_job_hooks *hooks, sm
     sm_quality_stats q;
     sm_mesh_quality(in->prepared, run->coords, &q);
     run->inverted = q.ninverted;
+    sm_job_check_result(in, run->coords, r, run->outcome == SM_JOB_OUTCOME_FINISHED,
+                        &run->warnings);
     return SM_OK;
 }
 
@@ -208,6 +213,22 @@ static json_t *surface_health_object(const sm_job_inputs *in)
     return o;
 }
 
+static json_t *warnings_array(const sm_job_warnings *ws)
+{
+    json_t *a = json_array();
+    for (int i = 0; a && i < ws->n; i++) {
+        json_t *w = json_object();
+        if (!w || json_array_append_new(a, w) != 0 ||
+            smp_set(w, "code", json_string(ws->w[i].code)) ||
+            set_string(w, "message", ws->w[i].message) ||
+            smp_set(w, "figure", smp_real_or_null(ws->w[i].figure))) {
+            json_decref(a);
+            return NULL;
+        }
+    }
+    return a;
+}
+
 json_t *sm_job_summary_to_jansson(const sm_job_inputs *in, const sm_job_run *run,
                                   const sm_job_files *names)
 {
@@ -238,6 +259,7 @@ json_t *sm_job_summary_to_jansson(const sm_job_inputs *in, const sm_job_run *run
         json_decref(t);
     }
     bad = bad || smp_set(doc, "inverted_elements", json_integer(run->inverted));
+    bad = bad || smp_set(doc, "warnings", warnings_array(&run->warnings));
     bad = bad || smp_set(doc, "field_builds", json_integer(in->field_builds));
     bad = bad || set_string(inputs, "template", names->template_mesh) ||
           set_string(inputs, "target_mesh", names->target_mesh) ||

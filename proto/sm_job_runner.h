@@ -29,7 +29,10 @@
  * rejected, timings, parameters) plus shapematch_version, status,
  * exit_code, inverted_elements, field_builds, timings.read and
  * timings.field_build, inputs (the names the caller gives), template
- * (dimension and counts) and outputs (the file of each result format).
+ * (dimension and counts), outputs (the file of each result format) and
+ * warnings ([{code, message, figure}], sm_job_warnings.h; [] when none).
+ * A distance whose sign is unambiguously inverted is refused before the
+ * run (SM_ERR_INVALID, the message about target_sol).
  * The daemon serves it as GET /v1/jobs/{id}/results, adding jobID and
  * links. */
 #ifndef SM_JOB_RUNNER_H
@@ -42,6 +45,7 @@
 
 #include "shapematch/sm_error.h"
 #include "sm_job_inputs.h"
+#include "sm_job_warnings.h"
 #include "shapematch/sm_match.h"
 
 /* Exit codes shared by `shapematch run` and `shapematch-worker` (the
@@ -87,6 +91,7 @@ typedef struct sm_job_run {
     int exit_code;               /* SM_JOB_EXIT_OK, _NUMERIC or _CANCELLED */
     int32_t inverted;            /* elements with volume <= 0 at the end */
     char message[512];           /* failed: why, for the user */
+    sm_job_warnings warnings;    /* sm_job_warnings.h; in the summary */
 } sm_job_run;
 
 /* Runs the job on in (field and prepared template reused, nothing is

@@ -66,7 +66,7 @@ int sm_stop_reason_from_name(const char *name, sm_stop_reason *out)
 {
     /* Inverse of the core's own naming, so the two never drift apart. */
     static const sm_stop_reason all[] = {SM_STOP_STEP, SM_STOP_BOUNDARY, SM_STOP_MAX_ITER,
-                                         SM_STOP_CANCELLED};
+                                         SM_STOP_CANCELLED, SM_STOP_STALLED};
     for (size_t i = 0; name && i < COUNT(all); i++) {
         const char *n = sm_stop_reason_name(all[i]);
         if (n && strcmp(name, n) == 0) {
@@ -225,6 +225,9 @@ json_t *sm_result_to_jansson(const sm_result *r, const sm_params *params, int di
     bad = bad || smp_set(obj, "J_final", smp_real_or_null(r->J));
     bad = bad || smp_set(obj, "boundary_l2", smp_real_or_null(r->boundary_l2));
     bad = bad || smp_set(obj, "boundary_max", smp_real_or_null(r->boundary_max));
+    bad = bad || smp_set(obj, "boundary_rms", smp_real_or_null(r->boundary_rms));
+    bad = bad || smp_set(obj, "boundary_relative",
+                         smp_real_or_null(r->diameter > 0 ? r->boundary_rms / r->diameter : 0.0));
     bad = bad || smp_set(obj, "min_quality", smp_real_or_null(r->min_quality));
     bad = bad || smp_set(obj, "accepted", json_integer(r->accepted));
     bad = bad || smp_set(obj, "rejected", json_integer(r->rejected));
@@ -329,11 +332,12 @@ sm_status sm_result_from_jansson(const json_t *obj, const char *path, sm_result 
     if (!json_is_string(v) || sm_stop_reason_from_name(json_string_value(v), &r.stop) != 0) {
         smp_path_join(sub, path, "stop_reason");
         return sm_error_set(err, SM_ERR_FORMAT,
-                            "%s: must be one of \"%s\", \"%s\", \"%s\", \"%s\"", sub,
+                            "%s: must be one of \"%s\", \"%s\", \"%s\", \"%s\", \"%s\"", sub,
                             sm_stop_reason_name(SM_STOP_STEP),
                             sm_stop_reason_name(SM_STOP_BOUNDARY),
                             sm_stop_reason_name(SM_STOP_MAX_ITER),
-                            sm_stop_reason_name(SM_STOP_CANCELLED));
+                            sm_stop_reason_name(SM_STOP_CANCELLED),
+                            sm_stop_reason_name(SM_STOP_STALLED));
     }
     if ((st = read_count(obj, path, "iterations", &r.iterations, err)) ||
         (st = read_number(obj, path, "J_initial", &r.J_initial, err)) ||
@@ -344,6 +348,10 @@ sm_status sm_result_from_jansson(const json_t *obj, const char *path, sm_result 
         (st = read_count(obj, path, "accepted", &r.accepted, err)) ||
         (st = read_count(obj, path, "rejected", &r.rejected, err)))
         return st;
+    /* optional (older summaries lack it); the relative error is derived */
+    const json_t *rms = json_object_get(obj, "boundary_rms");
+    if (json_is_number(rms))
+        r.boundary_rms = json_number_value(rms);
     const json_t *t;
     if ((st = member(obj, path, "timings", &t, err)))
         return st;

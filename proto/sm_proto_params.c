@@ -169,7 +169,7 @@ static sm_status decode_clamp(const json_t *clamp, const char *path, int dim,
             st = get_refs(value, sub, 1, out->clamp_refs, &out->n_clamp_refs, err);
             seen_refs = 1;
         } else if (strcmp(key, "alpha") == 0 && out->clamp == SM_CLAMP_NONE) {
-            st = get_ranged(value, sub, EXCL, 0, NONE, 0, &out->alpha, err);
+            st = get_ranged(value, sub, INCL, 0, NONE, 0, &out->alpha, err); /* 0: from the scale */
         } else if (strcmp(key, "center") == 0 || strcmp(key, "radius") == 0 ||
                    strcmp(key, "refs") == 0 || strcmp(key, "alpha") == 0) {
             st = sm_error_set(err, SM_ERR_INVALID, "%s: not allowed with kind \"%s\"", sub,
@@ -196,7 +196,7 @@ static sm_status decode_clamp(const json_t *clamp, const char *path, int dim,
 
 static const char top_fields[] =
     "clamp, free_boundary, young, poisson, max_iter, tol_step, tol_boundary, "
-    "min_quality, save_every, step_initial, step_max, refactor_every, live_every";
+    "tol_boundary_rel, tol_stall, stall_window, min_quality, save_every, step_initial, step_max, refactor_every, live_every";
 
 static sm_status decode_field(const char *key, const json_t *value, const char *sub,
                               int dim, sm_params *out, sm_error *err)
@@ -215,6 +215,12 @@ static sm_status decode_field(const char *key, const json_t *value, const char *
         return get_ranged(value, sub, EXCL, 0, EXCL, 1, &out->tol_step, err);
     if (strcmp(key, "tol_boundary") == 0)
         return get_ranged(value, sub, INCL, 0, NONE, 0, &out->tol_boundary, err);
+    if (strcmp(key, "tol_boundary_rel") == 0)
+        return get_ranged(value, sub, INCL, 0, NONE, 0, &out->tol_boundary_rel, err);
+    if (strcmp(key, "tol_stall") == 0)
+        return get_ranged(value, sub, INCL, 0, EXCL, 1, &out->tol_stall, err);
+    if (strcmp(key, "stall_window") == 0)
+        return get_int_field(value, sub, 1, 100000, &out->stall_window, err);
     if (strcmp(key, "min_quality") == 0)
         return get_ranged(value, sub, INCL, 0, EXCL, 1, &out->min_quality, err);
     if (strcmp(key, "save_every") == 0)
@@ -320,7 +326,8 @@ static int all_finite(const sm_params *p)
 {
     const double xs[] = {p->clamp_center[0], p->clamp_center[1], p->clamp_center[2],
                          p->clamp_radius, p->alpha, p->young, p->poisson, p->tol_step,
-                         p->tol_boundary, p->min_quality, p->step_initial, p->step_max};
+                         p->tol_boundary, p->tol_boundary_rel, p->tol_stall, p->min_quality,
+                         p->step_initial, p->step_max};
     for (size_t i = 0; i < sizeof xs / sizeof xs[0]; i++)
         if (!isfinite(xs[i]))
             return 0;
@@ -372,6 +379,9 @@ json_t *sm_params_to_jansson(const sm_params *p, int dim)
     bad = bad || smp_set(root, "max_iter", json_integer(p->max_iter));
     bad = bad || smp_set(root, "tol_step", json_real(p->tol_step));
     bad = bad || smp_set(root, "tol_boundary", json_real(p->tol_boundary));
+    bad = bad || smp_set(root, "tol_boundary_rel", json_real(p->tol_boundary_rel));
+    bad = bad || smp_set(root, "tol_stall", json_real(p->tol_stall));
+    bad = bad || smp_set(root, "stall_window", json_integer(p->stall_window));
     bad = bad || smp_set(root, "min_quality", json_real(p->min_quality));
     bad = bad || smp_set(root, "save_every", json_integer(p->save_every));
     bad = bad || smp_set(root, "step_initial", json_real(p->step_initial));

@@ -9,7 +9,8 @@
  *   {"clamp": {"kind": "none", "alpha": 0.01}, "max_iter": 100}
  *
  * Top-level fields: clamp, free_boundary, young, poisson, max_iter,
- * tol_step, tol_boundary, min_quality, save_every, step_initial, step_max,
+ * tol_step, tol_boundary, tol_boundary_rel, tol_stall, stall_window,
+ * min_quality, save_every, step_initial, step_max,
  * refactor_every.  Decoding is strict: unknown fields, wrong types,
  * out-of-range values and duplicate keys are errors, and the message
  * starts with the JSON path of the offending field, e.g.

@@ -346,6 +346,7 @@ int main(int argc, char **argv)
     sm_event ev;
     sm_event_init(&ev, SM_EVENT_FINISHED);
     ev.result = run.result;
+    sm_job_warnings_text(&run.warnings, ev.message, sizeof ev.message);
     emit(&w, &ev);
 done:
     free(w.live.disp);

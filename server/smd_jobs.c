@@ -179,6 +179,7 @@ sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **
         snprintf(job->idempotency_key, sizeof job->idempotency_key, "%s", key);
     if (sub->owner)
         snprintf(job->owner, sizeof job->owner, "%s", sub->owner);
+    job->request_hash = sub->request_hash;
     sm_event ev;
     sm_event_init(&ev, SM_EVENT_ACCEPTED);
     ev.time = job->created;
@@ -269,8 +270,11 @@ sm_status smd_jobs_finish(smd_server *srv, smd_job *job, const sm_event *finishe
         json_decref(extra);
         return refuse(job, "finish", &err);
     }
-    snprintf(job->message, sizeof job->message, "finished: %s after %d iterations",
-             sm_stop_reason_name(finished->result.stop), finished->result.iterations);
+    int n = snprintf(job->message, sizeof job->message, "finished: %s after %d iterations",
+                     sm_stop_reason_name(finished->result.stop), finished->result.iterations);
+    size_t used = n > 0 ? (size_t)n : 0, room = sizeof job->message - used;
+    if (finished->message[0] && room > 3) /* the run's warnings, truncated */
+        snprintf(job->message + used, room, "; %.*s", (int)(room - 3), finished->message);
     sm_event ev = *finished;
     ev.seq = 0;
     end_job(srv, job, SM_JOB_SUCCESSFUL, &ev, SMD_LOG_INFO, "job_finished", extra, after);

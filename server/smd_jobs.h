@@ -55,6 +55,7 @@ typedef struct smd_submission {
     const char *idempotency_key;  /* NULL or "" for none */
     const char *owner;            /* tenant, NULL or "" for none; the key is
                                    * looked up among its jobs only */
+    uint64_t request_hash;        /* of the parts, kept with the key */
     int dim, max_iter;
     int32_t nverts, nelems;       /* for the log */
     uint64_t bytes;               /* upload size, for the log */

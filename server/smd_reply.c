@@ -96,6 +96,8 @@ static const char *problem_title(unsigned status, const char *type)
         return "Result not ready";
     if (strcmp(type, SMD_PROBLEM_NO_SUCH_PROCESS) == 0)
         return "No such process";
+    if (strcmp(type, SMD_PROBLEM_IDEMPOTENCY_MISMATCH) == 0)
+        return "Idempotency-Key reused with a different request";
     const char *r = MHD_get_reason_phrase_for(status);
     return (r && *r) ? r : "Error";
 }

@@ -38,6 +38,8 @@
 #define SMD_PROBLEM_UNAVAILABLE "about:blank"
 #define SMD_PROBLEM_INTERNAL "about:blank"
 #define SMD_PROBLEM_STORAGE "about:blank"
+/* an Idempotency-Key reused with a different request (IETF httpapi draft) */
+#define SMD_PROBLEM_IDEMPOTENCY_MISMATCH "https://shapematch.invalid/problems/idempotency-key-mismatch"
 
 struct smd_upload;
 struct smd_route; /* the row of the route table that matched (smd_route_table.h) */

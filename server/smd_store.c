@@ -4,6 +4,7 @@
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <inttypes.h>
 #include <limits.h>
 #include <math.h>
 #include <stdio.h>
@@ -275,6 +276,11 @@ static json_t *record_to_json(const smd_job *job)
         json_object_set_new(o, "idempotencyKey", json_string(job->idempotency_key));
     if (job->owner[0])
         json_object_set_new(o, "owner", json_string(job->owner));
+    if (job->request_hash) {
+        char hex[17];
+        snprintf(hex, sizeof hex, "%016" PRIx64, job->request_hash);
+        json_object_set_new(o, "requestHash", json_string(hex));
+    }
     return o;
 }
 
@@ -355,6 +361,9 @@ static int record_from_json(json_t *o, const char *id, smd_job *job, char *why, 
     v = json_object_get(o, "idempotencyKey");
     if (json_is_string(v) && strlen(json_string_value(v)) <= SMD_IDEMPOTENCY_KEY_MAX)
         strcpy(job->idempotency_key, json_string_value(v));
+    v = json_object_get(o, "requestHash");
+    if (json_is_string(v) && strlen(json_string_value(v)) == 16)
+        job->request_hash = strtoull(json_string_value(v), NULL, 16);
     return 0;
 }
 

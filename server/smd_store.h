@@ -61,6 +61,7 @@ typedef struct smd_job {
     int max_iter;             /* for the progress estimate */
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1]; /* "" = none */
     char owner[SMD_OWNER_MAX + 1]; /* tenant of the submitting token, "" = none */
+    uint64_t request_hash;    /* of the request that used the key; 0 unknown */
 
     /* last progress event, shown in the status document */
     int have_progress;

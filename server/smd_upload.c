@@ -37,6 +37,7 @@ struct smd_upload {
     char *params;                  /* params text */
     size_t params_len;
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1];
+    uint64_t part_hash[SM_NPARTS]; /* FNV-1a of each part's bytes */
     /* first error met while parsing; replied at the next call */
     unsigned err_status;
     const char *err_type;
@@ -115,6 +116,42 @@ static int open_part(smd_upload *u, sm_part id)
     return 0;
 }
 
+#define FNV_OFFSET 0xcbf29ce484222325ULL
+
+static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
+{
+    const unsigned char *p = data;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ p[i]) * 0x100000001b3ULL;
+    return h;
+}
+
+/* What makes two requests "the same" for an Idempotency-Key: the bytes of
+ * every part, whatever the multipart boundary and the order of parts. */
+static uint64_t request_hash(const smd_upload *u)
+{
+    uint64_t h = FNV_OFFSET;
+    for (int i = 0; i < SM_NPARTS; i++)
+        h = fnv1a(h, &u->part_hash[i], sizeof u->part_hash[i]);
+    return h ? h : 1; /* 0 = unknown (records from before the hash) */
+}
+
+static enum MHD_Result reply_existing(struct MHD_Connection *conn, smd_request *req,
+                                      smd_job *job);
+
+/* A job found by its Idempotency-Key: the same request is replayed, a
+ * different one refused (the IETF httpapi idempotency draft's 422). */
+static enum MHD_Result reply_keyed(struct MHD_Connection *conn, smd_request *req, smd_job *job,
+                                   uint64_t hash)
+{
+    if (job->request_hash && job->request_hash != hash)
+        return smd_reply_problem(conn, req, 422, SMD_PROBLEM_IDEMPOTENCY_MISMATCH,
+                                 "Idempotency-Key \"%s\" was used for job %s with a different "
+                                 "request; use a new key for a new request",
+                                 job->idempotency_key, job->id);
+    return reply_existing(conn, req, job);
+}
+
 static enum MHD_Result on_part(void *cls, enum MHD_ValueKind kind, const char *key,
                                const char *filename, const char *content_type,
                                const char *transfer_encoding, const char *data, uint64_t off,
@@ -155,12 +192,14 @@ static enum MHD_Result on_part(void *cls, enum MHD_ValueKind kind, const char *k
         }
         u->seen[id] = 1;
         u->current = id;
+        u->part_hash[id] = FNV_OFFSET;
         if (id != SM_PART_PARAMS && open_part(u, (sm_part)id) != 0)
             return MHD_NO;
     }
     if (size == 0)
         return MHD_YES;
     u->current_bytes += size;
+    u->part_hash[id] = fnv1a(u->part_hash[id], data, size);
     if (id == SM_PART_PARAMS) {
         if (u->params_len + size > SM_PARAMS_JSON_MAX_BYTES) {
             fail(u, 422, SMD_PROBLEM_INVALID_INPUT, "params: larger than %d bytes",
@@ -268,17 +307,7 @@ enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
                                  "Idempotency-Key must be 1 to %d visible ASCII characters",
                                  SMD_IDEMPOTENCY_KEY_MAX);
-    if (key) {
-        pthread_mutex_lock(&srv->lock);
-        smd_job *job = smd_store_find_key(srv->store, req->who.tenant, key);
-        enum MHD_Result r = MHD_YES;
-        if (job)
-            r = reply_existing(conn, req, job);
-        pthread_mutex_unlock(&srv->lock);
-        if (job)
-            return r;
-    }
-
+    /* a known key is answered after the body (same request or not) */
     smd_upload *u = calloc(1, sizeof *u);
     if (!u)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
@@ -370,6 +399,16 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
         if (name_file(u, (sm_part)i) != 0)
             return reply_error(conn, req, u);
 
+    uint64_t hash = request_hash(u);
+    if (u->idempotency_key[0]) {
+        pthread_mutex_lock(&srv->lock);
+        smd_job *known = smd_store_find_key(srv->store, req->who.tenant, u->idempotency_key);
+        enum MHD_Result r = known ? reply_keyed(conn, req, known, hash) : MHD_YES;
+        pthread_mutex_unlock(&srv->lock);
+        if (known)
+            return r;
+    }
+
     sm_job_inputs in;
     sm_error err;
     sm_error_clear(&err);
@@ -401,7 +440,7 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "no random source for the job id: %s", strerror(errno));
     smd_submission sub = {.dir = u->dir, .id = id, .idempotency_key = u->idempotency_key,
-                          .owner = req->who.tenant,
+                          .owner = req->who.tenant, .request_hash = hash,
                           .dim = dim, .max_iter = max_iter, .nverts = nverts, .nelems = nelems,
                           .bytes = u->received};
     smd_jobs_after after = {0};
@@ -411,7 +450,7 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
     st = smd_jobs_submit(srv, &sub, &job, &created, &after, &err);
     if (st == SM_OK && !created) {
         /* a concurrent retry with the same key won the race */
-        enum MHD_Result r = reply_existing(conn, req, job);
+        enum MHD_Result r = reply_keyed(conn, req, job, hash);
         pthread_mutex_unlock(&srv->lock);
         return r;
     }

@@ -84,6 +84,7 @@ def report(ok, what, why=""):
 s = json.load(open(out + "/summary.json"))
 report(s["boundary_l2"] <= 1e-3, "reaches boundary_l2 <= 1e-3 (%.3g after %d iterations, %s)" % (
     s["boundary_l2"], s["iterations"], s["stop_reason"]), "boundary_l2 %g" % s["boundary_l2"])
+report(s.get("warnings") == [], "warns of nothing", json.dumps(s.get("warnings")))
 dim, x0, t0 = read_mesh(template)
 _, x1, t1 = read_mesh(out + "/result.mesh")
 flipped = sum(1 for e in t0 if volume(x0, e) * volume(x1, e) <= 0)

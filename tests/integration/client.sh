@@ -21,7 +21,7 @@ M=$EX/background.mesh.gz
 S=$EX/background.sol.gz
 CLAMP=(--clamp-ball "$(cat "$EX/clamp" 2>/dev/null || echo 0.5,0.5,0.04)")
 QUICK=(--max-iter 30)
-LONG=(--max-iter 100000000 --tol-step 1e-15)
+LONG=(--max-iter 100000000 --tol-step 1e-15 --tol-stall 0)
 INPUTS=(--template "$T" --target-mesh "$M" --target-sol "$S")
 UNKNOWN=0123456789abcdef0123456789abcdef
 unset SHAPEMATCH_TOKEN
@@ -404,7 +404,7 @@ SPOOL=
 if start_daemon restart --workers 1 --worker-threads 1; then
     RBASE=$BASE
     RPORT=${BASE##*:}
-    sm rsub submit --server "$RBASE" "${INPUTS[@]}" "${CLAMP[@]}" --max-iter 3000 --tol-step 1e-15
+    sm rsub submit --server "$RBASE" "${INPUTS[@]}" "${CLAMP[@]}" --max-iter 3000 --tol-step 1e-15 --tol-stall 0
     RID=$(head -1 "$WORK/rsub.out")
     timeout $((90 * SLOW)) "$SM" watch --server "$RBASE" --json "$RID" >"$WORK/rw.out" 2>"$WORK/rw.log" &
     RW=$!

@@ -282,6 +282,25 @@ c=$(curl -sS -o /dev/null -w '%{http_code}' -X DELETE "$BASE/v1/jobs/0123456789a
 [ "$c" = 404 ] || bad=1
 if [ "$bad" = 0 ]; then ok "unknown and malformed ids: 404 no-such-job (GET, DELETE, events, results); an escaped ../ path is 404"; else not_ok "unknown ids"; fi
 
+# ------------------------------------------------------------ warnings
+# a background covering part of the template: the job succeeds, and says so
+mkdir -p "$WORK/warn"
+if python3 "$ROOT/tests/cli/warnings_inputs.py" "$WORK/warn"; then
+    EXT=$ROOT/examples/2d/template.mesh
+    wj=$(submit "$EXT" "$WORK/warn/part.mesh" "$WORK/warn/part.sol" \
+        '{"clamp": {"kind": "ball", "center": [0.5, 0.5], "radius": 0.04}, "max_iter": 20}')
+    if [ -n "$wj" ] && wait_final "$wj" 60 && state_is "$wj" successful &&
+        hcurl "${AUTH[@]}" "$BASE/v1/jobs/$wj" | jq -e '.message | test("finished: .*; warning: outside-background: ")' >/dev/null &&
+        hcurl "${AUTH[@]}" "$BASE/v1/jobs/$wj/results" | jq -e '.warnings[0].code == "outside-background" and .warnings[0].figure > 0.2' >/dev/null &&
+        hcurl "${AUTH[@]}" "$BASE/v1/jobs/$wj/events" | jq -se 'map(select(.type == "finished"))[0].message | test("; warning: outside-background: ")' >/dev/null; then
+        ok "warnings reach the job's status message, its finished event and its results (outside-background)"
+    else
+        not_ok "warnings in the daemon's job" "$(hcurl "${AUTH[@]}" "$BASE/v1/jobs/$wj/results" | jq -c .warnings | head -c 300) / $(hcurl "${AUTH[@]}" "$BASE/v1/jobs/$wj/events" | jq -c "[.type, .message]" | tail -n 4)"
+    fi
+else
+    not_ok "crafted inputs for the warnings"
+fi
+
 # -------------------------------------------------------- idempotency
 k1=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)" -H 'Idempotency-Key: retry-1')
 k1code=$(cat "$WORK/submit.code")
@@ -292,6 +311,18 @@ if [ "$k1code" = 201 ] && [ "$k2code" = 200 ] && [ -n "$k1" ] && [ "$k1" = "$k2"
     ok "Idempotency-Key: a retried submission returns the same job (200), another key a new one"
 else
     not_ok "Idempotency-Key" "$k1code $k1 / $k2code $k2 / $k3"
+fi
+k4=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 6)" -H 'Idempotency-Key: retry-1')
+k4code=$(cat "$WORK/submit.code")
+k4type=$(jq -r '.type + " " + (.status|tostring)' "$WORK/submit.out" 2>/dev/null)
+k4why=$(jq -r .detail "$WORK/submit.out" 2>/dev/null)
+k5=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)" -H 'Idempotency-Key: retry-1')
+if [ "$k4code" = 422 ] && [ -z "$k4" ] &&
+    [ "$k4type" = "https://shapematch.invalid/problems/idempotency-key-mismatch 422" ] &&
+    [ "${k4why#*different request}" != "$k4why" ] && [ "$k5" = "$k1" ]; then
+    ok "Idempotency-Key reused with different params: 422 idempotency-key-mismatch; the same request still replays"
+else
+    not_ok "Idempotency-Key mismatch" "$k4code $k4type / $k5 vs $k1: $k4why"
 fi
 
 # ------------------------------------------------------- 20 at once

@@ -21,7 +21,7 @@ fi
 ok "the daemon starts"
 
 # a job that runs until cancelled, with a snapshot every iteration
-E=$(submit "$FINE" "$BOX" "$BOXSOL" "$BALL_PARAMS, \"max_iter\": 100000000, \"tol_step\": 1e-15, \"save_every\": 1}")
+E=$(submit "$FINE" "$BOX" "$BOXSOL" "$BALL_PARAMS, \"max_iter\": 100000000, \"tol_step\": 1e-15, \"tol_stall\": 0, \"save_every\": 1}")
 S=$(submit "$DISK" "$BOX" "$BOXSOL" "$BALL_PARAMS, \"max_iter\": 30, \"save_every\": 10}")
 N=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 30)")
 if [ -n "$E" ] && [ -n "$S" ] && [ -n "$N" ]; then

@@ -136,8 +136,8 @@ verdict=$(paste -d' ' "$W/t.xy" "$W/r.xy" "$W/u.xy" | awk -v cx="$cx" -v cy="$cy
         printf "ok %d vertices, %d clamped, %d moved, max |x - (x0 + u)| = %.1e\n", n, clamped, moved, maxerr
     }')
 if [[ $verdict == ok* ]]; then ok "result.mesh = template + displacement.sol: ${verdict#ok }"; else not_ok "result.mesh = template + displacement.sol" "$verdict"; fi
-check "result.vtu holds the 440 vertices and 778 triangles" \
-    grep -q 'NumberOfPoints="440" NumberOfCells="778"' "$O/result.vtu"
+check "result.vtu holds the 440 vertices, 778 triangles and the 116 facets (100 boundary, 16 clamp edges)" \
+    grep -q 'NumberOfPoints="440" NumberOfCells="894"' "$O/result.vtu"
 check "the daemon is stopped after the demo (process gone, port closed)" daemon_gone one
 check "no sanitizer report from the client, the daemon or the worker" reports_clean one
 

@@ -228,6 +228,13 @@ result(targets[:2] == ["deps", "release"] and "install" in targets and ci_steps 
        and all(re.search(r"^%s:" % t, makefile, re.M) for t in targets),
        "Dockerfile build stage runs make deps, make release, make install (CI: make test = deps + all, all includes release)",
        targets)
+# debian:bookworm has no make: the build stage must install it before it runs make
+first_make = re.search(r"(?:^|&&|;)\s*make\b", build_cmds)
+before = build_cmds[:first_make.start()] if first_make else ""
+result(build["image"] == "debian:bookworm" and first_make is not None
+       and re.search(r"apt-get install[^&;]*\smake(\s|$)", before) is not None,
+       "Dockerfile build stage installs make (absent from debian:bookworm) before it runs make",
+       build_cmds[:200])
 install_run = [r for r in build["run"] if "make install" in r]
 m = re.search(r"make install DESTDIR=(\S+) PREFIX=(\S+)", install_run[0]) if install_run else None
 copied = []

@@ -281,4 +281,4 @@ EOF
 # params for the disk case: a quick job (~0.1 s) and one that runs until
 # it is stopped (fine mesh, huge iteration cap)
 quick_params() { echo "$BALL_PARAMS, \"max_iter\": ${1:-50}}"; }
-endless_params() { echo "$BALL_PARAMS, \"max_iter\": 100000000, \"tol_step\": 1e-15}"; }
+endless_params() { echo "$BALL_PARAMS, \"max_iter\": 100000000, \"tol_step\": 1e-15, \"tol_stall\": 0}"; }

@@ -706,7 +706,8 @@ static long count_of(const char *s, const char *needle)
 static void check_vtu(const fixture *f, int dim)
 {
     sm_mesh *m = grid_mesh(dim, 2);
-    int32_t nv = m->nverts, ne = m->nelems;
+    int32_t nv = m->nverts, ne = m->nelems, nf = m->nfacets;
+    assert_true(nf > 0);
     double *disp = malloc((size_t)nv * dim * sizeof(double));
     double *dist = malloc((size_t)nv * sizeof(double));
     double *buf = malloc((size_t)(4 * ne + 3 * nv + 16) * sizeof(double));
@@ -721,8 +722,9 @@ static void check_vtu(const fixture *f, int dim)
     char *xml = slurp(path);
     assert_true(strncmp(xml, "<?xml version=\"1.0\"?>", 21) == 0);
     char piece[128];
+    /* the elements, then the facets with their references */
     snprintf(piece, sizeof piece, "NumberOfPoints=\"%ld\" NumberOfCells=\"%ld\"", (long)nv,
-             (long)ne);
+             (long)(ne + nf));
     assert_non_null(strstr(xml, piece));
     /* balanced elements */
     const char *tags[] = {"VTKFile", "UnstructuredGrid", "Piece", "PointData", "CellData",
@@ -738,18 +740,30 @@ static void check_vtu(const fixture *f, int dim)
         assert_true(nc >= 1);
     }
     int k = dim + 1;
-    assert_int_equal(data_array(xml, "connectivity", buf, 4 * ne), (long)ne * k);
+    long ncells = (long)ne + nf, nconn = (long)ne * k + (long)nf * dim;
+    assert_int_equal(data_array(xml, "connectivity", buf, 4 * ne + 3 * nv), nconn);
     for (long i = 0; i < (long)ne * k; i++)
         assert_true(buf[i] == m->elems[i]);
-    assert_int_equal(data_array(xml, "offsets", buf, ne), ne);
+    for (long i = 0; i < (long)nf * dim; i++)
+        assert_true(buf[(long)ne * k + i] == m->facets[i]);
+    assert_int_equal(data_array(xml, "offsets", buf, ncells), ncells);
     for (long i = 0; i < ne; i++)
         assert_true(buf[i] == (double)(i + 1) * k);
-    assert_int_equal(data_array(xml, "types", buf, ne), ne);
+    for (long i = 0; i < nf; i++)
+        assert_true(buf[ne + i] == (double)ne * k + (double)(i + 1) * dim);
+    assert_int_equal(data_array(xml, "types", buf, ncells), ncells);
     for (long i = 0; i < ne; i++)
         assert_true(buf[i] == (dim == 2 ? 5 : 10));
-    assert_int_equal(data_array(xml, "ref", buf, ne), ne);
+    for (long i = 0; i < nf; i++)
+        assert_true(buf[ne + i] == (dim == 2 ? 3 : 5));
+    assert_int_equal(data_array(xml, "ref", buf, ncells), ncells);
     for (long i = 0; i < ne; i++)
         assert_true(buf[i] == m->elem_refs[i]);
+    for (long i = 0; i < nf; i++)
+        assert_true(buf[ne + i] == m->facet_refs[i]);
+    assert_int_equal(data_array(xml, "cell_dim", buf, ncells), ncells);
+    for (long i = 0; i < ncells; i++)
+        assert_true(buf[i] == (i < ne ? dim : dim - 1));
     assert_int_equal(data_array(xml, "displacement", buf, 3 * nv), 3 * nv);
     for (int32_t i = 0; i < nv; i++)
         for (int c = 0; c < 3; c++)

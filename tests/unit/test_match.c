@@ -312,7 +312,7 @@ static void test_bad_inputs(void **state)
     assert_int_equal(run_match(tm, &t, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "clamp set is empty"));
     p.clamp = SM_CLAMP_NONE;
-    p.alpha = 0;
+    p.alpha = -1;
     assert_int_equal(run_match(tm, &t, &p, NULL, NULL, NULL, out, &res, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "alpha"));
     sm_params_default(&p);
@@ -329,6 +329,135 @@ static void test_bad_inputs(void **state)
     free_target(&t);
 }
 
+
+/* First iteration whose error is within 10% of the best of the run. */
+static int first_within_10pct(const history *h)
+{
+    double best = INFINITY;
+    for (int i = 0; i < h->n; i++)
+        if (h->l2[i] < best)
+            best = h->l2[i];
+    for (int i = 0; i < h->n; i++)
+        if (h->l2[i] <= 1.1 * best)
+            return i;
+    return h->n;
+}
+
+/* The stall rule (on by default) ends a converged run no earlier than
+ * the iteration that comes within 10% of the best error of the long run
+ * and within twice that; it only stops, the descent is the same bit for
+ * bit as with the rule off (tol_stall 0). */
+static void test_stall_rule_bounds(void **state)
+{
+    (void)state;
+    target t;
+    make_target(&t, 160, 0.32, 0.22);
+    const double c[2] = {0.5, 0.5};
+    sm_mesh *tm = util_disk_mesh(c, 0.25, 12);
+    sm_params p;
+    sm_params_default(&p);
+    p.clamp = SM_CLAMP_BALL;
+    p.clamp_center[0] = p.clamp_center[1] = 0.5;
+    p.clamp_radius = 0.05;
+    p.max_iter = 300;
+    double *out = malloc(sizeof(double) * tm->nverts * 2);
+    sm_result off, on;
+    sm_error err;
+    history *h_off = calloc(1, sizeof *h_off), *h_on = calloc(1, sizeof *h_on);
+    p.tol_stall = 0.0;
+    assert_int_equal(run_match(tm, &t, &p, record, h_off, NULL, out, &off, &err), SM_OK);
+    assert_int_not_equal(off.stop, SM_STOP_STALLED);
+    sm_params_default(&p);
+    p.clamp = SM_CLAMP_BALL;
+    p.clamp_center[0] = p.clamp_center[1] = 0.5;
+    p.clamp_radius = 0.05;
+    p.max_iter = 300;
+    assert_true(p.tol_stall > 0 && p.stall_window > 1); /* on by default */
+    assert_int_equal(run_match(tm, &t, &p, record, h_on, NULL, out, &on, &err), SM_OK);
+    int needed = first_within_10pct(h_off);
+    if (getenv("SM_DEBUG"))
+        print_message("off: %s after %d; needed %d; on: %s after %d\n",
+                      sm_stop_reason_name(off.stop), off.iterations, needed,
+                      sm_stop_reason_name(on.stop), on.iterations);
+    assert_int_equal(on.stop, SM_STOP_STALLED);
+    assert_string_equal(sm_stop_reason_name(on.stop), "stalled");
+    assert_true(on.iterations >= needed);
+    assert_true(on.iterations <= 2 * needed);
+    assert_true(on.iterations < off.iterations);
+    for (int i = 0; i < h_on->n; i++)
+        assert_true(h_on->J[i] == h_off->J[i] && h_on->l2[i] == h_off->l2[i]);
+    free(h_off);
+    free(h_on);
+    free(out);
+    sm_mesh_free(tm);
+    free_target(&t);
+}
+
+/* Runs the ellipse case with everything scaled by s (a change of unit). */
+static void run_scaled(double s, double tol_rel, double tol_abs, sm_result *res)
+{
+    target t;
+    make_target(&t, 100, 0.32, 0.22);
+    for (int32_t v = 0; v < t.bg->nverts; v++) {
+        t.bg->coords[2 * v] *= s;
+        t.bg->coords[2 * v + 1] *= s;
+        t.d[v] *= s;
+    }
+    sm_field_free(t.field);
+    sm_error err;
+    assert_int_equal(sm_field_new(t.bg, t.d, &t.field, &err), SM_OK);
+    const double c[2] = {0.5, 0.5};
+    sm_mesh *tm = util_disk_mesh(c, 0.25, 10);
+    for (int32_t i = 0; i < 2 * tm->nverts; i++)
+        tm->coords[i] *= s;
+    sm_params p;
+    sm_params_default(&p);
+    p.clamp = SM_CLAMP_BALL;
+    p.clamp_center[0] = p.clamp_center[1] = 0.5 * s;
+    p.clamp_radius = 0.05 * s;
+    p.max_iter = 300;
+    p.tol_stall = 0.0;
+    p.tol_boundary_rel = tol_rel;
+    p.tol_boundary = tol_abs;
+    double *out = malloc(sizeof(double) * tm->nverts * 2);
+    assert_int_equal(run_match(tm, &t, &p, NULL, NULL, NULL, out, res, &err), SM_OK);
+    free(out);
+    sm_mesh_free(tm);
+    free_target(&t);
+}
+
+/* tol_boundary_rel is unit-free: the case in metres and in millimetres
+ * stops after the same iterations with the same relative error, while
+ * the absolute tol_boundary does not. */
+static void test_relative_tolerance_is_unit_free(void **state)
+{
+    (void)state;
+    sm_result m, mm;
+    run_scaled(1.0, 5e-4, 0.0, &m);
+    run_scaled(1000.0, 5e-4, 0.0, &mm);
+    if (getenv("SM_DEBUG"))
+        print_message("m: %s %d rms %g d %g; mm: %s %d rms %g d %g\n",
+                      sm_stop_reason_name(m.stop), m.iterations, m.boundary_rms, m.diameter,
+                      sm_stop_reason_name(mm.stop), mm.iterations, mm.boundary_rms, mm.diameter);
+    assert_int_equal(m.stop, SM_STOP_BOUNDARY);
+    assert_int_equal(mm.stop, SM_STOP_BOUNDARY);
+    assert_true(m.iterations > 3);
+    assert_int_equal(mm.iterations, m.iterations);
+    assert_true(m.boundary_rms <= 5e-4 * m.diameter);
+    assert_true(fabs(mm.boundary_rms / mm.diameter - m.boundary_rms / m.diameter) <=
+                1e-6 * m.boundary_rms / m.diameter);
+    /* rms = l2 / sqrt(|boundary|), the boundary a curve of length ~ 1.7 */
+    double len = (m.boundary_l2 / m.boundary_rms) * (m.boundary_l2 / m.boundary_rms);
+    assert_true(len > 1.4 && len < 2.0);
+    /* the absolute tolerance that stops the metre run never stops the
+     * millimetre one (its error is 1000^1.5 times larger) */
+    sm_result am, amm;
+    run_scaled(1.0, 0.0, m.boundary_l2 * 1.0001, &am);
+    run_scaled(1000.0, 0.0, m.boundary_l2 * 1.0001, &amm);
+    assert_int_equal(am.stop, SM_STOP_BOUNDARY);
+    assert_int_not_equal(amm.stop, SM_STOP_BOUNDARY);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -337,6 +466,8 @@ int main(void)
         cmocka_unit_test(test_cancel_and_no_clamp),
         cmocka_unit_test(test_prepared_template_same_descent),
         cmocka_unit_test(test_bad_inputs),
+        cmocka_unit_test(test_stall_rule_bounds),
+        cmocka_unit_test(test_relative_tolerance_is_unit_free),
     };
     return cmocka_run_group_tests_name("match", tests, NULL, NULL);
 }

@@ -17,6 +17,7 @@ typedef struct sm_progress {
     double step;             /* last accepted step (a length) */
     double boundary_l2;      /* ||d||_L2(dOmega_k) */
     double boundary_max;     /* max |d| on dOmega_k */
+    double boundary_rms;     /* boundary_l2 / sqrt(|dOmega_k|): a length */
     double min_quality;
     double elapsed;          /* seconds since the start of the run */
     int accepted, rejected;  /* trial steps in total */
@@ -24,9 +25,11 @@ typedef struct sm_progress {
 
 typedef enum sm_stop_reason {
     SM_STOP_STEP = 0,        /* step below tol_step * diameter */
-    SM_STOP_BOUNDARY = 1,    /* boundary error reached tol_boundary */
+    SM_STOP_BOUNDARY = 1,    /* boundary error reached tol_boundary
+                              * or tol_boundary_rel */
     SM_STOP_MAX_ITER = 2,
-    SM_STOP_CANCELLED = 3
+    SM_STOP_CANCELLED = 3,
+    SM_STOP_STALLED = 4      /* boundary error stalled (tol_stall) */
 } sm_stop_reason;
 const char *sm_stop_reason_name(sm_stop_reason r);
 
@@ -49,6 +52,11 @@ typedef struct sm_result {
     int iterations;
     double J_initial, J;
     double boundary_l2, boundary_max, min_quality;
+    double boundary_rms;     /* boundary_l2 / sqrt(|dOmega|), a length */
+    double diameter;         /* of the template: boundary_rms / diameter is
+                              * the unit-free relative error */
+    double alpha;            /* the 0th-order coefficient used (no clamp;
+                              * params alpha, or young / diameter^2 for 0) */
     int accepted, rejected;
     int factorizations;      /* numeric factorizations of the elastic operator */
     sm_timings time;

@@ -24,7 +24,8 @@ typedef struct sm_params {
     double clamp_radius;
     int32_t clamp_refs[SM_MAX_REFS];
     int n_clamp_refs;
-    double alpha;            /* 0th-order coefficient (clamp none); default 1e-2 */
+    double alpha;            /* 0th-order coefficient (clamp none); 0 (default)
+                              * = from the scale, young / diameter^2 */
 
     /* boundary facet references excluded from the load ("bref") */
     int32_t free_refs[SM_MAX_REFS];
@@ -35,7 +36,18 @@ typedef struct sm_params {
 
     int max_iter;            /* default 500 */
     double tol_step;         /* stop when step < tol_step*diameter; 1e-6 */
-    double tol_boundary;     /* stop when ||d||_L2(boundary) <= this; 0=off */
+    double tol_boundary;     /* stop when ||d||_L2(boundary) <= this; 0=off.
+                              * Absolute: scales like L^1.5 (2D) or L^2 (3D)
+                              * with the template's size L */
+    double tol_boundary_rel; /* stop when the RMS boundary error
+                              * ||d||_L2 / sqrt(|dOmega|) <= this times the
+                              * template's diameter: the same number works in
+                              * any unit; 0 = off (default) */
+    double tol_stall;        /* stall rule: stop when the best ||d||_L2 so far
+                              * improved by less than this fraction over the
+                              * last stall_window iterations; 0 = off;
+                              * default 0.01 (measured in sm_params.c) */
+    int stall_window;        /* K of the stall rule; default 15 */
     double min_quality;      /* quality floor for accepted steps; 0.02 */
     int save_every;          /* snapshot callback period (0 = never) */
     double step_initial;     /* first step as a fraction of the diameter; 0.01 */

@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# The default stop rules end a converged run by themselves: on the 2D
+# example, a default `shapematch run` stops with reason "stalled" no
+# earlier than the first iteration within 10% of the best boundary error
+# that 500 iterations reach (stall rule off), and within twice that.  The
+# summary reports the scale-free errors and the stall parameters.
+set -u
+ROOT=${SM_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
+BIN=${SM_BIN:-$ROOT/build/release}/shapematch
+WORK=$(mktemp -d)
+trap 'rm -rf "$WORK"' EXIT
+EX=$ROOT/examples/2d
+IN=(--template "$EX/template.mesh" --target-mesh "$EX/background.mesh.gz"
+    --target-sol "$EX/background.sol.gz" --clamp-ball "$(tr -d ' \n' <"$EX/clamp")")
+if ! "$BIN" run "${IN[@]}" --tol-stall 0 --max-iter 500 --quiet -o "$WORK/ref" >"$WORK/ref.err" 2>&1 ||
+    ! "$BIN" run "${IN[@]}" --quiet -o "$WORK/def" >"$WORK/def.err" 2>&1; then
+    echo "not ok - the 2D example runs"
+    sed 's/^/# /' "$WORK/ref.err" "$WORK/def.err"
+    exit 0
+fi
+echo "ok - the 2D example runs (reference and default)"
+python3 - "$WORK" <<'PY'
+import csv, json, sys
+w = sys.argv[1]
+def check(ok, what, why=""):
+    print("%s - %s%s" % ("ok" if ok else "not ok", what, "" if ok or not why else "\n# " + why))
+h = [float(r["boundary_l2"]) for r in csv.DictReader(open(w + "/ref/history.csv"))]
+ref = json.load(open(w + "/ref/summary.json"))
+s = json.load(open(w + "/def/summary.json"))
+best = min(h)
+needed = next(i for i, v in enumerate(h) if v <= 1.1 * best)
+check(ref["stop_reason"] != "stalled" and len(h) == ref["iterations"] + 1,
+      "the reference run ignores the stall rule (%s after %d)" % (ref["stop_reason"], ref["iterations"]))
+check(s["stop_reason"] == "stalled", "a default run ends by the stall rule (%s)" % s["stop_reason"])
+check(needed <= s["iterations"] <= 2 * needed,
+      "stops in [needed, 2 needed]: %d in [%d, %d]" % (s["iterations"], needed, 2 * needed))
+check(s["warnings"] == [] and ref["warnings"] == [], "no warning on the clean example", json.dumps(s["warnings"]))
+p = s["parameters"]
+check(p["tol_stall"] == 0.01 and p["stall_window"] == 15 and p["tol_boundary_rel"] == 0,
+      "the summary's parameters carry the stall rule", json.dumps(p))
+check(abs(s["boundary_relative"] * 2 ** 0.5 / 2 - s["boundary_rms"]) < 0.05 * s["boundary_rms"]
+      and 0.5 < (s["boundary_l2"] / s["boundary_rms"]) ** 2 < 2.0,
+      "scale-free errors: rms %.3g (boundary length %.3g), relative %.3g" % (
+          s["boundary_rms"], (s["boundary_l2"] / s["boundary_rms"]) ** 2, s["boundary_relative"]))
+PY

@@ -1,0 +1,70 @@
+#!/usr/bin/env bash
+# Warnings, not silent success: each warning of summary.json (and of
+# shapematch run's stderr) triggered by a crafted input, and a distance
+# whose sign is unambiguously inverted refused.  Their absence on the
+# clean examples is checked by stall.sh (2D) and examples.sh (both).
+set -u
+ROOT=${SM_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
+BIN=${SM_BIN:-$ROOT/build/release}/shapematch
+WORK=$(mktemp -d)
+trap 'rm -rf "$WORK"' EXIT
+EX=$ROOT/examples/2d
+T=$EX/template.mesh
+CLAMP=(--clamp-ball 0.5,0.5,0.04)
+python3 "$ROOT/tests/cli/warnings_inputs.py" "$WORK" || { echo "not ok - crafted inputs"; exit 0; }
+
+# has_warning NAME CODE: the summary lists CODE (with a figure) and stderr says it
+has_warning() {
+    local out=$WORK/$1 code=$2 fig
+    fig=$(jq -r --arg c "$code" '[.warnings[] | select(.code == $c) | .figure] | first // empty' \
+        "$out/summary.json" 2>/dev/null)
+    [ -n "$fig" ] && grep -q "^shapematch: warning: $code: " "$WORK/$1.err" && echo "$fig"
+}
+run() { local name=$1; shift; "$BIN" run "$@" --quiet -o "$WORK/$name" >"$WORK/$name.out" 2>"$WORK/$name.err"; }
+
+run part --template "$T" --target-mesh "$WORK/part.mesh" --target-sol "$WORK/part.sol" "${CLAMP[@]}" --max-iter 60
+if f=$(has_warning part outside-background) && awk -v f="$f" 'BEGIN { exit !(f > 0.2 && f < 0.6) }'; then
+    echo "ok - a background covering part of the shape: outside-background (fraction $f)"
+else
+    echo "not ok - outside-background"; sed 's/^/# /' "$WORK/part.err"
+fi
+
+run inv --template "$T" --target-mesh "$WORK/full.mesh" --target-sol "$WORK/inverted.sol" "${CLAMP[@]}"
+rc=$?
+if [ $rc -ne 0 ] && grep -q "target_sol: the signed distance looks inverted" "$WORK/inv.err" &&
+    [ ! -e "$WORK/inv/summary.json" ]; then
+    echo "ok - an inverted distance (positive inside) is refused (exit $rc)"
+else
+    echo "not ok - inverted distance refused (exit $rc)"; sed 's/^/# /' "$WORK/inv.err"
+fi
+
+run away --template "$T" --target-mesh "$WORK/full2.mesh" --target-sol "$WORK/elsewhere.sol" "${CLAMP[@]}" --max-iter 5
+if f=$(has_warning away sign-inverted) && [ "$f" = 1 ]; then
+    echo "ok - positive on the whole clamp set and the template: sign-inverted warning"
+else
+    echo "not ok - sign-inverted warning"; sed 's/^/# /' "$WORK/away.err"
+fi
+
+IN=(--template "$T" --target-mesh "$EX/background.mesh.gz" --target-sol "$EX/background.sol.gz")
+run short "${IN[@]}" "${CLAMP[@]}" --max-iter 2
+if f=$(has_warning short above-resolution) && awk -v f="$f" 'BEGIN { exit !(f > 1) }'; then
+    echo "ok - stopped far from the target: above-resolution (rms / h = $f)"
+else
+    echo "not ok - above-resolution"; sed 's/^/# /' "$WORK/short.err"
+fi
+
+run alpha "${IN[@]}" --no-clamp --alpha 0.01 --max-iter 3
+if f=$(has_warning alpha alpha-small) && awk -v f="$f" 'BEGIN { exit !(f > 0.004 && f < 0.006) }'; then
+    echo "ok - --no-clamp --alpha 0.01: alpha-small (alpha L^2/E = $f)"
+else
+    echo "not ok - alpha-small"; sed 's/^/# /' "$WORK/alpha.err"
+fi
+
+# the default alpha (from the scale) converges and warns of nothing
+run auto "${IN[@]}" --no-clamp --tol-boundary-rel 1e-3 --max-iter 100
+if [ "$(jq -r '.stop_reason + " " + (.warnings | length | tostring)' "$WORK/auto/summary.json")" = "boundary_tolerance 0" ] &&
+    ! grep -q warning "$WORK/auto.err"; then
+    echo "ok - --no-clamp with the default alpha converges ($(jq .iterations "$WORK/auto/summary.json") iterations), no warning"
+else
+    echo "not ok - default alpha"; sed 's/^/# /' "$WORK/auto.err"
+fi

@@ -26,6 +26,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "shapematch/sm_clock.h"
 #include "shapematch/sm_field.h"
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_mesh.h"
@@ -34,13 +35,6 @@
  * library from before sm_field_eval_many, for the figures "before". */
 void sm_field_eval_many(const sm_field *f, int64_t n, const double *xs, int32_t *hints,
                         double *values) __attribute__((weak));
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static double urand(uint64_t *s)
 {
@@ -94,10 +88,10 @@ static pass_result eval_pass(const sm_field *f, int dim, const double *pts, int6
 {
     pass_result r = {INFINITY, 0.0};
     for (int rep = 0; rep < reps; rep++) {
-        double sum = 0.0, t0 = now();
+        double sum = 0.0, t0 = sm_clock_seconds();
         for (int64_t j = 0; j < n; j++)
             sum += sm_field_eval(f, pts + (size_t)j * (size_t)dim, slot ? &hints[slot[j]] : NULL);
-        double ns = 1e9 * (now() - t0) / (double)n;
+        double ns = 1e9 * (sm_clock_seconds() - t0) / (double)n;
         if (ns < r.ns)
             r.ns = ns;
         r.checksum = sum;
@@ -152,12 +146,12 @@ int main(int argc, char **argv)
     for (int rep = 0; rep < 3; rep++) {
         sm_field_free(f);
         f = NULL;
-        double t0 = now();
+        double t0 = sm_clock_seconds();
         if (sm_field_new(bg, sol->values, &f, &err) != SM_OK) {
             fprintf(stderr, "%s\n", err.msg);
             return 1;
         }
-        tb[rep] = now() - t0;
+        tb[rep] = sm_clock_seconds() - t0;
     }
     double tbest = fmin(tb[0], fmin(tb[1], tb[2]));
     sm_field_stats st;
@@ -266,13 +260,13 @@ int main(int argc, char **argv)
             for (int32_t k = 0; k < npaths; k++)
                 hk[k] = -1;
             sm_field_eval_many(f, npaths, pts, hk, vals);
-            double sum = 0.0, t0 = now();
+            double sum = 0.0, t0 = sm_clock_seconds();
             for (int32_t step = 1; step < nsteps; step++) {
                 sm_field_eval_many(f, npaths, pts + (size_t)step * (size_t)npaths * d, hk, vals);
                 for (int32_t k = 0; k < npaths; k++)
                     sum += vals[k];
             }
-            double ns = 1e9 * (now() - t0) / (double)(nb - npaths);
+            double ns = 1e9 * (sm_clock_seconds() - t0) / (double)(nb - npaths);
             if (ns < rb2.ns)
                 rb2.ns = ns;
             rb2.checksum = sum;
@@ -327,13 +321,13 @@ int main(int argc, char **argv)
                     x[i] = lo[i] + (hi[i] - lo[i]) * urand(&s2);
                 int32_t hint = -1;
                 sm_field_eval(f, x, &hint);
-                double t0 = now();
+                double t0 = sm_clock_seconds();
                 for (int r = 0; r < repeat; r++) {
                     /* the compiler must not hoist the call */
                     __asm__ volatile("" : : "g"(x) : "memory");
                     csum += sm_field_eval(f, x, &hint);
                 }
-                t += now() - t0;
+                t += sm_clock_seconds() - t0;
             }
             double ns = 1e9 * t / ((double)npoint * repeat);
             if (ns < best)

@@ -15,16 +15,10 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "shapematch/sm_clock.h"
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_field.h"
 #include "shapematch/sm_match.h"
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 typedef struct watch {
     double t_start;     /* before reading the files */
@@ -37,7 +31,7 @@ static int on_progress(const sm_progress *p, const double *coords, void *user)
 {
     (void)coords;
     watch *w = user;
-    double t = now() - w->t_start;
+    double t = sm_clock_seconds() - w->t_start;
     if (p->boundary_l2 < w->best)
         w->best = p->boundary_l2;
     if (w->t_3e4 < 0 && p->boundary_l2 <= 3e-4) {
@@ -88,7 +82,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s: missing template/background files\n", argv[1]);
         return 1;
     }
-    watch w = {now(), -1, -1, -1, -1, INFINITY};
+    watch w = {sm_clock_seconds(), -1, -1, -1, -1, INFINITY};
     sm_error err;
     sm_mesh *tm = NULL, *bg = NULL;
     sm_sol *sol = NULL;
@@ -97,7 +91,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s\n", err.msg);
         return 1;
     }
-    double t_read = now() - w.t_start;
+    double t_read = sm_clock_seconds() - w.t_start;
     double *out = malloc(sizeof(double) * (size_t)tm->nverts * (size_t)tm->dim);
     sm_result r;
     /* the field is built before the run (once per process, as the job
@@ -113,7 +107,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s\n", err.msg);
         return 1;
     }
-    double wall = now() - w.t_start;
+    double wall = sm_clock_seconds() - w.t_start;
     struct rusage ru;
     getrusage(RUSAGE_SELF, &ru);
     int it = r.iterations > 0 ? r.iterations : 1;

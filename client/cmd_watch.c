@@ -22,6 +22,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "shapematch/sm_clock.h"
 #include "cli.h"
 #include "progress.h"
 #include "remote.h"
@@ -49,13 +50,6 @@ typedef struct watch_ctx {
     int protocol_error;
     char error[256];
 } watch_ctx;
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static void sleep_seconds(double s)
 {
@@ -250,7 +244,7 @@ int remote_watch(http_client *c, const char *cmd, int token_given, const char *i
         }
         if (deadline >= 0) {
             /* a reconnection attempt must not outlive the deadline */
-            double left = deadline - now_seconds();
+            double left = deadline - sm_clock_seconds();
             long ms = (long)(left * 1000.0);
             rq.connect_timeout_ms = ms < 200 ? 200 : ms > HTTP_CONNECT_TIMEOUT_MS
                                                          ? HTTP_CONNECT_TIMEOUT_MS
@@ -295,7 +289,7 @@ int remote_watch(http_client *c, const char *cmd, int token_given, const char *i
             http_response_free(&rs);
             break;
         }
-        double now = now_seconds();
+        double now = sm_clock_seconds();
         if (w.new_events > 0 || w.sse.comments > comments_before || deadline < 0) {
             /* news since the last attempt: a fresh reconnection window */
             deadline = now + o->reconnect_timeout;

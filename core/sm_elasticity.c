@@ -14,6 +14,7 @@
  * entry of each element matrix goes, and CHOLMOD's symbolic analysis.
  * sm_elasticity_factorize then computes the element matrices, scatters
  * them through the map (no search) and refactorizes numerically. */
+#include "shapematch/sm_clock.h"
 #include "sm_elasticity.h"
 
 #include <math.h>
@@ -66,13 +67,6 @@ struct sm_elasticity {
     double rcond;           /* of the last numeric factorization */
     double t_analyze, t_assembly, t_factor, t_solve;
 };
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 void sm_lame(double young, double poisson, double *lambda, double *mu)
 {
@@ -642,7 +636,7 @@ sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
                             const sm_elasticity_opts *opts, sm_elasticity **out,
                             sm_error *err)
 {
-    double t0 = now_seconds();
+    double t0 = sm_clock_seconds();
     if (!out)
         return sm_error_set(err, SM_ERR_INVALID, "elasticity: NULL output pointer");
     *out = NULL;
@@ -681,7 +675,7 @@ sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
         goto fail;
     free(is_clamped);
     free(used);
-    el->t_analyze = now_seconds() - t0;
+    el->t_analyze = sm_clock_seconds() - t0;
     *out = el;
     return SM_OK;
 
@@ -739,13 +733,13 @@ sm_status sm_elasticity_factorize(sm_elasticity *el, const double *coords, sm_er
     if (!el || !coords)
         return sm_error_set(err, SM_ERR_INVALID, "elasticity: NULL argument to factorize");
     el->factorized = 0;
-    double t0 = now_seconds();
+    double t0 = sm_clock_seconds();
     memset(el->values, 0, (size_t)el->rowptr[el->nfree] * sizeof(double));
     memset(el->cpl_values, 0, (size_t)el->cpl_rowptr[el->nfree] * sizeof(double));
     double bad_volume = 0.0, bad_edge = 0.0;
     int32_t bad = el->dim == 2 ? assemble(el, 2, coords, &bad_volume, &bad_edge)
                                : assemble(el, 3, coords, &bad_volume, &bad_edge);
-    double t1 = now_seconds();
+    double t1 = sm_clock_seconds();
     el->t_assembly = t1 - t0;
     el->t_factor = 0.0;
     if (bad >= 0)
@@ -757,7 +751,7 @@ sm_status sm_elasticity_factorize(sm_elasticity *el, const double *coords, sm_er
     if (el->nfree > 0) {
         int ok = cholmod_factorize(&el->A, el->L, &el->cc);
         int status = el->cc.status;
-        el->t_factor = now_seconds() - t1;
+        el->t_factor = sm_clock_seconds() - t1;
         if (!ok || status < CHOLMOD_OK || status == CHOLMOD_NOT_POSDEF)
             return sm_error_set(err, status == CHOLMOD_OUT_OF_MEMORY ? SM_ERR_NOMEM : SM_ERR_NUMERIC,
                                 "elasticity: CHOLMOD factorization failed (status %d: %s; pivot %ld of "
@@ -803,7 +797,7 @@ sm_status sm_elasticity_solve(sm_elasticity *el, const double *load,
     if (!el->factorized)
         return sm_error_set(err, SM_ERR_INVALID,
                             "elasticity: solve called without a successful factorize");
-    double t0 = now_seconds();
+    double t0 = sm_clock_seconds();
     const int dim = el->dim;
     const int64_t nglobal = (int64_t)el->nverts * dim;
     double *rhs = el->rhs;
@@ -843,7 +837,7 @@ sm_status sm_elasticity_solve(sm_elasticity *el, const double *load,
         int32_t k = el->dof[g];
         u[g] = k >= 0 ? x[k] : (dirichlet ? dirichlet[g] : 0.0);
     }
-    el->t_solve = now_seconds() - t0;
+    el->t_solve = sm_clock_seconds() - t0;
     return SM_OK;
 }
 

@@ -5,6 +5,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "shapematch/sm_clock.h"
 #include "shapematch/sm_clamp.h"
 #include "sm_elasticity.h"
 #include "shapematch/sm_field.h"
@@ -28,13 +29,6 @@ const char *sm_stop_reason_name(sm_stop_reason r)
     case SM_STOP_STALLED: return "stalled";
     }
     return "unknown";
-}
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
 /* Everything one run owns or tracks; freed in one place.  The set-up,
@@ -203,10 +197,10 @@ static sm_status find_direction(run_state *rs, sm_result *result, int *found, sm
         tm->assembly += ta;
         tm->factor += tf;
     }
-    t0 = now_seconds();
+    t0 = sm_clock_seconds();
     if ((st = sm_elasticity_solve(rs->elasticity, rs->load, NULL, rs->u, err)) != SM_OK)
         return st;
-    tm->solve += now_seconds() - t0;
+    tm->solve += sm_clock_seconds() - t0;
 
     double umax = 0.0;
     for (int32_t v = 0; v < rs->mesh->nverts; v++) {
@@ -317,7 +311,7 @@ static int report(const run_state *rs, const sm_match_callbacks *cb)
     pg.boundary_max = rs->be.max;
     pg.boundary_rms = boundary_rms(&rs->be);
     pg.min_quality = rs->qmin;
-    pg.elapsed = now_seconds() - rs->t_start;
+    pg.elapsed = sm_clock_seconds() - rs->t_start;
     pg.accepted = rs->accepted;
     pg.rejected = rs->rejected;
     return cb->progress(&pg, rs->x, cb->user);
@@ -363,10 +357,10 @@ static sm_status descend(run_state *rs, const sm_match_callbacks *cb, sm_result 
             result->stop = SM_STOP_STEP; /* no descent direction left */
             return SM_OK;
         }
-        t0 = now_seconds();
+        t0 = sm_clock_seconds();
         double dJ, q_trial;
         found = line_search(rs, &dJ, &q_trial);
-        tm->step += now_seconds() - t0;
+        tm->step += sm_clock_seconds() - t0;
         if (!found) {
             result->stop = SM_STOP_STEP;
             return SM_OK;
@@ -380,9 +374,9 @@ static sm_status descend(run_state *rs, const sm_match_callbacks *cb, sm_result 
         rs->qmin = q_trial;
         rs->iteration++;
 
-        t0 = now_seconds();
+        t0 = sm_clock_seconds();
         sm_shape_load(rs->shape, rs->x, rs->load, &rs->be);
-        tm->sample += now_seconds() - t0;
+        tm->sample += sm_clock_seconds() - t0;
         track_best(rs);
 
         if (report(rs, cb)) {
@@ -401,7 +395,7 @@ sm_status sm_match_run(const sm_match_opts *opts, const sm_match_callbacks *cb,
     run_state rs;
     memset(&rs, 0, sizeof rs);
     memset(result, 0, sizeof *result);
-    rs.t_start = now_seconds();
+    rs.t_start = sm_clock_seconds();
     rs.params = opts->params;
     const sm_mesh *template_mesh = opts->template_mesh;
     sm_status st;
@@ -425,7 +419,7 @@ sm_status sm_match_run(const sm_match_opts *opts, const sm_match_callbacks *cb,
         goto done;
     /* set-up is wall time: its parts overlap, so they are not split */
     result->factorizations = 1;
-    result->time.setup = now_seconds() - rs.t_start;
+    result->time.setup = sm_clock_seconds() - rs.t_start;
     result->J_initial = rs.J;
     track_best(&rs);
 
@@ -445,7 +439,7 @@ sm_status sm_match_run(const sm_match_opts *opts, const sm_match_callbacks *cb,
     result->min_quality = rs.qmin;
     result->accepted = rs.accepted;
     result->rejected = rs.rejected;
-    result->time.total = now_seconds() - rs.t_start;
+    result->time.total = sm_clock_seconds() - rs.t_start;
     st = SM_OK;
 done:
     run_state_free(&rs);

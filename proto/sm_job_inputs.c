@@ -7,16 +7,10 @@
 #include <string.h>
 #include <time.h>
 
+#include "shapematch/sm_clock.h"
 #include "shapematch/sm_clamp.h"
 #include "shapematch/sm_sdf.h"
 #include "sm_proto_params.h"
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 void sm_job_inputs_free(sm_job_inputs *in)
 {
@@ -218,12 +212,12 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
                           out->dim, out->background->dim);
         goto done;
     }
-    double t0 = now_seconds();
+    double t0 = sm_clock_seconds();
     if ((st = sm_sdf_new(s, &d, err)) == SM_OK &&
         (st = sm_sol_alloc(&out->distance, out->dim, out->background->nverts, 1, err)) == SM_OK)
         st = sm_sdf_signed(d, out->background->nverts, out->background->coords,
                            out->distance->values, err);
-    out->sdf_seconds = now_seconds() - t0;
+    out->sdf_seconds = sm_clock_seconds() - t0;
     if (st != SM_OK && st != SM_ERR_NOMEM)
         surface_error(err, naming, files->target_surface);
 done:
@@ -238,7 +232,7 @@ sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
     memset(out, 0, sizeof *out);
     sm_params_default(&out->params);
     out->failed = SM_NPARTS;
-    double t0 = now_seconds();
+    double t0 = sm_clock_seconds();
     sm_status st;
     if ((st = sm_mesh_read_limited(files->template_mesh, files->limits, &out->template_mesh, err)) !=
         SM_OK) {
@@ -283,15 +277,15 @@ prepare:
         file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
         goto fail;
     }
-    double tf = now_seconds();
+    double tf = sm_clock_seconds();
     st = sm_field_new(out->background, out->distance->values, &out->field, err);
     out->field_builds++;
-    out->field_build_seconds = now_seconds() - tf;
+    out->field_build_seconds = sm_clock_seconds() - tf;
     if (st != SM_OK) {
         file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
         goto fail;
     }
-    out->read_seconds = now_seconds() - t0;
+    out->read_seconds = sm_clock_seconds() - t0;
     return SM_OK;
 fail:
     if (st == SM_ERR_NOMEM && !(files->limits && files->limits->hit))

@@ -24,6 +24,7 @@
 
 #include <jansson.h>
 
+#include "shapematch/sm_clock.h"
 #include "shapematch/sm_atomic.h"
 #include "shapematch/sm_field.h"
 #include "shapematch/sm_io.h"
@@ -148,7 +149,7 @@ static int on_shape(const sm_progress *p, const double *coords, void *user)
 {
     worker *w = user;
     live_mesh *l = &w->live;
-    double now = smd_monotonic();
+    double now = sm_clock_seconds();
     int due = l->last == 0 || (l->every > 0 && p->iteration % l->every == 0) ||
               now - l->last >= SMD_LIVE_PERIOD;
     if (!due || !l->disp)

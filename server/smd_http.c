@@ -14,6 +14,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include "shapematch/sm_clock.h"
 #include "sm_proto_text.h"
 #include "smd_cors.h"
 #include "smd_reply.h"
@@ -162,7 +163,7 @@ static smd_request *request_new(smd_server *srv, const char *url, const char *me
     if (!req)
         return NULL;
     req->srv = srv;
-    req->t0 = smd_monotonic();
+    req->t0 = sm_clock_seconds();
     snprintf(req->method, sizeof req->method, "%s", method);
     snprintf(req->path, sizeof req->path, "%s", url);
     const smd_route *route;
@@ -245,7 +246,7 @@ static void on_completed(void *cls, struct MHD_Connection *conn, void **req_cls,
     if (!req)
         return;
     *req_cls = NULL;
-    double seconds = smd_monotonic() - req->t0;
+    double seconds = sm_clock_seconds() - req->t0;
     unsigned status = req->replied ? req->status : 499; /* client went away before a reply */
     smd_metrics_request(&srv->metrics, req->route_label, req->method, status, seconds, req->bytes_in,
                         req->bytes_out);

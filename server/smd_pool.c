@@ -18,6 +18,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "shapematch/sm_clock.h"
 #include "sm_proto_events.h"
 #include "smd_jobs.h"
 #include "smd_stream.h"
@@ -172,7 +173,7 @@ static int spawn(smd_pool *p, slot *s, char *msg, size_t cap)
     s->wstatus = 0;
     s->cpu_seconds = 0;
     s->stop = STOP_NONE;
-    s->started_mono = smd_monotonic();
+    s->started_mono = sm_clock_seconds();
     s->deadline_mono = cfg->job_timeout > 0 ? s->started_mono + cfg->job_timeout : 0;
     s->kill_at_mono = 0;
     s->line_len = 0;
@@ -393,7 +394,7 @@ static void finish(smd_pool *p, slot *s, smd_jobs_after *after)
     smd_server *srv = p->srv;
     smd_job *job = s->job;
     json_t *f = json_pack("{s:i,s:f,s:f}", "pid", (int)s->pid, "cpu_seconds", s->cpu_seconds,
-                          "wall_seconds", smd_monotonic() - s->started_mono);
+                          "wall_seconds", sm_clock_seconds() - s->started_mono);
     if (s->stop == STOP_SHUTDOWN && job->state == SM_JOB_RUNNING) {
         smd_jobs_requeue(srv, job, f);
     } else if (job->state == SM_JOB_DISMISSED) {
@@ -472,7 +473,7 @@ static int prepare_poll(smd_pool *p, poll_set *ps)
 {
     ps->n = 0;
     poll_add(ps, p->wake_fd, NULL);
-    double now = smd_monotonic();
+    double now = sm_clock_seconds();
     double wait = p->next_tick - now;
     if (atomic_load(&p->srv->unwritable) && p->next_save_retry - now < wait)
         wait = p->next_save_retry - now; /* retry the refused writes each second */
@@ -601,7 +602,7 @@ static void *supervise(void *arg)
         int rc = wait_events(p, &ps, timeout_ms);
 
         pthread_mutex_lock(&srv->lock);
-        double now = smd_monotonic();
+        double now = sm_clock_seconds();
         service_fds(p, &ps, rc, &after);
         service_slots(p, now, &after);
         while (!p->quit && !atomic_load(&srv->draining) && !atomic_load(&srv->unwritable) &&
@@ -679,8 +680,8 @@ sm_status smd_pool_start(smd_server *srv, sm_error *err)
     /* keepalives are due every --keepalive seconds: tick at least twice
      * as often */
     p->tick = srv->cfg.keepalive / 2 < TICK_SECONDS ? srv->cfg.keepalive / 2 : TICK_SECONDS;
-    p->next_tick = smd_monotonic() + p->tick;
-    p->next_sweep = smd_monotonic();
+    p->next_tick = sm_clock_seconds() + p->tick;
+    p->next_sweep = sm_clock_seconds();
     srv->pool = p;
     int rc = pthread_create(&p->thread, NULL, supervise, p);
     if (rc != 0) {
@@ -702,7 +703,7 @@ void smd_pool_stop(smd_server *srv, double grace)
     pthread_mutex_lock(&srv->lock);
     if (!p->quit) {
         p->quit = 1;
-        p->grace_deadline = smd_monotonic() + grace;
+        p->grace_deadline = sm_clock_seconds() + grace;
     }
     pthread_mutex_unlock(&srv->lock);
     smd_pool_wake(p);

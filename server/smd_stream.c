@@ -21,6 +21,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "shapematch/sm_clock.h"
 #include "sm_proto_events.h"
 
 #define READ_BATCH (256 * 1024) /* log bytes formatted per refill */
@@ -172,7 +173,7 @@ static ssize_t copy_out(smd_follower *f, char *out, size_t max)
     f->off += n;
     if (f->off == f->len)
         f->off = f->len = 0;
-    atomic_store(&f->last_send, smd_monotonic());
+    atomic_store(&f->last_send, sm_clock_seconds());
     if (f->bytes_out)
         *f->bytes_out += n;
     return (ssize_t)n;
@@ -299,7 +300,7 @@ struct MHD_Response *smd_stream_response(smd_server *srv, smd_job *job,
     /* after_seq is bounded by the caller (<= SMD_REQUEST_INT_MAX); the
      * saturation only keeps this line free of overflow whatever it gets */
     f->next_seq = after_seq < 0 ? 1 : after_seq < INT64_MAX ? after_seq + 1 : INT64_MAX;
-    atomic_store(&f->last_send, smd_monotonic());
+    atomic_store(&f->last_send, sm_clock_seconds());
     f->bytes_out = bytes_out;
     struct MHD_Response *resp =
         MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 16 * 1024, follower_read, f, follower_free);

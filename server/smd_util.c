@@ -195,13 +195,6 @@ int smd_read_file(const char *path, size_t max, char **out, size_t *len)
     return 0;
 }
 
-double smd_monotonic(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 void smd_describe_wait_status(int wstatus, char *buf, size_t cap)
 {
     if (WIFEXITED(wstatus)) {

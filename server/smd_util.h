@@ -70,9 +70,6 @@ int smd_buf_printf(char **buf, size_t *len, size_t *cap, const char *fmt, ...)
 int smd_buf_vprintf(char **buf, size_t *len, size_t *cap, const char *fmt, va_list ap)
     __attribute__((format(printf, 4, 0)));
 
-/* Seconds on the monotonic clock (for deadlines and latencies). */
-double smd_monotonic(void);
-
 /* Describes a wait status in words, e.g. "exited with status 2",
  * "killed by signal 9 (SIGKILL)". */
 void smd_describe_wait_status(int wstatus, char *buf, size_t cap);

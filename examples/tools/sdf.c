@@ -37,6 +37,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "shapematch/sm_clock.h"
 #include "shapematch/sm_error.h"
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_mesh.h"
@@ -45,13 +46,6 @@
 #include "shapes.h"
 
 /* ---------------------------------------------------------------- utils */
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 /* ------------------------------------------------------ discretisation */
 
@@ -623,7 +617,7 @@ static int compute_distances(const shape *s, const sm_mesh *m, long resolution,
     discretization disc;
     bvh tree;
     memset(st, 0, sizeof *st);
-    double t0 = now_seconds();
+    double t0 = sm_clock_seconds();
     int rc = s->dim == 2 ? discretize_curve(s, (int32_t)resolution, &disc)
                          : discretize_surface(s, (int)resolution, &disc);
     if (rc != 0)
@@ -636,7 +630,7 @@ static int compute_distances(const shape *s, const sm_mesh *m, long resolution,
     st->chordal_error = chordal_error(s, &disc);
     st->bvh_nodes = tree.nnodes;
     st->bvh_depth = tree.depth;
-    double t1 = now_seconds();
+    double t1 = sm_clock_seconds();
 
     int32_t prim = -1; /* previous answer: consecutive vertices are close */
     double sum_gap2 = 0.0;
@@ -682,7 +676,7 @@ static int compute_distances(const shape *s, const sm_mesh *m, long resolution,
         }
     }
     st->seconds_setup = t1 - t0;
-    st->seconds_query = now_seconds() - t1;
+    st->seconds_query = sm_clock_seconds() - t1;
     bvh_free(&tree);
     discretization_free(&disc);
     return 0;
@@ -818,7 +812,7 @@ int main(int argc, char **argv)
     sm_mesh *m = NULL;
     sm_sol *sol = NULL;
     double *check = NULL;
-    double t0 = now_seconds();
+    double t0 = sm_clock_seconds();
     sdf_stats st;
 
     if (sm_mesh_read(mesh_path, &m, &err) != SM_OK) {
@@ -835,7 +829,7 @@ int main(int argc, char **argv)
         goto done;
     }
     printf("sdf: %s: %d vertices (read in %.2fs)\n", mesh_path, m->nverts,
-           now_seconds() - t0);
+           sm_clock_seconds() - t0);
     if (compute_distances(&s, m, resolution, use_newton, verify_brute,
                           sol->values, &st) != 0) {
         fprintf(stderr, "sdf: out of memory for the boundary discretisation\n");
@@ -903,7 +897,7 @@ int main(int argc, char **argv)
         status = 1;
         goto done;
     }
-    printf("sdf: wrote %s (%.2fs in all)\n", out_path, now_seconds() - t0);
+    printf("sdf: wrote %s (%.2fs in all)\n", out_path, sm_clock_seconds() - t0);
 
 done:
     free(check);

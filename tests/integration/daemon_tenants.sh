@@ -42,6 +42,16 @@ for route in "GET /v1/jobs/$A" "GET /v1/jobs/$A/events" "GET /v1/jobs/$A/results
     fi
 done
 ids() { jq -r '[.jobs[].jobID] | sort | join(" ")' "$WORK/reply.json"; }
+# access_token (the browsers' form of the token) names the tenant too
+tok_code() { # TOKEN URL: the HTTP status, the token in the query only
+    curl -sS --max-time $((10 * SLOW)) -o "$WORK/reply.json" -w '%{http_code}' "$2?access_token=$1"
+}
+if [ "$(tok_code tok-bob "$BASE/v1/jobs/$A")" = 404 ] && [ "$(tok_code tok-alice "$BASE/v1/jobs/$A")" = 200 ] &&
+    tok_code tok-bob "$BASE/v1/jobs" >/dev/null && [ "$(ids)" = "$B" ]; then
+    ok "access_token: bob's token in the query sees his job only, alice's sees hers"
+else
+    not_ok "access_token is scoped to its tenant" "$(head -c 300 "$WORK/reply.json")"
+fi
 code_as bob GET "$BASE/v1/jobs" >/dev/null
 if [ "$(ids)" = "$B" ]; then ok "bob's list holds his job only"; else not_ok "bob's list" "$(ids)"; fi
 code_as alice GET "$BASE/v1/jobs" >/dev/null

@@ -177,6 +177,7 @@ enum {
     SB_TEMPLATE,
     SB_TARGET_MESH,
     SB_TARGET_SOL,
+    SB_TARGET_SURFACE,
     SB_OUTPUT,
     SB_WAIT,
     SB_JSON,
@@ -188,7 +189,7 @@ enum {
 };
 
 typedef struct submit_args {
-    const char *template_path, *target_mesh_path, *target_sol_path;
+    const char *template_path, *target_mesh_path, *target_sol_path, *target_surface_path;
     const char *outdir;
     const char *idempotency_key;
     int wait, json, quiet, no_compress;
@@ -222,6 +223,7 @@ static int submit_flag(void *user, int id, const char *flag, const char *value, 
     case SB_TEMPLATE:
     case SB_TARGET_MESH:
     case SB_TARGET_SOL:
+    case SB_TARGET_SURFACE:
     case SB_OUTPUT:
         if (!value[0]) {
             snprintf(msg, cap, "%s: empty path", flag);
@@ -233,6 +235,8 @@ static int submit_flag(void *user, int id, const char *flag, const char *value, 
             a->target_mesh_path = value;
         else if (id == SB_TARGET_SOL)
             a->target_sol_path = value;
+        else if (id == SB_TARGET_SURFACE)
+            a->target_surface_path = value;
         else
             a->outdir = value;
         return 0;
@@ -268,6 +272,7 @@ static int submit_flag(void *user, int id, const char *flag, const char *value, 
 void cmd_submit_help(void)
 {
     printf("Usage: shapematch submit --template T.mesh --target-mesh B.mesh --target-sol B.sol\n"
+           "       shapematch submit --template T.mesh --target-surface S.stl [--target-mesh B.mesh]\n"
            "                         CLAMP [PARAMETERS] [--json] [--idempotency-key K]\n"
            "       shapematch submit ... --wait -o OUTDIR [--format LIST]\n"
            "\n"
@@ -281,6 +286,10 @@ void cmd_submit_help(void)
            "  --template FILE         template mesh (.mesh/.meshb, optionally .gz)\n"
            "  --target-mesh FILE      background mesh carrying the target distance\n"
            "  --target-sol FILE       signed distance, one value per background vertex\n"
+           "  --target-surface FILE   instead of --target-sol: the target's surface (STL, OBJ,\n"
+           "                          Medit, Gmsh .msh); the daemon computes its signed\n"
+           "                          distance on --target-mesh, or on a background it\n"
+           "                          generates when --target-mesh is not given\n"
            "  --no-compress           send the files as they are (by default files that are\n"
            "                          not gzip yet are compressed on the way)\n"
            "\n");
@@ -312,10 +321,12 @@ static const char *submit_usage_problem(submit_args *a, char *msg, size_t cap)
 {
     if (!a->template_path)
         return "missing required option --template";
-    if (!a->target_mesh_path)
-        return "missing required option --target-mesh";
-    if (!a->target_sol_path)
-        return "missing required option --target-sol";
+    if (a->target_surface_path && a->target_sol_path)
+        return "--target-surface excludes --target-sol: give one target";
+    if (!a->target_surface_path && !a->target_mesh_path)
+        return "missing required option --target-mesh (or --target-surface)";
+    if (!a->target_surface_path && !a->target_sol_path)
+        return "missing required option --target-sol (or --target-surface)";
     if (job_options_finish(&a->job, msg, cap) != 0)
         return msg;
     if (a->wait && !a->outdir)
@@ -330,7 +341,7 @@ static const char *submit_usage_problem(submit_args *a, char *msg, size_t cap)
 /* What one submission holds between its steps; released by
  * submission_release whatever step failed. */
 typedef struct submission {
-    upload up[3];     /* template, target_mesh, target_sol */
+    upload up[SM_PART_PARAMS]; /* the file parts by sm_part; part NULL when not sent */
     char *params;     /* the params JSON part */
     curl_mime *mime;
     char id[SM_JOB_ID_MAX + 1];
@@ -338,7 +349,7 @@ typedef struct submission {
 
 static void submission_release_files(submission *s)
 {
-    for (int i = 0; i < 3; i++)
+    for (int i = 0; i < SM_PART_PARAMS; i++)
         upload_close(&s->up[i]);
     if (s->mime)
         curl_mime_free(s->mime);
@@ -347,14 +358,16 @@ static void submission_release_files(submission *s)
     s->params = NULL;
 }
 
-/* Opens the three files (a bad path is an input error, exit 2, before any
+/* Opens the files given (a bad path is an input error, exit 2, before any
  * connection is made). */
 static int submission_open_files(submission *s, const submit_args *a)
 {
-    const char *paths[3] = {a->template_path, a->target_mesh_path, a->target_sol_path};
+    const char *paths[SM_PART_PARAMS] = {
+        [SM_PART_TEMPLATE] = a->template_path, [SM_PART_TARGET_MESH] = a->target_mesh_path,
+        [SM_PART_TARGET_SOL] = a->target_sol_path, [SM_PART_TARGET_SURFACE] = a->target_surface_path};
     char msg[ARGS_MSG_LEN];
-    for (int i = 0; i < 3; i++)
-        if (upload_open(&s->up[i], sm_part_names[i], paths[i], !a->no_compress, msg,
+    for (int i = 0; i < SM_PART_PARAMS; i++)
+        if (paths[i] && upload_open(&s->up[i], sm_part_names[i], paths[i], !a->no_compress, msg,
                         sizeof msg) != 0) {
             fprintf(stderr, "shapematch submit: error: %s\n", msg);
             return CLI_EXIT_INPUT;
@@ -362,13 +375,13 @@ static int submission_open_files(submission *s, const submit_args *a)
     return 0;
 }
 
-/* The multipart body: the three file parts (streamed) and params. */
+/* The multipart body: the file parts (streamed) and params. */
 static int submission_build_form(submission *s, http_client *c)
 {
     s->mime = curl_mime_init(c->curl);
     int bad = !s->mime;
-    for (int i = 0; i < 3 && !bad; i++)
-        bad = add_file_part(s->mime, &s->up[i]) != 0;
+    for (int i = 0; i < SM_PART_PARAMS && !bad; i++)
+        bad = s->up[i].part && add_file_part(s->mime, &s->up[i]) != 0;
     if (!bad) {
         curl_mimepart *pp = curl_mime_addpart(s->mime);
         bad = !pp || curl_mime_name(pp, sm_part_name(SM_PART_PARAMS)) != CURLE_OK ||
@@ -427,8 +440,8 @@ static int submission_post(submission *s, const submit_args *a, http_client *c,
     http_outcome out = http_perform(c, &rq, &rs);
     int code = 0;
     const upload *failed = NULL;
-    for (int i = 0; i < 3 && !failed; i++)
-        if (s->up[i].err)
+    for (int i = 0; i < SM_PART_PARAMS && !failed; i++)
+        if (s->up[i].part && s->up[i].err)
             failed = &s->up[i];
     if (failed) {
         fprintf(stderr, "shapematch submit: error: %s: cannot read '%s': %s\n", failed->part,
@@ -463,6 +476,7 @@ int cmd_submit(int argc, char **argv)
         {"--template", 1, SB_TEMPLATE},
         {"--target-mesh", 1, SB_TARGET_MESH},
         {"--target-sol", 1, SB_TARGET_SOL},
+        {"--target-surface", 1, SB_TARGET_SURFACE},
         {"--output", 1, SB_OUTPUT},
         {"-o", 1, SB_OUTPUT},
         {"--wait", 0, SB_WAIT},

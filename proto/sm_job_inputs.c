@@ -119,19 +119,6 @@ static sm_status check_distance(const sm_job_files *files, sm_job_naming naming,
     return SM_OK;
 }
 
-/* "target_surface: ..." with the path replaced or kept, as naming says
- * (target_surface is not a daemon part yet, see sm_proto_vocab.h). */
-static sm_status surface_error(sm_error *err, sm_job_naming naming, const char *path)
-{
-    if (naming == SM_JOB_NAME_PARTS)
-        return part_error(err, SM_PART_NAME_TARGET_SURFACE, path);
-    if (strstr(err->msg, path))
-        sm_error_prefix(err, "%s", SM_PART_NAME_TARGET_SURFACE);
-    else
-        sm_error_prefix(err, "%s: %s", SM_PART_NAME_TARGET_SURFACE, path);
-    return err->code;
-}
-
 /* Mean edge length of the template's elements. */
 static double mean_edge(const sm_mesh *m)
 {
@@ -189,7 +176,7 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
     if (st == SM_OK)
         st = sm_surface_repair(s, &out->health, err);
     if (st != SM_OK) {
-        surface_error(err, naming, files->target_surface);
+        file_error(err, naming, SM_PART_TARGET_SURFACE, files->target_surface, out);
         goto done;
     }
     out->has_surface = 1;
@@ -199,7 +186,8 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
         goto done;
     }
     if (files->target_mesh) {
-        if ((st = sm_mesh_read(files->target_mesh, &out->background, err)) != SM_OK) {
+        if ((st = sm_mesh_read_limited(files->target_mesh, files->limits, &out->background,
+                                       err)) != SM_OK) {
             file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
             goto done;
         }
@@ -219,7 +207,7 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
                            out->distance->values, err);
     out->sdf_seconds = sm_clock_seconds() - t0;
     if (st != SM_OK && st != SM_ERR_NOMEM)
-        surface_error(err, naming, files->target_surface);
+        file_error(err, naming, SM_PART_TARGET_SURFACE, files->target_surface, out);
 done:
     sm_sdf_free(d);
     sm_surface_free(s);
@@ -242,6 +230,7 @@ sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
     out->dim = out->template_mesh->dim;
     if (files->target_surface) {
         if (files->target_sol) {
+            out->failed = SM_PART_TARGET_SURFACE;
             st = sm_error_set(err, SM_ERR_INVALID, "%s excludes %s: give one target",
                               SM_PART_NAME_TARGET_SURFACE, sm_part_name(SM_PART_TARGET_SOL));
             goto fail;

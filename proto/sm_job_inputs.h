@@ -82,7 +82,7 @@ typedef struct sm_job_inputs {
                                * mismatch, out of memory) */
 } sm_job_inputs;
 
-/* Reads and checks the three files and builds the field; parameters are
+/* Reads and checks the input files and builds the field; parameters are
  * left at their defaults.  On failure every member is freed and NULL. */
 sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
                              sm_job_inputs *out, sm_error *err);

@@ -5,7 +5,8 @@
 
 #include "sm_payload.h"
 
-const char *const sm_part_names[SM_NPARTS] = {"template", "target_mesh", "target_sol", "params"};
+const char *const sm_part_names[SM_NPARTS] = {"template", "target_mesh", "target_sol",
+                                                SM_PART_NAME_TARGET_SURFACE, "params"};
 
 const char *sm_part_name(sm_part part)
 {

@@ -19,15 +19,17 @@ typedef enum sm_part {
     SM_PART_TEMPLATE = 0,
     SM_PART_TARGET_MESH = 1,
     SM_PART_TARGET_SOL = 2,
-    SM_PART_PARAMS = 3,
-    SM_NPARTS = 4
+    SM_PART_TARGET_SURFACE = 3,
+    SM_PART_PARAMS = 4,
+    SM_NPARTS = 5
 } sm_part;
-/* The target surface of a job (sm_job_files.target_surface): the name
- * its messages and summaries use.  Local runs (`shapematch run
- * --target-surface`) take it; it is not yet a multipart part of the
- * daemon (not in sm_part, whose every member the upload requires). */
+/* The file parts are the members before SM_PART_PARAMS.  template and
+ * params are always required; the target is either target_mesh +
+ * target_sol (a sampled distance) or target_surface with an optional
+ * target_mesh (sm_job_inputs.h); target_surface excludes target_sol. */
 #define SM_PART_NAME_TARGET_SURFACE "target_surface"
-/* "template", "target_mesh", "target_sol", "params", indexed by sm_part. */
+/* "template", "target_mesh", "target_sol", "target_surface", "params",
+ * indexed by sm_part. */
 extern const char *const sm_part_names[SM_NPARTS];
 /* sm_part_names[part], NULL outside. */
 const char *sm_part_name(sm_part part);

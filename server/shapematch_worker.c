@@ -270,7 +270,7 @@ int main(int argc, char **argv)
     sigaction(SIGTERM, &sa, NULL);
     sigaction(SIGINT, &sa, NULL);
 
-    char path[PATH_MAX], tpl[PATH_MAX], bg[PATH_MAX], sol[PATH_MAX], rel[3][PATH_MAX];
+    char path[PATH_MAX], full[SM_PART_PARAMS][PATH_MAX], rel[SM_PART_PARAMS][PATH_MAX];
     char *text = NULL;
     size_t len = 0;
     if (smd_pathf(path, sizeof path, "%s/" SMD_JOB_FILE, w.job_dir) != 0 ||
@@ -281,18 +281,32 @@ int main(int argc, char **argv)
     free(text);
     json_t *params = json_object_get(doc, sm_part_name(SM_PART_PARAMS));
     char *params_text = json_is_object(params) ? json_dumps(params, JSON_COMPACT) : NULL;
-    int paths_ok = doc && job_path(w.job_dir, doc, SM_PART_TEMPLATE, tpl, sizeof tpl, rel[0]) == 0 &&
-                   job_path(w.job_dir, doc, SM_PART_TARGET_MESH, bg, sizeof bg, rel[1]) == 0 &&
-                   job_path(w.job_dir, doc, SM_PART_TARGET_SOL, sol, sizeof sol, rel[2]) == 0;
+    /* the file parts present; the upload checked which combination */
+    const char *given[SM_PART_PARAMS] = {0}, *named[SM_PART_PARAMS] = {0};
+    int paths_ok = doc != NULL;
+    for (int i = 0; paths_ok && i < SM_PART_PARAMS; i++) {
+        if (!json_object_get(doc, sm_part_name((sm_part)i)))
+            continue;
+        paths_ok = job_path(w.job_dir, doc, (sm_part)i, full[i], sizeof full[i], rel[i]) == 0;
+        given[i] = full[i];
+        named[i] = rel[i];
+    }
+    paths_ok = paths_ok && given[SM_PART_TEMPLATE];
     json_decref(doc);
     /* the summary names the inputs as job.json does (relative paths) */
-    sm_job_files names = {.template_mesh = rel[0], .target_mesh = rel[1], .target_sol = rel[2]};
+    sm_job_files names = {.template_mesh = named[SM_PART_TEMPLATE],
+                          .target_mesh = named[SM_PART_TARGET_MESH],
+                          .target_sol = named[SM_PART_TARGET_SOL],
+                          .target_surface = named[SM_PART_TARGET_SURFACE]};
     if (!paths_ok || !params_text) {
         free(params_text);
         return fail(&w, SMD_WORKER_EXIT_USAGE, "%s is not a job description", SMD_JOB_FILE);
     }
 
-    sm_job_files files = {.template_mesh = tpl, .target_mesh = bg, .target_sol = sol};
+    sm_job_files files = {.template_mesh = given[SM_PART_TEMPLATE],
+                          .target_mesh = given[SM_PART_TARGET_MESH],
+                          .target_sol = given[SM_PART_TARGET_SOL],
+                          .target_surface = given[SM_PART_TARGET_SURFACE]};
     sm_job_inputs in;
     sm_error err;
     sm_error_clear(&err);

@@ -174,10 +174,10 @@ enum MHD_Result smd_route_processes(struct MHD_Connection *conn, smd_request *re
                           json_pack("{s:[o],s:o}", "processes", process_summary(), "links", links));
 }
 
-static json_t *file_input(const char *title, const char *description)
+static json_t *file_input(const char *title, const char *description, int min_occurs)
 {
     return json_pack("{s:s,s:s,s:i,s:i,s:{s:s,s:s,s:s}}", "title", title, "description",
-                     description, "minOccurs", 1, "maxOccurs", 1, "schema", "type", "string",
+                     description, "minOccurs", min_occurs, "maxOccurs", 1, "schema", "type", "string",
                      "format", "binary", "contentMediaType", "application/octet-stream");
 }
 
@@ -208,17 +208,24 @@ enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req)
     json_object_set_new(inputs, sm_part_names[SM_PART_TEMPLATE],
                         file_input("Template mesh", "The mesh to deform: Medit .mesh or .meshb "
                                                     "(triangles in 2D, tetrahedra in 3D), optionally "
-                                                    "gzip-compressed."));
+                                                    "gzip-compressed.", 1));
     json_object_set_new(inputs, sm_part_names[SM_PART_TARGET_MESH],
                         file_input("Target (background) mesh",
                                    "The mesh carrying the target's signed distance: .mesh or "
                                    ".meshb, optionally gzip-compressed; same dimension as the "
-                                   "template."));
+                                   "template; optional with target_surface.", 0));
     json_object_set_new(inputs, sm_part_names[SM_PART_TARGET_SOL],
                         file_input("Target signed distance",
                                    "SolAtVertices scalar field (.sol or .solb, optionally "
                                    "gzip-compressed), one value per target mesh vertex, negative "
-                                   "inside the target."));
+                                   "inside the target; required unless target_surface is given.", 0));
+    json_object_set_new(inputs, sm_part_names[SM_PART_TARGET_SURFACE],
+                        file_input("Target surface",
+                                   "Instead of target_sol: the target's surface (STL, OBJ, Medit "
+                                   "or Gmsh .msh, optionally gzip-compressed); its exact signed "
+                                   "distance is computed at the vertices of target_mesh, or of a "
+                                   "background generated around template and surface when "
+                                   "target_mesh is not given.  Excludes target_sol.", 0));
     json_object_set_new(inputs, sm_part_names[SM_PART_PARAMS],
                         json_pack("{s:s,s:s,s:i,s:i,s:o}", "title", "Parameters", "description",
                                   "JSON document; only clamp is required.", "minOccurs", 1,

@@ -4,7 +4,8 @@
  *                                   bookkeeping), replaced atomically
  *                   job.json        the inputs' file names and the
  *                                   canonical parameters (written at upload)
- *                   inputs/         template.*, target_mesh.*, target_sol.*
+ *                   inputs/         template.*, target_mesh.*, target_sol.*,
+ *                                   target_surface.* (the parts sent)
  *                   events.ndjson   append-only event log, seq 1, 2, ...
  *                   results/        written by the worker, renamed into
  *                                   place when complete

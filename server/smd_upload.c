@@ -24,6 +24,10 @@
 #include "smd_worker.h"
 
 
+/* For messages: every part, optional ones included. */
+#define SMD_UPLOAD_PARTS                                                                           \
+    "template, target_mesh, target_sol, target_surface and params"
+
 struct smd_upload {
     struct MHD_PostProcessor *pp;
     char dir[PATH_MAX];            /* SPOOL/tmp/up-XXXXXX */
@@ -131,8 +135,13 @@ static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
 static uint64_t request_hash(const smd_upload *u)
 {
     uint64_t h = FNV_OFFSET;
-    for (int i = 0; i < SM_NPARTS; i++)
+    for (int i = 0; i < SM_NPARTS; i++) {
+        if (!u->seen[i])
+            continue; /* the hashes of requests without target_surface stay as they were */
+        if (i == SM_PART_TARGET_SURFACE)
+            h = fnv1a(h, &i, sizeof i); /* tell it from the same bytes as target_mesh */
         h = fnv1a(h, &u->part_hash[i], sizeof u->part_hash[i]);
+    }
     return h ? h : 1; /* 0 = unknown (records from before the hash) */
 }
 
@@ -171,7 +180,7 @@ static enum MHD_Result on_part(void *cls, enum MHD_ValueKind kind, const char *k
         char shown[64];
         sm_text_printable_copy(shown, sizeof shown, key, "\"");
         fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
-             "unknown part \"%s\": the parts are template, target_mesh, target_sol and params", shown);
+             "unknown part \"%s\": the parts are " SMD_UPLOAD_PARTS, shown);
         return MHD_NO;
     }
     if (id != u->current || (off == 0 && u->current_bytes > 0)) {
@@ -241,7 +250,9 @@ static int name_file(smd_upload *u, sm_part id)
         fail(u, 500, SMD_PROBLEM_INTERNAL, "cannot read back part \"%s\"", sm_part_names[id]);
         return -1;
     }
-    const char *ext = id == SM_PART_TARGET_SOL ? (binary ? "solb" : "sol") : (binary ? "meshb" : "mesh");
+    const char *ext = id == SM_PART_TARGET_SOL       ? (binary ? "solb" : "sol")
+                      : id == SM_PART_TARGET_SURFACE ? "surface" /* any surface format */
+                                                     : (binary ? "meshb" : "mesh");
     char final[PATH_MAX];
     if (smd_pathf(final, sizeof final, "%s/inputs/%s.%s%s", u->dir, sm_part_names[id], ext,
                   gzip ? ".gz" : "") != 0 ||
@@ -300,8 +311,8 @@ enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
     const char *ctype = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
     if (!ctype || strncasecmp(ctype, "multipart/form-data", 19) != 0)
         return smd_reply_problem(conn, req, 415, SMD_PROBLEM_UNSUPPORTED_MEDIA,
-                                 "POST /v1/jobs takes multipart/form-data with the parts template, "
-                                 "target_mesh, target_sol and params (e.g. curl -F)");
+                                 "POST /v1/jobs takes multipart/form-data with the parts "
+                                 SMD_UPLOAD_PARTS " (e.g. curl -F)");
     const char *key = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, "Idempotency-Key");
     if (key && !smd_idempotency_key_valid(key))
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
@@ -350,7 +361,8 @@ static int write_job_file(smd_upload *u, const sm_job_inputs *in)
         return -1;
     }
     for (int i = 0; i < SM_PART_PARAMS; i++)
-        json_object_set_new(doc, sm_part_names[i], json_string(u->path[i] + prefix));
+        if (u->seen[i])
+            json_object_set_new(doc, sm_part_names[i], json_string(u->path[i] + prefix));
     json_object_set_new(doc, "params", params);
     char *text = json_dumps(doc, JSON_INDENT(2) | JSON_PRESERVE_ORDER);
     json_decref(doc);
@@ -376,6 +388,43 @@ static enum MHD_Result limit_refused(struct MHD_Connection *conn, smd_request *r
                              limits->hit == SM_LIMIT_INFLATED ? "" : ", or --memory-limit");
 }
 
+/* Which parts a job needs: template and params, and a target: target_mesh
+ * + target_sol, or target_surface (+ target_mesh optionally).  A missing
+ * part is a 400 (a malformed request), a conflict a 422. */
+static int check_parts(smd_upload *u)
+{
+    static const sm_part always[] = {SM_PART_TEMPLATE, SM_PART_PARAMS};
+    for (size_t i = 0; i < sizeof always / sizeof always[0]; i++)
+        if (!u->seen[always[i]]) {
+            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART, "missing part \"%s\": the parts are " SMD_UPLOAD_PARTS,
+                 sm_part_names[always[i]]);
+            return -1;
+        }
+    if (u->seen[SM_PART_TARGET_SURFACE] && u->seen[SM_PART_TARGET_SOL]) {
+        fail(u, 422, SMD_PROBLEM_INVALID_INPUT,
+             "target_surface excludes target_sol: give one target (target_surface with an optional "
+             "target_mesh, or target_mesh and target_sol)");
+        return -1;
+    }
+    if (u->seen[SM_PART_TARGET_SURFACE])
+        return 0;
+    for (int i = SM_PART_TARGET_MESH; i <= SM_PART_TARGET_SOL; i++)
+        if (!u->seen[i]) {
+            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
+                 "missing part \"%s\": the target is target_mesh and target_sol, or "
+                 "target_surface (with an optional target_mesh)",
+                 sm_part_names[i]);
+            return -1;
+        }
+    return 0;
+}
+
+/* The stored file of a part, NULL when the request has none. */
+static const char *file_of(const smd_upload *u, sm_part id)
+{
+    return u->seen[id] ? u->path[id] : NULL;
+}
+
 static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *req, smd_upload *u)
 {
     smd_server *srv = req->srv;
@@ -389,14 +438,10 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
     }
     if (u->err_status)
         return reply_error(conn, req, u);
-    for (int i = 0; i < SM_NPARTS; i++)
-        if (!u->seen[i])
-            return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_MULTIPART,
-                                     "missing part \"%s\": the parts are template, target_mesh, "
-                                     "target_sol and params",
-                                     sm_part_names[i]);
+    if (check_parts(u) != 0)
+        return reply_error(conn, req, u);
     for (int i = 0; i < SM_PART_PARAMS; i++)
-        if (name_file(u, (sm_part)i) != 0)
+        if (u->seen[i] && name_file(u, (sm_part)i) != 0)
             return reply_error(conn, req, u);
 
     uint64_t hash = request_hash(u);
@@ -415,9 +460,10 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
     sm_read_limits limits = {.max_inflated = srv->cfg.max_inflated,
                              .max_vertices = (int64_t)srv->cfg.max_vertices,
                              .max_elements = (int64_t)srv->cfg.max_elements};
-    sm_job_files files = {.template_mesh = u->path[SM_PART_TEMPLATE],
-                          .target_mesh = u->path[SM_PART_TARGET_MESH],
-                          .target_sol = u->path[SM_PART_TARGET_SOL],
+    sm_job_files files = {.template_mesh = file_of(u, SM_PART_TEMPLATE),
+                          .target_mesh = file_of(u, SM_PART_TARGET_MESH),
+                          .target_sol = file_of(u, SM_PART_TARGET_SOL),
+                          .target_surface = file_of(u, SM_PART_TARGET_SURFACE),
                           .limits = &limits};
     sm_status st = sm_job_inputs_load(&files, u->params ? u->params : "", u->params_len, &in, &err);
     if (st != SM_OK && limits.hit)

@@ -1,9 +1,12 @@
 /* POST /v1/jobs: a multipart/form-data upload streamed to disk.
  *
- * Parts (each at most once): template, target_mesh, target_sol (files:
- * .mesh/.meshb/.sol/.solb, any of them gzip'ed: the format is sniffed
- * from the content, the client's file name is never used as a path) and
- * params (JSON text, as a field or a file).  libmicrohttpd's
+ * Parts (each at most once): template, target_mesh, target_sol,
+ * target_surface (files: .mesh/.meshb/.msh/.sol/.solb, STL/OBJ for the
+ * surface, any of them gzip'ed: the format is sniffed from the content,
+ * the client's file name is never used as a path) and params (JSON text,
+ * as a field or a file).  template and params are required, and a
+ * target: target_mesh + target_sol, or target_surface with an optional
+ * target_mesh; target_surface with target_sol is a 422.  libmicrohttpd's
  * PostProcessor hands the parts over in pieces, which go straight into
  * SPOOL/tmp/up-XXXXXX/inputs/; nothing but params is held in memory.
  *

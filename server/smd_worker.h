@@ -12,7 +12,8 @@
  * JOB_DIR/job.json (written by the daemon after validation):
  *   {"template": "inputs/template.mesh", "target_mesh": "inputs/...",
  *    "target_sol": "inputs/...", "params": {<sm_params_to_json>}}
- * (paths relative to JOB_DIR).  The worker writes its outputs into
+ * (paths relative to JOB_DIR); a surface target has "target_surface"
+ * instead of "target_sol", and "target_mesh" only when one was sent.  The worker writes its outputs into
  * JOB_DIR/results.tmp/ and renames it to JOB_DIR/results/ when every file
  * is complete, then emits "finished" with the summary and exits 0. */
 #ifndef SMD_WORKER_H

@@ -1,0 +1,171 @@
+#!/usr/bin/env bash
+# Targets from a surface through the daemon (issue 9): the multipart part
+# target_surface of POST /v1/jobs, with a generated background or with
+# target_mesh, against a real daemon and surfaces made by the real gmsh:
+#   - template + target_surface ends successful, its summary.json carries
+#     the surface's health report, and its boundary error is the one
+#     `shapematch run --target-surface` reaches on the same inputs;
+#   - template + target_surface + target_mesh: the background is the one
+#     given (not generated);
+#   - target_surface with target_sol is a 422 naming the conflict; a
+#     malformed STL a 422 naming the part; no target at all a 400 naming
+#     the missing part;
+#   - `shapematch submit --target-surface S --wait` end to end;
+#   - the process description lists target_surface.
+source "$(dirname "$0")/lib.sh"
+
+d=$WORK/case
+mkdir -p "$d"
+cat >"$d/ball.geo" <<'GEO'
+SetFactory("OpenCASCADE");
+Sphere(1) = {0, 0, 0, 1};
+Mesh.MeshSizeFromPoints = 0;
+GEO
+cat >"$d/small.geo" <<'GEO'
+SetFactory("OpenCASCADE");
+Sphere(1) = {0, 0, 0, 0.8};
+Mesh.MeshSizeFromPoints = 0;
+GEO
+(cd "$d" && gmsh ball.geo -2 -format stl -clmax 0.15 -nt 1 -v 1 -o sphere.stl &&
+    gmsh ball.geo -3 -format msh41 -clmax 0.3 -nt 1 -v 1 -o ball.msh &&
+    gmsh small.geo -3 -format msh41 -clmax 0.3 -nt 1 -v 1 -o small.msh) >"$d/gmsh.log" 2>&1
+if [ -s "$d/sphere.stl" ] && [ -s "$d/ball.msh" ] && [ -s "$d/small.msh" ]; then
+    ok "gmsh made the sphere STL and the .msh balls"
+else
+    not_ok "gmsh made the sphere STL and the .msh balls" "$(tail -5 "$d/gmsh.log")"
+    exit 1
+fi
+STL=$d/sphere.stl
+TPL=$d/small.msh
+BG=$d/ball.msh
+PARAMS='{"clamp": {"kind": "ball", "center": [0, 0, 0], "radius": 0.5}, "max_iter": 30}'
+
+if ! start_daemon surface --workers 1 --worker-threads 1; then
+    not_ok "the daemon starts"
+    exit 1
+fi
+ok "the daemon starts"
+
+# post NAME CURL-ARGS...: POST /v1/jobs, the answer in $WORK/NAME.json,
+# the status code printed
+post() {
+    local name=$1
+    shift
+    hcurl "${AUTH[@]}" -o "$WORK/$name.json" -w '%{http_code}' "$@" "$BASE/v1/jobs" 2>"$WORK/$name.err"
+}
+
+# the reference: the same job run locally, one thread as the worker
+OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 "$BIN/shapematch" run --template "$TPL" \
+    --target-surface "$STL" --clamp-ball 0,0,0,0.5 --max-iter 30 --quiet -o "$WORK/run" \
+    >/dev/null 2>"$WORK/run.err"
+check "shapematch run --target-surface gives the reference" test -f "$WORK/run/summary.json"
+
+# ------------------------------------------ template + target_surface
+code=$(post gen -F "template=@$TPL" -F "target_surface=@$STL" -F "params=$PARAMS")
+ID=$(jq -r '.jobID // empty' "$WORK/gen.json" 2>/dev/null)
+if [ "$code" = 201 ] && [ -n "$ID" ] && wait_final "$ID" 120 && state_is "$ID" successful; then
+    ok "template + target_surface (generated background): the job ends successful"
+else
+    not_ok "template + target_surface ends successful" "code $code, id '$ID', state $(job_state "$ID")" \
+        "$(cat "$WORK/gen.json")"
+fi
+JOB=$SPOOL/jobs/$ID
+jq -e '.target_surface == "inputs/target_surface.surface" and (has("target_sol") | not) and
+       (has("target_mesh") | not)' "$JOB/job.json" >/dev/null
+check "job.json names the stored target_surface, no target_mesh nor target_sol" test $? = 0
+msg=$(python3 - "$JOB/results/summary.json" "$WORK/run/summary.json" <<'PY'
+import json, sys
+d, r = (json.load(open(p)) for p in sys.argv[1:3])
+h = d.get("target_surface", {})
+ok = (d["inputs"].get("target_surface") == "inputs/target_surface.surface" and h.get("open_edges") == 0
+      and h.get("components") == 1 and h.get("background_generated") is True
+      and h.get("background_vertices") == r["target_surface"]["background_vertices"])
+ed, er = d["boundary_l2"], r["boundary_l2"]
+print("boundary error %.6e (daemon) vs %.6e (run), %d iterations vs %d"
+      % (ed, er, d["iterations"], r["iterations"]))
+sys.exit(0 if ok and abs(ed - er) <= 1e-9 * er and d["iterations"] == r["iterations"] else 1)
+PY
+)
+check "the summary has the health report; $msg" test $? = 0
+
+# ----------------------------- template + target_surface + target_mesh
+code=$(post bg -F "template=@$TPL" -F "target_surface=@$STL" -F "target_mesh=@$BG" -F "params=$PARAMS")
+ID2=$(jq -r '.jobID // empty' "$WORK/bg.json" 2>/dev/null)
+if [ "$code" = 201 ] && [ -n "$ID2" ] && wait_final "$ID2" 120 && state_is "$ID2" successful &&
+    jq -e --argjson n "$(grep -A2 '^\$Nodes' "$BG" | sed -n 2p | cut -d' ' -f2)" \
+        '.target_surface.background_generated == false and .target_surface.background_vertices == $n
+         and (.inputs.target_mesh | startswith("inputs/target_mesh."))' \
+        "$SPOOL/jobs/$ID2/results/summary.json" >/dev/null; then
+    ok "template + target_surface + target_mesh: successful, the distance on the given background"
+else
+    not_ok "template + target_surface + target_mesh" "code $code, state $(job_state "$ID2")" \
+        "$(cat "$WORK/bg.json" "$SPOOL/jobs/$ID2/results/summary.json" 2>/dev/null | head -c 800)"
+fi
+
+# ------------------------------------------------------------ refusals
+# expect_refusal NAME STATUS ERE PART: the answer of `post NAME` is
+# STATUS problem+json whose detail matches ERE (and whose invalid-params
+# entry names PART, when given)
+expect_refusal() {
+    local name=$1 want=$2 re=$3 part=${4:-} code=$5
+    if [ "$code" = "$want" ] &&
+        jq -e --argjson s "$want" --arg re "$re" --arg part "$part" \
+            '.status == $s and (.detail | test($re)) and
+             ($part == "" or (.["invalid-params"][0].name == $part))' "$WORK/$name.json" >/dev/null; then
+        ok "$name: $want \"$(jq -r .detail "$WORK/$name.json" | head -c 160)\""
+    else
+        not_ok "$name: $want" "got $code" "$(head -c 600 "$WORK/$name.json")"
+    fi
+}
+SOL=$d/zero.sol
+printf 'MeshVersionFormatted 2\nDimension 3\nSolAtVertices\n1\n1 1\n0\nEnd\n' >"$SOL"
+code=$(post conflict -F "template=@$TPL" -F "target_surface=@$STL" -F "target_mesh=@$BG" \
+    -F "target_sol=@$SOL" -F "params=$PARAMS")
+expect_refusal conflict 422 'target_surface excludes target_sol' "" "$code"
+printf 'solid broken\nfacet normal 0 0 1\n outer loop\n  vertex 0 0 0\n  vertex 1 0\n' >"$d/broken.stl"
+code=$(post malformed -F "template=@$TPL" -F "target_surface=@$d/broken.stl" -F "params=$PARAMS")
+expect_refusal malformed 422 '^target_surface: ' target_surface "$code"
+grep -qF "$WORK" "$WORK/malformed.json"
+check "the refusal does not show the spool's path" test $? != 0
+code=$(post notarget -F "template=@$TPL" -F "params=$PARAMS")
+expect_refusal notarget 400 'missing part "target_mesh".*target_surface' "" "$code"
+code=$(post nosol -F "template=@$TPL" -F "target_mesh=@$BG" -F "params=$PARAMS")
+expect_refusal nosol 400 'missing part "target_sol"' "" "$code"
+left=$(find "$SPOOL/tmp" -mindepth 1 -maxdepth 1 2>/dev/null | wc -l)
+check "refused uploads leave nothing in the spool ($left entries)" test "$left" = 0
+
+# ------------------------------------------------ the process description
+hcurl "${AUTH[@]}" "$BASE/v1/processes/match" >"$WORK/process.json"
+jq -e '.inputs.target_surface.minOccurs == 0 and .inputs.target_sol.minOccurs == 0 and
+       .inputs.template.minOccurs == 1 and (.inputs.target_surface.description | test("excludes target_sol"; "i"))' \
+    "$WORK/process.json" >/dev/null
+check "the process description lists target_surface (optional, excludes target_sol)" test $? = 0
+
+# ------------------------------------------- shapematch submit --target-surface
+timeout $((120 * SLOW)) "$BIN/shapematch" submit --server "$BASE" --template "$TPL" \
+    --target-surface "$STL" --clamp-ball 0,0,0,0.5 --max-iter 30 --wait --quiet -o "$WORK/sub" \
+    >"$WORK/sub.out" 2>"$WORK/sub.err"
+rc=$?
+msg=$(python3 - "$WORK/sub/summary.json" "$WORK/run/summary.json" 2>&1 <<'PY'
+import json, sys
+d, r = (json.load(open(p)) for p in sys.argv[1:3])
+print("boundary error %.6e vs %.6e" % (d["boundary_l2"], r["boundary_l2"]))
+sys.exit(0 if abs(d["boundary_l2"] - r["boundary_l2"]) <= 1e-9 * r["boundary_l2"]
+         and d["target_surface"]["background_generated"] else 1)
+PY
+)
+same=$?
+if [ "$rc" = 0 ] && [ "$same" = 0 ]; then
+    ok "submit --target-surface --wait: results fetched, $msg"
+else
+    not_ok "submit --target-surface --wait" "exit $rc: $msg" "$(head -c 600 "$WORK/sub.err")"
+fi
+timeout 30 "$BIN/shapematch" submit --server "$BASE" --template "$TPL" --target-surface "$STL" \
+    --target-sol "$SOL" --clamp-ball 0,0,0,0.5 >/dev/null 2>"$WORK/sub2.err"
+rc=$?
+[ "$rc" = 1 ] && grep -q "excludes --target-sol" "$WORK/sub2.err"
+check "submit: --target-surface excludes --target-sol (exit $rc, before any request)" test $? = 0
+
+reports_clean && ok "no sanitizer report" || not_ok "no sanitizer report"
+stop_daemon
+echo "1..$n"

@@ -1,6 +1,7 @@
 /* Command-line parsing of the shapematch client (see args.h). */
 #include "args.h"
 #include "msg.h"
+#include "sm_job_runner.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -434,6 +435,7 @@ typedef enum run_flag_kind {
     RUN_FLAG_TARGET_MESH,
     RUN_FLAG_TARGET_SOL,
     RUN_FLAG_OUTPUT,
+    RUN_FLAG_FORMAT,
     RUN_FLAG_TARGET_SURFACE,
     RUN_FLAG_QUIET,
     RUN_FLAG_JSON,
@@ -453,6 +455,7 @@ static run_flag_kind classify_run_flag(const char *flag, int *takes_value)
         {"--target-surface", RUN_FLAG_TARGET_SURFACE, 1},
         {"--output", RUN_FLAG_OUTPUT, 1},
         {"-o", RUN_FLAG_OUTPUT, 1},
+        {"--format", RUN_FLAG_FORMAT, 1},
         {"--quiet", RUN_FLAG_QUIET, 0},
         {"-q", RUN_FLAG_QUIET, 0},
         {"--json", RUN_FLAG_JSON, 0},
@@ -476,6 +479,8 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
     char q[48];
     memset(o, 0, sizeof *o);
     job_options_init(&o->job);
+    if (sm_job_outputs_parse(RUN_DEFAULT_FORMATS, &o->outputs, msg, cap) != 0)
+        return ARGS_ERROR;
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i];
         if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0)
@@ -530,6 +535,14 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
             else
                 o->outdir = value;
             break;
+        case RUN_FLAG_FORMAT: {
+            char why[ARGS_MSG_LEN];
+            if (sm_job_outputs_parse(value, &o->outputs, why, sizeof why) != 0) {
+                cli_fail(msg, cap, "%s: %s", flag, why);
+                return ARGS_ERROR;
+            }
+            break;
+        }
         case RUN_FLAG_QUIET:
             o->quiet = 1;
             break;

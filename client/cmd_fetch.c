@@ -35,7 +35,10 @@ static const mesh_format mesh_formats[] = {
     {FETCH_MESHB, "meshb"},
     {FETCH_VTU, "vtu"},
     {FETCH_BINARY, "binary"},
+    {FETCH_SOL, "sol"},
+    {FETCH_SOLB, "solb"},
 };
+#define N_MESH_ONLY 4 /* the first ones are mesh formats, then displacement */
 #define N_MESH_FORMATS (sizeof mesh_formats / sizeof mesh_formats[0])
 
 int fetch_parse_formats(const char *flag, const char *text, unsigned *out, char *msg,
@@ -51,8 +54,8 @@ int fetch_parse_formats(const char *flag, const char *text, unsigned *out, char 
             if (strlen(mesh_formats[k].name) == len && strncmp(mesh_formats[k].name, p, len) == 0)
                 break;
         if (k == N_MESH_FORMATS) {
-            snprintf(msg, cap, "%s: '%.*s' is not a mesh format (expected a comma-separated "
-                               "list of mesh, meshb, vtu, binary)",
+            snprintf(msg, cap, "%s: '%.*s' is not a result format (expected a comma-separated "
+                               "list of mesh, meshb, vtu, binary, sol, solb)",
                      flag, (int)(len > 40 ? 40 : len), p);
             return -1;
         }
@@ -258,18 +261,19 @@ int remote_fetch(http_client *c, const char *cmd, int token_given, const char *i
     if (code != 0)
         return code;
     char files[256] = "";
+    unsigned formats = o->formats;
+    if (!(formats & (FETCH_SOL | FETCH_SOLB)))
+        formats |= FETCH_SOL; /* the displacement always comes */
     for (size_t k = 0; k < N_MESH_FORMATS && code == 0; k++) {
-        if (!(o->formats & mesh_formats[k].bit))
+        if (!(formats & mesh_formats[k].bit))
             continue;
-        const sm_result_format *f = sm_result_format_find(SM_RESULT_MESH, mesh_formats[k].name);
+        const sm_result_format *f = sm_result_format_find(
+            k < N_MESH_ONLY ? SM_RESULT_MESH : SM_RESULT_DISPLACEMENT, mesh_formats[k].name);
         code = download(c, cmd, token_given, o->outdir, id, f);
         strncat(files, f->file, sizeof files - strlen(files) - 1);
         strncat(files, ", ", sizeof files - strlen(files) - 1);
     }
-    const sm_result_format *displacement = sm_result_format_find(SM_RESULT_DISPLACEMENT, "sol");
     const sm_result_format *history = sm_result_format_find(SM_RESULT_HISTORY, "csv");
-    if (code == 0)
-        code = download(c, cmd, token_given, o->outdir, id, displacement);
     if (code == 0)
         code = download(c, cmd, token_given, o->outdir, id, history);
     if (code == 0)
@@ -281,8 +285,8 @@ int remote_fetch(http_client *c, const char *cmd, int token_given, const char *i
             remote_format_result(line, sizeof line, &result);
             fprintf(stderr, "shapematch: job %s: %s\n", id, line);
         }
-        fprintf(stderr, "shapematch: results in %s: %s%s, %s, %s\n", o->outdir, files,
-                displacement->file, history->file, SM_RESULT_SUMMARY_FILE);
+        fprintf(stderr, "shapematch: results in %s: %s%s, %s\n", o->outdir, files,
+                history->file, SM_RESULT_SUMMARY_FILE);
     }
     return code;
 }
@@ -296,7 +300,7 @@ void cmd_fetch_help(void)
            "Downloads the results of the successful job ID into OUTDIR (created if\n"
            "missing), the same files as 'shapematch run' writes:\n"
            "  result.mesh, result.meshb, result.vtu, result.smmesh  (by --format)\n"
-           "  displacement.sol   cumulative displacement per template vertex\n"
+           "  displacement.sol, displacement.solb   cumulative displacement per vertex\n"
            "  history.csv        one row per iteration\n"
            "  summary.json       stop reason, figures, timings, parameters\n"
            "Transfers are compressed when the daemon allows it.  Files are written under\n"
@@ -307,7 +311,8 @@ void cmd_fetch_help(void)
            "  --format LIST           mesh formats, comma-separated: mesh (Medit ASCII),\n"
            "                          meshb (Medit binary), vtu (ParaView, with the fields\n"
            "                          displacement and distance), binary (the API payload,\n"
-           "                          proto/PAYLOAD.md); default " FETCH_DEFAULT_FORMATS_TEXT "\n"
+           "                          proto/PAYLOAD.md), sol, solb (displacement; sol\n"
+           "                          when neither is named); default " FETCH_DEFAULT_FORMATS_TEXT "\n"
            "  -q, --quiet             print nothing on success\n"
            "  -h, --help              this help\n"
            "\n");

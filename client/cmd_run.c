@@ -256,7 +256,8 @@ static void print_final_line(const run_options *o, const sm_job_run *run)
 void cmd_run_help(void)
 {
     printf("Usage: shapematch run --template T.mesh --target-mesh B.mesh --target-sol B.sol\n"
-           "                      CLAMP [PARAMETERS] [--quiet] [--json] -o OUTDIR\n"
+           "                      CLAMP [PARAMETERS] [--format LIST] [--quiet] [--json]\n"
+           "                      -o OUTDIR\n"
            "\n"
            "Deforms the template mesh onto the target shape given by its signed distance\n"
            "function (P1 on the background mesh B, negative inside), locally, no daemon.\n"
@@ -273,10 +274,13 @@ void cmd_run_help(void)
            "  --target-surface FILE   target surface instead of --target-sol; its health\n"
            "                          report (holes, reoriented facets, ...) on stderr\n"
            "  -o, --output DIR        output directory (created if missing); receives\n"
-           "                          result.mesh, result.meshb, result.vtu,\n"
-           "                          result.smmesh, displacement.sol, displacement.solb,\n"
-           "                          history.csv, history.json, summary.json (a\n"
-           "                          daemon job's result set)\n"
+           "                          the --format files, history.csv and summary.json\n"
+           "  --format LIST           comma-separated: mesh (result.mesh), meshb\n"
+           "                          (result.meshb), vtu (result.vtu, ParaView),\n"
+           "                          binary (result.smmesh, proto/PAYLOAD.md), sol\n"
+           "                          (displacement.sol), solb (displacement.solb); gz\n"
+           "                          compresses them (FILE.gz); default " RUN_DEFAULT_FORMATS "\n"
+           "                          (the same files as 'shapematch fetch --format')\n"
            "\n");
     job_options_help(stdout);
     printf("\n"
@@ -363,13 +367,14 @@ int cmd_run(int argc, char **argv)
 
     /* ---- the result set; also for a failed start (for diagnosis) and a
      * cancelled run (the state reached) ---- */
-    if (sm_job_write_results(&in, &run, &files, opt.outdir, SM_ATOMIC_FSYNC, &err) != SM_OK) {
+    if (sm_job_write_selected(&in, &run, &files, opt.outdir, opt.outputs, SM_ATOMIC_FSYNC,
+                              &err) != SM_OK) {
         code = run_error(&opt, CLI_EXIT_OUTPUT, "%s", err.msg);
         goto done;
     }
     code = run.exit_code;
     print_final_line(&opt, &run);
-    if (opt.json && (summary = sm_job_summary_to_jansson(&in, &run, &files)) != NULL)
+    if (opt.json && (summary = sm_job_summary_outputs(&in, &run, &files, opt.outputs)) != NULL)
         print_finished_event(&opt, &run, summary);
 
 done:

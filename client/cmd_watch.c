@@ -46,6 +46,8 @@ typedef struct watch_ctx {
     char end_message[SM_EVENT_MESSAGE_MAX]; /* of the failed/cancelled event */
     int have_result;
     sm_result result;
+    int goal_max_iter;             /* the job's max_iter, 0 unknown */
+    double goal_tol;               /* the job's tol_boundary, 0 none */
     int warned_unknown;
     int protocol_error;
     char error[256];
@@ -93,6 +95,7 @@ static void handle_event(watch_ctx *w, const sm_event *ev)
         /* a new run starts its iterations from 0: a fresh display */
         progress_finish(&w->display);
         progress_init(&w->display, stderr, w->opt->quiet);
+        progress_set_goal(&w->display, w->goal_max_iter, w->goal_tol);
         if (quiet(w))
             break;
         if (ev->attempt > 1)
@@ -214,6 +217,29 @@ static int finish(watch_ctx *w, const char *cmd)
     }
 }
 
+/* The bar's goals, as `run` has them: GET /v1/jobs/ID gives the job's
+ * maxIter and tolBoundary.  Best effort: without them (an older daemon, a
+ * failed request, which the events request then reports) the bar shows
+ * the rate only. */
+static void get_goal(http_client *c, watch_ctx *w)
+{
+    char path[128];
+    snprintf(path, sizeof path, "/v1/jobs/%s", w->id);
+    http_request rq = {.path = path, .accept = "application/json", .gzip = 1};
+    http_response rs;
+    http_outcome out = http_perform(c, &rq, &rs);
+    json_t *doc = out == HTTP_DONE && rs.status == 200 ? remote_json_object(&rs) : NULL;
+    http_response_free(&rs);
+    json_t *max_iter = json_object_get(doc, "maxIter"), *tol = json_object_get(doc, "tolBoundary");
+    if (json_is_integer(max_iter) && json_integer_value(max_iter) > 0 &&
+        json_integer_value(max_iter) <= INT_MAX)
+        w->goal_max_iter = (int)json_integer_value(max_iter);
+    if (json_is_number(tol) && json_number_value(tol) > 0)
+        w->goal_tol = json_number_value(tol);
+    json_decref(doc);
+    progress_set_goal(&w->display, w->goal_max_iter, w->goal_tol);
+}
+
 int remote_watch(http_client *c, const char *cmd, int token_given, const char *id,
                  const watch_options *o)
 {
@@ -222,6 +248,8 @@ int remote_watch(http_client *c, const char *cmd, int token_given, const char *i
     w.id = id;
     w.opt = o;
     progress_init(&w.display, stderr, o->quiet);
+    if (w.display.mode == PROGRESS_TTY && !o->json)
+        get_goal(c, &w);
     sse_init(&w.sse, SM_EVENT_LINE_MAX + 64, on_sse_event, &w);
 
     char path[128], last_header[64];
@@ -334,8 +362,9 @@ void cmd_watch_help(void)
     printf("Usage: shapematch watch [--json] [--quiet] [--reconnect-timeout S] ID\n"
            "\n"
            "Follows the job ID on the daemon to its end: its past events are replayed,\n"
-           "then new ones are shown as they come (a progress bar on a terminal: iteration,\n"
-           "J, boundary error, step; a plain line every %d iterations otherwise).\n"
+           "then new ones are shown as they come (on a terminal the bar of 'run': progress\n"
+           "toward the job's tol_boundary or max_iter, rate, ETA, then iteration, J,\n"
+           "boundary error, step; a plain line every %d iterations otherwise).\n"
            "If the connection drops (the daemon restarts, the network fails), watch\n"
            "reconnects and resumes after the last event received; no event is shown\n"
            "twice.  Interrupting watch (Ctrl-C) leaves the job running.\n"

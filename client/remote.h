@@ -110,7 +110,9 @@ enum {
     FETCH_MESH = 1u << 0,
     FETCH_MESHB = 1u << 1,
     FETCH_VTU = 1u << 2,
-    FETCH_BINARY = 1u << 3
+    FETCH_BINARY = 1u << 3,
+    FETCH_SOL = 1u << 4,      /* displacement.sol (also when neither is named) */
+    FETCH_SOLB = 1u << 5
 };
 #define FETCH_DEFAULT_FORMATS (FETCH_MESH | FETCH_VTU)
 #define FETCH_DEFAULT_FORMATS_TEXT "mesh,vtu"

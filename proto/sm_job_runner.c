@@ -8,6 +8,8 @@
 #include <string.h>
 #include <unistd.h>
 
+#include <zlib.h>
+
 #include "shapematch/sm_atomic.h"
 #include "shapematch/sm_io.h"
 #include "sm_json.h"
@@ -171,7 +173,16 @@ static int set_string(json_t *obj, const char *key, const char *value)
     return v ? smp_set(obj, key, v) : -1;
 }
 
-static json_t *outputs_object(void)
+/* The file name of format i under outputs: FILE or FILE.gz. */
+static json_t *output_name(size_t i, unsigned outputs)
+{
+    char name[96];
+    int gz = (outputs & SM_JOB_OUT_GZ) && sm_result_formats[i].kind != SM_RESULT_HISTORY;
+    snprintf(name, sizeof name, "%s%s", sm_result_formats[i].file, gz ? ".gz" : "");
+    return json_string(name);
+}
+
+static json_t *outputs_object(unsigned chosen)
 {
     json_t *outputs = json_object();
     int bad = !outputs;
@@ -180,8 +191,11 @@ static json_t *outputs_object(void)
         const sm_result_format *f = sm_result_formats_of((sm_result_kind)k, &n);
         json_t *files = json_object();
         bad = !files || smp_set(outputs, sm_result_kind_name((sm_result_kind)k), files) != 0;
-        for (size_t i = 0; !bad && i < n; i++)
-            bad = smp_set(files, f[i].name, json_string(f[i].file)) != 0;
+        for (size_t i = 0; !bad && i < n; i++) {
+            size_t at = (size_t)(&f[i] - sm_result_formats);
+            if (chosen & SM_JOB_OUT_FORMAT(at))
+                bad = smp_set(files, f[i].name, output_name(at, chosen)) != 0;
+        }
     }
     bad = bad || smp_set(outputs, "summary", json_string(SM_RESULT_SUMMARY_FILE)) != 0;
     if (bad) {
@@ -232,6 +246,12 @@ static json_t *warnings_array(const sm_job_warnings *ws)
 json_t *sm_job_summary_to_jansson(const sm_job_inputs *in, const sm_job_run *run,
                                   const sm_job_files *names)
 {
+    return sm_job_summary_outputs(in, run, names, SM_JOB_OUT_ALL);
+}
+
+json_t *sm_job_summary_outputs(const sm_job_inputs *in, const sm_job_run *run,
+                               const sm_job_files *names, unsigned outputs)
+{
     const sm_mesh *m = in->template_mesh;
     json_t *res = sm_result_to_jansson(&run->result, &in->params, in->dim);
     json_t *doc = json_object();
@@ -276,7 +296,7 @@ json_t *sm_job_summary_to_jansson(const sm_job_inputs *in, const sm_job_run *run
         inputs = NULL;
         bad = bad || smp_set(doc, "template", tmpl) != 0;
         tmpl = NULL;
-        bad = bad || smp_set(doc, "outputs", outputs_object()) != 0;
+        bad = bad || smp_set(doc, "outputs", outputs_object(sm_job_outputs_fix(outputs))) != 0;
     }
     json_decref(res);
     json_decref(inputs);
@@ -360,10 +380,35 @@ typedef struct result_data {
 
 /* One file of the set: a core writer on a reserved temporary name, or
  * text through the temporary's stream. */
-static sm_status write_one(const char *dir, const sm_result_format *f, const result_data *d,
-                           unsigned flags, sm_error *err)
+/* The binary payload compressed: encoded in memory, then gzip'd (the
+ * payload writer has no .gz stream of its own). */
+static sm_status write_payload_gz(const char *path, const result_data *d, sm_error *err)
 {
-    char *path = join(dir, f->file);
+    unsigned char *buf = NULL;
+    size_t len = 0;
+    sm_status st = sm_payload_encode(d->mesh, d->coords, d->displacement, d->distance, &buf,
+                                     &len, err);
+    if (st != SM_OK)
+        return st;
+    gzFile gz = gzopen(path, "wb");
+    int ok = gz != NULL;
+    for (size_t at = 0; ok && at < len;) {
+        unsigned chunk = len - at > (1u << 30) ? (1u << 30) : (unsigned)(len - at);
+        ok = gzwrite(gz, buf + at, chunk) == (int)chunk;
+        at += chunk;
+    }
+    if (gz && gzclose(gz) != Z_OK)
+        ok = 0;
+    free(buf);
+    return ok ? SM_OK : sm_error_set(err, SM_ERR_IO, "cannot write '%s' (gzip)", path);
+}
+
+static sm_status write_one(const char *dir, const sm_result_format *f, const result_data *d,
+                           int gz, unsigned flags, sm_error *err)
+{
+    char name[96];
+    snprintf(name, sizeof name, "%s%s", f->file, gz ? ".gz" : "");
+    char *path = join(dir, name);
     if (!path)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     sm_atomic a;
@@ -383,6 +428,8 @@ static sm_status write_one(const char *dir, const sm_result_format *f, const res
             st = sm_sol_write(tmp, d->sol, err);
         else if (strcmp(f->name, "vtu") == 0)
             st = sm_vtu_write(tmp, d->mesh, d->coords, d->displacement, d->distance, err);
+        else if (strcmp(f->name, "binary") == 0 && gz)
+            st = write_payload_gz(tmp, d, err);
         else if (strcmp(f->name, "binary") == 0)
             st = sm_payload_write_file(tmp, d->mesh, d->coords, d->displacement, d->distance, err);
         else
@@ -393,16 +440,16 @@ static sm_status write_one(const char *dir, const sm_result_format *f, const res
             sm_atomic_abort(&a);
     }
     if (st != SM_OK && err && !strstr(err->msg, f->file))
-        sm_error_prefix(err, "cannot write %s", f->file);
+        sm_error_prefix(err, "cannot write %s", name);
     free(path);
     return st;
 }
 
 static sm_status write_summary(const sm_job_inputs *in, const sm_job_run *run,
-                               const sm_job_files *names, const char *dir, unsigned flags,
-                               sm_error *err)
+                               const sm_job_files *names, const char *dir, unsigned outputs,
+                               unsigned flags, sm_error *err)
 {
-    json_t *doc = sm_job_summary_to_jansson(in, run, names);
+    json_t *doc = sm_job_summary_outputs(in, run, names, outputs);
     char *text = doc ? sm_json_dumps(doc, 2) : NULL;
     char *path = join(dir, SM_RESULT_SUMMARY_FILE);
     json_decref(doc);
@@ -419,9 +466,64 @@ static sm_status write_summary(const sm_job_inputs *in, const sm_job_run *run,
     return st;
 }
 
+/* ------------------------------------------------- the output choice */
+
+unsigned sm_job_outputs_fix(unsigned outputs)
+{
+    const sm_result_format *csv = sm_result_format_find(SM_RESULT_HISTORY, "csv");
+    return outputs | SM_JOB_OUT_FORMAT((size_t)(csv - sm_result_formats));
+}
+
+/* The bit of the mesh or displacement format named p[0..len), 0 if none. */
+static unsigned output_bit(const char *p, size_t len)
+{
+    if (len == 2 && strncmp(p, "gz", 2) == 0)
+        return SM_JOB_OUT_GZ;
+    for (size_t i = 0; i < SM_RESULT_FORMATS_N; i++) {
+        const sm_result_format *f = &sm_result_formats[i];
+        if (f->kind != SM_RESULT_HISTORY && strlen(f->name) == len &&
+            strncmp(f->name, p, len) == 0)
+            return SM_JOB_OUT_FORMAT(i);
+    }
+    return 0;
+}
+
+int sm_job_outputs_parse(const char *text, unsigned *outputs, char *msg, size_t cap)
+{
+    unsigned set = 0;
+    for (const char *p = text;;) {
+        const char *comma = strchr(p, ',');
+        size_t len = comma ? (size_t)(comma - p) : strlen(p);
+        unsigned bit = output_bit(p, len);
+        if (!bit) {
+            snprintf(msg, cap, "'%.*s' is not an output format (expected a comma-separated "
+                               "list of " SM_JOB_OUT_NAMES ")",
+                     (int)(len > 40 ? 40 : len), p);
+            return -1;
+        }
+        set |= bit;
+        if (!comma)
+            break;
+        p = comma + 1;
+    }
+    if (!(set & ~SM_JOB_OUT_GZ)) {
+        snprintf(msg, cap, "'gz' compresses the formats it comes with: name at least one");
+        return -1;
+    }
+    *outputs = set;
+    return 0;
+}
+
 sm_status sm_job_write_results(const sm_job_inputs *in, const sm_job_run *run,
                                const sm_job_files *names, const char *dir, unsigned flags,
                                sm_error *err)
+{
+    return sm_job_write_selected(in, run, names, dir, SM_JOB_OUT_ALL, flags, err);
+}
+
+sm_status sm_job_write_selected(const sm_job_inputs *in, const sm_job_run *run,
+                                const sm_job_files *names, const char *dir, unsigned outputs,
+                                unsigned flags, sm_error *err)
 {
     const sm_mesh *m = in->template_mesh;
     size_t n = (size_t)m->nverts * (size_t)m->dim;
@@ -458,10 +560,15 @@ sm_status sm_job_write_results(const sm_job_inputs *in, const sm_job_run *run,
     }
     result_data d = {.mesh = m, .coords = run->coords, .displacement = disp, .distance = dist,
                      .sol = sol, .run = run, .text = history};
-    for (size_t i = 0; i < SM_RESULT_FORMATS_N; i++)
-        if ((st = write_one(dir, &sm_result_formats[i], &d, flags, err)) != SM_OK)
+    outputs = sm_job_outputs_fix(outputs);
+    for (size_t i = 0; i < SM_RESULT_FORMATS_N; i++) {
+        const sm_result_format *f = &sm_result_formats[i];
+        int gz = (outputs & SM_JOB_OUT_GZ) && f->kind != SM_RESULT_HISTORY;
+        if ((outputs & SM_JOB_OUT_FORMAT(i)) &&
+            (st = write_one(dir, f, &d, gz, flags, err)) != SM_OK)
             goto done;
-    st = write_summary(in, run, names, dir, flags, err);
+    }
+    st = write_summary(in, run, names, dir, outputs, flags, err);
 done:
     free(old_summary);
     free(history);

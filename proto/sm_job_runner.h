@@ -47,6 +47,7 @@
 #include "sm_job_inputs.h"
 #include "sm_job_warnings.h"
 #include "shapematch/sm_match.h"
+#include "sm_proto_vocab.h"
 
 /* Exit codes shared by `shapematch run` and `shapematch-worker` (the
  * programs add their own above these). */
@@ -113,5 +114,30 @@ json_t *sm_job_summary_to_jansson(const sm_job_inputs *in, const sm_job_run *run
 sm_status sm_job_write_results(const sm_job_inputs *in, const sm_job_run *run,
                                const sm_job_files *names, const char *dir,
                                unsigned flags, sm_error *err);
+
+/* A choice of outputs (`shapematch run --format`): bit i is the file of
+ * sm_result_formats[i] (sm_proto_vocab.h); history.csv and summary.json
+ * are always written (sm_job_outputs_fix adds history.csv).  With
+ * SM_JOB_OUT_GZ the chosen mesh and displacement files are written
+ * gzip-compressed as FILE.gz (the same bytes once decompressed).  The
+ * daemon's worker writes everything: SM_JOB_OUT_ALL. */
+#define SM_JOB_OUT_FORMAT(i) (1u << (i))
+#define SM_JOB_OUT_ALL ((1u << SM_RESULT_FORMATS_N) - 1u)
+#define SM_JOB_OUT_GZ (1u << SM_RESULT_FORMATS_N)
+#define SM_JOB_OUT_NAMES "mesh, meshb, vtu, binary, sol, solb, gz"
+unsigned sm_job_outputs_fix(unsigned outputs);
+/* "mesh,vtu,sol,gz" -> *outputs: the mesh and displacement format names
+ * of sm_result_formats plus gz.  0, or -1 with a message in msg (an
+ * unknown name, or gz alone). */
+int sm_job_outputs_parse(const char *text, unsigned *outputs, char *msg, size_t cap);
+/* sm_job_write_results limited to outputs; the summary's "outputs" lists
+ * exactly the files written. */
+sm_status sm_job_write_selected(const sm_job_inputs *in, const sm_job_run *run,
+                                const sm_job_files *names, const char *dir,
+                                unsigned outputs, unsigned flags, sm_error *err);
+/* The summary with "outputs" limited to outputs (sm_job_summary_to_jansson
+ * lists all of them). */
+json_t *sm_job_summary_outputs(const sm_job_inputs *in, const sm_job_run *run,
+                               const sm_job_files *names, unsigned outputs);
 
 #endif

@@ -175,6 +175,7 @@ sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **
     job->created = job->updated = sm_time_now();
     job->dim = sub->dim;
     job->max_iter = sub->max_iter;
+    job->tol_boundary = sub->tol_boundary;
     if (key)
         snprintf(job->idempotency_key, sizeof job->idempotency_key, "%s", key);
     if (sub->owner)

@@ -57,6 +57,7 @@ typedef struct smd_submission {
                                    * looked up among its jobs only */
     uint64_t request_hash;        /* of the parts, kept with the key */
     int dim, max_iter;
+    double tol_boundary;          /* params.tol_boundary, for the status */
     int32_t nverts, nelems;       /* for the log */
     uint64_t bytes;               /* upload size, for the log */
 } smd_submission;

@@ -246,6 +246,9 @@ json_t *smd_job_status_fields(const smd_job *job)
     set_time(o, "finished", job->finished);
     set_time(o, "updated", job->updated);
     json_object_set_new(o, "progress", json_integer(job->progress));
+    /* the goals of the run, for a client's progress bar */
+    json_object_set_new(o, "maxIter", json_integer(job->max_iter));
+    json_object_set_new(o, "tolBoundary", json_real(job->tol_boundary));
     if (job->have_progress && job->state != SM_JOB_ACCEPTED) {
         const sm_progress *p = &job->last_progress;
         json_t *last = json_pack("{s:i,s:o,s:o,s:o,s:o}", "iteration", p->iteration,
@@ -349,6 +352,8 @@ static int record_from_json(json_t *o, const char *id, smd_job *job, char *why, 
         return -1;
     }
     job->max_iter = (int)x;
+    json_t *tol = json_object_get(o, "tolBoundary"); /* absent in older records */
+    job->tol_boundary = json_is_number(tol) && json_number_value(tol) > 0 ? json_number_value(tol) : 0;
     if (get_time(o, "created", &job->created) || get_time(o, "started", &job->started) ||
         get_time(o, "finished", &job->finished) || get_time(o, "updated", &job->updated) ||
         job->created < 0) {

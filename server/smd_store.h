@@ -60,6 +60,7 @@ typedef struct smd_job {
     int64_t order;            /* submission order (FIFO across restarts), saturates */
     int dim;                  /* template dimension */
     int max_iter;             /* for the progress estimate */
+    double tol_boundary;      /* params.tol_boundary (0 none): watch's bar */
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1]; /* "" = none */
     char owner[SMD_OWNER_MAX + 1]; /* tenant of the submitting token, "" = none */
     uint64_t request_hash;    /* of the request that used the key; 0 unknown */

@@ -474,6 +474,7 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
         return smd_reply_problem(conn, req, 422, SMD_PROBLEM_INVALID_INPUT, "%s", err.msg);
     }
     int dim = in.dim, max_iter = in.params.max_iter;
+    double tol_boundary = in.params.tol_boundary;
     int32_t nverts = in.template_mesh->nverts, nelems = in.template_mesh->nelems;
     int rc = write_job_file(u, &in);
     sm_job_inputs_free(&in);
@@ -487,7 +488,7 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
                                  "no random source for the job id: %s", strerror(errno));
     smd_submission sub = {.dir = u->dir, .id = id, .idempotency_key = u->idempotency_key,
                           .owner = req->who.tenant, .request_hash = hash,
-                          .dim = dim, .max_iter = max_iter, .nverts = nverts, .nelems = nelems,
+                          .dim = dim, .max_iter = max_iter, .tol_boundary = tol_boundary, .nverts = nverts, .nelems = nelems,
                           .bytes = u->received};
     smd_jobs_after after = {0};
     smd_job *job;

@@ -129,6 +129,8 @@ expect 1 "--poisson" "number out of range" -- run "${IN[@]}" --no-clamp --poisso
 expect 1 "--max-iter" "integer expected" -- run "${IN[@]}" --no-clamp --max-iter 10.5 -o o
 expect 1 "--young" "option missing its value" -- run "${IN[@]}" --no-clamp -o o --young
 expect 1 "--alpha" "--alpha without --no-clamp" -- run "${IN[@]}" --clamp-ball 0,0,0.1 --alpha 0.1 -o o
+expect 1 "'obj' is not an output format" "--format with a bad name" -- run "${IN[@]}" --no-clamp --format mesh,obj -o o
+expect 1 "--format" "--format gz alone" -- run "${IN[@]}" --no-clamp --format gz -o o
 expect 1 "--frobnicate" "unknown option" -- run "${IN[@]}" --no-clamp --frobnicate 3 -o o
 expect 1 "--clamp-elements" "malformed reference list" -- run "${IN[@]}" --clamp-elements 1,,2 -o o
 expect 1 "--step-initial" "--step-initial above --step-max" -- run "${IN[@]}" --no-clamp --step-initial 0.5 --step-max 0.2 -o o
@@ -162,14 +164,11 @@ if [ "$have_case" = 1 ]; then
     "$BIN" run "${IN[@]}" --clamp-ball 0,0,0.1 --max-iter 30 --save-every 10 -o out/nested >e2e.out 2>e2e.err
     rc=$?
     [ "$rc" -eq 0 ] && ok "end-to-end run exits 0" || not_ok "end-to-end run exits 0" "exit $rc" "$(tail -5 e2e.err)"
-    missing=""
-    # the daemon's result set (one job runner): README's Outputs table
-    for f in result.mesh result.meshb result.vtu result.smmesh displacement.sol displacement.solb \
-        history.csv history.json summary.json; do
-        [ -s "out/nested/$f" ] || missing="$missing $f"
-    done
-    [ -z "$missing" ] && ok "the nine outputs exist (nested directory created)" ||
-        not_ok "the nine outputs exist (nested directory created)" "missing:$missing"
+    # the default --format mesh,vtu,sol, plus history.csv and summary.json
+    got=$(cd out/nested 2>/dev/null && ls -d result.* displacement.* history.* summary.json 2>/dev/null | tr '\n' ' ')
+    want="displacement.sol history.csv result.mesh result.vtu summary.json "
+    [ "$got" = "$want" ] && ok "the default outputs exist, and only they (nested directory created)" ||
+        not_ok "the default outputs exist, and only they (nested directory created)" "got: $got" "want: $want"
     leftovers=$(find out/nested -name '.*' | head -3)
     [ -z "$leftovers" ] && ok "no temporary file left behind" || not_ok "no temporary file left behind" "$leftovers"
     snaps=$(cd out/nested && ls iter-*.mesh 2>/dev/null | tr '\n' ' ')
@@ -182,6 +181,41 @@ if [ "$have_case" = 1 ]; then
         ok "plain progress lines every 10 iterations and a final line" ||
         not_ok "plain progress lines every 10 iterations and a final line" "$(cat e2e.err)"
     [ ! -s e2e.out ] && ok "nothing on stdout without --json" || not_ok "nothing on stdout without --json"
+
+    # ---- --format: each format alone, all of them, gz ----
+    short=(--clamp-ball 0,0,0.1 --max-iter 2 --quiet)
+    ALL=mesh,meshb,vtu,binary,sol,solb
+    "$BIN" run "${IN[@]}" "${short[@]}" --format $ALL -o fmt-all >/dev/null 2>fmt.err ||
+        not_ok "run --format $ALL" "$(cat fmt.err)"
+    declare -A FILE_OF=([mesh]=result.mesh [meshb]=result.meshb [vtu]=result.vtu
+        [binary]=result.smmesh [sol]=displacement.sol [solb]=displacement.solb)
+    bad=""
+    for fmt in mesh meshb vtu binary sol solb; do
+        f=${FILE_OF[$fmt]}
+        "$BIN" run "${IN[@]}" "${short[@]}" --format $fmt -o "fmt-$fmt" >/dev/null 2>fmt.err ||
+            bad="$bad $fmt:exit"
+        got=$(cd "fmt-$fmt" && ls | tr '\n' ' ')
+        want=$(printf '%s\n' "$f" history.csv summary.json | sort | tr '\n' ' ')
+        [ "$got" = "$want" ] || bad="$bad $fmt:files($got)"
+        cmp -s "fmt-$fmt/$f" "fmt-all/$f" || bad="$bad $fmt:bytes"
+        listed=$(jq -r '[.outputs.mesh, .outputs.displacement, .outputs.history | to_entries[] |
+            "\(.key)=\(.value)"] | join(" ")' "fmt-$fmt/summary.json")
+        [ "$listed" = "$fmt=$f csv=history.csv" ] || bad="$bad $fmt:outputs($listed)"
+    done
+    [ -z "$bad" ] && ok "--format F alone writes F's file (same bytes as with all), history.csv, summary.json; outputs lists them" ||
+        not_ok "--format F alone writes F's file and outputs lists it" "$bad"
+    "$BIN" run "${IN[@]}" "${short[@]}" --format $ALL,gz -o fmt-gz >/dev/null 2>fmt.err ||
+        not_ok "run --format $ALL,gz" "$(cat fmt.err)"
+    bad=""
+    for f in "${FILE_OF[@]}"; do
+        [ "$(jq -r --arg f "$f.gz" '[.outputs[] | objects | .[]] | index($f) != null' fmt-gz/summary.json)" = true ] ||
+            bad="$bad $f:not-listed"
+        [ -e "fmt-gz/$f" ] && bad="$bad $f:uncompressed-too"
+        gzip -t "fmt-gz/$f.gz" 2>/dev/null && gzip -dc "fmt-gz/$f.gz" | cmp -s - "fmt-all/$f" || bad="$bad $f.gz"
+    done
+    [ -s fmt-gz/history.csv ] && [ -s fmt-gz/summary.json ] || bad="$bad history/summary"
+    [ -z "$bad" ] && ok "--format ...,gz writes FILE.gz (gzip of the same bytes), history.csv and summary.json plain" ||
+        not_ok "--format ...,gz writes FILE.gz of the same bytes" "$bad"
 
     # ---- no step possible from the start: exit 3, outputs still written ----
     # (the first step, 1% of the diameter, is below a 50% step tolerance)

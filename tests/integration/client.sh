@@ -351,7 +351,7 @@ expect u4 1 "list --status with an unknown state: exit 1" "not a job state"
 sm u5 status --server 'ftp://example.org' "$UNKNOWN"
 expect u5 1 "a non-HTTP --server URL: exit 1" "only http:// and https://"
 sm u6 fetch "$ID" -o "$WORK/x" --format obj
-expect u6 1 "fetch --format with an unknown format: exit 1" "not a mesh format"
+expect u6 1 "fetch --format with an unknown format: exit 1" "not a result format"
 sm nowrite fetch "$ID" -o "$WORK/run/summary.json/sub"
 expect nowrite 4 "fetch into a directory that cannot be created: exit 4" "output directory: cannot create"
 

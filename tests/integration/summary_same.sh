@@ -8,6 +8,11 @@
 #     presence only is compared: timings.* (wall times) and inputs.* (the
 #     user's paths for run, the job folder's for the daemon);
 #   - field_builds is 1 in each (the target field is built once per job).
+# outputs lists what each wrote: run's (--format of all six mesh and
+# displacement formats) is the worker's and fetch's minus history.json,
+# which only the daemon's worker writes: compared as a subset, file by file.
+# `run --format F` and `fetch --format F` write the same files, byte for
+# byte, for each of the six formats.
 # And a job with no valid step from the initial mesh (tol_step 0.5) is a
 # failure for both: `run` exits 3 with status "failed" in its summary, the
 # daemon's job ends "failed" with the same reason (it used to be
@@ -34,13 +39,15 @@ else
 fi
 
 # the same job locally, one numerical thread as the worker
+FORMATS=mesh,meshb,vtu,binary,sol,solb
 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 \
     "$BIN/shapematch" run --template "$DISK" --target-mesh "$BOX" --target-sol "$BOXSOL" \
-    --clamp-ball 0,0,0.1 --max-iter 25 --save-every 10 --quiet -o "$WORK/run" >"$WORK/run.out" 2>"$WORK/run.err"
+    --clamp-ball 0,0,0.1 --max-iter 25 --save-every 10 --format "$FORMATS" --quiet -o "$WORK/run" \
+    >"$WORK/run.out" 2>"$WORK/run.err"
 rc=$?
 [ "$rc" = 0 ] && ok "shapematch run exits 0" || not_ok "shapematch run exits 0" "exit $rc" "$(cat "$WORK/run.err")"
 
-"$BIN/shapematch" fetch --server "$BASE" --quiet -o "$WORK/fetched" "$ID" >"$WORK/fetch.out" 2>"$WORK/fetch.err"
+"$BIN/shapematch" fetch --server "$BASE" --quiet --format "$FORMATS" -o "$WORK/fetched" "$ID" >"$WORK/fetch.out" 2>"$WORK/fetch.err"
 rc=$?
 [ "$rc" = 0 ] && ok "shapematch fetch exits 0" || not_ok "shapematch fetch exits 0" "exit $rc" "$(cat "$WORK/fetch.err")"
 
@@ -53,6 +60,7 @@ cat >"$WORK/compare.py" <<'PY'
 import json, sys
 PRESENCE_ONLY = {"timings", "inputs"}   # members whose children may differ in value
 DAEMON_EXTRA = {"jobID", "links"}       # the daemon's additions at the top level
+SUBSET = {"outputs"}                    # a's files are among b's (run writes no history.json)
 a = json.load(open(sys.argv[1], encoding="utf-8"))
 b = json.load(open(sys.argv[2], encoding="utf-8"))
 extra_ok = sys.argv[3] == "daemon"
@@ -65,12 +73,26 @@ def walk(x, y, path, presence):
         for k in sorted(kx ^ ky):
             diffs.append("%s.%s only in %s" % (path, k, sys.argv[1] if k in kx else sys.argv[2]))
         for k in sorted(kx & ky):
+            if path == "" and k in SUBSET:
+                subset(x[k], y[k], "." + k)
+                continue
             walk(x[k], y[k], path + "." + k, presence or (path == "" and k in PRESENCE_ONLY))
     elif presence:
         if type(x) != type(y) and not (isinstance(x, (int, float)) and isinstance(y, (int, float))):
             diffs.append("%s: %r vs %r (types)" % (path, x, y))
     elif x != y:
         diffs.append("%s: %r vs %r" % (path, x, y))
+def subset(x, y, path):
+    for kind, files in x.items():
+        other = y.get(kind)
+        if isinstance(files, dict) and isinstance(other, dict):
+            for fmt, name in files.items():
+                if other.get(fmt) != name:
+                    diffs.append("%s.%s.%s: %r vs %r" % (path, kind, fmt, name, other.get(fmt)))
+        elif files != other:
+            diffs.append("%s.%s: %r vs %r" % (path, kind, files, other))
+    if sorted(x.get("history", {})) != ["csv"]:
+        diffs.append("%s.history: %r, expected csv only" % (path, x.get("history")))
 walk(a, b, "", False)
 for d in (a, b):
     if d.get("field_builds") != 1:
@@ -100,16 +122,25 @@ fi
 missing=""
 for f in $(cd "$SPOOL/jobs/$ID/results" && ls); do
     [ "$f" = snapshots ] && continue
+    [ "$f" = history.json ] && continue # the daemon's only
     [ -s "$WORK/run/$f" ] || missing="$missing $f"
 done
 for f in result.mesh result.meshb result.vtu result.smmesh displacement.sol displacement.solb \
-    history.csv history.json; do
+    history.csv; do
     [ -s "$SPOOL/jobs/$ID/results/$f" ] || missing="$missing worker:$f"
     [ "$f" = history.csv ] || [ "$f" = history.json ] || cmp -s "$WORK/run/$f" "$SPOOL/jobs/$ID/results/$f" ||
         missing="$missing differs:$f"
 done
 [ -z "$missing" ] && ok "run and the worker write the same result set, the results byte for byte" ||
     not_ok "run and the worker write the same result set" "$missing"
+
+# run --format and fetch --format: the same files, byte for byte
+differs=""
+for f in result.mesh result.meshb result.vtu result.smmesh displacement.sol displacement.solb; do
+    cmp -s "$WORK/run/$f" "$WORK/fetched/$f" || differs="$differs $f"
+done
+[ -z "$differs" ] && ok "run --format $FORMATS and fetch --format $FORMATS: the same six files, byte for byte" ||
+    not_ok "run and fetch --format write the same files" "differ or missing:$differs"
 
 # ---- no valid step from the initial mesh: failed for both ----
 STUCK="$BALL_PARAMS, \"tol_step\": 0.5}"

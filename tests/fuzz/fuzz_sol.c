@@ -2,33 +2,32 @@
  * returns a solution whose size matches its header. */
 #include <stdint.h>
 #include <stdlib.h>
-#include <unistd.h>
 
 #include "fuzz_input.h"
 #include "shapematch/sm_io.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+static void check_sol(const char *path)
 {
-    char path[64];
-    int fd = fuzz_memfile(data, size, path, sizeof path);
-    if (fd < 0)
-        return 0;
     sm_error err;
     sm_error_clear(&err);
     sm_sol *s = NULL;
-    if (sm_sol_read(path, &s, &err) == SM_OK) {
-        if (s->ncomp != 1 && s->ncomp != s->dim)
+    if (sm_sol_read(path, &s, &err) != SM_OK) {
+        if (s != NULL || err.msg[0] == '\0')
             abort();
-        volatile double sum = 0; /* touch every value: ASan checks the size */
-        for (int64_t i = 0; i < (int64_t)s->nverts * s->ncomp; i++)
-            sum += s->values[i];
-        (void)sum;
-        sm_sol_free(s);
-    } else if (s != NULL || err.msg[0] == '\0') {
-        abort();
+        return;
     }
-    close(fd);
-    return 0;
+    if (s->ncomp != 1 && s->ncomp != s->dim)
+        abort();
+    volatile double sum = 0; /* touch every value: ASan checks the size */
+    for (int64_t i = 0; i < (int64_t)s->nverts * s->ncomp; i++)
+        sum += s->values[i];
+    (void)sum;
+    sm_sol_free(s);
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    return fuzz_file_target(NULL, data, size, check_sol);
 }

@@ -1,9 +1,9 @@
 /* Command-line parsing for the shapematch client.
  *
  * The job parameters (clamp, material, stopping criteria, ...) are parsed
- * by a part shared between commands (`run` today; `submit` for a daemon
- * later takes the same ones), the command-specific options (input files,
- * output directory, display) by a per-command parser on top of it.
+ * by a part shared between commands (`run` and `submit` take the same
+ * ones), the command-specific options (input files, output directory,
+ * display) by a per-command parser on top of it.
  *
  * Options are GNU-style: `--name value` or `--name=value`; `-o DIR`.
  * Every number must be fully parsed, finite and in range; every message

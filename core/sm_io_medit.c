@@ -666,7 +666,9 @@ static sm_status finish_block(medit_in *c, idx_block *b, const char *name)
     return SM_OK;
 }
 
-static sm_status build_mesh(medit_in *c, sm_mesh **out)
+/* What every Medit reading needs before its blocks are used: a Dimension,
+ * Vertices, and each listed block's indices checked and made 0-based. */
+static sm_status finish_blocks(medit_in *c, int with_tetrahedra)
 {
     const char *path = c->r.path;
     if (!c->dim)
@@ -675,8 +677,16 @@ static sm_status build_mesh(medit_in *c, sm_mesh **out)
         return sm_error_set(c->err, SM_ERR_FORMAT, "%s: missing Vertices", path);
     sm_status st;
     if ((st = finish_block(c, &c->edges, "Edges")) != SM_OK ||
-        (st = finish_block(c, &c->triangles, "Triangles")) != SM_OK ||
-        (st = finish_block(c, &c->tetrahedra, "Tetrahedra")) != SM_OK)
+        (st = finish_block(c, &c->triangles, "Triangles")) != SM_OK)
+        return st;
+    return with_tetrahedra ? finish_block(c, &c->tetrahedra, "Tetrahedra") : SM_OK;
+}
+
+static sm_status build_mesh(medit_in *c, sm_mesh **out)
+{
+    const char *path = c->r.path;
+    sm_status st;
+    if ((st = finish_blocks(c, 1)) != SM_OK)
         return st;
 
     int mesh_dim;
@@ -772,13 +782,8 @@ sm_status sm_mesh_read_limited(const char *path, sm_read_limits *limits, sm_mesh
 static sm_status build_surface(medit_in *c, sm_surface **out)
 {
     const char *path = c->r.path;
-    if (!c->dim)
-        return sm_error_set(c->err, SM_ERR_FORMAT, "%s: missing Dimension", path);
-    if (!c->have_vertices)
-        return sm_error_set(c->err, SM_ERR_FORMAT, "%s: missing Vertices", path);
     sm_status st;
-    if ((st = finish_block(c, &c->edges, "Edges")) != SM_OK ||
-        (st = finish_block(c, &c->triangles, "Triangles")) != SM_OK)
+    if ((st = finish_blocks(c, 0)) != SM_OK)
         return st;
     int planar = 1;
     for (int64_t i = 0; c->dim == 3 && i < c->nverts; i++)

@@ -532,6 +532,13 @@ check "every SHAPEMATCH_* variable the deployment files set ($nset settings) is 
 AS_USER=()
 if [ "$(id -u)" = 0 ] && command -v setpriv >/dev/null; then
     AS_USER=(setpriv --reuid=65534 --regid=65534 --clear-groups)
+    # a checkout in a private folder (mktemp -d is 0700) cannot be entered
+    # by that user: then the daemons run as root, the environments are
+    # still checked
+    if ! "${AS_USER[@]}" test -x "$BIN/shapematchd" -a -x "$BIN/shapematch-worker" -a -x "$W"; then
+        echo "# $ROOT is not reachable by uid 65534: the deployment daemons run as root"
+        AS_USER=()
+    fi
 fi
 DPID=
 PORT=

@@ -26,6 +26,8 @@ const smd_route smd_route_table[] = {
     {SMD_METHOD_READ, "/metrics", smd_route_metrics, "/metrics", 0},
     {SMD_METHOD_READ, "/v1/processes", smd_route_processes, "/v1/processes", 0},
     {SMD_METHOD_READ, "/v1/processes/{pid}", smd_route_process, "/v1/processes/{id}", 0},
+    {SMD_METHOD_POST, "/v1/processes/{pid}/execution", smd_route_execute,
+     "/v1/processes/{id}/execution", 0},
     {SMD_METHOD_READ, "/v1/jobs", smd_route_jobs_list, "/v1/jobs", 0},
     {SMD_METHOD_POST, "/v1/jobs", smd_upload_begin, "/v1/jobs", 0},
     {SMD_METHOD_READ, JOB, smd_route_job_get, JOB, 0},

@@ -154,6 +154,8 @@ static json_t *process_summary(void)
     json_t *links = json_array();
     json_array_append_new(links, mklink("/v1/processes/match", "self", "application/json",
                                       "process description"));
+    json_array_append_new(links, mklink("/v1/processes/match/execution", OGC_REL "execute",
+                                      "application/json", "execute: POST an OGC execute request"));
     json_array_append_new(links, mklink("/v1/jobs", OGC_REL "execute", "multipart/form-data",
                                       "submit a job: POST multipart/form-data"));
     return json_pack("{s:s,s:s,s:s,s:s,s:[s],s:[s],s:o}", "id", "match", "title",

@@ -42,6 +42,9 @@ struct smd_upload {
     size_t params_len;
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1];
     uint64_t part_hash[SM_NPARTS]; /* FNV-1a of each part's bytes */
+    const smd_upload_decoder *dec; /* a body other than multipart, NULL none */
+    void *dec_cls;
+    char created_header[2][64];    /* an extra header of the 201, "" none */
     /* first error met while parsing; replied at the next call */
     unsigned err_status;
     const char *err_type;
@@ -90,6 +93,22 @@ int smd_sniff_medit(const char *path, int *binary, int *gzip)
     *binary = got == 4 && ((magic[0] == 1 && !magic[1] && !magic[2] && !magic[3]) ||
                            (!magic[0] && !magic[1] && !magic[2] && magic[3] == 1));
     return 0;
+}
+
+void smd_upload_fail(smd_upload *u, unsigned status, const char *type, const char *fmt, ...)
+{
+    char detail[sizeof u->err_detail];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(detail, sizeof detail, fmt, ap);
+    va_end(ap);
+    fail(u, status, type, "%s", detail);
+}
+
+void smd_upload_created_header(smd_upload *u, const char *name, const char *value)
+{
+    snprintf(u->created_header[0], sizeof u->created_header[0], "%s", name);
+    snprintf(u->created_header[1], sizeof u->created_header[1], "%s", value);
 }
 
 /* ------------------------------------------------------------ parts */
@@ -241,6 +260,11 @@ static enum MHD_Result on_part(void *cls, enum MHD_ValueKind kind, const char *k
     return MHD_YES;
 }
 
+void smd_upload_part(smd_upload *u, const char *name, const void *data, size_t n)
+{
+    on_part(u, MHD_POSTDATA_KIND, name, NULL, NULL, NULL, data, 0, n);
+}
+
 /* Gives each uploaded file its final name: inputs/<part>.<ext>, with
  * the extension from the content, never from the client. */
 static int name_file(smd_upload *u, sm_part id)
@@ -290,7 +314,11 @@ static enum MHD_Result reply_existing(struct MHD_Connection *conn, smd_request *
     return smd_reply(conn, req, MHD_HTTP_OK, resp);
 }
 
-enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
+/* The upload's checks and folder, then its body decoder: multipart
+ * (dec NULL), or dec for a body of content type ctype_prefix (415 with
+ * ctype_detail otherwise). */
+static enum MHD_Result begin(struct MHD_Connection *conn, smd_request *req, const char *ctype_prefix,
+                             const char *ctype_detail, const smd_upload_decoder *dec, void *dec_cls)
 {
     smd_server *srv = req->srv;
     if (atomic_load(&srv->draining))
@@ -309,10 +337,8 @@ enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
                                  " bytes (--max-upload)",
                                  length, srv->cfg.max_upload);
     const char *ctype = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
-    if (!ctype || strncasecmp(ctype, "multipart/form-data", 19) != 0)
-        return smd_reply_problem(conn, req, 415, SMD_PROBLEM_UNSUPPORTED_MEDIA,
-                                 "POST /v1/jobs takes multipart/form-data with the parts "
-                                 SMD_UPLOAD_PARTS " (e.g. curl -F)");
+    if (!ctype || strncasecmp(ctype, ctype_prefix, strlen(ctype_prefix)) != 0)
+        return smd_reply_problem(conn, req, 415, SMD_PROBLEM_UNSUPPORTED_MEDIA, "%s", ctype_detail);
     const char *key = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, "Idempotency-Key");
     if (key && !smd_idempotency_key_valid(key))
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
@@ -339,14 +365,35 @@ enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
         return smd_reply_problem(conn, req, 507, SMD_PROBLEM_STORAGE,
                                  "cannot create an upload folder in the spool: %s", strerror(errno));
     }
-    u->pp = MHD_create_post_processor(conn, 65536, on_part, u);
-    if (!u->pp) {
+    u->dec = dec;
+    u->dec_cls = dec_cls;
+    if (!dec)
+        u->pp = MHD_create_post_processor(conn, 65536, on_part, u);
+    if (!dec && !u->pp) {
         smd_upload_free(u);
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_MULTIPART,
                                  "malformed multipart/form-data Content-Type (missing boundary?)");
     }
     req->upload = u;
     return MHD_YES;
+}
+
+enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
+{
+    return begin(conn, req, "multipart/form-data",
+                 "POST /v1/jobs takes multipart/form-data with the parts " SMD_UPLOAD_PARTS
+                 " (e.g. curl -F)",
+                 NULL, NULL);
+}
+
+enum MHD_Result smd_upload_begin_decoded(struct MHD_Connection *conn, smd_request *req,
+                                         const char *ctype, const char *ctype_detail,
+                                         const smd_upload_decoder *dec, void *dec_cls)
+{
+    enum MHD_Result r = begin(conn, req, ctype, ctype_detail, dec, dec_cls);
+    if (!req->upload)
+        dec->free(dec_cls); /* refused: the decoder was not taken */
+    return r;
 }
 
 /* Writes job.json: inputs and canonical params. */
@@ -525,6 +572,8 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
     if (!resp)
         return MHD_NO;
     MHD_add_response_header(resp, MHD_HTTP_HEADER_LOCATION, location);
+    if (u->created_header[0][0])
+        MHD_add_response_header(resp, u->created_header[0], u->created_header[1]);
     return smd_reply(conn, req, MHD_HTTP_CREATED, resp);
 }
 
@@ -532,6 +581,8 @@ enum MHD_Result smd_upload_continue(struct MHD_Connection *conn, smd_request *re
                                     const char *data, size_t *size)
 {
     smd_upload *u = req->upload;
+    if (*size == 0 && u->dec && !u->err_status)
+        u->dec->end(u->dec_cls, u);
     if (*size == 0)
         return finish_upload(conn, req, u);
     size_t n = *size;
@@ -553,7 +604,9 @@ enum MHD_Result smd_upload_continue(struct MHD_Connection *conn, smd_request *re
             return MHD_NO;
         return MHD_YES;
     }
-    if (MHD_post_process(u->pp, data, n) != MHD_YES)
+    if (u->dec)
+        u->dec->piece(u->dec_cls, u, data, n);
+    else if (MHD_post_process(u->pp, data, n) != MHD_YES)
         fail(u, 400, SMD_PROBLEM_BAD_MULTIPART, "malformed multipart/form-data body");
     if (u->err_status)
         close_part(u);
@@ -570,6 +623,8 @@ void smd_upload_free(smd_upload *u)
         close(u->fd);
     if (!u->committed && u->dir[0])
         smd_rmtree(u->dir);
+    if (u->dec)
+        u->dec->free(u->dec_cls);
     free(u->params);
     free(u);
 }

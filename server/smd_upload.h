@@ -38,6 +38,31 @@ enum MHD_Result smd_upload_continue(struct MHD_Connection *conn, smd_request *re
 /* Request over (completed or aborted): removes what was not committed. */
 void smd_upload_free(smd_upload *u);
 
+/* Another body than multipart (the OGC execute request, smd_ogc.h): the
+ * decoder gets the body's pieces (within --max-upload), and at its end,
+ * before the parts are checked and the job submitted exactly as for
+ * multipart, stores the parts with smd_upload_part; either reports its
+ * first error with smd_upload_fail.  free releases cls (always called,
+ * once, also when the request is refused before its body). */
+typedef struct smd_upload_decoder {
+    void (*piece)(void *cls, smd_upload *u, const char *data, size_t n);
+    void (*end)(void *cls, smd_upload *u);
+    void (*free)(void *cls);
+} smd_upload_decoder;
+
+/* smd_upload_begin for a body of Content-Type ctype (a prefix; 415 with
+ * ctype_detail otherwise), decoded by dec. */
+enum MHD_Result smd_upload_begin_decoded(struct MHD_Connection *conn, smd_request *req,
+                                         const char *ctype, const char *ctype_detail,
+                                         const smd_upload_decoder *dec, void *dec_cls);
+/* One whole part, as if it came in a multipart body (name: a part name). */
+void smd_upload_part(smd_upload *u, const char *name, const void *data, size_t n);
+/* The request's problem (the first one reported is kept). */
+void smd_upload_fail(smd_upload *u, unsigned status, const char *type, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+/* A header the 201 of a new job carries (Preference-Applied). */
+void smd_upload_created_header(smd_upload *u, const char *name, const char *value);
+
 /* Sniffs a file's Medit flavour: sets *binary (first int32 is 1 in either
  * byte order) and *gzip (gzip magic).  -1 when unreadable.  For tests. */
 int smd_sniff_medit(const char *path, int *binary, int *gzip);

@@ -7,6 +7,11 @@ SERVER_TEST_NAMES := $(patsubst tests/unit/%.c,%,$(wildcard tests/unit/test_serv
 SERVER_TEST_UTIL_SRCS := $(wildcard tests/unit/util_*.c)
 # the OpenAPI document and the params schema are served by the daemon
 SERVER_EMBEDDED := proto/params.schema.json proto/events.schema.json $(wildcard proto/openapi.yaml)
+# the web app (smd_app.c): web/ and the npm libraries it loads
+APP_EMBEDDED := web/index.html web/app.js web/view.js web/app.css web/favicon.svg \
+    $(wildcard node_modules/three/build/three.module.min.js node_modules/three/build/three.core.min.js \
+    node_modules/three/examples/jsm/controls/OrbitControls.js node_modules/uplot/dist/uPlot.esm.js \
+    node_modules/uplot/dist/uPlot.min.css)
 SERVER_LIBS := $(HTTP_LIBS) $(PROTO_LIBS) $(CORE_LIBS) -lpthread
 
 define server_rules
@@ -19,7 +24,23 @@ build/$(1)/obj/gen/server/smd_embedded.o: build/$(1)/gen/server/smd_embedded.c
 	@mkdir -p $$(dir $$@)
 	$$(CC) $$($(1)_CFLAGS) -c $$< -o $$@
 
-build/$(1)/libsmserver.a: $$(SERVER_LIB_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/obj/gen/server/smd_embedded.o
+# three's module imports ./three.core.min.js: served as app/three-core.js
+build/$(1)/gen/server/smd_app_embedded.c: server/embed.sh $$(APP_EMBEDDED)
+	@mkdir -p $$(dir $$@)
+	if [ -f node_modules/three/build/three.module.min.js ]; then \
+	  sed 's#"\./three\.core\.min\.js"#"./three-core.js"#g' node_modules/three/build/three.module.min.js >$$(dir $$@)three.js; \
+	else rm -f $$(dir $$@)three.js; fi
+	server/embed.sh $$@ smd_app_index web/index.html smd_app_js web/app.js smd_app_view web/view.js \
+	    smd_app_css web/app.css smd_app_favicon web/favicon.svg smd_app_three $$(dir $$@)three.js \
+	    smd_app_three_core node_modules/three/build/three.core.min.js \
+	    smd_app_orbit node_modules/three/examples/jsm/controls/OrbitControls.js \
+	    smd_app_uplot node_modules/uplot/dist/uPlot.esm.js smd_app_uplot_css node_modules/uplot/dist/uPlot.min.css
+
+build/$(1)/obj/gen/server/smd_app_embedded.o: build/$(1)/gen/server/smd_app_embedded.c
+	@mkdir -p $$(dir $$@)
+	$$(CC) $$($(1)_CFLAGS) -c $$< -o $$@
+
+build/$(1)/libsmserver.a: $$(SERVER_LIB_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/obj/gen/server/smd_embedded.o build/$(1)/obj/gen/server/smd_app_embedded.o
 	@mkdir -p $$(dir $$@)
 	rm -f $$@ && ar rcs $$@ $$^
 

@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "smd_app.h"
 #include "smd_live.h"
 #include "smd_ogc.h"
 #include "smd_results.h"
@@ -14,7 +15,9 @@
 #define RESULTS JOB "/results"
 
 const smd_route smd_route_table[] = {
-    {SMD_METHOD_READ, "/", smd_route_landing, "/", 0},
+    /* public for the web app's page; the JSON landing checks the token itself */
+    {SMD_METHOD_READ, "/", smd_route_root, "/", 1},
+    {SMD_METHOD_READ, "/app/{asset}", smd_route_app_asset, "/app/{asset}", 1},
     {SMD_METHOD_READ, "/v1", smd_route_landing, "/", 0},
     {SMD_METHOD_READ, "/v1/", smd_route_landing, "/", 0},
     {SMD_METHOD_READ, "/v1/openapi.yaml", smd_route_openapi, "/v1/openapi.yaml", 0},

@@ -1,0 +1,229 @@
+// Browser tests of the web app and of cross-origin use (issue 11), in
+// real Chromium (Debian's /usr/bin/chromium, driven by npm playwright-core;
+// no browser download).  One browser for every case (a 2-core machine).
+// Usage: node web_app.mjs OPEN_BASE TOKEN_BASE TOKEN ORIGIN_PORT EXAMPLES LOGDIR
+// OPEN_BASE: a daemon without tokens, TOKEN_BASE one with TOKEN; both list
+// http://localhost:ORIGIN_PORT with --cors-origin, and this script serves
+// the plain test page there (and at http://127.0.0.1:ORIGIN_PORT, an
+// unlisted origin).  Prints one JSON line per check: {desc, ok, detail}.
+import http from 'node:http';
+import fs from 'node:fs';
+import path from 'node:path';
+import { chromium } from 'playwright-core';
+
+const [openBase, tokenBase, token, originPort, examples, logDir, cubeMesh, cubeSol] = process.argv.slice(2);
+const report = (desc, ok, detail = '') => console.log(JSON.stringify({ desc, ok: !!ok, detail: String(detail).slice(0, 2000) }));
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+// The plain test page of "another origin": nothing but a script hook.
+const server = http.createServer((req, res) => {
+  res.writeHead(200, { 'Content-Type': 'text/html' });
+  res.end('<!doctype html><html><head><link rel="icon" href="data:,"><title>other origin</title></head><body>other origin</body></html>');
+});
+await new Promise((r) => server.listen(Number(originPort), '127.0.0.1', r));
+
+const browser = await chromium.launch({
+  executablePath: '/usr/bin/chromium',
+  headless: true,
+  args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--disable-dev-shm-usage'],
+});
+const context = await browser.newContext({ acceptDownloads: true, viewport: { width: 1100, height: 900 } });
+
+async function newPage() {
+  const page = await context.newPage();
+  page.errors = [];
+  page.on('console', (m) => { if (m.type() === 'error') page.errors.push(`${m.text()} ${m.location().url || ''}`); });
+  page.on('pageerror', (e) => page.errors.push(String(e)));
+  return page;
+}
+
+const clamp2d = '{"kind": "ball", "center": [0.5, 0.5], "radius": 0.04}';
+const clamp3d = '{"kind": "ball", "center": [0, 0, 0], "radius": 0.6}';
+async function fillJob(page, dir, clamp, extra = {}) {
+  // 3D: a small cube onto a ball (tests/integration/lib.sh make_case), quick
+  const files = dir === '3d' ? [cubeMesh, cubeMesh, cubeSol]
+    : ['template.mesh', 'background.mesh.gz', 'background.sol.gz'].map((f) => path.join(examples, dir, f));
+  await page.setInputFiles('#f-template', files[0]);
+  await page.setInputFiles('#f-target_mesh', files[1]);
+  await page.setInputFiles('#f-target_sol', files[2]);
+  await page.waitForSelector('#p-clamp');
+  await page.fill('#p-clamp', clamp);
+  for (const [k, v] of Object.entries(extra)) await page.fill(`#p-${k}`, String(v));
+}
+const status = (page) => page.$eval('#status', (e) => e.textContent);
+async function waitStatus(page, want, ms) {
+  await page.waitForFunction((w) => ['successful', 'failed', 'dismissed'].includes(document.querySelector('#status').textContent) || document.querySelector('#status').textContent === w, want, { timeout: ms });
+  return status(page);
+}
+
+const t0 = Date.now();
+async function run(desc, fn) {
+  const t = Date.now();
+  try { await fn(); } catch (e) { report(desc, false, e.stack || e); }
+  console.error(`${desc}: ${((Date.now() - t) / 1000).toFixed(1)} s (at ${((Date.now() - t0) / 1000).toFixed(1)} s)`);
+}
+
+// ------------------------------------------------ the app, a 2D job
+await run('the app: a 2D job', async () => {
+  const page = await newPage();
+  const resp = await page.goto(`${openBase}/`);
+  report('GET / in a browser is the web app (text/html)', resp.status() === 200 && (resp.headers()['content-type'] || '').startsWith('text/html'), resp.status());
+  await fillJob(page, '2d', clamp2d, { live_every: 1, max_iter: 700, tol_stall: 0 });
+  await page.click('#submit');
+  await page.waitForFunction(() => Number(document.querySelector('#plot').dataset.points || 0) >= 5, null, { timeout: 30000 });
+  const live = await status(page);
+  await page.screenshot({ path: path.join(logDir, 'web-app-2d-running.png'), fullPage: true });
+  report('at least 5 plot points arrive from the event stream while the job runs', live === 'running', live);
+  const final = await waitStatus(page, 'successful', 60000);
+  report('the job\'s status becomes successful', final === 'successful', final);
+  await page.waitForFunction(() => document.querySelector('#view2d').dataset.drawn === 'final', null, { timeout: 15000 });
+  const drawn = await page.$eval('#view2d', (c) => {
+    const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    let ink = 0;
+    for (let i = 3; i < d.length; i += 4) if (d[i] > 0) ink++;
+    return { elements: Number(c.dataset.elements), ink, hidden: c.hidden };
+  });
+  report('the canvas draws the final shape (778 triangles, pixels inked)', drawn.elements === 778 && drawn.ink > 2000 && !drawn.hidden, JSON.stringify(drawn));
+  const reason = await page.$eval('#stop-reason', (e) => e.textContent);
+  report('the stop reason is shown', /stop: \w+/.test(reason), reason);
+  const [download] = await Promise.all([page.waitForEvent('download'), page.click('#downloads a[data-file="result.vtu"]')]);
+  const file = path.join(logDir, 'web-app-result.vtu');
+  await download.saveAs(file);
+  const vtu = fs.readFileSync(file, 'utf8');
+  const pieces = /<Piece NumberOfPoints="(\d+)" NumberOfCells="(\d+)"/.exec(vtu);
+  report('result.vtu downloads and parses (a VTK UnstructuredGrid with the template\'s 440 points, its 778 triangles and boundary edges as cells)',
+    download.suggestedFilename() === 'result.vtu' && vtu.includes('<VTKFile') && vtu.trim().endsWith('</VTKFile>') && pieces && pieces[1] === '440' && Number(pieces[2]) >= 778,
+    `${download.suggestedFilename()} ${vtu.slice(0, 200)}`);
+  await page.screenshot({ path: path.join(logDir, 'web-app-2d-final.png'), fullPage: true });
+  const rows = await page.$$eval('#jobs tr', (t) => t.length);
+  report('the job list shows the job', rows >= 1, rows);
+  report('no console errors in the 2D job', page.errors.length === 0, page.errors.join('\n'));
+  await page.close();
+});
+
+// ------------------------------------------------ the app, a 3D job
+await run('the app: a 3D job', async () => {
+  const page = await newPage();
+  await page.goto(`${openBase}/`);
+  await fillJob(page, '3d', clamp3d, { live_every: 1, max_iter: 60, tol_stall: 0 });
+  await page.click('#submit');
+  await page.waitForFunction(() => document.querySelector('#view3d canvas') && document.querySelector('#view3d').dataset.drawn, null, { timeout: 60000 });
+  await page.screenshot({ path: path.join(logDir, 'web-app-3d-running.png'), fullPage: true });
+  const final = await waitStatus(page, 'successful', 90000);
+  await page.waitForFunction(() => document.querySelector('#view3d').dataset.drawn === 'final', null, { timeout: 20000 });
+  await sleep(200);
+  const view = await page.$eval('#view3d', (v) => {
+    const c = v.querySelector('canvas');
+    const gl = c.getContext('webgl2') || c.getContext('webgl');
+    const px = new Uint8Array(c.width * c.height * 4);
+    gl.readPixels(0, 0, c.width, c.height, gl.RGBA, gl.UNSIGNED_BYTE, px);
+    let coloured = 0;
+    for (let i = 0; i < px.length; i += 4) if (!(px[i] > 245 && px[i + 1] > 245 && px[i + 2] > 245)) coloured++;
+    return { hidden: v.hidden, elements: Number(v.dataset.elements), coloured, canvas2dHidden: document.querySelector('#view2d').hidden };
+  });
+  report('a 3D job ends successful and shows the three.js view of its final boundary surface',
+    final === 'successful' && !view.hidden && view.canvas2dHidden && view.elements > 0 && view.coloured > 5000, `${final} ${JSON.stringify(view)}`);
+  await page.screenshot({ path: path.join(logDir, 'web-app-3d-final.png'), fullPage: true });
+  report('no console errors in the 3D job', page.errors.length === 0, page.errors.join('\n'));
+  await page.close();
+});
+
+// ------------------------------------------------ an invalid parameter
+await run('the app: invalid parameters', async () => {
+  const page = await newPage();
+  await page.goto(`${openBase}/`);
+  await fillJob(page, '2d', clamp2d, { max_iter: '0' });
+  await page.click('#submit');
+  const local = await page.$eval('.err[data-for="params.max_iter"]', (e) => e.textContent);
+  report('an out-of-range value is flagged before submit, next to its field', /max_iter: must be >= 1/.test(local), local);
+  await page.fill('#p-max_iter', '');
+  await page.fill('#p-clamp', '{"kind": "ball", "center": [0.5, 0.5], "radius": -1}');
+  const [resp] = await Promise.all([page.waitForResponse((r) => r.url().endsWith('/v1/jobs') && r.request().method() === 'POST'), page.click('#submit')]);
+  const problem = await resp.json();
+  await page.waitForFunction(() => document.querySelector('.err[data-for="params.clamp"]').textContent, null, { timeout: 5000 });
+  const shown = await page.$eval('.err[data-for="params.clamp"]', (e) => e.textContent);
+  report('the server\'s 422 message is shown next to its field', resp.status() === 422 && shown === problem.detail && /radius/.test(shown), `${resp.status()} ${shown} / ${problem.detail}`);
+  await page.close();
+});
+
+// ------------------------------------------------ a token typed in
+await run('the app with a token', async () => {
+  const page = await newPage();
+  const resp = await page.goto(`${tokenBase}/`);
+  report('the page loads from a daemon with tokens (no token yet)', resp.status() === 200, resp.status());
+  await page.fill('#token', token);
+  await page.dispatchEvent('#token', 'change');
+  await fillJob(page, '2d', clamp2d, { max_iter: 30 });
+  await page.click('#submit');
+  const final = await waitStatus(page, 'successful', 60000);
+  const points = await page.$eval('#plot', (e) => Number(e.dataset.points || 0));
+  const [download] = await Promise.all([page.waitForEvent('download'), page.click('#downloads a[data-file="history.csv"]')]);
+  const csv = fs.readFileSync(await download.path(), 'utf8');
+  report('with the token typed in: submit, events (access_token), status and a download work',
+    final === 'successful' && points > 0 && csv.split('\n').length > 2, `${final} points ${points} ${csv.slice(0, 100)}`);
+  report('no console errors with a token', page.errors.length === 0, page.errors.join('\n'));
+  await page.close();
+});
+
+// ------------------------------------------------ from another origin
+const files2d = ['template.mesh', 'background.mesh.gz', 'background.sol.gz'].map((f) => fs.readFileSync(path.join(examples, '2d', f)).toString('base64'));
+async function crossOrigin(page, base, tok, withAuth) {
+  return page.evaluate(async ({ base, tok, files, withAuth }) => {
+    const out = {};
+    const fd = new FormData();
+    const blob = (b64) => new Blob([Uint8Array.from(atob(b64), (c) => c.charCodeAt(0))]);
+    fd.append('template', blob(files[0]), 'template.mesh');
+    fd.append('target_mesh', blob(files[1]), 'background.mesh.gz');
+    fd.append('target_sol', blob(files[2]), 'background.sol.gz');
+    fd.append('params', JSON.stringify({ clamp: { kind: 'ball', center: [0.5, 0.5], radius: 0.04 }, max_iter: 20 }));
+    try {
+      const r = await fetch(`${base}/v1/jobs`, { method: 'POST', body: fd, headers: withAuth ? { Authorization: `Bearer ${tok}` } : {} });
+      out.post = r.status;
+      out.location = r.headers.get('Location');
+      out.id = (await r.json()).jobID;
+    } catch (e) { out.postError = String(e); }
+    if (!out.id) return out;
+    out.events = await new Promise((resolve) => {
+      const es = new EventSource(`${base}/v1/jobs/${out.id}/events?access_token=${encodeURIComponent(tok)}`);
+      let progress = 0;
+      es.addEventListener('progress', () => { progress++; });
+      es.addEventListener('status', (e) => { es.close(); resolve({ progress, status: JSON.parse(e.data).status }); });
+      es.onerror = () => { if (es.readyState === EventSource.CLOSED) resolve({ progress, error: 'closed' }); };
+      setTimeout(() => { es.close(); resolve({ progress, error: 'timeout' }); }, 30000);
+    });
+    try {
+      const r = await fetch(`${base}/v1/jobs/${out.id}/results/mesh?format=mesh&access_token=${encodeURIComponent(tok)}`);
+      out.download = r.status;
+      out.disposition = r.headers.get('Content-Disposition');
+      out.mesh = (await r.text()).includes('Vertices');
+    } catch (e) { out.downloadError = String(e); }
+    return out;
+  }, { base, tok, files: files2d, withAuth });
+}
+
+await run('another origin', async () => {
+  const listed = await newPage();
+  await listed.goto(`http://localhost:${originPort}/`);
+  const a = await crossOrigin(listed, tokenBase, token, true);
+  report('listed origin: fetch multipart POST with Authorization (201, Location readable)', a.post === 201 && a.location === `/v1/jobs/${a.id}`, JSON.stringify(a));
+  report('listed origin: EventSource with access_token follows the job to successful', a.events && a.events.status === 'successful' && a.events.progress > 0, JSON.stringify(a.events));
+  report('listed origin: the result downloads (Content-Disposition exposed)', a.download === 200 && a.mesh && /attachment/.test(a.disposition || ''), JSON.stringify(a));
+  report('no console errors on the listed origin', listed.errors.length === 0, listed.errors.join('\n'));
+  await listed.close();
+
+  const unlisted = await newPage();
+  await unlisted.goto(`http://127.0.0.1:${originPort}/`);
+  const b = await unlisted.evaluate(async (base) => {
+    const out = {};
+    try { await (await fetch(`${base}/v1/processes`)).json(); out.read = 'allowed'; } catch (e) { out.read = `blocked: ${e}`; }
+    const fd = new FormData();
+    fd.append('params', '{}');
+    try { await fetch(`${base}/v1/jobs`, { method: 'POST', body: fd }); out.post = 'allowed'; } catch (e) { out.post = `blocked: ${e}`; }
+    return out;
+  }, openBase);
+  report('unlisted origin: the browser blocks reading the daemon\'s replies', b.read.startsWith('blocked') && b.post.startsWith('blocked'), JSON.stringify(b));
+  await unlisted.close();
+});
+
+await browser.close();
+server.close();

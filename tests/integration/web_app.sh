@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# The web app and cross-origin use in real Chromium (issue 11): Debian's
+# chromium driven by npm playwright-core (web_app.mjs; both installed by
+# `make test`: DEB_PACKAGES and npm ci).  Two real daemons, one open and
+# one with a token, both listing http://localhost:PORT with --cors-origin;
+# web_app.mjs serves a plain page there (and at http://127.0.0.1:PORT, an
+# unlisted origin).  In the app: examples/2d uploaded through the form,
+# live plot points, status successful, the final shape drawn, result.vtu
+# downloaded and parsed; a 3D job in the three.js view without console
+# errors; the server's 422 next to its field; a token typed in.  From the
+# other origin: POST with Authorization, EventSource with access_token,
+# a download; unlisted: the browser blocks reads and the daemon answers the
+# POST with 403 (its log).  Screenshots in build/test-logs/.
+# Run in the release variant only: the browser half is the same in both,
+# and the sanitizer build's daemon is exercised by web_cors/web_execute.
+source "$(dirname "$0")/lib.sh"
+
+if [ "$VARIANT" != release ]; then
+    skip "browser tests run in the release variant only (the daemon side is covered by web_cors and web_execute in every variant)"
+    echo "1..$n"
+    exit 0
+fi
+if [ ! -x /usr/bin/chromium ] || [ ! -d "$ROOT/node_modules/playwright-core" ]; then
+    not_ok "chromium and playwright-core are installed (make deps)" "$(ls -l /usr/bin/chromium 2>&1)"
+    echo "1..$n"
+    exit 1
+fi
+if ! make_case; then
+    not_ok "gmsh builds the test meshes" "$(tail -5 "$WORK/case/gmsh.log")"
+    exit 1
+fi
+PORT=$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+ORIGIN=http://localhost:$PORT
+start_daemon open --workers 2 --cors-origin "$ORIGIN" || { not_ok "the open daemon starts"; exit 1; }
+OPEN=$BASE
+OPENLOG=$DLOG
+printf 'web-app-token-77c1\n' >"$WORK/tokens"
+SPOOL=
+start_daemon token --workers 1 --tokens-file "$WORK/tokens" --cors-origin "$ORIGIN" ||
+    { not_ok "the token daemon starts"; exit 1; }
+ok "two daemons start (one open, one with a token), both listing $ORIGIN"
+LOGS=$ROOT/build/test-logs
+mkdir -p "$LOGS"
+rm -f "$LOGS"/web-app-*.png
+node "$ROOT/tests/integration/web_app.mjs" "$OPEN" "$BASE" web-app-token-77c1 "$PORT" \
+    "$ROOT/examples" "$LOGS" "$CUBE" "$CUBESOL" >"$WORK/node.out" 2>"$WORK/node.err"
+rc=$?
+while IFS= read -r line; do
+    desc=$(jq -r .desc <<<"$line" 2>/dev/null) || continue
+    if [ "$(jq -r .ok <<<"$line")" = true ]; then
+        ok "$desc"
+    else
+        not_ok "$desc" "$(jq -r .detail <<<"$line")"
+    fi
+done <"$WORK/node.out"
+if [ "$rc" != 0 ]; then
+    not_ok "the browser driver runs" "exit $rc" "$(tail -20 "$WORK/node.err")"
+fi
+# the unlisted origin's POST reached the daemon and was refused
+if jq -e --arg o "http://127.0.0.1:$PORT" 'select(.event == "request" and .method == "POST" and .path == "/v1/jobs" and .status == 403)' \
+    "$OPENLOG" >/dev/null 2>&1; then
+    ok "unlisted origin: the daemon refused its POST with 403"
+else
+    not_ok "unlisted origin: a 403 POST in the daemon log" "$(grep '"POST"' "$OPENLOG" | tail -5)"
+fi
+for f in web-app-2d-running web-app-2d-final web-app-3d-running web-app-3d-final; do
+    check "screenshot $f.png saved" [ -s "$LOGS/$f.png" ]
+done
+no_token() { ! grep -q web-app-token-77c1 "$DLOG" "$OPENLOG"; }
+check "the access token is in no daemon log" no_token
+check "no sanitizer reports" reports_clean
+echo "1..$n"

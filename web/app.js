@@ -158,7 +158,7 @@ function newPlot() {
     width: Math.min(el.clientWidth || 480, 640), height: 220,
     scales: { x: { time: false }, y: {}, e: { distr: 3 } }, // J changes sign: linear
     series: [{ label: 'iteration' }, { label: 'J', stroke: '#3d7bd9', scale: 'y' }, { label: 'boundary error', stroke: '#d9503d', scale: 'e' }],
-    axes: [{}, { scale: 'y', label: 'J' }, { scale: 'e', side: 1, label: '‖d‖ boundary', grid: { show: false } }],
+    axes: [{}, { scale: 'y', label: 'J', size: 70, values: (u, vals) => vals.map((v) => v.toPrecision(4)) }, { scale: 'e', side: 1, label: '‖d‖ boundary', grid: { show: false } }],
   }, data, el);
   return { plot, data };
 }

@@ -27,7 +27,7 @@ const browser = await chromium.launch({
   headless: true,
   args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--disable-dev-shm-usage'],
 });
-const context = await browser.newContext({ acceptDownloads: true, viewport: { width: 1100, height: 900 } });
+const context = await browser.newContext({ acceptDownloads: true, viewport: { width: 1100, height: 1150 } });
 
 async function newPage() {
   const page = await context.newPage();
@@ -72,7 +72,9 @@ await run('the app: a 2D job', async () => {
   await page.click('#submit');
   await page.waitForFunction(() => Number(document.querySelector('#plot').dataset.points || 0) >= 5, null, { timeout: 30000 });
   const live = await status(page);
-  await page.screenshot({ path: path.join(logDir, 'web-app-2d-running.png'), fullPage: true });
+  await page.screenshot({ path: path.join(logDir, 'web-app-2d-running.png') });
+  // the picture of README.md (web/screenshot.png is a copy): the job panel
+  await page.locator('#job-panel').screenshot({ path: path.join(logDir, 'web-app-readme.png'), scale: 'css' });
   report('at least 5 plot points arrive from the event stream while the job runs', live === 'running', live);
   const final = await waitStatus(page, 'successful', 60000);
   report('the job\'s status becomes successful', final === 'successful', final);
@@ -94,7 +96,7 @@ await run('the app: a 2D job', async () => {
   report('result.vtu downloads and parses (a VTK UnstructuredGrid with the template\'s 440 points, its 778 triangles and boundary edges as cells)',
     download.suggestedFilename() === 'result.vtu' && vtu.includes('<VTKFile') && vtu.trim().endsWith('</VTKFile>') && pieces && pieces[1] === '440' && Number(pieces[2]) >= 778,
     `${download.suggestedFilename()} ${vtu.slice(0, 200)}`);
-  await page.screenshot({ path: path.join(logDir, 'web-app-2d-final.png'), fullPage: true });
+  await page.screenshot({ path: path.join(logDir, 'web-app-2d-final.png') });
   const rows = await page.$$eval('#jobs tr', (t) => t.length);
   report('the job list shows the job', rows >= 1, rows);
   report('no console errors in the 2D job', page.errors.length === 0, page.errors.join('\n'));
@@ -105,10 +107,12 @@ await run('the app: a 2D job', async () => {
 await run('the app: a 3D job', async () => {
   const page = await newPage();
   await page.goto(`${openBase}/`);
-  await fillJob(page, '3d', clamp3d, { live_every: 1, max_iter: 60, tol_stall: 0 });
+  await fillJob(page, '3d', clamp3d, { live_every: 1, max_iter: 150, tol_stall: 0, tol_step: 1e-12 });
   await page.click('#submit');
   await page.waitForFunction(() => document.querySelector('#view3d canvas') && document.querySelector('#view3d').dataset.drawn, null, { timeout: 60000 });
-  await page.screenshot({ path: path.join(logDir, 'web-app-3d-running.png'), fullPage: true });
+  const live3d = await status(page);
+  await page.screenshot({ path: path.join(logDir, 'web-app-3d-running.png') });
+  report('the three.js view shows the live shape while the 3D job runs', live3d === 'running', live3d);
   const final = await waitStatus(page, 'successful', 90000);
   await page.waitForFunction(() => document.querySelector('#view3d').dataset.drawn === 'final', null, { timeout: 20000 });
   await sleep(200);
@@ -123,7 +127,7 @@ await run('the app: a 3D job', async () => {
   });
   report('a 3D job ends successful and shows the three.js view of its final boundary surface',
     final === 'successful' && !view.hidden && view.canvas2dHidden && view.elements > 0 && view.coloured > 5000, `${final} ${JSON.stringify(view)}`);
-  await page.screenshot({ path: path.join(logDir, 'web-app-3d-final.png'), fullPage: true });
+  await page.screenshot({ path: path.join(logDir, 'web-app-3d-final.png') });
   report('no console errors in the 3D job', page.errors.length === 0, page.errors.join('\n'));
   await page.close();
 });

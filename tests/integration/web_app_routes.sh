@@ -1,0 +1,68 @@
+#!/usr/bin/env bash
+# The web app's routes with curl (issue 11; the browser half is web_app):
+# GET / gives a browser the page and any other client the JSON landing;
+# /app/{file} serves web/ and the npm libraries embedded at build time
+# (three's module rewritten to import ./three-core.js), public even with
+# tokens, while the JSON landing keeps requiring one; the page says
+# whether the daemon wants a token.
+source "$(dirname "$0")/lib.sh"
+
+HTML='text/html,application/xhtml+xml,application/xml;q=0.9,*/*;q=0.8'
+ctype() { tr -d '\r' <"$WORK/h" | awk 'tolower($1) == "content-type:" { print $2 }' | tr -d ';'; }
+get() { # URL [CURL ARGS]: the status; headers $WORK/h, body $WORK/b
+    local u=$1
+    shift
+    curl -sS --max-time $((10 * SLOW)) -D "$WORK/h" -o "$WORK/b" -w '%{http_code}' "$@" "$u"
+}
+
+start_daemon open --workers 1 || { not_ok "the daemon starts"; exit 1; }
+ok "the daemon starts"
+c=$(get "$BASE/" -H "Accept: $HTML")
+check "GET / from a browser: the web app (text/html, data-tokens=\"0\")" \
+    [ "$c" = 200 ] && [ "$(ctype)" = text/html ] && grep -q 'src="app/app.js"' "$WORK/b" &&
+    grep -q 'data-tokens="0"' "$WORK/b" && cmp -s "$WORK/b" "$ROOT/web/index.html"
+c=$(get "$BASE/")
+check "GET / from an API client: the JSON landing page" \
+    [ "$c" = 200 ] && [ "$(ctype)" = application/json ] && jq -e '.links | length > 0' "$WORK/b" >/dev/null
+for f in app.js view.js app.css favicon.svg; do
+    c=$(get "$BASE/app/$f")
+    check "/app/$f is web/$f" [ "$c" = 200 ] && cmp -s "$WORK/b" "$ROOT/web/$f"
+done
+declare -A npm=([three-core.js]=three/build/three.core.min.js [orbit.js]=three/examples/jsm/controls/OrbitControls.js
+    [uplot.js]=uplot/dist/uPlot.esm.js [uplot.css]=uplot/dist/uPlot.min.css)
+for f in "${!npm[@]}"; do
+    c=$(get "$BASE/app/$f")
+    check "/app/$f is node_modules/${npm[$f]}" [ "$c" = 200 ] && cmp -s "$WORK/b" "$ROOT/node_modules/${npm[$f]}"
+done
+c=$(get "$BASE/app/three.js")
+check "/app/three.js is three's module importing ./three-core.js (text/javascript)" \
+    [ "$c" = 200 ] && [ "$(ctype)" = text/javascript ] && grep -q 'from"./three-core.js"' "$WORK/b" &&
+    ! grep -q 'three.core.min.js' "$WORK/b"
+c=$(get "$BASE/app/three.js" -H 'Accept-Encoding: gzip')
+check "the libraries go out gzip-compressed when asked" \
+    [ "$c" = 200 ] && tr -d '\r' <"$WORK/h" | grep -qi '^content-encoding: gzip' &&
+    [ "$(stat -c %s "$WORK/b")" -lt 200000 ]
+c=$(get "$BASE/app/nothing.js")
+check "an unknown app file: 404 problem+json" [ "$c" = 404 ] && [ "$(ctype)" = application/problem+json ]
+c=$(get "$BASE/app/a-name-longer-than-sixteen.js")
+check "a long app file name: 404" [ "$c" = 404 ]
+c=$(get "$BASE/app/app.js" -X POST)
+check "POST on an app file: 405" [ "$c" = 405 ]
+stop_daemon
+
+printf 'routes-token-5e1d\n' >"$WORK/tokens"
+SPOOL=
+start_daemon token --workers 1 --tokens-file "$WORK/tokens" || { not_ok "the token daemon starts"; exit 1; }
+c=$(get "$BASE/" -H "Accept: $HTML")
+check "with tokens, the page loads without one and says data-tokens=\"1\"" \
+    [ "$c" = 200 ] && grep -q 'data-tokens="1"' "$WORK/b"
+c=$(get "$BASE/app/app.js")
+check "with tokens, the app's files are public" [ "$c" = 200 ]
+c=$(get "$BASE/")
+check "with tokens, the JSON landing page still wants one (401)" [ "$c" = 401 ]
+c=$(get "$BASE/" -H 'Authorization: Bearer wrong')
+check "with tokens, a wrong one is refused at / (401)" [ "$c" = 401 ] && grep -q "not valid" "$WORK/b"
+c=$(get "$BASE/" -H 'Authorization: Bearer routes-token-5e1d')
+check "with tokens, the JSON landing page with the token (200)" [ "$c" = 200 ] && [ "$(ctype)" = application/json ]
+check "no sanitizer reports" reports_clean
+echo "1..$n"

@@ -197,6 +197,7 @@ function draw(mesh, final) {
   }
   const view = is3d ? $('view3d') : $('view2d');
   view.dataset.drawn = final ? 'final' : 'live';
+  if (!final) view.dataset.liveDraws = String(Number(view.dataset.liveDraws || 0) + 1);
   view.dataset.elements = String(is3d ? mesh.tets.length / 4 : mesh.tris.length / 3);
 }
 
@@ -235,6 +236,7 @@ function follow(id) {
   const { plot, data } = newPlot();
   current = { id, plot, data, first: null, done: false };
   $('job-id').textContent = id;
+  for (const v of [$('view2d'), $('view3d')]) { delete v.dataset.liveDraws; delete v.dataset.drawn; }
   $('downloads').replaceChildren();
   setStatus('accepted', '');
   const job = current;
@@ -258,7 +260,7 @@ function follow(id) {
     if (job.done || job.busy || data[0].length < 2) return;
     job.busy = true;
     try { const m = await getMesh(`v1/jobs/${id}/mesh/latest`); if (!job.done) draw(m, false); } finally { job.busy = false; }
-  }, 700);
+  }, 500);
 }
 
 // ------------------------------------------------------------ job list

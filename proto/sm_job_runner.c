@@ -103,6 +103,13 @@ static int on_progress(const sm_progress *p, const double *coords, void *user)
     return h->progress ? h->progress(p, h->user) : 0;
 }
 
+/* Hands warnings from index from on to the hook. */
+static void tell_warnings(const run_ctx *c, int from)
+{
+    for (int i = from; c->hooks->warning && i < c->run->warnings.n; i++)
+        c->hooks->warning(&c->run->warnings.w[i], c->hooks->user);
+}
+
 sm_status sm_job_run_exec(const sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_run *run,
                           sm_error *err)
 {
@@ -122,6 +129,8 @@ sm_status sm_job_run_exec(const sm_job_inputs *in, const sm_job_hooks *hooks, sm
     sm_status st = sm_job_check_sign(in, &run->warnings, err);
     if (st != SM_OK)
         return st;
+    tell_warnings(&c, 0);
+    int told = run->warnings.n;
     st = sm_match_run(&opts, &cb, run->coords, &run->result, err);
     if (c.failed != SM_OK) {
         if (err)
@@ -151,6 +160,7 @@ sm_status sm_job_run_exec(const sm_job_inputs *in, const sm_job_hooks *hooks, sm
     run->inverted = q.ninverted;
     sm_job_check_result(in, run->coords, r, run->outcome == SM_JOB_OUTCOME_FINISHED,
                         &run->warnings);
+    tell_warnings(&c, told);
     return SM_OK;
 }
 

@@ -77,6 +77,10 @@ typedef struct sm_job_hooks {
      * for callers that show the shape as it moves (the worker's live
      * mesh); nonzero stops the run like progress.  May be NULL. */
     int (*shape)(const sm_progress *p, const double *coords, void *user);
+    /* Each warning as the runner raises it (the sign check before the
+     * run, the result checks after it), for callers that stream them
+     * (the worker's warning events).  May be NULL. */
+    void (*warning)(const sm_job_warning *w, void *user);
     void *user;
     const volatile int *cancel;  /* polled between iterations; may be NULL */
     const char *snapshot_dir;    /* iter-NNNNN.mesh go here (NULL: none) */

@@ -263,6 +263,18 @@ sm_status smd_jobs_progress(smd_server *srv, smd_job *job, sm_event *ev, smd_job
     return SM_OK;
 }
 
+sm_status smd_jobs_warning(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_after *after)
+{
+    sm_error err;
+    if (job->state != SM_JOB_RUNNING)
+        return refuse(job, "report a warning of", &err);
+    ev->seq = 0; /* numbered by the store */
+    ev->time = sm_time_now();
+    append_or_log(srv, job, ev, after);
+    job->updated = ev->time;
+    return SM_OK;
+}
+
 sm_status smd_jobs_finish(smd_server *srv, smd_job *job, const sm_event *finished,
                           json_t *extra, smd_jobs_after *after)
 {

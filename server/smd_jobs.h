@@ -4,7 +4,7 @@
  *
  *   submit          -> accepted   (upload committed, queued)
  *   accepted        -> running    smd_jobs_take_next, smd_jobs_started
- *   running         -> running    smd_jobs_progress
+ *   running         -> running    smd_jobs_progress, smd_jobs_warning
  *   running         -> successful smd_jobs_finish
  *   accepted|running -> failed    smd_jobs_fail (the worker could not start,
  *                                 or ended without a result)
@@ -78,6 +78,9 @@ sm_status smd_jobs_started(smd_server *srv, smd_job *job, long pid, smd_jobs_aft
 
 /* A progress event from the worker (ignored unless running). */
 sm_status smd_jobs_progress(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_after *after);
+/* A warning event from the worker, appended as it is (ignored unless
+ * running). */
+sm_status smd_jobs_warning(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_after *after);
 
 /* log_fields (may be NULL; taken over) are added to the job's log line. */
 sm_status smd_jobs_finish(smd_server *srv, smd_job *job, const sm_event *finished,

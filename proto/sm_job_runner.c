@@ -253,6 +253,23 @@ static json_t *warnings_array(const sm_job_warnings *ws)
     return a;
 }
 
+/* The template's Gmsh physical names: [{dim, tag, name}]. */
+static json_t *names_array(const sm_mesh *m)
+{
+    json_t *a = json_array();
+    for (int32_t i = 0; a && i < m->nnames; i++) {
+        json_t *e = json_object();
+        if (!e || json_array_append_new(a, e) != 0 ||
+            smp_set(e, "dim", json_integer(m->names[i].dim)) ||
+            smp_set(e, "tag", json_integer(m->names[i].tag)) ||
+            set_string(e, "name", m->names[i].name)) {
+            json_decref(a);
+            return NULL;
+        }
+    }
+    return a;
+}
+
 json_t *sm_job_summary_to_jansson(const sm_job_inputs *in, const sm_job_run *run,
                                   const sm_job_files *names)
 {
@@ -301,6 +318,8 @@ json_t *sm_job_summary_outputs(const sm_job_inputs *in, const sm_job_run *run,
           smp_set(tmpl, "vertices", json_integer(m->nverts)) ||
           smp_set(tmpl, "elements", json_integer(m->nelems)) ||
           smp_set(tmpl, "facets", json_integer(m->nfacets));
+    if (m->nnames > 0) /* a Gmsh template's $PhysicalNames */
+        bad = bad || smp_set(tmpl, "physical_names", names_array(m));
     if (!bad) {
         bad = smp_set(doc, "inputs", inputs) != 0;
         inputs = NULL;

@@ -29,7 +29,8 @@
  * rejected, timings, parameters) plus shapematch_version, status,
  * exit_code, inverted_elements, field_builds, timings.read and
  * timings.field_build, inputs (the names the caller gives), template
- * (dimension and counts), outputs (the file of each result format) and
+ * (dimension and counts; physical_names [{dim, tag, name}] when the
+ * template is a Gmsh .msh with $PhysicalNames), outputs (the file of each result format) and
  * warnings ([{code, message, figure}], sm_job_warnings.h; [] when none).
  * A distance whose sign is unambiguously inverted is refused before the
  * run (SM_ERR_INVALID, the message about target_sol).

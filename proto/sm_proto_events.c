@@ -404,6 +404,15 @@ static void copy_utf8(char *dst, size_t cap, const char *s)
     dst[n] = '\0';
 }
 
+/* The members of a warning event but its message. */
+static int set_warning(json_t *obj, const sm_event *ev)
+{
+    char code[SM_WARNING_CODE_MAX + 1];
+    copy_utf8(code, sizeof code, ev->code);
+    return smp_set(obj, "code", json_string(code)) ||
+           smp_set(obj, "figure", smp_real_or_null(ev->figure));
+}
+
 json_t *sm_event_to_jansson(const sm_event *ev)
 {
     const char *type = sm_event_type_name(ev->type);
@@ -445,12 +454,8 @@ json_t *sm_event_to_jansson(const sm_event *ev)
         const char *state = sm_job_state_name(ev->state);
         bad = bad || !state || smp_set(obj, "status", json_string(state));
     }
-    if (ev->type == SM_EVENT_WARNING) {
-        char code[SM_WARNING_CODE_MAX + 1];
-        copy_utf8(code, sizeof code, ev->code);
-        bad = bad || smp_set(obj, "code", json_string(code));
-        bad = bad || smp_set(obj, "figure", smp_real_or_null(ev->figure));
-    }
+    if (ev->type == SM_EVENT_WARNING)
+        bad = bad || set_warning(obj, ev);
     if (ev->message[0] || ev->type == SM_EVENT_FAILED || ev->type == SM_EVENT_WARNING) {
         char msg[SM_EVENT_MESSAGE_MAX];
         copy_utf8(msg, sizeof msg, ev->message);

@@ -19,6 +19,11 @@ DEB_PACKAGES := gcc make pkg-config libc6-dev \
   libmicrohttpd-dev libgnutls28-dev libcurl4-openssl-dev curl gmsh wrk jq systemd python3 python3-yaml strace \
   pmccabe clang libclang-rt-14-dev libomp-14-dev nodejs chromium
 
+# The part of them `make release` and `make install` need (the Dockerfile's
+# build stage: `make deps-build`); tests/deploy/ checks it is a subset.
+DEB_BUILD_PACKAGES := gcc make pkg-config libc6-dev libsuitesparse-dev libopenblas0-pthread \
+  zlib1g-dev libcmocka-dev libjansson-dev libmicrohttpd-dev libgnutls28-dev libcurl4-openssl-dev
+
 CC ?= cc
 BASE_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror -fopenmp \
   -Wno-missing-field-initializers -g -I core/include -I proto -I /usr/include/suitesparse \
@@ -78,6 +83,27 @@ deps:
 	@if [ ! -f node_modules/.package-lock.json ] || [ package-lock.json -nt node_modules/.package-lock.json ]; then \
 	  echo "deps: npm ci"; npm ci --no-audit --no-fund --ignore-scripts; \
 	else echo "deps: npm packages present"; fi
+
+# Only what building needs (no test tools, no npm): the Dockerfile's build stage.
+.PHONY: deps-build
+deps-build:
+	@missing=""; for p in $(DEB_BUILD_PACKAGES); do \
+	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  echo "deps-build: installing$$missing"; \
+	  apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $$missing; \
+	else echo "deps-build: all Debian packages present"; fi
+
+# The Dockerfile built without a Docker engine (tests/deploy/): fresh
+# debian:bookworm roots made by mmdebstrap, its RUN steps in them, the
+# built daemon run from the runtime root against a 2D job.  Root, network
+# to the Debian archive; ~10 min.  Not part of `make test`; CI runs it.
+.PHONY: test-deploy
+test-deploy:
+	@command -v mmdebstrap >/dev/null || { echo "test-deploy: installing mmdebstrap"; \
+	  apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends mmdebstrap; }
+	tests/deploy/docker_build.sh
 
 test: deps
 	$(MAKE) -j$$(nproc) all fuzz-build

@@ -4,7 +4,8 @@
  * The stream is parsed as it arrives (sse.c, fed from libcurl's write
  * callback); progress events drive the same display as `run` (a bar on a
  * terminal, a plain line every few iterations otherwise), lifecycle
- * events print a line each; with --json every event goes to stdout as
+ * events print a line each, warning events print "shapematch: warning:
+ * CODE: MESSAGE" (even with --quiet); with --json every event goes to stdout as
  * one JSON line.  The daemon ends a stream with a "status" event carrying
  * the job's final state, which decides the exit code.
  *
@@ -116,6 +117,10 @@ static void handle_event(watch_ctx *w, const sm_event *ev)
     case SM_EVENT_FAILED:
     case SM_EVENT_CANCELLED:
         snprintf(w->end_message, sizeof w->end_message, "%s", ev->message);
+        break;
+    case SM_EVENT_WARNING:
+        /* even with --quiet, as run prints them: they are about the result */
+        progress_message(&w->display, "shapematch: warning: %s: %s", ev->code, ev->message);
         break;
     case SM_EVENT_STATUS:
         if (ev->state == SM_JOB_SUCCESSFUL || ev->state == SM_JOB_FAILED ||

@@ -191,25 +191,41 @@ static sm_status read_format(msh_in *c)
 
 /* ---- $PhysicalNames (ASCII in every file type) ---- */
 
+/* One entry: dimension, tag, quoted name (kept in d->names[i]). */
+static sm_status read_name(msh_in *c, sm_mesh_name *e)
+{
+    sm_status st;
+    if ((st = rd_int(c, "a physical dimension", &e->dim)) != SM_OK ||
+        (st = rd_int(c, "a physical tag", &e->tag)) != SM_OK)
+        return st;
+    if (e->dim < 0 || e->dim > 3)
+        return fail(c, "physical dimension %d is not in [0, 3]", (int)e->dim);
+    char buf[SM_MESH_NAME_MAX + 1];
+    if ((st = sm_reader_string(c->r, buf, sizeof buf)) != SM_OK)
+        return fail_read(c, st, "a physical name");
+    e->name = strdup(buf);
+    return e->name ? SM_OK : sm_error_set(c->err, SM_ERR_NOMEM, "out of memory");
+}
+
 static sm_status read_names(msh_in *c)
 {
+    if (c->d->names)
+        return fail(c, "a second $PhysicalNames section");
     int64_t n;
     sm_status st = rd_size(c, "the number of physical names", &n);
     if (st == SM_OK)
         st = check_count(c, "$PhysicalNames", n, 8, 8);
-    for (int64_t i = 0; st == SM_OK && i < n; i++) {
-        int32_t dim, tag;
-        if ((st = rd_int(c, "a physical dimension", &dim)) != SM_OK ||
-            (st = rd_int(c, "a physical tag", &tag)) != SM_OK)
-            return st;
-        if (dim < 0 || dim > 3)
-            return fail(c, "physical dimension %d is not in [0, 3]", (int)dim);
-        if ((st = sm_reader_skip_string(c->r)) != SM_OK)
-            return fail_read(c, st, "a physical name");
-    }
     if (st != SM_OK)
         return st;
-    c->d->nnames = (int32_t)n;
+    c->d->names = calloc(n > 0 ? (size_t)n : 1, sizeof *c->d->names);
+    if (!c->d->names)
+        return sm_error_set(c->err, SM_ERR_NOMEM, "out of memory for %lld physical names",
+                            (long long)n);
+    for (int64_t i = 0; i < n; i++) {
+        c->d->nnames = (int32_t)i + 1; /* freed with d whatever happens */
+        if ((st = read_name(c, &c->d->names[i])) != SM_OK)
+            return st;
+    }
     return expect_token(c, "$EndPhysicalNames");
 }
 
@@ -654,6 +670,7 @@ void sm__msh_data_free(sm_msh_data *d)
         free(b[k]->idx);
         free(b[k]->refs);
     }
+    sm_mesh_names_free(d->names, d->nnames);
     memset(d, 0, sizeof *d);
 }
 
@@ -667,7 +684,7 @@ static void copy_block(const sm_msh_block *b, int32_t *idx, int32_t *refs)
     memcpy(refs, b->refs, (size_t)b->count * sizeof(int32_t));
 }
 
-sm_status sm__msh_to_mesh(const char *path, const sm_msh_data *d, sm_mesh **out,
+sm_status sm__msh_to_mesh(const char *path, sm_msh_data *d, sm_mesh **out,
                           sm_error *err)
 {
     *out = NULL;
@@ -696,6 +713,10 @@ sm_status sm__msh_to_mesh(const char *path, const sm_msh_data *d, sm_mesh **out,
             m->coords[dim * i + k] = d->coords[3 * i + k];
     copy_block(elems, m->elems, m->elem_refs);
     copy_block(facets, m->facets, m->facet_refs);
+    m->names = d->names;
+    m->nnames = d->nnames;
+    d->names = NULL;
+    d->nnames = 0;
     *out = m;
     return SM_OK;
 }

@@ -12,6 +12,8 @@
  * it.  A reference is the first physical tag of the element's entity
  * (4.1) or the element's first tag (2.2), 0 when there is none.
  *
+ * $PhysicalNames are kept (sm_mesh.names): a dimension in [0, 3], a
+ * tag, a quoted name of at most SM_MESH_NAME_MAX bytes on one line.
  * Hostile input: counts are checked against SM_MAX_ENTITIES and against
  * the bytes left in the file before allocation (sm_medit_check_count),
  * node tags are looked up (a tag not in $Nodes is an error), reals must
@@ -39,7 +41,8 @@ typedef struct sm_msh_data {
     int64_t nnodes;
     double *coords;     /* nnodes * 3 */
     sm_msh_block lines, triangles, tetrahedra;
-    int32_t nnames;     /* $PhysicalNames entries (names not kept) */
+    int32_t nnames;     /* $PhysicalNames entries, in file order */
+    sm_mesh_name *names;
 } sm_msh_data;
 
 /* True when the first bytes of r are "$MeshFormat". */
@@ -51,8 +54,9 @@ sm_status sm__msh_parse(sm_reader *r, sm_msh_data *d, sm_error *err);
 void sm__msh_data_free(sm_msh_data *d);
 
 /* A volume mesh from d: tetrahedra (facets: triangles) or, with no
- * tetrahedra, triangles whose z are all 0 (a 2D mesh; facets: lines). */
-sm_status sm__msh_to_mesh(const char *path, const sm_msh_data *d, sm_mesh **out,
+ * tetrahedra, triangles whose z are all 0 (a 2D mesh; facets: lines).
+ * The mesh takes over d's physical names (sm_mesh.names). */
+sm_status sm__msh_to_mesh(const char *path, sm_msh_data *d, sm_mesh **out,
                           sm_error *err);
 
 #endif

@@ -68,7 +68,33 @@ void sm_mesh_free(sm_mesh *m)
     free(m->facets);
     free(m->facet_refs);
     free_boundary(m);
+    sm_mesh_names_free(m->names, m->nnames);
     free(m);
+}
+
+void sm_mesh_names_free(sm_mesh_name *names, int32_t n)
+{
+    for (int32_t i = 0; names && i < n; i++)
+        free(names[i].name);
+    free(names);
+}
+
+/* Copies the name table of m into c. */
+static int clone_names(const sm_mesh *m, sm_mesh *c)
+{
+    if (m->nnames <= 0)
+        return 0;
+    c->names = calloc((size_t)m->nnames, sizeof *c->names);
+    if (!c->names)
+        return -1;
+    c->nnames = m->nnames;
+    for (int32_t i = 0; i < m->nnames; i++) {
+        c->names[i] = m->names[i];
+        c->names[i].name = strdup(m->names[i].name);
+        if (!c->names[i].name)
+            return -1;
+    }
+    return 0;
 }
 
 static void *dup_array(const void *src, size_t bytes)
@@ -92,6 +118,11 @@ sm_status sm_mesh_clone(const sm_mesh *m, sm_mesh **out, sm_error *err)
     memcpy(c->elem_refs, m->elem_refs, ne * sizeof(int32_t));
     memcpy(c->facets, m->facets, nf * (size_t)m->dim * sizeof(int32_t));
     memcpy(c->facet_refs, m->facet_refs, nf * sizeof(int32_t));
+    if (clone_names(m, c) != 0) {
+        sm_mesh_free(c);
+        *out = NULL;
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory copying a mesh");
+    }
     if (m->bfacets) {
         size_t nb = (size_t)m->nbfacets;
         c->nbfacets = m->nbfacets;

@@ -353,7 +353,8 @@ sm_status sm_reader_real(sm_reader *r, double *out)
     return SM_OK;
 }
 
-sm_status sm_reader_skip_string(sm_reader *r)
+/* A string argument into buf (cap bytes, cap 0: skipped). */
+static sm_status read_string(sm_reader *r, char *buf, size_t cap)
 {
     int c;
     for (;;) {
@@ -366,12 +367,30 @@ sm_status sm_reader_skip_string(sm_reader *r)
             break;
         r->pos++;
     }
-    if (c != '"')
-        return need_token(r);
+    if (c != '"') {
+        sm_status st = need_token(r);
+        if (st == SM_OK && cap && strlen(r->token) >= cap) {
+            why(r, "found a string longer than %zu bytes", cap - 1);
+            return SM_ERR_FORMAT;
+        }
+        if (st == SM_OK && cap)
+            snprintf(buf, cap, "%s", r->token);
+        return st;
+    }
     r->token_line = r->line;
     r->pos++;
-    while ((c = peek_byte(r)) >= 0 && c != '"' && c != '\n')
+    size_t n = 0;
+    while ((c = peek_byte(r)) >= 0 && c != '"' && c != '\n') {
+        if (cap && n + 1 >= cap) {
+            why(r, "found a string longer than %zu bytes", cap - 1);
+            return SM_ERR_FORMAT;
+        }
+        if (cap)
+            buf[n++] = (char)c;
         r->pos++;
+    }
+    if (cap)
+        buf[n] = '\0';
     if (r->stream_status != SM_OK)
         return r->stream_status;
     if (c != '"') {
@@ -380,6 +399,16 @@ sm_status sm_reader_skip_string(sm_reader *r)
     }
     r->pos++;
     return SM_OK;
+}
+
+sm_status sm_reader_skip_string(sm_reader *r)
+{
+    return read_string(r, NULL, 0);
+}
+
+sm_status sm_reader_string(sm_reader *r, char *buf, size_t cap)
+{
+    return cap ? read_string(r, buf, cap) : SM_ERR_INVALID;
 }
 
 sm_status sm_reader_bytes(sm_reader *r, void *dst, size_t n)

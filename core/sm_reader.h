@@ -82,6 +82,9 @@ sm_status sm_reader_real(sm_reader *r, double *out);
 /* Skips a string argument (Identifier, Geometry): one token, or a
  * double-quoted string possibly containing spaces, on one line. */
 sm_status sm_reader_skip_string(sm_reader *r);
+/* The same string argument copied into buf (without the quotes); one
+ * of cap - 1 bytes or more is an error (SM_ERR_FORMAT, r->why). */
+sm_status sm_reader_string(sm_reader *r, char *buf, size_t cap);
 
 /* Writes a printable, truncated copy of s (quoted) into out. */
 void sm_quote_token(const char *s, char *out, size_t cap);

@@ -103,6 +103,13 @@ static int on_progress(const sm_progress *p, const double *coords, void *user)
     return h->progress ? h->progress(p, h->user) : 0;
 }
 
+/* Hands warnings from index from on to the hook. */
+static void tell_warnings(const run_ctx *c, int from)
+{
+    for (int i = from; c->hooks->warning && i < c->run->warnings.n; i++)
+        c->hooks->warning(&c->run->warnings.w[i], c->hooks->user);
+}
+
 sm_status sm_job_run_exec(const sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_run *run,
                           sm_error *err)
 {
@@ -122,6 +129,8 @@ sm_status sm_job_run_exec(const sm_job_inputs *in, const sm_job_hooks *hooks, sm
     sm_status st = sm_job_check_sign(in, &run->warnings, err);
     if (st != SM_OK)
         return st;
+    tell_warnings(&c, 0);
+    int told = run->warnings.n;
     st = sm_match_run(&opts, &cb, run->coords, &run->result, err);
     if (c.failed != SM_OK) {
         if (err)
@@ -151,6 +160,7 @@ sm_status sm_job_run_exec(const sm_job_inputs *in, const sm_job_hooks *hooks, sm
     run->inverted = q.ninverted;
     sm_job_check_result(in, run->coords, r, run->outcome == SM_JOB_OUTCOME_FINISHED,
                         &run->warnings);
+    tell_warnings(&c, told);
     return SM_OK;
 }
 
@@ -243,6 +253,23 @@ static json_t *warnings_array(const sm_job_warnings *ws)
     return a;
 }
 
+/* The template's Gmsh physical names: [{dim, tag, name}]. */
+static json_t *names_array(const sm_mesh *m)
+{
+    json_t *a = json_array();
+    for (int32_t i = 0; a && i < m->nnames; i++) {
+        json_t *e = json_object();
+        if (!e || json_array_append_new(a, e) != 0 ||
+            smp_set(e, "dim", json_integer(m->names[i].dim)) ||
+            smp_set(e, "tag", json_integer(m->names[i].tag)) ||
+            set_string(e, "name", m->names[i].name)) {
+            json_decref(a);
+            return NULL;
+        }
+    }
+    return a;
+}
+
 json_t *sm_job_summary_to_jansson(const sm_job_inputs *in, const sm_job_run *run,
                                   const sm_job_files *names)
 {
@@ -291,6 +318,8 @@ json_t *sm_job_summary_outputs(const sm_job_inputs *in, const sm_job_run *run,
           smp_set(tmpl, "vertices", json_integer(m->nverts)) ||
           smp_set(tmpl, "elements", json_integer(m->nelems)) ||
           smp_set(tmpl, "facets", json_integer(m->nfacets));
+    if (m->nnames > 0) /* a Gmsh template's $PhysicalNames */
+        bad = bad || smp_set(tmpl, "physical_names", names_array(m));
     if (!bad) {
         bad = smp_set(doc, "inputs", inputs) != 0;
         inputs = NULL;

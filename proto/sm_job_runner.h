@@ -29,7 +29,8 @@
  * rejected, timings, parameters) plus shapematch_version, status,
  * exit_code, inverted_elements, field_builds, timings.read and
  * timings.field_build, inputs (the names the caller gives), template
- * (dimension and counts), outputs (the file of each result format) and
+ * (dimension and counts; physical_names [{dim, tag, name}] when the
+ * template is a Gmsh .msh with $PhysicalNames), outputs (the file of each result format) and
  * warnings ([{code, message, figure}], sm_job_warnings.h; [] when none).
  * A distance whose sign is unambiguously inverted is refused before the
  * run (SM_ERR_INVALID, the message about target_sol).
@@ -77,6 +78,10 @@ typedef struct sm_job_hooks {
      * for callers that show the shape as it moves (the worker's live
      * mesh); nonzero stops the run like progress.  May be NULL. */
     int (*shape)(const sm_progress *p, const double *coords, void *user);
+    /* Each warning as the runner raises it (the sign check before the
+     * run, the result checks after it), for callers that stream them
+     * (the worker's warning events).  May be NULL. */
+    void (*warning)(const sm_job_warning *w, void *user);
     void *user;
     const volatile int *cancel;  /* polled between iterations; may be NULL */
     const char *snapshot_dir;    /* iter-NNNNN.mesh go here (NULL: none) */

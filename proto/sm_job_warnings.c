@@ -163,3 +163,11 @@ void sm_job_warnings_text(const sm_job_warnings *ws, char *buf, size_t cap)
         used += (size_t)k < cap - used ? (size_t)k : cap - used - 1;
     }
 }
+
+void sm_job_warning_event(const sm_job_warning *w, sm_event *ev)
+{
+    sm_event_init(ev, SM_EVENT_WARNING);
+    snprintf(ev->code, sizeof ev->code, "%s", w->code);
+    snprintf(ev->message, sizeof ev->message, "%s", w->message);
+    ev->figure = w->figure;
+}

@@ -1,8 +1,8 @@
 /* Warnings of a job: what a run that "succeeded" should still tell its
  * user, each with a stable code, a sentence and one figure.  The job
  * runner computes them (sm_job_run.warnings); summary.json lists them as
- * warnings: [{code, message, figure}] and `shapematch run` prints them on
- * stderr.  Codes:
+ * warnings: [{code, message, figure}], `shapematch run` prints them on
+ * stderr and the daemon's worker streams each as a "warning" event.  Codes:
  *   outside-background  part of the final boundary lies outside the
  *                       background mesh, where d is only extrapolated
  *                       (figure: fraction of boundary sample points)
@@ -22,6 +22,7 @@
 #include <stddef.h>
 
 #include "sm_job_inputs.h"
+#include "sm_proto_events.h"
 
 #define SM_JOB_WARNINGS_MAX 8
 
@@ -52,5 +53,9 @@ void sm_job_check_result(const sm_job_inputs *in, const double *coords, const sm
  * "" when there is none: the message of the finished event, which the
  * daemon adds to the job's status message. */
 void sm_job_warnings_text(const sm_job_warnings *ws, char *buf, size_t cap);
+
+/* One warning as a "warning" event (sm_proto_events.h; no seq, no
+ * time): what the worker streams when the runner raises it. */
+void sm_job_warning_event(const sm_job_warning *w, sm_event *ev);
 
 #endif

@@ -23,7 +23,7 @@ static sm_status as_format(sm_error *err)
 /* ------------------------------------------------------------------ names */
 
 static const char *const event_names[] = {"accepted", "started",   "progress", "finished",
-                                          "failed",   "cancelled", "status"};
+                                          "failed",   "cancelled", "status",   "warning"};
 static const char *const state_names[] = {"accepted", "running", "successful", "failed",
                                           "dismissed"};
 #define COUNT(a) (sizeof(a) / sizeof((a)[0]))
@@ -404,6 +404,15 @@ static void copy_utf8(char *dst, size_t cap, const char *s)
     dst[n] = '\0';
 }
 
+/* The members of a warning event but its message. */
+static int set_warning(json_t *obj, const sm_event *ev)
+{
+    char code[SM_WARNING_CODE_MAX + 1];
+    copy_utf8(code, sizeof code, ev->code);
+    return smp_set(obj, "code", json_string(code)) ||
+           smp_set(obj, "figure", smp_real_or_null(ev->figure));
+}
+
 json_t *sm_event_to_jansson(const sm_event *ev)
 {
     const char *type = sm_event_type_name(ev->type);
@@ -445,7 +454,9 @@ json_t *sm_event_to_jansson(const sm_event *ev)
         const char *state = sm_job_state_name(ev->state);
         bad = bad || !state || smp_set(obj, "status", json_string(state));
     }
-    if (ev->message[0] || ev->type == SM_EVENT_FAILED) {
+    if (ev->type == SM_EVENT_WARNING)
+        bad = bad || set_warning(obj, ev);
+    if (ev->message[0] || ev->type == SM_EVENT_FAILED || ev->type == SM_EVENT_WARNING) {
         char msg[SM_EVENT_MESSAGE_MAX];
         copy_utf8(msg, sizeof msg, ev->message);
         /* json_string refuses invalid UTF-8 (e.g. a raw strerror in some
@@ -479,6 +490,28 @@ static sm_status fail(sm_error *err, const char *path, const char *key, const ch
     return sm_error_set(err, SM_ERR_FORMAT, "%s: %s", sub, what);
 }
 
+/* The members of a warning event: code ([a-z0-9-], 1 to 47), figure
+ * (number or null), message (required). */
+static sm_status read_warning(const json_t *obj, const char *sub, sm_event *ev, sm_error *err)
+{
+    const json_t *v = json_object_get(obj, "code");
+    if (!v)
+        return fail(err, sub, "code", "required member missing");
+    const char *code = json_string_value(v);
+    size_t n = code ? json_string_length(v) : 0;
+    int ok = code && n >= 1 && n <= SM_WARNING_CODE_MAX && strspn(code,
+             "abcdefghijklmnopqrstuvwxyz0123456789-") == n;
+    if (!ok)
+        return fail(err, sub, "code", "must be 1 to 47 characters a-z, 0-9 and -");
+    memcpy(ev->code, code, n + 1);
+    sm_status st = read_number(obj, sub, "figure", &ev->figure, err);
+    if (st != SM_OK)
+        return st;
+    if (!json_object_get(obj, "message"))
+        return fail(err, sub, "message", "required member missing (the sentence)");
+    return SM_OK;
+}
+
 sm_status sm_event_from_jansson(const json_t *obj, sm_event *out, sm_error *err)
 {
     const char *path = "event";
@@ -494,7 +527,7 @@ sm_status sm_event_from_jansson(const json_t *obj, sm_event *out, sm_error *err)
     if (!json_is_string(v) || sm_event_type_from_name(json_string_value(v), &ev.type) != 0)
         return fail(err, path, "type",
                     "must be one of \"accepted\", \"started\", \"progress\", \"finished\", "
-                    "\"failed\", \"cancelled\", \"status\"");
+                    "\"failed\", \"cancelled\", \"status\", \"warning\"");
     char sub[SMP_PATH_MAX];
     snprintf(sub, sizeof sub, "%s.%s", path, sm_event_type_name(ev.type));
 
@@ -570,6 +603,10 @@ sm_status sm_event_from_jansson(const json_t *obj, sm_event *out, sm_error *err)
             return fail(err, sub, "status",
                         "must be one of \"accepted\", \"running\", \"successful\", "
                         "\"failed\", \"dismissed\"");
+        break;
+    case SM_EVENT_WARNING:
+        if ((st = read_warning(obj, sub, &ev, err)))
+            return st;
         break;
     }
     *out = ev;

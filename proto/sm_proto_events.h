@@ -12,13 +12,18 @@
  *   {"type":"failed","jobID":"9f..","seq":91,"time":"...","message":"worker killed by signal 9 (SIGKILL)"}
  *   {"type":"cancelled","jobID":"9f..","seq":91,"time":"...","message":"cancelled by DELETE"}
  *   {"type":"status","jobID":"9f..","seq":92,"time":"...","status":"successful","message":"..."}
+ *   {"type":"warning","jobID":"9f..","seq":89,"time":"...","code":"outside-background",
+ *    "message":"...","figure":0.12}
  *
  * "progress" carries the fields of sm_progress with the same names.
  * "finished" carries the result summary (sm_result_to_jansson) under
  * "result".  "status" is the last event of a stream: the job's final OGC
  * status (accepted|running|successful|failed|dismissed); the daemon may
- * add further statusInfo members to it.  "message" is allowed on every
- * event (required on "failed").
+ * add further statusInfo members to it.  "warning" is one of the run's
+ * warnings (proto/sm_job_warnings.h) as the job runner raises it, before
+ * "finished" (which still lists them all in its message); code, message
+ * and figure are required.  "message" is allowed on every event
+ * (required on "failed" and "warning").
  *
  * Sequence numbers: the daemon assigns seq (1, 2, 3, ... per job, no gaps)
  * when it appends an event to the job's log; a worker writes events with
@@ -55,8 +60,12 @@ typedef enum sm_event_type {
     SM_EVENT_FINISHED = 3,
     SM_EVENT_FAILED = 4,
     SM_EVENT_CANCELLED = 5,
-    SM_EVENT_STATUS = 6
+    SM_EVENT_STATUS = 6,
+    SM_EVENT_WARNING = 7
 } sm_event_type;
+
+/* Longest warning code ("outside-background"): [a-z0-9-], 1 to this. */
+#define SM_WARNING_CODE_MAX 47
 
 /* OGC API - Processes job states. */
 typedef enum sm_job_state {
@@ -77,6 +86,8 @@ typedef struct sm_event {
     sm_progress progress;           /* SM_EVENT_PROGRESS */
     sm_result result;               /* SM_EVENT_FINISHED */
     sm_job_state state;             /* SM_EVENT_STATUS */
+    char code[SM_WARNING_CODE_MAX + 1]; /* SM_EVENT_WARNING */
+    double figure;                  /* SM_EVENT_WARNING; NaN = null */
     char message[SM_EVENT_MESSAGE_MAX]; /* "" = omitted; longer strings are
                                            truncated (UTF-8 safe) */
 } sm_event;
@@ -86,7 +97,7 @@ typedef struct sm_event {
 void sm_event_init(sm_event *ev, sm_event_type type);
 
 /* Wire names: "accepted", "started", "progress", "finished", "failed",
- * "cancelled", "status"; NULL for a value outside the enum.  The
+ * "cancelled", "status", "warning"; NULL for a value outside the enum.  The
  * from_name functions return 0 on success, -1 for an unknown name. */
 const char *sm_event_type_name(sm_event_type type);
 int sm_event_type_from_name(const char *name, sm_event_type *out);

@@ -117,6 +117,13 @@ static int on_progress(const sm_progress *p, void *user)
     return stop_requested != 0;
 }
 
+static void on_warning(const sm_job_warning *warning, void *user)
+{
+    sm_event ev;
+    sm_job_warning_event(warning, &ev);
+    emit(user, &ev);
+}
+
 /* Writes one live file: name under JOB_DIR, via a temporary file. */
 static sm_status live_write(worker *w, const char *name, const double *coords, sm_error *err)
 {
@@ -327,7 +334,8 @@ int main(int argc, char **argv)
         goto done;
     }
     live_init(&w.live, &in, w.job_dir);
-    sm_job_hooks hooks = {.progress = on_progress, .shape = on_shape, .user = &w,
+    sm_job_hooks hooks = {.progress = on_progress, .shape = on_shape, .warning = on_warning,
+                          .user = &w,
                           .cancel = (const volatile int *)&stop_requested,
                           .snapshot_dir = w.save_every > 0 ? snaps : NULL,
                           .write_flags = SM_ATOMIC_FSYNC};

@@ -59,6 +59,26 @@ void smd_jobs_retry_saves(smd_server *srv)
     }
 }
 
+/* Durable first: writes the record job will have in state (with
+ * message) before the change is made or shown to anyone.  SM_ERR_IO
+ * (logged, the daemon unready, errno kept) when the spool refuses it:
+ * then nothing changed, and a restart cannot undo what clients saw. */
+static sm_status save_ahead(smd_server *srv, const smd_job *job, sm_job_state state,
+                            const char *message)
+{
+    smd_job next = *job; /* plain data: write_record only reads it */
+    next.state = state;
+    next.updated = sm_time_now();
+    snprintf(next.message, sizeof next.message, "%s", message);
+    sm_error err;
+    if (smd_store_save(srv->store, &next, &err) == SM_OK)
+        return SM_OK;
+    int saved = errno;
+    spool_refused(srv, err.msg);
+    errno = saved;
+    return SM_ERR_IO;
+}
+
 /* Appends ev to the job's log, counts it and collects the followers. */
 static void append_or_log(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_after *after)
 {
@@ -263,6 +283,18 @@ sm_status smd_jobs_progress(smd_server *srv, smd_job *job, sm_event *ev, smd_job
     return SM_OK;
 }
 
+sm_status smd_jobs_warning(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_after *after)
+{
+    sm_error err;
+    if (job->state != SM_JOB_RUNNING)
+        return refuse(job, "report a warning of", &err);
+    ev->seq = 0; /* numbered by the store */
+    ev->time = sm_time_now();
+    append_or_log(srv, job, ev, after);
+    job->updated = ev->time;
+    return SM_OK;
+}
+
 sm_status smd_jobs_finish(smd_server *srv, smd_job *job, const sm_event *finished,
                           json_t *extra, smd_jobs_after *after)
 {
@@ -333,7 +365,10 @@ sm_status smd_jobs_cancel(smd_server *srv, smd_job *job, smd_jobs_after *after)
     if (job->state != SM_JOB_ACCEPTED && job->state != SM_JOB_RUNNING)
         return refuse(job, "cancel", &err);
     int running = job->state == SM_JOB_RUNNING;
-    snprintf(job->message, sizeof job->message, "cancelled by request (DELETE)");
+    static const char message[] = "cancelled by request (DELETE)";
+    if (save_ahead(srv, job, SM_JOB_DISMISSED, message) != SM_OK)
+        return SM_ERR_IO;
+    snprintf(job->message, sizeof job->message, "%s", message);
     if (!running) {
         smd_queue_remove(srv->queue, job->id);
         sm_event ev;
@@ -407,10 +442,11 @@ static int recover_job(smd_server *srv, smd_job *job)
         job->updated = sm_time_now();
         snprintf(job->message, sizeof job->message,
                  "re-queued after a daemon restart (run %d was interrupted)", job->attempt);
-        if (smd_store_save(srv->store, job, &err) != SM_OK) {
-            smd_logf(&srv->log, SMD_LOG_ERROR, "job_recovery_failed", "%s", err.msg);
-            return -1;
-        }
+        /* a full spool: kept queued in memory and retried; the daemon is
+         * unready and starts nothing until the record is written */
+        job->unsaved = smd_store_save(srv->store, job, &err) != SM_OK;
+        if (job->unsaved)
+            spool_refused(srv, err.msg);
         smd_logf(&srv->log, SMD_LOG_INFO, "job_requeued", "job %s was running: queued again",
                  job->id);
     }

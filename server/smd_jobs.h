@@ -4,7 +4,7 @@
  *
  *   submit          -> accepted   (upload committed, queued)
  *   accepted        -> running    smd_jobs_take_next, smd_jobs_started
- *   running         -> running    smd_jobs_progress
+ *   running         -> running    smd_jobs_progress, smd_jobs_warning
  *   running         -> successful smd_jobs_finish
  *   accepted|running -> failed    smd_jobs_fail (the worker could not start,
  *                                 or ended without a result)
@@ -78,6 +78,9 @@ sm_status smd_jobs_started(smd_server *srv, smd_job *job, long pid, smd_jobs_aft
 
 /* A progress event from the worker (ignored unless running). */
 sm_status smd_jobs_progress(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_after *after);
+/* A warning event from the worker, appended as it is (ignored unless
+ * running). */
+sm_status smd_jobs_warning(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_after *after);
 
 /* log_fields (may be NULL; taken over) are added to the job's log line. */
 sm_status smd_jobs_finish(smd_server *srv, smd_job *job, const sm_event *finished,
@@ -85,7 +88,10 @@ sm_status smd_jobs_finish(smd_server *srv, smd_job *job, const sm_event *finishe
 sm_status smd_jobs_fail(smd_server *srv, smd_job *job, const char *message, json_t *log_fields,
                         smd_jobs_after *after);
 /* DELETE of a live job: a queued one is dismissed at once; a running one
- * is dismissed and its worker asked to stop (after->wake_pool). */
+ * is dismissed and its worker asked to stop (after->wake_pool).  The
+ * dismissed record is written first: SM_ERR_IO (errno set, the daemon
+ * unready) when the spool refuses it, and the job is left as it was (a
+ * restart must not run a job clients were told is dismissed). */
 sm_status smd_jobs_cancel(smd_server *srv, smd_job *job, smd_jobs_after *after);
 /* The worker of a cancelled job is gone: the "cancelled" event. */
 sm_status smd_jobs_cancelled(smd_server *srv, smd_job *job, json_t *log_fields,
@@ -115,8 +121,10 @@ sm_status smd_jobs_expire(smd_server *srv, smd_job *job, smd_jobs_after *after);
 /* Daemon start, after smd_store_open: jobs that were running are queued
  * again ("re-queued after a daemon restart"), partial results of every
  * live job are removed, their logs repaired, and every accepted job is
- * queued in submission order.  A job that cannot be recovered is logged
- * and left out of the table.  Sets *queued.  SM_ERR_NOMEM when the queue
+ * queued in submission order.  A requeued record that the spool refuses
+ * (full) keeps the job queued in memory, unsaved: the daemon is unready
+ * and starts nothing until it is written.  A job whose log cannot be
+ * loaded is logged and left out of the table.  Sets *queued.  SM_ERR_NOMEM when the queue
  * cannot take them. */
 sm_status smd_jobs_recover(smd_server *srv, size_t *queued, sm_error *err);
 

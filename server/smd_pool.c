@@ -230,6 +230,9 @@ static void handle_line(smd_pool *p, slot *s, const char *line, size_t len, smd_
     case SM_EVENT_PROGRESS:
         smd_jobs_progress(srv, job, &ev, after); /* refused once cancelled */
         break;
+    case SM_EVENT_WARNING:
+        smd_jobs_warning(srv, job, &ev, after);
+        break;
     case SM_EVENT_FINISHED:
         s->have_finished = 1;
         s->finished = ev;

@@ -373,7 +373,8 @@ enum MHD_Result smd_route_job_delete(struct MHD_Connection *conn, smd_request *r
     }
     if (!smd_job_state_final(job->state)) {
         /* cancel: dismissed at once (a running worker is stopped) */
-        smd_jobs_cancel(srv, job, &after);
+        if (smd_jobs_cancel(srv, job, &after) == SM_ERR_IO) /* nothing changed */
+            return delete_refused(conn, req, &after, NULL, errno);
         doc = smd_status_document(job);
     } else {
         /* final: the job and its files go; the reply is its last status */

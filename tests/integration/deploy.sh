@@ -218,15 +218,15 @@ result(len(stages) >= 2 and all(re.fullmatch(r"debian:bookworm(-slim)?", s["imag
        "Dockerfile: multi-stage, every stage on debian:bookworm", [s["image"] for s in stages])
 build, runtime = stages[0], stages[-1]
 build_cmds = " && ".join(build["run"])
-make_targets = re.findall(r"\bmake\b((?:\s+-\S+)*)\s+([a-z]+)", build_cmds)
+make_targets = re.findall(r"\bmake\b((?:\s+-\S+)*)\s+([a-z][a-z-]*)", build_cmds)
 targets = [t for _, t in make_targets]
 ci = open(os.path.join(root, ".ci", "run")).read()
 test_recipe = re.search(r"^test:([^\n]*)\n((?:\t[^\n]*\n)+)", makefile, re.M)
 ci_steps = "make test" in ci and test_recipe and "deps" in test_recipe.group(1) and re.search(r"\$\(MAKE\)( -j\S+)? all\b", test_recipe.group(2))
 all_has_release = re.search(r"^all: \$\(foreach v,\$\(VARIANTS\)", makefile, re.M) and "VARIANTS := release" in makefile
-result(targets[:2] == ["deps", "release"] and "install" in targets and ci_steps and all_has_release
+result(targets[:2] == ["deps-build", "release"] and "install" in targets and ci_steps and all_has_release
        and all(re.search(r"^%s:" % t, makefile, re.M) for t in targets),
-       "Dockerfile build stage runs make deps, make release, make install (CI: make test = deps + all, all includes release)",
+       "Dockerfile build stage runs make deps-build, make release, make install (CI: make test = deps + all, all includes release)",
        targets)
 # debian:bookworm has no make: the build stage must install it before it runs make
 first_make = re.search(r"(?:^|&&|;)\s*make\b", build_cmds)

@@ -112,6 +112,28 @@ static void gzip_copy(const char *src, const char *dst)
     assert_int_equal(gzclose(out), Z_OK);
 }
 
+/* The same physical names, in the same order. */
+static void assert_same_names(const sm_mesh *a, const sm_mesh *b, const char *what)
+{
+    assert_int_equal(a->nnames, b->nnames);
+    for (int32_t i = 0; i < a->nnames; i++) {
+        if (a->names[i].dim != b->names[i].dim || a->names[i].tag != b->names[i].tag ||
+            strcmp(a->names[i].name, b->names[i].name) != 0)
+            fail_msg("%s: physical name %d differs", what, (int)i);
+    }
+}
+
+/* m names (dim, tag) name, exactly once. */
+static void assert_has_name(const sm_mesh *m, int dim, int tag, const char *name)
+{
+    int found = 0;
+    for (int32_t i = 0; i < m->nnames; i++)
+        found += m->names[i].dim == dim && m->names[i].tag == tag &&
+                 strcmp(m->names[i].name, name) == 0;
+    if (found != 1)
+        fail_msg("physical name (%d, %d) \"%s\" found %d times", dim, tag, name, found);
+}
+
 /* Every .msh variant of geo equals gmsh's Medit export of it. */
 static void check_formats_agree(fixture *f, const char *geo, int dim)
 {
@@ -126,11 +148,15 @@ static void check_formats_agree(fixture *f, const char *geo, int dim)
     gzip_copy(p[2], p[4]);
     sm_mesh *ref = read_ok(p[0]);
     assert_int_equal(ref->dim, dim);
+    assert_int_equal(ref->nnames, 0); /* Medit has no names */
+    sm_mesh *first = read_ok(p[1]);
     for (int k = 1; k < 5; k++) {
         sm_mesh *m = read_ok(p[k]);
         assert_same_mesh(ref, m, names[k]);
+        assert_same_names(first, m, names[k]);
         sm_mesh_free(m);
     }
+    sm_mesh_free(first);
     sm_mesh_free(ref);
 }
 
@@ -151,6 +177,18 @@ static void test_cube_formats_agree(void **state)
         n4 += m->facet_refs[i] == 4;
     }
     assert_true(n3 > 0 && n4 > 4 * n3);
+    /* ... and their $PhysicalNames travel with the mesh, also in a copy */
+    assert_int_equal(m->nnames, 3);
+    assert_has_name(m, 3, 7, "solid");
+    assert_has_name(m, 2, 3, "bottom");
+    assert_has_name(m, 2, 4, "sides");
+    sm_mesh *c = NULL;
+    sm_error err;
+    sm_error_clear(&err);
+    assert_int_equal(sm_mesh_clone(m, &c, &err), SM_OK);
+    assert_same_names(m, c, "clone");
+    assert_true(c->names != m->names && c->names[0].name != m->names[0].name);
+    sm_mesh_free(c);
     sm_mesh_free(m);
 }
 
@@ -169,6 +207,10 @@ static void test_square_formats_agree(void **state)
         int left = m->coords[2 * a] == 0.0 && m->coords[2 * b] == 0.0;
         assert_int_equal(m->facet_refs[i], left ? 2 : 9);
     }
+    assert_int_equal(m->nnames, 3); /* 2.2 has $PhysicalNames too */
+    assert_has_name(m, 2, 5, "plate");
+    assert_has_name(m, 1, 2, "left");
+    assert_has_name(m, 1, 9, "others");
     sm_mesh_free(m);
 }
 

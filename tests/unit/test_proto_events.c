@@ -94,6 +94,10 @@ static void assert_event_equal(const sm_event *a, const sm_event *b)
         assert_result_equal(&a->result, &b->result);
     if (a->type == SM_EVENT_STATUS)
         assert_int_equal(a->state, b->state);
+    if (a->type == SM_EVENT_WARNING) {
+        assert_string_equal(a->code, b->code);
+        assert_true(same_double(a->figure, b->figure));
+    }
 }
 
 static void round_trip(const sm_event *ev, sm_event *back)
@@ -123,7 +127,7 @@ static void test_every_event_type_round_trips(void **state)
     const double t0 = 1714564800.123; /* 2024-05-01T12:00:00.123Z */
     sm_event ev, back;
     int types = 0;
-    for (int type = SM_EVENT_ACCEPTED; type <= SM_EVENT_STATUS; type++) {
+    for (int type = SM_EVENT_ACCEPTED; type <= SM_EVENT_WARNING; type++) {
         sm_event_init(&ev, (sm_event_type)type);
         snprintf(ev.job_id, sizeof ev.job_id, "0123456789abcdef0123456789abcdef");
         ev.seq = 1000000000000LL + type;
@@ -155,13 +159,25 @@ static void test_every_event_type_round_trips(void **state)
         case SM_EVENT_STATUS:
             ev.state = SM_JOB_SUCCESSFUL;
             break;
+        case SM_EVENT_WARNING:
+            snprintf(ev.code, sizeof ev.code, "outside-background");
+            snprintf(ev.message, sizeof ev.message, "12%% of the boundary lies outside");
+            ev.figure = 0.125;
+            break;
         default:
             break;
         }
         round_trip(&ev, &back);
         types++;
     }
-    assert_int_equal(types, 7);
+    assert_int_equal(types, 8);
+    /* a warning's figure may be non-finite: null on the wire, NaN back */
+    sm_event_init(&ev, SM_EVENT_WARNING);
+    snprintf(ev.code, sizeof ev.code, "above-resolution");
+    snprintf(ev.message, sizeof ev.message, "far");
+    ev.figure = NAN;
+    round_trip(&ev, &back);
+    assert_true(isnan(back.figure));
 
     /* a worker's event: no seq, no job id, no time */
     sm_event_init(&ev, SM_EVENT_PROGRESS);
@@ -311,6 +327,23 @@ static void test_decode_errors_name_the_member(void **state)
          "event.finished.result.timings.sample: required member missing"},
         {"{\"type\":\"failed\"}", "event.failed.message: required member missing"},
         {"{\"type\":\"status\"}", "event.status.status: required member missing"},
+        {"{\"type\":\"warning\",\"figure\":1,\"message\":\"m\"}",
+         "event.warning.code: required member missing"},
+        {"{\"type\":\"warning\",\"code\":\"Bad Code\",\"figure\":1,\"message\":\"m\"}",
+         "event.warning.code: must be 1 to 47 characters"},
+        {"{\"type\":\"warning\",\"code\":\"\",\"figure\":1,\"message\":\"m\"}",
+         "event.warning.code: must be 1 to 47 characters"},
+        {"{\"type\":\"warning\",\"code\":\"a-aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa\","
+         "\"figure\":1,\"message\":\"m\"}",
+         "event.warning.code: must be 1 to 47 characters"},
+        {"{\"type\":\"warning\",\"code\":7,\"figure\":1,\"message\":\"m\"}",
+         "event.warning.code: must be 1 to 47 characters"},
+        {"{\"type\":\"warning\",\"code\":\"alpha-small\",\"message\":\"m\"}",
+         "event.warning.figure: required member missing"},
+        {"{\"type\":\"warning\",\"code\":\"alpha-small\",\"figure\":\"x\",\"message\":\"m\"}",
+         "event.warning.figure: must be a number or null"},
+        {"{\"type\":\"warning\",\"code\":\"alpha-small\",\"figure\":1}",
+         "event.warning.message: required member missing"},
         {"{\"type\":\"status\",\"status\":\"done\"}", "event.status.status: must be one of"},
         {"{\"type\":\"accepted\",\"type\":\"failed\"}", "duplicate object key"},
     };
@@ -459,7 +492,7 @@ static void test_result_summary(void **state)
 static void test_names(void **state)
 {
     (void)state;
-    for (int i = 0; i <= SM_EVENT_STATUS; i++) {
+    for (int i = 0; i <= SM_EVENT_WARNING; i++) {
         sm_event_type t;
         assert_int_equal(sm_event_type_from_name(sm_event_type_name((sm_event_type)i), &t), 0);
         assert_int_equal(t, i);
@@ -471,7 +504,8 @@ static void test_names(void **state)
     }
     assert_string_equal(sm_job_state_name(SM_JOB_SUCCESSFUL), "successful");
     assert_string_equal(sm_event_type_name(SM_EVENT_CANCELLED), "cancelled");
-    assert_null(sm_event_type_name((sm_event_type)7));
+    assert_string_equal(sm_event_type_name(SM_EVENT_WARNING), "warning");
+    assert_null(sm_event_type_name((sm_event_type)8));
     assert_null(sm_job_state_name((sm_job_state)-1));
     sm_job_state s;
     assert_int_equal(sm_job_state_from_name("SUCCESSFUL", &s), -1);
@@ -491,9 +525,10 @@ static void test_schema_lists_the_members(void **state)
     json_t *defs = json_object_get(schema, "$defs");
     assert_non_null(defs);
     int checked = 0;
-    for (int type = 0; type <= SM_EVENT_STATUS; type++) {
+    for (int type = 0; type <= SM_EVENT_WARNING; type++) {
         sm_event ev;
         sm_event_init(&ev, (sm_event_type)type);
+        snprintf(ev.code, sizeof ev.code, "alpha-small");
         snprintf(ev.job_id, sizeof ev.job_id, "j");
         ev.seq = 1;
         ev.time = 1.0;

@@ -14,6 +14,15 @@
 /* Hard limits that keep hostile inputs from asking for absurd memory. */
 #define SM_MAX_ENTITIES 200000000 /* per entity kind */
 
+/* One Gmsh physical name: physical tag `tag` of dimension `dim` (0 to
+ * 3) is called `name` (UTF-8 as in the file, at most SM_MESH_NAME_MAX
+ * bytes). */
+#define SM_MESH_NAME_MAX 255
+typedef struct sm_mesh_name {
+    int32_t dim, tag;
+    char *name;
+} sm_mesh_name;
+
 typedef struct sm_mesh {
     int dim;              /* 2 or 3 */
 
@@ -40,6 +49,13 @@ typedef struct sm_mesh {
     int32_t *bfacet_refs; /* nbfacets */
     int32_t *bfacet_elem; /* owning element of each boundary facet */
     uint8_t *on_boundary; /* nverts flags: vertex lies on a boundary facet */
+
+    /* The $PhysicalNames of a Gmsh .msh file, in file order, so that a
+     * reference can be reported by its name; 0 and NULL for other
+     * formats.  Owned by the mesh (sm_mesh_free, kept by sm_mesh_clone);
+     * the writers ignore them. */
+    int32_t nnames;
+    sm_mesh_name *names;
 } sm_mesh;
 
 /* Allocates an empty mesh of the given sizes (arrays zeroed).  Any count
@@ -47,6 +63,8 @@ typedef struct sm_mesh {
 sm_status sm_mesh_alloc(sm_mesh **out, int dim, int32_t nverts,
                         int32_t nelems, int32_t nfacets, sm_error *err);
 void sm_mesh_free(sm_mesh *m);
+/* Frees a name table of n entries (names and array; NULL allowed). */
+void sm_mesh_names_free(sm_mesh_name *names, int32_t n);
 /* Deep copy (including derived boundary data when present). */
 sm_status sm_mesh_clone(const sm_mesh *m, sm_mesh **out, sm_error *err);
 

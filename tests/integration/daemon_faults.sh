@@ -28,7 +28,9 @@ exec "$BIN/shapematch-worker" "\$@"
 EOF
 chmod +x "$WORK/slow-worker.sh"
 start_daemon crash --workers 1 --worker "$WORK/slow-worker.sh" || { not_ok "daemon starts"; exit 1; }
-A=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 300)")
+# A runs its 300 iterations whatever the stall rule says: it must still be
+# running when the daemon is killed, however fast this machine is.
+A=$(submit "$DISK" "$BOX" "$BOXSOL" "$BALL_PARAMS, \"max_iter\": 300, \"tol_step\": 1e-15, \"tol_stall\": 0}")
 B=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 100)")
 C=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 100)")
 poll 20 state_is "$A" running

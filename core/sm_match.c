@@ -1,6 +1,7 @@
 #include "shapematch/sm_match.h"
 
 #include <math.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -137,7 +138,8 @@ static sm_status setup_mesh(run_state *rs, const sm_match_opts *opts, sm_error *
 /* The two expensive set-up tasks are independent: the boundary functional
  * on the (prebuilt) target field with the initial samples, and the elastic
  * operator's symbolic analysis with its first factorization.  They run
- * side by side (each may use more threads inside). */
+ * side by side when more than one thread is allowed (the thread policy,
+ * sm_job_runner.h, allows one for small templates). */
 static sm_status setup_operators(run_state *rs, const sm_field *target, sm_error *err)
 {
     const sm_params *params = rs->params;
@@ -145,7 +147,7 @@ static sm_status setup_operators(run_state *rs, const sm_field *target, sm_error
     sm_error err_target, err_elastic;
     sm_error_clear(&err_target);
     sm_error_clear(&err_elastic);
-#pragma omp parallel sections num_threads(2)
+#pragma omp parallel sections num_threads(omp_get_max_threads() > 1 ? 2 : 1)
     {
 #pragma omp section
         {

@@ -77,6 +77,11 @@ start=$(date +%s.%N)
 $BIN/shapematch sdf --surface "$SD/blob.obj" -o "$SD/out" 2>/dev/null
 echo "shapematch sdf --surface blob.obj -o DIR (generated background included): $(echo "$(date +%s.%N) - $start" | bc) s"
 
+echo
+echo "== mesh readers: parse rates (goal: .meshb >= 200 MB/s) =="
+mkdir -p build/bench-io
+$BIN/io_bench build/bench-io 64
+
 echo "== stop rules: the stall rule on the examples and on Gmsh-made cases (bench/stall_cases.py) =="
 python3 bench/stall_cases.py "$BIN" --examples
 

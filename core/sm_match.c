@@ -1,6 +1,7 @@
 #include "shapematch/sm_match.h"
 
 #include <math.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -134,10 +135,26 @@ static sm_status setup_mesh(run_state *rs, const sm_match_opts *opts, sm_error *
     return SM_OK;
 }
 
+/* CHOLMOD's supernodal factorization opens OpenMP regions of a fixed
+ * width of its own (num_threads(4) in CHOLMOD 3), which the thread limit
+ * does not cap; outside an active region they would start 4 threads
+ * where one is allowed (and spin for it: 5x the set-up CPU time on the
+ * busy machine).  With one thread allowed, every region is made inactive
+ * for the call instead (max-active-levels 0: they run on the calling
+ * thread).  Returns the previous level, for omp_set_max_active_levels. */
+static int one_thread_regions(void)
+{
+    int levels = omp_get_max_active_levels();
+    if (omp_get_max_threads() == 1)
+        omp_set_max_active_levels(0);
+    return levels;
+}
+
 /* The two expensive set-up tasks are independent: the boundary functional
  * on the (prebuilt) target field with the initial samples, and the elastic
  * operator's symbolic analysis with its first factorization.  They run
- * side by side (each may use more threads inside). */
+ * side by side when more than one thread is allowed (the thread policy,
+ * sm_job_runner.h, allows one for small templates). */
 static sm_status setup_operators(run_state *rs, const sm_field *target, sm_error *err)
 {
     const sm_params *params = rs->params;
@@ -145,7 +162,8 @@ static sm_status setup_operators(run_state *rs, const sm_field *target, sm_error
     sm_error err_target, err_elastic;
     sm_error_clear(&err_target);
     sm_error_clear(&err_elastic);
-#pragma omp parallel sections num_threads(2)
+    int levels = one_thread_regions();
+#pragma omp parallel sections num_threads(omp_get_max_threads() > 1 ? 2 : 1)
     {
 #pragma omp section
         {
@@ -170,6 +188,7 @@ static sm_status setup_operators(run_state *rs, const sm_field *target, sm_error
                 st_elastic = sm_elasticity_factorize(rs->elasticity, rs->x, &err_elastic);
         }
     }
+    omp_set_max_active_levels(levels);
     if (st_target != SM_OK || st_elastic != SM_OK) {
         if (err)
             *err = st_target != SM_OK ? err_target : err_elastic;
@@ -189,7 +208,10 @@ static sm_status find_direction(run_state *rs, sm_result *result, int *found, sm
     const int dim = rs->dim;
     double t0, ta, tf;
     if (rs->since_factor >= rs->params->refactor_every) {
-        if ((st = sm_elasticity_factorize(rs->elasticity, rs->x, err)) != SM_OK)
+        int levels = one_thread_regions();
+        st = sm_elasticity_factorize(rs->elasticity, rs->x, err);
+        omp_set_max_active_levels(levels);
+        if (st != SM_OK)
             return st;
         rs->since_factor = 0;
         result->factorizations++;

@@ -15,6 +15,7 @@
 #include "sm_stream.h"
 
 #define READ_BUF_SIZE (1u << 16)
+#define READ_BUF_MIN 4096u
 /* Deflate cannot expand data by more than about 1032:1, which bounds the
  * decompressed size of a gzip file by its compressed size. */
 #define DEFLATE_MAX_RATIO 1032u
@@ -42,11 +43,69 @@ uint64_t sm_bswap64(uint64_t v)
 /* reader                                                              */
 /* ------------------------------------------------------------------ */
 
+/* The read buffer: the whole file when it is small (one read finds the
+ * end), 64 KiB otherwise; the gzip buffer likewise sized to the input.
+ * A small file then costs a small allocation, not 64K + 384K. */
+static size_t read_buffer_size(uint64_t file_size)
+{
+    if (file_size >= READ_BUF_SIZE)
+        return READ_BUF_SIZE;
+    return file_size + 1 < READ_BUF_MIN ? READ_BUF_MIN : (size_t)file_size + 1;
+}
+
+static unsigned zlib_buffer_size(uint64_t file_size)
+{
+    if (file_size >= SM_STREAM_ZLIB_BUF_SIZE)
+        return SM_STREAM_ZLIB_BUF_SIZE;
+    return file_size < READ_BUF_MIN ? READ_BUF_MIN : (unsigned)file_size;
+}
+
+/* 1 when the regular file behind fd starts with the gzip magic, 0 when
+ * it does not, -1 when that cannot be told without reading (pipes). */
+static int gzip_magic(int fd, const struct stat *st)
+{
+    unsigned char m[2];
+    if (!S_ISREG(st->st_mode))
+        return -1;
+    ssize_t n;
+    do
+        n = pread(fd, m, 2, 0);
+    while (n < 0 && errno == EINTR);
+    if (n < 0)
+        return -1;
+    return n == 2 && m[0] == 0x1f && m[1] == 0x8b;
+}
+
+/* Plain regular files are read with read(2): zlib's state and buffers
+ * are set up only for gzip input (and for pipes, whose first bytes
+ * cannot be looked at twice). */
+static sm_status open_stream(sm_reader *r, int fd, const struct stat *st, sm_error *err)
+{
+    int magic = gzip_magic(fd, st);
+    r->cap = read_buffer_size(r->file_size);
+    r->buf = malloc(r->cap);
+    if (r->buf && magic == 0) {
+        r->fd = fd;
+        return SM_OK;
+    }
+    r->gz = r->buf ? gzdopen(fd, "rb") : NULL;
+    if (!r->gz) {
+        close(fd);
+        free(r->buf);
+        r->buf = NULL;
+        return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", r->path);
+    }
+    gzbuffer(r->gz, zlib_buffer_size(r->file_size));
+    r->compressed = !gzdirect(r->gz);
+    return SM_OK;
+}
+
 sm_status sm_reader_open(sm_reader *r, const char *path, sm_error *err)
 {
     memset(r, 0, sizeof *r);
     r->path = path;
     r->line = 1;
+    r->fd = -1;
     int fd = open(path, O_RDONLY | O_CLOEXEC);
     if (fd < 0)
         return sm_error_set(err, SM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
@@ -62,21 +121,9 @@ sm_status sm_reader_open(sm_reader *r, const char *path, sm_error *err)
     }
     /* Pipes and devices have no size: no early bound then. */
     r->file_size = S_ISREG(st.st_mode) ? (uint64_t)st.st_size : UINT64_MAX / 2;
-    r->gz = gzdopen(fd, "rb");
-    r->buf = malloc(READ_BUF_SIZE);
-    if (!r->gz || !r->buf) {
-        if (r->gz)
-            gzclose(r->gz);
-        else
-            close(fd);
-        free(r->buf);
-        r->buf = NULL;
-        r->gz = NULL;
-        return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", path);
-    }
-    r->cap = READ_BUF_SIZE;
-    gzbuffer(r->gz, SM_STREAM_ZLIB_BUF_SIZE);
-    r->compressed = !gzdirect(r->gz);
+    sm_status s = open_stream(r, fd, &st, err);
+    if (s != SM_OK)
+        return s;
     sm__stream_use_c_locale(&r->c_locale, &r->saved_locale);
     return SM_OK;
 }
@@ -85,9 +132,12 @@ void sm_reader_close(sm_reader *r)
 {
     if (r->gz)
         gzclose(r->gz);
+    if (r->fd >= 0)
+        close(r->fd);
     free(r->buf);
     sm__stream_restore_locale(r->c_locale, r->saved_locale);
     r->gz = NULL;
+    r->fd = -1;
     r->buf = NULL;
     r->c_locale = (locale_t)0;
 }
@@ -115,6 +165,23 @@ uint64_t sm_reader_max_remaining(const sm_reader *r)
     return most;
 }
 
+/* refill() of a plain file: read(2) into the free end of the buffer. */
+static void refill_plain(sm_reader *r)
+{
+    ssize_t n;
+    do
+        n = read(r->fd, r->buf + r->len, r->cap - r->len);
+    while (n < 0 && errno == EINTR);
+    if (n < 0) {
+        r->stream_status = SM_ERR_IO;
+        why(r, "read error: %s", strerror(errno));
+    } else if (n == 0) {
+        r->at_eof = 1;
+    } else {
+        r->len += (size_t)n;
+    }
+}
+
 /* Appends more bytes to the buffer; sets at_eof or stream_status. */
 static void refill(sm_reader *r)
 {
@@ -129,6 +196,10 @@ static void refill(sm_reader *r)
     }
     if (r->len == r->cap)
         return;
+    if (r->fd >= 0) {
+        refill_plain(r);
+        return;
+    }
     int n = gzread(r->gz, r->buf + r->len, (unsigned)(r->cap - r->len));
     int errnum = Z_OK;
     if (n < 0) {
@@ -189,7 +260,7 @@ sm_status sm_reader_peek(sm_reader *r, void *dst, size_t n, size_t *got)
 
 static inline int is_space(int c)
 {
-    return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
+    return c == ' ' || (unsigned)(c - '\t') <= (unsigned)('\r' - '\t'); /* \t \n \v \f \r */
 }
 
 void sm_quote_token(const char *s, char *out, size_t cap)
@@ -213,6 +284,28 @@ void sm_quote_token(const char *s, char *out, size_t cap)
     }
     out[k++] = '\'';
     out[k] = '\0';
+}
+
+/* Length of the token at buf[pos], refilling until its end is in the
+ * buffer (or the file ends): the token is then scanned in place rather
+ * than byte by byte through peek_byte.  A token longer than the buffer
+ * stops at its end (the caller reports it as too long). */
+static size_t token_extent(sm_reader *r, int *nul)
+{
+    for (;;) {
+        const unsigned char *b = r->buf;
+        size_t i = r->pos, len = r->len;
+        unsigned char all = 0xff;
+        while (i < len && !is_space(b[i]) && b[i] != '#')
+            all &= b[i++] ? 0xff : 0;
+        *nul = !all;
+        if (i < len || r->at_eof || r->stream_status != SM_OK)
+            return i - r->pos;
+        size_t before = len - r->pos;
+        refill(r);
+        if (r->len - r->pos == before)
+            return before;
+    }
 }
 
 sm_status sm_reader_token(sm_reader *r, int *found)
@@ -240,26 +333,22 @@ sm_status sm_reader_token(sm_reader *r, int *found)
         }
     }
     r->token_line = r->line;
-    size_t n = 0;
-    int too_long = 0;
-    while ((c = peek_byte(r)) >= 0 && !is_space(c) && c != '#') {
-        if (n + 1 < sizeof r->token)
-            r->token[n++] = (char)c;
-        else
-            too_long = 1;
-        r->pos++;
-    }
-    r->token[n] = '\0';
+    int nul;
+    size_t n = token_extent(r, &nul);
     if (r->stream_status != SM_OK)
         return r->stream_status;
-    if (too_long) {
+    size_t keep = n < sizeof r->token ? n : sizeof r->token - 1;
+    memcpy(r->token, r->buf + r->pos, keep);
+    r->token[keep] = '\0';
+    r->pos += n;
+    if (n >= sizeof r->token) {
         char q[64];
         sm_quote_token(r->token, q, sizeof q);
         why(r, "found a token longer than %d characters (%s)", SM_TOKEN_LEN - 1, q);
         return SM_ERR_FORMAT;
     }
     /* An embedded NUL byte would silently shorten the token. */
-    if (strlen(r->token) != n) {
+    if (nul) {
         why(r, "found a NUL byte in a token");
         return SM_ERR_FORMAT;
     }
@@ -280,8 +369,82 @@ static sm_status need_token(sm_reader *r)
     return SM_OK;
 }
 
+/* ---- fast paths of sm_reader_int / sm_reader_real ----
+ * The common case, a plain number followed by whitespace inside the
+ * buffer, is parsed in place (no byte-by-byte tokenizing); anything else
+ * (comments, the buffer's end, a malformed or out-of-range number) falls
+ * back to the general path, which gives the same result or the error. */
+
+/* Skips whitespace from buf[pos] without consuming; *line advanced over
+ * newlines.  Returns the index of the next byte (len at the end). */
+static size_t skip_space_at(const sm_reader *r, long *line)
+{
+    const unsigned char *b = r->buf;
+    size_t i = r->pos;
+    while (i < r->len && is_space(b[i])) {
+        *line += b[i] == '\n';
+        i++;
+    }
+    return i;
+}
+
+/* Consumes the token buf[start, end) found by a fast path. */
+static void commit_token(sm_reader *r, size_t start, size_t end, long line)
+{
+    size_t n = end - start;
+    if (n > sizeof r->token - 1)
+        n = sizeof r->token - 1;
+    memcpy(r->token, r->buf + start, n);
+    r->token[n] = '\0';
+    r->pos = end;
+    r->line = line;
+    r->token_line = line;
+}
+
+static int fast_int(sm_reader *r, int64_t lo, int64_t hi, int64_t *out)
+{
+    long line = r->line;
+    size_t start = skip_space_at(r, &line), i = start;
+    const unsigned char *b = r->buf;
+    int neg = 0;
+    if (i < r->len && (b[i] == '-' || b[i] == '+'))
+        neg = b[i++] == '-';
+    size_t d0 = i;
+    uint64_t v = 0;
+    while (i < r->len && (unsigned)(b[i] - '0') < 10u && i - d0 < 18)
+        v = v * 10 + (uint64_t)(b[i++] - '0');
+    if (i == d0 || i >= r->len || !is_space(b[i]))
+        return 0;
+    int64_t x = neg ? -(int64_t)v : (int64_t)v;
+    if (x < lo || x > hi)
+        return 0;
+    commit_token(r, start, i, line);
+    *out = x;
+    return 1;
+}
+
+static int fast_real(sm_reader *r, double *out)
+{
+    long line = r->line;
+    size_t start = skip_space_at(r, &line), end = start;
+    const unsigned char *b = r->buf;
+    while (end < r->len && !is_space(b[end]) && b[end] != '#')
+        end++;
+    if (end == start || end >= r->len || !is_space(b[end]) || end - start >= SM_TOKEN_LEN)
+        return 0;
+    char *stop;
+    double v = strtod((const char *)b + start, &stop);
+    if (stop != (const char *)b + end || !isfinite(v))
+        return 0;
+    commit_token(r, start, end, line);
+    *out = v;
+    return 1;
+}
+
 sm_status sm_reader_int(sm_reader *r, int64_t lo, int64_t hi, int64_t *out)
 {
+    if (fast_int(r, lo, hi, out))
+        return SM_OK;
     sm_status st = need_token(r);
     if (st != SM_OK)
         return st;
@@ -297,7 +460,7 @@ sm_status sm_reader_int(sm_reader *r, int64_t lo, int64_t hi, int64_t *out)
     }
     uint64_t v = 0;
     int overflow = 0;
-    for (; isdigit((unsigned char)*s); s++) {
+    for (; (unsigned)(*s - '0') < 10u; s++) {
         if (v > (UINT64_MAX - 9) / 10)
             overflow = 1;
         else
@@ -326,6 +489,8 @@ sm_status sm_reader_int(sm_reader *r, int64_t lo, int64_t hi, int64_t *out)
 
 sm_status sm_reader_real(sm_reader *r, double *out)
 {
+    if (fast_real(r, out))
+        return SM_OK;
     sm_status st = need_token(r);
     if (st != SM_OK)
         return st;

@@ -2,8 +2,9 @@
  * the public API; sm_writer.h is the output side, sm_medit_common.h the
  * Medit helpers built on this).
  *
- * sm_reader: a buffered input stream over a plain or gzip file (zlib
- * detects compression transparently), with
+ * sm_reader: a buffered input stream over a plain or gzip file (the
+ * gzip magic picks zlib; plain files are read directly, and the buffers
+ * are sized to the input, so a small file is cheap to open), with
  *   - an ASCII tokenizer that skips whitespace and '#' comments and keeps
  *     the line number of the last token,
  *   - a binary reader that keeps the byte offset (in the decompressed
@@ -33,7 +34,8 @@
 
 typedef struct sm_reader {
     const char *path;        /* borrowed, for messages */
-    gzFile gz;
+    gzFile gz;               /* gzip input (and pipes); else NULL */
+    int fd;                  /* plain regular file read directly; else -1 */
     unsigned char *buf;
     size_t cap, pos, len;
     uint64_t buf_offset;     /* stream offset of buf[0] */

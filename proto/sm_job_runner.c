@@ -1,8 +1,10 @@
 /* The job runner (see sm_job_runner.h). */
 #include "sm_job_runner.h"
 
+#include <dlfcn.h>
 #include <errno.h>
 #include <math.h>
+#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -110,6 +112,36 @@ static void tell_warnings(const run_ctx *c, int from)
         c->hooks->warning(&c->run->warnings.w[i], c->hooks->user);
 }
 
+int sm_job_threads_for(int64_t elements, int max_threads)
+{
+    if (max_threads < 1 || elements < SM_JOB_THREADS_MIN_ELEMENTS)
+        return 1;
+    return max_threads;
+}
+
+/* OpenMP and BLAS threads to n.  The BLAS CHOLMOD calls is whichever
+ * libblas.so.3 the system selects: OpenBLAS is told through its
+ * openblas_set_num_threads when it is the one loaded (found at run time,
+ * so nothing links against OpenBLAS itself); a BLAS without threads
+ * needs nothing. */
+static void set_threads(int n)
+{
+    omp_set_num_threads(n);
+    void (*blas_threads)(int) = (void (*)(int))dlsym(RTLD_DEFAULT, "openblas_set_num_threads");
+    if (blas_threads)
+        blas_threads(n);
+}
+
+static sm_status run_match(const sm_match_opts *opts, const sm_match_callbacks *cb, sm_job_run *run,
+                           sm_error *err)
+{
+    int limit = omp_get_max_threads();
+    set_threads(sm_job_threads_for(opts->template_mesh->nelems, limit));
+    sm_status st = sm_match_run(opts, cb, run->coords, &run->result, err);
+    set_threads(limit);
+    return st;
+}
+
 sm_status sm_job_run_exec(const sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_run *run,
                           sm_error *err)
 {
@@ -131,7 +163,7 @@ sm_status sm_job_run_exec(const sm_job_inputs *in, const sm_job_hooks *hooks, sm
         return st;
     tell_warnings(&c, 0);
     int told = run->warnings.n;
-    st = sm_match_run(&opts, &cb, run->coords, &run->result, err);
+    st = run_match(&opts, &cb, run, err);
     if (c.failed != SM_OK) {
         if (err)
             *err = c.error;

@@ -109,6 +109,21 @@ sm_status sm_job_run_exec(const sm_job_inputs *in, const sm_job_hooks *hooks,
                           sm_job_run *run, sm_error *err);
 void sm_job_run_free(sm_job_run *run);
 
+/* Thread policy of a run: OpenMP and BLAS threads for a template of
+ * `elements` elements when at most max_threads are allowed (the OpenMP
+ * limit when the run starts: OMP_NUM_THREADS, which the daemon sets from
+ * --worker-threads; else the cores).  One thread below
+ * SM_JOB_THREADS_MIN_ELEMENTS: there a parallel region holds a few
+ * microseconds of work, and on a busy machine a second thread that is
+ * not scheduled makes every barrier wait for it (measured: a 778-triangle
+ * 2D run at 1.0 ms per iteration with one thread, 16 ms with two; the
+ * 30k-tetrahedron 3D example 1.7x slower with two).  Above, max_threads.
+ * sm_job_run_exec applies it for the run and restores the limit after;
+ * the result depends only on the thread count, so a given size and
+ * limit give the same result every time. */
+#define SM_JOB_THREADS_MIN_ELEMENTS 100000
+int sm_job_threads_for(int64_t elements, int max_threads);
+
 /* The summary document (a new reference; NULL when out of memory).
  * names: what "inputs" reports for each file. */
 json_t *sm_job_summary_to_jansson(const sm_job_inputs *in, const sm_job_run *run,

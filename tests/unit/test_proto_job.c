@@ -16,6 +16,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 #include <cmocka.h>
+#include <omp.h>
 
 #include "shapematch/sm_atomic.h"
 #include "shapematch/sm_io.h"
@@ -379,6 +380,47 @@ static void test_outcomes(void **state)
     sm_job_inputs_free(&in);
 }
 
+/* The thread limit seen from inside the run (the progress hook runs on
+ * the calling thread, whose OpenMP limit the runner sets). */
+static int note_threads(const sm_progress *p, void *user)
+{
+    (void)p;
+    int *seen = user;
+    int t = omp_get_max_threads();
+    if (t > *seen)
+        *seen = t;
+    return 0;
+}
+
+static void test_thread_policy(void **state)
+{
+    fixture *f = *state;
+    assert_int_equal(sm_job_threads_for(0, 4), 1);
+    assert_int_equal(sm_job_threads_for(SM_JOB_THREADS_MIN_ELEMENTS - 1, 4), 1);
+    assert_int_equal(sm_job_threads_for(SM_JOB_THREADS_MIN_ELEMENTS, 4), 4);
+    assert_int_equal(sm_job_threads_for(SM_JOB_THREADS_MIN_ELEMENTS, 1), 1);
+    assert_int_equal(sm_job_threads_for(10 * SM_JOB_THREADS_MIN_ELEMENTS, 0), 1);
+    /* a small template runs on one thread, and the limit is back after */
+    int saved = omp_get_max_threads();
+    omp_set_num_threads(3);
+    sm_job_inputs in;
+    read_inputs(f, &in);
+    sm_params p;
+    ball_params(&p);
+    sm_error err;
+    assert_int_equal(sm_job_inputs_set_params(&in, &p, &err), SM_OK);
+    int seen = 0;
+    sm_job_hooks hooks = {.progress = note_threads, .user = &seen};
+    sm_job_run run;
+    assert_int_equal(sm_job_run_exec(&in, &hooks, &run, &err), SM_OK);
+    assert_true(in.template_mesh->nelems < SM_JOB_THREADS_MIN_ELEMENTS);
+    assert_int_equal(seen, 1);
+    assert_int_equal(omp_get_max_threads(), 3);
+    sm_job_run_free(&run);
+    sm_job_inputs_free(&in);
+    omp_set_num_threads(saved);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -388,6 +430,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_inputs_naming, setup, teardown),
         cmocka_unit_test_setup_teardown(test_run_and_results, setup, teardown),
         cmocka_unit_test_setup_teardown(test_outcomes, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_thread_policy, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -14,3 +14,8 @@ build/release/sdf_bench: build/release/obj/bench/sdf_bench.o build/release/libsh
 	$(CC) -o $@ $^ $(CORE_LIBS)
 release: build/release/sdf_bench
 all: build/release/sdf_bench
+build/release/bg_bench: build/release/obj/bench/bg_bench.o build/release/libshapematch.a
+	@mkdir -p $(dir $@)
+	$(CC) -o $@ $^ $(CORE_LIBS)
+release: build/release/bg_bench
+all: build/release/bg_bench

@@ -41,9 +41,9 @@
  * optional target_mesh: the distance to the surface is then computed
  * exactly at the vertices of target_mesh, or of a background generated
  * around the template and the surface when target_mesh is NULL
- * (sm_background_new: the box of both padded by 10% of its diagonal,
- * cells of the template's mean edge length, coarser when that would give
- * more than about 250k vertices).  target_surface excludes target_sol. */
+ * (sm_background_graded_new: the box of both padded by 10% of its
+ * diagonal, graded toward the surface, near-surface cells of the smaller
+ * of the template's and the surface's mean edge lengths).  target_surface excludes target_sol. */
 typedef struct sm_job_files {
     const char *template_mesh;
     const char *target_mesh;

@@ -64,6 +64,17 @@ sm_status sm_sdf_signed(const sm_sdf *d, int64_t n, const double *pts, double *o
 sm_status sm_background_new(int dim, const double *lo, const double *hi, double h,
                             sm_mesh **out, sm_error *err);
 
+/* A background graded toward the surface of d: cells (quadtree in 2D,
+ * octree in 3D, each Kuhn split) of side at most h where the surface is
+ * within about a cell size, doubling away from it up to a few coarse
+ * cells across the box; non-conforming (hanging vertices at the level
+ * changes, which sm_field accepts).  The P1 interpolation error of the
+ * distance near the surface is that of a uniform grid of size h, with
+ * far fewer vertices (bench/bg_bench.c measures both).  Too many
+ * vertices (> SM_BACKGROUND_MAX_VERTS) is SM_ERR_INVALID. */
+sm_status sm_background_graded_new(int dim, const double *lo, const double *hi, double h,
+                                   const sm_sdf *d, sm_mesh **out, sm_error *err);
+
 /* Exact distance squared from p to triangle abc (3D) / segment ab (2D). */
 double sm_sdf_point_triangle2(const double *p, const double *a, const double *b,
                               const double *c);

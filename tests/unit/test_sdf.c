@@ -219,8 +219,22 @@ static int64_t sign_errors(sm_surface *s, enum shape k, double margin, const dou
     double *p = malloc((size_t)n * dim * sizeof *p), *sd = malloc((size_t)n * sizeof *sd);
     for (int64_t i = 0; i < n * dim; i++)
         p[i] = -1.6 + 3.2 * urand();
-    if (sm_sdf_signed(d, n, p, sd, &err) != SM_OK)
+    int64_t wound = 0;
+    if (sm_sdf_signed_stats(d, n, p, sd, &wound, &err) != SM_OK)
         fail_msg("%s", err.msg);
+    /* the sign carried between points (closed surfaces) is the sign of
+     * the winding number evaluated at every point */
+    double *ud = malloc((size_t)n * sizeof *ud), *w = malloc((size_t)n * sizeof *w);
+    sm_sdf_distance(d, n, p, ud, NULL);
+    sm_sdf_winding(d, n, p, w);
+    int64_t differ = 0;
+    for (int64_t i = 0; i < n; i++)
+        differ += sd[i] != (w[i] > 0.5 ? -ud[i] : ud[i]);
+    print_message("# %lld of %lld points needed their winding number, %lld differ from it "
+                  "everywhere\n", (long long)wound, (long long)n, (long long)differ);
+    assert_int_equal(differ, 0);
+    free(ud);
+    free(w);
     int64_t bad = 0;
     *checked = 0;
     for (int64_t i = 0; i < n; i++) {

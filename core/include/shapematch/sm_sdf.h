@@ -54,6 +54,21 @@ void sm_sdf_winding(const sm_sdf *d, int64_t n, const double *pts, double *w);
 sm_status sm_sdf_signed(const sm_sdf *d, int64_t n, const double *pts, double *out,
                         sm_error *err);
 
+/* sm_sdf_signed, and *wound (may be NULL) receives how many points had
+ * their winding number evaluated.  The points are visited in Morton
+ * order (the nearest-facet hint of one seeds the next).  On a closed
+ * surface (every edge traversed once each way, or in 2D every vertex
+ * entered as often as left — sm_surface_repair makes a watertight
+ * surface so) the winding number is constant off the surface on each
+ * connected region, so a point takes the sign of the previous one when
+ * the segment between them lies in the open balls of radius d about
+ * them (|pq| < dp + dq: no surface point there); the others, and every
+ * point of a surface with holes or duplicated facets, get their own
+ * winding number.  The result is the same as evaluating the winding
+ * number everywhere (tests/unit/test_sdf.c checks it). */
+sm_status sm_sdf_signed_stats(const sm_sdf *d, int64_t n, const double *pts, double *out,
+                              int64_t *wound, sm_error *err);
+
 /* A background mesh for a surface target when the user has none: the
  * box lo..hi (dim entries; the caller pads it) cut into cubes (squares)
  * of side close to h, each split into 6 tetrahedra (2 triangles) along

@@ -439,6 +439,7 @@ typedef enum run_flag_kind {
     RUN_FLAG_TARGET_SURFACE,
     RUN_FLAG_QUIET,
     RUN_FLAG_JSON,
+    RUN_FLAG_BACKGROUND,
     RUN_FLAG_JOB
 } run_flag_kind;
 
@@ -453,6 +454,8 @@ static run_flag_kind classify_run_flag(const char *flag, int *takes_value)
         {"--target-mesh", RUN_FLAG_TARGET_MESH, 1},
         {"--target-sol", RUN_FLAG_TARGET_SOL, 1},
         {"--target-surface", RUN_FLAG_TARGET_SURFACE, 1},
+        {"--background-size", RUN_FLAG_BACKGROUND, 1},
+        {"--background-padding", RUN_FLAG_BACKGROUND, 1},
         {"--output", RUN_FLAG_OUTPUT, 1},
         {"-o", RUN_FLAG_OUTPUT, 1},
         {"--format", RUN_FLAG_FORMAT, 1},
@@ -535,6 +538,17 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
             else
                 o->outdir = value;
             break;
+        case RUN_FLAG_BACKGROUND: {
+            int size = strcmp(flag, "--background-size") == 0;
+            double *dst = size ? &o->background_size : &o->background_padding;
+            if (args_parse_real(flag, value, dst, msg, cap) != 0)
+                return ARGS_ERROR;
+            if (!(*dst > 0)) {
+                cli_fail(msg, cap, "%s: expected a number > 0", flag);
+                return ARGS_ERROR;
+            }
+            break;
+        }
         case RUN_FLAG_FORMAT: {
             char why[ARGS_MSG_LEN];
             if (sm_job_outputs_parse(value, &o->outputs, why, sizeof why) != 0) {
@@ -568,6 +582,12 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
     };
     if (o->target_surface_path && o->target_sol_path) {
         cli_fail(msg, cap, "--target-surface excludes --target-sol: give one target");
+        return ARGS_ERROR;
+    }
+    if ((o->background_size > 0 || o->background_padding > 0) &&
+        !(o->target_surface_path && !o->target_mesh_path)) {
+        cli_fail(msg, cap, "--background-size and --background-padding are for a generated "
+                 "background (--target-surface without --target-mesh)");
         return ARGS_ERROR;
     }
     for (size_t k = 0; k < sizeof required / sizeof required[0]; k++)

@@ -143,8 +143,8 @@ static double mean_edge(const sm_mesh *m)
  * near-surface cells of the smaller of the template's and the surface's
  * mean edge lengths (not below a quarter of the size that would give a
  * uniform grid of 250k vertices). */
-static sm_status generate_background(sm_job_inputs *out, const sm_surface *s, const sm_sdf *d,
-                                     sm_error *err)
+static sm_status generate_background(const sm_job_files *files, sm_job_inputs *out,
+                                     const sm_surface *s, const sm_sdf *d, sm_error *err)
 {
     int dim = out->dim;
     double lo[3], hi[3], tlo[3], thi[3], diag = 0, cells = 1;
@@ -155,15 +155,18 @@ static sm_status generate_background(sm_job_inputs *out, const sm_surface *s, co
         diag += (hi[k] - lo[k]) * (hi[k] - lo[k]);
     }
     diag = sqrt(diag);
+    double pad = (files->background_padding > 0 ? files->background_padding : 0.1) * diag;
     for (int k = 0; k < dim; k++) {
-        lo[k] -= 0.1 * diag;
-        hi[k] += 0.1 * diag;
+        lo[k] -= pad;
+        hi[k] += pad;
         cells *= hi[k] - lo[k];
     }
     double h = fmin(mean_edge(out->template_mesh), sm_surface_mean_edge(s));
     double hmin = pow(cells / 250000.0, 1.0 / dim) / 4;
     if (!(h >= hmin))
         h = hmin;
+    if (files->background_size > 0)
+        h = files->background_size;
     out->background_generated = 1;
     return sm_background_graded_new(dim, lo, hi, h, d, &out->background, err);
 }
@@ -200,7 +203,7 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
             file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
             goto done;
         }
-    } else if ((st = generate_background(out, s, d, err)) != SM_OK) {
+    } else if ((st = generate_background(files, out, s, d, err)) != SM_OK) {
         goto done;
     }
     if (out->background->dim != out->dim) {

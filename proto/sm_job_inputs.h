@@ -49,6 +49,9 @@ typedef struct sm_job_files {
     const char *target_mesh;
     const char *target_sol;
     const char *target_surface;
+    /* generated background: near-surface size (0: the default) and
+     * padding as a fraction of the box's diagonal (<= 0: 0.1) */
+    double background_size, background_padding;
     /* bounds of the readers (sm_io.h) for untrusted files, NULL: none.
      * After a refusal limits->hit names the bound and `failed` the part
      * (the daemon answers 413 naming its flag). */

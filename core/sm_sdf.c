@@ -139,13 +139,23 @@ static int cmp_keyed(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
-/* bit b of v (v < 2^31 in 2D, < 2^21 in 3D) goes to bit dim * b */
+/* bit b of v (v < 2^32 in 2D, < 2^21 in 3D) goes to bit dim * b */
 static uint64_t spread(uint64_t v, int dim)
 {
-    uint64_t r = 0;
-    for (int b = 0; b < (dim == 3 ? 21 : 31); b++)
-        r |= ((v >> b) & 1) << (dim * b);
-    return r;
+    if (dim == 2) {
+        v &= 0xffffffffull;
+        v = (v | v << 16) & 0x0000ffff0000ffffull;
+        v = (v | v << 8) & 0x00ff00ff00ff00ffull;
+        v = (v | v << 4) & 0x0f0f0f0f0f0f0f0full;
+        v = (v | v << 2) & 0x3333333333333333ull;
+        return (v | v << 1) & 0x5555555555555555ull;
+    }
+    v &= 0x1fffffull;
+    v = (v | v << 32) & 0x1f00000000ffffull;
+    v = (v | v << 16) & 0x1f0000ff0000ffull;
+    v = (v | v << 8) & 0x100f00f00f00f00full;
+    v = (v | v << 4) & 0x10c30c30c30c30c3ull;
+    return (v | v << 2) & 0x1249249249249249ull;
 }
 
 /* The points in Morton (Z-curve) order of their box: neighbours in the

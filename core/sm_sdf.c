@@ -84,31 +84,6 @@ void sm_sdf_free(sm_sdf *d)
     free(d);
 }
 
-/* Points are split into contiguous chunks, one per thread, so that the
- * nearest-facet hint follows the input order. */
-void sm_sdf_distance(const sm_sdf *d, int64_t n, const double *pts, double *dist,
-                     int32_t *nearest)
-{
-    const sm_bvh *t = &d->t;
-    int dim = t->s->dim;
-#pragma omp parallel
-    {
-        sm_bvh_entry *stack = malloc((2 * (size_t)t->depth + 4) * sizeof *stack);
-        int32_t hint = -1;
-#pragma omp for schedule(static)
-        for (int64_t i = 0; i < n; i++) {
-            if (!stack) {
-                dist[i] = NAN;
-                continue;
-            }
-            double p[3] = {pts[dim * i], pts[dim * i + 1], dim == 3 ? pts[dim * i + 2] : 0};
-            dist[i] = sm__bvh_nearest(t, p, &hint, stack);
-            if (nearest)
-                nearest[i] = hint;
-        }
-        free(stack);
-    }
-}
 
 void sm_sdf_winding(const sm_sdf *d, int64_t n, const double *pts, double *w)
 {
@@ -253,6 +228,38 @@ static void signed_range(const sm_sdf *d, const double *pts, const int64_t *orde
     }
     free(stack);
     free(wstack);
+}
+
+/* The points in Morton order (input order when that cannot be
+ * allocated), in blocks of 4096 handed out to the threads, so that the
+ * nearest-facet hint comes from a neighbour. */
+void sm_sdf_distance(const sm_sdf *d, int64_t n, const double *pts, double *dist,
+                     int32_t *nearest)
+{
+    const sm_bvh *t = &d->t;
+    int dim = t->s->dim;
+    int64_t *order = morton_order(dim, n, pts);
+#pragma omp parallel
+    {
+        sm_bvh_entry *stack = malloc((2 * (size_t)t->depth + 4) * sizeof *stack);
+#pragma omp for schedule(dynamic, 1)
+        for (int64_t b = 0; b < (n + 4095) / 4096; b++) {
+            int32_t hint = -1;
+            for (int64_t j = b * 4096; j < n && j < b * 4096 + 4096; j++) {
+                int64_t i = order ? order[j] : j;
+                if (!stack) {
+                    dist[i] = NAN;
+                    continue;
+                }
+                double p[3] = {pts[dim * i], pts[dim * i + 1], dim == 3 ? pts[dim * i + 2] : 0};
+                dist[i] = sm__bvh_nearest(t, p, &hint, stack);
+                if (nearest)
+                    nearest[i] = hint;
+            }
+        }
+        free(stack);
+    }
+    free(order);
 }
 
 /* Total enclosed volume (area in 2D) by the divergence theorem. */

@@ -385,15 +385,18 @@ static void graded_geometry(const sm_mesh *m, const sm_sdf *d, double *vol, doub
                             double h)
 {
     int dim = m->dim, n = dim + 1;
+    double *c = calloc((size_t)m->nelems * dim, sizeof *c), *dc = malloc((size_t)m->nelems * sizeof *dc);
+    double *longest = calloc((size_t)m->nelems, sizeof *longest);
+    assert_true(c && dc && longest);
     *vol = 0;
     *near_edge = 0;
     for (int32_t e = 0; e < m->nelems; e++) {
         const double *x[4];
-        double c[3] = {0, 0, 0}, a[3][3], longest = 0;
+        double a[3][3];
         for (int j = 0; j < n; j++) {
             x[j] = m->coords + (size_t)m->elems[(size_t)e * n + j] * dim;
             for (int k = 0; k < dim; k++)
-                c[k] += x[j][k] / n;
+                c[(size_t)e * dim + k] += x[j][k] / n;
         }
         for (int j = 0; j < dim; j++)
             for (int k = 0; k < dim; k++)
@@ -405,12 +408,15 @@ static void graded_geometry(const sm_mesh *m, const sm_sdf *d, double *vol, doub
         *vol += fabs(det) / (dim == 2 ? 2 : 6);
         for (int i = 0; i < n; i++)
             for (int j = i + 1; j < n; j++)
-                longest = fmax(longest, sqrt(seg2(x[i], x[j], x[j], dim)));
-        double dc;
-        sm_sdf_distance(d, 1, c, &dc, NULL);
-        if (dc < h / 2)
-            *near_edge = fmax(*near_edge, longest);
+                longest[e] = fmax(longest[e], sqrt(seg2(x[i], x[j], x[j], dim)));
     }
+    sm_sdf_distance(d, m->nelems, c, dc, NULL);
+    for (int32_t e = 0; e < m->nelems; e++)
+        if (dc[e] < h / 2)
+            *near_edge = fmax(*near_edge, longest[e]);
+    free(c);
+    free(dc);
+    free(longest);
 }
 
 /* Max P1 error of the exact distance sampled at bg's vertices, at the
@@ -465,20 +471,27 @@ static void check_graded(enum shape k, double hs, double h)
     double *pts = malloc((size_t)want * dim * sizeof *pts), *ex = malloc((size_t)want * sizeof *ex);
     assert_non_null(pts);
     assert_non_null(ex);
+    double *cand = malloc(4096 * 3 * sizeof *cand), cd[4096], cw[4096];
+    assert_non_null(cand);
     while (n < want) {
-        double p[3], dv, w;
-        for (int a = 0; a < dim; a++)
-            p[a] = lo[a] + (hi[a] - lo[a]) * urand();
-        if (fabs(analytic(k, p)) > h * 1.5)
-            continue;
-        sm_sdf_distance(d, 1, p, &dv, NULL);
-        sm_sdf_winding(d, 1, p, &w);
-        dv = w > 0.5 ? -dv : dv;
-        if (fabs(dv) < h) {
-            memcpy(pts + n * dim, p, dim * sizeof *p);
-            ex[n++] = dv;
+        int nc = 0;
+        while (nc < 4096) { /* candidates near the analytic surface */
+            double *p = cand + nc * dim;
+            for (int a = 0; a < dim; a++)
+                p[a] = lo[a] + (hi[a] - lo[a]) * urand();
+            nc += fabs(analytic(k, p)) <= h * 1.5;
+        }
+        sm_sdf_distance(d, nc, cand, cd, NULL);
+        sm_sdf_winding(d, nc, cand, cw);
+        for (int i = 0; i < nc && n < want; i++) {
+            double dv = cw[i] > 0.5 ? -cd[i] : cd[i];
+            if (fabs(dv) < h) {
+                memcpy(pts + n * dim, cand + i * dim, dim * sizeof *pts);
+                ex[n++] = dv;
+            }
         }
     }
+    free(cand);
     double eg = p1_error(d, g, n, pts, ex), eu = p1_error(d, u, n, pts, ex);
     printf("# P1 error of d at |d| < h: graded %.3g, uniform %.3g\n", eg, eu);
     assert_true(eg > 0 && eg <= 1.05 * eu);

@@ -2,9 +2,9 @@
  * Euclidean distance to the nearest triangle (3D) or segment (2D), and
  * its sign from the generalized winding number, negative inside.
  *
- * Distance: a bounding-volume hierarchy over the facets; each query
- * starts from the nearest facet of the previous point of the same thread
- * (neighbouring queries are usually near each other), then visits boxes
+ * Distance: a bounding-volume hierarchy over the facets; the queries
+ * are visited in Morton (Z-curve) order and each starts from the nearest
+ * facet of the previous one (a neighbour in space), then visits boxes
  * nearest first and prunes those farther than the best so far.  The
  * point-facet distance is computed in double precision from the closest
  * point's region (vertex, edge or face), so the result is the brute-force

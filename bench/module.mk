@@ -1,21 +1,10 @@
 # Benchmarks (release only: figures from a sanitized build mean nothing).
-build/release/match_bench: build/release/obj/bench/match_bench.o build/release/libshapematch.a
+# Each is one C file linked against the core library.
+BENCH_PROGS := match_bench field_bench sdf_bench io_bench bg_bench
+
+$(foreach b,$(BENCH_PROGS),$(eval build/release/$(b): build/release/obj/bench/$(b).o build/release/libshapematch.a))
+$(addprefix build/release/,$(BENCH_PROGS)):
 	@mkdir -p $(dir $@)
 	$(CC) -o $@ $^ $(CORE_LIBS)
-release: build/release/match_bench
-all: build/release/match_bench
-build/release/field_bench: build/release/obj/bench/field_bench.o build/release/libshapematch.a
-	@mkdir -p $(dir $@)
-	$(CC) -o $@ $^ $(CORE_LIBS)
-release: build/release/field_bench
-all: build/release/field_bench
-build/release/sdf_bench: build/release/obj/bench/sdf_bench.o build/release/libshapematch.a
-	@mkdir -p $(dir $@)
-	$(CC) -o $@ $^ $(CORE_LIBS)
-release: build/release/sdf_bench
-all: build/release/sdf_bench
-build/release/io_bench: build/release/obj/bench/io_bench.o build/release/libshapematch.a
-	@mkdir -p $(dir $@)
-	$(CC) -o $@ $^ $(CORE_LIBS)
-release: build/release/io_bench
-all: build/release/io_bench
+release: $(addprefix build/release/,$(BENCH_PROGS))
+all: $(addprefix build/release/,$(BENCH_PROGS))

@@ -439,8 +439,34 @@ typedef enum run_flag_kind {
     RUN_FLAG_TARGET_SURFACE,
     RUN_FLAG_QUIET,
     RUN_FLAG_JSON,
+    RUN_FLAG_BACKGROUND,
     RUN_FLAG_JOB
 } run_flag_kind;
+
+/* --background-size / --background-padding: a number > 0; with flag
+ * NULL, the check that they come with a generated background. */
+static int run_background_value(run_options *o, const char *flag, const char *value, char *msg,
+                                size_t cap)
+{
+    if (!flag) {
+        if ((o->background_size > 0 || o->background_padding > 0) &&
+            !(o->target_surface_path && !o->target_mesh_path)) {
+            cli_fail(msg, cap, "--background-size and --background-padding are for a generated "
+                     "background (--target-surface without --target-mesh)");
+            return -1;
+        }
+        return 0;
+    }
+    double *dst = strcmp(flag, "--background-size") == 0 ? &o->background_size
+                                                          : &o->background_padding;
+    if (args_parse_real(flag, value, dst, msg, cap) != 0)
+        return -1;
+    if (!(*dst > 0)) {
+        cli_fail(msg, cap, "%s: expected a number > 0", flag);
+        return -1;
+    }
+    return 0;
+}
 
 static run_flag_kind classify_run_flag(const char *flag, int *takes_value)
 {
@@ -453,6 +479,8 @@ static run_flag_kind classify_run_flag(const char *flag, int *takes_value)
         {"--target-mesh", RUN_FLAG_TARGET_MESH, 1},
         {"--target-sol", RUN_FLAG_TARGET_SOL, 1},
         {"--target-surface", RUN_FLAG_TARGET_SURFACE, 1},
+        {"--background-size", RUN_FLAG_BACKGROUND, 1},
+        {"--background-padding", RUN_FLAG_BACKGROUND, 1},
         {"--output", RUN_FLAG_OUTPUT, 1},
         {"-o", RUN_FLAG_OUTPUT, 1},
         {"--format", RUN_FLAG_FORMAT, 1},
@@ -535,6 +563,10 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
             else
                 o->outdir = value;
             break;
+        case RUN_FLAG_BACKGROUND:
+            if (run_background_value(o, flag, value, msg, cap) != 0)
+                return ARGS_ERROR;
+            break;
         case RUN_FLAG_FORMAT: {
             char why[ARGS_MSG_LEN];
             if (sm_job_outputs_parse(value, &o->outputs, why, sizeof why) != 0) {
@@ -570,6 +602,8 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
         cli_fail(msg, cap, "--target-surface excludes --target-sol: give one target");
         return ARGS_ERROR;
     }
+    if (run_background_value(o, NULL, NULL, msg, cap) != 0)
+        return ARGS_ERROR;
     for (size_t k = 0; k < sizeof required / sizeof required[0]; k++)
         if (!*(const char *const *)((const char *)o + required[k].offset) &&
             !(o->target_surface_path && k >= 1 && k <= 2)) {

@@ -38,6 +38,8 @@ typedef struct run_options {
     const char *target_mesh_path;
     const char *target_sol_path;
     const char *target_surface_path; /* --target-surface (excludes --target-sol) */
+    double background_size;    /* --background-size (0: default) */
+    double background_padding; /* --background-padding (0: default) */
     const char *outdir;
     unsigned outputs;   /* --format: sm_job_runner.h's SM_JOB_OUT_* bits */
     int quiet;

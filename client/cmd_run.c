@@ -273,6 +273,11 @@ void cmd_run_help(void)
            "                          background vertex (scalar SolAtVertices)\n"
            "  --target-surface FILE   target surface instead of --target-sol; its health\n"
            "                          report (holes, reoriented facets, ...) on stderr\n"
+           "  --background-size H     with --target-surface and no --target-mesh: size of\n"
+           "                          the generated background near the surface (default:\n"
+           "                          the smaller mean edge of template and surface)\n"
+           "  --background-padding P  margin of that background around template and\n"
+           "                          surface, a fraction of their box's diagonal (0.1)\n"
            "  -o, --output DIR        output directory (created if missing); receives\n"
            "                          the --format files, history.csv and summary.json\n"
            "  --format LIST           comma-separated: mesh (result.mesh), meshb\n"
@@ -331,7 +336,9 @@ int cmd_run(int argc, char **argv)
     const sm_job_files files = {.template_mesh = opt.template_path,
                                 .target_mesh = opt.target_mesh_path,
                                 .target_sol = opt.target_sol_path,
-                                .target_surface = opt.target_surface_path};
+                                .target_surface = opt.target_surface_path,
+                                .background_size = opt.background_size,
+                                .background_padding = opt.background_padding};
 
     /* ---- inputs, then the parameters against them ---- */
     sm_status st = sm_job_inputs_read(&files, SM_JOB_NAME_PATHS, &in, &err);

@@ -36,8 +36,9 @@ void cmd_sdf_help(void)
            "  --surface FILE          target surface: %s\n"
            "  --background FILE       background mesh (Medit or Gmsh .msh)\n"
            "  -o PATH                 OUT.sol with --background, else a directory\n"
-           "  --background-size H     generated background: cell size (default: the\n"
-           "                          padded box's diagonal / 60)\n"
+           "  --background-size H     generated background: cell size near the surface\n"
+           "                          (default: the surface's mean edge length); cells\n"
+           "                          double away from it (graded, non-conforming)\n"
            "  --background-padding P  generated background: margin around the surface\n"
            "                          box, as a fraction of its diagonal (default 0.1)\n"
            "\n"
@@ -112,10 +113,13 @@ static void print_health(const char *path, const sm_surface *s, const sm_surface
     fputc('\n', stderr);
 }
 
-/* The generated background around the surface's box. */
-static int make_background(const sdf_options *o, const sm_surface_health *h, int dim,
-                           sm_mesh **bg)
+/* The generated background around the surface's box, graded toward the
+ * surface; default size: the surface's mean edge length, not below a
+ * quarter of the size of a uniform grid of 250k vertices. */
+static int make_background(const sdf_options *o, const sm_surface *s, const sm_sdf *d,
+                           const sm_surface_health *h, sm_mesh **bg)
 {
+    int dim = s->dim;
     double lo[3], hi[3], diag = 0;
     for (int k = 0; k < dim; k++)
         diag += (h->hi[k] - h->lo[k]) * (h->hi[k] - h->lo[k]);
@@ -125,10 +129,13 @@ static int make_background(const sdf_options *o, const sm_surface_health *h, int
         lo[k] = h->lo[k] - pad;
         hi[k] = h->hi[k] + pad;
     }
-    double size = o->size > 0 ? o->size : (diag + 2 * pad) / 60;
+    double vol = 1;
+    for (int k = 0; k < dim; k++)
+        vol *= hi[k] - lo[k];
+    double size = o->size > 0 ? o->size : fmax(sm_surface_mean_edge(s), pow(vol / 250000.0, 1.0 / dim) / 4);
     sm_error err;
     sm_error_clear(&err);
-    if (sm_background_new(dim, lo, hi, size, bg, &err) != SM_OK) {
+    if (sm_background_graded_new(dim, lo, hi, size, d, bg, &err) != SM_OK) {
         fprintf(stderr, "shapematch sdf: %s\n", err.msg);
         return CLI_EXIT_USAGE;
     }
@@ -173,6 +180,8 @@ static int compute(const sdf_options *o, sm_surface *s)
     if (sm_surface_repair(s, &h, &err) != SM_OK)
         goto fail;
     print_health(o->surface, s, &h);
+    if (sm_sdf_new(s, &d, &err) != SM_OK)
+        goto fail;
     if (o->background) {
         if (sm_mesh_read(o->background, &bg, &err) != SM_OK)
             goto fail;
@@ -181,11 +190,11 @@ static int compute(const sdf_options *o, sm_surface *s)
                          o->background, bg->dim, o->surface, s->dim);
             goto fail;
         }
-    } else if ((rc = make_background(o, &h, s->dim, &bg)) != CLI_EXIT_OK) {
+    } else if ((rc = make_background(o, s, d, &h, &bg)) != CLI_EXIT_OK) {
         goto done;
     }
     rc = CLI_EXIT_INPUT;
-    if (sm_sdf_new(s, &d, &err) != SM_OK || sm_sol_alloc(&sol, s->dim, bg->nverts, 1, &err) != SM_OK ||
+    if (sm_sol_alloc(&sol, s->dim, bg->nverts, 1, &err) != SM_OK ||
         sm_sdf_signed(d, bg->nverts, bg->coords, sol->values, &err) != SM_OK)
         goto fail;
     fprintf(stderr, "distance at %d vertices of %s\n", bg->nverts,

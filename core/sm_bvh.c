@@ -266,6 +266,18 @@ sm_status sm__bvh_build(const sm_surface *s, sm_bvh *t, sm_error *err)
     t->nodes[0].count = s->nfacets;
     build(&b, 0, 1);
     free(b.cent);
+    int dim = s->dim;
+    t->pos = malloc((size_t)s->nfacets * dim * dim * sizeof *t->pos);
+    if (!t->pos) {
+        sm__bvh_free(t);
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the hierarchy of %ld facets",
+                            (long)s->nfacets);
+    }
+    for (int32_t i = 0; i < s->nfacets; i++)
+        for (int j = 0; j < dim; j++)
+            memcpy(t->pos + ((size_t)i * dim + j) * dim,
+                   s->coords + (size_t)s->facets[(size_t)t->order[i] * dim + j] * dim,
+                   dim * sizeof *t->pos);
     return SM_OK;
 }
 
@@ -273,8 +285,10 @@ void sm__bvh_free(sm_bvh *t)
 {
     free(t->order);
     free(t->nodes);
+    free(t->pos);
     t->order = NULL;
     t->nodes = NULL;
+    t->pos = NULL;
 }
 
 /* ---- nearest facet ---- */
@@ -289,7 +303,16 @@ static double box_dist2(const sm_bvh_node *nd, const double *p, int dim)
     return d2;
 }
 
-double sm__bvh_nearest(const sm_bvh *t, const double *p, int32_t *hint, int32_t *stack)
+/* Squared distance from p to the facet at position i of the order. */
+static double pos_dist2(const sm_bvh *t, int32_t i, const double *p, int dim)
+{
+    const double *x = t->pos + (size_t)i * dim * dim;
+    return dim == 3 ? sm_sdf_point_triangle2(p, x, x + 3, x + 6) : sm_sdf_point_segment2(p, x, x + 2);
+}
+
+/* Nearest child first; a node is pruned by the box distance stored when
+ * it was pushed, so each box is measured once. */
+double sm__bvh_nearest(const sm_bvh *t, const double *p, int32_t *hint, sm_bvh_entry *stack)
 {
     int dim = t->s->dim;
     double best = DBL_MAX;
@@ -299,14 +322,15 @@ double sm__bvh_nearest(const sm_bvh *t, const double *p, int32_t *hint, int32_t 
         bestf = *hint;
     }
     int top = 0;
-    stack[top++] = 0;
+    stack[top++] = (sm_bvh_entry){box_dist2(&t->nodes[0], p, dim), 0};
     while (top > 0) {
-        const sm_bvh_node *nd = &t->nodes[stack[--top]];
-        if (box_dist2(nd, p, dim) >= best && bestf >= 0)
+        sm_bvh_entry e = stack[--top];
+        if (e.d2 >= best && bestf >= 0)
             continue;
+        const sm_bvh_node *nd = &t->nodes[e.node];
         if (nd->left < 0) {
             for (int32_t i = nd->first; i < nd->first + nd->count; i++) {
-                double d2 = sm__bvh_facet_dist2(t, t->order[i], p);
+                double d2 = pos_dist2(t, i, p, dim);
                 if (d2 < best) {
                     best = d2;
                     bestf = t->order[i];
@@ -316,9 +340,13 @@ double sm__bvh_nearest(const sm_bvh *t, const double *p, int32_t *hint, int32_t 
         }
         double dl = box_dist2(&t->nodes[nd->left], p, dim);
         double dr = box_dist2(&t->nodes[nd->right], p, dim);
-        /* the nearer child is popped first */
-        stack[top++] = dl < dr ? nd->right : nd->left;
-        stack[top++] = dl < dr ? nd->left : nd->right;
+        /* the nearer child is popped first; a child beyond best is not pushed */
+        int32_t nearc = dl < dr ? nd->left : nd->right, farc = dl < dr ? nd->right : nd->left;
+        double dn = fmin(dl, dr), df = fmax(dl, dr);
+        if (df < best || bestf < 0)
+            stack[top++] = (sm_bvh_entry){df, farc};
+        if (dn < best || bestf < 0)
+            stack[top++] = (sm_bvh_entry){dn, nearc};
     }
     *hint = bestf;
     return sqrt(best);

@@ -20,6 +20,8 @@ typedef struct sm_bvh_node {
 typedef struct sm_bvh {
     const sm_surface *s;   /* borrowed */
     int32_t *order;        /* facet ids, grouped by node */
+    double *pos;           /* vertex coordinates of facet order[i] at
+                            * pos + i * dim * dim (contiguous leaves) */
     sm_bvh_node *nodes;    /* nodes[0] is the root */
     int32_t nnodes;
     int depth;             /* traversal stacks need 2 * depth + 2 entries */
@@ -28,9 +30,16 @@ typedef struct sm_bvh {
 sm_status sm__bvh_build(const sm_surface *s, sm_bvh *t, sm_error *err);
 void sm__bvh_free(sm_bvh *t);
 
+/* Traversal stack entry of the nearest-facet search: a node and the
+ * squared distance from p to its box (computed once, when pushed). */
+typedef struct sm_bvh_entry {
+    double d2;
+    int32_t node;
+} sm_bvh_entry;
+
 /* Distance from p to the nearest facet; *hint (a facet id or -1) seeds
  * the search and receives the nearest facet.  stack: 2 * depth + 2. */
-double sm__bvh_nearest(const sm_bvh *t, const double *p, int32_t *hint, int32_t *stack);
+double sm__bvh_nearest(const sm_bvh *t, const double *p, int32_t *hint, sm_bvh_entry *stack);
 double sm__bvh_facet_dist2(const sm_bvh *t, int32_t f, const double *p);
 /* Area vector (outward for an outward facet) and centroid of facet f. */
 void sm__bvh_facet_moments(const sm_surface *s, int32_t f, double *n, double *c);

@@ -9,7 +9,56 @@
 
 struct sm_sdf {
     sm_bvh t;
+    int closed; /* the facets' boundary chain is zero (see closed_chain) */
 };
+
+typedef struct edge_sign {
+    uint64_t key;
+    int sign;
+} edge_sign;
+
+static int cmp_edge_sign(const void *a, const void *b)
+{
+    uint64_t x = ((const edge_sign *)a)->key, y = ((const edge_sign *)b)->key;
+    return x < y ? -1 : x > y;
+}
+
+/* 1 when the oriented facets form a cycle: every edge (3D) or vertex
+ * (2D) is traversed as often in one direction as in the other.  Then the
+ * winding number is constant off the surface on each connected region,
+ * which is what lets sm_sdf_signed carry a sign from point to point
+ * (0 also when out of memory: the sign is then computed everywhere). */
+static int closed_chain(const sm_surface *s)
+{
+    int dim = s->dim;
+    int64_t n = (int64_t)s->nfacets * (dim == 3 ? 3 : 2);
+    edge_sign *e = malloc((size_t)n * sizeof *e);
+    if (!e)
+        return 0;
+    int64_t m = 0;
+    for (int32_t f = 0; f < s->nfacets; f++) {
+        const int32_t *v = s->facets + (size_t)f * dim;
+        for (int j = 0; j < dim; j++) {
+            uint64_t a = (uint64_t)v[j], b = (uint64_t)v[(j + 1) % dim];
+            if (dim == 2) { /* a vertex: +1 where a segment starts, -1 where it ends */
+                e[m++] = (edge_sign){a, 1};
+                e[m++] = (edge_sign){b, -1};
+                break;
+            }
+            e[m++] = a < b ? (edge_sign){(a << 32) | b, 1} : (edge_sign){(b << 32) | a, -1};
+        }
+    }
+    qsort(e, (size_t)m, sizeof *e, cmp_edge_sign);
+    int closed = 1;
+    for (int64_t i = 0, j; i < m && closed; i = j) {
+        int sum = 0;
+        for (j = i; j < m && e[j].key == e[i].key; j++)
+            sum += e[j].sign;
+        closed = sum == 0;
+    }
+    free(e);
+    return closed;
+}
 
 sm_status sm_sdf_new(const sm_surface *s, sm_sdf **out, sm_error *err)
 {
@@ -22,6 +71,7 @@ sm_status sm_sdf_new(const sm_surface *s, sm_sdf **out, sm_error *err)
         free(d);
         return st;
     }
+    d->closed = closed_chain(s);
     *out = d;
     return SM_OK;
 }
@@ -34,31 +84,6 @@ void sm_sdf_free(sm_sdf *d)
     free(d);
 }
 
-/* Points are split into contiguous chunks, one per thread, so that the
- * nearest-facet hint follows the input order. */
-void sm_sdf_distance(const sm_sdf *d, int64_t n, const double *pts, double *dist,
-                     int32_t *nearest)
-{
-    const sm_bvh *t = &d->t;
-    int dim = t->s->dim;
-#pragma omp parallel
-    {
-        int32_t *stack = malloc((2 * (size_t)t->depth + 4) * sizeof *stack);
-        int32_t hint = -1;
-#pragma omp for schedule(static)
-        for (int64_t i = 0; i < n; i++) {
-            if (!stack) {
-                dist[i] = NAN;
-                continue;
-            }
-            double p[3] = {pts[dim * i], pts[dim * i + 1], dim == 3 ? pts[dim * i + 2] : 0};
-            dist[i] = sm__bvh_nearest(t, p, &hint, stack);
-            if (nearest)
-                nearest[i] = hint;
-        }
-        free(stack);
-    }
-}
 
 void sm_sdf_winding(const sm_sdf *d, int64_t n, const double *pts, double *w)
 {
@@ -76,6 +101,167 @@ void sm_sdf_winding(const sm_sdf *d, int64_t n, const double *pts, double *w)
     }
 }
 
+/* ---- signed distance ---- */
+
+typedef struct keyed {
+    uint64_t key;
+    int64_t i;
+} keyed;
+
+static int cmp_keyed(const void *a, const void *b)
+{
+    uint64_t x = ((const keyed *)a)->key, y = ((const keyed *)b)->key;
+    return x < y ? -1 : x > y;
+}
+
+/* bit b of v (v < 2^32 in 2D, < 2^21 in 3D) goes to bit dim * b */
+static uint64_t spread(uint64_t v, int dim)
+{
+    if (dim == 2) {
+        v &= 0xffffffffull;
+        v = (v | v << 16) & 0x0000ffff0000ffffull;
+        v = (v | v << 8) & 0x00ff00ff00ff00ffull;
+        v = (v | v << 4) & 0x0f0f0f0f0f0f0f0full;
+        v = (v | v << 2) & 0x3333333333333333ull;
+        return (v | v << 1) & 0x5555555555555555ull;
+    }
+    v &= 0x1fffffull;
+    v = (v | v << 32) & 0x1f00000000ffffull;
+    v = (v | v << 16) & 0x1f0000ff0000ffull;
+    v = (v | v << 8) & 0x100f00f00f00f00full;
+    v = (v | v << 4) & 0x10c30c30c30c30c3ull;
+    return (v | v << 2) & 0x1249249249249249ull;
+}
+
+/* The points in Morton (Z-curve) order of their box: neighbours in the
+ * order are mostly neighbours in space, so the nearest-facet hint is
+ * good and the sign carries from one point to the next. */
+static int64_t *morton_order(int dim, int64_t n, const double *pts)
+{
+    keyed *k = malloc(((size_t)n + 1) * sizeof *k);
+    int64_t *order = malloc(((size_t)n + 1) * sizeof *order);
+    if (!k || !order) {
+        free(k);
+        free(order);
+        return NULL;
+    }
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int64_t i = 0; i < n; i++)
+        for (int a = 0; a < dim; a++)
+            if (isfinite(pts[i * dim + a])) {
+                lo[a] = fmin(lo[a], pts[i * dim + a]);
+                hi[a] = fmax(hi[a], pts[i * dim + a]);
+            }
+    int bits = dim == 3 ? 21 : 31;
+    for (int64_t i = 0; i < n; i++) {
+        uint64_t key = 0;
+        for (int a = 0; a < dim; a++) {
+            double u = hi[a] > lo[a] ? (pts[i * dim + a] - lo[a]) / (hi[a] - lo[a]) : 0;
+            u = u >= 0 ? (u <= 1 ? u : 1) : 0; /* NaN too */
+            key |= spread((uint64_t)(u * (double)((1u << bits) - 1)), dim) << a;
+        }
+        k[i] = (keyed){key, i};
+    }
+    qsort(k, (size_t)n, sizeof *k, cmp_keyed);
+    for (int64_t i = 0; i < n; i++)
+        order[i] = k[i].i;
+    free(k);
+    return order;
+}
+
+/* 1 when the segment pq stays off the surface: it lies in the union of
+ * the open balls of radius dp about p and dq about q, which hold no
+ * surface point (dp, dq: the distances to the surface), i.e. when
+ * |pq| < dp + dq. */
+static int same_region(const double *p, const double *q, int dim, double dp, double dq)
+{
+    double e2 = 0;
+    for (int a = 0; a < dim; a++)
+        e2 += (p[a] - q[a]) * (p[a] - q[a]);
+    double r = dp + dq;
+    return e2 < r * r;
+}
+
+typedef struct sign_count {
+    int64_t inside, bad, wound;
+} sign_count;
+
+/* Distances and signs of the points order[lo..hi), in that order; on a
+ * closed surface a point in the same region as the previous one takes
+ * its sign, the others get their winding number. */
+static void signed_range(const sm_sdf *d, const double *pts, const int64_t *order, int64_t lo,
+                         int64_t hi, double *out, sign_count *c)
+{
+    const sm_bvh *t = &d->t;
+    int dim = t->s->dim;
+    sm_bvh_entry *stack = malloc((2 * (size_t)t->depth + 4) * sizeof *stack);
+    int32_t *wstack = malloc((2 * (size_t)t->depth + 4) * sizeof *wstack);
+    int32_t hint = -1;
+    const double *prev = NULL;
+    double prevd = 0;
+    int prev_in = 0;
+    for (int64_t j = lo; j < hi; j++) {
+        int64_t i = order[j];
+        const double *x = pts + i * dim;
+        double p[3] = {x[0], x[1], dim == 3 ? x[2] : 0};
+        if (!stack || !wstack) {
+            out[i] = NAN;
+            c->bad++;
+            continue;
+        }
+        double dist = sm__bvh_nearest(t, p, &hint, stack);
+        int in;
+        if (d->closed && prev && isfinite(dist) && same_region(prev, x, dim, prevd, dist)) {
+            in = prev_in;
+        } else {
+            double w = sm__winding_at(t, p, wstack);
+            c->bad += !isfinite(w);
+            in = w > 0.5;
+            c->wound++;
+        }
+        c->bad += !isfinite(dist);
+        c->inside += in;
+        out[i] = in ? -dist : dist;
+        prev = x;
+        prevd = dist;
+        prev_in = in;
+    }
+    free(stack);
+    free(wstack);
+}
+
+/* The points in Morton order (input order when that cannot be
+ * allocated), in blocks of 4096 handed out to the threads, so that the
+ * nearest-facet hint comes from a neighbour. */
+void sm_sdf_distance(const sm_sdf *d, int64_t n, const double *pts, double *dist,
+                     int32_t *nearest)
+{
+    const sm_bvh *t = &d->t;
+    int dim = t->s->dim;
+    int64_t *order = morton_order(dim, n, pts);
+#pragma omp parallel
+    {
+        sm_bvh_entry *stack = malloc((2 * (size_t)t->depth + 4) * sizeof *stack);
+#pragma omp for schedule(dynamic, 1)
+        for (int64_t b = 0; b < (n + 4095) / 4096; b++) {
+            int32_t hint = -1;
+            for (int64_t j = b * 4096; j < n && j < b * 4096 + 4096; j++) {
+                int64_t i = order ? order[j] : j;
+                if (!stack) {
+                    dist[i] = NAN;
+                    continue;
+                }
+                double p[3] = {pts[dim * i], pts[dim * i + 1], dim == 3 ? pts[dim * i + 2] : 0};
+                dist[i] = sm__bvh_nearest(t, p, &hint, stack);
+                if (nearest)
+                    nearest[i] = hint;
+            }
+        }
+        free(stack);
+    }
+    free(order);
+}
+
 /* Total enclosed volume (area in 2D) by the divergence theorem. */
 static double enclosed(const sm_surface *s)
 {
@@ -91,6 +277,12 @@ static double enclosed(const sm_surface *s)
 sm_status sm_sdf_signed(const sm_sdf *d, int64_t n, const double *pts, double *out,
                         sm_error *err)
 {
+    return sm_sdf_signed_stats(d, n, pts, out, NULL, err);
+}
+
+sm_status sm_sdf_signed_stats(const sm_sdf *d, int64_t n, const double *pts, double *out,
+                              int64_t *wound, sm_error *err)
+{
     const sm_surface *s = d->t.s;
     const sm_bvh_node *root = &d->t.nodes[0];
     double box = 1;
@@ -102,25 +294,32 @@ sm_status sm_sdf_signed(const sm_sdf *d, int64_t n, const double *pts, double *o
                             "the surface encloses nothing (enclosed %s %g for a bounding box "
                             "of %g): the sign of the distance cannot be decided",
                             s->dim == 3 ? "volume" : "area", vol, box);
-    double *w = malloc(((size_t)n + 1) * sizeof *w);
-    if (!w)
+    int64_t *order = morton_order(s->dim, n, pts);
+    if (!order)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for %lld points", (long long)n);
-    sm_sdf_distance(d, n, pts, out, NULL);
-    sm_sdf_winding(d, n, pts, w);
-    int64_t inside = 0, bad = 0;
-    for (int64_t i = 0; i < n; i++) {
-        if (!isfinite(out[i]) || !isfinite(w[i]))
-            bad++;
-        if (w[i] > 0.5) {
-            out[i] = -out[i];
-            inside++;
+    sign_count total = {0, 0, 0};
+#pragma omp parallel
+    {
+        /* blocks of 4096 consecutive points of the order, handed out
+         * dynamically so that the threads stay balanced */
+        sign_count c = {0, 0, 0};
+#pragma omp for schedule(dynamic, 1) nowait
+        for (int64_t b = 0; b < (n + 4095) / 4096; b++)
+            signed_range(d, pts, order, b * 4096, b * 4096 + 4096 < n ? b * 4096 + 4096 : n, out, &c);
+#pragma omp critical
+        {
+            total.inside += c.inside;
+            total.bad += c.bad;
+            total.wound += c.wound;
         }
     }
-    free(w);
-    if (bad)
+    free(order);
+    if (wound)
+        *wound = total.wound;
+    if (total.bad)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory in %lld distance queries",
-                            (long long)bad);
-    if (n > 0 && inside == 0)
+                            (long long)total.bad);
+    if (n > 0 && total.inside == 0)
         return sm_error_set(err, SM_ERR_INVALID,
                             "no point is inside the surface (winding number > 1/2 nowhere): "
                             "it encloses nothing the points can see, or it is oriented "

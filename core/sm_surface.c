@@ -3,6 +3,7 @@
 #include "shapematch/sm_surface.h"
 
 #include <ctype.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
@@ -219,4 +220,23 @@ sm_status sm_surface_read(const char *path, sm_surface **out, sm_error *err)
     }
     sm_reader_close(&r);
     return st;
+}
+
+double sm_surface_mean_edge(const sm_surface *s)
+{
+    int dim = s->dim;
+    double sum = 0;
+    int64_t count = 0;
+    for (int32_t f = 0; f < s->nfacets; f++)
+        for (int a = 0; a < dim; a++)
+            for (int b = a + 1; b < dim; b++) {
+                const double *p = s->coords + (size_t)s->facets[(size_t)f * dim + a] * dim;
+                const double *q = s->coords + (size_t)s->facets[(size_t)f * dim + b] * dim;
+                double d2 = 0;
+                for (int k = 0; k < dim; k++)
+                    d2 += (p[k] - q[k]) * (p[k] - q[k]);
+                sum += sqrt(d2);
+                count++;
+            }
+    return count ? sum / (double)count : 0;
 }

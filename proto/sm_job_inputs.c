@@ -139,9 +139,12 @@ static double mean_edge(const sm_mesh *m)
     return count ? sum / (double)count : 0;
 }
 
-/* The padded box of template and surface, cells of the template's mean
- * edge length (larger when that would exceed the vertex limit). */
-static sm_status generate_background(sm_job_inputs *out, sm_error *err)
+/* The padded box of template and surface, graded toward the surface,
+ * near-surface cells of the smaller of the template's and the surface's
+ * mean edge lengths (not below a quarter of the size that would give a
+ * uniform grid of 250k vertices). */
+static sm_status generate_background(const sm_job_files *files, sm_job_inputs *out,
+                                     const sm_surface *s, const sm_sdf *d, sm_error *err)
 {
     int dim = out->dim;
     double lo[3], hi[3], tlo[3], thi[3], diag = 0, cells = 1;
@@ -152,17 +155,20 @@ static sm_status generate_background(sm_job_inputs *out, sm_error *err)
         diag += (hi[k] - lo[k]) * (hi[k] - lo[k]);
     }
     diag = sqrt(diag);
+    double pad = (files->background_padding > 0 ? files->background_padding : 0.1) * diag;
     for (int k = 0; k < dim; k++) {
-        lo[k] -= 0.1 * diag;
-        hi[k] += 0.1 * diag;
+        lo[k] -= pad;
+        hi[k] += pad;
         cells *= hi[k] - lo[k];
     }
-    double h = mean_edge(out->template_mesh);
-    double hmin = pow(cells / 250000.0, 1.0 / dim); /* at most ~250k vertices */
+    double h = fmin(mean_edge(out->template_mesh), sm_surface_mean_edge(s));
+    double hmin = pow(cells / 250000.0, 1.0 / dim) / 4;
     if (!(h >= hmin))
         h = hmin;
+    if (files->background_size > 0)
+        h = files->background_size;
     out->background_generated = 1;
-    return sm_background_new(dim, lo, hi, h, &out->background, err);
+    return sm_background_graded_new(dim, lo, hi, h, d, &out->background, err);
 }
 
 /* The target from a surface: background given or generated, then the
@@ -185,13 +191,19 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
                           "target surface is %dD", out->dim, s->dim);
         goto done;
     }
+    double t0 = sm_clock_seconds();
+    if ((st = sm_sdf_new(s, &d, err)) != SM_OK) {
+        if (st != SM_ERR_NOMEM)
+            file_error(err, naming, SM_PART_TARGET_SURFACE, files->target_surface, out);
+        goto done;
+    }
     if (files->target_mesh) {
         if ((st = sm_mesh_read_limited(files->target_mesh, files->limits, &out->background,
                                        err)) != SM_OK) {
             file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
             goto done;
         }
-    } else if ((st = generate_background(out, err)) != SM_OK) {
+    } else if ((st = generate_background(files, out, s, d, err)) != SM_OK) {
         goto done;
     }
     if (out->background->dim != out->dim) {
@@ -200,9 +212,7 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
                           out->dim, out->background->dim);
         goto done;
     }
-    double t0 = sm_clock_seconds();
-    if ((st = sm_sdf_new(s, &d, err)) == SM_OK &&
-        (st = sm_sol_alloc(&out->distance, out->dim, out->background->nverts, 1, err)) == SM_OK)
+    if ((st = sm_sol_alloc(&out->distance, out->dim, out->background->nverts, 1, err)) == SM_OK)
         st = sm_sdf_signed(d, out->background->nverts, out->background->coords,
                            out->distance->values, err);
     out->sdf_seconds = sm_clock_seconds() - t0;

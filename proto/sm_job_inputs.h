@@ -41,14 +41,17 @@
  * optional target_mesh: the distance to the surface is then computed
  * exactly at the vertices of target_mesh, or of a background generated
  * around the template and the surface when target_mesh is NULL
- * (sm_background_new: the box of both padded by 10% of its diagonal,
- * cells of the template's mean edge length, coarser when that would give
- * more than about 250k vertices).  target_surface excludes target_sol. */
+ * (sm_background_graded_new: the box of both padded by 10% of its
+ * diagonal, graded toward the surface, near-surface cells of the smaller
+ * of the template's and the surface's mean edge lengths).  target_surface excludes target_sol. */
 typedef struct sm_job_files {
     const char *template_mesh;
     const char *target_mesh;
     const char *target_sol;
     const char *target_surface;
+    /* generated background: near-surface size (0: the default) and
+     * padding as a fraction of the box's diagonal (<= 0: 0.1) */
+    double background_size, background_padding;
     /* bounds of the readers (sm_io.h) for untrusted files, NULL: none.
      * After a refusal limits->hit names the bound and `failed` the part
      * (the daemon answers 413 naming its flag). */

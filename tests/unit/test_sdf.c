@@ -7,7 +7,11 @@
  *  - the sign: 0 errors on closed surfaces in random orientation mixes
  *    (after repair) against the analytic inside test away from the
  *    surface; with holes, duplicated patches and flipped facets, 0 errors
- *    farther than twice the defect size from the defect. */
+ *    farther than twice the defect size from the defect;
+ *  - the graded background: covers its box exactly (volumes), cells of
+ *    at most h near the surface, far fewer vertices than the uniform grid
+ *    of size h, and a P1 interpolation error of the distance near the
+ *    surface no worse than that uniform grid's. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -20,6 +24,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "shapematch/sm_field.h"
 #include "shapematch/sm_sdf.h"
 #include "shapematch/sm_surface.h"
 #include "util_gmsh.h"
@@ -214,8 +219,22 @@ static int64_t sign_errors(sm_surface *s, enum shape k, double margin, const dou
     double *p = malloc((size_t)n * dim * sizeof *p), *sd = malloc((size_t)n * sizeof *sd);
     for (int64_t i = 0; i < n * dim; i++)
         p[i] = -1.6 + 3.2 * urand();
-    if (sm_sdf_signed(d, n, p, sd, &err) != SM_OK)
+    int64_t wound = 0;
+    if (sm_sdf_signed_stats(d, n, p, sd, &wound, &err) != SM_OK)
         fail_msg("%s", err.msg);
+    /* the sign carried between points (closed surfaces) is the sign of
+     * the winding number evaluated at every point */
+    double *ud = malloc((size_t)n * sizeof *ud), *w = malloc((size_t)n * sizeof *w);
+    sm_sdf_distance(d, n, p, ud, NULL);
+    sm_sdf_winding(d, n, p, w);
+    int64_t differ = 0;
+    for (int64_t i = 0; i < n; i++)
+        differ += sd[i] != (w[i] > 0.5 ? -ud[i] : ud[i]);
+    print_message("# %lld of %lld points needed their winding number, %lld differ from it "
+                  "everywhere\n", (long long)wound, (long long)n, (long long)differ);
+    assert_int_equal(differ, 0);
+    free(ud);
+    free(w);
     int64_t bad = 0;
     *checked = 0;
     for (int64_t i = 0; i < n; i++) {
@@ -359,6 +378,138 @@ static void test_encloses_nothing(void **state)
     sm_surface_free(s);
 }
 
+/* Sum of |element volume| (the Kuhn cells tile the box: no overlap, no
+ * gap) and the longest edge of the elements whose centroid is within h/2
+ * of the surface. */
+static void graded_geometry(const sm_mesh *m, const sm_sdf *d, double *vol, double *near_edge,
+                            double h)
+{
+    int dim = m->dim, n = dim + 1;
+    double *c = calloc((size_t)m->nelems * dim, sizeof *c), *dc = malloc((size_t)m->nelems * sizeof *dc);
+    double *longest = calloc((size_t)m->nelems, sizeof *longest);
+    assert_true(c && dc && longest);
+    *vol = 0;
+    *near_edge = 0;
+    for (int32_t e = 0; e < m->nelems; e++) {
+        const double *x[4];
+        double a[3][3];
+        for (int j = 0; j < n; j++) {
+            x[j] = m->coords + (size_t)m->elems[(size_t)e * n + j] * dim;
+            for (int k = 0; k < dim; k++)
+                c[(size_t)e * dim + k] += x[j][k] / n;
+        }
+        for (int j = 0; j < dim; j++)
+            for (int k = 0; k < dim; k++)
+                a[j][k] = x[j + 1][k] - x[0][k];
+        double det = dim == 2 ? a[0][0] * a[1][1] - a[0][1] * a[1][0]
+                              : a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
+                                    a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+                                    a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+        *vol += fabs(det) / (dim == 2 ? 2 : 6);
+        for (int i = 0; i < n; i++)
+            for (int j = i + 1; j < n; j++)
+                longest[e] = fmax(longest[e], sqrt(seg2(x[i], x[j], x[j], dim)));
+    }
+    sm_sdf_distance(d, m->nelems, c, dc, NULL);
+    for (int32_t e = 0; e < m->nelems; e++)
+        if (dc[e] < h / 2)
+            *near_edge = fmax(*near_edge, longest[e]);
+    free(c);
+    free(dc);
+    free(longest);
+}
+
+/* Max P1 error of the exact distance sampled at bg's vertices, at the
+ * points pts (n) whose exact signed distance is exact. */
+static double p1_error(const sm_sdf *d, sm_mesh *bg, int64_t n, const double *pts,
+                       const double *exact)
+{
+    sm_error err;
+    sm_error_clear(&err);
+    double *val = malloc((size_t)bg->nverts * sizeof *val), *got = malloc((size_t)n * sizeof *got);
+    sm_field *f = NULL;
+    assert_non_null(val);
+    assert_non_null(got);
+    if (sm_sdf_signed(d, bg->nverts, bg->coords, val, &err) != SM_OK ||
+        sm_mesh_build_boundary(bg, &err) != SM_OK || sm_field_new(bg, val, &f, &err) != SM_OK)
+        fail_msg("%s", err.msg);
+    sm_field_eval_many(f, n, pts, NULL, got);
+    double worst = 0;
+    for (int64_t i = 0; i < n; i++)
+        worst = fmax(worst, fabs(got[i] - exact[i]));
+    sm_field_free(f);
+    free(val);
+    free(got);
+    return worst;
+}
+
+static void check_graded(enum shape k, double hs, double h)
+{
+    sm_surface *s = make_surface(k, hs);
+    sm_error err;
+    sm_error_clear(&err);
+    assert_int_equal(sm_surface_repair(s, NULL, &err), SM_OK);
+    sm_sdf *d;
+    assert_int_equal(sm_sdf_new(s, &d, &err), SM_OK);
+    int dim = s->dim;
+    double lo[3] = {-1.5, -1.4, -1.3}, hi[3] = {1.5, 1.6, 1.4}, box = 1;
+    for (int a = 0; a < dim; a++)
+        box *= hi[a] - lo[a];
+    sm_mesh *g = NULL, *u = NULL;
+    if (sm_background_graded_new(dim, lo, hi, h, d, &g, &err) != SM_OK ||
+        sm_background_new(dim, lo, hi, h, &u, &err) != SM_OK)
+        fail_msg("%s", err.msg);
+    double vol, near_edge;
+    graded_geometry(g, d, &vol, &near_edge, h);
+    printf("# graded %dD, size %g: %d vertices (uniform %d), near-surface edge %.3g\n", dim, h,
+           g->nverts, u->nverts, near_edge);
+    assert_true(fabs(vol - box) < 1e-9 * box);
+    assert_true(near_edge > 0 && near_edge <= sqrt(dim) * h * (1 + 1e-9));
+    assert_true(g->nverts * (dim == 2 ? 4 : 2) < u->nverts);
+    /* points with |d| < h, exact signed distance there */
+    int64_t n = 0, want = 4000;
+    double *pts = malloc((size_t)want * dim * sizeof *pts), *ex = malloc((size_t)want * sizeof *ex);
+    assert_non_null(pts);
+    assert_non_null(ex);
+    double *cand = malloc(4096 * 3 * sizeof *cand), cd[4096], cw[4096];
+    assert_non_null(cand);
+    while (n < want) {
+        int nc = 0;
+        while (nc < 4096) { /* candidates near the analytic surface */
+            double *p = cand + nc * dim;
+            for (int a = 0; a < dim; a++)
+                p[a] = lo[a] + (hi[a] - lo[a]) * urand();
+            nc += fabs(analytic(k, p)) <= h * 1.5;
+        }
+        sm_sdf_distance(d, nc, cand, cd, NULL);
+        sm_sdf_winding(d, nc, cand, cw);
+        for (int i = 0; i < nc && n < want; i++) {
+            double dv = cw[i] > 0.5 ? -cd[i] : cd[i];
+            if (fabs(dv) < h) {
+                memcpy(pts + n * dim, cand + i * dim, dim * sizeof *pts);
+                ex[n++] = dv;
+            }
+        }
+    }
+    free(cand);
+    double eg = p1_error(d, g, n, pts, ex), eu = p1_error(d, u, n, pts, ex);
+    printf("# P1 error of d at |d| < h: graded %.3g, uniform %.3g\n", eg, eu);
+    assert_true(eg > 0 && eg <= 1.05 * eu);
+    free(pts);
+    free(ex);
+    sm_mesh_free(g);
+    sm_mesh_free(u);
+    sm_sdf_free(d);
+    sm_surface_free(s);
+}
+
+static void test_graded_background(void **state)
+{
+    (void)state;
+    check_graded(CIRCLE, 0.02, 0.02);
+    check_graded(SPHERE, 0.15, 0.06);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -369,6 +520,7 @@ int main(void)
         cmocka_unit_test(test_sign_orientation_mixes),
         cmocka_unit_test(test_sign_defects),
         cmocka_unit_test(test_encloses_nothing),
+        cmocka_unit_test(test_graded_background),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

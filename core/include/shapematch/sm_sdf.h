@@ -2,9 +2,9 @@
  * Euclidean distance to the nearest triangle (3D) or segment (2D), and
  * its sign from the generalized winding number, negative inside.
  *
- * Distance: a bounding-volume hierarchy over the facets; each query
- * starts from the nearest facet of the previous point of the same thread
- * (neighbouring queries are usually near each other), then visits boxes
+ * Distance: a bounding-volume hierarchy over the facets; the queries
+ * are visited in Morton (Z-curve) order and each starts from the nearest
+ * facet of the previous one (a neighbour in space), then visits boxes
  * nearest first and prunes those farther than the best so far.  The
  * point-facet distance is computed in double precision from the closest
  * point's region (vertex, edge or face), so the result is the brute-force
@@ -54,6 +54,21 @@ void sm_sdf_winding(const sm_sdf *d, int64_t n, const double *pts, double *w);
 sm_status sm_sdf_signed(const sm_sdf *d, int64_t n, const double *pts, double *out,
                         sm_error *err);
 
+/* sm_sdf_signed, and *wound (may be NULL) receives how many points had
+ * their winding number evaluated.  The points are visited in Morton
+ * order (the nearest-facet hint of one seeds the next).  On a closed
+ * surface (every edge traversed once each way, or in 2D every vertex
+ * entered as often as left — sm_surface_repair makes a watertight
+ * surface so) the winding number is constant off the surface on each
+ * connected region, so a point takes the sign of the previous one when
+ * the segment between them lies in the open balls of radius d about
+ * them (|pq| < dp + dq: no surface point there); the others, and every
+ * point of a surface with holes or duplicated facets, get their own
+ * winding number.  The result is the same as evaluating the winding
+ * number everywhere (tests/unit/test_sdf.c checks it). */
+sm_status sm_sdf_signed_stats(const sm_sdf *d, int64_t n, const double *pts, double *out,
+                              int64_t *wound, sm_error *err);
+
 /* A background mesh for a surface target when the user has none: the
  * box lo..hi (dim entries; the caller pads it) cut into cubes (squares)
  * of side close to h, each split into 6 tetrahedra (2 triangles) along
@@ -63,6 +78,17 @@ sm_status sm_sdf_signed(const sm_sdf *d, int64_t n, const double *pts, double *o
 #define SM_BACKGROUND_MAX_VERTS 8000000
 sm_status sm_background_new(int dim, const double *lo, const double *hi, double h,
                             sm_mesh **out, sm_error *err);
+
+/* A background graded toward the surface of d: cells (quadtree in 2D,
+ * octree in 3D, each Kuhn split) of side at most h where the surface is
+ * within about a cell size, doubling away from it up to a few coarse
+ * cells across the box; non-conforming (hanging vertices at the level
+ * changes, which sm_field accepts).  The P1 interpolation error of the
+ * distance near the surface is that of a uniform grid of size h, with
+ * far fewer vertices (bench/bg_bench.c measures both).  Too many
+ * vertices (> SM_BACKGROUND_MAX_VERTS) is SM_ERR_INVALID. */
+sm_status sm_background_graded_new(int dim, const double *lo, const double *hi, double h,
+                                   const sm_sdf *d, sm_mesh **out, sm_error *err);
 
 /* Exact distance squared from p to triangle abc (3D) / segment ab (2D). */
 double sm_sdf_point_triangle2(const double *p, const double *a, const double *b,

@@ -62,6 +62,10 @@ typedef struct sm_surface_health {
  * negative.  Fills h (may be NULL).  Nothing is removed. */
 sm_status sm_surface_repair(sm_surface *s, sm_surface_health *h, sm_error *err);
 
+/* Mean length of the facets' edges (0 for no facets): the resolution of
+ * the surface, which sizes a generated background (sm_sdf.h). */
+double sm_surface_mean_edge(const sm_surface *s);
+
 /* The formats sm_surface_read reads, for messages. */
 #define SM_SURFACE_FORMATS                                                    \
     "STL (ASCII or binary), OBJ, Medit .mesh/.meshb or Gmsh .msh surfaces, " \

@@ -7,9 +7,12 @@ SERVER_TEST_NAMES := $(patsubst tests/unit/%.c,%,$(wildcard tests/unit/test_serv
 SERVER_TEST_UTIL_SRCS := $(wildcard tests/unit/util_*.c)
 # the OpenAPI document and the params schema are served by the daemon
 SERVER_EMBEDDED := proto/params.schema.json proto/events.schema.json $(wildcard proto/openapi.yaml)
-SERVER_LIBS := $(HTTP_LIBS) $(PROTO_LIBS) $(CORE_LIBS) -lpthread
+SERVER_LIBS := $(HTTP_LIBS) $(PROTO_LIBS) $(CORE_LIBS) -lpq -lpthread
 
 define server_rules
+# the PostgreSQL backend (smd_pg*.c) and its test see libpq's header
+build/$(1)/obj/server/smd_pg.o build/$(1)/obj/server/smd_pg_%.o: $(1)_CFLAGS += -I /usr/include/postgresql
+build/$(1)/obj/tests/unit/test_server_pg.o: $(1)_CFLAGS += -I /usr/include/postgresql
 build/$(1)/gen/server/smd_embedded.c: server/embed.sh $$(SERVER_EMBEDDED)
 	@mkdir -p $$(dir $$@)
 	server/embed.sh $$@ smd_params_schema proto/params.schema.json smd_openapi_yaml proto/openapi.yaml \

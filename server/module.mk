@@ -11,6 +11,7 @@ SERVER_LIBS := $(HTTP_LIBS) $(PROTO_LIBS) $(CORE_LIBS) -lpq -lpthread
 
 define server_rules
 # the PostgreSQL backend (smd_pg*.c) and its test see libpq's header
+# (every server file may include smd_pg_node.h, which does not include libpq-fe.h)
 build/$(1)/obj/server/smd_pg.o build/$(1)/obj/server/smd_pg_%.o: $(1)_CFLAGS += -I /usr/include/postgresql
 build/$(1)/obj/tests/unit/test_server_pg.o: $(1)_CFLAGS += -I /usr/include/postgresql
 build/$(1)/gen/server/smd_embedded.c: server/embed.sh $$(SERVER_EMBEDDED)

@@ -30,6 +30,7 @@
 
 #include "shapematch/sm_error.h"
 #include "sm_proto_events.h"
+#include "sm_proto_vocab.h"
 #include "smd_util.h"
 
 #define SMD_PG_SCHEMA_VERSION 1
@@ -58,6 +59,12 @@ sm_status smd_pg_reconnect(smd_pg *db, sm_error *err);
 /* SELECT 1: the database answers now. */
 sm_status smd_pg_ping(smd_pg *db, sm_error *err);
 
+/* BEGIN / COMMIT / ROLLBACK (ROLLBACK never fails loudly): calls made in
+ * between are one transaction (those that begin their own must not be). */
+sm_status smd_pg_begin(smd_pg *db, sm_error *err);
+sm_status smd_pg_commit(smd_pg *db, sm_error *err);
+void smd_pg_rollback(smd_pg *db);
+
 /* Applies the migrations above the database's version under
  * pg_advisory_lock, each in its own transaction; *version (may be NULL)
  * is the version after.  A database newer than this program is refused. */
@@ -71,6 +78,10 @@ typedef struct smd_pg_job {
     uint64_t request_hash;
     const char *params;           /* job.json text */
     const char *first_event;      /* the "accepted" event's JSON (seq 1) */
+    int dim, max_iter;
+    double tol_boundary;
+    const char *dir;              /* NULL, or a folder whose job.json and
+                                   * inputs/ become blobs (same transaction) */
 } smd_pg_job;
 
 /* Inserts an accepted job and its first event in one transaction, or,
@@ -90,8 +101,9 @@ typedef struct smd_pg_lease {
  * by others right now). */
 sm_status smd_pg_claim(smd_pg *db, const char *node, double lease, smd_pg_lease *out, int *got,
                        sm_error *err);
-/* Extends the lease: *held 0 when it was lost (expired and requeued,
- * cancelled, deleted) -- the node must stop the run. */
+/* Extends the lease: *held 1, or 2 when a cancel was requested (stop the
+ * run, then publish "dismissed"), or 0 when it was lost (expired,
+ * requeued, deleted): stop the run, publish nothing. */
 sm_status smd_pg_renew(smd_pg *db, const smd_pg_lease *l, double lease, int *held,
                        sm_error *err);
 /* The job's final state (successful, failed; dismissed whatever the run
@@ -138,6 +150,47 @@ sm_status smd_pg_blob_put(smd_pg *db, const char *id, const char *name,
  * mode: never the whole blob in memory); *found 0 when there is none. */
 sm_status smd_pg_blob_get(smd_pg *db, const char *id, const char *name, const char *path,
                           int *found, sm_error *err);
+
+/* What a node needs to mirror a job it did not accept. */
+typedef struct smd_pg_info {
+    char id[SMD_ID_LEN + 1];
+    char owner[65];
+    char idempotency_key[SM_IDEMPOTENCY_KEY_MAX + 1];
+    uint64_t request_hash;
+    sm_job_state state;
+    char message[SM_EVENT_MESSAGE_MAX];
+    int attempt, dim, max_iter;
+    double tol_boundary;
+    int64_t nevents;
+    int64_t lease_token;          /* 0 when not running */
+} smd_pg_info;
+
+sm_status smd_pg_job_info(smd_pg *db, const char *id, smd_pg_info *out, int *found,
+                          sm_error *err);
+/* Every job (id, state, message, attempt, nevents; other fields zero),
+ * in submission order, into a new array (*n entries; free it). */
+sm_status smd_pg_list(smd_pg *db, smd_pg_info **out, size_t *n, sm_error *err);
+/* Calls fn with the JSON of each event of id with seq > after, at most
+ * limit of them, in order; fn returns 0 to go on.  *last: the last seq given. */
+sm_status smd_pg_events(smd_pg *db, const char *id, int64_t after, int limit,
+                        int (*fn)(void *user, int64_t seq, const char *json), void *user,
+                        sm_error *err);
+
+/* smd_pg_complete, and the files under results_dir (NULL: none) become
+ * the blobs "results/<path>" (replacing any), in the same transaction. */
+sm_status smd_pg_publish(smd_pg *db, const smd_pg_lease *l, sm_job_state state,
+                         const char *message, const char *final_event, const char *results_dir,
+                         int *held, sm_error *err);
+/* The node stops (shutdown) while it runs the job: queued again at once,
+ * attempt kept (no-op when the lease was lost). */
+sm_status smd_pg_release(smd_pg *db, const smd_pg_lease *l, const char *message, sm_error *err);
+/* Deletes a final job (its events and blobs go with it): *deleted 1 for
+ * the one caller that removed it. */
+sm_status smd_pg_delete(smd_pg *db, const char *id, int *deleted, sm_error *err);
+/* Blobs under "prefix" (e.g. "results/") into files under dir (made as
+ * needed); *count files written. */
+sm_status smd_pg_blob_get_tree(smd_pg *db, const char *id, const char *prefix, const char *dir,
+                               size_t *count, sm_error *err);
 
 /* LISTEN on channel (kept across smd_pg_reconnect). */
 sm_status smd_pg_listen(smd_pg *db, const char *channel, sm_error *err);

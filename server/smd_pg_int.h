@@ -26,10 +26,15 @@ PGresult *smd_pg_exec(smd_pg *db, const char *what, const char *sql, int n,
 /* smd_pg_exec for statements whose result is not needed. */
 sm_status smd_pg_run(smd_pg *db, const char *what, const char *sql, int n,
                      const char *const *values, sm_error *err);
-/* BEGIN / COMMIT / ROLLBACK (ROLLBACK never fails loudly). */
-sm_status smd_pg_begin(smd_pg *db, sm_error *err);
-sm_status smd_pg_commit(smd_pg *db, sm_error *err);
-void smd_pg_rollback(smd_pg *db);
+
+/* Inside a transaction: the file at path as blob (id, name), and every
+ * file under dir as "prefix<relative path>". */
+sm_status smd_pg_put_file(smd_pg *db, const char *id, const char *name, const char *path,
+                          sm_error *err);
+sm_status smd_pg_put_tree(smd_pg *db, const char *id, const char *prefix, const char *dir,
+                          sm_error *err);
+/* Locks the row of a job whose lease l holds (FOR UPDATE): *held. */
+sm_status smd_pg_lock_held(smd_pg *db, const smd_pg_lease *l, int *held, sm_error *err);
 
 const char *smd_pg_state_name(sm_job_state s);
 int smd_pg_state_parse(const char *name, sm_job_state *out);

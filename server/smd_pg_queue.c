@@ -61,15 +61,20 @@ static sm_status find_key(smd_pg *db, const smd_pg_job *job, char existing[SMD_I
  * (by a retry that reached another API node at the same time). */
 static sm_status insert_job(smd_pg *db, const smd_pg_job *job, int *inserted, sm_error *err)
 {
-    char hash[24];
+    char hash[24], dim[16], max_iter[16], tol[32];
     snprintf(hash, sizeof hash, "%" PRIu64, job->request_hash);
+    snprintf(dim, sizeof dim, "%d", job->dim);
+    snprintf(max_iter, sizeof max_iter, "%d", job->max_iter);
+    snprintf(tol, sizeof tol, "%.17g", job->tol_boundary);
     const char *key = job->idempotency_key && job->idempotency_key[0] ? job->idempotency_key : NULL;
-    const char *vals[] = {job->id, job->owner ? job->owner : "", key, hash, job->params};
+    const char *vals[] = {job->id, job->owner ? job->owner : "", key, hash, job->params,
+                          dim, max_iter, tol};
     PGresult *r = smd_pg_exec(
         db, "submit",
-        "INSERT INTO smd_jobs (id, owner, idempotency_key, request_hash, state, params)"
-        " VALUES ($1, $2, $3, $4::numeric, 'accepted', $5::jsonb) ON CONFLICT DO NOTHING RETURNING 1",
-        5, vals, err);
+        "INSERT INTO smd_jobs (id, owner, idempotency_key, request_hash, state, params, dim,"
+        " max_iter, tol_boundary) VALUES ($1, $2, $3, $4::numeric, 'accepted', $5::jsonb,"
+        " $6::integer, $7::integer, $8::float8) ON CONFLICT DO NOTHING RETURNING 1",
+        8, vals, err);
     if (!r)
         return SM_ERR_IO;
     *inserted = PQntuples(r) == 1;
@@ -88,6 +93,16 @@ sm_status smd_pg_submit(smd_pg *db, const smd_pg_job *job, int *created,
     sm_status st = insert_job(db, job, &inserted, err);
     if (st == SM_OK && inserted)
         st = smd_pg_append_event(db, job->id, NULL, job->first_event, &seq, err);
+    if (st == SM_OK && inserted && job->dir) {
+        char path[4096], inputs[4096];
+        if (smd_pathf(path, sizeof path, "%s/job.json", job->dir) != 0 ||
+            smd_pathf(inputs, sizeof inputs, "%s/inputs", job->dir) != 0)
+            st = sm_error_set(err, SM_ERR_IO, "%s: path too long", job->dir);
+        if (st == SM_OK)
+            st = smd_pg_put_file(db, job->id, "job.json", path, err);
+        if (st == SM_OK)
+            st = smd_pg_put_tree(db, job->id, "inputs/", inputs, err);
+    }
     if (st == SM_OK)
         st = smd_pg_commit(db, err);
     if (st != SM_OK) {
@@ -142,12 +157,11 @@ sm_status smd_pg_renew(smd_pg *db, const smd_pg_lease *l, double lease, int *hel
     const char *vals[] = {l->id, token, secs};
     PGresult *r = smd_pg_exec(db, "renew",
                               "UPDATE smd_jobs SET lease_expires = now() + $3::float8 * interval "
-                              "'1 second' WHERE id = $1 AND NOT cancel_requested AND " HELD
-                              " RETURNING 1",
+                              "'1 second' WHERE id = $1 AND " HELD " RETURNING cancel_requested",
                               3, vals, err);
     if (!r)
         return SM_ERR_IO;
-    *held = PQntuples(r) == 1;
+    *held = PQntuples(r) != 1 ? 0 : strcmp(PQgetvalue(r, 0, 0), "t") == 0 ? 2 : 1;
     PQclear(r);
     return SM_OK;
 }
@@ -305,6 +319,150 @@ sm_status smd_pg_state(smd_pg *db, const char *id, sm_job_state *state, int *att
         if (attempt)
             *attempt = atoi(PQgetvalue(r, 0, 1));
     }
+    PQclear(r);
+    return SM_OK;
+}
+
+#define INFO_COLS "id, owner, coalesce(idempotency_key, ''), request_hash, state, message," \
+                  " attempt, dim, max_iter, tol_boundary, nevents, coalesce(lease_token, 0)"
+
+static void info_row(const PGresult *r, int i, smd_pg_info *o)
+{
+    memset(o, 0, sizeof *o);
+    snprintf(o->id, sizeof o->id, "%s", PQgetvalue(r, i, 0));
+    snprintf(o->owner, sizeof o->owner, "%s", PQgetvalue(r, i, 1));
+    snprintf(o->idempotency_key, sizeof o->idempotency_key, "%s", PQgetvalue(r, i, 2));
+    o->request_hash = strtoull(PQgetvalue(r, i, 3), NULL, 10);
+    if (smd_pg_state_parse(PQgetvalue(r, i, 4), &o->state) != 0)
+        o->state = SM_JOB_FAILED;
+    snprintf(o->message, sizeof o->message, "%s", PQgetvalue(r, i, 5));
+    o->attempt = atoi(PQgetvalue(r, i, 6));
+    o->dim = atoi(PQgetvalue(r, i, 7));
+    o->max_iter = atoi(PQgetvalue(r, i, 8));
+    o->tol_boundary = strtod(PQgetvalue(r, i, 9), NULL);
+    o->nevents = strtoll(PQgetvalue(r, i, 10), NULL, 10);
+    o->lease_token = strtoll(PQgetvalue(r, i, 11), NULL, 10);
+}
+
+sm_status smd_pg_job_info(smd_pg *db, const char *id, smd_pg_info *out, int *found,
+                          sm_error *err)
+{
+    const char *vals[] = {id};
+    PGresult *r = smd_pg_exec(db, "job", "SELECT " INFO_COLS " FROM smd_jobs WHERE id = $1", 1,
+                              vals, err);
+    if (!r)
+        return SM_ERR_IO;
+    *found = PQntuples(r) == 1;
+    if (*found)
+        info_row(r, 0, out);
+    PQclear(r);
+    return SM_OK;
+}
+
+sm_status smd_pg_list(smd_pg *db, smd_pg_info **out, size_t *n, sm_error *err)
+{
+    *out = NULL;
+    *n = 0;
+    PGresult *r = smd_pg_exec(db, "job list", "SELECT " INFO_COLS " FROM smd_jobs ORDER BY ord", 0,
+                              NULL, err);
+    if (!r)
+        return SM_ERR_IO;
+    int rows = PQntuples(r);
+    if (rows > 0 && !(*out = calloc((size_t)rows, sizeof **out))) {
+        PQclear(r);
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    }
+    for (int i = 0; i < rows; i++)
+        info_row(r, i, &(*out)[i]);
+    *n = (size_t)rows;
+    PQclear(r);
+    return SM_OK;
+}
+
+sm_status smd_pg_events(smd_pg *db, const char *id, int64_t after, int limit,
+                        int (*fn)(void *user, int64_t seq, const char *json), void *user,
+                        sm_error *err)
+{
+    char a[24], l[16];
+    fmt_i64(a, sizeof a, after);
+    snprintf(l, sizeof l, "%d", limit);
+    const char *vals[] = {id, a, l};
+    PGresult *r = smd_pg_exec(db, "events",
+                              "SELECT seq, payload::text FROM smd_events WHERE job = $1 AND"
+                              " seq > $2::bigint ORDER BY seq LIMIT $3::integer",
+                              3, vals, err);
+    if (!r)
+        return SM_ERR_IO;
+    for (int i = 0; i < PQntuples(r); i++)
+        if (fn(user, strtoll(PQgetvalue(r, i, 0), NULL, 10), PQgetvalue(r, i, 1)) != 0)
+            break;
+    PQclear(r);
+    return SM_OK;
+}
+
+sm_status smd_pg_lock_held(smd_pg *db, const smd_pg_lease *l, int *held, sm_error *err)
+{
+    char token[24];
+    fmt_i64(token, sizeof token, l->token);
+    const char *vals[] = {l->id, token};
+    PGresult *r = smd_pg_exec(db, "lease", "SELECT 1 FROM smd_jobs WHERE id = $1 AND " HELD
+                              " FOR UPDATE", 2, vals, err);
+    if (!r)
+        return SM_ERR_IO;
+    *held = PQntuples(r) == 1;
+    PQclear(r);
+    return SM_OK;
+}
+
+sm_status smd_pg_publish(smd_pg *db, const smd_pg_lease *l, sm_job_state state,
+                         const char *message, const char *final_event, const char *results_dir,
+                         int *held, sm_error *err)
+{
+    *held = 0;
+    int64_t seq = 1;
+    const char *vals[] = {l->id};
+    if (smd_pg_begin(db, err) != SM_OK)
+        return SM_ERR_IO;
+    sm_status st = smd_pg_lock_held(db, l, held, err);
+    if (st == SM_OK && *held && results_dir) {
+        st = smd_pg_run(db, "results", "DELETE FROM smd_blobs WHERE job = $1 AND"
+                        " starts_with(name, 'results/')", 1, vals, err);
+        if (st == SM_OK)
+            st = smd_pg_put_tree(db, l->id, "results/", results_dir, err);
+    }
+    if (st == SM_OK && *held && final_event)
+        st = smd_pg_append_event(db, l->id, l, final_event, &seq, err);
+    if (st == SM_OK && *held && seq > 0)
+        st = set_final(db, l, state, message, held, err);
+    if (st == SM_OK && *held && seq > 0)
+        return smd_pg_commit(db, err) == SM_OK ? SM_OK : (*held = 0, SM_ERR_IO);
+    smd_pg_rollback(db);
+    *held = 0;
+    return st;
+}
+
+sm_status smd_pg_release(smd_pg *db, const smd_pg_lease *l, const char *message, sm_error *err)
+{
+    char token[24];
+    fmt_i64(token, sizeof token, l->token);
+    const char *vals[] = {l->id, token, message};
+    return smd_pg_run(db, "release",
+                      "UPDATE smd_jobs SET state = CASE WHEN cancel_requested THEN 'dismissed'"
+                      " ELSE 'accepted' END, message = $3, updated = now(), lease_owner = NULL,"
+                      " lease_expires = NULL, lease_token = NULL WHERE id = $1 AND " HELD,
+                      3, vals, err);
+}
+
+sm_status smd_pg_delete(smd_pg *db, const char *id, int *deleted, sm_error *err)
+{
+    const char *vals[] = {id};
+    PGresult *r = smd_pg_exec(db, "delete",
+                              "DELETE FROM smd_jobs WHERE id = $1 AND state IN"
+                              " ('successful', 'failed', 'dismissed') RETURNING 1",
+                              1, vals, err);
+    if (!r)
+        return SM_ERR_IO;
+    *deleted = PQntuples(r) == 1;
     PQclear(r);
     return SM_OK;
 }

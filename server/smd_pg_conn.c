@@ -22,6 +22,8 @@ static const char *const migrations[SMD_PG_SCHEMA_VERSION] = {
     " state text NOT NULL CHECK (state IN ('accepted','running','successful','failed','dismissed')),"
     " message text NOT NULL DEFAULT '',"
     " params jsonb NOT NULL,"
+    " dim integer NOT NULL DEFAULT 0, max_iter integer NOT NULL DEFAULT 0,"
+    " tol_boundary float8 NOT NULL DEFAULT 0,"
     " attempt integer NOT NULL DEFAULT 0,"
     " progress integer NOT NULL DEFAULT 0,"
     " nevents bigint NOT NULL DEFAULT 0,"
@@ -136,6 +138,14 @@ static sm_status read_password(const char *path, char **out, sm_error *err)
     return *out ? SM_OK : sm_error_set(err, SM_ERR_NOMEM, "out of memory");
 }
 
+/* Server notices ("relation already exists, skipping") are not ours to
+ * print: the daemon's stderr carries JSON lines only. */
+static void drop_notice(void *arg, const char *message)
+{
+    (void)arg;
+    (void)message;
+}
+
 static sm_status open_conn(smd_pg *db, sm_error *err)
 {
     const char *keys[] = {"application_name", "dbname", "password", NULL};
@@ -145,6 +155,7 @@ static sm_status open_conn(smd_pg *db, sm_error *err)
     db->conn = PQconnectdbParams(keys, vals, 1);
     if (!db->conn || PQstatus(db->conn) != CONNECTION_OK)
         return db_error(db, "connect", NULL, err);
+    PQsetNoticeProcessor(db->conn, drop_notice, NULL);
     for (int i = 0; i < db->nlistens; i++) {
         char sql[64];
         snprintf(sql, sizeof sql, "LISTEN %s", db->listens[i]);

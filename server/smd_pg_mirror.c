@@ -273,7 +273,7 @@ static void plan_gone(smd_pg_node *n, const char (*ids)[SMD_ID_LEN + 1], size_t 
     p->gone = count ? calloc(count, sizeof *p->gone) : NULL;
     for (size_t i = 0; p->gone && i < count; i++) {
         smd_job *job = smd_store_at(srv->store, i);
-        if (bsearch(job->id, ids, nids, sizeof *ids, cmp_id) || job->worker_active ||
+        if ((nids && bsearch(job->id, ids, nids, sizeof *ids, cmp_id)) || job->worker_active ||
             node_pending(n, job->id) || smd_pg_node_runs(n, job->id))
             continue;
         memcpy(p->gone[p->ngone++], job->id, SMD_ID_LEN + 1);
@@ -304,7 +304,7 @@ static sm_status sync_scan(smd_pg_node *n, sm_error *err)
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     for (size_t i = 0; st == SM_OK && i < nrows; i++)
         memcpy(ids[i], rows[i].id, SMD_ID_LEN + 1);
-    if (st == SM_OK)
+    if (st == SM_OK && nrows)
         qsort(ids, nrows, sizeof *ids, cmp_id);
     smd_jobs_after after = {0};
     pthread_mutex_lock(&srv->lock);

@@ -8,7 +8,7 @@
 # the outage, nodes reconnect, nothing accepted is lost); retention with
 # two API nodes deletes each job once.
 source "$(dirname "$0")/lib.sh"
-source "$(dirname "$0")/cluster_lib.sh"
+source "$(dirname "$0")/../lib/cluster.sh"
 
 if ! make_case || ! pg_up; then
     not_ok "gmsh builds the test meshes and PostgreSQL starts"
@@ -122,7 +122,8 @@ for id in "$rid" "${qids[@]}"; do
         [ "$s" = successful ] || bad="$bad $nd:$id:$s"
     done
 done
-check "the jobs queued and running across the restart all end successful on both API nodes" [ -z "$bad" ]
+all "the jobs queued and running across the restart all end successful on both API nodes" "-z|$bad" \
+    "${rid:-none}|!=|none" "${#qids[@]}|=|3"
 [ -n "$bad" ] && echo "# $bad"
 on api1
 hcurl "$BASE/metrics" >"$WORK/metrics.txt"
@@ -153,8 +154,8 @@ for id in "$e1" "$e2"; do
     [ "$c" = 1 ] || once=0
 done
 rows=$(psql_val "SELECT count(*) FROM smd_jobs WHERE id IN ('$e1', '$e2')")
-check "retention with two API nodes: each job deleted once (one job_expired line), gone from the database and both nodes" \
-    [ "$once" = 1 ] && [ "$rows" = 0 ]
+all "retention with two API nodes: each job deleted once (one job_expired line), gone from the database and both nodes" \
+    "$once|=|1" "$rows|=|0" "${e1:-none}|!=|none" "${e2:-none}|!=|none"
 for nd in r1 r2 rw; do kill -TERM "${NODE_PID[$nd]}" 2>/dev/null; done
 for nd in r1 r2 rw; do wait "${NODE_PID[$nd]}" 2>/dev/null; done
 check "no sanitizer report in any node's log" reports_clean

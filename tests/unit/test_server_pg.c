@@ -174,7 +174,7 @@ static void test_claims_race(void **state)
         assert_int_equal(pipe(fds[w]), 0);
         if (fork() == 0) {
             smd_pg *mine = connect_db();
-            char node[16];
+            char node[32];
             snprintf(node, sizeof node, "node-%d", w);
             smd_pg_lease l;
             int got = 1;

@@ -2,7 +2,7 @@
 # after lib.sh; not a suite): a throw-away PostgreSQL (tests/lib/pg.sh),
 # stopped on exit even when a test fails, and nodes (shapematchd with
 # --database and --role, each with its own spool and log).
-source "$(dirname "${BASH_SOURCE[0]}")/../lib/pg.sh"
+source "$(dirname "${BASH_SOURCE[0]}")/pg.sh"
 
 PGDIR=$(mktemp -d /tmp/sm-pg-XXXXXX)
 cluster_cleanup() {
@@ -36,3 +36,16 @@ on() { BASE=${NODE_BASE[$1]}; DLOG=${NODE_LOG[$1]}; DPID=${NODE_PID[$1]}; }
 kill9() { kill -KILL "${NODE_PID[$1]}" 2>/dev/null; wait "${NODE_PID[$1]}" 2>/dev/null; }
 # psql_val SQL: one value from the database
 psql_val() { psql -X -A -t -q "$DB" -c "$1" 2>/dev/null; }
+# all DESC TEST...: ok when every TEST (a string for `test`, words split
+# on "|") holds; the failing ones are printed
+all() {
+    local desc=$1 t bad=""
+    shift
+    for t in "$@"; do
+        local IFS='|'
+        # shellcheck disable=SC2086
+        test $t || bad="$bad [$t]"
+        unset IFS
+    done
+    if [ -z "$bad" ]; then ok "$desc"; else not_ok "$desc" "failed:$bad"; fi
+}

@@ -106,10 +106,11 @@ sm_status smd_pg_claim(smd_pg *db, const char *node, double lease, smd_pg_lease 
  * requeued, deleted): stop the run, publish nothing. */
 sm_status smd_pg_renew(smd_pg *db, const smd_pg_lease *l, double lease, int *held,
                        sm_error *err);
-/* The job's final state (successful, failed; dismissed whatever the run
- * says once a cancel was requested), its message and its last event
- * (final_event, JSON without seq, may be NULL), in one transaction under
- * the lease: *held 0 (nothing written) when the lease was lost. */
+/* The job's final state (successful, failed, dismissed), its message and
+ * its last event (final_event, JSON without seq, may be NULL: they agree),
+ * in one transaction under the lease: *held 0 (nothing written) when the
+ * lease was lost.  A run that ended before a cancel reached it stays what
+ * it ended as. */
 sm_status smd_pg_complete(smd_pg *db, const smd_pg_lease *l, sm_job_state state,
                           const char *message, const char *final_event, int *held,
                           sm_error *err);

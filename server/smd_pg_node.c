@@ -140,6 +140,15 @@ static int add_pending(smd_pg_node *n, const char *id)
     return ok ? 0 : -1;
 }
 
+/* api_lock held, after a failed call: 1 when the connection was lost
+ * and is back (the caller tries once more). */
+static int api_retry(smd_pg_node *n, sm_error *err)
+{
+    if (smd_pg_connected(n->api_db))
+        return 0;
+    return smd_pg_reconnect(n->api_db, err) == SM_OK;
+}
+
 /* The "accepted" event and job.json of the upload, for the database. */
 static sm_status submission_texts(const smd_submission *sub, double created, char **event,
                                   char **params, sm_error *err)
@@ -175,6 +184,15 @@ static sm_status submit_db(smd_pg_node *n, const smd_submission *sub, double whe
     sm_status st = node_connected(n, n->api_db, err);
     if (st == SM_OK)
         st = smd_pg_submit(n->api_db, &job, created, existing, err);
+    if (st != SM_OK && api_retry(n, err)) {
+        /* the connection died while idle (a database restart): once more;
+         * "exists" then means the first try did commit */
+        st = smd_pg_submit(n->api_db, &job, created, existing, err);
+        if (st == SM_ERR_INVALID && strstr(err->msg, "exists")) {
+            st = SM_OK;
+            *created = 1;
+        }
+    }
     if (st == SM_OK && !*created)
         st = node_import(n, n->api_db, existing, NULL, err);
     pthread_mutex_unlock(&n->api_lock);
@@ -214,6 +232,8 @@ sm_status smd_pg_node_cancel(smd_server *srv, smd_job *job, smd_jobs_after *afte
     sm_status st = node_connected(n, n->api_db, err);
     if (st == SM_OK)
         st = smd_pg_cancel(n->api_db, job->id, &was, err);
+    if (st != SM_OK && api_retry(n, err))
+        st = smd_pg_cancel(n->api_db, job->id, &was, err);
     if (st == SM_OK && was == 1)
         st = node_catch_up_locked(n, n->api_db, job, after, err);
     pthread_mutex_unlock(&n->api_lock);
@@ -234,6 +254,8 @@ sm_status smd_pg_node_delete(smd_pg_node *n, const char *id, int *deleted, sm_er
     pthread_mutex_lock(&n->api_lock);
     sm_status st = node_connected(n, n->api_db, err);
     if (st == SM_OK)
+        st = smd_pg_delete(n->api_db, id, deleted, err);
+    if (st != SM_OK && api_retry(n, err))
         st = smd_pg_delete(n->api_db, id, deleted, err);
     pthread_mutex_unlock(&n->api_lock);
     return st;

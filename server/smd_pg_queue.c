@@ -174,8 +174,7 @@ static sm_status set_final(smd_pg *db, const smd_pg_lease *l, sm_job_state state
     const char *vals[] = {l->id, token, smd_pg_state_name(state), message ? message : ""};
     PGresult *r = smd_pg_exec(
         db, "complete",
-        "UPDATE smd_jobs SET state = CASE WHEN cancel_requested THEN 'dismissed' ELSE $3 END,"
-        " message = $4, finished = now(), updated = now(),"
+        "UPDATE smd_jobs SET state = $3, message = $4, finished = now(), updated = now(),"
         " progress = CASE WHEN $3 = 'successful' THEN 100 ELSE progress END,"
         " lease_owner = NULL, lease_expires = NULL, lease_token = NULL"
         " WHERE id = $1 AND " HELD " RETURNING 1",

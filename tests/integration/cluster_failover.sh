@@ -5,8 +5,9 @@
 # repeated); cancel on the API node that did not accept the job; an
 # Idempotency-Key retry on the other API node returns the same job;
 # PostgreSQL restarted with jobs queued and running (/readyz 503 during
-# the outage, nodes reconnect, nothing accepted is lost); retention with
-# two API nodes deletes each job once.
+# the outage, nodes reconnect, nothing accepted is lost); a worker node
+# stopped while it runs a job gives it back at once; retention with two
+# API nodes deletes each job once.
 source "$(dirname "$0")/lib.sh"
 source "$(dirname "$0")/../lib/cluster.sh"
 
@@ -58,7 +59,7 @@ NODE_BASE[api1]=$BASE NODE_PID[api1]=$DPID NODE_LOG[api1]=$DLOG
 
 # ------------------------------------- cancel on the other API node
 on api1
-cid=$(submit "$FINE" "$BOX" "$BOXSOL" "$LONG")
+cid=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)") # runs until stopped
 on api2
 poll 20 state_is "$cid" running
 t0=$SECONDS
@@ -109,6 +110,10 @@ sleep 1
 pg_start "$PGDIR" >/dev/null
 poll 20 ready_is 200
 check "the nodes reconnect: /readyz 200 again" ready_is 200
+on api2 # its upload connection was idle during the outage
+qids+=("$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 20)")")
+check "the first upload after the restart is accepted (201)" [ "$(cat "$WORK/submit.code")" = 201 ]
+on api1
 alldone() {
     local id
     for id in "$rid" "${qids[@]}"; do state_is "$id" successful || return 1; done
@@ -123,16 +128,33 @@ for id in "$rid" "${qids[@]}"; do
     done
 done
 all "the jobs queued and running across the restart all end successful on both API nodes" "-z|$bad" \
-    "${rid:-none}|!=|none" "${#qids[@]}|=|3"
+    "${rid:-none}|!=|none" "${#qids[@]}|=|4"
 [ -n "$bad" ] && echo "# $bad"
 on api1
 hcurl "$BASE/metrics" >"$WORK/metrics.txt"
 check "/metrics has the queue depth and leases from the database" \
     grep -q '^shapematch_cluster_queue_depth 0$' "$WORK/metrics.txt"
 
+# ------------------------- a worker node stopped (SIGTERM) while it runs
+kill -TERM "${NODE_PID[w1]}"
+wait "${NODE_PID[w1]}" 2>/dev/null
+node w2 worker --workers 1 --lease 4 --shutdown-grace 0 || not_ok "node w2 starts"
+on api1
+sid=$(submit "$FINE" "$BOX" "$BOXSOL" "$LONG")
+poll 20 state_is "$sid" running
+t0=$SECONDS
+kill -TERM "${NODE_PID[w2]}"
+wait "${NODE_PID[w2]}" 2>/dev/null
+back=$(psql_val "SELECT state || ' ' || attempt || ' ' || (lease_token IS NULL) FROM smd_jobs WHERE id = '$sid'")
+node w3 worker --workers 1 --lease 4 || not_ok "node w3 starts"
+poll 30 state_is "$sid" successful
+all "a worker node stopped while it runs a job gives it back at once ($((SECONDS - t0)) s to the end), another runs it as attempt 2" \
+    "$back|=|accepted 1 true" "$(job_state "$sid")|=|successful" \
+    "$(psql_val "SELECT attempt FROM smd_jobs WHERE id = '$sid'")|=|2"
+
 # ---------------------------------------------------- retention, once
-for nd in api1 api2 w1; do kill -TERM "${NODE_PID[$nd]}" 2>/dev/null; done
-for nd in api1 api2 w1; do wait "${NODE_PID[$nd]}" 2>/dev/null; done
+for nd in api1 api2 w3; do kill -TERM "${NODE_PID[$nd]}" 2>/dev/null; done
+for nd in api1 api2 w3; do wait "${NODE_PID[$nd]}" 2>/dev/null; done
 for nr in r1:api r2:api rw:worker; do
     node "${nr%%:*}" "${nr#*:}" --workers 1 --lease 4 --retention 2 || not_ok "node ${nr%%:*} starts"
 done

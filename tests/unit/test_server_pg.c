@@ -378,7 +378,7 @@ static void test_cancel(void **state)
     assert_string_equal(payload, "run-c");
     assert_int_equal(smd_pg_renew(worker, &l, 30, &held, &err), SM_OK);
     assert_int_equal(held, 2); /* cancel requested: the run must stop */
-    assert_int_equal(smd_pg_complete(worker, &l, SM_JOB_SUCCESSFUL, "stopped", "{\"type\":\"cancelled\"}", &held, &err), SM_OK);
+    assert_int_equal(smd_pg_complete(worker, &l, SM_JOB_DISMISSED, "stopped", "{\"type\":\"cancelled\"}", &held, &err), SM_OK);
     assert_int_equal(held, 1);
     assert_int_equal(scalar("SELECT count(*) FROM smd_jobs WHERE id = 'run-c' AND state = 'dismissed'"), 1);
     assert_int_equal(smd_pg_cancel(db, "run-c", &was, &err), SM_OK);

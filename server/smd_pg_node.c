@@ -140,13 +140,13 @@ static int add_pending(smd_pg_node *n, const char *id)
     return ok ? 0 : -1;
 }
 
-/* api_lock held, after a failed call: 1 when the connection was lost
+/* After a failed call (its lock held): 1 when the connection was lost
  * and is back (the caller tries once more). */
-static int api_retry(smd_pg_node *n, sm_error *err)
+static int retry_on(smd_pg *db, sm_error *err)
 {
-    if (smd_pg_connected(n->api_db))
+    if (smd_pg_connected(db))
         return 0;
-    return smd_pg_reconnect(n->api_db, err) == SM_OK;
+    return smd_pg_reconnect(db, err) == SM_OK;
 }
 
 /* The "accepted" event and job.json of the upload, for the database. */
@@ -184,7 +184,7 @@ static sm_status submit_db(smd_pg_node *n, const smd_submission *sub, double whe
     sm_status st = node_connected(n, n->api_db, err);
     if (st == SM_OK)
         st = smd_pg_submit(n->api_db, &job, created, existing, err);
-    if (st != SM_OK && api_retry(n, err)) {
+    if (st != SM_OK && retry_on(n->api_db, err)) {
         /* the connection died while idle (a database restart): once more;
          * "exists" then means the first try did commit */
         st = smd_pg_submit(n->api_db, &job, created, existing, err);
@@ -228,15 +228,15 @@ sm_status smd_pg_node_cancel(smd_server *srv, smd_job *job, smd_jobs_after *afte
 {
     smd_pg_node *n = srv->cluster;
     int was = 0;
-    pthread_mutex_lock(&n->api_lock);
-    sm_status st = node_connected(n, n->api_db, err);
+    pthread_mutex_lock(&n->ctl_lock);
+    sm_status st = node_connected(n, n->ctl_db, err);
     if (st == SM_OK)
-        st = smd_pg_cancel(n->api_db, job->id, &was, err);
-    if (st != SM_OK && api_retry(n, err))
-        st = smd_pg_cancel(n->api_db, job->id, &was, err);
+        st = smd_pg_cancel(n->ctl_db, job->id, &was, err);
+    if (st != SM_OK && retry_on(n->ctl_db, err))
+        st = smd_pg_cancel(n->ctl_db, job->id, &was, err);
     if (st == SM_OK && was == 1)
-        st = node_catch_up_locked(n, n->api_db, job, after, err);
-    pthread_mutex_unlock(&n->api_lock);
+        st = node_catch_up_locked(n, n->ctl_db, job, after, err);
+    pthread_mutex_unlock(&n->ctl_lock);
     if (st == SM_OK && was == 2) {
         smd_jobs_mirror_state(srv, job, SM_JOB_DISMISSED, "cancelled by request (DELETE): its "
                               "worker node stops it", job->attempt, after);
@@ -251,13 +251,13 @@ sm_status smd_pg_node_cancel(smd_server *srv, smd_job *job, smd_jobs_after *afte
 
 sm_status smd_pg_node_delete(smd_pg_node *n, const char *id, int *deleted, sm_error *err)
 {
-    pthread_mutex_lock(&n->api_lock);
-    sm_status st = node_connected(n, n->api_db, err);
+    pthread_mutex_lock(&n->ctl_lock);
+    sm_status st = node_connected(n, n->ctl_db, err);
     if (st == SM_OK)
-        st = smd_pg_delete(n->api_db, id, deleted, err);
-    if (st != SM_OK && api_retry(n, err))
-        st = smd_pg_delete(n->api_db, id, deleted, err);
-    pthread_mutex_unlock(&n->api_lock);
+        st = smd_pg_delete(n->ctl_db, id, deleted, err);
+    if (st != SM_OK && retry_on(n->ctl_db, err))
+        st = smd_pg_delete(n->ctl_db, id, deleted, err);
+    pthread_mutex_unlock(&n->ctl_lock);
     return st;
 }
 
@@ -350,6 +350,7 @@ static smd_pg_node *node_new(smd_server *srv)
     n->out_tail = &n->out_head;
     pthread_mutex_init(&n->lock, NULL);
     pthread_mutex_init(&n->api_lock, NULL);
+    pthread_mutex_init(&n->ctl_lock, NULL);
     pthread_cond_init(&n->cond, NULL);
     char host[64] = "node";
     gethostname(host, sizeof host - 1);
@@ -367,6 +368,8 @@ sm_status smd_pg_node_open(smd_server *srv, sm_error *err)
     sm_status st = open_db(srv, "api", &n->api_db, err);
     if (st == SM_OK)
         st = smd_pg_migrate(n->api_db, &version, err);
+    if (st == SM_OK)
+        st = open_db(srv, "ctl", &n->ctl_db, err);
     if (st == SM_OK)
         st = open_db(srv, "sync", &n->sync_db, err);
     if (st == SM_OK)
@@ -434,11 +437,13 @@ void smd_pg_node_free(smd_pg_node *n)
         n->leases = next;
     }
     smd_pg_close(n->api_db);
+    smd_pg_close(n->ctl_db);
     smd_pg_close(n->sync_db);
     smd_pg_close(n->work_db);
     smd_pg_close(n->lease_db);
     pthread_cond_destroy(&n->cond);
     pthread_mutex_destroy(&n->api_lock);
+    pthread_mutex_destroy(&n->ctl_lock);
     pthread_mutex_destroy(&n->lock);
     free(n);
 }

@@ -18,7 +18,8 @@
  *   Key is unique there, so a retry on another API node finds the job).
  *
  * Locking: srv->lock is never held while waiting for the database,
- * except for the one short query of a DELETE (cancel, delete); the
+ * except for the one short query of a DELETE (cancel, delete; on a
+ * connection of its own, never behind an upload); the
  * node's own mutex (outbox, leases, pending uploads) is taken after
  * srv->lock or alone, never the other way. */
 #ifndef SMD_PG_NODE_H

@@ -35,11 +35,14 @@ typedef struct node_item {
 struct smd_pg_node {
     smd_server *srv;
     char name[SMD_PG_NODE_MAX];
-    smd_pg *api_db;           /* uploads, cancel, delete: under api_lock */
+    smd_pg *api_db;           /* uploads: under api_lock (held while one is copied) */
+    smd_pg *ctl_db;           /* cancel, delete: under ctl_lock (short queries, taken
+                               * with srv->lock held: never behind an upload) */
     smd_pg *sync_db;          /* the sync thread's */
     smd_pg *work_db;          /* the work thread's */
     smd_pg *lease_db;         /* the lease thread's: renewals never wait for the outbox */
     pthread_mutex_t api_lock;
+    pthread_mutex_t ctl_lock;
     pthread_mutex_t lock;     /* what follows */
     pthread_cond_t cond;      /* the work thread waits on it */
     node_item *out_head, **out_tail;

@@ -111,3 +111,9 @@ if [ -x bench/server_bench.sh ] && [ -x "$BIN/shapematchd" ]; then
     echo "== daemon =="
     bench/server_bench.sh
 fi
+
+if [ -x bench/cluster_bench.sh ] && [ -x "$BIN/shapematchd" ] && [ -x /usr/lib/postgresql/15/bin/initdb ]; then
+    echo
+    echo "== several machines on PostgreSQL =="
+    bench/cluster_bench.sh
+fi

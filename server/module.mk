@@ -12,9 +12,13 @@ APP_EMBEDDED := web/index.html web/app.js web/view.js web/app.css web/favicon.sv
     $(wildcard node_modules/three/build/three.module.min.js node_modules/three/build/three.core.min.js \
     node_modules/three/examples/jsm/controls/OrbitControls.js node_modules/uplot/dist/uPlot.esm.js \
     node_modules/uplot/dist/uPlot.min.css)
-SERVER_LIBS := $(HTTP_LIBS) $(PROTO_LIBS) $(CORE_LIBS) -lpthread
+SERVER_LIBS := $(HTTP_LIBS) $(PROTO_LIBS) $(CORE_LIBS) -lpq -lpthread
 
 define server_rules
+# the PostgreSQL backend (smd_pg*.c) and its test see libpq's header
+# (every server file may include smd_pg_node.h, which does not include libpq-fe.h)
+build/$(1)/obj/server/smd_pg.o build/$(1)/obj/server/smd_pg_%.o: $(1)_CFLAGS += -I /usr/include/postgresql
+build/$(1)/obj/tests/unit/test_server_pg.o: $(1)_CFLAGS += -I /usr/include/postgresql
 build/$(1)/gen/server/smd_embedded.c: server/embed.sh $$(SERVER_EMBEDDED)
 	@mkdir -p $$(dir $$@)
 	server/embed.sh $$@ smd_params_schema proto/params.schema.json smd_openapi_yaml proto/openapi.yaml \

@@ -23,6 +23,7 @@
 #include "sm_proto_events.h"
 #include "smd_http.h"
 #include "smd_jobs.h"
+#include "smd_pg_node.h"
 #include "smd_pool.h"
 #include "smd_route_table.h"
 #include "smd_server.h"
@@ -223,6 +224,10 @@ static int start_parts(smd_server *srv, size_t *queued)
         smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "out of memory");
         return -1;
     }
+    if (srv->cfg.database[0] && smd_pg_node_open(srv, &err) != SM_OK) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "%s (--database)", err.msg);
+        return -1;
+    }
     if (smd_jobs_recover(srv, queued, &err) != SM_OK) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "%s", err.msg);
         return -1;
@@ -231,9 +236,15 @@ static int start_parts(smd_server *srv, size_t *queued)
         smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "%s", err.msg);
         return -1;
     }
+    if (srv->cluster && smd_pg_node_run(srv, &err) != SM_OK) {
+        smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "%s", err.msg);
+        smd_pool_stop(srv, 0);
+        return -1;
+    }
     if (smd_http_start(srv, &err) != SM_OK) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "%s", err.msg);
         smd_pool_stop(srv, 0);
+        smd_pg_node_stop(srv);
         return -1;
     }
     smd_log(&srv->log, SMD_LOG_INFO, "listening",
@@ -331,9 +342,11 @@ int main(int argc, char **argv)
         shutdown_daemon(srv, &signals);
         code = 0;
     }
+    smd_pg_node_stop(srv); /* after the pool: gives back the leases of stopped runs */
     smd_pool_free(srv->pool);
     smd_queue_free(srv->queue);
     smd_store_close(srv->store);
+    smd_pg_node_free(srv->cluster);
     smd_tokens_free(srv->tokens);
     if (lock_ok)
         pthread_mutex_destroy(&srv->lock);

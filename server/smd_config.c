@@ -12,7 +12,7 @@
 #include "smd_util.h"
 
 typedef enum opt_kind { OPT_LISTEN, OPT_PATH, OPT_INT, OPT_UINT, OPT_SIZE, OPT_DURATION, OPT_LEVEL,
-                        OPT_ORIGINS, OPT_URL } opt_kind;
+                        OPT_ORIGINS, OPT_URL, OPT_TEXT, OPT_ROLE } opt_kind;
 
 typedef struct opt {
     const char *flag;     /* "--spool" */
@@ -99,6 +99,20 @@ static const opt options[] = {
     {"--public-url", "SHAPEMATCH_PUBLIC_URL", "URL", OPT_URL, OFF(public_url), 0, 0,
      "the daemon's URL as browsers see it behind a reverse proxy "
      "(https://host/prefix): its origin counts as the daemon's own", "none: the Host header"},
+    {"--database", "SHAPEMATCH_DATABASE_URL", "URL", OPT_TEXT, OFF(database), 0, SMD_DATABASE_URL_MAX,
+     "PostgreSQL job store and queue shared by several nodes (libpq connection string or "
+     "postgresql:// URI; sslmode, PGPASSWORD and ~/.pgpass are honoured); --spool is then "
+     "local scratch", "none: the embedded spool and queue"},
+    {"--database-password-file", "SHAPEMATCH_DATABASE_PASSWORD_FILE", "FILE", OPT_PATH,
+     OFF(database_password_file), 0, 0, "the database password (first line of FILE)", "none"},
+    {"--role", "SHAPEMATCH_ROLE", "ROLE", OPT_ROLE, OFF(role), 0, 0,
+     "all, api (uploads, status, events, results) or worker (claims and runs jobs); api "
+     "and worker need --database", "all"},
+    {"--max-attempts", "SHAPEMATCH_MAX_ATTEMPTS", "N", OPT_INT, OFF(max_attempts), 1, 1000,
+     "runs of one job whose worker node lost its lease (killed, cut off) before it fails", "3"},
+    {"--lease", "SHAPEMATCH_LEASE", "SECONDS", OPT_DURATION, OFF(lease), 1, 3600,
+     "how long a worker node holds a job without renewing it (renewed every third of it)",
+     "30s"},
 };
 
 #define NOPTIONS (sizeof options / sizeof options[0])
@@ -150,6 +164,8 @@ static void set_defaults(smd_config *c)
     c->keepalive = 15;
     c->kill_grace = 5;
     c->log_level = SMD_LOG_INFO;
+    c->max_attempts = 3;
+    c->lease = 30;
 }
 
 /* "HOST:PORT", "[v6]:PORT" or ":PORT" (all interfaces). */
@@ -306,6 +322,23 @@ static int apply(smd_config *c, const opt *o, const char *value, const char *sou
         }
         strcpy(field, value);
         return 0;
+    case OPT_TEXT:
+        if (strlen(value) >= (size_t)o->hi) {
+            snprintf(msg, cap, "%s: at most %.0f bytes", source, o->hi - 1);
+            return -1;
+        }
+        strcpy(field, value);
+        return 0;
+    case OPT_ROLE: {
+        static const char *const roles[] = {"all", "api", "worker"};
+        for (int i = 0; i < 3; i++)
+            if (strcmp(value, roles[i]) == 0) {
+                *(int *)field = i;
+                return 0;
+            }
+        snprintf(msg, cap, "%s: expected all, api or worker, got '%s'", source, value);
+        return -1;
+    }
     case OPT_LEVEL: {
         int level = smd_log_level_from_name(value);
         if (level < 0) {
@@ -378,6 +411,15 @@ smd_config_result smd_config_parse(smd_config *c, int argc, char **argv,
     }
     if (!c->tls_cert[0] != !c->tls_key[0]) {
         snprintf(msg, cap, "--tls-cert and --tls-key go together");
+        return SMD_CONFIG_ERROR;
+    }
+    if (c->role != SMD_ROLE_ALL && !c->database[0]) {
+        snprintf(msg, cap, "--role %s needs --database (nodes share jobs through PostgreSQL)",
+                 c->role == SMD_ROLE_API ? "api" : "worker");
+        return SMD_CONFIG_ERROR;
+    }
+    if (c->database_password_file[0] && !c->database[0]) {
+        snprintf(msg, cap, "--database-password-file needs --database");
         return SMD_CONFIG_ERROR;
     }
     derive_limits(c);

@@ -13,6 +13,7 @@
 /* Listed CORS origins at most, and the longest origin or public URL. */
 #define SMD_CORS_ORIGINS_MAX 32
 #define SMD_ORIGIN_MAX 256
+#define SMD_DATABASE_URL_MAX 1024
 
 typedef struct smd_config {
     char listen_host[256];        /* --listen HOST:PORT (IPv6 as [::1]:8080) */
@@ -48,7 +49,16 @@ typedef struct smd_config {
     char cors_origins[SMD_CORS_ORIGINS_MAX][SMD_ORIGIN_MAX];
     unsigned ncors_origins;
     char public_url[SMD_ORIGIN_MAX]; /* --public-url: the daemon's URL seen by browsers ("" = none) */
+    /* Several machines (server/smd_pg.h): a PostgreSQL job store and queue
+     * shared by every node; "" = the embedded spool and queue. */
+    char database[SMD_DATABASE_URL_MAX]; /* --database URL (libpq conninfo or URI) */
+    char database_password_file[PATH_MAX]; /* --database-password-file FILE */
+    int role;                     /* --role: SMD_ROLE_ALL, _API, _WORKER */
+    int max_attempts;             /* --max-attempts: runs of one job (leases lost) */
+    double lease;                 /* --lease: a worker node's hold on a job */
 } smd_config;
+
+enum { SMD_ROLE_ALL = 0, SMD_ROLE_API = 1, SMD_ROLE_WORKER = 2 };
 
 /* Looks up an environment variable (getenv in the daemon; a table in
  * tests).  Returns NULL when unset. */

@@ -89,6 +89,8 @@ static void append_or_log(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_
     }
     smd_metrics_add(&srv->metrics, &srv->metrics.events_appended, 1);
     smd_stream_collect_job(job, &after->wake);
+    if (srv->cluster)
+        srv->cluster_ops->event(srv->cluster, job, ev);
 }
 
 static sm_status refuse(const smd_job *job, const char *what, sm_error *err)
@@ -187,12 +189,18 @@ sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **
         return SM_OK; /* a retry with the same key */
     if (!smd_id_valid(sub->id))
         return sm_error_set(err, SM_ERR_INVALID, "bad job id");
+    double created_at = sm_time_now();
+    if (srv->cluster) { /* in the database first (lock released meanwhile) */
+        sm_status cst = srv->cluster_ops->submit(srv, sub, out, &created_at, err);
+        if (cst != SM_OK || *out)
+            return cst;
+    }
     smd_job *job = smd_job_new(sub->id);
     if (!job)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     job->state = SM_JOB_ACCEPTED;
     snprintf(job->message, sizeof job->message, "queued");
-    job->created = job->updated = sm_time_now();
+    job->created = job->updated = created_at;
     job->dim = sub->dim;
     job->max_iter = sub->max_iter;
     job->tol_boundary = sub->tol_boundary;
@@ -205,9 +213,11 @@ sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **
     sm_event_init(&ev, SM_EVENT_ACCEPTED);
     ev.time = job->created;
     sm_status st = smd_store_commit(srv->store, sub->dir, job, &ev, err);
+    if (srv->cluster)
+        srv->cluster_ops->submitted(srv->cluster, sub->id);
     if (st != SM_OK)
         return st;
-    if (smd_queue_push(srv->queue, job->id) != 0)
+    if (!srv->cluster && smd_queue_push(srv->queue, job->id) != 0)
         smd_logf(&srv->log, SMD_LOG_ERROR, "queue_error", "job %s: out of memory queueing it",
                  job->id);
     smd_metrics_add(&srv->metrics, &srv->metrics.jobs_submitted, 1);
@@ -345,6 +355,8 @@ sm_status smd_jobs_requeue(smd_server *srv, smd_job *job, json_t *extra)
     snprintf(job->message, sizeof job->message,
              "interrupted by a daemon shutdown: runs again at the next start");
     save_or_log(srv, job);
+    if (srv->cluster)
+        srv->cluster_ops->requeued(srv->cluster, job);
     smd_log(&srv->log, SMD_LOG_INFO, "job_requeued", log_fields(job, extra));
     return SM_OK;
 }
@@ -364,6 +376,8 @@ sm_status smd_jobs_cancel(smd_server *srv, smd_job *job, smd_jobs_after *after)
     sm_error err;
     if (job->state != SM_JOB_ACCEPTED && job->state != SM_JOB_RUNNING)
         return refuse(job, "cancel", &err);
+    if (srv->cluster && !srv->cluster_ops->runs(srv->cluster, job->id))
+        return srv->cluster_ops->cancel(srv, job, after, &err); /* its worker node stops it */
     int running = job->state == SM_JOB_RUNNING;
     static const char message[] = "cancelled by request (DELETE)";
     if (save_ahead(srv, job, SM_JOB_DISMISSED, message) != SM_OK)
@@ -408,6 +422,10 @@ sm_status smd_jobs_delete(smd_server *srv, smd_job *job, smd_jobs_after *after)
         return refuse(job, "delete", &err);
     char id[sizeof job->id];
     memcpy(id, job->id, sizeof id); /* job may be freed by the removal */
+    int deleted = 1; /* 0: another node deleted it first */
+    if (srv->cluster && srv->cluster_ops->remove(srv->cluster, id, &deleted, &err) != SM_OK)
+        return SM_ERR_IO;
+    (void)deleted;
     sm_status st = remove_job(srv, job, after, &err);
     if (st == SM_OK)
         smd_log(&srv->log, SMD_LOG_INFO, "job_deleted", json_pack("{s:s}", "job", id));
@@ -422,10 +440,100 @@ sm_status smd_jobs_expire(smd_server *srv, smd_job *job, smd_jobs_after *after)
     sm_error e;
     char id[sizeof job->id];
     memcpy(id, job->id, sizeof id); /* job may be freed by the removal */
+    int deleted = 1; /* cluster: the one node whose DELETE removed it logs it */
+    if (srv->cluster && srv->cluster_ops->remove(srv->cluster, id, &deleted, &e) != SM_OK)
+        return SM_ERR_IO; /* retried next sweep */
     if (remove_job(srv, job, after, &e) != SM_OK)
         return SM_ERR_IO; /* logged by trash_job; retried next sweep */
-    smd_logf(&srv->log, SMD_LOG_INFO, "job_expired", "job %s deleted after the retention time", id);
+    if (deleted)
+        smd_logf(&srv->log, SMD_LOG_INFO, "job_expired", "job %s deleted after the retention time",
+                 id);
     return SM_OK;
+}
+
+/* ------------------------------------------------------ cluster mirror */
+
+static void mirror_run_fields(smd_job *job, const sm_event *ev)
+{
+    switch (ev->type) {
+    case SM_EVENT_STARTED:
+        job->state = SM_JOB_RUNNING;
+        job->attempt = ev->attempt > 0 && ev->attempt <= SMD_ATTEMPT_MAX ? ev->attempt : job->attempt;
+        job->started = ev->time;
+        job->finished = -1;
+        job->progress = 0;
+        job->have_progress = 0;
+        snprintf(job->message, sizeof job->message, "running");
+        break;
+    case SM_EVENT_PROGRESS:
+        job->have_progress = 1;
+        job->last_progress = ev->progress;
+        if (job->max_iter > 0) {
+            long pct = (long)ev->progress.iteration * 100 / job->max_iter;
+            job->progress = (int)(pct > 99 ? 99 : pct < 0 ? 0 : pct);
+        }
+        break;
+    default:
+        break;
+    }
+}
+
+sm_status smd_jobs_mirror_event(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_after *after)
+{
+    sm_error err;
+    if (smd_store_load_events(srv->store, job, &err) != SM_OK)
+        return SM_ERR_IO;
+    if (ev->seq != job->nevents + 1)
+        return sm_error_set(&err, SM_ERR_INVALID, "out of order");
+    sm_job_state final = ev->type == SM_EVENT_FINISHED ? SM_JOB_SUCCESSFUL
+                         : ev->type == SM_EVENT_FAILED ? SM_JOB_FAILED
+                         : ev->type == SM_EVENT_CANCELLED ? SM_JOB_DISMISSED : SM_JOB_ACCEPTED;
+    mirror_run_fields(job, ev);
+    job->updated = ev->time;
+    if (final == SM_JOB_ACCEPTED) {
+        append_or_log(srv, job, ev, after);
+        if (ev->type == SM_EVENT_STARTED)
+            save_or_log(srv, job);
+        return SM_OK;
+    }
+    if (final == SM_JOB_SUCCESSFUL)
+        snprintf(job->message, sizeof job->message, "finished: %s after %d iterations",
+                 sm_stop_reason_name(ev->result.stop), ev->result.iterations);
+    else if (ev->message[0])
+        snprintf(job->message, sizeof job->message, "%s", ev->message);
+    job->state = final;
+    job->finished = ev->time;
+    if (final == SM_JOB_SUCCESSFUL)
+        job->progress = 100;
+    save_or_log(srv, job);
+    append_or_log(srv, job, ev, after);
+    smd_job_close_log(job);
+    smd_metrics_job_finished(&srv->metrics, final);
+    return SM_OK;
+}
+
+void smd_jobs_mirror_state(smd_server *srv, smd_job *job, sm_job_state state, const char *message,
+                           int attempt, smd_jobs_after *after)
+{
+    if (job->state == state && strcmp(job->message, message) == 0 && job->attempt == attempt)
+        return;
+    if (smd_job_state_final(job->state))
+        return; /* final states come with their event */
+    job->state = state;
+    job->attempt = attempt;
+    job->updated = sm_time_now();
+    if (state == SM_JOB_ACCEPTED)
+        job->progress = 0;
+    snprintf(job->message, sizeof job->message, "%s", message);
+    save_or_log(srv, job);
+    smd_stream_collect_job(job, &after->wake);
+}
+
+void smd_jobs_mirror_drop(smd_server *srv, smd_job *job, smd_jobs_after *after)
+{
+    sm_error err;
+    if (remove_job(srv, job, after, &err) != SM_OK)
+        smd_logf(&srv->log, SMD_LOG_WARN, "store_error", "%s", err.msg);
 }
 
 /* ------------------------------------------------------------ recovery */
@@ -466,7 +574,7 @@ sm_status smd_jobs_recover(smd_server *srv, size_t *queued, sm_error *err)
             smd_store_unlink(srv->store, job); /* shifts the list: do not advance i */
             continue;
         }
-        if (job->state == SM_JOB_ACCEPTED) {
+        if (job->state == SM_JOB_ACCEPTED && !srv->cluster) { /* cluster: the database's queue */
             if (smd_queue_push(srv->queue, job->id) != 0)
                 return sm_error_set(err, SM_ERR_NOMEM, "out of memory queueing the jobs");
             (*queued)++;

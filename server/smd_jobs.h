@@ -128,4 +128,16 @@ sm_status smd_jobs_expire(smd_server *srv, smd_job *job, smd_jobs_after *after);
  * cannot take them. */
 sm_status smd_jobs_recover(smd_server *srv, size_t *queued, sm_error *err);
 
+/* Cluster mode (--database, srv->cluster_ops: smd_cluster.h): the local record follows a
+ * job another node runs.  mirror_event appends ev (its seq must be the
+ * next) and applies it (started, progress, finished, failed,
+ * cancelled); mirror_state takes a change that has no event (a requeue
+ * after a lost lease, a cancel request); mirror_drop removes the local
+ * copy of a job deleted elsewhere (or stale). */
+sm_status smd_jobs_mirror_event(smd_server *srv, smd_job *job, sm_event *ev,
+                                smd_jobs_after *after);
+void smd_jobs_mirror_state(smd_server *srv, smd_job *job, sm_job_state state, const char *message,
+                           int attempt, smd_jobs_after *after);
+void smd_jobs_mirror_drop(smd_server *srv, smd_job *job, smd_jobs_after *after);
+
 #endif

@@ -14,6 +14,7 @@
 #include "sm_proto_vocab.h"
 #include "smd_jobs.h"
 #include "smd_negotiate.h"
+#include "smd_pg_node.h"
 #include "smd_pool.h"
 #include "smd_stream.h"
 
@@ -104,6 +105,10 @@ enum MHD_Result smd_route_readyz(struct MHD_Connection *conn, smd_request *req)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "a job record could not be written (disk full?): no job is "
                                  "accepted or started until the spool takes writes again");
+    char why[512];
+    if (srv->cluster && !smd_pg_node_ready(srv->cluster, why, sizeof why))
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
+                                 "the database is unreachable: %s", why);
     char jobs_dir[PATH_MAX];
     if (smd_pathf(jobs_dir, sizeof jobs_dir, "%s/jobs", smd_store_root(srv->store)) != 0 ||
         access(jobs_dir, W_OK) != 0)
@@ -140,6 +145,8 @@ enum MHD_Result smd_route_metrics(struct MHD_Connection *conn, smd_request *req)
     g.ready = !atomic_load(&srv->draining);
     size_t len;
     char *text = smd_metrics_render(&srv->metrics, &g, &len);
+    if (text && srv->cluster)
+        smd_pg_node_metrics(srv->cluster, &text, &len);
     if (!text)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
     return smd_reply(conn, req, 200,

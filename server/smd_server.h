@@ -28,6 +28,7 @@
 #include <stdatomic.h>
 
 #include "smd_auth.h"
+#include "smd_cluster.h"
 #include "smd_config.h"
 #include "smd_log.h"
 #include "smd_metrics.h"
@@ -37,6 +38,7 @@
 struct MHD_Daemon;
 struct smd_pool;
 struct smd_follower;
+struct smd_pg_node;
 
 typedef struct smd_server {
     smd_config cfg;
@@ -51,6 +53,8 @@ typedef struct smd_server {
     smd_store *store;
     smd_queue *queue;
     struct smd_pool *pool;
+    struct smd_pg_node *cluster; /* --database: the shared store (smd_pg_node.h), or NULL */
+    const smd_cluster_ops *cluster_ops; /* its calls from the state machine */
     struct smd_follower *followers; /* every event stream */
     size_t nfollowers;
 

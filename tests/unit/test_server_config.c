@@ -222,6 +222,42 @@ static void test_cors_origins(void **state)
     assert_int_equal(parse(&c, NULL, msg, "--public-url", "x.test", NULL), SMD_CONFIG_ERROR);
 }
 
+/* Several machines: --database, --role, --max-attempts, --lease. */
+static void test_cluster(void **state)
+{
+    (void)state;
+    smd_config c;
+    char msg[512];
+    assert_int_equal(parse(&c, NULL, msg, NULL), SMD_CONFIG_OK);
+    assert_string_equal(c.database, "");
+    assert_int_equal(c.role, SMD_ROLE_ALL);
+    assert_int_equal(c.max_attempts, 3);
+    assert_true(c.lease == 30);
+    const char *env[] = {"SHAPEMATCH_DATABASE_URL=postgresql://db.test/sm?sslmode=require",
+                         "SHAPEMATCH_ROLE=worker", NULL};
+    assert_int_equal(parse(&c, env, msg, "--max-attempts", "5", "--lease", "1m", NULL), SMD_CONFIG_OK);
+    assert_string_equal(c.database, "postgresql://db.test/sm?sslmode=require");
+    assert_int_equal(c.role, SMD_ROLE_WORKER);
+    assert_int_equal(c.max_attempts, 5);
+    assert_true(c.lease == 60);
+    assert_int_equal(parse(&c, env, msg, "--role", "api", "--database", "host=/s dbname=x", NULL),
+                     SMD_CONFIG_OK);
+    assert_int_equal(c.role, SMD_ROLE_API);
+    assert_string_equal(c.database, "host=/s dbname=x");
+    assert_int_equal(parse(&c, NULL, msg, "--role", "api", NULL), SMD_CONFIG_ERROR);
+    assert_non_null(strstr(msg, "--role api needs --database"));
+    assert_int_equal(parse(&c, NULL, msg, "--role", "boss", NULL), SMD_CONFIG_ERROR);
+    assert_non_null(strstr(msg, "expected all, api or worker"));
+    assert_int_equal(parse(&c, NULL, msg, "--database-password-file", "/p", NULL), SMD_CONFIG_ERROR);
+    assert_non_null(strstr(msg, "needs --database"));
+    assert_int_equal(parse(&c, NULL, msg, "--max-attempts", "0", NULL), SMD_CONFIG_ERROR);
+    char longurl[SMD_DATABASE_URL_MAX + 8];
+    memset(longurl, 'h', sizeof longurl - 1);
+    longurl[sizeof longurl - 1] = '\0';
+    assert_int_equal(parse(&c, NULL, msg, "--database", longurl, NULL), SMD_CONFIG_ERROR);
+    assert_non_null(strstr(msg, "--database: at most"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -231,6 +267,7 @@ int main(void)
         cmocka_unit_test(test_help_lists_everything),
         cmocka_unit_test(test_tokens),
         cmocka_unit_test(test_cors_origins),
+        cmocka_unit_test(test_cluster),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

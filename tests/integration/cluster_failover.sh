@@ -1,0 +1,189 @@
+#!/usr/bin/env bash
+# Several machines on one PostgreSQL (issue 12), failures and cluster-wide
+# operations: an API node killed (-9) while a client follows a job (the
+# client resumes on the other with Last-Event-ID: no event lost or
+# repeated); cancel on the API node that did not accept the job; an
+# Idempotency-Key retry on the other API node returns the same job;
+# PostgreSQL restarted with jobs queued and running (/readyz 503 during
+# the outage, nodes reconnect, nothing accepted is lost); a worker node
+# stopped while it runs a job gives it back at once; retention with two
+# API nodes deletes each job once.
+source "$(dirname "$0")/lib.sh"
+source "$(dirname "$0")/../lib/cluster.sh"
+
+if ! make_case || ! pg_up; then
+    not_ok "gmsh builds the test meshes and PostgreSQL starts"
+    exit 1
+fi
+started=1
+for nr in api1:api api2:api w1:worker; do
+    node "${nr%%:*}" "${nr#*:}" --workers 1 --lease 3 || started=0
+done
+if [ "$started" != 1 ]; then
+    not_ok "the nodes start"
+    exit 1
+fi
+ok "PostgreSQL, 2 API nodes and a worker node start"
+LONG="$BALL_PARAMS, \"max_iter\": 1000, \"tol_step\": 1e-15, \"tol_stall\": 0}"
+
+# ------------------------------ kill -9 an API node while a client follows
+on api1
+fid=$(submit "$FINE" "$BOX" "$BOXSOL" "$LONG")
+curl -sS -N --max-time $((60 * SLOW)) -H 'Accept: text/event-stream' \
+    "$BASE/v1/jobs/$fid/events" >"$WORK/f1.sse" 2>/dev/null &
+CURL=$!
+enough() { [ "$(grep -c '^id: ' "$WORK/f1.sse")" -ge 30 ]; }
+poll 30 enough
+kill9 api1
+wait "$CURL" 2>/dev/null
+# the client keeps the complete events it got (the last block may be cut)
+awk 'BEGIN { RS = "" } /\ndata: / { print }' "$WORK/f1.sse" | sed '$d' |
+    awk '/^id: / { print $2 }' >"$WORK/f1.ids"
+last=$(tail -n 1 "$WORK/f1.ids")
+on api2
+curl -sS -N --max-time $((60 * SLOW)) -H 'Accept: text/event-stream' -H "Last-Event-ID: $last" \
+    "$BASE/v1/jobs/$fid/events" >"$WORK/f2.sse"
+awk '/^id: / { print $2 }' "$WORK/f2.sse" >"$WORK/f2.ids"
+cat "$WORK/f1.ids" "$WORK/f2.ids" >"$WORK/all.ids"
+total=$(psql_val "SELECT nevents FROM smd_jobs WHERE id = '$fid'")
+end=$(awk '/^event: / { e = $2 } END { print e }' "$WORK/f2.sse")
+if [ -n "$last" ] && [ "$last" -ge 10 ] && [ "$(cat "$WORK/all.ids" | tr '\n' ' ')" = "$(seq 1 "$total" | tr '\n' ' ')" ] &&
+    [ "$end" = status ] && [ "$(job_state "$fid")" = successful ]; then
+    ok "API node killed while a client followed (after event $last): resumed on the other with Last-Event-ID, events 1..$total each once"
+else
+    not_ok "resume on the other API node" "last '$last' total '$total' end '$end'" \
+        "$(tr '\n' ' ' <"$WORK/all.ids" | head -c 600)"
+fi
+SPOOL= start_daemon api1b --database "$DB" --role api --workers 1 --lease 3 || not_ok "api1 comes back"
+NODE_BASE[api1]=$BASE NODE_PID[api1]=$DPID NODE_LOG[api1]=$DLOG
+
+# ------------------------------------- cancel on the other API node
+on api1
+cid=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)") # runs until stopped
+on api2
+poll 20 state_is "$cid" running
+t0=$SECONDS
+code=$(hcurl -o "$WORK/del.json" -w '%{http_code}' -X DELETE "$BASE/v1/jobs/$cid")
+on api1
+poll 15 state_is "$cid" dismissed
+s1=$(job_state "$cid")
+on api2
+s2=$(job_state "$cid")
+hcurl -H 'Accept: application/x-ndjson' "$BASE/v1/jobs/$cid/events" >"$WORK/c.ndjson"
+lasttype=$(jq -r 'select(.seq) | .type' "$WORK/c.ndjson" | tail -n 1)
+stopped=$(grep -c "\"event\":\"job_cancelled\",\"job\":\"$cid\"" "${NODE_LOG[w1]}")
+dbs=$(psql_val "SELECT state FROM smd_jobs WHERE id = '$cid'")
+if [ "$code" = 200 ] && [ "$s1" = dismissed ] && [ "$s2" = dismissed ] && [ "$lasttype" = cancelled ] &&
+    [ "$stopped" = 1 ] && [ "$dbs" = dismissed ]; then
+    ok "DELETE on the API node that did not accept a running job: the worker node stops it ($((SECONDS - t0)) s), dismissed everywhere"
+else
+    not_ok "cancel across nodes" "code $code states $s1/$s2 db $dbs last event $lasttype worker stopped $stopped" \
+        "$(cat "$WORK/del.json")"
+fi
+
+# ---------------------------------- idempotent retry on the other node
+on api2
+k1=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)" -H 'Idempotency-Key: cluster-retry')
+c1=$(cat "$WORK/submit.code")
+on api1
+k2=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)" -H 'Idempotency-Key: cluster-retry')
+c2=$(cat "$WORK/submit.code")
+nkey=$(psql_val "SELECT count(*) FROM smd_jobs WHERE idempotency_key = 'cluster-retry'")
+if [ -n "$k1" ] && [ "$k1" = "$k2" ] && [ "$c1" = 201 ] && [ "$c2" = 200 ] && [ "$nkey" = 1 ]; then
+    ok "Idempotency-Key retried on the other API node: the same job (201 then 200), one row"
+else
+    not_ok "Idempotency-Key across API nodes" "$k1 ($c1) vs $k2 ($c2), rows $nkey"
+fi
+
+# ------------------------------------------------ PostgreSQL restart
+on api1
+rid=$(submit "$FINE" "$BOX" "$BOXSOL" "$LONG")
+poll 20 state_is "$rid" running
+qids=()
+for i in 1 2 3; do qids+=("$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 20)")"); done
+pg_kill "$PGDIR"
+ready_is() { [ "$(hcurl -o /dev/null -w '%{http_code}' "$BASE/readyz")" = "$1" ]; }
+poll 10 ready_is 503
+down=$(hcurl "$BASE/readyz" | jq -r .detail)
+check "/readyz answers 503 while the database is down ($down)" ready_is 503
+sleep 1
+pg_start "$PGDIR" >/dev/null
+poll 20 ready_is 200
+check "the nodes reconnect: /readyz 200 again" ready_is 200
+on api2 # its upload connection was idle during the outage
+qids+=("$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 20)")")
+check "the first upload after the restart is accepted (201)" [ "$(cat "$WORK/submit.code")" = 201 ]
+on api1
+alldone() {
+    local id
+    for id in "$rid" "${qids[@]}"; do state_is "$id" successful || return 1; done
+}
+poll 60 alldone
+bad=""
+for id in "$rid" "${qids[@]}"; do
+    for nd in api1 api2; do
+        on "$nd"
+        s=$(job_state "$id")
+        [ "$s" = successful ] || bad="$bad $nd:$id:$s"
+    done
+done
+all "the jobs queued and running across the restart all end successful on both API nodes" "-z|$bad" \
+    "${rid:-none}|!=|none" "${#qids[@]}|=|4"
+[ -n "$bad" ] && echo "# $bad"
+on api1
+depth0() { # the gauges follow the database's queue (refreshed every lease / 3)
+    hcurl "$BASE/metrics" >"$WORK/metrics.txt" &&
+        grep -q '^shapematch_cluster_queue_depth 0$' "$WORK/metrics.txt" &&
+        grep -q '^shapematch_cluster_leases 0$' "$WORK/metrics.txt" &&
+        grep -q '^shapematch_database_up 1$' "$WORK/metrics.txt"
+}
+poll 10 depth0
+check "/metrics has the queue depth and leases from the database" depth0
+
+# ------------------------- a worker node stopped (SIGTERM) while it runs
+kill -TERM "${NODE_PID[w1]}"
+wait "${NODE_PID[w1]}" 2>/dev/null
+node w2 worker --workers 1 --lease 3 --shutdown-grace 0 || not_ok "node w2 starts"
+on api1
+sid=$(submit "$FINE" "$BOX" "$BOXSOL" "$LONG")
+poll 20 state_is "$sid" running
+t0=$SECONDS
+kill -TERM "${NODE_PID[w2]}"
+wait "${NODE_PID[w2]}" 2>/dev/null
+back=$(psql_val "SELECT state || ' ' || attempt || ' ' || (lease_token IS NULL) FROM smd_jobs WHERE id = '$sid'")
+node w3 worker --workers 1 --lease 3 || not_ok "node w3 starts"
+poll 30 state_is "$sid" successful
+all "a worker node stopped while it runs a job gives it back at once ($((SECONDS - t0)) s to the end), another runs it as attempt 2" \
+    "$back|=|accepted 1 true" "$(job_state "$sid")|=|successful" \
+    "$(psql_val "SELECT attempt FROM smd_jobs WHERE id = '$sid'")|=|2"
+
+# ---------------------------------------------------- retention, once
+for nd in api1 api2 w3; do kill -TERM "${NODE_PID[$nd]}" 2>/dev/null; done
+for nd in api1 api2 w3; do wait "${NODE_PID[$nd]}" 2>/dev/null; done
+for nr in r1:api r2:api rw:worker; do
+    node "${nr%%:*}" "${nr#*:}" --workers 1 --lease 3 --retention 2 || not_ok "node ${nr%%:*} starts"
+done
+on r1
+e1=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
+on r2
+e2=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
+gone() {
+    local nd id
+    for nd in r1 r2; do
+        on "$nd"
+        for id in "$e1" "$e2"; do [ "$(job_state "$id")" = 404 ] || return 1; done
+    done
+}
+poll 30 gone
+once=1
+for id in "$e1" "$e2"; do
+    c=$(cat "${NODE_LOG[r1]}" "${NODE_LOG[r2]}" "${NODE_LOG[rw]}" | grep -c "\"event\":\"job_expired\",\"msg\":\"job $id ")
+    [ "$c" = 1 ] || once=0
+done
+rows=$(psql_val "SELECT count(*) FROM smd_jobs WHERE id IN ('$e1', '$e2')")
+all "retention with two API nodes: each job deleted once (one job_expired line), gone from the database and both nodes" \
+    "$once|=|1" "$rows|=|0" "${e1:-none}|!=|none" "${e2:-none}|!=|none"
+for nd in r1 r2 rw; do kill -TERM "${NODE_PID[$nd]}" 2>/dev/null; done
+for nd in r1 r2 rw; do wait "${NODE_PID[$nd]}" 2>/dev/null; done
+check "no sanitizer report in any node's log" reports_clean
+echo "1..$n"

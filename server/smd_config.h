@@ -48,6 +48,14 @@ typedef struct smd_config {
     char cors_origins[SMD_CORS_ORIGINS_MAX][SMD_ORIGIN_MAX];
     unsigned ncors_origins;
     char public_url[SMD_ORIGIN_MAX]; /* --public-url: the daemon's URL seen by browsers ("" = none) */
+    unsigned submit_rate;         /* --submit-rate: submissions per window per tenant/address, 0 = none */
+    double submit_window;         /* --submit-window: its window, seconds */
+    unsigned max_queued;          /* --max-queued: unfinished jobs per tenant/address, 0 = none */
+    double header_timeout;        /* --header-timeout: request line + headers, absolute */
+    uint64_t min_upload_rate;     /* --min-upload-rate: bytes/s of a body after --header-timeout */
+    unsigned reserved_connections; /* --reserved-connections: kept for short requests (0 given: max/10) */
+    int check_threads;            /* --check-threads: acceptance checks at once */
+    double check_timeout;         /* --check-timeout: wall time of one upload's check */
 } smd_config;
 
 /* Looks up an environment variable (getenv in the daemon; a table in

@@ -19,7 +19,10 @@
 #include "sm_proto_vocab.h"
 #include "sm_proto_text.h"
 #include "smd_jobs.h"
+#include "shapematch/sm_clock.h"
+#include "smd_conns.h"
 #include "smd_pool.h"
+#include "smd_ratelimit.h"
 #include "smd_routes.h"
 #include "smd_worker.h"
 
@@ -41,6 +44,7 @@ struct smd_upload {
     char *params;                  /* params text */
     size_t params_len;
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1];
+    char limit_key[SMD_RATELIMIT_KEY_MAX + 1]; /* tenant or address (smd_ratelimit.h) */
     uint64_t part_hash[SM_NPARTS]; /* FNV-1a of each part's bytes */
     /* first error met while parsing; replied at the next call */
     unsigned err_status;
@@ -264,8 +268,6 @@ static int name_file(smd_upload *u, sm_part id)
     return 0;
 }
 
-/* ---------------------------------------------------------- requests */
-
 static enum MHD_Result reply_error(struct MHD_Connection *conn, smd_request *req, smd_upload *u)
 {
     return smd_reply_problem(conn, req, u->err_status, u->err_type, "%s", u->err_detail);
@@ -289,6 +291,87 @@ static enum MHD_Result reply_existing(struct MHD_Connection *conn, smd_request *
     MHD_add_response_header(resp, "Idempotent-Replayed", "true");
     return smd_reply(conn, req, MHD_HTTP_OK, resp);
 }
+
+/* ------------------------------------------------------------ limits */
+
+/* The key of the submitter's limits: its tenant, or its client address
+ * when the daemon has no tokens. */
+static void limit_key(struct MHD_Connection *conn, const smd_request *req, char *key, size_t cap)
+{
+    if (req->srv->tokens) {
+        snprintf(key, cap, "t:%s", req->who.tenant);
+        return;
+    }
+    char addr[64];
+    smd_conn_address(conn, addr, sizeof addr);
+    snprintf(key, cap, "a:%s", addr);
+}
+
+static int job_unfinished(const char *id, void *user)
+{
+    smd_job *job = smd_store_get(user, id);
+    return job && !smd_job_state_final(job->state);
+}
+
+/* Unfinished jobs of the key (lock held): by owner with tokens, else the
+ * jobs the limiter saw the address submit. */
+static size_t unfinished_jobs(smd_server *srv, const smd_request *req, const char *key)
+{
+    if (!srv->tokens)
+        return smd_ratelimit_live(srv->ratelimit, key, job_unfinished, srv->store);
+    size_t n = 0, count = smd_store_count(srv->store);
+    for (size_t i = 0; i < count; i++) {
+        const smd_job *job = smd_store_at(srv->store, i);
+        if (job && strcmp(job->owner, req->who.tenant) == 0 && !smd_job_state_final(job->state))
+            n++;
+    }
+    return n;
+}
+
+static const char *limit_subject(const smd_server *srv)
+{
+    return srv->tokens ? "tenant" : "client address";
+}
+
+/* 429 when the key holds --max-queued unfinished jobs (lock held). */
+static enum MHD_Result queued_refusal(struct MHD_Connection *conn, smd_request *req,
+                                      const char *key, int *refused)
+{
+    smd_server *srv = req->srv;
+    size_t n = srv->cfg.max_queued ? unfinished_jobs(srv, req, key) : 0;
+    *refused = srv->cfg.max_queued && n >= srv->cfg.max_queued;
+    if (!*refused)
+        return MHD_YES;
+    req->retry_after = 5;
+    return smd_reply_problem(conn, req, 429, SMD_PROBLEM_TOO_MANY,
+                             "this %s has %zu unfinished jobs, the limit is %u (the daemon's "
+                             "--max-queued): retry when one of them ends",
+                             limit_subject(srv), n, srv->cfg.max_queued);
+}
+
+/* The two submission limits at the start of a request: 429 before the
+ * body is read.  *refused says whether a reply was made. */
+static enum MHD_Result limits_refusal(struct MHD_Connection *conn, smd_request *req,
+                                      const char *key, int *refused)
+{
+    smd_server *srv = req->srv;
+    pthread_mutex_lock(&srv->lock);
+    enum MHD_Result r = queued_refusal(conn, req, key, refused);
+    pthread_mutex_unlock(&srv->lock);
+    if (*refused)
+        return r;
+    unsigned wait = smd_ratelimit_take(srv->ratelimit, key, sm_clock_seconds());
+    *refused = wait > 0;
+    if (!wait)
+        return MHD_YES;
+    req->retry_after = wait;
+    return smd_reply_problem(conn, req, 429, SMD_PROBLEM_TOO_MANY,
+                             "this %s submitted %u jobs in the last %g s, the limit (the daemon's "
+                             "--submit-rate and --submit-window): retry in %u s",
+                             limit_subject(srv), srv->cfg.submit_rate, srv->cfg.submit_window, wait);
+}
+
+/* ---------------------------------------------------------- requests */
 
 enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
 {
@@ -318,12 +401,19 @@ enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
                                  "Idempotency-Key must be 1 to %d visible ASCII characters",
                                  SMD_IDEMPOTENCY_KEY_MAX);
+    char lkey[SMD_RATELIMIT_KEY_MAX + 1];
+    limit_key(conn, req, lkey, sizeof lkey);
+    int refused;
+    enum MHD_Result lr = limits_refusal(conn, req, lkey, &refused);
+    if (refused)
+        return lr;
     /* a known key is answered after the body (same request or not) */
     smd_upload *u = calloc(1, sizeof *u);
     if (!u)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
     u->fd = -1;
     u->current = -1;
+    memcpy(u->limit_key, lkey, sizeof u->limit_key);
     if (key)
         snprintf(u->idempotency_key, sizeof u->idempotency_key, "%s", key);
     char inputs[PATH_MAX];
@@ -494,6 +584,12 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
     smd_job *job;
     int created;
     pthread_mutex_lock(&srv->lock);
+    int refused;
+    enum MHD_Result qr = queued_refusal(conn, req, u->limit_key, &refused);
+    if (refused) { /* concurrent uploads of the same key got there first */
+        pthread_mutex_unlock(&srv->lock);
+        return qr;
+    }
     st = smd_jobs_submit(srv, &sub, &job, &created, &after, &err);
     if (st == SM_OK && !created) {
         /* a concurrent retry with the same key won the race */
@@ -508,6 +604,8 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
                                  err.msg);
     }
     u->committed = 1;
+    if (!srv->tokens)
+        smd_ratelimit_track(srv->ratelimit, u->limit_key, job->id);
     memcpy(req->id, job->id, sizeof req->id);
     json_t *doc = smd_status_document(job);
     pthread_mutex_unlock(&srv->lock);

@@ -292,7 +292,10 @@ static void mhd_logger(void *cls, const char *fmt, va_list ap)
     size_t n = strlen(msg);
     while (n > 0 && (msg[n - 1] == '\n' || msg[n - 1] == '\r'))
         msg[--n] = '\0';
-    smd_logf(&srv->log, SMD_LOG_WARN, "httpd", "%s", msg);
+    /* the daemon's own cuts of slow connections (smd_conns.h) would
+     * otherwise flood the log during an attack: counted in /metrics */
+    int cut = strstr(msg, "closed by remote side") != NULL;
+    smd_logf(&srv->log, cut ? SMD_LOG_DEBUG : SMD_LOG_WARN, "httpd", "%s", msg);
 }
 
 /* --------------------------------------------------------------- daemon */

@@ -78,6 +78,8 @@ static sm_status read_binary(sm_reader *r, sm_surface **out, sm_error *err)
                                    "binary STL facet count %" PRIu64 " does not fit in the "
                                    "file (%" PRIu64 " bytes left, %u per facet)",
                                    n, sm_reader_max_remaining(r), STL_RECORD);
+    if ((st = sm_reader_limit_count(r, err, (int64_t)n, 0, "facets")) != SM_OK)
+        return st;
     sm_surface *s;
     if ((st = sm_surface_alloc(&s, 3, (int32_t)(3 * n), (int32_t)n, err)) != SM_OK)
         return st;
@@ -151,6 +153,8 @@ static sm_status read_facet(sm_reader *r, stl_grow *g, sm_error *err)
         int64_t cap = g->cap ? 2 * g->cap : 1024;
         if (cap > SM_MAX_ENTITIES / 3)
             return sm_reader_fail_line(r, err, SM_ERR_FORMAT, "too many facets");
+        if ((st = sm_reader_limit_count(r, err, g->n + 1, 0, "facets")) != SM_OK)
+            return st;
         double *x = realloc(g->x, (size_t)cap * 9 * sizeof *x);
         if (!x)
             return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", r->path);

@@ -172,7 +172,7 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
 {
     sm_surface *s = NULL;
     sm_sdf *d = NULL;
-    sm_status st = sm_surface_read(files->target_surface, &s, err);
+    sm_status st = sm_surface_read_limited(files->target_surface, files->limits, &s, err);
     if (st == SM_OK)
         st = sm_surface_repair(s, &out->health, err);
     if (st != SM_OK) {

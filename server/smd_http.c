@@ -16,6 +16,7 @@
 
 #include "shapematch/sm_clock.h"
 #include "sm_proto_text.h"
+#include "smd_check.h"
 #include "smd_conns.h"
 #include "smd_cors.h"
 #include "smd_ratelimit.h"
@@ -344,6 +345,9 @@ sm_status smd_http_start(smd_server *srv, sm_error *err)
     srv->conns = smd_conns_new(&climits, err);
     if (!srv->conns)
         return SM_ERR_IO;
+    srv->checks = smd_check_pool_new(cfg->check_threads, cfg->check_timeout, cfg->memory_limit, err);
+    if (!srv->checks)
+        return SM_ERR_IO;
     /* Per-connection buffers come from the connection's pool, and the
      * pool must hold the request headers plus a send buffer. */
     srv->httpd = MHD_start_daemon(
@@ -374,6 +378,10 @@ void smd_http_quiesce(smd_server *srv)
 
 void smd_http_stop(smd_server *srv)
 {
+    /* checks answered and their connections resumed before the daemon
+     * stops (it must not stop with suspended connections) */
+    smd_check_pool_free(srv->checks);
+    srv->checks = NULL;
     if (srv->httpd) {
         MHD_stop_daemon(srv->httpd);
         srv->httpd = NULL;

@@ -6,6 +6,7 @@
 #include <inttypes.h>
 #include <limits.h>
 #include <stdarg.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -20,6 +21,7 @@
 #include "sm_proto_text.h"
 #include "smd_jobs.h"
 #include "shapematch/sm_clock.h"
+#include "smd_check.h"
 #include "smd_conns.h"
 #include "smd_pool.h"
 #include "smd_ratelimit.h"
@@ -30,6 +32,8 @@
 /* For messages: every part, optional ones included. */
 #define SMD_UPLOAD_PARTS                                                                           \
     "template, target_mesh, target_sol, target_surface and params"
+
+enum { CHECK_NONE = 0, CHECK_RUNNING, CHECK_DONE };
 
 struct smd_upload {
     struct MHD_PostProcessor *pp;
@@ -45,6 +49,12 @@ struct smd_upload {
     size_t params_len;
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1];
     char limit_key[SMD_RATELIMIT_KEY_MAX + 1]; /* tenant or address (smd_ratelimit.h) */
+    sm_read_limits limits;         /* of the daemon's flags */
+    /* the acceptance check (smd_check.h), run while the connection is
+     * suspended: check_state goes NONE -> RUNNING -> DONE */
+    atomic_int check_state;
+    struct MHD_Connection *conn;
+    smd_check_result check;
     uint64_t part_hash[SM_NPARTS]; /* FNV-1a of each part's bytes */
     /* first error met while parsing; replied at the next call */
     unsigned err_status;
@@ -414,6 +424,9 @@ enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
     u->fd = -1;
     u->current = -1;
     memcpy(u->limit_key, lkey, sizeof u->limit_key);
+    u->limits = (sm_read_limits){.max_inflated = srv->cfg.max_inflated,
+                                 .max_vertices = (int64_t)srv->cfg.max_vertices,
+                                 .max_elements = (int64_t)srv->cfg.max_elements};
     if (key)
         snprintf(u->idempotency_key, sizeof u->idempotency_key, "%s", key);
     char inputs[PATH_MAX];
@@ -467,15 +480,15 @@ static int write_job_file(smd_upload *u, const sm_job_inputs *in)
 }
 
 /* An input beyond one of the configured bounds: 413 naming the flag. */
-static enum MHD_Result limit_refused(struct MHD_Connection *conn, smd_request *req,
-                                     const sm_read_limits *limits, const sm_error *err)
+static enum MHD_Result limit_refused(struct MHD_Connection *conn, smd_request *req, int hit,
+                                     const char *msg)
 {
-    const char *flag = limits->hit == SM_LIMIT_INFLATED   ? "--max-inflated"
-                       : limits->hit == SM_LIMIT_VERTICES ? "--max-vertices"
-                                                          : "--max-elements";
+    const char *flag = hit == SM_LIMIT_INFLATED   ? "--max-inflated"
+                       : hit == SM_LIMIT_VERTICES ? "--max-vertices"
+                                                  : "--max-elements";
     return smd_reply_problem(conn, req, 413, SMD_PROBLEM_TOO_LARGE,
-                             "%s (the daemon's %s; its operator can raise it%s)", err->msg, flag,
-                             limits->hit == SM_LIMIT_INFLATED ? "" : ", or --memory-limit");
+                             "%s (the daemon's %s; its operator can raise it%s)", msg, flag,
+                             hit == SM_LIMIT_INFLATED ? "" : ", or --memory-limit");
 }
 
 /* Which parts a job needs: template and params, and a target: target_mesh
@@ -515,71 +528,110 @@ static const char *file_of(const smd_upload *u, sm_part id)
     return u->seen[id] ? u->path[id] : NULL;
 }
 
-static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *req, smd_upload *u)
+/* ------------------------------------------------------ the check */
+
+/* In the check's child process (smd_check.h): reads and checks every
+ * input within the limits, writes job.json, sends back the summary. */
+static void check_in_child(void *arg, smd_check_result *out)
 {
-    smd_server *srv = req->srv;
-    close_part(u);
-    if (u->pp) {
-        enum MHD_Result clean = MHD_destroy_post_processor(u->pp);
-        u->pp = NULL;
-        if (clean != MHD_YES)
-            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
-                 "malformed or truncated multipart/form-data body (no closing boundary)");
-    }
-    if (u->err_status)
-        return reply_error(conn, req, u);
-    if (check_parts(u) != 0)
-        return reply_error(conn, req, u);
-    for (int i = 0; i < SM_PART_PARAMS; i++)
-        if (u->seen[i] && name_file(u, (sm_part)i) != 0)
-            return reply_error(conn, req, u);
-
-    uint64_t hash = request_hash(u);
-    if (u->idempotency_key[0]) {
-        pthread_mutex_lock(&srv->lock);
-        smd_job *known = smd_store_find_key(srv->store, req->who.tenant, u->idempotency_key);
-        enum MHD_Result r = known ? reply_keyed(conn, req, known, hash) : MHD_YES;
-        pthread_mutex_unlock(&srv->lock);
-        if (known)
-            return r;
-    }
-
+    smd_upload *u = arg;
     sm_job_inputs in;
     sm_error err;
     sm_error_clear(&err);
-    sm_read_limits limits = {.max_inflated = srv->cfg.max_inflated,
-                             .max_vertices = (int64_t)srv->cfg.max_vertices,
-                             .max_elements = (int64_t)srv->cfg.max_elements};
+    sm_read_limits limits = u->limits;
     sm_job_files files = {.template_mesh = file_of(u, SM_PART_TEMPLATE),
                           .target_mesh = file_of(u, SM_PART_TARGET_MESH),
                           .target_sol = file_of(u, SM_PART_TARGET_SOL),
                           .target_surface = file_of(u, SM_PART_TARGET_SURFACE),
                           .limits = &limits};
-    sm_status st = sm_job_inputs_load(&files, u->params ? u->params : "", u->params_len, &in, &err);
-    if (st != SM_OK && limits.hit)
-        return limit_refused(conn, req, &limits, &err);
-    if (st != SM_OK) {
-        if (st == SM_ERR_IO)
-            return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "%s", err.msg);
-        return smd_reply_problem(conn, req, 422, SMD_PROBLEM_INVALID_INPUT, "%s", err.msg);
+    out->status = sm_job_inputs_load(&files, u->params ? u->params : "", u->params_len, &in, &err);
+    if (out->status != SM_OK) {
+        out->limit_hit = limits.hit;
+        snprintf(out->msg, sizeof out->msg, "%s", err.msg);
+        return;
     }
-    int dim = in.dim, max_iter = in.params.max_iter;
-    double tol_boundary = in.params.tol_boundary;
-    int32_t nverts = in.template_mesh->nverts, nelems = in.template_mesh->nelems;
-    int rc = write_job_file(u, &in);
+    out->dim = in.dim;
+    out->max_iter = in.params.max_iter;
+    out->tol_boundary = in.params.tol_boundary;
+    out->nverts = in.template_mesh->nverts;
+    out->nelems = in.template_mesh->nelems;
+    if (write_job_file(u, &in) != 0) {
+        out->status = SM_ERR_IO;
+        out->storage = 1;
+        snprintf(out->msg, sizeof out->msg, "cannot write job.json: %s", strerror(errno));
+    }
     sm_job_inputs_free(&in);
-    if (rc != 0)
-        return smd_reply_problem(conn, req, 507, SMD_PROBLEM_STORAGE, "cannot write job.json: %s",
-                                 strerror(errno));
+}
 
+/* In a check thread: the result is in; the handler answers next. */
+static void check_done(void *user)
+{
+    smd_upload *u = user;
+    atomic_store(&u->check_state, CHECK_DONE);
+    MHD_resume_connection(u->conn);
+}
+
+/* The body is complete and its parts are known: the connection waits,
+ * suspended, while a check thread checks the inputs. */
+static enum MHD_Result start_check(struct MHD_Connection *conn, smd_request *req, smd_upload *u)
+{
+    u->conn = conn;
+    atomic_store(&u->check_state, CHECK_RUNNING);
+    MHD_suspend_connection(conn);
+    if (smd_check_submit(req->srv->checks, check_in_child, u, &u->check, check_done, u) != 0) {
+        memset(&u->check, 0, sizeof u->check);
+        u->check.status = SM_ERR_NOMEM;
+        u->check.shutdown = 1;
+        snprintf(u->check.msg, sizeof u->check.msg,
+                 "%d uploads are waiting for their acceptance check: retry in a few seconds",
+                 SMD_CHECK_QUEUE_MAX);
+        check_done(u);
+    }
+    return MHD_YES;
+}
+
+/* The check's verdict when it refused the upload. */
+static enum MHD_Result check_refused(struct MHD_Connection *conn, smd_request *req,
+                                     const smd_check_result *r)
+{
+    const smd_config *cfg = &req->srv->cfg;
+    if (r->timed_out)
+        return smd_reply_problem(conn, req, 422, SMD_PROBLEM_INVALID_INPUT,
+                                 "the acceptance check of this upload took longer than %g s (the "
+                                 "daemon's --check-timeout; its operator can raise it)",
+                                 cfg->check_timeout);
+    if (r->crashed)
+        return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL,
+                                 "the acceptance check of this upload stopped (signal %d)",
+                                 r->signal);
+    if (r->shutdown)
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "%s", r->msg);
+    if (r->storage)
+        return smd_reply_problem(conn, req, 507, SMD_PROBLEM_STORAGE, "%s", r->msg);
+    if (r->limit_hit)
+        return limit_refused(conn, req, r->limit_hit, r->msg);
+    if (r->status == SM_ERR_IO)
+        return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "%s", r->msg);
+    return smd_reply_problem(conn, req, 422, SMD_PROBLEM_INVALID_INPUT, "%s", r->msg);
+}
+
+/* The check accepted the inputs (job.json written): the job is submitted
+ * and 201 answered. */
+static enum MHD_Result submit_checked(struct MHD_Connection *conn, smd_request *req, smd_upload *u)
+{
+    smd_server *srv = req->srv;
+    const smd_check_result *r = &u->check;
+    uint64_t hash = request_hash(u);
+    sm_error err;
+    sm_error_clear(&err);
     char id[SMD_ID_LEN + 1];
     if (smd_random_id(id) != 0)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "no random source for the job id: %s", strerror(errno));
     smd_submission sub = {.dir = u->dir, .id = id, .idempotency_key = u->idempotency_key,
                           .owner = req->who.tenant, .request_hash = hash,
-                          .dim = dim, .max_iter = max_iter, .tol_boundary = tol_boundary, .nverts = nverts, .nelems = nelems,
-                          .bytes = u->received};
+                          .dim = r->dim, .max_iter = r->max_iter, .tol_boundary = r->tol_boundary,
+                          .nverts = r->nverts, .nelems = r->nelems, .bytes = u->received};
     smd_jobs_after after = {0};
     smd_job *job;
     int created;
@@ -590,12 +642,12 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
         pthread_mutex_unlock(&srv->lock);
         return qr;
     }
-    st = smd_jobs_submit(srv, &sub, &job, &created, &after, &err);
+    sm_status st = smd_jobs_submit(srv, &sub, &job, &created, &after, &err);
     if (st == SM_OK && !created) {
         /* a concurrent retry with the same key won the race */
-        enum MHD_Result r = reply_keyed(conn, req, job, hash);
+        enum MHD_Result replayed = reply_keyed(conn, req, job, hash);
         pthread_mutex_unlock(&srv->lock);
-        return r;
+        return replayed;
     }
     if (st != SM_OK) {
         pthread_mutex_unlock(&srv->lock);
@@ -624,6 +676,43 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
         return MHD_NO;
     MHD_add_response_header(resp, MHD_HTTP_HEADER_LOCATION, location);
     return smd_reply(conn, req, MHD_HTTP_CREATED, resp);
+}
+
+static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *req, smd_upload *u)
+{
+    smd_server *srv = req->srv;
+    int state = atomic_load(&u->check_state);
+    if (state == CHECK_DONE)
+        return u->check.status == SM_OK ? submit_checked(conn, req, u)
+                                        : check_refused(conn, req, &u->check);
+    if (state == CHECK_RUNNING)
+        return MHD_YES; /* not called while suspended; kept for safety */
+    close_part(u);
+    if (u->pp) {
+        enum MHD_Result clean = MHD_destroy_post_processor(u->pp);
+        u->pp = NULL;
+        if (clean != MHD_YES)
+            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
+                 "malformed or truncated multipart/form-data body (no closing boundary)");
+    }
+    if (u->err_status)
+        return reply_error(conn, req, u);
+    if (check_parts(u) != 0)
+        return reply_error(conn, req, u);
+    for (int i = 0; i < SM_PART_PARAMS; i++)
+        if (u->seen[i] && name_file(u, (sm_part)i) != 0)
+            return reply_error(conn, req, u);
+
+    uint64_t hash = request_hash(u);
+    if (u->idempotency_key[0]) {
+        pthread_mutex_lock(&srv->lock);
+        smd_job *known = smd_store_find_key(srv->store, req->who.tenant, u->idempotency_key);
+        enum MHD_Result r = known ? reply_keyed(conn, req, known, hash) : MHD_YES;
+        pthread_mutex_unlock(&srv->lock);
+        if (known)
+            return r;
+    }
+    return start_check(conn, req, u);
 }
 
 enum MHD_Result smd_upload_continue(struct MHD_Connection *conn, smd_request *req,

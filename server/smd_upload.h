@@ -11,10 +11,13 @@
  * SPOOL/tmp/up-XXXXXX/inputs/; nothing but params is held in memory.
  *
  * The whole body is capped at --max-upload (413, before reading anything
- * when Content-Length says so).  When the body is complete, the inputs
- * are validated (sm_job_inputs.h) and a bad job is refused with 422 and the
- * reason; a good one is handed to the state machine (smd_jobs_submit:
- * jobs/<id> by rename, queued), 201.  An
+ * when Content-Length says so).  Too many submissions or unfinished jobs
+ * of the tenant (address) get 429 before the body (smd_ratelimit.h).
+ * When the body is complete, the connection is suspended and the inputs
+ * are validated (sm_job_inputs.h) in a check process off the HTTP threads
+ * (smd_check.h, bounded by --check-timeout); resumed, the handler refuses
+ * a bad job with 413/422 and the reason, or hands a good one to the state
+ * machine (smd_jobs_submit: jobs/<id> by rename, queued), 201.  An
  * unfinished upload (client gone, error) leaves nothing behind. */
 #ifndef SMD_UPLOAD_H
 #define SMD_UPLOAD_H

@@ -23,15 +23,13 @@
 #include "shapematch/sm_clock.h"
 #include "smd_check.h"
 #include "smd_conns.h"
+#include "smd_parts.h"
 #include "smd_pool.h"
 #include "smd_ratelimit.h"
 #include "smd_routes.h"
 #include "smd_worker.h"
 
 
-/* For messages: every part, optional ones included. */
-#define SMD_UPLOAD_PARTS                                                                           \
-    "template, target_mesh, target_sol, target_surface and params"
 
 enum { CHECK_NONE = 0, CHECK_RUNNING, CHECK_DONE };
 
@@ -40,13 +38,7 @@ struct smd_upload {
     char dir[PATH_MAX];            /* SPOOL/tmp/up-XXXXXX */
     int committed;                 /* dir became a job: do not remove */
     uint64_t received;
-    int current;                   /* part being received, -1 none */
-    uint64_t current_bytes;
-    int fd;                        /* its file, -1 none */
-    int seen[SM_NPARTS];
-    char path[SM_NPARTS][PATH_MAX];   /* files of the file parts */
-    char *params;                  /* params text */
-    size_t params_len;
+    smd_parts parts;               /* names, files, params, hashes, first error */
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1];
     char limit_key[SMD_RATELIMIT_KEY_MAX + 1]; /* tenant or address (smd_ratelimit.h) */
     sm_read_limits limits;         /* of the daemon's flags */
@@ -55,26 +47,7 @@ struct smd_upload {
     atomic_int check_state;
     struct MHD_Connection *conn;
     smd_check_result check;
-    uint64_t part_hash[SM_NPARTS]; /* FNV-1a of each part's bytes */
-    /* first error met while parsing; replied at the next call */
-    unsigned err_status;
-    const char *err_type;
-    char err_detail[768];
 };
-
-static void fail(smd_upload *u, unsigned status, const char *type, const char *fmt, ...)
-    __attribute__((format(printf, 4, 5)));
-static void fail(smd_upload *u, unsigned status, const char *type, const char *fmt, ...)
-{
-    if (u->err_status)
-        return; /* keep the first reason */
-    u->err_status = status;
-    u->err_type = type;
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(u->err_detail, sizeof u->err_detail, fmt, ap);
-    va_end(ap);
-}
 
 int smd_idempotency_key_valid(const char *key)
 {
@@ -85,78 +58,6 @@ int smd_idempotency_key_valid(const char *key)
         if ((unsigned char)key[i] < 0x21 || (unsigned char)key[i] > 0x7e)
             return 0;
     return 1;
-}
-
-int smd_sniff_medit(const char *path, int *binary, int *gzip)
-{
-    unsigned char magic[4] = {0};
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return -1;
-    size_t n = fread(magic, 1, 2, f);
-    fclose(f);
-    *gzip = n == 2 && magic[0] == 0x1f && magic[1] == 0x8b;
-    gzFile gz = gzopen(path, "rb");
-    if (!gz)
-        return -1;
-    int got = gzread(gz, magic, 4);
-    gzclose(gz);
-    *binary = got == 4 && ((magic[0] == 1 && !magic[1] && !magic[2] && !magic[3]) ||
-                           (!magic[0] && !magic[1] && !magic[2] && magic[3] == 1));
-    return 0;
-}
-
-/* ------------------------------------------------------------ parts */
-
-static void close_part(smd_upload *u)
-{
-    if (u->fd >= 0) {
-        if (close(u->fd) != 0)
-            fail(u, 507, SMD_PROBLEM_STORAGE, "cannot store part '%s': %s", sm_part_names[u->current],
-                 strerror(errno));
-        u->fd = -1;
-    }
-    u->current = -1;
-    u->current_bytes = 0;
-}
-
-static int open_part(smd_upload *u, sm_part id)
-{
-    if (smd_pathf(u->path[id], sizeof u->path[id], "%s/inputs/%s.upload", u->dir, sm_part_names[id]) != 0) {
-        fail(u, 500, SMD_PROBLEM_INTERNAL, "spool path too long");
-        return -1;
-    }
-    u->fd = open(u->path[id], O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0640);
-    if (u->fd < 0) {
-        fail(u, 507, SMD_PROBLEM_STORAGE, "cannot store part '%s': %s", sm_part_names[id], strerror(errno));
-        return -1;
-    }
-    return 0;
-}
-
-#define FNV_OFFSET 0xcbf29ce484222325ULL
-
-static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
-{
-    const unsigned char *p = data;
-    for (size_t i = 0; i < n; i++)
-        h = (h ^ p[i]) * 0x100000001b3ULL;
-    return h;
-}
-
-/* What makes two requests "the same" for an Idempotency-Key: the bytes of
- * every part, whatever the multipart boundary and the order of parts. */
-static uint64_t request_hash(const smd_upload *u)
-{
-    uint64_t h = FNV_OFFSET;
-    for (int i = 0; i < SM_NPARTS; i++) {
-        if (!u->seen[i])
-            continue; /* the hashes of requests without target_surface stay as they were */
-        if (i == SM_PART_TARGET_SURFACE)
-            h = fnv1a(h, &i, sizeof i); /* tell it from the same bytes as target_mesh */
-        h = fnv1a(h, &u->part_hash[i], sizeof u->part_hash[i]);
-    }
-    return h ? h : 1; /* 0 = unknown (records from before the hash) */
 }
 
 static enum MHD_Result reply_existing(struct MHD_Connection *conn, smd_request *req,
@@ -175,112 +76,9 @@ static enum MHD_Result reply_keyed(struct MHD_Connection *conn, smd_request *req
     return reply_existing(conn, req, job);
 }
 
-static enum MHD_Result on_part(void *cls, enum MHD_ValueKind kind, const char *key,
-                               const char *filename, const char *content_type,
-                               const char *transfer_encoding, const char *data, uint64_t off,
-                               size_t size)
-{
-    smd_upload *u = cls;
-    (void)kind;
-    (void)filename;
-    (void)content_type;
-    if (u->err_status)
-        return MHD_NO;
-    int id = -1;
-    for (int i = 0; i < SM_NPARTS; i++)
-        if (key && strcmp(key, sm_part_names[i]) == 0)
-            id = i;
-    if (id < 0) {
-        char shown[64];
-        sm_text_printable_copy(shown, sizeof shown, key, "\"");
-        fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
-             "unknown part \"%s\": the parts are " SMD_UPLOAD_PARTS, shown);
-        return MHD_NO;
-    }
-    if (id != u->current || (off == 0 && u->current_bytes > 0)) {
-        /* a new part begins */
-        close_part(u);
-        if (u->seen[id]) {
-            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART, "part \"%s\" given more than once", sm_part_names[id]);
-            return MHD_NO;
-        }
-        if (transfer_encoding && strcasecmp(transfer_encoding, "binary") != 0 &&
-            strcasecmp(transfer_encoding, "7bit") != 0 && strcasecmp(transfer_encoding, "8bit") != 0) {
-            char shown[64];
-            sm_text_printable_copy(shown, sizeof shown, transfer_encoding, "\"");
-            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
-                 "part \"%s\": Content-Transfer-Encoding \"%s\" is not supported (send it as binary)",
-                 sm_part_names[id], shown);
-            return MHD_NO;
-        }
-        u->seen[id] = 1;
-        u->current = id;
-        u->part_hash[id] = FNV_OFFSET;
-        if (id != SM_PART_PARAMS && open_part(u, (sm_part)id) != 0)
-            return MHD_NO;
-    }
-    if (size == 0)
-        return MHD_YES;
-    u->current_bytes += size;
-    u->part_hash[id] = fnv1a(u->part_hash[id], data, size);
-    if (id == SM_PART_PARAMS) {
-        if (u->params_len + size > SM_PARAMS_JSON_MAX_BYTES) {
-            fail(u, 422, SMD_PROBLEM_INVALID_INPUT, "params: larger than %d bytes",
-                 SM_PARAMS_JSON_MAX_BYTES);
-            return MHD_NO;
-        }
-        char *p = realloc(u->params, u->params_len + size + 1);
-        if (!p) {
-            fail(u, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
-            return MHD_NO;
-        }
-        u->params = p;
-        memcpy(u->params + u->params_len, data, size);
-        u->params_len += size;
-        u->params[u->params_len] = '\0';
-        return MHD_YES;
-    }
-    while (size > 0) {
-        ssize_t n = write(u->fd, data, size);
-        if (n < 0 && errno == EINTR)
-            continue;
-        if (n <= 0) {
-            fail(u, 507, SMD_PROBLEM_STORAGE, "cannot store part \"%s\": %s", sm_part_names[id],
-                 n < 0 ? strerror(errno) : "short write");
-            return MHD_NO;
-        }
-        data += n;
-        size -= (size_t)n;
-    }
-    return MHD_YES;
-}
-
-/* Gives each uploaded file its final name: inputs/<part>.<ext>, with
- * the extension from the content, never from the client. */
-static int name_file(smd_upload *u, sm_part id)
-{
-    int binary = 0, gzip = 0;
-    if (smd_sniff_medit(u->path[id], &binary, &gzip) != 0) {
-        fail(u, 500, SMD_PROBLEM_INTERNAL, "cannot read back part \"%s\"", sm_part_names[id]);
-        return -1;
-    }
-    const char *ext = id == SM_PART_TARGET_SOL       ? (binary ? "solb" : "sol")
-                      : id == SM_PART_TARGET_SURFACE ? "surface" /* any surface format */
-                                                     : (binary ? "meshb" : "mesh");
-    char final[PATH_MAX];
-    if (smd_pathf(final, sizeof final, "%s/inputs/%s.%s%s", u->dir, sm_part_names[id], ext,
-                  gzip ? ".gz" : "") != 0 ||
-        rename(u->path[id], final) != 0) {
-        fail(u, 500, SMD_PROBLEM_INTERNAL, "cannot store part \"%s\"", sm_part_names[id]);
-        return -1;
-    }
-    memcpy(u->path[id], final, sizeof final);
-    return 0;
-}
-
 static enum MHD_Result reply_error(struct MHD_Connection *conn, smd_request *req, smd_upload *u)
 {
-    return smd_reply_problem(conn, req, u->err_status, u->err_type, "%s", u->err_detail);
+    return smd_reply_problem(conn, req, u->parts.err_status, u->parts.err_type, "%s", u->parts.err_detail);
 }
 
 static enum MHD_Result reply_existing(struct MHD_Connection *conn, smd_request *req, smd_job *job)
@@ -421,8 +219,7 @@ enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
     smd_upload *u = calloc(1, sizeof *u);
     if (!u)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
-    u->fd = -1;
-    u->current = -1;
+    smd_parts_init(&u->parts, u->dir);
     memcpy(u->limit_key, lkey, sizeof u->limit_key);
     u->limits = (sm_read_limits){.max_inflated = srv->cfg.max_inflated,
                                  .max_vertices = (int64_t)srv->cfg.max_vertices,
@@ -442,7 +239,7 @@ enum MHD_Result smd_upload_begin(struct MHD_Connection *conn, smd_request *req)
         return smd_reply_problem(conn, req, 507, SMD_PROBLEM_STORAGE,
                                  "cannot create an upload folder in the spool: %s", strerror(errno));
     }
-    u->pp = MHD_create_post_processor(conn, 65536, on_part, u);
+    u->pp = MHD_create_post_processor(conn, 65536, smd_parts_on_part, &u->parts);
     if (!u->pp) {
         smd_upload_free(u);
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_MULTIPART,
@@ -464,8 +261,8 @@ static int write_job_file(smd_upload *u, const sm_job_inputs *in)
         return -1;
     }
     for (int i = 0; i < SM_PART_PARAMS; i++)
-        if (u->seen[i])
-            json_object_set_new(doc, sm_part_names[i], json_string(u->path[i] + prefix));
+        if (u->parts.seen[i])
+            json_object_set_new(doc, sm_part_names[i], json_string(u->parts.path[i] + prefix));
     json_object_set_new(doc, "params", params);
     char *text = json_dumps(doc, JSON_INDENT(2) | JSON_PRESERVE_ORDER);
     json_decref(doc);
@@ -491,41 +288,10 @@ static enum MHD_Result limit_refused(struct MHD_Connection *conn, smd_request *r
                              hit == SM_LIMIT_INFLATED ? "" : ", or --memory-limit");
 }
 
-/* Which parts a job needs: template and params, and a target: target_mesh
- * + target_sol, or target_surface (+ target_mesh optionally).  A missing
- * part is a 400 (a malformed request), a conflict a 422. */
-static int check_parts(smd_upload *u)
-{
-    static const sm_part always[] = {SM_PART_TEMPLATE, SM_PART_PARAMS};
-    for (size_t i = 0; i < sizeof always / sizeof always[0]; i++)
-        if (!u->seen[always[i]]) {
-            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART, "missing part \"%s\": the parts are " SMD_UPLOAD_PARTS,
-                 sm_part_names[always[i]]);
-            return -1;
-        }
-    if (u->seen[SM_PART_TARGET_SURFACE] && u->seen[SM_PART_TARGET_SOL]) {
-        fail(u, 422, SMD_PROBLEM_INVALID_INPUT,
-             "target_surface excludes target_sol: give one target (target_surface with an optional "
-             "target_mesh, or target_mesh and target_sol)");
-        return -1;
-    }
-    if (u->seen[SM_PART_TARGET_SURFACE])
-        return 0;
-    for (int i = SM_PART_TARGET_MESH; i <= SM_PART_TARGET_SOL; i++)
-        if (!u->seen[i]) {
-            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
-                 "missing part \"%s\": the target is target_mesh and target_sol, or "
-                 "target_surface (with an optional target_mesh)",
-                 sm_part_names[i]);
-            return -1;
-        }
-    return 0;
-}
-
 /* The stored file of a part, NULL when the request has none. */
 static const char *file_of(const smd_upload *u, sm_part id)
 {
-    return u->seen[id] ? u->path[id] : NULL;
+    return u->parts.seen[id] ? u->parts.path[id] : NULL;
 }
 
 /* ------------------------------------------------------ the check */
@@ -544,7 +310,7 @@ static void check_in_child(void *arg, smd_check_result *out)
                           .target_sol = file_of(u, SM_PART_TARGET_SOL),
                           .target_surface = file_of(u, SM_PART_TARGET_SURFACE),
                           .limits = &limits};
-    out->status = sm_job_inputs_load(&files, u->params ? u->params : "", u->params_len, &in, &err);
+    out->status = sm_job_inputs_load(&files, u->parts.params ? u->parts.params : "", u->parts.params_len, &in, &err);
     if (out->status != SM_OK) {
         out->limit_hit = limits.hit;
         snprintf(out->msg, sizeof out->msg, "%s", err.msg);
@@ -621,7 +387,7 @@ static enum MHD_Result submit_checked(struct MHD_Connection *conn, smd_request *
 {
     smd_server *srv = req->srv;
     const smd_check_result *r = &u->check;
-    uint64_t hash = request_hash(u);
+    uint64_t hash = smd_parts_hash(&u->parts);
     sm_error err;
     sm_error_clear(&err);
     char id[SMD_ID_LEN + 1];
@@ -687,23 +453,22 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
                                         : check_refused(conn, req, &u->check);
     if (state == CHECK_RUNNING)
         return MHD_YES; /* not called while suspended; kept for safety */
-    close_part(u);
+    smd_parts_close(&u->parts);
     if (u->pp) {
         enum MHD_Result clean = MHD_destroy_post_processor(u->pp);
         u->pp = NULL;
         if (clean != MHD_YES)
-            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
+            smd_parts_fail(&u->parts, 400, SMD_PROBLEM_BAD_MULTIPART,
                  "malformed or truncated multipart/form-data body (no closing boundary)");
     }
-    if (u->err_status)
+    if (u->parts.err_status)
         return reply_error(conn, req, u);
-    if (check_parts(u) != 0)
+    if (smd_parts_check(&u->parts) != 0)
         return reply_error(conn, req, u);
-    for (int i = 0; i < SM_PART_PARAMS; i++)
-        if (u->seen[i] && name_file(u, (sm_part)i) != 0)
-            return reply_error(conn, req, u);
+    if (smd_parts_name_files(&u->parts) != 0)
+        return reply_error(conn, req, u);
 
-    uint64_t hash = request_hash(u);
+    uint64_t hash = smd_parts_hash(&u->parts);
     if (u->idempotency_key[0]) {
         pthread_mutex_lock(&srv->lock);
         smd_job *known = smd_store_find_key(srv->store, req->who.tenant, u->idempotency_key);
@@ -726,12 +491,12 @@ enum MHD_Result smd_upload_continue(struct MHD_Connection *conn, smd_request *re
     req->bytes_in += n;
     u->received += n;
     uint64_t limit = req->srv->cfg.max_upload;
-    if (u->received > limit && !u->err_status) {
-        fail(u, 413, SMD_PROBLEM_TOO_LARGE,
+    if (u->received > limit && !u->parts.err_status) {
+        smd_parts_fail(&u->parts, 413, SMD_PROBLEM_TOO_LARGE,
              "the request body exceeds the limit of %" PRIu64 " bytes (--max-upload)", limit);
-        close_part(u);
+        smd_parts_close(&u->parts);
     }
-    if (u->err_status) {
+    if (u->parts.err_status) {
         /* libmicrohttpd only lets a reply be queued before the body or
          * after all of it: read the rest without keeping it, and answer at
          * the end.  A body that goes on far past the limit is cut by
@@ -741,9 +506,9 @@ enum MHD_Result smd_upload_continue(struct MHD_Connection *conn, smd_request *re
         return MHD_YES;
     }
     if (MHD_post_process(u->pp, data, n) != MHD_YES)
-        fail(u, 400, SMD_PROBLEM_BAD_MULTIPART, "malformed multipart/form-data body");
-    if (u->err_status)
-        close_part(u);
+        smd_parts_fail(&u->parts, 400, SMD_PROBLEM_BAD_MULTIPART, "malformed multipart/form-data body");
+    if (u->parts.err_status)
+        smd_parts_close(&u->parts);
     return MHD_YES;
 }
 
@@ -753,10 +518,8 @@ void smd_upload_free(smd_upload *u)
         return;
     if (u->pp)
         MHD_destroy_post_processor(u->pp);
-    if (u->fd >= 0)
-        close(u->fd);
+    smd_parts_release(&u->parts);
     if (!u->committed && u->dir[0])
         smd_rmtree(u->dir);
-    free(u->params);
     free(u);
 }

@@ -24,6 +24,7 @@
 
 #include <stddef.h>
 
+#include "smd_parts.h"
 #include "smd_reply.h"
 
 typedef struct smd_upload smd_upload;
@@ -41,9 +42,7 @@ enum MHD_Result smd_upload_continue(struct MHD_Connection *conn, smd_request *re
 /* Request over (completed or aborted): removes what was not committed. */
 void smd_upload_free(smd_upload *u);
 
-/* Sniffs a file's Medit flavour: sets *binary (first int32 is 1 in either
- * byte order) and *gzip (gzip magic).  -1 when unreadable.  For tests. */
-int smd_sniff_medit(const char *path, int *binary, int *gzip);
+/* smd_sniff_medit (for tests) is in smd_parts.h. */
 
 /* 1 when key is an acceptable Idempotency-Key (1..255 visible ASCII). */
 int smd_idempotency_key_valid(const char *key);

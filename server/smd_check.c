@@ -52,7 +52,9 @@ static void child_main(smd_check_pool *p, const task *t, int fd)
     signal(SIGPIPE, SIG_DFL);
     struct rlimit core = {0, 0};
     setrlimit(RLIMIT_CORE, &core);
-#if !defined(__SANITIZE_ADDRESS__)
+#if defined(__SANITIZE_ADDRESS__)
+    (void)p; /* AddressSanitizer's shadow memory does not fit an address-space limit */
+#else
     if (p->memory_limit) {
         struct rlimit as = {(rlim_t)p->memory_limit, (rlim_t)p->memory_limit};
         setrlimit(RLIMIT_AS, &as);

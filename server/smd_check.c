@@ -6,6 +6,7 @@
 #include <omp.h>
 #include <poll.h>
 #include <pthread.h>
+#include <stdatomic.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -37,6 +38,8 @@ struct smd_check_pool {
     int nthreads;
     pthread_t *threads;
     pid_t *children;     /* per thread: its running child, 0 none */
+    atomic_int outstanding; /* submitted, not yet settled */
+    int joined;
 };
 
 static void set_failure(smd_check_result *out, const char *msg)
@@ -241,6 +244,7 @@ int smd_check_submit(smd_check_pool *p, smd_check_fn fn, void *arg, smd_check_re
         task *t = &p->queue[(p->head + p->count) % SMD_CHECK_QUEUE_MAX];
         *t = (task){fn, arg, out, done, user};
         p->count++;
+        atomic_fetch_add(&p->outstanding, 1);
         pthread_cond_signal(&p->wake);
         rc = 0;
     }
@@ -259,9 +263,15 @@ void smd_check_counts(smd_check_pool *p, uint64_t *running, uint64_t *waiting)
     pthread_mutex_unlock(&p->mutex);
 }
 
-void smd_check_pool_free(smd_check_pool *p)
+void smd_check_settled(smd_check_pool *p)
 {
-    if (!p)
+    if (p)
+        atomic_fetch_sub(&p->outstanding, 1);
+}
+
+void smd_check_pool_stop(smd_check_pool *p, double wait)
+{
+    if (!p || p->joined)
         return;
     pthread_mutex_lock(&p->mutex);
     p->stop = 1;
@@ -272,6 +282,17 @@ void smd_check_pool_free(smd_check_pool *p)
     pthread_mutex_unlock(&p->mutex);
     for (int i = 0; i < p->nthreads; i++)
         pthread_join(p->threads[i], NULL);
+    p->joined = 1;
+    double until = sm_clock_seconds() + wait;
+    while (atomic_load(&p->outstanding) > 0 && sm_clock_seconds() < until)
+        usleep(10000);
+}
+
+void smd_check_pool_free(smd_check_pool *p)
+{
+    if (!p)
+        return;
+    smd_check_pool_stop(p, 0);
     pthread_cond_destroy(&p->wake);
     pthread_mutex_destroy(&p->mutex);
     free(p->threads);

@@ -62,11 +62,18 @@ smd_check_pool *smd_check_pool_new(int threads, double timeout, uint64_t memory_
  * follows, in a check thread. */
 int smd_check_submit(smd_check_pool *p, smd_check_fn fn, void *arg, smd_check_result *out,
                      smd_check_done_fn done, void *user);
+/* The caller is done with a submitted check's request (answered, or the
+ * request is gone): smd_check_pool_stop waits for every one. */
+void smd_check_settled(smd_check_pool *p);
 /* Checks running and waiting, for /metrics. */
 void smd_check_counts(smd_check_pool *p, uint64_t *running, uint64_t *waiting);
 /* Stops: waiting checks are answered at once (status SM_ERR_IO, "the
  * daemon is shutting down"), running children are killed (the same);
- * every done() has been called when it returns. */
+ * every done() has been called, and it waits up to `wait` seconds for
+ * every submitted check to be settled (its connection resumed and
+ * answered: libmicrohttpd must not stop with it still pending). */
+void smd_check_pool_stop(smd_check_pool *p, double wait);
+/* Stops (without waiting) if not stopped yet, and frees. */
 void smd_check_pool_free(smd_check_pool *p);
 
 #endif

@@ -378,14 +378,15 @@ void smd_http_quiesce(smd_server *srv)
 
 void smd_http_stop(smd_server *srv)
 {
-    /* checks answered and their connections resumed before the daemon
-     * stops (it must not stop with suspended connections) */
-    smd_check_pool_free(srv->checks);
-    srv->checks = NULL;
+    /* checks stopped, their connections resumed and answered before the
+     * daemon stops (it must not stop with suspended connections) */
+    smd_check_pool_stop(srv->checks, 5);
     if (srv->httpd) {
         MHD_stop_daemon(srv->httpd);
         srv->httpd = NULL;
     }
+    smd_check_pool_free(srv->checks); /* after the last upload is freed */
+    srv->checks = NULL;
     smd_conns_free(srv->conns);
     srv->conns = NULL;
     smd_ratelimit_free(srv->ratelimit);

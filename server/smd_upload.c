@@ -47,6 +47,7 @@ struct smd_upload {
     atomic_int check_state;
     struct MHD_Connection *conn;
     smd_check_result check;
+    smd_check_pool *checks;        /* set when a check was submitted: settled at free */
 };
 
 int smd_idempotency_key_valid(const char *key)
@@ -344,7 +345,9 @@ static enum MHD_Result start_check(struct MHD_Connection *conn, smd_request *req
     u->conn = conn;
     atomic_store(&u->check_state, CHECK_RUNNING);
     MHD_suspend_connection(conn);
-    if (smd_check_submit(req->srv->checks, check_in_child, u, &u->check, check_done, u) != 0) {
+    if (smd_check_submit(req->srv->checks, check_in_child, u, &u->check, check_done, u) == 0) {
+        u->checks = req->srv->checks;
+    } else {
         memset(&u->check, 0, sizeof u->check);
         u->check.status = SM_ERR_NOMEM;
         u->check.shutdown = 1;
@@ -521,5 +524,6 @@ void smd_upload_free(smd_upload *u)
     smd_parts_release(&u->parts);
     if (!u->committed && u->dir[0])
         smd_rmtree(u->dir);
+    smd_check_settled(u->checks);
     free(u);
 }

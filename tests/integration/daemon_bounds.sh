@@ -161,7 +161,21 @@ if [ -n "$hwm" ] && [ "$hwm" -lt $((100 * 1024 * SLOW)) ]; then
 else
     not_ok "the daemon's RSS does not grow with the check" "VmHWM ${hwm:-?} kB"
 fi
+# SIGTERM while an upload is being checked: the check is stopped, the
+# client gets 503, the daemon exits cleanly
+curl -sS --max-time $((60 * SLOW)) -o "$WORK/term.json" -w '%{http_code}' -F "template=@$WORK/big.mesh.gz" \
+    -F "target_mesh=@$BOX" -F "target_sol=@$BOXSOL" -F "params=$(quick_params 5)" \
+    "$BASE/v1/jobs" >"$WORK/term.code" 2>/dev/null &
+cpid=$!
+poll 30 running
 stop_daemon
+rc=$?
+wait "$cpid"
+if [ "$rc" = 0 ] && [ "$(cat "$WORK/term.code")" = 503 ] && jq -e '.detail | contains("shutting down")' "$WORK/term.json" >/dev/null; then
+    ok "SIGTERM during a check: the upload gets 503 \"$(jq -r .detail "$WORK/term.json")\", the daemon exits 0"
+else
+    not_ok "SIGTERM during a check" "daemon rc $rc, upload $(cat "$WORK/term.code")" "$(cat "$WORK/term.json")"
+fi
 start_daemon slowcheck --workers 1 --check-timeout 0.5 --max-vertices 4M --max-inflated 1G ||
     { not_ok "the daemon starts"; exit 1; }
 t0=${EPOCHREALTIME/,/.}

@@ -15,7 +15,7 @@ if ! make_case; then
     exit 1
 fi
 ok "gmsh builds the test meshes"
-HT=5
+HT=3
 start_daemon loris --workers 1 --max-connections 400 --max-connections-per-ip 100 \
     --header-timeout "$HT" --min-upload-rate 1K || { not_ok "the daemon starts"; exit 1; }
 port=${BASE##*:}
@@ -41,9 +41,9 @@ verdict() {
         not_ok "$2" "$(cat "$j")"
     fi
 }
-attack headers 15 127.0.0.2,127.0.0.3,127.0.0.4,127.0.0.5 100
+attack headers 10 127.0.0.2,127.0.0.3,127.0.0.4,127.0.0.5 100
 verdict headers "slow-loris, 400 sockets from 4 addresses sending a header byte per second"
-attack body 10 127.0.0.6,127.0.0.7 20
+attack body 8 127.0.0.6,127.0.0.7 20
 verdict body "40 uploads sending their body at 1 byte/s"
 
 curl -sS --max-time 10 "$BASE/metrics" >"$WORK/metrics.txt"

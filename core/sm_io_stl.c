@@ -147,14 +147,13 @@ static sm_status read_facet(sm_reader *r, stl_grow *g, sm_error *err)
         if ((st = sm_reader_real(r, &v)) != SM_OK)
             return sm_reader_fail_line(r, err, st, "expected a facet normal, %s", r->why);
     if (st != SM_OK || (st = expect_word(r, "outer", err)) != SM_OK ||
-        (st = expect_word(r, "loop", err)) != SM_OK)
+        (st = expect_word(r, "loop", err)) != SM_OK ||
+        (st = sm_reader_limit_count(r, err, g->n + 1, 0, "facets")) != SM_OK)
         return st;
     if (g->n == g->cap) {
         int64_t cap = g->cap ? 2 * g->cap : 1024;
         if (cap > SM_MAX_ENTITIES / 3)
             return sm_reader_fail_line(r, err, SM_ERR_FORMAT, "too many facets");
-        if ((st = sm_reader_limit_count(r, err, g->n + 1, 0, "facets")) != SM_OK)
-            return st;
         double *x = realloc(g->x, (size_t)cap * 9 * sizeof *x);
         if (!x)
             return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", r->path);

@@ -514,6 +514,6 @@ sm_status sm_reader_limit_count(sm_reader *r, sm_error *err, int64_t n, int vert
     if (most <= 0 || n <= most)
         return SM_OK;
     lim->hit = vertices ? SM_LIMIT_VERTICES : SM_LIMIT_ELEMENTS;
-    return sm_error_set(err, SM_ERR_NOMEM, "%s: more than %lld %s (the limit on %s)", r->path,
+    return sm_error_set(err, SM_ERR_NOMEM, "%s: more than %lld %s, the limit on %s", r->path,
                         (long long)most, what, vertices ? "vertices" : "elements");
 }

@@ -56,8 +56,8 @@ static sm_status part_error(sm_error *err, const char *part, const char *path)
             p++;
         if (p > digits && *p == ':')
             return sm_error_set(err, err->code, "%s: line %.*s:%s", part, (int)(p - digits), digits, p + 1);
-        /* already "PART: what" */
-        return sm_error_set(err, err->code, "%s: %s", part, msg);
+        /* already "PART: what" ("FILE: byte N: what", "FILE: what") */
+        return sm_error_set(err, err->code, "%s", msg);
     }
     return sm_error_set(err, err->code, "%s: %s", part, msg);
 }

@@ -102,6 +102,17 @@ if [ "$(cat "$WORK/submit.code")" = 413 ] &&
 else
     not_ok "--max-elements 20: 413" "$(cat "$WORK/submit.code")" "$(cat "$WORK/submit.out")"
 fi
+# a target_surface counts too: a small template, an OBJ fan of 39 facets
+printf 'MeshVersionFormatted 2\nDimension 3\nVertices\n4\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\nTetrahedra\n1\n1 2 3 4 0\nEnd\n' >"$WORK/tet.mesh"
+awk 'BEGIN { print "v 0 0 0"; for (i = 0; i <= 40; i++) printf "v %.6f %.6f 1\n", cos(i / 6.5), sin(i / 6.5)
+             for (i = 2; i <= 40; i++) printf "f 1 %d %d\n", i, i + 1 }' >"$WORK/fan.obj"
+c=$(hcurl -o "$WORK/fan.json" -w '%{http_code}' -F "template=@$WORK/tet.mesh" -F "target_surface=@$WORK/fan.obj" \
+    -F "params=$(quick_params 5)" "$BASE/v1/jobs")
+if [ "$c" = 413 ] && jq -e '.detail | test("^target_surface: .*20 facets.*--max-elements")' "$WORK/fan.json" >/dev/null; then
+    ok "a target_surface beyond --max-elements 20: 413 \"$(jq -r .detail "$WORK/fan.json")\""
+else
+    not_ok "a target_surface beyond --max-elements: 413" "$c" "$(cat "$WORK/fan.json")"
+fi
 stop_daemon
 
 # ---------------------------------------------- checks off the HTTP thread

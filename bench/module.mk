@@ -8,3 +8,9 @@ $(addprefix build/release/,$(BENCH_PROGS)):
 	$(CC) -o $@ $^ $(CORE_LIBS)
 release: $(addprefix build/release/,$(BENCH_PROGS))
 all: $(addprefix build/release/,$(BENCH_PROGS))
+# The daemon soak (bench/soak.sh, SOAK_SECONDS, default 600): mixed load
+# while RSS, descriptors and threads are sampled; part of `make bench`.
+.PHONY: bench-soak
+bench-soak: build/release/shapematchd build/release/shapematch-worker
+	bench/soak.sh
+bench: bench-soak

@@ -806,7 +806,8 @@ static sm_status build_surface(medit_in *c, sm_surface **out)
     return SM_OK;
 }
 
-sm_status sm__medit_surface_read(const char *path, sm_surface **out, sm_error *err)
+sm_status sm__medit_surface_read(const char *path, sm_read_limits *limits, sm_surface **out,
+                                 sm_error *err)
 {
     *out = NULL;
     medit_in c;
@@ -815,6 +816,7 @@ sm_status sm__medit_surface_read(const char *path, sm_surface **out, sm_error *e
     sm_status st = sm_reader_open(&c.r, path, err);
     if (st != SM_OK)
         return st;
+    c.r.limits = limits;
     st = sm_medit_detect(&c.r, &c.binary, err);
     if (st == SM_OK)
         st = c.binary ? read_binary(&c) : read_ascii(&c);

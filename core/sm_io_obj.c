@@ -95,8 +95,10 @@ static sm_status next_line(obj_in *c, int *eof)
 
 static sm_status grow(obj_in *c, void **a, int64_t *cap, int64_t need, size_t item)
 {
-    if (need <= *cap)
-        return SM_OK;
+    sm_status st = sm_reader_limit_count(c->r, c->err, need, cap == &c->capv,
+                                         cap == &c->capv ? "vertices" : "facets");
+    if (st != SM_OK || need <= *cap)
+        return st;
     int64_t n = *cap ? *cap * 2 : 1024;
     while (n < need)
         n *= 2;

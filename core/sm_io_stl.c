@@ -78,6 +78,8 @@ static sm_status read_binary(sm_reader *r, sm_surface **out, sm_error *err)
                                    "binary STL facet count %" PRIu64 " does not fit in the "
                                    "file (%" PRIu64 " bytes left, %u per facet)",
                                    n, sm_reader_max_remaining(r), STL_RECORD);
+    if ((st = sm_reader_limit_count(r, err, (int64_t)n, 0, "facets")) != SM_OK)
+        return st;
     sm_surface *s;
     if ((st = sm_surface_alloc(&s, 3, (int32_t)(3 * n), (int32_t)n, err)) != SM_OK)
         return st;
@@ -145,7 +147,8 @@ static sm_status read_facet(sm_reader *r, stl_grow *g, sm_error *err)
         if ((st = sm_reader_real(r, &v)) != SM_OK)
             return sm_reader_fail_line(r, err, st, "expected a facet normal, %s", r->why);
     if (st != SM_OK || (st = expect_word(r, "outer", err)) != SM_OK ||
-        (st = expect_word(r, "loop", err)) != SM_OK)
+        (st = expect_word(r, "loop", err)) != SM_OK ||
+        (st = sm_reader_limit_count(r, err, g->n + 1, 0, "facets")) != SM_OK)
         return st;
     if (g->n == g->cap) {
         int64_t cap = g->cap ? 2 * g->cap : 1024;

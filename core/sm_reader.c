@@ -699,3 +699,15 @@ sm_status sm_reader_fail_byte(sm_reader *r, sm_error *err, sm_status code,
     va_end(ap);
     return sm_error_set(err, code, "%s: byte %" PRIu64 ": %s", r->path, offset, msg);
 }
+
+sm_status sm_reader_limit_count(sm_reader *r, sm_error *err, int64_t n, int vertices,
+                                const char *what)
+{
+    sm_read_limits *lim = r->limits;
+    int64_t most = !lim ? 0 : vertices ? lim->max_vertices : lim->max_elements;
+    if (most <= 0 || n <= most)
+        return SM_OK;
+    lim->hit = vertices ? SM_LIMIT_VERTICES : SM_LIMIT_ELEMENTS;
+    return sm_error_set(err, SM_ERR_NOMEM, "%s: more than %lld %s, the limit on %s", r->path,
+                        (long long)most, what, vertices ? "vertices" : "elements");
+}

@@ -112,6 +112,12 @@ uint64_t sm_bswap64(uint64_t v);
 /* "path:line: message" (line of the last token). */
 sm_status sm_reader_fail_line(sm_reader *r, sm_error *err, sm_status code,
                               const char *fmt, ...) __attribute__((format(printf, 4, 5)));
+/* SM_ERR_NOMEM naming the bound when n records (vertices when vertices
+ * is 1, else elements or facets) exceed r->limits (sm_io.h), with
+ * limits->hit set; SM_OK otherwise.  For readers without a declared
+ * count (STL, OBJ): called as the records grow. */
+sm_status sm_reader_limit_count(sm_reader *r, sm_error *err, int64_t n, int vertices,
+                                const char *what);
 /* "path: byte N: message". */
 sm_status sm_reader_fail_byte(sm_reader *r, sm_error *err, sm_status code,
                               uint64_t offset, const char *fmt, ...)

@@ -183,6 +183,12 @@ static int medit_ascii_start(sm_reader *r)
 
 sm_status sm_surface_read(const char *path, sm_surface **out, sm_error *err)
 {
+    return sm_surface_read_limited(path, NULL, out, err);
+}
+
+sm_status sm_surface_read_limited(const char *path, sm_read_limits *limits, sm_surface **out,
+                                  sm_error *err)
+{
     *out = NULL;
     if (!path)
         return sm_error_set(err, SM_ERR_INVALID, "no surface file name");
@@ -190,6 +196,7 @@ sm_status sm_surface_read(const char *path, sm_surface **out, sm_error *err)
     sm_status st = sm_reader_open(&r, path, err);
     if (st != SM_OK)
         return st;
+    r.limits = limits;
     int binary = 0;
     unsigned char head[512];
     size_t got = 0;
@@ -207,7 +214,7 @@ sm_status sm_surface_read(const char *path, sm_surface **out, sm_error *err)
         sm__msh_data_free(&d);
     } else if (medit_ascii_start(&r) || (binary && !sm__stl_detect(&r))) {
         sm_reader_close(&r);
-        return sm__medit_surface_read(path, out, err);
+        return sm__medit_surface_read(path, limits, out, err);
     } else if (sm__stl_detect(&r) || (!sm__obj_detect(&r) && got >= 84)) {
         /* anything else long enough is taken for a binary STL, whose
          * reader says precisely what does not fit */

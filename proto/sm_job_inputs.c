@@ -56,8 +56,8 @@ static sm_status part_error(sm_error *err, const char *part, const char *path)
             p++;
         if (p > digits && *p == ':')
             return sm_error_set(err, err->code, "%s: line %.*s:%s", part, (int)(p - digits), digits, p + 1);
-        /* already "PART: what" */
-        return sm_error_set(err, err->code, "%s: %s", part, msg);
+        /* already "PART: what" ("FILE: byte N: what", "FILE: what") */
+        return sm_error_set(err, err->code, "%s", msg);
     }
     return sm_error_set(err, err->code, "%s: %s", part, msg);
 }
@@ -178,7 +178,7 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
 {
     sm_surface *s = NULL;
     sm_sdf *d = NULL;
-    sm_status st = sm_surface_read(files->target_surface, &s, err);
+    sm_status st = sm_surface_read_limited(files->target_surface, files->limits, &s, err);
     if (st == SM_OK)
         st = sm_surface_repair(s, &out->health, err);
     if (st != SM_OK) {

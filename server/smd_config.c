@@ -113,6 +113,32 @@ static const opt options[] = {
     {"--lease", "SHAPEMATCH_LEASE", "SECONDS", OPT_DURATION, OFF(lease), 1, 3600,
      "how long a worker node holds a job without renewing it (renewed every third of it)",
      "30s"},
+    {"--submit-rate", "SHAPEMATCH_SUBMIT_RATE", "N", OPT_UINT, OFF(submit_rate), 0, 1000000,
+     "job submissions one tenant (one client address without --tokens-file) may make per "
+     "--submit-window; more get 429 with Retry-After (0 = no limit)", "600"},
+    {"--submit-window", "SHAPEMATCH_SUBMIT_WINDOW", "SECONDS", OPT_DURATION, OFF(submit_window), 1,
+     86400, "the window of --submit-rate", "1m"},
+    {"--max-queued", "SHAPEMATCH_MAX_QUEUED", "N", OPT_UINT, OFF(max_queued), 0, 1000000,
+     "unfinished jobs (accepted, queued or running) one tenant (one client address without "
+     "--tokens-file) may have; more submissions get 429 with Retry-After (0 = no limit)", "1000"},
+    {"--header-timeout", "SHAPEMATCH_HEADER_TIMEOUT", "SECONDS", OPT_DURATION, OFF(header_timeout),
+     0.5, 3600, "a request's line and headers must arrive within this time of the connection's "
+     "start (or of its previous request), however steadily they trickle; idle keep-alive "
+     "connections are closed after it too", "10s"},
+    {"--min-upload-rate", "SHAPEMATCH_MIN_UPLOAD_RATE", "BYTES", OPT_SIZE, OFF(min_upload_rate), 0,
+     1e12, "a request body (an upload) slower than this many bytes per second on average, "
+     "measured after --header-timeout, is cut (0 = no minimum)", "1K"},
+    {"--reserved-connections", "SHAPEMATCH_RESERVED_CONNECTIONS", "N", OPT_UINT,
+     OFF(reserved_connections), 0, 100000,
+     "connections of --max-connections kept for short requests: once fewer are free, each new "
+     "connection closes the oldest one still sending its headers after 1 s (0 = "
+     "--max-connections / 10)", "--max-connections / 10"},
+    {"--check-threads", "SHAPEMATCH_CHECK_THREADS", "N", OPT_INT, OFF(check_threads), 1, 64,
+     "uploads whose acceptance check (parsing, limits, mesh checks) runs at the same time, "
+     "each in a child process off the HTTP threads; more wait their turn", "2"},
+    {"--check-timeout", "SHAPEMATCH_CHECK_TIMEOUT", "SECONDS", OPT_DURATION, OFF(check_timeout), 0.1,
+     86400, "wall time the acceptance check of one upload may take; longer ones are stopped and "
+     "refused with 422", "1m"},
 };
 
 #define NOPTIONS (sizeof options / sizeof options[0])
@@ -141,6 +167,10 @@ static void derive_limits(smd_config *c)
         c->max_vertices = from_memory;
     if (!c->max_elements)
         c->max_elements = from_memory;
+    if (!c->reserved_connections)
+        c->reserved_connections = c->max_connections / 10;
+    if (c->reserved_connections >= c->max_connections)
+        c->reserved_connections = c->max_connections - 1;
 }
 
 static void set_defaults(smd_config *c)
@@ -166,6 +196,13 @@ static void set_defaults(smd_config *c)
     c->log_level = SMD_LOG_INFO;
     c->max_attempts = 3;
     c->lease = 30;
+    c->submit_rate = 600;
+    c->submit_window = 60;
+    c->max_queued = 1000;
+    c->header_timeout = 10;
+    c->min_upload_rate = 1024;
+    c->check_threads = 2;
+    c->check_timeout = 60;
 }
 
 /* "HOST:PORT", "[v6]:PORT" or ":PORT" (all interfaces). */

@@ -56,6 +56,14 @@ typedef struct smd_config {
     int role;                     /* --role: SMD_ROLE_ALL, _API, _WORKER */
     int max_attempts;             /* --max-attempts: runs of one job (leases lost) */
     double lease;                 /* --lease: a worker node's hold on a job */
+    unsigned submit_rate;         /* --submit-rate: submissions per window per tenant/address, 0 = none */
+    double submit_window;         /* --submit-window: its window, seconds */
+    unsigned max_queued;          /* --max-queued: unfinished jobs per tenant/address, 0 = none */
+    double header_timeout;        /* --header-timeout: request line + headers, absolute */
+    uint64_t min_upload_rate;     /* --min-upload-rate: bytes/s of a body after --header-timeout */
+    unsigned reserved_connections; /* --reserved-connections: kept for short requests (0 given: max/10) */
+    int check_threads;            /* --check-threads: acceptance checks at once */
+    double check_timeout;         /* --check-timeout: wall time of one upload's check */
 } smd_config;
 
 enum { SMD_ROLE_ALL = 0, SMD_ROLE_API = 1, SMD_ROLE_WORKER = 2 };

@@ -16,7 +16,10 @@
 
 #include "shapematch/sm_clock.h"
 #include "sm_proto_text.h"
+#include "smd_check.h"
+#include "smd_conns.h"
 #include "smd_cors.h"
+#include "smd_ratelimit.h"
 #include "smd_reply.h"
 #include "smd_route_table.h"
 #include "smd_tls.h"
@@ -181,6 +184,10 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
     smd_server *srv = cls;
     smd_request *req = *req_cls;
     if (req) {
+        if (*upload_data_size > 0)
+            smd_conns_body(conn, req->bytes_in + *upload_data_size);
+        else
+            smd_conns_body_done(conn);
         if (!req->dispatched) {
             if (*upload_data_size > 0) { /* an unexpected body: read and dropped */
                 req->bytes_in += *upload_data_size;
@@ -219,6 +226,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
         /* answered at once; the body (if any) is not read: the connection
          * closes after the reply */
         req->dispatched = 1;
+        smd_conns_request(conn, 0);
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST, "%s", strict);
     }
     /* a body is coming (and not one refused outright for its size) */
@@ -232,6 +240,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
     if (length && smd_parse_uint(length, 0, UINT64_MAX, &body) != SMD_NUM_OK)
         body = 0;
     req->body_pending = (body > 0 && body <= srv->cfg.max_upload) || (!length && chunked);
+    smd_conns_request(conn, req->body_pending);
     /* no body: answer on the next call (keeps the connection alive) */
     if (!req->body_pending && !length && !chunked && strcmp(method, MHD_HTTP_METHOD_POST) != 0)
         return MHD_YES;
@@ -246,22 +255,14 @@ static void on_completed(void *cls, struct MHD_Connection *conn, void **req_cls,
     if (!req)
         return;
     *req_cls = NULL;
+    smd_conns_idle(conn);
     double seconds = sm_clock_seconds() - req->t0;
     unsigned status = req->replied ? req->status : 499; /* client went away before a reply */
     smd_metrics_request(&srv->metrics, req->route_label, req->method, status, seconds, req->bytes_in,
                         req->bytes_out);
     if (smd_log_enabled(&srv->log, SMD_LOG_INFO)) {
-        char remote[INET6_ADDRSTRLEN] = "?";
-        const union MHD_ConnectionInfo *ci =
-            MHD_get_connection_info(conn, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
-        if (ci && ci->client_addr) {
-            const struct sockaddr *sa = ci->client_addr;
-            if (sa->sa_family == AF_INET)
-                inet_ntop(AF_INET, &((const struct sockaddr_in *)sa)->sin_addr, remote, sizeof remote);
-            else if (sa->sa_family == AF_INET6)
-                inet_ntop(AF_INET6, &((const struct sockaddr_in6 *)sa)->sin6_addr, remote,
-                          sizeof remote);
-        }
+        char remote[INET6_ADDRSTRLEN];
+        smd_conn_address(conn, remote, sizeof remote);
         char path[sizeof req->path];
         snprintf(path, sizeof path, "%s", req->path);
         sm_text_make_printable(path, NULL);
@@ -292,7 +293,10 @@ static void mhd_logger(void *cls, const char *fmt, va_list ap)
     size_t n = strlen(msg);
     while (n > 0 && (msg[n - 1] == '\n' || msg[n - 1] == '\r'))
         msg[--n] = '\0';
-    smd_logf(&srv->log, SMD_LOG_WARN, "httpd", "%s", msg);
+    /* the daemon's own cuts of slow connections (smd_conns.h) would
+     * otherwise flood the log during an attack: counted in /metrics */
+    int cut = strstr(msg, "closed by remote side") != NULL;
+    smd_logf(&srv->log, cut ? SMD_LOG_DEBUG : SMD_LOG_WARN, "httpd", "%s", msg);
 }
 
 /* --------------------------------------------------------------- daemon */
@@ -331,6 +335,19 @@ sm_status smd_http_start(smd_server *srv, sm_error *err)
         flags |= MHD_USE_TLS;
     else
         tls[0].option = MHD_OPTION_END;
+    srv->ratelimit = smd_ratelimit_new(cfg->submit_rate, cfg->submit_window);
+    smd_conns_limits climits = {.header_timeout = cfg->header_timeout,
+                                .min_upload_rate = cfg->min_upload_rate,
+                                .max_connections = cfg->max_connections,
+                                .reserved = cfg->reserved_connections};
+    if (!srv->ratelimit)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    srv->conns = smd_conns_new(&climits, err);
+    if (!srv->conns)
+        return SM_ERR_IO;
+    srv->checks = smd_check_pool_new(cfg->check_threads, cfg->check_timeout, cfg->memory_limit, err);
+    if (!srv->checks)
+        return SM_ERR_IO;
     /* Per-connection buffers come from the connection's pool, and the
      * pool must hold the request headers plus a send buffer. */
     srv->httpd = MHD_start_daemon(
@@ -340,7 +357,8 @@ sm_status smd_http_start(smd_server *srv, sm_error *err)
         MHD_OPTION_CONNECTION_LIMIT, cfg->max_connections, MHD_OPTION_PER_IP_CONNECTION_LIMIT,
         cfg->max_connections_per_ip, MHD_OPTION_CONNECTION_TIMEOUT, cfg->connection_timeout,
         MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)cfg->connection_memory,
-        MHD_OPTION_NOTIFY_COMPLETED, on_completed, srv, MHD_OPTION_ARRAY, tls, MHD_OPTION_END);
+        MHD_OPTION_NOTIFY_COMPLETED, on_completed, srv, MHD_OPTION_NOTIFY_CONNECTION,
+        smd_conns_notify, srv->conns, MHD_OPTION_ARRAY, tls, MHD_OPTION_END);
     if (!srv->httpd)
         return sm_error_set(err, SM_ERR_IO, "cannot listen on %s:%u (address in use, or not local?)",
                             cfg->listen_host, cfg->listen_port);
@@ -360,10 +378,19 @@ void smd_http_quiesce(smd_server *srv)
 
 void smd_http_stop(smd_server *srv)
 {
+    /* checks stopped, their connections resumed and answered before the
+     * daemon stops (it must not stop with suspended connections) */
+    smd_check_pool_stop(srv->checks, 5);
     if (srv->httpd) {
         MHD_stop_daemon(srv->httpd);
         srv->httpd = NULL;
     }
+    smd_check_pool_free(srv->checks); /* after the last upload is freed */
+    srv->checks = NULL;
+    smd_conns_free(srv->conns);
+    srv->conns = NULL;
+    smd_ratelimit_free(srv->ratelimit);
+    srv->ratelimit = NULL;
     smd_tls_shutdown();
 }
 

@@ -9,7 +9,11 @@
  * --connection-timeout of inactivity (slow or stalled requests are
  * closed; suspended event streams are exempt and get keepalives instead),
  * --connection-memory per connection (request line + headers + send
- * buffer; larger headers get 431/413 from libmicrohttpd). */
+ * buffer; larger headers get 431/413 from libmicrohttpd).  The inactivity
+ * timeout is reset by every byte: the absolute header deadline, the
+ * minimum body rate and the reserve of sockets for short requests are
+ * smd_conns.h's (a registry fed by MHD_OPTION_NOTIFY_CONNECTION and the
+ * handler); the submission limits smd_ratelimit.h's. */
 #ifndef SMD_HTTP_H
 #define SMD_HTTP_H
 

@@ -160,6 +160,22 @@ char *smd_metrics_render(smd_metrics *m, const smd_gauges *g, size_t *len)
             "SPOOL/quarantine/ at start.\n# TYPE shapematch_records_quarantined gauge\n"
             "shapematch_records_quarantined %llu\n",
         (unsigned long long)g->quarantined);
+    out(&b, "# HELP shapematch_connections Open HTTP connections.\n"
+            "# TYPE shapematch_connections gauge\nshapematch_connections %llu\n",
+        (unsigned long long)g->connections);
+    out(&b, "# HELP shapematch_connections_cut_total Connections closed by the daemon: headers "
+            "past --header-timeout, a body under --min-upload-rate, or to keep "
+            "--reserved-connections free.\n# TYPE shapematch_connections_cut_total counter\n"
+            "shapematch_connections_cut_total{reason=\"header_timeout\"} %llu\n"
+            "shapematch_connections_cut_total{reason=\"slow_body\"} %llu\n"
+            "shapematch_connections_cut_total{reason=\"reserve\"} %llu\n",
+        (unsigned long long)g->cut_headers, (unsigned long long)g->cut_body,
+        (unsigned long long)g->cut_reserve);
+    out(&b, "# HELP shapematch_upload_checks Acceptance checks of uploads running and waiting.\n"
+            "# TYPE shapematch_upload_checks gauge\n"
+            "shapematch_upload_checks{state=\"running\"} %llu\n"
+            "shapematch_upload_checks{state=\"waiting\"} %llu\n",
+        (unsigned long long)g->checks_running, (unsigned long long)g->checks_waiting);
     out(&b, "# HELP shapematch_ready 1 when accepting jobs.\n"
             "# TYPE shapematch_ready gauge\nshapematch_ready %d\n", g->ready);
     long rss = resident_bytes();

@@ -44,6 +44,9 @@ typedef struct smd_gauges {
     uint64_t workers_busy, workers_total;
     uint64_t followers;
     uint64_t quarantined;      /* damaged records moved aside at start */
+    uint64_t connections;      /* open HTTP connections (smd_conns.h) */
+    uint64_t cut_headers, cut_body, cut_reserve; /* closed by the daemon's deadlines */
+    uint64_t checks_running, checks_waiting; /* upload checks (smd_check.h) */
     double start_time;         /* Unix seconds */
     int ready;
 } smd_gauges;

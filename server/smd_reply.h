@@ -38,6 +38,7 @@
 #define SMD_PROBLEM_UNAVAILABLE "about:blank"
 #define SMD_PROBLEM_INTERNAL "about:blank"
 #define SMD_PROBLEM_STORAGE "about:blank"
+#define SMD_PROBLEM_TOO_MANY "about:blank"
 /* an Idempotency-Key reused with a different request (IETF httpapi draft) */
 #define SMD_PROBLEM_IDEMPOTENCY_MISMATCH "https://shapematch.invalid/problems/idempotency-key-mismatch"
 
@@ -60,6 +61,7 @@ typedef struct smd_request {
     char pid[64];                /* process id in the path ({pid}) */
     char arg[24];                /* last variable segment, e.g. {iteration} */
     unsigned status;             /* what was queued */
+    unsigned retry_after;        /* seconds for the Retry-After of a 429 */
     uint64_t bytes_in, bytes_out;
     struct smd_upload *upload;   /* POST /v1/jobs in progress */
     int replied;
@@ -101,7 +103,7 @@ enum MHD_Result smd_reply_json(struct MHD_Connection *conn, smd_request *req, un
 /* application/problem+json {type, title, status, detail, instance}, and
  * for 400/422 "invalid-params" naming the part or parameter at fault when
  * the detail starts with one ("params.clamp.radius: ...").  401 adds
- * WWW-Authenticate, 503 Retry-After. */
+ * WWW-Authenticate, 503 Retry-After, 429 Retry-After of req->retry_after. */
 enum MHD_Result smd_reply_problem(struct MHD_Connection *conn, smd_request *req,
                                   unsigned status, const char *type, const char *detail_fmt, ...)
     __attribute__((format(printf, 5, 6)));

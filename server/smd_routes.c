@@ -12,6 +12,8 @@
 #include <unistd.h>
 
 #include "sm_proto_vocab.h"
+#include "smd_check.h"
+#include "smd_conns.h"
 #include "smd_jobs.h"
 #include "smd_negotiate.h"
 #include "smd_pg_node.h"
@@ -143,6 +145,13 @@ enum MHD_Result smd_route_metrics(struct MHD_Connection *conn, smd_request *req)
     pthread_mutex_unlock(&srv->lock);
     g.start_time = srv->start_time;
     g.ready = !atomic_load(&srv->draining);
+    smd_conns_counts cc;
+    smd_conns_get_counts(srv->conns, &cc);
+    g.connections = cc.open;
+    g.cut_headers = cc.header_deadline;
+    g.cut_body = cc.slow_body;
+    g.cut_reserve = cc.evicted;
+    smd_check_counts(srv->checks, &g.checks_running, &g.checks_waiting);
     size_t len;
     char *text = smd_metrics_render(&srv->metrics, &g, &len);
     if (text && srv->cluster)

@@ -39,6 +39,9 @@ struct MHD_Daemon;
 struct smd_pool;
 struct smd_follower;
 struct smd_pg_node;
+struct smd_ratelimit;
+struct smd_conns;
+struct smd_check_pool;
 
 typedef struct smd_server {
     smd_config cfg;
@@ -59,6 +62,9 @@ typedef struct smd_server {
     size_t nfollowers;
 
     struct MHD_Daemon *httpd;
+    struct smd_ratelimit *ratelimit; /* submission limits (smd_ratelimit.h), by smd_http_start */
+    struct smd_conns *conns;    /* connection deadlines (smd_conns.h), by smd_http_start */
+    struct smd_check_pool *checks; /* upload checks (smd_check.h), by smd_http_start */
     unsigned port;              /* the port actually bound */
 
     atomic_int draining;        /* shutdown began: refuse new jobs, /readyz 503 */

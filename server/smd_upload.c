@@ -6,6 +6,7 @@
 #include <inttypes.h>
 #include <limits.h>
 #include <stdarg.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -19,51 +20,39 @@
 #include "sm_proto_vocab.h"
 #include "sm_proto_text.h"
 #include "smd_jobs.h"
+#include "shapematch/sm_clock.h"
+#include "smd_check.h"
+#include "smd_conns.h"
+#include "smd_parts.h"
 #include "smd_pool.h"
+#include "smd_ratelimit.h"
 #include "smd_routes.h"
 #include "smd_worker.h"
 
 
-/* For messages: every part, optional ones included. */
-#define SMD_UPLOAD_PARTS                                                                           \
-    "template, target_mesh, target_sol, target_surface and params"
+
+enum { CHECK_NONE = 0, CHECK_RUNNING, CHECK_DONE };
 
 struct smd_upload {
     struct MHD_PostProcessor *pp;
     char dir[PATH_MAX];            /* SPOOL/tmp/up-XXXXXX */
     int committed;                 /* dir became a job: do not remove */
     uint64_t received;
-    int current;                   /* part being received, -1 none */
-    uint64_t current_bytes;
-    int fd;                        /* its file, -1 none */
-    int seen[SM_NPARTS];
-    char path[SM_NPARTS][PATH_MAX];   /* files of the file parts */
-    char *params;                  /* params text */
-    size_t params_len;
+    smd_parts parts;               /* names, files, params, hashes, first error */
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1];
-    uint64_t part_hash[SM_NPARTS]; /* FNV-1a of each part's bytes */
+    char limit_key[SMD_RATELIMIT_KEY_MAX + 1]; /* tenant or address (smd_ratelimit.h) */
+    sm_read_limits limits;         /* of the daemon's flags */
+    /* the acceptance check (smd_check.h), run while the connection is
+     * suspended: check_state goes NONE -> RUNNING -> DONE */
+    atomic_int check_state;
+    struct MHD_Connection *conn;
+    smd_check_result check;
+    smd_check_pool *checks;        /* set when a check was submitted: settled at free */
     const smd_upload_decoder *dec; /* a body other than multipart, NULL none */
     void *dec_cls;
+    int dec_ended;                 /* dec->end called (once, at the body's end) */
     char created_header[2][64];    /* an extra header of the 201, "" none */
-    /* first error met while parsing; replied at the next call */
-    unsigned err_status;
-    const char *err_type;
-    char err_detail[768];
 };
-
-static void fail(smd_upload *u, unsigned status, const char *type, const char *fmt, ...)
-    __attribute__((format(printf, 4, 5)));
-static void fail(smd_upload *u, unsigned status, const char *type, const char *fmt, ...)
-{
-    if (u->err_status)
-        return; /* keep the first reason */
-    u->err_status = status;
-    u->err_type = type;
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(u->err_detail, sizeof u->err_detail, fmt, ap);
-    va_end(ap);
-}
 
 int smd_idempotency_key_valid(const char *key)
 {
@@ -76,33 +65,14 @@ int smd_idempotency_key_valid(const char *key)
     return 1;
 }
 
-int smd_sniff_medit(const char *path, int *binary, int *gzip)
-{
-    unsigned char magic[4] = {0};
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return -1;
-    size_t n = fread(magic, 1, 2, f);
-    fclose(f);
-    *gzip = n == 2 && magic[0] == 0x1f && magic[1] == 0x8b;
-    gzFile gz = gzopen(path, "rb");
-    if (!gz)
-        return -1;
-    int got = gzread(gz, magic, 4);
-    gzclose(gz);
-    *binary = got == 4 && ((magic[0] == 1 && !magic[1] && !magic[2] && !magic[3]) ||
-                           (!magic[0] && !magic[1] && !magic[2] && magic[3] == 1));
-    return 0;
-}
-
 void smd_upload_fail(smd_upload *u, unsigned status, const char *type, const char *fmt, ...)
 {
-    char detail[sizeof u->err_detail];
+    char detail[sizeof u->parts.err_detail];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(detail, sizeof detail, fmt, ap);
     va_end(ap);
-    fail(u, status, type, "%s", detail);
+    smd_parts_fail(&u->parts, status, type, "%s", detail);
 }
 
 void smd_upload_created_header(smd_upload *u, const char *name, const char *value)
@@ -111,57 +81,9 @@ void smd_upload_created_header(smd_upload *u, const char *name, const char *valu
     snprintf(u->created_header[1], sizeof u->created_header[1], "%s", value);
 }
 
-/* ------------------------------------------------------------ parts */
-
-static void close_part(smd_upload *u)
+void smd_upload_part(smd_upload *u, const char *name, const void *data, size_t n)
 {
-    if (u->fd >= 0) {
-        if (close(u->fd) != 0)
-            fail(u, 507, SMD_PROBLEM_STORAGE, "cannot store part '%s': %s", sm_part_names[u->current],
-                 strerror(errno));
-        u->fd = -1;
-    }
-    u->current = -1;
-    u->current_bytes = 0;
-}
-
-static int open_part(smd_upload *u, sm_part id)
-{
-    if (smd_pathf(u->path[id], sizeof u->path[id], "%s/inputs/%s.upload", u->dir, sm_part_names[id]) != 0) {
-        fail(u, 500, SMD_PROBLEM_INTERNAL, "spool path too long");
-        return -1;
-    }
-    u->fd = open(u->path[id], O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0640);
-    if (u->fd < 0) {
-        fail(u, 507, SMD_PROBLEM_STORAGE, "cannot store part '%s': %s", sm_part_names[id], strerror(errno));
-        return -1;
-    }
-    return 0;
-}
-
-#define FNV_OFFSET 0xcbf29ce484222325ULL
-
-static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
-{
-    const unsigned char *p = data;
-    for (size_t i = 0; i < n; i++)
-        h = (h ^ p[i]) * 0x100000001b3ULL;
-    return h;
-}
-
-/* What makes two requests "the same" for an Idempotency-Key: the bytes of
- * every part, whatever the multipart boundary and the order of parts. */
-static uint64_t request_hash(const smd_upload *u)
-{
-    uint64_t h = FNV_OFFSET;
-    for (int i = 0; i < SM_NPARTS; i++) {
-        if (!u->seen[i])
-            continue; /* the hashes of requests without target_surface stay as they were */
-        if (i == SM_PART_TARGET_SURFACE)
-            h = fnv1a(h, &i, sizeof i); /* tell it from the same bytes as target_mesh */
-        h = fnv1a(h, &u->part_hash[i], sizeof u->part_hash[i]);
-    }
-    return h ? h : 1; /* 0 = unknown (records from before the hash) */
+    smd_parts_on_part(&u->parts, MHD_POSTDATA_KIND, name, NULL, NULL, NULL, data, 0, n);
 }
 
 static enum MHD_Result reply_existing(struct MHD_Connection *conn, smd_request *req,
@@ -180,119 +102,9 @@ static enum MHD_Result reply_keyed(struct MHD_Connection *conn, smd_request *req
     return reply_existing(conn, req, job);
 }
 
-static enum MHD_Result on_part(void *cls, enum MHD_ValueKind kind, const char *key,
-                               const char *filename, const char *content_type,
-                               const char *transfer_encoding, const char *data, uint64_t off,
-                               size_t size)
-{
-    smd_upload *u = cls;
-    (void)kind;
-    (void)filename;
-    (void)content_type;
-    if (u->err_status)
-        return MHD_NO;
-    int id = -1;
-    for (int i = 0; i < SM_NPARTS; i++)
-        if (key && strcmp(key, sm_part_names[i]) == 0)
-            id = i;
-    if (id < 0) {
-        char shown[64];
-        sm_text_printable_copy(shown, sizeof shown, key, "\"");
-        fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
-             "unknown part \"%s\": the parts are " SMD_UPLOAD_PARTS, shown);
-        return MHD_NO;
-    }
-    if (id != u->current || (off == 0 && u->current_bytes > 0)) {
-        /* a new part begins */
-        close_part(u);
-        if (u->seen[id]) {
-            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART, "part \"%s\" given more than once", sm_part_names[id]);
-            return MHD_NO;
-        }
-        if (transfer_encoding && strcasecmp(transfer_encoding, "binary") != 0 &&
-            strcasecmp(transfer_encoding, "7bit") != 0 && strcasecmp(transfer_encoding, "8bit") != 0) {
-            char shown[64];
-            sm_text_printable_copy(shown, sizeof shown, transfer_encoding, "\"");
-            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
-                 "part \"%s\": Content-Transfer-Encoding \"%s\" is not supported (send it as binary)",
-                 sm_part_names[id], shown);
-            return MHD_NO;
-        }
-        u->seen[id] = 1;
-        u->current = id;
-        u->part_hash[id] = FNV_OFFSET;
-        if (id != SM_PART_PARAMS && open_part(u, (sm_part)id) != 0)
-            return MHD_NO;
-    }
-    if (size == 0)
-        return MHD_YES;
-    u->current_bytes += size;
-    u->part_hash[id] = fnv1a(u->part_hash[id], data, size);
-    if (id == SM_PART_PARAMS) {
-        if (u->params_len + size > SM_PARAMS_JSON_MAX_BYTES) {
-            fail(u, 422, SMD_PROBLEM_INVALID_INPUT, "params: larger than %d bytes",
-                 SM_PARAMS_JSON_MAX_BYTES);
-            return MHD_NO;
-        }
-        char *p = realloc(u->params, u->params_len + size + 1);
-        if (!p) {
-            fail(u, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
-            return MHD_NO;
-        }
-        u->params = p;
-        memcpy(u->params + u->params_len, data, size);
-        u->params_len += size;
-        u->params[u->params_len] = '\0';
-        return MHD_YES;
-    }
-    while (size > 0) {
-        ssize_t n = write(u->fd, data, size);
-        if (n < 0 && errno == EINTR)
-            continue;
-        if (n <= 0) {
-            fail(u, 507, SMD_PROBLEM_STORAGE, "cannot store part \"%s\": %s", sm_part_names[id],
-                 n < 0 ? strerror(errno) : "short write");
-            return MHD_NO;
-        }
-        data += n;
-        size -= (size_t)n;
-    }
-    return MHD_YES;
-}
-
-void smd_upload_part(smd_upload *u, const char *name, const void *data, size_t n)
-{
-    on_part(u, MHD_POSTDATA_KIND, name, NULL, NULL, NULL, data, 0, n);
-}
-
-/* Gives each uploaded file its final name: inputs/<part>.<ext>, with
- * the extension from the content, never from the client. */
-static int name_file(smd_upload *u, sm_part id)
-{
-    int binary = 0, gzip = 0;
-    if (smd_sniff_medit(u->path[id], &binary, &gzip) != 0) {
-        fail(u, 500, SMD_PROBLEM_INTERNAL, "cannot read back part \"%s\"", sm_part_names[id]);
-        return -1;
-    }
-    const char *ext = id == SM_PART_TARGET_SOL       ? (binary ? "solb" : "sol")
-                      : id == SM_PART_TARGET_SURFACE ? "surface" /* any surface format */
-                                                     : (binary ? "meshb" : "mesh");
-    char final[PATH_MAX];
-    if (smd_pathf(final, sizeof final, "%s/inputs/%s.%s%s", u->dir, sm_part_names[id], ext,
-                  gzip ? ".gz" : "") != 0 ||
-        rename(u->path[id], final) != 0) {
-        fail(u, 500, SMD_PROBLEM_INTERNAL, "cannot store part \"%s\"", sm_part_names[id]);
-        return -1;
-    }
-    memcpy(u->path[id], final, sizeof final);
-    return 0;
-}
-
-/* ---------------------------------------------------------- requests */
-
 static enum MHD_Result reply_error(struct MHD_Connection *conn, smd_request *req, smd_upload *u)
 {
-    return smd_reply_problem(conn, req, u->err_status, u->err_type, "%s", u->err_detail);
+    return smd_reply_problem(conn, req, u->parts.err_status, u->parts.err_type, "%s", u->parts.err_detail);
 }
 
 static enum MHD_Result reply_existing(struct MHD_Connection *conn, smd_request *req, smd_job *job)
@@ -313,6 +125,87 @@ static enum MHD_Result reply_existing(struct MHD_Connection *conn, smd_request *
     MHD_add_response_header(resp, "Idempotent-Replayed", "true");
     return smd_reply(conn, req, MHD_HTTP_OK, resp);
 }
+
+/* ------------------------------------------------------------ limits */
+
+/* The key of the submitter's limits: its tenant, or its client address
+ * when the daemon has no tokens. */
+static void limit_key(struct MHD_Connection *conn, const smd_request *req, char *key, size_t cap)
+{
+    if (req->srv->tokens) {
+        snprintf(key, cap, "t:%s", req->who.tenant);
+        return;
+    }
+    char addr[64];
+    smd_conn_address(conn, addr, sizeof addr);
+    snprintf(key, cap, "a:%s", addr);
+}
+
+static int job_unfinished(const char *id, void *user)
+{
+    smd_job *job = smd_store_get(user, id);
+    return job && !smd_job_state_final(job->state);
+}
+
+/* Unfinished jobs of the key (lock held): by owner with tokens, else the
+ * jobs the limiter saw the address submit. */
+static size_t unfinished_jobs(smd_server *srv, const smd_request *req, const char *key)
+{
+    if (!srv->tokens)
+        return smd_ratelimit_live(srv->ratelimit, key, job_unfinished, srv->store);
+    size_t n = 0, count = smd_store_count(srv->store);
+    for (size_t i = 0; i < count; i++) {
+        const smd_job *job = smd_store_at(srv->store, i);
+        if (job && strcmp(job->owner, req->who.tenant) == 0 && !smd_job_state_final(job->state))
+            n++;
+    }
+    return n;
+}
+
+static const char *limit_subject(const smd_server *srv)
+{
+    return srv->tokens ? "tenant" : "client address";
+}
+
+/* 429 when the key holds --max-queued unfinished jobs (lock held). */
+static enum MHD_Result queued_refusal(struct MHD_Connection *conn, smd_request *req,
+                                      const char *key, int *refused)
+{
+    smd_server *srv = req->srv;
+    size_t n = srv->cfg.max_queued ? unfinished_jobs(srv, req, key) : 0;
+    *refused = srv->cfg.max_queued && n >= srv->cfg.max_queued;
+    if (!*refused)
+        return MHD_YES;
+    req->retry_after = 5;
+    return smd_reply_problem(conn, req, 429, SMD_PROBLEM_TOO_MANY,
+                             "this %s has %zu unfinished jobs, the limit is %u (the daemon's "
+                             "--max-queued): retry when one of them ends",
+                             limit_subject(srv), n, srv->cfg.max_queued);
+}
+
+/* The two submission limits at the start of a request: 429 before the
+ * body is read.  *refused says whether a reply was made. */
+static enum MHD_Result limits_refusal(struct MHD_Connection *conn, smd_request *req,
+                                      const char *key, int *refused)
+{
+    smd_server *srv = req->srv;
+    pthread_mutex_lock(&srv->lock);
+    enum MHD_Result r = queued_refusal(conn, req, key, refused);
+    pthread_mutex_unlock(&srv->lock);
+    if (*refused)
+        return r;
+    unsigned wait = smd_ratelimit_take(srv->ratelimit, key, sm_clock_seconds());
+    *refused = wait > 0;
+    if (!wait)
+        return MHD_YES;
+    req->retry_after = wait;
+    return smd_reply_problem(conn, req, 429, SMD_PROBLEM_TOO_MANY,
+                             "this %s submitted %u jobs in the last %g s, the limit (the daemon's "
+                             "--submit-rate and --submit-window): retry in %u s",
+                             limit_subject(srv), srv->cfg.submit_rate, srv->cfg.submit_window, wait);
+}
+
+/* ---------------------------------------------------------- requests */
 
 /* The upload's checks and folder, then its body decoder: multipart
  * (dec NULL), or dec for a body of content type ctype_prefix (415 with
@@ -344,12 +237,21 @@ static enum MHD_Result begin(struct MHD_Connection *conn, smd_request *req, cons
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
                                  "Idempotency-Key must be 1 to %d visible ASCII characters",
                                  SMD_IDEMPOTENCY_KEY_MAX);
+    char lkey[SMD_RATELIMIT_KEY_MAX + 1];
+    limit_key(conn, req, lkey, sizeof lkey);
+    int refused;
+    enum MHD_Result lr = limits_refusal(conn, req, lkey, &refused);
+    if (refused)
+        return lr;
     /* a known key is answered after the body (same request or not) */
     smd_upload *u = calloc(1, sizeof *u);
     if (!u)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
-    u->fd = -1;
-    u->current = -1;
+    smd_parts_init(&u->parts, u->dir);
+    memcpy(u->limit_key, lkey, sizeof u->limit_key);
+    u->limits = (sm_read_limits){.max_inflated = srv->cfg.max_inflated,
+                                 .max_vertices = (int64_t)srv->cfg.max_vertices,
+                                 .max_elements = (int64_t)srv->cfg.max_elements};
     if (key)
         snprintf(u->idempotency_key, sizeof u->idempotency_key, "%s", key);
     char inputs[PATH_MAX];
@@ -368,7 +270,7 @@ static enum MHD_Result begin(struct MHD_Connection *conn, smd_request *req, cons
     u->dec = dec;
     u->dec_cls = dec_cls;
     if (!dec)
-        u->pp = MHD_create_post_processor(conn, 65536, on_part, u);
+        u->pp = MHD_create_post_processor(conn, 65536, smd_parts_on_part, &u->parts);
     if (!dec && !u->pp) {
         smd_upload_free(u);
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_MULTIPART,
@@ -408,8 +310,8 @@ static int write_job_file(smd_upload *u, const sm_job_inputs *in)
         return -1;
     }
     for (int i = 0; i < SM_PART_PARAMS; i++)
-        if (u->seen[i])
-            json_object_set_new(doc, sm_part_names[i], json_string(u->path[i] + prefix));
+        if (u->parts.seen[i])
+            json_object_set_new(doc, sm_part_names[i], json_string(u->parts.path[i] + prefix));
     json_object_set_new(doc, "params", params);
     char *text = json_dumps(doc, JSON_INDENT(2) | JSON_PRESERVE_ORDER);
     json_decref(doc);
@@ -424,129 +326,145 @@ static int write_job_file(smd_upload *u, const sm_job_inputs *in)
 }
 
 /* An input beyond one of the configured bounds: 413 naming the flag. */
-static enum MHD_Result limit_refused(struct MHD_Connection *conn, smd_request *req,
-                                     const sm_read_limits *limits, const sm_error *err)
+static enum MHD_Result limit_refused(struct MHD_Connection *conn, smd_request *req, int hit,
+                                     const char *msg)
 {
-    const char *flag = limits->hit == SM_LIMIT_INFLATED   ? "--max-inflated"
-                       : limits->hit == SM_LIMIT_VERTICES ? "--max-vertices"
-                                                          : "--max-elements";
+    const char *flag = hit == SM_LIMIT_INFLATED   ? "--max-inflated"
+                       : hit == SM_LIMIT_VERTICES ? "--max-vertices"
+                                                  : "--max-elements";
     return smd_reply_problem(conn, req, 413, SMD_PROBLEM_TOO_LARGE,
-                             "%s (the daemon's %s; its operator can raise it%s)", err->msg, flag,
-                             limits->hit == SM_LIMIT_INFLATED ? "" : ", or --memory-limit");
-}
-
-/* Which parts a job needs: template and params, and a target: target_mesh
- * + target_sol, or target_surface (+ target_mesh optionally).  A missing
- * part is a 400 (a malformed request), a conflict a 422. */
-static int check_parts(smd_upload *u)
-{
-    static const sm_part always[] = {SM_PART_TEMPLATE, SM_PART_PARAMS};
-    for (size_t i = 0; i < sizeof always / sizeof always[0]; i++)
-        if (!u->seen[always[i]]) {
-            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART, "missing part \"%s\": the parts are " SMD_UPLOAD_PARTS,
-                 sm_part_names[always[i]]);
-            return -1;
-        }
-    if (u->seen[SM_PART_TARGET_SURFACE] && u->seen[SM_PART_TARGET_SOL]) {
-        fail(u, 422, SMD_PROBLEM_INVALID_INPUT,
-             "target_surface excludes target_sol: give one target (target_surface with an optional "
-             "target_mesh, or target_mesh and target_sol)");
-        return -1;
-    }
-    if (u->seen[SM_PART_TARGET_SURFACE])
-        return 0;
-    for (int i = SM_PART_TARGET_MESH; i <= SM_PART_TARGET_SOL; i++)
-        if (!u->seen[i]) {
-            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
-                 "missing part \"%s\": the target is target_mesh and target_sol, or "
-                 "target_surface (with an optional target_mesh)",
-                 sm_part_names[i]);
-            return -1;
-        }
-    return 0;
+                             "%s (the daemon's %s; its operator can raise it%s)", msg, flag,
+                             hit == SM_LIMIT_INFLATED ? "" : ", or --memory-limit");
 }
 
 /* The stored file of a part, NULL when the request has none. */
 static const char *file_of(const smd_upload *u, sm_part id)
 {
-    return u->seen[id] ? u->path[id] : NULL;
+    return u->parts.seen[id] ? u->parts.path[id] : NULL;
 }
 
-static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *req, smd_upload *u)
+/* ------------------------------------------------------ the check */
+
+/* In the check's child process (smd_check.h): reads and checks every
+ * input within the limits, writes job.json, sends back the summary. */
+static void check_in_child(void *arg, smd_check_result *out)
 {
-    smd_server *srv = req->srv;
-    close_part(u);
-    if (u->pp) {
-        enum MHD_Result clean = MHD_destroy_post_processor(u->pp);
-        u->pp = NULL;
-        if (clean != MHD_YES)
-            fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
-                 "malformed or truncated multipart/form-data body (no closing boundary)");
-    }
-    if (u->err_status)
-        return reply_error(conn, req, u);
-    if (check_parts(u) != 0)
-        return reply_error(conn, req, u);
-    for (int i = 0; i < SM_PART_PARAMS; i++)
-        if (u->seen[i] && name_file(u, (sm_part)i) != 0)
-            return reply_error(conn, req, u);
-
-    uint64_t hash = request_hash(u);
-    if (u->idempotency_key[0]) {
-        pthread_mutex_lock(&srv->lock);
-        smd_job *known = smd_store_find_key(srv->store, req->who.tenant, u->idempotency_key);
-        enum MHD_Result r = known ? reply_keyed(conn, req, known, hash) : MHD_YES;
-        pthread_mutex_unlock(&srv->lock);
-        if (known)
-            return r;
-    }
-
+    smd_upload *u = arg;
     sm_job_inputs in;
     sm_error err;
     sm_error_clear(&err);
-    sm_read_limits limits = {.max_inflated = srv->cfg.max_inflated,
-                             .max_vertices = (int64_t)srv->cfg.max_vertices,
-                             .max_elements = (int64_t)srv->cfg.max_elements};
+    sm_read_limits limits = u->limits;
     sm_job_files files = {.template_mesh = file_of(u, SM_PART_TEMPLATE),
                           .target_mesh = file_of(u, SM_PART_TARGET_MESH),
                           .target_sol = file_of(u, SM_PART_TARGET_SOL),
                           .target_surface = file_of(u, SM_PART_TARGET_SURFACE),
                           .limits = &limits};
-    sm_status st = sm_job_inputs_load(&files, u->params ? u->params : "", u->params_len, &in, &err);
-    if (st != SM_OK && limits.hit)
-        return limit_refused(conn, req, &limits, &err);
-    if (st != SM_OK) {
-        if (st == SM_ERR_IO)
-            return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "%s", err.msg);
-        return smd_reply_problem(conn, req, 422, SMD_PROBLEM_INVALID_INPUT, "%s", err.msg);
+    out->status = sm_job_inputs_load(&files, u->parts.params ? u->parts.params : "", u->parts.params_len, &in, &err);
+    if (out->status != SM_OK) {
+        out->limit_hit = limits.hit;
+        snprintf(out->msg, sizeof out->msg, "%s", err.msg);
+        return;
     }
-    int dim = in.dim, max_iter = in.params.max_iter;
-    double tol_boundary = in.params.tol_boundary;
-    int32_t nverts = in.template_mesh->nverts, nelems = in.template_mesh->nelems;
-    int rc = write_job_file(u, &in);
+    out->dim = in.dim;
+    out->max_iter = in.params.max_iter;
+    out->tol_boundary = in.params.tol_boundary;
+    out->nverts = in.template_mesh->nverts;
+    out->nelems = in.template_mesh->nelems;
+    if (write_job_file(u, &in) != 0) {
+        out->status = SM_ERR_IO;
+        out->storage = 1;
+        snprintf(out->msg, sizeof out->msg, "cannot write job.json: %s", strerror(errno));
+    }
     sm_job_inputs_free(&in);
-    if (rc != 0)
-        return smd_reply_problem(conn, req, 507, SMD_PROBLEM_STORAGE, "cannot write job.json: %s",
-                                 strerror(errno));
+}
 
+/* In a check thread: the result is in; the handler answers next. */
+static void check_done(void *user)
+{
+    smd_upload *u = user;
+    atomic_store(&u->check_state, CHECK_DONE);
+    MHD_resume_connection(u->conn);
+}
+
+/* The body is complete and its parts are known: the connection waits,
+ * suspended, while a check thread checks the inputs. */
+static enum MHD_Result start_check(struct MHD_Connection *conn, smd_request *req, smd_upload *u)
+{
+    u->conn = conn;
+    atomic_store(&u->check_state, CHECK_RUNNING);
+    MHD_suspend_connection(conn);
+    if (smd_check_submit(req->srv->checks, check_in_child, u, &u->check, check_done, u) == 0) {
+        u->checks = req->srv->checks;
+    } else {
+        memset(&u->check, 0, sizeof u->check);
+        u->check.status = SM_ERR_NOMEM;
+        u->check.shutdown = 1;
+        snprintf(u->check.msg, sizeof u->check.msg,
+                 "%d uploads are waiting for their acceptance check: retry in a few seconds",
+                 SMD_CHECK_QUEUE_MAX);
+        check_done(u);
+    }
+    return MHD_YES;
+}
+
+/* The check's verdict when it refused the upload. */
+static enum MHD_Result check_refused(struct MHD_Connection *conn, smd_request *req,
+                                     const smd_check_result *r)
+{
+    const smd_config *cfg = &req->srv->cfg;
+    if (r->timed_out)
+        return smd_reply_problem(conn, req, 422, SMD_PROBLEM_INVALID_INPUT,
+                                 "the acceptance check of this upload took longer than %g s (the "
+                                 "daemon's --check-timeout; its operator can raise it)",
+                                 cfg->check_timeout);
+    if (r->crashed)
+        return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL,
+                                 "the acceptance check of this upload stopped (signal %d)",
+                                 r->signal);
+    if (r->shutdown)
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "%s", r->msg);
+    if (r->storage)
+        return smd_reply_problem(conn, req, 507, SMD_PROBLEM_STORAGE, "%s", r->msg);
+    if (r->limit_hit)
+        return limit_refused(conn, req, r->limit_hit, r->msg);
+    if (r->status == SM_ERR_IO)
+        return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "%s", r->msg);
+    return smd_reply_problem(conn, req, 422, SMD_PROBLEM_INVALID_INPUT, "%s", r->msg);
+}
+
+/* The check accepted the inputs (job.json written): the job is submitted
+ * and 201 answered. */
+static enum MHD_Result submit_checked(struct MHD_Connection *conn, smd_request *req, smd_upload *u)
+{
+    smd_server *srv = req->srv;
+    const smd_check_result *r = &u->check;
+    uint64_t hash = smd_parts_hash(&u->parts);
+    sm_error err;
+    sm_error_clear(&err);
     char id[SMD_ID_LEN + 1];
     if (smd_random_id(id) != 0)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "no random source for the job id: %s", strerror(errno));
     smd_submission sub = {.dir = u->dir, .id = id, .idempotency_key = u->idempotency_key,
                           .owner = req->who.tenant, .request_hash = hash,
-                          .dim = dim, .max_iter = max_iter, .tol_boundary = tol_boundary, .nverts = nverts, .nelems = nelems,
-                          .bytes = u->received};
+                          .dim = r->dim, .max_iter = r->max_iter, .tol_boundary = r->tol_boundary,
+                          .nverts = r->nverts, .nelems = r->nelems, .bytes = u->received};
     smd_jobs_after after = {0};
     smd_job *job;
     int created;
     pthread_mutex_lock(&srv->lock);
-    st = smd_jobs_submit(srv, &sub, &job, &created, &after, &err);
+    int refused;
+    enum MHD_Result qr = queued_refusal(conn, req, u->limit_key, &refused);
+    if (refused) { /* concurrent uploads of the same key got there first */
+        pthread_mutex_unlock(&srv->lock);
+        return qr;
+    }
+    sm_status st = smd_jobs_submit(srv, &sub, &job, &created, &after, &err);
     if (st == SM_OK && !created) {
         /* a concurrent retry with the same key won the race */
-        enum MHD_Result r = reply_keyed(conn, req, job, hash);
+        enum MHD_Result replayed = reply_keyed(conn, req, job, hash);
         pthread_mutex_unlock(&srv->lock);
-        return r;
+        return replayed;
     }
     if (st != SM_OK) {
         pthread_mutex_unlock(&srv->lock);
@@ -555,6 +473,8 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
                                  err.msg);
     }
     u->committed = 1;
+    if (!srv->tokens)
+        smd_ratelimit_track(srv->ratelimit, u->limit_key, job->id);
     memcpy(req->id, job->id, sizeof req->id);
     json_t *doc = smd_status_document(job);
     pthread_mutex_unlock(&srv->lock);
@@ -577,12 +497,50 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
     return smd_reply(conn, req, MHD_HTTP_CREATED, resp);
 }
 
+static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *req, smd_upload *u)
+{
+    smd_server *srv = req->srv;
+    int state = atomic_load(&u->check_state);
+    if (state == CHECK_DONE)
+        return u->check.status == SM_OK ? submit_checked(conn, req, u)
+                                        : check_refused(conn, req, &u->check);
+    if (state == CHECK_RUNNING)
+        return MHD_YES; /* not called while suspended; kept for safety */
+    smd_parts_close(&u->parts);
+    if (u->pp) {
+        enum MHD_Result clean = MHD_destroy_post_processor(u->pp);
+        u->pp = NULL;
+        if (clean != MHD_YES)
+            smd_parts_fail(&u->parts, 400, SMD_PROBLEM_BAD_MULTIPART,
+                 "malformed or truncated multipart/form-data body (no closing boundary)");
+    }
+    if (u->parts.err_status)
+        return reply_error(conn, req, u);
+    if (smd_parts_check(&u->parts) != 0)
+        return reply_error(conn, req, u);
+    if (smd_parts_name_files(&u->parts) != 0)
+        return reply_error(conn, req, u);
+
+    uint64_t hash = smd_parts_hash(&u->parts);
+    if (u->idempotency_key[0]) {
+        pthread_mutex_lock(&srv->lock);
+        smd_job *known = smd_store_find_key(srv->store, req->who.tenant, u->idempotency_key);
+        enum MHD_Result r = known ? reply_keyed(conn, req, known, hash) : MHD_YES;
+        pthread_mutex_unlock(&srv->lock);
+        if (known)
+            return r;
+    }
+    return start_check(conn, req, u);
+}
+
 enum MHD_Result smd_upload_continue(struct MHD_Connection *conn, smd_request *req,
                                     const char *data, size_t *size)
 {
     smd_upload *u = req->upload;
-    if (*size == 0 && u->dec && !u->err_status)
+    if (*size == 0 && u->dec && !u->dec_ended && !u->parts.err_status) {
+        u->dec_ended = 1;
         u->dec->end(u->dec_cls, u);
+    }
     if (*size == 0)
         return finish_upload(conn, req, u);
     size_t n = *size;
@@ -590,12 +548,12 @@ enum MHD_Result smd_upload_continue(struct MHD_Connection *conn, smd_request *re
     req->bytes_in += n;
     u->received += n;
     uint64_t limit = req->srv->cfg.max_upload;
-    if (u->received > limit && !u->err_status) {
-        fail(u, 413, SMD_PROBLEM_TOO_LARGE,
+    if (u->received > limit && !u->parts.err_status) {
+        smd_parts_fail(&u->parts, 413, SMD_PROBLEM_TOO_LARGE,
              "the request body exceeds the limit of %" PRIu64 " bytes (--max-upload)", limit);
-        close_part(u);
+        smd_parts_close(&u->parts);
     }
-    if (u->err_status) {
+    if (u->parts.err_status) {
         /* libmicrohttpd only lets a reply be queued before the body or
          * after all of it: read the rest without keeping it, and answer at
          * the end.  A body that goes on far past the limit is cut by
@@ -607,9 +565,9 @@ enum MHD_Result smd_upload_continue(struct MHD_Connection *conn, smd_request *re
     if (u->dec)
         u->dec->piece(u->dec_cls, u, data, n);
     else if (MHD_post_process(u->pp, data, n) != MHD_YES)
-        fail(u, 400, SMD_PROBLEM_BAD_MULTIPART, "malformed multipart/form-data body");
-    if (u->err_status)
-        close_part(u);
+        smd_parts_fail(&u->parts, 400, SMD_PROBLEM_BAD_MULTIPART, "malformed multipart/form-data body");
+    if (u->parts.err_status)
+        smd_parts_close(&u->parts);
     return MHD_YES;
 }
 
@@ -619,12 +577,11 @@ void smd_upload_free(smd_upload *u)
         return;
     if (u->pp)
         MHD_destroy_post_processor(u->pp);
-    if (u->fd >= 0)
-        close(u->fd);
+    smd_parts_release(&u->parts);
     if (!u->committed && u->dir[0])
         smd_rmtree(u->dir);
+    smd_check_settled(u->checks);
     if (u->dec)
         u->dec->free(u->dec_cls);
-    free(u->params);
     free(u);
 }

@@ -11,16 +11,20 @@
  * SPOOL/tmp/up-XXXXXX/inputs/; nothing but params is held in memory.
  *
  * The whole body is capped at --max-upload (413, before reading anything
- * when Content-Length says so).  When the body is complete, the inputs
- * are validated (sm_job_inputs.h) and a bad job is refused with 422 and the
- * reason; a good one is handed to the state machine (smd_jobs_submit:
- * jobs/<id> by rename, queued), 201.  An
+ * when Content-Length says so).  Too many submissions or unfinished jobs
+ * of the tenant (address) get 429 before the body (smd_ratelimit.h).
+ * When the body is complete, the connection is suspended and the inputs
+ * are validated (sm_job_inputs.h) in a check process off the HTTP threads
+ * (smd_check.h, bounded by --check-timeout); resumed, the handler refuses
+ * a bad job with 413/422 and the reason, or hands a good one to the state
+ * machine (smd_jobs_submit: jobs/<id> by rename, queued), 201.  An
  * unfinished upload (client gone, error) leaves nothing behind. */
 #ifndef SMD_UPLOAD_H
 #define SMD_UPLOAD_H
 
 #include <stddef.h>
 
+#include "smd_parts.h"
 #include "smd_reply.h"
 
 typedef struct smd_upload smd_upload;
@@ -63,9 +67,7 @@ void smd_upload_fail(smd_upload *u, unsigned status, const char *type, const cha
 /* A header the 201 of a new job carries (Preference-Applied). */
 void smd_upload_created_header(smd_upload *u, const char *name, const char *value);
 
-/* Sniffs a file's Medit flavour: sets *binary (first int32 is 1 in either
- * byte order) and *gzip (gzip magic).  -1 when unreadable.  For tests. */
-int smd_sniff_medit(const char *path, int *binary, int *gzip);
+/* smd_sniff_medit (for tests) is in smd_parts.h. */
 
 /* 1 when key is an acceptable Idempotency-Key (1..255 visible ASCII). */
 int smd_idempotency_key_valid(const char *key);

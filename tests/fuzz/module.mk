@@ -1,8 +1,9 @@
 # libFuzzer targets for every parser (tests/fuzz/fuzz_*.c), built with
 # clang into build/fuzz/ with AddressSanitizer and UndefinedBehaviorSanitizer
 # (gcc has no libFuzzer).  The core, proto, client and server sources a
-# target needs (the server's: header negotiation and the bounded integer
-# parser) are compiled again with clang: its sanitizer checks things gcc's
+# target needs (the server's: header negotiation, the bounded integer
+# parser, the multipart part handling smd_parts.c, which fuzz_multipart
+# drives through libmicrohttpd's PostProcessor) are compiled again with clang: its sanitizer checks things gcc's
 # does not (e.g. a zero offset applied to a null pointer).
 #   make fuzz                 each target for FUZZ_SECONDS (default 300)
 #   make fuzz-build           build only (make test runs each briefly)
@@ -17,6 +18,7 @@ FUZZ_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror \
 FUZZ_LDFLAGS := -fopenmp -fsanitize=fuzzer,address,undefined
 FUZZ_LIB_SRCS := $(wildcard core/*.c) $(wildcard proto/*.c) client/sse.c tests/fuzz/fuzz_input.c \
   server/smd_negotiate.c server/smd_util.c
+FUZZ_LIB_SRCS += server/smd_parts.c
 FUZZ_TARGETS := $(patsubst tests/fuzz/%.c,%,$(wildcard tests/fuzz/fuzz_*.c))
 FUZZ_TARGETS := $(filter-out fuzz_input,$(FUZZ_TARGETS))
 
@@ -28,7 +30,7 @@ $(FUZZ_DIR)/libfuzzdeps.a: $(FUZZ_LIB_SRCS:%.c=$(FUZZ_DIR)/obj/%.o)
 	rm -f $@ && ar rcs $@ $^
 
 $(FUZZ_TARGETS:%=$(FUZZ_DIR)/%): $(FUZZ_DIR)/%: $(FUZZ_DIR)/obj/tests/fuzz/%.o $(FUZZ_DIR)/libfuzzdeps.a
-	$(FUZZ_CC) $(FUZZ_LDFLAGS) -o $@ $^ $(PROTO_LIBS) -lcholmod -lz -lm
+	$(FUZZ_CC) $(FUZZ_LDFLAGS) -o $@ $^ $(PROTO_LIBS) -lcholmod -lz -lm $(HTTP_LIBS)
 
 .PHONY: fuzz fuzz-build
 fuzz-build: $(FUZZ_TARGETS:%=$(FUZZ_DIR)/%)

@@ -274,6 +274,13 @@ wait_daemon_exit 30
 rc=$?
 [ "$rc" = 0 ] && ok "the daemon exits 0 once the running job is gone" || not_ok "daemon exit" "status $rc"
 
+# submission limits (daemon_ratelimit.sh tests them): one 429
+start_daemon api-rate --workers 1 --tokens-file "$WORK/tokens" --submit-rate 1 --submit-window 1h ||
+    { not_ok "daemon starts"; exit 1; }
+probe "first submission within --submit-rate 1" POST /v1/jobs 201 /v1/jobs '' "${AUTH[@]}" "${F[@]}" -F "params=$(quick_params 5)"
+probe "second submission: over --submit-rate" POST /v1/jobs 429 /v1/jobs '.detail | contains("--submit-rate")' "${AUTH[@]}" "${F[@]}" -F "params=$(quick_params 5)"
+stop_daemon
+
 # both ways: every answer documented, every documented answer seen
 sort -u "$OBS" >"$WORK/observed.sorted"
 awk '{ print $1, $2, $3 }' "$WORK/documented.txt" | sort -u >"$WORK/documented.sorted"

@@ -5,6 +5,12 @@
 # the limit (--max-vertices, --max-inflated) within seconds, the daemon's
 # peak RSS stays small and /healthz answers meanwhile; --max-elements and
 # --max-vertices refuse a declared count before anything is allocated.
+# The acceptance check runs in a child process off the HTTP threads: with
+# one HTTP thread, /healthz, a status and an event stream answer within
+# 0.5 s while a 36 MB (inflated) upload is being checked, the daemon's
+# RSS does not grow with it, and --check-timeout stops a check that takes
+# too long (422 naming the flag).  A target_surface gzip bomb is refused
+# by --max-inflated like a mesh.
 source "$(dirname "$0")/lib.sh"
 
 if ! make_case; then
@@ -27,6 +33,12 @@ with gzip.open(w + "/blanks.mesh.gz", "wb", compresslevel=9) as f:
     for i in range(64):
         f.write(chunk)
     f.write(b"Vertices\n3\n0 0 0\n1 0 0\n0 1 0\nTriangles\n1\n1 2 3 0\nEnd\n")
+# a surface bomb: 64 MiB of blanks in front of an OBJ triangle
+with gzip.open(w + "/bomb.obj.gz", "wb", compresslevel=9) as f:
+    f.write(b"# bomb\n")
+    for i in range(64):
+        f.write((b" " * 63 + b"\n") * (1 << 14))
+    f.write(b"\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
 EOF
 ok "bombs: $(stat -c %s "$WORK/verts.mesh.gz") bytes (50M vertices), $(stat -c %s "$WORK/blanks.mesh.gz") bytes (64 MiB of blanks)"
 
@@ -60,6 +72,13 @@ bomb() {
 }
 bomb "50M vertices in 437 KB of gzip" "$WORK/verts.mesh.gz" --max-vertices
 bomb "64 MiB of blanks in a small gzip" "$WORK/blanks.mesh.gz" --max-inflated
+c=$(hcurl -o "$WORK/sbomb.json" -w '%{http_code}' -F "template=@$DISK" -F "target_surface=@$WORK/bomb.obj.gz" \
+    -F "params=$(quick_params 5)" "$BASE/v1/jobs")
+if [ "$c" = 413 ] && jq -e '.detail | test("target_surface.*--max-inflated")' "$WORK/sbomb.json" >/dev/null; then
+    ok "a target_surface gzip bomb (64 MiB of blanks before an OBJ triangle): 413 \"$(jq -r .detail "$WORK/sbomb.json")\""
+else
+    not_ok "a target_surface bomb: 413 naming --max-inflated" "$c" "$(cat "$WORK/sbomb.json")"
+fi
 hwm=$(awk '/^VmHWM/ { print $2 }' "/proc/$DPID/status")
 if [ -n "$hwm" ] && [ "$hwm" -lt $((150 * 1024 * SLOW)) ]; then
     ok "the daemon's peak RSS after both bombs: $((hwm / 1024)) MiB"
@@ -82,6 +101,110 @@ if [ "$(cat "$WORK/submit.code")" = 413 ] &&
     ok "--max-elements 20: 413 \"$(jq -r .detail "$WORK/submit.out")\""
 else
     not_ok "--max-elements 20: 413" "$(cat "$WORK/submit.code")" "$(cat "$WORK/submit.out")"
+fi
+# a target_surface counts too: a small template, an OBJ fan of 39 facets
+printf 'MeshVersionFormatted 2\nDimension 3\nVertices\n4\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\nTetrahedra\n1\n1 2 3 4 0\nEnd\n' >"$WORK/tet.mesh"
+awk 'BEGIN { print "v 0 0 0"; for (i = 0; i <= 40; i++) printf "v %.6f %.6f 1\n", cos(i / 6.5), sin(i / 6.5)
+             for (i = 2; i <= 40; i++) printf "f 1 %d %d\n", i, i + 1 }' >"$WORK/fan.obj"
+c=$(hcurl -o "$WORK/fan.json" -w '%{http_code}' -F "template=@$WORK/tet.mesh" -F "target_surface=@$WORK/fan.obj" \
+    -F "params=$(quick_params 5)" "$BASE/v1/jobs")
+if [ "$c" = 413 ] && jq -e '.detail | test("^target_surface: .*20 facets.*--max-elements")' "$WORK/fan.json" >/dev/null; then
+    ok "a target_surface beyond --max-elements 20: 413 \"$(jq -r .detail "$WORK/fan.json")\""
+else
+    not_ok "a target_surface beyond --max-elements: 413" "$c" "$(cat "$WORK/fan.json")"
+fi
+stop_daemon
+
+# ---------------------------------------------- checks off the HTTP thread
+python3 - "$WORK" <<'PYEOF'
+import gzip, sys
+w = sys.argv[1]
+# 3M vertex lines (36 MB inflated), then a triangle naming a vertex that
+# does not exist: the check reads everything, then refuses it (422)
+with gzip.open(w + "/big.mesh.gz", "wb", compresslevel=1) as f:
+    f.write(b"MeshVersionFormatted 2\nDimension 2\nVertices\n3000000\n")
+    chunk = b"0.25 0.25 0\n" * 1000000
+    for i in range(3):
+        f.write(chunk)
+    f.write(b"Triangles\n1\n1 2 99999999 0\nEnd\n")
+PYEOF
+start_daemon big --workers 1 --http-threads 1 --max-vertices 4M --max-inflated 1G \
+    --max-upload 64M || { not_ok "the daemon starts"; exit 1; }
+id=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
+wait_final "$id" 60
+checks_running() {
+    curl -sS --max-time 5 "$BASE/metrics" |
+        awk '$1 == "shapematch_upload_checks{state=\"running\"}" { print $2 }'
+}
+t0=${EPOCHREALTIME/,/.}
+curl -sS --max-time $((120 * SLOW)) -o "$WORK/big.json" -w '%{http_code}' -F "template=@$WORK/big.mesh.gz" \
+    -F "target_mesh=@$BOX" -F "target_sol=@$BOXSOL" -F "params=$(quick_params 5)" \
+    "$BASE/v1/jobs" >"$WORK/big.code" 2>/dev/null &
+cpid=$!
+running() { [ "$(checks_running)" = 1 ]; }
+seen=0
+poll 30 running && seen=1
+lat=()
+for round in 1 2 3; do
+    for path in /healthz "/v1/jobs/$id" "/v1/jobs/$id/events"; do
+        lat+=("$(curl -sS --max-time 10 -o /dev/null -w '%{http_code}:%{time_total}' "$BASE$path")")
+    done
+done
+still=$(checks_running)
+wait "$cpid"
+t1=${EPOCHREALTIME/,/.}
+secs=$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.1f", b - a }')
+worst=$(printf '%s\n' "${lat[@]}" | awk -F: '$1 != 200 { bad = 1 } $2 > m { m = $2 } END { print (bad ? "bad" : m) }')
+limit=$(awk -v k="$SLOW" 'BEGIN { print 0.5 * k }')
+if [ "$seen" = 1 ] && [ "$worst" != bad ] && awk -v w="$worst" -v l="$limit" 'BEGIN { exit !(w < l) }'; then
+    ok "while a 36 MB upload is checked (one HTTP thread), /healthz, status and events answer 9/9 within $worst s (< $limit; the check still running after them: ${still:-?})"
+else
+    not_ok "requests answer during a big upload's check" "check seen $seen, still running after the probes ${still:-?}" "${lat[*]}"
+fi
+if [ "$(cat "$WORK/big.code")" = 422 ] && jq -e '.detail | test("template: .*(vertex|99999999)")' "$WORK/big.json" >/dev/null; then
+    ok "the big upload is refused with 422 after its check ($secs s): \"$(jq -r .detail "$WORK/big.json" | head -c 160)\""
+else
+    not_ok "the big upload: 422" "$(cat "$WORK/big.code")" "$(cat "$WORK/big.json")"
+fi
+hwm=$(awk '/^VmHWM/ { print $2 }' "/proc/$DPID/status")
+if [ -n "$hwm" ] && [ "$hwm" -lt $((100 * 1024 * SLOW)) ]; then
+    ok "the daemon's peak RSS stays at $((hwm / 1024)) MiB (the check's memory is its child's)"
+else
+    not_ok "the daemon's RSS does not grow with the check" "VmHWM ${hwm:-?} kB"
+fi
+# SIGTERM while an upload is being checked: the check is stopped, the
+# client gets 503, the daemon exits cleanly
+curl -sS --max-time $((60 * SLOW)) -o "$WORK/term.json" -w '%{http_code}' -F "template=@$WORK/big.mesh.gz" \
+    -F "target_mesh=@$BOX" -F "target_sol=@$BOXSOL" -F "params=$(quick_params 5)" \
+    "$BASE/v1/jobs" >"$WORK/term.code" 2>/dev/null &
+cpid=$!
+poll 30 running
+stop_daemon
+rc=$?
+wait "$cpid"
+if [ "$rc" = 0 ] && [ "$(cat "$WORK/term.code")" = 503 ] && jq -e '.detail | contains("shutting down")' "$WORK/term.json" >/dev/null; then
+    ok "SIGTERM during a check: the upload gets 503 \"$(jq -r .detail "$WORK/term.json")\", the daemon exits 0"
+else
+    not_ok "SIGTERM during a check" "daemon rc $rc, upload $(cat "$WORK/term.code")" "$(cat "$WORK/term.json")"
+fi
+start_daemon slowcheck --workers 1 --check-timeout 0.5 --max-vertices 4M --max-inflated 1G ||
+    { not_ok "the daemon starts"; exit 1; }
+t0=${EPOCHREALTIME/,/.}
+c=$(hcurl -o "$WORK/slow.json" -w '%{http_code}' -F "template=@$WORK/big.mesh.gz" -F "target_mesh=@$BOX" \
+    -F "target_sol=@$BOXSOL" -F "params=$(quick_params 5)" "$BASE/v1/jobs")
+t1=${EPOCHREALTIME/,/.}
+secs=$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.1f", b - a }')
+if [ "$c" = 422 ] && jq -e '.detail | contains("--check-timeout")' "$WORK/slow.json" >/dev/null &&
+    awk -v s="$secs" -v k="$SLOW" 'BEGIN { exit !(s < 10 * k) }'; then
+    ok "--check-timeout 0.5: 422 in $secs s \"$(jq -r .detail "$WORK/slow.json")\""
+else
+    not_ok "--check-timeout: 422 naming it" "$c in $secs s" "$(cat "$WORK/slow.json")"
+fi
+id=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
+if [ -n "$id" ] && wait_final "$id" 60 && state_is "$id" successful; then
+    ok "an ordinary upload passes its check in time"
+else
+    not_ok "an ordinary upload within --check-timeout 0.5" "$(cat "$WORK/submit.out")"
 fi
 stop_daemon
 if reports_clean; then

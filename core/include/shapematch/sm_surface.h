@@ -14,6 +14,7 @@
 #include <stdint.h>
 
 #include "sm_error.h"
+#include "sm_io.h"
 
 typedef struct sm_surface {
     int dim;             /* 3: triangles, 2: segments */
@@ -42,6 +43,11 @@ void sm_surface_free(sm_surface *s);
  *     statements are skipped); coincident vertices are merged as for STL.
  * An unknown format is an error naming the formats read. */
 sm_status sm_surface_read(const char *path, sm_surface **out, sm_error *err);
+/* The same within limits (sm_io.h): decompressed bytes, and vertices and
+ * facets (declared counts, or counted as an STL or OBJ file grows);
+ * beyond one, SM_ERR_NOMEM with limits->hit set.  limits NULL: none. */
+sm_status sm_surface_read_limited(const char *path, sm_read_limits *limits, sm_surface **out,
+                                  sm_error *err);
 
 /* What sm_surface_repair found (and did): the surface health report.
  * Edges are the facets' sides in 3D and their end points in 2D. */

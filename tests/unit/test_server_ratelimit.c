@@ -1,0 +1,83 @@
+/* Submission limits (smd_ratelimit.h): the fixed window per key, its
+ * Retry-After, independence of keys, the window's reset, and the tracked
+ * unfinished jobs of an address. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "smd_ratelimit.h"
+
+static void test_window(void **state)
+{
+    (void)state;
+    smd_ratelimit *rl = smd_ratelimit_new(3, 10);
+    assert_non_null(rl);
+    for (int i = 0; i < 3; i++)
+        assert_int_equal(smd_ratelimit_take(rl, "t:alice", 100.0 + i), 0);
+    /* the fourth in the window waits for its end: 100 + 10 - 102.5 */
+    assert_int_equal(smd_ratelimit_take(rl, "t:alice", 102.5), 8);
+    assert_int_equal(smd_ratelimit_take(rl, "t:alice", 109.9), 1);
+    assert_int_equal(smd_ratelimit_take(rl, "t:bob", 103.0), 0); /* another key */
+    assert_int_equal(smd_ratelimit_take(rl, "t:alice", 110.0), 0); /* a new window */
+    smd_ratelimit_free(rl);
+    rl = smd_ratelimit_new(0, 10); /* no rate limit */
+    for (int i = 0; i < 1000; i++)
+        assert_int_equal(smd_ratelimit_take(rl, "t:alice", 1.0), 0);
+    smd_ratelimit_free(rl);
+}
+
+static int live_unless_b(const char *id, void *user)
+{
+    (void)user;
+    return id[0] != 'b';
+}
+
+static void test_tracked_jobs(void **state)
+{
+    (void)state;
+    smd_ratelimit *rl = smd_ratelimit_new(5, 60);
+    char id[SMD_ID_LEN + 1];
+    for (int i = 0; i < 20; i++) {
+        memset(id, i % 2 ? 'b' : 'a', SMD_ID_LEN);
+        id[SMD_ID_LEN] = '\0';
+        smd_ratelimit_track(rl, "a:127.0.0.1", id);
+    }
+    assert_int_equal(smd_ratelimit_live(rl, "a:127.0.0.1", live_unless_b, NULL), 10);
+    assert_int_equal(smd_ratelimit_live(rl, "a:127.0.0.1", live_unless_b, NULL), 10);
+    assert_int_equal(smd_ratelimit_live(rl, "a:127.0.0.2", live_unless_b, NULL), 0);
+    /* tracking does not spend the rate */
+    for (int i = 0; i < 5; i++)
+        assert_int_equal(smd_ratelimit_take(rl, "a:127.0.0.1", 1.0), 0);
+    assert_true(smd_ratelimit_take(rl, "a:127.0.0.1", 1.0) > 0);
+    smd_ratelimit_free(rl);
+}
+
+static void test_full_table(void **state)
+{
+    (void)state;
+    smd_ratelimit *rl = smd_ratelimit_new(1, 10);
+    char key[32];
+    for (int i = 0; i < SMD_RATELIMIT_KEYS; i++) {
+        snprintf(key, sizeof key, "a:k%d", i);
+        assert_int_equal(smd_ratelimit_take(rl, key, 5.0), 0);
+    }
+    /* no room for a new key while every window runs: refused, then
+     * an expired key's room is reused */
+    assert_int_equal(smd_ratelimit_take(rl, "a:new", 6.0), 10);
+    assert_int_equal(smd_ratelimit_take(rl, "a:new", 15.0), 0);
+    smd_ratelimit_free(rl);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_window),
+        cmocka_unit_test(test_tracked_jobs),
+        cmocka_unit_test(test_full_table),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -11,7 +11,9 @@ SERVER_EMBEDDED := proto/params.schema.json proto/events.schema.json $(wildcard 
 APP_EMBEDDED := web/index.html web/app.js web/view.js web/app.css web/favicon.svg \
     $(wildcard node_modules/three/build/three.module.min.js node_modules/three/build/three.core.min.js \
     node_modules/three/examples/jsm/controls/OrbitControls.js node_modules/uplot/dist/uPlot.esm.js \
-    node_modules/uplot/dist/uPlot.min.css)
+    node_modules/uplot/dist/uPlot.min.css node_modules/.package-lock.json)
+# (npm keeps the packages' own old mtimes; node_modules/.package-lock.json
+# is written by every npm ci, so a fresh install rebuilds the embedded app)
 SERVER_LIBS := $(HTTP_LIBS) $(PROTO_LIBS) $(CORE_LIBS) -lpq -lpthread
 
 define server_rules

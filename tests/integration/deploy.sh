@@ -218,7 +218,8 @@ result(len(stages) >= 2 and all(re.fullmatch(r"debian:bookworm(-slim)?", s["imag
        "Dockerfile: multi-stage, every stage on debian:bookworm", [s["image"] for s in stages])
 build, runtime = stages[0], stages[-1]
 build_cmds = " && ".join(build["run"])
-make_targets = re.findall(r"\bmake\b((?:\s+-\S+)*)\s+([a-z][a-z-]*)", build_cmds)
+# make as a command (not the package name in "apt-get install make ...")
+make_targets = re.findall(r"(?:^|&&|;)\s*make((?:\s+-\S+)*)\s+([a-z][a-z-]*)", build_cmds)
 targets = [t for _, t in make_targets]
 ci = open(os.path.join(root, ".ci", "run")).read()
 test_recipe = re.search(r"^test:([^\n]*)\n((?:\t[^\n]*\n)+)", makefile, re.M)

@@ -24,6 +24,7 @@
 #include "smd_check.h"
 #include "smd_conns.h"
 #include "smd_parts.h"
+#include "smd_pg_node.h"
 #include "smd_pool.h"
 #include "smd_ratelimit.h"
 #include "smd_routes.h"
@@ -469,6 +470,15 @@ static enum MHD_Result submit_checked(struct MHD_Connection *conn, smd_request *
     if (st != SM_OK) {
         pthread_mutex_unlock(&srv->lock);
         smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
+        char why[256];
+        if (srv->cluster && !smd_pg_node_ready(srv->cluster, why, sizeof why)) {
+            /* the database is down, not full: the client may retry */
+            req->retry_after = 5;
+            return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
+                                     "the job database is unreachable (%s): nothing was stored, "
+                                     "retry later (see /readyz)",
+                                     why);
+        }
         return smd_reply_problem(conn, req, 507, SMD_PROBLEM_STORAGE, "cannot store the job: %s",
                                  err.msg);
     }

@@ -106,6 +106,10 @@ ready_is() { [ "$(hcurl -o /dev/null -w '%{http_code}' "$BASE/readyz")" = "$1" ]
 poll 10 ready_is 503
 down=$(hcurl "$BASE/readyz" | jq -r .detail)
 check "/readyz answers 503 while the database is down ($down)" ready_is 503
+lost=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 20)" -D "$WORK/outage.headers")
+retry=$(grep -ci '^retry-after:' "$WORK/outage.headers")
+check "an upload during the outage gets 503 with Retry-After (retry later), not 507 ($(cat "$WORK/submit.code"), retry-after $retry)" \
+    [ "$(cat "$WORK/submit.code"):$retry:$lost" = "503:1:" ]
 sleep 1
 pg_start "$PGDIR" >/dev/null
 poll 20 ready_is 200

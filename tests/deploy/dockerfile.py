@@ -175,11 +175,34 @@ class Builder:
             self.mounts.append(proc)
         env = dict(s.env)
         env.setdefault("HOME", "/root")
+        ca = self.host_ca(s, env)
         cmd = ["chroot", "--userspec=" + s.user, s.root, "/bin/sh", "-c",
                "cd %s && %s" % (shlex.quote(s.workdir), args)]
-        rc = subprocess.run(cmd, env=env).returncode
+        try:
+            rc = subprocess.run(cmd, env=env).returncode
+        finally:
+            if ca:
+                os.unlink(ca)
         if rc != 0:
             raise BuildError("line %d: RUN exited with %d: %s" % (n, rc, args[:200]))
+
+    def host_ca(self, s, env):
+        """A host behind a TLS-intercepting proxy (as this CI machine is)
+        names its CA bundle in NODE_EXTRA_CA_CERTS: the RUN step gets a
+        copy, like a build secret (npm ci reaches the registry through
+        that proxy), removed after the step so no image keeps it.  None
+        when the host sets none.  Returns the copy's path on the host."""
+        bundle = os.environ.get("NODE_EXTRA_CA_CERTS")
+        if not bundle or not os.path.isfile(bundle):
+            return None
+        inside = "/tmp/.host-ca-bundle.crt"
+        copy = within(s.root, inside)
+        os.makedirs(os.path.dirname(copy), exist_ok=True)
+        shutil.copyfile(bundle, copy)
+        os.chmod(copy, 0o644)
+        env["NODE_EXTRA_CA_CERTS"] = inside
+        env["npm_config_cafile"] = inside
+        return copy
 
     def copy_(self, n, args):
         s = self.stage(n)

@@ -1,6 +1,6 @@
 /* match_bench: runs one matching case and prints where the time goes.
  *
- *   match_bench DIR CLAMP_X,CLAMP_Y[,CLAMP_Z],R [MAX_ITER [REFACTOR_EVERY]]
+ *   match_bench DIR CLAMP_X,CLAMP_Y[,CLAMP_Z],R [MAX_ITER [REFACTOR_EVERY [SOLVER]]]
  *
  * DIR holds template.mesh, background.mesh(.gz) and background.sol(.gz).
  * Prints reading time, iterations, seconds per iteration split into
@@ -59,7 +59,7 @@ static const char *first_existing(const char *dir, const char *base, char *buf, 
 int main(int argc, char **argv)
 {
     if (argc < 3) {
-        fprintf(stderr, "usage: %s DIR X,Y[,Z],R [MAX_ITER]\n", argv[0]);
+        fprintf(stderr, "usage: %s DIR X,Y[,Z],R [MAX_ITER [REFACTOR_EVERY [SOLVER]]]\n", argv[0]);
         return 1;
     }
     sm_params p;
@@ -74,6 +74,10 @@ int main(int argc, char **argv)
     p.tol_stall = 0.0; /* the fixed-length descent the figures below compare */
     if (argc > 4)
         p.refactor_every = atoi(argv[4]);
+    if (argc > 5 && sm_solver_kind_from_name(argv[5], &p.solver) != 0) {
+        fprintf(stderr, "solver must be auto, cholmod or amg (got %s)\n", argv[5]);
+        return 1;
+    }
 
     char tpath[4096], bpath[4096], spath[4096];
     if (!first_existing(argv[1], "template.mesh", tpath, sizeof tpath) ||

@@ -14,3 +14,10 @@ build/release/sdf_bench: build/release/obj/bench/sdf_bench.o build/release/libsh
 	$(CC) -o $@ $^ $(CORE_LIBS)
 release: build/release/sdf_bench
 all: build/release/sdf_bench
+# Scaling benchmark (bench/scale.sh, sizes from SCALE_SIZES): part of
+# `make bench`, or alone with `make bench-scale`.
+.PHONY: bench-scale
+bench-scale: deps
+	$(MAKE) -j$$(nproc) release
+	bench/scale.sh
+bench: bench-scale

@@ -17,24 +17,31 @@ VERSION := 0.1.0
 DEB_PACKAGES := gcc make pkg-config libc6-dev \
   libsuitesparse-dev libopenblas0-pthread zlib1g-dev libcmocka-dev libjansson-dev \
   libmicrohttpd-dev libgnutls28-dev libcurl4-openssl-dev curl gmsh wrk jq systemd python3 python3-yaml strace \
-  pmccabe clang libclang-rt-14-dev libomp-14-dev nodejs chromium postgresql libpq-dev
+  pmccabe clang libclang-rt-14-dev libomp-14-dev nodejs chromium postgresql libpq-dev \
+  libhypre-dev mpi-default-dev
 
 # The part of them `make release` and `make install` need (the Dockerfile's
 # build stage: `make deps-build`); tests/deploy/ checks it is a subset.
 DEB_BUILD_PACKAGES := gcc make pkg-config libc6-dev libsuitesparse-dev libopenblas0-pthread \
-  zlib1g-dev libcmocka-dev libjansson-dev libmicrohttpd-dev libgnutls28-dev libcurl4-openssl-dev libpq-dev
+  zlib1g-dev libcmocka-dev libjansson-dev libmicrohttpd-dev libgnutls28-dev libcurl4-openssl-dev libpq-dev \
+  libhypre-dev mpi-default-dev
 
 CC ?= cc
+# hypre (BoomerAMG, the iterative solver of large templates) is built with
+# MPI in Debian: its headers need MPI's; -isystem keeps their warnings out.
+MPI_PC := $(shell pkg-config --cflags-only-I mpi-c 2>/dev/null)
+HYPRE_CFLAGS := -isystem /usr/include/hypre $(MPI_PC:-I%=-isystem %)
+HYPRE_LIBS := -lHYPRE $(shell pkg-config --libs mpi-c 2>/dev/null)
 BASE_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror -fopenmp \
   -Wno-missing-field-initializers -g -I core/include -I proto -I /usr/include/suitesparse \
-  -DSM_VERSION='"$(VERSION)"'
+  -DSM_VERSION='"$(VERSION)"' $(HYPRE_CFLAGS)
 RELEASE_CFLAGS := $(BASE_CFLAGS) -O2
 ASAN_CFLAGS := $(BASE_CFLAGS) -O1 -fno-omit-frame-pointer \
   -fsanitize=address,undefined -fno-sanitize-recover=all
 RELEASE_LDFLAGS := -fopenmp
 ASAN_LDFLAGS := -fopenmp -fsanitize=address,undefined
 
-CORE_LIBS := -fopenmp -lcholmod -lz -lm
+CORE_LIBS := -fopenmp -lcholmod $(HYPRE_LIBS) -lz -lm
 PROTO_LIBS := -ljansson
 HTTP_LIBS := -lmicrohttpd -lgnutls
 CURL_LIBS := -lcurl

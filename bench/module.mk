@@ -14,3 +14,10 @@ all: $(addprefix build/release/,$(BENCH_PROGS))
 bench-soak: build/release/shapematchd build/release/shapematch-worker
 	bench/soak.sh
 bench: bench-soak
+# Scaling benchmark (bench/scale.sh, sizes from SCALE_SIZES): part of
+# `make bench`, or alone with `make bench-scale`.
+.PHONY: bench-scale
+bench-scale: deps
+	$(MAKE) -j$$(nproc) release
+	bench/scale.sh
+bench: bench-scale

@@ -270,7 +270,7 @@ int job_option_lookup(const char *flag)
     for (size_t i = 0; i < 3; i++)
         if (strcmp(flag, clamp_flags[i]) == 0)
             return 1;
-    if (strcmp(flag, "--free-boundary") == 0)
+    if (strcmp(flag, "--free-boundary") == 0 || strcmp(flag, "--solver") == 0)
         return 1;
     return find_scalar(flag) ? 1 : -1;
 }
@@ -335,6 +335,10 @@ int job_option_apply(job_options *j, const char *flag, const char *value,
     if (strcmp(flag, "--free-boundary") == 0)
         return args_parse_refs(flag, value, p->free_refs, SM_MAX_REFS,
                                &p->n_free_refs, msg, cap);
+    if (strcmp(flag, "--solver") == 0)
+        return sm_solver_kind_from_name(value, &p->solver) == 0
+                   ? 0
+                   : cli_fail(msg, cap, "--solver: '%s' is not auto, cholmod or amg", value);
     const scalar_option *o = find_scalar(flag);
     if (!o)
         return cli_fail(msg, cap, "unknown option '%s'", flag);
@@ -410,7 +414,10 @@ void job_options_help(FILE *out)
           "  --no-clamp              no fixed vertex; regularize with --alpha\n"
           "\n"
           "Parameters (REFS: comma-separated integers, e.g. 1,4):\n"
-          "  --free-boundary REFS    boundary facet references excluded from the load\n",
+          "  --free-boundary REFS    boundary facet references excluded from the load\n"
+          "  --solver NAME           elastic solver: cholmod (sparse Cholesky), amg (PCG +\n"
+          "                          BoomerAMG: less memory, for large 3D templates) or auto\n"
+          "                          (amg from 300000 tetrahedra; default auto)\n",
           out);
     for (size_t i = 0; i < N_SCALAR_OPTIONS; i++) {
         const scalar_option *o = &scalar_options[i];

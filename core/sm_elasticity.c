@@ -16,6 +16,7 @@
  * them through the map (no search) and refactorizes numerically. */
 #include "shapematch/sm_clock.h"
 #include "sm_elasticity.h"
+#include "sm_solver_amg.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -66,6 +67,11 @@ struct sm_elasticity {
     double lnz, flops;      /* from the symbolic analysis */
     double rcond;           /* of the last numeric factorization */
     double t_analyze, t_assembly, t_factor, t_solve;
+
+    sm_solver_kind solver;  /* CHOLMOD or AMG (resolved) */
+    double amg_rtol;
+    sm_amg *amg;            /* AMG: hypre's matrix, hierarchy, warm start */
+    double *amg_coords;     /* AMG: free vertex positions (rigid modes) */
 };
 
 void sm_lame(double young, double poisson, double *lambda, double *mu)
@@ -272,6 +278,8 @@ void sm_elasticity_free(sm_elasticity *el)
     free(el->cpl_values);
     free(el->slots);
     free(el->rhs);
+    sm_amg_free(el->amg);
+    free(el->amg_coords);
     free(el);
 }
 
@@ -493,6 +501,11 @@ static sm_status validate(const sm_mesh *m, const sm_elasticity_opts *opts, sm_e
                             (long)m->nverts, (long)m->nelems);
     const double young = opts->young, poisson = opts->poisson, alpha = opts->alpha;
     const sm_factor_kind kind = opts->factor;
+    if (!sm_solver_kind_name(opts->solver))
+        return sm_error_set(err, SM_ERR_INVALID, "elasticity: unknown solver %d", (int)opts->solver);
+    if (!(opts->amg_rtol >= 0.0 && opts->amg_rtol < 1.0))
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "elasticity: AMG tolerance must lie in [0, 1) (got %g)", opts->amg_rtol);
     if (!(young > 0.0) || !isfinite(young))
         return sm_error_set(err, SM_ERR_INVALID,
                             "elasticity: Young's modulus must be finite and > 0 (got %g)", young);
@@ -655,7 +668,9 @@ sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
         goto fail;
     adjacency_free(&adj);
     memset(&adj, 0, sizeof adj);
-    if ((st = setup_solver(el, opts->factor, err)) != SM_OK)
+    el->solver = sm_solver_resolve(opts->solver, m->dim, m->nelems);
+    el->amg_rtol = opts->amg_rtol > 0.0 ? opts->amg_rtol : SM_ELASTICITY_AMG_RTOL;
+    if (el->solver == SM_SOLVER_CHOLMOD && (st = setup_solver(el, opts->factor, err)) != SM_OK)
         goto fail;
     free(is_clamped);
     free(used);
@@ -715,6 +730,23 @@ static inline int32_t assemble(sm_elasticity *el, const int dim, const double *c
     return -1;
 }
 
+/* AMG "factorization": the free vertices' positions (for the rigid-body
+ * modes) and hypre's set-up on the assembled matrix.  The positions are
+ * only read during the set-up, so their buffer (nfree doubles) then
+ * serves as the solution buffer of the solves. */
+static sm_status amg_setup(sm_elasticity *el, const double *coords, sm_error *err)
+{
+    if (el->nfree == 0)
+        return SM_OK;
+    if (!el->amg_coords && !(el->amg_coords = malloc((size_t)el->nfree * sizeof(double))))
+        return sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory");
+    for (int64_t g = 0; g < (int64_t)el->nverts * el->dim; g++)
+        if (el->dof[g] >= 0)
+            el->amg_coords[el->dof[g]] = coords[g];
+    return sm_amg_setup(&el->amg, el->dim, el->nfree, el->rowptr, el->colind, el->values,
+                        el->amg_coords, el->amg_rtol, err);
+}
+
 sm_status sm_elasticity_factorize(sm_elasticity *el, const double *coords, sm_error *err)
 {
     if (!el || !coords)
@@ -735,7 +767,12 @@ sm_status sm_elasticity_factorize(sm_elasticity *el, const double *coords, sm_er
                             "(volume %g, longest edge %g)",
                             (long)bad + 1, bad_volume, bad_edge);
     el->rcond = 0.0;
-    if (el->nfree > 0) {
+    if (el->solver == SM_SOLVER_AMG) {
+        sm_status st = amg_setup(el, coords, err);
+        el->t_factor = sm_clock_seconds() - t1;
+        if (st != SM_OK)
+            return st;
+    } else if (el->nfree > 0) {
         int ok = cholmod_factorize(&el->A, el->L, &el->cc);
         int status = el->cc.status;
         el->t_factor = sm_clock_seconds() - t1;
@@ -803,7 +840,12 @@ sm_status sm_elasticity_solve(sm_elasticity *el, const double *load,
         }
     }
     const double *x = NULL;
-    if (el->nfree > 0) {
+    if (el->solver == SM_SOLVER_AMG && el->nfree > 0) {
+        sm_status st = sm_amg_solve(el->amg, rhs, el->amg_coords, err);
+        if (st != SM_OK)
+            return st;
+        x = el->amg_coords; /* reused as the solution buffer, see amg_setup */
+    } else if (el->nfree > 0) {
         cholmod_dense B = {0};
         B.nrow = (size_t)el->nfree;
         B.ncol = 1;
@@ -870,6 +912,15 @@ void sm_elasticity_get_info(const sm_elasticity *el, sm_elasticity_info *info)
         info->ordering = ordering_name(el->L->ordering);
     }
     info->rcond = el->rcond;
+    info->solver = el->solver;
+    if (el->amg) {
+        sm_amg_stats as;
+        sm_amg_get_stats(el->amg, &as);
+        info->amg_iterations = as.last_iterations;
+        info->amg_total_iterations = as.total_iterations;
+        info->amg_restarts = as.restarts;
+        info->amg_min_descent = as.min_descent;
+    }
     info->analyze_time = el->t_analyze;
     info->solve_time = el->t_solve;
 }

@@ -17,6 +17,7 @@
 
 #include "shapematch/sm_error.h"
 #include "shapematch/sm_mesh.h"
+#include "shapematch/sm_params.h"
 
 typedef struct sm_elasticity sm_elasticity;
 
@@ -39,7 +40,16 @@ typedef struct sm_elasticity_opts {
     double poisson;        /* Poisson ratio nu: in (-1, 0.5) */
     double alpha;          /* zero-order (mass) term: finite, >= 0 */
     sm_factor_kind factor; /* SM_FACTOR_AUTO (0) unless forced */
+    sm_solver_kind solver; /* AUTO (0): sm_solver_resolve on the mesh size */
+    double amg_rtol;       /* AMG: relative residual of each solve;
+                            * 0 = SM_ELASTICITY_AMG_RTOL */
 } sm_elasticity_opts;
+
+/* Relative residual of the inexact AMG solves.  Loose on purpose: any
+ * SPD solve gives a descent direction and the step search normalises
+ * it; measured in bench/scale.sh to reach the direct path's boundary
+ * error (tests/unit/test_solver.c checks 2D and 3D). */
+#define SM_ELASTICITY_AMG_RTOL 0.1
 
 /* clamped: nverts flags (all components of a flagged vertex are fixed),
  * may be NULL for none.  With no clamped vertex opts->alpha must be > 0.
@@ -53,11 +63,15 @@ sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
 void sm_elasticity_free(sm_elasticity *el);
 
 /* Assembles the stiffness (+ alpha mass) matrix on the vertex positions
- * coords (nverts*dim) and factorizes it (numeric Cholesky). */
+ * coords (nverts*dim) and factorizes it (numeric Cholesky), or with the
+ * AMG solver copies it to hypre and builds the AMG hierarchy (the
+ * rigid-body modes from coords). */
 sm_status sm_elasticity_factorize(sm_elasticity *el, const double *coords,
                                   sm_error *err);
 
-/* Solves with the last factorization.  load: nodal forces (nverts*dim,
+/* Solves with the last factorization (AMG: by PCG to amg_rtol, warm
+ * started from the previous solution, and always a descent direction:
+ * load'u > 0 on the free DOFs whenever that load is nonzero).  load: nodal forces (nverts*dim,
  * the assembled F(phi_i e_c)); dirichlet: values on clamped vertices
  * (nverts*dim, only clamped entries read) or NULL for 0; u: output
  * nverts*dim (clamped entries set to the Dirichlet values). */
@@ -103,6 +117,11 @@ typedef struct sm_elasticity_info {
     double solve_time;      /* seconds: last sm_elasticity_solve */
     double rcond;           /* last factorization: (min/max pivot) estimate
                              * of 1/cond (cholmod_rcond); 0 if none */
+    sm_solver_kind solver;  /* CHOLMOD or AMG (AUTO resolved) */
+    int amg_iterations;     /* AMG: PCG iterations of the last solve */
+    long amg_total_iterations; /* AMG: since the last factorize */
+    int amg_restarts;       /* AMG: solves restarted from zero (not descent) */
+    double amg_min_descent; /* AMG: min load'u / (|load| |u|) over solves */
 } sm_elasticity_info;
 void sm_elasticity_get_info(const sm_elasticity *el, sm_elasticity_info *info);
 

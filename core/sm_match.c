@@ -181,7 +181,8 @@ static sm_status setup_operators(run_state *rs, const sm_field *target, sm_error
         {
             sm_elasticity_opts eopts = {
                 .young = params->young, .poisson = params->poisson,
-                .alpha = params->clamp == SM_CLAMP_NONE ? rs->alpha : 0.0};
+                .alpha = params->clamp == SM_CLAMP_NONE ? rs->alpha : 0.0,
+                .solver = params->solver};
             st_elastic = sm_elasticity_new(rs->mesh, rs->clamped, &eopts, &rs->elasticity,
                                            &err_elastic);
             if (st_elastic == SM_OK)

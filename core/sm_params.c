@@ -93,7 +93,37 @@ sm_status sm_params_validate(const sm_params *p, int dim, sm_error *err)
                             "maximum step must be in [initial step, 1] (got %g)", p->step_max);
     if (p->refactor_every < 1)
         return sm_error_set(err, SM_ERR_INVALID, "refactor-every must be >= 1 (got %d)", p->refactor_every);
+    if (!sm_solver_kind_name(p->solver))
+        return sm_error_set(err, SM_ERR_INVALID, "solver must be auto, cholmod or amg (got %d)",
+                            (int)p->solver);
     if (p->live_every < 0)
         return sm_error_set(err, SM_ERR_INVALID, "live-every must be >= 0 (got %d)", p->live_every);
     return SM_OK;
+}
+
+static const char *const solver_names[] = {"auto", "cholmod", "amg"};
+
+const char *sm_solver_kind_name(sm_solver_kind kind)
+{
+    if ((int)kind < 0 || (size_t)kind >= sizeof solver_names / sizeof solver_names[0])
+        return NULL;
+    return solver_names[kind];
+}
+
+int sm_solver_kind_from_name(const char *name, sm_solver_kind *out)
+{
+    for (size_t i = 0; name && i < sizeof solver_names / sizeof solver_names[0]; i++) {
+        if (strcmp(name, solver_names[i]) == 0) {
+            *out = (sm_solver_kind)i;
+            return 0;
+        }
+    }
+    return -1;
+}
+
+sm_solver_kind sm_solver_resolve(sm_solver_kind kind, int dim, int64_t nelems)
+{
+    if (kind != SM_SOLVER_AUTO)
+        return kind;
+    return dim == 3 && nelems >= SM_SOLVER_AMG_MIN_TETS ? SM_SOLVER_AMG : SM_SOLVER_CHOLMOD;
 }

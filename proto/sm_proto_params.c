@@ -196,7 +196,7 @@ static sm_status decode_clamp(const json_t *clamp, const char *path, int dim,
 
 static const char top_fields[] =
     "clamp, free_boundary, young, poisson, max_iter, tol_step, tol_boundary, "
-    "tol_boundary_rel, tol_stall, stall_window, min_quality, save_every, step_initial, step_max, refactor_every, live_every";
+    "tol_boundary_rel, tol_stall, stall_window, min_quality, save_every, step_initial, step_max, refactor_every, live_every, solver";
 
 static sm_status decode_field(const char *key, const json_t *value, const char *sub,
                               int dim, sm_params *out, sm_error *err)
@@ -233,6 +233,11 @@ static sm_status decode_field(const char *key, const json_t *value, const char *
         return get_int_field(value, sub, 1, INT_MAX, &out->refactor_every, err);
     if (strcmp(key, "live_every") == 0)
         return get_int_field(value, sub, 0, INT_MAX, &out->live_every, err);
+    if (strcmp(key, "solver") == 0) {
+        if (!json_is_string(value) || sm_solver_kind_from_name(json_string_value(value), &out->solver) != 0)
+            return sm_error_set(err, SM_ERR_INVALID, "%s: must be \"auto\", \"cholmod\" or \"amg\"", sub);
+        return SM_OK;
+    }
     return sm_error_set(err, SM_ERR_INVALID, "%s: unknown field (known fields: %s)", sub,
                         top_fields);
 }
@@ -388,6 +393,7 @@ json_t *sm_params_to_jansson(const sm_params *p, int dim)
     bad = bad || smp_set(root, "step_max", json_real(p->step_max));
     bad = bad || smp_set(root, "refactor_every", json_integer(p->refactor_every));
     bad = bad || smp_set(root, "live_every", json_integer(p->live_every));
+    bad = bad || smp_set(root, "solver", json_string(sm_solver_kind_name(p->solver) ? sm_solver_kind_name(p->solver) : "auto"));
     if (bad) {
         json_decref(root);
         return NULL;

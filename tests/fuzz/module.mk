@@ -14,7 +14,7 @@ FUZZ_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror \
   -Wno-missing-field-initializers -g -O1 -fno-omit-frame-pointer -fopenmp \
   -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all \
   -I core/include -I proto -I client -I server -I tests/fuzz -I /usr/include/suitesparse \
-  -DSM_VERSION='"$(VERSION)"'
+  -DSM_VERSION='"$(VERSION)"' $(HYPRE_CFLAGS)
 FUZZ_LDFLAGS := -fopenmp -fsanitize=fuzzer,address,undefined
 FUZZ_LIB_SRCS := $(wildcard core/*.c) $(wildcard proto/*.c) client/sse.c tests/fuzz/fuzz_input.c \
   server/smd_negotiate.c server/smd_util.c
@@ -30,7 +30,7 @@ $(FUZZ_DIR)/libfuzzdeps.a: $(FUZZ_LIB_SRCS:%.c=$(FUZZ_DIR)/obj/%.o)
 	rm -f $@ && ar rcs $@ $^
 
 $(FUZZ_TARGETS:%=$(FUZZ_DIR)/%): $(FUZZ_DIR)/%: $(FUZZ_DIR)/obj/tests/fuzz/%.o $(FUZZ_DIR)/libfuzzdeps.a
-	$(FUZZ_CC) $(FUZZ_LDFLAGS) -o $@ $^ $(PROTO_LIBS) -lcholmod -lz -lm $(HTTP_LIBS)
+	$(FUZZ_CC) $(FUZZ_LDFLAGS) -o $@ $^ $(PROTO_LIBS) -lcholmod $(HYPRE_LIBS) -lz -lm $(HTTP_LIBS)
 
 .PHONY: fuzz fuzz-build
 fuzz-build: $(FUZZ_TARGETS:%=$(FUZZ_DIR)/%)

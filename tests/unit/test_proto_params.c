@@ -87,6 +87,7 @@ static void assert_params_equal(const sm_params *a, const sm_params *b, int dim)
     assert_true(same_double(a->step_max, b->step_max));
     assert_int_equal(a->refactor_every, b->refactor_every);
     assert_int_equal(a->live_every, b->live_every);
+    assert_int_equal(a->solver, b->solver);
 }
 
 static sm_status decode_str(const char *text, int dim, sm_params *p, sm_error *err)
@@ -378,6 +379,7 @@ static void random_params(sm_params *p, int dim, uint64_t *s)
     p->step_initial = p->step_max * (uniform(s) * 0.99 + 0.01);
     p->refactor_every = 1 + (int)(next_u64(s) % 10);
     p->live_every = (int)(next_u64(s) % 10);
+    p->solver = (sm_solver_kind)(next_u64(s) % 3);
 }
 
 static void test_random_round_trip(void **state)

@@ -18,6 +18,29 @@ typedef enum sm_clamp_kind {
     SM_CLAMP_NONE = 3      /* no clamp: 0th-order term alpha int u.v */
 } sm_clamp_kind;
 
+/* How the elastic system is solved (params "solver").  AUTO picks by the
+ * template's size (sm_solver_resolve): CHOLMOD's sparse Cholesky below the
+ * crossover measured by bench/scale.sh, PCG + BoomerAMG (hypre) above, where
+ * the factor's memory grows like n^1.3 and the AMG hierarchy's like n. */
+typedef enum sm_solver_kind {
+    SM_SOLVER_AUTO = 0,
+    SM_SOLVER_CHOLMOD = 1,
+    SM_SOLVER_AMG = 2
+} sm_solver_kind;
+
+/* "auto", "cholmod", "amg"; NULL for a value out of range. */
+const char *sm_solver_kind_name(sm_solver_kind kind);
+/* 0 and *out set for a known name, -1 otherwise. */
+int sm_solver_kind_from_name(const char *name, sm_solver_kind *out);
+/* The solver AUTO means for a template of dim and nelems elements:
+ * AMG from SM_SOLVER_AMG_MIN_TETS tetrahedra on (3D only: 2D templates of
+ * any size this project meets factor fast); kind itself if not AUTO.
+ * Measured by bench/scale.sh (CPU time): AMG's smaller set-up outweighs
+ * its slower iterations for runs up to 15 iterations at 31k tetrahedra,
+ * 30 at 105k and 35 at 382k, where CHOLMOD's peak RSS passes 3 GiB. */
+sm_solver_kind sm_solver_resolve(sm_solver_kind kind, int dim, int64_t nelems);
+#define SM_SOLVER_AMG_MIN_TETS 300000
+
 typedef struct sm_params {
     sm_clamp_kind clamp;
     double clamp_center[3];
@@ -55,6 +78,7 @@ typedef struct sm_params {
     int refactor_every;      /* refactorize the elastic operator on the current
                               * mesh every k iterations (1 = every iteration,
                               * as in the paper); 100 */
+    sm_solver_kind solver;   /* elastic solver; SM_SOLVER_AUTO (default) */
     int live_every;          /* the daemon's live mesh (mesh/latest): published
                               * every k iterations, and at least every 0.5 s
                               * of a run; 0 = by time only (default) */

@@ -1,0 +1,56 @@
+/* Preconditioned conjugate gradients with hypre's BoomerAMG, for the
+ * elastic operator of large templates (sm_elasticity with
+ * SM_SOLVER_AMG).  Internal to the core.
+ *
+ * The matrix is the free x free block in CSR with both triangles, DOFs
+ * vertex-major (dim unknowns per vertex), as sm_elasticity builds it.
+ * BoomerAMG runs as a systems AMG for elasticity: num_functions = dim,
+ * nodal coarsening on the dim x dim vertex blocks, and the rotations of
+ * the rigid-body modes (the translations are implicit) as interpolation
+ * vectors, so that the coarse spaces represent the near-null space.
+ *
+ * hypre in Debian is built with MPI: the first set-up initialises MPI
+ * once for the process (a single rank, no mpirun needed) and everything
+ * runs on MPI_COMM_SELF.  hypre is built without OpenMP, so the result
+ * does not depend on the thread count. */
+#ifndef SM_SOLVER_AMG_H
+#define SM_SOLVER_AMG_H
+
+#include <stdint.h>
+
+#include "shapematch/sm_error.h"
+
+typedef struct sm_amg sm_amg;
+
+/* Copies the matrix (n rows, rowptr/colind/values as in sm_csr_view)
+ * into hypre and builds the AMG hierarchy.  coords: the positions of the
+ * n/dim free vertices (dim each, in DOF order) for the rigid-body modes,
+ * or NULL for none.  rtol: relative residual of the PCG solves (> 0).
+ * *out is replaced (the previous object freed): the warm start of the
+ * next solve is kept across set-ups when n is unchanged. */
+sm_status sm_amg_setup(sm_amg **out, int dim, int32_t n, const int32_t *rowptr,
+                       const int32_t *colind, const double *values,
+                       const double *coords, double rtol, sm_error *err);
+void sm_amg_free(sm_amg *amg);
+
+/* Solves A x = rhs (n entries) by PCG from a warm start: the previous
+ * solution, scaled to minimise the energy along it, so that the start
+ * already has negative energy 1/2 x'Ax - rhs'x and every CG iterate is a
+ * descent direction for rhs (rhs'x > 0).  If rhs'x <= 0 all the same
+ * (round-off), solves again from zero with a 100x tighter tolerance.
+ * SM_ERR_NUMERIC if PCG breaks down or does not reach the tolerance. */
+sm_status sm_amg_solve(sm_amg *amg, const double *rhs, double *x, sm_error *err);
+
+typedef struct sm_amg_stats {
+    int last_iterations;     /* PCG iterations of the last solve */
+    double last_residual;    /* its final relative residual */
+    long total_iterations;   /* over all solves since set-up */
+    int solves;
+    int restarts;            /* solves that had to restart from zero */
+    double min_descent;      /* min over solves of rhs'x / (|rhs| |x|) */
+    double setup_time;       /* seconds of the last sm_amg_setup */
+    double operator_complexity;
+} sm_amg_stats;
+void sm_amg_get_stats(const sm_amg *amg, sm_amg_stats *stats);
+
+#endif

@@ -242,7 +242,7 @@ if [ "$have_case" = 1 ]; then
     # job control on, so the background job does not start with SIGINT
     # ignored (which the client would rightly respect)
     set -m
-    "$BIN" run "${IN[@]}" --clamp-ball 0,0,0.1 --max-iter 100000000 --tol-stall 0 --json -o outcancel \
+    "$BIN" run "${IN[@]}" --clamp-ball 0,0,0.1 --max-iter 100000000 --tol-stall 0 --tol-step 1e-15 --tol-boundary 0 --json -o outcancel \
         >cancel.out 2>cancel.err &
     pid=$!
     set +m

@@ -53,7 +53,8 @@ typedef void (*smd_check_done_fn)(void *user);
 
 typedef struct smd_check_pool smd_check_pool;
 
-/* threads >= 1; timeout in seconds; memory_limit bytes (0 none).  NULL
+/* threads >= 1; timeout in seconds; memory_limit bytes (0 none); in the
+ * AddressSanitizer build checks run in the thread, see smd_check.c.  NULL
  * with err set on failure. */
 smd_check_pool *smd_check_pool_new(int threads, double timeout, uint64_t memory_limit,
                                    sm_error *err);

@@ -187,7 +187,7 @@ if [ "$rc" = 0 ] && [ "$(cat "$WORK/term.code")" = 503 ] && jq -e '.detail | con
 else
     not_ok "SIGTERM during a check" "daemon rc $rc, upload $(cat "$WORK/term.code")" "$(cat "$WORK/term.json")"
 fi
-start_daemon slowcheck --workers 1 --check-timeout 0.5 --max-vertices 4M --max-inflated 1G ||
+start_daemon slowcheck --workers 1 --check-timeout 0.2 --max-vertices 4M --max-inflated 1G ||
     { not_ok "the daemon starts"; exit 1; }
 t0=${EPOCHREALTIME/,/.}
 c=$(hcurl -o "$WORK/slow.json" -w '%{http_code}' -F "template=@$WORK/big.mesh.gz" -F "target_mesh=@$BOX" \
@@ -196,7 +196,7 @@ t1=${EPOCHREALTIME/,/.}
 secs=$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.1f", b - a }')
 if [ "$c" = 422 ] && jq -e '.detail | contains("--check-timeout")' "$WORK/slow.json" >/dev/null &&
     awk -v s="$secs" -v k="$SLOW" 'BEGIN { exit !(s < 10 * k) }'; then
-    ok "--check-timeout 0.5: 422 in $secs s \"$(jq -r .detail "$WORK/slow.json")\""
+    ok "--check-timeout 0.2: 422 in $secs s \"$(jq -r .detail "$WORK/slow.json")\""
 else
     not_ok "--check-timeout: 422 naming it" "$c in $secs s" "$(cat "$WORK/slow.json")"
 fi
@@ -204,7 +204,7 @@ id=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
 if [ -n "$id" ] && wait_final "$id" 60 && state_is "$id" successful; then
     ok "an ordinary upload passes its check in time"
 else
-    not_ok "an ordinary upload within --check-timeout 0.5" "$(cat "$WORK/submit.out")"
+    not_ok "an ordinary upload within --check-timeout 0.2" "$(cat "$WORK/submit.out")"
 fi
 stop_daemon
 if reports_clean; then

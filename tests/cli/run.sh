@@ -240,9 +240,11 @@ if [ "$have_case" = 1 ]; then
 
     # ---- SIGINT: clean stop, outputs written, exit 5 ----
     # job control on, so the background job does not start with SIGINT
-    # ignored (which the client would rightly respect)
+    # ignored (which the client would rightly respect); env restores the
+    # default too when this suite itself was started with SIGINT ignored
+    # (a background `make test` from a script)
     set -m
-    "$BIN" run "${IN[@]}" --clamp-ball 0,0,0.1 --max-iter 100000000 --tol-stall 0 --tol-step 1e-15 --tol-boundary 0 --json -o outcancel \
+    env --default-signal=INT "$BIN" run "${IN[@]}" --clamp-ball 0,0,0.1 --max-iter 100000000 --tol-stall 0 --tol-step 1e-15 --tol-boundary 0 --json -o outcancel \
         >cancel.out 2>cancel.err &
     pid=$!
     set +m

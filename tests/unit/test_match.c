@@ -86,19 +86,26 @@ static int record(const sm_progress *p, const double *coords, void *user)
     return h->cancel_at > 0 && p->iteration >= h->cancel_at;
 }
 
+/* The 2D case of several tests: a disk of radius 0.25 clamped at its
+ * centre, matched onto the ellipse of semi-axes 0.32 x 0.22. */
+static sm_mesh *ellipse_case(target *t, sm_params *p, int max_iter)
+{
+    make_target(t, 160, 0.32, 0.22);
+    const double c[2] = {0.5, 0.5};
+    sm_params_default(p);
+    p->clamp = SM_CLAMP_BALL;
+    p->clamp_center[0] = p->clamp_center[1] = 0.5;
+    p->clamp_radius = 0.05;
+    p->max_iter = max_iter;
+    return util_disk_mesh(c, 0.25, 12);
+}
+
 static void test_converges_on_ellipse(void **state)
 {
     (void)state;
     target t;
-    make_target(&t, 160, 0.32, 0.22);
-    const double c[2] = {0.5, 0.5};
-    sm_mesh *tm = util_disk_mesh(c, 0.25, 12);
     sm_params p;
-    sm_params_default(&p);
-    p.clamp = SM_CLAMP_BALL;
-    p.clamp_center[0] = p.clamp_center[1] = 0.5;
-    p.clamp_radius = 0.05;
-    p.max_iter = 400;
+    sm_mesh *tm = ellipse_case(&t, &p, 400);
     p.tol_boundary = 2e-4;
     double *out = malloc(sizeof(double) * tm->nverts * 2);
     sm_result res;
@@ -351,15 +358,8 @@ static void test_stall_rule_bounds(void **state)
 {
     (void)state;
     target t;
-    make_target(&t, 160, 0.32, 0.22);
-    const double c[2] = {0.5, 0.5};
-    sm_mesh *tm = util_disk_mesh(c, 0.25, 12);
     sm_params p;
-    sm_params_default(&p);
-    p.clamp = SM_CLAMP_BALL;
-    p.clamp_center[0] = p.clamp_center[1] = 0.5;
-    p.clamp_radius = 0.05;
-    p.max_iter = 300;
+    sm_mesh *tm = ellipse_case(&t, &p, 300);
     double *out = malloc(sizeof(double) * tm->nverts * 2);
     sm_result off, on;
     sm_error err;

@@ -588,6 +588,72 @@ static sm_status number_dofs(sm_elasticity *el, const sm_mesh *m, const uint8_t 
     return SM_OK;
 }
 
+/* A fill-reducing order of the free DOFs, computed on the graph of the
+ * free vertices and expanded to their dim DOFs each.  The DOF graph is
+ * that graph with every vertex a dim-clique, so both give orders of the
+ * same quality, but CHOLMOD's choice (AMD, then METIS when the fill is
+ * high) runs on dim^2 times fewer entries: 0.03 s instead of 0.2 s for
+ * the 30k-tetrahedron example.  The free DOFs are vertex-major (DOF
+ * d * dim + c is component c of free vertex d).  Returns the order of the
+ * DOFs (malloc'ed, nfree entries), or NULL when it could not be computed
+ * (out of memory), and CHOLMOD then orders the DOF graph itself. */
+static int32_t *vertex_block_order(sm_elasticity *el)
+{
+    const int dim = el->dim;
+    const int32_t nfv = el->nfree / dim;
+    int32_t *vp = malloc(((size_t)nfv + 1) * sizeof *vp);
+    int32_t *vi = malloc(((size_t)el->rowptr[el->nfree] / (size_t)(dim * dim) + 1) * sizeof *vi);
+    int32_t *perm = malloc((size_t)el->nfree * sizeof *perm);
+    cholmod_factor *Lv = NULL;
+    if (!vp || !vi || !perm)
+        goto fail;
+    /* vertex d's neighbours: the columns c = 0 of its first DOF's row */
+    int32_t q = 0;
+    for (int32_t d = 0; d < nfv; d++) {
+        vp[d] = q;
+        const int32_t row = d * dim;
+        for (int32_t k = el->rowptr[row]; k < el->rowptr[row + 1]; k += dim)
+            vi[q++] = el->colind[k] / dim;
+    }
+    vp[nfv] = q;
+    cholmod_sparse V = {0};
+    V.nrow = V.ncol = (size_t)nfv;
+    V.nzmax = (size_t)q;
+    V.p = vp;
+    V.i = vi;
+    V.stype = 1;
+    V.itype = CHOLMOD_INT;
+    V.xtype = CHOLMOD_PATTERN;
+    V.dtype = CHOLMOD_DOUBLE;
+    V.sorted = 1;
+    V.packed = 1;
+    /* both orders, the one with the fewer nonzeros in L kept: METIS wins
+     * on 3D meshes (5.8M against AMD's 7.6M for the example), AMD on
+     * small or flat ones */
+    el->cc.nmethods = 2;
+    el->cc.method[0].ordering = CHOLMOD_AMD;
+    el->cc.method[1].ordering = CHOLMOD_METIS;
+    Lv = cholmod_analyze(&V, &el->cc);
+    if (!Lv || el->cc.status < CHOLMOD_OK)
+        goto fail;
+    const int *vperm = Lv->Perm;
+    for (int32_t k = 0; k < nfv; k++)
+        for (int c = 0; c < dim; c++)
+            perm[(size_t)k * dim + c] = vperm[k] * dim + c;
+    cholmod_free_factor(&Lv, &el->cc);
+    free(vp);
+    free(vi);
+    return perm;
+fail:
+    if (Lv)
+        cholmod_free_factor(&Lv, &el->cc);
+    free(vp);
+    free(vi);
+    free(perm);
+    el->cc.status = CHOLMOD_OK;
+    return NULL;
+}
+
 /* CHOLMOD on the free x free pattern: its common block (factor kind
  * forced or not), the matrix header over el's CSR arrays, and the
  * symbolic analysis. */
@@ -618,7 +684,13 @@ static sm_status setup_solver(sm_elasticity *el, sm_factor_kind kind, sm_error *
     el->A.sorted = 1;
     el->A.packed = 1;
     if (el->nfree > 0) {
-        el->L = cholmod_analyze(&el->A, &el->cc);
+        int32_t *perm = vertex_block_order(el);
+        if (perm) {
+            el->cc.nmethods = 1;
+            el->cc.method[0].ordering = CHOLMOD_GIVEN;
+        }
+        el->L = cholmod_analyze_p(&el->A, perm, NULL, 0, &el->cc);
+        free(perm);
         if (!el->L || el->cc.status < CHOLMOD_OK)
             return sm_error_set(err, el->cc.status == CHOLMOD_OUT_OF_MEMORY ? SM_ERR_NOMEM : SM_ERR_NUMERIC,
                                 "elasticity: CHOLMOD symbolic analysis failed (status %d: %s) for %ld unknowns",

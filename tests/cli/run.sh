@@ -63,43 +63,8 @@ expect 1 "frobnicate" "unknown command is a usage error" -- frobnicate
 
 # ---- test case: gmsh disk template, box background, analytic distance ----
 have_case=1
-cat >disk.geo <<'EOF'
-SetFactory("OpenCASCADE");
-Disk(1) = {0, 0, 0, 0.5};
-Mesh.CharacteristicLengthMax = 0.08;
-EOF
-cat >box.geo <<'EOF'
-SetFactory("OpenCASCADE");
-Rectangle(1) = {-1.5, -1.5, 0, 3, 3};
-Mesh.CharacteristicLengthMax = 0.1;
-EOF
-cat >cube.geo <<'EOF'
-SetFactory("OpenCASCADE");
-Box(1) = {-1, -1, -1, 2, 2, 2};
-Mesh.CharacteristicLengthMax = 0.5;
-EOF
-# Signed distance to the circle (sphere) of radius R centred at the
-# origin, at the vertices of a Medit mesh, as a scalar .sol.
-cat >sdf.awk <<'EOF'
-{ for (i = 1; i <= NF; i++) tok[++n] = $i }
-END {
-    for (k = 1; k <= n; k++) {
-        if (tok[k] == "Dimension") dim = tok[++k] + 0
-        else if (tok[k] == "Vertices") { nv = tok[++k] + 0; start = k; break }
-    }
-    flat = 1
-    for (v = 0; v < nv; v++) {
-        b = start + v * (dim + 1)
-        x[v] = tok[b + 1] + 0; y[v] = tok[b + 2] + 0; z[v] = dim == 3 ? tok[b + 3] + 0 : 0
-        if (z[v] != 0) flat = 0
-    }
-    sdim = (dim == 3 && !flat) ? 3 : 2
-    printf "MeshVersionFormatted 2\n\nDimension %d\n\nSolAtVertices\n%d\n1 1\n", sdim, nv
-    for (v = 0; v < nv; v++)
-        printf "%.17g\n", sqrt(x[v]^2 + y[v]^2 + (sdim == 3 ? z[v]^2 : 0)) - R
-    printf "\nEnd\n"
-}
-EOF
+cp "$ROOT"/tests/lib/case/{disk,box,cube}.geo .
+cp "$ROOT/tests/lib/case/sphere_sdf.awk" sdf.awk
 if ! command -v gmsh >/dev/null; then
     have_case=0
     not_ok "gmsh is installed (needed to build the test meshes)"

@@ -14,16 +14,8 @@ ok() { echo "ok - $1"; }
 not_ok() { echo "not ok - $1"; [ -n "${2:-}" ] && echo "# $2"; }
 check() { if [ "$1" = 0 ]; then ok "$2"; else not_ok "$2" "${3:-}"; fi; }
 
-cat >"$WORK/ball.geo" <<'GEO'
-SetFactory("OpenCASCADE");
-Sphere(1) = {0, 0, 0, 1};
-Mesh.MeshSizeFromPoints = 0;
-GEO
-cat >"$WORK/small.geo" <<'GEO'
-SetFactory("OpenCASCADE");
-Sphere(1) = {0, 0, 0, 0.8};
-Mesh.MeshSizeFromPoints = 0;
-GEO
+cp "$ROOT/tests/lib/case/ball.geo" "$WORK/"
+cp "$ROOT/tests/lib/case/small_ball.geo" "$WORK/small.geo"
 gmsh "$WORK/ball.geo" -2 -format stl -clmax 0.08 -nt 1 -v 1 -o "$WORK/sphere.stl" >/dev/null 2>&1
 gmsh "$WORK/ball.geo" -3 -format msh41 -clmax 0.2 -nt 1 -v 1 -o "$WORK/ball.msh" >/dev/null 2>&1
 gmsh "$WORK/small.geo" -3 -format msh41 -bin -clmax 0.25 -nt 1 -v 1 -o "$WORK/small.msh" >/dev/null 2>&1

@@ -16,16 +16,8 @@ source "$(dirname "$0")/lib.sh"
 
 d=$WORK/case
 mkdir -p "$d"
-cat >"$d/ball.geo" <<'GEO'
-SetFactory("OpenCASCADE");
-Sphere(1) = {0, 0, 0, 1};
-Mesh.MeshSizeFromPoints = 0;
-GEO
-cat >"$d/small.geo" <<'GEO'
-SetFactory("OpenCASCADE");
-Sphere(1) = {0, 0, 0, 0.8};
-Mesh.MeshSizeFromPoints = 0;
-GEO
+cp "$ROOT/tests/lib/case/ball.geo" "$d/"
+cp "$ROOT/tests/lib/case/small_ball.geo" "$d/small.geo"
 (cd "$d" && gmsh ball.geo -2 -format stl -clmax 0.15 -nt 1 -v 1 -o sphere.stl &&
     gmsh ball.geo -3 -format msh41 -clmax 0.3 -nt 1 -v 1 -o ball.msh &&
     gmsh small.geo -3 -format msh41 -clmax 0.3 -nt 1 -v 1 -o small.msh) >"$d/gmsh.log" 2>&1

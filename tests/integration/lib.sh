@@ -222,47 +222,9 @@ worker_pid() {
 make_case() {
     local d=$WORK/case
     mkdir -p "$d"
-    cat >"$d/disk.geo" <<'EOF'
-SetFactory("OpenCASCADE");
-Disk(1) = {0, 0, 0, 0.5};
-Mesh.CharacteristicLengthMax = 0.08;
-EOF
-    cat >"$d/fine.geo" <<'EOF'
-SetFactory("OpenCASCADE");
-Disk(1) = {0, 0, 0, 0.5};
-Mesh.CharacteristicLengthMax = 0.03;
-EOF
-    cat >"$d/box.geo" <<'EOF'
-SetFactory("OpenCASCADE");
-Rectangle(1) = {-1.5, -1.5, 0, 3, 3};
-Mesh.CharacteristicLengthMax = 0.1;
-EOF
-    cat >"$d/cube.geo" <<'EOF'
-SetFactory("OpenCASCADE");
-Box(1) = {-1, -1, -1, 2, 2, 2};
-Mesh.CharacteristicLengthMax = 0.5;
-EOF
-    # signed distance to the circle (sphere) of radius R at the vertices
-    cat >"$d/sdf.awk" <<'EOF'
-{ for (i = 1; i <= NF; i++) tok[++n] = $i }
-END {
-    for (k = 1; k <= n; k++) {
-        if (tok[k] == "Dimension") dim = tok[++k] + 0
-        else if (tok[k] == "Vertices") { nv = tok[++k] + 0; start = k; break }
-    }
-    flat = 1
-    for (v = 0; v < nv; v++) {
-        b = start + v * (dim + 1)
-        x[v] = tok[b + 1] + 0; y[v] = tok[b + 2] + 0; z[v] = dim == 3 ? tok[b + 3] + 0 : 0
-        if (z[v] != 0) flat = 0
-    }
-    sdim = (dim == 3 && !flat) ? 3 : 2
-    printf "MeshVersionFormatted 2\n\nDimension %d\n\nSolAtVertices\n%d\n1 1\n", sdim, nv
-    for (v = 0; v < nv; v++)
-        printf "%.17g\n", sqrt(x[v]^2 + y[v]^2 + (sdim == 3 ? z[v]^2 : 0)) - R
-    printf "\nEnd\n"
-}
-EOF
+    # the geometries and the analytic distance: tests/lib/case/
+    cp "$ROOT"/tests/lib/case/{disk,fine,box,cube}.geo "$d/"
+    cp "$ROOT/tests/lib/case/sphere_sdf.awk" "$d/sdf.awk"
     (cd "$d" && gmsh -2 disk.geo -format mesh -o disk.mesh -v 0 &&
         gmsh -2 fine.geo -format mesh -o fine.mesh -v 0 &&
         gmsh -2 box.geo -format mesh -o box.mesh -v 0 &&

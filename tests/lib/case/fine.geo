@@ -1,0 +1,3 @@
+SetFactory("OpenCASCADE");
+Disk(1) = {0, 0, 0, 0.5};
+Mesh.CharacteristicLengthMax = 0.03;

@@ -230,6 +230,18 @@ static const char *const clamp_flags[] = {
     "--clamp-ball", "--clamp-elements", "--clamp-vertices", "--no-clamp",
 };
 
+int args_split_flag(const char *arg, char *flag, size_t cap, const char **inline_value)
+{
+    const char *eq = arg[0] == '-' && arg[1] == '-' ? strchr(arg, '=') : NULL;
+    size_t flen = eq ? (size_t)(eq - arg) : strlen(arg);
+    *inline_value = eq ? eq + 1 : NULL;
+    if (flen >= cap)
+        return -1;
+    memcpy(flag, arg, flen);
+    flag[flen] = '\0';
+    return 0;
+}
+
 int args_take_value(int argc, char **argv, int *i, const char *flag, const char *inline_value,
                     int takes_value, const char **value, char *msg, size_t cap)
 {
@@ -508,6 +520,70 @@ static run_flag_kind classify_run_flag(const char *flag, int *takes_value)
     return RUN_FLAG_UNKNOWN;
 }
 
+/* Applies one classified option of `run` (value checked by kind). */
+static int apply_run_flag(run_options *o, run_flag_kind kind, const char *flag, const char *value,
+                          char *msg, size_t cap)
+{
+    const char **path = NULL;
+    switch (kind) {
+    case RUN_FLAG_TEMPLATE: path = &o->template_path; break;
+    case RUN_FLAG_TARGET_MESH: path = &o->target_mesh_path; break;
+    case RUN_FLAG_TARGET_SOL: path = &o->target_sol_path; break;
+    case RUN_FLAG_TARGET_SURFACE: path = &o->target_surface_path; break;
+    case RUN_FLAG_OUTPUT: path = &o->outdir; break;
+    case RUN_FLAG_BACKGROUND:
+        return run_background_value(o, flag, value, msg, cap);
+    case RUN_FLAG_FORMAT: {
+        char why[ARGS_MSG_LEN];
+        if (sm_job_outputs_parse(value, &o->outputs, why, sizeof why) != 0)
+            return cli_fail(msg, cap, "%s: %s", flag, why);
+        return 0;
+    }
+    case RUN_FLAG_QUIET:
+        o->quiet = 1;
+        return 0;
+    case RUN_FLAG_JSON:
+        o->json = 1;
+        return 0;
+    case RUN_FLAG_JOB:
+        return job_option_apply(&o->job, flag, value, msg, cap);
+    case RUN_FLAG_UNKNOWN:
+        break;
+    }
+    if (!path)
+        return cli_fail(msg, cap, "unknown option '%s'", flag);
+    if (value[0] == '\0')
+        return cli_fail(msg, cap, "%s: empty path", flag);
+    *path = value;
+    return 0;
+}
+
+/* What `run` needs once every option is read: the inputs (a surface
+ * replaces the background and its distance), the output folder, and
+ * consistent targets. */
+static int finish_run_options(run_options *o, char *msg, size_t cap)
+{
+    static const struct {
+        size_t offset;
+        const char *flag;
+        int surface_replaces; /* not needed with --target-surface */
+    } required[] = {
+        {offsetof(run_options, template_path), "--template", 0},
+        {offsetof(run_options, target_mesh_path), "--target-mesh", 1},
+        {offsetof(run_options, target_sol_path), "--target-sol", 1},
+        {offsetof(run_options, outdir), "-o/--output", 0},
+    };
+    if (o->target_surface_path && o->target_sol_path)
+        return cli_fail(msg, cap, "--target-surface excludes --target-sol: give one target");
+    if (run_background_value(o, NULL, NULL, msg, cap) != 0)
+        return -1;
+    for (size_t k = 0; k < sizeof required / sizeof required[0]; k++)
+        if (!*(const char *const *)((const char *)o + required[k].offset) &&
+            !(o->target_surface_path && required[k].surface_replaces))
+            return cli_fail(msg, cap, "missing required option %s", required[k].flag);
+    return job_options_finish(&o->job, msg, cap);
+}
+
 args_result args_parse_run(int argc, char **argv, run_options *o,
                            char *msg, size_t cap)
 {
@@ -525,99 +601,18 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
                  shorten(arg, q, sizeof q));
             return ARGS_ERROR;
         }
-        /* "--name=value" carries its value inline */
         char flag[40];
-        const char *inline_value = NULL;
-        const char *eq = arg[1] == '-' ? strchr(arg, '=') : NULL;
-        size_t flen = eq ? (size_t)(eq - arg) : strlen(arg);
-        if (flen >= sizeof flag) {
-            cli_fail(msg, cap, "unknown option '%s'", shorten(arg, q, sizeof q));
-            return ARGS_ERROR;
-        }
-        memcpy(flag, arg, flen);
-        flag[flen] = '\0';
-        if (eq)
-            inline_value = eq + 1;
-
+        const char *inline_value, *value = NULL;
         int takes_value = 0;
-        run_flag_kind kind = classify_run_flag(flag, &takes_value);
+        int fits = args_split_flag(arg, flag, sizeof flag, &inline_value) == 0;
+        run_flag_kind kind = fits ? classify_run_flag(flag, &takes_value) : RUN_FLAG_UNKNOWN;
         if (kind == RUN_FLAG_UNKNOWN) {
-            cli_fail(msg, cap, "unknown option '%s'", flag);
+            cli_fail(msg, cap, "unknown option '%s'", fits ? flag : shorten(arg, q, sizeof q));
             return ARGS_ERROR;
         }
-        const char *value = NULL;
-        if (args_take_value(argc, argv, &i, flag, inline_value, takes_value, &value, msg, cap) != 0)
+        if (args_take_value(argc, argv, &i, flag, inline_value, takes_value, &value, msg, cap) != 0 ||
+            apply_run_flag(o, kind, flag, value, msg, cap) != 0)
             return ARGS_ERROR;
-
-        switch (kind) {
-        case RUN_FLAG_TEMPLATE:
-        case RUN_FLAG_TARGET_MESH:
-        case RUN_FLAG_TARGET_SOL:
-        case RUN_FLAG_TARGET_SURFACE:
-        case RUN_FLAG_OUTPUT:
-            if (value[0] == '\0') {
-                cli_fail(msg, cap, "%s: empty path", flag);
-                return ARGS_ERROR;
-            }
-            if (kind == RUN_FLAG_TEMPLATE)
-                o->template_path = value;
-            else if (kind == RUN_FLAG_TARGET_MESH)
-                o->target_mesh_path = value;
-            else if (kind == RUN_FLAG_TARGET_SOL)
-                o->target_sol_path = value;
-            else if (kind == RUN_FLAG_TARGET_SURFACE)
-                o->target_surface_path = value;
-            else
-                o->outdir = value;
-            break;
-        case RUN_FLAG_BACKGROUND:
-            if (run_background_value(o, flag, value, msg, cap) != 0)
-                return ARGS_ERROR;
-            break;
-        case RUN_FLAG_FORMAT: {
-            char why[ARGS_MSG_LEN];
-            if (sm_job_outputs_parse(value, &o->outputs, why, sizeof why) != 0) {
-                cli_fail(msg, cap, "%s: %s", flag, why);
-                return ARGS_ERROR;
-            }
-            break;
-        }
-        case RUN_FLAG_QUIET:
-            o->quiet = 1;
-            break;
-        case RUN_FLAG_JSON:
-            o->json = 1;
-            break;
-        case RUN_FLAG_JOB:
-            if (job_option_apply(&o->job, flag, value, msg, cap) != 0)
-                return ARGS_ERROR;
-            break;
-        case RUN_FLAG_UNKNOWN:
-            break;
-        }
     }
-    static const struct {
-        size_t offset;
-        const char *flag;
-    } required[] = {
-        {offsetof(run_options, template_path), "--template"},
-        {offsetof(run_options, target_mesh_path), "--target-mesh"},
-        {offsetof(run_options, target_sol_path), "--target-sol"},
-        {offsetof(run_options, outdir), "-o/--output"},
-    };
-    if (o->target_surface_path && o->target_sol_path) {
-        cli_fail(msg, cap, "--target-surface excludes --target-sol: give one target");
-        return ARGS_ERROR;
-    }
-    if (run_background_value(o, NULL, NULL, msg, cap) != 0)
-        return ARGS_ERROR;
-    for (size_t k = 0; k < sizeof required / sizeof required[0]; k++)
-        if (!*(const char *const *)((const char *)o + required[k].offset) &&
-            !(o->target_surface_path && k >= 1 && k <= 2)) {
-            cli_fail(msg, cap, "missing required option %s", required[k].flag);
-            return ARGS_ERROR;
-        }
-    if (job_options_finish(&o->job, msg, cap) != 0)
-        return ARGS_ERROR;
-    return ARGS_OK;
+    return finish_run_options(o, msg, cap) == 0 ? ARGS_OK : ARGS_ERROR;
 }

@@ -94,6 +94,12 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
 /* Name of a clamp kind as used in the outputs ("ball", ...). */
 const char *args_clamp_name(sm_clamp_kind k);
 
+/* Splits an option argument: "--name=value" gives flag "--name" and
+ * *inline_value "value"; any other argument is the flag itself and
+ * *inline_value NULL.  Returns 0, or -1 when the flag does not fit in
+ * cap bytes (no option is that long: the caller reports it unknown). */
+int args_split_flag(const char *arg, char *flag, size_t cap, const char **inline_value);
+
 /* The value of option `flag` when it takes one: the text after '=' in
  * "--flag=value" (inline_value, or NULL), else the next argument, which
  * must not itself look like an option ("--something" is taken as a

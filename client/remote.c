@@ -51,17 +51,11 @@ args_result remote_parse(int argc, char **argv, const cli_flag *flags, size_t nf
         if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0)
             return ARGS_HELP;
         char flag[40];
-        const char *inline_value = NULL;
-        const char *eq = arg[1] == '-' ? strchr(arg, '=') : NULL;
-        size_t flen = eq ? (size_t)(eq - arg) : strlen(arg);
-        if (flen >= sizeof flag) {
+        const char *inline_value;
+        if (args_split_flag(arg, flag, sizeof flag, &inline_value) != 0) {
             cli_fail(msg, cap, "unknown option '%.40s...'", arg);
             return ARGS_ERROR;
         }
-        memcpy(flag, arg, flen);
-        flag[flen] = '\0';
-        if (eq)
-            inline_value = eq + 1;
         const cli_flag *f = find_flag(flags, nflags, flag);
         if (!f)
             f = find_flag(connection_flags, sizeof connection_flags / sizeof connection_flags[0],

@@ -21,3 +21,11 @@ bench-scale: deps
 	$(MAKE) -j$$(nproc) release
 	bench/scale.sh
 bench: bench-scale
+# The target field on a large background (bench/bigfield.sh,
+# BIGFIELD_TETS, default 5M): build time and memory; part of `make
+# bench`, or alone with `make bench-bigfield`.
+.PHONY: bench-bigfield
+bench-bigfield: deps
+	$(MAKE) -j$$(nproc) release
+	bench/bigfield.sh
+bench: bench-bigfield

@@ -55,6 +55,7 @@ struct sm_amg {
     int nmodes;
     HYPRE_Solver amg;
     int have_start;                 /* x holds the previous solution */
+    int have_ax;                    /* and ax = A x (b - r of that solve) */
     sm_amg_stats stats;
 };
 
@@ -299,15 +300,18 @@ static double dot(const double *a, const double *b, int32_t n)
 
 /* The start of a solve, x and ax = A x: the previous solution scaled
  * by s = b'x / x'Ax, the minimum of the energy along it, or zero when it
- * is no descent direction for b (or there is none).  Costs one matvec,
- * which also gives PCG its first residual. */
+ * is no descent direction for b (or there is none).  A x of the previous
+ * solution is b - r of its solve (PCG's recurrence keeps r = b - A x to
+ * round-off), so only the first solve on a new hierarchy with a warm
+ * start pays a matvec for it. */
 static void start(sm_amg *amg)
 {
     const int32_t n = amg->n;
     double *x = vec_data(amg->x), *ax = vec_data(amg->ax);
     double s = 0.0;
     if (amg->have_start) {
-        HYPRE_ParCSRMatrixMatvec(1.0, amg->A, amg->x, 0.0, amg->ax);
+        if (!amg->have_ax)
+            HYPRE_ParCSRMatrixMatvec(1.0, amg->A, amg->x, 0.0, amg->ax);
         double bx = dot(vec_data(amg->b), x, n), xax = dot(x, ax, n);
         s = (bx > 0.0 && xax > 0.0) ? bx / xax : 0.0;
     }
@@ -352,8 +356,11 @@ static int pcg(sm_amg *amg, double rtol, double *est)
         precondition(amg);
         gamma = dot(r, z, n);
         *est = bx > 0.0 ? sqrt(fmax(gamma, 0.0) / bx) : INFINITY;
-        if (bx > 0.0 && gamma <= rtol * rtol * bx && (k >= 1 || gamma == 0.0))
+        if (bx > 0.0 && gamma <= rtol * rtol * bx && (k >= 1 || gamma == 0.0)) {
+            for (int32_t i = 0; i < n; i++)
+                ax[i] = b[i] - r[i]; /* A x, for the next start */
             return k;
+        }
         if (k == PCG_MAX_ITER || !(gamma > 0.0) || !isfinite(gamma))
             return -1;
         double beta = k == 0 ? 0.0 : gamma / gamma_old;
@@ -393,6 +400,7 @@ sm_status sm_amg_solve(sm_amg *amg, const double *rhs, double *x, sm_error *err)
         start(amg);
         it = pcg(amg, amg->rtol, &est);
     }
+    amg->have_ax = it >= 0;
     double bx = dot(b, xs, n);
     if (it < 0 || !(bx > 0.0))
         return sm_error_set(err, SM_ERR_NUMERIC,

@@ -161,6 +161,9 @@ int main(int argc, char **argv)
            1e3 * (r.time.total - r.time.setup) / it, 1e3 * r.time.sample / it,
            1e3 * r.time.assembly / it, 1e3 * r.time.factor / it, 1e3 * r.time.solve / it,
            1e3 * r.time.step / it);
+    if (r.solver_iterations > 0)
+        printf("  PCG iterations       %8ld   (%.1f per solve)\n", r.solver_iterations,
+               (double)r.solver_iterations / it);
     printf("  boundary error       final %.3g, best %.3g, min quality %.3f\n", r.boundary_l2,
            w.best, r.min_quality);
     if (w.t_3e4 >= 0)

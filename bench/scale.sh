@@ -4,7 +4,7 @@
 # example's target (its 345k-tetrahedron background), with each solver.
 # Prints per size and solver: set-up (reading, background field and
 # everything before the first iteration), s/iteration, peak RSS, bytes
-# per tetrahedron; then the fitted growth exponents (least squares on
+# per tetrahedron, PCG iterations per solve (amg); then the fitted growth exponents (least squares on
 # log-log) and where each solver's peak RSS would reach 24 GiB.  The
 # times are wall clock (as a user sees them) and process CPU seconds (all
 # threads; on a shared machine the wall clock includes waiting for a core).
@@ -58,7 +58,7 @@ template() {
 
 RESULTS="$DIR/results.txt"
 : >"$RESULTS"
-printf '%-6s %-8s %9s %8s %9s %8s %9s %9s %8s %7s %s\n' size solver tets setup_s setup_cpu s/iter cpu/iter solve_s rss_MiB B/tet stop
+printf '%-6s %-8s %9s %8s %9s %8s %9s %9s %9s %8s %7s %s\n' size solver tets setup_s setup_cpu s/iter cpu/iter solve_s pcg/solve rss_MiB B/tet stop
 for label in $SIZES; do
     d=$(template "$label")
     for solver in $SOLVERS; do
@@ -73,13 +73,14 @@ for label in $SIZES; do
         awk -v label="$label" -v solver="$solver" '
           /^case / { for (i = 1; i <= NF; i++) if ($i == "elements,") tets = $(i - 1) }
           /^  iterations/ { iters = $2; stop = $4; sub(/,$/, "", stop) }
+          /^  PCG iterations/ { pcg = $4; sub(/^\(/, "", pcg) }
           /^  per iteration/ { per = $3 / 1000; for (i = 1; i <= NF; i++) if ($i == "solve") solve = $(i + 1) / 1000 }
           /^  total wall/ { wall = $3 }
           /Maximum resident set size/ { rss = $NF / 1024 }
           /^  cpu time/ { setup_cpu = $8; iter_cpu = $12 }
           END {
             setup = wall - iters * per
-            printf "%-6s %-8s %9d %8.2f %9.2f %8.3f %9.3f %8.3f %9.0f %7.0f %s\n", label, solver, tets, setup, setup_cpu, per, iter_cpu, solve, rss, rss * 1048576 / tets, stop
+            printf "%-6s %-8s %9d %8.2f %9.2f %8.3f %9.3f %8.3f %9s %9.0f %7.0f %s\n", label, solver, tets, setup, setup_cpu, per, iter_cpu, solve, (pcg == "" ? "-" : pcg), rss, rss * 1048576 / tets, stop
             printf "%s %s %d %.4f %.5f %.1f %.4f %.5f\n", label, solver, tets, setup, per, rss, setup_cpu, iter_cpu >> "'"$RESULTS"'"
           }' "$log"
     done
@@ -113,3 +114,15 @@ for solver in $SOLVERS; do
                solver, $1, first, $3 / n0, $4 / s0, (c0 > 0 ? $7 / c0 : 0), $5 / i0, (k0 > 0 ? $8 / k0 : 0) }
     ' "$RESULTS"
 done
+# issue 13's goal compares with the 30k template's fastest path (CHOLMOD)
+awk -v first="$first" '
+  $1 == first && $2 == "cholmod" { s0 = $4; i0 = $5; n0 = $3; c0 = $7; k0 = $8 }
+  $1 != first && $2 == "amg" { a[++na] = $0 }
+  END {
+    if (!(s0 > 0)) exit
+    for (j = 1; j <= na; j++) {
+      split(a[j], f, " ")
+      printf "  amg %s vs cholmod %s: %.1fx the elements, set-up %.1fx (cpu %.1fx), time/iteration %.1fx (cpu %.1fx)\n",
+             f[1], first, f[3] / n0, f[4] / s0, (c0 > 0 ? f[7] / c0 : 0), f[5] / i0, (k0 > 0 ? f[8] / k0 : 0)
+    }
+  }' "$RESULTS"

@@ -41,12 +41,13 @@ typedef struct sm_elasticity_opts {
     double alpha;          /* zero-order (mass) term: finite, >= 0 */
     sm_factor_kind factor; /* SM_FACTOR_AUTO (0) unless forced */
     sm_solver_kind solver; /* AUTO (0): sm_solver_resolve on the mesh size */
-    double amg_rtol;       /* AMG: relative residual of each solve;
-                            * 0 = SM_ELASTICITY_AMG_RTOL */
+    double amg_rtol;       /* AMG: relative energy-norm error of each
+                            * solve (estimated); 0 = SM_ELASTICITY_AMG_RTOL */
 } sm_elasticity_opts;
 
-/* Relative residual of the inexact AMG solves.  Loose on purpose: any
- * SPD solve gives a descent direction and the step search normalises
+/* Relative error in the energy norm of the inexact AMG solves (estimated
+ * by the preconditioned residual, sm_solver_amg.c).  Loose on purpose:
+ * any SPD solve gives a descent direction and the step search normalises
  * it; measured in bench/scale.sh to reach the direct path's boundary
  * error (tests/unit/test_solver.c checks 2D and 3D). */
 #define SM_ELASTICITY_AMG_RTOL 0.1

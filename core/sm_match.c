@@ -224,6 +224,9 @@ static sm_status find_direction(run_state *rs, sm_result *result, int *found, sm
     if ((st = sm_elasticity_solve(rs->elasticity, rs->load, NULL, rs->u, err)) != SM_OK)
         return st;
     tm->solve += sm_clock_seconds() - t0;
+    sm_elasticity_info info;
+    sm_elasticity_get_info(rs->elasticity, &info);
+    result->solver_iterations += info.amg_iterations;
 
     double umax = 0.0;
     for (int32_t v = 0; v < rs->mesh->nverts; v++) {

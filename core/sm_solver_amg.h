@@ -25,7 +25,8 @@ typedef struct sm_amg sm_amg;
 /* Copies the matrix (n rows, rowptr/colind/values as in sm_csr_view)
  * into hypre and builds the AMG hierarchy.  coords: the positions of the
  * n/dim free vertices (dim each, in DOF order) for the rigid-body modes,
- * or NULL for none.  rtol: relative residual of the PCG solves (> 0).
+ * or NULL for none.  rtol: relative error of the PCG solves in the
+ * energy norm (> 0), estimated by the preconditioned residual.
  * *out is replaced (the previous object freed): the warm start of the
  * next solve is kept across set-ups when n is unchanged. */
 sm_status sm_amg_setup(sm_amg **out, int dim, int32_t n, const int32_t *rowptr,
@@ -34,16 +35,18 @@ sm_status sm_amg_setup(sm_amg **out, int dim, int32_t n, const int32_t *rowptr,
 void sm_amg_free(sm_amg *amg);
 
 /* Solves A x = rhs (n entries) by PCG from a warm start: the previous
- * solution, scaled to minimise the energy along it, so that the start
- * already has negative energy 1/2 x'Ax - rhs'x and every CG iterate is a
- * descent direction for rhs (rhs'x > 0).  If rhs'x <= 0 all the same
- * (round-off), solves again from zero with a 100x tighter tolerance.
+ * solution, scaled to minimise the energy along it (or zero if it does
+ * not descend for rhs), so that the start has energy 1/2 x'Ax - rhs'x
+ * <= 0 and every CG iterate, which only lowers it, is a descent
+ * direction for rhs (rhs'x > 0).  At least one PCG step, then until the
+ * estimated energy-norm error is below rtol with rhs'x > 0.  If PCG
+ * breaks down from the warm start (round-off), solves again from zero.
  * SM_ERR_NUMERIC if PCG breaks down or does not reach the tolerance. */
 sm_status sm_amg_solve(sm_amg *amg, const double *rhs, double *x, sm_error *err);
 
 typedef struct sm_amg_stats {
     int last_iterations;     /* PCG iterations of the last solve */
-    double last_residual;    /* its final relative residual */
+    double last_residual;    /* its final estimated relative energy error */
     long total_iterations;   /* over all solves since set-up */
     int solves;
     int restarts;            /* solves that had to restart from zero */

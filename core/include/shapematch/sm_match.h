@@ -59,6 +59,7 @@ typedef struct sm_result {
                               * params alpha, or young / diameter^2 for 0) */
     int accepted, rejected;
     int factorizations;      /* numeric factorizations of the elastic operator */
+    long solver_iterations;  /* AMG: PCG iterations over all solves (0 with CHOLMOD) */
     sm_timings time;
 } sm_result;
 

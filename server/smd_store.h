@@ -50,6 +50,21 @@
 
 struct smd_follower;
 
+/* The end of a run that is not on disk yet (smd_jobs.c: durable first):
+ * the state the job will have, its record and its last event, kept while
+ * the spool refuses them.  Until both are written the job is shown as it
+ * was (running), and nothing of this is published. */
+typedef struct smd_job_ending {
+    sm_job_state state;       /* successful, failed or dismissed */
+    char message[SM_EVENT_MESSAGE_MAX];
+    double finished;          /* Unix seconds */
+    sm_event ev;              /* finished, failed or cancelled, seq 0 */
+    int record_written;       /* status.json holds the final record */
+    int log_level;
+    const char *log_event;    /* static string */
+    json_t *log_fields;       /* owned: the job's log line */
+} smd_job_ending;
+
 typedef struct smd_job {
     char id[SMD_ID_LEN + 1];
     sm_job_state state;
@@ -83,6 +98,7 @@ typedef struct smd_job {
     int cancel_requested;     /* DELETE while running: stop the worker */
     int delete_requested;     /* DELETE of a job whose worker is stopping */
     int unsaved;              /* its last record write failed: retried */
+    smd_job_ending *ending;   /* owned: an end waiting for the spool, or NULL */
     struct smd_follower *followers; /* streams following this job */
     struct smd_job *hash_next;
 } smd_job;
@@ -134,6 +150,17 @@ sm_status smd_store_commit(smd_store *s, const char *upload_dir, smd_job *job, s
 /* Removes a job's results.tmp/ (a run in progress), and also results/
  * unless partial_only. */
 void smd_store_remove_results(smd_store *s, const smd_job *job, int partial_only);
+
+/* The end of a run read back from its published results (a restart
+ * after the final record could not be written): SM_OK when
+ * results/summary.json exists (the worker renames results.tmp/ to
+ * results/ only when every file is complete), is readable and says the
+ * run finished (status "finished", exit_code 0); *finished is then the
+ * "finished" event (result from the summary, its warnings as the
+ * message), *when the summary's modification time.  SM_ERR_IO when
+ * there is none, SM_ERR_FORMAT when it says something else. */
+sm_status smd_store_read_summary(smd_store *s, const smd_job *job, sm_event *finished,
+                                 double *when, sm_error *err);
 
 void smd_job_ref(smd_job *job);
 /* Drops a reference; the job is freed when it is removed from the table

@@ -10,10 +10,11 @@
 # status.  A restart while the record is still unwritten ends the job from
 # its complete results (no second run) once the record can be written.
 #
-# To make the worker finish while the disk is full (and not fail on its
-# own results) the daemon is stopped (SIGSTOP) while the worker runs: the
-# worker publishes its results and exits, the spool is filled, then the
-# daemon continues and meets the full disk when it records the end.
+# To make the run end while the disk is full (and not fail on its own
+# results), the daemon runs a gate worker: the real worker runs and
+# publishes its results, then the gate waits for the test (which fills
+# the spool meanwhile) before it exits, and the daemon records a run's end
+# when its worker has exited.
 source "$(dirname "$0")/lib.sh"
 
 if [ "$(id -u)" != 0 ]; then
@@ -41,11 +42,25 @@ stop_followers() {
     FOLLOWERS=()
 }
 trap 'stop_followers; umount "$MNT" 2>/dev/null; cleanup' EXIT
+GATE=$WORK/gate
+mkdir -p "$GATE"
+cat >"$WORK/gate-worker.sh" <<EOF
+#!/bin/sh
+"$BIN/shapematch-worker" "\$@"
+rc=\$?
+id=\$(basename "\$1")
+touch "$GATE/ended-\$id"
+i=0
+while [ ! -e "$GATE/go-\$id" ] && [ \$i -lt 600 ]; do sleep 0.05; i=\$((i + 1)); done
+exit \$rc
+EOF
+chmod +x "$WORK/gate-worker.sh"
 SPOOL=$MNT/spool
-start_daemon end --workers 1 --keepalive 1 || { not_ok "the daemon starts"; exit 1; }
+start_daemon end --workers 1 --keepalive 1 --worker "$WORK/gate-worker.sh" ||
+    { not_ok "the daemon starts"; exit 1; }
 ok "the daemon starts on a 16 MiB tmpfs spool"
 
-PARAMS=$(quick_params 400) # ~0.5 s on the fine disk (release)
+PARAMS=$(quick_params 20)
 ready_code() { curl -sS --max-time 5 -o "$WORK/ready.json" -w '%{http_code}' "$BASE/readyz"; }
 ondisk() { jq -r ".$2" "$SPOOL/jobs/$1/status.json"; }
 # runs of job ID started by the daemon (all starts of this suite's log)
@@ -53,37 +68,29 @@ starts() { grep -c "\"event\":\"job_started\".*\"job\":\"$1\"" "$DLOG"; }
 # ends of job ID held so far (job_ending_held lines), and whether more than N
 helds() { grep -c "\"event\":\"job_ending_held\".*\"job\":\"$1\"" "$DLOG"; }
 held_more() { [ "$(helds "$1")" -gt "$2" ]; }
-zombie() { [ "$(awk '{print $3}' "/proc/$1/stat" 2>/dev/null)" = Z ]; }
 follow() { # ID FILE: an NDJSON follower of the job's events, in the background
     curl -sS -N --max-time $((60 * SLOW)) -H 'Accept: application/x-ndjson' \
         "$BASE/v1/jobs/$1/events" >"$2" 2>/dev/null &
     FOLLOWERS+=($!)
 }
 # the types of the events in FILE, repeats counted: "accepted started progress*70 finished status "
-event_types() { jq -r .type "$1" 2>/dev/null | uniq -c | awk '{ printf "%s%s ", $2, $1 > 1 ? "*" $1 : "" }'; }
+event_types() { jq -r .type "$1" 2>/dev/null | uniq -c | awk '{ printf "%s%s ", $2, ($1 > 1 ? "*" $1 : "") }'; }
 fill() { dd if=/dev/zero of="$MNT/fill" bs=64k >/dev/null 2>&1; }
 
-# finish_while_full ID: the job's worker ends while the daemon is stopped,
-# the spool is filled, the daemon goes on; 0 when the daemon held the end
+# finish_while_full ID: the job's run is over (results published, its
+# gate worker waiting), the spool is filled, the worker exits; 0 when the
+# daemon then held the end
 finish_while_full() {
-    local w= i before
+    local before
     before=$(helds "$1")
-    for ((i = 0; i < 500 * SLOW; i++)); do
-        w=$(pgrep -P "$DPID" | head -1)
-        [ -n "$w" ] && break
-        sleep 0.01
-    done
-    [ -n "$w" ] || return 1
-    kill -STOP "$DPID"
-    poll 30 zombie "$w"
-    local rc=$?
+    poll 30 test -e "$GATE/ended-$1" || return 1
     fill
-    kill -CONT "$DPID"
-    [ "$rc" = 0 ] && poll 10 held_more "$1" "$before"
+    touch "$GATE/go-$1"
+    poll 10 held_more "$1" "$before"
 }
 
 # --- the end is held while the record cannot be written -----------------
-J=$(submit "$FINE" "$BOX" "$BOXSOL" "$PARAMS")
+J=$(submit "$DISK" "$BOX" "$BOXSOL" "$PARAMS")
 follow "$J" "$WORK/f1.ndjson"
 if [ -n "$J" ] && finish_while_full "$J"; then
     ok "a run ends while the spool is full: its end is held (job_ending_held)"
@@ -129,13 +136,14 @@ else
 fi
 
 # --- a restart while the end is held: ended from the results, no rerun --
-K=$(submit "$FINE" "$BOX" "$BOXSOL" "$PARAMS")
+K=$(submit "$DISK" "$BOX" "$BOXSOL" "$PARAMS")
 if [ -n "$K" ] && finish_while_full "$K" && stop_daemon; then
     ok "a second run ends on the full spool (held), the daemon stops"
 else
     not_ok "second held end and stop" "job $K: $(ondisk "$K" status)"
 fi
-if [ "$(ondisk "$K" status)" = running ] && start_daemon end --workers 1 --keepalive 1 &&
+if [ "$(ondisk "$K" status)" = running ] &&
+    start_daemon end --workers 1 --keepalive 1 --worker "$WORK/gate-worker.sh" &&
     [ "$(helds "$K")" = 2 ] && state_is "$K" running && [ "$(ready_code)" = 503 ] &&
     [ "$(starts "$K")" = 1 ] && [ -f "$SPOOL/jobs/$K/results/summary.json" ] && state_is "$J" successful; then
     ok "restarted on the full spool: the run's complete results end it, held until recorded (running, /readyz 503, not run again)"

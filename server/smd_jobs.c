@@ -158,9 +158,12 @@ static int write_ending(smd_server *srv, smd_job *job, smd_job_ending *e, smd_jo
     e->ev.seq = 0;
     e->ev.time = e->finished;
     snprintf(e->ev.message, sizeof e->ev.message, "%s", e->message);
-    if (append_event(srv, job, &e->ev, after, err) != 0)
+    if (smd_store_append_event(srv->store, job, &e->ev, err) != SM_OK)
         return -1;
+    smd_metrics_add(&srv->metrics, &srv->metrics.events_appended, 1);
     publish_ending(srv, job, e, after);
+    if (srv->cluster) /* after the state: the backend publishes the final state it sees */
+        srv->cluster_ops->event(srv->cluster, job, &e->ev);
     return 0;
 }
 

@@ -233,11 +233,13 @@ else
 fi
 sleep 1.2 # one retry of the supervisor passes: the spool still refuses
 types=$(event_types "$WORK/f1.ndjson")
+c=$(hcurl -o "$WORK/del.json" -w '%{http_code}' -X DELETE "$BASE/v1/jobs/$J")
 if state_is "$J" running && [[ $types != *finished* ]] && [[ $types != *status* ]] &&
-    hcurl "$BASE/metrics" | grep -q '^shapematch_jobs_finished_total{state="successful"} 0$'; then
-    ok "after a retry on the full spool: still running, the follower got no final event ($types), nothing counted"
+    hcurl "$BASE/metrics" | grep -q '^shapematch_jobs_finished_total{state="successful"} 0$' &&
+    [ "$c" = 503 ] && state_is "$J" running; then
+    ok "after a retry on the full spool: still running, the follower got no final event ($types), nothing counted; DELETE 503"
 else
-    not_ok "nothing published while held" "state $(job_state "$J"), follower: $types"
+    not_ok "nothing published while held" "state $(job_state "$J"), follower: $types, DELETE $c" "$(cat "$WORK/del.json")"
 fi
 rm -f "$MNT/fill"
 if poll 10 state_is "$J" successful && [ "$(on_disk "$J" status)" = successful ] &&

@@ -190,7 +190,7 @@ static void end_job(smd_server *srv, smd_job *job, smd_job_ending e, smd_jobs_af
         snprintf(job->message, sizeof job->message, "%s", ENDING_MESSAGE);
     smd_log(&srv->log, SMD_LOG_WARN, "job_ending_held",
             json_pack("{s:s,s:s,s:s}", "job", job->id, "ends", sm_job_state_name(e.state),
-                      "why", "the spool refuses its final record: published once written"));
+                      "why", "the spool refuses its final record or event: published once both are written"));
     smd_stream_collect_job(job, &after->wake); /* the message changed */
 }
 

@@ -190,7 +190,8 @@ static void end_job(smd_server *srv, smd_job *job, smd_job_ending e, smd_jobs_af
         snprintf(job->message, sizeof job->message, "%s", ENDING_MESSAGE);
     smd_log(&srv->log, SMD_LOG_WARN, "job_ending_held",
             json_pack("{s:s,s:s,s:s}", "job", job->id, "ends", sm_job_state_name(e.state),
-                      "why", "the spool refuses its final record or event: published once both are written"));
+                      "why",
+                      "the spool refuses its final record or event: published once both are written"));
     smd_stream_collect_job(job, &after->wake); /* the message changed */
 }
 
@@ -513,7 +514,8 @@ sm_status smd_jobs_cancel(smd_server *srv, smd_job *job, smd_jobs_after *after)
         job->finished = job->updated = now;
         sm_event ev;
         sm_event_init(&ev, SM_EVENT_CANCELLED);
-        smd_job_ending e = ending_of(SM_JOB_DISMISSED, message, &ev, SMD_LOG_INFO, "job_cancelled", NULL);
+        smd_job_ending e =
+            ending_of(SM_JOB_DISMISSED, message, &ev, SMD_LOG_INFO, "job_cancelled", NULL);
         e.finished = now;
         e.record_written = 1;
         end_job(srv, job, e, after);
@@ -681,7 +683,8 @@ static void recover_finished(smd_server *srv, smd_job *job, const sm_event *fini
     job->state = SM_JOB_RUNNING; /* as the disk says (or accepted: requeued at a stop) */
     json_t *f = json_pack("{s:s,s:i}", "recovered_from", "results/" SM_RESULT_SUMMARY_FILE,
                           "attempt", job->attempt);
-    smd_job_ending e = ending_of(SM_JOB_SUCCESSFUL, message, finished, SMD_LOG_INFO, "job_finished", f);
+    smd_job_ending e =
+        ending_of(SM_JOB_SUCCESSFUL, message, finished, SMD_LOG_INFO, "job_finished", f);
     e.finished = when;
     end_job(srv, job, e, after);
 }

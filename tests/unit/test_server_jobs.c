@@ -366,8 +366,8 @@ static void write_summary(fixture *f, const smd_job *job, const char *status)
     json_object_set_new(doc, "status", json_string(status));
     json_object_set_new(doc, "exit_code", json_integer(0));
     json_object_set_new(doc, "warnings",
-                        json_pack("[{s:s,s:s,s:f}]", "code", "alpha-small", "message", "alpha is small",
-                                  "figure", 0.5));
+                        json_pack("[{s:s,s:s,s:f}]", "code", "alpha-small", "message",
+                                  "alpha is small", "figure", 0.5));
     snprintf(path, sizeof path, "%s/summary.json", dir);
     assert_int_equal(json_dump_file(doc, path, 0), 0);
     json_decref(doc);
@@ -402,13 +402,14 @@ static void test_recover_from_results(void **state)
     assert_non_null(done);
     assert_int_equal(done->state, SM_JOB_SUCCESSFUL);
     assert_int_equal(done->attempt, 1);
-    assert_string_equal(done->message,
-                        "finished: max_iterations after 7 iterations; warning: alpha-small: alpha is small");
+    assert_string_equal(done->message, "finished: max_iterations after 7 iterations; "
+                                       "warning: alpha-small: alpha is small");
     last_event(f, done, type, sizeof type);
     assert_string_equal(type, "finished");
     disk_state(f, done, ondisk, sizeof ondisk);
     assert_string_equal(ondisk, "successful");
-    assert_int_equal(smd_store_path(srv->store, done_id, "results/summary.json", results, sizeof results), 0);
+    assert_int_equal(
+        smd_store_path(srv->store, done_id, "results/summary.json", results, sizeof results), 0);
     assert_int_equal(access(results, R_OK), 0);
     /* a summary that does not say "finished": queued again, results gone */
     bad = smd_store_get(srv->store, bad_id);

@@ -52,8 +52,10 @@ static sm_status save_ahead(smd_server *srv, const smd_job *job, sm_job_state st
     smd_job next = *job; /* plain data: write_record only reads it */
     next.state = state;
     next.updated = sm_time_now();
-    if (finished >= 0)
+    if (finished >= 0) { /* a final record: its event comes next */
         next.finished = next.updated = finished;
+        next.final_event_at = (int64_t)smd_job_event_offset(job, job->nevents + 1);
+    }
     snprintf(next.message, sizeof next.message, "%s", message);
     sm_error err;
     if (smd_store_save(srv->store, &next, &err) == SM_OK)
@@ -143,6 +145,8 @@ static void publish_ending(smd_server *srv, smd_job *job, smd_job_ending *e, smd
 static int write_ending(smd_server *srv, smd_job *job, smd_job_ending *e, smd_jobs_after *after,
                         sm_error *err)
 {
+    if (smd_store_load_events(srv->store, job, err) != SM_OK)
+        return -1;
     if (!e->record_written) {
         smd_job rec = *job; /* plain data: the store only reads it */
         rec.state = e->state;
@@ -150,9 +154,13 @@ static int write_ending(smd_server *srv, smd_job *job, smd_job_ending *e, smd_jo
         if (e->state == SM_JOB_SUCCESSFUL)
             rec.progress = 100;
         snprintf(rec.message, sizeof rec.message, "%s", e->message);
+        /* where the final event will start: a restart before it is
+         * written finds it missing (restore_final_event) */
+        rec.final_event_at = (int64_t)smd_job_event_offset(job, job->nevents + 1);
         if (smd_store_save(srv->store, &rec, err) != SM_OK)
             return -1;
         e->record_written = 1;
+        job->final_event_at = rec.final_event_at;
         job->unsaved = 0; /* superseded: an older record must not overwrite it */
     }
     e->ev.seq = 0;
@@ -512,6 +520,7 @@ sm_status smd_jobs_cancel(smd_server *srv, smd_job *job, smd_jobs_after *after)
         smd_queue_remove(srv->queue, job->id);
         job->state = SM_JOB_DISMISSED;
         job->finished = job->updated = now;
+        job->final_event_at = (int64_t)smd_job_event_offset(job, job->nevents + 1);
         sm_event ev;
         sm_event_init(&ev, SM_EVENT_CANCELLED);
         smd_job_ending e =
@@ -726,6 +735,38 @@ static int recover_job(smd_server *srv, smd_job *job, smd_jobs_after *after)
     return 0;
 }
 
+/* A final record whose final event never reached the log (its append
+ * was refused, then the daemon stopped): the event is written now, from
+ * the record (and a successful run's summary), so that the log ends with
+ * it as every job's does.  Logged either way; a refusal leaves it for the
+ * next start. */
+static void restore_final_event(smd_server *srv, smd_job *job)
+{
+    sm_error err;
+    sm_event ev;
+    double when;
+    sm_status st = SM_OK;
+    if (job->state == SM_JOB_SUCCESSFUL)
+        st = smd_store_read_summary(srv->store, job, &ev, &when, &err);
+    else
+        sm_event_init(&ev, job->state == SM_JOB_FAILED ? SM_EVENT_FAILED : SM_EVENT_CANCELLED);
+    if (st == SM_OK) {
+        ev.time = job->finished;
+        snprintf(ev.message, sizeof ev.message, "%s", job->message);
+        if ((st = smd_store_load_events(srv->store, job, &err)) == SM_OK)
+            st = smd_store_append_event(srv->store, job, &ev, &err);
+        smd_job_close_log(job);
+    }
+    if (st != SM_OK)
+        smd_logf(&srv->log, SMD_LOG_ERROR, "store_error",
+                 "job %s: its final event is missing from its log and cannot be written: %s",
+                 job->id, err.msg);
+    else
+        smd_logf(&srv->log, SMD_LOG_WARN, "final_event_restored",
+                 "job %s: its final %s event, refused before the restart, is written now", job->id,
+                 sm_event_type_name(ev.type));
+}
+
 sm_status smd_jobs_recover(smd_server *srv, size_t *queued, sm_error *err)
 {
     *queued = 0;
@@ -733,6 +774,9 @@ sm_status smd_jobs_recover(smd_server *srv, size_t *queued, sm_error *err)
     sm_status st = SM_OK;
     for (size_t i = 0; i < smd_store_count(srv->store);) {
         smd_job *job = smd_store_at(srv->store, i);
+        if (!srv->cluster && smd_job_state_final(job->state) && /* cluster: the database's log */
+            smd_store_final_event_missing(srv->store, job))
+            restore_final_event(srv, job);
         if (!smd_job_state_final(job->state) && recover_job(srv, job, &after) != 0) {
             smd_store_unlink(srv->store, job); /* shifts the list: do not advance i */
             continue;

@@ -79,6 +79,9 @@ typedef struct smd_job {
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1]; /* "" = none */
     char owner[SMD_OWNER_MAX + 1]; /* tenant of the submitting token, "" = none */
     uint64_t request_hash;    /* of the request that used the key; 0 unknown */
+    int64_t final_event_at;   /* final records: where the final event starts in
+                               * events.ndjson (written after the record);
+                               * 0 unknown */
 
     /* last progress event, shown in the status document */
     int have_progress;
@@ -187,6 +190,12 @@ int smd_store_can_trash(const smd_store *s);
  * (job_quarantined), and replaced by a record of a failed job whose
  * message says "record damaged" and where the folder went. */
 size_t smd_store_quarantined(const smd_store *s);
+
+/* Whether a final record's final event is missing from the log (the
+ * record was written, the event append was refused, then the daemon
+ * stopped): the log ends at job->final_event_at, or in a torn line after
+ * it.  0 as well when job->final_event_at is unknown. */
+int smd_store_final_event_missing(smd_store *s, const smd_job *job);
 
 /* Persists the record (status.json) after a state change. */
 sm_status smd_store_save(smd_store *s, smd_job *job, sm_error *err);

@@ -421,6 +421,41 @@ static void test_recover_from_results(void **state)
     smd_jobs_after_free(&after);
 }
 
+/* The final record was written, its event refused, then the daemon
+ * stopped: the next start writes the missing event, once. */
+static void test_final_event_restored(void **state)
+{
+    fixture *f = *state;
+    smd_server *srv = &f->srv;
+    smd_jobs_after after = {0};
+    char type[32];
+    static const char id[] = "34343434343434343434343434343434";
+    smd_job *job = running_job(f, id, &after);
+    smd_job_close_log(job); /* the append reopens the log */
+    refuse_file(f, job, "events.ndjson", 1);
+    assert_int_equal(smd_jobs_fail(srv, job, "worker killed", NULL, &after), SM_OK);
+    assert_int_equal(job->state, SM_JOB_RUNNING); /* held: the record is final, the event is not */
+    smd_jobs_worker_gone(srv, job, &after);
+    size_t queued;
+    restart(f, &queued); /* the log still refuses: nothing written, logged */
+    job = smd_store_get(srv->store, id);
+    assert_non_null(job);
+    assert_int_equal(job->state, SM_JOB_FAILED);
+    refuse_file(f, job, "events.ndjson", 0);
+    restart(f, &queued);
+    job = smd_store_get(srv->store, id);
+    assert_int_equal(job->state, SM_JOB_FAILED);
+    last_event(f, job, type, sizeof type);
+    assert_string_equal(type, "failed");
+    restart(f, &queued); /* written once */
+    job = smd_store_get(srv->store, id);
+    sm_error err;
+    assert_int_equal(smd_store_load_events(srv->store, job, &err), SM_OK);
+    assert_int_equal(job->nevents, 3); /* accepted, started, failed */
+    assert_int_equal(queued, 0);
+    smd_jobs_after_free(&after);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -428,6 +463,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_cancel_fail_requeue, setup, teardown),
         cmocka_unit_test_setup_teardown(test_end_held_until_recorded, setup, teardown),
         cmocka_unit_test_setup_teardown(test_recover_from_results, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_final_event_restored, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -13,7 +13,21 @@
  *                                 smd_jobs_cancelled when it is gone)
  *   running         -> accepted   smd_jobs_requeue (daemon shutdown) and
  *                                 smd_jobs_recover (daemon start)
+ *   accepted|running -> successful smd_jobs_recover (the run had finished:
+ *                                 its results are complete, its final
+ *                                 record was never written)
  *   final           -> (gone)     smd_jobs_delete, smd_jobs_expire
+ *
+ * Durable first: a change is shown to clients (state, status document,
+ * event streams, metrics) only once its record is on disk.  A cancel
+ * whose record the spool refuses is refused (503).  The end of a run
+ * (finish, fail, cancelled) is "held" while the spool refuses its final
+ * record or its final event: the job keeps showing what it showed before
+ * (running, with a message saying it is ending; or dismissed after a
+ * cancel), its streams stay open, its result files stay, the daemon is
+ * unready (srv->unwritable), and smd_jobs_retry_saves publishes the end
+ * once both are written.  A restart in between ends the job from its
+ * complete results, or runs it again: never against what clients saw.
  *
  * Everything else is refused: each function returns SM_ERR_INVALID (and
  * changes nothing) when the job is not in a state it starts from.
@@ -91,7 +105,9 @@ sm_status smd_jobs_fail(smd_server *srv, smd_job *job, const char *message, json
  * is dismissed and its worker asked to stop (after->wake_pool).  The
  * dismissed record is written first: SM_ERR_IO (errno set, the daemon
  * unready) when the spool refuses it, and the job is left as it was (a
- * restart must not run a job clients were told is dismissed). */
+ * restart must not run a job clients were told is dismissed).  A job
+ * whose run is over but whose end is held is not dismissed: its end is
+ * written now (then SM_ERR_INVALID: it ended first) or SM_ERR_IO. */
 sm_status smd_jobs_cancel(smd_server *srv, smd_job *job, smd_jobs_after *after);
 /* The worker of a cancelled job is gone: the "cancelled" event. */
 sm_status smd_jobs_cancelled(smd_server *srv, smd_job *job, json_t *log_fields,
@@ -99,15 +115,17 @@ sm_status smd_jobs_cancelled(smd_server *srv, smd_job *job, json_t *log_fields,
 /* The daemon stops while the job runs: queued again for the next start. */
 sm_status smd_jobs_requeue(smd_server *srv, smd_job *job, json_t *log_fields);
 
-/* The worker slot of job is free again (after one of the above); a DELETE
- * that came while it was stopping now removes the job's files. */
 /* Lock held, once a second by the supervisor: while srv->unwritable is
  * set (a record or event write failed), writes the records that failed
- * again; when all are written (and the spool is writable) the flag
- * clears and jobs are accepted and started again.  A scan of the job
- * table, one status.json write per unsaved job. */
-void smd_jobs_retry_saves(smd_server *srv);
+ * again and the held ends (record, then event; then each is published:
+ * state, metrics, log line, followers into after->wake); when all are
+ * written (and the spool is writable) the flag clears and jobs are
+ * accepted and started again.  A scan of the job table, at most one
+ * status.json write and one event append per job waiting. */
+void smd_jobs_retry_saves(smd_server *srv, smd_jobs_after *after);
 
+/* The worker slot of job is free again (after one of the above); a DELETE
+ * that came while it was stopping now removes the job's files. */
 void smd_jobs_worker_gone(smd_server *srv, smd_job *job, smd_jobs_after *after);
 
 /* DELETE of a final job, and the retention sweep: the job leaves the
@@ -118,10 +136,13 @@ void smd_jobs_worker_gone(smd_server *srv, smd_job *job, smd_jobs_after *after);
 sm_status smd_jobs_delete(smd_server *srv, smd_job *job, smd_jobs_after *after);
 sm_status smd_jobs_expire(smd_server *srv, smd_job *job, smd_jobs_after *after);
 
-/* Daemon start, after smd_store_open: jobs that were running are queued
- * again ("re-queued after a daemon restart"), partial results of every
- * live job are removed, their logs repaired, and every accepted job is
- * queued in submission order.  A requeued record that the spool refuses
+/* Daemon start, after smd_store_open: a live job whose run had finished
+ * (results/summary.json complete, smd_store_read_summary; not in cluster
+ * mode, where the database knows) ends successful as that run did, with
+ * no second run (held when the spool still refuses its record); other
+ * jobs that were running are queued again ("re-queued after a daemon
+ * restart"), partial results of every live job are removed, their logs
+ * repaired, and every accepted job is queued in submission order.  A requeued record that the spool refuses
  * (full) keeps the job queued in memory, unsaved: the daemon is unready
  * and starts nothing until it is written.  A job whose log cannot be
  * loaded is logged and left out of the table.  Sets *queued.  SM_ERR_NOMEM when the queue

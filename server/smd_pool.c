@@ -563,7 +563,7 @@ static void periodic(smd_pool *p, double now, smd_jobs_after *after)
     smd_server *srv = p->srv;
     if (now >= p->next_save_retry) {
         p->next_save_retry = now + 1.0;
-        smd_jobs_retry_saves(srv);
+        smd_jobs_retry_saves(srv, after);
     }
     if (now >= p->next_tick) {
         p->next_tick = now + p->tick;

@@ -64,6 +64,9 @@ static void job_free(smd_job *job)
 {
     if (job->log_fd >= 0)
         close(job->log_fd);
+    if (job->ending)
+        json_decref(job->ending->log_fields);
+    free(job->ending);
     free(job->event_end);
     free(job);
 }
@@ -279,6 +282,8 @@ static json_t *record_to_json(const smd_job *job)
         json_object_set_new(o, "idempotencyKey", json_string(job->idempotency_key));
     if (job->owner[0])
         json_object_set_new(o, "owner", json_string(job->owner));
+    if (job->final_event_at > 0)
+        json_object_set_new(o, "finalEventAt", json_integer(job->final_event_at));
     if (job->request_hash) {
         char hex[17];
         snprintf(hex, sizeof hex, "%016" PRIx64, job->request_hash);
@@ -366,6 +371,13 @@ static int record_from_json(json_t *o, const char *id, smd_job *job, char *why, 
     v = json_object_get(o, "idempotencyKey");
     if (json_is_string(v) && strlen(json_string_value(v)) <= SMD_IDEMPOTENCY_KEY_MAX)
         strcpy(job->idempotency_key, json_string_value(v));
+    if (json_object_get(o, "finalEventAt")) { /* absent in older records */
+        if (get_int(o, "finalEventAt", 1, INT64_MAX, &x) != 0) {
+            snprintf(why, cap, "bad finalEventAt");
+            return -1;
+        }
+        job->final_event_at = x;
+    }
     v = json_object_get(o, "requestHash");
     if (json_is_string(v) && strlen(json_string_value(v)) == 16)
         job->request_hash = strtoull(json_string_value(v), NULL, 16);
@@ -401,6 +413,23 @@ sm_status smd_store_save(smd_store *s, smd_job *job, sm_error *err)
 }
 
 /* ------------------------------------------------------------- event log */
+
+int smd_store_final_event_missing(smd_store *s, const smd_job *job)
+{
+    char path[PATH_MAX];
+    if (job->final_event_at <= 0 || smd_store_path(s, job->id, EVENTS_FILE, path, sizeof path) != 0)
+        return 0;
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    struct stat st;
+    char last = '\n';
+    int missing = 0;
+    if (fd >= 0 && fstat(fd, &st) == 0)
+        missing = st.st_size <= job->final_event_at ||
+                  pread(fd, &last, 1, st.st_size - 1) != 1 || last != '\n';
+    if (fd >= 0)
+        close(fd);
+    return missing;
+}
 
 static int index_push(smd_job *job, uint64_t end)
 {

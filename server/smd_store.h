@@ -50,6 +50,21 @@
 
 struct smd_follower;
 
+/* The end of a run that is not on disk yet (smd_jobs.c: durable first):
+ * the state the job will have, its record and its last event, kept while
+ * the spool refuses them.  Until both are written the job is shown as it
+ * was (running), and nothing of this is published. */
+typedef struct smd_job_ending {
+    sm_job_state state;       /* successful, failed or dismissed */
+    char message[SM_EVENT_MESSAGE_MAX];
+    double finished;          /* Unix seconds */
+    sm_event ev;              /* finished, failed or cancelled, seq 0 */
+    int record_written;       /* status.json holds the final record */
+    int log_level;
+    const char *log_event;    /* static string */
+    json_t *log_fields;       /* owned: the job's log line */
+} smd_job_ending;
+
 typedef struct smd_job {
     char id[SMD_ID_LEN + 1];
     sm_job_state state;
@@ -64,6 +79,9 @@ typedef struct smd_job {
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1]; /* "" = none */
     char owner[SMD_OWNER_MAX + 1]; /* tenant of the submitting token, "" = none */
     uint64_t request_hash;    /* of the request that used the key; 0 unknown */
+    int64_t final_event_at;   /* final records: where the final event starts in
+                               * events.ndjson (written after the record);
+                               * 0 unknown */
 
     /* last progress event, shown in the status document */
     int have_progress;
@@ -83,6 +101,7 @@ typedef struct smd_job {
     int cancel_requested;     /* DELETE while running: stop the worker */
     int delete_requested;     /* DELETE of a job whose worker is stopping */
     int unsaved;              /* its last record write failed: retried */
+    smd_job_ending *ending;   /* owned: an end waiting for the spool, or NULL */
     struct smd_follower *followers; /* streams following this job */
     struct smd_job *hash_next;
 } smd_job;
@@ -135,6 +154,17 @@ sm_status smd_store_commit(smd_store *s, const char *upload_dir, smd_job *job, s
  * unless partial_only. */
 void smd_store_remove_results(smd_store *s, const smd_job *job, int partial_only);
 
+/* The end of a run read back from its published results (a restart
+ * after the final record could not be written): SM_OK when
+ * results/summary.json exists (the worker renames results.tmp/ to
+ * results/ only when every file is complete), is readable and says the
+ * run finished (status "finished", exit_code 0); *finished is then the
+ * "finished" event (result from the summary, its warnings as the
+ * message), *when the summary's modification time.  SM_ERR_IO when
+ * there is none, SM_ERR_FORMAT when it says something else. */
+sm_status smd_store_read_summary(smd_store *s, const smd_job *job, sm_event *finished,
+                                 double *when, sm_error *err);
+
 void smd_job_ref(smd_job *job);
 /* Drops a reference; the job is freed when it is removed from the table
  * and no reference is left. */
@@ -160,6 +190,12 @@ int smd_store_can_trash(const smd_store *s);
  * (job_quarantined), and replaced by a record of a failed job whose
  * message says "record damaged" and where the folder went. */
 size_t smd_store_quarantined(const smd_store *s);
+
+/* Whether a final record's final event is missing from the log (the
+ * record was written, the event append was refused, then the daemon
+ * stopped): the log ends at job->final_event_at, or in a torn line after
+ * it.  0 as well when job->final_event_at is unknown. */
+int smd_store_final_event_missing(smd_store *s, const smd_job *job);
 
 /* Persists the record (status.json) after a state change. */
 sm_status smd_store_save(smd_store *s, smd_job *job, sm_error *err);

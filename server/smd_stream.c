@@ -223,8 +223,8 @@ static ssize_t follower_read(void *cls, uint64_t pos, char *out, size_t max)
             return MHD_CONTENT_READER_END_WITH_ERROR;
         return f->len ? copy_out(f, out, max) : 0;
     }
-    if (smd_job_state_final(job->state) && !job->worker_active)
-        return end_with_status(f, out, max);
+    if (smd_job_state_final(job->state) && !job->worker_active && !job->ending)
+        return end_with_status(f, out, max); /* ending: its last event is still to come */
     if (f->keepalive_due) {
         f->keepalive_due = 0;
         pthread_mutex_unlock(&srv->lock);

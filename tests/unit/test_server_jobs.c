@@ -247,11 +247,223 @@ static void test_cancel_fail_requeue(void **state)
     smd_jobs_after_free(&after);
 }
 
+/* ------------------------------------------------ ends, durable first */
+
+/* The status.json of job as the disk has it ("" when unreadable). */
+static void disk_state(fixture *f, const smd_job *job, char *state, size_t cap)
+{
+    char path[512];
+    assert_int_equal(smd_store_path(f->srv.store, job->id, "status.json", path, sizeof path), 0);
+    json_error_t jerr;
+    json_t *o = json_load_file(path, 0, &jerr);
+    snprintf(state, cap, "%s", o ? json_string_value(json_object_get(o, "status")) : "");
+    json_decref(o);
+}
+
+/* Makes the spool refuse (on) or take (off) writes of the job's file
+ * name: a folder in its place refuses the rename of a new record (root
+ * included); the file itself is kept aside meanwhile. */
+static void refuse_file(fixture *f, const smd_job *job, const char *name, int on)
+{
+    char path[512], aside[600];
+    assert_int_equal(smd_store_path(f->srv.store, job->id, name, path, sizeof path), 0);
+    snprintf(aside, sizeof aside, "%s.aside", path);
+    if (on) {
+        assert_int_equal(rename(path, aside), 0);
+        assert_int_equal(mkdir(path, 0700), 0);
+    } else {
+        assert_int_equal(rmdir(path), 0);
+        assert_int_equal(rename(aside, path), 0);
+    }
+}
+
+/* A submitted job, taken and started (a worker "runs"). */
+static smd_job *running_job(fixture *f, const char *id, smd_jobs_after *after)
+{
+    smd_job *job = submit(f, id, NULL, after);
+    assert_ptr_equal(smd_jobs_take_next(&f->srv), job);
+    assert_int_equal(smd_jobs_started(&f->srv, job, 77, after), SM_OK);
+    return job;
+}
+
+static void test_end_held_until_recorded(void **state)
+{
+    fixture *f = *state;
+    smd_server *srv = &f->srv;
+    smd_jobs_after after = {0};
+    char type[32], ondisk[32];
+    smd_job *job = running_job(f, "abababababababababababababababab", &after);
+    sm_event fin;
+    sm_event_init(&fin, SM_EVENT_FINISHED);
+    fin.result.iterations = 4;
+    refuse_file(f, job, "status.json", 1);
+    assert_int_equal(smd_jobs_finish(srv, job, &fin, NULL, &after), SM_OK);
+    /* not published: still running, nothing counted, no event, unready */
+    assert_int_equal(job->state, SM_JOB_RUNNING);
+    assert_non_null(job->ending);
+    assert_non_null(strstr(job->message, "ending"));
+    assert_true(atomic_load(&srv->unwritable));
+    assert_true(srv->metrics.jobs_finished[0] == 0);
+    last_event(f, job, type, sizeof type);
+    assert_string_equal(type, "started");
+    assert_int_equal(smd_jobs_finish(srv, job, &fin, NULL, &after), SM_ERR_INVALID); /* twice */
+    assert_int_equal(smd_jobs_fail(srv, job, "x", NULL, &after), SM_ERR_INVALID);
+    smd_jobs_worker_gone(srv, job, &after);
+    /* the spool still refuses: a retry changes nothing, a cancel is refused */
+    smd_jobs_retry_saves(srv, &after);
+    assert_int_equal(job->state, SM_JOB_RUNNING);
+    assert_true(atomic_load(&srv->unwritable));
+    assert_int_equal(smd_jobs_cancel(srv, job, &after), SM_ERR_IO);
+    assert_int_equal(job->state, SM_JOB_RUNNING);
+    /* space back: written, then published */
+    refuse_file(f, job, "status.json", 0);
+    smd_jobs_retry_saves(srv, &after);
+    assert_int_equal(job->state, SM_JOB_SUCCESSFUL);
+    assert_null(job->ending);
+    assert_int_equal(job->progress, 100);
+    assert_string_equal(job->message, "finished: step_tolerance after 4 iterations");
+    assert_false(atomic_load(&srv->unwritable));
+    assert_true(srv->metrics.jobs_finished[0] == 1);
+    last_event(f, job, type, sizeof type);
+    assert_string_equal(type, "finished");
+    disk_state(f, job, ondisk, sizeof ondisk);
+    assert_string_equal(ondisk, "successful");
+
+    /* a failed end whose event (not its record) is refused: held too, and
+     * the record is not overwritten by an older one */
+    smd_job *b = running_job(f, "cdcdcdcdcdcdcdcdcdcdcdcdcdcdcdcd", &after);
+    smd_job_close_log(b); /* the append reopens the log */
+    refuse_file(f, b, "events.ndjson", 1);
+    assert_int_equal(smd_jobs_fail(srv, b, "worker killed", NULL, &after), SM_OK);
+    assert_int_equal(b->state, SM_JOB_RUNNING);
+    disk_state(f, b, ondisk, sizeof ondisk);
+    assert_string_equal(ondisk, "failed");
+    smd_jobs_worker_gone(srv, b, &after);
+    /* a cancel now writes the held end first: the job ended before it */
+    refuse_file(f, b, "events.ndjson", 0);
+    assert_int_equal(smd_jobs_cancel(srv, b, &after), SM_ERR_INVALID);
+    assert_int_equal(b->state, SM_JOB_FAILED);
+    assert_string_equal(b->message, "worker killed");
+    last_event(f, b, type, sizeof type);
+    assert_string_equal(type, "failed");
+    assert_true(srv->metrics.jobs_finished[1] == 1);
+    smd_jobs_retry_saves(srv, &after);
+    assert_false(atomic_load(&srv->unwritable));
+    smd_jobs_after_free(&after);
+}
+
+/* results/summary.json of a finished run, as the job runner writes it */
+static void write_summary(fixture *f, const smd_job *job, const char *status)
+{
+    char dir[512], path[600];
+    assert_int_equal(smd_store_path(f->srv.store, job->id, "results", dir, sizeof dir), 0);
+    assert_int_equal(smd_mkdirs(dir, 0700), 0);
+    sm_result r;
+    memset(&r, 0, sizeof r);
+    r.stop = SM_STOP_MAX_ITER;
+    r.iterations = 7;
+    json_t *doc = sm_result_to_jansson(&r, NULL, 2);
+    json_object_set_new(doc, "status", json_string(status));
+    json_object_set_new(doc, "exit_code", json_integer(0));
+    json_object_set_new(doc, "warnings",
+                        json_pack("[{s:s,s:s,s:f}]", "code", "alpha-small", "message",
+                                  "alpha is small", "figure", 0.5));
+    snprintf(path, sizeof path, "%s/summary.json", dir);
+    assert_int_equal(json_dump_file(doc, path, 0), 0);
+    json_decref(doc);
+}
+
+static void restart(fixture *f, size_t *queued)
+{
+    sm_error err;
+    smd_queue_free(f->srv.queue);
+    smd_store_close(f->srv.store);
+    assert_int_equal(smd_store_open(f->spool, &f->srv.log, &f->srv.store, &err), SM_OK);
+    assert_non_null(f->srv.queue = smd_queue_local_new());
+    assert_int_equal(smd_jobs_recover(&f->srv, queued, &err), SM_OK);
+}
+
+static void test_recover_from_results(void **state)
+{
+    fixture *f = *state;
+    smd_server *srv = &f->srv;
+    smd_jobs_after after = {0};
+    char type[32], ondisk[32], results[512];
+    static const char done_id[] = "efefefefefefefefefefefefefefefef";
+    static const char bad_id[] = "12121212121212121212121212121212";
+    smd_job *done = running_job(f, done_id, &after);
+    smd_job *bad = running_job(f, bad_id, &after);
+    write_summary(f, done, "finished");
+    write_summary(f, bad, "cancelled");
+    size_t queued;
+    restart(f, &queued);
+    /* a complete result set: ended as that run ended, not run again */
+    done = smd_store_get(srv->store, done_id);
+    assert_non_null(done);
+    assert_int_equal(done->state, SM_JOB_SUCCESSFUL);
+    assert_int_equal(done->attempt, 1);
+    assert_string_equal(done->message, "finished: max_iterations after 7 iterations; "
+                                       "warning: alpha-small: alpha is small");
+    last_event(f, done, type, sizeof type);
+    assert_string_equal(type, "finished");
+    disk_state(f, done, ondisk, sizeof ondisk);
+    assert_string_equal(ondisk, "successful");
+    assert_int_equal(
+        smd_store_path(srv->store, done_id, "results/summary.json", results, sizeof results), 0);
+    assert_int_equal(access(results, R_OK), 0);
+    /* a summary that does not say "finished": queued again, results gone */
+    bad = smd_store_get(srv->store, bad_id);
+    assert_int_equal(bad->state, SM_JOB_ACCEPTED);
+    assert_int_equal(queued, 1);
+    assert_int_equal(smd_store_path(srv->store, bad_id, "results", results, sizeof results), 0);
+    assert_int_equal(access(results, F_OK), -1);
+    assert_false(atomic_load(&srv->unwritable));
+    smd_jobs_after_free(&after);
+}
+
+/* The final record was written, its event refused, then the daemon
+ * stopped: the next start writes the missing event, once. */
+static void test_final_event_restored(void **state)
+{
+    fixture *f = *state;
+    smd_server *srv = &f->srv;
+    smd_jobs_after after = {0};
+    char type[32];
+    static const char id[] = "34343434343434343434343434343434";
+    smd_job *job = running_job(f, id, &after);
+    smd_job_close_log(job); /* the append reopens the log */
+    refuse_file(f, job, "events.ndjson", 1);
+    assert_int_equal(smd_jobs_fail(srv, job, "worker killed", NULL, &after), SM_OK);
+    assert_int_equal(job->state, SM_JOB_RUNNING); /* held: the record is final, the event is not */
+    smd_jobs_worker_gone(srv, job, &after);
+    size_t queued;
+    restart(f, &queued); /* the log still refuses: nothing written, logged */
+    job = smd_store_get(srv->store, id);
+    assert_non_null(job);
+    assert_int_equal(job->state, SM_JOB_FAILED);
+    refuse_file(f, job, "events.ndjson", 0);
+    restart(f, &queued);
+    job = smd_store_get(srv->store, id);
+    assert_int_equal(job->state, SM_JOB_FAILED);
+    last_event(f, job, type, sizeof type);
+    assert_string_equal(type, "failed");
+    restart(f, &queued); /* written once */
+    job = smd_store_get(srv->store, id);
+    sm_error err;
+    assert_int_equal(smd_store_load_events(srv->store, job, &err), SM_OK);
+    assert_int_equal(job->nevents, 3); /* accepted, started, failed */
+    assert_int_equal(queued, 0);
+    smd_jobs_after_free(&after);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_run_to_success, setup, teardown),
         cmocka_unit_test_setup_teardown(test_cancel_fail_requeue, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_end_held_until_recorded, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_recover_from_results, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_final_event_restored, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -317,12 +317,82 @@ static void test_unlink_and_trash(void **state)
     smd_store_close(s);
 }
 
+/* The summary reader of a restart (smd_store_read_summary) and the
+ * record's finalEventAt: read back, bounded. */
+static void test_summary_and_final_event(void **state)
+{
+    fixture *f = *state;
+    smd_store *s;
+    sm_error err;
+    assert_int_equal(smd_store_open(f->spool, &f->log, &s, &err), SM_OK);
+    const char *id = "abcdefabcdefabcdefabcdefabcdefab";
+    smd_job *job = commit(f, s, id, NULL);
+    char p[600];
+    sm_event ev;
+    double when = 0;
+    /* none, not JSON, not a finished run, a finished one */
+    assert_int_equal(smd_store_read_summary(s, job, &ev, &when, &err), SM_ERR_IO);
+    assert_int_equal(smd_store_path(s, id, "results", p, sizeof p), 0);
+    assert_int_equal(smd_mkdirs(p, 0700), 0);
+    assert_int_equal(smd_store_path(s, id, "results/summary.json", p, sizeof p), 0);
+    assert_int_equal(smd_write_file_atomic(p, "{ torn", 6), 0);
+    assert_int_equal(smd_store_read_summary(s, job, &ev, &when, &err), SM_ERR_FORMAT);
+    static const char failed[] = "{\"status\": \"failed\", \"exit_code\": 3}";
+    assert_int_equal(smd_write_file_atomic(p, failed, sizeof failed - 1), 0);
+    assert_int_equal(smd_store_read_summary(s, job, &ev, &when, &err), SM_ERR_FORMAT);
+    sm_result r;
+    memset(&r, 0, sizeof r);
+    r.stop = SM_STOP_STEP;
+    r.iterations = 12;
+    json_t *doc = sm_result_to_jansson(&r, NULL, 2);
+    json_object_set_new(doc, "status", json_string("finished"));
+    json_object_set_new(doc, "exit_code", json_integer(0));
+    assert_int_equal(json_dump_file(doc, p, 0), 0);
+    json_decref(doc);
+    assert_int_equal(smd_store_read_summary(s, job, &ev, &when, &err), SM_OK);
+    assert_int_equal(ev.type, SM_EVENT_FINISHED);
+    assert_int_equal(ev.result.iterations, 12);
+    assert_string_equal(ev.message, ""); /* no warnings */
+    assert_true(when > 1.7e9);
+
+    /* finalEventAt survives a reopen; the log ending there misses it */
+    job->state = SM_JOB_FAILED;
+    job->final_event_at = (int64_t)smd_job_event_offset(job, 2); /* after "accepted" */
+    assert_int_equal(smd_store_save(s, job, &err), SM_OK);
+    assert_true(smd_store_final_event_missing(s, job));
+    smd_store_close(s);
+    assert_int_equal(smd_store_open(f->spool, &f->log, &s, &err), SM_OK);
+    job = smd_store_get(s, id);
+    assert_non_null(job);
+    assert_true(job->final_event_at > 0);
+    assert_true(smd_store_final_event_missing(s, job));
+    smd_store_close(s);
+    /* out of its bounds: a damaged record, quarantined */
+    char rec[700];
+    snprintf(rec, sizeof rec, "%s/jobs/%s/status.json", f->spool, id);
+    FILE *fp = fopen(rec, "r");
+    assert_non_null(fp);
+    char text[4096];
+    size_t n = fread(text, 1, sizeof text - 1, fp);
+    fclose(fp);
+    text[n] = '\0';
+    char *at = strstr(text, "\"finalEventAt\": ");
+    assert_non_null(at);
+    at += strlen("\"finalEventAt\": ");
+    at[0] = '-'; /* a negative offset */
+    assert_int_equal(smd_write_file_atomic(rec, text, strlen(text)), 0);
+    assert_int_equal(smd_store_open(f->spool, &f->log, &s, &err), SM_OK);
+    assert_int_equal(smd_store_quarantined(s), 1);
+    smd_store_close(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_commit_and_reopen, setup, teardown),
         cmocka_unit_test_setup_teardown(test_crash_leftovers, setup, teardown),
         cmocka_unit_test_setup_teardown(test_unlink_and_trash, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_summary_and_final_event, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -429,7 +429,7 @@ void job_options_help(FILE *out)
           "  --free-boundary REFS    boundary facet references excluded from the load\n"
           "  --solver NAME           elastic solver: cholmod (sparse Cholesky), amg (PCG +\n"
           "                          BoomerAMG: less memory, for large 3D templates) or auto\n"
-          "                          (amg from 300000 tetrahedra; default auto)\n",
+          "                          (amg from 20000 tetrahedra; default auto)\n",
           out);
     for (size_t i = 0; i < N_SCALAR_OPTIONS; i++) {
         const scalar_option *o = &scalar_options[i];

@@ -35,11 +35,15 @@ int sm_solver_kind_from_name(const char *name, sm_solver_kind *out);
 /* The solver AUTO means for a template of dim and nelems elements:
  * AMG from SM_SOLVER_AMG_MIN_TETS tetrahedra on (3D only: 2D templates of
  * any size this project meets factor fast); kind itself if not AUTO.
- * Measured by bench/scale.sh (CPU time): AMG's smaller set-up outweighs
- * its slower iterations for runs up to 15 iterations at 31k tetrahedra,
- * 30 at 105k and 35 at 382k, where CHOLMOD's peak RSS passes 3 GiB. */
+ * Measured (bench/scale.sh, match_bench, shapematch run; README "Large
+ * templates"): the inexact AMG directions need fewer iterations than the
+ * exact ones (the 30k-tetrahedron example reaches 2.9e-4 at iteration 13
+ * instead of 17, and its default run stops after 155 iterations instead
+ * of 281, at a lower error), so AMG is ahead from ~8k tetrahedra (equal
+ * at 8.5k) and uses less memory (134 against 192 MiB at 30k); below, the
+ * MPI and hierarchy set-up (~0.07 s) weighs more than the whole run. */
 sm_solver_kind sm_solver_resolve(sm_solver_kind kind, int dim, int64_t nelems);
-#define SM_SOLVER_AMG_MIN_TETS 300000
+#define SM_SOLVER_AMG_MIN_TETS 20000
 
 typedef struct sm_params {
     sm_clamp_kind clamp;

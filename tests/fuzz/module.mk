@@ -13,7 +13,7 @@ FUZZ_DIR := build/fuzz
 FUZZ_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror \
   -Wno-missing-field-initializers -g -O1 -fno-omit-frame-pointer -fopenmp \
   -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all \
-  -I core/include -I proto -I client -I server -I tests/fuzz -I /usr/include/suitesparse \
+  -I core/include -I core -I proto -I client -I server -I tests/fuzz -I /usr/include/suitesparse \
   -DSM_VERSION='"$(VERSION)"' $(HYPRE_CFLAGS)
 FUZZ_LDFLAGS := -fopenmp -fsanitize=fuzzer,address,undefined
 FUZZ_LIB_SRCS := $(wildcard core/*.c) $(wildcard proto/*.c) client/sse.c tests/fuzz/fuzz_input.c \

@@ -51,6 +51,7 @@ typedef struct obj_in {
     sm_reader *r;
     sm_error *err;
     char *line;
+    size_t line_cap;     /* OBJ_LINE_MAX, or less for a smaller input */
     long lineno;
     double *x;           /* 3 per vertex */
     int64_t nv, capv;
@@ -80,7 +81,7 @@ static sm_status next_line(obj_in *c, int *eof)
         if (ch == '\0')
             return sm_error_set(c->err, SM_ERR_FORMAT, "%s:%ld: NUL byte in a line",
                                 c->r->path, c->lineno + 1);
-        if (n + 1 >= OBJ_LINE_MAX)
+        if (n + 1 >= OBJ_LINE_MAX || n + 1 >= c->line_cap)
             return sm_error_set(c->err, SM_ERR_FORMAT, "%s:%ld: line longer than %d bytes",
                                 c->r->path, c->lineno + 1, OBJ_LINE_MAX - 1);
         c->line[n++] = (char)ch;
@@ -208,8 +209,13 @@ sm_status sm__obj_read(sm_reader *r, sm_surface **out, sm_error *err)
     memset(&c, 0, sizeof c);
     c.r = r;
     c.err = err;
-    c.line = malloc(OBJ_LINE_MAX);
-    c.poly = malloc(OBJ_LINE_MAX / 2 * sizeof(int64_t));
+    /* Sized to the input (no line is longer than what is left of it), so
+     * a small file costs small buffers; a face has at most half as many
+     * vertices as its line has bytes. */
+    uint64_t left = sm_reader_max_remaining(r) + 1;
+    c.line_cap = left < OBJ_LINE_MAX ? (size_t)left : OBJ_LINE_MAX;
+    c.line = malloc(c.line_cap);
+    c.poly = malloc((c.line_cap / 2 + 1) * sizeof(int64_t));
     sm_status st = c.line && c.poly ? SM_OK : sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     for (int eof = 0; st == SM_OK;) {
         if ((st = next_line(&c, &eof)) != SM_OK || eof)

@@ -26,7 +26,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "sm_proto_params.h"
+#include "fuzz_parts_check.h"
 #include "smd_parts.h"
 #include "smd_util.h"
 
@@ -41,35 +41,14 @@ typedef struct request {
     smd_parts parts;
 } request;
 
-static void check_outcome(const smd_parts *p)
-{
-    static const unsigned allowed[] = {0, 400, 413, 422, 500, 507};
-    int known = 0;
-    for (size_t i = 0; i < sizeof allowed / sizeof allowed[0]; i++)
-        known |= p->err_status == allowed[i];
-    if (!known || (p->err_status && (!p->err_type || !p->err_detail[0])))
-        abort();
-    if (p->params_len > SM_PARAMS_JSON_MAX_BYTES || p->fd >= 0)
-        abort();
-    if (p->err_status)
-        return;
-    if (!p->seen[SM_PART_TEMPLATE] || !p->seen[SM_PART_PARAMS] || smd_parts_hash(p) == 0)
-        abort();
-    struct stat st;
-    for (int i = 0; i < SM_PART_PARAMS; i++)
-        if (p->seen[i] && stat(p->path[i], &st) != 0)
-            abort(); /* an accepted file part is on disk under its final name */
-}
-
 static enum MHD_Result finish(struct MHD_Connection *conn, request *r)
 {
     smd_parts_close(&r->parts);
     if (r->pp && MHD_destroy_post_processor(r->pp) != MHD_YES)
         smd_parts_fail(&r->parts, 400, "about:blank", "truncated");
     r->pp = NULL;
-    if (!r->parts.err_status && smd_parts_check(&r->parts) == 0)
-        smd_parts_name_files(&r->parts);
-    check_outcome(&r->parts);
+    fuzz_parts_finish(&r->parts);
+    fuzz_parts_check(&r->parts);
     struct MHD_Response *resp = MHD_create_response_from_buffer(0, NULL, MHD_RESPMEM_PERSISTENT);
     enum MHD_Result rc = MHD_queue_response(conn, r->parts.err_status ? r->parts.err_status : 201, resp);
     MHD_destroy_response(resp);

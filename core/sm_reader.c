@@ -287,6 +287,20 @@ sm_status sm_reader_peek(sm_reader *r, void *dst, size_t n, size_t *got)
     return SM_OK;
 }
 
+sm_status sm_reader_window(sm_reader *r, const unsigned char **p, size_t *avail)
+{
+    if (r->pos == r->len)
+        refill(r);
+    *p = r->buf + r->pos;
+    *avail = r->len - r->pos;
+    return r->stream_status;
+}
+
+void sm_reader_consume(sm_reader *r, size_t k)
+{
+    r->pos += k <= r->len - r->pos ? k : r->len - r->pos;
+}
+
 static inline int is_space(int c)
 {
     return c == ' ' || (unsigned)(c - '\t') <= (unsigned)('\r' - '\t'); /* \t \n \v \f \r */

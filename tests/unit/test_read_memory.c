@@ -3,7 +3,8 @@
  * tests/data/malformed and tests/data/formats, reading its bytes from
  * memory (named by the same path) gives what reading the file gives: the
  * same status and message on error, the same mesh, solution or surface on
- * success.  Gzip bytes are refused from memory with a clear message. */
+ * success.  Gzip bytes are refused from memory with a clear message.  OBJ
+ * lines at their limits, from both. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -14,6 +15,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "sm_read_input.h"
 
@@ -247,6 +249,60 @@ static void test_edges(void **state)
     assert_non_null(strstr(err.msg, "empty.mesh"));
 }
 
+/* OBJ's lines (read with memchr over the buffer): a NUL byte, and the
+ * longest line accepted (65535 bytes) and one byte more, from memory and
+ * from a file (whose 64 KiB buffer the long line crosses). */
+static sm_status read_obj(const char *text, size_t n, int from_file, sm_error *err)
+{
+    char path[] = "/tmp/sm-test-read-memory-XXXXXX";
+    sm_reader_input in = {.path = "lines.obj", .data = text, .size = n};
+    if (from_file) {
+        int fd = mkstemp(path);
+        assert_true(fd >= 0);
+        assert_int_equal(write(fd, text, n), (ssize_t)n);
+        close(fd);
+        in = (sm_reader_input){.path = path};
+    }
+    sm_surface *s = NULL;
+    sm_error_clear(err);
+    sm_status st = sm__surface_read_input(&in, NULL, &s, err);
+    if (st == SM_OK) {
+        assert_int_equal(s->nfacets, 1);
+        sm_surface_free(s);
+    }
+    if (from_file)
+        unlink(path);
+    return st;
+}
+
+static void test_obj_lines(void **state)
+{
+    (void)state;
+    static const char tail[] = "\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    size_t cap = 70000 + sizeof tail;
+    char *text = malloc(cap);
+    assert_non_null(text);
+    sm_error err;
+    for (int from_file = 0; from_file < 2; from_file++) {
+        static const char nul[] = "v 0 0 0\nv 1 0 0 \0 x\n";
+        assert_int_equal(read_obj(nul, sizeof nul - 1, from_file, &err), SM_ERR_FORMAT);
+        assert_non_null(strstr(err.msg, ":2: NUL byte in a line"));
+        for (size_t len = 65535; len <= 65536; len++) {
+            memcpy(text, "# ", 2);
+            memset(text + 2, 'x', len - 2);
+            memcpy(text + len, tail, sizeof tail - 1);
+            sm_status st = read_obj(text, len + sizeof tail - 1, from_file, &err);
+            if (len == 65535) {
+                assert_int_equal(st, SM_OK);
+            } else {
+                assert_int_equal(st, SM_ERR_FORMAT);
+                assert_non_null(strstr(err.msg, ":1: line longer than 65535 bytes"));
+            }
+        }
+    }
+    free(text);
+}
+
 int main(void)
 {
     const char *root = getenv("SM_ROOT");
@@ -256,6 +312,7 @@ int main(void)
         cmocka_unit_test(test_malformed_corpus),
         cmocka_unit_test(test_format_samples),
         cmocka_unit_test(test_edges),
+        cmocka_unit_test(test_obj_lines),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

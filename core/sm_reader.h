@@ -90,10 +90,12 @@ uint64_t sm_reader_max_remaining(const sm_reader *r);
 sm_status sm_reader_peek(sm_reader *r, void *dst, size_t n, size_t *got);
 
 /* The buffered bytes from the next unread one: refills first when none
- * is buffered, then *p and *avail (0 only at the end of the stream);
- * the stream's error, if any, instead.  sm_reader_consume(r, k) then
- * consumes k <= *avail of them.  For readers that scan lines with
- * memchr rather than byte by byte (OBJ). */
+ * is buffered, then sets *p and *avail (0 only at the end of the stream
+ * or on an error) and returns the stream's sticky error, if any (as
+ * sm_reader_peek; sm_reader_bytes would still hand out bytes buffered
+ * before the error).  sm_reader_consume(r, k) then consumes k <= *avail
+ * of them.  For readers that scan with memchr rather than byte by byte
+ * (OBJ lines, skipped .msh sections). */
 sm_status sm_reader_window(sm_reader *r, const unsigned char **p, size_t *avail);
 void sm_reader_consume(sm_reader *r, size_t k);
 

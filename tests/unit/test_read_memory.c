@@ -303,6 +303,49 @@ static void test_obj_lines(void **state)
     free(text);
 }
 
+/* A .msh section the reader skips (binary bytes, false "$End"s: alone on
+ * a line, before a comment, another name, indented) and the line numbers
+ * after it: the same from memory and from a file. */
+static void test_msh_skipped_section(void **state)
+{
+    (void)state;
+    static const char head[] = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$NodeData\n1\n\"d\"\n"
+                               "\x01\x02\xff\n$End#c\n$EndNodeDatax 1\n  $EndNodeData\n$End\n"
+                               "$EndNodeData\n";
+    static const char good[] = "$Entities\n0 0 1 0\n1 0 0 0 1 1 0 1 5 0\n$EndEntities\n"
+                               "$Nodes\n1 4 1 4\n2 1 0 4\n1\n2\n3\n4\n0.0 0.0 0\n1.0 0.0 0\n"
+                               "1.0 1.0 0\n0.0 1.0 0\n$EndNodes\n$Elements\n1 2 1 2\n2 1 2 2\n"
+                               "1 1 2 3\n2 1 3 4\n$EndElements\n";
+    static const char bad[] = "$Entities\n0 0 1 0\nx\n";
+    char text[1024], path[] = "/tmp/sm-test-read-memory-XXXXXX";
+    for (int k = 0; k < 2; k++) {
+        int n = snprintf(text, sizeof text, "%s%s", head, k ? bad : good);
+        int fd = mkstemp(path);
+        assert_true(fd >= 0);
+        assert_int_equal(write(fd, text, (size_t)n), n);
+        close(fd);
+        sm_reader_input in = {.path = path, .data = text, .size = (size_t)n};
+        compare_mesh(path, &in);
+        sm_mesh *m = NULL;
+        sm_error err;
+        sm_error_clear(&err);
+        sm_status st = sm__mesh_read_input(&in, NULL, &m, &err);
+        if (k == 0) {
+            if (st != SM_OK)
+                fail_msg("%s", err.msg);
+            assert_int_equal(m->nverts, 4);
+            assert_int_equal(m->nelems, 2);
+            sm_mesh_free(m);
+        } else {
+            assert_int_not_equal(st, SM_OK);
+            if (!strstr(err.msg, ":14:")) /* the counts are on line 14 */
+                fail_msg("expected line 14 in \"%s\"", err.msg);
+        }
+        unlink(path);
+        memcpy(path + strlen(path) - 6, "XXXXXX", 6);
+    }
+}
+
 int main(void)
 {
     const char *root = getenv("SM_ROOT");
@@ -313,6 +356,7 @@ int main(void)
         cmocka_unit_test(test_format_samples),
         cmocka_unit_test(test_edges),
         cmocka_unit_test(test_obj_lines),
+        cmocka_unit_test(test_msh_skipped_section),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

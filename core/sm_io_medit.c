@@ -13,6 +13,7 @@
 
 #include "sm_io_msh.h"
 #include "sm_medit_common.h"
+#include "sm_read_input.h"
 #include "sm_reader.h"
 #include "sm_surface_io.h"
 
@@ -749,10 +750,18 @@ sm_status sm_mesh_read_limited(const char *path, sm_read_limits *limits, sm_mesh
     *out = NULL;
     if (!path)
         return sm_error_set(err, SM_ERR_INVALID, "no mesh file name");
+    return sm__mesh_read_input(&(sm_reader_input){.path = path}, limits, out, err);
+}
+
+sm_status sm__mesh_read_input(const sm_reader_input *in, sm_read_limits *limits, sm_mesh **out,
+                              sm_error *err)
+{
+    const char *path = in->path;
+    *out = NULL;
     medit_in c;
     memset(&c, 0, sizeof c);
     c.err = err;
-    sm_status st = sm_reader_open(&c.r, path, err);
+    sm_status st = sm_reader_open_input(&c.r, in, err);
     if (st != SM_OK)
         return st;
     c.r.limits = limits;
@@ -806,14 +815,14 @@ static sm_status build_surface(medit_in *c, sm_surface **out)
     return SM_OK;
 }
 
-sm_status sm__medit_surface_read(const char *path, sm_read_limits *limits, sm_surface **out,
-                                 sm_error *err)
+sm_status sm__medit_surface_read(const sm_reader_input *in, sm_read_limits *limits,
+                                 sm_surface **out, sm_error *err)
 {
     *out = NULL;
     medit_in c;
     memset(&c, 0, sizeof c);
     c.err = err;
-    sm_status st = sm_reader_open(&c.r, path, err);
+    sm_status st = sm_reader_open_input(&c.r, in, err);
     if (st != SM_OK)
         return st;
     c.r.limits = limits;

@@ -577,8 +577,8 @@ static sm_status read_elements(msh_in *c)
 
 /* ---- other sections ---- */
 
-/* Skips to the line "$End<name>", byte by byte (the section may be
- * binary). */
+/* Skips to the line "$End<name>" (the section may be binary): memchr to
+ * each newline, then byte by byte while "\n$End" matches. */
 static sm_status skip_section(msh_in *c, const char *name)
 {
     static const char end[] = "\n$End";
@@ -586,6 +586,19 @@ static sm_status skip_section(msh_in *c, const char *name)
     long start_line = c->r->token_line;
     for (;;) {
         unsigned char ch;
+        if (matched == 0) {
+            /* outside a match only a newline matters: memchr to it */
+            const unsigned char *b;
+            size_t avail;
+            (void)sm_reader_window(c->r, &b, &avail); /* errors: at the end, as below */
+            if (avail == 0)
+                return sm_error_set(c->err, SM_ERR_FORMAT, "%s:%ld: section $%s has no $End%s",
+                                    c->r->path, start_line, name, name);
+            const unsigned char *nl = memchr(b, '\n', avail);
+            sm_reader_consume(c->r, nl ? (size_t)(nl - b) : avail);
+            if (!nl)
+                continue;
+        }
         if (sm_reader_bytes(c->r, &ch, 1) != SM_OK)
             return sm_error_set(c->err, SM_ERR_FORMAT, "%s:%ld: section $%s has no $End%s",
                                 c->r->path, start_line, name, name);
@@ -594,8 +607,14 @@ static sm_status skip_section(msh_in *c, const char *name)
         matched = ch == (unsigned char)end[matched] ? matched + 1 : (ch == '\n' ? 1 : 0);
         if (matched < sizeof end - 1)
             continue;
-        int found;
-        if (sm_reader_token(c->r, &found) == SM_OK && found && strcmp(c->r->token, name) == 0)
+        /* the name follows "$End" at once: a token after whitespace (or a
+         * '#' comment) would swallow the next line, maybe the real end */
+        unsigned char next = ' ';
+        size_t got = 0;
+        int found = 0;
+        if (sm_reader_peek(c->r, &next, 1, &got) == SM_OK && got == 1 && next != ' ' &&
+            (unsigned)(next - '\t') > (unsigned)('\r' - '\t') && next != '#' &&
+            sm_reader_token(c->r, &found) == SM_OK && found && strcmp(c->r->token, name) == 0)
             return SM_OK;
         matched = 0;
     }

@@ -51,6 +51,7 @@ typedef struct obj_in {
     sm_reader *r;
     sm_error *err;
     char *line;
+    size_t line_cap;     /* OBJ_LINE_MAX, or less for a smaller input */
     long lineno;
     double *x;           /* 3 per vertex */
     int64_t nv, capv;
@@ -59,31 +60,40 @@ typedef struct obj_in {
     int64_t *poly;       /* the current face's vertex indices */
 } obj_in;
 
-/* Next line into c->line; *eof at the end of the file. */
+/* Next line into c->line; *eof at the end of the file.  The buffered
+ * bytes are scanned with memchr (the newline, then a NUL before it), not
+ * one by one. */
 static sm_status next_line(obj_in *c, int *eof)
 {
     size_t n = 0;
-    unsigned char ch;
     *eof = 0;
     for (;;) {
-        size_t got = 0;
-        sm_status st = sm_reader_peek(c->r, &ch, 1, &got);
+        const unsigned char *b;
+        size_t avail;
+        sm_status st = sm_reader_window(c->r, &b, &avail);
         if (st != SM_OK)
             return sm_error_set(c->err, st, "%s:%ld: %s", c->r->path, c->lineno + 1, c->r->why);
-        if (!got) {
+        if (!avail) {
             *eof = n == 0;
             break;
         }
-        sm_reader_bytes(c->r, &ch, 1);
-        if (ch == '\n')
-            break;
-        if (ch == '\0')
-            return sm_error_set(c->err, SM_ERR_FORMAT, "%s:%ld: NUL byte in a line",
-                                c->r->path, c->lineno + 1);
-        if (n + 1 >= OBJ_LINE_MAX)
+        const unsigned char *nl = memchr(b, '\n', avail);
+        size_t span = nl ? (size_t)(nl - b) : avail;
+        const unsigned char *nul = memchr(b, '\0', span);
+        size_t plain = nul ? (size_t)(nul - b) : span;
+        /* a byte is stored at n only while n + 1 < the buffer's size */
+        size_t room = c->line_cap - 1 - n;
+        if (plain > room)
             return sm_error_set(c->err, SM_ERR_FORMAT, "%s:%ld: line longer than %d bytes",
                                 c->r->path, c->lineno + 1, OBJ_LINE_MAX - 1);
-        c->line[n++] = (char)ch;
+        if (nul)
+            return sm_error_set(c->err, SM_ERR_FORMAT, "%s:%ld: NUL byte in a line",
+                                c->r->path, c->lineno + 1);
+        memcpy(c->line + n, b, plain);
+        n += plain;
+        sm_reader_consume(c->r, plain + (nl != NULL));
+        if (nl)
+            break;
     }
     c->line[n] = '\0';
     char *hash = strchr(c->line, '#');
@@ -208,8 +218,13 @@ sm_status sm__obj_read(sm_reader *r, sm_surface **out, sm_error *err)
     memset(&c, 0, sizeof c);
     c.r = r;
     c.err = err;
-    c.line = malloc(OBJ_LINE_MAX);
-    c.poly = malloc(OBJ_LINE_MAX / 2 * sizeof(int64_t));
+    /* Sized to the input (no line is longer than what is left of it), so
+     * a small file costs small buffers; a face has at most half as many
+     * vertices as its line has bytes. */
+    uint64_t left = sm_reader_max_remaining(r) + 1;
+    c.line_cap = left < OBJ_LINE_MAX ? (size_t)left : OBJ_LINE_MAX;
+    c.line = malloc(c.line_cap);
+    c.poly = malloc((c.line_cap / 2 + 1) * sizeof(int64_t));
     sm_status st = c.line && c.poly ? SM_OK : sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     for (int eof = 0; st == SM_OK;) {
         if ((st = next_line(&c, &eof)) != SM_OK || eof)

@@ -9,6 +9,7 @@
 #include <strings.h>
 
 #include "sm_medit_common.h"
+#include "sm_read_input.h"
 #include "sm_reader.h"
 #include "sm_stream.h"
 #include "sm_writer.h"
@@ -326,10 +327,18 @@ sm_status sm_sol_read_limited(const char *path, sm_read_limits *limits, sm_sol *
     *out = NULL;
     if (!path)
         return sm_error_set(err, SM_ERR_INVALID, "no solution file name");
+    return sm__sol_read_input(&(sm_reader_input){.path = path}, limits, out, err);
+}
+
+sm_status sm__sol_read_input(const sm_reader_input *in, sm_read_limits *limits, sm_sol **out,
+                             sm_error *err)
+{
+    const char *path = in->path;
+    *out = NULL;
     sol_in c;
     memset(&c, 0, sizeof c);
     c.err = err;
-    sm_status st = sm_reader_open(&c.r, path, err);
+    sm_status st = sm_reader_open_input(&c.r, in, err);
     if (st != SM_OK)
         return st;
     c.r.limits = limits;

@@ -128,13 +128,42 @@ sm_status sm_reader_open(sm_reader *r, const char *path, sm_error *err)
     return SM_OK;
 }
 
+sm_status sm_reader_open_memory(sm_reader *r, const char *name, const void *data, size_t size,
+                                sm_error *err)
+{
+    memset(r, 0, sizeof *r);
+    r->path = name;
+    r->line = 1;
+    r->fd = -1;
+    const unsigned char *b = size ? data : (const unsigned char *)"";
+    if (size >= 2 && b[0] == 0x1f && b[1] == 0x8b)
+        return sm_error_set(err, SM_ERR_INVALID, "%s: gzip data is read from files only", name);
+    /* The whole input is the buffer and the stream is at its end, so
+     * refill() never writes to it. */
+    r->buf = (unsigned char *)(uintptr_t)b;
+    r->cap = r->len = size;
+    r->file_size = size;
+    r->at_eof = 1;
+    r->borrowed = 1;
+    sm__stream_use_c_locale(&r->c_locale, &r->saved_locale);
+    return SM_OK;
+}
+
+sm_status sm_reader_open_input(sm_reader *r, const sm_reader_input *in, sm_error *err)
+{
+    if (in->data)
+        return sm_reader_open_memory(r, in->path, in->data, in->size, err);
+    return sm_reader_open(r, in->path, err);
+}
+
 void sm_reader_close(sm_reader *r)
 {
     if (r->gz)
         gzclose(r->gz);
     if (r->fd >= 0)
         close(r->fd);
-    free(r->buf);
+    if (!r->borrowed)
+        free(r->buf);
     sm__stream_restore_locale(r->c_locale, r->saved_locale);
     r->gz = NULL;
     r->fd = -1;
@@ -256,6 +285,20 @@ sm_status sm_reader_peek(sm_reader *r, void *dst, size_t n, size_t *got)
     *got = have < n ? have : n;
     memcpy(dst, r->buf + r->pos, *got);
     return SM_OK;
+}
+
+sm_status sm_reader_window(sm_reader *r, const unsigned char **p, size_t *avail)
+{
+    if (r->pos == r->len)
+        refill(r);
+    *p = r->buf + r->pos;
+    *avail = r->len - r->pos;
+    return r->stream_status;
+}
+
+void sm_reader_consume(sm_reader *r, size_t k)
+{
+    r->pos += k <= r->len - r->pos ? k : r->len - r->pos;
 }
 
 static inline int is_space(int c)

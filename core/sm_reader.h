@@ -50,11 +50,31 @@ typedef struct sm_reader {
     char why[SM_READER_WHY_LEN];
     locale_t c_locale, saved_locale;
     sm_read_limits *limits;  /* borrowed; NULL: none (sm_io.h) */
+    int borrowed;            /* buf is the caller's memory: not freed */
 } sm_reader;
 
 /* Opens path for reading (plain or gzip).  On failure nothing needs to
  * be closed. */
 sm_status sm_reader_open(sm_reader *r, const char *path, sm_error *err);
+
+/* Opens a reader over size bytes at data, named name in messages: read
+ * in place (no copy; data must outlive the reader) exactly as a plain
+ * regular file of that content would be.  Gzip data (its magic) is
+ * refused with SM_ERR_INVALID: inflating is done for files only.  For the
+ * fuzz targets (tests/fuzz/), which hand each input over in memory. */
+sm_status sm_reader_open_memory(sm_reader *r, const char *name, const void *data, size_t size,
+                                sm_error *err);
+
+/* What a format reader opens: a file (path), or memory (data, size)
+ * named path in messages when data is not NULL. */
+typedef struct sm_reader_input {
+    const char *path;
+    const void *data;
+    size_t size;
+} sm_reader_input;
+
+/* sm_reader_open or sm_reader_open_memory, as in says. */
+sm_status sm_reader_open_input(sm_reader *r, const sm_reader_input *in, sm_error *err);
 void sm_reader_close(sm_reader *r);
 
 /* Byte offset of the next unread byte in the (decompressed) stream. */
@@ -68,6 +88,16 @@ uint64_t sm_reader_max_remaining(const sm_reader *r);
 /* Copies up to n leading bytes without consuming them; *got tells how
  * many exist (fewer at end of file). */
 sm_status sm_reader_peek(sm_reader *r, void *dst, size_t n, size_t *got);
+
+/* The buffered bytes from the next unread one: refills first when none
+ * is buffered, then sets *p and *avail (0 only at the end of the stream
+ * or on an error) and returns the stream's sticky error, if any (as
+ * sm_reader_peek; sm_reader_bytes would still hand out bytes buffered
+ * before the error).  sm_reader_consume(r, k) then consumes k <= *avail
+ * of them.  For readers that scan with memchr rather than byte by byte
+ * (OBJ lines, skipped .msh sections). */
+sm_status sm_reader_window(sm_reader *r, const unsigned char **p, size_t *avail);
+void sm_reader_consume(sm_reader *r, size_t k);
 
 /* ---- ASCII ---- */
 

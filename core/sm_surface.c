@@ -11,6 +11,7 @@
 #include "shapematch/sm_mesh.h"
 #include "sm_io_msh.h"
 #include "sm_medit_common.h"
+#include "sm_read_input.h"
 #include "sm_surface_io.h"
 
 sm_status sm_surface_alloc(sm_surface **out, int dim, int32_t nverts, int32_t nfacets,
@@ -192,8 +193,16 @@ sm_status sm_surface_read_limited(const char *path, sm_read_limits *limits, sm_s
     *out = NULL;
     if (!path)
         return sm_error_set(err, SM_ERR_INVALID, "no surface file name");
+    return sm__surface_read_input(&(sm_reader_input){.path = path}, limits, out, err);
+}
+
+sm_status sm__surface_read_input(const sm_reader_input *in, sm_read_limits *limits,
+                                 sm_surface **out, sm_error *err)
+{
+    const char *path = in->path;
+    *out = NULL;
     sm_reader r;
-    sm_status st = sm_reader_open(&r, path, err);
+    sm_status st = sm_reader_open_input(&r, in, err);
     if (st != SM_OK)
         return st;
     r.limits = limits;
@@ -214,7 +223,7 @@ sm_status sm_surface_read_limited(const char *path, sm_read_limits *limits, sm_s
         sm__msh_data_free(&d);
     } else if (medit_ascii_start(&r) || (binary && !sm__stl_detect(&r))) {
         sm_reader_close(&r);
-        return sm__medit_surface_read(path, limits, out, err);
+        return sm__medit_surface_read(in, limits, out, err);
     } else if (sm__stl_detect(&r) || (!sm__obj_detect(&r) && got >= 84)) {
         /* anything else long enough is taken for a binary STL, whose
          * reader says precisely what does not fit */

@@ -20,8 +20,8 @@ int sm__obj_detect(sm_reader *r);
 sm_status sm__obj_read(sm_reader *r, sm_surface **out, sm_error *err);
 
 /* Medit surfaces (sm_io_medit.c). */
-sm_status sm__medit_surface_read(const char *path, sm_read_limits *limits, sm_surface **out,
-                                 sm_error *err);
+sm_status sm__medit_surface_read(const sm_reader_input *in, sm_read_limits *limits,
+                                 sm_surface **out, sm_error *err);
 
 /* Merges vertices with exactly equal coordinates (STL repeats them per
  * facet); the merged vertices keep the order of their first appearance

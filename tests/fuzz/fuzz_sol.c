@@ -4,16 +4,16 @@
 #include <stdlib.h>
 
 #include "fuzz_input.h"
-#include "shapematch/sm_io.h"
+#include "sm_read_input.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
-static void check_sol(const char *path)
+static void check_sol(const sm_reader_input *in)
 {
     sm_error err;
     sm_error_clear(&err);
     sm_sol *s = NULL;
-    if (sm_sol_read(path, &s, &err) != SM_OK) {
+    if (sm__sol_read_input(in, NULL, &s, &err) != SM_OK) {
         if (s != NULL || err.msg[0] == '\0')
             abort();
         return;

@@ -2,10 +2,12 @@
 # clang into build/fuzz/ with AddressSanitizer and UndefinedBehaviorSanitizer
 # (gcc has no libFuzzer).  The core, proto, client and server sources a
 # target needs (the server's: header negotiation, the bounded integer
-# parser, the multipart part handling smd_parts.c, which fuzz_multipart
-# drives through libmicrohttpd's PostProcessor) are compiled again with clang: its sanitizer checks things gcc's
+# parser, the multipart part handling smd_parts.c, which fuzz_parts drives
+# directly and fuzz_multipart through libmicrohttpd's PostProcessor) are
+# compiled again with clang: its sanitizer checks things gcc's
 # does not (e.g. a zero offset applied to a null pointer).
-#   make fuzz                 each target for FUZZ_SECONDS (default 300)
+#   make fuzz                 each target for FUZZ_SECONDS (default 300),
+#                             FUZZ_WORKERS processes at once (default nproc)
 #   make fuzz-build           build only (make test runs each briefly)
 # Seeds: tests/fuzz/seeds.sh collects them from tests/data.
 FUZZ_CC := clang
@@ -13,14 +15,14 @@ FUZZ_DIR := build/fuzz
 FUZZ_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror \
   -Wno-missing-field-initializers -g -O1 -fno-omit-frame-pointer -fopenmp \
   -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all \
-  -I core/include -I proto -I client -I server -I tests/fuzz -I /usr/include/suitesparse \
+  -I core/include -I core -I proto -I client -I server -I tests/fuzz -I /usr/include/suitesparse \
   -DSM_VERSION='"$(VERSION)"' $(HYPRE_CFLAGS)
 FUZZ_LDFLAGS := -fopenmp -fsanitize=fuzzer,address,undefined
 FUZZ_LIB_SRCS := $(wildcard core/*.c) $(wildcard proto/*.c) client/sse.c tests/fuzz/fuzz_input.c \
   server/smd_negotiate.c server/smd_util.c
-FUZZ_LIB_SRCS += server/smd_parts.c
+FUZZ_LIB_SRCS += server/smd_parts.c tests/fuzz/fuzz_parts_check.c
 FUZZ_TARGETS := $(patsubst tests/fuzz/%.c,%,$(wildcard tests/fuzz/fuzz_*.c))
-FUZZ_TARGETS := $(filter-out fuzz_input,$(FUZZ_TARGETS))
+FUZZ_TARGETS := $(filter-out fuzz_input fuzz_parts_check,$(FUZZ_TARGETS))
 
 $(FUZZ_DIR)/obj/%.o: %.c
 	@mkdir -p $(dir $@)
@@ -36,6 +38,8 @@ $(FUZZ_TARGETS:%=$(FUZZ_DIR)/%): $(FUZZ_DIR)/%: $(FUZZ_DIR)/obj/tests/fuzz/%.o $
 fuzz-build: $(FUZZ_TARGETS:%=$(FUZZ_DIR)/%)
 
 FUZZ_SECONDS ?= 300
+# processes per target (run.sh: one corpus, executions summed); one per core
+FUZZ_WORKERS ?= $(shell nproc)
 fuzz: deps
 	$(MAKE) -j$$(nproc) fuzz-build
-	tests/fuzz/run.sh $(FUZZ_SECONDS) $(FUZZ_TARGETS)
+	FUZZ_WORKERS=$(FUZZ_WORKERS) tests/fuzz/run.sh $(FUZZ_SECONDS) $(FUZZ_TARGETS)

@@ -1,0 +1,33 @@
+#include "fuzz_parts_check.h"
+
+#include <stdlib.h>
+#include <sys/stat.h>
+
+#include "sm_proto_params.h"
+
+void fuzz_parts_finish(smd_parts *p)
+{
+    smd_parts_close(p);
+    if (!p->err_status && smd_parts_check(p) == 0)
+        smd_parts_name_files(p);
+}
+
+void fuzz_parts_check(const smd_parts *p)
+{
+    static const unsigned allowed[] = {0, 400, 413, 422, 500, 507};
+    int known = 0;
+    for (size_t i = 0; i < sizeof allowed / sizeof allowed[0]; i++)
+        known |= p->err_status == allowed[i];
+    if (!known || (p->err_status && (!p->err_type || !p->err_detail[0])))
+        abort();
+    if (p->params_len > SM_PARAMS_JSON_MAX_BYTES || p->fd >= 0)
+        abort();
+    if (p->err_status)
+        return;
+    if (!p->seen[SM_PART_TEMPLATE] || !p->seen[SM_PART_PARAMS] || smd_parts_hash(p) == 0)
+        abort();
+    struct stat st;
+    for (int i = 0; i < SM_PART_PARAMS; i++)
+        if (p->seen[i] && stat(p->path[i], &st) != 0)
+            abort(); /* an accepted file part is on disk under its final name */
+}

@@ -1,0 +1,17 @@
+/* The outcome check shared by the multipart fuzz targets (fuzz_parts:
+ * the part callbacks driven directly; fuzz_multipart: through a real
+ * libmicrohttpd).  finish the request as the daemon does (close the part
+ * being received, the required-parts check, the naming of the files by
+ * content), then abort() unless the parts layer either keeps a first
+ * error that is a status the daemon answers with, with a type and a
+ * detail, or accepts a request whose parts are all stored (files on disk
+ * under their final names, params within its cap) and whose hash is set. */
+#ifndef FUZZ_PARTS_CHECK_H
+#define FUZZ_PARTS_CHECK_H
+
+#include "smd_parts.h"
+
+void fuzz_parts_finish(smd_parts *p);
+void fuzz_parts_check(const smd_parts *p);
+
+#endif

@@ -139,6 +139,24 @@ static double mean_edge(const sm_mesh *m)
     return count ? sum / (double)count : 0;
 }
 
+/* A generated background is held to the bounds of an uploaded one (the
+ * daemon's --max-vertices, --max-elements): its size is the job's
+ * choice, its distance computation and the run the daemon's cost. */
+static sm_status check_background_limits(sm_read_limits *limits, const sm_mesh *bg, sm_error *err)
+{
+    if (!limits)
+        return SM_OK;
+    int verts = limits->max_vertices > 0 && bg->nverts > limits->max_vertices;
+    if (!verts && !(limits->max_elements > 0 && bg->nelems > limits->max_elements))
+        return SM_OK;
+    limits->hit = verts ? SM_LIMIT_VERTICES : SM_LIMIT_ELEMENTS;
+    return sm_error_set(err, SM_ERR_INVALID,
+                        "the generated background has %ld %s, beyond the limit of %lld: give a "
+                        "larger --background-size", verts ? (long)bg->nverts : (long)bg->nelems,
+                        verts ? "vertices" : "elements",
+                        verts ? (long long)limits->max_vertices : (long long)limits->max_elements);
+}
+
 /* The padded box of template and surface, graded toward the surface,
  * near-surface cells of the smaller of the template's and the surface's
  * mean edge lengths (not below a quarter of the size that would give a
@@ -173,6 +191,8 @@ static sm_status generate_background(const sm_job_files *files, sm_job_naming na
     out->background_generated = 1;
     out->background_size = h;
     sm_status st = sm_background_graded_new(dim, lo, hi, h, d, &out->background, err);
+    if (st == SM_OK)
+        st = check_background_limits(files->limits, out->background, err);
     if (st != SM_OK && st != SM_ERR_NOMEM && naming == SM_JOB_NAME_PARTS) {
         /* the core's advice names the CLI's flag: name the param */
         out->failed = SM_PART_PARAMS;

@@ -17,8 +17,8 @@
 #     a smaller size gives more vertices, the same as `run` with the
 #     flags; with target_mesh (or no target_surface) a 422 naming the
 #     param and the conflict, a bad value (0, negative, string) the params
-#     error, also through POST /v1/processes/match/execution; `submit
-#     --background-size` sends it.
+#     error, also through POST /v1/processes/match/execution; a background
+#     beyond --max-vertices a 413; `submit --background-size` sends it.
 source "$(dirname "$0")/lib.sh"
 
 d=$WORK/case
@@ -39,7 +39,9 @@ TPL=$d/small.msh
 BG=$d/ball.msh
 PARAMS='{"clamp": {"kind": "ball", "center": [0, 0, 0], "radius": 0.5}, "max_iter": 30}'
 
-if ! start_daemon surface --workers 1 --worker-threads 1; then
+# --max-vertices 50000: far above every input here, below a background
+# of size 0.05 (73k vertices)
+if ! start_daemon surface --workers 1 --worker-threads 1 --max-vertices 50000; then
     not_ok "the daemon starts"
     exit 1
 fi
@@ -174,6 +176,15 @@ bad_background padding_huge params.background_padding '^params.background_paddin
 bad_background size_too_fine params.background_size \
     '^params.background_size: .*give a larger params.background_size' \
     -F "template=@$TPL" -F "target_surface=@$STL" -F "params=${PARAMS%\}}, \"background_size\": 1e-9}"
+# a generated background is held to the daemon's bounds, like an uploaded one
+code=$(post too_many -F "template=@$TPL" -F "target_surface=@$STL" \
+    -F "params=${PARAMS%\}}, \"background_size\": 0.05}")
+if [ "$code" = 413 ] && jq -e '.detail | test("^params.background_size: the generated background has [0-9]+ vertices, beyond the limit of 50000: give a larger params.background_size.*--max-vertices")' \
+        "$WORK/too_many.json" >/dev/null; then
+    ok "a background beyond --max-vertices: 413 \"$(jq -r .detail "$WORK/too_many.json" | head -c 200)\""
+else
+    not_ok "a background beyond --max-vertices: 413" "got $code" "$(head -c 600 "$WORK/too_many.json")"
+fi
 # the same rules through the OGC execute request (the same upload path)
 for f in TPL STL BG; do base64 -w0 "${!f}" >"$WORK/$f.b64"; done # files: beyond ARG_MAX as --arg
 jq -n --rawfile t "$WORK/TPL.b64" --rawfile s "$WORK/STL.b64" --rawfile m "$WORK/BG.b64" \

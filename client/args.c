@@ -282,9 +282,39 @@ int job_option_lookup(const char *flag)
     for (size_t i = 0; i < 3; i++)
         if (strcmp(flag, clamp_flags[i]) == 0)
             return 1;
-    if (strcmp(flag, "--free-boundary") == 0 || strcmp(flag, "--solver") == 0)
+    if (strcmp(flag, "--free-boundary") == 0 || strcmp(flag, "--solver") == 0 ||
+        strcmp(flag, "--background-size") == 0 || strcmp(flag, "--background-padding") == 0)
         return 1;
     return find_scalar(flag) ? 1 : -1;
+}
+
+/* --background-size H (> 0) / --background-padding P (in (0, 100]): the
+ * decoder's ranges of params background_size, background_padding. */
+static int apply_background(job_options *j, const char *flag, const char *value, char *msg,
+                            size_t cap)
+{
+    int size = strcmp(flag, "--background-size") == 0;
+    double *dst = size ? &j->background.size : &j->background.padding;
+    double max = size ? INFINITY : SM_BACKGROUND_PADDING_MAX;
+    if (args_parse_real(flag, value, dst, msg, cap) != 0)
+        return -1;
+    if (!(*dst > 0) || !(*dst <= max))
+        return size ? cli_fail(msg, cap, "%s: expected a number > 0", flag)
+                    : cli_fail(msg, cap, "%s: expected a number > 0 and <= %g", flag, max);
+    return 0;
+}
+
+int job_options_check_background(const job_options *j, const char *target_surface,
+                                 const char *target_mesh, char *msg, size_t cap)
+{
+    sm_job_files files = {.target_surface = target_surface, .target_mesh = target_mesh,
+                          .background_size = j->background.size,
+                          .background_padding = j->background.padding};
+    sm_error err;
+    sm_error_clear(&err);
+    if (sm_job_files_check_background(&files, SM_JOB_NAME_PATHS, &err) != SM_OK)
+        return cli_fail(msg, cap, "%s", err.msg);
+    return 0;
 }
 
 static int set_clamp(job_options *j, const char *flag, char *msg, size_t cap)
@@ -347,6 +377,8 @@ int job_option_apply(job_options *j, const char *flag, const char *value,
     if (strcmp(flag, "--free-boundary") == 0)
         return args_parse_refs(flag, value, p->free_refs, SM_MAX_REFS,
                                &p->n_free_refs, msg, cap);
+    if (strcmp(flag, "--background-size") == 0 || strcmp(flag, "--background-padding") == 0)
+        return apply_background(j, flag, value, msg, cap);
     if (strcmp(flag, "--solver") == 0)
         return sm_solver_kind_from_name(value, &p->solver) == 0
                    ? 0
@@ -458,34 +490,8 @@ typedef enum run_flag_kind {
     RUN_FLAG_TARGET_SURFACE,
     RUN_FLAG_QUIET,
     RUN_FLAG_JSON,
-    RUN_FLAG_BACKGROUND,
     RUN_FLAG_JOB
 } run_flag_kind;
-
-/* --background-size / --background-padding: a number > 0; with flag
- * NULL, the check that they come with a generated background. */
-static int run_background_value(run_options *o, const char *flag, const char *value, char *msg,
-                                size_t cap)
-{
-    if (!flag) {
-        if ((o->background_size > 0 || o->background_padding > 0) &&
-            !(o->target_surface_path && !o->target_mesh_path)) {
-            cli_fail(msg, cap, "--background-size and --background-padding are for a generated "
-                     "background (--target-surface without --target-mesh)");
-            return -1;
-        }
-        return 0;
-    }
-    double *dst = strcmp(flag, "--background-size") == 0 ? &o->background_size
-                                                          : &o->background_padding;
-    if (args_parse_real(flag, value, dst, msg, cap) != 0)
-        return -1;
-    if (!(*dst > 0)) {
-        cli_fail(msg, cap, "%s: expected a number > 0", flag);
-        return -1;
-    }
-    return 0;
-}
 
 static run_flag_kind classify_run_flag(const char *flag, int *takes_value)
 {
@@ -498,8 +504,6 @@ static run_flag_kind classify_run_flag(const char *flag, int *takes_value)
         {"--target-mesh", RUN_FLAG_TARGET_MESH, 1},
         {"--target-sol", RUN_FLAG_TARGET_SOL, 1},
         {"--target-surface", RUN_FLAG_TARGET_SURFACE, 1},
-        {"--background-size", RUN_FLAG_BACKGROUND, 1},
-        {"--background-padding", RUN_FLAG_BACKGROUND, 1},
         {"--output", RUN_FLAG_OUTPUT, 1},
         {"-o", RUN_FLAG_OUTPUT, 1},
         {"--format", RUN_FLAG_FORMAT, 1},
@@ -531,8 +535,6 @@ static int apply_run_flag(run_options *o, run_flag_kind kind, const char *flag, 
     case RUN_FLAG_TARGET_SOL: path = &o->target_sol_path; break;
     case RUN_FLAG_TARGET_SURFACE: path = &o->target_surface_path; break;
     case RUN_FLAG_OUTPUT: path = &o->outdir; break;
-    case RUN_FLAG_BACKGROUND:
-        return run_background_value(o, flag, value, msg, cap);
     case RUN_FLAG_FORMAT: {
         char why[ARGS_MSG_LEN];
         if (sm_job_outputs_parse(value, &o->outputs, why, sizeof why) != 0)
@@ -575,7 +577,8 @@ static int finish_run_options(run_options *o, char *msg, size_t cap)
     };
     if (o->target_surface_path && o->target_sol_path)
         return cli_fail(msg, cap, "--target-surface excludes --target-sol: give one target");
-    if (run_background_value(o, NULL, NULL, msg, cap) != 0)
+    if (job_options_check_background(&o->job, o->target_surface_path, o->target_mesh_path, msg,
+                                     cap) != 0)
         return -1;
     for (size_t k = 0; k < sizeof required / sizeof required[0]; k++)
         if (!*(const char *const *)((const char *)o + required[k].offset) &&

@@ -15,6 +15,7 @@
 #include <stddef.h>
 
 #include "shapematch/sm_match.h"
+#include "sm_proto_params.h"
 
 #define ARGS_MSG_LEN 2048
 
@@ -31,6 +32,9 @@ typedef struct job_options {
     const char *clamp_flag;    /* clamp option given ("--clamp-ball", ...) */
     int clamp_ball_dim;        /* 2 or 3: coordinates given to --clamp-ball */
     int alpha_given;
+    /* --background-size, --background-padding (0: not given): the params
+     * background_size, background_padding of a generated background */
+    sm_background_params background;
 } job_options;
 
 typedef struct run_options {
@@ -38,8 +42,6 @@ typedef struct run_options {
     const char *target_mesh_path;
     const char *target_sol_path;
     const char *target_surface_path; /* --target-surface (excludes --target-sol) */
-    double background_size;    /* --background-size (0: default) */
-    double background_padding; /* --background-padding (0: default) */
     const char *outdir;
     unsigned outputs;   /* --format: sm_job_runner.h's SM_JOB_OUT_* bits */
     int quiet;
@@ -79,6 +81,11 @@ int job_option_apply(job_options *j, const char *flag, const char *value,
 /* Checks that involve several flags: exactly one clamp option, --alpha
  * only with --no-clamp, --step-initial <= --step-max. */
 int job_options_finish(job_options *j, char *msg, size_t cap);
+/* --background-size / --background-padding only with a generated
+ * background: target_surface given, target_mesh not (the paths, NULL
+ * when not given; sm_job_files_check_background's message). */
+int job_options_check_background(const job_options *j, const char *target_surface,
+                                 const char *target_mesh, char *msg, size_t cap);
 /* Checks that involve the template dimension (--clamp-ball arity). */
 int job_options_check_dim(const job_options *j, int dim, char *msg,
                           size_t cap);

@@ -337,8 +337,8 @@ int cmd_run(int argc, char **argv)
                                 .target_mesh = opt.target_mesh_path,
                                 .target_sol = opt.target_sol_path,
                                 .target_surface = opt.target_surface_path,
-                                .background_size = opt.background_size,
-                                .background_padding = opt.background_padding};
+                                .background_size = opt.job.background.size,
+                                .background_padding = opt.job.background.padding};
 
     /* ---- inputs, then the parameters against them ---- */
     sm_status st = sm_job_inputs_read(&files, SM_JOB_NAME_PATHS, &in, &err);

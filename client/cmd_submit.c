@@ -290,6 +290,10 @@ void cmd_submit_help(void)
            "                          Medit, Gmsh .msh); the daemon computes its signed\n"
            "                          distance on --target-mesh, or on a background it\n"
            "                          generates when --target-mesh is not given\n"
+           "  --background-size H     with --target-surface and no --target-mesh: size of\n"
+           "                          the generated background near the surface (params\n"
+           "                          background_size; default from the meshes' edges)\n"
+           "  --background-padding P  its margin, a fraction of the box's diagonal (0.1)\n"
            "  --no-compress           send the files as they are (by default files that are\n"
            "                          not gzip yet are compressed on the way)\n"
            "\n");
@@ -327,7 +331,9 @@ static const char *submit_usage_problem(submit_args *a, char *msg, size_t cap)
         return "missing required option --target-mesh (or --target-surface)";
     if (!a->target_surface_path && !a->target_sol_path)
         return "missing required option --target-sol (or --target-surface)";
-    if (job_options_finish(&a->job, msg, cap) != 0)
+    if (job_options_finish(&a->job, msg, cap) != 0 ||
+        job_options_check_background(&a->job, a->target_surface_path, a->target_mesh_path, msg,
+                                     cap) != 0)
         return msg;
     if (a->wait && !a->outdir)
         return "--wait needs -o/--output DIR for the results";
@@ -517,7 +523,7 @@ int cmd_submit(int argc, char **argv)
     /* the daemon learns the dimension from the template; a ball clamp
      * already says how many coordinates it has */
     int dim = a.job.params.clamp == SM_CLAMP_BALL ? a.job.clamp_ball_dim : 0;
-    s.params = sm_params_to_json(&a.job.params, dim);
+    s.params = sm_job_params_to_json(&a.job.params, &a.job.background, dim);
     if (!s.params)
         return remote_usage_error("submit", "the parameters cannot be encoded as JSON");
 

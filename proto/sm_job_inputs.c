@@ -139,12 +139,31 @@ static double mean_edge(const sm_mesh *m)
     return count ? sum / (double)count : 0;
 }
 
+/* A generated background is held to the bounds of an uploaded one (the
+ * daemon's --max-vertices, --max-elements): its size is the job's
+ * choice, its distance computation and the run the daemon's cost. */
+static sm_status check_background_limits(sm_read_limits *limits, const sm_mesh *bg, sm_error *err)
+{
+    if (!limits)
+        return SM_OK;
+    int verts = limits->max_vertices > 0 && bg->nverts > limits->max_vertices;
+    if (!verts && !(limits->max_elements > 0 && bg->nelems > limits->max_elements))
+        return SM_OK;
+    limits->hit = verts ? SM_LIMIT_VERTICES : SM_LIMIT_ELEMENTS;
+    return sm_error_set(err, SM_ERR_INVALID,
+                        "the generated background has %ld %s, beyond the limit of %lld: give a "
+                        "larger --background-size", verts ? (long)bg->nverts : (long)bg->nelems,
+                        verts ? "vertices" : "elements",
+                        verts ? (long long)limits->max_vertices : (long long)limits->max_elements);
+}
+
 /* The padded box of template and surface, graded toward the surface,
  * near-surface cells of the smaller of the template's and the surface's
  * mean edge lengths (not below a quarter of the size that would give a
  * uniform grid of 250k vertices). */
-static sm_status generate_background(const sm_job_files *files, sm_job_inputs *out,
-                                     const sm_surface *s, const sm_sdf *d, sm_error *err)
+static sm_status generate_background(const sm_job_files *files, sm_job_naming naming,
+                                     sm_job_inputs *out, const sm_surface *s, const sm_sdf *d,
+                                     sm_error *err)
 {
     int dim = out->dim;
     double lo[3], hi[3], tlo[3], thi[3], diag = 0, cells = 1;
@@ -155,7 +174,9 @@ static sm_status generate_background(const sm_job_files *files, sm_job_inputs *o
         diag += (hi[k] - lo[k]) * (hi[k] - lo[k]);
     }
     diag = sqrt(diag);
-    double pad = (files->background_padding > 0 ? files->background_padding : 0.1) * diag;
+    out->background_padding =
+        files->background_padding > 0 ? files->background_padding : SM_BACKGROUND_PADDING_DEFAULT;
+    double pad = out->background_padding * diag;
     for (int k = 0; k < dim; k++) {
         lo[k] -= pad;
         hi[k] += pad;
@@ -168,7 +189,16 @@ static sm_status generate_background(const sm_job_files *files, sm_job_inputs *o
     if (files->background_size > 0)
         h = files->background_size;
     out->background_generated = 1;
-    return sm_background_graded_new(dim, lo, hi, h, d, &out->background, err);
+    out->background_size = h;
+    sm_status st = sm_background_graded_new(dim, lo, hi, h, d, &out->background, err);
+    if (st == SM_OK)
+        st = check_background_limits(files->limits, out->background, err);
+    if (st != SM_OK && st != SM_ERR_NOMEM && naming == SM_JOB_NAME_PARTS) {
+        /* the core's advice names the CLI's flag: name the param */
+        out->failed = SM_PART_PARAMS;
+        part_error(err, "params.background_size", "--background-size");
+    }
+    return st;
 }
 
 /* The target from a surface: background given or generated, then the
@@ -203,7 +233,7 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
             file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
             goto done;
         }
-    } else if ((st = generate_background(files, out, s, d, err)) != SM_OK) {
+    } else if ((st = generate_background(files, naming, out, s, d, err)) != SM_OK) {
         goto done;
     }
     if (out->background->dim != out->dim) {
@@ -224,6 +254,27 @@ done:
     return st;
 }
 
+sm_status sm_job_files_check_background(const sm_job_files *files, sm_job_naming naming,
+                                        sm_error *err)
+{
+    static const char *const names[2][4] = {
+        [SM_JOB_NAME_PARTS] = {"background_size", "background_padding", "target_surface",
+                               "target_mesh"},
+        [SM_JOB_NAME_PATHS] = {"--background-size", "--background-padding",
+                               "--target-surface", "--target-mesh"}};
+    int size = files->background_size > 0, padding = files->background_padding > 0;
+    if ((!size && !padding) || (files->target_surface && !files->target_mesh))
+        return SM_OK;
+    const char *const *n = names[naming == SM_JOB_NAME_PATHS];
+    char where[64] = "";
+    if (naming == SM_JOB_NAME_PARTS) /* the params path first, as for every bad param */
+        snprintf(where, sizeof where, "params.%s: ", size ? n[0] : n[1]);
+    return sm_error_set(err, SM_ERR_INVALID,
+                        "%s%s and %s are for a generated background (%s without %s): %s %s",
+                        where, n[0], n[1], n[2], n[3], files->target_surface ? n[3] : n[2],
+                        files->target_surface ? "is given" : "is not given");
+}
+
 sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
                              sm_job_inputs *out, sm_error *err)
 {
@@ -232,6 +283,12 @@ sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
     out->failed = SM_NPARTS;
     double t0 = sm_clock_seconds();
     sm_status st;
+    if ((st = sm_job_files_check_background(files, naming, err)) != SM_OK) {
+        out->failed = SM_PART_PARAMS;
+        return st;
+    }
+    out->background_asked.size = files->background_size > 0 ? files->background_size : 0;
+    out->background_asked.padding = files->background_padding > 0 ? files->background_padding : 0;
     if ((st = sm_mesh_read_limited(files->template_mesh, files->limits, &out->template_mesh, err)) !=
         SM_OK) {
         file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
@@ -312,14 +369,20 @@ sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
                              size_t params_len, sm_job_inputs *out, sm_error *err)
 {
     sm_params params;
+    sm_background_params bg;
     sm_status st;
     /* cheap syntax check first: no mesh parsing for a garbled params */
-    if ((st = sm_params_from_json(params_text, params_len, 0, &params, err)) != SM_OK) {
+    if ((st = sm_job_params_from_json(params_text, params_len, 0, &params, &bg, err)) != SM_OK) {
         memset(out, 0, sizeof *out);
         out->failed = SM_PART_PARAMS;
         return st;
     }
-    if ((st = sm_job_inputs_read(files, SM_JOB_NAME_PARTS, out, err)) != SM_OK)
+    sm_job_files with_bg = *files;
+    if (!(with_bg.background_size > 0))
+        with_bg.background_size = bg.size;
+    if (!(with_bg.background_padding > 0))
+        with_bg.background_padding = bg.padding;
+    if ((st = sm_job_inputs_read(&with_bg, SM_JOB_NAME_PARTS, out, err)) != SM_OK)
         return st;
     if ((st = sm_params_from_json(params_text, params_len, out->dim, &params, err)) != SM_OK)
         goto fail;

@@ -34,6 +34,7 @@
 #include "shapematch/sm_mesh.h"
 #include "shapematch/sm_params.h"
 #include "shapematch/sm_surface.h"
+#include "sm_proto_params.h"
 #include "sm_proto_vocab.h"
 
 /* The target is either target_mesh + target_sol (a sampled distance), or
@@ -43,14 +44,18 @@
  * around the template and the surface when target_mesh is NULL
  * (sm_background_graded_new: the box of both padded by 10% of its
  * diagonal, graded toward the surface, near-surface cells of the smaller
- * of the template's and the surface's mean edge lengths).  target_surface excludes target_sol. */
+ * of the template's and the surface's mean edge lengths; background_size
+ * and background_padding change both, and only make sense then:
+ * sm_job_files_check_background).  target_surface excludes target_sol. */
 typedef struct sm_job_files {
     const char *template_mesh;
     const char *target_mesh;
     const char *target_sol;
     const char *target_surface;
     /* generated background: near-surface size (0: the default) and
-     * padding as a fraction of the box's diagonal (<= 0: 0.1) */
+     * padding as a fraction of the box's diagonal (0: 0.1); > 0 only
+     * with target_surface and no target_mesh.  sm_job_inputs_load takes
+     * them from the params when they are 0 here */
     double background_size, background_padding;
     /* bounds of the readers (sm_io.h) for untrusted files, NULL: none.
      * After a refusal limits->hit names the bound and `failed` the part
@@ -79,14 +84,31 @@ typedef struct sm_job_inputs {
     int has_surface;          /* the target came from target_surface: */
     sm_surface_health health; /* its health report (after repair) */
     int background_generated; /* no target_mesh: generated background */
+    double background_size;   /* the generated background's near-surface
+                               * size and padding (fraction of the box's
+                               * diagonal) used, defaults included */
+    double background_padding;
+    sm_background_params background_asked; /* what the job asked for (0:
+                               * not given): what job.json keeps */
     double sdf_seconds;       /* distance computation (surface targets) */
     sm_part failed;           /* after a failure: the part the message is
                                * about; SM_NPARTS when none (dimension
                                * mismatch, out of memory) */
 } sm_job_inputs;
 
+/* background_size and background_padding (> 0: given) are for a
+ * generated background: target_surface without target_mesh.  Otherwise
+ * SM_ERR_INVALID, the message naming them as naming says: the params
+ * ("params.background_size: background_size and background_padding are
+ * for a generated background (target_surface without target_mesh) ...")
+ * or the CLI's flags ("--background-size and --background-padding are
+ * ..."); the one check of `run`, `submit` and the daemon. */
+sm_status sm_job_files_check_background(const sm_job_files *files, sm_job_naming naming,
+                                        sm_error *err);
+
 /* Reads and checks the input files and builds the field; parameters are
- * left at their defaults.  On failure every member is freed and NULL. */
+ * left at their defaults.  sm_job_files_check_background comes first
+ * (failed: SM_PART_PARAMS).  On failure every member is freed and NULL. */
 sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
                              sm_job_inputs *out, sm_error *err);
 
@@ -99,7 +121,9 @@ sm_status sm_job_inputs_set_params(sm_job_inputs *in, const sm_params *params,
 
 /* The daemon's and the worker's way: params as JSON (params_text need not
  * be NUL-terminated; its syntax is checked before any mesh is parsed),
- * messages with part names.  On failure every member is freed and NULL. */
+ * messages with part names.  The params' background_size and
+ * background_padding size a generated background (files' own, when > 0,
+ * win), so the upload's check and the worker's run build the same one.  On failure every member is freed and NULL. */
 sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
                              size_t params_len, sm_job_inputs *out,
                              sm_error *err);

@@ -265,6 +265,10 @@ static json_t *surface_health_object(const sm_job_inputs *in)
     json_object_set_new(o, "bbox_max", hi);
     json_object_set_new(o, "background_generated", json_boolean(in->background_generated));
     json_object_set_new(o, "background_vertices", json_integer(in->background->nverts));
+    if (in->background_generated) { /* what sized it, defaults included */
+        json_object_set_new(o, "background_size", json_real(in->background_size));
+        json_object_set_new(o, "background_padding", json_real(in->background_padding));
+    }
     json_object_set_new(o, "sdf_seconds", json_real(in->sdf_seconds));
     return o;
 }

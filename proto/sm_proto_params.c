@@ -4,6 +4,7 @@
  * sm_params_default and its bounds against this decoder). */
 #include "sm_proto_params.h"
 
+#include <float.h>
 #include <limits.h>
 #include <math.h>
 #include <stdlib.h>
@@ -196,10 +197,11 @@ static sm_status decode_clamp(const json_t *clamp, const char *path, int dim,
 
 static const char top_fields[] =
     "clamp, free_boundary, young, poisson, max_iter, tol_step, tol_boundary, "
-    "tol_boundary_rel, tol_stall, stall_window, min_quality, save_every, step_initial, step_max, refactor_every, live_every, solver";
+    "tol_boundary_rel, tol_stall, stall_window, min_quality, save_every, step_initial, step_max, refactor_every, live_every, solver, "
+    "background_size, background_padding";
 
 static sm_status decode_field(const char *key, const json_t *value, const char *sub,
-                              int dim, sm_params *out, sm_error *err)
+                              int dim, sm_params *out, sm_background_params *bg, sm_error *err)
 {
     if (strcmp(key, "clamp") == 0)
         return decode_clamp(value, sub, dim, out, err);
@@ -238,6 +240,10 @@ static sm_status decode_field(const char *key, const json_t *value, const char *
             return sm_error_set(err, SM_ERR_INVALID, "%s: must be \"auto\", \"cholmod\" or \"amg\"", sub);
         return SM_OK;
     }
+    if (strcmp(key, "background_size") == 0)
+        return get_ranged(value, sub, EXCL, 0, NONE, 0, &bg->size, err);
+    if (strcmp(key, "background_padding") == 0)
+        return get_ranged(value, sub, EXCL, 0, INCL, SM_BACKGROUND_PADDING_MAX, &bg->padding, err);
     return sm_error_set(err, SM_ERR_INVALID, "%s: unknown field (known fields: %s)", sub,
                         top_fields);
 }
@@ -249,13 +255,16 @@ static void params_reset(sm_params *out)
     sm_params_default(out);
 }
 
-sm_status sm_params_from_jansson(const json_t *root, int dim, const char *path,
-                                 sm_params *out, sm_error *err)
+sm_status sm_job_params_from_jansson(const json_t *root, int dim, const char *path,
+                                     sm_params *out, sm_background_params *bg, sm_error *err)
 {
     char sub[SMP_PATH_MAX];
+    sm_background_params b = {0, 0};
     if (!path)
         path = "params";
     params_reset(out);
+    if (bg)
+        *bg = b;
     if (dim != 0 && dim != 2 && dim != 3)
         return sm_error_set(err, SM_ERR_INVALID, "%s: mesh dimension %d is not 2 or 3", path,
                             dim);
@@ -270,7 +279,7 @@ sm_status sm_params_from_jansson(const json_t *root, int dim, const char *path,
     json_t *value;
     json_object_foreach((json_t *)root, key, value) {
         smp_path_join(sub, path, key);
-        sm_status st = decode_field(key, value, sub, dim, &p, err);
+        sm_status st = decode_field(key, value, sub, dim, &p, &b, err);
         if (st != SM_OK)
             return st;
         if (strcmp(key, "clamp") == 0)
@@ -296,20 +305,36 @@ sm_status sm_params_from_jansson(const json_t *root, int dim, const char *path,
         }
     }
     *out = p;
+    if (bg)
+        *bg = b;
     return SM_OK;
+}
+
+sm_status sm_params_from_jansson(const json_t *root, int dim, const char *path,
+                                 sm_params *out, sm_error *err)
+{
+    return sm_job_params_from_jansson(root, dim, path, out, NULL, err);
+}
+
+sm_status sm_job_params_from_json(const char *text, size_t len, int dim, sm_params *out,
+                                  sm_background_params *bg, sm_error *err)
+{
+    json_t *root;
+    params_reset(out);
+    if (bg)
+        bg->size = bg->padding = 0;
+    sm_status st = smp_load(text, len, SM_PARAMS_JSON_MAX_BYTES, "params", &root, err);
+    if (st != SM_OK)
+        return st;
+    st = sm_job_params_from_jansson(root, dim, "params", out, bg, err);
+    json_decref(root);
+    return st;
 }
 
 sm_status sm_params_from_json(const char *text, size_t len, int dim, sm_params *out,
                               sm_error *err)
 {
-    json_t *root;
-    params_reset(out);
-    sm_status st = smp_load(text, len, SM_PARAMS_JSON_MAX_BYTES, "params", &root, err);
-    if (st != SM_OK)
-        return st;
-    st = sm_params_from_jansson(root, dim, "params", out, err);
-    json_decref(root);
-    return st;
+    return sm_job_params_from_json(text, len, dim, out, NULL, err);
 }
 
 /* ---------------------------------------------------------------- encode */
@@ -404,6 +429,40 @@ json_t *sm_params_to_jansson(const sm_params *p, int dim)
 char *sm_params_to_json(const sm_params *p, int dim)
 {
     json_t *root = sm_params_to_jansson(p, dim);
+    if (!root)
+        return NULL;
+    char *text = sm_json_dumps(root, 0);
+    json_decref(root);
+    return text;
+}
+
+/* One background member: left out when 0 (not given); -1 when it is
+ * something JSON or the decoder would not take back. */
+static int set_background_member(json_t *root, const char *key, double v, double max)
+{
+    if (v == 0)
+        return 0;
+    if (!(v > 0) || !(v <= max))
+        return -1;
+    return smp_set(root, key, json_real(v));
+}
+
+json_t *sm_job_params_to_jansson(const sm_params *p, const sm_background_params *bg, int dim)
+{
+    json_t *root = sm_params_to_jansson(p, dim);
+    if (root && bg &&
+        (set_background_member(root, "background_size", bg->size, DBL_MAX) ||
+         set_background_member(root, "background_padding", bg->padding,
+                               SM_BACKGROUND_PADDING_MAX))) {
+        json_decref(root);
+        return NULL;
+    }
+    return root;
+}
+
+char *sm_job_params_to_json(const sm_params *p, const sm_background_params *bg, int dim)
+{
+    json_t *root = sm_job_params_to_jansson(p, bg, dim);
     if (!root)
         return NULL;
     char *text = sm_json_dumps(root, 0);

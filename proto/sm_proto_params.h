@@ -11,7 +11,9 @@
  * Top-level fields: clamp, free_boundary, young, poisson, max_iter,
  * tol_step, tol_boundary, tol_boundary_rel, tol_stall, stall_window,
  * min_quality, save_every, step_initial, step_max,
- * refactor_every.  Decoding is strict: unknown fields, wrong types,
+ * refactor_every, live_every, solver, and the generated background's
+ * background_size and background_padding (sm_background_params: not the
+ * descent's, so outside sm_params).  Decoding is strict: unknown fields, wrong types,
  * out-of-range values and duplicate keys are errors, and the message
  * starts with the JSON path of the offending field, e.g.
  *   "params.clamp.radius: must be > 0 (got -1)".
@@ -30,6 +32,26 @@
 /* Largest params document accepted (bytes).  A complete params with two
  * full reference lists is well under 2 KiB. */
 #define SM_PARAMS_JSON_MAX_BYTES (64 * 1024)
+
+/* How a generated background is made (params "background_size" and
+ * "background_padding"; `--background-size`, `--background-padding` of
+ * the CLI).  They mean something only for a target_surface without
+ * target_mesh (sm_job_files_check_background, sm_job_inputs.h, refuses
+ * them otherwise).  Kept outside sm_params: the descent never sees them,
+ * the job's inputs do.  0 means "not given": the defaults of
+ * sm_job_inputs.h (size from the meshes' mean edge lengths, padding
+ * SM_BACKGROUND_PADDING_DEFAULT). */
+typedef struct sm_background_params {
+    double size;    /* near-surface cell side, a length in the meshes' unit: > 0 */
+    double padding; /* margin around template and surface, a fraction of their
+                     * box's diagonal: > 0 and <= SM_BACKGROUND_PADDING_MAX */
+} sm_background_params;
+
+/* The padding when none is given (the schema's default). */
+#define SM_BACKGROUND_PADDING_DEFAULT 0.1
+/* A padding beyond 100 diagonals only makes coarse cells nobody samples
+ * (and past ~1e300 an infinite box). */
+#define SM_BACKGROUND_PADDING_MAX 100.0
 
 /* Wire names of the clamp kinds: "ball", "elements", "vertices", "none".
  * sm_clamp_kind_name returns NULL for a value outside the enum. */
@@ -59,6 +81,16 @@ sm_status sm_params_from_jansson(const json_t *root, int dim,
                                  const char *path, sm_params *out,
                                  sm_error *err);
 
+/* The same with the background members: *bg gets them (0 when absent).
+ * The functions above are these with bg NULL: the members are decoded
+ * and checked all the same (every decoder accepts the same documents),
+ * then dropped.  On error *bg is zeroed. */
+sm_status sm_job_params_from_json(const char *text, size_t len, int dim, sm_params *out,
+                                  sm_background_params *bg, sm_error *err);
+sm_status sm_job_params_from_jansson(const json_t *root, int dim, const char *path,
+                                     sm_params *out, sm_background_params *bg,
+                                     sm_error *err);
+
 /* Encodes every field (defaults included), compact, one line, keys in a
  * stable order; fields that do not apply to the clamp kind are left out
  * (center/radius only for ball, refs only for elements/vertices, alpha
@@ -73,5 +105,12 @@ char *sm_params_to_json(const sm_params *p, int dim);
 
 /* Same as a new jansson object (caller owns the reference), or NULL. */
 json_t *sm_params_to_jansson(const sm_params *p, int dim);
+
+/* The same plus the background members that are given (> 0): absent
+ * ones are left out, like the clamp members that do not apply, so that
+ * a job without them reads back without them.  bg NULL: none.  NULL
+ * also for a member that is NaN, infinite or negative. */
+json_t *sm_job_params_to_jansson(const sm_params *p, const sm_background_params *bg, int dim);
+char *sm_job_params_to_json(const sm_params *p, const sm_background_params *bg, int dim);
 
 #endif

@@ -310,6 +310,8 @@ int main(int argc, char **argv)
         return fail(&w, SMD_WORKER_EXIT_USAGE, "%s is not a job description", SMD_JOB_FILE);
     }
 
+    /* a generated background's size and padding come from the params
+     * (sm_job_inputs_load), as in the upload's check */
     sm_job_files files = {.template_mesh = given[SM_PART_TEMPLATE],
                           .target_mesh = given[SM_PART_TARGET_MESH],
                           .target_sol = given[SM_PART_TARGET_SOL],

@@ -243,7 +243,8 @@ enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req)
                                    "or Gmsh .msh, optionally gzip-compressed); its exact signed "
                                    "distance is computed at the vertices of target_mesh, or of a "
                                    "background generated around template and surface when "
-                                   "target_mesh is not given.  Excludes target_sol.", 0));
+                                   "target_mesh is not given (sized by params background_size "
+                                   "and background_padding).  Excludes target_sol.", 0));
     json_object_set_new(inputs, sm_part_names[SM_PART_PARAMS],
                         json_pack("{s:s,s:s,s:i,s:i,s:o}", "title", "Parameters", "description",
                                   "JSON document; only clamp is required.", "minOccurs", 1,

@@ -299,10 +299,11 @@ enum MHD_Result smd_upload_begin_decoded(struct MHD_Connection *conn, smd_reques
     return r;
 }
 
-/* Writes job.json: inputs and canonical params. */
+/* Writes job.json: inputs and canonical params (with the background
+ * members the job gave, for the worker's sm_job_inputs_load). */
 static int write_job_file(smd_upload *u, const sm_job_inputs *in)
 {
-    json_t *params = sm_params_to_jansson(&in->params, in->dim);
+    json_t *params = sm_job_params_to_jansson(&in->params, &in->background_asked, in->dim);
     json_t *doc = json_object();
     size_t prefix = strlen(u->dir) + 1; /* paths relative to the job folder */
     if (!params || !doc) {

@@ -11,7 +11,7 @@
  *
  * JOB_DIR/job.json (written by the daemon after validation):
  *   {"template": "inputs/template.mesh", "target_mesh": "inputs/...",
- *    "target_sol": "inputs/...", "params": {<sm_params_to_json>}}
+ *    "target_sol": "inputs/...", "params": {<sm_job_params_to_json>}}
  * (paths relative to JOB_DIR); a surface target has "target_surface"
  * instead of "target_sol", and "target_mesh" only when one was sent.  The worker writes its outputs into
  * JOB_DIR/results.tmp/ and renames it to JOB_DIR/results/ when every file

@@ -11,7 +11,14 @@
 #     malformed STL a 422 naming the part; no target at all a 400 naming
 #     the missing part;
 #   - `shapematch submit --target-surface S --wait` end to end;
-#   - the process description lists target_surface.
+#   - the process description lists target_surface;
+#   - params background_size / background_padding size the generated
+#     background: the summary reports them (and the defaults otherwise),
+#     a smaller size gives more vertices, the same as `run` with the
+#     flags; with target_mesh (or no target_surface) a 422 naming the
+#     param and the conflict, a bad value (0, negative, string) the params
+#     error, also through POST /v1/processes/match/execution; a background
+#     beyond --max-vertices a 413; `submit --background-size` sends it.
 source "$(dirname "$0")/lib.sh"
 
 d=$WORK/case
@@ -32,7 +39,9 @@ TPL=$d/small.msh
 BG=$d/ball.msh
 PARAMS='{"clamp": {"kind": "ball", "center": [0, 0, 0], "radius": 0.5}, "max_iter": 30}'
 
-if ! start_daemon surface --workers 1 --worker-threads 1; then
+# --max-vertices 50000: far above every input here, below a background
+# of size 0.05 (73k vertices)
+if ! start_daemon surface --workers 1 --worker-threads 1 --max-vertices 50000; then
     not_ok "the daemon starts"
     exit 1
 fi
@@ -93,6 +102,109 @@ else
     not_ok "template + target_surface + target_mesh" "code $code, state $(job_state "$ID2")" \
         "$(cat "$WORK/bg.json" "$SPOOL/jobs/$ID2/results/summary.json" 2>/dev/null | head -c 800)"
 fi
+
+# ------------------------- params background_size / background_padding
+# the default job above reports what sized its background
+jq -e '.target_surface.background_size > 0 and .target_surface.background_padding == 0.1' \
+    "$JOB/results/summary.json" >/dev/null
+check "the summary reports the default background size ($(jq .target_surface.background_size \
+    "$JOB/results/summary.json")) and padding 0.1" test $? = 0
+FINE=0.08
+code=$(post fine -F "template=@$TPL" -F "target_surface=@$STL" \
+    -F "params=${PARAMS%\}}, \"background_size\": $FINE, \"background_padding\": 0.2}")
+ID3=$(jq -r '.jobID // empty' "$WORK/fine.json" 2>/dev/null)
+if [ "$code" = 201 ] && [ -n "$ID3" ] && wait_final "$ID3" 120 && state_is "$ID3" successful; then
+    ok "background_size $FINE, background_padding 0.2: the job ends successful"
+else
+    not_ok "background_size $FINE ends successful" "code $code, state $(job_state "$ID3")" \
+        "$(head -c 600 "$WORK/fine.json")"
+fi
+jq -e --argjson h "$FINE" '.params.background_size == $h and .params.background_padding == 0.2' \
+    "$SPOOL/jobs/$ID3/job.json" >/dev/null
+check "job.json keeps background_size and background_padding for the worker" test $? = 0
+OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 "$BIN/shapematch" run --template "$TPL" \
+    --target-surface "$STL" --clamp-ball 0,0,0,0.5 --max-iter 30 --background-size "$FINE" \
+    --background-padding 0.2 --quiet -o "$WORK/run-fine" >/dev/null 2>"$WORK/run-fine.err"
+msg=$(python3 - "$SPOOL/jobs/$ID3/results/summary.json" "$JOB/results/summary.json" \
+    "$WORK/run-fine/summary.json" "$FINE" 2>&1 <<'PY'
+import json, sys
+fine, dflt, run = (json.load(open(p)) for p in sys.argv[1:4])
+h = float(sys.argv[4])
+f, d, r = fine["target_surface"], dflt["target_surface"], run["target_surface"]
+print("%d background vertices with size %g (padding %g) vs %d with the default %.4g; run: %d"
+      % (f["background_vertices"], f["background_size"], f["background_padding"],
+         d["background_vertices"], d["background_size"], r["background_vertices"]))
+ok = (f["background_generated"] and f["background_size"] == h and f["background_padding"] == 0.2
+      and h < d["background_size"] and f["background_vertices"] > 1.5 * d["background_vertices"]
+      and f["background_vertices"] == r["background_vertices"]
+      and abs(fine["boundary_l2"] - run["boundary_l2"]) <= 1e-9 * run["boundary_l2"])
+sys.exit(0 if ok else 1)
+PY
+)
+check "the summary shows the size and padding used; $msg" test $? = 0
+
+# refusals: the param named in invalid-params, the conflict in the detail
+bad_background() { # NAME EXPECTED-PARAM ERE CURL-ARGS...
+    local name=$1 param=$2 re=$3
+    shift 3
+    local code
+    code=$(post "$name" "$@")
+    if [ "$code" = 422 ] &&
+        jq -e --arg p "$param" --arg re "$re" '.status == 422 and (.detail | test($re)) and
+            .["invalid-params"][0].name == $p' "$WORK/$name.json" >/dev/null; then
+        ok "$name: 422 \"$(jq -r .detail "$WORK/$name.json" | head -c 160)\""
+    else
+        not_ok "$name: 422 naming $param" "got $code" "$(head -c 600 "$WORK/$name.json")"
+    fi
+}
+bad_background bg_with_mesh params.background_size \
+    '^params.background_size: .*generated background \(target_surface without target_mesh\): target_mesh is given' \
+    -F "template=@$TPL" -F "target_surface=@$STL" -F "target_mesh=@$BG" \
+    -F "params=${PARAMS%\}}, \"background_size\": 0.1}"
+printf 'MeshVersionFormatted 2\nDimension 3\nSolAtVertices\n1\n1 1\n0\nEnd\n' >"$d/zero.sol"
+bad_background padding_with_sol params.background_padding 'target_surface is not given' \
+    -F "template=@$TPL" -F "target_mesh=@$BG" -F "target_sol=@$d/zero.sol" \
+    -F "params=${PARAMS%\}}, \"background_padding\": 0.3}"
+bad_background size_zero params.background_size '^params.background_size: must be > 0 \(got 0\)' \
+    -F "template=@$TPL" -F "target_surface=@$STL" -F "params=${PARAMS%\}}, \"background_size\": 0}"
+bad_background size_negative params.background_size '^params.background_size: must be > 0 \(got -0.5\)' \
+    -F "template=@$TPL" -F "target_surface=@$STL" -F "params=${PARAMS%\}}, \"background_size\": -0.5}"
+bad_background size_string params.background_size '^params.background_size: must be a number \(got string\)' \
+    -F "template=@$TPL" -F "target_surface=@$STL" -F "params=${PARAMS%\}}, \"background_size\": \"0.1\"}"
+bad_background padding_huge params.background_padding '^params.background_padding: must be <= 100' \
+    -F "template=@$TPL" -F "target_surface=@$STL" -F "params=${PARAMS%\}}, \"background_padding\": 1e9}"
+bad_background size_too_fine params.background_size \
+    '^params.background_size: .*give a larger params.background_size' \
+    -F "template=@$TPL" -F "target_surface=@$STL" -F "params=${PARAMS%\}}, \"background_size\": 1e-9}"
+# a generated background is held to the daemon's bounds, like an uploaded one
+code=$(post too_many -F "template=@$TPL" -F "target_surface=@$STL" \
+    -F "params=${PARAMS%\}}, \"background_size\": 0.05}")
+if [ "$code" = 413 ] && jq -e '.detail | test("^params.background_size: the generated background has [0-9]+ vertices, beyond the limit of 50000: give a larger params.background_size.*--max-vertices")' \
+        "$WORK/too_many.json" >/dev/null; then
+    ok "a background beyond --max-vertices: 413 \"$(jq -r .detail "$WORK/too_many.json" | head -c 200)\""
+else
+    not_ok "a background beyond --max-vertices: 413" "got $code" "$(head -c 600 "$WORK/too_many.json")"
+fi
+# the same rules through the OGC execute request (the same upload path)
+for f in TPL STL BG; do base64 -w0 "${!f}" >"$WORK/$f.b64"; done # files: beyond ARG_MAX as --arg
+jq -n --rawfile t "$WORK/TPL.b64" --rawfile s "$WORK/STL.b64" --rawfile m "$WORK/BG.b64" \
+    '{inputs: {template: {value: $t}, target_surface: {value: $s}, target_mesh: {value: $m},
+      params: {clamp: {kind: "ball", center: [0, 0, 0], radius: 0.5}, background_size: 0.1}}}' \
+    >"$WORK/execute-conflict.json"
+code=$(hcurl "${AUTH[@]}" -o "$WORK/exec_conflict.json" -w '%{http_code}' -H 'Content-Type: application/json' \
+    -H 'Prefer: respond-async' --data-binary "@$WORK/execute-conflict.json" \
+    "$BASE/v1/processes/match/execution")
+if [ "$code" = 422 ] && jq -e '.["invalid-params"][0].name == "params.background_size" and
+        (.detail | test("target_mesh is given"))' "$WORK/exec_conflict.json" >/dev/null; then
+    ok "execute: background_size with target_mesh is a 422 naming it"
+else
+    not_ok "execute: background_size with target_mesh is a 422" "got $code" "$(head -c 600 "$WORK/exec_conflict.json")"
+fi
+hcurl "${AUTH[@]}" "$BASE/v1/processes/match" >"$WORK/process-bg.json"
+jq -e '.inputs.params.schema.properties | (.background_size.exclusiveMinimum == 0) and
+       (.background_padding.default == 0.1) and (.background_size.description | test("target_surface without target_mesh"))' \
+    "$WORK/process-bg.json" >/dev/null
+check "the process description's params list background_size and background_padding" test $? = 0
 
 # ------------------------------------------------------------ refusals
 # expect_refusal NAME STATUS ERE PART: the answer of `post NAME` is
@@ -157,6 +269,25 @@ timeout 30 "$BIN/shapematch" submit --server "$BASE" --template "$TPL" --target-
 rc=$?
 [ "$rc" = 1 ] && grep -q "excludes --target-sol" "$WORK/sub2.err"
 check "submit: --target-surface excludes --target-sol (exit $rc, before any request)" test $? = 0
+
+# submit --background-size: sent as params.background_size
+timeout $((120 * SLOW)) "$BIN/shapematch" submit --server "$BASE" --template "$TPL" \
+    --target-surface "$STL" --clamp-ball 0,0,0,0.5 --max-iter 30 --background-size "$FINE" \
+    --background-padding 0.2 --wait --quiet -o "$WORK/sub-fine" >"$WORK/sub-fine.out" 2>"$WORK/sub-fine.err"
+rc=$?
+if [ "$rc" = 0 ] && jq -e --argjson h "$FINE" --slurpfile r "$WORK/run-fine/summary.json" \
+        '.target_surface.background_size == $h and .target_surface.background_padding == 0.2 and
+         .target_surface.background_vertices == $r[0].target_surface.background_vertices' \
+        "$WORK/sub-fine/summary.json" >/dev/null; then
+    ok "submit --background-size $FINE --background-padding 0.2: the job's background is run's"
+else
+    not_ok "submit --background-size" "exit $rc" "$(head -c 600 "$WORK/sub-fine.err")"
+fi
+timeout 30 "$BIN/shapematch" submit --server "$BASE" --template "$TPL" --target-surface "$STL" \
+    --target-mesh "$BG" --background-size 0.1 --clamp-ball 0,0,0,0.5 >/dev/null 2>"$WORK/sub3.err"
+rc=$?
+[ "$rc" = 1 ] && grep -q "are for a generated background (--target-surface without --target-mesh): --target-mesh is given" "$WORK/sub3.err"
+check "submit: --background-size with --target-mesh is a usage error (exit $rc, before any request)" test $? = 0
 
 reports_clean && ok "no sanitizer report" || not_ok "no sanitizer report"
 stop_daemon

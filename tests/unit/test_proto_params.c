@@ -13,6 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "sm_job_inputs.h"
 #include "sm_proto_params.h"
 
 static const char *root_dir(void)
@@ -183,6 +184,101 @@ static void test_good_corpus(void **state)
     assert_non_null(text);
     assert_int_equal(sm_params_from_json(text, len, 2, &p, &err), SM_OK);
     free(text);
+
+    /* the generated background's members: into bg, and accepted (then
+     * dropped) by the decoder that has no bg */
+    snprintf(path, sizeof path, "%s/tests/data/proto/params/good/background_3d.json", root_dir());
+    text = slurp(path, &len);
+    assert_non_null(text);
+    sm_background_params bg = {1, 1};
+    assert_int_equal(sm_job_params_from_json(text, len, 3, &p, &bg, &err), SM_OK);
+    assert_true(bg.size == 0.05 && bg.padding == 0.25);
+    assert_int_equal(p.clamp, SM_CLAMP_BALL);
+    assert_int_equal(sm_params_from_json(text, len, 3, &p, &err), SM_OK);
+    free(text);
+}
+
+/* background_size / background_padding: absent is 0 (the default), the
+ * encoder writes only the given ones and reads them back exactly, a bad
+ * one leaves bg zeroed. */
+static void test_background_members(void **state)
+{
+    (void)state;
+    sm_params p;
+    sm_background_params bg = {7, 7};
+    sm_error err = {0};
+    const char *none = "{\"clamp\": {\"kind\": \"none\"}}";
+    assert_int_equal(sm_job_params_from_json(none, strlen(none), 2, &p, &bg, &err), SM_OK);
+    assert_true(bg.size == 0 && bg.padding == 0);
+    char *text = sm_job_params_to_json(&p, &bg, 2);
+    assert_non_null(text);
+    assert_null(strstr(text, "background"));
+    free(text);
+
+    bg.size = 0.1 / 3;
+    text = sm_job_params_to_json(&p, &bg, 2);
+    assert_non_null(text);
+    assert_non_null(strstr(text, "\"background_size\":"));
+    assert_null(strstr(text, "background_padding"));
+    sm_background_params back = {0, 0};
+    assert_int_equal(sm_job_params_from_json(text, strlen(text), 2, &p, &back, &err), SM_OK);
+    assert_true(same_double(back.size, bg.size) && back.padding == 0);
+    free(text);
+
+    bg.padding = SM_BACKGROUND_PADDING_MAX;
+    json_t *obj = sm_job_params_to_jansson(&p, &bg, 3);
+    assert_non_null(obj);
+    assert_int_equal(sm_job_params_from_jansson(obj, 3, NULL, &p, &back, &err), SM_OK);
+    assert_true(same_double(back.size, bg.size) && back.padding == SM_BACKGROUND_PADDING_MAX);
+    json_decref(obj);
+
+    /* what the decoder would refuse is not encoded */
+    sm_background_params bad[] = {{-1, 0}, {0, -0.5}, {NAN, 0}, {INFINITY, 0},
+                                  {0, SM_BACKGROUND_PADDING_MAX * 2}};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
+        assert_null(sm_job_params_to_json(&p, &bad[i], 2));
+    assert_non_null(obj = sm_job_params_to_jansson(&p, NULL, 2));
+    json_decref(obj);
+
+    const char *neg = "{\"clamp\": {\"kind\": \"none\"}, \"background_size\": 0.5, "
+                      "\"background_padding\": -1}";
+    bg.size = bg.padding = 3;
+    assert_int_equal(sm_job_params_from_json(neg, strlen(neg), 2, &p, &bg, &err), SM_ERR_INVALID);
+    assert_string_equal(err.msg, "params.background_padding: must be > 0 (got -1)");
+    assert_true(bg.size == 0 && bg.padding == 0);
+}
+
+/* The one rule of run, submit and the daemon: the background members
+ * only with a target_surface and no target_mesh, the message naming the
+ * params (daemon) or the flags (CLI) and what is wrong. */
+static void test_background_needs_generated(void **state)
+{
+    (void)state;
+    sm_error err = {0};
+    sm_job_files f = {.template_mesh = "t.mesh", .target_surface = "s.stl"};
+    assert_int_equal(sm_job_files_check_background(&f, SM_JOB_NAME_PARTS, &err), SM_OK);
+    f.background_size = 0.1;
+    assert_int_equal(sm_job_files_check_background(&f, SM_JOB_NAME_PARTS, &err), SM_OK);
+    f.target_mesh = "b.mesh";
+    assert_int_equal(sm_job_files_check_background(&f, SM_JOB_NAME_PARTS, &err), SM_ERR_INVALID);
+    assert_string_equal(err.msg, "params.background_size: background_size and background_padding "
+                                 "are for a generated background (target_surface without "
+                                 "target_mesh): target_mesh is given");
+    assert_int_equal(sm_job_files_check_background(&f, SM_JOB_NAME_PATHS, &err), SM_ERR_INVALID);
+    assert_string_equal(err.msg, "--background-size and --background-padding are for a generated "
+                                 "background (--target-surface without --target-mesh): "
+                                 "--target-mesh is given");
+    /* padding alone, and no surface at all (a sampled target) */
+    sm_job_files g = {.template_mesh = "t.mesh", .target_mesh = "b.mesh", .target_sol = "b.sol",
+                      .background_padding = 0.2};
+    assert_int_equal(sm_job_files_check_background(&g, SM_JOB_NAME_PARTS, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "params.background_padding: "));
+    assert_non_null(strstr(err.msg, "target_surface is not given"));
+    /* and sm_job_inputs_read refuses before reading a file (none exist) */
+    sm_job_inputs in;
+    assert_int_equal(sm_job_inputs_read(&f, SM_JOB_NAME_PARTS, &in, &err), SM_ERR_INVALID);
+    assert_int_equal(in.failed, SM_PART_PARAMS);
+    assert_non_null(strstr(err.msg, "target_mesh is given"));
 }
 
 /* Every document of the bad corpus fails with its expected message, and
@@ -486,7 +582,10 @@ static void test_schema_matches_decoder(void **state)
     sm_params d;
     defaults(&d);
     d.clamp = SM_CLAMP_NONE;
-    json_t *encoded = sm_params_to_jansson(&d, 2);
+    /* written only when given: the background members (no default for
+     * the size: it comes from the meshes) */
+    sm_background_params bg = {0.5, SM_BACKGROUND_PADDING_DEFAULT};
+    json_t *encoded = sm_job_params_to_jansson(&d, &bg, 2);
     assert_non_null(encoded);
     assert_int_equal(json_object_size(encoded), json_object_size(props));
     const char *key;
@@ -500,9 +599,9 @@ static void test_schema_matches_decoder(void **state)
             continue;
         /* the schema's default is the core's default */
         json_t *dflt = json_object_get(prop, "default");
-        if (!dflt)
+        if (!dflt && strcmp(key, "background_size") != 0) /* that one: from the meshes */
             fail_msg("schema field %s has no default", key);
-        if (!json_equal(dflt, mine) &&
+        if (dflt && !json_equal(dflt, mine) &&
             !(json_is_number(dflt) && json_is_number(mine) &&
               json_number_value(dflt) == json_number_value(mine)))
             fail_msg("schema default of %s differs from sm_params_default", key);
@@ -580,6 +679,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_minimal_ball_is_complete),
         cmocka_unit_test(test_good_corpus),
+        cmocka_unit_test(test_background_members),
+        cmocka_unit_test(test_background_needs_generated),
         cmocka_unit_test(test_bad_corpus),
         cmocka_unit_test(test_huge_and_odd_inputs),
         cmocka_unit_test(test_long_key_message),

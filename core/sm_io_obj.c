@@ -109,7 +109,7 @@ static sm_status grow(obj_in *c, void **a, int64_t *cap, int64_t need, size_t it
                                          cap == &c->capv ? "vertices" : "facets");
     if (st != SM_OK || need <= *cap)
         return st;
-    int64_t n = *cap ? *cap * 2 : 1024;
+    int64_t n = *cap ? *cap * 2 : 64; /* small inputs, small buffers */
     while (n < need)
         n *= 2;
     if (n > SM_MAX_ENTITIES)

@@ -151,7 +151,7 @@ static sm_status read_facet(sm_reader *r, stl_grow *g, sm_error *err)
         (st = sm_reader_limit_count(r, err, g->n + 1, 0, "facets")) != SM_OK)
         return st;
     if (g->n == g->cap) {
-        int64_t cap = g->cap ? 2 * g->cap : 1024;
+        int64_t cap = g->cap ? 2 * g->cap : 64; /* small inputs, small buffers */
         if (cap > SM_MAX_ENTITIES / 3)
             return sm_reader_fail_line(r, err, SM_ERR_FORMAT, "too many facets");
         double *x = realloc(g->x, (size_t)cap * 9 * sizeof *x);

@@ -34,7 +34,7 @@ int LLVMFuzzerInitialize(int *argc, char ***argv);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 static struct MHD_Daemon *daemon_;
-static char dir_[64];
+static const char *dir_;
 
 typedef struct request {
     struct MHD_PostProcessor *pp;
@@ -97,20 +97,10 @@ static void on_completed(void *cls, struct MHD_Connection *conn, void **req_cls,
     *req_cls = NULL;
 }
 
-static void remove_dir(void)
-{
-    smd_rmtree(dir_);
-}
-
 int LLVMFuzzerInitialize(int *argc, char ***argv)
 {
     (void)argc, (void)argv;
-    struct stat st;
-    int shm = stat("/dev/shm", &st) == 0 && S_ISDIR(st.st_mode) && access("/dev/shm", W_OK) == 0;
-    snprintf(dir_, sizeof dir_, "%s/fuzz-multipart-XXXXXX", shm ? "/dev/shm" : "/tmp");
-    if (!mkdtemp(dir_))
-        abort();
-    atexit(remove_dir);
+    dir_ = fuzz_parts_upload_dir("multipart");
     daemon_ = MHD_start_daemon(MHD_USE_NO_LISTEN_SOCKET, 0, NULL, NULL, on_request, NULL,
                                MHD_OPTION_NOTIFY_COMPLETED, on_completed, NULL,
                                MHD_OPTION_CONNECTION_TIMEOUT, 10u, MHD_OPTION_END);

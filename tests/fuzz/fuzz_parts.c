@@ -29,24 +29,16 @@
 int LLVMFuzzerInitialize(int *argc, char ***argv);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
-static char dir_[64];
-
-static void remove_dir(void)
-{
-    smd_rmtree(dir_);
-}
+static const char *dir_;
 
 int LLVMFuzzerInitialize(int *argc, char ***argv)
 {
     (void)argc, (void)argv;
-    struct stat st;
-    int shm = stat("/dev/shm", &st) == 0 && S_ISDIR(st.st_mode) && access("/dev/shm", W_OK) == 0;
-    snprintf(dir_, sizeof dir_, "%s/fuzz-parts-XXXXXX", shm ? "/dev/shm" : "/tmp");
+    dir_ = fuzz_parts_upload_dir("parts");
     char inputs[128];
-    if (!mkdtemp(dir_) || snprintf(inputs, sizeof inputs, "%s/inputs", dir_) >= 128 ||
+    if (snprintf(inputs, sizeof inputs, "%s/inputs", dir_) >= (int)sizeof inputs ||
         mkdir(inputs, 0700) != 0)
         abort();
-    atexit(remove_dir);
     return 0;
 }
 

@@ -1,9 +1,31 @@
 #include "fuzz_parts_check.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "sm_proto_params.h"
+#include "smd_util.h"
+
+static char upload_dir[64];
+
+static void remove_upload_dir(void)
+{
+    smd_rmtree(upload_dir);
+}
+
+const char *fuzz_parts_upload_dir(const char *tag)
+{
+    struct stat st;
+    int shm = stat("/dev/shm", &st) == 0 && S_ISDIR(st.st_mode) && access("/dev/shm", W_OK) == 0;
+    if (snprintf(upload_dir, sizeof upload_dir, "%s/fuzz-%s-XXXXXX", shm ? "/dev/shm" : "/tmp",
+                 tag) >= (int)sizeof upload_dir ||
+        !mkdtemp(upload_dir))
+        abort();
+    atexit(remove_upload_dir);
+    return upload_dir;
+}
 
 void fuzz_parts_finish(smd_parts *p)
 {

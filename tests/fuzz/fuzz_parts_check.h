@@ -11,6 +11,11 @@
 
 #include "smd_parts.h"
 
+/* The targets' upload folder: a new directory under /dev/shm (tmpfs: no
+ * disk I/O per part) or /tmp, named after tag, removed at exit; abort()s
+ * when it cannot be made.  Returns its path (static storage). */
+const char *fuzz_parts_upload_dir(const char *tag);
+
 void fuzz_parts_finish(smd_parts *p);
 void fuzz_parts_check(const smd_parts *p);
 

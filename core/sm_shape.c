@@ -30,6 +30,7 @@ struct sm_shape {
     double *weights;       /* largest batch */
     double *normals;       /* nactive * (dim + 1): unit normal and measure */
     int32_t *gathered_hint;/* nverts: hints of a gathered subset of vertices */
+    int primed;            /* the hints above were seeded (prime_hints) */
 };
 
 /* Facet rules on the reference simplex, exact for degree 2 (enough for
@@ -162,6 +163,37 @@ static void eval_batch(const sm_shape *s, int64_t n, const double *points, int32
     }
 }
 
+/* The first evaluation of a point without a hint starts from the grid
+ * (a few hundred ns each, most of the set-up's sampling: 4 points per
+ * element for the volume J, 3 per facet for the load).  So before the
+ * first one, d is evaluated at every vertex in turn, each walk starting
+ * from the previous vertex's element (mesh generators number vertices
+ * in runs of neighbours), and every quadrature point starts from the
+ * element found for the vertex it lies closest to. */
+static void prime_hints(sm_shape *s, const double *coords)
+{
+    const sm_mesh *m = s->mesh;
+    const int dim = m->dim, nq = s->nq, nv = dim + 1;
+    int32_t hint = -1;
+    for (int32_t v = 0; v < m->nverts; v++) {
+        (void)sm_field_eval(s->field, vtx(coords, dim, v), &hint);
+        s->vertex_hint[v] = hint;
+    }
+    for (int32_t k = 0; k < s->nactive; k++) {
+        /* facet quadrature point q weighs facet vertex q most */
+        const int32_t *fv = m->bfacets + (size_t)s->active[k] * (size_t)dim;
+        for (int q = 0; q < nq; q++)
+            s->load_hint[(size_t)k * (size_t)nq + (size_t)q] = s->vertex_hint[fv[q % dim]];
+    }
+    for (int32_t e = 0; e < m->nelems; e++) {
+        /* volume point i weighs vertex i most (2D: edge midpoint i, i+1) */
+        const int32_t *ev = m->elems + (size_t)e * (size_t)nv;
+        for (int i = 0; i < nv; i++)
+            s->elem_hint[(size_t)e * (size_t)nv + (size_t)i] = s->vertex_hint[ev[i]];
+    }
+    s->primed = 1;
+}
+
 /* Barycentric coordinates and weight of facet quadrature point q. */
 static void facet_rule(int dim, int q, double *lam, double *w)
 {
@@ -182,6 +214,8 @@ void sm_shape_load(sm_shape *s, const double *coords, double *load, sm_boundary_
     const sm_mesh *m = s->mesh;
     const int dim = m->dim, nq = s->nq;
     const int32_t na = s->nactive;
+    if (!s->primed)
+        prime_hints(s, coords);
     /* gather the quadrature points, remember normal and measure */
 #pragma omp parallel for schedule(static)
     for (int32_t k = 0; k < na; k++) {
@@ -247,6 +281,8 @@ double sm_shape_delta_j(sm_shape *s, const double *coords, const double *disp)
     const sm_mesh *m = s->mesh;
     const int dim = m->dim, nq = s->nq;
     const int32_t na = s->nactive;
+    if (!s->primed)
+        prime_hints(s, coords);
     /* gather the points of the swept regions with their Jacobian weights:
      * point (k, g, q) is facet quadrature point q at pseudo-time gauss_s[g] */
 #pragma omp parallel for schedule(static)
@@ -309,6 +345,8 @@ double sm_shape_volume_j(sm_shape *s, const double *coords)
 {
     const sm_mesh *m = s->mesh;
     const int dim = m->dim, nv = dim + 1;
+    if (!s->primed)
+        prime_hints(s, coords);
 #pragma omp parallel for schedule(static)
     for (int32_t e = 0; e < m->nelems; e++) {
         const int32_t *ev = m->elems + (size_t)e * (size_t)nv;
@@ -338,5 +376,7 @@ double sm_shape_volume_j(sm_shape *s, const double *coords)
 
 void sm_shape_sample_vertices(sm_shape *s, const double *coords, double *values)
 {
+    if (!s->primed)
+        prime_hints(s, coords);
     eval_batch(s, s->mesh->nverts, coords, s->vertex_hint, values);
 }

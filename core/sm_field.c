@@ -13,37 +13,34 @@
  * Outside points get value(p) + |x - p|, p the nearest point of the mesh,
  * searched over the facets without neighbour binned in the same grid.
  *
- * Per valid element we keep one record of doubles:
- *   origin (dim)          coordinates of local vertex 0
- *   inverse map (dim*dim) rows of J^-1, J = [v1-v0 | ... | vd-v0], so that
- *                         lambda_k = row_k . (x - origin), k = 1..dim
- *   value at origin (1)
- *   gradient (dim)        so that d(x) = value + gradient . (x - origin)
- * i.e. 9 doubles (72 B) per triangle and 16 doubles (128 B) per
- * tetrahedron, plus dim+1 neighbour indices and one validity byte.  With
- * the grid this comes to about 120 B per triangle and 205 B per
- * tetrahedron on Gmsh meshes (sm_field_get_stats reports it).
- * Barycentric coordinates then cost one small mat-vec with no access to
- * the mesh arrays, and the value needs no access to the vertex values.
- * Computing relative to a vertex (not in absolute affine form) keeps the
- * rounding error proportional to the element size even for boxes far from
- * the origin.
+ * Per valid element the field keeps its dim+1 neighbour indices and one
+ * validity byte, and nothing else: the barycentric coordinates are
+ * computed at each walk step from the element's vertices (the inverse of
+ * J = [v1-v0 | ... | vd-v0] by cofactors, relative to v0 so that the
+ * rounding error stays proportional to the element size even for boxes
+ * far from the origin), and the value from the vertex values.  With the
+ * grid this comes to about 45 B per tetrahedron on Gmsh meshes
+ * (sm_field_get_stats reports it) on top of the mesh the caller keeps.
+ * A record of the inverse map, value and gradient per element (128 B a
+ * tetrahedron) made a step a third as many instructions, but the field
+ * then held 200 B a tetrahedron: 68 MiB for the paper's 345k-tetrahedron
+ * background, half the whole run's memory (measured: the 30k-tetrahedron
+ * example peaks at 80 MiB instead of 134; its iterations take about 3 ms
+ * more each).
  *
- * What an evaluation costs is memory latency, not arithmetic: callers
- * sample points in no particular order, and mesh generators number
- * elements in no spatial order either, so every element a walk visits is
- * likely a cache miss (hundreds of cycles: the records of a 3D background
- * are tens of MiB).  Hence: a tetrahedron record fills exactly one aligned
- * 128-byte pair of cache lines, the records and the neighbour table sit on
- * huge pages where the system offers them (a TLB miss costs about as much
+ * What an evaluation costs is memory latency more than arithmetic:
+ * callers sample points in no particular order, and mesh generators
+ * number elements in no spatial order either, so every element a walk
+ * visits is likely a cache miss.  Hence the neighbour table sits on huge
+ * pages where the system offers them (a TLB miss costs about as much
  * again, in a virtual machine at least), each walk step requests the
- * neighbours of its element before reading its record, so that the two
- * misses overlap, and the cell seeds are one array lookup.  The element
+ * neighbours of its element before computing with it, so that the misses
+ * overlap, and the cell seeds are one array lookup.  The element
  * numbering stays the caller's: an internal renumbering would need a
- * public-to-internal map of the hint, one more miss per call.  What is
- * left is about one miss per element visited; sm_field_eval_many, for
- * many points with their own hints, keeps several walks in flight so
- * that their misses overlap.
+ * public-to-internal map of the hint, one more miss per call.
+ * sm_field_eval_many, for many points with their own hints, keeps
+ * several walks in flight so that their misses overlap: a step requests
+ * the element's vertex list, then its vertices, then computes.
  *
  * The construction avoids random memory traffic the same way, since the
  * vertex numbering is not spatial either: the adjacency distributes the
@@ -54,9 +51,7 @@
  * lists are filled with the elements sorted by blocks of cells, and their
  * sizes come from a difference array.  The passes over the elements run
  * on the OpenMP threads by fixed chunks, so the structure does not depend
- * on the number of threads.  On a 345k-tetrahedron background this takes
- * about 0.2 s (before: 1 s), with the records and neighbours taking most
- * of the memory traffic.
+ * on the number of threads.
  *
  * Orientation does not matter (barycentric coordinates are orientation
  * free), flat elements are skipped, and the structure is read-only after
@@ -68,7 +63,7 @@
 #include <string.h>
 #include <sys/mman.h>
 
-/* Allocation of the arrays every evaluation reads at random (records,
+/* Allocation of the arrays every evaluation reads at random (the
  * neighbours) and of the largest scratch arrays of the construction:
  * aligned to the 128-byte pair of cache lines the hardware fetches
  * together, and from HUGE_PAGE_BYTES on mapped directly, aligned to a
@@ -131,16 +126,16 @@ void sm__field_free_large(void *p, size_t bytes)
 }
 
 /* ------------------------------------------------------------------ */
-/* Element records                                                     */
+/* Element validity                                                    */
 
-/* Fills the record of element e and returns 1, with *negative set when
- * det J < 0; returns 0 (and a zero record) when the element is degenerate
- * (zero or non-finite volume, or a non-finite inverse). */
+/* Returns 1 when element e is usable, with *negative set when det J < 0;
+ * 0 when it is degenerate: |det J| at most DEGENERATE_REL times its
+ * longest edge to the power dim, or an inverse map or gradient that is
+ * not finite (what a walk computes from the vertices must be). */
 static inline __attribute__((always_inline)) int
-build_record(sm_field *f, int32_t e, int *negative, const int D)
+element_usable(const sm_field *f, int32_t e, int *negative, const int D)
 {
     const int32_t *ev = f->bg->elems + (size_t)e * (size_t)(D + 1);
-    double *r = f->rec + (size_t)e * (size_t)(D + D * D + 1 + D);
     const double *p[4];
     for (int k = 0; k <= D; k++)
         p[k] = vcoord(f, ev[k]);
@@ -155,65 +150,26 @@ build_record(sm_field *f, int32_t e, int *negative, const int D)
             if (l2 > hmax2)
                 hmax2 = l2;
         }
-    double c[3][3]; /* columns v_k - v_0 */
+    double cof[3][3];
+    double det = elem_cofactors(f, ev, cof, D);
+    double hmaxd = D == 2 ? hmax2 : hmax2 * sqrt(hmax2);
+    *negative = 0;
+    if (!(fabs(det) > DEGENERATE_REL * hmaxd))
+        return 0;
+    double inv = 1.0 / det, grad[3];
     for (int k = 0; k < D; k++)
         for (int i = 0; i < D; i++)
-            c[k][i] = p[k + 1][i] - p[0][i];
-    double M[3][3];
-    double det;
-    if (D == 2) {
-        det = c[0][0] * c[1][1] - c[1][0] * c[0][1];
-        if (!(fabs(det) > DEGENERATE_REL * hmax2))
-            goto degenerate;
-        M[0][0] = c[1][1] / det;
-        M[0][1] = -c[1][0] / det;
-        M[1][0] = -c[0][1] / det;
-        M[1][1] = c[0][0] / det;
-    } else {
-        double x12[3] = {c[1][1] * c[2][2] - c[1][2] * c[2][1],
-                         c[1][2] * c[2][0] - c[1][0] * c[2][2],
-                         c[1][0] * c[2][1] - c[1][1] * c[2][0]};
-        double x20[3] = {c[2][1] * c[0][2] - c[2][2] * c[0][1],
-                         c[2][2] * c[0][0] - c[2][0] * c[0][2],
-                         c[2][0] * c[0][1] - c[2][1] * c[0][0]};
-        double x01[3] = {c[0][1] * c[1][2] - c[0][2] * c[1][1],
-                         c[0][2] * c[1][0] - c[0][0] * c[1][2],
-                         c[0][0] * c[1][1] - c[0][1] * c[1][0]};
-        det = c[0][0] * x12[0] + c[0][1] * x12[1] + c[0][2] * x12[2];
-        if (!(fabs(det) > DEGENERATE_REL * hmax2 * sqrt(hmax2)))
-            goto degenerate;
-        for (int i = 0; i < 3; i++) {
-            M[0][i] = x12[i] / det;
-            M[1][i] = x20[i] / det;
-            M[2][i] = x01[i] / det;
-        }
-    }
-    const double *val = f->values;
-    double v0 = val[ev[0]];
+            if (!isfinite(cof[k][i] * inv))
+                return 0;
+    elem_gradient(f, e, grad, D);
     for (int i = 0; i < D; i++)
-        r[i] = p[0][i];
-    for (int k = 0; k < D; k++)
-        for (int i = 0; i < D; i++)
-            r[D + k * D + i] = M[k][i];
-    r[D + D * D] = v0;
-    for (int i = 0; i < D; i++) {
-        double g = 0.0;
-        for (int k = 0; k < D; k++)
-            g += (val[ev[k + 1]] - v0) * M[k][i];
-        r[D + D * D + 1 + i] = g;
-    }
-    for (int i = 0; i < D + D * D + 1 + D; i++)
-        if (!isfinite(r[i]))
-            goto degenerate;
+        if (!isfinite(grad[i]))
+            return 0;
     *negative = det < 0.0;
     return 1;
-degenerate:
-    memset(r, 0, (size_t)(D + D * D + 1 + D) * sizeof *r);
-    *negative = 0;
-    return 0;
 }
 
-/* Records, validity, the counts of the adjacency buckets and the bounding
+/* Validity, the counts of the adjacency buckets and the bounding
  * box of the valid elements, in one pass over the elements (in parallel,
  * by chunks: every element writes only its own entries, every chunk its
  * own counts).  The coordinates of the elements a few steps ahead are
@@ -242,7 +198,7 @@ build_elements_dim(sm_field *f, int shift, size_t *counts, double *lo, double *h
             }
             const int32_t *ev = elems + (size_t)e * (size_t)(D + 1);
             int negative;
-            if (!build_record(f, e, &negative, D)) {
+            if (!element_usable(f, e, &negative, D)) {
                 f->valid[e] = 0;
                 continue;
             }
@@ -288,7 +244,6 @@ void sm_field_free(sm_field *f)
 {
     if (!f)
         return;
-    sm__field_free_large(f->rec, (size_t)f->nelems * (size_t)f->stride * sizeof *f->rec);
     free(f->valid);
     sm__field_free_large(f->neigh, (size_t)f->nelems * (size_t)(f->dim + 1) * sizeof *f->neigh);
     free(f->cell_seed);
@@ -347,12 +302,10 @@ sm_status sm_field_new(const sm_mesh *bg, const double *values, sm_field **out,
     f->bg = bg;
     f->values = values;
     f->dim = D;
-    f->stride = D + D * D + 1 + D;
     f->nelems = bg->nelems;
-    f->rec = sm__field_alloc_large((size_t)bg->nelems * (size_t)f->stride * sizeof *f->rec);
     f->valid = calloc((size_t)bg->nelems, 1);
     f->neigh = sm__field_alloc_large((size_t)bg->nelems * (size_t)(D + 1) * sizeof *f->neigh);
-    if (!f->rec || !f->valid || !f->neigh) {
+    if (!f->valid || !f->neigh) {
         sm_field_free(f);
         return sm_error_set(err, SM_ERR_NOMEM,
                             "out of memory for %ld background elements", (long)bg->nelems);
@@ -407,7 +360,7 @@ void sm_field_get_stats(const sm_field *f, sm_field_stats *st)
     st->coarse_facet_entries = f->cfacet_start[f->cg.ncells];
     st->ndegenerate = f->nelems - f->nvalid;
     size_t ne = (size_t)f->nelems;
-    st->bytes = sizeof *f + ne * (size_t)f->stride * sizeof(double) + ne +
+    st->bytes = sizeof *f + ne +
                 ne * (size_t)(f->dim + 1) * sizeof(int32_t) +
                 (size_t)f->nbfacets * (sizeof(int32_t) + (size_t)(f->dim * f->dim) * sizeof(double)) +
                 (3 * ((size_t)f->g.ncells + 1) + (size_t)f->cg.ncells + 1) * sizeof(int32_t) +

@@ -3,7 +3,7 @@
  * installed, not for callers of sm_field.h.
  *
  * The field is built and used in five files, one per part:
- *   sm_field.c            allocation, element records, construction, stats
+ *   sm_field.c            allocation, element validity, construction, stats
  *   sm_field_adjacency.c  neighbours across shared facets
  *   sm_field_grid.c       the bucket grids (element and facet lists, seeds)
  *   sm_field_locate.c     the walk, point location and evaluation
@@ -40,13 +40,16 @@
 /* Grid sizing: cells per valid element, and hard caps for hostile inputs
  * (few huge elements among tiny ones, extreme aspect ratios).  Elements are
  * binned by bounding box, and a tetrahedron's box is large compared to its
- * volume, so finer cells multiply the list entries quickly (about 25 per
- * tetrahedron at one cell per element for Gmsh meshes, 16 at one cell per
- * two); since a lookup walks from the cell's seed element, the number of
- * candidates per cell only matters for the exhaustive scan (points outside
- * the mesh but inside its box), and coarser 3D cells are the better deal. */
+ * volume, so finer cells multiply the list entries quickly (on the
+ * paper's graded 345k-tetrahedron background: 13 per tetrahedron at one
+ * cell per two elements, 6 at one per eight, 17 and 8 MiB); since a lookup
+ * walks from the cell's seed element, the number of candidates per cell
+ * only matters for the exhaustive scan (points outside the mesh but
+ * inside its box), and coarser 3D cells are the better deal: a lookup
+ * without a hint takes a step or two more, and the descent's lookups
+ * start from hints. */
 #define GRID_CELLS_PER_ELEM_2D 1.0
-#define GRID_CELLS_PER_ELEM_3D 0.5
+#define GRID_CELLS_PER_ELEM_3D 0.125
 /* The coarse facet grid (far points) has about this many cells per
  * boundary facet: a few facets per non-empty cell. */
 #define GRID_CELLS_PER_BFACET 1.0
@@ -96,11 +99,8 @@ struct sm_field {
     const sm_mesh *bg;
     const double *values;
     int dim;
-    int stride;          /* doubles per element record */
     int32_t nelems;
     int32_t nvalid;
-    double *rec;         /* nelems * stride (zeros for degenerate elements);
-                          * from sm__field_alloc_large (sm__field_free_large) */
     uint8_t *valid;      /* nelems: 0 for a degenerate element, else
                           * ELEM_VALID_POSITIVE or _NEGATIVE (sign of det J) */
     int32_t *neigh;      /* nelems*(dim+1): across the facet opposite local
@@ -144,38 +144,103 @@ static inline int32_t chunk_begin(int32_t n, int c)
 }
 
 /* ------------------------------------------------------------------ */
-/* Element records: barycentric coordinates and values                 */
+/* Barycentric coordinates and values, from the vertices               */
 
-static inline __attribute__((always_inline)) void
-bary_of(const double *r, const double *x, double *lam, const int D)
+static inline const double *vcoord(const sm_field *f, int32_t v)
 {
-    if (D == 2) {
-        double y0 = x[0] - r[0], y1 = x[1] - r[1];
-        double l1 = r[2] * y0 + r[3] * y1;
-        double l2 = r[4] * y0 + r[5] * y1;
-        lam[0] = 1.0 - l1 - l2;
-        lam[1] = l1;
-        lam[2] = l2;
-    } else {
-        double y0 = x[0] - r[0], y1 = x[1] - r[1], y2 = x[2] - r[2];
-        double l1 = r[3] * y0 + r[4] * y1 + r[5] * y2;
-        double l2 = r[6] * y0 + r[7] * y1 + r[8] * y2;
-        double l3 = r[9] * y0 + r[10] * y1 + r[11] * y2;
-        lam[0] = 1.0 - l1 - l2 - l3;
-        lam[1] = l1;
-        lam[2] = l2;
-        lam[3] = l3;
-    }
+    return f->bg->coords + (size_t)v * (size_t)f->dim;
 }
 
+/* The cofactor rows of element e's Jacobian J = [v1-v0 | ... | vd-v0]
+ * (rows of det J * J^-1) and det J, so that lambda_k = cof_(k-1) .
+ * (x - v0) / det J for k = 1..dim.  Relative to a vertex, so the
+ * rounding error stays proportional to the element size even far from
+ * the origin.  Written out per dimension: this runs at every walk step. */
 static inline __attribute__((always_inline)) double
-affine_value(const double *r, const double *x, const int D)
+elem_cofactors(const sm_field *f, const int32_t *ev, double cof[3][3], const int D)
 {
-    const double *val = r + D + D * D;
-    double v = val[0];
-    for (int i = 0; i < D; i++)
-        v += val[1 + i] * (x[i] - r[i]);
-    return v;
+    const double *xyz = f->bg->coords;
+    const double *p0 = xyz + (size_t)ev[0] * D, *p1 = xyz + (size_t)ev[1] * D,
+                 *p2 = xyz + (size_t)ev[2] * D;
+    if (D == 2) {
+        double a0 = p1[0] - p0[0], a1 = p1[1] - p0[1];
+        double b0 = p2[0] - p0[0], b1 = p2[1] - p0[1];
+        cof[0][0] = b1;
+        cof[0][1] = -b0;
+        cof[1][0] = -a1;
+        cof[1][1] = a0;
+        return a0 * b1 - b0 * a1;
+    }
+    const double *p3 = xyz + (size_t)ev[3] * D;
+    double a0 = p1[0] - p0[0], a1 = p1[1] - p0[1], a2 = p1[2] - p0[2];
+    double b0 = p2[0] - p0[0], b1 = p2[1] - p0[1], b2 = p2[2] - p0[2];
+    double c0 = p3[0] - p0[0], c1 = p3[1] - p0[1], c2 = p3[2] - p0[2];
+    cof[0][0] = b1 * c2 - b2 * c1; /* b x c */
+    cof[0][1] = b2 * c0 - b0 * c2;
+    cof[0][2] = b0 * c1 - b1 * c0;
+    cof[1][0] = c1 * a2 - c2 * a1; /* c x a */
+    cof[1][1] = c2 * a0 - c0 * a2;
+    cof[1][2] = c0 * a1 - c1 * a0;
+    cof[2][0] = a1 * b2 - a2 * b1; /* a x b */
+    cof[2][1] = a2 * b0 - a0 * b2;
+    cof[2][2] = a0 * b1 - a1 * b0;
+    return a0 * cof[0][0] + a1 * cof[0][1] + a2 * cof[0][2];
+}
+
+/* Barycentric coordinates of x in the valid element e.  The field keeps
+ * no per-element record: the vertex coordinates (24 B a vertex, and a
+ * tetrahedral mesh has about a sixth as many vertices as elements) take
+ * a twentieth of what a record of the inverse map took (128 B a
+ * tetrahedron) and stay in cache far longer; the few dozen flops of the
+ * inverse are the price. */
+static inline __attribute__((always_inline)) void
+elem_bary(const sm_field *f, int32_t e, const double *x, double *lam, const int D)
+{
+    const int32_t *ev = f->bg->elems + (size_t)e * (size_t)(D + 1);
+    double cof[3][3];
+    double inv = 1.0 / elem_cofactors(f, ev, cof, D);
+    const double *p0 = f->bg->coords + (size_t)ev[0] * D;
+    double y0 = x[0] - p0[0], y1 = x[1] - p0[1];
+    if (D == 2) {
+        lam[1] = (cof[0][0] * y0 + cof[0][1] * y1) * inv;
+        lam[2] = (cof[1][0] * y0 + cof[1][1] * y1) * inv;
+        lam[0] = 1.0 - lam[1] - lam[2];
+        return;
+    }
+    double y2 = x[2] - p0[2];
+    lam[1] = (cof[0][0] * y0 + cof[0][1] * y1 + cof[0][2] * y2) * inv;
+    lam[2] = (cof[1][0] * y0 + cof[1][1] * y1 + cof[1][2] * y2) * inv;
+    lam[3] = (cof[2][0] * y0 + cof[2][1] * y1 + cof[2][2] * y2) * inv;
+    lam[0] = 1.0 - lam[1] - lam[2] - lam[3];
+}
+
+/* The P1 value at the point of barycentric coordinates lam in element e. */
+static inline __attribute__((always_inline)) double
+elem_value(const sm_field *f, int32_t e, const double *lam, const int D)
+{
+    const int32_t *ev = f->bg->elems + (size_t)e * (size_t)(D + 1);
+    const double *val = f->values;
+    double v0 = val[ev[0]];
+    if (D == 2)
+        return v0 + lam[1] * (val[ev[1]] - v0) + lam[2] * (val[ev[2]] - v0);
+    return v0 + lam[1] * (val[ev[1]] - v0) + lam[2] * (val[ev[2]] - v0) +
+           lam[3] * (val[ev[3]] - v0);
+}
+
+/* The (constant) P1 gradient in the valid element e. */
+static inline __attribute__((always_inline)) void
+elem_gradient(const sm_field *f, int32_t e, double *grad, const int D)
+{
+    const int32_t *ev = f->bg->elems + (size_t)e * (size_t)(D + 1);
+    double cof[3][3];
+    double inv = 1.0 / elem_cofactors(f, ev, cof, D);
+    const double *val = f->values;
+    for (int i = 0; i < D; i++) {
+        double g = 0.0;
+        for (int k = 0; k < D; k++)
+            g += (val[ev[k + 1]] - val[ev[0]]) * cof[k][i];
+        grad[i] = g * inv;
+    }
 }
 
 static inline __attribute__((always_inline)) int
@@ -190,11 +255,6 @@ argmin_lam(const double *lam, const int D, double *lmin)
         }
     *lmin = m;
     return k;
-}
-
-static inline const double *vcoord(const sm_field *f, int32_t v)
-{
-    return f->bg->coords + (size_t)v * (size_t)f->dim;
 }
 
 /* The vertices of an element in ascending order (s) with their local
@@ -247,7 +307,7 @@ void sm__field_facet_vertices(const sm_field *f, int32_t e, int k, int32_t *out)
 
 /* The element grid, the boundary facets and both facet grids over the
  * bounding box lo, hi of the valid elements (sm_field_grid.c); needs the
- * records, validity and neighbours. */
+ * validity and neighbours. */
 sm_status sm__field_build_grids(sm_field *f, const double *lo, const double *hi, sm_error *err);
 
 /* Value (and gradient, when grad is not NULL) of the extension at a point

@@ -14,18 +14,18 @@
  * barycentric coordinate.  Returns the element containing x (bary in lam)
  * or -1 when the walk leaves the mesh or runs out of steps.  With
  * far_lambda > 0, gives up at once when x is that many element heights
- * beyond the start element.  The neighbours of e are requested before its
- * record is read: both are cache misses, and this way they overlap. */
+ * beyond the start element.  The neighbours of e are requested before
+ * its vertices are read: both are cache misses, and this way they
+ * overlap. */
 static inline __attribute__((always_inline)) int32_t
 walk_dim(const sm_field *f, const double *x, int32_t e, double far_lambda, double *lam,
          const int D)
 {
-    const double *rec = f->rec;
     const int32_t *neigh = f->neigh;
     double lmin;
     for (int step = 0; step < WALK_MAX_STEPS; step++) {
         __builtin_prefetch(neigh + (size_t)e * (D + 1));
-        bary_of(rec + (size_t)e * (size_t)(D + D * D + 1 + D), x, lam, D);
+        elem_bary(f, e, x, lam, D);
         int k = argmin_lam(lam, D, &lmin);
         if (lmin >= -BARY_TOL)
             return e;
@@ -71,7 +71,7 @@ locate_dim(const sm_field *f, const double *x, int32_t hint, double *bary, const
     e = -1;
     for (int32_t j = j0; j < j1; j++) {
         int32_t cand = f->elem_list[j];
-        bary_of(f->rec + (size_t)cand * (size_t)(D + D * D + 1 + D), x, lam, D);
+        elem_bary(f, cand, x, lam, D);
         argmin_lam(lam, D, &lmin);
         if (lmin > best_min) {
             best_min = lmin;
@@ -110,32 +110,38 @@ double sm_field_eval_grad(const sm_field *f, const double *x, int32_t *hint, dou
                     grad[j] = 0.0;
             return INFINITY;
         }
-    int32_t e = sm_field_locate(f, x, hint ? *hint : -1, NULL);
+    double lam[4];
+    int32_t e = sm_field_locate(f, x, hint ? *hint : -1, lam);
     if (e < 0)
         return sm__field_extension(f, x, hint, grad);
     if (hint)
         *hint = e;
-    const double *r = f->rec + (size_t)e * (size_t)f->stride;
+    if (D == 2) {
+        if (grad)
+            elem_gradient(f, e, grad, 2);
+        return elem_value(f, e, lam, 2);
+    }
     if (grad)
-        memcpy(grad, r + D + D * D + 1, (size_t)D * sizeof *grad);
-    return D == 2 ? affine_value(r, x, 2) : affine_value(r, x, 3);
+        elem_gradient(f, e, grad, 3);
+    return elem_value(f, e, lam, 3);
 }
 
 double sm_field_eval(const sm_field *f, const double *x, int32_t *hint)
 {
+    double lam[4];
     if (f->dim == 2) {
-        int32_t e = locate_dim(f, x, hint ? *hint : -1, NULL, 2);
+        int32_t e = locate_dim(f, x, hint ? *hint : -1, lam, 2);
         if (e >= 0) {
             if (hint)
                 *hint = e;
-            return affine_value(f->rec + (size_t)e * 9, x, 2);
+            return elem_value(f, e, lam, 2);
         }
     } else {
-        int32_t e = locate_dim(f, x, hint ? *hint : -1, NULL, 3);
+        int32_t e = locate_dim(f, x, hint ? *hint : -1, lam, 3);
         if (e >= 0) {
             if (hint)
                 *hint = e;
-            return affine_value(f->rec + (size_t)e * 16, x, 3);
+            return elem_value(f, e, lam, 3);
         }
     }
     for (int i = 0; i < f->dim; i++)
@@ -144,10 +150,11 @@ double sm_field_eval(const sm_field *f, const double *x, int32_t *hint)
     return sm__field_extension(f, x, hint, NULL);
 }
 
-/* sm_field_eval_many keeps EVAL_GROUP walks in flight: each visit of a
- * slot does one step of its walk, whose record and neighbours were
- * requested one round earlier, then requests the next element's (or, when
- * the walk ends, the next point's hint's).  The misses of all the slots
+/* sm_field_eval_many keeps EVAL_GROUP walks in flight: a step of a
+ * slot's walk takes two visits, one requesting the vertices of the
+ * element whose vertex list and neighbours were requested a round
+ * earlier, the next computing with them and requesting the next
+ * element's (or, when the walk ends, the next point's hint's).  The misses of all the slots
  * overlap instead of following each other.  Each walk is exactly
  * walk_dim's from the point's hint (same steps, same exits); a point whose
  * walk fails, or that cannot use its hint, gets sm_field_eval, so every
@@ -156,15 +163,26 @@ typedef struct eval_slot {
     int64_t point; /* -1: free */
     int32_t elem;
     int step;
+    int vertices_requested; /* the element's vertex rows were requested */
 } eval_slot;
 
 static inline __attribute__((always_inline)) void
 request_elem(const sm_field *f, int32_t e, const int D)
 {
-    const double *r = f->rec + (size_t)e * (size_t)(D + D * D + 1 + D);
-    __builtin_prefetch(r);
-    __builtin_prefetch(r + 8);
+    __builtin_prefetch(f->bg->elems + (size_t)e * (size_t)(D + 1));
     __builtin_prefetch(f->neigh + (size_t)e * (size_t)(D + 1));
+}
+
+/* Second stage of a step: the element's vertex list has arrived, its
+ * coordinates and values are requested. */
+static inline __attribute__((always_inline)) void
+request_vertices(const sm_field *f, int32_t e, const int D)
+{
+    const int32_t *ev = f->bg->elems + (size_t)e * (size_t)(D + 1);
+    for (int k = 0; k <= D; k++) {
+        __builtin_prefetch(vcoord(f, ev[k]));
+        __builtin_prefetch(f->values + ev[k]);
+    }
 }
 
 /* Next point from *next on that can start a walk from its hint (the
@@ -201,6 +219,7 @@ eval_many_dim(const sm_field *f, int64_t n, const double *xs, int32_t *hints, do
         if (slot[s].point >= 0) {
             slot[s].elem = hints[slot[s].point];
             slot[s].step = 0;
+            slot[s].vertices_requested = 0;
             busy++;
         }
     }
@@ -209,14 +228,19 @@ eval_many_dim(const sm_field *f, int64_t n, const double *xs, int32_t *hints, do
             eval_slot *sl = &slot[s];
             if (sl->point < 0)
                 continue;
+            if (!sl->vertices_requested) {
+                request_vertices(f, sl->elem, D);
+                sl->vertices_requested = 1;
+                continue;
+            }
+            sl->vertices_requested = 0;
             const double *x = xs + (size_t)sl->point * (size_t)D;
-            const double *r = f->rec + (size_t)sl->elem * (size_t)(D + D * D + 1 + D);
             double lam[4], lmin;
-            bary_of(r, x, lam, D);
+            elem_bary(f, sl->elem, x, lam, D);
             int k = argmin_lam(lam, D, &lmin);
             int done = 1;
             if (lmin >= -BARY_TOL) {
-                values[sl->point] = affine_value(r, x, D);
+                values[sl->point] = elem_value(f, sl->elem, lam, D);
                 hints[sl->point] = sl->elem;
             } else {
                 int32_t e = sl->step == 0 && lmin < -WALK_FAR_LAMBDA
@@ -235,6 +259,7 @@ eval_many_dim(const sm_field *f, int64_t n, const double *xs, int32_t *hints, do
                 if (sl->point >= 0) {
                     sl->elem = hints[sl->point];
                     sl->step = 0;
+                    sl->vertices_requested = 0;
                 } else {
                     busy--;
                 }

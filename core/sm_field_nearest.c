@@ -244,13 +244,16 @@ double sm__field_extension(const sm_field *f, const double *x, int32_t *hint, do
         return INFINITY;
     }
     int32_t e = s.facet / (D + 1);
-    const double *r = f->rec + (size_t)e * (size_t)f->stride;
     double dist = sqrt(s.best2);
     if (hint)
         *hint = e;
     if (grad) {
         /* grad = n + (I - n n^T) g, n the unit vector from p to x */
-        const double *g = r + D + D * D + 1;
+        double g[3];
+        if (D == 2)
+            elem_gradient(f, e, g, 2);
+        else
+            elem_gradient(f, e, g, 3);
         double n[3] = {0, 0, 0}, gn = 0.0;
         if (dist > 0.0)
             for (int i = 0; i < D; i++) {
@@ -260,7 +263,13 @@ double sm__field_extension(const sm_field *f, const double *x, int32_t *hint, do
         for (int i = 0; i < D; i++)
             grad[i] = n[i] + g[i] - gn * n[i];
     }
-    return (D == 2 ? affine_value(r, s.p, 2) : affine_value(r, s.p, 3)) + dist;
+    double lam[4];
+    if (D == 2) {
+        elem_bary(f, e, s.p, lam, 2);
+        return elem_value(f, e, lam, 2) + dist;
+    }
+    elem_bary(f, e, s.p, lam, 3);
+    return elem_value(f, e, lam, 3) + dist;
 }
 
 int32_t sm_field_nearest(const sm_field *f, const double *x, double *nearest,

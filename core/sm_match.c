@@ -77,13 +77,7 @@ static void run_state_free(run_state *rs)
  * stays above the floor.  Returns the worst quality (or -1 if inverted). */
 static double trial_quality(const sm_mesh *m, const double *coords, double floor_q, int *ok)
 {
-    double qmin = INFINITY;
-#pragma omp parallel for schedule(static) reduction(min : qmin)
-    for (int32_t e = 0; e < m->nelems; e++) {
-        double q = sm_elem_quality(m, coords, e);
-        if (q < qmin)
-            qmin = q;
-    }
+    double qmin = sm_mesh_min_quality(m, coords, NULL);
     *ok = qmin > 0.0 && qmin >= floor_q;
     return qmin > 0.0 ? qmin : -1.0;
 }

@@ -190,6 +190,50 @@ double sm_elem_quality(const sm_mesh *m, const double *coords, int32_t e)
     return vol < 0 ? -q : q;
 }
 
+/* A number that orders the elements as their quality does: the quality
+ * is a positive power of |volume| / sum(l^2)^(dim/2) with the sign of the
+ * volume, so in 3D (3V)^2 / sum(l^2)^3 with that sign orders them without
+ * the cube root, in 2D area / sum(l^2). */
+static inline double quality_key(const sm_mesh *m, const double *coords, int32_t e)
+{
+    double vol = sm_elem_volume(m, coords, e);
+    double l2 = squared_edge_sum(m, coords, e);
+    if (!(l2 > 0.0))
+        return 0.0;
+    if (m->dim == 2)
+        return vol / l2;
+    double v3 = 3.0 * vol;
+    double key = v3 * v3 / (l2 * l2 * l2);
+    return vol < 0 ? -key : key;
+}
+
+double sm_mesh_min_quality(const sm_mesh *m, const double *coords, int32_t *worst)
+{
+    double best_key = INFINITY;
+    int32_t best = -1;
+#pragma omp parallel
+    {
+        double my_key = INFINITY;
+        int32_t mine = -1;
+#pragma omp for schedule(static) nowait
+        for (int32_t e = 0; e < m->nelems; e++) {
+            double k = quality_key(m, coords, e);
+            if (k < my_key) {
+                my_key = k;
+                mine = e;
+            }
+        }
+#pragma omp critical
+        if (mine >= 0 && (my_key < best_key || (my_key == best_key && mine < best))) {
+            best_key = my_key;
+            best = mine;
+        }
+    }
+    if (worst)
+        *worst = best;
+    return best >= 0 ? sm_elem_quality(m, coords, best) : 0.0;
+}
+
 void sm_mesh_quality(const sm_mesh *m, const double *coords, sm_quality_stats *st)
 {
     st->min = m->nelems ? INFINITY : 0.0;

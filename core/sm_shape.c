@@ -327,9 +327,11 @@ double sm_shape_delta_j(sm_shape *s, const double *coords, const double *disp)
                                  (e1[0] * e2[1] - e1[1] * e2[0]) * th[2]);
                 }
                 s->weights[idx] = 0.5 * w * jac; /* 0.5: Gauss weight in s */
-                /* a fresh swept point starts from the matching facet point */
-                if (s->swept_hint[idx] < 0)
-                    s->swept_hint[idx] = s->load_hint[(size_t)k * (size_t)nq + (size_t)q];
+                /* from the element of the matching facet point at coords:
+                 * a fraction of the step away, where the same point of
+                 * the previous trial (another step, often another
+                 * iteration) is farther, by up to the whole step */
+                s->swept_hint[idx] = s->load_hint[(size_t)k * (size_t)nq + (size_t)q];
             }
         }
     }

@@ -90,6 +90,15 @@ double sm_elem_volume(const sm_mesh *m, const double *coords, int32_t e);
  * 3D: 12*(3V)^(2/3) / sum(l^2). */
 double sm_elem_quality(const sm_mesh *m, const double *coords, int32_t e);
 
+/* The smallest sm_elem_quality over the elements (negative when one is
+ * inverted; 0 for an empty mesh) and, when worst is not NULL, the first
+ * element reaching it.  The same value as the minimum of sm_elem_quality
+ * (the elements are compared by a monotone function of their quality
+ * that needs no cube root, and the winner's quality is then computed by
+ * sm_elem_quality); parallel over the OpenMP threads, with a result that
+ * does not depend on their number. */
+double sm_mesh_min_quality(const sm_mesh *m, const double *coords, int32_t *worst);
+
 typedef struct sm_quality_stats {
     double min, mean;
     int32_t worst_elem;

@@ -33,8 +33,10 @@ const char *sm_stop_reason_name(sm_stop_reason r)
 }
 
 /* Everything one run owns or tracks; freed in one place.  The set-up,
- * the direction and the line search below read and update it. */
-typedef struct run_state {
+ * the direction and the line search below read and update it.  An
+ * sm_match (sm_match_new) is one whose template side is set up. */
+typedef struct sm_match run_state;
+struct sm_match {
     const sm_params *params;
     const sm_mesh *mesh;      /* the template with its boundary built:
                                * opts->prepared, or own_mesh */
@@ -57,7 +59,9 @@ typedef struct run_state {
     int iteration, accepted, rejected;
     double *best;             /* stall rule: best ||d||_L2 up to iteration
                                * i, at best[i % (stall_window + 1)] */
-} run_state;
+    double elastic_seconds;   /* sm_match_new: its elastic set-up's time */
+    int executed;             /* sm_match_execute ran (once only) */
+};
 
 static void run_state_free(run_state *rs)
 {
@@ -144,14 +148,43 @@ static int one_thread_regions(void)
     return levels;
 }
 
-/* The two expensive set-up tasks are independent: the boundary functional
- * on the (prebuilt) target field with the initial samples, and the elastic
- * operator's symbolic analysis with its first factorization.  They run
- * side by side when more than one thread is allowed (the thread policy,
- * sm_job_runner.h, allows one for small templates). */
-static sm_status setup_operators(run_state *rs, const sm_field *target, sm_error *err)
+/* The target side of the set-up: the boundary functional on the
+ * (prebuilt) target field with the initial samples. */
+static sm_status setup_target(run_state *rs, const sm_field *target, sm_error *err)
 {
     const sm_params *params = rs->params;
+    sm_status st = sm_shape_new(rs->mesh, target, params->free_refs, params->n_free_refs,
+                                &rs->shape, err);
+    if (st == SM_OK && sm_shape_active_facets(rs->shape) == 0)
+        st = sm_error_set(err, SM_ERR_INVALID,
+                          "no boundary facet carries the load (all are in the free boundary)");
+    if (st != SM_OK)
+        return st;
+    sm_shape_load(rs->shape, rs->x, rs->load, &rs->be);
+    rs->J = sm_shape_volume_j(rs->shape, rs->x);
+    return SM_OK;
+}
+
+/* The elastic side: the operator's symbolic analysis and its first
+ * factorization (or AMG hierarchy), which need the template only. */
+static sm_status setup_elastic(run_state *rs, sm_error *err)
+{
+    const sm_params *params = rs->params;
+    sm_elasticity_opts eopts = {
+        .young = params->young, .poisson = params->poisson,
+        .alpha = params->clamp == SM_CLAMP_NONE ? rs->alpha : 0.0,
+        .solver = params->solver};
+    sm_status st = sm_elasticity_new(rs->mesh, rs->clamped, &eopts, &rs->elasticity, err);
+    if (st == SM_OK)
+        st = sm_elasticity_factorize(rs->elasticity, rs->x, err);
+    return st;
+}
+
+/* The two expensive set-up tasks are independent, so sm_match_run runs
+ * them side by side when more than one thread is allowed (the thread
+ * policy, sm_job_runner.h, allows one for small templates). */
+static sm_status setup_both(run_state *rs, const sm_field *target, sm_error *err)
+{
     sm_status st_target = SM_OK, st_elastic = SM_OK;
     sm_error err_target, err_elastic;
     sm_error_clear(&err_target);
@@ -160,28 +193,9 @@ static sm_status setup_operators(run_state *rs, const sm_field *target, sm_error
 #pragma omp parallel sections num_threads(omp_get_max_threads() > 1 ? 2 : 1)
     {
 #pragma omp section
-        {
-            st_target = sm_shape_new(rs->mesh, target, params->free_refs, params->n_free_refs,
-                                     &rs->shape, &err_target);
-            if (st_target == SM_OK && sm_shape_active_facets(rs->shape) == 0)
-                st_target = sm_error_set(&err_target, SM_ERR_INVALID,
-                                         "no boundary facet carries the load (all are in the free boundary)");
-            if (st_target == SM_OK) {
-                sm_shape_load(rs->shape, rs->x, rs->load, &rs->be);
-                rs->J = sm_shape_volume_j(rs->shape, rs->x);
-            }
-        }
+        st_target = setup_target(rs, target, &err_target);
 #pragma omp section
-        {
-            sm_elasticity_opts eopts = {
-                .young = params->young, .poisson = params->poisson,
-                .alpha = params->clamp == SM_CLAMP_NONE ? rs->alpha : 0.0,
-                .solver = params->solver};
-            st_elastic = sm_elasticity_new(rs->mesh, rs->clamped, &eopts, &rs->elasticity,
-                                           &err_elastic);
-            if (st_elastic == SM_OK)
-                st_elastic = sm_elasticity_factorize(rs->elasticity, rs->x, &err_elastic);
-        }
+        st_elastic = setup_elastic(rs, &err_elastic);
     }
     omp_set_max_active_levels(levels);
     if (st_target != SM_OK || st_elastic != SM_OK) {
@@ -409,59 +423,131 @@ static sm_status descend(run_state *rs, const sm_match_callbacks *cb, sm_result 
     }
 }
 
-sm_status sm_match_run(const sm_match_opts *opts, const sm_match_callbacks *cb,
-                       double *coords_out, sm_result *result, sm_error *err)
+/* The checks of a run's template side and the state with its mesh set
+ * up (setup_mesh); *out is freed by sm_match_free in every case. */
+static sm_status match_alloc(const sm_match_opts *opts, sm_match **out, sm_error *err)
 {
-    run_state rs;
-    memset(&rs, 0, sizeof rs);
-    memset(result, 0, sizeof *result);
-    rs.t_start = sm_clock_seconds();
-    rs.params = opts->params;
+    *out = NULL;
     const sm_mesh *template_mesh = opts->template_mesh;
     sm_status st;
-
-    if (!opts->target)
-        return sm_error_set(err, SM_ERR_INVALID, "no target field");
-    if (template_mesh->dim != sm_field_dim(opts->target))
-        return sm_error_set(err, SM_ERR_INVALID,
-                            "the template is %dD but the target background mesh is %dD",
-                            template_mesh->dim, sm_field_dim(opts->target));
+    if (!template_mesh || !opts->params)
+        return sm_error_set(err, SM_ERR_INVALID, "no template or no parameters");
     if (opts->prepared && (opts->prepared->nverts != template_mesh->nverts ||
                            opts->prepared->dim != template_mesh->dim))
         return sm_error_set(err, SM_ERR_INVALID, "the prepared template is not a copy of the template");
-    if ((st = sm_params_validate(rs.params, template_mesh->dim, err)) != SM_OK)
+    if ((st = sm_params_validate(opts->params, template_mesh->dim, err)) != SM_OK)
         return st;
-    rs.dim = template_mesh->dim;
-    rs.ndof = (size_t)template_mesh->nverts * (size_t)rs.dim;
+    run_state *rs = calloc(1, sizeof *rs);
+    if (!rs)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    *out = rs;
+    rs->t_start = sm_clock_seconds();
+    rs->params = opts->params;
+    rs->dim = template_mesh->dim;
+    rs->ndof = (size_t)template_mesh->nverts * (size_t)rs->dim;
+    return setup_mesh(rs, opts, err);
+}
 
-    if ((st = setup_mesh(&rs, opts, err)) != SM_OK ||
-        (st = setup_operators(&rs, opts->target, err)) != SM_OK)
-        goto done;
-    /* set-up is wall time: its parts overlap, so they are not split */
+static sm_status check_target(int dim, const sm_field *target, sm_error *err)
+{
+    if (!target)
+        return sm_error_set(err, SM_ERR_INVALID, "no target field");
+    if (dim != sm_field_dim(target))
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "the template is %dD but the target background mesh is %dD", dim,
+                            sm_field_dim(target));
+    return SM_OK;
+}
+
+sm_status sm_match_new(const sm_match_opts *opts, sm_match **out, sm_error *err)
+{
+    sm_match *m = NULL;
+    sm_status st = match_alloc(opts, &m, err);
+    if (st == SM_OK) {
+        int levels = one_thread_regions();
+        st = setup_elastic(m, err);
+        omp_set_max_active_levels(levels);
+    }
+    if (st != SM_OK) {
+        sm_match_free(m);
+        *out = NULL;
+        return st;
+    }
+    m->elastic_seconds = sm_clock_seconds() - m->t_start;
+    *out = m;
+    return SM_OK;
+}
+
+void sm_match_free(sm_match *m)
+{
+    if (!m)
+        return;
+    run_state_free(m);
+    free(m);
+}
+
+/* After the set-up: the initial report, the descent and the result. */
+static sm_status finish_run(run_state *rs, const sm_match_callbacks *cb, double *coords_out,
+                            sm_result *result, double setup_seconds, sm_error *err)
+{
+    sm_status st;
     result->factorizations = 1;
-    result->time.setup = sm_clock_seconds() - rs.t_start;
-    result->J_initial = rs.J;
-    track_best(&rs);
+    result->time.setup = setup_seconds;
+    result->J_initial = rs->J;
+    track_best(rs);
 
-    if (report(&rs, cb))
+    if (report(rs, cb))
         result->stop = SM_STOP_CANCELLED;
-    else if ((st = descend(&rs, cb, result, err)) != SM_OK)
-        goto done;
+    else if ((st = descend(rs, cb, result, err)) != SM_OK)
+        return st;
 
-    memcpy(coords_out, rs.x, rs.ndof * sizeof(double));
-    result->iterations = rs.iteration;
-    result->J = rs.J;
-    result->boundary_l2 = rs.be.l2;
-    result->boundary_max = rs.be.max;
-    result->boundary_rms = boundary_rms(&rs.be);
-    result->diameter = rs.diameter;
-    result->alpha = rs.params->clamp == SM_CLAMP_NONE ? rs.alpha : 0.0;
-    result->min_quality = rs.qmin;
-    result->accepted = rs.accepted;
-    result->rejected = rs.rejected;
-    result->time.total = sm_clock_seconds() - rs.t_start;
-    st = SM_OK;
-done:
-    run_state_free(&rs);
+    memcpy(coords_out, rs->x, rs->ndof * sizeof(double));
+    result->iterations = rs->iteration;
+    result->J = rs->J;
+    result->boundary_l2 = rs->be.l2;
+    result->boundary_max = rs->be.max;
+    result->boundary_rms = boundary_rms(&rs->be);
+    result->diameter = rs->diameter;
+    result->alpha = rs->params->clamp == SM_CLAMP_NONE ? rs->alpha : 0.0;
+    result->min_quality = rs->qmin;
+    result->accepted = rs->accepted;
+    result->rejected = rs->rejected;
+    result->time.total = sm_clock_seconds() - rs->t_start + rs->elastic_seconds;
+    return SM_OK;
+}
+
+sm_status sm_match_execute(sm_match *m, const sm_field *target, const sm_match_callbacks *cb,
+                           double *coords_out, sm_result *result, sm_error *err)
+{
+    memset(result, 0, sizeof *result);
+    if (m->executed)
+        return sm_error_set(err, SM_ERR_INVALID, "this run was already executed");
+    m->executed = 1;
+    sm_status st = check_target(m->dim, target, err);
+    if (st != SM_OK)
+        return st;
+    /* the run's clock starts now; the elastic set-up done before is
+     * added to its set-up and total times */
+    m->t_start = sm_clock_seconds();
+    if ((st = setup_target(m, target, err)) != SM_OK)
+        return st;
+    double setup = m->elastic_seconds + sm_clock_seconds() - m->t_start;
+    return finish_run(m, cb, coords_out, result, setup, err);
+}
+
+sm_status sm_match_run(const sm_match_opts *opts, const sm_match_callbacks *cb,
+                       double *coords_out, sm_result *result, sm_error *err)
+{
+    memset(result, 0, sizeof *result);
+    sm_match *m = NULL;
+    sm_status st;
+    if (opts->template_mesh &&
+        (st = check_target(opts->template_mesh->dim, opts->target, err)) != SM_OK)
+        return st;
+    if ((st = match_alloc(opts, &m, err)) == SM_OK &&
+        (st = setup_both(m, opts->target, err)) == SM_OK)
+        /* set-up is wall time: its parts overlap, so they are not split */
+        st = finish_run(m, cb, coords_out, result, sm_clock_seconds() - m->t_start, err);
+    sm_match_free(m);
     return st;
 }

@@ -288,6 +288,66 @@ static void test_prepared_template_same_descent(void **state)
     free_target(&t);
 }
 
+/* sm_match_new then sm_match_execute: the same descent, bit for bit, as
+ * sm_match_run (the template side set up before the target is known);
+ * one execute per run; a target of the wrong dimension and a bad clamp
+ * are refused by the step that can see them. */
+static void test_two_step_run(void **state)
+{
+    (void)state;
+    target t;
+    sm_params p;
+    sm_mesh *tm = ellipse_case(&t, &p, 15);
+    size_t n = (size_t)tm->nverts * 2;
+    double *a = malloc(sizeof(double) * n), *b = malloc(sizeof(double) * n);
+    history ha = {0}, hb = {0};
+    sm_result ra, rb;
+    sm_error err;
+    assert_int_equal(run_match(tm, &t, &p, record, &ha, NULL, a, &ra, &err), SM_OK);
+    sm_match_opts opts = {.template_mesh = tm, .params = &p};
+    sm_match *m = NULL;
+    assert_int_equal(sm_match_new(&opts, &m, &err), SM_OK);
+    sm_match_callbacks cb = {.progress = record, .user = &hb};
+    assert_int_equal(sm_match_execute(m, t.field, &cb, b, &rb, &err), SM_OK);
+    assert_int_equal(rb.iterations, 15);
+    assert_int_equal(rb.iterations, ra.iterations);
+    assert_int_equal(rb.accepted, ra.accepted);
+    assert_int_equal(rb.rejected, ra.rejected);
+    assert_true(rb.J == ra.J && rb.J_initial == ra.J_initial && rb.boundary_l2 == ra.boundary_l2);
+    assert_int_equal(hb.n, ha.n);
+    assert_memory_equal(hb.l2, ha.l2, sizeof(double) * (size_t)ha.n);
+    assert_memory_equal(a, b, sizeof(double) * n);
+    assert_true(rb.time.setup > 0 && rb.time.total >= rb.time.setup);
+    assert_int_equal(sm_match_execute(m, t.field, NULL, b, &rb, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "already executed"));
+    sm_match_free(m);
+
+    /* a 3D field under a 2D template: refused by execute */
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    sm_mesh *bg3 = util_box_mesh(3, 2, lo, hi, 1);
+    double *d3 = calloc((size_t)bg3->nverts, sizeof(double));
+    sm_field *f3;
+    assert_int_equal(sm_field_new(bg3, d3, &f3, &err), SM_OK);
+    assert_int_equal(sm_match_new(&opts, &m, &err), SM_OK);
+    assert_int_equal(sm_match_execute(m, f3, NULL, b, &rb, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "the template is 2D but the target background mesh is 3D"));
+    sm_match_free(m);
+    /* a clamp set that holds nothing: refused by new, *out NULL */
+    p.clamp_center[0] = 5.0;
+    m = (sm_match *)&opts; /* not a run: new must reset it */
+    assert_int_equal(sm_match_new(&opts, &m, &err), SM_ERR_INVALID);
+    assert_null(m);
+    assert_non_null(strstr(err.msg, "clamp set is empty"));
+    sm_match_free(NULL);
+    sm_field_free(f3);
+    free(d3);
+    sm_mesh_free(bg3);
+    free(a);
+    free(b);
+    sm_mesh_free(tm);
+    free_target(&t);
+}
+
 static void test_bad_inputs(void **state)
 {
     (void)state;
@@ -465,6 +525,7 @@ int main(void)
         cmocka_unit_test(test_elastic_direction_descends),
         cmocka_unit_test(test_cancel_and_no_clamp),
         cmocka_unit_test(test_prepared_template_same_descent),
+        cmocka_unit_test(test_two_step_run),
         cmocka_unit_test(test_bad_inputs),
         cmocka_unit_test(test_stall_rule_bounds),
         cmocka_unit_test(test_relative_tolerance_is_unit_free),

@@ -100,4 +100,26 @@ typedef struct sm_match_callbacks {
 sm_status sm_match_run(const sm_match_opts *opts, const sm_match_callbacks *cb,
                        double *coords_out, sm_result *result, sm_error *err);
 
+/* The same run in two steps, for callers that have other work to do
+ * while the template side is set up (the job runner reads the target
+ * meanwhile):
+ *   sm_match_new      the template side: checks, topology, clamp set,
+ *                     the elastic operator and its first factorization
+ *                     (or AMG hierarchy).  opts->target is not used; the
+ *                     template meshes and params stay borrowed until
+ *                     sm_match_free.
+ *   sm_match_execute  the target side (the boundary functional and its
+ *                     initial samples) and the descent, as sm_match_run;
+ *                     once per sm_match (a second call: SM_ERR_INVALID).
+ *                     result->time.setup and .total include the
+ *                     template side's time; progress's elapsed counts
+ *                     from the call.
+ * sm_match_free in every case (NULL is fine); after a failed
+ * sm_match_new *out is NULL. */
+typedef struct sm_match sm_match;
+sm_status sm_match_new(const sm_match_opts *opts, sm_match **out, sm_error *err);
+sm_status sm_match_execute(sm_match *m, const sm_field *target, const sm_match_callbacks *cb,
+                           double *coords_out, sm_result *result, sm_error *err);
+void sm_match_free(sm_match *m);
+
 #endif

@@ -340,14 +340,18 @@ int cmd_run(int argc, char **argv)
                                 .background_size = opt.job.background.size,
                                 .background_padding = opt.job.background.padding};
 
-    /* ---- inputs, then the parameters against them ---- */
-    sm_status st = sm_job_inputs_read(&files, SM_JOB_NAME_PATHS, &in, &err);
+    /* ---- the template, the parameters against it, then the target
+     * (the run's template side is set up meanwhile) ---- */
+    sm_status st = sm_job_inputs_read_template(&files, SM_JOB_NAME_PATHS, &in, &err);
+    if (st != SM_OK)
+        return run_error(&opt, st == SM_ERR_NOMEM ? CLI_EXIT_NUMERIC : CLI_EXIT_INPUT, "%s", err.msg);
+    if ((code = apply_params(&opt, &in)) != 0)
+        goto done;
+    st = sm_job_inputs_read_target(&files, SM_JOB_NAME_PATHS, 1, &in, &err);
     if (st != SM_OK)
         return run_error(&opt, st == SM_ERR_NOMEM ? CLI_EXIT_NUMERIC : CLI_EXIT_INPUT, "%s", err.msg);
     if (in.has_surface)
         print_surface_health(&opt, &in);
-    if ((code = apply_params(&opt, &in)) != 0)
-        goto done;
     progress_set_goal(&ctx.display, in.params.max_iter, in.params.tol_boundary);
     warn_unknown_free_refs(&ctx, in.prepared);
 

@@ -7,6 +7,8 @@
 #include <string.h>
 #include <time.h>
 
+#include <omp.h>
+
 #include "shapematch/sm_clock.h"
 #include "shapematch/sm_clamp.h"
 #include "shapematch/sm_sdf.h"
@@ -16,6 +18,8 @@ void sm_job_inputs_free(sm_job_inputs *in)
 {
     if (!in)
         return;
+    sm_match_free(in->match);
+    in->match = NULL;
     sm_field_free(in->field);
     sm_sol_free(in->distance);
     sm_mesh_free(in->background);
@@ -275,13 +279,13 @@ sm_status sm_job_files_check_background(const sm_job_files *files, sm_job_naming
                         files->target_surface ? "is given" : "is not given");
 }
 
-sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
-                             sm_job_inputs *out, sm_error *err)
+sm_status sm_job_inputs_read_template(const sm_job_files *files, sm_job_naming naming,
+                                      sm_job_inputs *out, sm_error *err)
 {
     memset(out, 0, sizeof *out);
     sm_params_default(&out->params);
     out->failed = SM_NPARTS;
-    double t0 = sm_clock_seconds();
+    out->read_started = sm_clock_seconds();
     sm_status st;
     if ((st = sm_job_files_check_background(files, naming, err)) != SM_OK) {
         out->failed = SM_PART_PARAMS;
@@ -295,35 +299,6 @@ sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
         goto fail;
     }
     out->dim = out->template_mesh->dim;
-    if (files->target_surface) {
-        if (files->target_sol) {
-            out->failed = SM_PART_TARGET_SURFACE;
-            st = sm_error_set(err, SM_ERR_INVALID, "%s excludes %s: give one target",
-                              SM_PART_NAME_TARGET_SURFACE, sm_part_name(SM_PART_TARGET_SOL));
-            goto fail;
-        }
-        if ((st = read_surface_target(files, naming, out, err)) != SM_OK)
-            goto fail;
-        goto prepare;
-    }
-    if ((st = sm_mesh_read_limited(files->target_mesh, files->limits, &out->background, err)) !=
-        SM_OK) {
-        file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
-        goto fail;
-    }
-    if (out->background->dim != out->dim) {
-        st = sm_error_set(err, SM_ERR_INVALID,
-                          "dimension mismatch: the template is %dD but the target mesh is %dD",
-                          out->dim, out->background->dim);
-        goto fail;
-    }
-    if ((st = sm_sol_read_limited(files->target_sol, files->limits, &out->distance, err)) != SM_OK) {
-        file_error(err, naming, SM_PART_TARGET_SOL, files->target_sol, out);
-        goto fail;
-    }
-    if ((st = check_distance(files, naming, out, err)) != SM_OK)
-        goto fail;
-prepare:
     /* topology checks on a copy: building the boundary reorients
      * elements, and the outputs keep the input's connectivity as is; the
      * run works on this copy */
@@ -333,20 +308,97 @@ prepare:
         file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
         goto fail;
     }
-    double tf = sm_clock_seconds();
-    st = sm_field_new(out->background, out->distance->values, &out->field, err);
-    out->field_builds++;
-    out->field_build_seconds = sm_clock_seconds() - tf;
-    if (st != SM_OK) {
-        file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
-        goto fail;
-    }
-    out->read_seconds = sm_clock_seconds() - t0;
     return SM_OK;
 fail:
     if (st == SM_ERR_NOMEM && !(files->limits && files->limits->hit))
         out->failed = SM_NPARTS;
     sm_job_inputs_free(out);
+    return st;
+}
+
+/* The target: a surface (its distance on a given or generated
+ * background) or a background mesh and its distance, then the field. */
+static sm_status read_target(const sm_job_files *files, sm_job_naming naming, sm_job_inputs *out,
+                             sm_error *err)
+{
+    sm_status st;
+    if (files->target_surface) {
+        if (files->target_sol) {
+            out->failed = SM_PART_TARGET_SURFACE;
+            return sm_error_set(err, SM_ERR_INVALID, "%s excludes %s: give one target",
+                                SM_PART_NAME_TARGET_SURFACE, sm_part_name(SM_PART_TARGET_SOL));
+        }
+        if ((st = read_surface_target(files, naming, out, err)) != SM_OK)
+            return st;
+    } else {
+        if ((st = sm_mesh_read_limited(files->target_mesh, files->limits, &out->background,
+                                       err)) != SM_OK)
+            return file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
+        if (out->background->dim != out->dim)
+            return sm_error_set(err, SM_ERR_INVALID,
+                                "dimension mismatch: the template is %dD but the target mesh is %dD",
+                                out->dim, out->background->dim);
+        if ((st = sm_sol_read_limited(files->target_sol, files->limits, &out->distance, err)) !=
+            SM_OK)
+            return file_error(err, naming, SM_PART_TARGET_SOL, files->target_sol, out);
+        if ((st = check_distance(files, naming, out, err)) != SM_OK)
+            return st;
+    }
+    double tf = sm_clock_seconds();
+    st = sm_field_new(out->background, out->distance->values, &out->field, err);
+    out->field_builds++;
+    out->field_build_seconds = sm_clock_seconds() - tf;
+    if (st != SM_OK)
+        return file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
+    return SM_OK;
+}
+
+/* The run's template side, set up beside read_target: only its own
+ * members of *in are written (the other thread writes the target's). */
+static void prepare_run(sm_job_inputs *in)
+{
+    double t0 = sm_clock_seconds();
+    sm_error_clear(&in->match_error);
+    sm_match_opts opts = {.template_mesh = in->template_mesh, .prepared = in->prepared,
+                          .params = &in->params};
+    in->match_status = sm_match_new(&opts, &in->match, &in->match_error);
+    in->match_seconds = sm_clock_seconds() - t0;
+}
+
+sm_status sm_job_inputs_read_target(const sm_job_files *files, sm_job_naming naming, int prepare,
+                                    sm_job_inputs *out, sm_error *err)
+{
+    sm_status st = SM_OK;
+    if (prepare) {
+        /* two coarse tasks, not a loop of small ones: worth a second
+         * thread whatever the size (the run's thread policy is for the
+         * descent's loops) */
+#pragma omp parallel sections num_threads(omp_get_max_threads() > 1 ? 2 : 1)
+        {
+#pragma omp section
+            st = read_target(files, naming, out, err);
+#pragma omp section
+            prepare_run(out);
+        }
+    } else {
+        st = read_target(files, naming, out, err);
+    }
+    if (st != SM_OK) {
+        if (st == SM_ERR_NOMEM && !(files->limits && files->limits->hit))
+            out->failed = SM_NPARTS;
+        sm_job_inputs_free(out);
+        return st;
+    }
+    out->read_seconds = sm_clock_seconds() - out->read_started;
+    return SM_OK;
+}
+
+sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
+                             sm_job_inputs *out, sm_error *err)
+{
+    sm_status st = sm_job_inputs_read_template(files, naming, out, err);
+    if (st == SM_OK)
+        st = sm_job_inputs_read_target(files, naming, 0, out, err);
     return st;
 }
 
@@ -362,6 +414,10 @@ sm_status sm_job_inputs_set_params(sm_job_inputs *in, const sm_params *params, s
     in->failed = SM_NPARTS;
     in->params = *params;
     in->nclamped = nclamped;
+    /* a template side set up with other parameters is stale */
+    sm_match_free(in->match);
+    in->match = NULL;
+    in->match_status = SM_OK;
     return SM_OK;
 }
 
@@ -382,7 +438,14 @@ sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
         with_bg.background_size = bg.size;
     if (!(with_bg.background_padding > 0))
         with_bg.background_padding = bg.padding;
-    if ((st = sm_job_inputs_read(&with_bg, SM_JOB_NAME_PARTS, out, err)) != SM_OK)
+    /* the files, then the params' values (the upload's check: a file's
+     * 413 before a param's 422); with prepare_run (the worker, on checked
+     * inputs) the params come before the target, whose reading the run's
+     * template side then overlaps */
+    if ((st = sm_job_inputs_read_template(&with_bg, SM_JOB_NAME_PARTS, out, err)) != SM_OK)
+        return st;
+    if (!files->prepare_run &&
+        (st = sm_job_inputs_read_target(&with_bg, SM_JOB_NAME_PARTS, 0, out, err)) != SM_OK)
         return st;
     if ((st = sm_params_from_json(params_text, params_len, out->dim, &params, err)) != SM_OK)
         goto fail;
@@ -390,6 +453,8 @@ sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
         sm_error_prefix(err, "%s", params.clamp == SM_CLAMP_BALL ? "params.clamp" : "params.clamp.refs");
         goto fail;
     }
+    if (files->prepare_run)
+        return sm_job_inputs_read_target(&with_bg, SM_JOB_NAME_PARTS, 1, out, err);
     return SM_OK;
 fail:
     sm_job_inputs_free(out);

@@ -31,6 +31,7 @@
 #include "shapematch/sm_error.h"
 #include "shapematch/sm_field.h"
 #include "shapematch/sm_io.h"
+#include "shapematch/sm_match.h"
 #include "shapematch/sm_mesh.h"
 #include "shapematch/sm_params.h"
 #include "shapematch/sm_surface.h"
@@ -61,6 +62,10 @@ typedef struct sm_job_files {
      * After a refusal limits->hit names the bound and `failed` the part
      * (the daemon answers 413 naming its flag). */
     sm_read_limits *limits;
+    /* sm_job_inputs_load: set up the run's template side while the
+     * target is read (sm_job_inputs_read_target's prepare); for a caller
+     * that runs the job next (the worker), not for the upload's check */
+    int prepare_run;
 } sm_job_files;
 
 typedef enum sm_job_naming {
@@ -94,6 +99,15 @@ typedef struct sm_job_inputs {
     sm_part failed;           /* after a failure: the part the message is
                                * about; SM_NPARTS when none (dimension
                                * mismatch, out of memory) */
+    double read_started;      /* sm_clock_seconds() when reading began */
+    /* The run's template side (sm_match_new with params), when it was
+     * set up while the target was read: sm_job_run_exec continues from
+     * it (and frees it), or reports its failure as the run's.  NULL and
+     * SM_OK otherwise; sm_job_inputs_set_params drops it (stale). */
+    sm_match *match;
+    sm_status match_status;
+    sm_error match_error;
+    double match_seconds;
 } sm_job_inputs;
 
 /* background_size and background_padding (> 0: given) are for a
@@ -108,9 +122,26 @@ sm_status sm_job_files_check_background(const sm_job_files *files, sm_job_naming
 
 /* Reads and checks the input files and builds the field; parameters are
  * left at their defaults.  sm_job_files_check_background comes first
- * (failed: SM_PART_PARAMS).  On failure every member is freed and NULL. */
+ * (failed: SM_PART_PARAMS), then the template (its file, then its
+ * topology), then the target.  On failure every member is freed and
+ * NULL.  It is sm_job_inputs_read_template then
+ * sm_job_inputs_read_target without prepare. */
 sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
                              sm_job_inputs *out, sm_error *err);
+
+/* The same in two steps, for a caller that runs the job next: between
+ * them it sets the parameters (sm_job_inputs_set_params), and with
+ * prepare the run's template side (sm_match_new: the elastic operator
+ * and its first factorization or AMG hierarchy, a few tenths of a second
+ * at 30k tetrahedra) is set up while the target is read and its field
+ * built, on a second thread when the OpenMP limit allows two: in->match
+ * and in->match_status (a failure there is not the inputs': the run
+ * reports it).  read_template fills *out from scratch; both free every
+ * member on failure. */
+sm_status sm_job_inputs_read_template(const sm_job_files *files, sm_job_naming naming,
+                                      sm_job_inputs *out, sm_error *err);
+sm_status sm_job_inputs_read_target(const sm_job_files *files, sm_job_naming naming, int prepare,
+                                    sm_job_inputs *out, sm_error *err);
 
 /* Sets the parameters after checking them against the inputs
  * (sm_params_validate for the dimension, then the clamp set).  Messages
@@ -120,10 +151,14 @@ sm_status sm_job_inputs_set_params(sm_job_inputs *in, const sm_params *params,
                                    sm_error *err);
 
 /* The daemon's and the worker's way: params as JSON (params_text need not
- * be NUL-terminated; its syntax is checked before any mesh is parsed),
- * messages with part names.  The params' background_size and
- * background_padding size a generated background (files' own, when > 0,
- * win), so the upload's check and the worker's run build the same one.  On failure every member is freed and NULL. */
+ * be NUL-terminated; its syntax is checked before any mesh is parsed, its
+ * values after the files), messages with part names.  With
+ * files->prepare_run, the values are checked against the template before
+ * the target is read, and the run's template side is set up meanwhile
+ * (sm_job_inputs_read_target's prepare).  The params' background_size
+ * and background_padding size a generated background (files' own, when
+ * > 0, win), so the upload's check and the worker's run build the same
+ * one.  On failure every member is freed and NULL. */
 sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
                              size_t params_len, sm_job_inputs *out,
                              sm_error *err);

@@ -132,17 +132,32 @@ static void set_threads(int n)
         blas_threads(n);
 }
 
-static sm_status run_match(const sm_match_opts *opts, const sm_match_callbacks *cb, sm_job_run *run,
-                           sm_error *err)
+/* The run under the thread policy: from the template side set up while
+ * the inputs were read (in->match, consumed) when there is one, else
+ * from scratch. */
+static sm_status run_match(sm_job_inputs *in, const sm_match_opts *opts,
+                           const sm_match_callbacks *cb, sm_job_run *run, sm_error *err)
 {
+    if (in->match_status != SM_OK) {
+        if (err)
+            *err = in->match_error;
+        return in->match_status;
+    }
     int limit = omp_get_max_threads();
     set_threads(sm_job_threads_for(opts->template_mesh->nelems, limit));
-    sm_status st = sm_match_run(opts, cb, run->coords, &run->result, err);
+    sm_status st;
+    if (in->match) {
+        st = sm_match_execute(in->match, opts->target, cb, run->coords, &run->result, err);
+        sm_match_free(in->match);
+        in->match = NULL;
+    } else {
+        st = sm_match_run(opts, cb, run->coords, &run->result, err);
+    }
     set_threads(limit);
     return st;
 }
 
-sm_status sm_job_run_exec(const sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_run *run,
+sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_run *run,
                           sm_error *err)
 {
     memset(run, 0, sizeof *run);
@@ -163,7 +178,7 @@ sm_status sm_job_run_exec(const sm_job_inputs *in, const sm_job_hooks *hooks, sm
         return st;
     tell_warnings(&c, 0);
     int told = run->warnings.n;
-    st = run_match(&opts, &cb, run, err);
+    st = run_match(in, &opts, &cb, run, err);
     if (c.failed != SM_OK) {
         if (err)
             *err = c.error;

@@ -101,11 +101,13 @@ typedef struct sm_job_run {
 } sm_job_run;
 
 /* Runs the job on in (field and prepared template reused, nothing is
- * built again).  SM_OK: run->outcome says how it ended, run->coords and
+ * built again; the run's template side too when it was set up while
+ * the target was read: in->match is consumed, and its failure is the
+ * run's).  SM_OK: run->outcome says how it ended, run->coords and
  * run->result describe the state reached.  Errors: the core's (with its
  * message), SM_ERR_IO when a snapshot cannot be written, SM_ERR_NOMEM.
  * Free run with sm_job_run_free in every case. */
-sm_status sm_job_run_exec(const sm_job_inputs *in, const sm_job_hooks *hooks,
+sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks,
                           sm_job_run *run, sm_error *err);
 void sm_job_run_free(sm_job_run *run);
 

@@ -315,7 +315,8 @@ int main(int argc, char **argv)
     sm_job_files files = {.template_mesh = given[SM_PART_TEMPLATE],
                           .target_mesh = given[SM_PART_TARGET_MESH],
                           .target_sol = given[SM_PART_TARGET_SOL],
-                          .target_surface = given[SM_PART_TARGET_SURFACE]};
+                          .target_surface = given[SM_PART_TARGET_SURFACE],
+                          .prepare_run = 1};
     sm_job_inputs in;
     sm_error err;
     sm_error_clear(&err);

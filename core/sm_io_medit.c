@@ -715,25 +715,40 @@ static sm_status build_mesh(medit_in *c, sm_mesh **out)
                             "%s: no elements (Triangles in 2D or Tetrahedra in 3D)", path);
     }
 
+    /* The mesh takes the arrays read rather than copies of them: for the
+     * 344k-tetrahedron background of examples/3d, 8.5 MB less to write,
+     * and to fault in (first touches are most of a copy's cost on a
+     * virtual machine).  sm_mesh_alloc's arrays for no records are
+     * replaced; a missing facet block keeps its empty one. */
     sm_mesh *m;
-    st = sm_mesh_alloc(&m, mesh_dim, (int32_t)c->nverts, (int32_t)elems->count,
-                       (int32_t)facets->count, c->err);
+    st = sm_mesh_alloc(&m, mesh_dim, 0, 0, 0, c->err);
     if (st != SM_OK)
         return st;
-    if (mesh_dim == c->dim) {
-        memcpy(m->coords, c->coords, (size_t)c->nverts * (size_t)c->dim * sizeof(double));
-    } else {
+    if (mesh_dim != c->dim) /* planar Dimension 3 file: z dropped in place */
         for (int64_t i = 0; i < c->nverts; i++) {
-            m->coords[2 * i] = c->coords[3 * i];
-            m->coords[2 * i + 1] = c->coords[3 * i + 1];
+            c->coords[2 * i] = c->coords[3 * i];
+            c->coords[2 * i + 1] = c->coords[3 * i + 1];
         }
-    }
-    memcpy(m->vert_refs, c->vert_refs, (size_t)c->nverts * sizeof(int32_t));
-    memcpy(m->elems, elems->idx, (size_t)elems->count * (size_t)(mesh_dim + 1) * sizeof(int32_t));
-    memcpy(m->elem_refs, elems->refs, (size_t)elems->count * sizeof(int32_t));
-    if (facets->count > 0) {
-        memcpy(m->facets, facets->idx, (size_t)facets->count * (size_t)mesh_dim * sizeof(int32_t));
-        memcpy(m->facet_refs, facets->refs, (size_t)facets->count * sizeof(int32_t));
+    m->nverts = (int32_t)c->nverts;
+    free(m->coords);
+    free(m->vert_refs);
+    m->coords = c->coords;
+    m->vert_refs = c->vert_refs;
+    c->coords = NULL;
+    c->vert_refs = NULL;
+    m->nelems = (int32_t)elems->count;
+    free(m->elems);
+    free(m->elem_refs);
+    m->elems = elems->idx;
+    m->elem_refs = elems->refs;
+    elems->idx = elems->refs = NULL;
+    if (facets->present) {
+        m->nfacets = (int32_t)facets->count;
+        free(m->facets);
+        free(m->facet_refs);
+        m->facets = facets->idx;
+        m->facet_refs = facets->refs;
+        facets->idx = facets->refs = NULL;
     }
     *out = m;
     return SM_OK;

@@ -11,6 +11,7 @@
 #include <string.h>
 #include <strings.h>
 
+#include "sm_alloc.h"
 #include "sm_io_msh.h"
 #include "sm_medit_common.h"
 #include "sm_read_input.h"
@@ -129,8 +130,8 @@ static sm_status alloc_block(medit_in *c, idx_block *b, int nidx, int64_t count)
     b->present = 1;
     b->count = count;
     b->nidx = nidx;
-    b->idx = malloc((size_t)(count ? count : 1) * (size_t)nidx * sizeof(int32_t));
-    b->refs = malloc((size_t)(count ? count : 1) * sizeof(int32_t));
+    b->idx = sm__alloc_huge((size_t)count * (size_t)nidx * sizeof(int32_t));
+    b->refs = sm__alloc_huge((size_t)count * sizeof(int32_t));
     if (!b->idx || !b->refs)
         return sm_error_set(c->err, SM_ERR_NOMEM, "%s: out of memory for %lld records",
                             c->r.path, (long long)count);
@@ -141,8 +142,8 @@ static sm_status alloc_vertices(medit_in *c, int64_t count)
 {
     c->have_vertices = 1;
     c->nverts = count;
-    c->coords = malloc((size_t)(count ? count : 1) * (size_t)c->dim * sizeof(double));
-    c->vert_refs = malloc((size_t)(count ? count : 1) * sizeof(int32_t));
+    c->coords = sm__alloc_huge((size_t)count * (size_t)c->dim * sizeof(double));
+    c->vert_refs = sm__alloc_huge((size_t)count * sizeof(int32_t));
     if (!c->coords || !c->vert_refs)
         return sm_error_set(c->err, SM_ERR_NOMEM, "%s: out of memory for %lld vertices",
                             c->r.path, (long long)count);

@@ -17,13 +17,13 @@ VERSION := 0.1.0
 DEB_PACKAGES := gcc make pkg-config libc6-dev \
   libsuitesparse-dev libopenblas0-pthread zlib1g-dev libcmocka-dev libjansson-dev \
   libmicrohttpd-dev libgnutls28-dev libcurl4-openssl-dev curl gmsh wrk jq systemd python3 python3-yaml strace \
-  pmccabe clang libclang-rt-14-dev libomp-14-dev nodejs chromium postgresql libpq-dev \
+  libdeflate-dev pmccabe clang libclang-rt-14-dev libomp-14-dev nodejs chromium postgresql libpq-dev \
   libhypre-dev mpi-default-dev
 
 # The part of them `make release` and `make install` need (the Dockerfile's
 # build stage: `make deps-build`); tests/deploy/ checks it is a subset.
 DEB_BUILD_PACKAGES := gcc make pkg-config libc6-dev libsuitesparse-dev libopenblas0-pthread \
-  zlib1g-dev libcmocka-dev libjansson-dev libmicrohttpd-dev libgnutls28-dev libcurl4-openssl-dev libpq-dev \
+  zlib1g-dev libdeflate-dev libcmocka-dev libjansson-dev libmicrohttpd-dev libgnutls28-dev libcurl4-openssl-dev libpq-dev \
   libhypre-dev mpi-default-dev
 
 CC ?= cc
@@ -41,7 +41,7 @@ ASAN_CFLAGS := $(BASE_CFLAGS) -O1 -fno-omit-frame-pointer \
 RELEASE_LDFLAGS := -fopenmp
 ASAN_LDFLAGS := -fopenmp -fsanitize=address,undefined
 
-CORE_LIBS := -fopenmp -lcholmod $(HYPRE_LIBS) -lz -lm
+CORE_LIBS := -fopenmp -lcholmod $(HYPRE_LIBS) -ldeflate -lz -lm
 PROTO_LIBS := -ljansson
 HTTP_LIBS := -lmicrohttpd -lgnutls
 CURL_LIBS := -lcurl

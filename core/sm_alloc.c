@@ -17,3 +17,13 @@ void *sm__alloc_huge(size_t bytes)
 #endif
     return p;
 }
+
+void *sm__alloc_huge_buffer(size_t bytes, size_t *cap)
+{
+    size_t whole = (bytes + SM_HUGE_PAGE_BYTES - 1) / SM_HUGE_PAGE_BYTES * SM_HUGE_PAGE_BYTES;
+    *cap = bytes >= SM_HUGE_BUFFER_MIN && whole >= bytes ? whole : bytes;
+    void *p = sm__alloc_huge(*cap);
+    if (!p)
+        *cap = 0;
+    return p;
+}

@@ -28,4 +28,12 @@
  * bytes >= SM_HUGE_PAGE_BYTES.  NULL when out of memory. */
 void *sm__alloc_huge(size_t bytes);
 
+/* A buffer of at least bytes for a short while (an inflated file, read
+ * and freed by the reader): from SM_HUGE_BUFFER_MIN bytes on, rounded up
+ * to whole huge pages, all huge-page backed (the resident size may then
+ * exceed what is written by less than one huge page, for a moment only).
+ * *cap is the size obtained.  Free with free(). */
+#define SM_HUGE_BUFFER_MIN ((size_t)256 << 10)
+void *sm__alloc_huge_buffer(size_t bytes, size_t *cap);
+
 #endif

@@ -12,6 +12,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "sm_inflate.h"
 #include "sm_stream.h"
 
 #define READ_BUF_SIZE (1u << 16)
@@ -76,26 +77,52 @@ static int gzip_magic(int fd, const struct stat *st)
     return n == 2 && m[0] == 0x1f && m[1] == 0x8b;
 }
 
-/* Plain regular files are read with read(2): zlib's state and buffers
- * are set up only for gzip input (and for pipes, whose first bytes
- * cannot be looked at twice). */
-static sm_status open_stream(sm_reader *r, int fd, const struct stat *st, sm_error *err)
+/* zlib's stream over fd from its current offset, with a read buffer
+ * (for gzip files not inflated whole, and pipes).  On failure fd is
+ * closed. */
+static int open_zlib(sm_reader *r, int fd)
 {
-    int magic = gzip_magic(fd, st);
     r->cap = read_buffer_size(r->file_size);
     r->buf = malloc(r->cap);
-    if (r->buf && magic == 0) {
-        r->fd = fd;
-        return SM_OK;
-    }
     r->gz = r->buf ? gzdopen(fd, "rb") : NULL;
     if (!r->gz) {
         close(fd);
         free(r->buf);
         r->buf = NULL;
-        return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", r->path);
+        r->cap = 0;
+        return -1;
     }
     gzbuffer(r->gz, zlib_buffer_size(r->file_size));
+    return 0;
+}
+
+/* Plain regular files are read with read(2), and gzip regular files up
+ * to SM_INFLATE_WHOLE_MAX bytes are inflated whole at the first read
+ * (sm_inflate.h; their buffer is then the inflated file), when the limit
+ * on inflated bytes is known: zlib's state and buffers are set up only
+ * for the other gzip files, and for pipes, whose first bytes cannot be
+ * looked at twice. */
+static sm_status open_stream(sm_reader *r, int fd, const struct stat *st, sm_error *err)
+{
+    int magic = gzip_magic(fd, st);
+    if (magic == 0) {
+        r->cap = read_buffer_size(r->file_size);
+        r->buf = malloc(r->cap);
+        if (!r->buf) {
+            close(fd);
+            return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", r->path);
+        }
+        r->fd = fd;
+        return SM_OK;
+    }
+    if (magic == 1 && r->file_size <= SM_INFLATE_WHOLE_MAX) {
+        r->fd = fd;
+        r->compressed = 1;
+        r->inflate = SM_INFLATE_WHOLE_PENDING;
+        return SM_OK;
+    }
+    if (open_zlib(r, fd) != 0)
+        return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", r->path);
     r->compressed = !gzdirect(r->gz);
     return SM_OK;
 }
@@ -179,6 +206,8 @@ uint64_t sm_reader_offset(const sm_reader *r)
 uint64_t sm_reader_max_remaining(const sm_reader *r)
 {
     uint64_t off = sm_reader_offset(r);
+    if (r->inflate == SM_INFLATE_WHOLE)
+        return r->len - r->pos;
     if (!r->compressed)
         return r->file_size > off ? r->file_size - off : 0;
     if (r->file_size > UINT64_MAX / (2 * DEFLATE_MAX_RATIO))
@@ -192,6 +221,41 @@ uint64_t sm_reader_max_remaining(const sm_reader *r)
             most = cap;
     }
     return most;
+}
+
+/* The first read of a gzip file SM_INFLATE_WHOLE_PENDING: inflates it
+ * whole into buf (then 1, at_eof set) or falls back to zlib's stream
+ * from the start of the file (then 0: refill reads on), or fails on a
+ * read error or out of memory (1, stream_status set). */
+static int start_gzip(sm_reader *r)
+{
+    int fd = r->fd, io_errno;
+    r->fd = -1;
+    r->inflate = SM_INFLATE_STREAM;
+    size_t limit = SM_INFLATE_WHOLE_MAX, len;
+    if (r->limits && r->limits->max_inflated && r->limits->max_inflated < limit)
+        limit = (size_t)r->limits->max_inflated;
+    unsigned char *out = sm__inflate_file(fd, (size_t)r->file_size, limit, &len, &io_errno);
+    if (out || io_errno)
+        close(fd);
+    if (out) {
+        r->inflate = SM_INFLATE_WHOLE;
+        r->buf = out;
+        r->cap = r->len = len;
+        r->at_eof = 1;
+        return 1;
+    }
+    if (io_errno) {
+        r->stream_status = SM_ERR_IO;
+        why(r, "read error: %s", strerror(io_errno));
+        return 1;
+    }
+    if (open_zlib(r, fd) != 0) {
+        r->stream_status = SM_ERR_NOMEM;
+        why(r, "out of memory");
+        return 1;
+    }
+    return 0;
 }
 
 /* refill() of a plain file: read(2) into the free end of the buffer. */
@@ -216,6 +280,8 @@ static void refill(sm_reader *r)
 {
     if (r->at_eof || r->stream_status != SM_OK)
         return;
+    if (r->inflate == SM_INFLATE_WHOLE_PENDING && start_gzip(r) != 0)
+        return; /* inflated whole, or an error */
     if (r->pos > 0) {
         size_t left = r->len - r->pos;
         memmove(r->buf, r->buf + r->pos, left);

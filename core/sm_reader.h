@@ -2,9 +2,12 @@
  * the public API; sm_writer.h is the output side, sm_medit_common.h the
  * Medit helpers built on this).
  *
- * sm_reader: a buffered input stream over a plain or gzip file (the
- * gzip magic picks zlib; plain files are read directly, and the buffers
- * are sized to the input, so a small file is cheap to open), with
+ * sm_reader: a buffered input stream over a plain or gzip file (plain
+ * files are read directly, and the buffers are sized to the input, so a
+ * small file is cheap to open; a gzip file of moderate size is inflated
+ * whole by libdeflate at the first read and then read in place, others
+ * and pipes are streamed through zlib: sm_inflate.h),
+ * with
  *   - an ASCII tokenizer that skips whitespace and '#' comments and keeps
  *     the line number of the last token,
  *   - a binary reader that keeps the byte offset (in the decompressed
@@ -32,10 +35,17 @@
 #define SM_READER_WHY_LEN 160
 #define SM_TOKEN_LEN 128
 
+/* How a gzip file is inflated (sm_reader.inflate). */
+enum { SM_INFLATE_STREAM, SM_INFLATE_WHOLE_PENDING, SM_INFLATE_WHOLE };
+
 typedef struct sm_reader {
     const char *path;        /* borrowed, for messages */
-    gzFile gz;               /* gzip input (and pipes); else NULL */
-    int fd;                  /* plain regular file read directly; else -1 */
+    gzFile gz;               /* gzip input streamed (and pipes); else NULL */
+    int fd;                  /* plain regular file read directly, or a gzip
+                                one until it is inflated whole; else -1 */
+    int inflate;             /* gzip files: SM_INFLATE_* (the first read
+                                inflates a pending file whole into buf, or
+                                falls back to streaming through gz) */
     unsigned char *buf;
     size_t cap, pos, len;
     uint64_t buf_offset;     /* stream offset of buf[0] */
@@ -81,8 +91,9 @@ void sm_reader_close(sm_reader *r);
 uint64_t sm_reader_offset(const sm_reader *r);
 
 /* An upper bound on the bytes left in the (decompressed) stream: exact
- * for plain files, the deflate maximum ratio times the compressed size
- * for gzip files. */
+ * for plain files and gzip files inflated whole, the deflate maximum
+ * ratio times the compressed size (or the limit on inflated bytes) for
+ * gzip files streamed. */
 uint64_t sm_reader_max_remaining(const sm_reader *r);
 
 /* Copies up to n leading bytes without consuming them; *got tells how

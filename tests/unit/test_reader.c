@@ -2,8 +2,10 @@
  * place and through the general tokenizer give the same values (bit for
  * bit, strtod's) and the same line numbers, across buffer refills and
  * next to comments; the fallbacks give the general path's errors; a small
- * plain file gets a small buffer and no zlib state, a gzip file gets
- * zlib. */
+ * plain file gets a small buffer and no zlib state; a gzip file is
+ * inflated whole, and gives zlib's bytes (several members, lying sizes,
+ * trailing garbage) or, through zlib's stream, its error (truncated,
+ * corrupt, beyond the limit on inflated bytes). */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -162,8 +164,8 @@ static void test_fallback_errors(void **state)
     sm_reader_close(&r);
 }
 
-/* A small plain file: a buffer of its size, no zlib; gzip: zlib, and the
- * same numbers. */
+/* A small plain file: a buffer of its size, no zlib; gzip: inflated
+ * whole at the first read (no zlib), and the same numbers. */
 static void test_buffers_and_zlib(void **state)
 {
     (void)state;
@@ -182,15 +184,249 @@ static void test_buffers_and_zlib(void **state)
         assert_int_equal(sm_reader_open(&r, k ? gzpath : path, &err), SM_OK);
         assert_true(r.cap <= 4096);
         assert_int_equal(r.compressed, k);
-        assert_true(k ? r.gz != NULL && r.fd < 0 : r.gz == NULL && r.fd >= 0);
+        assert_true(r.gz == NULL && r.fd >= 0);
+        assert_int_equal(r.inflate, k ? SM_INFLATE_WHOLE_PENDING : SM_INFLATE_STREAM);
         int64_t v;
         double d;
         assert_int_equal(sm_reader_int(&r, 0, 10, &v), SM_OK);
+        assert_int_equal(r.inflate, k ? SM_INFLATE_WHOLE : SM_INFLATE_STREAM);
+        assert_true(r.gz == NULL && (k ? r.fd < 0 : r.fd >= 0));
         assert_int_equal(v, 3);
         assert_int_equal(sm_reader_real(&r, &d), SM_OK);
         assert_true(d == 0.25);
         sm_reader_close(&r);
     }
+}
+
+/* ---- gzip files inflated whole, against zlib's stream ---- */
+
+/* A gzip member of n bytes of text (zlib's gzwrite) appended to the
+ * growing bytes at *buf. */
+static void append_member(const char *text, size_t n, unsigned char **buf, size_t *len)
+{
+    char path[128];
+    snprintf(path, sizeof path, "%s/member.gz", dir);
+    gzFile gz = gzopen(path, "wb");
+    assert_non_null(gz);
+    if (n)
+        assert_int_equal(gzwrite(gz, text, (unsigned)n), (int)n);
+    assert_int_equal(gzclose(gz), Z_OK);
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    unsigned char tmp[1 << 16];
+    size_t k;
+    while ((k = fread(tmp, 1, sizeof tmp, f)) > 0) {
+        *buf = realloc(*buf, *len + k);
+        assert_non_null(*buf);
+        memcpy(*buf + *len, tmp, k);
+        *len += k;
+    }
+    fclose(f);
+}
+
+/* What zlib's gzread makes of path: the bytes (malloc'd, *n of them) and
+ * whether it ended without an error. */
+static unsigned char *zlib_read_all(const char *path, size_t *n, int *ok)
+{
+    gzFile gz = gzopen(path, "rb");
+    assert_non_null(gz);
+    unsigned char *out = NULL;
+    size_t len = 0;
+    int k;
+    unsigned char tmp[1 << 16];
+    while ((k = gzread(gz, tmp, sizeof tmp)) > 0) {
+        out = realloc(out, len + (size_t)k);
+        assert_non_null(out);
+        memcpy(out + len, tmp, (size_t)k);
+        len += (size_t)k;
+    }
+    int errnum;
+    gzerror(gz, &errnum);
+    *ok = k == 0 && errnum == Z_OK;
+    gzclose(gz);
+    *n = len;
+    return out;
+}
+
+/* Everything the reader gives for path (with limits), through
+ * sm_reader_window: the bytes, the final status and r->why, and how the
+ * file was inflated. */
+typedef struct read_result {
+    unsigned char *bytes;
+    size_t len;
+    sm_status status;
+    char why[SM_READER_WHY_LEN];
+    int inflate;
+} read_result;
+
+static void reader_read_all(const char *path, sm_read_limits *limits, read_result *out)
+{
+    memset(out, 0, sizeof *out);
+    sm_reader r;
+    sm_error err;
+    assert_int_equal(sm_reader_open(&r, path, &err), SM_OK);
+    r.limits = limits;
+    for (;;) {
+        const unsigned char *p;
+        size_t avail;
+        out->status = sm_reader_window(&r, &p, &avail);
+        if (out->status != SM_OK || avail == 0)
+            break;
+        out->bytes = realloc(out->bytes, out->len + avail);
+        assert_non_null(out->bytes);
+        memcpy(out->bytes + out->len, p, avail);
+        out->len += avail;
+        sm_reader_consume(&r, avail);
+    }
+    snprintf(out->why, sizeof out->why, "%s", r.why);
+    out->inflate = r.inflate;
+    sm_reader_close(&r);
+}
+
+/* Text of n bytes that compresses but not to nothing: numbered lines. */
+static char *some_text(size_t n)
+{
+    char *t = malloc(n + 32);
+    assert_non_null(t);
+    size_t k = 0;
+    for (long i = 0; k < n; i++)
+        k += (size_t)snprintf(t + k, 32, "%ld %.6f\n", i, (double)i / 7);
+    return t;
+}
+
+/* path holds bytes; the reader gives what zlib gives, inflated whole
+ * (expect_whole) or, where the fast path does not take the file,
+ * through zlib's stream with zlib's error (and a prefix of its bytes). */
+static void check_like_zlib(const char *name, const unsigned char *bytes, size_t len,
+                            int expect_whole, const char *expect_why)
+{
+    char path[128];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    write_text(path, bytes, len);
+    size_t zlen;
+    int zok;
+    unsigned char *z = zlib_read_all(path, &zlen, &zok);
+    read_result got;
+    reader_read_all(path, NULL, &got);
+    print_message("# %s: %zu bytes, status %d, %s\n", name, got.len, got.status, got.why);
+    assert_int_equal(got.inflate, expect_whole ? SM_INFLATE_WHOLE : SM_INFLATE_STREAM);
+    assert_int_equal(got.status == SM_OK, zok);
+    /* Before an error, how much is handed out depends on the buffers. */
+    size_t same = zok ? zlen : got.len < zlen ? got.len : zlen;
+    if (zok)
+        assert_int_equal(got.len, zlen);
+    if (same)
+        assert_memory_equal(got.bytes, z, same);
+    if (expect_why)
+        assert_non_null(strstr(got.why, expect_why));
+    free(z);
+    free(got.bytes);
+}
+
+/* Valid files the fast path takes: one member; several members whose
+ * last ISIZE is far too small (the buffer grows) or larger than the
+ * first members need; an empty member among them; trailing garbage after
+ * the last member (ignored, as zlib does). */
+static void test_gzip_whole_like_zlib(void **state)
+{
+    (void)state;
+    size_t big = 300000;
+    char *text = some_text(big);
+    unsigned char *f = NULL;
+    size_t n = 0;
+    append_member(text, big, &f, &n);
+    check_like_zlib("one.gz", f, n, 1, NULL);
+
+    append_member("1 2\n", 4, &f, &n); /* ISIZE now says 4 */
+    append_member("", 0, &f, &n);
+    append_member("3 4\n", 4, &f, &n);
+    check_like_zlib("small-isize.gz", f, n, 1, NULL);
+
+    unsigned char *g = NULL;
+    size_t m = 0;
+    append_member("5 6\n", 4, &g, &m);
+    append_member(text, big, &g, &m); /* ISIZE larger than the first member */
+    check_like_zlib("large-isize.gz", g, m, 1, NULL);
+
+    g = realloc(g, m + 5);
+    memcpy(g + m, "junk!", 5);
+    check_like_zlib("trailing-garbage.gz", g, m + 5, 1, NULL);
+    g[m] = 0x1f; /* a lone magic byte is garbage too */
+    check_like_zlib("trailing-1f.gz", g, m + 1, 1, NULL);
+    free(g);
+    free(f);
+    free(text);
+}
+
+/* Files the fast path does not take go through zlib's stream and give
+ * zlib's bytes and error: truncated (in the deflate data, in the
+ * trailer), a CRC or ISIZE that does not match, a corrupt second member,
+ * garbage right after the header. */
+static void test_gzip_errors_like_zlib(void **state)
+{
+    (void)state;
+    size_t big = 200000;
+    char *text = some_text(big);
+    unsigned char *f = NULL;
+    size_t n = 0;
+    append_member(text, big, &f, &n);
+    check_like_zlib("truncated.gz", f, n / 2, 0, "truncated or corrupt gzip stream");
+    check_like_zlib("truncated-trailer.gz", f, n - 3, 0, "truncated or corrupt gzip stream");
+
+    unsigned char *bad = malloc(n + 64);
+    assert_non_null(bad);
+    memcpy(bad, f, n);
+    bad[n - 8] ^= 1; /* CRC32 */
+    check_like_zlib("bad-crc.gz", bad, n, 0, "incorrect data check");
+    memcpy(bad, f, n);
+    bad[n - 1] ^= 0x40; /* ISIZE lies: a file of 1 GiB more */
+    check_like_zlib("lying-isize.gz", bad, n, 0, "incorrect length check");
+
+    memcpy(bad, f, n);
+    static const unsigned char second[] = {0x1f, 0x8b, 8, 0, 0, 0, 0, 0, 0, 3, 0xff, 0xff, 0xff};
+    memcpy(bad + n, second, sizeof second);
+    check_like_zlib("bad-second-member.gz", bad, n + sizeof second, 0, "gzip");
+
+    memcpy(bad, f, 10);
+    memset(bad + 10, 0xff, 20);
+    check_like_zlib("garbage-after-header.gz", bad, 30, 0, "corrupt gzip data");
+    free(bad);
+    free(f);
+    free(text);
+}
+
+/* The limit on inflated bytes holds on the fast path: a file of exactly
+ * the limit is inflated whole, one byte more is refused (SM_ERR_NOMEM,
+ * SM_LIMIT_INFLATED) as zlib's stream refuses it. */
+static void test_gzip_whole_limit(void **state)
+{
+    (void)state;
+    size_t big = 100000;
+    char *text = some_text(big);
+    unsigned char *f = NULL;
+    size_t n = 0;
+    append_member(text, big, &f, &n);
+    char path[128];
+    snprintf(path, sizeof path, "%s/limit.gz", dir);
+    write_text(path, f, n);
+    sm_read_limits lim = {.max_inflated = big};
+    read_result got;
+    reader_read_all(path, &lim, &got);
+    assert_int_equal(got.status, SM_OK);
+    assert_int_equal(got.inflate, SM_INFLATE_WHOLE);
+    assert_int_equal(got.len, big);
+    assert_int_equal(lim.hit, SM_LIMIT_NONE);
+    free(got.bytes);
+
+    lim.max_inflated = big - 1;
+    reader_read_all(path, &lim, &got);
+    assert_int_equal(got.status, SM_ERR_NOMEM);
+    assert_int_equal(got.inflate, SM_INFLATE_STREAM);
+    assert_int_equal(lim.hit, SM_LIMIT_INFLATED);
+    assert_non_null(strstr(got.why, "decompresses to more than the limit of 99999 bytes"));
+    free(got.bytes);
+    free(f);
+    free(text);
 }
 
 int main(void)
@@ -199,6 +435,9 @@ int main(void)
         cmocka_unit_test(test_numbers_in_place_and_general),
         cmocka_unit_test(test_fallback_errors),
         cmocka_unit_test(test_buffers_and_zlib),
+        cmocka_unit_test(test_gzip_whole_like_zlib),
+        cmocka_unit_test(test_gzip_errors_like_zlib),
+        cmocka_unit_test(test_gzip_whole_limit),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -1,0 +1,116 @@
+#include "sm_inflate.h"
+
+#include <errno.h>
+#include <libdeflate.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "sm_alloc.h"
+
+/* The first output buffer is at least this large (an ISIZE of 0 says
+ * nothing). */
+#define OUTPUT_MIN ((size_t)4096)
+
+/* A new output buffer of at least *cap bytes holding the used bytes of
+ * old (freed); *cap becomes its usable size, at most limit.  NULL (old
+ * freed) when out of memory. */
+static unsigned char *grow_output(unsigned char *old, size_t used, size_t limit, size_t *cap)
+{
+    size_t got;
+    unsigned char *out = sm__alloc_huge_buffer(*cap < limit ? *cap : limit, &got);
+    if (out && used)
+        memcpy(out, old, used);
+    free(old);
+    *cap = got < limit ? got : limit;
+    return out;
+}
+
+/* Inflates member after member of the gzip data in[0, n) into a new
+ * buffer, as zlib's gzread reads them: another member follows while the
+ * bytes left start with the gzip magic, and anything else after a member
+ * is trailing garbage, ignored.  The buffer starts at hint bytes and
+ * doubles while a member does not fit, up to limit.  Returns the buffer
+ * (its inflated size in *len), or NULL when libdeflate does not take the
+ * data (sm_inflate.h). */
+static unsigned char *inflate_members(const unsigned char *in, size_t n, size_t hint,
+                                      size_t limit, size_t *len)
+{
+    struct libdeflate_decompressor *d = libdeflate_alloc_decompressor();
+    size_t cap = hint < OUTPUT_MIN ? OUTPUT_MIN : hint;
+    unsigned char *out = d ? grow_output(NULL, 0, limit, &cap) : NULL;
+    size_t used = 0, at = 0;
+    int members = 0;
+    while (out && n - at >= 2 && in[at] == 0x1f && in[at + 1] == 0x8b) {
+        size_t in_used, out_got;
+        enum libdeflate_result res = libdeflate_gzip_decompress_ex(
+            d, in + at, n - at, out + used, cap - used, &in_used, &out_got);
+        if (res == LIBDEFLATE_SUCCESS) {
+            at += in_used;
+            used += out_got;
+            members++;
+            continue;
+        }
+        if (res != LIBDEFLATE_INSUFFICIENT_SPACE || cap == limit) {
+            free(out);
+            out = NULL;
+            break;
+        }
+        cap = cap > limit / 2 ? limit : 2 * cap;
+        out = grow_output(out, used, limit, &cap);
+    }
+    libdeflate_free_decompressor(d);
+    if (out && !members) { /* the file no longer starts with a member */
+        free(out);
+        out = NULL;
+    }
+    *len = used;
+    return out;
+}
+
+/* The size bytes of the regular file fd, read from its start into a new
+ * buffer.  NULL with *io_errno set on a read error; NULL without (0)
+ * when out of memory or when the file no longer has that size. */
+static unsigned char *read_whole(int fd, size_t size, int *io_errno)
+{
+    *io_errno = 0;
+    size_t cap;
+    unsigned char *buf = sm__alloc_huge_buffer(size + 1, &cap); /* + 1: to see a file that grew */
+    size_t got = 0;
+    while (buf && got <= size) {
+        ssize_t n = pread(fd, buf + got, size + 1 - got, (off_t)got);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n < 0)
+            *io_errno = errno;
+        if (n <= 0)
+            break;
+        got += (size_t)n;
+    }
+    if (buf && (*io_errno || got != size)) {
+        free(buf);
+        buf = NULL;
+    }
+    return buf;
+}
+
+/* The gzip trailer's ISIZE: the inflated size mod 2^32 of the last
+ * member, if the file is what it says. */
+static size_t gzip_isize(const unsigned char *in, size_t n)
+{
+    if (n < 4)
+        return 0;
+    const unsigned char *t = in + n - 4;
+    return (size_t)t[0] | (size_t)t[1] << 8 | (size_t)t[2] << 16 | (size_t)t[3] << 24;
+}
+
+unsigned char *sm__inflate_file(int fd, size_t size, size_t limit, size_t *len, int *io_errno)
+{
+    *len = 0;
+    unsigned char *in = read_whole(fd, size, io_errno);
+    if (!in)
+        return NULL;
+    unsigned char *out = inflate_members(in, size, gzip_isize(in, size), limit, len);
+    free(in);
+    return out;
+}

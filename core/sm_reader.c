@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "sm_inflate.h"
+#include "sm_number.h"
 #include "sm_stream.h"
 
 #define READ_BUF_SIZE (1u << 16)
@@ -480,13 +481,14 @@ static sm_status need_token(sm_reader *r)
 
 /* ---- fast paths of sm_reader_int / sm_reader_real ----
  * The common case, a plain number followed by whitespace inside the
- * buffer, is parsed in place (no byte-by-byte tokenizing); anything else
- * (comments, the buffer's end, a malformed or out-of-range number) falls
- * back to the general path, which gives the same result or the error. */
+ * buffer, is parsed in place (no byte-by-byte tokenizing, no copy into
+ * r->token); anything else (comments, the buffer's end, a malformed or
+ * out-of-range number, a token too long) falls back to the general
+ * path, which gives the same result or the error. */
 
 /* Skips whitespace from buf[pos] without consuming; *line advanced over
  * newlines.  Returns the index of the next byte (len at the end). */
-static size_t skip_space_at(const sm_reader *r, long *line)
+static inline size_t skip_space_at(const sm_reader *r, long *line)
 {
     const unsigned char *b = r->buf;
     size_t i = r->pos;
@@ -497,55 +499,51 @@ static size_t skip_space_at(const sm_reader *r, long *line)
     return i;
 }
 
-/* Consumes the token buf[start, end) found by a fast path. */
-static void commit_token(sm_reader *r, size_t start, size_t end, long line)
+/* Consumes a number found by a fast path, which ends before buf[end]. */
+static inline void commit_number(sm_reader *r, size_t end, long line)
 {
-    size_t n = end - start;
-    if (n > sizeof r->token - 1)
-        n = sizeof r->token - 1;
-    memcpy(r->token, r->buf + start, n);
-    r->token[n] = '\0';
     r->pos = end;
     r->line = line;
     r->token_line = line;
 }
 
-static int fast_int(sm_reader *r, int64_t lo, int64_t hi, int64_t *out)
+static inline int fast_int(sm_reader *r, int64_t lo, int64_t hi, int64_t *out)
 {
     long line = r->line;
-    size_t start = skip_space_at(r, &line), i = start;
-    const unsigned char *b = r->buf;
-    int neg = 0;
-    if (i < r->len && (b[i] == '-' || b[i] == '+'))
-        neg = b[i++] == '-';
-    size_t d0 = i;
-    uint64_t v = 0;
-    while (i < r->len && (unsigned)(b[i] - '0') < 10u && i - d0 < 18)
-        v = v * 10 + (uint64_t)(b[i++] - '0');
-    if (i == d0 || i >= r->len || !is_space(b[i]))
+    size_t start = skip_space_at(r, &line);
+    const char *b = (const char *)r->buf;
+    int64_t x;
+    size_t end = start + sm__decimal_to_int(b + start, b + r->len, &x);
+    if (end == start || end >= r->len || !is_space(b[end]) || x < lo || x > hi)
         return 0;
-    int64_t x = neg ? -(int64_t)v : (int64_t)v;
-    if (x < lo || x > hi)
-        return 0;
-    commit_token(r, start, i, line);
+    commit_number(r, end, line);
     *out = x;
     return 1;
 }
 
-static int fast_real(sm_reader *r, double *out)
+/* sm__decimal_to_double (sm_number.h) for the common forms, strtod in
+ * place for the others. */
+static inline int fast_real(sm_reader *r, double *out)
 {
     long line = r->line;
-    size_t start = skip_space_at(r, &line), end = start;
-    const unsigned char *b = r->buf;
+    size_t start = skip_space_at(r, &line);
+    const char *b = (const char *)r->buf;
+    size_t n = sm__decimal_to_double(b + start, b + r->len, out);
+    size_t end = start + n;
+    if (n && n < SM_TOKEN_LEN && end < r->len && is_space(b[end])) {
+        commit_number(r, end, line);
+        return 1;
+    }
+    end = start;
     while (end < r->len && !is_space(b[end]) && b[end] != '#')
         end++;
     if (end == start || end >= r->len || !is_space(b[end]) || end - start >= SM_TOKEN_LEN)
         return 0;
     char *stop;
-    double v = strtod((const char *)b + start, &stop);
-    if (stop != (const char *)b + end || !isfinite(v))
+    double v = strtod(b + start, &stop);
+    if (stop != b + end || !isfinite(v))
         return 0;
-    commit_token(r, start, end, line);
+    commit_number(r, end, line);
     *out = v;
     return 1;
 }

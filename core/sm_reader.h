@@ -116,9 +116,11 @@ void sm_reader_consume(sm_reader *r, size_t k);
  * Returns SM_OK with *found = 0 at end of file. */
 sm_status sm_reader_token(sm_reader *r, int *found);
 
-/* Next token as an integer in [lo, hi] / as a finite real.  A missing
- * token, trailing characters, overflow or a non-finite value are errors
- * (SM_ERR_FORMAT) described in r->why. */
+/* Next token as an integer in [lo, hi] / as a finite real (the double
+ * strtod gives, bit for bit).  A missing token, trailing characters,
+ * overflow or a non-finite value are errors (SM_ERR_FORMAT) described in
+ * r->why.  r->token_line is the number's line; r->token is left alone
+ * when the number is read in place (the common case). */
 sm_status sm_reader_int(sm_reader *r, int64_t lo, int64_t hi, int64_t *out);
 sm_status sm_reader_real(sm_reader *r, double *out);
 

@@ -18,6 +18,7 @@
 #include <cmocka.h>
 #include <zlib.h>
 
+#include "sm_number.h"
 #include "sm_reader.h"
 
 static char dir[64];
@@ -121,6 +122,135 @@ static void test_numbers_in_place_and_general(void **state)
     free(reals);
     free(ints);
     free(lines);
+}
+
+/* sm__decimal_to_double on the string s against strtod: when it
+ * converts, the same double bit for bit and the same length.  Returns
+ * whether it converted. */
+static int check_decimal(const char *s)
+{
+    double got, want;
+    size_t n = sm__decimal_to_double(s, s + strlen(s), &got);
+    if (n == 0)
+        return 0;
+    char *end;
+    want = strtod(s, &end);
+    if (memcmp(&got, &want, sizeof got) != 0 || (size_t)(end - s) != n)
+        fail_msg("%s: %.17g (%zu bytes) instead of strtod's %.17g (%zu bytes)", s, got, n, want,
+                 (size_t)(end - s));
+    return 1;
+}
+
+/* The in-place conversion of reals (core/sm_number.c) against strtod:
+ * significands of 1 to 19 digits (and 20, left to strtod) at every
+ * power of ten of its table and beyond it, the same in every notation;
+ * exact ties between two doubles (rounded to even) and their
+ * neighbours; forms it must leave to strtod or stop before. */
+static void test_decimal_like_strtod(void **state)
+{
+    (void)state;
+    uint64_t rng = 0x243f6a8885a308d3u;
+    long converted = 0, tried = 0;
+    for (int q = -80; q <= 80; q++)
+        for (int digits = 1; digits <= 20; digits++)
+            for (int k = 0; k < 40; k++) {
+                char num[64], text[96];
+                uint64_t w = next(&rng);
+                int len = 0;
+                for (int i = 0; i < digits; i++) /* no leading zero */
+                    num[len++] = (char)('0' + (i == 0 ? 1 + (w >> 5) % 9 : (next(&rng) >> 7) % 10));
+                num[len] = '\0';
+                const char *sign = k % 3 == 0 ? "-" : k % 3 == 1 ? "+" : "";
+                /* num * 10^q written as digits e q, and with a point */
+                snprintf(text, sizeof text, "%s%se%d", sign, num, q);
+                converted += check_decimal(text);
+                int point = (int)((w >> 20) % (unsigned)(digits + 1));
+                snprintf(text, sizeof text, "%s%.*s.%sE%+d", sign, point, num, num + point,
+                         q + (digits - point));
+                converted += check_decimal(text);
+                if (q >= -25 && q <= 0 && -q >= digits) /* 0.000ddd */
+                    snprintf(text, sizeof text, "%s0.%0*d%s", sign, -q - digits, 0, num);
+                else
+                    snprintf(text, sizeof text, "%s%s.0e%d", sign, num, q);
+                converted += check_decimal(text);
+                tried += 3;
+            }
+    /* Exact ties: a 54-bit odd integer M (halfway between two doubles)
+     * times 2^-j written exactly (j <= 2), and M +- 1. */
+    for (int k = 0; k < 20000; k++) {
+        uint64_t m = (next(&rng) >> 10) | (UINT64_C(1) << 53) | 1;
+        for (int j = 0; j <= 2; j++)
+            for (int d = -1; d <= 1; d++) {
+                uint64_t v = m + (uint64_t)d;
+                for (int i = 0; i < j; i++)
+                    v *= 5; /* v * 2^-j = (v * 5^j) * 10^-j */
+                char text[64];
+                snprintf(text, sizeof text, "%llue-%d", (unsigned long long)v, j);
+                converted += check_decimal(text);
+                tried++;
+            }
+    }
+    print_message("# %ld of %ld converted in place, the others left to strtod\n", converted,
+                  tried);
+    assert_true(converted > tried / 2);
+    static const char *const whole[] = {
+        "0", "-0", "+0.0", "00012.50", ".5", "5.", "-.0e5", "0.000000000000000000000000000123",
+        "1e22", "9007199254740993", "1.7976931348623157e308", "2.2250738585072014e-308",
+        "123456789012345678e-70", "0e999999999", "1.5e0002",
+    };
+    for (size_t i = 0; i < sizeof whole / sizeof *whole; i++)
+        check_decimal(whole[i]);
+    /* Not its forms (or no digit): 0, for strtod or the error. */
+    static const char *const refused[] = {"", "-", ".", "e5", ".e5", "inf", "nan",
+                                          "12345678901234567890.5", "1e1000000"};
+    for (size_t i = 0; i < sizeof refused / sizeof *refused; i++) {
+        double d;
+        assert_int_equal(sm__decimal_to_double(refused[i], refused[i] + strlen(refused[i]), &d),
+                         0);
+    }
+    /* Where the number stops: before an 'e' without digits, at a second
+     * point; the caller sees what follows. */
+    double d;
+    assert_int_equal(sm__decimal_to_double("1.5e+x", "1.5e+x" + 6, &d), 0);
+    assert_int_equal(sm__decimal_to_double("2.5.1", "2.5.1" + 5, &d), 3);
+    assert_true(d == 2.5);
+    assert_int_equal(sm__decimal_to_double("7#c", "7#c" + 3, &d), 1);
+    /* hexadecimal: "0", then an 'x' (strtod's whole token is the caller's) */
+    assert_int_equal(sm__decimal_to_double("0x1p3", "0x1p3" + 5, &d), 1);
+}
+
+/* sm__decimal_to_int: in and out of its 18 digits, near the end of the
+ * bytes (no word of 8 to load), digits cut by the end. */
+static void test_decimal_int(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *s;
+        size_t n;
+        int64_t v;
+    } cases[] = {
+        {"0", 1, 0}, {"-7 ", 2, -7}, {"+12345678", 9, 12345678}, {"123456789 1", 9, 123456789},
+        {"99999999x", 8, 99999999}, {"123456789012345678", 18, 123456789012345678},
+        {"-123456789012345678 ", 19, -123456789012345678}, {"1234567890123456789", 0, 0},
+        {"", 0, 0}, {"-", 0, 0}, {"x1", 0, 0}, {"00000000000000000001", 0, 0},
+        {"0000000000000000001 ", 0, 0}, {"000000000000000001", 18, 1},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        int64_t v = -1;
+        size_t n = sm__decimal_to_int(cases[i].s, cases[i].s + strlen(cases[i].s), &v);
+        assert_int_equal(n, cases[i].n);
+        if (n)
+            assert_true(v == cases[i].v);
+    }
+    /* every prefix of a long run, so that the end falls everywhere */
+    const char *digits = "31415926535897932";
+    for (size_t len = 1; len <= strlen(digits); len++) {
+        int64_t v;
+        char prefix[32];
+        snprintf(prefix, sizeof prefix, "%.*s", (int)len, digits);
+        assert_int_equal(sm__decimal_to_int(digits, digits + len, &v), len);
+        assert_true(v == strtoll(prefix, NULL, 10));
+    }
 }
 
 static void write_text(const char *path, const void *text, size_t n)
@@ -434,6 +564,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_numbers_in_place_and_general),
         cmocka_unit_test(test_fallback_errors),
+        cmocka_unit_test(test_decimal_like_strtod),
+        cmocka_unit_test(test_decimal_int),
         cmocka_unit_test(test_buffers_and_zlib),
         cmocka_unit_test(test_gzip_whole_like_zlib),
         cmocka_unit_test(test_gzip_errors_like_zlib),

@@ -233,9 +233,10 @@ static int start_gzip(sm_reader *r)
     int fd = r->fd, io_errno;
     r->fd = -1;
     r->inflate = SM_INFLATE_STREAM;
-    size_t limit = SM_INFLATE_WHOLE_MAX, len;
-    if (r->limits && r->limits->max_inflated && r->limits->max_inflated < limit)
-        limit = (size_t)r->limits->max_inflated;
+    /* At most what the file can inflate to (the deflate ratio) and the
+     * limit on inflated bytes allow: a lying ISIZE costs no more. */
+    uint64_t most = sm_reader_max_remaining(r);
+    size_t limit = most < SM_INFLATE_WHOLE_MAX ? (size_t)most : SM_INFLATE_WHOLE_MAX, len;
     unsigned char *out = sm__inflate_file(fd, (size_t)r->file_size, limit, &len, &io_errno);
     if (out || io_errno)
         close(fd);

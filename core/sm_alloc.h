@@ -8,10 +8,13 @@
  * with huge pages).  sm__alloc_huge therefore aligns an allocation that
  * covers a huge page to one and advises its whole huge pages to be
  * backed by huge pages (one fault per 2 MiB, where transparent huge pages
- * are enabled for madvise'd memory, as by default); the tail shorter than
- * a huge page stays on normal pages, so that the resident size is still
- * what is written.  The memory is the allocator's: freed with free(),
- * resizable with realloc (which may move it off the huge pages).
+ * are enabled for madvise'd memory, as by default).  A tail shorter than
+ * a huge page gets one too when it fills three quarters of it (so at
+ * most 512 KiB resident beyond what is written); otherwise it, and an
+ * array of 64 KiB to 2 MiB, has its pages mapped in one system call
+ * rather than one fault each (half the cost).  The memory is the
+ * allocator's: freed with free(), resizable with realloc (which may move
+ * it off the huge pages).
  *
  * sm_field.c has its own mapping allocator for the field's arrays, which
  * are also returned to the system when freed; these are not, since

@@ -8,6 +8,7 @@
 #include <string.h>
 #include <strings.h>
 
+#include "sm_alloc.h"
 #include "sm_medit_common.h"
 #include "sm_read_input.h"
 #include "sm_reader.h"
@@ -36,7 +37,10 @@ sm_status sm_sol_alloc(sm_sol **out, int dim, int32_t nverts, int ncomp, sm_erro
     s->nverts = nverts;
     s->ncomp = ncomp;
     size_t n = (size_t)nverts * (size_t)ncomp;
-    s->values = calloc(n ? n : 1, sizeof(double));
+    /* zeroed as promised; the readers then write every value */
+    s->values = sm__alloc_huge(n * sizeof(double));
+    if (s->values)
+        memset(s->values, 0, n * sizeof(double));
     if (!s->values) {
         free(s);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for a solution of %ld vertices",

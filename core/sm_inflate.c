@@ -2,15 +2,21 @@
 
 #include <errno.h>
 #include <libdeflate.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
 #include "sm_alloc.h"
 
-/* The first output buffer is at least this large (an ISIZE of 0 says
- * nothing). */
+/* The first output buffer is ISIZE bytes, but at least OUTPUT_MIN (an
+ * ISIZE of 0 says nothing) and at most FIRST_RATIO times the compressed
+ * size plus OUTPUT_MIN: ASCII meshes and solutions compress 2.5 to 10
+ * times (examples/3d's background 2.4), so a real file takes one pass,
+ * while a small file that claims a large size costs a small buffer (and
+ * a file that does inflate that much, doublings). */
 #define OUTPUT_MIN ((size_t)4096)
+#define FIRST_RATIO 16
 
 /* A new output buffer of at least *cap bytes holding the used bytes of
  * old (freed); *cap becomes its usable size, at most limit.  NULL (old
@@ -29,8 +35,9 @@ static unsigned char *grow_output(unsigned char *old, size_t used, size_t limit,
 /* Inflates member after member of the gzip data in[0, n) into a new
  * buffer, as zlib's gzread reads them: another member follows while the
  * bytes left start with the gzip magic, and anything else after a member
- * is trailing garbage, ignored.  The buffer starts at hint bytes and
- * doubles while a member does not fit, up to limit.  Returns the buffer
+ * is trailing garbage, ignored.  The buffer starts at hint bytes (within
+ * the bounds said above) and doubles while a member does not fit, up to
+ * limit.  Returns the buffer
  * (its inflated size in *len), or NULL when libdeflate does not take the
  * data (sm_inflate.h). */
 static unsigned char *inflate_members(const unsigned char *in, size_t n, size_t hint,
@@ -38,6 +45,8 @@ static unsigned char *inflate_members(const unsigned char *in, size_t n, size_t 
 {
     struct libdeflate_decompressor *d = libdeflate_alloc_decompressor();
     size_t cap = hint < OUTPUT_MIN ? OUTPUT_MIN : hint;
+    if (n <= (SIZE_MAX - OUTPUT_MIN) / FIRST_RATIO && cap > FIRST_RATIO * n + OUTPUT_MIN)
+        cap = FIRST_RATIO * n + OUTPUT_MIN;
     unsigned char *out = d ? grow_output(NULL, 0, limit, &cap) : NULL;
     size_t used = 0, at = 0;
     int members = 0;

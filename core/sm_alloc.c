@@ -5,6 +5,22 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
+/* Under AddressSanitizer, sm__alloc_large leaves every block to the
+ * allocator, which checks the bounds. */
+#if defined(__SANITIZE_ADDRESS__)
+#define SM_ALLOC_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define SM_ALLOC_ASAN 1
+#endif
+#endif
+
+static size_t round_up(size_t bytes, size_t align)
+{
+    size_t size = (bytes + align - 1) / align * align;
+    return size < bytes ? 0 : size; /* 0: overflow */
+}
+
 /* Arrays below this size are left to fault their pages in one by one as
  * they are written: a prefault costs a system call, and a small block is
  * often memory the allocator has had before. */
@@ -55,12 +71,41 @@ void *sm__alloc_huge(size_t bytes)
     return p;
 }
 
-void *sm__alloc_huge_buffer(size_t bytes, size_t *cap)
+void *sm__alloc_large(size_t bytes)
 {
-    size_t whole = (bytes + SM_HUGE_PAGE_BYTES - 1) / SM_HUGE_PAGE_BYTES * SM_HUGE_PAGE_BYTES;
-    *cap = bytes >= SM_HUGE_BUFFER_MIN && whole >= bytes ? whole : bytes;
-    void *p = sm__alloc_huge(*cap);
+#if !defined(SM_ALLOC_ASAN) && defined(MAP_ANONYMOUS)
+    if (bytes >= SM_HUGE_PAGE_BYTES) {
+        size_t size = round_up(bytes, SM_HUGE_PAGE_BYTES);
+        if (!size || size + SM_HUGE_PAGE_BYTES < size)
+            return NULL;
+        char *p = mmap(NULL, size + SM_HUGE_PAGE_BYTES, PROT_READ | PROT_WRITE,
+                       MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+        if (p == MAP_FAILED)
+            return NULL;
+        size_t head = (SM_HUGE_PAGE_BYTES - (uintptr_t)p % SM_HUGE_PAGE_BYTES) % SM_HUGE_PAGE_BYTES;
+        if (head)
+            munmap(p, head);
+        munmap(p + head + size, SM_HUGE_PAGE_BYTES - head);
+#ifdef MADV_HUGEPAGE
+        (void)madvise(p + head, size, MADV_HUGEPAGE);
+#endif
+        return p + head;
+    }
+#endif
+    size_t size = round_up(bytes ? bytes : 1, 128);
+    return size ? aligned_alloc(128, size) : NULL;
+}
+
+void sm__free_large(void *p, size_t bytes)
+{
     if (!p)
-        *cap = 0;
-    return p;
+        return;
+#if !defined(SM_ALLOC_ASAN) && defined(MAP_ANONYMOUS)
+    if (bytes >= SM_HUGE_PAGE_BYTES) {
+        munmap(p, round_up(bytes, SM_HUGE_PAGE_BYTES));
+        return;
+    }
+#endif
+    (void)bytes;
+    free(p);
 }

@@ -16,9 +16,10 @@
  * allocator's: freed with free(), resizable with realloc (which may move
  * it off the huge pages).
  *
- * sm_field.c has its own mapping allocator for the field's arrays, which
- * are also returned to the system when freed; these are not, since
- * their owners (sm_mesh, sm_sol) free them with free(). */
+ * sm__alloc_large is the other kind: blocks that go back to the system
+ * when freed (sm__free_large), for scratch and buffers; the arrays of
+ * sm__alloc_huge are kept by their owners (sm_mesh, sm_sol), which free
+ * them with free(). */
 #ifndef SM_ALLOC_H
 #define SM_ALLOC_H
 
@@ -31,12 +32,18 @@
  * bytes >= SM_HUGE_PAGE_BYTES.  NULL when out of memory. */
 void *sm__alloc_huge(size_t bytes);
 
-/* A buffer of at least bytes for a short while (an inflated file, read
- * and freed by the reader): from SM_HUGE_BUFFER_MIN bytes on, rounded up
- * to whole huge pages, all huge-page backed (the resident size may then
- * exceed what is written by less than one huge page, for a moment only).
- * *cap is the size obtained.  Free with free(). */
-#define SM_HUGE_BUFFER_MIN ((size_t)256 << 10)
-void *sm__alloc_huge_buffer(size_t bytes, size_t *cap);
+/* Memory mapped directly from SM_HUGE_PAGE_BYTES on, aligned to a huge
+ * page and advised as huge pages (fewer TLB misses, far fewer page
+ * faults when first written), and unmapped when freed, so that scratch
+ * arrays and buffers held for a while (the target field's construction,
+ * an inflated file) go back to the system at once instead of staying in
+ * the allocator's heap or raising its threshold for mapping blocks, which
+ * would keep later blocks of that size in the heap; smaller blocks from
+ * the allocator, aligned to the 128-byte pair of cache lines the hardware
+ * fetches together.  Under AddressSanitizer everything goes through the
+ * allocator, which checks the bounds.  NULL when out of memory.  Free
+ * with sm__free_large(p, bytes), bytes as allocated. */
+void *sm__alloc_large(size_t bytes);
+void sm__free_large(void *p, size_t bytes);
 
 #endif

@@ -61,69 +61,8 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
 
-/* Allocation of the arrays every evaluation reads at random (the
- * neighbours) and of the largest scratch arrays of the construction:
- * aligned to the 128-byte pair of cache lines the hardware fetches
- * together, and from HUGE_PAGE_BYTES on mapped directly, aligned to a
- * huge page and advised to be backed by huge pages (fewer TLB misses,
- * far fewer page faults when first written), and unmapped when freed, so
- * that the scratch goes back to the system instead of staying in the
- * allocator's heap.  Under AddressSanitizer everything goes through the
- * allocator, which checks the bounds.  Free with sm__field_free_large(p, bytes). */
-#if defined(__SANITIZE_ADDRESS__)
-#define SM_FIELD_ASAN 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define SM_FIELD_ASAN 1
-#endif
-#endif
-
-static size_t round_up(size_t bytes, size_t align)
-{
-    size_t size = (bytes + align - 1) / align * align;
-    return size < bytes ? 0 : size; /* 0: overflow */
-}
-
-void *sm__field_alloc_large(size_t bytes)
-{
-#if !defined(SM_FIELD_ASAN) && defined(MAP_ANONYMOUS)
-    if (bytes >= HUGE_PAGE_BYTES) {
-        size_t size = round_up(bytes, HUGE_PAGE_BYTES);
-        if (!size || size + HUGE_PAGE_BYTES < size)
-            return NULL;
-        char *p = mmap(NULL, size + HUGE_PAGE_BYTES, PROT_READ | PROT_WRITE,
-                       MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-        if (p == MAP_FAILED)
-            return NULL;
-        size_t head = (HUGE_PAGE_BYTES - (uintptr_t)p % HUGE_PAGE_BYTES) % HUGE_PAGE_BYTES;
-        if (head)
-            munmap(p, head);
-        munmap(p + head + size, HUGE_PAGE_BYTES - head);
-#ifdef MADV_HUGEPAGE
-        (void)madvise(p + head, size, MADV_HUGEPAGE);
-#endif
-        return p + head;
-    }
-#endif
-    size_t size = round_up(bytes ? bytes : 1, 128);
-    return size ? aligned_alloc(128, size) : NULL;
-}
-
-void sm__field_free_large(void *p, size_t bytes)
-{
-    if (!p)
-        return;
-#if !defined(SM_FIELD_ASAN) && defined(MAP_ANONYMOUS)
-    if (bytes >= HUGE_PAGE_BYTES) {
-        munmap(p, round_up(bytes, HUGE_PAGE_BYTES));
-        return;
-    }
-#endif
-    (void)bytes;
-    free(p);
-}
+#include "sm_alloc.h"
 
 /* ------------------------------------------------------------------ */
 /* Element validity                                                    */
@@ -245,7 +184,7 @@ void sm_field_free(sm_field *f)
     if (!f)
         return;
     free(f->valid);
-    sm__field_free_large(f->neigh, (size_t)f->nelems * (size_t)(f->dim + 1) * sizeof *f->neigh);
+    sm__free_large(f->neigh, (size_t)f->nelems * (size_t)(f->dim + 1) * sizeof *f->neigh);
     free(f->cell_seed);
     free(f->elem_start);
     free(f->elem_list);
@@ -304,7 +243,7 @@ sm_status sm_field_new(const sm_mesh *bg, const double *values, sm_field **out,
     f->dim = D;
     f->nelems = bg->nelems;
     f->valid = calloc((size_t)bg->nelems, 1);
-    f->neigh = sm__field_alloc_large((size_t)bg->nelems * (size_t)(D + 1) * sizeof *f->neigh);
+    f->neigh = sm__alloc_large((size_t)bg->nelems * (size_t)(D + 1) * sizeof *f->neigh);
     if (!f->valid || !f->neigh) {
         sm_field_free(f);
         return sm_error_set(err, SM_ERR_NOMEM,

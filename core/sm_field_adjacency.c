@@ -191,7 +191,7 @@ sm_status sm__field_build_adjacency(sm_field *f, int shift, size_t *counts, sm_e
         }
     }
     start[ADJ_FANOUT] = sum;
-    facet_key *keys = sm__field_alloc_large(sum * sizeof *keys);
+    facet_key *keys = sm__alloc_large(sum * sizeof *keys);
     if (!keys)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for element adjacency");
     if (f->dim == 2)
@@ -261,7 +261,7 @@ sm_status sm__field_build_adjacency(sm_field *f, int shift, size_t *counts, sm_e
         free(table);
         free(occ);
     }
-    sm__field_free_large(keys, sum * sizeof *keys);
+    sm__free_large(keys, sum * sizeof *keys);
     if (failed)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for element adjacency");
     return SM_OK;

@@ -351,7 +351,7 @@ static sm_status bin_elements(sm_field *f, const bin_items *items, double target
     grid *g = &f->g;
     const int32_t n = items->n;
     sm_status st = SM_OK;
-    item_cells *it = sm__field_alloc_large((size_t)n * sizeof *it);
+    item_cells *it = sm__alloc_large((size_t)n * sizeof *it);
     item_cells *sorted = NULL;
     int32_t *block_of = malloc((size_t)n * sizeof *block_of + 1);
     int32_t *pos = NULL;
@@ -393,7 +393,7 @@ static sm_status bin_elements(sm_field *f, const bin_items *items, double target
             pos[(size_t)c * (size_t)nblocks + (size_t)b] = sum;
             sum += k;
         }
-    sorted = sm__field_alloc_large((size_t)n * sizeof *sorted);
+    sorted = sm__alloc_large((size_t)n * sizeof *sorted);
     if (!sorted)
         goto nomem;
 #pragma omp parallel for schedule(static)
@@ -402,7 +402,7 @@ static sm_status bin_elements(sm_field *f, const bin_items *items, double target
         for (int32_t j = chunk_begin(n, c); j < chunk_begin(n, c + 1); j++)
             sorted[my[block_of[j]]++] = it[j];
     }
-    sm__field_free_large(it, (size_t)n * sizeof *it);
+    sm__free_large(it, (size_t)n * sizeof *it);
     it = NULL;
     free(block_of);
     block_of = NULL;
@@ -446,8 +446,8 @@ static sm_status bin_elements(sm_field *f, const bin_items *items, double target
 nomem:
     st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the point location grid");
 done:
-    sm__field_free_large(it, (size_t)n * sizeof *it);
-    sm__field_free_large(sorted, (size_t)n * sizeof *sorted);
+    sm__free_large(it, (size_t)n * sizeof *it);
+    sm__free_large(sorted, (size_t)n * sizeof *sorted);
     free(block_of);
     free(pos);
     free(best);

@@ -20,6 +20,7 @@
 #include "shapematch/sm_error.h"
 #include "shapematch/sm_field.h"
 #include "shapematch/sm_mesh.h"
+#include "sm_alloc.h"
 
 /* Barycentric tolerance: a point is in an element when every coordinate is
  * >= -BARY_TOL.  Barycentric coordinates are dimensionless, so this is a
@@ -58,9 +59,6 @@
 #define NEAR_RINGS 2
 #define GRID_MAX_CELLS (1 << 24)
 #define GRID_MAX_AXIS (1 << 20)
-/* Arrays of at least this size are aligned to it and advised as huge pages
- * (the usual x86-64 and arm64 huge page: smaller arrays gain nothing). */
-#define HUGE_PAGE_BYTES ((size_t)2 << 20)
 /* Facets are matched in buckets of their smallest vertex, distributed in
  * two rounds of this fan-out: few enough write streams to stay in the
  * first-level cache, and small enough final buckets for their hash
@@ -105,7 +103,7 @@ struct sm_field {
                           * ELEM_VALID_POSITIVE or _NEGATIVE (sign of det J) */
     int32_t *neigh;      /* nelems*(dim+1): across the facet opposite local
                           * vertex k, or -1 (boundary, gap, non-manifold);
-                          * from sm__field_alloc_large (sm__field_free_large) */
+                          * from sm__alloc_large (sm__free_large) */
 
     /* element grid over the bounding box of the valid elements */
     grid g;
@@ -132,10 +130,6 @@ struct sm_field {
     int32_t *cfacet_list;
 };
 
-/* Allocation of the large arrays (sm_field.c has the details); free with
- * sm__field_free_large(p, bytes), bytes as allocated. */
-void *sm__field_alloc_large(size_t bytes);
-void sm__field_free_large(void *p, size_t bytes);
 
 /* First index of chunk c of n items split into BUILD_CHUNKS. */
 static inline int32_t chunk_begin(int32_t n, int c)

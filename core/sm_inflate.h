@@ -29,12 +29,14 @@
 #define SM_INFLATE_WHOLE_MAX ((size_t)64 << 20)
 
 /* The gzip regular file fd of size bytes inflated whole, read from its
- * start (with pread: fd's offset is left alone) into a new buffer (free
- * with free()) of at most limit inflated bytes, *len of them.  Members
+ * start (with pread: fd's offset is left alone) into a new buffer of
+ * *bytes bytes (free with sm__free_large(p, *bytes), sm_alloc.h) holding
+ * at most limit inflated bytes, *len of them.  Members
  * are read as zlib's gzread reads them: another member follows while the
  * bytes left start with the gzip magic, anything else after a member is
  * trailing garbage, ignored.  NULL with *io_errno set on a read error;
  * NULL with *io_errno 0 when the file is not taken (see above). */
-unsigned char *sm__inflate_file(int fd, size_t size, size_t limit, size_t *len, int *io_errno);
+unsigned char *sm__inflate_file(int fd, size_t size, size_t limit, size_t *len, size_t *bytes,
+                                int *io_errno);
 
 #endif

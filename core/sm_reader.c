@@ -12,6 +12,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "sm_alloc.h"
 #include "sm_inflate.h"
 #include "sm_number.h"
 #include "sm_stream.h"
@@ -190,7 +191,9 @@ void sm_reader_close(sm_reader *r)
         gzclose(r->gz);
     if (r->fd >= 0)
         close(r->fd);
-    if (!r->borrowed)
+    if (r->inflate == SM_INFLATE_WHOLE)
+        sm__free_large(r->buf, r->cap);
+    else if (!r->borrowed)
         free(r->buf);
     sm__stream_restore_locale(r->c_locale, r->saved_locale);
     r->gz = NULL;
@@ -237,13 +240,15 @@ static int start_gzip(sm_reader *r)
      * limit on inflated bytes allow: a lying ISIZE costs no more. */
     uint64_t most = sm_reader_max_remaining(r);
     size_t limit = most < SM_INFLATE_WHOLE_MAX ? (size_t)most : SM_INFLATE_WHOLE_MAX, len;
-    unsigned char *out = sm__inflate_file(fd, (size_t)r->file_size, limit, &len, &io_errno);
+    size_t bytes;
+    unsigned char *out = sm__inflate_file(fd, (size_t)r->file_size, limit, &len, &bytes, &io_errno);
     if (out || io_errno)
         close(fd);
     if (out) {
         r->inflate = SM_INFLATE_WHOLE;
         r->buf = out;
-        r->cap = r->len = len;
+        r->cap = bytes;
+        r->len = len;
         r->at_eof = 1;
         return 1;
     }

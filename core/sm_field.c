@@ -242,7 +242,9 @@ sm_status sm_field_new(const sm_mesh *bg, const double *values, sm_field **out,
     f->values = values;
     f->dim = D;
     f->nelems = bg->nelems;
-    f->valid = calloc((size_t)bg->nelems, 1);
+    f->valid = sm__alloc_huge((size_t)bg->nelems);
+    if (f->valid)
+        memset(f->valid, 0, (size_t)bg->nelems);
     f->neigh = sm__alloc_large((size_t)bg->nelems * (size_t)(D + 1) * sizeof *f->neigh);
     if (!f->valid || !f->neigh) {
         sm_field_free(f);

@@ -152,8 +152,10 @@ static sm_status grid_lists_alloc(const grid *g, int64_t total, int32_t **start,
     if (total > INT32_MAX - 1)
         return sm_error_set(err, SM_ERR_NOMEM,
                             "point location grid too large (%lld entries)", (long long)total);
-    *start = calloc((size_t)g->ncells + 1, sizeof **start);
-    *list = malloc((size_t)total * sizeof **list + 1);
+    *start = sm__alloc_huge(((size_t)g->ncells + 1) * sizeof **start);
+    if (*start)
+        memset(*start, 0, ((size_t)g->ncells + 1) * sizeof **start);
+    *list = sm__alloc_huge((size_t)total * sizeof **list + 1);
     if (!*start || !*list)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the point location grid");
     return SM_OK;
@@ -260,7 +262,7 @@ static sm_status bin_boxes(const grid *g, const bin_items *items, int64_t total,
 static sm_status spread_seeds(const grid *g, int32_t *seed, sm_error *err)
 {
     const int64_t nc = g->ncells;
-    int32_t *dist = malloc((size_t)nc * sizeof *dist + 1);
+    int32_t *dist = sm__alloc_huge((size_t)nc * sizeof *dist + 1);
     if (!dist)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the point location grid");
     for (int64_t c = 0; c < nc; c++)
@@ -353,7 +355,7 @@ static sm_status bin_elements(sm_field *f, const bin_items *items, double target
     sm_status st = SM_OK;
     item_cells *it = sm__alloc_large((size_t)n * sizeof *it);
     item_cells *sorted = NULL;
-    int32_t *block_of = malloc((size_t)n * sizeof *block_of + 1);
+    int32_t *block_of = sm__alloc_huge((size_t)n * sizeof *block_of + 1);
     int32_t *pos = NULL;
     double *best = NULL;
     if (!it || !block_of)
@@ -410,8 +412,8 @@ static sm_status bin_elements(sm_field *f, const bin_items *items, double target
     pos = NULL;
 
     const int64_t nc = g->ncells;
-    best = malloc((size_t)nc * sizeof *best + 1);
-    f->cell_seed = malloc((size_t)nc * sizeof *f->cell_seed + 1);
+    best = sm__alloc_huge((size_t)nc * sizeof *best + 1);
+    f->cell_seed = sm__alloc_huge((size_t)nc * sizeof *f->cell_seed + 1);
     if (!best || !f->cell_seed)
         goto nomem;
     for (int64_t c = 0; c < nc; c++) {
@@ -475,7 +477,7 @@ sm_status sm__field_build_grids(sm_field *f, const double *lo, const double *hi,
     /* Elements.  Hostile inputs (huge elements among tiny ones) can make
      * the lists explode: coarsen until they stay a small multiple of the
      * elements. */
-    int32_t *ids = malloc((size_t)f->nvalid * sizeof *ids + 1);
+    int32_t *ids = sm__alloc_huge((size_t)f->nvalid * sizeof *ids + 1);
     if (!ids)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the point location grid");
     int32_t nit = 0;

@@ -20,6 +20,9 @@
 #include "shapematch/sm_error.h"
 #include "shapematch/sm_field.h"
 #include "shapematch/sm_mesh.h"
+/* The arrays written right after they are allocated come from
+ * sm__alloc_huge, the large scratch and the neighbours from
+ * sm__alloc_large (sm_alloc.h: far fewer page faults). */
 #include "sm_alloc.h"
 
 /* Barycentric tolerance: a point is in an element when every coordinate is

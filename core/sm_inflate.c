@@ -54,12 +54,16 @@ static unsigned char *grow_output(unsigned char *old, size_t *bytes, size_t used
  * bytes left start with the gzip magic, and anything else after a member
  * is trailing garbage, ignored.  The buffer starts at hint bytes (within
  * the bounds said above) and doubles while a member does not fit, up to
- * limit.  Returns the buffer
+ * limit; a hint above limit is taken at its word (the file is left to
+ * zlib's stream at once rather than inflated up to limit in vain: a
+ * large file, or one beyond the limit on inflated bytes).  Returns the buffer
  * (its inflated size in *len, its size in *bytes), or NULL when libdeflate does not take the
  * data (sm_inflate.h). */
 static unsigned char *inflate_members(const unsigned char *in, size_t n, size_t hint,
                                       size_t limit, size_t *len, size_t *bytes)
 {
+    if (hint > limit)
+        return NULL; /* the last member alone is too large: no work wasted */
     struct libdeflate_decompressor *d = libdeflate_alloc_decompressor();
     size_t cap = hint < OUTPUT_MIN ? OUTPUT_MIN : hint;
     if (n <= (SIZE_MAX - OUTPUT_MIN) / FIRST_RATIO && cap > FIRST_RATIO * n + OUTPUT_MIN)

@@ -534,10 +534,12 @@ static inline int fast_real(sm_reader *r, double *out)
     long line = r->line;
     size_t start = skip_space_at(r, &line);
     const char *b = (const char *)r->buf;
-    size_t n = sm__decimal_to_double(b + start, b + r->len, out);
+    double v;
+    size_t n = sm__decimal_to_double(b + start, b + r->len, &v);
     size_t end = start + n;
     if (n && n < SM_TOKEN_LEN && end < r->len && is_space(b[end])) {
         commit_number(r, end, line);
+        *out = v;
         return 1;
     }
     end = start;
@@ -546,7 +548,7 @@ static inline int fast_real(sm_reader *r, double *out)
     if (end == start || end >= r->len || !is_space(b[end]) || end - start >= SM_TOKEN_LEN)
         return 0;
     char *stop;
-    double v = strtod(b + start, &stop);
+    v = strtod(b + start, &stop);
     if (stop != b + end || !isfinite(v))
         return 0;
     commit_number(r, end, line);

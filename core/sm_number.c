@@ -189,13 +189,14 @@ static inline int leading_zeros(uint64_t x)
  * Eisel-Lemire algorithm (Lemire, "Number parsing at a gigabyte per
  * second", 2021; Nigel Tao's write-up "The Eisel-Lemire ParseNumberF64
  * algorithm", 2020).  With m the significand shifted to a top bit of 63
- * and T the truncated 128-bit mantissa of 10^q, m * T is below the exact
- * product by less than m units of its lowest 64 bits.  The top 64 bits
- * of m * T_hi give the 54 bits to round from, unless that error could
- * carry into them; then the lower half of T narrows the error to under
- * two units, and if a carry is still possible the rounding is left to
- * strtod, as is a product that could be an exact tie, a subnormal or an
- * overflow.  Returns 1 with the double's bits in *bits, else 0. */
+ * and T = T_hi * 2^64 + T_lo the truncated 128-bit mantissa of 10^q, the
+ * 128-bit product m * T_hi is below the exact m * 10^q (scaled alike) by
+ * less than m + 1 units of its lowest bit.  Its top 64 bits give the 54
+ * bits to round from, unless that error could carry into them; then
+ * adding m * T_lo narrows the error to under two units, and if a carry
+ * is still possible the rounding is left to strtod, as is a product that
+ * could be an exact tie, a subnormal or an overflow.  Returns 1 with the
+ * double's bits in *bits, else 0. */
 static int eisel_lemire(uint64_t w, int q, uint64_t *bits)
 {
     if (q < POW10_MIN || q > POW10_MAX)

@@ -80,26 +80,6 @@ struct sm_elasticity {
 /* Setup                                                                   */
 /* ---------------------------------------------------------------------- */
 
-static int cmp_int32(const void *a, const void *b)
-{
-    int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
-    return (x > y) - (x < y);
-}
-
-/* Position of key in the sorted list, or -1. */
-static int32_t find_sorted(const int32_t *list, int32_t n, int32_t key)
-{
-    int32_t lo = 0, hi = n;
-    while (lo < hi) {
-        int32_t mid = lo + (hi - lo) / 2;
-        if (list[mid] < key)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return (lo < n && list[lo] == key) ? lo : -1;
-}
-
 static const char *cholmod_status_text(int status)
 {
     switch (status) {
@@ -164,153 +144,174 @@ static void *alloc_n(size_t count, size_t size)
     return calloc(count ? count : 1, size);
 }
 
-/* Vertex adjacency (through elements) split into free and clamped
- * neighbours, each list sorted; only built for free vertices.  Lives only
- * during setup. */
-typedef struct adjacency {
-    int64_t *free_ptr, *cpl_ptr; /* nverts+1 */
-    int32_t *free_adj, *cpl_adj;
-} adjacency;
+/* What sm_elasticity_new needs while it builds the pattern, freed at its
+ * end.  Vertices are FREE (dim unknowns), CLAMPED (Dirichlet values) or
+ * UNUSED (in no element: no unknown, treated like clamped ones). */
+enum { VERTEX_FREE = 0, VERTEX_CLAMPED = 1, VERTEX_UNUSED = 2 };
+typedef struct setup_scratch {
+    uint8_t *kind;          /* nverts: VERTEX_* */
+    int32_t *clamped_first; /* nverts: a clamped vertex's first clamped DOF
+                             * (index into clamped_global), else -1 */
+    int64_t *elem_ptr;      /* nverts+1: the elements of each vertex */
+    int32_t *elem_list;
+    int64_t *nb_ptr;        /* nverts+1: the neighbours of each free vertex */
+    int32_t *nb_list;       /* (itself included) in increasing order */
+    int32_t *mark;          /* nverts: marks, then ranks (build_slot_map) */
+} setup_scratch;
 
-static void adjacency_free(adjacency *adj)
+static void setup_scratch_free(setup_scratch *sc)
 {
-    free(adj->free_ptr);
-    free(adj->cpl_ptr);
-    free(adj->free_adj);
-    free(adj->cpl_adj);
+    free(sc->kind);
+    free(sc->clamped_first);
+    free(sc->elem_ptr);
+    free(sc->elem_list);
+    free(sc->nb_ptr);
+    free(sc->nb_list);
+    free(sc->mark);
 }
 
-static sm_status build_adjacency(const sm_elasticity *el, const uint8_t *is_clamped,
-                                 adjacency *adj, sm_error *err)
+/* The elements of each vertex, by counting sort: O(elements). */
+static sm_status build_incidence(const sm_elasticity *el, setup_scratch *sc, sm_error *err)
 {
     const int nv = el->dim + 1;
-    const int32_t nverts = el->nverts, nelems = el->nelems;
-    sm_status st = SM_OK;
-    int64_t *elem_ptr = alloc_n((size_t)nverts + 1, sizeof *elem_ptr);
-    int32_t *elem_list = alloc_n((size_t)nelems * (size_t)nv, sizeof *elem_list);
-    int32_t *mark = malloc(((size_t)nverts + 1) * sizeof *mark);
-    adj->free_ptr = alloc_n((size_t)nverts + 1, sizeof *adj->free_ptr);
-    adj->cpl_ptr = alloc_n((size_t)nverts + 1, sizeof *adj->cpl_ptr);
-    if (!elem_ptr || !elem_list || !mark || !adj->free_ptr || !adj->cpl_ptr) {
-        st = sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory building the vertex adjacency");
-        goto done;
-    }
-    /* vertex -> elements */
-    for (int64_t k = 0; k < (int64_t)nelems * nv; k++)
-        elem_ptr[el->elems[k] + 1]++;
+    const int32_t nverts = el->nverts;
+    const int64_t nrefs = (int64_t)el->nelems * nv;
+    sc->elem_ptr = alloc_n((size_t)nverts + 1, sizeof *sc->elem_ptr);
+    sc->elem_list = alloc_n((size_t)nrefs, sizeof *sc->elem_list);
+    if (!sc->elem_ptr || !sc->elem_list)
+        return sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory building the vertex adjacency");
+    for (int64_t k = 0; k < nrefs; k++)
+        sc->elem_ptr[el->elems[k] + 1]++;
     for (int32_t v = 0; v < nverts; v++)
-        elem_ptr[v + 1] += elem_ptr[v];
-    {
-        int64_t *fill = malloc(((size_t)nverts + 1) * sizeof *fill);
-        if (!fill) {
-            st = sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory building the vertex adjacency");
-            goto done;
-        }
-        memcpy(fill, elem_ptr, ((size_t)nverts + 1) * sizeof *fill);
-        for (int32_t e = 0; e < nelems; e++)
-            for (int i = 0; i < nv; i++)
-                elem_list[fill[el->elems[(int64_t)e * nv + i]]++] = e;
-        free(fill);
-    }
-    /* two passes over the free vertices: count, then fill */
-    for (int pass = 0; pass < 2; pass++) {
-        for (int32_t v = 0; v < nverts; v++)
-            mark[v] = -1;
-        for (int32_t a = 0; a < nverts; a++) {
-            int64_t nfree = 0, ncpl = 0;
-            if (el->dof[(int64_t)a * el->dim] >= 0) {
-                for (int64_t k = elem_ptr[a]; k < elem_ptr[a + 1]; k++) {
-                    const int32_t *ev = el->elems + (int64_t)elem_list[k] * nv;
-                    for (int i = 0; i < nv; i++) {
-                        int32_t b = ev[i];
-                        if (mark[b] == a)
-                            continue;
-                        mark[b] = a;
-                        if (is_clamped[b]) {
-                            if (pass)
-                                adj->cpl_adj[adj->cpl_ptr[a] + ncpl] = b;
-                            ncpl++;
-                        } else {
-                            if (pass)
-                                adj->free_adj[adj->free_ptr[a] + nfree] = b;
-                            nfree++;
-                        }
-                    }
-                }
-            }
-            if (pass == 0) {
-                adj->free_ptr[a + 1] = adj->free_ptr[a] + nfree;
-                adj->cpl_ptr[a + 1] = adj->cpl_ptr[a] + ncpl;
-            } else {
-                qsort(adj->free_adj + adj->free_ptr[a], (size_t)nfree, sizeof(int32_t), cmp_int32);
-                qsort(adj->cpl_adj + adj->cpl_ptr[a], (size_t)ncpl, sizeof(int32_t), cmp_int32);
-            }
-        }
-        if (pass == 0) {
-            adj->free_adj = alloc_n((size_t)adj->free_ptr[nverts], sizeof(int32_t));
-            adj->cpl_adj = alloc_n((size_t)adj->cpl_ptr[nverts], sizeof(int32_t));
-            if (!adj->free_adj || !adj->cpl_adj) {
-                st = sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory building the vertex adjacency");
-                goto done;
-            }
-        }
-    }
-done:
-    free(elem_ptr);
-    free(elem_list);
-    free(mark);
-    return st;
+        sc->elem_ptr[v + 1] += sc->elem_ptr[v];
+    /* fill through the starts (elem_ptr[v] runs to the end of v's list),
+     * then shift them back */
+    for (int64_t k = 0; k < nrefs; k++)
+        sc->elem_list[sc->elem_ptr[el->elems[k]]++] = (int32_t)(k / nv);
+    for (int32_t v = nverts; v > 0; v--)
+        sc->elem_ptr[v] = sc->elem_ptr[v - 1];
+    sc->elem_ptr[0] = 0;
+    return SM_OK;
 }
 
-/* Builds the two CSR patterns from the adjacency. */
-static sm_status build_patterns(sm_elasticity *el, const adjacency *adj, sm_error *err)
+/* One pass over the vertex pairs (a, b) that share an element, b free,
+ * each pair once, a in increasing order: counts b's neighbours into
+ * next[b + 1] (fill 0), or appends a to b's list at next[b] (fill 1). */
+static void neighbour_pass(const sm_elasticity *el, setup_scratch *sc, int64_t *next, int fill)
+{
+    const int nv = el->dim + 1;
+    for (int32_t v = 0; v < el->nverts; v++)
+        sc->mark[v] = -1;
+    for (int32_t a = 0; a < el->nverts; a++) {
+        for (int64_t k = sc->elem_ptr[a]; k < sc->elem_ptr[a + 1]; k++) {
+            const int32_t *ev = el->elems + (int64_t)sc->elem_list[k] * nv;
+            for (int i = 0; i < nv; i++) {
+                int32_t b = ev[i];
+                if (sc->kind[b] != VERTEX_FREE || sc->mark[b] == a)
+                    continue;
+                sc->mark[b] = a;
+                if (fill)
+                    sc->nb_list[next[b]++] = a;
+                else
+                    next[b + 1]++;
+            }
+        }
+    }
+}
+
+/* The neighbours of every free vertex in increasing order, without a
+ * sort: adjacency is symmetric, so appending each a to the lists of its
+ * neighbours b, a in increasing order, gives every b its own neighbours
+ * already sorted.  O(elements * (dim+1)^2); the qsort of each list it
+ * replaces took most of sm_elasticity_new. */
+static sm_status build_neighbours(const sm_elasticity *el, setup_scratch *sc, sm_error *err)
+{
+    const int32_t nverts = el->nverts;
+    sc->nb_ptr = alloc_n((size_t)nverts + 1, sizeof *sc->nb_ptr);
+    sc->mark = malloc(((size_t)nverts + 1) * sizeof *sc->mark);
+    int64_t *next = malloc(((size_t)nverts + 1) * sizeof *next);
+    if (!sc->nb_ptr || !sc->mark || !next) {
+        free(next);
+        return sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory building the vertex adjacency");
+    }
+    neighbour_pass(el, sc, sc->nb_ptr, 0);
+    for (int32_t v = 0; v < nverts; v++)
+        sc->nb_ptr[v + 1] += sc->nb_ptr[v];
+    sc->nb_list = alloc_n((size_t)sc->nb_ptr[nverts], sizeof *sc->nb_list);
+    if (!sc->nb_list) {
+        free(next);
+        return sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory building the vertex adjacency");
+    }
+    memcpy(next, sc->nb_ptr, ((size_t)nverts + 1) * sizeof *next);
+    neighbour_pass(el, sc, next, 1);
+    free(next);
+    return SM_OK;
+}
+
+/* Builds the two CSR patterns from the neighbour lists: the dim rows of
+ * a free vertex have the same columns, its free neighbours' DOFs in the
+ * free x free block, its clamped neighbours' in the coupling block. */
+static sm_status build_patterns(sm_elasticity *el, const setup_scratch *sc, sm_error *err)
 {
     const int dim = el->dim;
     const int32_t nverts = el->nverts;
     int64_t nnz = 0, nnz_cpl = 0;
-    for (int32_t a = 0; a < nverts; a++) {
-        if (el->dof[(int64_t)a * dim] < 0)
-            continue;
-        nnz += (int64_t)dim * dim * (adj->free_ptr[a + 1] - adj->free_ptr[a]);
-        nnz_cpl += (int64_t)dim * dim * (adj->cpl_ptr[a + 1] - adj->cpl_ptr[a]);
-    }
+    for (int32_t a = 0; a < nverts; a++)
+        for (int64_t k = sc->nb_ptr[a]; k < sc->nb_ptr[a + 1]; k++) {
+            if (sc->kind[sc->nb_list[k]] == VERTEX_FREE)
+                nnz += (int64_t)dim * dim;
+            else
+                nnz_cpl += (int64_t)dim * dim;
+        }
     /* CHOLMOD_INT and the slot encoding need 32-bit positions. */
     if (nnz > INT32_MAX - 2 || nnz_cpl > INT32_MAX - 2)
         return sm_error_set(err, SM_ERR_NOMEM,
                             "elasticity: matrix too large (%lld entries, %lld coupling entries; limit %d)",
                             (long long)nnz, (long long)nnz_cpl, INT32_MAX - 2);
-    el->rowptr = alloc_n((size_t)el->nfree + 1, sizeof(int32_t));
-    el->colind = alloc_n((size_t)nnz, sizeof(int32_t));
-    el->values = alloc_n((size_t)nnz, sizeof(double));
-    el->cpl_rowptr = alloc_n((size_t)el->nfree + 1, sizeof(int32_t));
-    el->cpl_colind = alloc_n((size_t)nnz_cpl, sizeof(int32_t));
-    el->cpl_values = alloc_n((size_t)nnz_cpl, sizeof(double));
+    /* not zeroed: the patterns are filled below, the values by each
+     * factorize before anything reads them */
+    el->rowptr = malloc(((size_t)el->nfree + 1) * sizeof(int32_t));
+    el->colind = malloc(((size_t)nnz + 1) * sizeof(int32_t));
+    el->values = malloc(((size_t)nnz + 1) * sizeof(double));
+    el->cpl_rowptr = malloc(((size_t)el->nfree + 1) * sizeof(int32_t));
+    el->cpl_colind = malloc(((size_t)nnz_cpl + 1) * sizeof(int32_t));
+    el->cpl_values = malloc(((size_t)nnz_cpl + 1) * sizeof(double));
     if (!el->rowptr || !el->colind || !el->values || !el->cpl_rowptr || !el->cpl_colind ||
         !el->cpl_values)
         return sm_error_set(err, SM_ERR_NOMEM,
                             "elasticity: out of memory for a matrix of %lld entries", (long long)nnz);
     int32_t p = 0, q = 0, row = 0;
     for (int32_t a = 0; a < nverts; a++) {
-        if (el->dof[(int64_t)a * dim] < 0)
+        if (sc->kind[a] != VERTEX_FREE)
             continue;
-        for (int c = 0; c < dim; c++, row++) {
-            el->rowptr[row] = p;
-            el->cpl_rowptr[row] = q;
-            for (int64_t k = adj->free_ptr[a]; k < adj->free_ptr[a + 1]; k++) {
-                int32_t first = el->dof[(int64_t)adj->free_adj[k] * dim];
-                for (int d = 0; d < dim; d++)
-                    el->colind[p++] = first + d;
+        /* the first row of the vertex, then copies of it */
+        const int32_t p0 = p, q0 = q;
+        for (int64_t k = sc->nb_ptr[a]; k < sc->nb_ptr[a + 1]; k++) {
+            int32_t b = sc->nb_list[k];
+            int32_t *col = el->colind + p, first = el->dof[(int64_t)b * dim];
+            if (sc->kind[b] != VERTEX_FREE) {
+                col = el->cpl_colind + q;
+                first = sc->clamped_first[b];
             }
-            for (int64_t k = adj->cpl_ptr[a]; k < adj->cpl_ptr[a + 1]; k++) {
-                /* clamped DOF index of the vertex: clamped_global is
-                 * sorted, so the vertex-major numbering is found by search */
-                int32_t b = adj->cpl_adj[k];
-                int32_t first = find_sorted(el->clamped_global, el->nclamped_dofs,
-                                            (int32_t)((int64_t)b * dim));
-                for (int d = 0; d < dim; d++)
-                    el->cpl_colind[q++] = first + d;
+            for (int d = 0; d < dim; d++)
+                col[d] = first + d;
+            if (sc->kind[b] == VERTEX_FREE)
+                p += dim;
+            else
+                q += dim;
+        }
+        const int32_t len = p - p0, len_cpl = q - q0;
+        for (int c = 0; c < dim; c++, row++) {
+            el->rowptr[row] = p0 + c * len;
+            el->cpl_rowptr[row] = q0 + c * len_cpl;
+            if (c > 0) {
+                memcpy(el->colind + p0 + c * len, el->colind + p0, (size_t)len * sizeof(int32_t));
+                memcpy(el->cpl_colind + q0 + c * len_cpl, el->cpl_colind + q0,
+                       (size_t)len_cpl * sizeof(int32_t));
             }
         }
+        p = p0 + dim * len;
+        q = q0 + dim * len_cpl;
     }
     el->rowptr[row] = p;
     el->cpl_rowptr[row] = q;
@@ -322,38 +323,41 @@ static sm_status build_patterns(sm_elasticity *el, const adjacency *adj, sm_erro
  * at that slot + c * (row length of vertex i) + d, since the dim rows of
  * a vertex have the same columns (build_patterns).  (dim+1)^2 slots per
  * element instead of ((dim+1) dim)^2: 2 MB instead of 17.5 MB for the
- * 30k-tetrahedron example. */
-static sm_status build_slot_map(sm_elasticity *el, const adjacency *adj, sm_error *err)
+ * 30k-tetrahedron example.  Each free vertex a scatters the ranks of its
+ * neighbours (in its free or its coupling columns) into sc->mark, then
+ * fills its row of the slots of each of its elements: no search. */
+static sm_status build_slot_map(sm_elasticity *el, setup_scratch *sc, sm_error *err)
 {
     const int dim = el->dim, nv = dim + 1;
     const size_t per_elem = (size_t)nv * (size_t)nv;
-    el->slots = alloc_n((size_t)el->nelems * per_elem, sizeof(int32_t));
+    el->slots = malloc(((size_t)el->nelems * per_elem + 1) * sizeof(int32_t));
     if (!el->slots)
         return sm_error_set(err, SM_ERR_NOMEM,
                             "elasticity: out of memory for the slot map of %ld elements",
                             (long)el->nelems);
-    for (int32_t e = 0; e < el->nelems; e++) {
-        const int32_t *ev = el->elems + (int64_t)e * nv;
-        int32_t *slot = el->slots + (size_t)e * per_elem;
-        for (int i = 0; i < nv; i++) {
-            int32_t a = ev[i];
-            int32_t row0 = el->dof[(int64_t)a * dim];
+    int32_t *rank = sc->mark;
+    for (int32_t a = 0; a < el->nverts; a++) {
+        const int32_t row0 = el->dof[(int64_t)a * dim];
+        int32_t nfree = 0, ncpl = 0;
+        for (int64_t k = sc->nb_ptr[a]; k < sc->nb_ptr[a + 1]; k++) {
+            int32_t b = sc->nb_list[k];
+            rank[b] = sc->kind[b] == VERTEX_FREE ? nfree++ : ncpl++;
+        }
+        for (int64_t k = sc->elem_ptr[a]; k < sc->elem_ptr[a + 1]; k++) {
+            const int32_t e = sc->elem_list[k];
+            const int32_t *ev = el->elems + (int64_t)e * nv;
+            int i = 0;
+            while (ev[i] != a)
+                i++;
+            int32_t *slot = el->slots + (size_t)e * per_elem + (size_t)i * nv;
             for (int j = 0; j < nv; j++) {
                 int32_t b = ev[j];
-                if (row0 < 0) {
-                    slot[i * nv + j] = SLOT_ELIMINATED;
-                    continue;
-                }
-                int coupling = el->dof[(int64_t)b * dim] < 0;
-                const int64_t *ptr = coupling ? adj->cpl_ptr : adj->free_ptr;
-                const int32_t *list = coupling ? adj->cpl_adj : adj->free_adj;
-                int32_t rank = find_sorted(list + ptr[a], (int32_t)(ptr[a + 1] - ptr[a]), b);
-                if (rank < 0) /* cannot happen: b is a neighbour of a */
-                    return sm_error_set(err, SM_ERR_INVALID,
-                                        "elasticity: internal error, vertex %ld missing from the pattern of vertex %ld",
-                                        (long)b, (long)a);
-                slot[i * nv + j] = coupling ? SLOT_COUPLING(el->cpl_rowptr[row0] + rank * dim)
-                                            : el->rowptr[row0] + rank * dim;
+                if (row0 < 0)
+                    slot[j] = SLOT_ELIMINATED; /* the rows of a clamped vertex */
+                else if (sc->kind[b] == VERTEX_FREE)
+                    slot[j] = el->rowptr[row0] + rank[b] * dim;
+                else
+                    slot[j] = SLOT_COUPLING(el->cpl_rowptr[row0] + rank[b] * dim);
             }
         }
     }
@@ -412,26 +416,32 @@ static sm_status validate(const sm_mesh *m, const sm_elasticity_opts *opts, sm_e
     return SM_OK;
 }
 
-/* Which vertices are clamped (is_clamped: nverts flags, filled) and the
- * numbering of the DOFs: el->dof (free DOFs in vertex order, -1 for
- * clamped or unused ones), el->clamped_global, and the sizes nfree and
- * nclamped_dofs; allocates el->rhs.  used: nverts zeroed scratch. */
+/* Which vertices are free, clamped or unused (sc->kind) and the numbering
+ * of the DOFs: el->dof (free DOFs in vertex order, -1 for clamped or
+ * unused ones), el->clamped_global with sc->clamped_first, and the sizes
+ * nfree and nclamped_dofs; allocates el->rhs. */
 static sm_status number_dofs(sm_elasticity *el, const sm_mesh *m, const uint8_t *clamped,
-                             uint8_t *is_clamped, uint8_t *used, sm_error *err)
+                             setup_scratch *sc, sm_error *err)
 {
     const int dim = m->dim, nv = dim + 1;
+    sc->kind = malloc((size_t)m->nverts + 1);
+    sc->clamped_first = malloc(((size_t)m->nverts + 1) * sizeof *sc->clamped_first);
+    if (!sc->kind || !sc->clamped_first)
+        return sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory");
     /* Vertices used by no element carry no unknown: they are treated as
      * clamped (their displacement is the Dirichlet value, or 0). */
+    memset(sc->kind, VERTEX_UNUSED, (size_t)m->nverts);
     for (int64_t k = 0; k < (int64_t)m->nelems * nv; k++)
-        used[m->elems[k]] = 1;
+        sc->kind[m->elems[k]] = VERTEX_FREE;
     int32_t nclamped_verts = 0, nfree_verts = 0;
     for (int32_t v = 0; v < m->nverts; v++) {
-        is_clamped[v] = (uint8_t)((clamped && clamped[v]) || !used[v]);
-        if (used[v]) {
-            if (is_clamped[v])
-                nclamped_verts++;
-            else
-                nfree_verts++;
+        if (sc->kind[v] == VERTEX_UNUSED)
+            continue;
+        if (clamped && clamped[v]) {
+            sc->kind[v] = VERTEX_CLAMPED;
+            nclamped_verts++;
+        } else {
+            nfree_verts++;
         }
     }
     if (nclamped_verts == 0 && nfree_verts > 0 && !(el->alpha > 0.0))
@@ -449,16 +459,14 @@ static sm_status number_dofs(sm_elasticity *el, const sm_mesh *m, const uint8_t 
         return sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory");
     int32_t next_free = 0, next_clamped = 0;
     for (int32_t v = 0; v < m->nverts; v++) {
+        sc->clamped_first[v] = sc->kind[v] == VERTEX_CLAMPED ? next_clamped : -1;
         for (int c = 0; c < dim; c++) {
             int64_t g = (int64_t)v * dim + c;
-            if (!used[v]) {
-                el->dof[g] = -1;
-            } else if (is_clamped[v]) {
-                el->dof[g] = -1;
+            el->dof[g] = -1;
+            if (sc->kind[v] == VERTEX_CLAMPED)
                 el->clamped_global[next_clamped++] = (int32_t)g;
-            } else {
+            else if (sc->kind[v] == VERTEX_FREE)
                 el->dof[g] = next_free++;
-            }
         }
     }
     return SM_OK;
@@ -590,15 +598,8 @@ sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
         return st;
 
     sm_elasticity *el = calloc(1, sizeof *el);
-    uint8_t *is_clamped = alloc_n((size_t)m->nverts, 1);
-    uint8_t *used = alloc_n((size_t)m->nverts, 1);
-    adjacency adj = {0};
-    if (!el || !is_clamped || !used) {
-        free(el);
-        free(is_clamped);
-        free(used);
+    if (!el)
         return sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory");
-    }
     el->dim = m->dim;
     el->nverts = m->nverts;
     el->nelems = m->nelems;
@@ -606,30 +607,26 @@ sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
     el->alpha = opts->alpha;
     sm_lame(opts->young, opts->poisson, &el->lambda, &el->mu);
 
-    if ((st = number_dofs(el, m, clamped, is_clamped, used, err)) != SM_OK)
+    setup_scratch sc = {0};
+    if ((st = number_dofs(el, m, clamped, &sc, err)) != SM_OK ||
+        (st = build_incidence(el, &sc, err)) != SM_OK ||
+        (st = build_neighbours(el, &sc, err)) != SM_OK ||
+        (st = build_patterns(el, &sc, err)) != SM_OK ||
+        (st = build_slot_map(el, &sc, err)) != SM_OK)
         goto fail;
-    if ((st = build_adjacency(el, is_clamped, &adj, err)) != SM_OK)
-        goto fail;
-    if ((st = build_patterns(el, &adj, err)) != SM_OK)
-        goto fail;
-    if ((st = build_slot_map(el, &adj, err)) != SM_OK)
-        goto fail;
-    adjacency_free(&adj);
-    memset(&adj, 0, sizeof adj);
+    setup_scratch_free(&sc);
     el->solver = sm_solver_resolve(opts->solver, m->dim, m->nelems);
     el->amg_rtol = opts->amg_rtol > 0.0 ? opts->amg_rtol : SM_ELASTICITY_AMG_RTOL;
-    if (el->solver == SM_SOLVER_CHOLMOD && (st = setup_solver(el, opts->factor, err)) != SM_OK)
-        goto fail;
-    free(is_clamped);
-    free(used);
+    if (el->solver == SM_SOLVER_CHOLMOD && (st = setup_solver(el, opts->factor, err)) != SM_OK) {
+        sm_elasticity_free(el);
+        return st;
+    }
     el->t_analyze = sm_clock_seconds() - t0;
     *out = el;
     return SM_OK;
 
 fail:
-    adjacency_free(&adj);
-    free(is_clamped);
-    free(used);
+    setup_scratch_free(&sc);
     sm_elasticity_free(el);
     return st;
 }

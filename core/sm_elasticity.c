@@ -5,7 +5,9 @@
  * vertex order.  Because all components of a vertex are free or clamped
  * together, the columns of vertex b in any row are dim consecutive,
  * sorted entries; the CSR position of a coupling is therefore
- * rowptr[row] + (rank of b among the row vertex's free neighbours)*dim + d.
+ * rowptr[row] + (rank of b among the row vertex's free neighbours)*dim + d
+ * (for the AMG solver, whose rows start with their diagonal, one place
+ * later when b comes before the row's vertex; see build_patterns).
  *
  * Everything that depends only on the topology is computed once in
  * sm_elasticity_new: the CSR pattern of the free x free block (both
@@ -15,8 +17,8 @@
  * (with a fill-reducing order computed on the free-vertex graph).
  * sm_elasticity_factorize then computes the element matrices
  * (sm_element.h), scatters them through the map (no search) and
- * refactorizes numerically, or rebuilds the AMG hierarchy
- * (sm_solver_amg.c). */
+ * refactorizes numerically, or rebuilds the AMG hierarchy on the same
+ * arrays, which hypre reads in place (sm_solver_amg.c). */
 #include "shapematch/sm_clock.h"
 #include "sm_elasticity.h"
 #include "sm_element.h"
@@ -49,9 +51,12 @@ struct sm_elasticity {
     int32_t *dof;           /* nverts*dim: free DOF index or -1 */
     int32_t *clamped_global;/* nclamped_dofs: global index v*dim+c */
 
-    /* free x free block, full symmetric pattern */
+    /* free x free block, full symmetric pattern; columns ascending, or
+     * with diag_first (the AMG solver's layout) the diagonal entry first
+     * and the others ascending */
     int32_t *rowptr, *colind;
     double *values;
+    int diag_first;
     /* free x clamped block; columns are clamped DOF indices */
     int32_t *cpl_rowptr, *cpl_colind;
     double *cpl_values;
@@ -124,6 +129,7 @@ void sm_elasticity_free(sm_elasticity *el)
             cholmod_free_dense(&el->E, &el->cc);
         cholmod_finish(&el->cc);
     }
+    sm_amg_free(el->amg); /* before the arrays it borrows */
     free(el->dof);
     free(el->clamped_global);
     free(el->rowptr);
@@ -134,7 +140,6 @@ void sm_elasticity_free(sm_elasticity *el)
     free(el->cpl_values);
     free(el->slots);
     free(el->rhs);
-    sm_amg_free(el->amg);
     free(el->amg_coords);
     free(el);
 }
@@ -250,7 +255,10 @@ static sm_status build_neighbours(const sm_elasticity *el, setup_scratch *sc, sm
 
 /* Builds the two CSR patterns from the neighbour lists: the dim rows of
  * a free vertex have the same columns, its free neighbours' DOFs in the
- * free x free block, its clamped neighbours' in the coupling block. */
+ * free x free block, its clamped neighbours' in the coupling block, in
+ * increasing order; with diag_first each row's columns up to its
+ * diagonal are then rotated by one place, which brings the diagonal to
+ * the front and keeps the others ascending. */
 static sm_status build_patterns(sm_elasticity *el, const setup_scratch *sc, sm_error *err)
 {
     const int dim = el->dim;
@@ -284,10 +292,13 @@ static sm_status build_patterns(sm_elasticity *el, const setup_scratch *sc, sm_e
     for (int32_t a = 0; a < nverts; a++) {
         if (sc->kind[a] != VERTEX_FREE)
             continue;
-        /* the first row of the vertex, then copies of it */
+        /* the first row of the vertex, then copies of it (rotated) */
         const int32_t p0 = p, q0 = q;
+        int32_t own = 0; /* where the vertex's own block starts */
         for (int64_t k = sc->nb_ptr[a]; k < sc->nb_ptr[a + 1]; k++) {
             int32_t b = sc->nb_list[k];
+            if (b == a)
+                own = p - p0;
             int32_t *col = el->colind + p, first = el->dof[(int64_t)b * dim];
             if (sc->kind[b] != VERTEX_FREE) {
                 col = el->cpl_colind + q;
@@ -301,15 +312,22 @@ static sm_status build_patterns(sm_elasticity *el, const setup_scratch *sc, sm_e
                 q += dim;
         }
         const int32_t len = p - p0, len_cpl = q - q0;
-        for (int c = 0; c < dim; c++, row++) {
-            el->rowptr[row] = p0 + c * len;
-            el->cpl_rowptr[row] = q0 + c * len_cpl;
+        for (int c = dim - 1; c >= 0; c--) {
+            int32_t *cols = el->colind + p0 + c * len;
+            el->rowptr[row + c] = p0 + c * len;
+            el->cpl_rowptr[row + c] = q0 + c * len_cpl;
             if (c > 0) {
-                memcpy(el->colind + p0 + c * len, el->colind + p0, (size_t)len * sizeof(int32_t));
+                memcpy(cols, el->colind + p0, (size_t)len * sizeof(int32_t));
                 memcpy(el->cpl_colind + q0 + c * len_cpl, el->cpl_colind + q0,
                        (size_t)len_cpl * sizeof(int32_t));
             }
+            if (el->diag_first) { /* the columns up to the diagonal rotate */
+                const int32_t at = own + c;
+                memmove(cols + 1, cols, (size_t)at * sizeof(int32_t));
+                cols[0] = el->dof[(int64_t)a * dim + c];
+            }
         }
+        row += dim;
         p = p0 + dim * len;
         q = q0 + dim * len_cpl;
     }
@@ -321,7 +339,10 @@ static sm_status build_patterns(sm_elasticity *el, const setup_scratch *sc, sm_e
 /* The slot map holds one slot per element and vertex pair (i, j): where
  * the dim x dim block of (vertex i, vertex j) starts, entry (c, d) being
  * at that slot + c * (row length of vertex i) + d, since the dim rows of
- * a vertex have the same columns (build_patterns).  (dim+1)^2 slots per
+ * a vertex have the same columns (build_patterns) - except for
+ * diag_first, where the block of (a, b) with b before a starts one place
+ * later, and assemble moves the entries of each block (a, a) (see there).
+ * (dim+1)^2 slots per
  * element instead of ((dim+1) dim)^2: 2 MB instead of 17.5 MB for the
  * 30k-tetrahedron example.  Each free vertex a scatters the ranks of its
  * neighbours (in its free or its coupling columns) into sc->mark, then
@@ -355,7 +376,7 @@ static sm_status build_slot_map(sm_elasticity *el, setup_scratch *sc, sm_error *
                 if (row0 < 0)
                     slot[j] = SLOT_ELIMINATED; /* the rows of a clamped vertex */
                 else if (sc->kind[b] == VERTEX_FREE)
-                    slot[j] = el->rowptr[row0] + rank[b] * dim;
+                    slot[j] = el->rowptr[row0] + rank[b] * dim + (el->diag_first && b < a);
                 else
                     slot[j] = SLOT_COUPLING(el->cpl_rowptr[row0] + rank[b] * dim);
             }
@@ -607,6 +628,9 @@ sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
     el->alpha = opts->alpha;
     sm_lame(opts->young, opts->poisson, &el->lambda, &el->mu);
 
+    el->solver = sm_solver_resolve(opts->solver, m->dim, m->nelems);
+    el->amg_rtol = opts->amg_rtol > 0.0 ? opts->amg_rtol : SM_ELASTICITY_AMG_RTOL;
+    el->diag_first = el->solver == SM_SOLVER_AMG;
     setup_scratch sc = {0};
     if ((st = number_dofs(el, m, clamped, &sc, err)) != SM_OK ||
         (st = build_incidence(el, &sc, err)) != SM_OK ||
@@ -615,9 +639,12 @@ sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
         (st = build_slot_map(el, &sc, err)) != SM_OK)
         goto fail;
     setup_scratch_free(&sc);
-    el->solver = sm_solver_resolve(opts->solver, m->dim, m->nelems);
-    el->amg_rtol = opts->amg_rtol > 0.0 ? opts->amg_rtol : SM_ELASTICITY_AMG_RTOL;
-    if (el->solver == SM_SOLVER_CHOLMOD && (st = setup_solver(el, opts->factor, err)) != SM_OK) {
+    if (el->solver == SM_SOLVER_AMG && el->nfree > 0)
+        st = sm_amg_new(el->dim, el->nfree, el->rowptr, el->colind, el->values, el->amg_rtol,
+                        &el->amg, err);
+    else if (el->solver == SM_SOLVER_CHOLMOD)
+        st = setup_solver(el, opts->factor, err);
+    if (st != SM_OK) {
         sm_elasticity_free(el);
         return st;
     }
@@ -667,6 +694,17 @@ static inline int32_t assemble(sm_elasticity *el, const int dim, const double *c
                     const double *k = ke + (i * dim + c) * n + j * dim;
                     double *dst = s >= 0 ? values + s + (int64_t)c * len
                                          : cpl + (-2 - s) + (int64_t)c * len_cpl;
+                    if (j == i && el->diag_first) {
+                        /* the vertex's own block, in a row whose columns
+                         * up to the diagonal were rotated by one place
+                         * (build_patterns): the diagonal at the row's
+                         * start, the entries before it one place later */
+                        values[el->rowptr[row0 + c]] += k[c];
+                        for (int d = 0; d < dim; d++)
+                            if (d != c)
+                                dst[d + (d < c)] += k[d];
+                        continue;
+                    }
                     for (int d = 0; d < dim; d++)
                         dst[d] += k[d];
                 }
@@ -676,7 +714,8 @@ static inline int32_t assemble(sm_elasticity *el, const int dim, const double *c
 }
 
 /* AMG "factorization": the free vertices' positions (for the rigid-body
- * modes) and hypre's set-up on the assembled matrix.  The positions are
+ * modes) and hypre's set-up on the assembled matrix, which hypre reads
+ * in place (sm_amg_new).  The positions are
  * only read during the set-up, so their buffer (nfree doubles) then
  * serves as the solution buffer of the solves. */
 static sm_status amg_setup(sm_elasticity *el, const double *coords, sm_error *err)
@@ -688,8 +727,7 @@ static sm_status amg_setup(sm_elasticity *el, const double *coords, sm_error *er
     for (int64_t g = 0; g < (int64_t)el->nverts * el->dim; g++)
         if (el->dof[g] >= 0)
             el->amg_coords[el->dof[g]] = coords[g];
-    return sm_amg_setup(&el->amg, el->dim, el->nfree, el->rowptr, el->colind, el->values,
-                        el->amg_coords, el->amg_rtol, err);
+    return sm_amg_setup(el->amg, el->amg_coords, err);
 }
 
 sm_status sm_elasticity_factorize(sm_elasticity *el, const double *coords, sm_error *err)

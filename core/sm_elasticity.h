@@ -55,7 +55,8 @@ typedef struct sm_elasticity_opts {
 /* clamped: nverts flags (all components of a flagged vertex are fixed),
  * may be NULL for none.  With no clamped vertex opts->alpha must be > 0.
  * Checks the mesh and the options (SM_ERR_INVALID naming what is wrong),
- * numbers the DOFs and runs CHOLMOD's symbolic analysis.  opts is read
+ * numbers the DOFs and runs CHOLMOD's symbolic analysis (AMG: hands the
+ * matrix's arrays to hypre, initialising MPI on the first call).  opts is read
  * only during the call; the mesh topology (m->elems) is borrowed and must
  * outlive the object. */
 sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
@@ -65,8 +66,8 @@ void sm_elasticity_free(sm_elasticity *el);
 
 /* Assembles the stiffness (+ alpha mass) matrix on the vertex positions
  * coords (nverts*dim) and factorizes it (numeric Cholesky), or with the
- * AMG solver copies it to hypre and builds the AMG hierarchy (the
- * rigid-body modes from coords). */
+ * AMG solver builds the AMG hierarchy on it (hypre reads the matrix in
+ * place; the rigid-body modes from coords). */
 sm_status sm_elasticity_factorize(sm_elasticity *el, const double *coords,
                                   sm_error *err);
 
@@ -83,11 +84,15 @@ sm_status sm_elasticity_solve(sm_elasticity *el, const double *load,
 /* Free-DOF matrix in CSR form with the full symmetric pattern (both
  * triangles stored, each assembled from the element matrices), for tests
  * and diagnostics.  Valid after sm_elasticity_factorize.  Free DOF k of
- * vertex v, component c is given by sm_elasticity_dof(). */
+ * vertex v, component c is given by sm_elasticity_dof().  The columns of
+ * a row are in increasing order (CHOLMOD reads them so), except with the
+ * AMG solver, where the diagonal entry comes first and the others follow
+ * in increasing order: the layout hypre reads in place (its smoothers
+ * take the first entry of a row as the diagonal). */
 typedef struct sm_csr_view {
     int32_t n;              /* number of free DOFs */
     const int32_t *rowptr;  /* n+1 */
-    const int32_t *colind;  /* rowptr[n] entries, sorted in each row */
+    const int32_t *colind;  /* rowptr[n] entries, in the order above */
     const double *values;   /* nnz */
 } sm_csr_view;
 void sm_elasticity_matrix(const sm_elasticity *el, sm_csr_view *view);

@@ -3,13 +3,14 @@
  * SM_SOLVER_AMG).  Internal to the core.
  *
  * The matrix is the free x free block in CSR with both triangles, DOFs
- * vertex-major (dim unknowns per vertex), as sm_elasticity builds it.
+ * vertex-major (dim unknowns per vertex), each row's diagonal first, as
+ * sm_elasticity builds it for this solver; hypre reads it in place.
  * BoomerAMG runs as a systems AMG for elasticity: num_functions = dim,
  * nodal coarsening on the dim x dim vertex blocks, and the rotations of
  * the rigid-body modes (the translations are implicit) as interpolation
  * vectors, so that the coarse spaces represent the near-null space.
  *
- * hypre in Debian is built with MPI: the first set-up initialises MPI
+ * hypre in Debian is built with MPI: the first sm_amg_new initialises MPI
  * once for the process (a single rank, no mpirun needed) and everything
  * runs on MPI_COMM_SELF.  hypre is built without OpenMP, so the result
  * does not depend on the thread count. */
@@ -22,17 +23,22 @@
 
 typedef struct sm_amg sm_amg;
 
-/* Copies the matrix (n rows, rowptr/colind/values as in sm_csr_view)
- * into hypre and builds the AMG hierarchy.  coords: the positions of the
- * n/dim free vertices (dim each, in DOF order) for the rigid-body modes,
- * or NULL for none.  rtol: relative error of the PCG solves in the
- * energy norm (> 0), estimated by the preconditioned residual.
- * *out is replaced (the previous object freed): the warm start of the
- * next solve is kept across set-ups when n is unchanged. */
-sm_status sm_amg_setup(sm_amg **out, int dim, int32_t n, const int32_t *rowptr,
-                       const int32_t *colind, const double *values,
-                       const double *coords, double rtol, sm_error *err);
+/* Wraps the matrix (n rows; rowptr/colind/values as in sm_csr_view,
+ * each row's diagonal entry first) for hypre without copying it: the
+ * arrays are borrowed, must outlive the object, and values may change
+ * between set-ups (hypre only reads them).  Initialises MPI for the
+ * process on the first call.  rtol: relative error of the PCG solves in
+ * the energy norm (> 0), estimated by the preconditioned residual.
+ * SM_ERR_INVALID if a row does not start with its diagonal. */
+sm_status sm_amg_new(int dim, int32_t n, const int32_t *rowptr, const int32_t *colind,
+                     const double *values, double rtol, sm_amg **out, sm_error *err);
 void sm_amg_free(sm_amg *amg);
+
+/* Builds the AMG hierarchy on the matrix's current values (after each
+ * assembly).  coords: the positions of the n/dim free vertices (dim
+ * each, in DOF order) for the rigid-body modes, or NULL for none.  The
+ * previous solution stays the warm start of the next solve. */
+sm_status sm_amg_setup(sm_amg *amg, const double *coords, sm_error *err);
 
 /* Solves A x = rhs (n entries) by PCG from a warm start: the previous
  * solution, scaled to minimise the energy along it (or zero if it does
@@ -52,6 +58,7 @@ typedef struct sm_amg_stats {
     int restarts;            /* solves that had to restart from zero */
     double min_descent;      /* min over solves of rhs'x / (|rhs| |x|) */
     double setup_time;       /* seconds of the last sm_amg_setup */
+    double hierarchy_time;   /* of which hypre's BoomerAMG set-up */
     double operator_complexity;
 } sm_amg_stats;
 void sm_amg_get_stats(const sm_amg *amg, sm_amg_stats *stats);

@@ -404,6 +404,10 @@ static sm_status validate(const sm_mesh *m, const sm_elasticity_opts *opts, sm_e
     const sm_factor_kind kind = opts->factor;
     if (!sm_solver_kind_name(opts->solver))
         return sm_error_set(err, SM_ERR_INVALID, "elasticity: unknown solver %d", (int)opts->solver);
+    if (opts->amg_modes != SM_AMG_MODES_AUTO && opts->amg_modes != SM_AMG_MODES_ON &&
+        opts->amg_modes != SM_AMG_MODES_OFF)
+        return sm_error_set(err, SM_ERR_INVALID, "elasticity: unknown AMG modes setting %d",
+                            (int)opts->amg_modes);
     if (!(opts->amg_rtol >= 0.0 && opts->amg_rtol < 1.0))
         return sm_error_set(err, SM_ERR_INVALID,
                             "elasticity: AMG tolerance must lie in [0, 1) (got %g)", opts->amg_rtol);
@@ -639,11 +643,15 @@ sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
         (st = build_slot_map(el, &sc, err)) != SM_OK)
         goto fail;
     setup_scratch_free(&sc);
-    if (el->solver == SM_SOLVER_AMG && el->nfree > 0)
+    if (el->solver == SM_SOLVER_AMG && el->nfree > 0) {
+        int rigid_modes = opts->amg_modes == SM_AMG_MODES_ON ||
+                          (opts->amg_modes == SM_AMG_MODES_AUTO &&
+                           (el->dim == 2 || el->nfree >= SM_AMG_MODES_MIN_UNKNOWNS));
         st = sm_amg_new(el->dim, el->nfree, el->rowptr, el->colind, el->values, el->amg_rtol,
-                        &el->amg, err);
-    else if (el->solver == SM_SOLVER_CHOLMOD)
+                        rigid_modes, &el->amg, err);
+    } else if (el->solver == SM_SOLVER_CHOLMOD) {
         st = setup_solver(el, opts->factor, err);
+    }
     if (st != SM_OK) {
         sm_elasticity_free(el);
         return st;

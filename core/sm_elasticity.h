@@ -30,6 +30,16 @@ typedef enum sm_factor_kind {
     SM_FACTOR_SUPERNODAL = 2
 } sm_factor_kind;
 
+/* Whether the AMG hierarchy carries the rigid-body rotations as
+ * interpolation vectors (sm_solver_amg.h).  AUTO (the default): in 3D
+ * from SM_AMG_MODES_MIN_UNKNOWNS free unknowns on, in 2D always; the
+ * other two force it, for tests and benchmarks. */
+typedef enum sm_amg_modes {
+    SM_AMG_MODES_AUTO = 0,
+    SM_AMG_MODES_ON = 1,
+    SM_AMG_MODES_OFF = 2
+} sm_amg_modes;
+
 /* What sm_elasticity_new builds: the material, the zero-order term and
  * the factor kind.  A compound literal names only what it sets:
  *   sm_elasticity_new(m, clamped, &(sm_elasticity_opts){.young = 1,
@@ -43,6 +53,7 @@ typedef struct sm_elasticity_opts {
     sm_solver_kind solver; /* AUTO (0): sm_solver_resolve on the mesh size */
     double amg_rtol;       /* AMG: relative energy-norm error of each
                             * solve (estimated); 0 = SM_ELASTICITY_AMG_RTOL */
+    sm_amg_modes amg_modes; /* AMG: SM_AMG_MODES_AUTO (0) unless forced */
 } sm_elasticity_opts;
 
 /* Relative error in the energy norm of the inexact AMG solves (estimated

@@ -15,10 +15,12 @@
  * advice for 3D (0.35 halves the coarse levels' entries at 988k but
  * saves no time).  Nodal coarsening (row-sum
  * norm of the vertex blocks: 9 iterations against 14 with the Frobenius
- * norm) and the rotation modes as interpolation vectors (GM approach 2:
- * 7 warm-started iterations to 0.1 against 11 without) make it a
- * systems AMG for elasticity.  HMIS coarsening failed hypre's set-up
- * with the interpolation vectors on a small 3D case, PMIS does not.
+ * norm) and, from SM_AMG_MODES_MIN_UNKNOWNS unknowns on (measurements
+ * in sm_solver_amg.h), the rotation modes as interpolation vectors (GM
+ * approach 2: 7 warm-started iterations to 0.1 against 11 without at
+ * 105k) make it a systems AMG for elasticity.  HMIS coarsening failed
+ * hypre's set-up with the interpolation vectors on a small 3D case, PMIS
+ * does not.
  *
  * The conjugate gradients are ours (a few lines around hypre's matvec
  * and V-cycle, see pcg below) so that the stopping test is in the energy
@@ -51,6 +53,7 @@ struct sm_amg {
     HYPRE_ParVector b, x, ax;       /* rhs, solution / warm start, A x */
     HYPRE_ParVector r, z, p;        /* PCG: residual, preconditioned, direction */
     HYPRE_ParVector modes[MAX_MODES];
+    int rigid_modes;                /* the hierarchy takes the modes */
     int nmodes;
     HYPRE_Solver amg;
     int have_start;                 /* x holds the previous solution */
@@ -267,7 +270,8 @@ static sm_status build_hierarchy(sm_amg *amg, sm_error *err)
 }
 
 sm_status sm_amg_new(int dim, int32_t n, const int32_t *rowptr, const int32_t *colind,
-                     const double *values, double rtol, sm_amg **out, sm_error *err)
+                     const double *values, double rtol, int rigid_modes, sm_amg **out,
+                     sm_error *err)
 {
     *out = NULL;
     pthread_once(&mpi_once, mpi_init_once);
@@ -282,6 +286,7 @@ sm_status sm_amg_new(int dim, int32_t n, const int32_t *rowptr, const int32_t *c
     amg->n = n;
     amg->dim = dim;
     amg->rtol = rtol;
+    amg->rigid_modes = rigid_modes;
     sm_status st = SM_OK;
     if (!(amg->b = vec_new(n)) || !(amg->x = vec_new(n)) || !(amg->ax = vec_new(n)) ||
         !(amg->r = vec_new(n)) || !(amg->z = vec_new(n)) || !(amg->p = vec_new(n))) {
@@ -304,7 +309,7 @@ sm_status sm_amg_setup(sm_amg *amg, const double *coords, sm_error *err)
     amg->have_ax = 0;
     memset(&amg->stats, 0, sizeof amg->stats);
     amg->stats.min_descent = 1.0;
-    if (coords && (st = set_modes(amg, coords, err)) != SM_OK)
+    if (amg->rigid_modes && coords && (st = set_modes(amg, coords, err)) != SM_OK)
         return st;
     if ((st = build_hierarchy(amg, err)) != SM_OK)
         return st;

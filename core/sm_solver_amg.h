@@ -6,9 +6,10 @@
  * vertex-major (dim unknowns per vertex), each row's diagonal first, as
  * sm_elasticity builds it for this solver; hypre reads it in place.
  * BoomerAMG runs as a systems AMG for elasticity: num_functions = dim,
- * nodal coarsening on the dim x dim vertex blocks, and the rotations of
- * the rigid-body modes (the translations are implicit) as interpolation
- * vectors, so that the coarse spaces represent the near-null space.
+ * nodal coarsening on the dim x dim vertex blocks, and on large problems
+ * the rotations of the rigid-body modes (the translations are implicit)
+ * as interpolation vectors, so that the coarse spaces represent the
+ * near-null space.
  *
  * hypre in Debian is built with MPI: the first sm_amg_new initialises MPI
  * once for the process (a single rank, no mpirun needed) and everything
@@ -29,14 +30,34 @@ typedef struct sm_amg sm_amg;
  * between set-ups (hypre only reads them).  Initialises MPI for the
  * process on the first call.  rtol: relative error of the PCG solves in
  * the energy norm (> 0), estimated by the preconditioned residual.
+ * rigid_modes: 1 if the hierarchy takes the rotations as interpolation
+ * vectors (see SM_AMG_MODES_MIN_UNKNOWNS), 0 if not.
  * SM_ERR_INVALID if a row does not start with its diagonal. */
 sm_status sm_amg_new(int dim, int32_t n, const int32_t *rowptr, const int32_t *colind,
-                     const double *values, double rtol, sm_amg **out, sm_error *err);
+                     const double *values, double rtol, int rigid_modes, sm_amg **out,
+                     sm_error *err);
 void sm_amg_free(sm_amg *amg);
+
+/* From how many unknowns a 3D hierarchy takes the rigid-body rotations
+ * as interpolation vectors (sm_elasticity's SM_AMG_MODES_AUTO; 2D ones,
+ * where the AMG path is only used when asked for, always do).  They
+ * make the set-up dearer (the coarse levels carry 6 unknowns per vertex
+ * in 3D instead of 3: 2.4x the instructions at 30k tetrahedra) and pay
+ * back as PCG iterations on larger templates.  Measured on the balls of
+ * bench/scale.sh (match_bench, 40 iterations; PCG iterations per solve
+ * without / with, iteration reaching 1.5e-4 without / with): 10k-50k
+ * tetrahedra 2.6 / 2.6 and 14-16 / 15; the 30k example 2.7 / 2.8 over
+ * 160 iterations, 2.9e-4 at 13 and 1.5e-4 at 15 either way, set-up
+ * 0.033 / 0.057 s; 100k (55k unknowns) 2.8 / 2.7, 14 / 15, set-up
+ * 0.18 / 0.27 CPU s; 200k (107k unknowns) 3.2 / 2.8, 16 / 15; 300k
+ * 3.3 / 2.7, 16 / 13; 988k 3.2 / 2.5 (1.10 / 0.89 CPU s per
+ * iteration). */
+#define SM_AMG_MODES_MIN_UNKNOWNS 80000
 
 /* Builds the AMG hierarchy on the matrix's current values (after each
  * assembly).  coords: the positions of the n/dim free vertices (dim
- * each, in DOF order) for the rigid-body modes, or NULL for none.  The
+ * each, in DOF order) for the rigid-body modes (read only if the object
+ * takes them), or NULL for none.  The
  * previous solution stays the warm start of the next solve. */
 sm_status sm_amg_setup(sm_amg *amg, const double *coords, sm_error *err);
 

@@ -43,16 +43,26 @@ static void make_load(const sm_mesh *m, double t, double *load)
     }
 }
 
-static sm_elasticity *build(const sm_mesh *m, const uint8_t *clamped, sm_solver_kind kind,
-                            double rtol)
+/* modes: whether the AMG hierarchy takes the rigid-body rotations (the
+ * 3D test meshes are below SM_AMG_MODES_MIN_UNKNOWNS: AUTO is off there,
+ * on in 2D) */
+static sm_elasticity *build_modes(const sm_mesh *m, const uint8_t *clamped, sm_solver_kind kind,
+                                  double rtol, sm_amg_modes modes)
 {
     sm_elasticity *el = NULL;
     sm_error err;
-    sm_elasticity_opts o = {.young = 1.0, .poisson = 0.3, .solver = kind, .amg_rtol = rtol};
+    sm_elasticity_opts o = {.young = 1.0, .poisson = 0.3, .solver = kind, .amg_rtol = rtol,
+                            .amg_modes = modes};
     assert_int_equal(sm_elasticity_new(m, clamped, &o, &el, &err), SM_OK);
     if (sm_elasticity_factorize(el, m->coords, &err) != SM_OK)
         fail_msg("factorize: %s", err.msg);
     return el;
+}
+
+static sm_elasticity *build(const sm_mesh *m, const uint8_t *clamped, sm_solver_kind kind,
+                            double rtol)
+{
+    return build_modes(m, clamped, kind, rtol, SM_AMG_MODES_AUTO);
 }
 
 static double dot_free(const double *a, const double *b, size_t n)
@@ -64,8 +74,9 @@ static double dot_free(const double *a, const double *b, size_t n)
 }
 
 /* A tight AMG solve agrees with CHOLMOD; loose warm-started ones (rtol
- * 0.3, far looser than the default) still descend. */
-static void compare_solvers(int dim, int n)
+ * 0.3, far looser than the default) still descend; with and without the
+ * rigid-body modes in the hierarchy. */
+static void compare_solvers(int dim, int n, sm_amg_modes modes)
 {
     uint8_t *clamped;
     sm_mesh *m = clamped_box(dim, n, &clamped);
@@ -73,8 +84,8 @@ static void compare_solvers(int dim, int n)
     double *load = malloc(nd * sizeof *load), *u0 = malloc(nd * sizeof *u0),
            *u1 = malloc(nd * sizeof *u1);
     sm_elasticity *chol = build(m, clamped, SM_SOLVER_CHOLMOD, 0.0);
-    sm_elasticity *tight = build(m, clamped, SM_SOLVER_AMG, 1e-10);
-    sm_elasticity *loose = build(m, clamped, SM_SOLVER_AMG, 0.3);
+    sm_elasticity *tight = build_modes(m, clamped, SM_SOLVER_AMG, 1e-10, modes);
+    sm_elasticity *loose = build_modes(m, clamped, SM_SOLVER_AMG, 0.3, modes);
     sm_error err;
     sm_elasticity_info info;
     sm_elasticity_get_info(tight, &info);
@@ -142,7 +153,7 @@ static double energy(const sm_elasticity *el, const sm_mesh *m, const double *w)
  * to 2.1x the tolerance in 2D at 0.1, 1.3x in 3D); the 2-norm test used
  * before stopped at true errors of ~0.01 for a tolerance of 0.1, far
  * tighter than a descent direction needs (cosine 0.98 at error 0.2). */
-static void energy_error(int dim, int n)
+static void energy_error(int dim, int n, sm_amg_modes modes)
 {
     uint8_t *clamped;
     sm_mesh *m = clamped_box(dim, n, &clamped);
@@ -152,7 +163,7 @@ static void energy_error(int dim, int n)
     sm_elasticity *chol = build(m, clamped, SM_SOLVER_CHOLMOD, 0.0);
     const double rtols[2] = {SM_ELASTICITY_AMG_RTOL, 0.3};
     for (int t = 0; t < 2; t++) {
-        sm_elasticity *amg = build(m, clamped, SM_SOLVER_AMG, t == 0 ? 0.0 : rtols[t]);
+        sm_elasticity *amg = build_modes(m, clamped, SM_SOLVER_AMG, t == 0 ? 0.0 : rtols[t], modes);
         sm_error err;
         double worst = 0.0;
         for (int k = 0; k < 6; k++) {
@@ -173,8 +184,8 @@ static void energy_error(int dim, int n)
         sm_elasticity_info info;
         sm_elasticity_get_info(amg, &info);
         if (getenv("SM_DEBUG"))
-            print_message("dim %d rtol %g: worst energy error %.3g, %ld PCG iterations in 6 solves\n",
-                          dim, rtols[t], worst, info.amg_total_iterations);
+            print_message("dim %d rtol %g modes %d: worst energy error %.3g, %ld PCG iterations in 6 solves\n",
+                          dim, rtols[t], (int)modes, worst, info.amg_total_iterations);
         assert_true(info.amg_total_iterations >= 6); /* at least one step each */
         assert_true(info.amg_total_iterations <= 6 * 10);
         sm_elasticity_free(amg);
@@ -190,25 +201,29 @@ static void energy_error(int dim, int n)
 static void test_amg_energy_error_2d(void **state)
 {
     (void)state;
-    energy_error(2, 24);
+    energy_error(2, 24, SM_AMG_MODES_AUTO);
+    energy_error(2, 24, SM_AMG_MODES_OFF);
 }
 
 static void test_amg_energy_error_3d(void **state)
 {
     (void)state;
-    energy_error(3, 8);
+    energy_error(3, 8, SM_AMG_MODES_AUTO);
+    energy_error(3, 8, SM_AMG_MODES_ON);
 }
 
 static void test_amg_matches_cholmod_2d(void **state)
 {
     (void)state;
-    compare_solvers(2, 24);
+    compare_solvers(2, 24, SM_AMG_MODES_AUTO);
+    compare_solvers(2, 24, SM_AMG_MODES_OFF);
 }
 
 static void test_amg_matches_cholmod_3d(void **state)
 {
     (void)state;
-    compare_solvers(3, 8);
+    compare_solvers(3, 8, SM_AMG_MODES_AUTO);
+    compare_solvers(3, 8, SM_AMG_MODES_ON);
 }
 
 /* The AMG path's matrix is CHOLMOD's with each row's diagonal moved to
@@ -317,15 +332,17 @@ static void test_amg_deterministic(void **state)
     uint8_t *clamped;
     sm_mesh *m = clamped_box(3, 6, &clamped);
     const size_t nd = (size_t)m->nverts * 3;
-    double *load = malloc(nd * sizeof *load), *u[2] = {malloc(nd * sizeof(double)),
-                                                        malloc(nd * sizeof(double))};
+    double *load = malloc(nd * sizeof *load), *u[4];
     sm_error err;
     make_load(m, 0.4, load);
-    for (int r = 0; r < 2; r++) {
-        sm_elasticity *el = build(m, clamped, SM_SOLVER_AMG, 0.0);
+    /* without, then with the rigid-body modes in the hierarchy */
+    for (int r = 0; r < 4; r++) {
+        u[r] = malloc(nd * sizeof(double));
+        sm_elasticity *el = build_modes(m, clamped, SM_SOLVER_AMG, 0.0,
+                                        r < 2 ? SM_AMG_MODES_OFF : SM_AMG_MODES_ON);
         assert_int_equal(sm_elasticity_solve(el, load, NULL, u[r], &err), SM_OK);
         sm_elasticity_free(el);
-        if (r == 0) { /* another problem's set-up and solve in between */
+        if (r % 2 == 0) { /* another problem's set-up and solve in between */
             uint8_t *c2;
             sm_mesh *m2 = clamped_box(3, 4, &c2);
             double *l2 = malloc((size_t)m2->nverts * 3 * sizeof *l2), *u2 = malloc((size_t)m2->nverts * 3 * sizeof *u2);
@@ -340,11 +357,12 @@ static void test_amg_deterministic(void **state)
         }
     }
     assert_memory_equal(u[0], u[1], nd * sizeof(double));
+    assert_memory_equal(u[2], u[3], nd * sizeof(double));
     sm_mesh_free(m);
     free(clamped);
     free(load);
-    free(u[0]);
-    free(u[1]);
+    for (int r = 0; r < 4; r++)
+        free(u[r]);
 }
 
 /* ---- the descent with both solvers ---- */
@@ -487,6 +505,10 @@ static void test_names_and_auto(void **state)
     assert_int_equal(sm_elasticity_new(m, clamped, &o, &el, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "AMG tolerance"));
     o.amg_rtol = 0.0;
+    o.amg_modes = (sm_amg_modes)7;
+    assert_int_equal(sm_elasticity_new(m, clamped, &o, &el, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "AMG modes"));
+    o.amg_modes = SM_AMG_MODES_AUTO;
     o.solver = (sm_solver_kind)9;
     assert_int_equal(sm_elasticity_new(m, clamped, &o, &el, &err), SM_ERR_INVALID);
     assert_null(el);

@@ -674,10 +674,11 @@ fail:
 /* Assembly and factorization                                              */
 /* ---------------------------------------------------------------------- */
 
-/* Assembles for a compile-time dim; returns the first degenerate element
- * or -1. */
-static inline int32_t assemble(sm_elasticity *el, const int dim, const double *coords,
-                               double *bad_volume, double *bad_edge)
+/* Assembles for a compile-time dim and layout (diag_first); returns the
+ * first degenerate element or -1. */
+static inline __attribute__((always_inline)) int32_t
+assemble(sm_elasticity *el, const int dim, const int diag_first,
+                               const double *coords, double *bad_volume, double *bad_edge)
 {
     const int nv = dim + 1, n = nv * dim;
     double *values = el->values, *cpl = el->cpl_values;
@@ -700,26 +701,32 @@ static inline int32_t assemble(sm_elasticity *el, const int dim, const double *c
                 continue; /* the rows of a clamped vertex are eliminated */
             int32_t len = el->rowptr[row0 + 1] - el->rowptr[row0];
             int32_t len_cpl = el->cpl_rowptr[row0 + 1] - el->cpl_rowptr[row0];
-            for (int c = 0; c < dim; c++)
+            for (int c = 0; c < dim; c++) {
+                const double *krow = ke + (i * dim + c) * n;
                 for (int j = 0; j < nv; j++) {
+                    if (diag_first && j == i)
+                        continue; /* below */
                     int32_t s = slot[i * nv + j];
-                    const double *k = ke + (i * dim + c) * n + j * dim;
+                    const double *k = krow + j * dim;
                     double *dst = s >= 0 ? values + s + (int64_t)c * len
                                          : cpl + (-2 - s) + (int64_t)c * len_cpl;
-                    if (j == i && el->diag_first) {
-                        /* the vertex's own block, in a row whose columns
-                         * up to the diagonal were rotated by one place
-                         * (build_patterns): the diagonal at the row's
-                         * start, the entries before it one place later */
-                        values[el->rowptr[row0 + c]] += k[c];
-                        for (int d = 0; d < dim; d++)
-                            if (d != c)
-                                dst[d + (d < c)] += k[d];
-                        continue;
-                    }
                     for (int d = 0; d < dim; d++)
                         dst[d] += k[d];
                 }
+                if (diag_first) {
+                    /* the vertex's own block, in a row whose columns up
+                     * to the diagonal were rotated by one place
+                     * (build_patterns): the diagonal at the row's start,
+                     * the entries before it one place later */
+                    const double *k = krow + i * dim;
+                    double *row = values + el->rowptr[row0] + (int64_t)c * len;
+                    double *dst = values + slot[i * nv + i] + (int64_t)c * len;
+                    row[0] += k[c];
+                    for (int d = 0; d < dim; d++)
+                        if (d != c)
+                            dst[d + (d < c)] += k[d];
+                }
+            }
         }
     }
     return -1;
@@ -751,8 +758,13 @@ sm_status sm_elasticity_factorize(sm_elasticity *el, const double *coords, sm_er
     memset(el->values, 0, (size_t)el->rowptr[el->nfree] * sizeof(double));
     memset(el->cpl_values, 0, (size_t)el->cpl_rowptr[el->nfree] * sizeof(double));
     double bad_volume = 0.0, bad_edge = 0.0;
-    int32_t bad = el->dim == 2 ? assemble(el, 2, coords, &bad_volume, &bad_edge)
-                               : assemble(el, 3, coords, &bad_volume, &bad_edge);
+    int32_t bad;
+    if (el->diag_first)
+        bad = el->dim == 2 ? assemble(el, 2, 1, coords, &bad_volume, &bad_edge)
+                           : assemble(el, 3, 1, coords, &bad_volume, &bad_edge);
+    else
+        bad = el->dim == 2 ? assemble(el, 2, 0, coords, &bad_volume, &bad_edge)
+                           : assemble(el, 3, 0, coords, &bad_volume, &bad_edge);
     double t1 = sm_clock_seconds();
     el->t_assembly = t1 - t0;
     el->t_factor = 0.0;

@@ -7,80 +7,28 @@
  * sorted entries; the CSR position of a coupling is therefore
  * rowptr[row] + (rank of b among the row vertex's free neighbours)*dim + d
  * (for the AMG solver, whose rows start with their diagonal, one place
- * later when b comes before the row's vertex; see build_patterns).
+ * later when b comes before the row's vertex; see build_patterns in
+ * sm_elasticity_pattern.c).
  *
  * Everything that depends only on the topology is computed once in
  * sm_elasticity_new: the CSR pattern of the free x free block (both
  * triangles), the CSR pattern of the free x clamped block (it carries the
  * Dirichlet values to the right-hand side), a slot map telling where each
- * entry of each element matrix goes, and CHOLMOD's symbolic analysis
+ * entry of each element matrix goes (sm_elasticity_pattern.c), and
+ * CHOLMOD's symbolic analysis
  * (with a fill-reducing order computed on the free-vertex graph).
  * sm_elasticity_factorize then computes the element matrices
  * (sm_element.h), scatters them through the map (no search) and
  * refactorizes numerically, or rebuilds the AMG hierarchy on the same
  * arrays, which hypre reads in place (sm_solver_amg.c). */
 #include "shapematch/sm_clock.h"
-#include "sm_alloc.h"
-#include "sm_elasticity.h"
+#include "sm_elasticity_internal.h"
 #include "sm_element.h"
-#include "sm_solver_amg.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-
-#include <cholmod.h>
-
-/* Slot map encoding (one slot per vertex pair of an element, the start
- * of its block): s >= 0 is a position in the free x free values;
- * SLOT_ELIMINATED marks the rows of a clamped vertex (the equations are
- * removed); s <= -2 is position -(s + 2) in the free x clamped values. */
-#define SLOT_ELIMINATED (-1)
-#define SLOT_COUPLING(p) (-2 - (p))
-
-
-struct sm_elasticity {
-    int dim;
-    int32_t nverts;
-    int32_t nelems;
-    const int32_t *elems;   /* borrowed from the mesh */
-    double lambda, mu, alpha;
-
-    int32_t nfree;          /* free DOFs */
-    int32_t nclamped_dofs;  /* clamped DOFs (of vertices used by elements) */
-    int32_t *dof;           /* nverts*dim: free DOF index or -1 */
-    int32_t *clamped_global;/* nclamped_dofs: global index v*dim+c */
-
-    /* free x free block, full symmetric pattern; columns ascending, or
-     * with diag_first (the AMG solver's layout) the diagonal entry first
-     * and the others ascending */
-    int32_t *rowptr, *colind;
-    double *values;
-    int diag_first;
-    /* free x clamped block; columns are clamped DOF indices */
-    int32_t *cpl_rowptr, *cpl_colind;
-    double *cpl_values;
-
-    int32_t *slots;         /* nelems * (dim+1)^2: block starts (build_slot_map) */
-
-    cholmod_common cc;
-    int cc_started;
-    cholmod_sparse A;       /* wraps rowptr/colind/values */
-    cholmod_factor *L;
-    cholmod_dense *X, *Y, *E; /* cholmod_solve2 workspaces, reused */
-    double *rhs;            /* nfree */
-    int factorized;
-
-    double lnz, flops;      /* from the symbolic analysis */
-    double rcond;           /* of the last numeric factorization */
-    double t_analyze, t_assembly, t_factor, t_solve;
-
-    sm_solver_kind solver;  /* CHOLMOD or AMG (resolved) */
-    double amg_rtol;
-    sm_amg *amg;            /* AMG: hypre's matrix, hierarchy, warm start */
-    double *amg_coords;     /* AMG: free vertex positions (rigid modes) */
-};
 
 /* ---------------------------------------------------------------------- */
 /* Setup                                                                   */
@@ -145,265 +93,10 @@ void sm_elasticity_free(sm_elasticity *el)
     free(el);
 }
 
-static void *alloc_n(size_t count, size_t size)
+/* The options of sm_elasticity_new: material, alpha, solver and factor
+ * kinds, AMG settings. */
+static sm_status validate_opts(const sm_elasticity_opts *opts, sm_error *err)
 {
-    return calloc(count ? count : 1, size);
-}
-
-/* What sm_elasticity_new needs while it builds the pattern, freed at its
- * end.  Vertices are FREE (dim unknowns), CLAMPED (Dirichlet values) or
- * UNUSED (in no element: no unknown, treated like clamped ones). */
-enum { VERTEX_FREE = 0, VERTEX_CLAMPED = 1, VERTEX_UNUSED = 2 };
-typedef struct setup_scratch {
-    uint8_t *kind;          /* nverts: VERTEX_* */
-    int32_t *clamped_first; /* nverts: a clamped vertex's first clamped DOF
-                             * (index into clamped_global), else -1 */
-    int64_t *elem_ptr;      /* nverts+1: the elements of each vertex */
-    int32_t *elem_list;
-    int64_t *nb_ptr;        /* nverts+1: the neighbours of each free vertex */
-    int32_t *nb_list;       /* (itself included) in increasing order */
-    int32_t *mark;          /* nverts: marks, then ranks (build_slot_map) */
-} setup_scratch;
-
-static void setup_scratch_free(setup_scratch *sc)
-{
-    free(sc->kind);
-    free(sc->clamped_first);
-    free(sc->elem_ptr);
-    free(sc->elem_list);
-    free(sc->nb_ptr);
-    free(sc->nb_list);
-    free(sc->mark);
-}
-
-/* The elements of each vertex, by counting sort: O(elements). */
-static sm_status build_incidence(const sm_elasticity *el, setup_scratch *sc, sm_error *err)
-{
-    const int nv = el->dim + 1;
-    const int32_t nverts = el->nverts;
-    const int64_t nrefs = (int64_t)el->nelems * nv;
-    sc->elem_ptr = alloc_n((size_t)nverts + 1, sizeof *sc->elem_ptr);
-    sc->elem_list = alloc_n((size_t)nrefs, sizeof *sc->elem_list);
-    if (!sc->elem_ptr || !sc->elem_list)
-        return sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory building the vertex adjacency");
-    for (int64_t k = 0; k < nrefs; k++)
-        sc->elem_ptr[el->elems[k] + 1]++;
-    for (int32_t v = 0; v < nverts; v++)
-        sc->elem_ptr[v + 1] += sc->elem_ptr[v];
-    /* fill through the starts (elem_ptr[v] runs to the end of v's list),
-     * then shift them back */
-    for (int64_t k = 0; k < nrefs; k++)
-        sc->elem_list[sc->elem_ptr[el->elems[k]]++] = (int32_t)(k / nv);
-    for (int32_t v = nverts; v > 0; v--)
-        sc->elem_ptr[v] = sc->elem_ptr[v - 1];
-    sc->elem_ptr[0] = 0;
-    return SM_OK;
-}
-
-/* One pass over the vertex pairs (a, b) that share an element, b free,
- * each pair once, a in increasing order: counts b's neighbours into
- * next[b + 1] (fill 0), or appends a to b's list at next[b] (fill 1). */
-static void neighbour_pass(const sm_elasticity *el, setup_scratch *sc, int64_t *next, int fill)
-{
-    const int nv = el->dim + 1;
-    for (int32_t v = 0; v < el->nverts; v++)
-        sc->mark[v] = -1;
-    for (int32_t a = 0; a < el->nverts; a++) {
-        for (int64_t k = sc->elem_ptr[a]; k < sc->elem_ptr[a + 1]; k++) {
-            const int32_t *ev = el->elems + (int64_t)sc->elem_list[k] * nv;
-            for (int i = 0; i < nv; i++) {
-                int32_t b = ev[i];
-                if (sc->kind[b] != VERTEX_FREE || sc->mark[b] == a)
-                    continue;
-                sc->mark[b] = a;
-                if (fill)
-                    sc->nb_list[next[b]++] = a;
-                else
-                    next[b + 1]++;
-            }
-        }
-    }
-}
-
-/* The neighbours of every free vertex in increasing order, without a
- * sort: adjacency is symmetric, so appending each a to the lists of its
- * neighbours b, a in increasing order, gives every b its own neighbours
- * already sorted.  O(elements * (dim+1)^2); the qsort of each list it
- * replaces took most of sm_elasticity_new. */
-static sm_status build_neighbours(const sm_elasticity *el, setup_scratch *sc, sm_error *err)
-{
-    const int32_t nverts = el->nverts;
-    sc->nb_ptr = alloc_n((size_t)nverts + 1, sizeof *sc->nb_ptr);
-    sc->mark = malloc(((size_t)nverts + 1) * sizeof *sc->mark);
-    int64_t *next = malloc(((size_t)nverts + 1) * sizeof *next);
-    if (!sc->nb_ptr || !sc->mark || !next) {
-        free(next);
-        return sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory building the vertex adjacency");
-    }
-    neighbour_pass(el, sc, sc->nb_ptr, 0);
-    for (int32_t v = 0; v < nverts; v++)
-        sc->nb_ptr[v + 1] += sc->nb_ptr[v];
-    sc->nb_list = alloc_n((size_t)sc->nb_ptr[nverts], sizeof *sc->nb_list);
-    if (!sc->nb_list) {
-        free(next);
-        return sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory building the vertex adjacency");
-    }
-    memcpy(next, sc->nb_ptr, ((size_t)nverts + 1) * sizeof *next);
-    neighbour_pass(el, sc, next, 1);
-    free(next);
-    return SM_OK;
-}
-
-/* Builds the two CSR patterns from the neighbour lists: the dim rows of
- * a free vertex have the same columns, its free neighbours' DOFs in the
- * free x free block, its clamped neighbours' in the coupling block, in
- * increasing order; with diag_first each row's columns up to its
- * diagonal are then rotated by one place, which brings the diagonal to
- * the front and keeps the others ascending. */
-static sm_status build_patterns(sm_elasticity *el, const setup_scratch *sc, sm_error *err)
-{
-    const int dim = el->dim;
-    const int32_t nverts = el->nverts;
-    int64_t nnz = 0, nnz_cpl = 0;
-    for (int32_t a = 0; a < nverts; a++)
-        for (int64_t k = sc->nb_ptr[a]; k < sc->nb_ptr[a + 1]; k++) {
-            if (sc->kind[sc->nb_list[k]] == VERTEX_FREE)
-                nnz += (int64_t)dim * dim;
-            else
-                nnz_cpl += (int64_t)dim * dim;
-        }
-    /* CHOLMOD_INT and the slot encoding need 32-bit positions. */
-    if (nnz > INT32_MAX - 2 || nnz_cpl > INT32_MAX - 2)
-        return sm_error_set(err, SM_ERR_NOMEM,
-                            "elasticity: matrix too large (%lld entries, %lld coupling entries; limit %d)",
-                            (long long)nnz, (long long)nnz_cpl, INT32_MAX - 2);
-    /* not zeroed: the patterns are filled below, the values by each
-     * factorize before anything reads them.  The largest arrays on huge
-     * pages (sm_alloc.h): on the 30k example, sm_elasticity_new's page
-     * faults 1683 -> ~1220 and the first assembly's (which first writes
-     * the 6.5 MB of values) 0.030 -> 0.012-0.02 s. */
-    el->rowptr = malloc(((size_t)el->nfree + 1) * sizeof(int32_t));
-    el->colind = sm__alloc_huge(((size_t)nnz + 1) * sizeof(int32_t));
-    el->values = sm__alloc_huge(((size_t)nnz + 1) * sizeof(double));
-    el->cpl_rowptr = malloc(((size_t)el->nfree + 1) * sizeof(int32_t));
-    el->cpl_colind = malloc(((size_t)nnz_cpl + 1) * sizeof(int32_t));
-    el->cpl_values = malloc(((size_t)nnz_cpl + 1) * sizeof(double));
-    if (!el->rowptr || !el->colind || !el->values || !el->cpl_rowptr || !el->cpl_colind ||
-        !el->cpl_values)
-        return sm_error_set(err, SM_ERR_NOMEM,
-                            "elasticity: out of memory for a matrix of %lld entries", (long long)nnz);
-    int32_t p = 0, q = 0, row = 0;
-    for (int32_t a = 0; a < nverts; a++) {
-        if (sc->kind[a] != VERTEX_FREE)
-            continue;
-        /* the first row of the vertex, then copies of it (rotated) */
-        const int32_t p0 = p, q0 = q;
-        int32_t own = 0; /* where the vertex's own block starts */
-        for (int64_t k = sc->nb_ptr[a]; k < sc->nb_ptr[a + 1]; k++) {
-            int32_t b = sc->nb_list[k];
-            if (b == a)
-                own = p - p0;
-            int32_t *col = el->colind + p, first = el->dof[(int64_t)b * dim];
-            if (sc->kind[b] != VERTEX_FREE) {
-                col = el->cpl_colind + q;
-                first = sc->clamped_first[b];
-            }
-            for (int d = 0; d < dim; d++)
-                col[d] = first + d;
-            if (sc->kind[b] == VERTEX_FREE)
-                p += dim;
-            else
-                q += dim;
-        }
-        const int32_t len = p - p0, len_cpl = q - q0;
-        for (int c = dim - 1; c >= 0; c--) {
-            int32_t *cols = el->colind + p0 + c * len;
-            el->rowptr[row + c] = p0 + c * len;
-            el->cpl_rowptr[row + c] = q0 + c * len_cpl;
-            if (c > 0) {
-                memcpy(cols, el->colind + p0, (size_t)len * sizeof(int32_t));
-                memcpy(el->cpl_colind + q0 + c * len_cpl, el->cpl_colind + q0,
-                       (size_t)len_cpl * sizeof(int32_t));
-            }
-            if (el->diag_first) { /* the columns up to the diagonal rotate */
-                const int32_t at = own + c;
-                memmove(cols + 1, cols, (size_t)at * sizeof(int32_t));
-                cols[0] = el->dof[(int64_t)a * dim + c];
-            }
-        }
-        row += dim;
-        p = p0 + dim * len;
-        q = q0 + dim * len_cpl;
-    }
-    el->rowptr[row] = p;
-    el->cpl_rowptr[row] = q;
-    return SM_OK;
-}
-
-/* The slot map holds one slot per element and vertex pair (i, j): where
- * the dim x dim block of (vertex i, vertex j) starts, entry (c, d) being
- * at that slot + c * (row length of vertex i) + d, since the dim rows of
- * a vertex have the same columns (build_patterns) - except for
- * diag_first, where the block of (a, b) with b before a starts one place
- * later, and assemble moves the entries of each block (a, a) (see there).
- * (dim+1)^2 slots per
- * element instead of ((dim+1) dim)^2: 2 MB instead of 17.5 MB for the
- * 30k-tetrahedron example.  Each free vertex a scatters the ranks of its
- * neighbours (in its free or its coupling columns) into sc->mark, then
- * fills its row of the slots of each of its elements: no search. */
-static sm_status build_slot_map(sm_elasticity *el, setup_scratch *sc, sm_error *err)
-{
-    const int dim = el->dim, nv = dim + 1;
-    const size_t per_elem = (size_t)nv * (size_t)nv;
-    el->slots = sm__alloc_huge(((size_t)el->nelems * per_elem + 1) * sizeof(int32_t));
-    if (!el->slots)
-        return sm_error_set(err, SM_ERR_NOMEM,
-                            "elasticity: out of memory for the slot map of %ld elements",
-                            (long)el->nelems);
-    int32_t *rank = sc->mark;
-    for (int32_t a = 0; a < el->nverts; a++) {
-        const int32_t row0 = el->dof[(int64_t)a * dim];
-        int32_t nfree = 0, ncpl = 0;
-        for (int64_t k = sc->nb_ptr[a]; k < sc->nb_ptr[a + 1]; k++) {
-            int32_t b = sc->nb_list[k];
-            rank[b] = sc->kind[b] == VERTEX_FREE ? nfree++ : ncpl++;
-        }
-        for (int64_t k = sc->elem_ptr[a]; k < sc->elem_ptr[a + 1]; k++) {
-            const int32_t e = sc->elem_list[k];
-            const int32_t *ev = el->elems + (int64_t)e * nv;
-            int i = 0;
-            while (ev[i] != a)
-                i++;
-            int32_t *slot = el->slots + (size_t)e * per_elem + (size_t)i * nv;
-            for (int j = 0; j < nv; j++) {
-                int32_t b = ev[j];
-                if (row0 < 0)
-                    slot[j] = SLOT_ELIMINATED; /* the rows of a clamped vertex */
-                else if (sc->kind[b] == VERTEX_FREE)
-                    slot[j] = el->rowptr[row0] + rank[b] * dim + (el->diag_first && b < a);
-                else
-                    slot[j] = SLOT_COUPLING(el->cpl_rowptr[row0] + rank[b] * dim);
-            }
-        }
-    }
-    return SM_OK;
-}
-
-/* The arguments of sm_elasticity_new: sizes, material, alpha, factor kind
- * and every element's vertices (in range, distinct). */
-static sm_status validate(const sm_mesh *m, const sm_elasticity_opts *opts, sm_error *err)
-{
-    if (!m)
-        return sm_error_set(err, SM_ERR_INVALID, "elasticity: NULL mesh");
-    if (!opts)
-        return sm_error_set(err, SM_ERR_INVALID, "elasticity: NULL options");
-    if (m->dim != 2 && m->dim != 3)
-        return sm_error_set(err, SM_ERR_INVALID, "elasticity: mesh dimension %d is not 2 or 3", m->dim);
-    if (m->nverts < 0 || m->nelems < 0 || m->nverts > SM_MAX_ENTITIES ||
-        m->nelems > SM_MAX_ENTITIES || (m->nelems > 0 && !m->elems))
-        return sm_error_set(err, SM_ERR_INVALID,
-                            "elasticity: invalid mesh sizes (%ld vertices, %ld elements)",
-                            (long)m->nverts, (long)m->nelems);
     const double young = opts->young, poisson = opts->poisson, alpha = opts->alpha;
     const sm_factor_kind kind = opts->factor;
     if (!sm_solver_kind_name(opts->solver))
@@ -426,7 +119,27 @@ static sm_status validate(const sm_mesh *m, const sm_elasticity_opts *opts, sm_e
                             "elasticity: alpha must be finite and >= 0 (got %g)", alpha);
     if (kind != SM_FACTOR_AUTO && kind != SM_FACTOR_SIMPLICIAL && kind != SM_FACTOR_SUPERNODAL)
         return sm_error_set(err, SM_ERR_INVALID, "elasticity: unknown factor kind %d", (int)kind);
+    return SM_OK;
+}
 
+/* The arguments of sm_elasticity_new: sizes, the options and every
+ * element's vertices (in range, distinct). */
+static sm_status validate(const sm_mesh *m, const sm_elasticity_opts *opts, sm_error *err)
+{
+    if (!m)
+        return sm_error_set(err, SM_ERR_INVALID, "elasticity: NULL mesh");
+    if (!opts)
+        return sm_error_set(err, SM_ERR_INVALID, "elasticity: NULL options");
+    if (m->dim != 2 && m->dim != 3)
+        return sm_error_set(err, SM_ERR_INVALID, "elasticity: mesh dimension %d is not 2 or 3", m->dim);
+    if (m->nverts < 0 || m->nelems < 0 || m->nverts > SM_MAX_ENTITIES ||
+        m->nelems > SM_MAX_ENTITIES || (m->nelems > 0 && !m->elems))
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "elasticity: invalid mesh sizes (%ld vertices, %ld elements)",
+                            (long)m->nverts, (long)m->nelems);
+    sm_status st = validate_opts(opts, err);
+    if (st != SM_OK)
+        return st;
     const int nv = m->dim + 1;
     for (int32_t e = 0; e < m->nelems; e++) {
         const int32_t *ev = m->elems + (int64_t)e * nv;
@@ -440,62 +153,6 @@ static sm_status validate(const sm_mesh *m, const sm_elasticity_opts *opts, sm_e
                     return sm_error_set(err, SM_ERR_INVALID,
                                         "elasticity: element %ld repeats vertex %ld",
                                         (long)e + 1, (long)ev[i] + 1);
-        }
-    }
-    return SM_OK;
-}
-
-/* Which vertices are free, clamped or unused (sc->kind) and the numbering
- * of the DOFs: el->dof (free DOFs in vertex order, -1 for clamped or
- * unused ones), el->clamped_global with sc->clamped_first, and the sizes
- * nfree and nclamped_dofs; allocates el->rhs. */
-static sm_status number_dofs(sm_elasticity *el, const sm_mesh *m, const uint8_t *clamped,
-                             setup_scratch *sc, sm_error *err)
-{
-    const int dim = m->dim, nv = dim + 1;
-    sc->kind = malloc((size_t)m->nverts + 1);
-    sc->clamped_first = malloc(((size_t)m->nverts + 1) * sizeof *sc->clamped_first);
-    if (!sc->kind || !sc->clamped_first)
-        return sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory");
-    /* Vertices used by no element carry no unknown: they are treated as
-     * clamped (their displacement is the Dirichlet value, or 0). */
-    memset(sc->kind, VERTEX_UNUSED, (size_t)m->nverts);
-    for (int64_t k = 0; k < (int64_t)m->nelems * nv; k++)
-        sc->kind[m->elems[k]] = VERTEX_FREE;
-    int32_t nclamped_verts = 0, nfree_verts = 0;
-    for (int32_t v = 0; v < m->nverts; v++) {
-        if (sc->kind[v] == VERTEX_UNUSED)
-            continue;
-        if (clamped && clamped[v]) {
-            sc->kind[v] = VERTEX_CLAMPED;
-            nclamped_verts++;
-        } else {
-            nfree_verts++;
-        }
-    }
-    if (nclamped_verts == 0 && nfree_verts > 0 && !(el->alpha > 0.0))
-        return sm_error_set(err, SM_ERR_INVALID,
-                            "elasticity: no vertex is clamped and alpha = %g: rigid motions make the "
-                            "system singular; clamp some vertices or use alpha > 0", el->alpha);
-    if ((int64_t)nfree_verts * dim > INT32_MAX - 2)
-        return sm_error_set(err, SM_ERR_NOMEM, "elasticity: too many unknowns");
-    el->nfree = nfree_verts * dim;
-    el->nclamped_dofs = nclamped_verts * dim;
-    el->dof = malloc(((size_t)m->nverts * dim + 1) * sizeof *el->dof);
-    el->clamped_global = alloc_n((size_t)el->nclamped_dofs, sizeof *el->clamped_global);
-    el->rhs = alloc_n((size_t)el->nfree, sizeof *el->rhs);
-    if (!el->dof || !el->clamped_global || !el->rhs)
-        return sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory");
-    int32_t next_free = 0, next_clamped = 0;
-    for (int32_t v = 0; v < m->nverts; v++) {
-        sc->clamped_first[v] = sc->kind[v] == VERTEX_CLAMPED ? next_clamped : -1;
-        for (int c = 0; c < dim; c++) {
-            int64_t g = (int64_t)v * dim + c;
-            el->dof[g] = -1;
-            if (sc->kind[v] == VERTEX_CLAMPED)
-                el->clamped_global[next_clamped++] = (int32_t)g;
-            else if (sc->kind[v] == VERTEX_FREE)
-                el->dof[g] = next_free++;
         }
     }
     return SM_OK;
@@ -639,14 +296,10 @@ sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
     el->solver = sm_solver_resolve(opts->solver, m->dim, m->nelems);
     el->amg_rtol = opts->amg_rtol > 0.0 ? opts->amg_rtol : SM_ELASTICITY_AMG_RTOL;
     el->diag_first = el->solver == SM_SOLVER_AMG;
-    setup_scratch sc = {0};
-    if ((st = number_dofs(el, m, clamped, &sc, err)) != SM_OK ||
-        (st = build_incidence(el, &sc, err)) != SM_OK ||
-        (st = build_neighbours(el, &sc, err)) != SM_OK ||
-        (st = build_patterns(el, &sc, err)) != SM_OK ||
-        (st = build_slot_map(el, &sc, err)) != SM_OK)
-        goto fail;
-    setup_scratch_free(&sc);
+    if ((st = sm__elasticity_pattern(el, clamped, err)) != SM_OK) {
+        sm_elasticity_free(el);
+        return st;
+    }
     if (el->solver == SM_SOLVER_AMG && el->nfree > 0) {
         int rigid_modes = opts->amg_modes == SM_AMG_MODES_ON ||
                           (opts->amg_modes == SM_AMG_MODES_AUTO &&
@@ -663,11 +316,6 @@ sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
     el->t_analyze = sm_clock_seconds() - t0;
     *out = el;
     return SM_OK;
-
-fail:
-    setup_scratch_free(&sc);
-    sm_elasticity_free(el);
-    return st;
 }
 
 /* ---------------------------------------------------------------------- */

@@ -4,6 +4,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "sm_facets.h"
+
 static void *alloc_array(size_t count, size_t size)
 {
     /* calloc of 0 elements may return NULL; keep a valid pointer so that
@@ -207,31 +209,75 @@ static inline double quality_key(const sm_mesh *m, const double *coords, int32_t
     return vol < 0 ? -key : key;
 }
 
+/* Folds key k of element e into the two smallest keys so far (k1 of
+ * element e1, then k2), the first element on ties. */
+static void keep_two_smallest(double k, int32_t e, double *k1, int32_t *e1, double *k2)
+{
+    if (k < *k1 || (k == *k1 && e < *e1)) {
+        *k2 = *k1;
+        *k1 = k;
+        *e1 = e;
+    } else if (k < *k2) {
+        *k2 = k;
+    }
+}
+
 double sm_mesh_min_quality(const sm_mesh *m, const double *coords, int32_t *worst)
 {
-    double best_key = INFINITY;
-    int32_t best = -1;
+    /* The smallest key; when no other key is within rounding of it, its
+     * element has the smallest quality, otherwise sm_elem_quality decides
+     * among the elements that are: either way exactly the minimum, and
+     * the first element reaching it, of sm_elem_quality over all. */
+    double k1 = INFINITY, k2 = INFINITY, best_q = INFINITY;
+    int32_t e1 = -1, best = -1;
 #pragma omp parallel
     {
-        double my_key = INFINITY;
+        double my_k1 = INFINITY, my_k2 = INFINITY;
+        int32_t my_e1 = -1;
+#pragma omp for schedule(static) nowait
+        for (int32_t e = 0; e < m->nelems; e++)
+            keep_two_smallest(quality_key(m, coords, e), e, &my_k1, &my_e1, &my_k2);
+#pragma omp critical
+        if (my_e1 >= 0) {
+            keep_two_smallest(my_k1, my_e1, &k1, &e1, &k2);
+            if (my_k2 < k2)
+                k2 = my_k2;
+        }
+    }
+    if (e1 < 0) {
+        if (worst)
+            *worst = -1;
+        return 0.0;
+    }
+    const double bound = k1 + 1e-9 * fabs(k1) + 1e-300;
+    if (!(k2 <= bound)) {
+        if (worst)
+            *worst = e1;
+        return sm_elem_quality(m, coords, e1);
+    }
+#pragma omp parallel
+    {
+        double my_q = INFINITY;
         int32_t mine = -1;
 #pragma omp for schedule(static) nowait
         for (int32_t e = 0; e < m->nelems; e++) {
-            double k = quality_key(m, coords, e);
-            if (k < my_key) {
-                my_key = k;
+            if (!(quality_key(m, coords, e) <= bound))
+                continue;
+            double q = sm_elem_quality(m, coords, e);
+            if (q < my_q) {
+                my_q = q;
                 mine = e;
             }
         }
 #pragma omp critical
-        if (mine >= 0 && (my_key < best_key || (my_key == best_key && mine < best))) {
-            best_key = my_key;
+        if (mine >= 0 && (my_q < best_q || (my_q == best_q && mine < best))) {
+            best_q = my_q;
             best = mine;
         }
     }
     if (worst)
         *worst = best;
-    return best >= 0 ? sm_elem_quality(m, coords, best) : 0.0;
+    return best_q;
 }
 
 void sm_mesh_quality(const sm_mesh *m, const double *coords, sm_quality_stats *st)
@@ -400,64 +446,6 @@ static sm_status orient_elements(sm_mesh *m, sm_error *err)
     return SM_OK;
 }
 
-/* The dim+1 facets of every element (key: its vertices sorted), sorted
- * by key so that the copies of one facet are adjacent; NULL when out of
- * memory. */
-static facet_entry *element_facets(const sm_mesh *m, size_t *nentries)
-{
-    const int dim = m->dim, nv = dim + 1;
-    *nentries = (size_t)m->nelems * (size_t)nv;
-    facet_entry *ent = malloc(*nentries * sizeof *ent);
-    if (!ent)
-        return NULL;
-    for (int32_t e = 0; e < m->nelems; e++) {
-        const int32_t *ev = m->elems + (size_t)e * (size_t)nv;
-        for (int opp = 0; opp < nv; opp++) {
-            facet_entry *fe = &ent[(size_t)e * (size_t)nv + (size_t)opp];
-            int k = 0;
-            for (int i = 0; i < nv; i++)
-                if (i != opp)
-                    fe->key[k++] = ev[i];
-            if (dim == 2)
-                fe->key[2] = -1;
-            sort_key(fe->key, dim);
-            fe->elem = e;
-            fe->opposite = opp;
-        }
-    }
-    qsort(ent, *nentries, sizeof *ent, compare_facet_entries);
-    return ent;
-}
-
-/* End of the run of entries equal to ent[i] (sorted entries). */
-static size_t run_end(const facet_entry *ent, size_t nentries, size_t i)
-{
-    size_t j = i + 1;
-    while (j < nentries && memcmp(ent[j].key, ent[i].key, sizeof ent[i].key) == 0)
-        j++;
-    return j;
-}
-
-/* Counts the facets owned by exactly one element; a facet with more
- * than two owners makes the mesh non-manifold (SM_ERR_INVALID). */
-static sm_status count_boundary(const facet_entry *ent, size_t nentries, int dim, size_t *nb,
-                                sm_error *err)
-{
-    *nb = 0;
-    for (size_t i = 0; i < nentries;) {
-        size_t j = run_end(ent, nentries, i);
-        if (j - i > 2)
-            return sm_error_set(err, SM_ERR_INVALID,
-                                "facet (%ld %ld%s) is shared by %zu elements: the mesh is not manifold",
-                                (long)ent[i].key[0] + 1, (long)ent[i].key[1] + 1,
-                                dim == 3 ? " ..." : "", j - i);
-        if (j - i == 1)
-            (*nb)++;
-        i = j;
-    }
-    return SM_OK;
-}
-
 /* The facets of the file (m->facets), sorted by key to carry their
  * references over; elem holds the index of the file facet. */
 static void sort_file_facets(const sm_mesh *m, facet_entry *file)
@@ -525,17 +513,33 @@ sm_status sm_mesh_build_boundary(sm_mesh *m, sm_error *err)
         return st;
     free_boundary(m);
 
-    const int dim = m->dim;
-    size_t nentries;
-    facet_entry *ent = element_facets(m, &nentries);
-    if (!ent)
+    const int dim = m->dim, nv = dim + 1;
+    const size_t nf = (size_t)m->nelems * (size_t)nv;
+    int32_t *nbr = malloc(nf * sizeof *nbr);
+    int32_t *order = malloc(nf * sizeof *order);
+    sm_facet_match fm;
+    if (!nbr || !order) {
+        free(nbr);
+        free(order);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory building the boundary");
-    size_t nb;
-    if ((st = count_boundary(ent, nentries, dim, &nb, err)) != SM_OK) {
-        free(ent);
+    }
+    st = sm__facet_match(dim, m->nverts, m->nelems, m->elems, nbr, order, &fm, err);
+    free(nbr);
+    if (st == SM_OK && fm.crowded >= 0) {
+        int32_t key[3];
+        sm__facet_sorted_vertices(dim, m->elems + (size_t)(fm.crowded / nv) * (size_t)nv,
+                                  (int)(fm.crowded % nv), key);
+        st = sm_error_set(err, SM_ERR_INVALID,
+                          "facet (%ld %ld%s) is shared by %ld elements: the mesh is not manifold",
+                          (long)key[0] + 1, (long)key[1] + 1, dim == 3 ? " ..." : "",
+                          (long)fm.crowded_holders);
+    }
+    if (st != SM_OK) {
+        free(order);
         return st;
     }
 
+    const size_t nb = (size_t)fm.nboundary;
     m->nbfacets = (int32_t)nb;
     m->bfacets = malloc((nb ? nb : 1) * (size_t)dim * sizeof(int32_t));
     m->bfacet_refs = calloc(nb ? nb : 1, sizeof(int32_t));
@@ -543,21 +547,21 @@ sm_status sm_mesh_build_boundary(sm_mesh *m, sm_error *err)
     m->on_boundary = calloc(m->nverts ? (size_t)m->nverts : 1, 1);
     facet_entry *file = malloc((m->nfacets ? (size_t)m->nfacets : 1) * sizeof *file);
     if (!m->bfacets || !m->bfacet_refs || !m->bfacet_elem || !m->on_boundary || !file) {
-        free(ent);
+        free(order);
         free(file);
         free_boundary(m);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory building the boundary");
     }
     sort_file_facets(m, file);
-
-    size_t b = 0;
-    for (size_t i = 0; i < nentries;) {
-        size_t j = run_end(ent, nentries, i);
-        if (j - i == 1)
-            add_boundary_facet(m, &ent[i], file, b++);
-        i = j;
+    /* in the order of their sorted vertex lists, as the facets always were */
+    for (size_t b = 0; b < nb; b++) {
+        facet_entry fe = {.elem = order[b] / nv, .opposite = order[b] % nv};
+        fe.key[2] = -1;
+        sm__facet_sorted_vertices(dim, m->elems + (size_t)fe.elem * (size_t)nv, fe.opposite,
+                                  fe.key);
+        add_boundary_facet(m, &fe, file, b);
     }
-    free(ent);
+    free(order);
     free(file);
     return SM_OK;
 }

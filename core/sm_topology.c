@@ -1,70 +1,32 @@
 /* Topology checks of a template that the solver needs but the readers
  * cannot see: vertex stars connected through facets (no bowtie), and
  * every connected part held by the clamp (sm_mesh.h, sm_clamp.h).  Both
- * are O(elements log elements) and allocate O(elements + vertices). */
+ * are O(elements + vertices) in time and memory. */
 #include "shapematch/sm_clamp.h"
 #include "shapematch/sm_mesh.h"
 
 #include <stdlib.h>
 #include <string.h>
 
-typedef struct {
-    int32_t key[3]; /* sorted vertices of the facet (key[2] = -1 in 2D) */
-    int32_t elem;
-    int32_t local; /* the element's vertex opposite the facet */
-} facet_key;
-
-static int compare_facet_keys(const void *pa, const void *pb)
-{
-    const facet_key *a = pa, *b = pb;
-    for (int i = 0; i < 3; i++)
-        if (a->key[i] != b->key[i])
-            return a->key[i] < b->key[i] ? -1 : 1;
-    return 0;
-}
+#include "sm_facets.h"
 
 /* nbr[e * nv + i]: the element across the facet opposite local vertex i
  * of e, or -1 (boundary, or a facet shared by more than two elements:
  * sm_mesh_build_boundary refuses those). */
 static int32_t *facet_neighbours(const sm_mesh *m)
 {
-    const int dim = m->dim, nv = dim + 1;
-    size_t n = (size_t)m->nelems * (size_t)nv;
-    facet_key *f = malloc((n ? n : 1) * sizeof *f);
+    size_t n = (size_t)m->nelems * (size_t)(m->dim + 1);
     int32_t *nbr = malloc((n ? n : 1) * sizeof *nbr);
-    if (!f || !nbr) {
-        free(f);
+    sm_facet_match fm;
+    sm_error err;
+    if (!nbr || sm__facet_match(m->dim, m->nverts, m->nelems, m->elems, nbr, NULL, &fm, &err) !=
+                    SM_OK) {
         free(nbr);
         return NULL;
     }
-    for (size_t k = 0; k < n; k++) {
-        int32_t e = (int32_t)(k / (size_t)nv), local = (int32_t)(k % (size_t)nv), c = 0;
-        f[k].key[2] = -1;
-        for (int i = 0; i < nv; i++)
-            if (i != local)
-                f[k].key[c++] = m->elems[(size_t)e * (size_t)nv + (size_t)i];
-        for (int i = 1; i < dim; i++) /* insertion sort of dim <= 3 keys */
-            for (int j = i; j > 0 && f[k].key[j - 1] > f[k].key[j]; j--) {
-                int32_t t = f[k].key[j];
-                f[k].key[j] = f[k].key[j - 1];
-                f[k].key[j - 1] = t;
-            }
-        f[k].elem = e;
-        f[k].local = local;
-        nbr[k] = -1;
-    }
-    qsort(f, n, sizeof *f, compare_facet_keys);
-    for (size_t i = 0; i < n;) {
-        size_t j = i + 1;
-        while (j < n && compare_facet_keys(&f[i], &f[j]) == 0)
-            j++;
-        if (j - i == 2) {
-            nbr[(size_t)f[i].elem * (size_t)nv + (size_t)f[i].local] = f[i + 1].elem;
-            nbr[(size_t)f[i + 1].elem * (size_t)nv + (size_t)f[i + 1].local] = f[i].elem;
-        }
-        i = j;
-    }
-    free(f);
+    for (size_t k = 0; k < n; k++)
+        if (nbr[k] < 0)
+            nbr[k] = -1;
     return nbr;
 }
 

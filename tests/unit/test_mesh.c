@@ -10,6 +10,7 @@
 #include <cmocka.h>
 
 #include "shapematch/sm_mesh.h"
+#include "sm_facets.h"
 #include "util_mesh.h"
 
 static sm_mesh *structured(int dim, int n, unsigned seed)
@@ -107,6 +108,103 @@ static void test_quality(void **state)
     assert_true(fabs(fabs(qs.min) - 1.0) < 1e-12);
     assert_true(fabs(sm_mesh_diameter(m, m->coords) - sqrt(12.0)) < 1e-14);
     sm_mesh_free(m);
+}
+
+/* sm_mesh_min_quality against the minimum of sm_elem_quality, element by
+ * element, on boxes with shuffled vertex orders (half the elements
+ * inverted) and after turning one element inside out. */
+static void test_min_quality(void **state)
+{
+    (void)state;
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 2, 0.5};
+    for (int dim = 2; dim <= 3; dim++) {
+        sm_mesh *m = util_box_mesh(dim, 5, lo, hi, 7);
+        sm_error err;
+        for (int pass = 0; pass < 2; pass++) {
+            double best = INFINITY;
+            int32_t first = -1;
+            for (int32_t e = 0; e < m->nelems; e++) {
+                double q = sm_elem_quality(m, m->coords, e);
+                if (q < best) {
+                    best = q;
+                    first = e;
+                }
+            }
+            int32_t worst = -2;
+            double q = sm_mesh_min_quality(m, m->coords, &worst);
+            assert_true(q == best);
+            assert_int_equal(worst, first);
+            /* then with every element positive but one crushed flat-ish */
+            assert_int_equal(sm_mesh_build_boundary(m, &err), SM_OK);
+            m->coords[(size_t)m->elems[5 * (dim + 1)] * dim] += 0.19;
+        }
+        sm_mesh_free(m);
+    }
+}
+
+/* sm__facet_match against a quadratic search: every facet's neighbour,
+ * the boundary in lexicographic order, and a facet held by three
+ * elements reported with its holders. */
+static void test_facet_match(void **state)
+{
+    (void)state;
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    for (int dim = 2; dim <= 3; dim++) {
+        sm_mesh *m = util_box_mesh(dim, dim == 2 ? 7 : 3, lo, hi, 3);
+        const int nv = dim + 1;
+        size_t nf = (size_t)m->nelems * (size_t)nv;
+        int32_t *nbr = malloc(nf * sizeof *nbr), *order = malloc(nf * sizeof *order);
+        sm_facet_match fm;
+        sm_error err;
+        assert_int_equal(sm__facet_match(dim, m->nverts, m->nelems, m->elems, nbr, order, &fm, &err),
+                         SM_OK);
+        assert_int_equal(fm.crowded, -1);
+        int64_t nb = 0;
+        for (size_t f = 0; f < nf; f++) {
+            int32_t key[3], other[3], expect = -1;
+            sm__facet_sorted_vertices(dim, m->elems + f / nv * nv, (int)(f % nv), key);
+            for (size_t g = 0; g < nf; g++) {
+                if (g / nv == f / nv)
+                    continue;
+                sm__facet_sorted_vertices(dim, m->elems + g / nv * nv, (int)(g % nv), other);
+                if (memcmp(key, other, (size_t)dim * sizeof *key) == 0)
+                    expect = (int32_t)(g / nv);
+            }
+            assert_int_equal(nbr[f], expect);
+            nb += expect < 0;
+        }
+        assert_int_equal(fm.nboundary, nb);
+        for (int64_t b = 1; b < fm.nboundary; b++) {
+            int32_t k0[3], k1[3];
+            sm__facet_sorted_vertices(dim, m->elems + order[b - 1] / nv * nv, order[b - 1] % nv, k0);
+            sm__facet_sorted_vertices(dim, m->elems + order[b] / nv * nv, order[b] % nv, k1);
+            int cmp = 0;
+            for (int i = 0; i < dim && !cmp; i++)
+                cmp = (k0[i] > k1[i]) - (k0[i] < k1[i]);
+            assert_true(cmp < 0);
+        }
+        /* a third element on facet 0 of element 0 */
+        int32_t *elems = malloc((nf + (size_t)nv) * sizeof *elems);
+        memcpy(elems, m->elems, nf * sizeof *elems);
+        for (int i = 0; i < nv; i++)
+            elems[nf + (size_t)i] = m->elems[i];
+        elems[nf] = m->nverts - 1; /* replaces the vertex opposite facet 0 */
+        int32_t *nbr2 = malloc((nf + (size_t)nv) * sizeof *nbr2);
+        assert_int_equal(sm__facet_match(dim, m->nverts, m->nelems + 1, elems, nbr2, NULL, &fm, &err),
+                         SM_OK);
+        if (nbr[0] >= 0) { /* an interior facet: now held by three */
+            assert_int_equal(fm.crowded_holders, 3);
+            assert_int_equal(nbr2[0], -2);
+            assert_int_equal(nbr2[nf], -2);
+        } else {
+            assert_int_equal(nbr2[0], m->nelems);
+        }
+        free(nbr2);
+        free(elems);
+        free(nbr);
+        free(order);
+        sm_mesh_free(m);
+    }
 }
 
 /* Two triangles sharing an edge; the file lists the shared (interior)
@@ -233,6 +331,8 @@ int main(void)
         cmocka_unit_test(test_orientation_and_normals_2d),
         cmocka_unit_test(test_orientation_and_normals_3d),
         cmocka_unit_test(test_quality),
+        cmocka_unit_test(test_min_quality),
+        cmocka_unit_test(test_facet_match),
         cmocka_unit_test(test_reference_transfer),
         cmocka_unit_test(test_rejections),
         cmocka_unit_test(test_clone),

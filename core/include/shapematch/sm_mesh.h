@@ -70,7 +70,9 @@ sm_status sm_mesh_clone(const sm_mesh *m, sm_mesh **out, sm_error *err);
 
 /* Checks indices, finite coordinates, non-degenerate elements; reorients
  * negatively oriented elements (so every element has positive signed
- * volume) and extracts the boundary facets.  Must be called before any
+ * volume) and extracts the boundary facets (in the lexicographic order
+ * of their sorted vertices); a facet held by three or more elements is
+ * SM_ERR_INVALID.  O(elements + vertices).  Must be called before any
  * geometric use; the readers do not call it. */
 sm_status sm_mesh_build_boundary(sm_mesh *m, sm_error *err);
 
@@ -78,7 +80,7 @@ sm_status sm_mesh_build_boundary(sm_mesh *m, sm_error *err);
  * holding it (no bowtie: two triangles, or tetrahedra, touching at one
  * vertex only), which the boundary and the solver assume.  Call after
  * sm_mesh_build_boundary (indices checked).  SM_ERR_INVALID naming the
- * vertex and two of its elements; O(elements log elements). */
+ * vertex and two of its elements; O(elements + vertices). */
 sm_status sm_mesh_check_manifold(const sm_mesh *m, sm_error *err);
 
 /* Signed volume (area in 2D) of element e with vertex coordinates taken
@@ -92,11 +94,11 @@ double sm_elem_quality(const sm_mesh *m, const double *coords, int32_t e);
 
 /* The smallest sm_elem_quality over the elements (negative when one is
  * inverted; 0 for an empty mesh) and, when worst is not NULL, the first
- * element reaching it.  The same value as the minimum of sm_elem_quality
- * (the elements are compared by a monotone function of their quality
- * that needs no cube root, and the winner's quality is then computed by
- * sm_elem_quality); parallel over the OpenMP threads, with a result that
- * does not depend on their number. */
+ * element reaching it: exactly the minimum of sm_elem_quality, at a
+ * fraction of its cost (the elements are compared by a monotone function
+ * of their quality that needs no cube root, and only those within
+ * rounding of the smallest get sm_elem_quality); parallel over the
+ * OpenMP threads, with a result that does not depend on their number. */
 double sm_mesh_min_quality(const sm_mesh *m, const double *coords, int32_t *worst);
 
 typedef struct sm_quality_stats {

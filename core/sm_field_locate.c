@@ -5,7 +5,10 @@
 #include "sm_field_internal.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
+
+#include "sm_morton.h"
 
 /* ------------------------------------------------------------------ */
 /* Location                                                            */
@@ -275,4 +278,26 @@ void sm_field_eval_many(const sm_field *f, int64_t n, const double *xs, int32_t 
         eval_many_dim(f, n, xs, hints, values, 2);
     else
         eval_many_dim(f, n, xs, hints, values, 3);
+}
+
+/* Blocks of the Morton order, each walked from its first point's grid
+ * lookup: the unit of work of the threads. */
+#define POINTS_BLOCK 4096
+
+void sm_field_eval_points(const sm_field *f, int64_t n, const double *xs, int32_t *hints,
+                          double *values)
+{
+    const int D = f->dim;
+    int64_t *order = sm__morton_order(D, n, xs); /* NULL: the input order */
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int64_t b = 0; b < (n + POINTS_BLOCK - 1) / POINTS_BLOCK; b++) {
+        int32_t hint = -1;
+        for (int64_t j = b * POINTS_BLOCK; j < n && j < (b + 1) * POINTS_BLOCK; j++) {
+            int64_t i = order ? order[j] : j;
+            values[i] = sm_field_eval(f, xs + (size_t)i * (size_t)D, &hint);
+            if (hints)
+                hints[i] = hint;
+        }
+    }
+    free(order);
 }

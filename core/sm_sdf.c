@@ -6,6 +6,7 @@
 #include <stdlib.h>
 
 #include "sm_bvh.h"
+#include "sm_morton.h"
 
 struct sm_sdf {
     sm_bvh t;
@@ -103,72 +104,6 @@ void sm_sdf_winding(const sm_sdf *d, int64_t n, const double *pts, double *w)
 
 /* ---- signed distance ---- */
 
-typedef struct keyed {
-    uint64_t key;
-    int64_t i;
-} keyed;
-
-static int cmp_keyed(const void *a, const void *b)
-{
-    uint64_t x = ((const keyed *)a)->key, y = ((const keyed *)b)->key;
-    return x < y ? -1 : x > y;
-}
-
-/* bit b of v (v < 2^32 in 2D, < 2^21 in 3D) goes to bit dim * b */
-static uint64_t spread(uint64_t v, int dim)
-{
-    if (dim == 2) {
-        v &= 0xffffffffull;
-        v = (v | v << 16) & 0x0000ffff0000ffffull;
-        v = (v | v << 8) & 0x00ff00ff00ff00ffull;
-        v = (v | v << 4) & 0x0f0f0f0f0f0f0f0full;
-        v = (v | v << 2) & 0x3333333333333333ull;
-        return (v | v << 1) & 0x5555555555555555ull;
-    }
-    v &= 0x1fffffull;
-    v = (v | v << 32) & 0x1f00000000ffffull;
-    v = (v | v << 16) & 0x1f0000ff0000ffull;
-    v = (v | v << 8) & 0x100f00f00f00f00full;
-    v = (v | v << 4) & 0x10c30c30c30c30c3ull;
-    return (v | v << 2) & 0x1249249249249249ull;
-}
-
-/* The points in Morton (Z-curve) order of their box: neighbours in the
- * order are mostly neighbours in space, so the nearest-facet hint is
- * good and the sign carries from one point to the next. */
-static int64_t *morton_order(int dim, int64_t n, const double *pts)
-{
-    keyed *k = malloc(((size_t)n + 1) * sizeof *k);
-    int64_t *order = malloc(((size_t)n + 1) * sizeof *order);
-    if (!k || !order) {
-        free(k);
-        free(order);
-        return NULL;
-    }
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (int64_t i = 0; i < n; i++)
-        for (int a = 0; a < dim; a++)
-            if (isfinite(pts[i * dim + a])) {
-                lo[a] = fmin(lo[a], pts[i * dim + a]);
-                hi[a] = fmax(hi[a], pts[i * dim + a]);
-            }
-    int bits = dim == 3 ? 21 : 31;
-    for (int64_t i = 0; i < n; i++) {
-        uint64_t key = 0;
-        for (int a = 0; a < dim; a++) {
-            double u = hi[a] > lo[a] ? (pts[i * dim + a] - lo[a]) / (hi[a] - lo[a]) : 0;
-            u = u >= 0 ? (u <= 1 ? u : 1) : 0; /* NaN too */
-            key |= spread((uint64_t)(u * (double)((1u << bits) - 1)), dim) << a;
-        }
-        k[i] = (keyed){key, i};
-    }
-    qsort(k, (size_t)n, sizeof *k, cmp_keyed);
-    for (int64_t i = 0; i < n; i++)
-        order[i] = k[i].i;
-    free(k);
-    return order;
-}
-
 /* 1 when the segment pq stays off the surface: it lies in the union of
  * the open balls of radius dp about p and dq about q, which hold no
  * surface point (dp, dq: the distances to the surface), i.e. when
@@ -238,7 +173,7 @@ void sm_sdf_distance(const sm_sdf *d, int64_t n, const double *pts, double *dist
 {
     const sm_bvh *t = &d->t;
     int dim = t->s->dim;
-    int64_t *order = morton_order(dim, n, pts);
+    int64_t *order = sm__morton_order(dim, n, pts);
 #pragma omp parallel
     {
         sm_bvh_entry *stack = malloc((2 * (size_t)t->depth + 4) * sizeof *stack);
@@ -294,7 +229,7 @@ sm_status sm_sdf_signed_stats(const sm_sdf *d, int64_t n, const double *pts, dou
                             "the surface encloses nothing (enclosed %s %g for a bounding box "
                             "of %g): the sign of the distance cannot be decided",
                             s->dim == 3 ? "volume" : "area", vol, box);
-    int64_t *order = morton_order(s->dim, n, pts);
+    int64_t *order = sm__morton_order(s->dim, n, pts);
     if (!order)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for %lld points", (long long)n);
     sign_count total = {0, 0, 0};

@@ -7,6 +7,8 @@
 #include <omp.h>
 #endif
 
+#include "sm_morton.h"
+
 struct sm_shape {
     const sm_mesh *mesh;
     const sm_field *field;
@@ -20,7 +22,14 @@ struct sm_shape {
     int32_t *load_hint;    /* nactive * nq */
     int32_t *swept_hint;   /* nactive * 2 * nq */
     int32_t *vertex_hint;  /* nverts */
-    int32_t *elem_hint;    /* nelems * (dim+1) volume quadrature points */
+    int32_t *elem_hint;    /* nelems * (dim+1) volume quadrature points,
+                            * in the order of elem_order */
+    /* The active facets (above) and the elements (here) in Morton order
+     * of their centroids on the mesh given: the samples of each batch
+     * then come in spatial order, so that neighbouring walks read the
+     * same background elements while they are in cache (the order of
+     * the facets of a mesh is that of their vertex numbers, scattered). */
+    int32_t *elem_order;   /* nelems */
     /* Scratch: sample points, their values and weights, reused by every
      * call so that the hot path does not allocate.  Points are gathered
      * first and evaluated in batches (sm_field_eval_many), which overlaps
@@ -31,20 +40,35 @@ struct sm_shape {
     double *normals;       /* nactive * (dim + 1): unit normal and measure */
     int32_t *gathered_hint;/* nverts: hints of a gathered subset of vertices */
     int primed;            /* the hints above were seeded (prime_hints) */
+    /* d at the facet points of the last sm_shape_load (the current mesh)
+     * and at the end points of the last sm_shape_delta_j's step (a trial
+     * mesh): Simpson's rule along the motion samples both ends, so a
+     * trial reuses the current mesh's samples, and when the trial is
+     * accepted the next load reuses the trial's.  A sample is reused only
+     * for the very same point (compared bit for bit). */
+    double *cur_points, *cur_values;   /* nactive * nq (* dim) */
+    double *end_points, *end_values;
+    int32_t *end_hint;
+    int have_cur, have_end;
 };
 
 /* Facet rules on the reference simplex, exact for degree 2 (enough for
  * d*phi_i with d affine).  Weights sum to 1 (multiply by the measure). */
 #define SEG_NQ 2
-static const double seg_xi[SEG_NQ] = {0.21132486540518711775, 0.78867513459481288225};
+static const double seg_l[SEG_NQ][3] = {{1.0 - 0.21132486540518711775, 0.21132486540518711775, 0},
+                                         {1.0 - 0.78867513459481288225, 0.78867513459481288225, 0}};
 static const double seg_w[SEG_NQ] = {0.5, 0.5};
 #define TRI_NQ 3
 static const double tri_l[TRI_NQ][3] = {{2.0 / 3, 1.0 / 6, 1.0 / 6},
                                          {1.0 / 6, 2.0 / 3, 1.0 / 6},
                                          {1.0 / 6, 1.0 / 6, 2.0 / 3}};
 static const double tri_w[TRI_NQ] = {1.0 / 3, 1.0 / 3, 1.0 / 3};
-/* 2-point Gauss on [0,1] along the motion. */
-static const double gauss_s[2] = {0.21132486540518711775, 0.78867513459481288225};
+/* Simpson's rule on [0,1] along the motion: exact for cubics, as the
+ * 2-point Gauss rule, and its end points are samples the descent needs
+ * anyway (the current mesh's load and, once accepted, the next's). */
+#define SWEPT_NS 3
+static const double simpson_t[SWEPT_NS] = {0.0, 0.5, 1.0};
+static const double simpson_w[SWEPT_NS] = {1.0 / 6, 4.0 / 6, 1.0 / 6};
 /* Degree-2 volume rules (weights sum to 1): edge midpoints of a triangle,
  * the 4-point rule for a tetrahedron. */
 static const double tet_a = 0.58541019662496845446, tet_b = 0.13819660112501051518;
@@ -64,6 +88,44 @@ static int32_t *hints_new(size_t n)
         for (size_t i = 0; i < n; i++)
             h[i] = -1;
     return h;
+}
+
+/* The n cells ids[0..n-1] (ids NULL: 0..n-1) of nc vertices each
+ * (cells: the vertex lists of all of them, by id) in Morton order of
+ * their centroids on m's coordinates, into out (which may be ids). */
+static int spatial_order(const sm_mesh *m, int32_t n, const int32_t *ids, int nc,
+                         const int32_t *cells, int32_t *out)
+{
+    const int dim = m->dim;
+    double *c = calloc(((size_t)n + 1) * (size_t)dim, sizeof *c);
+    int32_t *copy = malloc(((size_t)n + 1) * sizeof *copy);
+    if (!c || !copy) {
+        free(c);
+        free(copy);
+        return -1;
+    }
+    for (int32_t j = 0; j < n; j++) {
+        int32_t id = ids ? ids[j] : j;
+        copy[j] = id;
+        for (int a = 0; a < dim; a++) {
+            double sum = 0.0;
+            for (int i = 0; i < nc; i++)
+                sum += m->coords[(size_t)cells[(size_t)id * (size_t)nc + (size_t)i] * (size_t)dim +
+                                 (size_t)a];
+            c[(size_t)j * (size_t)dim + (size_t)a] = sum / nc;
+        }
+    }
+    int64_t *order = sm__morton_order(dim, n, c);
+    free(c);
+    if (!order) {
+        free(copy);
+        return -1;
+    }
+    for (int32_t j = 0; j < n; j++)
+        out[j] = copy[order[j]];
+    free(order);
+    free(copy);
+    return 0;
 }
 
 sm_status sm_shape_new(const sm_mesh *m, const sm_field *field, const int32_t *free_refs,
@@ -93,8 +155,14 @@ sm_status sm_shape_new(const sm_mesh *m, const sm_field *field, const int32_t *f
         for (int c = 0; c < dim; c++)
             s->active_vertex[m->bfacets[(size_t)f * (size_t)dim + (size_t)c]] = 1;
     }
+    s->elem_order = malloc((ne ? ne : 1) * sizeof(int32_t));
+    if (!s->elem_order || spatial_order(m, s->nactive, s->active, dim, m->bfacets, s->active) != 0 ||
+        spatial_order(m, m->nelems, NULL, dim + 1, m->elems, s->elem_order) != 0) {
+        sm_shape_free(s);
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    }
     size_t na = (size_t)s->nactive, nq = (size_t)s->nq;
-    size_t batch = na * 2 * nq; /* the swept region has the most points */
+    size_t batch = na * SWEPT_NS * nq; /* the swept region's points */
     if (nv > batch)
         batch = nv;
     if (ne * (size_t)(dim + 1) > batch)
@@ -108,8 +176,15 @@ sm_status sm_shape_new(const sm_mesh *m, const sm_field *field, const int32_t *f
     s->weights = malloc((batch ? batch : 1) * sizeof(double));
     s->normals = malloc((na ? na : 1) * (size_t)(dim + 1) * sizeof(double));
     s->gathered_hint = hints_new(nv);
+    size_t nfp = (na ? na : 1) * nq;
+    s->cur_points = malloc(nfp * (size_t)dim * sizeof(double));
+    s->cur_values = malloc(nfp * sizeof(double));
+    s->end_points = malloc(nfp * (size_t)dim * sizeof(double));
+    s->end_values = malloc(nfp * sizeof(double));
+    s->end_hint = hints_new(nfp);
     if (!s->load_hint || !s->swept_hint || !s->vertex_hint || !s->elem_hint || !s->points ||
-        !s->values || !s->weights || !s->normals || !s->gathered_hint) {
+        !s->values || !s->weights || !s->normals || !s->gathered_hint || !s->cur_points ||
+        !s->cur_values || !s->end_points || !s->end_values || !s->end_hint) {
         sm_shape_free(s);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     }
@@ -127,11 +202,17 @@ void sm_shape_free(sm_shape *s)
     free(s->swept_hint);
     free(s->vertex_hint);
     free(s->elem_hint);
+    free(s->elem_order);
     free(s->points);
     free(s->values);
     free(s->weights);
     free(s->normals);
     free(s->gathered_hint);
+    free(s->cur_points);
+    free(s->cur_values);
+    free(s->end_points);
+    free(s->end_values);
+    free(s->end_hint);
     free(s);
 }
 
@@ -166,30 +247,26 @@ static void eval_batch(const sm_shape *s, int64_t n, const double *points, int32
 /* The first evaluation of a point without a hint starts from the grid
  * (a few hundred ns each, most of the set-up's sampling: 4 points per
  * element for the volume J, 3 per facet for the load).  So before the
- * first one, d is evaluated at every vertex in turn, each walk starting
- * from the previous vertex's element (mesh generators number vertices
- * in runs of neighbours), and every quadrature point starts from the
- * element found for the vertex it lies closest to. */
+ * first one, d is evaluated at every vertex (sm_field_eval_points: in
+ * Morton order, each walk from its predecessor's element), and every
+ * quadrature point starts from the element found for the vertex it lies
+ * closest to. */
 static void prime_hints(sm_shape *s, const double *coords)
 {
     const sm_mesh *m = s->mesh;
     const int dim = m->dim, nq = s->nq, nv = dim + 1;
-    int32_t hint = -1;
-    for (int32_t v = 0; v < m->nverts; v++) {
-        (void)sm_field_eval(s->field, vtx(coords, dim, v), &hint);
-        s->vertex_hint[v] = hint;
-    }
+    sm_field_eval_points(s->field, m->nverts, coords, s->vertex_hint, s->values);
     for (int32_t k = 0; k < s->nactive; k++) {
         /* facet quadrature point q weighs facet vertex q most */
         const int32_t *fv = m->bfacets + (size_t)s->active[k] * (size_t)dim;
         for (int q = 0; q < nq; q++)
             s->load_hint[(size_t)k * (size_t)nq + (size_t)q] = s->vertex_hint[fv[q % dim]];
     }
-    for (int32_t e = 0; e < m->nelems; e++) {
+    for (int32_t p = 0; p < m->nelems; p++) {
         /* volume point i weighs vertex i most (2D: edge midpoint i, i+1) */
-        const int32_t *ev = m->elems + (size_t)e * (size_t)nv;
+        const int32_t *ev = m->elems + (size_t)s->elem_order[p] * (size_t)nv;
         for (int i = 0; i < nv; i++)
-            s->elem_hint[(size_t)e * (size_t)nv + (size_t)i] = s->vertex_hint[ev[i]];
+            s->elem_hint[(size_t)p * (size_t)nv + (size_t)i] = s->vertex_hint[ev[i]];
     }
     s->primed = 1;
 }
@@ -197,16 +274,39 @@ static void prime_hints(sm_shape *s, const double *coords)
 /* Barycentric coordinates and weight of facet quadrature point q. */
 static void facet_rule(int dim, int q, double *lam, double *w)
 {
-    if (dim == 2) {
-        lam[0] = 1.0 - seg_xi[q];
-        lam[1] = seg_xi[q];
-        *w = seg_w[q];
-    } else {
-        lam[0] = tri_l[q][0];
-        lam[1] = tri_l[q][1];
-        lam[2] = tri_l[q][2];
-        *w = tri_w[q];
+    const double *l = dim == 2 ? seg_l[q] : tri_l[q];
+    for (int i = 0; i < dim; i++)
+        lam[i] = l[i];
+    *w = dim == 2 ? seg_w[q] : tri_w[q];
+}
+
+/* Facet quadrature point q of a facet whose vertices are at a[0..dim-1]:
+ * the one expression of every facet point, so that the end of a step and
+ * the mesh it leads to give the same point to the bit. */
+static inline __attribute__((always_inline)) void facet_point(const int D, double a[3][3], int q,
+                                                              double *x)
+{
+    const double *lam = D == 2 ? seg_l[q] : tri_l[q];
+    for (int c = 0; c < D; c++) {
+        x[c] = 0.0;
+        for (int i = 0; i < D; i++)
+            x[c] += lam[i] * a[i][c];
     }
+}
+
+/* d at the facet points pts (nactive * nq): taken from a previous sample
+ * of exactly these points when there is one (the end of the accepted
+ * step), else evaluated with hints. */
+static void sample_facet_points(sm_shape *s, const double *pts, double *values)
+{
+    const int dim = s->mesh->dim;
+    const size_t n = (size_t)s->nactive * (size_t)s->nq;
+    if (s->have_end && memcmp(pts, s->end_points, n * (size_t)dim * sizeof *pts) == 0) {
+        memcpy(values, s->end_values, n * sizeof *values);
+        memcpy(s->load_hint, s->end_hint, n * sizeof *s->load_hint);
+        return;
+    }
+    eval_batch(s, (int64_t)n, pts, s->load_hint, values);
 }
 
 void sm_shape_load(sm_shape *s, const double *coords, double *load, sm_boundary_error *be)
@@ -219,21 +319,24 @@ void sm_shape_load(sm_shape *s, const double *coords, double *load, sm_boundary_
     /* gather the quadrature points, remember normal and measure */
 #pragma omp parallel for schedule(static)
     for (int32_t k = 0; k < na; k++) {
-        const int32_t *fv = m->bfacets + (size_t)s->active[k] * (size_t)dim;
         double *nk = s->normals + (size_t)k * (size_t)(dim + 1);
         nk[dim] = sm_bfacet_normal(m, coords, s->active[k], nk);
+        const int32_t *fv = m->bfacets + (size_t)s->active[k] * (size_t)dim;
+        double a[3][3];
+        for (int i = 0; i < dim; i++)
+            for (int c = 0; c < dim; c++)
+                a[i][c] = vtx(coords, dim, fv[i])[c];
+        double *pts = s->cur_points + (size_t)k * (size_t)nq * (size_t)dim;
         for (int q = 0; q < nq; q++) {
-            double lam[3], w;
-            facet_rule(dim, q, lam, &w);
-            double *x = s->points + ((size_t)k * (size_t)nq + (size_t)q) * (size_t)dim;
-            for (int c = 0; c < dim; c++) {
-                x[c] = 0.0;
-                for (int i = 0; i < dim; i++)
-                    x[c] += lam[i] * vtx(coords, dim, fv[i])[c];
-            }
+            if (dim == 2)
+                facet_point(2, a, q, pts + (size_t)q * 2);
+            else
+                facet_point(3, a, q, pts + (size_t)q * 3);
         }
     }
-    eval_batch(s, (int64_t)na * nq, s->points, s->load_hint, s->values);
+    sample_facet_points(s, s->cur_points, s->cur_values);
+    s->have_cur = 1;
+    s->have_end = 0;
 
     /* scatter (serial: facets share vertices) */
     memset(load, 0, (size_t)m->nverts * (size_t)dim * sizeof(double));
@@ -244,7 +347,7 @@ void sm_shape_load(sm_shape *s, const double *coords, double *load, sm_boundary_
         for (int q = 0; q < nq; q++) {
             double lam[3], w;
             facet_rule(dim, q, lam, &w);
-            double d = s->values[(size_t)k * (size_t)nq + (size_t)q];
+            double d = s->cur_values[(size_t)k * (size_t)nq + (size_t)q];
             double wd = w * nk[dim] * d;
             sum_sq += wd * d;
             measure += w * nk[dim];
@@ -276,69 +379,96 @@ void sm_shape_load(sm_shape *s, const double *coords, double *load, sm_boundary_
     be->measure = measure;
 }
 
+/* The points of active facet k at the pseudo-times of Simpson's rule and
+ * their weights (the rule's times the rate at which the point sweeps
+ * area, 2D: length, times the facet rule's weight), so that summing d
+ * times the weights integrates d over the region the facet sweeps: point
+ * (k, q) at time t_j is pts[j * nfp + k * nq + q]. */
+static inline __attribute__((always_inline)) void
+swept_points(const sm_shape *s, const double *coords, const double *disp, int32_t k, size_t nfp,
+             double *pts, double *weights, const int D)
+{
+    const int nq = s->nq;
+    const int32_t *fv = s->mesh->bfacets + (size_t)s->active[k] * (size_t)D;
+    double p[3][3], u[3][3], th[3][3];
+    for (int i = 0; i < D; i++)
+        for (int c = 0; c < D; c++) {
+            p[i][c] = vtx(coords, D, fv[i])[c];
+            u[i][c] = vtx(disp, D, fv[i])[c];
+        }
+    for (int q = 0; q < nq; q++) { /* the point's velocity */
+        const double *lam = D == 2 ? seg_l[q] : tri_l[q];
+        for (int c = 0; c < D; c++) {
+            th[q][c] = 0.0;
+            for (int i = 0; i < D; i++)
+                th[q][c] += lam[i] * u[i][c];
+        }
+    }
+    for (int j = 0; j < SWEPT_NS; j++) {
+        double a[3][3], nrm[3];
+        for (int i = 0; i < D; i++)
+            for (int c = 0; c < D; c++)
+                a[i][c] = p[i][c] + simpson_t[j] * u[i][c];
+        if (D == 2) { /* outward normal times length: (t_y, -t_x) */
+            nrm[0] = a[1][1] - a[0][1];
+            nrm[1] = -(a[1][0] - a[0][0]);
+        } else { /* half the cross product: area times the normal */
+            double e1[3], e2[3];
+            for (int c = 0; c < 3; c++) {
+                e1[c] = a[1][c] - a[0][c];
+                e2[c] = a[2][c] - a[0][c];
+            }
+            nrm[0] = 0.5 * (e1[1] * e2[2] - e1[2] * e2[1]);
+            nrm[1] = 0.5 * (e1[2] * e2[0] - e1[0] * e2[2]);
+            nrm[2] = 0.5 * (e1[0] * e2[1] - e1[1] * e2[0]);
+        }
+        for (int q = 0; q < nq; q++) {
+            size_t idx = (size_t)j * nfp + (size_t)k * (size_t)nq + (size_t)q;
+            facet_point(D, a, q, pts + idx * (size_t)D);
+            double rate = 0.0;
+            for (int c = 0; c < D; c++)
+                rate += nrm[c] * th[q][c];
+            weights[idx] = simpson_w[j] * (D == 2 ? seg_w[q] : tri_w[q]) * rate;
+        }
+    }
+}
+
 double sm_shape_delta_j(sm_shape *s, const double *coords, const double *disp)
 {
     const sm_mesh *m = s->mesh;
     const int dim = m->dim, nq = s->nq;
     const int32_t na = s->nactive;
+    const size_t nfp = (size_t)na * (size_t)nq;
     if (!s->primed)
         prime_hints(s, coords);
-    /* gather the points of the swept regions with their Jacobian weights:
-     * point (k, g, q) is facet quadrature point q at pseudo-time gauss_s[g] */
+    /* the points at t = 0 (the start, compared with the current mesh's
+     * samples), 1/2 and 1 (the end): point (k, q) at pseudo-time t_j is
+     * points[j * nfp + k * nq + q], with its Jacobian weight */
 #pragma omp parallel for schedule(static)
     for (int32_t k = 0; k < na; k++) {
-        const int32_t *fv = m->bfacets + (size_t)s->active[k] * (size_t)dim;
-        double p[3][3], u[3][3];
-        for (int i = 0; i < dim; i++)
-            for (int c = 0; c < dim; c++) {
-                p[i][c] = vtx(coords, dim, fv[i])[c];
-                u[i][c] = vtx(disp, dim, fv[i])[c];
-            }
-        for (int g = 0; g < 2; g++) {
-            double a[3][3];
-            for (int i = 0; i < dim; i++)
-                for (int c = 0; c < dim; c++)
-                    a[i][c] = p[i][c] + gauss_s[g] * u[i][c];
-            for (int q = 0; q < nq; q++) {
-                size_t idx = ((size_t)k * 2 + (size_t)g) * (size_t)nq + (size_t)q;
-                double lam[3], w, th[3] = {0, 0, 0}, jac;
-                double *x = s->points + idx * (size_t)dim;
-                facet_rule(dim, q, lam, &w);
-                for (int c = 0; c < dim; c++) {
-                    x[c] = 0.0;
-                    for (int i = 0; i < dim; i++) {
-                        x[c] += lam[i] * a[i][c];
-                        th[c] += lam[i] * u[i][c];
-                    }
-                }
-                if (dim == 2) {
-                    /* outward normal times length is (t_y, -t_x) */
-                    double t0 = a[1][0] - a[0][0], t1 = a[1][1] - a[0][1];
-                    jac = t1 * th[0] - t0 * th[1];
-                } else {
-                    double e1[3], e2[3];
-                    for (int c = 0; c < 3; c++) {
-                        e1[c] = a[1][c] - a[0][c];
-                        e2[c] = a[2][c] - a[0][c];
-                    }
-                    /* |e1 x e2| is twice the area; reference triangle area 1/2 */
-                    jac = 0.5 * ((e1[1] * e2[2] - e1[2] * e2[1]) * th[0] +
-                                 (e1[2] * e2[0] - e1[0] * e2[2]) * th[1] +
-                                 (e1[0] * e2[1] - e1[1] * e2[0]) * th[2]);
-                }
-                s->weights[idx] = 0.5 * w * jac; /* 0.5: Gauss weight in s */
-                /* from the element of the matching facet point at coords:
-                 * a fraction of the step away, where the same point of
-                 * the previous trial (another step, often another
-                 * iteration) is farther, by up to the whole step */
-                s->swept_hint[idx] = s->load_hint[(size_t)k * (size_t)nq + (size_t)q];
-            }
-        }
+        if (dim == 2)
+            swept_points(s, coords, disp, k, nfp, s->points, s->weights, 2);
+        else
+            swept_points(s, coords, disp, k, nfp, s->points, s->weights, 3);
     }
-    int64_t n = (int64_t)na * 2 * nq;
-    eval_batch(s, n, s->points, s->swept_hint, s->values);
+    /* the moved points start from the element of the same point at the
+     * start: a fraction of the step away */
+    memcpy(s->swept_hint, s->load_hint, nfp * sizeof *s->swept_hint);
+    memcpy(s->swept_hint + nfp, s->load_hint, nfp * sizeof *s->swept_hint);
+    double *start_values = s->values, *moved_values = s->values + nfp;
+    if (s->have_cur &&
+        memcmp(s->points, s->cur_points, nfp * (size_t)dim * sizeof *s->points) == 0)
+        memcpy(start_values, s->cur_values, nfp * sizeof *start_values);
+    else
+        eval_batch(s, (int64_t)nfp, s->points, s->load_hint, start_values);
+    eval_batch(s, (int64_t)(2 * nfp), s->points + nfp * (size_t)dim, s->swept_hint, moved_values);
+    /* keep the end: the next load reuses it if this step is taken */
+    memcpy(s->end_points, s->points + 2 * nfp * (size_t)dim, nfp * (size_t)dim * sizeof(double));
+    memcpy(s->end_values, s->values + 2 * nfp, nfp * sizeof(double));
+    memcpy(s->end_hint, s->swept_hint + nfp, nfp * sizeof(int32_t));
+    s->have_end = 1;
     double total = 0.0;
-    for (int64_t i = 0; i < n; i++)
+    for (size_t i = 0; i < (size_t)SWEPT_NS * nfp; i++)
         total += s->weights[i] * s->values[i];
     return total;
 }
@@ -350,11 +480,12 @@ double sm_shape_volume_j(sm_shape *s, const double *coords)
     if (!s->primed)
         prime_hints(s, coords);
 #pragma omp parallel for schedule(static)
-    for (int32_t e = 0; e < m->nelems; e++) {
+    for (int32_t p = 0; p < m->nelems; p++) {
+        const int32_t e = s->elem_order[p];
         const int32_t *ev = m->elems + (size_t)e * (size_t)nv;
         double w = fabs(sm_elem_volume(m, coords, e)) / nv;
         for (int i = 0; i < nv; i++) {
-            size_t idx = (size_t)e * (size_t)nv + (size_t)i;
+            size_t idx = (size_t)p * (size_t)nv + (size_t)i;
             double *x = s->points + idx * (size_t)dim;
             for (int c = 0; c < dim; c++) {
                 if (dim == 2) /* edge midpoints */

@@ -56,18 +56,23 @@ sm_status sm_job_check_sign(const sm_job_inputs *in, sm_job_warnings *out, sm_er
     if (!m || !in->field || !in->background || !in->distance || m->nverts == 0)
         return SM_OK;
     uint8_t *clamped = calloc((size_t)m->nverts + 1, 1);
-    if (!clamped)
+    double *d = malloc(((size_t)m->nverts + 1) * sizeof *d);
+    if (!clamped || !d) {
+        free(clamped);
+        free(d);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    }
     if (in->params.clamp != SM_CLAMP_NONE)
         sm_clamp_mark(m, &in->params, clamped);
-    int32_t pos = 0, nclamp = 0, clamp_pos = 0, hint = -1;
+    sm_field_eval_points(in->field, m->nverts, m->coords, NULL, d);
+    int32_t pos = 0, nclamp = 0, clamp_pos = 0;
     for (int32_t v = 0; v < m->nverts; v++) {
-        double d = sm_field_eval(in->field, m->coords + (size_t)v * m->dim, &hint);
-        pos += d > 0;
+        pos += d[v] > 0;
         nclamp += clamped[v] != 0;
-        clamp_pos += clamped[v] && d > 0;
+        clamp_pos += clamped[v] && d[v] > 0;
     }
     free(clamped);
+    free(d);
     int nhull;
     int neg = hull_negative(in->background, in->distance->values, &nhull);
     double frac = (double)pos / m->nverts;

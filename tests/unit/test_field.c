@@ -1332,6 +1332,57 @@ static void test_eval_many(void **state)
     }
 }
 
+/* sm_field_eval_points (Morton order, each walk from its predecessor's
+ * element) against sm_field_eval one point at a time without a hint, on
+ * a drilled box (a hole: points outside the mesh too) with a NaN point;
+ * the hints it returns locate their points, and a second call with 1 and
+ * 2 threads gives the same values. */
+static void test_eval_points(void **state)
+{
+    (void)state;
+    for (int d = 2; d <= 3; d++) {
+        const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1}, c[3] = {0.5, 0.5, 0.5};
+        sm_mesh *box = util_box_mesh(d, d == 2 ? 40 : 10, lo, hi, 5);
+        sm_mesh *m = drill(box, c, 0.25);
+        double *v = malloc(sizeof(double) * m->nverts);
+        for (int32_t i = 0; i < m->nverts; i++)
+            v[i] = wavy(vx(m, i), d);
+        sm_field *f = NULL;
+        sm_error err;
+        assert_int_equal(sm_field_new(m, v, &f, &err), SM_OK);
+        enum { NPTS = 9001 };
+        double *pts = test_points(m, NPTS, 0x7e7e + d);
+        pts[5 * d] = NAN;
+        int32_t *hints = malloc(NPTS * sizeof *hints);
+        double *got = malloc(NPTS * sizeof *got), *again = malloc(NPTS * sizeof *again);
+        sm_field_eval_points(f, NPTS, pts, hints, got);
+        for (int j = 0; j < NPTS; j++) {
+            double ref = sm_field_eval(f, pts + (size_t)j * d, NULL);
+            if (isinf(ref)) {
+                assert_true(isinf(got[j]));
+                continue;
+            }
+            assert_true(fabs(got[j] - ref) <= 1e-12 * (1 + fabs(ref)));
+            double bary[4];
+            if (sm_field_locate(f, pts + (size_t)j * d, -1, bary) >= 0) /* inside */
+                assert_int_equal(sm_field_locate(f, pts + (size_t)j * d, hints[j], NULL), hints[j]);
+        }
+        int threads = omp_get_max_threads();
+        omp_set_num_threads(threads > 1 ? 1 : 2);
+        sm_field_eval_points(f, NPTS, pts, NULL, again);
+        omp_set_num_threads(threads);
+        assert_memory_equal(got, again, NPTS * sizeof *got);
+        free(hints);
+        free(got);
+        free(again);
+        free(pts);
+        sm_field_free(f);
+        free(v);
+        sm_mesh_free(m);
+        sm_mesh_free(box);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1352,6 +1403,7 @@ int main(void)
         cmocka_unit_test(test_nonmanifold_facet),
         cmocka_unit_test(test_threads),
         cmocka_unit_test(test_eval_many),
+        cmocka_unit_test(test_eval_points),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

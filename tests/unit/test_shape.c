@@ -223,6 +223,48 @@ static void test_free_boundary(void **s)
     teardown(&fx);
 }
 
+/* The samples a trial step and the mesh it leads to share: a load after
+ * sm_shape_delta_j(x, u) at x + u takes the step's end samples, and a
+ * step from the current mesh takes its samples; either way bit for bit
+ * what a fresh shape computes, and for a mesh that is not the step's end
+ * the samples are computed anew. */
+static void check_samples_reused(int dim, int n)
+{
+    fixture fx, fresh;
+    setup(&fx, dim, 30, circle_d, n);
+    setup(&fresh, dim, 30, circle_d, n);
+    size_t ndof = (size_t)fx.tm->nverts * dim;
+    double *u = malloc(sizeof(double) * ndof), *x1 = malloc(sizeof(double) * ndof);
+    double *l1 = malloc(sizeof(double) * ndof), *l2 = malloc(sizeof(double) * ndof);
+    displacement(fx.tm, 0.01, u);
+    for (size_t i = 0; i < ndof; i++)
+        x1[i] = fx.tm->coords[i] + u[i];
+    sm_boundary_error b1, b2;
+    sm_shape_load(fx.shape, fx.tm->coords, l1, &b1);
+    double dj = sm_shape_delta_j(fx.shape, fx.tm->coords, u); /* reuses the load's */
+    double dj_fresh = sm_shape_delta_j(fresh.shape, fresh.tm->coords, u);
+    assert_true(dj == dj_fresh);
+    sm_shape_load(fx.shape, x1, l1, &b1);       /* reuses the step's end */
+    sm_shape_load(fresh.shape, x1, l2, &b2);    /* evaluates */
+    assert_memory_equal(l1, l2, sizeof(double) * ndof);
+    assert_true(b1.l2 == b2.l2 && b1.max == b2.max && b1.measure == b2.measure);
+    /* another mesh than the step's end: evaluated, not taken */
+    x1[0] += 1e-3;
+    sm_shape_load(fx.shape, x1, l1, &b1);
+    sm_shape_load(fresh.shape, x1, l2, &b2);
+    assert_memory_equal(l1, l2, sizeof(double) * ndof);
+    assert_true(b1.l2 == b2.l2);
+    free(u);
+    free(x1);
+    free(l1);
+    free(l2);
+    teardown(&fx);
+    teardown(&fresh);
+}
+
+static void test_samples_reused_2d(void **s) { (void)s; check_samples_reused(2, 10); }
+static void test_samples_reused_3d(void **s) { (void)s; check_samples_reused(3, 4); }
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -233,6 +275,8 @@ int main(void)
         cmocka_unit_test(test_volume_j_analytic),
         cmocka_unit_test(test_boundary_error_on_target),
         cmocka_unit_test(test_free_boundary),
+        cmocka_unit_test(test_samples_reused_2d),
+        cmocka_unit_test(test_samples_reused_3d),
     };
     return cmocka_run_group_tests_name("shape", tests, NULL, NULL);
 }

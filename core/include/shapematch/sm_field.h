@@ -51,6 +51,18 @@ double sm_field_eval(const sm_field *f, const double *x, int32_t *hint);
 void sm_field_eval_many(const sm_field *f, int64_t n, const double *xs, int32_t *hints,
                         double *values);
 
+/* d at n points that come without hints (xs: n*dim; values: n), such as
+ * the vertices of a mesh in its generator's numbering: the points are
+ * visited in Morton order, each walk starting from the element of the
+ * point before, so that it takes a step or two and finds what it reads
+ * still in cache (a lookup from the grid costs several times more).
+ * hints (may be NULL) receives the element each point was found in, as
+ * sm_field_eval leaves it.  The order is cut in blocks of 4096 points,
+ * shared by the OpenMP threads; the values are sm_field_eval's (up to
+ * rounding, as with any hint) and do not depend on the threads. */
+void sm_field_eval_points(const sm_field *f, int64_t n, const double *xs, int32_t *hints,
+                          double *values);
+
 /* Dimension of the background mesh (2 or 3): the number of coordinates
  * of a point and of entries of a gradient. */
 int sm_field_dim(const sm_field *f);

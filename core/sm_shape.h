@@ -9,9 +9,11 @@
  *     (not d at the vertices interpolated), and
  *   - the change of J between two meshes is the integral of d over the
  *     region swept by the active boundary facets, computed with a tensor
- *     quadrature (facet rule x 2-point Gauss along the motion) that is exact
- *     when d is affine.  At zero step its derivative is exactly -load.u
- *     (same facet rule).
+ *     quadrature (facet rule x Simpson's rule along the motion) that is
+ *     exact when d is affine.  At zero step its derivative is exactly
+ *     -load.u (same facet rule).  Simpson's end points are the facet
+ *     points of the two meshes: a step reuses the current mesh's samples,
+ *     and the load of the mesh a step leads to reuses the step's.
  * A volume quadrature of J whose error changes whenever interior vertices
  * move would instead make the line search stall once the true decrease
  * falls below that noise (the authors' code stalls near 1e-3 / 3e-4). */
@@ -50,7 +52,8 @@ void sm_shape_load(sm_shape *s, const double *coords, double *load,
                    sm_boundary_error *be);
 
 /* J(coords + disp) - J(coords): integral of d over the region swept by
- * the active boundary facets. */
+ * the active boundary facets.  The samples at coords + disp are kept:
+ * the next sm_shape_load takes them if it is given exactly that mesh. */
 double sm_shape_delta_j(sm_shape *s, const double *coords,
                         const double *disp);
 

@@ -451,17 +451,21 @@ double sm_shape_delta_j(sm_shape *s, const double *coords, const double *disp)
         else
             swept_points(s, coords, disp, k, nfp, s->points, s->weights, 3);
     }
-    /* the moved points start from the element of the same point at the
-     * start: a fraction of the step away */
+    /* the points at half the step start from the element of the same
+     * point at the start, those at the end from the one found at half:
+     * each walk crosses half the step (early steps span several
+     * background elements) */
     memcpy(s->swept_hint, s->load_hint, nfp * sizeof *s->swept_hint);
-    memcpy(s->swept_hint + nfp, s->load_hint, nfp * sizeof *s->swept_hint);
-    double *start_values = s->values, *moved_values = s->values + nfp;
+    double *start_values = s->values, *half_values = s->values + nfp;
     if (s->have_cur &&
         memcmp(s->points, s->cur_points, nfp * (size_t)dim * sizeof *s->points) == 0)
         memcpy(start_values, s->cur_values, nfp * sizeof *start_values);
     else
         eval_batch(s, (int64_t)nfp, s->points, s->load_hint, start_values);
-    eval_batch(s, (int64_t)(2 * nfp), s->points + nfp * (size_t)dim, s->swept_hint, moved_values);
+    eval_batch(s, (int64_t)nfp, s->points + nfp * (size_t)dim, s->swept_hint, half_values);
+    memcpy(s->swept_hint + nfp, s->swept_hint, nfp * sizeof *s->swept_hint);
+    eval_batch(s, (int64_t)nfp, s->points + 2 * nfp * (size_t)dim, s->swept_hint + nfp,
+               half_values + nfp);
     /* keep the end: the next load reuses it if this step is taken */
     memcpy(s->end_points, s->points + 2 * nfp * (size_t)dim, nfp * (size_t)dim * sizeof(double));
     memcpy(s->end_values, s->values + 2 * nfp, nfp * sizeof(double));

@@ -165,9 +165,7 @@ static int on_shape(const sm_progress *p, const double *coords, void *user)
     size_t n = (size_t)m->nverts * (size_t)m->dim;
     for (size_t i = 0; i < n; i++)
         l->disp[i] = coords[i] - m->coords[i];
-    int32_t hint = -1;
-    for (int32_t v = 0; v < m->nverts; v++)
-        l->dist[v] = sm_field_eval(l->in->field, coords + (size_t)v * (size_t)m->dim, &hint);
+    sm_field_eval_points(l->in->field, m->nverts, coords, NULL, l->dist);
     sm_error err;
     sm_error_clear(&err);
     /* Medit first: a reader that finds the payload finds both */

@@ -280,24 +280,125 @@ void sm_field_eval_many(const sm_field *f, int64_t n, const double *xs, int32_t 
         eval_many_dim(f, n, xs, hints, values, 3);
 }
 
-/* Blocks of the Morton order, each walked from its first point's grid
- * lookup: the unit of work of the threads. */
+/* sm_field_eval_points cuts the Morton order in blocks of POINTS_BLOCK
+ * points (the unit of work of the threads) and each block in
+ * EVAL_GROUP chains of consecutive points, walked side by side like
+ * sm_field_eval_many's walks (so that their misses overlap), each walk
+ * starting from the element its chain's previous point was found in
+ * (the first point of a chain: from the grid). */
 #define POINTS_BLOCK 4096
+
+typedef struct chain {
+    int64_t at, end;  /* position in the order, end of the chain */
+    int64_t point;    /* -1: the chain is done */
+    int32_t elem, last;
+    int step, vertices_requested;
+} chain;
+
+/* Starts the chain's next point: its walk from the element of the one
+ * before, or, when that cannot be used, sm_field_eval at once (and on
+ * to the next).  0 when the chain is done. */
+static inline __attribute__((always_inline)) int
+chain_next(const sm_field *f, chain *c, const int64_t *order, const double *xs, int32_t *hints,
+           double *values, const int D)
+{
+    while (c->at < c->end) {
+        int64_t i = order ? order[c->at] : c->at;
+        c->at++;
+        const double *x = xs + (size_t)i * (size_t)D;
+        int ok = c->last >= 0 && f->valid[c->last];
+        for (int k = 0; k < D; k++)
+            ok = ok && isfinite(x[k]);
+        if (ok) {
+            c->point = i;
+            c->elem = c->last;
+            c->step = 0;
+            c->vertices_requested = 0;
+            request_elem(f, c->elem, D);
+            return 1;
+        }
+        int32_t h = c->last;
+        values[i] = sm_field_eval(f, x, &h);
+        hints[i] = h;
+        c->last = h;
+    }
+    c->point = -1;
+    return 0;
+}
+
+static inline __attribute__((always_inline)) void
+eval_chains_dim(const sm_field *f, int64_t lo, int64_t hi, const int64_t *order, const double *xs,
+                int32_t *hints, double *values, const int D)
+{
+    chain ch[EVAL_GROUP];
+    int busy = 0;
+    for (int s = 0; s < EVAL_GROUP; s++) {
+        ch[s].at = lo + (hi - lo) * s / EVAL_GROUP;
+        ch[s].end = lo + (hi - lo) * (s + 1) / EVAL_GROUP;
+        ch[s].last = -1;
+        busy += chain_next(f, &ch[s], order, xs, hints, values, D);
+    }
+    while (busy > 0) {
+        for (int s = 0; s < EVAL_GROUP; s++) {
+            chain *c = &ch[s];
+            if (c->point < 0)
+                continue;
+            if (!c->vertices_requested) {
+                request_vertices(f, c->elem, D);
+                c->vertices_requested = 1;
+                continue;
+            }
+            c->vertices_requested = 0;
+            const double *x = xs + (size_t)c->point * (size_t)D;
+            double lam[4], lmin;
+            elem_bary(f, c->elem, x, lam, D);
+            int k = argmin_lam(lam, D, &lmin);
+            if (lmin < -BARY_TOL) {
+                int32_t e = c->step == 0 && lmin < -WALK_FAR_LAMBDA
+                                ? -1
+                                : f->neigh[(size_t)c->elem * (size_t)(D + 1) + (size_t)k];
+                if (e >= 0 && ++c->step < WALK_MAX_STEPS) {
+                    c->elem = e;
+                    request_elem(f, e, D);
+                    continue;
+                }
+                int32_t h = c->last; /* as sm_field_eval from that hint */
+                values[c->point] = sm_field_eval(f, x, &h);
+                c->elem = h;
+            } else {
+                values[c->point] = elem_value(f, c->elem, lam, D);
+            }
+            hints[c->point] = c->elem;
+            c->last = c->elem;
+            busy -= !chain_next(f, c, order, xs, hints, values, D);
+        }
+    }
+}
 
 void sm_field_eval_points(const sm_field *f, int64_t n, const double *xs, int32_t *hints,
                           double *values)
 {
     const int D = f->dim;
     int64_t *order = sm__morton_order(D, n, xs); /* NULL: the input order */
-#pragma omp parallel for schedule(dynamic, 1)
-    for (int64_t b = 0; b < (n + POINTS_BLOCK - 1) / POINTS_BLOCK; b++) {
+    int32_t *own = hints ? NULL : malloc(((size_t)n + 1) * sizeof *own);
+    int32_t *h = hints ? hints : own;
+    if (!h) { /* no room for the hints: one point at a time */
         int32_t hint = -1;
-        for (int64_t j = b * POINTS_BLOCK; j < n && j < (b + 1) * POINTS_BLOCK; j++) {
+        for (int64_t j = 0; j < n; j++) {
             int64_t i = order ? order[j] : j;
             values[i] = sm_field_eval(f, xs + (size_t)i * (size_t)D, &hint);
-            if (hints)
-                hints[i] = hint;
         }
+        free(order);
+        return;
     }
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int64_t b = 0; b < (n + POINTS_BLOCK - 1) / POINTS_BLOCK; b++) {
+        int64_t lo = b * POINTS_BLOCK, hi = lo + POINTS_BLOCK < n ? lo + POINTS_BLOCK : n;
+        if (D == 2)
+            eval_chains_dim(f, lo, hi, order, xs, h, values, 2);
+        else
+            eval_chains_dim(f, lo, hi, order, xs, h, values, 3);
+    }
+    free(own);
     free(order);
 }

@@ -8,6 +8,7 @@
 
 #include "shapematch/sm_clock.h"
 #include "shapematch/sm_clamp.h"
+#include "sm_alloc.h"
 #include "sm_elasticity.h"
 #include "shapematch/sm_field.h"
 #include "sm_shape.h"
@@ -105,11 +106,13 @@ static sm_status setup_mesh(run_state *rs, const sm_match_opts *opts, sm_error *
     }
     const size_t ndof = rs->ndof;
     rs->clamped = malloc((size_t)rs->mesh->nverts + 1);
-    rs->x = malloc(ndof * sizeof(double));
-    rs->trial = malloc(ndof * sizeof(double));
-    rs->load = malloc(ndof * sizeof(double));
-    rs->u = malloc(ndof * sizeof(double));
-    rs->step = malloc(ndof * sizeof(double));
+    /* written at once by the set-up and the first iteration: prefaulted
+     * or huge pages (sm_alloc.h) */
+    rs->x = sm__alloc_huge(ndof * sizeof(double));
+    rs->trial = sm__alloc_huge(ndof * sizeof(double));
+    rs->load = sm__alloc_huge(ndof * sizeof(double));
+    rs->u = sm__alloc_huge(ndof * sizeof(double));
+    rs->step = sm__alloc_huge(ndof * sizeof(double));
     rs->best = malloc(((size_t)params->stall_window + 1) * sizeof(double));
     if (!rs->clamped || !rs->x || !rs->trial || !rs->load || !rs->u || !rs->step || !rs->best)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for a mesh of %ld vertices",

@@ -7,6 +7,7 @@
 #include <omp.h>
 #endif
 
+#include "sm_alloc.h"
 #include "sm_morton.h"
 
 struct sm_shape {
@@ -83,7 +84,7 @@ static int is_free(int32_t ref, const int32_t *refs, int n)
 
 static int32_t *hints_new(size_t n)
 {
-    int32_t *h = malloc((n ? n : 1) * sizeof(int32_t));
+    int32_t *h = sm__alloc_huge((n ? n : 1) * sizeof(int32_t));
     if (h)
         for (size_t i = 0; i < n; i++)
             h[i] = -1;
@@ -171,16 +172,18 @@ sm_status sm_shape_new(const sm_mesh *m, const sm_field *field, const int32_t *f
     s->swept_hint = hints_new(na * 2 * nq);
     s->vertex_hint = hints_new(nv);
     s->elem_hint = hints_new(ne * (size_t)(dim + 1));
-    s->points = malloc((batch ? batch : 1) * (size_t)dim * sizeof(double));
-    s->values = malloc((batch ? batch : 1) * sizeof(double));
-    s->weights = malloc((batch ? batch : 1) * sizeof(double));
+    /* written at once by the first samplings: huge pages and prefaulted
+     * blocks (sm_alloc.h), not a page fault per 4 KiB */
+    s->points = sm__alloc_huge((batch ? batch : 1) * (size_t)dim * sizeof(double));
+    s->values = sm__alloc_huge((batch ? batch : 1) * sizeof(double));
+    s->weights = sm__alloc_huge((batch ? batch : 1) * sizeof(double));
     s->normals = malloc((na ? na : 1) * (size_t)(dim + 1) * sizeof(double));
     s->gathered_hint = hints_new(nv);
     size_t nfp = (na ? na : 1) * nq;
-    s->cur_points = malloc(nfp * (size_t)dim * sizeof(double));
-    s->cur_values = malloc(nfp * sizeof(double));
-    s->end_points = malloc(nfp * (size_t)dim * sizeof(double));
-    s->end_values = malloc(nfp * sizeof(double));
+    s->cur_points = sm__alloc_huge(nfp * (size_t)dim * sizeof(double));
+    s->cur_values = sm__alloc_huge(nfp * sizeof(double));
+    s->end_points = sm__alloc_huge(nfp * (size_t)dim * sizeof(double));
+    s->end_values = sm__alloc_huge(nfp * sizeof(double));
     s->end_hint = hints_new(nfp);
     if (!s->load_hint || !s->swept_hint || !s->vertex_hint || !s->elem_hint || !s->points ||
         !s->values || !s->weights || !s->normals || !s->gathered_hint || !s->cur_points ||

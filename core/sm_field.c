@@ -187,7 +187,7 @@ void sm_field_free(sm_field *f)
     sm__free_large(f->neigh, (size_t)f->nelems * (size_t)(f->dim + 1) * sizeof *f->neigh);
     free(f->cell_seed);
     free(f->elem_start);
-    free(f->elem_list);
+    sm__field_lists_free(f->lists);
     free(f->bfacet_id);
     free(f->bfacet_xyz);
     free(f->facet_start);
@@ -305,6 +305,6 @@ void sm_field_get_stats(const sm_field *f, sm_field_stats *st)
                 ne * (size_t)(f->dim + 1) * sizeof(int32_t) +
                 (size_t)f->nbfacets * (sizeof(int32_t) + (size_t)(f->dim * f->dim) * sizeof(double)) +
                 (3 * ((size_t)f->g.ncells + 1) + (size_t)f->cg.ncells + 1) * sizeof(int32_t) +
-                (size_t)(st->elem_entries + st->facet_entries + st->coarse_facet_entries) *
-                    sizeof(int32_t);
+                (size_t)(st->facet_entries + st->coarse_facet_entries) * sizeof(int32_t) +
+                sm__field_lists_bytes(f);
 }

@@ -4,6 +4,8 @@
 #include "sm_field_internal.h"
 
 #include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -165,59 +167,86 @@ static sm_status grid_lists_alloc(const grid *g, int64_t total, int32_t **start,
 typedef struct item_cells {
     int32_t c0[3], c1[3];
     int32_t id;   /* what the cell lists hold */
-    int32_t cell; /* elements: the cell of the box centre */
-    double d2;    /* elements: squared distance of the box centre to the
-                   * centre of that cell */
 } item_cells;
 
-/* CSR lists from the cell ranges (in their order, which is also the order
- * inside each list).  start[] is zero on entry.  The counts per cell come
- * from a difference array (+-1 at the 2^dim corners of every range, then
- * running sums along each axis), so only the fill touches every entry. */
-static sm_status fill_lists(const grid *g, const item_cells *it, int32_t n, int32_t *start,
-                            int32_t *list, sm_error *err)
+/* Cell counts of box ranges by a difference array over the cell corners
+ * (+-1 at the 2^dim corners of every range, then running sums along
+ * each axis), so that counting costs 2^dim writes a range, however many
+ * cells it covers. */
+typedef struct cell_counter {
+    int64_t m[3], stride[3];
+    int32_t *diff;
+} cell_counter;
+
+static int counter_init(cell_counter *cc, const grid *g)
+{
+    cc->m[0] = g->n[0] + 1;
+    cc->m[1] = g->n[1] + 1;
+    cc->m[2] = g->dim == 3 ? g->n[2] + 1 : 1;
+    cc->stride[0] = 1;
+    cc->stride[1] = cc->m[0];
+    cc->stride[2] = cc->m[0] * cc->m[1];
+    cc->diff = calloc((size_t)(cc->m[0] * cc->m[1] * cc->m[2]), sizeof *cc->diff);
+    return cc->diff ? 0 : -1;
+}
+
+static void counter_add(cell_counter *cc, int dim, const int32_t *c0, const int32_t *c1)
+{
+    for (int corner = 0; corner < (1 << dim); corner++) {
+        int64_t idx = 0;
+        int32_t sign = 1;
+        for (int i = 0; i < dim; i++)
+            if (corner >> i & 1) {
+                idx += (c1[i] + 1) * cc->stride[i];
+                sign = -sign;
+            } else {
+                idx += c0[i] * cc->stride[i];
+            }
+        cc->diff[idx] += sign;
+    }
+}
+
+/* start[c] = the entries of the cells before c (ncells + 1 entries, the
+ * last the total); frees the counter.  Returns the largest count. */
+static int32_t counter_starts(cell_counter *cc, const grid *g, int32_t *start)
 {
     const int D = g->dim;
-    const int64_t m[3] = {g->n[0] + 1, g->n[1] + 1, D == 3 ? g->n[2] + 1 : 1};
-    const int64_t stride[3] = {1, m[0], m[0] * m[1]};
-    int32_t *diff = calloc((size_t)(m[0] * m[1] * m[2]), sizeof *diff);
-    if (!diff)
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the point location grid");
-    for (int32_t t = 0; t < n; t++) {
-        const item_cells *ic = &it[t];
-        for (int corner = 0; corner < (1 << D); corner++) {
-            int64_t idx = 0;
-            int32_t sign = 1;
-            for (int i = 0; i < D; i++)
-                if (corner >> i & 1) {
-                    idx += (ic->c1[i] + 1) * stride[i];
-                    sign = -sign;
-                } else {
-                    idx += ic->c0[i] * stride[i];
-                }
-            diff[idx] += sign;
-        }
-    }
     for (int i = 0; i < D; i++) {
         int64_t idx = 0, c[3];
-        for (c[2] = 0; c[2] < m[2]; c[2]++)
-            for (c[1] = 0; c[1] < m[1]; c[1]++)
-                for (c[0] = 0; c[0] < m[0]; c[0]++, idx++)
+        for (c[2] = 0; c[2] < cc->m[2]; c[2]++)
+            for (c[1] = 0; c[1] < cc->m[1]; c[1]++)
+                for (c[0] = 0; c[0] < cc->m[0]; c[0]++, idx++)
                     if (c[i] > 0)
-                        diff[idx] += diff[idx - stride[i]];
+                        cc->diff[idx] += cc->diff[idx - cc->stride[i]];
     }
-    /* start[c] = entries before cell c: the write position of cell c */
     int64_t cell = 0;
-    int32_t sum = 0;
+    int32_t sum = 0, most = 0;
     for (int32_t z = 0; z < g->n[2]; z++)
         for (int32_t y = 0; y < g->n[1]; y++) {
-            const int32_t *row = diff + z * stride[2] + y * stride[1];
+            const int32_t *row = cc->diff + z * cc->stride[2] + y * cc->stride[1];
             for (int32_t x = 0; x < g->n[0]; x++, cell++) {
                 start[cell] = sum;
                 sum += row[x];
+                most = row[x] > most ? row[x] : most;
             }
         }
-    free(diff);
+    start[g->ncells] = sum;
+    free(cc->diff);
+    cc->diff = NULL;
+    return most;
+}
+
+/* CSR lists from the cell ranges (in their order, which is also the order
+ * inside each list).  start[] is zero on entry. */
+static sm_status fill_lists(const grid *g, const item_cells *it, int32_t n, int32_t *start,
+                            int32_t *list, sm_error *err)
+{
+    cell_counter cc;
+    if (counter_init(&cc, g) != 0)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the point location grid");
+    for (int32_t t = 0; t < n; t++)
+        counter_add(&cc, g->dim, it[t].c0, it[t].c1);
+    counter_starts(&cc, g, start);
     for (int32_t t = 0; t < n; t++) {
         const item_cells *ic = &it[t];
         int32_t c[3];
@@ -293,167 +322,129 @@ static sm_status spread_seeds(const grid *g, int32_t *seed, sm_error *err)
     return SM_OK;
 }
 
-/* Cell ranges, centre cell and its block, for item j. */
-static inline __attribute__((always_inline)) void
-element_cells(const grid *g, const bin_items *items, int32_t j, int shift, const int32_t *nb,
-              item_cells *ic, int32_t *block, const int D)
+/* The element grid's seeds and list sizes, in one pass over the valid
+ * elements (ascending): each element's inflated box range is counted in
+ * its cells, and the element whose box centre is nearest to a cell's
+ * centre (smallest id on ties) seeds the cell; cells holding no box
+ * centre take the seed of the nearest one that does (spread_seeds), and
+ * cells no box meets get none (no element can hold their points). */
+static sm_status seed_cells(sm_field *f, const bin_items *items, sm_error *err)
 {
-    double a[3], b[3];
-    item_box(items, j, a, b, D);
-    int32_t c[3] = {0, 0, 0};
-    ic->d2 = 0.0;
-    for (int i = 0; i < D; i++) {
-        double mid = 0.5 * (a[i] + b[i]);
-        c[i] = axis_cell(g, i, mid);
-        double t = mid - (g->lo[i] + (c[i] + 0.5) * g->cell[i]);
-        ic->d2 += t * t;
-    }
-    ic->cell = (int32_t)cell_index(g, c);
-    ic->id = items->ids[j];
-    box_cells(g, a, b, ic->c0, ic->c1);
-    *block = (c[0] >> shift) + nb[0] * ((c[1] >> shift) + nb[1] * (c[2] >> shift));
-}
-
-/* The cell ranges of the elements in grid g (it[j], with the block of
- * their box centre in block_of[j] and the count of every block in every
- * chunk in pos); returns the number of list entries.  In parallel by
- * chunks of elements. */
-static inline __attribute__((always_inline)) int64_t
-element_ranges_dim(const grid *g, const bin_items *items, int shift, const int32_t *nb,
-                   int64_t nblocks, item_cells *it, int32_t *block_of, int32_t *pos, const int D)
-{
-    int64_t total = 0;
-#pragma omp parallel for schedule(static) reduction(+ : total)
-    for (int c = 0; c < BUILD_CHUNKS; c++) {
-        int32_t *my = pos + (size_t)c * (size_t)nblocks;
-        for (int32_t j = chunk_begin(items->n, c); j < chunk_begin(items->n, c + 1); j++) {
-            item_cells *ic = &it[j];
-            element_cells(g, items, j, shift, nb, ic, &block_of[j], D);
-            my[block_of[j]]++;
-            total += (int64_t)(ic->c1[0] - ic->c0[0] + 1) * (ic->c1[1] - ic->c0[1] + 1) *
-                     (ic->c1[2] - ic->c0[2] + 1);
-        }
-    }
-    return total;
-}
-
-/* Element grid: shapes g (about `target` cells, coarser while the lists
- * would exceed `limit` entries), then the lists of the elements whose
- * inflated box meets each cell and the seed of each cell, the element
- * whose box centre is nearest to the cell centre (smallest id on ties).
- * The elements are sorted by blocks of cells of their box centre first (a
- * counting sort by chunks: every chunk of elements writes its own range of
- * every block, so the order is that of the elements whatever the threads,
- * with few enough blocks that the write streams stay in cache); filling
- * the lists and choosing the seeds then write to neighbouring cells in
- * turn. */
-static sm_status bin_elements(sm_field *f, const bin_items *items, double target, int64_t limit,
-                              sm_error *err)
-{
-    grid *g = &f->g;
-    const int32_t n = items->n;
-    sm_status st = SM_OK;
-    item_cells *it = sm__alloc_large((size_t)n * sizeof *it);
-    item_cells *sorted = NULL;
-    int32_t *block_of = sm__alloc_huge((size_t)n * sizeof *block_of + 1);
-    int32_t *pos = NULL;
-    double *best = NULL;
-    if (!it || !block_of)
-        goto nomem;
-    double nd[3];
-    int64_t total, nblocks;
-    grid_shape(g, target, nd);
-    for (;;) {
-        grid_set_axes(g, nd);
-        int shift = 0;
-        int32_t nb[3];
-        for (;;) {
-            nblocks = 1;
-            for (int i = 0; i < 3; i++) {
-                nb[i] = ((g->n[i] - 1) >> shift) + 1;
-                nblocks *= nb[i];
-            }
-            if (nblocks <= SORT_BLOCKS)
-                break;
-            shift++;
-        }
-        free(pos);
-        pos = calloc((size_t)BUILD_CHUNKS * (size_t)nblocks, sizeof *pos);
-        if (!pos)
-            goto nomem;
-        total = f->dim == 2 ? element_ranges_dim(g, items, shift, nb, nblocks, it, block_of, pos, 2)
-                            : element_ranges_dim(g, items, shift, nb, nblocks, it, block_of, pos, 3);
-        if (total <= limit || g->ncells == 1)
-            break;
-        for (int i = 0; i < g->dim; i++)
-            nd[i] = nd[i] > 1 ? floor(nd[i] * 0.8) : 1;
-    }
-    int32_t sum = 0;
-    for (int64_t b = 0; b < nblocks; b++)
-        for (int c = 0; c < BUILD_CHUNKS; c++) {
-            int32_t k = pos[(size_t)c * (size_t)nblocks + (size_t)b];
-            pos[(size_t)c * (size_t)nblocks + (size_t)b] = sum;
-            sum += k;
-        }
-    sorted = sm__alloc_large((size_t)n * sizeof *sorted);
-    if (!sorted)
-        goto nomem;
-#pragma omp parallel for schedule(static)
-    for (int c = 0; c < BUILD_CHUNKS; c++) {
-        int32_t *my = pos + (size_t)c * (size_t)nblocks;
-        for (int32_t j = chunk_begin(n, c); j < chunk_begin(n, c + 1); j++)
-            sorted[my[block_of[j]]++] = it[j];
-    }
-    sm__free_large(it, (size_t)n * sizeof *it);
-    it = NULL;
-    free(block_of);
-    block_of = NULL;
-    free(pos);
-    pos = NULL;
-
+    const grid *g = &f->g;
+    const int D = g->dim;
     const int64_t nc = g->ncells;
-    best = sm__alloc_huge((size_t)nc * sizeof *best + 1);
-    f->cell_seed = sm__alloc_huge((size_t)nc * sizeof *f->cell_seed + 1);
-    if (!best || !f->cell_seed)
-        goto nomem;
+    cell_counter cc;
+    double *best = malloc((size_t)nc * sizeof *best + 1);
+    f->cell_seed = malloc((size_t)nc * sizeof *f->cell_seed + 1);
+    f->elem_start = malloc(((size_t)nc + 1) * sizeof *f->elem_start);
+    if (!best || !f->cell_seed || !f->elem_start || counter_init(&cc, g) != 0) {
+        free(best);
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the point location grid");
+    }
     for (int64_t c = 0; c < nc; c++) {
         f->cell_seed[c] = -1;
         best[c] = INFINITY;
     }
-    for (int32_t t = 0; t < n; t++) {
-        int32_t c = sorted[t].cell;
-        if (sorted[t].d2 < best[c] || (sorted[t].d2 == best[c] && sorted[t].id < f->cell_seed[c])) {
-            best[c] = sorted[t].d2;
-            f->cell_seed[c] = sorted[t].id;
+    for (int32_t j = 0; j < items->n; j++) {
+        double a[3], b[3], d2 = 0.0;
+        int32_t c[3] = {0, 0, 0}, c0[3], c1[3];
+        if (D == 2)
+            item_box(items, j, a, b, 2);
+        else
+            item_box(items, j, a, b, 3);
+        for (int i = 0; i < D; i++) {
+            double mid = 0.5 * (a[i] + b[i]);
+            c[i] = axis_cell(g, i, mid);
+            double t = mid - (g->lo[i] + (c[i] + 0.5) * g->cell[i]);
+            d2 += t * t;
         }
+        int64_t cell = cell_index(g, c);
+        if (d2 < best[cell]) { /* ascending ids: the first wins ties */
+            best[cell] = d2;
+            f->cell_seed[cell] = items->ids[j];
+        }
+        box_cells(g, a, b, c0, c1);
+        counter_add(&cc, D, c0, c1);
     }
     free(best);
-    best = NULL;
-    st = spread_seeds(g, f->cell_seed, err);
-    if (st == SM_OK)
-        st = grid_lists_alloc(g, total, &f->elem_start, &f->elem_list, err);
-    if (st == SM_OK)
-        st = fill_lists(g, sorted, n, f->elem_start, f->elem_list, err);
-    if (st != SM_OK)
-        goto done;
-    f->max_cell_elems = 0;
-    for (int64_t c = 0; c < nc; c++) {
-        int32_t len = f->elem_start[c + 1] - f->elem_start[c];
-        if (len > f->max_cell_elems)
-            f->max_cell_elems = len;
-        if (len == 0)
+    f->max_cell_elems = counter_starts(&cc, g, f->elem_start);
+    sm_status st = spread_seeds(g, f->cell_seed, err);
+    for (int64_t c = 0; st == SM_OK && c < nc; c++)
+        if (f->elem_start[c + 1] == f->elem_start[c])
             f->cell_seed[c] = -1; /* no element can hold a point of the cell */
-    }
-    goto done;
-nomem:
-    st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the point location grid");
-done:
-    sm__free_large(it, (size_t)n * sizeof *it);
-    sm__free_large(sorted, (size_t)n * sizeof *sorted);
-    free(block_of);
-    free(pos);
-    free(best);
     return st;
+}
+
+struct sm_field_lists {
+    pthread_mutex_t lock;
+    atomic_int ready;
+    int32_t *list;
+    size_t bytes;
+};
+
+void sm__field_lists_free(sm_field_lists *l)
+{
+    if (!l)
+        return;
+    pthread_mutex_destroy(&l->lock);
+    free(l->list);
+    free(l);
+}
+
+size_t sm__field_lists_bytes(const sm_field *f)
+{
+    return atomic_load_explicit(&f->lists->ready, memory_order_acquire) ? f->lists->bytes : 0;
+}
+
+/* The lists, filled in one pass over the valid elements in ascending
+ * order with the ranges seed_cells counted (the same boxes). */
+static int32_t *fill_element_lists(const sm_field *f)
+{
+    const grid *g = &f->g;
+    const int D = g->dim;
+    const int64_t nc = g->ncells;
+    int32_t *list = malloc((size_t)f->elem_start[nc] * sizeof *list + 1);
+    int32_t *pos = malloc((size_t)nc * sizeof *pos + 1);
+    if (!list || !pos) {
+        free(list);
+        free(pos);
+        return NULL;
+    }
+    memcpy(pos, f->elem_start, (size_t)nc * sizeof *pos);
+    for (int32_t e = 0; e < f->nelems; e++) {
+        if (!f->valid[e])
+            continue;
+        const bin_items item = {f, &e, NULL, 1};
+        double a[3], b[3];
+        int32_t c0[3], c1[3], c[3];
+        if (D == 2)
+            item_box(&item, 0, a, b, 2);
+        else
+            item_box(&item, 0, a, b, 3);
+        box_cells(g, a, b, c0, c1);
+        for (c[2] = c0[2]; c[2] <= c1[2]; c[2]++)
+            for (c[1] = c0[1]; c[1] <= c1[1]; c[1]++)
+                for (c[0] = c0[0]; c[0] <= c1[0]; c[0]++)
+                    list[pos[cell_index(g, c)]++] = e;
+    }
+    free(pos);
+    return list;
+}
+
+const int32_t *sm__field_element_lists(const sm_field *f)
+{
+    sm_field_lists *l = f->lists;
+    if (atomic_load_explicit(&l->ready, memory_order_acquire))
+        return l->list;
+    pthread_mutex_lock(&l->lock);
+    if (!atomic_load_explicit(&l->ready, memory_order_relaxed) &&
+        (l->list = fill_element_lists(f)) != NULL) {
+        l->bytes = (size_t)f->elem_start[f->g.ncells] * sizeof *l->list;
+        atomic_store_explicit(&l->ready, 1, memory_order_release);
+    }
+    int32_t *list = l->list;
+    pthread_mutex_unlock(&l->lock);
+    return list;
 }
 
 /* The grids, over the bounding box lo, hi of the valid elements. */
@@ -487,7 +478,17 @@ sm_status sm__field_build_grids(sm_field *f, const double *lo, const double *hi,
     const bin_items elements = {f, ids, NULL, nit};
     int64_t limit = 32 * (int64_t)f->nvalid + (1 << 20);
     double per_elem = D == 2 ? GRID_CELLS_PER_ELEM_2D : GRID_CELLS_PER_ELEM_3D;
-    sm_status st = bin_elements(f, &elements, per_elem * f->nvalid, limit, err);
+    sm_status st = SM_OK;
+    f->lists = calloc(1, sizeof *f->lists);
+    if (!f->lists || pthread_mutex_init(&f->lists->lock, NULL) != 0) {
+        free(f->lists);
+        f->lists = NULL;
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the point location grid");
+    }
+    if (st == SM_OK && grid_fit(g, per_elem * f->nvalid, &elements, limit) > INT32_MAX - 1)
+        st = sm_error_set(err, SM_ERR_NOMEM, "point location grid too large");
+    if (st == SM_OK)
+        st = seed_cells(f, &elements, err);
     free(ids);
     if (st != SM_OK)
         return st;

@@ -96,6 +96,8 @@ typedef struct grid {
     double min_cell;
 } grid;
 
+typedef struct sm_field_lists sm_field_lists;
+
 struct sm_field {
     const sm_mesh *bg;
     const double *values;
@@ -112,9 +114,14 @@ struct sm_field {
     grid g;
     int32_t *cell_seed;  /* ncells: start of the walk for points of the
                           * cell, -1 when no element's box meets the cell */
-    int32_t *elem_start; /* ncells+1 */
-    int32_t *elem_list;  /* elements whose inflated bbox meets the cell */
+    int32_t *elem_start; /* ncells+1: where each cell's list starts */
     int32_t max_cell_elems;
+    /* The lists themselves (the elements whose inflated box meets each
+     * cell, ascending) are only needed when a walk fails: a point
+     * outside the mesh, a non-convex or non-conforming one.  Built on
+     * first need (sm__field_element_lists), once, under the mutex; the
+     * flag, set last, tells the readers they are there. */
+    sm_field_lists *lists;
 
     /* Facets without neighbour (the boundary of the union of the
      * elements, plus gaps), for the nearest point of outside points.  They
@@ -306,6 +313,14 @@ void sm__field_facet_vertices(const sm_field *f, int32_t e, int k, int32_t *out)
  * bounding box lo, hi of the valid elements (sm_field_grid.c); needs the
  * validity and neighbours. */
 sm_status sm__field_build_grids(sm_field *f, const double *lo, const double *hi, sm_error *err);
+
+/* The element lists of the grid, elem_list[elem_start[c] ..
+ * elem_start[c+1]) for cell c, built on the first call (thread-safe);
+ * NULL when they cannot be allocated (sm_field_grid.c). */
+const int32_t *sm__field_element_lists(const sm_field *f);
+void sm__field_lists_free(sm_field_lists *l);
+/* Bytes held by the lists (0 until built). */
+size_t sm__field_lists_bytes(const sm_field *f);
 
 /* Value (and gradient, when grad is not NULL) of the extension at a point
  * x outside the mesh: the value at the nearest point plus the distance to

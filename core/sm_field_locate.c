@@ -68,12 +68,16 @@ locate_dim(const sm_field *f, const double *x, int32_t hint, double *bary, const
     if (e >= 0)
         goto found;
     /* The cell lists are exhaustive: scanning one is the final answer
-     * (non-convex or non-conforming parts, points outside). */
-    int32_t j0 = f->elem_start[idx], j1 = f->elem_start[idx + 1];
+     * (non-convex or non-conforming parts, points outside).  Without
+     * them (no memory for them), every valid element is a candidate. */
+    const int32_t *lists = sm__field_element_lists(f);
+    int32_t j0 = lists ? f->elem_start[idx] : 0, j1 = lists ? f->elem_start[idx + 1] : f->nelems;
     double best_min = -INFINITY, best_lam[4] = {0, 0, 0, 0};
     e = -1;
     for (int32_t j = j0; j < j1; j++) {
-        int32_t cand = f->elem_list[j];
+        int32_t cand = lists ? lists[j] : j;
+        if (!f->valid[cand])
+            continue;
         elem_bary(f, cand, x, lam, D);
         argmin_lam(lam, D, &lmin);
         if (lmin > best_min) {

@@ -93,7 +93,11 @@ void *sm__alloc_large(size_t bytes)
     }
 #endif
     size_t size = round_up(bytes ? bytes : 1, 128);
-    return size ? aligned_alloc(128, size) : NULL;
+    void *p = size ? aligned_alloc(128, size) : NULL;
+    /* scratch is written at once: its pages mapped in one call */
+    if (p && size >= PREFAULT_MIN)
+        prefault(p, size);
+    return p;
 }
 
 void sm__free_large(void *p, size_t bytes)

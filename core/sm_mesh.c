@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "sm_alloc.h"
 #include "sm_facets.h"
 
 static void *alloc_array(size_t count, size_t size)
@@ -515,8 +516,8 @@ sm_status sm_mesh_build_boundary(sm_mesh *m, sm_error *err)
 
     const int dim = m->dim, nv = dim + 1;
     const size_t nf = (size_t)m->nelems * (size_t)nv;
-    int32_t *nbr = malloc(nf * sizeof *nbr);
-    int32_t *order = malloc(nf * sizeof *order);
+    int32_t *nbr = sm__alloc_huge(nf * sizeof *nbr);
+    int32_t *order = sm__alloc_huge(nf * sizeof *order);
     sm_facet_match fm;
     if (!nbr || !order) {
         free(nbr);

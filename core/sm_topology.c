@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "sm_alloc.h"
 #include "sm_facets.h"
 
 /* nbr[e * nv + i]: the element across the facet opposite local vertex i
@@ -16,7 +17,7 @@
 static int32_t *facet_neighbours(const sm_mesh *m)
 {
     size_t n = (size_t)m->nelems * (size_t)(m->dim + 1);
-    int32_t *nbr = malloc((n ? n : 1) * sizeof *nbr);
+    int32_t *nbr = sm__alloc_huge((n ? n : 1) * sizeof *nbr);
     sm_facet_match fm;
     sm_error err;
     if (!nbr || sm__facet_match(m->dim, m->nverts, m->nelems, m->elems, nbr, NULL, &fm, &err) !=
@@ -36,7 +37,7 @@ static int vertex_stars(const sm_mesh *m, int32_t **first_out, int32_t **star_ou
     const int nv = m->dim + 1;
     size_t n = (size_t)m->nelems * (size_t)nv;
     int32_t *first = calloc((size_t)m->nverts + 1, sizeof *first);
-    int32_t *star = malloc((n ? n : 1) * sizeof *star);
+    int32_t *star = sm__alloc_huge((n ? n : 1) * sizeof *star);
     if (!first || !star) {
         free(first);
         free(star);
@@ -90,8 +91,8 @@ sm_status sm_mesh_check_manifold(const sm_mesh *m, sm_error *err)
 {
     int32_t *first = NULL, *star = NULL;
     int32_t *nbr = facet_neighbours(m);
-    int32_t *mark = malloc(((size_t)m->nelems + 1) * sizeof *mark);
-    int32_t *queue = malloc(((size_t)m->nelems + 1) * sizeof *queue);
+    int32_t *mark = sm__alloc_huge(((size_t)m->nelems + 1) * sizeof *mark);
+    int32_t *queue = sm__alloc_huge(((size_t)m->nelems + 1) * sizeof *queue);
     sm_status st = SM_OK;
     if (!nbr || !mark || !queue || vertex_stars(m, &first, &star) != 0) {
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory checking the topology");

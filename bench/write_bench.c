@@ -12,8 +12,10 @@
  * prints the best wall and CPU time of each and of the three (on a shared
  * machine the wall time also counts waiting for a core), the size and a
  * checksum of each file (a faster writer must write the same bytes), and
- * the cost of one number as snprintf formats it ("%.17g", "%ld") on the
- * numbers of these files: most of the time of an ASCII writer. */
+ * the cost of one number on the numbers of these files, as snprintf
+ * formats it ("%.17g", "%ld": what the writers called before) and as the
+ * core's own formatting does (sm__double_to_decimal, sm__int_to_decimal:
+ * what they call now). */
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -24,6 +26,7 @@
 #include "shapematch/sm_clock.h"
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_mesh.h"
+#include "sm_number.h"
 
 static double cpu_seconds(void)
 {
@@ -143,6 +146,41 @@ static double ns_snprintf_ints(const long *k, size_t n, int reps, size_t *bytes)
     return best * 1e9 / (double)n;
 }
 
+/* The same with the core's formatting. */
+static double ns_core_doubles(const double *x, size_t n, int reps, size_t *bytes)
+{
+    char buf[SM_DECIMAL_MAX];
+    double best = -1;
+    for (int rep = 0; rep < reps; rep++) {
+        size_t total = 0;
+        double t0 = cpu_seconds();
+        for (size_t i = 0; i < n; i++)
+            total += sm__double_to_decimal(x[i], buf);
+        double t = cpu_seconds() - t0;
+        if (best < 0 || t < best)
+            best = t;
+        *bytes = total;
+    }
+    return best * 1e9 / (double)n;
+}
+
+static double ns_core_ints(const long *k, size_t n, int reps, size_t *bytes)
+{
+    char buf[SM_DECIMAL_MAX];
+    double best = -1;
+    for (int rep = 0; rep < reps; rep++) {
+        size_t total = 0;
+        double t0 = cpu_seconds();
+        for (size_t i = 0; i < n; i++)
+            total += sm__int_to_decimal(k[i], buf);
+        double t = cpu_seconds() - t0;
+        if (best < 0 || t < best)
+            best = t;
+        *bytes = total;
+    }
+    return best * 1e9 / (double)n;
+}
+
 /* The doubles and the integers of the three files, as the writers print
  * them (vertex indices from 1 in Medit, from 0 in VTK, references). */
 static int numbers_of(const result *r, double **xs, size_t *nx, long **ks, size_t *nk)
@@ -246,16 +284,22 @@ int main(int argc, char **argv)
         fprintf(stderr, "out of memory\n");
         return 1;
     }
+    size_t cx, ck;
     double ns_x = ns_snprintf_doubles(xs, nx, reps, &bx);
     double ns_k = ns_snprintf_ints(ks, nk, reps, &bk);
+    double core_x = ns_core_doubles(xs, nx, reps, &cx);
+    double core_k = ns_core_ints(ks, nk, reps, &ck);
     printf("  one number of these files, %zu doubles and %zu integers (CPU, best of %d):\n", nx,
            nk, reps);
-    printf("    snprintf \"%%.17g\" %6.1f ns/double (%.1f bytes)   \"%%ld\" %5.1f ns/integer\n",
+    printf("    snprintf \"%%.17g\"        %6.1f ns/double (%.1f bytes)   \"%%ld\" %5.1f ns/integer\n",
            ns_x, (double)bx / (double)nx, ns_k);
+    printf("    sm__double_to_decimal %6.1f ns/double (%.1f bytes)   %5.1f ns/integer%s\n", core_x,
+           (double)cx / (double)nx, core_k,
+           cx == bx && ck == bk ? "" : "  (NOT THE SAME LENGTHS AS SNPRINTF)");
     printf("RESULT write mesh_ms=%.2f vtu_ms=%.2f sol_ms=%.2f total_ms=%.2f total_cpu_ms=%.2f "
-           "snprintf_ns_double=%.1f snprintf_ns_int=%.1f\n",
+           "snprintf_ns_double=%.1f snprintf_ns_int=%.1f ns_double=%.1f ns_int=%.1f\n",
            1e3 * best_wall[0], 1e3 * best_wall[1], 1e3 * best_wall[2], 1e3 * best_wall[FILES],
-           1e3 * best_cpu[FILES], ns_x, ns_k);
+           1e3 * best_cpu[FILES], ns_x, ns_k, core_x, core_k);
     free(xs);
     free(ks);
     free_result(&r);

@@ -1,8 +1,10 @@
 # Benchmarks (release only: figures from a sanitized build mean nothing).
 # Each is one C file linked against the core library.
-BENCH_PROGS := match_bench field_bench sdf_bench io_bench bg_bench read_bench
+BENCH_PROGS := match_bench field_bench sdf_bench io_bench bg_bench read_bench write_bench
 
 $(foreach b,$(BENCH_PROGS),$(eval build/release/$(b): build/release/obj/bench/$(b).o build/release/libshapematch.a))
+# write_bench also times the core's own number formatting (sm_number.h)
+build/release/obj/bench/write_bench.o: release_CFLAGS += -I core
 $(addprefix build/release/,$(BENCH_PROGS)):
 	@mkdir -p $(dir $@)
 	$(CC) -o $@ $^ $(CORE_LIBS)

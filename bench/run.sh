@@ -104,6 +104,8 @@ mkdir -p build/bench-io
 $BIN/io_bench build/bench-io 64
 echo "== reading the inputs of examples/3d, the paper's size (goal: <= 0.07 s) =="
 $BIN/read_bench examples/3d 9
+echo "== writing the ASCII results of examples/3d (result.mesh, result.vtu, displacement.sol) =="
+$BIN/write_bench examples/3d/template.mesh build/bench-io 9
 
 echo "== stop rules: the stall rule on the examples and on Gmsh-made cases (bench/stall_cases.py) =="
 python3 bench/stall_cases.py "$BIN" --examples

@@ -61,14 +61,9 @@ static void write_ascii_block(sm_writer *w, const char *name, int32_t n, int k,
     sm_writer_printf(w, "\n%s\n%ld\n", name, (long)n);
     for (int32_t i = 0; i < n; i++) {
         const int32_t *v = idx + (size_t)i * (size_t)k;
-        if (k == 2)
-            sm_writer_printf(w, "%ld %ld %ld\n", (long)v[0] + 1, (long)v[1] + 1, (long)refs[i]);
-        else if (k == 3)
-            sm_writer_printf(w, "%ld %ld %ld %ld\n", (long)v[0] + 1, (long)v[1] + 1,
-                             (long)v[2] + 1, (long)refs[i]);
-        else
-            sm_writer_printf(w, "%ld %ld %ld %ld %ld\n", (long)v[0] + 1, (long)v[1] + 1,
-                             (long)v[2] + 1, (long)v[3] + 1, (long)refs[i]);
+        for (int j = 0; j < k; j++)
+            sm_writer_int(w, (int64_t)v[j] + 1, ' ');
+        sm_writer_int(w, refs[i], '\n');
     }
 }
 
@@ -79,11 +74,9 @@ static void write_ascii(sm_writer *w, const sm_mesh *m, const double *coords)
                      (long)m->nverts);
     for (int32_t i = 0; i < m->nverts; i++) {
         const double *x = coords + (size_t)i * (size_t)d;
-        if (d == 2)
-            sm_writer_printf(w, "%.17g %.17g %ld\n", x[0], x[1], (long)m->vert_refs[i]);
-        else
-            sm_writer_printf(w, "%.17g %.17g %.17g %ld\n", x[0], x[1], x[2],
-                             (long)m->vert_refs[i]);
+        for (int c = 0; c < d; c++)
+            sm_writer_real(w, x[c], ' ');
+        sm_writer_int(w, m->vert_refs[i], '\n');
     }
     if (d == 2) {
         write_ascii_block(w, "Edges", m->nfacets, 2, m->facets, m->facet_refs);

@@ -430,12 +430,8 @@ sm_status sm_sol_write(const char *path, const sm_sol *s, sm_error *err)
                          s->dim, (long)s->nverts, type);
         for (int32_t i = 0; i < s->nverts; i++) {
             const double *v = s->values + (size_t)i * (size_t)s->ncomp;
-            if (s->ncomp == 1)
-                sm_writer_printf(w, "%.17g\n", v[0]);
-            else if (s->ncomp == 2)
-                sm_writer_printf(w, "%.17g %.17g\n", v[0], v[1]);
-            else
-                sm_writer_printf(w, "%.17g %.17g %.17g\n", v[0], v[1], v[2]);
+            for (int c = 0; c < s->ncomp; c++)
+                sm_writer_real(w, v[c], c + 1 < s->ncomp ? ' ' : '\n');
         }
         sm_writer_printf(w, "\nEnd\n");
     }

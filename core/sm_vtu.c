@@ -27,17 +27,24 @@ static void write_cell_data(sm_writer *w, const sm_mesh *m, int32_t nf)
     sm_writer_printf(w, "      <CellData Scalars=\"ref\">\n"
                         "        <DataArray type=\"Int32\" Name=\"ref\" format=\"ascii\">\n");
     for (int32_t e = 0; e < m->nelems; e++)
-        sm_writer_printf(w, "%ld\n", (long)m->elem_refs[e]);
+        sm_writer_int(w, m->elem_refs[e], '\n');
     for (int32_t f = 0; f < nf; f++)
-        sm_writer_printf(w, "%ld\n", m->facet_refs ? (long)m->facet_refs[f] : 0L);
+        sm_writer_int(w, m->facet_refs ? m->facet_refs[f] : 0, '\n');
     sm_writer_printf(w, "        </DataArray>\n"
                         "        <DataArray type=\"UInt8\" Name=\"cell_dim\" format=\"ascii\">\n");
     for (int32_t e = 0; e < m->nelems; e++)
-        sm_writer_printf(w, "%d\n", d);
+        sm_writer_int(w, d, '\n');
     for (int32_t f = 0; f < nf; f++)
-        sm_writer_printf(w, "%d\n", d - 1);
+        sm_writer_int(w, d - 1, '\n');
     sm_writer_printf(w, "        </DataArray>\n      </CellData>\n");
 
+}
+
+/* One line of k indices. */
+static void write_indices(sm_writer *w, const int32_t *v, int k)
+{
+    for (int j = 0; j < k; j++)
+        sm_writer_int(w, v[j], j + 1 < k ? ' ' : '\n');
 }
 
 /* Connectivity, offsets and types of the elements, then of the facets. */
@@ -46,35 +53,32 @@ static void write_cells(sm_writer *w, const sm_mesh *m, int32_t nf)
     const int d = m->dim, k = m->dim + 1;
     sm_writer_printf(w, "      <Cells>\n        <DataArray type=\"Int32\" Name=\"connectivity\" "
                         "format=\"ascii\">\n");
-    for (int32_t e = 0; e < m->nelems; e++) {
-        const int32_t *v = m->elems + (size_t)e * (size_t)k;
-        if (k == 3)
-            sm_writer_printf(w, "%ld %ld %ld\n", (long)v[0], (long)v[1], (long)v[2]);
-        else
-            sm_writer_printf(w, "%ld %ld %ld %ld\n", (long)v[0], (long)v[1], (long)v[2],
-                             (long)v[3]);
-    }
-    for (int32_t f = 0; f < nf; f++) {
-        const int32_t *v = m->facets + (size_t)f * (size_t)d;
-        if (d == 2)
-            sm_writer_printf(w, "%ld %ld\n", (long)v[0], (long)v[1]);
-        else
-            sm_writer_printf(w, "%ld %ld %ld\n", (long)v[0], (long)v[1], (long)v[2]);
-    }
+    for (int32_t e = 0; e < m->nelems; e++)
+        write_indices(w, m->elems + (size_t)e * (size_t)k, k);
+    for (int32_t f = 0; f < nf; f++)
+        write_indices(w, m->facets + (size_t)f * (size_t)d, d);
     /* Offsets are 64-bit: nelems * 4 can exceed the Int32 range. */
     sm_writer_printf(w, "        </DataArray>\n        <DataArray type=\"Int64\" "
                         "Name=\"offsets\" format=\"ascii\">\n");
     for (int32_t e = 0; e < m->nelems; e++)
-        sm_writer_printf(w, "%lld\n", (long long)(e + 1) * k);
+        sm_writer_int(w, (int64_t)(e + 1) * k, '\n');
     for (int32_t f = 0; f < nf; f++)
-        sm_writer_printf(w, "%lld\n", (long long)m->nelems * k + (long long)(f + 1) * d);
+        sm_writer_int(w, (int64_t)m->nelems * k + (int64_t)(f + 1) * d, '\n');
     sm_writer_printf(w, "        </DataArray>\n        <DataArray type=\"UInt8\" Name=\"types\" "
                         "format=\"ascii\">\n");
     int type = d == 2 ? VTK_TRIANGLE : VTK_TETRA;
     for (int32_t e = 0; e < m->nelems; e++)
-        sm_writer_printf(w, "%d\n", type);
+        sm_writer_int(w, type, '\n');
     for (int32_t f = 0; f < nf; f++)
-        sm_writer_printf(w, "%d\n", d == 2 ? VTK_LINE : VTK_TRIANGLE);
+        sm_writer_int(w, d == 2 ? VTK_LINE : VTK_TRIANGLE, '\n');
+}
+
+/* One point's vector, padded to 3D, non-finite components as 0. */
+static void write_vector(sm_writer *w, const double *x, int d)
+{
+    sm_writer_real(w, finite_or_zero(x[0]), ' ');
+    sm_writer_real(w, finite_or_zero(x[1]), ' ');
+    sm_writer_real(w, d == 3 ? finite_or_zero(x[2]) : 0.0, '\n');
 }
 
 sm_status sm_vtu_write(const char *path, const sm_mesh *m, const double *coords,
@@ -116,18 +120,15 @@ sm_status sm_vtu_write(const char *path, const sm_mesh *m, const double *coords,
         if (displacement) {
             sm_writer_printf(w, "        <DataArray type=\"Float64\" Name=\"displacement\" "
                                 "NumberOfComponents=\"3\" format=\"ascii\">\n");
-            for (int32_t i = 0; i < m->nverts; i++) {
-                const double *u = displacement + (size_t)i * (size_t)d;
-                sm_writer_printf(w, "%.17g %.17g %.17g\n", finite_or_zero(u[0]),
-                                 finite_or_zero(u[1]), d == 3 ? finite_or_zero(u[2]) : 0.0);
-            }
+            for (int32_t i = 0; i < m->nverts; i++)
+                write_vector(w, displacement + (size_t)i * (size_t)d, d);
             sm_writer_printf(w, "        </DataArray>\n");
         }
         if (distance) {
             sm_writer_printf(w, "        <DataArray type=\"Float64\" Name=\"distance\" "
                                 "format=\"ascii\">\n");
             for (int32_t i = 0; i < m->nverts; i++)
-                sm_writer_printf(w, "%.17g\n", finite_or_zero(distance[i]));
+                sm_writer_real(w, finite_or_zero(distance[i]), '\n');
             sm_writer_printf(w, "        </DataArray>\n");
         }
         sm_writer_printf(w, "      </PointData>\n");
@@ -137,11 +138,8 @@ sm_status sm_vtu_write(const char *path, const sm_mesh *m, const double *coords,
 
     sm_writer_printf(w, "      <Points>\n        <DataArray type=\"Float64\" "
                         "NumberOfComponents=\"3\" format=\"ascii\">\n");
-    for (int32_t i = 0; i < m->nverts; i++) {
-        const double *x = coords + (size_t)i * (size_t)d;
-        sm_writer_printf(w, "%.17g %.17g %.17g\n", finite_or_zero(x[0]), finite_or_zero(x[1]),
-                         d == 3 ? finite_or_zero(x[2]) : 0.0);
-    }
+    for (int32_t i = 0; i < m->nverts; i++)
+        write_vector(w, coords + (size_t)i * (size_t)d, d);
     sm_writer_printf(w, "        </DataArray>\n      </Points>\n");
 
     write_cells(w, m, nf);

@@ -12,6 +12,7 @@
 #include <zlib.h>
 
 #include "shapematch/sm_atomic.h"
+#include "sm_number.h"
 #include "sm_stream.h"
 
 #define WRITE_BUF_SIZE (1u << 16)
@@ -202,6 +203,37 @@ void sm_writer_printf(sm_writer *w, const char *fmt, ...)
         }
     }
     va_end(ap);
+}
+
+/* Room for n bytes at the end of the buffer (n is small), flushing it if
+ * need be; writer_advance then counts the bytes written there. */
+static char *writer_room(sm_writer *w, size_t n)
+{
+    if (w->len + n > WRITE_BUF_SIZE)
+        flush_buf(w);
+    return (char *)w->buf + w->len;
+}
+
+static void writer_advance(sm_writer *w, size_t n)
+{
+    w->len += n;
+    w->offset += n;
+}
+
+void sm_writer_int(sm_writer *w, int64_t v, char sep)
+{
+    char *p = writer_room(w, SM_DECIMAL_MAX + 1);
+    size_t n = sm__int_to_decimal(v, p);
+    p[n] = sep;
+    writer_advance(w, n + 1);
+}
+
+void sm_writer_real(sm_writer *w, double x, char sep)
+{
+    char *p = writer_room(w, SM_DECIMAL_MAX + 1);
+    size_t n = sm__double_to_decimal(x, p);
+    p[n] = sep;
+    writer_advance(w, n + 1);
 }
 
 void sm_writer_i32(sm_writer *w, int32_t v)

@@ -7,8 +7,11 @@
  * a half-written file under the final name.  Errors are sticky and
  * reported (with errno, e.g. ENOSPC) by sm_writer_close.
  *
- * The writer sets the C numeric locale for the calling thread while open
- * (sm_stream.h), so "%.17g" writes '.' whatever the application's locale. */
+ * Numbers are written as text by sm_writer_int and sm_writer_real
+ * (sm_number.h: a tenth of vsnprintf's cost, and no locale at all); the
+ * writer also sets the C numeric locale for the calling thread while
+ * open (sm_stream.h), so that what sm_writer_printf formats writes '.'
+ * whatever the application's locale. */
 #ifndef SM_WRITER_H
 #define SM_WRITER_H
 
@@ -28,8 +31,16 @@ sm_status sm_writer_close(sm_writer *w, sm_error *err);
 /* Discards everything written (error paths of the callers). */
 void sm_writer_abort(sm_writer *w);
 
+/* Text: headers and keywords. */
 void sm_writer_printf(sm_writer *w, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)));
+/* Text: one number in decimal, then the byte sep (' ' between the numbers
+ * of a line, '\n' after the last).  sm_writer_int writes v as "%lld";
+ * sm_writer_real writes x as "%.17g" (17 significant digits, which read
+ * back to x bit for bit; sm__double_to_decimal). */
+void sm_writer_int(sm_writer *w, int64_t v, char sep);
+void sm_writer_real(sm_writer *w, double x, char sep);
+/* Binary: bytes, and numbers in the machine's byte order. */
 void sm_writer_bytes(sm_writer *w, const void *data, size_t n);
 void sm_writer_i32(sm_writer *w, int32_t v);
 void sm_writer_i64(sm_writer *w, int64_t v);

@@ -3,7 +3,7 @@
 # ASan+UBSan into build/fuzz/.  In the release pass each target replays its
 # seed corpus (tests/data and tests/fuzz/seeds: format samples, the whole
 # malformed corpus, params and payload cases); in the asan pass each one
-# also fuzzes for SM_FUZZ_SECONDS (default 4).  `make fuzz` runs them long.
+# also fuzzes for SM_FUZZ_SECONDS (default 3).  `make fuzz` runs them long.
 set -u
 ROOT=${SM_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
 cd "$ROOT"
@@ -17,5 +17,5 @@ if [ "${#targets[@]}" -eq 0 ]; then
 fi
 seconds=0
 # 4 s each: the 13 targets take no longer than the 11 did at 5 s.
-[ "${SM_VARIANT:-release}" = asan ] && seconds=${SM_FUZZ_SECONDS:-4}
+[ "${SM_VARIANT:-release}" = asan ] && seconds=${SM_FUZZ_SECONDS:-3}
 exec tests/fuzz/run.sh "$seconds" "${targets[@]}"

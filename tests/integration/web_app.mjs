@@ -68,7 +68,7 @@ await run('the app: a 2D job', async () => {
   const page = await newPage();
   const resp = await page.goto(`${openBase}/`);
   report('GET / in a browser is the web app (text/html)', resp.status() === 200 && (resp.headers()['content-type'] || '').startsWith('text/html'), resp.status());
-  await fillJob(page, '2d', clamp2d, { live_every: 1, max_iter: 6000, tol_stall: 0, tol_step: 1e-12 });
+  await fillJob(page, '2d', clamp2d, { live_every: 1, max_iter: 4000, tol_stall: 0, tol_step: 1e-12 });
   await page.click('#submit');
   await page.waitForFunction(() => Number(document.querySelector('#plot').dataset.points || 0) >= 5, null, { timeout: 30000 });
   const live = await status(page);

@@ -31,6 +31,21 @@
 #include "shapematch/sm_mesh.h"
 #include "sm_number.h"
 
+/* The random samples under the sanitizers (several times slower per
+ * value): an eighth of them, so that make test's sanitized pass stays
+ * short; the structured classes (every exponent, the ties, the example
+ * meshes) are checked whole in both builds. */
+#if defined(__SANITIZE_ADDRESS__)
+#define RANDOM_SHARE 8
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define RANDOM_SHARE 8
+#endif
+#endif
+#ifndef RANDOM_SHARE
+#define RANDOM_SHARE 1
+#endif
+
 static uint64_t next(uint64_t *s)
 {
     *s ^= *s << 13;
@@ -121,12 +136,12 @@ static void test_random_bits(void **state)
     (void)state;
     long before = checked;
     uint64_t rng = 0x9e3779b97f4a7c15u;
-    for (int i = 0; i < 1000000; i++)
+    for (int i = 0; i < 1000000 / RANDOM_SHARE; i++)
         check_double(from_bits(next(&rng)));
     report("random bit patterns, every exponent, NaNs and infinities", before);
     before = checked;
     /* the exponents of coordinates and distances in any unit, densely */
-    for (int i = 0; i < 500000; i++) {
+    for (int i = 0; i < 500000 / RANDOM_SHARE; i++) {
         uint64_t r = next(&rng);
         uint64_t biased = 1023 - 60 + (r >> 52) % 120;
         check_double(from_bits(biased << 52 | (r & ((UINT64_C(1) << 52) - 1))));
@@ -143,7 +158,7 @@ static void test_subnormals_and_exponents(void **state)
         check_double(from_bits(m));
         check_double(from_bits((UINT64_C(1) << 52) - m));
     }
-    for (int i = 0; i < 100000; i++)
+    for (int i = 0; i < 100000 / RANDOM_SHARE; i++)
         check_double(from_bits(next(&rng) & ((UINT64_C(1) << 52) - 1)));
     report("subnormals: the smallest, the largest, random ones", before);
     before = checked;
@@ -208,7 +223,7 @@ static void test_decimal_steps(void **state)
     /* sums of steps, as a loop accumulates them: 0.30000000000000004 */
     double sums[4] = {0, 0, 0, 0};
     static const double steps[4] = {0.1, 0.01, 0.001, 1e-7};
-    for (int i = 0; i < 100000; i++)
+    for (int i = 0; i < 100000 / RANDOM_SHARE; i++)
         for (int s = 0; s < 4; s++)
             check_double(sums[s] += steps[s]);
     report("k 10^-j for j = 1 to 25 and their neighbours, sums of 0.1 steps", before);

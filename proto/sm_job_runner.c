@@ -1,10 +1,12 @@
 /* The job runner (see sm_job_runner.h). */
 #include "sm_job_runner.h"
 
+#include <dirent.h>
 #include <dlfcn.h>
 #include <errno.h>
 #include <math.h>
 #include <omp.h>
+#include <sched.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -112,11 +114,64 @@ static void tell_warnings(const run_ctx *c, int from)
         c->hooks->warning(&c->run->warnings.w[i], c->hooks->user);
 }
 
-int sm_job_threads_for(int64_t elements, int max_threads)
+int sm_job_threads_for(int64_t elements, int max_threads, int idle_cores)
 {
-    if (max_threads < 1 || elements < SM_JOB_THREADS_MIN_ELEMENTS)
+    if (max_threads < 1)
         return 1;
-    return max_threads;
+    if (elements >= SM_JOB_THREADS_MIN_ELEMENTS)
+        return max_threads;
+    if (elements >= SM_JOB_THREADS_IDLE_MIN_ELEMENTS && idle_cores >= 2)
+        return idle_cores < max_threads ? idle_cores : max_threads;
+    return 1;
+}
+
+/* Threads of this process in state R (running or runnable). */
+static int own_running_threads(void)
+{
+    DIR *d = opendir("/proc/self/task");
+    if (!d)
+        return -1;
+    int n = 0;
+    struct dirent *de;
+    while ((de = readdir(d)) != NULL) {
+        if (de->d_name[0] == '.')
+            continue;
+        char path[64], buf[256];
+        snprintf(path, sizeof path, "/proc/self/task/%.20s/stat", de->d_name);
+        FILE *f = fopen(path, "r");
+        if (!f)
+            continue; /* the thread ended meanwhile */
+        size_t len = fread(buf, 1, sizeof buf - 1, f);
+        fclose(f);
+        buf[len] = '\0';
+        /* "pid (comm) S ...": the state follows the last ')' */
+        const char *close = strrchr(buf, ')');
+        n += close && close[1] == ' ' && close[2] == 'R';
+    }
+    closedir(d);
+    return n;
+}
+
+int sm_job_idle_cores(void)
+{
+    cpu_set_t set;
+    if (sched_getaffinity(0, sizeof set, &set) != 0)
+        return -1;
+    int cores = CPU_COUNT(&set);
+    FILE *f = fopen("/proc/loadavg", "r");
+    if (!f)
+        return -1;
+    double l1, l5, l15;
+    int running = -1, total;
+    int ok = fscanf(f, "%lf %lf %lf %d/%d", &l1, &l5, &l15, &running, &total) == 5;
+    fclose(f);
+    int own = own_running_threads();
+    if (!ok || own < 0)
+        return -1;
+    int others = running - own; /* the reading thread counts itself */
+    if (others < 0)
+        others = 0;
+    return cores > others ? cores - others : 0;
 }
 
 /* OpenMP and BLAS threads to n.  The BLAS CHOLMOD calls is whichever
@@ -144,7 +199,7 @@ static sm_status run_match(sm_job_inputs *in, const sm_match_opts *opts,
         return in->match_status;
     }
     int limit = omp_get_max_threads();
-    set_threads(sm_job_threads_for(opts->template_mesh->nelems, limit));
+    set_threads(sm_job_threads_for(opts->template_mesh->nelems, limit, sm_job_idle_cores()));
     sm_status st;
     if (in->match) {
         st = sm_match_execute(in->match, opts->target, cb, run->coords, &run->result, err);

@@ -16,6 +16,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 #include <cmocka.h>
+#include <sched.h>
 #include <omp.h>
 
 #include "shapematch/sm_atomic.h"
@@ -395,11 +396,24 @@ static int note_threads(const sm_progress *p, void *user)
 static void test_thread_policy(void **state)
 {
     fixture *f = *state;
-    assert_int_equal(sm_job_threads_for(0, 4), 1);
-    assert_int_equal(sm_job_threads_for(SM_JOB_THREADS_MIN_ELEMENTS - 1, 4), 1);
-    assert_int_equal(sm_job_threads_for(SM_JOB_THREADS_MIN_ELEMENTS, 4), 4);
-    assert_int_equal(sm_job_threads_for(SM_JOB_THREADS_MIN_ELEMENTS, 1), 1);
-    assert_int_equal(sm_job_threads_for(10 * SM_JOB_THREADS_MIN_ELEMENTS, 0), 1);
+    assert_int_equal(sm_job_threads_for(0, 4, 4), 1);
+    assert_int_equal(sm_job_threads_for(SM_JOB_THREADS_IDLE_MIN_ELEMENTS - 1, 4, 4), 1);
+    /* between the two sizes: the idle cores, within the limit */
+    assert_int_equal(sm_job_threads_for(SM_JOB_THREADS_IDLE_MIN_ELEMENTS, 4, 4), 4);
+    assert_int_equal(sm_job_threads_for(SM_JOB_THREADS_IDLE_MIN_ELEMENTS, 4, 2), 2);
+    assert_int_equal(sm_job_threads_for(SM_JOB_THREADS_IDLE_MIN_ELEMENTS, 2, 8), 2);
+    assert_int_equal(sm_job_threads_for(SM_JOB_THREADS_MIN_ELEMENTS - 1, 4, 1), 1);
+    assert_int_equal(sm_job_threads_for(SM_JOB_THREADS_MIN_ELEMENTS - 1, 4, 0), 1);
+    assert_int_equal(sm_job_threads_for(SM_JOB_THREADS_MIN_ELEMENTS - 1, 4, -1), 1);
+    /* from the larger one on: the limit, busy or not */
+    assert_int_equal(sm_job_threads_for(SM_JOB_THREADS_MIN_ELEMENTS, 4, 0), 4);
+    assert_int_equal(sm_job_threads_for(SM_JOB_THREADS_MIN_ELEMENTS, 1, 4), 1);
+    assert_int_equal(sm_job_threads_for(10 * SM_JOB_THREADS_MIN_ELEMENTS, 0, 4), 1);
+    /* the idle cores: at most the cores this process may use */
+    int idle = sm_job_idle_cores();
+    cpu_set_t set;
+    assert_int_equal(sched_getaffinity(0, sizeof set, &set), 0);
+    assert_true(idle >= 0 && idle <= CPU_COUNT(&set));
     /* a small template runs on one thread, and the limit is back after */
     int saved = omp_get_max_threads();
     omp_set_num_threads(3);

@@ -173,6 +173,7 @@ function stopFollowing() {
   if (!current) return;
   current.es?.close();
   clearInterval(current.timer);
+  cancelAnimationFrame(current.frame);
   current.done = true;
 }
 
@@ -243,24 +244,36 @@ function follow(id) {
   const es = new EventSource(withToken(`v1/jobs/${id}/events`));
   job.es = es;
   es.addEventListener('started', () => setStatus('running'));
+  // The live shape: fetched as soon as there is one, then at most every
+  // LIVE_MS while the job runs.  The worker publishes at its first
+  // iteration: by the second progress event there is a shape (no 404
+  // result-not-ready to log).
+  const LIVE_MS = 500;
+  const fetchLive = async () => {
+    if (job.done || job.busy || data[0].length < 2 || Date.now() - (job.liveAt || 0) < LIVE_MS) return;
+    job.busy = true;
+    job.liveAt = Date.now();
+    try { const m = await getMesh(`v1/jobs/${id}/mesh/latest`); if (!job.done) draw(m, false); } finally { job.busy = false; }
+  };
+  // A fast job sends thousands of progress events a second: the plot is
+  // redrawn once per frame, not once per event, so the page keeps up.
+  const redraw = () => {
+    job.frame = 0;
+    plot.setData(data);
+    $('plot').dataset.points = String(data[0].length);
+    $('iteration').textContent = data[0][data[0].length - 1];
+  };
   es.addEventListener('progress', (e) => {
     const p = JSON.parse(e.data);
     data[0].push(p.iteration); data[1].push(p.J); data[2].push(p.boundary_l2);
-    plot.setData(data);
-    $('plot').dataset.points = String(data[0].length);
-    $('iteration').textContent = p.iteration;
+    if (!job.frame) job.frame = requestAnimationFrame(redraw);
     if ($('status').dataset.status !== 'running') setStatus('running');
+    fetchLive();
   });
   es.addEventListener('failed', (e) => setStatus('failed', JSON.parse(e.data).message || ''));
   es.addEventListener('status', () => { es.close(); clearInterval(job.timer); if (!job.done) finish(id); job.done = true; });
   es.onerror = () => { if (es.readyState === EventSource.CLOSED && !job.done) { job.done = true; finish(id); } };
-  job.timer = setInterval(async () => {
-    // the worker publishes at its first iteration: by the second progress
-    // event there is a shape (no 404 result-not-ready to log)
-    if (job.done || job.busy || data[0].length < 2) return;
-    job.busy = true;
-    try { const m = await getMesh(`v1/jobs/${id}/mesh/latest`); if (!job.done) draw(m, false); } finally { job.busy = false; }
-  }, 500);
+  job.timer = setInterval(fetchLive, LIVE_MS);
 }
 
 // ------------------------------------------------------------ job list

@@ -753,12 +753,15 @@ else
         bad=
         for f in $fams; do [[ $allowed_fams == *" $f "* ]] || bad="$bad $f"; done
         check "socket families used (${fams:-none}) are in RestrictAddressFamilies" test -z "$bad"
-        # ProcSubset=pid: only the processes' own /proc entries.  Exception:
-        # glibc reads /proc/sys/vm/overcommit_memory when it shrinks a
-        # thread's malloc arena (OpenMP threads allocate); where the unit
-        # hides it the read fails and glibc simply keeps the memory mapped.
+        # ProcSubset=pid: only the processes' own /proc entries.  Two
+        # exceptions, both reads that fail harmlessly where the unit hides
+        # them: glibc reads /proc/sys/vm/overcommit_memory when it shrinks
+        # a thread's malloc arena (OpenMP threads allocate) and keeps the
+        # memory mapped without it; the worker's thread policy reads
+        # /proc/loadavg for the idle cores (sm_job_idle_cores) and without
+        # it counts none idle (one thread below 100k elements).
         procs=$(grep -oE '"/proc/[^"]*"' "$W/trace" | tr -d '"' | grep -vE '^/proc/(self|thread-self|[0-9]+)(/|$)' |
-            grep -vx '/proc/sys/vm/overcommit_memory' | sort -u | tr '\n' ' ')
+            grep -vxE '/proc/sys/vm/overcommit_memory|/proc/loadavg' | sort -u | tr '\n' ' ')
         check "only /proc/self entries are read (ProcSubset=pid)${procs:+: not $procs}" test -z "$procs"
         # MemoryDenyWriteExecute=yes: no mapping both writable and executable
         wx=$(grep -E '(mmap|mprotect|pkey_mprotect)\(.*(PROT_WRITE\|PROT_EXEC|PROT_EXEC\|PROT_WRITE|PROT_READ\|PROT_WRITE\|PROT_EXEC)' \

@@ -38,10 +38,10 @@ int sm_solver_kind_from_name(const char *name, sm_solver_kind *out);
  * Measured (bench/scale.sh, match_bench, shapematch run; README "Large
  * templates"): the inexact AMG directions need fewer iterations than the
  * exact ones (the 30k-tetrahedron example reaches 2.9e-4 at iteration 13
- * instead of 17, and its default run stops after 155 iterations instead
- * of 281, at a lower error), so AMG is ahead from ~8k tetrahedra (equal
- * at 8.5k) and uses less memory (134 against 192 MiB at 30k); below, the
- * MPI and hierarchy set-up (~0.07 s) weighs more than the whole run. */
+ * instead of 17, and its default run stops after 213 iterations instead
+ * of 272, at a lower error), so AMG is ahead from ~8k tetrahedra (equal
+ * at 8.5k) and uses less memory (82 against 134 MiB at 30k); below, the
+ * MPI and hierarchy set-up weighs more than the whole run. */
 sm_solver_kind sm_solver_resolve(sm_solver_kind kind, int dim, int64_t nelems);
 #define SM_SOLVER_AMG_MIN_TETS 20000
 

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Slow clients cannot starve the daemon (issue 8): 400 sockets from four
 # loopback addresses (100 each, under --max-connections-per-ip) trickle
-# one header byte per second for 20 s and fill --max-connections; /healthz
+# one header byte per second for 6 s (twice --header-timeout) and fill
+# --max-connections; /healthz
 # and a job's status (from 127.0.0.1, a fresh connection each) keep
 # answering within 2 s, every trickling socket is closed by
 # --header-timeout, and the reserve keeps room; then uploads trickling
@@ -41,9 +42,9 @@ verdict() {
         not_ok "$2" "$(cat "$j")"
     fi
 }
-attack headers 10 127.0.0.2,127.0.0.3,127.0.0.4,127.0.0.5 100
+attack headers 6 127.0.0.2,127.0.0.3,127.0.0.4,127.0.0.5 100
 verdict headers "slow-loris, 400 sockets from 4 addresses sending a header byte per second"
-attack body 8 127.0.0.6,127.0.0.7 20
+attack body 5 127.0.0.6,127.0.0.7 20
 verdict body "40 uploads sending their body at 1 byte/s"
 
 curl -sS --max-time 10 "$BASE/metrics" >"$WORK/metrics.txt"

@@ -44,7 +44,8 @@ ASAN_LDFLAGS := -fopenmp -fsanitize=address,undefined
 CORE_LIBS := -fopenmp -lcholmod $(HYPRE_LIBS) -ldeflate -lz -lm
 PROTO_LIBS := -ljansson
 HTTP_LIBS := -lmicrohttpd -lgnutls
-CURL_LIBS := -lcurl
+# libcurl is opened at run time (client/curl_api.h), not linked
+CURL_LIBS := -ldl
 
 VARIANTS := release asan
 release_DIR := build/release

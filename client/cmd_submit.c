@@ -16,6 +16,7 @@
 #include <zlib.h>
 
 #include "cli.h"
+#include "curl_api.h"
 #include "remote.h"
 #include "sm_proto_events.h"
 #include "sm_proto_params.h"
@@ -153,19 +154,19 @@ static int upload_open(upload *u, const char *part, const char *path, int allow_
 
 static int add_file_part(curl_mime *mime, upload *u)
 {
-    curl_mimepart *part = curl_mime_addpart(mime);
+    curl_mimepart *part = curl_api.mime_addpart(mime);
     if (!part)
         return -1;
     const char *slash = strrchr(u->path, '/');
     const char *base = slash ? slash + 1 : u->path;
     char name[256];
     snprintf(name, sizeof name, "%s%s", base, u->compress ? ".gz" : "");
-    if (curl_mime_name(part, u->part) != CURLE_OK || curl_mime_filename(part, name) != CURLE_OK ||
-        curl_mime_type(part, u->compress ? "application/gzip" : "application/octet-stream") !=
+    if (curl_api.mime_name(part, u->part) != CURLE_OK || curl_api.mime_filename(part, name) != CURLE_OK ||
+        curl_api.mime_type(part, u->compress ? "application/gzip" : "application/octet-stream") !=
             CURLE_OK)
         return -1;
     /* compressed: size unknown beforehand (chunked request body) */
-    return curl_mime_data_cb(part, u->compress ? -1 : u->size, upload_read, upload_seek, NULL,
+    return curl_api.mime_data_cb(part, u->compress ? -1 : u->size, upload_read, upload_seek, NULL,
                              u) == CURLE_OK
                ? 0
                : -1;
@@ -358,7 +359,7 @@ static void submission_release_files(submission *s)
     for (int i = 0; i < SM_PART_PARAMS; i++)
         upload_close(&s->up[i]);
     if (s->mime)
-        curl_mime_free(s->mime);
+        curl_api.mime_free(s->mime);
     s->mime = NULL;
     free(s->params);
     s->params = NULL;
@@ -384,15 +385,15 @@ static int submission_open_files(submission *s, const submit_args *a)
 /* The multipart body: the file parts (streamed) and params. */
 static int submission_build_form(submission *s, http_client *c)
 {
-    s->mime = curl_mime_init(c->curl);
+    s->mime = curl_api.mime_init(c->curl);
     int bad = !s->mime;
     for (int i = 0; i < SM_PART_PARAMS && !bad; i++)
         bad = s->up[i].part && add_file_part(s->mime, &s->up[i]) != 0;
     if (!bad) {
-        curl_mimepart *pp = curl_mime_addpart(s->mime);
-        bad = !pp || curl_mime_name(pp, sm_part_name(SM_PART_PARAMS)) != CURLE_OK ||
-              curl_mime_data(pp, s->params, CURL_ZERO_TERMINATED) != CURLE_OK ||
-              curl_mime_type(pp, "application/json") != CURLE_OK;
+        curl_mimepart *pp = curl_api.mime_addpart(s->mime);
+        bad = !pp || curl_api.mime_name(pp, sm_part_name(SM_PART_PARAMS)) != CURLE_OK ||
+              curl_api.mime_data(pp, s->params, CURL_ZERO_TERMINATED) != CURLE_OK ||
+              curl_api.mime_type(pp, "application/json") != CURLE_OK;
     }
     if (bad) {
         fprintf(stderr, "shapematch submit: error: out of memory\n");

@@ -1,5 +1,6 @@
 /* The client's HTTP layer over libcurl (see http.h). */
 #include "http.h"
+#include "curl_api.h"
 #include "msg.h"
 
 #include <stdio.h>
@@ -16,15 +17,17 @@
 
 int http_global_init(char *msg, size_t cap)
 {
-    CURLcode rc = curl_global_init(CURL_GLOBAL_DEFAULT);
+    if (curl_api_load(msg, cap) != 0)
+        return -1;
+    CURLcode rc = curl_api.global_init(CURL_GLOBAL_DEFAULT);
     if (rc != CURLE_OK)
-        return cli_fail(msg, cap, "cannot initialise libcurl: %s", curl_easy_strerror(rc));
+        return cli_fail(msg, cap, "cannot initialise libcurl: %s", curl_api.easy_strerror(rc));
     return 0;
 }
 
 void http_global_cleanup(void)
 {
-    curl_global_cleanup();
+    curl_api.global_cleanup();
 }
 
 /* ------------------------------------------------------------ client */
@@ -57,31 +60,31 @@ int http_client_init(http_client *c, const char *server, const char *token,
         snprintf(with_scheme, n, "http://%s", server);
     }
     const char *text = with_scheme ? with_scheme : server;
-    CURLU *u = curl_url();
+    CURLU *u = curl_api.url();
     char *scheme = NULL, *query = NULL, *fragment = NULL, *full = NULL;
     int rc = -1;
     if (!u) {
         cli_fail(msg, cap, "out of memory");
         goto done;
     }
-    CURLUcode uc = curl_url_set(u, CURLUPART_URL, text, 0);
+    CURLUcode uc = curl_api.url_set(u, CURLUPART_URL, text, 0);
     if (uc != CURLUE_OK) {
         cli_fail(msg, cap, "--server: '%.200s' is not a URL (%s); expected e.g. http://127.0.0.1:8080",
-             server, curl_url_strerror(uc));
+             server, curl_api.url_strerror(uc));
         goto done;
     }
-    if (curl_url_get(u, CURLUPART_SCHEME, &scheme, 0) != CURLUE_OK ||
+    if (curl_api.url_get(u, CURLUPART_SCHEME, &scheme, 0) != CURLUE_OK ||
         (strcmp(scheme, "http") != 0 && strcmp(scheme, "https") != 0)) {
         cli_fail(msg, cap, "--server: '%.200s': only http:// and https:// URLs are supported", server);
         goto done;
     }
-    if (curl_url_get(u, CURLUPART_QUERY, &query, 0) == CURLUE_OK ||
-        curl_url_get(u, CURLUPART_FRAGMENT, &fragment, 0) == CURLUE_OK) {
+    if (curl_api.url_get(u, CURLUPART_QUERY, &query, 0) == CURLUE_OK ||
+        curl_api.url_get(u, CURLUPART_FRAGMENT, &fragment, 0) == CURLUE_OK) {
         cli_fail(msg, cap, "--server: '%.200s': give the daemon's base URL, without ?query or #fragment",
              server);
         goto done;
     }
-    if (curl_url_get(u, CURLUPART_URL, &full, 0) != CURLUE_OK) {
+    if (curl_api.url_get(u, CURLUPART_URL, &full, 0) != CURLUE_OK) {
         cli_fail(msg, cap, "--server: '%.200s' is not a usable URL", server);
         goto done;
     }
@@ -107,18 +110,18 @@ int http_client_init(http_client *c, const char *server, const char *token,
         }
         snprintf(c->auth_header, hn, "Authorization: Bearer %s", token);
     }
-    c->curl = curl_easy_init();
+    c->curl = curl_api.easy_init();
     if (!c->curl) {
         cli_fail(msg, cap, "cannot initialise libcurl");
         goto done;
     }
     rc = 0;
 done:
-    curl_free(scheme);
-    curl_free(query);
-    curl_free(fragment);
-    curl_free(full);
-    curl_url_cleanup(u);
+    curl_api.free(scheme);
+    curl_api.free(query);
+    curl_api.free(fragment);
+    curl_api.free(full);
+    curl_api.url_cleanup(u);
     free(with_scheme);
     if (rc != 0)
         http_client_free(c);
@@ -128,7 +131,7 @@ done:
 void http_client_free(http_client *c)
 {
     if (c->curl)
-        curl_easy_cleanup(c->curl);
+        curl_api.easy_cleanup(c->curl);
     if (c->auth_header) {
         /* the token should not linger in freed memory */
         memset(c->auth_header, 0, strlen(c->auth_header));
@@ -176,7 +179,7 @@ static size_t on_write(char *ptr, size_t size, size_t nmemb, void *userdata)
     size_t n = size * nmemb;
     http_response *rs = t->rs;
     if (rs->status == 0)
-        curl_easy_getinfo(t->curl, CURLINFO_RESPONSE_CODE, &rs->status);
+        curl_api.easy_getinfo(t->curl, CURLINFO_RESPONSE_CODE, &rs->status);
     int success = rs->status >= 200 && rs->status < 300;
     if (success && t->rq->sink) {
         rs->received += n;
@@ -230,7 +233,7 @@ static http_outcome classify(CURLcode rc, CURL *curl)
         return HTTP_CONNECT_FAILED;
     case CURLE_OPERATION_TIMEDOUT: {
         curl_off_t connected = 0;
-        curl_easy_getinfo(curl, CURLINFO_CONNECT_TIME_T, &connected);
+        curl_api.easy_getinfo(curl, CURLINFO_CONNECT_TIME_T, &connected);
         return connected > 0 ? HTTP_DROPPED : HTTP_CONNECT_FAILED;
     }
     case CURLE_SEND_ERROR:
@@ -265,62 +268,62 @@ http_outcome http_perform(http_client *c, const http_request *rq, http_response 
     }
     /* a reset keeps the connection cache: consecutive requests reuse the
      * connection */
-    curl_easy_reset(curl);
+    curl_api.easy_reset(curl);
     transfer t = {.rq = rq, .rs = rs, .curl = curl};
     if (rq->accept) {
         snprintf(accept, sizeof accept, "Accept: %s", rq->accept);
-        if (!(h = curl_slist_append(headers, accept)))
+        if (!(h = curl_api.slist_append(headers, accept)))
             goto oom;
         headers = h;
     }
     if (c->auth_header) {
-        if (!(h = curl_slist_append(headers, c->auth_header)))
+        if (!(h = curl_api.slist_append(headers, c->auth_header)))
             goto oom;
         headers = h;
     }
     for (size_t i = 0; i < sizeof rq->headers / sizeof rq->headers[0] && rq->headers[i]; i++) {
-        if (!(h = curl_slist_append(headers, rq->headers[i])))
+        if (!(h = curl_api.slist_append(headers, rq->headers[i])))
             goto oom;
         headers = h;
     }
-    curl_easy_setopt(curl, CURLOPT_URL, url);
+    curl_api.easy_setopt(curl, CURLOPT_URL, url);
     if (c->cacert)
-        curl_easy_setopt(curl, CURLOPT_CAINFO, c->cacert);
-    curl_easy_setopt(curl, CURLOPT_PROTOCOLS_STR, "http,https");
-    curl_easy_setopt(curl, CURLOPT_FOLLOWLOCATION, 0L);
-    curl_easy_setopt(curl, CURLOPT_USERAGENT, "shapematch/" SM_VERSION);
-    curl_easy_setopt(curl, CURLOPT_ERRORBUFFER, errbuf);
-    curl_easy_setopt(curl, CURLOPT_CONNECTTIMEOUT_MS,
+        curl_api.easy_setopt(curl, CURLOPT_CAINFO, c->cacert);
+    curl_api.easy_setopt(curl, CURLOPT_PROTOCOLS_STR, "http,https");
+    curl_api.easy_setopt(curl, CURLOPT_FOLLOWLOCATION, 0L);
+    curl_api.easy_setopt(curl, CURLOPT_USERAGENT, "shapematch/" SM_VERSION);
+    curl_api.easy_setopt(curl, CURLOPT_ERRORBUFFER, errbuf);
+    curl_api.easy_setopt(curl, CURLOPT_CONNECTTIMEOUT_MS,
                      rq->connect_timeout_ms > 0 ? rq->connect_timeout_ms : c->connect_timeout_ms);
-    curl_easy_setopt(curl, CURLOPT_WRITEFUNCTION, on_write);
-    curl_easy_setopt(curl, CURLOPT_WRITEDATA, &t);
+    curl_api.easy_setopt(curl, CURLOPT_WRITEFUNCTION, on_write);
+    curl_api.easy_setopt(curl, CURLOPT_WRITEDATA, &t);
     if (headers)
-        curl_easy_setopt(curl, CURLOPT_HTTPHEADER, headers);
+        curl_api.easy_setopt(curl, CURLOPT_HTTPHEADER, headers);
     if (rq->mime)
-        curl_easy_setopt(curl, CURLOPT_MIMEPOST, rq->mime);
+        curl_api.easy_setopt(curl, CURLOPT_MIMEPOST, rq->mime);
     else if (rq->method && strcmp(rq->method, "GET") != 0)
-        curl_easy_setopt(curl, CURLOPT_CUSTOMREQUEST, rq->method);
+        curl_api.easy_setopt(curl, CURLOPT_CUSTOMREQUEST, rq->method);
     if (rq->gzip)
-        curl_easy_setopt(curl, CURLOPT_ACCEPT_ENCODING, ""); /* all curl decodes */
+        curl_api.easy_setopt(curl, CURLOPT_ACCEPT_ENCODING, ""); /* all curl decodes */
     if (rq->stream) {
         /* a stream may be quiet for long (the daemon's keepalive is a
          * comment every ~15 s): no time limit, but TCP keepalive so that
          * a vanished peer is noticed */
-        curl_easy_setopt(curl, CURLOPT_TCP_KEEPALIVE, 1L);
-        curl_easy_setopt(curl, CURLOPT_TCP_KEEPIDLE, 30L);
-        curl_easy_setopt(curl, CURLOPT_TCP_KEEPINTVL, 10L);
+        curl_api.easy_setopt(curl, CURLOPT_TCP_KEEPALIVE, 1L);
+        curl_api.easy_setopt(curl, CURLOPT_TCP_KEEPIDLE, 30L);
+        curl_api.easy_setopt(curl, CURLOPT_TCP_KEEPINTVL, 10L);
     } else {
-        curl_easy_setopt(curl, CURLOPT_LOW_SPEED_LIMIT, 1L);
-        curl_easy_setopt(curl, CURLOPT_LOW_SPEED_TIME, HTTP_STALL_SECONDS);
+        curl_api.easy_setopt(curl, CURLOPT_LOW_SPEED_LIMIT, 1L);
+        curl_api.easy_setopt(curl, CURLOPT_LOW_SPEED_TIME, HTTP_STALL_SECONDS);
     }
 
-    CURLcode rc = curl_easy_perform(curl);
+    CURLcode rc = curl_api.easy_perform(curl);
     long status = 0;
-    curl_easy_getinfo(curl, CURLINFO_RESPONSE_CODE, &status);
+    curl_api.easy_getinfo(curl, CURLINFO_RESPONSE_CODE, &status);
     if (rs->status == 0)
         rs->status = status;
     char *ctype = NULL;
-    if (curl_easy_getinfo(curl, CURLINFO_CONTENT_TYPE, &ctype) == CURLE_OK && ctype)
+    if (curl_api.easy_getinfo(curl, CURLINFO_CONTENT_TYPE, &ctype) == CURLE_OK && ctype)
         snprintf(rs->content_type, sizeof rs->content_type, "%s", ctype);
     out = classify(rc, curl);
     if (rc == CURLE_WRITE_ERROR) {
@@ -338,7 +341,7 @@ http_outcome http_perform(http_client *c, const http_request *rq, http_response 
             snprintf(rs->error, sizeof rs->error, "out of memory");
         }
     } else if (out != HTTP_DONE) {
-        snprintf(rs->error, sizeof rs->error, "%s", errbuf[0] ? errbuf : curl_easy_strerror(rc));
+        snprintf(rs->error, sizeof rs->error, "%s", errbuf[0] ? errbuf : curl_api.easy_strerror(rc));
         /* curl's messages end with a newline at times */
         size_t n = strlen(rs->error);
         while (n > 0 && (rs->error[n - 1] == '\n' || rs->error[n - 1] == '\r'))
@@ -353,10 +356,10 @@ oom:
     out = HTTP_LOCAL_ERROR;
 done:
     /* the handle must not keep pointers to what is freed here */
-    curl_easy_setopt(curl, CURLOPT_HTTPHEADER, NULL);
-    curl_easy_setopt(curl, CURLOPT_MIMEPOST, NULL);
-    curl_easy_setopt(curl, CURLOPT_ERRORBUFFER, NULL);
-    curl_slist_free_all(headers);
+    curl_api.easy_setopt(curl, CURLOPT_HTTPHEADER, NULL);
+    curl_api.easy_setopt(curl, CURLOPT_MIMEPOST, NULL);
+    curl_api.easy_setopt(curl, CURLOPT_ERRORBUFFER, NULL);
+    curl_api.slist_free_all(headers);
     free(url);
     return out;
 }

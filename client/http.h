@@ -35,7 +35,8 @@ typedef struct http_client {
     const char *cacert;    /* PEM CA file for https (borrowed), NULL: the system's */
 } http_client;
 
-/* curl_global_init / curl_global_cleanup, once per process. */
+/* Loads libcurl (curl_api.h) and calls curl_global_init; and
+ * curl_global_cleanup.  Once per process. */
 int http_global_init(char *msg, size_t cap);
 void http_global_cleanup(void);
 

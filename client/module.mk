@@ -1,5 +1,6 @@
 # shapematch: the command-line client (local runs with `run`; submit, watch,
-# fetch, status, list, cancel talk to shapematchd over HTTP with libcurl).
+# fetch, status, list, cancel talk to shapematchd over HTTP with libcurl,
+# which client/curl_api.c opens when one of them first needs it).
 # Links libsmproto.a (params/events codecs) before libshapematch.a.
 CLIENT_SRCS := $(wildcard client/*.c)
 CLIENT_LIBS := $(PROTO_LIBS) $(CURL_LIBS) $(CORE_LIBS)

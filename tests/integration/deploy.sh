@@ -492,8 +492,14 @@ else
     [ -z "$unknown" ] || echo "#   unknown: $unknown"
     # the libraries (resolved) and their packages, in one dpkg call: dpkg
     # knows the path a package shipped, /lib/... or /usr/lib/...
-    for prog in shapematchd shapematch-worker shapematch; do
-        ldd "$ROOT/build/release/$prog" 2>/dev/null | awk '/=> \// { print $3 }'
+    # what ldd lists, and what the client opens with dlopen when it first
+    # talks to a daemon (client/curl_api.c: CURL_SONAME) with its own needs
+    dlopened=$(sed -n 's/^#define CURL_SONAME "\(.*\)"$/\1/p' "$ROOT/client/curl_api.c")
+    dlopened=$(ldconfig -p | awk -v n="$dlopened" '$1 == n { print $NF; exit }')
+    for bin in "$ROOT/build/release/shapematchd" "$ROOT/build/release/shapematch-worker" \
+        "$ROOT/build/release/shapematch" $dlopened; do
+        [ "$bin" = "$dlopened" ] && echo "$bin"
+        ldd "$bin" 2>/dev/null | awk '/=> \// { print $3 }'
     done | sort -u | while read -r lib; do
         real=$(readlink -f "$lib")
         printf '%s %s %s\n' "$lib" "$real" "${real#/usr}"
@@ -503,7 +509,7 @@ else
     closure $(cat "$W/runtime-packages") libc6 | sort -u >"$W/closure"
     missing=$(uncovered "$W/closure")
     if [ "$nlibs" -gt 0 ] && [ -z "$missing" ]; then
-        ok "the runtime packages provide every shared library the three programs load ($nlibs, ldd)"
+        ok "the runtime packages provide every shared library the three programs load ($nlibs, ldd; libcurl through dlopen${dlopened:+: $dlopened})"
     else
         not_ok "the runtime packages provide every shared library the programs load" "not covered:$missing (libs: $nlibs)"
     fi

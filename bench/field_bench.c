@@ -26,6 +26,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "bench_util.h"
 #include "shapematch/sm_clock.h"
 #include "shapematch/sm_field.h"
 #include "shapematch/sm_io.h"
@@ -42,17 +43,6 @@ static double urand(uint64_t *s)
     *s ^= *s >> 7;
     *s ^= *s << 17;
     return (double)(*s >> 11) * (1.0 / 9007199254740992.0);
-}
-
-static const char *first_existing(const char *dir, const char *base, char *buf, size_t n)
-{
-    static const char *suffix[] = {"", ".gz", "b", "b.gz"};
-    for (int i = 0; i < 4; i++) {
-        snprintf(buf, n, "%s/%s%s", dir, base, suffix[i]);
-        if (access(buf, R_OK) == 0)
-            return buf;
-    }
-    return NULL;
 }
 
 /* Mean edge length over the elements (each edge counted once per element). */
@@ -105,8 +95,8 @@ int main(int argc, char **argv)
     const char *mesh_path, *sol_path;
     int arg = 1;
     if (argc >= 2 && access(argv[1], R_OK) == 0 &&
-        first_existing(argv[1], "background.mesh", mpath, sizeof mpath) &&
-        first_existing(argv[1], "background.sol", spath, sizeof spath)) {
+        bench_first_existing(argv[1], "background.mesh", mpath, sizeof mpath) &&
+        bench_first_existing(argv[1], "background.sol", spath, sizeof spath)) {
         mesh_path = mpath;
         sol_path = spath;
         arg = 2;

@@ -16,6 +16,7 @@
 #include <sys/stat.h>
 #include <time.h>
 
+#include "bench_util.h"
 #include "shapematch/sm_clock.h"
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_mesh.h"
@@ -64,15 +65,6 @@ static int same_mesh(const sm_mesh *a, const sm_mesh *b)
            memcmp(a->elem_refs, b->elem_refs, sizeof(int32_t) * (size_t)a->nelems) == 0;
 }
 
-/* CPU seconds of the process: on a shared machine the wall time of a
- * read says more about the other processes than about the reader. */
-static double cpu_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 /* Best of 3 reads of path (wall, and CPU in *cpu); -1 on a read error or
  * a different mesh. */
 static double time_read(const char *path, const sm_mesh *ref, double *cpu)
@@ -82,9 +74,9 @@ static double time_read(const char *path, const sm_mesh *ref, double *cpu)
     for (int rep = 0; rep < 3; rep++) {
         sm_error err;
         sm_mesh *m = NULL;
-        double t0 = sm_clock_seconds(), c0 = cpu_seconds();
+        double t0 = sm_clock_seconds(), c0 = bench_cpu_seconds();
         sm_status st = sm_mesh_read(path, &m, &err);
-        double t = sm_clock_seconds() - t0, c = cpu_seconds() - c0;
+        double t = sm_clock_seconds() - t0, c = bench_cpu_seconds() - c0;
         if (st != SM_OK) {
             fprintf(stderr, "%s\n", err.msg);
             return -1;

@@ -15,6 +15,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "bench_util.h"
 #include "shapematch/sm_clock.h"
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_field.h"
@@ -28,22 +29,13 @@ typedef struct watch {
     double cpu_setup;   /* process CPU seconds until the first progress call */
 } watch;
 
-/* Process CPU seconds (all threads): on a shared machine the wall times
- * above include waiting for a core, this does not. */
-static double cpu_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 static int on_progress(const sm_progress *p, const double *coords, void *user)
 {
     (void)coords;
     watch *w = user;
     double t = sm_clock_seconds() - w->t_start;
     if (p->iteration == 0)
-        w->cpu_setup = cpu_seconds();
+        w->cpu_setup = bench_cpu_seconds();
     if (p->boundary_l2 < w->best)
         w->best = p->boundary_l2;
     if (w->t_3e4 < 0 && p->boundary_l2 <= 3e-4) {
@@ -59,32 +51,6 @@ static int on_progress(const sm_progress *p, const double *coords, void *user)
         w->it_15e5 = p->iteration;
     }
     return 0;
-}
-
-/* The process's peak resident set so far (VmHWM), MiB; -1 if unknown.
- * Read after each phase, it says which phase set the peak. */
-static double peak_rss_mib(void)
-{
-    FILE *f = fopen("/proc/self/status", "r");
-    char line[256];
-    double kb = -1;
-    while (f && fgets(line, sizeof line, f))
-        if (sscanf(line, "VmHWM: %lf", &kb) == 1)
-            break;
-    if (f)
-        fclose(f);
-    return kb < 0 ? -1 : kb / 1024.0;
-}
-
-static const char *first_existing(const char *dir, const char *base, char *buf, size_t n)
-{
-    static const char *suffix[] = {"", ".gz", "b", "b.gz"};
-    for (int i = 0; i < 4; i++) {
-        snprintf(buf, n, "%s/%s%s", dir, base, suffix[i]);
-        if (access(buf, R_OK) == 0)
-            return buf;
-    }
-    return NULL;
 }
 
 int main(int argc, char **argv)
@@ -111,9 +77,9 @@ int main(int argc, char **argv)
     }
 
     char tpath[4096], bpath[4096], spath[4096];
-    if (!first_existing(argv[1], "template.mesh", tpath, sizeof tpath) ||
-        !first_existing(argv[1], "background.mesh", bpath, sizeof bpath) ||
-        !first_existing(argv[1], "background.sol", spath, sizeof spath)) {
+    if (!bench_first_existing(argv[1], "template.mesh", tpath, sizeof tpath) ||
+        !bench_first_existing(argv[1], "background.mesh", bpath, sizeof bpath) ||
+        !bench_first_existing(argv[1], "background.sol", spath, sizeof spath)) {
         fprintf(stderr, "%s: missing template/background files\n", argv[1]);
         return 1;
     }
@@ -127,7 +93,7 @@ int main(int argc, char **argv)
         return 1;
     }
     double t_read = sm_clock_seconds() - w.t_start;
-    double rss_read = peak_rss_mib();
+    double rss_read = bench_peak_rss_mib();
     double *out = malloc(sizeof(double) * (size_t)tm->nverts * (size_t)tm->dim);
     sm_result r;
     /* the field is built before the run (once per process, as the job
@@ -138,7 +104,7 @@ int main(int argc, char **argv)
         return 1;
     }
     double t_field = sm_clock_seconds() - w.t_start - t_read;
-    double rss_field = peak_rss_mib();
+    double rss_field = bench_peak_rss_mib();
     sm_match_opts opts = {.template_mesh = tm, .target = field, .params = &p};
     sm_match_callbacks cb = {.progress = on_progress, .user = &w};
     if (sm_match_run(&opts, &cb, out, &r, &err)) {

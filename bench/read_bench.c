@@ -22,62 +22,20 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "bench_util.h"
 #include "shapematch/sm_clock.h"
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_mesh.h"
 
-static double cpu_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-/* The process's peak resident set so far (VmHWM), MiB; -1 if unknown. */
-static double peak_rss_mib(void)
-{
-    FILE *f = fopen("/proc/self/status", "r");
-    char line[256];
-    double kb = -1;
-    while (f && fgets(line, sizeof line, f))
-        if (sscanf(line, "VmHWM: %lf", &kb) == 1)
-            break;
-    if (f)
-        fclose(f);
-    return kb < 0 ? -1 : kb / 1024.0;
-}
-
-/* FNV-1a over n bytes, continuing from h. */
-static uint64_t fnv(uint64_t h, const void *p, size_t n)
-{
-    const unsigned char *b = p;
-    for (size_t i = 0; i < n; i++)
-        h = (h ^ b[i]) * 0x100000001b3u;
-    return h;
-}
-
 static uint64_t mesh_hash(uint64_t h, const sm_mesh *m)
 {
     size_t nv = (size_t)m->nverts, ne = (size_t)m->nelems, nf = (size_t)m->nfacets;
-    h = fnv(h, m->coords, nv * (size_t)m->dim * sizeof(double));
-    h = fnv(h, m->vert_refs, nv * sizeof(int32_t));
-    h = fnv(h, m->elems, ne * (size_t)(m->dim + 1) * sizeof(int32_t));
-    h = fnv(h, m->elem_refs, ne * sizeof(int32_t));
-    h = fnv(h, m->facets, nf * (size_t)m->dim * sizeof(int32_t));
-    return fnv(h, m->facet_refs, nf * sizeof(int32_t));
-}
-
-/* The first of base, base.gz, baseb, baseb.gz in dir (match_bench's
- * order). */
-static const char *first_existing(const char *dir, const char *base, char *buf, size_t n)
-{
-    static const char *suffix[] = {"", ".gz", "b", "b.gz"};
-    for (int i = 0; i < 4; i++) {
-        snprintf(buf, n, "%s/%s%s", dir, base, suffix[i]);
-        if (access(buf, R_OK) == 0)
-            return buf;
-    }
-    return NULL;
+    h = bench_fnv(h, m->coords, nv * (size_t)m->dim * sizeof(double));
+    h = bench_fnv(h, m->vert_refs, nv * sizeof(int32_t));
+    h = bench_fnv(h, m->elems, ne * (size_t)(m->dim + 1) * sizeof(int32_t));
+    h = bench_fnv(h, m->elem_refs, ne * sizeof(int32_t));
+    h = bench_fnv(h, m->facets, nf * (size_t)m->dim * sizeof(int32_t));
+    return bench_fnv(h, m->facet_refs, nf * sizeof(int32_t));
 }
 
 /* What one reading of the three files measured. */
@@ -92,15 +50,15 @@ typedef struct reading {
 static void read_once(char path[3][4096], reading *out)
 {
     memset(out, 0, sizeof *out);
-    uint64_t h = 0xcbf29ce484222325u;
+    uint64_t h = BENCH_FNV_START;
     for (int f = 0; f < 3; f++) {
         sm_error err;
         sm_mesh *m = NULL;
         sm_sol *s = NULL;
-        double t0 = sm_clock_seconds(), c0 = cpu_seconds();
+        double t0 = sm_clock_seconds(), c0 = bench_cpu_seconds();
         sm_status st = f < 2 ? sm_mesh_read(path[f], &m, &err) : sm_sol_read(path[f], &s, &err);
         out->wall[f] = sm_clock_seconds() - t0;
-        out->cpu[f] = cpu_seconds() - c0;
+        out->cpu[f] = bench_cpu_seconds() - c0;
         if (st != SM_OK) {
             fprintf(stderr, "%s\n", err.msg);
             return;
@@ -108,13 +66,13 @@ static void read_once(char path[3][4096], reading *out)
         if (m)
             h = mesh_hash(h, m);
         else
-            h = fnv(h, s->values, (size_t)s->nverts * (size_t)s->ncomp * sizeof(double));
+            h = bench_fnv(h, s->values, (size_t)s->nverts * (size_t)s->ncomp * sizeof(double));
         sm_mesh_free(m);
         sm_sol_free(s);
         out->wall[3] += out->wall[f];
         out->cpu[3] += out->cpu[f];
     }
-    out->rss = peak_rss_mib();
+    out->rss = bench_peak_rss_mib();
     out->hash = h;
     out->ok = 1;
 }
@@ -158,7 +116,7 @@ int main(int argc, char **argv)
     char path[3][4096];
     static const char *const base[3] = {"template.mesh", "background.mesh", "background.sol"};
     for (int f = 0; f < 3; f++)
-        if (!first_existing(argv[1], base[f], path[f], sizeof path[f])) {
+        if (!bench_first_existing(argv[1], base[f], path[f], sizeof path[f])) {
             fprintf(stderr, "%s: no %s\n", argv[1], base[f]);
             return 1;
         }

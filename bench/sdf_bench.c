@@ -12,6 +12,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "bench_util.h"
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_sdf.h"
 #include "shapematch/sm_surface.h"
@@ -42,15 +43,6 @@ static double *points(const char *spec, int dim, long *n)
     *n = m->nverts;
     sm_mesh_free(m);
     return p;
-}
-
-/* CPU seconds of the process (all threads): on a loaded machine the
- * wall time says little, CPU time / threads is the idle-machine time. */
-static double cpu_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
 static double brute(const sm_surface *s, const double *p)
@@ -98,10 +90,10 @@ int main(int argc, char **argv)
     sm_sdf_distance(d, n, p, dist, NULL);
     double t_dist = omp_get_wtime() - t0;
     t0 = omp_get_wtime();
-    double c0 = cpu_seconds();
+    double c0 = bench_cpu_seconds();
     int64_t wound = 0;
     sm_status st = sm_sdf_signed_stats(d, n, p, sd, &wound, &err);
-    double t_signed = omp_get_wtime() - t0, c_signed = cpu_seconds() - c0;
+    double t_signed = omp_get_wtime() - t0, c_signed = bench_cpu_seconds() - c0;
     if (st != SM_OK)
         fprintf(stderr, "sdf_bench: %s\n", err.msg);
     /* the signs against the winding number at every sampled point */
@@ -120,10 +112,10 @@ int main(int argc, char **argv)
         nsample = n;
     long stride = nsample ? n / nsample : 1;
     double worst = 0;
-    c0 = cpu_seconds();
+    c0 = bench_cpu_seconds();
     for (long k = 0; k < nsample; k++)
         worst = fmax(worst, fabs(brute(s, p + (size_t)(k * stride) * s->dim) - dist[k * stride]));
-    double t_brute = (cpu_seconds() - c0) * (double)n / (double)(nsample ? nsample : 1);
+    double t_brute = (bench_cpu_seconds() - c0) * (double)n / (double)(nsample ? nsample : 1);
     printf("%s: %d %s, %ld points, %d threads\n", argv[1], s->nfacets,
            s->dim == 3 ? "triangles" : "segments", n, omp_get_max_threads());
     printf("  read+repair %.3f s, hierarchy %.3f s, distance %.3f s, signed (distance + "

@@ -23,17 +23,11 @@
 #include <string.h>
 #include <time.h>
 
+#include "bench_util.h"
 #include "shapematch/sm_clock.h"
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_mesh.h"
 #include "sm_number.h"
-
-static double cpu_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 /* FNV-1a of a whole file and its size; 0 if it cannot be read. */
 static uint64_t file_hash(const char *path, long *size)
@@ -41,13 +35,12 @@ static uint64_t file_hash(const char *path, long *size)
     FILE *f = fopen(path, "rb");
     if (!f)
         return 0;
-    uint64_t h = 0xcbf29ce484222325u;
+    uint64_t h = BENCH_FNV_START;
     unsigned char buf[1 << 16];
     size_t n;
     *size = 0;
     while ((n = fread(buf, 1, sizeof buf, f)) > 0) {
-        for (size_t i = 0; i < n; i++)
-            h = (h ^ buf[i]) * 0x100000001b3u;
+        h = bench_fnv(h, buf, n);
         *size += (long)n;
     }
     fclose(f);
@@ -110,76 +103,32 @@ static sm_status write_file(int f, const char *path, const result *r, sm_error *
     return sm_sol_write(path, r->sol, err);
 }
 
-/* ns per number of snprintf formatting the n values of x (as "%.17g")
- * or of k (as "%ld") into a buffer, best of reps passes. */
-static double ns_snprintf_doubles(const double *x, size_t n, int reps, size_t *bytes)
-{
-    char buf[32];
-    double best = -1;
-    for (int rep = 0; rep < reps; rep++) {
-        size_t total = 0;
-        double t0 = cpu_seconds();
-        for (size_t i = 0; i < n; i++)
-            total += (size_t)snprintf(buf, sizeof buf, "%.17g", x[i]);
-        double t = cpu_seconds() - t0;
-        if (best < 0 || t < best)
-            best = t;
-        *bytes = total;
+/* ns_NAME(values, n, reps, &bytes): ns per number of FORMAT(buf, value)
+ * (which returns the length written) over the n values, best of reps
+ * passes; one function per formatting, so that the timed loop calls it
+ * directly as the writers do. */
+#define NS_PER_NUMBER(name, type, bufsize, format)                                                  \
+    static double ns_##name(const type *v, size_t n, int reps, size_t *bytes)                       \
+    {                                                                                              \
+        char buf[bufsize];                                                                         \
+        double best = -1;                                                                          \
+        for (int rep = 0; rep < reps; rep++) {                                                     \
+            size_t total = 0;                                                                      \
+            double t0 = bench_cpu_seconds();                                                       \
+            for (size_t i = 0; i < n; i++)                                                         \
+                total += (size_t)(format);                                                         \
+            double t = bench_cpu_seconds() - t0;                                                   \
+            if (best < 0 || t < best)                                                              \
+                best = t;                                                                          \
+            *bytes = total;                                                                        \
+        }                                                                                          \
+        return best * 1e9 / (double)n;                                                             \
     }
-    return best * 1e9 / (double)n;
-}
-
-static double ns_snprintf_ints(const long *k, size_t n, int reps, size_t *bytes)
-{
-    char buf[32];
-    double best = -1;
-    for (int rep = 0; rep < reps; rep++) {
-        size_t total = 0;
-        double t0 = cpu_seconds();
-        for (size_t i = 0; i < n; i++)
-            total += (size_t)snprintf(buf, sizeof buf, "%ld", k[i]);
-        double t = cpu_seconds() - t0;
-        if (best < 0 || t < best)
-            best = t;
-        *bytes = total;
-    }
-    return best * 1e9 / (double)n;
-}
-
-/* The same with the core's formatting. */
-static double ns_core_doubles(const double *x, size_t n, int reps, size_t *bytes)
-{
-    char buf[SM_DECIMAL_MAX];
-    double best = -1;
-    for (int rep = 0; rep < reps; rep++) {
-        size_t total = 0;
-        double t0 = cpu_seconds();
-        for (size_t i = 0; i < n; i++)
-            total += sm__double_to_decimal(x[i], buf);
-        double t = cpu_seconds() - t0;
-        if (best < 0 || t < best)
-            best = t;
-        *bytes = total;
-    }
-    return best * 1e9 / (double)n;
-}
-
-static double ns_core_ints(const long *k, size_t n, int reps, size_t *bytes)
-{
-    char buf[SM_DECIMAL_MAX];
-    double best = -1;
-    for (int rep = 0; rep < reps; rep++) {
-        size_t total = 0;
-        double t0 = cpu_seconds();
-        for (size_t i = 0; i < n; i++)
-            total += sm__int_to_decimal(k[i], buf);
-        double t = cpu_seconds() - t0;
-        if (best < 0 || t < best)
-            best = t;
-        *bytes = total;
-    }
-    return best * 1e9 / (double)n;
-}
+/* what the writers called before, and what they call now */
+NS_PER_NUMBER(snprintf_doubles, double, 32, snprintf(buf, sizeof buf, "%.17g", v[i]))
+NS_PER_NUMBER(snprintf_ints, long, 32, snprintf(buf, sizeof buf, "%ld", v[i]))
+NS_PER_NUMBER(core_doubles, double, SM_DECIMAL_MAX, sm__double_to_decimal(v[i], buf))
+NS_PER_NUMBER(core_ints, long, SM_DECIMAL_MAX, sm__int_to_decimal(v[i], buf))
 
 /* The doubles and the integers of the three files, as the writers print
  * them (vertex indices from 1 in Medit, from 0 in VTK, references). */
@@ -248,12 +197,12 @@ int main(int argc, char **argv)
     for (int rep = 0; rep < reps; rep++) {
         double wall = 0, cpu = 0;
         for (int f = 0; f < FILES; f++) {
-            double t0 = sm_clock_seconds(), c0 = cpu_seconds();
+            double t0 = sm_clock_seconds(), c0 = bench_cpu_seconds();
             if (write_file(f, path[f], &r, &err) != SM_OK) {
                 fprintf(stderr, "%s\n", err.msg);
                 return 1;
             }
-            double tw = sm_clock_seconds() - t0, tc = cpu_seconds() - c0;
+            double tw = sm_clock_seconds() - t0, tc = bench_cpu_seconds() - c0;
             if (rep == 0 || tw < best_wall[f])
                 best_wall[f] = tw;
             if (rep == 0 || tc < best_cpu[f])

@@ -199,7 +199,13 @@ static sm_status run_match(sm_job_inputs *in, const sm_match_opts *opts,
         return in->match_status;
     }
     int limit = omp_get_max_threads();
-    set_threads(sm_job_threads_for(opts->template_mesh->nelems, limit, sm_job_idle_cores()));
+    int64_t elements = opts->template_mesh->nelems;
+    /* the idle cores matter only between the two thresholds: no /proc
+     * reads for the small jobs, most of a daemon's */
+    int idle = elements >= SM_JOB_THREADS_IDLE_MIN_ELEMENTS && elements < SM_JOB_THREADS_MIN_ELEMENTS
+                   ? sm_job_idle_cores()
+                   : -1;
+    set_threads(sm_job_threads_for(elements, limit, idle));
     sm_status st;
     if (in->match) {
         st = sm_match_execute(in->match, opts->target, cb, run->coords, &run->result, err);

@@ -56,7 +56,7 @@ for variant in $variants; do
         [ -n "$only" ] && [[ "$name" != *$only* ]] && continue
         run_suite "$variant" "$name" "$t"
     done
-    for s in tests/cli/*.sh tests/integration/*.sh; do
+    for s in tests/cli/*.sh tests/build/*.sh tests/integration/*.sh; do
         [ -f "$s" ] || continue
         name=$(basename "$s" .sh)
         [ "$name" = lib ] && continue # shared helpers, sourced by the suites

@@ -3,14 +3,7 @@
 # ||d||_L2(boundary) <= 1e-3 with no inverted element (checked here from
 # the written files, independently of the program's own counters), J never
 # increases, and template + cumulative displacement equals the result mesh.
-set -u
-ROOT=${SM_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
-BIN=${SM_BIN:-$ROOT/build/release}/shapematch
-WORK=$(mktemp -d)
-trap 'rm -rf "$WORK"' EXIT
-# TAP lines without numbers (tests/run.sh counts "ok" / "not ok" lines)
-ok() { echo "ok - $1"; }
-not_ok() { echo "not ok - $1"; [ -n "${2:-}" ] && echo "# $2"; }
+source "$(dirname "$0")/../lib/cli.sh"
 
 for case in 2d 3d; do
     EX=$ROOT/examples/$case

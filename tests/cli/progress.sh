@@ -5,11 +5,7 @@
 # redrawn in place and ending at 100% when the cap is reached (the 3D
 # example: its iterations are slow enough for several redraws); to a
 # file, plain lines with no bar and no carriage return.
-set -u
-ROOT=${SM_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
-BIN=${SM_BIN:-$ROOT/build/release}/shapematch
-WORK=$(mktemp -d)
-trap 'rm -rf "$WORK"' EXIT
+source "$(dirname "$0")/../lib/cli.sh"
 EX=$ROOT/examples/2d
 ARGS="--template $EX/template.mesh --target-mesh $EX/background.mesh.gz --target-sol $EX/background.sol.gz --clamp-ball $(tr -d ' \n' <"$EX/clamp")"
 if ! command -v script >/dev/null; then echo "not ok - script(1) is installed"; exit 0; fi

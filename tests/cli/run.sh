@@ -6,23 +6,8 @@
 # whose signed distance is computed analytically), NDJSON events,
 # snapshots, cancellation by SIGINT (exit 5), and examples/2d when present.
 # Env: SM_BIN (directory of the built binaries), SM_ROOT (repo root).
-set -u
-ROOT=${SM_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
-BIN=${SM_BIN:-$ROOT/build/release}/shapematch
-TMP=$(mktemp -d "${TMPDIR:-/tmp}/sm-cli-run.XXXXXX")
-trap 'rm -rf "$TMP"' EXIT
-cd "$TMP" || exit 1
-
-n=0
-ok() { n=$((n + 1)); echo "ok $n - $1"; }
-not_ok() {
-    n=$((n + 1))
-    echo "not ok $n - $1"
-    shift
-    local line
-    for line in "$@"; do printf '%s\n' "$line" | sed 's/^/#   /'; done
-}
-skip() { n=$((n + 1)); echo "ok $n # SKIP $1"; }
+source "$(dirname "$0")/../lib/cli.sh"
+cd "$WORK" || exit 1
 
 # expect CODE PATTERN DESC -- ARGS...: the binary exits with CODE and its
 # stderr contains PATTERN (fixed string; empty: not checked).

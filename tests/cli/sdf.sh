@@ -5,14 +5,9 @@
 # |x| - 1 up to the surface's chord error; a matching run takes the .msh
 # template and the computed target; bad inputs and options fail with the
 # documented exit codes.
-set -u
-ROOT=${SM_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
-BIN=${SM_BIN:-$ROOT/build/release}/shapematch
-WORK=$(mktemp -d)
-trap 'rm -rf "$WORK"' EXIT
-ok() { echo "ok - $1"; }
-not_ok() { echo "not ok - $1"; [ -n "${2:-}" ] && echo "# $2"; }
-check() { if [ "$1" = 0 ]; then ok "$2"; else not_ok "$2" "${3:-}"; fi; }
+source "$(dirname "$0")/../lib/cli.sh"
+# check_rc STATUS DESC [DETAIL]: ok when STATUS is 0
+check_rc() { if [ "$1" = 0 ]; then ok "$2"; else not_ok "$2" "${3:-}"; fi; }
 
 cp "$ROOT/tests/lib/case/ball.geo" "$WORK/"
 cp "$ROOT/tests/lib/case/small_ball.geo" "$WORK/small.geo"
@@ -20,7 +15,7 @@ gmsh "$WORK/ball.geo" -2 -format stl -clmax 0.08 -nt 1 -v 1 -o "$WORK/sphere.stl
 gmsh "$WORK/ball.geo" -3 -format msh41 -clmax 0.2 -nt 1 -v 1 -o "$WORK/ball.msh" >/dev/null 2>&1
 gmsh "$WORK/small.geo" -3 -format msh41 -bin -clmax 0.25 -nt 1 -v 1 -o "$WORK/small.msh" >/dev/null 2>&1
 [ -s "$WORK/sphere.stl" ] && [ -s "$WORK/ball.msh" ] && [ -s "$WORK/small.msh" ]
-check $? "gmsh made the sphere STL and the .msh balls"
+check_rc $? "gmsh made the sphere STL and the .msh balls"
 
 # distances at mesh vertices vs |x| - 1 (chord error of h = 0.08 is < 4e-3)
 verify() { # mesh sol
@@ -61,40 +56,40 @@ PY
 }
 
 "$BIN" sdf --surface "$WORK/sphere.stl" --background "$WORK/ball.msh" -o "$WORK/d.sol" 2>"$WORK/err1"
-check $? "sdf --surface S --background B.msh -o OUT.sol" "$(head -c 400 "$WORK/err1")"
+check_rc $? "sdf --surface S --background B.msh -o OUT.sol" "$(head -c 400 "$WORK/err1")"
 grep -q "open edges (holes) 0, non-manifold edges 0" "$WORK/err1"
-check $? "the health report is on stderr" "$(head -c 400 "$WORK/err1")"
+check_rc $? "the health report is on stderr" "$(head -c 400 "$WORK/err1")"
 msg=$(verify "$WORK/ball.msh" "$WORK/d.sol")
-check $? "distances on the given background match |x| - 1 to the chord error ($msg)" "$msg"
+check_rc $? "distances on the given background match |x| - 1 to the chord error ($msg)" "$msg"
 
 "$BIN" sdf --surface "$WORK/sphere.stl" -o "$WORK/gen" --background-size 0.1 2>"$WORK/err2"
 rc=$?
-check $rc "sdf --surface S -o DIR (generated background)" "$(head -c 400 "$WORK/err2")"
+check_rc $rc "sdf --surface S -o DIR (generated background)" "$(head -c 400 "$WORK/err2")"
 [ -s "$WORK/gen/background.mesh" ] && [ -s "$WORK/gen/background.sol" ]
-check $? "DIR/background.mesh and DIR/background.sol are written"
+check_rc $? "DIR/background.mesh and DIR/background.sol are written"
 msg=$(verify "$WORK/gen/background.mesh" "$WORK/gen/background.sol")
-check $? "distances on the generated background match |x| - 1 to the chord error ($msg)" "$msg"
+check_rc $? "distances on the generated background match |x| - 1 to the chord error ($msg)" "$msg"
 
 "$BIN" run --template "$WORK/small.msh" --target-mesh "$WORK/gen/background.mesh" \
     --target-sol "$WORK/gen/background.sol" --clamp-ball 0,0,0,0.4 --max-iter 3 --quiet \
     -o "$WORK/run" >"$WORK/run.out" 2>"$WORK/run.err"
-check $? "run takes a binary .msh template and the computed target" "$(head -c 400 "$WORK/run.err")"
+check_rc $? "run takes a binary .msh template and the computed target" "$(head -c 400 "$WORK/run.err")"
 
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' >"$WORK/flat.obj"
 "$BIN" sdf --surface "$WORK/flat.obj" --background "$WORK/ball.msh" -o "$WORK/x.sol" 2>"$WORK/err3"
 rc=$?
 [ $rc = 2 ] && grep -q "encloses nothing" "$WORK/err3"
-check $? "a surface that encloses nothing is an input error (exit $rc)" "$(head -c 300 "$WORK/err3")"
+check_rc $? "a surface that encloses nothing is an input error (exit $rc)" "$(head -c 300 "$WORK/err3")"
 printf 'hello\n' >"$WORK/what.txt"
 "$BIN" sdf --surface "$WORK/what.txt" -o "$WORK/y" 2>"$WORK/err4"
 rc=$?
 [ $rc = 2 ] && grep -q "unknown surface format; surfaces are read as STL" "$WORK/err4"
-check $? "an unknown surface format names the formats read (exit $rc)" "$(head -c 300 "$WORK/err4")"
+check_rc $? "an unknown surface format names the formats read (exit $rc)" "$(head -c 300 "$WORK/err4")"
 "$BIN" sdf --surface "$WORK/sphere.stl" --background "$WORK/ball.msh" --background-size 0.1 \
     -o "$WORK/z.sol" 2>/dev/null
-check $(($? == 1 ? 0 : 1)) "--background-size with --background is a usage error"
+check_rc $(($? == 1 ? 0 : 1)) "--background-size with --background is a usage error"
 "$BIN" sdf --surface "$WORK/sphere.stl" 2>/dev/null
-check $(($? == 1 ? 0 : 1)) "-o is required"
+check_rc $(($? == 1 ? 0 : 1)) "-o is required"
 
 # run --target-surface: the 2D example's template onto a Gmsh-made circle;
 # on a generated (graded) background the boundary error is within 1.25x of the same
@@ -109,11 +104,11 @@ gmsh "$WORK/circle.geo" -2 -format mesh -clmax 0.01 -nt 1 -v 1 -o "$WORK/circle.
 common=(--template "$EX/template.mesh" --target-surface "$WORK/circle.mesh"
         --clamp-ball "$(tr -d ' \n' <"$EX/clamp")" --tol-boundary 1e-3 --max-iter 100 --quiet)
 "$BIN" run "${common[@]}" -o "$WORK/gen-run" >/dev/null 2>"$WORK/gen-run.err"
-check $? "run --target-surface (generated background)" "$(head -c 400 "$WORK/gen-run.err")"
+check_rc $? "run --target-surface (generated background)" "$(head -c 400 "$WORK/gen-run.err")"
 grep -q "target surface .*open edges (holes) 0" "$WORK/gen-run.err"
-check $? "run prints the surface health report on stderr" "$(head -c 400 "$WORK/gen-run.err")"
+check_rc $? "run prints the surface health report on stderr" "$(head -c 400 "$WORK/gen-run.err")"
 "$BIN" run "${common[@]}" --target-mesh "$EX/background.mesh.gz" -o "$WORK/bg-run" >/dev/null 2>"$WORK/bg-run.err"
-check $? "run --target-surface --target-mesh B" "$(head -c 400 "$WORK/bg-run.err")"
+check_rc $? "run --target-surface --target-mesh B" "$(head -c 400 "$WORK/bg-run.err")"
 msg=$(python3 - "$WORK/gen-run/summary.json" "$WORK/bg-run/summary.json" <<'PY'
 import json, sys
 a, b = (json.load(open(p)) for p in sys.argv[1:3])
@@ -125,18 +120,18 @@ print("boundary error %.3e (generated, %d vertices) vs %.3e (hand-made, %d verti
 sys.exit(0 if ok and ea <= 1.25 * eb else 1)
 PY
 )
-check $? "summary has the surface report; $msg" "$msg"
+check_rc $? "summary has the surface report; $msg" "$msg"
 "$BIN" run "${common[@]}" --target-sol "$EX/background.sol.gz" -o "$WORK/no" >/dev/null 2>"$WORK/ex.err"
 rc=$?
 [ $rc = 1 ] && grep -q "excludes --target-sol" "$WORK/ex.err"
-check $? "--target-surface excludes --target-sol (exit $rc)" "$(head -c 300 "$WORK/ex.err")"
+check_rc $? "--target-surface excludes --target-sol (exit $rc)" "$(head -c 300 "$WORK/ex.err")"
 
 # run --background-size / --background-padding size the generated
 # (graded) background: half the size near the surface, more vertices,
 # a larger box; they make no sense with a given --target-mesh
 "$BIN" run "${common[@]}" --background-size 0.005 --background-padding 0.2 -o "$WORK/fine-run" \
     >/dev/null 2>"$WORK/fine-run.err"
-check $? "run --background-size H --background-padding P" "$(head -c 400 "$WORK/fine-run.err")"
+check_rc $? "run --background-size H --background-padding P" "$(head -c 400 "$WORK/fine-run.err")"
 msg=$(python3 - "$WORK/gen-run/summary.json" "$WORK/fine-run/summary.json" <<'PY'
 import json, sys
 a, b = (json.load(open(p)) for p in sys.argv[1:3])
@@ -145,9 +140,9 @@ print("%d vertices by default, %d with size 0.005, boundary error %.3e" % (va, v
 sys.exit(0 if vb > 1.3 * va and b["boundary_l2"] <= 1.25 * a["boundary_l2"] else 1)
 PY
 )
-check $? "a finer generated background has more vertices ($msg)" "$msg"
+check_rc $? "a finer generated background has more vertices ($msg)" "$msg"
 "$BIN" run "${common[@]}" --target-mesh "$EX/background.mesh.gz" --background-size 0.01 -o "$WORK/no" \
     >/dev/null 2>"$WORK/bs.err"
 rc=$?
 [ $rc = 1 ] && grep -q "are for a generated background" "$WORK/bs.err"
-check $? "--background-size with --target-mesh is a usage error (exit $rc)" "$(head -c 300 "$WORK/bs.err")"
+check_rc $? "--background-size with --target-mesh is a usage error (exit $rc)" "$(head -c 300 "$WORK/bs.err")"

@@ -4,11 +4,7 @@
 # iterations, as tests/unit/test_solver.c states), the choice is recorded in
 # summary.json's parameters, and an unknown name is a usage error (exit 1)
 # that names the choices.
-set -u
-ROOT=${SM_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
-BIN=${SM_BIN:-$ROOT/build/release}/shapematch
-WORK=$(mktemp -d)
-trap 'rm -rf "$WORK"' EXIT
+source "$(dirname "$0")/../lib/cli.sh"
 EX=$ROOT/examples/2d
 ARGS="--template $EX/template.mesh --target-mesh $EX/background.mesh.gz --target-sol $EX/background.sol.gz --clamp-ball $(tr -d ' \n' <"$EX/clamp") --max-iter 40 --quiet --format mesh"
 # shellcheck disable=SC2086

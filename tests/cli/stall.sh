@@ -4,11 +4,7 @@
 # earlier than the first iteration within 10% of the best boundary error
 # that 500 iterations reach (stall rule off), and within twice that.  The
 # summary reports the scale-free errors and the stall parameters.
-set -u
-ROOT=${SM_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
-BIN=${SM_BIN:-$ROOT/build/release}/shapematch
-WORK=$(mktemp -d)
-trap 'rm -rf "$WORK"' EXIT
+source "$(dirname "$0")/../lib/cli.sh"
 EX=$ROOT/examples/2d
 IN=(--template "$EX/template.mesh" --target-mesh "$EX/background.mesh.gz"
     --target-sol "$EX/background.sol.gz" --clamp-ball "$(tr -d ' \n' <"$EX/clamp")")

@@ -5,11 +5,7 @@
 # result checks every array against the others and finds the template's
 # 100 boundary edges (ref 1) and 16 clamp edges (ref 10) as VTK_LINE cells
 # after the 778 triangles.
-set -u
-ROOT=${SM_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
-BIN=${SM_BIN:-$ROOT/build/release}/shapematch
-WORK=$(mktemp -d)
-trap 'rm -rf "$WORK"' EXIT
+source "$(dirname "$0")/../lib/cli.sh"
 EX=$ROOT/examples/2d
 if ! "$BIN" run --template "$EX/template.mesh" --target-mesh "$EX/background.mesh.gz" \
     --target-sol "$EX/background.sol.gz" --clamp-ball "$(tr -d ' \n' <"$EX/clamp")" \

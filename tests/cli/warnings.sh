@@ -3,11 +3,7 @@
 # shapematch run's stderr) triggered by a crafted input, and a distance
 # whose sign is unambiguously inverted refused.  Their absence on the
 # clean examples is checked by stall.sh (2D) and examples.sh (both).
-set -u
-ROOT=${SM_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
-BIN=${SM_BIN:-$ROOT/build/release}/shapematch
-WORK=$(mktemp -d)
-trap 'rm -rf "$WORK"' EXIT
+source "$(dirname "$0")/../lib/cli.sh"
 EX=$ROOT/examples/2d
 T=$EX/template.mesh
 CLAMP=(--clamp-ball 0.5,0.5,0.04)

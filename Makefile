@@ -1,4 +1,4 @@
-# shapematch — one entry point: deps, all, test, demo, bench, lint, install, clean.
+# shapematch — one entry point: deps, all, test, demo, bench, fuzz, lint, install, clean.
 #
 # Two build variants live side by side:
 #   build/release  -O2, what users run and what `make bench` measures
@@ -11,6 +11,8 @@ SHELL := /bin/bash
 .DEFAULT_GOAL := all
 
 PREFIX ?= /usr/local
+# where `make install` puts the systemd unit
+UNITDIR ?= /etc/systemd/system
 VERSION := 0.1.0
 
 # Debian packages the build, the tests, the demo and the benchmarks need.
@@ -55,8 +57,10 @@ asan_CFLAGS := $(ASAN_CFLAGS)
 release_LDFLAGS := $(RELEASE_LDFLAGS)
 asan_LDFLAGS := $(ASAN_LDFLAGS)
 
-# Filled by the module fragments: programs built in every variant.
+# Filled by the module fragments: programs built in every variant, and
+# programs built in the release variant only (the benchmarks).
 ALL_TARGETS :=
+RELEASE_ONLY_TARGETS :=
 
 # compile rule for every variant: build/<variant>/obj/<path>.o
 define variant_rules
@@ -69,18 +73,26 @@ $(foreach v,$(VARIANTS),$(eval $(call variant_rules,$(v))))
 include $(wildcard core/module.mk proto/module.mk server/module.mk \
   client/module.mk tests/module.mk bench/module.mk)
 
-.PHONY: all deps test demo bench lint install clean release asan
-all: $(foreach v,$(VARIANTS),$(ALL_TARGETS:%=build/$(v)/%))
-release: $(ALL_TARGETS:%=build/release/%)
+.PHONY: all deps check-deps test demo lint install clean release asan
+all: $(foreach v,$(VARIANTS),$(ALL_TARGETS:%=build/$(v)/%)) $(RELEASE_ONLY_TARGETS:%=build/release/%)
+release: $(ALL_TARGETS:%=build/release/%) $(RELEASE_ONLY_TARGETS:%=build/release/%)
 asan: $(ALL_TARGETS:%=build/asan/%)
 
-# Idempotent: only touches apt when something is missing.
+# The Debian packages of $(1) that dpkg does not list as installed, as
+# shell words (for a recipe: `missing="$(call missing_debs,...)"`).
+missing_debs = $$(for p in $(1); do dpkg-query -W -f='$${Status}' $$p 2>/dev/null | \
+  grep -q "install ok installed" || printf '%s ' $$p; done)
+# The npm packages of the tests are missing or older than package-lock.json.
+npm_stale = ! command -v npm >/dev/null || [ ! -f node_modules/.package-lock.json ] || \
+  [ package-lock.json -nt node_modules/.package-lock.json ]
+
+# The installer (root): the Debian packages that are missing, npm, and the
+# npm packages of the tests from package-lock.json.  Idempotent: only
+# touches apt when something is missing.
 deps:
-	@missing=""; for p in $(DEB_PACKAGES); do \
-	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
-	done; \
+	@missing="$(call missing_debs,$(DEB_PACKAGES))"; \
 	if [ -n "$$missing" ]; then \
-	  echo "deps: installing$$missing"; \
+	  echo "deps: installing $$missing"; \
 	  if [ "$$(id -u)" != 0 ]; then echo "deps: run as root (or install:$$missing)" >&2; exit 1; fi; \
 	  apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $$missing; \
 	else echo "deps: all Debian packages present"; fi
@@ -88,18 +100,29 @@ deps:
 	@command -v npm >/dev/null || { echo "deps: installing npm"; \
 	  DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends npm; }
 	@# npm packages of the tests, from package-lock.json (again when it changes)
-	@if [ ! -f node_modules/.package-lock.json ] || [ package-lock.json -nt node_modules/.package-lock.json ]; then \
+	@if $(npm_stale); then \
 	  echo "deps: npm ci"; npm ci --no-audit --no-fund --ignore-scripts; \
 	else echo "deps: npm packages present"; fi
+
+# The prerequisite check of test, demo, bench and fuzz: reads dpkg's list
+# and node_modules, and does nothing more when everything is there.  On a
+# clean machine (CI's) it names what is missing and runs the installer
+# (`make deps`), which installs only that.
+check-deps:
+	@missing="$(call missing_debs,$(DEB_PACKAGES))"; \
+	if [ -z "$$missing" ] && ! { $(npm_stale); }; then \
+	  echo "check-deps: every prerequisite is present"; \
+	else \
+	  echo "check-deps: missing: $${missing:-}$$( { $(npm_stale); } && echo 'npm packages'); installing them (make deps)"; \
+	  $(MAKE) --no-print-directory deps; \
+	fi
 
 # Only what building needs (no test tools, no npm): the Dockerfile's build stage.
 .PHONY: deps-build
 deps-build:
-	@missing=""; for p in $(DEB_BUILD_PACKAGES); do \
-	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
-	done; \
+	@missing="$(call missing_debs,$(DEB_BUILD_PACKAGES))"; \
 	if [ -n "$$missing" ]; then \
-	  echo "deps-build: installing$$missing"; \
+	  echo "deps-build: installing $$missing"; \
 	  apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $$missing; \
 	else echo "deps-build: all Debian packages present"; fi
 
@@ -113,42 +136,43 @@ test-deploy:
 	  apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends mmdebstrap; }
 	tests/deploy/docker_build.sh
 
-test: deps
+test: check-deps
 	$(MAKE) -j$$(nproc) all fuzz-build
 	tests/run.sh
 
-bench: deps
-	$(MAKE) -j$$(nproc) release
-	bench/run.sh
+# `make bench` and its parts: bench/module.mk.
 
 # Where the house is crowded: the longest files and the longest and most
-# complex functions (pmccabe) against the guide of STYLE.md.  Informative,
-# never fails.
+# complex functions (pmccabe) against the size guide that tests/lint.sh
+# states (lines per file, lines and complexity per function).
+# Informative, never fails.
 lint:
 	@tests/lint.sh
 
-demo: deps
+demo: check-deps
 	$(MAKE) -j$$(nproc) release
 	examples/demo.sh
 
-# The unit goes to /etc/systemd/system (UNITDIR=... to change) with its
-# program path rewritten to $(PREFIX)/bin.
+# The unit goes to $(UNITDIR) with its program path rewritten to
+# $(PREFIX)/bin.
 install: release
-	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(or $(UNITDIR),/etc/systemd/system)
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(UNITDIR)
 	install -m 755 $(INSTALL_PROGRAMS:%=build/release/%) $(DESTDIR)$(PREFIX)/bin/
 	sed 's|/usr/local/bin/|$(PREFIX)/bin/|g' deploy/systemd/shapematchd.service \
-	  >$(DESTDIR)$(or $(UNITDIR),/etc/systemd/system)/shapematchd.service.tmp
-	chmod 644 $(DESTDIR)$(or $(UNITDIR),/etc/systemd/system)/shapematchd.service.tmp
-	mv $(DESTDIR)$(or $(UNITDIR),/etc/systemd/system)/shapematchd.service.tmp \
-	  $(DESTDIR)$(or $(UNITDIR),/etc/systemd/system)/shapematchd.service
+	  >$(DESTDIR)$(UNITDIR)/shapematchd.service.tmp
+	chmod 644 $(DESTDIR)$(UNITDIR)/shapematchd.service.tmp
+	mv $(DESTDIR)$(UNITDIR)/shapematchd.service.tmp $(DESTDIR)$(UNITDIR)/shapematchd.service
 	@echo "installed; start the daemon with: systemctl daemon-reload && systemctl enable --now shapematchd"
 
 .PHONY: uninstall
 uninstall:
 	rm -f $(INSTALL_PROGRAMS:%=$(DESTDIR)$(PREFIX)/bin/%) \
-	  $(DESTDIR)$(or $(UNITDIR),/etc/systemd/system)/shapematchd.service
+	  $(DESTDIR)$(UNITDIR)/shapematchd.service
 
 clean:
 	rm -rf build demo-out
 
--include $(shell find build -name '*.d' 2>/dev/null)
+# The compilers' dependency files (-MMD), named from the sources: every
+# module lists its sources in a variable whose name ends in _SRCS.
+DEP_SRCS := $(sort $(filter %.c,$(foreach v,$(filter %_SRCS,$(.VARIABLES)),$($(v)))))
+-include $(wildcard $(foreach d,$(VARIANTS:%=build/%/obj) $(FUZZ_DIR)/obj,$(DEP_SRCS:%.c=$(d)/%.d)))

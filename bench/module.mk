@@ -1,6 +1,19 @@
-# Benchmarks (release only: figures from a sanitized build mean nothing).
-# Each is one C file linked against the core library.
+# Benchmarks: every rule of `make bench` is here.  Figures, not verdicts;
+# docs/performance.md has today's and says how to read them.
+#
+#   make bench            all of them, in this order: bench/run.sh (the
+#                         examples, the paper's size end to end, the
+#                         surface distance, the readers and writers, the
+#                         daemon under wrk, the cluster), the soak, the
+#                         scaling benchmark, the large background
+#   make bench-soak       bench/soak.sh alone (SOAK_SECONDS, default 600)
+#   make bench-scale      bench/scale.sh alone (SCALE_SIZES, SCALE_SOLVERS)
+#   make bench-bigfield   bench/bigfield.sh alone (BIGFIELD_TETS, default 5M)
+#
+# The C benchmarks are built in the release variant only (figures from a
+# sanitized build mean nothing), each one C file linked against the core.
 BENCH_PROGS := match_bench field_bench sdf_bench io_bench bg_bench read_bench write_bench
+BENCH_SRCS := $(BENCH_PROGS:%=bench/%.c)
 
 $(foreach b,$(BENCH_PROGS),$(eval build/release/$(b): build/release/obj/bench/$(b).o build/release/libshapematch.a))
 # write_bench also times the core's own number formatting (sm_number.h)
@@ -8,26 +21,17 @@ build/release/obj/bench/write_bench.o: release_CFLAGS += -I core
 $(addprefix build/release/,$(BENCH_PROGS)):
 	@mkdir -p $(dir $@)
 	$(CC) -o $@ $^ $(CORE_LIBS)
-release: $(addprefix build/release/,$(BENCH_PROGS))
-all: $(addprefix build/release/,$(BENCH_PROGS))
-# The daemon soak (bench/soak.sh, SOAK_SECONDS, default 600): mixed load
-# while RSS, descriptors and threads are sampled; part of `make bench`.
-.PHONY: bench-soak
-bench-soak: build/release/shapematchd build/release/shapematch-worker
+RELEASE_ONLY_TARGETS += $(BENCH_PROGS)
+
+# each: the prerequisite check, the release build, then the script(s)
+.PHONY: bench bench-soak bench-scale bench-bigfield
+bench: check-deps
+	$(MAKE) -j$$(nproc) release
+	bench/run.sh
 	bench/soak.sh
-bench: bench-soak
-# Scaling benchmark (bench/scale.sh, sizes from SCALE_SIZES): part of
-# `make bench`, or alone with `make bench-scale`.
-.PHONY: bench-scale
-bench-scale: deps
-	$(MAKE) -j$$(nproc) release
 	bench/scale.sh
-bench: bench-scale
-# The target field on a large background (bench/bigfield.sh,
-# BIGFIELD_TETS, default 5M): build time and memory; part of `make
-# bench`, or alone with `make bench-bigfield`.
-.PHONY: bench-bigfield
-bench-bigfield: deps
-	$(MAKE) -j$$(nproc) release
 	bench/bigfield.sh
-bench: bench-bigfield
+
+bench-soak bench-scale bench-bigfield: bench-%: check-deps
+	$(MAKE) -j$$(nproc) release
+	bench/$*.sh

@@ -3,7 +3,7 @@
 # of core/ proto/ server/ client/ and the longest and most complex
 # functions (Debian's pmccabe: traditional McCabe cyclomatic complexity,
 # lines from the function's first to its last line), the top N of each,
-# with the entries beyond the guide of STYLE.md marked "<- over guide".
+# with the entries beyond the size guide below marked "<- over guide".
 # Informative, not a gate: always exits 0.
 #
 #   tests/lint.sh            top 15 of each

@@ -23,6 +23,7 @@ FUZZ_LIB_SRCS := $(wildcard core/*.c) $(wildcard proto/*.c) client/sse.c tests/f
 FUZZ_LIB_SRCS += server/smd_parts.c tests/fuzz/fuzz_parts_check.c
 FUZZ_TARGETS := $(patsubst tests/fuzz/%.c,%,$(wildcard tests/fuzz/fuzz_*.c))
 FUZZ_TARGETS := $(filter-out fuzz_input fuzz_parts_check,$(FUZZ_TARGETS))
+FUZZ_TARGET_SRCS := $(FUZZ_TARGETS:%=tests/fuzz/%.c)
 
 $(FUZZ_DIR)/obj/%.o: %.c
 	@mkdir -p $(dir $@)
@@ -40,6 +41,6 @@ fuzz-build: $(FUZZ_TARGETS:%=$(FUZZ_DIR)/%)
 FUZZ_SECONDS ?= 300
 # processes per target (run.sh: one corpus, executions summed); one per core
 FUZZ_WORKERS ?= $(shell nproc)
-fuzz: deps
+fuzz: check-deps
 	$(MAKE) -j$$(nproc) fuzz-build
 	FUZZ_WORKERS=$(FUZZ_WORKERS) tests/fuzz/run.sh $(FUZZ_SECONDS) $(FUZZ_TARGETS)

@@ -113,7 +113,8 @@ check-deps:
 	if [ -z "$$missing" ] && ! { $(npm_stale); }; then \
 	  echo "check-deps: every prerequisite is present"; \
 	else \
-	  echo "check-deps: missing: $${missing:-}$$( { $(npm_stale); } && echo 'npm packages'); installing them (make deps)"; \
+	  npm=""; if $(npm_stale); then npm="npm packages"; fi; \
+	  echo "check-deps: missing:" $$missing $$npm "- installing them (make deps)"; \
 	  $(MAKE) --no-print-directory deps; \
 	fi
 

@@ -31,11 +31,11 @@ static const sm_param_info table[] = {
      * converges with --no-clamp on both examples (2D: relative boundary
      * error 1e-3 after 19 iterations, 3D: after 21), where the former
      * fixed 0.01 did not (2D: 9.1e-3 after 500 iterations). */
-    {"alpha", REAL(alpha), RANGE(0, CLOSED, NO_MAX), 0.0, "0 (from the scale)", 1, "--alpha", "A",
+    {"alpha", REAL(alpha), RANGE(0, CLOSED, NO_MAX), 0.0, NULL, 1, "--alpha", "A",
      "0th-order term alpha*int u.v of the unclamped problem (only with --no-clamp; "
      "0: from the scale, E/diameter^2)"},
     {"free_boundary", SM_PARAM_REFS, offsetof(sm_params, free_refs),
-     offsetof(sm_params, n_free_refs), RANGE(0, CLOSED, SM_MAX_REFS, CLOSED), 0, "none", 0,
+     offsetof(sm_params, n_free_refs), RANGE(0, CLOSED, SM_MAX_REFS, CLOSED), 0, NULL, 0,
      "--free-boundary", "REFS", "boundary facet references excluded from the load"},
     {"young", REAL(young), RANGE(0, OPEN, NO_MAX), 1.0, NULL, 0, "--young", "E",
      "Young's modulus of the elastic model"},
@@ -47,10 +47,10 @@ static const sm_param_info table[] = {
      "stop after N iterations"},
     {"tol_step", REAL(tol_step), RANGE(0, OPEN, 1, OPEN), 1e-6, NULL, 0, "--tol-step", "EPS",
      "stop when the step falls below EPS times the template diameter"},
-    {"tol_boundary", REAL(tol_boundary), RANGE(0, CLOSED, NO_MAX), 0.0, "0 (off)", 0,
+    {"tol_boundary", REAL(tol_boundary), RANGE(0, CLOSED, NO_MAX), 0.0, NULL, 0,
      "--tol-boundary", "TOL",
      "stop when the boundary error ||d||_L2 is <= TOL (0: off; absolute, unit-dependent)"},
-    {"tol_boundary_rel", REAL(tol_boundary_rel), RANGE(0, CLOSED, NO_MAX), 0.0, "0 (off)", 0,
+    {"tol_boundary_rel", REAL(tol_boundary_rel), RANGE(0, CLOSED, NO_MAX), 0.0, NULL, 0,
      "--tol-boundary-rel", "R",
      "stop when the RMS boundary error is <= R times the template diameter (0: off; "
      "unit-free)"},
@@ -69,7 +69,7 @@ static const sm_param_info table[] = {
      "--stall-window", "K", "iterations of the stall rule's window"},
     {"min_quality", REAL(min_quality), RANGE(0, CLOSED, 1, OPEN), 0.02, NULL, 0, "--min-quality",
      "Q", "element quality floor for an accepted step, in [0,1)"},
-    {"save_every", INT(save_every), RANGE(0, CLOSED, INT_MAX, CLOSED), 0, "0 (never)", 0,
+    {"save_every", INT(save_every), RANGE(0, CLOSED, INT_MAX, CLOSED), 0, NULL, 0,
      "--save-every", "K", "also write OUTDIR/iter-NNNNN.mesh every K iterations (0: never)"},
     {"step_initial", REAL(step_initial), RANGE(0, OPEN, 1, CLOSED), 0.01, NULL, 0,
      "--step-initial", "S", "first step length, as a fraction of the template diameter"},
@@ -85,7 +85,7 @@ static const sm_param_info table[] = {
      * refactor_every = 1 gives the paper's exact scheme. */
     {"refactor_every", INT(refactor_every), RANGE(1, CLOSED, INT_MAX, CLOSED), 100, NULL, 0,
      "--refactor-every", "K", "refactorize the elasticity matrix every K iterations"},
-    {"live_every", INT(live_every), RANGE(0, CLOSED, INT_MAX, CLOSED), 0, "0 (by time only)", 0,
+    {"live_every", INT(live_every), RANGE(0, CLOSED, INT_MAX, CLOSED), 0, NULL, 0,
      NULL, NULL,
      "daemon only: publish the current shape (mesh/latest) every K iterations, and at least "
      "every 0.5 s (0: by time only)"},
@@ -93,7 +93,7 @@ static const sm_param_info table[] = {
      RANGE(SM_SOLVER_AUTO, CLOSED, SM_SOLVER_AMG, CLOSED), SM_SOLVER_AUTO, NULL, 0, "--solver",
      "NAME",
      "elastic solver: cholmod (sparse Cholesky), amg (PCG + BoomerAMG: less memory, for large "
-     "3D templates) or auto (amg from 20000 tetrahedra)"},
+     "3D templates) or auto (amg from 20000 tetrahedra in 3D)"},
 };
 #define N_TABLE (sizeof table / sizeof table[0])
 

@@ -16,10 +16,9 @@
  * the same kind as the core's, which does not know them. */
 static const sm_param_info background_rows[] = {
     {"background_size", SM_PARAM_REAL, offsetof(sm_background_params, size), 0, 0, INFINITY, 1,
-     1, 0, "from the meshes", 0, "--background-size", "H",
-     "with --target-surface and no --target-mesh: the generated background's cell side near "
-     "the surface, a length in the meshes' unit (smaller is finer; default the smaller mean "
-     "edge of template and surface)"},
+     1, 0, "the smaller mean edge of template and surface", 0, "--background-size", "H",
+     "with --target-surface and no --target-mesh: side of the generated background's cells "
+     "near the surface, a length in the meshes' unit"},
     {"background_padding", SM_PARAM_REAL, offsetof(sm_background_params, padding), 0, 0,
      SM_BACKGROUND_PADDING_MAX, 1, 0, SM_BACKGROUND_PADDING_DEFAULT, NULL, 0,
      "--background-padding", "P",

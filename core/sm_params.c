@@ -5,6 +5,7 @@
 #include <limits.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #define REAL(field) SM_PARAM_REAL, offsetof(sm_params, field), 0
@@ -118,15 +119,33 @@ int sm_param_in_range(const sm_param_info *f, double x)
     return above_min && below_max && isfinite(x);
 }
 
+/* The shortest text that reads back as x (0.5, not 0.50000000000000000);
+ * whole numbers in full (1000000000, not 1e+09). */
+static void shortest(char *buf, size_t cap, double x)
+{
+    if (x == floor(x) && fabs(x) < 1e15) {
+        snprintf(buf, cap, "%.0f", x);
+        return;
+    }
+    for (int digits = 1; digits <= 17; digits++) {
+        snprintf(buf, cap, "%.*g", digits, x);
+        if (strtod(buf, NULL) == x)
+            return;
+    }
+}
+
 int sm_param_describe_range(const sm_param_info *f, char *buf, size_t cap)
 {
+    char lo[32], hi[32];
     int int_like = f->type != SM_PARAM_REAL;
     int no_max = isinf(f->max) || (int_like && f->max >= INT_MAX);
+    shortest(lo, sizeof lo, f->min);
+    shortest(hi, sizeof hi, f->max);
     if (no_max)
-        return snprintf(buf, cap, "%s %.17g", f->min_open ? ">" : ">=", f->min);
+        return snprintf(buf, cap, "%s %s", f->min_open ? ">" : ">=", lo);
     if (isinf(f->min))
-        return snprintf(buf, cap, "%s %.17g", f->max_open ? "<" : "<=", f->max);
-    return snprintf(buf, cap, "in %c%.17g, %.17g%c", f->min_open ? '(' : '[', f->min, f->max,
+        return snprintf(buf, cap, "%s %s", f->max_open ? "<" : "<=", hi);
+    return snprintf(buf, cap, "in %c%s, %s%c", f->min_open ? '(' : '[', lo, hi,
                     f->max_open ? ')' : ']');
 }
 

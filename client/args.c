@@ -436,6 +436,75 @@ void job_options_help_background(FILE *out)
         print_row_help(out, &rows[i]);
 }
 
+/* Text of a markdown table cell: '|' escaped. */
+static void put_cell(FILE *out, const char *text)
+{
+    for (const char *c = text; *c; c++) {
+        if (*c == '|')
+            fputc('\\', out);
+        fputc(*c, out);
+    }
+}
+
+/* x as %g writes it, without the exponent's leading zero (1e-6). */
+static void put_number(FILE *out, double x)
+{
+    char buf[40];
+    snprintf(buf, sizeof buf, "%g", x);
+    char *e = strstr(buf, "e-0");
+    if (!e)
+        e = strstr(buf, "e+0");
+    if (e)
+        memmove(e + 2, e + 3, strlen(e + 3) + 1);
+    fputs(buf, out);
+}
+
+/* One row of job_options_markdown. */
+static void markdown_row(FILE *out, const sm_param_info *f)
+{
+    char range[80];
+    fputs("| ", out);
+    if (f->type == SM_PARAM_CLAMP)
+        for (size_t i = 0; i < 4; i++)
+            fprintf(out, "%s`%s%s`", i ? ", " : "", clamp_flags[i],
+                    i == 0 ? " X,Y[,Z],R" : i < 3 ? " REFS" : "");
+    else if (f->flag)
+        fprintf(out, "`%s %s`", f->flag, f->meta);
+    fprintf(out, "%s| `%s%s` | ", f->flag || f->type == SM_PARAM_CLAMP ? " " : "",
+            f->in_clamp ? "clamp." : "", f->name);
+    if (f->def_text)
+        put_cell(out, f->def_text);
+    else if (f->type == SM_PARAM_SOLVER)
+        fputs(sm_solver_kind_name((sm_solver_kind)f->def), out);
+    else if (f->type == SM_PARAM_REFS)
+        fputs("none", out);
+    else
+        put_number(out, f->def);
+    fputs(" | ", out);
+    sm_param_describe_range(f, range, sizeof range);
+    if (f->type == SM_PARAM_REFS)
+        fprintf(out, "%g to %g references", f->min, f->max);
+    else if (f->type == SM_PARAM_SOLVER)
+        for (int k = (int)f->min; k <= (int)f->max; k++)
+            fprintf(out, "%s%s", k > (int)f->min ? ", " : "", sm_solver_kind_name((sm_solver_kind)k));
+    else if (f->type != SM_PARAM_CLAMP)
+        fputs(range, out);
+    fputs(f->type == SM_PARAM_CLAMP ? "| " : " | ", out);
+    put_cell(out, f->help);
+    fputs(" |\n", out);
+}
+
+void job_options_markdown(FILE *out)
+{
+    size_t n;
+    fputs("| option | params | default | range | meaning |\n|---|---|---|---|---|\n", out);
+    for (int bg = 0; bg < 2; bg++) {
+        const sm_param_info *rows = bg ? sm_background_params_table(&n) : sm_params_table(&n);
+        for (size_t i = 0; i < n; i++)
+            markdown_row(out, &rows[i]);
+    }
+}
+
 /* ---- run ---- */
 
 typedef enum run_flag_kind {

@@ -95,6 +95,11 @@ void job_options_help(FILE *out);
 /* The same for --background-size and --background-padding, which the
  * commands list with their inputs. */
 void job_options_help_background(FILE *out);
+/* The parameters as a markdown table (option, params member, default,
+ * range, meaning), every row of the parameter tables: the documentation's
+ * table is this text (tests/unit/test_params.c checks it; `build/release/
+ * tests/test_params --markdown` prints it). */
+void job_options_markdown(FILE *out);
 
 /* ---- run ---- */
 

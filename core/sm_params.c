@@ -26,8 +26,9 @@
 static const sm_param_info table[] = {
     {"clamp", SM_PARAM_CLAMP, offsetof(sm_params, clamp), 0, RANGE(0, CLOSED, 0, CLOSED),
      SM_CLAMP_NONE, "required", 0, NULL, NULL,
-     "the clamp set where the displacement is 0: exactly one of --clamp-ball, "
-     "--clamp-elements, --clamp-vertices, --no-clamp"},
+     "the clamp set where the displacement is 0 (the paper's omega), one option exactly; "
+     "with --no-clamp nothing is fixed and the term alpha*int u.v makes the problem well "
+     "posed (paper, Remark 1)"},
     /* 0 = from the problem's scale: E / diameter^2 (sm_match.c), which
      * converges with --no-clamp on both examples (2D: relative boundary
      * error 1e-3 after 19 iterations, 3D: after 21), where the former
@@ -37,7 +38,9 @@ static const sm_param_info table[] = {
      "0: from the scale, E/diameter^2)"},
     {"free_boundary", SM_PARAM_REFS, offsetof(sm_params, free_refs),
      offsetof(sm_params, n_free_refs), RANGE(0, CLOSED, SM_MAX_REFS, CLOSED), 0, NULL, 0,
-     "--free-boundary", "REFS", "boundary facet references excluded from the load"},
+     "--free-boundary", "REFS",
+     "boundary facet references excluded from the load (they count neither in J nor in the "
+     "boundary error)"},
     {"young", REAL(young), RANGE(0, OPEN, NO_MAX), 1.0, NULL, 0, "--young", "E",
      "Young's modulus of the elastic model"},
     {"poisson", REAL(poisson), RANGE(-1, OPEN, 0.5, OPEN), 0.3, NULL, 0, "--poisson", "NU",
@@ -47,14 +50,16 @@ static const sm_param_info table[] = {
     {"max_iter", INT(max_iter), RANGE(1, CLOSED, 1e9, CLOSED), 500, NULL, 0, "--max-iter", "N",
      "stop after N iterations"},
     {"tol_step", REAL(tol_step), RANGE(0, OPEN, 1, OPEN), 1e-6, NULL, 0, "--tol-step", "EPS",
-     "stop when the step falls below EPS times the template diameter"},
+     "stop when the step falls below EPS times the template diameter (the paper's "
+     "criterion)"},
     {"tol_boundary", REAL(tol_boundary), RANGE(0, CLOSED, NO_MAX), 0.0, NULL, 0,
      "--tol-boundary", "TOL",
-     "stop when the boundary error ||d||_L2 is <= TOL (0: off; absolute, unit-dependent)"},
+     "stop when the boundary error ||d||_L2 is <= TOL (0: off; absolute: scales like L^1.5 "
+     "in 2D, L^2 in 3D with the template's size L)"},
     {"tol_boundary_rel", REAL(tol_boundary_rel), RANGE(0, CLOSED, NO_MAX), 0.0, NULL, 0,
      "--tol-boundary-rel", "R",
-     "stop when the RMS boundary error is <= R times the template diameter (0: off; "
-     "unit-free)"},
+     "stop when the RMS boundary error ||d||_L2/sqrt(|boundary|) is <= R times the template "
+     "diameter (0: off; unit-free)"},
     /* The stall rule ends converged runs, which the step rule alone does
      * not (the step stays well above tol_step while the error creeps down
      * by less than the background's resolution).  Measured with 500
@@ -69,7 +74,9 @@ static const sm_param_info table[] = {
     {"stall_window", INT(stall_window), RANGE(1, CLOSED, 100000, CLOSED), 15, NULL, 0,
      "--stall-window", "K", "iterations of the stall rule's window"},
     {"min_quality", REAL(min_quality), RANGE(0, CLOSED, 1, OPEN), 0.02, NULL, 0, "--min-quality",
-     "Q", "element quality floor for an accepted step, in [0,1)"},
+     "Q",
+     "element quality floor for an accepted step (or the template's own worst quality, if "
+     "lower)"},
     {"save_every", INT(save_every), RANGE(0, CLOSED, INT_MAX, CLOSED), 0, NULL, 0,
      "--save-every", "K", "also write OUTDIR/iter-NNNNN.mesh every K iterations (0: never)"},
     {"step_initial", REAL(step_initial), RANGE(0, OPEN, 1, CLOSED), 0.01, NULL, 0,
@@ -85,7 +92,9 @@ static const sm_param_info table[] = {
      * factorization is 80-90% of the cost of an iteration in 3D.
      * refactor_every = 1 gives the paper's exact scheme. */
     {"refactor_every", INT(refactor_every), RANGE(1, CLOSED, INT_MAX, CLOSED), 100, NULL, 0,
-     "--refactor-every", "K", "refactorize the elasticity matrix every K iterations"},
+     "--refactor-every", "K",
+     "refactorize the elasticity matrix every K iterations (1: every iteration, as in the "
+     "paper)"},
     {"live_every", INT(live_every), RANGE(0, CLOSED, INT_MAX, CLOSED), 0, NULL, 0,
      NULL, NULL,
      "daemon only: publish the current shape (mesh/latest) every K iterations, and at least "

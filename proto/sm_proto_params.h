@@ -8,12 +8,12 @@
  *   {"clamp": {"kind": "vertices", "refs": [1, 2]}, "young": 2.0}
  *   {"clamp": {"kind": "none", "alpha": 0.01}, "max_iter": 100}
  *
- * Top-level fields: clamp, free_boundary, young, poisson, max_iter,
- * tol_step, tol_boundary, tol_boundary_rel, tol_stall, stall_window,
- * min_quality, save_every, step_initial, step_max,
- * refactor_every, live_every, solver, and the generated background's
- * background_size and background_padding (sm_background_params: not the
- * descent's, so outside sm_params).  Decoding is strict: unknown fields, wrong types,
+ * Top-level fields: the rows of the parameter table (sm_params_table,
+ * shapematch/sm_params.h: clamp, free_boundary, young, ..., solver; alpha
+ * is a member of the clamp) and the generated background's
+ * background_size and background_padding (sm_background_params_table
+ * below: not the descent's, so outside sm_params); their names, types
+ * and bounds are the tables'.  Decoding is strict: unknown fields, wrong types,
  * out-of-range values and duplicate keys are errors, and the message
  * starts with the JSON path of the offending field, e.g.
  *   "params.clamp.radius: must be > 0 (got -1)".

@@ -13,7 +13,9 @@
 #include "sm_proto_json.h"
 
 /* The generated background's members (sm_background_params): rows of
- * the same kind as the core's, which does not know them. */
+ * the same kind as the core's, which does not know them.  Fields in
+ * sm_param_info's order: name, type, offset, count_offset, min, max,
+ * min_open, max_open, def, def_text, in_clamp, flag, meta, help. */
 static const sm_param_info background_rows[] = {
     {"background_size", SM_PARAM_REAL, offsetof(sm_background_params, size), 0, 0, INFINITY, 1,
      1, 0, "the smaller mean edge of template and surface", 0, "--background-size", "H",
@@ -73,7 +75,6 @@ static sm_status get_ranged(const json_t *v, const char *path, double lo, int lo
     *out = x;
     return SM_OK;
 }
-
 
 /* A list of references: integers, at most SM_MAX_REFS, at least min_count. */
 static sm_status get_refs(const json_t *v, const char *path, size_t min_count,

@@ -11,7 +11,9 @@
  * "<!-- params-table -->" and "<!-- /params-table -->" in README.md and
  * docs/ match job_options_markdown).
  *
- *   test_params --markdown    prints the table for the docs */
+ *   test_params --markdown    prints the table for the docs
+ *   test_params --cli-cases   prints the bound cases for tests/cli/params.sh,
+ *                             which runs them through the shapematch binary */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -138,6 +140,10 @@ static int by_core(const sm_param_info *f, double x, char *why)
     return st == SM_OK;
 }
 
+/* With --cli-cases: the cases are printed for tests/cli/params.sh, which
+ * gives them to the shapematch binary itself, instead of judged here. */
+static FILE *cases_out;
+
 /* x given to the three readers; each must answer `expect`. */
 static void judge(const sm_param_info *f, int background, double x, int expect, const char *what)
 {
@@ -146,6 +152,14 @@ static void judge(const sm_param_info *f, int background, double x, int expect, 
         snprintf(text, sizeof text, "%.0f", x);
     else
         snprintf(text, sizeof text, "%.17g", x);
+    if (cases_out) { /* "accept|refuse surface|files FLAG VALUE [FLAG VALUE]" */
+        const char *cvalue, *cjson;
+        const char *cflag = companion_flag(f, &cvalue, &cjson);
+        fprintf(cases_out, "%s %s %s %s%s%s%s%s\n", expect ? "accept" : "refuse",
+                background ? "surface" : "files", f->flag, text, cflag ? " " : "",
+                cflag ? cflag : "", cflag ? " " : "", cflag ? cvalue : "");
+        return;
+    }
     verdicts v;
     v.cli = by_cli(f, background, text, v.why[0]);
     v.json = by_json(f, text, v.why[1]);
@@ -213,7 +227,8 @@ static void test_bounds_agree(void **state)
             rows++;
         }
     }
-    print_message("%d rows, %d bounds walked through CLI, JSON and core\n", rows, bounds);
+    if (!cases_out)
+        print_message("%d rows, %d bounds walked through CLI, JSON and core\n", rows, bounds);
     assert_true(rows >= 16);
 }
 
@@ -401,6 +416,11 @@ int main(int argc, char **argv)
 {
     if (argc == 2 && strcmp(argv[1], "--markdown") == 0) {
         job_options_markdown(stdout);
+        return 0;
+    }
+    if (argc == 2 && strcmp(argv[1], "--cli-cases") == 0) {
+        cases_out = stdout;
+        test_bounds_agree(NULL);
         return 0;
     }
     const struct CMUnitTest tests[] = {

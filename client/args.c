@@ -134,96 +134,65 @@ int args_parse_reals(const char *flag, const char *text, double *vals,
 
 /* ---- job options ---- */
 
-/* The scalar parameters, table-driven: flag, field, type and the range
- * accepted (checked here so that the message names the flag; the core's
- * sm_params_validate runs afterwards as the last word). */
-typedef struct scalar_option {
-    const char *flag;
-    size_t offset;       /* into sm_params */
-    int is_int;
-    double lo, hi;
-    int lo_open, hi_open;
-    const char *meta;
-    const char *help;
-} scalar_option;
-
-static const scalar_option scalar_options[] = {
-    {"--alpha", offsetof(sm_params, alpha), 0, 0.0, INFINITY, 0, 1, "A",
-     "0th-order term alpha*int u.v of the unclamped problem (only with --no-clamp; "
-     "0: from the scale, E/diameter^2)"},
-    {"--young", offsetof(sm_params, young), 0, 0.0, INFINITY, 1, 1, "E",
-     "Young's modulus of the elastic model"},
-    {"--poisson", offsetof(sm_params, poisson), 0, -1.0, 0.5, 1, 1, "NU",
-     "Poisson ratio of the elastic model"},
-    {"--max-iter", offsetof(sm_params, max_iter), 1, 1.0, 1e9, 0, 0, "N",
-     "stop after N iterations"},
-    {"--tol-step", offsetof(sm_params, tol_step), 0, 0.0, 1.0, 1, 1, "EPS",
-     "stop when the step falls below EPS times the template diameter"},
-    {"--tol-boundary", offsetof(sm_params, tol_boundary), 0, 0.0, INFINITY, 0, 1, "TOL",
-     "stop when the boundary error ||d||_L2 is <= TOL (0: off; absolute, unit-dependent)"},
-    {"--tol-boundary-rel", offsetof(sm_params, tol_boundary_rel), 0, 0.0, INFINITY, 0, 1, "R",
-     "stop when the RMS boundary error is <= R times the template diameter (0: off; unit-free)"},
-    {"--tol-stall", offsetof(sm_params, tol_stall), 0, 0.0, 1.0, 0, 1, "F",
-     "stop (stalled) when the best boundary error improved by < F over the stall window (0: off)"},
-    {"--stall-window", offsetof(sm_params, stall_window), 1, 1.0, 100000, 0, 0, "K",
-     "iterations of the stall rule's window"},
-    {"--min-quality", offsetof(sm_params, min_quality), 0, 0.0, 1.0, 0, 1, "Q",
-     "element quality floor for an accepted step, in [0,1)"},
-    {"--save-every", offsetof(sm_params, save_every), 1, 0.0, INT_MAX, 0, 0, "K",
-     "also write OUTDIR/iter-NNNNN.mesh every K iterations (0: never)"},
-    {"--step-initial", offsetof(sm_params, step_initial), 0, 0.0, 1.0, 1, 0, "S",
-     "first step length, as a fraction of the template diameter"},
-    {"--step-max", offsetof(sm_params, step_max), 0, 0.0, 1.0, 1, 0, "S",
-     "largest step length, as a fraction of the template diameter"},
-    {"--refactor-every", offsetof(sm_params, refactor_every), 1, 1.0, INT_MAX, 0, 0, "K",
-     "refactorize the elasticity matrix every K iterations"},
-};
-#define N_SCALAR_OPTIONS (sizeof scalar_options / sizeof scalar_options[0])
-
-static const scalar_option *find_scalar(const char *flag)
+/* The job parameters' options are the rows of the parameter table
+ * (sm_params_table, shapematch/sm_params.h) and of the background rows
+ * (sm_background_params_table) that have a flag: the flag, the value's
+ * type and range and the help come from there.  The range is checked
+ * here so that the message names the flag; the core's
+ * sm_params_validate runs afterwards as the last word.  The clamp's
+ * four options are code of their own (below). */
+static const sm_param_info *find_row(const char *flag, int *background)
 {
-    for (size_t i = 0; i < N_SCALAR_OPTIONS; i++)
-        if (strcmp(scalar_options[i].flag, flag) == 0)
-            return &scalar_options[i];
+    size_t n;
+    for (int bg = 0; bg < 2; bg++) {
+        const sm_param_info *rows = bg ? sm_background_params_table(&n) : sm_params_table(&n);
+        for (size_t i = 0; i < n; i++)
+            if (rows[i].flag && strcmp(rows[i].flag, flag) == 0) {
+                *background = bg;
+                return &rows[i];
+            }
+    }
     return NULL;
 }
 
-static void describe_range(const scalar_option *o, char *buf, size_t cap)
+/* Sets row f of the struct at base from the option's text. */
+static int apply_row(void *base, const sm_param_info *f, const char *value, char *msg,
+                     size_t cap)
 {
-    if (isinf(o->hi) || (o->is_int && o->hi >= INT_MAX))
-        snprintf(buf, cap, "%s %g", o->lo_open ? ">" : ">=", o->lo);
-    else if (o->is_int)
-        snprintf(buf, cap, "in [%ld, %ld]", (long)o->lo, (long)o->hi);
-    else
-        snprintf(buf, cap, "in %c%g, %g%c", o->lo_open ? '(' : '[', o->lo,
-                 o->hi, o->hi_open ? ')' : ']');
-}
-
-static int apply_scalar(sm_params *p, const scalar_option *o,
-                        const char *value, char *msg, size_t cap)
-{
-    char range[64];
-    describe_range(o, range, sizeof range);
-    if (o->is_int) {
+    char range[80];
+    char *at = (char *)base + f->offset;
+    sm_param_describe_range(f, range, sizeof range);
+    switch (f->type) {
+    case SM_PARAM_INT: {
         long v;
-        if (args_parse_int(o->flag, value, LONG_MIN, LONG_MAX, &v, msg, cap) != 0)
+        if (args_parse_int(f->flag, value, LONG_MIN, LONG_MAX, &v, msg, cap) != 0)
             return -1;
-        if (v < (long)o->lo || v > (long)o->hi)
-            return cli_fail(msg, cap, "%s: %ld is out of range (must be %s)",
-                        o->flag, v, range);
-        *(int *)((char *)p + o->offset) = (int)v;
+        if (!sm_param_in_range(f, (double)v))
+            return cli_fail(msg, cap, "%s: %ld is out of range (must be %s)", f->flag, v, range);
+        *(int *)at = (int)v;
         return 0;
     }
-    double v;
-    if (args_parse_real(o->flag, value, &v, msg, cap) != 0)
-        return -1;
-    int below = o->lo_open ? !(v > o->lo) : !(v >= o->lo);
-    int above = o->hi_open ? !(v < o->hi) : !(v <= o->hi);
-    if (below || above)
-        return cli_fail(msg, cap, "%s: %s is out of range (must be %s)", o->flag,
-                    value, range);
-    *(double *)((char *)p + o->offset) = v;
-    return 0;
+    case SM_PARAM_REAL: {
+        double v;
+        if (args_parse_real(f->flag, value, &v, msg, cap) != 0)
+            return -1;
+        if (!sm_param_in_range(f, v))
+            return cli_fail(msg, cap, "%s: %s is out of range (must be %s)", f->flag, value,
+                            range);
+        *(double *)at = v;
+        return 0;
+    }
+    case SM_PARAM_REFS:
+        return args_parse_refs(f->flag, value, (int32_t *)at, (int)f->max,
+                               (int *)((char *)base + f->count_offset), msg, cap);
+    case SM_PARAM_SOLVER:
+        return sm_solver_kind_from_name(value, (sm_solver_kind *)at) == 0
+                   ? 0
+                   : cli_fail(msg, cap, "%s: '%s' is not auto, cholmod or amg", f->flag, value);
+    case SM_PARAM_CLAMP:
+        break;
+    }
+    return cli_fail(msg, cap, "unknown option '%s'", f->flag);
 }
 
 static const char *const clamp_flags[] = {
@@ -282,26 +251,8 @@ int job_option_lookup(const char *flag)
     for (size_t i = 0; i < 3; i++)
         if (strcmp(flag, clamp_flags[i]) == 0)
             return 1;
-    if (strcmp(flag, "--free-boundary") == 0 || strcmp(flag, "--solver") == 0 ||
-        strcmp(flag, "--background-size") == 0 || strcmp(flag, "--background-padding") == 0)
-        return 1;
-    return find_scalar(flag) ? 1 : -1;
-}
-
-/* --background-size H (> 0) / --background-padding P (in (0, 100]): the
- * decoder's ranges of params background_size, background_padding. */
-static int apply_background(job_options *j, const char *flag, const char *value, char *msg,
-                            size_t cap)
-{
-    int size = strcmp(flag, "--background-size") == 0;
-    double *dst = size ? &j->background.size : &j->background.padding;
-    double max = size ? INFINITY : SM_BACKGROUND_PADDING_MAX;
-    if (args_parse_real(flag, value, dst, msg, cap) != 0)
-        return -1;
-    if (!(*dst > 0) || !(*dst <= max))
-        return size ? cli_fail(msg, cap, "%s: expected a number > 0", flag)
-                    : cli_fail(msg, cap, "%s: expected a number > 0 and <= %g", flag, max);
-    return 0;
+    int background;
+    return find_row(flag, &background) ? 1 : -1;
 }
 
 int job_options_check_background(const job_options *j, const char *target_surface,
@@ -374,21 +325,13 @@ int job_option_apply(job_options *j, const char *flag, const char *value,
                                                         : SM_CLAMP_VERTICES;
         return 0;
     }
-    if (strcmp(flag, "--free-boundary") == 0)
-        return args_parse_refs(flag, value, p->free_refs, SM_MAX_REFS,
-                               &p->n_free_refs, msg, cap);
-    if (strcmp(flag, "--background-size") == 0 || strcmp(flag, "--background-padding") == 0)
-        return apply_background(j, flag, value, msg, cap);
-    if (strcmp(flag, "--solver") == 0)
-        return sm_solver_kind_from_name(value, &p->solver) == 0
-                   ? 0
-                   : cli_fail(msg, cap, "--solver: '%s' is not auto, cholmod or amg", value);
-    const scalar_option *o = find_scalar(flag);
-    if (!o)
+    int background;
+    const sm_param_info *f = find_row(flag, &background);
+    if (!f)
         return cli_fail(msg, cap, "unknown option '%s'", flag);
-    if (apply_scalar(p, o, value, msg, cap) != 0)
+    if (apply_row(background ? (void *)&j->background : (void *)p, f, value, msg, cap) != 0)
         return -1;
-    if (strcmp(flag, "--alpha") == 0)
+    if (f->in_clamp) /* --alpha: only with --no-clamp, checked at the end */
         j->alpha_given = 1;
     return 0;
 }
@@ -447,34 +390,118 @@ static void print_wrapped(FILE *out, const char *text, int indent, int width)
     fputc('\n', out);
 }
 
+/* "  --flag META            help (default D)", wrapped. */
+static void print_row_help(FILE *out, const sm_param_info *f)
+{
+    char left[40], dflt[64] = "", text[512];
+    if (f->def_text)
+        snprintf(dflt, sizeof dflt, " (default %s)", f->def_text);
+    else if (f->type == SM_PARAM_REFS)
+        ; /* an empty list: nothing to show */
+    else if (f->type == SM_PARAM_SOLVER)
+        snprintf(dflt, sizeof dflt, " (default %s)", sm_solver_kind_name((sm_solver_kind)f->def));
+    else
+        snprintf(dflt, sizeof dflt, " (default %g)", f->def);
+    snprintf(left, sizeof left, "%s %s", f->flag, f->meta);
+    snprintf(text, sizeof text, "%s%s", f->help, dflt);
+    fprintf(out, "  %-22s", left);
+    print_wrapped(out, text, 26, 79);
+}
+
 void job_options_help(FILE *out)
 {
-    sm_params d;
-    sm_params_default(&d);
     fputs("Clamp (exactly one):\n"
           "  --clamp-ball X,Y[,Z],R  fix the vertices inside a disk/ball\n"
           "  --clamp-elements REFS   fix the vertices of the elements with these references\n"
           "  --clamp-vertices REFS   fix the vertices with these references\n"
           "  --no-clamp              no fixed vertex; regularize with --alpha\n"
           "\n"
-          "Parameters (REFS: comma-separated integers, e.g. 1,4):\n"
-          "  --free-boundary REFS    boundary facet references excluded from the load\n"
-          "  --solver NAME           elastic solver: cholmod (sparse Cholesky), amg (PCG +\n"
-          "                          BoomerAMG: less memory, for large 3D templates) or auto\n"
-          "                          (amg from 20000 tetrahedra; default auto)\n",
+          "Parameters (REFS: comma-separated integers, e.g. 1,4):\n",
           out);
-    for (size_t i = 0; i < N_SCALAR_OPTIONS; i++) {
-        const scalar_option *o = &scalar_options[i];
-        char left[40], text[256];
-        snprintf(left, sizeof left, "%s %s", o->flag, o->meta);
-        if (o->is_int)
-            snprintf(text, sizeof text, "%s (default %d)", o->help,
-                     *(const int *)((const char *)&d + o->offset));
-        else
-            snprintf(text, sizeof text, "%s (default %g)", o->help,
-                     *(const double *)((const char *)&d + o->offset));
-        fprintf(out, "  %-22s", left);
-        print_wrapped(out, text, 26, 79);
+    /* the lists and names first, then the numbers, each in table order */
+    size_t n;
+    const sm_param_info *rows = sm_params_table(&n);
+    for (int numbers = 0; numbers < 2; numbers++)
+        for (size_t i = 0; i < n; i++)
+            if (rows[i].flag &&
+                (rows[i].type == SM_PARAM_REAL || rows[i].type == SM_PARAM_INT) == numbers)
+                print_row_help(out, &rows[i]);
+}
+
+void job_options_help_background(FILE *out)
+{
+    size_t n;
+    const sm_param_info *rows = sm_background_params_table(&n);
+    for (size_t i = 0; i < n; i++)
+        print_row_help(out, &rows[i]);
+}
+
+/* Text of a markdown table cell: '|' escaped. */
+static void put_cell(FILE *out, const char *text)
+{
+    for (const char *c = text; *c; c++) {
+        if (*c == '|')
+            fputc('\\', out);
+        fputc(*c, out);
+    }
+}
+
+/* x as %g writes it, without the exponent's leading zero (1e-6). */
+static void put_number(FILE *out, double x)
+{
+    char buf[40];
+    snprintf(buf, sizeof buf, "%g", x);
+    char *e = strstr(buf, "e-0");
+    if (!e)
+        e = strstr(buf, "e+0");
+    if (e)
+        memmove(e + 2, e + 3, strlen(e + 3) + 1);
+    fputs(buf, out);
+}
+
+/* One row of job_options_markdown. */
+static void markdown_row(FILE *out, const sm_param_info *f)
+{
+    char range[80];
+    fputs("| ", out);
+    if (f->type == SM_PARAM_CLAMP)
+        for (size_t i = 0; i < 4; i++)
+            fprintf(out, "%s`%s%s`", i ? ", " : "", clamp_flags[i],
+                    i == 0 ? " X,Y[,Z],R" : i < 3 ? " REFS" : "");
+    else if (f->flag)
+        fprintf(out, "`%s %s`", f->flag, f->meta);
+    fprintf(out, "%s| `%s%s` | ", f->flag || f->type == SM_PARAM_CLAMP ? " " : "",
+            f->in_clamp ? "clamp." : "", f->name);
+    if (f->def_text)
+        put_cell(out, f->def_text);
+    else if (f->type == SM_PARAM_SOLVER)
+        fputs(sm_solver_kind_name((sm_solver_kind)f->def), out);
+    else if (f->type == SM_PARAM_REFS)
+        fputs("none", out);
+    else
+        put_number(out, f->def);
+    fputs(" | ", out);
+    sm_param_describe_range(f, range, sizeof range);
+    if (f->type == SM_PARAM_REFS)
+        fprintf(out, "%g to %g references", f->min, f->max);
+    else if (f->type == SM_PARAM_SOLVER)
+        for (int k = (int)f->min; k <= (int)f->max; k++)
+            fprintf(out, "%s%s", k > (int)f->min ? ", " : "", sm_solver_kind_name((sm_solver_kind)k));
+    else if (f->type != SM_PARAM_CLAMP)
+        fputs(range, out);
+    fputs(f->type == SM_PARAM_CLAMP ? "| " : " | ", out);
+    put_cell(out, f->help);
+    fputs(" |\n", out);
+}
+
+void job_options_markdown(FILE *out)
+{
+    size_t n;
+    fputs("| option | params | default | range | meaning |\n|---|---|---|---|---|\n", out);
+    for (int bg = 0; bg < 2; bg++) {
+        const sm_param_info *rows = bg ? sm_background_params_table(&n) : sm_params_table(&n);
+        for (size_t i = 0; i < n; i++)
+            markdown_row(out, &rows[i]);
     }
 }
 

@@ -89,8 +89,17 @@ int job_options_check_background(const job_options *j, const char *target_surfac
 /* Checks that involve the template dimension (--clamp-ball arity). */
 int job_options_check_dim(const job_options *j, int dim, char *msg,
                           size_t cap);
-/* Help text of the job options with the current defaults. */
+/* Help text of the job options (clamp and parameters) with their
+ * defaults, from the parameter table. */
 void job_options_help(FILE *out);
+/* The same for --background-size and --background-padding, which the
+ * commands list with their inputs. */
+void job_options_help_background(FILE *out);
+/* The parameters as a markdown table (option, params member, default,
+ * range, meaning), every row of the parameter tables: the documentation's
+ * table is this text (tests/unit/test_params.c checks it; `build/release/
+ * tests/test_params --markdown` prints it). */
+void job_options_markdown(FILE *out);
 
 /* ---- run ---- */
 

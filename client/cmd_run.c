@@ -272,13 +272,9 @@ void cmd_run_help(void)
            "  --target-sol FILE       signed distance of the target, one value per\n"
            "                          background vertex (scalar SolAtVertices)\n"
            "  --target-surface FILE   target surface instead of --target-sol; its health\n"
-           "                          report (holes, reoriented facets, ...) on stderr\n"
-           "  --background-size H     with --target-surface and no --target-mesh: size of\n"
-           "                          the generated background near the surface (default:\n"
-           "                          the smaller mean edge of template and surface)\n"
-           "  --background-padding P  margin of that background around template and\n"
-           "                          surface, a fraction of their box's diagonal (0.1)\n"
-           "  -o, --output DIR        output directory (created if missing); receives\n"
+           "                          report (holes, reoriented facets, ...) on stderr\n");
+    job_options_help_background(stdout);
+    printf("  -o, --output DIR        output directory (created if missing); receives\n"
            "                          the --format files, history.csv and summary.json\n"
            "  --format LIST           comma-separated: mesh (result.mesh), meshb\n"
            "                          (result.meshb), vtu (result.vtu, ParaView),\n"

@@ -290,12 +290,9 @@ void cmd_submit_help(void)
            "  --target-surface FILE   instead of --target-sol: the target's surface (STL, OBJ,\n"
            "                          Medit, Gmsh .msh); the daemon computes its signed\n"
            "                          distance on --target-mesh, or on a background it\n"
-           "                          generates when --target-mesh is not given\n"
-           "  --background-size H     with --target-surface and no --target-mesh: size of\n"
-           "                          the generated background near the surface (params\n"
-           "                          background_size; default from the meshes' edges)\n"
-           "  --background-padding P  its margin, a fraction of the box's diagonal (0.1)\n"
-           "  --no-compress           send the files as they are (by default files that are\n"
+           "                          generates when --target-mesh is not given\n");
+    job_options_help_background(stdout);
+    printf("  --no-compress           send the files as they are (by default files that are\n"
            "                          not gzip yet are compressed on the way)\n"
            "\n");
     job_options_help(stdout);

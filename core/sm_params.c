@@ -1,50 +1,180 @@
-/* Defaults and range checks of sm_params (see sm_params.h). */
+/* The parameter table of sm_params, and the defaults and range checks
+ * read from it (see sm_params.h). */
 #include "shapematch/sm_params.h"
 
+#include <limits.h>
 #include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
-void sm_params_default(sm_params *p)
-{
-    memset(p, 0, sizeof *p);
-    p->clamp = SM_CLAMP_NONE;
+#define REAL(field) SM_PARAM_REAL, offsetof(sm_params, field), 0
+#define INT(field) SM_PARAM_INT, offsetof(sm_params, field), 0
+/* no bound on that side (an infinite bound is open: values are finite) */
+#define NO_MIN -INFINITY, 1
+#define NO_MAX INFINITY, 1
+/* The struct holds min, max, min_open, max_open; a row reads "lower
+ * bound, upper bound" (the extra level expands NO_MIN/NO_MAX first). */
+#define RANGE_(lo, lo_open, hi, hi_open) lo, hi, lo_open, hi_open
+#define RANGE(...) RANGE_(__VA_ARGS__)
+#define CLOSED 0
+#define OPEN 1
+
+/* One row a parameter, in the order of the params document (the encoder
+ * writes them in this order).  Why a default is what it is stays beside
+ * its row. */
+static const sm_param_info table[] = {
+    {"clamp", SM_PARAM_CLAMP, offsetof(sm_params, clamp), 0, RANGE(0, CLOSED, 0, CLOSED),
+     SM_CLAMP_NONE, "required", 0, NULL, NULL,
+     "the clamp set where the displacement is 0 (the paper's omega), one option exactly; "
+     "with --no-clamp nothing is fixed and the term alpha*int u.v makes the problem well "
+     "posed (paper, Remark 1)"},
     /* 0 = from the problem's scale: E / diameter^2 (sm_match.c), which
      * converges with --no-clamp on both examples (2D: relative boundary
      * error 1e-3 after 19 iterations, 3D: after 21), where the former
      * fixed 0.01 did not (2D: 9.1e-3 after 500 iterations). */
-    p->alpha = 0.0;
-    p->young = 1.0;
-    p->poisson = 0.3;
-    p->max_iter = 500;
-    p->tol_step = 1e-6;
-    p->tol_boundary = 0.0;
-    p->tol_boundary_rel = 0.0;
-    /* The stall rule ends converged runs, which the step rule alone does not
-     * (the step stays well above tol_step while the error creeps down by
-     * less than the background's resolution).  Measured with 500 iterations
-     * as the reference, "needed" = first iteration within 10% of the best
-     * error of those 500: 2D example needs 163, stops at 210; 3D example
-     * needs 266, stops at 281 (README.md, "Stop rules", has the Gmsh cases).
-     * Shorter windows or larger fractions stop too early on the 3D case's
-     * plateaus (K 10 / 2%: 109 < 266). */
-    p->tol_stall = 0.01;
-    p->stall_window = 15;
-    p->min_quality = 0.02;
-    p->save_every = 0;
-    p->step_initial = 0.01;
-    p->step_max = 0.1;
+    {"alpha", REAL(alpha), RANGE(0, CLOSED, NO_MAX), 0.0, NULL, 1, "--alpha", "A",
+     "0th-order term alpha*int u.v of the unclamped problem (only with --no-clamp; "
+     "0: from the scale, E/diameter^2)"},
+    {"free_boundary", SM_PARAM_REFS, offsetof(sm_params, free_refs),
+     offsetof(sm_params, n_free_refs), RANGE(0, CLOSED, SM_MAX_REFS, CLOSED), 0, NULL, 0,
+     "--free-boundary", "REFS",
+     "boundary facet references excluded from the load (they count neither in J nor in the "
+     "boundary error)"},
+    {"young", REAL(young), RANGE(0, OPEN, NO_MAX), 1.0, NULL, 0, "--young", "E",
+     "Young's modulus of the elastic model"},
+    {"poisson", REAL(poisson), RANGE(-1, OPEN, 0.5, OPEN), 0.3, NULL, 0, "--poisson", "NU",
+     "Poisson ratio of the elastic model"},
+    /* 1e9: far beyond any run (a default run stops after ~200), and an
+     * int on every platform */
+    {"max_iter", INT(max_iter), RANGE(1, CLOSED, 1e9, CLOSED), 500, NULL, 0, "--max-iter", "N",
+     "stop after N iterations"},
+    {"tol_step", REAL(tol_step), RANGE(0, OPEN, 1, OPEN), 1e-6, NULL, 0, "--tol-step", "EPS",
+     "stop when the step falls below EPS times the template diameter (the paper's "
+     "criterion)"},
+    {"tol_boundary", REAL(tol_boundary), RANGE(0, CLOSED, NO_MAX), 0.0, NULL, 0,
+     "--tol-boundary", "TOL",
+     "stop when the boundary error ||d||_L2 is <= TOL (0: off; absolute: scales like L^1.5 "
+     "in 2D, L^2 in 3D with the template's size L)"},
+    {"tol_boundary_rel", REAL(tol_boundary_rel), RANGE(0, CLOSED, NO_MAX), 0.0, NULL, 0,
+     "--tol-boundary-rel", "R",
+     "stop when the RMS boundary error ||d||_L2/sqrt(|boundary|) is <= R times the template "
+     "diameter (0: off; unit-free)"},
+    /* The stall rule ends converged runs, which the step rule alone does
+     * not (the step stays well above tol_step while the error creeps down
+     * by less than the background's resolution).  Measured with 500
+     * iterations as the reference, "needed" = first iteration within 10%
+     * of the best error of those 500: 2D example needs 163, stops at 210;
+     * 3D example needs 266, stops at 281 (README.md, "Stop rules", has the
+     * Gmsh cases).  Shorter windows or larger fractions stop too early on
+     * the 3D case's plateaus (K 10 / 2%: 109 < 266). */
+    {"tol_stall", REAL(tol_stall), RANGE(0, CLOSED, 1, OPEN), 0.01, NULL, 0, "--tol-stall", "F",
+     "stop (stalled) when the best boundary error improved by < F over the stall window "
+     "(0: off)"},
+    {"stall_window", INT(stall_window), RANGE(1, CLOSED, 100000, CLOSED), 15, NULL, 0,
+     "--stall-window", "K", "iterations of the stall rule's window"},
+    {"min_quality", REAL(min_quality), RANGE(0, CLOSED, 1, OPEN), 0.02, NULL, 0, "--min-quality",
+     "Q",
+     "element quality floor for an accepted step (or the template's own worst quality, if "
+     "lower)"},
+    {"save_every", INT(save_every), RANGE(0, CLOSED, INT_MAX, CLOSED), 0, NULL, 0,
+     "--save-every", "K", "also write OUTDIR/iter-NNNNN.mesh every K iterations (0: never)"},
+    {"step_initial", REAL(step_initial), RANGE(0, OPEN, 1, CLOSED), 0.01, NULL, 0,
+     "--step-initial", "S", "first step length, as a fraction of the template diameter"},
+    {"step_max", REAL(step_max), RANGE(0, OPEN, 1, CLOSED), 0.1, NULL, 0, "--step-max", "S",
+     "largest step length, as a fraction of the template diameter"},
     /* Why the elastic operator is not refactorized at every iteration by
-     * default: any SPD operator gives a descent direction (the gradient in the
-     * elastic metric of a slightly older configuration), the stationary points
-     * are the same, and on the bundled examples the descent needs no more
-     * iterations (2D: 18 vs 21 to reach 3e-4; 3D: 16 vs 19) with a minimum
-     * quality as good, while the numeric factorization is 80-90% of the cost of
-     * an iteration in 3D.  refactor_every = 1 gives the paper's exact scheme. */
-    p->refactor_every = 100;
-    p->live_every = 0;
+     * default: any SPD operator gives a descent direction (the gradient in
+     * the elastic metric of a slightly older configuration), the
+     * stationary points are the same, and on the bundled examples the
+     * descent needs no more iterations (2D: 18 vs 21 to reach 3e-4; 3D: 16
+     * vs 19) with a minimum quality as good, while the numeric
+     * factorization is 80-90% of the cost of an iteration in 3D.
+     * refactor_every = 1 gives the paper's exact scheme. */
+    {"refactor_every", INT(refactor_every), RANGE(1, CLOSED, INT_MAX, CLOSED), 100, NULL, 0,
+     "--refactor-every", "K",
+     "refactorize the elasticity matrix every K iterations (1: every iteration, as in the "
+     "paper)"},
+    {"live_every", INT(live_every), RANGE(0, CLOSED, INT_MAX, CLOSED), 0, NULL, 0,
+     NULL, NULL,
+     "daemon only: publish the current shape (mesh/latest) every K iterations, and at least "
+     "every 0.5 s (0: by time only)"},
+    {"solver", SM_PARAM_SOLVER, offsetof(sm_params, solver), 0,
+     RANGE(SM_SOLVER_AUTO, CLOSED, SM_SOLVER_AMG, CLOSED), SM_SOLVER_AUTO, NULL, 0, "--solver",
+     "NAME",
+     "elastic solver: cholmod (sparse Cholesky), amg (PCG + BoomerAMG: less memory, for large "
+     "3D templates) or auto (amg from 20000 tetrahedra in 3D)"},
+};
+#define N_TABLE (sizeof table / sizeof table[0])
+
+const sm_param_info *sm_params_table(size_t *count)
+{
+    *count = N_TABLE;
+    return table;
 }
 
-sm_status sm_params_validate(const sm_params *p, int dim, sm_error *err)
+const sm_param_info *sm_params_lookup(const char *name)
+{
+    for (size_t i = 0; name && i < N_TABLE; i++)
+        if (strcmp(table[i].name, name) == 0)
+            return &table[i];
+    return NULL;
+}
+
+int sm_param_in_range(const sm_param_info *f, double x)
+{
+    int above_min = f->min_open ? x > f->min : x >= f->min;
+    int below_max = f->max_open ? x < f->max : x <= f->max;
+    return above_min && below_max && isfinite(x);
+}
+
+/* The shortest text that reads back as x (0.5, not 0.50000000000000000);
+ * whole numbers in full (1000000000, not 1e+09). */
+static void shortest(char *buf, size_t cap, double x)
+{
+    if (x == floor(x) && fabs(x) < 1e15) {
+        snprintf(buf, cap, "%.0f", x);
+        return;
+    }
+    for (int digits = 1; digits <= 17; digits++) {
+        snprintf(buf, cap, "%.*g", digits, x);
+        if (strtod(buf, NULL) == x)
+            return;
+    }
+}
+
+int sm_param_describe_range(const sm_param_info *f, char *buf, size_t cap)
+{
+    char lo[32], hi[32];
+    int int_like = f->type != SM_PARAM_REAL;
+    int no_max = isinf(f->max) || (int_like && f->max >= INT_MAX);
+    shortest(lo, sizeof lo, f->min);
+    shortest(hi, sizeof hi, f->max);
+    if (no_max)
+        return snprintf(buf, cap, "%s %s", f->min_open ? ">" : ">=", lo);
+    if (isinf(f->min))
+        return snprintf(buf, cap, "%s %s", f->max_open ? "<" : "<=", hi);
+    return snprintf(buf, cap, "in %c%s, %s%c", f->min_open ? '(' : '[', lo, hi,
+                    f->max_open ? ')' : ']');
+}
+
+void sm_params_default(sm_params *p)
+{
+    memset(p, 0, sizeof *p);
+    for (size_t i = 0; i < N_TABLE; i++) {
+        char *at = (char *)p + table[i].offset;
+        switch (table[i].type) {
+        case SM_PARAM_REAL: *(double *)at = table[i].def; break;
+        case SM_PARAM_INT: *(int *)at = (int)table[i].def; break;
+        case SM_PARAM_SOLVER: *(sm_solver_kind *)at = (sm_solver_kind)table[i].def; break;
+        case SM_PARAM_CLAMP: *(sm_clamp_kind *)at = (sm_clamp_kind)table[i].def; break;
+        case SM_PARAM_REFS: break; /* empty list: the memset */
+        }
+    }
+}
+
+/* The clamp kind and the members it requires: not one field each. */
+static sm_status check_clamp(const sm_params *p, int dim, sm_error *err)
 {
     if (p->clamp < SM_CLAMP_BALL || p->clamp > SM_CLAMP_NONE)
         return sm_error_set(err, SM_ERR_INVALID, "clamp: unknown kind %d", (int)p->clamp);
@@ -58,47 +188,44 @@ sm_status sm_params_validate(const sm_params *p, int dim, sm_error *err)
     if ((p->clamp == SM_CLAMP_ELEMENTS || p->clamp == SM_CLAMP_VERTICES) &&
         (p->n_clamp_refs < 1 || p->n_clamp_refs > SM_MAX_REFS))
         return sm_error_set(err, SM_ERR_INVALID, "clamp references: give 1 to %d references", SM_MAX_REFS);
-    if (p->clamp == SM_CLAMP_NONE && !(p->alpha >= 0 && isfinite(p->alpha)))
-        return sm_error_set(err, SM_ERR_INVALID,
-                            "alpha must be >= 0 when nothing is clamped (0: from the scale; got %g)",
-                            p->alpha);
-    if (p->n_free_refs < 0 || p->n_free_refs > SM_MAX_REFS)
-        return sm_error_set(err, SM_ERR_INVALID, "free boundary: at most %d references", SM_MAX_REFS);
-    if (!(p->young > 0) || !isfinite(p->young))
-        return sm_error_set(err, SM_ERR_INVALID, "young modulus must be > 0 (got %g)", p->young);
-    if (!(p->poisson > -1.0 && p->poisson < 0.5))
-        return sm_error_set(err, SM_ERR_INVALID, "poisson ratio must be in (-1, 0.5) (got %g)", p->poisson);
-    if (p->max_iter < 1)
-        return sm_error_set(err, SM_ERR_INVALID, "max iterations must be >= 1 (got %d)", p->max_iter);
-    if (!(p->tol_step > 0 && p->tol_step < 1))
-        return sm_error_set(err, SM_ERR_INVALID, "step tolerance must be in (0, 1) (got %g)", p->tol_step);
-    if (!(p->tol_boundary >= 0) || !isfinite(p->tol_boundary))
-        return sm_error_set(err, SM_ERR_INVALID, "boundary tolerance must be >= 0 (got %g)", p->tol_boundary);
-    if (!(p->tol_boundary_rel >= 0) || !isfinite(p->tol_boundary_rel))
-        return sm_error_set(err, SM_ERR_INVALID, "relative boundary tolerance must be >= 0 (got %g)",
-                            p->tol_boundary_rel);
-    if (!(p->tol_stall >= 0 && p->tol_stall < 1))
-        return sm_error_set(err, SM_ERR_INVALID, "stall tolerance must be in [0, 1) (got %g)", p->tol_stall);
-    if (p->stall_window < 1 || p->stall_window > 100000)
-        return sm_error_set(err, SM_ERR_INVALID, "stall window must be in [1, 100000] (got %d)",
-                            p->stall_window);
-    if (!(p->min_quality >= 0 && p->min_quality < 1))
-        return sm_error_set(err, SM_ERR_INVALID, "minimum quality must be in [0, 1) (got %g)", p->min_quality);
-    if (p->save_every < 0)
-        return sm_error_set(err, SM_ERR_INVALID, "save-every must be >= 0 (got %d)", p->save_every);
-    if (!(p->step_initial > 0 && p->step_initial <= 1))
-        return sm_error_set(err, SM_ERR_INVALID, "initial step must be in (0, 1] (got %g)", p->step_initial);
-    if (!(p->step_max >= p->step_initial && p->step_max <= 1))
-        return sm_error_set(err, SM_ERR_INVALID,
-                            "maximum step must be in [initial step, 1] (got %g)", p->step_max);
-    if (p->refactor_every < 1)
-        return sm_error_set(err, SM_ERR_INVALID, "refactor-every must be >= 1 (got %d)", p->refactor_every);
-    if (!sm_solver_kind_name(p->solver))
-        return sm_error_set(err, SM_ERR_INVALID, "solver must be auto, cholmod or amg (got %d)",
-                            (int)p->solver);
-    if (p->live_every < 0)
-        return sm_error_set(err, SM_ERR_INVALID, "live-every must be >= 0 (got %d)", p->live_every);
     return SM_OK;
+}
+
+/* One row's own bounds. */
+static sm_status check_row(const sm_param_info *f, const sm_params *p, sm_error *err)
+{
+    const char *at = (const char *)p + f->offset;
+    double x;
+    switch (f->type) {
+    case SM_PARAM_REAL: x = *(const double *)at; break;
+    case SM_PARAM_INT: x = *(const int *)at; break;
+    case SM_PARAM_REFS: x = *(const int *)((const char *)p + f->count_offset); break;
+    case SM_PARAM_SOLVER: x = (double)*(const sm_solver_kind *)at; break;
+    default: return SM_OK; /* the clamp: check_clamp */
+    }
+    if (sm_param_in_range(f, x))
+        return SM_OK;
+    char range[80];
+    sm_param_describe_range(f, range, sizeof range);
+    if (f->type == SM_PARAM_REFS)
+        return sm_error_set(err, SM_ERR_INVALID, "%s: the number of references must be %s (got %d)",
+                            f->name, range, (int)x);
+    if (f->type == SM_PARAM_SOLVER)
+        return sm_error_set(err, SM_ERR_INVALID, "%s: must be auto, cholmod or amg (got %d)", f->name,
+                            (int)x);
+    return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s (got %.17g)", f->name, range, x);
+}
+
+sm_status sm_params_validate(const sm_params *p, int dim, sm_error *err)
+{
+    sm_status st = check_clamp(p, dim, err);
+    for (size_t i = 0; st == SM_OK && i < N_TABLE; i++)
+        if (!table[i].in_clamp || p->clamp == SM_CLAMP_NONE) /* alpha: kind none only */
+            st = check_row(&table[i], p, err);
+    if (st == SM_OK && p->step_initial > p->step_max)
+        st = sm_error_set(err, SM_ERR_INVALID, "step_initial: must be <= step_max (%.17g > %.17g)",
+                          p->step_initial, p->step_max);
+    return st;
 }
 
 static const char *const solver_names[] = {"auto", "cholmod", "amg"};

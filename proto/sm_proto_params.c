@@ -1,11 +1,10 @@
-/* Job parameters: JSON <-> sm_params.  The ranges here are the ones of
- * proto/params.schema.json; keep the two in step (tests/unit/
- * test_proto_params.c checks the schema's defaults against
- * sm_params_default and its bounds against this decoder). */
+/* Job parameters: JSON <-> sm_params, read from the parameter table
+ * (sm_params_table, shapematch/sm_params.h) plus the background rows
+ * below: names, types, bounds and the encoder's order come from there.
+ * proto/params.schema.json describes the same (tests/unit/
+ * test_proto_params.c checks it against the tables). */
 #include "sm_proto_params.h"
 
-#include <float.h>
-#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -13,7 +12,27 @@
 #include "sm_proto_events.h"
 #include "sm_proto_json.h"
 
-#define MAX_ITER_LIMIT 1000000000LL
+/* The generated background's members (sm_background_params): rows of
+ * the same kind as the core's, which does not know them.  Fields in
+ * sm_param_info's order: name, type, offset, count_offset, min, max,
+ * min_open, max_open, def, def_text, in_clamp, flag, meta, help. */
+static const sm_param_info background_rows[] = {
+    {"background_size", SM_PARAM_REAL, offsetof(sm_background_params, size), 0, 0, INFINITY, 1,
+     1, 0, "the smaller mean edge of template and surface", 0, "--background-size", "H",
+     "with --target-surface and no --target-mesh: side of the generated background's cells "
+     "near the surface, a length in the meshes' unit"},
+    {"background_padding", SM_PARAM_REAL, offsetof(sm_background_params, padding), 0, 0,
+     SM_BACKGROUND_PADDING_MAX, 1, 0, SM_BACKGROUND_PADDING_DEFAULT, NULL, 0,
+     "--background-padding", "P",
+     "the margin of that background around template and surface, a fraction of their box's "
+     "diagonal"},
+};
+
+const sm_param_info *sm_background_params_table(size_t *count)
+{
+    *count = sizeof background_rows / sizeof background_rows[0];
+    return background_rows;
+}
 
 static const char *const kind_names[] = {"ball", "elements", "vertices", "none"};
 
@@ -38,37 +57,23 @@ int sm_clamp_kind_from_name(const char *name, sm_clamp_kind *out)
 
 /* ---------------------------------------------------------------- decode */
 
-typedef enum bound { NONE, INCL, EXCL } bound;
-
-/* Number in a range; lo/hi ignored when their bound is NONE. */
-static sm_status get_ranged(const json_t *v, const char *path, bound lo_kind,
-                            double lo, bound hi_kind, double hi, double *out,
-                            sm_error *err)
+/* A number within bounds written as in sm_param_info (an infinite bound
+ * is none); the message names the side that is crossed. */
+static sm_status get_ranged(const json_t *v, const char *path, double lo, int lo_open,
+                            double hi, int hi_open, double *out, sm_error *err)
 {
     double x;
     sm_status st = smp_get_number(v, path, 0, &x, err);
     if (st != SM_OK)
         return st;
-    if (lo_kind == INCL && !(x >= lo))
-        return sm_error_set(err, SM_ERR_INVALID, "%s: must be >= %g (got %.17g)", path, lo, x);
-    if (lo_kind == EXCL && !(x > lo))
-        return sm_error_set(err, SM_ERR_INVALID, "%s: must be > %g (got %.17g)", path, lo, x);
-    if (hi_kind == INCL && !(x <= hi))
-        return sm_error_set(err, SM_ERR_INVALID, "%s: must be <= %g (got %.17g)", path, hi, x);
-    if (hi_kind == EXCL && !(x < hi))
-        return sm_error_set(err, SM_ERR_INVALID, "%s: must be < %g (got %.17g)", path, hi, x);
+    if (!isinf(lo) && !(lo_open ? x > lo : x >= lo))
+        return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s %g (got %.17g)", path,
+                            lo_open ? ">" : ">=", lo, x);
+    if (!isinf(hi) && !(hi_open ? x < hi : x <= hi))
+        return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s %g (got %.17g)", path,
+                            hi_open ? "<" : "<=", hi, x);
     *out = x;
     return SM_OK;
-}
-
-static sm_status get_int_field(const json_t *v, const char *path, long long min,
-                               long long max, int *out, sm_error *err)
-{
-    long long x;
-    sm_status st = smp_get_integer(v, path, min, max, &x, err);
-    if (st == SM_OK)
-        *out = (int)x;
-    return st;
 }
 
 /* A list of references: integers, at most SM_MAX_REFS, at least min_count. */
@@ -125,6 +130,9 @@ static sm_status decode_center(const json_t *v, const char *path, int dim,
     return SM_OK;
 }
 
+static sm_status decode_row(const sm_param_info *f, const json_t *value, const char *sub,
+                            void *base, sm_error *err);
+
 static sm_status decode_clamp(const json_t *clamp, const char *path, int dim,
                               sm_params *out, sm_error *err)
 {
@@ -152,6 +160,7 @@ static sm_status decode_clamp(const json_t *clamp, const char *path, int dim,
     }
 
     int seen_center = 0, seen_radius = 0, seen_refs = 0;
+    const sm_param_info *alpha = sm_params_lookup("alpha");
     const char *key;
     json_t *value;
     json_object_foreach((json_t *)clamp, key, value) {
@@ -163,14 +172,14 @@ static sm_status decode_clamp(const json_t *clamp, const char *path, int dim,
             st = decode_center(value, sub, dim, out, err);
             seen_center = 1;
         } else if (strcmp(key, "radius") == 0 && out->clamp == SM_CLAMP_BALL) {
-            st = get_ranged(value, sub, EXCL, 0, NONE, 0, &out->clamp_radius, err);
+            st = get_ranged(value, sub, 0, 1, INFINITY, 1, &out->clamp_radius, err);
             seen_radius = 1;
         } else if (strcmp(key, "refs") == 0 &&
                    (out->clamp == SM_CLAMP_ELEMENTS || out->clamp == SM_CLAMP_VERTICES)) {
             st = get_refs(value, sub, 1, out->clamp_refs, &out->n_clamp_refs, err);
             seen_refs = 1;
-        } else if (strcmp(key, "alpha") == 0 && out->clamp == SM_CLAMP_NONE) {
-            st = get_ranged(value, sub, INCL, 0, NONE, 0, &out->alpha, err); /* 0: from the scale */
+        } else if (strcmp(key, alpha->name) == 0 && out->clamp == SM_CLAMP_NONE) {
+            st = decode_row(alpha, value, sub, out, err);
         } else if (strcmp(key, "center") == 0 || strcmp(key, "radius") == 0 ||
                    strcmp(key, "refs") == 0 || strcmp(key, "alpha") == 0) {
             st = sm_error_set(err, SM_ERR_INVALID, "%s: not allowed with kind \"%s\"", sub,
@@ -195,57 +204,72 @@ static sm_status decode_clamp(const json_t *clamp, const char *path, int dim,
     return SM_OK;
 }
 
-static const char top_fields[] =
-    "clamp, free_boundary, young, poisson, max_iter, tol_step, tol_boundary, "
-    "tol_boundary_rel, tol_stall, stall_window, min_quality, save_every, step_initial, step_max, refactor_every, live_every, solver, "
-    "background_size, background_padding";
+/* "clamp, free_boundary, young, ...": the members a params document may
+ * have, for the message about an unknown one. */
+static void list_fields(char *buf, size_t cap)
+{
+    size_t n_core, n_bg, used = 0;
+    const sm_param_info *core = sm_params_table(&n_core);
+    const sm_param_info *bg = sm_background_params_table(&n_bg);
+    buf[0] = '\0';
+    for (size_t i = 0; i < n_core + n_bg; i++) {
+        const sm_param_info *f = i < n_core ? &core[i] : &bg[i - n_core];
+        if (f->in_clamp)
+            continue;
+        int k = snprintf(buf + used, cap - used, "%s%s", used ? ", " : "", f->name);
+        if (k < 0 || (size_t)k >= cap - used)
+            return;
+        used += (size_t)k;
+    }
+}
+
+/* The member described by row f into its struct at base (sm_params or
+ * sm_background_params); the clamp has decode_clamp. */
+static sm_status decode_row(const sm_param_info *f, const json_t *value, const char *sub,
+                            void *base, sm_error *err)
+{
+    char *at = (char *)base + f->offset;
+    switch (f->type) {
+    case SM_PARAM_REAL:
+        return get_ranged(value, sub, f->min, f->min_open, f->max, f->max_open, (double *)at, err);
+    case SM_PARAM_INT: {
+        long long x;
+        sm_status st = smp_get_integer(value, sub, (long long)f->min, (long long)f->max, &x, err);
+        if (st == SM_OK)
+            *(int *)at = (int)x;
+        return st;
+    }
+    case SM_PARAM_REFS:
+        return get_refs(value, sub, (size_t)f->min, (int32_t *)at,
+                        (int *)((char *)base + f->count_offset), err);
+    case SM_PARAM_SOLVER:
+        if (!json_is_string(value) ||
+            sm_solver_kind_from_name(json_string_value(value), (sm_solver_kind *)at) != 0)
+            return sm_error_set(err, SM_ERR_INVALID, "%s: must be \"auto\", \"cholmod\" or \"amg\"",
+                                sub);
+        return SM_OK;
+    case SM_PARAM_CLAMP:
+        break;
+    }
+    return sm_error_set(err, SM_ERR_INVALID, "%s: no decoder for this member", sub);
+}
 
 static sm_status decode_field(const char *key, const json_t *value, const char *sub,
                               int dim, sm_params *out, sm_background_params *bg, sm_error *err)
 {
-    if (strcmp(key, "clamp") == 0)
+    size_t n;
+    const sm_param_info *f = sm_params_lookup(key);
+    if (f && f->type == SM_PARAM_CLAMP)
         return decode_clamp(value, sub, dim, out, err);
-    if (strcmp(key, "free_boundary") == 0)
-        return get_refs(value, sub, 0, out->free_refs, &out->n_free_refs, err);
-    if (strcmp(key, "young") == 0)
-        return get_ranged(value, sub, EXCL, 0, NONE, 0, &out->young, err);
-    if (strcmp(key, "poisson") == 0)
-        return get_ranged(value, sub, EXCL, -1, EXCL, 0.5, &out->poisson, err);
-    if (strcmp(key, "max_iter") == 0)
-        return get_int_field(value, sub, 1, MAX_ITER_LIMIT, &out->max_iter, err);
-    if (strcmp(key, "tol_step") == 0)
-        return get_ranged(value, sub, EXCL, 0, EXCL, 1, &out->tol_step, err);
-    if (strcmp(key, "tol_boundary") == 0)
-        return get_ranged(value, sub, INCL, 0, NONE, 0, &out->tol_boundary, err);
-    if (strcmp(key, "tol_boundary_rel") == 0)
-        return get_ranged(value, sub, INCL, 0, NONE, 0, &out->tol_boundary_rel, err);
-    if (strcmp(key, "tol_stall") == 0)
-        return get_ranged(value, sub, INCL, 0, EXCL, 1, &out->tol_stall, err);
-    if (strcmp(key, "stall_window") == 0)
-        return get_int_field(value, sub, 1, 100000, &out->stall_window, err);
-    if (strcmp(key, "min_quality") == 0)
-        return get_ranged(value, sub, INCL, 0, EXCL, 1, &out->min_quality, err);
-    if (strcmp(key, "save_every") == 0)
-        return get_int_field(value, sub, 0, INT_MAX, &out->save_every, err);
-    if (strcmp(key, "step_initial") == 0)
-        return get_ranged(value, sub, EXCL, 0, INCL, 1, &out->step_initial, err);
-    if (strcmp(key, "step_max") == 0)
-        return get_ranged(value, sub, EXCL, 0, INCL, 1, &out->step_max, err);
-    if (strcmp(key, "refactor_every") == 0)
-        return get_int_field(value, sub, 1, INT_MAX, &out->refactor_every, err);
-    if (strcmp(key, "live_every") == 0)
-        return get_int_field(value, sub, 0, INT_MAX, &out->live_every, err);
-    if (strcmp(key, "solver") == 0) {
-        if (!json_is_string(value) || sm_solver_kind_from_name(json_string_value(value), &out->solver) != 0)
-            return sm_error_set(err, SM_ERR_INVALID, "%s: must be \"auto\", \"cholmod\" or \"amg\"", sub);
-        return SM_OK;
-    }
-    if (strcmp(key, "background_size") == 0)
-        return get_ranged(value, sub, EXCL, 0, NONE, 0, &bg->size, err);
-    if (strcmp(key, "background_padding") == 0)
-        return get_ranged(value, sub, EXCL, 0, INCL, SM_BACKGROUND_PADDING_MAX, &bg->padding, err);
-    return sm_error_set(err, SM_ERR_INVALID, "%s: unknown field (known fields: %s)", sub,
-                        top_fields);
+    if (f && !f->in_clamp)
+        return decode_row(f, value, sub, out, err);
+    const sm_param_info *rows = sm_background_params_table(&n);
+    for (size_t i = 0; i < n; i++)
+        if (strcmp(key, rows[i].name) == 0)
+            return decode_row(&rows[i], value, sub, bg, err);
+    char known[512];
+    list_fields(known, sizeof known);
+    return sm_error_set(err, SM_ERR_INVALID, "%s: unknown field (known fields: %s)", sub, known);
 }
 
 static void params_reset(sm_params *out)
@@ -352,40 +376,42 @@ static json_t *refs_array(const int32_t *refs, int n)
     return a;
 }
 
-static int all_finite(const sm_params *p)
+/* What JSON can carry and the decoder reads back: finite numbers, ref
+ * counts that fit the arrays, names for the enums. */
+static int encodable(const sm_params *p, int dim)
 {
-    const double xs[] = {p->clamp_center[0], p->clamp_center[1], p->clamp_center[2],
-                         p->clamp_radius, p->alpha, p->young, p->poisson, p->tol_step,
-                         p->tol_boundary, p->tol_boundary_rel, p->tol_stall, p->min_quality,
-                         p->step_initial, p->step_max};
-    for (size_t i = 0; i < sizeof xs / sizeof xs[0]; i++)
-        if (!isfinite(xs[i]))
+    size_t n;
+    const sm_param_info *rows = sm_params_table(&n);
+    for (size_t i = 0; i < n; i++) {
+        const char *at = (const char *)p + rows[i].offset;
+        if (rows[i].type == SM_PARAM_REAL && !isfinite(*(const double *)at))
             return 0;
-    return 1;
+        if (rows[i].type == SM_PARAM_SOLVER && !sm_solver_kind_name(*(const sm_solver_kind *)at))
+            return 0;
+    }
+    for (int c = 0; c < 3; c++)
+        if (!isfinite(p->clamp_center[c]))
+            return 0;
+    return sm_clamp_kind_name(p->clamp) && isfinite(p->clamp_radius) && p->n_clamp_refs >= 0 &&
+           p->n_clamp_refs <= SM_MAX_REFS && p->n_free_refs >= 0 &&
+           p->n_free_refs <= SM_MAX_REFS && (dim == 0 || dim == 2 || dim == 3);
 }
 
-json_t *sm_params_to_jansson(const sm_params *p, int dim)
+/* The clamp object: its kind and the members that kind has (alpha is the
+ * table's row of kind none). */
+static json_t *clamp_to_jansson(const sm_params *p, int dim)
 {
-    const char *kind = sm_clamp_kind_name(p->clamp);
-    if (!kind || !all_finite(p) || p->n_clamp_refs < 0 || p->n_clamp_refs > SM_MAX_REFS ||
-        p->n_free_refs < 0 || p->n_free_refs > SM_MAX_REFS ||
-        (dim != 0 && dim != 2 && dim != 3))
-        return NULL;
     int ncenter = dim ? dim : (p->clamp_center[2] == 0.0 ? 2 : 3);
-
     json_t *clamp = json_object();
-    json_t *root = json_object();
-    int bad = !clamp || !root;
-    bad = bad || smp_set(clamp, "kind", json_string(kind));
+    int bad = !clamp || smp_set(clamp, "kind", json_string(sm_clamp_kind_name(p->clamp)));
     switch (p->clamp) {
     case SM_CLAMP_BALL: {
         json_t *center = bad ? NULL : json_array();
         for (int i = 0; center && i < ncenter; i++)
             bad = bad || json_array_append_new(center, json_real(p->clamp_center[i]));
-        if (bad)
+        if (bad || !center)
             json_decref(center);
-        else
-            bad = smp_set(clamp, "center", center);
+        bad = bad || !center || smp_set(clamp, "center", center);
         bad = bad || smp_set(clamp, "radius", json_real(p->clamp_radius));
         break;
     }
@@ -394,35 +420,43 @@ json_t *sm_params_to_jansson(const sm_params *p, int dim)
         bad = bad || smp_set(clamp, "refs", refs_array(p->clamp_refs, p->n_clamp_refs));
         break;
     case SM_CLAMP_NONE:
-        bad = bad || smp_set(clamp, "alpha", json_real(p->alpha));
+        bad = bad || smp_set(clamp, sm_params_lookup("alpha")->name, json_real(p->alpha));
         break;
     }
     if (bad) {
         json_decref(clamp);
-        json_decref(root);
         return NULL;
     }
-    bad = smp_set(root, "clamp", clamp);
-    bad = bad || smp_set(root, "free_boundary", refs_array(p->free_refs, p->n_free_refs));
-    bad = bad || smp_set(root, "young", json_real(p->young));
-    bad = bad || smp_set(root, "poisson", json_real(p->poisson));
-    bad = bad || smp_set(root, "max_iter", json_integer(p->max_iter));
-    bad = bad || smp_set(root, "tol_step", json_real(p->tol_step));
-    bad = bad || smp_set(root, "tol_boundary", json_real(p->tol_boundary));
-    bad = bad || smp_set(root, "tol_boundary_rel", json_real(p->tol_boundary_rel));
-    bad = bad || smp_set(root, "tol_stall", json_real(p->tol_stall));
-    bad = bad || smp_set(root, "stall_window", json_integer(p->stall_window));
-    bad = bad || smp_set(root, "min_quality", json_real(p->min_quality));
-    bad = bad || smp_set(root, "save_every", json_integer(p->save_every));
-    bad = bad || smp_set(root, "step_initial", json_real(p->step_initial));
-    bad = bad || smp_set(root, "step_max", json_real(p->step_max));
-    bad = bad || smp_set(root, "refactor_every", json_integer(p->refactor_every));
-    bad = bad || smp_set(root, "live_every", json_integer(p->live_every));
-    bad = bad || smp_set(root, "solver", json_string(sm_solver_kind_name(p->solver) ? sm_solver_kind_name(p->solver) : "auto"));
-    if (bad) {
-        json_decref(root);
-        return NULL;
+    return clamp;
+}
+
+/* The JSON value of row f of p (NULL: out of memory). */
+static json_t *row_to_jansson(const sm_param_info *f, const sm_params *p, int dim)
+{
+    const char *at = (const char *)p + f->offset;
+    switch (f->type) {
+    case SM_PARAM_REAL: return json_real(*(const double *)at);
+    case SM_PARAM_INT: return json_integer(*(const int *)at);
+    case SM_PARAM_SOLVER: return json_string(sm_solver_kind_name(*(const sm_solver_kind *)at));
+    case SM_PARAM_REFS:
+        return refs_array((const int32_t *)at, *(const int *)((const char *)p + f->count_offset));
+    case SM_PARAM_CLAMP: return clamp_to_jansson(p, dim);
     }
+    return NULL;
+}
+
+json_t *sm_params_to_jansson(const sm_params *p, int dim)
+{
+    if (!encodable(p, dim))
+        return NULL;
+    json_t *root = json_object();
+    size_t n;
+    const sm_param_info *rows = sm_params_table(&n);
+    for (size_t i = 0; root && i < n; i++)
+        if (!rows[i].in_clamp && smp_set(root, rows[i].name, row_to_jansson(&rows[i], p, dim))) {
+            json_decref(root);
+            return NULL;
+        }
     return root;
 }
 
@@ -436,26 +470,20 @@ char *sm_params_to_json(const sm_params *p, int dim)
     return text;
 }
 
-/* One background member: left out when 0 (not given); -1 when it is
- * something JSON or the decoder would not take back. */
-static int set_background_member(json_t *root, const char *key, double v, double max)
-{
-    if (v == 0)
-        return 0;
-    if (!(v > 0) || !(v <= max))
-        return -1;
-    return smp_set(root, key, json_real(v));
-}
-
 json_t *sm_job_params_to_jansson(const sm_params *p, const sm_background_params *bg, int dim)
 {
     json_t *root = sm_params_to_jansson(p, dim);
-    if (root && bg &&
-        (set_background_member(root, "background_size", bg->size, DBL_MAX) ||
-         set_background_member(root, "background_padding", bg->padding,
-                               SM_BACKGROUND_PADDING_MAX))) {
-        json_decref(root);
-        return NULL;
+    size_t n;
+    const sm_param_info *rows = sm_background_params_table(&n);
+    for (size_t i = 0; root && bg && i < n; i++) {
+        double v = *(const double *)((const char *)bg + rows[i].offset);
+        if (v == 0)
+            continue; /* not given: left out */
+        /* NULL for what the decoder would not take back */
+        if (!sm_param_in_range(&rows[i], v) || smp_set(root, rows[i].name, json_real(v))) {
+            json_decref(root);
+            return NULL;
+        }
     }
     return root;
 }

@@ -8,12 +8,12 @@
  *   {"clamp": {"kind": "vertices", "refs": [1, 2]}, "young": 2.0}
  *   {"clamp": {"kind": "none", "alpha": 0.01}, "max_iter": 100}
  *
- * Top-level fields: clamp, free_boundary, young, poisson, max_iter,
- * tol_step, tol_boundary, tol_boundary_rel, tol_stall, stall_window,
- * min_quality, save_every, step_initial, step_max,
- * refactor_every, live_every, solver, and the generated background's
- * background_size and background_padding (sm_background_params: not the
- * descent's, so outside sm_params).  Decoding is strict: unknown fields, wrong types,
+ * Top-level fields: the rows of the parameter table (sm_params_table,
+ * shapematch/sm_params.h: clamp, free_boundary, young, ..., solver; alpha
+ * is a member of the clamp) and the generated background's
+ * background_size and background_padding (sm_background_params_table
+ * below: not the descent's, so outside sm_params); their names, types
+ * and bounds are the tables'.  Decoding is strict: unknown fields, wrong types,
  * out-of-range values and duplicate keys are errors, and the message
  * starts with the JSON path of the offending field, e.g.
  *   "params.clamp.radius: must be > 0 (got -1)".
@@ -52,6 +52,13 @@ typedef struct sm_background_params {
 /* A padding beyond 100 diagonals only makes coarse cells nobody samples
  * (and past ~1e300 an infinite box). */
 #define SM_BACKGROUND_PADDING_MAX 100.0
+
+/* The rows of the background members (background_size,
+ * background_padding), of the same kind as sm_params_table's and after
+ * them in a params document; offsets are into sm_background_params.
+ * Their default: 0 in the struct means "not given"; def is what that
+ * means (a row's def_text when it depends on the meshes). */
+const sm_param_info *sm_background_params_table(size_t *count);
 
 /* Wire names of the clamp kinds: "ball", "elements", "vertices", "none".
  * sm_clamp_kind_name returns NULL for a value outside the enum. */
@@ -97,8 +104,8 @@ sm_status sm_job_params_from_jansson(const json_t *root, int dim, const char *pa
  * only for none).  dim (2 or 3) is the number of center entries written;
  * dim = 0 writes 2 entries when clamp_center[2] == 0 and 3 otherwise.
  * Returns a malloc'd NUL-terminated string (caller frees with free()), or
- * NULL when p holds something JSON cannot carry (NaN/Inf, a bad kind, a
- * ref count outside 0..SM_MAX_REFS) or memory runs out.
+ * NULL when p holds something JSON cannot carry (NaN/Inf, a bad clamp or
+ * solver kind, a ref count outside 0..SM_MAX_REFS) or memory runs out.
  * sm_params_from_json(sm_params_to_json(p, dim), dim) gives back p
  * exactly (doubles are printed with 17 significant digits). */
 char *sm_params_to_json(const sm_params *p, int dim);

@@ -15,5 +15,15 @@ endef
 $(foreach v,$(VARIANTS),$(eval $(call test_rules,$(v))))
 ALL_TARGETS += $(TEST_NAMES:%=tests/%)
 
+# test_params walks every parameter through the CLI's option parser as
+# well: it also links the client's args.c (and msg.c, its messages).
+define test_params_rules
+build/$(1)/obj/tests/unit/test_params.o: $(1)_CFLAGS += -I client
+build/$(1)/tests/test_params: build/$(1)/obj/tests/unit/test_params.o build/$(1)/obj/client/args.o build/$(1)/obj/client/msg.o build/$(1)/libsmproto.a build/$(1)/libshapematch.a
+	@mkdir -p $$(dir $$@)
+	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(PROTO_LIBS) $$(CORE_LIBS) -lcmocka
+endef
+$(foreach v,$(VARIANTS),$(eval $(call test_params_rules,$(v))))
+
 # the libFuzzer targets (clang) have their own fragment
 include tests/fuzz/module.mk

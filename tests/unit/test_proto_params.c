@@ -674,6 +674,117 @@ static void test_schema_matches_decoder(void **state)
     json_decref(schema);
 }
 
+/* The schema's member for row f: a top-level property, or alpha in the
+ * clamp's kind "none" branch. */
+static json_t *schema_member(json_t *schema, const sm_param_info *f)
+{
+    if (!f->in_clamp)
+        return json_object_get(json_object_get(schema, "properties"), f->name);
+    json_t *branches = json_object_get(
+        json_object_get(json_object_get(schema, "$defs"), "clamp"), "oneOf");
+    size_t i;
+    json_t *b;
+    json_array_foreach(branches, i, b) {
+        const char *kind = json_string_value(json_object_get(
+            json_object_get(json_object_get(b, "properties"), "kind"), "const"));
+        if (kind && strcmp(kind, "none") == 0)
+            return json_object_get(json_object_get(b, "properties"), f->name);
+    }
+    return NULL;
+}
+
+/* One bound of row f against the schema's keywords: a finite bound is
+ * exactly one of kw_closed / kw_open with the same value; none, neither
+ * (an INT's INT_MAX is written as the schema's maximum). */
+static void check_bound(const char *name, json_t *m, double bound, int open, const char *kw_closed,
+                        const char *kw_open)
+{
+    json_t *closed = json_object_get(m, kw_closed), *excl = json_object_get(m, kw_open);
+    if (isinf(bound)) {
+        if (closed || excl)
+            fail_msg("%s: the schema has a %s the table does not", name, closed ? kw_closed : kw_open);
+        return;
+    }
+    json_t *have = open ? excl : closed;
+    if (!have || (open ? closed : excl))
+        fail_msg("%s: the table's bound %g is %s, the schema says otherwise", name, bound,
+                 open ? kw_open : kw_closed);
+    if (json_number_value(have) != bound)
+        fail_msg("%s: %s is %.17g in the schema, %.17g in the table", name, open ? kw_open : kw_closed,
+                 json_number_value(have), bound);
+}
+
+/* proto/params.schema.json against the parameter table (the served
+ * schema is written by hand for its descriptions; this keeps its names,
+ * types, bounds and defaults those of the table). */
+static void test_schema_matches_table(void **state)
+{
+    (void)state;
+    json_t *schema = load_schema();
+    json_t *props = json_object_get(schema, "properties");
+    size_t n_core, n_bg, rows_checked = 0;
+    const sm_param_info *core = sm_params_table(&n_core);
+    const sm_param_info *bg = sm_background_params_table(&n_bg);
+    for (size_t i = 0; i < n_core + n_bg; i++) {
+        const sm_param_info *f = i < n_core ? &core[i] : &bg[i - n_core];
+        json_t *m = schema_member(schema, f);
+        if (!m)
+            fail_msg("%s: in the table, not in the schema", f->name);
+        if (f->type == SM_PARAM_CLAMP)
+            continue; /* its own $defs, checked by test_schema_matches_decoder */
+        const char *type = json_string_value(json_object_get(m, "type"));
+        const char *want = f->type == SM_PARAM_REAL ? "number"
+                           : f->type == SM_PARAM_INT ? "integer"
+                           : f->type == SM_PARAM_SOLVER ? "string" : NULL;
+        if (f->type == SM_PARAM_REFS) {
+            /* a list of refs: $ref to #/$defs/refs, count bounds */
+            assert_string_equal(json_string_value(json_object_get(m, "$ref")), "#/$defs/refs");
+            assert_int_equal(json_integer_value(json_object_get(m, "minItems")), (json_int_t)f->min);
+            assert_int_equal(json_integer_value(json_object_get(
+                                 json_object_get(json_object_get(schema, "$defs"), "refs"), "maxItems")),
+                             (json_int_t)f->max);
+        } else if (!type || strcmp(type, want) != 0) {
+            fail_msg("%s: type %s in the schema, %s in the table", f->name, type ? type : "none", want);
+        }
+        if (f->type == SM_PARAM_REAL || f->type == SM_PARAM_INT) {
+            check_bound(f->name, m, f->min, f->min_open, "minimum", "exclusiveMinimum");
+            check_bound(f->name, m, f->max, f->max_open, "maximum", "exclusiveMaximum");
+        }
+        if (f->type == SM_PARAM_SOLVER) {
+            json_t *names = json_object_get(m, "enum");
+            assert_int_equal(json_array_size(names), (size_t)f->max + 1);
+            for (int k = (int)f->min; k <= (int)f->max; k++)
+                assert_string_equal(json_string_value(json_array_get(names, (size_t)k)),
+                                    sm_solver_kind_name((sm_solver_kind)k));
+        }
+        /* the default: none in the schema when it comes from the meshes */
+        json_t *d = json_object_get(m, "default");
+        if (f->type == SM_PARAM_REAL && f->def_text)
+            assert_null(d);
+        else if (f->type == SM_PARAM_SOLVER)
+            assert_string_equal(json_string_value(d), sm_solver_kind_name((sm_solver_kind)f->def));
+        else if (f->type == SM_PARAM_REFS)
+            assert_int_equal(json_array_size(d), 0);
+        else if (!d || json_number_value(d) != f->def)
+            fail_msg("%s: default %s in the schema, %.17g in the table", f->name,
+                     d ? "differs" : "missing", f->def);
+        rows_checked++;
+    }
+    /* and no schema member without a row */
+    const char *key;
+    json_t *prop;
+    json_object_foreach(props, key, prop) {
+        int found = sm_params_lookup(key) != NULL;
+        for (size_t i = 0; i < n_bg; i++)
+            found = found || strcmp(bg[i].name, key) == 0;
+        if (!found)
+            fail_msg("%s: in the schema, not in the table", key);
+    }
+    print_message("%zu rows checked against the schema\n", rows_checked);
+    assert_true(rows_checked == n_core + n_bg - 1);
+    json_decref(schema);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -689,6 +800,7 @@ int main(void)
         cmocka_unit_test(test_random_round_trip),
         cmocka_unit_test(test_encoder_refuses_what_json_cannot_carry),
         cmocka_unit_test(test_schema_matches_decoder),
+        cmocka_unit_test(test_schema_matches_table),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -5,6 +5,7 @@
 #ifndef SM_PARAMS_H
 #define SM_PARAMS_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #include "sm_error.h"
@@ -45,51 +46,106 @@ int sm_solver_kind_from_name(const char *name, sm_solver_kind *out);
 sm_solver_kind sm_solver_resolve(sm_solver_kind kind, int dim, int64_t nelems);
 #define SM_SOLVER_AMG_MIN_TETS 20000
 
+/* Defaults and bounds of every member: the parameter table below
+ * (sm_params_table, core/sm_params.c), not these comments. */
 typedef struct sm_params {
     sm_clamp_kind clamp;
     double clamp_center[3];
     double clamp_radius;
     int32_t clamp_refs[SM_MAX_REFS];
     int n_clamp_refs;
-    double alpha;            /* 0th-order coefficient (clamp none); 0 (default)
-                              * = from the scale, young / diameter^2 */
+    double alpha;            /* 0th-order coefficient (clamp none); 0 = from
+                              * the scale, young / diameter^2 */
 
     /* boundary facet references excluded from the load ("bref") */
     int32_t free_refs[SM_MAX_REFS];
     int n_free_refs;
 
-    double young;            /* default 1 */
-    double poisson;          /* default 0.3 */
+    double young;            /* Young's modulus */
+    double poisson;          /* Poisson ratio */
 
-    int max_iter;            /* default 500 */
-    double tol_step;         /* stop when step < tol_step*diameter; 1e-6 */
+    int max_iter;            /* iteration cap */
+    double tol_step;         /* stop when step < tol_step*diameter */
     double tol_boundary;     /* stop when ||d||_L2(boundary) <= this; 0=off.
                               * Absolute: scales like L^1.5 (2D) or L^2 (3D)
                               * with the template's size L */
     double tol_boundary_rel; /* stop when the RMS boundary error
                               * ||d||_L2 / sqrt(|dOmega|) <= this times the
                               * template's diameter: the same number works in
-                              * any unit; 0 = off (default) */
+                              * any unit; 0 = off */
     double tol_stall;        /* stall rule: stop when the best ||d||_L2 so far
                               * improved by less than this fraction over the
-                              * last stall_window iterations; 0 = off;
-                              * default 0.01 (measured in sm_params.c) */
-    int stall_window;        /* K of the stall rule; default 15 */
-    double min_quality;      /* quality floor for accepted steps; 0.02 */
+                              * last stall_window iterations; 0 = off
+                              * (the default's measures: sm_params.c) */
+    int stall_window;        /* K of the stall rule */
+    double min_quality;      /* quality floor for accepted steps */
     int save_every;          /* snapshot callback period (0 = never) */
-    double step_initial;     /* first step as a fraction of the diameter; 0.01 */
-    double step_max;         /* largest step as a fraction of the diameter; 0.1 */
+    double step_initial;     /* first step as a fraction of the diameter */
+    double step_max;         /* largest step as a fraction of the diameter */
     int refactor_every;      /* refactorize the elastic operator on the current
                               * mesh every k iterations (1 = every iteration,
-                              * as in the paper); 100 */
-    sm_solver_kind solver;   /* elastic solver; SM_SOLVER_AUTO (default) */
+                              * as in the paper) */
+    sm_solver_kind solver;   /* elastic solver */
     int live_every;          /* the daemon's live mesh (mesh/latest): published
                               * every k iterations, and at least every 0.5 s
-                              * of a run; 0 = by time only (default) */
+                              * of a run; 0 = by time only */
 } sm_params;
 
+/* Fills p with the defaults of the parameter table (below); clamp NONE. */
 void sm_params_default(sm_params *p);
-/* Checks ranges; message names the offending parameter. */
+/* Checks every parameter against the table's bounds, then the rules that
+ * join several fields (the clamp kind's members, step_initial <=
+ * step_max); the message names the offending parameter by its params
+ * name ("max_iter: must be in [1, 1000000000] (got 0)"). */
 sm_status sm_params_validate(const sm_params *p, int dim, sm_error *err);
+
+/* ---- The parameter table ----
+ *
+ * One row per job parameter: its params (JSON) name, type, bounds,
+ * default, CLI flag and a one-line help.  The core's checks and defaults
+ * (above), the params codec (proto/sm_proto_params.c), the CLI's options
+ * and --help (client/args.c) and the documentation's parameter table are
+ * all read from it; tests/unit/test_proto_params.c checks
+ * proto/params.schema.json against it and tests/unit/test_params.c walks
+ * every bound through the three.  Plain data: no JSON here. */
+typedef enum sm_param_type {
+    SM_PARAM_REAL = 0,   /* double; finite */
+    SM_PARAM_INT = 1,    /* int */
+    SM_PARAM_SOLVER = 2, /* sm_solver_kind, written by name (sm_solver_kind_name) */
+    SM_PARAM_REFS = 3,   /* int32_t list at offset, its int count at count_offset;
+                          * min/max bound the count */
+    SM_PARAM_CLAMP = 4   /* the clamp set: its kind and members are code of their
+                          * own (the clamp options, decode_clamp, the checks) */
+} sm_param_type;
+
+typedef struct sm_param_info {
+    const char *name;      /* params member, e.g. "max_iter" */
+    sm_param_type type;
+    size_t offset;         /* of the value in its struct (sm_params here) */
+    size_t count_offset;   /* SM_PARAM_REFS: of the count */
+    /* Bounds of the value (of the count for REFS): -INFINITY / INFINITY
+     * when there is none; *_open: the bound itself is outside.  An
+     * infinite bound is always open, so that in range means finite. */
+    double min, max;
+    int min_open, max_open;
+    double def;            /* default (REAL, INT; SOLVER: the enum value) */
+    const char *def_text;  /* the default in words where a number would
+                            * mislead ("from the meshes"), else NULL */
+    int in_clamp;          /* 1: a member of the params' clamp object,
+                            * with kind "none" only (alpha) */
+    const char *flag;      /* option of `shapematch run`/`submit`, or NULL */
+    const char *meta;      /* its value's name in --help ("N") */
+    const char *help;      /* one sentence, no default (printers add it) */
+} sm_param_info;
+
+/* The table, in the order of the params document; *count rows. */
+const sm_param_info *sm_params_table(size_t *count);
+/* The row of params member name, or NULL. */
+const sm_param_info *sm_params_lookup(const char *name);
+/* 1 when x lies within f's bounds (0 for NaN and infinities). */
+int sm_param_in_range(const sm_param_info *f, double x);
+/* f's bounds for people: "> 0", ">= 0", "in (-1, 0.5)", "in [1, 100000]"
+ * (an INT bound at INT_MAX counts as none).  Returns snprintf's count. */
+int sm_param_describe_range(const sm_param_info *f, char *buf, size_t cap);
 
 #endif

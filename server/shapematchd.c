@@ -127,13 +127,9 @@ static void shutdown_daemon(smd_server *srv, const sigset_t *signals)
     smd_http_quiesce(srv);
     /* end the event streams: they must all be resumed before MHD stops */
     atomic_store(&srv->stopping, 1);
-    smd_wake_list wake = {0};
-    pthread_mutex_lock(&srv->lock);
-    smd_stream_collect_all(srv, &wake);
-    pthread_mutex_unlock(&srv->lock);
-    smd_wake_list_resume(&wake);
-    smd_wake_list_free(&wake);
+    smd_stream_end_all(srv);
     smd_http_stop(srv);
+    smd_stream_free_all(srv);
 }
 
 /* Step 1: flags, environment, the worker program, the tokens.  Returns
@@ -325,6 +321,9 @@ int main(int argc, char **argv)
         return code;
     }
     code = 1;
+    /* the engine names the jobs that changed; the event streams wake
+     * their followers (before any thread runs the engine) */
+    srv->jobs_changed = smd_stream_jobs_changed;
     sigset_t signals;
     take_signals(&signals);
     raise_fd_limit(srv);

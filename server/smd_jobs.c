@@ -74,7 +74,7 @@ static int append_event(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_af
     if (smd_store_append_event(srv->store, job, ev, err) != SM_OK)
         return -1;
     smd_metrics_add(&srv->metrics, &srv->metrics.events_appended, 1);
-    smd_stream_collect_job(job, &after->wake);
+    smd_jobs_after_changed(srv, after, job);
     if (srv->cluster)
         srv->cluster_ops->event(srv->cluster, job, ev);
     return 0;
@@ -136,7 +136,7 @@ static void publish_ending(smd_server *srv, smd_job *job, smd_job_ending *e, smd
     smd_metrics_job_finished(&srv->metrics, e->state);
     smd_log(&srv->log, e->log_level, e->log_event, log_fields(job, e->log_fields));
     e->log_fields = NULL;
-    smd_stream_collect_job(job, &after->wake);
+    smd_jobs_after_changed(srv, after, job);
 }
 
 /* Writes what is left of e (record, then event) and publishes it: 0, or
@@ -200,7 +200,7 @@ static void end_job(smd_server *srv, smd_job *job, smd_job_ending e, smd_jobs_af
             json_pack("{s:s,s:s,s:s}", "job", job->id, "ends", sm_job_state_name(e.state),
                       "why",
                       "the spool refuses its final record or event: published once both are written"));
-    smd_stream_collect_job(job, &after->wake); /* the message changed */
+    smd_jobs_after_changed(srv, after, job); /* the message changed */
 }
 
 /* Writes a held ending: 0 when it is published now (or there was none). */
@@ -272,14 +272,40 @@ static sm_status remove_job(smd_server *srv, smd_job *job, smd_jobs_after *after
         return sm_error_set(err, SM_ERR_IO, "the spool cannot be written (%s): job %s kept",
                             strerror(errno), job->id);
     }
-    smd_stream_collect_job(job, &after->wake);
+    smd_jobs_after_changed(srv, after, job);
     smd_store_unlink(srv->store, job);
     return SM_OK;
 }
 
+void smd_jobs_after_changed(smd_server *srv, smd_jobs_after *a, const smd_job *job)
+{
+    a->srv = srv;
+    if (a->nchanged > 0 && strcmp(a->changed[a->nchanged - 1], job->id) == 0)
+        return; /* an end writes its record and its event: one wake-up */
+    if (a->nchanged == a->changed_cap) {
+        size_t ncap = a->changed_cap ? 2 * a->changed_cap : 8;
+        char(*c)[SMD_ID_LEN + 1] = realloc(a->changed, ncap * sizeof *c);
+        if (!c)
+            return;
+        a->changed = c;
+        a->changed_cap = ncap;
+    }
+    snprintf(a->changed[a->nchanged++], sizeof a->changed[0], "%s", job->id);
+}
+
+void smd_jobs_after_tick(smd_server *srv, smd_jobs_after *a)
+{
+    a->srv = srv;
+    a->keepalive = 1;
+}
+
 void smd_jobs_after_run(smd_jobs_after *a)
 {
-    smd_wake_list_resume(&a->wake);
+    if (a->srv && a->srv->jobs_changed && (a->nchanged > 0 || a->keepalive))
+        a->srv->jobs_changed(a->srv, (const char(*)[SMD_ID_LEN + 1])a->changed, a->nchanged,
+                             a->keepalive);
+    a->nchanged = 0;
+    a->keepalive = 0;
     for (size_t i = 0; i < a->ntrash; i++) {
         smd_rmtree(a->trash[i]);
         free(a->trash[i]);
@@ -292,7 +318,9 @@ void smd_jobs_after_run(smd_jobs_after *a)
 void smd_jobs_after_free(smd_jobs_after *a)
 {
     smd_jobs_after_run(a);
-    smd_wake_list_free(&a->wake);
+    free(a->changed);
+    a->changed = NULL;
+    a->changed_cap = 0;
 }
 
 /* -------------------------------------------------------------- submit */
@@ -489,7 +517,7 @@ sm_status smd_jobs_requeue(smd_server *srv, smd_job *job, json_t *extra)
 void smd_jobs_worker_gone(smd_server *srv, smd_job *job, smd_jobs_after *after)
 {
     job->worker_active = 0;
-    smd_stream_collect_job(job, &after->wake);
+    smd_jobs_after_changed(srv, after, job);
     if (job->delete_requested)
         trash_job(srv, job, after); /* DELETE came while it was stopping */
 }
@@ -538,7 +566,7 @@ sm_status smd_jobs_cancel(smd_server *srv, smd_job *job, smd_jobs_after *after)
     after->wake_pool = 1;
     save_or_log(srv, job);
     smd_log(&srv->log, SMD_LOG_INFO, "job_cancel_requested", log_fields(job, NULL));
-    smd_stream_collect_job(job, &after->wake);
+    smd_jobs_after_changed(srv, after, job);
     return SM_OK;
 }
 
@@ -668,7 +696,7 @@ void smd_jobs_mirror_state(smd_server *srv, smd_job *job, sm_job_state state, co
         job->progress = 0;
     snprintf(job->message, sizeof job->message, "%s", message);
     save_or_log(srv, job);
-    smd_stream_collect_job(job, &after->wake);
+    smd_jobs_after_changed(srv, after, job);
 }
 
 void smd_jobs_mirror_drop(smd_server *srv, smd_job *job, smd_jobs_after *after)

@@ -35,8 +35,11 @@
  * It calls the store (records and logs), the queue (an interface: the
  * local FIFO today, a shared backend later) and the metrics; it calls
  * neither the HTTP side nor the pool: what must happen once the lock is
- * released (resume followers, remove folders, wake the supervisor) is
- * collected in an smd_jobs_after that the caller runs.
+ * released (tell who follows the jobs that changed, remove folders, wake
+ * the supervisor) is collected in an smd_jobs_after that the caller runs.
+ * The engine names the jobs that changed; it holds no connection and
+ * knows no follower: whoever follows jobs (the event streams) installs
+ * srv->jobs_changed, which smd_jobs_after_run calls.
  *
  * Every function but smd_jobs_after_run is called with srv->lock held
  * (smd_jobs_recover: at start, before any other thread runs). */
@@ -47,18 +50,30 @@
 
 #include "shapematch/sm_error.h"
 #include "smd_server.h"
-#include "smd_stream.h"
 
-/* Work for after the lock. */
+/* Work for after the lock.  Starts zeroed ({0}); reusable after a run. */
 typedef struct smd_jobs_after {
-    smd_wake_list wake;   /* followers to resume */
+    smd_server *srv;      /* set with the first change or tick recorded */
+    char (*changed)[SMD_ID_LEN + 1]; /* jobs whose log or state changed */
+    size_t nchanged, changed_cap;
+    int keepalive;        /* the supervisor's tick: idle followers are due
+                           * a keepalive (smd_jobs_after_tick) */
     char **trash;         /* folders moved to trash/, to remove */
     size_t ntrash;
     int wake_pool;        /* a job was queued or must be stopped */
 } smd_jobs_after;
 
-/* Lock NOT held: resumes the followers, removes the trashed folders and
- * empties a (the caller wakes the pool when a->wake_pool; a stays usable). */
+/* Lock held: job's log or state changed (its followers have news).  A
+ * job already last in the list is not added twice.  Out of memory the
+ * change goes unreported: its followers hear of it at their next
+ * keepalive, when they read the log again. */
+void smd_jobs_after_changed(smd_server *srv, smd_jobs_after *a, const smd_job *job);
+/* The supervisor's once-a-second tick (for keepalives). */
+void smd_jobs_after_tick(smd_server *srv, smd_jobs_after *a);
+
+/* Lock NOT held: hands the changed jobs and the tick to srv->jobs_changed
+ * (when installed), removes the trashed folders and empties a (the
+ * caller wakes the pool when a->wake_pool; a stays usable). */
 void smd_jobs_after_run(smd_jobs_after *a);
 void smd_jobs_after_free(smd_jobs_after *a);
 
@@ -118,7 +133,7 @@ sm_status smd_jobs_requeue(smd_server *srv, smd_job *job, json_t *log_fields);
 /* Lock held, once a second by the supervisor: while srv->unwritable is
  * set (a record or event write failed), writes the records that failed
  * again and the held ends (record, then event; then each is published:
- * state, metrics, log line, followers into after->wake); when all are
+ * state, metrics, log line, the job into after->changed); when all are
  * written (and the spool is writable) the flag clears and jobs are
  * accepted and started again.  A scan of the job table, at most one
  * status.json write and one event append per job waiting. */

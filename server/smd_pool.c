@@ -21,7 +21,6 @@
 #include "shapematch/sm_clock.h"
 #include "sm_proto_events.h"
 #include "smd_jobs.h"
-#include "smd_stream.h"
 #include "smd_worker.h"
 
 #define LINE_MAX_BYTES SM_EVENT_LINE_MAX
@@ -567,7 +566,7 @@ static void periodic(smd_pool *p, double now, smd_jobs_after *after)
     }
     if (now >= p->next_tick) {
         p->next_tick = now + p->tick;
-        smd_stream_collect_idle(srv, now, &after->wake);
+        smd_jobs_after_tick(srv, after);
     }
     if (now >= p->next_sweep) {
         /* often enough that a job outlives its retention by at most half

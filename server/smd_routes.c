@@ -140,7 +140,7 @@ enum MHD_Result smd_route_metrics(struct MHD_Connection *conn, smd_request *req)
     g.queue_depth = smd_queue_depth(srv->queue);
     g.workers_busy = smd_pool_busy(srv->pool);
     g.workers_total = smd_pool_slots(srv->pool);
-    g.followers = srv->nfollowers;
+    g.followers = smd_stream_count(srv);
     g.quarantined = smd_store_quarantined(srv->store);
     pthread_mutex_unlock(&srv->lock);
     g.start_time = srv->start_time;

@@ -3,7 +3,7 @@
  * Threads: libmicrohttpd's polling threads (HTTP handlers), the
  * supervisor (worker processes, timeouts, keepalives, retention) and the
  * main thread (signals).  One mutex, `lock`, guards the store, the queue,
- * the worker slots and the followers; it is held only for short, bounded
+ * the worker slots and the event streams; it is held only for short, bounded
  * work (table updates, one status.json write, one event append), never
  * while waiting for a worker or the network.  libmicrohttpd is never
  * called with `lock` held except MHD_suspend_connection from a content
@@ -37,7 +37,7 @@
 
 struct MHD_Daemon;
 struct smd_pool;
-struct smd_follower;
+struct smd_events;
 struct smd_pg_node;
 struct smd_ratelimit;
 struct smd_conns;
@@ -58,8 +58,13 @@ typedef struct smd_server {
     struct smd_pool *pool;
     struct smd_pg_node *cluster; /* --database: the shared store (smd_pg_node.h), or NULL */
     const smd_cluster_ops *cluster_ops; /* its calls from the state machine */
-    struct smd_follower *followers; /* every event stream */
-    size_t nfollowers;
+    struct smd_events *events;  /* the event streams' own state (smd_stream.c) */
+    /* Lock NOT held: the jobs that changed (ids) and the keepalive tick,
+     * from smd_jobs_after_run.  Installed by main before any thread
+     * starts (smd_stream_jobs_changed: their followers are resumed), so
+     * the engine wakes no connection itself; NULL: nobody follows. */
+    void (*jobs_changed)(struct smd_server *srv, const char (*ids)[SMD_ID_LEN + 1], size_t n,
+                         int keepalive);
 
     struct MHD_Daemon *httpd;
     struct smd_ratelimit *ratelimit; /* submission limits (smd_ratelimit.h), by smd_http_start */

@@ -95,14 +95,13 @@ typedef struct smd_job {
     int log_fd;               /* append descriptor while the job is live, or -1 */
 
     /* runtime state (not persisted) */
-    int refs;                 /* the table's reference + followers + worker */
+    int refs;                 /* the table's reference + event streams + worker */
     int removed;              /* no longer in the table (deleted) */
     int worker_active;        /* a worker process runs (or is being reaped) */
     int cancel_requested;     /* DELETE while running: stop the worker */
     int delete_requested;     /* DELETE of a job whose worker is stopping */
     int unsaved;              /* its last record write failed: retried */
     smd_job_ending *ending;   /* owned: an end waiting for the spool, or NULL */
-    struct smd_follower *followers; /* streams following this job */
     struct smd_job *hash_next;
 } smd_job;
 

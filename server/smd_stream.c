@@ -6,7 +6,9 @@
  * appended between "nothing to send" and "suspended" (a lost wake-up).
  * Everyone else only *collects* suspended followers under the lock
  * (clearing their flag) and calls MHD_resume_connection after releasing
- * it.  So libmicrohttpd's internal mutex is only ever taken inside
+ * it: the engine names the jobs that changed (smd_jobs_after), and
+ * smd_stream_jobs_changed, called after the engine's lock is released,
+ * takes the lock once, collects their followers, and resumes them.  So libmicrohttpd's internal mutex is only ever taken inside
  * srv->lock by the thread that owns the connection, and srv->lock is
  * never requested while an MHD mutex is held by us: no lock cycle.  A
  * collected connection is still suspended inside MHD until it is resumed,
@@ -25,6 +27,7 @@
 #include "sm_proto_events.h"
 
 #define READ_BATCH (256 * 1024) /* log bytes formatted per refill */
+#define WAKE_INLINE 32          /* connections resumed without an allocation */
 
 typedef struct smd_follower {
     smd_server *srv;
@@ -41,9 +44,26 @@ typedef struct smd_follower {
     uint64_t *bytes_out;
     char *buf;                    /* formatted bytes not yet handed to MHD */
     size_t len, off, cap;
-    struct smd_follower *job_next, *job_prev;
+    struct smd_follower *job_next, *job_prev; /* same bucket of the table by job id */
     struct smd_follower *all_next, *all_prev;
 } smd_follower;
+
+/* The streams, by srv->lock: every one in a list (keepalives, shutdown)
+ * and in a hash table by job id (wake-ups of the jobs that changed), so
+ * the job record knows nothing of who follows it. */
+typedef struct smd_events {
+    smd_follower *all;
+    size_t n;
+    smd_follower **bucket;
+    size_t nbucket; /* a power of two */
+} smd_events;
+
+/* Connections to resume once the lock is released. */
+typedef struct wake_list {
+    struct MHD_Connection *inline_conns[WAKE_INLINE];
+    struct MHD_Connection **conns;
+    size_t n, cap;
+} wake_list;
 
 /* ------------------------------------------------------------ formatting */
 
@@ -240,24 +260,106 @@ static ssize_t follower_read(void *cls, uint64_t pos, char *out, size_t max)
     return 0;
 }
 
-static void follower_free(void *cls)
+/* ---------------------------------------------------- the table by job */
+
+static size_t bucket_of(const smd_events *ev, const char *id)
 {
-    smd_follower *f = cls;
-    smd_server *srv = f->srv;
-    pthread_mutex_lock(&srv->lock);
+    uint64_t h = 1469598103934665603ULL; /* FNV-1a */
+    for (const unsigned char *p = (const unsigned char *)id; *p; p++)
+        h = (h ^ *p) * 1099511628211ULL;
+    return (size_t)h & (ev->nbucket - 1);
+}
+
+static void bucket_push(smd_events *ev, smd_follower *f)
+{
+    smd_follower **head = &ev->bucket[bucket_of(ev, f->job->id)];
+    f->job_prev = NULL;
+    f->job_next = *head;
+    if (*head)
+        (*head)->job_prev = f;
+    *head = f;
+}
+
+/* Lock held: the table, created with the first stream; NULL out of
+ * memory. */
+static smd_events *events_of(smd_server *srv)
+{
+    if (!srv->events) {
+        smd_events *ev = calloc(1, sizeof *ev);
+        if (ev && !(ev->bucket = calloc(ev->nbucket = 64, sizeof *ev->bucket))) {
+            free(ev);
+            ev = NULL;
+        }
+        srv->events = ev;
+    }
+    return srv->events;
+}
+
+/* Doubles the buckets once there are more streams than buckets (out of
+ * memory it keeps the longer chains). */
+static void maybe_grow(smd_events *ev)
+{
+    if (ev->n <= ev->nbucket)
+        return;
+    smd_follower **b = calloc(2 * ev->nbucket, sizeof *b);
+    if (!b)
+        return;
+    free(ev->bucket);
+    ev->bucket = b;
+    ev->nbucket *= 2;
+    for (smd_follower *f = ev->all; f; f = f->all_next)
+        bucket_push(ev, f);
+}
+
+static void link_follower(smd_events *ev, smd_follower *f)
+{
+    f->all_prev = NULL;
+    f->all_next = ev->all;
+    if (ev->all)
+        ev->all->all_prev = f;
+    ev->all = f;
+    ev->n++;
+    bucket_push(ev, f);
+    maybe_grow(ev);
+}
+
+static void unlink_follower(smd_events *ev, smd_follower *f)
+{
     if (f->job_prev)
         f->job_prev->job_next = f->job_next;
     else
-        f->job->followers = f->job_next;
+        ev->bucket[bucket_of(ev, f->job->id)] = f->job_next;
     if (f->job_next)
         f->job_next->job_prev = f->job_prev;
     if (f->all_prev)
         f->all_prev->all_next = f->all_next;
     else
-        srv->followers = f->all_next;
+        ev->all = f->all_next;
     if (f->all_next)
         f->all_next->all_prev = f->all_prev;
-    srv->nfollowers--;
+    ev->n--;
+}
+
+size_t smd_stream_count(const smd_server *srv)
+{
+    return srv->events ? srv->events->n : 0;
+}
+
+void smd_stream_free_all(smd_server *srv)
+{
+    if (srv->events) {
+        free(srv->events->bucket);
+        free(srv->events);
+        srv->events = NULL;
+    }
+}
+
+static void follower_free(void *cls)
+{
+    smd_follower *f = cls;
+    smd_server *srv = f->srv;
+    pthread_mutex_lock(&srv->lock);
+    unlink_follower(srv->events, f);
     smd_job_unref(f->job);
     pthread_mutex_unlock(&srv->lock);
     if (f->fd >= 0)
@@ -275,7 +377,7 @@ struct MHD_Response *smd_stream_response(smd_server *srv, smd_job *job,
         snprintf(msg, cap, "%s", err.msg);
         return NULL;
     }
-    smd_follower *f = calloc(1, sizeof *f);
+    smd_follower *f = events_of(srv) ? calloc(1, sizeof *f) : NULL;
     if (!f) {
         snprintf(msg, cap, "out of memory");
         return NULL;
@@ -313,15 +415,7 @@ struct MHD_Response *smd_stream_response(smd_server *srv, smd_job *job,
     }
     /* linked only now: from here follower_free undoes it */
     smd_job_ref(job);
-    f->job_next = job->followers;
-    if (job->followers)
-        job->followers->job_prev = f;
-    job->followers = f;
-    f->all_next = srv->followers;
-    if (srv->followers)
-        srv->followers->all_prev = f;
-    srv->followers = f;
-    srv->nfollowers++;
+    link_follower(srv->events, f);
     MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE,
                             sse ? "text/event-stream; charset=utf-8" : "application/x-ndjson");
     MHD_add_response_header(resp, MHD_HTTP_HEADER_CACHE_CONTROL, "no-cache");
@@ -331,15 +425,18 @@ struct MHD_Response *smd_stream_response(smd_server *srv, smd_job *job,
 
 /* ------------------------------------------------------------- wake-ups */
 
-static void collect(smd_follower *f, smd_wake_list *w)
+static void collect(smd_follower *f, wake_list *w)
 {
     if (!f->suspended)
         return;
     if (w->n == w->cap) {
-        size_t ncap = w->cap ? 2 * w->cap : 16;
-        struct MHD_Connection **c = realloc(w->conns, ncap * sizeof *c);
+        size_t ncap = 2 * w->cap;
+        struct MHD_Connection **c = w->conns == w->inline_conns ? malloc(ncap * sizeof *c)
+                                                                 : realloc(w->conns, ncap * sizeof *c);
         if (!c)
             return; /* stays suspended; the keepalive tick retries */
+        if (w->conns == w->inline_conns)
+            memcpy(c, w->inline_conns, sizeof w->inline_conns);
         w->conns = c;
         w->cap = ncap;
     }
@@ -347,37 +444,45 @@ static void collect(smd_follower *f, smd_wake_list *w)
     w->conns[w->n++] = f->conn;
 }
 
-void smd_stream_collect_job(smd_job *job, smd_wake_list *w)
-{
-    for (smd_follower *f = job->followers; f; f = f->job_next)
-        collect(f, w);
-}
-
-void smd_stream_collect_idle(smd_server *srv, double now, smd_wake_list *w)
-{
-    for (smd_follower *f = srv->followers; f; f = f->all_next)
-        if (f->suspended && now - atomic_load(&f->last_send) >= srv->cfg.keepalive) {
-            f->keepalive_due = 1;
-            collect(f, w);
-        }
-}
-
-void smd_stream_collect_all(smd_server *srv, smd_wake_list *w)
-{
-    for (smd_follower *f = srv->followers; f; f = f->all_next)
-        collect(f, w);
-}
-
-void smd_wake_list_resume(smd_wake_list *w)
+/* Lock NOT held: resumes what was collected. */
+static void resume_all(wake_list *w)
 {
     for (size_t i = 0; i < w->n; i++)
         MHD_resume_connection(w->conns[i]);
-    w->n = 0;
+    if (w->conns != w->inline_conns)
+        free(w->conns);
 }
 
-void smd_wake_list_free(smd_wake_list *w)
+void smd_stream_jobs_changed(smd_server *srv, const char (*ids)[SMD_ID_LEN + 1], size_t n,
+                             int keepalive)
 {
-    free(w->conns);
-    w->conns = NULL;
-    w->n = w->cap = 0;
+    wake_list w = {.n = 0, .cap = WAKE_INLINE};
+    w.conns = w.inline_conns;
+    pthread_mutex_lock(&srv->lock);
+    smd_events *ev = srv->events;
+    for (size_t i = 0; ev && ev->n > 0 && i < n; i++)
+        for (smd_follower *f = ev->bucket[bucket_of(ev, ids[i])]; f; f = f->job_next)
+            if (strcmp(f->job->id, ids[i]) == 0)
+                collect(f, &w);
+    if (ev && keepalive) {
+        double now = sm_clock_seconds();
+        for (smd_follower *f = ev->all; f; f = f->all_next)
+            if (f->suspended && now - atomic_load(&f->last_send) >= srv->cfg.keepalive) {
+                f->keepalive_due = 1;
+                collect(f, &w);
+            }
+    }
+    pthread_mutex_unlock(&srv->lock);
+    resume_all(&w);
+}
+
+void smd_stream_end_all(smd_server *srv)
+{
+    wake_list w = {.n = 0, .cap = WAKE_INLINE};
+    w.conns = w.inline_conns;
+    pthread_mutex_lock(&srv->lock);
+    for (smd_follower *f = srv->events ? srv->events->all : NULL; f; f = f->all_next)
+        collect(f, &w);
+    pthread_mutex_unlock(&srv->lock);
+    resume_all(&w);
 }

@@ -8,9 +8,10 @@
  *
  * Waiting costs neither a thread nor CPU: when a follower has nothing to
  * send, its content reader suspends the connection
- * (MHD_suspend_connection); whoever appends to the log (or ends the job,
- * or the keepalive tick) collects the suspended followers under the lock
- * and resumes them after releasing it.  A resumed follower with nothing
+ * (MHD_suspend_connection); the job engine names the jobs whose log or
+ * state changed (and ticks for keepalives), and this module collects
+ * their suspended followers under the lock and resumes them after
+ * releasing it (smd_stream_jobs_changed).  A resumed follower with nothing
  * new sends a keepalive (": keepalive" in SSE, an empty line in NDJSON),
  * which is also how a client that went away is noticed. */
 #ifndef SMD_STREAM_H
@@ -24,12 +25,6 @@
 struct MHD_Connection;
 struct MHD_Response;
 
-/* Connections to resume once the lock is released. */
-typedef struct smd_wake_list {
-    struct MHD_Connection **conns;
-    size_t n, cap;
-} smd_wake_list;
-
 /* Creates the response of an event stream for job, starting after
  * sequence number after_seq (0: from the start; beyond the log: nothing
  * is replayed, the stream follows the job until it ends).  Lock held.  bytes_out
@@ -40,18 +35,20 @@ struct MHD_Response *smd_stream_response(smd_server *srv, smd_job *job,
                                          int64_t after_seq, uint64_t *bytes_out,
                                          char *msg, size_t cap);
 
-/* Lock held: collects the suspended followers of job (new events, or the
- * job ended). */
-void smd_stream_collect_job(smd_job *job, smd_wake_list *w);
-/* Lock held: collects followers idle for at least keepalive seconds and
- * marks them for a keepalive. */
-void smd_stream_collect_idle(smd_server *srv, double now, smd_wake_list *w);
-/* Lock held: collects every suspended follower (shutdown). */
-void smd_stream_collect_all(smd_server *srv, smd_wake_list *w);
-
-/* Lock NOT held: resumes and empties the list. */
-void smd_wake_list_resume(smd_wake_list *w);
-void smd_wake_list_free(smd_wake_list *w);
+/* srv->jobs_changed (smd_server.h), lock NOT held: takes the lock,
+ * collects the suspended followers of the jobs named (new events, or the
+ * job ended) and, when keepalive, those idle for at least --keepalive
+ * seconds (marked for a keepalive), then resumes them unlocked. */
+void smd_stream_jobs_changed(smd_server *srv, const char (*ids)[SMD_ID_LEN + 1], size_t n,
+                             int keepalive);
+/* Lock NOT held: resumes every suspended follower (shutdown, once
+ * srv->stopping is set: each ends). */
+void smd_stream_end_all(smd_server *srv);
+/* Lock held: the number of open event streams (for /metrics). */
+size_t smd_stream_count(const smd_server *srv);
+/* After the HTTP daemon stopped (no stream left): frees the streams'
+ * table. */
+void smd_stream_free_all(smd_server *srv);
 
 /* Formats one log line (without its newline) as an SSE event:
  * "id: <seq>\nevent: <type>\ndata: <line>\n\n".  seq < 1 omits the id

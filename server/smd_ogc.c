@@ -6,6 +6,7 @@
 #include <string.h>
 #include <strings.h>
 
+#include "sm_json.h"
 #include "sm_proto_text.h"
 #include "sm_proto_vocab.h"
 #include "smd_routes.h"
@@ -188,7 +189,7 @@ static int execute_params(smd_upload *u, json_t *in)
                         "params: an object (the parameters document, see /v1/params.schema.json)");
         return -1;
     }
-    char *text = json_dumps(value, JSON_COMPACT | JSON_PRESERVE_ORDER);
+    char *text = sm_json_dumps(value, 0);
     if (!text) {
         smd_upload_fail(u, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
         return -1;

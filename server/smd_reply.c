@@ -7,6 +7,7 @@
 #include <string.h>
 #include <zlib.h>
 
+#include "sm_json.h"
 #include "sm_proto_text.h"
 #include "sm_proto_vocab.h"
 #include "smd_cors.h"
@@ -74,7 +75,7 @@ struct MHD_Response *smd_buffer_response(struct MHD_Connection *conn, smd_reques
 enum MHD_Result smd_reply_json(struct MHD_Connection *conn, smd_request *req, unsigned status,
                                json_t *body)
 {
-    char *text = body ? json_dumps(body, JSON_INDENT(2) | JSON_PRESERVE_ORDER) : NULL;
+    char *text = body ? sm_json_dumps(body, 2) : NULL;
     json_decref(body);
     if (!text)
         return MHD_NO;
@@ -141,7 +142,7 @@ static struct MHD_Response *problem_response(struct MHD_Connection *conn, smd_re
         if (ip)
             json_object_set_new(body, "invalid-params", ip);
     }
-    char *text = json_dumps(body, JSON_INDENT(2) | JSON_PRESERVE_ORDER);
+    char *text = sm_json_dumps(body, 2);
     json_decref(body);
     if (!text)
         return NULL;

@@ -14,6 +14,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "sm_json.h"
 #define STATUS_FILE "status.json"
 #define EVENTS_FILE "events.ndjson"
 #define STATUS_MAX_BYTES (64 * 1024)
@@ -390,7 +391,7 @@ static sm_status write_record(const char *dir, const smd_job *job, sm_error *err
     if (smd_pathf(path, sizeof path, "%s/" STATUS_FILE, dir) != 0)
         return sm_error_set(err, SM_ERR_IO, "%s: path too long", dir);
     json_t *o = record_to_json(job);
-    char *text = o ? json_dumps(o, JSON_INDENT(2) | JSON_PRESERVE_ORDER) : NULL;
+    char *text = o ? sm_json_dumps(o, 2) : NULL;
     json_decref(o);
     if (!text)
         return sm_error_set(err, SM_ERR_NOMEM, "job %s: cannot encode status.json", job->id);

@@ -24,6 +24,7 @@
 #include <unistd.h>
 
 #include "shapematch/sm_clock.h"
+#include "sm_json.h"
 #include "sm_proto_events.h"
 
 #define READ_BATCH (256 * 1024) /* log bytes formatted per refill */
@@ -127,7 +128,7 @@ static int format_status(smd_follower *f)
             json_object_set(o, key, value);
     }
     json_decref(fields);
-    char *line = json_dumps(o, JSON_COMPACT | JSON_PRESERVE_ORDER);
+    char *line = sm_json_dumps(o, 0);
     json_decref(o);
     if (!line)
         return -1;

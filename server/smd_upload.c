@@ -16,6 +16,7 @@
 #include <zlib.h>
 
 #include "sm_job_inputs.h"
+#include "sm_json.h"
 #include "sm_proto_params.h"
 #include "sm_proto_vocab.h"
 #include "sm_proto_text.h"
@@ -108,14 +109,17 @@ static enum MHD_Result reply_error(struct MHD_Connection *conn, smd_request *req
     return smd_reply_problem(conn, req, u->parts.err_status, u->parts.err_type, "%s", u->parts.err_detail);
 }
 
-static enum MHD_Result reply_existing(struct MHD_Connection *conn, smd_request *req, smd_job *job)
+/* The answer to a submission: the job's status document (doc, taken
+ * over; NULL out of memory), its Location, and one more header when
+ * header is not NULL or "" (201 for a new job, 200 for a replay). */
+static enum MHD_Result reply_status(struct MHD_Connection *conn, smd_request *req, unsigned status,
+                                    const char *id, json_t *doc, const char *header,
+                                    const char *value)
 {
-    /* lock held by the caller */
-    json_t *doc = smd_status_document(job);
     char location[64];
-    snprintf(location, sizeof location, "/v1/jobs/%s", job->id);
-    memcpy(req->id, job->id, sizeof req->id);
-    char *text = doc ? json_dumps(doc, JSON_INDENT(2) | JSON_PRESERVE_ORDER) : NULL;
+    snprintf(location, sizeof location, "/v1/jobs/%s", id);
+    snprintf(req->id, sizeof req->id, "%s", id);
+    char *text = doc ? sm_json_dumps(doc, 2) : NULL;
     json_decref(doc);
     if (!text)
         return MHD_NO;
@@ -123,8 +127,16 @@ static enum MHD_Result reply_existing(struct MHD_Connection *conn, smd_request *
     if (!resp)
         return MHD_NO;
     MHD_add_response_header(resp, MHD_HTTP_HEADER_LOCATION, location);
-    MHD_add_response_header(resp, "Idempotent-Replayed", "true");
-    return smd_reply(conn, req, MHD_HTTP_OK, resp);
+    if (header && header[0])
+        MHD_add_response_header(resp, header, value);
+    return smd_reply(conn, req, status, resp);
+}
+
+static enum MHD_Result reply_existing(struct MHD_Connection *conn, smd_request *req, smd_job *job)
+{
+    /* lock held by the caller */
+    return reply_status(conn, req, MHD_HTTP_OK, job->id, smd_status_document(job),
+                        "Idempotent-Replayed", "true");
 }
 
 /* ------------------------------------------------------------ limits */
@@ -315,7 +327,7 @@ static int write_job_file(smd_upload *u, const sm_job_inputs *in)
         if (u->parts.seen[i])
             json_object_set_new(doc, sm_part_names[i], json_string(u->parts.path[i] + prefix));
     json_object_set_new(doc, "params", params);
-    char *text = json_dumps(doc, JSON_INDENT(2) | JSON_PRESERVE_ORDER);
+    char *text = sm_json_dumps(doc, 2);
     json_decref(doc);
     if (!text)
         return -1;
@@ -492,20 +504,8 @@ static enum MHD_Result submit_checked(struct MHD_Connection *conn, smd_request *
     smd_jobs_after_free(&after);
     if (after.wake_pool)
         smd_pool_wake(srv->pool);
-
-    char location[64];
-    snprintf(location, sizeof location, "/v1/jobs/%s", id);
-    char *text = doc ? json_dumps(doc, JSON_INDENT(2) | JSON_PRESERVE_ORDER) : NULL;
-    json_decref(doc);
-    if (!text)
-        return MHD_NO;
-    struct MHD_Response *resp = smd_buffer_response(conn, req, "application/json", text, strlen(text));
-    if (!resp)
-        return MHD_NO;
-    MHD_add_response_header(resp, MHD_HTTP_HEADER_LOCATION, location);
-    if (u->created_header[0][0])
-        MHD_add_response_header(resp, u->created_header[0], u->created_header[1]);
-    return smd_reply(conn, req, MHD_HTTP_CREATED, resp);
+    return reply_status(conn, req, MHD_HTTP_CREATED, id, doc, u->created_header[0],
+                        u->created_header[1]);
 }
 
 static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *req, smd_upload *u)

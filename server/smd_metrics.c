@@ -2,6 +2,7 @@
 #include "smd_metrics.h"
 
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,9 +16,6 @@ static const double bucket_bounds[SMD_LATENCY_BUCKETS] = {
     0.0001, 0.00025, 0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025,
     0.05,   0.1,     0.25,   0.5,   1,      2.5,   10,
 };
-
-static const char *const all_states[SMD_JOB_STATES] = {"accepted", "running", "successful",
-                                                       "failed", "dismissed"};
 
 int smd_metrics_init(smd_metrics *m, const char *const *routes, size_t nroutes)
 {
@@ -134,106 +132,174 @@ static long resident_bytes(void)
     return rss < 0 ? -1 : rss * sysconf(_SC_PAGESIZE);
 }
 
+/* ----------------------------------------------------------- the table
+ *
+ * One row a metric family: its name, help, type, and where each of its
+ * values comes from.  The request counts and latency histograms, whose
+ * label sets come from the route table, are rendered at their row by
+ * code (ROW_HTTP). */
+
+typedef enum {
+    SRC_GAUGE,   /* a uint64_t of smd_gauges (read at scrape time) */
+    SRC_COUNTER, /* a uint64_t of smd_metrics (under its lock) */
+    SRC_READY,   /* smd_gauges.ready (an int) */
+    SRC_START,   /* smd_gauges.start_time, seconds to the millisecond */
+    SRC_RSS,     /* /proc/self/statm; the row is left out when unreadable */
+    SRC_HTTP     /* the request counts and latencies by route */
+} metric_source;
+
+#define MAX_LABELED 5
+
+typedef struct metric_row {
+    const char *name, *help, *type;
+    metric_source src;
+    size_t n;                            /* values (0: one, unlabeled) */
+    const char *label;                   /* the label's name when n > 0 */
+    const char *values[MAX_LABELED];     /* the label's values */
+    size_t offset[MAX_LABELED];          /* of each value (one when n == 0) */
+} metric_row;
+
+#define G(f) offsetof(smd_gauges, f)
+#define C(f) offsetof(smd_metrics, f)
+#define STATES "accepted", "running", "successful", "failed", "dismissed"
+
+static const metric_row rows[] = {
+    {"shapematch_jobs", "Jobs in the store by state.", "gauge", SRC_GAUGE, SMD_JOB_STATES, "state",
+     {STATES},
+     {G(jobs_by_state[0]), G(jobs_by_state[1]), G(jobs_by_state[2]), G(jobs_by_state[3]),
+      G(jobs_by_state[4])}},
+    {"shapematch_queue_depth", "Jobs waiting for a worker.", "gauge", SRC_GAUGE, 0, NULL, {NULL},
+     {G(queue_depth)}},
+    {"shapematch_workers_busy", "Worker processes running.", "gauge", SRC_GAUGE, 0, NULL, {NULL},
+     {G(workers_busy)}},
+    {"shapematch_workers", "Worker slots.", "gauge", SRC_GAUGE, 0, NULL, {NULL},
+     {G(workers_total)}},
+    {"shapematch_event_streams", "Open event streams.", "gauge", SRC_GAUGE, 0, NULL, {NULL},
+     {G(followers)}},
+    {"shapematch_records_quarantined",
+     "Damaged job records moved to SPOOL/quarantine/ at start.", "gauge", SRC_GAUGE, 0, NULL,
+     {NULL}, {G(quarantined)}},
+    {"shapematch_connections", "Open HTTP connections.", "gauge", SRC_GAUGE, 0, NULL, {NULL},
+     {G(connections)}},
+    {"shapematch_connections_cut_total",
+     "Connections closed by the daemon: headers past --header-timeout, a body under "
+     "--min-upload-rate, or to keep --reserved-connections free.",
+     "counter", SRC_GAUGE, 3, "reason", {"header_timeout", "slow_body", "reserve"},
+     {G(cut_headers), G(cut_body), G(cut_reserve)}},
+    {"shapematch_upload_checks", "Acceptance checks of uploads running and waiting.", "gauge",
+     SRC_GAUGE, 2, "state", {"running", "waiting"}, {G(checks_running), G(checks_waiting)}},
+    {"shapematch_ready", "1 when accepting jobs.", "gauge", SRC_READY, 0, NULL, {NULL}, {0}},
+    {"process_resident_memory_bytes", "Resident memory of the daemon.", "gauge", SRC_RSS, 0, NULL,
+     {NULL}, {0}},
+    {"process_start_time_seconds", "Start time of the daemon (Unix seconds).", "gauge", SRC_START,
+     0, NULL, {NULL}, {0}},
+    {"shapematch_jobs_submitted_total", "Jobs accepted.", "counter", SRC_COUNTER, 0, NULL, {NULL},
+     {C(jobs_submitted)}},
+    {"shapematch_jobs_finished_total", "Jobs that reached a final state.", "counter", SRC_COUNTER,
+     SMD_JOB_FINAL_STATES, "state", {"successful", "failed", "dismissed"},
+     {C(jobs_finished[0]), C(jobs_finished[1]), C(jobs_finished[2])}},
+    {"shapematch_workers_started_total", "Worker processes started.", "counter", SRC_COUNTER, 0,
+     NULL, {NULL}, {C(workers_started)}},
+    {"shapematch_events_total", "Events appended to job logs.", "counter", SRC_COUNTER, 0, NULL,
+     {NULL}, {C(events_appended)}},
+    {NULL, NULL, NULL, SRC_HTTP, 0, NULL, {NULL}, {0}},
+    {"shapematch_http_received_bytes_total", "Request bytes received (bodies).", "counter",
+     SRC_COUNTER, 0, NULL, {NULL}, {C(bytes_in)}},
+    {"shapematch_http_sent_bytes_total", "Response body bytes sent.", "counter", SRC_COUNTER, 0,
+     NULL, {NULL}, {C(bytes_out)}},
+};
+
+_Static_assert(SMD_JOB_STATES == 5 && SMD_JOB_FINAL_STATES == 3,
+               "the state labels of the metrics table");
+
+/* The request counts by route, method and status, and the latency
+ * histograms by route (m->lock held). */
+static void render_http(outbuf *b, const smd_metrics *m)
+{
+    out(b, "# HELP shapematch_http_requests_total HTTP requests by route, method and status.\n"
+           "# TYPE shapematch_http_requests_total counter\n");
+    for (size_t r = 0; r < m->nroutes; r++)
+        for (size_t k = 0; k < SMD_METHODS; k++)
+            for (size_t c = 0; c < SMD_STATUS_CODES; c++)
+                if (REQUESTS(m, r, k, c))
+                    out(b, "shapematch_http_requests_total{route=\"%s\",method=\"%s\",code=\"%zu\"} %llu\n",
+                        m->routes[r], method_labels[k], c + 100,
+                        (unsigned long long)REQUESTS(m, r, k, c));
+    out(b, "# HELP shapematch_http_request_duration_seconds Time from request to the end of the "
+           "response (event streams: the whole stream).\n"
+           "# TYPE shapematch_http_request_duration_seconds histogram\n");
+    for (size_t r = 0; r < m->nroutes; r++) {
+        if (!m->latency_count[r])
+            continue;
+        for (size_t k = 0; k < SMD_LATENCY_BUCKETS; k++)
+            out(b, "shapematch_http_request_duration_seconds_bucket{route=\"%s\",le=\"%g\"} %llu\n",
+                m->routes[r], bucket_bounds[k], (unsigned long long)BUCKET(m, r, k));
+        out(b, "shapematch_http_request_duration_seconds_bucket{route=\"%s\",le=\"+Inf\"} %llu\n",
+            m->routes[r], (unsigned long long)m->latency_count[r]);
+        out(b, "shapematch_http_request_duration_seconds_sum{route=\"%s\"} %.6f\n", m->routes[r],
+            m->latency_sum[r]);
+        out(b, "shapematch_http_request_duration_seconds_count{route=\"%s\"} %llu\n",
+            m->routes[r], (unsigned long long)m->latency_count[r]);
+    }
+}
+
+static uint64_t u64_at(const void *base, size_t offset)
+{
+    uint64_t v;
+    memcpy(&v, (const char *)base + offset, sizeof v);
+    return v;
+}
+
+/* One row's HELP, TYPE and values. */
+static void render_row(outbuf *b, const metric_row *row, const smd_metrics *m, const smd_gauges *g)
+{
+    long rss = 0;
+    if (row->src == SRC_RSS && (rss = resident_bytes()) < 0)
+        return;
+    out(b, "# HELP %s %s\n# TYPE %s %s\n", row->name, row->help, row->name, row->type);
+    const void *base = row->src == SRC_COUNTER ? (const void *)m : (const void *)g;
+    switch (row->src) {
+    case SRC_READY:
+        out(b, "%s %d\n", row->name, g->ready);
+        return;
+    case SRC_START:
+        out(b, "%s %.3f\n", row->name, g->start_time);
+        return;
+    case SRC_RSS:
+        out(b, "%s %ld\n", row->name, rss);
+        return;
+    default:
+        break;
+    }
+    if (row->n == 0)
+        out(b, "%s %llu\n", row->name, (unsigned long long)u64_at(base, row->offset[0]));
+    for (size_t i = 0; i < row->n; i++)
+        out(b, "%s{%s=\"%s\"} %llu\n", row->name, row->label, row->values[i],
+            (unsigned long long)u64_at(base, row->offset[i]));
+}
+
 char *smd_metrics_render(smd_metrics *m, const smd_gauges *g, size_t *len)
 {
     outbuf b = {malloc(16384), 0, 16384, 0};
     if (!b.data)
         return NULL;
     b.data[0] = '\0';
-    out(&b, "# HELP shapematch_jobs Jobs in the store by state.\n# TYPE shapematch_jobs gauge\n");
-    for (int s = 0; s < SMD_JOB_STATES; s++)
-        out(&b, "shapematch_jobs{state=\"%s\"} %llu\n", all_states[s],
-            (unsigned long long)g->jobs_by_state[s]);
-    out(&b, "# HELP shapematch_queue_depth Jobs waiting for a worker.\n"
-            "# TYPE shapematch_queue_depth gauge\nshapematch_queue_depth %llu\n",
-        (unsigned long long)g->queue_depth);
-    out(&b, "# HELP shapematch_workers_busy Worker processes running.\n"
-            "# TYPE shapematch_workers_busy gauge\nshapematch_workers_busy %llu\n",
-        (unsigned long long)g->workers_busy);
-    out(&b, "# HELP shapematch_workers Worker slots.\n"
-            "# TYPE shapematch_workers gauge\nshapematch_workers %llu\n",
-        (unsigned long long)g->workers_total);
-    out(&b, "# HELP shapematch_event_streams Open event streams.\n"
-            "# TYPE shapematch_event_streams gauge\nshapematch_event_streams %llu\n",
-        (unsigned long long)g->followers);
-    out(&b, "# HELP shapematch_records_quarantined Damaged job records moved to "
-            "SPOOL/quarantine/ at start.\n# TYPE shapematch_records_quarantined gauge\n"
-            "shapematch_records_quarantined %llu\n",
-        (unsigned long long)g->quarantined);
-    out(&b, "# HELP shapematch_connections Open HTTP connections.\n"
-            "# TYPE shapematch_connections gauge\nshapematch_connections %llu\n",
-        (unsigned long long)g->connections);
-    out(&b, "# HELP shapematch_connections_cut_total Connections closed by the daemon: headers "
-            "past --header-timeout, a body under --min-upload-rate, or to keep "
-            "--reserved-connections free.\n# TYPE shapematch_connections_cut_total counter\n"
-            "shapematch_connections_cut_total{reason=\"header_timeout\"} %llu\n"
-            "shapematch_connections_cut_total{reason=\"slow_body\"} %llu\n"
-            "shapematch_connections_cut_total{reason=\"reserve\"} %llu\n",
-        (unsigned long long)g->cut_headers, (unsigned long long)g->cut_body,
-        (unsigned long long)g->cut_reserve);
-    out(&b, "# HELP shapematch_upload_checks Acceptance checks of uploads running and waiting.\n"
-            "# TYPE shapematch_upload_checks gauge\n"
-            "shapematch_upload_checks{state=\"running\"} %llu\n"
-            "shapematch_upload_checks{state=\"waiting\"} %llu\n",
-        (unsigned long long)g->checks_running, (unsigned long long)g->checks_waiting);
-    out(&b, "# HELP shapematch_ready 1 when accepting jobs.\n"
-            "# TYPE shapematch_ready gauge\nshapematch_ready %d\n", g->ready);
-    long rss = resident_bytes();
-    if (rss >= 0)
-        out(&b, "# HELP process_resident_memory_bytes Resident memory of the daemon.\n"
-                "# TYPE process_resident_memory_bytes gauge\nprocess_resident_memory_bytes %ld\n",
-            rss);
-    out(&b, "# HELP process_start_time_seconds Start time of the daemon (Unix seconds).\n"
-            "# TYPE process_start_time_seconds gauge\nprocess_start_time_seconds %.3f\n",
-        g->start_time);
-
-    pthread_mutex_lock(&m->lock);
-    out(&b, "# HELP shapematch_jobs_submitted_total Jobs accepted.\n"
-            "# TYPE shapematch_jobs_submitted_total counter\nshapematch_jobs_submitted_total %llu\n",
-        (unsigned long long)m->jobs_submitted);
-    out(&b, "# HELP shapematch_jobs_finished_total Jobs that reached a final state.\n"
-            "# TYPE shapematch_jobs_finished_total counter\n");
-    for (int s = 0; s < SMD_JOB_FINAL_STATES; s++)
-        out(&b, "shapematch_jobs_finished_total{state=\"%s\"} %llu\n", all_states[SMD_JOB_FIRST_FINAL + s],
-            (unsigned long long)m->jobs_finished[s]);
-    out(&b, "# HELP shapematch_workers_started_total Worker processes started.\n"
-            "# TYPE shapematch_workers_started_total counter\nshapematch_workers_started_total %llu\n",
-        (unsigned long long)m->workers_started);
-    out(&b, "# HELP shapematch_events_total Events appended to job logs.\n"
-            "# TYPE shapematch_events_total counter\nshapematch_events_total %llu\n",
-        (unsigned long long)m->events_appended);
-    out(&b, "# HELP shapematch_http_requests_total HTTP requests by route, method and status.\n"
-            "# TYPE shapematch_http_requests_total counter\n");
-    for (size_t r = 0; r < m->nroutes; r++)
-        for (size_t k = 0; k < SMD_METHODS; k++)
-            for (size_t c = 0; c < SMD_STATUS_CODES; c++)
-                if (REQUESTS(m, r, k, c))
-                    out(&b, "shapematch_http_requests_total{route=\"%s\",method=\"%s\",code=\"%zu\"} %llu\n",
-                        m->routes[r], method_labels[k], c + 100,
-                        (unsigned long long)REQUESTS(m, r, k, c));
-    out(&b, "# HELP shapematch_http_request_duration_seconds Time from request to the end of the "
-            "response (event streams: the whole stream).\n"
-            "# TYPE shapematch_http_request_duration_seconds histogram\n");
-    for (size_t r = 0; r < m->nroutes; r++) {
-        if (!m->latency_count[r])
-            continue;
-        for (size_t k = 0; k < SMD_LATENCY_BUCKETS; k++)
-            out(&b, "shapematch_http_request_duration_seconds_bucket{route=\"%s\",le=\"%g\"} %llu\n",
-                m->routes[r], bucket_bounds[k], (unsigned long long)BUCKET(m, r, k));
-        out(&b, "shapematch_http_request_duration_seconds_bucket{route=\"%s\",le=\"+Inf\"} %llu\n",
-            m->routes[r], (unsigned long long)m->latency_count[r]);
-        out(&b, "shapematch_http_request_duration_seconds_sum{route=\"%s\"} %.6f\n", m->routes[r],
-            m->latency_sum[r]);
-        out(&b, "shapematch_http_request_duration_seconds_count{route=\"%s\"} %llu\n",
-            m->routes[r], (unsigned long long)m->latency_count[r]);
+    int locked = 0;
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        const metric_row *row = &rows[i];
+        /* the gauges come first, read without the lock (the memory row
+         * reads /proc); the counters and requests after, under it */
+        if ((row->src == SRC_COUNTER || row->src == SRC_HTTP) && !locked) {
+            pthread_mutex_lock(&m->lock);
+            locked = 1;
+        }
+        if (row->src == SRC_HTTP)
+            render_http(&b, m);
+        else
+            render_row(&b, row, m, g);
     }
-    out(&b, "# HELP shapematch_http_received_bytes_total Request bytes received (bodies).\n"
-            "# TYPE shapematch_http_received_bytes_total counter\nshapematch_http_received_bytes_total %llu\n",
-        (unsigned long long)m->bytes_in);
-    out(&b, "# HELP shapematch_http_sent_bytes_total Response body bytes sent.\n"
-            "# TYPE shapematch_http_sent_bytes_total counter\nshapematch_http_sent_bytes_total %llu\n",
-        (unsigned long long)m->bytes_out);
-    pthread_mutex_unlock(&m->lock);
+    if (locked)
+        pthread_mutex_unlock(&m->lock);
     if (b.failed) {
         free(b.data);
         return NULL;

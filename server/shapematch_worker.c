@@ -22,7 +22,6 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include <jansson.h>
 
 #include "shapematch/sm_clock.h"
 #include "shapematch/sm_atomic.h"
@@ -30,9 +29,11 @@
 #include "shapematch/sm_io.h"
 #include "sm_job_inputs.h"
 #include "sm_job_runner.h"
+#include "sm_json.h"
 #include "sm_payload.h"
 #include "sm_proto_events.h"
 #include "sm_proto_vocab.h"
+#include "smd_job_file.h"
 #include "smd_util.h"
 #include "smd_worker.h"
 
@@ -247,16 +248,106 @@ static int write_outputs(worker *w, const sm_job_inputs *in, const sm_job_run *r
 
 /* ---------------------------------------------------------------- main */
 
-/* A path from job.json: relative, inside the job folder (also copied,
- * as written, to rel_out of PATH_MAX bytes). */
-static int job_path(const char *job_dir, json_t *doc, sm_part part, char *out, size_t cap,
-                    char *rel_out)
+/* Reads job.json (smd_job_file.h) and the inputs it names into in: 0,
+ * or the exit code (the failure emitted). */
+static int load_job(worker *w, smd_job_file *jf, sm_job_inputs *in)
 {
-    const char *rel = json_string_value(json_object_get(doc, sm_part_name(part)));
-    if (!rel || !*rel || rel[0] == '/' || strstr(rel, ".."))
-        return -1;
-    snprintf(rel_out, PATH_MAX, "%s", rel);
-    return smd_pathf(out, cap, "%s/%s", job_dir, rel);
+    sm_error err;
+    sm_error_clear(&err);
+    if (smd_job_file_read(w->job_dir, jf, &err) != SM_OK)
+        return fail(w, SMD_WORKER_EXIT_USAGE, "%s", err.msg);
+    char full[SM_PART_PARAMS][PATH_MAX];
+    const char *given[SM_PART_PARAMS] = {0};
+    for (int i = 0; i < SM_PART_PARAMS; i++) {
+        if (!jf->part[i][0])
+            continue; /* the upload checked which parts go together */
+        if (smd_pathf(full[i], sizeof full[i], "%s/%s", w->job_dir, jf->part[i]) != 0)
+            return fail(w, SMD_WORKER_EXIT_USAGE, "%s: path too long", jf->part[i]);
+        given[i] = full[i];
+    }
+    char *params = sm_json_dumps(jf->params, 0);
+    if (!params)
+        return fail(w, SMD_WORKER_EXIT_NOMEM, "out of memory");
+    /* a generated background's size and padding come from the params
+     * (sm_job_inputs_load), as in the upload's check */
+    sm_job_files files = {.template_mesh = given[SM_PART_TEMPLATE],
+                          .target_mesh = given[SM_PART_TARGET_MESH],
+                          .target_sol = given[SM_PART_TARGET_SOL],
+                          .target_surface = given[SM_PART_TARGET_SURFACE],
+                          .prepare_run = 1};
+    sm_status st = sm_job_inputs_load(&files, params, strlen(params), in, &err);
+    free(params);
+    if (st != SM_OK)
+        return fail(w, st == SM_ERR_NOMEM ? SMD_WORKER_EXIT_NOMEM : SMD_WORKER_EXIT_INPUT, "%s",
+                    err.msg);
+    return 0;
+}
+
+static const char *given_or_null(const char *rel) { return rel[0] ? rel : NULL; }
+
+/* Runs the loaded job and emits how it ended: its exit code. */
+static int run_job(worker *w, sm_job_inputs *in, const smd_job_file *jf)
+{
+    /* the summary names the inputs as job.json does (relative paths) */
+    sm_job_files names = {.template_mesh = given_or_null(jf->part[SM_PART_TEMPLATE]),
+                          .target_mesh = given_or_null(jf->part[SM_PART_TARGET_MESH]),
+                          .target_sol = given_or_null(jf->part[SM_PART_TARGET_SOL]),
+                          .target_surface = given_or_null(jf->part[SM_PART_TARGET_SURFACE])};
+    int code = SMD_WORKER_EXIT_OK;
+    char msg[512], snaps[PATH_MAX];
+    sm_job_run run;
+    memset(&run, 0, sizeof run);
+    sm_error err;
+    sm_error_clear(&err);
+    w->save_every = in->params.save_every;
+    if (prepare_results(w, msg, sizeof msg) != 0 ||
+        smd_pathf(snaps, sizeof snaps, "%s/" SMD_RESULTS_TMP_DIR "/" SM_SNAPSHOTS_DIR, w->job_dir) != 0) {
+        code = fail(w, SMD_WORKER_EXIT_OUTPUT, "%s", msg);
+        goto done;
+    }
+    live_init(&w->live, in, w->job_dir);
+    sm_job_hooks hooks = {.progress = on_progress, .shape = on_shape, .warning = on_warning,
+                          .user = w,
+                          .cancel = (const volatile int *)&stop_requested,
+                          .snapshot_dir = w->save_every > 0 ? snaps : NULL,
+                          .write_flags = SM_ATOMIC_FSYNC};
+    sm_status st = sm_job_run_exec(in, &hooks, &run, &err);
+    if ((st == SM_OK && run.outcome == SM_JOB_OUTCOME_CANCELLED) || (stop_requested && st != SM_ERR_IO)) {
+        sm_event ev;
+        sm_event_init(&ev, SM_EVENT_CANCELLED);
+        snprintf(ev.message, sizeof ev.message, "stopped by SIGTERM");
+        emit(w, &ev);
+        code = SMD_WORKER_EXIT_CANCELLED;
+        goto done;
+    }
+    if (st != SM_OK) {
+        if (st == SM_ERR_IO) /* a snapshot */
+            code = fail(w, SMD_WORKER_EXIT_OUTPUT, "%s", err.msg);
+        else if (st == SM_ERR_NOMEM)
+            code = fail(w, SMD_WORKER_EXIT_NOMEM, "%s", err.msg);
+        else
+            code = fail(w, SMD_WORKER_EXIT_NUMERIC, "the run failed (%s): %s", sm_status_name(st),
+                        err.msg);
+        goto done;
+    }
+    if (run.outcome == SM_JOB_OUTCOME_FAILED) {
+        code = fail(w, SMD_WORKER_EXIT_NUMERIC, "%s", run.message);
+        goto done;
+    }
+    if (write_outputs(w, in, &run, &names, msg, sizeof msg) != 0) {
+        code = fail(w, SMD_WORKER_EXIT_OUTPUT, "%s", msg);
+        goto done;
+    }
+    sm_event ev;
+    sm_event_init(&ev, SM_EVENT_FINISHED);
+    ev.result = run.result;
+    sm_job_warnings_text(&run.warnings, ev.message, sizeof ev.message);
+    emit(w, &ev);
+done:
+    free(w->live.disp);
+    free(w->live.dist);
+    sm_job_run_free(&run);
+    return code;
 }
 
 int main(int argc, char **argv)
@@ -275,107 +366,13 @@ int main(int argc, char **argv)
     sigaction(SIGTERM, &sa, NULL);
     sigaction(SIGINT, &sa, NULL);
 
-    char path[PATH_MAX], full[SM_PART_PARAMS][PATH_MAX], rel[SM_PART_PARAMS][PATH_MAX];
-    char *text = NULL;
-    size_t len = 0;
-    if (smd_pathf(path, sizeof path, "%s/" SMD_JOB_FILE, w.job_dir) != 0 ||
-        smd_read_file(path, 1 << 20, &text, &len) != 0)
-        return fail(&w, SMD_WORKER_EXIT_USAGE, "cannot read %s: %s", SMD_JOB_FILE, strerror(errno));
-    json_error_t jerr;
-    json_t *doc = json_loadb(text, len, 0, &jerr);
-    free(text);
-    json_t *params = json_object_get(doc, sm_part_name(SM_PART_PARAMS));
-    char *params_text = json_is_object(params) ? json_dumps(params, JSON_COMPACT) : NULL;
-    /* the file parts present; the upload checked which combination */
-    const char *given[SM_PART_PARAMS] = {0}, *named[SM_PART_PARAMS] = {0};
-    int paths_ok = doc != NULL;
-    for (int i = 0; paths_ok && i < SM_PART_PARAMS; i++) {
-        if (!json_object_get(doc, sm_part_name((sm_part)i)))
-            continue;
-        paths_ok = job_path(w.job_dir, doc, (sm_part)i, full[i], sizeof full[i], rel[i]) == 0;
-        given[i] = full[i];
-        named[i] = rel[i];
-    }
-    paths_ok = paths_ok && given[SM_PART_TEMPLATE];
-    json_decref(doc);
-    /* the summary names the inputs as job.json does (relative paths) */
-    sm_job_files names = {.template_mesh = named[SM_PART_TEMPLATE],
-                          .target_mesh = named[SM_PART_TARGET_MESH],
-                          .target_sol = named[SM_PART_TARGET_SOL],
-                          .target_surface = named[SM_PART_TARGET_SURFACE]};
-    if (!paths_ok || !params_text) {
-        free(params_text);
-        return fail(&w, SMD_WORKER_EXIT_USAGE, "%s is not a job description", SMD_JOB_FILE);
-    }
-
-    /* a generated background's size and padding come from the params
-     * (sm_job_inputs_load), as in the upload's check */
-    sm_job_files files = {.template_mesh = given[SM_PART_TEMPLATE],
-                          .target_mesh = given[SM_PART_TARGET_MESH],
-                          .target_sol = given[SM_PART_TARGET_SOL],
-                          .target_surface = given[SM_PART_TARGET_SURFACE],
-                          .prepare_run = 1};
+    smd_job_file jf;
     sm_job_inputs in;
-    sm_error err;
-    sm_error_clear(&err);
-    sm_status st = sm_job_inputs_load(&files, params_text, strlen(params_text), &in, &err);
-    free(params_text);
-    if (st != SM_OK)
-        return fail(&w, st == SM_ERR_NOMEM ? SMD_WORKER_EXIT_NOMEM : SMD_WORKER_EXIT_INPUT, "%s",
-                    err.msg);
-
-    int code = SMD_WORKER_EXIT_OK;
-    char msg[512], snaps[PATH_MAX];
-    sm_job_run run;
-    memset(&run, 0, sizeof run);
-    w.save_every = in.params.save_every;
-    if (prepare_results(&w, msg, sizeof msg) != 0 ||
-        smd_pathf(snaps, sizeof snaps, "%s/" SMD_RESULTS_TMP_DIR "/" SM_SNAPSHOTS_DIR, w.job_dir) != 0) {
-        code = fail(&w, SMD_WORKER_EXIT_OUTPUT, "%s", msg);
-        goto done;
+    int code = load_job(&w, &jf, &in);
+    if (code == 0) {
+        code = run_job(&w, &in, &jf);
+        sm_job_inputs_free(&in);
     }
-    live_init(&w.live, &in, w.job_dir);
-    sm_job_hooks hooks = {.progress = on_progress, .shape = on_shape, .warning = on_warning,
-                          .user = &w,
-                          .cancel = (const volatile int *)&stop_requested,
-                          .snapshot_dir = w.save_every > 0 ? snaps : NULL,
-                          .write_flags = SM_ATOMIC_FSYNC};
-    st = sm_job_run_exec(&in, &hooks, &run, &err);
-    if ((st == SM_OK && run.outcome == SM_JOB_OUTCOME_CANCELLED) || (stop_requested && st != SM_ERR_IO)) {
-        sm_event ev;
-        sm_event_init(&ev, SM_EVENT_CANCELLED);
-        snprintf(ev.message, sizeof ev.message, "stopped by SIGTERM");
-        emit(&w, &ev);
-        code = SMD_WORKER_EXIT_CANCELLED;
-        goto done;
-    }
-    if (st != SM_OK) {
-        if (st == SM_ERR_IO) /* a snapshot */
-            code = fail(&w, SMD_WORKER_EXIT_OUTPUT, "%s", err.msg);
-        else if (st == SM_ERR_NOMEM)
-            code = fail(&w, SMD_WORKER_EXIT_NOMEM, "%s", err.msg);
-        else
-            code = fail(&w, SMD_WORKER_EXIT_NUMERIC, "the run failed (%s): %s", sm_status_name(st),
-                        err.msg);
-        goto done;
-    }
-    if (run.outcome == SM_JOB_OUTCOME_FAILED) {
-        code = fail(&w, SMD_WORKER_EXIT_NUMERIC, "%s", run.message);
-        goto done;
-    }
-    if (write_outputs(&w, &in, &run, &names, msg, sizeof msg) != 0) {
-        code = fail(&w, SMD_WORKER_EXIT_OUTPUT, "%s", msg);
-        goto done;
-    }
-    sm_event ev;
-    sm_event_init(&ev, SM_EVENT_FINISHED);
-    ev.result = run.result;
-    sm_job_warnings_text(&run.warnings, ev.message, sizeof ev.message);
-    emit(&w, &ev);
-done:
-    free(w.live.disp);
-    free(w.live.dist);
-    sm_job_run_free(&run);
-    sm_job_inputs_free(&in);
+    smd_job_file_free(&jf);
     return code;
 }

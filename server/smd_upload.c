@@ -24,6 +24,7 @@
 #include "shapematch/sm_clock.h"
 #include "smd_check.h"
 #include "smd_conns.h"
+#include "smd_job_file.h"
 #include "smd_parts.h"
 #include "smd_pg_node.h"
 #include "smd_pool.h"
@@ -312,30 +313,25 @@ enum MHD_Result smd_upload_begin_decoded(struct MHD_Connection *conn, smd_reques
 }
 
 /* Writes job.json: inputs and canonical params (with the background
- * members the job gave, for the worker's sm_job_inputs_load). */
+ * members the job gave, for the worker's sm_job_inputs_load).  0, or -1
+ * with errno set. */
 static int write_job_file(smd_upload *u, const sm_job_inputs *in)
 {
-    json_t *params = sm_job_params_to_jansson(&in->params, &in->background_asked, in->dim);
-    json_t *doc = json_object();
-    size_t prefix = strlen(u->dir) + 1; /* paths relative to the job folder */
-    if (!params || !doc) {
-        json_decref(params);
-        json_decref(doc);
+    smd_job_file *f = calloc(1, sizeof *f); /* 16 KiB of paths */
+    if (!f || !(f->params = sm_job_params_to_jansson(&in->params, &in->background_asked, in->dim))) {
+        free(f);
+        errno = ENOMEM;
         return -1;
     }
+    size_t prefix = strlen(u->dir) + 1; /* paths relative to the job folder */
     for (int i = 0; i < SM_PART_PARAMS; i++)
         if (u->parts.seen[i])
-            json_object_set_new(doc, sm_part_names[i], json_string(u->parts.path[i] + prefix));
-    json_object_set_new(doc, "params", params);
-    char *text = sm_json_dumps(doc, 2);
-    json_decref(doc);
-    if (!text)
-        return -1;
-    char path[PATH_MAX];
-    int rc = smd_pathf(path, sizeof path, "%s/" SMD_JOB_FILE, u->dir);
-    if (rc == 0)
-        rc = smd_write_file_atomic(path, text, strlen(text));
-    free(text);
+            snprintf(f->part[i], sizeof f->part[i], "%s", u->parts.path[i] + prefix);
+    int rc = smd_job_file_write(u->dir, f);
+    int saved = errno;
+    smd_job_file_free(f);
+    free(f);
+    errno = saved;
     return rc;
 }
 

@@ -9,7 +9,8 @@
  *   outlives its daemon), RLIMIT_CPU / RLIMIT_AS / RLIMIT_CORE = 0.
  * SIGTERM asks the worker to stop at the next iteration.
  *
- * JOB_DIR/job.json (written by the daemon after validation):
+ * JOB_DIR/job.json (written by the daemon after validation; both sides
+ * through smd_job_file.h):
  *   {"template": "inputs/template.mesh", "target_mesh": "inputs/...",
  *    "target_sol": "inputs/...", "params": {<sm_job_params_to_json>}}
  * (paths relative to JOB_DIR); a surface target has "target_surface"

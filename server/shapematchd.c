@@ -21,14 +21,14 @@
 #include <unistd.h>
 
 #include "sm_proto_events.h"
-#include "smd_http.h"
-#include "smd_jobs.h"
-#include "smd_pg_node.h"
-#include "smd_pool.h"
-#include "smd_route_table.h"
-#include "smd_server.h"
-#include "smd_stream.h"
-#include "smd_tls.h"
+#include "http/smd_http.h"
+#include "jobs/smd_jobs.h"
+#include "store/pg/smd_pg_node.h"
+#include "jobs/smd_pool.h"
+#include "api/smd_route_table.h"
+#include "base/smd_server.h"
+#include "api/smd_stream.h"
+#include "http/smd_tls.h"
 
 /* The one global: the main thread's id, written once before the handler
  * is installed. */

@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "smd_job_file.h"
+#include "worker/smd_job_file.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

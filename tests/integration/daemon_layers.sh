@@ -12,11 +12,12 @@ ROOT=${SM_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
 cd "$ROOT/server" || exit 1
 
 # "from to" pairs, one per include of a server header by another module
-edges=$(for f in *.c *.h; do
-    from=${f%.*}
-    sed -nE 's/^[[:space:]]*#[[:space:]]*include[[:space:]]+"([a-z_]+)\.h".*/\1/p' "$f" |
+headers=$(find . -name '*.h' -printf '%f\n')
+edges=$(find . -name '*.[ch]' | while read -r f; do
+    from=$(basename "${f%.*}")
+    sed -nE 's/^[[:space:]]*#[[:space:]]*include[[:space:]]+"([a-z_]+\/)*([a-z_]+)\.h".*/\2/p' "$f" |
         while read -r to; do
-            [ -f "$to.h" ] && [ "$to" != "$from" ] && echo "$from $to"
+            echo "$headers" | grep -qx "$to.h" && [ "$to" != "$from" ] && echo "$from $to"
         done
 done | sort -u)
 echo "$edges" | awk '{ deps[$1] = deps[$1] " " $2 } END { for (m in deps) print "# " m " ->" deps[m] }' | sort

@@ -13,8 +13,8 @@
 #include <unistd.h>
 #include <cmocka.h>
 
-#include "smd_job_file.h"
-#include "smd_util.h"
+#include "worker/smd_job_file.h"
+#include "base/smd_util.h"
 
 static smd_job_file *example(void)
 {

@@ -11,7 +11,7 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "smd_metrics.h"
+#include "base/smd_metrics.h"
 
 static const char *const routes[] = {"other", "/v1/jobs", "/v1/jobs/{id}"};
 

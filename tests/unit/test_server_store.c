@@ -15,9 +15,9 @@
 #include <unistd.h>
 #include <cmocka.h>
 
-#include "smd_jobs.h"
-#include "smd_queue.h"
-#include "smd_store.h"
+#include "jobs/smd_jobs.h"
+#include "jobs/smd_queue.h"
+#include "store/spool/smd_store.h"
 
 typedef struct fixture {
     char spool[256];

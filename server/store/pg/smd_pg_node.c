@@ -13,6 +13,7 @@
 
 #include "jobs/smd_jobs.h"
 #include "jobs/smd_pool.h"
+#include "worker/smd_job_file.h"
 
 /* ------------------------------------------------------------ leases */
 
@@ -158,11 +159,12 @@ static sm_status submission_texts(const smd_submission *sub, double created, cha
     ev.time = created;
     snprintf(ev.job_id, sizeof ev.job_id, "%s", sub->id);
     *event = sm_event_to_json(&ev);
-    char path[PATH_MAX];
-    json_t *doc = smd_pathf(path, sizeof path, "%s/job.json", sub->dir) == 0
-                      ? json_load_file(path, 0, NULL) : NULL;
-    *params = doc ? json_dumps(doc, JSON_COMPACT) : NULL;
-    json_decref(doc);
+    smd_job_file *f = calloc(1, sizeof *f);
+    sm_error ferr;
+    *params = f && smd_job_file_read(sub->dir, f, &ferr) == SM_OK ? smd_job_file_encode(f, 0) : NULL;
+    if (f)
+        smd_job_file_free(f);
+    free(f);
     if (*event && *params)
         return SM_OK;
     free(*event);

@@ -24,7 +24,7 @@ sm_status smd_http_start(smd_server *srv, sm_error *err);
 /* Stops accepting connections (the listening socket is closed). */
 void smd_http_quiesce(smd_server *srv);
 /* Closes every connection and stops the threads.  Every event stream
- * must have been resumed (smd_stream_collect_all) before. */
+ * must have been resumed (smd_stream_end_all) before. */
 void smd_http_stop(smd_server *srv);
 
 #endif

@@ -21,6 +21,7 @@
 #include <unistd.h>
 
 #include "sm_proto_events.h"
+#include "http/smd_auth.h"
 #include "http/smd_http.h"
 #include "jobs/smd_jobs.h"
 #include "store/pg/smd_pg_node.h"

@@ -27,7 +27,6 @@
 #include <pthread.h>
 #include <stdatomic.h>
 
-#include "http/smd_auth.h"
 #include "jobs/smd_cluster.h"
 #include "base/smd_config.h"
 #include "base/smd_log.h"
@@ -36,6 +35,7 @@
 #include "store/spool/smd_store.h"
 
 struct MHD_Daemon;
+struct smd_tokens; /* http/smd_auth.h: the state machine sees no HTTP header */
 struct smd_pool;
 struct smd_events;
 struct smd_pg_node;
@@ -46,7 +46,7 @@ struct smd_check_pool;
 typedef struct smd_server {
     smd_config cfg;
     smd_logger log;
-    smd_tokens *tokens;         /* NULL: no authentication; replaced on
+    struct smd_tokens *tokens;  /* NULL: no authentication; replaced on
                                  * SIGHUP under tokens_lock */
     pthread_mutex_t tokens_lock;
     smd_metrics metrics;

@@ -17,6 +17,7 @@
 
 #include "base/smd_server.h"
 #include "base/smd_util.h"
+#include "http/smd_auth.h"
 
 /* Problem types (RFC 9457 "type"): the OGC API - Processes exception
  * types where one applies, otherwise about:blank (the title is then the

@@ -66,4 +66,21 @@ if [ -z "$bad" ]; then
 else
     not_ok "the lower modules stay below" "$bad"
 fi
+# the job engine holds no connection: jobs/ reaches nothing of http/ or
+# api/ (nor libmicrohttpd), not even through another header (cc -M
+# follows every include)
+bad=""
+for f in jobs/*.c jobs/*.h; do
+    if ! deps=$(cc -std=c11 -D_GNU_SOURCE -I "$ROOT/core/include" -I "$ROOT/proto" -I . -M -x c "$f" 2>&1); then
+        bad+=" $f: cc -M failed: $deps"
+        continue
+    fi
+    deps=$(echo "$deps" | tr ' \\' '\n\n' | grep -E '^(http|api)/.*\.h$|/microhttpd\.h$')
+    [ -n "$deps" ] && bad+=" $f: $(echo $deps)"
+done
+if [ -z "$bad" ] && ls jobs/*.c >/dev/null 2>&1; then
+    ok "the job engine (jobs/) includes nothing of http/ or api/, directly or not"
+else
+    not_ok "the job engine includes no HTTP or API header" "$bad"
+fi
 echo "1..$n"

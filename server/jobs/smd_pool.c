@@ -556,7 +556,7 @@ static void service_slots(smd_pool *p, double now, smd_jobs_after *after)
     }
 }
 
-/* Lock held: keepalives for idle streams, the retention sweep. */
+/* Lock held: held ends retried, the keepalive tick, the retention sweep. */
 static void periodic(smd_pool *p, double now, smd_jobs_after *after)
 {
     smd_server *srv = p->srv;

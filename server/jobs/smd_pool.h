@@ -5,12 +5,14 @@
  * smd_worker.h) with the resource limits applied in the child, and then
  * waits in poll(2) on: an eventfd (wake-ups from HTTP handlers), every
  * worker's event pipe, and every worker's pidfd.  It appends the workers'
- * events to the job logs, wakes their followers, enforces the wall-time
+ * events to the job logs (the jobs named in its smd_jobs_after, so that
+ * the event streams wake their followers), enforces the wall-time
  * limit (SIGTERM, then SIGKILL after --kill-grace), reaps exited workers
  * and turns their exit status into the job's final state with a reason
  * ("worker killed by signal 9 (SIGKILL)", "exceeded the CPU limit ...").
- * Once a second it also sends keepalives to idle event streams, and
- * deletes finished jobs past --retention.
+ * Once a second it also ticks for keepalives (smd_jobs_after_tick: the
+ * event streams send them to idle followers), and deletes finished jobs
+ * past --retention.
  *
  * Every state change goes through the state machine (smd_jobs.h), from
  * the supervisor and from HTTP handlers alike; handlers never wait for

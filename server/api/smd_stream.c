@@ -12,11 +12,12 @@
  * collected connection is still suspended inside MHD until it is resumed,
  * so it cannot be closed (and its follower freed) in between. */
 #include "api/smd_stream.h"
+#include "store/spool/smd_store.h"
+#include "http/smd_mhd.h"
 
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
-#include <microhttpd.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>

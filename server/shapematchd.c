@@ -25,6 +25,7 @@
 #include "http/smd_http.h"
 #include "jobs/smd_jobs.h"
 #include "store/pg/smd_pg_node.h"
+#include "store/spool/smd_spool_backend.h"
 #include "jobs/smd_pool.h"
 #include "api/smd_route_table.h"
 #include "base/smd_server.h"
@@ -206,8 +207,9 @@ static void take_signals(sigset_t *signals)
     sigaction(SIGPIPE, &ign, NULL);
 }
 
-/* Step 3: the spool (and the recovery of interrupted jobs), the queue,
- * the worker pool, the HTTP front.  0, or -1 (logged). */
+/* Step 3: the backend (the spool and its queue, PostgreSQL stacked on
+ * them with --database) and the recovery of interrupted jobs, the worker
+ * pool, the HTTP front.  0, or -1 (logged). */
 static int start_parts(smd_server *srv, size_t *queued)
 {
     sm_error err;
@@ -217,10 +219,13 @@ static int start_parts(smd_server *srv, size_t *queued)
         return -1;
     }
     srv->queue = smd_queue_local_new();
-    if (!srv->queue) {
+    srv->backend = malloc(sizeof *srv->backend);
+    if (!srv->queue || !srv->backend) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "out of memory");
         return -1;
     }
+    /* the spool's backend; --database stacks PostgreSQL's on it */
+    smd_spool_backend_init(srv->backend, srv->store, srv->queue);
     if (srv->cfg.database[0] && smd_pg_node_open(srv, &err) != SM_OK) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "%s (--database)", err.msg);
         return -1;
@@ -238,7 +243,7 @@ static int start_parts(smd_server *srv, size_t *queued)
         smd_pool_stop(srv, 0);
         return -1;
     }
-    if (smd_http_start(srv, &err) != SM_OK) {
+    if (smd_http_start(srv, &smd_api, &err) != SM_OK) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "%s", err.msg);
         smd_pool_stop(srv, 0);
         smd_pg_node_stop(srv);
@@ -347,6 +352,7 @@ int main(int argc, char **argv)
     smd_queue_free(srv->queue);
     smd_store_close(srv->store);
     smd_pg_node_free(srv->cluster);
+    free(srv->backend);
     smd_tokens_free(srv->tokens);
     if (lock_ok)
         pthread_mutex_destroy(&srv->lock);

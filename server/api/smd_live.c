@@ -1,5 +1,6 @@
 /* The live mesh route (see smd_live.h). */
 #include "api/smd_live.h"
+#include "store/spool/smd_store.h"
 
 #include <errno.h>
 #include <fcntl.h>

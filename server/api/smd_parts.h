@@ -16,9 +16,10 @@
 #define SMD_PARTS_H
 
 #include <limits.h>
-#include <microhttpd.h>
 #include <stddef.h>
 #include <stdint.h>
+
+#include "http/smd_mhd.h"
 
 #include "sm_proto_vocab.h"
 

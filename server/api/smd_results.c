@@ -27,6 +27,7 @@
 #include "sm_payload.h"
 #include "sm_proto_vocab.h"
 #include "http/smd_negotiate.h"
+#include "store/spool/smd_store.h"
 #include "api/smd_results.h"
 #include "worker/smd_worker.h"
 

@@ -9,6 +9,7 @@
 #include "api/smd_ogc.h"
 #include "api/smd_results.h"
 #include "api/smd_routes.h"
+#include "api/smd_check.h"
 #include "api/smd_upload.h"
 
 #define JOB "/v1/jobs/{id}"
@@ -47,30 +48,6 @@ const smd_route smd_route_table[] = {
     {SMD_METHOD_READ, RESULTS "/snapshots/{iteration}", smd_route_snapshot, RESULTS, 0},
 };
 const size_t smd_route_table_len = sizeof smd_route_table / sizeof smd_route_table[0];
-
-static const char *const method_names[] = {"GET", "HEAD", "POST", "DELETE"};
-
-unsigned smd_method_bit(const char *method)
-{
-    for (unsigned i = 0; i < sizeof method_names / sizeof method_names[0]; i++)
-        if (strcmp(method, method_names[i]) == 0)
-            return 1u << i;
-    return 0;
-}
-
-void smd_methods_format(unsigned methods, char *buf, size_t cap)
-{
-    size_t len = 0;
-    buf[0] = '\0';
-    for (unsigned i = 0; i < sizeof method_names / sizeof method_names[0]; i++) {
-        if (!(methods & (1u << i)))
-            continue;
-        int n = snprintf(buf + len, cap - len, "%s%s", len ? ", " : "", method_names[i]);
-        if (n < 0 || (size_t)n >= cap - len)
-            return;
-        len += (size_t)n;
-    }
-}
 
 /* What one match captures. */
 typedef struct captures {
@@ -176,3 +153,55 @@ size_t smd_route_labels(const char **out, size_t cap)
     }
     return n;
 }
+
+/* ------------------------------------------------- the front's view */
+
+static void route_request(smd_request *req, const char *path, unsigned method)
+{
+    const smd_route *route;
+    const smd_route *first = smd_route_find(path, method, req, &req->allowed, &route);
+    req->route = route;
+    req->route_label = first ? first->label : SMD_ROUTE_LABEL_OTHER;
+    req->public_path = first && first->public;
+}
+
+static enum MHD_Result handle(struct MHD_Connection *conn, smd_request *req)
+{
+    return req->route->handler(conn, req);
+}
+
+static void body_free(smd_request *req)
+{
+    smd_upload_free(req->upload);
+    req->upload = NULL;
+}
+
+static sm_status checks_open(smd_server *srv, sm_error *err)
+{
+    const smd_config *cfg = &srv->cfg;
+    srv->checks = smd_check_pool_new(cfg->check_threads, cfg->check_timeout, cfg->memory_limit, err);
+    return srv->checks ? SM_OK : SM_ERR_IO;
+}
+
+/* checks stopped, their connections resumed and answered before the
+ * daemon stops (it must not stop with suspended connections) */
+static void checks_quiesce(smd_server *srv)
+{
+    smd_check_pool_stop(srv->checks, 5);
+}
+
+static void checks_close(smd_server *srv)
+{
+    smd_check_pool_free(srv->checks);
+    srv->checks = NULL;
+}
+
+const smd_http_app smd_api = {
+    .route = route_request,
+    .handle = handle,
+    .body = smd_upload_continue,
+    .body_free = body_free,
+    .open = checks_open,
+    .quiesce = checks_quiesce,
+    .close = checks_close,
+};

@@ -16,14 +16,8 @@
 
 #include <stddef.h>
 
+#include "http/smd_http.h"
 #include "http/smd_reply.h"
-
-/* method set bits */
-#define SMD_METHOD_GET (1u << 0)
-#define SMD_METHOD_HEAD (1u << 1)
-#define SMD_METHOD_POST (1u << 2)
-#define SMD_METHOD_DELETE (1u << 3)
-#define SMD_METHOD_READ (SMD_METHOD_GET | SMD_METHOD_HEAD)
 
 /* Answers the request completely (smd_reply*), or, for an upload,
  * attaches req->upload and answers when the body is in. */
@@ -43,9 +37,6 @@ extern const size_t smd_route_table_len;
 /* The label of requests no row matches. */
 #define SMD_ROUTE_LABEL_OTHER "other"
 
-/* Bit of a method name ("GET" -> SMD_METHOD_GET); 0 for any other. */
-unsigned smd_method_bit(const char *method);
-
 /* Matches path against the table and fills req->id / bad_id / pid / arg
  * from the first row whose pattern matches.  Returns that row (NULL when
  * none), sets *allowed to the union of the methods of every row with a
@@ -53,8 +44,9 @@ unsigned smd_method_bit(const char *method);
 const smd_route *smd_route_find(const char *path, unsigned method, smd_request *req,
                                 unsigned *allowed, const smd_route **route);
 
-/* "GET, HEAD, POST" for a method set, into buf (cap bytes). */
-void smd_methods_format(unsigned methods, char *buf, size_t cap);
+/* What the HTTP front serves (smd_http.h): the table, the upload's body
+ * and the upload checks; handed to smd_http_start by main. */
+extern const smd_http_app smd_api;
 
 /* The distinct metrics labels, "other" first, then in table order:
  * fills out (cap entries) and returns how many there are. */

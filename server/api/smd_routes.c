@@ -2,6 +2,8 @@
  * processes, job list, job status, cancel/delete, event streams (see
  * smd_routes.h). */
 #include "api/smd_routes.h"
+#include "store/spool/smd_store.h"
+#include "store/spool/smd_fifo.h"
 
 #include <errno.h>
 #include <inttypes.h>
@@ -16,7 +18,6 @@
 #include "http/smd_conns.h"
 #include "jobs/smd_jobs.h"
 #include "http/smd_negotiate.h"
-#include "store/pg/smd_pg_node.h"
 #include "jobs/smd_pool.h"
 #include "api/smd_stream.h"
 
@@ -108,9 +109,8 @@ enum MHD_Result smd_route_readyz(struct MHD_Connection *conn, smd_request *req)
                                  "a job record could not be written (disk full?): no job is "
                                  "accepted or started until the spool takes writes again");
     char why[512];
-    if (srv->cluster && !smd_pg_node_ready(srv->cluster, why, sizeof why))
-        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
-                                 "the database is unreachable: %s", why);
+    if (!smd_backend_ready(srv->backend, why, sizeof why))
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "%s", why);
     char jobs_dir[PATH_MAX];
     if (smd_pathf(jobs_dir, sizeof jobs_dir, "%s/jobs", smd_store_root(srv->store)) != 0 ||
         access(jobs_dir, W_OK) != 0)
@@ -154,8 +154,8 @@ enum MHD_Result smd_route_metrics(struct MHD_Connection *conn, smd_request *req)
     smd_check_counts(srv->checks, &g.checks_running, &g.checks_waiting);
     size_t len;
     char *text = smd_metrics_render(&srv->metrics, &g, &len);
-    if (text && srv->cluster)
-        smd_pg_node_metrics(srv->cluster, &text, &len);
+    if (text)
+        smd_backend_metrics(srv->backend, &text, &len);
     if (!text)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
     return smd_reply(conn, req, 200,

@@ -6,6 +6,7 @@
 #define SMD_ROUTES_H
 
 #include "http/smd_reply.h"
+#include "jobs/smd_job.h"
 
 enum MHD_Result smd_route_landing(struct MHD_Connection *conn, smd_request *req);
 enum MHD_Result smd_route_openapi(struct MHD_Connection *conn, smd_request *req);

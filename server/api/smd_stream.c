@@ -8,17 +8,19 @@
  * (clearing their flag) and calls MHD_resume_connection after releasing
  * it: the engine names the jobs that changed (smd_jobs_after), and
  * smd_stream_jobs_changed, called after the engine's lock is released,
- * takes the lock once, collects their followers, and resumes them.  So libmicrohttpd's internal mutex is only ever taken inside
- * srv->lock by the thread that owns the connection, and srv->lock is
- * never requested while an MHD mutex is held by us: no lock cycle.  A
+ * takes the lock once, collects their followers, and resumes them.  So
+ * libmicrohttpd's internal mutex is only ever taken inside srv->lock by
+ * the thread that owns the connection, and srv->lock is never requested
+ * while an MHD mutex is held by us: no lock cycle.  A
  * collected connection is still suspended inside MHD until it is resumed,
  * so it cannot be closed (and its follower freed) in between. */
 #include "api/smd_stream.h"
+#include "store/spool/smd_store.h"
+#include "http/smd_mhd.h"
 
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
-#include <microhttpd.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>

@@ -21,6 +21,7 @@
 #include <stdint.h>
 
 #include "base/smd_server.h"
+#include "jobs/smd_job.h"
 
 struct MHD_Connection;
 struct MHD_Response;

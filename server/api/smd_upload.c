@@ -1,5 +1,6 @@
 /* Streaming multipart uploads of POST /v1/jobs (see smd_upload.h). */
 #include "api/smd_upload.h"
+#include "store/spool/smd_store.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -26,7 +27,6 @@
 #include "http/smd_conns.h"
 #include "worker/smd_job_file.h"
 #include "api/smd_parts.h"
-#include "store/pg/smd_pg_node.h"
 #include "jobs/smd_pool.h"
 #include "http/smd_ratelimit.h"
 #include "api/smd_routes.h"
@@ -469,7 +469,18 @@ static enum MHD_Result submit_checked(struct MHD_Connection *conn, smd_request *
         pthread_mutex_unlock(&srv->lock);
         return qr;
     }
-    sm_status st = smd_jobs_submit(srv, &sub, &job, &created, &after, &err);
+    const char *key = sub.idempotency_key && sub.idempotency_key[0] ? sub.idempotency_key : NULL;
+    if (key && (job = smd_backend_find_key(srv->backend, sub.owner, key)) != NULL) {
+        enum MHD_Result replayed = reply_keyed(conn, req, job, hash); /* a retry */
+        pthread_mutex_unlock(&srv->lock);
+        return replayed;
+    }
+    pthread_mutex_unlock(&srv->lock);
+    /* a shared store first, without the lock (the spool: nothing) */
+    sm_status st = smd_jobs_publish(srv, &sub, &err);
+    pthread_mutex_lock(&srv->lock);
+    if (st == SM_OK)
+        st = smd_jobs_submit(srv, &sub, &job, &created, &after, &err);
     if (st == SM_OK && !created) {
         /* a concurrent retry with the same key won the race */
         enum MHD_Result replayed = reply_keyed(conn, req, job, hash);
@@ -480,13 +491,11 @@ static enum MHD_Result submit_checked(struct MHD_Connection *conn, smd_request *
         pthread_mutex_unlock(&srv->lock);
         smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
         char why[256];
-        if (srv->cluster && !smd_pg_node_ready(srv->cluster, why, sizeof why)) {
-            /* the database is down, not full: the client may retry */
+        if (!smd_backend_ready(srv->backend, why, sizeof why)) {
+            /* the backend is down (a database), not full: the client may retry */
             req->retry_after = 5;
             return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
-                                     "the job database is unreachable (%s): nothing was stored, "
-                                     "retry later (see /readyz)",
-                                     why);
+                                     "%s: nothing was stored, retry later (see /readyz)", why);
         }
         return smd_reply_problem(conn, req, 507, SMD_PROBLEM_STORAGE, "cannot store the job: %s",
                                  err.msg);

@@ -27,21 +27,23 @@
 #include <pthread.h>
 #include <stdatomic.h>
 
-#include "jobs/smd_cluster.h"
 #include "base/smd_config.h"
 #include "base/smd_log.h"
 #include "base/smd_metrics.h"
-#include "jobs/smd_queue.h"
-#include "store/spool/smd_store.h"
+#include "base/smd_util.h" /* SMD_ID_LEN */
 
 struct MHD_Daemon;
 struct smd_tokens; /* http/smd_auth.h: the state machine sees no HTTP header */
+struct smd_store;
+struct smd_queue;
+struct smd_backend;
 struct smd_pool;
 struct smd_events;
 struct smd_pg_node;
 struct smd_ratelimit;
 struct smd_conns;
 struct smd_check_pool;
+struct smd_http_app;
 
 typedef struct smd_server {
     smd_config cfg;
@@ -53,12 +55,14 @@ typedef struct smd_server {
     double start_time;          /* Unix seconds */
 
     pthread_mutex_t lock;
-    smd_store *store;
-    smd_queue *queue;
+    struct smd_backend *backend; /* where jobs live (jobs/smd_backend.h): the engine's only way */
+    struct smd_store *store;    /* the local spool, both backends' replica: the handlers
+                                 * read job files through it (store/spool/smd_store.h) */
+    struct smd_queue *queue;    /* the spool's FIFO of jobs to run here */
     struct smd_pool *pool;
-    struct smd_pg_node *cluster; /* --database: the shared store (smd_pg_node.h), or NULL */
-    const smd_cluster_ops *cluster_ops; /* its calls from the state machine */
-    struct smd_events *events;  /* the event streams' own state (smd_stream.c) */
+    struct smd_pg_node *cluster; /* --database: PostgreSQL's node (store/pg/smd_pg_node.h), or
+                                  * NULL; only store/pg and main use it */
+    struct smd_events *events;  /* the event streams' own state (api/smd_stream.c) */
     /* Lock NOT held: the jobs that changed (ids) and the keepalive tick,
      * from smd_jobs_after_run.  Installed by main before any thread
      * starts (smd_stream_jobs_changed: their followers are resumed), so
@@ -67,6 +71,7 @@ typedef struct smd_server {
                          int keepalive);
 
     struct MHD_Daemon *httpd;
+    const struct smd_http_app *app; /* what it serves (http/smd_http.h), by smd_http_start */
     struct smd_ratelimit *ratelimit; /* submission limits (smd_ratelimit.h), by smd_http_start */
     struct smd_conns *conns;    /* connection deadlines (smd_conns.h), by smd_http_start */
     struct smd_check_pool *checks; /* upload checks (smd_check.h), by smd_http_start */

@@ -1,5 +1,5 @@
 /* libmicrohttpd setup and dispatch (see smd_http.h): every request is
- * matched against the route table (smd_route_table.h), authenticated,
+ * matched against the route table (smd_http_app's route), authenticated,
  * and handed to its handler; replies go through smd_reply.h. */
 #include "http/smd_http.h"
 
@@ -16,14 +16,11 @@
 
 #include "shapematch/sm_clock.h"
 #include "sm_proto_text.h"
-#include "api/smd_check.h"
 #include "http/smd_conns.h"
 #include "http/smd_cors.h"
 #include "http/smd_ratelimit.h"
 #include "http/smd_reply.h"
-#include "api/smd_route_table.h"
 #include "http/smd_tls.h"
-#include "api/smd_upload.h"
 
 /* ------------------------------------------------------------ strictness */
 
@@ -77,7 +74,7 @@ static enum MHD_Result dispatch(struct MHD_Connection *conn, smd_request *req)
         return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB,
                                  "no job with this id (ids are 32 lowercase hex digits)");
     if (req->route)
-        return req->route->handler(conn, req);
+        return req->srv->app->handle(conn, req);
     if (req->allowed) {
         char allow[64];
         smd_methods_format(req->allowed, allow, sizeof allow);
@@ -153,8 +150,7 @@ static enum MHD_Result handle(struct MHD_Connection *conn, smd_request *req)
         return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "no response produced");
     if (req->upload && req->deferred) {
         /* an upload cannot have a reply waiting as well */
-        smd_upload_free(req->upload);
-        req->upload = NULL;
+        req->srv->app->body_free(req);
     }
     return r;
 }
@@ -169,11 +165,7 @@ static smd_request *request_new(smd_server *srv, const char *url, const char *me
     req->t0 = sm_clock_seconds();
     snprintf(req->method, sizeof req->method, "%s", method);
     snprintf(req->path, sizeof req->path, "%s", url);
-    const smd_route *route;
-    const smd_route *first = smd_route_find(url, smd_method_bit(method), req, &req->allowed, &route);
-    req->route = route;
-    req->route_label = first ? first->label : SMD_ROUTE_LABEL_OTHER;
-    req->public_path = first && first->public;
+    srv->app->route(req, url, smd_method_bit(method));
     return req;
 }
 
@@ -212,7 +204,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
             return r;
         }
         if (req->upload && !req->replied)
-            return smd_upload_continue(conn, req, upload_data, upload_data_size);
+            return srv->app->body(conn, req, upload_data, upload_data_size);
         req->bytes_in += *upload_data_size;
         *upload_data_size = 0;
         return MHD_YES;
@@ -279,7 +271,7 @@ static void on_completed(void *cls, struct MHD_Connection *conn, void **req_cls,
         }
         smd_log(&srv->log, SMD_LOG_INFO, "request", f);
     }
-    smd_upload_free(req->upload);
+    srv->app->body_free(req);
     if (req->deferred)
         MHD_destroy_response(req->deferred);
     free(req);
@@ -301,7 +293,7 @@ static void mhd_logger(void *cls, const char *fmt, va_list ap)
 
 /* --------------------------------------------------------------- daemon */
 
-sm_status smd_http_start(smd_server *srv, sm_error *err)
+sm_status smd_http_start(smd_server *srv, const smd_http_app *app, sm_error *err)
 {
     const smd_config *cfg = &srv->cfg;
     struct sockaddr_storage ss;
@@ -345,8 +337,8 @@ sm_status smd_http_start(smd_server *srv, sm_error *err)
     srv->conns = smd_conns_new(&climits, err);
     if (!srv->conns)
         return SM_ERR_IO;
-    srv->checks = smd_check_pool_new(cfg->check_threads, cfg->check_timeout, cfg->memory_limit, err);
-    if (!srv->checks)
+    srv->app = app;
+    if (app->open(srv, err) != SM_OK)
         return SM_ERR_IO;
     /* Per-connection buffers come from the connection's pool, and the
      * pool must hold the request headers plus a send buffer. */
@@ -378,15 +370,16 @@ void smd_http_quiesce(smd_server *srv)
 
 void smd_http_stop(smd_server *srv)
 {
-    /* checks stopped, their connections resumed and answered before the
+    /* the app's suspended requests (upload checks) answered before the
      * daemon stops (it must not stop with suspended connections) */
-    smd_check_pool_stop(srv->checks, 5);
+    if (srv->app)
+        srv->app->quiesce(srv);
     if (srv->httpd) {
         MHD_stop_daemon(srv->httpd);
         srv->httpd = NULL;
     }
-    smd_check_pool_free(srv->checks); /* after the last upload is freed */
-    srv->checks = NULL;
+    if (srv->app)
+        srv->app->close(srv); /* after the last upload is freed */
     smd_conns_free(srv->conns);
     srv->conns = NULL;
     smd_ratelimit_free(srv->ratelimit);

@@ -219,3 +219,29 @@ int smd_gzip_buffer(const void *data, size_t len, char **out, size_t *out_len)
     *out_len = produced;
     return 0;
 }
+
+/* ------------------------------------------------------------ methods */
+
+static const char *const method_names[] = {"GET", "HEAD", "POST", "DELETE"};
+
+unsigned smd_method_bit(const char *method)
+{
+    for (unsigned i = 0; i < sizeof method_names / sizeof method_names[0]; i++)
+        if (strcmp(method, method_names[i]) == 0)
+            return 1u << i;
+    return 0;
+}
+
+void smd_methods_format(unsigned methods, char *buf, size_t cap)
+{
+    size_t len = 0;
+    buf[0] = '\0';
+    for (unsigned i = 0; i < sizeof method_names / sizeof method_names[0]; i++) {
+        if (!(methods & (1u << i)))
+            continue;
+        int n = snprintf(buf + len, cap - len, "%s%s", len ? ", " : "", method_names[i]);
+        if (n < 0 || (size_t)n >= cap - len)
+            return;
+        len += (size_t)n;
+    }
+}

@@ -4,9 +4,10 @@
  * buffered bodies and content negotiation.
  *
  * It knows libmicrohttpd, jansson and the daemon's shared state, and
- * nothing of the routes: the handlers (smd_routes.c, smd_results.c,
- * smd_upload.c) include it, the route table (smd_route_table.c) includes
- * the handlers, and the dispatcher (smd_http.c) the table. */
+ * nothing of the routes: the handlers (api/: smd_routes.c, smd_results.c,
+ * smd_upload.c) include it, the route table (api/smd_route_table.c)
+ * includes the handlers, and main hands the table to the dispatcher
+ * (smd_http.c: smd_http_app), which includes no handler. */
 #ifndef SMD_REPLY_H
 #define SMD_REPLY_H
 
@@ -16,6 +17,7 @@
 #include <jansson.h>
 
 #include "base/smd_server.h"
+#include "http/smd_auth.h"
 #include "base/smd_util.h"
 #include "http/smd_auth.h"
 
@@ -88,6 +90,19 @@ typedef struct smd_request {
  * by closing the connection.  Four times the limit, plus 16 MiB so that
  * a small limit does not cut ordinary clients short. */
 uint64_t smd_drain_limit(uint64_t max_upload);
+
+/* Method set bits (the route table's rows, a 405's Allow list). */
+#define SMD_METHOD_GET (1u << 0)
+#define SMD_METHOD_HEAD (1u << 1)
+#define SMD_METHOD_POST (1u << 2)
+#define SMD_METHOD_DELETE (1u << 3)
+#define SMD_METHOD_READ (SMD_METHOD_GET | SMD_METHOD_HEAD)
+
+/* Bit of a method name ("GET" -> SMD_METHOD_GET); 0 for any other. */
+unsigned smd_method_bit(const char *method);
+
+/* "GET, HEAD, POST" for a method set, into buf (cap bytes). */
+void smd_methods_format(unsigned methods, char *buf, size_t cap);
 
 /* ---- replies (queue the response and record the status) ---- */
 

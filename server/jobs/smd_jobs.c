@@ -37,7 +37,7 @@ static void spool_refused(smd_server *srv, const char *msg)
 static void save_or_log(smd_server *srv, smd_job *job)
 {
     sm_error err;
-    job->unsaved = smd_store_save(srv->store, job, &err) != SM_OK;
+    job->unsaved = smd_backend_save(srv->backend, job, &err) != SM_OK;
     if (job->unsaved)
         spool_refused(srv, err.msg);
 }
@@ -58,7 +58,7 @@ static sm_status save_ahead(smd_server *srv, const smd_job *job, sm_job_state st
     }
     snprintf(next.message, sizeof next.message, "%s", message);
     sm_error err;
-    if (smd_store_save(srv->store, &next, &err) == SM_OK)
+    if (smd_backend_save(srv->backend, &next, &err) == SM_OK)
         return SM_OK;
     int saved = errno;
     spool_refused(srv, err.msg);
@@ -71,12 +71,11 @@ static sm_status save_ahead(smd_server *srv, const smd_job *job, sm_job_state st
 static int append_event(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_after *after,
                         sm_error *err)
 {
-    if (smd_store_append_event(srv->store, job, ev, err) != SM_OK)
+    if (smd_backend_append(srv->backend, job, ev, err) != SM_OK)
         return -1;
     smd_metrics_add(&srv->metrics, &srv->metrics.events_appended, 1);
     smd_jobs_after_changed(srv, after, job);
-    if (srv->cluster)
-        srv->cluster_ops->event(srv->cluster, job, ev);
+    smd_backend_event(srv->backend, job, ev);
     return 0;
 }
 
@@ -145,7 +144,7 @@ static void publish_ending(smd_server *srv, smd_job *job, smd_job_ending *e, smd
 static int write_ending(smd_server *srv, smd_job *job, smd_job_ending *e, smd_jobs_after *after,
                         sm_error *err)
 {
-    if (smd_store_load_events(srv->store, job, err) != SM_OK)
+    if (smd_backend_load_events(srv->backend, job, err) != SM_OK)
         return -1;
     if (!e->record_written) {
         smd_job rec = *job; /* plain data: the store only reads it */
@@ -157,7 +156,7 @@ static int write_ending(smd_server *srv, smd_job *job, smd_job_ending *e, smd_jo
         /* where the final event will start: a restart before it is
          * written finds it missing (restore_final_event) */
         rec.final_event_at = (int64_t)smd_job_event_offset(job, job->nevents + 1);
-        if (smd_store_save(srv->store, &rec, err) != SM_OK)
+        if (smd_backend_save(srv->backend, &rec, err) != SM_OK)
             return -1;
         e->record_written = 1;
         job->final_event_at = rec.final_event_at;
@@ -166,12 +165,12 @@ static int write_ending(smd_server *srv, smd_job *job, smd_job_ending *e, smd_jo
     e->ev.seq = 0;
     e->ev.time = e->finished;
     snprintf(e->ev.message, sizeof e->ev.message, "%s", e->message);
-    if (smd_store_append_event(srv->store, job, &e->ev, err) != SM_OK)
+    if (smd_backend_append(srv->backend, job, &e->ev, err) != SM_OK)
         return -1;
     smd_metrics_add(&srv->metrics, &srv->metrics.events_appended, 1);
     publish_ending(srv, job, e, after);
-    if (srv->cluster) /* after the state: the backend publishes the final state it sees */
-        srv->cluster_ops->event(srv->cluster, job, &e->ev);
+    /* after the state: a shared backend publishes the final state it sees */
+    smd_backend_event(srv->backend, job, &e->ev);
     return 0;
 }
 
@@ -221,16 +220,16 @@ void smd_jobs_retry_saves(smd_server *srv, smd_jobs_after *after)
         return;
     sm_error err;
     size_t left = 0;
-    for (size_t i = 0; i < smd_store_count(srv->store); i++) {
-        smd_job *job = smd_store_at(srv->store, i);
+    for (size_t i = 0; i < smd_backend_count(srv->backend); i++) {
+        smd_job *job = smd_backend_at(srv->backend, i);
         if (job->ending) {
             left += write_held(srv, job, after, &err) != 0;
             continue; /* its final record supersedes job->unsaved */
         }
-        if (job->unsaved && (job->unsaved = smd_store_save(srv->store, job, &err) != SM_OK) != 0)
+        if (job->unsaved && (job->unsaved = smd_backend_save(srv->backend, job, &err) != SM_OK) != 0)
             left++;
     }
-    if (left == 0 && access(smd_store_root(srv->store), W_OK) == 0) {
+    if (left == 0 && smd_backend_writable(srv->backend)) {
         atomic_store(&srv->unwritable, 0);
         smd_logf(&srv->log, SMD_LOG_INFO, "spool_writable", "every record is written again: jobs are accepted");
     }
@@ -241,7 +240,7 @@ void smd_jobs_retry_saves(smd_server *srv, smd_jobs_after *after)
 static int trash_job(smd_server *srv, const smd_job *job, smd_jobs_after *after)
 {
     char path[PATH_MAX];
-    if (smd_store_trash(srv->store, job->id, path, sizeof path) != 0) {
+    if (smd_backend_trash(srv->backend, job->id, path, sizeof path) != 0) {
         int saved = errno;
         smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "job %s: cannot delete: %s", job->id,
                  strerror(saved));
@@ -264,7 +263,7 @@ static int trash_job(smd_server *srv, const smd_job *job, smd_jobs_after *after)
 static sm_status remove_job(smd_server *srv, smd_job *job, smd_jobs_after *after, sm_error *err)
 {
     if (job->worker_active) {
-        if (!smd_store_can_trash(srv->store))
+        if (!smd_backend_can_trash(srv->backend))
             return sm_error_set(err, SM_ERR_IO, "the spool cannot be written (%s): job %s kept",
                                 strerror(errno), job->id);
         job->delete_requested = 1;
@@ -273,7 +272,7 @@ static sm_status remove_job(smd_server *srv, smd_job *job, smd_jobs_after *after
                             strerror(errno), job->id);
     }
     smd_jobs_after_changed(srv, after, job);
-    smd_store_unlink(srv->store, job);
+    smd_backend_unlink(srv->backend, job);
     return SM_OK;
 }
 
@@ -325,25 +324,38 @@ void smd_jobs_after_free(smd_jobs_after *a)
 
 /* -------------------------------------------------------------- submit */
 
+sm_status smd_jobs_publish(smd_server *srv, smd_submission *sub, sm_error *err)
+{
+    sub->created = 0;
+    sub->existing[0] = '\0';
+    if (!smd_id_valid(sub->id))
+        return sm_error_set(err, SM_ERR_INVALID, "bad job id");
+    return smd_backend_publish(srv->backend, sub, &sub->created, sub->existing, err);
+}
+
 sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **out,
                           int *created, smd_jobs_after *after, sm_error *err)
 {
     const char *key = sub->idempotency_key && sub->idempotency_key[0] ? sub->idempotency_key : NULL;
+    int published = sub->created > 0 || sub->existing[0]; /* smd_jobs_publish ran */
     *created = 0;
-    *out = key ? smd_store_find_key(srv->store, sub->owner, key) : NULL;
-    if (*out)
+    *out = key ? smd_backend_find_key(srv->backend, sub->owner, key) : NULL;
+    if (!*out && sub->existing[0] && !(*out = smd_backend_get(srv->backend, sub->existing)))
+        return sm_error_set(err, SM_ERR_IO,
+                            "job %s of the Idempotency-Key was deleted meanwhile", sub->existing);
+    if (*out) {
+        if (published && !sub->existing[0]) /* published, then a local retry won */
+            smd_backend_submitted(srv->backend, sub->id);
         return SM_OK; /* a retry with the same key */
+    }
     if (!smd_id_valid(sub->id))
         return sm_error_set(err, SM_ERR_INVALID, "bad job id");
-    double created_at = sm_time_now();
-    if (srv->cluster) { /* in the database first (lock released meanwhile) */
-        sm_status cst = srv->cluster_ops->submit(srv, sub, out, &created_at, err);
-        if (cst != SM_OK || *out)
-            return cst;
-    }
+    double created_at = sub->created > 0 ? sub->created : sm_time_now();
     smd_job *job = smd_job_new(sub->id);
-    if (!job)
+    if (!job) {
+        smd_backend_submitted(srv->backend, sub->id);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    }
     job->state = SM_JOB_ACCEPTED;
     snprintf(job->message, sizeof job->message, "queued");
     job->created = job->updated = created_at;
@@ -358,12 +370,11 @@ sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **
     sm_event ev;
     sm_event_init(&ev, SM_EVENT_ACCEPTED);
     ev.time = job->created;
-    sm_status st = smd_store_commit(srv->store, sub->dir, job, &ev, err);
-    if (srv->cluster)
-        srv->cluster_ops->submitted(srv->cluster, sub->id);
+    sm_status st = smd_backend_commit(srv->backend, sub->dir, job, &ev, err);
+    smd_backend_submitted(srv->backend, sub->id);
     if (st != SM_OK)
         return st;
-    if (!srv->cluster && smd_queue_push(srv->queue, job->id) != 0)
+    if (smd_backend_enqueue(srv->backend, job->id) < 0)
         smd_logf(&srv->log, SMD_LOG_ERROR, "queue_error", "job %s: out of memory queueing it",
                  job->id);
     smd_metrics_add(&srv->metrics, &srv->metrics.jobs_submitted, 1);
@@ -384,9 +395,9 @@ smd_job *smd_jobs_take_next(smd_server *srv)
     char id[SMD_ID_LEN + 1];
     smd_job *job = NULL;
     while (!job) {
-        if (!smd_queue_pop(srv->queue, id))
+        if (!smd_backend_next(srv->backend, id))
             return NULL;
-        job = smd_store_get(srv->store, id);
+        job = smd_backend_get(srv->backend, id);
         if (job && job->state != SM_JOB_ACCEPTED)
             job = NULL; /* cancelled or deleted while queued */
     }
@@ -508,8 +519,7 @@ sm_status smd_jobs_requeue(smd_server *srv, smd_job *job, json_t *extra)
     snprintf(job->message, sizeof job->message,
              "interrupted by a daemon shutdown: runs again at the next start");
     save_or_log(srv, job);
-    if (srv->cluster)
-        srv->cluster_ops->requeued(srv->cluster, job);
+    smd_backend_requeued(srv->backend, job);
     smd_log(&srv->log, SMD_LOG_INFO, "job_requeued", log_fields(job, extra));
     return SM_OK;
 }
@@ -535,8 +545,10 @@ sm_status smd_jobs_cancel(smd_server *srv, smd_job *job, smd_jobs_after *after)
             return SM_ERR_IO; /* errno from the refused write */
         return refuse(job, "cancel", &err); /* it ended first */
     }
-    if (srv->cluster && !srv->cluster_ops->runs(srv->cluster, job->id))
-        return srv->cluster_ops->cancel(srv, job, after, &err); /* its worker node stops it */
+    int handled = 0; /* a shared backend: another node runs it, or its queue holds it */
+    sm_status cst = smd_backend_cancel(srv->backend, srv, job, after, &handled, &err);
+    if (cst != SM_OK || handled)
+        return cst;
     int running = job->state == SM_JOB_RUNNING;
     static const char message[] = "cancelled by request (DELETE)";
     double now = sm_time_now();
@@ -545,7 +557,7 @@ sm_status smd_jobs_cancel(smd_server *srv, smd_job *job, smd_jobs_after *after)
     snprintf(job->message, sizeof job->message, "%s", message);
     if (!running) {
         /* the final record is on disk: dismissed now, the event follows */
-        smd_queue_remove(srv->queue, job->id);
+        smd_backend_dequeue(srv->backend, job->id);
         job->state = SM_JOB_DISMISSED;
         job->finished = job->updated = now;
         job->final_event_at = (int64_t)smd_job_event_offset(job, job->nevents + 1);
@@ -593,7 +605,7 @@ sm_status smd_jobs_delete(smd_server *srv, smd_job *job, smd_jobs_after *after)
     char id[sizeof job->id];
     memcpy(id, job->id, sizeof id); /* job may be freed by the removal */
     int deleted = 1; /* 0: another node deleted it first */
-    if (srv->cluster && srv->cluster_ops->remove(srv->cluster, id, &deleted, &err) != SM_OK)
+    if (smd_backend_remove(srv->backend, id, &deleted, &err) != SM_OK)
         return SM_ERR_IO;
     (void)deleted;
     sm_status st = remove_job(srv, job, after, &err);
@@ -611,7 +623,7 @@ sm_status smd_jobs_expire(smd_server *srv, smd_job *job, smd_jobs_after *after)
     char id[sizeof job->id];
     memcpy(id, job->id, sizeof id); /* job may be freed by the removal */
     int deleted = 1; /* cluster: the one node whose DELETE removed it logs it */
-    if (srv->cluster && srv->cluster_ops->remove(srv->cluster, id, &deleted, &e) != SM_OK)
+    if (smd_backend_remove(srv->backend, id, &deleted, &e) != SM_OK)
         return SM_ERR_IO; /* retried next sweep */
     if (remove_job(srv, job, after, &e) != SM_OK)
         return SM_ERR_IO; /* logged by trash_job; retried next sweep */
@@ -651,7 +663,7 @@ static void mirror_run_fields(smd_job *job, const sm_event *ev)
 sm_status smd_jobs_mirror_event(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_after *after)
 {
     sm_error err;
-    if (smd_store_load_events(srv->store, job, &err) != SM_OK)
+    if (smd_backend_load_events(srv->backend, job, &err) != SM_OK)
         return SM_ERR_IO;
     if (ev->seq != job->nevents + 1)
         return sm_error_set(&err, SM_ERR_INVALID, "out of order");
@@ -734,11 +746,10 @@ static int recover_job(smd_server *srv, smd_job *job, smd_jobs_after *after)
     sm_error err;
     sm_event finished;
     double when = 0;
-    /* cluster: the database says how a job ended, not the local copy */
-    int ended = !srv->cluster &&
-                smd_store_read_summary(srv->store, job, &finished, &when, &err) == SM_OK;
-    smd_store_remove_results(srv->store, job, ended || job->state != SM_JOB_RUNNING);
-    if (smd_store_load_events(srv->store, job, &err) != SM_OK) {
+    /* how its run ended, when the backend knows it from here */
+    int ended = smd_backend_read_summary(srv->backend, job, &finished, &when, &err) == SM_OK;
+    smd_backend_remove_results(srv->backend, job, ended || job->state != SM_JOB_RUNNING);
+    if (smd_backend_load_events(srv->backend, job, &err) != SM_OK) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "job_recovery_failed", "%s", err.msg);
         return -1;
     }
@@ -754,7 +765,7 @@ static int recover_job(smd_server *srv, smd_job *job, smd_jobs_after *after)
                  "re-queued after a daemon restart (run %d was interrupted)", job->attempt);
         /* a full spool: kept queued in memory and retried; the daemon is
          * unready and starts nothing until the record is written */
-        job->unsaved = smd_store_save(srv->store, job, &err) != SM_OK;
+        job->unsaved = smd_backend_save(srv->backend, job, &err) != SM_OK;
         if (job->unsaved)
             spool_refused(srv, err.msg);
         smd_logf(&srv->log, SMD_LOG_INFO, "job_requeued", "job %s was running: queued again",
@@ -775,14 +786,14 @@ static void restore_final_event(smd_server *srv, smd_job *job)
     double when;
     sm_status st = SM_OK;
     if (job->state == SM_JOB_SUCCESSFUL)
-        st = smd_store_read_summary(srv->store, job, &ev, &when, &err);
+        st = smd_backend_read_summary(srv->backend, job, &ev, &when, &err);
     else
         sm_event_init(&ev, job->state == SM_JOB_FAILED ? SM_EVENT_FAILED : SM_EVENT_CANCELLED);
     if (st == SM_OK) {
         ev.time = job->finished;
         snprintf(ev.message, sizeof ev.message, "%s", job->message);
-        if ((st = smd_store_load_events(srv->store, job, &err)) == SM_OK)
-            st = smd_store_append_event(srv->store, job, &ev, &err);
+        if ((st = smd_backend_load_events(srv->backend, job, &err)) == SM_OK)
+            st = smd_backend_append(srv->backend, job, &ev, &err);
         smd_job_close_log(job);
     }
     if (st != SM_OK)
@@ -800,21 +811,21 @@ sm_status smd_jobs_recover(smd_server *srv, size_t *queued, sm_error *err)
     *queued = 0;
     smd_jobs_after after = {0}; /* no follower yet: nothing to wake */
     sm_status st = SM_OK;
-    for (size_t i = 0; i < smd_store_count(srv->store);) {
-        smd_job *job = smd_store_at(srv->store, i);
-        if (!srv->cluster && smd_job_state_final(job->state) && /* cluster: the database's log */
-            smd_store_final_event_missing(srv->store, job))
+    for (size_t i = 0; i < smd_backend_count(srv->backend);) {
+        smd_job *job = smd_backend_at(srv->backend, i);
+        if (smd_job_state_final(job->state) && smd_backend_final_event_missing(srv->backend, job))
             restore_final_event(srv, job);
         if (!smd_job_state_final(job->state) && recover_job(srv, job, &after) != 0) {
-            smd_store_unlink(srv->store, job); /* shifts the list: do not advance i */
+            smd_backend_unlink(srv->backend, job); /* shifts the list: do not advance i */
             continue;
         }
-        if (job->state == SM_JOB_ACCEPTED && !srv->cluster) { /* cluster: the database's queue */
-            if (smd_queue_push(srv->queue, job->id) != 0) {
+        if (job->state == SM_JOB_ACCEPTED) { /* a shared backend: its own queue has it */
+            int q = smd_backend_enqueue(srv->backend, job->id);
+            if (q < 0) {
                 st = sm_error_set(err, SM_ERR_NOMEM, "out of memory queueing the jobs");
                 break;
             }
-            (*queued)++;
+            *queued += (size_t)q;
         }
         i++;
     }

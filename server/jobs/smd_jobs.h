@@ -32,14 +32,15 @@
  * Everything else is refused: each function returns SM_ERR_INVALID (and
  * changes nothing) when the job is not in a state it starts from.
  *
- * It calls the store (records and logs), the queue (an interface: the
- * local FIFO today, a shared backend later) and the metrics; it calls
- * neither the HTTP side nor the pool: what must happen once the lock is
- * released (tell who follows the jobs that changed, remove folders, wake
- * the supervisor) is collected in an smd_jobs_after that the caller runs.
- * The engine names the jobs that changed; it holds no connection and
- * knows no follower: whoever follows jobs (the event streams) installs
- * srv->jobs_changed, which smd_jobs_after_run calls.
+ * It calls the backend (jobs/smd_backend.h: records, logs, the queue,
+ * and what a shared store must hear; the spool or PostgreSQL, never asked
+ * which) and the metrics; it calls neither the HTTP side nor the pool:
+ * what must happen once the lock is released (tell who follows the jobs
+ * that changed, remove folders, wake the supervisor) is collected in an
+ * smd_jobs_after that the caller runs.  The engine names the jobs that
+ * changed; it holds no connection and knows no follower: whoever follows
+ * jobs (the event streams) installs srv->jobs_changed, which
+ * smd_jobs_after_run calls.
  *
  * Every function but smd_jobs_after_run is called with srv->lock held
  * (smd_jobs_recover: at start, before any other thread runs). */
@@ -50,6 +51,7 @@
 
 #include "shapematch/sm_error.h"
 #include "base/smd_server.h"
+#include "jobs/smd_backend.h"
 
 /* Work for after the lock.  Starts zeroed ({0}); reusable after a run. */
 typedef struct smd_jobs_after {
@@ -89,12 +91,23 @@ typedef struct smd_submission {
     double tol_boundary;          /* params.tol_boundary, for the status */
     int32_t nverts, nelems;       /* for the log */
     uint64_t bytes;               /* upload size, for the log */
+    /* set by smd_jobs_publish (zeroed: not published, the spool's case) */
+    double created;               /* the time the shared store gave it, or 0 */
+    char existing[SMD_ID_LEN + 1]; /* the job the key names there, or "" */
 } smd_submission;
 
-/* A new job: when the Idempotency-Key names an existing job, *job is that
- * one and *created 0 (nothing changes); else the folder becomes an
- * accepted job (status.json, the "accepted" event), queued, counted and
- * logged, *created 1.  *job is borrowed from the store. */
+/* srv->lock NOT held: the submission into the backend's shared store
+ * first (PostgreSQL; nothing for the spool), so that no backend waits
+ * for the network under the lock.  Fills sub->created and sub->existing;
+ * the caller then takes the lock and calls smd_jobs_submit, whatever it
+ * decides (it ends the publication). */
+sm_status smd_jobs_publish(smd_server *srv, smd_submission *sub, sm_error *err);
+
+/* A new job: when the Idempotency-Key names an existing job (here, or in
+ * the shared store: sub->existing), *job is that one and *created 0
+ * (nothing changes); else the folder becomes an accepted job (status.json,
+ * the "accepted" event), queued, counted and logged, *created 1.  *job is
+ * borrowed from the backend. */
 sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **job,
                           int *created, smd_jobs_after *after, sm_error *err);
 
@@ -151,9 +164,9 @@ void smd_jobs_worker_gone(smd_server *srv, smd_job *job, smd_jobs_after *after);
 sm_status smd_jobs_delete(smd_server *srv, smd_job *job, smd_jobs_after *after);
 sm_status smd_jobs_expire(smd_server *srv, smd_job *job, smd_jobs_after *after);
 
-/* Daemon start, after smd_store_open: a live job whose run had finished
- * (results/summary.json complete, smd_store_read_summary; not in cluster
- * mode, where the database knows) ends successful as that run did, with
+/* Daemon start, after the backend is open: a live job whose run had
+ * finished (the backend's read_summary: results/summary.json complete;
+ * not with PostgreSQL, where the database knows) ends successful as that run did, with
  * no second run (held when the spool still refuses its record); other
  * jobs that were running are queued again ("re-queued after a daemon
  * restart"), partial results of every live job are removed, their logs
@@ -164,8 +177,8 @@ sm_status smd_jobs_expire(smd_server *srv, smd_job *job, smd_jobs_after *after);
  * cannot take them. */
 sm_status smd_jobs_recover(smd_server *srv, size_t *queued, sm_error *err);
 
-/* Cluster mode (--database, srv->cluster_ops: smd_cluster.h): the local record follows a
- * job another node runs.  mirror_event appends ev (its seq must be the
+/* The feed of a shared backend (PostgreSQL's sync thread, an input like
+ * the pool's): the local record follows a job another node runs.  mirror_event appends ev (its seq must be the
  * next) and applies it (started, progress, finished, failed,
  * cancelled); mirror_state takes a change that has no event (a requeue
  * after a lost lease, a cancel request); mirror_drop removes the local

@@ -14,12 +14,12 @@
 #include <cmocka.h>
 
 #include "jobs/smd_jobs.h"
-#include "jobs/smd_queue.h"
-#include "store/spool/smd_store.h"
+#include "store/spool/smd_spool_backend.h"
 
 typedef struct fixture {
     char spool[256];
     smd_server srv;
+    smd_backend backend; /* the spool's */
     int nupload;
 } fixture;
 
@@ -38,6 +38,8 @@ static int setup(void **state)
         !(f->srv.queue = smd_queue_local_new()) ||
         smd_metrics_init(&f->srv.metrics, labels, 1) != 0)
         return -1;
+    smd_spool_backend_init(&f->backend, f->srv.store, f->srv.queue);
+    f->srv.backend = &f->backend;
     *state = f;
     return 0;
 }
@@ -460,6 +462,7 @@ static void restart(fixture *f, size_t *queued)
     smd_store_close(f->srv.store);
     assert_int_equal(smd_store_open(f->spool, &f->srv.log, &f->srv.store, &err), SM_OK);
     assert_non_null(f->srv.queue = smd_queue_local_new());
+    smd_spool_backend_init(&f->backend, f->srv.store, f->srv.queue);
     assert_int_equal(smd_jobs_recover(&f->srv, queued, &err), SM_OK);
 }
 

@@ -21,7 +21,7 @@
 #include "http/smd_reply.h"
 #include "api/smd_route_table.h"
 #include "api/smd_upload.h"
-#include "jobs/smd_queue.h"
+#include "store/spool/smd_fifo.h"
 #include "base/smd_util.h"
 
 static void test_random_ids(void **state)

@@ -10,6 +10,8 @@
 #include <unistd.h>
 
 #include "shapematch/sm_clock.h"
+#include "store/spool/smd_store.h"
+#include "store/spool/smd_fifo.h"
 #include "jobs/smd_jobs.h"
 #include "store/pg/smd_pg_node.h"
 #include "store/pg/smd_pg_node_int.h"

@@ -203,24 +203,17 @@ static sm_status submit_db(smd_pg_node *n, const smd_submission *sub, double whe
     return st;
 }
 
-sm_status smd_pg_node_submit(smd_server *srv, const smd_submission *sub, smd_job **out,
-                             double *when, sm_error *err)
+sm_status smd_pg_node_publish(smd_pg_node *n, const smd_submission *sub, double *when,
+                              char existing[SMD_ID_LEN + 1], sm_error *err)
 {
-    smd_pg_node *n = srv->cluster;
-    *out = NULL;
+    existing[0] = '\0';
     if (add_pending(n, sub->id) != 0)
         return sm_error_set(err, SM_ERR_NOMEM, "too many uploads at once");
-    char existing[SMD_ID_LEN + 1] = "";
     int created = 0;
     *when = sm_time_now();
-    pthread_mutex_unlock(&srv->lock);
     sm_status st = submit_db(n, sub, *when, existing, &created, err);
-    pthread_mutex_lock(&srv->lock);
-    if (st != SM_OK || !created)
+    if (st != SM_OK || !created) /* nothing to commit locally */
         smd_pg_node_submitted(n, sub->id);
-    if (st == SM_OK && !created && !(*out = smd_store_get(srv->store, existing)))
-        st = sm_error_set(err, SM_ERR_IO, "job %s of the Idempotency-Key was deleted meanwhile",
-                          existing);
     return st;
 }
 
@@ -331,11 +324,6 @@ void smd_pg_node_metrics(smd_pg_node *n, char **text, size_t *len)
 
 /* --------------------------------------------------------- lifecycle */
 
-static const smd_cluster_ops cluster_ops = {
-    smd_pg_node_submit, smd_pg_node_submitted, smd_pg_node_event, smd_pg_node_requeued,
-    smd_pg_node_runs,   smd_pg_node_cancel,    smd_pg_node_delete,
-};
-
 static sm_status open_db(smd_server *srv, const char *what, smd_pg **db, sm_error *err)
 {
     char app[64];
@@ -383,7 +371,7 @@ sm_status smd_pg_node_open(smd_server *srv, sm_error *err)
         return st;
     }
     srv->cluster = n;
-    srv->cluster_ops = &cluster_ops;
+    smd_pg_backend_stack(srv->backend, n);
     smd_log(&srv->log, SMD_LOG_INFO, "database",
             json_pack("{s:i,s:s,s:s}", "schema_version", version, "node", n->name, "role",
                       srv->cfg.role == SMD_ROLE_API ? "api"

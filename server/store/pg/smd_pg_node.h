@@ -30,13 +30,15 @@
 #include "shapematch/sm_error.h"
 #include "sm_proto_events.h"
 #include "base/smd_server.h"
+#include "jobs/smd_backend.h"
 
 typedef struct smd_pg_node smd_pg_node;
 struct smd_jobs_after;
 struct smd_submission;
 
-/* At start, before the recovery: connects, applies the migrations and
- * sets srv->cluster.  Logged on failure. */
+/* At start, before the recovery: connects, applies the migrations, sets
+ * srv->cluster and stacks the PostgreSQL backend on srv->backend (the
+ * spool's, smd_pg_backend.c).  Logged on failure. */
 sm_status smd_pg_node_open(smd_server *srv, sm_error *err);
 /* After the pool started: the sync and work threads. */
 sm_status smd_pg_node_run(smd_server *srv, sm_error *err);
@@ -50,13 +52,13 @@ int smd_pg_node_ready(smd_pg_node *node, char *why, size_t cap);
  * node's own leases, database up), appended to *text (realloc'ed). */
 void smd_pg_node_metrics(smd_pg_node *node, char **text, size_t *len);
 
-/* Hooks of the state machine (smd_jobs.c), srv->lock held. */
-/* Upload: the job into the database first (lock released meanwhile).
- * *out: the job an Idempotency-Key already names (nothing else done), or
- * NULL: commit it locally (with *created, the time the database has),
- * then smd_pg_node_submitted. */
-sm_status smd_pg_node_submit(smd_server *srv, const struct smd_submission *sub, smd_job **out,
-                             double *created, sm_error *err);
+/* The backend's calls (smd_pg_backend.c), srv->lock held unless said. */
+/* Upload, srv->lock NOT held: the job into the database first.
+ * existing: the job an Idempotency-Key already names ("" when none: then
+ * the caller commits it locally, with *created the time the database
+ * has, and calls smd_pg_node_submitted). */
+sm_status smd_pg_node_publish(smd_pg_node *n, const struct smd_submission *sub, double *created,
+                              char existing[SMD_ID_LEN + 1], sm_error *err);
 void smd_pg_node_submitted(smd_pg_node *node, const char *id);
 /* An event appended locally: forwarded when this node runs the job. */
 void smd_pg_node_event(smd_pg_node *node, const smd_job *job, const sm_event *ev);
@@ -71,5 +73,8 @@ sm_status smd_pg_node_cancel(smd_server *srv, smd_job *job, struct smd_jobs_afte
 /* DELETE or retention of a final job: *deleted 1 for the node that
  * removed it from the database. */
 sm_status smd_pg_node_delete(smd_pg_node *node, const char *id, int *deleted, sm_error *err);
+
+/* Turns b (the spool's backend) into PostgreSQL's, stacked on it. */
+void smd_pg_backend_stack(smd_backend *b, smd_pg_node *node);
 
 #endif

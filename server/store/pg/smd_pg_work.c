@@ -9,6 +9,8 @@
 #include <time.h>
 
 #include "shapematch/sm_clock.h"
+#include "store/spool/smd_store.h"
+#include "store/spool/smd_fifo.h"
 #include "jobs/smd_jobs.h"
 #include "store/pg/smd_pg_node.h"
 #include "store/pg/smd_pg_node_int.h"

@@ -1,6 +1,6 @@
-/* Local FIFO backend of the job queue (see smd_queue.h): a growable ring
+/* Local FIFO backend of the job queue (see smd_fifo.h): a growable ring
  * of fixed-size ids. */
-#include "jobs/smd_queue.h"
+#include "store/spool/smd_fifo.h"
 
 #include <stdlib.h>
 #include <string.h>

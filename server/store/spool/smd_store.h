@@ -36,74 +36,7 @@
 #include "base/smd_log.h"
 #include "base/smd_util.h"
 
-#define SMD_IDEMPOTENCY_KEY_MAX SM_IDEMPOTENCY_KEY_MAX /* proto/sm_proto_vocab.h */
-#define SMD_OWNER_MAX 64 /* = SMD_TENANT_MAX (smd_auth.h) */
-
-/* Bounds of the numbers of a record (status.json is outside input: a
- * restored backup, a hand edit).  A record whose "order" or "attempt" is
- * outside them is damaged: logged ("job_skipped") and left alone on disk.
- * Inside them nothing overflows: the order of the next job saturates at
- * SMD_ORDER_MAX (jobs with equal orders run by creation time, then id),
- * and the attempt count stops at SMD_ATTEMPT_MAX. */
-#define SMD_ORDER_MAX INT64_MAX
-#define SMD_ATTEMPT_MAX 1000000
-
-struct smd_follower;
-
-/* The end of a run that is not on disk yet (smd_jobs.c: durable first):
- * the state the job will have, its record and its last event, kept while
- * the spool refuses them.  Until both are written the job is shown as it
- * was (running), and nothing of this is published. */
-typedef struct smd_job_ending {
-    sm_job_state state;       /* successful, failed or dismissed */
-    char message[SM_EVENT_MESSAGE_MAX];
-    double finished;          /* Unix seconds */
-    sm_event ev;              /* finished, failed or cancelled, seq 0 */
-    int record_written;       /* status.json holds the final record */
-    int log_level;
-    const char *log_event;    /* static string */
-    json_t *log_fields;       /* owned: the job's log line */
-} smd_job_ending;
-
-typedef struct smd_job {
-    char id[SMD_ID_LEN + 1];
-    sm_job_state state;
-    char message[SM_EVENT_MESSAGE_MAX];
-    double created, started, finished, updated; /* Unix seconds, < 0 = unset */
-    int progress;             /* 0..100 */
-    int attempt;              /* runs started so far, <= SMD_ATTEMPT_MAX */
-    int64_t order;            /* submission order (FIFO across restarts), saturates */
-    int dim;                  /* template dimension */
-    int max_iter;             /* for the progress estimate */
-    double tol_boundary;      /* params.tol_boundary (0 none): watch's bar */
-    char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1]; /* "" = none */
-    char owner[SMD_OWNER_MAX + 1]; /* tenant of the submitting token, "" = none */
-    uint64_t request_hash;    /* of the request that used the key; 0 unknown */
-    int64_t final_event_at;   /* final records: where the final event starts in
-                               * events.ndjson (written after the record);
-                               * 0 unknown */
-
-    /* last progress event, shown in the status document */
-    int have_progress;
-    sm_progress last_progress;
-
-    /* event log: event_end[i] is the byte offset just past event seq i+1 */
-    int events_loaded;
-    int64_t nevents;
-    uint64_t *event_end;
-    size_t event_cap;
-    int log_fd;               /* append descriptor while the job is live, or -1 */
-
-    /* runtime state (not persisted) */
-    int refs;                 /* the table's reference + event streams + worker */
-    int removed;              /* no longer in the table (deleted) */
-    int worker_active;        /* a worker process runs (or is being reaped) */
-    int cancel_requested;     /* DELETE while running: stop the worker */
-    int delete_requested;     /* DELETE of a job whose worker is stopping */
-    int unsaved;              /* its last record write failed: retried */
-    smd_job_ending *ending;   /* owned: an end waiting for the spool, or NULL */
-    struct smd_job *hash_next;
-} smd_job;
+#include "jobs/smd_job.h"
 
 typedef struct smd_store smd_store;
 
@@ -127,7 +60,6 @@ smd_job *smd_store_find_key(smd_store *s, const char *owner, const char *key);
  * every job is visible): other tenants learn nothing, not even that the
  * id exists. */
 smd_job *smd_store_get_visible(smd_store *s, const char *id, const char *tenant, int admin);
-int smd_job_visible(const smd_job *job, const char *tenant, int admin);
 size_t smd_store_count(const smd_store *s);
 /* i-th job in submission order (0 <= i < count). */
 smd_job *smd_store_at(smd_store *s, size_t i);
@@ -135,11 +67,6 @@ smd_job *smd_store_at(smd_store *s, size_t i);
 /* SPOOL/jobs/<id>/<name> (name "" gives the folder).  -1 on overflow. */
 int smd_store_path(const smd_store *s, const char *id, const char *name,
                    char *buf, size_t cap);
-
-/* A job record in memory (no times set, no log), not in any table: the
- * state machine fills it in and hands it to smd_store_commit.  NULL when
- * out of memory. */
-smd_job *smd_job_new(const char *id);
 
 /* Turns a prepared upload folder (inputs/ and job.json inside) into a
  * job: gives job its submission order, writes first (the "accepted"
@@ -163,11 +90,6 @@ void smd_store_remove_results(smd_store *s, const smd_job *job, int partial_only
  * there is none, SM_ERR_FORMAT when it says something else. */
 sm_status smd_store_read_summary(smd_store *s, const smd_job *job, sm_event *finished,
                                  double *when, sm_error *err);
-
-void smd_job_ref(smd_job *job);
-/* Drops a reference; the job is freed when it is removed from the table
- * and no reference is left. */
-void smd_job_unref(smd_job *job);
 
 /* Removes the job from the table (lookups fail from now on) and marks it
  * removed; its files stay until smd_store_delete_files. */
@@ -208,19 +130,6 @@ sm_status smd_store_load_events(smd_store *s, smd_job *job, sm_error *err);
 sm_status smd_store_append_event(smd_store *s, smd_job *job, sm_event *ev,
                                  sm_error *err);
 
-/* Byte offset where event seq starts (seq in 1..nevents+1; nevents+1
- * gives the end of the log).  The index must be loaded. */
-uint64_t smd_job_event_offset(const smd_job *job, int64_t seq);
 
-/* Closes the append descriptor (the job reached a final state). */
-void smd_job_close_log(smd_job *job);
-
-/* 1 for successful, failed, dismissed. */
-int smd_job_state_final(sm_job_state state);
-
-/* OGC statusInfo members (jobID, processID, type, status, message,
- * created, started, finished, updated, progress) plus the last progress
- * figures; no links.  New reference or NULL. */
-json_t *smd_job_status_fields(const smd_job *job);
 
 #endif

@@ -1,14 +1,14 @@
-/* The job queue, as an interface: the daemon only calls these operations,
- * so a backend on a shared broker (several daemons and worker nodes on
- * one queue) can be added next to the local one without touching the
- * rest.  Entries are job ids; the job's state itself lives in the store.
+/* The spool's local queue of jobs to run on this node (part of both
+ * backends, jobs/smd_backend.h: the spool's queue of accepted jobs, and
+ * PostgreSQL's jobs this node claimed).  Entries are job ids; the job's
+ * state itself lives in the store.
  *
- * The local backend is an in-memory FIFO: the store is the durable copy,
+ * An in-memory FIFO: the store is the durable copy,
  * and the daemon rebuilds the queue from it at start (queued jobs in
  * submission order).  Not thread-safe by itself: the daemon calls it
  * with its lock held. */
-#ifndef SMD_QUEUE_H
-#define SMD_QUEUE_H
+#ifndef SMD_FIFO_H
+#define SMD_FIFO_H
 
 #include <stddef.h>
 

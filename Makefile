@@ -70,7 +70,7 @@ build/$(1)/obj/%.o: %.c
 endef
 $(foreach v,$(VARIANTS),$(eval $(call variant_rules,$(v))))
 
-include $(wildcard core/module.mk proto/module.mk server/module.mk \
+include $(wildcard core/module.mk proto/module.mk web/module.mk server/module.mk \
   client/module.mk tests/module.mk bench/module.mk)
 
 .PHONY: all deps check-deps test demo lint install clean release asan

@@ -1,26 +1,36 @@
 # shapematchd (the HTTP job daemon) and shapematch-worker (one job per
 # process).  The daemon's parts are built into libsmserver.a, which the two
 # programs and the server unit tests (tests/unit/test_server_*.c) link.
-SERVER_MAIN_SRCS := server/shapematchd.c server/shapematch_worker.c
-SERVER_LIB_SRCS := $(filter-out $(SERVER_MAIN_SRCS),$(wildcard server/*.c))
+# One list per folder, in layer order (server/README.md): includes name
+# their folder ("jobs/smd_jobs.h") from -I server, and only store/pg/
+# sees libpq's header.
+SERVER_BASE_SRCS := $(addprefix server/base/,smd_config.c smd_log.c smd_metrics.c smd_util.c)
+SERVER_HTTP_SRCS := $(addprefix server/http/,smd_http.c smd_reply.c smd_negotiate.c smd_cors.c \
+    smd_auth.c smd_tls.c smd_conns.c smd_ratelimit.c)
+SERVER_API_SRCS := $(addprefix server/api/,smd_route_table.c smd_routes.c smd_results.c smd_live.c \
+    smd_app.c smd_ogc.c smd_upload.c smd_parts.c smd_check.c smd_stream.c)
+SERVER_JOBS_SRCS := $(addprefix server/jobs/,smd_job.c smd_jobs.c smd_pool.c)
+SERVER_SPOOL_SRCS := $(addprefix server/store/spool/,smd_store.c smd_store_summary.c smd_fifo.c \
+    smd_spool_backend.c)
+SERVER_PG_SRCS := $(addprefix server/store/pg/,smd_pg_conn.c smd_pg_queue.c smd_pg_blob.c \
+    smd_pg_node.c smd_pg_mirror.c smd_pg_work.c smd_pg_backend.c)
+# job.json: written by the upload's check, read by the worker
+SERVER_WORKER_SRCS := server/worker/smd_job_file.c
+SERVER_LIB_SRCS := $(SERVER_BASE_SRCS) $(SERVER_HTTP_SRCS) $(SERVER_API_SRCS) $(SERVER_JOBS_SRCS) \
+    $(SERVER_SPOOL_SRCS) $(SERVER_PG_SRCS) $(SERVER_WORKER_SRCS)
+SERVER_MAIN_SRCS := server/shapematchd.c server/worker/shapematch_worker.c
 SERVER_TEST_NAMES := $(patsubst tests/unit/%.c,%,$(wildcard tests/unit/test_server_*.c))
 SERVER_TEST_UTIL_SRCS := $(wildcard tests/unit/util_*.c)
 # the OpenAPI document and the params schema are served by the daemon
 SERVER_EMBEDDED := proto/params.schema.json proto/events.schema.json $(wildcard proto/openapi.yaml)
-# the web app (smd_app.c): web/ and the npm libraries it loads
-APP_EMBEDDED := web/index.html web/app.js web/view.js web/app.css web/favicon.svg \
-    $(wildcard node_modules/three/build/three.module.min.js node_modules/three/build/three.core.min.js \
-    node_modules/three/examples/jsm/controls/OrbitControls.js node_modules/uplot/dist/uPlot.esm.js \
-    node_modules/uplot/dist/uPlot.min.css node_modules/.package-lock.json)
-# (npm keeps the packages' own old mtimes; node_modules/.package-lock.json
-# is written by every npm ci, so a fresh install rebuilds the embedded app)
 SERVER_LIBS := $(HTTP_LIBS) $(PROTO_LIBS) $(CORE_LIBS) -lpq -lpthread
+PG_CFLAGS := -I /usr/include/postgresql
 
 define server_rules
-# the PostgreSQL backend (smd_pg*.c) and its test see libpq's header
-# (every server file may include smd_pg_node.h, which does not include libpq-fe.h)
-build/$(1)/obj/server/smd_pg.o build/$(1)/obj/server/smd_pg_%.o: $(1)_CFLAGS += -I /usr/include/postgresql
-build/$(1)/obj/tests/unit/test_server_pg.o: $(1)_CFLAGS += -I /usr/include/postgresql
+$$(SERVER_LIB_SRCS:%.c=build/$(1)/obj/%.o) $$(SERVER_MAIN_SRCS:%.c=build/$(1)/obj/%.o): $(1)_CFLAGS += -I server
+# the PostgreSQL backend's folder and its test see libpq's header
+$$(SERVER_PG_SRCS:%.c=build/$(1)/obj/%.o): $(1)_CFLAGS += $$(PG_CFLAGS)
+build/$(1)/obj/tests/unit/test_server_pg.o: $(1)_CFLAGS += $$(PG_CFLAGS)
 build/$(1)/gen/server/smd_embedded.c: server/embed.sh $$(SERVER_EMBEDDED)
 	@mkdir -p $$(dir $$@)
 	server/embed.sh $$@ smd_params_schema proto/params.schema.json smd_openapi_yaml proto/openapi.yaml \
@@ -30,23 +40,7 @@ build/$(1)/obj/gen/server/smd_embedded.o: build/$(1)/gen/server/smd_embedded.c
 	@mkdir -p $$(dir $$@)
 	$$(CC) $$($(1)_CFLAGS) -c $$< -o $$@
 
-# three's module imports ./three.core.min.js: served as app/three-core.js
-build/$(1)/gen/server/smd_app_embedded.c: server/embed.sh $$(APP_EMBEDDED)
-	@mkdir -p $$(dir $$@)
-	if [ -f node_modules/three/build/three.module.min.js ]; then \
-	  sed 's#"\./three\.core\.min\.js"#"./three-core.js"#g' node_modules/three/build/three.module.min.js >$$(dir $$@)three.js; \
-	else rm -f $$(dir $$@)three.js; fi
-	server/embed.sh $$@ smd_app_index web/index.html smd_app_js web/app.js smd_app_view web/view.js \
-	    smd_app_css web/app.css smd_app_favicon web/favicon.svg smd_app_three $$(dir $$@)three.js \
-	    smd_app_three_core node_modules/three/build/three.core.min.js \
-	    smd_app_orbit node_modules/three/examples/jsm/controls/OrbitControls.js \
-	    smd_app_uplot node_modules/uplot/dist/uPlot.esm.js smd_app_uplot_css node_modules/uplot/dist/uPlot.min.css
-
-build/$(1)/obj/gen/server/smd_app_embedded.o: build/$(1)/gen/server/smd_app_embedded.c
-	@mkdir -p $$(dir $$@)
-	$$(CC) $$($(1)_CFLAGS) -c $$< -o $$@
-
-build/$(1)/libsmserver.a: $$(SERVER_LIB_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/obj/gen/server/smd_embedded.o build/$(1)/obj/gen/server/smd_app_embedded.o
+build/$(1)/libsmserver.a: $$(SERVER_LIB_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/obj/gen/server/smd_embedded.o $$(call WEB_APP_OBJ,$(1))
 	@mkdir -p $$(dir $$@)
 	rm -f $$@ && ar rcs $$@ $$^
 
@@ -55,7 +49,7 @@ build/$(1)/shapematchd: build/$(1)/obj/server/shapematchd.o build/$(1)/libsmserv
 	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(SERVER_LIBS)
 
 # the worker takes only the spool and input helpers from libsmserver.a: no HTTP
-build/$(1)/shapematch-worker: build/$(1)/obj/server/shapematch_worker.o build/$(1)/libsmserver.a build/$(1)/libsmproto.a build/$(1)/libshapematch.a
+build/$(1)/shapematch-worker: build/$(1)/obj/server/worker/shapematch_worker.o build/$(1)/libsmserver.a build/$(1)/libsmproto.a build/$(1)/libshapematch.a
 	@mkdir -p $$(dir $$@)
 	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(PROTO_LIBS) $$(CORE_LIBS)
 

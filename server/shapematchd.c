@@ -21,14 +21,16 @@
 #include <unistd.h>
 
 #include "sm_proto_events.h"
-#include "smd_http.h"
-#include "smd_jobs.h"
-#include "smd_pg_node.h"
-#include "smd_pool.h"
-#include "smd_route_table.h"
-#include "smd_server.h"
-#include "smd_stream.h"
-#include "smd_tls.h"
+#include "http/smd_auth.h"
+#include "http/smd_http.h"
+#include "jobs/smd_jobs.h"
+#include "store/pg/smd_pg_node.h"
+#include "store/spool/smd_spool_backend.h"
+#include "jobs/smd_pool.h"
+#include "api/smd_route_table.h"
+#include "base/smd_server.h"
+#include "api/smd_stream.h"
+#include "http/smd_tls.h"
 
 /* The one global: the main thread's id, written once before the handler
  * is installed. */
@@ -127,13 +129,9 @@ static void shutdown_daemon(smd_server *srv, const sigset_t *signals)
     smd_http_quiesce(srv);
     /* end the event streams: they must all be resumed before MHD stops */
     atomic_store(&srv->stopping, 1);
-    smd_wake_list wake = {0};
-    pthread_mutex_lock(&srv->lock);
-    smd_stream_collect_all(srv, &wake);
-    pthread_mutex_unlock(&srv->lock);
-    smd_wake_list_resume(&wake);
-    smd_wake_list_free(&wake);
+    smd_stream_end_all(srv);
     smd_http_stop(srv);
+    smd_stream_free_all(srv);
 }
 
 /* Step 1: flags, environment, the worker program, the tokens.  Returns
@@ -209,8 +207,9 @@ static void take_signals(sigset_t *signals)
     sigaction(SIGPIPE, &ign, NULL);
 }
 
-/* Step 3: the spool (and the recovery of interrupted jobs), the queue,
- * the worker pool, the HTTP front.  0, or -1 (logged). */
+/* Step 3: the backend (the spool and its queue, PostgreSQL stacked on
+ * them with --database) and the recovery of interrupted jobs, the worker
+ * pool, the HTTP front.  0, or -1 (logged). */
 static int start_parts(smd_server *srv, size_t *queued)
 {
     sm_error err;
@@ -220,10 +219,13 @@ static int start_parts(smd_server *srv, size_t *queued)
         return -1;
     }
     srv->queue = smd_queue_local_new();
-    if (!srv->queue) {
+    srv->backend = malloc(sizeof *srv->backend);
+    if (!srv->queue || !srv->backend) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "out of memory");
         return -1;
     }
+    /* the spool's backend; --database stacks PostgreSQL's on it */
+    smd_spool_backend_init(srv->backend, srv->store, srv->queue);
     if (srv->cfg.database[0] && smd_pg_node_open(srv, &err) != SM_OK) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "%s (--database)", err.msg);
         return -1;
@@ -241,7 +243,7 @@ static int start_parts(smd_server *srv, size_t *queued)
         smd_pool_stop(srv, 0);
         return -1;
     }
-    if (smd_http_start(srv, &err) != SM_OK) {
+    if (smd_http_start(srv, &smd_api, &err) != SM_OK) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "startup", "%s", err.msg);
         smd_pool_stop(srv, 0);
         smd_pg_node_stop(srv);
@@ -325,6 +327,9 @@ int main(int argc, char **argv)
         return code;
     }
     code = 1;
+    /* the engine names the jobs that changed; the event streams wake
+     * their followers (before any thread runs the engine) */
+    srv->jobs_changed = smd_stream_jobs_changed;
     sigset_t signals;
     take_signals(&signals);
     raise_fd_limit(srv);
@@ -347,6 +352,7 @@ int main(int argc, char **argv)
     smd_queue_free(srv->queue);
     smd_store_close(srv->store);
     smd_pg_node_free(srv->cluster);
+    free(srv->backend);
     smd_tokens_free(srv->tokens);
     if (lock_ok)
         pthread_mutex_destroy(&srv->lock);

@@ -8,8 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "smd_negotiate.h"
-#include "smd_util.h"
+#include "http/smd_negotiate.h"
+#include "base/smd_util.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

@@ -27,8 +27,8 @@
 #include <unistd.h>
 
 #include "fuzz_parts_check.h"
-#include "smd_parts.h"
-#include "smd_util.h"
+#include "api/smd_parts.h"
+#include "base/smd_util.h"
 
 int LLVMFuzzerInitialize(int *argc, char ***argv);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);

@@ -1,4 +1,4 @@
-/* The daemon's multipart part handling (server/smd_parts.c) driven
+/* The daemon's multipart part handling (server/api/smd_parts.c) driven
  * directly, without libmicrohttpd: the input is a script of the calls the
  * PostProcessor makes to smd_parts_on_part, so the fuzzer chooses the
  * part names, transfer encodings, the chunking of each part's data and
@@ -24,7 +24,7 @@
 #include <unistd.h>
 
 #include "fuzz_parts_check.h"
-#include "smd_util.h"
+#include "base/smd_util.h"
 
 int LLVMFuzzerInitialize(int *argc, char ***argv);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);

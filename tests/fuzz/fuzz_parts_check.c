@@ -6,7 +6,7 @@
 #include <unistd.h>
 
 #include "sm_proto_params.h"
-#include "smd_util.h"
+#include "base/smd_util.h"
 
 static char upload_dir[64];
 

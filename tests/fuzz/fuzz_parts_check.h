@@ -9,7 +9,7 @@
 #ifndef FUZZ_PARTS_CHECK_H
 #define FUZZ_PARTS_CHECK_H
 
-#include "smd_parts.h"
+#include "api/smd_parts.h"
 
 /* The targets' upload folder: a new directory under /dev/shm (tmpfs: no
  * disk I/O per part) or /tmp, named after tag, removed at exit; abort()s

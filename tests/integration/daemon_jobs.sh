@@ -233,6 +233,46 @@ else
     not_ok "five followers" "$(wc -l "$WORK"/f?.ndjson)"
 fi
 
+# many followers of two jobs (the event streams' table by job id grows
+# past its first 64 buckets): each is woken by its own job's end and
+# ends with that job's final status; the gauge counts them, then none
+streams() { curl -sS "$BASE/metrics" | awk '$1 == "shapematch_event_streams" { print $2 }'; }
+streams_at_least() { [ "$(streams)" -ge "$1" ]; }
+JA=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
+JB=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
+pids=()
+for i in $(seq 1 120); do
+    j=$JA
+    [ $((i % 2)) = 0 ] && j=$JB
+    curl -sS -N --max-time $((90 * SLOW)) -H 'Accept: application/x-ndjson' "$BASE/v1/jobs/$j/events" \
+        >"$WORK/m$i.ndjson" 2>/dev/null &
+    pids+=($!)
+done
+poll 30 streams_at_least 120
+peak=$(streams)
+poll 30 state_is "$JA" running
+curl -sS -o /dev/null -X DELETE "$BASE/v1/jobs/$JA"
+curl -sS -o /dev/null -X DELETE "$BASE/v1/jobs/$JB"
+wait "${pids[@]}"
+bad=0
+for i in $(seq 1 120); do
+    j=$JA
+    [ $((i % 2)) = 0 ] && j=$JB
+    last=$(tail -1 "$WORK/m$i.ndjson")
+    [ "$(jq -r '.type + " " + .status + " " + .jobID' <<<"$last" 2>/dev/null)" = "status dismissed $j" ] ||
+        bad=$((bad + 1))
+done
+poll 10 eval '[ "$(streams)" = 0 ]'
+if [ "$peak" -ge 120 ] && [ "$bad" = 0 ] && [ "$(streams)" = 0 ]; then
+    ok "120 followers of two jobs: each ends with its own job's final status (dismissed); streams $peak, then 0"
+else
+    not_ok "120 followers of two jobs" "peak $peak, $bad without their final status, now $(streams)" \
+        "$(tail -2 "$WORK/m1.ndjson")"
+fi
+# out of the table again: the listing below counts the dismissed jobs
+curl -sS -o /dev/null -X DELETE "$BASE/v1/jobs/$JA"
+curl -sS -o /dev/null -X DELETE "$BASE/v1/jobs/$JB"
+
 # --------------------------------------------------------- cancel, delete
 RUN=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
 poll 20 state_is "$RUN" running

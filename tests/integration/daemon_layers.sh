@@ -1,68 +1,122 @@
 #!/usr/bin/env bash
-# The include graph of server/ (a file may only call what it includes, so
-# this is its call graph too): printed as TAP comments, and checked for
-# circles (tsort) and for the layering of the HTTP side: the reply layer
-# (smd_reply) includes no route, table or dispatcher; the handlers
-# (smd_routes, smd_results, smd_upload) include the reply layer and not
-# the table or the dispatcher; the dispatcher (smd_http) includes the
-# route table.  A module is a file name without .c/.h (smd_store.c and
-# smd_store.h are one node).
+# The daemon's layers are its folders (server/README.md), and these path
+# rules keep them apart.  Every rule reads where a file stands, never a
+# list of file names, so a file added to a folder is checked as it lands:
+#   - includes of the daemon's headers name their folder ("jobs/smd_jobs.h")
+#   - jobs/ (the engine) includes nothing of http/, api/ or store/
+#   - http/ includes nothing but base/ (it knows no handler, no backend)
+#   - base/ includes no other folder
+#   - only http/ includes <microhttpd.h>; only store/pg/ <libpq-fe.h>
+#   - no include circle between folders
+# The folder graph is printed as TAP comments.  The rules are also run on
+# a small tree that breaks each of them once, and must fail there: a
+# rule that cannot fail checks nothing.
 source "$(dirname "$0")/../lib/tap.sh"
 ROOT=${SM_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
-cd "$ROOT/server" || exit 1
 
-# "from to" pairs, one per include of a server header by another module
-edges=$(for f in *.c *.h; do
-    from=${f%.*}
-    sed -nE 's/^[[:space:]]*#[[:space:]]*include[[:space:]]+"([a-z_]+)\.h".*/\1/p' "$f" |
-        while read -r to; do
-            [ -f "$to.h" ] && [ "$to" != "$from" ] && echo "$from $to"
-        done
-done | sort -u)
-echo "$edges" | awk '{ deps[$1] = deps[$1] " " $2 } END { for (m in deps) print "# " m " ->" deps[m] }' | sort
-
-if [ -n "$edges" ] && out=$(echo "$edges" | tsort 2>&1 >/dev/null) && [ -z "$out" ]; then
-    ok "no include (or call) circle among server/ files"
-else
-    not_ok "no include circle among server/ files" "$out"
-fi
-
-includes() { echo "$edges" | grep -qx "$1 $2"; }
-bad=""
-for upper in smd_routes smd_results smd_upload smd_route_table smd_http shapematchd; do
-    includes smd_reply "$upper" && bad+=" smd_reply->$upper"
-done
-if [ -z "$bad" ]; then
-    ok "the reply layer includes nothing of the routes, the table or the dispatcher"
-else
-    not_ok "the reply layer is below the routes" "$bad"
-fi
-bad=""
-for h in smd_routes smd_results smd_upload; do
-    includes "$h" smd_reply || bad+=" $h-/->smd_reply"
-    includes "$h" smd_route_table && bad+=" $h->smd_route_table"
-    includes "$h" smd_http && bad+=" $h->smd_http"
-done
-if [ -z "$bad" ]; then
-    ok "the handlers include the reply layer, not the table or the dispatcher"
-else
-    not_ok "handlers sit between the reply layer and the table" "$bad"
-fi
-if includes smd_http smd_route_table && ! includes smd_http smd_routes && ! includes smd_http smd_results; then
-    ok "the dispatcher reaches the handlers through the route table only"
-else
-    not_ok "the dispatcher includes the route table (and no handler header)"
-fi
-# the state lives in one place: no module below the HTTP side includes it
-bad=""
-for low in smd_store smd_queue smd_util smd_log smd_metrics smd_config smd_auth; do
-    for upper in smd_http smd_reply smd_routes smd_results smd_upload smd_route_table smd_pool smd_stream; do
-        includes "$low" "$upper" && bad+=" $low->$upper"
+# "file folder kind target" per include of a file under $1:
+#   kind "own": a header of the tree (target: its folder, "." for the top)
+#   kind "bare": a quoted include of a header of the tree without a folder
+#   kind "sys": <microhttpd.h> or <libpq-fe.h> (target: the header)
+includes_of() {
+    local root=$1 f dir inc
+    (cd "$root" && find . -name '*.[ch]' | sed 's|^\./||' | sort) | while read -r f; do
+        dir=$(dirname "$f")
+        sed -nE 's/^[[:space:]]*#[[:space:]]*include[[:space:]]*([<"][^>"]+[>"]).*/\1/p' "$root/$f" |
+            while read -r inc; do
+                case $inc in
+                '<microhttpd.h>' | '<libpq-fe.h>') echo "$f $dir sys ${inc:1:-1}" ;;
+                \"*/*\")
+                    inc=${inc:1:-1}
+                    [ -f "$root/$inc" ] && echo "$f $dir own $(dirname "$inc")" ;;
+                \"*\")
+                    inc=${inc:1:-1}
+                    [ -n "$(cd "$root" && find . -name "$inc" -print -quit)" ] &&
+                        echo "$f $dir bare $inc" ;;
+                esac
+            done
     done
+}
+
+# Prints one line per broken rule ("rule: what"), nothing when all hold.
+check_tree() {
+    local edges
+    edges=$(includes_of "$1")
+    echo "$edges" | awk '
+        $3 == "bare" { print "path: " $1 " includes \"" $4 "\" without its folder" }
+        $3 == "own" && $2 == "jobs" && $4 ~ /^(http|api|store)(\/|$)/ {
+            print "engine: " $1 " includes " $4 "/" }
+        $3 == "own" && $2 == "http" && $4 != "http" && $4 != "base" {
+            print "http: " $1 " includes " $4 "/" }
+        $3 == "own" && $2 == "base" && $4 != "base" { print "base: " $1 " includes " $4 "/" }
+        $3 == "sys" && $4 == "microhttpd.h" && $2 != "http" {
+            print "mhd: " $1 " includes <microhttpd.h>" }
+        $3 == "sys" && $4 == "libpq-fe.h" && $2 != "store/pg" {
+            print "libpq: " $1 " includes <libpq-fe.h>" }'
+    local folders circle
+    folders=$(echo "$edges" | awk '$3 == "own" && $2 != $4 { print $2, $4 }' | sort -u)
+    circle=$([ -n "$folders" ] && echo "$folders" | tsort 2>&1 >/dev/null)
+    if [ -n "$circle" ]; then
+        echo "circle: $(echo "$circle" | grep -v 'input contains a loop' | sed 's/^tsort: //' | tr '\n' ' ')"
+    fi
+}
+
+# ---- the tree
+echo "# folder -> folders it includes (server/)"
+includes_of "$ROOT/server" | awk '$3 == "own" && $2 != $4 { print $2, $4 }' | sort -u |
+    awk '{ d[$1] = d[$1] " " $2 } END { for (f in d) print "# " f " ->" d[f] }' | sort
+broken=$(check_tree "$ROOT/server")
+for rule in path engine http base mhd libpq circle; do
+    what=$(echo "$broken" | grep "^$rule: " | sed "s/^$rule: //" | head -5 | tr '\n' ';')
+    case $rule in
+    path) name="includes of the daemon's headers name their folder" ;;
+    engine) name="jobs/ includes nothing of http/, api/ or store/" ;;
+    http) name="http/ includes only base/ (no handler, no backend)" ;;
+    base) name="base/ includes no other folder" ;;
+    mhd) name="only http/ includes <microhttpd.h>" ;;
+    libpq) name="only store/pg/ includes <libpq-fe.h>" ;;
+    circle) name="no include circle between folders" ;;
+    esac
+    if [ -z "$what" ]; then ok "$name"; else not_ok "$name" "$what"; fi
 done
-if [ -z "$bad" ]; then
-    ok "store, queue, metrics, config, auth, log and util include nothing above them"
+
+# ---- the rules can fail: a tree that breaks each once
+bad=$(mktemp -d /tmp/sm-layers-XXXXXX)
+trap 'rm -rf "$bad"' EXIT
+mkdir -p "$bad"/{base,http,api,jobs,store/spool,store/pg}
+touch "$bad"/base/b.h "$bad"/http/h.h "$bad"/api/a.h "$bad"/jobs/j.h "$bad"/store/spool/s.h
+printf '#include "a.h"\n#include "http/h.h"\n' >"$bad/base/b.c"          # path, base
+printf '#include "store/spool/s.h"\n#include <microhttpd.h>\n' >"$bad/jobs/j.c" # engine, mhd
+printf '#include "api/a.h"\n#include <libpq-fe.h>\n' >"$bad/http/h.c"    # http, libpq
+printf '#include "http/h.h"\n' >"$bad/api/a.c"                            # with http -> api: circle
+printf '#include <libpq-fe.h>\n' >"$bad/store/pg/p.c"                     # allowed
+broken=$(check_tree "$bad")
+missing=""
+for rule in path engine http base mhd libpq circle; do
+    echo "$broken" | grep -q "^$rule: " || missing+=" $rule"
+done
+extra=$(echo "$broken" | grep -c 'store/pg/p.c')
+if [ -z "$missing" ] && [ "$extra" = 0 ]; then
+    ok "every rule fails on a tree that breaks it (and allows store/pg's libpq)"
 else
-    not_ok "the lower modules stay below" "$bad"
+    not_ok "every rule fails on a tree that breaks it" "did not fire:$missing; false alarms: $extra"
+fi
+# the job engine holds no connection: jobs/ reaches nothing of http/ or
+# api/ (nor libmicrohttpd), not even through another header (cc -M
+# follows every include)
+bad=""
+for f in "$ROOT"/server/jobs/*.c "$ROOT"/server/jobs/*.h; do
+    if ! deps=$(cc -std=c11 -D_GNU_SOURCE -I "$ROOT/core/include" -I "$ROOT/proto" -I "$ROOT/server" \
+        -M -x c "$f" 2>&1); then
+        bad+=" ${f#"$ROOT"/}: cc -M failed: $deps"
+        continue
+    fi
+    deps=$(echo "$deps" | tr ' \\' '\n\n' | grep -E '/server/(http|api)/.*\.h$|/microhttpd\.h$')
+    [ -n "$deps" ] && bad+=" ${f#"$ROOT"/}: $(echo $deps)"
+done
+if [ -z "$bad" ] && ls "$ROOT"/server/jobs/*.c >/dev/null 2>&1; then
+    ok "the job engine (jobs/) includes nothing of http/ or api/, directly or not"
+else
+    not_ok "the job engine includes no HTTP or API header" "$bad"
 fi
 echo "1..$n"

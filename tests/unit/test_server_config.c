@@ -9,9 +9,9 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "smd_auth.h"
-#include "smd_config.h"
-#include "smd_log.h"
+#include "http/smd_auth.h"
+#include "base/smd_config.h"
+#include "base/smd_log.h"
 
 /* environment given as a NULL-terminated list of "NAME=value" */
 static const char *table_env(const char *name, void *user)

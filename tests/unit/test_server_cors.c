@@ -8,8 +8,8 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "smd_config.h"
-#include "smd_cors.h"
+#include "base/smd_config.h"
+#include "http/smd_cors.h"
 
 static void config(smd_config *c, const char *const *origins, const char *public_url)
 {

@@ -15,10 +15,10 @@
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_clamp.h"
 #include "sm_job_inputs.h"
-#include "smd_metrics.h"
-#include "smd_stream.h"
-#include "smd_upload.h"
-#include "smd_util.h"
+#include "base/smd_metrics.h"
+#include "api/smd_stream.h"
+#include "api/smd_upload.h"
+#include "base/smd_util.h"
 #include "util_mesh.h"
 
 typedef struct files {

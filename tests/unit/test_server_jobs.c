@@ -13,13 +13,13 @@
 #include <unistd.h>
 #include <cmocka.h>
 
-#include "smd_jobs.h"
-#include "smd_queue.h"
-#include "smd_store.h"
+#include "jobs/smd_jobs.h"
+#include "store/spool/smd_spool_backend.h"
 
 typedef struct fixture {
     char spool[256];
     smd_server srv;
+    smd_backend backend; /* the spool's */
     int nupload;
 } fixture;
 
@@ -38,6 +38,8 @@ static int setup(void **state)
         !(f->srv.queue = smd_queue_local_new()) ||
         smd_metrics_init(&f->srv.metrics, labels, 1) != 0)
         return -1;
+    smd_spool_backend_init(&f->backend, f->srv.store, f->srv.queue);
+    f->srv.backend = &f->backend;
     *state = f;
     return 0;
 }
@@ -171,6 +173,86 @@ static void test_run_to_success(void **state)
     struct stat st;
     assert_int_equal(stat(dir, &st), -1);
     assert_int_equal(after.ntrash, 0);
+}
+
+/* What smd_jobs_after_run hands to srv->jobs_changed (the event streams
+ * in the daemon): recorded here. */
+static char heard[8][SMD_ID_LEN + 1];
+static size_t nheard, ncalls;
+static int heard_keepalive;
+
+static void record_changes(smd_server *srv, const char (*ids)[SMD_ID_LEN + 1], size_t n,
+                           int keepalive)
+{
+    (void)srv;
+    ncalls++;
+    heard_keepalive = keepalive;
+    nheard = 0;
+    for (size_t i = 0; i < n && i < 8; i++)
+        snprintf(heard[nheard++], sizeof heard[0], "%s", ids[i]);
+}
+
+/* The engine names the jobs whose log or state changed, once each, and
+ * nothing for a new, a refused or an idempotent call; the tick asks for
+ * keepalives; nothing is called when nothing changed. */
+static void test_changes_reported(void **state)
+{
+    fixture *f = *state;
+    smd_server *srv = &f->srv;
+    srv->jobs_changed = record_changes;
+    ncalls = nheard = 0;
+    smd_jobs_after after = {0};
+    smd_job *a = submit(f, "aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa", "k", &after);
+    smd_job *b = submit(f, "bbbbbbbbbbbbbbbbbbbbbbbbbbbbbbbb", NULL, &after);
+    smd_jobs_after_run(&after); /* a new job has no follower yet */
+    assert_int_equal(ncalls, 0);
+
+    /* refused, or the same Idempotency-Key: no change, no call */
+    sm_event fin;
+    sm_event_init(&fin, SM_EVENT_FINISHED);
+    assert_int_equal(smd_jobs_finish(srv, a, &fin, NULL, &after), SM_ERR_INVALID);
+    int created;
+    smd_job *again;
+    sm_error err;
+    smd_submission sub = {.dir = "/nonexistent", .id = "cccccccccccccccccccccccccccccccc",
+                          .idempotency_key = "k", .dim = 2, .max_iter = 10};
+    assert_int_equal(smd_jobs_submit(srv, &sub, &again, &created, &after, &err), SM_OK);
+    assert_int_equal(created, 0);
+    smd_jobs_after_run(&after);
+    assert_int_equal(ncalls, 0);
+
+    /* a run: started, two progress events and the end, all of job a */
+    assert_ptr_equal(smd_jobs_take_next(srv), a);
+    assert_int_equal(smd_jobs_started(srv, a, 99, &after), SM_OK);
+    sm_event prog;
+    sm_event_init(&prog, SM_EVENT_PROGRESS);
+    prog.progress.iteration = 1;
+    assert_int_equal(smd_jobs_progress(srv, a, &prog, &after), SM_OK);
+    prog.progress.iteration = 2;
+    assert_int_equal(smd_jobs_progress(srv, a, &prog, &after), SM_OK);
+    assert_int_equal(smd_jobs_finish(srv, a, &fin, NULL, &after), SM_OK);
+    /* b dismissed: its followers too */
+    assert_int_equal(smd_jobs_cancel(srv, b, &after), SM_OK);
+    smd_jobs_after_tick(srv, &after);
+    smd_jobs_after_run(&after);
+    assert_int_equal(ncalls, 1);
+    assert_int_equal(nheard, 2);
+    assert_string_equal(heard[0], a->id);
+    assert_string_equal(heard[1], b->id);
+    assert_true(heard_keepalive);
+    assert_int_equal(after.nchanged, 0);
+    assert_false(after.keepalive);
+
+    /* deleted: named once more (its followers end) */
+    smd_jobs_worker_gone(srv, a, &after);
+    smd_jobs_after_run(&after);
+    char id[SMD_ID_LEN + 1];
+    snprintf(id, sizeof id, "%s", a->id);
+    assert_int_equal(smd_jobs_delete(srv, a, &after), SM_OK);
+    smd_jobs_after_free(&after);
+    assert_int_equal(nheard, 1);
+    assert_string_equal(heard[0], id);
+    srv->jobs_changed = NULL;
 }
 
 static void test_cancel_fail_requeue(void **state)
@@ -380,6 +462,7 @@ static void restart(fixture *f, size_t *queued)
     smd_store_close(f->srv.store);
     assert_int_equal(smd_store_open(f->spool, &f->srv.log, &f->srv.store, &err), SM_OK);
     assert_non_null(f->srv.queue = smd_queue_local_new());
+    smd_spool_backend_init(&f->backend, f->srv.store, f->srv.queue);
     assert_int_equal(smd_jobs_recover(&f->srv, queued, &err), SM_OK);
 }
 
@@ -461,6 +544,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_run_to_success, setup, teardown),
         cmocka_unit_test_setup_teardown(test_cancel_fail_requeue, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_changes_reported, setup, teardown),
         cmocka_unit_test_setup_teardown(test_end_held_until_recorded, setup, teardown),
         cmocka_unit_test_setup_teardown(test_recover_from_results, setup, teardown),
         cmocka_unit_test_setup_teardown(test_final_event_restored, setup, teardown),

@@ -9,7 +9,7 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "smd_ogc.h"
+#include "api/smd_ogc.h"
 
 /* Decodes text; the length (SIZE_MAX on refusal), the bytes into out. */
 static size_t decode(const char *text, unsigned char *out, size_t *pos)

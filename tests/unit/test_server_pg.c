@@ -19,7 +19,7 @@
 
 #include <libpq-fe.h>
 
-#include "smd_pg.h"
+#include "store/pg/smd_pg.h"
 
 static char pgdir[128];
 static char conninfo[512];

@@ -9,7 +9,7 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "smd_ratelimit.h"
+#include "http/smd_ratelimit.h"
 
 static void test_window(void **state)
 {

@@ -15,9 +15,8 @@
 #include <unistd.h>
 #include <cmocka.h>
 
-#include "smd_jobs.h"
-#include "smd_queue.h"
-#include "smd_store.h"
+#include "jobs/smd_jobs.h"
+#include "store/spool/smd_spool_backend.h"
 
 typedef struct fixture {
     char spool[256];
@@ -86,12 +85,15 @@ static sm_status open_recovered(fixture *f, smd_store **s, size_t *queued, sm_er
     if (st != SM_OK)
         return st;
     static smd_server srv; /* zeroed; only what recovery uses is set */
+    static smd_backend backend;
     static const char *const labels[] = {"other"};
     memset(&srv, 0, sizeof srv);
     srv.log = f->log;
     srv.store = *s;
     srv.queue = smd_queue_local_new();
     assert_non_null(srv.queue);
+    smd_spool_backend_init(&backend, srv.store, srv.queue);
+    srv.backend = &backend;
     assert_int_equal(smd_metrics_init(&srv.metrics, labels, 1), 0);
     st = smd_jobs_recover(&srv, queued, err);
     smd_queue_free(srv.queue);

@@ -16,13 +16,13 @@
 #include <cmocka.h>
 
 #include "sm_proto_text.h"
-#include "smd_metrics.h"
-#include "smd_negotiate.h"
-#include "smd_reply.h"
-#include "smd_route_table.h"
-#include "smd_upload.h"
-#include "smd_queue.h"
-#include "smd_util.h"
+#include "base/smd_metrics.h"
+#include "http/smd_negotiate.h"
+#include "http/smd_reply.h"
+#include "api/smd_route_table.h"
+#include "api/smd_upload.h"
+#include "store/spool/smd_fifo.h"
+#include "base/smd_util.h"
 
 static void test_random_ids(void **state)
 {

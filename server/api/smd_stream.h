@@ -1,0 +1,65 @@
+/* Event streams: GET /v1/jobs/{id}/events.
+ *
+ * A follower replays the job's log (events.ndjson, read by offset from
+ * the in-memory index) from the requested sequence number, then follows
+ * it live, and ends with a "status" event once the job is final.  Two
+ * encodings: Server-Sent Events ("id: <seq>", "event: <type>",
+ * "data: <json>") or NDJSON (the log lines as they are).
+ *
+ * Waiting costs neither a thread nor CPU: when a follower has nothing to
+ * send, its content reader suspends the connection
+ * (MHD_suspend_connection); the job engine names the jobs whose log or
+ * state changed (and ticks for keepalives), and this module collects
+ * their suspended followers under the lock and resumes them after
+ * releasing it (smd_stream_jobs_changed).  A resumed follower with nothing
+ * new sends a keepalive (": keepalive" in SSE, an empty line in NDJSON),
+ * which is also how a client that went away is noticed. */
+#ifndef SMD_STREAM_H
+#define SMD_STREAM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "base/smd_server.h"
+#include "jobs/smd_job.h"
+
+struct MHD_Connection;
+struct MHD_Response;
+
+/* Creates the response of an event stream for job, starting after
+ * sequence number after_seq (0: from the start; beyond the log: nothing
+ * is replayed, the stream follows the job until it ends).  Lock held.  bytes_out
+ * (may be NULL) is incremented by what is sent.  NULL when out of memory
+ * or when the log cannot be opened (msg says why). */
+struct MHD_Response *smd_stream_response(smd_server *srv, smd_job *job,
+                                         struct MHD_Connection *conn, int sse,
+                                         int64_t after_seq, uint64_t *bytes_out,
+                                         char *msg, size_t cap);
+
+/* srv->jobs_changed (smd_server.h), lock NOT held: takes the lock,
+ * collects the suspended followers of the jobs named (new events, or the
+ * job ended) and, when keepalive, those idle for at least --keepalive
+ * seconds (marked for a keepalive), then resumes them unlocked. */
+void smd_stream_jobs_changed(smd_server *srv, const char (*ids)[SMD_ID_LEN + 1], size_t n,
+                             int keepalive);
+/* Lock NOT held: resumes every suspended follower (shutdown, once
+ * srv->stopping is set: each ends). */
+void smd_stream_end_all(smd_server *srv);
+/* Lock held: the number of open event streams (for /metrics). */
+size_t smd_stream_count(const smd_server *srv);
+/* After the HTTP daemon stopped (no stream left): frees the streams'
+ * table. */
+void smd_stream_free_all(smd_server *srv);
+
+/* Formats one log line (without its newline) as an SSE event:
+ * "id: <seq>\nevent: <type>\ndata: <line>\n\n".  seq < 1 omits the id
+ * line.  Appends to *buf (growing it).  -1 when out of memory.  Exposed
+ * for tests. */
+int smd_sse_format(char **buf, size_t *len, size_t *cap, int64_t seq,
+                   const char *type, const char *line, size_t line_len);
+
+/* Type of an NDJSON event line ("progress", ...) into type (cap bytes);
+ * "message" when it has none.  Exposed for tests. */
+void smd_event_line_type(const char *line, size_t len, char *type, size_t cap);
+
+#endif

@@ -1,0 +1,280 @@
+/* Connection registry and deadline sweep (see smd_conns.h). */
+#include "http/smd_conns.h"
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <netinet/in.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <time.h>
+
+#include "shapematch/sm_clock.h"
+
+typedef enum phase { PHASE_HEADERS, PHASE_REQUEST } phase;
+
+typedef struct conn_ctx {
+    struct conn_ctx *prev, *next;
+    int fd;
+    phase phase;
+    double since;         /* the phase began (monotonic) */
+    int receiving;        /* a body is being read */
+    uint64_t body_bytes;
+    int closing;          /* shut down by us: wait for the close */
+    struct smd_conns *owner;
+} conn_ctx;
+
+struct smd_conns {
+    smd_conns_limits limits;
+    pthread_mutex_t mutex;
+    pthread_cond_t wake;
+    conn_ctx *head;
+    size_t open;
+    smd_conns_counts counts;
+    int stop;
+    pthread_t sweeper;
+};
+
+/* Mutex held.  Shuts the socket down; its close comes from libmicrohttpd. */
+static void cut(conn_ctx *x)
+{
+    x->closing = 1;
+    shutdown(x->fd, SHUT_RDWR);
+}
+
+/* The oldest connection still in its headers for more than the busy
+ * delay, or NULL.  Mutex held. */
+static conn_ctx *oldest_slow_headers(smd_conns *c, double now)
+{
+    conn_ctx *best = NULL;
+    for (conn_ctx *x = c->head; x; x = x->next)
+        if (!x->closing && x->phase == PHASE_HEADERS && now - x->since > SMD_CONNS_BUSY_HEADERS &&
+            (!best || x->since < best->since))
+            best = x;
+    return best;
+}
+
+/* Frees the reserve by closing slow header senders.  Mutex held. */
+static void keep_reserve(smd_conns *c, double now)
+{
+    size_t busy = c->limits.max_connections - c->limits.reserved, closing = 0;
+    for (conn_ctx *x = c->head; x; x = x->next)
+        closing += x->closing;
+    while (c->open - closing > busy) {
+        conn_ctx *x = oldest_slow_headers(c, now);
+        if (!x)
+            return;
+        cut(x);
+        closing++;
+        c->counts.evicted++;
+    }
+}
+
+/* A connection over one of its deadlines (header time, body rate). */
+static int overdue(const smd_conns *c, const conn_ctx *x, double now)
+{
+    double age = now - x->since;
+    if (x->phase == PHASE_HEADERS)
+        return age > c->limits.header_timeout;
+    return x->receiving && c->limits.min_upload_rate && age > c->limits.header_timeout &&
+           (double)x->body_bytes < (double)c->limits.min_upload_rate * age;
+}
+
+static void sweep(smd_conns *c, double now)
+{
+    for (conn_ctx *x = c->head; x; x = x->next) {
+        if (x->closing || !overdue(c, x, now))
+            continue;
+        if (x->phase == PHASE_HEADERS)
+            c->counts.header_deadline++;
+        else
+            c->counts.slow_body++;
+        cut(x);
+    }
+    keep_reserve(c, now);
+}
+
+static void *sweeper_main(void *arg)
+{
+    smd_conns *c = arg;
+    pthread_mutex_lock(&c->mutex);
+    while (!c->stop) {
+        struct timespec ts;
+        clock_gettime(CLOCK_REALTIME, &ts);
+        long ns = ts.tv_nsec + (long)(SMD_CONNS_SWEEP * 1e9);
+        ts.tv_sec += ns / 1000000000L;
+        ts.tv_nsec = ns % 1000000000L;
+        pthread_cond_timedwait(&c->wake, &c->mutex, &ts);
+        if (!c->stop)
+            sweep(c, sm_clock_seconds());
+    }
+    pthread_mutex_unlock(&c->mutex);
+    return NULL;
+}
+
+smd_conns *smd_conns_new(const smd_conns_limits *limits, sm_error *err)
+{
+    smd_conns *c = calloc(1, sizeof *c);
+    if (!c) {
+        sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+        return NULL;
+    }
+    c->limits = *limits;
+    if (c->limits.reserved >= c->limits.max_connections)
+        c->limits.reserved = c->limits.max_connections ? c->limits.max_connections - 1 : 0;
+    pthread_mutex_init(&c->mutex, NULL);
+    pthread_cond_init(&c->wake, NULL);
+    int rc = pthread_create(&c->sweeper, NULL, sweeper_main, c);
+    if (rc != 0) {
+        sm_error_set(err, SM_ERR_IO, "cannot start the connection sweep: %s", strerror(rc));
+        pthread_cond_destroy(&c->wake);
+        pthread_mutex_destroy(&c->mutex);
+        free(c);
+        return NULL;
+    }
+    return c;
+}
+
+void smd_conns_free(smd_conns *c)
+{
+    if (!c)
+        return;
+    pthread_mutex_lock(&c->mutex);
+    c->stop = 1;
+    pthread_cond_signal(&c->wake);
+    pthread_mutex_unlock(&c->mutex);
+    pthread_join(c->sweeper, NULL);
+    while (c->head) { /* connections the daemon did not report closed */
+        conn_ctx *x = c->head;
+        c->head = x->next;
+        free(x);
+    }
+    pthread_cond_destroy(&c->wake);
+    pthread_mutex_destroy(&c->mutex);
+    free(c);
+}
+
+static void opened(smd_conns *c, struct MHD_Connection *conn, void **socket_context)
+{
+    const union MHD_ConnectionInfo *ci = MHD_get_connection_info(conn, MHD_CONNECTION_INFO_CONNECTION_FD);
+    conn_ctx *x = calloc(1, sizeof *x);
+    if (!x || !ci) {
+        free(x); /* untracked: libmicrohttpd's own limits still apply */
+        return;
+    }
+    x->fd = ci->connect_fd;
+    x->owner = c;
+    x->phase = PHASE_HEADERS;
+    x->since = sm_clock_seconds();
+    pthread_mutex_lock(&c->mutex);
+    x->next = c->head;
+    if (c->head)
+        c->head->prev = x;
+    c->head = x;
+    c->open++;
+    keep_reserve(c, x->since);
+    pthread_mutex_unlock(&c->mutex);
+    *socket_context = x;
+}
+
+void smd_conns_notify(void *cls, struct MHD_Connection *conn, void **socket_context,
+                      enum MHD_ConnectionNotificationCode code)
+{
+    smd_conns *c = cls;
+    if (code == MHD_CONNECTION_NOTIFY_STARTED) {
+        opened(c, conn, socket_context);
+        return;
+    }
+    conn_ctx *x = *socket_context;
+    if (!x)
+        return;
+    pthread_mutex_lock(&c->mutex);
+    if (x->prev)
+        x->prev->next = x->next;
+    else
+        c->head = x->next;
+    if (x->next)
+        x->next->prev = x->prev;
+    c->open--;
+    pthread_mutex_unlock(&c->mutex);
+    free(x);
+    *socket_context = NULL;
+}
+
+/* The record of conn (NULL if untracked). */
+static conn_ctx *ctx_of(struct MHD_Connection *conn)
+{
+    const union MHD_ConnectionInfo *ci = MHD_get_connection_info(conn, MHD_CONNECTION_INFO_SOCKET_CONTEXT);
+    return ci ? ci->socket_context : NULL;
+}
+
+void smd_conns_request(struct MHD_Connection *conn, int receiving)
+{
+    conn_ctx *x = ctx_of(conn);
+    if (!x)
+        return;
+    pthread_mutex_lock(&x->owner->mutex);
+    x->phase = PHASE_REQUEST;
+    x->since = sm_clock_seconds();
+    x->receiving = receiving;
+    x->body_bytes = 0;
+    pthread_mutex_unlock(&x->owner->mutex);
+}
+
+void smd_conns_body(struct MHD_Connection *conn, uint64_t bytes)
+{
+    conn_ctx *x = ctx_of(conn);
+    if (!x)
+        return;
+    pthread_mutex_lock(&x->owner->mutex);
+    x->body_bytes = bytes;
+    pthread_mutex_unlock(&x->owner->mutex);
+}
+
+void smd_conns_body_done(struct MHD_Connection *conn)
+{
+    conn_ctx *x = ctx_of(conn);
+    if (!x)
+        return;
+    pthread_mutex_lock(&x->owner->mutex);
+    x->receiving = 0;
+    pthread_mutex_unlock(&x->owner->mutex);
+}
+
+void smd_conns_idle(struct MHD_Connection *conn)
+{
+    conn_ctx *x = ctx_of(conn);
+    if (!x)
+        return;
+    pthread_mutex_lock(&x->owner->mutex);
+    x->phase = PHASE_HEADERS;
+    x->since = sm_clock_seconds();
+    x->receiving = 0;
+    pthread_mutex_unlock(&x->owner->mutex);
+}
+
+void smd_conns_get_counts(smd_conns *c, smd_conns_counts *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!c)
+        return;
+    pthread_mutex_lock(&c->mutex);
+    *out = c->counts;
+    out->open = c->open;
+    pthread_mutex_unlock(&c->mutex);
+}
+
+void smd_conn_address(struct MHD_Connection *conn, char *buf, size_t cap)
+{
+    snprintf(buf, cap, "?");
+    const union MHD_ConnectionInfo *ci = MHD_get_connection_info(conn, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
+    if (!ci || !ci->client_addr || cap < INET6_ADDRSTRLEN)
+        return;
+    const struct sockaddr *sa = ci->client_addr;
+    if (sa->sa_family == AF_INET)
+        inet_ntop(AF_INET, &((const struct sockaddr_in *)sa)->sin_addr, buf, (socklen_t)cap);
+    else if (sa->sa_family == AF_INET6)
+        inet_ntop(AF_INET6, &((const struct sockaddr_in6 *)sa)->sin6_addr, buf, (socklen_t)cap);
+}

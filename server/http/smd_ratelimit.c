@@ -1,0 +1,133 @@
+/* Fixed-window submission counters and tracked unfinished jobs per key
+ * (see smd_ratelimit.h). */
+#include "http/smd_ratelimit.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct entry {
+    char key[SMD_RATELIMIT_KEY_MAX + 1]; /* "" = free */
+    double window_start;
+    unsigned count;
+    char (*ids)[SMD_ID_LEN + 1];          /* tracked jobs (no tokens) */
+    size_t nids, cap;
+} entry;
+
+struct smd_ratelimit {
+    pthread_mutex_t mutex;
+    unsigned rate;
+    double window;
+    entry *entries; /* SMD_RATELIMIT_KEYS */
+};
+
+smd_ratelimit *smd_ratelimit_new(unsigned rate, double window)
+{
+    smd_ratelimit *rl = calloc(1, sizeof *rl);
+    if (!rl)
+        return NULL;
+    rl->entries = calloc(SMD_RATELIMIT_KEYS, sizeof *rl->entries);
+    if (!rl->entries) {
+        free(rl);
+        return NULL;
+    }
+    pthread_mutex_init(&rl->mutex, NULL);
+    rl->rate = rate;
+    rl->window = window > 0 ? window : 60;
+    return rl;
+}
+
+void smd_ratelimit_free(smd_ratelimit *rl)
+{
+    if (!rl)
+        return;
+    for (size_t i = 0; i < SMD_RATELIMIT_KEYS; i++)
+        free(rl->entries[i].ids);
+    free(rl->entries);
+    pthread_mutex_destroy(&rl->mutex);
+    free(rl);
+}
+
+/* The entry of key, or a free or reusable one made its own; NULL when the
+ * table is full of live keys.  Mutex held. */
+static entry *find(smd_ratelimit *rl, const char *key, double now, int create)
+{
+    entry *spare = NULL;
+    for (size_t i = 0; i < SMD_RATELIMIT_KEYS; i++) {
+        entry *e = &rl->entries[i];
+        if (e->key[0] && strcmp(e->key, key) == 0)
+            return e;
+        if (!spare && (!e->key[0] || (now - e->window_start >= rl->window && e->nids == 0)))
+            spare = e;
+    }
+    if (!create || !spare)
+        return NULL;
+    snprintf(spare->key, sizeof spare->key, "%s", key);
+    spare->window_start = now;
+    spare->count = 0;
+    spare->nids = 0;
+    return spare;
+}
+
+unsigned smd_ratelimit_take(smd_ratelimit *rl, const char *key, double now)
+{
+    if (!rl || rl->rate == 0)
+        return 0;
+    unsigned wait = 0;
+    pthread_mutex_lock(&rl->mutex);
+    entry *e = find(rl, key, now, 1);
+    if (!e) {
+        wait = (unsigned)ceil(rl->window);
+    } else {
+        if (now - e->window_start >= rl->window) {
+            e->window_start = now;
+            e->count = 0;
+        }
+        if (e->count >= rl->rate) {
+            double left = e->window_start + rl->window - now;
+            wait = left < 1 ? 1 : (unsigned)ceil(left);
+        } else {
+            e->count++;
+        }
+    }
+    pthread_mutex_unlock(&rl->mutex);
+    return wait;
+}
+
+void smd_ratelimit_track(smd_ratelimit *rl, const char *key, const char *id)
+{
+    if (!rl)
+        return;
+    pthread_mutex_lock(&rl->mutex);
+    entry *e = find(rl, key, -1e300, 1); /* an old stamp: the rate window is not restarted */
+    if (e && e->nids == e->cap) {
+        size_t cap = e->cap ? 2 * e->cap : 8;
+        void *p = realloc(e->ids, cap * sizeof *e->ids);
+        if (p) {
+            e->ids = p;
+            e->cap = cap;
+        }
+    }
+    if (e && e->nids < e->cap)
+        snprintf(e->ids[e->nids++], sizeof e->ids[0], "%s", id);
+    pthread_mutex_unlock(&rl->mutex);
+}
+
+size_t smd_ratelimit_live(smd_ratelimit *rl, const char *key, smd_ratelimit_live_fn live,
+                          void *user)
+{
+    if (!rl)
+        return 0;
+    size_t n = 0;
+    pthread_mutex_lock(&rl->mutex);
+    entry *e = find(rl, key, 0, 0);
+    for (size_t i = 0; e && i < e->nids; i++)
+        if (live(e->ids[i], user))
+            memmove(e->ids[n++], e->ids[i], sizeof e->ids[0]);
+    if (e)
+        e->nids = n;
+    pthread_mutex_unlock(&rl->mutex);
+    return n;
+}

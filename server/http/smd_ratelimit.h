@@ -1,0 +1,49 @@
+/* Submission limits of shapematchd (issue 8): per tenant, or per client
+ * address when the daemon runs without tokens.
+ *
+ * Two limits, both answered 429 problem+json with Retry-After:
+ * - --submit-rate N per --submit-window: a fixed window per key, counted
+ *   when a POST /v1/jobs arrives (before its body is read, so a refused
+ *   client uploads nothing); Retry-After is the rest of the window;
+ * - --max-queued N: unfinished jobs (accepted, queued, running) of the
+ *   key.  With tokens they are counted from the job table by owner (it
+ *   survives restarts); without, the limiter remembers the ids each
+ *   address submitted and asks the caller which are still unfinished.
+ *
+ * The table holds at most SMD_RATELIMIT_KEYS keys; when it is full, keys
+ * whose window has passed and with no unfinished job are reused, and a
+ * new key that finds no room is refused as if over its rate.  One mutex of
+ * its own, taken after the server lock when both are held (never the
+ * other way round).  Cost: O(keys) per submission. */
+#ifndef SMD_RATELIMIT_H
+#define SMD_RATELIMIT_H
+
+#include <stddef.h>
+
+#include "base/smd_util.h"
+
+#define SMD_RATELIMIT_KEYS 4096
+#define SMD_RATELIMIT_KEY_MAX 80
+
+typedef struct smd_ratelimit smd_ratelimit;
+
+/* rate 0 = no rate limit; window in seconds (> 0).  NULL when out of
+ * memory. */
+smd_ratelimit *smd_ratelimit_new(unsigned rate, double window);
+void smd_ratelimit_free(smd_ratelimit *rl);
+
+/* Counts one submission of key at monotonic time now.  0 when it is
+ * allowed, else the seconds until the key's window ends (>= 1). */
+unsigned smd_ratelimit_take(smd_ratelimit *rl, const char *key, double now);
+
+/* Is job id still unfinished?  Called with the caller's lock held. */
+typedef int (*smd_ratelimit_live_fn)(const char *id, void *user);
+
+/* Remembers that key submitted job id (daemons without tokens). */
+void smd_ratelimit_track(smd_ratelimit *rl, const char *key, const char *id);
+/* The tracked jobs of key that live() still calls unfinished; the others
+ * are forgotten. */
+size_t smd_ratelimit_live(smd_ratelimit *rl, const char *key, smd_ratelimit_live_fn live,
+                          void *user);
+
+#endif

@@ -1,0 +1,310 @@
+/* The work thread of a node (see smd_pg_node.h): claims jobs for free
+ * pool slots, forwards the events of the jobs it runs under their
+ * leases, renews the leases, publishes results with the final state. */
+#include <errno.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "shapematch/sm_clock.h"
+#include "store/spool/smd_store.h"
+#include "store/spool/smd_fifo.h"
+#include "jobs/smd_jobs.h"
+#include "store/pg/smd_pg_node.h"
+#include "store/pg/smd_pg_node_int.h"
+#include "jobs/smd_pool.h"
+
+void node_cancel_here(smd_pg_node *n, const char *id);
+
+/* The lease was lost: the run stops here, nothing more is published. */
+static void lease_lost(smd_pg_node *n, const char *id)
+{
+    pthread_mutex_lock(&n->lock);
+    node_lease *l = node_find_lease(n, id);
+    int was = l && !l->lost;
+    if (l)
+        l->lost = 1;
+    pthread_mutex_unlock(&n->lock);
+    if (!was)
+        return;
+    smd_logf(&n->srv->log, SMD_LOG_WARN, "lease_lost",
+             "job %s: this node's lease was lost (expired, or the job was deleted): its run is "
+             "stopped and its results are not published", id);
+    node_cancel_here(n, id);
+}
+
+/* The local copy of a job whose lease was lost: taken again from the
+ * database by the sync scan (an API node) or forgotten (a worker). */
+static void drop_local(smd_pg_node *n, const char *id)
+{
+    smd_server *srv = n->srv;
+    smd_jobs_after after = {0};
+    pthread_mutex_lock(&srv->lock);
+    smd_job *job = smd_store_get(srv->store, id);
+    if (job)
+        smd_jobs_mirror_drop(srv, job, &after);
+    pthread_mutex_unlock(&srv->lock);
+    smd_jobs_after_free(&after);
+}
+
+static sm_status publish_final(smd_pg_node *n, const node_item *it, const smd_pg_lease *l,
+                               sm_error *err)
+{
+    char results[PATH_MAX];
+    const char *dir = NULL;
+    if (it->state == SM_JOB_SUCCESSFUL &&
+        smd_pathf(results, sizeof results, "%s/jobs/%s/results", smd_store_root(n->srv->store),
+                  it->id) == 0)
+        dir = results;
+    int held = 0;
+    sm_status st = smd_pg_publish(n->work_db, l, it->state, it->message, it->json, dir, &held, err);
+    if (st == SM_OK && !held)
+        smd_logf(&n->srv->log, SMD_LOG_WARN, "lease_lost",
+                 "job %s: lease lost before the end: its %s is not published", it->id,
+                 sm_job_state_name(it->state));
+    return st;
+}
+
+/* One outbox item.  SM_ERR_IO with the connection down: kept for a retry. */
+static sm_status publish(smd_pg_node *n, const node_item *it, sm_error *err)
+{
+    pthread_mutex_lock(&n->lock);
+    node_lease *found = node_find_lease(n, it->id);
+    node_lease copy = found ? *found : (node_lease){0};
+    pthread_mutex_unlock(&n->lock);
+    if (!found)
+        return SM_OK;
+    sm_status st = SM_OK;
+    if (copy.lost) {
+        if (!it->final && !it->release)
+            return SM_OK;
+    } else if (it->release) {
+        st = smd_pg_release(n->work_db, &copy.lease, it->message, err);
+    } else if (it->final) {
+        st = publish_final(n, it, &copy.lease, err);
+    } else {
+        int64_t seq = 0;
+        st = smd_pg_append_event(n->work_db, it->id, &copy.lease, it->json, &seq, err);
+        if (st == SM_OK && seq == 0)
+            lease_lost(n, it->id);
+        else if (st == SM_OK && seq != it->seq)
+            smd_logf(&n->srv->log, SMD_LOG_WARN, "database_error",
+                     "job %s: event %lld stored as %lld", it->id, (long long)it->seq, (long long)seq);
+        return st;
+    }
+    if (st != SM_OK && !smd_pg_connected(n->work_db))
+        return st;
+    node_drop_lease(n, it->id);
+    if (copy.lost)
+        drop_local(n, it->id);
+    return SM_OK;
+}
+
+/* Puts items back in front of the outbox (the connection failed). */
+static void put_back(smd_pg_node *n, node_item *items)
+{
+    pthread_mutex_lock(&n->lock);
+    node_item **tail = &items;
+    while (*tail)
+        tail = &(*tail)->next;
+    *tail = n->out_head;
+    if (!*tail)
+        n->out_tail = tail;
+    n->out_head = items;
+    pthread_mutex_unlock(&n->lock);
+}
+
+static void free_item(node_item *it)
+{
+    free(it->json);
+    free(it);
+}
+
+/* Publishes the outbox in order, progress events in transactions of up
+ * to 256 (one commit, not one per event); stops at a lost connection (the rest is put back). */
+static void drain(smd_pg_node *n, node_item *items)
+{
+    sm_error err;
+    while (items) {
+        int batch = !items->final && !items->release;
+        sm_error_clear(&err);
+        if (batch && smd_pg_begin(n->work_db, &err) != SM_OK)
+            break;
+        node_item *done = items, **cut = &items;
+        int k = 0;
+        sm_status st = SM_OK;
+        do {
+            st = publish(n, *cut, &err);
+            cut = &(*cut)->next;
+            k++;
+        } while (st == SM_OK && batch && *cut && !(*cut)->final && !(*cut)->release && k < 256);
+        if (batch && st == SM_OK)
+            st = smd_pg_commit(n->work_db, &err);
+        if (batch && st != SM_OK)
+            smd_pg_rollback(n->work_db);
+        if (st != SM_OK && !smd_pg_connected(n->work_db)) {
+            put_back(n, items);
+            node_set_down(n, err.msg);
+            return;
+        }
+        if (st != SM_OK)
+            smd_logf(&n->srv->log, SMD_LOG_WARN, "database_error", "%s", err.msg);
+        items = *cut;
+        *cut = NULL;
+        while (done) {
+            node_item *next = done->next;
+            free_item(done);
+            done = next;
+        }
+    }
+    if (items) {
+        put_back(n, items);
+        node_set_down(n, err.msg);
+    }
+}
+
+static void renew_all(smd_pg_node *n)
+{
+    double now = sm_clock_seconds(), every = n->srv->cfg.lease / 3;
+    for (;;) {
+        smd_pg_lease due = {0};
+        pthread_mutex_lock(&n->lock);
+        for (node_lease *l = n->leases; l && !due.id[0]; l = l->next)
+            if (!l->lost && now - l->renewed >= every) {
+                due = l->lease;
+                l->renewed = now;
+            }
+        pthread_mutex_unlock(&n->lock);
+        if (!due.id[0])
+            return;
+        int held = 1;
+        sm_error err;
+        if (smd_pg_renew(n->lease_db, &due, n->srv->cfg.lease, &held, &err) != SM_OK)
+            return; /* the connection: retried at the next round */
+        if (held == 0)
+            lease_lost(n, due.id);
+        else if (held == 2)
+            node_cancel_here(n, due.id);
+    }
+}
+
+static size_t free_slots(smd_pg_node *n)
+{
+    smd_server *srv = n->srv;
+    pthread_mutex_lock(&srv->lock);
+    size_t slots = smd_pool_slots(srv->pool), used = smd_pool_busy(srv->pool) +
+                                                     smd_queue_depth(srv->queue);
+    pthread_mutex_unlock(&srv->lock);
+    return atomic_load(&srv->draining) || atomic_load(&srv->unwritable) || used >= slots
+               ? 0 : slots - used;
+}
+
+static void claim_one(smd_pg_node *n, const smd_pg_lease *got)
+{
+    node_lease *l = calloc(1, sizeof *l);
+    sm_error err;
+    if (l) {
+        l->lease = *got;
+        l->known = INT64_MAX; /* nothing forwarded while the copy is made */
+        l->renewed = sm_clock_seconds();
+        pthread_mutex_lock(&n->lock);
+        l->next = n->leases;
+        n->leases = l;
+        n->nleases++;
+        pthread_mutex_unlock(&n->lock);
+    }
+    if (l && node_import(n, n->work_db, got->id, l, &err) == SM_OK) {
+        smd_log(&n->srv->log, SMD_LOG_INFO, "job_claimed",
+                json_pack("{s:s,s:i,s:s}", "job", got->id, "attempt", got->attempt, "node", n->name));
+        return;
+    }
+    char msg[SM_EVENT_MESSAGE_MAX];
+    snprintf(msg, sizeof msg, "node %.100s could not take it: %.300s", n->name,
+             l ? err.msg : "out of memory");
+    smd_logf(&n->srv->log, SMD_LOG_ERROR, "claim_failed", "job %s: %s", got->id, msg);
+    smd_pg_release(n->work_db, got, msg, &err);
+    node_drop_lease(n, got->id);
+}
+
+static void claim(smd_pg_node *n)
+{
+    for (size_t k = free_slots(n); k > 0 && !atomic_load(&n->stop); k--) {
+        smd_pg_lease got;
+        int ok = 0;
+        sm_error err;
+        if (smd_pg_claim(n->work_db, n->name, n->srv->cfg.lease, &got, &ok, &err) != SM_OK || !ok)
+            return;
+        claim_one(n, &got);
+    }
+}
+
+/* Waits up to 0.2 s for the outbox; takes it whole. */
+static node_item *wait_items(smd_pg_node *n)
+{
+    pthread_mutex_lock(&n->lock);
+    if (!n->out_head && !atomic_load(&n->stop)) {
+        struct timespec until;
+        clock_gettime(CLOCK_REALTIME, &until);
+        until.tv_nsec += 200 * 1000 * 1000;
+        if (until.tv_nsec >= 1000000000L) {
+            until.tv_sec++;
+            until.tv_nsec -= 1000000000L;
+        }
+        pthread_cond_timedwait(&n->cond, &n->lock, &until);
+    }
+    node_item *items = n->out_head;
+    n->out_head = NULL;
+    n->out_tail = &n->out_head;
+    pthread_mutex_unlock(&n->lock);
+    return items;
+}
+
+void *node_work_main(void *arg)
+{
+    smd_pg_node *n = arg;
+    double stop_at = 0, backoff = 0.1;
+    for (;;) {
+        int stopping = atomic_load(&n->stop);
+        if (stopping && !stop_at)
+            stop_at = sm_clock_seconds() + 5; /* what is left after that waits for expiry */
+        pthread_mutex_lock(&n->lock);
+        int empty = !n->out_head;
+        pthread_mutex_unlock(&n->lock);
+        if (stopping && (empty || sm_clock_seconds() > stop_at))
+            return NULL;
+        sm_error err;
+        if (node_connected(n, n->work_db, &err) != SM_OK) {
+            struct timespec ts = {0, (long)(backoff * 1e9)};
+            nanosleep(&ts, NULL);
+            backoff = backoff * 2 > 0.8 ? 0.8 : backoff * 2;
+            continue;
+        }
+        backoff = 0.1;
+        drain(n, wait_items(n));
+        if (!stopping && n->srv->cfg.role != SMD_ROLE_API)
+            claim(n);
+    }
+}
+
+/* Renews every lease a third of --lease after the last renewal, on its
+ * own connection: a long outbox or a busy daemon lock does not make this
+ * node lose the jobs it runs. */
+void *node_lease_main(void *arg)
+{
+    smd_pg_node *n = arg;
+    double backoff = 0.1;
+    while (!atomic_load(&n->stop)) {
+        sm_error err;
+        if (node_connected(n, n->lease_db, &err) != SM_OK) {
+            backoff = backoff * 2 > 1 ? 1 : backoff * 2;
+        } else {
+            backoff = 0.1;
+            renew_all(n);
+        }
+        struct timespec ts = {0, (long)(backoff * 1e9)};
+        nanosleep(&ts, NULL);
+    }
+    return NULL;
+}

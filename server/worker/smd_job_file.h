@@ -1,0 +1,43 @@
+/* JOB_DIR/job.json, the job description the upload's check writes and
+ * the worker reads (the format: smd_worker.h).  One owner for both
+ * sides, so the writer and the reader cannot drift:
+ *   {"template": "inputs/template.mesh", "target_mesh": ..., "target_sol"
+ *    | "target_surface": ..., "params": {<sm_job_params_to_jansson>}}
+ * Paths are relative to JOB_DIR and stay inside it. */
+#ifndef SMD_JOB_FILE_H
+#define SMD_JOB_FILE_H
+
+#include <limits.h>
+#include <stddef.h>
+
+#include <jansson.h>
+
+#include "shapematch/sm_error.h"
+#include "sm_proto_vocab.h"
+
+typedef struct smd_job_file {
+    /* each file part's path relative to the job folder, "" when absent */
+    char part[SM_PART_PARAMS][PATH_MAX];
+    json_t *params; /* the canonical params object (owned) */
+} smd_job_file;
+
+/* The description as text (members in part order, then params), with
+ * proto's sm_json_dumps: indent 0 compact (the database's copy), 2 the
+ * file's layout.  NULL out of memory. */
+char *smd_job_file_encode(const smd_job_file *f, int indent);
+
+/* Writes DIR/job.json atomically (fsync'ed).  0, or -1 with errno set. */
+int smd_job_file_write(const char *dir, const smd_job_file *f);
+
+/* Reads DIR/job.json: every path relative and inside the folder (no
+ * leading '/', no ".."), a template, params an object.  SM_ERR_IO when
+ * unreadable, SM_ERR_FORMAT when it is not a job description (err says
+ * which); f is then empty.  smd_job_file_free releases it either way. */
+sm_status smd_job_file_read(const char *dir, smd_job_file *f, sm_error *err);
+
+/* The same from the text of a description (len bytes, no NUL needed). */
+sm_status smd_job_file_parse(const char *text, size_t len, smd_job_file *f, sm_error *err);
+
+void smd_job_file_free(smd_job_file *f);
+
+#endif

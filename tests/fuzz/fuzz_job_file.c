@@ -1,0 +1,49 @@
+/* job.json's reader (server/smd_job_file.c): any bytes are refused or
+ * give a description whose paths stay inside the job folder and whose
+ * params are an object; an accepted one encodes and reads back the same,
+ * compact and indented. */
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "worker/smd_job_file.h"
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+static void same_again(const smd_job_file *f, int indent)
+{
+    char *text = smd_job_file_encode(f, indent);
+    if (!text)
+        abort();
+    smd_job_file g;
+    sm_error err;
+    if (smd_job_file_parse(text, strlen(text), &g, &err) != SM_OK)
+        abort();
+    for (int i = 0; i < SM_PART_PARAMS; i++)
+        if (strcmp(f->part[i], g.part[i]) != 0)
+            abort();
+    if (!json_equal(f->params, g.params))
+        abort();
+    smd_job_file_free(&g);
+    free(text);
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    static smd_job_file f; /* 16 KiB of paths: kept off the fuzzer's stack */
+    sm_error err;
+    if (smd_job_file_parse((const char *)data, size, &f, &err) != SM_OK) {
+        if (f.params || f.part[SM_PART_TEMPLATE][0])
+            abort();
+        return 0;
+    }
+    if (!json_is_object(f.params) || !f.part[SM_PART_TEMPLATE][0])
+        abort();
+    for (int i = 0; i < SM_PART_PARAMS; i++)
+        if (f.part[i][0] == '/' || strstr(f.part[i], ".."))
+            abort();
+    same_again(&f, 0);
+    same_again(&f, 2);
+    smd_job_file_free(&f);
+    return 0;
+}

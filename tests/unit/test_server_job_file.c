@@ -1,0 +1,111 @@
+/* job.json (smd_job_file.h): what the upload writes the worker reads back
+ * as written; paths that would leave the job folder, a missing template
+ * and params that are not an object are refused; reals keep their
+ * shortest form (0.1, not 0.10000000000000001). */
+#include <errno.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include <cmocka.h>
+
+#include "worker/smd_job_file.h"
+#include "base/smd_util.h"
+
+static smd_job_file *example(void)
+{
+    smd_job_file *f = calloc(1, sizeof *f);
+    snprintf(f->part[SM_PART_TEMPLATE], PATH_MAX, "inputs/template.mesh");
+    snprintf(f->part[SM_PART_TARGET_SURFACE], PATH_MAX, "inputs/target.stl");
+    f->params = json_pack("{s:f,s:i,s:[f,f]}", "tol_boundary", 0.1, "max_iter", 30, "center", 0.3,
+                          -1e-300);
+    return f;
+}
+
+static void test_round_trip(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/sm-test-jobfile-XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    smd_job_file *f = example();
+    assert_int_equal(smd_job_file_write(dir, f), 0);
+
+    /* the file: members in part order, the reals shortest */
+    char path[PATH_MAX], *text = NULL;
+    size_t len = 0;
+    snprintf(path, sizeof path, "%s/job.json", dir);
+    assert_int_equal(smd_read_file(path, 1 << 20, &text, &len), 0);
+    assert_non_null(strstr(text, "\"tol_boundary\": 0.1,"));
+    assert_non_null(strstr(text, "[0.3, -1e-300]"));
+    assert_true(strstr(text, "\"template\"") < strstr(text, "\"target_surface\""));
+    assert_null(strstr(text, "target_mesh"));
+    free(text);
+
+    smd_job_file *g = calloc(1, sizeof *g);
+    sm_error err;
+    assert_int_equal(smd_job_file_read(dir, g, &err), SM_OK);
+    for (int i = 0; i < SM_PART_PARAMS; i++)
+        assert_string_equal(g->part[i], f->part[i]);
+    assert_true(json_equal(g->params, f->params));
+    /* the compact form (the database's copy) reads back the same */
+    char *compact = smd_job_file_encode(g, 0);
+    assert_non_null(compact);
+    assert_null(strchr(compact, '\n'));
+    smd_job_file h;
+    assert_int_equal(smd_job_file_parse(compact, strlen(compact), &h, &err), SM_OK);
+    assert_true(json_equal(h.params, f->params));
+    assert_string_equal(h.part[SM_PART_TARGET_SURFACE], "inputs/target.stl");
+    free(compact);
+    smd_job_file_free(&h);
+    smd_job_file_free(g);
+    smd_job_file_free(f);
+    free(g);
+    free(f);
+    unlink(path);
+    rmdir(dir);
+}
+
+static void test_refused(void **state)
+{
+    (void)state;
+    static const char *const bad[] = {
+        "",
+        "[]",
+        "{\"template\": \"inputs/t.mesh\"}",                                  /* no params */
+        "{\"template\": \"inputs/t.mesh\", \"params\": 3}",                   /* not an object */
+        "{\"target_mesh\": \"inputs/m.mesh\", \"params\": {}}",               /* no template */
+        "{\"template\": \"/etc/passwd\", \"params\": {}}",                    /* absolute */
+        "{\"template\": \"../other/t.mesh\", \"params\": {}}",                /* leaves the folder */
+        "{\"template\": \"inputs/t.mesh\", \"target_sol\": 1, \"params\": {}}", /* not a string */
+        "{\"template\": \"\", \"params\": {}}",
+        "{\"template\": \"inputs/t.mesh\", \"params\": {}",                   /* cut */
+    };
+    smd_job_file f;
+    sm_error err;
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        assert_int_equal(smd_job_file_parse(bad[i], strlen(bad[i]), &f, &err), SM_ERR_FORMAT);
+        assert_null(f.params);
+        assert_string_equal(f.part[SM_PART_TEMPLATE], "");
+        assert_non_null(strstr(err.msg, "not a job description"));
+    }
+    const char *good = "{\"template\": \"inputs/t.mesh\", \"params\": {}}";
+    assert_int_equal(smd_job_file_parse(good, strlen(good), &f, &err), SM_OK);
+    smd_job_file_free(&f);
+    /* no file: an I/O error naming it */
+    assert_int_equal(smd_job_file_read("/nonexistent-sm-dir", &f, &err), SM_ERR_IO);
+    assert_non_null(strstr(err.msg, "cannot read job.json"));
+    smd_job_file_free(&f);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_round_trip),
+        cmocka_unit_test(test_refused),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

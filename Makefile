@@ -122,7 +122,7 @@ bench: deps
 	bench/run.sh
 
 # Where the house is crowded: the longest files and the longest and most
-# complex functions (pmccabe) against the guide of STYLE.md.  Informative,
+# complex functions (pmccabe) against the size guide in tests/lint.sh.  Informative,
 # never fails.
 lint:
 	@tests/lint.sh

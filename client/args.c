@@ -120,14 +120,16 @@ static int real_item(const char *flag, const char *item, int index,
     return args_parse_real(flag, item, &((double *)user)[index], msg, cap);
 }
 
-int args_parse_refs(const char *flag, const char *text, int32_t *refs,
-                    int max, int *count, char *msg, size_t cap)
+/* Comma-separated integers (int32), 1..max of them. */
+static int args_parse_refs(const char *flag, const char *text, int32_t *refs,
+                           int max, int *count, char *msg, size_t cap)
 {
     return split_commas(flag, text, max, count, ref_item, refs, msg, cap);
 }
 
-int args_parse_reals(const char *flag, const char *text, double *vals,
-                     int max, int *count, char *msg, size_t cap)
+/* Comma-separated reals, 1..max of them, all finite. */
+static int args_parse_reals(const char *flag, const char *text, double *vals,
+                            int max, int *count, char *msg, size_t cap)
 {
     return split_commas(flag, text, max, count, real_item, vals, msg, cap);
 }
@@ -258,16 +260,6 @@ int args_take_value(int argc, char **argv, int *i, const char *flag, const char 
     return 0;
 }
 
-const char *args_clamp_name(sm_clamp_kind k)
-{
-    switch (k) {
-    case SM_CLAMP_BALL: return "ball";
-    case SM_CLAMP_ELEMENTS: return "elements";
-    case SM_CLAMP_VERTICES: return "vertices";
-    case SM_CLAMP_NONE: return "none";
-    }
-    return "unknown";
-}
 
 void job_options_init(job_options *j)
 {

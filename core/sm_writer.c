@@ -246,11 +246,6 @@ void sm_writer_i64(sm_writer *w, int64_t v)
     sm_writer_bytes(w, &v, 8);
 }
 
-void sm_writer_f64(sm_writer *w, double v)
-{
-    sm_writer_bytes(w, &v, 8);
-}
-
 uint64_t sm_writer_offset(const sm_writer *w)
 {
     return w->offset;
@@ -287,16 +282,4 @@ sm_status sm_writer_close(sm_writer *w, sm_error *err)
     }
     writer_free(w);
     return st;
-}
-
-void sm_writer_abort(sm_writer *w)
-{
-    if (!w)
-        return;
-    if (w->gz)
-        gzclose(w->gz);
-    if (w->fd >= 0)
-        close(w->fd);
-    sm_atomic_abort(&w->atomic);
-    writer_free(w);
 }

@@ -28,8 +28,6 @@ sm_status sm_writer_open(sm_writer **out, const char *path, sm_error *err);
  * that happened during earlier writes) removes the partial file and
  * returns SM_ERR_IO.  Always frees w. */
 sm_status sm_writer_close(sm_writer *w, sm_error *err);
-/* Discards everything written (error paths of the callers). */
-void sm_writer_abort(sm_writer *w);
 
 /* Text: headers and keywords. */
 void sm_writer_printf(sm_writer *w, const char *fmt, ...)
@@ -44,7 +42,6 @@ void sm_writer_real(sm_writer *w, double x, char sep);
 void sm_writer_bytes(sm_writer *w, const void *data, size_t n);
 void sm_writer_i32(sm_writer *w, int32_t v);
 void sm_writer_i64(sm_writer *w, int64_t v);
-void sm_writer_f64(sm_writer *w, double v);
 /* Logical bytes written so far (uncompressed). */
 uint64_t sm_writer_offset(const sm_writer *w);
 

@@ -382,12 +382,6 @@ static json_t *names_array(const sm_mesh *m)
     return a;
 }
 
-json_t *sm_job_summary_to_jansson(const sm_job_inputs *in, const sm_job_run *run,
-                                  const sm_job_files *names)
-{
-    return sm_job_summary_outputs(in, run, names, SM_JOB_OUT_ALL);
-}
-
 json_t *sm_job_summary_outputs(const sm_job_inputs *in, const sm_job_run *run,
                                const sm_job_files *names, unsigned outputs)
 {

@@ -143,11 +143,6 @@ int sm_job_threads_for(int64_t elements, int max_threads, int idle_cores);
  * /proc), which the policy reads as "none free". */
 int sm_job_idle_cores(void);
 
-/* The summary document (a new reference; NULL when out of memory).
- * names: what "inputs" reports for each file. */
-json_t *sm_job_summary_to_jansson(const sm_job_inputs *in, const sm_job_run *run,
-                                  const sm_job_files *names);
-
 /* Writes the whole result set into dir (which exists).  flags:
  * SM_ATOMIC_FSYNC makes every file durable. */
 sm_status sm_job_write_results(const sm_job_inputs *in, const sm_job_run *run,
@@ -174,8 +169,9 @@ int sm_job_outputs_parse(const char *text, unsigned *outputs, char *msg, size_t 
 sm_status sm_job_write_selected(const sm_job_inputs *in, const sm_job_run *run,
                                 const sm_job_files *names, const char *dir,
                                 unsigned outputs, unsigned flags, sm_error *err);
-/* The summary with "outputs" limited to outputs (sm_job_summary_to_jansson
- * lists all of them). */
+/* The summary document (a new reference; NULL when out of memory), its
+ * "outputs" limited to outputs (SM_JOB_OUT_ALL: every file).  names: what
+ * "inputs" reports for each file. */
 json_t *sm_job_summary_outputs(const sm_job_inputs *in, const sm_job_run *run,
                                const sm_job_files *names, unsigned outputs);
 

@@ -513,10 +513,3 @@ double sm_shape_volume_j(sm_shape *s, const double *coords)
         total += s->weights[i] * s->values[i];
     return total;
 }
-
-void sm_shape_sample_vertices(sm_shape *s, const double *coords, double *values)
-{
-    if (!s->primed)
-        prime_hints(s, coords);
-    eval_batch(s, s->mesh->nverts, coords, s->vertex_hint, values);
-}

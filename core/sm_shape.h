@@ -61,8 +61,4 @@ double sm_shape_delta_j(sm_shape *s, const double *coords,
  * and an independent check of the accumulated changes). */
 double sm_shape_volume_j(sm_shape *s, const double *coords);
 
-/* d sampled at every vertex (nverts values), e.g. for output. */
-void sm_shape_sample_vertices(sm_shape *s, const double *coords,
-                              double *values);
-
 #endif

@@ -1,7 +1,8 @@
 /* Command-line parsing of the shapematch client (see args.h). */
 #include "args.h"
 #include "msg.h"
-#include "sm_job_runner.h"
+#include "job/sm_job_inputs.h"
+#include "sm_proto_vocab.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -529,7 +530,7 @@ static int apply_run_flag(run_options *o, run_flag_kind kind, const char *flag, 
     case RUN_FLAG_OUTPUT: path = &o->outdir; break;
     case RUN_FLAG_FORMAT: {
         char why[ARGS_MSG_LEN];
-        if (sm_job_outputs_parse(value, &o->outputs, why, sizeof why) != 0)
+        if (sm_result_outputs_parse(value, &o->outputs, why, sizeof why) != 0)
             return cli_fail(msg, cap, "%s: %s", flag, why);
         return 0;
     }
@@ -585,7 +586,7 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
     char q[48];
     memset(o, 0, sizeof *o);
     job_options_init(&o->job);
-    if (sm_job_outputs_parse(RUN_DEFAULT_FORMATS, &o->outputs, msg, cap) != 0)
+    if (sm_result_outputs_parse(RUN_DEFAULT_FORMATS, &o->outputs, msg, cap) != 0)
         return ARGS_ERROR;
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i];

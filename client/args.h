@@ -43,13 +43,13 @@ typedef struct run_options {
     const char *target_sol_path;
     const char *target_surface_path; /* --target-surface (excludes --target-sol) */
     const char *outdir;
-    unsigned outputs;   /* --format: sm_job_runner.h's SM_JOB_OUT_* bits */
+    unsigned outputs;   /* --format: sm_proto_vocab.h's SM_RESULT_OUT_* bits */
     int quiet;
     int json;
     job_options job;
 } run_options;
 
-/* run --format when not given (sm_job_outputs_parse syntax). */
+/* run --format when not given (sm_result_outputs_parse syntax). */
 #define RUN_DEFAULT_FORMATS "mesh,vtu,sol"
 
 /* ---- number parsing (exported for the other commands and tests) ---- */

@@ -18,8 +18,9 @@
 #include "fsutil.h"
 #include "progress.h"
 #include "shapematch/sm_atomic.h"
-#include "sm_job_inputs.h"
-#include "sm_job_runner.h"
+#include "job/sm_job_inputs.h"
+#include "job/sm_job_results.h"
+#include "job/sm_job_runner.h"
 #include "sm_json.h"
 #include "sm_proto_events.h"
 

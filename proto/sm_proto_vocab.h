@@ -72,6 +72,22 @@ const sm_result_format *sm_result_formats_of(sm_result_kind kind, size_t *n);
 #define SM_SNAPSHOT_FORMAT "iter-%05d.mesh"
 #define SM_SNAPSHOT_MEDIA "application/x-medit-mesh"
 
+/* ---- a choice of result files (`shapematch run --format`) ---- */
+/* Bit i is the file of sm_result_formats[i]; history.csv and summary.json
+ * are always written (sm_result_outputs_fix adds history.csv).  With
+ * SM_RESULT_OUT_GZ the chosen mesh and displacement files are written
+ * gzip-compressed as FILE.gz (the same bytes once decompressed).  The
+ * daemon's worker writes everything: SM_RESULT_OUT_ALL. */
+#define SM_RESULT_OUT_FORMAT(i) (1u << (i))
+#define SM_RESULT_OUT_ALL ((1u << SM_RESULT_FORMATS_N) - 1u)
+#define SM_RESULT_OUT_GZ (1u << SM_RESULT_FORMATS_N)
+#define SM_RESULT_OUT_NAMES "mesh, meshb, vtu, binary, sol, solb, gz"
+unsigned sm_result_outputs_fix(unsigned outputs);
+/* "mesh,vtu,sol,gz" -> *outputs: the mesh and displacement format names
+ * of sm_result_formats plus gz.  0, or -1 with a message in msg (an
+ * unknown name, or gz alone). */
+int sm_result_outputs_parse(const char *text, unsigned *outputs, char *msg, size_t cap);
+
 /* ---- requests ---- */
 /* Longest Idempotency-Key (visible ASCII characters, at least 1). */
 #define SM_IDEMPOTENCY_KEY_MAX 255

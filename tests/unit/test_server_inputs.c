@@ -14,7 +14,7 @@
 
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_clamp.h"
-#include "sm_job_inputs.h"
+#include "job/sm_job_inputs.h"
 #include "smd_metrics.h"
 #include "smd_stream.h"
 #include "smd_upload.h"

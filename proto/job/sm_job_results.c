@@ -1,12 +1,10 @@
-/* The job runner (see sm_job_runner.h). */
-#include "sm_job_runner.h"
+/* The result set of a run and its summary (see sm_job_results.h): the
+ * summary document, history.csv and history.json, the result files
+ * side by side, summary.json last. */
+#include "job/sm_job_results.h"
 
-#include <dirent.h>
-#include <dlfcn.h>
 #include <errno.h>
 #include <math.h>
-#include <omp.h>
-#include <sched.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -26,264 +24,7 @@
 #define SM_VERSION "unknown"
 #endif
 
-const char *sm_job_outcome_name(sm_job_outcome outcome)
-{
-    switch (outcome) {
-    case SM_JOB_OUTCOME_FINISHED: return "finished";
-    case SM_JOB_OUTCOME_CANCELLED: return "cancelled";
-    case SM_JOB_OUTCOME_FAILED: return "failed";
-    }
-    return "unknown";
-}
-
-/* ------------------------------------------------------------- the run */
-
-typedef struct run_ctx {
-    const sm_job_inputs *in;
-    const sm_job_hooks *hooks;
-    sm_job_run *run;
-    sm_status failed;            /* SM_OK, or why the hook stopped the run */
-    sm_error error;
-} run_ctx;
-
-/* One row per iteration: a repeated report replaces the previous. */
-static int history_push(sm_job_run *run, const sm_progress *p)
-{
-    if (run->nhistory > 0 && run->history[run->nhistory - 1].iteration == p->iteration) {
-        run->history[run->nhistory - 1] = *p;
-        return 0;
-    }
-    if (run->nhistory == run->history_cap) {
-        size_t cap = run->history_cap ? 2 * run->history_cap : 256;
-        sm_progress *rows = realloc(run->history, cap * sizeof *rows);
-        if (!rows)
-            return -1;
-        run->history = rows;
-        run->history_cap = cap;
-    }
-    run->history[run->nhistory++] = *p;
-    return 0;
-}
-
-/* SNAPSHOT_DIR/iter-NNNNN.mesh, atomically. */
-static sm_status write_snapshot(run_ctx *c, int iteration, const double *coords)
-{
-    char name[64];
-    snprintf(name, sizeof name, SM_SNAPSHOT_FORMAT, iteration);
-    size_t n = strlen(c->hooks->snapshot_dir) + strlen(name) + 2;
-    char *path = malloc(n);
-    if (!path)
-        return sm_error_set(&c->error, SM_ERR_NOMEM, "out of memory");
-    snprintf(path, n, "%s/%s", c->hooks->snapshot_dir, name);
-    sm_atomic a;
-    sm_status st = sm_atomic_reserve(&a, path, &c->error);
-    if (st == SM_OK) {
-        st = sm_mesh_write_coords(a.tmp_path, c->in->template_mesh, coords, &c->error);
-        if (st == SM_OK)
-            st = sm_atomic_commit(&a, c->hooks->write_flags, &c->error);
-        else
-            sm_atomic_abort(&a);
-    }
-    if (st != SM_OK)
-        sm_error_prefix(&c->error, "cannot write the snapshot of iteration %d", iteration);
-    free(path);
-    return st;
-}
-
-static int on_progress(const sm_progress *p, const double *coords, void *user)
-{
-    run_ctx *c = user;
-    if (history_push(c->run, p) != 0) {
-        c->failed = sm_error_set(&c->error, SM_ERR_NOMEM, "out of memory recording the history");
-        return 1;
-    }
-    const sm_job_hooks *h = c->hooks;
-    int every = c->in->params.save_every;
-    if (h->snapshot_dir && every > 0 && p->iteration > 0 && p->iteration % every == 0 && coords &&
-        (c->failed = write_snapshot(c, p->iteration, coords)) != SM_OK)
-        return 1;
-    if (h->shape && coords && h->shape(p, coords, h->user))
-        return 1;
-    return h->progress ? h->progress(p, h->user) : 0;
-}
-
-/* Hands warnings from index from on to the hook. */
-static void tell_warnings(const run_ctx *c, int from)
-{
-    for (int i = from; c->hooks->warning && i < c->run->warnings.n; i++)
-        c->hooks->warning(&c->run->warnings.w[i], c->hooks->user);
-}
-
-int sm_job_threads_for(int64_t elements, int max_threads, int idle_cores)
-{
-    if (max_threads < 1)
-        return 1;
-    if (elements >= SM_JOB_THREADS_MIN_ELEMENTS)
-        return max_threads;
-    if (elements >= SM_JOB_THREADS_IDLE_MIN_ELEMENTS && idle_cores >= 2)
-        return idle_cores < max_threads ? idle_cores : max_threads;
-    return 1;
-}
-
-/* Threads of this process in state R (running or runnable). */
-static int own_running_threads(void)
-{
-    DIR *d = opendir("/proc/self/task");
-    if (!d)
-        return -1;
-    int n = 0;
-    struct dirent *de;
-    while ((de = readdir(d)) != NULL) {
-        if (de->d_name[0] == '.')
-            continue;
-        char path[64], buf[256];
-        snprintf(path, sizeof path, "/proc/self/task/%.20s/stat", de->d_name);
-        FILE *f = fopen(path, "r");
-        if (!f)
-            continue; /* the thread ended meanwhile */
-        size_t len = fread(buf, 1, sizeof buf - 1, f);
-        fclose(f);
-        buf[len] = '\0';
-        /* "pid (comm) S ...": the state follows the last ')' */
-        const char *close = strrchr(buf, ')');
-        n += close && close[1] == ' ' && close[2] == 'R';
-    }
-    closedir(d);
-    return n;
-}
-
-int sm_job_idle_cores(void)
-{
-    cpu_set_t set;
-    if (sched_getaffinity(0, sizeof set, &set) != 0)
-        return -1;
-    int cores = CPU_COUNT(&set);
-    FILE *f = fopen("/proc/loadavg", "r");
-    if (!f)
-        return -1;
-    double l1, l5, l15;
-    int running = -1, total;
-    int ok = fscanf(f, "%lf %lf %lf %d/%d", &l1, &l5, &l15, &running, &total) == 5;
-    fclose(f);
-    int own = own_running_threads();
-    if (!ok || own < 0)
-        return -1;
-    int others = running - own; /* the reading thread counts itself */
-    if (others < 0)
-        others = 0;
-    return cores > others ? cores - others : 0;
-}
-
-/* OpenMP and BLAS threads to n.  The BLAS CHOLMOD calls is whichever
- * libblas.so.3 the system selects: OpenBLAS is told through its
- * openblas_set_num_threads when it is the one loaded (found at run time,
- * so nothing links against OpenBLAS itself); a BLAS without threads
- * needs nothing. */
-static void set_threads(int n)
-{
-    omp_set_num_threads(n);
-    void (*blas_threads)(int) = (void (*)(int))dlsym(RTLD_DEFAULT, "openblas_set_num_threads");
-    if (blas_threads)
-        blas_threads(n);
-}
-
-/* The run under the thread policy: from the template side set up while
- * the inputs were read (in->match, consumed) when there is one, else
- * from scratch. */
-static sm_status run_match(sm_job_inputs *in, const sm_match_opts *opts,
-                           const sm_match_callbacks *cb, sm_job_run *run, sm_error *err)
-{
-    if (in->match_status != SM_OK) {
-        if (err)
-            *err = in->match_error;
-        return in->match_status;
-    }
-    int limit = omp_get_max_threads();
-    int64_t elements = opts->template_mesh->nelems;
-    /* the idle cores matter only between the two thresholds: no /proc
-     * reads for the small jobs, most of a daemon's */
-    int idle = elements >= SM_JOB_THREADS_IDLE_MIN_ELEMENTS && elements < SM_JOB_THREADS_MIN_ELEMENTS
-                   ? sm_job_idle_cores()
-                   : -1;
-    set_threads(sm_job_threads_for(elements, limit, idle));
-    sm_status st;
-    if (in->match) {
-        st = sm_match_execute(in->match, opts->target, cb, run->coords, &run->result, err);
-        sm_match_free(in->match);
-        in->match = NULL;
-    } else {
-        st = sm_match_run(opts, cb, run->coords, &run->result, err);
-    }
-    set_threads(limit);
-    return st;
-}
-
-sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_run *run,
-                          sm_error *err)
-{
-    memset(run, 0, sizeof *run);
-    const sm_mesh *m = in->template_mesh;
-    size_t n = (size_t)m->nverts * (size_t)m->dim;
-    run->coords = malloc((n ? n : 1) * sizeof *run->coords);
-    if (!run->coords)
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for a mesh of %ld vertices",
-                            (long)m->nverts);
-    sm_job_hooks none = {0};
-    run_ctx c = {.in = in, .hooks = hooks ? hooks : &none, .run = run, .failed = SM_OK};
-    sm_error_clear(&c.error);
-    sm_match_opts opts = {.template_mesh = m, .prepared = in->prepared, .target = in->field,
-                          .params = &in->params};
-    sm_match_callbacks cb = {.progress = on_progress, .user = &c, .cancel = c.hooks->cancel};
-    sm_status st = sm_job_check_sign(in, &run->warnings, err);
-    if (st != SM_OK)
-        return st;
-    tell_warnings(&c, 0);
-    int told = run->warnings.n;
-    st = run_match(in, &opts, &cb, run, err);
-    if (c.failed != SM_OK) {
-        if (err)
-            *err = c.error;
-        return c.failed;
-    }
-    if (st != SM_OK)
-        return st;
-    const sm_result *r = &run->result;
-    if (r->stop == SM_STOP_CANCELLED) {
-        run->outcome = SM_JOB_OUTCOME_CANCELLED;
-        run->exit_code = SM_JOB_EXIT_CANCELLED;
-    } else if (r->stop == SM_STOP_STEP && r->iterations == 0) {
-        run->outcome = SM_JOB_OUTCOME_FAILED;
-        run->exit_code = SM_JOB_EXIT_NUMERIC;
-        snprintf(run->message, sizeof run->message,
-                 "no valid step from the initial mesh (boundary error %.3e); the template may "
-                 "already match the target (see tol_boundary) or the parameters prevent any "
-                 "move (min_quality, tol_step)",
-                 r->boundary_l2);
-    } else {
-        run->outcome = SM_JOB_OUTCOME_FINISHED;
-        run->exit_code = SM_JOB_EXIT_OK;
-    }
-    sm_quality_stats q;
-    sm_mesh_quality(in->prepared, run->coords, &q);
-    run->inverted = q.ninverted;
-    sm_job_check_result(in, run->coords, r, run->outcome == SM_JOB_OUTCOME_FINISHED,
-                        &run->warnings);
-    tell_warnings(&c, told);
-    return SM_OK;
-}
-
-void sm_job_run_free(sm_job_run *run)
-{
-    if (!run)
-        return;
-    free(run->coords);
-    free(run->history);
-    run->coords = NULL;
-    run->history = NULL;
-    run->nhistory = run->history_cap = 0;
-}
-
-/* --------------------------------------------------------- the summary */
+/* ------------------------------------------------------------ the summary */
 
 static int set_string(json_t *obj, const char *key, const char *value)
 {
@@ -295,7 +36,7 @@ static int set_string(json_t *obj, const char *key, const char *value)
 static json_t *output_name(size_t i, unsigned outputs)
 {
     char name[96];
-    int gz = (outputs & SM_JOB_OUT_GZ) && sm_result_formats[i].kind != SM_RESULT_HISTORY;
+    int gz = (outputs & SM_RESULT_OUT_GZ) && sm_result_formats[i].kind != SM_RESULT_HISTORY;
     snprintf(name, sizeof name, "%s%s", sm_result_formats[i].file, gz ? ".gz" : "");
     return json_string(name);
 }
@@ -311,7 +52,7 @@ static json_t *outputs_object(unsigned chosen)
         bad = !files || smp_set(outputs, sm_result_kind_name((sm_result_kind)k), files) != 0;
         for (size_t i = 0; !bad && i < n; i++) {
             size_t at = (size_t)(&f[i] - sm_result_formats);
-            if (chosen & SM_JOB_OUT_FORMAT(at))
+            if (chosen & SM_RESULT_OUT_FORMAT(at))
                 bad = smp_set(files, f[i].name, output_name(at, chosen)) != 0;
         }
     }
@@ -431,7 +172,7 @@ json_t *sm_job_summary_outputs(const sm_job_inputs *in, const sm_job_run *run,
         inputs = NULL;
         bad = bad || smp_set(doc, "template", tmpl) != 0;
         tmpl = NULL;
-        bad = bad || smp_set(doc, "outputs", outputs_object(sm_job_outputs_fix(outputs))) != 0;
+        bad = bad || smp_set(doc, "outputs", outputs_object(sm_result_outputs_fix(outputs))) != 0;
     }
     json_decref(res);
     json_decref(inputs);
@@ -513,8 +254,6 @@ typedef struct result_data {
     const char *text;            /* the summary or history.json */
 } result_data;
 
-/* One file of the set: a core writer on a reserved temporary name, or
- * text through the temporary's stream. */
 /* The binary payload compressed: encoded in memory, then gzip'd (the
  * payload writer has no .gz stream of its own). */
 static sm_status write_payload_gz(const char *path, const result_data *d, sm_error *err)
@@ -538,6 +277,8 @@ static sm_status write_payload_gz(const char *path, const result_data *d, sm_err
     return ok ? SM_OK : sm_error_set(err, SM_ERR_IO, "cannot write '%s' (gzip)", path);
 }
 
+/* One file of the set: a core writer on a reserved temporary name, or
+ * text through the temporary's stream. */
 static sm_status write_one(const char *dir, const sm_result_format *f, const result_data *d,
                            int gz, unsigned flags, sm_error *err)
 {
@@ -591,12 +332,12 @@ static sm_status write_formats(const char *dir, const result_data *d, unsigned o
     sm_status st[SM_RESULT_FORMATS_N];
     sm_error errs[SM_RESULT_FORMATS_N];
     for (size_t i = 0; i < SM_RESULT_FORMATS_N; i++)
-        if (outputs & SM_JOB_OUT_FORMAT(i))
+        if (outputs & SM_RESULT_OUT_FORMAT(i))
             chosen[n++] = i;
 #pragma omp parallel for schedule(dynamic, 1)
     for (size_t k = 0; k < n; k++) {
         const sm_result_format *f = &sm_result_formats[chosen[k]];
-        int gz = (outputs & SM_JOB_OUT_GZ) && f->kind != SM_RESULT_HISTORY;
+        int gz = (outputs & SM_RESULT_OUT_GZ) && f->kind != SM_RESULT_HISTORY;
         sm_error_clear(&errs[k]);
         st[k] = write_one(dir, f, d, gz, flags, &errs[k]);
     }
@@ -630,59 +371,11 @@ static sm_status write_summary(const sm_job_inputs *in, const sm_job_run *run,
     return st;
 }
 
-/* ------------------------------------------------- the output choice */
-
-unsigned sm_job_outputs_fix(unsigned outputs)
-{
-    const sm_result_format *csv = sm_result_format_find(SM_RESULT_HISTORY, "csv");
-    return outputs | SM_JOB_OUT_FORMAT((size_t)(csv - sm_result_formats));
-}
-
-/* The bit of the mesh or displacement format named p[0..len), 0 if none. */
-static unsigned output_bit(const char *p, size_t len)
-{
-    if (len == 2 && strncmp(p, "gz", 2) == 0)
-        return SM_JOB_OUT_GZ;
-    for (size_t i = 0; i < SM_RESULT_FORMATS_N; i++) {
-        const sm_result_format *f = &sm_result_formats[i];
-        if (f->kind != SM_RESULT_HISTORY && strlen(f->name) == len &&
-            strncmp(f->name, p, len) == 0)
-            return SM_JOB_OUT_FORMAT(i);
-    }
-    return 0;
-}
-
-int sm_job_outputs_parse(const char *text, unsigned *outputs, char *msg, size_t cap)
-{
-    unsigned set = 0;
-    for (const char *p = text;;) {
-        const char *comma = strchr(p, ',');
-        size_t len = comma ? (size_t)(comma - p) : strlen(p);
-        unsigned bit = output_bit(p, len);
-        if (!bit) {
-            snprintf(msg, cap, "'%.*s' is not an output format (expected a comma-separated "
-                               "list of " SM_JOB_OUT_NAMES ")",
-                     (int)(len > 40 ? 40 : len), p);
-            return -1;
-        }
-        set |= bit;
-        if (!comma)
-            break;
-        p = comma + 1;
-    }
-    if (!(set & ~SM_JOB_OUT_GZ)) {
-        snprintf(msg, cap, "'gz' compresses the formats it comes with: name at least one");
-        return -1;
-    }
-    *outputs = set;
-    return 0;
-}
-
 sm_status sm_job_write_results(const sm_job_inputs *in, const sm_job_run *run,
                                const sm_job_files *names, const char *dir, unsigned flags,
                                sm_error *err)
 {
-    return sm_job_write_selected(in, run, names, dir, SM_JOB_OUT_ALL, flags, err);
+    return sm_job_write_selected(in, run, names, dir, SM_RESULT_OUT_ALL, flags, err);
 }
 
 sm_status sm_job_write_selected(const sm_job_inputs *in, const sm_job_run *run,
@@ -720,7 +413,7 @@ sm_status sm_job_write_selected(const sm_job_inputs *in, const sm_job_run *run,
     }
     result_data d = {.mesh = m, .coords = run->coords, .displacement = disp, .distance = dist,
                      .sol = sol, .run = run, .text = history};
-    outputs = sm_job_outputs_fix(outputs);
+    outputs = sm_result_outputs_fix(outputs);
     if ((st = write_formats(dir, &d, outputs, flags, err)) != SM_OK)
         goto done;
     st = write_summary(in, run, names, dir, outputs, flags, err);

@@ -1,5 +1,5 @@
 /* The warnings of a job (see sm_job_warnings.h). */
-#include "sm_job_warnings.h"
+#include "job/sm_job_warnings.h"
 
 #include <math.h>
 #include <stdarg.h>

@@ -1,5 +1,5 @@
 /* Reading and checking a job's inputs (see sm_job_inputs.h). */
-#include "sm_job_inputs.h"
+#include "job/sm_job_inputs.h"
 
 #include <math.h>
 #include <stdio.h>

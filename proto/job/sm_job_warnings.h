@@ -21,7 +21,7 @@
 #include "shapematch/sm_match.h"
 #include <stddef.h>
 
-#include "sm_job_inputs.h"
+#include "job/sm_job_inputs.h"
 #include "sm_proto_events.h"
 
 #define SM_JOB_WARNINGS_MAX 8

@@ -1,4 +1,4 @@
-/* The readers over memory (core/sm_read_input.h, sm_reader_open_memory),
+/* The readers over memory (core/io/sm_read_input.h, sm_reader_open_memory),
  * which the fuzz targets use instead of files: for every input of
  * tests/data/malformed and tests/data/formats, reading its bytes from
  * memory (named by the same path) gives what reading the file gives: the
@@ -17,7 +17,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "sm_read_input.h"
+#include "io/sm_read_input.h"
 
 static const char *root_ = ".";
 

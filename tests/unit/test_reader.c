@@ -1,4 +1,4 @@
-/* The input stream of the readers (core/sm_reader.c): numbers parsed in
+/* The input stream of the readers (core/io/sm_reader.c): numbers parsed in
  * place and through the general tokenizer give the same values (bit for
  * bit, strtod's) and the same line numbers, across buffer refills and
  * next to comments; the fallbacks give the general path's errors; a small
@@ -18,8 +18,8 @@
 #include <cmocka.h>
 #include <zlib.h>
 
-#include "sm_number.h"
-#include "sm_reader.h"
+#include "io/sm_number.h"
+#include "io/sm_reader.h"
 
 static char dir[64];
 
@@ -141,7 +141,7 @@ static int check_decimal(const char *s)
     return 1;
 }
 
-/* The in-place conversion of reals (core/sm_number.c) against strtod:
+/* The in-place conversion of reals (core/io/sm_number.c) against strtod:
  * significands of 1 to 19 digits (and 20, left to strtod) at every
  * power of ten of its table and beyond it, the same in every notation;
  * exact ties between two doubles (rounded to even) and their

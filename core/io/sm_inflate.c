@@ -1,4 +1,4 @@
-#include "sm_inflate.h"
+#include "io/sm_inflate.h"
 
 #include <errno.h>
 #include <libdeflate.h>

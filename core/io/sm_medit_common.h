@@ -8,7 +8,7 @@
 #include <stdint.h>
 
 #include "shapematch/sm_error.h"
-#include "sm_reader.h"
+#include "io/sm_reader.h"
 
 /* libMeshb keyword codes. */
 enum {

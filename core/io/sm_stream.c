@@ -1,4 +1,4 @@
-#include "sm_stream.h"
+#include "io/sm_stream.h"
 
 #include <string.h>
 #include <strings.h>

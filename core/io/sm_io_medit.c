@@ -1,9 +1,11 @@
 /* Medit meshes: .mesh (ASCII) and .meshb (libMeshb binary, versions 1-4),
- * plain or gzip; reading (sm_io_medit_write.c has the writer).  The reader collects the sections it needs (Dimension,
+ * plain or gzip; reading (sm_io_medit_write.c has the writer), as a
+ * volume mesh (sm_io.c) or as a surface (sm_io_surface.c), from a
+ * reader the dispatcher opened.  The reader collects the sections it needs (Dimension,
  * Vertices, Edges, Triangles, Tetrahedra) into temporary arrays, since
  * whether Triangles are elements or facets is only known at the end
  * (a "Dimension 3" planar file is a 2D mesh), then builds the sm_mesh. */
-#include "shapematch/sm_io.h"
+#include "io/sm_io_formats.h"
 
 #include <inttypes.h>
 #include <math.h>
@@ -11,12 +13,10 @@
 #include <string.h>
 #include <strings.h>
 
+#include "io/sm_medit_common.h"
+#include "io/sm_reader.h"
+#include "shapematch/sm_io.h"
 #include "sm_alloc.h"
-#include "sm_io_msh.h"
-#include "sm_medit_common.h"
-#include "sm_read_input.h"
-#include "sm_reader.h"
-#include "sm_surface_io.h"
 
 /* One block of simplices (or edges) as read from the file. */
 typedef struct idx_block {
@@ -31,7 +31,7 @@ typedef struct idx_block {
 } idx_block;
 
 typedef struct medit_in {
-    sm_reader r;
+    sm_reader *r;        /* opened by the dispatcher (sm_io.c, sm_io_surface.c) */
     sm_error *err;
     int binary;
     sm_meshb_layout lay;
@@ -134,7 +134,7 @@ static sm_status alloc_block(medit_in *c, idx_block *b, int nidx, int64_t count)
     b->refs = sm__alloc_huge((size_t)count * sizeof(int32_t));
     if (!b->idx || !b->refs)
         return sm_error_set(c->err, SM_ERR_NOMEM, "%s: out of memory for %lld records",
-                            c->r.path, (long long)count);
+                            c->r->path, (long long)count);
     return SM_OK;
 }
 
@@ -146,13 +146,13 @@ static sm_status alloc_vertices(medit_in *c, int64_t count)
     c->vert_refs = sm__alloc_huge((size_t)count * sizeof(int32_t));
     if (!c->coords || !c->vert_refs)
         return sm_error_set(c->err, SM_ERR_NOMEM, "%s: out of memory for %lld vertices",
-                            c->r.path, (long long)count);
+                            c->r->path, (long long)count);
     return SM_OK;
 }
 
 static sm_status ascii_count(medit_in *c, const char *section, int ntokens, int64_t *n)
 {
-    sm_reader *r = &c->r;
+    sm_reader *r = c->r;
     sm_status st = sm_reader_int(r, INT64_MIN, INT64_MAX, n);
     if (st != SM_OK)
         return sm_reader_fail_line(r, c->err, st, "expected the number of %s, %s", section,
@@ -162,7 +162,7 @@ static sm_status ascii_count(medit_in *c, const char *section, int ntokens, int6
 
 static sm_status ascii_vertices(medit_in *c)
 {
-    sm_reader *r = &c->r;
+    sm_reader *r = c->r;
     int64_t n;
     sm_status st = ascii_count(c, "Vertices", c->dim + 1, &n);
     if (st != SM_OK)
@@ -192,7 +192,7 @@ static sm_status ascii_vertices(medit_in *c)
 
 static sm_status ascii_block(medit_in *c, int nidx)
 {
-    sm_reader *r = &c->r;
+    sm_reader *r = c->r;
     const char *name = block_name(nidx);
     idx_block *b = block_of(c, nidx);
     b->line = r->token_line;
@@ -239,7 +239,7 @@ static sm_status ascii_block(medit_in *c, int nidx)
 
 static sm_status ascii_skip(medit_in *c, const keyword *kw)
 {
-    sm_reader *r = &c->r;
+    sm_reader *r = c->r;
     sm_status st;
     if (kw->kind == KIND_SKIP_STRING) {
         st = sm_reader_skip_string(r);
@@ -290,7 +290,7 @@ static int looks_numeric(const char *tok)
 
 static sm_status read_ascii(medit_in *c)
 {
-    sm_reader *r = &c->r;
+    sm_reader *r = c->r;
     for (;;) {
         int found;
         sm_status st = sm_reader_token(r, &found);
@@ -392,13 +392,13 @@ static int64_t decode_int(const medit_in *c, const unsigned char *p)
     if (c->lay.int_size == 8) {
         uint64_t u;
         memcpy(&u, p, 8);
-        if (c->r.swap)
+        if (c->r->swap)
             u = sm_bswap64(u);
         return (int64_t)u;
     }
     uint32_t u;
     memcpy(&u, p, 4);
-    if (c->r.swap)
+    if (c->r->swap)
         u = sm_bswap32(u);
     return (int32_t)u;
 }
@@ -409,7 +409,7 @@ static double decode_real(const medit_in *c, const unsigned char *p)
         uint32_t u;
         float f;
         memcpy(&u, p, 4);
-        if (c->r.swap)
+        if (c->r->swap)
             u = sm_bswap32(u);
         memcpy(&f, &u, 4);
         return f;
@@ -417,7 +417,7 @@ static double decode_real(const medit_in *c, const unsigned char *p)
     uint64_t u;
     double d;
     memcpy(&u, p, 8);
-    if (c->r.swap)
+    if (c->r->swap)
         u = sm_bswap64(u);
     memcpy(&d, &u, 8);
     return d;
@@ -426,7 +426,7 @@ static double decode_real(const medit_in *c, const unsigned char *p)
 static sm_status binary_count(medit_in *c, const char *section, uint64_t record_bytes,
                               int64_t *n)
 {
-    sm_reader *r = &c->r;
+    sm_reader *r = c->r;
     uint64_t at = sm_reader_offset(r);
     sm_status st = sm_reader_int_sized(r, c->lay.int_size, n);
     if (st != SM_OK)
@@ -436,7 +436,7 @@ static sm_status binary_count(medit_in *c, const char *section, uint64_t record_
 
 static sm_status binary_vertices(medit_in *c)
 {
-    sm_reader *r = &c->r;
+    sm_reader *r = c->r;
     size_t rec = (size_t)c->dim * (size_t)c->lay.real_size + (size_t)c->lay.int_size;
     int64_t n;
     sm_status st = binary_count(c, "Vertices", rec, &n);
@@ -473,7 +473,7 @@ static sm_status binary_vertices(medit_in *c)
 
 static sm_status binary_block(medit_in *c, int nidx)
 {
-    sm_reader *r = &c->r;
+    sm_reader *r = c->r;
     const char *name = block_name(nidx);
     idx_block *b = block_of(c, nidx);
     b->offset = sm_reader_offset(r);
@@ -518,7 +518,7 @@ static sm_status binary_block(medit_in *c, int nidx)
 /* The Dimension keyword at byte start (its value follows). */
 static sm_status binary_dimension(medit_in *c, uint64_t start)
 {
-    sm_reader *r = &c->r;
+    sm_reader *r = c->r;
     if (c->dim)
         return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start, "duplicate Dimension");
     int32_t d;
@@ -538,7 +538,7 @@ static sm_status binary_dimension(medit_in *c, uint64_t start)
  * byte start: after Dimension, once, no tetrahedra in 2D. */
 static sm_status binary_section(medit_in *c, int nidx, uint64_t start)
 {
-    sm_reader *r = &c->r;
+    sm_reader *r = c->r;
     const char *name = block_name(nidx);
     if (!c->dim)
         return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
@@ -559,7 +559,7 @@ static sm_status binary_unsupported(medit_in *c, int32_t code, uint64_t start)
                        : code == SM_KW_PRISMS       ? "Prisms"
                        : code == SM_KW_HEXAHEDRA    ? "Hexahedra"
                                                     : "Pyramids";
-    return sm_reader_fail_byte(&c->r, c->err, SM_ERR_FORMAT, start,
+    return sm_reader_fail_byte(c->r, c->err, SM_ERR_FORMAT, start,
                                "%s are not supported, shapematch needs simplices "
                                "(triangles or tetrahedra)",
                                what);
@@ -567,7 +567,7 @@ static sm_status binary_unsupported(medit_in *c, int32_t code, uint64_t start)
 
 static sm_status read_binary(medit_in *c)
 {
-    sm_reader *r = &c->r;
+    sm_reader *r = c->r;
     sm_status st = sm_meshb_read_header(r, &c->lay, c->err);
     if (st != SM_OK)
         return st;
@@ -650,7 +650,7 @@ static sm_status finish_block(medit_in *c, idx_block *b, const char *name)
             int32_t v = b->idx[i * b->nidx + j];
             if (v < 1 || v > c->nverts) {
                 if (c->binary)
-                    return sm_reader_fail_byte(&c->r, c->err, SM_ERR_FORMAT, b->offset,
+                    return sm_reader_fail_byte(c->r, c->err, SM_ERR_FORMAT, b->offset,
                                                "%s record %lld of %lld: vertex index %ld out of "
                                                "range [1, %lld]",
                                                name, (long long)i + 1, (long long)b->count,
@@ -658,7 +658,7 @@ static sm_status finish_block(medit_in *c, idx_block *b, const char *name)
                 return sm_error_set(c->err, SM_ERR_FORMAT,
                                     "%s:%ld: vertex index %ld out of range [1, %lld] in %s record "
                                     "%lld of %lld",
-                                    c->r.path, b->line, (long)v, (long long)c->nverts, name,
+                                    c->r->path, b->line, (long)v, (long long)c->nverts, name,
                                     (long long)i + 1, (long long)b->count);
             }
             b->idx[i * b->nidx + j] = v - 1;
@@ -672,7 +672,7 @@ static sm_status finish_block(medit_in *c, idx_block *b, const char *name)
  * Vertices, and each listed block's indices checked and made 0-based. */
 static sm_status finish_blocks(medit_in *c, int with_tetrahedra)
 {
-    const char *path = c->r.path;
+    const char *path = c->r->path;
     if (!c->dim)
         return sm_error_set(c->err, SM_ERR_FORMAT, "%s: missing Dimension", path);
     if (!c->have_vertices)
@@ -686,7 +686,7 @@ static sm_status finish_blocks(medit_in *c, int with_tetrahedra)
 
 static sm_status build_mesh(medit_in *c, sm_mesh **out)
 {
-    const char *path = c->r.path;
+    const char *path = c->r->path;
     sm_status st;
     if ((st = finish_blocks(c, 1)) != SM_OK)
         return st;
@@ -755,47 +755,18 @@ static sm_status build_mesh(medit_in *c, sm_mesh **out)
     return SM_OK;
 }
 
-sm_status sm_mesh_read(const char *path, sm_mesh **out, sm_error *err)
+sm_status sm__medit_mesh_read(sm_reader *r, sm_mesh **out, sm_error *err)
 {
-    return sm_mesh_read_limited(path, NULL, out, err);
-}
-
-sm_status sm_mesh_read_limited(const char *path, sm_read_limits *limits, sm_mesh **out,
-                               sm_error *err)
-{
-    *out = NULL;
-    if (!path)
-        return sm_error_set(err, SM_ERR_INVALID, "no mesh file name");
-    return sm__mesh_read_input(&(sm_reader_input){.path = path}, limits, out, err);
-}
-
-sm_status sm__mesh_read_input(const sm_reader_input *in, sm_read_limits *limits, sm_mesh **out,
-                              sm_error *err)
-{
-    const char *path = in->path;
     *out = NULL;
     medit_in c;
     memset(&c, 0, sizeof c);
     c.err = err;
-    sm_status st = sm_reader_open_input(&c.r, in, err);
-    if (st != SM_OK)
-        return st;
-    c.r.limits = limits;
-    if (sm__msh_detect(&c.r)) {
-        sm_msh_data d;
-        st = sm__msh_parse(&c.r, &d, err);
-        if (st == SM_OK)
-            st = sm__msh_to_mesh(path, &d, out, err);
-        sm__msh_data_free(&d);
-        sm_reader_close(&c.r);
-        return st;
-    }
-    st = sm_medit_detect(&c.r, &c.binary, err);
+    c.r = r;
+    sm_status st = sm_medit_detect(c.r, &c.binary, err);
     if (st == SM_OK)
         st = c.binary ? read_binary(&c) : read_ascii(&c);
     if (st == SM_OK)
         st = build_mesh(&c, out);
-    sm_reader_close(&c.r);
     medit_in_free(&c);
     return st;
 }
@@ -806,7 +777,7 @@ sm_status sm__mesh_read_input(const sm_reader_input *in, sm_read_limits *limits,
 
 static sm_status build_surface(medit_in *c, sm_surface **out)
 {
-    const char *path = c->r.path;
+    const char *path = c->r->path;
     sm_status st;
     if ((st = finish_blocks(c, 0)) != SM_OK)
         return st;
@@ -831,23 +802,18 @@ static sm_status build_surface(medit_in *c, sm_surface **out)
     return SM_OK;
 }
 
-sm_status sm__medit_surface_read(const sm_reader_input *in, sm_read_limits *limits,
-                                 sm_surface **out, sm_error *err)
+sm_status sm__medit_surface_read(sm_reader *r, sm_surface **out, sm_error *err)
 {
     *out = NULL;
     medit_in c;
     memset(&c, 0, sizeof c);
     c.err = err;
-    sm_status st = sm_reader_open_input(&c.r, in, err);
-    if (st != SM_OK)
-        return st;
-    c.r.limits = limits;
-    st = sm_medit_detect(&c.r, &c.binary, err);
+    c.r = r;
+    sm_status st = sm_medit_detect(c.r, &c.binary, err);
     if (st == SM_OK)
         st = c.binary ? read_binary(&c) : read_ascii(&c);
     if (st == SM_OK)
         st = build_surface(&c, out);
-    sm_reader_close(&c.r);
     medit_in_free(&c);
     return st;
 }

@@ -1,4 +1,4 @@
-#include "sm_writer.h"
+#include "io/sm_writer.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -12,8 +12,8 @@
 #include <zlib.h>
 
 #include "shapematch/sm_atomic.h"
-#include "sm_number.h"
-#include "sm_stream.h"
+#include "io/sm_number.h"
+#include "io/sm_stream.h"
 
 #define WRITE_BUF_SIZE (1u << 16)
 

@@ -1,10 +1,10 @@
-#include "sm_number.h"
+#include "io/sm_number.h"
 
 #include <float.h>
 #include <stdint.h>
 #include <string.h>
 
-#include "sm_number_pow10.h"
+#include "io/sm_number_pow10.h"
 
 /* Significands of up to 19 digits fit a uint64_t. */
 #define MAX_DIGITS 19

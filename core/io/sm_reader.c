@@ -1,4 +1,4 @@
-#include "sm_reader.h"
+#include "io/sm_reader.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -13,9 +13,9 @@
 #include <unistd.h>
 
 #include "sm_alloc.h"
-#include "sm_inflate.h"
-#include "sm_number.h"
-#include "sm_stream.h"
+#include "io/sm_inflate.h"
+#include "io/sm_number.h"
+#include "io/sm_stream.h"
 
 #define READ_BUF_SIZE (1u << 16)
 #define READ_BUF_MIN 4096u

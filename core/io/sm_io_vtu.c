@@ -9,7 +9,7 @@
 
 #include <math.h>
 
-#include "sm_writer.h"
+#include "io/sm_writer.h"
 
 enum { VTK_LINE = 3, VTK_TRIANGLE = 5, VTK_TETRA = 10 };
 

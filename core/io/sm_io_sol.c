@@ -9,11 +9,11 @@
 #include <strings.h>
 
 #include "sm_alloc.h"
-#include "sm_medit_common.h"
-#include "sm_read_input.h"
-#include "sm_reader.h"
-#include "sm_stream.h"
-#include "sm_writer.h"
+#include "io/sm_medit_common.h"
+#include "io/sm_read_input.h"
+#include "io/sm_reader.h"
+#include "io/sm_stream.h"
+#include "io/sm_writer.h"
 
 enum { SOL_SCALAR = 1, SOL_VECTOR = 2, SOL_SYMMETRIC_MATRIX = 3, SOL_MATRIX = 4 };
 

@@ -3,7 +3,7 @@
  * the same order, so each field is read by one primitive (rd_size,
  * rd_int, rd_real) that looks at whether the current section is binary;
  * $MeshFormat and $PhysicalNames are ASCII even in binary files. */
-#include "sm_io_msh.h"
+#include "io/sm_io_msh.h"
 
 #include <inttypes.h>
 #include <math.h>
@@ -12,7 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "sm_medit_common.h"
+#include "io/sm_medit_common.h"
 
 /* first physical tag of one entity */
 typedef struct ent_phys {

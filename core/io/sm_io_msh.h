@@ -26,7 +26,7 @@
 
 #include "shapematch/sm_error.h"
 #include "shapematch/sm_mesh.h"
-#include "sm_reader.h"
+#include "io/sm_reader.h"
 
 /* Simplices of one kind as read: 0-based indices into the nodes. */
 typedef struct sm_msh_block {

@@ -7,9 +7,9 @@
 #include <string.h>
 #include <strings.h>
 
-#include "sm_medit_common.h"
-#include "sm_stream.h"
-#include "sm_writer.h"
+#include "io/sm_medit_common.h"
+#include "io/sm_stream.h"
+#include "io/sm_writer.h"
 
 /* Decides ASCII/binary from the name, ignoring a trailing ".gz". */
 static int is_binary_name(const char *path, const char *ascii_ext, const char *binary_ext,

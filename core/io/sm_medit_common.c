@@ -1,4 +1,4 @@
-#include "sm_medit_common.h"
+#include "io/sm_medit_common.h"
 
 #include <string.h>
 

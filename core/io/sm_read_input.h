@@ -10,7 +10,7 @@
 
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_surface.h"
-#include "sm_reader.h"
+#include "io/sm_reader.h"
 
 sm_status sm__mesh_read_input(const sm_reader_input *in, sm_read_limits *limits, sm_mesh **out,
                               sm_error *err);

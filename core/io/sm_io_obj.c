@@ -15,7 +15,7 @@
 #include <string.h>
 
 #include "shapematch/sm_mesh.h"
-#include "sm_surface_io.h"
+#include "io/sm_io_formats.h"
 
 #define OBJ_LINE_MAX 65536
 

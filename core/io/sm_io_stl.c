@@ -1,4 +1,4 @@
-/* STL surfaces, ASCII and binary (see sm_surface_io.h for the detection).
+/* STL surfaces, ASCII and binary (see sm_io_formats.h for the detection).
  * Binary: an 80-byte header (ignored, it may start with "solid"), a
  * little-endian uint32 facet count, then 50 bytes per facet (normal,
  * three vertices as float32, a 16-bit attribute).  ASCII: "solid [name]",
@@ -12,7 +12,7 @@
 #include <string.h>
 
 #include "shapematch/sm_mesh.h"
-#include "sm_surface_io.h"
+#include "io/sm_io_formats.h"
 
 #define STL_HEADER 84u
 #define STL_RECORD 50u

@@ -19,6 +19,7 @@
 #include "fsutil.h"
 #include "remote.h"
 #include "shapematch/sm_atomic.h"
+#include "shapematch/sm_path.h"
 #include "sm_json.h"
 #include "sm_proto_events.h"
 #include "sm_proto_vocab.h"
@@ -95,7 +96,7 @@ static int download(http_client *c, const char *cmd, int token_given, const char
     snprintf(what, sizeof what, "downloading %s", name);
     snprintf(path, sizeof path, "/v1/jobs/%s/results/%s?format=%s", id,
              sm_result_kind_name(f->kind), f->name);
-    char *final = fs_join(outdir, name);
+    char *final = sm_path_join(outdir, name);
     if (!final) {
         fprintf(stderr, "shapematch %s: error: out of memory\n", cmd);
         return CLI_EXIT_OUTPUT;
@@ -209,7 +210,7 @@ static int get_summary(http_client *c, const char *cmd, int token_given, const c
 static int write_summary(const char *cmd, const char *outdir, const json_t *doc)
 {
     char *text = sm_json_dumps(doc, 2);
-    char *path = fs_join(outdir, SM_RESULT_SUMMARY_FILE);
+    char *path = sm_path_join(outdir, SM_RESULT_SUMMARY_FILE);
     int code = 0;
     sm_error err;
     if (!text || !path) {
@@ -235,13 +236,12 @@ int remote_fetch(http_client *c, const char *cmd, int token_given, const char *i
     int code = check_job_state(c, cmd, token_given, id);
     if (code != 0)
         return code;
-    if (fs_mkdir_p(o->outdir, msg, sizeof msg) != 0 ||
-        fs_check_writable(o->outdir, msg, sizeof msg) != 0) {
+    if (fs_output_dir(o->outdir, msg, sizeof msg) != 0) {
         fprintf(stderr, "shapematch %s: error: output directory: %s\n", cmd, msg);
         return CLI_EXIT_OUTPUT;
     }
     /* an older summary.json must not vouch for files only partly replaced */
-    char *old_summary = fs_join(o->outdir, SM_RESULT_SUMMARY_FILE);
+    char *old_summary = sm_path_join(o->outdir, SM_RESULT_SUMMARY_FILE);
     if (!old_summary) {
         fprintf(stderr, "shapematch %s: error: out of memory\n", cmd);
         return CLI_EXIT_OUTPUT;

@@ -357,8 +357,7 @@ int cmd_run(int argc, char **argv)
     warn_unknown_free_refs(&ctx, in.prepared);
 
     /* ---- output directory, before the long part ---- */
-    if (fs_mkdir_p(opt.outdir, msg, sizeof msg) != 0 ||
-        fs_check_writable(opt.outdir, msg, sizeof msg) != 0) {
+    if (fs_output_dir(opt.outdir, msg, sizeof msg) != 0) {
         code = run_error(&opt, CLI_EXIT_OUTPUT, "output directory: %s", msg);
         goto done;
     }

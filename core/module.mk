@@ -8,7 +8,7 @@
 # Core files include their own folder's private headers by path from core/
 # ("sm_alloc.h", "io/sm_reader.h"); programs see core/include only.
 CORE_BASE_SRCS := core/sm_alloc.c core/sm_atomic.c core/sm_clamp.c core/sm_clock.c \
-  core/sm_error.c core/sm_facets.c core/sm_mesh.c core/sm_morton.c core/sm_params.c \
+  core/sm_error.c core/sm_facets.c core/sm_mesh.c core/sm_morton.c core/sm_params.c core/sm_path.c \
   core/sm_surface.c core/sm_topology.c
 CORE_FIELD_SRCS := core/sm_field.c core/sm_field_adjacency.c core/sm_field_grid.c \
   core/sm_field_locate.c core/sm_field_nearest.c

@@ -14,6 +14,7 @@
 
 #include "shapematch/sm_atomic.h"
 #include "shapematch/sm_io.h"
+#include "shapematch/sm_path.h"
 #include "sm_json.h"
 #include "sm_payload.h"
 #include "sm_proto_events.h"
@@ -236,16 +237,6 @@ static char *history_json(const sm_job_run *run)
     return text;
 }
 
-/* DIR/NAME as a string, malloc'd. */
-static char *join(const char *dir, const char *name)
-{
-    size_t n = strlen(dir) + strlen(name) + 2;
-    char *p = malloc(n);
-    if (p)
-        snprintf(p, n, "%s/%s", dir, name);
-    return p;
-}
-
 typedef struct result_data {
     const sm_mesh *mesh;
     const double *coords, *displacement, *distance;
@@ -284,7 +275,7 @@ static sm_status write_one(const char *dir, const sm_result_format *f, const res
 {
     char name[96];
     snprintf(name, sizeof name, "%s%s", f->file, gz ? ".gz" : "");
-    char *path = join(dir, name);
+    char *path = sm_path_join(dir, name);
     if (!path)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     sm_atomic a;
@@ -356,7 +347,7 @@ static sm_status write_summary(const sm_job_inputs *in, const sm_job_run *run,
 {
     json_t *doc = sm_job_summary_outputs(in, run, names, outputs);
     char *text = doc ? sm_json_dumps(doc, 2) : NULL;
-    char *path = join(dir, SM_RESULT_SUMMARY_FILE);
+    char *path = sm_path_join(dir, SM_RESULT_SUMMARY_FILE);
     json_decref(doc);
     sm_status st;
     if (!text || !path) {
@@ -389,7 +380,7 @@ sm_status sm_job_write_selected(const sm_job_inputs *in, const sm_job_run *run,
     char *history = NULL;
     double *disp = malloc((n ? n : 1) * sizeof *disp);
     double *dist = malloc(((size_t)m->nverts + 1) * sizeof *dist);
-    char *old_summary = join(dir, SM_RESULT_SUMMARY_FILE);
+    char *old_summary = sm_path_join(dir, SM_RESULT_SUMMARY_FILE);
     if (!disp || !dist || !old_summary) {
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory preparing the results");
         goto done;

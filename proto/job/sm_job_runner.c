@@ -9,6 +9,7 @@
 #include "job/sm_job_threads.h"
 #include "shapematch/sm_atomic.h"
 #include "shapematch/sm_io.h"
+#include "shapematch/sm_path.h"
 #include "sm_proto_vocab.h"
 
 const char *sm_job_outcome_name(sm_job_outcome outcome)
@@ -55,11 +56,9 @@ static sm_status write_snapshot(run_ctx *c, int iteration, const double *coords)
 {
     char name[64];
     snprintf(name, sizeof name, SM_SNAPSHOT_FORMAT, iteration);
-    size_t n = strlen(c->hooks->snapshot_dir) + strlen(name) + 2;
-    char *path = malloc(n);
+    char *path = sm_path_join(c->hooks->snapshot_dir, name);
     if (!path)
         return sm_error_set(&c->error, SM_ERR_NOMEM, "out of memory");
-    snprintf(path, n, "%s/%s", c->hooks->snapshot_dir, name);
     sm_atomic a;
     sm_status st = sm_atomic_reserve(&a, path, &c->error);
     if (st == SM_OK) {

@@ -30,7 +30,7 @@ sm_status sm__mesh_read_input(const sm_reader_input *in, sm_read_limits *limits,
 {
     *out = NULL;
     sm_reader r;
-    sm_status st = sm_reader_open_input(&r, in, err);
+    sm_status st = sm__reader_open_input(&r, in, err);
     if (st != SM_OK)
         return st;
     r.limits = limits;
@@ -43,6 +43,6 @@ sm_status sm__mesh_read_input(const sm_reader_input *in, sm_read_limits *limits,
     } else {
         st = sm__medit_mesh_read(&r, out, err);
     }
-    sm_reader_close(&r);
+    sm__reader_close(&r);
     return st;
 }

@@ -13,7 +13,7 @@
 #include "shapematch/sm_surface.h"
 
 /* Medit (sm_io_medit.c): ASCII .mesh or binary .meshb, told apart by the
- * first bytes (sm_medit_detect). */
+ * first bytes (sm__medit_detect). */
 sm_status sm__medit_mesh_read(sm_reader *r, sm_mesh **out, sm_error *err);
 sm_status sm__medit_surface_read(sm_reader *r, sm_surface **out, sm_error *err);
 

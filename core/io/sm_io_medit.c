@@ -153,11 +153,11 @@ static sm_status alloc_vertices(medit_in *c, int64_t count)
 static sm_status ascii_count(medit_in *c, const char *section, int ntokens, int64_t *n)
 {
     sm_reader *r = c->r;
-    sm_status st = sm_reader_int(r, INT64_MIN, INT64_MAX, n);
+    sm_status st = sm__reader_int(r, INT64_MIN, INT64_MAX, n);
     if (st != SM_OK)
-        return sm_reader_fail_line(r, c->err, st, "expected the number of %s, %s", section,
+        return sm__reader_fail_line(r, c->err, st, "expected the number of %s, %s", section,
                                    r->why);
-    return sm_medit_check_count(r, 0, section, *n, 2 * (uint64_t)ntokens, 0, c->err);
+    return sm__medit_check_count(r, 0, section, *n, 2 * (uint64_t)ntokens, 0, c->err);
 }
 
 static sm_status ascii_vertices(medit_in *c)
@@ -171,17 +171,17 @@ static sm_status ascii_vertices(medit_in *c)
         return st;
     for (int64_t i = 0; i < n; i++) {
         for (int j = 0; j < c->dim; j++) {
-            st = sm_reader_real(r, &c->coords[i * c->dim + j]);
+            st = sm__reader_real(r, &c->coords[i * c->dim + j]);
             if (st != SM_OK)
-                return sm_reader_fail_line(r, c->err, st,
+                return sm__reader_fail_line(r, c->err, st,
                                            "expected %d coordinates and a reference in Vertices "
                                            "record %lld of %lld, %s",
                                            c->dim, (long long)i + 1, (long long)n, r->why);
         }
         int64_t ref;
-        st = sm_reader_int(r, INT32_MIN, INT32_MAX, &ref);
+        st = sm__reader_int(r, INT32_MIN, INT32_MAX, &ref);
         if (st != SM_OK)
-            return sm_reader_fail_line(r, c->err, st,
+            return sm__reader_fail_line(r, c->err, st,
                                        "expected %d coordinates and a reference in Vertices "
                                        "record %lld of %lld, %s",
                                        c->dim, (long long)i + 1, (long long)n, r->why);
@@ -209,15 +209,15 @@ static sm_status ascii_block(medit_in *c, int nidx)
     for (int64_t i = 0; i < n; i++) {
         for (int j = 0; j <= nidx; j++) {
             int64_t v;
-            st = sm_reader_int(r, INT64_MIN, INT64_MAX, &v);
+            st = sm__reader_int(r, INT64_MIN, INT64_MAX, &v);
             if (st != SM_OK)
-                return sm_reader_fail_line(r, c->err, st,
+                return sm__reader_fail_line(r, c->err, st,
                                            "expected %d vertex indices and a reference in %s "
                                            "record %lld of %lld, %s",
                                            nidx, name, (long long)i + 1, (long long)n, r->why);
             if (j == nidx) {
                 if (v < INT32_MIN || v > INT32_MAX)
-                    return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                    return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                                "reference %lld out of the 32-bit range in %s "
                                                "record %lld of %lld",
                                                (long long)v, name, (long long)i + 1,
@@ -225,7 +225,7 @@ static sm_status ascii_block(medit_in *c, int nidx)
                 b->refs[i] = (int32_t)v;
             } else {
                 if (v < 1 || v > hi)
-                    return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                    return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                                "vertex index %lld out of range [1, %lld] in %s "
                                                "record %lld of %lld",
                                                (long long)v, (long long)hi, name,
@@ -242,23 +242,23 @@ static sm_status ascii_skip(medit_in *c, const keyword *kw)
     sm_reader *r = c->r;
     sm_status st;
     if (kw->kind == KIND_SKIP_STRING) {
-        st = sm_reader_skip_string(r);
+        st = sm__reader_skip_string(r);
         if (st != SM_OK)
-            return sm_reader_fail_line(r, c->err, st, "expected a string after %s, %s", kw->name,
+            return sm__reader_fail_line(r, c->err, st, "expected a string after %s, %s", kw->name,
                                        r->why);
         return SM_OK;
     }
     if (kw->kind == KIND_SKIP_REAL) {
         double x;
-        st = sm_reader_real(r, &x);
+        st = sm__reader_real(r, &x);
         if (st != SM_OK)
-            return sm_reader_fail_line(r, c->err, st, "expected a number after %s, %s", kw->name,
+            return sm__reader_fail_line(r, c->err, st, "expected a number after %s, %s", kw->name,
                                        r->why);
         return SM_OK;
     }
     int vectors = kw->kind == KIND_SKIP_VECTORS;
     if (vectors && !c->dim)
-        return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT, "%s before Dimension", kw->name);
+        return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT, "%s before Dimension", kw->name);
     int per = vectors ? c->dim : kw->nints;
     int64_t n;
     if ((st = ascii_count(c, kw->name, per, &n)) != SM_OK)
@@ -267,9 +267,9 @@ static sm_status ascii_skip(medit_in *c, const keyword *kw)
         for (int j = 0; j < per; j++) {
             double x;
             int64_t v;
-            st = vectors ? sm_reader_real(r, &x) : sm_reader_int(r, INT64_MIN, INT64_MAX, &v);
+            st = vectors ? sm__reader_real(r, &x) : sm__reader_int(r, INT64_MIN, INT64_MAX, &v);
             if (st != SM_OK)
-                return sm_reader_fail_line(r, c->err, st,
+                return sm__reader_fail_line(r, c->err, st,
                                            "expected %d %s in %s record %lld of %lld, %s", per,
                                            vectors ? "numbers" : "integers", kw->name,
                                            (long long)i + 1, (long long)n, r->why);
@@ -293,74 +293,74 @@ static sm_status read_ascii(medit_in *c)
     sm_reader *r = c->r;
     for (;;) {
         int found;
-        sm_status st = sm_reader_token(r, &found);
+        sm_status st = sm__reader_token(r, &found);
         if (st != SM_OK)
-            return sm_reader_fail_line(r, c->err, st, "%s", r->why);
+            return sm__reader_fail_line(r, c->err, st, "%s", r->why);
         if (!found)
             return SM_OK;
         const keyword *kw = find_keyword(r->token);
         if (!kw) {
             char q[64];
-            sm_quote_token(r->token, q, sizeof q);
+            sm__quote_token(r->token, q, sizeof q);
             if (looks_numeric(r->token))
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                            "found the number %s where a keyword was expected "
                                            "(more records than the section count says?)",
                                            q);
             if (!c->have_version && !c->dim && !c->have_vertices)
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                            "unknown format: the file starts with %s; meshes "
                                            "are read as " SM_MESH_FORMATS, q);
-            return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT, "unknown keyword %s", q);
+            return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT, "unknown keyword %s", q);
         }
         int64_t v;
         switch (kw->kind) {
         case KIND_VERSION:
             if (c->have_version)
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                            "duplicate MeshVersionFormatted");
-            st = sm_reader_int(r, INT64_MIN, INT64_MAX, &v);
+            st = sm__reader_int(r, INT64_MIN, INT64_MAX, &v);
             if (st != SM_OK)
-                return sm_reader_fail_line(r, c->err, st,
+                return sm__reader_fail_line(r, c->err, st,
                                            "expected a version after MeshVersionFormatted, %s",
                                            r->why);
             if (v < 1 || v > 4)
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                            "bad MeshVersionFormatted %lld (expected 1 to 4)",
                                            (long long)v);
             c->have_version = 1;
             break;
         case KIND_DIMENSION:
             if (c->dim)
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT, "duplicate Dimension");
-            st = sm_reader_int(r, INT64_MIN, INT64_MAX, &v);
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT, "duplicate Dimension");
+            st = sm__reader_int(r, INT64_MIN, INT64_MAX, &v);
             if (st != SM_OK)
-                return sm_reader_fail_line(r, c->err, st, "expected a value after Dimension, %s",
+                return sm__reader_fail_line(r, c->err, st, "expected a value after Dimension, %s",
                                            r->why);
             if (v != 2 && v != 3)
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                            "Dimension %lld is not supported (expected 2 or 3)",
                                            (long long)v);
             c->dim = (int)v;
             break;
         case KIND_VERTICES:
             if (!c->dim)
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                            "Vertices before Dimension (missing Dimension)");
             if (c->have_vertices)
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT, "duplicate Vertices section");
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT, "duplicate Vertices section");
             if ((st = ascii_vertices(c)) != SM_OK)
                 return st;
             break;
         case KIND_BLOCK:
             if (!c->dim)
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                            "%s before Dimension (missing Dimension)", kw->name);
             if (block_of(c, kw->nints)->present)
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT, "duplicate %s section",
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT, "duplicate %s section",
                                            kw->name);
             if (kw->nints == 4 && c->dim == 2)
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                            "Tetrahedra in a Dimension 2 mesh");
             if ((st = ascii_block(c, kw->nints)) != SM_OK)
                 return st;
@@ -368,12 +368,12 @@ static sm_status read_ascii(medit_in *c)
         case KIND_END:
             return SM_OK;
         case KIND_UNSUPPORTED:
-            return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+            return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                        "%s are not supported, shapematch needs simplices "
                                        "(triangles or tetrahedra)",
                                        kw->name);
         case KIND_SOLUTION:
-            return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+            return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                        "SolAtVertices in a mesh file (is this a .sol file?)");
         default:
             if ((st = ascii_skip(c, kw)) != SM_OK)
@@ -393,13 +393,13 @@ static int64_t decode_int(const medit_in *c, const unsigned char *p)
         uint64_t u;
         memcpy(&u, p, 8);
         if (c->r->swap)
-            u = sm_bswap64(u);
+            u = sm__bswap64(u);
         return (int64_t)u;
     }
     uint32_t u;
     memcpy(&u, p, 4);
     if (c->r->swap)
-        u = sm_bswap32(u);
+        u = sm__bswap32(u);
     return (int32_t)u;
 }
 
@@ -410,7 +410,7 @@ static double decode_real(const medit_in *c, const unsigned char *p)
         float f;
         memcpy(&u, p, 4);
         if (c->r->swap)
-            u = sm_bswap32(u);
+            u = sm__bswap32(u);
         memcpy(&f, &u, 4);
         return f;
     }
@@ -418,7 +418,7 @@ static double decode_real(const medit_in *c, const unsigned char *p)
     double d;
     memcpy(&u, p, 8);
     if (c->r->swap)
-        u = sm_bswap64(u);
+        u = sm__bswap64(u);
     memcpy(&d, &u, 8);
     return d;
 }
@@ -427,11 +427,11 @@ static sm_status binary_count(medit_in *c, const char *section, uint64_t record_
                               int64_t *n)
 {
     sm_reader *r = c->r;
-    uint64_t at = sm_reader_offset(r);
-    sm_status st = sm_reader_int_sized(r, c->lay.int_size, n);
+    uint64_t at = sm__reader_offset(r);
+    sm_status st = sm__reader_int_sized(r, c->lay.int_size, n);
     if (st != SM_OK)
-        return sm_reader_fail_byte(r, c->err, st, at, "%s count: %s", section, r->why);
-    return sm_medit_check_count(r, 1, section, *n, record_bytes, at, c->err);
+        return sm__reader_fail_byte(r, c->err, st, at, "%s count: %s", section, r->why);
+    return sm__medit_check_count(r, 1, section, *n, record_bytes, at, c->err);
 }
 
 static sm_status binary_vertices(medit_in *c)
@@ -446,15 +446,15 @@ static sm_status binary_vertices(medit_in *c)
         return st;
     unsigned char buf[3 * 8 + 8];
     for (int64_t i = 0; i < n; i++) {
-        uint64_t at = sm_reader_offset(r);
-        st = sm_reader_bytes(r, buf, rec);
+        uint64_t at = sm__reader_offset(r);
+        st = sm__reader_bytes(r, buf, rec);
         if (st != SM_OK)
-            return sm_reader_fail_byte(r, c->err, st, at, "Vertices record %lld of %lld: %s",
+            return sm__reader_fail_byte(r, c->err, st, at, "Vertices record %lld of %lld: %s",
                                        (long long)i + 1, (long long)n, r->why);
         for (int j = 0; j < c->dim; j++) {
             double x = decode_real(c, buf + (size_t)j * (size_t)c->lay.real_size);
             if (!isfinite(x))
-                return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
+                return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
                                            "Vertices record %lld of %lld: coordinate %d is not a "
                                            "finite number (%g)",
                                            (long long)i + 1, (long long)n, j + 1, x);
@@ -462,7 +462,7 @@ static sm_status binary_vertices(medit_in *c)
         }
         int64_t ref = decode_int(c, buf + (size_t)c->dim * (size_t)c->lay.real_size);
         if (ref < INT32_MIN || ref > INT32_MAX)
-            return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
+            return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
                                        "Vertices record %lld of %lld: reference %lld out of the "
                                        "32-bit range",
                                        (long long)i + 1, (long long)n, (long long)ref);
@@ -476,7 +476,7 @@ static sm_status binary_block(medit_in *c, int nidx)
     sm_reader *r = c->r;
     const char *name = block_name(nidx);
     idx_block *b = block_of(c, nidx);
-    b->offset = sm_reader_offset(r);
+    b->offset = sm__reader_offset(r);
     size_t isz = (size_t)c->lay.int_size;
     size_t rec = (size_t)(nidx + 1) * isz;
     int64_t n;
@@ -489,15 +489,15 @@ static sm_status binary_block(medit_in *c, int nidx)
     int64_t hi = c->have_vertices ? c->nverts : INT32_MAX;
     unsigned char buf[5 * 8];
     for (int64_t i = 0; i < n; i++) {
-        uint64_t at = sm_reader_offset(r);
-        st = sm_reader_bytes(r, buf, rec);
+        uint64_t at = sm__reader_offset(r);
+        st = sm__reader_bytes(r, buf, rec);
         if (st != SM_OK)
-            return sm_reader_fail_byte(r, c->err, st, at, "%s record %lld of %lld: %s", name,
+            return sm__reader_fail_byte(r, c->err, st, at, "%s record %lld of %lld: %s", name,
                                        (long long)i + 1, (long long)n, r->why);
         for (int j = 0; j < nidx; j++) {
             int64_t v = decode_int(c, buf + (size_t)j * isz);
             if (v < 1 || v > hi)
-                return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
+                return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
                                            "%s record %lld of %lld: vertex index %lld out of "
                                            "range [1, %lld]",
                                            name, (long long)i + 1, (long long)n, (long long)v,
@@ -506,7 +506,7 @@ static sm_status binary_block(medit_in *c, int nidx)
         }
         int64_t ref = decode_int(c, buf + (size_t)nidx * isz);
         if (ref < INT32_MIN || ref > INT32_MAX)
-            return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
+            return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
                                        "%s record %lld of %lld: reference %lld out of the 32-bit "
                                        "range",
                                        name, (long long)i + 1, (long long)n, (long long)ref);
@@ -520,14 +520,14 @@ static sm_status binary_dimension(medit_in *c, uint64_t start)
 {
     sm_reader *r = c->r;
     if (c->dim)
-        return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start, "duplicate Dimension");
+        return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, start, "duplicate Dimension");
     int32_t d;
-    uint64_t at = sm_reader_offset(r);
-    sm_status st = sm_reader_i32(r, &d);
+    uint64_t at = sm__reader_offset(r);
+    sm_status st = sm__reader_i32(r, &d);
     if (st != SM_OK)
-        return sm_reader_fail_byte(r, c->err, st, at, "Dimension: %s", r->why);
+        return sm__reader_fail_byte(r, c->err, st, at, "Dimension: %s", r->why);
     if (d != 2 && d != 3)
-        return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
+        return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
                                    "Dimension %ld is not supported (expected 2 or 3)",
                                    (long)d);
     c->dim = d;
@@ -541,13 +541,13 @@ static sm_status binary_section(medit_in *c, int nidx, uint64_t start)
     sm_reader *r = c->r;
     const char *name = block_name(nidx);
     if (!c->dim)
-        return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
+        return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
                                    "%s before Dimension (missing Dimension)", name);
     if (block_of(c, nidx)->present)
-        return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
+        return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
                                    "duplicate %s section", name);
     if (nidx == 4 && c->dim == 2)
-        return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
+        return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
                                    "Tetrahedra in a Dimension 2 mesh");
     return binary_block(c, nidx);
 }
@@ -559,7 +559,7 @@ static sm_status binary_unsupported(medit_in *c, int32_t code, uint64_t start)
                        : code == SM_KW_PRISMS       ? "Prisms"
                        : code == SM_KW_HEXAHEDRA    ? "Hexahedra"
                                                     : "Pyramids";
-    return sm_reader_fail_byte(c->r, c->err, SM_ERR_FORMAT, start,
+    return sm__reader_fail_byte(c->r, c->err, SM_ERR_FORMAT, start,
                                "%s are not supported, shapematch needs simplices "
                                "(triangles or tetrahedra)",
                                what);
@@ -568,17 +568,17 @@ static sm_status binary_unsupported(medit_in *c, int32_t code, uint64_t start)
 static sm_status read_binary(medit_in *c)
 {
     sm_reader *r = c->r;
-    sm_status st = sm_meshb_read_header(r, &c->lay, c->err);
+    sm_status st = sm__meshb_read_header(r, &c->lay, c->err);
     if (st != SM_OK)
         return st;
     for (;;) {
-        uint64_t start = sm_reader_offset(r);
+        uint64_t start = sm__reader_offset(r);
         int32_t code;
         int64_t next;
-        if ((st = sm_meshb_read_keyword(r, &c->lay, &code, &next, c->err)) != SM_OK)
+        if ((st = sm__meshb_read_keyword(r, &c->lay, &code, &next, c->err)) != SM_OK)
             return st;
         if (code == -1)
-            return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
+            return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
                                        "unexpected end of file (no End keyword; truncated?)");
         int known = 1;
         const char *name = "";
@@ -590,10 +590,10 @@ static sm_status read_binary(medit_in *c)
             break;
         case SM_KW_VERTICES:
             if (!c->dim)
-                return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
+                return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
                                            "Vertices before Dimension (missing Dimension)");
             if (c->have_vertices)
-                return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
+                return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
                                            "duplicate Vertices section");
             if ((st = binary_vertices(c)) != SM_OK)
                 return st;
@@ -620,14 +620,14 @@ static sm_status read_binary(medit_in *c)
             break;
         }
         if (known) {
-            if ((st = sm_meshb_check_block_end(r, name, next, c->err)) != SM_OK)
+            if ((st = sm__meshb_check_block_end(r, name, next, c->err)) != SM_OK)
                 return st;
         } else if (next != 0) {
             /* Unknown or unused keyword: its successor's position lets us
              * skip it without knowing its layout. */
-            uint64_t here = sm_reader_offset(r);
-            if ((st = sm_reader_skip(r, (uint64_t)next - here)) != SM_OK)
-                return sm_reader_fail_byte(r, c->err, st, here,
+            uint64_t here = sm__reader_offset(r);
+            if ((st = sm__reader_skip(r, (uint64_t)next - here)) != SM_OK)
+                return sm__reader_fail_byte(r, c->err, st, here,
                                            "skipping keyword %ld up to byte %lld: %s", (long)code,
                                            (long long)next, r->why);
         }
@@ -650,7 +650,7 @@ static sm_status finish_block(medit_in *c, idx_block *b, const char *name)
             int32_t v = b->idx[i * b->nidx + j];
             if (v < 1 || v > c->nverts) {
                 if (c->binary)
-                    return sm_reader_fail_byte(c->r, c->err, SM_ERR_FORMAT, b->offset,
+                    return sm__reader_fail_byte(c->r, c->err, SM_ERR_FORMAT, b->offset,
                                                "%s record %lld of %lld: vertex index %ld out of "
                                                "range [1, %lld]",
                                                name, (long long)i + 1, (long long)b->count,
@@ -762,7 +762,7 @@ sm_status sm__medit_mesh_read(sm_reader *r, sm_mesh **out, sm_error *err)
     memset(&c, 0, sizeof c);
     c.err = err;
     c.r = r;
-    sm_status st = sm_medit_detect(c.r, &c.binary, err);
+    sm_status st = sm__medit_detect(c.r, &c.binary, err);
     if (st == SM_OK)
         st = c.binary ? read_binary(&c) : read_ascii(&c);
     if (st == SM_OK)
@@ -809,7 +809,7 @@ sm_status sm__medit_surface_read(sm_reader *r, sm_surface **out, sm_error *err)
     memset(&c, 0, sizeof c);
     c.err = err;
     c.r = r;
-    sm_status st = sm_medit_detect(c.r, &c.binary, err);
+    sm_status st = sm__medit_detect(c.r, &c.binary, err);
     if (st == SM_OK)
         st = c.binary ? read_binary(&c) : read_ascii(&c);
     if (st == SM_OK)

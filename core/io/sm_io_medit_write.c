@@ -16,7 +16,7 @@ static int is_binary_name(const char *path, const char *ascii_ext, const char *b
                           int *binary)
 {
     size_t n = strlen(path);
-    if (sm_path_has_suffix(path, ".gz"))
+    if (sm__path_has_suffix(path, ".gz"))
         n -= 3;
     size_t kb = strlen(binary_ext), ka = strlen(ascii_ext);
     if (n >= kb && strncasecmp(path + n - kb, binary_ext, kb) == 0) {
@@ -58,25 +58,25 @@ static void write_ascii_block(sm_writer *w, const char *name, int32_t n, int k,
 {
     if (n == 0)
         return;
-    sm_writer_printf(w, "\n%s\n%ld\n", name, (long)n);
+    sm__writer_printf(w, "\n%s\n%ld\n", name, (long)n);
     for (int32_t i = 0; i < n; i++) {
         const int32_t *v = idx + (size_t)i * (size_t)k;
         for (int j = 0; j < k; j++)
-            sm_writer_int(w, (int64_t)v[j] + 1, ' ');
-        sm_writer_int(w, refs[i], '\n');
+            sm__writer_int(w, (int64_t)v[j] + 1, ' ');
+        sm__writer_int(w, refs[i], '\n');
     }
 }
 
 static void write_ascii(sm_writer *w, const sm_mesh *m, const double *coords)
 {
     int d = m->dim;
-    sm_writer_printf(w, "MeshVersionFormatted 2\n\nDimension %d\n\nVertices\n%ld\n", d,
+    sm__writer_printf(w, "MeshVersionFormatted 2\n\nDimension %d\n\nVertices\n%ld\n", d,
                      (long)m->nverts);
     for (int32_t i = 0; i < m->nverts; i++) {
         const double *x = coords + (size_t)i * (size_t)d;
         for (int c = 0; c < d; c++)
-            sm_writer_real(w, x[c], ' ');
-        sm_writer_int(w, m->vert_refs[i], '\n');
+            sm__writer_real(w, x[c], ' ');
+        sm__writer_int(w, m->vert_refs[i], '\n');
     }
     if (d == 2) {
         write_ascii_block(w, "Edges", m->nfacets, 2, m->facets, m->facet_refs);
@@ -85,22 +85,22 @@ static void write_ascii(sm_writer *w, const sm_mesh *m, const double *coords)
         write_ascii_block(w, "Triangles", m->nfacets, 3, m->facets, m->facet_refs);
         write_ascii_block(w, "Tetrahedra", m->nelems, 4, m->elems, m->elem_refs);
     }
-    sm_writer_printf(w, "\nEnd\n");
+    sm__writer_printf(w, "\nEnd\n");
 }
 
 static void write_pos(sm_writer *w, int pos_size, uint64_t pos)
 {
     if (pos_size == 8)
-        sm_writer_i64(w, (int64_t)pos);
+        sm__writer_i64(w, (int64_t)pos);
     else
-        sm_writer_i32(w, (int32_t)pos);
+        sm__writer_i32(w, (int32_t)pos);
 }
 
 /* Keyword code and the position right after its block. */
 static void write_kw(sm_writer *w, int pos_size, int32_t code, uint64_t block_bytes)
 {
-    uint64_t next = sm_writer_offset(w) + 4 + (uint64_t)pos_size + block_bytes;
-    sm_writer_i32(w, code);
+    uint64_t next = sm__writer_offset(w) + 4 + (uint64_t)pos_size + block_bytes;
+    sm__writer_i32(w, code);
     write_pos(w, pos_size, next);
 }
 
@@ -110,13 +110,13 @@ static void write_binary_block(sm_writer *w, int pos_size, int32_t code, int32_t
     if (n == 0)
         return;
     write_kw(w, pos_size, code, 4 + (uint64_t)n * (uint64_t)(k + 1) * 4);
-    sm_writer_i32(w, n);
+    sm__writer_i32(w, n);
     int32_t rec[5];
     for (int32_t i = 0; i < n; i++) {
         for (int j = 0; j < k; j++)
             rec[j] = idx[(size_t)i * (size_t)k + (size_t)j] + 1;
         rec[k] = refs[i];
-        sm_writer_bytes(w, rec, (size_t)(k + 1) * 4);
+        sm__writer_bytes(w, rec, (size_t)(k + 1) * 4);
     }
 }
 
@@ -130,17 +130,17 @@ static void write_binary(sm_writer *w, const sm_mesh *m, const double *coords)
     /* Version 2 has 32-bit positions; larger files need version 3. */
     int version = total < INT32_MAX ? 2 : 3;
     int pos_size = version >= 3 ? 8 : 4;
-    sm_writer_i32(w, 1);
-    sm_writer_i32(w, version);
+    sm__writer_i32(w, 1);
+    sm__writer_i32(w, version);
     write_kw(w, pos_size, SM_KW_DIMENSION, 4);
-    sm_writer_i32(w, d);
+    sm__writer_i32(w, d);
     write_kw(w, pos_size, SM_KW_VERTICES, 4 + (uint64_t)m->nverts * vrec);
-    sm_writer_i32(w, m->nverts);
+    sm__writer_i32(w, m->nverts);
     unsigned char rec[3 * 8 + 4];
     for (int32_t i = 0; i < m->nverts; i++) {
         memcpy(rec, coords + (size_t)i * (size_t)d, (size_t)d * 8);
         memcpy(rec + (size_t)d * 8, &m->vert_refs[i], 4);
-        sm_writer_bytes(w, rec, (size_t)vrec);
+        sm__writer_bytes(w, rec, (size_t)vrec);
     }
     if (d == 2) {
         write_binary_block(w, pos_size, SM_KW_EDGES, m->nfacets, 2, m->facets, m->facet_refs);
@@ -150,7 +150,7 @@ static void write_binary(sm_writer *w, const sm_mesh *m, const double *coords)
                            m->facet_refs);
         write_binary_block(w, pos_size, SM_KW_TETRAHEDRA, m->nelems, 4, m->elems, m->elem_refs);
     }
-    sm_writer_i32(w, SM_KW_END);
+    sm__writer_i32(w, SM_KW_END);
     write_pos(w, pos_size, 0);
 }
 
@@ -171,13 +171,13 @@ sm_status sm_mesh_write_coords(const char *path, const sm_mesh *m, const double 
     if (st != SM_OK)
         return st;
     sm_writer *w;
-    if ((st = sm_writer_open(&w, path, err)) != SM_OK)
+    if ((st = sm__writer_open(&w, path, err)) != SM_OK)
         return st;
     if (binary)
         write_binary(w, m, coords);
     else
         write_ascii(w, m, coords);
-    return sm_writer_close(w, err);
+    return sm__writer_close(w, err);
 }
 
 sm_status sm_mesh_write(const char *path, const sm_mesh *m, sm_error *err)

@@ -47,8 +47,8 @@ static sm_status fail(msh_in *c, const char *fmt, ...)
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
     if (c->bin)
-        return sm_reader_fail_byte(c->r, c->err, SM_ERR_FORMAT, c->where, "%s", msg);
-    return sm_reader_fail_line(c->r, c->err, SM_ERR_FORMAT, "%s", msg);
+        return sm__reader_fail_byte(c->r, c->err, SM_ERR_FORMAT, c->where, "%s", msg);
+    return sm__reader_fail_line(c->r, c->err, SM_ERR_FORMAT, "%s", msg);
 }
 
 /* A failed primitive read: "expected <what>, <why>". */
@@ -63,27 +63,27 @@ static sm_status fail_read(msh_in *c, sm_status st, const char *what)
 
 static sm_status rd_size(msh_in *c, const char *what, int64_t *out)
 {
-    c->where = sm_reader_offset(c->r);
+    c->where = sm__reader_offset(c->r);
     sm_status st;
     if (c->bin) {
-        st = sm_reader_i64(c->r, out);
+        st = sm__reader_i64(c->r, out);
         if (st == SM_OK && *out < 0)
             return fail(c, "%s is %" PRId64 ", negative", what, *out);
     } else {
-        st = sm_reader_int(c->r, 0, INT64_MAX, out);
+        st = sm__reader_int(c->r, 0, INT64_MAX, out);
     }
     return st == SM_OK ? SM_OK : fail_read(c, st, what);
 }
 
 static sm_status rd_int(msh_in *c, const char *what, int32_t *out)
 {
-    c->where = sm_reader_offset(c->r);
+    c->where = sm__reader_offset(c->r);
     sm_status st;
     if (c->bin) {
-        st = sm_reader_i32(c->r, out);
+        st = sm__reader_i32(c->r, out);
     } else {
         int64_t v;
-        st = sm_reader_int(c->r, INT32_MIN, INT32_MAX, &v);
+        st = sm__reader_int(c->r, INT32_MIN, INT32_MAX, &v);
         *out = (int32_t)v;
     }
     return st == SM_OK ? SM_OK : fail_read(c, st, what);
@@ -91,14 +91,14 @@ static sm_status rd_int(msh_in *c, const char *what, int32_t *out)
 
 static sm_status rd_real(msh_in *c, const char *what, double *out)
 {
-    c->where = sm_reader_offset(c->r);
+    c->where = sm__reader_offset(c->r);
     sm_status st;
     if (c->bin) {
-        st = sm_reader_f64(c->r, out);
+        st = sm__reader_f64(c->r, out);
         if (st == SM_OK && !isfinite(*out))
             return fail(c, "%s is not a finite number", what);
     } else {
-        st = sm_reader_real(c->r, out);
+        st = sm__reader_real(c->r, out);
     }
     return st == SM_OK ? SM_OK : fail_read(c, st, what);
 }
@@ -106,14 +106,14 @@ static sm_status rd_real(msh_in *c, const char *what, double *out)
 static sm_status expect_token(msh_in *c, const char *want)
 {
     int found;
-    sm_status st = sm_reader_token(c->r, &found);
+    sm_status st = sm__reader_token(c->r, &found);
     if (st != SM_OK)
         return fail_read(c, st, want);
     if (!found || strcmp(c->r->token, want) != 0) {
         char q[64];
-        sm_quote_token(found ? c->r->token : "end of file", q, sizeof q);
+        sm__quote_token(found ? c->r->token : "end of file", q, sizeof q);
         c->bin = 0;
-        return sm_reader_fail_line(c->r, c->err, SM_ERR_FORMAT, "expected %s, found %s", want, q);
+        return sm__reader_fail_line(c->r, c->err, SM_ERR_FORMAT, "expected %s, found %s", want, q);
     }
     return SM_OK;
 }
@@ -124,9 +124,9 @@ static sm_status binary_start(msh_in *c, const char *section)
     if (!c->file_binary)
         return SM_OK;
     unsigned char nl = 0;
-    uint64_t at = sm_reader_offset(c->r);
-    if (sm_reader_bytes(c->r, &nl, 1) != SM_OK || nl != '\n')
-        return sm_reader_fail_byte(c->r, c->err, SM_ERR_FORMAT, at,
+    uint64_t at = sm__reader_offset(c->r);
+    if (sm__reader_bytes(c->r, &nl, 1) != SM_OK || nl != '\n')
+        return sm__reader_fail_byte(c->r, c->err, SM_ERR_FORMAT, at,
                                    "expected a newline before the binary data of %s", section);
     c->bin = 1;
     return SM_OK;
@@ -135,7 +135,7 @@ static sm_status binary_start(msh_in *c, const char *section)
 static sm_status check_count(msh_in *c, const char *what, int64_t n, uint64_t ascii_bytes,
                              uint64_t binary_bytes)
 {
-    return sm_medit_check_count(c->r, c->bin, what, n, c->bin ? binary_bytes : ascii_bytes,
+    return sm__medit_check_count(c->r, c->bin, what, n, c->bin ? binary_bytes : ascii_bytes,
                                 c->where, c->err);
 }
 
@@ -147,7 +147,7 @@ static sm_status read_format(msh_in *c)
     if (st != SM_OK)
         return st;
     int found;
-    if ((st = sm_reader_token(c->r, &found)) != SM_OK)
+    if ((st = sm__reader_token(c->r, &found)) != SM_OK)
         return fail_read(c, st, "the format version");
     if (found && strcmp(c->r->token, "4.1") == 0)
         c->major = 4;
@@ -156,8 +156,8 @@ static sm_status read_format(msh_in *c)
         c->major = 2;
     else {
         char q[64];
-        sm_quote_token(found ? c->r->token : "end of file", q, sizeof q);
-        return sm_reader_fail_line(c->r, c->err, SM_ERR_FORMAT,
+        sm__quote_token(found ? c->r->token : "end of file", q, sizeof q);
+        return sm__reader_fail_line(c->r, c->err, SM_ERR_FORMAT,
                                    "unsupported .msh version %s (read: 4.1 ASCII and binary, "
                                    "2.2 ASCII)",
                                    q);
@@ -178,10 +178,10 @@ static sm_status read_format(msh_in *c)
         if ((st = binary_start(c, "$MeshFormat")) != SM_OK)
             return st;
         int32_t one;
-        c->where = sm_reader_offset(c->r);
-        if ((st = sm_reader_i32(c->r, &one)) != SM_OK)
+        c->where = sm__reader_offset(c->r);
+        if ((st = sm__reader_i32(c->r, &one)) != SM_OK)
             return fail_read(c, st, "the endianness word 1");
-        if (one != 1 && (int32_t)sm_bswap32((uint32_t)one) != 1)
+        if (one != 1 && (int32_t)sm__bswap32((uint32_t)one) != 1)
             return fail(c, "endianness word is %d, not 1 in either byte order", (int)one);
         c->r->swap = one != 1;
         c->bin = 0;
@@ -201,7 +201,7 @@ static sm_status read_name(msh_in *c, sm_mesh_name *e)
     if (e->dim < 0 || e->dim > 3)
         return fail(c, "physical dimension %d is not in [0, 3]", (int)e->dim);
     char buf[SM_MESH_NAME_MAX + 1];
-    if ((st = sm_reader_string(c->r, buf, sizeof buf)) != SM_OK)
+    if ((st = sm__reader_string(c->r, buf, sizeof buf)) != SM_OK)
         return fail_read(c, st, "a physical name");
     e->name = strdup(buf);
     return e->name ? SM_OK : sm_error_set(c->err, SM_ERR_NOMEM, "out of memory");
@@ -355,7 +355,7 @@ static sm_status finish_nodes(msh_in *c)
     qsort(c->tags, (size_t)n, sizeof *c->tags, cmp_tag);
     for (int64_t i = 1; i < n; i++)
         if (c->tags[i].tag == c->tags[i - 1].tag)
-            return sm_reader_fail_line(c->r, c->err, SM_ERR_FORMAT, "node tag %" PRId64
+            return sm__reader_fail_line(c->r, c->err, SM_ERR_FORMAT, "node tag %" PRId64
                                        " appears twice in $Nodes", c->tags[i].tag);
     c->have_nodes = 1;
     return expect_token(c, "$EndNodes");
@@ -590,16 +590,16 @@ static sm_status skip_section(msh_in *c, const char *name)
             /* outside a match only a newline matters: memchr to it */
             const unsigned char *b;
             size_t avail;
-            (void)sm_reader_window(c->r, &b, &avail); /* errors: at the end, as below */
+            (void)sm__reader_window(c->r, &b, &avail); /* errors: at the end, as below */
             if (avail == 0)
                 return sm_error_set(c->err, SM_ERR_FORMAT, "%s:%ld: section $%s has no $End%s",
                                     c->r->path, start_line, name, name);
             const unsigned char *nl = memchr(b, '\n', avail);
-            sm_reader_consume(c->r, nl ? (size_t)(nl - b) : avail);
+            sm__reader_consume(c->r, nl ? (size_t)(nl - b) : avail);
             if (!nl)
                 continue;
         }
-        if (sm_reader_bytes(c->r, &ch, 1) != SM_OK)
+        if (sm__reader_bytes(c->r, &ch, 1) != SM_OK)
             return sm_error_set(c->err, SM_ERR_FORMAT, "%s:%ld: section $%s has no $End%s",
                                 c->r->path, start_line, name, name);
         if (ch == '\n')
@@ -612,9 +612,9 @@ static sm_status skip_section(msh_in *c, const char *name)
         unsigned char next = ' ';
         size_t got = 0;
         int found = 0;
-        if (sm_reader_peek(c->r, &next, 1, &got) == SM_OK && got == 1 && next != ' ' &&
+        if (sm__reader_peek(c->r, &next, 1, &got) == SM_OK && got == 1 && next != ' ' &&
             (unsigned)(next - '\t') > (unsigned)('\r' - '\t') && next != '#' &&
-            sm_reader_token(c->r, &found) == SM_OK && found && strcmp(c->r->token, name) == 0)
+            sm__reader_token(c->r, &found) == SM_OK && found && strcmp(c->r->token, name) == 0)
             return SM_OK;
         matched = 0;
     }
@@ -632,8 +632,8 @@ static sm_status read_section(msh_in *c, const char *tok)
         return read_elements(c);
     if (tok[0] != '$' || strncmp(tok, "$End", 4) == 0 || strcmp(tok, "$MeshFormat") == 0) {
         char q[64];
-        sm_quote_token(tok, q, sizeof q);
-        return sm_reader_fail_line(c->r, c->err, SM_ERR_FORMAT,
+        sm__quote_token(tok, q, sizeof q);
+        return sm__reader_fail_line(c->r, c->err, SM_ERR_FORMAT,
                                    "expected a section such as $Nodes, found %s", q);
     }
     char name[SM_TOKEN_LEN];
@@ -645,7 +645,7 @@ int sm__msh_detect(sm_reader *r)
 {
     char head[11];
     size_t got = 0;
-    return sm_reader_peek(r, head, sizeof head, &got) == SM_OK && got == sizeof head &&
+    return sm__reader_peek(r, head, sizeof head, &got) == SM_OK && got == sizeof head &&
            memcmp(head, "$MeshFormat", sizeof head) == 0;
 }
 
@@ -663,7 +663,7 @@ sm_status sm__msh_parse(sm_reader *r, sm_msh_data *d, sm_error *err)
     sm_status st = read_format(&c);
     while (st == SM_OK) {
         int found;
-        if ((st = sm_reader_token(r, &found)) != SM_OK) {
+        if ((st = sm__reader_token(r, &found)) != SM_OK) {
             st = fail_read(&c, st, "a section");
             break;
         }

@@ -15,7 +15,7 @@
  * $PhysicalNames are kept (sm_mesh.names): a dimension in [0, 3], a
  * tag, a quoted name of at most SM_MESH_NAME_MAX bytes on one line.
  * Hostile input: counts are checked against SM_MAX_ENTITIES and against
- * the bytes left in the file before allocation (sm_medit_check_count),
+ * the bytes left in the file before allocation (sm__medit_check_count),
  * node tags are looked up (a tag not in $Nodes is an error), reals must
  * be finite.  Errors name "file:line" (ASCII) or "file: byte N" (binary
  * sections). */

@@ -35,7 +35,7 @@ int sm__obj_detect(sm_reader *r)
 {
     char head[256];
     size_t got = 0;
-    if (sm_reader_peek(r, head, sizeof head - 1, &got) != SM_OK || !got)
+    if (sm__reader_peek(r, head, sizeof head - 1, &got) != SM_OK || !got)
         return 0;
     head[got] = '\0';
     const char *p = head;
@@ -70,7 +70,7 @@ static sm_status next_line(obj_in *c, int *eof)
     for (;;) {
         const unsigned char *b;
         size_t avail;
-        sm_status st = sm_reader_window(c->r, &b, &avail);
+        sm_status st = sm__reader_window(c->r, &b, &avail);
         if (st != SM_OK)
             return sm_error_set(c->err, st, "%s:%ld: %s", c->r->path, c->lineno + 1, c->r->why);
         if (!avail) {
@@ -91,7 +91,7 @@ static sm_status next_line(obj_in *c, int *eof)
                                 c->r->path, c->lineno + 1);
         memcpy(c->line + n, b, plain);
         n += plain;
-        sm_reader_consume(c->r, plain + (nl != NULL));
+        sm__reader_consume(c->r, plain + (nl != NULL));
         if (nl)
             break;
     }
@@ -105,7 +105,7 @@ static sm_status next_line(obj_in *c, int *eof)
 
 static sm_status grow(obj_in *c, void **a, int64_t *cap, int64_t need, size_t item)
 {
-    sm_status st = sm_reader_limit_count(c->r, c->err, need, cap == &c->capv,
+    sm_status st = sm__reader_limit_count(c->r, c->err, need, cap == &c->capv,
                                          cap == &c->capv ? "vertices" : "facets");
     if (st != SM_OK || need <= *cap)
         return st;
@@ -206,7 +206,7 @@ static sm_status statement(obj_in *c)
     char w[40];
     snprintf(w, sizeof w, "%.*s", (int)(n < 32 ? n : 32), p);
     char q[64];
-    sm_quote_token(w, q, sizeof q);
+    sm__quote_token(w, q, sizeof q);
     return sm_error_set(c->err, SM_ERR_FORMAT, "%s:%ld: unknown OBJ statement %s", c->r->path,
                         c->lineno, q);
 }
@@ -221,7 +221,7 @@ sm_status sm__obj_read(sm_reader *r, sm_surface **out, sm_error *err)
     /* Sized to the input (no line is longer than what is left of it), so
      * a small file costs small buffers; a face has at most half as many
      * vertices as its line has bytes. */
-    uint64_t left = sm_reader_max_remaining(r) + 1;
+    uint64_t left = sm__reader_max_remaining(r) + 1;
     c.line_cap = left < OBJ_LINE_MAX ? (size_t)left : OBJ_LINE_MAX;
     c.line = malloc(c.line_cap);
     c.poly = malloc((c.line_cap / 2 + 1) * sizeof(int64_t));

@@ -88,37 +88,37 @@ static sm_status ascii_solution(sol_in *c)
     sm_reader *r = &c->r;
     sm_status st;
     int64_t n, nfields, type;
-    if ((st = sm_reader_int(r, INT64_MIN, INT64_MAX, &n)) != SM_OK)
-        return sm_reader_fail_line(r, c->err, st, "expected the number of SolAtVertices, %s",
+    if ((st = sm__reader_int(r, INT64_MIN, INT64_MAX, &n)) != SM_OK)
+        return sm__reader_fail_line(r, c->err, st, "expected the number of SolAtVertices, %s",
                                    r->why);
-    if ((st = sm_medit_check_count(r, 0, "SolAtVertices", n, 2, 0, c->err)) != SM_OK)
+    if ((st = sm__medit_check_count(r, 0, "SolAtVertices", n, 2, 0, c->err)) != SM_OK)
         return st;
-    if ((st = sm_reader_int(r, INT64_MIN, INT64_MAX, &nfields)) != SM_OK)
-        return sm_reader_fail_line(r, c->err, st,
+    if ((st = sm__reader_int(r, INT64_MIN, INT64_MAX, &nfields)) != SM_OK)
+        return sm__reader_fail_line(r, c->err, st,
                                    "expected the number of solution fields, %s", r->why);
     if (nfields != 1)
-        return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+        return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                    "SolAtVertices has %lld fields; exactly one field is supported",
                                    (long long)nfields);
-    if ((st = sm_reader_int(r, INT64_MIN, INT64_MAX, &type)) != SM_OK)
-        return sm_reader_fail_line(r, c->err, st, "expected the solution type, %s", r->why);
+    if ((st = sm__reader_int(r, INT64_MIN, INT64_MAX, &type)) != SM_OK)
+        return sm__reader_fail_line(r, c->err, st, "expected the solution type, %s", r->why);
     const char *problem;
     int ncomp = type_components(type, c->dim, &problem);
     if (!ncomp)
-        return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+        return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                    "solution type %lld (%s) is not supported (expected 1 scalar "
                                    "or 2 vector)",
                                    (long long)type, problem);
-    if ((st = sm_medit_check_count(r, 0, "SolAtVertices", n, 2 * (uint64_t)ncomp, 0, c->err)) !=
+    if ((st = sm__medit_check_count(r, 0, "SolAtVertices", n, 2 * (uint64_t)ncomp, 0, c->err)) !=
         SM_OK)
         return st;
     if ((st = sm_sol_alloc(&c->sol, c->dim, (int32_t)n, ncomp, c->err)) != SM_OK)
         return st;
     for (int64_t i = 0; i < n; i++)
         for (int j = 0; j < ncomp; j++) {
-            st = sm_reader_real(r, &c->sol->values[i * ncomp + j]);
+            st = sm__reader_real(r, &c->sol->values[i * ncomp + j]);
             if (st != SM_OK)
-                return sm_reader_fail_line(r, c->err, st,
+                return sm__reader_fail_line(r, c->err, st,
                                            "expected %d value%s in SolAtVertices record %lld of "
                                            "%lld, %s",
                                            ncomp, ncomp > 1 ? "s" : "", (long long)i + 1,
@@ -132,64 +132,64 @@ static sm_status read_ascii(sol_in *c)
     sm_reader *r = &c->r;
     for (;;) {
         int found;
-        sm_status st = sm_reader_token(r, &found);
+        sm_status st = sm__reader_token(r, &found);
         if (st != SM_OK)
-            return sm_reader_fail_line(r, c->err, st, "%s", r->why);
+            return sm__reader_fail_line(r, c->err, st, "%s", r->why);
         if (!found || strcasecmp(r->token, "End") == 0)
             return SM_OK;
         int64_t v;
         double x;
         if (strcasecmp(r->token, "MeshVersionFormatted") == 0) {
             if (c->have_version)
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                            "duplicate MeshVersionFormatted");
-            if ((st = sm_reader_int(r, INT64_MIN, INT64_MAX, &v)) != SM_OK)
-                return sm_reader_fail_line(r, c->err, st,
+            if ((st = sm__reader_int(r, INT64_MIN, INT64_MAX, &v)) != SM_OK)
+                return sm__reader_fail_line(r, c->err, st,
                                            "expected a version after MeshVersionFormatted, %s",
                                            r->why);
             if (v < 1 || v > 4)
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                            "bad MeshVersionFormatted %lld (expected 1 to 4)",
                                            (long long)v);
             c->have_version = 1;
         } else if (strcasecmp(r->token, "Dimension") == 0) {
             if (c->dim)
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT, "duplicate Dimension");
-            if ((st = sm_reader_int(r, INT64_MIN, INT64_MAX, &v)) != SM_OK)
-                return sm_reader_fail_line(r, c->err, st, "expected a value after Dimension, %s",
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT, "duplicate Dimension");
+            if ((st = sm__reader_int(r, INT64_MIN, INT64_MAX, &v)) != SM_OK)
+                return sm__reader_fail_line(r, c->err, st, "expected a value after Dimension, %s",
                                            r->why);
             if (v != 2 && v != 3)
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                            "Dimension %lld is not supported (expected 2 or 3)",
                                            (long long)v);
             c->dim = (int)v;
         } else if (strcasecmp(r->token, "SolAtVertices") == 0) {
             if (!c->dim)
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                            "SolAtVertices before Dimension (missing Dimension)");
             if (c->sol)
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                            "duplicate SolAtVertices section");
             if ((st = ascii_solution(c)) != SM_OK)
                 return st;
         } else if (strcasecmp(r->token, "Time") == 0) {
-            if ((st = sm_reader_real(r, &x)) != SM_OK)
-                return sm_reader_fail_line(r, c->err, st, "expected a number after Time, %s",
+            if ((st = sm__reader_real(r, &x)) != SM_OK)
+                return sm__reader_fail_line(r, c->err, st, "expected a number after Time, %s",
                                            r->why);
         } else if (strcasecmp(r->token, "Iterations") == 0) {
-            if ((st = sm_reader_int(r, INT64_MIN, INT64_MAX, &v)) != SM_OK)
-                return sm_reader_fail_line(r, c->err, st,
+            if ((st = sm__reader_int(r, INT64_MIN, INT64_MAX, &v)) != SM_OK)
+                return sm__reader_fail_line(r, c->err, st,
                                            "expected an integer after Iterations, %s", r->why);
         } else {
             char q[64];
-            sm_quote_token(r->token, q, sizeof q);
+            sm__quote_token(r->token, q, sizeof q);
             const char *s = r->token + (r->token[0] == '-' || r->token[0] == '+');
             if ((*s >= '0' && *s <= '9') || *s == '.')
-                return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+                return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                            "found the number %s where a keyword was expected "
                                            "(more values than the count and Dimension say?)",
                                            q);
-            return sm_reader_fail_line(r, c->err, SM_ERR_FORMAT,
+            return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
                                        "unexpected keyword %s in a solution file (expected "
                                        "MeshVersionFormatted, Dimension, SolAtVertices, End)",
                                        q);
@@ -205,33 +205,33 @@ static sm_status binary_solution(sol_in *c, const sm_meshb_layout *lay)
 {
     sm_reader *r = &c->r;
     sm_status st;
-    uint64_t at = sm_reader_offset(r);
+    uint64_t at = sm__reader_offset(r);
     int64_t n;
     int32_t nfields, type;
-    if ((st = sm_reader_int_sized(r, lay->int_size, &n)) != SM_OK)
-        return sm_reader_fail_byte(r, c->err, st, at, "SolAtVertices count: %s", r->why);
-    if ((st = sm_medit_check_count(r, 1, "SolAtVertices", n, (uint64_t)lay->real_size, at,
+    if ((st = sm__reader_int_sized(r, lay->int_size, &n)) != SM_OK)
+        return sm__reader_fail_byte(r, c->err, st, at, "SolAtVertices count: %s", r->why);
+    if ((st = sm__medit_check_count(r, 1, "SolAtVertices", n, (uint64_t)lay->real_size, at,
                                    c->err)) != SM_OK)
         return st;
-    at = sm_reader_offset(r);
-    if ((st = sm_reader_i32(r, &nfields)) != SM_OK)
-        return sm_reader_fail_byte(r, c->err, st, at, "number of solution fields: %s", r->why);
+    at = sm__reader_offset(r);
+    if ((st = sm__reader_i32(r, &nfields)) != SM_OK)
+        return sm__reader_fail_byte(r, c->err, st, at, "number of solution fields: %s", r->why);
     if (nfields != 1)
-        return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
+        return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
                                    "SolAtVertices has %ld fields; exactly one field is supported",
                                    (long)nfields);
-    at = sm_reader_offset(r);
-    if ((st = sm_reader_i32(r, &type)) != SM_OK)
-        return sm_reader_fail_byte(r, c->err, st, at, "solution type: %s", r->why);
+    at = sm__reader_offset(r);
+    if ((st = sm__reader_i32(r, &type)) != SM_OK)
+        return sm__reader_fail_byte(r, c->err, st, at, "solution type: %s", r->why);
     const char *problem;
     int ncomp = type_components(type, c->dim, &problem);
     if (!ncomp)
-        return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
+        return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
                                    "solution type %ld (%s) is not supported (expected 1 scalar "
                                    "or 2 vector)",
                                    (long)type, problem);
-    at = sm_reader_offset(r);
-    if ((st = sm_medit_check_count(r, 1, "SolAtVertices", n,
+    at = sm__reader_offset(r);
+    if ((st = sm__medit_check_count(r, 1, "SolAtVertices", n,
                                    (uint64_t)lay->real_size * (uint64_t)ncomp, at, c->err)) !=
         SM_OK)
         return st;
@@ -240,20 +240,20 @@ static sm_status binary_solution(sol_in *c, const sm_meshb_layout *lay)
     for (int64_t i = 0; i < n; i++)
         for (int j = 0; j < ncomp; j++) {
             double x;
-            at = sm_reader_offset(r);
+            at = sm__reader_offset(r);
             if (lay->real_size == 4) {
                 float f;
-                st = sm_reader_f32(r, &f);
+                st = sm__reader_f32(r, &f);
                 x = f;
             } else {
-                st = sm_reader_f64(r, &x);
+                st = sm__reader_f64(r, &x);
             }
             if (st != SM_OK)
-                return sm_reader_fail_byte(r, c->err, st, at,
+                return sm__reader_fail_byte(r, c->err, st, at,
                                            "SolAtVertices record %lld of %lld: %s",
                                            (long long)i + 1, (long long)n, r->why);
             if (!isfinite(x))
-                return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
+                return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
                                            "SolAtVertices record %lld of %lld: value is not a "
                                            "finite number (%g)",
                                            (long long)i + 1, (long long)n, x);
@@ -266,52 +266,52 @@ static sm_status read_binary(sol_in *c)
 {
     sm_reader *r = &c->r;
     sm_meshb_layout lay;
-    sm_status st = sm_meshb_read_header(r, &lay, c->err);
+    sm_status st = sm__meshb_read_header(r, &lay, c->err);
     if (st != SM_OK)
         return st;
     for (;;) {
-        uint64_t start = sm_reader_offset(r);
+        uint64_t start = sm__reader_offset(r);
         int32_t code;
         int64_t next;
-        if ((st = sm_meshb_read_keyword(r, &lay, &code, &next, c->err)) != SM_OK)
+        if ((st = sm__meshb_read_keyword(r, &lay, &code, &next, c->err)) != SM_OK)
             return st;
         if (code == -1)
-            return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
+            return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
                                        "unexpected end of file (no End keyword; truncated?)");
         if (code == SM_KW_END)
             return SM_OK;
         const char *name = NULL;
         if (code == SM_KW_DIMENSION) {
             if (c->dim)
-                return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start, "duplicate Dimension");
+                return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, start, "duplicate Dimension");
             int32_t d;
-            uint64_t at = sm_reader_offset(r);
-            if ((st = sm_reader_i32(r, &d)) != SM_OK)
-                return sm_reader_fail_byte(r, c->err, st, at, "Dimension: %s", r->why);
+            uint64_t at = sm__reader_offset(r);
+            if ((st = sm__reader_i32(r, &d)) != SM_OK)
+                return sm__reader_fail_byte(r, c->err, st, at, "Dimension: %s", r->why);
             if (d != 2 && d != 3)
-                return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
+                return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
                                            "Dimension %ld is not supported (expected 2 or 3)",
                                            (long)d);
             c->dim = d;
             name = "Dimension";
         } else if (code == SM_KW_SOL_AT_VERTICES) {
             if (!c->dim)
-                return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
+                return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
                                            "SolAtVertices before Dimension (missing Dimension)");
             if (c->sol)
-                return sm_reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
+                return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, start,
                                            "duplicate SolAtVertices section");
             if ((st = binary_solution(c, &lay)) != SM_OK)
                 return st;
             name = "SolAtVertices";
         }
         if (name) {
-            if ((st = sm_meshb_check_block_end(r, name, next, c->err)) != SM_OK)
+            if ((st = sm__meshb_check_block_end(r, name, next, c->err)) != SM_OK)
                 return st;
         } else if (next != 0) {
-            uint64_t here = sm_reader_offset(r);
-            if ((st = sm_reader_skip(r, (uint64_t)next - here)) != SM_OK)
-                return sm_reader_fail_byte(r, c->err, st, here,
+            uint64_t here = sm__reader_offset(r);
+            if ((st = sm__reader_skip(r, (uint64_t)next - here)) != SM_OK)
+                return sm__reader_fail_byte(r, c->err, st, here,
                                            "skipping keyword %ld up to byte %lld: %s", (long)code,
                                            (long long)next, r->why);
         }
@@ -342,19 +342,19 @@ sm_status sm__sol_read_input(const sm_reader_input *in, sm_read_limits *limits, 
     sol_in c;
     memset(&c, 0, sizeof c);
     c.err = err;
-    sm_status st = sm_reader_open_input(&c.r, in, err);
+    sm_status st = sm__reader_open_input(&c.r, in, err);
     if (st != SM_OK)
         return st;
     c.r.limits = limits;
     int binary;
-    st = sm_medit_detect(&c.r, &binary, err);
+    st = sm__medit_detect(&c.r, &binary, err);
     if (st == SM_OK)
         st = binary ? read_binary(&c) : read_ascii(&c);
     if (st == SM_OK && !c.dim)
         st = sm_error_set(err, SM_ERR_FORMAT, "%s: missing Dimension", path);
     if (st == SM_OK && !c.sol)
         st = sm_error_set(err, SM_ERR_FORMAT, "%s: missing SolAtVertices", path);
-    sm_reader_close(&c.r);
+    sm__reader_close(&c.r);
     if (st != SM_OK) {
         sm_sol_free(c.sol);
         return st;
@@ -381,7 +381,7 @@ sm_status sm_sol_write(const char *path, const sm_sol *s, sm_error *err)
                                 "sm_sol_write: vertex %zu has a non-finite value",
                                 i / (size_t)s->ncomp + 1);
     size_t len = strlen(path);
-    size_t stem = sm_path_has_suffix(path, ".gz") ? len - 3 : len;
+    size_t stem = sm__path_has_suffix(path, ".gz") ? len - 3 : len;
     int binary;
     if (stem >= 5 && strncasecmp(path + stem - 5, ".solb", 5) == 0)
         binary = 1;
@@ -394,46 +394,46 @@ sm_status sm_sol_write(const char *path, const sm_sol *s, sm_error *err)
                             path);
     int type = s->ncomp == 1 ? SOL_SCALAR : SOL_VECTOR;
     sm_writer *w;
-    sm_status st = sm_writer_open(&w, path, err);
+    sm_status st = sm__writer_open(&w, path, err);
     if (st != SM_OK)
         return st;
     if (binary) {
         uint64_t bytes = (uint64_t)n * 8;
         int version = bytes + 64 < INT32_MAX ? 2 : 3;
-        sm_writer_i32(w, 1);
-        sm_writer_i32(w, version);
-        uint64_t off = sm_writer_offset(w);
-        sm_writer_i32(w, SM_KW_DIMENSION);
+        sm__writer_i32(w, 1);
+        sm__writer_i32(w, version);
+        uint64_t off = sm__writer_offset(w);
+        sm__writer_i32(w, SM_KW_DIMENSION);
         if (version == 2)
-            sm_writer_i32(w, (int32_t)(off + 12));
+            sm__writer_i32(w, (int32_t)(off + 12));
         else
-            sm_writer_i64(w, (int64_t)(off + 16));
-        sm_writer_i32(w, s->dim);
-        off = sm_writer_offset(w);
-        sm_writer_i32(w, SM_KW_SOL_AT_VERTICES);
+            sm__writer_i64(w, (int64_t)(off + 16));
+        sm__writer_i32(w, s->dim);
+        off = sm__writer_offset(w);
+        sm__writer_i32(w, SM_KW_SOL_AT_VERTICES);
         if (version == 2)
-            sm_writer_i32(w, (int32_t)(off + 8 + 12 + bytes));
+            sm__writer_i32(w, (int32_t)(off + 8 + 12 + bytes));
         else
-            sm_writer_i64(w, (int64_t)(off + 12 + 12 + bytes));
-        sm_writer_i32(w, s->nverts);
-        sm_writer_i32(w, 1);
-        sm_writer_i32(w, type);
-        sm_writer_bytes(w, s->values, (size_t)bytes);
-        sm_writer_i32(w, SM_KW_END);
+            sm__writer_i64(w, (int64_t)(off + 12 + 12 + bytes));
+        sm__writer_i32(w, s->nverts);
+        sm__writer_i32(w, 1);
+        sm__writer_i32(w, type);
+        sm__writer_bytes(w, s->values, (size_t)bytes);
+        sm__writer_i32(w, SM_KW_END);
         if (version == 2)
-            sm_writer_i32(w, 0);
+            sm__writer_i32(w, 0);
         else
-            sm_writer_i64(w, 0);
+            sm__writer_i64(w, 0);
     } else {
-        sm_writer_printf(w,
+        sm__writer_printf(w,
                          "MeshVersionFormatted 2\n\nDimension %d\n\nSolAtVertices\n%ld\n1 %d\n\n",
                          s->dim, (long)s->nverts, type);
         for (int32_t i = 0; i < s->nverts; i++) {
             const double *v = s->values + (size_t)i * (size_t)s->ncomp;
             for (int c = 0; c < s->ncomp; c++)
-                sm_writer_real(w, v[c], c + 1 < s->ncomp ? ' ' : '\n');
+                sm__writer_real(w, v[c], c + 1 < s->ncomp ? ' ' : '\n');
         }
-        sm_writer_printf(w, "\nEnd\n");
+        sm__writer_printf(w, "\nEnd\n");
     }
-    return sm_writer_close(w, err);
+    return sm__writer_close(w, err);
 }

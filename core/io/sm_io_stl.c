@@ -21,7 +21,7 @@ static int looks_ascii(sm_reader *r)
 {
     unsigned char head[512];
     size_t got = 0;
-    if (sm_reader_peek(r, head, sizeof head, &got) != SM_OK || got < 6)
+    if (sm__reader_peek(r, head, sizeof head, &got) != SM_OK || got < 6)
         return 0;
     size_t i = 0;
     while (i < got && (head[i] == ' ' || head[i] == '\t' || head[i] == '\r' || head[i] == '\n'))
@@ -40,7 +40,7 @@ static int binary_by_size(sm_reader *r)
 {
     unsigned char head[STL_HEADER];
     size_t got = 0;
-    if (r->compressed || sm_reader_peek(r, head, sizeof head, &got) != SM_OK || got < STL_HEADER)
+    if (r->compressed || sm__reader_peek(r, head, sizeof head, &got) != SM_OK || got < STL_HEADER)
         return 0;
     uint64_t n = (uint64_t)head[80] | (uint64_t)head[81] << 8 | (uint64_t)head[82] << 16 |
                  (uint64_t)head[83] << 24;
@@ -66,29 +66,29 @@ static float le_f32(const unsigned char *p)
 static sm_status read_binary(sm_reader *r, sm_surface **out, sm_error *err)
 {
     unsigned char head[STL_HEADER];
-    sm_status st = sm_reader_bytes(r, head, sizeof head);
+    sm_status st = sm__reader_bytes(r, head, sizeof head);
     if (st != SM_OK)
-        return sm_reader_fail_byte(r, err, SM_ERR_FORMAT, 0, "binary STL header: %s", r->why);
+        return sm__reader_fail_byte(r, err, SM_ERR_FORMAT, 0, "binary STL header: %s", r->why);
     uint64_t n = (uint64_t)head[80] | (uint64_t)head[81] << 8 | (uint64_t)head[82] << 16 |
                  (uint64_t)head[83] << 24;
     if (n == 0)
-        return sm_reader_fail_byte(r, err, SM_ERR_FORMAT, 80, "binary STL with 0 facets");
-    if (n > SM_MAX_ENTITIES / 3 || n * STL_RECORD > sm_reader_max_remaining(r))
-        return sm_reader_fail_byte(r, err, SM_ERR_FORMAT, 80,
+        return sm__reader_fail_byte(r, err, SM_ERR_FORMAT, 80, "binary STL with 0 facets");
+    if (n > SM_MAX_ENTITIES / 3 || n * STL_RECORD > sm__reader_max_remaining(r))
+        return sm__reader_fail_byte(r, err, SM_ERR_FORMAT, 80,
                                    "binary STL facet count %" PRIu64 " does not fit in the "
                                    "file (%" PRIu64 " bytes left, %u per facet)",
-                                   n, sm_reader_max_remaining(r), STL_RECORD);
-    if ((st = sm_reader_limit_count(r, err, (int64_t)n, 0, "facets")) != SM_OK)
+                                   n, sm__reader_max_remaining(r), STL_RECORD);
+    if ((st = sm__reader_limit_count(r, err, (int64_t)n, 0, "facets")) != SM_OK)
         return st;
     sm_surface *s;
     if ((st = sm_surface_alloc(&s, 3, (int32_t)(3 * n), (int32_t)n, err)) != SM_OK)
         return st;
     for (uint64_t f = 0; f < n; f++) {
         unsigned char rec[STL_RECORD];
-        uint64_t at = sm_reader_offset(r);
-        if (sm_reader_bytes(r, rec, sizeof rec) != SM_OK) {
+        uint64_t at = sm__reader_offset(r);
+        if (sm__reader_bytes(r, rec, sizeof rec) != SM_OK) {
             sm_surface_free(s);
-            return sm_reader_fail_byte(r, err, SM_ERR_FORMAT, at,
+            return sm__reader_fail_byte(r, err, SM_ERR_FORMAT, at,
                                        "binary STL facet %" PRIu64 " of %" PRIu64 ": %s",
                                        f + 1, n, r->why);
         }
@@ -96,7 +96,7 @@ static sm_status read_binary(sm_reader *r, sm_surface **out, sm_error *err)
             double v = le_f32(rec + 12 + 4 * k);
             if (!isfinite(v)) {
                 sm_surface_free(s);
-                return sm_reader_fail_byte(r, err, SM_ERR_FORMAT, at + 12 + 4 * (uint64_t)k,
+                return sm__reader_fail_byte(r, err, SM_ERR_FORMAT, at + 12 + 4 * (uint64_t)k,
                                            "binary STL facet %" PRIu64 ": coordinate is not "
                                            "a finite number", f + 1);
             }
@@ -107,10 +107,10 @@ static sm_status read_binary(sm_reader *r, sm_surface **out, sm_error *err)
     }
     unsigned char extra;
     size_t got = 0;
-    if (sm_reader_peek(r, &extra, 1, &got) == SM_OK && got) {
-        uint64_t at = sm_reader_offset(r);
+    if (sm__reader_peek(r, &extra, 1, &got) == SM_OK && got) {
+        uint64_t at = sm__reader_offset(r);
         sm_surface_free(s);
-        return sm_reader_fail_byte(r, err, SM_ERR_FORMAT, at,
+        return sm__reader_fail_byte(r, err, SM_ERR_FORMAT, at,
                                    "binary STL has bytes after its %" PRIu64 " facets (wrong "
                                    "facet count?)", n);
     }
@@ -128,13 +128,13 @@ typedef struct stl_grow {
 static sm_status expect_word(sm_reader *r, const char *want, sm_error *err)
 {
     int found;
-    sm_status st = sm_reader_token(r, &found);
+    sm_status st = sm__reader_token(r, &found);
     if (st != SM_OK)
-        return sm_reader_fail_line(r, err, st, "expected '%s', %s", want, r->why);
+        return sm__reader_fail_line(r, err, st, "expected '%s', %s", want, r->why);
     if (!found || strcmp(r->token, want) != 0) {
         char q[64];
-        sm_quote_token(found ? r->token : "end of file", q, sizeof q);
-        return sm_reader_fail_line(r, err, SM_ERR_FORMAT, "expected '%s', found %s", want, q);
+        sm__quote_token(found ? r->token : "end of file", q, sizeof q);
+        return sm__reader_fail_line(r, err, SM_ERR_FORMAT, "expected '%s', found %s", want, q);
     }
     return SM_OK;
 }
@@ -144,16 +144,16 @@ static sm_status read_facet(sm_reader *r, stl_grow *g, sm_error *err)
     sm_status st = expect_word(r, "normal", err);
     double v;
     for (int k = 0; st == SM_OK && k < 3; k++)
-        if ((st = sm_reader_real(r, &v)) != SM_OK)
-            return sm_reader_fail_line(r, err, st, "expected a facet normal, %s", r->why);
+        if ((st = sm__reader_real(r, &v)) != SM_OK)
+            return sm__reader_fail_line(r, err, st, "expected a facet normal, %s", r->why);
     if (st != SM_OK || (st = expect_word(r, "outer", err)) != SM_OK ||
         (st = expect_word(r, "loop", err)) != SM_OK ||
-        (st = sm_reader_limit_count(r, err, g->n + 1, 0, "facets")) != SM_OK)
+        (st = sm__reader_limit_count(r, err, g->n + 1, 0, "facets")) != SM_OK)
         return st;
     if (g->n == g->cap) {
         int64_t cap = g->cap ? 2 * g->cap : 64; /* small inputs, small buffers */
         if (cap > SM_MAX_ENTITIES / 3)
-            return sm_reader_fail_line(r, err, SM_ERR_FORMAT, "too many facets");
+            return sm__reader_fail_line(r, err, SM_ERR_FORMAT, "too many facets");
         double *x = realloc(g->x, (size_t)cap * 9 * sizeof *x);
         if (!x)
             return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", r->path);
@@ -164,8 +164,8 @@ static sm_status read_facet(sm_reader *r, stl_grow *g, sm_error *err)
         if ((st = expect_word(r, "vertex", err)) != SM_OK)
             return st;
         for (int j = 0; j < 3; j++)
-            if ((st = sm_reader_real(r, &g->x[9 * g->n + 3 * k + j])) != SM_OK)
-                return sm_reader_fail_line(r, err, st, "expected a vertex coordinate, %s",
+            if ((st = sm__reader_real(r, &g->x[9 * g->n + 3 * k + j])) != SM_OK)
+                return sm__reader_fail_line(r, err, st, "expected a vertex coordinate, %s",
                                            r->why);
     }
     g->n++;
@@ -178,7 +178,7 @@ static sm_status read_facet(sm_reader *r, stl_grow *g, sm_error *err)
 static sm_status skip_line(sm_reader *r)
 {
     unsigned char c;
-    while (sm_reader_bytes(r, &c, 1) == SM_OK) {
+    while (sm__reader_bytes(r, &c, 1) == SM_OK) {
         if (c == '\n') {
             r->line++;
             break;
@@ -192,9 +192,9 @@ static sm_status read_ascii_facets(sm_reader *r, stl_grow *g, sm_error *err)
     int in_solid = 0;
     for (;;) {
         int found;
-        sm_status st = sm_reader_token(r, &found);
+        sm_status st = sm__reader_token(r, &found);
         if (st != SM_OK)
-            return sm_reader_fail_line(r, err, st, "%s", r->why);
+            return sm__reader_fail_line(r, err, st, "%s", r->why);
         if (!found)
             break;
         if (strcmp(r->token, "solid") == 0 && !in_solid) {
@@ -207,15 +207,15 @@ static sm_status read_ascii_facets(sm_reader *r, stl_grow *g, sm_error *err)
             st = read_facet(r, g, err);
         } else {
             char q[64];
-            sm_quote_token(r->token, q, sizeof q);
-            return sm_reader_fail_line(r, err, SM_ERR_FORMAT, "expected '%s', found %s",
+            sm__quote_token(r->token, q, sizeof q);
+            return sm__reader_fail_line(r, err, SM_ERR_FORMAT, "expected '%s', found %s",
                                        in_solid ? "facet' or 'endsolid" : "solid", q);
         }
         if (st != SM_OK)
             return st;
     }
     if (in_solid)
-        return sm_reader_fail_line(r, err, SM_ERR_FORMAT, "missing 'endsolid' (truncated file?)");
+        return sm__reader_fail_line(r, err, SM_ERR_FORMAT, "missing 'endsolid' (truncated file?)");
     if (g->n == 0)
         return sm_error_set(err, SM_ERR_FORMAT, "%s: ASCII STL without facets", r->path);
     return SM_OK;

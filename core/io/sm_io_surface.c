@@ -129,7 +129,7 @@ static int medit_ascii_start(sm_reader *r)
 {
     char head[256];
     size_t got = 0;
-    if (sm_reader_peek(r, head, sizeof head - 1, &got) != SM_OK)
+    if (sm__reader_peek(r, head, sizeof head - 1, &got) != SM_OK)
         return 0;
     head[got] = '\0';
     const char *p = head;
@@ -164,17 +164,17 @@ sm_status sm__surface_read_input(const sm_reader_input *in, sm_read_limits *limi
     const char *path = in->path;
     *out = NULL;
     sm_reader r;
-    sm_status st = sm_reader_open_input(&r, in, err);
+    sm_status st = sm__reader_open_input(&r, in, err);
     if (st != SM_OK)
         return st;
     r.limits = limits;
     int binary = 0;
     unsigned char head[512];
     size_t got = 0;
-    if ((st = sm_reader_peek(&r, head, sizeof head, &got)) != SM_OK)
-        st = sm_reader_fail_byte(&r, err, st, 0, "%s", r.why);
-    if (st != SM_OK || (st = sm_medit_detect(&r, &binary, err)) != SM_OK) {
-        sm_reader_close(&r);
+    if ((st = sm__reader_peek(&r, head, sizeof head, &got)) != SM_OK)
+        st = sm__reader_fail_byte(&r, err, st, 0, "%s", r.why);
+    if (st != SM_OK || (st = sm__medit_detect(&r, &binary, err)) != SM_OK) {
+        sm__reader_close(&r);
         return st;
     }
     if (sm__msh_detect(&r)) {
@@ -195,6 +195,6 @@ sm_status sm__surface_read_input(const sm_reader_input *in, sm_read_limits *limi
         st = sm_error_set(err, SM_ERR_FORMAT, "%s: unknown surface format; surfaces are read "
                           "as " SM_SURFACE_FORMATS, path);
     }
-    sm_reader_close(&r);
+    sm__reader_close(&r);
     return st;
 }

@@ -31,21 +31,21 @@ typedef struct sm_meshb_layout {
 
 /* Peeks at the first bytes: binary when they are the 32-bit code 1 in
  * either byte order.  An empty file is an error. */
-sm_status sm_medit_detect(sm_reader *r, int *binary, sm_error *err);
+sm_status sm__medit_detect(sm_reader *r, int *binary, sm_error *err);
 /* Reads the code and version words, sets r->swap and the layout. */
-sm_status sm_meshb_read_header(sm_reader *r, sm_meshb_layout *lay, sm_error *err);
+sm_status sm__meshb_read_header(sm_reader *r, sm_meshb_layout *lay, sm_error *err);
 /* Reads a keyword code and the position of the next keyword (0 when
  * there is none) and checks that position points forward and inside
  * the file.  At a clean end of file, *code = -1. */
-sm_status sm_meshb_read_keyword(sm_reader *r, const sm_meshb_layout *lay,
+sm_status sm__meshb_read_keyword(sm_reader *r, const sm_meshb_layout *lay,
                                 int32_t *code, int64_t *next, sm_error *err);
 /* After a block was read: the next keyword must start where it ends. */
-sm_status sm_meshb_check_block_end(sm_reader *r, const char *section, int64_t next,
+sm_status sm__meshb_check_block_end(sm_reader *r, const char *section, int64_t next,
                                    sm_error *err);
 /* Validates a record count before any allocation: not negative, not above
  * SM_MAX_ENTITIES, and not more records than the bytes left in the file
  * can hold (min_record_bytes each). */
-sm_status sm_medit_check_count(sm_reader *r, int binary, const char *section, int64_t n,
+sm_status sm__medit_check_count(sm_reader *r, int binary, const char *section, int64_t n,
                                uint64_t min_record_bytes, uint64_t where, sm_error *err);
 
 #endif

@@ -1,7 +1,7 @@
 /* Decimal numbers, read and written without the C library (internal,
  * not part of the public API): the fast path of the ASCII readers' reals
- * (sm_reader_real) and the numbers of the ASCII writers (sm_writer_int,
- * sm_writer_real).
+ * (sm__reader_real) and the numbers of the ASCII writers (sm__writer_int,
+ * sm__writer_real).
  *
  * Reading.  Decimal numbers converted in place, bit for bit as strtod
  * converts them.  glibc's strtod costs about 1000 instructions a number

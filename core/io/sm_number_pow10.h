@@ -14,7 +14,7 @@
  *                  t = n << (127 - b) if b <= 127 else n >> (b - 127)
  *       else:      d = 10**-q; b = -(d - 1).bit_length(); t = (1 << (127 - b)) // d
  *       print(t >> 64, t & (2**64 - 1), b)
- * (Python); the tests of sm_reader_real against strtod and of
+ * (Python); the tests of sm__reader_real against strtod and of
  * sm__double_to_decimal against printf cover every entry. */
 #ifndef SM_NUMBER_POW10_H
 #define SM_NUMBER_POW10_H

@@ -32,14 +32,14 @@ static void why(sm_reader *r, const char *fmt, ...)
     va_end(ap);
 }
 
-uint32_t sm_bswap32(uint32_t v)
+uint32_t sm__bswap32(uint32_t v)
 {
     return (v >> 24) | ((v >> 8) & 0xff00u) | ((v << 8) & 0xff0000u) | (v << 24);
 }
 
-uint64_t sm_bswap64(uint64_t v)
+uint64_t sm__bswap64(uint64_t v)
 {
-    return ((uint64_t)sm_bswap32((uint32_t)v) << 32) | sm_bswap32((uint32_t)(v >> 32));
+    return ((uint64_t)sm__bswap32((uint32_t)v) << 32) | sm__bswap32((uint32_t)(v >> 32));
 }
 
 /* ------------------------------------------------------------------ */
@@ -129,7 +129,7 @@ static sm_status open_stream(sm_reader *r, int fd, const struct stat *st, sm_err
     return SM_OK;
 }
 
-sm_status sm_reader_open(sm_reader *r, const char *path, sm_error *err)
+sm_status sm__reader_open(sm_reader *r, const char *path, sm_error *err)
 {
     memset(r, 0, sizeof *r);
     r->path = path;
@@ -157,7 +157,7 @@ sm_status sm_reader_open(sm_reader *r, const char *path, sm_error *err)
     return SM_OK;
 }
 
-sm_status sm_reader_open_memory(sm_reader *r, const char *name, const void *data, size_t size,
+sm_status sm__reader_open_memory(sm_reader *r, const char *name, const void *data, size_t size,
                                 sm_error *err)
 {
     memset(r, 0, sizeof *r);
@@ -178,14 +178,14 @@ sm_status sm_reader_open_memory(sm_reader *r, const char *name, const void *data
     return SM_OK;
 }
 
-sm_status sm_reader_open_input(sm_reader *r, const sm_reader_input *in, sm_error *err)
+sm_status sm__reader_open_input(sm_reader *r, const sm_reader_input *in, sm_error *err)
 {
     if (in->data)
-        return sm_reader_open_memory(r, in->path, in->data, in->size, err);
-    return sm_reader_open(r, in->path, err);
+        return sm__reader_open_memory(r, in->path, in->data, in->size, err);
+    return sm__reader_open(r, in->path, err);
 }
 
-void sm_reader_close(sm_reader *r)
+void sm__reader_close(sm_reader *r)
 {
     if (r->gz)
         gzclose(r->gz);
@@ -202,14 +202,14 @@ void sm_reader_close(sm_reader *r)
     r->c_locale = (locale_t)0;
 }
 
-uint64_t sm_reader_offset(const sm_reader *r)
+uint64_t sm__reader_offset(const sm_reader *r)
 {
     return r->buf_offset + r->pos;
 }
 
-uint64_t sm_reader_max_remaining(const sm_reader *r)
+uint64_t sm__reader_max_remaining(const sm_reader *r)
 {
-    uint64_t off = sm_reader_offset(r);
+    uint64_t off = sm__reader_offset(r);
     if (r->inflate == SM_INFLATE_WHOLE)
         return r->len - r->pos;
     if (!r->compressed)
@@ -238,7 +238,7 @@ static int start_gzip(sm_reader *r)
     r->inflate = SM_INFLATE_STREAM;
     /* At most what the file can inflate to (the deflate ratio) and the
      * limit on inflated bytes allow: a lying ISIZE costs no more. */
-    uint64_t most = sm_reader_max_remaining(r);
+    uint64_t most = sm__reader_max_remaining(r);
     size_t limit = most < SM_INFLATE_WHOLE_MAX ? (size_t)most : SM_INFLATE_WHOLE_MAX, len;
     size_t bytes;
     unsigned char *out = sm__inflate_file(fd, (size_t)r->file_size, limit, &len, &bytes, &io_errno);
@@ -344,7 +344,7 @@ static inline int peek_byte(sm_reader *r)
     return r->buf[r->pos];
 }
 
-sm_status sm_reader_peek(sm_reader *r, void *dst, size_t n, size_t *got)
+sm_status sm__reader_peek(sm_reader *r, void *dst, size_t n, size_t *got)
 {
     while (r->len - r->pos < n && !r->at_eof && r->stream_status == SM_OK) {
         size_t before = r->len - r->pos;
@@ -360,7 +360,7 @@ sm_status sm_reader_peek(sm_reader *r, void *dst, size_t n, size_t *got)
     return SM_OK;
 }
 
-sm_status sm_reader_window(sm_reader *r, const unsigned char **p, size_t *avail)
+sm_status sm__reader_window(sm_reader *r, const unsigned char **p, size_t *avail)
 {
     if (r->pos == r->len)
         refill(r);
@@ -369,7 +369,7 @@ sm_status sm_reader_window(sm_reader *r, const unsigned char **p, size_t *avail)
     return r->stream_status;
 }
 
-void sm_reader_consume(sm_reader *r, size_t k)
+void sm__reader_consume(sm_reader *r, size_t k)
 {
     r->pos += k <= r->len - r->pos ? k : r->len - r->pos;
 }
@@ -379,7 +379,7 @@ static inline int is_space(int c)
     return c == ' ' || (unsigned)(c - '\t') <= (unsigned)('\r' - '\t'); /* \t \n \v \f \r */
 }
 
-void sm_quote_token(const char *s, char *out, size_t cap)
+void sm__quote_token(const char *s, char *out, size_t cap)
 {
     size_t k = 0;
     if (cap < 8) {
@@ -424,7 +424,7 @@ static size_t token_extent(sm_reader *r, int *nul)
     }
 }
 
-sm_status sm_reader_token(sm_reader *r, int *found)
+sm_status sm__reader_token(sm_reader *r, int *found)
 {
     *found = 0;
     int c;
@@ -459,7 +459,7 @@ sm_status sm_reader_token(sm_reader *r, int *found)
     r->pos += n;
     if (n >= sizeof r->token) {
         char q[64];
-        sm_quote_token(r->token, q, sizeof q);
+        sm__quote_token(r->token, q, sizeof q);
         why(r, "found a token longer than %d characters (%s)", SM_TOKEN_LEN - 1, q);
         return SM_ERR_FORMAT;
     }
@@ -475,7 +475,7 @@ sm_status sm_reader_token(sm_reader *r, int *found)
 static sm_status need_token(sm_reader *r)
 {
     int found;
-    sm_status st = sm_reader_token(r, &found);
+    sm_status st = sm__reader_token(r, &found);
     if (st != SM_OK)
         return st;
     if (!found) {
@@ -485,7 +485,7 @@ static sm_status need_token(sm_reader *r)
     return SM_OK;
 }
 
-/* ---- fast paths of sm_reader_int / sm_reader_real ----
+/* ---- fast paths of sm__reader_int / sm__reader_real ----
  * The common case, a plain number followed by whitespace inside the
  * buffer, is parsed in place (no byte-by-byte tokenizing, no copy into
  * r->token); anything else (comments, the buffer's end, a malformed or
@@ -556,7 +556,7 @@ static inline int fast_real(sm_reader *r, double *out)
     return 1;
 }
 
-sm_status sm_reader_int(sm_reader *r, int64_t lo, int64_t hi, int64_t *out)
+sm_status sm__reader_int(sm_reader *r, int64_t lo, int64_t hi, int64_t *out)
 {
     if (fast_int(r, lo, hi, out))
         return SM_OK;
@@ -569,7 +569,7 @@ sm_status sm_reader_int(sm_reader *r, int64_t lo, int64_t hi, int64_t *out)
         neg = *s++ == '-';
     if (!isdigit((unsigned char)*s)) {
         char q[64];
-        sm_quote_token(r->token, q, sizeof q);
+        sm__quote_token(r->token, q, sizeof q);
         why(r, "found %s", q);
         return SM_ERR_FORMAT;
     }
@@ -583,13 +583,13 @@ sm_status sm_reader_int(sm_reader *r, int64_t lo, int64_t hi, int64_t *out)
     }
     if (*s) {
         char q[64];
-        sm_quote_token(r->token, q, sizeof q);
+        sm__quote_token(r->token, q, sizeof q);
         why(r, "found %s (trailing characters after the number)", q);
         return SM_ERR_FORMAT;
     }
     if (overflow || v > (uint64_t)INT64_MAX) {
         char q[64];
-        sm_quote_token(r->token, q, sizeof q);
+        sm__quote_token(r->token, q, sizeof q);
         why(r, "%s is out of range", q);
         return SM_ERR_FORMAT;
     }
@@ -602,7 +602,7 @@ sm_status sm_reader_int(sm_reader *r, int64_t lo, int64_t hi, int64_t *out)
     return SM_OK;
 }
 
-sm_status sm_reader_real(sm_reader *r, double *out)
+sm_status sm__reader_real(sm_reader *r, double *out)
 {
     if (fast_real(r, out))
         return SM_OK;
@@ -613,19 +613,19 @@ sm_status sm_reader_real(sm_reader *r, double *out)
     double v = strtod(r->token, &end);
     if (end == r->token) {
         char q[64];
-        sm_quote_token(r->token, q, sizeof q);
+        sm__quote_token(r->token, q, sizeof q);
         why(r, "found %s", q);
         return SM_ERR_FORMAT;
     }
     if (*end) {
         char q[64];
-        sm_quote_token(r->token, q, sizeof q);
+        sm__quote_token(r->token, q, sizeof q);
         why(r, "found %s (trailing characters after the number)", q);
         return SM_ERR_FORMAT;
     }
     if (!isfinite(v)) {
         char q[64];
-        sm_quote_token(r->token, q, sizeof q);
+        sm__quote_token(r->token, q, sizeof q);
         why(r, "%s is not a finite number", q);
         return SM_ERR_FORMAT;
     }
@@ -681,17 +681,17 @@ static sm_status read_string(sm_reader *r, char *buf, size_t cap)
     return SM_OK;
 }
 
-sm_status sm_reader_skip_string(sm_reader *r)
+sm_status sm__reader_skip_string(sm_reader *r)
 {
     return read_string(r, NULL, 0);
 }
 
-sm_status sm_reader_string(sm_reader *r, char *buf, size_t cap)
+sm_status sm__reader_string(sm_reader *r, char *buf, size_t cap)
 {
     return cap ? read_string(r, buf, cap) : SM_ERR_INVALID;
 }
 
-sm_status sm_reader_bytes(sm_reader *r, void *dst, size_t n)
+sm_status sm__reader_bytes(sm_reader *r, void *dst, size_t n)
 {
     unsigned char *d = dst;
     while (n > 0) {
@@ -715,7 +715,7 @@ sm_status sm_reader_bytes(sm_reader *r, void *dst, size_t n)
     return SM_OK;
 }
 
-sm_status sm_reader_skip(sm_reader *r, uint64_t n)
+sm_status sm__reader_skip(sm_reader *r, uint64_t n)
 {
     while (n > 0) {
         if (r->pos == r->len) {
@@ -741,11 +741,11 @@ sm_status sm_reader_skip(sm_reader *r, uint64_t n)
 static sm_status read_word32(sm_reader *r, void *out)
 {
     uint32_t v;
-    sm_status st = sm_reader_bytes(r, &v, 4);
+    sm_status st = sm__reader_bytes(r, &v, 4);
     if (st != SM_OK)
         return st;
     if (r->swap)
-        v = sm_bswap32(v);
+        v = sm__bswap32(v);
     memcpy(out, &v, 4);
     return SM_OK;
 }
@@ -753,47 +753,47 @@ static sm_status read_word32(sm_reader *r, void *out)
 static sm_status read_word64(sm_reader *r, void *out)
 {
     uint64_t v;
-    sm_status st = sm_reader_bytes(r, &v, 8);
+    sm_status st = sm__reader_bytes(r, &v, 8);
     if (st != SM_OK)
         return st;
     if (r->swap)
-        v = sm_bswap64(v);
+        v = sm__bswap64(v);
     memcpy(out, &v, 8);
     return SM_OK;
 }
 
-sm_status sm_reader_i32(sm_reader *r, int32_t *out)
+sm_status sm__reader_i32(sm_reader *r, int32_t *out)
 {
     return read_word32(r, out);
 }
 
-sm_status sm_reader_i64(sm_reader *r, int64_t *out)
+sm_status sm__reader_i64(sm_reader *r, int64_t *out)
 {
     return read_word64(r, out);
 }
 
-sm_status sm_reader_f32(sm_reader *r, float *out)
+sm_status sm__reader_f32(sm_reader *r, float *out)
 {
     return read_word32(r, out);
 }
 
-sm_status sm_reader_f64(sm_reader *r, double *out)
+sm_status sm__reader_f64(sm_reader *r, double *out)
 {
     return read_word64(r, out);
 }
 
-sm_status sm_reader_int_sized(sm_reader *r, int size, int64_t *out)
+sm_status sm__reader_int_sized(sm_reader *r, int size, int64_t *out)
 {
     if (size == 8)
-        return sm_reader_i64(r, out);
+        return sm__reader_i64(r, out);
     int32_t v;
-    sm_status st = sm_reader_i32(r, &v);
+    sm_status st = sm__reader_i32(r, &v);
     if (st == SM_OK)
         *out = v;
     return st;
 }
 
-sm_status sm_reader_fail_line(sm_reader *r, sm_error *err, sm_status code,
+sm_status sm__reader_fail_line(sm_reader *r, sm_error *err, sm_status code,
                               const char *fmt, ...)
 {
     char msg[SM_ERROR_MSG_LEN];
@@ -804,7 +804,7 @@ sm_status sm_reader_fail_line(sm_reader *r, sm_error *err, sm_status code,
     return sm_error_set(err, code, "%s:%ld: %s", r->path, r->token_line, msg);
 }
 
-sm_status sm_reader_fail_byte(sm_reader *r, sm_error *err, sm_status code,
+sm_status sm__reader_fail_byte(sm_reader *r, sm_error *err, sm_status code,
                               uint64_t offset, const char *fmt, ...)
 {
     char msg[SM_ERROR_MSG_LEN];
@@ -815,7 +815,7 @@ sm_status sm_reader_fail_byte(sm_reader *r, sm_error *err, sm_status code,
     return sm_error_set(err, code, "%s: byte %" PRIu64 ": %s", r->path, offset, msg);
 }
 
-sm_status sm_reader_limit_count(sm_reader *r, sm_error *err, int64_t n, int vertices,
+sm_status sm__reader_limit_count(sm_reader *r, sm_error *err, int64_t n, int vertices,
                                 const char *what)
 {
     sm_read_limits *lim = r->limits;

@@ -65,14 +65,14 @@ typedef struct sm_reader {
 
 /* Opens path for reading (plain or gzip).  On failure nothing needs to
  * be closed. */
-sm_status sm_reader_open(sm_reader *r, const char *path, sm_error *err);
+sm_status sm__reader_open(sm_reader *r, const char *path, sm_error *err);
 
 /* Opens a reader over size bytes at data, named name in messages: read
  * in place (no copy; data must outlive the reader) exactly as a plain
  * regular file of that content would be.  Gzip data (its magic) is
  * refused with SM_ERR_INVALID: inflating is done for files only.  For the
  * fuzz targets (tests/fuzz/), which hand each input over in memory. */
-sm_status sm_reader_open_memory(sm_reader *r, const char *name, const void *data, size_t size,
+sm_status sm__reader_open_memory(sm_reader *r, const char *name, const void *data, size_t size,
                                 sm_error *err);
 
 /* What a format reader opens: a file (path), or memory (data, size)
@@ -83,86 +83,86 @@ typedef struct sm_reader_input {
     size_t size;
 } sm_reader_input;
 
-/* sm_reader_open or sm_reader_open_memory, as in says. */
-sm_status sm_reader_open_input(sm_reader *r, const sm_reader_input *in, sm_error *err);
-void sm_reader_close(sm_reader *r);
+/* sm__reader_open or sm__reader_open_memory, as in says. */
+sm_status sm__reader_open_input(sm_reader *r, const sm_reader_input *in, sm_error *err);
+void sm__reader_close(sm_reader *r);
 
 /* Byte offset of the next unread byte in the (decompressed) stream. */
-uint64_t sm_reader_offset(const sm_reader *r);
+uint64_t sm__reader_offset(const sm_reader *r);
 
 /* An upper bound on the bytes left in the (decompressed) stream: exact
  * for plain files and gzip files inflated whole, the deflate maximum
  * ratio times the compressed size (or the limit on inflated bytes) for
  * gzip files streamed. */
-uint64_t sm_reader_max_remaining(const sm_reader *r);
+uint64_t sm__reader_max_remaining(const sm_reader *r);
 
 /* Copies up to n leading bytes without consuming them; *got tells how
  * many exist (fewer at end of file). */
-sm_status sm_reader_peek(sm_reader *r, void *dst, size_t n, size_t *got);
+sm_status sm__reader_peek(sm_reader *r, void *dst, size_t n, size_t *got);
 
 /* The buffered bytes from the next unread one: refills first when none
  * is buffered, then sets *p and *avail (0 only at the end of the stream
  * or on an error) and returns the stream's sticky error, if any (as
- * sm_reader_peek; sm_reader_bytes would still hand out bytes buffered
- * before the error).  sm_reader_consume(r, k) then consumes k <= *avail
+ * sm__reader_peek; sm__reader_bytes would still hand out bytes buffered
+ * before the error).  sm__reader_consume(r, k) then consumes k <= *avail
  * of them.  For readers that scan with memchr rather than byte by byte
  * (OBJ lines, skipped .msh sections). */
-sm_status sm_reader_window(sm_reader *r, const unsigned char **p, size_t *avail);
-void sm_reader_consume(sm_reader *r, size_t k);
+sm_status sm__reader_window(sm_reader *r, const unsigned char **p, size_t *avail);
+void sm__reader_consume(sm_reader *r, size_t k);
 
 /* ---- ASCII ---- */
 
 /* Next whitespace-separated token into r->token (r->token_line set).
  * Returns SM_OK with *found = 0 at end of file. */
-sm_status sm_reader_token(sm_reader *r, int *found);
+sm_status sm__reader_token(sm_reader *r, int *found);
 
 /* Next token as an integer in [lo, hi] / as a finite real (the double
  * strtod gives, bit for bit).  A missing token, trailing characters,
  * overflow or a non-finite value are errors (SM_ERR_FORMAT) described in
  * r->why.  r->token_line is the number's line; r->token is left alone
  * when the number is read in place (the common case). */
-sm_status sm_reader_int(sm_reader *r, int64_t lo, int64_t hi, int64_t *out);
-sm_status sm_reader_real(sm_reader *r, double *out);
+sm_status sm__reader_int(sm_reader *r, int64_t lo, int64_t hi, int64_t *out);
+sm_status sm__reader_real(sm_reader *r, double *out);
 
 /* Skips a string argument (Identifier, Geometry): one token, or a
  * double-quoted string possibly containing spaces, on one line. */
-sm_status sm_reader_skip_string(sm_reader *r);
+sm_status sm__reader_skip_string(sm_reader *r);
 /* The same string argument copied into buf (without the quotes); one
  * of cap - 1 bytes or more is an error (SM_ERR_FORMAT, r->why). */
-sm_status sm_reader_string(sm_reader *r, char *buf, size_t cap);
+sm_status sm__reader_string(sm_reader *r, char *buf, size_t cap);
 
 /* Writes a printable, truncated copy of s (quoted) into out. */
-void sm_quote_token(const char *s, char *out, size_t cap);
+void sm__quote_token(const char *s, char *out, size_t cap);
 
 /* ---- binary ---- */
 
 /* Reads exactly n bytes (no swapping); a short read is SM_ERR_FORMAT
  * "unexpected end of file". */
-sm_status sm_reader_bytes(sm_reader *r, void *dst, size_t n);
-sm_status sm_reader_skip(sm_reader *r, uint64_t n);
-sm_status sm_reader_i32(sm_reader *r, int32_t *out);
-sm_status sm_reader_i64(sm_reader *r, int64_t *out);
-sm_status sm_reader_f32(sm_reader *r, float *out);
-sm_status sm_reader_f64(sm_reader *r, double *out);
+sm_status sm__reader_bytes(sm_reader *r, void *dst, size_t n);
+sm_status sm__reader_skip(sm_reader *r, uint64_t n);
+sm_status sm__reader_i32(sm_reader *r, int32_t *out);
+sm_status sm__reader_i64(sm_reader *r, int64_t *out);
+sm_status sm__reader_f32(sm_reader *r, float *out);
+sm_status sm__reader_f64(sm_reader *r, double *out);
 /* An integer of 4 or 8 bytes (as the file version dictates). */
-sm_status sm_reader_int_sized(sm_reader *r, int size, int64_t *out);
+sm_status sm__reader_int_sized(sm_reader *r, int size, int64_t *out);
 
-uint32_t sm_bswap32(uint32_t v);
-uint64_t sm_bswap64(uint64_t v);
+uint32_t sm__bswap32(uint32_t v);
+uint64_t sm__bswap64(uint64_t v);
 
 /* ---- errors with position ---- */
 
 /* "path:line: message" (line of the last token). */
-sm_status sm_reader_fail_line(sm_reader *r, sm_error *err, sm_status code,
+sm_status sm__reader_fail_line(sm_reader *r, sm_error *err, sm_status code,
                               const char *fmt, ...) __attribute__((format(printf, 4, 5)));
 /* SM_ERR_NOMEM naming the bound when n records (vertices when vertices
  * is 1, else elements or facets) exceed r->limits (sm_io.h), with
  * limits->hit set; SM_OK otherwise.  For readers without a declared
  * count (STL, OBJ): called as the records grow. */
-sm_status sm_reader_limit_count(sm_reader *r, sm_error *err, int64_t n, int vertices,
+sm_status sm__reader_limit_count(sm_reader *r, sm_error *err, int64_t n, int vertices,
                                 const char *what);
 /* "path: byte N: message". */
-sm_status sm_reader_fail_byte(sm_reader *r, sm_error *err, sm_status code,
+sm_status sm__reader_fail_byte(sm_reader *r, sm_error *err, sm_status code,
                               uint64_t offset, const char *fmt, ...)
     __attribute__((format(printf, 5, 6)));
 

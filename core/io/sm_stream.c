@@ -3,7 +3,7 @@
 #include <string.h>
 #include <strings.h>
 
-int sm_path_has_suffix(const char *path, const char *suffix)
+int sm__path_has_suffix(const char *path, const char *suffix)
 {
     size_t n = strlen(path), k = strlen(suffix);
     return n >= k && strcasecmp(path + n - k, suffix) == 0;

@@ -23,6 +23,6 @@ void sm__stream_restore_locale(locale_t c_locale, locale_t saved);
 const char *sm__stream_zlib_message(const char *msg);
 
 /* True when path ends in suffix (ASCII case-insensitive). */
-int sm_path_has_suffix(const char *path, const char *suffix);
+int sm__path_has_suffix(const char *path, const char *suffix);
 
 #endif

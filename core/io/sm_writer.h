@@ -5,12 +5,12 @@
  * a ".gz" suffix).  Regular files are written to a temporary name in the
  * same directory and renamed on success, so a failed write never leaves
  * a half-written file under the final name.  Errors are sticky and
- * reported (with errno, e.g. ENOSPC) by sm_writer_close.
+ * reported (with errno, e.g. ENOSPC) by sm__writer_close.
  *
- * Numbers are written as text by sm_writer_int and sm_writer_real
+ * Numbers are written as text by sm__writer_int and sm__writer_real
  * (sm_number.h: a tenth of vsnprintf's cost, and no locale at all); the
  * writer also sets the C numeric locale for the calling thread while
- * open (sm_stream.h), so that what sm_writer_printf formats writes '.'
+ * open (sm_stream.h), so that what sm__writer_printf formats writes '.'
  * whatever the application's locale. */
 #ifndef SM_WRITER_H
 #define SM_WRITER_H
@@ -23,26 +23,26 @@
 typedef struct sm_writer sm_writer;
 
 /* Opens path for writing; compression when the name ends in ".gz". */
-sm_status sm_writer_open(sm_writer **out, const char *path, sm_error *err);
+sm_status sm__writer_open(sm_writer **out, const char *path, sm_error *err);
 /* Flushes, closes and renames into place; on any error (including one
  * that happened during earlier writes) removes the partial file and
  * returns SM_ERR_IO.  Always frees w. */
-sm_status sm_writer_close(sm_writer *w, sm_error *err);
+sm_status sm__writer_close(sm_writer *w, sm_error *err);
 
 /* Text: headers and keywords. */
-void sm_writer_printf(sm_writer *w, const char *fmt, ...)
+void sm__writer_printf(sm_writer *w, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)));
 /* Text: one number in decimal, then the byte sep (' ' between the numbers
- * of a line, '\n' after the last).  sm_writer_int writes v as "%lld";
- * sm_writer_real writes x as "%.17g" (17 significant digits, which read
+ * of a line, '\n' after the last).  sm__writer_int writes v as "%lld";
+ * sm__writer_real writes x as "%.17g" (17 significant digits, which read
  * back to x bit for bit; sm__double_to_decimal). */
-void sm_writer_int(sm_writer *w, int64_t v, char sep);
-void sm_writer_real(sm_writer *w, double x, char sep);
+void sm__writer_int(sm_writer *w, int64_t v, char sep);
+void sm__writer_real(sm_writer *w, double x, char sep);
 /* Binary: bytes, and numbers in the machine's byte order. */
-void sm_writer_bytes(sm_writer *w, const void *data, size_t n);
-void sm_writer_i32(sm_writer *w, int32_t v);
-void sm_writer_i64(sm_writer *w, int64_t v);
+void sm__writer_bytes(sm_writer *w, const void *data, size_t n);
+void sm__writer_i32(sm_writer *w, int32_t v);
+void sm__writer_i64(sm_writer *w, int64_t v);
 /* Logical bytes written so far (uncompressed). */
-uint64_t sm_writer_offset(const sm_writer *w);
+uint64_t sm__writer_offset(const sm_writer *w);
 
 #endif

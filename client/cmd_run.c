@@ -1,9 +1,9 @@
 /* `shapematch run`: one matching job run locally, with no daemon.
  *
- * The job goes through proto's job runner (sm_job_inputs.h,
- * sm_job_runner.h), the one `shapematch-worker` uses too: the same input
- * checks, the same run, the same result set and summary.json as a job on
- * the daemon (sm_job_runner.h lists the files).  What is the CLI's own is
+ * The job goes through the job runner of proto/job/ (sm_job_inputs.h,
+ * sm_job_runner.h, sm_job_results.h), the one `shapematch-worker` uses
+ * too: the same input checks, the same run, the same result set and
+ * summary.json as a job on the daemon (sm_job_results.h lists the files).  What is the CLI's own is
  * the framing: option names in messages, the progress line (or NDJSON
  * events with --json), Ctrl-C, the exit codes and the final line. */
 #include <errno.h>

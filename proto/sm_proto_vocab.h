@@ -2,7 +2,7 @@
  * must spell the same way, one table each.
  *
  *   - the parts of a job submission (multipart part names, job.json keys);
- *   - the result set: every file a run writes (sm_job_runner.h), grouped by
+ *   - the result set: every file a run writes (job/sm_job_results.h), grouped by
  *     what GET /v1/jobs/{id}/results/{what}?format=F serves, with the
  *     format names, media types and file names;
  *   - the Idempotency-Key length limit.
@@ -62,7 +62,7 @@ const sm_result_format *sm_result_format_find(sm_result_kind kind, const char *n
  * kind). */
 const sm_result_format *sm_result_formats_of(sm_result_kind kind, size_t *n);
 
-/* The summary document (sm_job_runner.h) and its media type. */
+/* The summary document (job/sm_job_results.h) and its media type. */
 #define SM_RESULT_SUMMARY_FILE "summary.json"
 #define SM_RESULT_SUMMARY_MEDIA "application/json"
 /* Snapshots (params.save_every K): iter-NNNNN.mesh after iterations K,

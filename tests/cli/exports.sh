@@ -65,16 +65,6 @@ if [ -z "$public" ]; then
 fi
 ok "the public headers declare $(printf '%s\n' "$public" | wc -l) functions"
 
-# BEGIN pending sm__ rename
-# Private functions of files other helpers were editing when the rule came
-# in; the commit that renames them to sm__* deletes this block.
-pending='sm_amg_free sm_amg_get_stats sm_amg_new sm_amg_setup sm_amg_solve
-sm_elasticity_dof sm_elasticity_element_matrix sm_elasticity_factorize sm_elasticity_free
-sm_elasticity_get_info sm_elasticity_matrix sm_elasticity_new sm_elasticity_solve
-sm_elasticity_timings sm_lame sm_sdf_point_segment3_2 sm_shape_active_facets sm_shape_delta_j
-sm_shape_free sm_shape_load sm_shape_new sm_shape_volume_j'
-public=$(printf '%s\n' $public $pending | LC_ALL=C sort -u)
-# END pending sm__ rename
 
 # every global is public or sm__
 stray=$(LC_ALL=C comm -23 <(printf '%s\n' "$names" | grep -v '^sm__') <(printf '%s\n' "$public"))

@@ -144,9 +144,8 @@ test: check-deps
 # `make bench` and its parts: bench/module.mk.
 
 # Where the house is crowded: the longest files and the longest and most
-# complex functions (pmccabe) against the size guide that tests/lint.sh
-# states (lines per file, lines and complexity per function).
-# Informative, never fails.
+# complex functions (pmccabe) against the size guide in tests/lint.sh.  Informative,
+# never fails.
 lint:
 	@tests/lint.sh
 

@@ -27,7 +27,7 @@
 #include "shapematch/sm_clock.h"
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_mesh.h"
-#include "sm_number.h"
+#include "io/sm_number.h"
 
 /* FNV-1a of a whole file and its size; 0 if it cannot be read. */
 static uint64_t file_hash(const char *path, long *size)

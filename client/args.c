@@ -1,7 +1,8 @@
 /* Command-line parsing of the shapematch client (see args.h). */
 #include "args.h"
 #include "msg.h"
-#include "sm_job_runner.h"
+#include "job/sm_job_inputs.h"
+#include "sm_proto_vocab.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -120,14 +121,16 @@ static int real_item(const char *flag, const char *item, int index,
     return args_parse_real(flag, item, &((double *)user)[index], msg, cap);
 }
 
-int args_parse_refs(const char *flag, const char *text, int32_t *refs,
-                    int max, int *count, char *msg, size_t cap)
+/* Comma-separated integers (int32), 1..max of them. */
+static int args_parse_refs(const char *flag, const char *text, int32_t *refs,
+                           int max, int *count, char *msg, size_t cap)
 {
     return split_commas(flag, text, max, count, ref_item, refs, msg, cap);
 }
 
-int args_parse_reals(const char *flag, const char *text, double *vals,
-                     int max, int *count, char *msg, size_t cap)
+/* Comma-separated reals, 1..max of them, all finite. */
+static int args_parse_reals(const char *flag, const char *text, double *vals,
+                            int max, int *count, char *msg, size_t cap)
 {
     return split_commas(flag, text, max, count, real_item, vals, msg, cap);
 }
@@ -227,16 +230,6 @@ int args_take_value(int argc, char **argv, int *i, const char *flag, const char 
     return 0;
 }
 
-const char *args_clamp_name(sm_clamp_kind k)
-{
-    switch (k) {
-    case SM_CLAMP_BALL: return "ball";
-    case SM_CLAMP_ELEMENTS: return "elements";
-    case SM_CLAMP_VERTICES: return "vertices";
-    case SM_CLAMP_NONE: return "none";
-    }
-    return "unknown";
-}
 
 void job_options_init(job_options *j)
 {
@@ -564,7 +557,7 @@ static int apply_run_flag(run_options *o, run_flag_kind kind, const char *flag, 
     case RUN_FLAG_OUTPUT: path = &o->outdir; break;
     case RUN_FLAG_FORMAT: {
         char why[ARGS_MSG_LEN];
-        if (sm_job_outputs_parse(value, &o->outputs, why, sizeof why) != 0)
+        if (sm_result_outputs_parse(value, &o->outputs, why, sizeof why) != 0)
             return cli_fail(msg, cap, "%s: %s", flag, why);
         return 0;
     }
@@ -620,7 +613,7 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
     char q[48];
     memset(o, 0, sizeof *o);
     job_options_init(&o->job);
-    if (sm_job_outputs_parse(RUN_DEFAULT_FORMATS, &o->outputs, msg, cap) != 0)
+    if (sm_result_outputs_parse(RUN_DEFAULT_FORMATS, &o->outputs, msg, cap) != 0)
         return ARGS_ERROR;
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i];

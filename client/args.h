@@ -43,13 +43,13 @@ typedef struct run_options {
     const char *target_sol_path;
     const char *target_surface_path; /* --target-surface (excludes --target-sol) */
     const char *outdir;
-    unsigned outputs;   /* --format: sm_job_runner.h's SM_JOB_OUT_* bits */
+    unsigned outputs;   /* --format: sm_proto_vocab.h's SM_RESULT_OUT_* bits */
     int quiet;
     int json;
     job_options job;
 } run_options;
 
-/* run --format when not given (sm_job_outputs_parse syntax). */
+/* run --format when not given (sm_result_outputs_parse syntax). */
 #define RUN_DEFAULT_FORMATS "mesh,vtu,sol"
 
 /* ---- number parsing (exported for the other commands and tests) ---- */
@@ -60,12 +60,6 @@ int args_parse_real(const char *flag, const char *text, double *out,
 /* Whole text as a decimal integer in [lo, hi]. */
 int args_parse_int(const char *flag, const char *text, long lo, long hi,
                    long *out, char *msg, size_t cap);
-/* Comma-separated integers (int32), 1..max of them. */
-int args_parse_refs(const char *flag, const char *text, int32_t *refs,
-                    int max, int *count, char *msg, size_t cap);
-/* Comma-separated reals, 1..max of them, all finite. */
-int args_parse_reals(const char *flag, const char *text, double *vals,
-                     int max, int *count, char *msg, size_t cap);
 
 /* ---- job options ---- */
 
@@ -106,9 +100,6 @@ void job_options_markdown(FILE *out);
 /* argv[0] is the command name ("run").  o is fully initialised. */
 args_result args_parse_run(int argc, char **argv, run_options *o,
                            char *msg, size_t cap);
-
-/* Name of a clamp kind as used in the outputs ("ball", ...). */
-const char *args_clamp_name(sm_clamp_kind k);
 
 /* Splits an option argument: "--name=value" gives flag "--name" and
  * *inline_value "value"; any other argument is the flag itself and

@@ -1,9 +1,9 @@
 /* `shapematch run`: one matching job run locally, with no daemon.
  *
- * The job goes through proto's job runner (sm_job_inputs.h,
- * sm_job_runner.h), the one `shapematch-worker` uses too: the same input
- * checks, the same run, the same result set and summary.json as a job on
- * the daemon (sm_job_runner.h lists the files).  What is the CLI's own is
+ * The job goes through the job runner of proto/job/ (sm_job_inputs.h,
+ * sm_job_runner.h, sm_job_results.h), the one `shapematch-worker` uses
+ * too: the same input checks, the same run, the same result set and
+ * summary.json as a job on the daemon (sm_job_results.h lists the files).  What is the CLI's own is
  * the framing: option names in messages, the progress line (or NDJSON
  * events with --json), Ctrl-C, the exit codes and the final line. */
 #include <errno.h>
@@ -18,8 +18,9 @@
 #include "fsutil.h"
 #include "progress.h"
 #include "shapematch/sm_atomic.h"
-#include "sm_job_inputs.h"
-#include "sm_job_runner.h"
+#include "job/sm_job_inputs.h"
+#include "job/sm_job_results.h"
+#include "job/sm_job_runner.h"
 #include "sm_json.h"
 #include "sm_proto_events.h"
 
@@ -352,8 +353,7 @@ int cmd_run(int argc, char **argv)
     warn_unknown_free_refs(&ctx, in.prepared);
 
     /* ---- output directory, before the long part ---- */
-    if (fs_mkdir_p(opt.outdir, msg, sizeof msg) != 0 ||
-        fs_check_writable(opt.outdir, msg, sizeof msg) != 0) {
+    if (fs_output_dir(opt.outdir, msg, sizeof msg) != 0) {
         code = run_error(&opt, CLI_EXIT_OUTPUT, "output directory: %s", msg);
         goto done;
     }

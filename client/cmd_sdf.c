@@ -12,8 +12,8 @@
 
 #include "args.h"
 #include "cli.h"
-#include "fsutil.h"
 #include "shapematch/sm_io.h"
+#include "shapematch/sm_path.h"
 #include "shapematch/sm_sdf.h"
 #include "shapematch/sm_surface.h"
 
@@ -150,12 +150,13 @@ static int write_outputs(const sdf_options *o, const sm_mesh *bg, const sm_sol *
         if (sm_sol_write(o->out, sol, &err) == SM_OK)
             return CLI_EXIT_OK;
     } else {
-        char msg[ARGS_MSG_LEN];
-        if (fs_mkdir_p(o->out, msg, sizeof msg) != 0) {
-            fprintf(stderr, "shapematch sdf: %s\n", msg);
+        sm_error dir_err;
+        if (sm_mkdir_p(o->out, &dir_err) != SM_OK) {
+            fprintf(stderr, "shapematch sdf: %s\n", dir_err.msg);
             return CLI_EXIT_OUTPUT;
         }
-        char *pm = fs_join(o->out, "background.mesh"), *ps = fs_join(o->out, "background.sol");
+        char *pm = sm_path_join(o->out, "background.mesh");
+        char *ps = sm_path_join(o->out, "background.sol");
         sm_status st = pm && ps ? sm_mesh_write(pm, bg, &err) : SM_ERR_NOMEM;
         if (st == SM_OK)
             st = sm_sol_write(ps, sol, &err);

@@ -17,6 +17,7 @@
 
 #include "cli.h"
 #include "curl_api.h"
+#include "daemon_ops.h"
 #include "remote.h"
 #include "sm_proto_events.h"
 #include "sm_proto_params.h"

@@ -141,7 +141,8 @@ void http_client_free(http_client *c)
     memset(c, 0, sizeof *c);
 }
 
-char *http_url(const http_client *c, const char *path)
+/* Builds base + path.  Returns a malloc'd string or NULL. */
+static char *http_url(const http_client *c, const char *path)
 {
     size_t n = strlen(c->base) + strlen(path) + 1;
     char *url = malloc(n);

@@ -86,8 +86,6 @@ typedef struct http_response {
     char error[HTTP_MSG_LEN];    /* transport error text (not HTTP_DONE) */
 } http_response;
 
-/* Builds base + path.  Returns a malloc'd string or NULL. */
-char *http_url(const http_client *c, const char *path);
 
 /* Performs the request.  rs is filled (free it with
  * http_response_free) whatever the outcome. */

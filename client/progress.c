@@ -29,7 +29,9 @@ void progress_set_goal(progress_display *d, int max_iter, double tol_l2)
     d->tol_l2 = tol_l2 > 0 ? tol_l2 : 0.0;
 }
 
-double progress_fraction(const progress_display *d, const sm_progress *p, double *eta)
+/* Fraction of the goal reached in [0, 1], -1 without a goal; *eta gets
+ * the estimated seconds left (-1 unknown). */
+static double progress_fraction(const progress_display *d, const sm_progress *p, double *eta)
 {
     double f = -1.0;
     if (d->max_iter > 0)
@@ -74,7 +76,8 @@ static void format_bar(const progress_display *d, const sm_progress *p, char *bu
     snprintf(buf, cap, "[%s] %3.0f%%  %s%s", bar, 100 * f, rate, left);
 }
 
-void progress_format(char *buf, size_t cap, const sm_progress *p)
+/* One-line description of a progress state. */
+static void progress_format(char *buf, size_t cap, const sm_progress *p)
 {
     snprintf(buf, cap, "iter %d  J %.6e  boundary %.3e  step %.3e  qmin %.3f  %.1fs",
              p->iteration, p->J, p->boundary_l2, p->step, p->min_quality, p->elapsed);

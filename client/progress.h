@@ -6,7 +6,7 @@
  *   - anything else (a log file, a pipe, CI) gets one plain line every
  *     PROGRESS_LINE_EVERY iterations plus the final state;
  *   - quiet prints nothing.
- * Shared by the commands that show a run's progress (run; watch later). */
+ * Shared by the commands that show a run's progress (run, watch, submit --wait). */
 #ifndef CLI_PROGRESS_H
 #define CLI_PROGRESS_H
 
@@ -44,9 +44,6 @@ void progress_init(progress_display *d, FILE *out, int quiet);
  * (> 0); the larger of the two fractions is shown (whichever ends the
  * run first).  Without a goal the TTY line shows the rate only. */
 void progress_set_goal(progress_display *d, int max_iter, double tol_l2);
-/* Fraction of the goal reached in [0, 1], -1 without a goal; *eta gets
- * the estimated seconds left (-1 unknown).  For tests. */
-double progress_fraction(const progress_display *d, const sm_progress *p, double *eta);
 void progress_update(progress_display *d, const sm_progress *p);
 /* Shows the final state (if not shown yet) and ends the TTY line. */
 void progress_finish(progress_display *d);
@@ -54,8 +51,5 @@ void progress_finish(progress_display *d);
  * when quiet: used for warnings). */
 void progress_message(progress_display *d, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)));
-
-/* One-line description of a progress state. */
-void progress_format(char *buf, size_t cap, const sm_progress *p);
 
 #endif

@@ -2,8 +2,8 @@
  * list, cancel) share: option parsing with the connection options
  * (--server / SHAPEMATCH_SERVER, --token / SHAPEMATCH_TOKEN), opening the
  * HTTP client, turning a failed or refused request into a message and an
- * exit code (cli.h), and the watch and fetch engines that `submit --wait`
- * chains. */
+ * exit code (cli.h).  The watch and fetch engines that `submit --wait`
+ * chains are daemon_ops.h's. */
 #ifndef CLI_REMOTE_H
 #define CLI_REMOTE_H
 
@@ -85,52 +85,5 @@ void remote_print_body(const http_response *rs);
 /* "max_iterations after 20 iterations: J -1.2e-02 -> -1.3e-02, boundary
  * error 2.3e-04 (max 7.9e-04), min quality 0.504" */
 void remote_format_result(char *buf, size_t cap, const sm_result *r);
-
-/* ---- watch (cmd_watch.c) ---- */
-
-typedef struct watch_options {
-    int quiet;                 /* no progress display, no lifecycle lines */
-    int json;                  /* every event as one JSON line on stdout */
-    double reconnect_timeout;  /* seconds to keep reconnecting after a drop */
-} watch_options;
-
-/* --reconnect-timeout: seconds in [0, REMOTE_RECONNECT_MAX]. */
-int watch_parse_reconnect(const char *flag, const char *value, double *out, char *msg,
-                          size_t cap);
-
-/* Follows the job's events to its end.  Returns 0 (successful),
- * CLI_EXIT_JOB_FAILED, CLI_EXIT_CANCELLED (dismissed), or the exit code
- * of a request that failed (reported). */
-int remote_watch(http_client *c, const char *cmd, int token_given, const char *id,
-                 const watch_options *o);
-
-/* ---- fetch (cmd_fetch.c) ---- */
-
-enum {
-    FETCH_MESH = 1u << 0,
-    FETCH_MESHB = 1u << 1,
-    FETCH_VTU = 1u << 2,
-    FETCH_BINARY = 1u << 3,
-    FETCH_SOL = 1u << 4,      /* displacement.sol (also when neither is named) */
-    FETCH_SOLB = 1u << 5
-};
-#define FETCH_DEFAULT_FORMATS (FETCH_MESH | FETCH_VTU)
-#define FETCH_DEFAULT_FORMATS_TEXT "mesh,vtu"
-
-/* "mesh,vtu" -> bit set.  Returns 0, or -1 with a message. */
-int fetch_parse_formats(const char *flag, const char *text, unsigned *out, char *msg,
-                        size_t cap);
-
-typedef struct fetch_options {
-    const char *outdir;
-    unsigned formats;
-    int quiet;
-    int show_result;           /* also print the result's one-line summary */
-} fetch_options;
-
-/* Downloads the results of a successful job into outdir (see
- * cmd_fetch.c).  Returns 0, or an exit code (reported). */
-int remote_fetch(http_client *c, const char *cmd, int token_given, const char *id,
-                 const fetch_options *o);
 
 #endif

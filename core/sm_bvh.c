@@ -83,15 +83,15 @@ double sm_sdf_point_triangle2(const double *p, const double *a, const double *b,
     }
     double den = va + vb + vc;
     if (!(den > 0)) /* degenerate triangle: its edges */
-        return fmin(sm_sdf_point_segment3_2(p, a, b),
-                    fmin(sm_sdf_point_segment3_2(p, b, c), sm_sdf_point_segment3_2(p, a, c)));
+        return fmin(sm__sdf_point_segment3_2(p, a, b),
+                    fmin(sm__sdf_point_segment3_2(p, b, c), sm__sdf_point_segment3_2(p, a, c)));
     double v = vb / den, w = vc / den;
     for (int k = 0; k < 3; k++)
         q[k] = a[k] + v * ab[k] + w * ac[k];
     return dist2_to(p, q);
 }
 
-double sm_sdf_point_segment3_2(const double *p, const double *a, const double *b)
+double sm__sdf_point_segment3_2(const double *p, const double *a, const double *b)
 {
     double ab[3], ap[3];
     for (int k = 0; k < 3; k++) {

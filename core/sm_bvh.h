@@ -43,7 +43,7 @@ double sm__bvh_nearest(const sm_bvh *t, const double *p, int32_t *hint, sm_bvh_e
 double sm__bvh_facet_dist2(const sm_bvh *t, int32_t f, const double *p);
 /* Area vector (outward for an outward facet) and centroid of facet f. */
 void sm__bvh_facet_moments(const sm_surface *s, int32_t f, double *n, double *c);
-double sm_sdf_point_segment3_2(const double *p, const double *a, const double *b);
+double sm__sdf_point_segment3_2(const double *p, const double *a, const double *b);
 
 /* Generalized winding number at p (sm_winding.c). */
 double sm__winding_at(const sm_bvh *t, const double *p, int32_t *stack);

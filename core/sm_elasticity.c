@@ -11,13 +11,13 @@
  * sm_elasticity_pattern.c).
  *
  * Everything that depends only on the topology is computed once in
- * sm_elasticity_new: the CSR pattern of the free x free block (both
+ * sm__elasticity_new: the CSR pattern of the free x free block (both
  * triangles), the CSR pattern of the free x clamped block (it carries the
  * Dirichlet values to the right-hand side), a slot map telling where each
  * entry of each element matrix goes (sm_elasticity_pattern.c), and
  * CHOLMOD's symbolic analysis
  * (with a fill-reducing order computed on the free-vertex graph).
- * sm_elasticity_factorize then computes the element matrices
+ * sm__elasticity_factorize then computes the element matrices
  * (sm_element.h), scatters them through the map (no search) and
  * refactorizes numerically, or rebuilds the AMG hierarchy on the same
  * arrays, which hypre reads in place (sm_solver_amg.c). */
@@ -63,7 +63,7 @@ static const char *ordering_name(int ordering)
     return "unknown";
 }
 
-void sm_elasticity_free(sm_elasticity *el)
+void sm__elasticity_free(sm_elasticity *el)
 {
     if (!el)
         return;
@@ -78,7 +78,7 @@ void sm_elasticity_free(sm_elasticity *el)
             cholmod_free_dense(&el->E, &el->cc);
         cholmod_finish(&el->cc);
     }
-    sm_amg_free(el->amg); /* before the arrays it borrows */
+    sm__amg_free(el->amg); /* before the arrays it borrows */
     free(el->dof);
     free(el->clamped_global);
     free(el->rowptr);
@@ -93,7 +93,7 @@ void sm_elasticity_free(sm_elasticity *el)
     free(el);
 }
 
-/* The options of sm_elasticity_new: material, alpha, solver and factor
+/* The options of sm__elasticity_new: material, alpha, solver and factor
  * kinds, AMG settings. */
 static sm_status validate_opts(const sm_elasticity_opts *opts, sm_error *err)
 {
@@ -122,7 +122,7 @@ static sm_status validate_opts(const sm_elasticity_opts *opts, sm_error *err)
     return SM_OK;
 }
 
-/* The arguments of sm_elasticity_new: sizes, the options and every
+/* The arguments of sm__elasticity_new: sizes, the options and every
  * element's vertices (in range, distinct). */
 static sm_status validate(const sm_mesh *m, const sm_elasticity_opts *opts, sm_error *err)
 {
@@ -271,7 +271,7 @@ static sm_status setup_solver(sm_elasticity *el, sm_factor_kind kind, sm_error *
     return SM_OK;
 }
 
-sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
+sm_status sm__elasticity_new(const sm_mesh *m, const uint8_t *clamped,
                             const sm_elasticity_opts *opts, sm_elasticity **out,
                             sm_error *err)
 {
@@ -291,26 +291,26 @@ sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
     el->nelems = m->nelems;
     el->elems = m->elems;
     el->alpha = opts->alpha;
-    sm_lame(opts->young, opts->poisson, &el->lambda, &el->mu);
+    sm__lame(opts->young, opts->poisson, &el->lambda, &el->mu);
 
     el->solver = sm_solver_resolve(opts->solver, m->dim, m->nelems);
     el->amg_rtol = opts->amg_rtol > 0.0 ? opts->amg_rtol : SM_ELASTICITY_AMG_RTOL;
     el->diag_first = el->solver == SM_SOLVER_AMG;
     if ((st = sm__elasticity_pattern(el, clamped, err)) != SM_OK) {
-        sm_elasticity_free(el);
+        sm__elasticity_free(el);
         return st;
     }
     if (el->solver == SM_SOLVER_AMG && el->nfree > 0) {
         int rigid_modes = opts->amg_modes == SM_AMG_MODES_ON ||
                           (opts->amg_modes == SM_AMG_MODES_AUTO &&
                            (el->dim == 2 || el->nfree >= SM_AMG_MODES_MIN_UNKNOWNS));
-        st = sm_amg_new(el->dim, el->nfree, el->rowptr, el->colind, el->values, el->amg_rtol,
+        st = sm__amg_new(el->dim, el->nfree, el->rowptr, el->colind, el->values, el->amg_rtol,
                         rigid_modes, &el->amg, err);
     } else if (el->solver == SM_SOLVER_CHOLMOD) {
         st = setup_solver(el, opts->factor, err);
     }
     if (st != SM_OK) {
-        sm_elasticity_free(el);
+        sm__elasticity_free(el);
         return st;
     }
     el->t_analyze = sm_clock_seconds() - t0;
@@ -382,7 +382,7 @@ assemble(sm_elasticity *el, const int dim, const int diag_first,
 
 /* AMG "factorization": the free vertices' positions (for the rigid-body
  * modes) and hypre's set-up on the assembled matrix, which hypre reads
- * in place (sm_amg_new).  The positions are
+ * in place (sm__amg_new).  The positions are
  * only read during the set-up, so their buffer (nfree doubles) then
  * serves as the solution buffer of the solves. */
 static sm_status amg_setup(sm_elasticity *el, const double *coords, sm_error *err)
@@ -394,10 +394,10 @@ static sm_status amg_setup(sm_elasticity *el, const double *coords, sm_error *er
     for (int64_t g = 0; g < (int64_t)el->nverts * el->dim; g++)
         if (el->dof[g] >= 0)
             el->amg_coords[el->dof[g]] = coords[g];
-    return sm_amg_setup(el->amg, el->amg_coords, err);
+    return sm__amg_setup(el->amg, el->amg_coords, err);
 }
 
-sm_status sm_elasticity_factorize(sm_elasticity *el, const double *coords, sm_error *err)
+sm_status sm__elasticity_factorize(sm_elasticity *el, const double *coords, sm_error *err)
 {
     if (!el || !coords)
         return sm_error_set(err, SM_ERR_INVALID, "elasticity: NULL argument to factorize");
@@ -468,7 +468,7 @@ sm_status sm_elasticity_factorize(sm_elasticity *el, const double *coords, sm_er
     return SM_OK;
 }
 
-sm_status sm_elasticity_solve(sm_elasticity *el, const double *load,
+sm_status sm__elasticity_solve(sm_elasticity *el, const double *load,
                               const double *dirichlet, double *u, sm_error *err)
 {
     if (!el || !u)
@@ -496,7 +496,7 @@ sm_status sm_elasticity_solve(sm_elasticity *el, const double *load,
     }
     const double *x = NULL;
     if (el->solver == SM_SOLVER_AMG && el->nfree > 0) {
-        sm_status st = sm_amg_solve(el->amg, rhs, el->amg_coords, err);
+        sm_status st = sm__amg_solve(el->amg, rhs, el->amg_coords, err);
         if (st != SM_OK)
             return st;
         x = el->amg_coords; /* reused as the solution buffer, see amg_setup */
@@ -529,7 +529,7 @@ sm_status sm_elasticity_solve(sm_elasticity *el, const double *load,
 /* Accessors                                                               */
 /* ---------------------------------------------------------------------- */
 
-void sm_elasticity_matrix(const sm_elasticity *el, sm_csr_view *view)
+void sm__elasticity_matrix(const sm_elasticity *el, sm_csr_view *view)
 {
     view->n = el->nfree;
     view->rowptr = el->rowptr;
@@ -537,14 +537,14 @@ void sm_elasticity_matrix(const sm_elasticity *el, sm_csr_view *view)
     view->values = el->values;
 }
 
-int32_t sm_elasticity_dof(const sm_elasticity *el, int32_t vertex, int comp)
+int32_t sm__elasticity_dof(const sm_elasticity *el, int32_t vertex, int comp)
 {
     if (vertex < 0 || vertex >= el->nverts || comp < 0 || comp >= el->dim)
         return -1;
     return el->dof[(int64_t)vertex * el->dim + comp];
 }
 
-void sm_elasticity_timings(const sm_elasticity *el, double *assembly, double *factor)
+void sm__elasticity_timings(const sm_elasticity *el, double *assembly, double *factor)
 {
     if (assembly)
         *assembly = el->t_assembly;
@@ -552,7 +552,7 @@ void sm_elasticity_timings(const sm_elasticity *el, double *assembly, double *fa
         *factor = el->t_factor;
 }
 
-void sm_elasticity_get_info(const sm_elasticity *el, sm_elasticity_info *info)
+void sm__elasticity_get_info(const sm_elasticity *el, sm_elasticity_info *info)
 {
     memset(info, 0, sizeof *info);
     info->nfree = el->nfree;
@@ -570,7 +570,7 @@ void sm_elasticity_get_info(const sm_elasticity *el, sm_elasticity_info *info)
     info->solver = el->solver;
     if (el->amg) {
         sm_amg_stats as;
-        sm_amg_get_stats(el->amg, &as);
+        sm__amg_get_stats(el->amg, &as);
         info->amg_iterations = as.last_iterations;
         info->amg_total_iterations = as.total_iterations;
         info->amg_restarts = as.restarts;

@@ -8,7 +8,7 @@
  * is assembled on the free DOFs only, the clamped values move to the
  * right-hand side.  The sparsity pattern depends only on the topology, so
  * it is built once together with an element-to-CSR-slot map and CHOLMOD's
- * symbolic analysis; each sm_elasticity_factorize() only refills values
+ * symbolic analysis; each sm__elasticity_factorize() only refills values
  * and refactorizes numerically. */
 #ifndef SM_ELASTICITY_H
 #define SM_ELASTICITY_H
@@ -40,9 +40,9 @@ typedef enum sm_amg_modes {
     SM_AMG_MODES_OFF = 2
 } sm_amg_modes;
 
-/* What sm_elasticity_new builds: the material, the zero-order term and
+/* What sm__elasticity_new builds: the material, the zero-order term and
  * the factor kind.  A compound literal names only what it sets:
- *   sm_elasticity_new(m, clamped, &(sm_elasticity_opts){.young = 1,
+ *   sm__elasticity_new(m, clamped, &(sm_elasticity_opts){.young = 1,
  *                     .poisson = 0.3}, &el, &err)
  * (alpha 0, SM_FACTOR_AUTO). */
 typedef struct sm_elasticity_opts {
@@ -70,16 +70,16 @@ typedef struct sm_elasticity_opts {
  * matrix's arrays to hypre, initialising MPI on the first call).  opts is read
  * only during the call; the mesh topology (m->elems) is borrowed and must
  * outlive the object. */
-sm_status sm_elasticity_new(const sm_mesh *m, const uint8_t *clamped,
+sm_status sm__elasticity_new(const sm_mesh *m, const uint8_t *clamped,
                             const sm_elasticity_opts *opts, sm_elasticity **out,
                             sm_error *err);
-void sm_elasticity_free(sm_elasticity *el);
+void sm__elasticity_free(sm_elasticity *el);
 
 /* Assembles the stiffness (+ alpha mass) matrix on the vertex positions
  * coords (nverts*dim) and factorizes it (numeric Cholesky), or with the
  * AMG solver builds the AMG hierarchy on it (hypre reads the matrix in
  * place; the rigid-body modes from coords). */
-sm_status sm_elasticity_factorize(sm_elasticity *el, const double *coords,
+sm_status sm__elasticity_factorize(sm_elasticity *el, const double *coords,
                                   sm_error *err);
 
 /* Solves with the last factorization (AMG: by PCG to amg_rtol, warm
@@ -88,14 +88,14 @@ sm_status sm_elasticity_factorize(sm_elasticity *el, const double *coords,
  * the assembled F(phi_i e_c)); dirichlet: values on clamped vertices
  * (nverts*dim, only clamped entries read) or NULL for 0; u: output
  * nverts*dim (clamped entries set to the Dirichlet values). */
-sm_status sm_elasticity_solve(sm_elasticity *el, const double *load,
+sm_status sm__elasticity_solve(sm_elasticity *el, const double *load,
                               const double *dirichlet, double *u,
                               sm_error *err);
 
 /* Free-DOF matrix in CSR form with the full symmetric pattern (both
  * triangles stored, each assembled from the element matrices), for tests
- * and diagnostics.  Valid after sm_elasticity_factorize.  Free DOF k of
- * vertex v, component c is given by sm_elasticity_dof().  The columns of
+ * and diagnostics.  Valid after sm__elasticity_factorize.  Free DOF k of
+ * vertex v, component c is given by sm__elasticity_dof().  The columns of
  * a row are in increasing order (CHOLMOD reads them so), except with the
  * AMG solver, where the diagonal entry comes first and the others follow
  * in increasing order: the layout hypre reads in place (its smoothers
@@ -106,12 +106,12 @@ typedef struct sm_csr_view {
     const int32_t *colind;  /* rowptr[n] entries, in the order above */
     const double *values;   /* nnz */
 } sm_csr_view;
-void sm_elasticity_matrix(const sm_elasticity *el, sm_csr_view *view);
+void sm__elasticity_matrix(const sm_elasticity *el, sm_csr_view *view);
 /* Free DOF index of (vertex, component), or -1 if clamped. */
-int32_t sm_elasticity_dof(const sm_elasticity *el, int32_t vertex, int comp);
+int32_t sm__elasticity_dof(const sm_elasticity *el, int32_t vertex, int comp);
 
 /* Timings (seconds) of the last factorize: assembly, numeric factor. */
-void sm_elasticity_timings(const sm_elasticity *el, double *assembly,
+void sm__elasticity_timings(const sm_elasticity *el, double *assembly,
                            double *factor);
 
 /* ---- Additions: options, diagnostics and a per-element helper. ---- */
@@ -119,7 +119,7 @@ void sm_elasticity_timings(const sm_elasticity *el, double *assembly,
 /* Lame coefficients from Young's modulus and Poisson ratio (plane strain
  * in 2D uses the same formulas):
  *   lambda = E nu / ((1+nu)(1-2nu)),  mu = E / (2(1+nu)). */
-void sm_lame(double young, double poisson, double *lambda, double *mu);
+void sm__lame(double young, double poisson, double *lambda, double *mu);
 
 typedef struct sm_elasticity_info {
     int32_t nfree;          /* free DOFs (order of the system) */
@@ -131,7 +131,7 @@ typedef struct sm_elasticity_info {
     int supernodal;         /* 1 if the factor is supernodal */
     const char *ordering;   /* fill-reducing ordering CHOLMOD selected */
     double analyze_time;    /* seconds: pattern, slot map and analysis */
-    double solve_time;      /* seconds: last sm_elasticity_solve */
+    double solve_time;      /* seconds: last sm__elasticity_solve */
     double rcond;           /* last factorization: (min/max pivot) estimate
                              * of 1/cond (cholmod_rcond); 0 if none */
     sm_solver_kind solver;  /* CHOLMOD or AMG (AUTO resolved) */
@@ -140,7 +140,7 @@ typedef struct sm_elasticity_info {
     int amg_restarts;       /* AMG: solves restarted from zero (not descent) */
     double amg_min_descent; /* AMG: min load'u / (|load| |u|) over solves */
 } sm_elasticity_info;
-void sm_elasticity_get_info(const sm_elasticity *el, sm_elasticity_info *info);
+void sm__elasticity_get_info(const sm_elasticity *el, sm_elasticity_info *info);
 
 /* Element matrix of one simplex, for tests and diagnostics: vertex_coords
  * holds the dim+1 vertices (dim doubles each, any orientation); ke
@@ -150,7 +150,7 @@ void sm_elasticity_get_info(const sm_elasticity *el, sm_elasticity_info *info);
  *        + lambda d_c phi_i d_d phi_j) + alpha int_K phi_i phi_j delta_cd.
  * *volume receives the signed volume.  SM_ERR_NUMERIC if the simplex is
  * degenerate (|volume| <= 1e-12 * (longest edge)^dim) or not finite. */
-sm_status sm_elasticity_element_matrix(int dim, const double *vertex_coords,
+sm_status sm__elasticity_element_matrix(int dim, const double *vertex_coords,
                                        double lambda, double mu, double alpha,
                                        double *ke, double *volume,
                                        sm_error *err);
@@ -158,12 +158,12 @@ sm_status sm_elasticity_element_matrix(int dim, const double *vertex_coords,
 /* Behaviour notes:
  * - Element orientation is irrelevant (|volume| is used); a degenerate
  *   element (see above) or non-finite coordinates make
- *   sm_elasticity_factorize fail with SM_ERR_NUMERIC naming the element.
+ *   sm__elasticity_factorize fail with SM_ERR_NUMERIC naming the element.
  * - A matrix CHOLMOD finds not positive definite, or numerically singular
  *   (pivot ratio estimate below SM_ELASTICITY_MIN_RCOND, e.g. a clamp
  *   that leaves a rigid motion free), fails with SM_ERR_NUMERIC and the
  *   CHOLMOD status in the message.
- * - load may be NULL (no load).  sm_elasticity_solve before a successful
+ * - load may be NULL (no load).  sm__elasticity_solve before a successful
  *   factorize returns SM_ERR_INVALID.
  * - When every vertex is clamped there is no system: solve returns the
  *   Dirichlet values.  Vertices used by no element carry no unknown and

@@ -14,7 +14,7 @@ static void *alloc_n(size_t count, size_t size)
     return calloc(count ? count : 1, size);
 }
 
-/* What sm_elasticity_new needs while it builds the pattern, freed at its
+/* What sm__elasticity_new needs while it builds the pattern, freed at its
  * end.  Vertices are FREE (dim unknowns), CLAMPED (Dirichlet values) or
  * UNUSED (in no element: no unknown, treated like clamped ones). */
 enum { VERTEX_FREE = 0, VERTEX_CLAMPED = 1, VERTEX_UNUSED = 2 };
@@ -93,7 +93,7 @@ static void neighbour_pass(const sm_elasticity *el, setup_scratch *sc, int64_t *
  * sort: adjacency is symmetric, so appending each a to the lists of its
  * neighbours b, a in increasing order, gives every b its own neighbours
  * already sorted.  O(elements * (dim+1)^2); the qsort of each list it
- * replaces took most of sm_elasticity_new. */
+ * replaces took most of sm__elasticity_new. */
 static sm_status build_neighbours(const sm_elasticity *el, setup_scratch *sc, sm_error *err)
 {
     const int32_t nverts = el->nverts;
@@ -143,7 +143,7 @@ static sm_status build_patterns(sm_elasticity *el, const setup_scratch *sc, sm_e
                             (long long)nnz, (long long)nnz_cpl, INT32_MAX - 2);
     /* not zeroed: the patterns are filled below, the values by each
      * factorize before anything reads them.  The largest arrays on huge
-     * pages (sm_alloc.h): on the 30k example, sm_elasticity_new's page
+     * pages (sm_alloc.h): on the 30k example, sm__elasticity_new's page
      * faults 1683 -> ~1220 and the first assembly's (which first writes
      * the 6.5 MB of values) 0.030 -> 0.012-0.02 s. */
     el->rowptr = malloc(((size_t)el->nfree + 1) * sizeof(int32_t));

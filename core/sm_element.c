@@ -3,13 +3,13 @@
 #include "sm_elasticity.h"
 #include "sm_element.h"
 
-void sm_lame(double young, double poisson, double *lambda, double *mu)
+void sm__lame(double young, double poisson, double *lambda, double *mu)
 {
     *lambda = young * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson));
     *mu = young / (2.0 * (1.0 + poisson));
 }
 
-sm_status sm_elasticity_element_matrix(int dim, const double *vertex_coords,
+sm_status sm__elasticity_element_matrix(int dim, const double *vertex_coords,
                                        double lambda, double mu, double alpha,
                                        double *ke, double *volume, sm_error *err)
 {

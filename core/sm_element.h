@@ -1,7 +1,7 @@
 /* The P1 element matrix of linear elasticity (private to the core): the
  * kernel the assembly (sm_elasticity.c) calls for every element, inline
  * so that its small loops unroll for a compile-time dimension, and the
- * exported wrapper sm_elasticity_element_matrix (sm_element.c). */
+ * exported wrapper sm__elasticity_element_matrix (sm_element.c). */
 #ifndef SM_ELEMENT_H
 #define SM_ELEMENT_H
 

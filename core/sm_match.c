@@ -66,8 +66,8 @@ struct sm_match {
 
 static void run_state_free(run_state *rs)
 {
-    sm_elasticity_free(rs->elasticity);
-    sm_shape_free(rs->shape);
+    sm__elasticity_free(rs->elasticity);
+    sm__shape_free(rs->shape);
     sm_mesh_free(rs->own_mesh);
     free(rs->clamped);
     free(rs->x);
@@ -156,15 +156,15 @@ static int one_thread_regions(void)
 static sm_status setup_target(run_state *rs, const sm_field *target, sm_error *err)
 {
     const sm_params *params = rs->params;
-    sm_status st = sm_shape_new(rs->mesh, target, params->free_refs, params->n_free_refs,
+    sm_status st = sm__shape_new(rs->mesh, target, params->free_refs, params->n_free_refs,
                                 &rs->shape, err);
-    if (st == SM_OK && sm_shape_active_facets(rs->shape) == 0)
+    if (st == SM_OK && sm__shape_active_facets(rs->shape) == 0)
         st = sm_error_set(err, SM_ERR_INVALID,
                           "no boundary facet carries the load (all are in the free boundary)");
     if (st != SM_OK)
         return st;
-    sm_shape_load(rs->shape, rs->x, rs->load, &rs->be);
-    rs->J = sm_shape_volume_j(rs->shape, rs->x);
+    sm__shape_load(rs->shape, rs->x, rs->load, &rs->be);
+    rs->J = sm__shape_volume_j(rs->shape, rs->x);
     return SM_OK;
 }
 
@@ -177,15 +177,15 @@ static sm_status setup_elastic(run_state *rs, sm_error *err)
         .young = params->young, .poisson = params->poisson,
         .alpha = params->clamp == SM_CLAMP_NONE ? rs->alpha : 0.0,
         .solver = params->solver};
-    sm_status st = sm_elasticity_new(rs->mesh, rs->clamped, &eopts, &rs->elasticity, err);
+    sm_status st = sm__elasticity_new(rs->mesh, rs->clamped, &eopts, &rs->elasticity, err);
     if (st == SM_OK)
-        st = sm_elasticity_factorize(rs->elasticity, rs->x, err);
+        st = sm__elasticity_factorize(rs->elasticity, rs->x, err);
     return st;
 }
 
 /* The two expensive set-up tasks are independent, so sm_match_run runs
  * them side by side when more than one thread is allowed (the thread
- * policy, sm_job_runner.h, allows one for small templates). */
+ * policy, proto/job/sm_job_threads.h, allows one for small templates). */
 static sm_status setup_both(run_state *rs, const sm_field *target, sm_error *err)
 {
     sm_status st_target = SM_OK, st_elastic = SM_OK;
@@ -221,22 +221,22 @@ static sm_status find_direction(run_state *rs, sm_result *result, int *found, sm
     double t0, ta, tf;
     if (rs->since_factor >= rs->params->refactor_every) {
         int levels = one_thread_regions();
-        st = sm_elasticity_factorize(rs->elasticity, rs->x, err);
+        st = sm__elasticity_factorize(rs->elasticity, rs->x, err);
         omp_set_max_active_levels(levels);
         if (st != SM_OK)
             return st;
         rs->since_factor = 0;
         result->factorizations++;
-        sm_elasticity_timings(rs->elasticity, &ta, &tf);
+        sm__elasticity_timings(rs->elasticity, &ta, &tf);
         tm->assembly += ta;
         tm->factor += tf;
     }
     t0 = sm_clock_seconds();
-    if ((st = sm_elasticity_solve(rs->elasticity, rs->load, NULL, rs->u, err)) != SM_OK)
+    if ((st = sm__elasticity_solve(rs->elasticity, rs->load, NULL, rs->u, err)) != SM_OK)
         return st;
     tm->solve += sm_clock_seconds() - t0;
     sm_elasticity_info info;
-    sm_elasticity_get_info(rs->elasticity, &info);
+    sm__elasticity_get_info(rs->elasticity, &info);
     result->solver_iterations += info.amg_iterations;
 
     double umax = 0.0;
@@ -280,7 +280,7 @@ static int line_search(run_state *rs, double *dJ, double *q_trial)
         int ok;
         *q_trial = trial_quality(rs->mesh, rs->trial, rs->floor_q, &ok);
         if (ok) {
-            *dJ = sm_shape_delta_j(rs->shape, rs->x, rs->step);
+            *dJ = sm__shape_delta_j(rs->shape, rs->x, rs->step);
             if (*dJ <= -ARMIJO_C * tau * slope) {
                 found = 1;
                 rs->accepted++;
@@ -412,7 +412,7 @@ static sm_status descend(run_state *rs, const sm_match_callbacks *cb, sm_result 
         rs->iteration++;
 
         t0 = sm_clock_seconds();
-        sm_shape_load(rs->shape, rs->x, rs->load, &rs->be);
+        sm__shape_load(rs->shape, rs->x, rs->load, &rs->be);
         tm->sample += sm_clock_seconds() - t0;
         track_best(rs);
 

@@ -41,8 +41,8 @@ struct sm_shape {
     double *normals;       /* nactive * (dim + 1): unit normal and measure */
     int32_t *gathered_hint;/* nverts: hints of a gathered subset of vertices */
     int primed;            /* the hints above were seeded (prime_hints) */
-    /* d at the facet points of the last sm_shape_load (the current mesh)
-     * and at the end points of the last sm_shape_delta_j's step (a trial
+    /* d at the facet points of the last sm__shape_load (the current mesh)
+     * and at the end points of the last sm__shape_delta_j's step (a trial
      * mesh): Simpson's rule along the motion samples both ends, so a
      * trial reuses the current mesh's samples, and when the trial is
      * accepted the next load reuses the trial's.  A sample is reused only
@@ -129,7 +129,7 @@ static int spatial_order(const sm_mesh *m, int32_t n, const int32_t *ids, int nc
     return 0;
 }
 
-sm_status sm_shape_new(const sm_mesh *m, const sm_field *field, const int32_t *free_refs,
+sm_status sm__shape_new(const sm_mesh *m, const sm_field *field, const int32_t *free_refs,
                        int nfree, sm_shape **out, sm_error *err)
 {
     *out = NULL;
@@ -146,7 +146,7 @@ sm_status sm_shape_new(const sm_mesh *m, const sm_field *field, const int32_t *f
     s->active = malloc((nb ? nb : 1) * sizeof(int32_t));
     s->active_vertex = calloc(nv ? nv : 1, 1);
     if (!s->active || !s->active_vertex) {
-        sm_shape_free(s);
+        sm__shape_free(s);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     }
     for (int32_t f = 0; f < m->nbfacets; f++) {
@@ -159,7 +159,7 @@ sm_status sm_shape_new(const sm_mesh *m, const sm_field *field, const int32_t *f
     s->elem_order = malloc((ne ? ne : 1) * sizeof(int32_t));
     if (!s->elem_order || spatial_order(m, s->nactive, s->active, dim, m->bfacets, s->active) != 0 ||
         spatial_order(m, m->nelems, NULL, dim + 1, m->elems, s->elem_order) != 0) {
-        sm_shape_free(s);
+        sm__shape_free(s);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     }
     size_t na = (size_t)s->nactive, nq = (size_t)s->nq;
@@ -188,14 +188,14 @@ sm_status sm_shape_new(const sm_mesh *m, const sm_field *field, const int32_t *f
     if (!s->load_hint || !s->swept_hint || !s->vertex_hint || !s->elem_hint || !s->points ||
         !s->values || !s->weights || !s->normals || !s->gathered_hint || !s->cur_points ||
         !s->cur_values || !s->end_points || !s->end_values || !s->end_hint) {
-        sm_shape_free(s);
+        sm__shape_free(s);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     }
     *out = s;
     return SM_OK;
 }
 
-void sm_shape_free(sm_shape *s)
+void sm__shape_free(sm_shape *s)
 {
     if (!s)
         return;
@@ -219,7 +219,7 @@ void sm_shape_free(sm_shape *s)
     free(s);
 }
 
-int32_t sm_shape_active_facets(const sm_shape *s)
+int32_t sm__shape_active_facets(const sm_shape *s)
 {
     return s->nactive;
 }
@@ -312,7 +312,7 @@ static void sample_facet_points(sm_shape *s, const double *pts, double *values)
     eval_batch(s, (int64_t)n, pts, s->load_hint, values);
 }
 
-void sm_shape_load(sm_shape *s, const double *coords, double *load, sm_boundary_error *be)
+void sm__shape_load(sm_shape *s, const double *coords, double *load, sm_boundary_error *be)
 {
     const sm_mesh *m = s->mesh;
     const int dim = m->dim, nq = s->nq;
@@ -436,7 +436,7 @@ swept_points(const sm_shape *s, const double *coords, const double *disp, int32_
     }
 }
 
-double sm_shape_delta_j(sm_shape *s, const double *coords, const double *disp)
+double sm__shape_delta_j(sm_shape *s, const double *coords, const double *disp)
 {
     const sm_mesh *m = s->mesh;
     const int dim = m->dim, nq = s->nq;
@@ -480,7 +480,7 @@ double sm_shape_delta_j(sm_shape *s, const double *coords, const double *disp)
     return total;
 }
 
-double sm_shape_volume_j(sm_shape *s, const double *coords)
+double sm__shape_volume_j(sm_shape *s, const double *coords)
 {
     const sm_mesh *m = s->mesh;
     const int dim = m->dim, nv = dim + 1;
@@ -512,11 +512,4 @@ double sm_shape_volume_j(sm_shape *s, const double *coords)
     for (int64_t i = 0; i < n; i++)
         total += s->weights[i] * s->values[i];
     return total;
-}
-
-void sm_shape_sample_vertices(sm_shape *s, const double *coords, double *values)
-{
-    if (!s->primed)
-        prime_hints(s, coords);
-    eval_batch(s, s->mesh->nverts, coords, s->vertex_hint, values);
 }

@@ -32,13 +32,13 @@ typedef struct sm_shape sm_shape;
  * facets whose reference is in free_refs (nfree entries) are excluded
  * from the load, from the change of J and from the boundary error
  * ("free boundary").  m and field are borrowed. */
-sm_status sm_shape_new(const sm_mesh *m, const sm_field *field,
+sm_status sm__shape_new(const sm_mesh *m, const sm_field *field,
                        const int32_t *free_refs, int nfree, sm_shape **out,
                        sm_error *err);
-void sm_shape_free(sm_shape *s);
+void sm__shape_free(sm_shape *s);
 
 /* Number of boundary facets that carry the load. */
-int32_t sm_shape_active_facets(const sm_shape *s);
+int32_t sm__shape_active_facets(const sm_shape *s);
 
 typedef struct sm_boundary_error {
     double l2;   /* ||d||_L2(active boundary), facet quadrature */
@@ -48,21 +48,17 @@ typedef struct sm_boundary_error {
 
 /* load (nverts*dim) = nodal forces of F(v) = -int_{dOmega} d v.n ds on the
  * mesh with vertex positions coords; also measures the boundary error. */
-void sm_shape_load(sm_shape *s, const double *coords, double *load,
+void sm__shape_load(sm_shape *s, const double *coords, double *load,
                    sm_boundary_error *be);
 
 /* J(coords + disp) - J(coords): integral of d over the region swept by
  * the active boundary facets.  The samples at coords + disp are kept:
- * the next sm_shape_load takes them if it is given exactly that mesh. */
-double sm_shape_delta_j(sm_shape *s, const double *coords,
+ * the next sm__shape_load takes them if it is given exactly that mesh. */
+double sm__shape_delta_j(sm_shape *s, const double *coords,
                         const double *disp);
 
 /* J by a degree-2 volume quadrature on every element (the initial value,
  * and an independent check of the accumulated changes). */
-double sm_shape_volume_j(sm_shape *s, const double *coords);
-
-/* d sampled at every vertex (nverts values), e.g. for output. */
-void sm_shape_sample_vertices(sm_shape *s, const double *coords,
-                              double *values);
+double sm__shape_volume_j(sm_shape *s, const double *coords);
 
 #endif

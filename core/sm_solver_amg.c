@@ -127,7 +127,7 @@ static HYPRE_ParVector vec_new(int32_t n)
     return v;
 }
 
-void sm_amg_free(sm_amg *amg)
+void sm__amg_free(sm_amg *amg)
 {
     if (!amg)
         return;
@@ -269,7 +269,7 @@ static sm_status build_hierarchy(sm_amg *amg, sm_error *err)
     return SM_OK;
 }
 
-sm_status sm_amg_new(int dim, int32_t n, const int32_t *rowptr, const int32_t *colind,
+sm_status sm__amg_new(int dim, int32_t n, const int32_t *rowptr, const int32_t *colind,
                      const double *values, double rtol, int rigid_modes, sm_amg **out,
                      sm_error *err)
 {
@@ -290,18 +290,18 @@ sm_status sm_amg_new(int dim, int32_t n, const int32_t *rowptr, const int32_t *c
     sm_status st = SM_OK;
     if (!(amg->b = vec_new(n)) || !(amg->x = vec_new(n)) || !(amg->ax = vec_new(n)) ||
         !(amg->r = vec_new(n)) || !(amg->z = vec_new(n)) || !(amg->p = vec_new(n))) {
-        sm_amg_free(amg);
+        sm__amg_free(amg);
         return sm_error_set(err, SM_ERR_NOMEM, "elasticity: out of memory for the AMG vectors");
     }
     if ((st = wrap_matrix(amg, rowptr, colind, values, err)) != SM_OK) {
-        sm_amg_free(amg);
+        sm__amg_free(amg);
         return st;
     }
     *out = amg;
     return SM_OK;
 }
 
-sm_status sm_amg_setup(sm_amg *amg, const double *coords, sm_error *err)
+sm_status sm__amg_setup(sm_amg *amg, const double *coords, sm_error *err)
 {
     double t0 = sm_clock_seconds();
     sm_status st;
@@ -408,7 +408,7 @@ static int pcg(sm_amg *amg, double rtol, double *est)
     }
 }
 
-sm_status sm_amg_solve(sm_amg *amg, const double *rhs, double *x, sm_error *err)
+sm_status sm__amg_solve(sm_amg *amg, const double *rhs, double *x, sm_error *err)
 {
     const int32_t n = amg->n;
     double *b = vec_data(amg->b), *xs = vec_data(amg->x);
@@ -447,7 +447,7 @@ sm_status sm_amg_solve(sm_amg *amg, const double *rhs, double *x, sm_error *err)
     return SM_OK;
 }
 
-void sm_amg_get_stats(const sm_amg *amg, sm_amg_stats *stats)
+void sm__amg_get_stats(const sm_amg *amg, sm_amg_stats *stats)
 {
     if (amg)
         *stats = amg->stats;

@@ -11,7 +11,7 @@
  * as interpolation vectors, so that the coarse spaces represent the
  * near-null space.
  *
- * hypre in Debian is built with MPI: the first sm_amg_new initialises MPI
+ * hypre in Debian is built with MPI: the first sm__amg_new initialises MPI
  * once for the process (a single rank, no mpirun needed) and everything
  * runs on MPI_COMM_SELF.  hypre is built without OpenMP, so the result
  * does not depend on the thread count. */
@@ -33,10 +33,10 @@ typedef struct sm_amg sm_amg;
  * rigid_modes: 1 if the hierarchy takes the rotations as interpolation
  * vectors (see SM_AMG_MODES_MIN_UNKNOWNS), 0 if not.
  * SM_ERR_INVALID if a row does not start with its diagonal. */
-sm_status sm_amg_new(int dim, int32_t n, const int32_t *rowptr, const int32_t *colind,
+sm_status sm__amg_new(int dim, int32_t n, const int32_t *rowptr, const int32_t *colind,
                      const double *values, double rtol, int rigid_modes, sm_amg **out,
                      sm_error *err);
-void sm_amg_free(sm_amg *amg);
+void sm__amg_free(sm_amg *amg);
 
 /* From how many unknowns a 3D hierarchy takes the rigid-body rotations
  * as interpolation vectors (sm_elasticity's SM_AMG_MODES_AUTO; 2D ones,
@@ -59,7 +59,7 @@ void sm_amg_free(sm_amg *amg);
  * each, in DOF order) for the rigid-body modes (read only if the object
  * takes them), or NULL for none.  The
  * previous solution stays the warm start of the next solve. */
-sm_status sm_amg_setup(sm_amg *amg, const double *coords, sm_error *err);
+sm_status sm__amg_setup(sm_amg *amg, const double *coords, sm_error *err);
 
 /* Solves A x = rhs (n entries) by PCG from a warm start: the previous
  * solution, scaled to minimise the energy along it (or zero if it does
@@ -69,7 +69,7 @@ sm_status sm_amg_setup(sm_amg *amg, const double *coords, sm_error *err);
  * estimated energy-norm error is below rtol with rhs'x > 0.  If PCG
  * breaks down from the warm start (round-off), solves again from zero.
  * SM_ERR_NUMERIC if PCG breaks down or does not reach the tolerance. */
-sm_status sm_amg_solve(sm_amg *amg, const double *rhs, double *x, sm_error *err);
+sm_status sm__amg_solve(sm_amg *amg, const double *rhs, double *x, sm_error *err);
 
 typedef struct sm_amg_stats {
     int last_iterations;     /* PCG iterations of the last solve */
@@ -78,10 +78,10 @@ typedef struct sm_amg_stats {
     int solves;
     int restarts;            /* solves that had to restart from zero */
     double min_descent;      /* min over solves of rhs'x / (|rhs| |x|) */
-    double setup_time;       /* seconds of the last sm_amg_setup */
+    double setup_time;       /* seconds of the last sm__amg_setup */
     double hierarchy_time;   /* of which hypre's BoomerAMG set-up */
     double operator_complexity;
 } sm_amg_stats;
-void sm_amg_get_stats(const sm_amg *amg, sm_amg_stats *stats);
+void sm__amg_get_stats(const sm_amg *amg, sm_amg_stats *stats);
 
 #endif

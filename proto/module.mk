@@ -1,10 +1,10 @@
 # libsmproto: the wire contract shared by daemon, workers and client
 # (params JSON, events NDJSON, result summary, binary mesh payload, the
-# wire vocabulary) and the one job runner of `shapematch run` and
-# `shapematch-worker` (input checks, run, result set).  Depends on
-# libshapematch; users link libsmproto.a before libshapematch.a, plus
-# $(PROTO_LIBS) and -lz.
-PROTO_SRCS := $(wildcard proto/*.c)
+# wire vocabulary).  Depends on libshapematch, never on proto/job (the job
+# runner, libsmjob.a, stands on it); users link libsmproto.a before
+# libshapematch.a, plus $(PROTO_LIBS) and -lz.
+PROTO_SRCS := proto/sm_payload.c proto/sm_proto_events.c proto/sm_proto_json.c \
+  proto/sm_proto_params.c proto/sm_proto_text.c proto/sm_proto_vocab.c
 define proto_rules
 build/$(1)/libsmproto.a: $$(PROTO_SRCS:%.c=build/$(1)/obj/%.o)
 	@mkdir -p $$(dir $$@)
@@ -12,3 +12,5 @@ build/$(1)/libsmproto.a: $$(PROTO_SRCS:%.c=build/$(1)/obj/%.o)
 endef
 $(foreach v,$(VARIANTS),$(eval $(call proto_rules,$(v))))
 ALL_TARGETS += libsmproto.a
+
+include proto/job/module.mk

@@ -123,7 +123,7 @@ sm_status sm_event_from_jansson(const json_t *obj, sm_event *out,
                                 sm_error *err);
 
 /* Result summary: the core of summary.json, to which the job runner
- * (sm_job_runner.h) adds status, exit_code, inverted_elements,
+ * (job/sm_job_results.h) adds status, exit_code, inverted_elements,
  * field_builds, timings.read, inputs, template, outputs and the version
  * (the daemon's GET /v1/jobs/{id}/results adds jobID and links):
  *   {"stop_reason":"step_tolerance","iterations":42,"J_initial":..,

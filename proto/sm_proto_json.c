@@ -153,7 +153,10 @@ static void out_bytes(outbuf *b, const char *s, size_t n)
 
 static void out_str(outbuf *b, const char *s) { out_bytes(b, s, strlen(s)); }
 
-void smp_format_double(char buf[SMP_DOUBLE_LEN], double x)
+/* Shortest "%.{15,16,17}g" text that reads back to x, with ".0" added to
+ * integral values; "null" when not finite. */
+#define SMP_DOUBLE_LEN 40
+static void smp_format_double(char buf[SMP_DOUBLE_LEN], double x)
 {
     if (!isfinite(x)) {
         snprintf(buf, SMP_DOUBLE_LEN, "null");

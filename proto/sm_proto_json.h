@@ -43,10 +43,6 @@ sm_status smp_load(const char *text, size_t len, size_t max_len,
  * (JSON cannot carry NaN or infinities). */
 json_t *smp_real_or_null(double x);
 
-/* Shortest "%.{15,16,17}g" text that reads back to x, with ".0" added to
- * integral values; "null" when not finite. */
-#define SMP_DOUBLE_LEN 40
-void smp_format_double(char buf[SMP_DOUBLE_LEN], double x);
 
 /* json_object_set_new that reports failure (and releases value). */
 int smp_set(json_t *obj, const char *key, json_t *value);

@@ -1,6 +1,7 @@
 /* The wire vocabulary tables (see sm_proto_vocab.h). */
 #include "sm_proto_vocab.h"
 
+#include <stdio.h>
 #include <string.h>
 
 #include "sm_payload.h"
@@ -51,4 +52,52 @@ const sm_result_format *sm_result_format_find(sm_result_kind kind, const char *n
         if (sm_result_formats[i].kind == kind && strcmp(sm_result_formats[i].name, name) == 0)
             return &sm_result_formats[i];
     return NULL;
+}
+
+/* ---- a choice of result files ---- */
+
+unsigned sm_result_outputs_fix(unsigned outputs)
+{
+    const sm_result_format *csv = sm_result_format_find(SM_RESULT_HISTORY, "csv");
+    return outputs | SM_RESULT_OUT_FORMAT((size_t)(csv - sm_result_formats));
+}
+
+/* The bit of the mesh or displacement format named p[0..len), 0 if none. */
+static unsigned output_bit(const char *p, size_t len)
+{
+    if (len == 2 && strncmp(p, "gz", 2) == 0)
+        return SM_RESULT_OUT_GZ;
+    for (size_t i = 0; i < SM_RESULT_FORMATS_N; i++) {
+        const sm_result_format *f = &sm_result_formats[i];
+        if (f->kind != SM_RESULT_HISTORY && strlen(f->name) == len &&
+            strncmp(f->name, p, len) == 0)
+            return SM_RESULT_OUT_FORMAT(i);
+    }
+    return 0;
+}
+
+int sm_result_outputs_parse(const char *text, unsigned *outputs, char *msg, size_t cap)
+{
+    unsigned set = 0;
+    for (const char *p = text;;) {
+        const char *comma = strchr(p, ',');
+        size_t len = comma ? (size_t)(comma - p) : strlen(p);
+        unsigned bit = output_bit(p, len);
+        if (!bit) {
+            snprintf(msg, cap, "'%.*s' is not an output format (expected a comma-separated "
+                               "list of " SM_RESULT_OUT_NAMES ")",
+                     (int)(len > 40 ? 40 : len), p);
+            return -1;
+        }
+        set |= bit;
+        if (!comma)
+            break;
+        p = comma + 1;
+    }
+    if (!(set & ~SM_RESULT_OUT_GZ)) {
+        snprintf(msg, cap, "'gz' compresses the formats it comes with: name at least one");
+        return -1;
+    }
+    *outputs = set;
+    return 0;
 }

@@ -2,7 +2,7 @@
  * must spell the same way, one table each.
  *
  *   - the parts of a job submission (multipart part names, job.json keys);
- *   - the result set: every file a run writes (sm_job_runner.h), grouped by
+ *   - the result set: every file a run writes (job/sm_job_results.h), grouped by
  *     what GET /v1/jobs/{id}/results/{what}?format=F serves, with the
  *     format names, media types and file names;
  *   - the Idempotency-Key length limit.
@@ -62,7 +62,7 @@ const sm_result_format *sm_result_format_find(sm_result_kind kind, const char *n
  * kind). */
 const sm_result_format *sm_result_formats_of(sm_result_kind kind, size_t *n);
 
-/* The summary document (sm_job_runner.h) and its media type. */
+/* The summary document (job/sm_job_results.h) and its media type. */
 #define SM_RESULT_SUMMARY_FILE "summary.json"
 #define SM_RESULT_SUMMARY_MEDIA "application/json"
 /* Snapshots (params.save_every K): iter-NNNNN.mesh after iterations K,
@@ -71,6 +71,22 @@ const sm_result_format *sm_result_formats_of(sm_result_kind kind, size_t *n);
 #define SM_SNAPSHOTS_DIR "snapshots"
 #define SM_SNAPSHOT_FORMAT "iter-%05d.mesh"
 #define SM_SNAPSHOT_MEDIA "application/x-medit-mesh"
+
+/* ---- a choice of result files (`shapematch run --format`) ---- */
+/* Bit i is the file of sm_result_formats[i]; history.csv and summary.json
+ * are always written (sm_result_outputs_fix adds history.csv).  With
+ * SM_RESULT_OUT_GZ the chosen mesh and displacement files are written
+ * gzip-compressed as FILE.gz (the same bytes once decompressed).  The
+ * daemon's worker writes everything: SM_RESULT_OUT_ALL. */
+#define SM_RESULT_OUT_FORMAT(i) (1u << (i))
+#define SM_RESULT_OUT_ALL ((1u << SM_RESULT_FORMATS_N) - 1u)
+#define SM_RESULT_OUT_GZ (1u << SM_RESULT_FORMATS_N)
+#define SM_RESULT_OUT_NAMES "mesh, meshb, vtu, binary, sol, solb, gz"
+unsigned sm_result_outputs_fix(unsigned outputs);
+/* "mesh,vtu,sol,gz" -> *outputs: the mesh and displacement format names
+ * of sm_result_formats plus gz.  0, or -1 with a message in msg (an
+ * unknown name, or gz alone). */
+int sm_result_outputs_parse(const char *text, unsigned *outputs, char *msg, size_t cap);
 
 /* ---- requests ---- */
 /* Longest Idempotency-Key (visible ASCII characters, at least 1). */

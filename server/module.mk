@@ -44,19 +44,19 @@ build/$(1)/libsmserver.a: $$(SERVER_LIB_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/
 	@mkdir -p $$(dir $$@)
 	rm -f $$@ && ar rcs $$@ $$^
 
-build/$(1)/shapematchd: build/$(1)/obj/server/shapematchd.o build/$(1)/libsmserver.a build/$(1)/libsmproto.a build/$(1)/libshapematch.a
+build/$(1)/shapematchd: build/$(1)/obj/server/shapematchd.o build/$(1)/libsmserver.a build/$(1)/libsmjob.a build/$(1)/libsmproto.a build/$(1)/libshapematch.a
 	@mkdir -p $$(dir $$@)
 	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(SERVER_LIBS)
 
 # the worker takes only the spool and input helpers from libsmserver.a: no HTTP
-build/$(1)/shapematch-worker: build/$(1)/obj/server/worker/shapematch_worker.o build/$(1)/libsmserver.a build/$(1)/libsmproto.a build/$(1)/libshapematch.a
+build/$(1)/shapematch-worker: build/$(1)/obj/server/worker/shapematch_worker.o build/$(1)/libsmserver.a build/$(1)/libsmjob.a build/$(1)/libsmproto.a build/$(1)/libshapematch.a
 	@mkdir -p $$(dir $$@)
 	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(PROTO_LIBS) $$(CORE_LIBS)
 
 # server unit tests see the server headers and also link libsmserver.a
 # (explicit rules win over the generic pattern of tests/module.mk)
 build/$(1)/obj/tests/unit/test_server_%.o: $(1)_CFLAGS += -I server
-$$(SERVER_TEST_NAMES:%=build/$(1)/tests/%): build/$(1)/tests/%: build/$(1)/obj/tests/unit/%.o $$(SERVER_TEST_UTIL_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/libsmserver.a build/$(1)/libsmproto.a build/$(1)/libshapematch.a
+$$(SERVER_TEST_NAMES:%=build/$(1)/tests/%): build/$(1)/tests/%: build/$(1)/obj/tests/unit/%.o $$(SERVER_TEST_UTIL_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/libsmserver.a build/$(1)/libsmjob.a build/$(1)/libsmproto.a build/$(1)/libshapematch.a
 	@mkdir -p $$(dir $$@)
 	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(SERVER_LIBS) -lcmocka
 endef

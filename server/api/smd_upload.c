@@ -16,7 +16,7 @@
 #include <unistd.h>
 #include <zlib.h>
 
-#include "sm_job_inputs.h"
+#include "job/sm_job_inputs.h"
 #include "sm_json.h"
 #include "sm_proto_params.h"
 #include "sm_proto_vocab.h"

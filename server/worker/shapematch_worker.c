@@ -1,7 +1,7 @@
 /* shapematch-worker JOB_DIR: runs one matching job for shapematchd.
  *
  * Reads JOB_DIR/job.json and the inputs it names and runs the job through
- * the shared job runner (proto/sm_job_runner.h: the same checks, run,
+ * the shared job runner (proto/job/: the same checks, run,
  * result set and summary as `shapematch run`).  What is the worker's own
  * is the framing: one NDJSON event per iteration on fd 3 (stdout when fd 3
  * is not open, for running it by hand), snapshots (params.save_every K)
@@ -27,8 +27,8 @@
 #include "shapematch/sm_atomic.h"
 #include "shapematch/sm_field.h"
 #include "shapematch/sm_io.h"
-#include "sm_job_inputs.h"
-#include "sm_job_runner.h"
+#include "job/sm_job_inputs.h"
+#include "job/sm_job_results.h"
 #include "sm_json.h"
 #include "sm_payload.h"
 #include "sm_proto_events.h"

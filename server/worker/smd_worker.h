@@ -20,7 +20,7 @@
 #ifndef SMD_WORKER_H
 #define SMD_WORKER_H
 
-#include "sm_job_runner.h"
+#include "job/sm_job_runner.h"
 
 #define SMD_WORKER_EVENT_FD 3
 

@@ -1,4 +1,4 @@
-/* Decimal numbers both ways (core/sm_number.c), against the C library.
+/* Decimal numbers both ways (core/io/sm_number.c), against the C library.
  *
  * The input as text: sm__decimal_to_double, the readers' in-place
  * parser, either leaves the number to strtod (returns 0) or gives, for
@@ -16,7 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "sm_number.h"
+#include "io/sm_number.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

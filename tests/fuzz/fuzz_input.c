@@ -7,7 +7,7 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
-#include "sm_read_input.h"
+#include "io/sm_read_input.h"
 
 static int write_all(int fd, const void *data, size_t size)
 {

@@ -13,7 +13,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "sm_reader.h"
+#include "io/sm_reader.h"
 
 /* Writes prefix (NULL: none) then data into a new memfd and fills path
  * ("/proc/self/fd/N").  Returns the fd (close it when done) or -1.  A

@@ -4,7 +4,7 @@
 #include <stdlib.h>
 
 #include "fuzz_input.h"
-#include "sm_read_input.h"
+#include "io/sm_read_input.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

@@ -18,7 +18,7 @@ FUZZ_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror \
   -I core/include -I core -I proto -I client -I server -I tests/fuzz -I /usr/include/suitesparse \
   -DSM_VERSION='"$(VERSION)"' $(HYPRE_CFLAGS)
 FUZZ_LDFLAGS := -fopenmp -fsanitize=fuzzer,address,undefined
-FUZZ_LIB_SRCS := $(wildcard core/*.c) $(wildcard proto/*.c) client/sse.c tests/fuzz/fuzz_input.c \
+FUZZ_LIB_SRCS := $(CORE_SRCS) $(PROTO_SRCS) client/sse.c tests/fuzz/fuzz_input.c \
   server/http/smd_negotiate.c server/base/smd_util.c
 FUZZ_LIB_SRCS += server/api/smd_parts.c tests/fuzz/fuzz_parts_check.c server/worker/smd_job_file.c
 FUZZ_TARGETS := $(patsubst tests/fuzz/%.c,%,$(wildcard tests/fuzz/fuzz_*.c))

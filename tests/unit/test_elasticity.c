@@ -20,7 +20,7 @@
 #include "util_mesh.h"
 
 #define PI 3.14159265358979323846
-/* Options of sm_elasticity_new with the automatic factor kind. */
+/* Options of sm__elasticity_new with the automatic factor kind. */
 #define OPTS(e, nu, a) \
     (&(sm_elasticity_opts){.young = (e), .poisson = (nu), .alpha = (a)})
 
@@ -238,7 +238,7 @@ static double *dense_global_matrix(const sm_mesh *m, double lambda, double mu, d
     double x[12], ke[144], vol;
     for (int32_t e = 0; e < m->nelems; e++) {
         element_coords(m, m->coords, e, x);
-        assert_int_equal(sm_elasticity_element_matrix(dim, x, lambda, mu, alpha, ke, &vol, NULL),
+        assert_int_equal(sm__elasticity_element_matrix(dim, x, lambda, mu, alpha, ke, &vol, NULL),
                          SM_OK);
         const int32_t *ev = m->elems + (size_t)e * nv;
         for (int i = 0; i < ne; i++)
@@ -261,7 +261,7 @@ static void apply_global(const sm_mesh *m, double lambda, double mu, double alph
     *max_entry = 0;
     for (int32_t e = 0; e < m->nelems; e++) {
         element_coords(m, m->coords, e, x);
-        assert_int_equal(sm_elasticity_element_matrix(dim, x, lambda, mu, alpha, ke, &vol, NULL),
+        assert_int_equal(sm__elasticity_element_matrix(dim, x, lambda, mu, alpha, ke, &vol, NULL),
                          SM_OK);
         const int32_t *ev = m->elems + (size_t)e * nv;
         for (int i = 0; i < ne; i++) {
@@ -344,10 +344,10 @@ static void check_element(int dim, unsigned seed)
     int nv = dim + 1, ne = nv * dim;
     double x[12], ke[144], ke_swapped[144], vol, vol_swapped;
     double lambda, mu;
-    sm_lame(YOUNG, POISSON, &lambda, &mu);
+    sm__lame(YOUNG, POISSON, &lambda, &mu);
     for (int k = 0; k < nv * dim; k++)
         x[k] = frand(&st);
-    assert_int_equal(sm_elasticity_element_matrix(dim, x, lambda, mu, 0.0, ke, &vol, NULL), SM_OK);
+    assert_int_equal(sm__elasticity_element_matrix(dim, x, lambda, mu, 0.0, ke, &vol, NULL), SM_OK);
     double w = fabs(vol), kmax = 0;
     for (int i = 0; i < ne * ne; i++)
         kmax = fmax(kmax, fabs(ke[i]));
@@ -408,7 +408,7 @@ static void check_element(int dim, unsigned seed)
     }
     /* mass term alone: t^T M t = |K| |t|^2 and M_ii = 2|K|/((d+1)(d+2)) */
     double me[144];
-    assert_int_equal(sm_elasticity_element_matrix(dim, x, 0.0, 0.0, 2.0, me, &vol, NULL), SM_OK);
+    assert_int_equal(sm__elasticity_element_matrix(dim, x, 0.0, 0.0, 2.0, me, &vol, NULL), SM_OK);
     double t[3] = {0.3, -0.7, 0.2}, tt = 0, quad = 0;
     for (int c = 0; c < dim; c++)
         tt += t[c] * t[c];
@@ -424,10 +424,10 @@ static void check_element(int dim, unsigned seed)
         xs[r] = x[dim + r];
         xs[dim + r] = x[r];
     }
-    assert_int_equal(sm_elasticity_element_matrix(dim, xs, lambda, mu, 0.5, ke_swapped,
+    assert_int_equal(sm__elasticity_element_matrix(dim, xs, lambda, mu, 0.5, ke_swapped,
                                                   &vol_swapped, NULL), SM_OK);
     assert_true(fabs(vol_swapped + vol) <= 1e-14 * w);
-    assert_int_equal(sm_elasticity_element_matrix(dim, x, lambda, mu, 0.5, ke, &vol, NULL), SM_OK);
+    assert_int_equal(sm__elasticity_element_matrix(dim, x, lambda, mu, 0.5, ke, &vol, NULL), SM_OK);
     for (int i = 0; i < ne; i++)
         for (int j = 0; j < ne; j++) {
             int pi = (i / dim < 2 ? 1 - i / dim : i / dim) * dim + i % dim;
@@ -444,15 +444,15 @@ static void test_element_matrix(void **state)
         check_element(3, s);
     }
     double lambda, mu;
-    sm_lame(2.0, 0.25, &lambda, &mu);
+    sm__lame(2.0, 0.25, &lambda, &mu);
     assert_true(fabs(lambda - 0.8) < 1e-15 && fabs(mu - 0.8) < 1e-15);
     /* degenerate: collinear triangle, flat tetrahedron */
     double tri[6] = {0, 0, 1, 1, 2, 2}, tet[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0};
     double ke[144], vol;
     sm_error err;
-    assert_int_equal(sm_elasticity_element_matrix(2, tri, 1, 1, 0, ke, &vol, &err), SM_ERR_NUMERIC);
+    assert_int_equal(sm__elasticity_element_matrix(2, tri, 1, 1, 0, ke, &vol, &err), SM_ERR_NUMERIC);
     assert_non_null(strstr(err.msg, "degenerate"));
-    assert_int_equal(sm_elasticity_element_matrix(3, tet, 1, 1, 0, ke, &vol, &err), SM_ERR_NUMERIC);
+    assert_int_equal(sm__elasticity_element_matrix(3, tet, 1, 1, 0, ke, &vol, &err), SM_ERR_NUMERIC);
 }
 
 /* ---------------------------------------------------------------------- */
@@ -484,21 +484,21 @@ static void patch_test(int dim, double h, double poisson)
     assert_true(ninterior > 10);
     sm_elasticity *el = NULL;
     sm_error err;
-    if (sm_elasticity_new(m, m->on_boundary, OPTS(YOUNG, poisson, 0.0), &el, &err) != SM_OK)
+    if (sm__elasticity_new(m, m->on_boundary, OPTS(YOUNG, poisson, 0.0), &el, &err) != SM_OK)
         fail_msg("%s", err.msg);
-    if (sm_elasticity_factorize(el, m->coords, &err) != SM_OK)
+    if (sm__elasticity_factorize(el, m->coords, &err) != SM_OK)
         fail_msg("%s", err.msg);
     /* u starts as garbage: every entry must be written */
     for (size_t k = 0; k < n; k++)
         u[k] = 1e300;
-    assert_int_equal(sm_elasticity_solve(el, NULL, g, u, &err), SM_OK);
+    assert_int_equal(sm__elasticity_solve(el, NULL, g, u, &err), SM_OK);
     double maxerr = 0;
     for (size_t k = 0; k < n; k++)
         maxerr = fmax(maxerr, fabs(u[k] - g[k]));
     print_message("# patch %dD h=%g nu=%g: %ld vertices (%ld interior), max rel error %.2e\n", dim,
                   h, poisson, (long)m->nverts, (long)ninterior, maxerr / gmax);
     assert_true(maxerr <= 1e-10 * gmax);
-    sm_elasticity_free(el);
+    sm__elasticity_free(el);
     free(g);
     free(u);
     sm_mesh_free(m);
@@ -529,7 +529,7 @@ static double manufactured_error(int dim, double h, double *h_eff)
     int nv = dim + 1;
     size_t n = (size_t)m->nverts * dim;
     double lambda, mu;
-    sm_lame(YOUNG, POISSON, &lambda, &mu);
+    sm__lame(YOUNG, POISSON, &lambda, &mu);
     double *load = calloc(n, sizeof *load), *g = malloc(n * sizeof *g), *u = malloc(n * sizeof *u);
     assert_non_null(load);
     assert_non_null(g);
@@ -553,11 +553,11 @@ static double manufactured_error(int dim, double h, double *h_eff)
     }
     sm_elasticity *el = NULL;
     sm_error err;
-    if (sm_elasticity_new(m, m->on_boundary, OPTS(YOUNG, POISSON, 0.0), &el, &err) != SM_OK)
+    if (sm__elasticity_new(m, m->on_boundary, OPTS(YOUNG, POISSON, 0.0), &el, &err) != SM_OK)
         fail_msg("%s", err.msg);
-    if (sm_elasticity_factorize(el, m->coords, &err) != SM_OK)
+    if (sm__elasticity_factorize(el, m->coords, &err) != SM_OK)
         fail_msg("%s", err.msg);
-    assert_int_equal(sm_elasticity_solve(el, load, g, u, &err), SM_OK);
+    assert_int_equal(sm__elasticity_solve(el, load, g, u, &err), SM_OK);
     double err2 = 0;
     for (int32_t e = 0; e < m->nelems; e++) {
         double w = fabs(sm_elem_volume(m, m->coords, e));
@@ -592,12 +592,12 @@ static double manufactured_error(int dim, double h, double *h_eff)
             }
     *h_eff = edge_sum / nedges;
     double assembly, factor;
-    sm_elasticity_timings(el, &assembly, &factor);
+    sm__elasticity_timings(el, &assembly, &factor);
     print_message("# manufactured %dD clmax=%g: %ld vertices, %ld elements, mean edge %.4f, "
                   "L2 error %.4e (assembly %.1f ms, factor %.1f ms)\n",
                   dim, h, (long)m->nverts, (long)m->nelems, *h_eff, sqrt(err2), 1e3 * assembly,
                   1e3 * factor);
-    sm_elasticity_free(el);
+    sm__elasticity_free(el);
     free(load);
     free(g);
     free(u);
@@ -608,7 +608,7 @@ static double manufactured_error(int dim, double h, double *h_eff)
 static void convergence_test(int dim, double h0)
 {
     double lambda, mu;
-    sm_lame(YOUNG, POISSON, &lambda, &mu);
+    sm__lame(YOUNG, POISSON, &lambda, &mu);
     check_exact_f(dim, lambda, mu);
     double e[3], h[3];
     for (int k = 0; k < 3; k++)
@@ -650,7 +650,7 @@ static void test_convergence_3d(void **state)
 static void check_csr(const sm_elasticity *el, int32_t expected_n)
 {
     sm_csr_view a;
-    sm_elasticity_matrix(el, &a);
+    sm__elasticity_matrix(el, &a);
     assert_int_equal(a.n, expected_n);
     assert_int_equal(a.rowptr[0], 0);
     double amax = 0;
@@ -693,13 +693,13 @@ static void test_symmetry(void **state)
         sm_mesh *m = unit_mesh(dim, dim == 2 ? 0.1 : 0.25);
         sm_elasticity *el = NULL;
         sm_error err;
-        assert_int_equal(sm_elasticity_new(m, m->on_boundary, OPTS(YOUNG, POISSON, 0.0),
+        assert_int_equal(sm__elasticity_new(m, m->on_boundary, OPTS(YOUNG, POISSON, 0.0),
                                            &el, &err), SM_OK);
-        assert_int_equal(sm_elasticity_factorize(el, m->coords, &err), SM_OK);
+        assert_int_equal(sm__elasticity_factorize(el, m->coords, &err), SM_OK);
         int32_t nfree = 0;
         for (int32_t v = 0; v < m->nverts; v++) {
             for (int c = 0; c < dim; c++) {
-                int32_t k = sm_elasticity_dof(el, v, c);
+                int32_t k = sm__elasticity_dof(el, v, c);
                 if (m->on_boundary[v]) {
                     assert_int_equal(k, -1);
                 } else {
@@ -710,7 +710,7 @@ static void test_symmetry(void **state)
             }
         }
         check_csr(el, nfree);
-        sm_elasticity_free(el);
+        sm__elasticity_free(el);
         sm_mesh_free(m);
     }
 }
@@ -723,7 +723,7 @@ static void rigid_test(int dim, double h)
     sm_mesh *m = unit_mesh(dim, h);
     size_t n = (size_t)m->nverts * dim;
     double lambda, mu, kmax;
-    sm_lame(YOUNG, POISSON, &lambda, &mu);
+    sm__lame(YOUNG, POISSON, &lambda, &mu);
     double *r = malloc(n * sizeof *r), *y = malloc(n * sizeof *y), *mr = malloc(n * sizeof *mr);
     double *u = malloc(n * sizeof *u);
     assert_non_null(r);
@@ -733,11 +733,11 @@ static void rigid_test(int dim, double h)
     const double alpha = 0.05;
     sm_elasticity *el = NULL;
     sm_error err;
-    assert_int_equal(sm_elasticity_new(m, NULL, OPTS(YOUNG, POISSON, alpha), &el, &err), SM_OK);
-    assert_int_equal(sm_elasticity_factorize(el, m->coords, &err), SM_OK);
+    assert_int_equal(sm__elasticity_new(m, NULL, OPTS(YOUNG, POISSON, alpha), &el, &err), SM_OK);
+    assert_int_equal(sm__elasticity_factorize(el, m->coords, &err), SM_OK);
     check_csr(el, (int32_t)n);
     sm_csr_view a;
-    sm_elasticity_matrix(el, &a);
+    sm__elasticity_matrix(el, &a);
     double amax = 0;
     for (int32_t p = 0; p < a.rowptr[a.n]; p++)
         amax = fmax(amax, fabs(a.values[p]));
@@ -762,13 +762,13 @@ static void rigid_test(int dim, double h)
         assert_true(resid <= 1e-12 * amax * rmax);
         for (size_t i = 0; i < n; i++)
             mr[i] *= alpha;
-        assert_int_equal(sm_elasticity_solve(el, mr, NULL, u, &err), SM_OK);
+        assert_int_equal(sm__elasticity_solve(el, mr, NULL, u, &err), SM_OK);
         double uerr = 0;
         for (size_t i = 0; i < n; i++)
             uerr = fmax(uerr, fabs(u[i] - r[i]));
         assert_true(uerr <= 1e-8 * rmax);
     }
-    sm_elasticity_free(el);
+    sm__elasticity_free(el);
     free(r);
     free(y);
     free(mr);
@@ -798,7 +798,7 @@ static void dense_test(int dim, int n_cells)
     size_t n = (size_t)m->nverts * dim;
     double lambda, mu;
     const double poisson = 0.35, young = 3.0, alpha = 0.2;
-    sm_lame(young, poisson, &lambda, &mu);
+    sm__lame(young, poisson, &lambda, &mu);
     uint8_t *clamped = calloc((size_t)m->nverts, 1);
     double *load = malloc(n * sizeof *load), *g = malloc(n * sizeof *g), *u = malloc(n * sizeof *u);
     assert_non_null(clamped);
@@ -816,9 +816,9 @@ static void dense_test(int dim, int n_cells)
     }
     sm_elasticity *el = NULL;
     sm_error err;
-    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(young, poisson, alpha), &el, &err), SM_OK);
-    assert_int_equal(sm_elasticity_factorize(el, m->coords, &err), SM_OK);
-    assert_int_equal(sm_elasticity_solve(el, load, g, u, &err), SM_OK);
+    assert_int_equal(sm__elasticity_new(m, clamped, OPTS(young, poisson, alpha), &el, &err), SM_OK);
+    assert_int_equal(sm__elasticity_factorize(el, m->coords, &err), SM_OK);
+    assert_int_equal(sm__elasticity_solve(el, load, g, u, &err), SM_OK);
 
     double *full = dense_global_matrix(m, lambda, mu, alpha);
     /* reduced matrix and right-hand side */
@@ -843,7 +843,7 @@ static void dense_test(int dim, int n_cells)
     }
     /* the CSR equals the dense reduced matrix entry by entry */
     sm_csr_view a;
-    sm_elasticity_matrix(el, &a);
+    sm__elasticity_matrix(el, &a);
     assert_int_equal(a.n, nf);
     double amax = 0;
     for (int i = 0; i < nf * nf; i++)
@@ -863,7 +863,7 @@ static void dense_test(int dim, int n_cells)
         diff = fmax(diff, fabs(u[i] - expected));
     }
     assert_true(diff <= 1e-9 * umax);
-    sm_elasticity_free(el);
+    sm__elasticity_free(el);
     free(full);
     free(free_of);
     free(ared);
@@ -904,20 +904,20 @@ static void test_factor_kinds(void **state)
     }
     sm_elasticity *simp = NULL, *super = NULL;
     sm_error err;
-    assert_int_equal(sm_elasticity_new(m, m->on_boundary,
+    assert_int_equal(sm__elasticity_new(m, m->on_boundary,
                                        &(sm_elasticity_opts){.young = YOUNG, .poisson = POISSON,
                                                               .alpha = 0, .factor = SM_FACTOR_SIMPLICIAL},
                                        &simp, &err), SM_OK);
-    assert_int_equal(sm_elasticity_new(m, m->on_boundary,
+    assert_int_equal(sm__elasticity_new(m, m->on_boundary,
                                        &(sm_elasticity_opts){.young = YOUNG, .poisson = POISSON,
                                                               .alpha = 0, .factor = SM_FACTOR_SUPERNODAL},
                                        &super, &err), SM_OK);
     for (int pass = 0; pass < 2; pass++) {
         const double *coords = pass ? moved : m->coords;
-        assert_int_equal(sm_elasticity_factorize(simp, coords, &err), SM_OK);
-        assert_int_equal(sm_elasticity_factorize(super, coords, &err), SM_OK);
-        assert_int_equal(sm_elasticity_solve(simp, load, NULL, u1, &err), SM_OK);
-        assert_int_equal(sm_elasticity_solve(super, load, NULL, u2, &err), SM_OK);
+        assert_int_equal(sm__elasticity_factorize(simp, coords, &err), SM_OK);
+        assert_int_equal(sm__elasticity_factorize(super, coords, &err), SM_OK);
+        assert_int_equal(sm__elasticity_solve(simp, load, NULL, u1, &err), SM_OK);
+        assert_int_equal(sm__elasticity_solve(super, load, NULL, u2, &err), SM_OK);
         double umax = 0, diff = 0;
         for (size_t i = 0; i < n; i++) {
             umax = fmax(umax, fabs(u1[i]));
@@ -928,27 +928,27 @@ static void test_factor_kinds(void **state)
     }
     /* a fresh object on the moved coordinates agrees with the refactorized one */
     sm_elasticity *fresh = NULL;
-    assert_int_equal(sm_elasticity_new(m, m->on_boundary, OPTS(YOUNG, POISSON, 0),
+    assert_int_equal(sm__elasticity_new(m, m->on_boundary, OPTS(YOUNG, POISSON, 0),
                                        &fresh, &err), SM_OK);
-    assert_int_equal(sm_elasticity_factorize(fresh, moved, &err), SM_OK);
-    assert_int_equal(sm_elasticity_solve(fresh, load, NULL, u2, &err), SM_OK);
+    assert_int_equal(sm__elasticity_factorize(fresh, moved, &err), SM_OK);
+    assert_int_equal(sm__elasticity_solve(fresh, load, NULL, u2, &err), SM_OK);
     for (size_t i = 0; i < n; i++)
         assert_true(fabs(u1[i] - u2[i]) <= 1e-10 * (1 + fabs(u1[i])));
 
     sm_elasticity_info i1, i2;
-    sm_elasticity_get_info(simp, &i1);
-    sm_elasticity_get_info(super, &i2);
+    sm__elasticity_get_info(simp, &i1);
+    sm__elasticity_get_info(super, &i2);
     assert_int_equal(i1.supernodal, 0);
     assert_int_equal(i2.supernodal, 1);
     assert_int_equal(i1.nfree, i2.nfree);
     assert_true(i1.nnz > i1.nfree && i1.nnz_factor >= (i1.nnz + i1.nfree) / 2.0);
     assert_true(i1.nnz_coupling > 0);
     double assembly = -1, factor = -1;
-    sm_elasticity_timings(super, &assembly, &factor);
+    sm__elasticity_timings(super, &assembly, &factor);
     assert_true(assembly >= 0 && factor > 0);
-    sm_elasticity_free(simp);
-    sm_elasticity_free(super);
-    sm_elasticity_free(fresh);
+    sm__elasticity_free(simp);
+    sm__elasticity_free(super);
+    sm__elasticity_free(fresh);
     free(load);
     free(u1);
     free(u2);
@@ -971,23 +971,23 @@ static void test_errors(void **state)
     clamped[0] = clamped[1] = 1;
 
     /* no clamp and alpha = 0: singular, refused with a message */
-    assert_int_equal(sm_elasticity_new(m, NULL, OPTS(YOUNG, POISSON, 0.0),
+    assert_int_equal(sm__elasticity_new(m, NULL, OPTS(YOUNG, POISSON, 0.0),
                                        &el, &err), SM_ERR_INVALID);
     assert_null(el);
     assert_non_null(strstr(err.msg, "alpha"));
-    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(YOUNG, POISSON, -1.0),
+    assert_int_equal(sm__elasticity_new(m, clamped, OPTS(YOUNG, POISSON, -1.0),
                                        &el, &err), SM_ERR_INVALID);
     /* material parameters */
-    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(0.0, POISSON, 0.0),
+    assert_int_equal(sm__elasticity_new(m, clamped, OPTS(0.0, POISSON, 0.0),
                                        &el, &err), SM_ERR_INVALID);
-    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(YOUNG, 0.5, 0.0),
+    assert_int_equal(sm__elasticity_new(m, clamped, OPTS(YOUNG, 0.5, 0.0),
                                        &el, &err), SM_ERR_INVALID);
-    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(NAN, POISSON, 0.0),
+    assert_int_equal(sm__elasticity_new(m, clamped, OPTS(NAN, POISSON, 0.0),
                                        &el, &err), SM_ERR_INVALID);
     /* options */
-    assert_int_equal(sm_elasticity_new(m, clamped, NULL, &el, &err), SM_ERR_INVALID);
+    assert_int_equal(sm__elasticity_new(m, clamped, NULL, &el, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "options"));
-    assert_int_equal(sm_elasticity_new(m, clamped,
+    assert_int_equal(sm__elasticity_new(m, clamped,
                                        &(sm_elasticity_opts){.young = YOUNG, .poisson = POISSON,
                                                               .factor = (sm_factor_kind)7},
                                        &el, &err), SM_ERR_INVALID);
@@ -995,49 +995,49 @@ static void test_errors(void **state)
     /* topology */
     int32_t saved = m->elems[4];
     m->elems[4] = m->nverts;
-    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(YOUNG, POISSON, 0.0),
+    assert_int_equal(sm__elasticity_new(m, clamped, OPTS(YOUNG, POISSON, 0.0),
                                        &el, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "element 2 "));
     m->elems[4] = m->elems[3];
-    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(YOUNG, POISSON, 0.0),
+    assert_int_equal(sm__elasticity_new(m, clamped, OPTS(YOUNG, POISSON, 0.0),
                                        &el, &err), SM_ERR_INVALID);
     m->elems[4] = saved;
 
-    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(YOUNG, POISSON, 0.0), &el, &err), SM_OK);
+    assert_int_equal(sm__elasticity_new(m, clamped, OPTS(YOUNG, POISSON, 0.0), &el, &err), SM_OK);
     size_t n = (size_t)m->nverts * 2;
     double *u = malloc(n * sizeof *u), *coords = malloc(n * sizeof *coords);
     assert_non_null(u);
     assert_non_null(coords);
     /* solve before factorize */
-    assert_int_equal(sm_elasticity_solve(el, NULL, NULL, u, &err), SM_ERR_INVALID);
+    assert_int_equal(sm__elasticity_solve(el, NULL, NULL, u, &err), SM_ERR_INVALID);
     /* degenerate element: move vertex onto the segment of two others */
     memcpy(coords, m->coords, n * sizeof *coords);
     const int32_t *ev = m->elems + 3 * 3;
     for (int r = 0; r < 2; r++)
         coords[(size_t)ev[2] * 2 + r] =
             0.5 * (coords[(size_t)ev[0] * 2 + r] + coords[(size_t)ev[1] * 2 + r]);
-    assert_int_equal(sm_elasticity_factorize(el, coords, &err), SM_ERR_NUMERIC);
+    assert_int_equal(sm__elasticity_factorize(el, coords, &err), SM_ERR_NUMERIC);
     assert_non_null(strstr(err.msg, "element"));
     assert_non_null(strstr(err.msg, "degenerate"));
     /* a failed factorize invalidates the previous one */
-    assert_int_equal(sm_elasticity_solve(el, NULL, NULL, u, &err), SM_ERR_INVALID);
+    assert_int_equal(sm__elasticity_solve(el, NULL, NULL, u, &err), SM_ERR_INVALID);
     coords[0] = NAN;
-    assert_int_equal(sm_elasticity_factorize(el, coords, &err), SM_ERR_NUMERIC);
+    assert_int_equal(sm__elasticity_factorize(el, coords, &err), SM_ERR_NUMERIC);
     /* recovers on valid coordinates */
-    assert_int_equal(sm_elasticity_factorize(el, m->coords, &err), SM_OK);
-    assert_int_equal(sm_elasticity_solve(el, NULL, NULL, u, &err), SM_OK);
+    assert_int_equal(sm__elasticity_factorize(el, m->coords, &err), SM_OK);
+    assert_int_equal(sm__elasticity_solve(el, NULL, NULL, u, &err), SM_OK);
     for (size_t k = 0; k < n; k++)
         assert_true(u[k] == 0.0);
-    sm_elasticity_free(el);
+    sm__elasticity_free(el);
 
     /* everything clamped: no system, the Dirichlet values come back */
     memset(clamped, 1, (size_t)m->nverts);
-    assert_int_equal(sm_elasticity_new(m, clamped, OPTS(YOUNG, POISSON, 0.0), &el, &err), SM_OK);
-    assert_int_equal(sm_elasticity_factorize(el, m->coords, &err), SM_OK);
-    assert_int_equal(sm_elasticity_solve(el, NULL, m->coords, u, &err), SM_OK);
+    assert_int_equal(sm__elasticity_new(m, clamped, OPTS(YOUNG, POISSON, 0.0), &el, &err), SM_OK);
+    assert_int_equal(sm__elasticity_factorize(el, m->coords, &err), SM_OK);
+    assert_int_equal(sm__elasticity_solve(el, NULL, m->coords, u, &err), SM_OK);
     for (size_t k = 0; k < n; k++)
         assert_true(u[k] == m->coords[k]);
-    sm_elasticity_free(el);
+    sm__elasticity_free(el);
 
     /* a clamp that leaves a rotation free (one vertex) with alpha = 0:
      * singular.  Round-off makes the last pivot a tiny number of either
@@ -1045,28 +1045,28 @@ static void test_errors(void **state)
     memset(clamped, 0, (size_t)m->nverts);
     clamped[5] = 1;
     for (int kind = SM_FACTOR_AUTO; kind <= SM_FACTOR_SUPERNODAL; kind++) {
-        assert_int_equal(sm_elasticity_new(m, clamped,
+        assert_int_equal(sm__elasticity_new(m, clamped,
                                            &(sm_elasticity_opts){.young = YOUNG, .poisson = POISSON,
                                                                   .alpha = 0.0,
                                                                   .factor = (sm_factor_kind)kind},
                                            &el, &err), SM_OK);
-        assert_int_equal(sm_elasticity_factorize(el, m->coords, &err), SM_ERR_NUMERIC);
+        assert_int_equal(sm__elasticity_factorize(el, m->coords, &err), SM_ERR_NUMERIC);
         assert_non_null(strstr(err.msg, "CHOLMOD"));
         assert_non_null(strstr(err.msg, "rigid motion"));
-        assert_int_equal(sm_elasticity_solve(el, NULL, NULL, u, &err), SM_ERR_INVALID);
-        sm_elasticity_free(el);
+        assert_int_equal(sm__elasticity_solve(el, NULL, NULL, u, &err), SM_ERR_INVALID);
+        sm__elasticity_free(el);
     }
 
     /* no element at all: nothing to solve, not an error */
     sm_mesh *empty = NULL;
     assert_int_equal(sm_mesh_alloc(&empty, 3, 2, 0, 0, &err), SM_OK);
-    assert_int_equal(sm_elasticity_new(empty, NULL, OPTS(YOUNG, POISSON, 0.0), &el, &err), SM_OK);
-    assert_int_equal(sm_elasticity_factorize(el, empty->coords, &err), SM_OK);
+    assert_int_equal(sm__elasticity_new(empty, NULL, OPTS(YOUNG, POISSON, 0.0), &el, &err), SM_OK);
+    assert_int_equal(sm__elasticity_factorize(el, empty->coords, &err), SM_OK);
     u[0] = 1;
-    assert_int_equal(sm_elasticity_solve(el, NULL, NULL, u, &err), SM_OK);
+    assert_int_equal(sm__elasticity_solve(el, NULL, NULL, u, &err), SM_OK);
     for (int k = 0; k < 6; k++)
         assert_true(u[k] == 0.0);
-    sm_elasticity_free(el);
+    sm__elasticity_free(el);
     sm_mesh_free(empty);
 
     free(u);
@@ -1103,19 +1103,19 @@ static void test_unused_vertex(void **state)
     for (size_t k = 0; k < n; k++)
         load[k] = 0.1 * (double)(k % 5) - 0.2;
     sm_elasticity *el = NULL, *elb = NULL;
-    assert_int_equal(sm_elasticity_new(m, cl, OPTS(YOUNG, POISSON, 0.0), &el, &err), SM_OK);
-    assert_int_equal(sm_elasticity_new(base, cl_base, OPTS(YOUNG, POISSON, 0.0),
+    assert_int_equal(sm__elasticity_new(m, cl, OPTS(YOUNG, POISSON, 0.0), &el, &err), SM_OK);
+    assert_int_equal(sm__elasticity_new(base, cl_base, OPTS(YOUNG, POISSON, 0.0),
                                        &elb, &err), SM_OK);
-    assert_int_equal(sm_elasticity_dof(el, 0, 0), -1);
-    assert_int_equal(sm_elasticity_factorize(el, m->coords, &err), SM_OK);
-    assert_int_equal(sm_elasticity_factorize(elb, base->coords, &err), SM_OK);
-    assert_int_equal(sm_elasticity_solve(el, load, NULL, u, &err), SM_OK);
-    assert_int_equal(sm_elasticity_solve(elb, load + 2, NULL, ub, &err), SM_OK);
+    assert_int_equal(sm__elasticity_dof(el, 0, 0), -1);
+    assert_int_equal(sm__elasticity_factorize(el, m->coords, &err), SM_OK);
+    assert_int_equal(sm__elasticity_factorize(elb, base->coords, &err), SM_OK);
+    assert_int_equal(sm__elasticity_solve(el, load, NULL, u, &err), SM_OK);
+    assert_int_equal(sm__elasticity_solve(elb, load + 2, NULL, ub, &err), SM_OK);
     assert_true(u[0] == 0.0 && u[1] == 0.0);
     for (size_t k = 0; k < nb; k++)
         assert_true(fabs(u[k + 2] - ub[k]) <= 1e-12 * (1 + fabs(ub[k])));
-    sm_elasticity_free(el);
-    sm_elasticity_free(elb);
+    sm__elasticity_free(el);
+    sm__elasticity_free(elb);
     free(cl_base);
     free(cl);
     free(load);

@@ -136,10 +136,10 @@ static void test_converges_on_ellipse(void **state)
     sm_field *f;
     assert_int_equal(sm_field_new(t.bg, t.d, &f, &err), SM_OK);
     sm_shape *sh;
-    assert_int_equal(sm_shape_new(res_mesh, f, NULL, 0, &sh, &err), SM_OK);
-    double jv = sm_shape_volume_j(sh, out);
+    assert_int_equal(sm__shape_new(res_mesh, f, NULL, 0, &sh, &err), SM_OK);
+    double jv = sm__shape_volume_j(sh, out);
     assert_true(fabs(jv - res.J) < 1e-3 * fabs(res.J_initial - res.J));
-    sm_shape_free(sh);
+    sm__shape_free(sh);
     sm_field_free(f);
     sm_mesh_free(res_mesh);
     free(h);
@@ -162,20 +162,20 @@ static void test_elastic_direction_descends(void **state)
     sm_field *f;
     assert_int_equal(sm_field_new(t.bg, t.d, &f, &err), SM_OK);
     sm_shape *sh;
-    assert_int_equal(sm_shape_new(tm, f, NULL, 0, &sh, &err), SM_OK);
+    assert_int_equal(sm__shape_new(tm, f, NULL, 0, &sh, &err), SM_OK);
     uint8_t *clamped = calloc(tm->nverts, 1);
     for (int32_t v = 0; v < tm->nverts; v++) /* a small disk: no rigid motion left */
         clamped[v] = hypot(tm->coords[2 * v] - 0.5, tm->coords[2 * v + 1] - 0.5) <= 0.05;
     sm_elasticity *el;
     sm_elasticity_opts eopts = {.young = 1.0, .poisson = 0.3, .alpha = 0.0};
-    assert_int_equal(sm_elasticity_new(tm, clamped, &eopts, &el, &err), SM_OK);
-    assert_int_equal(sm_elasticity_factorize(el, tm->coords, &err), SM_OK);
+    assert_int_equal(sm__elasticity_new(tm, clamped, &eopts, &el, &err), SM_OK);
+    assert_int_equal(sm__elasticity_factorize(el, tm->coords, &err), SM_OK);
     size_t ndof = (size_t)tm->nverts * 2;
     double *load = malloc(sizeof(double) * ndof), *u = malloc(sizeof(double) * ndof);
     double *x = malloc(sizeof(double) * ndof);
     sm_boundary_error be;
-    sm_shape_load(sh, tm->coords, load, &be);
-    assert_int_equal(sm_elasticity_solve(el, load, NULL, u, &err), SM_OK);
+    sm__shape_load(sh, tm->coords, load, &be);
+    assert_int_equal(sm__elasticity_solve(el, load, NULL, u, &err), SM_OK);
     double dj = 0.0;
     for (size_t i = 0; i < ndof; i++)
         dj -= load[i] * u[i];
@@ -186,10 +186,10 @@ static void test_elastic_direction_descends(void **state)
     double eps = 1e-5 / umax;
     for (size_t i = 0; i < ndof; i++)
         x[i] = tm->coords[i] + eps * u[i];
-    double jp = sm_shape_volume_j(sh, x);
+    double jp = sm__shape_volume_j(sh, x);
     for (size_t i = 0; i < ndof; i++)
         x[i] = tm->coords[i] - eps * u[i];
-    double jm = sm_shape_volume_j(sh, x);
+    double jm = sm__shape_volume_j(sh, x);
     double fd = (jp - jm) / (2 * eps);
     assert_true(fd < 0.0);
     assert_true(fabs(fd - dj) < 0.05 * fabs(dj));
@@ -197,8 +197,8 @@ static void test_elastic_direction_descends(void **state)
     free(u);
     free(x);
     free(clamped);
-    sm_elasticity_free(el);
-    sm_shape_free(sh);
+    sm__elasticity_free(el);
+    sm__shape_free(sh);
     sm_field_free(f);
     sm_mesh_free(tm);
     free_target(&t);

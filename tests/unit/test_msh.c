@@ -1,4 +1,4 @@
-/* Gmsh .msh reading (core/sm_io_msh.c): meshes written by the real gmsh
+/* Gmsh .msh reading (core/io/sm_io_msh.c): meshes written by the real gmsh
  * at test time from one geometry in Medit, .msh 4.1 ASCII, 4.1 binary
  * (also gzip-compressed) and 2.2 ASCII must read as the same mesh:
  * vertices, elements, facets and references (physical tags).  The

@@ -1,4 +1,4 @@
-/* Decimal numbers written without printf (core/sm_number.c).
+/* Decimal numbers written without printf (core/io/sm_number.c).
  *
  * sm__double_to_decimal must write what printf("%.17g") writes, byte for
  * byte, and text that strtod (and the readers' sm__decimal_to_double)
@@ -29,7 +29,7 @@
 
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_mesh.h"
-#include "sm_number.h"
+#include "io/sm_number.h"
 
 /* The random samples under the sanitizers (several times slower per
  * value): an eighth of them, so that make test's sanitized pass stays

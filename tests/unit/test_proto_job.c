@@ -21,8 +21,10 @@
 
 #include "shapematch/sm_atomic.h"
 #include "shapematch/sm_io.h"
-#include "sm_job_inputs.h"
-#include "sm_job_runner.h"
+#include "job/sm_job_inputs.h"
+#include "job/sm_job_results.h"
+#include "job/sm_job_runner.h"
+#include "job/sm_job_threads.h"
 #include "sm_json.h"
 #include "sm_proto_vocab.h"
 #include "util_mesh.h"

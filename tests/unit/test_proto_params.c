@@ -13,7 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "sm_job_inputs.h"
+#include "job/sm_job_inputs.h"
 #include "sm_proto_params.h"
 
 static const char *root_dir(void)

@@ -1,4 +1,4 @@
-/* The readers over memory (core/sm_read_input.h, sm_reader_open_memory),
+/* The readers over memory (core/io/sm_read_input.h, sm__reader_open_memory),
  * which the fuzz targets use instead of files: for every input of
  * tests/data/malformed and tests/data/formats, reading its bytes from
  * memory (named by the same path) gives what reading the file gives: the
@@ -17,7 +17,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "sm_read_input.h"
+#include "io/sm_read_input.h"
 
 static const char *root_ = ".";
 
@@ -219,29 +219,29 @@ static void test_edges(void **state)
     sm_reader r;
     sm_error err;
     sm_error_clear(&err);
-    assert_int_equal(sm_reader_open_memory(&r, "empty", NULL, 0, &err), SM_OK);
+    assert_int_equal(sm__reader_open_memory(&r, "empty", NULL, 0, &err), SM_OK);
     int found = 1;
-    assert_int_equal(sm_reader_token(&r, &found), SM_OK);
+    assert_int_equal(sm__reader_token(&r, &found), SM_OK);
     assert_int_equal(found, 0);
-    sm_reader_close(&r);
+    sm__reader_close(&r);
     static const char text[] = "Dimension 3 # c\n 7 0.5";
-    assert_int_equal(sm_reader_open_memory(&r, "text", text, sizeof text - 1, &err), SM_OK);
+    assert_int_equal(sm__reader_open_memory(&r, "text", text, sizeof text - 1, &err), SM_OK);
     assert_ptr_equal(r.buf, (const unsigned char *)text);
-    assert_int_equal(sm_reader_max_remaining(&r), sizeof text - 1);
-    assert_int_equal(sm_reader_token(&r, &found), SM_OK);
+    assert_int_equal(sm__reader_max_remaining(&r), sizeof text - 1);
+    assert_int_equal(sm__reader_token(&r, &found), SM_OK);
     assert_string_equal(r.token, "Dimension");
     int64_t v;
     double x;
-    assert_int_equal(sm_reader_int(&r, 0, 10, &v), SM_OK);
+    assert_int_equal(sm__reader_int(&r, 0, 10, &v), SM_OK);
     assert_int_equal(v, 3);
-    assert_int_equal(sm_reader_int(&r, 0, 10, &v), SM_OK);
+    assert_int_equal(sm__reader_int(&r, 0, 10, &v), SM_OK);
     assert_int_equal(v, 7);
     assert_int_equal(r.token_line, 2);
-    assert_int_equal(sm_reader_real(&r, &x), SM_OK);
+    assert_int_equal(sm__reader_real(&r, &x), SM_OK);
     assert_true(x == 0.5);
-    assert_int_equal(sm_reader_real(&r, &x), SM_ERR_FORMAT);
+    assert_int_equal(sm__reader_real(&r, &x), SM_ERR_FORMAT);
     assert_non_null(strstr(r.why, "end of file"));
-    sm_reader_close(&r);
+    sm__reader_close(&r);
     sm_mesh *m = NULL;
     sm_reader_input in = {.path = "empty.mesh", .data = "", .size = 0};
     assert_int_not_equal(sm__mesh_read_input(&in, NULL, &m, &err), SM_OK);

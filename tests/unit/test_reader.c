@@ -1,4 +1,4 @@
-/* The input stream of the readers (core/sm_reader.c): numbers parsed in
+/* The input stream of the readers (core/io/sm_reader.c): numbers parsed in
  * place and through the general tokenizer give the same values (bit for
  * bit, strtod's) and the same line numbers, across buffer refills and
  * next to comments; the fallbacks give the general path's errors; a small
@@ -18,8 +18,8 @@
 #include <cmocka.h>
 #include <zlib.h>
 
-#include "sm_number.h"
-#include "sm_reader.h"
+#include "io/sm_number.h"
+#include "io/sm_reader.h"
 
 static char dir[64];
 
@@ -103,22 +103,22 @@ static void test_numbers_in_place_and_general(void **state)
     write_numbers(path, reals, ints, lines);
     sm_reader r;
     sm_error err;
-    assert_int_equal(sm_reader_open(&r, path, &err), SM_OK);
+    assert_int_equal(sm__reader_open(&r, path, &err), SM_OK);
     assert_null(r.gz);
     for (int i = 0; i < NVALUES; i++) {
         double d;
         int64_t v;
-        assert_int_equal(sm_reader_real(&r, &d), SM_OK);
+        assert_int_equal(sm__reader_real(&r, &d), SM_OK);
         assert_memory_equal(&d, &reals[i], sizeof d);
         assert_int_equal(r.token_line, lines[i]);
-        assert_int_equal(sm_reader_int(&r, INT64_MIN, INT64_MAX, &v), SM_OK);
+        assert_int_equal(sm__reader_int(&r, INT64_MIN, INT64_MAX, &v), SM_OK);
         assert_int_equal(v, ints[i]);
         assert_int_equal(r.token_line, lines[i]);
     }
     int found = 1;
-    assert_int_equal(sm_reader_token(&r, &found), SM_OK);
+    assert_int_equal(sm__reader_token(&r, &found), SM_OK);
     assert_int_equal(found, 0);
-    sm_reader_close(&r);
+    sm__reader_close(&r);
     free(reals);
     free(ints);
     free(lines);
@@ -141,7 +141,7 @@ static int check_decimal(const char *s)
     return 1;
 }
 
-/* The in-place conversion of reals (core/sm_number.c) against strtod:
+/* The in-place conversion of reals (core/io/sm_number.c) against strtod:
  * significands of 1 to 19 digits (and 20, left to strtod) at every
  * power of ten of its table and beyond it, the same in every notation;
  * exact ties between two doubles (rounded to even) and their
@@ -274,24 +274,24 @@ static void test_fallback_errors(void **state)
     sm_error err;
     int64_t v;
     double d;
-    assert_int_equal(sm_reader_open(&r, path, &err), SM_OK);
-    assert_int_equal(sm_reader_int(&r, 0, 10, &v), SM_ERR_FORMAT);
+    assert_int_equal(sm__reader_open(&r, path, &err), SM_OK);
+    assert_int_equal(sm__reader_int(&r, 0, 10, &v), SM_ERR_FORMAT);
     assert_non_null(strstr(r.why, "out of range [0, 10]"));
-    assert_int_equal(sm_reader_int(&r, 0, 100, &v), SM_ERR_FORMAT);
+    assert_int_equal(sm__reader_int(&r, 0, 100, &v), SM_ERR_FORMAT);
     assert_non_null(strstr(r.why, "trailing characters"));
-    assert_int_equal(sm_reader_real(&r, &d), SM_ERR_FORMAT);
+    assert_int_equal(sm__reader_real(&r, &d), SM_ERR_FORMAT);
     assert_non_null(strstr(r.why, "trailing characters"));
-    assert_int_equal(sm_reader_int(&r, 0, 100, &v), SM_ERR_FORMAT);
+    assert_int_equal(sm__reader_int(&r, 0, 100, &v), SM_ERR_FORMAT);
     assert_non_null(strstr(r.why, "NUL byte"));
-    assert_int_equal(sm_reader_int(&r, INT64_MIN, INT64_MAX, &v), SM_ERR_FORMAT);
+    assert_int_equal(sm__reader_int(&r, INT64_MIN, INT64_MAX, &v), SM_ERR_FORMAT);
     assert_non_null(strstr(r.why, "out of range"));
-    assert_int_equal(sm_reader_int(&r, INT64_MIN, INT64_MAX, &v), SM_OK);
+    assert_int_equal(sm__reader_int(&r, INT64_MIN, INT64_MAX, &v), SM_OK);
     assert_true(v == INT64_MIN + 1);
-    assert_int_equal(sm_reader_int(&r, 0, 100, &v), SM_OK); /* last, no newline */
+    assert_int_equal(sm__reader_int(&r, 0, 100, &v), SM_OK); /* last, no newline */
     assert_int_equal(v, 42);
-    assert_int_equal(sm_reader_int(&r, 0, 100, &v), SM_ERR_FORMAT);
+    assert_int_equal(sm__reader_int(&r, 0, 100, &v), SM_ERR_FORMAT);
     assert_non_null(strstr(r.why, "end of file"));
-    sm_reader_close(&r);
+    sm__reader_close(&r);
 }
 
 /* A small plain file: a buffer of its size, no zlib; gzip: inflated
@@ -311,20 +311,20 @@ static void test_buffers_and_zlib(void **state)
     for (int k = 0; k < 2; k++) {
         sm_reader r;
         sm_error err;
-        assert_int_equal(sm_reader_open(&r, k ? gzpath : path, &err), SM_OK);
+        assert_int_equal(sm__reader_open(&r, k ? gzpath : path, &err), SM_OK);
         assert_true(r.cap <= 4096);
         assert_int_equal(r.compressed, k);
         assert_true(r.gz == NULL && r.fd >= 0);
         assert_int_equal(r.inflate, k ? SM_INFLATE_WHOLE_PENDING : SM_INFLATE_STREAM);
         int64_t v;
         double d;
-        assert_int_equal(sm_reader_int(&r, 0, 10, &v), SM_OK);
+        assert_int_equal(sm__reader_int(&r, 0, 10, &v), SM_OK);
         assert_int_equal(r.inflate, k ? SM_INFLATE_WHOLE : SM_INFLATE_STREAM);
         assert_true(r.gz == NULL && (k ? r.fd < 0 : r.fd >= 0));
         assert_int_equal(v, 3);
-        assert_int_equal(sm_reader_real(&r, &d), SM_OK);
+        assert_int_equal(sm__reader_real(&r, &d), SM_OK);
         assert_true(d == 0.25);
-        sm_reader_close(&r);
+        sm__reader_close(&r);
     }
 }
 
@@ -379,7 +379,7 @@ static unsigned char *zlib_read_all(const char *path, size_t *n, int *ok)
 }
 
 /* Everything the reader gives for path (with limits), through
- * sm_reader_window: the bytes, the final status and r->why, and how the
+ * sm__reader_window: the bytes, the final status and r->why, and how the
  * file was inflated. */
 typedef struct read_result {
     unsigned char *bytes;
@@ -394,23 +394,23 @@ static void reader_read_all(const char *path, sm_read_limits *limits, read_resul
     memset(out, 0, sizeof *out);
     sm_reader r;
     sm_error err;
-    assert_int_equal(sm_reader_open(&r, path, &err), SM_OK);
+    assert_int_equal(sm__reader_open(&r, path, &err), SM_OK);
     r.limits = limits;
     for (;;) {
         const unsigned char *p;
         size_t avail;
-        out->status = sm_reader_window(&r, &p, &avail);
+        out->status = sm__reader_window(&r, &p, &avail);
         if (out->status != SM_OK || avail == 0)
             break;
         out->bytes = realloc(out->bytes, out->len + avail);
         assert_non_null(out->bytes);
         memcpy(out->bytes + out->len, p, avail);
         out->len += avail;
-        sm_reader_consume(&r, avail);
+        sm__reader_consume(&r, avail);
     }
     snprintf(out->why, sizeof out->why, "%s", r.why);
     out->inflate = r.inflate;
-    sm_reader_close(&r);
+    sm__reader_close(&r);
 }
 
 /* Text of n bytes that compresses but not to nothing: numbered lines. */

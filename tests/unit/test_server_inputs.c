@@ -14,7 +14,7 @@
 
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_clamp.h"
-#include "sm_job_inputs.h"
+#include "job/sm_job_inputs.h"
 #include "base/smd_metrics.h"
 #include "api/smd_stream.h"
 #include "api/smd_upload.h"

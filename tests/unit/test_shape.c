@@ -58,12 +58,12 @@ static void setup(fixture *fx, int dim, int bg_cells, scalar_fn fn, int rings_or
     }
     assert_non_null(fx->tm);
     assert_int_equal(sm_mesh_build_boundary(fx->tm, &err), SM_OK);
-    assert_int_equal(sm_shape_new(fx->tm, fx->field, NULL, 0, &fx->shape, &err), SM_OK);
+    assert_int_equal(sm__shape_new(fx->tm, fx->field, NULL, 0, &fx->shape, &err), SM_OK);
 }
 
 static void teardown(fixture *fx)
 {
-    sm_shape_free(fx->shape);
+    sm__shape_free(fx->shape);
     sm_mesh_free(fx->tm);
     sm_field_free(fx->field);
     sm_mesh_free(fx->bg);
@@ -92,9 +92,9 @@ static void check_delta_exact_for_affine(int dim, int n)
     displacement(fx.tm, 0.02, u);
     for (size_t i = 0; i < ndof; i++)
         x1[i] = fx.tm->coords[i] + u[i];
-    double j0 = sm_shape_volume_j(fx.shape, fx.tm->coords);
-    double j1 = sm_shape_volume_j(fx.shape, x1);
-    double dj = sm_shape_delta_j(fx.shape, fx.tm->coords, u);
+    double j0 = sm__shape_volume_j(fx.shape, fx.tm->coords);
+    double j1 = sm__shape_volume_j(fx.shape, x1);
+    double dj = sm__shape_delta_j(fx.shape, fx.tm->coords, u);
     assert_true(fabs(j1 - j0) > 1e-4); /* the test moves something */
     assert_true(fabs(dj - (j1 - j0)) < 1e-13);
     free(u);
@@ -116,17 +116,17 @@ static void check_load_is_derivative(int dim, int n)
     double *su = malloc(sizeof(double) * ndof);
     displacement(fx.tm, 1.0, u);
     sm_boundary_error be;
-    sm_shape_load(fx.shape, fx.tm->coords, load, &be);
+    sm__shape_load(fx.shape, fx.tm->coords, load, &be);
     double predicted = 0.0;
     for (size_t i = 0; i < ndof; i++)
         predicted -= load[i] * u[i];
     for (double eps = 1e-3; eps >= 2.4e-4; eps /= 2) {
         for (size_t i = 0; i < ndof; i++)
             su[i] = eps * u[i];
-        double plus = sm_shape_delta_j(fx.shape, fx.tm->coords, su);
+        double plus = sm__shape_delta_j(fx.shape, fx.tm->coords, su);
         for (size_t i = 0; i < ndof; i++)
             su[i] = -eps * u[i];
-        double minus = sm_shape_delta_j(fx.shape, fx.tm->coords, su);
+        double minus = sm__shape_delta_j(fx.shape, fx.tm->coords, su);
         double fd = (plus - minus) / (2 * eps);
         double e = fabs(fd - predicted);
         if (getenv("SM_DEBUG")) print_message("eps %g fd %.12g pred %.12g err %.3g\n", eps, fd, predicted, e);
@@ -155,7 +155,7 @@ static void test_volume_j_analytic(void **s)
     for (int rings = 4; rings <= 16; rings *= 2) {
         fixture fx;
         setup(&fx, 2, 16 * rings, circle_d, rings);
-        double j = sm_shape_volume_j(fx.shape, fx.tm->coords);
+        double j = sm__shape_volume_j(fx.shape, fx.tm->coords);
         double e = fabs(j - exact);
         if (getenv("SM_DEBUG")) print_message("rings %d J %.10g exact %.10g err %.3g\n", rings, j, exact, e);
         assert_true(e < prev / 3.0); /* second order: about /4 per halving */
@@ -183,17 +183,17 @@ static void test_boundary_error_on_target(void **s)
         sm_mesh *tm = util_disk_mesh(c, 0.3, rings);
         assert_int_equal(sm_mesh_build_boundary(tm, &err), SM_OK);
         sm_shape *sh;
-        assert_int_equal(sm_shape_new(tm, field, NULL, 0, &sh, &err), SM_OK);
+        assert_int_equal(sm__shape_new(tm, field, NULL, 0, &sh, &err), SM_OK);
         double *load = malloc(sizeof(double) * tm->nverts * 2);
         sm_boundary_error be;
-        sm_shape_load(sh, tm->coords, load, &be);
+        sm__shape_load(sh, tm->coords, load, &be);
         double hb = 2 * M_PI * 0.3 / (6 * rings);
         /* chord sagitta h^2/(8R), plus the background interpolation error */
         assert_true(be.max < hb * hb / (8 * 0.3) * 1.2 + 5e-5);
         assert_true(be.l2 < prev);
         prev = be.l2;
         free(load);
-        sm_shape_free(sh);
+        sm__shape_free(sh);
         sm_mesh_free(tm);
     }
     sm_field_free(field);
@@ -210,21 +210,21 @@ static void test_free_boundary(void **s)
     sm_error err;
     int32_t refs[1] = {1};
     sm_shape *free_all;
-    assert_int_equal(sm_shape_new(fx.tm, fx.field, refs, 1, &free_all, &err), SM_OK);
-    assert_int_equal(sm_shape_active_facets(free_all), 0);
-    assert_int_equal(sm_shape_active_facets(fx.shape), fx.tm->nbfacets);
+    assert_int_equal(sm__shape_new(fx.tm, fx.field, refs, 1, &free_all, &err), SM_OK);
+    assert_int_equal(sm__shape_active_facets(free_all), 0);
+    assert_int_equal(sm__shape_active_facets(fx.shape), fx.tm->nbfacets);
     double *load = malloc(sizeof(double) * fx.tm->nverts * 2);
     sm_boundary_error be;
-    sm_shape_load(free_all, fx.tm->coords, load, &be);
+    sm__shape_load(free_all, fx.tm->coords, load, &be);
     for (int32_t i = 0; i < fx.tm->nverts * 2; i++)
         assert_true(load[i] == 0.0);
     free(load);
-    sm_shape_free(free_all);
+    sm__shape_free(free_all);
     teardown(&fx);
 }
 
 /* The samples a trial step and the mesh it leads to share: a load after
- * sm_shape_delta_j(x, u) at x + u takes the step's end samples, and a
+ * sm__shape_delta_j(x, u) at x + u takes the step's end samples, and a
  * step from the current mesh takes its samples; either way bit for bit
  * what a fresh shape computes, and for a mesh that is not the step's end
  * the samples are computed anew. */
@@ -240,18 +240,18 @@ static void check_samples_reused(int dim, int n)
     for (size_t i = 0; i < ndof; i++)
         x1[i] = fx.tm->coords[i] + u[i];
     sm_boundary_error b1, b2;
-    sm_shape_load(fx.shape, fx.tm->coords, l1, &b1);
-    double dj = sm_shape_delta_j(fx.shape, fx.tm->coords, u); /* reuses the load's */
-    double dj_fresh = sm_shape_delta_j(fresh.shape, fresh.tm->coords, u);
+    sm__shape_load(fx.shape, fx.tm->coords, l1, &b1);
+    double dj = sm__shape_delta_j(fx.shape, fx.tm->coords, u); /* reuses the load's */
+    double dj_fresh = sm__shape_delta_j(fresh.shape, fresh.tm->coords, u);
     assert_true(dj == dj_fresh);
-    sm_shape_load(fx.shape, x1, l1, &b1);       /* reuses the step's end */
-    sm_shape_load(fresh.shape, x1, l2, &b2);    /* evaluates */
+    sm__shape_load(fx.shape, x1, l1, &b1);       /* reuses the step's end */
+    sm__shape_load(fresh.shape, x1, l2, &b2);    /* evaluates */
     assert_memory_equal(l1, l2, sizeof(double) * ndof);
     assert_true(b1.l2 == b2.l2 && b1.max == b2.max && b1.measure == b2.measure);
     /* another mesh than the step's end: evaluated, not taken */
     x1[0] += 1e-3;
-    sm_shape_load(fx.shape, x1, l1, &b1);
-    sm_shape_load(fresh.shape, x1, l2, &b2);
+    sm__shape_load(fx.shape, x1, l1, &b1);
+    sm__shape_load(fresh.shape, x1, l2, &b2);
     assert_memory_equal(l1, l2, sizeof(double) * ndof);
     assert_true(b1.l2 == b2.l2);
     free(u);

@@ -53,8 +53,8 @@ static sm_elasticity *build_modes(const sm_mesh *m, const uint8_t *clamped, sm_s
     sm_error err;
     sm_elasticity_opts o = {.young = 1.0, .poisson = 0.3, .solver = kind, .amg_rtol = rtol,
                             .amg_modes = modes};
-    assert_int_equal(sm_elasticity_new(m, clamped, &o, &el, &err), SM_OK);
-    if (sm_elasticity_factorize(el, m->coords, &err) != SM_OK)
+    assert_int_equal(sm__elasticity_new(m, clamped, &o, &el, &err), SM_OK);
+    if (sm__elasticity_factorize(el, m->coords, &err) != SM_OK)
         fail_msg("factorize: %s", err.msg);
     return el;
 }
@@ -88,35 +88,35 @@ static void compare_solvers(int dim, int n, sm_amg_modes modes)
     sm_elasticity *loose = build_modes(m, clamped, SM_SOLVER_AMG, 0.3, modes);
     sm_error err;
     sm_elasticity_info info;
-    sm_elasticity_get_info(tight, &info);
+    sm__elasticity_get_info(tight, &info);
     assert_int_equal(info.solver, SM_SOLVER_AMG);
     for (int k = 0; k < 6; k++) {
         make_load(m, 0.15 * k, load);
-        assert_int_equal(sm_elasticity_solve(chol, load, NULL, u0, &err), SM_OK);
-        assert_int_equal(sm_elasticity_solve(tight, load, NULL, u1, &err), SM_OK);
+        assert_int_equal(sm__elasticity_solve(chol, load, NULL, u0, &err), SM_OK);
+        assert_int_equal(sm__elasticity_solve(tight, load, NULL, u1, &err), SM_OK);
         double diff = 0.0, norm = 0.0;
         for (size_t i = 0; i < nd; i++) {
             diff += (u1[i] - u0[i]) * (u1[i] - u0[i]);
             norm += u0[i] * u0[i];
         }
         assert_true(sqrt(diff) <= 1e-6 * sqrt(norm));
-        assert_int_equal(sm_elasticity_solve(loose, load, NULL, u1, &err), SM_OK);
+        assert_int_equal(sm__elasticity_solve(loose, load, NULL, u1, &err), SM_OK);
         assert_true(dot_free(load, u1, nd) > 0.0);
         for (int32_t v = 0; v < m->nverts; v++)
             if (clamped[v])
                 for (int c = 0; c < dim; c++)
                     assert_true(u1[(size_t)v * dim + c] == 0.0);
     }
-    sm_elasticity_get_info(loose, &info);
+    sm__elasticity_get_info(loose, &info);
     assert_true(info.amg_min_descent > 0.0);
     assert_int_equal(info.amg_restarts, 0);
     assert_true(info.amg_total_iterations >= 6);
     /* warm start: later loose solves need at most as many iterations as
      * the first solve of the tight one needed for 1e-10 */
     assert_true(info.amg_iterations <= 50);
-    sm_elasticity_free(chol);
-    sm_elasticity_free(tight);
-    sm_elasticity_free(loose);
+    sm__elasticity_free(chol);
+    sm__elasticity_free(tight);
+    sm__elasticity_free(loose);
     sm_mesh_free(m);
     free(clamped);
     free(load);
@@ -129,11 +129,11 @@ static double energy(const sm_elasticity *el, const sm_mesh *m, const double *w)
 {
     const int dim = m->dim;
     sm_csr_view a;
-    sm_elasticity_matrix(el, &a);
+    sm__elasticity_matrix(el, &a);
     double *wf = calloc((size_t)a.n, sizeof *wf), e = 0.0;
     for (int32_t v = 0; v < m->nverts; v++)
         for (int c = 0; c < dim; c++) {
-            int32_t k = sm_elasticity_dof(el, v, c);
+            int32_t k = sm__elasticity_dof(el, v, c);
             if (k >= 0)
                 wf[k] = w[(size_t)v * dim + c];
         }
@@ -171,8 +171,8 @@ static void energy_error(int dim, int n, sm_amg_modes modes)
         double worst = 0.0;
         for (int k = 0; k < 6; k++) {
             make_load(m, 0.15 * k, load);
-            assert_int_equal(sm_elasticity_solve(chol, load, NULL, u0, &err), SM_OK);
-            assert_int_equal(sm_elasticity_solve(amg, load, NULL, u1, &err), SM_OK);
+            assert_int_equal(sm__elasticity_solve(chol, load, NULL, u0, &err), SM_OK);
+            assert_int_equal(sm__elasticity_solve(amg, load, NULL, u1, &err), SM_OK);
             double ref = energy(chol, m, u0);
             for (size_t i = 0; i < nd; i++)
                 u1[i] -= u0[i];
@@ -185,15 +185,15 @@ static void energy_error(int dim, int n, sm_amg_modes modes)
                 worst = rel;
         }
         sm_elasticity_info info;
-        sm_elasticity_get_info(amg, &info);
+        sm__elasticity_get_info(amg, &info);
         if (getenv("SM_DEBUG"))
             print_message("dim %d rtol %g modes %d: worst energy error %.3g, %ld PCG iterations in 6 solves\n",
                           dim, rtols[t], (int)modes, worst, info.amg_total_iterations);
         assert_true(info.amg_total_iterations >= 6); /* at least one step each */
         assert_true(info.amg_total_iterations <= 6 * 10);
-        sm_elasticity_free(amg);
+        sm__elasticity_free(amg);
     }
-    sm_elasticity_free(chol);
+    sm__elasticity_free(chol);
     sm_mesh_free(m);
     free(clamped);
     free(load);
@@ -239,8 +239,8 @@ static void same_matrix_diagonal_first(int dim, int n)
     sm_elasticity *chol = build(m, clamped, SM_SOLVER_CHOLMOD, 0.0);
     sm_elasticity *amg = build(m, clamped, SM_SOLVER_AMG, 0.0);
     sm_csr_view a, b;
-    sm_elasticity_matrix(chol, &a);
-    sm_elasticity_matrix(amg, &b);
+    sm__elasticity_matrix(chol, &a);
+    sm__elasticity_matrix(amg, &b);
     assert_int_equal(a.n, b.n);
     assert_memory_equal(a.rowptr, b.rowptr, ((size_t)a.n + 1) * sizeof(int32_t));
     for (int32_t r = 0; r < a.n; r++) {
@@ -260,8 +260,8 @@ static void same_matrix_diagonal_first(int dim, int n)
             q++;
         }
     }
-    sm_elasticity_free(chol);
-    sm_elasticity_free(amg);
+    sm__elasticity_free(chol);
+    sm__elasticity_free(amg);
     sm_mesh_free(m);
     free(clamped);
 }
@@ -294,7 +294,7 @@ static void test_amg_refactorization_reaches_hypre(void **state)
     sm_elasticity *amg = build(m, clamped, SM_SOLVER_AMG, 1e-10);
     sm_error err;
     make_load(m, 0.3, load);
-    assert_int_equal(sm_elasticity_solve(amg, load, NULL, u1, &err), SM_OK);
+    assert_int_equal(sm__elasticity_solve(amg, load, NULL, u1, &err), SM_OK);
     /* a smooth deformation that stretches x by up to 30% */
     for (int32_t v = 0; v < m->nverts; v++) {
         const double *p = m->coords + (size_t)v * 3;
@@ -302,22 +302,22 @@ static void test_amg_refactorization_reaches_hypre(void **state)
         moved[(size_t)v * 3 + 1] = p[1] + 0.1 * p[0] * p[2];
         moved[(size_t)v * 3 + 2] = p[2];
     }
-    assert_int_equal(sm_elasticity_factorize(chol, moved, &err), SM_OK);
-    assert_int_equal(sm_elasticity_factorize(amg, moved, &err), SM_OK);
-    assert_int_equal(sm_elasticity_solve(chol, load, NULL, u0, &err), SM_OK);
+    assert_int_equal(sm__elasticity_factorize(chol, moved, &err), SM_OK);
+    assert_int_equal(sm__elasticity_factorize(amg, moved, &err), SM_OK);
+    assert_int_equal(sm__elasticity_solve(chol, load, NULL, u0, &err), SM_OK);
     double before = 0.0, norm = 0.0;
     for (size_t i = 0; i < nd; i++) {
         before += (u1[i] - u0[i]) * (u1[i] - u0[i]);
         norm += u0[i] * u0[i];
     }
     assert_true(sqrt(before) > 1e-2 * sqrt(norm)); /* the systems do differ */
-    assert_int_equal(sm_elasticity_solve(amg, load, NULL, u1, &err), SM_OK);
+    assert_int_equal(sm__elasticity_solve(amg, load, NULL, u1, &err), SM_OK);
     double diff = 0.0;
     for (size_t i = 0; i < nd; i++)
         diff += (u1[i] - u0[i]) * (u1[i] - u0[i]);
     assert_true(sqrt(diff) <= 1e-6 * sqrt(norm));
-    sm_elasticity_free(chol);
-    sm_elasticity_free(amg);
+    sm__elasticity_free(chol);
+    sm__elasticity_free(amg);
     sm_mesh_free(m);
     free(clamped);
     free(load);
@@ -343,16 +343,16 @@ static void test_amg_deterministic(void **state)
         u[r] = malloc(nd * sizeof(double));
         sm_elasticity *el = build_modes(m, clamped, SM_SOLVER_AMG, 0.0,
                                         r < 2 ? SM_AMG_MODES_OFF : SM_AMG_MODES_ON);
-        assert_int_equal(sm_elasticity_solve(el, load, NULL, u[r], &err), SM_OK);
-        sm_elasticity_free(el);
+        assert_int_equal(sm__elasticity_solve(el, load, NULL, u[r], &err), SM_OK);
+        sm__elasticity_free(el);
         if (r % 2 == 0) { /* another problem's set-up and solve in between */
             uint8_t *c2;
             sm_mesh *m2 = clamped_box(3, 4, &c2);
             double *l2 = malloc((size_t)m2->nverts * 3 * sizeof *l2), *u2 = malloc((size_t)m2->nverts * 3 * sizeof *u2);
             make_load(m2, 1.0, l2);
             sm_elasticity *other = build(m2, c2, SM_SOLVER_AMG, 1e-3);
-            assert_int_equal(sm_elasticity_solve(other, l2, NULL, u2, &err), SM_OK);
-            sm_elasticity_free(other);
+            assert_int_equal(sm__elasticity_solve(other, l2, NULL, u2, &err), SM_OK);
+            sm__elasticity_free(other);
             sm_mesh_free(m2);
             free(c2);
             free(l2);
@@ -505,27 +505,27 @@ static void test_names_and_auto(void **state)
     sm_mesh *m = clamped_box(2, 4, &clamped);
     sm_elasticity *el = NULL;
     sm_elasticity_opts o = {.young = 1, .poisson = 0.3, .solver = SM_SOLVER_AMG, .amg_rtol = 1.5};
-    assert_int_equal(sm_elasticity_new(m, clamped, &o, &el, &err), SM_ERR_INVALID);
+    assert_int_equal(sm__elasticity_new(m, clamped, &o, &el, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "AMG tolerance"));
     o.amg_rtol = 0.0;
     o.amg_modes = (sm_amg_modes)7;
-    assert_int_equal(sm_elasticity_new(m, clamped, &o, &el, &err), SM_ERR_INVALID);
+    assert_int_equal(sm__elasticity_new(m, clamped, &o, &el, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "AMG modes"));
     o.amg_modes = SM_AMG_MODES_AUTO;
     o.solver = (sm_solver_kind)9;
-    assert_int_equal(sm_elasticity_new(m, clamped, &o, &el, &err), SM_ERR_INVALID);
+    assert_int_equal(sm__elasticity_new(m, clamped, &o, &el, &err), SM_ERR_INVALID);
     assert_null(el);
     /* solve before factorize is refused on the AMG path too */
     o.solver = SM_SOLVER_AMG;
-    assert_int_equal(sm_elasticity_new(m, clamped, &o, &el, &err), SM_OK);
+    assert_int_equal(sm__elasticity_new(m, clamped, &o, &el, &err), SM_OK);
     double u[50 * 2];
-    assert_int_equal(sm_elasticity_solve(el, NULL, NULL, u, &err), SM_ERR_INVALID);
+    assert_int_equal(sm__elasticity_solve(el, NULL, NULL, u, &err), SM_ERR_INVALID);
     /* a zero load gives the zero displacement without iterating */
-    assert_int_equal(sm_elasticity_factorize(el, m->coords, &err), SM_OK);
-    assert_int_equal(sm_elasticity_solve(el, NULL, NULL, u, &err), SM_OK);
+    assert_int_equal(sm__elasticity_factorize(el, m->coords, &err), SM_OK);
+    assert_int_equal(sm__elasticity_solve(el, NULL, NULL, u, &err), SM_OK);
     for (int i = 0; i < m->nverts * 2; i++)
         assert_true(u[i] == 0.0);
-    sm_elasticity_free(el);
+    sm__elasticity_free(el);
     sm_mesh_free(m);
     free(clamped);
 }

@@ -8,7 +8,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "sm_job_warnings.h"
+#include "job/sm_job_warnings.h"
 #include "store/spool/smd_store.h"
 
 #define SUMMARY_MAX_BYTES (1024 * 1024)

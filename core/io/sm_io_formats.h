@@ -1,0 +1,36 @@
+/* The format readers behind the two dispatchers by content (internal,
+ * not part of the public API): sm_io.c reads meshes (Gmsh .msh or Medit),
+ * sm_io_surface.c reads surfaces (Gmsh, Medit, STL, OBJ).  Each reader
+ * takes a reader the dispatcher opened, positioned at the start of the
+ * file (sm_reader.h: bounded reads, gzip, positions in messages; only
+ * peeked at so far), and fills a new mesh or surface; the dispatcher
+ * closes the reader.  Gmsh has its own header (sm_io_msh.h). */
+#ifndef SM_IO_FORMATS_H
+#define SM_IO_FORMATS_H
+
+#include "io/sm_reader.h"
+#include "shapematch/sm_mesh.h"
+#include "shapematch/sm_surface.h"
+
+/* Medit (sm_io_medit.c): ASCII .mesh or binary .meshb, told apart by the
+ * first bytes (sm__medit_detect). */
+sm_status sm__medit_mesh_read(sm_reader *r, sm_mesh **out, sm_error *err);
+sm_status sm__medit_surface_read(sm_reader *r, sm_surface **out, sm_error *err);
+
+/* STL: binary when the file size is 84 + 50 n with n the count at byte
+ * 80, or when it does not start like an ASCII STL ("solid" then
+ * "facet"/"endsolid" in printable text); ASCII otherwise. */
+int sm__stl_detect(sm_reader *r);
+sm_status sm__stl_read(sm_reader *r, sm_surface **out, sm_error *err);
+
+/* OBJ: the first word is an OBJ statement (v, vt, vn, f, o, g, s, l,
+ * mtllib, usemtl) or a '#' comment. */
+int sm__obj_detect(sm_reader *r);
+sm_status sm__obj_read(sm_reader *r, sm_surface **out, sm_error *err);
+
+/* Merges vertices with exactly equal coordinates (STL repeats them per
+ * facet; sm_io_surface.c); the merged vertices keep the order of their
+ * first appearance and facets are renumbered. */
+sm_status sm__surface_weld(sm_surface *s, sm_error *err);
+
+#endif

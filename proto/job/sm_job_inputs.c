@@ -1,0 +1,463 @@
+/* Reading and checking a job's inputs (see sm_job_inputs.h). */
+#include "job/sm_job_inputs.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <omp.h>
+
+#include "shapematch/sm_clock.h"
+#include "shapematch/sm_clamp.h"
+#include "shapematch/sm_sdf.h"
+#include "sm_proto_params.h"
+
+void sm_job_inputs_free(sm_job_inputs *in)
+{
+    if (!in)
+        return;
+    sm_match_free(in->match);
+    in->match = NULL;
+    sm_field_free(in->field);
+    sm_sol_free(in->distance);
+    sm_mesh_free(in->background);
+    sm_mesh_free(in->prepared);
+    sm_mesh_free(in->template_mesh);
+    in->field = NULL;
+    in->distance = NULL;
+    in->background = NULL;
+    in->prepared = NULL;
+    in->template_mesh = NULL;
+}
+
+/* "PART: message" with every occurrence of path replaced by PART. */
+static sm_status part_error(sm_error *err, const char *part, const char *path)
+{
+    char msg[SM_ERROR_MSG_LEN];
+    size_t k = 0, plen = path ? strlen(path) : 0;
+    const char *src = err->msg;
+    while (*src && k + 1 < sizeof msg) {
+        if (plen && strncmp(src, path, plen) == 0) {
+            size_t n = strlen(part);
+            if (k + n >= sizeof msg)
+                break;
+            memcpy(msg + k, part, n);
+            k += n;
+            src += plen;
+        } else {
+            msg[k++] = *src++;
+        }
+    }
+    msg[k] = '\0';
+    size_t n = strlen(part);
+    if (strncmp(msg, part, n) == 0 && msg[n] == ':') {
+        /* the readers say "FILE:LINE: what": make it "PART: line LINE: what" */
+        const char *p = msg + n + 1;
+        const char *digits = p;
+        while (*p >= '0' && *p <= '9')
+            p++;
+        if (p > digits && *p == ':')
+            return sm_error_set(err, err->code, "%s: line %.*s:%s", part, (int)(p - digits), digits, p + 1);
+        /* already "PART: what" ("FILE: byte N: what", "FILE: what") */
+        return sm_error_set(err, err->code, "%s", msg);
+    }
+    return sm_error_set(err, err->code, "%s: %s", part, msg);
+}
+
+/* A core error about one input file, named the way naming says: "PART:
+ * ..." with the path replaced, or "PART: PATH...: ..." with the path as
+ * given (added when the core's message does not show it). */
+static sm_status file_error(sm_error *err, sm_job_naming naming, sm_part part, const char *path,
+                            sm_job_inputs *in)
+{
+    in->failed = part;
+    const char *name = sm_part_name(part);
+    if (naming == SM_JOB_NAME_PARTS)
+        return part_error(err, name, path);
+    if (strstr(err->msg, path))
+        sm_error_prefix(err, "%s", name);
+    else
+        sm_error_prefix(err, "%s: %s", name, path);
+    return err->code;
+}
+
+/* How a message names a file of its own: "target_sol" or
+ * "target_sol 'b.sol'". */
+static const char *label(char *buf, size_t cap, sm_job_naming naming, sm_part part,
+                         const char *path)
+{
+    if (naming == SM_JOB_NAME_PARTS)
+        snprintf(buf, cap, "%s", sm_part_name(part));
+    else
+        snprintf(buf, cap, "%s '%s'", sm_part_name(part), path);
+    return buf;
+}
+
+/* The distance: scalar, one finite value per background vertex. */
+static sm_status check_distance(const sm_job_files *files, sm_job_naming naming,
+                                sm_job_inputs *out, sm_error *err)
+{
+    char sol[512], bg[512];
+    label(sol, sizeof sol, naming, SM_PART_TARGET_SOL, files->target_sol);
+    out->failed = SM_PART_TARGET_SOL;
+    if (out->distance->ncomp != 1)
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "%s: a scalar signed distance is expected, got a field of %d "
+                            "components",
+                            sol, out->distance->ncomp);
+    if (out->distance->nverts != out->background->nverts) {
+        if (naming == SM_JOB_NAME_PARTS)
+            snprintf(bg, sizeof bg, "the target mesh");
+        else
+            snprintf(bg, sizeof bg, "the target mesh '%s'", files->target_mesh);
+        return sm_error_set(err, SM_ERR_INVALID, "%s: has %ld values but %s has %ld vertices", sol,
+                            (long)out->distance->nverts, bg, (long)out->background->nverts);
+    }
+    for (int32_t v = 0; v < out->distance->nverts; v++)
+        if (!isfinite(out->distance->values[v]))
+            return sm_error_set(err, SM_ERR_INVALID, "%s: value %ld is not finite", sol,
+                                (long)v + 1);
+    out->failed = SM_NPARTS;
+    return SM_OK;
+}
+
+/* Mean edge length of the template's elements. */
+static double mean_edge(const sm_mesh *m)
+{
+    int n = m->dim + 1;
+    double sum = 0;
+    int64_t count = 0;
+    for (int32_t e = 0; e < m->nelems; e++)
+        for (int a = 0; a < n; a++)
+            for (int b = a + 1; b < n; b++) {
+                const double *p = m->coords + (size_t)m->elems[(size_t)e * n + a] * m->dim;
+                const double *q = m->coords + (size_t)m->elems[(size_t)e * n + b] * m->dim;
+                double d2 = 0;
+                for (int k = 0; k < m->dim; k++)
+                    d2 += (p[k] - q[k]) * (p[k] - q[k]);
+                sum += sqrt(d2);
+                count++;
+            }
+    return count ? sum / (double)count : 0;
+}
+
+/* A generated background is held to the bounds of an uploaded one (the
+ * daemon's --max-vertices, --max-elements): its size is the job's
+ * choice, its distance computation and the run the daemon's cost. */
+static sm_status check_background_limits(sm_read_limits *limits, const sm_mesh *bg, sm_error *err)
+{
+    if (!limits)
+        return SM_OK;
+    int verts = limits->max_vertices > 0 && bg->nverts > limits->max_vertices;
+    if (!verts && !(limits->max_elements > 0 && bg->nelems > limits->max_elements))
+        return SM_OK;
+    limits->hit = verts ? SM_LIMIT_VERTICES : SM_LIMIT_ELEMENTS;
+    return sm_error_set(err, SM_ERR_INVALID,
+                        "the generated background has %ld %s, beyond the limit of %lld: give a "
+                        "larger --background-size", verts ? (long)bg->nverts : (long)bg->nelems,
+                        verts ? "vertices" : "elements",
+                        verts ? (long long)limits->max_vertices : (long long)limits->max_elements);
+}
+
+/* The padded box of template and surface, graded toward the surface,
+ * near-surface cells of the smaller of the template's and the surface's
+ * mean edge lengths (not below a quarter of the size that would give a
+ * uniform grid of 250k vertices). */
+static sm_status generate_background(const sm_job_files *files, sm_job_naming naming,
+                                     sm_job_inputs *out, const sm_surface *s, const sm_sdf *d,
+                                     sm_error *err)
+{
+    int dim = out->dim;
+    double lo[3], hi[3], tlo[3], thi[3], diag = 0, cells = 1;
+    sm_mesh_bbox(out->template_mesh, out->template_mesh->coords, tlo, thi);
+    for (int k = 0; k < dim; k++) {
+        lo[k] = fmin(tlo[k], out->health.lo[k]);
+        hi[k] = fmax(thi[k], out->health.hi[k]);
+        diag += (hi[k] - lo[k]) * (hi[k] - lo[k]);
+    }
+    diag = sqrt(diag);
+    out->background_padding =
+        files->background_padding > 0 ? files->background_padding : SM_BACKGROUND_PADDING_DEFAULT;
+    double pad = out->background_padding * diag;
+    for (int k = 0; k < dim; k++) {
+        lo[k] -= pad;
+        hi[k] += pad;
+        cells *= hi[k] - lo[k];
+    }
+    double h = fmin(mean_edge(out->template_mesh), sm_surface_mean_edge(s));
+    double hmin = pow(cells / 250000.0, 1.0 / dim) / 4;
+    if (!(h >= hmin))
+        h = hmin;
+    if (files->background_size > 0)
+        h = files->background_size;
+    out->background_generated = 1;
+    out->background_size = h;
+    sm_status st = sm_background_graded_new(dim, lo, hi, h, d, &out->background, err);
+    if (st == SM_OK)
+        st = check_background_limits(files->limits, out->background, err);
+    if (st != SM_OK && st != SM_ERR_NOMEM && naming == SM_JOB_NAME_PARTS) {
+        /* the core's advice names the CLI's flag: name the param */
+        out->failed = SM_PART_PARAMS;
+        part_error(err, "params.background_size", "--background-size");
+    }
+    return st;
+}
+
+/* The target from a surface: background given or generated, then the
+ * exact signed distance at its vertices. */
+static sm_status read_surface_target(const sm_job_files *files, sm_job_naming naming,
+                                     sm_job_inputs *out, sm_error *err)
+{
+    sm_surface *s = NULL;
+    sm_sdf *d = NULL;
+    sm_status st = sm_surface_read_limited(files->target_surface, files->limits, &s, err);
+    if (st == SM_OK)
+        st = sm_surface_repair(s, &out->health, err);
+    if (st != SM_OK) {
+        file_error(err, naming, SM_PART_TARGET_SURFACE, files->target_surface, out);
+        goto done;
+    }
+    out->has_surface = 1;
+    if (s->dim != out->dim) {
+        st = sm_error_set(err, SM_ERR_INVALID, "dimension mismatch: the template is %dD but the "
+                          "target surface is %dD", out->dim, s->dim);
+        goto done;
+    }
+    double t0 = sm_clock_seconds();
+    if ((st = sm_sdf_new(s, &d, err)) != SM_OK) {
+        if (st != SM_ERR_NOMEM)
+            file_error(err, naming, SM_PART_TARGET_SURFACE, files->target_surface, out);
+        goto done;
+    }
+    if (files->target_mesh) {
+        if ((st = sm_mesh_read_limited(files->target_mesh, files->limits, &out->background,
+                                       err)) != SM_OK) {
+            file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
+            goto done;
+        }
+    } else if ((st = generate_background(files, naming, out, s, d, err)) != SM_OK) {
+        goto done;
+    }
+    if (out->background->dim != out->dim) {
+        st = sm_error_set(err, SM_ERR_INVALID,
+                          "dimension mismatch: the template is %dD but the target mesh is %dD",
+                          out->dim, out->background->dim);
+        goto done;
+    }
+    if ((st = sm_sol_alloc(&out->distance, out->dim, out->background->nverts, 1, err)) == SM_OK)
+        st = sm_sdf_signed(d, out->background->nverts, out->background->coords,
+                           out->distance->values, err);
+    out->sdf_seconds = sm_clock_seconds() - t0;
+    if (st != SM_OK && st != SM_ERR_NOMEM)
+        file_error(err, naming, SM_PART_TARGET_SURFACE, files->target_surface, out);
+done:
+    sm_sdf_free(d);
+    sm_surface_free(s);
+    return st;
+}
+
+sm_status sm_job_files_check_background(const sm_job_files *files, sm_job_naming naming,
+                                        sm_error *err)
+{
+    static const char *const names[2][4] = {
+        [SM_JOB_NAME_PARTS] = {"background_size", "background_padding", "target_surface",
+                               "target_mesh"},
+        [SM_JOB_NAME_PATHS] = {"--background-size", "--background-padding",
+                               "--target-surface", "--target-mesh"}};
+    int size = files->background_size > 0, padding = files->background_padding > 0;
+    if ((!size && !padding) || (files->target_surface && !files->target_mesh))
+        return SM_OK;
+    const char *const *n = names[naming == SM_JOB_NAME_PATHS];
+    char where[64] = "";
+    if (naming == SM_JOB_NAME_PARTS) /* the params path first, as for every bad param */
+        snprintf(where, sizeof where, "params.%s: ", size ? n[0] : n[1]);
+    return sm_error_set(err, SM_ERR_INVALID,
+                        "%s%s and %s are for a generated background (%s without %s): %s %s",
+                        where, n[0], n[1], n[2], n[3], files->target_surface ? n[3] : n[2],
+                        files->target_surface ? "is given" : "is not given");
+}
+
+sm_status sm_job_inputs_read_template(const sm_job_files *files, sm_job_naming naming,
+                                      sm_job_inputs *out, sm_error *err)
+{
+    memset(out, 0, sizeof *out);
+    sm_params_default(&out->params);
+    out->failed = SM_NPARTS;
+    out->read_started = sm_clock_seconds();
+    sm_status st;
+    if ((st = sm_job_files_check_background(files, naming, err)) != SM_OK) {
+        out->failed = SM_PART_PARAMS;
+        return st;
+    }
+    out->background_asked.size = files->background_size > 0 ? files->background_size : 0;
+    out->background_asked.padding = files->background_padding > 0 ? files->background_padding : 0;
+    if ((st = sm_mesh_read_limited(files->template_mesh, files->limits, &out->template_mesh, err)) !=
+        SM_OK) {
+        file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
+        goto fail;
+    }
+    out->dim = out->template_mesh->dim;
+    /* topology checks on a copy: building the boundary reorients
+     * elements, and the outputs keep the input's connectivity as is; the
+     * run works on this copy */
+    if ((st = sm_mesh_clone(out->template_mesh, &out->prepared, err)) != SM_OK ||
+        (st = sm_mesh_build_boundary(out->prepared, err)) != SM_OK ||
+        (st = sm_mesh_check_manifold(out->prepared, err)) != SM_OK) {
+        file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
+        goto fail;
+    }
+    return SM_OK;
+fail:
+    if (st == SM_ERR_NOMEM && !(files->limits && files->limits->hit))
+        out->failed = SM_NPARTS;
+    sm_job_inputs_free(out);
+    return st;
+}
+
+/* The target: a surface (its distance on a given or generated
+ * background) or a background mesh and its distance, then the field. */
+static sm_status read_target(const sm_job_files *files, sm_job_naming naming, sm_job_inputs *out,
+                             sm_error *err)
+{
+    sm_status st;
+    if (files->target_surface) {
+        if (files->target_sol) {
+            out->failed = SM_PART_TARGET_SURFACE;
+            return sm_error_set(err, SM_ERR_INVALID, "%s excludes %s: give one target",
+                                SM_PART_NAME_TARGET_SURFACE, sm_part_name(SM_PART_TARGET_SOL));
+        }
+        if ((st = read_surface_target(files, naming, out, err)) != SM_OK)
+            return st;
+    } else {
+        if ((st = sm_mesh_read_limited(files->target_mesh, files->limits, &out->background,
+                                       err)) != SM_OK)
+            return file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
+        if (out->background->dim != out->dim)
+            return sm_error_set(err, SM_ERR_INVALID,
+                                "dimension mismatch: the template is %dD but the target mesh is %dD",
+                                out->dim, out->background->dim);
+        if ((st = sm_sol_read_limited(files->target_sol, files->limits, &out->distance, err)) !=
+            SM_OK)
+            return file_error(err, naming, SM_PART_TARGET_SOL, files->target_sol, out);
+        if ((st = check_distance(files, naming, out, err)) != SM_OK)
+            return st;
+    }
+    double tf = sm_clock_seconds();
+    st = sm_field_new(out->background, out->distance->values, &out->field, err);
+    out->field_builds++;
+    out->field_build_seconds = sm_clock_seconds() - tf;
+    if (st != SM_OK)
+        return file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
+    return SM_OK;
+}
+
+/* The run's template side, set up beside read_target: only its own
+ * members of *in are written (the other thread writes the target's). */
+static void prepare_run(sm_job_inputs *in)
+{
+    double t0 = sm_clock_seconds();
+    sm_error_clear(&in->match_error);
+    sm_match_opts opts = {.template_mesh = in->template_mesh, .prepared = in->prepared,
+                          .params = &in->params};
+    in->match_status = sm_match_new(&opts, &in->match, &in->match_error);
+    in->match_seconds = sm_clock_seconds() - t0;
+}
+
+sm_status sm_job_inputs_read_target(const sm_job_files *files, sm_job_naming naming, int prepare,
+                                    sm_job_inputs *out, sm_error *err)
+{
+    sm_status st = SM_OK;
+    if (prepare) {
+        /* two coarse tasks, not a loop of small ones: worth a second
+         * thread whatever the size (the run's thread policy is for the
+         * descent's loops) */
+#pragma omp parallel sections num_threads(omp_get_max_threads() > 1 ? 2 : 1)
+        {
+#pragma omp section
+            st = read_target(files, naming, out, err);
+#pragma omp section
+            prepare_run(out);
+        }
+    } else {
+        st = read_target(files, naming, out, err);
+    }
+    if (st != SM_OK) {
+        if (st == SM_ERR_NOMEM && !(files->limits && files->limits->hit))
+            out->failed = SM_NPARTS;
+        sm_job_inputs_free(out);
+        return st;
+    }
+    out->read_seconds = sm_clock_seconds() - out->read_started;
+    return SM_OK;
+}
+
+sm_status sm_job_inputs_read(const sm_job_files *files, sm_job_naming naming,
+                             sm_job_inputs *out, sm_error *err)
+{
+    sm_status st = sm_job_inputs_read_template(files, naming, out, err);
+    if (st == SM_OK)
+        st = sm_job_inputs_read_target(files, naming, 0, out, err);
+    return st;
+}
+
+sm_status sm_job_inputs_set_params(sm_job_inputs *in, const sm_params *params, sm_error *err)
+{
+    sm_status st;
+    int32_t nclamped = 0;
+    in->failed = SM_PART_PARAMS;
+    if ((st = sm_params_validate(params, in->dim, err)) != SM_OK ||
+        (st = sm_clamp_check(in->template_mesh, params, &nclamped, err)) != SM_OK ||
+        (st = sm_clamp_check_parts(in->template_mesh, params, err)) != SM_OK)
+        return st;
+    in->failed = SM_NPARTS;
+    in->params = *params;
+    in->nclamped = nclamped;
+    /* a template side set up with other parameters is stale */
+    sm_match_free(in->match);
+    in->match = NULL;
+    in->match_status = SM_OK;
+    return SM_OK;
+}
+
+sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
+                             size_t params_len, sm_job_inputs *out, sm_error *err)
+{
+    sm_params params;
+    sm_background_params bg;
+    sm_status st;
+    /* cheap syntax check first: no mesh parsing for a garbled params */
+    if ((st = sm_job_params_from_json(params_text, params_len, 0, &params, &bg, err)) != SM_OK) {
+        memset(out, 0, sizeof *out);
+        out->failed = SM_PART_PARAMS;
+        return st;
+    }
+    sm_job_files with_bg = *files;
+    if (!(with_bg.background_size > 0))
+        with_bg.background_size = bg.size;
+    if (!(with_bg.background_padding > 0))
+        with_bg.background_padding = bg.padding;
+    /* the files, then the params' values (the upload's check: a file's
+     * 413 before a param's 422); with prepare_run (the worker, on checked
+     * inputs) the params come before the target, whose reading the run's
+     * template side then overlaps */
+    if ((st = sm_job_inputs_read_template(&with_bg, SM_JOB_NAME_PARTS, out, err)) != SM_OK)
+        return st;
+    if (!files->prepare_run &&
+        (st = sm_job_inputs_read_target(&with_bg, SM_JOB_NAME_PARTS, 0, out, err)) != SM_OK)
+        return st;
+    if ((st = sm_params_from_json(params_text, params_len, out->dim, &params, err)) != SM_OK)
+        goto fail;
+    if ((st = sm_job_inputs_set_params(out, &params, err)) != SM_OK) {
+        sm_error_prefix(err, "%s", params.clamp == SM_CLAMP_BALL ? "params.clamp" : "params.clamp.refs");
+        goto fail;
+    }
+    if (files->prepare_run)
+        return sm_job_inputs_read_target(&with_bg, SM_JOB_NAME_PARTS, 1, out, err);
+    return SM_OK;
+fail:
+    sm_job_inputs_free(out);
+    out->failed = SM_PART_PARAMS;
+    return st;
+}

@@ -1,0 +1,188 @@
+/* The job runner: the run, its hooks and its outcome (see
+ * sm_job_runner.h). */
+#include "job/sm_job_runner.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "job/sm_job_threads.h"
+#include "shapematch/sm_atomic.h"
+#include "shapematch/sm_io.h"
+#include "shapematch/sm_path.h"
+#include "sm_proto_vocab.h"
+
+const char *sm_job_outcome_name(sm_job_outcome outcome)
+{
+    switch (outcome) {
+    case SM_JOB_OUTCOME_FINISHED: return "finished";
+    case SM_JOB_OUTCOME_CANCELLED: return "cancelled";
+    case SM_JOB_OUTCOME_FAILED: return "failed";
+    }
+    return "unknown";
+}
+
+/* ------------------------------------------------------------- the run */
+
+typedef struct run_ctx {
+    const sm_job_inputs *in;
+    const sm_job_hooks *hooks;
+    sm_job_run *run;
+    sm_status failed;            /* SM_OK, or why the hook stopped the run */
+    sm_error error;
+} run_ctx;
+
+/* One row per iteration: a repeated report replaces the previous. */
+static int history_push(sm_job_run *run, const sm_progress *p)
+{
+    if (run->nhistory > 0 && run->history[run->nhistory - 1].iteration == p->iteration) {
+        run->history[run->nhistory - 1] = *p;
+        return 0;
+    }
+    if (run->nhistory == run->history_cap) {
+        size_t cap = run->history_cap ? 2 * run->history_cap : 256;
+        sm_progress *rows = realloc(run->history, cap * sizeof *rows);
+        if (!rows)
+            return -1;
+        run->history = rows;
+        run->history_cap = cap;
+    }
+    run->history[run->nhistory++] = *p;
+    return 0;
+}
+
+/* SNAPSHOT_DIR/iter-NNNNN.mesh, atomically. */
+static sm_status write_snapshot(run_ctx *c, int iteration, const double *coords)
+{
+    char name[64];
+    snprintf(name, sizeof name, SM_SNAPSHOT_FORMAT, iteration);
+    char *path = sm_path_join(c->hooks->snapshot_dir, name);
+    if (!path)
+        return sm_error_set(&c->error, SM_ERR_NOMEM, "out of memory");
+    sm_atomic a;
+    sm_status st = sm_atomic_reserve(&a, path, &c->error);
+    if (st == SM_OK) {
+        st = sm_mesh_write_coords(a.tmp_path, c->in->template_mesh, coords, &c->error);
+        if (st == SM_OK)
+            st = sm_atomic_commit(&a, c->hooks->write_flags, &c->error);
+        else
+            sm_atomic_abort(&a);
+    }
+    if (st != SM_OK)
+        sm_error_prefix(&c->error, "cannot write the snapshot of iteration %d", iteration);
+    free(path);
+    return st;
+}
+
+static int on_progress(const sm_progress *p, const double *coords, void *user)
+{
+    run_ctx *c = user;
+    if (history_push(c->run, p) != 0) {
+        c->failed = sm_error_set(&c->error, SM_ERR_NOMEM, "out of memory recording the history");
+        return 1;
+    }
+    const sm_job_hooks *h = c->hooks;
+    int every = c->in->params.save_every;
+    if (h->snapshot_dir && every > 0 && p->iteration > 0 && p->iteration % every == 0 && coords &&
+        (c->failed = write_snapshot(c, p->iteration, coords)) != SM_OK)
+        return 1;
+    if (h->shape && coords && h->shape(p, coords, h->user))
+        return 1;
+    return h->progress ? h->progress(p, h->user) : 0;
+}
+
+/* Hands warnings from index from on to the hook. */
+static void tell_warnings(const run_ctx *c, int from)
+{
+    for (int i = from; c->hooks->warning && i < c->run->warnings.n; i++)
+        c->hooks->warning(&c->run->warnings.w[i], c->hooks->user);
+}
+
+/* The run under the thread policy: from the template side set up while
+ * the inputs were read (in->match, consumed) when there is one, else
+ * from scratch. */
+static sm_status run_match(sm_job_inputs *in, const sm_match_opts *opts,
+                           const sm_match_callbacks *cb, sm_job_run *run, sm_error *err)
+{
+    if (in->match_status != SM_OK) {
+        if (err)
+            *err = in->match_error;
+        return in->match_status;
+    }
+    int limit = sm_job_threads_apply(opts->template_mesh->nelems);
+    sm_status st;
+    if (in->match) {
+        st = sm_match_execute(in->match, opts->target, cb, run->coords, &run->result, err);
+        sm_match_free(in->match);
+        in->match = NULL;
+    } else {
+        st = sm_match_run(opts, cb, run->coords, &run->result, err);
+    }
+    sm_job_threads_restore(limit);
+    return st;
+}
+
+sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_run *run,
+                          sm_error *err)
+{
+    memset(run, 0, sizeof *run);
+    const sm_mesh *m = in->template_mesh;
+    size_t n = (size_t)m->nverts * (size_t)m->dim;
+    run->coords = malloc((n ? n : 1) * sizeof *run->coords);
+    if (!run->coords)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for a mesh of %ld vertices",
+                            (long)m->nverts);
+    sm_job_hooks none = {0};
+    run_ctx c = {.in = in, .hooks = hooks ? hooks : &none, .run = run, .failed = SM_OK};
+    sm_error_clear(&c.error);
+    sm_match_opts opts = {.template_mesh = m, .prepared = in->prepared, .target = in->field,
+                          .params = &in->params};
+    sm_match_callbacks cb = {.progress = on_progress, .user = &c, .cancel = c.hooks->cancel};
+    sm_status st = sm_job_check_sign(in, &run->warnings, err);
+    if (st != SM_OK)
+        return st;
+    tell_warnings(&c, 0);
+    int told = run->warnings.n;
+    st = run_match(in, &opts, &cb, run, err);
+    if (c.failed != SM_OK) {
+        if (err)
+            *err = c.error;
+        return c.failed;
+    }
+    if (st != SM_OK)
+        return st;
+    const sm_result *r = &run->result;
+    if (r->stop == SM_STOP_CANCELLED) {
+        run->outcome = SM_JOB_OUTCOME_CANCELLED;
+        run->exit_code = SM_JOB_EXIT_CANCELLED;
+    } else if (r->stop == SM_STOP_STEP && r->iterations == 0) {
+        run->outcome = SM_JOB_OUTCOME_FAILED;
+        run->exit_code = SM_JOB_EXIT_NUMERIC;
+        snprintf(run->message, sizeof run->message,
+                 "no valid step from the initial mesh (boundary error %.3e); the template may "
+                 "already match the target (see tol_boundary) or the parameters prevent any "
+                 "move (min_quality, tol_step)",
+                 r->boundary_l2);
+    } else {
+        run->outcome = SM_JOB_OUTCOME_FINISHED;
+        run->exit_code = SM_JOB_EXIT_OK;
+    }
+    sm_quality_stats q;
+    sm_mesh_quality(in->prepared, run->coords, &q);
+    run->inverted = q.ninverted;
+    sm_job_check_result(in, run->coords, r, run->outcome == SM_JOB_OUTCOME_FINISHED,
+                        &run->warnings);
+    tell_warnings(&c, told);
+    return SM_OK;
+}
+
+void sm_job_run_free(sm_job_run *run)
+{
+    if (!run)
+        return;
+    free(run->coords);
+    free(run->history);
+    run->coords = NULL;
+    run->history = NULL;
+    run->nhistory = run->history_cap = 0;
+}

@@ -1,0 +1,47 @@
+/* The thread policy of a job run: how many OpenMP and BLAS threads a
+ * template gets.  sm_job_run_exec applies it around the run
+ * (sm_job_threads_apply, then sm_job_threads_restore). */
+#ifndef SM_JOB_THREADS_H
+#define SM_JOB_THREADS_H
+
+#include <stdint.h>
+
+/* Thread policy of a run: OpenMP and BLAS threads for a template of
+ * `elements` elements when at most max_threads are allowed (the OpenMP
+ * limit when the run starts: OMP_NUM_THREADS, which the daemon sets from
+ * --worker-threads; else the cores) and idle_cores cores run no other
+ * process's task right now (sm_job_idle_cores; -1: unknown).
+ *   - From SM_JOB_THREADS_MIN_ELEMENTS on, max_threads: the parallel
+ *     regions hold enough work to pay even on a busy machine.
+ *   - From SM_JOB_THREADS_IDLE_MIN_ELEMENTS on, as many threads as cores
+ *     are idle (at most max_threads): with another core free, the
+ *     30k-tetrahedron 3D example runs in 0.53 s instead of 0.63 s, but
+ *     with both cores busy two threads make it 1.35 s instead of 1.03
+ *     (a thread the scheduler does not run makes every barrier wait for
+ *     it), so a second thread is only taken where a core is free.
+ *   - Below, one thread: a region holds a few microseconds of work (a
+ *     778-triangle 2D run at 0.07 ms per iteration with one thread, 0.09
+ *     with two even on an idle machine, 16 ms on a busy one).
+ * The results do not depend on the thread count (the parallel loops
+ * write per-item results, their sums and minima are taken in a fixed
+ * order: the 3D example's result files are identical with one and two
+ * threads), so the policy only changes the time. */
+#define SM_JOB_THREADS_MIN_ELEMENTS 100000
+#define SM_JOB_THREADS_IDLE_MIN_ELEMENTS 20000
+int sm_job_threads_for(int64_t elements, int max_threads, int idle_cores);
+
+/* Cores this process may run on (its affinity) that no task of another
+ * process is running on now: from /proc/loadavg's count of running
+ * tasks, less this process's own running threads (/proc/self/task).
+ * An instant's view, taken when a run starts; -1 when unknown (no
+ * /proc), which the policy reads as "none free". */
+int sm_job_idle_cores(void);
+
+/* Sets the OpenMP and BLAS threads for a run on a template of `elements`
+ * elements by the policy above (reading the idle cores only between the
+ * two thresholds, where they decide); returns the limit before, which
+ * sm_job_threads_restore puts back after the run. */
+int sm_job_threads_apply(int64_t elements);
+void sm_job_threads_restore(int limit);
+
+#endif

@@ -1,0 +1,61 @@
+/* Warnings of a job: what a run that "succeeded" should still tell its
+ * user, each with a stable code, a sentence and one figure.  The job
+ * runner computes them (sm_job_run.warnings); summary.json lists them as
+ * warnings: [{code, message, figure}], `shapematch run` prints them on
+ * stderr and the daemon's worker streams each as a "warning" event.  Codes:
+ *   outside-background  part of the final boundary lies outside the
+ *                       background mesh, where d is only extrapolated
+ *                       (figure: fraction of boundary sample points)
+ *   sign-inverted       the distance looks positive inside (figure: the
+ *                       fraction of template vertices with d > 0); an
+ *                       unambiguous case is refused before the run
+ *   above-resolution    the final RMS boundary error is above the local
+ *                       size of the background elements, the resolution
+ *                       d is given at (figure: their ratio)
+ *   alpha-small         no clamp and alpha far below the scale E / L^2
+ *                       where the descent converges (figure: alpha L^2/E) */
+#ifndef SM_JOB_WARNINGS_H
+#define SM_JOB_WARNINGS_H
+
+#include "shapematch/sm_error.h"
+#include "shapematch/sm_match.h"
+#include <stddef.h>
+
+#include "job/sm_job_inputs.h"
+#include "sm_proto_events.h"
+
+#define SM_JOB_WARNINGS_MAX 8
+
+typedef struct sm_job_warning {
+    const char *code;           /* static string, one of the codes above */
+    char message[320];
+    double figure;
+} sm_job_warning;
+
+typedef struct sm_job_warnings {
+    sm_job_warning w[SM_JOB_WARNINGS_MAX];
+    int n;
+} sm_job_warnings;
+
+/* Before the run: the sign of d.  SM_ERR_INVALID (message for the user,
+ * about target_sol) when it is unambiguously inverted: negative at every
+ * extreme vertex of the background (the far field, outside any target
+ * that does not touch the background's hull) and positive at most of
+ * the template's vertices; a warning when only one sign looks wrong. */
+sm_status sm_job_check_sign(const sm_job_inputs *in, sm_job_warnings *out, sm_error *err);
+
+/* After the run, on the final vertex positions: outside-background,
+ * above-resolution (finished runs only), alpha-small. */
+void sm_job_check_result(const sm_job_inputs *in, const double *coords, const sm_result *r,
+                         int finished, sm_job_warnings *out);
+
+/* "warning: CODE: MESSAGE; warning: ..." into buf (cap bytes, truncated),
+ * "" when there is none: the message of the finished event, which the
+ * daemon adds to the job's status message. */
+void sm_job_warnings_text(const sm_job_warnings *ws, char *buf, size_t cap);
+
+/* One warning as a "warning" event (sm_proto_events.h; no seq, no
+ * time): what the worker streams when the runner raises it. */
+void sm_job_warning_event(const sm_job_warning *w, sm_event *ev);
+
+#endif

@@ -262,7 +262,8 @@ done:
 }
 
 sm_status sm__surface_orient_pieces(const sm_surface *s, const int32_t *comp, int32_t np,
-                                    uint8_t *turn, sm_orient_counts *counts, sm_error *err)
+                                    int all_closed, uint8_t *turn, sm_orient_counts *counts,
+                                    sm_error *err)
 {
     memset(counts, 0, sizeof *counts);
     memset(turn, 0, (size_t)np);
@@ -272,7 +273,12 @@ sm_status sm__surface_orient_pieces(const sm_surface *s, const int32_t *comp, in
     int32_t *first = NULL, *open = NULL;
     double *vol = NULL;
     int8_t *sign = NULL;
-    sm_status st = boundaries(s, comp, np, &g, &first, err);
+    /* every edge on two facets: every piece is closed, no boundary to find */
+    sm_status st = SM_OK;
+    if (!all_closed)
+        st = boundaries(s, comp, np, &g, &first, err);
+    else if (!(first = calloc((size_t)np + 2, sizeof *first)))
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory orienting the surface");
     if (st != SM_OK)
         return st;
     open = malloc(((size_t)np + 1) * sizeof *open);
@@ -314,7 +320,13 @@ sm_status sm__surface_orient_pieces(const sm_surface *s, const int32_t *comp, in
     counts->open_pieces = n;
     if (n == 0)
         goto done;
-    if (n > SM_ORIENT_MAX_COUPLED) {
+    double all = 0, same = 0; /* boundary element pairs: all, within a piece */
+    for (int32_t i = 0; i < n; i++) {
+        double b = first[open[i] + 1] - first[open[i]];
+        all += b;
+        same += b * b;
+    }
+    if (n > SM_ORIENT_MAX_COUPLED || (all * all - same) / 2 > SM_ORIENT_MAX_PAIRS) {
         counts->by_volume = n;
         for (int32_t i = 0; i < n; i++)
             turn[open[i]] = vol[open[i]] < 0;

@@ -183,10 +183,11 @@ static sm_status orient(sm_surface *s, const adj *g, const int32_t *dup_of, sm_s
     changed = calloc((size_t)nc + 1, sizeof *changed);
     size = calloc((size_t)nc + 1, sizeof *size);
     sm_orient_counts oc;
+    int closed = h->open_edges == 0 && h->nonmanifold_edges == 0;
     if (!turn || !changed || !size)
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory repairing the surface");
     if (st == SM_OK)
-        st = sm__surface_orient_pieces(s, comp, nc, turn, &oc, err);
+        st = sm__surface_orient_pieces(s, comp, nc, closed, turn, &oc, err);
     if (st != SM_OK)
         goto done;
     h->open_components = oc.open_pieces;

@@ -51,8 +51,9 @@ static int cmp_bnd(const void *x, const void *y)
     return (p->comp > q->comp) - (p->comp < q->comp);
 }
 
-/* The pieces' boundary chains: rec[0..*nb) with comp, a, b and the net
- * multiplicity in sgn, grouped by piece (first[c] .. first[c + 1]). */
+/* The pieces' boundary chains (*out): the edges (2D: vertices) whose
+ * traversals within a piece do not cancel, with their net multiplicity
+ * in sgn, grouped by piece: (*first_out)[c] .. (*first_out)[c + 1]. */
 static sm_status boundaries(const sm_surface *s, const int32_t *comp, int32_t np, bnd_rec **out,
                             int32_t **first_out, sm_error *err)
 {

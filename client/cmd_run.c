@@ -178,12 +178,15 @@ static void print_surface_health(const run_options *o, const sm_job_inputs *in)
 {
     const sm_surface_health *h = &in->health;
     fprintf(stderr,
-            "shapematch: target surface %s: %lld component(s), open edges (holes) %lld, "
-            "non-manifold edges %lld, reoriented %lld, duplicate %lld, degenerate %lld; "
-            "distance on %s (%d vertices) in %.3f s\n",
-            o->target_surface_path, (long long)h->components, (long long)h->open_edges,
-            (long long)h->nonmanifold_edges, (long long)h->reoriented, (long long)h->duplicates,
-            (long long)h->degenerate, in->background_generated ? "a generated background" :
+            "shapematch: target surface %s: %lld component(s) (%lld open), open edges (holes) "
+            "%lld, non-manifold edges %lld, reoriented %lld (%lld within a piece, %lld "
+            "piece(s) turned over), duplicate %lld, degenerate %lld; distance on %s (%d "
+            "vertices) in %.3f s\n",
+            o->target_surface_path, (long long)h->components, (long long)h->open_components,
+            (long long)h->open_edges, (long long)h->nonmanifold_edges, (long long)h->reoriented,
+            (long long)h->reoriented_within, (long long)h->pieces_turned,
+            (long long)h->duplicates, (long long)h->degenerate,
+            in->background_generated ? "a generated background" :
             o->target_mesh_path, in->background->nverts, in->sdf_seconds);
 }
 

@@ -100,14 +100,16 @@ static int parse(int argc, char **argv, sdf_options *o, int *done)
 static void print_health(const char *path, const sm_surface *s, const sm_surface_health *h)
 {
     fprintf(stderr,
-            "surface %s: %d vertices, %d %s, %lld component(s)\n"
-            "  open edges (holes) %lld, non-manifold edges %lld, reoriented %lld, "
-            "duplicate %lld, degenerate %lld\n"
+            "surface %s: %d vertices, %d %s, %lld component(s), %lld open\n"
+            "  open edges (holes) %lld, non-manifold edges %lld, reoriented %lld "
+            "(%lld within a piece, %lld piece(s) turned over), duplicate %lld, degenerate %lld\n"
             "  bounding box [%g, %g] x [%g, %g]",
             path, s->nverts, s->nfacets, s->dim == 3 ? "triangles" : "segments",
-            (long long)h->components, (long long)h->open_edges, (long long)h->nonmanifold_edges,
-            (long long)h->reoriented, (long long)h->duplicates, (long long)h->degenerate,
-            h->lo[0], h->hi[0], h->lo[1], h->hi[1]);
+            (long long)h->components, (long long)h->open_components, (long long)h->open_edges,
+            (long long)h->nonmanifold_edges, (long long)h->reoriented,
+            (long long)h->reoriented_within, (long long)h->pieces_turned,
+            (long long)h->duplicates, (long long)h->degenerate, h->lo[0], h->hi[0], h->lo[1],
+            h->hi[1]);
     if (s->dim == 3)
         fprintf(stderr, " x [%g, %g]", h->lo[2], h->hi[2]);
     fputc('\n', stderr);

@@ -13,7 +13,7 @@ CORE_BASE_SRCS := core/sm_alloc.c core/sm_atomic.c core/sm_clamp.c core/sm_clock
 CORE_FIELD_SRCS := core/sm_field.c core/sm_field_adjacency.c core/sm_field_grid.c \
   core/sm_field_locate.c core/sm_field_nearest.c
 CORE_SDF_SRCS := core/sm_background.c core/sm_bvh.c core/sm_sdf.c core/sm_surface_repair.c \
-  core/sm_winding.c
+  core/sm_surface_orient.c core/sm_winding.c
 CORE_SOLVE_SRCS := core/sm_elasticity.c core/sm_elasticity_pattern.c core/sm_element.c \
   core/sm_solver_amg.c core/sm_shape.c core/sm_match.c
 CORE_IO_SRCS := core/io/sm_io.c core/io/sm_io_surface.c \

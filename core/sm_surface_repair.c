@@ -3,7 +3,11 @@
  * their vertex (2D) and sorted, which gives each edge's facets at once:
  * one facet is an open edge, three or more a non-manifold one, two an
  * adjacency, consistent when the facets run through the edge in opposite
- * directions (3D) or one ends where the other starts (2D). */
+ * directions (3D) or one ends where the other starts (2D).  Duplicate
+ * facets are left out of the adjacency (otherwise every edge of a
+ * duplicated patch is non-manifold and the patch falls apart into single
+ * facets) and take their first copy's orientation at the end.  Whole
+ * pieces are turned over by sm_surface_orient.c. */
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
@@ -11,6 +15,7 @@
 
 #include "shapematch/sm_surface.h"
 #include "sm_bvh.h"
+#include "sm_surface_orient.h"
 
 typedef struct edge_rec {
     int32_t a, b;  /* key (b = 0 in 2D) */
@@ -34,10 +39,12 @@ typedef struct adj {
     uint8_t *same;   /* 1 when the neighbour runs the same way (inconsistent) */
 } adj;
 
-static int64_t edge_records(const sm_surface *s, edge_rec *e)
+static int64_t edge_records(const sm_surface *s, const int32_t *dup_of, edge_rec *e)
 {
     int64_t n = 0;
     for (int32_t f = 0; f < s->nfacets; f++) {
+        if (dup_of[f] >= 0)
+            continue;
         const int32_t *v = s->facets + (size_t)f * s->dim;
         for (int k = 0; k < s->dim; k++) {
             if (s->dim == 2) {
@@ -107,25 +114,28 @@ static void flip_facet(sm_surface *s, int32_t f)
     v[1] = t;
 }
 
-/* Propagates orientation per component (flip[f] relative to its seed),
- * then flips whole components of negative enclosed volume. */
-static sm_status orient(sm_surface *s, const adj *g, sm_surface_health *h, sm_error *err)
+/* Orientation parity of a facet's vertex order against the sorted order
+ * (2D: a < b; 3D: an even permutation of the sorted three). */
+static int parity(const sm_surface *s, int32_t f)
 {
-    int32_t n = s->nfacets;
-    int32_t *comp = malloc(((size_t)n + 1) * sizeof *comp);
-    int32_t *queue = malloc(((size_t)n + 1) * sizeof *queue);
-    uint8_t *flip = calloc((size_t)n + 1, 1);
-    double *vol = NULL;
-    sm_status st = SM_OK;
-    if (!comp || !queue || !flip) {
-        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory repairing the surface");
-        goto done;
-    }
-    for (int32_t f = 0; f < n; f++)
+    const int32_t *v = s->facets + (size_t)f * s->dim;
+    if (s->dim == 2)
+        return v[0] < v[1];
+    return (v[0] < v[1]) ^ (v[1] < v[2]) ^ (v[0] < v[2]);
+}
+
+/* Propagates orientation per piece from its first facet (comp[f]: its
+ * piece, -1 for duplicates, which have no adjacency). */
+static int32_t propagate(sm_surface *s, const adj *g, const int32_t *dup_of, int32_t *comp,
+                         int32_t *queue, uint8_t *flip)
+{
+    int32_t n = s->nfacets, nc = 0;
+    for (int32_t f = 0; f < n; f++) {
         comp[f] = -1;
-    int32_t nc = 0;
+        flip[f] = 0;
+    }
     for (int32_t seed = 0; seed < n; seed++) {
-        if (comp[seed] >= 0)
+        if (comp[seed] >= 0 || dup_of[seed] >= 0)
             continue;
         int32_t head = 0, tail = 0;
         comp[seed] = nc;
@@ -137,58 +147,102 @@ static sm_status orient(sm_surface *s, const adj *g, sm_surface_health *h, sm_er
                 if (comp[o] >= 0)
                     continue;
                 comp[o] = nc;
+                /* same: the two ran the same way through the edge as read */
                 flip[o] = flip[f] ^ g->same[k];
                 queue[tail++] = o;
             }
         }
         nc++;
     }
-    h->components = nc;
     for (int32_t f = 0; f < n; f++)
         if (flip[f])
             flip_facet(s, f);
-    vol = calloc((size_t)nc + 1, sizeof *vol);
-    if (!vol) {
+    return nc;
+}
+
+/* Orients the pieces within and as wholes, aligns the duplicates, and
+ * counts what changed against the input's orientation. */
+static sm_status orient(sm_surface *s, const adj *g, const int32_t *dup_of, sm_surface_health *h,
+                        sm_error *err)
+{
+    int32_t n = s->nfacets;
+    int32_t *comp = malloc(((size_t)n + 1) * sizeof *comp);
+    int32_t *queue = malloc(((size_t)n + 1) * sizeof *queue);
+    uint8_t *before = malloc((size_t)n + 1), *flip = malloc((size_t)n + 1), *turn = NULL;
+    int64_t *changed = NULL, *size = NULL;
+    sm_status st = SM_OK;
+    if (!comp || !queue || !before || !flip) {
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory repairing the surface");
         goto done;
     }
-    for (int32_t f = 0; f < n; f++) {
-        double nrm[3], c[3];
-        sm__bvh_facet_moments(s, f, nrm, c);
-        vol[comp[f]] += nrm[0] * c[0] + nrm[1] * c[1] + nrm[2] * c[2];
-    }
-    for (int32_t f = 0; f < n; f++) {
-        int out = vol[comp[f]] < 0;
-        if (out)
+    for (int32_t f = 0; f < n; f++)
+        before[f] = (uint8_t)parity(s, f);
+    int32_t nc = propagate(s, g, dup_of, comp, queue, flip);
+    h->components = nc;
+    turn = malloc((size_t)nc + 1);
+    changed = calloc((size_t)nc + 1, sizeof *changed);
+    size = calloc((size_t)nc + 1, sizeof *size);
+    sm_orient_counts oc;
+    int closed = h->open_edges == 0 && h->nonmanifold_edges == 0;
+    if (!turn || !changed || !size)
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory repairing the surface");
+    if (st == SM_OK)
+        st = sm__surface_orient_pieces(s, comp, nc, closed, turn, &oc, err);
+    if (st != SM_OK)
+        goto done;
+    h->open_components = oc.open_pieces;
+    h->open_by_volume = oc.by_volume;
+    for (int32_t f = 0; f < n; f++)
+        if (comp[f] >= 0 && turn[comp[f]])
             flip_facet(s, f);
-        h->reoriented += flip[f] ^ out;
+    for (int32_t f = 0; f < n; f++)
+        if (dup_of[f] >= 0 && parity(s, f) != parity(s, dup_of[f]))
+            flip_facet(s, f);
+    for (int32_t f = 0; f < n; f++) {
+        int ch = parity(s, f) != before[f];
+        h->reoriented += ch;
+        if (comp[f] >= 0) {
+            changed[comp[f]] += ch;
+            size[comp[f]]++;
+        }
+    }
+    for (int32_t c = 0; c < nc; c++) {
+        int turned = 2 * changed[c] > size[c];
+        h->pieces_turned += turned;
+        h->reoriented_within += turned ? size[c] - changed[c] : changed[c];
     }
 done:
     free(comp);
     free(queue);
+    free(before);
     free(flip);
-    free(vol);
+    free(turn);
+    free(changed);
+    free(size);
     return st;
 }
 
 static int cmp_tuple(const void *x, const void *y)
 {
     const int32_t *p = x, *q = y;
-    for (int k = 0; k < 3; k++)
+    for (int k = 0; k < 4; k++) /* the vertices, then the facet (first copy first) */
         if (p[k] != q[k])
             return p[k] < q[k] ? -1 : 1;
     return 0;
 }
 
-static sm_status count_defects(const sm_surface *s, sm_surface_health *h, sm_error *err)
+/* Counts duplicate and degenerate facets; dup_of[f]: the first facet on
+ * the same vertices as f when f is a later copy, else -1. */
+static sm_status count_defects(const sm_surface *s, sm_surface_health *h, int32_t *dup_of,
+                               sm_error *err)
 {
     int dim = s->dim;
-    int32_t *t = malloc(((size_t)s->nfacets * 3 + 1) * sizeof *t);
+    int32_t *t = malloc(((size_t)s->nfacets * 4 + 1) * sizeof *t);
     if (!t)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory checking the surface");
     for (int32_t f = 0; f < s->nfacets; f++) {
-        int32_t v[3] = {s->facets[(size_t)f * dim], s->facets[(size_t)f * dim + 1],
-                        dim == 3 ? s->facets[(size_t)f * dim + 2] : -1};
+        int32_t v[4] = {s->facets[(size_t)f * dim], s->facets[(size_t)f * dim + 1],
+                        dim == 3 ? s->facets[(size_t)f * dim + 2] : -1, f};
         for (int i = 0; i < 3; i++) /* sort the three */
             for (int j = i + 1; j < 3; j++)
                 if (v[j] < v[i]) {
@@ -196,15 +250,23 @@ static sm_status count_defects(const sm_surface *s, sm_surface_health *h, sm_err
                     v[i] = v[j];
                     v[j] = x;
                 }
-        memcpy(t + 3 * (size_t)f, v, sizeof v);
+        memcpy(t + 4 * (size_t)f, v, sizeof v);
+        dup_of[f] = -1;
         double nrm[3], c[3];
         sm__bvh_facet_moments(s, f, nrm, c);
         if (nrm[0] == 0 && nrm[1] == 0 && nrm[2] == 0)
             h->degenerate++;
     }
-    qsort(t, (size_t)s->nfacets, 3 * sizeof *t, cmp_tuple);
-    for (int32_t f = 1; f < s->nfacets; f++)
-        h->duplicates += cmp_tuple(t + 3 * (size_t)f, t + 3 * (size_t)(f - 1)) == 0;
+    qsort(t, (size_t)s->nfacets, 4 * sizeof *t, cmp_tuple);
+    for (int32_t f = 1, first = 0; f < s->nfacets; f++) {
+        const int32_t *p = t + 4 * (size_t)f, *q = t + 4 * (size_t)first;
+        if (p[0] == q[0] && p[1] == q[1] && p[2] == q[2]) {
+            h->duplicates++;
+            dup_of[p[3]] = q[3];
+        } else {
+            first = f;
+        }
+    }
     free(t);
     return SM_OK;
 }
@@ -223,17 +285,19 @@ sm_status sm_surface_repair(sm_surface *s, sm_surface_health *out, sm_error *err
             h.hi[k] = fmax(h.hi[k], s->coords[(size_t)i * s->dim + k]);
         }
     edge_rec *e = malloc(((size_t)s->nfacets * 3 + 1) * sizeof *e);
+    int32_t *dup_of = malloc(((size_t)s->nfacets + 1) * sizeof *dup_of);
     adj g = {NULL, NULL, NULL};
-    sm_status st = e ? SM_OK : sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    sm_status st = e && dup_of ? SM_OK : sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     if (st == SM_OK)
-        st = count_defects(s, &h, err);
+        st = count_defects(s, &h, dup_of, err);
     if (st == SM_OK) {
-        int64_t ne = edge_records(s, e);
+        int64_t ne = edge_records(s, dup_of, e);
         st = build_adjacency(s, e, ne, &g, &h, err);
     }
     if (st == SM_OK)
-        st = orient(s, &g, &h, err);
+        st = orient(s, &g, dup_of, &h, err);
     free(e);
+    free(dup_of);
     free(g.start);
     free(g.nb);
     free(g.same);

@@ -76,9 +76,13 @@ static json_t *surface_health_object(const sm_job_inputs *in)
     json_object_set_new(o, "open_edges", json_integer(h->open_edges));
     json_object_set_new(o, "nonmanifold_edges", json_integer(h->nonmanifold_edges));
     json_object_set_new(o, "reoriented", json_integer(h->reoriented));
+    json_object_set_new(o, "reoriented_within", json_integer(h->reoriented_within));
+    json_object_set_new(o, "pieces_turned", json_integer(h->pieces_turned));
     json_object_set_new(o, "duplicates", json_integer(h->duplicates));
     json_object_set_new(o, "degenerate", json_integer(h->degenerate));
     json_object_set_new(o, "components", json_integer(h->components));
+    json_object_set_new(o, "open_components", json_integer(h->open_components));
+    json_object_set_new(o, "open_by_volume", json_integer(h->open_by_volume));
     json_object_set_new(o, "bbox_min", lo);
     json_object_set_new(o, "bbox_max", hi);
     json_object_set_new(o, "background_generated", json_boolean(in->background_generated));

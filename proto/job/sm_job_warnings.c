@@ -139,12 +139,22 @@ void sm_job_check_result(const sm_job_inputs *in, const double *coords, const sm
             100.0 * outside / n, (long long)outside, (long long)n, at);
     }
     double h = n > outside ? hsum / (double)(n - outside) : 0;
-    if (finished && h > 0 && r->boundary_rms > h)
+    int above = finished && h > 0 && r->boundary_rms > h;
+    if (above)
         add(out, "above-resolution", r->boundary_rms / h,
             "the final RMS boundary error %.3g is %.1f times the size of the background "
             "elements at the boundary (%.3g): the match is far from what the background "
             "resolves (more iterations, another clamp, or a target the template cannot reach?)",
             r->boundary_rms, r->boundary_rms / h, h);
+    /* a surface with holes is a likely cause: the sign is only as good as
+     * the orientation repair could make it there (figure: open edges) */
+    if (above && in->has_surface && in->health.open_edges > 0)
+        add(out, "surface-holes", (double)in->health.open_edges,
+            "the target surface has %lld open edges (holes) in %lld open piece(s): the sign of "
+            "its distance may be wrong near them (inside taken for outside), which keeps the "
+            "boundary away; check it with `shapematch sdf --surface S -o DIR` (d < 0 inside in "
+            "DIR/background.sol) and close the holes",
+            (long long)in->health.open_edges, (long long)in->health.open_components);
     if (in->params.clamp == SM_CLAMP_NONE && r->diameter > 0) {
         double scale = r->alpha * r->diameter * r->diameter / in->params.young;
         if (scale < ALPHA_SCALE_MIN)

@@ -12,6 +12,10 @@
  *   above-resolution    the final RMS boundary error is above the local
  *                       size of the background elements, the resolution
  *                       d is given at (figure: their ratio)
+ *   surface-holes       with above-resolution, when the target surface has
+ *                       open edges: its sign may be wrong near the holes;
+ *                       says to check it with shapematch sdf (figure: the
+ *                       number of open edges)
  *   alpha-small         no clamp and alpha far below the scale E / L^2
  *                       where the descent converges (figure: alpha L^2/E) */
 #ifndef SM_JOB_WARNINGS_H
@@ -45,7 +49,7 @@ typedef struct sm_job_warnings {
 sm_status sm_job_check_sign(const sm_job_inputs *in, sm_job_warnings *out, sm_error *err);
 
 /* After the run, on the final vertex positions: outside-background,
- * above-resolution (finished runs only), alpha-small. */
+ * above-resolution and surface-holes (finished runs only), alpha-small. */
 void sm_job_check_result(const sm_job_inputs *in, const double *coords, const sm_result *r,
                          int finished, sm_job_warnings *out);
 

@@ -64,3 +64,23 @@ if [ "$(jq -r '.stop_reason + " " + (.warnings | length | tostring)' "$WORK/auto
 else
     echo "not ok - default alpha"; sed 's/^/# /' "$WORK/auto.err"
 fi
+
+# a target surface with holes and a match that ends far above the
+# resolution: surface-holes names the holes as a possible cause and says
+# how to check the sign; the closed surface cut as short gets only
+# above-resolution
+STAR=$ROOT/tests/cli/star_curve.py
+python3 "$STAR" write "$WORK/star.mesh" 0 0 1 && python3 "$STAR" write "$WORK/star-gaps.mesh" 0.01 0 1
+run holes --template "$T" --target-surface "$WORK/star-gaps.mesh" "${CLAMP[@]}" --max-iter 2
+if f=$(has_warning holes surface-holes) && [ "$f" = 40 ] && has_warning holes above-resolution >/dev/null &&
+    grep -q "surface-holes: the target surface has 40 open edges (holes) in 20 open piece(s): .*shapematch sdf --surface" "$WORK/holes.err"; then
+    echo "ok - a surface with holes, stopped far from it: surface-holes ($f open edges) names the check"
+else
+    echo "not ok - surface-holes"; sed 's/^/# /' "$WORK/holes.err"
+fi
+run closed --template "$T" --target-surface "$WORK/star.mesh" "${CLAMP[@]}" --max-iter 2
+if has_warning closed above-resolution >/dev/null && ! grep -q surface-holes "$WORK/closed.err"; then
+    echo "ok - a closed surface stopped as short: above-resolution only"
+else
+    echo "not ok - closed surface: no surface-holes"; sed 's/^/# /' "$WORK/closed.err"
+fi

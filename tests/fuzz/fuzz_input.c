@@ -74,6 +74,19 @@ void fuzz_check_surface(const sm_reader_input *in)
     for (int64_t i = 0; i < (int64_t)s->nverts * s->dim; i++)
         if (!isfinite(s->coords[i]))
             abort();
+    /* what a surface target goes through next: the orientation repair
+     * (pieces, their boundaries, duplicates) keeps the indices valid and
+     * its counts consistent, or fails with a message */
+    sm_surface_health h;
+    if (sm_surface_repair(s, &h, &err) == SM_OK) {
+        check_indices(s->facets, (int64_t)s->nfacets * s->dim, s->nverts);
+        if (h.reoriented < 0 || h.reoriented > s->nfacets || h.reoriented_within > h.reoriented ||
+            h.pieces_turned > h.components || h.open_components > h.components ||
+            h.open_by_volume > h.open_components)
+            abort();
+    } else if (err.msg[0] == '\0') {
+        abort();
+    }
     sm_surface_free(s);
 }
 

@@ -27,7 +27,8 @@ int fuzz_memfile(const char *prefix, const uint8_t *data, size_t size, char *pat
 void fuzz_check_mesh(const sm_reader_input *in);
 
 /* sm_surface_read of in: it fails cleanly or gives a surface whose
- * indices are in range and whose coordinates are finite. */
+ * indices are in range and whose coordinates are finite; sm_surface_repair
+ * of it then keeps the indices in range with consistent counts. */
 void fuzz_check_surface(const sm_reader_input *in);
 
 /* The whole target for a file reader: prefix then the input, in memory

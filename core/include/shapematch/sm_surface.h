@@ -54,18 +54,32 @@ sm_status sm_surface_read_limited(const char *path, sm_read_limits *limits, sm_s
 typedef struct sm_surface_health {
     int64_t open_edges;        /* on one facet only: holes, borders */
     int64_t nonmanifold_edges; /* on three facets or more */
-    int64_t reoriented;        /* facets whose orientation was flipped */
+    int64_t reoriented;        /* facets whose orientation was flipped: */
+    int64_t reoriented_within; /*   against the majority of their piece */
+    int64_t pieces_turned;     /* pieces whose majority was turned over */
     int64_t duplicates;        /* facets on the same vertices as another */
     int64_t degenerate;        /* zero area (length in 2D) */
-    int64_t components;        /* connected over shared edges */
+    int64_t components;        /* connected over shared edges: pieces */
+    int64_t open_components;   /* pieces with a boundary (between holes) */
+    int64_t open_by_volume;    /* open pieces oriented by their own volume
+                                * alone (too many to couple) */
     double lo[3], hi[3];       /* bounding box (z = 0 in 2D) */
 } sm_surface_health;
 
-/* Orients the facets consistently and outward: the orientation of the
- * first facet of each connected component (over edges shared by exactly
- * two facets) is propagated to its neighbours, then each component is
- * flipped as a whole when its enclosed signed volume (area in 2D) is
- * negative.  Fills h (may be NULL).  Nothing is removed. */
+/* Orients the facets consistently and outward.  A facet on the same
+ * vertices as an earlier one (a duplicate) takes that one's orientation
+ * and is otherwise left out.  Within each piece (connected over edges
+ * shared by exactly two facets) the first facet's orientation is
+ * propagated to its neighbours.  Then whole pieces are turned over: a
+ * closed piece when the volume (area in 2D) it encloses is negative; the
+ * open pieces (with holes between them) consistently with each other, by
+ * how their boundaries face each other across the holes, and all together
+ * so that their volume about their centroid is positive — not each by its
+ * own volume, which depends on the point it is measured from
+ * (sm_surface_orient.c).  Fills h (may be NULL): reoriented counts every
+ * facet flipped; reoriented_within those that disagreed with the
+ * majority of their piece, pieces_turned the pieces whose majority was
+ * turned over.  Nothing is removed. */
 sm_status sm_surface_repair(sm_surface *s, sm_surface_health *h, sm_error *err);
 
 /* Mean length of the facets' edges (0 for no facets): the resolution of

@@ -26,7 +26,8 @@
 _Static_assert((int)CLI_EXIT_INPUT == (int)SM_JOB_EXIT_INPUT &&
                    (int)CLI_EXIT_NUMERIC == (int)SM_JOB_EXIT_NUMERIC &&
                    (int)CLI_EXIT_OUTPUT == (int)SM_JOB_EXIT_OUTPUT &&
-                   (int)CLI_EXIT_CANCELLED == (int)SM_JOB_EXIT_CANCELLED,
+                   (int)CLI_EXIT_CANCELLED == (int)SM_JOB_EXIT_CANCELLED &&
+                   (int)CLI_EXIT_NOT_CONVERGED == (int)SM_JOB_EXIT_NOT_CONVERGED,
                "the job runner's exit codes are the CLI's");
 
 /* Set by SIGINT/SIGTERM and polled by sm_match_run between iterations.

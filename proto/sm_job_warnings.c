@@ -102,7 +102,7 @@ static double elem_size(const sm_mesh *bg, int32_t e)
 }
 
 void sm_job_check_result(const sm_job_inputs *in, const double *coords, const sm_result *r,
-                         int finished, sm_job_warnings *out)
+                         int finished, sm_job_warnings *out, double *resolution)
 {
     const sm_mesh *m = in->prepared;
     const int dim = m->dim;
@@ -139,6 +139,7 @@ void sm_job_check_result(const sm_job_inputs *in, const double *coords, const sm
             100.0 * outside / n, (long long)outside, (long long)n, at);
     }
     double h = n > outside ? hsum / (double)(n - outside) : 0;
+    *resolution = h;
     if (finished && h > 0 && r->boundary_rms > h)
         add(out, "above-resolution", r->boundary_rms / h,
             "the final RMS boundary error %.3g is %.1f times the size of the background "

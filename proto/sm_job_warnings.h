@@ -45,9 +45,11 @@ typedef struct sm_job_warnings {
 sm_status sm_job_check_sign(const sm_job_inputs *in, sm_job_warnings *out, sm_error *err);
 
 /* After the run, on the final vertex positions: outside-background,
- * above-resolution (finished runs only), alpha-small. */
+ * above-resolution (finished runs only), alpha-small.  *resolution
+ * receives the mean size of the background elements at the final
+ * boundary's facet centres (0 when none lies inside the background). */
 void sm_job_check_result(const sm_job_inputs *in, const double *coords, const sm_result *r,
-                         int finished, sm_job_warnings *out);
+                         int finished, sm_job_warnings *out, double *resolution);
 
 /* "warning: CODE: MESSAGE; warning: ..." into buf (cap bytes, truncated),
  * "" when there is none: the message of the finished event, which the

@@ -12,7 +12,9 @@
 #     written, the final line says NOT CONVERGED;
 #   - the ellipsoid 1000 times larger (millimetres against metres): the
 #     units warning, and a background of the surface's size, not millions
-#     of vertices.
+#     of vertices;
+#   - quality_blocked (a floor that blocks every step) apart from a tiny
+#     step (step_tolerance) on the 2D example.
 set -u
 ROOT=${SM_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
 BIN=${SM_BIN:-$ROOT/build/release}/shapematch
@@ -87,4 +89,26 @@ if [ -n "$f" ] && awk -v f="$f" 'BEGIN { exit !(f > 900 && f < 1500) }' && [ "${
     echo "ok - a target in millimetres, template in metres: units warning ($f), background of $nbg vertices"
 else
     echo "not ok - units warning and background size ($f, $nbg vertices)"; sed 's/^/# /' mm.err
+fi
+
+# quality_blocked is not a tiny step: on the 2D example a quality floor
+# at the template's own worst quality (0.806) blocks every step within 3
+# iterations (not converged, exit 10), while a large step tolerance ends
+# a run whose mesh is far above the floor as step_tolerance (converged:
+# 3.4e-4 is a quarter of the background's 1.5e-3)
+EX=$ROOT/examples/2d
+IN2=(--template "$EX/template.mesh" --target-mesh "$EX/background.mesh.gz"
+     --target-sol "$EX/background.sol.gz" --clamp-ball "$(tr -d ' \n' <"$EX/clamp")" --quiet)
+"$BIN" run "${IN2[@]}" --min-quality 0.78 -o qb >qb.out 2>qb.err
+rc_qb=$?
+"$BIN" run "${IN2[@]}" --tol-step 2e-3 --tol-stall 0 -o ts >ts.out 2>ts.err
+rc_ts=$?
+qb=$(jq -r '"\(.stop_reason) \(.converged)"' qb/summary.json 2>/dev/null)
+ts=$(jq -r '"\(.stop_reason) \(.converged) \(.min_quality > 0.4)"' ts/summary.json 2>/dev/null)
+if [ "$rc_qb" = 10 ] && [ "$qb" = "quality_blocked false" ] && [ "$rc_ts" = 0 ] &&
+    [ "$ts" = "step_tolerance true true" ]; then
+    echo "ok - a quality floor that blocks every step: quality_blocked, exit 10; a tiny step: step_tolerance, exit 0"
+else
+    echo "not ok - quality_blocked ($rc_qb: $qb) against step_tolerance ($rc_ts: $ts)"
+    sed 's/^/# /' qb.err ts.err
 fi

@@ -78,7 +78,9 @@ check $? "distances on the generated background match |x| - 1 to the chord error
 "$BIN" run --template "$WORK/small.msh" --target-mesh "$WORK/gen/background.mesh" \
     --target-sol "$WORK/gen/background.sol" --clamp-ball 0,0,0,0.4 --max-iter 3 --quiet \
     -o "$WORK/run" >"$WORK/run.out" 2>"$WORK/run.err"
-check $? "run takes a binary .msh template and the computed target" "$(head -c 400 "$WORK/run.err")"
+rc=$? # three iterations do not converge: 10, every output written
+[ $rc = 10 ] && rc=0
+check $rc "run takes a binary .msh template and the computed target" "$(head -c 400 "$WORK/run.err")"
 
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' >"$WORK/flat.obj"
 "$BIN" sdf --surface "$WORK/flat.obj" --background "$WORK/ball.msh" -o "$WORK/x.sol" 2>"$WORK/err3"

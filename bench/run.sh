@@ -127,6 +127,9 @@ $BIN/write_bench examples/3d/template.mesh build/bench-io 9
 echo "== stop rules: the stall rule on the examples and on Gmsh-made cases (bench/stall_cases.py) =="
 python3 bench/stall_cases.py "$BIN" --examples
 
+echo
+bench/robust.sh
+
 if [ -x bench/server_bench.sh ] && [ -x "$BIN/shapematchd" ]; then
     echo
     echo "== daemon =="

@@ -3,8 +3,8 @@
  *
  * Exit codes (also printed by `shapematch --help`; scripts rely on them,
  * so they never change meaning):
- *   0  the run finished normally: converged (step tolerance or boundary
- *      tolerance reached) or stopped at the iteration cap
+ *   0  the run finished and converged (summary.json "converged": true,
+ *      whatever its stop reason)
  *   1  usage error (unknown option, missing or malformed argument, ...)
  *   2  bad input file (cannot read, parse error, dimension mismatch,
  *      sizes that do not agree)
@@ -24,6 +24,10 @@
  *      results yet, 422: the job's inputs or parameters are invalid)
  *   8  the job failed on the daemon (the reason is printed)
  *   9  daemon error: HTTP 5xx, or a response the client cannot understand
+ *  10  run: finished but not converged (quality_blocked, or the boundary
+ *      error ends above what the background resolves: SM_JOB_RESOLVED_FACTOR
+ *      in proto/sm_job_runner.h); every output is written (after 6-9 so
+ *      that no code changes meaning)
  * Interrupting watch (Ctrl-C) leaves the job running on the daemon.
  */
 #ifndef CLI_H
@@ -39,7 +43,8 @@ enum cli_exit_code {
     CLI_EXIT_CONNECT = 6,
     CLI_EXIT_REFUSED = 7,
     CLI_EXIT_JOB_FAILED = 8,
-    CLI_EXIT_SERVER = 9
+    CLI_EXIT_SERVER = 9,
+    CLI_EXIT_NOT_CONVERGED = 10
 };
 
 #ifndef SM_VERSION

@@ -27,7 +27,8 @@
 _Static_assert((int)CLI_EXIT_INPUT == (int)SM_JOB_EXIT_INPUT &&
                    (int)CLI_EXIT_NUMERIC == (int)SM_JOB_EXIT_NUMERIC &&
                    (int)CLI_EXIT_OUTPUT == (int)SM_JOB_EXIT_OUTPUT &&
-                   (int)CLI_EXIT_CANCELLED == (int)SM_JOB_EXIT_CANCELLED,
+                   (int)CLI_EXIT_CANCELLED == (int)SM_JOB_EXIT_CANCELLED &&
+                   (int)CLI_EXIT_NOT_CONVERGED == (int)SM_JOB_EXIT_NOT_CONVERGED,
                "the job runner's exit codes are the CLI's");
 
 /* Set by SIGINT/SIGTERM and polled by sm_match_run between iterations.
@@ -242,13 +243,15 @@ static void print_final_line(const run_options *o, const sm_job_run *run)
                 "the template may already match the target (see --tol-boundary) or the "
                 "parameters prevent any move (--min-quality, --tol-step)\n",
                 r->boundary_l2);
-    else if (!o->quiet)
+    else if (!o->quiet || !r->converged)
         fprintf(stderr,
-                "shapematch: %s after %d iteration%s: J %.6e -> %.6e, boundary error %.3e "
-                "(max %.3e), min quality %.3f%s; outputs in %s\n",
+                "shapematch: %s after %d iteration%s, %s: boundary RMS %.3e (relative %.3e, "
+                "max %.3e), min quality %.3f, J %.6e -> %.6e%s; outputs in %s\n",
                 sm_stop_reason_name(r->stop), r->iterations, r->iterations == 1 ? "" : "s",
-                r->J_initial, r->J, r->boundary_l2, r->boundary_max, r->min_quality,
-                run->inverted ? " (INVERTED ELEMENTS)" : "", o->outdir);
+                r->converged ? "converged" : "NOT CONVERGED", r->boundary_rms,
+                r->diameter > 0 ? r->boundary_rms / r->diameter : 0.0, r->boundary_max,
+                r->min_quality, r->J_initial, r->J, run->inverted ? " (INVERTED ELEMENTS)" : "",
+                o->outdir);
     /* warnings even with --quiet: they are about the result, not progress */
     for (int i = 0; i < run->warnings.n; i++)
         fprintf(stderr, "shapematch: warning: %s: %s\n", run->warnings.w[i].code,

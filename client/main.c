@@ -9,7 +9,7 @@
 
 const char cli_exit_codes_help[] =
     "Exit codes:\n"
-    "  0  finished: converged (step or boundary tolerance) or iteration cap reached\n"
+    "  0  finished and converged (summary.json \"converged\": true)\n"
     "  1  usage error (unknown option, missing or malformed argument)\n"
     "  2  bad input file (unreadable, malformed, dimension or size mismatch)\n"
     "  3  numerical failure (factorization failed, no valid step at the start)\n"
@@ -20,7 +20,9 @@ const char cli_exit_codes_help[] =
     "  7  the daemon refused the request (HTTP 4xx, its detail is printed): 401 no or\n"
     "     wrong token, 404 unknown job or no results yet, 422 invalid job\n"
     "  8  the job failed on the daemon (the reason is printed)\n"
-    "  9  daemon error (HTTP 5xx) or a response the client cannot understand\n";
+    "  9  daemon error (HTTP 5xx) or a response the client cannot understand\n"
+    "  10 run: finished but not converged (quality_blocked, or the boundary error\n"
+    "     ends above half the background's element size); every output is written\n";
 
 typedef struct command {
     const char *name;

@@ -21,6 +21,7 @@ void progress_init(progress_display *d, FILE *out, int quiet)
     d->max_iter = 0;
     d->tol_l2 = 0.0;
     d->have_first = 0;
+    d->done = 0;
 }
 
 void progress_set_goal(progress_display *d, int max_iter, double tol_l2)
@@ -34,6 +35,10 @@ void progress_set_goal(progress_display *d, int max_iter, double tol_l2)
 static double progress_fraction(const progress_display *d, const sm_progress *p, double *eta)
 {
     double f = -1.0;
+    if (d->done && (d->max_iter > 0 || d->tol_l2 > 0)) {
+        *eta = 0.0; /* whatever the stop reason, the run is over */
+        return 1.0;
+    }
     if (d->max_iter > 0)
         f = (double)p->iteration / d->max_iter;
     if (d->tol_l2 > 0 && d->have_first && d->first_l2 > d->tol_l2 && p->boundary_l2 > 0) {
@@ -79,8 +84,11 @@ static void format_bar(const progress_display *d, const sm_progress *p, char *bu
 /* One-line description of a progress state. */
 static void progress_format(char *buf, size_t cap, const sm_progress *p)
 {
-    snprintf(buf, cap, "iter %d  J %.6e  boundary %.3e  step %.3e  qmin %.3f  %.1fs",
-             p->iteration, p->J, p->boundary_l2, p->step, p->min_quality, p->elapsed);
+    /* the unit-free figure and its length first; the L2 norm (which
+     * scales with the unit) is in history.csv and summary.json */
+    snprintf(buf, cap, "iter %d  rms %.3e  relative %.2e  J %.6e  step %.3e  qmin %.3f  %.1fs",
+             p->iteration, p->boundary_rms, p->boundary_relative, p->J, p->step, p->min_quality,
+             p->elapsed);
 }
 
 static void draw(progress_display *d, const sm_progress *p)
@@ -130,6 +138,7 @@ void progress_finish(progress_display *d)
 {
     if (d->mode == PROGRESS_QUIET || !d->have_last)
         return;
+    d->done = 1;
     if (d->mode == PROGRESS_TTY || d->last.iteration != d->last_printed)
         draw(d, &d->last);
     if (d->line_open) {

@@ -35,6 +35,7 @@ typedef struct progress_display {
     int have_first;         /* the first state seen (start of the rate) */
     int first_iter;
     double first_elapsed, first_l2;
+    int done;               /* progress_finish: the bar shows 100% */
 } progress_display;
 
 /* Chooses the mode from quiet and isatty(fileno(out)). */

@@ -337,7 +337,8 @@ assemble(sm_elasticity *el, const int dim, const int diag_first,
             for (int r = 0; r < dim; r++)
                 x[i * dim + r] = coords[(int64_t)ev[i] * dim + r];
         double vol, lmax;
-        if (sm_element_kernel(dim, x, el->lambda, el->mu, el->alpha, ke, &vol, &lmax) != 0) {
+        const double w = el->stiffness ? el->stiffness[e] : 1.0;
+        if (sm_element_kernel(dim, x, w * el->lambda, w * el->mu, el->alpha, ke, &vol, &lmax) != 0) {
             *bad_volume = vol;
             *bad_edge = lmax;
             return e;
@@ -542,6 +543,11 @@ int32_t sm__elasticity_dof(const sm_elasticity *el, int32_t vertex, int comp)
     if (vertex < 0 || vertex >= el->nverts || comp < 0 || comp >= el->dim)
         return -1;
     return el->dof[(int64_t)vertex * el->dim + comp];
+}
+
+void sm__elasticity_set_stiffness(sm_elasticity *el, const double *scale)
+{
+    el->stiffness = scale;
 }
 
 void sm__elasticity_timings(const sm_elasticity *el, double *assembly, double *factor)

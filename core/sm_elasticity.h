@@ -110,6 +110,13 @@ void sm__elasticity_matrix(const sm_elasticity *el, sm_csr_view *view);
 /* Free DOF index of (vertex, component), or -1 if clamped. */
 int32_t sm__elasticity_dof(const sm_elasticity *el, int32_t vertex, int comp);
 
+/* Per-element stiffening for the next factorizations: element e's Lame
+ * coefficients are multiplied by scale[e] (> 0, finite; nelems values,
+ * borrowed until the next call or sm__elasticity_free), the zero-order
+ * term is not.  NULL (the default) = 1 everywhere.  The descent stiffens
+ * distorted elements this way (sm_match.c). */
+void sm__elasticity_set_stiffness(sm_elasticity *el, const double *scale);
+
 /* Timings (seconds) of the last factorize: assembly, numeric factor. */
 void sm__elasticity_timings(const sm_elasticity *el, double *assembly,
                            double *factor);

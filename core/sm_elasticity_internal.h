@@ -24,6 +24,8 @@ struct sm_elasticity {
     int32_t nelems;
     const int32_t *elems;   /* borrowed from the mesh */
     double lambda, mu, alpha;
+    const double *stiffness; /* per-element factor of lambda and mu, or
+                              * NULL (sm__elasticity_set_stiffness) */
 
     int32_t nfree;          /* free DOFs */
     int32_t nclamped_dofs;  /* clamped DOFs (of vertices used by elements) */

@@ -66,7 +66,7 @@ int sm_stop_reason_from_name(const char *name, sm_stop_reason *out)
 {
     /* Inverse of the core's own naming, so the two never drift apart. */
     static const sm_stop_reason all[] = {SM_STOP_STEP, SM_STOP_BOUNDARY, SM_STOP_MAX_ITER,
-                                         SM_STOP_CANCELLED, SM_STOP_STALLED};
+                                         SM_STOP_CANCELLED, SM_STOP_STALLED, SM_STOP_QUALITY};
     for (size_t i = 0; name && i < COUNT(all); i++) {
         const char *n = sm_stop_reason_name(all[i]);
         if (n && strcmp(name, n) == 0) {
@@ -220,6 +220,7 @@ json_t *sm_result_to_jansson(const sm_result *r, const sm_params *params, int di
     json_t *timings = json_object();
     int bad = !obj || !timings || !stop;
     bad = bad || smp_set(obj, "stop_reason", json_string(stop));
+    bad = bad || smp_set(obj, "converged", json_boolean(r->converged));
     bad = bad || smp_set(obj, "iterations", json_integer(r->iterations));
     bad = bad || smp_set(obj, "J_initial", smp_real_or_null(r->J_initial));
     bad = bad || smp_set(obj, "J_final", smp_real_or_null(r->J));
@@ -332,12 +333,13 @@ sm_status sm_result_from_jansson(const json_t *obj, const char *path, sm_result 
     if (!json_is_string(v) || sm_stop_reason_from_name(json_string_value(v), &r.stop) != 0) {
         smp_path_join(sub, path, "stop_reason");
         return sm_error_set(err, SM_ERR_FORMAT,
-                            "%s: must be one of \"%s\", \"%s\", \"%s\", \"%s\", \"%s\"", sub,
-                            sm_stop_reason_name(SM_STOP_STEP),
+                            "%s: must be one of \"%s\", \"%s\", \"%s\", \"%s\", \"%s\", \"%s\"",
+                            sub, sm_stop_reason_name(SM_STOP_STEP),
                             sm_stop_reason_name(SM_STOP_BOUNDARY),
                             sm_stop_reason_name(SM_STOP_MAX_ITER),
                             sm_stop_reason_name(SM_STOP_CANCELLED),
-                            sm_stop_reason_name(SM_STOP_STALLED));
+                            sm_stop_reason_name(SM_STOP_STALLED),
+                            sm_stop_reason_name(SM_STOP_QUALITY));
     }
     if ((st = read_count(obj, path, "iterations", &r.iterations, err)) ||
         (st = read_number(obj, path, "J_initial", &r.J_initial, err)) ||
@@ -352,6 +354,10 @@ sm_status sm_result_from_jansson(const json_t *obj, const char *path, sm_result 
     const json_t *rms = json_object_get(obj, "boundary_rms");
     if (json_is_number(rms))
         r.boundary_rms = json_number_value(rms);
+    /* optional too: a summary from before it was reported judged no
+     * convergence, and passed as converged (its exit code was 0) */
+    const json_t *conv = json_object_get(obj, "converged");
+    r.converged = json_is_boolean(conv) ? json_is_true(conv) : 1;
     const json_t *t;
     if ((st = member(obj, path, "timings", &t, err)))
         return st;
@@ -438,7 +444,10 @@ json_t *sm_event_to_jansson(const sm_event *ev)
         bad = bad || smp_set(obj, "attempt", json_integer(ev->attempt));
     if (ev->type == SM_EVENT_PROGRESS) {
         const sm_progress *p = &ev->progress;
+        /* the unit-free figures first: what a reader should look at */
         bad = bad || smp_set(obj, "iteration", json_integer(p->iteration));
+        bad = bad || smp_set(obj, "boundary_rms", smp_real_or_null(p->boundary_rms));
+        bad = bad || smp_set(obj, "boundary_relative", smp_real_or_null(p->boundary_relative));
         bad = bad || smp_set(obj, "J", smp_real_or_null(p->J));
         bad = bad || smp_set(obj, "step", smp_real_or_null(p->step));
         bad = bad || smp_set(obj, "boundary_l2", smp_real_or_null(p->boundary_l2));
@@ -581,6 +590,11 @@ sm_status sm_event_from_jansson(const json_t *obj, sm_event *out, sm_error *err)
             (st = read_count(obj, sub, "accepted", &p->accepted, err)) ||
             (st = read_count(obj, sub, "rejected", &p->rejected, err)))
             return st;
+        /* optional: events from before they were sent */
+        const json_t *rms = json_object_get(obj, "boundary_rms");
+        const json_t *rel = json_object_get(obj, "boundary_relative");
+        p->boundary_rms = json_is_number(rms) ? json_number_value(rms) : 0.0;
+        p->boundary_relative = json_is_number(rel) ? json_number_value(rel) : 0.0;
         break;
     }
     case SM_EVENT_FINISHED: {

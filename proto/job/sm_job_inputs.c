@@ -12,6 +12,7 @@
 #include "shapematch/sm_clock.h"
 #include "shapematch/sm_clamp.h"
 #include "shapematch/sm_sdf.h"
+#include "sm_job_warnings.h"
 #include "sm_proto_params.h"
 
 void sm_job_inputs_free(sm_job_inputs *in)
@@ -187,6 +188,18 @@ static sm_status generate_background(const sm_job_files *files, sm_job_naming na
         cells *= hi[k] - lo[k];
     }
     double h = fmin(mean_edge(out->template_mesh), sm_surface_mean_edge(s));
+    /* template and surface in units a power of ten apart (the runner's
+     * "units" warning says so): the template's edge would be a size of
+     * another unit, which made a 1.57M-vertex background for a target in
+     * millimetres and a template in metres; the surface's own edge */
+    double dt = 0, ds = 0;
+    for (int k = 0; k < dim; k++) {
+        dt += (thi[k] - tlo[k]) * (thi[k] - tlo[k]);
+        ds += (out->health.hi[k] - out->health.lo[k]) * (out->health.hi[k] - out->health.lo[k]);
+    }
+    if (dt > 0 && (ds / dt >= SM_JOB_SIZE_RATIO_UNITS * SM_JOB_SIZE_RATIO_UNITS ||
+                   dt / ds >= SM_JOB_SIZE_RATIO_UNITS * SM_JOB_SIZE_RATIO_UNITS))
+        h = sm_surface_mean_edge(s);
     double hmin = pow(cells / 250000.0, 1.0 / dim) / 4;
     if (!(h >= hmin))
         h = hmin;

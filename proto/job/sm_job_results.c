@@ -157,6 +157,7 @@ json_t *sm_job_summary_outputs(const sm_job_inputs *in, const sm_job_run *run,
         }
         json_decref(t);
     }
+    bad = bad || smp_set(doc, "resolution", smp_real_or_null(run->resolution));
     bad = bad || smp_set(doc, "inverted_elements", json_integer(run->inverted));
     bad = bad || smp_set(doc, "warnings", warnings_array(&run->warnings));
     bad = bad || smp_set(doc, "field_builds", json_integer(in->field_builds));

@@ -155,7 +155,7 @@ sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_r
     if (r->stop == SM_STOP_CANCELLED) {
         run->outcome = SM_JOB_OUTCOME_CANCELLED;
         run->exit_code = SM_JOB_EXIT_CANCELLED;
-    } else if (r->stop == SM_STOP_STEP && r->iterations == 0) {
+    } else if ((r->stop == SM_STOP_STEP || r->stop == SM_STOP_QUALITY) && r->iterations == 0) {
         run->outcome = SM_JOB_OUTCOME_FAILED;
         run->exit_code = SM_JOB_EXIT_NUMERIC;
         snprintf(run->message, sizeof run->message,
@@ -171,7 +171,13 @@ sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_r
     sm_mesh_quality(in->prepared, run->coords, &q);
     run->inverted = q.ninverted;
     sm_job_check_result(in, run->coords, r, run->outcome == SM_JOB_OUTCOME_FINISHED,
-                        &run->warnings);
+                        &run->warnings, &run->resolution);
+    if (run->resolution > 0 && r->boundary_rms > SM_JOB_RESOLVED_FACTOR * run->resolution)
+        run->result.converged = 0;
+    if (run->outcome != SM_JOB_OUTCOME_FINISHED)
+        run->result.converged = 0;
+    else if (!run->result.converged)
+        run->exit_code = SM_JOB_EXIT_NOT_CONVERGED;
     tell_warnings(&c, told);
     return SM_OK;
 }

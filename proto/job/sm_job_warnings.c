@@ -6,6 +6,7 @@
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "shapematch/sm_clamp.h"
 #include "shapematch/sm_field.h"
@@ -50,6 +51,96 @@ static int hull_negative(const sm_mesh *bg, const double *d, int *nhull)
     return neg;
 }
 
+/* Box of the background vertices where d < 0: the target as the
+ * distance describes it, whatever it came from.  0 when there is none. */
+static int target_box(const sm_job_inputs *in, double lo[3], double hi[3])
+{
+    const sm_mesh *bg = in->background;
+    const int dim = bg->dim;
+    int found = 0;
+    for (int32_t v = 0; v < bg->nverts; v++) {
+        if (!(in->distance->values[v] < 0))
+            continue;
+        for (int c = 0; c < dim; c++) {
+            double x = bg->coords[(size_t)v * dim + c];
+            if (!found || x < lo[c])
+                lo[c] = x;
+            if (!found || x > hi[c])
+                hi[c] = x;
+        }
+        found = 1;
+    }
+    return found;
+}
+
+static double box_diagonal(int dim, const double lo[3], const double hi[3])
+{
+    double s = 0;
+    for (int c = 0; c < dim; c++)
+        s += (hi[c] - lo[c]) * (hi[c] - lo[c]);
+    return sqrt(s);
+}
+
+/* The volume of the intersection of two boxes over the smaller box's. */
+static double box_overlap(int dim, const double alo[3], const double ahi[3], const double blo[3],
+                          const double bhi[3])
+{
+    double inter = 1, va = 1, vb = 1;
+    for (int c = 0; c < dim; c++) {
+        double w = fmin(ahi[c], bhi[c]) - fmax(alo[c], blo[c]);
+        inter *= w > 0 ? w : 0;
+        va *= ahi[c] - alo[c];
+        vb *= bhi[c] - blo[c];
+    }
+    double v = fmin(va, vb);
+    return v > 0 ? inter / v : 0;
+}
+
+/* Template and target in units a power of ten apart: their sizes differ
+ * by SIZE_RATIO_UNITS or more (a match changes a shape's size by a few
+ * times at most; a unit changes it by 10, 100, 1000). */
+static void check_units(sm_job_warnings *out, int dim, const double tlo[3], const double thi[3],
+                        const double glo[3], const double ghi[3])
+{
+    double dt = box_diagonal(dim, tlo, thi), dg = box_diagonal(dim, glo, ghi);
+    if (!(dt > 0 && dg > 0))
+        return;
+    double ratio = dg / dt;
+    if (ratio < SM_JOB_SIZE_RATIO_UNITS && ratio > 1.0 / SM_JOB_SIZE_RATIO_UNITS)
+        return;
+    double power = pow(10.0, round(log10(ratio > 1 ? ratio : 1 / ratio)));
+    add(out, "units", ratio,
+        "the target is %.4g times %s than the template (box diagonals %.4g and %.4g), about "
+        "%g times: are they in different units (e.g. %s in millimetres, %s in metres)? Scale "
+        "one of them onto the other's unit",
+        ratio > 1 ? ratio : 1 / ratio, ratio > 1 ? "larger" : "smaller", dg, dt, power,
+        ratio > 1 ? "the target" : "the template", ratio > 1 ? "the template" : "the target");
+}
+
+/* The target surface's health: holes and several closed shells change
+ * what the distance describes.  The pieces between holes are components
+ * too, but they are one surface with gaps (surface-open), not several. */
+static void check_surface(const sm_job_inputs *in, sm_job_warnings *out)
+{
+    const sm_surface_health *h = &in->health;
+    if (!in->has_surface)
+        return;
+    if (h->open_edges > 0)
+        add(out, "surface-open", (double)h->open_edges,
+            "the target surface is not closed (%lld open edges: holes, in %lld open piece(s)): "
+            "inside and outside come from the winding number, which bridges small holes, but "
+            "across a large one the sign of d and so the target's boundary are guesses; close "
+            "the surface (fill its holes) before matching",
+            (long long)h->open_edges, (long long)h->open_components);
+    int64_t closed = h->components - h->open_components;
+    if (closed > 1)
+        add(out, "surface-components", (double)closed,
+            "the target surface has %lld separate closed components: the template is matched "
+            "onto all of them at once (their union, minus the inner ones); keep only the "
+            "target's",
+            (long long)closed);
+}
+
 sm_status sm_job_check_sign(const sm_job_inputs *in, sm_job_warnings *out, sm_error *err)
 {
     const sm_mesh *m = in->prepared;
@@ -66,10 +157,13 @@ sm_status sm_job_check_sign(const sm_job_inputs *in, sm_job_warnings *out, sm_er
         sm_clamp_mark(m, &in->params, clamped);
     sm_field_eval_points(in->field, m->nverts, m->coords, NULL, d);
     int32_t pos = 0, nclamp = 0, clamp_pos = 0;
+    double clamp_dmin = INFINITY;
     for (int32_t v = 0; v < m->nverts; v++) {
         pos += d[v] > 0;
         nclamp += clamped[v] != 0;
         clamp_pos += clamped[v] && d[v] > 0;
+        if (clamped[v] && d[v] < clamp_dmin)
+            clamp_dmin = d[v];
     }
     free(clamped);
     free(d);
@@ -82,15 +176,43 @@ sm_status sm_job_check_sign(const sm_job_inputs *in, sm_job_warnings *out, sm_er
                             "extreme vertices of the background, positive at %.0f%% of the "
                             "template's vertices); it must be negative inside the target",
                             nhull, 100 * frac);
+    /* only the far field tells an inverted sign from a template that lies
+     * outside the target: both make d positive on the template */
     if (neg == nhull)
         add(out, "sign-inverted", frac,
             "the distance is negative at all %d extreme vertices of the background: is it "
             "positive inside the target? (it must be negative inside)", nhull);
-    else if (nclamp > 0 && clamp_pos == nclamp && frac > 0.9)
-        add(out, "sign-inverted", frac,
-            "the distance is positive on the whole clamp set and at %.0f%% of the template's "
-            "vertices: is it positive inside the target? (it must be negative inside)",
-            100 * frac);
+    double tlo[3], thi[3], glo[3], ghi[3];
+    sm_mesh_bbox(m, m->coords, tlo, thi);
+    int have_target = target_box(in, glo, ghi);
+    if (in->has_surface) { /* the surface's own box: exact, and there even
+                            * when the background misses the target */
+        memcpy(glo, in->health.lo, sizeof glo);
+        memcpy(ghi, in->health.hi, sizeof ghi);
+        have_target = 1;
+    }
+    if (have_target)
+        check_units(out, m->dim, tlo, thi, glo, ghi);
+    if (have_target && neg < nhull && 1 - frac < SM_JOB_INSIDE_MIN &&
+        box_overlap(m->dim, tlo, thi, glo, ghi) < SM_JOB_OVERLAP_MIN) {
+        double gap = 0;
+        for (int c = 0; c < m->dim; c++) {
+            double dc = 0.5 * (glo[c] + ghi[c] - tlo[c] - thi[c]);
+            gap += dc * dc;
+        }
+        add(out, "template-outside", frac,
+            "%.0f%% of the template's vertices lie outside the target, and their boxes barely "
+            "overlap (centres %.4g apart): the descent only pulls a template that overlaps the "
+            "target; move the template onto it first (translate and scale it)",
+            100 * frac, sqrt(gap));
+    }
+    if (nclamp > 0 && clamp_pos == nclamp && neg < nhull)
+        add(out, "clamp-outside", clamp_dmin,
+            "the clamp set (%ld vertices) lies outside the target (d >= %.3g at all of them): "
+            "clamped vertices do not move, so the template cannot reach the target; put the "
+            "clamp inside the target",
+            (long)nclamp, clamp_dmin);
+    check_surface(in, out);
     return SM_OK;
 }
 
@@ -102,7 +224,7 @@ static double elem_size(const sm_mesh *bg, int32_t e)
 }
 
 void sm_job_check_result(const sm_job_inputs *in, const double *coords, const sm_result *r,
-                         int finished, sm_job_warnings *out)
+                         int finished, sm_job_warnings *out, double *resolution)
 {
     const sm_mesh *m = in->prepared;
     const int dim = m->dim;
@@ -139,6 +261,7 @@ void sm_job_check_result(const sm_job_inputs *in, const double *coords, const sm
             100.0 * outside / n, (long long)outside, (long long)n, at);
     }
     double h = n > outside ? hsum / (double)(n - outside) : 0;
+    *resolution = h;
     int above = finished && h > 0 && r->boundary_rms > h;
     if (above)
         add(out, "above-resolution", r->boundary_rms / h,

@@ -6,9 +6,23 @@
  *   outside-background  part of the final boundary lies outside the
  *                       background mesh, where d is only extrapolated
  *                       (figure: fraction of boundary sample points)
- *   sign-inverted       the distance looks positive inside (figure: the
- *                       fraction of template vertices with d > 0); an
+ *   sign-inverted       the distance looks positive inside: negative at
+ *                       every extreme vertex of the background (figure:
+ *                       the fraction of template vertices with d > 0); an
  *                       unambiguous case is refused before the run
+ *   template-outside    fewer than SM_JOB_INSIDE_MIN of the template's
+ *                       vertices lie inside the target and the boxes of
+ *                       both overlap by less than SM_JOB_OVERLAP_MIN of
+ *                       the smaller (figure: fraction outside)
+ *   clamp-outside       d > 0 at every clamped vertex (figure: the
+ *                       smallest d there)
+ *   units               the boxes' diagonals of target and template differ
+ *                       by SM_JOB_SIZE_RATIO_UNITS or more (figure:
+ *                       target / template)
+ *   surface-open        the target surface has open edges (figure: their
+ *                       number)
+ *   surface-components  the target surface has several components
+ *                       (figure: their number)
  *   above-resolution    the final RMS boundary error is above the local
  *                       size of the background elements, the resolution
  *                       d is given at (figure: their ratio)
@@ -28,7 +42,17 @@
 #include "job/sm_job_inputs.h"
 #include "sm_proto_events.h"
 
-#define SM_JOB_WARNINGS_MAX 8
+#define SM_JOB_WARNINGS_MAX 12
+
+/* template-outside: a template that has under 5% of its vertices inside
+ * the target and a box overlapping the target's by under half (a target
+ * shrunk x0.5 inside a Gmsh unit ball holds 12% of its vertices, and the
+ * boxes overlap fully) */
+#define SM_JOB_INSIDE_MIN 0.05
+#define SM_JOB_OVERLAP_MIN 0.5
+/* units: sizes 10^0.75 = 5.6 times apart or more (the Gmsh cases of
+ * bench/robust.sh grow and shrink the template by 2.6 at most) */
+#define SM_JOB_SIZE_RATIO_UNITS 5.6234
 
 typedef struct sm_job_warning {
     const char *code;           /* static string, one of the codes above */
@@ -41,17 +65,21 @@ typedef struct sm_job_warnings {
     int n;
 } sm_job_warnings;
 
-/* Before the run: the sign of d.  SM_ERR_INVALID (message for the user,
- * about target_sol) when it is unambiguously inverted: negative at every
- * extreme vertex of the background (the far field, outside any target
- * that does not touch the background's hull) and positive at most of
- * the template's vertices; a warning when only one sign looks wrong. */
+/* Before the run: the sign of d, the template's placement and size
+ * against the target, the clamp set, the target surface's health.
+ * SM_ERR_INVALID (message for the user, about target_sol) when the sign
+ * is unambiguously inverted: negative at every extreme vertex of the
+ * background (the far field, outside any target that does not touch the
+ * background's hull) and positive at most of the template's vertices;
+ * the warnings above otherwise. */
 sm_status sm_job_check_sign(const sm_job_inputs *in, sm_job_warnings *out, sm_error *err);
 
 /* After the run, on the final vertex positions: outside-background,
- * above-resolution and surface-holes (finished runs only), alpha-small. */
+ * above-resolution and surface-holes (finished runs only), alpha-small.
+ * *resolution receives the mean size of the background elements at the
+ * final boundary's facet centres (0 when none lies inside the background). */
 void sm_job_check_result(const sm_job_inputs *in, const double *coords, const sm_result *r,
-                         int finished, sm_job_warnings *out);
+                         int finished, sm_job_warnings *out, double *resolution);
 
 /* "warning: CODE: MESSAGE; warning: ..." into buf (cap bytes, truncated),
  * "" when there is none: the message of the finished event, which the

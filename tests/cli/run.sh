@@ -133,16 +133,18 @@ if [ "$have_case" = 1 ]; then
     [ ! -s e2e.out ] && ok "nothing on stdout without --json" || not_ok "nothing on stdout without --json"
 
     # ---- --format: each format alone, all of them, gz ----
+    # two iterations do not converge: exit 10, every output written
     short=(--clamp-ball 0,0,0.1 --max-iter 2 --quiet)
+    finished() { "$BIN" "$@"; local rc=$?; [ $rc = 0 ] || [ $rc = 10 ]; }
     ALL=mesh,meshb,vtu,binary,sol,solb
-    "$BIN" run "${IN[@]}" "${short[@]}" --format $ALL -o fmt-all >/dev/null 2>fmt.err ||
+    finished run "${IN[@]}" "${short[@]}" --format $ALL -o fmt-all >/dev/null 2>fmt.err ||
         not_ok "run --format $ALL" "$(cat fmt.err)"
     declare -A FILE_OF=([mesh]=result.mesh [meshb]=result.meshb [vtu]=result.vtu
         [binary]=result.smmesh [sol]=displacement.sol [solb]=displacement.solb)
     bad=""
     for fmt in mesh meshb vtu binary sol solb; do
         f=${FILE_OF[$fmt]}
-        "$BIN" run "${IN[@]}" "${short[@]}" --format $fmt -o "fmt-$fmt" >/dev/null 2>fmt.err ||
+        finished run "${IN[@]}" "${short[@]}" --format $fmt -o "fmt-$fmt" >/dev/null 2>fmt.err ||
             bad="$bad $fmt:exit"
         got=$(cd "fmt-$fmt" && ls | tr '\n' ' ')
         want=$(printf '%s\n' "$f" history.csv summary.json | sort | tr '\n' ' ')
@@ -154,7 +156,7 @@ if [ "$have_case" = 1 ]; then
     done
     [ -z "$bad" ] && ok "--format F alone writes F's file (same bytes as with all), history.csv, summary.json; outputs lists them" ||
         not_ok "--format F alone writes F's file and outputs lists it" "$bad"
-    "$BIN" run "${IN[@]}" "${short[@]}" --format $ALL,gz -o fmt-gz >/dev/null 2>fmt.err ||
+    finished run "${IN[@]}" "${short[@]}" --format $ALL,gz -o fmt-gz >/dev/null 2>fmt.err ||
         not_ok "run --format $ALL,gz" "$(cat fmt.err)"
     bad=""
     for f in "${FILE_OF[@]}"; do
@@ -339,7 +341,7 @@ def _():
 
 @check("file names with quotes, backslashes, tabs, invalid UTF-8 give valid JSON", have_case)
 def _():
-    assert env["RC_ODD"] == "0", "exit " + env["RC_ODD"]
+    assert env["RC_ODD"] in ("0", "10"), "exit " + env["RC_ODD"]  # 2 iterations: 10, not converged
     got = summary("outodd")["inputs"]["template"]
     assert got == 'we"ird\\ \ufffdt\u00e9\t.mesh', repr(got)
 

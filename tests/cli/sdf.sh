@@ -73,7 +73,9 @@ check_rc $? "distances on the generated background match |x| - 1 to the chord er
 "$BIN" run --template "$WORK/small.msh" --target-mesh "$WORK/gen/background.mesh" \
     --target-sol "$WORK/gen/background.sol" --clamp-ball 0,0,0,0.4 --max-iter 3 --quiet \
     -o "$WORK/run" >"$WORK/run.out" 2>"$WORK/run.err"
-check_rc $? "run takes a binary .msh template and the computed target" "$(head -c 400 "$WORK/run.err")"
+rc=$? # three iterations do not converge: 10, every output written
+[ $rc = 10 ] && rc=0
+check_rc $rc "run takes a binary .msh template and the computed target" "$(head -c 400 "$WORK/run.err")"
 
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' >"$WORK/flat.obj"
 "$BIN" sdf --surface "$WORK/flat.obj" --background "$WORK/ball.msh" -o "$WORK/x.sol" 2>"$WORK/err3"
@@ -152,7 +154,7 @@ check_rc $? "--background-size with --target-mesh is a usage error (exit $rc)" "
 # reversed: the sign at the generated background's vertices farther than
 # 0.02 from the curve is exact, and the 2D template matched onto each
 # ends within 1.5x of its boundary error on the closed star, with no
-# warning (before: 767 wrong signs, boundary error 8.6e-2 against 1.0e-4)
+# warning but surface-open (before: 767 wrong signs, boundary error 8.6e-2 against 1.0e-4)
 STAR=$ROOT/tests/cli/star_curve.py
 python3 "$STAR" write "$WORK/star.mesh" 0 0 1 && python3 "$STAR" write "$WORK/star-gaps.mesh" 0.01 0 1 &&
     python3 "$STAR" write "$WORK/star-rev.mesh" 0.03 0.5 2
@@ -178,7 +180,8 @@ ok = c["target_surface"]["open_components"] == 0 and not c["warnings"]
 out = []
 for name, x in (("1% gaps", g), ("3% gaps, reversed", r)):
     t = x["target_surface"]
-    ok = ok and t["open_components"] > 1 and not x["warnings"] and \
+    codes = [w["code"] for w in x["warnings"]]
+    ok = ok and t["open_components"] > 1 and codes == ["surface-open"] and \
         x["boundary_l2"] <= 1.5 * c["boundary_l2"]
     out.append("%s %.3e (%.2fx; %d open pieces, %d turned over)" % (name, x["boundary_l2"],
                x["boundary_l2"] / c["boundary_l2"], t["open_components"], t["pieces_turned"]))

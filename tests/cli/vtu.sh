@@ -7,9 +7,12 @@
 # after the 778 triangles.
 source "$(dirname "$0")/../lib/cli.sh"
 EX=$ROOT/examples/2d
-if ! "$BIN" run --template "$EX/template.mesh" --target-mesh "$EX/background.mesh.gz" \
+# five iterations do not converge: exit 10, every output written
+"$BIN" run --template "$EX/template.mesh" --target-mesh "$EX/background.mesh.gz" \
     --target-sol "$EX/background.sol.gz" --clamp-ball "$(tr -d ' \n' <"$EX/clamp")" \
-    --max-iter 5 --quiet -o "$WORK/out" >"$WORK/err" 2>&1; then
+    --max-iter 5 --quiet -o "$WORK/out" >"$WORK/err" 2>&1
+rc=$?
+if [ $rc != 0 ] && [ $rc != 10 ]; then
     echo "not ok - the 2D example runs"; sed 's/^/# /' "$WORK/err"; exit 0
 fi
 python3 - "$WORK/out/result.vtu" <<'PY'

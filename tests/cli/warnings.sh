@@ -34,11 +34,51 @@ else
     echo "not ok - inverted distance refused (exit $rc)"; sed 's/^/# /' "$WORK/inv.err"
 fi
 
+# a target elsewhere, the far field positive: the template lies outside
+# the target (not an inverted sign), and so does its clamp
 run away --template "$T" --target-mesh "$WORK/full2.mesh" --target-sol "$WORK/elsewhere.sol" "${CLAMP[@]}" --max-iter 5
-if f=$(has_warning away sign-inverted) && [ "$f" = 1 ]; then
-    echo "ok - positive on the whole clamp set and the template: sign-inverted warning"
+if f=$(has_warning away template-outside) && [ "$f" = 1 ] && g=$(has_warning away clamp-outside) &&
+    awk -v g="$g" 'BEGIN { exit !(g > 0.3 && g < 0.5) }' && ! grep -q sign-inverted "$WORK/away.err"; then
+    echo "ok - a target beside the template: template-outside ($f), clamp-outside (d >= $g), no sign-inverted"
 else
-    echo "not ok - sign-inverted warning"; sed 's/^/# /' "$WORK/away.err"
+    echo "not ok - template-outside / clamp-outside"; sed 's/^/# /' "$WORK/away.err"
+fi
+
+run invsmall --template "$T" --target-mesh "$WORK/full3.mesh" --target-sol "$WORK/inverted_small.sol" --clamp-ball 0.5,0.35,0.04 --max-iter 2
+if f=$(has_warning invsmall sign-inverted) && awk -v f="$f" 'BEGIN { exit !(f > 0.05 && f < 0.5) }'; then
+    echo "ok - negative at the far field: sign-inverted (fraction positive $f)"
+else
+    echo "not ok - sign-inverted warning"; sed 's/^/# /' "$WORK/invsmall.err"
+fi
+
+run big --template "$T" --target-mesh "$WORK/big.mesh" --target-sol "$WORK/big.sol" "${CLAMP[@]}" --max-iter 2
+if f=$(has_warning big units) && awk -v f="$f" 'BEGIN { exit !(f > 900 && f < 1500) }' &&
+    grep -q "units: the target is [0-9.]* times larger than the template .* about 1000 times" "$WORK/big.err"; then
+    echo "ok - a target 1000 times larger: units (ratio $f)"
+else
+    echo "not ok - units"; sed 's/^/# /' "$WORK/big.err"
+fi
+
+run clampout --template "$T" --target-mesh "$WORK/full4.mesh" --target-sol "$WORK/left.sol" --clamp-ball 0.7,0.5,0.04 --max-iter 2
+if g=$(has_warning clampout clamp-outside) && awk -v g="$g" 'BEGIN { exit !(g > 0.15 && g < 0.22) }' &&
+    ! grep -q template-outside "$WORK/clampout.err"; then
+    echo "ok - the clamp outside an overlapping target: clamp-outside only (d >= $g)"
+else
+    echo "not ok - clamp-outside alone"; sed 's/^/# /' "$WORK/clampout.err"
+fi
+
+run holed --template "$T" --target-surface "$WORK/holed.mesh" "${CLAMP[@]}" --max-iter 2
+if f=$(has_warning holed surface-open) && [ "$f" = 2 ] && ! grep -q surface-components "$WORK/holed.err"; then
+    echo "ok - a curve with a gap: surface-open ($f open ends)"
+else
+    echo "not ok - surface-open"; sed 's/^/# /' "$WORK/holed.err"
+fi
+
+run two --template "$T" --target-surface "$WORK/two.mesh" "${CLAMP[@]}" --max-iter 2
+if f=$(has_warning two surface-components) && [ "$f" = 3 ] && ! grep -q surface-open "$WORK/two.err"; then
+    echo "ok - a surface in three pieces: surface-components ($f)"
+else
+    echo "not ok - surface-components"; sed 's/^/# /' "$WORK/two.err"
 fi
 
 IN=(--template "$T" --target-mesh "$EX/background.mesh.gz" --target-sol "$EX/background.sol.gz")

@@ -100,7 +100,7 @@ line=$(grep '^summary: ' "$W/one.out")
 want=$(awk -v s="$stop" -v i="$iters" -v e="$bl2" 'BEGIN { printf "summary: %s after %d iterations, boundary error %.3g", s, i, e }')
 if [[ $line == "$want"* ]]; then ok "one-line summary: ${line#summary: }"; else not_ok "one-line summary matches summary.json" "printed: $line" "expected: $want..."; fi
 check "the output says where the results are" grep -qF "results in $O/:" "$W/one.out"
-check "progress was shown while the job ran" grep -qE '^iter(ation)? +[0-9]+ .*boundary' "$W/one.out"
+check "progress was shown while the job ran" grep -qE '^iter(ation)? +[0-9]+ +rms ' "$W/one.out"
 
 # history: a header, iterations 0..N, its last row the final state
 rows=$(($(grep -c . "$O/history.csv") - 1))

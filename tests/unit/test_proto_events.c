@@ -48,6 +48,7 @@ static sm_result sample_result(void)
 static void assert_result_equal(const sm_result *a, const sm_result *b)
 {
     assert_int_equal(a->stop, b->stop);
+    assert_int_equal(a->converged, b->converged);
     assert_int_equal(a->iterations, b->iterations);
     assert_true(same_double(a->J_initial, b->J_initial));
     assert_true(same_double(a->J, b->J));
@@ -85,6 +86,8 @@ static void assert_event_equal(const sm_event *a, const sm_event *b)
         assert_true(same_double(p->step, q->step));
         assert_true(same_double(p->boundary_l2, q->boundary_l2));
         assert_true(same_double(p->boundary_max, q->boundary_max));
+        assert_true(same_double(p->boundary_rms, q->boundary_rms));
+        assert_true(same_double(p->boundary_relative, q->boundary_relative));
         assert_true(same_double(p->min_quality, q->min_quality));
         assert_true(same_double(p->elapsed, q->elapsed));
         assert_int_equal(p->accepted, q->accepted);
@@ -142,6 +145,8 @@ static void test_every_event_type_round_trips(void **state)
             ev.progress.step = 1e-3;
             ev.progress.boundary_l2 = 2.5e-4;
             ev.progress.boundary_max = 0.1 + 0.2;
+            ev.progress.boundary_rms = 1.25e-3;
+            ev.progress.boundary_relative = 6.25e-4;
             ev.progress.min_quality = 0.33;
             ev.progress.elapsed = 12.75;
             ev.progress.accepted = 17;
@@ -206,14 +211,18 @@ static void test_progress_line_shape(void **state)
     ev.progress.step = 0.25;
     ev.progress.boundary_l2 = 0.125;
     ev.progress.boundary_max = 1;
+    ev.progress.boundary_rms = 0.0625;
+    ev.progress.boundary_relative = 0.03125;
     ev.progress.min_quality = 0.75;
     ev.progress.elapsed = 2;
     ev.progress.accepted = 1;
     ev.progress.rejected = 0;
     char *line = sm_event_to_json(&ev);
+    /* the unit-free headline first, after the iteration */
     assert_string_equal(line,
                         "{\"type\":\"progress\",\"jobID\":\"abc\",\"seq\":3,"
-                        "\"time\":\"1970-01-01T00:00:00.000Z\",\"iteration\":1,\"J\":0.5,"
+                        "\"time\":\"1970-01-01T00:00:00.000Z\",\"iteration\":1,"
+                        "\"boundary_rms\":0.0625,\"boundary_relative\":0.03125,\"J\":0.5,"
                         "\"step\":0.25,\"boundary_l2\":0.125,\"boundary_max\":1.0,"
                         "\"min_quality\":0.75,\"elapsed\":2.0,\"accepted\":1,\"rejected\":0}");
     free(line);
@@ -465,9 +474,10 @@ static void test_result_summary(void **state)
     json_decref(doc);
     free(text);
 
-    /* without params, and every stop reason */
-    for (int s = SM_STOP_STEP; s <= SM_STOP_CANCELLED; s++) {
+    /* without params, and every stop reason, converged or not */
+    for (int s = SM_STOP_STEP; s <= SM_STOP_QUALITY; s++) {
         r.stop = (sm_stop_reason)s;
+        r.converged = s % 2;
         json_t *obj = sm_result_to_jansson(&r, NULL, 0);
         assert_non_null(obj);
         assert_null(json_object_get(obj, "parameters"));

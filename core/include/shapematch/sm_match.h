@@ -18,6 +18,8 @@ typedef struct sm_progress {
     double boundary_l2;      /* ||d||_L2(dOmega_k) */
     double boundary_max;     /* max |d| on dOmega_k */
     double boundary_rms;     /* boundary_l2 / sqrt(|dOmega_k|): a length */
+    double boundary_relative; /* boundary_rms / the template's diameter:
+                              * unit-free */
     double min_quality;
     double elapsed;          /* seconds since the start of the run */
     int accepted, rejected;  /* trial steps in total */
@@ -29,7 +31,13 @@ typedef enum sm_stop_reason {
                               * or tol_boundary_rel */
     SM_STOP_MAX_ITER = 2,
     SM_STOP_CANCELLED = 3,
-    SM_STOP_STALLED = 4      /* boundary error stalled (tol_stall) */
+    SM_STOP_STALLED = 4,     /* boundary error stalled (tol_stall) */
+    SM_STOP_QUALITY = 5      /* quality_blocked: every trial step down to
+                              * tol_step * diameter was rejected by the
+                              * quality floor (or inverted an element),
+                              * even with the operator assembled on the
+                              * current mesh: the descent cannot move
+                              * without degrading the mesh */
 } sm_stop_reason;
 const char *sm_stop_reason_name(sm_stop_reason r);
 
@@ -49,6 +57,11 @@ typedef struct sm_timings {
 
 typedef struct sm_result {
     sm_stop_reason stop;
+    int converged;           /* 1 when the run reached a match: sm_match_run
+                              * sets 0 for quality_blocked and cancelled;
+                              * the job runner (sm_job_runner.h) also sets 0
+                              * when the boundary error ends far above what
+                              * the background resolves */
     int iterations;
     double J_initial, J;
     double boundary_l2, boundary_max, min_quality;

@@ -610,9 +610,9 @@ static double smallest_ritz(const double *d, const double *e, int k)
  * Lanczos matrix that the CG coefficients define (smallest_ritz), the
  * minimum over all solves since the set-up: it approaches
  * lambda_min(M A) from above, and the first solve after a set-up takes
- * FIRST_SOLVE_MIN_ITER steps for it.  r'Mr alone (the test before) assumed lambda = 1 and
- * stopped at true errors up to 6.7x the tolerance where the V-cycle is
- * weak.  The energy norm is the one the descent cares about, and unlike
+ * FIRST_SOLVE_MIN_ITER steps for it.  r'Mr alone (the test before)
+ * assumed lambda = 1 and, with the V-cycle unbalanced, stopped at true
+ * errors up to 6.7x the tolerance (issue 21).  The energy norm is the one the descent cares about, and unlike
  * the 2-norm of the residual it does not tighten as the mesh is refined
  * (the nodal loads of a finer mesh are rougher).  The test runs after
  * each V-cycle, before the next matvec; at least one step is taken, so

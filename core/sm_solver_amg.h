@@ -52,7 +52,9 @@ void sm_amg_free(sm_amg *amg);
  * 0.033 / 0.057 s; 100k (55k unknowns) 2.8 / 2.7, 14 / 15, set-up
  * 0.18 / 0.27 CPU s; 200k (107k unknowns) 3.2 / 2.8, 16 / 15; 300k
  * 3.3 / 2.7, 16 / 13; 988k 3.2 / 2.5 (1.10 / 0.89 CPU s per
- * iteration). */
+ * iteration).  Those figures predate issue 21: the V-cycle is now
+ * balanced with all rigid motions at every size, which is what bounds
+ * the near-rigid error below this threshold (sm_solver_amg.c). */
 #define SM_AMG_MODES_MIN_UNKNOWNS 80000
 
 /* Builds the AMG hierarchy on the matrix's current values (after each

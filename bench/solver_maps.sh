@@ -141,7 +141,7 @@ for section in $SECTIONS; do
             gmsh "$W/ball/ell.geo" -2 -format stl -clmax 0.05 -nt 1 -v 1 -o "$W/ball/ell.stl" >/dev/null
             "$BIN" sdf --surface "$W/ball/ell.stl" -o "$W/ball" >/dev/null 2>&1
         fi
-        echo "  template: $(awk '/^Tetrahedra/ { getline; print $1 }' "$W/ball/ball.mesh") tetrahedra"
+        echo "  template: $(awk '$1 == "Tetrahedra" { getline; print $1; exit }' "$W/ball/ball.mesh") tetrahedra"
         run noclamp-amg --template "$W/ball/ball.mesh" --target-mesh "$W/ball/background.mesh" \
             --target-sol "$W/ball/background.sol" --no-clamp --solver amg
         ;;

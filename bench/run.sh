@@ -124,6 +124,9 @@ $BIN/read_bench examples/3d 9
 echo "== writing the ASCII results of examples/3d (result.mesh, result.vtu, displacement.sol) =="
 $BIN/write_bench examples/3d/template.mesh build/bench-io 9
 
+echo "== the map against the solver (issue 21) and --no-clamp with AMG on 210k tetrahedra (issue 20) =="
+bench/solver_maps.sh maps noclamp
+
 echo "== stop rules: the stall rule on the examples and on Gmsh-made cases (bench/stall_cases.py) =="
 python3 bench/stall_cases.py "$BIN" --examples
 

@@ -29,7 +29,8 @@ typedef struct sm_amg sm_amg;
  * arrays are borrowed, must outlive the object, and values may change
  * between set-ups (hypre only reads them).  Initialises MPI for the
  * process on the first call.  rtol: relative error of the PCG solves in
- * the energy norm (> 0), estimated by the preconditioned residual.
+ * the energy norm (> 0), bounded by the preconditioned residual over the
+ * smallest Ritz value of the preconditioned operator (sm_solver_amg.c).
  * rigid_modes: 1 if the hierarchy takes the rotations as interpolation
  * vectors (see SM_AMG_MODES_MIN_UNKNOWNS), 0 if not.
  * SM_ERR_INVALID if a row does not start with its diagonal. */
@@ -51,14 +52,19 @@ void sm__amg_free(sm_amg *amg);
  * 0.033 / 0.057 s; 100k (55k unknowns) 2.8 / 2.7, 14 / 15, set-up
  * 0.18 / 0.27 CPU s; 200k (107k unknowns) 3.2 / 2.8, 16 / 15; 300k
  * 3.3 / 2.7, 16 / 13; 988k 3.2 / 2.5 (1.10 / 0.89 CPU s per
- * iteration). */
+ * iteration).  Those figures predate issue 21: the V-cycle is now
+ * balanced with all rigid motions at every size, which is what bounds
+ * the near-rigid error below this threshold (sm_solver_amg.c). */
 #define SM_AMG_MODES_MIN_UNKNOWNS 80000
 
 /* Builds the AMG hierarchy on the matrix's current values (after each
- * assembly).  coords: the positions of the n/dim free vertices (dim
- * each, in DOF order) for the rigid-body modes (read only if the object
- * takes them), or NULL for none.  The
- * previous solution stays the warm start of the next solve. */
+ * assembly) and the balancing of the V-cycle with the rigid motions.
+ * coords: the positions of the n/dim free vertices (dim each, in DOF
+ * order) for the rigid-body modes (of the hierarchy if the object takes
+ * them, and of the balancing), or NULL for neither.  hypre's flag for a
+ * zero row on a coarse level is not a failure when the hierarchy is
+ * otherwise sound (see hierarchy_usable).  The previous solution stays
+ * the warm start of the next solve. */
 sm_status sm__amg_setup(sm_amg *amg, const double *coords, sm_error *err);
 
 /* Solves A x = rhs (n entries) by PCG from a warm start: the previous
@@ -66,14 +72,14 @@ sm_status sm__amg_setup(sm_amg *amg, const double *coords, sm_error *err);
  * not descend for rhs), so that the start has energy 1/2 x'Ax - rhs'x
  * <= 0 and every CG iterate, which only lowers it, is a descent
  * direction for rhs (rhs'x > 0).  At least one PCG step, then until the
- * estimated energy-norm error is below rtol with rhs'x > 0.  If PCG
+ * bound of the energy-norm error is below rtol with rhs'x > 0.  If PCG
  * breaks down from the warm start (round-off), solves again from zero.
  * SM_ERR_NUMERIC if PCG breaks down or does not reach the tolerance. */
 sm_status sm__amg_solve(sm_amg *amg, const double *rhs, double *x, sm_error *err);
 
 typedef struct sm_amg_stats {
     int last_iterations;     /* PCG iterations of the last solve */
-    double last_residual;    /* its final estimated relative energy error */
+    double last_residual;    /* its final bound of the relative energy error */
     long total_iterations;   /* over all solves since set-up */
     int solves;
     int restarts;            /* solves that had to restart from zero */

@@ -2,7 +2,7 @@
  * the direct one (CHOLMOD): the same solutions to the tolerance, every
  * inexact warm-started solve a descent direction (load'u > 0) even at a
  * very loose tolerance, the descent reaching the same boundary error in
- * 2D and 3D, and the solver names, the size rule of "auto" and the
+ * 2D and 3D and the same map (issue 21), and the solver names, the size rule of "auto" and the
  * checks of the options. */
 #include <math.h>
 #include <setjmp.h>
@@ -45,7 +45,7 @@ static void make_load(const sm_mesh *m, double t, double *load)
 
 /* modes: whether the AMG hierarchy takes the rigid-body rotations (the
  * 3D test meshes are below SM_AMG_MODES_MIN_UNKNOWNS: AUTO is off there,
- * on in 2D) */
+ * on in 2D; the balancing with the rigid motions is always on) */
 static sm_elasticity *build_modes(const sm_mesh *m, const uint8_t *clamped, sm_solver_kind kind,
                                   double rtol, sm_amg_modes modes)
 {
@@ -144,18 +144,15 @@ static double energy(const sm_elasticity *el, const sm_mesh *m, const double *w)
     return e;
 }
 
-/* The inexact solves stop on an estimate of their error in the energy
- * norm (the preconditioned residual r'Mr against load'u): the true
- * error |u - u*|_A / |u*|_A, u* from CHOLMOD, stays within 3x the
- * tolerance over a warm-started sequence of loads, at the default
- * tolerance and at a loose one, in few PCG iterations per solve, with
- * and without the rigid-body modes in the hierarchy.  r'Mr
- * underestimates the error where the V-cycle M is weakest (measured at
- * 0.1: with the modes up to 2.1x the tolerance in 2D, 1.2x in 3D;
- * without, 2.5x and 2.7x; on the 30k example, whose hierarchy has more
- * levels, these smooth loads reach 3.6x and 7.3x); the 2-norm test used
- * before stopped at true errors of ~0.01 for a tolerance of 0.1, far
- * tighter than a descent direction needs (cosine 0.98 at error 0.2). */
+/* The inexact solves stop on a bound of their error in the energy norm
+ * (the preconditioned residual r'Mr over the smallest Ritz value of
+ * M A, against load'u): the true error |u - u*|_A / |u*|_A, u* from
+ * CHOLMOD, stays within the tolerance over a warm-started sequence of
+ * loads, at the default tolerance and at a loose one, in few PCG
+ * iterations per solve, with and without the rigid-body modes in the
+ * hierarchy (measured at 0.1: worst 0.06 in 2D, 0.045 in 3D).  r'Mr
+ * alone, the estimate before, stopped at up to 2.7x the tolerance here
+ * and 6.7x on the Gmsh-made cases of test_solver_accuracy.c. */
 static void energy_error(int dim, int n, sm_amg_modes modes)
 {
     uint8_t *clamped;
@@ -180,7 +177,7 @@ static void energy_error(int dim, int n, sm_amg_modes modes)
             if (getenv("SM_DEBUG"))
                 print_message("  solve %d: energy error %.3g\n", k, rel);
             assert_true(ref > 0.0);
-            assert_true(rel <= 3.0 * rtols[t]);
+            assert_true(rel <= rtols[t]);
             if (rel > worst)
                 worst = rel;
         }
@@ -404,8 +401,10 @@ static void free_target(target *t)
     free(t->d);
 }
 
+/* A run of max_iter iterations (or to tol_boundary); out: the final
+ * vertex positions (nverts*dim). */
 static void run(const sm_mesh *tm, const target *t, sm_solver_kind kind, int max_iter,
-                double tol_boundary, sm_result *res)
+                double tol_boundary, sm_result *res, double *out)
 {
     sm_params p;
     sm_params_default(&p);
@@ -416,32 +415,57 @@ static void run(const sm_mesh *tm, const target *t, sm_solver_kind kind, int max
     p.tol_boundary = tol_boundary;
     p.tol_stall = 0.0;
     p.solver = kind;
-    double *out = malloc(sizeof(double) * tm->nverts * tm->dim);
     sm_error err;
     sm_match_opts opts = {.template_mesh = tm, .target = t->field, .params = &p};
     if (sm_match_run(&opts, NULL, out, res, &err) != SM_OK)
         fail_msg("match (%s): %s", sm_solver_kind_name(kind), err.msg);
-    free(out);
 }
 
-/* The AMG descent reaches the direct path's boundary error to within 5%
- * (the stated tolerance) in at most 30% more iterations: the directions
- * differ by the loose solves' residual, so the step search takes
- * slightly different steps.  Runs that stop at a tolerance show that no
- * direction failed to descend (a non-descent direction ends the run). */
+/* mean over vertices of |a - b| over the mean of |b - ref| */
+static double map_difference(const sm_mesh *m, const double *a, const double *b)
+{
+    double diff = 0.0, disp = 0.0;
+    for (int32_t v = 0; v < m->nverts; v++) {
+        double dd = 0.0, du = 0.0;
+        for (int c = 0; c < m->dim; c++) {
+            size_t i = (size_t)v * m->dim + c;
+            dd += (a[i] - b[i]) * (a[i] - b[i]);
+            du += (b[i] - m->coords[i]) * (b[i] - m->coords[i]);
+        }
+        diff += sqrt(dd);
+        disp += sqrt(du);
+    }
+    return diff / disp;
+}
+
+/* The map is a property of the inputs, not of the solver (issue 21):
+ * after the same iterations the displacement fields of the AMG and the
+ * direct descent differ by at most 10% of the mean displacement, and
+ * the boundary errors by at most 20%.  The descents are compared where
+ * their paths have settled: the 2D one after 60 iterations, the 3D one
+ * at its convergence (step tolerance), as its middle is quality-limited
+ * and sensitive to where each step search lands (after 25 iterations
+ * the maps differ by 21% with exact-to-0.1 solves, by 0 with AMG solved
+ * to 1e-8; at 80: 3.4%). */
 static void same_descent(const sm_mesh *tm, const target *t, int max_iter)
 {
     sm_result direct, amg;
-    run(tm, t, SM_SOLVER_CHOLMOD, max_iter, 0.0, &direct);
-    run(tm, t, SM_SOLVER_AMG, max_iter + max_iter * 3 / 10, 1.05 * direct.boundary_l2, &amg);
+    const size_t nd = (size_t)tm->nverts * tm->dim;
+    double *x0 = malloc(nd * sizeof *x0), *x1 = malloc(nd * sizeof *x1);
+    run(tm, t, SM_SOLVER_CHOLMOD, max_iter, 0.0, &direct, x0);
+    run(tm, t, SM_SOLVER_AMG, max_iter, 0.0, &amg, x1);
+    double diff = map_difference(tm, x1, x0);
     if (getenv("SM_DEBUG"))
-        print_message("dim %d: cholmod %s it %d l2 %.6g | amg %s it %d l2 %.6g\n", tm->dim,
-                      sm_stop_reason_name(direct.stop), direct.iterations, direct.boundary_l2,
-                      sm_stop_reason_name(amg.stop), amg.iterations, amg.boundary_l2);
-    assert_int_equal(direct.stop, SM_STOP_MAX_ITER);
-    assert_int_equal(amg.stop, SM_STOP_BOUNDARY);
-    assert_true(amg.boundary_l2 <= 1.05 * direct.boundary_l2);
+        print_message("dim %d: cholmod %s it %d l2 %.6g | amg %s it %d l2 %.6g | map difference %.4f\n",
+                      tm->dim, sm_stop_reason_name(direct.stop), direct.iterations,
+                      direct.boundary_l2, sm_stop_reason_name(amg.stop), amg.iterations,
+                      amg.boundary_l2, diff);
+    assert_true(diff <= 0.1);
+    assert_true(amg.boundary_l2 <= 1.2 * direct.boundary_l2);
+    assert_true(direct.boundary_l2 <= 1.2 * amg.boundary_l2);
     assert_true(amg.J < 0.5 * amg.J_initial); /* the descent did descend */
+    free(x0);
+    free(x1);
 }
 
 static void test_descent_same_error_2d(void **state)
@@ -465,7 +489,7 @@ static void test_descent_same_error_3d(void **state)
     make_target(&t, 3, 24, ax);
     const double lo[3] = {0.3, 0.3, 0.3}, hi[3] = {0.7, 0.7, 0.7};
     sm_mesh *tm = util_box_mesh(3, 8, lo, hi, 3);
-    same_descent(tm, &t, 25);
+    same_descent(tm, &t, 80);
     sm_mesh_free(tm);
     free_target(&t);
 }

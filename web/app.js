@@ -10,6 +10,7 @@
 // EventSource and links.
 import uPlot from './uplot.js';
 import { View2d, View3d, parsePayload, heatCss, fmtNum, tickLabel } from './view.js';
+import { loadTarget } from './target.js';
 
 const $ = (id) => document.getElementById(id);
 const token = () => $('token').value.trim();
@@ -243,7 +244,8 @@ function newPlot() {
     scales: { x: { time: false }, y: {}, e: { distr: 3 } }, // J changes sign: linear
     series: [{ label: 'iteration' }, { label: 'J', stroke: '#3d7bd9', scale: 'y', value: (u, v) => (v == null ? '–' : v.toPrecision(6)) },
       { label: 'boundary RMS', stroke: '#d9503d', scale: 'e', value: (u, v) => tickLabel(v) }],
-    axes: [{}, { scale: 'y', label: 'J', size: 70, values: (u, vals) => vals.map((v) => (v === null ? '' : v.toPrecision(4))) },
+    // iterations are whole numbers: ticks at 1, 2, 5, 10, ... apart
+    axes: [{ incrs: [0, 1, 2, 3, 4, 5, 6, 7, 8].flatMap((k) => [1, 2, 5].map((m) => m * 10 ** k)) }, { scale: 'y', label: 'J', size: 70, values: (u, vals) => vals.map((v) => (v === null ? '' : v.toPrecision(4))) },
       { scale: 'e', side: 1, label: 'boundary RMS', size: 60, grid: { show: false }, values: (u, vals) => vals.map(tickLabel) }],
   }, data, box);
   // the plot follows its panel's width (800 px windows, resized windows)
@@ -335,6 +337,29 @@ function showScale(scale) {
   box.dataset.max = String(scale.max);
 }
 
+// The target overlay, loaded once per job from its stored inputs (the
+// first shape drawn says the dimension); the shape is drawn again with it.
+function overlayTarget(job, dim) {
+  job.targetState = 'loading';
+  const note = $('target-note');
+  $('target-toggle').hidden = false;
+  $('show-target').disabled = true;
+  note.textContent = '(loading)';
+  loadTarget((url) => fetch(url, { headers: authHeaders() }), job.id, dim).then((t) => {
+    if (job !== current) return;
+    job.target = t;
+    job.targetState = 'shown';
+    $('show-target').disabled = false;
+    note.textContent = `(${t.what})`;
+    job.view.setTarget(t, $('show-target').checked);
+    if (job.last) draw(job.last.mesh, job.last.final);
+  }).catch((e) => {
+    if (job !== current) return;
+    job.targetState = 'none';
+    note.textContent = `not drawn: ${e.message}`;
+  }).finally(() => { if (job === current) $('target-toggle').dataset.state = job.targetState; });
+}
+
 function draw(mesh, final) {
   if (!mesh || !current) return;
   const is3d = mesh.dim === 3 && mesh.tets.length > 0;
@@ -342,7 +367,8 @@ function draw(mesh, final) {
   $('view3d').hidden = !is3d;
   if (!current.view) current.view = is3d ? new View3d($('view3d')) : new View2d($('view2d'));
   $('reset-view').hidden = !is3d;
-  if (current.target) current.view.setTarget(current.target);
+  current.last = { mesh, final };
+  if (!current.targetState) overlayTarget(current, mesh.dim);
   const scale = current.view.show(mesh);
   showScale(scale);
   const view = is3d ? $('view3d') : $('view2d');
@@ -391,7 +417,10 @@ async function finish(id) {
 function follow(id) {
   stopFollowing();
   const { plot, data, ro } = newPlot();
-  current = { id, plot, data, ro, done: false, view: null, target: null, warnings: [] };
+  current = { id, plot, data, ro, done: false, view: null, target: null, targetState: null, warnings: [] };
+  $('target-toggle').hidden = true;
+  $('target-note').textContent = '';
+  delete $('target-toggle').dataset.state;
   $('job-id').textContent = id;
   for (const v of [$('view2d'), $('view3d')]) { delete v.dataset.liveDraws; delete v.dataset.drawn; }
   $('view3d').replaceChildren();
@@ -494,6 +523,11 @@ function setupDrop() {
 $('job-form').addEventListener('submit', submit);
 $('refresh').addEventListener('click', refreshJobs);
 $('reset-view').addEventListener('click', () => current?.view?.reset());
+$('show-target').addEventListener('change', () => {
+  if (!current?.view || !current.target) return;
+  current.view.setTarget(current.target, $('show-target').checked);
+  if (current.last) draw(current.last.mesh, current.last.final);
+});
 $('token').addEventListener('change', () => { loadSchema(); refreshJobs(); });
 setupDrop();
 loadSchema();

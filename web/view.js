@@ -102,7 +102,7 @@ export class View2d {
     this.edgesOf = null;
   }
 
-  setTarget(target) { this.target = target; }
+  setTarget(target, shown = true) { this.target = target; this.shown = shown; }
   reset() {}
 
   // Draws the mesh; returns the colour scale {max, label} (or null).
@@ -111,7 +111,8 @@ export class View2d {
     const ctx = canvas.getContext('2d');
     const { xyz, dim, tris } = mesh;
     let [x0, y0, x1, y1] = bbox(xyz, dim);
-    if (this.target) [x0, y0, x1, y1] = bbox(this.target.segments, 2, [x0, y0, x1, y1]);
+    const target = this.target && this.shown ? this.target : null;
+    if (target) [x0, y0, x1, y1] = bbox(target.segments, 2, [x0, y0, x1, y1]);
     const s = 0.92 * Math.min(canvas.width / (x1 - x0 || 1), canvas.height / (y1 - y0 || 1));
     const px = (x, y) => [canvas.width / 2 + s * (x - (x0 + x1) / 2), canvas.height / 2 - s * (y - (y0 + y1) / 2)];
     const pv = (v) => px(xyz[v * dim], xyz[v * dim + 1]);
@@ -140,8 +141,8 @@ export class View2d {
       ctx.beginPath(); ctx.moveTo(...pv(a)); ctx.lineTo(...pv(b)); ctx.stroke();
     }
     // the target's zero level set, thin and dashed over everything
-    if (this.target && this.target.shown !== false) {
-      const sg = this.target.segments;
+    if (target) {
+      const sg = target.segments;
       ctx.lineWidth = 1.2;
       ctx.strokeStyle = '#111';
       ctx.setLineDash([5, 3]);
@@ -158,7 +159,8 @@ export class View2d {
   framing(mesh) {
     const pts = [];
     for (let v = 0; v < mesh.xyz.length / mesh.dim; v++) pts.push(this.project(mesh.xyz[v * mesh.dim], mesh.xyz[v * mesh.dim + 1]));
-    if (this.target) for (let i = 0; i < this.target.segments.length; i += 2) pts.push(this.project(this.target.segments[i], this.target.segments[i + 1]));
+    const t = this.target && this.shown ? this.target.segments : [];
+    for (let i = 0; i < t.length; i += 2) pts.push(this.project(t[i], t[i + 1]));
     const inside = pts.filter(([x, y]) => x >= 0 && y >= 0 && x <= this.canvas.width && y <= this.canvas.height).length;
     return { inside: inside / pts.length, points: pts.length };
   }
@@ -200,19 +202,23 @@ export class View3d {
     this.render();
   }
 
-  // target: {positions: Float32Array (3 per vertex, 3 vertices per triangle)}
-  setTarget(target) {
-    if (this.target === target) return;
-    this.target = target;
-    if (this.targetMesh) { this.scene.remove(this.targetMesh); this.targetMesh.geometry.dispose(); }
-    const geo = new THREE.BufferGeometry();
-    geo.setAttribute('position', new THREE.BufferAttribute(target.positions, 3));
-    geo.computeVertexNormals();
-    geo.computeBoundingBox();
-    this.targetMesh = new THREE.Mesh(geo, new THREE.MeshStandardMaterial({ color: 0x445566, transparent: true, opacity: 0.22,
-      depthWrite: false, side: THREE.DoubleSide }));
-    this.targetMesh.renderOrder = 1;
-    this.scene.add(this.targetMesh);
+  // target: {positions: Float32Array (3 per vertex, 3 vertices per
+  // triangle)}, drawn as a translucent surface when shown
+  setTarget(target, shown = true) {
+    if (this.target !== target) {
+      this.target = target;
+      if (this.targetMesh) { this.scene.remove(this.targetMesh); this.targetMesh.geometry.dispose(); }
+      const geo = new THREE.BufferGeometry();
+      geo.setAttribute('position', new THREE.BufferAttribute(target.positions, 3));
+      geo.computeVertexNormals();
+      this.targetMesh = new THREE.Mesh(geo, new THREE.MeshStandardMaterial({ color: 0x445566, transparent: true, opacity: 0.25,
+        depthWrite: false, side: THREE.DoubleSide, polygonOffset: true, polygonOffsetFactor: 2, polygonOffsetUnits: 2 }));
+      // drawn after the shape and pushed back a little: where the two meet
+      // the shape wins (no flicker of coplanar faces)
+      this.targetMesh.renderOrder = 1;
+      this.scene.add(this.targetMesh);
+    }
+    this.targetMesh.visible = shown;
   }
 
   // Draws the mesh; returns the colour scale {max, label}.

@@ -109,8 +109,6 @@ await run('the app: a 2D job', async () => {
   await page.waitForFunction(() => Number(document.querySelector('#plot').dataset.points || 0) >= 5, null, { timeout: 30000 });
   const live = await status(page);
   await page.screenshot({ path: path.join(logDir, 'web-app-2d-running.png') });
-  // the picture of README.md (web/screenshot.png is a copy): the job panel
-  await page.locator('#job-panel').screenshot({ path: path.join(logDir, 'web-app-readme.png'), scale: 'css' });
   report('at least 5 plot points arrive from the event stream while the job runs', live === 'running', live);
   const final = await waitStatus(page, 'successful', 60000);
   report('the job\'s status becomes successful', final === 'successful', final);
@@ -137,6 +135,36 @@ await run('the app: a 2D job', async () => {
   report('a colour scale for |d| is shown, up to the largest |d| on the boundary (the summary\'s boundary_max)',
     !scale.hidden && Math.abs(scale.max / sum.boundary_max - 1) < 1e-6 && Number(scale.label) > 0 && Math.abs(Number(scale.label) / sum.boundary_max - 1) < 0.01 && /gradient/.test(scale.bar),
     `${JSON.stringify(scale)} boundary_max ${sum.boundary_max}`);
+  // the picture of README.md (web/screenshot.png is a copy): the job panel
+  // at the end, with the target overlaid.  The target overlay: the zero
+  // level set of target_sol; at the converged
+  // shape's boundary vertices, the distance to it is the |d| the core
+  // sampled there (to the background's resolution)
+  await page.waitForFunction(() => ['shown', 'none'].includes(document.querySelector('#target-toggle').dataset.state), null, { timeout: 20000 });
+  const overlay = await page.evaluate(() => {
+    const c = window.shapematch.current;
+    const sg = c.target ? c.target.segments : [];
+    const { xyz, distance } = c.last.mesh;
+    const segDist = (x, y) => {
+      let best = Infinity;
+      for (let i = 0; i < sg.length; i += 4) {
+        const [ax, ay, bx, by] = [sg[i], sg[i + 1], sg[i + 2], sg[i + 3]];
+        const l2 = (bx - ax) ** 2 + (by - ay) ** 2;
+        const t = l2 > 0 ? Math.max(0, Math.min(1, ((x - ax) * (bx - ax) + (y - ay) * (by - ay)) / l2)) : 0;
+        best = Math.min(best, Math.hypot(x - ax - t * (bx - ax), y - ay - t * (by - ay)));
+      }
+      return best;
+    };
+    const verts = [...new Set(c.view.edgesOf.edges.flat())];
+    let worst = 0;
+    for (const v of verts) worst = Math.max(worst, Math.abs(segDist(xyz[2 * v], xyz[2 * v + 1]) - Math.abs(distance[v])));
+    return { state: document.querySelector('#target-toggle').dataset.state, note: document.querySelector('#target-note').textContent,
+      segments: sg.length / 4, vertices: verts.length, worst, framing: c.view.framing(c.last.mesh) };
+  });
+  report('the target\'s zero level set is overlaid in 2D: the boundary vertices lie at |d| from it (within the background\'s resolution)',
+    overlay.state === 'shown' && overlay.segments > 100 && overlay.worst < sum.resolution && overlay.framing.inside === 1,
+    `${JSON.stringify(overlay)} resolution ${sum.resolution}`);
+  await page.locator('#job-panel').screenshot({ path: path.join(logDir, 'web-app-readme.png'), scale: 'css' });
   await page.click('#refresh');
   await page.waitForFunction((i) => [...document.querySelectorAll('#jobs td')].some((t) => t.textContent === i), id, { timeout: 5000 }).catch(() => {});
   const listed = await page.$$eval('#jobs td', (t) => t.map((x) => x.textContent));
@@ -188,6 +216,17 @@ await run('the app: a 3D job', async () => {
   await page.screenshot({ path: path.join(logDir, 'web-app-3d-final.png') });
   // the camera: the grown shape (radius 0.95 from the template's 0.69) in
   // view, filling it; a zoom by the user sticks until "Reset view"
+  await page.waitForFunction(() => ['shown', 'none'].includes(document.querySelector('#target-toggle').dataset.state), null, { timeout: 20000 });
+  const surf = await page.evaluate(() => {
+    const t = window.shapematch.current.target;
+    const p = t ? t.positions : [];
+    let worst = 0;
+    for (let i = 0; i < p.length; i += 3) worst = Math.max(worst, Math.abs(Math.hypot(p[i], p[i + 1], p[i + 2]) - 0.95));
+    return { state: document.querySelector('#target-toggle').dataset.state, triangles: p.length / 9, worst, shown: window.shapematch.current.view.targetMesh?.visible };
+  });
+  // linear interpolation of the exact distance on 0.07 elements: h^2/(2R) ~ 3e-3
+  report('the target\'s surface (the zero level set of target_sol) is overlaid in 3D: on the sphere of radius 0.95',
+    surf.state === 'shown' && surf.shown && surf.triangles > 500 && surf.worst < 0.005, JSON.stringify(surf));
   const framing = () => page.evaluate(() => window.shapematch.current.view.framing());
   const fitted = await framing();
   report('the 3D camera frames the grown result (every boundary vertex in view, filling it)', fitted.inside === 1 && fitted.extent > 0.6 && fitted.points > 100, JSON.stringify(fitted));

@@ -7,9 +7,11 @@
 # unlisted origin).  In the app: examples/2d uploaded through the form,
 # live plot points, status successful, the final shape drawn, result.vtu
 # downloaded and parsed, the outcome "converged", log-axis labels that say
-# their values, the |d| colour scale, the full job id (which `shapematch
-# status` takes); a 3D job whose result outgrows the template in the
-# three.js view (camera fitted, a user's zoom kept, "Reset view"); the
+# their values, the |d| colour scale, the target's zero level set (at |d|
+# from the boundary vertices), the full job id (which `shapematch status`
+# takes); a 3D job whose result outgrows the template in the three.js view
+# (the target surface on the analytic sphere, camera fitted, a user's zoom
+# kept, "Reset view"); the
 # server's 422 next to its field; a job that finishes without converging
 # ("not converged: <reason>" and every warning) and the page at 800 px;
 # a token typed in.  From the

@@ -394,7 +394,9 @@ async function finish(id) {
   const r = await fetch(`v1/jobs/${id}`, { headers: authHeaders() });
   const doc = await r.json().catch(() => ({}));
   let reason = doc.message || '';
-  if (doc.status === 'successful') {
+  // results exist for a finished run: successful, or one whose status
+  // document says it did not converge (whatever status that is given)
+  if (doc.status === 'successful' || doc.converged === false) {
     const s = await fetch(`v1/jobs/${id}/results`, { headers: authHeaders() }).then((x) => x.json()).catch(() => ({}));
     if (job !== current) return;
     job.summary = s;
@@ -405,7 +407,8 @@ async function finish(id) {
     if (Array.isArray(s.warnings)) showWarnings(s.warnings);
     draw(await getMesh(`v1/jobs/${id}/results/mesh?format=binary`), true);
     downloads(id);
-  } else if (doc.status === 'failed') {
+  }
+  if (doc.status === 'failed' && !job.summary?.stop_reason) {
     showOutcome('failed', `failed: ${doc.message || 'see the job\'s events'}`);
   } else if (doc.status === 'dismissed') {
     showOutcome('dismissed', 'cancelled');

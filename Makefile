@@ -34,7 +34,11 @@ CC ?= cc
 MPI_PC := $(shell pkg-config --cflags-only-I mpi-c 2>/dev/null)
 HYPRE_CFLAGS := -isystem /usr/include/hypre $(MPI_PC:-I%=-isystem %)
 HYPRE_LIBS := -lHYPRE $(shell pkg-config --libs mpi-c 2>/dev/null)
+# -fPIC: one set of objects for the archives and the shared libraries
+# (libshapematch.so, libshapematch_job.so); -fno-semantic-interposition keeps
+# calls inside them direct, as in the executables (Debian's gcc builds PIE).
 BASE_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror -fopenmp \
+  -fPIC -fno-semantic-interposition \
   -Wno-missing-field-initializers -g -I core/include -I proto -I /usr/include/suitesparse \
   -DSM_VERSION='"$(VERSION)"' $(HYPRE_CFLAGS)
 RELEASE_CFLAGS := $(BASE_CFLAGS) -O2

@@ -12,3 +12,23 @@ build/$(1)/libsmjob.a: $$(JOB_SRCS:%.c=build/$(1)/obj/%.o)
 endef
 $(foreach v,$(VARIANTS),$(eval $(call job_rules,$(v))))
 ALL_TARGETS += libsmjob.a
+
+# libshapematch_job.so.MAJOR: the job runner in one call (shapematch_job.h,
+# sm_job_api.c) for bindings (python/shapematch) and programs: libsmjob and
+# libsmproto inside, libshapematch.so beside it (found through $ORIGIN).
+# It exports the sm_run_* functions of shapematch_job.h and nothing else.
+JOB_API_SRCS := proto/job/sm_job_api.c
+define job_so_rules
+build/$(1)/libshapematch_job.map: proto/job/module.mk
+	@mkdir -p $$(dir $$@)
+	@printf 'SHAPEMATCH_JOB_$(SM_SOVERSION) {\n  global:\n    sm_run_*;\n  local: *;\n};\n' >$$@
+build/$(1)/libshapematch_job.so.$(SM_SOVERSION): $$(JOB_API_SRCS:%.c=build/$(1)/obj/%.o) \
+    $$(JOB_SRCS:%.c=build/$(1)/obj/%.o) $$(PROTO_SRCS:%.c=build/$(1)/obj/%.o) \
+    build/$(1)/libshapematch_job.map build/$(1)/libshapematch.so.$(SM_SOVERSION)
+	$$(CC) $$($(1)_LDFLAGS) -shared -Wl,-soname,libshapematch_job.so.$(SM_SOVERSION) -Wl,-z,defs \
+	  -Wl,--version-script=build/$(1)/libshapematch_job.map -Wl,-rpath,'$$$$ORIGIN' \
+	  -o $$@ $$(filter %.o,$$^) -Lbuild/$(1) -l:libshapematch.so.$(SM_SOVERSION) $$(PROTO_LIBS) $$(CORE_LIBS)
+	ln -sf libshapematch_job.so.$(SM_SOVERSION) build/$(1)/libshapematch_job.so
+endef
+$(foreach v,$(VARIANTS),$(eval $(call job_so_rules,$(v))))
+ALL_TARGETS += libshapematch_job.so.$(SM_SOVERSION)

@@ -11,8 +11,9 @@ SHELL := /bin/bash
 .DEFAULT_GOAL := all
 
 PREFIX ?= /usr/local
-# where `make install` puts the systemd unit
-UNITDIR ?= /etc/systemd/system
+# where `make install` puts the systemd unit: nowhere unless given
+# (UNITDIR=/etc/systemd/system), so that an install stays under PREFIX
+UNITDIR ?=
 VERSION := 0.1.0
 
 # Debian packages the build, the tests, the demo and the benchmarks need.
@@ -75,7 +76,7 @@ endef
 $(foreach v,$(VARIANTS),$(eval $(call variant_rules,$(v))))
 
 include $(wildcard core/module.mk proto/module.mk web/module.mk server/module.mk \
-  client/module.mk tests/module.mk bench/module.mk)
+  client/module.mk tests/module.mk bench/module.mk docs/module.mk)
 
 .PHONY: all deps check-deps test demo lint install clean release asan
 all: $(foreach v,$(VARIANTS),$(ALL_TARGETS:%=build/$(v)/%)) $(RELEASE_ONLY_TARGETS:%=build/release/%)
@@ -157,21 +158,57 @@ demo: check-deps
 	$(MAKE) -j$$(nproc) release
 	examples/demo.sh
 
-# The unit goes to $(UNITDIR) with its program path rewritten to
-# $(PREFIX)/bin.
+# make install PREFIX=... DESTDIR=...: the programs, the libraries
+# (libshapematch.so.MAJOR with its archive, libshapematch_job.so.MAJOR), the
+# headers (<shapematch.h>, <shapematch/...>, <shapematch_job.h>),
+# shapematch.pc, the man pages and the Python package, all under PREFIX.
+# Nothing goes elsewhere unless UNITDIR is given: the systemd unit then goes
+# there with its program path rewritten to $(PREFIX)/bin
+# (UNITDIR=/etc/systemd/system).
+LIBDIR = $(PREFIX)/lib
+INCLUDEDIR = $(PREFIX)/include
+MANDIR = $(PREFIX)/share/man
+PYTHONDIR = $(PREFIX)/lib/python3/dist-packages
+PYTHON_FILES := $(wildcard python/shapematch/*.py)
+SM_LIBS := libshapematch libshapematch_job
+
 install: release
-	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(UNITDIR)
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)/shapematch \
+	  $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(MANDIR)/man8 $(DESTDIR)$(PYTHONDIR)/shapematch
 	install -m 755 $(INSTALL_PROGRAMS:%=build/release/%) $(DESTDIR)$(PREFIX)/bin/
-	sed 's|/usr/local/bin/|$(PREFIX)/bin/|g' deploy/systemd/shapematchd.service \
-	  >$(DESTDIR)$(UNITDIR)/shapematchd.service.tmp
-	chmod 644 $(DESTDIR)$(UNITDIR)/shapematchd.service.tmp
-	mv $(DESTDIR)$(UNITDIR)/shapematchd.service.tmp $(DESTDIR)$(UNITDIR)/shapematchd.service
-	@echo "installed; start the daemon with: systemctl daemon-reload && systemctl enable --now shapematchd"
+	for l in $(SM_LIBS); do \
+	  install -m 755 build/release/$$l.so.$(SM_SOVERSION) $(DESTDIR)$(LIBDIR)/$$l.so.$(VERSION) && \
+	  ln -sf $$l.so.$(VERSION) $(DESTDIR)$(LIBDIR)/$$l.so.$(SM_SOVERSION) && \
+	  ln -sf $$l.so.$(SM_SOVERSION) $(DESTDIR)$(LIBDIR)/$$l.so || exit 1; done
+	install -m 644 build/release/libshapematch.a $(DESTDIR)$(LIBDIR)/
+	install -m 644 build/release/include/shapematch.h proto/job/shapematch_job.h $(DESTDIR)$(INCLUDEDIR)/
+	install -m 644 $(CORE_PUBLIC_HEADERS) $(DESTDIR)$(INCLUDEDIR)/shapematch/
+	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|$(VERSION)|' -e 's|@LIBS_PRIVATE@|$(CORE_LIBS)|' \
+	  core/shapematch.pc.in >$(DESTDIR)$(LIBDIR)/pkgconfig/shapematch.pc
+	install -m 644 build/release/man/shapematch.1 $(DESTDIR)$(MANDIR)/man1/
+	install -m 644 build/release/man/shapematchd.8 $(DESTDIR)$(MANDIR)/man8/
+	install -m 644 $(PYTHON_FILES) $(DESTDIR)$(PYTHONDIR)/shapematch/
+	@if [ -n "$(UNITDIR)" ]; then \
+	  install -d $(DESTDIR)$(UNITDIR) && \
+	  sed 's|/usr/local/bin/|$(PREFIX)/bin/|g' deploy/systemd/shapematchd.service \
+	    >$(DESTDIR)$(UNITDIR)/shapematchd.service.tmp && \
+	  chmod 644 $(DESTDIR)$(UNITDIR)/shapematchd.service.tmp && \
+	  mv $(DESTDIR)$(UNITDIR)/shapematchd.service.tmp $(DESTDIR)$(UNITDIR)/shapematchd.service && \
+	  echo "installed; start the daemon with: systemctl daemon-reload && systemctl enable --now shapematchd"; \
+	else echo "installed under $(PREFIX); the systemd unit with UNITDIR=/etc/systemd/system"; fi
 
 .PHONY: uninstall
 uninstall:
 	rm -f $(INSTALL_PROGRAMS:%=$(DESTDIR)$(PREFIX)/bin/%) \
-	  $(DESTDIR)$(UNITDIR)/shapematchd.service
+	  $(foreach l,$(SM_LIBS),$(DESTDIR)$(LIBDIR)/$(l).so.$(VERSION) $(DESTDIR)$(LIBDIR)/$(l).so.$(SM_SOVERSION) $(DESTDIR)$(LIBDIR)/$(l).so) \
+	  $(DESTDIR)$(LIBDIR)/libshapematch.a $(DESTDIR)$(LIBDIR)/pkgconfig/shapematch.pc \
+	  $(DESTDIR)$(INCLUDEDIR)/shapematch.h $(DESTDIR)$(INCLUDEDIR)/shapematch_job.h \
+	  $(CORE_PUBLIC_HEADERS:core/include/%=$(DESTDIR)$(INCLUDEDIR)/%) \
+	  $(DESTDIR)$(MANDIR)/man1/shapematch.1 $(DESTDIR)$(MANDIR)/man8/shapematchd.8 \
+	  $(PYTHON_FILES:python/%=$(DESTDIR)$(PYTHONDIR)/%)
+	rm -rf $(DESTDIR)$(PYTHONDIR)/shapematch/__pycache__
+	-rmdir $(DESTDIR)$(INCLUDEDIR)/shapematch $(DESTDIR)$(PYTHONDIR)/shapematch 2>/dev/null
+	$(if $(UNITDIR),rm -f $(DESTDIR)$(UNITDIR)/shapematchd.service)
 
 clean:
 	rm -rf build demo-out

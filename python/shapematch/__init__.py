@@ -110,8 +110,7 @@ def _write_mesh(m, path, what):
             if not 0 <= e[i] < nv:
                 raise ValueError("%s elements: vertex index %d out of range [0, %d) (indices "
                                  "are 0-based)" % (what, e[i], nv))
-        e1 = _arrays.array.array("i", (x + 1 for x in e))  # the files are 1-based
-        _arrays.copy_into(c.elems, e1)
+        _arrays.copy_into(c.elems, e)  # 0-based in memory (the writer adds 1)
         for arr, n, ptr, name in ((erefs, ne, c.elem_refs, "element_refs"),
                                   (vrefs, nv, c.vert_refs, "vertex_refs"),
                                   (frefs, nf, c.facet_refs, "facet_refs")):
@@ -121,7 +120,7 @@ def _write_mesh(m, path, what):
                     raise ValueError("%s %s: %d values for %d entries" % (what, name, rows, n))
                 _arrays.copy_into(ptr, a)
         if nf:
-            _arrays.copy_into(c.facets, _arrays.array.array("i", (x + 1 for x in f)))
+            _arrays.copy_into(c.facets, f)
         st = core.sm_mesh_write(path.encode(), mesh, ctypes.byref(err))
         if st:
             _raise(err, st)

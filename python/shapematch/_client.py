@@ -224,11 +224,14 @@ class Job:
         from . import ShapematchError
         final = None
         message = None
+        cancelled = False
         for event in self.events():
             t = event.get("type")
-            if t == "progress" and progress is not None:
+            if t == "progress" and progress is not None and not cancelled:
                 if progress(event.get("iteration"), event.get("J"),
                             event.get("boundary_l2")) is False:
+                    # once: a second DELETE would delete the dismissed job
+                    cancelled = True
                     self.cancel()
             elif t in ("failed", "cancelled"):
                 message = event.get("message")

@@ -19,12 +19,13 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "shapematch/sm_error.h"
-#include "shapematch/sm_match.h"
-
+/* the core's headers are C only: C linkage for them too */
 #ifdef __cplusplus
 extern "C" {
 #endif
+
+#include "shapematch/sm_error.h"
+#include "shapematch/sm_match.h"
 
 /* A job that ran (or was refused at its start): its inputs, the state
  * reached and the result set it can write. */

@@ -338,3 +338,28 @@ class Sdf(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class Docs(unittest.TestCase):
+    def test_the_first_script_of_docs_python_md_runs(self):
+        """docs/python.md's first script runs as written and says what the page says"""
+        with open(os.path.join(ROOT, "docs", "python.md")) as f:
+            text = f.read()
+        blocks = text.split("```text\n")[1:]
+        script = next(b.split("```")[0] for b in blocks if b.startswith("import shapematch"))
+        tmp = tempfile.mkdtemp(prefix="sm-doc-")
+        os.symlink(os.path.join(ROOT, "examples"), os.path.join(tmp, "examples"))
+        cwd = os.getcwd()
+        out = []
+        try:
+            os.chdir(tmp)
+            exec(compile(script, "docs/python.md", "exec"),
+                 {"print": lambda *a: out.append(" ".join(map(str, a)))})
+            for name in ("result.mesh", "result.vtu", "displacement.sol", "history.csv",
+                         "summary.json"):
+                self.assertTrue(os.path.exists(os.path.join(tmp, "out-py", name)), name)
+        finally:
+            os.chdir(cwd)
+            shutil.rmtree(tmp, ignore_errors=True)
+        self.assertTrue(out[0].startswith("<shapematch.Result finished after 210 iterations"),
+                        out[0])

@@ -19,10 +19,17 @@ import shutil
 import tempfile
 
 from . import _arrays, _lib
-from ._client import Client, Job, HTTPError  # noqa: F401
 
 __all__ = ["match", "sdf", "parameters", "Result", "ShapematchError", "Client", "Job",
            "HTTPError"]
+
+
+def __getattr__(name):
+    # the client (urllib, http.client: ~0.1 s to import) only when used
+    if name in ("Client", "Job", "HTTPError"):
+        from . import _client
+        return getattr(_client, name)
+    raise AttributeError("module 'shapematch' has no attribute %r" % name)
 
 
 class ShapematchError(RuntimeError):

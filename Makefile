@@ -16,18 +16,20 @@ PREFIX ?= /usr/local
 UNITDIR ?=
 VERSION := 0.1.0
 
-# Debian packages the build, the tests, the demo and the benchmarks need.
+# Debian packages the build, the tests, the demo and the benchmarks need
+# (python3-numpy: the Python package's arrays, tests/python; man-db and
+# groff-base: man -l in tests/build/install.sh).
 DEB_PACKAGES := gcc make pkg-config libc6-dev \
   libsuitesparse-dev libopenblas0-pthread zlib1g-dev libcmocka-dev libjansson-dev \
   libmicrohttpd-dev libgnutls28-dev libcurl4-openssl-dev curl gmsh wrk jq systemd python3 python3-yaml strace \
   libdeflate-dev pmccabe clang libclang-rt-14-dev libomp-14-dev nodejs chromium postgresql libpq-dev \
-  libhypre-dev mpi-default-dev
+  libhypre-dev mpi-default-dev python3-numpy man-db groff-base
 
 # The part of them `make release` and `make install` need (the Dockerfile's
 # build stage: `make deps-build`); tests/deploy/ checks it is a subset.
 DEB_BUILD_PACKAGES := gcc make pkg-config libc6-dev libsuitesparse-dev libopenblas0-pthread \
   zlib1g-dev libdeflate-dev libcmocka-dev libjansson-dev libmicrohttpd-dev libgnutls28-dev libcurl4-openssl-dev libpq-dev \
-  libhypre-dev mpi-default-dev
+  libhypre-dev mpi-default-dev python3-numpy man-db groff-base
 
 CC ?= cc
 # hypre (BoomerAMG, the iterative solver of large templates) is built with

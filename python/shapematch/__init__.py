@@ -292,7 +292,7 @@ def _clamp(clamp_ball, clamp_elements, clamp_vertices, no_clamp, params):
                 clamp[row["name"]] = params.pop(row["name"])
         return clamp
     refs = clamp_elements if clamp_elements is not None else clamp_vertices
-    refs = [refs] if isinstance(refs, int) else list(refs)
+    refs = list(refs) if hasattr(refs, "__iter__") else [refs]  # a list, or one (numpy) int
     return {"kind": "elements" if clamp_elements is not None else "vertices", "refs": refs}
 
 

@@ -15,8 +15,6 @@ checked by the library's one parameter table.  Client talks to a daemon
 import ctypes
 import json
 import os
-import shutil
-import tempfile
 
 from . import _arrays, _lib
 
@@ -337,6 +335,7 @@ def match(template, *, target_mesh=None, target_sol=None, target_surface=None,
             if ext is None:
                 raise TypeError("target_surface: give a path (STL, OBJ, Medit, Gmsh)")
             if tmp is None:
+                import tempfile  # only for arrays: random, hashlib, ... cost an import
                 tmp = tempfile.mkdtemp(prefix="shapematch-")
             path = os.path.join(tmp, part + ext)
             if part == "target_sol":
@@ -348,6 +347,7 @@ def match(template, *, target_mesh=None, target_sol=None, target_surface=None,
         return _run(files, params_json, progress, names)
     finally:
         if tmp is not None:
+            import shutil
             shutil.rmtree(tmp, ignore_errors=True)
 
 

@@ -36,15 +36,15 @@ ALL_TARGETS += libshapematch.a
 # libshapematch.so.MAJOR: the same objects (BASE_CFLAGS has -fPIC), every
 # function hidden but those the public headers declare.  The version
 # script is generated from the headers by the compiler
-# (tests/build/exports.sh --list, gcc -aux-info: the one list, also the
-# exports check's), so a function added to a public header is exported
-# with nothing else to edit.  The programs keep linking the archive.
+# (tests/build/exports.sh --list: gcc's -aux-info, so gcc whatever CC is;
+# the one list, also the exports check's), so a function added to a public
+# header is exported with nothing else to edit.  The programs keep linking the archive.
 SM_SOVERSION := $(firstword $(subst ., ,$(VERSION)))
 CORE_PUBLIC_HEADERS := $(wildcard core/include/shapematch/*.h)
 define core_so_rules
 build/$(1)/libshapematch.map: $$(CORE_PUBLIC_HEADERS) tests/build/exports.sh
 	@mkdir -p $$(dir $$@)
-	@list=$$$$(CC="$$(CC)" tests/build/exports.sh --list) && [ -n "$$$$list" ] && \
+	@list=$$$$(CC=gcc tests/build/exports.sh --list) && [ -n "$$$$list" ] && \
 	  { echo 'SHAPEMATCH_$(SM_SOVERSION) {'; echo '  global:'; \
 	    printf '    %s;\n' $$$$list; echo '  local: *;'; echo '};'; } >$$@.tmp && mv $$@.tmp $$@
 build/$(1)/libshapematch.so.$(SM_SOVERSION): $$(CORE_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/libshapematch.map

@@ -289,6 +289,27 @@ class MatchBehaviour(unittest.TestCase):
             if p["flag"]:
                 self.assertIn(p["flag"], help_text)
 
+    def test_matches_in_threads_equal_one_at_a_time(self):
+        """matches in several threads at once give the sequential results"""
+        tmp = tempfile.mkdtemp(prefix="sm-py-")
+        kw = tiny_case(tmp)
+        tmpl = os.path.join(tmp, "template.mesh")
+        iters = [5, 12, 20, 30]
+        alone = [shapematch.match(tmpl, max_iter=k, **kw).vertices.tolist() for k in iters]
+        got = [None] * len(iters)
+
+        def run(i):
+            got[i] = shapematch.match(tmpl, max_iter=iters[i], **kw).vertices.tolist()
+
+        threads = [threading.Thread(target=run, args=(i,)) for i in range(len(iters))]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        shutil.rmtree(tmp, ignore_errors=True)
+        self.assertEqual(got, alone)
+        self.assertNotEqual(alone[0], alone[-1])
+
     @unittest.skipIf(os.environ.get("SM_VARIANT") == "asan",
                      "ASan's quarantine keeps freed memory: RSS is measured in release")
     def test_many_matches_bounded_rss(self):

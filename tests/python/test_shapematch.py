@@ -198,6 +198,28 @@ class Match2D(unittest.TestCase):
         self.assertTrue(np.array_equal(r2.vertices, r.vertices))
 
 
+class Match3D(unittest.TestCase):
+    @unittest.skipIf(os.environ.get("SM_VARIANT") == "asan",
+                     "the 2D case runs the same code under ASan; the 3D read takes ~10 s there")
+    def test_vertices_bit_for_bit_with_the_cli(self):
+        """3D example, 3 iterations: match's vertices are shapematch run's"""
+        ex = os.path.join(ROOT, "examples", "3d")
+        tmp = tempfile.mkdtemp(prefix="sm-py-")
+        kw = dict(target_mesh=os.path.join(ex, "background.mesh.gz"),
+                  target_sol=os.path.join(ex, "background.sol.gz"))
+        cp = subprocess.run([os.path.join(BIN, "shapematch"), "run", "--template",
+                             os.path.join(ex, "template.mesh"), "--target-mesh", kw["target_mesh"],
+                             "--target-sol", kw["target_sol"], "--clamp-ball", "0.5,0.5,0.5,0.05",
+                             "--max-iter", "3", "-q", "-o", tmp], check=False)
+        cli, _ = read_medit_vertices(os.path.join(tmp, "result.mesh"))
+        shutil.rmtree(tmp, ignore_errors=True)
+        r = shapematch.match(os.path.join(ex, "template.mesh"), clamp_ball=(0.5, 0.5, 0.5, 0.05),
+                             max_iter=3, **kw)
+        self.assertEqual(r.summary["iterations"], 3)
+        self.assertEqual((r.exit_code, cp.returncode), (10, 10))  # not converged after 3
+        self.assertEqual([tuple(v) for v in r.vertices.tolist()], cli)
+
+
 class MatchBehaviour(unittest.TestCase):
     def test_progress_every_iteration_and_stop(self):
         seen = []

@@ -120,6 +120,11 @@ sm_status sm_run_job(const sm_run_files *files, const char *params_json,
     *out = NULL;
     if (!files || !files->template_mesh)
         return sm_error_set(err, SM_ERR_INVALID, "template: no file given");
+    /* the combinations the CLI's options and the daemon's parts allow (the
+     * inputs reader takes them for granted) */
+    if (!files->target_surface && !(files->target_mesh && files->target_sol))
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "no target: give target_mesh and target_sol, or target_surface");
     if (!params_json || !*params_json)
         return sm_error_set(err, SM_ERR_INVALID,
                             "params: a params document is required (at least the clamp)");

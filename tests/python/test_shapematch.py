@@ -297,6 +297,9 @@ class MatchBehaviour(unittest.TestCase):
         with self.assertRaises(TypeError):
             shapematch.match(TEMPLATE2, target_mesh=CASE2["target_mesh"],
                              target_sol=CASE2["target_sol"])
+        with self.assertRaises(shapematch.ShapematchError) as e:  # no target_sol
+            shapematch.match(TEMPLATE2, target_mesh=CASE2["target_mesh"], clamp_ball=(0, 0, 1))
+        self.assertIn("no target", str(e.exception))
         with self.assertRaises(ValueError):
             shapematch.match(([[0, 0], [1, 0], [0, 1]], [[0, 1, 3]]), **CASE2)
 

@@ -125,6 +125,20 @@ else
     not_ok "the example loads the installed libshapematch.so.0" "$(LD_LIBRARY_PATH=$T/lib ldd "$W/match")"
 fi
 
+# docs/c-api.md's program on the job API, as printed there
+awk '/^```text$/ { on = 1; buf = ""; next } on && /^```$/ { on = 0; if (buf ~ /shapematch_job.h/) { printf "%s", buf; exit } next }
+     on { buf = buf $0 "\n" }' "$ROOT/docs/c-api.md" >"$W/job.c"
+mkdir -p "$W/jobrun"
+ln -s "$ROOT/examples" "$W/jobrun/examples"
+# shellcheck disable=SC2086
+if cc -std=c11 -Wall -Wextra -Werror -o "$W/job" "$W/job.c" $flags -lshapematch_job 2>"$W/job.err" &&
+    (cd "$W/jobrun" && LD_LIBRARY_PATH=$T/lib "$W/job" >"$W/job.out" 2>>"$W/job.err") &&
+    grep -q '^finished: {' "$W/job.out" && [ -s "$W/jobrun/out-c/result.mesh" ] && [ -s "$W/jobrun/out-c/result.vtu" ]; then
+    ok "docs/c-api.md's job program builds with pkg-config's flags + -lshapematch_job and runs examples/2d"
+else
+    not_ok "docs/c-api.md's job program builds and runs" "$(cat "$W/job.err")" "$(head -c 300 "$W/job.out" 2>/dev/null)"
+fi
+
 # ------------------------------------------------------------ Python
 out=$(cd "$W" && env -u SHAPEMATCH_LIBDIR PYTHONPATH="$T/lib/python3/dist-packages" /usr/bin/python3 -c '
 import shapematch, sys

@@ -170,6 +170,8 @@ demo: check-deps
 LIBDIR = $(PREFIX)/lib
 INCLUDEDIR = $(PREFIX)/include
 MANDIR = $(PREFIX)/share/man
+# Debian's python3 searches it for PREFIX=/usr; for /usr/local give
+# PYTHONDIR=/usr/local/lib/python3.X/dist-packages (docs/python.md)
 PYTHONDIR = $(PREFIX)/lib/python3/dist-packages
 PYTHON_FILES := $(wildcard python/shapematch/*.py)
 SM_LIBS := libshapematch libshapematch_job

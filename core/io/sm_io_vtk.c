@@ -168,8 +168,16 @@ static sm_status values(vtk_in *c, int64_t n, const char *type, double *dbl, int
     return SM_OK;
 }
 
-static int64_t *alloc_i64(vtk_in *c, int64_t n)
+/* Room for n values of type: checked against the bytes left (as values()
+ * does) before anything is allocated for them; NULL with err set if not. */
+static int64_t *alloc_i64(vtk_in *c, int64_t n, const char *type)
 {
+    int real = 0, size = type_size(type, &real);
+    uint64_t least = c->binary ? (uint64_t)(size ? size : 1) : 2;
+    if (n < 0 || (uint64_t)n > sm__reader_max_remaining(c->r) / least) {
+        fail(c, SM_ERR_FORMAT, "%" PRId64 " values do not fit in the file", n);
+        return NULL;
+    }
     int64_t *p = malloc(((size_t)n + 1) * sizeof *p);
     if (!p)
         sm_error_set(c->err, SM_ERR_NOMEM, "%s: out of memory", c->r->path);
@@ -189,14 +197,14 @@ static sm_status read_cell_array(vtk_in *c, int64_t a, int64_t b, int64_t **off,
             return st != SM_OK ? st : fail(c, SM_ERR_FORMAT, "expected OFFSETS");
         if ((st = word(c, "a data type", w, sizeof w)) != SM_OK)
             return st;
-        if (!(*off = alloc_i64(c, a)) || (st = values(c, a, w, NULL, *off)) != SM_OK)
-            return *off ? st : SM_ERR_NOMEM;
+        if (!(*off = alloc_i64(c, a, w)) || (st = values(c, a, w, NULL, *off)) != SM_OK)
+            return *off ? st : c->err->code;
         if ((st = word(c, "CONNECTIVITY", w, sizeof w)) != SM_OK || strcmp(w, "CONNECTIVITY"))
             return st != SM_OK ? st : fail(c, SM_ERR_FORMAT, "expected CONNECTIVITY");
         if ((st = word(c, "a data type", w, sizeof w)) != SM_OK)
             return st;
-        if (!(*conn = alloc_i64(c, b)) || (st = values(c, b, w, NULL, *conn)) != SM_OK)
-            return *conn ? st : SM_ERR_NOMEM;
+        if (!(*conn = alloc_i64(c, b, w)) || (st = values(c, b, w, NULL, *conn)) != SM_OK)
+            return *conn ? st : c->err->code;
         *ncells = a - 1;
         if ((*off)[0] != 0 || (*off)[a - 1] != b)
             return fail(c, SM_ERR_FORMAT, "offsets do not span the connectivity");
@@ -206,14 +214,16 @@ static sm_status read_cell_array(vtk_in *c, int64_t a, int64_t b, int64_t **off,
         return SM_OK;
     }
     /* a cells, b integers: each cell its count, then its points */
-    int64_t *all = alloc_i64(c, b);
+    if (a > b) /* each cell takes at least its count */
+        return fail(c, SM_ERR_FORMAT, "%" PRId64 " cells in %" PRId64 " integers", a, b);
+    int64_t *all = alloc_i64(c, b, "int");
     if (!all || (st = values(c, b, "int", NULL, all)) != SM_OK) {
         free(all);
-        return all ? st : SM_ERR_NOMEM;
+        return all ? st : c->err->code;
     }
-    if (!(*off = alloc_i64(c, a))) {
+    if (!(*off = malloc(((size_t)a + 1) * sizeof **off))) { /* a <= b, all held */
         free(all);
-        return SM_ERR_NOMEM;
+        return sm_error_set(c->err, SM_ERR_NOMEM, "%s: out of memory", c->r->path);
     }
     int64_t at = 0, m = 0;
     for (int64_t i = 0; i < a; i++) {
@@ -257,8 +267,11 @@ static sm_status read_points(vtk_in *c)
         return st;
     if (c->d->coords)
         return fail(c, SM_ERR_FORMAT, "two POINTS sections");
-    int real;
-    if (type_size(type, &real) && (uint64_t)n > sm__reader_max_remaining(c->r) / 3)
+    int real, size = type_size(type, &real);
+    if (!size)
+        return fail(c, SM_ERR_FORMAT, "data type '%.40s' is not read", type);
+    uint64_t least = 3 * (c->binary ? (uint64_t)size : 2); /* per point */
+    if ((uint64_t)n > sm__reader_max_remaining(c->r) / least)
         return fail(c, SM_ERR_FORMAT, "%" PRId64 " points do not fit in the file", n);
     if ((st = sm__cells_points(c->r, c->d, n, c->err)) != SM_OK)
         return fail(c, st, "%s", c->r->why);
@@ -302,9 +315,9 @@ static sm_status read_cell_types(vtk_in *c)
     if (!c->offsets || n != c->ugrid_cells)
         return fail(c, SM_ERR_FORMAT, "CELL_TYPES %" PRId64 " without CELLS of as many cells",
                     n);
-    int64_t *types = alloc_i64(c, n);
+    int64_t *types = alloc_i64(c, n, "unsigned_char");
     if (!types)
-        return SM_ERR_NOMEM;
+        return c->err->code;
     if ((st = values(c, n, "int", NULL, types)) == SM_OK)
         st = add_cells(c, c->offsets, c->conn, n, types, 0);
     free(types);
@@ -320,8 +333,8 @@ static sm_status data_array(vtk_in *c, const char *name, int64_t k, int64_t n, c
         return fail(c, SM_ERR_FORMAT, "array '%.40s': bad size", name);
     if (!keep)
         return values(c, n * k, type, NULL, NULL);
-    int64_t *v = alloc_i64(c, n);
-    sm_status st = v ? values(c, n, type, NULL, v) : SM_ERR_NOMEM;
+    int64_t *v = alloc_i64(c, n, type);
+    sm_status st = v ? values(c, n, type, NULL, v) : c->err->code;
     if (st == SM_OK && !(c->refs = malloc(((size_t)n + 1) * sizeof *c->refs)))
         st = sm_error_set(c->err, SM_ERR_NOMEM, "%s: out of memory", c->r->path);
     for (int64_t i = 0; st == SM_OK && i < n; i++) {

@@ -137,6 +137,83 @@ static int args_parse_reals(const char *flag, const char *text, double *vals,
 
 /* ---- job options ---- */
 
+/* An item of a reference list that is not a number: a physical name. */
+static int has_name(const char *text)
+{
+    for (const char *p = text; *p;) {
+        size_t n = strcspn(p, ",");
+        char *end;
+        char item[64];
+        snprintf(item, sizeof item, "%.*s", (int)(n < 63 ? n : 63), p);
+        (void)strtol(item, &end, 10);
+        if (n && (end == item || *end))
+            return 1;
+        p += n + (p[n] == ',');
+    }
+    return 0;
+}
+
+/* The names of m of dimension dim (any when dim < 0), for messages. */
+static void list_names(const sm_mesh *m, int dim, char *out, size_t cap)
+{
+    size_t at = 0;
+    out[0] = '\0';
+    for (int32_t i = 0; i < m->nnames && at + 1 < cap; i++)
+        if (dim < 0 || m->names[i].dim == dim)
+            at += (size_t)snprintf(out + at, cap - at, "%s\"%s\" (%d)", at ? ", " : "",
+                                   m->names[i].name, (int)m->names[i].tag);
+    if (!out[0])
+        snprintf(out, cap, "none");
+}
+
+/* text's items (numbers, or names of dimension dim) into refs. */
+static int resolve_list(const char *flag, const char *text, const sm_mesh *m, int dim,
+                        int32_t *refs, int *count, char *msg, size_t cap)
+{
+    int n = 0;
+    for (const char *p = text; *p;) {
+        size_t len = strcspn(p, ",");
+        char item[64], *end;
+        snprintf(item, sizeof item, "%.*s", (int)(len < 63 ? len : 63), p);
+        long v = strtol(item, &end, 10);
+        int found = end != item && !*end;
+        for (int32_t i = 0; !found && i < m->nnames; i++)
+            if ((dim < 0 || m->names[i].dim == dim) && strcmp(m->names[i].name, item) == 0) {
+                v = m->names[i].tag;
+                found = 1;
+            }
+        if (!found) {
+            char names[512];
+            list_names(m, dim, names, sizeof names);
+            return cli_fail(msg, cap, "%s: the template has no physical group named '%s'%s "
+                            "(its names%s: %s)", flag, item,
+                            dim < 0 ? "" : dim == m->dim ? " of its elements" : " of its facets",
+                            dim < 0 ? "" : dim == m->dim ? " of elements" : " of facets", names);
+        }
+        if (n >= SM_MAX_REFS || v < INT32_MIN || v > INT32_MAX)
+            return cli_fail(msg, cap, "%s: too many values or out of range", flag);
+        refs[n++] = (int32_t)v;
+        p += len + (p[len] == ',');
+    }
+    *count = n;
+    return 0;
+}
+
+int job_options_resolve_names(job_options *j, const sm_mesh *m, char *msg, size_t cap)
+{
+    sm_params *p = &j->params;
+    if (j->clamp_names &&
+        resolve_list(j->clamp_flag, j->clamp_names, m,
+                     p->clamp == SM_CLAMP_ELEMENTS ? m->dim : -1, p->clamp_refs,
+                     &p->n_clamp_refs, msg, cap) != 0)
+        return -1;
+    if (j->free_names && resolve_list("--free-boundary", j->free_names, m, m->dim - 1,
+                                      p->free_refs, &p->n_free_refs, msg, cap) != 0)
+        return -1;
+    j->clamp_names = j->free_names = NULL;
+    return 0;
+}
+
 /* The job parameters' options are the rows of the parameter table
  * (sm_params_table, shapematch/sm_params.h) and of the background rows
  * (sm_background_params_table) that have a flag: the flag, the value's
@@ -311,11 +388,18 @@ int job_option_apply(job_options *j, const char *flag, const char *value,
     if (strcmp(flag, "--clamp-elements") == 0 || strcmp(flag, "--clamp-vertices") == 0) {
         if (set_clamp(j, flag, msg, cap) != 0)
             return -1;
-        if (args_parse_refs(flag, value, p->clamp_refs, SM_MAX_REFS,
-                            &p->n_clamp_refs, msg, cap) != 0)
+        j->clamp_names = NULL;
+        if (has_name(value))
+            j->clamp_names = value; /* resolved once the template is read */
+        else if (args_parse_refs(flag, value, p->clamp_refs, SM_MAX_REFS,
+                                 &p->n_clamp_refs, msg, cap) != 0)
             return -1;
         p->clamp = strcmp(flag, "--clamp-elements") == 0 ? SM_CLAMP_ELEMENTS
                                                         : SM_CLAMP_VERTICES;
+        return 0;
+    }
+    if (strcmp(flag, "--free-boundary") == 0 && value && has_name(value)) {
+        j->free_names = value;
         return 0;
     }
     int background;

@@ -35,6 +35,11 @@ typedef struct job_options {
     /* --background-size, --background-padding (0: not given): the params
      * background_size, background_padding of a generated background */
     sm_background_params background;
+    /* --clamp-elements/--clamp-vertices and --free-boundary given with a
+     * physical name among the numbers ("core,7"): the text, resolved
+     * against the template's names by job_options_resolve_names (NULL:
+     * numbers only, already in params) */
+    const char *clamp_names, *free_names;
 } job_options;
 
 typedef struct run_options {
@@ -72,6 +77,12 @@ int job_option_lookup(const char *flag);
  * ones without a value).  Returns 0, or -1 with msg naming the flag. */
 int job_option_apply(job_options *j, const char *flag, const char *value,
                      char *msg, size_t cap);
+/* Resolves the physical names of --clamp-elements (elements: dimension
+ * m->dim), --clamp-vertices (any dimension) and --free-boundary (facets:
+ * m->dim - 1) against m's names (Gmsh $PhysicalNames) into params' refs.
+ * Returns 0 (also when no name was given), or -1 with msg listing the
+ * names the template has. */
+int job_options_resolve_names(job_options *j, const sm_mesh *m, char *msg, size_t cap);
 /* Checks that involve several flags: exactly one clamp option, --alpha
  * only with --no-clamp, --step-initial <= --step-max. */
 int job_options_finish(job_options *j, char *msg, size_t cap);

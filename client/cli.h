@@ -53,6 +53,9 @@ enum cli_exit_code {
 
 /* The text block describing the exit codes, shared by the help pages. */
 extern const char cli_exit_codes_help[];
+/* The codes `run` and `sdf` can return, for their help pages. */
+extern const char cli_exit_codes_run_help[];
+extern const char cli_exit_codes_sdf_help[];
 
 /* A subcommand: argv[0] is the command name, options follow.  Returns
  * the process exit code. */

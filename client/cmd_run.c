@@ -191,12 +191,14 @@ static void print_surface_health(const run_options *o, const sm_job_inputs *in)
             o->target_mesh_path, in->background->nverts, in->sdf_seconds);
 }
 
-static int apply_params(const run_options *o, sm_job_inputs *in)
+static int apply_params(run_options *o, sm_job_inputs *in)
 {
     char msg[ARGS_MSG_LEN];
     sm_error err;
     sm_error_clear(&err);
     if (job_options_check_dim(&o->job, in->dim, msg, sizeof msg) != 0)
+        return run_error(o, CLI_EXIT_USAGE, "%s", msg);
+    if (job_options_resolve_names(&o->job, in->template_mesh, msg, sizeof msg) != 0)
         return run_error(o, CLI_EXIT_USAGE, "%s", msg);
     if (sm_params_validate(&o->job.params, in->dim, &err) != SM_OK)
         return run_error(o, CLI_EXIT_USAGE, "invalid parameters: %s", err.msg);
@@ -265,13 +267,16 @@ void cmd_run_help(void)
     printf("Usage: shapematch run --template T.mesh --target-mesh B.mesh --target-sol B.sol\n"
            "                      CLAMP [PARAMETERS] [--format LIST] [--quiet] [--json]\n"
            "                      -o OUTDIR\n"
+           "       shapematch run --template T.mesh --target-surface S [--target-mesh B.mesh]\n"
+           "                      CLAMP [PARAMETERS] [--format LIST] [--quiet] [--json]\n"
+           "                      -o OUTDIR\n"
            "\n"
            "Deforms the template mesh onto the target shape given by its signed distance\n"
            "function (P1 on the background mesh B, negative inside), locally, no daemon.\n"
-           "Mesh and solution files may be .mesh/.meshb (or Gmsh .msh) and .sol/.solb,\n"
-           "optionally .gz.  Or: --target-surface S [--target-mesh B] matches onto a\n"
-           "surface (STL, OBJ, Medit, Gmsh): its exact signed distance is computed on B,\n"
-           "or on a background generated around template and surface.\n"
+           "Meshes may be .mesh/.meshb, Gmsh .msh or VTK .vtk/.vtu; solutions .sol/.solb;\n"
+           "any optionally .gz.  Or: --target-surface S [--target-mesh B] matches onto a\n"
+           "surface (STL, OBJ, PLY, OFF, VTK, Medit, Gmsh): its exact signed distance is\n"
+           "computed on B, or on a background generated around template and surface.\n"
            "\n"
            "Inputs and outputs:\n"
            "  --template FILE         template mesh (triangles in 2D, tetrahedra in 3D)\n"
@@ -284,10 +289,12 @@ void cmd_run_help(void)
     printf("  -o, --output DIR        output directory (created if missing); receives\n"
            "                          the --format files, history.csv and summary.json\n"
            "  --format LIST           comma-separated: mesh (result.mesh), meshb\n"
-           "                          (result.meshb), vtu (result.vtu, ParaView),\n"
+           "                          (result.meshb), vtu (result.vtu for ParaView,\n"
+           "                          zlib-compressed), vtu-ascii (result.vtu in ASCII),\n"
            "                          binary (result.smmesh, proto/PAYLOAD.md), sol\n"
            "                          (displacement.sol), solb (displacement.solb); gz\n"
-           "                          compresses them (FILE.gz); default " RUN_DEFAULT_FORMATS "\n"
+           "                          compresses them (FILE.gz; not result.vtu, which is\n"
+           "                          compressed inside); default " RUN_DEFAULT_FORMATS "\n"
            "                          (the same files as 'shapematch fetch --format')\n"
            "\n");
     job_options_help(stdout);
@@ -301,7 +308,7 @@ void cmd_run_help(void)
            "Ctrl-C stops the run after the current iteration and still writes the\n"
            "outputs (stop reason \"cancelled\"); a second Ctrl-C aborts at once.\n"
            "\n%s",
-           cli_exit_codes_help);
+           cli_exit_codes_run_help);
 }
 
 int cmd_run(int argc, char **argv)

@@ -24,8 +24,8 @@ typedef struct sdf_options {
 
 void cmd_sdf_help(void)
 {
-    printf("Usage: shapematch sdf --surface S --background B -o OUT.sol\n"
-           "       shapematch sdf --surface S -o DIR [--background-size H]\n"
+    printf("Usage: shapematch sdf --surface S --background B -o OUT.sol|OUT.vtu\n"
+           "       shapematch sdf --surface S -o DIR|OUT.vtu [--background-size H]\n"
            "                      [--background-padding P]\n"
            "\n"
            "Signed distance to a surface (negative inside) at the vertices of a background\n"
@@ -33,9 +33,12 @@ void cmd_sdf_help(void)
            "generated one written with its distance to DIR/background.mesh and\n"
            "DIR/background.sol.\n"
            "\n"
-           "  --surface FILE          target surface: %s\n"
-           "  --background FILE       background mesh (Medit or Gmsh .msh)\n"
-           "  -o PATH                 OUT.sol with --background, else a directory\n"
+           "  --surface FILE          target surface: STL, OBJ, PLY, OFF, PLY2, VTK\n"
+           "                          .vtk/.vtu/.vtp, Medit or Gmsh .msh, optionally .gz\n"
+           "  --background FILE       background mesh (Medit, Gmsh .msh or VTK .vtk/.vtu)\n"
+           "  -o PATH                 OUT.sol with --background, else a directory; or\n"
+           "                          OUT.vtu (either way): the background and its\n"
+           "                          distance in one file for ParaView\n"
            "  --background-size H     generated background: cell size near the surface\n"
            "                          (default: the surface's mean edge length); cells\n"
            "                          double away from it (graded, non-conforming)\n"
@@ -45,7 +48,13 @@ void cmd_sdf_help(void)
            "The surface health report (holes, non-manifold edges, facets reoriented,\n"
            "duplicate and degenerate facets, components, bounding box) goes to stderr.\n"
            "\n%s",
-           SM_SURFACE_FORMATS, cli_exit_codes_help);
+           cli_exit_codes_sdf_help);
+}
+
+static int has_suffix(const char *s, const char *suffix)
+{
+    size_t n = strlen(s), k = strlen(suffix);
+    return n >= k && strcmp(s + n - k, suffix) == 0;
 }
 
 static int usage_error(const char *msg)
@@ -90,6 +99,13 @@ static int parse(int argc, char **argv, sdf_options *o, int *done)
     }
     if (!o->surface || !o->out)
         return usage_error("--surface and -o are required");
+    static const char *const files[] = {".sol", ".solb", ".gz", ".mesh", ".meshb", ".msh",
+                                        ".vtk", ".vtp"};
+    for (size_t k = 0; !o->background && k < sizeof files / sizeof files[0]; k++)
+        if (has_suffix(o->out, files[k]))
+            return usage_error("without --background, -o names a directory (for "
+                               "background.mesh and background.sol) or a .vtu file, not a "
+                               "mesh or solution file");
     if (o->background && (o->size > 0 || o->padding >= 0))
         return usage_error("--background-size and --background-padding are for a generated "
                            "background (without --background)");
@@ -148,7 +164,10 @@ static int write_outputs(const sdf_options *o, const sm_mesh *bg, const sm_sol *
 {
     sm_error err;
     sm_error_clear(&err);
-    if (o->background) {
+    if (has_suffix(o->out, ".vtu")) { /* one file for ParaView: mesh and distance */
+        if (sm_vtu_write(o->out, bg, NULL, NULL, sol->values, &err) == SM_OK)
+            return CLI_EXIT_OK;
+    } else if (o->background) {
         if (sm_sol_write(o->out, sol, &err) == SM_OK)
             return CLI_EXIT_OK;
     } else {

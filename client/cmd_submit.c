@@ -22,6 +22,7 @@
 #include "sm_proto_events.h"
 #include "sm_proto_params.h"
 #include "sm_proto_vocab.h"
+#include "shapematch/sm_io.h"
 
 /* zlib level for the uploads: the fastest; a mesh's text compresses well
  * even so, and the daemon is often on a fast link */
@@ -285,11 +286,15 @@ void cmd_submit_help(void)
            "its results into OUTDIR like 'shapematch fetch'.\n"
            "\n"
            "Inputs:\n"
-           "  --template FILE         template mesh (.mesh/.meshb, optionally .gz)\n"
+           "  --template FILE         template mesh: Medit .mesh/.meshb, Gmsh .msh, or VTK\n"
+           "                          .vtk/.vtu (tetrahedra; planar triangles in 2D),\n"
+           "                          optionally .gz\n"
            "  --target-mesh FILE      background mesh carrying the target distance\n"
            "  --target-sol FILE       signed distance, one value per background vertex\n"
+           "                          (Medit .sol/.solb, optionally .gz)\n"
            "  --target-surface FILE   instead of --target-sol: the target's surface (STL, OBJ,\n"
-           "                          Medit, Gmsh .msh); the daemon computes its signed\n"
+           "                          PLY, OFF, PLY2, VTK .vtk/.vtu/.vtp, Medit, Gmsh .msh,\n"
+           "                          optionally .gz); the daemon computes its signed\n"
            "                          distance on --target-mesh, or on a background it\n"
            "                          generates when --target-mesh is not given\n");
     job_options_help_background(stdout);
@@ -516,6 +521,20 @@ int cmd_submit(int argc, char **argv)
     if (a.job.params.save_every > 0 && !a.quiet)
         fprintf(stderr, "shapematch submit: warning: --save-every: the daemon does not serve "
                         "intermediate meshes\n");
+    if (a.job.clamp_names || a.job.free_names) {
+        /* physical names: the daemon takes numbers, the template has the names */
+        sm_mesh *m = NULL;
+        sm_error err;
+        sm_error_clear(&err);
+        if (sm_mesh_read(a.template_path, &m, &err) != SM_OK) {
+            fprintf(stderr, "shapematch submit: %s\n", err.msg);
+            return CLI_EXIT_INPUT;
+        }
+        int bad = job_options_resolve_names(&a.job, m, msg, sizeof msg);
+        sm_mesh_free(m);
+        if (bad)
+            return remote_usage_error("submit", msg);
+    }
 
     submission s;
     memset(&s, 0, sizeof s);

@@ -7,22 +7,31 @@
 
 #include "cli.h"
 
-const char cli_exit_codes_help[] =
-    "Exit codes:\n"
-    "  0  finished and converged (summary.json \"converged\": true)\n"
-    "  1  usage error (unknown option, missing or malformed argument)\n"
-    "  2  bad input file (unreadable, malformed, dimension or size mismatch)\n"
-    "  3  numerical failure (factorization failed, no valid step at the start)\n"
-    "  4  cannot write the outputs\n"
-    "  5  cancelled (Ctrl-C / SIGTERM); outputs of the state reached are written;\n"
-    "     daemon commands: the job was cancelled (dismissed) on the daemon\n"
-    "  6  cannot connect to the daemon, or the connection was lost\n"
-    "  7  the daemon refused the request (HTTP 4xx, its detail is printed): 401 no or\n"
-    "     wrong token, 404 unknown job or no results yet, 422 invalid job\n"
-    "  8  the job failed on the daemon (the reason is printed)\n"
+/* Each code's line(s), shared by the help pages (run and sdf list their
+ * own codes only). */
+#define EXIT_0 "  0  finished and converged (summary.json \"converged\": true)\n"
+#define EXIT_1 "  1  usage error (unknown option, missing or malformed argument)\n"
+#define EXIT_2 "  2  bad input file (unreadable, malformed, dimension or size mismatch)\n"
+#define EXIT_3 "  3  numerical failure (factorization failed, no valid step at the start)\n"
+#define EXIT_4 "  4  cannot write the outputs\n"
+#define EXIT_5 "  5  cancelled (Ctrl-C / SIGTERM); outputs of the state reached are written\n"
+#define EXIT_5_DAEMON "     daemon commands: the job was cancelled (dismissed) on the daemon\n"
+#define EXIT_6_9                                                                          \
+    "  6  cannot connect to the daemon, or the connection was lost\n"                     \
+    "  7  the daemon refused the request (HTTP 4xx, its detail is printed): 401 no or\n"  \
+    "     wrong token, 404 unknown job or no results yet, 422 invalid job\n"              \
+    "  8  the job failed on the daemon (the reason is printed)\n"                         \
     "  9  daemon error (HTTP 5xx) or a response the client cannot understand\n"
-    "  10 run: finished but not converged (quality_blocked, or the boundary error\n"
-    "     ends above half the background's element size); every output is written\n";
+#define EXIT_10                                                                    \
+    "  10 run: finished but not converged (quality_blocked, or the boundary error\n" \
+    "     ends above half the background's element size); every output is written\n"
+
+const char cli_exit_codes_help[] =
+    "Exit codes:\n" EXIT_0 EXIT_1 EXIT_2 EXIT_3 EXIT_4 EXIT_5 EXIT_5_DAEMON EXIT_6_9 EXIT_10;
+const char cli_exit_codes_run_help[] =
+    "Exit codes:\n" EXIT_0 EXIT_1 EXIT_2 EXIT_3 EXIT_4 EXIT_5 EXIT_10;
+const char cli_exit_codes_sdf_help[] =
+    "Exit codes:\n  0  the distance is written\n" EXIT_1 EXIT_2 EXIT_4;
 
 typedef struct command {
     const char *name;

@@ -20,6 +20,7 @@ CORE_IO_SRCS := core/io/sm_io.c core/io/sm_io_surface.c \
   core/io/sm_io_medit.c core/io/sm_io_medit_write.c core/io/sm_medit_common.c \
   core/io/sm_io_msh.c core/io/sm_io_sol.c core/io/sm_io_stl.c core/io/sm_io_obj.c \
   core/io/sm_io_vtu.c \
+  core/io/sm_io_cells.c core/io/sm_io_ply.c core/io/sm_io_off.c core/io/sm_io_vtk.c core/io/sm_io_vtkxml.c \
   core/io/sm_reader.c core/io/sm_writer.c core/io/sm_stream.c core/io/sm_inflate.c \
   core/io/sm_number.c
 CORE_SRCS := $(CORE_BASE_SRCS) $(CORE_FIELD_SRCS) $(CORE_SDF_SRCS) $(CORE_SOLVE_SRCS) \

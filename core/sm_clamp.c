@@ -1,5 +1,6 @@
 #include "shapematch/sm_clamp.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -95,6 +96,60 @@ int sm_clamp_rank(const sm_mesh *m, const uint8_t *clamped)
     return best > 1e-20 * far_d2 * far_d2 ? 2 : 1;
 }
 
+static int cmp_i32(const void *a, const void *b)
+{
+    int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* What an empty clamp could have been: the references that exist (with
+ * their physical names) for a clamp by references, and the template's
+ * bounding box. */
+static void empty_hint(const sm_mesh *m, const sm_params *p, char *out, size_t cap)
+{
+    size_t at = 0;
+    out[0] = '\0';
+    const int32_t *refs = p->clamp == SM_CLAMP_ELEMENTS   ? m->elem_refs
+                          : p->clamp == SM_CLAMP_VERTICES ? m->vert_refs : NULL;
+    int32_t n = p->clamp == SM_CLAMP_ELEMENTS ? m->nelems : m->nverts;
+    int32_t *sorted = refs ? malloc(((size_t)n + 1) * sizeof *sorted) : NULL;
+    if (sorted) {
+        memcpy(sorted, refs, (size_t)n * sizeof *sorted);
+        qsort(sorted, (size_t)n, sizeof *sorted, cmp_i32);
+        at += (size_t)snprintf(out + at, cap - at, "; the %s references are",
+                               p->clamp == SM_CLAMP_ELEMENTS ? "element" : "vertex");
+        int shown = 0;
+        for (int32_t i = 0; i < n && at < cap; i++) {
+            if (i > 0 && sorted[i] == sorted[i - 1])
+                continue;
+            if (++shown > 12) {
+                at += (size_t)snprintf(out + at, cap - at, " ...");
+                break;
+            }
+            at += (size_t)snprintf(out + at, cap - at, "%s %ld", shown > 1 ? "," : "",
+                                   (long)sorted[i]);
+            for (int32_t k = 0; k < m->nnames && at < cap; k++)
+                if (m->names[k].tag == sorted[i] &&
+                    (p->clamp != SM_CLAMP_ELEMENTS || m->names[k].dim == m->dim))
+                    at += (size_t)snprintf(out + at, cap - at, " (\"%s\")", m->names[k].name);
+        }
+        free(sorted);
+    }
+    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+    for (int32_t v = 0; v < m->nverts; v++)
+        for (int c = 0; c < m->dim; c++) {
+            double x = m->coords[(size_t)v * (size_t)m->dim + (size_t)c];
+            lo[c] = v == 0 || x < lo[c] ? x : lo[c];
+            hi[c] = v == 0 || x > hi[c] ? x : hi[c];
+        }
+    if (at < cap && m->dim == 2)
+        snprintf(out + at, cap - at, "; the template spans [%g, %g] x [%g, %g]", lo[0], hi[0],
+                 lo[1], hi[1]);
+    else if (at < cap)
+        snprintf(out + at, cap - at, "; the template spans [%g, %g] x [%g, %g] x [%g, %g]",
+                 lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]);
+}
+
 sm_status sm_clamp_check(const sm_mesh *m, const sm_params *p, int32_t *nclamped, sm_error *err)
 {
     if (nclamped)
@@ -112,8 +167,12 @@ sm_status sm_clamp_check(const sm_mesh *m, const sm_params *p, int32_t *nclamped
     const char *what = p->clamp == SM_CLAMP_BALL       ? "lies in the ball"
                        : p->clamp == SM_CLAMP_ELEMENTS ? "belongs to an element with these references"
                                                        : "has one of these references";
-    if (count == 0)
-        return sm_error_set(err, SM_ERR_INVALID, "the clamp set is empty: no template vertex %s", what);
+    if (count == 0) {
+        char hint[SM_ERROR_MSG_LEN / 2];
+        empty_hint(m, p, hint, sizeof hint);
+        return sm_error_set(err, SM_ERR_INVALID, "the clamp set is empty: no template vertex %s%s",
+                            what, hint);
+    }
     if (count == m->nverts)
         return sm_error_set(err, SM_ERR_INVALID, "every template vertex %s: nothing could move", what);
     if (rank < m->dim - 1)

@@ -78,7 +78,9 @@ static const sm_param_info table[] = {
      "element quality floor for an accepted step (or the template's own worst quality, if "
      "lower)"},
     {"save_every", INT(save_every), RANGE(0, CLOSED, INT_MAX, CLOSED), 0, NULL, 0,
-     "--save-every", "K", "also write OUTDIR/iter-NNNNN.mesh every K iterations (0: never)"},
+     "--save-every", "K",
+     "also write OUTDIR/iter-NNNNN.mesh and .vtu every K iterations, the .vtu listed in "
+     "snapshots.pvd (0: never)"},
     {"step_initial", REAL(step_initial), RANGE(0, OPEN, 1, CLOSED), 0.01, NULL, 0,
      "--step-initial", "S", "first step length, as a fraction of the template diameter"},
     {"step_max", REAL(step_max), RANGE(0, OPEN, 1, CLOSED), 0.1, NULL, 0, "--step-max", "S",

@@ -62,11 +62,20 @@ unsigned sm_result_outputs_fix(unsigned outputs)
     return outputs | SM_RESULT_OUT_FORMAT((size_t)(csv - sm_result_formats));
 }
 
+int sm_result_output_gz(size_t i, unsigned outputs)
+{
+    return i < SM_RESULT_FORMATS_N && (outputs & SM_RESULT_OUT_GZ) &&
+           sm_result_formats[i].kind != SM_RESULT_HISTORY &&
+           strcmp(sm_result_formats[i].name, "vtu") != 0;
+}
+
 /* The bit of the mesh or displacement format named p[0..len), 0 if none. */
 static unsigned output_bit(const char *p, size_t len)
 {
     if (len == 2 && strncmp(p, "gz", 2) == 0)
         return SM_RESULT_OUT_GZ;
+    if (len == 9 && strncmp(p, "vtu-ascii", 9) == 0)
+        return SM_RESULT_OUT_VTU_ASCII | output_bit("vtu", 3);
     for (size_t i = 0; i < SM_RESULT_FORMATS_N; i++) {
         const sm_result_format *f = &sm_result_formats[i];
         if (f->kind != SM_RESULT_HISTORY && strlen(f->name) == len &&
@@ -96,6 +105,11 @@ int sm_result_outputs_parse(const char *text, unsigned *outputs, char *msg, size
     }
     if (!(set & ~SM_RESULT_OUT_GZ)) {
         snprintf(msg, cap, "'gz' compresses the formats it comes with: name at least one");
+        return -1;
+    }
+    if ((set & SM_RESULT_OUT_GZ) && (set & SM_RESULT_OUT_VTU_ASCII)) {
+        snprintf(msg, cap, "'vtu-ascii' with 'gz' would make a .vtu.gz, which ParaView does not "
+                           "open: name vtu (zlib-compressed inside) or leave gz out");
         return -1;
     }
     *outputs = set;

@@ -70,6 +70,11 @@ const sm_result_format *sm_result_formats_of(sm_result_kind kind, size_t *n);
  * in its output folder). */
 #define SM_SNAPSHOTS_DIR "snapshots"
 #define SM_SNAPSHOT_FORMAT "iter-%05d.mesh"
+/* Beside each, the same shape for ParaView (iter-NNNNN.vtu: zlib-compressed,
+ * with the displacement from the template), and a collection of them all
+ * to scrub through the deformation (snapshots.pvd, rewritten with each). */
+#define SM_SNAPSHOT_VTU_FORMAT "iter-%05d.vtu"
+#define SM_SNAPSHOT_PVD "snapshots.pvd"
 #define SM_SNAPSHOT_MEDIA "application/x-medit-mesh"
 
 /* ---- a choice of result files (`shapematch run --format`) ---- */
@@ -81,8 +86,15 @@ const sm_result_format *sm_result_formats_of(sm_result_kind kind, size_t *n);
 #define SM_RESULT_OUT_FORMAT(i) (1u << (i))
 #define SM_RESULT_OUT_ALL ((1u << SM_RESULT_FORMATS_N) - 1u)
 #define SM_RESULT_OUT_GZ (1u << SM_RESULT_FORMATS_N)
-#define SM_RESULT_OUT_NAMES "mesh, meshb, vtu, binary, sol, solb, gz"
+/* "vtu-ascii": result.vtu in ASCII rather than zlib-compressed binary.
+ * gz does not apply to result.vtu, which is compressed inside (ParaView
+ * does not open a .vtu.gz); vtu-ascii with gz is refused. */
+#define SM_RESULT_OUT_VTU_ASCII (1u << (SM_RESULT_FORMATS_N + 1))
+#define SM_RESULT_OUT_NAMES "mesh, meshb, vtu, vtu-ascii, binary, sol, solb, gz"
 unsigned sm_result_outputs_fix(unsigned outputs);
+/* 1 when the file of sm_result_formats[i] is written as FILE.gz under
+ * outputs (gz chosen, and neither history nor .vtu). */
+int sm_result_output_gz(size_t i, unsigned outputs);
 /* "mesh,vtu,sol,gz" -> *outputs: the mesh and displacement format names
  * of sm_result_formats plus gz.  0, or -1 with a message in msg (an
  * unknown name, or gz alone). */

@@ -1,5 +1,6 @@
 /* Meshes read from a file: the dispatch by content.  A Gmsh .msh file
- * (sm_io_msh.c) is recognised by its first line, anything else is read as
+ * (sm_io_msh.c) is recognised by its first line, a VTK legacy or XML file
+ * (sm_io_vtk.c, sm_io_vtkxml.c) by its first bytes, anything else is read as
  * Medit (sm_io_medit.c: ASCII or binary by the first bytes); the file name
  * is never consulted.  Surfaces have their own dispatcher
  * (sm_io_surface.c), solutions a single format (sm_io_sol.c). */
@@ -34,9 +35,13 @@ sm_status sm__mesh_read_input(const sm_reader_input *in, sm_read_limits *limits,
     if (st != SM_OK)
         return st;
     r.limits = limits;
-    if (sm__msh_detect(&r)) {
+    /* the formats read as simplices into an sm_msh_data */
+    sm_status (*cells)(sm_reader *, sm_msh_data *, sm_error *) =
+        sm__msh_detect(&r) ? sm__msh_parse : sm__vtk_detect(&r) ? sm__vtk_parse
+                                           : sm__vtkxml_detect(&r) ? sm__vtkxml_parse : NULL;
+    if (cells) {
         sm_msh_data d;
-        st = sm__msh_parse(&r, &d, err);
+        st = cells(&r, &d, err);
         if (st == SM_OK)
             st = sm__msh_to_mesh(in->path, &d, out, err);
         sm__msh_data_free(&d);

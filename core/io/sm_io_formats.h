@@ -8,6 +8,7 @@
 #ifndef SM_IO_FORMATS_H
 #define SM_IO_FORMATS_H
 
+#include "io/sm_io_msh.h"
 #include "io/sm_reader.h"
 #include "shapematch/sm_mesh.h"
 #include "shapematch/sm_surface.h"
@@ -27,6 +28,27 @@ sm_status sm__stl_read(sm_reader *r, sm_surface **out, sm_error *err);
  * mtllib, usemtl) or a '#' comment. */
 int sm__obj_detect(sm_reader *r);
 sm_status sm__obj_read(sm_reader *r, sm_surface **out, sm_error *err);
+
+/* PLY ("ply" on the first line; sm_io_ply.c), OFF and Gmsh's PLY2
+ * (sm_io_off.c: *ply2 set for the latter): triangle surfaces. */
+int sm__ply_detect(sm_reader *r);
+sm_status sm__ply_read(sm_reader *r, sm_surface **out, sm_error *err);
+int sm__off_detect(sm_reader *r, int *ply2);
+sm_status sm__off_read(sm_reader *r, sm_surface **out, sm_error *err);
+
+/* VTK legacy ("# vtk DataFile Version"; sm_io_vtk.c) and XML ("<VTKFile"
+ * in the first 512 bytes; sm_io_vtkxml.c): their simplices into d
+ * (sm_io_cells.h), which becomes a mesh or a surface like a .msh file's;
+ * free d with sm__msh_data_free, also after an error. */
+int sm__vtk_detect(sm_reader *r);
+sm_status sm__vtk_parse(sm_reader *r, sm_msh_data *d, sm_error *err);
+int sm__vtkxml_detect(sm_reader *r);
+sm_status sm__vtkxml_parse(sm_reader *r, sm_msh_data *d, sm_error *err);
+
+/* The surface of a .msh (or VTK) file's simplices: triangles in 3D, or
+ * lines when all z = 0 (sm_io_surface.c). */
+sm_status sm__msh_surface(const char *path, const sm_msh_data *d, sm_surface **out,
+                          sm_error *err);
 
 /* Merges vertices with exactly equal coordinates (STL repeats them per
  * facet; sm_io_surface.c); the merged vertices keep the order of their

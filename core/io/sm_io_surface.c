@@ -1,5 +1,5 @@
 /* Target surfaces read from a file: the dispatch by content (Gmsh, Medit,
- * STL, OBJ; never by the file name), vertex welding for the formats that
+ * PLY, OFF/PLY2, VTK legacy and XML, STL, OBJ; never by the file name), vertex welding for the formats that
  * repeat vertices per facet, and the surface of a Gmsh .msh file.  The
  * surface model itself (allocation, measures) is core/sm_surface.c. */
 #include "io/sm_io_formats.h"
@@ -98,8 +98,8 @@ done:
 
 /* ---- Gmsh ---- */
 
-static sm_status msh_surface(const char *path, const sm_msh_data *d, sm_surface **out,
-                             sm_error *err)
+sm_status sm__msh_surface(const char *path, const sm_msh_data *d, sm_surface **out,
+                          sm_error *err)
 {
     int planar = 1;
     for (int64_t i = 0; i < d->nnodes; i++)
@@ -144,6 +144,16 @@ static int medit_ascii_start(sm_reader *r)
     return strncasecmp(p, "MeshVersionFormatted", 20) == 0 || strncasecmp(p, "Dimension", 9) == 0;
 }
 
+/* Text (a format we do not read) rather than binary data (perhaps a
+ * binary STL whose size does not match its count). */
+static int looks_text(const unsigned char *p, size_t n)
+{
+    for (size_t k = 0; k < n; k++)
+        if (p[k] >= 127 || (p[k] < 32 && p[k] != '\n' && p[k] != '\r' && p[k] != '\t'))
+            return 0;
+    return 1;
+}
+
 sm_status sm_surface_read(const char *path, sm_surface **out, sm_error *err)
 {
     return sm_surface_read_limited(path, NULL, out, err);
@@ -177,20 +187,30 @@ sm_status sm__surface_read_input(const sm_reader_input *in, sm_read_limits *limi
         sm__reader_close(&r);
         return st;
     }
-    if (sm__msh_detect(&r)) {
-        sm_msh_data d;
-        st = sm__msh_parse(&r, &d, err);
+    int ply2 = 0;
+    sm_msh_data d;
+    sm_status (*cells)(sm_reader *, sm_msh_data *, sm_error *) =
+        sm__msh_detect(&r) ? sm__msh_parse : sm__vtk_detect(&r) ? sm__vtk_parse
+                                           : sm__vtkxml_detect(&r) ? sm__vtkxml_parse : NULL;
+    if (cells) {
+        st = cells(&r, &d, err);
         if (st == SM_OK)
-            st = msh_surface(path, &d, out, err);
+            st = sm__msh_surface(path, &d, out, err);
         sm__msh_data_free(&d);
     } else if (medit_ascii_start(&r) || (binary && !sm__stl_detect(&r))) {
         st = sm__medit_surface_read(&r, out, err);
-    } else if (sm__stl_detect(&r) || (!sm__obj_detect(&r) && got >= 84)) {
-        /* anything else long enough is taken for a binary STL, whose
-         * reader says precisely what does not fit */
+    } else if (sm__ply_detect(&r)) {
+        st = sm__ply_read(&r, out, err);
+    } else if (sm__stl_detect(&r)) {
         st = sm__stl_read(&r, out, err);
     } else if (sm__obj_detect(&r)) {
         st = sm__obj_read(&r, out, err);
+    } else if (sm__off_detect(&r, &ply2)) {
+        st = sm__off_read(&r, out, err);
+    } else if (got >= 84 && !looks_text(head, got)) {
+        /* binary content of no other format is taken for a binary STL,
+         * whose reader says precisely what does not fit */
+        st = sm__stl_read(&r, out, err);
     } else {
         st = sm_error_set(err, SM_ERR_FORMAT, "%s: unknown surface format; surfaces are read "
                           "as " SM_SURFACE_FORMATS, path);

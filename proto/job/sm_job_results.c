@@ -37,8 +37,8 @@ static int set_string(json_t *obj, const char *key, const char *value)
 static json_t *output_name(size_t i, unsigned outputs)
 {
     char name[96];
-    int gz = (outputs & SM_RESULT_OUT_GZ) && sm_result_formats[i].kind != SM_RESULT_HISTORY;
-    snprintf(name, sizeof name, "%s%s", sm_result_formats[i].file, gz ? ".gz" : "");
+    snprintf(name, sizeof name, "%s%s", sm_result_formats[i].file,
+             sm_result_output_gz(i, outputs) ? ".gz" : "");
     return json_string(name);
 }
 
@@ -276,7 +276,7 @@ static sm_status write_payload_gz(const char *path, const result_data *d, sm_err
 /* One file of the set: a core writer on a reserved temporary name, or
  * text through the temporary's stream. */
 static sm_status write_one(const char *dir, const sm_result_format *f, const result_data *d,
-                           int gz, unsigned flags, sm_error *err)
+                           int gz, sm_vtu_encoding vtu, unsigned flags, sm_error *err)
 {
     char name[96];
     snprintf(name, sizeof name, "%s%s", f->file, gz ? ".gz" : "");
@@ -299,7 +299,8 @@ static sm_status write_one(const char *dir, const sm_result_format *f, const res
         if (f->kind == SM_RESULT_DISPLACEMENT)
             st = sm_sol_write(tmp, d->sol, err);
         else if (strcmp(f->name, "vtu") == 0)
-            st = sm_vtu_write(tmp, d->mesh, d->coords, d->displacement, d->distance, err);
+            st = sm_vtu_write_as(tmp, d->mesh, d->coords, d->displacement, d->distance, vtu,
+                                 err);
         else if (strcmp(f->name, "binary") == 0 && gz)
             st = write_payload_gz(tmp, d, err);
         else if (strcmp(f->name, "binary") == 0)
@@ -333,9 +334,11 @@ static sm_status write_formats(const char *dir, const result_data *d, unsigned o
 #pragma omp parallel for schedule(dynamic, 1)
     for (size_t k = 0; k < n; k++) {
         const sm_result_format *f = &sm_result_formats[chosen[k]];
-        int gz = (outputs & SM_RESULT_OUT_GZ) && f->kind != SM_RESULT_HISTORY;
+        int gz = sm_result_output_gz(chosen[k], outputs);
         sm_error_clear(&errs[k]);
-        st[k] = write_one(dir, f, d, gz, flags, &errs[k]);
+        st[k] = write_one(dir, f, d, gz,
+                          (outputs & SM_RESULT_OUT_VTU_ASCII) ? SM_VTU_ASCII : SM_VTU_ZLIB, flags,
+                          &errs[k]);
     }
     for (size_t k = 0; k < n; k++)
         if (st[k] != SM_OK) {

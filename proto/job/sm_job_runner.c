@@ -51,26 +51,73 @@ static int history_push(sm_job_run *run, const sm_progress *p)
     return 0;
 }
 
-/* SNAPSHOT_DIR/iter-NNNNN.mesh, atomically. */
-static sm_status write_snapshot(run_ctx *c, int iteration, const double *coords)
+/* One file of the snapshot directory, atomically: the template's mesh at
+ * coords as .mesh or (vtu set) as .vtu with the displacement. */
+static sm_status snapshot_file(run_ctx *c, const char *name, const double *coords, int vtu)
 {
-    char name[64];
-    snprintf(name, sizeof name, SM_SNAPSHOT_FORMAT, iteration);
+    const sm_mesh *m = c->in->template_mesh;
     char *path = sm_path_join(c->hooks->snapshot_dir, name);
-    if (!path)
+    double *disp = vtu ? malloc(((size_t)m->nverts * (size_t)m->dim + 1) * sizeof *disp) : NULL;
+    if (!path || (vtu && !disp)) {
+        free(path);
+        free(disp);
         return sm_error_set(&c->error, SM_ERR_NOMEM, "out of memory");
+    }
+    for (size_t i = 0; disp && i < (size_t)m->nverts * (size_t)m->dim; i++)
+        disp[i] = coords[i] - m->coords[i];
     sm_atomic a;
     sm_status st = sm_atomic_reserve(&a, path, &c->error);
     if (st == SM_OK) {
-        st = sm_mesh_write_coords(a.tmp_path, c->in->template_mesh, coords, &c->error);
+        st = vtu ? sm_vtu_write(a.tmp_path, m, coords, disp, NULL, &c->error)
+                 : sm_mesh_write_coords(a.tmp_path, m, coords, &c->error);
         if (st == SM_OK)
             st = sm_atomic_commit(&a, c->hooks->write_flags, &c->error);
         else
             sm_atomic_abort(&a);
     }
+    free(disp);
+    free(path);
+    return st;
+}
+
+/* SNAPSHOT_DIR/snapshots.pvd: the .vtu snapshots of iterations every,
+ * 2 every, ... up to iteration, as a ParaView time series. */
+static sm_status snapshot_collection(run_ctx *c, int every, int iteration)
+{
+    char *path = sm_path_join(c->hooks->snapshot_dir, SM_SNAPSHOT_PVD);
+    if (!path)
+        return sm_error_set(&c->error, SM_ERR_NOMEM, "out of memory");
+    sm_atomic a;
+    sm_status st = sm_atomic_open(&a, path, &c->error);
+    if (st == SM_OK) {
+        fprintf(a.f, "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n"
+                     "  <Collection>\n");
+        for (int it = every; it <= iteration; it += every) {
+            fprintf(a.f, "    <DataSet timestep=\"%d\" file=\"" SM_SNAPSHOT_VTU_FORMAT "\"/>\n",
+                    it, it);
+            if (it > iteration - every)
+                break; /* no overflow past INT_MAX */
+        }
+        fprintf(a.f, "  </Collection>\n</VTKFile>\n");
+        st = sm_atomic_commit(&a, c->hooks->write_flags, &c->error);
+    }
+    free(path);
+    return st;
+}
+
+/* SNAPSHOT_DIR/iter-NNNNN.mesh and .vtu, then the collection. */
+static sm_status write_snapshot(run_ctx *c, int iteration, const double *coords)
+{
+    char name[64], vtu[64];
+    snprintf(name, sizeof name, SM_SNAPSHOT_FORMAT, iteration);
+    snprintf(vtu, sizeof vtu, SM_SNAPSHOT_VTU_FORMAT, iteration);
+    sm_status st = snapshot_file(c, name, coords, 0);
+    if (st == SM_OK)
+        st = snapshot_file(c, vtu, coords, 1);
+    if (st == SM_OK)
+        st = snapshot_collection(c, c->in->params.save_every, iteration);
     if (st != SM_OK)
         sm_error_prefix(&c->error, "cannot write the snapshot of iteration %d", iteration);
-    free(path);
     return st;
 }
 

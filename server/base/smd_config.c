@@ -471,7 +471,8 @@ void smd_config_help(FILE *out)
             "HTTP daemon of shapematch: accepts matching jobs (POST /v1/jobs, multipart\n"
             "upload of a template mesh, a target mesh, its distance field and JSON\n"
             "parameters), runs each in a worker process, streams progress\n"
-            "(GET /v1/jobs/{id}/events) and serves the results.  API: proto/openapi.yaml.\n"
+            "(GET /v1/jobs/{id}/events) and serves the results.  Its API description is\n"
+            "served at /v1/openapi.yaml (e.g. http://127.0.0.1:8080/v1/openapi.yaml).\n"
             "\n"
             "Options (each also read from the environment variable shown; a flag wins):\n");
     for (size_t i = 0; i < NOPTIONS; i++) {

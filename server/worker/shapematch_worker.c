@@ -350,12 +350,30 @@ done:
     return code;
 }
 
+#ifndef SM_VERSION
+#define SM_VERSION "unknown"
+#endif
+
 int main(int argc, char **argv)
 {
     worker w = {.events_fd = fcntl(SMD_WORKER_EVENT_FD, F_GETFD) >= 0 ? SMD_WORKER_EVENT_FD : 1};
+    if (argc == 2 && strcmp(argv[1], "--version") == 0) {
+        printf("shapematch-worker %s\n", SM_VERSION);
+        return 0;
+    }
+    if (argc == 2 && (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0)) {
+        printf("Usage: shapematch-worker JOB_DIR\n"
+               "       shapematch-worker --help | --version\n"
+               "\n"
+               "Runs one job of shapematchd: reads JOB_DIR/job.json (the inputs and\n"
+               "parameters the daemon checked), writes the results under JOB_DIR and reports\n"
+               "progress on its event pipe.  shapematchd starts one per job (its --worker\n"
+               "option names this program); it is not meant to be run by hand.\n");
+        return 0;
+    }
     if (argc != 2 || argv[1][0] == '-') {
-        fprintf(stderr, "usage: shapematch-worker JOB_DIR\n"
-                        "Runs one shapematchd job (started by the daemon; see server/worker/smd_worker.h).\n");
+        fprintf(stderr, "usage: shapematch-worker JOB_DIR (started by shapematchd; see "
+                        "'shapematch-worker --help')\n");
         return SMD_WORKER_EXIT_USAGE;
     }
     w.job_dir = argv[1];

@@ -9,8 +9,8 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=$1
 rm -rf "$out"
-mkdir -p "$out"/{mesh,msh,stl,obj,sol,params,events,payload,sse,headers,multipart,parts,decimal,job_file}
-for t in mesh msh stl obj sol params events payload sse headers multipart parts decimal job_file; do
+mkdir -p "$out"/{mesh,msh,stl,obj,ply,off,vtk,vtkxml,sol,params,events,payload,sse,headers,multipart,parts,decimal,job_file}
+for t in mesh msh stl obj ply off vtk vtkxml sol params events payload sse headers multipart parts decimal job_file; do
     [ -d tests/fuzz/seeds/$t ] && cp tests/fuzz/seeds/$t/* "$out/$t/" 2>/dev/null || true
 done
 add() { # target name file [prefix-byte-octal...]
@@ -32,6 +32,10 @@ for d in tests/data/malformed/*/; do
         case $f in
             *.stl|*.stl.gz) add stl "$c" "$f"; continue ;;
             *.obj) tail -n +1 "$f" >"$out/obj/$c"; continue ;;
+            *.ply) tail -c +5 "$f" >"$out/ply/$c"; continue ;;
+            *.off) tail -c +5 "$f" >"$out/off/$c"; continue ;;
+            *.vtk) tail -c +24 "$f" >"$out/vtk/$c"; continue ;;
+            *.vtu|*.vtp) add vtkxml "$c" "$f"; continue ;;
         esac
         case $f in
             *.sol|*.solb|*.sol.gz|*.solb.gz) add sol "$c" "$f" ;;
@@ -43,6 +47,11 @@ for d in tests/data/malformed/*/; do
         esac
     done
 done
+# the samples of every PLY, OFF and VTK encoding, without the targets' prefixes
+for f in tests/data/formats/cells/*.ply; do tail -c +5 "$f" >"$out/ply/$(basename "$f")"; done
+for f in tests/data/formats/cells/*.off; do tail -c +5 "$f" >"$out/off/$(basename "$f")"; done
+for f in tests/data/formats/cells/*.vtk; do tail -c +24 "$f" >"$out/vtk/$(basename "$f")"; done
+for f in tests/data/formats/cells/*.vt[up]; do add vtkxml "$(basename "$f")" "$f"; done
 for f in tests/data/proto/params/good/*.json tests/data/proto/params/bad/*.json; do
     add params "$(basename "$(dirname "$f")")-$(basename "$f")" "$f" 000 001 002
 done

@@ -79,12 +79,16 @@ sm_status sm_mesh_read(const char *path, sm_mesh **out, sm_error *err);
  * instead: format 4.1 ASCII or binary, or 2.2 ASCII, gzip or not;
  * elements are tetrahedra (facets: triangles) or, without tetrahedra,
  * planar triangles (a 2D mesh; facets: lines); references are physical
- * tags (0 when an entity has none); other element types are errors. */
+ * tags (0 when an entity has none); other element types are errors.
+ * A VTK legacy (.vtk) or XML (.vtu) file is read the same way: its
+ * tetrahedra (facets: its triangles) or its planar triangles (facets:
+ * lines), references from a cell array "ref" (what sm_vtu_write writes),
+ * "CellEntityIds" (Gmsh), "gmsh:physical" or "medit:ref" (meshio). */
 
 /* The formats sm_mesh_read reads, for messages. */
 #define SM_MESH_FORMATS                                                          \
-    "Medit .mesh/.meshb or Gmsh .msh (4.1 ASCII/binary, 2.2 ASCII), optionally " \
-    "gzip-compressed"
+    "Medit .mesh/.meshb, Gmsh .msh (4.1 ASCII/binary, 2.2 ASCII) or VTK .vtk/.vtu " \
+    "with tetrahedra, optionally gzip-compressed"
 
 /* The same within limits (NULL: none). */
 sm_status sm_mesh_read_limited(const char *path, sm_read_limits *limits, sm_mesh **out,
@@ -111,14 +115,21 @@ sm_status sm_sol_read_limited(const char *path, sm_read_limits *limits, sm_sol *
                               sm_error *err);
 sm_status sm_sol_write(const char *path, const sm_sol *s, sm_error *err);
 
-/* VTK XML UnstructuredGrid with inline ASCII data (ParaView, VTK):
- * points padded to 3D, cells VTK_TRIANGLE (5) / VTK_TETRA (10), cell
- * data "ref" (element references).  coords NULL means m->coords.  Point
- * fields are optional (NULL to skip): "displacement" (nverts*dim, written
- * with 3 components) and "distance" (nverts).  Non-finite values are
- * written as 0, which VTK's ASCII parser can read. */
-sm_status sm_vtu_write(const char *path, const sm_mesh *m,
-                       const double *coords, const double *displacement,
-                       const double *distance, sm_error *err);
+/* VTK XML UnstructuredGrid (ParaView, VTK, meshio): points padded to 3D,
+ * cells VTK_TRIANGLE (5) / VTK_TETRA (10) then the facets (VTK_LINE 3 /
+ * VTK_TRIANGLE), cell data "ref" (references) and "cell_dim".  coords
+ * NULL means m->coords.  Point fields are optional (NULL to skip):
+ * "displacement" (nverts*dim, written with 3 components) and "distance"
+ * (nverts).  Non-finite values are written as 0 (VTK's ASCII parser
+ * cannot read them).  sm_vtu_write writes SM_VTU_ZLIB: binary, compressed
+ * by blocks as VTK's vtkZLibDataCompressor (inline base64, UInt64
+ * headers); SM_VTU_ASCII: inline ASCII (%.17g), several times larger.
+ * Never gzip the result: ParaView does not open a .vtu.gz. */
+typedef enum sm_vtu_encoding { SM_VTU_ZLIB = 0, SM_VTU_ASCII = 1 } sm_vtu_encoding;
+sm_status sm_vtu_write(const char *path, const sm_mesh *m, const double *coords,
+                       const double *displacement, const double *distance, sm_error *err);
+sm_status sm_vtu_write_as(const char *path, const sm_mesh *m, const double *coords,
+                          const double *displacement, const double *distance,
+                          sm_vtu_encoding encoding, sm_error *err);
 
 #endif

@@ -40,7 +40,15 @@ void sm_surface_free(sm_surface *s);
  *     STL vertices are merged (exactly equal coordinates);
  *   - OBJ (v, f; negative indices count back from the last vertex;
  *     polygons are fan-triangulated; vt, vn, groups, materials and other
- *     statements are skipped); coincident vertices are merged as for STL.
+ *     statements are skipped); coincident vertices are merged as for STL;
+ *   - PLY ASCII or binary in either byte order (the vertex element's x,
+ *     y, z, the face element's vertex_indices; polygons fan-triangulated),
+ *     OFF and its variants (COFF, NOFF...), Gmsh's PLY2; merged as STL;
+ *   - VTK legacy .vtk (ASCII or binary, versions before 5 and 5.x) and
+ *     XML .vtu/.vtp (ASCII, base64, appended raw or base64, optionally
+ *     zlib-compressed): triangles, quads, polygons and strips (3D), or
+ *     lines when there are none and all z = 0 (2D); references from a cell
+ *     array "ref", "CellEntityIds", "gmsh:physical" or "medit:ref".
  * An unknown format is an error naming the formats read. */
 sm_status sm_surface_read(const char *path, sm_surface **out, sm_error *err);
 /* The same within limits (sm_io.h): decompressed bytes, and vertices and
@@ -87,8 +95,9 @@ sm_status sm_surface_repair(sm_surface *s, sm_surface_health *h, sm_error *err);
 double sm_surface_mean_edge(const sm_surface *s);
 
 /* The formats sm_surface_read reads, for messages. */
-#define SM_SURFACE_FORMATS                                                    \
-    "STL (ASCII or binary), OBJ, Medit .mesh/.meshb or Gmsh .msh surfaces, " \
-    "optionally gzip-compressed"
+#define SM_SURFACE_FORMATS                                                      \
+    "STL (ASCII or binary), OBJ, PLY (ASCII or binary), OFF, PLY2, VTK .vtk, " \
+    ".vtu or .vtp, Medit .mesh/.meshb or Gmsh .msh surfaces, optionally "      \
+    "gzip-compressed"
 
 #endif

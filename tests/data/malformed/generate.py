@@ -12,6 +12,7 @@ one case uses the swapped order on purpose.
 """
 import gzip
 import os
+import re
 import shutil
 import struct
 
@@ -512,6 +513,82 @@ case("surface-msh-no-surface", "input.msh", _full41.replace(b"2 1 2 2", b"2 1 15
      .replace(b"1 1 2 3\n2 1 3 4", b"1 1\n2 3"), "no surface")
 case("surface-mesh-no-surface", "input.mesh",
      b"MeshVersionFormatted 2\nDimension 3\nVertices\n1\n0 0 0 0\nEnd\n", "no surface")
+
+
+# PLY, OFF, VTK legacy and XML: edits of the samples of tests/data/formats/cells/
+# (written by its generate.py)
+def sample(name):
+    with open(os.path.join(HERE, "..", "formats", "cells", name), "rb") as f:
+        return f.read()
+
+
+_ply = sample("surface-ascii.ply")
+_ple = sample("surface-le.ply")
+_off = sample("surface.off")
+_vtk = sample("volume-42-ascii.vtk")
+_vtu = sample("volume-ascii.vtu")
+_vtz = sample("volume-binary-zlib.vtu")
+_vta = sample("volume-appended-raw.vtu")
+case("surface-ply-no-end-header", "input.ply", _ply.split(b"end_header")[0], "without end_header")
+case("surface-ply-count-past-size", "input.ply", _ply.replace(b"vertex 8", b"vertex 100000000"),
+     "does not fit")
+case("surface-ply-index-out-of-range", "input.ply", _ply.replace(b"4 0 2 3 1", b"4 0 2 3 99"),
+     "out of range")
+case("surface-ply-bad-format", "input.ply", _ply.replace(b"format ascii", b"format binary_pdp"),
+     "unknown format line")
+case("surface-ply-truncated", "input.ply", _ple[:-30], "PLY")
+case("surface-ply-nan", "input.ply", _ply.replace(b"0.3333333432674408 ", b"nan ", 1), "PLY")
+case("surface-ply-long-list", "input.ply", _ply.replace(b"4 0 2 3 1", b"100000 0 2 3 1"),
+     "list length")
+case("surface-ply-no-xyz", "input.ply", _ply.replace(b"property float z", b"property float w"),
+     "no x, y and z")
+case("surface-ply-faces-first", "input.ply",
+     b"ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\n"
+     b"element vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
+     b"3 0 1 2\n0 0 0\n1 0 0\n0 1 0\n", "faces before the vertex element")
+case("surface-off-count-past-size", "input.off", _off.replace(b"8 6 0", b"8 60000000 0"),
+     "does not fit")
+case("surface-off-two-vertex-face", "input.off", _off.replace(b"4 0 2 3 1", b"2 0 2"),
+     "at least 3")
+case("surface-off-negative-index", "input.off", _off.replace(b"4 0 2 3 1", b"4 0 2 3 -1"),
+     "out of range")
+case("surface-vtk-bad-dataset", "input.vtk", _vtk.replace(b"UNSTRUCTURED_GRID", b"STRUCTURED_POINTS"),
+     "is not read")
+case("surface-vtk-hexahedron", "input.vtk", _vtk.replace(b"CELL_TYPES 18\n10", b"CELL_TYPES 18\n12"),
+     "hexahedron")
+case("surface-vtk-cells-past-end", "input.vtk", _vtk.replace(b"CELLS 18 78", b"CELLS 19 78"),
+     "runs past")
+case("surface-vtk-points-past-size", "input.vtk", _vtk.replace(b"POINTS 8 ", b"POINTS 100000000 "),
+     "do not fit")
+case("mesh-vtk-index-out-of-range", "input.vtk", _vtk.replace(b"4 0 1 3 7", b"4 0 1 3 8"),
+     "out of range")
+case("mesh-vtk-truncated", "input.vtk", _vtk[:len(_vtk) // 2], "input.vtk")
+case("mesh-vtu-no-tetrahedra", "input.vtu",
+     _vtu.replace(b">\n10 10 10 10 10 10 ", b">\n5 5 5 5 5 5 "), "type")
+case("surface-vtu-compressor", "input.vtu",
+     _vtz.replace(b"vtkZLibDataCompressor", b"vtkLZ4DataCompressor"), "compressor")
+_z = _vtz.split(b'Name="Points"')
+_zl = _z[1].split(b"\n")
+case("surface-vtu-zlib-corrupt", "input.vtu",
+     _z[0] + b'Name="Points"' + b"\n".join([_zl[0], _zl[1][:12] + b"AAAAAAAA" + _zl[1][20:]]
+                                           + _zl[2:]), "Points")
+case("surface-vtu-appended-offset", "input.vtu",
+     re.sub(rb'(Name="Points" NumberOfComponents="3" format="appended" offset=")[0-9]+',
+            rb"\g<1>999999", _vta), "Points: no appended data")
+case("surface-vtu-appended-short", "input.vtu", _vta[:-300], "no appended data")
+case("surface-vtu-appended-cut", "input.vtu", _vta[:-120], "needed")
+case("surface-vtu-two-pieces", "input.vtu", _vtu.replace(b"</Piece>", b"</Piece><Piece NumberOfPoints=\"0\"/>"),
+     "more than one Piece")
+case("surface-vtu-text-short", "input.vtu", _vtu.replace(b"NumberOfPoints=\"8\"", b"NumberOfPoints=\"9\""),
+     "Points")
+case("surface-vtu-no-points", "input.vtu",
+     b'<VTKFile type="UnstructuredGrid"><UnstructuredGrid><Piece NumberOfPoints="0" '
+     b'NumberOfCells="1"><Cells><DataArray type="Int32" Name="connectivity" format="ascii">'
+     b'0 1 2</DataArray><DataArray type="Int32" Name="offsets" format="ascii">3</DataArray>'
+     b'<DataArray type="UInt8" Name="types" format="ascii">5</DataArray></Cells></Piece>'
+     b'</UnstructuredGrid></VTKFile>', "out of range")
+case("surface-text-unknown", "input.txt", b"hello, this is not a surface\n" * 10,
+     "unknown surface format")
 
 
 def main():

@@ -23,7 +23,7 @@ DEB_PACKAGES := gcc make pkg-config libc6-dev \
   libsuitesparse-dev libopenblas0-pthread zlib1g-dev libcmocka-dev libjansson-dev \
   libmicrohttpd-dev libgnutls28-dev libcurl4-openssl-dev curl gmsh wrk jq systemd python3 python3-yaml strace \
   libdeflate-dev pmccabe clang libclang-rt-14-dev libomp-14-dev nodejs chromium postgresql libpq-dev \
-  libhypre-dev mpi-default-dev python3-numpy man-db groff-base
+  libhypre-dev mpi-default-dev python3-numpy man-db groff-base python3-meshio
 
 # The part of them `make release` and `make install` need (the Dockerfile's
 # build stage: `make deps-build`); tests/deploy/ checks it is a subset.

@@ -1,0 +1,365 @@
+/* POST /v1/jobs/{id}/warp (see smd_warp.h). */
+#include "api/smd_warp.h"
+
+#include <errno.h>
+#include <inttypes.h>
+#include <limits.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#include "shapematch/sm_io.h"
+#include "shapematch/sm_warp.h"
+#include "sm_points_csv.h"
+#include "sm_proto_vocab.h"
+#include "store/spool/smd_store.h"
+#include "worker/smd_worker.h"
+
+#define CSV_MEDIA "text/csv"
+#define JSON_MEDIA "application/json"
+
+struct smd_warp_body {
+    int json;            /* else CSV */
+    int direction;       /* from the query; -1 not given */
+    int strict;          /* from the query; -1 not given */
+    char *buf;
+    size_t len, cap;
+    int too_large;
+};
+
+void smd_warp_body_free(smd_warp_body *b)
+{
+    if (!b)
+        return;
+    free(b->buf);
+    free(b);
+}
+
+/* ------------------------------------------------------------ request */
+
+/* direction=forward|inverse, strict=true|false|1|0; -1 when absent;
+ * -2 when malformed. */
+static int query_direction(struct MHD_Connection *conn)
+{
+    const char *v = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "direction");
+    if (!v)
+        return -1;
+    return strcmp(v, "forward") == 0 ? SM_WARP_FORWARD
+           : strcmp(v, "inverse") == 0 ? SM_WARP_INVERSE
+                                       : -2;
+}
+
+static int query_strict(struct MHD_Connection *conn)
+{
+    const char *v = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "strict");
+    if (!v)
+        return -1;
+    return strcmp(v, "true") == 0 || strcmp(v, "1") == 0    ? 1
+           : strcmp(v, "false") == 0 || strcmp(v, "0") == 0 ? 0
+                                                            : -2;
+}
+
+/* The media type of the Content-Type header without its parameters
+ * matches type (case-insensitive). */
+static int media_is(const char *ctype, const char *type)
+{
+    size_t n = strlen(type);
+    if (!ctype || strncasecmp(ctype, type, n) != 0)
+        return 0;
+    return ctype[n] == '\0' || ctype[n] == ';' || ctype[n] == ' ';
+}
+
+enum MHD_Result smd_route_warp(struct MHD_Connection *conn, smd_request *req)
+{
+    smd_server *srv = req->srv;
+    pthread_mutex_lock(&srv->lock);
+    smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
+    sm_job_state state = job ? job->state : SM_JOB_ACCEPTED;
+    pthread_mutex_unlock(&srv->lock);
+    if (!job)
+        return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
+    if (state != SM_JOB_SUCCESSFUL) {
+        const char *what = state == SM_JOB_ACCEPTED ? "is queued"
+                           : state == SM_JOB_RUNNING ? "is running"
+                           : state == SM_JOB_FAILED  ? "failed"
+                                                     : "was dismissed";
+        return smd_reply_problem(conn, req, 409, SMD_PROBLEM_RESULT_NOT_READY,
+                                 "job %s %s: it has no map to warp through (only a successful "
+                                 "job has)", req->id, what);
+    }
+    const char *ctype =
+        MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
+    int json = media_is(ctype, JSON_MEDIA);
+    if (!json && !media_is(ctype, CSV_MEDIA))
+        return smd_reply_problem(conn, req, 415, SMD_PROBLEM_UNSUPPORTED_MEDIA,
+                                 "the points come as " CSV_MEDIA " or " JSON_MEDIA " (Content-Type "
+                                 "'%.100s')", ctype ? ctype : "none");
+    int direction = query_direction(conn), strict = query_strict(conn);
+    if (direction == -2 || strict == -2)
+        return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST, "%s",
+                                 direction == -2 ? "direction: expected forward or inverse"
+                                                 : "strict: expected true or false");
+    const char *length =
+        MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
+    uint64_t n = 0;
+    if (length && smd_parse_uint(length, 0, UINT64_MAX, &n) == SMD_NUM_OK &&
+        n > srv->cfg.max_upload)
+        return smd_reply_problem(conn, req, 413, SMD_PROBLEM_TOO_LARGE,
+                                 "the points exceed the limit of %" PRIu64 " bytes (--max-upload)",
+                                 srv->cfg.max_upload);
+    smd_warp_body *b = calloc(1, sizeof *b);
+    if (!b)
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
+    b->json = json;
+    b->direction = direction;
+    b->strict = strict;
+    req->body_state = b;
+    return MHD_YES;
+}
+
+/* ----------------------------------------------------------- JSON in */
+
+/* The members of a JSON request into p, direction and strict.  0, or -1
+ * with the 400's detail in msg. */
+static int parse_json(const smd_warp_body *b, sm_points *p, int *direction, int *strict,
+                      char *msg, size_t cap)
+{
+    json_error_t jerr;
+    json_t *doc = json_loadb(b->buf, b->len, JSON_REJECT_DUPLICATES, &jerr);
+    int rc = -1;
+    if (!json_is_object(doc)) {
+        snprintf(msg, cap, "the body is not a JSON object%s%s", doc ? "" : ": ",
+                 doc ? "" : jerr.text);
+        goto done;
+    }
+    json_t *d = json_object_get(doc, "direction"), *s = json_object_get(doc, "strict");
+    json_t *pts = json_object_get(doc, "points");
+    if (d && !(json_is_string(d) && (strcmp(json_string_value(d), "forward") == 0 ||
+                                     strcmp(json_string_value(d), "inverse") == 0))) {
+        snprintf(msg, cap, "direction: expected \"forward\" or \"inverse\"");
+        goto done;
+    }
+    if (s && !json_is_boolean(s)) {
+        snprintf(msg, cap, "strict: expected true or false");
+        goto done;
+    }
+    if (d)
+        *direction = strcmp(json_string_value(d), "inverse") == 0 ? SM_WARP_INVERSE
+                                                                   : SM_WARP_FORWARD;
+    if (s)
+        *strict = json_is_true(s);
+    size_t n = json_array_size(pts);
+    if (!json_is_array(pts) || n == 0) {
+        snprintf(msg, cap, "points: expected a non-empty array of [x, y] or [x, y, z]");
+        goto done;
+    }
+    p->dim = (int)json_array_size(json_array_get(pts, 0));
+    if (p->dim != 2 && p->dim != 3) {
+        snprintf(msg, cap, "points[0]: expected 2 or 3 numbers");
+        goto done;
+    }
+    if (!(p->xyz = malloc(n * (size_t)p->dim * sizeof *p->xyz))) {
+        snprintf(msg, cap, "out of memory");
+        goto done;
+    }
+    for (size_t i = 0; i < n; i++) {
+        json_t *pt = json_array_get(pts, i);
+        if (!json_is_array(pt) || json_array_size(pt) != (size_t)p->dim) {
+            snprintf(msg, cap, "points[%zu]: expected %d numbers, as points[0]", i, p->dim);
+            goto done;
+        }
+        for (int k = 0; k < p->dim; k++) {
+            json_t *c = json_array_get(pt, (size_t)k);
+            if (!json_is_number(c)) {
+                snprintf(msg, cap, "points[%zu][%d]: not a number", i, k);
+                goto done;
+            }
+            p->xyz[i * (size_t)p->dim + (size_t)k] = json_number_value(c);
+        }
+    }
+    p->n = (int64_t)n;
+    rc = 0;
+done:
+    json_decref(doc);
+    return rc;
+}
+
+/* ---------------------------------------------------------------- map */
+
+/* Reads the job's result map: *m with the template coordinates, and the
+ * deformed ones.  0, or -1 with msg (a missing file: the job was deleted
+ * since, *gone set). */
+static int load_map(smd_request *req, sm_mesh **m, double **deformed, int *gone, char *msg,
+                    size_t cap)
+{
+    char pm[PATH_MAX], ps[PATH_MAX];
+    sm_error err;
+    sm_error_clear(&err);
+    sm_sol *d = NULL;
+    *m = NULL;
+    *deformed = NULL;
+    *gone = 0;
+    if (smd_store_path(req->srv->store, req->id, SMD_RESULTS_DIR "/result.mesh", pm, sizeof pm) ||
+        smd_store_path(req->srv->store, req->id, SMD_RESULTS_DIR "/displacement.sol", ps,
+                       sizeof ps)) {
+        snprintf(msg, cap, "path too long");
+        return -1;
+    }
+    if (sm_mesh_read(pm, m, &err) != SM_OK || sm_sol_read(ps, &d, &err) != SM_OK) {
+        *gone = err.code == SM_ERR_IO && errno == ENOENT;
+        snprintf(msg, cap, "the results of job %s cannot be read: %s", req->id, err.msg);
+        goto fail;
+    }
+    size_t n = (size_t)(*m)->nverts * (size_t)(*m)->dim;
+    if (d->nverts != (*m)->nverts || d->ncomp != (*m)->dim) {
+        snprintf(msg, cap, "the results of job %s do not agree (mesh and displacement)", req->id);
+        goto fail;
+    }
+    if (!(*deformed = malloc(n * sizeof **deformed))) {
+        snprintf(msg, cap, "out of memory");
+        goto fail;
+    }
+    memcpy(*deformed, (*m)->coords, n * sizeof **deformed);
+    for (size_t i = 0; i < n; i++)
+        (*m)->coords[i] -= d->values[i];
+    sm_sol_free(d);
+    return 0;
+fail:
+    sm_sol_free(d);
+    sm_mesh_free(*m);
+    *m = NULL;
+    return -1;
+}
+
+/* ------------------------------------------------------------ answer */
+
+static enum MHD_Result reply_points(struct MHD_Connection *conn, smd_request *req, int json,
+                                    int direction, const sm_points *p, const double *out,
+                                    const uint8_t *inside, int64_t noutside)
+{
+    char *body = NULL;
+    size_t len = 0;
+    if (json) {
+        json_t *pts = json_array(), *in = json_array();
+        for (int64_t i = 0; pts && in && i < p->n; i++) {
+            const double *x = out + (size_t)i * (size_t)p->dim;
+            json_array_append_new(pts, p->dim == 3 ? json_pack("[fff]", x[0], x[1], x[2])
+                                                   : json_pack("[ff]", x[0], x[1]));
+            json_array_append_new(in, json_integer(inside[i]));
+        }
+        json_t *doc = json_pack("{s:s,s:o*,s:o*,s:I}", "direction",
+                                direction == SM_WARP_INVERSE ? "inverse" : "forward", "points",
+                                pts, "inside", in, "outside", (json_int_t)noutside);
+        body = doc ? json_dumps(doc, JSON_COMPACT | JSON_REAL_PRECISION(17)) : NULL;
+        json_decref(doc);
+        len = body ? strlen(body) : 0;
+    } else {
+        body = sm_points_csv_format(p, out, inside, &len);
+    }
+    if (!body)
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
+    struct MHD_Response *resp =
+        smd_buffer_response(conn, req, json ? JSON_MEDIA : CSV_MEDIA, body, len);
+    if (!resp)
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
+    return smd_reply(conn, req, 200, resp);
+}
+
+/* The points parsed; the map read and applied; the answer. */
+static enum MHD_Result warp_answer(struct MHD_Connection *conn, smd_request *req,
+                                   const smd_warp_body *b)
+{
+    char msg[600];
+    sm_points p = {0};
+    int direction = b->direction >= 0 ? b->direction : SM_WARP_FORWARD;
+    int strict = b->strict > 0;
+    sm_error err;
+    sm_error_clear(&err);
+    if (b->json ? parse_json(b, &p, &direction, &strict, msg, sizeof msg) != 0
+                : sm_points_csv_parse(b->buf, b->len, 0, &p, &err) != SM_OK) {
+        sm_points_release(&p);
+        return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST, "%s",
+                                 b->json ? msg : err.msg);
+    }
+    sm_mesh *m = NULL;
+    double *deformed = NULL, *out = NULL;
+    uint8_t *inside = NULL;
+    sm_warp *w = NULL;
+    int gone = 0;
+    int64_t noutside = 0;
+    enum MHD_Result r;
+    if (load_map(req, &m, &deformed, &gone, msg, sizeof msg) != 0) {
+        r = gone ? smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id)
+                 : smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "%s", msg);
+        goto done;
+    }
+    if (p.dim != m->dim) {
+        r = smd_reply_problem(conn, req, 422, SMD_PROBLEM_INVALID_INPUT,
+                              "points: %dD points, and the map of job %s is %dD", p.dim, req->id,
+                              m->dim);
+        goto done;
+    }
+    out = malloc((size_t)p.n * (size_t)p.dim * sizeof *out);
+    inside = malloc((size_t)p.n);
+    if (!out || !inside ||
+        sm_warp_new(m, deformed, 1u << direction, &w, &err) != SM_OK) {
+        r = smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "%s",
+                              err.msg[0] ? err.msg : "out of memory");
+        goto done;
+    }
+    if (sm_warp_points(w, (sm_warp_direction)direction, strict, p.n, p.xyz, out, inside, &noutside,
+                       &err) != SM_OK) {
+        r = smd_reply_problem(conn, req, 422, SMD_PROBLEM_INVALID_INPUT, "points: %s", err.msg);
+        goto done;
+    }
+    r = reply_points(conn, req, b->json, direction, &p, out, inside, noutside);
+done:
+    sm_warp_free(w);
+    free(out);
+    free(inside);
+    free(deformed);
+    sm_mesh_free(m);
+    sm_points_release(&p);
+    return r;
+}
+
+enum MHD_Result smd_warp_continue(struct MHD_Connection *conn, smd_request *req, const char *data,
+                                  size_t *size)
+{
+    smd_warp_body *b = req->body_state;
+    uint64_t limit = req->srv->cfg.max_upload;
+    if (*size == 0) {
+        if (b->too_large)
+            return smd_reply_problem(conn, req, 413, SMD_PROBLEM_TOO_LARGE,
+                                     "the points exceed the limit of %" PRIu64
+                                     " bytes (--max-upload)", limit);
+        return warp_answer(conn, req, b);
+    }
+    size_t n = *size;
+    *size = 0;
+    req->bytes_in += n;
+    if (b->too_large || b->len + n > limit) {
+        /* read the rest without keeping it, answer at the end (a body far
+         * past the limit is cut by closing the connection) */
+        b->too_large = 1;
+        free(b->buf);
+        b->buf = NULL;
+        b->len = b->cap = 0;
+        return req->bytes_in > smd_drain_limit(limit) ? MHD_NO : MHD_YES;
+    }
+    if (b->len + n > b->cap) {
+        size_t ncap = b->cap ? b->cap : 65536;
+        while (ncap < b->len + n)
+            ncap *= 2;
+        char *grown = realloc(b->buf, ncap);
+        if (!grown) {
+            b->too_large = 1; /* answered 413: the daemon cannot hold it */
+            return MHD_YES;
+        }
+        b->buf = grown;
+        b->cap = ncap;
+    }
+    memcpy(b->buf + b->len, data, n);
+    b->len += n;
+    return MHD_YES;
+}

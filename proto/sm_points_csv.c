@@ -157,7 +157,9 @@ sm_status sm_points_csv_parse(const char *text, size_t len, int64_t max_points, 
         size_t end = nl ? (size_t)(nl - text) : len;
         size_t n = end - i;
         line++;
-        if (n > 0 && text[i + n - 1] == '\r')
+        /* CR of CRLF ends (any number: a header is kept without them),
+         * trailing blanks */
+        while (n > 0 && (text[i + n - 1] == '\r' || is_space(text[i + n - 1])))
             n--;
         size_t a = 0;
         while (a < n && is_space(text[i + a]))

@@ -223,8 +223,8 @@ sm_status sm_warp_points(const sm_warp *w, sm_warp_direction dir, int strict, in
         free(order);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for %lld points", (long long)n);
     }
-    int64_t nout = 0, failed = -1;
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : nout)
+    int64_t nout = 0, failed = INT64_MAX; /* the first point that could not be mapped */
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : nout) reduction(min : failed)
     for (int64_t b = 0; b < (n + WARP_BLOCK - 1) / WARP_BLOCK; b++) {
         int64_t lo = b * WARP_BLOCK, hi = lo + WARP_BLOCK < n ? lo + WARP_BLOCK : n;
         int32_t hint = -1;
@@ -233,17 +233,14 @@ sm_status sm_warp_points(const sm_warp *w, sm_warp_direction dir, int strict, in
             int r = map_point(w, dir, in + (size_t)i * D, &hint, out + (size_t)i * D);
             flags[i] = r > 0;
             nout += r <= 0;
-            if (r < 0) {
-#pragma omp critical(sm_warp_failed)
-                if (failed < 0 || i < failed)
-                    failed = i;
-            }
+            if (r < 0 && i < failed)
+                failed = i;
         }
     }
     free(order);
     sm_status st = SM_OK;
     const char *mesh = dir == SM_WARP_FORWARD ? "template" : "deformed mesh";
-    if (failed >= 0) {
+    if (failed != INT64_MAX) {
         st = sm_error_set(err, SM_ERR_NUMERIC, "point %lld: no element of the %s to map it by",
                           (long long)failed + 1, mesh);
     } else if (strict && nout > 0) {

@@ -15,6 +15,11 @@
 #include "store/spool/smd_store.h"
 #include "worker/smd_worker.h"
 
+/* The points are held in memory (parsed whole, then their images and
+ * the answer): at most this much, whatever --max-upload allows multipart
+ * uploads (as the OGC execute request, smd_ogc.c). */
+#define WARP_BODY_MAX ((uint64_t)64 << 20)
+
 #define CSV_MEDIA "text/csv"
 #define JSON_MEDIA "application/json"
 
@@ -26,6 +31,11 @@ struct smd_warp_body {
     size_t len, cap;
     int too_large;
 };
+
+static uint64_t body_limit(const smd_server *srv)
+{
+    return srv->cfg.max_upload < WARP_BODY_MAX ? srv->cfg.max_upload : WARP_BODY_MAX;
+}
 
 void smd_warp_body_free(smd_warp_body *b)
 {
@@ -103,10 +113,10 @@ enum MHD_Result smd_route_warp(struct MHD_Connection *conn, smd_request *req)
         MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
     uint64_t n = 0;
     if (length && smd_parse_uint(length, 0, UINT64_MAX, &n) == SMD_NUM_OK &&
-        n > srv->cfg.max_upload)
+        n > body_limit(srv))
         return smd_reply_problem(conn, req, 413, SMD_PROBLEM_TOO_LARGE,
-                                 "the points exceed the limit of %" PRIu64 " bytes (--max-upload)",
-                                 srv->cfg.max_upload);
+                                 "the points exceed the limit of %" PRIu64 " bytes (--max-upload, "
+                                 "at most 64 MiB)", body_limit(srv));
     smd_warp_body *b = calloc(1, sizeof *b);
     if (!b)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
@@ -327,12 +337,12 @@ enum MHD_Result smd_warp_continue(struct MHD_Connection *conn, smd_request *req,
                                   size_t *size)
 {
     smd_warp_body *b = req->body_state;
-    uint64_t limit = req->srv->cfg.max_upload;
+    uint64_t limit = body_limit(req->srv);
     if (*size == 0) {
         if (b->too_large)
             return smd_reply_problem(conn, req, 413, SMD_PROBLEM_TOO_LARGE,
                                      "the points exceed the limit of %" PRIu64
-                                     " bytes (--max-upload)", limit);
+                                     " bytes (--max-upload, at most 64 MiB)", limit);
         return warp_answer(conn, req, b);
     }
     size_t n = *size;
@@ -345,7 +355,7 @@ enum MHD_Result smd_warp_continue(struct MHD_Connection *conn, smd_request *req,
         free(b->buf);
         b->buf = NULL;
         b->len = b->cap = 0;
-        return req->bytes_in > smd_drain_limit(limit) ? MHD_NO : MHD_YES;
+        return req->bytes_in > smd_drain_limit(req->srv->cfg.max_upload) ? MHD_NO : MHD_YES;
     }
     if (b->len + n > b->cap) {
         size_t ncap = b->cap ? b->cap : 65536;

@@ -7,8 +7,8 @@
  * direction=forward|inverse and strict=true|false (a body member wins).
  * The answer has the request's type: the CSV with its `inside` column,
  * or {"direction", "points", "inside", "outside"}.  The body is held in
- * memory, at most --max-upload bytes (413, before reading it when
- * Content-Length says so); the map is read from the job's results
+ * memory, at most --max-upload bytes and 64 MiB (413, before reading it
+ * when Content-Length says so); the map is read from the job's results
  * (result.mesh, displacement.sol) and the location structures built for
  * the request, on the HTTP thread.
  *

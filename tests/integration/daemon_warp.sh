@@ -5,14 +5,19 @@
 # file; the template's vertices go onto the result's (checked against
 # result.mesh); inverse(forward(x)) = x through JSON; a malformed CSV line
 # is named (400), a body over --max-upload is 413, a running job 409, an
-# unknown job 404, the query's direction checked; no sanitizer report.
+# unknown job and another tenant's job 404, the query's direction
+# checked; no sanitizer report.
 source "$(dirname "$0")/lib.sh"
 
 if ! make_case; then
     not_ok "gmsh builds the test meshes" "$(tail -5 "$WORK/case/gmsh.log")"
     exit 1
 fi
-start_daemon warp --workers 2 --max-upload 400K --kill-grace 1 || { not_ok "the daemon starts"; exit 1; }
+printf 'tok-alice-0123456789 alice\ntok-bob-0123456789 bob\n' >"$WORK/tokens"
+start_daemon warp --workers 2 --max-upload 400K --kill-grace 1 --tokens-file "$WORK/tokens" ||
+    { not_ok "the daemon starts"; exit 1; }
+AUTH=(-H 'Authorization: Bearer tok-alice-0123456789')
+export SHAPEMATCH_TOKEN=tok-alice-0123456789
 ok "the daemon starts"
 SM=$BIN/shapematch
 J=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 20)")
@@ -34,7 +39,7 @@ with open(sys.argv[1], "w") as f:
         f.write("%.17g,%.17g\n" % (r.uniform(-0.6, 0.6), r.uniform(-0.6, 0.6)))
 PY
 CSV=(-H 'Content-Type: text/csv')
-code=$(hcurl -o "$WORK/fwd.csv" -w '%{http_code}' "${CSV[@]}" --data-binary "@$WORK/p.csv" \
+code=$(hcurl "${AUTH[@]}" -o "$WORK/fwd.csv" -w '%{http_code}' "${CSV[@]}" --data-binary "@$WORK/p.csv" \
     "$BASE/v1/jobs/$J/warp")
 "$SM" warp -q --result "$WORK/res" --points "$WORK/p.csv" -o "$WORK/cli.csv"
 if [ "$code" = 200 ] && cmp -s "$WORK/fwd.csv" "$WORK/cli.csv"; then
@@ -66,7 +71,7 @@ dim = int(t[t.index("Dimension") + 1])
 pts = [[float(x) for x in t[i + 2 + (dim + 1) * k:i + 2 + (dim + 1) * k + 2]] for k in range(n)]
 json.dump({"points": pts}, open(sys.argv[2], "w"))
 PY
-code=$(hcurl -o "$WORK/verts.out" -w '%{http_code}' -H 'Content-Type: application/json' \
+code=$(hcurl "${AUTH[@]}" -o "$WORK/verts.out" -w '%{http_code}' -H 'Content-Type: application/json' \
     --data-binary "@$WORK/verts.json" "$BASE/v1/jobs/$J/warp")
 msg=$(python3 - "$WORK/verts.out" "$WORK/res/result.mesh" <<'PY'
 import json, math, sys
@@ -91,7 +96,7 @@ fi
 # inverse(forward(x)) = x for the inside points, the direction in the query
 awk -F, 'NR > 1 && $3 == 1 { print $1 "," $2 }' "$WORK/fwd.csv" >"$WORK/fwd-in.csv"
 awk -F, 'NR > 1 && $3 == 1 { print NR - 1 }' "$WORK/fwd.csv" >"$WORK/in-lines"
-code=$(hcurl -o "$WORK/back.csv" -w '%{http_code}' "${CSV[@]}" --data-binary "@$WORK/fwd-in.csv" \
+code=$(hcurl "${AUTH[@]}" -o "$WORK/back.csv" -w '%{http_code}' "${CSV[@]}" --data-binary "@$WORK/fwd-in.csv" \
     "$BASE/v1/jobs/$J/warp?direction=inverse")
 msg=$(python3 - "$WORK/p.csv" "$WORK/in-lines" "$WORK/back.csv" <<'PY'
 import math, sys
@@ -110,7 +115,7 @@ if [ "$code" = 200 ] && [ "$prc" = 0 ]; then ok "inverse(forward(x)) = x ($msg)"
 problem() { # DESC STATUS DETAIL-PART CURL-ARGS...
     local desc=$1 want=$2 part=$3 code
     shift 3
-    code=$(hcurl -o "$WORK/p.json" -w '%{http_code} %{content_type}' "$@")
+    code=$(hcurl "${AUTH[@]}" -o "$WORK/p.json" -w '%{http_code} %{content_type}' "$@")
     if [ "$code" = "$want application/problem+json" ] &&
         jq -e --arg p "$part" --argjson s "$want" '.status == $s and (.detail | contains($p))' \
             "$WORK/p.json" >/dev/null; then
@@ -137,9 +142,13 @@ problem "a running job has no map" 409 "is running" "${CSV[@]}" --data-binary $'
     "$BASE/v1/jobs/$R/warp"
 problem "an unknown job" 404 "no job" "${CSV[@]}" --data-binary $'0,0\n' \
     "$BASE/v1/jobs/0123456789abcdef0123456789abcdef/warp"
-code=$(hcurl -o /dev/null -w '%{http_code}' "$BASE/v1/jobs/$J/results")
+AUTH=(-H 'Authorization: Bearer tok-bob-0123456789')
+problem "another tenant's job" 404 "no job" "${CSV[@]}" --data-binary $'0,0\n' \
+    "$BASE/v1/jobs/$J/warp"
+AUTH=(-H 'Authorization: Bearer tok-alice-0123456789')
+code=$(hcurl "${AUTH[@]}" -o /dev/null -w '%{http_code}' "$BASE/v1/jobs/$J/results")
 [ "$code" = 200 ] && ok "the daemon answers after all this" || not_ok "daemon alive" "$code"
-hcurl -o /dev/null -X DELETE "$BASE/v1/jobs/$R"
+hcurl "${AUTH[@]}" -o /dev/null -X DELETE "$BASE/v1/jobs/$R"
 stop_daemon
 if reports_clean; then ok "no sanitizer report"; else not_ok "sanitizer reports"; fi
 echo "1..$n"

@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <unistd.h>
 
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_warp.h"
@@ -22,11 +23,20 @@
 
 #define CSV_MEDIA "text/csv"
 #define JSON_MEDIA "application/json"
+#define MESH_MEDIA "application/x-medit-mesh"
+#define MESHB_MEDIA "application/x-medit-meshb"
+#define SOL_MEDIA "application/x-medit-sol"
+#define SOLB_MEDIA "application/x-medit-solb"
+
+/* What the body holds, by its Content-Type. */
+enum body_kind { BODY_CSV, BODY_JSON, BODY_MESH, BODY_FIELD };
 
 struct smd_warp_body {
-    int json;            /* else CSV */
+    int json;            /* BODY_JSON (kept for the points' answer) */
+    int kind;            /* body_kind */
     int direction;       /* from the query; -1 not given */
     int strict;          /* from the query; -1 not given */
+    int normalize;       /* from the query (fields) */
     char *buf;
     size_t len, cap;
     int too_large;
@@ -59,9 +69,9 @@ static int query_direction(struct MHD_Connection *conn)
                                        : -2;
 }
 
-static int query_strict(struct MHD_Connection *conn)
+static int query_bool(struct MHD_Connection *conn, const char *name)
 {
-    const char *v = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "strict");
+    const char *v = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, name);
     if (!v)
         return -1;
     return strcmp(v, "true") == 0 || strcmp(v, "1") == 0    ? 1
@@ -99,16 +109,23 @@ enum MHD_Result smd_route_warp(struct MHD_Connection *conn, smd_request *req)
     }
     const char *ctype =
         MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
-    int json = media_is(ctype, JSON_MEDIA);
-    if (!json && !media_is(ctype, CSV_MEDIA))
+    int kind = media_is(ctype, CSV_MEDIA)    ? BODY_CSV
+               : media_is(ctype, JSON_MEDIA) ? BODY_JSON
+               : media_is(ctype, MESH_MEDIA) || media_is(ctype, MESHB_MEDIA) ? BODY_MESH
+               : media_is(ctype, SOL_MEDIA) || media_is(ctype, SOLB_MEDIA)   ? BODY_FIELD
+                                                                             : -1;
+    if (kind < 0)
         return smd_reply_problem(conn, req, 415, SMD_PROBLEM_UNSUPPORTED_MEDIA,
-                                 "the points come as " CSV_MEDIA " or " JSON_MEDIA " (Content-Type "
-                                 "'%.100s')", ctype ? ctype : "none");
-    int direction = query_direction(conn), strict = query_strict(conn);
-    if (direction == -2 || strict == -2)
+                                 "the body is points (" CSV_MEDIA ", " JSON_MEDIA "), a mesh ("
+                                 MESH_MEDIA ", " MESHB_MEDIA ") or a field (" SOL_MEDIA ", "
+                                 SOLB_MEDIA "); Content-Type '%.100s'", ctype ? ctype : "none");
+    int direction = query_direction(conn), strict = query_bool(conn, "strict");
+    int normalize = query_bool(conn, "normalize");
+    if (direction == -2 || strict == -2 || normalize == -2)
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST, "%s",
                                  direction == -2 ? "direction: expected forward or inverse"
-                                                 : "strict: expected true or false");
+                                 : strict == -2  ? "strict: expected true or false"
+                                                 : "normalize: expected true or false");
     const char *length =
         MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
     uint64_t n = 0;
@@ -120,7 +137,9 @@ enum MHD_Result smd_route_warp(struct MHD_Connection *conn, smd_request *req)
     smd_warp_body *b = calloc(1, sizeof *b);
     if (!b)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
-    b->json = json;
+    b->json = kind == BODY_JSON;
+    b->kind = kind;
+    b->normalize = normalize > 0;
     b->direction = direction;
     b->strict = strict;
     req->body_state = b;
@@ -333,6 +352,135 @@ done:
     return r;
 }
 
+/* ------------------------------------------------------ mesh, field */
+
+/* A reader's message about the temporary file path, said of "the body". */
+static const char *about_body(const char *msg, const char *path)
+{
+    size_t n = strlen(path);
+    return strncmp(msg, path, n) == 0 ? msg + n : msg;
+}
+
+/* The mesh or field of the body (the file in), warped into the file
+ * out; 0, or an HTTP status with the detail in msg. */
+static unsigned warp_file(smd_request *req, const smd_warp_body *b, int direction,
+                          const char *in, const char *out, char *msg, size_t cap)
+{
+    sm_mesh *m = NULL, *body_mesh = NULL;
+    sm_sol *sol = NULL;
+    double *deformed = NULL, *xyz = NULL;
+    sm_warp *w = NULL;
+    sm_error err;
+    sm_error_clear(&err);
+    int gone = 0;
+    unsigned status = 0;
+    if (load_map(req, &m, &deformed, &gone, msg, cap) != 0) {
+        status = gone ? 404 : 500;
+        goto done;
+    }
+    if (b->kind == BODY_FIELD) {
+        if (sm_sol_read(in, &sol, &err) != SM_OK) {
+            snprintf(msg, cap, "the body%s", about_body(err.msg, in));
+            status = 400;
+        } else if (sol->nverts != m->nverts || sol->dim != m->dim) {
+            snprintf(msg, cap, "the field is %dD on %ld vertices; the map of job %s is %dD on %ld",
+                     sol->dim, (long)sol->nverts, req->id, m->dim, (long)m->nverts);
+            status = 422;
+        } else if (sm_warp_new(m, deformed, 0, &w, &err) != SM_OK ||
+                   sm_warp_field(w, (sm_warp_direction)direction, sol->ncomp, b->normalize,
+                                 sol->values, &err) != SM_OK ||
+                   sm_sol_write(out, sol, &err) != SM_OK) {
+            snprintf(msg, cap, "%s", err.msg);
+            status = 500;
+        }
+        goto done;
+    }
+    sm_read_limits limits = {.max_inflated = WARP_BODY_MAX * 4};
+    if (sm_mesh_read_limited(in, &limits, &body_mesh, &err) != SM_OK) {
+        snprintf(msg, cap, "the body%s", about_body(err.msg, in));
+        status = limits.hit ? 413 : 400;
+    } else if (body_mesh->dim != m->dim) {
+        snprintf(msg, cap, "a %dD mesh, and the map of job %s is %dD", body_mesh->dim, req->id,
+                 m->dim);
+        status = 422;
+    } else if (!(xyz = malloc(((size_t)body_mesh->nverts * (size_t)m->dim + 1) * sizeof *xyz)) ||
+               sm_warp_new(m, deformed, 1u << direction, &w, &err) != SM_OK) {
+        snprintf(msg, cap, "%s", err.msg[0] ? err.msg : "out of memory");
+        status = 503;
+    } else if (sm_warp_points(w, (sm_warp_direction)direction, b->strict > 0, body_mesh->nverts,
+                              body_mesh->coords, xyz, NULL, NULL, &err) != SM_OK) {
+        snprintf(msg, cap, "vertices: %s", err.msg);
+        status = 422;
+    } else if (sm_mesh_write_coords(out, body_mesh, xyz, &err) != SM_OK) {
+        snprintf(msg, cap, "%s", err.msg);
+        status = 500;
+    }
+done:
+    sm_warp_free(w);
+    free(xyz);
+    sm_mesh_free(body_mesh);
+    sm_sol_free(sol);
+    free(deformed);
+    sm_mesh_free(m);
+    return status;
+}
+
+/* The body to a temporary file, warped into another, sent back (Medit
+ * ASCII: .mesh or .sol). */
+static enum MHD_Result warp_file_answer(struct MHD_Connection *conn, smd_request *req,
+                                        const smd_warp_body *b)
+{
+    char in[PATH_MAX], out[PATH_MAX], msg[700];
+    int direction = b->direction >= 0 ? b->direction : SM_WARP_FORWARD;
+    const char *ext = b->kind == BODY_FIELD ? "sol" : "mesh";
+    if (smd_pathf(in, sizeof in, "%s/warp-XXXXXX", smd_store_tmp_dir(req->srv->store)) != 0 ||
+        smd_pathf(out, sizeof out, "%s.out.%s", in, ext) != 0)
+        return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "path too long");
+    int fd = mkstemp(in);
+    if (fd < 0)
+        return smd_reply_problem(conn, req, 500, SMD_PROBLEM_STORAGE,
+                                 "cannot create a temporary file: %s", strerror(errno));
+    size_t done = 0;
+    while (done < b->len) {
+        ssize_t k = write(fd, b->buf + done, b->len - done);
+        if (k < 0 && errno == EINTR)
+            continue;
+        if (k <= 0)
+            break;
+        done += (size_t)k;
+    }
+    close(fd);
+    memcpy(out, in, strlen(in)); /* the same folder and random part as in */
+    unsigned status = done < b->len ? 500 : 0;
+    if (status)
+        snprintf(msg, sizeof msg, "cannot write a temporary file: %s", strerror(errno));
+    else
+        status = warp_file(req, b, direction, in, out, msg, sizeof msg);
+    char *body = NULL;
+    size_t len = 0;
+    if (!status && smd_read_file(out, SIZE_MAX / 2, &body, &len) != 0) {
+        status = 500;
+        snprintf(msg, sizeof msg, "cannot read the warped %s back", ext);
+    }
+    unlink(in);
+    unlink(out);
+    if (status == 404)
+        return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
+    if (status)
+        return smd_reply_problem(conn, req, status,
+                                 status == 400   ? SMD_PROBLEM_BAD_REQUEST
+                                 : status == 413 ? SMD_PROBLEM_TOO_LARGE
+                                 : status == 422 ? SMD_PROBLEM_INVALID_INPUT
+                                 : status == 503 ? SMD_PROBLEM_UNAVAILABLE
+                                                 : SMD_PROBLEM_INTERNAL,
+                                 "%s", msg);
+    struct MHD_Response *resp =
+        smd_buffer_response(conn, req, b->kind == BODY_FIELD ? SOL_MEDIA : MESH_MEDIA, body, len);
+    if (!resp)
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
+    return smd_reply(conn, req, 200, resp);
+}
+
 enum MHD_Result smd_warp_continue(struct MHD_Connection *conn, smd_request *req, const char *data,
                                   size_t *size)
 {
@@ -343,7 +491,8 @@ enum MHD_Result smd_warp_continue(struct MHD_Connection *conn, smd_request *req,
             return smd_reply_problem(conn, req, 413, SMD_PROBLEM_TOO_LARGE,
                                      "the points exceed the limit of %" PRIu64
                                      " bytes (--max-upload, at most 64 MiB)", limit);
-        return warp_answer(conn, req, b);
+        return b->kind == BODY_MESH || b->kind == BODY_FIELD ? warp_file_answer(conn, req, b)
+                                                            : warp_answer(conn, req, b);
     }
     size_t n = *size;
     *size = 0;

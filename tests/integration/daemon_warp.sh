@@ -2,7 +2,7 @@
 # POST /v1/jobs/{id}/warp on a real daemon (docs/warp.md): on a finished
 # disk job, the CSV answer is byte for byte `shapematch warp --result` on
 # the fetched results, and `shapematch warp --job ID` gives the same
-# file; the template's vertices go onto the result's (checked against
+# file, as do a mesh and a field sent to the daemon; the template's vertices go onto the result's (checked against
 # result.mesh); inverse(forward(x)) = x through JSON; a malformed CSV line
 # is named (400), a body over --max-upload is 413, a running job 409, an
 # unknown job and another tenant's job 404, the query's direction
@@ -111,6 +111,27 @@ PY
 prc=$?
 if [ "$code" = 200 ] && [ "$prc" = 0 ]; then ok "inverse(forward(x)) = x ($msg)"; else not_ok "inverse" "code $code" "$msg"; fi
 
+# a mesh and a field through the daemon: the CLI's files, byte for byte
+code=$(hcurl "${AUTH[@]}" -o "$WORK/disk-warped.mesh" -w '%{http_code}' \
+    -H 'Content-Type: application/x-medit-mesh' --data-binary "@$DISK" "$BASE/v1/jobs/$J/warp")
+"$SM" warp -q --result "$WORK/res" --mesh "$DISK" -o "$WORK/disk-cli.mesh"
+if [ "$code" = 200 ] && cmp -s "$WORK/disk-warped.mesh" "$WORK/disk-cli.mesh"; then
+    ok "a mesh (Medit) warped by the daemon: the CLI's file"
+else
+    not_ok "mesh over HTTP" "code $code" "$(head -c 300 "$WORK/disk-warped.mesh")"
+fi
+awk 'BEGIN { print "MeshVersionFormatted 2\nDimension 2\nSolAtVertices" }
+     $1 == "Vertices" { getline n; print n "\n1 2"; for (i = 0; i < n; i++) { getline; print -$2, $1 } }
+     END { print "End" }' "$WORK/res/result.mesh" >"$WORK/v.sol"
+code=$(hcurl "${AUTH[@]}" -o "$WORK/v-warped.sol" -w '%{http_code}' \
+    -H 'Content-Type: application/x-medit-sol' --data-binary "@$WORK/v.sol" \
+    "$BASE/v1/jobs/$J/warp?normalize=true")
+"$SM" warp -q --result "$WORK/res" --normalize --field "$WORK/v.sol" -o "$WORK/v-cli.sol"
+if [ "$code" = 200 ] && cmp -s "$WORK/v-warped.sol" "$WORK/v-cli.sol"; then
+    ok "a vector field warped by the daemon (normalize): the CLI's file"
+else
+    not_ok "field over HTTP" "code $code" "$(head -c 300 "$WORK/v-warped.sol")"
+fi
 # errors, as problem+json
 problem() { # DESC STATUS DETAIL-PART CURL-ARGS...
     local desc=$1 want=$2 part=$3 code
@@ -124,6 +145,10 @@ problem() { # DESC STATUS DETAIL-PART CURL-ARGS...
         not_ok "$desc" "$code" "$(head -c 300 "$WORK/p.json")"
     fi
 }
+printf 'MeshVersionFormatted 2\nDimension 2\nVertices\n2\n0 0 0\n' >"$WORK/broken.mesh"
+problem "a malformed mesh: the reader's message" 400 "the body" \
+    -H 'Content-Type: application/x-medit-mesh' --data-binary "@$WORK/broken.mesh" \
+    "$BASE/v1/jobs/$J/warp"
 printf 'x,y\n0,0\n0.1,0.1\n0.2;0.2\n' >"$WORK/bad.csv"
 problem "a malformed CSV line is named" 400 "line 4" "${CSV[@]}" --data-binary "@$WORK/bad.csv" \
     "$BASE/v1/jobs/$J/warp"

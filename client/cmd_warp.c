@@ -13,6 +13,7 @@
 
 #include "cli.h"
 #include "daemon_ops.h"
+#include "job/sm_job_map.h"
 #include "remote.h"
 #include "shapematch/sm_atomic.h"
 #include "shapematch/sm_io.h"
@@ -121,65 +122,15 @@ static int warp_check(const warp_args *a, char *msg, size_t cap)
 
 /* ------------------------------------------------------------ the map */
 
-/* The first of DIR/name+suffix that exists, malloc'd (NULL: none). */
-static char *find_file(const char *dir, const char *const *names)
-{
-    for (; *names; names++) {
-        char *p = sm_path_join(dir, *names);
-        if (p && access(p, F_OK) == 0)
-            return p;
-        free(p);
-    }
-    return NULL;
-}
-
-/* Reads the result's mesh and displacement: m->coords the template's
- * (result - displacement), *deformed the result's. */
+/* Reads the result's map (job/sm_job_map.h); an exit code. */
 static int load_map(const char *cmd, const char *dir, sm_mesh **m, double **deformed)
 {
-    static const char *const meshes[] = {"result.mesh", "result.meshb", "result.mesh.gz",
-                                         "result.meshb.gz", NULL};
-    static const char *const sols[] = {"displacement.sol", "displacement.solb",
-                                       "displacement.sol.gz", "displacement.solb.gz", NULL};
-    char *pm = find_file(dir, meshes), *ps = find_file(dir, sols);
     sm_error err;
     sm_error_clear(&err);
-    sm_sol *d = NULL;
-    int rc = CLI_EXIT_INPUT;
-    *m = NULL;
-    *deformed = NULL;
-    if (!pm || !ps) {
-        fprintf(stderr, "shapematch %s: %s has no %s (a result folder of 'run' or 'fetch')\n", cmd,
-                dir, !pm ? "result.mesh or result.meshb" : "displacement.sol or displacement.solb");
-        goto done;
-    }
-    if (sm_mesh_read(pm, m, &err) != SM_OK || sm_sol_read(ps, &d, &err) != SM_OK) {
-        fprintf(stderr, "shapematch %s: %s\n", cmd, err.msg);
-        goto done;
-    }
-    if (d->nverts != (*m)->nverts || d->ncomp != (*m)->dim) {
-        fprintf(stderr, "shapematch %s: %s has %ld values of %d components, %s %ld vertices in %dD\n",
-                cmd, ps, (long)d->nverts, d->ncomp, pm, (long)(*m)->nverts, (*m)->dim);
-        goto done;
-    }
-    size_t n = (size_t)(*m)->nverts * (size_t)(*m)->dim;
-    if (!(*deformed = malloc(n * sizeof **deformed))) {
-        fprintf(stderr, "shapematch %s: out of memory\n", cmd);
-        goto done;
-    }
-    memcpy(*deformed, (*m)->coords, n * sizeof **deformed);
-    for (size_t i = 0; i < n; i++)
-        (*m)->coords[i] -= d->values[i];
-    rc = 0;
-done:
-    if (rc != 0) {
-        sm_mesh_free(*m);
-        *m = NULL;
-    }
-    sm_sol_free(d);
-    free(pm);
-    free(ps);
-    return rc;
+    if (sm_job_map_read(dir, m, deformed, &err) == SM_OK)
+        return 0;
+    fprintf(stderr, "shapematch %s: %s\n", cmd, err.msg);
+    return err.code == SM_ERR_NOMEM ? CLI_EXIT_NUMERIC : CLI_EXIT_INPUT;
 }
 
 /* Removes the files of a temporary download folder, then the folder. */

@@ -9,6 +9,7 @@
 #include <strings.h>
 #include <unistd.h>
 
+#include "job/sm_job_map.h"
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_warp.h"
 #include "sm_points_csv.h"
@@ -215,48 +216,29 @@ done:
 
 /* ---------------------------------------------------------------- map */
 
-/* Reads the job's result map: *m with the template coordinates, and the
- * deformed ones.  0, or -1 with msg (a missing file: the job was deleted
- * since, *gone set). */
+/* Reads the job's result map (job/sm_job_map.h): *m with the template
+ * coordinates, and the deformed ones.  0, or -1 with msg; *gone when the
+ * job was deleted since its state was read (its files are missing and
+ * it is no longer there). */
 static int load_map(smd_request *req, sm_mesh **m, double **deformed, int *gone, char *msg,
                     size_t cap)
 {
-    char pm[PATH_MAX], ps[PATH_MAX];
+    char dir[PATH_MAX];
     sm_error err;
     sm_error_clear(&err);
-    sm_sol *d = NULL;
-    *m = NULL;
-    *deformed = NULL;
     *gone = 0;
-    if (smd_store_path(req->srv->store, req->id, SMD_RESULTS_DIR "/result.mesh", pm, sizeof pm) ||
-        smd_store_path(req->srv->store, req->id, SMD_RESULTS_DIR "/displacement.sol", ps,
-                       sizeof ps)) {
+    if (smd_store_path(req->srv->store, req->id, SMD_RESULTS_DIR, dir, sizeof dir) != 0) {
         snprintf(msg, cap, "path too long");
         return -1;
     }
-    if (sm_mesh_read(pm, m, &err) != SM_OK || sm_sol_read(ps, &d, &err) != SM_OK) {
-        *gone = err.code == SM_ERR_IO && errno == ENOENT;
-        snprintf(msg, cap, "the results of job %s cannot be read: %s", req->id, err.msg);
-        goto fail;
-    }
-    size_t n = (size_t)(*m)->nverts * (size_t)(*m)->dim;
-    if (d->nverts != (*m)->nverts || d->ncomp != (*m)->dim) {
-        snprintf(msg, cap, "the results of job %s do not agree (mesh and displacement)", req->id);
-        goto fail;
-    }
-    if (!(*deformed = malloc(n * sizeof **deformed))) {
-        snprintf(msg, cap, "out of memory");
-        goto fail;
-    }
-    memcpy(*deformed, (*m)->coords, n * sizeof **deformed);
-    for (size_t i = 0; i < n; i++)
-        (*m)->coords[i] -= d->values[i];
-    sm_sol_free(d);
-    return 0;
-fail:
-    sm_sol_free(d);
-    sm_mesh_free(*m);
-    *m = NULL;
+    if (sm_job_map_read(dir, m, deformed, &err) == SM_OK)
+        return 0;
+    smd_server *srv = req->srv;
+    pthread_mutex_lock(&srv->lock);
+    *gone = err.code == SM_ERR_IO &&
+            !smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
+    pthread_mutex_unlock(&srv->lock);
+    snprintf(msg, cap, "the results of job %s cannot be read: %s", req->id, err.msg);
     return -1;
 }
 

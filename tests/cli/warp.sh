@@ -80,6 +80,11 @@ $CHECK surface "$T3" "$WORK/s.obj" "$WORK/s.stl"
 expect_ok "3d: the boundary as OBJ warped" "$BIN" warp --result "$dir" --mesh "$WORK/s.obj" \
     -o "$dir/s.obj"
 expect_ok "3d: OBJ vertices are the map's" $CHECK surfcheck "$WORK/s.obj" "$dir/s.obj" 1e-12
+expect_ok "3d: a surface written as Medit and back with --inverse" sh -c \
+    "'$BIN' warp -q --result '$dir' --mesh '$WORK/s.obj' -o '$dir/s.mesh' &&
+     '$BIN' warp -q --result '$dir' --inverse --mesh '$dir/s.mesh' -o '$dir/s-back.obj'"
+expect_ok "3d: the surface came back" $CHECK surfcheck "$WORK/s.obj" "$dir/s-back.obj" 1e-12 \
+    identity
 expect_ok "3d: the boundary as STL warped" "$BIN" warp --result "$dir" --mesh "$WORK/s.stl" \
     -o "$dir/s.stl"
 expect_ok "3d: STL vertices are the map's (single precision)" $CHECK surfcheck "$WORK/s.stl" \
@@ -130,6 +135,8 @@ else
 fi
 expect_ok "-o - writes to standard output" sh -c \
     "'$BIN' warp -q --result '$dir' --points '$WORK/out.csv' -o - | grep -q '^x,y,inside$'"
+expect_ok "warp --help names its options" sh -c \
+    "'$BIN' warp --help | grep -q -- '--inverse' && '$BIN' --help | grep -q '^  warp '"
 expect_fail "no map given: usage" 1 "exactly one of --result DIR and --job ID" \
     "$BIN" warp --points "$WORK/out.csv" -o "$WORK/o.csv"
 expect_fail "two inputs: usage" 1 "exactly one of --points, --mesh and --field" \

@@ -15,6 +15,8 @@ Cramer's rule), never by shapematch.
   warp_check.py mesh TEMPLATE KIND IN OUT          (vertices of IN mapped)
   warp_check.py field TEMPLATE OUT.sol normalize   (vector (1, 2[, 3]) -> A v)
   warp_check.py surface TEMPLATE OUT.obj OUT.stl   (the template's boundary)
+  warp_check.py surfcheck IN OUT TOL [KIND]        (OBJ/STL vertices mapped)
+  warp_check.py vtu TEMPLATE KIND IN OUT.vtu
 Exit 0 when the check holds, 1 with the first difference printed."""
 import math
 import random
@@ -265,15 +267,24 @@ def read_surface_vertices(path):
             if l.startswith("v ")]
 
 
-def cmd_surfcheck(inp, outp, tol):
-    f = mapping("affine", 3)
-    a = sorted(f(x) for x in read_surface_vertices(inp))
-    b = sorted(read_surface_vertices(outp))
+def cmd_surfcheck(inp, outp, tol, kind="affine"):
+    f = mapping(kind, 3)
+    # every expected vertex has an output vertex within tol (a grid of
+    # cells far larger than tol, each point looked up in its 27 cells)
+    a = [f(x) for x in read_surface_vertices(inp)]
+    b = read_surface_vertices(outp)
     if len(a) != len(b):
         fail("%d vertices in, %d out" % (len(a), len(b)))
-    for n, (fx, y) in enumerate(zip(a, b)):
-        if math.dist(fx, y) > float(tol):
-            fail("vertex %d: %s, expected %s" % (n + 1, y, fx))
+    cell = 1e-3
+    grid = {}
+    for y in b:
+        grid.setdefault(tuple(int(math.floor(c / cell)) for c in y), []).append(y)
+    for n, fx in enumerate(a):
+        k = [int(math.floor(c / cell)) for c in fx]
+        near = [y for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
+                for y in grid.get((k[0] + dx, k[1] + dy, k[2] + dz), [])]
+        if not near or min(math.dist(fx, y) for y in near) > float(tol):
+            fail("vertex %d: no output vertex within %s of %s" % (n + 1, tol, fx))
     print("%d surface vertices checked" % len(a))
 
 

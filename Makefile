@@ -11,22 +11,25 @@ SHELL := /bin/bash
 .DEFAULT_GOAL := all
 
 PREFIX ?= /usr/local
-# where `make install` puts the systemd unit
-UNITDIR ?= /etc/systemd/system
+# where `make install` puts the systemd unit: nowhere unless given
+# (UNITDIR=/etc/systemd/system), so that an install stays under PREFIX
+UNITDIR ?=
 VERSION := 0.1.0
 
-# Debian packages the build, the tests, the demo and the benchmarks need.
+# Debian packages the build, the tests, the demo and the benchmarks need
+# (python3-numpy: the Python package's arrays, tests/python; man-db and
+# groff-base: man -l in tests/build/install.sh).
 DEB_PACKAGES := gcc make pkg-config libc6-dev \
   libsuitesparse-dev libopenblas0-pthread zlib1g-dev libcmocka-dev libjansson-dev \
   libmicrohttpd-dev libgnutls28-dev libcurl4-openssl-dev curl gmsh wrk jq systemd python3 python3-yaml strace \
   libdeflate-dev pmccabe clang libclang-rt-14-dev libomp-14-dev nodejs chromium postgresql libpq-dev \
-  libhypre-dev mpi-default-dev
+  libhypre-dev mpi-default-dev python3-numpy man-db groff-base
 
 # The part of them `make release` and `make install` need (the Dockerfile's
 # build stage: `make deps-build`); tests/deploy/ checks it is a subset.
 DEB_BUILD_PACKAGES := gcc make pkg-config libc6-dev libsuitesparse-dev libopenblas0-pthread \
   zlib1g-dev libdeflate-dev libcmocka-dev libjansson-dev libmicrohttpd-dev libgnutls28-dev libcurl4-openssl-dev libpq-dev \
-  libhypre-dev mpi-default-dev
+  libhypre-dev mpi-default-dev python3-numpy man-db groff-base
 
 CC ?= cc
 # hypre (BoomerAMG, the iterative solver of large templates) is built with
@@ -34,7 +37,11 @@ CC ?= cc
 MPI_PC := $(shell pkg-config --cflags-only-I mpi-c 2>/dev/null)
 HYPRE_CFLAGS := -isystem /usr/include/hypre $(MPI_PC:-I%=-isystem %)
 HYPRE_LIBS := -lHYPRE $(shell pkg-config --libs mpi-c 2>/dev/null)
+# -fPIC: one set of objects for the archives and the shared libraries
+# (libshapematch.so, libshapematch_job.so); -fno-semantic-interposition keeps
+# calls inside them direct, as in the executables (Debian's gcc builds PIE).
 BASE_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror -fopenmp \
+  -fPIC -fno-semantic-interposition \
   -Wno-missing-field-initializers -g -I core/include -I proto -I /usr/include/suitesparse \
   -DSM_VERSION='"$(VERSION)"' $(HYPRE_CFLAGS)
 RELEASE_CFLAGS := $(BASE_CFLAGS) -O2
@@ -71,7 +78,7 @@ endef
 $(foreach v,$(VARIANTS),$(eval $(call variant_rules,$(v))))
 
 include $(wildcard core/module.mk proto/module.mk web/module.mk server/module.mk \
-  client/module.mk tests/module.mk bench/module.mk)
+  client/module.mk tests/module.mk bench/module.mk docs/module.mk)
 
 .PHONY: all deps check-deps test demo lint install clean release asan
 all: $(foreach v,$(VARIANTS),$(ALL_TARGETS:%=build/$(v)/%)) $(RELEASE_ONLY_TARGETS:%=build/release/%)
@@ -153,21 +160,59 @@ demo: check-deps
 	$(MAKE) -j$$(nproc) release
 	examples/demo.sh
 
-# The unit goes to $(UNITDIR) with its program path rewritten to
-# $(PREFIX)/bin.
+# make install PREFIX=... DESTDIR=...: the programs, the libraries
+# (libshapematch.so.MAJOR with its archive, libshapematch_job.so.MAJOR), the
+# headers (<shapematch.h>, <shapematch/...>, <shapematch_job.h>),
+# shapematch.pc, the man pages and the Python package, all under PREFIX.
+# Nothing goes elsewhere unless UNITDIR is given: the systemd unit then goes
+# there with its program path rewritten to $(PREFIX)/bin
+# (UNITDIR=/etc/systemd/system).
+LIBDIR = $(PREFIX)/lib
+INCLUDEDIR = $(PREFIX)/include
+MANDIR = $(PREFIX)/share/man
+# Debian's python3 searches it for PREFIX=/usr; for /usr/local give
+# PYTHONDIR=/usr/local/lib/python3.X/dist-packages (docs/python.md)
+PYTHONDIR = $(PREFIX)/lib/python3/dist-packages
+PYTHON_FILES := $(wildcard python/shapematch/*.py)
+SM_LIBS := libshapematch libshapematch_job
+
 install: release
-	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(UNITDIR)
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)/shapematch \
+	  $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(MANDIR)/man8 $(DESTDIR)$(PYTHONDIR)/shapematch
 	install -m 755 $(INSTALL_PROGRAMS:%=build/release/%) $(DESTDIR)$(PREFIX)/bin/
-	sed 's|/usr/local/bin/|$(PREFIX)/bin/|g' deploy/systemd/shapematchd.service \
-	  >$(DESTDIR)$(UNITDIR)/shapematchd.service.tmp
-	chmod 644 $(DESTDIR)$(UNITDIR)/shapematchd.service.tmp
-	mv $(DESTDIR)$(UNITDIR)/shapematchd.service.tmp $(DESTDIR)$(UNITDIR)/shapematchd.service
-	@echo "installed; start the daemon with: systemctl daemon-reload && systemctl enable --now shapematchd"
+	for l in $(SM_LIBS); do \
+	  install -m 755 build/release/$$l.so.$(SM_SOVERSION) $(DESTDIR)$(LIBDIR)/$$l.so.$(VERSION) && \
+	  ln -sf $$l.so.$(VERSION) $(DESTDIR)$(LIBDIR)/$$l.so.$(SM_SOVERSION) && \
+	  ln -sf $$l.so.$(SM_SOVERSION) $(DESTDIR)$(LIBDIR)/$$l.so || exit 1; done
+	install -m 644 build/release/libshapematch.a $(DESTDIR)$(LIBDIR)/
+	install -m 644 build/release/include/shapematch.h proto/job/shapematch_job.h $(DESTDIR)$(INCLUDEDIR)/
+	install -m 644 $(CORE_PUBLIC_HEADERS) $(DESTDIR)$(INCLUDEDIR)/shapematch/
+	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|$(VERSION)|' -e 's|@LIBS_PRIVATE@|$(CORE_LIBS)|' \
+	  core/shapematch.pc.in >$(DESTDIR)$(LIBDIR)/pkgconfig/shapematch.pc
+	install -m 644 build/release/man/shapematch.1 $(DESTDIR)$(MANDIR)/man1/
+	install -m 644 build/release/man/shapematchd.8 $(DESTDIR)$(MANDIR)/man8/
+	install -m 644 $(PYTHON_FILES) $(DESTDIR)$(PYTHONDIR)/shapematch/
+	@if [ -n "$(UNITDIR)" ]; then \
+	  install -d $(DESTDIR)$(UNITDIR) && \
+	  sed 's|/usr/local/bin/|$(PREFIX)/bin/|g' deploy/systemd/shapematchd.service \
+	    >$(DESTDIR)$(UNITDIR)/shapematchd.service.tmp && \
+	  chmod 644 $(DESTDIR)$(UNITDIR)/shapematchd.service.tmp && \
+	  mv $(DESTDIR)$(UNITDIR)/shapematchd.service.tmp $(DESTDIR)$(UNITDIR)/shapematchd.service && \
+	  echo "installed; start the daemon with: systemctl daemon-reload && systemctl enable --now shapematchd"; \
+	else echo "installed under $(PREFIX); the systemd unit with UNITDIR=/etc/systemd/system"; fi
 
 .PHONY: uninstall
 uninstall:
 	rm -f $(INSTALL_PROGRAMS:%=$(DESTDIR)$(PREFIX)/bin/%) \
-	  $(DESTDIR)$(UNITDIR)/shapematchd.service
+	  $(foreach l,$(SM_LIBS),$(DESTDIR)$(LIBDIR)/$(l).so.$(VERSION) $(DESTDIR)$(LIBDIR)/$(l).so.$(SM_SOVERSION) $(DESTDIR)$(LIBDIR)/$(l).so) \
+	  $(DESTDIR)$(LIBDIR)/libshapematch.a $(DESTDIR)$(LIBDIR)/pkgconfig/shapematch.pc \
+	  $(DESTDIR)$(INCLUDEDIR)/shapematch.h $(DESTDIR)$(INCLUDEDIR)/shapematch_job.h \
+	  $(CORE_PUBLIC_HEADERS:core/include/%=$(DESTDIR)$(INCLUDEDIR)/%) \
+	  $(DESTDIR)$(MANDIR)/man1/shapematch.1 $(DESTDIR)$(MANDIR)/man8/shapematchd.8 \
+	  $(PYTHON_FILES:python/%=$(DESTDIR)$(PYTHONDIR)/%)
+	rm -rf $(DESTDIR)$(PYTHONDIR)/shapematch/__pycache__
+	-rmdir $(DESTDIR)$(INCLUDEDIR)/shapematch $(DESTDIR)$(PYTHONDIR)/shapematch 2>/dev/null
+	$(if $(UNITDIR),rm -f $(DESTDIR)$(UNITDIR)/shapematchd.service)
 
 clean:
 	rm -rf build demo-out

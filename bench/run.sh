@@ -137,6 +137,9 @@ python3 bench/stall_cases.py "$BIN" --examples
 echo
 bench/robust.sh
 
+echo
+bench/python.sh
+
 if [ -x bench/server_bench.sh ] && [ -x "$BIN/shapematchd" ]; then
     echo
     echo "== daemon =="

@@ -1,12 +1,16 @@
 // The shapematch web app (served by shapematchd at /, issue 11): submit a
 // job with the multipart parts of POST /v1/jobs, follow its event stream
-// (uPlot: J and the boundary error against the iteration), draw the live
-// and final shape (2D canvas for triangles, three.js for the boundary of
-// tetrahedra), download the results.  Plain ES modules; every URL is
-// relative to the page, so it also works behind a path prefix.  With a
-// token: Authorization for fetch, access_token for EventSource and links.
+// (uPlot: J and the RMS boundary error against the iteration), draw the
+// live and final shape (2D canvas for triangles, three.js for the boundary
+// of tetrahedra, both coloured by |d| with a colour scale, the target's
+// zero level set or surface overlaid), show the outcome (converged or not,
+// and why) and every warning, download the results.  Plain ES modules;
+// every URL is relative to the page, so it also works behind a path
+// prefix.  With a token: Authorization for fetch, access_token for
+// EventSource and links.
 import uPlot from './uplot.js';
-import { drawMesh2d, View3d, parsePayload } from './view.js';
+import { View2d, View3d, parsePayload, heatCss, fmtNum, tickLabel } from './view.js';
+import { loadTarget } from './target.js';
 
 const $ = (id) => document.getElementById(id);
 const token = () => $('token').value.trim();
@@ -15,7 +19,9 @@ const withToken = (path) => (token() ? `${path}${path.includes('?') ? '&' : '?'}
 const FILES = ['template', 'target_mesh', 'target_sol', 'target_surface'];
 
 let schema = null;
-let current = null; // the job followed: {id, es, timer, plot, data, view3d, first}
+let current = null; // the job followed: {id, es, timer, plot, data, view, ...}
+// for the browser tests: the job followed (its plot and views)
+window.shapematch = { get current() { return current; } };
 
 function errorSpan(name) { return document.querySelector(`.err[data-for="${CSS.escape(name)}"]`); }
 function clearErrors() {
@@ -28,6 +34,11 @@ function showError(name, message) {
   if (input) input.classList.add('invalid');
   if (span) span.textContent = message; else $('form-error').textContent = message;
 }
+const el = (tag, props = {}, ...children) => {
+  const e = Object.assign(document.createElement(tag), props);
+  e.append(...children);
+  return e;
+};
 
 // ------------------------------------------------------------ the form
 
@@ -35,31 +46,60 @@ function resolve(prop) {
   if (prop && prop.$ref && prop.$ref.startsWith('#/$defs/')) return { ...schema.$defs[prop.$ref.slice(8)], ...prop };
   return prop;
 }
+// What a parameter's field is: number, enum, boolean, refs (a list of
+// references), clamp (its own fields) or json (anything else).
+function kindOf(name, p) {
+  if (name === 'clamp') return 'clamp';
+  if (p.type === 'number' || p.type === 'integer') return 'number';
+  if (p.type === 'boolean') return 'boolean';
+  if (p.enum) return 'enum';
+  if (p.type === 'array' && p.items && (p.items.$ref === '#/$defs/ref' || p.items.type === 'integer')) return 'refs';
+  return 'json';
+}
+
+// The clamp as fields: its kind, the ball's centre and radius, the
+// references of the elements or vertices, alpha of kind none.
+function clampFields(p) {
+  const kinds = (p.properties && p.properties.kind && p.properties.kind.enum) || ['ball', 'elements', 'vertices', 'none'];
+  const kind = el('select', { id: 'p-clamp', name: 'params.clamp' }, ...kinds.map((k) => el('option', { value: k, textContent: k })));
+  const num = (id, label, ph) => el('label', { className: 'small' }, label, el('input', { id, type: 'text', inputMode: 'decimal', placeholder: ph }));
+  const ball = el('div', { className: 'clamp-ball' }, num('p-clamp-x', 'centre x', '0'), num('p-clamp-y', 'y', '0'),
+    num('p-clamp-z', 'z (3D)', '2D: empty'), num('p-clamp-radius', 'radius', 'e.g. 0.1'));
+  const refs = el('div', { className: 'clamp-refs' }, el('label', {}, 'references (of the elements or vertices)',
+    el('input', { id: 'p-clamp-refs', type: 'text', placeholder: 'e.g. 1, 2' })));
+  const none = el('div', { className: 'clamp-none' }, num('p-clamp-alpha', 'alpha (0th-order term)', '0: from the scale'));
+  const show = () => { ball.hidden = kind.value !== 'ball'; refs.hidden = !['elements', 'vertices'].includes(kind.value); none.hidden = kind.value !== 'none'; };
+  kind.addEventListener('change', show);
+  show();
+  return el('div', { className: 'row wide clamp' }, el('label', { title: p.description || '' }, 'clamp (required)', kind), ball, refs, none);
+}
 
 function paramRow(name, prop) {
   const p = resolve(prop);
-  const row = document.createElement('div');
-  row.className = p.type === 'number' || p.type === 'integer' ? 'row' : 'row wide';
-  const label = document.createElement('label');
+  const kind = kindOf(name, p);
   const required = (schema.required || []).includes(name);
-  const scalar = p.type === 'number' || p.type === 'integer';
-  label.textContent = `${name}${required ? ' (required)' : ''}`;
-  label.title = p.description || '';
-  const input = document.createElement(scalar ? 'input' : 'textarea');
+  const err = el('span', { className: 'err' });
+  err.dataset.for = `params.${name}`;
+  if (kind === 'clamp') { const row = clampFields(p); row.append(err); return row; }
+  const label = el('label', { textContent: `${name}${required ? ' (required)' : ''}`, title: p.description || '' });
+  let input;
+  if (kind === 'enum') {
+    input = el('select', {}, el('option', { value: '', textContent: p.default !== undefined ? `default (${p.default})` : '' }),
+      ...p.enum.map((v) => el('option', { value: String(v), textContent: String(v) })));
+  } else if (kind === 'boolean') {
+    input = el('select', {}, el('option', { value: '', textContent: `default (${p.default})` }),
+      el('option', { value: 'true', textContent: 'true' }), el('option', { value: 'false', textContent: 'false' }));
+  } else if (kind === 'json') {
+    input = el('textarea', { placeholder: p.default !== undefined ? JSON.stringify(p.default) : 'JSON' });
+  } else {
+    input = el('input', { type: 'text' });
+    if (kind === 'number') input.inputMode = 'decimal';
+    input.placeholder = kind === 'refs' ? 'references, e.g. 1, 2' : p.default !== undefined ? String(p.default) : '';
+  }
   input.name = `params.${name}`;
   input.id = `p-${name}`;
-  if (scalar) {
-    input.type = 'text';
-    input.inputMode = 'decimal';
-    if (p.default !== undefined) input.placeholder = String(p.default);
-  } else {
-    input.placeholder = p.default !== undefined ? JSON.stringify(p.default) : 'JSON, e.g. {"kind": "ball", "center": [0, 0], "radius": 0.1}';
-  }
   label.append(input);
-  const err = document.createElement('span');
-  err.className = 'err';
-  err.dataset.for = `params.${name}`;
-  row.append(label, err);
+  const row = el('div', { className: kind === 'number' || kind === 'enum' || kind === 'boolean' ? 'row' : 'row wide' }, label, err);
   return row;
 }
 
@@ -74,7 +114,7 @@ async function loadSchema() {
   if (!r.ok) { $('params').innerHTML = `<p class="err">cannot load the parameters schema (${r.status})</p>`; return; }
   schema = await r.json();
   const fs = $('params');
-  fs.replaceChildren(Object.assign(document.createElement('legend'), { textContent: 'Parameters' }));
+  fs.replaceChildren(el('legend', { textContent: 'Parameters' }));
   for (const [name, prop] of Object.entries(schema.properties)) fs.append(paramRow(name, prop));
 }
 
@@ -91,17 +131,61 @@ function checkNumber(p, text) {
   return null;
 }
 
+// "1, 2 core" -> [1, 2, "core"]: integers as numbers, anything else as a
+// name (physical names, where the daemon reads them; else its 422 says so).
+function parseRefs(text) {
+  return text.split(/[\s,;]+/).filter(Boolean).map((t) => (/^[-+]?\d+$/.test(t) ? Number(t) : t));
+}
+
+// The clamp object from its fields, or a string saying what is wrong.
+function collectClamp() {
+  const kind = $('p-clamp').value;
+  const val = (id) => $(id).value.trim();
+  if (kind === 'ball') {
+    const coords = ['p-clamp-x', 'p-clamp-y', 'p-clamp-z'].map(val);
+    if (!coords[2]) coords.pop();
+    if (!coords[0] || !coords[1] || !val('p-clamp-radius')) return 'clamp: a ball needs its centre (x, y and, in 3D, z) and its radius';
+    const center = coords.map(Number);
+    const radius = Number(val('p-clamp-radius'));
+    if (![...center, radius].every(Number.isFinite)) return 'clamp: the centre and the radius must be numbers';
+    return { kind, center, radius };
+  }
+  if (kind === 'elements' || kind === 'vertices') {
+    const refs = parseRefs(val('p-clamp-refs'));
+    if (!refs.length) return `clamp: give the references of the ${kind} to clamp`;
+    return { kind, refs };
+  }
+  const clamp = { kind };
+  if (kind === 'none' && val('p-clamp-alpha')) {
+    clamp.alpha = Number(val('p-clamp-alpha'));
+    if (!Number.isFinite(clamp.alpha)) return 'clamp: alpha must be a number';
+  }
+  return clamp;
+}
+
 function collectParams() {
   const params = {};
   let ok = true;
   for (const [name, prop] of Object.entries(schema.properties)) {
     const p = resolve(prop);
+    const kind = kindOf(name, p);
+    if (kind === 'clamp') {
+      const c = collectClamp();
+      if (typeof c === 'string') { showError('params.clamp', c); ok = false; } else params.clamp = c;
+      continue;
+    }
     const text = $(`p-${name}`).value.trim();
     if (!text) continue;
-    if (p.type === 'number' || p.type === 'integer') {
+    if (kind === 'number') {
       const why = checkNumber(p, text);
       if (why) { showError(`params.${name}`, `${name}: ${why}`); ok = false; continue; }
       params[name] = Number(text);
+    } else if (kind === 'enum') {
+      params[name] = p.enum.find((v) => String(v) === text);
+    } else if (kind === 'boolean') {
+      params[name] = text === 'true';
+    } else if (kind === 'refs') {
+      params[name] = parseRefs(text);
     } else {
       try { params[name] = JSON.parse(text); } catch (e) { showError(`params.${name}`, `${name}: not JSON (${e.message})`); ok = false; }
     }
@@ -148,20 +232,29 @@ async function submit(ev) {
   }
 }
 
-// ------------------------------------------------------------ following
+// ------------------------------------------------------------ the plot
 
 function newPlot() {
-  const el = $('plot');
-  el.replaceChildren();
+  const box = $('plot');
+  box.replaceChildren();
   const data = [[], [], []];
+  const width = () => Math.max(240, box.clientWidth || 480);
   const plot = new uPlot({
-    width: Math.min(el.clientWidth || 480, 640), height: 220,
+    width: width(), height: 220,
     scales: { x: { time: false }, y: {}, e: { distr: 3 } }, // J changes sign: linear
-    series: [{ label: 'iteration' }, { label: 'J', stroke: '#3d7bd9', scale: 'y' }, { label: 'boundary error', stroke: '#d9503d', scale: 'e' }],
-    axes: [{}, { scale: 'y', label: 'J', size: 70, values: (u, vals) => vals.map((v) => v.toPrecision(4)) }, { scale: 'e', side: 1, label: '‖d‖ boundary', grid: { show: false } }],
-  }, data, el);
-  return { plot, data };
+    series: [{ label: 'iteration' }, { label: 'J', stroke: '#3d7bd9', scale: 'y', value: (u, v) => (v == null ? '–' : v.toPrecision(6)) },
+      { label: 'boundary RMS', stroke: '#d9503d', scale: 'e', value: (u, v) => tickLabel(v) }],
+    // iterations are whole numbers: ticks at 1, 2, 5, 10, ... apart
+    axes: [{ incrs: [0, 1, 2, 3, 4, 5, 6, 7, 8].flatMap((k) => [1, 2, 5].map((m) => m * 10 ** k)) }, { scale: 'y', label: 'J', size: 70, values: (u, vals) => vals.map((v) => (v === null ? '' : v.toPrecision(4))) },
+      { scale: 'e', side: 1, label: 'boundary RMS', size: 60, grid: { show: false }, values: (u, vals) => vals.map(tickLabel) }],
+  }, data, box);
+  // the plot follows its panel's width (800 px windows, resized windows)
+  const ro = new ResizeObserver(() => { if (Math.abs(plot.width - width()) > 2) plot.setSize({ width: width(), height: 220 }); });
+  ro.observe(box);
+  return { plot, data, ro };
 }
+
+// ------------------------------------------------------------ outcome
 
 function setStatus(status, extra) {
   $('status').textContent = status;
@@ -169,11 +262,59 @@ function setStatus(status, extra) {
   if (extra !== undefined) $('stop-reason').textContent = extra;
 }
 
+const STOP_TEXT = {
+  max_iterations: 'the iteration cap (max_iter) was reached',
+  quality_blocked: 'the quality floor (min_quality) rejected every step',
+  step_tolerance: 'the step fell below tol_step',
+  stalled: 'the boundary error stalled (tol_stall)',
+  boundary_tolerance: 'the boundary error reached its tolerance',
+  cancelled: 'cancelled',
+};
+// "not converged: <reason>" from the results summary: the stop reason and
+// how far the boundary error is from what the background resolves.
+function notConvergedReason(s) {
+  const parts = [STOP_TEXT[s.stop_reason] ? `${STOP_TEXT[s.stop_reason]} (${s.stop_reason})` : `stopped: ${s.stop_reason}`];
+  if (s.boundary_rms != null && s.resolution > 0)
+    parts.push(`boundary RMS ${fmtNum(s.boundary_rms)} is ${(s.boundary_rms / s.resolution).toFixed(1)}× the background resolution ${fmtNum(s.resolution)}`);
+  return parts.join('; ');
+}
+
+function showOutcome(kind, text) {
+  const o = $('outcome');
+  o.dataset.outcome = kind;
+  o.textContent = text;
+  o.hidden = !kind;
+}
+
+// Warnings by code: live warning events, then the summary's list (the
+// complete one) replaces them.
+function showWarnings(list) {
+  const ul = $('warnings');
+  ul.replaceChildren(...list.map((w) => {
+    const li = el('li', {}, el('code', { textContent: w.code || 'warning' }), ` ${w.message || ''}`);
+    li.dataset.code = w.code || '';
+    return li;
+  }));
+  ul.hidden = list.length === 0;
+  $('warnings-title').hidden = list.length === 0;
+  $('warnings-title').textContent = list.length === 1 ? '1 warning' : `${list.length} warnings`;
+}
+
+function headline(s) {
+  const rms = s.boundary_rms, rel = s.boundary_relative;
+  if (rms == null) return '';
+  return `boundary RMS ${fmtNum(rms)}${rel != null ? ` (relative ${fmtNum(rel)})` : ''}, ${s.iterations} iterations`;
+}
+
+// ------------------------------------------------------------ following
+
 function stopFollowing() {
   if (!current) return;
   current.es?.close();
   clearInterval(current.timer);
   cancelAnimationFrame(current.frame);
+  current.ro?.disconnect();
+  current.view?.dispose?.();
   current.done = true;
 }
 
@@ -184,18 +325,52 @@ async function getMesh(path) {
   return parsePayload(await r.arrayBuffer());
 }
 
+// The colour scale under the view: 0 to the largest value shown.
+function showScale(scale) {
+  const box = $('scale');
+  box.hidden = !scale;
+  if (!scale) return;
+  $('scale-bar').style.background = `linear-gradient(to right, ${[0, 0.25, 0.5, 0.75, 1].map(heatCss).join(', ')})`;
+  $('scale-min').textContent = '0';
+  $('scale-max').textContent = tickLabel(scale.max);
+  $('scale-label').textContent = scale.label;
+  box.dataset.max = String(scale.max);
+}
+
+// The target overlay, loaded once per job from its stored inputs (the
+// first shape drawn says the dimension); the shape is drawn again with it.
+function overlayTarget(job, dim) {
+  job.targetState = 'loading';
+  const note = $('target-note');
+  $('target-toggle').hidden = false;
+  $('show-target').disabled = true;
+  note.textContent = '(loading)';
+  loadTarget((url) => fetch(url, { headers: authHeaders() }), job.id, dim).then((t) => {
+    if (job !== current) return;
+    job.target = t;
+    job.targetState = 'shown';
+    $('show-target').disabled = false;
+    note.textContent = `(${t.what})`;
+    job.view.setTarget(t, $('show-target').checked);
+    if (job.last) draw(job.last.mesh, job.last.final);
+  }).catch((e) => {
+    if (job !== current) return;
+    job.targetState = 'none';
+    note.textContent = `not drawn: ${e.message}`;
+  }).finally(() => { if (job === current) $('target-toggle').dataset.state = job.targetState; });
+}
+
 function draw(mesh, final) {
   if (!mesh || !current) return;
-  if (!current.first) current.first = mesh;
   const is3d = mesh.dim === 3 && mesh.tets.length > 0;
   $('view2d').hidden = is3d;
   $('view3d').hidden = !is3d;
-  if (is3d) {
-    if (!current.view3d) current.view3d = new View3d($('view3d'));
-    current.view3d.show(mesh, current.first);
-  } else {
-    drawMesh2d($('view2d'), mesh);
-  }
+  if (!current.view) current.view = is3d ? new View3d($('view3d')) : new View2d($('view2d'));
+  $('reset-view').hidden = !is3d;
+  current.last = { mesh, final };
+  if (!current.targetState) overlayTarget(current, mesh.dim);
+  const scale = current.view.show(mesh);
+  showScale(scale);
   const view = is3d ? $('view3d') : $('view2d');
   view.dataset.drawn = final ? 'final' : 'live';
   if (!final) view.dataset.liveDraws = String(Number(view.dataset.liveDraws || 0) + 1);
@@ -208,10 +383,7 @@ function downloads(id) {
     ['result.vtu', '/mesh?format=vtu'], ['displacement.sol', '/displacement?format=sol'],
     ['displacement.solb', '/displacement?format=solb'], ['history.csv', '/history?format=csv'], ['history.json', '/history?format=json']];
   $('downloads').replaceChildren(...items.map(([name, suffix]) => {
-    const a = document.createElement('a');
-    a.href = withToken(base + suffix);
-    a.download = name;
-    a.textContent = name;
+    const a = el('a', { href: withToken(base + suffix), download: name, textContent: name });
     a.dataset.file = name;
     return a;
   }));
@@ -222,11 +394,24 @@ async function finish(id) {
   const r = await fetch(`v1/jobs/${id}`, { headers: authHeaders() });
   const doc = await r.json().catch(() => ({}));
   let reason = doc.message || '';
-  if (doc.status === 'successful') {
+  // results exist for a finished run: successful, or one whose status
+  // document says it did not converge (whatever status that is given)
+  if (doc.status === 'successful' || doc.converged === false) {
     const s = await fetch(`v1/jobs/${id}/results`, { headers: authHeaders() }).then((x) => x.json()).catch(() => ({}));
+    if (job !== current) return;
+    job.summary = s;
     if (s.stop_reason) reason = `stop: ${s.stop_reason}`;
+    $('headline').textContent = headline(s);
+    if (s.converged === true) showOutcome('converged', 'converged');
+    else if (s.converged === false) showOutcome('not-converged', `not converged: ${notConvergedReason(s)}`);
+    if (Array.isArray(s.warnings)) showWarnings(s.warnings);
     draw(await getMesh(`v1/jobs/${id}/results/mesh?format=binary`), true);
     downloads(id);
+  }
+  if (doc.status === 'failed' && !job.summary?.stop_reason) {
+    showOutcome('failed', `failed: ${doc.message || 'see the job\'s events'}`);
+  } else if (doc.status === 'dismissed') {
+    showOutcome('dismissed', 'cancelled');
   }
   if (job === current) setStatus(doc.status || 'unknown', reason);
   refreshJobs();
@@ -234,16 +419,31 @@ async function finish(id) {
 
 function follow(id) {
   stopFollowing();
-  const { plot, data } = newPlot();
-  current = { id, plot, data, first: null, done: false };
+  const { plot, data, ro } = newPlot();
+  current = { id, plot, data, ro, done: false, view: null, target: null, targetState: null, warnings: [] };
+  $('target-toggle').hidden = true;
+  $('target-note').textContent = '';
+  delete $('target-toggle').dataset.state;
   $('job-id').textContent = id;
   for (const v of [$('view2d'), $('view3d')]) { delete v.dataset.liveDraws; delete v.dataset.drawn; }
+  $('view3d').replaceChildren();
   $('downloads').replaceChildren();
+  $('headline').textContent = '';
+  showOutcome('', '');
+  showWarnings([]);
+  showScale(null);
+  $('reset-view').hidden = true;
   setStatus('accepted', '');
   const job = current;
   const es = new EventSource(withToken(`v1/jobs/${id}/events`));
   job.es = es;
   es.addEventListener('started', () => setStatus('running'));
+  es.addEventListener('warning', (e) => {
+    const w = JSON.parse(e.data);
+    if (job !== current || job.summary || job.warnings.some((x) => x.code === w.code)) return;
+    job.warnings.push(w);
+    showWarnings(job.warnings);
+  });
   // The live shape: fetched as soon as there is one, then at most every
   // LIVE_MS while the job runs.  The worker publishes at its first
   // iteration: by the second progress event there is a shape (no 404
@@ -265,7 +465,8 @@ function follow(id) {
   };
   es.addEventListener('progress', (e) => {
     const p = JSON.parse(e.data);
-    data[0].push(p.iteration); data[1].push(p.J); data[2].push(p.boundary_l2);
+    // the RMS boundary error (a length) when the daemon sends it
+    data[0].push(p.iteration); data[1].push(p.J); data[2].push(p.boundary_rms ?? p.boundary_l2);
     if (!job.frame) job.frame = requestAnimationFrame(redraw);
     if ($('status').dataset.status !== 'running') setStatus('running');
     fetchLive();
@@ -284,19 +485,18 @@ async function refreshJobs() {
   if (!r.ok) { $('jobs').replaceChildren(); return; }
   const list = await r.json();
   $('jobs').replaceChildren(...(list.jobs || []).map((j) => {
-    const tr = document.createElement('tr');
-    const td = (t) => Object.assign(document.createElement('td'), { textContent: t });
-    const view = Object.assign(document.createElement('button'), { type: 'button', textContent: 'view' });
+    const td = (t) => el('td', { textContent: t });
+    const view = el('button', { type: 'button', textContent: 'view' });
     view.onclick = () => { follow(j.jobID); };
-    const actions = document.createElement('td');
-    actions.append(view);
+    const actions = el('td', {}, view);
     if (j.status === 'accepted' || j.status === 'running') {
-      const cancel = Object.assign(document.createElement('button'), { type: 'button', textContent: 'cancel' });
+      const cancel = el('button', { type: 'button', textContent: 'cancel' });
       cancel.onclick = async () => { await fetch(`v1/jobs/${j.jobID}`, { method: 'DELETE', headers: authHeaders() }); refreshJobs(); };
       actions.append(cancel);
     }
-    tr.append(td(j.jobID.slice(0, 8)), td(j.status), actions);
-    return tr;
+    // the whole id: the one `shapematch status|wait|fetch` takes
+    const id = el('td', {}, el('code', { className: 'job-id', textContent: j.jobID }));
+    return el('tr', {}, id, td(j.status), actions);
   }));
 }
 
@@ -325,6 +525,12 @@ function setupDrop() {
 
 $('job-form').addEventListener('submit', submit);
 $('refresh').addEventListener('click', refreshJobs);
+$('reset-view').addEventListener('click', () => current?.view?.reset());
+$('show-target').addEventListener('change', () => {
+  if (!current?.view || !current.target) return;
+  current.view.setTarget(current.target, $('show-target').checked);
+  if (current.last) draw(current.last.mesh, current.last.final);
+});
 $('token').addEventListener('change', () => { loadSchema(); refreshJobs(); });
 setupDrop();
 loadSchema();

@@ -10,6 +10,7 @@
 #include "api/smd_results.h"
 #include "api/smd_routes.h"
 #include "api/smd_check.h"
+#include "api/smd_inputs.h"
 #include "api/smd_upload.h"
 #include "api/smd_warp.h"
 
@@ -40,6 +41,9 @@ const smd_route smd_route_table[] = {
     {SMD_METHOD_READ, JOB "/events", smd_route_events, JOB "/events", 0},
     {SMD_METHOD_READ, JOB "/mesh/latest", smd_route_live_mesh, JOB "/mesh/latest", 0},
     {SMD_METHOD_POST, JOB "/warp", smd_route_warp, JOB "/warp", 0},
+    /* the stored uploads, for the web app's overlay of the target */
+    {SMD_METHOD_READ, JOB "/inputs", smd_route_inputs, JOB "/inputs", 0},
+    {SMD_METHOD_READ, JOB "/inputs/{part}", smd_route_input, JOB "/inputs/{part}", 0},
     {SMD_METHOD_READ, RESULTS, smd_route_results, RESULTS, 0},
     {SMD_METHOD_READ, RESULTS "/mesh", smd_route_result_mesh, RESULTS "/mesh", 0},
     {SMD_METHOD_READ, RESULTS "/displacement", smd_route_result_displacement,

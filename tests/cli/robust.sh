@@ -51,7 +51,12 @@ match() {
     echo $? >"$name.rc"
     python3 "$CASES" rms "$c" "$name/result.mesh" 2>/dev/null | cut -d' ' -f1 >"$name.rms"
 }
-for c in ellipsoid grown shrunk peanut; do
+# The sanitizer build checks the same code paths for memory errors on one
+# case (the shrunk ellipsoid, which re-assembles the most); the accuracy
+# of every case is the release build's to check (a quarter of the time).
+cases="ellipsoid grown shrunk peanut"
+[ "${SM_VARIANT:-release}" = asan ] && cases=shrunk
+for c in $cases; do
     match "def-$c" "$c" --clamp-ball 0,0,0,0.2 --max-iter 150
     match "best-$c" "$c" --no-clamp --solver cholmod --max-iter 150
     read -r rc <"def-$c.rc"

@@ -227,6 +227,16 @@ probe "the last shape of a finished job" GET "$tmpl" 200 "/v1/jobs/$J/mesh/lates
 probe "as Medit" GET "$tmpl" 200 "/v1/jobs/$J/mesh/latest?format=mesh" '' "${AUTH[@]}"
 probe "unknown format" GET "$tmpl" 400 "/v1/jobs/$J/mesh/latest?format=vtu" '' "${AUTH[@]}"
 probe "queued: no shape yet" GET "$tmpl" 404 "/v1/jobs/$Q/mesh/latest" '.type | endswith("result-not-ready")' "${AUTH[@]}"
+# the stored inputs (issue 27: the web app's target overlay; more in web_app_routes.sh)
+tmpl='/v1/jobs/{jobID}/inputs'
+noauth_probe "no token" GET "$tmpl" "/v1/jobs/$Q/inputs"
+probe "the parts a queued job was sent" GET "$tmpl" 200 "/v1/jobs/$Q/inputs" '[.inputs[].part] == ["template", "target_mesh", "target_sol"]' "${AUTH[@]}"
+probe "unknown job" GET "$tmpl" 404 /v1/jobs/0123456789abcdef0123456789abcdef/inputs '' "${AUTH[@]}"
+tmpl='/v1/jobs/{jobID}/inputs/{part}'
+noauth_probe "no token" GET "$tmpl" "/v1/jobs/$Q/inputs/template"
+probe "one input, as uploaded" GET "$tmpl" 200 "/v1/jobs/$Q/inputs/target_sol" '' "${AUTH[@]}"
+cmp -s "$WORK/body" "$BOXSOL" && ok "the input served is the file sent" || not_ok "the input served is the file sent"
+probe "a part not sent" GET "$tmpl" 404 "/v1/jobs/$Q/inputs/target_surface" '' "${AUTH[@]}"
 noauth_probe "no token" DELETE '/v1/jobs/{jobID}' "/v1/jobs/$Q"
 probe "cancel a queued job" DELETE '/v1/jobs/{jobID}' 200 "/v1/jobs/$Q" '.status == "dismissed"' "${AUTH[@]}"
 probe "delete a finished job" DELETE '/v1/jobs/{jobID}' 200 "/v1/jobs/$J" ".jobID == \"$J\"" "${AUTH[@]}"

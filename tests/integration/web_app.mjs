@@ -9,9 +9,10 @@
 import http from 'node:http';
 import fs from 'node:fs';
 import path from 'node:path';
+import { execFileSync } from 'node:child_process';
 import { chromium } from 'playwright-core';
 
-const [openBase, tokenBase, token, originPort, examples, logDir, cubeMesh, cubeSol] = process.argv.slice(2);
+const [openBase, tokenBase, token, originPort, examples, logDir, cubeMesh, cubeSol, smallCube, cli] = process.argv.slice(2);
 const report = (desc, ok, detail = '') => console.log(JSON.stringify({ desc, ok: !!ok, detail: String(detail).slice(0, 2000) }));
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
@@ -37,19 +38,54 @@ async function newPage() {
   return page;
 }
 
-const clamp2d = '{"kind": "ball", "center": [0.5, 0.5], "radius": 0.04}';
-const clamp3d = '{"kind": "ball", "center": [0, 0, 0], "radius": 0.6}';
+// the clamp through its fields (kind, centre, radius; no JSON)
+const clamp2d = { kind: 'ball', center: [0.5, 0.5], radius: 0.04 };
+const clamp3d = { kind: 'ball', center: [0, 0, 0], radius: 0.2 };
+async function fillClamp(page, c) {
+  await page.selectOption('#p-clamp', c.kind);
+  if (c.kind === 'ball') {
+    for (const [k, id] of ['x', 'y', 'z'].entries()) await page.fill(`#p-clamp-${id}`, c.center[k] === undefined ? '' : String(c.center[k]));
+    await page.fill('#p-clamp-radius', String(c.radius));
+  } else if (c.refs) await page.fill('#p-clamp-refs', c.refs.join(', '));
+}
 async function fillJob(page, dir, clamp, extra = {}) {
-  // 3D: a small cube onto a ball (tests/integration/lib.sh make_case), quick
-  const files = dir === '3d' ? [cubeMesh, cubeMesh, cubeSol]
+  // 3D: a small cube ([-0.4, 0.4]^3) grown onto a ball of radius 0.95 (its
+  // result is larger than the template's bounding sphere), in the cube
+  // [-1, 1]^3 of tests/integration/lib.sh make_case
+  const files = dir === '3d' ? [smallCube, cubeMesh, cubeSol]
     : ['template.mesh', 'background.mesh.gz', 'background.sol.gz'].map((f) => path.join(examples, dir, f));
   await page.setInputFiles('#f-template', files[0]);
   await page.setInputFiles('#f-target_mesh', files[1]);
   await page.setInputFiles('#f-target_sol', files[2]);
   await page.waitForSelector('#p-clamp');
-  await page.fill('#p-clamp', clamp);
+  await fillClamp(page, clamp);
   for (const [k, v] of Object.entries(extra)) await page.fill(`#p-${k}`, String(v));
 }
+// The job's results summary, read by the test itself (not through the page).
+const summaryOf = async (base, id) => (await fetch(`${base}/v1/jobs/${id}/results`)).json();
+const jobId = (page) => page.$eval('#job-id', (e) => e.textContent);
+// The log axis's labels: each one that is shown says its tick's value.
+const logAxis = (page) => page.evaluate(() => {
+  const a = window.shapematch.current.plot.axes[2];
+  return { splits: a._splits, values: a._values };
+});
+function labelsRight({ splits, values }) {
+  const shown = values.map((v, i) => [v, splits[i]]).filter(([v]) => v !== '' && v != null);
+  return shown.length >= 2 && shown.every(([v, s]) => Number.isFinite(Number(v)) && Math.abs(Number(v) / s - 1) < 0.01);
+}
+// Nothing sticks out of the page or out of the job panel.
+const overflow = (page) => page.evaluate(() => {
+  const panel = document.querySelector('#job-panel').getBoundingClientRect();
+  const out = [];
+  for (const sel of ['#plot canvas', '#view2d', '#view3d', '#warnings', '#outcome', '#downloads', '#scale'])
+    for (const e of document.querySelectorAll(sel)) {
+      const r = e.getBoundingClientRect();
+      if (r.width > 0 && (r.right > panel.right + 0.5 || r.left < panel.left - 0.5)) out.push(`${sel} ${r.left}-${r.right} outside ${panel.left}-${panel.right}`);
+    }
+  const doc = document.documentElement;
+  if (doc.scrollWidth > doc.clientWidth) out.push(`page ${doc.scrollWidth} wide in ${doc.clientWidth}`);
+  return out;
+});
 const status = (page) => page.$eval('#status', (e) => e.textContent);
 async function waitStatus(page, want, ms) {
   await page.waitForFunction((w) => ['successful', 'failed', 'dismissed'].includes(document.querySelector('#status').textContent) || document.querySelector('#status').textContent === w, want, { timeout: ms });
@@ -73,8 +109,6 @@ await run('the app: a 2D job', async () => {
   await page.waitForFunction(() => Number(document.querySelector('#plot').dataset.points || 0) >= 5, null, { timeout: 30000 });
   const live = await status(page);
   await page.screenshot({ path: path.join(logDir, 'web-app-2d-running.png') });
-  // the picture of README.md (web/screenshot.png is a copy): the job panel
-  await page.locator('#job-panel').screenshot({ path: path.join(logDir, 'web-app-readme.png'), scale: 'css' });
   report('at least 5 plot points arrive from the event stream while the job runs', live === 'running', live);
   const final = await waitStatus(page, 'successful', 60000);
   report('the job\'s status becomes successful', final === 'successful', final);
@@ -89,6 +123,55 @@ await run('the app: a 2D job', async () => {
   report('the canvas draws the final shape (778 triangles, pixels inked)', drawn.elements === 778 && drawn.ink > 2000 && !drawn.hidden, JSON.stringify(drawn));
   const reason = await page.$eval('#stop-reason', (e) => e.textContent);
   report('the stop reason is shown', /stop: \w+/.test(reason), reason);
+  const id = await jobId(page);
+  const sum = await summaryOf(openBase, id);
+  const outcome = await page.$eval('#outcome', (e) => ({ kind: e.dataset.outcome, text: e.textContent, hidden: e.hidden }));
+  report('the outcome is shown: "converged" as the summary says', sum.converged === true && outcome.kind === 'converged' && outcome.text === 'converged' && !outcome.hidden,
+    `${JSON.stringify(outcome)} summary converged ${sum.converged}`);
+  const axis = await logAxis(page);
+  report('the log axis labels say their ticks\' values (1e-4 is not "0")', labelsRight(axis) && axis.splits.some((v, i) => v < 2e-4 && axis.values[i]),
+    JSON.stringify(axis));
+  const scale = await page.$eval('#scale', (e) => ({ hidden: e.hidden, max: Number(e.dataset.max), label: document.querySelector('#scale-max').textContent, bar: getComputedStyle(document.querySelector('#scale-bar')).backgroundImage }));
+  report('a colour scale for |d| is shown, up to the largest |d| on the boundary (the summary\'s boundary_max)',
+    !scale.hidden && Math.abs(scale.max / sum.boundary_max - 1) < 1e-6 && Number(scale.label) > 0 && Math.abs(Number(scale.label) / sum.boundary_max - 1) < 0.01 && /gradient/.test(scale.bar),
+    `${JSON.stringify(scale)} boundary_max ${sum.boundary_max}`);
+  // the picture of README.md (web/screenshot.png is a copy): the job panel
+  // at the end, with the target overlaid.  The target overlay: the zero
+  // level set of target_sol; at the converged
+  // shape's boundary vertices, the distance to it is the |d| the core
+  // sampled there (to the background's resolution)
+  await page.waitForFunction(() => ['shown', 'none'].includes(document.querySelector('#target-toggle').dataset.state), null, { timeout: 20000 });
+  const overlay = await page.evaluate(() => {
+    const c = window.shapematch.current;
+    const sg = c.target ? c.target.segments : [];
+    const { xyz, distance } = c.last.mesh;
+    const segDist = (x, y) => {
+      let best = Infinity;
+      for (let i = 0; i < sg.length; i += 4) {
+        const [ax, ay, bx, by] = [sg[i], sg[i + 1], sg[i + 2], sg[i + 3]];
+        const l2 = (bx - ax) ** 2 + (by - ay) ** 2;
+        const t = l2 > 0 ? Math.max(0, Math.min(1, ((x - ax) * (bx - ax) + (y - ay) * (by - ay)) / l2)) : 0;
+        best = Math.min(best, Math.hypot(x - ax - t * (bx - ax), y - ay - t * (by - ay)));
+      }
+      return best;
+    };
+    const verts = [...new Set(c.view.edgesOf.edges.flat())];
+    let worst = 0;
+    for (const v of verts) worst = Math.max(worst, Math.abs(segDist(xyz[2 * v], xyz[2 * v + 1]) - Math.abs(distance[v])));
+    return { state: document.querySelector('#target-toggle').dataset.state, note: document.querySelector('#target-note').textContent,
+      segments: sg.length / 4, vertices: verts.length, worst, framing: c.view.framing(c.last.mesh) };
+  });
+  report('the target\'s zero level set is overlaid in 2D: the boundary vertices lie at |d| from it (within the background\'s resolution)',
+    overlay.state === 'shown' && overlay.segments > 100 && overlay.worst < sum.resolution && overlay.framing.inside === 1,
+    `${JSON.stringify(overlay)} resolution ${sum.resolution}`);
+  await page.locator('#job-panel').screenshot({ path: path.join(logDir, 'web-app-readme.png'), scale: 'css' });
+  await page.click('#refresh');
+  await page.waitForFunction((i) => [...document.querySelectorAll('#jobs td')].some((t) => t.textContent === i), id, { timeout: 5000 }).catch(() => {});
+  const listed = await page.$$eval('#jobs td', (t) => t.map((x) => x.textContent));
+  let cliOut = '';
+  try { cliOut = execFileSync(cli, ['status', '--server', openBase, listed.find((t) => t === id) || 'none'], { encoding: 'utf8' }); } catch (e) { cliOut = `${e.status} ${e.stderr}`; }
+  report('the job list shows the full job id, which `shapematch status` accepts', /^[0-9a-f]{32}$/.test(id) && listed.includes(id) && cliOut.includes('successful'),
+    `${id} ${JSON.stringify(listed)} ${cliOut}`);
   const [download] = await Promise.all([page.waitForEvent('download'), page.click('#downloads a[data-file="result.vtu"]')]);
   const file = path.join(logDir, 'web-app-result.vtu');
   await download.saveAs(file);
@@ -108,7 +191,7 @@ await run('the app: a 2D job', async () => {
 await run('the app: a 3D job', async () => {
   const page = await newPage();
   await page.goto(`${openBase}/`);
-  await fillJob(page, '3d', clamp3d, { live_every: 1, max_iter: 500, tol_stall: 0, tol_step: 1e-12 });
+  await fillJob(page, '3d', clamp3d, { live_every: 1, max_iter: 150, tol_stall: 0, tol_step: 1e-12 });
   await page.click('#submit');
   await page.waitForFunction(() => document.querySelector('#view3d canvas') && document.querySelector('#view3d').dataset.drawn, null, { timeout: 60000 });
   // taken at the first live shape; a screenshot of WebGL (SwiftShader)
@@ -131,6 +214,32 @@ await run('the app: a 3D job', async () => {
   report('a 3D job ends successful and shows the three.js view of its final boundary surface',
     final === 'successful' && !view.hidden && view.canvas2dHidden && view.elements > 0 && view.coloured > 5000, `${final} ${JSON.stringify(view)}`);
   await page.screenshot({ path: path.join(logDir, 'web-app-3d-final.png') });
+  // the camera: the grown shape (radius 0.95 from the template's 0.69) in
+  // view, filling it; a zoom by the user sticks until "Reset view"
+  await page.waitForFunction(() => ['shown', 'none'].includes(document.querySelector('#target-toggle').dataset.state), null, { timeout: 20000 });
+  const surf = await page.evaluate(() => {
+    const t = window.shapematch.current.target;
+    const p = t ? t.positions : [];
+    let worst = 0;
+    for (let i = 0; i < p.length; i += 3) worst = Math.max(worst, Math.abs(Math.hypot(p[i], p[i + 1], p[i + 2]) - 0.95));
+    return { state: document.querySelector('#target-toggle').dataset.state, triangles: p.length / 9, worst, shown: window.shapematch.current.view.targetMesh?.visible };
+  });
+  // linear interpolation of the exact distance on 0.1 elements: h^2/(2R) ~ 5.3e-3
+  report('the target\'s surface (the zero level set of target_sol) is overlaid in 3D: on the sphere of radius 0.95',
+    surf.state === 'shown' && surf.shown && surf.triangles > 500 && surf.worst < 0.0053, JSON.stringify(surf));
+  const framing = () => page.evaluate(() => window.shapematch.current.view.framing());
+  const fitted = await framing();
+  report('the 3D camera frames the grown result (every boundary vertex in view, filling it)', fitted.inside === 1 && fitted.extent > 0.6 && fitted.points > 100, JSON.stringify(fitted));
+  const box = await page.locator('#view3d canvas').boundingBox();
+  await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+  for (let i = 0; i < 8; i++) await page.mouse.wheel(0, -200);
+  await sleep(300);
+  const zoomed = await framing();
+  const resetShown = await page.isVisible('#reset-view');
+  await page.click('#reset-view');
+  const reset = await framing();
+  report('a zoom by the user is kept; "Reset view" frames the shape again', zoomed.extent > 1.05 && resetShown && reset.inside === 1 && Math.abs(reset.extent - fitted.extent) < 0.05,
+    `zoomed ${JSON.stringify(zoomed)} reset ${JSON.stringify(reset)}`);
   report('no console errors in the 3D job', page.errors.length === 0, page.errors.join('\n'));
   await page.close();
 });
@@ -144,12 +253,34 @@ await run('the app: invalid parameters', async () => {
   const local = await page.$eval('.err[data-for="params.max_iter"]', (e) => e.textContent);
   report('an out-of-range value is flagged before submit, next to its field', /max_iter: must be >= 1/.test(local), local);
   await page.fill('#p-max_iter', '');
-  await page.fill('#p-clamp', '{"kind": "ball", "center": [0.5, 0.5], "radius": -1}');
+  await page.fill('#p-clamp-radius', '-1');
   const [resp] = await Promise.all([page.waitForResponse((r) => r.url().endsWith('/v1/jobs') && r.request().method() === 'POST'), page.click('#submit')]);
   const problem = await resp.json();
   await page.waitForFunction(() => document.querySelector('.err[data-for="params.clamp"]').textContent, null, { timeout: 5000 });
   const shown = await page.$eval('.err[data-for="params.clamp"]', (e) => e.textContent);
   report('the server\'s 422 message is shown next to its field', resp.status() === 422 && shown === problem.detail && /radius/.test(shown), `${resp.status()} ${shown} / ${problem.detail}`);
+  // the same form, corrected, with 5 iterations: finished, not converged
+  await page.fill('#p-clamp-radius', '0.04');
+  await page.fill('#p-max_iter', '5');
+  await page.click('#submit');
+  const final = await waitStatus(page, 'successful', 60000);
+  await page.waitForFunction(() => document.querySelector('#view2d').dataset.drawn === 'final', null, { timeout: 15000 });
+  const sum = await summaryOf(openBase, await jobId(page));
+  const outcome = await page.$eval('#outcome', (e) => ({ kind: e.dataset.outcome, text: e.textContent, hidden: e.hidden }));
+  report('a job that finished without converging is shown "not converged: <reason>"',
+    final === 'successful' && sum.converged === false && outcome.kind === 'not-converged' && !outcome.hidden && outcome.text.startsWith('not converged: ') && outcome.text.includes(sum.stop_reason),
+    `${final} ${JSON.stringify(outcome)} summary ${sum.converged} ${sum.stop_reason}`);
+  const warnings = await page.$$eval('#warnings li', (l) => l.map((x) => ({ code: x.dataset.code, text: x.textContent })));
+  const want = (sum.warnings || []).map((w) => w.code);
+  report('every warning of the summary is shown, with its message', want.length >= 1 && warnings.length === want.length &&
+    want.every((c, i) => warnings[i].code === c && warnings[i].text.includes(sum.warnings[i].message)), `${JSON.stringify(warnings)} / ${want}`);
+  // 800 px wide: one column, nothing overflows
+  await page.setViewportSize({ width: 800, height: 1100 });
+  await sleep(400);
+  const over = await overflow(page);
+  const plotWidth = await page.$eval('#plot canvas', (c) => c.getBoundingClientRect().width);
+  report('at 800 px wide nothing overflows (the plot follows the panel)', over.length === 0 && plotWidth > 400, `${over.join('; ')} plot ${plotWidth}`);
+  await page.screenshot({ path: path.join(logDir, 'web-app-800.png'), fullPage: true });
   await page.close();
 });
 

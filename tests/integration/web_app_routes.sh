@@ -4,7 +4,8 @@
 # /app/{file} serves web/ and the npm libraries embedded at build time
 # (three's module rewritten to import ./three-core.js), public even with
 # tokens, while the JSON landing keeps requiring one; the page says
-# whether the daemon wants a token.
+# whether the daemon wants a token; /v1/jobs/{id}/inputs/{part} serves a
+# job's stored uploads (the target overlay's source) and nothing else.
 source "$(dirname "$0")/lib.sh"
 
 HTML='text/html,application/xhtml+xml,application/xml;q=0.9,*/*;q=0.8'
@@ -24,7 +25,7 @@ check "GET / from a browser: the web app (text/html, data-tokens=\"0\")" \
 c=$(get "$BASE/")
 check "GET / from an API client: the JSON landing page" \
     [ "$c" = 200 ] && [ "$(ctype)" = application/json ] && jq -e '.links | length > 0' "$WORK/b" >/dev/null
-for f in app.js view.js app.css favicon.svg; do
+for f in app.js view.js target.js app.css favicon.svg; do
     c=$(get "$BASE/app/$f")
     check "/app/$f is web/$f" [ "$c" = 200 ] && cmp -s "$WORK/b" "$ROOT/web/$f"
 done
@@ -64,5 +65,33 @@ c=$(get "$BASE/" -H 'Authorization: Bearer wrong')
 check "with tokens, a wrong one is refused at / (401)" [ "$c" = 401 ] && grep -q "not valid" "$WORK/b"
 c=$(get "$BASE/" -H 'Authorization: Bearer routes-token-5e1d')
 check "with tokens, the JSON landing page with the token (200)" [ "$c" = 200 ] && [ "$(ctype)" = application/json ]
+# the job's stored inputs (the web app's target overlay), with the token
+AUTH=(-H 'Authorization: Bearer routes-token-5e1d')
+if make_case; then
+    gzip -c "$BOXSOL" >"$WORK/box.sol.gz"
+    id=$(submit "$DISK" "$BOX" "$WORK/box.sol.gz" "$(quick_params 5)")
+    c=$(get "$BASE/v1/jobs/$id/inputs" "${AUTH[@]}")
+    check "GET /v1/jobs/{id}/inputs lists the three parts sent, with their stored names and sizes" \
+        [ "$c" = 200 ] && [ "$(jq -c '[.inputs[] | [.part, .file, .bytes]]' "$WORK/b")" = \
+        "[[\"template\",\"template.mesh\",$(stat -c %s "$DISK")],[\"target_mesh\",\"target_mesh.mesh\",$(stat -c %s "$BOX")],[\"target_sol\",\"target_sol.sol.gz\",$(stat -c %s "$WORK/box.sol.gz")]]" ]
+    c=$(get "$BASE/v1/jobs/$id/inputs/target_sol" "${AUTH[@]}")
+    check "GET /v1/jobs/{id}/inputs/target_sol: the uploaded file as it was sent (gzip), named by its content" \
+        [ -n "$id" ] && [ "$c" = 200 ] && [ "$(ctype)" = application/octet-stream ] && cmp -s "$WORK/b" "$WORK/box.sol.gz" &&
+        tr -d '\r' <"$WORK/h" | grep -qi '^content-disposition: attachment; filename="target_sol.sol.gz"'
+    c=$(get "$BASE/v1/jobs/$id/inputs/template" "${AUTH[@]}")
+    check "GET /v1/jobs/{id}/inputs/template: the template" [ "$c" = 200 ] && cmp -s "$WORK/b" "$DISK"
+    c=$(get "$BASE/v1/jobs/$id/inputs/target_surface" "${AUTH[@]}")
+    check "an input the job was not sent: 404 problem+json" [ "$c" = 404 ] && [ "$(ctype)" = application/problem+json ]
+    codes=
+    for p in params job.json ..%2Fjob.json nothing; do codes="$codes $(get "$BASE/v1/jobs/$id/inputs/$p" "${AUTH[@]}")"; done
+    check "anything but the four file parts is 404 (params, job.json, ../job.json, nothing)" [ "$codes" = " 404 404 404 404" ]
+    c=$(get "$BASE/v1/jobs/$id/inputs/template")
+    check "the inputs want the token (401)" [ "$c" = 401 ]
+    c=$(get "$BASE/v1/jobs/0123456789abcdef0123456789abcdef/inputs/template" "${AUTH[@]}")
+    check "the inputs of no job: 404" [ "$c" = 404 ]
+    wait_final "$id" 60 >/dev/null
+else
+    not_ok "gmsh builds the test meshes" "$(tail -5 "$WORK/case/gmsh.log")"
+fi
 check "no sanitizer reports" reports_clean
 echo "1..$n"

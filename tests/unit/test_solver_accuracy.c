@@ -288,6 +288,11 @@ static void test_energy_error_3d_small(void **state)
 static void test_energy_error_3d_paper_size(void **state)
 {
     (void)state;
+#if defined(__SANITIZE_ADDRESS__)
+    /* the sanitizer build runs the same code on the 2D and small 3D
+     * templates; the paper-size one is the release build's (2 min here) */
+    skip();
+#endif
     every_clamp(3, 0.021); /* 31k tetrahedra, 6.2k vertices */
 }
 

@@ -1,0 +1,104 @@
+/* shapematch_job.h: a whole job in one call, for bindings (the Python
+ * package, python/shapematch) and programs that want what `shapematch run`
+ * does: the job runner (job/sm_job_runner.h: the inputs read and checked,
+ * the run, the warnings, the result set and its summary) behind an opaque
+ * handle and plain C types.  Exported by libshapematch_job.so (every
+ * function here, nothing else), which stands on libshapematch.so:
+ *
+ *   cc prog.c $(pkg-config --cflags --libs shapematch) -lshapematch_job
+ *
+ * The parameters are a params document (proto/params.schema.json, the same
+ * JSON as the daemon's jobs, e.g. {"clamp": {"kind": "elements", "refs":
+ * [3]}, "max_iter": 200}), decoded by the one parameter table
+ * (sm_params_table): a new parameter needs no change here.  Messages name
+ * the files as given and the parameters by their JSON path
+ * ("params.max_iter: must be ..."). */
+#ifndef SHAPEMATCH_JOB_H
+#define SHAPEMATCH_JOB_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* the core's headers are C only: C linkage for them too */
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#include "shapematch/sm_error.h"
+#include "shapematch/sm_match.h"
+
+/* A job that ran (or was refused at its start): its inputs, the state
+ * reached and the result set it can write. */
+typedef struct sm_run sm_run;
+
+/* After each iteration (iteration 0: the initial state); nonzero stops the
+ * run, which then ends "cancelled" with the state reached. */
+typedef int (*sm_run_progress_fn)(const sm_progress *p, void *user);
+
+/* The job's files (NULL when not given): template_mesh, and either
+ * target_mesh + target_sol, or target_surface with an optional
+ * target_mesh (sm_job_inputs.h).  The *_name members (NULL: the path) are
+ * what the summary's "inputs" calls them (a binding that wrote arrays to
+ * temporary files names them otherwise). */
+typedef struct sm_run_files {
+    const char *template_mesh;
+    const char *target_mesh;
+    const char *target_sol;
+    const char *target_surface;
+    const char *template_name;
+    const char *target_mesh_name;
+    const char *target_sol_name;
+    const char *target_surface_name;
+} sm_run_files;
+
+/* Reads and checks the inputs, runs the job under the runner's thread
+ * policy, and keeps everything in *out (free with sm_run_free).  params_json
+ * NUL-terminated; NULL or "" is refused (the clamp is required).  cancel,
+ * when not NULL, is polled between iterations (another thread may set it).
+ * SM_OK: the job ran; sm_run_outcome says how it ended ("finished",
+ * "cancelled", or "failed": no valid step at all, sm_run_message says why).
+ * Errors (*out NULL): the inputs' or parameters' (SM_ERR_FORMAT,
+ * SM_ERR_INVALID), the run's (SM_ERR_NUMERIC, ...), SM_ERR_NOMEM; err->msg
+ * the message. */
+sm_status sm_run_job(const sm_run_files *files, const char *params_json,
+                     sm_run_progress_fn progress, void *user, const volatile int *cancel,
+                     sm_run **out, sm_error *err);
+void sm_run_free(sm_run *r);
+
+/* "finished", "cancelled", "failed". */
+const char *sm_run_outcome(const sm_run *r);
+/* What `shapematch run` would exit with: 0, 3 (failed), 5 (cancelled), 10
+ * (finished, not converged). */
+int sm_run_exit_code(const sm_run *r);
+/* Why a run failed ("" otherwise). */
+const char *sm_run_message(const sm_run *r);
+/* The summary document (summary.json without "outputs"), as JSON text
+ * owned by r; NULL when memory ran out. */
+const char *sm_run_summary(const sm_run *r);
+
+/* The template as read and the state reached: dim (2 or 3), nverts
+ * vertices (coords nverts*dim, initial coordinates init_coords), nelems
+ * elements of dim+1 vertices (0-based) and their references, the vertex
+ * references.  Owned by r. */
+int sm_run_dim(const sm_run *r);
+int32_t sm_run_nverts(const sm_run *r);
+int32_t sm_run_nelems(const sm_run *r);
+const double *sm_run_coords(const sm_run *r);
+const double *sm_run_init_coords(const sm_run *r);
+const int32_t *sm_run_elems(const sm_run *r);
+const int32_t *sm_run_elem_refs(const sm_run *r);
+const int32_t *sm_run_vert_refs(const sm_run *r);
+/* One row per iteration, 0 first; *n rows.  Owned by r. */
+const sm_progress *sm_run_history(const sm_run *r, size_t *n);
+
+/* Writes the result set into dir (created if missing), the same files as
+ * `shapematch run --format formats` (NULL: "mesh,vtu,sol") with
+ * summary.json and history.csv/.json.  SM_ERR_INVALID for a bad format
+ * list, SM_ERR_IO, SM_ERR_NOMEM. */
+sm_status sm_run_write(const sm_run *r, const char *dir, const char *formats, sm_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

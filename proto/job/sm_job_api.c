@@ -1,0 +1,237 @@
+/* libshapematch_job.so's API (shapematch_job.h): the job runner behind an
+ * opaque handle.  The steps are those of `shapematch run` (client/
+ * cmd_run.c): the template, the parameters checked against it, then the
+ * target with the run's template side set up meanwhile, the run, the
+ * result set on demand; so a job gives the CLI's vertices bit for bit. */
+#include "shapematch_job.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include <jansson.h>
+
+#include "job/sm_job_inputs.h"
+#include "job/sm_job_results.h"
+#include "job/sm_job_runner.h"
+#include "shapematch/sm_atomic.h"
+#include "shapematch/sm_path.h"
+#include "sm_json.h"
+#include "sm_proto_params.h"
+#include "sm_proto_vocab.h"
+
+/* `shapematch run`'s default --format (client/args.h RUN_DEFAULT_FORMATS) */
+#define API_DEFAULT_FORMATS "mesh,vtu,sol"
+
+struct sm_run {
+    sm_job_inputs in;
+    sm_job_run run;
+    sm_job_files names;  /* what the summary calls the inputs (owned copies) */
+    char *summary;       /* JSON text, made once */
+};
+
+typedef struct api_ctx {
+    sm_run_progress_fn progress;
+    void *user;
+} api_ctx;
+
+static int on_progress(const sm_progress *p, void *user)
+{
+    const api_ctx *c = user;
+    return c->progress ? c->progress(p, c->user) : 0;
+}
+
+static char *dup_or_null(const char *s)
+{
+    return s ? strdup(s) : NULL;
+}
+
+static int copy_names(const sm_run_files *f, sm_job_files *names)
+{
+    const char *src[4] = {f->template_name ? f->template_name : f->template_mesh,
+                          f->target_mesh_name ? f->target_mesh_name : f->target_mesh,
+                          f->target_sol_name ? f->target_sol_name : f->target_sol,
+                          f->target_surface_name ? f->target_surface_name : f->target_surface};
+    char *dst[4];
+    int bad = 0;
+    for (int i = 0; i < 4; i++)
+        bad |= (dst[i] = dup_or_null(src[i])) == NULL && src[i] != NULL;
+    names->template_mesh = dst[0];
+    names->target_mesh = dst[1];
+    names->target_sol = dst[2];
+    names->target_surface = dst[3];
+    return bad ? -1 : 0;
+}
+
+static void free_names(sm_job_files *names)
+{
+    free((char *)names->template_mesh);
+    free((char *)names->target_mesh);
+    free((char *)names->target_sol);
+    free((char *)names->target_surface);
+}
+
+void sm_run_free(sm_run *r)
+{
+    if (!r)
+        return;
+    sm_job_run_free(&r->run);
+    sm_job_inputs_free(&r->in);
+    free_names(&r->names);
+    free(r->summary);
+    free(r);
+}
+
+/* The inputs as `shapematch run` reads them: the params' syntax and
+ * background members first, the template, the params against it, then
+ * the target (prepare: the run's template side meanwhile). */
+static sm_status load_inputs(const sm_run_files *f, const char *params_json, sm_job_inputs *in,
+                             sm_error *err)
+{
+    sm_params params;
+    sm_background_params bg;
+    size_t len = strlen(params_json);
+    sm_status st = sm_job_params_from_json(params_json, len, 0, &params, &bg, err);
+    if (st != SM_OK)
+        return st;
+    sm_job_files files = {.template_mesh = f->template_mesh, .target_mesh = f->target_mesh,
+                          .target_sol = f->target_sol, .target_surface = f->target_surface,
+                          .background_size = bg.size, .background_padding = bg.padding};
+    if ((st = sm_job_inputs_read_template(&files, SM_JOB_NAME_PATHS, in, err)) != SM_OK)
+        return st;
+    if ((st = sm_job_params_from_json(params_json, len, in->dim, &params, &bg, err)) != SM_OK ||
+        (st = sm_job_inputs_set_params(in, &params, err)) != SM_OK) {
+        if (st != SM_ERR_FORMAT && strncmp(err->msg, "params", 6) != 0)
+            sm_error_prefix(err, "%s", params.clamp == SM_CLAMP_BALL ? "params.clamp"
+                                                                     : "params.clamp.refs");
+        sm_job_inputs_free(in);
+        return st;
+    }
+    return sm_job_inputs_read_target(&files, SM_JOB_NAME_PATHS, 1, in, err);
+}
+
+sm_status sm_run_job(const sm_run_files *files, const char *params_json,
+                     sm_run_progress_fn progress, void *user, const volatile int *cancel,
+                     sm_run **out, sm_error *err)
+{
+    sm_error local;
+    if (!err)
+        err = &local;
+    sm_error_clear(err);
+    *out = NULL;
+    if (!files || !files->template_mesh)
+        return sm_error_set(err, SM_ERR_INVALID, "template: no file given");
+    /* the combinations the CLI's options and the daemon's parts allow (the
+     * inputs reader takes them for granted) */
+    if (!files->target_surface && !(files->target_mesh && files->target_sol))
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "no target: give target_mesh and target_sol, or target_surface");
+    if (!params_json || !*params_json)
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "params: a params document is required (at least the clamp)");
+    sm_run *r = calloc(1, sizeof *r);
+    if (!r || copy_names(files, &r->names) != 0) {
+        if (r)
+            free_names(&r->names);
+        free(r);
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    }
+    sm_status st = load_inputs(files, params_json, &r->in, err);
+    if (st != SM_OK) {
+        free_names(&r->names);
+        free(r);
+        return st;
+    }
+    api_ctx c = {.progress = progress, .user = user};
+    sm_job_hooks hooks = {.progress = on_progress, .user = &c, .cancel = cancel};
+    if ((st = sm_job_run_exec(&r->in, &hooks, &r->run, err)) != SM_OK) {
+        sm_run_free(r);
+        return st;
+    }
+    json_t *doc = sm_job_summary_outputs(&r->in, &r->run, &r->names, 0);
+    if (doc) {
+        json_object_del(doc, "outputs");
+        r->summary = sm_json_dumps(doc, 0);
+        json_decref(doc);
+    }
+    *out = r;
+    return SM_OK;
+}
+
+const char *sm_run_outcome(const sm_run *r)
+{
+    return sm_job_outcome_name(r->run.outcome);
+}
+
+int sm_run_exit_code(const sm_run *r)
+{
+    return r->run.exit_code;
+}
+
+const char *sm_run_message(const sm_run *r)
+{
+    return r->run.message;
+}
+
+const char *sm_run_summary(const sm_run *r)
+{
+    return r->summary;
+}
+
+int sm_run_dim(const sm_run *r)
+{
+    return r->in.template_mesh->dim;
+}
+
+int32_t sm_run_nverts(const sm_run *r)
+{
+    return r->in.template_mesh->nverts;
+}
+
+int32_t sm_run_nelems(const sm_run *r)
+{
+    return r->in.template_mesh->nelems;
+}
+
+const double *sm_run_coords(const sm_run *r)
+{
+    return r->run.coords;
+}
+
+const double *sm_run_init_coords(const sm_run *r)
+{
+    return r->in.template_mesh->coords;
+}
+
+const int32_t *sm_run_elems(const sm_run *r)
+{
+    return r->in.template_mesh->elems;
+}
+
+const int32_t *sm_run_elem_refs(const sm_run *r)
+{
+    return r->in.template_mesh->elem_refs;
+}
+
+const int32_t *sm_run_vert_refs(const sm_run *r)
+{
+    return r->in.template_mesh->vert_refs;
+}
+
+const sm_progress *sm_run_history(const sm_run *r, size_t *n)
+{
+    *n = r->run.nhistory;
+    return r->run.history;
+}
+
+sm_status sm_run_write(const sm_run *r, const char *dir, const char *formats, sm_error *err)
+{
+    unsigned outputs = 0;
+    char why[256];
+    if (sm_result_outputs_parse(formats ? formats : API_DEFAULT_FORMATS, &outputs, why,
+                                sizeof why) != 0)
+        return sm_error_set(err, SM_ERR_INVALID, "formats: %s", why);
+    sm_status st = sm_mkdir_p(dir, err);
+    if (st != SM_OK)
+        return st;
+    return sm_job_write_selected(&r->in, &r->run, &r->names, dir, outputs, SM_ATOMIC_FSYNC, err);
+}

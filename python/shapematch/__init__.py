@@ -1,0 +1,470 @@
+"""shapematch: elastic shape matching from Python.
+
+    import shapematch
+    r = shapematch.match("template.mesh", target_mesh="background.mesh.gz",
+                         target_sol="background.sol.gz", clamp_ball=(0.5, 0.5, 0.04))
+    r.vertices, r.displacement, r.summary["boundary_rms"]
+
+The job runs in this process through ctypes on libshapematch_job.so (the
+one job runner of `shapematch run`: the same checks, the same run, the
+same vertices bit for bit); the keyword parameters are the params
+document's members (docs/user-guide.md's table, `shapematch.parameters()`),
+checked by the library's one parameter table.  Client talks to a daemon
+(standard library only).  docs/python.md has the whole story.
+"""
+import ctypes
+import json
+import os
+
+from . import _arrays, _lib
+
+__all__ = ["match", "sdf", "parameters", "Result", "ShapematchError", "Client", "Job",
+           "HTTPError"]
+
+
+def __getattr__(name):
+    # the client (urllib, http.client: ~0.1 s to import) only when used
+    if name in ("Client", "Job", "HTTPError"):
+        from . import _client
+        return getattr(_client, name)
+    raise AttributeError("module 'shapematch' has no attribute %r" % name)
+
+
+class ShapematchError(RuntimeError):
+    """The library refused the job or the run failed; str() is the core's
+    message (naming the file, and its line, where there is one).  status:
+    "format", "invalid", "numeric", "io", "nomem", or "failed" for a run
+    that could not take a single step (result then holds the state)."""
+
+    def __init__(self, message, status, result=None):
+        super().__init__(message)
+        self.status = status
+        self.result = result
+
+
+def _raise(err, status, names=()):
+    msg = err.msg.decode("utf-8", "replace")
+    for tmp, name in names:
+        msg = msg.replace(tmp, name)
+    raise ShapematchError(msg, _lib.STATUS_NAMES.get(status, str(status)))
+
+
+def parameters():
+    """The parameter table (sm_params_table): one dict per params member,
+    name, flag, default, help, in the order of the params document."""
+    lib = _lib.core()
+
+    class Info(ctypes.Structure):
+        _fields_ = [("name", ctypes.c_char_p), ("type", ctypes.c_int),
+                    ("offset", ctypes.c_size_t), ("count_offset", ctypes.c_size_t),
+                    ("min", ctypes.c_double), ("max", ctypes.c_double),
+                    ("min_open", ctypes.c_int), ("max_open", ctypes.c_int),
+                    ("default", ctypes.c_double), ("default_text", ctypes.c_char_p),
+                    ("in_clamp", ctypes.c_int), ("flag", ctypes.c_char_p),
+                    ("meta", ctypes.c_char_p), ("help", ctypes.c_char_p)]
+    lib.sm_params_table.restype = ctypes.POINTER(Info)
+    lib.sm_params_table.argtypes = [ctypes.POINTER(ctypes.c_size_t)]
+    n = ctypes.c_size_t()
+    rows = lib.sm_params_table(ctypes.byref(n))
+    types = {0: "real", 1: "int", 2: "solver", 3: "refs", 4: "clamp"}
+    dec = lambda b: b.decode() if b is not None else None  # noqa: E731
+    return [{"name": dec(r.name), "type": types.get(r.type, str(r.type)), "min": r.min,
+             "max": r.max, "default": dec(r.default_text) or r.default,
+             "in_clamp": bool(r.in_clamp), "flag": dec(r.flag), "help": dec(r.help)}
+            for r in (rows[i] for i in range(n.value))]
+
+
+# ------------------------------------------------------------ arrays to files
+
+def _mesh_parts(m, what):
+    """(vertices, elements, element_refs, vertex_refs, facets, facet_refs) of
+    a mesh given as a tuple (vertices, elements[, element_refs]), a dict
+    with those keys (and vertex_refs, facets, facet_refs) or a Result."""
+    if isinstance(m, Result):
+        return (m.vertices, m.elements, m.element_refs, m.vertex_refs, None, None)
+    if isinstance(m, dict):
+        unknown = set(m) - {"vertices", "elements", "element_refs", "vertex_refs", "facets",
+                            "facet_refs"}
+        if unknown:
+            raise TypeError("%s: unknown keys %s" % (what, ", ".join(sorted(unknown))))
+        return tuple(m.get(k) for k in ("vertices", "elements", "element_refs", "vertex_refs",
+                                        "facets", "facet_refs"))
+    if isinstance(m, (tuple, list)) and len(m) in (2, 3):
+        return (m[0], m[1], m[2] if len(m) == 3 else None, None, None, None)
+    raise TypeError("%s: expected a path, a (vertices, elements[, element_refs]) tuple, a dict "
+                    "or a Result" % what)
+
+
+def _write_mesh(m, path, what):
+    core = _lib.core()
+    verts, elems, erefs, vrefs, facets, frefs = _mesh_parts(m, what)
+    v, nv, dim = _arrays.doubles(verts, what + " vertices", cols=(2, 3))
+    e, ne, k = _arrays.int32s(elems, what + " elements", cols=(dim + 1,))
+    f, nf = (None, 0)
+    if facets is not None:
+        f, nf, _ = _arrays.int32s(facets, what + " facets", cols=(dim,))
+    mesh = ctypes.POINTER(_lib.Mesh)()
+    err = _lib.Error()
+    st = core.sm_mesh_alloc(ctypes.byref(mesh), dim, nv, ne, nf, ctypes.byref(err))
+    if st:
+        _raise(err, st)
+    try:
+        c = mesh.contents
+        _arrays.copy_into(c.coords, v)
+        for i in range(len(e)):
+            if not 0 <= e[i] < nv:
+                raise ValueError("%s elements: vertex index %d out of range [0, %d) (indices "
+                                 "are 0-based)" % (what, e[i], nv))
+        _arrays.copy_into(c.elems, e)  # 0-based in memory (the writer adds 1)
+        for arr, n, ptr, name in ((erefs, ne, c.elem_refs, "element_refs"),
+                                  (vrefs, nv, c.vert_refs, "vertex_refs"),
+                                  (frefs, nf, c.facet_refs, "facet_refs")):
+            if arr is not None and n:
+                a, rows, _ = _arrays.int32s(arr, "%s %s" % (what, name), cols=(0,))
+                if rows != n:
+                    raise ValueError("%s %s: %d values for %d entries" % (what, name, rows, n))
+                _arrays.copy_into(ptr, a)
+        if nf:
+            _arrays.copy_into(c.facets, f)
+        st = core.sm_mesh_write(path.encode(), mesh, ctypes.byref(err))
+        if st:
+            _raise(err, st)
+    finally:
+        core.sm_mesh_free(mesh)
+    return dim
+
+
+def _write_sol(values, dim, path, what):
+    core = _lib.core()
+    a, n, _ = _arrays.doubles(values, what, cols=(0,))
+    sol = ctypes.POINTER(_lib.Sol)()
+    err = _lib.Error()
+    st = core.sm_sol_alloc(ctypes.byref(sol), dim, n, 1, ctypes.byref(err))
+    if st:
+        _raise(err, st)
+    try:
+        _arrays.copy_into(sol.contents.values, a)
+        st = core.sm_sol_write(path.encode(), sol, ctypes.byref(err))
+        if st:
+            _raise(err, st)
+    finally:
+        core.sm_sol_free(sol)
+
+
+def _read_mesh(mesh_path, sol_path=None):
+    """vertices, elements (0-based), element_refs of a mesh file and the
+    vector field of a sol file (the client's downloads), as arrays."""
+    core = _lib.core()
+    mesh = ctypes.POINTER(_lib.Mesh)()
+    sol = ctypes.POINTER(_lib.Sol)()
+    err = _lib.Error()
+    try:
+        st = core.sm_mesh_read(os.fsencode(mesh_path), ctypes.byref(mesh), ctypes.byref(err))
+        if st:
+            _raise(err, st)
+        m = mesh.contents
+        e = _arrays.out(m.elems, ctypes.c_int32, m.nelems, m.dim + 1)
+        out = {"vertices": _arrays.out(m.coords, ctypes.c_double, m.nverts, m.dim),
+               "elements": e, "element_refs": _arrays.out(m.elem_refs, ctypes.c_int32,
+                                                           m.nelems, 0)}
+        if sol_path is not None:
+            st = core.sm_sol_read(os.fsencode(sol_path), ctypes.byref(sol), ctypes.byref(err))
+            if st:
+                _raise(err, st)
+            s = sol.contents
+            out["displacement"] = _arrays.out(s.values, ctypes.c_double, s.nverts, s.ncomp)
+        return out
+    finally:
+        if mesh:
+            core.sm_mesh_free(mesh)
+        if sol:
+            core.sm_sol_free(sol)
+
+
+def _is_path(x):
+    return isinstance(x, (str, bytes, os.PathLike))
+
+
+# ------------------------------------------------------------ the result
+
+class Result:
+    """A job's outcome: vertices (final positions, nverts x dim), elements
+    (0-based, nelems x dim+1), element_refs, vertex_refs, initial_vertices,
+    displacement (vertices - initial_vertices), summary (summary.json as a
+    dict), history (one dict per iteration), warnings, status ("finished",
+    "cancelled", "failed"), exit_code (`shapematch run`'s), converged;
+    write(dir) writes the result set."""
+
+    def __init__(self, handle):
+        job = _lib.job()
+        self._handle = handle
+        dim, nv, ne = job.sm_run_dim(handle), job.sm_run_nverts(handle), job.sm_run_nelems(handle)
+        d = ctypes.c_double
+        i32 = ctypes.c_int32
+        self.vertices = _arrays.out(job.sm_run_coords(handle), d, nv, dim)
+        self.initial_vertices = _arrays.out(job.sm_run_init_coords(handle), d, nv, dim)
+        self.elements = _arrays.out(job.sm_run_elems(handle), i32, ne, dim + 1)
+        self.element_refs = _arrays.out(job.sm_run_elem_refs(handle), i32, ne, 0)
+        self.vertex_refs = _arrays.out(job.sm_run_vert_refs(handle), i32, nv, 0)
+        self.displacement = _arrays.minus(self.vertices, self.initial_vertices)
+        text = job.sm_run_summary(handle)
+        if text is None:
+            raise MemoryError("shapematch: out of memory writing the summary")
+        self.summary = json.loads(text.decode())
+        self.status = job.sm_run_outcome(handle).decode()
+        self.exit_code = job.sm_run_exit_code(handle)
+        self.converged = bool(self.summary.get("converged"))
+        self.warnings = self.summary.get("warnings", [])
+        n = ctypes.c_size_t()
+        rows = job.sm_run_history(handle, ctypes.byref(n))
+        names = [f[0] for f in _lib.Progress._fields_]
+        self.history = [{k: getattr(rows[i], k) for k in names} for i in range(n.value)]
+
+    def write(self, directory, formats=None):
+        """Writes the result set into directory (created if missing): the
+        files of `shapematch run --format formats` (default "mesh,vtu,sol"),
+        summary.json and history.csv/.json."""
+        if self._handle is None:
+            raise ValueError("shapematch: this Result was closed")
+        err = _lib.Error()
+        st = _lib.job().sm_run_write(self._handle, os.fsencode(directory),
+                                     formats.encode() if formats else None, ctypes.byref(err))
+        if st:
+            _raise(err, st)
+
+    def to_meshio(self):
+        """The deformed mesh as a meshio.Mesh (needs python3-meshio), with the
+        displacement as point data and the element references as cell data."""
+        import meshio
+        kind = "triangle" if len(self.vertices[0]) == 2 else "tetra"
+        return meshio.Mesh(_arrays.rows_of(self.vertices), [(kind, _arrays.rows_of(self.elements))],
+                           point_data={"displacement": _arrays.rows_of(self.displacement)},
+                           cell_data={"ref": [_arrays.rows_of(self.element_refs)]})
+
+    def close(self):
+        """Frees the library's side (inputs, target field) now; the arrays
+        and the summary stay, write() no longer works."""
+        if self._handle is not None:
+            _lib.job().sm_run_free(self._handle)
+            self._handle = None
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __repr__(self):
+        s = self.summary
+        return "<shapematch.Result %s after %s iterations, boundary RMS %.3e%s>" % (
+            self.status, s.get("iterations"), s.get("boundary_rms", float("nan")),
+            "" if self.converged else ", not converged")
+
+
+# ------------------------------------------------------------ match
+
+def _clamp(clamp_ball, clamp_elements, clamp_vertices, no_clamp, params):
+    given = [n for n, v in (("clamp_ball", clamp_ball), ("clamp_elements", clamp_elements),
+                            ("clamp_vertices", clamp_vertices)) if v is not None]
+    if no_clamp:
+        given.append("no_clamp")
+    if len(given) != 1:
+        raise TypeError("shapematch.match: give exactly one of clamp_ball, clamp_elements, "
+                        "clamp_vertices, no_clamp=True (got %s)" % (", ".join(given) or "none"))
+    if clamp_ball is not None:
+        b = [float(x) for x in clamp_ball]
+        if len(b) not in (3, 4):
+            raise ValueError("clamp_ball: expected (x, y, r) or (x, y, z, r) (got %d numbers)"
+                             % len(b))
+        return {"kind": "ball", "center": b[:-1], "radius": b[-1]}
+    if no_clamp:
+        clamp = {"kind": "none"}
+        for row in parameters():  # alpha and any other member of the clamp
+            if row["in_clamp"] and row["name"] in params:
+                clamp[row["name"]] = params.pop(row["name"])
+        return clamp
+    refs = clamp_elements if clamp_elements is not None else clamp_vertices
+    refs = list(refs) if hasattr(refs, "__iter__") else [refs]  # a list, or one (numpy) int
+    return {"kind": "elements" if clamp_elements is not None else "vertices", "refs": refs}
+
+
+def _json_default(x):
+    if hasattr(x, "tolist"):
+        return x.tolist()
+    raise TypeError("not a JSON value: %r" % (x,))
+
+
+def match(template, *, target_mesh=None, target_sol=None, target_surface=None,
+          clamp_ball=None, clamp_elements=None, clamp_vertices=None, no_clamp=False,
+          progress=None, **params):
+    """Deforms template onto the target; returns a Result.
+
+    template, target_mesh: a path (Medit .mesh/.meshb, Gmsh .msh, .gz) or
+    arrays (vertices, elements[, element_refs]) (or a dict, or a Result);
+    target_sol: a path or the distance at the target_mesh vertices (1-D);
+    target_surface: a path (STL, OBJ, Medit, Gmsh).  Exactly one clamp:
+    clamp_ball=(x, y[, z], r), clamp_elements=REFS, clamp_vertices=REFS or
+    no_clamp=True (then alpha=...).  params: the params document's members
+    (max_iter=200, young=..., free_boundary=[...]; shapematch.parameters()).
+    progress(iteration, J, boundary_l2) is called after every iteration;
+    returning False stops the run (status "cancelled", the state reached).
+    Raises ShapematchError with the library's message."""
+    doc = dict(params)
+    doc["clamp"] = _clamp(clamp_ball, clamp_elements, clamp_vertices, no_clamp, doc)
+    params_json = json.dumps(doc, default=_json_default).encode()
+    tmp = None
+    names = []
+    files = {}
+    dims = {}
+    try:
+        for part, value, ext in (("template", template, ".meshb"),
+                                 ("target_mesh", target_mesh, ".meshb"),
+                                 ("target_sol", target_sol, ".solb"),
+                                 ("target_surface", target_surface, None)):
+            if value is None:
+                continue
+            if _is_path(value):
+                files[part] = (os.fsencode(value), None)
+                continue
+            if ext is None:
+                raise TypeError("target_surface: give a path (STL, OBJ, Medit, Gmsh)")
+            if tmp is None:
+                import tempfile  # only for arrays: random, hashlib, ... cost an import
+                tmp = tempfile.mkdtemp(prefix="shapematch-")
+            path = os.path.join(tmp, part + ext)
+            if part == "target_sol":
+                _write_sol(value, _sol_dim(dims, target_mesh), path, part)
+            else:
+                dims[part] = _write_mesh(value, path, part)
+            files[part] = (path.encode(), ("%s (array)" % part).encode())
+            names.append((path, "%s (array)" % part))
+        return _run(files, params_json, progress, names)
+    finally:
+        if tmp is not None:
+            import shutil
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _sol_dim(dims, target_mesh):
+    """The dimension a distance given as an array is written with: its
+    mesh's (the reader checks they agree)."""
+    if target_mesh is None:
+        raise TypeError("target_sol: needs target_mesh")
+    if "target_mesh" in dims:
+        return dims["target_mesh"]
+    core = _lib.core()
+    mesh = ctypes.POINTER(_lib.Mesh)()
+    err = _lib.Error()
+    st = core.sm_mesh_read(os.fsencode(target_mesh), ctypes.byref(mesh), ctypes.byref(err))
+    if st:
+        _raise(err, st)
+    dim = mesh.contents.dim
+    core.sm_mesh_free(mesh)
+    return dim
+
+
+def _run(files, params_json, progress, names):
+    job = _lib.job()
+    rf = _lib.RunFiles()
+    for part in ("template", "target_mesh", "target_sol", "target_surface"):
+        if part in files:
+            field = "template_mesh" if part == "template" else part
+            setattr(rf, field, files[part][0])
+            setattr(rf, ("template" if part == "template" else part) + "_name", files[part][1])
+    caught = []
+
+    def on_progress(p, _user):
+        # also where Ctrl-C lands: the signal is seen when Python code runs
+        try:
+            if progress is not None:
+                q = p.contents
+                return 0 if progress(q.iteration, q.J, q.boundary_l2) is not False else 1
+            return 0
+        except BaseException as e:  # re-raised after the run stopped
+            caught.append(e)
+            return 1
+
+    cb = _lib.PROGRESS_FN(on_progress)
+    handle = ctypes.c_void_p()
+    err = _lib.Error()
+    # ctypes releases the GIL for the call: other threads run meanwhile
+    st = job.sm_run_job(ctypes.byref(rf), params_json, cb, None, None, ctypes.byref(handle),
+                        ctypes.byref(err))
+    if st:
+        if caught:
+            raise caught[0]
+        _raise(err, st, names)
+    result = Result(handle.value)
+    if caught:
+        result.close()
+        raise caught[0]
+    if result.status == "failed":
+        raise ShapematchError(job.sm_run_message(handle.value).decode(), "failed", result)
+    return result
+
+
+# ------------------------------------------------------------ sdf
+
+def sdf(surface, points):
+    """Signed distance (negative inside) from a surface to points, exact
+    (sm_sdf.h), after the surface is repaired (oriented consistently and
+    outward) like `shapematch sdf` does.  surface: a path (STL, OBJ,
+    Medit, Gmsh) or (vertices, facets) arrays (0-based triangles in 3D,
+    segments in 2D); points: an (n, dim) array, or a mesh path (its
+    vertices).  Returns n distances."""
+    core = _lib.core()
+    err = _lib.Error()
+    surf = ctypes.POINTER(_lib.Surface)()
+    mesh = ctypes.POINTER(_lib.Mesh)()
+    d = ctypes.c_void_p()
+    try:
+        if _is_path(surface):
+            st = core.sm_surface_read(os.fsencode(surface), ctypes.byref(surf), ctypes.byref(err))
+            if st:
+                _raise(err, st)
+        else:
+            v, nv, dim = _arrays.doubles(surface[0], "surface vertices", cols=(2, 3))
+            f, nf, _ = _arrays.int32s(surface[1], "surface facets", cols=(dim,))
+            if any(not 0 <= x < nv for x in f):
+                raise ValueError("surface facets: a vertex index is out of range [0, %d)" % nv)
+            st = core.sm_surface_alloc(ctypes.byref(surf), dim, nv, nf, ctypes.byref(err))
+            if st:
+                _raise(err, st)
+            _arrays.copy_into(surf.contents.coords, v)
+            _arrays.copy_into(surf.contents.facets, f)
+        dim = surf.contents.dim
+        if _is_path(points):
+            st = core.sm_mesh_read(os.fsencode(points), ctypes.byref(mesh), ctypes.byref(err))
+            if st:
+                _raise(err, st)
+            n, pdim, ptr = mesh.contents.nverts, mesh.contents.dim, mesh.contents.coords
+        else:
+            p, n, pdim = _arrays.doubles(points, "points", cols=(2, 3))
+            ptr = (ctypes.c_double * max(len(p), 1)).from_buffer(p) if len(p) else \
+                (ctypes.c_double * 1)()
+        if pdim != dim:
+            raise ValueError("points are %dD and the surface %dD" % (pdim, dim))
+        health = _lib.SurfaceHealth()
+        for st in (core.sm_surface_repair(surf, ctypes.byref(health), ctypes.byref(err)),
+                   core.sm_sdf_new(surf, ctypes.byref(d), ctypes.byref(err))):
+            if st:
+                _raise(err, st)
+        out = (ctypes.c_double * max(n, 1))()
+        st = core.sm_sdf_signed(d, n, ctypes.cast(ptr, ctypes.POINTER(ctypes.c_double)), out,
+                                ctypes.byref(err))
+        if st:
+            _raise(err, st)
+        return _arrays.out(out, ctypes.c_double, n, 0)
+    finally:
+        if d.value:
+            core.sm_sdf_free(d)
+        if surf:
+            core.sm_surface_free(surf)
+        if mesh:
+            core.sm_mesh_free(mesh)

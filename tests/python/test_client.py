@@ -1,0 +1,165 @@
+"""shapematch.Client against a real shapematchd on loopback, started by
+tests/integration/python.sh (SM_TEST_DAEMON: its URL, SM_TEST_TOKEN: a
+token it accepts; SM_TEST_DAEMON_RATE: a second daemon that accepts one
+submission per 2 s), and against a fake server that answers 503."""
+import http.server
+import json
+import os
+import shutil
+import tempfile
+import threading
+import time
+import unittest
+
+import test_shapematch as base
+import shapematch
+from shapematch import _client
+
+DAEMON = os.environ.get("SM_TEST_DAEMON")
+TOKEN = os.environ.get("SM_TEST_TOKEN")
+
+
+class Sse(unittest.TestCase):
+    def test_parser(self):
+        lines = [b": keepalive\n", b"id: 3\n", b"event: progress\n", b'data: {"a":\n',
+                 b"data: 1}\n", b"\n", b"event: status\n", b"data:{\"s\":2}\r\n", b"\r\n"]
+        self.assertEqual(list(_client.sse_events(lines)),
+                         [("3", "progress", '{"a":\n1}'), (None, "status", '{"s":2}')])
+
+    def test_retry_after_forms(self):
+        self.assertEqual(_client._retry_after("7"), 7.0)
+        self.assertEqual(_client._retry_after(None), 1.0)
+        self.assertAlmostEqual(_client._retry_after("Thu, 01 Jan 1970 00:00:10 GMT", now=4.0), 6.0)
+
+
+class Fake503(unittest.TestCase):
+    def test_503_retried_after_retry_after(self):
+        hits = []
+
+        class H(http.server.BaseHTTPRequestHandler):
+            def do_GET(self):
+                hits.append(time.monotonic())
+                if len(hits) < 3:
+                    self.send_response(503)
+                    self.send_header("Retry-After", "1")
+                    self.send_header("Content-Length", "0")
+                    self.end_headers()
+                    return
+                body = json.dumps({"jobID": "abc", "status": "running"}).encode()
+                self.send_response(200)
+                self.send_header("Content-Type", "application/json")
+                self.send_header("Content-Length", str(len(body)))
+                self.end_headers()
+                self.wfile.write(body)
+
+            def log_message(self, *a):
+                pass
+
+        srv = http.server.HTTPServer(("127.0.0.1", 0), H)
+        t = threading.Thread(target=srv.serve_forever)
+        t.start()
+        try:
+            c = shapematch.Client("http://127.0.0.1:%d" % srv.server_port)
+            self.assertEqual(c.job("abc").status()["status"], "running")
+            self.assertEqual(len(hits), 3)
+            self.assertGreaterEqual(hits[1] - hits[0], 0.95)
+            self.assertGreaterEqual(hits[2] - hits[1], 0.95)
+            hits.clear()
+            c.retries = 1
+            with self.assertRaises(shapematch.HTTPError) as e:
+                c.job("abc").status()
+            self.assertEqual(e.exception.status, 503)
+        finally:
+            srv.shutdown()
+            t.join()
+            srv.server_close()
+
+
+@unittest.skipUnless(DAEMON, "no daemon (run by tests/integration/python.sh)")
+class Daemon(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.mkdtemp(prefix="sm-client-")
+        cls.kw = base.tiny_case(cls.tmp)
+        cls.template = os.path.join(cls.tmp, "template.mesh")
+        cls.client = shapematch.Client(DAEMON, token=TOKEN)
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.tmp, ignore_errors=True)
+
+    def test_token_required(self):
+        with self.assertRaises(shapematch.HTTPError) as e:
+            shapematch.Client(DAEMON).submit(self.template, max_iter=5, **self.kw)
+        self.assertEqual(e.exception.status, 401)
+
+    def test_submit_wait_results_equal_local_match(self):
+        job = self.client.submit(self.template, max_iter=20, **self.kw)
+        seen = []
+        r = job.wait(progress=lambda it, J, err: seen.append(it))
+        self.assertEqual(job.status()["status"], "successful")
+        self.assertEqual(r.summary["iterations"], 20)
+        self.assertEqual(seen, list(range(21)))
+        self.assertEqual([h["iteration"] for h in r.history], list(range(21)))
+        local = shapematch.match(self.template, max_iter=20, **self.kw)
+        # the worker runs the same job runner: the same vertices, bit for bit
+        self.assertEqual(r.vertices.tolist(), local.vertices.tolist())
+        self.assertEqual(r.displacement.tolist(), local.displacement.tolist())
+        self.assertEqual(r.summary["boundary_l2"], local.summary["boundary_l2"])
+        d = os.path.join(self.tmp, "res")
+        job.results(d)
+        for name in ("result.mesh", "result.vtu", "displacement.sol", "history.csv",
+                     "summary.json"):
+            self.assertTrue(os.path.getsize(os.path.join(d, name)) > 0, name)
+        local.write(os.path.join(self.tmp, "local"), formats="mesh")
+        with open(os.path.join(d, "result.mesh"), "rb") as a, \
+                open(os.path.join(self.tmp, "local", "result.mesh"), "rb") as b:
+            self.assertEqual(a.read(), b.read())
+
+    def test_events_in_order_status_last(self):
+        job = self.client.submit(self.template, max_iter=5, **self.kw)
+        events = list(job.events())
+        types = [e["type"] for e in events]
+        self.assertEqual(types[0], "accepted")
+        self.assertIn("started", types)
+        self.assertEqual(types.count("progress"), 6)
+        self.assertEqual(types[-2:], ["finished", "status"])
+        self.assertEqual([e["seq"] for e in events[:-1]], list(range(1, len(events))))
+        # resumed after event 3: the rest, no duplicate
+        rest = list(job.events(after=3))
+        self.assertEqual([e.get("seq") for e in rest], [e.get("seq") for e in events[3:]])
+
+    def test_cancel_and_stop_from_progress(self):
+        endless = dict(self.kw, max_iter=100000000, tol_step=1e-15, tol_stall=0)
+        job = self.client.submit(self.template, **endless)
+        for e in job.events():
+            if e["type"] == "progress" and e["iteration"] >= 3:
+                job.cancel()
+                break
+        with self.assertRaises(shapematch.ShapematchError) as err:
+            job.wait()
+        self.assertEqual(err.exception.status, "cancelled")
+        self.assertEqual(job.status()["status"], "dismissed")
+        # progress returning False cancels too
+        job = self.client.submit(self.template, **endless)
+        with self.assertRaises(shapematch.ShapematchError):
+            job.wait(progress=lambda it, J, e: it < 3)
+        self.assertEqual(job.status()["status"], "dismissed")
+
+    def test_invalid_job_is_a_422_with_the_detail(self):
+        with self.assertRaises(shapematch.HTTPError) as e:
+            self.client.submit(self.template, max_iter=0, **self.kw)
+        self.assertEqual(e.exception.status, 422)
+        self.assertIn("max_iter", str(e.exception))
+
+    @unittest.skipUnless(os.environ.get("SM_TEST_DAEMON_RATE"), "no rate-limited daemon")
+    def test_429_retried_honouring_retry_after(self):
+        c = shapematch.Client(os.environ["SM_TEST_DAEMON_RATE"], token=TOKEN)
+        t0 = time.monotonic()
+        jobs = [c.submit(self.template, max_iter=2, **self.kw) for _ in range(2)]
+        took = time.monotonic() - t0
+        self.assertNotEqual(jobs[0].id, jobs[1].id)
+        # the second submission got 429 with Retry-After >= 1 s and was retried
+        self.assertGreaterEqual(took, 0.9)
+        for j in jobs:
+            j.wait()

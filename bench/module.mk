@@ -12,7 +12,7 @@
 #
 # The C benchmarks are built in the release variant only (figures from a
 # sanitized build mean nothing), each one C file linked against the core.
-BENCH_PROGS := match_bench field_bench sdf_bench io_bench bg_bench read_bench write_bench
+BENCH_PROGS := match_bench field_bench sdf_bench io_bench bg_bench read_bench write_bench warp_bench
 BENCH_SRCS := $(BENCH_PROGS:%=bench/%.c)
 
 $(foreach b,$(BENCH_PROGS),$(eval build/release/$(b): build/release/obj/bench/$(b).o build/release/libshapematch.a))

@@ -46,6 +46,10 @@ print('last run: %d iterations, boundary error %.3g; read (and field) %.3f s, se
       % (d['iterations'], d['boundary_l2'], t['read'], t['setup'], t['solve'], t['step'], t['sample']))"
 
 echo
+echo "== warp: 1M points through that run's map (goal: >= 1M/s forward, >= 300k/s inverse, 2 cores) =="
+# (the last run's result.mesh and displacement.sol; docs/warp.md)
+$BIN/warp_bench build/bench-run 1000000
+echo
 echo "== distance to a surface (goal: 57k points in <= 0.3 s, exact) =="
 SD=build/bench-sdf
 mkdir -p "$SD"

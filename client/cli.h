@@ -81,5 +81,9 @@ int cmd_list(int argc, char **argv);
 void cmd_list_help(void);
 int cmd_cancel(int argc, char **argv);
 void cmd_cancel_help(void);
+/* `shapematch warp`: points, meshes and fields through a result's map
+ * (a result folder, or a daemon job's results downloaded). */
+int cmd_warp(int argc, char **argv);
+void cmd_warp_help(void);
 
 #endif

@@ -50,6 +50,8 @@ static const command commands[] = {
     {"status", cmd_status, cmd_status_help, "show a job's state"},
     {"list", cmd_list, cmd_list_help, "list the daemon's jobs"},
     {"cancel", cmd_cancel, cmd_cancel_help, "cancel a job (or delete a finished one)"},
+    {"warp", cmd_warp, cmd_warp_help,
+     "carry points, a mesh or a field through a result's map (forward or inverse)"},
 };
 #define N_COMMANDS (sizeof commands / sizeof commands[0])
 

@@ -11,7 +11,7 @@ CORE_BASE_SRCS := core/sm_alloc.c core/sm_atomic.c core/sm_clamp.c core/sm_clock
   core/sm_error.c core/sm_facets.c core/sm_mesh.c core/sm_morton.c core/sm_params.c core/sm_path.c \
   core/sm_surface.c core/sm_topology.c
 CORE_FIELD_SRCS := core/sm_field.c core/sm_field_adjacency.c core/sm_field_grid.c \
-  core/sm_field_locate.c core/sm_field_nearest.c
+  core/sm_field_locate.c core/sm_field_nearest.c core/sm_warp.c
 CORE_SDF_SRCS := core/sm_background.c core/sm_bvh.c core/sm_sdf.c core/sm_surface_repair.c \
   core/sm_surface_orient.c core/sm_winding.c
 CORE_SOLVE_SRCS := core/sm_elasticity.c core/sm_elasticity_pattern.c core/sm_element.c \

@@ -12,6 +12,7 @@
 #include "api/smd_check.h"
 #include "api/smd_inputs.h"
 #include "api/smd_upload.h"
+#include "api/smd_warp.h"
 
 #define JOB "/v1/jobs/{id}"
 #define RESULTS JOB "/results"
@@ -39,6 +40,7 @@ const smd_route smd_route_table[] = {
     {SMD_METHOD_DELETE, JOB, smd_route_job_delete, JOB, 0},
     {SMD_METHOD_READ, JOB "/events", smd_route_events, JOB "/events", 0},
     {SMD_METHOD_READ, JOB "/mesh/latest", smd_route_live_mesh, JOB "/mesh/latest", 0},
+    {SMD_METHOD_POST, JOB "/warp", smd_route_warp, JOB "/warp", 0},
     /* the stored uploads, for the web app's overlay of the target */
     {SMD_METHOD_READ, JOB "/inputs", smd_route_inputs, JOB "/inputs", 0},
     {SMD_METHOD_READ, JOB "/inputs/{part}", smd_route_input, JOB "/inputs/{part}", 0},
@@ -174,10 +176,22 @@ static enum MHD_Result handle(struct MHD_Connection *conn, smd_request *req)
     return req->route->handler(conn, req);
 }
 
+/* A body goes to the upload (POST /v1/jobs, the OGC execute) or to the
+ * reader a route attached (req->body_state: the warp route's). */
+static enum MHD_Result body(struct MHD_Connection *conn, smd_request *req, const char *data,
+                            size_t *size)
+{
+    if (req->body_state)
+        return smd_warp_continue(conn, req, data, size);
+    return smd_upload_continue(conn, req, data, size);
+}
+
 static void body_free(smd_request *req)
 {
     smd_upload_free(req->upload);
     req->upload = NULL;
+    smd_warp_body_free(req->body_state);
+    req->body_state = NULL;
 }
 
 static sm_status checks_open(smd_server *srv, sm_error *err)
@@ -203,7 +217,7 @@ static void checks_close(smd_server *srv)
 const smd_http_app smd_api = {
     .route = route_request,
     .handle = handle,
-    .body = smd_upload_continue,
+    .body = body,
     .body_free = body_free,
     .open = checks_open,
     .quiesce = checks_quiesce,

@@ -146,7 +146,7 @@ static enum MHD_Result handle(struct MHD_Connection *conn, smd_request *req)
                                          : "the bearer token is not valid");
     }
     enum MHD_Result r = dispatch(conn, req);
-    if (r == MHD_YES && !req->replied && !req->upload)
+    if (r == MHD_YES && !req->replied && !req->upload && !req->body_state)
         return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "no response produced");
     if (req->upload && req->deferred) {
         /* an upload cannot have a reply waiting as well */
@@ -203,7 +203,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
             MHD_destroy_response(resp);
             return r;
         }
-        if (req->upload && !req->replied)
+        if ((req->upload || req->body_state) && !req->replied)
             return srv->app->body(conn, req, upload_data, upload_data_size);
         req->bytes_in += *upload_data_size;
         *upload_data_size = 0;

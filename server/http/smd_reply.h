@@ -67,6 +67,9 @@ typedef struct smd_request {
     unsigned retry_after;        /* seconds for the Retry-After of a 429 */
     uint64_t bytes_in, bytes_out;
     struct smd_upload *upload;   /* POST /v1/jobs in progress */
+    /* Another route's body reader (api/: POST /v1/jobs/{id}/warp), when
+     * the body is not an upload: the app's body and body_free take it. */
+    void *body_state;
     int replied;
     /* A request with a body still to come: a reply made before its end
      * (an error, an idempotent replay) waits here while the body is read

@@ -9,8 +9,9 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=$1
 rm -rf "$out"
-mkdir -p "$out"/{mesh,msh,stl,obj,ply,off,vtk,vtkxml,sol,params,events,payload,sse,headers,multipart,parts,decimal,job_file}
-for t in mesh msh stl obj ply off vtk vtkxml sol params events payload sse headers multipart parts decimal job_file; do
+targets="mesh msh stl obj ply off vtk vtkxml sol params events payload sse headers multipart parts decimal job_file points"
+for t in $targets; do
+    mkdir -p "$out/$t"
     [ -d tests/fuzz/seeds/$t ] && cp tests/fuzz/seeds/$t/* "$out/$t/" 2>/dev/null || true
 done
 add() { # target name file [prefix-byte-octal...]

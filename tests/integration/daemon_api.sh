@@ -194,10 +194,32 @@ probe "nothing acceptable" GET "$tmpl" 406 "/v1/jobs/$J/results/snapshots/10" ''
 probe "no snapshot at this iteration" GET "$tmpl" 404 "/v1/jobs/$J/results/snapshots/15" '' "${AUTH[@]}"
 probe "not an iteration" GET "$tmpl" 404 "/v1/jobs/$J/results/snapshots/..%2Fsummary.json" '' "${AUTH[@]}"
 
+# the warp route (docs/warp.md; the answers checked in daemon_warp.sh)
+tmpl='/v1/jobs/{jobID}/warp'
+CSV=(-H 'Content-Type: text/csv')
+noauth_probe "no token" POST "$tmpl" "/v1/jobs/$J/warp" "${CSV[@]}" --data-binary $'0,0\n'
+probe "points forward, CSV" POST "$tmpl" 200 "/v1/jobs/$J/warp" '' "${AUTH[@]}" "${CSV[@]}" \
+    --data-binary $'x,y\n0,0\n5,5\n'
+probe "points inverse, JSON" POST "$tmpl" 200 "/v1/jobs/$J/warp" \
+    '.direction == "inverse" and (.points | length) == 2 and .inside == [1, 0] and .outside == 1' \
+    "${AUTH[@]}" -H 'Content-Type: application/json' --data-binary '{"points": [[0, 0], [5, 5]], "direction": "inverse"}'
+probe "malformed CSV: the line named" POST "$tmpl" 400 "/v1/jobs/$J/warp?direction=inverse" \
+    '.detail | contains("line 3")' "${AUTH[@]}" "${CSV[@]}" --data-binary $'x,y\n0,0\n1,zz\n'
+probe "unknown job" POST "$tmpl" 404 /v1/jobs/0123456789abcdef0123456789abcdef/warp \
+    '.type | endswith("no-such-job")' "${AUTH[@]}" "${CSV[@]}" --data-binary $'0,0\n'
+probe "neither CSV nor JSON" POST "$tmpl" 415 "/v1/jobs/$J/warp" '' "${AUTH[@]}" \
+    -H 'Content-Type: text/plain' --data-binary $'0,0\n'
+probe "3D points, 2D map" POST "$tmpl" 422 "/v1/jobs/$J/warp" '.detail | contains("2D")' \
+    "${AUTH[@]}" "${CSV[@]}" --data-binary $'0,0,0\n'
+head -c 400000 /dev/zero | tr '\0' '\n' >"$WORK/warp413.csv"
+probe "over --max-upload" POST "$tmpl" 413 "/v1/jobs/$J/warp" '' "${AUTH[@]}" "${CSV[@]}" \
+    --data-binary "@$WORK/warp413.csv"
 # a queued job has no results yet; DELETE cancels it
 E=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
 Q=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
 probe "queued: no result yet" GET '/v1/jobs/{jobID}/results' 404 "/v1/jobs/$Q/results" '.type | endswith("result-not-ready")' "${AUTH[@]}"
+probe "queued: no map to warp through" POST '/v1/jobs/{jobID}/warp' 409 "/v1/jobs/$Q/warp" \
+    '.detail | contains("is queued")' "${AUTH[@]}" -H 'Content-Type: text/csv' --data-binary $'0,0\n'
 # the live mesh (issue 11; more in web_live.sh)
 tmpl='/v1/jobs/{jobID}/mesh/latest'
 noauth_probe "no token" GET "$tmpl" "/v1/jobs/$J/mesh/latest"

@@ -1,0 +1,51 @@
+/* The points CSV of `shapematch warp` and POST /v1/jobs/{id}/warp
+ * (proto/sm_points_csv.c): any input is parsed or refused with a message;
+ * an accepted one formats and parses back to the same points bit for bit
+ * (%.17g), with the same dimension and header (x,y[,z] when it had
+ * none). */
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "sm_points_csv.h"
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    sm_error err;
+    sm_error_clear(&err);
+    sm_points p;
+    if (sm_points_csv_parse((const char *)data, size, 100000, &p, &err) != SM_OK) {
+        if (err.msg[0] == '\0' || p.n != 0 || p.xyz || p.header)
+            abort();
+        return 0;
+    }
+    if ((p.dim != 2 && p.dim != 3) || p.n < 1)
+        abort();
+    uint8_t *inside = calloc((size_t)p.n, 1);
+    size_t len;
+    char *text = inside ? sm_points_csv_format(&p, p.xyz, inside, &len) : NULL;
+    if (!text)
+        abort();
+    /* without the inside column (",0" on every point line, ",inside" on
+     * the header), the output is an input again */
+    char *w = text;
+    for (size_t i = 0; i < len; i++) {
+        if (text[i] == '\n') {
+            size_t cut = i == (size_t)(strchr(text, '\n') - text) ? strlen(",inside") : 2;
+            w -= cut;
+        }
+        *w++ = text[i];
+    }
+    sm_points q;
+    if (sm_points_csv_parse(text, (size_t)(w - text), 0, &q, &err) != SM_OK || q.n != p.n ||
+        q.dim != p.dim || memcmp(q.xyz, p.xyz, (size_t)p.n * (size_t)p.dim * sizeof *p.xyz) != 0 ||
+        !q.header || strcmp(q.header, p.header ? p.header : p.dim == 3 ? "x,y,z" : "x,y") != 0)
+        abort();
+    free(text);
+    free(inside);
+    sm_points_release(&q);
+    sm_points_release(&p);
+    return 0;
+}

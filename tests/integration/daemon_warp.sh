@@ -1,0 +1,179 @@
+#!/usr/bin/env bash
+# POST /v1/jobs/{id}/warp on a real daemon (docs/warp.md): on a finished
+# disk job, the CSV answer is byte for byte `shapematch warp --result` on
+# the fetched results, and `shapematch warp --job ID` gives the same
+# file, as do a mesh and a field sent to the daemon; the template's vertices go onto the result's (checked against
+# result.mesh); inverse(forward(x)) = x through JSON; a malformed CSV line
+# is named (400), a body over --max-upload is 413, a running job 409, an
+# unknown job and another tenant's job 404, the query's direction
+# checked; no sanitizer report.
+source "$(dirname "$0")/lib.sh"
+
+if ! make_case; then
+    not_ok "gmsh builds the test meshes" "$(tail -5 "$WORK/case/gmsh.log")"
+    exit 1
+fi
+printf 'tok-alice-0123456789 alice\ntok-bob-0123456789 bob\n' >"$WORK/tokens"
+start_daemon warp --workers 2 --max-upload 400K --kill-grace 1 --tokens-file "$WORK/tokens" ||
+    { not_ok "the daemon starts"; exit 1; }
+AUTH=(-H 'Authorization: Bearer tok-alice-0123456789')
+export SHAPEMATCH_TOKEN=tok-alice-0123456789
+ok "the daemon starts"
+SM=$BIN/shapematch
+J=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 20)")
+R=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
+if [ -n "$J" ] && [ -n "$R" ] && wait_state "$J" successful 60; then
+    ok "a disk job finished (and an endless one submitted)"
+else
+    not_ok "the jobs" "$(cat "$WORK/submit.out")" "$(job_state "$J")"
+    exit 1
+fi
+"$SM" fetch -q --server "$BASE" --format mesh,sol -o "$WORK/res" "$J" 2>"$WORK/fetch.err"
+# random points over the disk's box and beyond (the disk has radius 0.5)
+python3 - "$WORK/p.csv" <<'PY'
+import random, sys
+r = random.Random(3)
+with open(sys.argv[1], "w") as f:
+    f.write("x,y\n")
+    for _ in range(2000):
+        f.write("%.17g,%.17g\n" % (r.uniform(-0.6, 0.6), r.uniform(-0.6, 0.6)))
+PY
+CSV=(-H 'Content-Type: text/csv')
+code=$(hcurl "${AUTH[@]}" -o "$WORK/fwd.csv" -w '%{http_code}' "${CSV[@]}" --data-binary "@$WORK/p.csv" \
+    "$BASE/v1/jobs/$J/warp")
+"$SM" warp -q --result "$WORK/res" --points "$WORK/p.csv" -o "$WORK/cli.csv"
+if [ "$code" = 200 ] && cmp -s "$WORK/fwd.csv" "$WORK/cli.csv"; then
+    ok "CSV forward: byte for byte the CLI's answer on the fetched result"
+else
+    not_ok "CSV forward" "code $code" "$(diff "$WORK/fwd.csv" "$WORK/cli.csv" | head -5)"
+fi
+if "$SM" warp -q --job "$J" --server "$BASE" --points "$WORK/p.csv" -o "$WORK/job.csv" &&
+    cmp -s "$WORK/job.csv" "$WORK/cli.csv"; then
+    ok "shapematch warp --job ID --server gives the same file"
+else
+    not_ok "warp --job" "$(diff "$WORK/job.csv" "$WORK/cli.csv" | head -5)"
+fi
+nin=$(awk -F, 'NR > 1 && $3 == 1' "$WORK/fwd.csv" | wc -l)
+nout=$(awk -F, 'NR > 1 && $3 == 0' "$WORK/fwd.csv" | wc -l)
+if [ "$nin" -gt 1000 ] && [ "$nout" -gt 100 ]; then
+    ok "points inside ($nin) and outside ($nout) flagged"
+else
+    not_ok "inside flags" "$nin inside, $nout outside"
+fi
+
+# the template's vertices (DISK) onto result.mesh's, through JSON
+python3 - "$DISK" "$WORK/verts.json" <<'PY'
+import json, sys
+t = open(sys.argv[1]).read().split()
+i = t.index("Vertices")
+n = int(t[i + 1])
+dim = int(t[t.index("Dimension") + 1])
+pts = [[float(x) for x in t[i + 2 + (dim + 1) * k:i + 2 + (dim + 1) * k + 2]] for k in range(n)]
+json.dump({"points": pts}, open(sys.argv[2], "w"))
+PY
+code=$(hcurl "${AUTH[@]}" -o "$WORK/verts.out" -w '%{http_code}' -H 'Content-Type: application/json' \
+    --data-binary "@$WORK/verts.json" "$BASE/v1/jobs/$J/warp")
+msg=$(python3 - "$WORK/verts.out" "$WORK/res/result.mesh" <<'PY'
+import json, math, sys
+got = json.load(open(sys.argv[1]))
+t = open(sys.argv[2]).read().split()
+i = t.index("Vertices")
+n = int(t[i + 1])
+want = [[float(x) for x in t[i + 2 + 3 * k:i + 4 + 3 * k]] for k in range(n)]
+worst = max(math.dist(a, b) for a, b in zip(got["points"], want))
+ok = len(got["points"]) == n and worst <= 1e-12 and all(f == 1 for f in got["inside"])
+print("%d vertices, max distance %.3g" % (n, worst))
+sys.exit(0 if ok else 1)
+PY
+)
+prc=$?
+if [ "$code" = 200 ] && [ "$prc" = 0 ]; then
+    ok "JSON: the template's vertices land on result.mesh's ($msg)"
+else
+    not_ok "template vertices" "code $code" "$msg"
+fi
+
+# inverse(forward(x)) = x for the inside points, the direction in the query
+awk -F, 'NR > 1 && $3 == 1 { print $1 "," $2 }' "$WORK/fwd.csv" >"$WORK/fwd-in.csv"
+awk -F, 'NR > 1 && $3 == 1 { print NR - 1 }' "$WORK/fwd.csv" >"$WORK/in-lines"
+code=$(hcurl "${AUTH[@]}" -o "$WORK/back.csv" -w '%{http_code}' "${CSV[@]}" --data-binary "@$WORK/fwd-in.csv" \
+    "$BASE/v1/jobs/$J/warp?direction=inverse")
+msg=$(python3 - "$WORK/p.csv" "$WORK/in-lines" "$WORK/back.csv" <<'PY'
+import math, sys
+pts = [list(map(float, l.split(","))) for l in open(sys.argv[1]).read().split()[1:]]
+idx = [int(l) - 1 for l in open(sys.argv[2]).read().split()]
+back = [list(map(float, l.split(",")[:2])) for l in open(sys.argv[3]).read().split()[1:]]
+worst = max(math.dist(pts[i], b) for i, b in zip(idx, back))
+print("%d points, max |inverse(forward(x)) - x| %.3g" % (len(back), worst))
+sys.exit(0 if len(back) == len(idx) and worst <= 1e-9 else 1)
+PY
+)
+prc=$?
+if [ "$code" = 200 ] && [ "$prc" = 0 ]; then ok "inverse(forward(x)) = x ($msg)"; else not_ok "inverse" "code $code" "$msg"; fi
+
+# a mesh and a field through the daemon: the CLI's files, byte for byte
+code=$(hcurl "${AUTH[@]}" -o "$WORK/disk-warped.mesh" -w '%{http_code}' \
+    -H 'Content-Type: application/x-medit-mesh' --data-binary "@$DISK" "$BASE/v1/jobs/$J/warp")
+"$SM" warp -q --result "$WORK/res" --mesh "$DISK" -o "$WORK/disk-cli.mesh"
+if [ "$code" = 200 ] && cmp -s "$WORK/disk-warped.mesh" "$WORK/disk-cli.mesh"; then
+    ok "a mesh (Medit) warped by the daemon: the CLI's file"
+else
+    not_ok "mesh over HTTP" "code $code" "$(head -c 300 "$WORK/disk-warped.mesh")"
+fi
+awk 'BEGIN { print "MeshVersionFormatted 2\nDimension 2\nSolAtVertices" }
+     $1 == "Vertices" { getline n; print n "\n1 2"; for (i = 0; i < n; i++) { getline; print -$2, $1 } }
+     END { print "End" }' "$WORK/res/result.mesh" >"$WORK/v.sol"
+code=$(hcurl "${AUTH[@]}" -o "$WORK/v-warped.sol" -w '%{http_code}' \
+    -H 'Content-Type: application/x-medit-sol' --data-binary "@$WORK/v.sol" \
+    "$BASE/v1/jobs/$J/warp?normalize=true")
+"$SM" warp -q --result "$WORK/res" --normalize --field "$WORK/v.sol" -o "$WORK/v-cli.sol"
+if [ "$code" = 200 ] && cmp -s "$WORK/v-warped.sol" "$WORK/v-cli.sol"; then
+    ok "a vector field warped by the daemon (normalize): the CLI's file"
+else
+    not_ok "field over HTTP" "code $code" "$(head -c 300 "$WORK/v-warped.sol")"
+fi
+# errors, as problem+json
+problem() { # DESC STATUS DETAIL-PART CURL-ARGS...
+    local desc=$1 want=$2 part=$3 code
+    shift 3
+    code=$(hcurl "${AUTH[@]}" -o "$WORK/p.json" -w '%{http_code} %{content_type}' "$@")
+    if [ "$code" = "$want application/problem+json" ] &&
+        jq -e --arg p "$part" --argjson s "$want" '.status == $s and (.detail | contains($p))' \
+            "$WORK/p.json" >/dev/null; then
+        ok "$desc: $want"
+    else
+        not_ok "$desc" "$code" "$(head -c 300 "$WORK/p.json")"
+    fi
+}
+printf 'MeshVersionFormatted 2\nDimension 2\nVertices\n2\n0 0 0\n' >"$WORK/broken.mesh"
+problem "a malformed mesh: the reader's message" 400 "the body" \
+    -H 'Content-Type: application/x-medit-mesh' --data-binary "@$WORK/broken.mesh" \
+    "$BASE/v1/jobs/$J/warp"
+printf 'x,y\n0,0\n0.1,0.1\n0.2;0.2\n' >"$WORK/bad.csv"
+problem "a malformed CSV line is named" 400 "line 4" "${CSV[@]}" --data-binary "@$WORK/bad.csv" \
+    "$BASE/v1/jobs/$J/warp"
+problem "a bad direction" 400 "direction" "${CSV[@]}" --data-binary $'0,0\n' \
+    "$BASE/v1/jobs/$J/warp?direction=sideways"
+problem "strict: a point outside refused" 422 "point 2 is outside" "${CSV[@]}" \
+    --data-binary $'0,0\n3,3\n' "$BASE/v1/jobs/$J/warp?strict=true"
+head -c 500000 /dev/zero | tr '\0' '\n' >"$WORK/big.csv"
+problem "a body over --max-upload" 413 "--max-upload" "${CSV[@]}" --data-binary "@$WORK/big.csv" \
+    "$BASE/v1/jobs/$J/warp"
+# chunked, without a Content-Length: refused once the body passes the limit
+problem "a chunked body over --max-upload" 413 "--max-upload" "${CSV[@]}" \
+    -H 'Transfer-Encoding: chunked' --data-binary "@$WORK/big.csv" "$BASE/v1/jobs/$J/warp"
+wait_state "$R" running 30 >/dev/null
+problem "a running job has no map" 409 "is running" "${CSV[@]}" --data-binary $'0,0\n' \
+    "$BASE/v1/jobs/$R/warp"
+problem "an unknown job" 404 "no job" "${CSV[@]}" --data-binary $'0,0\n' \
+    "$BASE/v1/jobs/0123456789abcdef0123456789abcdef/warp"
+AUTH=(-H 'Authorization: Bearer tok-bob-0123456789')
+problem "another tenant's job" 404 "no job" "${CSV[@]}" --data-binary $'0,0\n' \
+    "$BASE/v1/jobs/$J/warp"
+AUTH=(-H 'Authorization: Bearer tok-alice-0123456789')
+code=$(hcurl "${AUTH[@]}" -o /dev/null -w '%{http_code}' "$BASE/v1/jobs/$J/results")
+[ "$code" = 200 ] && ok "the daemon answers after all this" || not_ok "daemon alive" "$code"
+hcurl "${AUTH[@]}" -o /dev/null -X DELETE "$BASE/v1/jobs/$R"
+stop_daemon
+if reports_clean; then ok "no sanitizer report"; else not_ok "sanitizer reports"; fi
+echo "1..$n"

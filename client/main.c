@@ -21,8 +21,9 @@ const char cli_exit_codes_help[] =
     "     wrong token, 404 unknown job or no results yet, 422 invalid job\n"
     "  8  the job failed on the daemon (the reason is printed)\n"
     "  9  daemon error (HTTP 5xx) or a response the client cannot understand\n"
-    "  10 run: finished but not converged (quality_blocked, or the boundary error\n"
-    "     ends above half the background's element size); every output is written\n";
+    "  10 run, watch, submit --wait: finished but not converged (quality_blocked, or\n"
+    "     the boundary error ends above half the background's element size); every\n"
+    "     output is written (a daemon's job is successful with \"converged\": false)\n";
 
 typedef struct command {
     const char *name;

@@ -473,11 +473,14 @@ static int submission_wait(const submission *s, const submit_args *a, http_clien
     watch_options wo = {.quiet = a->quiet, .json = a->json,
                         .reconnect_timeout = a->reconnect_timeout};
     int code = remote_watch(c, "submit", conn->token != NULL, s->id, &wo);
-    if (code != 0)
+    if (code != CLI_EXIT_OK && code != CLI_EXIT_NOT_CONVERGED)
         return code;
+    /* not converged: every output is still there to look at, as `run`
+     * writes them; the exit code stays 10 unless the download fails */
     fetch_options fo = {.outdir = a->outdir, .formats = a->formats, .quiet = a->quiet,
                         .show_result = 0};
-    return remote_fetch(c, "submit", conn->token != NULL, s->id, &fo);
+    int fetched = remote_fetch(c, "submit", conn->token != NULL, s->id, &fo);
+    return fetched != CLI_EXIT_OK ? fetched : code;
 }
 
 int cmd_submit(int argc, char **argv)

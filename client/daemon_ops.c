@@ -74,6 +74,8 @@ typedef struct watch_ctx {
     char end_message[SM_EVENT_MESSAGE_MAX]; /* of the failed/cancelled event */
     int have_result;
     sm_result result;
+    int not_converged;             /* the final status or finished said
+                                    * "converged": false */
     int goal_max_iter;             /* the job's max_iter, 0 unknown */
     double goal_tol;               /* the job's tol_boundary, 0 none */
     int warned_unknown;
@@ -140,6 +142,7 @@ static void handle_event(watch_ctx *w, const sm_event *ev)
     case SM_EVENT_FINISHED:
         w->have_result = 1;
         w->result = ev->result;
+        w->not_converged |= !ev->result.converged;
         break;
     case SM_EVENT_FAILED:
     case SM_EVENT_CANCELLED:
@@ -154,6 +157,10 @@ static void handle_event(watch_ctx *w, const sm_event *ev)
             ev->state == SM_JOB_DISMISSED) {
             w->done = 1;
             w->final_state = ev->state;
+            /* what the status says wins: the finished event may have been
+             * seen before a reconnection, or not at all */
+            if (ev->converged >= 0)
+                w->not_converged = ev->state == SM_JOB_SUCCESSFUL && !ev->converged;
             snprintf(w->final_message, sizeof w->final_message, "%s", ev->message);
         }
         break;
@@ -234,8 +241,18 @@ static int finish(watch_ctx *w, const char *cmd)
                 remote_format_result(line, sizeof line, &w->result);
             else
                 snprintf(line, sizeof line, "%s", w->final_message);
-            fprintf(stderr, "shapematch: job %s successful%s%s\n", w->id, line[0] ? ": " : "",
-                    line);
+            if (!w->not_converged)
+                fprintf(stderr, "shapematch: job %s successful%s%s\n", w->id,
+                        line[0] ? ": " : "", line);
+        }
+        if (w->not_converged) {
+            /* as `run`: said even with --quiet, and its own exit code; the
+             * warnings of the message were printed as they came */
+            const char *cut = strstr(w->final_message, "; warning: ");
+            int len = cut ? (int)(cut - w->final_message) : (int)strlen(w->final_message);
+            fprintf(stderr, "shapematch %s: job %s successful but NOT CONVERGED: %.*s\n", cmd,
+                    w->id, len ? len : 15, len ? w->final_message : "see its summary");
+            return CLI_EXIT_NOT_CONVERGED;
         }
         return CLI_EXIT_OK;
     case SM_JOB_FAILED:

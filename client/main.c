@@ -22,14 +22,18 @@
     "     wrong token, 404 unknown job or no results yet, 422 invalid job\n"              \
     "  8  the job failed on the daemon (the reason is printed)\n"                         \
     "  9  daemon error (HTTP 5xx) or a response the client cannot understand\n"
-#define EXIT_10                                                                    \
-    "  10 run: finished but not converged (quality_blocked, or the boundary error\n" \
-    "     ends above half the background's element size); every output is written\n"
+#define EXIT_10                                                                           \
+    "  10 run, watch, submit --wait: finished but not converged (quality_blocked, or\n"    \
+    "     the boundary error ends above half the background's element size); every\n"   \
+    "     output is written (a daemon's job is successful with \"converged\": false)\n"
 
 const char cli_exit_codes_help[] =
     "Exit codes:\n" EXIT_0 EXIT_1 EXIT_2 EXIT_3 EXIT_4 EXIT_5 EXIT_5_DAEMON EXIT_6_9 EXIT_10;
+#define EXIT_10_RUN                                                                    \
+    "  10 finished but not converged (quality_blocked, or the boundary error ends\n"   \
+    "     above half the background's element size); every output is written\n"
 const char cli_exit_codes_run_help[] =
-    "Exit codes:\n" EXIT_0 EXIT_1 EXIT_2 EXIT_3 EXIT_4 EXIT_5 EXIT_10;
+    "Exit codes:\n" EXIT_0 EXIT_1 EXIT_2 EXIT_3 EXIT_4 EXIT_5 EXIT_10_RUN;
 const char cli_exit_codes_sdf_help[] =
     "Exit codes:\n  0  the distance is written\n" EXIT_1 EXIT_2 EXIT_4;
 

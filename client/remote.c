@@ -117,7 +117,9 @@ void remote_help_exit_codes(FILE *out)
           "  7  the daemon refused the request (HTTP 4xx; its detail is printed): 401 no\n"
           "     or wrong token, 404 unknown job or no results yet, 422 invalid job, ...\n"
           "  8  the job failed on the daemon (the reason is printed)\n"
-          "  9  daemon error (HTTP 5xx) or a response the client cannot understand\n",
+          "  9  daemon error (HTTP 5xx) or a response the client cannot understand\n"
+          "  10 watch, submit --wait: the job finished but did not converge (status\n"
+          "     successful with \"converged\": false; submit --wait -o still downloads)\n",
           out);
 }
 

@@ -315,6 +315,31 @@ static sm_status read_count(const json_t *obj, const char *path, const char *key
     return SM_OK;
 }
 
+/* The template's diameter is not on the wire, only boundary_relative =
+ * boundary_rms / diameter: a diameter that gives that quotient exactly
+ * when one is within a few ulps, so that a result passed on (the
+ * daemon's finished event) encodes the same figure again; else the
+ * nearest quotient (the figure moves by an ulp once, then stays: that
+ * diameter gives it exactly); 0 without a figure. */
+static double diameter_of(double rms, double rel)
+{
+    if (!(rms > 0 && rel > 0) || !isfinite(rms) || !isfinite(rel))
+        return 0;
+    double d = rms / rel;
+    if (!(d > 0) || !isfinite(d))
+        return 0;
+    double lo = d, hi = d;
+    for (int k = 0; k < 4; k++) { /* the quotient's rounding: a few ulps */
+        if (rms / lo == rel)
+            return lo;
+        if (rms / hi == rel)
+            return hi;
+        lo = nextafter(lo, 0.0);
+        hi = nextafter(hi, INFINITY);
+    }
+    return d;
+}
+
 sm_status sm_result_from_jansson(const json_t *obj, const char *path, sm_result *out,
                                  sm_error *err)
 {
@@ -354,6 +379,9 @@ sm_status sm_result_from_jansson(const json_t *obj, const char *path, sm_result 
     const json_t *rms = json_object_get(obj, "boundary_rms");
     if (json_is_number(rms))
         r.boundary_rms = json_number_value(rms);
+    const json_t *rel = json_object_get(obj, "boundary_relative");
+    if (json_is_number(rel))
+        r.diameter = diameter_of(r.boundary_rms, json_number_value(rel));
     /* optional too: a summary from before it was reported judged no
      * convergence, and passed as converged (its exit code was 0) */
     const json_t *conv = json_object_get(obj, "converged");
@@ -395,6 +423,7 @@ void sm_event_init(sm_event *ev, sm_event_type type)
     memset(ev, 0, sizeof *ev);
     ev->type = type;
     ev->time = -1.0;
+    ev->converged = -1;
 }
 
 /* Copies at most cap-1 bytes of s, never cutting a UTF-8 sequence. */
@@ -417,6 +446,18 @@ static int set_warning(json_t *obj, const sm_event *ev)
     copy_utf8(code, sizeof code, ev->code);
     return smp_set(obj, "code", json_string(code)) ||
            smp_set(obj, "figure", smp_real_or_null(ev->figure));
+}
+
+/* The members of a job's end: finished's result, status's state, and
+ * "converged" on both (status: when said). */
+static int set_outcome(json_t *obj, const sm_event *ev)
+{
+    if (ev->type == SM_EVENT_FINISHED)
+        return smp_set(obj, "converged", json_boolean(ev->result.converged)) ||
+               smp_set(obj, "result", sm_result_to_jansson(&ev->result, NULL, 0));
+    const char *state = sm_job_state_name(ev->state);
+    return !state || smp_set(obj, "status", json_string(state)) ||
+           (ev->converged >= 0 && smp_set(obj, "converged", json_boolean(ev->converged)));
 }
 
 json_t *sm_event_to_jansson(const sm_event *ev)
@@ -457,12 +498,8 @@ json_t *sm_event_to_jansson(const sm_event *ev)
         bad = bad || smp_set(obj, "accepted", json_integer(p->accepted));
         bad = bad || smp_set(obj, "rejected", json_integer(p->rejected));
     }
-    if (ev->type == SM_EVENT_FINISHED)
-        bad = bad || smp_set(obj, "result", sm_result_to_jansson(&ev->result, NULL, 0));
-    if (ev->type == SM_EVENT_STATUS) {
-        const char *state = sm_job_state_name(ev->state);
-        bad = bad || !state || smp_set(obj, "status", json_string(state));
-    }
+    if (ev->type == SM_EVENT_FINISHED || ev->type == SM_EVENT_STATUS)
+        bad = bad || set_outcome(obj, ev);
     if (ev->type == SM_EVENT_WARNING)
         bad = bad || set_warning(obj, ev);
     if (ev->message[0] || ev->type == SM_EVENT_FAILED || ev->type == SM_EVENT_WARNING) {
@@ -604,6 +641,7 @@ sm_status sm_event_from_jansson(const json_t *obj, sm_event *out, sm_error *err)
             return fail(err, sub, "result", "required member missing");
         if ((st = sm_result_from_jansson(v, rpath, &ev.result, err)))
             return st;
+        ev.converged = ev.result.converged; /* the result's says it */
         break;
     }
     case SM_EVENT_FAILED:
@@ -617,6 +655,11 @@ sm_status sm_event_from_jansson(const json_t *obj, sm_event *out, sm_error *err)
             return fail(err, sub, "status",
                         "must be one of \"accepted\", \"running\", \"successful\", "
                         "\"failed\", \"dismissed\"");
+        if ((v = json_object_get(obj, "converged"))) { /* optional */
+            if (!json_is_boolean(v))
+                return fail(err, sub, "converged", "must be true or false");
+            ev.converged = json_is_true(v);
+        }
         break;
     case SM_EVENT_WARNING:
         if ((st = read_warning(obj, sub, &ev, err)))

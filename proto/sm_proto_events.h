@@ -8,16 +8,19 @@
  *   {"type":"progress","jobID":"9f..","seq":3,"time":"...","iteration":1,
  *    "J":-0.12,"step":0.01,"boundary_l2":0.003,"boundary_max":0.01,
  *    "min_quality":0.41,"elapsed":0.02,"accepted":1,"rejected":0}
- *   {"type":"finished","jobID":"9f..","seq":90,"time":"...","result":{<summary>}}
+ *   {"type":"finished","jobID":"9f..","seq":90,"time":"...","converged":true,"result":{<summary>}}
  *   {"type":"failed","jobID":"9f..","seq":91,"time":"...","message":"worker killed by signal 9 (SIGKILL)"}
  *   {"type":"cancelled","jobID":"9f..","seq":91,"time":"...","message":"cancelled by DELETE"}
- *   {"type":"status","jobID":"9f..","seq":92,"time":"...","status":"successful","message":"..."}
+ *   {"type":"status","jobID":"9f..","seq":92,"time":"...","status":"successful","converged":true,"message":"..."}
  *   {"type":"warning","jobID":"9f..","seq":89,"time":"...","code":"outside-background",
  *    "message":"...","figure":0.12}
  *
  * "progress" carries the fields of sm_progress with the same names.
  * "finished" carries the result summary (sm_result_to_jansson) under
- * "result".  "status" is the last event of a stream: the job's final OGC
+ * "result", and its "converged" again at the top, as "status" carries it
+ * for a successful job: a job that finished without converging stays
+ * "successful" (OGC's status values are fixed; docs/api.md) and says
+ * "converged": false.  "status" is the last event of a stream: the job's final OGC
  * status (accepted|running|successful|failed|dismissed); the daemon may
  * add further statusInfo members to it.  "warning" is one of the run's
  * warnings (proto/sm_job_warnings.h) as the job runner raises it, before
@@ -90,10 +93,15 @@ typedef struct sm_event {
     double figure;                  /* SM_EVENT_WARNING; NaN = null */
     char message[SM_EVENT_MESSAGE_MAX]; /* "" = omitted; longer strings are
                                            truncated (UTF-8 safe) */
+    int converged;                  /* SM_EVENT_STATUS: "converged" of a
+                                       successful job, 1 true, 0 false, -1
+                                       omitted (not successful, an older
+                                       daemon); SM_EVENT_FINISHED: decoded
+                                       as result.converged, encoded from it */
 } sm_event;
 
-/* Zeroes ev, sets its type, seq 0, time -1 (omitted), everything else
- * empty. */
+/* Zeroes ev, sets its type, seq 0, time -1 (omitted), converged -1
+ * (omitted), everything else empty. */
 void sm_event_init(sm_event *ev, sm_event_type type);
 
 /* Wire names: "accepted", "started", "progress", "finished", "failed",

@@ -188,18 +188,28 @@ static sm_status generate_background(const sm_job_files *files, sm_job_naming na
         cells *= hi[k] - lo[k];
     }
     double h = fmin(mean_edge(out->template_mesh), sm_surface_mean_edge(s));
-    /* template and surface in units a power of ten apart (the runner's
-     * "units" warning says so): the template's edge would be a size of
-     * another unit, which made a 1.57M-vertex background for a target in
-     * millimetres and a template in metres; the surface's own edge */
-    double dt = 0, ds = 0;
-    for (int k = 0; k < dim; k++) {
-        dt += (thi[k] - tlo[k]) * (thi[k] - tlo[k]);
-        ds += (out->health.hi[k] - out->health.lo[k]) * (out->health.hi[k] - out->health.lo[k]);
+    /* template and surface in units a power of ten apart (the criterion
+     * of the "units" warning): a size from either would be one of the
+     * wrong unit for the other (a target in millimetres and a template in
+     * metres made a 1.57M-vertex background in 16 s), and a match between
+     * them means nothing: refused before anything is built, unless the
+     * user sized the background */
+    sm_job_sizes sz = sm_job_compare_sizes(dim, tlo, thi, out->health.lo, out->health.hi);
+    if (sz.units_differ && !(files->background_size > 0)) {
+        char text[256];
+        sm_job_units_text(&sz, text, sizeof text);
+        out->failed = SM_PART_TARGET_SURFACE;
+        /* the part, then the field that would override the refusal */
+        const char *what = naming == SM_JOB_NAME_PARTS ? "" : files->target_surface;
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "target_surface%s%s%s: %s A background generated for both would be "
+                            "sized in the wrong unit for one of them: scale one onto the other's "
+                            "unit, or %s to generate it anyway",
+                            what[0] ? " '" : "", what, what[0] ? "'" : "", text,
+                            naming == SM_JOB_NAME_PARTS
+                                ? "set params.background_size"
+                                : "give --background-size");
     }
-    if (dt > 0 && (ds / dt >= SM_JOB_SIZE_RATIO_UNITS * SM_JOB_SIZE_RATIO_UNITS ||
-                   dt / ds >= SM_JOB_SIZE_RATIO_UNITS * SM_JOB_SIZE_RATIO_UNITS))
-        h = sm_surface_mean_edge(s);
     double hmin = pow(cells / 250000.0, 1.0 / dim) / 4;
     if (!(h >= hmin))
         h = hmin;

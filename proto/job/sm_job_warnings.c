@@ -99,22 +99,40 @@ static double box_overlap(int dim, const double alo[3], const double ahi[3], con
 /* Template and target in units a power of ten apart: their sizes differ
  * by SIZE_RATIO_UNITS or more (a match changes a shape's size by a few
  * times at most; a unit changes it by 10, 100, 1000). */
+sm_job_sizes sm_job_compare_sizes(int dim, const double tlo[3], const double thi[3],
+                                  const double glo[3], const double ghi[3])
+{
+    sm_job_sizes s = {.template_diag = box_diagonal(dim, tlo, thi),
+                      .target_diag = box_diagonal(dim, glo, ghi)};
+    if (s.template_diag > 0 && s.target_diag > 0) {
+        s.ratio = s.target_diag / s.template_diag;
+        s.units_differ =
+            s.ratio >= SM_JOB_SIZE_RATIO_UNITS || s.ratio <= 1.0 / SM_JOB_SIZE_RATIO_UNITS;
+    }
+    return s;
+}
+
+void sm_job_units_text(const sm_job_sizes *s, char *buf, size_t cap)
+{
+    double r = s->ratio;
+    double power = pow(10.0, round(log10(r > 1 ? r : 1 / r)));
+    snprintf(buf, cap,
+             "the target is %.4g times %s than the template (box diagonals %.4g and %.4g), "
+             "about %g times: are they in different units (e.g. %s in millimetres, %s in "
+             "metres)?",
+             r > 1 ? r : 1 / r, r > 1 ? "larger" : "smaller", s->target_diag, s->template_diag,
+             power, r > 1 ? "the target" : "the template", r > 1 ? "the template" : "the target");
+}
+
 static void check_units(sm_job_warnings *out, int dim, const double tlo[3], const double thi[3],
                         const double glo[3], const double ghi[3])
 {
-    double dt = box_diagonal(dim, tlo, thi), dg = box_diagonal(dim, glo, ghi);
-    if (!(dt > 0 && dg > 0))
+    sm_job_sizes s = sm_job_compare_sizes(dim, tlo, thi, glo, ghi);
+    if (!s.units_differ)
         return;
-    double ratio = dg / dt;
-    if (ratio < SM_JOB_SIZE_RATIO_UNITS && ratio > 1.0 / SM_JOB_SIZE_RATIO_UNITS)
-        return;
-    double power = pow(10.0, round(log10(ratio > 1 ? ratio : 1 / ratio)));
-    add(out, "units", ratio,
-        "the target is %.4g times %s than the template (box diagonals %.4g and %.4g), about "
-        "%g times: are they in different units (e.g. %s in millimetres, %s in metres)? Scale "
-        "one of them onto the other's unit",
-        ratio > 1 ? ratio : 1 / ratio, ratio > 1 ? "larger" : "smaller", dg, dt, power,
-        ratio > 1 ? "the target" : "the template", ratio > 1 ? "the template" : "the target");
+    char text[256];
+    sm_job_units_text(&s, text, sizeof text);
+    add(out, "units", s.ratio, "%s Scale one of them onto the other's unit", text);
 }
 
 /* The target surface's health: holes and several closed shells change

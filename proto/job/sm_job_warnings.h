@@ -54,6 +54,25 @@
  * bench/robust.sh grow and shrink the template by 2.6 at most) */
 #define SM_JOB_SIZE_RATIO_UNITS 5.6234
 
+/* The sizes of template and target compared: one criterion for the units
+ * warning and for the generated background, which a size of the wrong
+ * unit would make millions of cells fine (sm_job_inputs.c refuses to
+ * generate it then, unless background_size is given). */
+typedef struct sm_job_sizes {
+    double template_diag, target_diag; /* box diagonals */
+    double ratio;                      /* target / template; 0 when either
+                                        * box is empty */
+    int units_differ;                  /* ratio >= SM_JOB_SIZE_RATIO_UNITS
+                                        * or <= its inverse */
+} sm_job_sizes;
+sm_job_sizes sm_job_compare_sizes(int dim, const double template_lo[3],
+                                  const double template_hi[3], const double target_lo[3],
+                                  const double target_hi[3]);
+/* "the target is 1000 times larger than the template (box diagonals ...),
+ * about 1000 times: are they in different units (e.g. the target in
+ * millimetres, the template in metres)?" for sizes whose units differ. */
+void sm_job_units_text(const sm_job_sizes *s, char *buf, size_t cap);
+
 typedef struct sm_job_warning {
     const char *code;           /* static string, one of the codes above */
     char message[320];

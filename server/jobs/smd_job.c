@@ -78,6 +78,8 @@ json_t *smd_job_status_fields(const smd_job *job)
     json_object_set_new(o, "processID", json_string("match"));
     json_object_set_new(o, "type", json_string("process"));
     json_object_set_new(o, "status", json_string(sm_job_state_name(job->state)));
+    if (job->state == SM_JOB_SUCCESSFUL)
+        json_object_set_new(o, "converged", json_boolean(!job->not_converged));
     json_object_set_new(o, "message", json_string(job->message));
     set_time(o, "created", job->created);
     set_time(o, "started", job->started);

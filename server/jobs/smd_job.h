@@ -59,6 +59,9 @@ typedef struct smd_job {
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1]; /* "" = none */
     char owner[SMD_OWNER_MAX + 1]; /* tenant of the submitting token, "" = none */
     uint64_t request_hash;    /* of the request that used the key; 0 unknown */
+    int not_converged;        /* a successful job whose run did not converge
+                               * (its result's converged false): the status
+                               * document says "converged": false */
     int64_t final_event_at;   /* final records: where the final event starts in
                                * events.ndjson (written after the record);
                                * 0 unknown */
@@ -112,7 +115,9 @@ void smd_job_close_log(smd_job *job);
 int smd_job_state_final(sm_job_state state);
 
 /* OGC statusInfo members (jobID, processID, type, status, message,
- * created, started, finished, updated, progress) plus the last progress
+ * created, started, finished, updated, progress) plus, for a successful
+ * job, "converged" (false: finished without reaching a match; OGC's
+ * status values stay as they are, docs/api.md), and the last progress
  * figures; no links.  New reference or NULL. */
 json_t *smd_job_status_fields(const smd_job *job);
 

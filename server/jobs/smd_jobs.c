@@ -128,8 +128,10 @@ static void publish_ending(smd_server *srv, smd_job *job, smd_job_ending *e, smd
 {
     job->state = e->state;
     job->finished = job->updated = e->finished;
-    if (e->state == SM_JOB_SUCCESSFUL)
+    if (e->state == SM_JOB_SUCCESSFUL) {
         job->progress = 100;
+        job->not_converged = !e->ev.result.converged;
+    }
     snprintf(job->message, sizeof job->message, "%s", e->message);
     smd_job_close_log(job);
     smd_metrics_job_finished(&srv->metrics, e->state);
@@ -150,8 +152,10 @@ static int write_ending(smd_server *srv, smd_job *job, smd_job_ending *e, smd_jo
         smd_job rec = *job; /* plain data: the store only reads it */
         rec.state = e->state;
         rec.finished = rec.updated = e->finished;
-        if (e->state == SM_JOB_SUCCESSFUL)
+        if (e->state == SM_JOB_SUCCESSFUL) {
             rec.progress = 100;
+            rec.not_converged = !e->ev.result.converged;
+        }
         snprintf(rec.message, sizeof rec.message, "%s", e->message);
         /* where the final event will start: a restart before it is
          * written finds it missing (restore_final_event) */
@@ -462,15 +466,24 @@ sm_status smd_jobs_warning(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs
     return SM_OK;
 }
 
-/* The status message of a finished run: stop reason, iterations, then
- * the run's warnings (truncated). */
-static void finished_message(const sm_event *finished, char *buf, size_t cap)
+/* The status message of a finished run: "finished: STOP after N
+ * iterations", or "finished, not converged: ..." with why when its result
+ * did not converge (the job stays successful: OGC's status values are
+ * fixed, docs/api.md; "converged" in the status document says it too),
+ * then the run's warnings (truncated). */
+static void finished_message(const sm_result *r, const char *warnings, char *buf, size_t cap)
 {
-    int n = snprintf(buf, cap, "finished: %s after %d iterations",
-                     sm_stop_reason_name(finished->result.stop), finished->result.iterations);
+    const char *stop = sm_stop_reason_name(r->stop);
+    int n = r->converged
+                ? snprintf(buf, cap, "finished: %s after %d iterations", stop, r->iterations)
+                : snprintf(buf, cap, "finished, not converged: %s after %d iterations (%s)", stop,
+                           r->iterations,
+                           r->stop == SM_STOP_QUALITY
+                               ? "the quality floor rejected every step"
+                               : "the boundary error ends above what the background resolves");
     size_t used = n > 0 ? (size_t)n : 0, room = used < cap ? cap - used : 0;
-    if (finished->message[0] && room > 3)
-        snprintf(buf + used, room, "; %.*s", (int)(room - 3), finished->message);
+    if (warnings && warnings[0] && room > 3)
+        snprintf(buf + used, room, "; %.*s", (int)(room - 3), warnings);
 }
 
 sm_status smd_jobs_finish(smd_server *srv, smd_job *job, const sm_event *finished,
@@ -482,7 +495,7 @@ sm_status smd_jobs_finish(smd_server *srv, smd_job *job, const sm_event *finishe
         return refuse(job, "finish", &err);
     }
     char message[SM_EVENT_MESSAGE_MAX];
-    finished_message(finished, message, sizeof message);
+    finished_message(&finished->result, finished->message, message, sizeof message);
     end_job(srv, job,
             ending_of(SM_JOB_SUCCESSFUL, message, finished, SMD_LOG_INFO, "job_finished", extra),
             after);
@@ -678,15 +691,19 @@ sm_status smd_jobs_mirror_event(smd_server *srv, smd_job *job, sm_event *ev, smd
             save_or_log(srv, job);
         return SM_OK;
     }
-    if (final == SM_JOB_SUCCESSFUL)
-        snprintf(job->message, sizeof job->message, "finished: %s after %d iterations",
-                 sm_stop_reason_name(ev->result.stop), ev->result.iterations);
+    if (final == SM_JOB_SUCCESSFUL && strncmp(ev->message, "finished", 8) == 0)
+        /* the node that ran it wrote its status message into the event */
+        snprintf(job->message, sizeof job->message, "%s", ev->message);
+    else if (final == SM_JOB_SUCCESSFUL)
+        finished_message(&ev->result, NULL, job->message, sizeof job->message);
     else if (ev->message[0])
         snprintf(job->message, sizeof job->message, "%s", ev->message);
     job->state = final;
     job->finished = ev->time;
-    if (final == SM_JOB_SUCCESSFUL)
+    if (final == SM_JOB_SUCCESSFUL) {
         job->progress = 100;
+        job->not_converged = !ev->result.converged;
+    }
     save_or_log(srv, job);
     append_or_log(srv, job, ev, after);
     smd_job_close_log(job);
@@ -728,7 +745,7 @@ static void recover_finished(smd_server *srv, smd_job *job, const sm_event *fini
                              smd_jobs_after *after)
 {
     char message[SM_EVENT_MESSAGE_MAX];
-    finished_message(finished, message, sizeof message);
+    finished_message(&finished->result, finished->message, message, sizeof message);
     job->state = SM_JOB_RUNNING; /* as the disk says (or accepted: requeued at a stop) */
     json_t *f = json_pack("{s:s,s:i}", "recovered_from", "results/" SM_RESULT_SUMMARY_FILE,
                           "attempt", job->attempt);

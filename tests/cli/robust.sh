@@ -10,9 +10,11 @@
 #     and no warning;
 #   - a torus (another topology): converged false, exit 10, every output
 #     written, the final line says NOT CONVERGED;
-#   - the ellipsoid 1000 times larger (millimetres against metres): the
-#     units warning, and a background of the surface's size, not millions
-#     of vertices;
+#   - the ellipsoid 1000 times larger (millimetres against metres): no
+#     background generated (it would be sized in the wrong unit): exit 2
+#     at once, the message names the ratio, the likely units and
+#     --background-size; with --background-size given, the run goes on
+#     with the units warning and a background of that size;
 #   - quality_blocked (a floor that blocks every step) apart from a tiny
 #     step (step_tolerance) on the 2D example.
 set -u
@@ -85,15 +87,26 @@ else
     echo "not ok - ball onto a torus: exit $rc, converged $conv"; sed 's/^/# /' def-torus.err
 fi
 
+t0=$EPOCHREALTIME
 "$BIN" run --template ball.mesh --target-surface mm.stl --clamp-ball 0,0,0,0.2 --max-iter 1 --quiet \
     -o mm >mm.out 2>mm.err
+rc=$?
+secs=$(awk -v a="${t0/,/.}" -v b="${EPOCHREALTIME/,/.}" 'BEGIN { printf "%.1f", b - a }')
+if [ $rc = 2 ] && [ ! -e mm/summary.json ] &&
+    grep -q "error: target_surface 'mm.stl': the target is 10[0-9][0-9] times larger than the template .*about 1000 times: are they in different units .*give --background-size" mm.err; then
+    echo "ok - a target in millimetres, template in metres: no background generated, exit 2 in $secs s, the ratio and --background-size named"
+else
+    echo "not ok - units mismatch refused before a background is generated (exit $rc)"; sed 's/^/# /' mm.err
+fi
+"$BIN" run --template ball.mesh --target-surface mm.stl --clamp-ball 0,0,0,0.2 --max-iter 1 --quiet \
+    --background-size 100 -o mm >mm.out 2>mm.err
 f=$(jq -r '[.warnings[] | select(.code == "units") | .figure] | first // empty' mm/summary.json 2>/dev/null)
 nbg=$(jq -r .target_surface.background_vertices mm/summary.json 2>/dev/null)
 if [ -n "$f" ] && awk -v f="$f" 'BEGIN { exit !(f > 900 && f < 1500) }' && [ "${nbg:-0}" -gt 0 ] &&
     [ "$nbg" -lt 300000 ] && grep -q "warning: units: .*about 1000 times" mm.err; then
-    echo "ok - a target in millimetres, template in metres: units warning ($f), background of $nbg vertices"
+    echo "ok - the same with --background-size 100: it runs, units warning ($f), background of $nbg vertices"
 else
-    echo "not ok - units warning and background size ($f, $nbg vertices)"; sed 's/^/# /' mm.err
+    echo "not ok - units warning with an explicit background size ($f, $nbg vertices)"; sed 's/^/# /' mm.err
 fi
 
 # quality_blocked is not a tiny step: on the 2D example a quality floor

@@ -10,7 +10,12 @@
 # job; a daemon stop while a job runs (it runs again after the restart,
 # attempt 2); the node killed (-9) while a job runs: it runs again when
 # the node is back (the spool: recovery at start; PostgreSQL: the lease
-# expires); retention (the final job deleted after --retention).
+# expires); retention (the final job deleted after --retention); a run
+# that finishes without converging (2 iterations of the disk: its boundary
+# error 2.6 times the background's resolution) is successful with
+# "converged": false in its status, finished event and summary, the 20-
+# iteration run "converged": true (the status document is the engine's,
+# stored by each backend's record).
 # PostgreSQL's lease fencing across several nodes is cluster_failover.sh's.
 source "$(dirname "$0")/lib.sh"
 source "$(dirname "$0")/../lib/cluster.sh"
@@ -83,6 +88,18 @@ contract() {
     wait_final "$id" 60
     all "$b: a submitted job is accepted (201), run here once (attempt 1) and successful" \
         "$code|=|201" "$(job_state "$id")|=|successful" "$(started_attempts "$id")|=|1 "
+
+    # ---- finished, not converged: successful with converged false
+    local nc
+    nc=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 2)")
+    wait_final "$nc" 60
+    local ncs ncf ncr ys
+    ncs=$(hcurl "$BASE/v1/jobs/$nc" | jq -r '"\(.status),\(.converged),\(.message | startswith("finished, not converged: max_iterations after 2"))"')
+    ncf=$(hcurl "$BASE/v1/jobs/$nc/events" | jq -r 'select(.type == "finished") | "\(.converged),\(.result.converged)"')
+    ncr=$(hcurl "$BASE/v1/jobs/$nc/results" | jq -r .converged)
+    ys=$(hcurl "$BASE/v1/jobs/$id" | jq -r '"\(.status),\(.converged)"')
+    all "$b: a run that did not converge: successful, converged false (status, event, summary)" \
+        "$ncs|=|successful,false,true" "$ncf|=|false,false" "$ncr|=|false" "$ys|=|successful,true"
 
     # ---- Idempotency-Key
     local k1 k1c k2 k2c k3

@@ -6,7 +6,11 @@
 # and identical on both API nodes, results byte-identical to `shapematch
 # run`; an event stream followed on one API node resumes on the other
 # with Last-Event-ID without loss or repeat; the worker node running a job
-# is killed (-9): the job completes on another node as attempt 2.
+# is killed (-9): the job completes on another node as attempt 2.  A run
+# that finishes without converging (2 iterations) is successful with
+# "converged": false and the message "finished, not converged: ..." on
+# both API nodes (the one that did not take it learns it from the
+# finished event), a converged one says true.
 source "$(dirname "$0")/lib.sh"
 source "$(dirname "$0")/../lib/cluster.sh"
 
@@ -77,6 +81,21 @@ for w in w1 w2 w3; do
     [ "$c" -gt 0 ] && busy=$((busy + 1))
 done
 echo "# worker nodes that ran jobs: $busy of 3"
+
+# finished, not converged: the same status on both API nodes
+on api1
+nc=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 2)")
+nc_final() { local node; for node in api1 api2; do on "$node"; state_in "$nc" successful failed || return 1; done; }
+poll 60 nc_final
+ncdoc=()
+for node in api1 api2; do
+    on "$node"
+    ncdoc+=("$(hcurl "$BASE/v1/jobs/$nc" | jq -r '"\(.status),\(.converged),\(.message | startswith("finished, not converged: max_iterations after 2 iterations"))"')")
+    ncdoc+=("$(hcurl "$BASE/v1/jobs/${ids[0]}" | jq -r '"\(.status),\(.converged)"')")
+done
+all "a run that did not converge: successful, converged false on both API nodes (a converged one: true)" \
+    "${ncdoc[0]}|=|successful,false,true" "${ncdoc[2]}|=|successful,false,true" \
+    "${ncdoc[1]}|=|successful,true" "${ncdoc[3]}|=|successful,true"
 
 CLI=$WORK/cli
 "$BIN/shapematch" run --template "$DISK" --target-mesh "$BOX" --target-sol "$BOXSOL" \

@@ -18,7 +18,12 @@
 #     flags; with target_mesh (or no target_surface) a 422 naming the
 #     param and the conflict, a bad value (0, negative, string) the params
 #     error, also through POST /v1/processes/match/execution; a background
-#     beyond --max-vertices a 413; `submit --background-size` sends it.
+#     beyond --max-vertices a 413; `submit --background-size` sends it;
+#   - a target surface in millimetres against a template in metres: a 422
+#     naming target_surface, the ratio, the likely units and
+#     params.background_size, before any background is generated (not a
+#     413 for a background sized in the wrong unit); with
+#     params.background_size given, accepted (201).
 source "$(dirname "$0")/lib.sh"
 
 d=$WORK/case
@@ -27,8 +32,10 @@ cp "$ROOT/tests/lib/case/ball.geo" "$d/"
 cp "$ROOT/tests/lib/case/small_ball.geo" "$d/small.geo"
 (cd "$d" && gmsh ball.geo -2 -format stl -clmax 0.15 -nt 1 -v 1 -o sphere.stl &&
     gmsh ball.geo -3 -format msh41 -clmax 0.3 -nt 1 -v 1 -o ball.msh &&
-    gmsh small.geo -3 -format msh41 -clmax 0.3 -nt 1 -v 1 -o small.msh) >"$d/gmsh.log" 2>&1
-if [ -s "$d/sphere.stl" ] && [ -s "$d/ball.msh" ] && [ -s "$d/small.msh" ]; then
+    gmsh small.geo -3 -format msh41 -clmax 0.3 -nt 1 -v 1 -o small.msh &&
+    printf 'Dilate {{0, 0, 0}, {1000, 1000, 1000}} { Volume{1}; }\n' | cat ball.geo - >mm.geo &&
+    gmsh mm.geo -2 -format stl -clmax 150 -nt 1 -v 1 -o mm.stl) >"$d/gmsh.log" 2>&1
+if [ -s "$d/sphere.stl" ] && [ -s "$d/ball.msh" ] && [ -s "$d/small.msh" ] && [ -s "$d/mm.stl" ]; then
     ok "gmsh made the sphere STL and the .msh balls"
 else
     not_ok "gmsh made the sphere STL and the .msh balls" "$(tail -5 "$d/gmsh.log")"
@@ -288,6 +295,19 @@ timeout 30 "$BIN/shapematch" submit --server "$BASE" --template "$TPL" --target-
 rc=$?
 [ "$rc" = 1 ] && grep -q "are for a generated background (--target-surface without --target-mesh): --target-mesh is given" "$WORK/sub3.err"
 check "submit: --background-size with --target-mesh is a usage error (exit $rc, before any request)" test $? = 0
+
+# units: a sphere of radius 1000 (millimetres) against the small ball
+MMP='{"clamp": {"kind": "ball", "center": [0, 0, 0], "radius": 0.5}, "max_iter": 1'
+t0=$EPOCHREALTIME
+bad_background units_mm target_surface \
+    '^target_surface: the target is [0-9.]+ times larger than the template .*about 1000 times: are they in different units .*set params[.]background_size to generate it anyway$' \
+    -F "template=@$TPL" -F "target_surface=@$d/mm.stl" -F "params=$MMP}"
+echo "# refused in $(awk -v a="${t0/,/.}" -v b="${EPOCHREALTIME/,/.}" 'BEGIN { printf "%.2f", b - a }') s"
+code=$(post units_sized -F "template=@$TPL" -F "target_surface=@$d/mm.stl" \
+    -F "params=$MMP, \"background_size\": 200}")
+sized=$(jq -r '.jobID // empty' "$WORK/units_sized.json" 2>/dev/null)
+check "the same with params.background_size 200: accepted (201, got $code)" test "$code" = 201
+[ -n "$sized" ] && wait_final "$sized" 60
 
 reports_clean && ok "no sanitizer report" || not_ok "no sanitizer report"
 stop_daemon

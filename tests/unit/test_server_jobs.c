@@ -378,6 +378,7 @@ static void test_end_held_until_recorded(void **state)
     sm_event fin;
     sm_event_init(&fin, SM_EVENT_FINISHED);
     fin.result.iterations = 4;
+    fin.result.converged = 1;
     refuse_file(f, job, "status.json", 1);
     assert_int_equal(smd_jobs_finish(srv, job, &fin, NULL, &after), SM_OK);
     /* not published: still running, nothing counted, no event, unready */
@@ -434,8 +435,9 @@ static void test_end_held_until_recorded(void **state)
     smd_jobs_after_free(&after);
 }
 
-/* results/summary.json of a finished run, as the job runner writes it */
-static void write_summary(fixture *f, const smd_job *job, const char *status)
+/* results/summary.json of a finished run, as the job runner writes it
+ * (a run that did not converge: exit code 10, "converged": false) */
+static void write_summary_of(fixture *f, const smd_job *job, const char *status, int converged)
 {
     char dir[512], path[600];
     assert_int_equal(smd_store_path(f->srv.store, job->id, "results", dir, sizeof dir), 0);
@@ -444,15 +446,21 @@ static void write_summary(fixture *f, const smd_job *job, const char *status)
     memset(&r, 0, sizeof r);
     r.stop = SM_STOP_MAX_ITER;
     r.iterations = 7;
+    r.converged = converged;
     json_t *doc = sm_result_to_jansson(&r, NULL, 2);
     json_object_set_new(doc, "status", json_string(status));
-    json_object_set_new(doc, "exit_code", json_integer(0));
+    json_object_set_new(doc, "exit_code", json_integer(converged ? 0 : 10));
     json_object_set_new(doc, "warnings",
                         json_pack("[{s:s,s:s,s:f}]", "code", "alpha-small", "message",
                                   "alpha is small", "figure", 0.5));
     snprintf(path, sizeof path, "%s/summary.json", dir);
     assert_int_equal(json_dump_file(doc, path, 0), 0);
     json_decref(doc);
+}
+
+static void write_summary(fixture *f, const smd_job *job, const char *status)
+{
+    write_summary_of(f, job, status, 1);
 }
 
 static void restart(fixture *f, size_t *queued)
@@ -504,6 +512,42 @@ static void test_recover_from_results(void **state)
     smd_jobs_after_free(&after);
 }
 
+/* A run that finished without converging (summary exit code 10): ended
+ * successful from its results, not run again, "converged": false in its
+ * status fields, its message and its record, which a restart reads back;
+ * a converged one says true. */
+static void test_recover_not_converged(void **state)
+{
+    fixture *f = *state;
+    smd_server *srv = &f->srv;
+    smd_jobs_after after = {0};
+    static const char id[] = "56565656565656565656565656565656";
+    static const char yes_id[] = "78787878787878787878787878787878";
+    write_summary_of(f, running_job(f, id, &after), "finished", 0);
+    write_summary_of(f, running_job(f, yes_id, &after), "finished", 1);
+    size_t queued;
+    restart(f, &queued);
+    assert_int_equal(queued, 0);
+    for (int round = 0; round < 2; round++) { /* recovered, then read back */
+        smd_job *job = smd_store_get(srv->store, id);
+        assert_non_null(job);
+        assert_int_equal(job->state, SM_JOB_SUCCESSFUL);
+        assert_true(job->not_converged);
+        assert_non_null(strstr(job->message, "finished, not converged: max_iterations after 7 "
+                                             "iterations"));
+        json_t *doc = smd_job_status_fields(job);
+        assert_true(json_is_false(json_object_get(doc, "converged")));
+        json_decref(doc);
+        smd_job *yes = smd_store_get(srv->store, yes_id);
+        assert_false(yes->not_converged);
+        doc = smd_job_status_fields(yes);
+        assert_true(json_is_true(json_object_get(doc, "converged")));
+        json_decref(doc);
+        restart(f, &queued);
+    }
+    smd_jobs_after_free(&after);
+}
+
 /* The final record was written, its event refused, then the daemon
  * stopped: the next start writes the missing event, once. */
 static void test_final_event_restored(void **state)
@@ -546,6 +590,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_cancel_fail_requeue, setup, teardown),
         cmocka_unit_test_setup_teardown(test_changes_reported, setup, teardown),
         cmocka_unit_test_setup_teardown(test_end_held_until_recorded, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_recover_not_converged, setup, teardown),
         cmocka_unit_test_setup_teardown(test_recover_from_results, setup, teardown),
         cmocka_unit_test_setup_teardown(test_final_event_restored, setup, teardown),
     };

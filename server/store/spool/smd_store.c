@@ -237,6 +237,8 @@ static int record_from_json(json_t *o, const char *id, smd_job *job, char *why, 
     v = json_object_get(o, "message");
     if (json_is_string(v))
         snprintf(job->message, sizeof job->message, "%s", json_string_value(v));
+    /* absent in older records (their runs passed as converged) */
+    job->not_converged = job->state == SM_JOB_SUCCESSFUL && json_is_false(json_object_get(o, "converged"));
     long long x;
     if (get_int(o, "progress", 0, 100, &x) != 0) {
         snprintf(why, cap, "bad progress");

@@ -84,9 +84,9 @@ void smd_store_remove_results(smd_store *s, const smd_job *job, int partial_only
  * after the final record could not be written): SM_OK when
  * results/summary.json exists (the worker renames results.tmp/ to
  * results/ only when every file is complete), is readable and says the
- * run finished (status "finished", exit_code 0); *finished is then the
- * "finished" event (result from the summary, its warnings as the
- * message), *when the summary's modification time.  SM_ERR_IO when
+ * run finished (status "finished", exit_code 0, or 10: finished but not
+ * converged); *finished is then the "finished" event (result from the
+ * summary, its warnings as the message), *when the summary's modification time.  SM_ERR_IO when
  * there is none, SM_ERR_FORMAT when it says something else. */
 sm_status smd_store_read_summary(smd_store *s, const smd_job *job, sm_event *finished,
                                  double *when, sm_error *err);

@@ -8,6 +8,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "job/sm_job_runner.h"
 #include "job/sm_job_warnings.h"
 #include "store/spool/smd_store.h"
 
@@ -50,8 +51,11 @@ sm_status smd_store_read_summary(smd_store *s, const smd_job *job, sm_event *fin
     json_t *code = json_object_get(doc, "exit_code");
     sm_event_init(finished, SM_EVENT_FINISHED);
     sm_status rc = SM_OK;
+    /* a run that finished without converging wrote every output too
+     * (exit code 10): it ends successful, "converged": false */
     if (!status || strcmp(status, "finished") != 0 || !json_is_integer(code) ||
-        json_integer_value(code) != 0)
+        (json_integer_value(code) != SM_JOB_EXIT_OK &&
+         json_integer_value(code) != SM_JOB_EXIT_NOT_CONVERGED))
         rc = sm_error_set(err, SM_ERR_FORMAT, "%s: not the summary of a finished run", path);
     else
         rc = sm_result_from_jansson(doc, path, &finished->result, err);

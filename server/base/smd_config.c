@@ -113,6 +113,19 @@ static const opt options[] = {
     {"--lease", "SHAPEMATCH_LEASE", "SECONDS", OPT_DURATION, OFF(lease), 1, 3600,
      "how long a worker node holds a job without renewing it (renewed every third of it)",
      "30s"},
+    {"--database-statement-timeout", "SHAPEMATCH_DATABASE_STATEMENT_TIMEOUT", "SECONDS",
+     OPT_DURATION, OFF(db_statement_timeout), 0.1, 3600,
+     "statement_timeout of every database session: a statement running longer is cancelled "
+     "(the call fails, the node is unready until the database answers again)", "30s"},
+    {"--database-lock-timeout", "SHAPEMATCH_DATABASE_LOCK_TIMEOUT", "SECONDS", OPT_DURATION,
+     OFF(db_lock_timeout), 0.1, 3600,
+     "lock_timeout of every database session: a statement waiting this long for a row "
+     "another session holds fails (a DELETE answers 503)", "5s"},
+    {"--database-idle-timeout", "SHAPEMATCH_DATABASE_IDLE_TIMEOUT", "SECONDS", OPT_DURATION,
+     OFF(db_idle_timeout), 0.1, 3600,
+     "idle_in_transaction_session_timeout of every database session: the server ends a "
+     "session idle this long inside a transaction (a frozen node) and frees its row locks; "
+     "keep it below --lease", "15s"},
     {"--submit-rate", "SHAPEMATCH_SUBMIT_RATE", "N", OPT_UINT, OFF(submit_rate), 0, 1000000,
      "job submissions one tenant (one client address without --tokens-file) may make per "
      "--submit-window; more get 429 with Retry-After (0 = no limit)", "600"},
@@ -196,6 +209,9 @@ static void set_defaults(smd_config *c)
     c->log_level = SMD_LOG_INFO;
     c->max_attempts = 3;
     c->lease = 30;
+    c->db_statement_timeout = 30;
+    c->db_lock_timeout = 5;
+    c->db_idle_timeout = 15;
     c->submit_rate = 600;
     c->submit_window = 60;
     c->max_queued = 1000;

@@ -56,6 +56,9 @@ typedef struct smd_config {
     int role;                     /* --role: SMD_ROLE_ALL, _API, _WORKER */
     int max_attempts;             /* --max-attempts: runs of one job (leases lost) */
     double lease;                 /* --lease: a worker node's hold on a job */
+    double db_statement_timeout;  /* --database-statement-timeout: statement_timeout */
+    double db_lock_timeout;       /* --database-lock-timeout: lock_timeout */
+    double db_idle_timeout;       /* --database-idle-timeout: idle_in_transaction_session_timeout */
     unsigned submit_rate;         /* --submit-rate: submissions per window per tenant/address, 0 = none */
     double submit_window;         /* --submit-window: its window, seconds */
     unsigned max_queued;          /* --max-queued: unfinished jobs per tenant/address, 0 = none */

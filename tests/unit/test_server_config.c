@@ -240,6 +240,14 @@ static void test_cluster(void **state)
     assert_int_equal(c.role, SMD_ROLE_WORKER);
     assert_int_equal(c.max_attempts, 5);
     assert_true(c.lease == 60);
+    /* the database sessions' timeouts: defaults, flags, bounds */
+    assert_true(c.db_statement_timeout == 30 && c.db_lock_timeout == 5 && c.db_idle_timeout == 15);
+    assert_int_equal(parse(&c, env, msg, "--database-lock-timeout", "0.5",
+                           "--database-statement-timeout", "2m", "--database-idle-timeout", "10",
+                           NULL), SMD_CONFIG_OK);
+    assert_true(c.db_lock_timeout == 0.5 && c.db_statement_timeout == 120 && c.db_idle_timeout == 10);
+    assert_int_equal(parse(&c, env, msg, "--database-lock-timeout", "0", NULL), SMD_CONFIG_ERROR);
+    assert_non_null(strstr(msg, "--database-lock-timeout"));
     assert_int_equal(parse(&c, env, msg, "--role", "api", "--database", "host=/s dbname=x", NULL),
                      SMD_CONFIG_OK);
     assert_int_equal(c.role, SMD_ROLE_API);

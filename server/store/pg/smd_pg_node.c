@@ -395,9 +395,9 @@ void node_set_up(smd_pg_node *n)
 int smd_pg_node_ready(smd_pg_node *n, char *why, size_t cap)
 {
     pthread_mutex_lock(&n->lock);
-    int ready = atomic_load(&n->up) && sm_clock_seconds() >= n->timeout_until;
+    int ready = atomic_load(&n->up) && sm_clock_seconds() >= n->timeout_until && !n->outbox_held;
     if (!ready)
-        snprintf(why, cap, "%s", n->why);
+        snprintf(why, cap, "%s", atomic_load(&n->up) && n->outbox_held ? n->held_why : n->why);
     pthread_mutex_unlock(&n->lock);
     return ready;
 }

@@ -65,6 +65,8 @@ struct smd_pg_node {
     size_t npending;
     node_withdrawn withdrawn[NODE_WITHDRAWN_MAX];
     double timeout_until;     /* monotonic: unready until then (a call timed out) */
+    int outbox_held;          /* the outbox failed to be stored: retried, unready meanwhile */
+    char held_why[SM_ERROR_MSG_LEN + 128];
     char why[512];
     atomic_int up, stop;
     atomic_llong queued, leased;

@@ -126,6 +126,12 @@ static const opt options[] = {
      "idle_in_transaction_session_timeout of every database session: the server ends a "
      "session idle this long inside a transaction (a frozen node) and frees its row locks; "
      "keep it below --lease", "15s"},
+    {"--max-body-memory", "SHAPEMATCH_MAX_BODY_MEMORY", "BYTES", OPT_SIZE, OFF(max_body_memory),
+     1 << 20, 1e15, "request bodies held in memory at once, all connections together (OGC "
+     "execute requests, each at most 64M); past it a request gets 503", "256M"},
+    {"--body-stall-timeout", "SHAPEMATCH_BODY_STALL_TIMEOUT", "SECONDS", OPT_DURATION,
+     OFF(body_stall_timeout), 0.5, 3600, "a request body (an upload) that brings no byte for "
+     "this long is cut, however much it sent before", "10s"},
     {"--submit-rate", "SHAPEMATCH_SUBMIT_RATE", "N", OPT_UINT, OFF(submit_rate), 0, 1000000,
      "job submissions one tenant (one client address without --tokens-file) may make per "
      "--submit-window; more get 429 with Retry-After (0 = no limit)", "600"},
@@ -212,6 +218,8 @@ static void set_defaults(smd_config *c)
     c->db_statement_timeout = 30;
     c->db_lock_timeout = 5;
     c->db_idle_timeout = 15;
+    c->max_body_memory = (uint64_t)256 << 20;
+    c->body_stall_timeout = 10;
     c->submit_rate = 600;
     c->submit_window = 60;
     c->max_queued = 1000;

@@ -22,6 +22,7 @@ typedef struct conn_ctx {
     double since;         /* the phase began (monotonic) */
     int receiving;        /* a body is being read */
     uint64_t body_bytes;
+    double progress;      /* the body's last new byte (monotonic) */
     int closing;          /* shut down by us: wait for the close */
     struct smd_conns *owner;
 } conn_ctx;
@@ -78,6 +79,8 @@ static int overdue(const smd_conns *c, const conn_ctx *x, double now)
     double age = now - x->since;
     if (x->phase == PHASE_HEADERS)
         return age > c->limits.header_timeout;
+    if (x->receiving && c->limits.body_stall > 0 && now - x->progress > c->limits.body_stall)
+        return 1; /* a body that stopped: its average rate may still look fine */
     return x->receiving && c->limits.min_upload_rate && age > c->limits.header_timeout &&
            (double)x->body_bytes < (double)c->limits.min_upload_rate * age;
 }
@@ -220,6 +223,7 @@ void smd_conns_request(struct MHD_Connection *conn, int receiving)
     x->since = sm_clock_seconds();
     x->receiving = receiving;
     x->body_bytes = 0;
+    x->progress = x->since;
     pthread_mutex_unlock(&x->owner->mutex);
 }
 
@@ -229,6 +233,8 @@ void smd_conns_body(struct MHD_Connection *conn, uint64_t bytes)
     if (!x)
         return;
     pthread_mutex_lock(&x->owner->mutex);
+    if (bytes > x->body_bytes)
+        x->progress = sm_clock_seconds();
     x->body_bytes = bytes;
     pthread_mutex_unlock(&x->owner->mutex);
 }

@@ -12,7 +12,9 @@
  *   (idle keep-alive connections included), however steadily they come;
  * - a request whose body (an upload) arrives slower than
  *   --min-upload-rate bytes per second on average, once --header-timeout
- *   has passed since its headers;
+ *   has passed since its headers, or that brings no byte for
+ *   --body-stall-timeout (a body that sent much, then stopped: its average
+ *   rate would hold it for hours);
  * - when fewer than --reserved-connections of --max-connections are
  *   free, the oldest connections still sending their headers after
  *   SMD_CONNS_BUSY_HEADERS seconds, until the reserve is free again (at
@@ -44,6 +46,7 @@ typedef struct smd_conns smd_conns;
 typedef struct smd_conns_limits {
     double header_timeout;     /* seconds */
     uint64_t min_upload_rate;  /* bytes per second, 0 = none */
+    double body_stall;         /* seconds a body may bring no byte, 0 = none */
     unsigned max_connections;
     unsigned reserved;         /* < max_connections */
 } smd_conns_limits;

@@ -330,6 +330,7 @@ sm_status smd_http_start(smd_server *srv, const smd_http_app *app, sm_error *err
     srv->ratelimit = smd_ratelimit_new(cfg->submit_rate, cfg->submit_window);
     smd_conns_limits climits = {.header_timeout = cfg->header_timeout,
                                 .min_upload_rate = cfg->min_upload_rate,
+                                .body_stall = cfg->body_stall_timeout,
                                 .max_connections = cfg->max_connections,
                                 .reserved = cfg->reserved_connections};
     if (!srv->ratelimit)

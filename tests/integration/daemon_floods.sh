@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# Bounded floods on loopback (issue 28), each against a daemon with small
+# limits so that it stays short; the driver is tests/integration/flood.py.
+#
+# Parked request bodies: 24 OGC execute requests send 2 MB each at once
+# and stall.  With --max-body-memory 8M the daemon holds at most 8 MiB of
+# them (its RSS grows by far less than the 48 MB sent; before, each kept
+# its buffer: +50 MB), a complete execute request meanwhile gets 503
+# naming the flag, and --body-stall-timeout 1 cuts every stalled body
+# (before, their average rate kept them for an hour).
+source "$(dirname "$0")/lib.sh"
+
+rss_kb() { awk '/^VmRSS/ { print $2 }' "/proc/$1/status"; }
+
+# ------------------------------------------------------- parked bodies
+start_daemon park --workers 1 --max-body-memory 8M --body-stall-timeout 1 ||
+    { not_ok "the daemon starts"; exit 1; }
+port=${BASE##*:}
+rss0=$(rss_kb "$DPID")
+coproc PARK { python3 "$(dirname "$0")/flood.py" park "$port" 24 2000000 $((4 * SLOW)); }
+read -r -t $((20 * SLOW)) sent <&"${PARK[0]}"
+rss1=$(rss_kb "$DPID")
+printf '{"inputs": {"template": {"value": "%s"}}}' "$(head -c 60000 /dev/zero | tr '\0' A)" \
+    >"$WORK/small.json"
+code=$(curl -sS -o "$WORK/small.out" -w '%{http_code}' --max-time 10 -H 'Content-Type: application/json' \
+    --data-binary "@$WORK/small.json" "$BASE/v1/processes/match/execution")
+read -r -t $((20 * SLOW)) result <&"${PARK[0]}"
+wait "$PARK_PID" 2>/dev/null
+grown=$(((rss1 - rss0) / 1024))
+if [ "${sent:-}" = sent ] && [ "$grown" -lt 24 ]; then
+    ok "24 parked execute bodies of 2 MB: the daemon grew by $grown MiB (--max-body-memory 8M)"
+else
+    not_ok "parked bodies bounded by --max-body-memory" "sent '${sent:-}', grew by $grown MiB"
+fi
+if [ "$code" = 503 ] && grep -q -- '--max-body-memory' "$WORK/small.out"; then
+    ok "an execute request while the budget is taken: 503 naming --max-body-memory"
+else
+    not_ok "503 past --max-body-memory" "code $code: $(head -c 300 "$WORK/small.out")"
+fi
+if jq -e --argjson k "$SLOW" '.closed_by_server == .opened and .longest_life <= 1 + 2 * $k' \
+    <<<"${result:-null}" >/dev/null; then
+    ok "every stalled body cut by --body-stall-timeout 1: $result"
+else
+    not_ok "stalled bodies cut" "${result:-no result}"
+fi
+code=$(curl -sS -o "$WORK/small.out" -w '%{http_code}' --max-time 10 -H 'Content-Type: application/json' \
+    --data-binary "@$WORK/small.json" "$BASE/v1/processes/match/execution")
+check "the budget is back once they are cut (an execute request is read again: $code, not 503)" \
+    test "$code" != 503 -a "$code" != 000
+stop_daemon
+
+check "no sanitizer report in the daemon logs" reports_clean
+echo "1..$n"

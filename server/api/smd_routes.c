@@ -447,6 +447,11 @@ enum MHD_Result smd_route_events(struct MHD_Connection *conn, smd_request *req)
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
                                  "after: expected an event sequence number in [0, %lld]",
                                  SMD_REQUEST_INT_MAX);
+    if (smd_conns_stream(conn) != 0)
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
+                                 "too many event streams and request bodies in progress (from "
+                                 "your address: --max-streams-per-ip; in all: --max-connections "
+                                 "minus --reserved-connections): try again shortly");
     char msg[256];
     pthread_mutex_lock(&srv->lock);
     smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);

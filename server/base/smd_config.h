@@ -61,6 +61,7 @@ typedef struct smd_config {
     double db_idle_timeout;       /* --database-idle-timeout: idle_in_transaction_session_timeout */
     uint64_t max_body_memory;     /* --max-body-memory: bodies held in memory, all requests */
     double body_stall_timeout;    /* --body-stall-timeout: a body without a byte this long is cut */
+    unsigned max_streams_per_ip;  /* --max-streams-per-ip: streams + bodies of one address */
     unsigned submit_rate;         /* --submit-rate: submissions per window per tenant/address, 0 = none */
     double submit_window;         /* --submit-window: its window, seconds */
     unsigned max_queued;          /* --max-queued: unfinished jobs per tenant/address, 0 = none */

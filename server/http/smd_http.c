@@ -232,7 +232,15 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
     if (length && smd_parse_uint(length, 0, UINT64_MAX, &body) != SMD_NUM_OK)
         body = 0;
     req->body_pending = (body > 0 && body <= srv->cfg.max_upload) || (!length && chunked);
-    smd_conns_request(conn, req->body_pending);
+    if (smd_conns_request(conn, req->body_pending) != 0) {
+        /* answered at once, the body not read (the connection closes) */
+        req->body_pending = 0;
+        req->dispatched = 1;
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
+                                 "too many request bodies and event streams in progress (from "
+                                 "your address: --max-streams-per-ip; in all: --max-connections "
+                                 "minus --reserved-connections): try again shortly");
+    }
     /* no body: answer on the next call (keeps the connection alive) */
     if (!req->body_pending && !length && !chunked && strcmp(method, MHD_HTTP_METHOD_POST) != 0)
         return MHD_YES;
@@ -331,6 +339,7 @@ sm_status smd_http_start(smd_server *srv, const smd_http_app *app, sm_error *err
     smd_conns_limits climits = {.header_timeout = cfg->header_timeout,
                                 .min_upload_rate = cfg->min_upload_rate,
                                 .body_stall = cfg->body_stall_timeout,
+                                .max_long_per_ip = cfg->max_streams_per_ip,
                                 .max_connections = cfg->max_connections,
                                 .reserved = cfg->reserved_connections};
     if (!srv->ratelimit)

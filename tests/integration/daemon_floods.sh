@@ -8,6 +8,12 @@
 # its buffer: +50 MB), a complete execute request meanwhile gets 503
 # naming the flag, and --body-stall-timeout 1 cuts every stalled body
 # (before, their average rate kept them for an hour).
+#
+# Long-lived connections: 240 event streams from 4 addresses, then 240
+# uploads sending 200 KB at once and 1 byte/s after, on a daemon of 200
+# connections (reserve 20) with --max-streams-per-ip 30: /healthz and a
+# job's status keep answering (tests/integration/loris.py probes them every
+# second); before, the streams or uploads took every socket.
 source "$(dirname "$0")/lib.sh"
 
 rss_kb() { awk '/^VmRSS/ { print $2 }' "/proc/$1/status"; }
@@ -47,6 +53,33 @@ code=$(curl -sS -o "$WORK/small.out" -w '%{http_code}' --max-time 10 -H 'Content
     --data-binary "@$WORK/small.json" "$BASE/v1/processes/match/execution")
 check "the budget is back once they are cut (an execute request is read again: $code, not 503)" \
     test "$code" != 503 -a "$code" != 000
+stop_daemon
+
+# ------------------------------------------------ long-lived connections
+if ! make_case; then
+    not_ok "gmsh builds the test meshes" "$(tail -5 "$WORK/case/gmsh.log")"
+    exit 1
+fi
+LONGF=(--max-streams-per-ip 30)
+[ -n "${SM_TEST_OLD_DAEMON:-}" ] && LONGF=()
+start_daemon longlived --workers 1 --max-connections 200 --max-connections-per-ip 100 \
+    --reserved-connections 20 "${LONGF[@]}" || { not_ok "the daemon starts"; exit 1; }
+port=${BASE##*:}
+id=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
+poll 30 state_is "$id" running || not_ok "a running job to follow" "$(cat "$WORK/submit.out")"
+flood() { # MODE SECONDS ADDRS PER DESC
+    python3 "$(dirname "$0")/loris.py" "$port" "$2" "$3" "$4" "/v1/jobs/$id" "$1" >"$WORK/$1.json"
+    if jq -e '.probes > 0 and .answered == .probes and .max_latency <= 2' "$WORK/$1.json" >/dev/null; then
+        ok "$5: $(jq -r '"\(.answered)/\(.probes) probes answered (max \(.max_latency) s)"' "$WORK/$1.json")"
+    else
+        not_ok "$5" "$(cat "$WORK/$1.json")"
+    fi
+}
+flood stream 5 127.0.0.2,127.0.0.3,127.0.0.4,127.0.0.5 60 \
+    "240 event streams from 4 addresses on a 200-connection daemon"
+flood bulk 5 127.0.0.6,127.0.0.7,127.0.0.8,127.0.0.9 60 \
+    "240 uploads sending 200 KB, then 1 byte/s, from 4 addresses"
+hcurl -o /dev/null -X DELETE "$BASE/v1/jobs/$id"
 stop_daemon
 
 check "no sanitizer report in the daemon logs" reports_clean

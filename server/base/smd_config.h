@@ -14,6 +14,7 @@
 #define SMD_CORS_ORIGINS_MAX 32
 #define SMD_ORIGIN_MAX 256
 #define SMD_DATABASE_URL_MAX 1024
+#define SMD_ALLOWED_HOSTS_MAX 16
 
 typedef struct smd_config {
     char listen_host[256];        /* --listen HOST:PORT (IPv6 as [::1]:8080) */
@@ -49,6 +50,10 @@ typedef struct smd_config {
     char cors_origins[SMD_CORS_ORIGINS_MAX][SMD_ORIGIN_MAX];
     unsigned ncors_origins;
     char public_url[SMD_ORIGIN_MAX]; /* --public-url: the daemon's URL seen by browsers ("" = none) */
+    /* --allowed-host NAME[:PORT] (repeatable; SHAPEMATCH_ALLOWED_HOSTS a
+     * comma list): names the daemon is reached by (Host allow-list) */
+    char allowed_hosts[SMD_ALLOWED_HOSTS_MAX][SMD_ORIGIN_MAX];
+    unsigned nallowed_hosts;
     /* Several machines (server/store/pg/smd_pg.h): a PostgreSQL job store and queue
      * shared by every node; "" = the embedded spool and queue. */
     char database[SMD_DATABASE_URL_MAX]; /* --database URL (libpq conninfo or URI) */

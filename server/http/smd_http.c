@@ -130,6 +130,14 @@ static enum MHD_Result handle(struct MHD_Connection *conn, smd_request *req)
     req->dispatched = 1;
     if (strcmp(req->method, MHD_HTTP_METHOD_OPTIONS) == 0)
         return preflight(conn, req);
+    const char *host = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_HOST);
+    if (srv->cfg.nallowed_hosts && host && !smd_cors_trusted_host(&srv->cfg, host)) {
+        char shown[64];
+        snprintf(shown, sizeof shown, "%s", host);
+        sm_text_make_printable(shown, NULL);
+        return smd_reply_problem(conn, req, 421, SMD_PROBLEM_FORBIDDEN,
+                                 "Host %s is not a name of this daemon (--allowed-host)", shown);
+    }
     unsigned m = smd_method_bit(req->method);
     if (smd_cors_cross_site(&srv->cfg, conn, (m & (SMD_METHOD_POST | SMD_METHOD_DELETE)) != 0))
         return smd_reply_problem(conn, req, 403, SMD_PROBLEM_FORBIDDEN,

@@ -127,6 +127,17 @@ fi
 c=$(req GET "$BASE/v1/jobs/$B" -H 'Origin: http://evil.example.test')
 check "GET from a foreign origin still answers (the browser withholds it)" [ "$c" = 200 ]
 wait_final "$A" 60
+# browser security headers on the page, a script, JSON and a download
+# (issue 28: none before)
+bad=""
+for u in / /app/app.js /v1/jobs "/v1/jobs/$A/results/mesh" /nothing; do
+    c=$(req GET "$BASE$u")
+    [ "$(hdr X-Content-Type-Options)" = nosniff ] && [ "$(hdr X-Frame-Options)" = DENY ] &&
+        [ "$(hdr Content-Security-Policy)" = "frame-ancestors 'none'" ] &&
+        [ "$(hdr Referrer-Policy)" = no-referrer ] || bad="$bad [$u $c]"
+done
+check "nosniff, frame policy and Referrer-Policy on HTML, script, JSON, download and 404${bad:+:$bad}" \
+    test -z "$bad"
 stop_daemon
 
 # ------------------------------------------------ behind a reverse proxy

@@ -229,6 +229,19 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
         smd_conns_request(conn, 0);
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST, "%s", strict);
     }
+    /* a transfer coding other than plain chunked: libmicrohttpd would
+     * wait for a body it never hands over (no answer at all) */
+    const char *te = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
+                                                 MHD_HTTP_HEADER_TRANSFER_ENCODING);
+    if (te && strcasecmp(te, "chunked") != 0) {
+        char shown[64];
+        snprintf(shown, sizeof shown, "%s", te);
+        sm_text_make_printable(shown, NULL);
+        req->dispatched = 1;
+        smd_conns_request(conn, 0);
+        return smd_reply_problem(conn, req, 501, SMD_PROBLEM_BAD_REQUEST,
+                                 "Transfer-Encoding: %s is not supported (only chunked)", shown);
+    }
     /* a body is coming (and not one refused outright for its size) */
     const char *length = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
                                                      MHD_HTTP_HEADER_CONTENT_LENGTH);

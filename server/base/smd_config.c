@@ -141,7 +141,7 @@ static const opt options[] = {
     {"--max-streams-per-ip", "SHAPEMATCH_MAX_STREAMS_PER_IP", "N", OPT_UINT,
      OFF(max_streams_per_ip), 0, 100000, "event streams and request bodies in progress (uploads) "
      "from one client address; more get 503 (all addresses together: --max-connections "
-     "minus --reserved-connections; 0 = only that)", "100"},
+     "minus --reserved-connections; 0 = only that)", "150"},
     {"--submit-rate", "SHAPEMATCH_SUBMIT_RATE", "N", OPT_UINT, OFF(submit_rate), 0, 1000000,
      "job submissions one tenant (one client address without --tokens-file) may make per "
      "--submit-window; more get 429 with Retry-After (0 = no limit)", "600"},
@@ -230,7 +230,7 @@ static void set_defaults(smd_config *c)
     c->db_idle_timeout = 15;
     c->max_body_memory = (uint64_t)256 << 20;
     c->body_stall_timeout = 10;
-    c->max_streams_per_ip = 100;
+    c->max_streams_per_ip = 150;
     c->submit_rate = 600;
     c->submit_window = 60;
     c->max_queued = 1000;

@@ -39,7 +39,11 @@ poll 1 execute_small
 read -r -t $((20 * SLOW)) result <&"${PARK[0]}"
 wait "$PARK_PID" 2>/dev/null
 grown=$(((rss1 - rss0) / 1024))
-if [ "${sent:-}" = sent ] && [ "$grown" -lt 24 ]; then
+# uncapped, the 24 buffers alone hold 48 MiB; a sanitizer build also keeps
+# freed buffers (the realloc steps) in its quarantine for a while
+bound=24
+[ "$SLOW" -gt 1 ] && bound=40
+if [ "${sent:-}" = sent ] && [ "$grown" -lt "$bound" ]; then
     ok "24 parked execute bodies of 2 MB: the daemon grew by $grown MiB (--max-body-memory 8M)"
 else
     not_ok "parked bodies bounded by --max-body-memory" "sent '${sent:-}', grew by $grown MiB"
@@ -81,9 +85,9 @@ flood() { # MODE SECONDS ADDRS PER DESC
         not_ok "$5" "$(cat "$WORK/$1.json")"
     fi
 }
-flood stream 5 127.0.0.2,127.0.0.3,127.0.0.4,127.0.0.5 60 \
+flood stream 3 127.0.0.2,127.0.0.3,127.0.0.4,127.0.0.5 60 \
     "240 event streams from 4 addresses on a 200-connection daemon"
-flood bulk 5 127.0.0.6,127.0.0.7,127.0.0.8,127.0.0.9 60 \
+flood bulk 3 127.0.0.6,127.0.0.7,127.0.0.8,127.0.0.9 60 \
     "240 uploads sending 200 KB, then 1 byte/s, from 4 addresses"
 hcurl -o /dev/null -X DELETE "$BASE/v1/jobs/$id"
 stop_daemon

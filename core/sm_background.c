@@ -300,18 +300,23 @@ static sm_status graded_setup(graded *g, int dim, const double *lo, const double
     g->L = 0;
     while (g->L < 20 && h * (double)((int64_t)1 << (g->L + 1)) <= longest / 2)
         g->L++;
-    double coarse = h * (double)((int64_t)1 << g->L), lattice = 1;
+    double coarse = h * (double)((int64_t)1 << g->L), lattice = 1, coarse_cells = 1;
     for (int k = 0; k < 3; k++) {
+        /* counted in doubles and bounded before any becomes an integer: a
+         * tiny size (1e-300) gives counts no int64_t holds, and their
+         * conversion and shift would be undefined */
+        double cells = k < dim ? fmax(1, ceil((hi[k] - lo[k]) / coarse)) : 1;
+        coarse_cells *= cells;
+        lattice *= k < dim ? cells * (double)((int64_t)1 << g->L) + 1 : 1;
+        if (!(coarse_cells <= SM_BACKGROUND_MAX_VERTS) || !(lattice <= 4e18))
+            return sm_error_set(err, SM_ERR_INVALID,
+                                "background of size %g is too fine for its box: give a larger "
+                                "--background-size", h);
         g->lo[k] = k < dim ? lo[k] : 0;
         g->hi[k] = k < dim ? hi[k] : 0;
-        g->n[k] = k < dim ? (int64_t)fmax(1, ceil((hi[k] - lo[k]) / coarse)) : 1;
+        g->n[k] = (int64_t)cells;
         g->np[k] = k < dim ? (g->n[k] << g->L) + 1 : 1;
-        lattice *= (double)g->np[k];
     }
-    if (lattice > 4e18 || g->n[0] * g->n[1] * g->n[2] > SM_BACKGROUND_MAX_VERTS)
-        return sm_error_set(err, SM_ERR_INVALID,
-                            "background of size %g is too fine for its box: give a larger "
-                            "--background-size", h);
     return SM_OK;
 }
 

@@ -3,6 +3,7 @@
 
 #include <stdint.h>
 #include <stdlib.h>
+#include <stdatomic.h>
 #include <string.h>
 #include <strings.h>
 
@@ -65,15 +66,35 @@ enum MHD_Result smd_route_events_schema(struct MHD_Connection *conn, smd_request
  * most this much, whatever --max-upload allows multipart bodies. */
 #define EXECUTE_MAX ((size_t)64 << 20)
 
+/* Bytes of execute bodies held now, by every connection together:
+ * at most --max-body-memory (a flood of parked bodies cannot take the
+ * daemon's memory, issue 28). */
+static _Atomic uint64_t execute_held;
+
 typedef struct execute_body {
     char *text;
     size_t len, cap;
+    uint64_t budget; /* --max-body-memory */
+    int refused;     /* over a limit: the rest is not kept */
 } execute_body;
+
+/* The buffer goes and its bytes leave the global count. */
+static void execute_release(execute_body *b)
+{
+    atomic_fetch_sub(&execute_held, (uint64_t)b->cap);
+    free(b->text);
+    b->text = NULL;
+    b->cap = 0;
+}
 
 static void execute_piece(void *cls, smd_upload *u, const char *data, size_t n)
 {
     execute_body *b = cls;
+    if (b->refused)
+        return;
     if (b->len + n > EXECUTE_MAX) {
+        b->refused = 1;
+        execute_release(b);
         smd_upload_fail(u, 413, SMD_PROBLEM_TOO_LARGE,
                         "the execute request exceeds %zu bytes (its inline inputs are held in "
                         "memory): send larger files as multipart/form-data to POST /v1/jobs",
@@ -84,8 +105,21 @@ static void execute_piece(void *cls, smd_upload *u, const char *data, size_t n)
         size_t cap = b->cap ? b->cap : 65536;
         while (cap < b->len + n + 1)
             cap *= 2;
+        uint64_t grow = (uint64_t)(cap - b->cap);
+        if (atomic_fetch_add(&execute_held, grow) + grow > b->budget) {
+            atomic_fetch_sub(&execute_held, grow);
+            b->refused = 1;
+            execute_release(b);
+            smd_upload_fail(u, 503, SMD_PROBLEM_UNAVAILABLE,
+                            "the daemon holds %llu bytes of request bodies already (its "
+                            "--max-body-memory): try again shortly, or send the files as "
+                            "multipart/form-data to POST /v1/jobs",
+                            (unsigned long long)b->budget);
+            return;
+        }
         char *t = realloc(b->text, cap);
         if (!t) {
+            atomic_fetch_sub(&execute_held, grow);
             smd_upload_fail(u, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
             return;
         }
@@ -239,9 +273,10 @@ static void execute_end(void *cls, smd_upload *u)
 {
     execute_body *b = cls;
     json_error_t jerr;
+    if (b->refused)
+        return;
     json_t *doc = json_loadb(b->text ? b->text : "", b->len, JSON_REJECT_DUPLICATES, &jerr);
-    free(b->text);
-    b->text = NULL;
+    execute_release(b);
     json_t *inputs = json_object_get(doc, "inputs");
     if (!doc)
         smd_upload_fail(u, 400, SMD_PROBLEM_BAD_REQUEST, "execute request: not JSON: %s (line %d)",
@@ -260,7 +295,7 @@ static void execute_end(void *cls, smd_upload *u)
 static void execute_free(void *cls)
 {
     execute_body *b = cls;
-    free(b->text);
+    execute_release(b);
     free(b);
 }
 
@@ -287,6 +322,7 @@ enum MHD_Result smd_route_execute(struct MHD_Connection *conn, smd_request *req)
     execute_body *b = calloc(1, sizeof *b);
     if (!b)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
+    b->budget = req->srv->cfg.max_body_memory;
     enum MHD_Result r = smd_upload_begin_decoded(
         conn, req, "application/json",
         "POST /v1/processes/match/execution takes an application/json execute request "

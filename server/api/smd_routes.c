@@ -384,7 +384,21 @@ enum MHD_Result smd_route_job_delete(struct MHD_Connection *conn, smd_request *r
     json_t *doc = NULL;
     pthread_mutex_lock(&srv->lock);
     smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-    if (!job) {
+    int final = job && smd_job_state_final(job->state);
+    int64_t known = job ? job->nevents : 0;
+    pthread_mutex_unlock(&srv->lock);
+    if (!job)
+        return no_such_job(conn, req);
+    /* a shared store's part first, without the lock: a database that
+     * waits on a frozen peer's row lock does not stall this daemon */
+    sm_error err;
+    if (smd_backend_withdraw(srv->backend, req->id, final, known, &err) != SM_OK)
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
+                                 "cannot delete job %s now: %s; the job is kept, try again",
+                                 req->id, err.msg);
+    pthread_mutex_lock(&srv->lock);
+    job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
+    if (!job) { /* deleted meanwhile */
         pthread_mutex_unlock(&srv->lock);
         return no_such_job(conn, req);
     }
@@ -433,6 +447,11 @@ enum MHD_Result smd_route_events(struct MHD_Connection *conn, smd_request *req)
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
                                  "after: expected an event sequence number in [0, %lld]",
                                  SMD_REQUEST_INT_MAX);
+    if (smd_conns_stream(conn) != 0)
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
+                                 "too many event streams and request bodies in progress (from "
+                                 "your address: --max-streams-per-ip; in all: --max-connections "
+                                 "minus --reserved-connections): try again shortly");
     char msg[256];
     pthread_mutex_lock(&srv->lock);
     smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);

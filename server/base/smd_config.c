@@ -12,7 +12,7 @@
 #include "base/smd_util.h"
 
 typedef enum opt_kind { OPT_LISTEN, OPT_PATH, OPT_INT, OPT_UINT, OPT_SIZE, OPT_DURATION, OPT_LEVEL,
-                        OPT_ORIGINS, OPT_URL, OPT_TEXT, OPT_ROLE } opt_kind;
+                        OPT_ORIGINS, OPT_URL, OPT_TEXT, OPT_ROLE, OPT_HOSTS } opt_kind;
 
 typedef struct opt {
     const char *flag;     /* "--spool" */
@@ -99,6 +99,12 @@ static const opt options[] = {
     {"--public-url", "SHAPEMATCH_PUBLIC_URL", "URL", OPT_URL, OFF(public_url), 0, 0,
      "the daemon's URL as browsers see it behind a reverse proxy "
      "(https://host/prefix): its origin counts as the daemon's own", "none: the Host header"},
+    {"--allowed-host", "SHAPEMATCH_ALLOWED_HOSTS", "HOST", OPT_HOSTS, OFF(allowed_hosts), 0, 0,
+     "a name the daemon is reached by (maps.example.org, or with :PORT); repeatable (the "
+     "variable: comma-separated).  Given, a request whose Host header is neither one of them, "
+     "an IP address, localhost nor --public-url's host gets 421 (DNS rebinding); its origins "
+     "count as the daemon's own for POST and DELETE", "none: any Host; the daemon's own "
+     "origins are its listen address, localhost and --public-url"},
     {"--database", "SHAPEMATCH_DATABASE_URL", "URL", OPT_TEXT, OFF(database), 0, SMD_DATABASE_URL_MAX,
      "PostgreSQL job store and queue shared by several nodes (libpq connection string or "
      "postgresql:// URI; sslmode, PGPASSWORD and ~/.pgpass are honoured); --spool is then "
@@ -113,6 +119,29 @@ static const opt options[] = {
     {"--lease", "SHAPEMATCH_LEASE", "SECONDS", OPT_DURATION, OFF(lease), 1, 3600,
      "how long a worker node holds a job without renewing it (renewed every third of it)",
      "30s"},
+    {"--database-statement-timeout", "SHAPEMATCH_DATABASE_STATEMENT_TIMEOUT", "SECONDS",
+     OPT_DURATION, OFF(db_statement_timeout), 0.1, 3600,
+     "statement_timeout of every database session: a statement running longer is cancelled "
+     "(the call fails, the node is unready until the database answers again)", "30s"},
+    {"--database-lock-timeout", "SHAPEMATCH_DATABASE_LOCK_TIMEOUT", "SECONDS", OPT_DURATION,
+     OFF(db_lock_timeout), 0.1, 3600,
+     "lock_timeout of every database session: a statement waiting this long for a row "
+     "another session holds fails (a DELETE answers 503)", "5s"},
+    {"--database-idle-timeout", "SHAPEMATCH_DATABASE_IDLE_TIMEOUT", "SECONDS", OPT_DURATION,
+     OFF(db_idle_timeout), 0.1, 3600,
+     "idle_in_transaction_session_timeout of every database session: the server ends a "
+     "session idle this long inside a transaction (a frozen node) and frees its row locks; "
+     "keep it below --lease", "15s"},
+    {"--max-body-memory", "SHAPEMATCH_MAX_BODY_MEMORY", "BYTES", OPT_SIZE, OFF(max_body_memory),
+     1 << 20, 1e15, "request bodies held in memory at once, all connections together (OGC "
+     "execute requests, each at most 64M); past it a request gets 503", "256M"},
+    {"--body-stall-timeout", "SHAPEMATCH_BODY_STALL_TIMEOUT", "SECONDS", OPT_DURATION,
+     OFF(body_stall_timeout), 0.5, 3600, "a request body (an upload) that brings no byte for "
+     "this long is cut, however much it sent before", "10s"},
+    {"--max-streams-per-ip", "SHAPEMATCH_MAX_STREAMS_PER_IP", "N", OPT_UINT,
+     OFF(max_streams_per_ip), 0, 100000, "event streams and request bodies in progress (uploads) "
+     "from one client address; more get 503 (all addresses together: --max-connections "
+     "minus --reserved-connections; 0 = only that)", "150"},
     {"--submit-rate", "SHAPEMATCH_SUBMIT_RATE", "N", OPT_UINT, OFF(submit_rate), 0, 1000000,
      "job submissions one tenant (one client address without --tokens-file) may make per "
      "--submit-window; more get 429 with Retry-After (0 = no limit)", "600"},
@@ -196,6 +225,12 @@ static void set_defaults(smd_config *c)
     c->log_level = SMD_LOG_INFO;
     c->max_attempts = 3;
     c->lease = 30;
+    c->db_statement_timeout = 30;
+    c->db_lock_timeout = 5;
+    c->db_idle_timeout = 15;
+    c->max_body_memory = (uint64_t)256 << 20;
+    c->body_stall_timeout = 10;
+    c->max_streams_per_ip = 150;
     c->submit_rate = 600;
     c->submit_window = 60;
     c->max_queued = 1000;
@@ -294,6 +329,61 @@ static int add_origins(smd_config *c, const char *value, const char *source, cha
     }
 }
 
+/* "name", "name:port", "[v6]" or "[v6]:port": letters, digits, '.', '-'. */
+static int host_valid(const char *h)
+{
+    size_t n = strlen(h), end = n;
+    if (h[0] == '[') {
+        const char *close = strchr(h, ']');
+        if (!close || close == h + 1 || strspn(h + 1, "0123456789abcdefABCDEF:.") != (size_t)(close - h - 1))
+            return -1;
+        end = (size_t)(close - h) + 1;
+    } else {
+        end = strcspn(h, ":");
+        if (end == 0 || strspn(h, "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789.-") != end)
+            return -1;
+    }
+    if (end == n)
+        return 0;
+    const char *port = h + end + 1;
+    return h[end] == ':' && port[0] && strlen(port) <= 5 && strspn(port, "0123456789") == strlen(port)
+               ? 0 : -1;
+}
+
+static int add_hosts(smd_config *c, const char *value, const char *source, char *msg, size_t cap)
+{
+    const char *p = value;
+    for (;;) {
+        size_t n = strcspn(p, ","), k = n;
+        char host[SMD_ORIGIN_MAX];
+        while (k > 0 && (*p == ' ' || *p == '\t')) {
+            p++;
+            n--;
+            k--;
+        }
+        while (k > 0 && (p[k - 1] == ' ' || p[k - 1] == '\t'))
+            k--;
+        if (k == 0 || k >= sizeof host) {
+            snprintf(msg, cap, "%s: expected host names like maps.example.org, got '%s'", source, value);
+            return -1;
+        }
+        memcpy(host, p, k);
+        host[k] = '\0';
+        if (host_valid(host) != 0) {
+            snprintf(msg, cap, "%s: '%s' is not a host name (name[:port], [v6][:port])", source, host);
+            return -1;
+        }
+        if (c->nallowed_hosts == SMD_ALLOWED_HOSTS_MAX) {
+            snprintf(msg, cap, "%s: at most %d hosts", source, SMD_ALLOWED_HOSTS_MAX);
+            return -1;
+        }
+        strcpy(c->allowed_hosts[c->nallowed_hosts++], host);
+        if (p[n] == '\0')
+            return 0;
+        p += n + 1;
+    }
+}
+
 static int apply(smd_config *c, const opt *o, const char *value, const char *source,
                  char *msg, size_t cap)
 {
@@ -350,6 +440,8 @@ static int apply(smd_config *c, const opt *o, const char *value, const char *sou
     }
     case OPT_ORIGINS:
         return add_origins(c, value, source, msg, cap);
+    case OPT_HOSTS:
+        return add_hosts(c, value, source, msg, cap);
     case OPT_URL:
         if (strlen(value) >= SMD_ORIGIN_MAX ||
             (strncmp(value, "http://", 7) != 0 && strncmp(value, "https://", 8) != 0)) {
@@ -403,6 +495,7 @@ smd_config_result smd_config_parse(smd_config *c, int argc, char **argv,
             return SMD_CONFIG_ERROR;
     }
     int origins_from_flags = 0; /* the first --cors-origin replaces the variable's list */
+    int hosts_from_flags = 0;   /* the same for --allowed-host */
     for (int a = 1; a < argc; a++) {
         const char *arg = argv[a];
         if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0)
@@ -432,6 +525,10 @@ smd_config_result smd_config_parse(smd_config *c, int argc, char **argv,
         if (o->kind == OPT_ORIGINS && !origins_from_flags) {
             c->ncors_origins = 0;
             origins_from_flags = 1;
+        }
+        if (o->kind == OPT_HOSTS && !hosts_from_flags) {
+            c->nallowed_hosts = 0;
+            hosts_from_flags = 1;
         }
         if (apply(c, o, value, o->flag, msg, cap) != 0)
             return SMD_CONFIG_ERROR;

@@ -14,6 +14,7 @@
 #define SMD_CORS_ORIGINS_MAX 32
 #define SMD_ORIGIN_MAX 256
 #define SMD_DATABASE_URL_MAX 1024
+#define SMD_ALLOWED_HOSTS_MAX 16
 
 typedef struct smd_config {
     char listen_host[256];        /* --listen HOST:PORT (IPv6 as [::1]:8080) */
@@ -49,6 +50,10 @@ typedef struct smd_config {
     char cors_origins[SMD_CORS_ORIGINS_MAX][SMD_ORIGIN_MAX];
     unsigned ncors_origins;
     char public_url[SMD_ORIGIN_MAX]; /* --public-url: the daemon's URL seen by browsers ("" = none) */
+    /* --allowed-host NAME[:PORT] (repeatable; SHAPEMATCH_ALLOWED_HOSTS a
+     * comma list): names the daemon is reached by (Host allow-list) */
+    char allowed_hosts[SMD_ALLOWED_HOSTS_MAX][SMD_ORIGIN_MAX];
+    unsigned nallowed_hosts;
     /* Several machines (server/store/pg/smd_pg.h): a PostgreSQL job store and queue
      * shared by every node; "" = the embedded spool and queue. */
     char database[SMD_DATABASE_URL_MAX]; /* --database URL (libpq conninfo or URI) */
@@ -56,6 +61,12 @@ typedef struct smd_config {
     int role;                     /* --role: SMD_ROLE_ALL, _API, _WORKER */
     int max_attempts;             /* --max-attempts: runs of one job (leases lost) */
     double lease;                 /* --lease: a worker node's hold on a job */
+    double db_statement_timeout;  /* --database-statement-timeout: statement_timeout */
+    double db_lock_timeout;       /* --database-lock-timeout: lock_timeout */
+    double db_idle_timeout;       /* --database-idle-timeout: idle_in_transaction_session_timeout */
+    uint64_t max_body_memory;     /* --max-body-memory: bodies held in memory, all requests */
+    double body_stall_timeout;    /* --body-stall-timeout: a body without a byte this long is cut */
+    unsigned max_streams_per_ip;  /* --max-streams-per-ip: streams + bodies of one address */
     unsigned submit_rate;         /* --submit-rate: submissions per window per tenant/address, 0 = none */
     double submit_window;         /* --submit-window: its window, seconds */
     unsigned max_queued;          /* --max-queued: unfinished jobs per tenant/address, 0 = none */

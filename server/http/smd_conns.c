@@ -21,7 +21,10 @@ typedef struct conn_ctx {
     phase phase;
     double since;         /* the phase began (monotonic) */
     int receiving;        /* a body is being read */
+    int stream;           /* an event stream (smd_conns_stream) */
+    char addr[64];        /* the client's address (smd_conn_address) */
     uint64_t body_bytes;
+    double progress;      /* the body's last new byte (monotonic) */
     int closing;          /* shut down by us: wait for the close */
     struct smd_conns *owner;
 } conn_ctx;
@@ -56,7 +59,29 @@ static conn_ctx *oldest_slow_headers(smd_conns *c, double now)
     return best;
 }
 
-/* Frees the reserve by closing slow header senders.  Mutex held. */
+/* The upload (a body being read for more than the busy delay) with the
+ * lowest average rate, or NULL.  Mutex held. */
+static conn_ctx *slowest_upload(smd_conns *c, double now)
+{
+    conn_ctx *best = NULL;
+    double best_rate = 0;
+    for (conn_ctx *x = c->head; x; x = x->next) {
+        double age = now - x->since;
+        if (x->closing || !x->receiving || age <= SMD_CONNS_BUSY_HEADERS)
+            continue;
+        double rate = (double)x->body_bytes / age;
+        if (!best || rate < best_rate) {
+            best = x;
+            best_rate = rate;
+        }
+    }
+    return best;
+}
+
+/* Frees the reserve by closing slow header senders, then the slowest
+ * uploads (event streams are capped instead, smd_conns_stream: a
+ * suspended one would notice a shutdown only at its next keepalive).
+ * Mutex held. */
 static void keep_reserve(smd_conns *c, double now)
 {
     size_t busy = c->limits.max_connections - c->limits.reserved, closing = 0;
@@ -64,6 +89,8 @@ static void keep_reserve(smd_conns *c, double now)
         closing += x->closing;
     while (c->open - closing > busy) {
         conn_ctx *x = oldest_slow_headers(c, now);
+        if (!x)
+            x = slowest_upload(c, now);
         if (!x)
             return;
         cut(x);
@@ -78,6 +105,8 @@ static int overdue(const smd_conns *c, const conn_ctx *x, double now)
     double age = now - x->since;
     if (x->phase == PHASE_HEADERS)
         return age > c->limits.header_timeout;
+    if (x->receiving && c->limits.body_stall > 0 && now - x->progress > c->limits.body_stall)
+        return 1; /* a body that stopped: its average rate may still look fine */
     return x->receiving && c->limits.min_upload_rate && age > c->limits.header_timeout &&
            (double)x->body_bytes < (double)c->limits.min_upload_rate * age;
 }
@@ -165,6 +194,7 @@ static void opened(smd_conns *c, struct MHD_Connection *conn, void **socket_cont
         return;
     }
     x->fd = ci->connect_fd;
+    smd_conn_address(conn, x->addr, sizeof x->addr);
     x->owner = c;
     x->phase = PHASE_HEADERS;
     x->since = sm_clock_seconds();
@@ -210,17 +240,53 @@ static conn_ctx *ctx_of(struct MHD_Connection *conn)
     return ci ? ci->socket_context : NULL;
 }
 
-void smd_conns_request(struct MHD_Connection *conn, int receiving)
+/* 1 when x may not become long-lived (a body, a stream): its address
+ * holds max_long_per_ip of them, or all hold max_connections - reserved.
+ * Mutex held. */
+static int long_full(const smd_conns *c, const conn_ctx *x)
+{
+    size_t all = 0, mine = 0;
+    for (const conn_ctx *y = c->head; y; y = y->next) {
+        if (y == x || y->closing || !(y->receiving || y->stream))
+            continue;
+        all++;
+        mine += strcmp(y->addr, x->addr) == 0;
+    }
+    return (c->limits.max_long_per_ip && mine >= c->limits.max_long_per_ip) ||
+           all >= c->limits.max_connections - c->limits.reserved;
+}
+
+int smd_conns_request(struct MHD_Connection *conn, int receiving)
 {
     conn_ctx *x = ctx_of(conn);
     if (!x)
-        return;
+        return 0;
     pthread_mutex_lock(&x->owner->mutex);
+    int refused = receiving && long_full(x->owner, x);
+    if (refused)
+        x->owner->counts.long_refused++;
     x->phase = PHASE_REQUEST;
     x->since = sm_clock_seconds();
-    x->receiving = receiving;
+    x->receiving = receiving && !refused;
     x->body_bytes = 0;
+    x->progress = x->since;
     pthread_mutex_unlock(&x->owner->mutex);
+    return refused ? -1 : 0;
+}
+
+int smd_conns_stream(struct MHD_Connection *conn)
+{
+    conn_ctx *x = ctx_of(conn);
+    if (!x)
+        return 0;
+    pthread_mutex_lock(&x->owner->mutex);
+    int refused = long_full(x->owner, x);
+    if (refused)
+        x->owner->counts.long_refused++;
+    else
+        x->stream = 1;
+    pthread_mutex_unlock(&x->owner->mutex);
+    return refused ? -1 : 0;
 }
 
 void smd_conns_body(struct MHD_Connection *conn, uint64_t bytes)
@@ -229,6 +295,8 @@ void smd_conns_body(struct MHD_Connection *conn, uint64_t bytes)
     if (!x)
         return;
     pthread_mutex_lock(&x->owner->mutex);
+    if (bytes > x->body_bytes)
+        x->progress = sm_clock_seconds();
     x->body_bytes = bytes;
     pthread_mutex_unlock(&x->owner->mutex);
 }
@@ -252,6 +320,7 @@ void smd_conns_idle(struct MHD_Connection *conn)
     x->phase = PHASE_HEADERS;
     x->since = sm_clock_seconds();
     x->receiving = 0;
+    x->stream = 0;
     pthread_mutex_unlock(&x->owner->mutex);
 }
 

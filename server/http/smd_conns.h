@@ -12,15 +12,23 @@
  *   (idle keep-alive connections included), however steadily they come;
  * - a request whose body (an upload) arrives slower than
  *   --min-upload-rate bytes per second on average, once --header-timeout
- *   has passed since its headers;
+ *   has passed since its headers, or that brings no byte for
+ *   --body-stall-timeout (a body that sent much, then stopped: its average
+ *   rate would hold it for hours);
  * - when fewer than --reserved-connections of --max-connections are
  *   free, the oldest connections still sending their headers after
  *   SMD_CONNS_BUSY_HEADERS seconds, until the reserve is free again (at
  *   each new connection and at each sweep): a short request (/healthz, a
  *   status) sends its headers at once, so it always finds a socket.
+ * - when the reserve is still short, the uploads with the lowest average
+ *   rate (sending for more than SMD_CONNS_BUSY_HEADERS).
+ * Long-lived requests (bodies being received, event streams) are capped
+ * per address (--max-streams-per-ip) and together (--max-connections
+ * minus the reserve), so that floods of streams or slow uploads always
+ * leave the reserve to /healthz and status requests (issue 28).
  * Suspended connections (event streams, uploads being checked) and
- * replies being sent are exempt; --max-connections-per-ip still bounds
- * what one address holds.
+ * replies being sent are exempt from the deadlines;
+ * --max-connections-per-ip still bounds what one address holds.
  *
  * A sweep thread runs every SMD_CONNS_SWEEP seconds.  One mutex guards the
  * registry; a socket is shut down only with it held, and libmicrohttpd
@@ -44,14 +52,17 @@ typedef struct smd_conns smd_conns;
 typedef struct smd_conns_limits {
     double header_timeout;     /* seconds */
     uint64_t min_upload_rate;  /* bytes per second, 0 = none */
+    double body_stall;         /* seconds a body may bring no byte, 0 = none */
     unsigned max_connections;
     unsigned reserved;         /* < max_connections */
+    unsigned max_long_per_ip;  /* bodies and streams of one address, 0 = no cap */
 } smd_conns_limits;
 
 typedef struct smd_conns_counts {
     uint64_t header_deadline;  /* closed: headers too slow */
     uint64_t slow_body;        /* closed: body under the minimum rate */
     uint64_t evicted;          /* closed: to keep the reserve free */
+    uint64_t long_refused;     /* bodies and streams refused by the caps */
     size_t open;
 } smd_conns_counts;
 
@@ -66,8 +77,14 @@ void smd_conns_notify(void *cls, struct MHD_Connection *conn, void **socket_cont
 
 /* The request's headers are complete (first call of the access handler):
  * the header deadline no longer applies; receiving says a body follows
- * (the body rate applies until smd_conns_body_done). */
-void smd_conns_request(struct MHD_Connection *conn, int receiving);
+ * (the body rate applies until smd_conns_body_done).  -1 when that body
+ * is refused: its address already sends --max-streams-per-ip bodies or
+ * holds that many streams, or all of them together hold
+ * --max-connections minus the reserve (answer 503 without reading it). */
+int smd_conns_request(struct MHD_Connection *conn, int receiving);
+/* The request becomes an event stream, under the same caps: 0, or -1
+ * when refused (answer 503). */
+int smd_conns_stream(struct MHD_Connection *conn);
 /* Body bytes received so far by the request. */
 void smd_conns_body(struct MHD_Connection *conn, uint64_t bytes);
 /* The body is complete, or no longer read. */

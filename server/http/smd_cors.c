@@ -1,6 +1,7 @@
 /* CORS and cross-site safety (see smd_cors.h). */
 #include "http/smd_cors.h"
 
+#include <arpa/inet.h>
 #include <stdio.h>
 #include <string.h>
 #include <strings.h>
@@ -39,6 +40,53 @@ int smd_cors_listed(const smd_config *cfg, const char *origin)
     return listed(cfg, origin) != 0;
 }
 
+/* The host part of an authority "host[:port]" or "[v6][:port]" into buf
+ * (brackets kept off); its length, 0 when it does not fit or is empty. */
+static size_t host_part(const char *authority, char *buf, size_t cap)
+{
+    const char *h = authority;
+    size_t n;
+    if (h[0] == '[') {
+        h++;
+        n = strcspn(h, "]");
+    } else {
+        n = strcspn(h, ":");
+    }
+    if (n == 0 || n >= cap)
+        return 0;
+    memcpy(buf, h, n);
+    buf[n] = '\0';
+    return n;
+}
+
+int smd_cors_trusted_host(const smd_config *cfg, const char *authority)
+{
+    char host[SMD_ORIGIN_MAX], other[SMD_ORIGIN_MAX];
+    if (!authority || !host_part(authority, host, sizeof host))
+        return 0;
+    /* a rebinding attack needs a name it controls: an address is no name */
+    unsigned char a[16];
+    if (inet_pton(AF_INET, host, a) == 1 || inet_pton(AF_INET6, host, a) == 1)
+        return 1;
+    if (strcasecmp(host, "localhost") == 0 || strcasecmp(host, cfg->listen_host) == 0)
+        return 1;
+    size_t p = origin_prefix(cfg->public_url);
+    if (p > 0) {
+        char pub[SMD_ORIGIN_MAX];
+        snprintf(pub, sizeof pub, "%.*s", (int)p, cfg->public_url);
+        if (host_part(strstr(pub, "://") + 3, other, sizeof other) && strcasecmp(other, host) == 0)
+            return 1;
+    }
+    for (unsigned i = 0; i < cfg->nallowed_hosts; i++) {
+        const char *e = cfg->allowed_hosts[i];
+        int with_port = strchr(e[0] == '[' ? strchr(e, ']') : e, ':') != NULL;
+        if (with_port ? strcasecmp(e, authority) == 0
+                      : host_part(e, other, sizeof other) && strcasecmp(other, host) == 0)
+            return 1;
+    }
+    return 0;
+}
+
 int smd_cors_same_origin(const smd_config *cfg, const char *origin, const char *host)
 {
     size_t n = origin_prefix(origin);
@@ -47,8 +95,11 @@ int smd_cors_same_origin(const smd_config *cfg, const char *origin, const char *
     size_t p = origin_prefix(cfg->public_url);
     if (p > 0 && p == n && strncasecmp(cfg->public_url, origin, n) == 0)
         return 1;
+    /* the Host header is the client's word: it counts only when it names
+     * this daemon (an address, localhost, the listen host, --public-url's
+     * or an --allowed-host), never an attacker's name rebound to us */
     const char *authority = strstr(origin, "://") + 3;
-    return host && strcasecmp(authority, host) == 0;
+    return host && strcasecmp(authority, host) == 0 && smd_cors_trusted_host(cfg, host);
 }
 
 int smd_cors_cross_site(const smd_config *cfg, struct MHD_Connection *conn, int method_is_write)

@@ -12,8 +12,12 @@
  * Cross-site safety: a plain multipart POST needs no preflight, so any
  * page could start jobs on a daemon without tokens.  A state-changing
  * request (POST, DELETE) that carries an Origin which is neither the
- * daemon's own (its Host header, or the origin of --public-url behind a
- * reverse proxy) nor a listed one is refused (403), tokens or not.
+ * daemon's own (its Host header when that names the daemon — an address,
+ * localhost, the listen host, an --allowed-host —, or the origin of
+ * --public-url behind a reverse proxy) nor a listed one is refused (403),
+ * tokens or not: a page whose name an attacker rebinds to the daemon's
+ * address (DNS rebinding) is foreign.  With --allowed-host, a request
+ * whose Host names something else is refused outright (421).
  * Requests without Origin (curl, the shapematch client) are unaffected.
  *
  * This module reads only headers and the configuration: it knows nothing
@@ -35,9 +39,15 @@
 /* 1 when the request's Origin header is listed (or "*" is). */
 int smd_cors_listed(const smd_config *cfg, const char *origin);
 
+/* 1 when authority (a Host header, host[:port]) names this daemon: an IP
+ * address, localhost, the --listen host, --public-url's host or an
+ * --allowed-host (with its port when the entry has one).  A name an
+ * attacker controls (DNS rebinding) is none of these. */
+int smd_cors_trusted_host(const smd_config *cfg, const char *authority);
+
 /* 1 when origin is the daemon's own: its scheme://host[:port] equals the
  * origin of cfg->public_url, or its host[:port] equals host (the request's
- * Host header). */
+ * Host header) and that names this daemon (smd_cors_trusted_host). */
 int smd_cors_same_origin(const smd_config *cfg, const char *origin, const char *host);
 
 /* 1 when the request is a state-changing one (method_is_write) from a

@@ -130,6 +130,14 @@ static enum MHD_Result handle(struct MHD_Connection *conn, smd_request *req)
     req->dispatched = 1;
     if (strcmp(req->method, MHD_HTTP_METHOD_OPTIONS) == 0)
         return preflight(conn, req);
+    const char *host = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_HOST);
+    if (srv->cfg.nallowed_hosts && host && !smd_cors_trusted_host(&srv->cfg, host)) {
+        char shown[64];
+        snprintf(shown, sizeof shown, "%s", host);
+        sm_text_make_printable(shown, NULL);
+        return smd_reply_problem(conn, req, 421, SMD_PROBLEM_FORBIDDEN,
+                                 "Host %s is not a name of this daemon (--allowed-host)", shown);
+    }
     unsigned m = smd_method_bit(req->method);
     if (smd_cors_cross_site(&srv->cfg, conn, (m & (SMD_METHOD_POST | SMD_METHOD_DELETE)) != 0))
         return smd_reply_problem(conn, req, 403, SMD_PROBLEM_FORBIDDEN,
@@ -221,6 +229,19 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
         smd_conns_request(conn, 0);
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST, "%s", strict);
     }
+    /* a transfer coding other than plain chunked: libmicrohttpd would
+     * wait for a body it never hands over (no answer at all) */
+    const char *te = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
+                                                 MHD_HTTP_HEADER_TRANSFER_ENCODING);
+    if (te && strcasecmp(te, "chunked") != 0) {
+        char shown[64];
+        snprintf(shown, sizeof shown, "%s", te);
+        sm_text_make_printable(shown, NULL);
+        req->dispatched = 1;
+        smd_conns_request(conn, 0);
+        return smd_reply_problem(conn, req, 501, SMD_PROBLEM_BAD_REQUEST,
+                                 "Transfer-Encoding: %s is not supported (only chunked)", shown);
+    }
     /* a body is coming (and not one refused outright for its size) */
     const char *length = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
                                                      MHD_HTTP_HEADER_CONTENT_LENGTH);
@@ -232,7 +253,15 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
     if (length && smd_parse_uint(length, 0, UINT64_MAX, &body) != SMD_NUM_OK)
         body = 0;
     req->body_pending = (body > 0 && body <= srv->cfg.max_upload) || (!length && chunked);
-    smd_conns_request(conn, req->body_pending);
+    if (smd_conns_request(conn, req->body_pending) != 0) {
+        /* answered at once, the body not read (the connection closes) */
+        req->body_pending = 0;
+        req->dispatched = 1;
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
+                                 "too many request bodies and event streams in progress (from "
+                                 "your address: --max-streams-per-ip; in all: --max-connections "
+                                 "minus --reserved-connections): try again shortly");
+    }
     /* no body: answer on the next call (keeps the connection alive) */
     if (!req->body_pending && !length && !chunked && strcmp(method, MHD_HTTP_METHOD_POST) != 0)
         return MHD_YES;
@@ -330,6 +359,8 @@ sm_status smd_http_start(smd_server *srv, const smd_http_app *app, sm_error *err
     srv->ratelimit = smd_ratelimit_new(cfg->submit_rate, cfg->submit_window);
     smd_conns_limits climits = {.header_timeout = cfg->header_timeout,
                                 .min_upload_rate = cfg->min_upload_rate,
+                                .body_stall = cfg->body_stall_timeout,
+                                .max_long_per_ip = cfg->max_streams_per_ip,
                                 .max_connections = cfg->max_connections,
                                 .reserved = cfg->reserved_connections};
     if (!srv->ratelimit)

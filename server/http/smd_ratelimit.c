@@ -11,6 +11,7 @@
 typedef struct entry {
     char key[SMD_RATELIMIT_KEY_MAX + 1]; /* "" = free */
     double window_start;
+    double last;                          /* its last submission: eviction order */
     unsigned count;
     char (*ids)[SMD_ID_LEN + 1];          /* tracked jobs (no tokens) */
     size_t nids, cap;
@@ -50,24 +51,43 @@ void smd_ratelimit_free(smd_ratelimit *rl)
     free(rl);
 }
 
-/* The entry of key, or a free or reusable one made its own; NULL when the
- * table is full of live keys.  Mutex held. */
+/* The room a new key takes, never none: a free entry, else one whose
+ * window passed and that tracks no job, else the least recently used of
+ * those that track no job, else the least recently used (its tracked
+ * jobs are forgotten: that address's --max-queued count starts again).
+ * So a flood of throw-away keys evicts idle ones instead of shutting
+ * every new key out.  Mutex held. */
+static entry *victim(smd_ratelimit *rl, double now)
+{
+    entry *lru_free = NULL, *lru = NULL;
+    for (size_t i = 0; i < SMD_RATELIMIT_KEYS; i++) {
+        entry *e = &rl->entries[i];
+        if (!e->key[0] || (now - e->window_start >= rl->window && e->nids == 0))
+            return e;
+        if (e->nids == 0 && (!lru_free || e->last < lru_free->last))
+            lru_free = e;
+        if (!lru || e->last < lru->last)
+            lru = e;
+    }
+    return lru_free ? lru_free : lru;
+}
+
+/* The entry of key, or (create) a new one made its own.  Mutex held. */
 static entry *find(smd_ratelimit *rl, const char *key, double now, int create)
 {
-    entry *spare = NULL;
     for (size_t i = 0; i < SMD_RATELIMIT_KEYS; i++) {
         entry *e = &rl->entries[i];
         if (e->key[0] && strcmp(e->key, key) == 0)
             return e;
-        if (!spare && (!e->key[0] || (now - e->window_start >= rl->window && e->nids == 0)))
-            spare = e;
     }
-    if (!create || !spare)
+    if (!create)
         return NULL;
+    entry *spare = victim(rl, now);
     snprintf(spare->key, sizeof spare->key, "%s", key);
     spare->window_start = now;
     spare->count = 0;
     spare->nids = 0;
+    spare->last = now;
     return spare;
 }
 
@@ -78,19 +98,16 @@ unsigned smd_ratelimit_take(smd_ratelimit *rl, const char *key, double now)
     unsigned wait = 0;
     pthread_mutex_lock(&rl->mutex);
     entry *e = find(rl, key, now, 1);
-    if (!e) {
-        wait = (unsigned)ceil(rl->window);
+    e->last = now;
+    if (now - e->window_start >= rl->window) {
+        e->window_start = now;
+        e->count = 0;
+    }
+    if (e->count >= rl->rate) {
+        double left = e->window_start + rl->window - now;
+        wait = left < 1 ? 1 : (unsigned)ceil(left);
     } else {
-        if (now - e->window_start >= rl->window) {
-            e->window_start = now;
-            e->count = 0;
-        }
-        if (e->count >= rl->rate) {
-            double left = e->window_start + rl->window - now;
-            wait = left < 1 ? 1 : (unsigned)ceil(left);
-        } else {
-            e->count++;
-        }
+        e->count++;
     }
     pthread_mutex_unlock(&rl->mutex);
     return wait;
@@ -102,7 +119,9 @@ void smd_ratelimit_track(smd_ratelimit *rl, const char *key, const char *id)
         return;
     pthread_mutex_lock(&rl->mutex);
     entry *e = find(rl, key, -1e300, 1); /* an old stamp: the rate window is not restarted */
-    if (e && e->nids == e->cap) {
+    if (e->window_start == -1e300) /* made here (its own was evicted): idle since */
+        e->last = -1e300;
+    if (e->nids == e->cap) {
         size_t cap = e->cap ? 2 * e->cap : 8;
         void *p = realloc(e->ids, cap * sizeof *e->ids);
         if (p) {
@@ -110,7 +129,7 @@ void smd_ratelimit_track(smd_ratelimit *rl, const char *key, const char *id)
             e->cap = cap;
         }
     }
-    if (e && e->nids < e->cap)
+    if (e->nids < e->cap)
         snprintf(e->ids[e->nids++], sizeof e->ids[0], "%s", id);
     pthread_mutex_unlock(&rl->mutex);
 }

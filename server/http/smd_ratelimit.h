@@ -10,9 +10,12 @@
  *   survives restarts); without, the limiter remembers the ids each
  *   address submitted and asks the caller which are still unfinished.
  *
- * The table holds at most SMD_RATELIMIT_KEYS keys; when it is full, keys
- * whose window has passed and with no unfinished job are reused, and a
- * new key that finds no room is refused as if over its rate.  One mutex of
+ * The table holds at most SMD_RATELIMIT_KEYS keys (bounded memory); when
+ * it is full, a new key takes the room of one whose window has passed and
+ * that tracks no job, else of the least recently used key tracking none,
+ * else of the least recently used (its tracked jobs forgotten): a flood
+ * of throw-away keys (addresses) evicts idle keys and never shuts new
+ * ones out, and a refusal is always a key's own rate (issue 28).  One mutex of
  * its own, taken after the server lock when both are held (never the
  * other way round).  Cost: O(keys) per submission. */
 #ifndef SMD_RATELIMIT_H

@@ -20,12 +20,24 @@ uint64_t smd_drain_limit(uint64_t max_upload)
     return 4 * max_upload + (16u << 20);
 }
 
+void smd_reply_security_headers(struct MHD_Response *resp)
+{
+    /* a download is never sniffed into HTML or a script; no page may
+     * frame ours (clickjacking); no URL leaves in a Referer (an
+     * access_token query parameter would) */
+    MHD_add_response_header(resp, "X-Content-Type-Options", "nosniff");
+    MHD_add_response_header(resp, "X-Frame-Options", "DENY");
+    MHD_add_response_header(resp, "Content-Security-Policy", "frame-ancestors 'none'");
+    MHD_add_response_header(resp, "Referrer-Policy", "no-referrer");
+}
+
 enum MHD_Result smd_reply(struct MHD_Connection *conn, smd_request *req, unsigned status,
                           struct MHD_Response *resp)
 {
     if (!resp)
         return MHD_NO;
     smd_cors_decorate(&req->srv->cfg, conn, resp);
+    smd_reply_security_headers(resp);
     if (req->body_pending && !req->deferred) {
         req->deferred = resp;
         req->deferred_status = status;

@@ -109,6 +109,12 @@ void smd_methods_format(unsigned methods, char *buf, size_t cap);
 
 /* ---- replies (queue the response and record the status) ---- */
 
+/* The browser security headers every reply gets (smd_reply adds them):
+ * X-Content-Type-Options: nosniff, X-Frame-Options: DENY,
+ * Content-Security-Policy: frame-ancestors 'none', Referrer-Policy:
+ * no-referrer. */
+void smd_reply_security_headers(struct MHD_Response *resp);
+
 enum MHD_Result smd_reply(struct MHD_Connection *conn, smd_request *req, unsigned status,
                           struct MHD_Response *resp);
 /* A response for body (malloc'd, taken over), gzip-compressed when the

@@ -20,9 +20,9 @@
  * smd_jobs_mirror_* (jobs/smd_jobs.h) with srv->lock held, and queue the
  * jobs this node claimed in the local FIFO.
  *
- * Locks: every op but publish is called with srv->lock held and returns
- * with it held; no op releases it (publish is called without it: it may
- * wait for the network).  A backend's own mutexes are taken after
+ * Locks: every op but publish and withdraw is called with srv->lock held
+ * and returns with it held; no op releases it (publish and withdraw are
+ * called without it: they may wait for the network).  A backend's own mutexes are taken after
  * srv->lock or alone. */
 #ifndef SMD_BACKEND_H
 #define SMD_BACKEND_H
@@ -113,6 +113,14 @@ typedef struct smd_backend_ops {
     /* DELETE or retention of a final job, before its local removal:
      * *deleted 0 when another node removed it first. */
     sm_status (*remove)(smd_backend *b, const char *id, int *deleted, sm_error *err);
+    /* DELETE, srv->lock NOT held, before the locked cancel or delete:
+     * the shared store's part of it, so that no lock of the daemon waits
+     * for the network (PostgreSQL: the cancel or delete in the database;
+     * cancel and remove above then use its outcome instead of asking
+     * again).  final: the job was final when the caller looked; known:
+     * the events its local log held.  NULL: nothing shared (the spool). */
+    sm_status (*withdraw)(smd_backend *b, const char *id, int final, int64_t known,
+                          sm_error *err);
 
     /* ---- health */
     /* 1 when it can take jobs; else 0 and why, a phrase naming what is
@@ -180,6 +188,8 @@ static inline sm_status smd_backend_cancel(smd_backend *b, struct smd_server *sr
 { return b->ops->cancel(b, srv, job, after, handled, err); }
 static inline sm_status smd_backend_remove(smd_backend *b, const char *id, int *deleted, sm_error *err)
 { return b->ops->remove(b, id, deleted, err); }
+static inline sm_status smd_backend_withdraw(smd_backend *b, const char *id, int final, int64_t known, sm_error *err)
+{ return b->ops->withdraw ? b->ops->withdraw(b, id, final, known, err) : SM_OK; }
 static inline int smd_backend_ready(smd_backend *b, char *why, size_t cap)
 { return b->ops->ready(b, why, cap); }
 static inline void smd_backend_metrics(smd_backend *b, char **text, size_t *len)

@@ -92,6 +92,12 @@ check_rc $? "an unknown surface format names the formats read (exit $rc)" "$(hea
 check_rc $(($? == 1 ? 0 : 1)) "--background-size with --background is a usage error"
 "$BIN" sdf --surface "$WORK/sphere.stl" 2>/dev/null
 check_rc $(($? == 1 ? 0 : 1)) "-o is required"
+# a size too fine for the box: refused (exit 1, a usage error) before any count becomes an
+# integer (issue 28: exit 0 with an empty background before)
+"$BIN" sdf --surface "$WORK/sphere.stl" -o "$WORK/tiny" --background-size 1e-300 2>"$WORK/err5"
+rc=$?
+[ $rc = 1 ] && grep -q "too fine for its box" "$WORK/err5" && [ ! -s "$WORK/tiny/background.mesh" ]
+check_rc $? "--background-size 1e-300 is refused, nothing written (exit $rc)" "$(head -c 300 "$WORK/err5")"
 
 # run --target-surface: the 2D example's template onto a Gmsh-made circle;
 # on a generated (graded) background the boundary error is within 1.25x of the same

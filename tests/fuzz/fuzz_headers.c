@@ -3,11 +3,15 @@
  * ?after, ?offset and ?limit (smd_parse_uint).  The first byte picks the
  * parser, the rest is the header value (NUL-terminated copy).  Checks:
  * a chosen index is in range; a parsed number is within its bounds and
- * equals the decimal value of an all-digit text that fits. */
+ * equals the decimal value of an all-digit text that fits.  Every value
+ * is also read as a Host header (smd_cors_trusted_host) and as the
+ * authority of an Origin (smd_cors_same_origin): an origin counts as the
+ * daemon's own only when that Host names the daemon. */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "http/smd_cors.h"
 #include "http/smd_negotiate.h"
 #include "base/smd_util.h"
 
@@ -55,6 +59,22 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     default:
         check_uint(text);
         break;
+    }
+    static smd_config cfg; /* zeroed: no listen host, no public URL */
+    if (!cfg.nallowed_hosts) {
+        strcpy(cfg.listen_host, "127.0.0.1");
+        strcpy(cfg.allowed_hosts[0], "maps.example.test");
+        strcpy(cfg.allowed_hosts[1], "[::1]:8080");
+        cfg.nallowed_hosts = 2;
+    }
+    int trusted = smd_cors_trusted_host(&cfg, text);
+    char origin[600];
+    if (trusted & ~1)
+        abort();
+    if (size < 500) {
+        snprintf(origin, sizeof origin, "http://%s", text);
+        if (smd_cors_same_origin(&cfg, origin, text) && !trusted)
+            abort();
     }
     free(text);
     return 0;

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Tenants (issue 8): a tokens file with "TOKEN NAME [admin]" lines; a job
-# belongs to the submitting token's tenant; another tenant gets 404 on its
-# status, events, results, cancel and delete and does not see it in the
+# belongs to the submitting token's tenant; another tenant gets 404 on
+# every route of it (walked from the route table: status, events, live
+# mesh, results, snapshots, cancel and delete) and does not see it in the
 # list; an admin sees every job; an Idempotency-Key is scoped to its
 # tenant; SIGHUP reloads the tokens (logged), a broken file keeps the old
 # ones.
@@ -32,15 +33,31 @@ else
     not_ok "two tenants submit" "$(cat "$WORK/submit.out")"
 fi
 
-for route in "GET /v1/jobs/$A" "GET /v1/jobs/$A/events" "GET /v1/jobs/$A/results" \
-    "GET /v1/jobs/$A/results/mesh" "DELETE /v1/jobs/$A"; do
-    c=$(code_as bob ${route% *} "$BASE${route#* }")
-    if [ "$c" = 404 ] && jq -e '.status == 404' "$WORK/reply.json" >/dev/null; then
-        ok "bob: $route of alice's job: 404"
-    else
-        not_ok "bob: $route of alice's job: 404" "code $c" "$(head -c 300 "$WORK/reply.json")"
+# every route of a job, read from the route table itself (a new route is
+# walked too): bob gets 404 no-such-job for alice's job, as if it did not
+# exist; alice does not (DELETE last, so that her job stays meanwhile)
+routes=$(sed -n 's/^ *{SMD_METHOD_\([A-Z]*\), *\(JOB\|RESULTS\)\( "[^"]*"\)\{0,1\},.*/\1 \2\3/p' \
+    "$ROOT/server/api/smd_route_table.c" | tr -d '"' | sort -k1,1r)
+walked=0 bad=""
+while read -r method base suffix; do
+    case $method in READ) method=GET ;; esac
+    path=/v1/jobs/$A
+    [ "$base" = RESULTS ] && path=$path/results
+    path=$path${suffix//\{iteration\}/1}
+    c=$(code_as bob "$method" "$BASE$path")
+    jq -e '.status == 404 and (.type | test("no-such-job"))' "$WORK/reply.json" >/dev/null 2>&1 ||
+        bad="$bad [bob $method $path: $c $(head -c 120 "$WORK/reply.json")]"
+    if [ "$method" != DELETE ]; then
+        code_as alice "$method" "$BASE$path" >/dev/null
+        ! grep -q no-such-job "$WORK/reply.json" || bad="$bad [alice $method $path: no-such-job]"
     fi
-done
+    walked=$((walked + 1))
+done <<<"$routes"
+if [ "$walked" -ge 10 ] && [ -z "$bad" ]; then
+    ok "bob gets 404 no-such-job on each of the $walked job routes of the route table for alice's job"
+else
+    not_ok "every job route hides another tenant's job" "walked $walked:$bad"
+fi
 ids() { jq -r '[.jobs[].jobID] | sort | join(" ")' "$WORK/reply.json"; }
 # access_token (the browsers' form of the token) names the tenant too
 tok_code() { # TOKEN URL: the HTTP status, the token in the query only

@@ -6,7 +6,9 @@ Opens PER_ADDR sockets from each source address in ADDRS (comma list,
 127.0.0.2... all reach loopback on Linux) to 127.0.0.1:PORT; MODE headers
 (default) sends a request line then one header byte per second on each;
 MODE body sends complete upload headers (Content-Length 10 MB) then one
-body byte per second.  A socket the server closes is reopened on the next
+body byte per second; MODE bulk sends them with 200 KB of body at once, then
+one byte per second (a rate that stays above --min-upload-rate for minutes);
+MODE stream opens the NDJSON event stream of STATUS_PATH's job and reads it.  A socket the server closes is reopened on the next
 tick, as a real attacker would.  Meanwhile, every second, /healthz and
 STATUS_PATH are fetched from 127.0.0.1 (a fresh connection each, 2 s
 timeout).  Prints one JSON object: probes, answered, max and median probe
@@ -39,6 +41,13 @@ def start(addr):
 
 
 def first_bytes():
+    if mode == "stream":
+        return (b"GET " + status_path.encode() + b"/events HTTP/1.1\r\nHost: x\r\n"
+                b"Accept: application/x-ndjson\r\n\r\n")
+    if mode == "bulk":
+        return (b"POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 10000000\r\n"
+                b"Content-Type: multipart/form-data; boundary=b\r\n\r\n--b\r\nContent-Disposition:"
+                b" form-data; name=\"template\"; filename=\"t.mesh\"\r\n\r\n" + b"x" * 200000)
     if mode == "body":
         return (b"POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 10000000\r\n"
                 b"Content-Type: multipart/form-data; boundary=b\r\n\r\n--b\r\n")
@@ -57,8 +66,13 @@ def drop(s, by_server):
 def tick():
     for s, (addr, t0, sent) in list(socks.items()):
         try:
-            s.send(first_bytes() if not sent[0] else b"x")
-            sent[0] = True
+            if not sent[0]:
+                sent.append(first_bytes())  # what is left of it: sent[1]
+                sent[0] = True
+            if len(sent) > 1 and sent[1]:
+                sent[1] = sent[1][s.send(sent[1]):]
+            elif mode != "stream":
+                s.send(b"x")
         except BlockingIOError:
             pass
         except OSError:

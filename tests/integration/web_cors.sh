@@ -109,6 +109,12 @@ fi
 own=${BASE#http://}
 c=$(req POST "$BASE/v1/jobs" -H "Origin: $BASE" "${form[@]}")
 check "POST from the daemon's own origin (Origin matches Host $own): 201" [ "$c" = 201 ]
+# DNS rebinding: the attacker's name resolves to the daemon, so the
+# browser sends that name in both Host and Origin (issue 28; before: 201)
+port=${BASE##*:}
+c=$(req POST "$BASE/v1/jobs" -H "Host: attacker.example.test:$port" \
+    -H "Origin: http://attacker.example.test:$port" "${form[@]}")
+check "DNS rebinding: POST whose Host and Origin name the attacker: 403" [ "$c" = 403 ]
 c=$(req POST "$BASE/v1/jobs" "${form[@]}")
 B=$(jq -r '.jobID // empty' "$WORK/b")
 check "POST without Origin (curl, the client): 201" [ "$c" = 201 ]
@@ -121,6 +127,17 @@ fi
 c=$(req GET "$BASE/v1/jobs/$B" -H 'Origin: http://evil.example.test')
 check "GET from a foreign origin still answers (the browser withholds it)" [ "$c" = 200 ]
 wait_final "$A" 60
+# browser security headers on the page, a script, JSON and a download
+# (issue 28: none before)
+bad=""
+for u in / /app/app.js /v1/jobs "/v1/jobs/$A/results/mesh" /nothing; do
+    c=$(req GET "$BASE$u")
+    [ "$(hdr X-Content-Type-Options)" = nosniff ] && [ "$(hdr X-Frame-Options)" = DENY ] &&
+        [ "$(hdr Content-Security-Policy)" = "frame-ancestors 'none'" ] &&
+        [ "$(hdr Referrer-Policy)" = no-referrer ] || bad="$bad [$u $c]"
+done
+check "nosniff, frame policy and Referrer-Policy on HTML, script, JSON, download and 404${bad:+:$bad}" \
+    test -z "$bad"
 stop_daemon
 
 # ------------------------------------------------ behind a reverse proxy
@@ -130,6 +147,17 @@ c=$(req POST "$BASE/v1/jobs" -H "Origin: $PUB" -H 'Host: internal:8080' "${form[
 check "--public-url: POST from its origin (Host elsewhere) is the daemon's own: 201" [ "$c" = 201 ]
 c=$(req POST "$BASE/v1/jobs" -H "Origin: https://else.example.test" "${form[@]}")
 check "--public-url: POST from another origin: 403" [ "$c" = 403 ]
+stop_daemon
+
+# ------------------------------------------------ a Host allow-list
+start_daemon named --workers 1 --allowed-host maps.example.test || { not_ok "the daemon starts with --allowed-host"; exit 1; }
+port=${BASE##*:}
+c=$(req GET "$BASE/v1/jobs" -H "Host: attacker.example.test:$port")
+c2=$(req GET "$BASE/v1/jobs" -H "Host: maps.example.test:$port")
+c3=$(req GET "$BASE/v1/jobs")
+c4=$(req POST "$BASE/v1/jobs" -H "Host: maps.example.test:$port" -H "Origin: http://maps.example.test:$port" "${form[@]}")
+check "--allowed-host: Host attacker 421, the allowed name 200, an address 200, POST from the allowed name's origin 201 ($c $c2 $c3 $c4)" \
+    test "$c" = 421 -a "$c2" = 200 -a "$c3" = 200 -a "$c4" = 201
 stop_daemon
 
 # --------------------------------------------------------- configuration

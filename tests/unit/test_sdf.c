@@ -510,6 +510,35 @@ static void test_graded_background(void **state)
     check_graded(SPHERE, 0.15, 0.06);
 }
 
+/* A size too fine for the box is refused before any count becomes an
+ * integer (issue 28: 1e-300 shifted an int64_t out of range, undefined
+ * behaviour the sanitizer build died of), in 2D and 3D, graded and not. */
+static void test_background_tiny_size(void **state)
+{
+    (void)state;
+    sm_surface *s = make_surface(SPHERE, 0.3);
+    sm_error err;
+    sm_sdf *d;
+    assert_int_equal(sm_surface_repair(s, NULL, &err), SM_OK);
+    assert_int_equal(sm_sdf_new(s, &d, &err), SM_OK);
+    const double lo[3] = {-1, -1, -1}, hi[3] = {1, 1, 1};
+    const double sizes[] = {1e-300, 1e-30, 1e-9, 5e-324};
+    for (int dim = 2; dim <= 3; dim++)
+        for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) {
+            sm_mesh *m = NULL;
+            sm_error_clear(&err);
+            assert_int_equal(sm_background_graded_new(dim, lo, hi, sizes[i], d, &m, &err),
+                             SM_ERR_INVALID);
+            assert_null(m);
+            assert_non_null(strstr(err.msg, "--background-size"));
+            sm_error_clear(&err);
+            assert_int_equal(sm_background_new(dim, lo, hi, sizes[i], &m, &err), SM_ERR_INVALID);
+            assert_null(m);
+        }
+    sm_sdf_free(d);
+    sm_surface_free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -521,6 +550,7 @@ int main(void)
         cmocka_unit_test(test_sign_defects),
         cmocka_unit_test(test_encloses_nothing),
         cmocka_unit_test(test_graded_background),
+        cmocka_unit_test(test_background_tiny_size),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

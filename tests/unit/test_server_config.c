@@ -220,6 +220,19 @@ static void test_cors_origins(void **state)
     assert_int_equal(parse(&c, NULL, msg, "--public-url", "https://x.test/p", NULL), SMD_CONFIG_OK);
     assert_string_equal(c.public_url, "https://x.test/p");
     assert_int_equal(parse(&c, NULL, msg, "--public-url", "x.test", NULL), SMD_CONFIG_ERROR);
+    /* --allowed-host: the same list rules, host names with an optional port */
+    const char *henv[] = {"SHAPEMATCH_ALLOWED_HOSTS=maps.example.test, [::1]:8080", NULL};
+    assert_int_equal(parse(&c, henv, msg, NULL), SMD_CONFIG_OK);
+    assert_int_equal(c.nallowed_hosts, 2);
+    assert_string_equal(c.allowed_hosts[1], "[::1]:8080");
+    assert_int_equal(parse(&c, henv, msg, "--allowed-host", "a.test:9000", NULL), SMD_CONFIG_OK);
+    assert_int_equal(c.nallowed_hosts, 1);
+    assert_string_equal(c.allowed_hosts[0], "a.test:9000");
+    const char *badh[] = {"http://a.test", "a.test/", "a.test:", "a.test:x", "[::1", "a b", ":80", ""};
+    for (size_t i = 0; i < sizeof badh / sizeof badh[0]; i++) {
+        assert_int_equal(parse(&c, NULL, msg, "--allowed-host", badh[i], NULL), SMD_CONFIG_ERROR);
+        assert_non_null(strstr(msg, "--allowed-host"));
+    }
 }
 
 /* Several machines: --database, --role, --max-attempts, --lease. */
@@ -240,6 +253,14 @@ static void test_cluster(void **state)
     assert_int_equal(c.role, SMD_ROLE_WORKER);
     assert_int_equal(c.max_attempts, 5);
     assert_true(c.lease == 60);
+    /* the database sessions' timeouts: defaults, flags, bounds */
+    assert_true(c.db_statement_timeout == 30 && c.db_lock_timeout == 5 && c.db_idle_timeout == 15);
+    assert_int_equal(parse(&c, env, msg, "--database-lock-timeout", "0.5",
+                           "--database-statement-timeout", "2m", "--database-idle-timeout", "10",
+                           NULL), SMD_CONFIG_OK);
+    assert_true(c.db_lock_timeout == 0.5 && c.db_statement_timeout == 120 && c.db_idle_timeout == 10);
+    assert_int_equal(parse(&c, env, msg, "--database-lock-timeout", "0", NULL), SMD_CONFIG_ERROR);
+    assert_non_null(strstr(msg, "--database-lock-timeout"));
     assert_int_equal(parse(&c, env, msg, "--role", "api", "--database", "host=/s dbname=x", NULL),
                      SMD_CONFIG_OK);
     assert_int_equal(c.role, SMD_ROLE_API);

@@ -48,7 +48,23 @@ static void test_same_origin(void **state)
     smd_config c;
     config(&c, NULL, NULL);
     assert_true(smd_cors_same_origin(&c, "http://127.0.0.1:8080", "127.0.0.1:8080"));
+    /* a name in Host is the client's word: DNS rebinding sends the
+     * attacker's name in both headers (issue 28) */
+    assert_false(smd_cors_same_origin(&c, "http://Daemon.example.test", "daemon.example.test"));
+    assert_false(smd_cors_same_origin(&c, "http://attacker.example:8080", "attacker.example:8080"));
+    assert_true(smd_cors_same_origin(&c, "http://localhost:8080", "localhost:8080"));
+    assert_true(smd_cors_same_origin(&c, "http://[::1]:8080", "[::1]:8080"));
+    strcpy(c.allowed_hosts[0], "daemon.example.test");
+    strcpy(c.allowed_hosts[1], "other.example.test:9000");
+    c.nallowed_hosts = 2;
     assert_true(smd_cors_same_origin(&c, "http://Daemon.example.test", "daemon.example.test"));
+    assert_true(smd_cors_trusted_host(&c, "daemon.example.test:8080"));
+    assert_true(smd_cors_trusted_host(&c, "other.example.test:9000"));
+    assert_false(smd_cors_trusted_host(&c, "other.example.test:9001"));
+    assert_false(smd_cors_trusted_host(&c, "attacker.example"));
+    assert_false(smd_cors_trusted_host(&c, ""));
+    assert_true(smd_cors_trusted_host(&c, "10.1.2.3:80"));
+    c.nallowed_hosts = 0;
     assert_false(smd_cors_same_origin(&c, "http://127.0.0.1:8081", "127.0.0.1:8080"));
     assert_false(smd_cors_same_origin(&c, "http://127.0.0.1:8080", NULL));
     assert_false(smd_cors_same_origin(&c, "null", "null"));

@@ -65,10 +65,26 @@ static void test_full_table(void **state)
         snprintf(key, sizeof key, "a:k%d", i);
         assert_int_equal(smd_ratelimit_take(rl, key, 5.0), 0);
     }
-    /* no room for a new key while every window runs: refused, then
-     * an expired key's room is reused */
-    assert_int_equal(smd_ratelimit_take(rl, "a:new", 6.0), 10);
-    assert_int_equal(smd_ratelimit_take(rl, "a:new", 15.0), 0);
+    /* a full table of live windows (4096 throw-away addresses): a new
+     * key is still taken (the least recently used makes room), never
+     * refused with another key's window (before: 10 s) */
+    assert_int_equal(smd_ratelimit_take(rl, "a:new", 6.0), 0);
+    assert_true(smd_ratelimit_take(rl, "a:new", 6.5) > 0); /* its own rate holds */
+    /* the evicted key was the oldest: k0 starts a fresh window */
+    assert_int_equal(smd_ratelimit_take(rl, "a:k0", 7.0), 0);
+    /* a key that tracks a job is evicted after those that track none */
+    smd_ratelimit_free(rl);
+    rl = smd_ratelimit_new(1, 10);
+    char id[SMD_ID_LEN + 1];
+    memset(id, 'a', SMD_ID_LEN);
+    id[SMD_ID_LEN] = '\0';
+    assert_int_equal(smd_ratelimit_take(rl, "a:owner", 1.0), 0);
+    smd_ratelimit_track(rl, "a:owner", id);
+    for (int i = 0; i < 2 * SMD_RATELIMIT_KEYS; i++) {
+        snprintf(key, sizeof key, "a:f%d", i);
+        assert_int_equal(smd_ratelimit_take(rl, key, 2.0 + i * 1e-4), 0);
+    }
+    assert_int_equal(smd_ratelimit_live(rl, "a:owner", live_unless_b, NULL), 1);
     smd_ratelimit_free(rl);
 }
 

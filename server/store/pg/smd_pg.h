@@ -52,6 +52,15 @@ typedef struct smd_pg smd_pg;
 sm_status smd_pg_connect(const char *url, const char *password_file, const char *app,
                          smd_pg **out, sm_error *err);
 void smd_pg_close(smd_pg *db);
+/* The session's statement_timeout, lock_timeout and
+ * idle_in_transaction_session_timeout (seconds; 0 keeps the server's),
+ * set now and again on every reconnect: no call waits forever on a
+ * frozen peer's row lock, and a session frozen inside a transaction is
+ * ended by the server (its locks freed). */
+sm_status smd_pg_set_timeouts(smd_pg *db, double statement, double lock, double idle,
+                              sm_error *err);
+/* 1 when the last failed call failed on a statement or lock timeout. */
+int smd_pg_timed_out(const smd_pg *db);
 /* 1 while the connection is up (as libpq last saw it). */
 int smd_pg_connected(const smd_pg *db);
 /* Drops and opens the connection again (LISTENs are renewed). */
@@ -128,6 +137,12 @@ sm_status smd_pg_append_event(smd_pg *db, const char *id, const smd_pg_lease *fe
  * once (the rows are locked, SKIP LOCKED). */
 sm_status smd_pg_expire(smd_pg *db, int max_attempts, size_t *requeued, size_t *failed,
                         sm_error *err);
+
+/* After smd_pg_expire: the leases still past their expiry, because a
+ * session holds their rows locked (a node frozen inside a transaction,
+ * until the server's idle_in_transaction_session_timeout ends it): *n
+ * of them (at most 16 counted), their ids space-separated into ids. */
+sm_status smd_pg_expired_held(smd_pg *db, char *ids, size_t cap, size_t *n, sm_error *err);
 
 /* DELETE on an API node: a queued job is dismissed at once (*was 1), a
  * running one gets cancel_requested and a NOTIFY on smd_cancel to its

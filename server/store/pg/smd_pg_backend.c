@@ -73,12 +73,18 @@ static sm_status pg_remove(smd_backend *b, const char *id, int *deleted, sm_erro
     return smd_pg_node_delete(node_of(b), id, deleted, err);
 }
 
+static sm_status pg_withdraw(smd_backend *b, const char *id, int final, int64_t known,
+                             sm_error *err)
+{
+    return smd_pg_node_withdraw(node_of(b), id, final, known, err);
+}
+
 static int pg_ready(smd_backend *b, char *why, size_t cap)
 {
     char raw[400];
     if (smd_pg_node_ready(node_of(b), raw, sizeof raw))
         return 1;
-    snprintf(why, cap, "the database is unreachable: %s", raw);
+    snprintf(why, cap, "the database does not answer (or not in time): %s", raw);
     return 0;
 }
 
@@ -114,6 +120,7 @@ static const smd_backend_ops pg_ops = {
     .requeued = pg_requeued,
     .cancel = pg_cancel,
     .remove = pg_remove,
+    .withdraw = pg_withdraw,
     .ready = pg_ready,
     .metrics = pg_metrics,
 };

@@ -90,6 +90,9 @@ PGresult *smd_pg_exec(smd_pg *db, const char *what, const char *sql, int n,
     if (PQstatus(db->conn) != CONNECTION_OK || !code || strncmp(code, "08", 2) == 0 ||
         strncmp(code, "57P", 3) == 0)
         db->lost = 1;
+    /* 57014: statement_timeout (query_canceled); 55P03: lock_timeout
+     * (lock_not_available) */
+    db->timed_out = code && (strcmp(code, "57014") == 0 || strcmp(code, "55P03") == 0);
     db_error(db, what, r, err);
     PQclear(r);
     return NULL;
@@ -146,6 +149,36 @@ static void drop_notice(void *arg, const char *message)
     (void)message;
 }
 
+/* SET of the session's timeouts (integers in ms: no text from outside). */
+static sm_status apply_timeouts(smd_pg *db, sm_error *err)
+{
+    static const char *const names[3] = {"statement_timeout", "lock_timeout",
+                                         "idle_in_transaction_session_timeout"};
+    for (int i = 0; i < 3; i++) {
+        if (db->timeouts_ms[i] <= 0)
+            continue;
+        char sql[96];
+        snprintf(sql, sizeof sql, "SET %s = %ld", names[i], db->timeouts_ms[i]);
+        if (smd_pg_run(db, "session settings", sql, 0, NULL, err) != SM_OK)
+            return SM_ERR_IO;
+    }
+    return SM_OK;
+}
+
+sm_status smd_pg_set_timeouts(smd_pg *db, double statement, double lock, double idle,
+                              sm_error *err)
+{
+    const double s[3] = {statement, lock, idle};
+    for (int i = 0; i < 3; i++) /* at least 1 ms; the config bounds them to an hour */
+        db->timeouts_ms[i] = s[i] <= 0 ? 0 : s[i] >= 86400 ? 86400000L : (long)(s[i] * 1000) + (s[i] * 1000 < 1);
+    return apply_timeouts(db, err);
+}
+
+int smd_pg_timed_out(const smd_pg *db)
+{
+    return db && db->timed_out;
+}
+
 static sm_status open_conn(smd_pg *db, sm_error *err)
 {
     const char *keys[] = {"application_name", "dbname", "password", NULL};
@@ -156,6 +189,8 @@ static sm_status open_conn(smd_pg *db, sm_error *err)
     if (!db->conn || PQstatus(db->conn) != CONNECTION_OK)
         return db_error(db, "connect", NULL, err);
     PQsetNoticeProcessor(db->conn, drop_notice, NULL);
+    if (apply_timeouts(db, err) != SM_OK)
+        return SM_ERR_IO;
     for (int i = 0; i < db->nlistens; i++) {
         char sql[64];
         snprintf(sql, sizeof sql, "LISTEN %s", db->listens[i]);

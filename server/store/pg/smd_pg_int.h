@@ -16,6 +16,10 @@ struct smd_pg {
     char listens[SMD_PG_LISTENS_MAX][32];
     int nlistens;
     int lost;                  /* a query failed for want of a connection */
+    int timed_out;             /* the last failed query hit a statement or lock timeout */
+    /* statement_timeout, lock_timeout, idle_in_transaction_session_timeout
+     * in ms (0: the server's own), set again on every reconnect */
+    long timeouts_ms[3];
 };
 
 /* Runs sql with text parameters (NULL entries are SQL NULL).  Returns the

@@ -64,6 +64,21 @@ static sm_status fetch_events(smd_pg *db, const char *id, int64_t after, ev_list
     }
 }
 
+sm_status node_fetch_events(smd_pg *db, const char *id, int64_t after, sm_event **v, size_t *n,
+                            sm_error *err)
+{
+    ev_list l = {0};
+    sm_status st = fetch_events(db, id, after, &l, err);
+    if (st != SM_OK) {
+        free(l.v);
+        l.v = NULL;
+        l.n = 0;
+    }
+    *v = l.v;
+    *n = l.n;
+    return st;
+}
+
 static int has_finished(const ev_list *l)
 {
     for (size_t i = 0; i < l->n; i++)
@@ -392,6 +407,16 @@ static sm_status sweep(smd_pg_node *n, sm_error *err)
     if (requeued || failed)
         smd_log(&n->srv->log, SMD_LOG_WARN, "leases_expired",
                 json_pack("{s:I,s:I}", "requeued", (json_int_t)requeued, "failed", (json_int_t)failed));
+    char held[16 * (SMD_ID_LEN + 1) + 1];
+    size_t nheld = 0;
+    if (smd_pg_expired_held(n->sync_db, held, sizeof held, &nheld, err) != SM_OK)
+        return SM_ERR_IO;
+    if (nheld)
+        smd_log(&n->srv->log, SMD_LOG_WARN, "leases_expired_held",
+                json_pack("{s:s,s:s}", "jobs", held, "why",
+                          "their rows are locked by another session (a node frozen inside a "
+                          "transaction?): requeued once it commits, or once the server ends it "
+                          "(--database-idle-timeout)"));
     atomic_store(&n->queued, queued);
     atomic_store(&n->leased, leased);
     return SM_OK;
@@ -422,6 +447,10 @@ void *node_sync_main(void *arg)
         }
         if (st != SM_OK && !smd_pg_connected(n->sync_db)) {
             node_set_down(n, err.msg);
+            continue;
+        }
+        if (st != SM_OK && smd_pg_timed_out(n->sync_db)) {
+            node_check_timeout(n, n->sync_db, &err);
             continue;
         }
         if (st != SM_OK)

@@ -11,6 +11,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "shapematch/sm_clock.h"
 #include "jobs/smd_jobs.h"
 #include "jobs/smd_pool.h"
 #include "worker/smd_job_file.h"
@@ -219,19 +220,116 @@ sm_status smd_pg_node_publish(smd_pg_node *n, const smd_submission *sub, double 
 
 /* ------------------------------------------------------ cancel, delete */
 
-sm_status smd_pg_node_cancel(smd_server *srv, smd_job *job, smd_jobs_after *after, sm_error *err)
+/* n->lock held: the outcome recorded for (id, kind), taken out of the
+ * table (1), or 0.  Entries older than a minute are dropped on the way. */
+static int take_withdrawn(smd_pg_node *n, const char *id, int kind, node_withdrawn *out)
 {
-    smd_pg_node *n = srv->cluster;
-    int was = 0;
+    double now = sm_clock_seconds();
+    int found = 0;
+    for (int i = 0; i < NODE_WITHDRAWN_MAX; i++) {
+        node_withdrawn *w = &n->withdrawn[i];
+        if (!w->kind)
+            continue;
+        if (!found && w->kind == kind && strcmp(w->id, id) == 0) {
+            *out = *w;
+            found = 1;
+        } else if (now - w->at < 60) {
+            continue;
+        } else {
+            free(w->evs);
+        }
+        memset(w, 0, sizeof *w);
+    }
+    return found;
+}
+
+static void put_withdrawn(smd_pg_node *n, const node_withdrawn *w)
+{
+    pthread_mutex_lock(&n->lock);
+    node_withdrawn old;
+    if (take_withdrawn(n, w->id, w->kind, &old)) /* a DELETE repeated: the latest counts */
+        free(old.evs);
+    int slot = 0;
+    for (int i = 0; i < NODE_WITHDRAWN_MAX; i++) {
+        if (!n->withdrawn[i].kind) {
+            slot = i;
+            break;
+        }
+        if (n->withdrawn[i].at < n->withdrawn[slot].at)
+            slot = i; /* full: the oldest goes (its DELETE asks the database again) */
+    }
+    free(n->withdrawn[slot].evs);
+    n->withdrawn[slot] = *w;
+    pthread_mutex_unlock(&n->lock);
+}
+
+void node_check_timeout(smd_pg_node *n, smd_pg *db, const sm_error *err)
+{
+    if (!smd_pg_timed_out(db))
+        return;
+    /* unready for a while even though the sync thread's next round may
+     * pass: the rows this node needs are held (a frozen peer) */
+    pthread_mutex_lock(&n->lock);
+    snprintf(n->why, sizeof n->why, "%s", err->msg);
+    n->timeout_until = sm_clock_seconds() + 2 * n->srv->cfg.db_lock_timeout;
+    pthread_mutex_unlock(&n->lock);
+    smd_logf(&n->srv->log, SMD_LOG_ERROR, "database_timeout", "%s", err->msg);
+}
+
+sm_status smd_pg_node_withdraw(smd_pg_node *n, const char *id, int final, int64_t known,
+                               sm_error *err)
+{
+    if (!final && smd_pg_node_runs(n, id))
+        return SM_OK; /* this node runs it: the pool stops it, the outbox tells */
+    node_withdrawn w = {.kind = final ? 2 : 1, .at = sm_clock_seconds()};
+    snprintf(w.id, sizeof w.id, "%s", id);
     pthread_mutex_lock(&n->ctl_lock);
     sm_status st = node_connected(n, n->ctl_db, err);
     if (st == SM_OK)
-        st = smd_pg_cancel(n->ctl_db, job->id, &was, err);
-    if (st != SM_OK && retry_on(n->ctl_db, err))
-        st = smd_pg_cancel(n->ctl_db, job->id, &was, err);
-    if (st == SM_OK && was == 1)
-        st = node_catch_up_locked(n, n->ctl_db, job, after, err);
+        st = final ? smd_pg_delete(n->ctl_db, id, &w.result, err)
+                   : smd_pg_cancel(n->ctl_db, id, &w.result, err);
+    if (st != SM_OK && retry_on(n->ctl_db, err)) /* died while idle (a restart): once more */
+        st = final ? smd_pg_delete(n->ctl_db, id, &w.result, err)
+                   : smd_pg_cancel(n->ctl_db, id, &w.result, err);
+    if (st == SM_OK && !final && w.result == 1)
+        st = node_fetch_events(n->ctl_db, id, known, &w.evs, &w.nevs, err);
+    if (st != SM_OK)
+        node_check_timeout(n, n->ctl_db, err);
     pthread_mutex_unlock(&n->ctl_lock);
+    if (st == SM_OK)
+        put_withdrawn(n, &w);
+    return st;
+}
+
+sm_status smd_pg_node_cancel(smd_server *srv, smd_job *job, smd_jobs_after *after, sm_error *err)
+{
+    smd_pg_node *n = srv->cluster;
+    node_withdrawn w = {0};
+    pthread_mutex_lock(&n->lock);
+    int done = take_withdrawn(n, job->id, 1, &w);
+    pthread_mutex_unlock(&n->lock);
+    int was = w.result;
+    sm_status st = SM_OK;
+    if (done) {
+        for (size_t i = 0; i < w.nevs; i++)
+            if (w.evs[i].seq > job->nevents)
+                smd_jobs_mirror_event(srv, job, &w.evs[i], after);
+        free(w.evs);
+    } else {
+        /* not withdrawn first (a race with the job's end): asked here,
+         * bounded by the session's lock and statement timeouts */
+        pthread_mutex_lock(&n->ctl_lock);
+        st = node_connected(n, n->ctl_db, err);
+        if (st == SM_OK)
+            st = smd_pg_cancel(n->ctl_db, job->id, &was, err);
+        if (st != SM_OK && retry_on(n->ctl_db, err))
+            st = smd_pg_cancel(n->ctl_db, job->id, &was, err);
+        if (st == SM_OK && was == 1)
+            st = node_catch_up_locked(n, n->ctl_db, job, after, err);
+        if (st != SM_OK)
+            node_check_timeout(n, n->ctl_db, err);
+        pthread_mutex_unlock(&n->ctl_lock);
+    }
     if (st == SM_OK && was == 2) {
         smd_jobs_mirror_state(srv, job, SM_JOB_DISMISSED, "cancelled by request (DELETE): its "
                               "worker node stops it", job->attempt, after);
@@ -246,12 +344,23 @@ sm_status smd_pg_node_cancel(smd_server *srv, smd_job *job, smd_jobs_after *afte
 
 sm_status smd_pg_node_delete(smd_pg_node *n, const char *id, int *deleted, sm_error *err)
 {
+    node_withdrawn w = {0};
+    pthread_mutex_lock(&n->lock);
+    int done = take_withdrawn(n, id, 2, &w);
+    pthread_mutex_unlock(&n->lock);
+    if (done) {
+        free(w.evs);
+        *deleted = w.result;
+        return SM_OK;
+    }
     pthread_mutex_lock(&n->ctl_lock);
     sm_status st = node_connected(n, n->ctl_db, err);
     if (st == SM_OK)
         st = smd_pg_delete(n->ctl_db, id, deleted, err);
     if (st != SM_OK && retry_on(n->ctl_db, err))
         st = smd_pg_delete(n->ctl_db, id, deleted, err);
+    if (st != SM_OK)
+        node_check_timeout(n, n->ctl_db, err);
     pthread_mutex_unlock(&n->ctl_lock);
     return st;
 }
@@ -285,12 +394,12 @@ void node_set_up(smd_pg_node *n)
 
 int smd_pg_node_ready(smd_pg_node *n, char *why, size_t cap)
 {
-    if (atomic_load(&n->up))
-        return 1;
     pthread_mutex_lock(&n->lock);
-    snprintf(why, cap, "%s", n->why);
+    int ready = atomic_load(&n->up) && sm_clock_seconds() >= n->timeout_until && !n->outbox_held;
+    if (!ready)
+        snprintf(why, cap, "%s", atomic_load(&n->up) && n->outbox_held ? n->held_why : n->why);
     pthread_mutex_unlock(&n->lock);
-    return 0;
+    return ready;
 }
 
 void smd_pg_node_metrics(smd_pg_node *n, char **text, size_t *len)
@@ -328,7 +437,11 @@ static sm_status open_db(smd_server *srv, const char *what, smd_pg **db, sm_erro
 {
     char app[64];
     snprintf(app, sizeof app, "shapematchd %s", what);
-    return smd_pg_connect(srv->cfg.database, srv->cfg.database_password_file, app, db, err);
+    sm_status st = smd_pg_connect(srv->cfg.database, srv->cfg.database_password_file, app, db, err);
+    if (st == SM_OK)
+        st = smd_pg_set_timeouts(*db, srv->cfg.db_statement_timeout, srv->cfg.db_lock_timeout,
+                                 srv->cfg.db_idle_timeout, err);
+    return st;
 }
 
 static smd_pg_node *node_new(smd_server *srv)
@@ -426,6 +539,8 @@ void smd_pg_node_free(smd_pg_node *n)
         free(n->leases);
         n->leases = next;
     }
+    for (int i = 0; i < NODE_WITHDRAWN_MAX; i++)
+        free(n->withdrawn[i].evs);
     smd_pg_close(n->api_db);
     smd_pg_close(n->ctl_db);
     smd_pg_close(n->sync_db);

@@ -17,9 +17,11 @@
  * - uploads go to the database before the local commit (the Idempotency-
  *   Key is unique there, so a retry on another API node finds the job).
  *
- * Locking: srv->lock is never held while waiting for the database,
- * except for the one short query of a DELETE (cancel, delete; on a
- * connection of its own, never behind an upload); the
+ * Locking: srv->lock is never held while waiting for the database on
+ * a request's path: a DELETE asks the database first (withdraw), then
+ * takes the lock; only retention, and a DELETE that raced with the job's
+ * end, run their one short query under it, bounded by the session's
+ * lock_timeout and statement_timeout (--database-lock-timeout); the
  * node's own mutex (outbox, leases, pending uploads) is taken after
  * srv->lock or alone, never the other way. */
 #ifndef SMD_PG_NODE_H
@@ -70,6 +72,12 @@ int smd_pg_node_runs(smd_pg_node *node, const char *id);
  * (the worker node is told); the local record follows. */
 sm_status smd_pg_node_cancel(smd_server *srv, smd_job *job, struct smd_jobs_after *after,
                              sm_error *err);
+/* DELETE, srv->lock NOT held: the cancel (final 0) or delete (final 1)
+ * in the database first; the locked smd_pg_node_cancel / _delete that
+ * follow use its outcome and do not ask again.  A job this node runs is
+ * left to the local cancel.  known: the events of the local log. */
+sm_status smd_pg_node_withdraw(smd_pg_node *node, const char *id, int final, int64_t known,
+                               sm_error *err);
 /* DELETE or retention of a final job: *deleted 1 for the node that
  * removed it from the database. */
 sm_status smd_pg_node_delete(smd_pg_node *node, const char *id, int *deleted, sm_error *err);

@@ -32,12 +32,25 @@ typedef struct node_item {
     struct node_item *next;
 } node_item;
 
+/* The database's part of a DELETE, done before srv->lock is taken
+ * (smd_pg_node_withdraw) and used under it by cancel or delete. */
+#define NODE_WITHDRAWN_MAX 64
+typedef struct node_withdrawn {
+    char id[SMD_ID_LEN + 1];
+    int kind;             /* 0 free, 1 cancel (result: was), 2 delete (result: deleted) */
+    int result;
+    double at;            /* monotonic seconds: unused ones are dropped after a minute */
+    sm_event *evs;        /* a queued job's cancel: the events after the local log's */
+    size_t nevs;
+} node_withdrawn;
+
 struct smd_pg_node {
     smd_server *srv;
     char name[SMD_PG_NODE_MAX];
     smd_pg *api_db;           /* uploads: under api_lock (held while one is copied) */
     smd_pg *ctl_db;           /* cancel, delete: under ctl_lock (short queries, taken
-                               * with srv->lock held: never behind an upload) */
+                               * before srv->lock by a DELETE, smd_pg_node_withdraw;
+                               * with it only by retention and races) */
     smd_pg *sync_db;          /* the sync thread's */
     smd_pg *work_db;          /* the work thread's */
     smd_pg *lease_db;         /* the lease thread's: renewals never wait for the outbox */
@@ -50,6 +63,10 @@ struct smd_pg_node {
     size_t nleases;
     char pending[NODE_PENDING_MAX][SMD_ID_LEN + 1]; /* uploads between database and spool */
     size_t npending;
+    node_withdrawn withdrawn[NODE_WITHDRAWN_MAX];
+    double timeout_until;     /* monotonic: unready until then (a call timed out) */
+    int outbox_held;          /* the outbox failed to be stored: retried, unready meanwhile */
+    char held_why[SM_ERROR_MSG_LEN + 128];
     char why[512];
     atomic_int up, stop;
     atomic_llong queued, leased;
@@ -75,6 +92,12 @@ sm_status node_import(smd_pg_node *n, smd_pg *db, const char *id, node_lease *le
  * cancel), applied now. */
 sm_status node_catch_up_locked(smd_pg_node *n, smd_pg *db, smd_job *job, smd_jobs_after *after,
                                sm_error *err);
+/* Lock NOT held: the events of id after seq after, into a new array. */
+sm_status node_fetch_events(smd_pg *db, const char *id, int64_t after, sm_event **v, size_t *n,
+                            sm_error *err);
+/* A failed call on db: the node is unready when it timed out (a row
+ * lock held by a frozen session, a statement cancelled). */
+void node_check_timeout(smd_pg_node *n, smd_pg *db, const sm_error *err);
 void *node_sync_main(void *arg);
 
 /* smd_pg_work.c */

@@ -252,6 +252,31 @@ sm_status smd_pg_expire(smd_pg *db, int max_attempts, size_t *requeued, size_t *
     return SM_OK;
 }
 
+sm_status smd_pg_expired_held(smd_pg *db, char *ids, size_t cap, size_t *n, sm_error *err)
+{
+    /* the sweep just took every unlocked one: what is left past its
+     * expiry (by a second, not to count a lease ending right now) is a
+     * row another session keeps locked */
+    PGresult *r = smd_pg_exec(db, "expired leases held",
+                              "SELECT id FROM smd_jobs WHERE state = 'running' AND"
+                              " lease_expires <= now() - interval '1 second' ORDER BY id LIMIT 16",
+                              0, NULL, err);
+    if (!r)
+        return SM_ERR_IO;
+    *n = (size_t)PQntuples(r);
+    size_t used = 0;
+    if (cap)
+        ids[0] = '\0';
+    for (size_t i = 0; i < *n && cap; i++) {
+        int k = snprintf(ids + used, cap - used, "%s%s", i ? " " : "", PQgetvalue(r, (int)i, 0));
+        if (k < 0 || (size_t)k >= cap - used)
+            break;
+        used += (size_t)k;
+    }
+    PQclear(r);
+    return SM_OK;
+}
+
 /* The running job's worker node is told (NOTIFY at commit); a queued one
  * ends here with its "cancelled" event. */
 static const char cancel_sql[] =

@@ -94,8 +94,8 @@ static sm_status publish(smd_pg_node *n, const node_item *it, sm_error *err)
                      "job %s: event %lld stored as %lld", it->id, (long long)it->seq, (long long)seq);
         return st;
     }
-    if (st != SM_OK && !smd_pg_connected(n->work_db))
-        return st;
+    if (st != SM_OK)
+        return st; /* kept with its lease (still renewed) for a retry */
     node_drop_lease(n, it->id);
     if (copy.lost)
         drop_local(n, it->id);
@@ -122,9 +122,38 @@ static void free_item(node_item *it)
     free(it);
 }
 
+/* The outbox could not be stored (a lost connection, a full database
+ * disk, a timeout): the node is unready and claims nothing until it is. */
+static void set_held(smd_pg_node *n, const node_item *first, const sm_error *err)
+{
+    pthread_mutex_lock(&n->lock);
+    int was = n->outbox_held;
+    n->outbox_held = 1;
+    snprintf(n->held_why, sizeof n->held_why,
+             "the events or results of job %s wait to be stored in the database: %s", first->id,
+             err->msg);
+    pthread_mutex_unlock(&n->lock);
+    if (!was)
+        smd_logf(&n->srv->log, SMD_LOG_ERROR, "outbox_held", "%s", n->held_why);
+}
+
+static void clear_held(smd_pg_node *n)
+{
+    pthread_mutex_lock(&n->lock);
+    int was = n->outbox_held;
+    n->outbox_held = 0;
+    pthread_mutex_unlock(&n->lock);
+    if (was)
+        smd_logf(&n->srv->log, SMD_LOG_INFO, "outbox_stored", "the waiting events and results are "
+                 "stored in the database");
+}
+
 /* Publishes the outbox in order, progress events in transactions of up
- * to 256 (one commit, not one per event); stops at a lost connection (the rest is put back). */
-static void drain(smd_pg_node *n, node_item *items)
+ * to 256 (one commit, not one per event).  Whatever fails is never
+ * dropped: the failed batch and everything after it are put back, in
+ * order, and retried (returns -1); a later event is never stored before
+ * an earlier one, so the database's gap-free seq hides nothing. */
+static int drain(smd_pg_node *n, node_item *items)
 {
     sm_error err;
     while (items) {
@@ -144,13 +173,8 @@ static void drain(smd_pg_node *n, node_item *items)
             st = smd_pg_commit(n->work_db, &err);
         if (batch && st != SM_OK)
             smd_pg_rollback(n->work_db);
-        if (st != SM_OK && !smd_pg_connected(n->work_db)) {
-            put_back(n, items);
-            node_set_down(n, err.msg);
-            return;
-        }
         if (st != SM_OK)
-            smd_logf(&n->srv->log, SMD_LOG_WARN, "database_error", "%s", err.msg);
+            break; /* the whole batch again, later */
         items = *cut;
         *cut = NULL;
         while (done) {
@@ -159,10 +183,15 @@ static void drain(smd_pg_node *n, node_item *items)
             done = next;
         }
     }
-    if (items) {
-        put_back(n, items);
+    if (!items)
+        return 0;
+    if (smd_pg_connected(n->work_db))
+        smd_logf(&n->srv->log, SMD_LOG_WARN, "database_error", "%s", err.msg);
+    set_held(n, items, &err);
+    put_back(n, items);
+    if (!smd_pg_connected(n->work_db))
         node_set_down(n, err.msg);
-    }
+    return -1;
 }
 
 static void renew_all(smd_pg_node *n)
@@ -197,7 +226,10 @@ static size_t free_slots(smd_pg_node *n)
     size_t slots = smd_pool_slots(srv->pool), used = smd_pool_busy(srv->pool) +
                                                      smd_queue_depth(srv->queue);
     pthread_mutex_unlock(&srv->lock);
-    return atomic_load(&srv->draining) || atomic_load(&srv->unwritable) || used >= slots
+    pthread_mutex_lock(&n->lock);
+    int held = n->outbox_held;
+    pthread_mutex_unlock(&n->lock);
+    return held || atomic_load(&srv->draining) || atomic_load(&srv->unwritable) || used >= slots
                ? 0 : slots - used;
 }
 
@@ -281,8 +313,15 @@ void *node_work_main(void *arg)
             backoff = backoff * 2 > 0.8 ? 0.8 : backoff * 2;
             continue;
         }
+        if (drain(n, wait_items(n)) != 0) {
+            /* retried with backoff, 0.1 s doubling to 2 s */
+            struct timespec ts = {(time_t)backoff, (long)((backoff - (time_t)backoff) * 1e9)};
+            nanosleep(&ts, NULL);
+            backoff = backoff * 2 > 2 ? 2 : backoff * 2;
+            continue;
+        }
         backoff = 0.1;
-        drain(n, wait_items(n));
+        clear_held(n);
         if (!stopping && n->srv->cfg.role != SMD_ROLE_API)
             claim(n);
     }

@@ -1,0 +1,183 @@
+#!/usr/bin/env bash
+# Database faults of a cluster (issue 28), one PostgreSQL and two nodes
+# (an API node, a worker node) shared by both parts:
+#
+# 1. A session frozen inside a transaction that holds a job's row lock: a
+#    psql session takes the row lock of a running job, then is stopped
+#    with SIGSTOP, as a worker node frozen mid-transaction would leave it
+#    (its socket open, its transaction never ending).  The API node must
+#    keep answering: a DELETE of that job fails within
+#    --database-lock-timeout (503, the job kept) and never holds the
+#    daemon's lock while it waits, so status, /healthz and /readyz answer
+#    meanwhile; the node reports unready after the timeout; the lease
+#    expiry names the lease it cannot take; once the session is gone the
+#    DELETE works.
+# 2. The database refuses a finished run's events and results for a
+#    reason other than a lost connection: a trigger raises SQLSTATE 53100
+#    (disk_full, what PostgreSQL answers when its data directory is full)
+#    on every event but "accepted" and on every result blob while a switch
+#    row exists.  The worker node must hold what it could not store and
+#    retry it in order: unready meanwhile, its lease kept (the job is not
+#    run again), and once the database takes writes again the job ends
+#    successful after one attempt with every event, in order, without a
+#    gap in iterations or sequence numbers.
+#
+# SM_TEST_OLD_DAEMON=1 SM_BIN=<older build> runs it on a daemon without
+# the timeout flags, to see the failures the fixes remove.
+source "$(dirname "$0")/lib.sh"
+source "$(dirname "$0")/../lib/cluster.sh"
+
+if ! make_case || ! pg_up; then
+    not_ok "gmsh builds the test meshes and PostgreSQL starts"
+    exit 1
+fi
+LOCKT=(--database-lock-timeout 1)
+[ -n "${SM_TEST_OLD_DAEMON:-}" ] && LOCKT=() # a daemon without the flag: the failure before the fix
+if ! node api1 api --workers 1 --lease 2 "${LOCKT[@]}" ||
+    ! node w1 worker --workers 1 --lease 2 "${LOCKT[@]}"; then
+    not_ok "the nodes start"
+    exit 1
+fi
+ok "PostgreSQL, an API node and a worker node start (--database-lock-timeout 1, --lease 2)"
+
+on api1
+id=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
+poll 30 state_is "$id" running || not_ok "the job runs" "$(job_state "$id")"
+
+# ------------------------------------------- 1. a frozen session
+# BEGIN, lock the job's row, then SIGSTOP
+mkfifo "$WORK/psql.in"
+psql -X -q "$DB" <"$WORK/psql.in" >"$WORK/psql.out" 2>&1 &
+PSQL=$!
+exec 7>"$WORK/psql.in"
+echo "BEGIN; SELECT 'locked' FROM smd_jobs WHERE id = '$id' FOR UPDATE;" >&7
+poll 10 grep -q locked "$WORK/psql.out" || not_ok "the psql session locks the row" "$(cat "$WORK/psql.out")"
+kill -STOP "$PSQL"
+held=$(psql_val "SELECT count(*) FROM pg_stat_activity WHERE state = 'idle in transaction'")
+
+# a DELETE on the API node waits for the row; meanwhile the node answers
+t0=$(date +%s.%N)
+hcurl --max-time 15 -o "$WORK/del1.json" -w '%{http_code}' -X DELETE "$BASE/v1/jobs/$id" \
+    >"$WORK/del1.code" 2>/dev/null &
+DEL=$!
+sleep 0.2
+probe() { # URL: the HTTP status within 2 s ("000": no answer)
+    curl -sS -o /dev/null -w '%{http_code}' --max-time 2 "$1" 2>/dev/null
+}
+p_health=$(probe "$BASE/healthz")
+p_status=$(probe "$BASE/v1/jobs/$id")
+p_list=$(probe "$BASE/v1/jobs")
+p_ready=$(probe "$BASE/readyz")
+wait "$DEL"
+t1=$(date +%s.%N)
+del1=$(cat "$WORK/del1.code")
+secs=$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.1f", b - a }')
+if [ "$held" -ge 1 ] && [ "$p_health" = 200 ] && [ "$p_status" = 200 ] && [ "$p_list" = 200 ] &&
+    [ "$p_ready" = 200 ]; then
+    ok "row lock held by a frozen session: /healthz, status, list and /readyz answer while a DELETE waits"
+else
+    not_ok "the API node answers while a DELETE waits on a row lock" \
+        "sessions idle in transaction $held; healthz $p_health status $p_status list $p_list readyz $p_ready"
+fi
+if [ "$del1" = 503 ] && awk -v s="$secs" 'BEGIN { exit !(s < 6) }' &&
+    grep -q 'lock timeout' "$WORK/del1.json" && [ "$(job_state "$id")" = running ]; then
+    ok "the DELETE answers 503 after the lock timeout (${secs} s), the job is kept"
+else
+    not_ok "DELETE bounded by --database-lock-timeout" "code $del1 after $secs s: $(head -c 300 "$WORK/del1.json")"
+fi
+r=$(curl -sS -o "$WORK/ready.json" -w '%{http_code}' --max-time 2 "$BASE/readyz")
+if [ "$r" = 503 ] && grep -q 'lock timeout' "$WORK/ready.json"; then
+    ok "the node whose database call timed out reports unready (/readyz 503 naming the timeout)"
+else
+    not_ok "unready after a timeout" "readyz $r: $(head -c 300 "$WORK/ready.json")"
+fi
+
+# the lease expired while the row is locked: the sweep says so
+expired_held() { grep -q '"event":"leases_expired_held"' "${NODE_LOG[api1]}" "${NODE_LOG[w1]}"; }
+if poll 10 expired_held; then
+    ok "the lease expiry names the expired lease whose row is locked"
+else
+    not_ok "leases_expired_held logged"
+fi
+
+# the session goes: the job can be deleted (dismissed) again
+{ kill -KILL "$PSQL" && wait "$PSQL"; } 2>/dev/null
+exec 7>&-
+dismissed() {
+    local c
+    c=$(hcurl -o /dev/null -w '%{http_code}' -X DELETE "$BASE/v1/jobs/$id")
+    [ "$c" = 200 ] && state_in "$id" dismissed
+}
+if poll 20 dismissed && poll 10 curl -sf -o /dev/null "$BASE/readyz"; then
+    ok "the frozen session gone: DELETE 200, the job dismissed, the node ready again"
+else
+    not_ok "DELETE after the lock is freed" "state $(job_state "$id")"
+fi
+# ------------------------------------------- 2. the database refuses writes
+psql -X -q "$DB" >"$WORK/fault.log" 2>&1 <<'SQL' || not_ok "the fault trigger is installed" "$(cat "$WORK/fault.log")"
+CREATE TABLE fault_full (x int);
+CREATE FUNCTION fault_full_fn() RETURNS trigger LANGUAGE plpgsql AS $$
+BEGIN
+  IF NOT EXISTS (SELECT 1 FROM fault_full) THEN
+    RETURN NEW;
+  END IF;
+  IF TG_TABLE_NAME = 'smd_events' THEN
+    IF NEW.payload->>'type' = 'accepted' THEN
+      RETURN NEW;
+    END IF;
+  END IF;
+  RAISE EXCEPTION 'could not extend file: No space left on device' USING ERRCODE = '53100';
+END $$;
+CREATE TRIGGER fault_full BEFORE INSERT ON smd_events FOR EACH ROW EXECUTE FUNCTION fault_full_fn();
+CREATE TRIGGER fault_full BEFORE INSERT ON smd_blobs FOR EACH ROW
+  WHEN (starts_with(NEW.name, 'results/')) EXECUTE FUNCTION fault_full_fn();
+INSERT INTO fault_full VALUES (1);
+SQL
+ok "a switchable disk-full fault: events (but accepted) and result blobs refused with SQLSTATE 53100"
+
+on api1
+id=$(submit "$FINE" "$BOX" "$BOXSOL" "$BALL_PARAMS, \"max_iter\": 60, \"tol_step\": 1e-15, \"tol_stall\": 0}")
+# the run ends on the worker node (its local record), nothing of it stored
+on w1
+ran() { grep -q "\"event\":\"job_finished\",\"job\":\"$id\"" "${NODE_LOG[w1]}"; }
+poll 60 ran || not_ok "the run ends on the worker node" "$(job_state "$id")"
+sleep 3 # more than the lease (2 s): an expired lease would requeue it now
+r_w1=$(curl -sS -o "$WORK/ready.json" -w '%{http_code}' --max-time 5 "${NODE_BASE[w1]}/readyz")
+db_state=$(psql_val "SELECT state || ' ' || attempt FROM smd_jobs WHERE id = '$id'")
+db_events=$(psql_val "SELECT count(*) FROM smd_events WHERE job = '$id'")
+if [ "$r_w1" = 503 ] && grep -q "wait to be stored" "$WORK/ready.json" &&
+    [ "$db_state" = "running 1" ] && [ "$db_events" = 1 ]; then
+    ok "the database refuses the run's events and results: the worker node holds them, unready, the lease kept (running, attempt 1)"
+else
+    not_ok "held while the database refuses writes" \
+        "w1 readyz $r_w1: $(head -c 300 "$WORK/ready.json")" "db: '$db_state', $db_events events"
+fi
+
+psql_val "DELETE FROM fault_full" >/dev/null
+on api1
+poll 30 state_is "$id" successful
+final=$(psql_val "SELECT state || ' ' || attempt FROM smd_jobs WHERE id = '$id'")
+psql -X -A -t -q "$DB" -c "SELECT seq || ' ' || (payload->>'type') || ' ' || coalesce(payload->>'iteration', '-') FROM smd_events WHERE job = '$id' ORDER BY seq" >"$WORK/events.txt"
+nev=$(wc -l <"$WORK/events.txt")
+seqs_ok=$(awk '$1 != NR { bad = 1 } END { print bad ? "no" : "yes" }' "$WORK/events.txt")
+iters=$(awk '$2 == "progress" { print $3 }' "$WORK/events.txt" | tr '\n' ' ')
+iters_ok=$(awk '$2 == "progress" { if (prev != "" && $3 != prev + 1) bad = 1; prev = $3; n++ }
+    END { print (bad || n < 10) ? "no" : "yes" }' "$WORK/events.txt")
+types=$(awk '$2 != "progress" { printf "%s ", $2 }' "$WORK/events.txt")
+if [ "$final" = "successful 1" ] && [ "$seqs_ok" = yes ] && [ "$iters_ok" = yes ] &&
+    [ "$types" = "accepted started finished " ]; then
+    ok "writes taken again: successful after 1 attempt, $nev events, seq 1..$nev, every iteration in order"
+else
+    not_ok "every held event and the result stored once the database takes writes" \
+        "db: '$final', events: $types; seqs $seqs_ok; iterations $iters_ok: $iters"
+fi
+if poll 10 curl -sf -o /dev/null "${NODE_BASE[w1]}/readyz" &&
+    [ "$(grep -c "\"event\":\"job_claimed\",\"job\":\"$id\"" "${NODE_LOG[w1]}")" = 1 ]; then
+    ok "the worker node is ready again; the job was claimed once"
+else
+    not_ok "ready again, one claim" "claims: $(grep -c '"event":"job_claimed"' "${NODE_LOG[w1]}")"
+fi
+for nd in api1 w1; do kill -TERM "${NODE_PID[$nd]}" 2>/dev/null; done
+for nd in api1 w1; do wait "${NODE_PID[$nd]}" 2>/dev/null; done
+check "no sanitizer report in any node's log" reports_clean
+echo "1..$n"

@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# Bounded floods on loopback (issue 28), each against a daemon with small
+# limits so that it stays short; the driver is tests/integration/flood.py.
+#
+# Parked request bodies: 24 OGC execute requests send 2 MB each at once
+# and stall.  With --max-body-memory 8M the daemon holds at most 8 MiB of
+# them (its RSS grows by far less than the 48 MB sent; before, each kept
+# its buffer: +50 MB), a complete execute request meanwhile gets 503
+# naming the flag, and --body-stall-timeout 2 cuts every stalled body
+# (before, their average rate kept them for an hour).
+#
+# Long-lived connections: 240 event streams from 4 addresses, then 240
+# uploads sending 200 KB at once and 1 byte/s after, on a daemon of 200
+# connections (reserve 20) with --max-streams-per-ip 30: /healthz and a
+# job's status keep answering (tests/integration/loris.py probes them every
+# second); before, the streams or uploads took every socket.
+source "$(dirname "$0")/lib.sh"
+
+rss_kb() { awk '/^VmRSS/ { print $2 }' "/proc/$1/status"; }
+
+# ------------------------------------------------------- parked bodies
+start_daemon park --workers 1 --max-body-memory 8M --body-stall-timeout 2 ||
+    { not_ok "the daemon starts"; exit 1; }
+port=${BASE##*:}
+rss0=$(rss_kb "$DPID")
+coproc PARK { python3 "$(dirname "$0")/flood.py" park "$port" 24 2000000 $((6 * SLOW)); }
+read -r -t $((20 * SLOW)) sent <&"${PARK[0]}"
+rss1=$(rss_kb "$DPID")
+printf '{"inputs": {"template": {"value": "%s"}}}' "$(head -c 60000 /dev/zero | tr '\0' A)" \
+    >"$WORK/small.json"
+# the daemon may still be reading the parked bodies (a sanitizer build is
+# slow): ask until their buffers hold the budget, well within the stall
+execute_small() {
+    code=$(curl -sS -o "$WORK/small.out" -w '%{http_code}' --max-time 10 -H 'Content-Type: application/json' \
+        --data-binary "@$WORK/small.json" "$BASE/v1/processes/match/execution")
+    [ "$code" = 503 ]
+}
+poll 1 execute_small
+read -r -t $((20 * SLOW)) result <&"${PARK[0]}"
+wait "$PARK_PID" 2>/dev/null
+grown=$(((rss1 - rss0) / 1024))
+# uncapped, the 24 buffers alone hold 48 MiB; a sanitizer build also keeps
+# freed buffers (the realloc steps) in its quarantine for a while
+bound=24
+[ "$SLOW" -gt 1 ] && bound=40
+if [ "${sent:-}" = sent ] && [ "$grown" -lt "$bound" ]; then
+    ok "24 parked execute bodies of 2 MB: the daemon grew by $grown MiB (--max-body-memory 8M)"
+else
+    not_ok "parked bodies bounded by --max-body-memory" "sent '${sent:-}', grew by $grown MiB"
+fi
+if [ "$code" = 503 ] && grep -q -- '--max-body-memory' "$WORK/small.out"; then
+    ok "an execute request while the budget is taken: 503 naming --max-body-memory"
+else
+    not_ok "503 past --max-body-memory" "code $code: $(head -c 300 "$WORK/small.out")"
+fi
+if jq -e --argjson k "$SLOW" '.closed_by_server == .opened and .longest_life <= 2 + 2 * $k' \
+    <<<"${result:-null}" >/dev/null; then
+    ok "every stalled body cut by --body-stall-timeout 2: $result"
+else
+    not_ok "stalled bodies cut" "${result:-no result}"
+fi
+code=$(curl -sS -o "$WORK/small.out" -w '%{http_code}' --max-time 10 -H 'Content-Type: application/json' \
+    --data-binary "@$WORK/small.json" "$BASE/v1/processes/match/execution")
+check "the budget is back once they are cut (an execute request is read again: $code, not 503)" \
+    test "$code" != 503 -a "$code" != 000
+stop_daemon
+
+# ------------------------------------------------ long-lived connections
+if ! make_case; then
+    not_ok "gmsh builds the test meshes" "$(tail -5 "$WORK/case/gmsh.log")"
+    exit 1
+fi
+LONGF=(--max-streams-per-ip 30)
+[ -n "${SM_TEST_OLD_DAEMON:-}" ] && LONGF=()
+start_daemon longlived --workers 1 --max-connections 200 --max-connections-per-ip 100 \
+    --reserved-connections 20 "${LONGF[@]}" || { not_ok "the daemon starts"; exit 1; }
+port=${BASE##*:}
+id=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
+poll 30 state_is "$id" running || not_ok "a running job to follow" "$(cat "$WORK/submit.out")"
+flood() { # MODE SECONDS ADDRS PER DESC
+    python3 "$(dirname "$0")/loris.py" "$port" "$2" "$3" "$4" "/v1/jobs/$id" "$1" >"$WORK/$1.json"
+    if jq -e '.probes > 0 and .answered == .probes and .max_latency <= 2' "$WORK/$1.json" >/dev/null; then
+        ok "$5: $(jq -r '"\(.answered)/\(.probes) probes answered (max \(.max_latency) s)"' "$WORK/$1.json")"
+    else
+        not_ok "$5" "$(cat "$WORK/$1.json")"
+    fi
+}
+flood stream 3 127.0.0.2,127.0.0.3,127.0.0.4,127.0.0.5 60 \
+    "240 event streams from 4 addresses on a 200-connection daemon"
+flood bulk 3 127.0.0.6,127.0.0.7,127.0.0.8,127.0.0.9 60 \
+    "240 uploads sending 200 KB, then 1 byte/s, from 4 addresses"
+hcurl -o /dev/null -X DELETE "$BASE/v1/jobs/$id"
+stop_daemon
+
+check "no sanitizer report in the daemon logs" reports_clean
+echo "1..$n"

@@ -89,6 +89,11 @@ enum MHD_Result smd_route_inputs(struct MHD_Connection *conn, smd_request *req)
 
 enum MHD_Result smd_route_input(struct MHD_Connection *conn, smd_request *req)
 {
+    /* the job first, as every job route: another tenant's job is "no job"
+     * whatever the part asked for */
+    enum MHD_Result r;
+    if (!visible(conn, req, &r))
+        return r;
     int part = -1;
     for (int i = 0; i < SM_PART_PARAMS; i++)
         if (strcmp(req->arg, sm_part_names[i]) == 0)
@@ -97,9 +102,6 @@ enum MHD_Result smd_route_input(struct MHD_Connection *conn, smd_request *req)
         return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NOT_FOUND,
                                  "no such input: the inputs are template, target_mesh, target_sol "
                                  "and target_surface (the parameters are in the job's document)");
-    enum MHD_Result r;
-    if (!visible(conn, req, &r))
-        return r;
     smd_server *srv = req->srv;
     char name[48];
     int fd = open_part(srv, req->id, part, name, sizeof name);

@@ -332,7 +332,8 @@ static sm_status crop_field(const sm_image *im, const uint8_t *mask, const sm_im
     if (hi[0] < 0)
         return sm_error_set(err, SM_ERR_INVALID, "the selected label is empty");
     int raw = !sel->has_label && (im->type == SM_VOXEL_F32 || im->type == SM_VOXEL_F64);
-    int64_t pad = (int64_t)ceil(3 * o->smooth) + 2 + (int64_t)ceil(o->pad_voxels);
+    double smooth = raw ? 0 : o->smooth;
+    int64_t pad = (int64_t)ceil(3 * smooth) + 2 + (int64_t)ceil(o->pad_voxels);
     int64_t total = 1;
     for (int c = 0; c < 3; c++) {
         lo[c] -= pad;
@@ -357,7 +358,7 @@ static sm_status crop_field(const sm_image *im, const uint8_t *mask, const sm_im
                : raw ? (float)sm_image_value(im, at) : (float)mask[at];
     }
     *level = raw ? sel->level : 0.5;
-    sm_status st = !raw && o->smooth > 0 ? blur(f, t->n, o->smooth, err) : SM_OK;
+    sm_status st = smooth > 0 ? blur(f, t->n, smooth, err) : SM_OK;
     if (st != SM_OK) {
         free(f);
         return st;

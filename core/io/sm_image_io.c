@@ -297,6 +297,8 @@ static sm_status read_src(const sm_reader_input *in, sm_image_limits *limits, sm
         st = sm__nrrd_read(&r, &src, out, err);
     else if (sm__mha_detect(&r))
         st = sm__mha_read(&r, &src, out, err);
+    else if (r.stream_status != SM_OK) /* a corrupt gzip file, a read error */
+        st = sm__reader_fail_byte(&r, err, r.stream_status, sm__reader_offset(&r), "%s", r.why);
     else
         st = sm_error_set(err, SM_ERR_FORMAT, "%s: not an image this reads (%s)", in->path,
                           SM_IMAGE_FORMATS);

@@ -428,6 +428,11 @@ const sm_surface *sm_image_target_surface(const sm_image_target *t)
     return t->surface;
 }
 
+const sm_sdf *sm_image_target_sdf(const sm_image_target *t)
+{
+    return t->sdf;
+}
+
 void sm_image_target_grid(const sm_image_target *t, int64_t n[3], double map[12], const float **edt)
 {
     memcpy(n, t->n, 3 * sizeof *n);

@@ -10,7 +10,9 @@ cd "$(dirname "$0")/../.."
 out=$1
 rm -rf "$out"
 mkdir -p "$out"/{mesh,msh,stl,obj,sol,params,events,payload,sse,headers,multipart,parts,decimal,job_file}
-for t in mesh msh stl obj sol params events payload sse headers multipart parts decimal job_file; do
+# the label-map image targets (fuzz_nifti, fuzz_nrrd, fuzz_mha)
+mkdir -p "$out"/{nifti,nrrd,mha}
+for t in mesh msh stl obj sol params events payload sse headers multipart parts decimal job_file nifti nrrd mha; do
     [ -d tests/fuzz/seeds/$t ] && cp tests/fuzz/seeds/$t/* "$out/$t/" 2>/dev/null || true
 done
 add() { # target name file [prefix-byte-octal...]
@@ -31,6 +33,11 @@ for d in tests/data/malformed/*/; do
         [ -f "$f" ] || continue
         case $f in
             *.stl|*.stl.gz) add stl "$c" "$f"; continue ;;
+            *.nii|*.nii.gz) add nifti "$c" "$f"; continue ;;
+            # the targets' prefixes give the first line
+            *.nrrd|*.nhdr) tail -n +2 "$f" >"$out/nrrd/$c"; continue ;;
+            *.mha|*.mhd) tail -n +2 "$f" >"$out/mha/$c"; continue ;;
+            *.img) continue ;;
             *.obj) tail -n +1 "$f" >"$out/obj/$c"; continue ;;
         esac
         case $f in

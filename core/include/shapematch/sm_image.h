@@ -152,8 +152,9 @@ typedef struct sm_image_target sm_image_target;
 sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_image_select *sel,
                               const sm_image_target_opts *o, sm_image_target **out, sm_error *err);
 void sm_image_target_free(sm_image_target *t);
-/* The level-set surface (owned by t). */
+/* The level-set surface and its distance hierarchy (owned by t). */
 const sm_surface *sm_image_target_surface(const sm_image_target *t);
+const struct sm_sdf *sm_image_target_sdf(const sm_image_target *t);
 /* The crop's size, its index-to-world map and the signed EDT on it. */
 void sm_image_target_grid(const sm_image_target *t, int64_t n[3], double map[12],
                           const float **edt);

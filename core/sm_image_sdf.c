@@ -404,6 +404,11 @@ sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_
         goto done;
     mt_builder b = {.f = f, .n = {t->n[0], t->n[1], t->n[2]}, .level = level, .map = t->map};
     st = march(&b, &t->surface, err);
+    if (st == SM_ERR_INVALID && o->smooth > 0 && level == 0.5)
+        /* a label thinner than about two sigmas is smoothed below 0.5 */
+        st = sm_error_set(err, SM_ERR_INVALID, "the label's boundary vanished under the smoothing "
+                          "of %g voxels (a structure a few voxels thin): give a smaller smoothing "
+                          "(--smooth 0 keeps the mask's own boundary)", o->smooth);
     free(b.coords);
     free(b.tris);
     free(b.keys);

@@ -164,6 +164,15 @@ sed 's|data file: det.raw.gz|data file: ../etc/passwd|' "$WORK/det.nhdr" >"$WORK
 rc=$?
 [ $rc = 2 ] && grep -q "without '..'" "$WORK/e2"
 check_rc $? "a detached data file outside the header's folder is refused" "rc $rc: $(cat "$WORK/e2")"
+python3 -c 'import sys; v = bytearray(512); v[292] = 1
+sys.stdout.buffer.write(b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 8 8 8\nencoding: raw\n\n" + v)' \
+    >"$WORK/one.nrrd"
+"$BIN" sdf --image "$WORK/one.nrrd" -o "$WORK/no" >/dev/null 2>"$WORK/e4"
+rc=$?
+[ $rc = 2 ] && grep -q "vanished under the smoothing" "$WORK/e4" &&
+    "$BIN" sdf --image "$WORK/one.nrrd" --smooth 0 -o "$WORK/one" >/dev/null 2>&1
+check_rc $? "a one-voxel label: smoothed away (exit 2, says so), kept with --smooth 0" \
+    "rc $rc: $(cat "$WORK/e4")"
 head -c 400 "$WORK/s1.nii" >"$WORK/cut.nii"
 "$BIN" sdf --image "$WORK/cut.nii" -o "$WORK/no" >/dev/null 2>"$WORK/e3"
 rc=$?

@@ -17,8 +17,8 @@
  * (spacing, directions, origin) must be finite, spacings nonzero, the
  * direction matrix non-singular; errors are SM_ERR_FORMAT naming the
  * file and the byte offset (NIfTI) or header line (NRRD, MetaImage), e.g.
- *   "x.nii: byte 40: dim[1] = -3 is not a positive size"
- *   "x.nrrd:4: unknown type 'complex'"
+ *   "x.nii: byte 42: dim[1] = -3 is not a positive size"
+ *   "x.nrrd:4: unknown or unsupported type (...), found 'complex'"
  * A detached data file (NRRD `data file`, MetaImage `ElementDataFile`)
  * must be a relative name without "..", resolved beside the header, and
  * is refused when limits->no_detached is set (a daemon's uploads are one

@@ -109,9 +109,13 @@ print('ok')
 PY
 check_rc $? "--edt-out: RAS grid = LPS grid with x, y negated, same values" "$(cat "$WORK/flip")"
 
-# the EDT against scipy's distance_transform_edt (the independent oracle)
+# the signed EDT (of the unsmoothed mask) against brute force on a sample
+# of voxels, and against scipy's distance_transform_edt on all of them
+"$BIN" sdf --image "$WORK/raw.nrrd" --smooth 0 -o "$WORK/s0b" --edt-out "$WORK/edt0.nrrd" 2>/dev/null
+python3 "$SHAPES" edtbrute "$WORK/edt0.nrrd" "$WORK/raw.nrrd" >"$WORK/brute" 2>&1
+check_rc $? "signed EDT equals brute force on sampled voxels" "$(cat "$WORK/brute")"
+echo "# $(cat "$WORK/brute")"
 if python3 -c 'import scipy.ndimage' 2>/dev/null; then
-    "$BIN" sdf --image "$WORK/raw.nrrd" --smooth 0 -o "$WORK/s0b" --edt-out "$WORK/edt0.nrrd" 2>/dev/null
     python3 - "$WORK/edt0.nrrd" "$WORK/raw.nrrd" >"$WORK/scipy" 2>&1 <<'PY'
 import sys
 import numpy as np
@@ -119,7 +123,7 @@ from scipy import ndimage
 def nrrd(p):
     raw = open(p, 'rb').read()
     head, data = raw.split(b'\n\n', 1)
-    h = dict(l.split(': ', 1) for l in head.decode().split('\n')[1:])
+    h = dict(l.split(': ', 1) for l in head.decode().split('\n')[1:] if ': ' in l)
     n = [int(t) for t in h['sizes'].split()]
     dirs = np.array([[float(t) for t in v.strip('()').split(',')] for v in h['space directions'].split()])
     org = np.array([float(t) for t in h['space origin'].strip('()').split(',')])

@@ -10,6 +10,8 @@ for tests/cli/image.sh.  Pure Python (struct, zlib, gzip): no numpy.
         distance at the background vertices against the exact one
     image_shapes.py edt DIR EDT.nrrd    the EDT grid against brute force
     image_shapes.py solcmp A.sol B.sol TOL
+    image_shapes.py edtbrute EDT.nrrd IMAGE.nrrd
+        the signed EDT of an unsmoothed mask against brute force, sampled
 """
 import gzip
 import math
@@ -237,6 +239,74 @@ def edt_check(path, shape):
     return rms
 
 
+def nrrd_file(path):
+    with open(path, 'rb') as f:
+        raw = f.read()
+    head, data = raw.split(b'\n\n', 1)
+    hdr = dict(l.split(': ', 1) for l in head.decode().split('\n')[1:] if ': ' in l)
+    n = [int(t) for t in hdr['sizes'].split()]
+    dirs = [[float(t) for t in v.strip('()').split(',')] for v in hdr['space directions'].split()]
+    origin = [float(t) for t in hdr['space origin'].strip('()').split(',')]
+    return n, data, dirs, origin
+
+
+def edt_brute(edt_path, image_path):
+    """Every 7th voxel of the crop: its signed EDT value against the
+    distance to the nearest voxel centre of the other class, found among
+    that class's boundary voxels (a nearest one always has a neighbour of
+    the other class: a step toward the query would otherwise be nearer)."""
+    n, data, dirs, origin = nrrd_file(edt_path)
+    vals = struct.unpack('<%df' % (n[0] * n[1] * n[2]), data)
+    n0, data0, dirs0, origin0 = nrrd_file(image_path)
+    # the crop's first voxel in the image's indices: dirs equal, solve
+    # origin = origin0 + sum_a off_a dirs0[a] by Cramer's rule
+    m = [[dirs0[a][r] for a in range(3)] for r in range(3)]
+    rhs = [origin[r] - origin0[r] for r in range(3)]
+
+    def det(a):
+        return (a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
+                a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+                a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]))
+    d = det(m)
+    off = []
+    for a in range(3):
+        ma = [[rhs[r] if c == a else m[r][c] for c in range(3)] for r in range(3)]
+        off.append(round(det(ma) / d))
+    h = [math.sqrt(sum(v * v for v in dirs[a])) for a in range(3)]
+
+    def inside(i, j, k):
+        p = (i + off[0], j + off[1], k + off[2])
+        if not all(0 <= p[a] < n0[a] for a in range(3)):
+            return False
+        return data0[p[0] + n0[0] * (p[1] + n0[1] * p[2])] != 0
+    cls = {}
+    for k in range(n[2]):
+        for j in range(n[1]):
+            for i in range(n[0]):
+                cls[(i, j, k)] = inside(i, j, k)
+    border = {True: [], False: []}
+    for (i, j, k), c in cls.items():
+        for di, dj, dk in ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)):
+            q = cls.get((i + di, j + dj, k + dk))
+            if q is not None and q != c:
+                border[c].append((i * h[0], j * h[1], k * h[2]))
+                break
+    worst, count = 0.0, 0
+    total = n[0] * n[1] * n[2]
+    for v in range(0, total, 7):
+        i, j, k = v % n[0], (v // n[0]) % n[1], v // (n[0] * n[1])
+        c = cls[(i, j, k)]
+        x = (i * h[0], j * h[1], k * h[2])
+        best = min((x[0] - p[0]) ** 2 + (x[1] - p[1]) ** 2 + (x[2] - p[2]) ** 2
+                   for p in border[not c])
+        want = -math.sqrt(best) if c else math.sqrt(best)
+        worst = max(worst, abs(vals[v] - want))
+        count += 1
+    print('signed EDT against brute force: %d voxels of %d, max difference %.3g' %
+          (count, total, worst))
+    return worst
+
+
 def main():
     cmd = sys.argv[1]
     if cmd == 'write':
@@ -248,6 +318,9 @@ def main():
             sys.exit('rms %.4f above %.4f' % (rms, limit))
     elif cmd == 'edt':
         print('%.6f' % edt_check(sys.argv[2], sys.argv[3]))
+    elif cmd == 'edtbrute':
+        if not edt_brute(sys.argv[2], sys.argv[3]) < 1e-4:
+            sys.exit('the EDT differs from brute force')
     elif cmd == 'solcmp':
         a, b, tol = read_sol(sys.argv[2]), read_sol(sys.argv[3]), float(sys.argv[4])
         if len(a) != len(b):

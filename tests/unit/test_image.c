@@ -16,6 +16,7 @@
 #include <string.h>
 
 #include "shapematch/sm_image.h"
+#include "shapematch/sm_sdf.h"
 
 static uint64_t rng = 88172645463325252ull;
 static double rnd(void)
@@ -242,12 +243,63 @@ static void test_target_sphere(void **state)
     free(m);
 }
 
+/* The unsmoothed mask of a ball of radius 20 voxels: its marching-
+ * tetrahedra surface has planar pieces that a graded background's grid
+ * points straddle exactly (|pq| = dp + dq), where sm_sdf_signed's sign
+ * propagation once carried the sign across the surface (85 wrong signs
+ * of 79k); every sign now agrees with the winding number. */
+static void test_binary_sphere_signs(void **state)
+{
+    (void)state;
+    int64_t n = 52;
+    sm_image im = {.dims = {n, n, n}, .type = SM_VOXEL_U8, .slope = 1, .inter = 0};
+    double map[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+    memcpy(im.ijk_to_lps, map, sizeof map);
+    uint8_t *v = calloc((size_t)(n * n * n), 1), *m = malloc((size_t)(n * n * n));
+    double c[3] = {25.3, 25.6, 25.9};
+    for (int64_t k = 0; k < n; k++)
+        for (int64_t j = 0; j < n; j++)
+            for (int64_t i = 0; i < n; i++)
+                v[i + n * (j + n * k)] = hypot(hypot(i - c[0], j - c[1]), k - c[2]) <= 20;
+    im.voxels = v;
+    sm_image_select sel = {0, 0, 0.5};
+    assert_int_equal(sm_image_mask(&im, &sel, m, NULL, NULL), SM_OK);
+    sm_image_target_opts o = {0, 3.0, 0};
+    sm_image_target *t;
+    sm_error err;
+    assert_int_equal(sm_image_target_new(&im, m, &sel, &o, &t, &err), SM_OK);
+    double lo[3] = {1.6, 1.9, 2.2}, hi[3] = {49.0, 49.3, 49.6};
+    sm_mesh *bg;
+    assert_int_equal(sm_background_graded_new(3, lo, hi, 1.0, sm_image_target_sdf(t), &bg, &err),
+                     SM_OK);
+    double *d = malloc((size_t)bg->nverts * sizeof *d), *w = malloc((size_t)bg->nverts * sizeof *w);
+    assert_int_equal(sm_image_target_signed(t, bg->nverts, bg->coords, d, NULL, &err), SM_OK);
+    sm_sdf_winding(sm_image_target_sdf(t), bg->nverts, bg->coords, w);
+    int64_t wrong = 0, near = 0;
+    for (int32_t p = 0; p < bg->nverts; p++)
+        if (fabs(d[p]) < 3 && d[p] != 0) { /* on the surface: no side */
+            near++;
+            int bad = (d[p] < 0) != (w[p] > 0.5);
+            wrong += bad;
+        }
+    print_message("# binary sphere r 20: %lld near points, %lld signs against the winding number\n",
+                  (long long)near, (long long)wrong);
+    assert_true(near > 10000);
+    assert_int_equal(wrong, 0);
+    free(d);
+    free(w);
+    sm_mesh_free(bg);
+    sm_image_target_free(t);
+    free(v);
+    free(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_edt_brute_force), cmocka_unit_test(test_nifti_qform_sform),
         cmocka_unit_test(test_text_formats),    cmocka_unit_test(test_mask_stats),
-        cmocka_unit_test(test_target_sphere),
+        cmocka_unit_test(test_target_sphere),   cmocka_unit_test(test_binary_sphere_signs),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -24,6 +24,8 @@ DEB_PACKAGES := gcc make pkg-config libc6-dev \
   libmicrohttpd-dev libgnutls28-dev libcurl4-openssl-dev curl gmsh wrk jq systemd python3 python3-yaml strace \
   libdeflate-dev pmccabe clang libclang-rt-14-dev libomp-14-dev nodejs chromium postgresql libpq-dev \
   libhypre-dev mpi-default-dev python3-numpy man-db groff-base python3-meshio
+# the label-map tests and bench: scipy's distance transform as an independent oracle
+DEB_PACKAGES += python3-scipy
 
 # The part of them `make release` and `make install` need (the Dockerfile's
 # build stage: `make deps-build`); tests/deploy/ checks it is a subset.

@@ -5,7 +5,8 @@
 #                         examples, the paper's size end to end, the
 #                         surface distance, the readers and writers, the
 #                         daemon under wrk, the cluster), the soak, the
-#                         scaling benchmark, the large background
+#                         scaling benchmark, the large background; the
+#                         label map to a distance (bench/image_sdf.sh)
 #   make bench-soak       bench/soak.sh alone (SOAK_SECONDS, default 600)
 #   make bench-scale      bench/scale.sh alone (SCALE_SIZES, SCALE_SOLVERS)
 #   make bench-bigfield   bench/bigfield.sh alone (BIGFIELD_TETS, default 5M)
@@ -28,6 +29,7 @@ RELEASE_ONLY_TARGETS += $(BENCH_PROGS)
 bench: check-deps
 	$(MAKE) -j$$(nproc) release
 	bench/run.sh
+	bench/image_sdf.sh
 	bench/soak.sh
 	bench/scale.sh
 	bench/bigfield.sh

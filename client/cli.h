@@ -67,6 +67,8 @@ int cmd_run(int argc, char **argv);
 /* `shapematch sdf`: signed distance to a surface on a background mesh. */
 int cmd_sdf(int argc, char **argv);
 void cmd_sdf_help(void);
+/* `sdf --image` (cmd_sdf_image.c): a label map's boundary. */
+int cmd_sdf_image(int argc, char **argv);
 /* Writes the help page of `shapematch run` to stdout. */
 void cmd_run_help(void);
 

@@ -12,6 +12,7 @@
 
 #include "args.h"
 #include "cli.h"
+#include "shapematch/sm_image.h"
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_path.h"
 #include "shapematch/sm_sdf.h"
@@ -27,6 +28,9 @@ void cmd_sdf_help(void)
     printf("Usage: shapematch sdf --surface S --background B -o OUT.sol|OUT.vtu\n"
            "       shapematch sdf --surface S -o DIR|OUT.vtu [--background-size H]\n"
            "                      [--background-padding P]\n"
+           "       shapematch sdf --image F -o DIR [--label N] [--level L]\n"
+           "                      [--image-space lps|ras] [--edt-out E.nrrd]\n"
+           "                      [--background-size H] [--background-padding P]\n"
            "\n"
            "Signed distance to a surface (negative inside) at the vertices of a background\n"
            "mesh: B when given (written to OUT.sol/.solb, .gz by extension), else a\n"
@@ -45,10 +49,18 @@ void cmd_sdf_help(void)
            "  --background-padding P  generated background: margin around the surface\n"
            "                          box, as a fraction of its diagonal (default 0.1)\n"
            "\n"
+           "  --image FILE            target label map: %s; its boundary's signed\n"
+           "                          distance on a generated background (DIR)\n"
+           "  --label N               the label's voxels (default: every nonzero voxel)\n"
+           "  --level L               float images: voxels of value >= L (default 0.5)\n"
+           "  --image-space S         frame of the template's coordinates: lps (default;\n"
+           "                          ITK, Slicer) or ras (NIfTI's world)\n"
+           "  --edt-out FILE          also write the voxel-centre signed EDT (NRRD)\n"
+           "\n"
            "The surface health report (holes, non-manifold edges, facets reoriented,\n"
            "duplicate and degenerate facets, components, bounding box) goes to stderr.\n"
            "\n%s",
-           cli_exit_codes_sdf_help);
+           SM_IMAGE_FORMATS, cli_exit_codes_sdf_help);
 }
 
 static int has_suffix(const char *s, const char *suffix)
@@ -234,6 +246,9 @@ done:
 
 int cmd_sdf(int argc, char **argv)
 {
+    for (int i = 1; i < argc; i++)
+        if (strcmp(argv[i], "--image") == 0 || strncmp(argv[i], "--image=", 8) == 0)
+            return cmd_sdf_image(argc, argv);
     sdf_options o = {NULL, NULL, NULL, 0, -1};
     int done;
     int rc = parse(argc, argv, &o, &done);

@@ -13,7 +13,8 @@ CORE_BASE_SRCS := core/sm_alloc.c core/sm_atomic.c core/sm_clamp.c core/sm_clock
 CORE_FIELD_SRCS := core/sm_field.c core/sm_field_adjacency.c core/sm_field_grid.c \
   core/sm_field_locate.c core/sm_field_nearest.c core/sm_warp.c
 CORE_SDF_SRCS := core/sm_background.c core/sm_bvh.c core/sm_sdf.c core/sm_surface_repair.c \
-  core/sm_surface_orient.c core/sm_winding.c
+  core/sm_surface_orient.c core/sm_winding.c core/sm_image.c core/sm_edt.c \
+  core/sm_image_sdf.c
 CORE_SOLVE_SRCS := core/sm_elasticity.c core/sm_elasticity_pattern.c core/sm_element.c \
   core/sm_solver_amg.c core/sm_shape.c core/sm_match.c
 CORE_IO_SRCS := core/io/sm_io.c core/io/sm_io_surface.c \
@@ -21,6 +22,8 @@ CORE_IO_SRCS := core/io/sm_io.c core/io/sm_io_surface.c \
   core/io/sm_io_msh.c core/io/sm_io_sol.c core/io/sm_io_stl.c core/io/sm_io_obj.c \
   core/io/sm_io_vtu.c \
   core/io/sm_io_cells.c core/io/sm_io_ply.c core/io/sm_io_off.c core/io/sm_io_vtk.c core/io/sm_io_vtkxml.c \
+  core/io/sm_image_io.c core/io/sm_image_text.c core/io/sm_io_nifti.c core/io/sm_io_nrrd.c \
+  core/io/sm_io_mha.c \
   core/io/sm_reader.c core/io/sm_writer.c core/io/sm_stream.c core/io/sm_inflate.c \
   core/io/sm_number.c
 CORE_SRCS := $(CORE_BASE_SRCS) $(CORE_FIELD_SRCS) $(CORE_SDF_SRCS) $(CORE_SOLVE_SRCS) \

@@ -9,7 +9,7 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=$1
 rm -rf "$out"
-targets="mesh msh stl obj ply off vtk vtkxml sol params events payload sse headers multipart parts decimal job_file points"
+targets="mesh msh stl obj ply off vtk vtkxml sol params events payload sse headers multipart parts decimal job_file points nifti nrrd mha"
 for t in $targets; do
     mkdir -p "$out/$t"
     [ -d tests/fuzz/seeds/$t ] && cp tests/fuzz/seeds/$t/* "$out/$t/" 2>/dev/null || true
@@ -32,6 +32,11 @@ for d in tests/data/malformed/*/; do
         [ -f "$f" ] || continue
         case $f in
             *.stl|*.stl.gz) add stl "$c" "$f"; continue ;;
+            *.nii|*.nii.gz) add nifti "$c" "$f"; continue ;;
+            # the targets' prefixes give the first line
+            *.nrrd|*.nhdr) tail -n +2 "$f" >"$out/nrrd/$c"; continue ;;
+            *.mha|*.mhd) tail -n +2 "$f" >"$out/mha/$c"; continue ;;
+            *.img) continue ;;
             *.obj) tail -n +1 "$f" >"$out/obj/$c"; continue ;;
             *.ply) tail -c +5 "$f" >"$out/ply/$c"; continue ;;
             *.off) tail -c +5 "$f" >"$out/off/$c"; continue ;;

@@ -2,7 +2,9 @@
  * suites: every folder tests/data/malformed/<case>/ holds
  *   input.<ext>  a malformed .mesh/.meshb/.msh/.sol/.solb file (optionally
  *                .gz), or for cases named surface-*, a malformed target
- *                surface (.stl, .obj, ...) read by sm_surface_read
+ *                surface (.stl, .obj, ...) read by sm_surface_read; for
+ *                cases named image-*, a malformed label map (.nii, .nrrd,
+ *                .mha, ...) read by sm_image_read (generate_image.py)
  *   error        a substring the error message must contain
  *   status       (optional) the expected sm_status name ("format", ...)
  * and becomes one TAP test.  The reader must fail (never crash, never
@@ -20,6 +22,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "shapematch/sm_image.h"
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_surface.h"
 
@@ -63,7 +66,11 @@ static void run_case(void **state)
     sm_error err;
     sm_error_clear(&err);
     sm_status st;
-    if (is_surface_case(c->name)) {
+    if (strncmp(c->name, "image-", 6) == 0) {
+        sm_image *im = (sm_image *)(uintptr_t)1;
+        st = sm_image_read(c->input, NULL, &im, &err);
+        assert_null(im);
+    } else if (is_surface_case(c->name)) {
         sm_surface *s = (sm_surface *)(uintptr_t)1;
         st = sm_surface_read(c->input, &s, &err);
         assert_null(s);

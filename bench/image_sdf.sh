@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# A 256^3 label map to a signed distance on the generated background, the
+# whole command (`shapematch sdf --image`: read, select, smooth, EDT,
+# surface, background, distance, write), against scipy's
+# distance_transform_edt on the same array (both signs, as ours) for the
+# ratio, when scipy is installed.  Issue 23's goals: <= 1.5 s on the
+# project's 2-core machine, peak memory <= 3x the image as float32.
+# The label: an ellipsoid of semi-axes 100, 80, 60 voxels (1 x 1 x 1.5 mm)
+# written as NRRD (gzip) by a row-wise generator (no numpy needed).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BIN=${SM_BIN:-build/release}
+N=${IMAGE_BENCH_N:-256}
+W=$(mktemp -d "${TMPDIR:-/tmp}/sm-image-bench.XXXXXX")
+trap 'rm -rf "$W"' EXIT
+python3 - "$W/label.nrrd" "$N" <<'PY'
+import gzip, math, sys
+path, n = sys.argv[1], int(sys.argv[2])
+a, b, c = 100 * n / 256, 80 * n / 256, 60 * n / 256 / 1.5   # in voxels
+rows = []
+for k in range(n):
+    for j in range(n):
+        q = 1 - ((j - n / 2 + 0.3) / b) ** 2 - ((k - n / 2 + 0.2) / c) ** 2
+        if q <= 0:
+            rows.append(bytes(n))
+            continue
+        h = a * math.sqrt(q)
+        lo = max(0, math.ceil(n / 2 - 0.1 - h))
+        hi = min(n, math.floor(n / 2 - 0.1 + h) + 1)
+        rows.append(bytes(lo) + b'\x01' * (hi - lo) + bytes(n - hi))
+data = b''.join(rows)
+with open(path, 'wb') as f:
+    f.write(('NRRD0004\ntype: uchar\ndimension: 3\nspace: left-posterior-superior\n'
+             'sizes: %d %d %d\nspace directions: (1,0,0) (0,1,0) (0,0,1.5)\n'
+             'endian: little\nencoding: gzip\nspace origin: (0,0,0)\n\n' % (n, n, n)).encode())
+    f.write(gzip.compress(data, 1))
+print('label: %d voxels of %d^3' % (sum(r.count(1) for r in rows), n))
+PY
+echo "== label map ${N}^3 -> signed distance (goal: <= 1.5 s, peak <= 3x the image as float32 = $((N * N * N * 12 / 1048576)) MB) =="
+/usr/bin/time -f "shapematch sdf --image (whole command): %e s wall, %U s user, peak %M KB" \
+    "$BIN/shapematch" sdf --image "$W/label.nrrd" -o "$W/out" 2>&1 | sed 's/^/  /'
+OMP_NUM_THREADS=1 /usr/bin/time -f "  the same on one thread: %e s wall" \
+    "$BIN/shapematch" sdf --image "$W/label.nrrd" -o "$W/out1" 2>&1 | tail -1
+if python3 -c 'import scipy.ndimage' 2>/dev/null; then
+    python3 - "$W/label.nrrd" "$N" <<'PY'
+import gzip, sys, time
+import numpy as np
+from scipy import ndimage
+raw = open(sys.argv[1], 'rb').read()
+n = int(sys.argv[2])
+m = np.frombuffer(gzip.decompress(raw.split(b'\n\n', 1)[1]), 'u1').reshape(n, n, n) != 0
+t = time.perf_counter()
+d = np.where(m, -ndimage.distance_transform_edt(m, sampling=(1.5, 1, 1)),
+             ndimage.distance_transform_edt(~m, sampling=(1.5, 1, 1)))
+print('  scipy distance_transform_edt, both signs, whole %d^3 grid: %.2f s' % (n, time.perf_counter() - t))
+PY
+else
+    echo "  (python3-scipy not installed: no scipy figure; make deps installs it)"
+fi

@@ -1,0 +1,332 @@
+/* Label-map images read from a file: the dispatch by content and what the
+ * three formats share (sm_image_formats.h) — the checked allocation, the
+ * voxel data raw or inflated, the detached data file, the geometry
+ * check — and the image model's small functions (free, flip, value). */
+#include "io/sm_image_formats.h"
+
+#include <errno.h>
+#include <inttypes.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <zlib.h>
+
+#include "shapematch/sm_path.h"
+
+int sm_voxel_size(sm_voxel_type t)
+{
+    switch (t) {
+    case SM_VOXEL_U8:
+    case SM_VOXEL_S8:
+        return 1;
+    case SM_VOXEL_U16:
+    case SM_VOXEL_S16:
+        return 2;
+    case SM_VOXEL_U32:
+    case SM_VOXEL_S32:
+    case SM_VOXEL_F32:
+        return 4;
+    case SM_VOXEL_F64:
+        return 8;
+    }
+    return 0;
+}
+
+const char *sm_voxel_type_name(sm_voxel_type t)
+{
+    static const char *names[] = {"?",     "uint8", "int8",    "uint16", "int16",
+                                  "uint32", "int32", "float32", "float64"};
+    return (unsigned)t <= SM_VOXEL_F64 ? names[t] : "?";
+}
+
+void sm_image_free(sm_image *im)
+{
+    if (!im)
+        return;
+    free(im->voxels);
+    free(im);
+}
+
+void sm_image_flip_ras(sm_image *im)
+{
+    for (int c = 0; c < 8; c++)
+        im->ijk_to_lps[c] = -im->ijk_to_lps[c];
+}
+
+double sm_image_value(const sm_image *im, int64_t n)
+{
+    double v = 0;
+    switch (im->type) {
+    case SM_VOXEL_U8: v = ((const uint8_t *)im->voxels)[n]; break;
+    case SM_VOXEL_S8: v = ((const int8_t *)im->voxels)[n]; break;
+    case SM_VOXEL_U16: v = ((const uint16_t *)im->voxels)[n]; break;
+    case SM_VOXEL_S16: v = ((const int16_t *)im->voxels)[n]; break;
+    case SM_VOXEL_U32: v = ((const uint32_t *)im->voxels)[n]; break;
+    case SM_VOXEL_S32: v = ((const int32_t *)im->voxels)[n]; break;
+    case SM_VOXEL_F32: v = ((const float *)im->voxels)[n]; break;
+    case SM_VOXEL_F64: v = ((const double *)im->voxels)[n]; break;
+    }
+    return im->slope * v + im->inter;
+}
+
+sm_status sm__image_new(const sm_image_src *src, const char *where, const int64_t dims[3],
+                        sm_voxel_type type, sm_image **out, sm_error *err)
+{
+    *out = NULL;
+    int64_t count = 1;
+    for (int k = 0; k < 3; k++) {
+        if (dims[k] < 1 || dims[k] > SM_IMAGE_MAX_DIM)
+            return sm_error_set(err, SM_ERR_FORMAT, "%s: %s: size %" PRId64
+                                " along axis %d is not in [1, %" PRId64 "]",
+                                src->path, where, dims[k], k + 1, SM_IMAGE_MAX_DIM);
+        count *= dims[k]; /* < 2^60: no overflow */
+    }
+    if (count > SM_IMAGE_MAX_VOXELS)
+        return sm_error_set(err, SM_ERR_FORMAT, "%s: %s: %" PRId64 " voxels, more than the %"
+                            PRId64 " read", src->path, where, count, SM_IMAGE_MAX_VOXELS);
+    sm_image_limits *lim = src->limits;
+    uint64_t bytes = (uint64_t)count * (uint64_t)sm_voxel_size(type);
+    if (lim && lim->max_voxels > 0 && count > lim->max_voxels) {
+        lim->hit = SM_IMAGE_LIMIT_VOXELS;
+        return sm_error_set(err, SM_ERR_NOMEM, "%s: %" PRId64 " voxels, more than the limit of %"
+                            PRId64 " voxels", src->path, count, lim->max_voxels);
+    }
+    if (lim && lim->max_inflated > 0 && bytes > lim->max_inflated) {
+        lim->hit = SM_IMAGE_LIMIT_INFLATED;
+        return sm_error_set(err, SM_ERR_NOMEM, "%s: %" PRIu64 " bytes of voxels, more than the "
+                            "limit of %" PRIu64 " bytes", src->path, bytes, lim->max_inflated);
+    }
+    sm_image *im = calloc(1, sizeof *im);
+    if (!im || !(im->voxels = malloc((size_t)bytes))) {
+        free(im);
+        return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory for %" PRIu64 " bytes of voxels",
+                            src->path, bytes);
+    }
+    memcpy(im->dims, dims, sizeof im->dims);
+    im->type = type;
+    im->slope = 1;
+    im->inter = 0;
+    *out = im;
+    return SM_OK;
+}
+
+static void swap_voxels(sm_image *im)
+{
+    int size = sm_voxel_size(im->type);
+    size_t n = (size_t)(im->dims[0] * im->dims[1] * im->dims[2]);
+    unsigned char *p = im->voxels;
+    for (size_t i = 0; i < n; i++, p += size)
+        for (int a = 0, b = size - 1; a < b; a++, b--) {
+            unsigned char t = p[a];
+            p[a] = p[b];
+            p[b] = t;
+        }
+}
+
+/* The zlib or gzip stream at r's position inflated into exactly bytes
+ * bytes of dst: the stream must hold that many (not fewer; more is
+ * trailing data, ignored as zlib ignores it). */
+static sm_status inflate_voxels(sm_reader *r, const sm_image_src *src, unsigned char *dst,
+                                size_t bytes, sm_error *err)
+{
+    z_stream z;
+    memset(&z, 0, sizeof z);
+    uint64_t start = sm__reader_offset(r);
+    if (inflateInit2(&z, 15 + 32) != Z_OK) /* 32: zlib or gzip header */
+        return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", src->path);
+    size_t done = 0;
+    sm_status st = SM_OK;
+    int zr = Z_OK;
+    while (done < bytes && zr != Z_STREAM_END) {
+        const unsigned char *p;
+        size_t avail;
+        st = sm__reader_window(r, &p, &avail);
+        if (st != SM_OK) {
+            sm__reader_fail_byte(r, err, st, sm__reader_offset(r), "%s", r->why);
+            break;
+        }
+        if (avail == 0) {
+            st = sm__reader_fail_byte(r, err, SM_ERR_FORMAT, sm__reader_offset(r),
+                                      "compressed voxel data (from byte %" PRIu64 ") ends after "
+                                      "%zu of %zu bytes", start, done, bytes);
+            break;
+        }
+        size_t in = avail > (1u << 30) ? (1u << 30) : avail;
+        size_t room = bytes - done > (1u << 30) ? (1u << 30) : bytes - done;
+        z.next_in = (unsigned char *)(uintptr_t)p;
+        z.avail_in = (uInt)in;
+        z.next_out = dst + done;
+        z.avail_out = (uInt)room;
+        zr = inflate(&z, Z_NO_FLUSH);
+        sm__reader_consume(r, in - z.avail_in);
+        done += room - z.avail_out;
+        if (zr != Z_OK && zr != Z_STREAM_END && !(zr == Z_BUF_ERROR && done == bytes)) {
+            st = sm__reader_fail_byte(r, err, SM_ERR_FORMAT, sm__reader_offset(r),
+                                      "corrupt compressed voxel data (%s)",
+                                      z.msg ? z.msg : "zlib error");
+            break;
+        }
+    }
+    if (st == SM_OK && done < bytes)
+        st = sm__reader_fail_byte(r, err, SM_ERR_FORMAT, sm__reader_offset(r),
+                                  "compressed voxel data (from byte %" PRIu64 ") inflates to %zu "
+                                  "bytes, the header says %zu", start, done, bytes);
+    inflateEnd(&z);
+    return st;
+}
+
+sm_status sm__image_read_voxels(sm_reader *r, const sm_image_src *src, const sm_image_data *d,
+                                sm_image *im, sm_error *err)
+{
+    size_t bytes = (size_t)(im->dims[0] * im->dims[1] * im->dims[2]) * (size_t)sm_voxel_size(im->type);
+    uint64_t left = sm__reader_max_remaining(r);
+    uint64_t skip = 0;
+    if (d->skip == -1) {
+        if (d->compressed || r->compressed)
+            return sm_error_set(err, SM_ERR_FORMAT, "%s: a byte skip of -1 (data at the end) "
+                                "needs raw, uncompressed data", src->path);
+        if (left < bytes)
+            return sm__reader_fail_byte(r, err, SM_ERR_FORMAT, sm__reader_offset(r),
+                                        "the file holds %" PRIu64 " bytes, the voxels need %zu",
+                                        left, bytes);
+        skip = left - bytes;
+    } else if (d->skip > 0) {
+        skip = (uint64_t)d->skip;
+    }
+    if (skip > 0) {
+        if (skip > left)
+            return sm__reader_fail_byte(r, err, SM_ERR_FORMAT, sm__reader_offset(r),
+                                        "byte skip %" PRIu64 " beyond the end of the file", skip);
+        sm_status st = sm__reader_skip(r, skip);
+        if (st != SM_OK)
+            return sm__reader_fail_byte(r, err, st, sm__reader_offset(r), "%s", r->why);
+        left -= skip;
+    }
+    if (d->compressed)
+        return inflate_voxels(r, src, im->voxels, bytes, err);
+    if (left < bytes)
+        return sm__reader_fail_byte(r, err, SM_ERR_FORMAT, sm__reader_offset(r),
+                                    "%" PRIu64 " bytes of voxel data left, the header's %" PRId64
+                                    " x %" PRId64 " x %" PRId64 " %s voxels need %zu (truncated?)",
+                                    left, im->dims[0], im->dims[1], im->dims[2],
+                                    sm_voxel_type_name(im->type), bytes);
+    uint64_t at = sm__reader_offset(r);
+    sm_status st = sm__reader_bytes(r, im->voxels, bytes);
+    if (st != SM_OK)
+        return sm__reader_fail_byte(r, err, st, sm__reader_offset(r),
+                                    "voxel data from byte %" PRIu64 ": %s", at, r->why);
+    if (d->swap)
+        swap_voxels(im);
+    return SM_OK;
+}
+
+sm_status sm__image_open_detached(const sm_image_src *src, const char *where, const char *name,
+                                  sm_reader *r, char **data_path, sm_error *err)
+{
+    *data_path = NULL;
+    if (src->in_memory)
+        return sm_error_set(err, SM_ERR_FORMAT, "%s: %s: a detached data file ('%.200s') is read "
+                            "for files only", src->path, where, name);
+    if (src->limits && src->limits->no_detached) {
+        src->limits->hit = SM_IMAGE_LIMIT_DETACHED;
+        return sm_error_set(err, SM_ERR_INVALID, "%s: %s: names a detached data file ('%.200s'); "
+                            "send a single-file image (.nii, .nii.gz, .nrrd, .mha)", src->path,
+                            where, name);
+    }
+    /* Beside the header only: no absolute name, no way up. */
+    int up = strcmp(name, "..") == 0 || strncmp(name, "../", 3) == 0 || strstr(name, "/../") ||
+             (strlen(name) >= 3 && strcmp(name + strlen(name) - 3, "/..") == 0);
+    if (name[0] == '/' || up || name[0] == '\0')
+        return sm_error_set(err, SM_ERR_FORMAT, "%s: %s: data file '%.200s' must be a relative "
+                            "name beside the header, without '..'", src->path, where, name);
+    const char *slash = strrchr(src->path, '/');
+    char *dir = slash ? strndup(src->path, (size_t)(slash - src->path) + 1) : strdup("");
+    char *full = dir ? (slash ? sm_path_join(dir, name) : strdup(name)) : NULL;
+    free(dir);
+    if (!full)
+        return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", src->path);
+    sm_status st = sm__reader_open(r, full, err);
+    if (st != SM_OK) {
+        sm_error_prefix(err, "%s: %s: data file", src->path, where);
+        free(full);
+        return st;
+    }
+    *data_path = full;
+    return SM_OK;
+}
+
+sm_status sm__image_check_geometry(const sm_image_src *src, const sm_image *im, sm_error *err)
+{
+    const double *m = im->ijk_to_lps;
+    for (int k = 0; k < 12; k++)
+        if (!isfinite(m[k]))
+            return sm_error_set(err, SM_ERR_FORMAT, "%s: the voxel-to-world map is not finite",
+                                src->path);
+    double det = m[0] * (m[5] * m[10] - m[6] * m[9]) - m[1] * (m[4] * m[10] - m[6] * m[8]) +
+                 m[2] * (m[4] * m[9] - m[5] * m[8]);
+    double scale = 1;
+    for (int c = 0; c < 3; c++)
+        scale *= sqrt(m[c] * m[c] + m[4 + c] * m[4 + c] + m[8 + c] * m[8 + c]);
+    if (!(scale > 0) || !(fabs(det) > 1e-9 * scale))
+        return sm_error_set(err, SM_ERR_FORMAT, "%s: the voxel axes are singular (zero spacing "
+                            "or parallel directions)", src->path);
+    return SM_OK;
+}
+
+static sm_status read_src(const sm_reader_input *in, sm_image_limits *limits, sm_image **out,
+                          sm_error *err)
+{
+    *out = NULL;
+    if (limits)
+        limits->hit = 0;
+    sm_reader r;
+    sm_status st = sm__reader_open_input(&r, in, err);
+    if (st != SM_OK)
+        return st;
+    sm_read_limits rl = {0};
+    if (limits && limits->max_inflated) {
+        /* the header and the voxels: the voxel bytes are checked on
+         * their own before allocation (sm__image_new) */
+        rl.max_inflated = limits->max_inflated + (1u << 20);
+        r.limits = &rl;
+    }
+    sm_image_src src = {in->path, in->data != NULL, limits};
+    if (sm__nifti_detect(&r))
+        st = sm__nifti_read(&r, &src, out, err);
+    else if (sm__nrrd_detect(&r))
+        st = sm__nrrd_read(&r, &src, out, err);
+    else if (sm__mha_detect(&r))
+        st = sm__mha_read(&r, &src, out, err);
+    else if (r.stream_status != SM_OK) /* a corrupt gzip file, a read error */
+        st = sm__reader_fail_byte(&r, err, r.stream_status, sm__reader_offset(&r), "%s", r.why);
+    else
+        st = sm_error_set(err, SM_ERR_FORMAT, "%s: not an image this reads (%s)", in->path,
+                          SM_IMAGE_FORMATS);
+    if (limits && rl.hit == SM_LIMIT_INFLATED)
+        limits->hit = SM_IMAGE_LIMIT_INFLATED;
+    sm__reader_close(&r);
+    if (st == SM_OK)
+        st = sm__image_check_geometry(&src, *out, err);
+    if (st != SM_OK) {
+        sm_image_free(*out);
+        *out = NULL;
+    }
+    return st;
+}
+
+sm_status sm_image_read(const char *path, sm_image_limits *limits, sm_image **out, sm_error *err)
+{
+    *out = NULL;
+    if (!path)
+        return sm_error_set(err, SM_ERR_INVALID, "no image file name");
+    return read_src(&(sm_reader_input){.path = path}, limits, out, err);
+}
+
+sm_status sm_image_read_memory(const char *name, const void *data, size_t size,
+                               sm_image_limits *limits, sm_image **out, sm_error *err)
+{
+    *out = NULL;
+    static const char empty[1] = "";
+    return read_src(&(sm_reader_input){.path = name, .data = data ? data : empty, .size = size},
+                    limits, out, err);
+}

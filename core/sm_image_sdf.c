@@ -1,0 +1,517 @@
+/* The signed distance to a label map's boundary (sm_image.h,
+ * sm_image_target_*): the image cropped to the padded box of the
+ * selected voxels; a lightly smoothed mask (a Gaussian of sigma
+ * `smooth` voxels: a binary mask's staircase is what the voxel-centre EDT
+ * measures to, the smoothed level set is close to the shape it was
+ * sampled from) or a float image's values; its level set at `level` as a
+ * triangle surface by marching tetrahedra (Kuhn: 6 per cell of voxel
+ * centres, so neighbouring cells agree and the surface is closed); the
+ * signed voxel-centre EDT of the thresholded field (sm_edt.c) for the
+ * far field, and within `band` voxels of the boundary the exact signed
+ * distance to the surface (sm_sdf.h). */
+#include "shapematch/sm_image.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "shapematch/sm_sdf.h"
+
+struct sm_image_target {
+    int64_t n[3];      /* the crop, in voxels */
+    double map[12];    /* crop index -> world (the image's frame) */
+    double inv[12];    /* world -> crop index */
+    double h[3];       /* spacing along the crop's axes */
+    float *edt;        /* signed voxel-centre EDT on the crop */
+    double band;       /* world units: exact within */
+    sm_surface *surface;
+    sm_sdf *sdf;
+};
+
+/* ---- the field on the crop ---- */
+
+static void gauss1d(float *line, float *tmp, int64_t len, const double *w, int r)
+{
+    for (int64_t q = 0; q < len; q++) {
+        double s = 0;
+        for (int t = -r; t <= r; t++) {
+            int64_t p = q + t;
+            if (p >= 0 && p < len)
+                s += w[t + r] * line[p];
+        }
+        tmp[q] = (float)s;
+    }
+    memcpy(line, tmp, (size_t)len * sizeof *line);
+}
+
+/* Separable Gaussian blur of f (n voxels) with sigma voxels, zero beyond. */
+static sm_status blur(float *f, const int64_t n[3], double sigma, sm_error *err)
+{
+    int r = (int)ceil(3 * sigma);
+    double w[64];
+    if (r > 31)
+        r = 31;
+    double sum = 0;
+    for (int t = -r; t <= r; t++)
+        sum += w[t + r] = exp(-0.5 * t * t / (sigma * sigma));
+    for (int t = 0; t <= 2 * r; t++)
+        w[t] /= sum;
+    int64_t len = n[0] > n[1] ? n[0] : n[1];
+    len = len > n[2] ? len : n[2];
+    int64_t strides[3] = {1, n[0], n[0] * n[1]};
+    int fail = 0;
+    for (int a = 0; a < 3; a++) {
+        int b = a == 0 ? 1 : 0, c = a == 2 ? 1 : 2;
+        int64_t lines = n[b] * n[c];
+#pragma omp parallel reduction(| : fail)
+        {
+            float *line = malloc((size_t)len * 2 * sizeof *line);
+            fail |= !line;
+#pragma omp for schedule(static)
+            for (int64_t l = 0; l < lines; l++) {
+                if (!line)
+                    continue;
+                int64_t base = (l % n[b]) * strides[b] + (l / n[b]) * strides[c];
+                for (int64_t q = 0; q < n[a]; q++)
+                    line[q] = f[base + q * strides[a]];
+                gauss1d(line, line + len, n[a], w, r);
+                for (int64_t q = 0; q < n[a]; q++)
+                    f[base + q * strides[a]] = line[q];
+            }
+            free(line);
+        }
+    }
+    return fail ? sm_error_set(err, SM_ERR_NOMEM, "out of memory for the smoothing") : SM_OK;
+}
+
+/* ---- marching tetrahedra ---- */
+
+typedef struct mt_builder {
+    const float *f;
+    int64_t n[3];
+    double level;
+    const double *map;
+    double *coords;   /* 3 per vertex */
+    int32_t *tris;
+    int64_t nv, capv, nt, capt;
+    int64_t *keys;    /* edge hash: key + 1 (0: empty) */
+    int32_t *vals;
+    int64_t hcap;
+    int fail;
+} mt_builder;
+
+static const int kuhn[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+
+static int grow(void **p, int64_t *cap, int64_t need, size_t size)
+{
+    if (need <= *cap)
+        return 1;
+    int64_t c = *cap ? *cap : 1024;
+    while (c < need)
+        c *= 2;
+    void *q = realloc(*p, (size_t)c * size);
+    if (!q)
+        return 0;
+    *p = q;
+    *cap = c;
+    return 1;
+}
+
+static int rehash(mt_builder *b)
+{
+    int64_t cap = b->hcap ? b->hcap * 2 : 1 << 16;
+    int64_t *keys = calloc((size_t)cap, sizeof *keys);
+    int32_t *vals = malloc((size_t)cap * sizeof *vals);
+    if (!keys || !vals) {
+        free(keys);
+        free(vals);
+        return 0;
+    }
+    for (int64_t s = 0; s < b->hcap; s++) {
+        if (!b->keys[s])
+            continue;
+        uint64_t hsh = (uint64_t)b->keys[s] * 0x9E3779B97F4A7C15ull;
+        int64_t t = (int64_t)(hsh >> 20) & (cap - 1);
+        while (keys[t])
+            t = (t + 1) & (cap - 1);
+        keys[t] = b->keys[s];
+        vals[t] = b->vals[s];
+    }
+    free(b->keys);
+    free(b->vals);
+    b->keys = keys;
+    b->vals = vals;
+    b->hcap = cap;
+    return 1;
+}
+
+/* The surface vertex on the edge of nodes p (inside) and q (outside),
+ * shared by every tetrahedron on that edge. */
+static int32_t edge_vertex(mt_builder *b, int64_t p, int64_t q)
+{
+    int64_t lo = p < q ? p : q, hi = p < q ? q : p;
+    int64_t key = lo * 27 + (hi - lo <= 1 ? 0 : hi - lo == b->n[0] ? 1 : hi - lo == b->n[0] + 1 ? 2
+                             : hi - lo == b->n[0] * b->n[1] ? 3 : hi - lo == b->n[0] * b->n[1] + 1 ? 4
+                             : hi - lo == b->n[0] * b->n[1] + b->n[0] ? 5 : 6) + 1;
+    if (2 * (b->nv + 1) > b->hcap && !rehash(b)) {
+        b->fail = 1;
+        return 0;
+    }
+    uint64_t hsh = (uint64_t)key * 0x9E3779B97F4A7C15ull;
+    int64_t t = (int64_t)(hsh >> 20) & (b->hcap - 1);
+    while (b->keys[t]) {
+        if (b->keys[t] == key)
+            return b->vals[t];
+        t = (t + 1) & (b->hcap - 1);
+    }
+    if (!grow((void **)&b->coords, &b->capv, 3 * (b->nv + 1), sizeof(double)) || b->nv >= INT32_MAX) {
+        b->fail = 1;
+        return 0;
+    }
+    /* interpolated from the lower node, so the same on every side */
+    double fl = b->f[lo], fh = b->f[hi], s = (b->level - fl) / (fh - fl);
+    double ijk[3];
+    for (int a = 0; a < 3; a++) {
+        int64_t stride = a == 0 ? 1 : a == 1 ? b->n[0] : b->n[0] * b->n[1];
+        double il = (double)((lo / stride) % b->n[a]), ih = (double)((hi / stride) % b->n[a]);
+        ijk[a] = il + s * (ih - il);
+    }
+    double *x = b->coords + 3 * b->nv;
+    for (int row = 0; row < 3; row++)
+        x[row] = b->map[4 * row] * ijk[0] + b->map[4 * row + 1] * ijk[1] +
+                 b->map[4 * row + 2] * ijk[2] + b->map[4 * row + 3];
+    b->keys[t] = key;
+    b->vals[t] = (int32_t)b->nv;
+    return (int32_t)b->nv++;
+}
+
+/* Triangle (a, b, c) turned so that its normal points away from the
+ * inside node pin (world position). */
+static void add_tri(mt_builder *b, int32_t v0, int32_t v1, int32_t v2, const double *pin)
+{
+    if (b->fail || !grow((void **)&b->tris, &b->capt, 3 * (b->nt + 1), sizeof(int32_t)) ||
+        b->nt >= INT32_MAX) {
+        b->fail = 1;
+        return;
+    }
+    const double *a = b->coords + 3 * v0, *p = b->coords + 3 * v1, *q = b->coords + 3 * v2;
+    double u[3], v[3], nrm[3];
+    for (int k = 0; k < 3; k++) {
+        u[k] = p[k] - a[k];
+        v[k] = q[k] - a[k];
+    }
+    nrm[0] = u[1] * v[2] - u[2] * v[1];
+    nrm[1] = u[2] * v[0] - u[0] * v[2];
+    nrm[2] = u[0] * v[1] - u[1] * v[0];
+    double dot = nrm[0] * (a[0] - pin[0]) + nrm[1] * (a[1] - pin[1]) + nrm[2] * (a[2] - pin[2]);
+    int32_t *t = b->tris + 3 * b->nt++;
+    t[0] = v0;
+    t[1] = dot >= 0 ? v1 : v2;
+    t[2] = dot >= 0 ? v2 : v1;
+}
+
+static void world(const mt_builder *b, int64_t node, double *x)
+{
+    double ijk[3] = {(double)(node % b->n[0]), (double)((node / b->n[0]) % b->n[1]),
+                     (double)(node / (b->n[0] * b->n[1]))};
+    for (int row = 0; row < 3; row++)
+        x[row] = b->map[4 * row] * ijk[0] + b->map[4 * row + 1] * ijk[1] +
+                 b->map[4 * row + 2] * ijk[2] + b->map[4 * row + 3];
+}
+
+static void tetra(mt_builder *b, const int64_t v[4])
+{
+    int64_t in[4], out[4];
+    int ni = 0, no = 0;
+    for (int k = 0; k < 4; k++) {
+        if (b->f[v[k]] >= b->level)
+            in[ni++] = v[k];
+        else
+            out[no++] = v[k];
+    }
+    if (ni == 0 || no == 0)
+        return;
+    double pin[3];
+    world(b, in[0], pin);
+    if (ni == 1 || no == 1) {
+        int64_t apex = ni == 1 ? in[0] : out[0];
+        const int64_t *others = ni == 1 ? out : in;
+        int32_t t[3];
+        for (int k = 0; k < 3; k++)
+            t[k] = ni == 1 ? edge_vertex(b, apex, others[k]) : edge_vertex(b, others[k], apex);
+        add_tri(b, t[0], t[1], t[2], pin);
+        return;
+    }
+    /* two in, two out: the quad in0-out0, in0-out1, in1-out1, in1-out0 */
+    int32_t q0 = edge_vertex(b, in[0], out[0]), q1 = edge_vertex(b, in[0], out[1]);
+    int32_t q2 = edge_vertex(b, in[1], out[1]), q3 = edge_vertex(b, in[1], out[0]);
+    add_tri(b, q0, q1, q2, pin);
+    add_tri(b, q0, q2, q3, pin);
+}
+
+static sm_status march(mt_builder *b, sm_surface **out, sm_error *err)
+{
+    const int64_t *n = b->n;
+    int64_t sx = 1, sy = n[0], sz = n[0] * n[1];
+    for (int64_t k = 0; k + 1 < n[2] && !b->fail; k++)
+        for (int64_t j = 0; j + 1 < n[1]; j++)
+            for (int64_t i = 0; i + 1 < n[0]; i++) {
+                int64_t c = i + sy * j + sz * k;
+                int any_in = 0, any_out = 0;
+                for (int corner = 0; corner < 8; corner++) {
+                    int64_t node = c + (corner & 1 ? sx : 0) + (corner & 2 ? sy : 0) + (corner & 4 ? sz : 0);
+                    if (b->f[node] >= b->level)
+                        any_in = 1;
+                    else
+                        any_out = 1;
+                }
+                if (!any_in || !any_out)
+                    continue;
+                int64_t step[3] = {sx, sy, sz};
+                for (int t = 0; t < 6; t++) {
+                    int64_t v[4] = {c, 0, 0, 0};
+                    for (int s = 0; s < 3; s++)
+                        v[s + 1] = v[s] + step[kuhn[t][s]];
+                    tetra(b, v);
+                }
+            }
+    if (b->fail)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface");
+    if (b->nt == 0)
+        return sm_error_set(err, SM_ERR_INVALID, "the label has no boundary (empty selection)");
+    sm_status st = sm_surface_alloc(out, 3, (int32_t)b->nv, (int32_t)b->nt, err);
+    if (st != SM_OK)
+        return st;
+    memcpy((*out)->coords, b->coords, (size_t)b->nv * 3 * sizeof(double));
+    memcpy((*out)->facets, b->tris, (size_t)b->nt * 3 * sizeof(int32_t));
+    return SM_OK;
+}
+
+/* ---- the target ---- */
+
+static void invert(const double *m, double *inv)
+{
+    double a = m[0], b = m[1], c = m[2], d = m[4], e = m[5], f = m[6], g = m[8], h = m[9], i = m[10];
+    double det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
+    double r[9] = {(e * i - f * h) / det, (c * h - b * i) / det, (b * f - c * e) / det,
+                   (f * g - d * i) / det, (a * i - c * g) / det, (c * d - a * f) / det,
+                   (d * h - e * g) / det, (b * g - a * h) / det, (a * e - b * d) / det};
+    for (int row = 0; row < 3; row++) {
+        for (int col = 0; col < 3; col++)
+            inv[4 * row + col] = r[3 * row + col];
+        inv[4 * row + 3] = -(r[3 * row] * m[3] + r[3 * row + 1] * m[7] + r[3 * row + 2] * m[11]);
+    }
+}
+
+void sm_image_target_free(sm_image_target *t)
+{
+    if (!t)
+        return;
+    free(t->edt);
+    sm_sdf_free(t->sdf);
+    sm_surface_free(t->surface);
+    free(t);
+}
+
+/* The crop (index box lo..hi of the selection, padded) and its field. */
+static sm_status crop_field(const sm_image *im, const uint8_t *mask, const sm_image_select *sel,
+                            const sm_image_target_opts *o, sm_image_target *t, float **field,
+                            double *level, sm_error *err)
+{
+    const int64_t *n = im->dims;
+    int64_t lo[3] = {n[0], n[1], n[2]}, hi[3] = {-1, -1, -1};
+    for (int64_t v = 0; v < n[0] * n[1] * n[2]; v++) {
+        if (!mask[v])
+            continue;
+        int64_t idx[3] = {v % n[0], (v / n[0]) % n[1], v / (n[0] * n[1])};
+        for (int c = 0; c < 3; c++) {
+            lo[c] = idx[c] < lo[c] ? idx[c] : lo[c];
+            hi[c] = idx[c] > hi[c] ? idx[c] : hi[c];
+        }
+    }
+    if (hi[0] < 0)
+        return sm_error_set(err, SM_ERR_INVALID, "the selected label is empty");
+    int raw = !sel->has_label && (im->type == SM_VOXEL_F32 || im->type == SM_VOXEL_F64);
+    double smooth = raw ? 0 : o->smooth;
+    int64_t pad = (int64_t)ceil(3 * smooth) + 2 + (int64_t)ceil(o->pad_voxels);
+    int64_t total = 1;
+    for (int c = 0; c < 3; c++) {
+        lo[c] -= pad;
+        hi[c] += pad;
+        t->n[c] = hi[c] - lo[c] + 1;
+        total *= t->n[c];
+    }
+    if (total > SM_IMAGE_MAX_VOXELS / 4)
+        return sm_error_set(err, SM_ERR_INVALID, "the padded label box has too many voxels");
+    float *f = malloc((size_t)total * sizeof *f);
+    if (!f)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's field");
+    /* outside the image: background (0, below any level) */
+#pragma omp parallel for schedule(static)
+    for (int64_t v = 0; v < total; v++) {
+        int64_t idx[3] = {lo[0] + v % t->n[0], lo[1] + (v / t->n[0]) % t->n[1],
+                          lo[2] + v / (t->n[0] * t->n[1])};
+        int in = idx[0] >= 0 && idx[1] >= 0 && idx[2] >= 0 && idx[0] < n[0] && idx[1] < n[1] &&
+                 idx[2] < n[2];
+        int64_t at = in ? idx[0] + n[0] * (idx[1] + n[1] * idx[2]) : 0;
+        f[v] = !in ? (raw ? (float)fmin(0, sel->level - 1) : 0.0f)
+               : raw ? (float)sm_image_value(im, at) : (float)mask[at];
+    }
+    *level = raw ? sel->level : 0.5;
+    sm_status st = smooth > 0 ? blur(f, t->n, smooth, err) : SM_OK;
+    if (st != SM_OK) {
+        free(f);
+        return st;
+    }
+    const double *m = im->ijk_to_lps;
+    for (int row = 0; row < 3; row++) {
+        for (int col = 0; col < 3; col++)
+            t->map[4 * row + col] = m[4 * row + col];
+        t->map[4 * row + 3] = m[4 * row + 3] + m[4 * row] * (double)lo[0] +
+                              m[4 * row + 1] * (double)lo[1] + m[4 * row + 2] * (double)lo[2];
+    }
+    for (int col = 0; col < 3; col++)
+        t->h[col] = sqrt(m[col] * m[col] + m[4 + col] * m[4 + col] + m[8 + col] * m[8 + col]);
+    *field = f;
+    return SM_OK;
+}
+
+sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_image_select *sel,
+                              const sm_image_target_opts *o, sm_image_target **out, sm_error *err)
+{
+    *out = NULL;
+    sm_image_target *t = calloc(1, sizeof *t);
+    if (!t)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    float *f = NULL;
+    double level;
+    uint8_t *cmask = NULL;
+    sm_status st = crop_field(im, mask, sel, o, t, &f, &level, err);
+    if (st != SM_OK)
+        goto done;
+    invert(t->map, t->inv);
+    int64_t total = t->n[0] * t->n[1] * t->n[2];
+    cmask = malloc((size_t)total);
+    t->edt = malloc((size_t)total * sizeof *t->edt);
+    if (!cmask || !t->edt) {
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance transform");
+        goto done;
+    }
+#pragma omp parallel for schedule(static)
+    for (int64_t v = 0; v < total; v++)
+        cmask[v] = f[v] >= level;
+    if ((st = sm_edt_signed(t->n, t->h, cmask, t->edt, err)) != SM_OK)
+        goto done;
+    mt_builder b = {.f = f, .n = {t->n[0], t->n[1], t->n[2]}, .level = level, .map = t->map};
+    st = march(&b, &t->surface, err);
+    if (st == SM_ERR_INVALID && o->smooth > 0 && level == 0.5)
+        /* a label thinner than about two sigmas is smoothed below 0.5 */
+        st = sm_error_set(err, SM_ERR_INVALID, "the label's boundary vanished under the smoothing "
+                          "of %g voxels (a structure a few voxels thin): give a smaller smoothing "
+                          "(--smooth 0 keeps the mask's own boundary)", o->smooth);
+    free(b.coords);
+    free(b.tris);
+    free(b.keys);
+    free(b.vals);
+    if (st != SM_OK)
+        goto done;
+    double hmax = fmax(t->h[0], fmax(t->h[1], t->h[2]));
+    t->band = o->band_voxels * hmax;
+    st = sm_sdf_new(t->surface, &t->sdf, err);
+done:
+    free(f);
+    free(cmask);
+    if (st != SM_OK)
+        sm_image_target_free(t);
+    else
+        *out = t;
+    return st;
+}
+
+const sm_surface *sm_image_target_surface(const sm_image_target *t)
+{
+    return t->surface;
+}
+
+const sm_sdf *sm_image_target_sdf(const sm_image_target *t)
+{
+    return t->sdf;
+}
+
+void sm_image_target_grid(const sm_image_target *t, int64_t n[3], double map[12], const float **edt)
+{
+    memcpy(n, t->n, 3 * sizeof *n);
+    memcpy(map, t->map, 12 * sizeof *map);
+    *edt = t->edt;
+}
+
+/* Trilinear EDT at world point x; NAN outside the crop. */
+static double edt_at(const sm_image_target *t, const double *x)
+{
+    double ijk[3];
+    int64_t base[3];
+    double w[3];
+    for (int row = 0; row < 3; row++) {
+        ijk[row] = t->inv[4 * row] * x[0] + t->inv[4 * row + 1] * x[1] + t->inv[4 * row + 2] * x[2] +
+                   t->inv[4 * row + 3];
+        if (!(ijk[row] >= 0) || !(ijk[row] <= (double)(t->n[row] - 1)))
+            return NAN;
+        base[row] = (int64_t)floor(ijk[row]);
+        if (base[row] >= t->n[row] - 1)
+            base[row] = t->n[row] > 1 ? t->n[row] - 2 : 0;
+        w[row] = ijk[row] - (double)base[row];
+    }
+    double s = 0;
+    for (int corner = 0; corner < 8; corner++) {
+        double wt = 1;
+        int64_t at = 0, stride = 1;
+        for (int a = 0; a < 3; a++) {
+            int up = (corner >> a) & 1;
+            wt *= up ? w[a] : 1 - w[a];
+            int64_t idx = base[a] + up;
+            if (idx >= t->n[a])
+                idx = t->n[a] - 1;
+            at += idx * stride;
+            stride *= t->n[a];
+        }
+        if (wt != 0)
+            s += wt * t->edt[at];
+    }
+    return s;
+}
+
+sm_status sm_image_target_signed(const sm_image_target *t, int64_t n, const double *pts, double *out,
+                                 int64_t *exact, sm_error *err)
+{
+    int64_t near = 0;
+    for (int64_t p = 0; p < n; p++) {
+        double e = edt_at(t, pts + 3 * p);
+        out[p] = e;
+        near += !(fabs(e) > t->band);
+    }
+    if (exact)
+        *exact = near;
+    if (near == 0)
+        return SM_OK;
+    int64_t *ids = malloc((size_t)near * sizeof *ids);
+    double *x = malloc((size_t)near * 3 * sizeof *x), *d = malloc((size_t)near * sizeof *d);
+    sm_status st = SM_OK;
+    if (!ids || !x || !d) {
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    } else {
+        int64_t k = 0;
+        for (int64_t p = 0; p < n; p++)
+            if (!(fabs(out[p]) > t->band)) {
+                ids[k] = p;
+                memcpy(x + 3 * k, pts + 3 * p, 3 * sizeof *x);
+                k++;
+            }
+        st = sm_sdf_signed(t->sdf, near, x, d, err);
+        for (int64_t q = 0; st == SM_OK && q < near; q++)
+            out[ids[q]] = d[q];
+    }
+    free(ids);
+    free(x);
+    free(d);
+    return st;
+}

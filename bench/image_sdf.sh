@@ -13,7 +13,9 @@ BIN=${SM_BIN:-build/release}
 N=${IMAGE_BENCH_N:-256}
 W=$(mktemp -d "${TMPDIR:-/tmp}/sm-image-bench.XXXXXX")
 trap 'rm -rf "$W"' EXIT
-python3 - "$W/label.nrrd" "$N" <<'PY'
+PY=/usr/bin/python3 # Debian's, with python3-numpy and python3-scipy
+[ -x "$PY" ] || PY=python3
+"$PY" - "$W/label.nrrd" "$N" <<'PY'
 import gzip, math, sys
 path, n = sys.argv[1], int(sys.argv[2])
 a, b, c = 100 * n / 256, 80 * n / 256, 60 * n / 256 / 1.5   # in voxels
@@ -41,8 +43,8 @@ echo "== label map ${N}^3 -> signed distance (goal: <= 1.5 s, peak <= 3x the ima
     "$BIN/shapematch" sdf --image "$W/label.nrrd" -o "$W/out" 2>&1 | sed 's/^/  /'
 OMP_NUM_THREADS=1 /usr/bin/time -f "  the same on one thread: %e s wall" \
     "$BIN/shapematch" sdf --image "$W/label.nrrd" -o "$W/out1" 2>&1 | tail -1
-if python3 -c 'import scipy.ndimage' 2>/dev/null; then
-    python3 - "$W/label.nrrd" "$N" <<'PY'
+if "$PY" -c 'import scipy.ndimage' 2>/dev/null; then
+    "$PY" - "$W/label.nrrd" "$N" <<'PY'
 import gzip, sys, time
 import numpy as np
 from scipy import ndimage

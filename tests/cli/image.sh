@@ -11,8 +11,12 @@
 source "$(dirname "$0")/../lib/cli.sh"
 check_rc() { if [ "$1" = 0 ]; then ok "$2"; else not_ok "$2" "${3:-}"; fi; }
 SHAPES="$ROOT/tests/cli/image_shapes.py"
+# Debian's python3, where python3-numpy and python3-scipy are installed
+# (a python3 earlier on the PATH may lack them)
+PY=/usr/bin/python3
+[ -x "$PY" ] || PY=python3
 
-python3 "$SHAPES" write "$WORK" sphere >/dev/null
+"$PY" "$SHAPES" write "$WORK" sphere >/dev/null
 check_rc $? "image_shapes.py wrote the sphere in every format"
 
 sdf() { # name [options...]: sdf of WORK/name into WORK/out-name
@@ -33,7 +37,7 @@ for f in s1.nii.gz s2.nii raw.nrrd gz.nrrd ras.nrrd be16.nrrd det.nhdr raw.mha z
     check_rc $? "$f gives the same background and distances as s1.nii" "$(head -c 300 "$WORK/$f.err")"
 done
 # the qform's rotation comes from a float32 quaternion: equal to rounding
-sdf q1.nii && python3 "$SHAPES" solcmp "$WORK/out-q1.nii/background.sol" \
+sdf q1.nii && "$PY" "$SHAPES" solcmp "$WORK/out-q1.nii/background.sol" \
     "$WORK/out-s1.nii/background.sol" 1e-3 >"$WORK/q1.cmp" 2>&1
 check_rc $? "NIfTI qform agrees with the sform" "$(cat "$WORK/q1.cmp" "$WORK/q1.nii.err")"
 # a float image is a level set of its values (no smoothing): as --smooth 0
@@ -43,9 +47,9 @@ check_rc $? "float32 MetaImage at level 0.5 equals the mask unsmoothed"
 
 # accuracy near the boundary (|d| < 2 voxels) against the exact sphere,
 # and the voxel-centre EDT's on the same band: at most half of it
-edt_rms=$(python3 "$SHAPES" edt "$WORK/edt-lps.nrrd" sphere | tail -1)
-python3 "$SHAPES" check "$WORK" sphere lps "$WORK/out-s1.nii/background.mesh" \
-    "$WORK/out-s1.nii/background.sol" "$(python3 -c "print($edt_rms / 2)")" >"$WORK/acc" 2>&1
+edt_rms=$("$PY" "$SHAPES" edt "$WORK/edt-lps.nrrd" sphere | tail -1)
+"$PY" "$SHAPES" check "$WORK" sphere lps "$WORK/out-s1.nii/background.mesh" \
+    "$WORK/out-s1.nii/background.sol" "$("$PY" -c "print($edt_rms / 2)")" >"$WORK/acc" 2>&1
 check_rc $? "distance near the sphere: rms at most half the voxel-centre EDT's ($edt_rms)" \
     "$(cat "$WORK/acc")"
 echo "# $(cat "$WORK/acc"); voxel-centre EDT rms $edt_rms"
@@ -64,7 +68,7 @@ gmsh "$WORK/ball.geo" -3 -format msh41 -clmax 2.5 -nt 1 -v 1 -o "$WORK/ball.msh"
     -o "$WORK/run" >/dev/null 2>"$WORK/run.err"
 rc=$?
 [ $rc = 10 ] && rc=0 # not converged still writes the result
-python3 - "$WORK/run/result.mesh" "$edt_rms" >"$WORK/e2e" 2>&1 <<'PY'
+"$PY" - "$WORK/run/result.mesh" "$edt_rms" >"$WORK/e2e" 2>&1 <<'PY'
 import math, sys
 tok = open(sys.argv[1]).read().split()
 i = tok.index('Vertices')
@@ -82,13 +86,13 @@ echo "# end to end: $(cat "$WORK/e2e")"
 
 # --image-space ras: the same distances in the mirrored frame
 sdf s1.nii --image-space ras --edt-out "$WORK/edt-ras.nrrd"
-python3 "$SHAPES" check "$WORK" sphere ras "$WORK/out-s1.nii/background.mesh" \
+"$PY" "$SHAPES" check "$WORK" sphere ras "$WORK/out-s1.nii/background.mesh" \
     "$WORK/out-s1.nii/background.sol" 0.3 >"$WORK/ras" 2>&1
 check_rc $? "--image-space ras: the distance of the sphere mirrored in x and y" "$(cat "$WORK/ras")"
-python3 "$SHAPES" check "$WORK" sphere lps "$WORK/out-s1.nii/background.mesh" \
+"$PY" "$SHAPES" check "$WORK" sphere lps "$WORK/out-s1.nii/background.mesh" \
     "$WORK/out-s1.nii/background.sol" 0.3 >/dev/null 2>&1
 check_rc $((!$?)) "--image-space ras output is not the LPS sphere (the flip matters)"
-python3 - "$WORK/edt-lps.nrrd" "$WORK/edt-ras.nrrd" >"$WORK/flip" 2>&1 <<'PY'
+"$PY" - "$WORK/edt-lps.nrrd" "$WORK/edt-ras.nrrd" >"$WORK/flip" 2>&1 <<'PY'
 import sys
 sys.path.insert(0, __import__('os').environ.get('SHAPES_DIR', '.'))
 def read(p):
@@ -112,11 +116,11 @@ check_rc $? "--edt-out: RAS grid = LPS grid with x, y negated, same values" "$(c
 # the signed EDT (of the unsmoothed mask) against brute force on a sample
 # of voxels, and against scipy's distance_transform_edt on all of them
 "$BIN" sdf --image "$WORK/raw.nrrd" --smooth 0 -o "$WORK/s0b" --edt-out "$WORK/edt0.nrrd" 2>/dev/null
-python3 "$SHAPES" edtbrute "$WORK/edt0.nrrd" "$WORK/raw.nrrd" >"$WORK/brute" 2>&1
+"$PY" "$SHAPES" edtbrute "$WORK/edt0.nrrd" "$WORK/raw.nrrd" >"$WORK/brute" 2>&1
 check_rc $? "signed EDT equals brute force on sampled voxels" "$(cat "$WORK/brute")"
 echo "# $(cat "$WORK/brute")"
-if python3 -c 'import scipy.ndimage' 2>/dev/null; then
-    python3 - "$WORK/edt0.nrrd" "$WORK/raw.nrrd" >"$WORK/scipy" 2>&1 <<'PY'
+if "$PY" -c 'import scipy.ndimage' 2>/dev/null; then
+    "$PY" - "$WORK/edt0.nrrd" "$WORK/raw.nrrd" >"$WORK/scipy" 2>&1 <<'PY'
 import sys
 import numpy as np
 from scipy import ndimage
@@ -152,7 +156,7 @@ else
 fi
 
 # an ellipsoid: several labels, the label chosen
-python3 "$SHAPES" write "$WORK" ellipsoid >/dev/null
+"$PY" "$SHAPES" write "$WORK" ellipsoid >/dev/null
 "$BIN" sdf --image "$WORK/raw.nrrd" --label 1 -o "$WORK/ell" 2>"$WORK/ell.err" >/dev/null
 check_rc $? "sdf --label 1 on the ellipsoid" "$(cat "$WORK/ell.err")"
 
@@ -168,7 +172,7 @@ sed 's|data file: det.raw.gz|data file: ../etc/passwd|' "$WORK/det.nhdr" >"$WORK
 rc=$?
 [ $rc = 2 ] && grep -q "without '..'" "$WORK/e2"
 check_rc $? "a detached data file outside the header's folder is refused" "rc $rc: $(cat "$WORK/e2")"
-python3 -c 'import sys; v = bytearray(512); v[292] = 1
+"$PY" -c 'import sys; v = bytearray(512); v[292] = 1
 sys.stdout.buffer.write(b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 8 8 8\nencoding: raw\n\n" + v)' \
     >"$WORK/one.nrrd"
 "$BIN" sdf --image "$WORK/one.nrrd" -o "$WORK/no" >/dev/null 2>"$WORK/e4"

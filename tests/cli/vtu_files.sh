@@ -43,7 +43,11 @@ rc=$?
 check "sdf -o d.sol without --background is refused (usage, exit 1), nothing created" \
     test $rc = 1 -a ! -e "$WORK/d.sol"
 
-python3 - "$WORK" "$ROOT/tests/lib" "$EX/template.mesh" <<'PY'
+# Debian's python3, where python3-meshio is installed (a python3 earlier
+# on the PATH may lack it)
+PY=/usr/bin/python3
+[ -x "$PY" ] || PY=python3
+"$PY" - "$WORK" "$ROOT/tests/lib" "$EX/template.mesh" <<'PY'
 import os, sys, xml.etree.ElementTree as ET
 sys.path.insert(0, sys.argv[2])
 import vtu

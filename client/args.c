@@ -189,9 +189,15 @@ static int apply_row(void *base, const sm_param_info *f, const char *value, char
         return args_parse_refs(f->flag, value, (int32_t *)at, (int)f->max,
                                (int *)((char *)base + f->count_offset), msg, cap);
     case SM_PARAM_SOLVER:
-        return sm_solver_kind_from_name(value, (sm_solver_kind *)at) == 0
-                   ? 0
-                   : cli_fail(msg, cap, "%s: '%s' is not auto, cholmod or amg", f->flag, value);
+    case SM_PARAM_ALIGN: {
+        int k = sm_param_value_from_name(f, value);
+        char names[96];
+        sm_param_names_text(f, names, sizeof names);
+        if (k < 0)
+            return cli_fail(msg, cap, "%s: '%s' is not %s", f->flag, value, names);
+        sm_param_set_value(f, base, k);
+        return 0;
+    }
     case SM_PARAM_CLAMP:
         break;
     }
@@ -391,8 +397,8 @@ static void print_row_help(FILE *out, const sm_param_info *f)
         snprintf(dflt, sizeof dflt, " (default %s)", f->def_text);
     else if (f->type == SM_PARAM_REFS)
         ; /* an empty list: nothing to show */
-    else if (f->type == SM_PARAM_SOLVER)
-        snprintf(dflt, sizeof dflt, " (default %s)", sm_solver_kind_name((sm_solver_kind)f->def));
+    else if (sm_param_is_named(f))
+        snprintf(dflt, sizeof dflt, " (default %s)", sm_param_value_name(f, (int)f->def));
     else
         snprintf(dflt, sizeof dflt, " (default %g)", f->def);
     snprintf(left, sizeof left, "%s %s", f->flag, f->meta);
@@ -467,8 +473,8 @@ static void markdown_row(FILE *out, const sm_param_info *f)
             f->in_clamp ? "clamp." : "", f->name);
     if (f->def_text)
         put_cell(out, f->def_text);
-    else if (f->type == SM_PARAM_SOLVER)
-        fputs(sm_solver_kind_name((sm_solver_kind)f->def), out);
+    else if (sm_param_is_named(f))
+        fputs(sm_param_value_name(f, (int)f->def), out);
     else if (f->type == SM_PARAM_REFS)
         fputs("none", out);
     else
@@ -477,9 +483,9 @@ static void markdown_row(FILE *out, const sm_param_info *f)
     sm_param_describe_range(f, range, sizeof range);
     if (f->type == SM_PARAM_REFS)
         fprintf(out, "%g to %g references", f->min, f->max);
-    else if (f->type == SM_PARAM_SOLVER)
+    else if (sm_param_is_named(f))
         for (int k = (int)f->min; k <= (int)f->max; k++)
-            fprintf(out, "%s%s", k > (int)f->min ? ", " : "", sm_solver_kind_name((sm_solver_kind)k));
+            fprintf(out, "%s%s", k > (int)f->min ? ", " : "", sm_param_value_name(f, k));
     else if (f->type != SM_PARAM_CLAMP)
         fputs(range, out);
     fputs(f->type == SM_PARAM_CLAMP ? "| " : " | ", out);

@@ -10,25 +10,6 @@
 
 #include "sm_align_internal.h"
 
-static const char *const mode_names[] = {"none", "rigid", "similarity", "affine"};
-
-const char *sm_align_mode_name(sm_align_mode mode)
-{
-    if ((int)mode < 0 || (size_t)mode >= sizeof mode_names / sizeof mode_names[0])
-        return NULL;
-    return mode_names[mode];
-}
-
-int sm_align_mode_from_name(const char *name, sm_align_mode *out)
-{
-    for (size_t i = 0; name && i < sizeof mode_names / sizeof mode_names[0]; i++)
-        if (strcmp(name, mode_names[i]) == 0) {
-            *out = (sm_align_mode)i;
-            return 0;
-        }
-    return -1;
-}
-
 void sm_transform_identity(sm_transform *t, int dim)
 {
     memset(t, 0, sizeof *t);

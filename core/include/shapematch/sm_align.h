@@ -35,18 +35,9 @@
 #include "sm_error.h"
 #include "sm_field.h"
 #include "sm_mesh.h"
+#include "sm_params.h"
 
-typedef enum sm_align_mode {
-    SM_ALIGN_NONE = 0,       /* no alignment (the paper: shapes given aligned) */
-    SM_ALIGN_RIGID = 1,      /* rotation + translation */
-    SM_ALIGN_SIMILARITY = 2, /* + one uniform scale */
-    SM_ALIGN_AFFINE = 3      /* full matrix (det > 0, conditioning guarded) */
-} sm_align_mode;
-
-/* "none", "rigid", "similarity", "affine"; NULL out of range. */
-const char *sm_align_mode_name(sm_align_mode mode);
-/* 0 and *out for a known name, -1 otherwise. */
-int sm_align_mode_from_name(const char *name, sm_align_mode *out);
+/* sm_align_mode and its names: sm_params.h (the parameter "align"). */
 
 /* Largest condition number (ratio of singular values) of an affine A. */
 #define SM_ALIGN_AFFINE_COND_MAX 1e3

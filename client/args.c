@@ -514,6 +514,7 @@ typedef enum run_flag_kind {
     RUN_FLAG_OUTPUT,
     RUN_FLAG_FORMAT,
     RUN_FLAG_TARGET_SURFACE,
+    RUN_FLAG_LANDMARKS,
     RUN_FLAG_QUIET,
     RUN_FLAG_JSON,
     RUN_FLAG_JOB
@@ -530,6 +531,7 @@ static run_flag_kind classify_run_flag(const char *flag, int *takes_value)
         {"--target-mesh", RUN_FLAG_TARGET_MESH, 1},
         {"--target-sol", RUN_FLAG_TARGET_SOL, 1},
         {"--target-surface", RUN_FLAG_TARGET_SURFACE, 1},
+        {"--landmarks", RUN_FLAG_LANDMARKS, 1},
         {"--output", RUN_FLAG_OUTPUT, 1},
         {"-o", RUN_FLAG_OUTPUT, 1},
         {"--format", RUN_FLAG_FORMAT, 1},
@@ -560,6 +562,7 @@ static int apply_run_flag(run_options *o, run_flag_kind kind, const char *flag, 
     case RUN_FLAG_TARGET_MESH: path = &o->target_mesh_path; break;
     case RUN_FLAG_TARGET_SOL: path = &o->target_sol_path; break;
     case RUN_FLAG_TARGET_SURFACE: path = &o->target_surface_path; break;
+    case RUN_FLAG_LANDMARKS: path = &o->landmarks; break;
     case RUN_FLAG_OUTPUT: path = &o->outdir; break;
     case RUN_FLAG_FORMAT: {
         char why[ARGS_MSG_LEN];
@@ -586,6 +589,25 @@ static int apply_run_flag(run_options *o, run_flag_kind kind, const char *flag, 
     return 0;
 }
 
+/* --landmarks A,B: two files (split at the first comma; a path with a
+ * comma of its own goes through a symbolic link), with an alignment. */
+static int finish_landmarks(run_options *o, char *msg, size_t cap)
+{
+    const char *comma = strchr(o->landmarks, ',');
+    size_t a = comma ? (size_t)(comma - o->landmarks) : 0;
+    if (!comma || a == 0 || comma[1] == '\0')
+        return cli_fail(msg, cap, "--landmarks: give TEMPLATE.csv,TARGET.csv (two files)");
+    if (a >= sizeof o->landmarks_template || strlen(comma + 1) >= sizeof o->landmarks_target)
+        return cli_fail(msg, cap, "--landmarks: path too long");
+    memcpy(o->landmarks_template, o->landmarks, a);
+    o->landmarks_template[a] = '\0';
+    strcpy(o->landmarks_target, comma + 1);
+    if (o->job.params.align == SM_ALIGN_NONE)
+        return cli_fail(msg, cap,
+                        "--landmarks needs an alignment: add --align rigid, similarity or affine");
+    return 0;
+}
+
 /* What `run` needs once every option is read: the inputs (a surface
  * replaces the background and its distance), the output folder, and
  * consistent targets. */
@@ -603,6 +625,8 @@ static int finish_run_options(run_options *o, char *msg, size_t cap)
     };
     if (o->target_surface_path && o->target_sol_path)
         return cli_fail(msg, cap, "--target-surface excludes --target-sol: give one target");
+    if (o->landmarks && finish_landmarks(o, msg, cap) != 0)
+        return -1;
     if (job_options_check_background(&o->job, o->target_surface_path, o->target_mesh_path, msg,
                                      cap) != 0)
         return -1;

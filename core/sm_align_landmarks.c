@@ -71,7 +71,7 @@ static int point_rank(int dim, int32_t n, const double *p, double centroid[3], d
         *var += val[c];
     int rank = 0;
     for (int c = 0; c < dim; c++)
-        rank += val[c] > 1e-20 * val[0] && val[c] > 0;
+        rank += val[c] > 1e-10 * val[0] && val[c] > 0; /* above rounding (~1e-16 val[0]) by far */
     return rank;
 }
 

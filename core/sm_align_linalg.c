@@ -110,57 +110,73 @@ static void complete_basis(int n, int from, double u[3][3])
 
 void sm__svd(int n, const double a[3][3], double u[3][3], double s[3], double v[3][3])
 {
-    /* a^T a = v diag(s^2) v^T; u's columns a v_i / s_i.  Squaring loses
-     * half the digits of the small singular values only, which Kabsch
-     * and the conditioning guard do not need (they compare signs and
-     * ratios far from rounding). */
-    double ata[3][3] = {{0}}, val[3];
+    /* one-sided Jacobi (Hestenes): rotate pairs of columns of w = a v
+     * until they are orthogonal; then s_i = |w_i| and u_i = w_i / s_i.
+     * Working on a itself, not on a^T a, keeps the small singular
+     * values' digits (squaring would lose half of them). */
+    double w[3][3] = {{0}}, vv[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     for (int i = 0; i < n; i++)
         for (int j = 0; j < n; j++)
-            for (int k = 0; k < n; k++)
-                ata[i][j] += a[k][i] * a[k][j];
-    sm__sym_eigen(n, (const double(*)[3])ata, val, v);
-    memset(u, 0, 9 * sizeof(double));
-    int rank = 0;
-    double smax = sqrt(fmax(val[0], 0));
-    for (int i = 0; i < 3; i++)
-        s[i] = i < n ? sqrt(fmax(val[i], 0)) : 0;
-    /* the last column of u is completed, never divided out: it is fixed
-     * by the others up to its sign (which Kabsch's D decides), and a zero
-     * singular value comes out of the squares as ~1e-8 smax, not 0 */
-    for (int i = 0; i + 1 < n; i++) {
-        if (!(s[i] > 1e-7 * smax))
+            w[i][j] = a[i][j];
+    for (int sweep = 0; sweep < 60; sweep++) {
+        int rotated = 0;
+        for (int p = 0; p < n; p++)
+            for (int q = p + 1; q < n; q++) {
+                double alpha = 0, beta = 0, gamma = 0;
+                for (int k = 0; k < n; k++) {
+                    alpha += w[k][p] * w[k][p];
+                    beta += w[k][q] * w[k][q];
+                    gamma += w[k][p] * w[k][q];
+                }
+                if (!(fabs(gamma) > 1e-15 * sqrt(alpha * beta)))
+                    continue;
+                rotated = 1;
+                double zeta = (beta - alpha) / (2 * gamma);
+                double t = (zeta >= 0 ? 1 : -1) / (fabs(zeta) + sqrt(1 + zeta * zeta));
+                double c = 1 / sqrt(1 + t * t), sn = c * t;
+                for (int k = 0; k < n; k++) {
+                    double wp = w[k][p], wq = w[k][q];
+                    w[k][p] = c * wp - sn * wq;
+                    w[k][q] = sn * wp + c * wq;
+                    double vp = vv[k][p], vq = vv[k][q];
+                    vv[k][p] = c * vp - sn * vq;
+                    vv[k][q] = sn * vp + c * vq;
+                }
+            }
+        if (!rotated)
             break;
-        for (int k = 0; k < n; k++) {
-            double x = 0;
-            for (int j = 0; j < n; j++)
-                x += a[k][j] * v[j][i];
-            u[k][i] = x / s[i];
-        }
-        for (int j = 0; j < i; j++) { /* re-orthogonalised against rounding */
-            double dot = 0, nrm = 0;
-            for (int k = 0; k < n; k++)
-                dot += u[k][j] * u[k][i];
-            for (int k = 0; k < n; k++)
-                u[k][i] -= dot * u[k][j];
-            for (int k = 0; k < n; k++)
-                nrm += u[k][i] * u[k][i];
-            for (int k = 0; k < n; k++)
-                u[k][i] /= sqrt(nrm);
-        }
-        rank++;
     }
-    if (rank < n - 1) /* s descends: the last is zero too */
-        for (int i = rank; i < n; i++)
-            s[i] = 0;
-    complete_basis(n, rank, u);
-    double dot = 0; /* the completed last column's sign: a v = s u */
-    for (int k = 0; k < n; k++)
-        for (int j = 0; j < n; j++)
-            dot += u[k][n - 1] * a[k][j] * v[j][n - 1];
-    if (dot < 0)
+    double norm[3] = {0, 0, 0};
+    int order[3] = {0, 1, 2};
+    for (int j = 0; j < n; j++) {
         for (int k = 0; k < n; k++)
-            u[k][n - 1] = -u[k][n - 1];
+            norm[j] += w[k][j] * w[k][j];
+        norm[j] = sqrt(norm[j]);
+    }
+    for (int i = 0; i < n; i++) /* descending */
+        for (int j = i + 1; j < n; j++)
+            if (norm[order[j]] > norm[order[i]]) {
+                int t = order[i];
+                order[i] = order[j];
+                order[j] = t;
+            }
+    memset(u, 0, 9 * sizeof(double));
+    memset(v, 0, 9 * sizeof(double));
+    int rank = 0;
+    for (int i = 0; i < 3; i++)
+        s[i] = i < n ? norm[order[i]] : 0;
+    for (int i = 0; i < n; i++) {
+        for (int k = 0; k < n; k++)
+            v[k][i] = vv[k][order[i]];
+        if (rank == i && s[i] > 1e-300 && s[i] > 1e-15 * s[0]) {
+            for (int k = 0; k < n; k++)
+                u[k][i] = w[k][order[i]] / s[i];
+            rank++;
+        }
+    }
+    for (int i = rank; i < n; i++)
+        s[i] = 0;
+    complete_basis(n, rank, u);
 }
 
 int sm__solve_dense(int n, double *m, double *r, double *x)

@@ -9,8 +9,8 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=$1
 rm -rf "$out"
-mkdir -p "$out"/{mesh,msh,stl,obj,sol,params,events,payload,sse,headers,multipart,parts,decimal,job_file}
-for t in mesh msh stl obj sol params events payload sse headers multipart parts decimal job_file; do
+mkdir -p "$out"/{mesh,msh,stl,obj,sol,params,events,payload,sse,headers,multipart,parts,decimal,job_file,landmarks}
+for t in mesh msh stl obj sol params events payload sse headers multipart parts decimal job_file landmarks; do
     [ -d tests/fuzz/seeds/$t ] && cp tests/fuzz/seeds/$t/* "$out/$t/" 2>/dev/null || true
 done
 add() { # target name file [prefix-byte-octal...]

@@ -13,7 +13,7 @@ void sm__sym_eigen(int n, const double a[3][3], double val[3], double vec[3][3])
 
 /* SVD a = u diag(s) v^T of the n x n (n <= 3) matrix a, s descending,
  * u and v orthogonal (columns of u for zero singular values completed to
- * an orthonormal basis). */
+ * an orthonormal basis); one-sided Jacobi on a itself. */
 void sm__svd(int n, const double a[3][3], double u[3][3], double s[3], double v[3][3]);
 
 /* Determinant of the leading n x n block. */

@@ -23,9 +23,10 @@
  *      refused when it would leave det A <= 0 or a condition number above
  *      SM_ALIGN_AFFINE_COND_MAX.
  *
- * The 3x3 eigen problems and the SVD of Kabsch are solved by cyclic
- * Jacobi rotations (core/sm_align_linalg.c): tiny, exact to rounding,
- * and no LAPACK dependency for the core. */
+ * The 3x3 eigen problems (cyclic Jacobi) and the SVD of Kabsch
+ * (one-sided Jacobi on the matrix itself) are written out
+ * (core/sm_align_linalg.c): tiny, exact to rounding, and no LAPACK
+ * dependency for the core. */
 #ifndef SM_ALIGN_H
 #define SM_ALIGN_H
 

@@ -2,6 +2,7 @@
 #include "job/sm_job_align.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -135,4 +136,15 @@ json_t *sm_job_alignment_json(const sm_job_alignment *a, int dim)
         return NULL;
     }
     return o;
+}
+
+void sm_job_alignment_event(const sm_job_alignment *a, sm_event *ev)
+{
+    sm_event_init(ev, SM_EVENT_ALIGNMENT);
+    snprintf(ev->alignment.mode, sizeof ev->alignment.mode, "%s", sm_align_mode_name(a->mode));
+    ev->alignment.scale = a->result.scale;
+    ev->alignment.rms_before = a->result.rms_before;
+    ev->alignment.rms_after = a->result.rms_after;
+    ev->alignment.seconds = a->result.seconds;
+    ev->alignment.iterations = a->result.iterations;
 }

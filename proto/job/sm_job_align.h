@@ -16,6 +16,7 @@
 
 #include "job/sm_job_inputs.h"
 #include "shapematch/sm_align.h"
+#include "sm_proto_events.h"
 
 typedef struct sm_job_alignment {
     int done;                 /* 1: the template was moved */
@@ -45,6 +46,10 @@ void sm_job_alignment_free(sm_job_alignment *a);
  * homogeneous, template -> target), scale, rms_before, rms_after,
  * iterations, candidates, landmarks, seconds}; NULL when out of memory. */
 json_t *sm_job_alignment_json(const sm_job_alignment *a, int dim);
+
+/* The alignment as an "alignment" event (sm_proto_events.h; no seq, no
+ * time): what the worker streams before the descent. */
+void sm_job_alignment_event(const sm_job_alignment *a, sm_event *ev);
 
 /* The inputs as the run sees them: in with the moved template, prepared
  * and params when a->done (a shallow copy: nothing to free). */

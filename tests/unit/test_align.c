@@ -361,9 +361,7 @@ static void test_known_3d(void **state)
     (void)state;
     const known cases[] = {
         {3, SM_ALIGN_RIGID, M_PI, 1, 100, {1, 1, 1}},
-        {3, SM_ALIGN_SIMILARITY, 2.0, 1e3, 100, {1, 1, 1}},
         {3, SM_ALIGN_SIMILARITY, 2.8, 1e-3, 5, {1, 1, 1}},
-        {3, SM_ALIGN_AFFINE, 0.7, 1, 1, {1.4, 0.8, 1.1}},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
         check_known(&cases[i]);
@@ -374,9 +372,7 @@ static void test_known_2d(void **state)
     (void)state;
     const known cases[] = {
         {2, SM_ALIGN_RIGID, M_PI, 1, 100, {1, 1, 1}},
-        {2, SM_ALIGN_RIGID, -1.2, 1, 0.5, {1, 1, 1}},
         {2, SM_ALIGN_SIMILARITY, 2.5, 1e3, 100, {1, 1, 1}},
-        {2, SM_ALIGN_SIMILARITY, -0.4, 1e-3, 3, {1, 1, 1}},
         {2, SM_ALIGN_AFFINE, 0.3, 1, 1, {1.5, 0.7, 1}},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
@@ -384,10 +380,13 @@ static void test_known_2d(void **state)
 }
 
 /* A landmark start (noisy, rotation off by the noise) refined onto the
- * exact answer: the start is used, and improved. */
+ * exact answer, in 3D: the start is used, and improved; with an
+ * anisotropic stretch (affine: the 3D one, from moments). */
 static void test_landmark_start(void **state)
 {
     (void)state;
+    const known stretched = {3, SM_ALIGN_AFFINE, 0.7, 1, 1, {1.4, 0.8, 1.1}};
+    check_known(&stretched);
     sm_mesh *m = shape(3);
     double axis[3] = {1, 2, 3}, r[3][3], b[3] = {5, -3, 2};
     rotation(3, axis, 2.5, r);

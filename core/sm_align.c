@@ -29,10 +29,13 @@
 #define MAX_ROTATION_STEP 0.5
 #define MAX_LOG_SCALE_STEP 0.5
 #define STEP_TOL 1e-7
-/* Loops over fewer points stay on one thread: a fork and join costs more
- * than a few thousand field evaluations (and much more on a loaded
- * machine, where a waiting thread is descheduled). */
-#define PARALLEL_MIN 20000
+/* Loops over fewer points stay on one thread, like the descent's below
+ * 100k elements (docs/performance.md): the 3D example's 27k points take
+ * ~0.01 s a pass, and on a loaded machine a fork and join waits for a
+ * descheduled thread (examples/3d moved: 5 s of wall time for the
+ * alignment with 2 threads at load 13, 1.2 s of CPU for the whole
+ * command). */
+#define PARALLEL_MIN 100000
 
 typedef enum stage { STAGE_RIGID, STAGE_SIMILARITY, STAGE_AFFINE } stage;
 

@@ -190,6 +190,18 @@ static void test_landmarks_csv(void **state)
             fail_msg("case %zu: '%s' lacks '%s'", i, err.msg, bad[i].message);
         assert_null(p);
     }
+    /* one row past the limit: refused, naming the line */
+    size_t cap = (size_t)(SM_LANDMARKS_MAX + 1) * 6 + 1, used = 0;
+    char *big = malloc(cap);
+    assert_non_null(big);
+    for (int i = 0; i <= SM_LANDMARKS_MAX; i++)
+        used += (size_t)snprintf(big + used, cap - used, "1,2,3\n");
+    assert_int_equal(sm_landmarks_parse(big, used, 3, &p, &n, &err), SM_ERR_FORMAT);
+    assert_non_null(strstr(err.msg, "more than 100000 landmarks"));
+    assert_int_equal(sm_landmarks_parse(big, used - 6, 3, &p, &n, &err), SM_OK);
+    assert_int_equal(n, SM_LANDMARKS_MAX);
+    free(p);
+    free(big);
     const char nul[] = "1,2,3\n1,\0,3\n";
     assert_int_equal(sm_landmarks_parse(nul, sizeof nul - 1, 3, &p, &n, &err), SM_ERR_FORMAT);
     assert_int_equal(sm_landmarks_read("/nonexistent/l.csv", 3, &p, &n, &err), SM_ERR_IO);

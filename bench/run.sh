@@ -140,6 +140,10 @@ bench/robust.sh
 echo
 bench/python.sh
 
+echo
+echo "== alignment: examples/3d moved 40 degrees and ~10 diameters (goal: <= 10% of the match) =="
+bench/align.sh
+
 if [ -x bench/server_bench.sh ] && [ -x "$BIN/shapematchd" ]; then
     echo
     echo "== daemon =="

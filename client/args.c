@@ -266,9 +266,15 @@ static int apply_row(void *base, const sm_param_info *f, const char *value, char
         return args_parse_refs(f->flag, value, (int32_t *)at, (int)f->max,
                                (int *)((char *)base + f->count_offset), msg, cap);
     case SM_PARAM_SOLVER:
-        return sm_solver_kind_from_name(value, (sm_solver_kind *)at) == 0
-                   ? 0
-                   : cli_fail(msg, cap, "%s: '%s' is not auto, cholmod or amg", f->flag, value);
+    case SM_PARAM_ALIGN: {
+        int k = sm_param_value_from_name(f, value);
+        char names[96];
+        sm_param_names_text(f, names, sizeof names);
+        if (k < 0)
+            return cli_fail(msg, cap, "%s: '%s' is not %s", f->flag, value, names);
+        sm_param_set_value(f, base, k);
+        return 0;
+    }
     case SM_PARAM_CLAMP:
         break;
     }
@@ -475,8 +481,8 @@ static void print_row_help(FILE *out, const sm_param_info *f)
         snprintf(dflt, sizeof dflt, " (default %s)", f->def_text);
     else if (f->type == SM_PARAM_REFS)
         ; /* an empty list: nothing to show */
-    else if (f->type == SM_PARAM_SOLVER)
-        snprintf(dflt, sizeof dflt, " (default %s)", sm_solver_kind_name((sm_solver_kind)f->def));
+    else if (sm_param_is_named(f))
+        snprintf(dflt, sizeof dflt, " (default %s)", sm_param_value_name(f, (int)f->def));
     else
         snprintf(dflt, sizeof dflt, " (default %g)", f->def);
     snprintf(left, sizeof left, "%s %s", f->flag, f->meta);
@@ -551,8 +557,8 @@ static void markdown_row(FILE *out, const sm_param_info *f)
             f->in_clamp ? "clamp." : "", f->name);
     if (f->def_text)
         put_cell(out, f->def_text);
-    else if (f->type == SM_PARAM_SOLVER)
-        fputs(sm_solver_kind_name((sm_solver_kind)f->def), out);
+    else if (sm_param_is_named(f))
+        fputs(sm_param_value_name(f, (int)f->def), out);
     else if (f->type == SM_PARAM_REFS)
         fputs("none", out);
     else
@@ -561,9 +567,9 @@ static void markdown_row(FILE *out, const sm_param_info *f)
     sm_param_describe_range(f, range, sizeof range);
     if (f->type == SM_PARAM_REFS)
         fprintf(out, "%g to %g references", f->min, f->max);
-    else if (f->type == SM_PARAM_SOLVER)
+    else if (sm_param_is_named(f))
         for (int k = (int)f->min; k <= (int)f->max; k++)
-            fprintf(out, "%s%s", k > (int)f->min ? ", " : "", sm_solver_kind_name((sm_solver_kind)k));
+            fprintf(out, "%s%s", k > (int)f->min ? ", " : "", sm_param_value_name(f, k));
     else if (f->type != SM_PARAM_CLAMP)
         fputs(range, out);
     fputs(f->type == SM_PARAM_CLAMP ? "| " : " | ", out);
@@ -592,6 +598,7 @@ typedef enum run_flag_kind {
     RUN_FLAG_OUTPUT,
     RUN_FLAG_FORMAT,
     RUN_FLAG_TARGET_SURFACE,
+    RUN_FLAG_LANDMARKS,
     RUN_FLAG_QUIET,
     RUN_FLAG_JSON,
     RUN_FLAG_JOB
@@ -608,6 +615,7 @@ static run_flag_kind classify_run_flag(const char *flag, int *takes_value)
         {"--target-mesh", RUN_FLAG_TARGET_MESH, 1},
         {"--target-sol", RUN_FLAG_TARGET_SOL, 1},
         {"--target-surface", RUN_FLAG_TARGET_SURFACE, 1},
+        {"--landmarks", RUN_FLAG_LANDMARKS, 1},
         {"--output", RUN_FLAG_OUTPUT, 1},
         {"-o", RUN_FLAG_OUTPUT, 1},
         {"--format", RUN_FLAG_FORMAT, 1},
@@ -638,6 +646,7 @@ static int apply_run_flag(run_options *o, run_flag_kind kind, const char *flag, 
     case RUN_FLAG_TARGET_MESH: path = &o->target_mesh_path; break;
     case RUN_FLAG_TARGET_SOL: path = &o->target_sol_path; break;
     case RUN_FLAG_TARGET_SURFACE: path = &o->target_surface_path; break;
+    case RUN_FLAG_LANDMARKS: path = &o->landmarks; break;
     case RUN_FLAG_OUTPUT: path = &o->outdir; break;
     case RUN_FLAG_FORMAT: {
         char why[ARGS_MSG_LEN];
@@ -664,6 +673,25 @@ static int apply_run_flag(run_options *o, run_flag_kind kind, const char *flag, 
     return 0;
 }
 
+/* --landmarks A,B: two files (split at the first comma; a path with a
+ * comma of its own goes through a symbolic link), with an alignment. */
+static int finish_landmarks(run_options *o, char *msg, size_t cap)
+{
+    const char *comma = strchr(o->landmarks, ',');
+    size_t a = comma ? (size_t)(comma - o->landmarks) : 0;
+    if (!comma || a == 0 || comma[1] == '\0')
+        return cli_fail(msg, cap, "--landmarks: give TEMPLATE.csv,TARGET.csv (two files)");
+    if (a >= sizeof o->landmarks_template || strlen(comma + 1) >= sizeof o->landmarks_target)
+        return cli_fail(msg, cap, "--landmarks: path too long");
+    memcpy(o->landmarks_template, o->landmarks, a);
+    o->landmarks_template[a] = '\0';
+    strcpy(o->landmarks_target, comma + 1);
+    if (o->job.params.align == SM_ALIGN_NONE)
+        return cli_fail(msg, cap,
+                        "--landmarks needs an alignment: add --align rigid, similarity or affine");
+    return 0;
+}
+
 /* What `run` needs once every option is read: the inputs (a surface
  * replaces the background and its distance), the output folder, and
  * consistent targets. */
@@ -681,6 +709,8 @@ static int finish_run_options(run_options *o, char *msg, size_t cap)
     };
     if (o->target_surface_path && o->target_sol_path)
         return cli_fail(msg, cap, "--target-surface excludes --target-sol: give one target");
+    if (o->landmarks && finish_landmarks(o, msg, cap) != 0)
+        return -1;
     if (job_options_check_background(&o->job, o->target_surface_path, o->target_mesh_path, msg,
                                      cap) != 0)
         return -1;

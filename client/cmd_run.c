@@ -222,6 +222,22 @@ static void warn_unknown_free_refs(run_ctx *c, const sm_mesh *m)
     }
 }
 
+/* The alignment's one line (even with --quiet it is part of the result:
+ * the matrix is in summary.json). */
+static void on_alignment(const sm_job_alignment *a, void *user)
+{
+    run_ctx *c = user;
+    const sm_align_result *r = &a->result;
+    char start[48] = "moments";
+    if (a->landmarks > 0)
+        snprintf(start, sizeof start, "%ld landmarks", (long)a->landmarks);
+    progress_message(&c->display,
+                     "shapematch: aligned (%s, from %s): scale %.6g, boundary RMS %.3e -> %.3e, "
+                     "%d iterations, %.2f s",
+                     sm_align_mode_name(a->mode), start, r->scale, r->rms_before, r->rms_after,
+                     r->iterations, r->seconds);
+}
+
 static int exit_code_of_run_status(sm_status st)
 {
     switch (st) {
@@ -284,7 +300,9 @@ void cmd_run_help(void)
            "  --target-sol FILE       signed distance of the target, one value per\n"
            "                          background vertex (scalar SolAtVertices)\n"
            "  --target-surface FILE   target surface instead of --target-sol; its health\n"
-           "                          report (holes, reoriented facets, ...) on stderr\n");
+           "                          report (holes, reoriented facets, ...) on stderr\n"
+           "  --landmarks T.csv,G.csv landmark pairs (rows x,y[,z], template's then\n"
+           "                          target's) that start --align (Kabsch/Umeyama)\n");
     job_options_help_background(stdout);
     printf("  -o, --output DIR        output directory (created if missing); receives\n"
            "                          the --format files, history.csv and summary.json\n"
@@ -348,7 +366,9 @@ int cmd_run(int argc, char **argv)
                                 .target_sol = opt.target_sol_path,
                                 .target_surface = opt.target_surface_path,
                                 .background_size = opt.job.background.size,
-                                .background_padding = opt.job.background.padding};
+                                .background_padding = opt.job.background.padding,
+                                .landmarks_template = opt.landmarks ? opt.landmarks_template : NULL,
+                                .landmarks_target = opt.landmarks ? opt.landmarks_target : NULL};
 
     /* ---- the template, the parameters against it, then the target
      * (the run's template side is set up meanwhile) ---- */
@@ -372,7 +392,8 @@ int cmd_run(int argc, char **argv)
     }
 
     /* ---- the run ---- */
-    sm_job_hooks hooks = {.progress = on_progress, .user = &ctx, .cancel = &cancel_requested,
+    sm_job_hooks hooks = {.progress = on_progress, .alignment = on_alignment, .user = &ctx,
+                          .cancel = &cancel_requested,
                           .snapshot_dir = opt.outdir, .write_flags = SM_ATOMIC_FSYNC};
     st = sm_job_run_exec(&in, &hooks, &run, &err);
     progress_finish(&ctx.display);

@@ -148,6 +148,13 @@ static void handle_event(watch_ctx *w, const sm_event *ev)
     case SM_EVENT_CANCELLED:
         snprintf(w->end_message, sizeof w->end_message, "%s", ev->message);
         break;
+    case SM_EVENT_ALIGNMENT: /* run's line */
+        progress_message(&w->display,
+                         "shapematch: aligned (%s): scale %.6g, boundary RMS %.3e -> %.3e, %d "
+                         "iterations, %.2f s",
+                         ev->alignment.mode, ev->alignment.scale, ev->alignment.rms_before,
+                         ev->alignment.rms_after, ev->alignment.iterations, ev->alignment.seconds);
+        break;
     case SM_EVENT_WARNING:
         /* even with --quiet, as run prints them: they are about the result */
         progress_message(&w->display, "shapematch: warning: %s: %s", ev->code, ev->message);

@@ -106,6 +106,14 @@ static const sm_param_info table[] = {
      "NAME",
      "elastic solver: cholmod (sparse Cholesky), amg (PCG + BoomerAMG: less memory, for large "
      "3D templates) or auto (amg from 20000 tetrahedra in 3D)"},
+    /* none: the paper's assumption (shapes given aligned) and today's
+     * runs bit for bit; an alignment costs a second or so (bench/align.sh) */
+    {"align", SM_PARAM_ALIGN, offsetof(sm_params, align), 0,
+     RANGE(SM_ALIGN_NONE, CLOSED, SM_ALIGN_AFFINE, CLOSED), SM_ALIGN_NONE, NULL, 0, "--align",
+     "MODE",
+     "move the template onto the target before the descent: none, rigid (rotation and "
+     "translation), similarity (and a uniform scale) or affine, found from the target's distance "
+     "(or started from --landmarks); the result and displacement.sol are then the whole map"},
 };
 #define N_TABLE (sizeof table / sizeof table[0])
 
@@ -168,7 +176,8 @@ void sm_params_default(sm_params *p)
         switch (table[i].type) {
         case SM_PARAM_REAL: *(double *)at = table[i].def; break;
         case SM_PARAM_INT: *(int *)at = (int)table[i].def; break;
-        case SM_PARAM_SOLVER: *(sm_solver_kind *)at = (sm_solver_kind)table[i].def; break;
+        case SM_PARAM_SOLVER:
+        case SM_PARAM_ALIGN: sm_param_set_value(&table[i], p, (int)table[i].def); break;
         case SM_PARAM_CLAMP: *(sm_clamp_kind *)at = (sm_clamp_kind)table[i].def; break;
         case SM_PARAM_REFS: break; /* empty list: the memset */
         }
@@ -202,7 +211,8 @@ static sm_status check_row(const sm_param_info *f, const sm_params *p, sm_error 
     case SM_PARAM_REAL: x = *(const double *)at; break;
     case SM_PARAM_INT: x = *(const int *)at; break;
     case SM_PARAM_REFS: x = *(const int *)((const char *)p + f->count_offset); break;
-    case SM_PARAM_SOLVER: x = (double)*(const sm_solver_kind *)at; break;
+    case SM_PARAM_SOLVER:
+    case SM_PARAM_ALIGN: x = sm_param_get_value(f, p); break;
     default: return SM_OK; /* the clamp: check_clamp */
     }
     if (sm_param_in_range(f, x))
@@ -212,9 +222,11 @@ static sm_status check_row(const sm_param_info *f, const sm_params *p, sm_error 
     if (f->type == SM_PARAM_REFS)
         return sm_error_set(err, SM_ERR_INVALID, "%s: the number of references must be %s (got %d)",
                             f->name, range, (int)x);
-    if (f->type == SM_PARAM_SOLVER)
-        return sm_error_set(err, SM_ERR_INVALID, "%s: must be auto, cholmod or amg (got %d)", f->name,
-                            (int)x);
+    if (sm_param_is_named(f)) {
+        char names[96];
+        sm_param_names_text(f, names, sizeof names);
+        return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s (got %d)", f->name, names, (int)x);
+    }
     return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s (got %.17g)", f->name, range, x);
 }
 
@@ -250,9 +262,83 @@ int sm_solver_kind_from_name(const char *name, sm_solver_kind *out)
     return -1;
 }
 
+static const char *const mode_names[] = {"none", "rigid", "similarity", "affine"};
+
+const char *sm_align_mode_name(sm_align_mode mode)
+{
+    if ((int)mode < 0 || (size_t)mode >= sizeof mode_names / sizeof mode_names[0])
+        return NULL;
+    return mode_names[mode];
+}
+
+int sm_align_mode_from_name(const char *name, sm_align_mode *out)
+{
+    for (size_t i = 0; name && i < sizeof mode_names / sizeof mode_names[0]; i++)
+        if (strcmp(name, mode_names[i]) == 0) {
+            *out = (sm_align_mode)i;
+            return 0;
+        }
+    return -1;
+}
+
 sm_solver_kind sm_solver_resolve(sm_solver_kind kind, int dim, int64_t nelems)
 {
     if (kind != SM_SOLVER_AUTO)
         return kind;
     return dim == 3 && nelems >= SM_SOLVER_AMG_MIN_TETS ? SM_SOLVER_AMG : SM_SOLVER_CHOLMOD;
+}
+
+int sm_param_is_named(const sm_param_info *f)
+{
+    return f->type == SM_PARAM_SOLVER || f->type == SM_PARAM_ALIGN;
+}
+
+const char *sm_param_value_name(const sm_param_info *f, int k)
+{
+    if (f->type == SM_PARAM_SOLVER)
+        return sm_solver_kind_name((sm_solver_kind)k);
+    if (f->type == SM_PARAM_ALIGN)
+        return sm_align_mode_name((sm_align_mode)k);
+    return NULL;
+}
+
+int sm_param_value_from_name(const sm_param_info *f, const char *name)
+{
+    for (int k = (int)f->min; sm_param_is_named(f) && k <= (int)f->max; k++)
+        if (name && strcmp(name, sm_param_value_name(f, k)) == 0)
+            return k;
+    return -1;
+}
+
+int sm_param_get_value(const sm_param_info *f, const void *base)
+{
+    const char *at = (const char *)base + f->offset;
+    if (f->type == SM_PARAM_SOLVER)
+        return (int)*(const sm_solver_kind *)at;
+    if (f->type == SM_PARAM_ALIGN)
+        return (int)*(const sm_align_mode *)at;
+    return -1;
+}
+
+void sm_param_set_value(const sm_param_info *f, void *base, int k)
+{
+    char *at = (char *)base + f->offset;
+    if (f->type == SM_PARAM_SOLVER)
+        *(sm_solver_kind *)at = (sm_solver_kind)k;
+    else if (f->type == SM_PARAM_ALIGN)
+        *(sm_align_mode *)at = (sm_align_mode)k;
+}
+
+void sm_param_names_text(const sm_param_info *f, char *buf, size_t cap)
+{
+    size_t used = 0;
+    if (cap)
+        buf[0] = '\0';
+    for (int k = (int)f->min; sm_param_is_named(f) && k <= (int)f->max && used < cap; k++) {
+        int w = snprintf(buf + used, cap - used, "%s%s", k == (int)f->min ? "" : k == (int)f->max ? " or " : ", ",
+                         sm_param_value_name(f, k));
+        if (w < 0)
+            break;
+        used += (size_t)w;
+    }
 }

@@ -23,7 +23,8 @@ static sm_status as_format(sm_error *err)
 /* ------------------------------------------------------------------ names */
 
 static const char *const event_names[] = {"accepted", "started",   "progress", "finished",
-                                          "failed",   "cancelled", "status",   "warning"};
+                                          "failed",   "cancelled", "status",   "warning",
+                                          "alignment"};
 static const char *const state_names[] = {"accepted", "running", "successful", "failed",
                                           "dismissed"};
 #define COUNT(a) (sizeof(a) / sizeof((a)[0]))
@@ -460,6 +461,18 @@ static int set_outcome(json_t *obj, const sm_event *ev)
            (ev->converged >= 0 && smp_set(obj, "converged", json_boolean(ev->converged)));
 }
 
+static int set_alignment(json_t *obj, const sm_event_alignment *a)
+{
+    char mode[sizeof a->mode];
+    copy_utf8(mode, sizeof mode, a->mode);
+    return smp_set(obj, "mode", json_string(mode)) ||
+           smp_set(obj, "scale", smp_real_or_null(a->scale)) ||
+           smp_set(obj, "rms_before", smp_real_or_null(a->rms_before)) ||
+           smp_set(obj, "rms_after", smp_real_or_null(a->rms_after)) ||
+           smp_set(obj, "iterations", json_integer(a->iterations)) ||
+           smp_set(obj, "seconds", smp_real_or_null(a->seconds));
+}
+
 json_t *sm_event_to_jansson(const sm_event *ev)
 {
     const char *type = sm_event_type_name(ev->type);
@@ -502,6 +515,8 @@ json_t *sm_event_to_jansson(const sm_event *ev)
         bad = bad || set_outcome(obj, ev);
     if (ev->type == SM_EVENT_WARNING)
         bad = bad || set_warning(obj, ev);
+    if (ev->type == SM_EVENT_ALIGNMENT)
+        bad = bad || set_alignment(obj, &ev->alignment);
     if (ev->message[0] || ev->type == SM_EVENT_FAILED || ev->type == SM_EVENT_WARNING) {
         char msg[SM_EVENT_MESSAGE_MAX];
         copy_utf8(msg, sizeof msg, ev->message);
@@ -538,6 +553,34 @@ static sm_status fail(sm_error *err, const char *path, const char *key, const ch
 
 /* The members of a warning event: code ([a-z0-9-], 1 to 47), figure
  * (number or null), message (required). */
+/* mode (an alignment's name), the four numbers (or null), iterations. */
+static sm_status read_alignment(const json_t *obj, const char *sub, sm_event_alignment *a,
+                                sm_error *err)
+{
+    const json_t *v = json_object_get(obj, "mode");
+    sm_align_mode mode;
+    if (!v)
+        return fail(err, sub, "mode", "required member missing");
+    if (!json_is_string(v) || sm_align_mode_from_name(json_string_value(v), &mode) != 0 ||
+        mode == SM_ALIGN_NONE)
+        return fail(err, sub, "mode", "must be \"rigid\", \"similarity\" or \"affine\"");
+    snprintf(a->mode, sizeof a->mode, "%s", sm_align_mode_name(mode));
+    static const char *const keys[4] = {"scale", "rms_before", "rms_after", "seconds"};
+    double *vals[4] = {&a->scale, &a->rms_before, &a->rms_after, &a->seconds};
+    for (int k = 0; k < 4; k++) {
+        sm_status st = read_number(obj, sub, keys[k], vals[k], err);
+        if (st != SM_OK)
+            return st;
+    }
+    v = json_object_get(obj, "iterations");
+    if (!v)
+        return fail(err, sub, "iterations", "required member missing");
+    if (!json_is_integer(v) || json_integer_value(v) < 0 || json_integer_value(v) > INT_MAX)
+        return fail(err, sub, "iterations", "must be an integer >= 0");
+    a->iterations = (int)json_integer_value(v);
+    return SM_OK;
+}
+
 static sm_status read_warning(const json_t *obj, const char *sub, sm_event *ev, sm_error *err)
 {
     const json_t *v = json_object_get(obj, "code");
@@ -663,6 +706,10 @@ sm_status sm_event_from_jansson(const json_t *obj, sm_event *out, sm_error *err)
         break;
     case SM_EVENT_WARNING:
         if ((st = read_warning(obj, sub, &ev, err)))
+            return st;
+        break;
+    case SM_EVENT_ALIGNMENT:
+        if ((st = read_alignment(obj, sub, &ev.alignment, err)))
             return st;
         break;
     }

@@ -64,8 +64,17 @@ typedef enum sm_event_type {
     SM_EVENT_FAILED = 4,
     SM_EVENT_CANCELLED = 5,
     SM_EVENT_STATUS = 6,
-    SM_EVENT_WARNING = 7
+    SM_EVENT_WARNING = 7,
+    SM_EVENT_ALIGNMENT = 8
 } sm_event_type;
+
+/* SM_EVENT_ALIGNMENT: the template moved onto the target before the
+ * descent (params align; summary.json's alignment has the matrix too). */
+typedef struct sm_event_alignment {
+    char mode[16];                  /* "rigid", "similarity" or "affine" */
+    double scale, rms_before, rms_after, seconds; /* NaN = null */
+    int iterations;
+} sm_event_alignment;
 
 /* Longest warning code ("outside-background"): [a-z0-9-], 1 to this. */
 #define SM_WARNING_CODE_MAX 47
@@ -91,6 +100,7 @@ typedef struct sm_event {
     sm_job_state state;             /* SM_EVENT_STATUS */
     char code[SM_WARNING_CODE_MAX + 1]; /* SM_EVENT_WARNING */
     double figure;                  /* SM_EVENT_WARNING; NaN = null */
+    sm_event_alignment alignment;   /* SM_EVENT_ALIGNMENT */
     char message[SM_EVENT_MESSAGE_MAX]; /* "" = omitted; longer strings are
                                            truncated (UTF-8 safe) */
     int converged;                  /* SM_EVENT_STATUS: "converged" of a

@@ -243,11 +243,23 @@ static sm_status decode_row(const sm_param_info *f, const json_t *value, const c
         return get_refs(value, sub, (size_t)f->min, (int32_t *)at,
                         (int *)((char *)base + f->count_offset), err);
     case SM_PARAM_SOLVER:
-        if (!json_is_string(value) ||
-            sm_solver_kind_from_name(json_string_value(value), (sm_solver_kind *)at) != 0)
-            return sm_error_set(err, SM_ERR_INVALID, "%s: must be \"auto\", \"cholmod\" or \"amg\"",
-                                sub);
+    case SM_PARAM_ALIGN: {
+        int k = json_is_string(value) ? sm_param_value_from_name(f, json_string_value(value)) : -1;
+        if (k < 0) {
+            char quoted[128]; /* "a", "b" or "c" */
+            size_t o = 0;
+            quoted[0] = '\0';
+            for (int v = (int)f->min; v <= (int)f->max && o < sizeof quoted; v++) {
+                int w = snprintf(quoted + o, sizeof quoted - o, "%s\"%s\"",
+                                 v == (int)f->min ? "" : v == (int)f->max ? " or " : ", ",
+                                 sm_param_value_name(f, v));
+                o += w > 0 ? (size_t)w : 0;
+            }
+            return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s", sub, quoted);
+        }
+        sm_param_set_value(f, base, k);
         return SM_OK;
+    }
     case SM_PARAM_CLAMP:
         break;
     }
@@ -386,7 +398,8 @@ static int encodable(const sm_params *p, int dim)
         const char *at = (const char *)p + rows[i].offset;
         if (rows[i].type == SM_PARAM_REAL && !isfinite(*(const double *)at))
             return 0;
-        if (rows[i].type == SM_PARAM_SOLVER && !sm_solver_kind_name(*(const sm_solver_kind *)at))
+        if (sm_param_is_named(&rows[i]) &&
+            !sm_param_value_name(&rows[i], sm_param_get_value(&rows[i], p)))
             return 0;
     }
     for (int c = 0; c < 3; c++)
@@ -437,7 +450,8 @@ static json_t *row_to_jansson(const sm_param_info *f, const sm_params *p, int di
     switch (f->type) {
     case SM_PARAM_REAL: return json_real(*(const double *)at);
     case SM_PARAM_INT: return json_integer(*(const int *)at);
-    case SM_PARAM_SOLVER: return json_string(sm_solver_kind_name(*(const sm_solver_kind *)at));
+    case SM_PARAM_SOLVER:
+    case SM_PARAM_ALIGN: return json_string(sm_param_value_name(f, sm_param_get_value(f, p)));
     case SM_PARAM_REFS:
         return refs_array((const int32_t *)at, *(const int *)((const char *)p + f->count_offset));
     case SM_PARAM_CLAMP: return clamp_to_jansson(p, dim);

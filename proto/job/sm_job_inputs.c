@@ -1,6 +1,8 @@
 /* Reading and checking a job's inputs (see sm_job_inputs.h). */
 #include "job/sm_job_inputs.h"
 
+#include "job/sm_job_align.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -26,6 +28,10 @@ void sm_job_inputs_free(sm_job_inputs *in)
     sm_mesh_free(in->background);
     sm_mesh_free(in->prepared);
     sm_mesh_free(in->template_mesh);
+    free(in->landmarks[0]);
+    free(in->landmarks[1]);
+    in->landmarks[0] = in->landmarks[1] = NULL;
+    in->nlandmarks = 0;
     in->field = NULL;
     in->distance = NULL;
     in->background = NULL;
@@ -331,6 +337,8 @@ sm_status sm_job_inputs_read_template(const sm_job_files *files, sm_job_naming n
         file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
         goto fail;
     }
+    if ((st = sm_job_read_landmarks(files, out, err)) != SM_OK)
+        goto fail;
     return SM_OK;
 fail:
     if (st == SM_ERR_NOMEM && !(files->limits && files->limits->hit))
@@ -382,6 +390,9 @@ static void prepare_run(sm_job_inputs *in)
 {
     double t0 = sm_clock_seconds();
     sm_error_clear(&in->match_error);
+    if (in->params.align != SM_ALIGN_NONE)
+        return; /* the template moves first: its side is set up on the
+                 * moved copy (sm_job_run_exec) */
     sm_match_opts opts = {.template_mesh = in->template_mesh, .prepared = in->prepared,
                           .params = &in->params};
     in->match_status = sm_match_new(&opts, &in->match, &in->match_error);

@@ -66,6 +66,9 @@ typedef struct sm_job_files {
      * target is read (sm_job_inputs_read_target's prepare); for a caller
      * that runs the job next (the worker), not for the upload's check */
     int prepare_run;
+    /* landmark CSV files (sm_job_align.h), both or none: the alignment's
+     * start; NULL: none */
+    const char *landmarks_template, *landmarks_target;
 } sm_job_files;
 
 typedef enum sm_job_naming {
@@ -108,6 +111,10 @@ typedef struct sm_job_inputs {
     sm_status match_status;
     sm_error match_error;
     double match_seconds;
+    /* landmark pairs (template's, target's: nlandmarks*dim each), read
+     * with the template (sm_job_read_landmarks); NULL and 0 when none */
+    double *landmarks[2];
+    int32_t nlandmarks;
 } sm_job_inputs;
 
 /* background_size and background_padding (> 0: given) are for a

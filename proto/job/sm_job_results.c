@@ -160,6 +160,8 @@ json_t *sm_job_summary_outputs(const sm_job_inputs *in, const sm_job_run *run,
     bad = bad || smp_set(doc, "resolution", smp_real_or_null(run->resolution));
     bad = bad || smp_set(doc, "inverted_elements", json_integer(run->inverted));
     bad = bad || smp_set(doc, "warnings", warnings_array(&run->warnings));
+    if (run->alignment.done) /* only then: a run without one keeps its summary */
+        bad = bad || smp_set(doc, "alignment", sm_job_alignment_json(&run->alignment, m->dim));
     bad = bad || smp_set(doc, "field_builds", json_integer(in->field_builds));
     bad = bad || set_string(inputs, "template", names->template_mesh) ||
           set_string(inputs, "target_mesh", names->target_mesh) ||

@@ -182,15 +182,28 @@ sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_r
     sm_job_hooks none = {0};
     run_ctx c = {.in = in, .hooks = hooks ? hooks : &none, .run = run, .failed = SM_OK};
     sm_error_clear(&c.error);
-    sm_match_opts opts = {.template_mesh = m, .prepared = in->prepared, .target = in->field,
-                          .params = &in->params};
+    /* the alignment first: from here on the run sees the moved template
+     * (view), while in keeps the template as read for the outputs */
+    sm_status st = sm_job_align(in, &run->alignment, err);
+    if (st != SM_OK)
+        return st;
+    if (run->alignment.done && in->match) { /* set up on the unmoved template */
+        sm_match_free(in->match);
+        in->match = NULL;
+    }
+    if (run->alignment.done && c.hooks->alignment)
+        c.hooks->alignment(&run->alignment, c.hooks->user);
+    sm_job_inputs view;
+    sm_job_aligned_view(in, &run->alignment, &view);
+    sm_match_opts opts = {.template_mesh = view.template_mesh, .prepared = view.prepared,
+                          .target = in->field, .params = &view.params};
     sm_match_callbacks cb = {.progress = on_progress, .user = &c, .cancel = c.hooks->cancel};
-    sm_status st = sm_job_check_sign(in, &run->warnings, err);
+    st = sm_job_check_sign(&view, &run->warnings, err);
     if (st != SM_OK)
         return st;
     tell_warnings(&c, 0);
     int told = run->warnings.n;
-    st = run_match(in, &opts, &cb, run, err);
+    st = run_match(run->alignment.done ? &view : in, &opts, &cb, run, err);
     if (c.failed != SM_OK) {
         if (err)
             *err = c.error;
@@ -217,7 +230,7 @@ sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_r
     sm_quality_stats q;
     sm_mesh_quality(in->prepared, run->coords, &q);
     run->inverted = q.ninverted;
-    sm_job_check_result(in, run->coords, r, run->outcome == SM_JOB_OUTCOME_FINISHED,
+    sm_job_check_result(&view, run->coords, r, run->outcome == SM_JOB_OUTCOME_FINISHED,
                         &run->warnings, &run->resolution);
     if (run->resolution > 0 && r->boundary_rms > SM_JOB_RESOLVED_FACTOR * run->resolution)
         run->result.converged = 0;
@@ -235,6 +248,7 @@ void sm_job_run_free(sm_job_run *run)
         return;
     free(run->coords);
     free(run->history);
+    sm_job_alignment_free(&run->alignment);
     run->coords = NULL;
     run->history = NULL;
     run->nhistory = run->history_cap = 0;

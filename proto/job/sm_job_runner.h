@@ -21,6 +21,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "job/sm_job_align.h"
 #include "job/sm_job_inputs.h"
 #include "job/sm_job_warnings.h"
 #include "shapematch/sm_error.h"
@@ -74,6 +75,10 @@ typedef struct sm_job_hooks {
      * run, the result checks after it), for callers that stream them
      * (the worker's warning events).  May be NULL. */
     void (*warning)(const sm_job_warning *w, void *user);
+    /* Once the template has been aligned (params align not none), before
+     * the descent: the CLI's line, the worker's alignment event.  May be
+     * NULL. */
+    void (*alignment)(const sm_job_alignment *a, void *user);
     void *user;
     const volatile int *cancel;  /* polled between iterations; may be NULL */
     const char *snapshot_dir;    /* iter-NNNNN.mesh go here (NULL: none) */
@@ -92,10 +97,13 @@ typedef struct sm_job_run {
                                   * boundary (sm_job_check_result) */
     char message[512];           /* failed: why, for the user */
     sm_job_warnings warnings;    /* sm_job_warnings.h; in the summary */
+    sm_job_alignment alignment;  /* params align: the transform and the
+                                  * moved template the run worked on */
 } sm_job_run;
 
 /* Runs the job on in (field and prepared template reused, nothing is
- * built again; the run's template side too when it was set up while
+ * built again; with params align, the template is first moved onto the
+ * target, sm_job_align.h, and the run starts from the moved copy; the run's template side too when it was set up while
  * the target was read: in->match is consumed, and its failure is the
  * run's).  SM_OK: run->outcome says how it ended, run->coords and
  * run->result describe the state reached.  Errors: the core's (with its

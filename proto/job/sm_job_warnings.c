@@ -132,7 +132,45 @@ static void check_units(sm_job_warnings *out, int dim, const double tlo[3], cons
         return;
     char text[256];
     sm_job_units_text(&s, text, sizeof text);
-    add(out, "units", s.ratio, "%s Scale one of them onto the other's unit", text);
+    add(out, "units", s.ratio,
+        "%s Scale one of them onto the other's unit (or give --align similarity)", text);
+}
+
+/* misaligned: the template is clearly off the target, one rule for every
+ * way of being off: its box centre outside the target's box with under
+ * a quarter of its vertices inside the target, or almost
+ * none of its vertices inside the target with boxes that barely overlap
+ * (the descent only pulls a template that overlaps the target).  The
+ * advice is the alignment; after one, the alignment itself missed. */
+static void check_misaligned(const sm_job_inputs *in, sm_job_warnings *out, double frac,
+                             const double tlo[3], const double thi[3], const double glo[3],
+                             const double ghi[3])
+{
+    const int dim = in->prepared->dim;
+    int centre_out = 0;
+    double gap = 0;
+    for (int c = 0; c < dim; c++) {
+        double mid = 0.5 * (tlo[c] + thi[c]);
+        centre_out = centre_out || mid < glo[c] || mid > ghi[c];
+        double dc = 0.5 * (glo[c] + ghi[c]) - mid;
+        gap += dc * dc;
+    }
+    int apart = 1 - frac < SM_JOB_INSIDE_MIN &&
+                box_overlap(dim, tlo, thi, glo, ghi) < SM_JOB_OVERLAP_MIN;
+    if (!(centre_out && 1 - frac < SM_JOB_INSIDE_MIN_CENTRE) && !apart)
+        return;
+    if (in->params.align == SM_ALIGN_NONE)
+        add(out, "misaligned", frac,
+            "the template is off the target (%.0f%% of its vertices outside it, centres %.4g "
+            "apart%s): the descent only pulls a template that overlaps the target; align it "
+            "first with --align rigid or similarity (params align; --landmarks to help), or "
+            "move it yourself",
+            100 * frac, sqrt(gap), centre_out ? ", its centre outside the target's box" : "");
+    else
+        add(out, "misaligned", frac,
+            "the template is still off the target after --align %s (%.0f%% of its vertices "
+            "outside it, centres %.4g apart): give --landmarks, or try another --align mode",
+            sm_align_mode_name(in->params.align), 100 * frac, sqrt(gap));
 }
 
 /* The target surface's health: holes and several closed shells change
@@ -211,19 +249,8 @@ sm_status sm_job_check_sign(const sm_job_inputs *in, sm_job_warnings *out, sm_er
     }
     if (have_target)
         check_units(out, m->dim, tlo, thi, glo, ghi);
-    if (have_target && neg < nhull && 1 - frac < SM_JOB_INSIDE_MIN &&
-        box_overlap(m->dim, tlo, thi, glo, ghi) < SM_JOB_OVERLAP_MIN) {
-        double gap = 0;
-        for (int c = 0; c < m->dim; c++) {
-            double dc = 0.5 * (glo[c] + ghi[c] - tlo[c] - thi[c]);
-            gap += dc * dc;
-        }
-        add(out, "template-outside", frac,
-            "%.0f%% of the template's vertices lie outside the target, and their boxes barely "
-            "overlap (centres %.4g apart): the descent only pulls a template that overlaps the "
-            "target; move the template onto it first (translate and scale it)",
-            100 * frac, sqrt(gap));
-    }
+    if (have_target && neg < nhull)
+        check_misaligned(in, out, frac, tlo, thi, glo, ghi);
     if (nclamp > 0 && clamp_pos == nclamp && neg < nhull)
         add(out, "clamp-outside", clamp_dmin,
             "the clamp set (%ld vertices) lies outside the target (d >= %.3g at all of them): "

@@ -230,6 +230,7 @@ static void handle_line(smd_pool *p, slot *s, const char *line, size_t len, smd_
         smd_jobs_progress(srv, job, &ev, after); /* refused once cancelled */
         break;
     case SM_EVENT_WARNING:
+    case SM_EVENT_ALIGNMENT: /* appended to the job's events as they come */
         smd_jobs_warning(srv, job, &ev, after);
         break;
     case SM_EVENT_FINISHED:

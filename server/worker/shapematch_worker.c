@@ -125,6 +125,13 @@ static void on_warning(const sm_job_warning *warning, void *user)
     emit(user, &ev);
 }
 
+static void on_alignment(const sm_job_alignment *a, void *user)
+{
+    sm_event ev;
+    sm_job_alignment_event(a, &ev);
+    emit(user, &ev);
+}
+
 /* Writes one live file: name under JOB_DIR, via a temporary file. */
 static sm_status live_write(worker *w, const char *name, const double *coords, sm_error *err)
 {
@@ -307,6 +314,7 @@ static int run_job(worker *w, sm_job_inputs *in, const smd_job_file *jf)
     }
     live_init(&w->live, in, w->job_dir);
     sm_job_hooks hooks = {.progress = on_progress, .shape = on_shape, .warning = on_warning,
+                          .alignment = on_alignment,
                           .user = w,
                           .cancel = (const volatile int *)&stop_requested,
                           .snapshot_dir = w->save_every > 0 ? snaps : NULL,

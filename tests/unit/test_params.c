@@ -262,29 +262,43 @@ static void test_step_rule(void **state)
     }
 }
 
-/* The solver by name: every name of the table's range in both; a wrong
- * one refused by both; an enum value past the range refused by core. */
-static void test_solver_names(void **state)
+/* The named rows (solver, align) by name: every name of the table's
+ * range in both; a wrong one refused by both; an enum value past the
+ * range refused by core. */
+static void test_named_values(void **state)
 {
     (void)state;
-    const sm_param_info *f = sm_params_lookup("solver");
-    assert_non_null(f);
-    for (int k = (int)f->min; k <= (int)f->max + 1; k++) {
-        const char *name = k <= (int)f->max ? sm_solver_kind_name((sm_solver_kind)k) : "AMG";
-        char quoted[32], why[ARGS_MSG_LEN];
-        snprintf(quoted, sizeof quoted, "\"%s\"", name);
-        int expect = k <= (int)f->max;
-        const char *argv[] = {"run", "--template", "t", "--target-mesh", "b", "--target-sol",
-                              "s", "-o", "o", "--no-clamp", "--solver", name, NULL};
-        run_options o;
-        assert_int_equal(args_parse_run(12, (char **)argv, &o, why, sizeof why) == ARGS_OK, expect);
-        assert_int_equal(by_json(f, quoted, why), expect);
-        sm_params p;
-        sm_error err;
-        sm_params_default(&p);
-        p.solver = (sm_solver_kind)k;
-        assert_int_equal(sm_params_validate(&p, 2, &err) == SM_OK, expect);
+    size_t nrows;
+    const sm_param_info *rows = sm_params_table(&nrows);
+    int named = 0;
+    for (size_t i = 0; i < nrows; i++) {
+        const sm_param_info *f = &rows[i];
+        if (!sm_param_is_named(f))
+            continue;
+        named++;
+        for (int k = (int)f->min; k <= (int)f->max + 1; k++) {
+            const char *name = k <= (int)f->max ? sm_param_value_name(f, k) : "AMG";
+            char quoted[32], why[ARGS_MSG_LEN];
+            snprintf(quoted, sizeof quoted, "\"%s\"", name);
+            int expect = k <= (int)f->max;
+            const char *argv[] = {"run", "--template", "t", "--target-mesh", "b", "--target-sol",
+                                  "s", "-o", "o", "--no-clamp", f->flag, name, NULL};
+            run_options o;
+            assert_int_equal(args_parse_run(12, (char **)argv, &o, why, sizeof why) == ARGS_OK,
+                             expect);
+            if (expect)
+                assert_int_equal(sm_param_get_value(f, &o.job.params), k);
+            assert_int_equal(by_json(f, quoted, why), expect);
+            sm_params p;
+            sm_error err;
+            sm_params_default(&p);
+            sm_param_set_value(f, &p, k);
+            assert_int_equal(sm_params_validate(&p, 2, &err) == SM_OK, expect);
+            if (!expect)
+                assert_non_null(strstr(err.msg, f->name));
+        }
     }
+    assert_int_equal(named, 2);
 }
 
 /* free_boundary: the count's bounds (0 and SM_MAX_REFS) in JSON and core,
@@ -427,7 +441,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_rows_well_formed),
         cmocka_unit_test(test_bounds_agree),
         cmocka_unit_test(test_step_rule),
-        cmocka_unit_test(test_solver_names),
+        cmocka_unit_test(test_named_values),
         cmocka_unit_test(test_ref_counts),
         cmocka_unit_test(test_docs_table),
     };

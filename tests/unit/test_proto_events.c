@@ -105,6 +105,14 @@ static void assert_event_equal(const sm_event *a, const sm_event *b)
         assert_string_equal(a->code, b->code);
         assert_true(same_double(a->figure, b->figure));
     }
+    if (a->type == SM_EVENT_ALIGNMENT) {
+        assert_string_equal(a->alignment.mode, b->alignment.mode);
+        assert_true(same_double(a->alignment.scale, b->alignment.scale));
+        assert_true(same_double(a->alignment.rms_before, b->alignment.rms_before));
+        assert_true(same_double(a->alignment.rms_after, b->alignment.rms_after));
+        assert_true(same_double(a->alignment.seconds, b->alignment.seconds));
+        assert_int_equal(a->alignment.iterations, b->alignment.iterations);
+    }
 }
 
 static void round_trip(const sm_event *ev, sm_event *back)
@@ -134,7 +142,7 @@ static void test_every_event_type_round_trips(void **state)
     const double t0 = 1714564800.123; /* 2024-05-01T12:00:00.123Z */
     sm_event ev, back;
     int types = 0;
-    for (int type = SM_EVENT_ACCEPTED; type <= SM_EVENT_WARNING; type++) {
+    for (int type = SM_EVENT_ACCEPTED; type <= SM_EVENT_ALIGNMENT; type++) {
         sm_event_init(&ev, (sm_event_type)type);
         snprintf(ev.job_id, sizeof ev.job_id, "0123456789abcdef0123456789abcdef");
         ev.seq = 1000000000000LL + type;
@@ -174,13 +182,27 @@ static void test_every_event_type_round_trips(void **state)
             snprintf(ev.message, sizeof ev.message, "12%% of the boundary lies outside");
             ev.figure = 0.125;
             break;
+        case SM_EVENT_ALIGNMENT:
+            snprintf(ev.alignment.mode, sizeof ev.alignment.mode, "similarity");
+            ev.alignment.scale = 1000.25;
+            ev.alignment.rms_before = 49.375;
+            ev.alignment.rms_after = 0.1 + 0.2;
+            ev.alignment.seconds = NAN;
+            ev.alignment.iterations = 25;
+            break;
         default:
             break;
         }
         round_trip(&ev, &back);
         types++;
     }
-    assert_int_equal(types, 8);
+    assert_int_equal(types, 9);
+    /* an alignment's mode is one of the three */
+    sm_error err;
+    const char *bad_mode = "{\"type\":\"alignment\",\"mode\":\"none\",\"scale\":1,"
+                           "\"rms_before\":1,\"rms_after\":1,\"iterations\":1,\"seconds\":1}";
+    assert_int_equal(sm_event_from_json(bad_mode, strlen(bad_mode), &back, &err), SM_ERR_FORMAT);
+    assert_non_null(strstr(err.msg, "mode"));
     /* a warning's figure may be non-finite: null on the wire, NaN back */
     sm_event_init(&ev, SM_EVENT_WARNING);
     snprintf(ev.code, sizeof ev.code, "above-resolution");
@@ -586,7 +608,7 @@ static void test_result_summary(void **state)
 static void test_names(void **state)
 {
     (void)state;
-    for (int i = 0; i <= SM_EVENT_WARNING; i++) {
+    for (int i = 0; i <= SM_EVENT_ALIGNMENT; i++) {
         sm_event_type t;
         assert_int_equal(sm_event_type_from_name(sm_event_type_name((sm_event_type)i), &t), 0);
         assert_int_equal(t, i);
@@ -599,7 +621,8 @@ static void test_names(void **state)
     assert_string_equal(sm_job_state_name(SM_JOB_SUCCESSFUL), "successful");
     assert_string_equal(sm_event_type_name(SM_EVENT_CANCELLED), "cancelled");
     assert_string_equal(sm_event_type_name(SM_EVENT_WARNING), "warning");
-    assert_null(sm_event_type_name((sm_event_type)8));
+    assert_string_equal(sm_event_type_name(SM_EVENT_ALIGNMENT), "alignment");
+    assert_null(sm_event_type_name((sm_event_type)9));
     assert_null(sm_job_state_name((sm_job_state)-1));
     sm_job_state s;
     assert_int_equal(sm_job_state_from_name("SUCCESSFUL", &s), -1);
@@ -619,10 +642,11 @@ static void test_schema_lists_the_members(void **state)
     json_t *defs = json_object_get(schema, "$defs");
     assert_non_null(defs);
     int checked = 0;
-    for (int type = 0; type <= SM_EVENT_WARNING; type++) {
+    for (int type = 0; type <= SM_EVENT_ALIGNMENT; type++) {
         sm_event ev;
         sm_event_init(&ev, (sm_event_type)type);
         snprintf(ev.code, sizeof ev.code, "alpha-small");
+        snprintf(ev.alignment.mode, sizeof ev.alignment.mode, "rigid");
         snprintf(ev.job_id, sizeof ev.job_id, "j");
         ev.seq = 1;
         ev.time = 1.0;

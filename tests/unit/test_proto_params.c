@@ -735,7 +735,7 @@ static void test_schema_matches_table(void **state)
         const char *type = json_string_value(json_object_get(m, "type"));
         const char *want = f->type == SM_PARAM_REAL ? "number"
                            : f->type == SM_PARAM_INT ? "integer"
-                           : f->type == SM_PARAM_SOLVER ? "string" : NULL;
+                           : sm_param_is_named(f) ? "string" : NULL;
         if (f->type == SM_PARAM_REFS) {
             /* a list of refs: $ref to #/$defs/refs, count bounds */
             assert_string_equal(json_string_value(json_object_get(m, "$ref")), "#/$defs/refs");
@@ -750,19 +750,19 @@ static void test_schema_matches_table(void **state)
             check_bound(f->name, m, f->min, f->min_open, "minimum", "exclusiveMinimum");
             check_bound(f->name, m, f->max, f->max_open, "maximum", "exclusiveMaximum");
         }
-        if (f->type == SM_PARAM_SOLVER) {
+        if (sm_param_is_named(f)) {
             json_t *names = json_object_get(m, "enum");
             assert_int_equal(json_array_size(names), (size_t)f->max + 1);
             for (int k = (int)f->min; k <= (int)f->max; k++)
                 assert_string_equal(json_string_value(json_array_get(names, (size_t)k)),
-                                    sm_solver_kind_name((sm_solver_kind)k));
+                                    sm_param_value_name(f, k));
         }
         /* the default: none in the schema when it comes from the meshes */
         json_t *d = json_object_get(m, "default");
         if (f->type == SM_PARAM_REAL && f->def_text)
             assert_null(d);
-        else if (f->type == SM_PARAM_SOLVER)
-            assert_string_equal(json_string_value(d), sm_solver_kind_name((sm_solver_kind)f->def));
+        else if (sm_param_is_named(f))
+            assert_string_equal(json_string_value(d), sm_param_value_name(f, (int)f->def));
         else if (f->type == SM_PARAM_REFS)
             assert_int_equal(json_array_size(d), 0);
         else if (!d || json_number_value(d) != f->def)

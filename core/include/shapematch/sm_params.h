@@ -46,6 +46,21 @@ int sm_solver_kind_from_name(const char *name, sm_solver_kind *out);
 sm_solver_kind sm_solver_resolve(sm_solver_kind kind, int dim, int64_t nelems);
 #define SM_SOLVER_AMG_MIN_TETS 20000
 
+/* Pre-alignment before the descent (params "align"; sm_align.h has the
+ * method): none keeps the paper's assumption that the shapes are given
+ * aligned, and the run exactly as without the parameter. */
+typedef enum sm_align_mode {
+    SM_ALIGN_NONE = 0,       /* no alignment */
+    SM_ALIGN_RIGID = 1,      /* rotation + translation */
+    SM_ALIGN_SIMILARITY = 2, /* + one uniform scale */
+    SM_ALIGN_AFFINE = 3      /* full matrix (det > 0, conditioning guarded) */
+} sm_align_mode;
+
+/* "none", "rigid", "similarity", "affine"; NULL out of range. */
+const char *sm_align_mode_name(sm_align_mode mode);
+/* 0 and *out for a known name, -1 otherwise. */
+int sm_align_mode_from_name(const char *name, sm_align_mode *out);
+
 /* Defaults and bounds of every member: the parameter table below
  * (sm_params_table, core/sm_params.c), not these comments. */
 typedef struct sm_params {
@@ -89,6 +104,7 @@ typedef struct sm_params {
     int live_every;          /* the daemon's live mesh (mesh/latest): published
                               * every k iterations, and at least every 0.5 s
                               * of a run; 0 = by time only */
+    sm_align_mode align;     /* pre-alignment (the job runner applies it) */
 } sm_params;
 
 /* Fills p with the defaults of the parameter table (below); clamp NONE. */
@@ -114,8 +130,9 @@ typedef enum sm_param_type {
     SM_PARAM_SOLVER = 2, /* sm_solver_kind, written by name (sm_solver_kind_name) */
     SM_PARAM_REFS = 3,   /* int32_t list at offset, its int count at count_offset;
                           * min/max bound the count */
-    SM_PARAM_CLAMP = 4   /* the clamp set: its kind and members are code of their
+    SM_PARAM_CLAMP = 4,  /* the clamp set: its kind and members are code of their
                           * own (the clamp options, decode_clamp, the checks) */
+    SM_PARAM_ALIGN = 5   /* sm_align_mode, written by name (sm_align_mode_name) */
 } sm_param_type;
 
 typedef struct sm_param_info {
@@ -147,5 +164,18 @@ int sm_param_in_range(const sm_param_info *f, double x);
 /* f's bounds for people: "> 0", ">= 0", "in (-1, 0.5)", "in [1, 100000]"
  * (an INT bound at INT_MAX counts as none).  Returns snprintf's count. */
 int sm_param_describe_range(const sm_param_info *f, char *buf, size_t cap);
+
+/* The rows whose values are names (SM_PARAM_SOLVER, SM_PARAM_ALIGN): 1
+ * for them.  Their value k (an enum from f->min to f->max) by name (NULL
+ * out of range), a name's value (-1 when unknown), and the value of the
+ * row in a struct (base: the sm_params), so that readers and writers of
+ * the table need no case per enum. */
+int sm_param_is_named(const sm_param_info *f);
+const char *sm_param_value_name(const sm_param_info *f, int k);
+int sm_param_value_from_name(const sm_param_info *f, const char *name);
+int sm_param_get_value(const sm_param_info *f, const void *base);
+void sm_param_set_value(const sm_param_info *f, void *base, int k);
+/* "a, b or c": the names of a named row, for messages. */
+void sm_param_names_text(const sm_param_info *f, char *buf, size_t cap);
 
 #endif

@@ -1,0 +1,58 @@
+/* The job runner's alignment step (params "align", sm_align.h): before
+ * the descent the template is moved onto the target, and with it the
+ * clamp ball (given in template coordinates).  The run then works on the
+ * moved copies; the inputs keep the template as read, so the result set's
+ * displacement (final positions minus the template as read) is the whole
+ * map, alignment and elastic together, and result.* are in the target's
+ * coordinates.
+ *
+ * Landmarks (files landmarks_template and landmarks_target, CSV rows of
+ * dim numbers, sm_landmarks_parse) give the refinement its start
+ * (Kabsch for rigid, Umeyama otherwise); they need an alignment. */
+#ifndef SM_JOB_ALIGN_H
+#define SM_JOB_ALIGN_H
+
+#include <jansson.h>
+
+#include "job/sm_job_inputs.h"
+#include "shapematch/sm_align.h"
+#include "sm_proto_events.h"
+
+typedef struct sm_job_alignment {
+    int done;                 /* 1: the template was moved */
+    sm_align_mode mode;
+    sm_align_result result;
+    int32_t landmarks;        /* pairs that gave the start (0: moments) */
+    sm_mesh *template_mesh;   /* the moved copies (owned) */
+    sm_mesh *prepared;
+    sm_params params;         /* the job's, the clamp ball moved */
+} sm_job_alignment;
+
+/* Reads the landmark files of files (both or none; SM_ERR_INVALID for
+ * one) into in->landmarks for the template's dimension; equal counts.
+ * Messages start with the file's role ("landmarks (template): ..."). */
+sm_status sm_job_read_landmarks(const sm_job_files *files, sm_job_inputs *in, sm_error *err);
+
+/* Aligns when in->params.align is not none (a->done 0 otherwise, or
+ * SM_ERR_INVALID when landmarks were given without an alignment).  The
+ * clamp ball's centre moves by the transform and its radius scales by
+ * its scale (exact for rigid and similarity; affine: the mean scale
+ * |det A|^(1/d), an ellipsoid's ball of equal volume); the moved clamp
+ * must still hold vertices as the input's did (sm_clamp_check). */
+sm_status sm_job_align(const sm_job_inputs *in, sm_job_alignment *a, sm_error *err);
+void sm_job_alignment_free(sm_job_alignment *a);
+
+/* summary.json's "alignment": {mode, matrix (row-major (d+1)x(d+1),
+ * homogeneous, template -> target), scale, rms_before, rms_after,
+ * iterations, candidates, landmarks, seconds}; NULL when out of memory. */
+json_t *sm_job_alignment_json(const sm_job_alignment *a, int dim);
+
+/* The alignment as an "alignment" event (sm_proto_events.h; no seq, no
+ * time): what the worker streams before the descent. */
+void sm_job_alignment_event(const sm_job_alignment *a, sm_event *ev);
+
+/* The inputs as the run sees them: in with the moved template, prepared
+ * and params when a->done (a shallow copy: nothing to free). */
+void sm_job_aligned_view(const sm_job_inputs *in, const sm_job_alignment *a, sm_job_inputs *view);
+
+#endif

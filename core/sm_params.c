@@ -105,7 +105,7 @@ static const sm_param_info table[] = {
      RANGE(SM_SOLVER_AUTO, CLOSED, SM_SOLVER_AMG, CLOSED), SM_SOLVER_AUTO, NULL, 0, "--solver",
      "NAME",
      "elastic solver: cholmod (sparse Cholesky), amg (PCG + BoomerAMG: less memory, for large "
-     "3D templates) or auto (amg from 20000 tetrahedra in 3D)"},
+     "3D templates) or auto (amg from 100000 tetrahedra in 3D)"},
     /* none: the paper's assumption (shapes given aligned) and today's
      * runs bit for bit; an alignment costs a second or so (bench/align.sh) */
     {"align", SM_PARAM_ALIGN, offsetof(sm_params, align), 0,

@@ -36,15 +36,15 @@ int sm_solver_kind_from_name(const char *name, sm_solver_kind *out);
 /* The solver AUTO means for a template of dim and nelems elements:
  * AMG from SM_SOLVER_AMG_MIN_TETS tetrahedra on (3D only: 2D templates of
  * any size this project meets factor fast); kind itself if not AUTO.
- * Measured (bench/scale.sh, match_bench, shapematch run; README "Large
- * templates"): the inexact AMG directions need fewer iterations than the
- * exact ones (the 30k-tetrahedron example reaches 2.9e-4 at iteration 13
- * instead of 17, and its default run stops after 213 iterations instead
- * of 272, at a lower error), so AMG is ahead from ~8k tetrahedra (equal
- * at 8.5k) and uses less memory (82 against 134 MiB at 30k); below, the
- * MPI and hierarchy set-up weighs more than the whole run. */
+ * Measured on the idle 2-core machine (docs/solvers.md): at 30k
+ * tetrahedra CHOLMOD's default run is 1.6x faster (6.4 s against 10.2 s;
+ * AMG's bounded solves take 3-6 PCG steps); at 100k the two are about
+ * even per iteration in wall time (0.078 against 0.103 s, CHOLMOD on two
+ * threads; CPU 0.163 against 0.132 s) with a 4x cheaper AMG set-up and
+ * 4.6x less memory (118 against 541 MiB); above, AMG wins both, and
+ * CHOLMOD's factor stops fitting in 24 GiB at about 2-3M. */
 sm_solver_kind sm_solver_resolve(sm_solver_kind kind, int dim, int64_t nelems);
-#define SM_SOLVER_AMG_MIN_TETS 20000
+#define SM_SOLVER_AMG_MIN_TETS 100000
 
 /* Pre-alignment before the descent (params "align"; sm_align.h has the
  * method): none keeps the paper's assumption that the shapes are given

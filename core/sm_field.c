@@ -90,7 +90,7 @@ element_usable(const sm_field *f, int32_t e, int *negative, const int D)
                 hmax2 = l2;
         }
     double cof[3][3];
-    double det = elem_cofactors(f, ev, cof, D);
+    double det = elem_cofactors(f->bg->coords, ev, cof, D);
     double hmaxd = D == 2 ? hmax2 : hmax2 * sqrt(hmax2);
     *negative = 0;
     if (!(fabs(det) > DEGENERATE_REL * hmaxd))

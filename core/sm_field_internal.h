@@ -8,7 +8,8 @@
  *   sm_field_grid.c       the bucket grids (element and facet lists, seeds)
  *   sm_field_locate.c     the walk, point location and evaluation
  *   sm_field_nearest.c    nearest point of the mesh for outside points
- * Functions shared between the parts carry the internal prefix sm__field_
+ * sm_warp.c also uses its element kernels (elem_cofactors) on a
+ * template.  Functions shared between the parts carry the internal prefix sm__field_
  * (global symbols of the library, not part of its API). */
 #ifndef SM_FIELD_INTERNAL_H
 #define SM_FIELD_INTERNAL_H
@@ -161,9 +162,8 @@ static inline const double *vcoord(const sm_field *f, int32_t v)
  * rounding error stays proportional to the element size even far from
  * the origin.  Written out per dimension: this runs at every walk step. */
 static inline __attribute__((always_inline)) double
-elem_cofactors(const sm_field *f, const int32_t *ev, double cof[3][3], const int D)
+elem_cofactors(const double *xyz, const int32_t *ev, double cof[3][3], const int D)
 {
-    const double *xyz = f->bg->coords;
     const double *p0 = xyz + (size_t)ev[0] * D, *p1 = xyz + (size_t)ev[1] * D,
                  *p2 = xyz + (size_t)ev[2] * D;
     if (D == 2) {
@@ -202,7 +202,7 @@ elem_bary(const sm_field *f, int32_t e, const double *x, double *lam, const int 
 {
     const int32_t *ev = f->bg->elems + (size_t)e * (size_t)(D + 1);
     double cof[3][3];
-    double inv = 1.0 / elem_cofactors(f, ev, cof, D);
+    double inv = 1.0 / elem_cofactors(f->bg->coords, ev, cof, D);
     const double *p0 = f->bg->coords + (size_t)ev[0] * D;
     double y0 = x[0] - p0[0], y1 = x[1] - p0[1];
     if (D == 2) {
@@ -237,7 +237,7 @@ elem_gradient(const sm_field *f, int32_t e, double *grad, const int D)
 {
     const int32_t *ev = f->bg->elems + (size_t)e * (size_t)(D + 1);
     double cof[3][3];
-    double inv = 1.0 / elem_cofactors(f, ev, cof, D);
+    double inv = 1.0 / elem_cofactors(f->bg->coords, ev, cof, D);
     const double *val = f->values;
     for (int i = 0; i < D; i++) {
         double g = 0.0;

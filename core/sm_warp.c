@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "shapematch/sm_field.h"
+#include "sm_field_internal.h" /* elem_cofactors */
 #include "sm_morton.h"
 
 /* Points per unit of work of the threads (as sm_field_eval_points). */
@@ -93,43 +94,12 @@ int sm_warp_dim(const sm_warp *w)
 /* ------------------------------------------------------------------ */
 /* Element geometry                                                    */
 
-/* Rows of det(J) J^-1 (cof) and det J of the element ev over coords,
- * J = [p1-p0 | ... | pD-p0]. */
-static double elem_cofactors(const double *coords, const int32_t *ev, int D, double cof[3][3])
-{
-    const double *p0 = coords + (size_t)ev[0] * D, *p1 = coords + (size_t)ev[1] * D,
-                 *p2 = coords + (size_t)ev[2] * D;
-    if (D == 2) {
-        double a0 = p1[0] - p0[0], a1 = p1[1] - p0[1];
-        double b0 = p2[0] - p0[0], b1 = p2[1] - p0[1];
-        cof[0][0] = b1;
-        cof[0][1] = -b0;
-        cof[1][0] = -a1;
-        cof[1][1] = a0;
-        return a0 * b1 - b0 * a1;
-    }
-    const double *p3 = coords + (size_t)ev[3] * D;
-    double a[3], b[3], c[3];
-    for (int i = 0; i < 3; i++) {
-        a[i] = p1[i] - p0[i];
-        b[i] = p2[i] - p0[i];
-        c[i] = p3[i] - p0[i];
-    }
-    for (int i = 0; i < 3; i++) {
-        int j = (i + 1) % 3, k = (i + 2) % 3;
-        cof[0][i] = b[j] * c[k] - b[k] * c[j]; /* b x c */
-        cof[1][i] = c[j] * a[k] - c[k] * a[j]; /* c x a */
-        cof[2][i] = a[j] * b[k] - a[k] * b[j]; /* a x b */
-    }
-    return a[0] * cof[0][0] + a[1] * cof[0][1] + a[2] * cof[0][2];
-}
-
 /* Barycentric coordinates of x in element ev over coords (extrapolated
  * outside it); 0 when the element is flat. */
-static int elem_bary(const double *coords, const int32_t *ev, int D, const double *x, double *lam)
+static int warp_bary(const double *coords, const int32_t *ev, int D, const double *x, double *lam)
 {
     double cof[3][3];
-    double det = elem_cofactors(coords, ev, D, cof);
+    double det = elem_cofactors(coords, ev, cof, D);
     if (!(det != 0.0) || !isfinite(det))
         return 0;
     const double *p0 = coords + (size_t)ev[0] * D;
@@ -190,7 +160,7 @@ static int map_point(const sm_warp *w, sm_warp_direction dir, const double *x, i
     if (!inside) {
         double near[3], dist;
         e = sm_field_nearest(f, x, near, &dist);
-        if (e < 0 || !elem_bary(src, w->tmpl->elems + (size_t)e * (size_t)(D + 1), D, x, lam))
+        if (e < 0 || !warp_bary(src, w->tmpl->elems + (size_t)e * (size_t)(D + 1), D, x, lam))
             return -1;
     }
     *hint = e;
@@ -282,7 +252,7 @@ sm_status sm_warp_vertex_gradients(const sm_warp *w, sm_warp_direction dir, doub
     for (int32_t e = 0; e < m->nelems; e++) {
         const int32_t *ev = m->elems + (size_t)e * (size_t)(D + 1);
         double cof[3][3];
-        double det = elem_cofactors(src, ev, D, cof);
+        double det = elem_cofactors(src, ev, cof, D);
         if (!(det != 0.0) || !isfinite(det))
             continue;
         /* F_ij = sum_k (q_{k+1} - q_0)_i cof[k][j] / det */

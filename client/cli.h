@@ -35,6 +35,8 @@
 #ifndef CLI_H
 #define CLI_H
 
+#include "shapematch/sm_io.h" /* sm_mesh, sm_sol */
+
 enum cli_exit_code {
     CLI_EXIT_OK = 0,
     CLI_EXIT_USAGE = 1,
@@ -67,6 +69,9 @@ int cmd_run(int argc, char **argv);
 /* `shapematch sdf`: signed distance to a surface on a background mesh. */
 int cmd_sdf(int argc, char **argv);
 void cmd_sdf_help(void);
+/* DIR/background.mesh and DIR/background.sol (DIR made if needed); an
+ * exit code, the message printed. */
+int cmd_sdf_write_dir(const char *dir, const sm_mesh *bg, const sm_sol *sol);
 /* `sdf --image` (cmd_sdf_image.c): a label map's boundary. */
 int cmd_sdf_image(int argc, char **argv);
 /* Writes the help page of `shapematch run` to stdout. */

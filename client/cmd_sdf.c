@@ -172,31 +172,38 @@ static int make_background(const sdf_options *o, const sm_surface *s, const sm_s
     return CLI_EXIT_OK;
 }
 
+int cmd_sdf_write_dir(const char *dir, const sm_mesh *bg, const sm_sol *sol)
+{
+    sm_error err;
+    sm_error_clear(&err);
+    if (sm_mkdir_p(dir, &err) != SM_OK) {
+        fprintf(stderr, "shapematch sdf: %s\n", err.msg);
+        return CLI_EXIT_OUTPUT;
+    }
+    char *pm = sm_path_join(dir, "background.mesh");
+    char *ps = sm_path_join(dir, "background.sol");
+    sm_status st = pm && ps ? sm_mesh_write(pm, bg, &err) : SM_ERR_NOMEM;
+    if (st == SM_OK)
+        st = sm_sol_write(ps, sol, &err);
+    free(pm);
+    free(ps);
+    if (st == SM_OK)
+        return CLI_EXIT_OK;
+    fprintf(stderr, "shapematch sdf: %s\n", err.msg[0] ? err.msg : "out of memory");
+    return CLI_EXIT_OUTPUT;
+}
+
 static int write_outputs(const sdf_options *o, const sm_mesh *bg, const sm_sol *sol)
 {
+    if (!has_suffix(o->out, ".vtu") && !o->background)
+        return cmd_sdf_write_dir(o->out, bg, sol);
     sm_error err;
     sm_error_clear(&err);
     if (has_suffix(o->out, ".vtu")) { /* one file for ParaView: mesh and distance */
         if (sm_vtu_write(o->out, bg, NULL, NULL, sol->values, &err) == SM_OK)
             return CLI_EXIT_OK;
-    } else if (o->background) {
-        if (sm_sol_write(o->out, sol, &err) == SM_OK)
-            return CLI_EXIT_OK;
-    } else {
-        sm_error dir_err;
-        if (sm_mkdir_p(o->out, &dir_err) != SM_OK) {
-            fprintf(stderr, "shapematch sdf: %s\n", dir_err.msg);
-            return CLI_EXIT_OUTPUT;
-        }
-        char *pm = sm_path_join(o->out, "background.mesh");
-        char *ps = sm_path_join(o->out, "background.sol");
-        sm_status st = pm && ps ? sm_mesh_write(pm, bg, &err) : SM_ERR_NOMEM;
-        if (st == SM_OK)
-            st = sm_sol_write(ps, sol, &err);
-        free(pm);
-        free(ps);
-        if (st == SM_OK)
-            return CLI_EXIT_OK;
+    } else if (sm_sol_write(o->out, sol, &err) == SM_OK) {
+        return CLI_EXIT_OK;
     }
     fprintf(stderr, "shapematch sdf: %s\n", err.msg[0] ? err.msg : "out of memory");
     return CLI_EXIT_OUTPUT;

@@ -142,27 +142,6 @@ static int write_edt(const image_options *o, const sm_image_target *t)
     return CLI_EXIT_OK;
 }
 
-static int outputs(const image_options *o, const sm_mesh *bg, const sm_sol *sol)
-{
-    sm_error err;
-    sm_error_clear(&err);
-    if (sm_mkdir_p(o->out, &err) != SM_OK) {
-        fprintf(stderr, "shapematch sdf: %s\n", err.msg);
-        return CLI_EXIT_OUTPUT;
-    }
-    char *pm = sm_path_join(o->out, "background.mesh");
-    char *ps = sm_path_join(o->out, "background.sol");
-    sm_status st = pm && ps ? sm_mesh_write(pm, bg, &err) : SM_ERR_NOMEM;
-    if (st == SM_OK)
-        st = sm_sol_write(ps, sol, &err);
-    free(pm);
-    free(ps);
-    if (st == SM_OK)
-        return CLI_EXIT_OK;
-    fprintf(stderr, "shapematch sdf: %s\n", err.msg[0] ? err.msg : "out of memory");
-    return CLI_EXIT_OUTPUT;
-}
-
 /* The graded background around the label's surface, its distance. */
 static int distance(const image_options *o, const sm_image *im, sm_image_target *t)
 {
@@ -200,7 +179,7 @@ static int distance(const image_options *o, const sm_image *im, sm_image_target 
         fprintf(stderr, "shapematch sdf: %s\n", err.msg);
     } else {
         t2 = sm_clock_seconds();
-        rc = outputs(o, bg, sol);
+        rc = cmd_sdf_write_dir(o->out, bg, sol);
         fprintf(stderr, "distance at %d vertices of the generated background of size %g (%lld "
                         "exact, near the label's surface of %d triangles)\n"
                         "  seconds: background %.2f, distance %.2f, writing %.2f\n",

@@ -4,7 +4,12 @@
 # 100 diameters (tests/cli/align_inputs.py) with align rigid ends
 # successful, its events carry one "alignment" event before the first
 # progress, with the figures of summary.json's alignment; an unknown align
-# is answered 422 naming params.align.
+# is answered 422 naming params.align.  Landmarks: the parts
+# template_landmarks and target_landmarks (curl) and `shapematch submit
+# --landmarks --wait` give the job the same start as `shapematch run
+# --landmarks`: the same alignment matrix and boundary RMS; a malformed
+# landmark part, one part alone, and landmarks with align none are 422s
+# naming the part.
 source "$(dirname "$0")/lib.sh"
 
 EX=$ROOT/examples/2d
@@ -49,3 +54,60 @@ if [ "$code" = 422 ] && grep -q 'params.align' "$WORK/bad.out"; then
 else
     not_ok "unknown align refused" "$code $(cat "$WORK/bad.out")"
 fi
+
+# ------------------------------------------------------------ landmarks
+LMT=$WORK/lm_template.csv
+LMG=$WORK/lm_target.csv
+MCC=${MC/, /,}
+"$BIN/shapematch" run --template "$WORK/moved.mesh" --target-mesh "$EX/background.mesh.gz" \
+    --target-sol "$EX/background.sol.gz" --clamp-ball "$MCC,0.04" --align rigid \
+    --landmarks "$LMT,$LMG" --max-iter 3 -o "$WORK/lmrun" >/dev/null 2>"$WORK/lmrun.err"
+LMP="{\"clamp\": {\"kind\": \"ball\", \"center\": [$MC], \"radius\": 0.04}, \"align\": \"rigid\", \"max_iter\": 3}"
+# same_as_run SUMMARY: the landmark start taken, the alignment and the
+# match as the CLI's (one job runner; 1e-9 relative for the thread count)
+same_as_run() {
+    jq -en --slurpfile a "$1" --slurpfile b "$WORK/lmrun/summary.json" '
+        $a[0] as $x | $b[0] as $y |
+        def near(p; q): ((p - q) | fabs) <= 1e-9 * ((q | fabs) + 1e-12);
+        $x.alignment.landmarks == 4 and $y.alignment.landmarks == 4 and
+        ([range(9)] | all(near($x.alignment.matrix[.]; $y.alignment.matrix[.]))) and
+        near($x.boundary_rms; $y.boundary_rms) and $x.iterations == $y.iterations' >/dev/null
+}
+id=$(submit "$WORK/moved.mesh" "$EX/background.mesh.gz" "$EX/background.sol.gz" "$LMP" \
+    -F "template_landmarks=@$LMT" -F "target_landmarks=@$LMG")
+if [ -n "$id" ] && wait_final "$id" 120 && state_is "$id" successful &&
+    hcurl "${AUTH[@]}" "$BASE/v1/jobs/$id/results" >"$WORK/lm_curl.json" &&
+    same_as_run "$WORK/lm_curl.json"; then
+    ok "landmark parts (curl): the alignment and the result of run --landmarks"
+else
+    not_ok "landmark parts (curl)" "$(cat "$WORK/submit.out")" "$(head -c 400 "$WORK/lm_curl.json")"
+fi
+timeout $((120 * SLOW)) "$BIN/shapematch" submit --server "$BASE" --template "$WORK/moved.mesh" \
+    --target-mesh "$EX/background.mesh.gz" --target-sol "$EX/background.sol.gz" \
+    --clamp-ball "$MCC,0.04" --align rigid --landmarks "$LMT,$LMG" --max-iter 3 --wait --quiet \
+    -o "$WORK/lmsub" >/dev/null 2>"$WORK/lmsub.err"
+rc=$?
+# 10: finished, not converged (3 iterations), as the run's
+if [ "$rc" = 10 ] && same_as_run "$WORK/lmsub/summary.json"; then
+    ok "submit --landmarks --wait: the alignment and the result of run --landmarks"
+else
+    not_ok "submit --landmarks --wait (exit $rc)" "$(head -c 600 "$WORK/lmsub.err")"
+fi
+
+# refused: NAME EXTRA-PARAMS-JSON PATTERN CURL-ARGS...
+refused() {
+    local name=$1 extra=$2 pattern=$3
+    shift 3
+    local p="{\"clamp\": {\"kind\": \"ball\", \"center\": [$MC], \"radius\": 0.04}$extra}"
+    id=$(submit "$WORK/moved.mesh" "$EX/background.mesh.gz" "$EX/background.sol.gz" "$p" "$@")
+    if [ "$(cat "$WORK/submit.code")" = 422 ] && grep -q -- "$pattern" "$WORK/submit.out"; then
+        ok "$name: 422 naming $pattern"
+    else
+        not_ok "$name" "$(cat "$WORK/submit.code") $(cat "$WORK/submit.out")"
+    fi
+}
+refused "a malformed target_landmarks" ', "align": "rigid"' 'target_landmarks: line 2' \
+    -F "template_landmarks=@$LMT" -F "target_landmarks=@$WORK/lm_bad.csv"
+refused "template_landmarks alone" ', "align": "rigid"' 'target_landmarks' -F "template_landmarks=@$LMT"
+refused "landmarks with align none" '' 'template_landmarks: landmarks need an alignment' \
+    -F "template_landmarks=@$LMT" -F "target_landmarks=@$LMG"

@@ -169,6 +169,8 @@ static void test_vocabulary(void **state)
     assert_string_equal(sm_part_name(SM_PART_TARGET_MESH), "target_mesh");
     assert_string_equal(sm_part_name(SM_PART_TARGET_SOL), "target_sol");
     assert_string_equal(sm_part_name(SM_PART_TARGET_SURFACE), "target_surface");
+    assert_string_equal(sm_part_name(SM_PART_TEMPLATE_LANDMARKS), "template_landmarks");
+    assert_string_equal(sm_part_name(SM_PART_TARGET_LANDMARKS), "target_landmarks");
     assert_string_equal(sm_part_name(SM_PART_PARAMS), "params");
     assert_null(sm_part_name(SM_NPARTS));
     static const char *const defaults[SM_NRESULT_KINDS] = {"mesh", "sol", "csv"};

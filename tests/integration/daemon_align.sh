@@ -82,6 +82,14 @@ if [ -n "$id" ] && wait_final "$id" 120 && state_is "$id" successful &&
 else
     not_ok "landmark parts (curl)" "$(cat "$WORK/submit.out")" "$(head -c 400 "$WORK/lm_curl.json")"
 fi
+hcurl "${AUTH[@]}" -o "$WORK/lm_back.csv" "$BASE/v1/jobs/$id/inputs/target_landmarks"
+hcurl "${AUTH[@]}" "$BASE/v1/jobs/$id/inputs" >"$WORK/lm_inputs.json"
+if cmp -s "$WORK/lm_back.csv" "$LMG" &&
+    [ "$(jq -r '[.inputs[] | select(.part == "template_landmarks") | .file] | first' "$WORK/lm_inputs.json")" = template_landmarks.csv ]; then
+    ok "the job's inputs list template_landmarks.csv; target_landmarks served as sent"
+else
+    not_ok "landmark inputs served" "$(head -c 400 "$WORK/lm_inputs.json")"
+fi
 timeout $((120 * SLOW)) "$BIN/shapematch" submit --server "$BASE" --template "$WORK/moved.mesh" \
     --target-mesh "$EX/background.mesh.gz" --target-sol "$EX/background.sol.gz" \
     --clamp-ball "$MCC,0.04" --align rigid --landmarks "$LMT,$LMG" --max-iter 3 --wait --quiet \

@@ -9,7 +9,7 @@
 # --landmarks --wait` give the job the same start as `shapematch run
 # --landmarks`: the same alignment matrix and boundary RMS; a malformed
 # landmark part, one part alone, and landmarks with align none are 422s
-# naming the part.
+# naming the part; the OGC execute request takes them as inputs.
 source "$(dirname "$0")/lib.sh"
 
 EX=$ROOT/examples/2d
@@ -100,6 +100,22 @@ if [ "$rc" = 10 ] && same_as_run "$WORK/lmsub/summary.json"; then
     ok "submit --landmarks --wait: the alignment and the result of run --landmarks"
 else
     not_ok "submit --landmarks --wait (exit $rc)" "$(head -c 600 "$WORK/lmsub.err")"
+fi
+# the OGC execute request takes the landmark files as inline inputs too
+jq -n --rawfile t <(base64 -w0 "$WORK/moved.mesh") --rawfile m <(base64 -w0 "$EX/background.mesh.gz") \
+    --rawfile s <(base64 -w0 "$EX/background.sol.gz") --rawfile a <(base64 -w0 "$LMT") \
+    --rawfile b <(base64 -w0 "$LMG") --argjson p "$LMP" \
+    '{inputs: {template: {value: $t}, target_mesh: {value: $m}, target_sol: {value: $s},
+               template_landmarks: {value: $a}, target_landmarks: {value: $b}, params: $p}}' \
+    >"$WORK/lm_exec.json"
+id=$(hcurl "${AUTH[@]}" -H 'Content-Type: application/json' --data-binary "@$WORK/lm_exec.json" \
+    "$BASE/v1/processes/match/execution" | jq -r '.jobID // empty')
+if [ -n "$id" ] && wait_final "$id" 120 && state_is "$id" successful &&
+    hcurl "${AUTH[@]}" "$BASE/v1/jobs/$id/results" >"$WORK/lm_exec_summary.json" &&
+    same_as_run "$WORK/lm_exec_summary.json"; then
+    ok "OGC execute with template_landmarks and target_landmarks: the alignment of run --landmarks"
+else
+    not_ok "OGC execute with landmarks" "job '$id'"
 fi
 
 # refused: NAME EXTRA-PARAMS-JSON PATTERN CURL-ARGS...

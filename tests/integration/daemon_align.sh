@@ -9,7 +9,8 @@
 # --landmarks --wait` give the job the same start as `shapematch run
 # --landmarks`: the same alignment matrix and boundary RMS; a malformed
 # landmark part, one part alone, and landmarks with align none are 422s
-# naming the part; the OGC execute request takes them as inputs.
+# naming the part, as are one over 1 MiB and a gzip-compressed one; the
+# OGC execute request takes them as inputs.
 source "$(dirname "$0")/lib.sh"
 
 EX=$ROOT/examples/2d
@@ -135,3 +136,9 @@ refused "a malformed target_landmarks" ', "align": "rigid"' 'target_landmarks: l
 refused "template_landmarks alone" ', "align": "rigid"' 'target_landmarks' -F "template_landmarks=@$LMT"
 refused "landmarks with align none" '' 'template_landmarks: landmarks need an alignment' \
     -F "template_landmarks=@$LMT" -F "target_landmarks=@$LMG"
+python3 -c 'import sys; sys.stdout.write("0.5,0.5\n" * 150000)' >"$WORK/lm_huge.csv" # 1.2 MB
+refused "a landmark part over 1 MiB" ', "align": "rigid"' 'template_landmarks: larger than 1048576 bytes' \
+    -F "template_landmarks=@$WORK/lm_huge.csv" -F "target_landmarks=@$LMG"
+gzip -c "$LMG" >"$WORK/lm_target.csv.gz"
+refused "a gzip-compressed landmark part" ', "align": "rigid"' 'target_landmarks: a landmark CSV is sent as plain text' \
+    -F "template_landmarks=@$LMT" -F "target_landmarks=@$WORK/lm_target.csv.gz"

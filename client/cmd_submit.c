@@ -10,6 +10,7 @@
  * an ASCII mesh crosses the network at a fraction of its size
  * (--no-compress sends them as they are). */
 #include <errno.h>
+#include <limits.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -181,6 +182,7 @@ enum {
     SB_TARGET_MESH,
     SB_TARGET_SOL,
     SB_TARGET_SURFACE,
+    SB_LANDMARKS,
     SB_OUTPUT,
     SB_WAIT,
     SB_JSON,
@@ -193,6 +195,7 @@ enum {
 
 typedef struct submit_args {
     const char *template_path, *target_mesh_path, *target_sol_path, *target_surface_path;
+    char landmarks[2][PATH_MAX]; /* --landmarks A,B: template's, target's ("" when not given) */
     const char *outdir;
     const char *idempotency_key;
     int wait, json, quiet, no_compress;
@@ -255,6 +258,23 @@ static int submit_flag(void *user, int id, const char *flag, const char *value, 
     case SB_NO_COMPRESS:
         a->no_compress = 1;
         return 0;
+    case SB_LANDMARKS: {
+        /* split at the first comma, as `run` does */
+        const char *comma = strchr(value, ',');
+        size_t n = comma ? (size_t)(comma - value) : 0;
+        if (!comma || n == 0 || !comma[1]) {
+            snprintf(msg, cap, "%s: give TEMPLATE.csv,TARGET.csv (two files)", flag);
+            return -1;
+        }
+        if (n >= sizeof a->landmarks[0] || strlen(comma + 1) >= sizeof a->landmarks[1]) {
+            snprintf(msg, cap, "%s: path too long", flag);
+            return -1;
+        }
+        memcpy(a->landmarks[0], value, n);
+        a->landmarks[0][n] = '\0';
+        snprintf(a->landmarks[1], sizeof a->landmarks[1], "%s", comma + 1);
+        return 0;
+    }
     case SB_KEY:
         if (!key_ok(value)) {
             snprintf(msg, cap, "%s: a key is 1 to %d printable ASCII characters without spaces",
@@ -296,7 +316,9 @@ void cmd_submit_help(void)
            "                          PLY, OFF, PLY2, VTK .vtk/.vtu/.vtp, Medit, Gmsh .msh,\n"
            "                          optionally .gz); the daemon computes its signed\n"
            "                          distance on --target-mesh, or on a background it\n"
-           "                          generates when --target-mesh is not given\n");
+           "                          generates when --target-mesh is not given\n"
+           "  --landmarks A.csv,B.csv matching points (template's, target's) that start\n"
+           "                          --align (Kabsch/Umeyama), as for 'shapematch run'\n");
     job_options_help_background(stdout);
     printf("  --no-compress           send the files as they are (by default files that are\n"
            "                          not gzip yet are compressed on the way)\n"
@@ -339,6 +361,8 @@ static const char *submit_usage_problem(submit_args *a, char *msg, size_t cap)
         job_options_check_background(&a->job, a->target_surface_path, a->target_mesh_path, msg,
                                      cap) != 0)
         return msg;
+    if (a->landmarks[0][0] && a->job.params.align == SM_ALIGN_NONE)
+        return "--landmarks needs an alignment: add --align rigid, similarity or affine";
     if (a->wait && !a->outdir)
         return "--wait needs -o/--output DIR for the results";
     if (!a->wait && a->outdir)
@@ -374,14 +398,19 @@ static int submission_open_files(submission *s, const submit_args *a)
 {
     const char *paths[SM_PART_PARAMS] = {
         [SM_PART_TEMPLATE] = a->template_path, [SM_PART_TARGET_MESH] = a->target_mesh_path,
-        [SM_PART_TARGET_SOL] = a->target_sol_path, [SM_PART_TARGET_SURFACE] = a->target_surface_path};
+        [SM_PART_TARGET_SOL] = a->target_sol_path, [SM_PART_TARGET_SURFACE] = a->target_surface_path,
+        [SM_PART_TEMPLATE_LANDMARKS] = a->landmarks[0][0] ? a->landmarks[0] : NULL,
+        [SM_PART_TARGET_LANDMARKS] = a->landmarks[1][0] ? a->landmarks[1] : NULL};
     char msg[ARGS_MSG_LEN];
-    for (int i = 0; i < SM_PART_PARAMS; i++)
-        if (paths[i] && upload_open(&s->up[i], sm_part_names[i], paths[i], !a->no_compress, msg,
+    for (int i = 0; i < SM_PART_PARAMS; i++) {
+        /* the daemon reads landmark CSV as plain text: never compressed */
+        int compress = !a->no_compress && i != SM_PART_TEMPLATE_LANDMARKS && i != SM_PART_TARGET_LANDMARKS;
+        if (paths[i] && upload_open(&s->up[i], sm_part_names[i], paths[i], compress, msg,
                         sizeof msg) != 0) {
             fprintf(stderr, "shapematch submit: error: %s\n", msg);
             return CLI_EXIT_INPUT;
         }
+    }
     return 0;
 }
 
@@ -490,6 +519,7 @@ int cmd_submit(int argc, char **argv)
         {"--target-mesh", 1, SB_TARGET_MESH},
         {"--target-sol", 1, SB_TARGET_SOL},
         {"--target-surface", 1, SB_TARGET_SURFACE},
+        {"--landmarks", 1, SB_LANDMARKS},
         {"--output", 1, SB_OUTPUT},
         {"-o", 1, SB_OUTPUT},
         {"--wait", 0, SB_WAIT},

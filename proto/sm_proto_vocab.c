@@ -7,7 +7,8 @@
 #include "sm_payload.h"
 
 const char *const sm_part_names[SM_NPARTS] = {"template", "target_mesh", "target_sol",
-                                                SM_PART_NAME_TARGET_SURFACE, "params"};
+                                                SM_PART_NAME_TARGET_SURFACE, "template_landmarks",
+                                                "target_landmarks", "params"};
 
 const char *sm_part_name(sm_part part)
 {

@@ -20,16 +20,25 @@ typedef enum sm_part {
     SM_PART_TARGET_MESH = 1,
     SM_PART_TARGET_SOL = 2,
     SM_PART_TARGET_SURFACE = 3,
-    SM_PART_PARAMS = 4,
-    SM_NPARTS = 5
+    SM_PART_TEMPLATE_LANDMARKS = 4,
+    SM_PART_TARGET_LANDMARKS = 5,
+    SM_PART_PARAMS = 6,
+    SM_NPARTS = 7
 } sm_part;
-/* The file parts are the members before SM_PART_PARAMS.  template and
- * params are always required; the target is either target_mesh +
- * target_sol (a sampled distance) or target_surface with an optional
- * target_mesh (sm_job_inputs.h); target_surface excludes target_sol. */
+/* The file parts are the members before SM_PART_PARAMS (loops over the
+ * files stop there: params stays last).  template and params are always
+ * required; the target is either target_mesh + target_sol (a sampled
+ * distance) or target_surface with an optional target_mesh
+ * (sm_job_inputs.h); target_surface excludes target_sol.  The landmark
+ * CSV files (template_landmarks, target_landmarks: the alignment's start,
+ * sm_job_align.h) come both or not at all, and only with params align
+ * other than none. */
 #define SM_PART_NAME_TARGET_SURFACE "target_surface"
-/* "template", "target_mesh", "target_sol", "target_surface", "params",
- * indexed by sm_part. */
+/* Largest landmark part (bytes): a landmark file is a few rows; the
+ * daemon refuses a larger one (422) while it arrives. */
+#define SM_LANDMARKS_MAX_BYTES (1 << 20)
+/* "template", "target_mesh", "target_sol", "target_surface",
+ * "template_landmarks", "target_landmarks", "params", indexed by sm_part. */
 extern const char *const sm_part_names[SM_NPARTS];
 /* sm_part_names[part], NULL outside. */
 const char *sm_part_name(sm_part part);

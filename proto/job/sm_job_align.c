@@ -22,15 +22,18 @@ sm_status sm_job_read_landmarks(const sm_job_files *files, sm_job_inputs *in, sm
     for (int k = 0; k < 2; k++) {
         sm_status st = sm_landmarks_read(paths[k], in->dim, &in->landmarks[k], &n[k], err);
         if (st != SM_OK) {
+            in->failed = k ? SM_PART_TARGET_LANDMARKS : SM_PART_TEMPLATE_LANDMARKS;
             sm_error_prefix(err, "landmarks (%s)", roles[k]);
             return st;
         }
     }
+    in->failed = SM_PART_TARGET_LANDMARKS; /* the second file disagrees with the first */
     if (n[0] != n[1])
         return sm_error_set(err, SM_ERR_INVALID,
                             "landmarks: %ld template point(s) and %ld target point(s): the rows "
                             "must match one to one",
                             (long)n[0], (long)n[1]);
+    in->failed = SM_NPARTS;
     in->nlandmarks = n[0];
     return SM_OK;
 }

@@ -30,7 +30,8 @@ typedef struct sm_job_alignment {
 
 /* Reads the landmark files of files (both or none; SM_ERR_INVALID for
  * one) into in->landmarks for the template's dimension; equal counts.
- * Messages start with the file's role ("landmarks (template): ..."). */
+ * Messages start with the file's role ("landmarks (template): ..."); on
+ * failure in->failed is the landmark part the message is about. */
 sm_status sm_job_read_landmarks(const sm_job_files *files, sm_job_inputs *in, sm_error *err);
 
 /* Aligns when in->params.align is not none (a->done 0 otherwise, or

@@ -308,6 +308,18 @@ sm_status sm_job_files_check_background(const sm_job_files *files, sm_job_naming
                         files->target_surface ? "is given" : "is not given");
 }
 
+/* A landmark file's message for the daemon: "PART: ..." with its path
+ * replaced, without the local run's "landmarks (ROLE): " prefix. */
+static void landmark_part_error(sm_error *err, const sm_job_files *files, sm_part part)
+{
+    const char *path = part == SM_PART_TEMPLATE_LANDMARKS ? files->landmarks_template
+                                                          : files->landmarks_target;
+    const char *colon = strncmp(err->msg, "landmarks (", 11) == 0 ? strstr(err->msg, "): ") : NULL;
+    if (colon)
+        memmove(err->msg, colon + 3, strlen(colon + 3) + 1);
+    part_error(err, sm_part_name(part), path);
+}
+
 sm_status sm_job_inputs_read_template(const sm_job_files *files, sm_job_naming naming,
                                       sm_job_inputs *out, sm_error *err)
 {
@@ -337,8 +349,11 @@ sm_status sm_job_inputs_read_template(const sm_job_files *files, sm_job_naming n
         file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
         goto fail;
     }
-    if ((st = sm_job_read_landmarks(files, out, err)) != SM_OK)
+    if ((st = sm_job_read_landmarks(files, out, err)) != SM_OK) {
+        if (naming == SM_JOB_NAME_PARTS && out->failed != SM_NPARTS)
+            landmark_part_error(err, files, out->failed);
         goto fail;
+    }
     return SM_OK;
 fail:
     if (st == SM_ERR_NOMEM && !(files->limits && files->limits->hit))
@@ -486,6 +501,18 @@ sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
     if ((st = sm_job_inputs_set_params(out, &params, err)) != SM_OK) {
         sm_error_prefix(err, "%s", params.clamp == SM_CLAMP_BALL ? "params.clamp" : "params.clamp.refs");
         goto fail;
+    }
+    /* landmarks are the alignment's start: without one they would be
+     * ignored, so a job that gives them with align none is refused */
+    if (out->nlandmarks > 0 && out->params.align == SM_ALIGN_NONE) {
+        sm_job_inputs_free(out);
+        out->failed = SM_PART_TEMPLATE_LANDMARKS;
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "%s: landmarks need an alignment: params align is none; give align "
+                            "rigid, similarity or affine, or leave out %s and %s",
+                            sm_part_name(SM_PART_TEMPLATE_LANDMARKS),
+                            sm_part_name(SM_PART_TEMPLATE_LANDMARKS),
+                            sm_part_name(SM_PART_TARGET_LANDMARKS));
     }
     if (files->prepare_run)
         return sm_job_inputs_read_target(&with_bg, SM_JOB_NAME_PARTS, 1, out, err);

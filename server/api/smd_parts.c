@@ -163,6 +163,12 @@ enum MHD_Result smd_parts_on_part(void *cls, enum MHD_ValueKind kind, const char
     if (size == 0)
         return MHD_YES;
     u->current_bytes += size;
+    if ((id == SM_PART_TEMPLATE_LANDMARKS || id == SM_PART_TARGET_LANDMARKS) &&
+        u->current_bytes > SM_LANDMARKS_MAX_BYTES) {
+        smd_parts_fail(u, 422, SMD_PROBLEM_INVALID_INPUT, "%s: larger than %d bytes", sm_part_names[id],
+                       SM_LANDMARKS_MAX_BYTES);
+        return MHD_NO;
+    }
     u->part_hash[id] = fnv1a(u->part_hash[id], data, size);
     if (id == SM_PART_PARAMS) {
         if (u->params_len + size > SM_PARAMS_JSON_MAX_BYTES) {
@@ -205,7 +211,15 @@ static int name_file(smd_parts *u, sm_part id)
         smd_parts_fail(u, 500, SMD_PROBLEM_INTERNAL, "cannot read back part \"%s\"", sm_part_names[id]);
         return -1;
     }
-    const char *ext = id == SM_PART_TARGET_SOL       ? (binary ? "solb" : "sol")
+    int landmarks = id == SM_PART_TEMPLATE_LANDMARKS || id == SM_PART_TARGET_LANDMARKS;
+    if (landmarks && gzip) { /* the CSV reader takes plain text only */
+        smd_parts_fail(u, 422, SMD_PROBLEM_INVALID_INPUT,
+                       "%s: a landmark CSV is sent as plain text, not gzip-compressed",
+                       sm_part_names[id]);
+        return -1;
+    }
+    const char *ext = landmarks                      ? "csv"
+                      : id == SM_PART_TARGET_SOL       ? (binary ? "solb" : "sol")
                       : id == SM_PART_TARGET_SURFACE ? "surface" /* any surface format */
                                                      : (binary ? "meshb" : "mesh");
     char final[PATH_MAX];
@@ -235,6 +249,13 @@ int smd_parts_check(smd_parts *u)
         smd_parts_fail(u, 422, SMD_PROBLEM_INVALID_INPUT,
              "target_surface excludes target_sol: give one target (target_surface with an optional "
              "target_mesh, or target_mesh and target_sol)");
+        return -1;
+    }
+    if (u->seen[SM_PART_TEMPLATE_LANDMARKS] != u->seen[SM_PART_TARGET_LANDMARKS]) {
+        smd_parts_fail(u, 422, SMD_PROBLEM_INVALID_INPUT,
+                       "%s: give both landmark parts, template_landmarks and target_landmarks",
+                       sm_part_names[u->seen[SM_PART_TEMPLATE_LANDMARKS] ? SM_PART_TARGET_LANDMARKS
+                                                                        : SM_PART_TEMPLATE_LANDMARKS]);
         return -1;
     }
     if (u->seen[SM_PART_TARGET_SURFACE])

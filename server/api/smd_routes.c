@@ -245,6 +245,15 @@ enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req)
                                    "background generated around template and surface when "
                                    "target_mesh is not given (sized by params background_size "
                                    "and background_padding).  Excludes target_sol.", 0));
+    json_object_set_new(inputs, sm_part_names[SM_PART_TEMPLATE_LANDMARKS],
+                        file_input("Template landmarks",
+                                   "CSV, one point a row (2 or 3 numbers as the template's "
+                                   "dimension): the alignment's start, with target_landmarks "
+                                   "(matching rows); needs params align other than none.", 0));
+    json_object_set_new(inputs, sm_part_names[SM_PART_TARGET_LANDMARKS],
+                        file_input("Target landmarks",
+                                   "CSV, the target's points matching template_landmarks row for "
+                                   "row.", 0));
     json_object_set_new(inputs, sm_part_names[SM_PART_PARAMS],
                         json_pack("{s:s,s:s,s:i,s:i,s:o}", "title", "Parameters", "description",
                                   "JSON document; only clamp is required.", "minOccurs", 1,

@@ -281,6 +281,8 @@ static int load_job(worker *w, smd_job_file *jf, sm_job_inputs *in)
                           .target_mesh = given[SM_PART_TARGET_MESH],
                           .target_sol = given[SM_PART_TARGET_SOL],
                           .target_surface = given[SM_PART_TARGET_SURFACE],
+                          .landmarks_template = given[SM_PART_TEMPLATE_LANDMARKS],
+                          .landmarks_target = given[SM_PART_TARGET_LANDMARKS],
                           .prepare_run = 1};
     sm_status st = sm_job_inputs_load(&files, params, strlen(params), in, &err);
     free(params);

@@ -2,7 +2,8 @@
  * the worker reads (the format: smd_worker.h).  One owner for both
  * sides, so the writer and the reader cannot drift:
  *   {"template": "inputs/template.mesh", "target_mesh": ..., "target_sol"
- *    | "target_surface": ..., "params": {<sm_job_params_to_jansson>}}
+ *    | "target_surface": ..., "template_landmarks", "target_landmarks": ...
+ *    (optional), "params": {<sm_job_params_to_jansson>}}
  * Paths are relative to JOB_DIR and stay inside it. */
 #ifndef SMD_JOB_FILE_H
 #define SMD_JOB_FILE_H

@@ -48,6 +48,8 @@ void fuzz_parts_check(const smd_parts *p)
         return;
     if (!p->seen[SM_PART_TEMPLATE] || !p->seen[SM_PART_PARAMS] || smd_parts_hash(p) == 0)
         abort();
+    if (p->seen[SM_PART_TEMPLATE_LANDMARKS] != p->seen[SM_PART_TARGET_LANDMARKS])
+        abort(); /* the landmark parts come both or not at all */
     struct stat st;
     for (int i = 0; i < SM_PART_PARAMS; i++)
         if (p->seen[i] && stat(p->path[i], &st) != 0)

@@ -169,6 +169,8 @@ static void test_vocabulary(void **state)
     assert_string_equal(sm_part_name(SM_PART_TARGET_MESH), "target_mesh");
     assert_string_equal(sm_part_name(SM_PART_TARGET_SOL), "target_sol");
     assert_string_equal(sm_part_name(SM_PART_TARGET_SURFACE), "target_surface");
+    assert_string_equal(sm_part_name(SM_PART_TEMPLATE_LANDMARKS), "template_landmarks");
+    assert_string_equal(sm_part_name(SM_PART_TARGET_LANDMARKS), "target_landmarks");
     assert_string_equal(sm_part_name(SM_PART_PARAMS), "params");
     assert_null(sm_part_name(SM_NPARTS));
     static const char *const defaults[SM_NRESULT_KINDS] = {"mesh", "sol", "csv"};
@@ -262,6 +264,50 @@ static void test_inputs_naming(void **state)
     ball_params(&p);
     assert_int_equal(sm_job_inputs_set_params(&in, &p, &err), SM_OK);
     assert_true(in.nclamped >= 1);
+    sm_job_inputs_free(&in);
+}
+
+static void write_text(const char *path, const char *text)
+{
+    FILE *fp = fopen(path, "w");
+    assert_non_null(fp);
+    fputs(text, fp);
+    fclose(fp);
+}
+
+/* The landmark parts: a bad file is named by its part (the daemon) or by
+ * role and path (a local run); landmarks with align none are refused
+ * naming template_landmarks; with an alignment they are read. */
+static void test_landmark_parts(void **state)
+{
+    fixture *f = *state;
+    char good[192], bad[192];
+    snprintf(good, sizeof good, "%s/lm_good.csv", f->dir);
+    snprintf(bad, sizeof bad, "%s/lm_bad.csv", f->dir);
+    write_text(good, "x,y\n0.5,0.5\n0.6,0.5\n0.5,0.6\n");
+    write_text(bad, "0.5,0.5\n0.6,zero\n0.5,0.6\n");
+    sm_job_files files = {.template_mesh = f->tpl, .target_mesh = f->bg, .target_sol = f->sol,
+                          .landmarks_template = good, .landmarks_target = bad};
+    sm_job_inputs in;
+    sm_error err;
+    assert_int_equal(sm_job_inputs_read(&files, SM_JOB_NAME_PARTS, &in, &err), SM_ERR_FORMAT);
+    assert_int_equal(in.failed, SM_PART_TARGET_LANDMARKS);
+    assert_true(strncmp(err.msg, "target_landmarks: line 2: ", 26) == 0);
+    assert_null(strstr(err.msg, f->dir));
+    assert_int_not_equal(sm_job_inputs_read(&files, SM_JOB_NAME_PATHS, &in, &err), SM_OK);
+    assert_true(strncmp(err.msg, "landmarks (target): ", 20) == 0);
+    assert_non_null(strstr(err.msg, bad));
+    files.landmarks_target = good;
+    static const char none[] = "{\"clamp\": {\"kind\": \"ball\", \"center\": [0.5, 0.5], \"radius\": 0.05}}";
+    assert_int_equal(sm_job_inputs_load(&files, none, strlen(none), &in, &err), SM_ERR_INVALID);
+    assert_int_equal(in.failed, SM_PART_TEMPLATE_LANDMARKS);
+    assert_true(strncmp(err.msg, "template_landmarks: landmarks need an alignment", 47) == 0);
+    assert_null(in.template_mesh);
+    static const char rigid[] = "{\"clamp\": {\"kind\": \"ball\", \"center\": [0.5, 0.5], \"radius\": 0.05}, "
+                                "\"align\": \"rigid\"}";
+    assert_int_equal(sm_job_inputs_load(&files, rigid, strlen(rigid), &in, &err), SM_OK);
+    assert_int_equal(in.nlandmarks, 3);
+    assert_true(in.landmarks[1][3] == 0.5 && in.landmarks[1][2] == 0.6);
     sm_job_inputs_free(&in);
 }
 
@@ -444,6 +490,7 @@ int main(void)
         cmocka_unit_test(test_vocabulary),
         cmocka_unit_test(test_json_string_lossy),
         cmocka_unit_test_setup_teardown(test_inputs_naming, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_landmark_parts, setup, teardown),
         cmocka_unit_test_setup_teardown(test_run_and_results, setup, teardown),
         cmocka_unit_test_setup_teardown(test_outcomes, setup, teardown),
         cmocka_unit_test_setup_teardown(test_thread_policy, setup, teardown),

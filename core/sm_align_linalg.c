@@ -115,9 +115,19 @@ void sm__svd(int n, const double a[3][3], double u[3][3], double s[3], double v[
      * Working on a itself, not on a^T a, keeps the small singular
      * values' digits (squaring would lose half of them). */
     double w[3][3] = {{0}}, vv[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    /* scaled to a largest entry of 1, and s scaled back at the end: the
+     * column products below square the entries twice, which overflows
+     * from entries of ~1e77 (landmarks 1e59 apart: fuzz_landmarks) and
+     * underflows below ~1e-77; u and v do not depend on the scale */
+    double m = 0;
     for (int i = 0; i < n; i++)
         for (int j = 0; j < n; j++)
-            w[i][j] = a[i][j];
+            m = fmax(m, fabs(a[i][j]));
+    if (!(m > 0) || !isfinite(m))
+        m = 1;
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < n; j++)
+            w[i][j] = a[i][j] / m;
     for (int sweep = 0; sweep < 60; sweep++) {
         int rotated = 0;
         for (int p = 0; p < n; p++)
@@ -176,6 +186,8 @@ void sm__svd(int n, const double a[3][3], double u[3][3], double s[3], double v[
     }
     for (int i = rank; i < n; i++)
         s[i] = 0;
+    for (int i = 0; i < n; i++)
+        s[i] *= m;
     complete_basis(n, rank, u);
 }
 

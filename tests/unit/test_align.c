@@ -137,6 +137,28 @@ static void test_landmarks_exact(void **state)
     }
 }
 
+/* Extreme magnitudes: a set onto itself is the identity whatever its
+ * size (fuzz_landmarks found two 2D points 1e59 apart, whose covariance
+ * overflowed the SVD's column products; tests/fuzz/seeds/landmarks/
+ * far-apart-1e59), and so is a tiny one. */
+static void test_landmarks_extreme(void **state)
+{
+    (void)state;
+    const double sets[3][4] = {{8.88888888888889e50, 5, 5, 2.88888888888889e59},
+                               {1e-80, 0, 0, 3e-80},
+                               {1e150, -1e150, -2e150, 1e150}};
+    for (int k = 0; k < 3; k++) {
+        sm_transform t;
+        sm_error err;
+        assert_int_equal(sm_align_landmarks(2, 2, sets[k], sets[k], SM_ALIGN_SIMILARITY, &t, &err),
+                         SM_OK);
+        for (int i = 0; i < 2; i++)
+            for (int j = 0; j < 2; j++)
+                if (!(fabs(t.a[i][j] - (i == j)) < 1e-9))
+                    fail_msg("set %d: a[%d][%d] = %.17g", k, i, j, t.a[i][j]);
+    }
+}
+
 static void test_landmarks_refused(void **state)
 {
     (void)state;
@@ -459,7 +481,7 @@ static void test_refusals(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_eigen_svd),       cmocka_unit_test(test_landmarks_exact),
+        cmocka_unit_test(test_eigen_svd),       cmocka_unit_test(test_landmarks_exact), cmocka_unit_test(test_landmarks_extreme),
         cmocka_unit_test(test_landmarks_refused), cmocka_unit_test(test_landmarks_csv),
         cmocka_unit_test(test_known_3d),        cmocka_unit_test(test_known_2d),
         cmocka_unit_test(test_landmark_start),  cmocka_unit_test(test_refusals),

@@ -293,6 +293,7 @@ static void reload(smd_server *srv)
     srv->tokens = fresh;
     pthread_mutex_unlock(&srv->tokens_lock);
     smd_tokens_free(old);
+    smd_stream_revoke(srv); /* a removed token's open streams end now */
     smd_log(&srv->log, SMD_LOG_INFO, "tokens_reloaded",
             json_pack("{s:s,s:I}", "file", srv->cfg.tokens_file, "tokens",
                       (json_int_t)smd_tokens_count(fresh)));

@@ -462,10 +462,19 @@ enum MHD_Result smd_route_events(struct MHD_Connection *conn, smd_request *req)
                                  "your address: --max-streams-per-ip; in all: --max-connections "
                                  "minus --reserved-connections): try again shortly");
     char msg[256];
+    /* the credential authenticate() checked, kept for smd_stream_revoke */
+    smd_stream_credential cred = {0};
+    if (srv->tokens && !req->public_path) {
+        cred.authorization = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
+                                                         MHD_HTTP_HEADER_AUTHORIZATION);
+        if (!cred.authorization)
+            cred.token = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "access_token");
+    }
     pthread_mutex_lock(&srv->lock);
     smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
     struct MHD_Response *resp =
-        job ? smd_stream_response(srv, job, conn, choice == 1, (int64_t)after, &req->bytes_out, msg, sizeof msg)
+        job ? smd_stream_response(srv, job, conn, choice == 1, (int64_t)after, &req->bytes_out,
+                                  &cred, msg, sizeof msg)
             : NULL;
     pthread_mutex_unlock(&srv->lock);
     if (!job)

@@ -15,6 +15,7 @@
  * collected connection is still suspended inside MHD until it is resumed,
  * so it cannot be closed (and its follower freed) in between. */
 #include "api/smd_stream.h"
+#include "http/smd_auth.h"
 #include "store/spool/smd_store.h"
 #include "http/smd_mhd.h"
 
@@ -43,6 +44,8 @@ typedef struct smd_follower {
     int suspended;                /* suspended inside MHD, not yet collected */
     int keepalive_due;
     int done;                     /* final status queued: end after it */
+    int revoked;                  /* its token was removed (SIGHUP): end now */
+    char *authorization, *token;  /* the credential it was opened with (copies) */
     _Atomic double last_send;     /* monotonic; written by the reader, read by the tick */
     uint64_t *bytes_out;
     char *buf;                    /* formatted bytes not yet handed to MHD */
@@ -225,7 +228,7 @@ static ssize_t follower_read(void *cls, uint64_t pos, char *out, size_t max)
 
     pthread_mutex_lock(&srv->lock);
     smd_job *job = f->job;
-    if (atomic_load(&srv->stopping)) {
+    if (atomic_load(&srv->stopping) || f->revoked) {
         pthread_mutex_unlock(&srv->lock);
         return MHD_CONTENT_READER_END_OF_STREAM;
     }
@@ -368,12 +371,15 @@ static void follower_free(void *cls)
     if (f->fd >= 0)
         close(f->fd);
     free(f->buf);
+    free(f->authorization);
+    free(f->token);
     free(f);
 }
 
 struct MHD_Response *smd_stream_response(smd_server *srv, smd_job *job,
                                          struct MHD_Connection *conn, int sse, int64_t after_seq,
-                                         uint64_t *bytes_out, char *msg, size_t cap)
+                                         uint64_t *bytes_out, const smd_stream_credential *cred,
+                                         char *msg, size_t cap)
 {
     sm_error err;
     if (smd_store_load_events(srv->store, job, &err) != SM_OK) {
@@ -398,6 +404,15 @@ struct MHD_Response *smd_stream_response(smd_server *srv, smd_job *job,
         free(f);
         return NULL;
     }
+    if ((cred->authorization && !(f->authorization = strdup(cred->authorization))) ||
+        (cred->token && !(f->token = strdup(cred->token)))) {
+        snprintf(msg, cap, "out of memory");
+        if (f->fd >= 0)
+            close(f->fd);
+        free(f->authorization);
+        free(f);
+        return NULL;
+    }
     f->srv = srv;
     f->job = job;
     f->conn = conn;
@@ -412,6 +427,8 @@ struct MHD_Response *smd_stream_response(smd_server *srv, smd_job *job,
     if (!resp) {
         if (f->fd >= 0)
             close(f->fd);
+        free(f->authorization);
+        free(f->token);
         free(f);
         snprintf(msg, cap, "out of memory");
         return NULL;
@@ -486,6 +503,28 @@ void smd_stream_end_all(smd_server *srv)
     pthread_mutex_lock(&srv->lock);
     for (smd_follower *f = srv->events ? srv->events->all : NULL; f; f = f->all_next)
         collect(f, &w);
+    pthread_mutex_unlock(&srv->lock);
+    resume_all(&w);
+}
+
+void smd_stream_revoke(smd_server *srv)
+{
+    wake_list w = {.n = 0, .cap = WAKE_INLINE};
+    w.conns = w.inline_conns;
+    pthread_mutex_lock(&srv->lock);
+    pthread_mutex_lock(&srv->tokens_lock);
+    for (smd_follower *f = srv->events ? srv->events->all : NULL; f; f = f->all_next) {
+        if (!f->authorization && !f->token)
+            continue; /* opened without tokens */
+        smd_auth_result a = !srv->tokens ? SMD_AUTH_OK
+                            : f->token   ? smd_tokens_identify_token(srv->tokens, f->token, NULL)
+                                         : smd_tokens_identify(srv->tokens, f->authorization, NULL);
+        if (a != SMD_AUTH_OK) {
+            f->revoked = 1;
+            collect(f, &w); /* a suspended one reads, and ends */
+        }
+    }
+    pthread_mutex_unlock(&srv->tokens_lock);
     pthread_mutex_unlock(&srv->lock);
     resume_all(&w);
 }

@@ -26,15 +26,27 @@
 struct MHD_Connection;
 struct MHD_Response;
 
+/* The credential a stream was opened with (NULL members: a daemon
+ * without tokens): the Authorization header, or the bare access_token. */
+typedef struct smd_stream_credential {
+    const char *authorization;
+    const char *token;
+} smd_stream_credential;
+
 /* Creates the response of an event stream for job, starting after
  * sequence number after_seq (0: from the start; beyond the log: nothing
  * is replayed, the stream follows the job until it ends).  Lock held.  bytes_out
- * (may be NULL) is incremented by what is sent.  NULL when out of memory
+ * (may be NULL) is incremented by what is sent; cred is kept (a copy) for
+ * smd_stream_revoke.  NULL when out of memory
  * or when the log cannot be opened (msg says why). */
 struct MHD_Response *smd_stream_response(smd_server *srv, smd_job *job,
                                          struct MHD_Connection *conn, int sse,
                                          int64_t after_seq, uint64_t *bytes_out,
-                                         char *msg, size_t cap);
+                                         const smd_stream_credential *cred, char *msg, size_t cap);
+/* Lock NOT held (takes srv->lock, then tokens_lock): after SIGHUP
+ * replaced the tokens, ends every stream opened with a token the new set
+ * no longer has (it ends at once, without the final status). */
+void smd_stream_revoke(smd_server *srv);
 
 /* srv->jobs_changed (smd_server.h), lock NOT held: takes the lock,
  * collects the suspended followers of the jobs named (new events, or the

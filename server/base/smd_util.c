@@ -344,3 +344,49 @@ int smd_parse_duration(const char *text, double *out)
     *out = v * unit;
     return 0;
 }
+
+/* ------------------------------------------------- messages for clients */
+
+static int path_end_char(char c)
+{
+    return c == '\0' || c == ' ' || c == '\t' || c == '\n' || c == '"' || c == '\'' ||
+           c == ':' || c == ',' || c == ';' || c == ')' || c == ']';
+}
+
+void smd_unroot(char *msg, const char *root)
+{
+    size_t rlen = strlen(root);
+    while (rlen > 1 && root[rlen - 1] == '/')
+        rlen--; /* "SPOOL/" names the same folder as "SPOOL" */
+    if (rlen == 0 || (rlen == 1 && root[0] == '/'))
+        return;
+    char *p = msg;
+    while ((p = strstr(p, root)) != NULL) {
+        /* root must be a whole leading part of a path: not inside a word,
+         * and followed by '/' or the path's end */
+        int starts = p == msg || path_end_char(p[-1]) || p[-1] == '(' || p[-1] == '[' ||
+                     p[-1] == '=';
+        if (!starts || (p[rlen] != '/' && !path_end_char(p[rlen]))) {
+            p += 1;
+            continue;
+        }
+        char *end = p + rlen;
+        while (!path_end_char(*end))
+            end++;
+        const char *base = end;
+        while (base > p + rlen && base[-1] != '/')
+            base--;
+        static const char spool[] = "the spool";
+        const char *name = base < end ? base : spool;
+        size_t nlen = base < end ? (size_t)(end - base) : sizeof spool - 1;
+        /* the name is never longer than the path it replaces (the spool's
+         * own name only stands for a root of at least that length) */
+        if (name == spool && nlen > (size_t)(end - p)) {
+            name = ".";
+            nlen = 1;
+        }
+        memmove(p, name, nlen);
+        memmove(p + nlen, end, strlen(end) + 1);
+        p += nlen;
+    }
+}

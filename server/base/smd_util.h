@@ -35,6 +35,14 @@ int smd_secret_equal(const char *given, size_t given_len, const char *expected,
 int smd_pathf(char *buf, size_t cap, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 
+/* Removes the daemon's folder root from a message a client reads: every
+ * path under root (root itself, or root followed by '/') is replaced, in
+ * place, by its last component (the file's base name), so that job
+ * messages, events and problem details never show where the spool lives.
+ * A path ends at white space, a quote, ':', ',', ';', ')' or ']'.  root ""
+ * (or "/") leaves msg as it is. */
+void smd_unroot(char *msg, const char *root);
+
 /* snprintf that truncates silently (messages built from other messages,
  * where truncation is acceptable). */
 void smd_textf(char *buf, size_t cap, const char *fmt, ...)

@@ -170,6 +170,8 @@ enum MHD_Result smd_reply_problem(struct MHD_Connection *conn, smd_request *req,
     vsnprintf(detail, sizeof detail, detail_fmt, ap);
     va_end(ap);
     sm_text_make_printable(detail, NULL); /* it may quote client input: valid UTF-8 / JSON */
+    if (req && req->srv)
+        smd_unroot(detail, req->srv->cfg.spool); /* a file is named, never where the spool is */
     struct MHD_Response *resp = problem_response(conn, req, status, type, detail);
     if (!resp)
         return MHD_NO;

@@ -183,6 +183,7 @@ static int write_ending(smd_server *srv, smd_job *job, smd_job_ending *e, smd_jo
 static void end_job(smd_server *srv, smd_job *job, smd_job_ending e, smd_jobs_after *after)
 {
     sm_error err;
+    smd_unroot(e.message, srv->cfg.spool); /* the status and the last event name no spool path */
     if (write_ending(srv, job, &e, after, &err) == 0)
         return;
     spool_refused(srv, err.msg);
@@ -441,6 +442,7 @@ sm_status smd_jobs_progress(smd_server *srv, smd_job *job, sm_event *ev, smd_job
     sm_error err;
     if (job->state != SM_JOB_RUNNING)
         return refuse(job, "report progress of", &err); /* cancelled: the log ends with "cancelled" */
+    smd_unroot(ev->message, srv->cfg.spool); /* clients read it */
     ev->seq = 0; /* numbered by the store */
     ev->time = sm_time_now();
     append_or_log(srv, job, ev, after);
@@ -459,6 +461,7 @@ sm_status smd_jobs_warning(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs
     sm_error err;
     if (job->state != SM_JOB_RUNNING)
         return refuse(job, "report a warning of", &err);
+    smd_unroot(ev->message, srv->cfg.spool); /* clients read it */
     ev->seq = 0; /* numbered by the store */
     ev->time = sm_time_now();
     append_or_log(srv, job, ev, after);
@@ -549,6 +552,11 @@ void smd_jobs_worker_gone(smd_server *srv, smd_job *job, smd_jobs_after *after)
 
 sm_status smd_jobs_cancel(smd_server *srv, smd_job *job, smd_jobs_after *after)
 {
+    return smd_jobs_stop(srv, job, "cancelled by request (DELETE)", after);
+}
+
+sm_status smd_jobs_stop(smd_server *srv, smd_job *job, const char *message, smd_jobs_after *after)
+{
     sm_error err;
     if (job->state != SM_JOB_ACCEPTED && job->state != SM_JOB_RUNNING)
         return refuse(job, "cancel", &err);
@@ -563,7 +571,6 @@ sm_status smd_jobs_cancel(smd_server *srv, smd_job *job, smd_jobs_after *after)
     if (cst != SM_OK || handled)
         return cst;
     int running = job->state == SM_JOB_RUNNING;
-    static const char message[] = "cancelled by request (DELETE)";
     double now = sm_time_now();
     if (save_ahead(srv, job, SM_JOB_DISMISSED, message, running ? -1 : now) != SM_OK)
         return SM_ERR_IO;

@@ -137,6 +137,9 @@ sm_status smd_jobs_fail(smd_server *srv, smd_job *job, const char *message, json
  * whose run is over but whose end is held is not dismissed: its end is
  * written now (then SM_ERR_INVALID: it ended first) or SM_ERR_IO. */
 sm_status smd_jobs_cancel(smd_server *srv, smd_job *job, smd_jobs_after *after);
+/* smd_jobs_cancel with its message (the status, the log line) saying why
+ * the run stops when no client asked: a cluster node that lost its lease. */
+sm_status smd_jobs_stop(smd_server *srv, smd_job *job, const char *message, smd_jobs_after *after);
 /* The worker of a cancelled job is gone: the "cancelled" event. */
 sm_status smd_jobs_cancelled(smd_server *srv, smd_job *job, json_t *log_fields,
                              smd_jobs_after *after);

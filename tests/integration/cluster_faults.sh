@@ -177,6 +177,46 @@ if poll 10 curl -sf -o /dev/null "${NODE_BASE[w1]}/readyz" &&
 else
     not_ok "ready again, one claim" "claims: $(grep -c '"event":"job_claimed"' "${NODE_LOG[w1]}")"
 fi
+# ------------------------------------------- 3. a claim that fails, a lost lease
+# The worker node is frozen (SIGSTOP, shorter than the lease) while a job
+# is queued and a file takes the place of that job's folder in the node's
+# spool: its claims fail.  A claim that fails gives its attempt back
+# (nothing ran), and its message names no folder of the node.
+on api1
+kill -STOP "${NODE_PID[w1]}"
+u=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
+: >"$WORK/w1-spool/jobs/$u"
+kill -CONT "${NODE_PID[w1]}"
+# two failed claims at least: before the fix the attempt is then 2 or more
+claims_failed() { [ "$(grep -c "\"event\":\"claim_failed\".*job $u" "${NODE_LOG[w1]}")" -ge 2 ]; }
+poll 10 claims_failed
+ua=$(psql_val "SELECT state || ' ' || attempt FROM smd_jobs WHERE id = '$u'")
+umsg=$(psql_val "SELECT message FROM smd_jobs WHERE id = '$u'")
+nfail=$(grep -c "\"event\":\"claim_failed\".*job $u" "${NODE_LOG[w1]}")
+rm -f "$WORK/w1-spool/jobs/$u"
+hcurl -o /dev/null -X DELETE "$BASE/v1/jobs/$u"
+all "a claim that fails (the node cannot make the job's folder) uses no attempt ($nfail failed claims, then: $ua), its message names no folder of the node ($umsg)" \
+    "$nfail|-ge|2" "${ua#* }|-le|1" "$(grep -cF "$WORK" <<<"$umsg")|=|0"
+# A running job's node frozen beyond its lease: the lease expires, and
+# the node, woken, stops the run saying so, not as if a client cancelled.
+v=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
+poll 30 state_is "$v" running
+kill -STOP "${NODE_PID[w1]}"
+expired() { [ "$(psql_val "SELECT attempt || ' ' || (lease_token IS NULL) FROM smd_jobs WHERE id = '$v'")" != "1 false" ]; }
+poll 10 expired
+kill -CONT "${NODE_PID[w1]}"
+lost_line() { grep "\"event\":\"job_cancelled\",\"job\":\"$v\"" "${NODE_LOG[w1]}" | head -n 1; }
+has_lost_line() { [ -n "$(lost_line)" ]; }
+poll 10 has_lost_line
+line=$(lost_line)
+if [[ "$line" == *"lease was lost"* && "$line" != *DELETE* ]]; then
+    ok "a node that lost its lease stops the run saying so (not \"cancelled by request\")"
+else
+    not_ok "the lost lease's wording" "${line:-no job_cancelled line on w1}"
+fi
+poll 10 state_is "$v" running
+hcurl -o /dev/null -X DELETE "$BASE/v1/jobs/$v"
+poll 15 state_is "$v" dismissed
 for nd in api1 w1; do kill -TERM "${NODE_PID[$nd]}" 2>/dev/null; done
 for nd in api1 w1; do wait "${NODE_PID[$nd]}" 2>/dev/null; done
 check "no sanitizer report in any node's log" reports_clean

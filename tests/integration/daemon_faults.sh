@@ -95,6 +95,30 @@ stop_daemon
 rc=$?
 [ "$rc" = 0 ] && ok "SIGTERM: exit 0" || not_ok "SIGTERM: exit 0" "status $rc"
 
+# ----------------------------------- no spool path in what clients read
+# A worker that cannot write its results (files limited to 2 KiB, SIGXFSZ
+# ignored: EFBIG) fails naming the file: its message and its events name
+# the file's base name, never the spool's path.
+cat >"$WORK/lost-input-worker.sh" <<EOF
+#!/bin/sh
+trap '' XFSZ
+ulimit -f 4
+exec "$BIN/shapematch-worker" "\$@"
+EOF
+chmod +x "$WORK/lost-input-worker.sh"
+start_daemon grace --workers 1 --worker "$WORK/lost-input-worker.sh" || { not_ok "daemon starts"; exit 1; }
+L=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
+wait_state "$L" failed 20
+lmsg=$(message_of "$L")
+curl -sS -H 'Accept: application/x-ndjson' "$BASE/v1/jobs/$L/events" >"$WORK/lost.ndjson"
+if state_is "$L" failed && [[ "$lmsg" == *results* ]] &&
+    [[ "$lmsg" != *"$SPOOL"* ]] && [ -s "$WORK/lost.ndjson" ] && ! grep -qF "$SPOOL" "$WORK/lost.ndjson"; then
+    ok "a worker that cannot write its results: the message names the file ($lmsg), no spool path in it or the events"
+else
+    not_ok "no spool path reaches clients" "message: $lmsg" "$(grep -F "$SPOOL" "$WORK/lost.ndjson" | head -c 400)"
+fi
+stop_daemon
+
 # ----------------------------------------------------------- limits
 SPOOL=$WORK/limits-spool
 start_daemon limits --workers 1 --job-timeout 1 --kill-grace 1 || { not_ok "daemon starts"; exit 1; }

@@ -99,10 +99,32 @@ else
     not_ok "Idempotency-Key per tenant" "$K1 / $K2 / $K3"
 fi
 
-# SIGHUP: bob's token goes, carol's comes
+# SIGHUP: bob's token goes, carol's comes.  Bob follows a job of his (his
+# token in the header) and ops the same job (its token as access_token):
+# the reload ends bob's stream, ops's stays open.
+as bob
+E=$(submit "$DISK" "$BOX" "$BOXSOL" "$(endless_params)")
+poll 20 state_is "$E" running
+curl -sS -N --max-time 30 -H 'Authorization: Bearer tok-bob' "$BASE/v1/jobs/$E/events" \
+    >"$WORK/bob.ndjson" 2>/dev/null &
+BOBS=$!
+curl -sS -N --max-time 30 "$BASE/v1/jobs/$E/events?access_token=tok-ops" >"$WORK/ops.ndjson" 2>/dev/null &
+OPSS=$!
+streaming() { [ -s "$WORK/bob.ndjson" ] && [ -s "$WORK/ops.ndjson" ]; }
+poll 10 streaming
 printf 'tok-alice alice\ntok-carol carol\ntok-ops ops admin\n' >"$TOKENS"
 kill -HUP "$DPID"
 reloaded() { [ "$(grep -c '"event":"tokens_reloaded"' "$DLOG")" -ge "$1" ]; }
+gone() { ! kill -0 "$1" 2>/dev/null; }
+if poll 10 gone "$BOBS" && kill -0 "$OPSS" 2>/dev/null; then
+    ok "SIGHUP that removes a token ends the event streams opened with it (bob's), not the others (ops's)"
+else
+    not_ok "revocation closes the token's streams" "bob's stream $(gone "$BOBS" && echo ended || echo open)," \
+        "ops's $(gone "$OPSS" && echo ended || echo open)"
+fi
+curl -sS -o /dev/null -H 'Authorization: Bearer tok-ops' -X DELETE "$BASE/v1/jobs/$E"
+kill "$BOBS" "$OPSS" 2>/dev/null
+wait "$BOBS" "$OPSS" 2>/dev/null
 if poll 10 reloaded 1 && [ "$(code_as carol GET "$BASE/v1/jobs")" = 200 ] && [ "$(ids)" = "" ] &&
     [ "$(code_as bob GET "$BASE/v1/jobs")" = 401 ] && [ "$(code_as alice GET "$BASE/v1/jobs/$A")" = 200 ]; then
     ok "SIGHUP reloads the tokens (logged): carol is in, bob is out, alice keeps her jobs"

@@ -518,6 +518,31 @@ static void test_text_and_buffers(void **state)
     free(buf);
 }
 
+static void test_unroot(void **state)
+{
+    (void)state;
+    char m[256];
+    snprintf(m, sizeof m, "cannot read /srv/sp/jobs/0123/inputs/source.msh: no such file");
+    smd_unroot(m, "/srv/sp/");
+    assert_string_equal(m, "cannot read source.msh: no such file");
+    snprintf(m, sizeof m, "'/srv/spool/tmp/up-1/inputs/a.msh' and \"/srv/spool/jobs/x/b.sol\", in /srv/spool");
+    smd_unroot(m, "/srv/spool");
+    assert_string_equal(m, "'a.msh' and \"b.sol\", in the spool");
+    /* a longer folder of the same prefix, or a path that only contains
+     * root, is not under root */
+    snprintf(m, sizeof m, "/srv/spool2/x.msh /home/srv/spool/y.msh");
+    smd_unroot(m, "/srv/spool");
+    assert_string_equal(m, "/srv/spool2/x.msh /home/srv/spool/y.msh");
+    snprintf(m, sizeof m, "/a/b.msh (/a)");
+    smd_unroot(m, "/a");
+    assert_string_equal(m, "b.msh (.)"); /* "the spool" would not fit in "/a" */
+    snprintf(m, sizeof m, "/x/y");
+    smd_unroot(m, "");
+    assert_string_equal(m, "/x/y");
+    smd_unroot(m, "/");
+    assert_string_equal(m, "/x/y");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -529,6 +554,7 @@ int main(void)
         cmocka_unit_test(test_text_and_buffers),
         cmocka_unit_test(test_secret_equal),
         cmocka_unit_test(test_pathf),
+        cmocka_unit_test(test_unroot),
         cmocka_unit_test(test_sizes_and_durations),
         cmocka_unit_test(test_wait_status),
         cmocka_unit_test(test_atomic_write_and_read),

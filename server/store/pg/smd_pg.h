@@ -42,6 +42,8 @@
  * cancel or delete request. */
 #define SMD_PG_CHANNEL_EVENTS "smd_events"
 #define SMD_PG_CHANNEL_CANCEL "smd_cancel"
+/* the message of a run stopped here because a client cancelled it */
+#define SMD_PG_CANCELLED "cancelled by request (DELETE)"
 
 typedef struct smd_pg smd_pg;
 
@@ -200,6 +202,10 @@ sm_status smd_pg_publish(smd_pg *db, const smd_pg_lease *l, sm_job_state state,
 /* The node stops (shutdown) while it runs the job: queued again at once,
  * attempt kept (no-op when the lease was lost). */
 sm_status smd_pg_release(smd_pg *db, const smd_pg_lease *l, const char *message, sm_error *err);
+/* The node could not take a job it claimed (its inputs could not be
+ * copied here): queued again as smd_pg_release does, and the claim's
+ * attempt given back, since nothing ran (--max-attempts counts runs). */
+sm_status smd_pg_unclaim(smd_pg *db, const smd_pg_lease *l, const char *message, sm_error *err);
 /* Deletes a final job (its events and blobs go with it): *deleted 1 for
  * the one caller that removed it. */
 sm_status smd_pg_delete(smd_pg *db, const char *id, int *deleted, sm_error *err);

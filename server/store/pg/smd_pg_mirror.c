@@ -352,8 +352,9 @@ static sm_status sync_scan(smd_pg_node *n, sm_error *err)
 
 /* ------------------------------------------------------------ thread */
 
-/* A cancel for a job this node runs: its worker is stopped here. */
-static void cancel_here(smd_pg_node *n, const char *id)
+/* A cancel for a job this node runs: its worker is stopped here, the
+ * status saying why (a DELETE, or the lease lost). */
+static void cancel_here(smd_pg_node *n, const char *id, const char *why)
 {
     smd_server *srv = n->srv;
     if (!smd_pg_node_runs(n, id))
@@ -362,17 +363,17 @@ static void cancel_here(smd_pg_node *n, const char *id)
     pthread_mutex_lock(&srv->lock);
     smd_job *job = smd_store_get(srv->store, id);
     if (job && (job->state == SM_JOB_RUNNING || job->state == SM_JOB_ACCEPTED))
-        smd_jobs_cancel(srv, job, &after);
+        smd_jobs_stop(srv, job, why, &after);
     pthread_mutex_unlock(&srv->lock);
     smd_jobs_after_free(&after);
     if (after.wake_pool)
         smd_pool_wake(srv->pool);
 }
 
-void node_cancel_here(smd_pg_node *n, const char *id);
-void node_cancel_here(smd_pg_node *n, const char *id)
+void node_cancel_here(smd_pg_node *n, const char *id, const char *why);
+void node_cancel_here(smd_pg_node *n, const char *id, const char *why)
 {
-    cancel_here(n, id);
+    cancel_here(n, id, why);
 }
 
 static void sleep_for(double s)
@@ -391,7 +392,7 @@ static int take_notifications(smd_pg_node *n, sm_error *err)
     while ((r = smd_pg_wait(n->sync_db, timeout, channel, sizeof channel, payload, sizeof payload,
                             err)) == 1) {
         if (strcmp(channel, SMD_PG_CHANNEL_CANCEL) == 0)
-            cancel_here(n, payload);
+            cancel_here(n, payload, SMD_PG_CANCELLED);
         timeout = 0.02; /* gather the burst, then scan */
     }
     return r;

@@ -465,16 +465,30 @@ sm_status smd_pg_publish(smd_pg *db, const smd_pg_lease *l, sm_job_state state,
     return st;
 }
 
-sm_status smd_pg_release(smd_pg *db, const smd_pg_lease *l, const char *message, sm_error *err)
+/* Queued again (dismissed when a cancel came meanwhile); undo 1: the
+ * claim's attempt is given back too. */
+static sm_status release_as(smd_pg *db, const smd_pg_lease *l, const char *message, int undo,
+                            sm_error *err)
 {
     char token[24];
     fmt_i64(token, sizeof token, l->token);
-    const char *vals[] = {l->id, token, message};
+    const char *vals[] = {l->id, token, message, undo ? "1" : "0"};
     return smd_pg_run(db, "release",
                       "UPDATE smd_jobs SET state = CASE WHEN cancel_requested THEN 'dismissed'"
                       " ELSE 'accepted' END, message = $3, updated = now(), lease_owner = NULL,"
-                      " lease_expires = NULL, lease_token = NULL WHERE id = $1 AND " HELD,
-                      3, vals, err);
+                      " lease_expires = NULL, lease_token = NULL,"
+                      " attempt = greatest(attempt - $4::integer, 0) WHERE id = $1 AND " HELD,
+                      4, vals, err);
+}
+
+sm_status smd_pg_release(smd_pg *db, const smd_pg_lease *l, const char *message, sm_error *err)
+{
+    return release_as(db, l, message, 0, err);
+}
+
+sm_status smd_pg_unclaim(smd_pg *db, const smd_pg_lease *l, const char *message, sm_error *err)
+{
+    return release_as(db, l, message, 1, err);
 }
 
 sm_status smd_pg_delete(smd_pg *db, const char *id, int *deleted, sm_error *err)

@@ -16,7 +16,7 @@
 #include "store/pg/smd_pg_node_int.h"
 #include "jobs/smd_pool.h"
 
-void node_cancel_here(smd_pg_node *n, const char *id);
+void node_cancel_here(smd_pg_node *n, const char *id, const char *why);
 
 /* The lease was lost: the run stops here, nothing more is published. */
 static void lease_lost(smd_pg_node *n, const char *id)
@@ -32,7 +32,8 @@ static void lease_lost(smd_pg_node *n, const char *id)
     smd_logf(&n->srv->log, SMD_LOG_WARN, "lease_lost",
              "job %s: this node's lease was lost (expired, or the job was deleted): its run is "
              "stopped and its results are not published", id);
-    node_cancel_here(n, id);
+    node_cancel_here(n, id, "stopped on this node: its lease was lost (expired, or the job was "
+                            "deleted); the run's results are not published");
 }
 
 /* The local copy of a job whose lease was lost: taken again from the
@@ -215,7 +216,7 @@ static void renew_all(smd_pg_node *n)
         if (held == 0)
             lease_lost(n, due.id);
         else if (held == 2)
-            node_cancel_here(n, due.id);
+            node_cancel_here(n, due.id, SMD_PG_CANCELLED);
     }
 }
 
@@ -255,8 +256,9 @@ static void claim_one(smd_pg_node *n, const smd_pg_lease *got)
     char msg[SM_EVENT_MESSAGE_MAX];
     snprintf(msg, sizeof msg, "node %.100s could not take it: %.300s", n->name,
              l ? err.msg : "out of memory");
+    smd_unroot(msg, n->srv->cfg.spool); /* the job's message: clients read it */
     smd_logf(&n->srv->log, SMD_LOG_ERROR, "claim_failed", "job %s: %s", got->id, msg);
-    smd_pg_release(n->work_db, got, msg, &err);
+    smd_pg_unclaim(n->work_db, got, msg, &err); /* nothing ran: no attempt used */
     node_drop_lease(n, got->id);
 }
 

@@ -601,6 +601,119 @@ static sm_status read_warning(const json_t *obj, const char *sub, sm_event *ev, 
     return SM_OK;
 }
 
+/* The members every event may carry: jobID, seq, time, message. */
+static sm_status read_envelope(const json_t *obj, const char *path, sm_event *ev, sm_error *err)
+{
+    const json_t *v;
+    if ((v = json_object_get(obj, "jobID"))) {
+        if (!json_is_string(v))
+            return fail(err, path, "jobID", "must be a string");
+        if (json_string_length(v) == 0 || json_string_length(v) > SM_JOB_ID_MAX ||
+            strlen(json_string_value(v)) != json_string_length(v))
+            return fail(err, path, "jobID", "must be 1 to 64 characters");
+        memcpy(ev->job_id, json_string_value(v), json_string_length(v) + 1);
+    }
+    if ((v = json_object_get(obj, "seq"))) {
+        long long seq;
+        if (smp_get_integer(v, "event.seq", 0, LLONG_MAX, &seq, err) != SM_OK)
+            return as_format(err);
+        ev->seq = seq;
+    }
+    if ((v = json_object_get(obj, "time"))) {
+        if (!json_is_string(v) || sm_time_parse_rfc3339(json_string_value(v), &ev->time) != 0)
+            return fail(err, path, "time",
+                        "must be an RFC 3339 date-time string such as "
+                        "\"2024-05-01T12:00:00.000Z\"");
+    }
+    if ((v = json_object_get(obj, "message"))) {
+        if (!json_is_string(v))
+            return fail(err, path, "message", "must be a string");
+        copy_utf8(ev->message, sizeof ev->message, json_string_value(v));
+    }
+    return SM_OK;
+}
+
+static sm_status read_progress(const json_t *obj, const char *sub, sm_progress *p, sm_error *err)
+{
+    sm_status st;
+    if ((st = read_count(obj, sub, "iteration", &p->iteration, err)) ||
+        (st = read_number(obj, sub, "J", &p->J, err)) ||
+        (st = read_number(obj, sub, "step", &p->step, err)) ||
+        (st = read_number(obj, sub, "boundary_l2", &p->boundary_l2, err)) ||
+        (st = read_number(obj, sub, "boundary_max", &p->boundary_max, err)) ||
+        (st = read_number(obj, sub, "min_quality", &p->min_quality, err)) ||
+        (st = read_number(obj, sub, "elapsed", &p->elapsed, err)) ||
+        (st = read_count(obj, sub, "accepted", &p->accepted, err)) ||
+        (st = read_count(obj, sub, "rejected", &p->rejected, err)))
+        return st;
+    /* optional: events from before they were sent */
+    const json_t *rms = json_object_get(obj, "boundary_rms");
+    const json_t *rel = json_object_get(obj, "boundary_relative");
+    p->boundary_rms = json_is_number(rms) ? json_number_value(rms) : 0.0;
+    p->boundary_relative = json_is_number(rel) ? json_number_value(rel) : 0.0;
+    return SM_OK;
+}
+
+static sm_status read_status(const json_t *obj, const char *sub, sm_event *ev, sm_error *err)
+{
+    const json_t *v = json_object_get(obj, "status");
+    if (!v)
+        return fail(err, sub, "status", "required member missing");
+    if (!json_is_string(v) || sm_job_state_from_name(json_string_value(v), &ev->state) != 0)
+        return fail(err, sub, "status",
+                    "must be one of \"accepted\", \"running\", \"successful\", "
+                    "\"failed\", \"dismissed\"");
+    if ((v = json_object_get(obj, "converged"))) { /* optional */
+        if (!json_is_boolean(v))
+            return fail(err, sub, "converged", "must be true or false");
+        ev->converged = json_is_true(v);
+    }
+    return SM_OK;
+}
+
+/* The members of ev->type's own (sub names it in messages). */
+static sm_status read_body(const json_t *obj, const char *sub, sm_event *ev, sm_error *err)
+{
+    const json_t *v;
+    sm_status st;
+    switch (ev->type) {
+    case SM_EVENT_ACCEPTED:
+    case SM_EVENT_CANCELLED:
+        return SM_OK;
+    case SM_EVENT_STARTED:
+        if ((v = json_object_get(obj, "attempt"))) {
+            long long a;
+            if (smp_get_integer(v, "event.started.attempt", 1, INT_MAX, &a, err) != SM_OK)
+                return as_format(err);
+            ev->attempt = (int)a;
+        }
+        return SM_OK;
+    case SM_EVENT_PROGRESS:
+        return read_progress(obj, sub, &ev->progress, err);
+    case SM_EVENT_FINISHED: {
+        char rpath[SMP_PATH_MAX];
+        smp_path_join(rpath, sub, "result");
+        if (!(v = json_object_get(obj, "result")))
+            return fail(err, sub, "result", "required member missing");
+        if ((st = sm_result_from_jansson(v, rpath, &ev->result, err)))
+            return st;
+        ev->converged = ev->result.converged; /* the result's says it */
+        return SM_OK;
+    }
+    case SM_EVENT_FAILED:
+        if (!json_object_get(obj, "message"))
+            return fail(err, sub, "message", "required member missing (the reason)");
+        return SM_OK;
+    case SM_EVENT_STATUS:
+        return read_status(obj, sub, ev, err);
+    case SM_EVENT_WARNING:
+        return read_warning(obj, sub, ev, err);
+    case SM_EVENT_ALIGNMENT:
+        return read_alignment(obj, sub, &ev->alignment, err);
+    }
+    return SM_OK;
+}
+
 sm_status sm_event_from_jansson(const json_t *obj, sm_event *out, sm_error *err)
 {
     const char *path = "event";
@@ -616,103 +729,14 @@ sm_status sm_event_from_jansson(const json_t *obj, sm_event *out, sm_error *err)
     if (!json_is_string(v) || sm_event_type_from_name(json_string_value(v), &ev.type) != 0)
         return fail(err, path, "type",
                     "must be one of \"accepted\", \"started\", \"progress\", \"finished\", "
-                    "\"failed\", \"cancelled\", \"status\", \"warning\"");
+                    "\"failed\", \"cancelled\", \"status\", \"warning\", \"alignment\"");
     char sub[SMP_PATH_MAX];
     snprintf(sub, sizeof sub, "%s.%s", path, sm_event_type_name(ev.type));
-
-    if ((v = json_object_get(obj, "jobID"))) {
-        if (!json_is_string(v))
-            return fail(err, path, "jobID", "must be a string");
-        if (json_string_length(v) == 0 || json_string_length(v) > SM_JOB_ID_MAX ||
-            strlen(json_string_value(v)) != json_string_length(v))
-            return fail(err, path, "jobID", "must be 1 to 64 characters");
-        memcpy(ev.job_id, json_string_value(v), json_string_length(v) + 1);
-    }
-    if ((v = json_object_get(obj, "seq"))) {
-        long long seq;
-        if (smp_get_integer(v, "event.seq", 0, LLONG_MAX, &seq, err) != SM_OK)
-            return as_format(err);
-        ev.seq = seq;
-    }
-    if ((v = json_object_get(obj, "time"))) {
-        if (!json_is_string(v) || sm_time_parse_rfc3339(json_string_value(v), &ev.time) != 0)
-            return fail(err, path, "time",
-                        "must be an RFC 3339 date-time string such as "
-                        "\"2024-05-01T12:00:00.000Z\"");
-    }
-    if ((v = json_object_get(obj, "message"))) {
-        if (!json_is_string(v))
-            return fail(err, path, "message", "must be a string");
-        copy_utf8(ev.message, sizeof ev.message, json_string_value(v));
-    }
-    sm_status st = SM_OK;
-    switch (ev.type) {
-    case SM_EVENT_ACCEPTED:
-    case SM_EVENT_CANCELLED:
-        break;
-    case SM_EVENT_STARTED:
-        if ((v = json_object_get(obj, "attempt"))) {
-            long long a;
-            if (smp_get_integer(v, "event.started.attempt", 1, INT_MAX, &a, err) != SM_OK)
-                return as_format(err);
-            ev.attempt = (int)a;
-        }
-        break;
-    case SM_EVENT_PROGRESS: {
-        sm_progress *p = &ev.progress;
-        if ((st = read_count(obj, sub, "iteration", &p->iteration, err)) ||
-            (st = read_number(obj, sub, "J", &p->J, err)) ||
-            (st = read_number(obj, sub, "step", &p->step, err)) ||
-            (st = read_number(obj, sub, "boundary_l2", &p->boundary_l2, err)) ||
-            (st = read_number(obj, sub, "boundary_max", &p->boundary_max, err)) ||
-            (st = read_number(obj, sub, "min_quality", &p->min_quality, err)) ||
-            (st = read_number(obj, sub, "elapsed", &p->elapsed, err)) ||
-            (st = read_count(obj, sub, "accepted", &p->accepted, err)) ||
-            (st = read_count(obj, sub, "rejected", &p->rejected, err)))
-            return st;
-        /* optional: events from before they were sent */
-        const json_t *rms = json_object_get(obj, "boundary_rms");
-        const json_t *rel = json_object_get(obj, "boundary_relative");
-        p->boundary_rms = json_is_number(rms) ? json_number_value(rms) : 0.0;
-        p->boundary_relative = json_is_number(rel) ? json_number_value(rel) : 0.0;
-        break;
-    }
-    case SM_EVENT_FINISHED: {
-        char rpath[SMP_PATH_MAX];
-        smp_path_join(rpath, sub, "result");
-        if (!(v = json_object_get(obj, "result")))
-            return fail(err, sub, "result", "required member missing");
-        if ((st = sm_result_from_jansson(v, rpath, &ev.result, err)))
-            return st;
-        ev.converged = ev.result.converged; /* the result's says it */
-        break;
-    }
-    case SM_EVENT_FAILED:
-        if (!json_object_get(obj, "message"))
-            return fail(err, sub, "message", "required member missing (the reason)");
-        break;
-    case SM_EVENT_STATUS:
-        if (!(v = json_object_get(obj, "status")))
-            return fail(err, sub, "status", "required member missing");
-        if (!json_is_string(v) || sm_job_state_from_name(json_string_value(v), &ev.state) != 0)
-            return fail(err, sub, "status",
-                        "must be one of \"accepted\", \"running\", \"successful\", "
-                        "\"failed\", \"dismissed\"");
-        if ((v = json_object_get(obj, "converged"))) { /* optional */
-            if (!json_is_boolean(v))
-                return fail(err, sub, "converged", "must be true or false");
-            ev.converged = json_is_true(v);
-        }
-        break;
-    case SM_EVENT_WARNING:
-        if ((st = read_warning(obj, sub, &ev, err)))
-            return st;
-        break;
-    case SM_EVENT_ALIGNMENT:
-        if ((st = read_alignment(obj, sub, &ev.alignment, err)))
-            return st;
-        break;
-    }
+    sm_status st = read_envelope(obj, path, &ev, err);
+    if (st == SM_OK)
+        st = read_body(obj, sub, &ev, err);
+    if (st != SM_OK)
+        return st;
     *out = ev;
     return SM_OK;
 }

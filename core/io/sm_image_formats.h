@@ -44,6 +44,12 @@ sm_status sm__image_read_voxels(sm_reader *r, const sm_image_src *src, const sm_
 sm_status sm__image_open_detached(const sm_image_src *src, const char *where, const char *name,
                                   sm_reader *r, char **data_path, sm_error *err);
 
+/* The voxels from the data file name that the header at src->path gives
+ * on its line `line` (sm__image_open_detached's rules), read as d says;
+ * a data file the reader inflates itself (.gz) is not inflated twice. */
+sm_status sm__image_read_detached(const sm_image_src *src, long line, const char *name,
+                                  sm_image_data d, sm_image *im, sm_error *err);
+
 /* The voxel-to-world map finite and non-singular. */
 sm_status sm__image_check_geometry(const sm_image_src *src, const sm_image *im, sm_error *err);
 

@@ -7,6 +7,7 @@
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <zlib.h>
@@ -253,6 +254,23 @@ sm_status sm__image_open_detached(const sm_image_src *src, const char *where, co
     }
     *data_path = full;
     return SM_OK;
+}
+
+sm_status sm__image_read_detached(const sm_image_src *src, long line, const char *name,
+                                  sm_image_data d, sm_image *im, sm_error *err)
+{
+    sm_reader dr;
+    char *data_path, where[32];
+    snprintf(where, sizeof where, "line %ld", line);
+    sm_status st = sm__image_open_detached(src, where, name, &dr, &data_path, err);
+    if (st != SM_OK)
+        return st;
+    sm_image_src dsrc = {data_path, 0, src->limits};
+    d.compressed = d.compressed && !dr.compressed;
+    st = sm__image_read_voxels(&dr, &dsrc, &d, im, err);
+    sm__reader_close(&dr);
+    free(data_path);
+    return st;
 }
 
 sm_status sm__image_check_geometry(const sm_image_src *src, const sm_image *im, sm_error *err)

@@ -213,17 +213,7 @@ sm_status sm__mha_read(sm_reader *r, const sm_image_src *src, sm_image **out, sm
         sm_image_data d = {h->compressed, h->msb && sm_voxel_size(h->type) > 1,
                            h->header_size};
         if (h->data_file[0]) {
-            sm_reader dr;
-            char *data_path, where[32];
-            snprintf(where, sizeof where, "line %ld", h->data_file_line);
-            st = sm__image_open_detached(src, where, h->data_file, &dr, &data_path, err);
-            if (st == SM_OK) {
-                sm_image_src dsrc = {data_path, 0, src->limits};
-                d.compressed = h->compressed && !dr.compressed;
-                st = sm__image_read_voxels(&dr, &dsrc, &d, im, err);
-                sm__reader_close(&dr);
-                free(data_path);
-            }
+            st = sm__image_read_detached(src, h->data_file_line, h->data_file, d, im, err);
         } else {
             if (h->header_size != 0)
                 st = sm_error_set(err, SM_ERR_FORMAT, "%s:%ld: HeaderSize with LOCAL data is "

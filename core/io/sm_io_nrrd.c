@@ -245,18 +245,7 @@ sm_status sm__nrrd_read(sm_reader *r, const sm_image_src *src, sm_image **out, s
         int size = sm_voxel_size(h->type);
         sm_image_data d = {h->gzip, h->big && size > 1, h->byte_skip};
         if (h->data_file[0]) {
-            sm_reader dr;
-            char *data_path, where[32];
-            snprintf(where, sizeof where, "line %ld", h->data_file_line);
-            st = sm__image_open_detached(src, where, h->data_file, &dr, &data_path, err);
-            if (st == SM_OK) {
-                sm_image_src dsrc = {data_path, 0, src->limits};
-                /* a .raw.gz data file is inflated by the reader itself */
-                d.compressed = h->gzip && !dr.compressed;
-                st = sm__image_read_voxels(&dr, &dsrc, &d, im, err);
-                sm__reader_close(&dr);
-                free(data_path);
-            }
+            st = sm__image_read_detached(src, h->data_file_line, h->data_file, d, im, err);
         } else {
             st = sm__image_read_voxels(r, src, &d, im, err);
         }

@@ -81,7 +81,7 @@ for rule in path engine http base mhd libpq circle; do
 done
 
 # ---- the rules can fail: a tree that breaks each once
-bad=$(mktemp -d /tmp/sm-layers-XXXXXX)
+bad=$(mktemp -d "${TMPDIR:-/tmp}/sm-layers-XXXXXX")
 trap 'rm -rf "$bad"' EXIT
 mkdir -p "$bad"/{base,http,api,jobs,store/spool,store/pg}
 touch "$bad"/base/b.h "$bad"/http/h.h "$bad"/api/a.h "$bad"/jobs/j.h "$bad"/store/spool/s.h

@@ -33,8 +33,11 @@ typedef struct fixture {
 static int setup(void **state)
 {
     fixture *f = calloc(1, sizeof *f);
-    snprintf(f->dir, sizeof f->dir, "/tmp/sm-test-api-XXXXXX");
-    if (!f || !mkdtemp(f->dir))
+    if (!f)
+        return -1;
+    const char *tmp = getenv("TMPDIR");
+    snprintf(f->dir, sizeof f->dir, "%s/sm-test-api-XXXXXX", tmp && *tmp ? tmp : "/tmp");
+    if (!mkdtemp(f->dir))
         return -1;
     snprintf(f->tpl, sizeof f->tpl, "%s/template.mesh", f->dir);
     snprintf(f->bg, sizeof f->bg, "%s/bg.mesh", f->dir);

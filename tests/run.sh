@@ -15,6 +15,7 @@ failed=0
 failures=()
 logdir=build/test-logs
 mkdir -p "$logdir"
+rm -f "$logdir"/*.result
 
 run_suite() { # variant name command...
     local variant=$1 name=$2
@@ -35,35 +36,97 @@ run_suite() { # variant name command...
         nok=1
         echo "not ok - $name reported no test" >>"$log"
     fi
-    passed=$((passed + ok))
-    failed=$((failed + nok))
-    printf '%-8s %-32s %4d passed %3d failed  %4ds\n' "$variant" "$name" "$ok" "$nok" $((SECONDS - start))
+    echo "$ok $nok" >"$logdir/$variant-$name.result"
+    # one write, so that lines of suites running side by side do not mix
+    local out
+    out=$(printf '%-8s %-32s %4d passed %3d failed  %4ds' "$variant" "$name" "$ok" "$nok" $((SECONDS - start)))
     if [ "$nok" -ne 0 ]; then
-        failures+=("$variant/$name")
-        grep -E '^not ok|ERROR|Sanitizer|runtime error' "$log" | head -20 | sed 's/^/    /'
-        echo "    (full log: $log)"
+        out+=$'\n'$(grep -E '^not ok|ERROR|Sanitizer|runtime error' "$log" | head -20 | sed 's/^/    /')
+        out+=$'\n'"    (full log: $log)"
     fi
+    printf '%s\n' "$out"
 }
 
+# The queue: every suite of every variant, as "variant name kind path".
+queue=()
 for variant in $variants; do
-    bin="$ROOT/build/$variant"
-    export SM_BIN="$bin" SM_VARIANT="$variant" SM_ROOT="$ROOT"
-    export CMOCKA_MESSAGE_OUTPUT=TAP
-    export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0:halt_on_error=1}
-    export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
-    for t in "$bin"/tests/test_*; do
+    for t in "$ROOT/build/$variant"/tests/test_*; do
         [ -x "$t" ] || continue
         name=$(basename "$t")
         [ -n "$only" ] && [[ "$name" != *$only* ]] && continue
-        run_suite "$variant" "$name" "$t"
+        queue+=("$variant $name bin $t")
     done
     for s in tests/cli/*.sh tests/build/*.sh tests/integration/*.sh; do
         [ -f "$s" ] || continue
         name=$(basename "$s" .sh)
         [ "$name" = lib ] && continue # shared helpers, sourced by the suites
         [ -n "$only" ] && [[ "$name" != *$only* ]] && continue
-        run_suite "$variant" "$name" bash "$s"
+        queue+=("$variant $name sh $s")
     done
+done
+
+# A suite that measures time against the wall clock it does not own (rate
+# windows, stall deadlines, a fuzzer's time budget) says so with a line
+# "# run.sh: alone" near its top and runs with nothing beside it.
+runs_alone() { # kind path
+    [ "$1" = sh ] && head -20 "$2" | grep -q '^# run.sh: alone'
+}
+
+start_suite() { # variant name kind path
+    local variant=$1 name=$2 kind=$3 path=$4
+    (
+        export SM_BIN="$ROOT/build/$variant" SM_VARIANT="$variant" SM_ROOT="$ROOT"
+        export CMOCKA_MESSAGE_OUTPUT=TAP
+        export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0:halt_on_error=1}
+        export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+        if [ "$kind" = bin ]; then
+            run_suite "$variant" "$name" "$path"
+        else
+            run_suite "$variant" "$name" bash "$path"
+        fi
+    )
+}
+
+# Suites run SM_TEST_JOBS at a time (default: one per core).  Most of a
+# daemon suite's time is spent waiting on its daemon, so two at a time on
+# two cores nearly halve the wall time.
+# The suites that run alone come after the others, one by one.
+jobs_max=${SM_TEST_JOBS:-$(nproc)}
+running=0
+alone=()
+for entry in "${queue[@]}"; do
+    read -r variant name kind path <<<"$entry"
+    if runs_alone "$kind" "$path"; then
+        alone+=("$entry")
+        continue
+    fi
+    while [ "$running" -ge "$jobs_max" ]; do
+        wait -n
+        running=$((running - 1))
+    done
+    start_suite "$variant" "$name" "$kind" "$path" &
+    running=$((running + 1))
+done
+wait
+for entry in ${alone[@]+"${alone[@]}"}; do
+    read -r variant name kind path <<<"$entry"
+    start_suite "$variant" "$name" "$kind" "$path"
+done
+
+# Each suite left its counts in its .result file (a background suite cannot
+# add to this shell's variables).
+for entry in "${queue[@]}"; do
+    read -r variant name kind path <<<"$entry"
+    res="$logdir/$variant-$name.result"
+    if [ ! -f "$res" ]; then
+        failed=$((failed + 1))
+        failures+=("$variant/$name")
+        continue
+    fi
+    read -r ok nok <"$res"
+    passed=$((passed + ok))
+    failed=$((failed + nok))
+    [ "$nok" -ne 0 ] && failures+=("$variant/$name")
 done
 
 if [ "${#failures[@]}" -ne 0 ]; then

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: alone (its verdicts time the daemon against the wall clock)
 # Database faults of a cluster (issue 28), one PostgreSQL and two nodes
 # (an API node, a worker node) shared by both parts:
 #

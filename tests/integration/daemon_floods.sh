@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: alone (its verdicts time the daemon against the wall clock)
 # Bounded floods on loopback (issue 28), each against a daemon with small
 # limits so that it stays short; the driver is tests/integration/flood.py.
 #

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: alone (its verdicts time the daemon against the wall clock)
 # Submission limits (issue 8): per tenant with tokens, per client address
 # without; --submit-rate per --submit-window and --max-queued unfinished
 # jobs answer 429 problem+json with Retry-After; another tenant (address)

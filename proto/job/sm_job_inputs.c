@@ -496,7 +496,8 @@ sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
     if (!files->prepare_run &&
         (st = sm_job_inputs_read_target(&with_bg, SM_JOB_NAME_PARTS, 0, out, err)) != SM_OK)
         return st;
-    if ((st = sm_params_from_json(params_text, params_len, out->dim, &params, err)) != SM_OK)
+    if ((st = sm_job_params_from_json_for(params_text, params_len, out->template_mesh, &params,
+                                           NULL, err)) != SM_OK)
         goto fail;
     if ((st = sm_job_inputs_set_params(out, &params, err)) != SM_OK) {
         sm_error_prefix(err, "%s", params.clamp == SM_CLAMP_BALL ? "params.clamp" : "params.clamp.refs");

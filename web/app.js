@@ -4,7 +4,8 @@
 // live and final shape (2D canvas for triangles, three.js for the boundary
 // of tetrahedra, both coloured by |d| with a colour scale, the target's
 // zero level set or surface overlaid), show the outcome (converged or not,
-// and why) and every warning, download the results.  Plain ES modules;
+// and why) and every warning, download the results; landmark files and
+// the alignment (align.js), warp through a finished job's map (warp.js).  Plain ES modules;
 // every URL is relative to the page, so it also works behind a path
 // prefix.  With a token: Authorization for fetch, access_token for
 // EventSource and links.

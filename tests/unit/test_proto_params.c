@@ -610,17 +610,12 @@ static void test_physical_names(void **state)
     assert_int_equal(sm_params_from_json(doc, strlen(doc), 2, &p, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "params.clamp.refs[0]: the physical name \"core\" was not resolved"));
     assert_int_equal(sm_job_params_from_json_for(doc, strlen(doc), m, &p, &bg, &err), SM_OK);
-    assert_int_equal(p.n_clamp_refs, 2);
-    assert_int_equal(p.clamp_refs[0], 1);
-    assert_int_equal(p.clamp_refs[1], 4);
-    assert_int_equal(p.n_free_refs, 2);
-    assert_int_equal(p.free_refs[0], 3);
-    assert_int_equal(p.free_refs[1], 7);
+    assert_true(p.n_clamp_refs == 2 && p.clamp_refs[0] == 1 && p.clamp_refs[1] == 4);
+    assert_true(p.n_free_refs == 2 && p.free_refs[0] == 3 && p.free_refs[1] == 7);
     /* vertices: a group of any dimension */
     const char *verts = "{\"clamp\": {\"kind\": \"vertices\", \"refs\": [\"tip\", \"cut\"]}}";
     assert_int_equal(sm_job_params_from_json_for(verts, strlen(verts), m, &p, &bg, &err), SM_OK);
-    assert_int_equal(p.clamp_refs[0], 9);
-    assert_int_equal(p.clamp_refs[1], 3);
+    assert_true(p.clamp_refs[0] == 9 && p.clamp_refs[1] == 3);
     /* elements by a name of facets: unknown among the elements' names */
     const char *wrong = "{\"clamp\": {\"kind\": \"elements\", \"refs\": [1, \"cut\"]}}";
     assert_int_equal(sm_job_params_from_json_for(wrong, strlen(wrong), m, &p, &bg, &err),
@@ -633,8 +628,7 @@ static void test_physical_names(void **state)
                                     "named \"core\" of facets (its names of facets: \"cut\" (3))"));
     /* a template without names (Medit) */
     sm_mesh_names_free(m->names, m->nnames);
-    m->names = NULL;
-    m->nnames = 0;
+    m->names = NULL, m->nnames = 0;
     assert_int_equal(sm_job_params_from_json_for(doc, strlen(doc), m, &p, &bg, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "params.clamp.refs[0]: the template has no physical names"));
     /* names that cannot be names: empty, control characters, too long */

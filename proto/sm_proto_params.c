@@ -76,13 +76,32 @@ static sm_status get_ranged(const json_t *v, const char *path, double lo, int lo
     return SM_OK;
 }
 
-/* A list of references: integers, at most SM_MAX_REFS, at least min_count. */
-static sm_status get_refs(const json_t *v, const char *path, size_t min_count,
+/* 1 when v is a string that can be a physical name: 1 to
+ * SM_PARAMS_NAME_MAX bytes, no control character. */
+static int is_name(const json_t *v)
+{
+    if (!json_is_string(v))
+        return 0;
+    size_t n = json_string_length(v);
+    const unsigned char *s = (const unsigned char *)json_string_value(v);
+    if (n < 1 || n > SM_PARAMS_NAME_MAX)
+        return 0;
+    for (size_t i = 0; i < n; i++)
+        if (s[i] < 32 || s[i] == 127)
+            return 0;
+    return 1;
+}
+
+/* A list of references: integers, at most SM_MAX_REFS, at least
+ * min_count.  Names (physical names, strings) only with dim 0: they stand
+ * as 0 until sm_params_resolve_names turns them into their tags. */
+static sm_status get_refs(const json_t *v, const char *path, size_t min_count, int dim,
                           int32_t *refs, int *count, sm_error *err)
 {
     if (!json_is_array(v))
-        return sm_error_set(err, SM_ERR_INVALID, "%s: must be an array of integers (got %s)",
-                            path, smp_type_name(v));
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "%s: must be an array of integers or physical names (got %s)", path,
+                            smp_type_name(v));
     size_t n = json_array_size(v);
     if (n < min_count)
         return sm_error_set(err, SM_ERR_INVALID,
@@ -95,7 +114,24 @@ static sm_status get_refs(const json_t *v, const char *path, size_t min_count,
         char item[SMP_PATH_MAX];
         long long r;
         smp_path_index(item, path, i);
-        sm_status st = smp_get_integer(json_array_get(v, i), item, INT32_MIN, INT32_MAX, &r, err);
+        const json_t *x = json_array_get(v, i);
+        if (json_is_string(x)) {
+            char shown[SMP_PATH_MAX];
+            smp_path_join(shown, "", json_string_value(x));
+            if (!is_name(x))
+                return sm_error_set(err, SM_ERR_INVALID,
+                                    "%s: a physical name has 1 to %d characters, none a control "
+                                    "character (got \"%s\")",
+                                    item, SM_PARAMS_NAME_MAX, shown + 1);
+            if (dim != 0)
+                return sm_error_set(err, SM_ERR_INVALID,
+                                    "%s: the physical name \"%s\" was not resolved against the "
+                                    "template (sm_params_resolve_names)",
+                                    item, shown + 1);
+            refs[i] = 0;
+            continue;
+        }
+        sm_status st = smp_get_integer(x, item, INT32_MIN, INT32_MAX, &r, err);
         if (st != SM_OK)
             return st;
         refs[i] = (int32_t)r;
@@ -131,7 +167,7 @@ static sm_status decode_center(const json_t *v, const char *path, int dim,
 }
 
 static sm_status decode_row(const sm_param_info *f, const json_t *value, const char *sub,
-                            void *base, sm_error *err);
+                            int dim, void *base, sm_error *err);
 
 static sm_status decode_clamp(const json_t *clamp, const char *path, int dim,
                               sm_params *out, sm_error *err)
@@ -176,10 +212,10 @@ static sm_status decode_clamp(const json_t *clamp, const char *path, int dim,
             seen_radius = 1;
         } else if (strcmp(key, "refs") == 0 &&
                    (out->clamp == SM_CLAMP_ELEMENTS || out->clamp == SM_CLAMP_VERTICES)) {
-            st = get_refs(value, sub, 1, out->clamp_refs, &out->n_clamp_refs, err);
+            st = get_refs(value, sub, 1, dim, out->clamp_refs, &out->n_clamp_refs, err);
             seen_refs = 1;
         } else if (strcmp(key, alpha->name) == 0 && out->clamp == SM_CLAMP_NONE) {
-            st = decode_row(alpha, value, sub, out, err);
+            st = decode_row(alpha, value, sub, dim, out, err);
         } else if (strcmp(key, "center") == 0 || strcmp(key, "radius") == 0 ||
                    strcmp(key, "refs") == 0 || strcmp(key, "alpha") == 0) {
             st = sm_error_set(err, SM_ERR_INVALID, "%s: not allowed with kind \"%s\"", sub,
@@ -226,7 +262,7 @@ static void list_fields(char *buf, size_t cap)
 /* The member described by row f into its struct at base (sm_params or
  * sm_background_params); the clamp has decode_clamp. */
 static sm_status decode_row(const sm_param_info *f, const json_t *value, const char *sub,
-                            void *base, sm_error *err)
+                            int dim, void *base, sm_error *err)
 {
     char *at = (char *)base + f->offset;
     switch (f->type) {
@@ -240,7 +276,7 @@ static sm_status decode_row(const sm_param_info *f, const json_t *value, const c
         return st;
     }
     case SM_PARAM_REFS:
-        return get_refs(value, sub, (size_t)f->min, (int32_t *)at,
+        return get_refs(value, sub, (size_t)f->min, dim, (int32_t *)at,
                         (int *)((char *)base + f->count_offset), err);
     case SM_PARAM_SOLVER:
     case SM_PARAM_ALIGN: {
@@ -274,11 +310,11 @@ static sm_status decode_field(const char *key, const json_t *value, const char *
     if (f && f->type == SM_PARAM_CLAMP)
         return decode_clamp(value, sub, dim, out, err);
     if (f && !f->in_clamp)
-        return decode_row(f, value, sub, out, err);
+        return decode_row(f, value, sub, dim, out, err);
     const sm_param_info *rows = sm_background_params_table(&n);
     for (size_t i = 0; i < n; i++)
         if (strcmp(key, rows[i].name) == 0)
-            return decode_row(&rows[i], value, sub, bg, err);
+            return decode_row(&rows[i], value, sub, dim, bg, err);
     char known[512];
     list_fields(known, sizeof known);
     return sm_error_set(err, SM_ERR_INVALID, "%s: unknown field (known fields: %s)", sub, known);
@@ -371,6 +407,116 @@ sm_status sm_params_from_json(const char *text, size_t len, int dim, sm_params *
                               sm_error *err)
 {
     return sm_job_params_from_json(text, len, dim, out, NULL, err);
+}
+
+/* --------------------------------------------------------- physical names */
+
+/* The names of m of dimension dim (any when dim < 0), for messages:
+ * "\"core\" (1), \"skin\" (3)" or "none". */
+static void list_names(const sm_mesh *m, int dim, char *out, size_t cap)
+{
+    size_t at = 0;
+    out[0] = '\0';
+    for (int32_t i = 0; i < m->nnames && at + 1 < cap; i++) {
+        if (dim >= 0 && m->names[i].dim != dim)
+            continue;
+        char shown[SMP_PATH_MAX];
+        smp_path_join(shown, "", m->names[i].name ? m->names[i].name : "");
+        int k = snprintf(out + at, cap - at, "%s\"%s\" (%d)", at ? ", " : "", shown + 1,
+                         (int)m->names[i].tag);
+        if (k < 0 || (size_t)k >= cap - at) {
+            out[at] = '\0';
+            break;
+        }
+        at += (size_t)k;
+    }
+    if (!out[0])
+        snprintf(out, cap, "none");
+}
+
+/* The names in the array refs (at path) replaced by the tags of m's
+ * physical groups of dimension dim (any when dim < 0). */
+static sm_status resolve_list(json_t *refs, const char *path, const sm_mesh *m, int dim,
+                              sm_error *err)
+{
+    size_t i;
+    json_t *item;
+    if (!json_is_array(refs))
+        return SM_OK; /* the decoder names the wrong type */
+    json_array_foreach(refs, i, item) {
+        if (!json_is_string(item))
+            continue;
+        const char *name = json_string_value(item);
+        int32_t k = 0;
+        while (k < m->nnames && !((dim < 0 || m->names[k].dim == dim) && m->names[k].name &&
+                                  strcmp(m->names[k].name, name) == 0))
+            k++;
+        if (k < m->nnames) {
+            if (json_array_set_new(refs, i, json_integer(m->names[k].tag)) != 0)
+                return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", path);
+            continue;
+        }
+        char where[SMP_PATH_MAX], shown[SMP_PATH_MAX], names[512];
+        smp_path_index(where, path, i);
+        smp_path_join(shown, "", name);
+        const char *of = dim < 0 ? "" : dim == m->dim ? " of elements" : " of facets";
+        if (m->nnames == 0)
+            return sm_error_set(err, SM_ERR_INVALID,
+                                "%s: the template has no physical names, so no group named "
+                                "\"%s\" (names come from a Gmsh .msh file's $PhysicalNames; give "
+                                "the references as numbers)",
+                                where, shown + 1);
+        list_names(m, dim, names, sizeof names);
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "%s: the template has no physical group named \"%s\"%s (its "
+                            "names%s: %s)",
+                            where, shown + 1, of, of, names);
+    }
+    return SM_OK;
+}
+
+sm_status sm_params_resolve_names(json_t *root, const sm_mesh *m, const char *path,
+                                  sm_error *err)
+{
+    char sub[SMP_PATH_MAX];
+    if (!path)
+        path = "params";
+    if (!json_is_object(root) || !m)
+        return SM_OK; /* the decoder says what is wrong */
+    json_t *clamp = json_object_get(root, "clamp");
+    json_t *kind = json_object_get(clamp, "kind");
+    sm_clamp_kind k;
+    if (json_is_string(kind) && sm_clamp_kind_from_name(json_string_value(kind), &k) == 0 &&
+        (k == SM_CLAMP_ELEMENTS || k == SM_CLAMP_VERTICES)) {
+        char clamp_path[SMP_PATH_MAX];
+        smp_path_join(clamp_path, path, "clamp");
+        smp_path_join(sub, clamp_path, "refs");
+        /* elements by the groups of elements; vertices by any group (a
+         * vertex's reference may come from a point, curve or surface) */
+        sm_status st = resolve_list(json_object_get(clamp, "refs"), sub, m,
+                                    k == SM_CLAMP_ELEMENTS ? m->dim : -1, err);
+        if (st != SM_OK)
+            return st;
+    }
+    smp_path_join(sub, path, "free_boundary");
+    return resolve_list(json_object_get(root, "free_boundary"), sub, m, m->dim - 1, err);
+}
+
+sm_status sm_job_params_from_json_for(const char *text, size_t len, const sm_mesh *m,
+                                      sm_params *out, sm_background_params *bg, sm_error *err)
+{
+    json_t *root;
+    params_reset(out);
+    if (bg)
+        bg->size = bg->padding = 0;
+    sm_status st = smp_load(text, len, SM_PARAMS_JSON_MAX_BYTES, "params", &root, err);
+    if (st != SM_OK)
+        return st;
+    st = sm_params_resolve_names(root, m, "params", err);
+    if (st == SM_OK)
+        st = sm_job_params_from_jansson(root, m->dim, "params", out, bg, err);
+    json_decref(root);
+    return st;
 }
 
 /* ---------------------------------------------------------------- encode */

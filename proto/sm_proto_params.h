@@ -6,6 +6,7 @@
  *   {"clamp": {"kind": "ball", "center": [0.5, 0.5], "radius": 0.04}}
  *   {"clamp": {"kind": "elements", "refs": [3]}, "free_boundary": [7]}
  *   {"clamp": {"kind": "vertices", "refs": [1, 2]}, "young": 2.0}
+ *   {"clamp": {"kind": "elements", "refs": ["core"]}, "free_boundary": ["cut", 7]}
  *   {"clamp": {"kind": "none", "alpha": 0.01}, "max_iter": 100}
  *
  * Top-level fields: the rows of the parameter table (sm_params_table,
@@ -27,6 +28,7 @@
 #include <jansson.h>
 
 #include "shapematch/sm_error.h"
+#include "shapematch/sm_mesh.h"
 #include "shapematch/sm_params.h"
 
 /* Largest params document accepted (bytes).  A complete params with two
@@ -97,6 +99,33 @@ sm_status sm_job_params_from_json(const char *text, size_t len, int dim, sm_para
 sm_status sm_job_params_from_jansson(const json_t *root, int dim, const char *path,
                                      sm_params *out, sm_background_params *bg,
                                      sm_error *err);
+
+/* Longest physical name a reference list may give (bytes). */
+#define SM_PARAMS_NAME_MAX 255
+
+/* Physical names.  A reference list (clamp.refs, free_boundary) may give
+ * Gmsh physical names ("core") among its integers.  The decoders accept
+ * them with dim 0 only (the syntax check before the template is read;
+ * they stand as 0 there) and refuse them with dim 2 or 3: they must
+ * first be turned into their tags against the template's $PhysicalNames
+ * (sm_mesh.names), by sm_params_resolve_names or, in one call,
+ * sm_job_params_from_json_for. */
+
+/* Replaces, in the params object root, every name in clamp.refs (kind
+ * elements: the names of groups of the template's dimension; vertices:
+ * of any dimension) and free_boundary (groups of facets, dimension - 1)
+ * by its tag in m.  A name m does not have is SM_ERR_INVALID, the
+ * message naming the item ("params.clamp.refs[0]: the template has no
+ * physical group named \"cor\" of elements (its names of elements:
+ * \"core\" (1), ...)").  Anything else is left to the decoder.  path
+ * as in sm_params_from_jansson. */
+sm_status sm_params_resolve_names(json_t *root, const sm_mesh *m, const char *path,
+                                  sm_error *err);
+
+/* sm_job_params_from_json for the template m: its names resolved, then
+ * decoded and validated for m's dimension. */
+sm_status sm_job_params_from_json_for(const char *text, size_t len, const sm_mesh *m,
+                                      sm_params *out, sm_background_params *bg, sm_error *err);
 
 /* Encodes every field (defaults included), compact, one line, keys in a
  * stable order; fields that do not apply to the clamp kind are left out

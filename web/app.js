@@ -4,13 +4,16 @@
 // live and final shape (2D canvas for triangles, three.js for the boundary
 // of tetrahedra, both coloured by |d| with a colour scale, the target's
 // zero level set or surface overlaid), show the outcome (converged or not,
-// and why) and every warning, download the results.  Plain ES modules;
+// and why) and every warning, download the results; landmark files and
+// the alignment (align.js), warp through a finished job's map (warp.js).  Plain ES modules;
 // every URL is relative to the page, so it also works behind a path
 // prefix.  With a token: Authorization for fetch, access_token for
 // EventSource and links.
 import uPlot from './uplot.js';
 import { View2d, View3d, parsePayload, heatCss, fmtNum, tickLabel } from './view.js';
 import { loadTarget } from './target.js';
+import { setupLandmarks, landmarkProblems, appendLandmarks, showAlignment } from './align.js';
+import { warpPanel } from './warp.js';
 
 const $ = (id) => document.getElementById(id);
 const token = () => $('token').value.trim();
@@ -65,8 +68,8 @@ function clampFields(p) {
   const num = (id, label, ph) => el('label', { className: 'small' }, label, el('input', { id, type: 'text', inputMode: 'decimal', placeholder: ph }));
   const ball = el('div', { className: 'clamp-ball' }, num('p-clamp-x', 'centre x', '0'), num('p-clamp-y', 'y', '0'),
     num('p-clamp-z', 'z (3D)', '2D: empty'), num('p-clamp-radius', 'radius', 'e.g. 0.1'));
-  const refs = el('div', { className: 'clamp-refs' }, el('label', {}, 'references (of the elements or vertices)',
-    el('input', { id: 'p-clamp-refs', type: 'text', placeholder: 'e.g. 1, 2' })));
+  const refs = el('div', { className: 'clamp-refs' }, el('label', {}, 'references (of the elements or vertices): numbers or Gmsh physical names',
+    el('input', { id: 'p-clamp-refs', type: 'text', placeholder: 'e.g. 1, 2 or core' })));
   const none = el('div', { className: 'clamp-none' }, num('p-clamp-alpha', 'alpha (0th-order term)', '0: from the scale'));
   const show = () => { ball.hidden = kind.value !== 'ball'; refs.hidden = !['elements', 'vertices'].includes(kind.value); none.hidden = kind.value !== 'none'; };
   kind.addEventListener('change', show);
@@ -94,7 +97,7 @@ function paramRow(name, prop) {
   } else {
     input = el('input', { type: 'text' });
     if (kind === 'number') input.inputMode = 'decimal';
-    input.placeholder = kind === 'refs' ? 'references, e.g. 1, 2' : p.default !== undefined ? String(p.default) : '';
+    input.placeholder = kind === 'refs' ? 'references or physical names, e.g. 1, 2 or cut' : p.default !== undefined ? String(p.default) : '';
   }
   input.name = `params.${name}`;
   input.id = `p-${name}`;
@@ -131,10 +134,11 @@ function checkNumber(p, text) {
   return null;
 }
 
-// "1, 2 core" -> [1, 2, "core"]: integers as numbers, anything else as a
-// name (physical names, where the daemon reads them; else its 422 says so).
+// "1, 2, rim edge" -> [1, 2, "rim edge"]: integers as numbers, anything
+// else as a Gmsh physical name (which may hold spaces), resolved by the
+// daemon against the template (its 422 lists the names it has).
 function parseRefs(text) {
-  return text.split(/[\s,;]+/).filter(Boolean).map((t) => (/^[-+]?\d+$/.test(t) ? Number(t) : t));
+  return text.split(/[,;]/).map((t) => t.trim()).filter(Boolean).map((t) => (/^[-+]?\d+$/.test(t) ? Number(t) : t));
 }
 
 // The clamp object from its fields, or a string saying what is wrong.
@@ -212,11 +216,15 @@ async function submit(ev) {
   if (!schema) await loadSchema();
   const params = collectParams();
   if (!params) return;
+  const lm = landmarkProblems(params.align);
+  for (const [field, message] of lm) showError(field, message);
+  if (lm.length) return;
   const fd = new FormData();
   for (const f of FILES) {
     const file = $(`f-${f}`).files[0];
     if (file) fd.append(f, file, file.name);
   }
+  appendLandmarks(fd);
   fd.append('params', JSON.stringify(params));
   $('submit').disabled = true;
   try {
@@ -405,8 +413,10 @@ async function finish(id) {
     if (s.converged === true) showOutcome('converged', 'converged');
     else if (s.converged === false) showOutcome('not-converged', `not converged: ${notConvergedReason(s)}`);
     if (Array.isArray(s.warnings)) showWarnings(s.warnings);
+    if (s.alignment) showAlignment($('alignment'), s.alignment);
     draw(await getMesh(`v1/jobs/${id}/results/mesh?format=binary`), true);
     downloads(id);
+    if (doc.status === 'successful') warpPanel($('warp'), id, (url, init) => fetch(url, { ...init, headers: { ...init.headers, ...authHeaders() } }));
   }
   if (doc.status === 'failed' && !job.summary?.stop_reason) {
     showOutcome('failed', `failed: ${doc.message || 'see the job\'s events'}`);
@@ -431,6 +441,8 @@ function follow(id) {
   $('headline').textContent = '';
   showOutcome('', '');
   showWarnings([]);
+  showAlignment($('alignment'), null);
+  warpPanel($('warp'), null);
   showScale(null);
   $('reset-view').hidden = true;
   setStatus('accepted', '');
@@ -438,6 +450,7 @@ function follow(id) {
   const es = new EventSource(withToken(`v1/jobs/${id}/events`));
   job.es = es;
   es.addEventListener('started', () => setStatus('running'));
+  es.addEventListener('alignment', (e) => { if (job === current && !job.summary) showAlignment($('alignment'), JSON.parse(e.data)); });
   es.addEventListener('warning', (e) => {
     const w = JSON.parse(e.data);
     if (job !== current || job.summary || job.warnings.some((x) => x.code === w.code)) return;
@@ -533,5 +546,6 @@ $('show-target').addEventListener('change', () => {
 });
 $('token').addEventListener('change', () => { loadSchema(); refreshJobs(); });
 setupDrop();
+setupLandmarks();
 loadSchema();
 refreshJobs();

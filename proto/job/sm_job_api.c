@@ -98,7 +98,8 @@ static sm_status load_inputs(const sm_run_files *f, const char *params_json, sm_
                           .background_size = bg.size, .background_padding = bg.padding};
     if ((st = sm_job_inputs_read_template(&files, SM_JOB_NAME_PATHS, in, err)) != SM_OK)
         return st;
-    if ((st = sm_job_params_from_json(params_json, len, in->dim, &params, &bg, err)) != SM_OK ||
+    if ((st = sm_job_params_from_json_for(params_json, len, in->template_mesh, &params, &bg,
+                                           err)) != SM_OK ||
         (st = sm_job_inputs_set_params(in, &params, err)) != SM_OK) {
         if (st != SM_ERR_FORMAT && strncmp(err->msg, "params", 6) != 0)
             sm_error_prefix(err, "%s", params.clamp == SM_CLAMP_BALL ? "params.clamp"

@@ -11,6 +11,7 @@
 
 #include <omp.h>
 
+#include "shapematch/sm_align.h"
 #include "shapematch/sm_clock.h"
 #include "shapematch/sm_clamp.h"
 #include "shapematch/sm_sdf.h"
@@ -496,7 +497,8 @@ sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
     if (!files->prepare_run &&
         (st = sm_job_inputs_read_target(&with_bg, SM_JOB_NAME_PARTS, 0, out, err)) != SM_OK)
         return st;
-    if ((st = sm_params_from_json(params_text, params_len, out->dim, &params, err)) != SM_OK)
+    if ((st = sm_job_params_from_json_for(params_text, params_len, out->template_mesh, &params,
+                                           NULL, err)) != SM_OK)
         goto fail;
     if ((st = sm_job_inputs_set_params(out, &params, err)) != SM_OK) {
         sm_error_prefix(err, "%s", params.clamp == SM_CLAMP_BALL ? "params.clamp" : "params.clamp.refs");
@@ -513,6 +515,17 @@ sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
                             sm_part_name(SM_PART_TEMPLATE_LANDMARKS),
                             sm_part_name(SM_PART_TEMPLATE_LANDMARKS),
                             sm_part_name(SM_PART_TARGET_LANDMARKS));
+    }
+    /* the landmark start itself (a few points: cheap), so that too few
+     * pairs or collinear ones are refused with the upload, not by the run */
+    sm_transform start;
+    if (out->nlandmarks > 0 &&
+        (st = sm_align_landmarks(out->dim, out->nlandmarks, out->landmarks[0], out->landmarks[1],
+                                 out->params.align, &start, err)) != SM_OK) {
+        sm_job_inputs_free(out);
+        out->failed = SM_PART_TEMPLATE_LANDMARKS;
+        sm_error_prefix(err, "%s", sm_part_name(SM_PART_TEMPLATE_LANDMARKS));
+        return st;
     }
     if (files->prepare_run)
         return sm_job_inputs_read_target(&with_bg, SM_JOB_NAME_PARTS, 1, out, err);

@@ -59,6 +59,6 @@ for f in tests/data/formats/cells/*.off; do tail -c +5 "$f" >"$out/off/$(basenam
 for f in tests/data/formats/cells/*.vtk; do tail -c +24 "$f" >"$out/vtk/$(basename "$f")"; done
 for f in tests/data/formats/cells/*.vt[up]; do add vtkxml "$(basename "$f")" "$f"; done
 for f in tests/data/proto/params/good/*.json tests/data/proto/params/bad/*.json; do
-    add params "$(basename "$(dirname "$f")")-$(basename "$f")" "$f" 000 001 002
+    add params "$(basename "$(dirname "$f")")-$(basename "$f")" "$f" 000 001 002 003
 done
 for f in tests/data/proto/payload/*.smmesh; do add payload "$(basename "$f")" "$f" 000 001; done

@@ -9,7 +9,9 @@
 # --landmarks --wait` give the job the same start as `shapematch run
 # --landmarks`: the same alignment matrix and boundary RMS; a malformed
 # landmark part, one part alone, and landmarks with align none are 422s
-# naming the part, as are one over 1 MiB and a gzip-compressed one; the
+# naming the part, as are one over 1 MiB, a gzip-compressed one, one
+# pair in 2D and coincident points (the landmark start is computed at
+# upload); the
 # OGC execute request takes them as inputs.
 source "$(dirname "$0")/lib.sh"
 
@@ -136,6 +138,13 @@ refused "a malformed target_landmarks" ', "align": "rigid"' 'target_landmarks: l
 refused "template_landmarks alone" ', "align": "rigid"' 'target_landmarks' -F "template_landmarks=@$LMT"
 refused "landmarks with align none" '' 'template_landmarks: landmarks need an alignment' \
     -F "template_landmarks=@$LMT" -F "target_landmarks=@$LMG"
+# the landmark start is computed at upload: too few pairs, or the same
+# point three times, are refused then, not by the run
+printf '0.5,0.5\n' >"$WORK/lm_one.csv"
+refused "one landmark pair in 2D" ', "align": "rigid"' 'template_landmarks: landmarks: 1 pair(s); a 2D alignment needs at least 2' \
+    -F "template_landmarks=@$WORK/lm_one.csv" -F "target_landmarks=@$WORK/lm_one.csv"
+refused "coincident landmarks" ', "align": "rigid"' 'template_landmarks: ' \
+    -F "template_landmarks=@$WORK/lm_same.csv" -F "target_landmarks=@$LMG"
 python3 -c 'import sys; sys.stdout.write("0.5,0.5\n" * 150000)' >"$WORK/lm_huge.csv" # 1.2 MB
 refused "a landmark part over 1 MiB" ', "align": "rigid"' 'template_landmarks: larger than 1048576 bytes' \
     -F "template_landmarks=@$WORK/lm_huge.csv" -F "target_landmarks=@$LMG"

@@ -25,7 +25,7 @@ check "GET / from a browser: the web app (text/html, data-tokens=\"0\")" \
 c=$(get "$BASE/")
 check "GET / from an API client: the JSON landing page" \
     [ "$c" = 200 ] && [ "$(ctype)" = application/json ] && jq -e '.links | length > 0' "$WORK/b" >/dev/null
-for f in app.js view.js target.js app.css favicon.svg; do
+for f in app.js view.js target.js align.js warp.js app.css favicon.svg; do
     c=$(get "$BASE/app/$f")
     check "/app/$f is web/$f" [ "$c" = 200 ] && cmp -s "$WORK/b" "$ROOT/web/$f"
 done

@@ -570,6 +570,88 @@ static sm_status try_value(const char *field, json_t *value, sm_error *err)
     return st;
 }
 
+/* A 2D mesh (one triangle) whose $PhysicalNames are "core" (elements,
+ * tag 1), "cut" (facets, tag 3) and "tip" (a point, tag 9). */
+static sm_mesh *named_mesh(void)
+{
+    sm_mesh *m = NULL;
+    sm_error err = {0};
+    assert_int_equal(sm_mesh_alloc(&m, 2, 3, 1, 0, &err), SM_OK);
+    static const double xy[] = {0, 0, 1, 0, 0, 1};
+    memcpy(m->coords, xy, sizeof xy);
+    m->elems[0] = 0, m->elems[1] = 1, m->elems[2] = 2;
+    static const struct { int32_t dim, tag; const char *name; } names[] = {
+        {2, 1, "core"}, {1, 3, "cut"}, {0, 9, "tip"}};
+    m->nnames = 3;
+    m->names = calloc(3, sizeof *m->names);
+    assert_non_null(m->names);
+    for (int i = 0; i < 3; i++) {
+        m->names[i].dim = names[i].dim;
+        m->names[i].tag = names[i].tag;
+        m->names[i].name = strdup(names[i].name);
+        assert_non_null(m->names[i].name);
+    }
+    return m;
+}
+
+/* Physical names in reference lists: accepted by the syntax check (dim
+ * 0), refused unresolved with a dimension, resolved by the dimension of
+ * the group each list takes, and an unknown name listing the others. */
+static void test_physical_names(void **state)
+{
+    (void)state;
+    sm_mesh *m = named_mesh();
+    sm_params p;
+    sm_background_params bg;
+    sm_error err = {0};
+    const char *doc = "{\"clamp\": {\"kind\": \"elements\", \"refs\": [\"core\", 4]}, "
+                      "\"free_boundary\": [\"cut\", 7]}";
+    assert_int_equal(sm_params_from_json(doc, strlen(doc), 0, &p, &err), SM_OK);
+    assert_int_equal(sm_params_from_json(doc, strlen(doc), 2, &p, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "params.clamp.refs[0]: the physical name \"core\" was not resolved"));
+    assert_int_equal(sm_job_params_from_json_for(doc, strlen(doc), m, &p, &bg, &err), SM_OK);
+    assert_true(p.n_clamp_refs == 2 && p.clamp_refs[0] == 1 && p.clamp_refs[1] == 4);
+    assert_true(p.n_free_refs == 2 && p.free_refs[0] == 3 && p.free_refs[1] == 7);
+    /* vertices: a group of any dimension */
+    const char *verts = "{\"clamp\": {\"kind\": \"vertices\", \"refs\": [\"tip\", \"cut\"]}}";
+    assert_int_equal(sm_job_params_from_json_for(verts, strlen(verts), m, &p, &bg, &err), SM_OK);
+    assert_true(p.clamp_refs[0] == 9 && p.clamp_refs[1] == 3);
+    /* elements by a name of facets: unknown among the elements' names */
+    const char *wrong = "{\"clamp\": {\"kind\": \"elements\", \"refs\": [1, \"cut\"]}}";
+    assert_int_equal(sm_job_params_from_json_for(wrong, strlen(wrong), m, &p, &bg, &err),
+                     SM_ERR_INVALID);
+    assert_string_equal(err.msg, "params.clamp.refs[1]: the template has no physical group named "
+                                 "\"cut\" of elements (its names of elements: \"core\" (1))");
+    const char *fb = "{\"clamp\": {\"kind\": \"none\"}, \"free_boundary\": [\"core\"]}";
+    assert_int_equal(sm_job_params_from_json_for(fb, strlen(fb), m, &p, &bg, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "params.free_boundary[0]: the template has no physical group "
+                                    "named \"core\" of facets (its names of facets: \"cut\" (3))"));
+    /* a template without names (Medit) */
+    sm_mesh_names_free(m->names, m->nnames);
+    m->names = NULL, m->nnames = 0;
+    assert_int_equal(sm_job_params_from_json_for(doc, strlen(doc), m, &p, &bg, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "params.clamp.refs[0]: the template has no physical names"));
+    /* names that cannot be names: empty, control characters, too long */
+    char longname[600];
+    memset(longname, 'a', 300);
+    longname[300] = '\0';
+    const char *bad[] = {"\"\"", "\"a\\u0001b\"", NULL};
+    for (int i = 0; bad[i]; i++) {
+        char text[128];
+        snprintf(text, sizeof text, "{\"clamp\": {\"kind\": \"elements\", \"refs\": [%s]}}", bad[i]);
+        assert_int_equal(sm_params_from_json(text, strlen(text), 0, &p, &err), SM_ERR_INVALID);
+        assert_non_null(strstr(err.msg, "params.clamp.refs[0]: a physical name has 1 to 255"));
+    }
+    char text[800];
+    snprintf(text, sizeof text, "{\"clamp\": {\"kind\": \"none\"}, \"free_boundary\": [\"%s\"]}", longname);
+    assert_int_equal(sm_params_from_json(text, strlen(text), 0, &p, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "params.free_boundary[0]: a physical name has 1 to 255"));
+    longname[255] = '\0';
+    snprintf(text, sizeof text, "{\"clamp\": {\"kind\": \"none\"}, \"free_boundary\": [\"%s\"]}", longname);
+    assert_int_equal(sm_params_from_json(text, strlen(text), 0, &p, &err), SM_OK);
+    sm_mesh_free(m);
+}
+
 static void test_schema_matches_decoder(void **state)
 {
     (void)state;
@@ -659,16 +741,23 @@ static void test_schema_matches_decoder(void **state)
         assert_string_equal(json_string_value(json_array_get(kinds, i)),
                             sm_clamp_kind_name((sm_clamp_kind)i));
 
-    /* the examples decode */
+    /* the examples decode, their physical names resolved against a 2D
+     * template that has them */
     json_t *examples = json_object_get(schema, "examples");
     size_t i;
     json_t *ex;
+    sm_mesh *named = named_mesh();
     json_array_foreach(examples, i, ex) {
         sm_params p;
         sm_error err = {0};
-        if (sm_params_from_jansson(ex, 2, NULL, &p, &err) != SM_OK)
+        json_t *copy = json_deep_copy(ex);
+        if (sm_params_from_jansson(ex, 0, NULL, &p, &err) != SM_OK ||
+            sm_params_resolve_names(copy, named, NULL, &err) != SM_OK ||
+            sm_params_from_jansson(copy, 2, NULL, &p, &err) != SM_OK)
             fail_msg("schema example %zu refused: %s", i, err.msg);
+        json_decref(copy);
     }
+    sm_mesh_free(named);
     print_message("%d schema bounds checked against the decoder\n", bounds_checked);
     assert_true(bounds_checked >= 15);
     json_decref(schema);
@@ -799,6 +888,7 @@ int main(void)
         cmocka_unit_test(test_from_jansson_path),
         cmocka_unit_test(test_random_round_trip),
         cmocka_unit_test(test_encoder_refuses_what_json_cannot_carry),
+        cmocka_unit_test(test_physical_names),
         cmocka_unit_test(test_schema_matches_decoder),
         cmocka_unit_test(test_schema_matches_table),
     };

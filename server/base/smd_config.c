@@ -132,6 +132,10 @@ static const opt options[] = {
      "idle_in_transaction_session_timeout of every database session: the server ends a "
      "session idle this long inside a transaction (a frozen node) and frees its row locks; "
      "keep it below --lease", "15s"},
+    {"--outbox-max", "SHAPEMATCH_OUTBOX_MAX", "BYTES", OPT_SIZE, OFF(outbox_max), 1 << 20, 1e15,
+     "with --database: the events and results a node could not store in the database wait "
+     "in SPOOL/outbox/ (replayed at the next start) up to this much; past it they wait in "
+     "memory only, the node unready saying so", "256M"},
     {"--max-body-memory", "SHAPEMATCH_MAX_BODY_MEMORY", "BYTES", OPT_SIZE, OFF(max_body_memory),
      1 << 20, 1e15, "request bodies held in memory at once, all connections together (OGC "
      "execute requests, each at most 64M); past it a request gets 503", "256M"},
@@ -147,6 +151,12 @@ static const opt options[] = {
      "--submit-window; more get 429 with Retry-After (0 = no limit)", "600"},
     {"--submit-window", "SHAPEMATCH_SUBMIT_WINDOW", "SECONDS", OPT_DURATION, OFF(submit_window), 1,
      86400, "the window of --submit-rate", "1m"},
+    {"--submit-ipv4-prefix", "SHAPEMATCH_SUBMIT_IPV4_PREFIX", "BITS", OPT_UINT,
+     OFF(submit_ipv4_prefix), 8, 32, "without --tokens-file, IPv4 clients share --submit-rate "
+     "and --max-queued per network of this prefix (24: one per /24, as IPv6 clients share "
+     "one per /64); the default, 32, is one per address, because a /24 often holds unrelated "
+     "users (a campus, a carrier NAT pool, a cloud range) who would throttle each other, "
+     "while IPv4 addresses are scarce enough that one client rarely holds many", "32"},
     {"--max-queued", "SHAPEMATCH_MAX_QUEUED", "N", OPT_UINT, OFF(max_queued), 0, 1000000,
      "unfinished jobs (accepted, queued or running) one tenant (one client address without "
      "--tokens-file) may have; more submissions get 429 with Retry-After (0 = no limit)", "1000"},
@@ -229,10 +239,12 @@ static void set_defaults(smd_config *c)
     c->db_lock_timeout = 5;
     c->db_idle_timeout = 15;
     c->max_body_memory = (uint64_t)256 << 20;
+    c->outbox_max = (uint64_t)256 << 20;
     c->body_stall_timeout = 10;
     c->max_streams_per_ip = 150;
     c->submit_rate = 600;
     c->submit_window = 60;
+    c->submit_ipv4_prefix = 32;
     c->max_queued = 1000;
     c->header_timeout = 10;
     c->min_upload_rate = 1024;

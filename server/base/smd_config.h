@@ -99,6 +99,17 @@ smd_config_result smd_config_parse(smd_config *c, int argc, char **argv,
 
 void smd_config_help(FILE *out);
 
+/* The options whose value is a number, for tests that walk the table:
+ * the i-th of them (from 0) into out, 0 past the last. */
+typedef struct smd_config_number {
+    const char *flag;
+    enum { SMD_CONFIG_INTEGER, SMD_CONFIG_SIZE, SMD_CONFIG_DURATION } kind;
+    double lo, hi;        /* the accepted range, bounds included */
+    size_t width;         /* bytes of the field it is stored in */
+    int is_signed;
+} smd_config_number;
+int smd_config_number_at(size_t i, smd_config_number *out);
+
 /* Number of online processors (default of --workers), at least 1. */
 int smd_default_workers(void);
 

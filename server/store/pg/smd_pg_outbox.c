@@ -203,8 +203,13 @@ static sm_status list_names(smd_pg_node *n, char ***names, size_t *count, sm_err
 static int adopt(smd_pg_node *n, const node_item *it)
 {
     node_lease *l = node_find_lease(n, it->id);
-    if (l)
-        return 0; /* items of an older lease of the job are dropped by the work thread */
+    if (l) {
+        /* items come in order: a later lease of the job is the one held
+         * now; the earlier one's items are dropped by the work thread */
+        l->lease.attempt = it->attempt;
+        l->lease.token = it->token;
+        return 0;
+    }
     if (!(l = calloc(1, sizeof *l)))
         return -1;
     snprintf(l->lease.id, sizeof l->lease.id, "%s", it->id);

@@ -13,7 +13,7 @@ SERVER_JOBS_SRCS := $(addprefix server/jobs/,smd_job.c smd_jobs.c smd_pool.c)
 SERVER_SPOOL_SRCS := $(addprefix server/store/spool/,smd_store.c smd_store_summary.c smd_fifo.c \
     smd_spool_backend.c)
 SERVER_PG_SRCS := $(addprefix server/store/pg/,smd_pg_conn.c smd_pg_queue.c smd_pg_blob.c \
-    smd_pg_node.c smd_pg_mirror.c smd_pg_work.c smd_pg_backend.c)
+    smd_pg_node.c smd_pg_mirror.c smd_pg_work.c smd_pg_outbox.c smd_pg_backend.c)
 # job.json: written by the upload's check, read by the worker
 SERVER_WORKER_SRCS := server/worker/smd_job_file.c
 SERVER_LIB_SRCS := $(SERVER_BASE_SRCS) $(SERVER_HTTP_SRCS) $(SERVER_API_SRCS) $(SERVER_JOBS_SRCS) \

@@ -456,7 +456,11 @@ enum MHD_Result smd_route_events(struct MHD_Connection *conn, smd_request *req)
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
                                  "after: expected an event sequence number in [0, %lld]",
                                  SMD_REQUEST_INT_MAX);
-    if (smd_conns_stream(conn) != 0)
+    struct MHD_Connection *evict = NULL;
+    int full = smd_conns_stream(conn, &evict);
+    if (evict)
+        smd_stream_evict(srv, evict);
+    if (full != 0)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "too many event streams and request bodies in progress (from "
                                  "your address: --max-streams-per-ip; in all: --max-connections "

@@ -45,6 +45,7 @@ typedef struct smd_follower {
     int keepalive_due;
     int done;                     /* final status queued: end after it */
     int revoked;                  /* its token was removed (SIGHUP): end now */
+    int evicted;                  /* made room for a newer stream: say so, then end */
     char *authorization, *token;  /* the credential it was opened with (copies) */
     _Atomic double last_send;     /* monotonic; written by the reader, read by the tick */
     uint64_t *bytes_out;
@@ -216,6 +217,23 @@ static ssize_t end_with_status(smd_follower *f, char *out, size_t max)
     return copy_out(f, out, max);
 }
 
+/* Lock held (released here): ended to make room for a newer stream. */
+static ssize_t end_evicted(smd_follower *f, char *out, size_t max)
+{
+    long long last = (long long)(f->next_seq - 1);
+    pthread_mutex_unlock(&f->srv->lock);
+    f->done = 1;
+    if (!f->sse)
+        return MHD_CONTENT_READER_END_OF_STREAM;
+    char text[256];
+    int n = snprintf(text, sizeof text,
+                     ": evicted: the daemon holds too many event streams and serves the newest; "
+                     "reconnect with Last-Event-ID: %lld\n\n", last);
+    if (smd_buf_append(&f->buf, &f->len, &f->cap, text, (size_t)n) != 0)
+        return MHD_CONTENT_READER_END_WITH_ERROR;
+    return copy_out(f, out, max);
+}
+
 static ssize_t follower_read(void *cls, uint64_t pos, char *out, size_t max)
 {
     smd_follower *f = cls;
@@ -232,6 +250,8 @@ static ssize_t follower_read(void *cls, uint64_t pos, char *out, size_t max)
         pthread_mutex_unlock(&srv->lock);
         return MHD_CONTENT_READER_END_OF_STREAM;
     }
+    if (f->evicted)
+        return end_evicted(f, out, max);
     if (job->removed) /* deleted: its log is gone, its final status is not */
         return end_with_status(f, out, max);
     if (f->next_seq <= job->nevents) {
@@ -525,6 +545,21 @@ void smd_stream_revoke(smd_server *srv)
         }
     }
     pthread_mutex_unlock(&srv->tokens_lock);
+    pthread_mutex_unlock(&srv->lock);
+    resume_all(&w);
+}
+
+void smd_stream_evict(smd_server *srv, struct MHD_Connection *conn)
+{
+    wake_list w = {.n = 0, .cap = WAKE_INLINE};
+    w.conns = w.inline_conns;
+    pthread_mutex_lock(&srv->lock);
+    for (smd_follower *f = srv->events ? srv->events->all : NULL; f; f = f->all_next)
+        if (f->conn == conn) {
+            f->evicted = 1;
+            collect(f, &w); /* a suspended one reads, and ends */
+            break;
+        }
     pthread_mutex_unlock(&srv->lock);
     resume_all(&w);
 }

@@ -54,6 +54,12 @@ void smd_stream_revoke(smd_server *srv);
  * seconds (marked for a keepalive), then resumes them unlocked. */
 void smd_stream_jobs_changed(smd_server *srv, const char (*ids)[SMD_ID_LEN + 1], size_t n,
                              int keepalive);
+/* Lock NOT held: the stream on conn (smd_conns_stream chose it to make
+ * room for a newer one) ends now: in SSE with a final comment telling
+ * the client to reconnect with Last-Event-ID (the last id it got), in
+ * NDJSON by its end (the client resumes with ?after=).  No-op when conn
+ * is no stream (any more). */
+void smd_stream_evict(smd_server *srv, struct MHD_Connection *conn);
 /* Lock NOT held: resumes every suspended follower (shutdown, once
  * srv->stopping is set: each ends). */
 void smd_stream_end_all(smd_server *srv);

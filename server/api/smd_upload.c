@@ -153,16 +153,7 @@ static void limit_key(struct MHD_Connection *conn, const smd_request *req, char 
     }
     char addr[64];
     smd_conn_address(conn, addr, sizeof addr);
-    /* an IPv6 client holds a /64 (2^64 addresses): one key per /64, or
-     * each submission could come from a fresh address */
-    struct in6_addr a6;
-    if (strchr(addr, ':') && inet_pton(AF_INET6, addr, &a6) == 1 &&
-        !IN6_IS_ADDR_V4MAPPED(&a6)) {
-        memset(a6.s6_addr + 8, 0, 8);
-        if (inet_ntop(AF_INET6, &a6, addr, sizeof addr))
-            strncat(addr, "/64", sizeof addr - strlen(addr) - 1);
-    }
-    snprintf(key, cap, "a:%s", addr);
+    smd_ratelimit_address_key(addr, req->srv->cfg.submit_ipv4_prefix, key, cap);
 }
 
 static int job_unfinished(const char *id, void *user)

@@ -4,6 +4,9 @@
 #include "base/smd_config.h"
 
 #include <errno.h>
+#include <limits.h>
+#include <stdarg.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -132,6 +135,10 @@ static const opt options[] = {
      "idle_in_transaction_session_timeout of every database session: the server ends a "
      "session idle this long inside a transaction (a frozen node) and frees its row locks; "
      "keep it below --lease", "15s"},
+    {"--outbox-max", "SHAPEMATCH_OUTBOX_MAX", "BYTES", OPT_SIZE, OFF(outbox_max), 1 << 20, 1e15,
+     "with --database: the events and results a node could not store in the database wait "
+     "in SPOOL/outbox/ (replayed at the next start) up to this much; past it they wait in "
+     "memory only, the node unready saying so", "256M"},
     {"--max-body-memory", "SHAPEMATCH_MAX_BODY_MEMORY", "BYTES", OPT_SIZE, OFF(max_body_memory),
      1 << 20, 1e15, "request bodies held in memory at once, all connections together (OGC "
      "execute requests, each at most 64M); past it a request gets 503", "256M"},
@@ -147,6 +154,12 @@ static const opt options[] = {
      "--submit-window; more get 429 with Retry-After (0 = no limit)", "600"},
     {"--submit-window", "SHAPEMATCH_SUBMIT_WINDOW", "SECONDS", OPT_DURATION, OFF(submit_window), 1,
      86400, "the window of --submit-rate", "1m"},
+    {"--submit-ipv4-prefix", "SHAPEMATCH_SUBMIT_IPV4_PREFIX", "BITS", OPT_UINT,
+     OFF(submit_ipv4_prefix), 8, 32, "without --tokens-file, IPv4 clients share --submit-rate "
+     "and --max-queued per network of this prefix (24: one per /24, as IPv6 clients share "
+     "one per /64); the default, 32, is one per address, because a /24 often holds unrelated "
+     "users (a campus, a carrier NAT pool, a cloud range) who would throttle each other, "
+     "while IPv4 addresses are scarce enough that one client rarely holds many", "32"},
     {"--max-queued", "SHAPEMATCH_MAX_QUEUED", "N", OPT_UINT, OFF(max_queued), 0, 1000000,
      "unfinished jobs (accepted, queued or running) one tenant (one client address without "
      "--tokens-file) may have; more submissions get 429 with Retry-After (0 = no limit)", "1000"},
@@ -229,10 +242,12 @@ static void set_defaults(smd_config *c)
     c->db_lock_timeout = 5;
     c->db_idle_timeout = 15;
     c->max_body_memory = (uint64_t)256 << 20;
+    c->outbox_max = (uint64_t)256 << 20;
     c->body_stall_timeout = 10;
     c->max_streams_per_ip = 150;
     c->submit_rate = 600;
     c->submit_window = 60;
+    c->submit_ipv4_prefix = 32;
     c->max_queued = 1000;
     c->header_timeout = 10;
     c->min_upload_rate = 1024;
@@ -384,101 +399,163 @@ static int add_hosts(smd_config *c, const char *value, const char *source, char 
     }
 }
 
+/* One parser per kind of value (the table's rows name their kind): each
+ * bounds the text before it converts or copies anything, and names
+ * source (the flag or variable) in msg when it refuses. */
+typedef int (*opt_parser)(smd_config *c, const opt *o, const char *value, const char *source,
+                          char *msg, size_t cap);
+
+static int refuse(char *msg, size_t cap, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static int refuse(char *msg, size_t cap, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, cap, fmt, ap);
+    va_end(ap);
+    return -1;
+}
+
+static char *field_of(smd_config *c, const opt *o)
+{
+    return (char *)c + o->offset;
+}
+
+static int parse_listen_opt(smd_config *c, const opt *o, const char *value, const char *source,
+                            char *msg, size_t cap)
+{
+    (void)o;
+    if (parse_listen(value, c) != 0)
+        return refuse(msg, cap, "%s: expected HOST:PORT (e.g. 127.0.0.1:8080), got '%s'", source,
+                      value);
+    return 0;
+}
+
+/* OPT_PATH (limit PATH_MAX), OPT_TEXT (limit o->hi), OPT_URL (an http(s)
+ * URL within SMD_ORIGIN_MAX) */
+static int parse_text(smd_config *c, const opt *o, const char *value, const char *source,
+                      char *msg, size_t cap)
+{
+    size_t limit = o->kind == OPT_PATH ? PATH_MAX : o->kind == OPT_URL ? SMD_ORIGIN_MAX
+                                                                       : (size_t)o->hi;
+    int url_ok = strncmp(value, "http://", 7) == 0 || strncmp(value, "https://", 8) == 0;
+    if (o->kind == OPT_URL && (strlen(value) >= limit || !url_ok))
+        return refuse(msg, cap, "%s: expected an http:// or https:// URL (at most %zu bytes), got "
+                      "'%s'", source, limit - 1, value);
+    if (strlen(value) >= limit && o->kind == OPT_PATH)
+        return refuse(msg, cap, "%s: path too long", source);
+    if (strlen(value) >= limit)
+        return refuse(msg, cap, "%s: at most %zu bytes", source, limit - 1);
+    strcpy(field_of(c, o), value);
+    return 0;
+}
+
+static int parse_integer(smd_config *c, const opt *o, const char *value, const char *source,
+                         char *msg, size_t cap)
+{
+    /* the bounded parser: digits only, no overflow whatever the length
+     * (every integer row is >= 0) */
+    uint64_t v;
+    if (smd_parse_uint(value, (uint64_t)o->lo, (uint64_t)o->hi, &v) != SMD_NUM_OK)
+        return refuse(msg, cap, "%s: expected an integer in [%.0f, %.0f], got '%s'", source, o->lo,
+                      o->hi, value);
+    if (o->kind == OPT_INT)
+        *(int *)field_of(c, o) = (int)v;
+    else
+        *(unsigned *)field_of(c, o) = (unsigned)v;
+    return 0;
+}
+
+static int parse_size_opt(smd_config *c, const opt *o, const char *value, const char *source,
+                          char *msg, size_t cap)
+{
+    uint64_t v;
+    if (smd_parse_size(value, &v) != 0 || (double)v < o->lo || (double)v > o->hi)
+        return refuse(msg, cap, "%s: expected a size in bytes (K, M, G suffixes) in [%.0f, %.0f], "
+                      "got '%s'", source, o->lo, o->hi, value);
+    *(uint64_t *)field_of(c, o) = v;
+    return 0;
+}
+
+static int parse_duration_opt(smd_config *c, const opt *o, const char *value, const char *source,
+                              char *msg, size_t cap)
+{
+    double v;
+    if (smd_parse_duration(value, &v) != 0 || v < o->lo || v > o->hi)
+        return refuse(msg, cap, "%s: expected a duration in seconds (s, m, h, d suffixes) in [%g, "
+                      "%g], got '%s'", source, o->lo, o->hi, value);
+    *(double *)field_of(c, o) = v;
+    return 0;
+}
+
+static int parse_origins_opt(smd_config *c, const opt *o, const char *value, const char *source,
+                             char *msg, size_t cap)
+{
+    (void)o;
+    return add_origins(c, value, source, msg, cap);
+}
+
+static int parse_hosts_opt(smd_config *c, const opt *o, const char *value, const char *source,
+                           char *msg, size_t cap)
+{
+    (void)o;
+    return add_hosts(c, value, source, msg, cap);
+}
+
+static int parse_role(smd_config *c, const opt *o, const char *value, const char *source,
+                      char *msg, size_t cap)
+{
+    static const char *const roles[] = {"all", "api", "worker"};
+    for (int i = 0; i < 3; i++)
+        if (strcmp(value, roles[i]) == 0) {
+            *(int *)field_of(c, o) = i;
+            return 0;
+        }
+    return refuse(msg, cap, "%s: expected all, api or worker, got '%s'", source, value);
+}
+
+static int parse_level(smd_config *c, const opt *o, const char *value, const char *source,
+                       char *msg, size_t cap)
+{
+    int level = smd_log_level_from_name(value);
+    if (level < 0)
+        return refuse(msg, cap, "%s: expected debug, info, warn or error, got '%s'", source, value);
+    *(int *)field_of(c, o) = level;
+    return 0;
+}
+
+static const opt_parser parsers[] = {
+    [OPT_LISTEN] = parse_listen_opt, [OPT_PATH] = parse_text,       [OPT_INT] = parse_integer,
+    [OPT_UINT] = parse_integer,      [OPT_SIZE] = parse_size_opt,   [OPT_DURATION] = parse_duration_opt,
+    [OPT_LEVEL] = parse_level,       [OPT_ORIGINS] = parse_origins_opt, [OPT_URL] = parse_text,
+    [OPT_TEXT] = parse_text,         [OPT_ROLE] = parse_role,       [OPT_HOSTS] = parse_hosts_opt,
+};
+
 static int apply(smd_config *c, const opt *o, const char *value, const char *source,
                  char *msg, size_t cap)
 {
-    char *field = (char *)c + o->offset;
-    switch (o->kind) {
-    case OPT_LISTEN:
-        if (parse_listen(value, c) != 0) {
-            snprintf(msg, cap, "%s: expected HOST:PORT (e.g. 127.0.0.1:8080), got '%s'", source, value);
-            return -1;
-        }
-        return 0;
-    case OPT_PATH:
-        if (strlen(value) >= PATH_MAX) {
-            snprintf(msg, cap, "%s: path too long", source);
-            return -1;
-        }
-        strcpy(field, value);
-        return 0;
-    case OPT_INT:
-    case OPT_UINT: {
-        char *end;
-        errno = 0;
-        long v = strtol(value, &end, 10);
-        if (errno || end == value || *end || v < (long)o->lo || v > (long)o->hi) {
-            snprintf(msg, cap, "%s: expected an integer in [%.0f, %.0f], got '%s'", source, o->lo,
-                     o->hi, value);
-            return -1;
-        }
-        if (o->kind == OPT_INT)
-            *(int *)field = (int)v;
-        else
-            *(unsigned *)field = (unsigned)v;
-        return 0;
+    return parsers[o->kind](c, o, value, source, msg, cap);
+}
+
+int smd_config_number_at(size_t i, smd_config_number *out)
+{
+    for (size_t k = 0; k < sizeof options / sizeof options[0]; k++) {
+        const opt *o = &options[k];
+        int integer = o->kind == OPT_INT || o->kind == OPT_UINT;
+        if (!integer && o->kind != OPT_SIZE && o->kind != OPT_DURATION)
+            continue;
+        if (i-- > 0)
+            continue;
+        out->flag = o->flag;
+        out->kind = integer ? SMD_CONFIG_INTEGER
+                    : o->kind == OPT_SIZE ? SMD_CONFIG_SIZE : SMD_CONFIG_DURATION;
+        out->lo = o->lo;
+        out->hi = o->hi;
+        out->width = o->kind == OPT_INT ? sizeof(int) : o->kind == OPT_UINT ? sizeof(unsigned)
+                     : o->kind == OPT_SIZE ? sizeof(uint64_t) : sizeof(double);
+        out->is_signed = o->kind == OPT_INT;
+        return 1;
     }
-    case OPT_SIZE: {
-        uint64_t v;
-        if (smd_parse_size(value, &v) != 0 || (double)v < o->lo || (double)v > o->hi) {
-            snprintf(msg, cap, "%s: expected a size in bytes (K, M, G suffixes) in [%.0f, %.0f], got '%s'",
-                     source, o->lo, o->hi, value);
-            return -1;
-        }
-        *(uint64_t *)field = v;
-        return 0;
-    }
-    case OPT_DURATION: {
-        double v;
-        if (smd_parse_duration(value, &v) != 0 || v < o->lo || v > o->hi) {
-            snprintf(msg, cap, "%s: expected a duration in seconds (s, m, h, d suffixes) in [%g, %g], got '%s'",
-                     source, o->lo, o->hi, value);
-            return -1;
-        }
-        *(double *)field = v;
-        return 0;
-    }
-    case OPT_ORIGINS:
-        return add_origins(c, value, source, msg, cap);
-    case OPT_HOSTS:
-        return add_hosts(c, value, source, msg, cap);
-    case OPT_URL:
-        if (strlen(value) >= SMD_ORIGIN_MAX ||
-            (strncmp(value, "http://", 7) != 0 && strncmp(value, "https://", 8) != 0)) {
-            snprintf(msg, cap, "%s: expected an http:// or https:// URL (at most %d bytes), got '%s'",
-                     source, SMD_ORIGIN_MAX - 1, value);
-            return -1;
-        }
-        strcpy(field, value);
-        return 0;
-    case OPT_TEXT:
-        if (strlen(value) >= (size_t)o->hi) {
-            snprintf(msg, cap, "%s: at most %.0f bytes", source, o->hi - 1);
-            return -1;
-        }
-        strcpy(field, value);
-        return 0;
-    case OPT_ROLE: {
-        static const char *const roles[] = {"all", "api", "worker"};
-        for (int i = 0; i < 3; i++)
-            if (strcmp(value, roles[i]) == 0) {
-                *(int *)field = i;
-                return 0;
-            }
-        snprintf(msg, cap, "%s: expected all, api or worker, got '%s'", source, value);
-        return -1;
-    }
-    case OPT_LEVEL: {
-        int level = smd_log_level_from_name(value);
-        if (level < 0) {
-            snprintf(msg, cap, "%s: expected debug, info, warn or error, got '%s'", source, value);
-            return -1;
-        }
-        *(int *)field = level;
-        return 0;
-    }
-    }
-    return -1;
+    return 0;
 }
 
 smd_config_result smd_config_parse(smd_config *c, int argc, char **argv,

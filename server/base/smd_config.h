@@ -65,10 +65,12 @@ typedef struct smd_config {
     double db_lock_timeout;       /* --database-lock-timeout: lock_timeout */
     double db_idle_timeout;       /* --database-idle-timeout: idle_in_transaction_session_timeout */
     uint64_t max_body_memory;     /* --max-body-memory: bodies held in memory, all requests */
+    uint64_t outbox_max;          /* --outbox-max: a worker node's spooled outbox, bytes */
     double body_stall_timeout;    /* --body-stall-timeout: a body without a byte this long is cut */
     unsigned max_streams_per_ip;  /* --max-streams-per-ip: streams + bodies of one address */
     unsigned submit_rate;         /* --submit-rate: submissions per window per tenant/address, 0 = none */
     double submit_window;         /* --submit-window: its window, seconds */
+    unsigned submit_ipv4_prefix;  /* --submit-ipv4-prefix: IPv4 clients' limit key, bits */
     unsigned max_queued;          /* --max-queued: unfinished jobs per tenant/address, 0 = none */
     double header_timeout;        /* --header-timeout: request line + headers, absolute */
     uint64_t min_upload_rate;     /* --min-upload-rate: bytes/s of a body after --header-timeout */
@@ -96,6 +98,17 @@ smd_config_result smd_config_parse(smd_config *c, int argc, char **argv,
                                    size_t cap);
 
 void smd_config_help(FILE *out);
+
+/* The options whose value is a number, for tests that walk the table:
+ * the i-th of them (from 0) into out, 0 past the last. */
+typedef struct smd_config_number {
+    const char *flag;
+    enum { SMD_CONFIG_INTEGER, SMD_CONFIG_SIZE, SMD_CONFIG_DURATION } kind;
+    double lo, hi;        /* the accepted range, bounds included */
+    size_t width;         /* bytes of the field it is stored in */
+    int is_signed;
+} smd_config_number;
+int smd_config_number_at(size_t i, smd_config_number *out);
 
 /* Number of online processors (default of --workers), at least 1. */
 int smd_default_workers(void);

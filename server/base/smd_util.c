@@ -322,7 +322,8 @@ int smd_parse_size(const char *text, uint64_t *out)
 
 int smd_parse_duration(const char *text, double *out)
 {
-    if (!text || !(*text >= '0' && *text <= '9'))
+    /* decimal only: strtod would also take hexadecimal ("0x10", "0x1p3") */
+    if (!text || !(*text >= '0' && *text <= '9') || strpbrk(text, "xX"))
         return -1;
     errno = 0;
     char *end;

@@ -22,6 +22,11 @@ typedef struct conn_ctx {
     double since;         /* the phase began (monotonic) */
     int receiving;        /* a body is being read */
     int stream;           /* an event stream (smd_conns_stream) */
+    double stream_since;  /* when it became one (monotonic): the oldest go first */
+    int evicted;          /* a stream told to end for a newer one: no longer counted */
+    double evicted_at;    /* monotonic: a client that does not read is cut after
+                           * SMD_CONNS_BUSY_HEADERS (its final comment never leaves) */
+    struct MHD_Connection *conn;
     char addr[64];        /* the client's address (smd_conn_address) */
     uint64_t body_bytes;
     double progress;      /* the body's last new byte (monotonic) */
@@ -114,6 +119,10 @@ static int overdue(const smd_conns *c, const conn_ctx *x, double now)
 static void sweep(smd_conns *c, double now)
 {
     for (conn_ctx *x = c->head; x; x = x->next) {
+        if (!x->closing && x->evicted && now - x->evicted_at > SMD_CONNS_BUSY_HEADERS) {
+            cut(x); /* no longer counted: it must not outlive its room */
+            continue;
+        }
         if (x->closing || !overdue(c, x, now))
             continue;
         if (x->phase == PHASE_HEADERS)
@@ -194,6 +203,7 @@ static void opened(smd_conns *c, struct MHD_Connection *conn, void **socket_cont
         return;
     }
     x->fd = ci->connect_fd;
+    x->conn = conn;
     smd_conn_address(conn, x->addr, sizeof x->addr);
     x->owner = c;
     x->phase = PHASE_HEADERS;
@@ -247,7 +257,7 @@ static int long_full(const smd_conns *c, const conn_ctx *x)
 {
     size_t all = 0, mine = 0;
     for (const conn_ctx *y = c->head; y; y = y->next) {
-        if (y == x || y->closing || !(y->receiving || y->stream))
+        if (y == x || y->closing || y->evicted || !(y->receiving || y->stream))
             continue;
         all++;
         mine += strcmp(y->addr, x->addr) == 0;
@@ -274,17 +284,51 @@ int smd_conns_request(struct MHD_Connection *conn, int receiving)
     return refused ? -1 : 0;
 }
 
-int smd_conns_stream(struct MHD_Connection *conn)
+/* The oldest stream whose end makes room for x: of x's address when
+ * that address is at its cap, else of any.  NULL when none would (the
+ * cap is full of bodies).  Mutex held. */
+static conn_ctx *oldest_stream(const smd_conns *c, const conn_ctx *x)
 {
+    size_t mine = 0;
+    for (const conn_ctx *y = c->head; y; y = y->next)
+        mine += y != x && !y->closing && !y->evicted && (y->receiving || y->stream) &&
+                strcmp(y->addr, x->addr) == 0;
+    int same_addr = c->limits.max_long_per_ip && mine >= c->limits.max_long_per_ip;
+    conn_ctx *best = NULL;
+    for (conn_ctx *y = c->head; y; y = y->next)
+        if (y != x && y->stream && !y->closing && !y->evicted &&
+            (!same_addr || strcmp(y->addr, x->addr) == 0) &&
+            (!best || y->stream_since < best->stream_since))
+            best = y;
+    return best;
+}
+
+int smd_conns_stream(struct MHD_Connection *conn, struct MHD_Connection **evict)
+{
+    *evict = NULL;
     conn_ctx *x = ctx_of(conn);
     if (!x)
         return 0;
     pthread_mutex_lock(&x->owner->mutex);
     int refused = long_full(x->owner, x);
-    if (refused)
+    if (refused) {
+        /* the newest client is served: the oldest stream is told to end
+         * (it reconnects with Last-Event-ID and loses nothing) */
+        conn_ctx *old = oldest_stream(x->owner, x);
+        if (old) {
+            old->evicted = 1;
+            old->evicted_at = sm_clock_seconds();
+            *evict = old->conn;
+            x->owner->counts.streams_evicted++;
+            refused = long_full(x->owner, x);
+        }
+    }
+    if (refused) {
         x->owner->counts.long_refused++;
-    else
+    } else {
         x->stream = 1;
+        x->stream_since = sm_clock_seconds();
+    }
     pthread_mutex_unlock(&x->owner->mutex);
     return refused ? -1 : 0;
 }
@@ -321,6 +365,9 @@ void smd_conns_idle(struct MHD_Connection *conn)
     x->since = sm_clock_seconds();
     x->receiving = 0;
     x->stream = 0;
+    if (x->evicted && !x->closing)
+        cut(x); /* an evicted stream's socket goes too: its client reconnects anyway */
+    x->evicted = 0;
     pthread_mutex_unlock(&x->owner->mutex);
 }
 

@@ -63,6 +63,7 @@ typedef struct smd_conns_counts {
     uint64_t slow_body;        /* closed: body under the minimum rate */
     uint64_t evicted;          /* closed: to keep the reserve free */
     uint64_t long_refused;     /* bodies and streams refused by the caps */
+    uint64_t streams_evicted;  /* streams told to end for newer ones at the caps */
     size_t open;
 } smd_conns_counts;
 
@@ -83,8 +84,11 @@ void smd_conns_notify(void *cls, struct MHD_Connection *conn, void **socket_cont
  * --max-connections minus the reserve (answer 503 without reading it). */
 int smd_conns_request(struct MHD_Connection *conn, int receiving);
 /* The request becomes an event stream, under the same caps: 0, or -1
- * when refused (answer 503). */
-int smd_conns_stream(struct MHD_Connection *conn);
+ * when refused (answer 503).  At a cap the oldest stream (of the same
+ * address when that address is at --max-streams-per-ip) makes room:
+ * *evict is its connection, no longer counted, which the caller must
+ * end (smd_stream_evict); only a cap full of request bodies refuses. */
+int smd_conns_stream(struct MHD_Connection *conn, struct MHD_Connection **evict);
 /* Body bytes received so far by the request. */
 void smd_conns_body(struct MHD_Connection *conn, uint64_t bytes);
 /* The body is complete, or no longer read. */

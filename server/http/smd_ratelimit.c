@@ -3,6 +3,7 @@
 #include "http/smd_ratelimit.h"
 
 #include <math.h>
+#include <arpa/inet.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -149,4 +150,31 @@ size_t smd_ratelimit_live(smd_ratelimit *rl, const char *key, smd_ratelimit_live
         e->nids = n;
     pthread_mutex_unlock(&rl->mutex);
     return n;
+}
+
+void smd_ratelimit_address_key(const char *addr, unsigned ipv4_prefix, char *key, size_t cap)
+{
+    char net[INET6_ADDRSTRLEN + 8];
+    snprintf(net, sizeof net, "%s", addr);
+    struct in6_addr a6;
+    struct in_addr a4;
+    int v4 = inet_pton(AF_INET, addr, &a4) == 1;
+    if (!v4 && strchr(addr, ':') && inet_pton(AF_INET6, addr, &a6) == 1) {
+        if (IN6_IS_ADDR_V4MAPPED(&a6)) {
+            memcpy(&a4, a6.s6_addr + 12, 4); /* an IPv4 client on a dual-stack socket */
+            v4 = 1;
+        } else {
+            memset(a6.s6_addr + 8, 0, 8);
+            if (inet_ntop(AF_INET6, &a6, net, sizeof net))
+                strncat(net, "/64", sizeof net - strlen(net) - 1);
+        }
+    }
+    if (v4) {
+        unsigned bits = ipv4_prefix < 8 ? 8 : ipv4_prefix > 32 ? 32 : ipv4_prefix;
+        uint32_t mask = bits == 32 ? 0xffffffffu : ~(0xffffffffu >> bits);
+        a4.s_addr = htonl(ntohl(a4.s_addr) & mask);
+        if (inet_ntop(AF_INET, &a4, net, sizeof net) && bits < 32)
+            snprintf(net + strlen(net), sizeof net - strlen(net), "/%u", bits);
+    }
+    snprintf(key, cap, "a:%s", net);
 }

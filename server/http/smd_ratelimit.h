@@ -35,6 +35,14 @@ typedef struct smd_ratelimit smd_ratelimit;
 smd_ratelimit *smd_ratelimit_new(unsigned rate, double window);
 void smd_ratelimit_free(smd_ratelimit *rl);
 
+/* The limit key of a client address (text, as smd_conn_address gives
+ * it) into key (cap >= SMD_RATELIMIT_KEY_MAX + 1): "a:<address>", an
+ * IPv6 one by its /64 ("a:2001:db8:1:2::/64": a client holds 2^64
+ * addresses), an IPv4 one (or IPv4-mapped IPv6) by its network of
+ * ipv4_prefix bits (8..32; 32: the address itself, else
+ * "a:198.51.100.0/24"). */
+void smd_ratelimit_address_key(const char *addr, unsigned ipv4_prefix, char *key, size_t cap);
+
 /* Counts one submission of key at monotonic time now.  0 when it is
  * allowed, else the seconds until the key's window ends (>= 1). */
 unsigned smd_ratelimit_take(smd_ratelimit *rl, const char *key, double now);

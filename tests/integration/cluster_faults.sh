@@ -21,7 +21,10 @@
 #    retry it in order: unready meanwhile, its lease kept (the job is not
 #    run again), and once the database takes writes again the job ends
 #    successful after one attempt with every event, in order, without a
-#    gap in iterations or sequence numbers.
+#    gap in iterations or sequence numbers.  Meanwhile the worker node is
+#    killed (-9) and started again on the same spool: what it held is on
+#    disk (SPOOL/outbox/), replayed in order at the start, its lease
+#    renewed again, so the job still ends once.
 #
 # SM_TEST_OLD_DAEMON=1 SM_BIN=<older build> runs it on a daemon without
 # the timeout flags, to see the failures the fixes remove.
@@ -115,6 +118,12 @@ else
     not_ok "DELETE after the lock is freed" "state $(job_state "$id")"
 fi
 # ------------------------------------------- 2. the database refuses writes
+# w1 again with a lease that outlives its own kill -9 and restart below
+# (a lease of 2 s could expire while an ASan build starts), once what it
+# still had to store of part 1 is stored
+poll 20 curl -sf -o /dev/null "${NODE_BASE[w1]}/readyz" || not_ok "w1 ready after part 1"
+kill9 w1
+node w1 worker --workers 1 --lease 6 "${LOCKT[@]}" || not_ok "the worker node starts again"
 psql -X -q "$DB" >"$WORK/fault.log" 2>&1 <<'SQL' || not_ok "the fault trigger is installed" "$(cat "$WORK/fault.log")"
 CREATE TABLE fault_full (x int);
 CREATE FUNCTION fault_full_fn() RETURNS trigger LANGUAGE plpgsql AS $$
@@ -142,7 +151,7 @@ id=$(submit "$FINE" "$BOX" "$BOXSOL" "$BALL_PARAMS, \"max_iter\": 60, \"tol_step
 on w1
 ran() { grep -q "\"event\":\"job_finished\",\"job\":\"$id\"" "${NODE_LOG[w1]}"; }
 poll 60 ran || not_ok "the run ends on the worker node" "$(job_state "$id")"
-sleep 3 # more than the lease (2 s): an expired lease would requeue it now
+sleep 3
 r_w1=$(curl -sS -o "$WORK/ready.json" -w '%{http_code}' --max-time 5 "${NODE_BASE[w1]}/readyz")
 db_state=$(psql_val "SELECT state || ' ' || attempt FROM smd_jobs WHERE id = '$id'")
 db_events=$(psql_val "SELECT count(*) FROM smd_events WHERE job = '$id'")
@@ -153,6 +162,24 @@ else
     not_ok "held while the database refuses writes" \
         "w1 readyz $r_w1: $(head -c 300 "$WORK/ready.json")" "db: '$db_state', $db_events events"
 fi
+
+# kill -9 while the results wait, then the same node again on its spool
+spooled() { find "$WORK/w1-spool/outbox" -regex '.*/[0-9a-f]*\.json' | wc -l; }
+nspool=$(spooled)
+token=$(psql_val "SELECT lease_token FROM smd_jobs WHERE id = '$id'")
+nreplay=$(grep -c '"event":"outbox_replay"' "${NODE_LOG[w1]}")
+kill9 w1
+t_kill=$(date +%s.%N)
+node w1 worker --workers 1 --lease 6 "${LOCKT[@]}" || not_ok "the worker node starts again"
+replayed() { [ "$(grep -c '"event":"outbox_replay"' "${NODE_LOG[w1]}")" -gt "$nreplay" ]; }
+poll 10 replayed
+# past the lease since the kill: only the restarted node's renewals keep it
+sleep "$(awk -v a="$t_kill" -v b="$(date +%s.%N)" 'BEGIN { s = 7 - (b - a); print (s > 0 ? s : 0) }')"
+r_w1=$(curl -sS -o "$WORK/ready.json" -w '%{http_code}' --max-time 5 "${NODE_BASE[w1]}/readyz")
+db_state=$(psql_val "SELECT state || ' ' || attempt || ' ' || (lease_token = $token) FROM smd_jobs WHERE id = '$id'")
+all "killed -9 while $nspool events and the results wait on disk: the restarted node replays them, unready, renews the same lease (7 s > --lease 6)" \
+    "$nspool|-ge|10" "$(grep -c '"event":"outbox_replay"' "${NODE_LOG[w1]}")|=|$((nreplay + 1))" "$r_w1|=|503" \
+    "$(grep -c 'wait to be stored' "$WORK/ready.json")|=|1" "${db_state// /_}|=|running_1_true"
 
 psql_val "DELETE FROM fault_full" >/dev/null
 on api1
@@ -178,6 +205,11 @@ if poll 10 curl -sf -o /dev/null "${NODE_BASE[w1]}/readyz" &&
 else
     not_ok "ready again, one claim" "claims: $(grep -c '"event":"job_claimed"' "${NODE_LOG[w1]}")"
 fi
+outbox_empty() { [ "$(spooled)" = 0 ]; }
+poll 5 outbox_empty
+check "the outbox on disk is empty once stored ($(spooled) files left)" test "$(spooled)" = 0
+kill9 w1
+node w1 worker --workers 1 --lease 2 "${LOCKT[@]}" || not_ok "the worker node starts again"
 # ------------------------------------------- 3. a claim that fails, a lost lease
 # The worker node is frozen (SIGSTOP, shorter than the lease) while a job
 # is queued and a file takes the place of that job's folder in the node's
@@ -189,15 +221,27 @@ u=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
 : >"$WORK/w1-spool/jobs/$u"
 kill -CONT "${NODE_PID[w1]}"
 # two failed claims at least: before the fix the attempt is then 2 or more
-claims_failed() { [ "$(grep -c "\"event\":\"claim_failed\".*job $u" "${NODE_LOG[w1]}")" -ge 2 ]; }
+tries() { # the failed claims the job's message counts
+    local m
+    m=$(psql_val "SELECT substring(message from '\((\d+) failed claims\)') FROM smd_jobs WHERE id = '$u'")
+    echo "${m:-0}"
+}
+claims_failed() { [ "$(tries)" -ge 2 ]; }
 poll 10 claims_failed
+# backoff: over the next 3 s a claim every 0.2 s would fail 15 times;
+# doubling from 0.2 s (jitter: each wait in its upper half) at most 5
+t_a=$(tries)
+sleep 3
+t_b=$(tries)
 ua=$(psql_val "SELECT state || ' ' || attempt FROM smd_jobs WHERE id = '$u'")
 umsg=$(psql_val "SELECT message FROM smd_jobs WHERE id = '$u'")
-nfail=$(grep -c "\"event\":\"claim_failed\".*job $u" "${NODE_LOG[w1]}")
+nlog=$(grep -c "\"event\":\"claim_failed\".*job $u" "${NODE_LOG[w1]}")
 rm -f "$WORK/w1-spool/jobs/$u"
 hcurl -o /dev/null -X DELETE "$BASE/v1/jobs/$u"
-all "a claim that fails (the node cannot make the job's folder) uses no attempt ($nfail failed claims, then: $ua), its message names no folder of the node ($umsg)" \
-    "$nfail|-ge|2" "${ua#* }|-le|1" "$(grep -cF "$WORK" <<<"$umsg")|=|0"
+all "a claim that fails (the node cannot make the job's folder) uses no attempt ($t_b failed claims, then: $ua), its message names no folder of the node ($umsg)" \
+    "$t_a|-ge|2" "${ua#* }|-le|1" "$(grep -cF "$WORK" <<<"$umsg")|=|0"
+all "failed claims back off (from $t_a to $t_b failed claims in 3 s) and are logged once ($nlog lines)" \
+    "$((t_b - t_a))|-le|6" "$((t_b - t_a))|-ge|1" "$nlog|=|1"
 # A running job's node frozen beyond its lease: the lease expires, and
 # the node, woken, stops the run saying so, not as if a client cancelled.
 v=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")

@@ -15,6 +15,10 @@
 # connections (reserve 20) with --max-streams-per-ip 30: /healthz and a
 # job's status keep answering (tests/integration/loris.py probes them every
 # second); before, the streams or uploads took every socket.
+#
+# The oldest streams make room: at --max-streams-per-ip, or at the total
+# cap, a new event stream ends the oldest one (of its address, or of all)
+# with a final SSE comment naming the Last-Event-ID to reconnect with.
 source "$(dirname "$0")/lib.sh"
 
 rss_kb() { awk '/^VmRSS/ { print $2 }' "/proc/$1/status"; }
@@ -91,6 +95,46 @@ flood stream 3 127.0.0.2,127.0.0.3,127.0.0.4,127.0.0.5 60 \
 flood bulk 3 127.0.0.6,127.0.0.7,127.0.0.8,127.0.0.9 60 \
     "240 uploads sending 200 KB, then 1 byte/s, from 4 addresses"
 hcurl -o /dev/null -X DELETE "$BASE/v1/jobs/$id"
+stop_daemon
+
+# ------------------------------------------------ the oldest streams make room
+# 2 streams an address, 4 in all (12 connections, 8 reserved): a third
+# stream from one address ends that address's oldest, a fifth in all the
+# oldest of all, each with a final SSE comment naming the Last-Event-ID
+# to reconnect with; the newest are served (before: 503 to the newest)
+start_daemon evict --workers 1 --max-connections 12 --reserved-connections 8 \
+    --max-streams-per-ip 2 || { not_ok "the daemon starts"; exit 1; }
+id=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
+poll 30 state_is "$id" running || not_ok "a running job to follow" "$(cat "$WORK/submit.out")"
+declare -A SSE_PID
+sse() { # NAME ADDRESS: a stream from ADDRESS, once it has its first event
+    curl -sS -N --max-time $((30 * SLOW)) --interface "$2" -H 'Accept: text/event-stream' \
+        -o "$WORK/sse-$1.txt" -w '%{http_code}' "$BASE/v1/jobs/$id/events" >"$WORK/sse-$1.code" 2>/dev/null &
+    SSE_PID[$1]=$!
+    poll 10 grep -q '^id:' "$WORK/sse-$1.txt"
+}
+alive() { kill -0 "${SSE_PID[$1]}" 2>/dev/null; }
+evicted() { ! alive "$1" && tail -n 2 "$WORK/sse-$1.txt" | grep -q '^: evicted: .*Last-Event-ID: [0-9]'; }
+last_id_ok() { # the comment names the last id the stream sent
+    local said sent
+    said=$(grep -o 'Last-Event-ID: [0-9]*' "$WORK/sse-$1.txt" | grep -o '[0-9]*$')
+    sent=$(grep '^id:' "$WORK/sse-$1.txt" | tail -n 1 | grep -o '[0-9]*')
+    [ -n "$said" ] && [ "$said" = "$sent" ]
+}
+sse a 127.0.0.2
+sse b 127.0.0.2
+sse c 127.0.0.2
+poll 5 evicted a
+check "a third stream from one address (--max-streams-per-ip 2) ends that address's oldest with a final comment naming its Last-Event-ID; the newest are served" \
+    eval 'evicted a && last_id_ok a && alive b && alive c'
+sse d 127.0.0.3
+sse e 127.0.0.3
+sse f 127.0.0.4
+poll 5 evicted b
+check "a fifth stream in all (4 = 12 connections - 8 reserved) ends the oldest of all" \
+    eval 'evicted b && last_id_ok b && alive c && alive d && alive e && alive f'
+hcurl -o /dev/null -X DELETE "$BASE/v1/jobs/$id"
+for s in c d e f; do wait "${SSE_PID[$s]}" 2>/dev/null; done
 stop_daemon
 
 check "no sanitizer report in the daemon logs" reports_clean

@@ -1,5 +1,6 @@
 /* Daemon configuration (flags over SHAPEMATCH_* variables over defaults)
  * and the bearer tokens file. */
+#include <limits.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -116,6 +117,47 @@ static void test_errors(void **state)
     const char *bad_env[] = {"SHAPEMATCH_WORKERS=many", NULL};
     assert_int_equal(parse(&c, bad_env, msg, NULL), SMD_CONFIG_ERROR);
     assert_non_null(strstr(msg, "SHAPEMATCH_WORKERS"));
+}
+
+/* Every numeric option of the table (not a list written here): its
+ * range fits the field it is stored in, and values past it, far past
+ * it (beyond 2^64, beyond a double) or malformed are refused with a
+ * message naming the flag before anything is stored. */
+static void test_numeric_options_bounded(void **state)
+{
+    (void)state;
+    smd_config_number o;
+    size_t rows = 0;
+    for (size_t i = 0; smd_config_number_at(i, &o); i++, rows++) {
+        if (o.kind == SMD_CONFIG_INTEGER)
+            assert_true(o.hi <= (o.width == sizeof(int) && o.is_signed ? (double)INT_MAX
+                                                                       : (double)UINT_MAX));
+        else if (o.kind == SMD_CONFIG_SIZE)
+            assert_true(o.hi <= 9223372036854775807.0);
+        assert_true(o.lo <= o.hi && o.lo >= 0);
+        char below[64] = "-1", above[64];
+        if (o.kind == SMD_CONFIG_DURATION) {
+            if (o.lo > 0)
+                snprintf(below, sizeof below, "%.17g", o.lo / 2);
+            snprintf(above, sizeof above, "%.17g", o.hi * 2);
+        } else {
+            if (o.lo >= 1)
+                snprintf(below, sizeof below, "%.0f", o.lo - 1);
+            snprintf(above, sizeof above, "%.0f", o.hi + 1 > o.hi ? o.hi + 1 : o.hi * 2);
+        }
+        const char *bad[] = {below, above, "18446744073709551616",
+                             "123456789012345678901234567890123456789012345678901234567890",
+                             "1e400", "nan", "inf", "", "0x10", " 1", "1 "};
+        for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+            smd_config c;
+            char msg[512] = "";
+            if (parse(&c, NULL, msg, o.flag, bad[k], NULL) != SMD_CONFIG_ERROR)
+                fail_msg("%s %s was accepted", o.flag, bad[k]);
+            if (strncmp(msg, o.flag, strlen(o.flag)) != 0)
+                fail_msg("%s %s: the message does not start with the flag: %s", o.flag, bad[k], msg);
+        }
+    }
+    assert_true(rows >= 30); /* the walk saw the table */
 }
 
 static void test_help_lists_everything(void **state)
@@ -285,6 +327,7 @@ int main(void)
         cmocka_unit_test(test_defaults),
         cmocka_unit_test(test_env_and_flags),
         cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_numeric_options_bounded),
         cmocka_unit_test(test_help_lists_everything),
         cmocka_unit_test(test_tokens),
         cmocka_unit_test(test_cors_origins),

@@ -88,12 +88,57 @@ static void test_full_table(void **state)
     smd_ratelimit_free(rl);
 }
 
+/* The key of a client address: IPv6 per /64; IPv4 per address by
+ * default, per network with --submit-ipv4-prefix (the networks worked
+ * out by hand), IPv4-mapped IPv6 as IPv4. */
+static void test_address_keys(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *addr;
+        unsigned prefix;
+        const char *key;
+    } cases[] = {
+        {"198.51.100.77", 32, "a:198.51.100.77"},
+        {"198.51.100.77", 24, "a:198.51.100.0/24"},
+        {"198.51.100.255", 24, "a:198.51.100.0/24"},
+        {"198.51.101.1", 24, "a:198.51.101.0/24"},
+        {"198.51.100.77", 16, "a:198.51.0.0/16"},
+        {"198.51.100.77", 20, "a:198.51.96.0/20"}, /* 100 = 0110 0100: top 4 bits 96 */
+        {"198.51.100.77", 8, "a:198.0.0.0/8"},
+        {"198.51.100.77", 0, "a:198.0.0.0/8"},     /* clamped to 8..32 */
+        {"::ffff:198.51.100.77", 24, "a:198.51.100.0/24"},
+        {"::ffff:198.51.100.77", 32, "a:198.51.100.77"},
+        {"2001:db8:1:2:3:4:5:6", 32, "a:2001:db8:1:2::/64"},
+        {"2001:db8:1:2:ffff::1", 24, "a:2001:db8:1:2::/64"},
+        {"?", 24, "a:?"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char key[SMD_RATELIMIT_KEY_MAX + 1];
+        smd_ratelimit_address_key(cases[i].addr, cases[i].prefix, key, sizeof key);
+        assert_string_equal(key, cases[i].key);
+    }
+    /* two addresses of one /24 share a window only with the prefix */
+    smd_ratelimit *rl = smd_ratelimit_new(1, 60);
+    char k1[SMD_RATELIMIT_KEY_MAX + 1], k2[SMD_RATELIMIT_KEY_MAX + 1];
+    smd_ratelimit_address_key("203.0.113.1", 24, k1, sizeof k1);
+    smd_ratelimit_address_key("203.0.113.2", 24, k2, sizeof k2);
+    assert_int_equal(smd_ratelimit_take(rl, k1, 1.0), 0);
+    assert_true(smd_ratelimit_take(rl, k2, 1.0) > 0);
+    smd_ratelimit_address_key("203.0.113.1", 32, k1, sizeof k1);
+    smd_ratelimit_address_key("203.0.113.2", 32, k2, sizeof k2);
+    assert_int_equal(smd_ratelimit_take(rl, k1, 1.0), 0);
+    assert_int_equal(smd_ratelimit_take(rl, k2, 1.0), 0);
+    smd_ratelimit_free(rl);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_window),
         cmocka_unit_test(test_tracked_jobs),
         cmocka_unit_test(test_full_table),
+        cmocka_unit_test(test_address_keys),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

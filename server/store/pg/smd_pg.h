@@ -133,6 +133,17 @@ sm_status smd_pg_complete(smd_pg *db, const smd_pg_lease *l, sm_job_state state,
 sm_status smd_pg_append_event(smd_pg *db, const char *id, const smd_pg_lease *fence,
                               const char *json, int64_t *seq, sm_error *err);
 
+/* What smd_pg_append_event_at did. */
+enum { SMD_PG_NOT_HELD = 0,  /* the lease is lost: nothing stored */
+       SMD_PG_APPENDED = 1,  /* stored as seq expect */
+       SMD_PG_DUPLICATE = 2, /* the job has expect events already: this one, stored before
+                              * (a replay after a restart, or a commit whose answer was lost) */
+       SMD_PG_GAP = 3 };     /* the job has fewer than expect - 1: storing it would hide a gap */
+/* smd_pg_append_event under the lease, only as the job's event number
+ * expect: idempotent by (job, lease, seq), never out of turn. */
+sm_status smd_pg_append_event_at(smd_pg *db, const char *id, const smd_pg_lease *fence,
+                                 const char *json, int64_t expect, int *outcome, sm_error *err);
+
 /* Leases past their expiry: requeued with a message (attempt kept: the
  * next claim counts it), or failed with the reason once attempt reached
  * max_attempts (a "failed" event is appended).  Safe from every node at
@@ -195,10 +206,12 @@ sm_status smd_pg_events(smd_pg *db, const char *id, int64_t after, int limit,
                         sm_error *err);
 
 /* smd_pg_complete, and the files under results_dir (NULL: none) become
- * the blobs "results/<path>" (replacing any), in the same transaction. */
+ * the blobs "results/<path>" (replacing any), in the same transaction;
+ * the final event only as event number expect (smd_pg_append_event_at):
+ * *held SMD_PG_GAP, nothing written, when the job has fewer events. */
 sm_status smd_pg_publish(smd_pg *db, const smd_pg_lease *l, sm_job_state state,
-                         const char *message, const char *final_event, const char *results_dir,
-                         int *held, sm_error *err);
+                         const char *message, const char *final_event, int64_t expect,
+                         const char *results_dir, int *held, sm_error *err);
 /* The node stops (shutdown) while it runs the job: queued again at once,
  * attempt kept (no-op when the lease was lost). */
 sm_status smd_pg_release(smd_pg *db, const smd_pg_lease *l, const char *message, sm_error *err);

@@ -80,6 +80,9 @@ void smd_pg_node_event(smd_pg_node *n, const smd_job *job, const sm_event *ev)
     }
     if (it) {
         memcpy(it->id, job->id, sizeof it->id);
+        it->ord = n->next_ord++;
+        it->attempt = l->lease.attempt;
+        it->token = l->lease.token;
         it->seq = ev->seq;
         it->final = smd_job_state_final(job->state);
         it->state = job->state;
@@ -95,9 +98,13 @@ void smd_pg_node_event(smd_pg_node *n, const smd_job *job, const sm_event *ev)
 void smd_pg_node_requeued(smd_pg_node *n, const smd_job *job)
 {
     pthread_mutex_lock(&n->lock);
-    node_item *it = node_find_lease(n, job->id) ? calloc(1, sizeof *it) : NULL;
+    node_lease *l = node_find_lease(n, job->id);
+    node_item *it = l ? calloc(1, sizeof *it) : NULL;
     if (it) {
         memcpy(it->id, job->id, sizeof it->id);
+        it->ord = n->next_ord++;
+        it->attempt = l->lease.attempt;
+        it->token = l->lease.token;
         it->release = 1;
         snprintf(it->message, sizeof it->message, "%s", job->message);
         push_item(n, it);
@@ -395,9 +402,11 @@ void node_set_up(smd_pg_node *n)
 int smd_pg_node_ready(smd_pg_node *n, char *why, size_t cap)
 {
     pthread_mutex_lock(&n->lock);
-    int ready = atomic_load(&n->up) && sm_clock_seconds() >= n->timeout_until && !n->outbox_held;
+    int up = atomic_load(&n->up);
+    int ready = up && sm_clock_seconds() >= n->timeout_until && !n->outbox_held && !n->outbox_full;
     if (!ready)
-        snprintf(why, cap, "%s", atomic_load(&n->up) && n->outbox_held ? n->held_why : n->why);
+        snprintf(why, cap, "%s", up && n->outbox_full ? n->full_why
+                                 : up && n->outbox_held ? n->held_why : n->why);
     pthread_mutex_unlock(&n->lock);
     return ready;
 }
@@ -479,6 +488,8 @@ sm_status smd_pg_node_open(smd_server *srv, sm_error *err)
         st = open_db(srv, "work", &n->work_db, err);
     if (st == SM_OK)
         st = open_db(srv, "lease", &n->lease_db, err);
+    if (st == SM_OK)
+        st = node_outbox_open(n, err); /* before recovery and the sync thread see the jobs */
     if (st != SM_OK) {
         smd_pg_node_free(n);
         return st;

@@ -2,6 +2,7 @@
 #ifndef SMD_PG_NODE_INT_H
 #define SMD_PG_NODE_INT_H
 
+#include <limits.h>
 #include <pthread.h>
 #include <stdatomic.h>
 
@@ -21,9 +22,14 @@ typedef struct node_lease {
 } node_lease;
 
 /* An event (or the end, or a release) of a job this node runs, waiting
- * for the work thread. */
+ * for the work thread; on disk too (SPOOL/outbox/<ord>.json) once the
+ * work thread spooled it (smd_pg_outbox.c). */
 typedef struct node_item {
     char id[SMD_ID_LEN + 1];
+    uint64_t ord;         /* the outbox's order: the file's name */
+    int attempt;          /* the lease it was made under */
+    int64_t token;
+    size_t spooled;       /* bytes of its file; 0 while in memory only */
     int64_t seq;
     char *json;
     int final, release;
@@ -66,6 +72,16 @@ struct smd_pg_node {
     node_withdrawn withdrawn[NODE_WITHDRAWN_MAX];
     double timeout_until;     /* monotonic: unready until then (a call timed out) */
     int outbox_held;          /* the outbox failed to be stored: retried, unready meanwhile */
+    uint64_t next_ord;        /* the next item's ord */
+    uint64_t outbox_bytes;    /* of the files in outbox_dir (the work thread's) */
+    int outbox_full;          /* --outbox-max reached or a write failed: unready */
+    char full_why[512];
+    char outbox_dir[PATH_MAX];
+    double claim_next;        /* the work thread's: no claim before (monotonic s) */
+    double claim_backoff;     /* the last wait's bound, s; 0 while claims work */
+    unsigned claim_fails;     /* failed claims in a row */
+    uint64_t claim_rng;       /* jitter */
+    char claim_why[SM_EVENT_MESSAGE_MAX + 64]; /* the failure last logged */
     char held_why[SM_ERROR_MSG_LEN + 128];
     char why[512];
     atomic_int up, stop;
@@ -99,6 +115,20 @@ sm_status node_fetch_events(smd_pg *db, const char *id, int64_t after, sm_event 
  * lock held by a frozen session, a statement cancelled). */
 void node_check_timeout(smd_pg_node *n, smd_pg *db, const sm_error *err);
 void *node_sync_main(void *arg);
+
+/* smd_pg_outbox.c: the outbox on disk, in the node's spool.  Loads the
+ * items a previous process left, in order, into the outbox (before the
+ * threads start), with the leases they were made under (renewed again:
+ * the job is not run again while they wait); a job whose items do not
+ * end its run (the process was killed while it ran) gets a release after
+ * them.  SM_ERR_IO when the folder cannot be made or read. */
+sm_status node_outbox_open(smd_pg_node *n, sm_error *err);
+/* The work thread: writes the items of the list not on disk yet, in
+ * order (durable writes), while --outbox-max allows; stops at the first
+ * it cannot write (later ones are never on disk without it). */
+void node_outbox_spill(smd_pg_node *n, node_item *items);
+/* An item stored in the database (or dropped): its file is removed. */
+void node_outbox_done(smd_pg_node *n, node_item *it);
 
 /* smd_pg_work.c */
 void *node_work_main(void *arg);

@@ -41,6 +41,43 @@ sm_status smd_pg_append_event(smd_pg *db, const char *id, const smd_pg_lease *fe
     return SM_OK;
 }
 
+/* The event seq of a job, fenced: SMD_PG_APPENDED when stored as seq
+ * expect now; else what the database holds says why not. */
+static sm_status append_outcome(smd_pg *db, const char *id, const char *token, int64_t expect,
+                                int *outcome, sm_error *err)
+{
+    const char *vals[] = {id, token};
+    PGresult *r = smd_pg_exec(db, "event", "SELECT nevents FROM smd_jobs WHERE id = $1 AND " HELD,
+                              2, vals, err);
+    if (!r)
+        return SM_ERR_IO;
+    int64_t have = PQntuples(r) == 1 ? strtoll(PQgetvalue(r, 0, 0), NULL, 10) : -1;
+    PQclear(r);
+    *outcome = have < 0 ? SMD_PG_NOT_HELD : have >= expect ? SMD_PG_DUPLICATE : SMD_PG_GAP;
+    return SM_OK;
+}
+
+sm_status smd_pg_append_event_at(smd_pg *db, const char *id, const smd_pg_lease *fence,
+                                 const char *json, int64_t expect, int *outcome, sm_error *err)
+{
+    char token[24], want[24];
+    fmt_i64(token, sizeof token, fence->token);
+    fmt_i64(want, sizeof want, expect);
+    const char *vals[] = {id, token, json, want};
+    PGresult *r = smd_pg_exec(db, "event",
+                              APPEND_SQL(" AND " HELD " AND nevents = $4::bigint - 1"), 4, vals,
+                              err);
+    if (!r)
+        return SM_ERR_IO;
+    int stored = PQntuples(r) == 1;
+    PQclear(r);
+    if (stored) {
+        *outcome = SMD_PG_APPENDED;
+        return SM_OK;
+    }
+    return append_outcome(db, id, token, expect, outcome, err);
+}
+
 static sm_status find_key(smd_pg *db, const smd_pg_job *job, char existing[SMD_ID_LEN + 1],
                           int *found, sm_error *err)
 {
@@ -439,11 +476,11 @@ sm_status smd_pg_lock_held(smd_pg *db, const smd_pg_lease *l, int *held, sm_erro
 }
 
 sm_status smd_pg_publish(smd_pg *db, const smd_pg_lease *l, sm_job_state state,
-                         const char *message, const char *final_event, const char *results_dir,
-                         int *held, sm_error *err)
+                         const char *message, const char *final_event, int64_t expect,
+                         const char *results_dir, int *held, sm_error *err)
 {
     *held = 0;
-    int64_t seq = 1;
+    int outcome = SMD_PG_APPENDED;
     const char *vals[] = {l->id};
     if (smd_pg_begin(db, err) != SM_OK)
         return SM_ERR_IO;
@@ -455,13 +492,16 @@ sm_status smd_pg_publish(smd_pg *db, const smd_pg_lease *l, sm_job_state state,
             st = smd_pg_put_tree(db, l->id, "results/", results_dir, err);
     }
     if (st == SM_OK && *held && final_event)
-        st = smd_pg_append_event(db, l->id, l, final_event, &seq, err);
-    if (st == SM_OK && *held && seq > 0)
+        st = smd_pg_append_event_at(db, l->id, l, final_event, expect, &outcome, err);
+    int appended = outcome == SMD_PG_APPENDED;
+    if (st == SM_OK && *held && appended)
         st = set_final(db, l, state, message, held, err);
-    if (st == SM_OK && *held && seq > 0)
+    if (st == SM_OK && *held && appended)
         return smd_pg_commit(db, err) == SM_OK ? SM_OK : (*held = 0, SM_ERR_IO);
     smd_pg_rollback(db);
-    *held = 0;
+    /* a final event out of turn: the log would hide a gap (or the event
+     * is stored already, its run published) */
+    *held = st == SM_OK && *held && outcome == SMD_PG_GAP ? SMD_PG_GAP : 0;
     return st;
 }
 

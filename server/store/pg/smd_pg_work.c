@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "shapematch/sm_clock.h"
 #include "store/spool/smd_store.h"
@@ -50,6 +51,25 @@ static void drop_local(smd_pg_node *n, const char *id)
     smd_jobs_after_free(&after);
 }
 
+/* The items of a job past the last one stored would hide a gap in its
+ * log (they were lost: a node killed before it spooled them): the run
+ * is given back instead, the job queued again with its log as stored. */
+static sm_status gap(smd_pg_node *n, const node_item *it, const smd_pg_lease *l, int64_t seq,
+                     sm_error *err)
+{
+    char msg[SM_EVENT_MESSAGE_MAX];
+    snprintf(msg, sizeof msg, "queued again: events of run %d were lost on node %.100s",
+             l->attempt, n->name);
+    sm_status st = smd_pg_release(n->work_db, l, msg, err);
+    if (st != SM_OK)
+        return st;
+    smd_logf(&n->srv->log, SMD_LOG_ERROR, "outbox_gap",
+             "job %s: event %lld cannot be stored, the events before it are lost: the job is "
+             "queued again", it->id, (long long)seq);
+    lease_lost(n, it->id);
+    return SM_OK;
+}
+
 static sm_status publish_final(smd_pg_node *n, const node_item *it, const smd_pg_lease *l,
                                sm_error *err)
 {
@@ -60,23 +80,51 @@ static sm_status publish_final(smd_pg_node *n, const node_item *it, const smd_pg
                   it->id) == 0)
         dir = results;
     int held = 0;
-    sm_status st = smd_pg_publish(n->work_db, l, it->state, it->message, it->json, dir, &held, err);
-    if (st == SM_OK && !held)
+    sm_status st = smd_pg_publish(n->work_db, l, it->state, it->message, it->json, it->seq, dir,
+                                  &held, err);
+    if (st == SM_OK && held == SMD_PG_GAP)
+        return gap(n, it, l, it->seq, err);
+    sm_job_state now = SM_JOB_ACCEPTED;
+    int attempt = 0, found = 0;
+    sm_error e;
+    if (st == SM_OK && !held &&
+        smd_pg_state(n->work_db, it->id, &now, &attempt, &found, &e) == SM_OK && found &&
+        now == it->state && attempt == l->attempt)
+        smd_logf(&n->srv->log, SMD_LOG_INFO, "outbox_duplicate",
+                 "job %s: its %s end was stored already (a replay)", it->id,
+                 sm_job_state_name(it->state));
+    else if (st == SM_OK && !held)
         smd_logf(&n->srv->log, SMD_LOG_WARN, "lease_lost",
                  "job %s: lease lost before the end: its %s is not published", it->id,
                  sm_job_state_name(it->state));
     return st;
 }
 
-/* One outbox item.  SM_ERR_IO with the connection down: kept for a retry. */
+static sm_status publish_event(smd_pg_node *n, const node_item *it, const smd_pg_lease *l,
+                               sm_error *err)
+{
+    int outcome = SMD_PG_NOT_HELD;
+    sm_status st = smd_pg_append_event_at(n->work_db, it->id, l, it->json, it->seq, &outcome, err);
+    if (st != SM_OK)
+        return st;
+    if (outcome == SMD_PG_NOT_HELD)
+        lease_lost(n, it->id);
+    else if (outcome == SMD_PG_GAP)
+        return gap(n, it, l, it->seq, err);
+    /* SMD_PG_DUPLICATE: stored before (a replay), once */
+    return SM_OK;
+}
+
+/* One outbox item, under the lease it was made under.  SM_ERR_IO: kept
+ * for a retry. */
 static sm_status publish(smd_pg_node *n, const node_item *it, sm_error *err)
 {
     pthread_mutex_lock(&n->lock);
     node_lease *found = node_find_lease(n, it->id);
     node_lease copy = found ? *found : (node_lease){0};
     pthread_mutex_unlock(&n->lock);
-    if (!found)
-        return SM_OK;
+    if (!found || copy.lease.token != it->token)
+        return SM_OK; /* an older lease's: fenced out */
     sm_status st = SM_OK;
     if (copy.lost) {
         if (!it->final && !it->release)
@@ -86,14 +134,7 @@ static sm_status publish(smd_pg_node *n, const node_item *it, sm_error *err)
     } else if (it->final) {
         st = publish_final(n, it, &copy.lease, err);
     } else {
-        int64_t seq = 0;
-        st = smd_pg_append_event(n->work_db, it->id, &copy.lease, it->json, &seq, err);
-        if (st == SM_OK && seq == 0)
-            lease_lost(n, it->id);
-        else if (st == SM_OK && seq != it->seq)
-            smd_logf(&n->srv->log, SMD_LOG_WARN, "database_error",
-                     "job %s: event %lld stored as %lld", it->id, (long long)it->seq, (long long)seq);
-        return st;
+        return publish_event(n, it, &copy.lease, err);
     }
     if (st != SM_OK)
         return st; /* kept with its lease (still renewed) for a retry */
@@ -106,6 +147,8 @@ static sm_status publish(smd_pg_node *n, const node_item *it, sm_error *err)
 /* Puts items back in front of the outbox (the connection failed). */
 static void put_back(smd_pg_node *n, node_item *items)
 {
+    if (!items)
+        return;
     pthread_mutex_lock(&n->lock);
     node_item **tail = &items;
     while (*tail)
@@ -117,8 +160,9 @@ static void put_back(smd_pg_node *n, node_item *items)
     pthread_mutex_unlock(&n->lock);
 }
 
-static void free_item(node_item *it)
+static void free_item(smd_pg_node *n, node_item *it)
 {
+    node_outbox_done(n, it);
     free(it->json);
     free(it);
 }
@@ -147,6 +191,20 @@ static void clear_held(smd_pg_node *n)
     if (was)
         smd_logf(&n->srv->log, SMD_LOG_INFO, "outbox_stored", "the waiting events and results are "
                  "stored in the database");
+}
+
+/* The items on disk before the database is asked (a kill -9 while they
+ * wait loses none): always while the outbox is held, and a run's end or
+ * release (one file a run) at once. */
+static void spill_if_needed(smd_pg_node *n, node_item *items, int down)
+{
+    pthread_mutex_lock(&n->lock);
+    int need = down || n->outbox_held || n->outbox_full;
+    pthread_mutex_unlock(&n->lock);
+    for (const node_item *it = items; it && !need; it = it->next)
+        need = it->final || it->release;
+    if (need && items)
+        node_outbox_spill(n, items);
 }
 
 /* Publishes the outbox in order, progress events in transactions of up
@@ -180,12 +238,13 @@ static int drain(smd_pg_node *n, node_item *items)
         *cut = NULL;
         while (done) {
             node_item *next = done->next;
-            free_item(done);
+            free_item(n, done);
             done = next;
         }
     }
     if (!items)
         return 0;
+    node_outbox_spill(n, items);
     if (smd_pg_connected(n->work_db))
         smd_logf(&n->srv->log, SMD_LOG_WARN, "database_error", "%s", err.msg);
     set_held(n, items, &err);
@@ -234,7 +293,55 @@ static size_t free_slots(smd_pg_node *n)
                ? 0 : slots - used;
 }
 
-static void claim_one(smd_pg_node *n, const smd_pg_lease *got)
+/* A claim that fails (the node cannot take the job: its folder, its
+ * inputs) is retried with exponential backoff, 0.2 s doubling to
+ * CLAIM_BACKOFF_MAX, each wait drawn uniformly from its upper half
+ * (jitter: nodes failing together do not retry in step); logged when
+ * the failure starts or changes, and when claims work again. */
+#define CLAIM_BACKOFF_MIN 0.2
+#define CLAIM_BACKOFF_MAX 10.0
+
+static double jitter(smd_pg_node *n)
+{
+    /* xorshift64: no cryptographic need, only spread */
+    uint64_t x = n->claim_rng ? n->claim_rng : 0x9e3779b97f4a7c15u ^ (uint64_t)getpid();
+    x ^= x << 13;
+    x ^= x >> 7;
+    x ^= x << 17;
+    n->claim_rng = x;
+    return 0.5 + 0.5 * (double)(x >> 11) / 9007199254740992.0;
+}
+
+static void claim_failed(smd_pg_node *n, const char *id, const char *msg)
+{
+    n->claim_fails++;
+    n->claim_backoff = n->claim_backoff <= 0 ? CLAIM_BACKOFF_MIN
+                       : n->claim_backoff * 2 > CLAIM_BACKOFF_MAX ? CLAIM_BACKOFF_MAX
+                       : n->claim_backoff * 2;
+    n->claim_next = sm_clock_seconds() + n->claim_backoff * jitter(n);
+    char what[sizeof n->claim_why];
+    snprintf(what, sizeof what, "job %s: %s", id, msg);
+    if (strcmp(what, n->claim_why) != 0) {
+        smd_logf(&n->srv->log, SMD_LOG_ERROR, "claim_failed",
+                 "%s (retried with backoff up to %.0f s; logged again when this changes)", what,
+                 CLAIM_BACKOFF_MAX);
+        snprintf(n->claim_why, sizeof n->claim_why, "%s", what);
+    }
+}
+
+static void claim_worked(smd_pg_node *n)
+{
+    if (n->claim_fails)
+        smd_log(&n->srv->log, SMD_LOG_INFO, "claims_recovered",
+                json_pack("{s:I}", "failed_claims", (json_int_t)n->claim_fails));
+    n->claim_fails = 0;
+    n->claim_backoff = 0;
+    n->claim_next = 0;
+    n->claim_why[0] = '\0';
+}
+
+/* 0 when the job was taken */
+static int claim_one(smd_pg_node *n, const smd_pg_lease *got)
 {
     node_lease *l = calloc(1, sizeof *l);
     sm_error err;
@@ -251,26 +358,33 @@ static void claim_one(smd_pg_node *n, const smd_pg_lease *got)
     if (l && node_import(n, n->work_db, got->id, l, &err) == SM_OK) {
         smd_log(&n->srv->log, SMD_LOG_INFO, "job_claimed",
                 json_pack("{s:s,s:i,s:s}", "job", got->id, "attempt", got->attempt, "node", n->name));
-        return;
+        claim_worked(n);
+        return 0;
     }
     char msg[SM_EVENT_MESSAGE_MAX];
-    snprintf(msg, sizeof msg, "node %.100s could not take it: %.300s", n->name,
-             l ? err.msg : "out of memory");
-    smd_unroot(msg, n->srv->cfg.spool); /* the job's message: clients read it */
-    smd_logf(&n->srv->log, SMD_LOG_ERROR, "claim_failed", "job %s: %s", got->id, msg);
+    /* the job's message (clients read it) counts this node's failed tries */
+    snprintf(msg, sizeof msg, "node %.100s could not take it (%u failed claims): %.300s", n->name,
+             n->claim_fails + 1, l ? err.msg : "out of memory");
+    smd_unroot(msg, n->srv->cfg.spool);
     smd_pg_unclaim(n->work_db, got, msg, &err); /* nothing ran: no attempt used */
     node_drop_lease(n, got->id);
+    char *why = strstr(msg, "): ");
+    claim_failed(n, got->id, why ? why + 3 : msg);
+    return -1;
 }
 
 static void claim(smd_pg_node *n)
 {
+    if (n->claim_next > 0 && sm_clock_seconds() < n->claim_next)
+        return; /* backing off */
     for (size_t k = free_slots(n); k > 0 && !atomic_load(&n->stop); k--) {
         smd_pg_lease got;
         int ok = 0;
         sm_error err;
         if (smd_pg_claim(n->work_db, n->name, n->srv->cfg.lease, &got, &ok, &err) != SM_OK || !ok)
             return;
-        claim_one(n, &got);
+        if (claim_one(n, &got) != 0)
+            return;
     }
 }
 
@@ -306,16 +420,25 @@ void *node_work_main(void *arg)
         pthread_mutex_lock(&n->lock);
         int empty = !n->out_head;
         pthread_mutex_unlock(&n->lock);
-        if (stopping && (empty || sm_clock_seconds() > stop_at))
+        if (stopping && (empty || sm_clock_seconds() > stop_at)) {
+            node_item *left = wait_items(n); /* on disk for the next start */
+            node_outbox_spill(n, left);
+            put_back(n, left);
             return NULL;
+        }
         sm_error err;
         if (node_connected(n, n->work_db, &err) != SM_OK) {
+            node_item *wait = wait_items(n);
+            spill_if_needed(n, wait, 1);
+            put_back(n, wait);
             struct timespec ts = {0, (long)(backoff * 1e9)};
             nanosleep(&ts, NULL);
             backoff = backoff * 2 > 0.8 ? 0.8 : backoff * 2;
             continue;
         }
-        if (drain(n, wait_items(n)) != 0) {
+        node_item *items = wait_items(n);
+        spill_if_needed(n, items, 0);
+        if (drain(n, items) != 0) {
             /* retried with backoff, 0.1 s doubling to 2 s */
             struct timespec ts = {(time_t)backoff, (long)((backoff - (time_t)backoff) * 1e9)};
             nanosleep(&ts, NULL);

@@ -318,8 +318,8 @@ static enum MHD_Result warp_answer(struct MHD_Connection *conn, smd_request *req
                               err.msg[0] ? err.msg : "out of memory");
         goto done;
     }
-    if (sm_warp_points(w, (sm_warp_direction)direction, strict, p.n, p.xyz, out, inside, &noutside,
-                       &err) != SM_OK) {
+    if (sm_points_warp(w, (sm_warp_direction)direction, strict, &p, b->json ? NULL : b->buf,
+                       b->len, out, inside, &noutside, &err) != SM_OK) {
         r = smd_reply_problem(conn, req, 422, SMD_PROBLEM_INVALID_INPUT, "points: %s", err.msg);
         goto done;
     }

@@ -5,8 +5,9 @@
 # points forward (barycentric images, inside flags, outside points
 # extrapolated), inverse(forward(x)) = x, the template and its Gmsh copy
 # warped to .mesh, .meshb and .vtu, its boundary as OBJ and STL, a vector
-# field to A v (and normalized); malformed CSV lines named, --strict,
-# usage errors with their exit codes.  2D and 3D.
+# field to A v (and normalized), a symmetric tensor field (Medit type 3)
+# to A T Aᵀ and back; malformed CSV lines named, --strict, usage errors
+# with their exit codes.  2D and 3D.
 source "$(dirname "$0")/../lib/cli.sh"
 CHECK="python3 $ROOT/tests/cli/warp_check.py"
 T2=$ROOT/examples/2d/template.mesh
@@ -110,6 +111,15 @@ PY
     expect_ok "$dim: --normalize" "$BIN" warp --result "$dir" --normalize --field "$dir/v.sol" \
         -o "$dir/Av1.sol"
     expect_ok "$dim: it equals A v / |A v|" $CHECK field "$tmpl" "$dir/Av1.sol" 1
+    $CHECK tensor_make "$tmpl" "$dir/T.sol"
+    expect_ok "$dim: a symmetric tensor field (type 3) warped" "$BIN" warp --result "$dir" \
+        --field "$dir/T.sol" -o "$dir/ATAt.solb"
+    expect_ok "$dim: it equals A T Aᵀ at every vertex" sh -c \
+        "'$BIN' warp -q --result '$dir' --field '$dir/T.sol' -o '$dir/ATAt.sol' &&
+         $CHECK tensor_check '$tmpl' '$dir/ATAt.sol' affine"
+    expect_ok "$dim: back with --inverse (.solb in) it is T again" sh -c \
+        "'$BIN' warp -q --result '$dir' --inverse --field '$dir/ATAt.solb' -o '$dir/T-back.sol' &&
+         $CHECK tensor_check '$tmpl' '$dir/T-back.sol' identity"
 done
 
 # --- bad inputs and usage
@@ -124,8 +134,12 @@ printf '0.5,0.5,0.5\n' >"$WORK/p3.csv"
 expect_fail "3D points on a 2D map" 2 "3D points and the map is 2D" \
     "$BIN" warp --result "$dir" --points "$WORK/p3.csv" -o "$WORK/o.csv"
 printf '0.5,0.5\n5,5\n' >"$WORK/out.csv"
-expect_fail "--strict refuses a point outside" 2 "point 2 is outside the template" \
+expect_fail "--strict refuses a point outside" 2 "line 2: point (5, 5) is outside the template" \
     "$BIN" warp --result "$dir" --strict --points "$WORK/out.csv" -o "$WORK/o.csv"
+printf 'x,y\n\n0.5,0.5\r\n  \n0.25,0.5\n5,5\n' >"$WORK/out-lines.csv"
+expect_fail "--strict names the CSV line (header and blank lines counted)" 2 \
+    "out-lines.csv: line 6: point (5, 5) is outside the template (distance " \
+    "$BIN" warp --result "$dir" --strict --points "$WORK/out-lines.csv" -o "$WORK/o.csv"
 expect_ok "without --strict it is flagged" "$BIN" warp -q --result "$dir" \
     --points "$WORK/out.csv" -o "$WORK/o.csv"
 if [ "$(sed -n 3p "$WORK/o.csv" | cut -d, -f3)" = 0 ]; then

@@ -154,8 +154,12 @@ problem "a malformed CSV line is named" 400 "line 4" "${CSV[@]}" --data-binary "
     "$BASE/v1/jobs/$J/warp"
 problem "a bad direction" 400 "direction" "${CSV[@]}" --data-binary $'0,0\n' \
     "$BASE/v1/jobs/$J/warp?direction=sideways"
-problem "strict: a point outside refused" 422 "point 2 is outside" "${CSV[@]}" \
-    --data-binary $'0,0\n3,3\n' "$BASE/v1/jobs/$J/warp?strict=true"
+problem "strict: a point outside refused, its CSV line named" 422 \
+    "line 4: point (3, 3) is outside" "${CSV[@]}" \
+    --data-binary $'x,y\n0,0\n\n3,3\n' "$BASE/v1/jobs/$J/warp?strict=true"
+problem "strict JSON: the point's index named" 422 "points[1]: point (3, 3) is outside" \
+    -H 'Content-Type: application/json' \
+    --data-binary '{"points": [[0, 0], [3, 3]], "strict": true}' "$BASE/v1/jobs/$J/warp"
 head -c 500000 /dev/zero | tr '\0' '\n' >"$WORK/big.csv"
 problem "a body over --max-upload" 413 "--max-upload" "${CSV[@]}" --data-binary "@$WORK/big.csv" \
     "$BASE/v1/jobs/$J/warp"

@@ -4,7 +4,8 @@
 # smooth bend), every answer checked by that script's brute force:
 # points forward (barycentric images, inside flags, outside points
 # extrapolated), inverse(forward(x)) = x, the template and its Gmsh copy
-# warped to .mesh, .meshb and .vtu, its boundary as OBJ and STL, a vector
+# warped to .mesh, .meshb and .vtu, its boundary as OBJ, STL, PLY, OFF,
+# VTK and VTU, a vector
 # field to A v (and normalized), a symmetric tensor field (Medit type 3)
 # to A T Aᵀ and back; malformed CSV lines named, --strict, usage errors
 # with their exit codes.  2D and 3D.
@@ -90,6 +91,15 @@ expect_ok "3d: the boundary as STL warped" "$BIN" warp --result "$dir" --mesh "$
     -o "$dir/s.stl"
 expect_ok "3d: STL vertices are the map's (single precision)" $CHECK surfcheck "$WORK/s.stl" \
     "$dir/s.stl" 2e-6
+for fmt in ply off vtk vtu; do
+    expect_ok "3d: the boundary warped to .$fmt (sm_surface_write)" "$BIN" warp -q \
+        --result "$dir" --mesh "$WORK/s.obj" -o "$dir/s.$fmt"
+    expect_ok "3d: .$fmt vertices are the map's (read by the check script)" $CHECK surfcheck \
+        "$WORK/s.obj" "$dir/s.$fmt" 1e-12
+    expect_ok "3d: .$fmt read back by shapematch and warped back to the boundary" sh -c \
+        "'$BIN' warp -q --result '$dir' --inverse --mesh '$dir/s.$fmt' -o '$dir/s-back-$fmt.obj' &&
+         $CHECK surfcheck '$WORK/s.obj' '$dir/s-back-$fmt.obj' 1e-12 identity"
+done
 
 # --- fields: a constant vector (1, 2[, 3]) under the affine map
 for dim in 2d 3d; do

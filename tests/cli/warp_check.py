@@ -264,7 +264,24 @@ def read_surface_vertices(path):
             rec = struct.unpack("<12f", data[84 + 50 * k:84 + 50 * k + 48])
             pts += [list(rec[3 + 3 * i:6 + 3 * i]) for i in range(3)]
         return pts
-    return [[float(t) for t in l.split()[1:4]] for l in data.decode().splitlines()
+    if path.endswith(".vtu"):
+        return read_vtu_points(path)
+    text = data.decode()
+    if path.endswith((".ply", ".off", ".vtk")):
+        # ASCII PLY (after end_header), OFF (after the counts line), VTK
+        # legacy (after POINTS n double): n lines of x y z, read here
+        # independently of the C readers
+        lines = text.splitlines()
+        if path.endswith(".ply"):
+            n = int(next(l for l in lines if l.startswith("element vertex")).split()[2])
+            at = lines.index("end_header") + 1
+        elif path.endswith(".off"):
+            n, at = int(lines[1].split()[0]), 2
+        else:
+            at = next(i for i, l in enumerate(lines) if l.startswith("POINTS"))
+            n, at = int(lines[at].split()[1]), at + 1
+        return [[float(t) for t in l.split()[:3]] for l in lines[at:at + n]]
+    return [[float(t) for t in l.split()[1:4]] for l in text.splitlines()
             if l.startswith("v ")]
 
 

@@ -110,7 +110,7 @@ sm_status sm_mesh_write_coords(const char *path, const sm_mesh *m,
                                const double *coords, sm_error *err);
 
 /* .sol, .solb, optionally .gz; SolAtVertices with exactly one field of
- * type 1 (scalar) or 2 (vector); Time and Iterations are ignored.  The
+ * type 1 (scalar), 2 (vector) or 3 (symmetric tensor, xx xy yy[ xz yz zz]); Time and Iterations are ignored.  The
  * writer uses ASCII for .sol and binary version 2 for .solb. */
 sm_status sm_sol_read(const char *path, sm_sol **out, sm_error *err);
 sm_status sm_sol_read_limited(const char *path, sm_read_limits *limits, sm_sol **out,

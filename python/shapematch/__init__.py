@@ -18,7 +18,7 @@ import os
 
 from . import _arrays, _lib
 
-__all__ = ["match", "sdf", "parameters", "Result", "ShapematchError", "Client", "Job",
+__all__ = ["match", "sdf", "warp", "parameters", "Result", "ShapematchError", "Client", "Job",
            "HTTPError"]
 
 
@@ -468,3 +468,31 @@ def sdf(surface, points):
             core.sm_surface_free(surf)
         if mesh:
             core.sm_mesh_free(mesh)
+
+
+# ------------------------------------------------------------ warp
+
+def warp(result, *, points=None, mesh=None, field=None, inverse=False, strict=False,
+         normalize=False, output=None):
+    """Carries points, a mesh or a field through the map of a finished
+    match, forward (template -> target) or back with inverse=True, as
+    `shapematch warp` does (docs/warp.md: the conventions).  result: a
+    result folder (result.mesh + displacement.sol, as run, fetch and
+    Result.write leave them) or a Result.  Exactly one of:
+      points  an (n, dim) array: returns (mapped (n, dim), inside (n,)
+              0/1: 0 for a point outside the source mesh, mapped by its
+              nearest element); strict=True raises ShapematchError for the
+              first point outside instead ("point I (1-based) is outside");
+      mesh    a path (any mesh or surface `warp --mesh` reads) or arrays
+              (vertices, elements): returns the moved vertices; with
+              output=PATH (a path mesh only) writes it, the format by the
+              name (.mesh/.meshb/.vtu, and for surfaces .stl .obj .ply .off
+              .vtk);
+      field   a .sol path or an (nverts, ncomp) array on the template's
+              vertices (the result's with inverse): scalars kept, vectors
+              by the deformation gradient F (normalize=True: unit length),
+              symmetric tensors (xx, xy, yy[, xz, yz, zz]) as F T F^T;
+              returns the carried values; output=PATH writes a .sol/.solb."""
+    from . import _warp
+    return _warp.warp(result, _raise, points=points, mesh=mesh, field=field, inverse=inverse,
+                      strict=strict, normalize=normalize, output=output)

@@ -89,8 +89,8 @@ class _Map:
 
 def _subtract(coords, values, n):
     """coords[i] -= values[i] for n doubles (C arrays), as sm_job_map_read."""
-    if _arrays.numpy is not None and n:
-        np = _arrays.numpy
+    np = _arrays._np()
+    if np is not None and n:
         a = np.ctypeslib.as_array(coords, shape=(n,))
         a -= np.ctypeslib.as_array(values, shape=(n,))
         return

@@ -194,6 +194,10 @@ install: release
 	install -m 644 build/release/man/shapematch.1 $(DESTDIR)$(MANDIR)/man1/
 	install -m 644 build/release/man/shapematchd.8 $(DESTDIR)$(MANDIR)/man8/
 	install -m 644 $(PYTHON_FILES) $(DESTDIR)$(PYTHONDIR)/shapematch/
+	@# bytecode now: an installed folder users cannot write would otherwise
+	@# be compiled at every import (~10-20 ms of a 2D match's 0.4 s)
+	@if [ -x /usr/bin/python3 ]; then /usr/bin/python3 -m compileall -q \
+	  -d $(PYTHONDIR)/shapematch $(DESTDIR)$(PYTHONDIR)/shapematch >/dev/null; fi
 	@if [ -n "$(UNITDIR)" ]; then \
 	  install -d $(DESTDIR)$(UNITDIR) && \
 	  sed 's|/usr/local/bin/|$(PREFIX)/bin/|g' deploy/systemd/shapematchd.service \

@@ -261,6 +261,8 @@ static void print_final_line(const run_options *o, const sm_job_run *run)
                 "the template may already match the target (see --tol-boundary) or the "
                 "parameters prevent any move (--min-quality, --tol-step)\n",
                 r->boundary_l2);
+    else if (run->outcome == SM_JOB_OUTCOME_CANCELLED && run->message[0])
+        fprintf(stderr, "shapematch: %s; outputs in %s\n", run->message, o->outdir);
     else if (!o->quiet || !r->converged)
         fprintf(stderr,
                 "shapematch: %s after %d iteration%s, %s: boundary RMS %.3e (relative %.3e, "

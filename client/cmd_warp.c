@@ -45,15 +45,17 @@ void cmd_warp_help(void)
            "                          header line; OUT keeps the order and adds an\n"
            "                          'inside' column (0: outside the mesh, mapped by the\n"
            "                          nearest element's affine map)\n"
-           "  --mesh FILE             a mesh (Medit, Gmsh) or surface (STL, OBJ, Medit,\n"
-           "                          Gmsh): vertices moved, topology kept; OUT by its\n"
-           "                          extension: .mesh/.meshb[.gz], .vtu (volume meshes),\n"
-           "                          .stl, .obj (surfaces)\n"
+           "  --mesh FILE             a mesh (Medit, Gmsh, VTK) or surface (STL, OBJ, PLY,\n"
+           "                          OFF, VTK, Medit, Gmsh): vertices moved, topology\n"
+           "                          kept; OUT by its extension: .mesh/.meshb[.gz], .vtu,\n"
+           "                          and for surfaces .stl, .obj, .ply, .off, .vtk\n"
            "  --field FILE            a .sol on the template's vertices (the result's,\n"
            "                          with --inverse): scalars kept, vectors mapped by the\n"
-           "                          deformation gradient; OUT a .sol/.solb\n"
-           "  --strict                refuse points outside the mesh (exit 2) instead of\n"
-           "                          flagging them\n"
+           "                          deformation gradient F, symmetric tensors T (Medit\n"
+           "                          type 3) to F T F^T; OUT a .sol/.solb\n"
+           "  --strict                refuse points outside the mesh (exit 2, naming the\n"
+           "                          first one's CSV line, the header counted) instead\n"
+           "                          of flagging them\n"
            "  --normalize             --field: vectors scaled to unit length (directions)\n"
            "  -o, --output FILE       the output ('-': standard output, --points only)\n"
            "  -q, --quiet             no summary line on stderr\n"
@@ -200,7 +202,7 @@ static int warp_points(const warp_args *a, const sm_warp *w, sm_warp_direction d
         fprintf(stderr, "shapematch warp: out of memory for %lld points\n", (long long)p.n);
         goto done;
     }
-    if (sm_warp_points(w, dir, a->strict, p.n, p.xyz, out, inside, &nout, &err) != SM_OK) {
+    if (sm_points_warp(w, dir, a->strict, &p, text, len, out, inside, &nout, &err) != SM_OK) {
         fprintf(stderr, "shapematch warp: %s: %s\n", a->points, err.msg);
         goto done;
     }
@@ -262,7 +264,8 @@ static int warp_field(const warp_args *a, const sm_mesh *m, const sm_warp *w,
     }
     if (!a->quiet)
         fprintf(stderr, "shapematch warp: %s field on %ld vertices carried %s\n",
-                s->ncomp == 1 ? "scalar" : "vector", (long)s->nverts,
+                s->ncomp == 1 ? "scalar" : s->ncomp == s->dim ? "vector" : "symmetric tensor",
+                (long)s->nverts,
                 dir == SM_WARP_FORWARD ? "forward" : "back");
     rc = 0;
 done:

@@ -58,7 +58,7 @@ sm_status warp_read_file(const char *path, size_t max, char **out, size_t *len, 
 
 /* ------------------------------------------------------------ formats */
 
-typedef enum out_format { OUT_UNKNOWN, OUT_MEDIT, OUT_VTU, OUT_STL, OUT_OBJ } out_format;
+typedef enum out_format { OUT_UNKNOWN, OUT_MEDIT, OUT_VTU, OUT_SURFACE } out_format;
 
 static int ends_with(const char *s, const char *suffix)
 {
@@ -66,111 +66,19 @@ static int ends_with(const char *s, const char *suffix)
     return n >= k && strcmp(s + n - k, suffix) == 0;
 }
 
+/* Medit and .vtu for both kinds; the surface formats (sm_surface_write:
+ * STL, OBJ, PLY, OFF, VTK legacy) for surfaces. */
 static out_format format_of(const char *path)
 {
     static const char *const medit[] = {".mesh", ".meshb", ".mesh.gz", ".meshb.gz"};
+    static const char *const surface[] = {".stl", ".obj", ".ply", ".off", ".vtk"};
     for (size_t i = 0; i < 4; i++)
         if (ends_with(path, medit[i]))
             return OUT_MEDIT;
-    return ends_with(path, ".vtu")   ? OUT_VTU
-           : ends_with(path, ".stl") ? OUT_STL
-           : ends_with(path, ".obj") ? OUT_OBJ
-                                     : OUT_UNKNOWN;
-}
-
-static void put_f32(unsigned char *p, double v)
-{
-    float f = (float)v;
-    uint32_t u;
-    memcpy(&u, &f, 4);
-    for (int i = 0; i < 4; i++)
-        p[i] = (unsigned char)(u >> (8 * i));
-}
-
-/* Binary STL (little endian), normals from the warped triangles. */
-static sm_status write_stl(const char *path, const sm_surface *s, const double *xyz, sm_error *err)
-{
-    sm_atomic a;
-    sm_status st = sm_atomic_open(&a, path, err);
-    if (st != SM_OK)
-        return st;
-    unsigned char head[84] = "binary STL written by shapematch warp";
-    uint32_t n = (uint32_t)s->nfacets;
-    for (int i = 0; i < 4; i++)
-        head[80 + i] = (unsigned char)(n >> (8 * i));
-    fwrite(head, 1, sizeof head, a.f);
-    for (int32_t t = 0; t < s->nfacets; t++) {
-        const double *p[3];
-        for (int k = 0; k < 3; k++)
-            p[k] = xyz + (size_t)s->facets[(size_t)t * 3 + k] * 3;
-        double u[3], v[3], nrm[3], len = 0;
-        for (int i = 0; i < 3; i++) {
-            u[i] = p[1][i] - p[0][i];
-            v[i] = p[2][i] - p[0][i];
-        }
-        for (int i = 0; i < 3; i++) {
-            nrm[i] = u[(i + 1) % 3] * v[(i + 2) % 3] - u[(i + 2) % 3] * v[(i + 1) % 3];
-            len += nrm[i] * nrm[i];
-        }
-        len = sqrt(len);
-        unsigned char rec[50] = {0};
-        for (int i = 0; i < 3; i++)
-            put_f32(rec + 4 * i, len > 0 ? nrm[i] / len : 0.0);
-        for (int k = 0; k < 3; k++)
-            for (int i = 0; i < 3; i++)
-                put_f32(rec + 12 + 12 * k + 4 * i, p[k][i]);
-        fwrite(rec, 1, sizeof rec, a.f);
-    }
-    return sm_atomic_commit(&a, 0, err);
-}
-
-/* OBJ: v lines (z = 0 in 2D), then f (triangles) or l (segments). */
-static sm_status write_obj(const char *path, const sm_surface *s, const double *xyz, sm_error *err)
-{
-    sm_atomic a;
-    sm_status st = sm_atomic_open(&a, path, err);
-    if (st != SM_OK)
-        return st;
-    const int D = s->dim;
-    fprintf(a.f, "# written by shapematch warp\n");
-    for (int32_t v = 0; v < s->nverts; v++) {
-        const double *x = xyz + (size_t)v * D;
-        fprintf(a.f, "v %.17g %.17g %.17g\n", x[0], x[1], D == 3 ? x[2] : 0.0);
-    }
-    for (int32_t t = 0; t < s->nfacets; t++) {
-        const int32_t *f = s->facets + (size_t)t * D;
-        if (D == 3)
-            fprintf(a.f, "f %ld %ld %ld\n", (long)f[0] + 1, (long)f[1] + 1, (long)f[2] + 1);
-        else
-            fprintf(a.f, "l %ld %ld\n", (long)f[0] + 1, (long)f[1] + 1);
-    }
-    return sm_atomic_commit(&a, 0, err);
-}
-
-/* A surface as a Medit mesh of facets only. */
-static sm_status write_surface_medit(const char *path, const sm_surface *s, const double *xyz,
-                                     sm_error *err)
-{
-    sm_mesh m;
-    memset(&m, 0, sizeof m);
-    m.dim = s->dim;
-    m.nverts = s->nverts;
-    m.coords = (double *)xyz;
-    int32_t *refs = calloc((size_t)s->nverts + 1, sizeof *refs);
-    int32_t *frefs = s->facet_refs ? NULL : calloc((size_t)s->nfacets + 1, sizeof *frefs);
-    if (!refs || (!s->facet_refs && !frefs)) {
-        free(refs);
-        free(frefs);
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
-    }
-    m.vert_refs = refs;
-    m.nfacets = s->nfacets;
-    m.facets = s->facets;
-    m.facet_refs = s->facet_refs ? s->facet_refs : frefs;
-    sm_status st = sm_mesh_write_coords(path, &m, xyz, err);
-    free(refs);
-    free(frefs);
-    return st;
+    for (size_t i = 0; i < 5; i++)
+        if (ends_with(path, surface[i]))
+            return OUT_SURFACE;
+    return ends_with(path, ".vtu") ? OUT_VTU : OUT_UNKNOWN;
 }
 
 /* ------------------------------------------------------------- warp */
@@ -217,7 +125,7 @@ static int warp_volume(const char *in_path, const char *out_path, out_format fmt
 {
     if (fmt != OUT_MEDIT && fmt != OUT_VTU) {
         fprintf(stderr, "shapematch warp: %s is a volume mesh: write it as .mesh, .meshb or "
-                ".vtu\n", in_path);
+                ".vtu (the surface formats are for surfaces)\n", in_path);
         return CLI_EXIT_USAGE;
     }
     double *xyz;
@@ -238,9 +146,10 @@ static int warp_surface(const char *in_path, const char *out_path, out_format fm
                         sm_surface *s, const sm_warp *w, sm_warp_direction dir, int strict,
                         int quiet)
 {
-    if (fmt == OUT_VTU || (fmt == OUT_STL && s->dim != 3)) {
-        fprintf(stderr, "shapematch warp: %s is a %s: write it as .mesh, .meshb, .obj%s\n",
-                in_path, s->dim == 3 ? "surface" : "polyline", s->dim == 3 ? " or .stl" : "");
+    if (s->dim != 3 && (ends_with(out_path, ".stl") || ends_with(out_path, ".ply") ||
+                        ends_with(out_path, ".off"))) {
+        fprintf(stderr, "shapematch warp: %s is a polyline: write it as .mesh, .meshb, .obj, "
+                ".vtk or .vtu\n", in_path);
         return CLI_EXIT_USAGE;
     }
     double *xyz;
@@ -250,9 +159,8 @@ static int warp_surface(const char *in_path, const char *out_path, out_format fm
         return rc;
     sm_error err;
     sm_error_clear(&err);
-    sm_status st = fmt == OUT_MEDIT ? write_surface_medit(out_path, s, xyz, &err)
-                   : fmt == OUT_STL ? write_stl(out_path, s, xyz, &err)
-                                    : write_obj(out_path, s, xyz, &err);
+    (void)fmt; /* every format of format_of, by the name: sm_surface_write */
+    sm_status st = sm_surface_write(out_path, s, xyz, &err);
     free(xyz);
     return report(st == SM_OK ? 0 : CLI_EXIT_OUTPUT, in_path, out_path, s->nverts, nout, quiet,
                   &err);
@@ -264,7 +172,7 @@ int warp_mesh_file(const char *in_path, const char *out_path, const sm_warp *w,
     out_format fmt = format_of(out_path);
     if (fmt == OUT_UNKNOWN) {
         fprintf(stderr, "shapematch warp: %s: the output format is chosen by its extension: "
-                ".mesh, .meshb (optionally .gz), .vtu, .stl or .obj\n", out_path);
+                "%s\n", out_path, SM_SURFACE_WRITE_FORMATS);
         return CLI_EXIT_USAGE;
     }
     sm_error merr, serr;

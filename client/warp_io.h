@@ -1,10 +1,11 @@
 /* The files of `shapematch warp` (cmd_warp.c): a whole input file read
  * within a bound, and a mesh or surface warped vertex by vertex and
  * written in the format its output name asks for: Medit .mesh/.meshb
- * (optionally .gz) for both, .vtu for volume meshes, .stl and .obj for
- * surfaces.  Volume meshes are read first (sm_mesh_read: Medit, Gmsh),
- * surfaces when that fails (sm_surface_read: STL, OBJ, Medit or Gmsh
- * surfaces); the topology and the references are kept. */
+ * (optionally .gz) and .vtu for both, and for surfaces the formats of
+ * sm_surface_write (STL, OBJ, PLY, OFF, VTK legacy).  Volume meshes are
+ * read first (sm_mesh_read: Medit, Gmsh, VTK), surfaces when that fails
+ * (sm_surface_read: STL, OBJ, PLY, OFF, VTK, Medit or Gmsh surfaces); the
+ * topology and the references are kept. */
 #ifndef CLI_WARP_IO_H
 #define CLI_WARP_IO_H
 

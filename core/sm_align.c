@@ -48,7 +48,14 @@ typedef struct quad {
     double *y, *r, *g;
     int32_t *hints;
     double length;  /* the target's size (for floors and step tests) */
+    const volatile int *cancel; /* sm_align_opts' */
 } quad;
+
+/* The caller asked to stop (polled before each pass over the points). */
+static int cancelled(const quad *q)
+{
+    return q->cancel && *q->cancel;
+}
 
 static void quad_free(quad *q)
 {
@@ -398,7 +405,7 @@ static int refine(quad *q, const sm_field *f, stage s, int64_t step, int max_ite
     const int dim = q->dim, np = stage_params(dim, s);
     double lambda = 1e-3;
     int it;
-    for (it = 0; it < max_iter; it++) {
+    for (it = 0; it < max_iter && !cancelled(q); it++) {
         double c[3];
         eval_with_gradient(q, f, t, step, c);
         double k = huber_threshold(q, step, scratch);
@@ -426,7 +433,7 @@ static int refine(quad *q, const sm_field *f, stage s, int64_t step, int max_ite
         radius = sqrt(radius);
         int accepted = 0;
         double new_cost = cost, moved = 0;
-        for (int trial = 0; trial < 12 && !accepted; trial++) {
+        for (int trial = 0; trial < 12 && !accepted && !cancelled(q); trial++) {
             double m[144], rhs[12], delta[12];
             memcpy(m, jtj, sizeof m);
             for (int a = 0; a < np; a++) {
@@ -527,11 +534,11 @@ static sm_status moment_start(const sm_align_opts *o, quad *q, stage s, int64_t 
     for (int i = 0; i < n; i++) {
         for (int64_t k = 0; k < q->n; k++)
             q->hints[k] = -1;
-        cand[i].cost = mean_square(q, o->target, &cand[i].t, step);
+        cand[i].cost = cancelled(q) ? 0 : mean_square(q, o->target, &cand[i].t, step);
     }
     qsort(cand, (size_t)n, sizeof *cand, by_cost);
     int keep = n < CANDIDATES_REFINED ? n : CANDIDATES_REFINED;
-    for (int i = 0; i < keep; i++) {
+    for (int i = 0; i < keep && !cancelled(q); i++) {
         for (int64_t k = 0; k < q->n; k++)
             q->hints[k] = -1;
         *iters += refine(q, o->target, s, step, CANDIDATE_ITER, &cand[i].t, scratch);
@@ -569,6 +576,7 @@ sm_status sm_align_run(const sm_align_opts *o, sm_align_result *out, sm_error *e
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the alignment");
     }
     const int dim = m->dim;
+    q.cancel = o->cancel;
     int64_t step = q.n > SCREEN_POINTS ? q.n / SCREEN_POINTS : 1;
     int max_iter = o->max_iter > 0 ? o->max_iter : DEFAULT_MAX_ITER;
     stage s = o->mode == SM_ALIGN_RIGID ? STAGE_RIGID : STAGE_SIMILARITY;
@@ -600,7 +608,8 @@ sm_status sm_align_run(const sm_align_opts *o, sm_align_result *out, sm_error *e
         }
         out->transform = t;
         out->scale = sm_transform_scale(&t);
-        out->rms_after = sqrt(mean_square(&q, o->target, &t, 1));
+        out->cancelled = cancelled(&q);
+        out->rms_after = out->cancelled ? NAN : sqrt(mean_square(&q, o->target, &t, 1));
     }
     free(scratch);
     quad_free(&q);

@@ -143,32 +143,55 @@ static sm_status parse_line(builder *b, const char *s, size_t n, long line, int 
     return add_point(b, lf.v, line, err);
 }
 
+/* The next non-blank line at or after *at: its start in *at, its length
+ * without the line end, CRs and trailing blanks in *n; *line counts every
+ * line passed (1-based).  0, or -1 at the end of the text.  The one line
+ * walk of the parser and of sm_points_csv_line. */
+static int next_line(const char *text, size_t len, size_t *at, size_t *n, long *line)
+{
+    size_t i = *at;
+    /* after a line: skip to the start of the next */
+    if (*line > 0) {
+        const char *nl = i < len ? memchr(text + i, '\n', len - i) : NULL;
+        if (!nl)
+            return -1;
+        i = (size_t)(nl - text) + 1;
+    }
+    while (i < len) {
+        const char *nl = memchr(text + i, '\n', len - i);
+        size_t end = nl ? (size_t)(nl - text) : len;
+        size_t k = end - i;
+        (*line)++;
+        /* CR of CRLF ends (any number: a header is kept without them),
+         * trailing blanks */
+        while (k > 0 && (text[i + k - 1] == '\r' || is_space(text[i + k - 1])))
+            k--;
+        size_t a = 0;
+        while (a < k && is_space(text[i + a]))
+            a++;
+        if (a < k) {
+            *at = i;
+            *n = k;
+            return 0;
+        }
+        i = end + 1;
+    }
+    return -1;
+}
+
 sm_status sm_points_csv_parse(const char *text, size_t len, int64_t max_points, sm_points *out,
                               sm_error *err)
 {
     memset(out, 0, sizeof *out);
     builder b = {out, 0, max_points};
     long line = 0;
-    size_t i = 0;
+    size_t i = 0, n;
     int seen = 0;
     sm_status st = SM_OK;
-    while (i < len && st == SM_OK) {
-        const char *nl = memchr(text + i, '\n', len - i);
-        size_t end = nl ? (size_t)(nl - text) : len;
-        size_t n = end - i;
-        line++;
-        /* CR of CRLF ends (any number: a header is kept without them),
-         * trailing blanks */
-        while (n > 0 && (text[i + n - 1] == '\r' || is_space(text[i + n - 1])))
-            n--;
-        size_t a = 0;
-        while (a < n && is_space(text[i + a]))
-            a++;
-        if (a < n) {
-            st = parse_line(&b, text + i, n, line, !seen, err);
-            seen = 1;
-        }
-        i = end + 1;
+    while (st == SM_OK && next_line(text, len, &i, &n, &line) >= 0) {
+        st = parse_line(&b, text + i, n, line, !seen, err);
+        seen = 1;
+        i += n;
     }
     if (st == SM_OK && out->n == 0)
         st = sm_error_set(err, SM_ERR_FORMAT, "no point (one per line: x,y or x,y,z)");
@@ -207,4 +230,50 @@ char *sm_points_csv_format(const sm_points *p, const double *out, const uint8_t 
     }
     *len = k;
     return buf;
+}
+
+long sm_points_csv_line(const char *text, size_t len, int header, int64_t index)
+{
+    long line = 0;
+    size_t i = 0, n;
+    int64_t k = header ? -1 : 0;
+    while (next_line(text, len, &i, &n, &line) >= 0) {
+        if (k++ == index)
+            return line;
+        i += n;
+    }
+    return 0;
+}
+
+sm_status sm_points_warp(const sm_warp *w, sm_warp_direction dir, int strict, const sm_points *p,
+                         const char *text, size_t len, double *out, uint8_t *inside,
+                         int64_t *noutside, sm_error *err)
+{
+    sm_status st = sm_warp_points(w, dir, 0, p->n, p->xyz, out, inside, noutside, err);
+    if (st != SM_OK || !strict || *noutside == 0)
+        return st;
+    int64_t i = 0;
+    while (inside[i])
+        i++;
+    /* the core's strict message for that point alone, with its distance:
+     * "point 1 is outside the ... (distance D)" */
+    double y[3];
+    sm_error one;
+    sm_error_clear(&one);
+    const char *what = "is outside";
+    if (sm_warp_points(w, dir, 1, 1, p->xyz + (size_t)i * (size_t)p->dim, y, NULL, NULL, &one) !=
+            SM_OK &&
+        strncmp(one.msg, "point 1 ", 8) == 0)
+        what = one.msg + 8;
+    const double *x = p->xyz + (size_t)i * (size_t)p->dim;
+    char coords[96];
+    if (p->dim == 3)
+        snprintf(coords, sizeof coords, "(%.6g, %.6g, %.6g)", x[0], x[1], x[2]);
+    else
+        snprintf(coords, sizeof coords, "(%.6g, %.6g)", x[0], x[1]);
+    if (text)
+        return sm_error_set(err, SM_ERR_INVALID, "line %ld: point %s %s",
+                            sm_points_csv_line(text, len, p->header != NULL, i), coords, what);
+    return sm_error_set(err, SM_ERR_INVALID, "points[%lld]: point %s %s", (long long)i, coords,
+                        what);
 }

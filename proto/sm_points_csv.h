@@ -11,7 +11,8 @@
  * decimals (digits, one '.', an exponent; no "nan", "inf", hex) parsed
  * whole and finite, a NUL byte, a too long field or a wrong field count
  * is an error; every error names its line ("line 7: expected 3
- * coordinates, found 2").  The output keeps the points' order and adds
+ * coordinates, found 2"), and so does a point refused by sm_points_warp's
+ * strict mode.  The output keeps the points' order and adds
  * the `inside` column (1 or 0) after the coordinates, written with %.17g
  * (bitwise round trip); its header is the input's plus ",inside", or
  * "x,y[,z],inside". */
@@ -22,6 +23,7 @@
 #include <stdint.h>
 
 #include "shapematch/sm_error.h"
+#include "shapematch/sm_warp.h"
 
 typedef struct sm_points {
     int dim;          /* 2 or 3 */
@@ -43,5 +45,20 @@ void sm_points_release(sm_points *p);
  * with inside[i].  NULL when out of memory. */
 char *sm_points_csv_format(const sm_points *p, const double *out, const uint8_t *inside,
                            size_t *len);
+
+/* The 1-based line of text (what sm_points_csv_parse read; header: it
+ * had one) holding point index (0-based), counting the header and blank
+ * lines as an editor does; 0 when there is no such point. */
+long sm_points_csv_line(const char *text, size_t len, int header, int64_t index);
+
+/* sm_warp_points on the points p, whose messages name where a point came
+ * from: with strict, the first point outside is SM_ERR_INVALID "line L:
+ * point (x, y[, z]) is outside the template|deformed mesh (distance D)",
+ * L its line in text (len bytes, the CSV p was parsed from), or
+ * "points[I]: ..." (0-based, a JSON array's index) when text is NULL.
+ * inside (p->n flags) and noutside are required. */
+sm_status sm_points_warp(const sm_warp *w, sm_warp_direction dir, int strict, const sm_points *p,
+                         const char *text, size_t len, double *out, uint8_t *inside,
+                         int64_t *noutside, sm_error *err);
 
 #endif

@@ -1,5 +1,9 @@
 /* Medit solutions: .sol (ASCII) and .solb (binary, libMeshb versions 1-4),
- * plain or gzip, holding one SolAtVertices field, scalar or vector. */
+ * plain or gzip, holding one SolAtVertices field: scalar (type 1), vector
+ * (type 2) or symmetric tensor (type 3).  A symmetric tensor's components
+ * are stored as Medit and Mmg store them, the lower triangle row by row:
+ * xx, xy, yy in 2D and xx, xy, yy, xz, yz, zz in 3D (Mmg's reader swaps
+ * the middle two into its own xx, xy, xz, yy, yz, zz order on reading). */
 #include "shapematch/sm_io.h"
 
 #include <inttypes.h>
@@ -22,11 +26,11 @@ sm_status sm_sol_alloc(sm_sol **out, int dim, int32_t nverts, int ncomp, sm_erro
     *out = NULL;
     if (dim != 2 && dim != 3)
         return sm_error_set(err, SM_ERR_INVALID, "solution dimension %d is not 2 or 3", dim);
-    if (ncomp != 1 && ncomp != dim)
+    if (ncomp != 1 && ncomp != dim && ncomp != dim * (dim + 1) / 2)
         return sm_error_set(err, SM_ERR_INVALID,
-                            "solution with %d components per vertex in dimension %d (expected 1 "
-                            "or %d)",
-                            ncomp, dim, dim);
+                            "solution with %d components per vertex in dimension %d (expected 1, "
+                            "%d or %d)",
+                            ncomp, dim, dim, dim * (dim + 1) / 2);
     if (nverts < 0 || nverts > SM_MAX_ENTITIES)
         return sm_error_set(err, SM_ERR_NOMEM, "solution vertex count %ld out of range (limit %d)",
                             (long)nverts, SM_MAX_ENTITIES);
@@ -73,7 +77,7 @@ static int type_components(int64_t type, int dim, const char **problem)
     switch (type) {
     case SOL_SCALAR: return 1;
     case SOL_VECTOR: return dim;
-    case SOL_SYMMETRIC_MATRIX: *problem = "symmetric matrix"; return 0;
+    case SOL_SYMMETRIC_MATRIX: return dim * (dim + 1) / 2;
     case SOL_MATRIX: *problem = "matrix"; return 0;
     default: *problem = "unknown type"; return 0;
     }
@@ -106,8 +110,8 @@ static sm_status ascii_solution(sol_in *c)
     int ncomp = type_components(type, c->dim, &problem);
     if (!ncomp)
         return sm__reader_fail_line(r, c->err, SM_ERR_FORMAT,
-                                   "solution type %lld (%s) is not supported (expected 1 scalar "
-                                   "or 2 vector)",
+                                   "solution type %lld (%s) is not supported (expected 1 scalar, "
+                                   "2 vector or 3 symmetric tensor)",
                                    (long long)type, problem);
     if ((st = sm__medit_check_count(r, 0, "SolAtVertices", n, 2 * (uint64_t)ncomp, 0, c->err)) !=
         SM_OK)
@@ -227,8 +231,8 @@ static sm_status binary_solution(sol_in *c, const sm_meshb_layout *lay)
     int ncomp = type_components(type, c->dim, &problem);
     if (!ncomp)
         return sm__reader_fail_byte(r, c->err, SM_ERR_FORMAT, at,
-                                   "solution type %ld (%s) is not supported (expected 1 scalar "
-                                   "or 2 vector)",
+                                   "solution type %ld (%s) is not supported (expected 1 scalar, "
+                                   "2 vector or 3 symmetric tensor)",
                                    (long)type, problem);
     at = sm__reader_offset(r);
     if ((st = sm__medit_check_count(r, 1, "SolAtVertices", n,
@@ -371,7 +375,9 @@ sm_status sm_sol_write(const char *path, const sm_sol *s, sm_error *err)
 {
     if (!path)
         return sm_error_set(err, SM_ERR_INVALID, "no solution file name");
-    if (!s || (s->dim != 2 && s->dim != 3) || (s->ncomp != 1 && s->ncomp != s->dim) ||
+    const int ntensor = s ? s->dim * (s->dim + 1) / 2 : 0;
+    if (!s || (s->dim != 2 && s->dim != 3) ||
+        (s->ncomp != 1 && s->ncomp != s->dim && s->ncomp != ntensor) ||
         s->nverts < 0 || (s->nverts > 0 && !s->values))
         return sm_error_set(err, SM_ERR_INVALID, "sm_sol_write: invalid solution");
     size_t n = (size_t)s->nverts * (size_t)s->ncomp;
@@ -392,7 +398,8 @@ sm_status sm_sol_write(const char *path, const sm_sol *s, sm_error *err)
                             "%s: cannot tell the solution format from the name (expected .sol "
                             "or .solb, optionally followed by .gz)",
                             path);
-    int type = s->ncomp == 1 ? SOL_SCALAR : SOL_VECTOR;
+    /* 2D: 2 components are a vector, 3 a tensor; 3D: 3 and 6 */
+    int type = s->ncomp == 1 ? SOL_SCALAR : s->ncomp == s->dim ? SOL_VECTOR : SOL_SYMMETRIC_MATRIX;
     sm_writer *w;
     sm_status st = sm__writer_open(&w, path, err);
     if (st != SM_OK)

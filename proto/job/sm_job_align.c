@@ -58,7 +58,8 @@ static sm_status moved_copy(const sm_mesh *m, const sm_transform *t, sm_mesh **o
     return st;
 }
 
-sm_status sm_job_align(const sm_job_inputs *in, sm_job_alignment *a, sm_error *err)
+sm_status sm_job_align(const sm_job_inputs *in, const volatile int *cancel, sm_job_alignment *a,
+                       sm_error *err)
 {
     memset(a, 0, sizeof *a);
     a->mode = in->params.align;
@@ -79,9 +80,13 @@ sm_status sm_job_align(const sm_job_inputs *in, sm_job_alignment *a, sm_error *e
     a->landmarks = in->nlandmarks;
     sm_align_opts o = {.mode = a->mode, .template_mesh = in->prepared, .target = in->field,
                        .background = in->background, .distance = in->distance->values,
-                       .start = in->nlandmarks > 0 ? &start : NULL};
+                       .start = in->nlandmarks > 0 ? &start : NULL, .cancel = cancel};
     if ((st = sm_align_run(&o, &a->result, err)) != SM_OK)
         return st;
+    if (a->result.cancelled) {
+        a->cancelled = 1;
+        return SM_OK;
+    }
     const sm_transform *t = &a->result.transform;
     if ((st = moved_copy(in->template_mesh, t, &a->template_mesh, err)) != SM_OK ||
         (st = moved_copy(in->prepared, t, &a->prepared, err)) != SM_OK) {

@@ -20,6 +20,8 @@
 
 typedef struct sm_job_alignment {
     int done;                 /* 1: the template was moved */
+    int cancelled;            /* 1: the cancel flag stopped the alignment
+                               * (done 0: nothing moved) */
     sm_align_mode mode;
     sm_align_result result;
     int32_t landmarks;        /* pairs that gave the start (0: moments) */
@@ -39,8 +41,12 @@ sm_status sm_job_read_landmarks(const sm_job_files *files, sm_job_inputs *in, sm
  * clamp ball's centre moves by the transform and its radius scales by
  * its scale (exact for rigid and similarity; affine: the mean scale
  * |det A|^(1/d), an ellipsoid's ball of equal volume); the moved clamp
- * must still hold vertices as the input's did (sm_clamp_check). */
-sm_status sm_job_align(const sm_job_inputs *in, sm_job_alignment *a, sm_error *err);
+ * must still hold vertices as the input's did (sm_clamp_check).  cancel
+ * (may be NULL) is the run's flag, polled by the alignment as by the
+ * descent: set, the alignment stops within one pass over its points and
+ * a->cancelled is set (SM_OK). */
+sm_status sm_job_align(const sm_job_inputs *in, const volatile int *cancel, sm_job_alignment *a,
+                       sm_error *err);
 void sm_job_alignment_free(sm_job_alignment *a);
 
 /* summary.json's "alignment": {mode, matrix (row-major (d+1)x(d+1),

@@ -2,6 +2,7 @@
  * sm_job_runner.h). */
 #include "job/sm_job_runner.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -169,6 +170,28 @@ static sm_status run_match(sm_job_inputs *in, const sm_match_opts *opts,
     return st;
 }
 
+/* A cancel during the alignment ends the run there, without setting up
+ * the descent (its factorization alone can take seconds): the template
+ * as read is the state reached, and what only the descent measures (J,
+ * the boundary error, the quality) is unknown: NaN, null in summary.json. */
+static void cancelled_in_alignment(const sm_job_inputs *in, sm_job_run *run)
+{
+    const sm_mesh *m = in->template_mesh;
+    memcpy(run->coords, m->coords, (size_t)m->nverts * (size_t)m->dim * sizeof *run->coords);
+    sm_result *r = &run->result;
+    memset(r, 0, sizeof *r);
+    r->stop = SM_STOP_CANCELLED;
+    r->J_initial = r->J = r->boundary_l2 = r->boundary_max = r->boundary_rms = NAN;
+    r->min_quality = NAN;
+    r->diameter = sm_mesh_diameter(m, m->coords);
+    r->time.total = run->alignment.result.seconds;
+    run->outcome = SM_JOB_OUTCOME_CANCELLED;
+    run->exit_code = SM_JOB_EXIT_CANCELLED;
+    snprintf(run->message, sizeof run->message,
+             "cancelled during the alignment (%.3g s): the template was not moved",
+             run->alignment.result.seconds);
+}
+
 sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_run *run,
                           sm_error *err)
 {
@@ -184,9 +207,13 @@ sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_r
     sm_error_clear(&c.error);
     /* the alignment first: from here on the run sees the moved template
      * (view), while in keeps the template as read for the outputs */
-    sm_status st = sm_job_align(in, &run->alignment, err);
+    sm_status st = sm_job_align(in, c.hooks->cancel, &run->alignment, err);
     if (st != SM_OK)
         return st;
+    if (run->alignment.cancelled) {
+        cancelled_in_alignment(in, run);
+        return SM_OK;
+    }
     if (run->alignment.done && in->match) { /* set up on the unmoved template */
         sm_match_free(in->match);
         in->match = NULL;

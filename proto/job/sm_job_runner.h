@@ -95,7 +95,8 @@ typedef struct sm_job_run {
     int32_t inverted;            /* elements with volume <= 0 at the end */
     double resolution;           /* background element size at the final
                                   * boundary (sm_job_check_result) */
-    char message[512];           /* failed: why, for the user */
+    char message[512];           /* failed: why, for the user (also set when a
+                                  * cancel came during the alignment) */
     sm_job_warnings warnings;    /* sm_job_warnings.h; in the summary */
     sm_job_alignment alignment;  /* params align: the transform and the
                                   * moved template the run worked on */

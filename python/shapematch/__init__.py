@@ -13,12 +13,12 @@ checked by the library's one parameter table.  Client talks to a daemon
 (standard library only).  docs/python.md has the whole story.
 """
 import ctypes
-import json
+import math
 import os
 
 from . import _arrays, _lib
 
-__all__ = ["match", "sdf", "parameters", "Result", "ShapematchError", "Client", "Job",
+__all__ = ["match", "sdf", "warp", "parameters", "Result", "ShapematchError", "Client", "Job",
            "HTTPError"]
 
 
@@ -201,24 +201,43 @@ class Result:
         dim, nv, ne = job.sm_run_dim(handle), job.sm_run_nverts(handle), job.sm_run_nelems(handle)
         d = ctypes.c_double
         i32 = ctypes.c_int32
-        self.vertices = _arrays.out(job.sm_run_coords(handle), d, nv, dim)
-        self.initial_vertices = _arrays.out(job.sm_run_init_coords(handle), d, nv, dim)
-        self.elements = _arrays.out(job.sm_run_elems(handle), i32, ne, dim + 1)
-        self.element_refs = _arrays.out(job.sm_run_elem_refs(handle), i32, ne, 0)
-        self.vertex_refs = _arrays.out(job.sm_run_vert_refs(handle), i32, nv, 0)
-        self.displacement = _arrays.minus(self.vertices, self.initial_vertices)
+        # copied now (close() may come first), made arrays when first read
+        # (__getattr__): numpy is imported only then
+        self._raw = {"vertices": _arrays.raw(job.sm_run_coords(handle), d, nv, dim),
+                     "initial_vertices": _arrays.raw(job.sm_run_init_coords(handle), d, nv, dim),
+                     "elements": _arrays.raw(job.sm_run_elems(handle), i32, ne, dim + 1),
+                     "element_refs": _arrays.raw(job.sm_run_elem_refs(handle), i32, ne, 0),
+                     "vertex_refs": _arrays.raw(job.sm_run_vert_refs(handle), i32, nv, 0)}
         text = job.sm_run_summary(handle)
         if text is None:
             raise MemoryError("shapematch: out of memory writing the summary")
-        self.summary = json.loads(text.decode())
+        self._summary_text = text.decode()  # parsed when first read: json imports re
         self.status = job.sm_run_outcome(handle).decode()
         self.exit_code = job.sm_run_exit_code(handle)
-        self.converged = bool(self.summary.get("converged"))
-        self.warnings = self.summary.get("warnings", [])
         n = ctypes.c_size_t()
         rows = job.sm_run_history(handle, ctypes.byref(n))
         names = [f[0] for f in _lib.Progress._fields_]
         self.history = [{k: getattr(rows[i], k) for k in names} for i in range(n.value)]
+
+    def __getattr__(self, name):
+        raw = self.__dict__.get("_raw")
+        if raw is None:
+            raise AttributeError(name)
+        if name in raw:
+            value = _arrays.wrap(raw[name])
+        elif name == "displacement":
+            value = _arrays.minus(self.vertices, self.initial_vertices)
+        elif name == "summary":
+            import json
+            value = json.loads(self._summary_text)
+        elif name == "converged":
+            value = bool(self.summary.get("converged"))
+        elif name == "warnings":
+            value = self.summary.get("warnings", [])
+        else:
+            raise AttributeError("'Result' object has no attribute %r" % name)
+        self.__dict__[name] = value
+        return value
 
     def write(self, directory, formats=None):
         """Writes the result set into directory (created if missing): the
@@ -294,9 +313,54 @@ def _clamp(clamp_ball, clamp_elements, clamp_vertices, no_clamp, params):
     return {"kind": "elements" if clamp_elements is not None else "vertices", "refs": refs}
 
 
-def _json_default(x):
+_JSON_ESCAPES = {'"': '\\"', "\\": "\\\\", "\n": "\\n", "\r": "\\r", "\t": "\\t",
+                 "\b": "\\b", "\f": "\\f"}
+
+
+def _json_string(s):
+    out = []
+    for ch in s:
+        o = ord(ch)
+        if ch in _JSON_ESCAPES:
+            out.append(_JSON_ESCAPES[ch])
+        elif 0x20 <= o < 0x7f:
+            out.append(ch)
+        elif o > 0xffff:  # a surrogate pair, as json.dumps(ensure_ascii=True)
+            o -= 0x10000
+            out.append("\\u%04x\\u%04x" % (0xd800 | (o >> 10), 0xdc00 | (o & 0x3ff)))
+        else:
+            out.append("\\u%04x" % o)
+    return '"' + "".join(out) + '"'
+
+
+def _json(x):
+    """json.dumps(x) for the params document (numbers, strings, booleans,
+    None, lists, dicts, numpy values by tolist()), without importing json:
+    its import (re with it) is a tenth of a 2D match's start-up over the
+    command's (bench/python.sh).  tests/python checks it against json."""
+    if x is None:
+        return "null"
+    if x is True or x is False:
+        return "true" if x else "false"
+    if isinstance(x, int):
+        return int.__repr__(x)
+    if isinstance(x, float):
+        if x != x:
+            return "NaN"
+        if math.isinf(x):
+            return "Infinity" if x > 0 else "-Infinity"
+        return float.__repr__(x)
+    if isinstance(x, str):
+        return _json_string(x)
+    if isinstance(x, (list, tuple)):
+        return "[" + ", ".join(_json(v) for v in x) + "]"
+    if isinstance(x, dict):
+        for k in x:
+            if not isinstance(k, str):
+                raise TypeError("keys must be str, not %s" % type(k).__name__)
+        return "{" + ", ".join(_json_string(k) + ": " + _json(v) for k, v in x.items()) + "}"
     if hasattr(x, "tolist"):
-        return x.tolist()
+        return _json(x.tolist())
     raise TypeError("not a JSON value: %r" % (x,))
 
 
@@ -317,7 +381,7 @@ def match(template, *, target_mesh=None, target_sol=None, target_surface=None,
     Raises ShapematchError with the library's message."""
     doc = dict(params)
     doc["clamp"] = _clamp(clamp_ball, clamp_elements, clamp_vertices, no_clamp, doc)
-    params_json = json.dumps(doc, default=_json_default).encode()
+    params_json = _json(doc).encode()
     tmp = None
     names = []
     files = {}
@@ -468,3 +532,31 @@ def sdf(surface, points):
             core.sm_surface_free(surf)
         if mesh:
             core.sm_mesh_free(mesh)
+
+
+# ------------------------------------------------------------ warp
+
+def warp(result, *, points=None, mesh=None, field=None, inverse=False, strict=False,
+         normalize=False, output=None):
+    """Carries points, a mesh or a field through the map of a finished
+    match, forward (template -> target) or back with inverse=True, as
+    `shapematch warp` does (docs/warp.md: the conventions).  result: a
+    result folder (result.mesh + displacement.sol, as run, fetch and
+    Result.write leave them) or a Result.  Exactly one of:
+      points  an (n, dim) array: returns (mapped (n, dim), inside (n,)
+              0/1: 0 for a point outside the source mesh, mapped by its
+              nearest element); strict=True raises ShapematchError for the
+              first point outside instead ("point I (1-based) is outside");
+      mesh    a path (any mesh or surface `warp --mesh` reads) or arrays
+              (vertices, elements): returns the moved vertices; with
+              output=PATH (a path mesh only) writes it, the format by the
+              name (.mesh/.meshb/.vtu, and for surfaces .stl .obj .ply .off
+              .vtk);
+      field   a .sol path or an (nverts, ncomp) array on the template's
+              vertices (the result's with inverse): scalars kept, vectors
+              by the deformation gradient F (normalize=True: unit length),
+              symmetric tensors (xx, xy, yy[, xz, yz, zz]) as F T F^T;
+              returns the carried values; output=PATH writes a .sol/.solb."""
+    from . import _warp
+    return _warp.warp(result, _raise, points=points, mesh=mesh, field=field, inverse=inverse,
+                      strict=strict, normalize=normalize, output=output)

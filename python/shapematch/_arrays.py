@@ -2,18 +2,42 @@
 python3-numpy) and without it: inputs may be numpy arrays, objects with
 the buffer protocol (array.array, memoryview) or nested sequences; outputs
 are numpy arrays, or Matrix objects (a row a[i], an entry a[i, j],
-a.tolist(), a.shape) when numpy is missing."""
+a.tolist(), a.shape) when numpy is missing.
+
+numpy is imported on first need, not with the package: its import costs
+more than a whole 2D match's start-up (0.06 s idle, 0.3 s on a loaded
+machine, bench/python.sh), and `match(...).write(dir)` needs no array.
+`_arrays.numpy` still names the module (None without it)."""
 import array
 import ctypes
+import sys
 
-try:
-    import numpy
-except ImportError:  # the package works without it
-    numpy = None
+_numpy = False  # not looked up yet
+
+
+def _np():
+    """numpy, imported now if it was not (None when it is missing)."""
+    global _numpy
+    if _numpy is False:
+        try:
+            import numpy as module
+        except ImportError:  # the package works without it
+            module = None
+        _numpy = module
+    return _numpy
+
+
+def __getattr__(name):
+    if name == "numpy":
+        return _np()
+    raise AttributeError("module %r has no attribute %r" % (__name__, name))
 
 
 def _flat(x, typecode, what):
     """(array.array of typecode, rows, cols) of a 1-D or 2-D input."""
+    # plain lists and tuples do not need numpy (read below as they are);
+    # anything else may be an array type only numpy understands
+    numpy = sys.modules.get("numpy") if isinstance(x, (list, tuple)) else _np()
     if numpy is not None and not isinstance(x, (bytes, bytearray)):
         a = numpy.asarray(x)
         if a.ndim not in (1, 2):
@@ -138,14 +162,26 @@ class Matrix:
         return self._m
 
 
+def raw(ptr, ctype, rows, cols):
+    """A copy of the C array at ptr (rows x cols; cols 0: 1-D) as bytes,
+    for wrap() to make an array of when it is wanted (no numpy yet)."""
+    n = rows * (cols or 1)
+    data = bytearray(n * ctypes.sizeof(ctype))
+    if n:
+        ctypes.memmove((ctypes.c_char * len(data)).from_buffer(data), ptr, len(data))
+    return data, "d" if ctype is ctypes.c_double else "i", rows, cols
+
+
 def out(ptr, ctype, rows, cols):
     """A copy of the C array at ptr (rows x cols; cols 0: 1-D), as a numpy
     array or a memoryview."""
-    n = rows * (cols or 1)
-    raw = bytearray(n * ctypes.sizeof(ctype))
-    if n:
-        ctypes.memmove((ctypes.c_char * len(raw)).from_buffer(raw), ptr, len(raw))
-    fmt = "d" if ctype is ctypes.c_double else "i"
+    return wrap(raw(ptr, ctype, rows, cols))
+
+
+def wrap(copy):
+    """The array of a raw() copy (sharing its bytes)."""
+    raw, fmt, rows, cols = copy
+    numpy = _np()
     if numpy is not None:
         a = numpy.frombuffer(raw, dtype=numpy.float64 if fmt == "d" else numpy.int32)
         return a.reshape((rows, cols)) if cols else a
@@ -154,7 +190,7 @@ def out(ptr, ctype, rows, cols):
 
 def minus(a, b):
     """a - b elementwise, for two outputs of out()."""
-    if numpy is not None:
+    if _np() is not None:
         return a - b
     flat = array.array("d", (x - y for x, y in zip(a._m, b._m)))
     return Matrix(memoryview(flat), a.shape[0], a.shape[1] if a.ndim == 2 else 0)

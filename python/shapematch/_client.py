@@ -150,7 +150,7 @@ class Client:
         """Sends a job (files by path; the keywords of shapematch.match);
         returns its Job.  An idempotency_key makes a retried submission
         return the job the first one created."""
-        from . import _clamp, _json_default  # the params document as match builds it
+        from . import _clamp, _json as params_json  # the params document as match builds it
         doc = dict(params)
         doc["clamp"] = _clamp(clamp_ball, clamp_elements, clamp_vertices, no_clamp, doc)
         parts = []
@@ -162,7 +162,7 @@ class Client:
                 raise TypeError("%s: Client.submit takes paths" % name)
             with open(path, "rb") as f:
                 parts.append((name, os.path.basename(os.fsdecode(path)), f.read()))
-        parts.append(("params", None, json.dumps(doc, default=_json_default).encode()))
+        parts.append(("params", None, params_json(doc).encode()))
         body, ctype = _multipart(parts)
         headers = {"Content-Type": ctype, "Accept": "application/json"}
         # a retried submission must not create a second job

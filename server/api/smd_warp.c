@@ -11,6 +11,7 @@
 
 #include "job/sm_job_map.h"
 #include "shapematch/sm_io.h"
+#include "shapematch/sm_surface.h"
 #include "shapematch/sm_warp.h"
 #include "sm_points_csv.h"
 #include "sm_proto_vocab.h"
@@ -32,12 +33,25 @@
 /* What the body holds, by its Content-Type. */
 enum body_kind { BODY_CSV, BODY_JSON, BODY_MESH, BODY_FIELD };
 
+/* Meshes and surfaces: the media types read (the content decides the
+ * reader) and the format each is answered in unless format= says
+ * otherwise; the same table names the answer's media type. */
+static const struct mesh_media {
+    const char *media, *ext;
+} MESH_MEDIA_TABLE[] = {
+    {MESH_MEDIA, "mesh"},           {MESHB_MEDIA, "mesh"},         {"model/stl", "stl"},
+    {"model/obj", "obj"},           {"model/x-ply", "ply"},        {"model/x-off", "off"},
+    {"application/x-vtk", "vtk"},   {"application/x-vtu", "vtu"},
+};
+#define NMESH_MEDIA (sizeof MESH_MEDIA_TABLE / sizeof MESH_MEDIA_TABLE[0])
+
 struct smd_warp_body {
     int json;            /* BODY_JSON (kept for the points' answer) */
     int kind;            /* body_kind */
     int direction;       /* from the query; -1 not given */
     int strict;          /* from the query; -1 not given */
     int normalize;       /* from the query (fields) */
+    const char *ext;     /* meshes: the answer's format (MESH_MEDIA_TABLE) */
     char *buf;
     size_t len, cap;
     int too_large;
@@ -110,16 +124,35 @@ enum MHD_Result smd_route_warp(struct MHD_Connection *conn, smd_request *req)
     }
     const char *ctype =
         MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
+    const char *ext = NULL;
+    for (size_t i = 0; i < NMESH_MEDIA && !ext; i++)
+        if (media_is(ctype, MESH_MEDIA_TABLE[i].media))
+            ext = MESH_MEDIA_TABLE[i].ext;
     int kind = media_is(ctype, CSV_MEDIA)    ? BODY_CSV
                : media_is(ctype, JSON_MEDIA) ? BODY_JSON
-               : media_is(ctype, MESH_MEDIA) || media_is(ctype, MESHB_MEDIA) ? BODY_MESH
-               : media_is(ctype, SOL_MEDIA) || media_is(ctype, SOLB_MEDIA)   ? BODY_FIELD
-                                                                             : -1;
+               : ext                         ? BODY_MESH
+               : media_is(ctype, SOL_MEDIA) || media_is(ctype, SOLB_MEDIA) ? BODY_FIELD
+                                                                           : -1;
     if (kind < 0)
         return smd_reply_problem(conn, req, 415, SMD_PROBLEM_UNSUPPORTED_MEDIA,
                                  "the body is points (" CSV_MEDIA ", " JSON_MEDIA "), a mesh ("
-                                 MESH_MEDIA ", " MESHB_MEDIA ") or a field (" SOL_MEDIA ", "
-                                 SOLB_MEDIA "); Content-Type '%.100s'", ctype ? ctype : "none");
+                                 MESH_MEDIA ", " MESHB_MEDIA "), a surface (model/stl, "
+                                 "model/obj, model/x-ply, model/x-off, application/x-vtk, "
+                                 "application/x-vtu) or a field (" SOL_MEDIA ", " SOLB_MEDIA
+                                 "); Content-Type '%.100s'", ctype ? ctype : "none");
+    const char *format = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "format");
+    if (format) {
+        const char *asked = NULL;
+        for (size_t i = 0; i < NMESH_MEDIA && !asked; i++)
+            if (strcmp(format, MESH_MEDIA_TABLE[i].ext) == 0)
+                asked = MESH_MEDIA_TABLE[i].ext;
+        if (!asked || kind != BODY_MESH)
+            return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
+                                     "format: %s", kind != BODY_MESH
+                                         ? "only for a mesh or surface body"
+                                         : "expected mesh, vtu, stl, obj, ply, off or vtk");
+        ext = asked;
+    }
     int direction = query_direction(conn), strict = query_bool(conn, "strict");
     int normalize = query_bool(conn, "normalize");
     if (direction == -2 || strict == -2 || normalize == -2)
@@ -143,6 +176,7 @@ enum MHD_Result smd_route_warp(struct MHD_Connection *conn, smd_request *req)
     b->normalize = normalize > 0;
     b->direction = direction;
     b->strict = strict;
+    b->ext = ext;
     req->body_state = b;
     return MHD_YES;
 }
@@ -318,8 +352,8 @@ static enum MHD_Result warp_answer(struct MHD_Connection *conn, smd_request *req
                               err.msg[0] ? err.msg : "out of memory");
         goto done;
     }
-    if (sm_warp_points(w, (sm_warp_direction)direction, strict, p.n, p.xyz, out, inside, &noutside,
-                       &err) != SM_OK) {
+    if (sm_points_warp(w, (sm_warp_direction)direction, strict, &p, b->json ? NULL : b->buf,
+                       b->len, out, inside, &noutside, &err) != SM_OK) {
         r = smd_reply_problem(conn, req, 422, SMD_PROBLEM_INVALID_INPUT, "points: %s", err.msg);
         goto done;
     }
@@ -343,14 +377,102 @@ static const char *about_body(const char *msg, const char *path)
     return strncmp(msg, path, n) == 0 ? msg + n : msg;
 }
 
+/* The body's vertices (n of them, dim coordinates) through the map
+ * into a new *xyz; 0 or an HTTP status with msg. */
+static unsigned warp_vertices(const smd_warp_body *b, int direction, const sm_mesh *m,
+                              const double *deformed, int dim, int32_t n, const double *in,
+                              double **xyz, char *msg, size_t cap)
+{
+    sm_warp *w = NULL;
+    sm_error err;
+    sm_error_clear(&err);
+    unsigned status = 0;
+    *xyz = NULL;
+    if (dim != m->dim) {
+        snprintf(msg, cap, "a %dD mesh, and the map is %dD", dim, m->dim);
+        return 422;
+    }
+    if (!(*xyz = malloc(((size_t)n * (size_t)dim + 1) * sizeof **xyz)) ||
+        sm_warp_new(m, deformed, 1u << direction, &w, &err) != SM_OK) {
+        snprintf(msg, cap, "%s", err.msg[0] ? err.msg : "out of memory");
+        status = 503;
+    } else if (sm_warp_points(w, (sm_warp_direction)direction, b->strict > 0, n, in, *xyz, NULL,
+                              NULL, &err) != SM_OK) {
+        snprintf(msg, cap, "vertices: %s", err.msg);
+        status = 422;
+    }
+    sm_warp_free(w);
+    if (status) {
+        free(*xyz);
+        *xyz = NULL;
+    }
+    return status;
+}
+
+/* A mesh or surface body (the file in) warped into out (b->ext's
+ * format): a volume mesh first (sm_mesh_read: Medit, Gmsh, VTK), a
+ * surface when that fails (sm_surface_read: STL, OBJ, PLY, OFF, VTK,
+ * Medit, Gmsh), as `shapematch warp --mesh` reads them.  0, or an HTTP
+ * status with the detail in msg. */
+static unsigned warp_mesh_body(smd_request *req, const smd_warp_body *b, int direction,
+                               const sm_mesh *m, const double *deformed, const char *in,
+                               const char *out, char *msg, size_t cap)
+{
+    sm_read_limits limits = {.max_inflated = WARP_BODY_MAX * 4};
+    sm_mesh *body = NULL;
+    sm_surface *surf = NULL;
+    double *xyz = NULL;
+    sm_error merr, serr;
+    sm_error_clear(&merr);
+    sm_error_clear(&serr);
+    unsigned status = 0;
+    int volume = sm_mesh_read_limited(in, &limits, &body, &merr) == SM_OK;
+    if (!volume && !limits.hit && sm_surface_read_limited(in, &limits, &surf, &serr) != SM_OK) {
+        snprintf(msg, cap, "the body is neither a mesh (%.250s) nor a surface (%.250s)",
+                 about_body(merr.msg, in), about_body(serr.msg, in));
+        return limits.hit ? 413 : 400;
+    }
+    if (limits.hit) {
+        snprintf(msg, cap, "the body%s", about_body(merr.msg, in));
+        return 413;
+    }
+    if (volume && strcmp(b->ext, "mesh") != 0 && strcmp(b->ext, "vtu") != 0) {
+        snprintf(msg, cap, "the body is a volume mesh: answered as format=mesh or vtu, not %s",
+                 b->ext);
+        status = 422;
+    } else if (volume) {
+        status = warp_vertices(b, direction, m, deformed, body->dim, body->nverts, body->coords,
+                               &xyz, msg, cap);
+    } else {
+        status = warp_vertices(b, direction, m, deformed, surf->dim, surf->nverts, surf->coords,
+                               &xyz, msg, cap);
+    }
+    if (!status) {
+        sm_error err;
+        sm_error_clear(&err);
+        sm_status st = !volume                       ? sm_surface_write(out, surf, xyz, &err)
+                       : strcmp(b->ext, "vtu") == 0 ? sm_vtu_write(out, body, xyz, NULL, NULL, &err)
+                                                     : sm_mesh_write_coords(out, body, xyz, &err);
+        if (st != SM_OK) {
+            snprintf(msg, cap, "%s", about_body(err.msg, out));
+            status = st == SM_ERR_INVALID ? 422 : 500;
+        }
+    }
+    (void)req;
+    free(xyz);
+    sm_mesh_free(body);
+    sm_surface_free(surf);
+    return status;
+}
+
 /* The mesh or field of the body (the file in), warped into the file
  * out; 0, or an HTTP status with the detail in msg. */
 static unsigned warp_file(smd_request *req, const smd_warp_body *b, int direction,
                           const char *in, const char *out, char *msg, size_t cap)
 {
-    sm_mesh *m = NULL, *body_mesh = NULL;
+    sm_mesh *m = NULL;
     sm_sol *sol = NULL;
-    double *deformed = NULL, *xyz = NULL;
+    double *deformed = NULL;
     sm_warp *w = NULL;
     sm_error err;
     sm_error_clear(&err);
@@ -377,44 +499,23 @@ static unsigned warp_file(smd_request *req, const smd_warp_body *b, int directio
         }
         goto done;
     }
-    sm_read_limits limits = {.max_inflated = WARP_BODY_MAX * 4};
-    if (sm_mesh_read_limited(in, &limits, &body_mesh, &err) != SM_OK) {
-        snprintf(msg, cap, "the body%s", about_body(err.msg, in));
-        status = limits.hit ? 413 : 400;
-    } else if (body_mesh->dim != m->dim) {
-        snprintf(msg, cap, "a %dD mesh, and the map of job %s is %dD", body_mesh->dim, req->id,
-                 m->dim);
-        status = 422;
-    } else if (!(xyz = malloc(((size_t)body_mesh->nverts * (size_t)m->dim + 1) * sizeof *xyz)) ||
-               sm_warp_new(m, deformed, 1u << direction, &w, &err) != SM_OK) {
-        snprintf(msg, cap, "%s", err.msg[0] ? err.msg : "out of memory");
-        status = 503;
-    } else if (sm_warp_points(w, (sm_warp_direction)direction, b->strict > 0, body_mesh->nverts,
-                              body_mesh->coords, xyz, NULL, NULL, &err) != SM_OK) {
-        snprintf(msg, cap, "vertices: %s", err.msg);
-        status = 422;
-    } else if (sm_mesh_write_coords(out, body_mesh, xyz, &err) != SM_OK) {
-        snprintf(msg, cap, "%s", err.msg);
-        status = 500;
-    }
+    status = warp_mesh_body(req, b, direction, m, deformed, in, out, msg, cap);
 done:
     sm_warp_free(w);
-    free(xyz);
-    sm_mesh_free(body_mesh);
     sm_sol_free(sol);
     free(deformed);
     sm_mesh_free(m);
     return status;
 }
 
-/* The body to a temporary file, warped into another, sent back (Medit
- * ASCII: .mesh or .sol). */
+/* The body to a temporary file, warped into another, sent back (a field
+ * as Medit ASCII .sol, a mesh or surface in b->ext's format). */
 static enum MHD_Result warp_file_answer(struct MHD_Connection *conn, smd_request *req,
                                         const smd_warp_body *b)
 {
     char in[PATH_MAX], out[PATH_MAX], msg[700];
     int direction = b->direction >= 0 ? b->direction : SM_WARP_FORWARD;
-    const char *ext = b->kind == BODY_FIELD ? "sol" : "mesh";
+    const char *ext = b->kind == BODY_FIELD ? "sol" : b->ext;
     if (smd_pathf(in, sizeof in, "%s/warp-XXXXXX", smd_store_tmp_dir(req->srv->store)) != 0 ||
         smd_pathf(out, sizeof out, "%s.out.%s", in, ext) != 0)
         return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "path too long");
@@ -456,8 +557,13 @@ static enum MHD_Result warp_file_answer(struct MHD_Connection *conn, smd_request
                                  : status == 503 ? SMD_PROBLEM_UNAVAILABLE
                                                  : SMD_PROBLEM_INTERNAL,
                                  "%s", msg);
-    struct MHD_Response *resp =
-        smd_buffer_response(conn, req, b->kind == BODY_FIELD ? SOL_MEDIA : MESH_MEDIA, body, len);
+    const char *media = SOL_MEDIA;
+    for (size_t i = 0; b->kind != BODY_FIELD && i < NMESH_MEDIA; i++)
+        if (strcmp(MESH_MEDIA_TABLE[i].ext, ext) == 0) {
+            media = MESH_MEDIA_TABLE[i].media; /* the first: .mesh is Medit ASCII */
+            break;
+        }
+    struct MHD_Response *resp = smd_buffer_response(conn, req, media, body, len);
     if (!resp)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
     return smd_reply(conn, req, 200, resp);

@@ -4,9 +4,11 @@
 # smooth bend), every answer checked by that script's brute force:
 # points forward (barycentric images, inside flags, outside points
 # extrapolated), inverse(forward(x)) = x, the template and its Gmsh copy
-# warped to .mesh, .meshb and .vtu, its boundary as OBJ and STL, a vector
-# field to A v (and normalized); malformed CSV lines named, --strict,
-# usage errors with their exit codes.  2D and 3D.
+# warped to .mesh, .meshb and .vtu, its boundary as OBJ, STL, PLY, OFF,
+# VTK and VTU, a vector
+# field to A v (and normalized), a symmetric tensor field (Medit type 3)
+# to A T Aᵀ and back; malformed CSV lines named, --strict, usage errors
+# with their exit codes.  2D and 3D.
 source "$(dirname "$0")/../lib/cli.sh"
 CHECK="python3 $ROOT/tests/cli/warp_check.py"
 T2=$ROOT/examples/2d/template.mesh
@@ -89,6 +91,15 @@ expect_ok "3d: the boundary as STL warped" "$BIN" warp --result "$dir" --mesh "$
     -o "$dir/s.stl"
 expect_ok "3d: STL vertices are the map's (single precision)" $CHECK surfcheck "$WORK/s.stl" \
     "$dir/s.stl" 2e-6
+for fmt in ply off vtk vtu; do
+    expect_ok "3d: the boundary warped to .$fmt (sm_surface_write)" "$BIN" warp -q \
+        --result "$dir" --mesh "$WORK/s.obj" -o "$dir/s.$fmt"
+    expect_ok "3d: .$fmt vertices are the map's (read by the check script)" $CHECK surfcheck \
+        "$WORK/s.obj" "$dir/s.$fmt" 1e-12
+    expect_ok "3d: .$fmt read back by shapematch and warped back to the boundary" sh -c \
+        "'$BIN' warp -q --result '$dir' --inverse --mesh '$dir/s.$fmt' -o '$dir/s-back-$fmt.obj' &&
+         $CHECK surfcheck '$WORK/s.obj' '$dir/s-back-$fmt.obj' 1e-12 identity"
+done
 
 # --- fields: a constant vector (1, 2[, 3]) under the affine map
 for dim in 2d 3d; do
@@ -110,6 +121,15 @@ PY
     expect_ok "$dim: --normalize" "$BIN" warp --result "$dir" --normalize --field "$dir/v.sol" \
         -o "$dir/Av1.sol"
     expect_ok "$dim: it equals A v / |A v|" $CHECK field "$tmpl" "$dir/Av1.sol" 1
+    $CHECK tensor_make "$tmpl" "$dir/T.sol"
+    expect_ok "$dim: a symmetric tensor field (type 3) warped" "$BIN" warp --result "$dir" \
+        --field "$dir/T.sol" -o "$dir/ATAt.solb"
+    expect_ok "$dim: it equals A T Aᵀ at every vertex" sh -c \
+        "'$BIN' warp -q --result '$dir' --field '$dir/T.sol' -o '$dir/ATAt.sol' &&
+         $CHECK tensor_check '$tmpl' '$dir/ATAt.sol' affine"
+    expect_ok "$dim: back with --inverse (.solb in) it is T again" sh -c \
+        "'$BIN' warp -q --result '$dir' --inverse --field '$dir/ATAt.solb' -o '$dir/T-back.sol' &&
+         $CHECK tensor_check '$tmpl' '$dir/T-back.sol' identity"
 done
 
 # --- bad inputs and usage
@@ -124,8 +144,12 @@ printf '0.5,0.5,0.5\n' >"$WORK/p3.csv"
 expect_fail "3D points on a 2D map" 2 "3D points and the map is 2D" \
     "$BIN" warp --result "$dir" --points "$WORK/p3.csv" -o "$WORK/o.csv"
 printf '0.5,0.5\n5,5\n' >"$WORK/out.csv"
-expect_fail "--strict refuses a point outside" 2 "point 2 is outside the template" \
+expect_fail "--strict refuses a point outside" 2 "line 2: point (5, 5) is outside the template" \
     "$BIN" warp --result "$dir" --strict --points "$WORK/out.csv" -o "$WORK/o.csv"
+printf 'x,y\n\n0.5,0.5\r\n  \n0.25,0.5\n5,5\n' >"$WORK/out-lines.csv"
+expect_fail "--strict names the CSV line (header and blank lines counted)" 2 \
+    "out-lines.csv: line 6: point (5, 5) is outside the template (distance " \
+    "$BIN" warp --result "$dir" --strict --points "$WORK/out-lines.csv" -o "$WORK/o.csv"
 expect_ok "without --strict it is flagged" "$BIN" warp -q --result "$dir" \
     --points "$WORK/out.csv" -o "$WORK/o.csv"
 if [ "$(sed -n 3p "$WORK/o.csv" | cut -d, -f3)" = 0 ]; then

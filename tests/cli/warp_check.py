@@ -264,7 +264,24 @@ def read_surface_vertices(path):
             rec = struct.unpack("<12f", data[84 + 50 * k:84 + 50 * k + 48])
             pts += [list(rec[3 + 3 * i:6 + 3 * i]) for i in range(3)]
         return pts
-    return [[float(t) for t in l.split()[1:4]] for l in data.decode().splitlines()
+    if path.endswith(".vtu"):
+        return read_vtu_points(path)
+    text = data.decode()
+    if path.endswith((".ply", ".off", ".vtk")):
+        # ASCII PLY (after end_header), OFF (after the counts line), VTK
+        # legacy (after POINTS n double): n lines of x y z, read here
+        # independently of the C readers
+        lines = text.splitlines()
+        if path.endswith(".ply"):
+            n = int(next(l for l in lines if l.startswith("element vertex")).split()[2])
+            at = lines.index("end_header") + 1
+        elif path.endswith(".off"):
+            n, at = int(lines[1].split()[0]), 2
+        else:
+            at = next(i for i, l in enumerate(lines) if l.startswith("POINTS"))
+            n, at = int(lines[at].split()[1]), at + 1
+        return [[float(t) for t in l.split()[:3]] for l in lines[at:at + n]]
+    return [[float(t) for t in l.split()[1:4]] for l in text.splitlines()
             if l.startswith("v ")]
 
 
@@ -310,8 +327,74 @@ def cmd_vtu(template, kind, inp, outp):
     print("%d vtu points checked" % len(vin))
 
 
+# Symmetric tensors in Medit's order (the lower triangle row by row):
+# (i, j) -> index, 2D xx xy yy, 3D xx xy yy xz yz zz.
+TENSOR_INDEX = {2: [[0, 1], [1, 2]], 3: [[0, 1, 3], [1, 2, 4], [3, 4, 5]]}
+
+
+def vertex_tensor(x, dim):
+    """A symmetric tensor that varies from vertex to vertex, with distinct
+    off-diagonal entries (a swapped order would show)."""
+    t = [[0.0] * dim for _ in range(dim)]
+    for i in range(dim):
+        for j in range(i, dim):
+            t[i][j] = t[j][i] = (i + 1) * 0.7 + (j + 2) * x[j % dim] - 0.3 * (i == j) * x[i]
+    return t
+
+
+def cmd_tensor_make(template, out):
+    dim, verts = read_medit(template)[:2]
+    idx = TENSOR_INDEX[dim]
+    lines = []
+    for x in verts:
+        t = vertex_tensor(x, dim)
+        comps = [0.0] * (dim * (dim + 1) // 2)
+        for i in range(dim):
+            for j in range(i + 1):
+                comps[idx[i][j]] = t[i][j]
+        lines.append(" ".join("%.17g" % c for c in comps))
+    open(out, "w").write("MeshVersionFormatted 2\nDimension %d\nSolAtVertices\n%d\n1 3\n%s\nEnd\n"
+                         % (dim, len(verts), "\n".join(lines)))
+
+
+def cmd_tensor_check(template, outp, kind):
+    """outp holds A T Aᵀ (kind "affine") or T itself ("identity") at each
+    template vertex, T = vertex_tensor(template vertex), A the affine map's
+    matrix: the analytic F T Fᵀ of an affine map, whose gradient is A in
+    every element."""
+    dim, verts = read_medit(template)[:2]
+    idx = TENSOR_INDEX[dim]
+    nc = dim * (dim + 1) // 2
+    toks = open(outp).read().split()
+    i = toks.index("SolAtVertices")
+    n = int(toks[i + 1])
+    if n != len(verts) or toks[i + 2:i + 4] != ["1", "3"]:
+        fail("expected %d vertices of type 3, found %s" % (len(verts), toks[i + 1:i + 4]))
+    vals = [float(t) for t in toks[i + 4:i + 4 + n * nc]]
+    a = [row[:dim] for row in A[:dim]]
+    worst = 0.0
+    for p, x in enumerate(verts):
+        t = vertex_tensor(x, dim)
+        if kind == "affine":
+            at = [[sum(a[r][k] * t[k][c] for k in range(dim)) for c in range(dim)]
+                  for r in range(dim)]
+            t = [[sum(at[r][k] * a[c][k] for k in range(dim)) for c in range(dim)]
+                 for r in range(dim)]
+        scale = max(abs(v) for row in t for v in row)
+        for r in range(dim):
+            for c in range(r + 1):
+                err = abs(vals[p * nc + idx[r][c]] - t[r][c]) / scale
+                worst = max(worst, err)
+                if err > 1e-12:
+                    fail("vertex %d (%d,%d): %r, expected %r" % (p + 1, r, c,
+                                                                  vals[p * nc + idx[r][c]],
+                                                                  t[r][c]))
+    print("%d tensors checked, worst relative error %.2g" % (n, worst))
+
+
 if __name__ == "__main__":
     cmds = {"make": cmd_make, "points": cmd_points, "forward": cmd_forward,
             "roundtrip": cmd_roundtrip, "mesh": cmd_mesh, "field": cmd_field,
-            "surface": cmd_surface, "surfcheck": cmd_surfcheck, "vtu": cmd_vtu}
+            "surface": cmd_surface, "surfcheck": cmd_surfcheck, "vtu": cmd_vtu,
+            "tensor_make": cmd_tensor_make, "tensor_check": cmd_tensor_check}
     cmds[sys.argv[1]](*sys.argv[2:])

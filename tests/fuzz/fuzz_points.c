@@ -2,7 +2,8 @@
  * (proto/sm_points_csv.c): any input is parsed or refused with a message;
  * an accepted one formats and parses back to the same points bit for bit
  * (%.17g), with the same dimension and header (x,y[,z] when it had
- * none). */
+ * none); sm_points_csv_line names, for every point, a line that holds
+ * exactly that point, the lines increasing. */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -10,6 +11,37 @@
 #include "sm_points_csv.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+/* Each point's line (sm_points_csv_line), parsed alone, is that point. */
+static void check_lines(const char *data, size_t size, const sm_points *p)
+{
+    long prev = 0;
+    const char *at = data;
+    long at_line = 1;
+    for (int64_t i = 0; i < p->n && i < 2000; i++) {
+        long line = sm_points_csv_line(data, size, p->header != NULL, i);
+        if (line <= prev)
+            abort();
+        prev = line;
+        for (; at_line < line; at_line++) {
+            const char *nl = memchr(at, '\n', size - (size_t)(at - data));
+            if (!nl)
+                abort();
+            at = nl + 1;
+        }
+        const char *nl = memchr(at, '\n', size - (size_t)(at - data));
+        size_t n = nl ? (size_t)(nl - at) : size - (size_t)(at - data);
+        sm_points one;
+        sm_error err;
+        if (sm_points_csv_parse(at, n, 0, &one, &err) != SM_OK || one.n != 1 || one.header ||
+            memcmp(one.xyz, p->xyz + (size_t)i * (size_t)p->dim,
+                   (size_t)p->dim * sizeof *one.xyz) != 0)
+            abort();
+        sm_points_release(&one);
+    }
+    if (sm_points_csv_line(data, size, p->header != NULL, p->n) != 0)
+        abort();
+}
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
@@ -23,6 +55,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     if ((p.dim != 2 && p.dim != 3) || p.n < 1)
         abort();
+    check_lines((const char *)data, size, &p);
     uint8_t *inside = calloc((size_t)p.n, 1);
     size_t len;
     char *text = inside ? sm_points_csv_format(&p, p.xyz, inside, &len) : NULL;

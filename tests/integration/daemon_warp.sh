@@ -2,7 +2,8 @@
 # POST /v1/jobs/{id}/warp on a real daemon (docs/warp.md): on a finished
 # disk job, the CSV answer is byte for byte `shapematch warp --result` on
 # the fetched results, and `shapematch warp --job ID` gives the same
-# file, as do a mesh and a field sent to the daemon; the template's vertices go onto the result's (checked against
+# file, as do a mesh, a surface (in its own format or format=vtu) and a
+# field sent to the daemon; the template's vertices go onto the result's (checked against
 # result.mesh); inverse(forward(x)) = x through JSON; a malformed CSV line
 # is named (400), a body over --max-upload is 413, a running job 409, an
 # unknown job and another tenant's job 404, the query's direction
@@ -132,6 +133,33 @@ if [ "$code" = 200 ] && cmp -s "$WORK/v-warped.sol" "$WORK/v-cli.sol"; then
 else
     not_ok "field over HTTP" "code $code" "$(head -c 300 "$WORK/v-warped.sol")"
 fi
+# a surface (here a VTK legacy polyline, the 2D job's kind of surface):
+# answered in its own format, or as format=vtu, each the CLI's file
+python3 - "$WORK/circle.vtk" <<'PY'
+import math, sys
+n = 64
+pts = "".join("%.17g %.17g 0\n" % (0.4 * math.cos(2 * math.pi * k / n),
+                                    0.4 * math.sin(2 * math.pi * k / n)) for k in range(n))
+lines = "".join("2 %d %d\n" % (k, (k + 1) % n) for k in range(n))
+open(sys.argv[1], "w").write("# vtk DataFile Version 3.0\ncircle\nASCII\nDATASET POLYDATA\n"
+                             "POINTS %d double\n%sLINES %d %d\n%s" % (n, pts, n, 3 * n, lines))
+PY
+for fmt in vtk vtu; do
+    q=""
+    [ "$fmt" = vtu ] && q="?format=vtu"
+    code=$(hcurl "${AUTH[@]}" -o "$WORK/circle-http.$fmt" -D "$WORK/circle.h" -w '%{http_code}' \
+        -H 'Content-Type: application/x-vtk' --data-binary "@$WORK/circle.vtk" \
+        "$BASE/v1/jobs/$J/warp$q")
+    "$SM" warp -q --result "$WORK/res" --mesh "$WORK/circle.vtk" -o "$WORK/circle-cli.$fmt"
+    media=$(tr -d '\r' <"$WORK/circle.h" | awk -F': ' 'tolower($1) == "content-type" { print $2 }')
+    if [ "$code" = 200 ] && cmp -s "$WORK/circle-http.$fmt" "$WORK/circle-cli.$fmt" &&
+        [ "$media" = "application/x-$fmt" ]; then
+        ok "a surface (VTK polyline) answered as .$fmt ($media): the CLI's file"
+    else
+        not_ok "surface over HTTP as .$fmt" "code $code, $media" \
+            "$(head -c 300 "$WORK/circle-http.$fmt")"
+    fi
+done
 # errors, as problem+json
 problem() { # DESC STATUS DETAIL-PART CURL-ARGS...
     local desc=$1 want=$2 part=$3 code
@@ -154,8 +182,22 @@ problem "a malformed CSV line is named" 400 "line 4" "${CSV[@]}" --data-binary "
     "$BASE/v1/jobs/$J/warp"
 problem "a bad direction" 400 "direction" "${CSV[@]}" --data-binary $'0,0\n' \
     "$BASE/v1/jobs/$J/warp?direction=sideways"
-problem "strict: a point outside refused" 422 "point 2 is outside" "${CSV[@]}" \
-    --data-binary $'0,0\n3,3\n' "$BASE/v1/jobs/$J/warp?strict=true"
+problem "a volume mesh asked as STL" 422 "answered as format=mesh or vtu" \
+    -H 'Content-Type: application/x-medit-mesh' --data-binary "@$DISK" \
+    "$BASE/v1/jobs/$J/warp?format=stl"
+problem "an unknown format" 400 "format: expected mesh, vtu" \
+    -H 'Content-Type: model/stl' --data-binary "@$DISK" "$BASE/v1/jobs/$J/warp?format=step"
+printf 'solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid s\n' >"$WORK/tri.stl"
+problem "a 3D surface on the 2D map" 422 "a 3D mesh, and the map is 2D" \
+    -H 'Content-Type: model/stl' --data-binary "@$WORK/tri.stl" "$BASE/v1/jobs/$J/warp"
+problem "garbage as a surface: both readers' messages" 400 "neither a mesh" \
+    -H 'Content-Type: model/obj' --data-binary 'not a surface' "$BASE/v1/jobs/$J/warp"
+problem "strict: a point outside refused, its CSV line named" 422 \
+    "line 4: point (3, 3) is outside" "${CSV[@]}" \
+    --data-binary $'x,y\n0,0\n\n3,3\n' "$BASE/v1/jobs/$J/warp?strict=true"
+problem "strict JSON: the point's index named" 422 "points[1]: point (3, 3) is outside" \
+    -H 'Content-Type: application/json' \
+    --data-binary '{"points": [[0, 0], [3, 3]], "strict": true}' "$BASE/v1/jobs/$J/warp"
 head -c 500000 /dev/zero | tr '\0' '\n' >"$WORK/big.csv"
 problem "a body over --max-upload" 413 "--max-upload" "${CSV[@]}" --data-binary "@$WORK/big.csv" \
     "$BASE/v1/jobs/$J/warp"

@@ -393,6 +393,42 @@ class Sdf(unittest.TestCase):
         shutil.rmtree(tmp, ignore_errors=True)
 
 
+class StartUp(unittest.TestCase):
+    """What keeps `python3 -c 'shapematch.match(...).write(dir)'` near the
+    command's time (bench/python.sh): neither numpy nor json is imported
+    unless an array or the summary is read, and the params document is
+    encoded exactly as json.dumps would."""
+
+    def test_match_and_write_import_neither_numpy_nor_json(self):
+        script = ("import sys, shapematch\n"
+                  "r = shapematch.match(%r, max_iter=2, target_mesh=%r, target_sol=%r, "
+                  "clamp_ball=(0.5, 0.5, 0.04))\n"
+                  "r.write(%r)\n"
+                  "print(sorted(m for m in ('numpy', 'json', 're') if m in sys.modules))\n"
+                  "r.vertices, r.summary\n"
+                  "print('numpy' in sys.modules or shapematch._arrays.numpy is None, "
+                  "'json' in sys.modules)\n" % (TEMPLATE2, CASE2["target_mesh"],
+                                                CASE2["target_sol"], tempfile.mkdtemp()))
+        out = subprocess.run([sys.executable, "-c", script], check=True, capture_output=True,
+                             text=True, env=dict(os.environ, PYTHONPATH=os.path.join(ROOT, "python")))
+        self.assertEqual(out.stdout.split("\n")[:2], ["[]", "True True"], out.stdout + out.stderr)
+
+    def test_params_json_is_json_dumps(self):
+        docs = [{"max_iter": 12, "young": 2.5e-3, "free_boundary": [7, 8], "solver": "amg",
+                 "clamp": {"kind": "ball", "center": [0.5, 0.5], "radius": 0.04},
+                 "flag": True, "none": None, "neg": -0.0, "big": 2 ** 70, "tiny": 1e-300,
+                 "odd": "q\"b\\s\n\t\x01\x7f \u00e9 \U0001F600",
+                 "inf": float("inf"), "ninf": float("-inf"), "nan": float("nan")}]
+        if _arrays.numpy is not None:
+            np = _arrays.numpy
+            docs.append({"refs": np.array([1, 2], dtype=np.int32), "x": np.float64(0.1),
+                         "center": np.array([0.5, 0.25])})
+        for d in docs:
+            self.assertEqual(shapematch._json(d), json.dumps(d, default=lambda x: x.tolist()))
+        with self.assertRaises(TypeError):
+            shapematch._json({"x": object()})
+
+
 if __name__ == "__main__":
     unittest.main()
 

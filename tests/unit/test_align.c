@@ -13,11 +13,14 @@
 #include <cmocka.h>
 
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "shapematch/sm_align.h"
+#include "shapematch/sm_clock.h"
 #include "shapematch/sm_field.h"
 #include "shapematch/sm_sdf.h"
 #include "shapematch/sm_surface.h"
@@ -478,6 +481,78 @@ static void test_refusals(void **state)
     sm_mesh_free(m);
 }
 
+/* A cancel during the alignment: the flag is polled before every pass
+ * over the boundary points, so the run returns within about a pass of the
+ * flag being set, cancelled, however far it had to go.  The flag is set
+ * by another thread a third of the way through a full alignment (the
+ * job runner's cancel from a signal or a daemon's DELETE arrives so). */
+typedef struct canceller {
+    volatile int flag;
+    double delay, set_at;
+} canceller;
+
+static void *cancel_later(void *arg)
+{
+    canceller *c = arg;
+    struct timespec ts = {(time_t)c->delay, (long)((c->delay - (time_t)c->delay) * 1e9)};
+    nanosleep(&ts, NULL);
+    c->set_at = sm_clock_seconds();
+    c->flag = 1;
+    return NULL;
+}
+
+static void test_cancel(void **state)
+{
+    (void)state;
+    sm_mesh *m = shape(3);
+    double axis[3] = {1, -2, 0.5}, r[3][3], b[3] = {30, -10, 4};
+    rotation(3, axis, 2.9, r);
+    sm_transform truth;
+    make_transform(3, r, 2.5, b, &truth);
+    target t;
+    make_target(m, &truth, &t);
+    sm_align_opts o = {.mode = SM_ALIGN_AFFINE, .template_mesh = m, .target = t.field,
+                       .background = t.bg, .distance = t.values};
+    sm_align_result full, res;
+    sm_error err;
+    assert_int_equal(sm_align_run(&o, &full, &err), SM_OK);
+    assert_int_equal(full.cancelled, 0);
+    /* set before the start: only the passes before the first poll (the
+     * points, rms_before, the moments) */
+    canceller c = {.flag = 1};
+    o.cancel = &c.flag;
+    assert_int_equal(sm_align_run(&o, &res, &err), SM_OK);
+    assert_int_equal(res.cancelled, 1);
+    assert_int_equal(res.iterations, 0);
+    double before_poll = res.seconds;
+    /* set by another thread mid-way */
+    c.flag = 0;
+    c.delay = full.seconds / 3;
+    pthread_t th;
+    assert_int_equal(pthread_create(&th, NULL, cancel_later, &c), 0);
+    assert_int_equal(sm_align_run(&o, &res, &err), SM_OK);
+    double returned = sm_clock_seconds();
+    pthread_join(th, NULL);
+    double latency = returned - c.set_at;
+    print_message("# cancel: full alignment %.3f s (%d iterations); preset flag %.4f s; set at "
+                  "%.3f s: returned %.4f s later, cancelled %d, %d iterations\n",
+                  full.seconds, full.iterations, before_poll, c.delay, latency, res.cancelled,
+                  res.iterations);
+    if (res.cancelled) {
+        assert_true(res.iterations < full.iterations);
+        assert_true(isnan(res.rms_after));
+        /* a pass costs less than the preset run's few passes; the
+         * slack, a quarter of the full run (the same machine's speed), is
+         * for a descheduled thread on a loaded machine: without the polls
+         * the run would go on for two thirds of it */
+        assert_true(latency < before_poll + 0.25 * full.seconds);
+    } else { /* the thread was late (a loaded machine): it ended first */
+        assert_true(latency <= 0);
+    }
+    target_free(&t);
+    sm_mesh_free(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -485,6 +560,7 @@ int main(void)
         cmocka_unit_test(test_landmarks_refused), cmocka_unit_test(test_landmarks_csv),
         cmocka_unit_test(test_known_3d),        cmocka_unit_test(test_known_2d),
         cmocka_unit_test(test_landmark_start),  cmocka_unit_test(test_refusals),
+        cmocka_unit_test(test_cancel),
     };
     return cmocka_run_group_tests(tests, NULL, free_shapes);
 }

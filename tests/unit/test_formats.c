@@ -567,7 +567,8 @@ static void test_sol_round_trips(void **state)
     fixture *f = *state;
     const char *names[] = {"s.sol", "s.solb", "s.sol.gz", "s.solb.gz"};
     for (int dim = 2; dim <= 3; dim++)
-        for (int ncomp = 1; ncomp <= dim; ncomp += dim - 1) {
+        for (int kind = 0; kind < 3; kind++) { /* scalar, vector, symmetric tensor */
+            const int ncomp = kind == 0 ? 1 : kind == 1 ? dim : dim * (dim + 1) / 2;
             sm_sol *s;
             sm_error err;
             assert_int_equal(sm_sol_alloc(&s, dim, 57, ncomp, &err), SM_OK);
@@ -624,6 +625,41 @@ static void test_solb_versions_and_byte_orders(void **state)
                 assert_true(s->values[i] == vals[i]);
             sm_sol_free(s);
         }
+}
+
+static char *slurp(const char *path);
+
+/* A symmetric tensor field (type 3) as Medit and Mmg write it: the lower
+ * triangle row by row, xx xy yy xz yz zz; read in that order and written
+ * back as type 3. */
+static void test_sol_symmetric_tensor(void **state)
+{
+    fixture *f = *state;
+    const char *text = "MeshVersionFormatted 2\nDimension 3\nSolAtVertices\n2\n1 3\n"
+                       "1 2 3 4 5 6\n-1 0.5 2 0 0 7\nEnd\n";
+    char path[600], out[600];
+    path_in(f, "t.sol", path, sizeof path);
+    path_in(f, "t-out.sol", out, sizeof out);
+    write_file(path, text, strlen(text));
+    sm_sol *s = NULL;
+    sm_error err;
+    if (sm_sol_read(path, &s, &err) != SM_OK)
+        fail_msg("%s", err.msg);
+    assert_int_equal(s->ncomp, 6);
+    const double want[12] = {1, 2, 3, 4, 5, 6, -1, 0.5, 2, 0, 0, 7};
+    for (int i = 0; i < 12; i++)
+        assert_true(s->values[i] == want[i]);
+    if (sm_sol_write(out, s, &err) != SM_OK)
+        fail_msg("%s", err.msg);
+    char *back = slurp(out);
+    assert_non_null(strstr(back, "\n1 3\n"));
+    free(back);
+    sm_sol_free(s);
+    /* a 2D tensor has 3 components; a count of 6 is not a tensor */
+    assert_int_equal(sm_sol_alloc(&s, 2, 1, 3, &err), SM_OK);
+    sm_sol_free(s);
+    assert_int_equal(sm_sol_alloc(&s, 2, 1, 6, &err), SM_ERR_INVALID);
+    assert_null(s);
 }
 
 static void test_sol_ascii_variants(void **state)
@@ -882,6 +918,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_solb_versions_and_byte_orders, setup_dir,
                                         teardown_dir),
         cmocka_unit_test_setup_teardown(test_sol_ascii_variants, setup_dir, teardown_dir),
+        cmocka_unit_test_setup_teardown(test_sol_symmetric_tensor, setup_dir, teardown_dir),
         cmocka_unit_test_setup_teardown(test_vtu_2d, setup_dir, teardown_dir),
         cmocka_unit_test_setup_teardown(test_vtu_3d, setup_dir, teardown_dir),
         cmocka_unit_test_setup_teardown(test_write_errors, setup_dir, teardown_dir),

@@ -181,6 +181,27 @@ static void test_stop_and_cancel(void **state)
     sm_run_history(r, &nh);
     assert_true(nh <= 2);
     sm_run_free(r);
+    /* a cancel before or during the alignment ends the run there: the
+     * template unmoved, no descent (no history), what only the descent
+     * measures null, the alignment not reported as done */
+    assert_int_equal(sm_run_job(&files, BALL ", \"align\": \"rigid\"}", NULL, NULL, &cancel, &r,
+                                &err),
+                     SM_OK);
+    assert_string_equal(sm_run_outcome(r), "cancelled");
+    assert_int_equal(sm_run_exit_code(r), SM_JOB_EXIT_CANCELLED);
+    assert_non_null(strstr(sm_run_message(r), "during the alignment"));
+    sm_run_history(r, &nh);
+    assert_int_equal(nh, 0);
+    assert_memory_equal(sm_run_coords(r), sm_run_init_coords(r),
+                        (size_t)sm_run_nverts(r) * 2 * sizeof(double));
+    json_t *sum = json_loads(sm_run_summary(r), 0, NULL);
+    assert_non_null(sum);
+    assert_string_equal(json_string_value(json_object_get(sum, "status")), "cancelled");
+    assert_string_equal(json_string_value(json_object_get(sum, "stop_reason")), "cancelled");
+    assert_true(json_is_null(json_object_get(sum, "boundary_l2")));
+    assert_null(json_object_get(sum, "alignment"));
+    json_decref(sum);
+    sm_run_free(r);
 }
 
 static void test_errors(void **state)

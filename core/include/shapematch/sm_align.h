@@ -69,6 +69,11 @@ typedef struct sm_align_opts {
     const sm_transform *start;        /* NULL: the moments' candidates; else
                                        * this start (landmarks) refined */
     int max_iter;                     /* refinement iterations; 0: 100 */
+    const volatile int *cancel;       /* may be NULL; nonzero: stop.  Polled
+                                       * before each pass over the points
+                                       * (a candidate's screening, an
+                                       * iteration, a damping trial), so a
+                                       * cancel waits for at most one pass */
 } sm_align_opts;
 
 typedef struct sm_align_result {
@@ -80,12 +85,16 @@ typedef struct sm_align_result {
     int iterations;                   /* refinement iterations (all stages) */
     int candidates;                   /* starts tried (1 with a given start) */
     double seconds;
+    int cancelled;                    /* 1: *cancel stopped it; transform and
+                                       * rms_after are then where it stood,
+                                       * not an alignment */
 } sm_align_result;
 
 /* Computes the alignment.  SM_ERR_INVALID for mode NONE, a template with
  * no boundary or volume, a target with no inside region (d >= 0 at every
  * background vertex) without a start, a dimension mismatch; SM_ERR_NOMEM.
- * Deterministic (its parallel loops are per point). */
+ * Deterministic (its parallel loops are per point).  A cancel is not an
+ * error: SM_OK with out->cancelled set (like a cancelled descent). */
 sm_status sm_align_run(const sm_align_opts *opts, sm_align_result *out, sm_error *err);
 
 /* Kabsch (rigid) or Umeyama (similarity) least-squares transform taking

@@ -26,15 +26,17 @@
 #include "sm_error.h"
 #include "sm_mesh.h"
 
-/* A solution file: one field (SolAtVertices), scalar or vector. */
+/* A solution file: one field (SolAtVertices), scalar, vector or
+ * symmetric tensor (Medit type 3, components xx, xy, yy[, xz, yz, zz]). */
 typedef struct sm_sol {
     int dim;            /* 2 or 3 (the file's Dimension) */
     int32_t nverts;
-    int ncomp;          /* 1 (scalar) or dim (vector) */
+    int ncomp;          /* 1 (scalar), dim (vector), dim*(dim+1)/2 (tensor) */
     double *values;     /* nverts * ncomp */
 } sm_sol;
 
-/* Zero-filled solution; ncomp must be 1 or dim.  Free with sm_sol_free. */
+/* Zero-filled solution; ncomp must be 1, dim or dim*(dim+1)/2.  Free
+ * with sm_sol_free. */
 sm_status sm_sol_alloc(sm_sol **out, int dim, int32_t nverts, int ncomp,
                        sm_error *err);
 void sm_sol_free(sm_sol *s);
@@ -108,7 +110,7 @@ sm_status sm_mesh_write_coords(const char *path, const sm_mesh *m,
                                const double *coords, sm_error *err);
 
 /* .sol, .solb, optionally .gz; SolAtVertices with exactly one field of
- * type 1 (scalar) or 2 (vector); Time and Iterations are ignored.  The
+ * type 1 (scalar), 2 (vector) or 3 (symmetric tensor, xx xy yy[ xz yz zz]); Time and Iterations are ignored.  The
  * writer uses ASCII for .sol and binary version 2 for .solb. */
 sm_status sm_sol_read(const char *path, sm_sol **out, sm_error *err);
 sm_status sm_sol_read_limited(const char *path, sm_read_limits *limits, sm_sol **out,

@@ -57,6 +57,20 @@ sm_status sm_surface_read(const char *path, sm_surface **out, sm_error *err);
 sm_status sm_surface_read_limited(const char *path, sm_read_limits *limits, sm_surface **out,
                                   sm_error *err);
 
+/* Writes s with coordinates coords (nverts*dim; NULL: s->coords), the
+ * format chosen by the name's extension: .mesh/.meshb (optionally .gz:
+ * Medit, facets only, with their references), .stl (binary, single
+ * precision), .obj (v and f, or l in 2D), .ply (ASCII), .off, .vtk
+ * (legacy ASCII POLYDATA) and .vtu (ASCII unstructured grid of triangles
+ * or lines) — the last two with a cell array "ref" of the references.
+ * STL, PLY and OFF hold triangles: a 2D polyline is SM_ERR_INVALID
+ * there.  The text formats write numbers with 17 significant digits (an
+ * exact round trip).  SM_ERR_INVALID for another extension, a
+ * non-finite coordinate or an index out of range; SM_ERR_IO. */
+#define SM_SURFACE_WRITE_FORMATS ".mesh, .meshb (optionally .gz), .stl, .obj, .ply, .off, .vtk, .vtu"
+sm_status sm_surface_write(const char *path, const sm_surface *s, const double *coords,
+                           sm_error *err);
+
 /* What sm_surface_repair found (and did): the surface health report.
  * Edges are the facets' sides in 3D and their end points in 2D. */
 typedef struct sm_surface_health {

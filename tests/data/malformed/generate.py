@@ -309,7 +309,12 @@ case("meshb-v4-reference-out-of-range", "input.meshb", b.end(), "out of the 32-b
 case("sol-empty-file", "input.sol", b"", "empty file")
 case("sol-two-fields", "input.sol", ascii_sol(fields="2 1 1"),
      "SolAtVertices has 2 fields; exactly one field is supported")
-case("sol-type-3", "input.sol", ascii_sol(fields="1 3"), "solution type 3 (symmetric matrix)")
+# a 2D symmetric tensor has 3 components (xx, xy, yy): 3 values are one record
+case("sol-tensor-short", "input.sol", ascii_sol(fields="1 3"),
+     "SolAtVertices count 3 cannot fit in the at most 16 bytes left")
+case("sol-tensor-nan", "input.sol",
+     ascii_sol(dim=3, n=1, fields="1 3", values=["1 0 1 0 nan 1"]),
+     "'nan' is not a finite number")
 case("sol-type-unknown", "input.sol", ascii_sol(fields="1 9"), "solution type 9 (unknown type)")
 case("sol-size-mismatch-vs-dimension", "input.sol",
      ascii_sol(dim=3, n=3, fields="1 2", values=["1 2", "3 4", "5 6"]),
@@ -332,6 +337,10 @@ case("sol-truncated-gz", "input.sol.gz", gzip.compress(ascii_sol())[:-10],
 case("solb-two-fields", "input.solb", scalar_solb(types=(1, 1)),
      "SolAtVertices has 2 fields; exactly one field is supported")
 case("solb-type-4", "input.solb", scalar_solb(types=(4,)), "solution type 4 (matrix)")
+# a 3D symmetric tensor is 6 reals: one record's worth under a count of 2
+case("solb-tensor-count-too-large", "input.solb",
+     scalar_solb(values=[1, 0, 1, 0, 0, 1], types=(3,), dim=3, ncomp=6, n=2),
+     "SolAtVertices count 2 cannot fit in the at most 56 bytes left")
 case("solb-size-mismatch-vs-dimension", "input.solb",
      # 2D vectors (4 records) under a Dimension 3 header claiming 2 records
      scalar_solb(values=[1, 2, 3, 4, 5, 6, 7, 8], types=(2,), dim=3, ncomp=2, n=2),

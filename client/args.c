@@ -266,7 +266,8 @@ static int apply_row(void *base, const sm_param_info *f, const char *value, char
         return args_parse_refs(f->flag, value, (int32_t *)at, (int)f->max,
                                (int *)((char *)base + f->count_offset), msg, cap);
     case SM_PARAM_SOLVER:
-    case SM_PARAM_ALIGN: {
+    case SM_PARAM_ALIGN:
+    case SM_PARAM_SPACE: {
         int k = sm_param_value_from_name(f, value);
         char names[96];
         sm_param_names_text(f, names, sizeof names);

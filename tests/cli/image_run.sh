@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # `shapematch run --target-image` end to end on the sphere of radius 10
 # that tests/cli/image_shapes.py rasterises at test time on an oblique,
-# anisotropic grid (NIfTI-1 and NRRD of the same array): a ball of radius
+# anisotropic grid (NIfTI-1): a ball of radius
 # 8.5 (gmsh) matched onto it ends with a boundary RMS against the exact
 # sphere at most half the voxel-centre EDT's; `sdf --image` then `run` on
-# its files gives the very same result (one field builder); the NRRD and
-# the NIfTI give the same result; summary.json reports the label; a label
+# its files gives the very same result (one field builder; the formats
+# give the same field: tests/cli/image.sh); summary.json reports the
+# label; --image-space ras matches a mirrored template; a label
 # that selects nothing, a second target and a label of another image
 # space fail with the documented exit codes.
 source "$(dirname "$0")/../lib/cli.sh"
@@ -21,11 +22,11 @@ SetFactory("OpenCASCADE");
 Sphere(1) = {4, 39, 9, 8.5};
 Mesh.MeshSizeFromPoints = 0;
 GEO
-gmsh "$WORK/ball.geo" -3 -format msh41 -clmax 2.5 -nt 1 -v 1 -o "$WORK/ball.msh" >/dev/null 2>&1
+gmsh "$WORK/ball.geo" -3 -format msh41 -clmax 3 -nt 1 -v 1 -o "$WORK/ball.msh" >/dev/null 2>&1
 check_rc $? "gmsh meshed the ball"
 # one thread: the runs below are compared bit for bit
 export OMP_NUM_THREADS=1
-RUN=(--template "$WORK/ball.msh" --clamp-ball 4,39,9,4.5 --max-iter 60 --quiet)
+RUN=(--template "$WORK/ball.msh" --clamp-ball 4,39,9,4.5 --max-iter 30 --quiet)
 
 # boundary RMS of a result against the exact sphere of radius 10 (centre
 # 4,39,9 or the one given)
@@ -68,13 +69,6 @@ cmp -s "$WORK/two/result.mesh" "$WORK/nii/result.mesh"
 check_rc $((rc | $?)) "sdf --image then run gives the result of run --target-image, bit for bit" \
     "$(head -c 300 "$WORK/two.err")"
 
-"$BIN" run "${RUN[@]}" --target-image "$WORK/gz.nrrd" -o "$WORK/nrrd" >/dev/null 2>"$WORK/nrrd.err"
-rc=$?
-[ $rc = 10 ] && rc=0
-cmp -s "$WORK/nrrd/result.mesh" "$WORK/nii/result.mesh"
-check_rc $((rc | $?)) "the NRRD (gzip) of the same array gives the same result" \
-    "$(head -c 300 "$WORK/nrrd.err")"
-
 jq -e '.target_image | .format == "NIfTI-1" and .voxels == 1921 and .components == 1
         and .touches_border == false and .label == null and .image_space == "lps"
         and (.bbox_min | length) == 3 and .background_generated and .exact_vertices > 0' \
@@ -108,7 +102,7 @@ while i < len(lines):
     i += 1
 open(sys.argv[2], 'w').write('\n'.join(out))
 PY
-"$BIN" run --template "$WORK/ras.msh" --clamp-ball -4,-39,9,4.5 --max-iter 60 --quiet \
+"$BIN" run --template "$WORK/ras.msh" --clamp-ball -4,-39,9,4.5 --max-iter 30 --quiet \
     --target-image "$WORK/s1.nii" --image-space ras -o "$WORK/ras" >/dev/null 2>"$WORK/ras.err"
 rc=$?
 [ $rc = 10 ] && rc=0

@@ -124,7 +124,7 @@ sm_status sm_job_image_background(const sm_image_target *t, const sm_job_image_i
      * over the box: a 256^3 map's 1.4M-voxel ellipsoid at 1 mm gave 1.65M
      * vertices (8.9 s of the command's 19.5 s), at 2.9 mm 0.2M */
     *size_used = size > 0 ? size : fmax(hmin, cbrt(vol / 250000.0));
-    return sm_background_graded_new(3, lo, hi, *size_used, sm_image_target_sdf(t), bg, err);
+    return sm_image_target_background(t, lo, hi, *size_used, bg, err);
 }
 
 sm_status sm_job_image_distance(const sm_image_target *t, const sm_mesh *bg, sm_sol **dist,

@@ -202,8 +202,17 @@ static void check_surface(const sm_job_inputs *in, sm_job_warnings *out)
 static void check_image(const sm_job_inputs *in, sm_job_warnings *out)
 {
     const sm_label_stats *s = &in->image.stats;
-    if (!in->has_image)
+    if (!in->has_image) { /* label, level, image_space select an image's
+                           * voxels: without one they change nothing */
+        const sm_params *p = &in->params;
+        int given = (p->label != 0) + (p->level != 0.5) + (p->image_space != SM_IMAGE_SPACE_LPS);
+        if (given)
+            add(out, "image-params-unused", (double)given,
+                "label, level and image_space are for a target image (--target-image, the part "
+                "target_image): this job's target is not one, and %d of them given change "
+                "nothing", given);
         return;
+    }
     if (s->touches_border)
         add(out, "label-touches-border", (double)s->voxels,
             "the label reaches the image's border: it is closed there, so the target may be cut "

@@ -69,6 +69,17 @@ cmp -s "$WORK/two/result.mesh" "$WORK/nii/result.mesh"
 check_rc $((rc | $?)) "sdf --image then run gives the result of run --target-image, bit for bit" \
     "$(head -c 300 "$WORK/two.err")"
 
+jq -e '[.warnings[].code] | index("image-params-unused") == null' "$WORK/two/summary.json" \
+    >/dev/null && "$BIN" run "${RUN[@]}" --target-mesh "$WORK/sdf/background.mesh" \
+    --target-sol "$WORK/sdf/background.sol" --label 1 --max-iter 1 -o "$WORK/unused" \
+    >/dev/null 2>"$WORK/unused.err"
+rc=$?
+[ $rc = 10 ] && rc=0
+[ $rc = 0 ] && grep -q "warning: image-params-unused" "$WORK/unused.err" &&
+    jq -e '[.warnings[].code] | index("image-params-unused") != null' "$WORK/unused/summary.json" >/dev/null
+check_rc $? "--label with a target that is not an image: warning image-params-unused" \
+    "rc $rc: $(head -c 300 "$WORK/unused.err")"
+
 jq -e '.target_image | .format == "NIfTI-1" and .voxels == 1921 and .components == 1
         and .touches_border == false and .label == null and .image_space == "lps"
         and (.bbox_min | length) == 3 and .background_generated and .exact_vertices > 0' \

@@ -266,7 +266,8 @@ static int apply_row(void *base, const sm_param_info *f, const char *value, char
         return args_parse_refs(f->flag, value, (int32_t *)at, (int)f->max,
                                (int *)((char *)base + f->count_offset), msg, cap);
     case SM_PARAM_SOLVER:
-    case SM_PARAM_ALIGN: {
+    case SM_PARAM_ALIGN:
+    case SM_PARAM_SPACE: {
         int k = sm_param_value_from_name(f, value);
         char names[96];
         sm_param_names_text(f, names, sizeof names);
@@ -598,6 +599,7 @@ typedef enum run_flag_kind {
     RUN_FLAG_OUTPUT,
     RUN_FLAG_FORMAT,
     RUN_FLAG_TARGET_SURFACE,
+    RUN_FLAG_TARGET_IMAGE,
     RUN_FLAG_LANDMARKS,
     RUN_FLAG_QUIET,
     RUN_FLAG_JSON,
@@ -615,6 +617,7 @@ static run_flag_kind classify_run_flag(const char *flag, int *takes_value)
         {"--target-mesh", RUN_FLAG_TARGET_MESH, 1},
         {"--target-sol", RUN_FLAG_TARGET_SOL, 1},
         {"--target-surface", RUN_FLAG_TARGET_SURFACE, 1},
+        {"--target-image", RUN_FLAG_TARGET_IMAGE, 1},
         {"--landmarks", RUN_FLAG_LANDMARKS, 1},
         {"--output", RUN_FLAG_OUTPUT, 1},
         {"-o", RUN_FLAG_OUTPUT, 1},
@@ -646,6 +649,7 @@ static int apply_run_flag(run_options *o, run_flag_kind kind, const char *flag, 
     case RUN_FLAG_TARGET_MESH: path = &o->target_mesh_path; break;
     case RUN_FLAG_TARGET_SOL: path = &o->target_sol_path; break;
     case RUN_FLAG_TARGET_SURFACE: path = &o->target_surface_path; break;
+    case RUN_FLAG_TARGET_IMAGE: path = &o->target_image_path; break;
     case RUN_FLAG_LANDMARKS: path = &o->landmarks; break;
     case RUN_FLAG_OUTPUT: path = &o->outdir; break;
     case RUN_FLAG_FORMAT: {
@@ -709,14 +713,18 @@ static int finish_run_options(run_options *o, char *msg, size_t cap)
     };
     if (o->target_surface_path && o->target_sol_path)
         return cli_fail(msg, cap, "--target-surface excludes --target-sol: give one target");
+    if (o->target_image_path && (o->target_sol_path || o->target_surface_path))
+        return cli_fail(msg, cap, "--target-image excludes %s: give one target",
+                        o->target_sol_path ? "--target-sol" : "--target-surface");
     if (o->landmarks && finish_landmarks(o, msg, cap) != 0)
         return -1;
-    if (job_options_check_background(&o->job, o->target_surface_path, o->target_mesh_path, msg,
-                                     cap) != 0)
+    /* an image, like a surface, makes its own background */
+    const char *own_target = o->target_surface_path ? o->target_surface_path : o->target_image_path;
+    if (job_options_check_background(&o->job, own_target, o->target_mesh_path, msg, cap) != 0)
         return -1;
     for (size_t k = 0; k < sizeof required / sizeof required[0]; k++)
         if (!*(const char *const *)((const char *)o + required[k].offset) &&
-            !(o->target_surface_path && required[k].surface_replaces))
+            !(own_target && required[k].surface_replaces))
             return cli_fail(msg, cap, "missing required option %s", required[k].flag);
     return job_options_finish(&o->job, msg, cap);
 }

@@ -47,6 +47,7 @@ typedef struct run_options {
     const char *target_mesh_path;
     const char *target_sol_path;
     const char *target_surface_path; /* --target-surface (excludes --target-sol) */
+    const char *target_image_path;   /* --target-image (excludes both) */
     const char *landmarks;   /* --landmarks TEMPLATE.csv,TARGET.csv as given */
     char landmarks_template[4096], landmarks_target[4096]; /* split at the comma */
     const char *outdir;

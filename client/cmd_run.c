@@ -191,6 +191,32 @@ static void print_surface_health(const run_options *o, const sm_job_inputs *in)
             o->target_mesh_path, in->background->nverts, in->sdf_seconds);
 }
 
+/* The target image's label summary, on stderr (also with --quiet: it
+ * says which voxels became the target). */
+static void print_image_summary(const run_options *o, const sm_job_inputs *in)
+{
+    const sm_job_image_info *im = &in->image;
+    const sm_label_stats *s = &im->stats;
+    char what[64];
+    if (im->sel.has_label)
+        snprintf(what, sizeof what, "label %lld", (long long)im->sel.label);
+    else if (im->type == SM_VOXEL_F32 || im->type == SM_VOXEL_F64)
+        snprintf(what, sizeof what, "values >= %g", im->sel.level);
+    else
+        snprintf(what, sizeof what, "every nonzero voxel");
+    fprintf(stderr,
+            "shapematch: target image %s: %s, %lld x %lld x %lld %s, spacing %g x %g x %g; %s: "
+            "%lld voxels, %lld component(s), world box (%s) [%g, %g] x [%g, %g] x [%g, %g]; "
+            "distance on %s (%d vertices, %lld exact) in %.3f s\n",
+            o->target_image_path, im->format, (long long)im->dims[0], (long long)im->dims[1],
+            (long long)im->dims[2], sm_voxel_type_name(im->type), im->spacing[0], im->spacing[1],
+            im->spacing[2], what, (long long)s->voxels, (long long)s->components,
+            im->space == SM_IMAGE_SPACE_RAS ? "RAS" : "LPS", s->lo[0], s->hi[0], s->lo[1],
+            s->hi[1], s->lo[2], s->hi[2],
+            in->background_generated ? "a generated background" : o->target_mesh_path,
+            in->background->nverts, (long long)im->exact_vertices, in->sdf_seconds);
+}
+
 static int apply_params(run_options *o, sm_job_inputs *in)
 {
     char msg[ARGS_MSG_LEN];
@@ -287,6 +313,8 @@ void cmd_run_help(void)
            "                      -o OUTDIR\n"
            "       shapematch run --template T.mesh --target-surface S [--target-mesh B.mesh]\n"
            "                      CLAMP [PARAMETERS] [--format LIST] [--quiet] [--json]\n"
+           "                      -o OUTDIR\n"           "       shapematch run --template T.mesh --target-image IMG [--label N]\n"
+           "                      CLAMP [PARAMETERS] [--format LIST] [--quiet] [--json]\n"
            "                      -o OUTDIR\n"
            "\n"
            "Deforms the template mesh onto the target shape given by its signed distance\n"
@@ -295,6 +323,8 @@ void cmd_run_help(void)
            "any optionally .gz.  Or: --target-surface S [--target-mesh B] matches onto a\n"
            "surface (STL, OBJ, PLY, OFF, VTK, Medit, Gmsh): its exact signed distance is\n"
            "computed on B, or on a background generated around template and surface.\n"
+           "Or: --target-image IMG matches onto a label of a segmentation (NIfTI .nii[.gz],\n"
+           "NRRD .nrrd/.nhdr, MetaImage .mha/.mhd): the distance to its boundary likewise.\n"
            "\n"
            "Inputs and outputs:\n"
            "  --template FILE         template mesh (triangles in 2D, tetrahedra in 3D)\n"
@@ -302,7 +332,8 @@ void cmd_run_help(void)
            "  --target-sol FILE       signed distance of the target, one value per\n"
            "                          background vertex (scalar SolAtVertices)\n"
            "  --target-surface FILE   target surface instead of --target-sol; its health\n"
-           "                          report (holes, reoriented facets, ...) on stderr\n"
+           "                          report (holes, reoriented facets, ...) on stderr\n"           "  --target-image FILE     label-map image instead of --target-sol (--label,\n"
+           "                          --level, --image-space); its label summary on stderr\n"
            "  --landmarks T.csv,G.csv landmark pairs (rows x,y[,z], template's then\n"
            "                          target's) that start --align (Kabsch/Umeyama)\n");
     job_options_help_background(stdout);
@@ -367,6 +398,7 @@ int cmd_run(int argc, char **argv)
                                 .target_mesh = opt.target_mesh_path,
                                 .target_sol = opt.target_sol_path,
                                 .target_surface = opt.target_surface_path,
+                                .target_image = opt.target_image_path,
                                 .background_size = opt.job.background.size,
                                 .background_padding = opt.job.background.padding,
                                 .landmarks_template = opt.landmarks ? opt.landmarks_template : NULL,
@@ -384,6 +416,8 @@ int cmd_run(int argc, char **argv)
         return run_error(&opt, st == SM_ERR_NOMEM ? CLI_EXIT_NUMERIC : CLI_EXIT_INPUT, "%s", err.msg);
     if (in.has_surface)
         print_surface_health(&opt, &in);
+    if (in.has_image)
+        print_image_summary(&opt, &in);
     progress_set_goal(&ctx.display, in.params.max_iter, in.params.tol_boundary);
     warn_unknown_free_refs(&ctx, in.prepared);
 

@@ -3,7 +3,8 @@
  * background graded toward it — the target a matching run needs.
  *   shapematch sdf --image F [--label N] [--level L] [--image-space S] -o DIR
  * The label summary (voxels, components, world box) and its warnings go
- * to stderr.  Background: the generated graded one (sm_background.c), not
+ * to stderr.  The image, its selection and the background are
+ * sm_job_image.h's, the job runner's own (run --target-image).  Background: the generated graded one (sm_background.c), not
  * the image grid: the grid cropped to a sphere of radius 20 voxels (box
  * padded by 10 %) has ~100k voxels, 600k tetrahedra, where the graded
  * background has the same cell size at the boundary with a fraction of
@@ -20,6 +21,7 @@
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_path.h"
 #include "shapematch/sm_sdf.h"
+#include "job/sm_job_image.h"
 
 typedef struct image_options {
     const char *image, *out, *edt_out, *space;
@@ -64,7 +66,7 @@ static int parse(int argc, char **argv, image_options *o, int *done)
             long v;
             if (args_parse_int(flag, value, -2147483647L - 1, 4294967295L, &v, msg, sizeof msg) != 0)
                 return usage_error(msg);
-            o->sel.has_label = 1;
+            o->sel.has_label = v != 0; /* 0: every nonzero voxel, as params label */
             o->sel.label = v;
         } else {
             double *dst = strcmp(flag, "--level") == 0    ? &o->sel.level
@@ -84,13 +86,12 @@ static int parse(int argc, char **argv, image_options *o, int *done)
     return CLI_EXIT_OK;
 }
 
-static void summary(const image_options *o, const sm_image *im, const sm_label_stats *s)
+static void summary(const image_options *o, const sm_job_image_info *im)
 {
-    const double *m = im->ijk_to_lps;
+    const sm_label_stats *s = &im->stats;
     fprintf(stderr, "image %s: %s, %lld x %lld x %lld %s, spacing %g x %g x %g\n", o->image,
             im->format, (long long)im->dims[0], (long long)im->dims[1], (long long)im->dims[2],
-            sm_voxel_type_name(im->type), hypot(hypot(m[0], m[4]), m[8]),
-            hypot(hypot(m[1], m[5]), m[9]), hypot(hypot(m[2], m[6]), m[10]));
+            sm_voxel_type_name(im->type), im->spacing[0], im->spacing[1], im->spacing[2]);
     char what[64];
     if (o->sel.has_label)
         snprintf(what, sizeof what, "label %lld", (long long)o->sel.label);
@@ -142,40 +143,20 @@ static int write_edt(const image_options *o, const sm_image_target *t)
     return CLI_EXIT_OK;
 }
 
-/* The graded background around the label's surface, its distance. */
-static int distance(const image_options *o, const sm_image *im, sm_image_target *t)
+/* The graded background around the label's surface (sm_job_image.h:
+ * the one `run --target-image` builds, without a template), its
+ * distance. */
+static int distance(const image_options *o, sm_image_target *t, sm_job_image_info *info)
 {
-    const sm_surface *s = sm_image_target_surface(t);
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (int32_t v = 0; v < s->nverts; v++)
-        for (int k = 0; k < 3; k++) {
-            lo[k] = fmin(lo[k], s->coords[3 * v + k]);
-            hi[k] = fmax(hi[k], s->coords[3 * v + k]);
-        }
-    double diag = hypot(hypot(hi[0] - lo[0], hi[1] - lo[1]), hi[2] - lo[2]);
-    double pad = (o->padding >= 0 ? o->padding : 0.1) * diag, vol = 1;
-    for (int k = 0; k < 3; k++) {
-        lo[k] -= pad;
-        hi[k] += pad;
-        vol *= hi[k] - lo[k];
-    }
-    const double *m = im->ijk_to_lps;
-    double hmin = fmin(hypot(hypot(m[0], m[4]), m[8]),
-                       fmin(hypot(hypot(m[1], m[5]), m[9]), hypot(hypot(m[2], m[6]), m[10])));
-    /* the voxel size, but no finer than a uniform grid of 250k vertices
-     * over the box: a 256^3 map's 1.4M-voxel ellipsoid at 1 mm gave 1.65M
-     * vertices (8.9 s of the command's 19.5 s), at 2.9 mm 0.2M */
-    double size = o->size > 0 ? o->size : fmax(hmin, cbrt(vol / 250000.0));
     sm_error err;
     sm_error_clear(&err);
     sm_mesh *bg = NULL;
     sm_sol *sol = NULL;
-    int64_t exact = 0;
+    double size = 0;
     int rc = CLI_EXIT_INPUT;
     double t0 = sm_clock_seconds(), t1 = t0, t2 = t0;
-    if (sm_background_graded_new(3, lo, hi, size, sm_image_target_sdf(t), &bg, &err) != SM_OK ||
-        (t1 = sm_clock_seconds(), sm_sol_alloc(&sol, 3, bg->nverts, 1, &err)) != SM_OK ||
-        sm_image_target_signed(t, bg->nverts, bg->coords, sol->values, &exact, &err) != SM_OK) {
+    if (sm_job_image_background(t, info, NULL, o->size, o->padding, &bg, &size, &err) != SM_OK ||
+        (t1 = sm_clock_seconds(), sm_job_image_distance(t, bg, &sol, info, &err)) != SM_OK) {
         fprintf(stderr, "shapematch sdf: %s\n", err.msg);
     } else {
         t2 = sm_clock_seconds();
@@ -183,53 +164,11 @@ static int distance(const image_options *o, const sm_image *im, sm_image_target 
         fprintf(stderr, "distance at %d vertices of the generated background of size %g (%lld "
                         "exact, near the label's surface of %d triangles)\n"
                         "  seconds: background %.2f, distance %.2f, writing %.2f\n",
-                bg->nverts, size, (long long)exact, s->nfacets, t1 - t0, t2 - t1,
-                sm_clock_seconds() - t2);
+                bg->nverts, size, (long long)info->exact_vertices, info->surface_triangles,
+                t1 - t0, t2 - t1, sm_clock_seconds() - t2);
     }
     sm_sol_free(sol);
     sm_mesh_free(bg);
-    return rc;
-}
-
-static int compute(const image_options *o, sm_image *im)
-{
-    if (o->space && strcmp(o->space, "ras") == 0)
-        sm_image_flip_ras(im);
-    size_t total = (size_t)(im->dims[0] * im->dims[1] * im->dims[2]);
-    uint8_t *mask = malloc(total);
-    if (!mask) {
-        fprintf(stderr, "shapematch sdf: out of memory\n");
-        return CLI_EXIT_INPUT;
-    }
-    sm_error err;
-    sm_error_clear(&err);
-    sm_label_stats stats;
-    sm_image_target *t = NULL;
-    int rc = CLI_EXIT_INPUT;
-    if (sm_image_mask(im, &o->sel, mask, &stats, &err) != SM_OK) {
-        fprintf(stderr, "shapematch sdf: %s\n", err.msg);
-    } else if (summary(o, im, &stats), stats.voxels == 0) {
-        fprintf(stderr, "shapematch sdf: label-empty: no voxel of %s is selected\n", o->image);
-    } else {
-        sm_image_target_opts to = {o->smooth, 3.0, 0};
-        const double *m = im->ijk_to_lps;
-        double hmin = fmin(hypot(hypot(m[0], m[4]), m[8]),
-                           fmin(hypot(hypot(m[1], m[5]), m[9]), hypot(hypot(m[2], m[6]), m[10])));
-        double diag = hypot(hypot(stats.hi[0] - stats.lo[0], stats.hi[1] - stats.lo[1]),
-                            stats.hi[2] - stats.lo[2]);
-        /* the crop covers the background's margin */
-        to.pad_voxels = fmin(64, (o->padding >= 0 ? o->padding : 0.1) * diag / hmin + 1);
-        double t0 = sm_clock_seconds();
-        if (sm_image_target_new(im, mask, &o->sel, &to, &t, &err) != SM_OK)
-            fprintf(stderr, "shapematch sdf: %s\n", err.msg);
-        else if (fprintf(stderr, "  seconds: label's surface and EDT %.2f\n",
-                         sm_clock_seconds() - t0) < 0)
-            rc = CLI_EXIT_OUTPUT;
-        else if ((rc = o->edt_out ? write_edt(o, t) : CLI_EXIT_OK) == CLI_EXIT_OK)
-            rc = distance(o, im, t);
-    }
-    sm_image_target_free(t);
-    free(mask);
     return rc;
 }
 
@@ -240,16 +179,24 @@ int cmd_sdf_image(int argc, char **argv)
     int rc = parse(argc, argv, &o, &done);
     if (done)
         return rc;
-    sm_image *im = NULL;
     sm_error err;
     sm_error_clear(&err);
-    double t0 = sm_clock_seconds();
-    if (sm_image_read(o.image, NULL, &im, &err) != SM_OK) {
+    sm_job_image_info info;
+    sm_image_target *t = NULL;
+    sm_image_space space =
+        o.space && strcmp(o.space, "ras") == 0 ? SM_IMAGE_SPACE_RAS : SM_IMAGE_SPACE_LPS;
+    if (sm_job_image_target(o.image, NULL, &o.sel, space, o.smooth, o.padding, &t, &info, &err) !=
+        SM_OK) {
+        if (info.stats.voxels > 0 || strstr(err.msg, "label-empty"))
+            summary(&o, &info);
         fprintf(stderr, "shapematch sdf: %s\n", err.msg);
         return CLI_EXIT_INPUT;
     }
-    fprintf(stderr, "  seconds: reading %.2f\n", sm_clock_seconds() - t0);
-    rc = compute(&o, im);
-    sm_image_free(im);
+    summary(&o, &info);
+    fprintf(stderr, "  seconds: reading, label's surface and EDT %.2f\n", info.seconds);
+    rc = o.edt_out ? write_edt(&o, t) : CLI_EXIT_OK;
+    if (rc == CLI_EXIT_OK)
+        rc = distance(&o, t, &info);
+    sm_image_target_free(t);
     return rc;
 }

@@ -182,6 +182,7 @@ enum {
     SB_TARGET_MESH,
     SB_TARGET_SOL,
     SB_TARGET_SURFACE,
+    SB_TARGET_IMAGE,
     SB_LANDMARKS,
     SB_OUTPUT,
     SB_WAIT,
@@ -194,7 +195,8 @@ enum {
 };
 
 typedef struct submit_args {
-    const char *template_path, *target_mesh_path, *target_sol_path, *target_surface_path;
+    const char *template_path, *target_mesh_path, *target_sol_path, *target_surface_path,
+        *target_image_path;
     char landmarks[2][PATH_MAX]; /* --landmarks A,B: template's, target's ("" when not given) */
     const char *outdir;
     const char *idempotency_key;
@@ -230,6 +232,7 @@ static int submit_flag(void *user, int id, const char *flag, const char *value, 
     case SB_TARGET_MESH:
     case SB_TARGET_SOL:
     case SB_TARGET_SURFACE:
+    case SB_TARGET_IMAGE:
     case SB_OUTPUT:
         if (!value[0]) {
             snprintf(msg, cap, "%s: empty path", flag);
@@ -243,6 +246,8 @@ static int submit_flag(void *user, int id, const char *flag, const char *value, 
             a->target_sol_path = value;
         else if (id == SB_TARGET_SURFACE)
             a->target_surface_path = value;
+        else if (id == SB_TARGET_IMAGE)
+            a->target_image_path = value;
         else
             a->outdir = value;
         return 0;
@@ -296,6 +301,7 @@ void cmd_submit_help(void)
 {
     printf("Usage: shapematch submit --template T.mesh --target-mesh B.mesh --target-sol B.sol\n"
            "       shapematch submit --template T.mesh --target-surface S.stl [--target-mesh B.mesh]\n"
+           "       shapematch submit --template T.mesh --target-image IMG [--label N]\n"
            "                         CLAMP [PARAMETERS] [--json] [--idempotency-key K]\n"
            "       shapematch submit ... --wait -o OUTDIR [--format LIST]\n"
            "\n"
@@ -317,6 +323,9 @@ void cmd_submit_help(void)
            "                          optionally .gz); the daemon computes its signed\n"
            "                          distance on --target-mesh, or on a background it\n"
            "                          generates when --target-mesh is not given\n"
+           "  --target-image FILE     instead of --target-sol: a label map in one file (NIfTI\n"
+           "                          .nii/.nii.gz, NRRD .nrrd, MetaImage .mha; a detached\n"
+           "                          .nhdr/.mhd is refused): the boundary of --label\n"
            "  --landmarks A.csv,B.csv matching points (template's, target's) that start\n"
            "                          --align (Kabsch/Umeyama), as for 'shapematch run'\n");
     job_options_help_background(stdout);
@@ -353,13 +362,17 @@ static const char *submit_usage_problem(submit_args *a, char *msg, size_t cap)
         return "missing required option --template";
     if (a->target_surface_path && a->target_sol_path)
         return "--target-surface excludes --target-sol: give one target";
-    if (!a->target_surface_path && !a->target_mesh_path)
-        return "missing required option --target-mesh (or --target-surface)";
-    if (!a->target_surface_path && !a->target_sol_path)
-        return "missing required option --target-sol (or --target-surface)";
+    if (a->target_image_path && (a->target_sol_path || a->target_surface_path))
+        return a->target_sol_path ? "--target-image excludes --target-sol: give one target"
+                                  : "--target-image excludes --target-surface: give one target";
+    /* a surface or an image makes its own background */
+    const char *own = a->target_surface_path ? a->target_surface_path : a->target_image_path;
+    if (!own && !a->target_mesh_path)
+        return "missing required option --target-mesh (or --target-surface, --target-image)";
+    if (!own && !a->target_sol_path)
+        return "missing required option --target-sol (or --target-surface, --target-image)";
     if (job_options_finish(&a->job, msg, cap) != 0 ||
-        job_options_check_background(&a->job, a->target_surface_path, a->target_mesh_path, msg,
-                                     cap) != 0)
+        job_options_check_background(&a->job, own, a->target_mesh_path, msg, cap) != 0)
         return msg;
     if (a->landmarks[0][0] && a->job.params.align == SM_ALIGN_NONE)
         return "--landmarks needs an alignment: add --align rigid, similarity or affine";
@@ -400,7 +413,8 @@ static int submission_open_files(submission *s, const submit_args *a)
         [SM_PART_TEMPLATE] = a->template_path, [SM_PART_TARGET_MESH] = a->target_mesh_path,
         [SM_PART_TARGET_SOL] = a->target_sol_path, [SM_PART_TARGET_SURFACE] = a->target_surface_path,
         [SM_PART_TEMPLATE_LANDMARKS] = a->landmarks[0][0] ? a->landmarks[0] : NULL,
-        [SM_PART_TARGET_LANDMARKS] = a->landmarks[1][0] ? a->landmarks[1] : NULL};
+        [SM_PART_TARGET_LANDMARKS] = a->landmarks[1][0] ? a->landmarks[1] : NULL,
+        [SM_PART_TARGET_IMAGE] = a->target_image_path};
     char msg[ARGS_MSG_LEN];
     for (int i = 0; i < SM_PART_PARAMS; i++) {
         /* the daemon reads landmark CSV as plain text: never compressed */
@@ -519,6 +533,7 @@ int cmd_submit(int argc, char **argv)
         {"--target-mesh", 1, SB_TARGET_MESH},
         {"--target-sol", 1, SB_TARGET_SOL},
         {"--target-surface", 1, SB_TARGET_SURFACE},
+        {"--target-image", 1, SB_TARGET_IMAGE},
         {"--landmarks", 1, SB_LANDMARKS},
         {"--output", 1, SB_OUTPUT},
         {"-o", 1, SB_OUTPUT},

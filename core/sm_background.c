@@ -128,7 +128,8 @@ static int push_cell(graded_cell **a, int64_t *na, int64_t *cap, graded_cell c)
 
 /* One level: the cells near the surface go to *next as their 2^dim
  * children, the others become leaves. */
-static sm_status refine_level(graded *g, const sm_sdf *d, const graded_cell *cur, int64_t ncur,
+static sm_status refine_level(graded *g, sm_distance_fn fn, void *user, const graded_cell *cur,
+                              int64_t ncur,
                               graded_cell **next, int64_t *nnext, int64_t *capnext,
                               sm_error *err)
 {
@@ -145,7 +146,7 @@ static sm_status refine_level(graded *g, const sm_sdf *d, const graded_cell *cur
         for (int k = 0; k < dim; k++)
             ctr[i * dim + k] = (lattice_x(g, k, cur[i].c[k]) + lattice_x(g, k, cur[i].c[k] + w)) / 2;
     }
-    sm_sdf_distance(d, ncur, ctr, dist, NULL);
+    fn(user, ncur, ctr, dist);
     for (int64_t i = 0; i < ncur && st == SM_OK; i++) {
         int64_t w = (int64_t)1 << (g->L - cur[i].level);
         double half2 = 0, side = 0;
@@ -174,7 +175,7 @@ done:
     return st;
 }
 
-static sm_status graded_leaves(graded *g, const sm_sdf *d, sm_error *err)
+static sm_status graded_leaves(graded *g, sm_distance_fn fn, void *user, sm_error *err)
 {
     graded_cell *cur = NULL, *next = NULL;
     int64_t ncur = 0, capcur = 0, nnext = 0, capnext = 0;
@@ -189,7 +190,7 @@ static sm_status graded_leaves(graded *g, const sm_sdf *d, sm_error *err)
                 }
     while (st == SM_OK && ncur > 0) {
         nnext = 0;
-        st = refine_level(g, d, cur, ncur, &next, &nnext, &capnext, err);
+        st = refine_level(g, fn, user, cur, ncur, &next, &nnext, &capnext, err);
         graded_cell *t = cur;
         cur = next;
         next = t;
@@ -320,8 +321,21 @@ static sm_status graded_setup(graded *g, int dim, const double *lo, const double
     return SM_OK;
 }
 
+/* sm_sdf_distance as an sm_distance_fn */
+static void sdf_distance(void *user, int64_t n, const double *pts, double *dist)
+{
+    sm_sdf_distance(user, n, pts, dist, NULL);
+}
+
 sm_status sm_background_graded_new(int dim, const double *lo, const double *hi, double h,
                                    const sm_sdf *d, sm_mesh **out, sm_error *err)
+{
+    return sm_background_graded_fn_new(dim, lo, hi, h, sdf_distance, (void *)d, out, err);
+}
+
+sm_status sm_background_graded_fn_new(int dim, const double *lo, const double *hi, double h,
+                                      sm_distance_fn fn, void *user, sm_mesh **out,
+                                      sm_error *err)
 {
     *out = NULL;
     if ((dim != 2 && dim != 3) || !(h > 0) || !isfinite(h))
@@ -332,7 +346,7 @@ sm_status sm_background_graded_new(int dim, const double *lo, const double *hi, 
     int64_t nkeys = 0;
     sm_status st = graded_setup(&g, dim, lo, hi, h, err);
     if (st == SM_OK)
-        st = graded_leaves(&g, d, err);
+        st = graded_leaves(&g, fn, user, err);
     if (st == SM_OK)
         st = graded_corners(&g, &keys, &nkeys, err);
     int64_t nel = g.nleaf * (dim == 3 ? 6 : 2);

@@ -22,10 +22,21 @@ struct sm_image_target {
     double map[12];    /* crop index -> world (the image's frame) */
     double inv[12];    /* world -> crop index */
     double h[3];       /* spacing along the crop's axes */
+    double smin;       /* a lower bound of the map's smallest singular
+                        * value: world length of a unit index step */
     float *edt;        /* signed voxel-centre EDT on the crop */
+    float *field;      /* the (smoothed) field the surface is a level of */
+    double level;
     double band;       /* world units: exact within */
     sm_surface *surface;
-    sm_sdf *sdf;
+    /* the surface's triangles by the crop cell that made them (marching
+     * emits them cell by cell): open addressing, key cell + 1 */
+    int64_t *ckeys;
+    int32_t *cfirst, *ccount;
+    int64_t ccap;
+    uint64_t *cbits;   /* one bit a crop cell: it has triangles (most
+                        * cells a search visits have none) */
+    sm_sdf *sdf;       /* opts->hierarchy only */
 };
 
 /* ---- the field on the crop ---- */
@@ -97,6 +108,9 @@ typedef struct mt_builder {
     int64_t *keys;    /* edge hash: key + 1 (0: empty) */
     int32_t *vals;
     int64_t hcap;
+    int64_t cell;     /* the cell being marched, */
+    int64_t *tcell;   /* and each triangle's */
+    int64_t capc;
     int fail;
 } mt_builder;
 
@@ -190,7 +204,7 @@ static int32_t edge_vertex(mt_builder *b, int64_t p, int64_t q)
 static void add_tri(mt_builder *b, int32_t v0, int32_t v1, int32_t v2, const double *pin)
 {
     if (b->fail || !grow((void **)&b->tris, &b->capt, 3 * (b->nt + 1), sizeof(int32_t)) ||
-        b->nt >= INT32_MAX) {
+        !grow((void **)&b->tcell, &b->capc, b->nt + 1, sizeof(int64_t)) || b->nt >= INT32_MAX) {
         b->fail = 1;
         return;
     }
@@ -204,6 +218,7 @@ static void add_tri(mt_builder *b, int32_t v0, int32_t v1, int32_t v2, const dou
     nrm[1] = u[2] * v[0] - u[0] * v[2];
     nrm[2] = u[0] * v[1] - u[1] * v[0];
     double dot = nrm[0] * (a[0] - pin[0]) + nrm[1] * (a[1] - pin[1]) + nrm[2] * (a[2] - pin[2]);
+    b->tcell[b->nt] = b->cell;
     int32_t *t = b->tris + 3 * b->nt++;
     t[0] = v0;
     t[1] = dot >= 0 ? v1 : v2;
@@ -268,6 +283,7 @@ static sm_status march(mt_builder *b, sm_surface **out, sm_error *err)
                 if (!any_in || !any_out)
                     continue;
                 int64_t step[3] = {sx, sy, sz};
+                b->cell = c;
                 for (int t = 0; t < 6; t++) {
                     int64_t v[4] = {c, 0, 0, 0};
                     for (int s = 0; s < 3; s++)
@@ -308,6 +324,11 @@ void sm_image_target_free(sm_image_target *t)
     if (!t)
         return;
     free(t->edt);
+    free(t->field);
+    free(t->ckeys);
+    free(t->cfirst);
+    free(t->ccount);
+    free(t->cbits);
     sm_sdf_free(t->sdf);
     sm_surface_free(t->surface);
     free(t);
@@ -376,6 +397,200 @@ static sm_status crop_field(const sm_image *im, const uint8_t *mask, const sm_im
     return SM_OK;
 }
 
+/* The smallest singular value of the 3x3 part of the 3x4 map m: the
+ * square root of the smallest eigenvalue of m^T m (symmetric: the
+ * trigonometric closed form), less a relative 1e-9 so that it bounds
+ * from below; the larger of it and 1 / ||m^-1||_F (a bound of its own,
+ * for a rounding-spoiled case). */
+static double smallest_singular(const double *m)
+{
+    double a[3][3];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            a[i][j] = m[i] * m[j] + m[4 + i] * m[4 + j] + m[8 + i] * m[8 + j];
+    double p1 = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+    double q = (a[0][0] + a[1][1] + a[2][2]) / 3, lmin;
+    if (p1 == 0) {
+        lmin = fmin(a[0][0], fmin(a[1][1], a[2][2]));
+    } else {
+        double p2 = (a[0][0] - q) * (a[0][0] - q) + (a[1][1] - q) * (a[1][1] - q) +
+                    (a[2][2] - q) * (a[2][2] - q) + 2 * p1;
+        double p = sqrt(p2 / 6), b[3][3];
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                b[i][j] = (a[i][j] - (i == j ? q : 0)) / p;
+        double r = (b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[2][1]) -
+                    b[0][1] * (b[1][0] * b[2][2] - b[1][2] * b[2][0]) +
+                    b[0][2] * (b[1][0] * b[2][1] - b[1][1] * b[2][0])) / 2;
+        double phi = r <= -1 ? M_PI / 3 : r >= 1 ? 0 : acos(r) / 3;
+        lmin = q + 2 * p * cos(phi + 2 * M_PI / 3);
+    }
+    double inv[12], fro = 0;
+    invert(m, inv);
+    for (int row = 0; row < 3; row++)
+        for (int col = 0; col < 3; col++)
+            fro += inv[4 * row + col] * inv[4 * row + col];
+    return fmax(lmin > 0 ? sqrt(lmin) * (1 - 1e-9) : 0, 1 / sqrt(fro));
+}
+
+/* The triangles of each surface cell (tcell: nondecreasing, as march
+ * emits them) in the open-addressing table ckeys/cfirst/ccount. */
+static uint64_t cell_hash(int64_t key, int64_t cap)
+{
+    return ((uint64_t)key * 0x9E3779B97F4A7C15ull >> 20) & (uint64_t)(cap - 1);
+}
+
+static sm_status index_cells(sm_image_target *t, const int64_t *tcell, int64_t nt, sm_error *err)
+{
+    int64_t runs = 0;
+    for (int64_t i = 0; i < nt; i++)
+        runs += i == 0 || tcell[i] != tcell[i - 1];
+    int64_t cap = 1024;
+    while (cap < 2 * runs)
+        cap *= 2;
+    t->ccap = cap;
+    t->ckeys = calloc((size_t)cap, sizeof *t->ckeys);
+    t->cfirst = malloc((size_t)cap * sizeof *t->cfirst);
+    t->ccount = malloc((size_t)cap * sizeof *t->ccount);
+    int64_t ncells = t->n[0] * t->n[1] * t->n[2];
+    t->cbits = calloc((size_t)(ncells / 64 + 1), sizeof *t->cbits);
+    if (!t->ckeys || !t->cfirst || !t->ccount || !t->cbits)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface");
+    for (int64_t i = 0; i < nt;) {
+        int64_t j = i;
+        while (j < nt && tcell[j] == tcell[i])
+            j++;
+        uint64_t s = cell_hash(tcell[i] + 1, cap);
+        while (t->ckeys[s])
+            s = (s + 1) & (uint64_t)(cap - 1);
+        t->ckeys[s] = tcell[i] + 1;
+        t->cbits[tcell[i] >> 6] |= (uint64_t)1 << (tcell[i] & 63);
+        t->cfirst[s] = (int32_t)i;
+        t->ccount[s] = (int32_t)(j - i);
+        i = j;
+    }
+    return SM_OK;
+}
+
+/* The triangles of crop cell c: *count from the returned first. */
+static int32_t cell_triangles(const sm_image_target *t, int64_t c, int32_t *count)
+{
+    if (!(t->cbits[c >> 6] >> (c & 63) & 1)) {
+        *count = 0;
+        return 0;
+    }
+    uint64_t s = cell_hash(c + 1, t->ccap);
+    while (t->ckeys[s]) {
+        if (t->ckeys[s] == c + 1) {
+            *count = t->ccount[s];
+            return t->cfirst[s];
+        }
+        s = (s + 1) & (uint64_t)(t->ccap - 1);
+    }
+    *count = 0;
+    return 0;
+}
+
+/* Distance from world point p to the surface, exactly: the cells in
+ * Chebyshev rings around the cell of p's crop index (clamped into the
+ * crop: for a point outside it, the clamped index is its projection on
+ * the crop's box, no farther in index space from any cell than p), ring
+ * by ring until the next ring's cells (>= k index steps away, each at
+ * least smin long) cannot be nearer than the nearest triangle found. */
+static double surface_distance(const sm_image_target *t, const double *p)
+{
+    int64_t c0[3], m[3];
+    double qc[3]; /* p's index, clamped into the crop */
+    for (int row = 0; row < 3; row++) {
+        double q = t->inv[4 * row] * p[0] + t->inv[4 * row + 1] * p[1] + t->inv[4 * row + 2] * p[2] +
+                   t->inv[4 * row + 3];
+        m[row] = t->n[row] - 1; /* cells per axis */
+        qc[row] = !(q >= 0) ? 0 : q > (double)m[row] ? (double)m[row] : q;
+        double cl = floor(qc[row]);
+        c0[row] = cl >= (double)(m[row] - 1) ? m[row] - 1 : (int64_t)cl;
+    }
+    double s2 = t->smin * t->smin;
+    const sm_surface *s = t->surface;
+    double best2 = INFINITY;
+    int64_t kmax = m[0] > m[1] ? m[0] : m[1];
+    kmax = kmax > m[2] ? kmax : m[2];
+    for (int64_t k = 0; k <= kmax; k++) {
+        for (int64_t dz = -k; dz <= k; dz++) {
+            int64_t z = c0[2] + dz;
+            if (z < 0 || z >= m[2])
+                continue;
+            double gz = fmax(0, fmax((double)z - qc[2], qc[2] - (double)(z + 1)));
+            for (int64_t dy = -k; dy <= k; dy++) {
+                int64_t y = c0[1] + dy;
+                if (y < 0 || y >= m[1])
+                    continue;
+                double gy = fmax(0, fmax((double)y - qc[1], qc[1] - (double)(y + 1)));
+                int face = dz == -k || dz == k || dy == -k || dy == k;
+                for (int64_t dx = -k; dx <= k; dx += face ? 1 : 2 * k) {
+                    int64_t x = c0[0] + dx;
+                    double gx = fmax(0, fmax((double)x - qc[0], qc[0] - (double)(x + 1)));
+                    /* the cell's box is at least this far (index gaps,
+                     * each index unit at least smin long) */
+                    if (x >= 0 && x < m[0] && s2 * (gx * gx + gy * gy + gz * gz) < best2) {
+                        int32_t count;
+                        int32_t first = cell_triangles(t, x + t->n[0] * (y + t->n[1] * z), &count);
+                        for (int32_t f = first; f < first + count; f++) {
+                            const int32_t *v = s->facets + 3 * f;
+                            double d2 = sm_sdf_point_triangle2(p, s->coords + 3 * v[0],
+                                                               s->coords + 3 * v[1],
+                                                               s->coords + 3 * v[2]);
+                            best2 = d2 < best2 ? d2 : best2;
+                        }
+                    }
+                    if (k == 0)
+                        break;
+                }
+            }
+        }
+        double reach = (double)k * t->smin;
+        if (reach * reach >= best2)
+            break;
+    }
+    return sqrt(best2);
+}
+
+/* The field's value at p as the marching's piecewise-linear field: the
+ * Kuhn tetrahedron of p's cell that holds it (axes by decreasing
+ * fraction), linear there; so >= level exactly on the surface's inside.
+ * -INFINITY outside the crop. */
+static double field_at(const sm_image_target *t, const double *p)
+{
+    double u[3];
+    int64_t base[3];
+    for (int row = 0; row < 3; row++) {
+        double q = t->inv[4 * row] * p[0] + t->inv[4 * row + 1] * p[1] + t->inv[4 * row + 2] * p[2] +
+                   t->inv[4 * row + 3];
+        if (!(q >= 0) || !(q <= (double)(t->n[row] - 1)))
+            return -INFINITY;
+        base[row] = (int64_t)floor(q);
+        if (base[row] >= t->n[row] - 1)
+            base[row] = t->n[row] > 1 ? t->n[row] - 2 : 0;
+        u[row] = q - (double)base[row];
+    }
+    int a[3] = {0, 1, 2};
+    for (int i = 0; i < 2; i++) /* sort the axes by decreasing u */
+        for (int j = 0; j < 2 - i; j++)
+            if (u[a[j]] < u[a[j + 1]]) {
+                int s = a[j];
+                a[j] = a[j + 1];
+                a[j + 1] = s;
+            }
+    int64_t stride[3] = {1, t->n[0], t->n[0] * t->n[1]};
+    int64_t node = base[0] + stride[1] * base[1] + stride[2] * base[2];
+    double w[4] = {1 - u[a[0]], u[a[0]] - u[a[1]], u[a[1]] - u[a[2]], u[a[2]]};
+    double v = w[0] * t->field[node];
+    for (int s = 0; s < 3; s++) {
+        node += stride[a[s]] * (t->n[a[s]] > 1 ? 1 : 0);
+        v += w[s + 1] * t->field[node];
+    }
+    return v;
+}
+
 sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_image_select *sel,
                               const sm_image_target_opts *o, sm_image_target **out, sm_error *err)
 {
@@ -400,7 +615,10 @@ sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_
 #pragma omp parallel for schedule(static)
     for (int64_t v = 0; v < total; v++)
         cmask[v] = f[v] >= level;
-    if ((st = sm_edt_signed(t->n, t->h, cmask, t->edt, err)) != SM_OK)
+    st = sm_edt_signed(t->n, t->h, cmask, t->edt, err);
+    free(cmask); /* before the surface grows */
+    cmask = NULL;
+    if (st != SM_OK)
         goto done;
     mt_builder b = {.f = f, .n = {t->n[0], t->n[1], t->n[2]}, .level = level, .map = t->map};
     st = march(&b, &t->surface, err);
@@ -413,11 +631,19 @@ sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_
     free(b.tris);
     free(b.keys);
     free(b.vals);
+    if (st == SM_OK)
+        st = index_cells(t, b.tcell, b.nt, err);
+    free(b.tcell);
     if (st != SM_OK)
         goto done;
     double hmax = fmax(t->h[0], fmax(t->h[1], t->h[2]));
     t->band = o->band_voxels * hmax;
-    st = sm_sdf_new(t->surface, &t->sdf, err);
+    t->field = f; /* the sign near the surface */
+    t->level = level;
+    f = NULL;
+    t->smin = smallest_singular(t->map);
+    if (o->hierarchy)
+        st = sm_sdf_new(t->surface, &t->sdf, err);
 done:
     free(f);
     free(cmask);
@@ -480,38 +706,73 @@ static double edt_at(const sm_image_target *t, const double *x)
     return s;
 }
 
+/* The crop point nearest p in index space (p itself inside the crop). */
+static void clamp_to_crop(const sm_image_target *t, const double *p, double *q)
+{
+    double ijk[3];
+    for (int row = 0; row < 3; row++) {
+        double x = t->inv[4 * row] * p[0] + t->inv[4 * row + 1] * p[1] + t->inv[4 * row + 2] * p[2] +
+                   t->inv[4 * row + 3];
+        double top = (double)(t->n[row] - 1);
+        ijk[row] = !(x >= 0) ? 0 : x > top ? top : x;
+    }
+    for (int row = 0; row < 3; row++)
+        q[row] = t->map[4 * row] * ijk[0] + t->map[4 * row + 1] * ijk[1] +
+                 t->map[4 * row + 2] * ijk[2] + t->map[4 * row + 3];
+}
+
+/* Signed distance at p; *exact: 1 when computed exactly. */
+static double signed_at(const sm_image_target *t, const double *p, int *exact)
+{
+    double e = edt_at(t, p);
+    *exact = 0;
+    if (isnan(e)) { /* outside the crop (so outside the label): the way
+                     * to the crop plus the EDT there, an upper bound;
+                     * exact when that is within twice the band */
+        double q[3];
+        clamp_to_crop(t, p, q);
+        double up = sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
+                         (p[2] - q[2]) * (p[2] - q[2])) + fabs(edt_at(t, q));
+        if (up > 2 * t->band)
+            return up;
+        *exact = 1;
+        return surface_distance(t, p);
+    }
+    if (fabs(e) > t->band)
+        return e;
+    *exact = 1;
+    double d = surface_distance(t, p);
+    return field_at(t, p) >= t->level ? -d : d;
+}
+
 sm_status sm_image_target_signed(const sm_image_target *t, int64_t n, const double *pts, double *out,
                                  int64_t *exact, sm_error *err)
 {
+    (void)err;
     int64_t near = 0;
+#pragma omp parallel for schedule(dynamic, 256) reduction(+ : near)
     for (int64_t p = 0; p < n; p++) {
-        double e = edt_at(t, pts + 3 * p);
-        out[p] = e;
-        near += !(fabs(e) > t->band);
+        int ex;
+        out[p] = signed_at(t, pts + 3 * p, &ex);
+        near += ex;
     }
     if (exact)
         *exact = near;
-    if (near == 0)
-        return SM_OK;
-    int64_t *ids = malloc((size_t)near * sizeof *ids);
-    double *x = malloc((size_t)near * 3 * sizeof *x), *d = malloc((size_t)near * sizeof *d);
-    sm_status st = SM_OK;
-    if (!ids || !x || !d) {
-        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
-    } else {
-        int64_t k = 0;
-        for (int64_t p = 0; p < n; p++)
-            if (!(fabs(out[p]) > t->band)) {
-                ids[k] = p;
-                memcpy(x + 3 * k, pts + 3 * p, 3 * sizeof *x);
-                k++;
-            }
-        st = sm_sdf_signed(t->sdf, near, x, d, err);
-        for (int64_t q = 0; st == SM_OK && q < near; q++)
-            out[ids[q]] = d[q];
+    return SM_OK;
+}
+
+static void unsigned_fn(void *user, int64_t n, const double *pts, double *dist)
+{
+    const sm_image_target *t = user;
+#pragma omp parallel for schedule(dynamic, 256)
+    for (int64_t p = 0; p < n; p++) {
+        int ex;
+        dist[p] = fabs(signed_at(t, pts + 3 * p, &ex));
     }
-    free(ids);
-    free(x);
-    free(d);
-    return st;
+}
+
+sm_status sm_image_target_background(const sm_image_target *t, const double lo[3],
+                                     const double hi[3], double h, sm_mesh **out, sm_error *err)
+{
+    return sm_background_graded_fn_new(3, lo, hi, h, unsigned_fn, (void *)t, out, err);
 }

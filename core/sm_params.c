@@ -114,6 +114,22 @@ static const sm_param_info table[] = {
      "move the template onto the target before the descent: none, rigid (rotation and "
      "translation), similarity (and a uniform scale) or affine, found from the target's distance "
      "(or started from --landmarks); the result and displacement.sol are then the whole map"},
+    /* The label-map target's rows (only with a target image).  0 as "every
+     * nonzero voxel": label 0 is a segmentation's background, never the
+     * shape; labels are the non-negative values Slicer, ITK-SNAP and
+     * nnU-Net write. */
+    {"label", INT(label), RANGE(0, CLOSED, INT_MAX, CLOSED), 0, NULL, 0, "--label", "N",
+     "with a target image: the label whose voxels are the target (0: every nonzero voxel)"},
+    /* 0.5: the midpoint of a 0/1 mask or a probability map */
+    {"level", REAL(level), RANGE(NO_MIN, NO_MAX), 0.5, NULL, 0, "--level", "L",
+     "with a float target image and no label: the voxels of value >= L are the target"},
+    /* LPS: the frame of ITK, Slicer and NRRD's left-posterior-superior,
+     * the tools that make most templates */
+    {"image_space", SM_PARAM_SPACE, offsetof(sm_params, image_space), 0,
+     RANGE(SM_IMAGE_SPACE_LPS, CLOSED, SM_IMAGE_SPACE_RAS, CLOSED), SM_IMAGE_SPACE_LPS, NULL, 0,
+     "--image-space", "S",
+     "with a target image: the frame of the template's coordinates, lps (ITK, Slicer) or ras "
+     "(NIfTI's world); the image is mapped into it"},
 };
 #define N_TABLE (sizeof table / sizeof table[0])
 
@@ -177,7 +193,8 @@ void sm_params_default(sm_params *p)
         case SM_PARAM_REAL: *(double *)at = table[i].def; break;
         case SM_PARAM_INT: *(int *)at = (int)table[i].def; break;
         case SM_PARAM_SOLVER:
-        case SM_PARAM_ALIGN: sm_param_set_value(&table[i], p, (int)table[i].def); break;
+        case SM_PARAM_ALIGN:
+        case SM_PARAM_SPACE: sm_param_set_value(&table[i], p, (int)table[i].def); break;
         case SM_PARAM_CLAMP: *(sm_clamp_kind *)at = (sm_clamp_kind)table[i].def; break;
         case SM_PARAM_REFS: break; /* empty list: the memset */
         }
@@ -212,7 +229,8 @@ static sm_status check_row(const sm_param_info *f, const sm_params *p, sm_error 
     case SM_PARAM_INT: x = *(const int *)at; break;
     case SM_PARAM_REFS: x = *(const int *)((const char *)p + f->count_offset); break;
     case SM_PARAM_SOLVER:
-    case SM_PARAM_ALIGN: x = sm_param_get_value(f, p); break;
+    case SM_PARAM_ALIGN:
+    case SM_PARAM_SPACE: x = sm_param_get_value(f, p); break;
     default: return SM_OK; /* the clamp: check_clamp */
     }
     if (sm_param_in_range(f, x))
@@ -281,6 +299,15 @@ int sm_align_mode_from_name(const char *name, sm_align_mode *out)
     return -1;
 }
 
+static const char *const space_names[] = {"lps", "ras"};
+
+const char *sm_image_space_name(sm_image_space space)
+{
+    if ((int)space < 0 || (size_t)space >= sizeof space_names / sizeof space_names[0])
+        return NULL;
+    return space_names[space];
+}
+
 sm_solver_kind sm_solver_resolve(sm_solver_kind kind, int dim, int64_t nelems)
 {
     if (kind != SM_SOLVER_AUTO)
@@ -290,7 +317,7 @@ sm_solver_kind sm_solver_resolve(sm_solver_kind kind, int dim, int64_t nelems)
 
 int sm_param_is_named(const sm_param_info *f)
 {
-    return f->type == SM_PARAM_SOLVER || f->type == SM_PARAM_ALIGN;
+    return f->type == SM_PARAM_SOLVER || f->type == SM_PARAM_ALIGN || f->type == SM_PARAM_SPACE;
 }
 
 const char *sm_param_value_name(const sm_param_info *f, int k)
@@ -299,6 +326,8 @@ const char *sm_param_value_name(const sm_param_info *f, int k)
         return sm_solver_kind_name((sm_solver_kind)k);
     if (f->type == SM_PARAM_ALIGN)
         return sm_align_mode_name((sm_align_mode)k);
+    if (f->type == SM_PARAM_SPACE)
+        return sm_image_space_name((sm_image_space)k);
     return NULL;
 }
 
@@ -317,6 +346,8 @@ int sm_param_get_value(const sm_param_info *f, const void *base)
         return (int)*(const sm_solver_kind *)at;
     if (f->type == SM_PARAM_ALIGN)
         return (int)*(const sm_align_mode *)at;
+    if (f->type == SM_PARAM_SPACE)
+        return (int)*(const sm_image_space *)at;
     return -1;
 }
 
@@ -327,6 +358,8 @@ void sm_param_set_value(const sm_param_info *f, void *base, int k)
         *(sm_solver_kind *)at = (sm_solver_kind)k;
     else if (f->type == SM_PARAM_ALIGN)
         *(sm_align_mode *)at = (sm_align_mode)k;
+    else if (f->type == SM_PARAM_SPACE)
+        *(sm_image_space *)at = (sm_image_space)k;
 }
 
 void sm_param_names_text(const sm_param_info *f, char *buf, size_t cap)

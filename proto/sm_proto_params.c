@@ -279,7 +279,8 @@ static sm_status decode_row(const sm_param_info *f, const json_t *value, const c
         return get_refs(value, sub, (size_t)f->min, dim, (int32_t *)at,
                         (int *)((char *)base + f->count_offset), err);
     case SM_PARAM_SOLVER:
-    case SM_PARAM_ALIGN: {
+    case SM_PARAM_ALIGN:
+    case SM_PARAM_SPACE: {
         int k = json_is_string(value) ? sm_param_value_from_name(f, json_string_value(value)) : -1;
         if (k < 0) {
             char quoted[128]; /* "a", "b" or "c" */
@@ -597,12 +598,27 @@ static json_t *row_to_jansson(const sm_param_info *f, const sm_params *p, int di
     case SM_PARAM_REAL: return json_real(*(const double *)at);
     case SM_PARAM_INT: return json_integer(*(const int *)at);
     case SM_PARAM_SOLVER:
-    case SM_PARAM_ALIGN: return json_string(sm_param_value_name(f, sm_param_get_value(f, p)));
+    case SM_PARAM_ALIGN:
+    case SM_PARAM_SPACE: return json_string(sm_param_value_name(f, sm_param_get_value(f, p)));
     case SM_PARAM_REFS:
         return refs_array((const int32_t *)at, *(const int *)((const char *)p + f->count_offset));
     case SM_PARAM_CLAMP: return clamp_to_jansson(p, dim);
     }
     return NULL;
+}
+
+/* The label-map rows (label, level, image_space) are written only when
+ * they differ from their defaults: they mean something only with a target
+ * image, and a job without one keeps the params document it had. */
+static int image_row_default(const sm_param_info *f, const sm_params *p)
+{
+    if (strcmp(f->name, "label") == 0)
+        return p->label == (int)f->def;
+    if (strcmp(f->name, "level") == 0)
+        return p->level == f->def;
+    if (strcmp(f->name, "image_space") == 0)
+        return (int)p->image_space == (int)f->def;
+    return 0;
 }
 
 json_t *sm_params_to_jansson(const sm_params *p, int dim)
@@ -613,7 +629,8 @@ json_t *sm_params_to_jansson(const sm_params *p, int dim)
     size_t n;
     const sm_param_info *rows = sm_params_table(&n);
     for (size_t i = 0; root && i < n; i++)
-        if (!rows[i].in_clamp && smp_set(root, rows[i].name, row_to_jansson(&rows[i], p, dim))) {
+        if (!rows[i].in_clamp && !image_row_default(&rows[i], p) &&
+            smp_set(root, rows[i].name, row_to_jansson(&rows[i], p, dim))) {
             json_decref(root);
             return NULL;
         }

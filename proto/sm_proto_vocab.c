@@ -8,7 +8,8 @@
 
 const char *const sm_part_names[SM_NPARTS] = {"template", "target_mesh", "target_sol",
                                                 SM_PART_NAME_TARGET_SURFACE, "template_landmarks",
-                                                "target_landmarks", "params"};
+                                                "target_landmarks", SM_PART_NAME_TARGET_IMAGE,
+                                                "params"};
 
 const char *sm_part_name(sm_part part)
 {

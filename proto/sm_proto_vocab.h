@@ -22,8 +22,9 @@ typedef enum sm_part {
     SM_PART_TARGET_SURFACE = 3,
     SM_PART_TEMPLATE_LANDMARKS = 4,
     SM_PART_TARGET_LANDMARKS = 5,
-    SM_PART_PARAMS = 6,
-    SM_NPARTS = 7
+    SM_PART_TARGET_IMAGE = 6,
+    SM_PART_PARAMS = 7,
+    SM_NPARTS = 8
 } sm_part;
 /* The file parts are the members before SM_PART_PARAMS (loops over the
  * files stop there: params stays last).  template and params are always
@@ -32,13 +33,18 @@ typedef enum sm_part {
  * (sm_job_inputs.h); target_surface excludes target_sol.  The landmark
  * CSV files (template_landmarks, target_landmarks: the alignment's start,
  * sm_job_align.h) come both or not at all, and only with params align
- * other than none. */
+ * other than none.  target_image (a label map: NIfTI, NRRD or MetaImage
+ * in one file, sm_job_image.h) is a target of its own, with an optional
+ * target_mesh like target_surface; it excludes target_sol and
+ * target_surface. */
 #define SM_PART_NAME_TARGET_SURFACE "target_surface"
+#define SM_PART_NAME_TARGET_IMAGE "target_image"
 /* Largest landmark part (bytes): a landmark file is a few rows; the
  * daemon refuses a larger one (422) while it arrives. */
 #define SM_LANDMARKS_MAX_BYTES (1 << 20)
 /* "template", "target_mesh", "target_sol", "target_surface",
- * "template_landmarks", "target_landmarks", "params", indexed by sm_part. */
+ * "template_landmarks", "target_landmarks", "target_image", "params",
+ * indexed by sm_part. */
 extern const char *const sm_part_names[SM_NPARTS];
 /* sm_part_names[part], NULL outside. */
 const char *sm_part_name(sm_part part);

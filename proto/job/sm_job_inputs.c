@@ -15,6 +15,7 @@
 #include "shapematch/sm_clock.h"
 #include "shapematch/sm_clamp.h"
 #include "shapematch/sm_sdf.h"
+#include "job/sm_job_image.h"
 #include "sm_job_warnings.h"
 #include "sm_proto_params.h"
 
@@ -288,6 +289,78 @@ done:
     return st;
 }
 
+/* The image's bounds from the daemon's: its voxel bytes and inflated
+ * size under --max-inflated (a refusal counts as that limit's), and one
+ * file only (an upload is one part: a detached header is refused). */
+static sm_image_limits image_limits(const sm_job_files *files, sm_job_naming naming)
+{
+    sm_image_limits l = {0, 0, naming == SM_JOB_NAME_PARTS, 0};
+    if (files->limits)
+        l.max_inflated = files->limits->max_inflated;
+    return l;
+}
+
+/* The target from a label-map image: its selection by the params (set
+ * before the target is read), the level-set surface, a background given
+ * or generated around it and the template, the distance at its
+ * vertices. */
+static sm_status read_image_target(const sm_job_files *files, sm_job_naming naming,
+                                   sm_job_inputs *out, sm_error *err)
+{
+    sm_image_target *t = NULL;
+    sm_image_limits lim = image_limits(files, naming);
+    sm_image_select sel = sm_job_image_select(&out->params);
+    out->has_image = 1;
+    if (out->dim != 3) {
+        out->failed = SM_PART_TARGET_IMAGE;
+        return sm_error_set(err, SM_ERR_INVALID, "dimension mismatch: the template is %dD but a "
+                            "target image is 3D", out->dim);
+    }
+    double padding = files->background_padding > 0 ? files->background_padding
+                                                   : SM_BACKGROUND_PADDING_DEFAULT;
+    double t0 = sm_clock_seconds();
+    sm_status st = sm_job_image_target(files->target_image, &lim, &sel, out->params.image_space,
+                                       1.0, padding, &t, &out->image, err);
+    if (st != SM_OK) {
+        if (files->limits && (lim.hit == SM_IMAGE_LIMIT_INFLATED || lim.hit == SM_IMAGE_LIMIT_VOXELS))
+            files->limits->hit = SM_LIMIT_INFLATED;
+        if (st != SM_ERR_NOMEM || lim.hit)
+            file_error(err, naming, SM_PART_TARGET_IMAGE, files->target_image, out);
+        goto done;
+    }
+    if (files->target_mesh) {
+        if ((st = sm_mesh_read_limited(files->target_mesh, files->limits, &out->background,
+                                       err)) != SM_OK) {
+            file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
+            goto done;
+        }
+        if (out->background->dim != 3) {
+            st = sm_error_set(err, SM_ERR_INVALID, "dimension mismatch: the template is 3D but "
+                              "the target mesh is %dD", out->background->dim);
+            goto done;
+        }
+    } else {
+        st = sm_job_image_background(t, &out->image, out->template_mesh, files->background_size,
+                                     padding, &out->background, &out->background_size, err);
+        if (st == SM_OK)
+            st = check_background_limits(files->limits, out->background, err);
+        if (st != SM_OK) {
+            if (st != SM_ERR_NOMEM && naming == SM_JOB_NAME_PARTS) {
+                out->failed = SM_PART_PARAMS;
+                part_error(err, "params.background_size", "--background-size");
+            }
+            goto done;
+        }
+        out->background_generated = 1;
+        out->background_padding = padding;
+    }
+    st = sm_job_image_distance(t, out->background, &out->distance, &out->image, err);
+done:
+    out->sdf_seconds = sm_clock_seconds() - t0;
+    sm_image_target_free(t);
+    return st;
+}
+
 sm_status sm_job_files_check_background(const sm_job_files *files, sm_job_naming naming,
                                         sm_error *err)
 {
@@ -297,7 +370,8 @@ sm_status sm_job_files_check_background(const sm_job_files *files, sm_job_naming
         [SM_JOB_NAME_PATHS] = {"--background-size", "--background-padding",
                                "--target-surface", "--target-mesh"}};
     int size = files->background_size > 0, padding = files->background_padding > 0;
-    if ((!size && !padding) || (files->target_surface && !files->target_mesh))
+    if ((!size && !padding) ||
+        ((files->target_surface || files->target_image) && !files->target_mesh))
         return SM_OK;
     const char *const *n = names[naming == SM_JOB_NAME_PATHS];
     char where[64] = "";
@@ -369,7 +443,17 @@ static sm_status read_target(const sm_job_files *files, sm_job_naming naming, sm
                              sm_error *err)
 {
     sm_status st;
-    if (files->target_surface) {
+    if (files->target_image) {
+        if (files->target_sol || files->target_surface) {
+            out->failed = SM_PART_TARGET_IMAGE;
+            return sm_error_set(err, SM_ERR_INVALID, "%s excludes %s: give one target",
+                                SM_PART_NAME_TARGET_IMAGE,
+                                sm_part_name(files->target_sol ? SM_PART_TARGET_SOL
+                                                               : SM_PART_TARGET_SURFACE));
+        }
+        if ((st = read_image_target(files, naming, out, err)) != SM_OK)
+            return st;
+    } else if (files->target_surface) {
         if (files->target_sol) {
             out->failed = SM_PART_TARGET_SURFACE;
             return sm_error_set(err, SM_ERR_INVALID, "%s excludes %s: give one target",
@@ -494,6 +578,12 @@ sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
      * template side then overlaps */
     if ((st = sm_job_inputs_read_template(&with_bg, SM_JOB_NAME_PARTS, out, err)) != SM_OK)
         return st;
+    /* an image target is selected by the params' label, level and
+     * image_space: values the syntax check has decoded (they do not
+     * depend on the dimension), in place before the target is read */
+    out->params.label = params.label;
+    out->params.level = params.level;
+    out->params.image_space = params.image_space;
     if (!files->prepare_run &&
         (st = sm_job_inputs_read_target(&with_bg, SM_JOB_NAME_PARTS, 0, out, err)) != SM_OK)
         return st;

@@ -35,6 +35,7 @@
 #include "shapematch/sm_mesh.h"
 #include "shapematch/sm_params.h"
 #include "shapematch/sm_surface.h"
+#include "job/sm_job_image.h"
 #include "sm_proto_params.h"
 #include "sm_proto_vocab.h"
 
@@ -53,6 +54,14 @@ typedef struct sm_job_files {
     const char *target_mesh;
     const char *target_sol;
     const char *target_surface;
+    /* a label-map image (sm_job_image.h): the target is the boundary of
+     * the params' label, its distance on target_mesh or on a background
+     * generated around it and the template; excludes target_sol and
+     * target_surface.  It is read after the parameters are known:
+     * sm_job_inputs_read_target takes label, level and image_space from
+     * out->params (sm_job_inputs_load sets them from the params text
+     * first) */
+    const char *target_image;
     /* generated background: near-surface size (0: the default) and
      * padding as a fraction of the box's diagonal (0: 0.1); > 0 only
      * with target_surface and no target_mesh.  sm_job_inputs_load takes
@@ -98,7 +107,10 @@ typedef struct sm_job_inputs {
     double background_padding;
     sm_background_params background_asked; /* what the job asked for (0:
                                * not given): what job.json keeps */
-    double sdf_seconds;       /* distance computation (surface targets) */
+    double sdf_seconds;       /* distance computation (surface and image
+                               * targets) */
+    int has_image;            /* the target came from target_image: */
+    sm_job_image_info image;  /* what the image and its label hold */
     sm_part failed;           /* after a failure: the part the message is
                                * about; SM_NPARTS when none (dimension
                                * mismatch, out of memory) */

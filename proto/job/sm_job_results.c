@@ -95,6 +95,46 @@ static json_t *surface_health_object(const sm_job_inputs *in)
     return o;
 }
 
+/* A label-map target: the image, the selection and what it holds. */
+static json_t *image_object(const sm_job_inputs *in)
+{
+    const sm_job_image_info *im = &in->image;
+    const sm_label_stats *st = &im->stats;
+    json_t *o = json_object(), *lo = json_array(), *hi = json_array(), *dims = json_array(),
+           *spacing = json_array();
+    for (int k = 0; k < 3; k++) {
+        json_array_append_new(lo, json_real(st->lo[k]));
+        json_array_append_new(hi, json_real(st->hi[k]));
+        json_array_append_new(dims, json_integer(im->dims[k]));
+        json_array_append_new(spacing, json_real(im->spacing[k]));
+    }
+    json_object_set_new(o, "format", json_string(im->format));
+    json_object_set_new(o, "dims", dims);
+    json_object_set_new(o, "voxel_type", json_string(sm_voxel_type_name(im->type)));
+    json_object_set_new(o, "spacing", spacing);
+    json_object_set_new(o, "image_space", json_string(sm_image_space_name(im->space)));
+    if (im->sel.has_label)
+        json_object_set_new(o, "label", json_integer(im->sel.label));
+    else
+        json_object_set_new(o, "label", json_null()); /* every nonzero voxel, or >= level */
+    json_object_set_new(o, "level", json_real(im->sel.level));
+    json_object_set_new(o, "voxels", json_integer(st->voxels));
+    json_object_set_new(o, "components", json_integer(st->components));
+    json_object_set_new(o, "touches_border", json_boolean(st->touches_border));
+    json_object_set_new(o, "bbox_min", lo);
+    json_object_set_new(o, "bbox_max", hi);
+    json_object_set_new(o, "surface_triangles", json_integer(im->surface_triangles));
+    json_object_set_new(o, "background_generated", json_boolean(in->background_generated));
+    json_object_set_new(o, "background_vertices", json_integer(in->background->nverts));
+    if (in->background_generated) {
+        json_object_set_new(o, "background_size", json_real(in->background_size));
+        json_object_set_new(o, "background_padding", json_real(in->background_padding));
+    }
+    json_object_set_new(o, "exact_vertices", json_integer(im->exact_vertices));
+    json_object_set_new(o, "sdf_seconds", json_real(in->sdf_seconds));
+    return o;
+}
+
 static json_t *warnings_array(const sm_job_warnings *ws)
 {
     json_t *a = json_array();
@@ -169,6 +209,9 @@ json_t *sm_job_summary_outputs(const sm_job_inputs *in, const sm_job_run *run,
     if (in->has_surface) /* a surface target: its name and health report */
         bad = bad || set_string(inputs, SM_PART_NAME_TARGET_SURFACE, names->target_surface) ||
               smp_set(doc, "target_surface", surface_health_object(in));
+    if (in->has_image) /* an image target: its name and label summary */
+        bad = bad || set_string(inputs, SM_PART_NAME_TARGET_IMAGE, names->target_image) ||
+              smp_set(doc, "target_image", image_object(in));
     bad = bad || smp_set(tmpl, "dimension", json_integer(m->dim)) ||
           smp_set(tmpl, "vertices", json_integer(m->nverts)) ||
           smp_set(tmpl, "elements", json_integer(m->nelems)) ||

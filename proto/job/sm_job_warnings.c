@@ -197,6 +197,34 @@ static void check_surface(const sm_job_inputs *in, sm_job_warnings *out)
             (long long)closed);
 }
 
+/* The label of an image target: cut by the image's border, or in
+ * several pieces (a stray voxel of the label, two organs of one value). */
+static void check_image(const sm_job_inputs *in, sm_job_warnings *out)
+{
+    const sm_label_stats *s = &in->image.stats;
+    if (!in->has_image) { /* label, level, image_space select an image's
+                           * voxels: without one they change nothing */
+        const sm_params *p = &in->params;
+        int given = (p->label != 0) + (p->level != 0.5) + (p->image_space != SM_IMAGE_SPACE_LPS);
+        if (given)
+            add(out, "image-params-unused", (double)given,
+                "label, level and image_space are for a target image (--target-image, the part "
+                "target_image): this job's target is not one, and %d of them given change "
+                "nothing", given);
+        return;
+    }
+    if (s->touches_border)
+        add(out, "label-touches-border", (double)s->voxels,
+            "the label reaches the image's border: it is closed there, so the target may be cut "
+            "where the image ends");
+    if (s->components > 1)
+        add(out, "label-components", (double)s->components,
+            "the label has %lld separate components (26-connected): the template is matched "
+            "onto all of them at once; keep only the target's (another label value, or remove "
+            "the stray voxels)",
+            (long long)s->components);
+}
+
 sm_status sm_job_check_sign(const sm_job_inputs *in, sm_job_warnings *out, sm_error *err)
 {
     const sm_mesh *m = in->prepared;
@@ -247,6 +275,11 @@ sm_status sm_job_check_sign(const sm_job_inputs *in, sm_job_warnings *out, sm_er
         memcpy(ghi, in->health.hi, sizeof ghi);
         have_target = 1;
     }
+    if (in->has_image) { /* the label's voxel centres: the target's box */
+        memcpy(glo, in->image.stats.lo, sizeof glo);
+        memcpy(ghi, in->image.stats.hi, sizeof ghi);
+        have_target = 1;
+    }
     if (have_target)
         check_units(out, m->dim, tlo, thi, glo, ghi);
     if (have_target && neg < nhull)
@@ -258,6 +291,7 @@ sm_status sm_job_check_sign(const sm_job_inputs *in, sm_job_warnings *out, sm_er
             "clamp inside the target",
             (long)nclamp, clamp_dmin);
     check_surface(in, out);
+    check_image(in, out);
     return SM_OK;
 }
 

@@ -35,6 +35,12 @@
  *                       open edges: its sign may be wrong near the holes;
  *                       says to check it with shapematch sdf (figure: the
  *                       number of open edges)
+ *   label-touches-border  the image target's label reaches the image's
+ *                       border (figure: the label's voxels)
+ *   label-components    the label has several 26-connected components
+ *                       (figure: their number)
+ *   image-params-unused label, level or image_space given for a target
+ *                       that is not an image (figure: how many)
  *   alpha-small         no clamp and alpha far below the scale E / L^2
  *                       where the descent converges (figure: alpha L^2/E) */
 #ifndef SM_JOB_WARNINGS_H

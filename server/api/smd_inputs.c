@@ -25,6 +25,7 @@ static const char *const mesh_ext[] = {"mesh", "meshb", NULL};
 static const char *const sol_ext[] = {"sol", "solb", NULL};
 static const char *const surface_ext[] = {"surface", NULL};
 static const char *const csv_ext[] = {"csv", NULL};
+static const char *const image_ext[] = {"image", NULL};
 
 /* Opens the stored file of part; its name in name[cap].  -1 when the job
  * has none (the part was not sent). */
@@ -32,6 +33,7 @@ static int open_part(smd_server *srv, const char *id, int part, char *name, size
 {
     const char *const *ext = part == SM_PART_TARGET_SOL       ? sol_ext
                              : part == SM_PART_TARGET_SURFACE ? surface_ext
+                             : part == SM_PART_TARGET_IMAGE   ? image_ext
                              : part == SM_PART_TEMPLATE_LANDMARKS || part == SM_PART_TARGET_LANDMARKS
                                  ? csv_ext
                                  : mesh_ext;
@@ -104,7 +106,8 @@ enum MHD_Result smd_route_input(struct MHD_Connection *conn, smd_request *req)
     if (part < 0)
         return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NOT_FOUND,
                                  "no such input: the inputs are template, target_mesh, target_sol, "
-                                 "target_surface, template_landmarks and target_landmarks (the "
+                                 "target_surface, template_landmarks, target_landmarks and "
+                                 "target_image (the "
                                  "parameters are in the job's document)");
     smd_server *srv = req->srv;
     char name[48];

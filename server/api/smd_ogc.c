@@ -242,7 +242,8 @@ static int execute_input(smd_upload *u, const char *name, json_t *in)
     sm_text_printable_copy(shown, sizeof shown, name, "\"");
     smd_upload_fail(u, 400, SMD_PROBLEM_BAD_REQUEST,
                     "unknown input \"%s\": the inputs are template, target_mesh, target_sol, "
-                    "target_surface, template_landmarks, target_landmarks and params (see "
+                    "target_surface, template_landmarks, target_landmarks, target_image and "
+                    "params (see "
                     "/v1/processes/match)", shown);
     return -1;
 }

@@ -109,7 +109,7 @@ uint64_t smd_parts_hash(const smd_parts *u)
     for (int i = 0; i < SM_NPARTS; i++) {
         if (!u->seen[i])
             continue; /* the hashes of requests without target_surface stay as they were */
-        if (i == SM_PART_TARGET_SURFACE)
+        if (i == SM_PART_TARGET_SURFACE || i == SM_PART_TARGET_IMAGE)
             h = fnv1a(h, &i, sizeof i); /* tell it from the same bytes as target_mesh */
         h = fnv1a(h, &u->part_hash[i], sizeof u->part_hash[i]);
     }
@@ -221,6 +221,7 @@ static int name_file(smd_parts *u, sm_part id)
     const char *ext = landmarks                      ? "csv"
                       : id == SM_PART_TARGET_SOL       ? (binary ? "solb" : "sol")
                       : id == SM_PART_TARGET_SURFACE ? "surface" /* any surface format */
+                      : id == SM_PART_TARGET_IMAGE ? "image" /* NIfTI, NRRD, MetaImage */
                                                      : (binary ? "meshb" : "mesh");
     char final[PATH_MAX];
     if (smd_pathf(final, sizeof final, "%s/inputs/%s.%s%s", u->dir, sm_part_names[id], ext,
@@ -251,6 +252,15 @@ int smd_parts_check(smd_parts *u)
              "target_mesh, or target_mesh and target_sol)");
         return -1;
     }
+    if (u->seen[SM_PART_TARGET_IMAGE] &&
+        (u->seen[SM_PART_TARGET_SOL] || u->seen[SM_PART_TARGET_SURFACE])) {
+        smd_parts_fail(u, 422, SMD_PROBLEM_INVALID_INPUT,
+                       "target_image excludes %s: give one target (target_image with an optional "
+                       "target_mesh)",
+                       sm_part_names[u->seen[SM_PART_TARGET_SOL] ? SM_PART_TARGET_SOL
+                                                                  : SM_PART_TARGET_SURFACE]);
+        return -1;
+    }
     if (u->seen[SM_PART_TEMPLATE_LANDMARKS] != u->seen[SM_PART_TARGET_LANDMARKS]) {
         smd_parts_fail(u, 422, SMD_PROBLEM_INVALID_INPUT,
                        "%s: give both landmark parts, template_landmarks and target_landmarks",
@@ -258,13 +268,13 @@ int smd_parts_check(smd_parts *u)
                                                                         : SM_PART_TEMPLATE_LANDMARKS]);
         return -1;
     }
-    if (u->seen[SM_PART_TARGET_SURFACE])
+    if (u->seen[SM_PART_TARGET_SURFACE] || u->seen[SM_PART_TARGET_IMAGE])
         return 0;
     for (int i = SM_PART_TARGET_MESH; i <= SM_PART_TARGET_SOL; i++)
         if (!u->seen[i]) {
             smd_parts_fail(u, 400, SMD_PROBLEM_BAD_MULTIPART,
                  "missing part \"%s\": the target is target_mesh and target_sol, or "
-                 "target_surface (with an optional target_mesh)",
+                 "target_surface or target_image (with an optional target_mesh)",
                  sm_part_names[i]);
             return -1;
         }

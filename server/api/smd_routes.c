@@ -254,6 +254,16 @@ enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req)
                         file_input("Target landmarks",
                                    "CSV, the target's points matching template_landmarks row for "
                                    "row.", 0));
+    json_object_set_new(inputs, sm_part_names[SM_PART_TARGET_IMAGE],
+                        file_input("Target image",
+                                   "Instead of target_sol and target_surface: a label map, "
+                                   "NIfTI-1/-2 (.nii, .nii.gz), NRRD (.nrrd) or MetaImage (.mha) "
+                                   "in one file (a detached .nhdr or .mhd header is refused, "
+                                   "422); the target is the boundary of params label (0: every "
+                                   "nonzero voxel; float images: values >= params level), mapped "
+                                   "into params image_space (lps or ras), its signed distance "
+                                   "computed at the vertices of target_mesh or of a generated "
+                                   "background.", 0));
     json_object_set_new(inputs, sm_part_names[SM_PART_PARAMS],
                         json_pack("{s:s,s:s,s:i,s:i,s:o}", "title", "Parameters", "description",
                                   "JSON document; only clamp is required.", "minOccurs", 1,

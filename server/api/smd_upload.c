@@ -369,6 +369,7 @@ static void check_in_child(void *arg, smd_check_result *out)
                           .target_mesh = file_of(u, SM_PART_TARGET_MESH),
                           .target_sol = file_of(u, SM_PART_TARGET_SOL),
                           .target_surface = file_of(u, SM_PART_TARGET_SURFACE),
+                          .target_image = file_of(u, SM_PART_TARGET_IMAGE),
                           .landmarks_template = file_of(u, SM_PART_TEMPLATE_LANDMARKS),
                           .landmarks_target = file_of(u, SM_PART_TARGET_LANDMARKS),
                           .limits = &limits};

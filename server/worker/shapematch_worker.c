@@ -281,6 +281,7 @@ static int load_job(worker *w, smd_job_file *jf, sm_job_inputs *in)
                           .target_mesh = given[SM_PART_TARGET_MESH],
                           .target_sol = given[SM_PART_TARGET_SOL],
                           .target_surface = given[SM_PART_TARGET_SURFACE],
+                          .target_image = given[SM_PART_TARGET_IMAGE],
                           .landmarks_template = given[SM_PART_TEMPLATE_LANDMARKS],
                           .landmarks_target = given[SM_PART_TARGET_LANDMARKS],
                           .prepare_run = 1};
@@ -301,7 +302,8 @@ static int run_job(worker *w, sm_job_inputs *in, const smd_job_file *jf)
     sm_job_files names = {.template_mesh = given_or_null(jf->part[SM_PART_TEMPLATE]),
                           .target_mesh = given_or_null(jf->part[SM_PART_TARGET_MESH]),
                           .target_sol = given_or_null(jf->part[SM_PART_TARGET_SOL]),
-                          .target_surface = given_or_null(jf->part[SM_PART_TARGET_SURFACE])};
+                          .target_surface = given_or_null(jf->part[SM_PART_TARGET_SURFACE]),
+                          .target_image = given_or_null(jf->part[SM_PART_TARGET_IMAGE])};
     int code = SMD_WORKER_EXIT_OK;
     char msg[512], snaps[PATH_MAX];
     sm_job_run run;

@@ -264,7 +264,7 @@ static void test_binary_sphere_signs(void **state)
     im.voxels = v;
     sm_image_select sel = {0, 0, 0.5};
     assert_int_equal(sm_image_mask(&im, &sel, m, NULL, NULL), SM_OK);
-    sm_image_target_opts o = {0, 3.0, 0};
+    sm_image_target_opts o = {0, 3.0, 0, 1};
     sm_image_target *t;
     sm_error err;
     assert_int_equal(sm_image_target_new(&im, m, &sel, &o, &t, &err), SM_OK);
@@ -275,17 +275,25 @@ static void test_binary_sphere_signs(void **state)
     double *d = malloc((size_t)bg->nverts * sizeof *d), *w = malloc((size_t)bg->nverts * sizeof *w);
     assert_int_equal(sm_image_target_signed(t, bg->nverts, bg->coords, d, NULL, &err), SM_OK);
     sm_sdf_winding(sm_image_target_sdf(t), bg->nverts, bg->coords, w);
-    int64_t wrong = 0, near = 0;
+    /* the distances near the surface (found in rings of cells around the
+     * point) against the hierarchy's over every triangle */
+    double *u = malloc((size_t)bg->nverts * sizeof *u);
+    sm_sdf_distance(sm_image_target_sdf(t), bg->nverts, bg->coords, u, NULL);
+    int64_t wrong = 0, near = 0, differ = 0;
     for (int32_t p = 0; p < bg->nverts; p++)
         if (fabs(d[p]) < 3 && d[p] != 0) { /* on the surface: no side */
             near++;
             int bad = (d[p] < 0) != (w[p] > 0.5);
             wrong += bad;
+            differ += fabs(fabs(d[p]) - u[p]) > 1e-12;
         }
-    print_message("# binary sphere r 20: %lld near points, %lld signs against the winding number\n",
-                  (long long)near, (long long)wrong);
+    print_message("# binary sphere r 20: %lld near points, %lld signs against the winding number, "
+                  "%lld distances against the hierarchy's\n",
+                  (long long)near, (long long)wrong, (long long)differ);
     assert_true(near > 10000);
     assert_int_equal(wrong, 0);
+    assert_int_equal(differ, 0);
+    free(u);
     free(d);
     free(w);
     sm_mesh_free(bg);

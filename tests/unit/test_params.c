@@ -298,7 +298,7 @@ static void test_named_values(void **state)
                 assert_non_null(strstr(err.msg, f->name));
         }
     }
-    assert_int_equal(named, 2);
+    assert_int_equal(named, 3);
 }
 
 /* free_boundary: the count's bounds (0 and SM_MAX_REFS) in JSON and core,

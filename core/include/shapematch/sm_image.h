@@ -29,6 +29,7 @@
 #include <stdint.h>
 
 #include "sm_error.h"
+#include "sm_mesh.h"
 #include "sm_surface.h"
 
 typedef enum sm_voxel_type {
@@ -135,15 +136,24 @@ sm_status sm_edt_signed(const int64_t n[3], const double h[3], const uint8_t *ma
  * a closed, outward triangle surface (marching tetrahedra, 6 Kuhn
  * tetrahedra per cell of voxel centres); the signed voxel-centre EDT of
  * the thresholded field on the crop; sm_image_target_signed gives the
- * exact signed distance to the surface (sm_sdf.h) within band_voxels
- * (times the largest spacing) of it or outside the crop, the EDT's
- * trilinear interpolation elsewhere.  The EDT is exact in the world for
+ * exact signed distance to the surface within band_voxels (times the
+ * largest spacing) of it, the EDT's trilinear interpolation elsewhere in
+ * the crop, and beyond the crop (a background larger than the crop) the
+ * distance to the crop plus the EDT at its nearest point (an upper
+ * bound, positive; exact when that bound is within twice the band).  The exact distance needs no hierarchy: the surface's
+ * triangles are indexed by the crop cell that made them, and a point's
+ * nearest one is found in rings of cells around it (the nearest triangle
+ * of a point within the band lies a few cells away); its sign is the
+ * side of the marching's piecewise-linear field (the Kuhn tetrahedron
+ * holding the point), the surface's own inside.  The EDT is exact in the world for
  * orthogonal voxel axes (any rotation, any spacing); sheared axes make it
  * an approximation there, the band is exact either way. */
 typedef struct sm_image_target_opts {
     double smooth;      /* Gaussian sigma in voxels, 0: none (default 1) */
     double band_voxels; /* exact within (default 3) */
     double pad_voxels;  /* extra crop margin */
+    int hierarchy;      /* 1: also build the surface's sm_sdf (winding
+                         * numbers; sm_image_target_sdf), else NULL */
 } sm_image_target_opts;
 typedef struct sm_image_target sm_image_target;
 
@@ -152,7 +162,13 @@ typedef struct sm_image_target sm_image_target;
 sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_image_select *sel,
                               const sm_image_target_opts *o, sm_image_target **out, sm_error *err);
 void sm_image_target_free(sm_image_target *t);
-/* The level-set surface and its distance hierarchy (owned by t). */
+/* The graded background (sm_background_graded_fn_new) over lo..hi with
+ * near-surface cells of h, graded by |sm_image_target_signed|. */
+sm_status sm_image_target_background(const sm_image_target *t, const double lo[3],
+                                     const double hi[3], double h, sm_mesh **out,
+                                     sm_error *err);
+/* The level-set surface and, with opts hierarchy, its distance
+ * hierarchy (NULL without; both owned by t). */
 const sm_surface *sm_image_target_surface(const sm_image_target *t);
 const struct sm_sdf *sm_image_target_sdf(const sm_image_target *t);
 /* The crop's size, its index-to-world map and the signed EDT on it. */

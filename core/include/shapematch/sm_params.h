@@ -61,6 +61,17 @@ const char *sm_align_mode_name(sm_align_mode mode);
 /* 0 and *out for a known name, -1 otherwise. */
 int sm_align_mode_from_name(const char *name, sm_align_mode *out);
 
+/* The frame of the template's coordinates for a label-map target
+ * (params "image_space", sm_image.h): LPS (ITK, Slicer, NRRD's
+ * left-posterior-superior) or RAS (NIfTI's world, FreeSurfer). */
+typedef enum sm_image_space {
+    SM_IMAGE_SPACE_LPS = 0,
+    SM_IMAGE_SPACE_RAS = 1
+} sm_image_space;
+
+/* "lps", "ras"; NULL out of range. */
+const char *sm_image_space_name(sm_image_space space);
+
 /* Defaults and bounds of every member: the parameter table below
  * (sm_params_table, core/sm_params.c), not these comments. */
 typedef struct sm_params {
@@ -105,6 +116,10 @@ typedef struct sm_params {
                               * every k iterations, and at least every 0.5 s
                               * of a run; 0 = by time only */
     sm_align_mode align;     /* pre-alignment (the job runner applies it) */
+    /* a label-map target (the job runner reads it; ignored otherwise) */
+    int label;               /* the label's value; 0: every nonzero voxel */
+    double level;            /* float images without a label: voxels >= level */
+    sm_image_space image_space; /* the template's frame */
 } sm_params;
 
 /* Fills p with the defaults of the parameter table (below); clamp NONE. */
@@ -132,7 +147,8 @@ typedef enum sm_param_type {
                           * min/max bound the count */
     SM_PARAM_CLAMP = 4,  /* the clamp set: its kind and members are code of their
                           * own (the clamp options, decode_clamp, the checks) */
-    SM_PARAM_ALIGN = 5   /* sm_align_mode, written by name (sm_align_mode_name) */
+    SM_PARAM_ALIGN = 5,  /* sm_align_mode, written by name (sm_align_mode_name) */
+    SM_PARAM_SPACE = 6   /* sm_image_space, written by name (sm_image_space_name) */
 } sm_param_type;
 
 typedef struct sm_param_info {
@@ -165,7 +181,8 @@ int sm_param_in_range(const sm_param_info *f, double x);
  * (an INT bound at INT_MAX counts as none).  Returns snprintf's count. */
 int sm_param_describe_range(const sm_param_info *f, char *buf, size_t cap);
 
-/* The rows whose values are names (SM_PARAM_SOLVER, SM_PARAM_ALIGN): 1
+/* The rows whose values are names (SM_PARAM_SOLVER, SM_PARAM_ALIGN,
+ * SM_PARAM_SPACE): 1
  * for them.  Their value k (an enum from f->min to f->max) by name (NULL
  * out of range), a name's value (-1 when unknown), and the value of the
  * row in a struct (base: the sm_params), so that readers and writers of

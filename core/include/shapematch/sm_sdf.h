@@ -90,6 +90,16 @@ sm_status sm_background_new(int dim, const double *lo, const double *hi, double 
 sm_status sm_background_graded_new(int dim, const double *lo, const double *hi, double h,
                                    const sm_sdf *d, sm_mesh **out, sm_error *err);
 
+/* The same with the distance from fn (n points of dim coordinates into
+ * dist; user passed through): for a target with a distance of its own
+ * (a label map's: sm_image.h).  fn may overestimate by little: a cell
+ * is split when the distance at its centre is below its half-diagonal
+ * plus its side. */
+typedef void (*sm_distance_fn)(void *user, int64_t n, const double *pts, double *dist);
+sm_status sm_background_graded_fn_new(int dim, const double *lo, const double *hi, double h,
+                                      sm_distance_fn fn, void *user, sm_mesh **out,
+                                      sm_error *err);
+
 /* Exact distance squared from p to triangle abc (3D) / segment ab (2D). */
 double sm_sdf_point_triangle2(const double *p, const double *a, const double *b,
                               const double *c);

@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# The web form's label-map target in real Chromium (web_image.mjs): the
+# target_image input and the label/level/image_space fields, a job
+# through the form, a dropped image routed to its input, an empty label's
+# 422 in the form.  Release variant only: the daemon side is
+# daemon_image's, in both variants.
+source "$(dirname "$0")/lib.sh"
+
+if [ "$VARIANT" != release ]; then
+    skip "browser tests run in the release variant only (daemon_image covers the daemon in both)"
+    echo "1..$n"
+    exit 0
+fi
+if [ ! -x /usr/bin/chromium ] || [ ! -d "$ROOT/node_modules/playwright-core" ]; then
+    not_ok "chromium and playwright-core are installed (make deps)"
+    echo "1..$n"
+    exit 1
+fi
+PY=/usr/bin/python3
+[ -x "$PY" ] || PY=python3
+"$PY" "$ROOT/tests/cli/image_shapes.py" write "$WORK" sphere >/dev/null
+cat >"$WORK/ball.geo" <<'GEO'
+SetFactory("OpenCASCADE");
+Sphere(1) = {4, 39, 9, 8.5};
+Mesh.MeshSizeFromPoints = 0;
+GEO
+gmsh "$WORK/ball.geo" -3 -format msh41 -clmax 3 -nt 1 -v 1 -o "$WORK/ball.msh" >/dev/null 2>&1
+start_daemon web --workers 1 || { not_ok "the daemon starts"; exit 1; }
+node "$ROOT/tests/integration/web_image.mjs" "$BASE" "$WORK/ball.msh" "$WORK/s1.nii" \
+    >"$WORK/node.out" 2>"$WORK/node.err"
+rc=$?
+while IFS= read -r line; do
+    desc=$(jq -r .desc <<<"$line" 2>/dev/null) || continue
+    if [ "$(jq -r .ok <<<"$line")" = true ]; then
+        ok "$desc"
+    else
+        not_ok "$desc" "$(jq -r .detail <<<"$line")"
+    fi
+done <"$WORK/node.out"
+[ "$rc" = 0 ] || not_ok "the browser driver runs" "exit $rc" "$(tail -20 "$WORK/node.err")"
+echo "1..$n"

@@ -219,7 +219,7 @@ static json_t *summary_doc(const out_ctx *c, const sm_model_opts *o, json_t *fil
         json_array_append_new(ve, json_real(m->total_variance > 0
                                                 ? m->variance[k] / m->total_variance : 0));
     return json_pack("{s:i, s:i, s:I, s:s, s:i, s:i, s:i, s:f, s:o, s:o, s:o, s:o, s:o, "
-                     "s:{s:i, s:i, s:i, s:I}, s:o, s:o, s:{s:f, s:f, s:f}}",
+                     "s:{s:i, s:i, s:i, s:I}, s:o, s:O, s:{s:f, s:f, s:f}}",
                      "members", m->nshapes, "dimension", m->dim, "vertices", (json_int_t)m->npoints,
                      "align", sm_shape_align_name((sm_shape_align)o->align),
                      "procrustes_rounds", m->gpa_rounds, "modes", m->nmodes,

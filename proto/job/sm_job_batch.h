@@ -1,0 +1,103 @@
+/* A batch: one template matched onto many targets in one process group,
+ * the template side built once, then the shape model of the results
+ * (sm_job_model.h).  `shapematch batch` runs it (client/cmd_batch.c).
+ *
+ * Reuse: the parent reads and checks the template, applies the
+ * parameters and sets up the run's template side (sm_match_new: the
+ * topology, the clamp set, the elastic operator and its first
+ * factorization or AMG hierarchy) once; each target then runs in a child
+ * process forked from it, which inherits all of that copy-on-write
+ * (shared read-only until the run moves its own copy), reads its target,
+ * runs sm_job_run_exec and writes the result set of `shapematch run`
+ * into DIR/targets/NAME/.  The computation is the one of `shapematch
+ * run` (the same template side, built by the same call on the same
+ * inputs), so the result files are identical bit for bit.  With
+ * params.align the template moves before the run, and its side is set up
+ * on the moved copy in the child, as `run` does.
+ *
+ * Children run side by side, at most `jobs` at a time; with more than
+ * one, each gets one OpenMP/BLAS thread (the machine's cores go to the
+ * processes), with one the thread policy of sm_job_threads.h applies.
+ * The parent never opens a parallel region of more than one thread
+ * before forking (a forked child cannot use a parent's OpenMP pool).
+ *
+ * A target that fails (unreadable, no valid step, crash) is reported
+ * and left out of the model; it does not stop the others. */
+#ifndef SM_JOB_BATCH_H
+#define SM_JOB_BATCH_H
+
+#include <stddef.h>
+
+#include "job/sm_job_inputs.h"
+#include "job/sm_job_model.h"
+#include "shapematch/sm_error.h"
+
+/* One target.  Paths owned (malloc'd); name unique in its list. */
+typedef struct sm_batch_target {
+    char *name;
+    char *target_surface, *target_mesh, *target_sol;
+    char *landmarks;        /* this target's landmark CSV, or NULL */
+} sm_batch_target;
+
+typedef struct sm_batch_list {
+    sm_batch_target *t;
+    size_t n, cap;
+} sm_batch_list;
+
+/* Adds a target (paths copied; name NULL: the stem of the surface or
+ * mesh file).  Names are made unique at sm_batch_list_finish. */
+sm_status sm_batch_list_add(sm_batch_list *l, const char *name, const char *surface,
+                            const char *mesh, const char *sol, const char *landmarks,
+                            sm_error *err);
+
+/* Parses a target list (text, len bytes; need not be NUL-terminated).
+ * Format: a header line naming the columns, comma-separated, among
+ * name, target_surface, target_mesh, target_sol, landmarks (each at most
+ * once; target_surface or target_mesh required); then one target per
+ * line with as many fields.  Blank lines and lines starting with '#' are
+ * skipped; fields are trimmed of spaces and tabs; no quoting (a path with
+ * a comma cannot be listed).  A row needs target_surface, or target_mesh
+ * with target_sol; target_sol needs target_mesh.  Relative paths are
+ * taken relative to base_dir (NULL: as they are).  Errors:
+ * SM_ERR_FORMAT "LINE N: ..." (N from 1), the list left with the rows
+ * before. */
+sm_status sm_batch_list_parse(sm_batch_list *l, const char *text, size_t len,
+                              const char *base_dir, sm_error *err);
+/* Makes the names unique and usable as folder names: characters other
+ * than letters, digits, '.', '-', '_' become '_', a leading '.' too;
+ * the second "x" becomes "x-2", and so on. */
+sm_status sm_batch_list_finish(sm_batch_list *l, sm_error *err);
+void sm_batch_list_free(sm_batch_list *l);
+
+typedef struct sm_batch_opts {
+    const char *template_mesh;
+    const char *template_landmarks;  /* with per-target landmarks */
+    double background_size, background_padding;
+    const sm_params *params;         /* checked by the caller */
+    unsigned outputs;                /* SM_RESULT_OUT_* of each target */
+    int jobs;                        /* children at a time (>= 1) */
+    int build_model;                 /* 0: targets only */
+    sm_model_opts model;
+    /* after each target ends (in the parent; may be NULL) */
+    void (*target_done)(size_t index, const char *name, const char *status, int exit_code,
+                        double seconds, void *user);
+    void *user;
+} sm_batch_opts;
+
+typedef struct sm_batch_outcome {
+    size_t nok, nfailed;
+    double template_seconds;  /* the template side, once */
+    int template_setups;      /* sm_match_new calls in the parent (1, or 0
+                               * with align: per target, as `run`) */
+    double targets_seconds, model_seconds, total_seconds;
+    int model_built;
+    char model_error[SM_ERROR_MSG_LEN];
+} sm_batch_outcome;
+
+/* Runs the batch into out_dir (targets/, model/, summary.json).  Errors
+ * are the template's or the parameters' (nothing run), or writing
+ * out_dir; a failed target or model is in the outcome and summary. */
+sm_status sm_job_batch_run(const sm_batch_list *list, const sm_batch_opts *opts,
+                           const char *out_dir, sm_batch_outcome *out, sm_error *err);
+
+#endif

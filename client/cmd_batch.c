@@ -48,6 +48,8 @@ void cmd_batch_help(void)
            "                          model: none, rigid (default) or similarity\n"
            "  --model-modes K         mode files written (mode_K.sol; default 20)\n"
            "  --no-model              the targets only\n"
+           "  --model-from DIR        no matching: build DIR/model again from the targets\n"
+           "                          of an earlier batch's DIR (e.g. another alignment)\n"
            "  -o, --output DIR        output folder (created if missing)\n"
            "  -q, --quiet             no line per target\n"
            "\n"
@@ -62,7 +64,7 @@ void cmd_batch_help(void)
 
 typedef struct batch_args {
     sm_batch_list list;
-    const char *outdir, *template_path, *template_landmarks, *model_align;
+    const char *outdir, *template_path, *template_landmarks, *model_align, *model_from;
     int jobs, model_modes, no_model, quiet;
     const char *pending_mesh;  /* a --target-mesh waiting for its --target-sol */
     char **rest;               /* the options passed to run's parser */
@@ -126,7 +128,8 @@ static int parse(int argc, char **argv, batch_args *b)
         }
         static const char *const with_value[] = {
             "--target-surface", "--target-mesh", "--target-sol", "--targets", "--template",
-            "--template-landmarks", "--model-align", "--model-modes", "--jobs", "-o", "--output"};
+            "--template-landmarks", "--model-align", "--model-modes", "--jobs", "--model-from", "-o",
+            "--output"};
         size_t k = 0;
         while (k < sizeof with_value / sizeof *with_value && strcmp(a, with_value[k]) != 0)
             k++;
@@ -168,9 +171,14 @@ static int parse(int argc, char **argv, batch_args *b)
             return fail("--model-modes: '%s' is not a count from 1", v);
         if (k == 8 && ((b->jobs = atoi(v)) < 1 || b->jobs > 256))
             return fail("--jobs: '%s' is not a count from 1 to 256", v);
-        if (k >= 9)
+        if (k == 9)
+            b->model_from = v;
+        if (k >= 10)
             b->outdir = v;
     }
+    if (b->model_from)
+        return b->nrest || b->list.n || b->template_path || b->outdir
+                   ? fail("%s", "--model-from takes the model's options only") : 0;
     if (b->pending_mesh)
         return fail("--target-mesh %s has no --target-sol", b->pending_mesh);
     if (!b->template_path)
@@ -240,6 +248,18 @@ int cmd_batch(int argc, char **argv)
     }
     if (code == 0 && b.model_align && sm_shape_align_parse(b.model_align, &align) != 0)
         code = fail("--model-align: '%s' is not none, rigid or similarity", b.model_align);
+    if (code == 0 && b.model_from) {
+        sm_model_opts mo = {.align = (sm_model_align)align, .max_modes = b.model_modes};
+        size_t used = 0;
+        if (sm_job_batch_remodel(b.model_from, &mo, &used, &err) != SM_OK) {
+            fprintf(stderr, "shapematch batch: error: %s\n", err.msg);
+            code = CLI_EXIT_INPUT;
+        } else if (!b.quiet) {
+            fprintf(stderr, "shapematch batch: model of %zu targets in %s/model\n", used,
+                    b.model_from);
+        }
+        goto done;
+    }
     if (code == 0 && sm_batch_list_finish(&b.list, &err) != SM_OK)
         code = fail("%s", err.msg);
     if (code == 0)

@@ -556,3 +556,52 @@ sm_status sm_job_batch_run(const sm_batch_list *l, const sm_batch_opts *o, const
         sm_job_inputs_free(&bt.in);
     return st;
 }
+
+sm_status sm_job_batch_remodel(const char *batch_dir, const sm_model_opts *opts, size_t *members,
+                               sm_error *err)
+{
+    char *path = sm_path_join(batch_dir, "summary.json");
+    json_error_t je;
+    json_t *doc = path ? json_load_file(path, 0, &je) : NULL;
+    json_t *targets = doc ? json_object_get(doc, "targets") : NULL;
+    sm_status st = SM_OK;
+    if (!path)
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    else if (!doc)
+        st = sm_error_set(err, SM_ERR_IO, "%s: %s", path, je.text);
+    else if (!json_is_array(targets))
+        st = sm_error_set(err, SM_ERR_FORMAT, "%s: no \"targets\" array", path);
+    size_t n = targets ? json_array_size(targets) : 0, k = 0;
+    sm_model_member *mb = calloc(n + 1, sizeof *mb);
+    char **dirs = calloc(n + 1, sizeof *dirs);
+    char *tdir = sm_path_join(batch_dir, "targets");
+    if (st == SM_OK && (!mb || !dirs || !tdir))
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    for (size_t i = 0; st == SM_OK && i < n; i++) {
+        json_t *row = json_array_get(targets, i);
+        const char *name = json_string_value(json_object_get(row, "name"));
+        const char *status = json_string_value(json_object_get(row, "status"));
+        if (!name || !status || strchr(name, '/') || name[0] == '.')
+            st = sm_error_set(err, SM_ERR_FORMAT, "%s: target %zu has no usable name or status",
+                              path, i + 1);
+        else if (strcmp(status, "finished") == 0 || strcmp(status, "not_converged") == 0) {
+            if (!(dirs[k] = sm_path_join(tdir, name)))
+                st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+            mb[k] = (sm_model_member){name, dirs[k]};
+            k++;
+        }
+    }
+    if (st == SM_OK && k == 0)
+        st = sm_error_set(err, SM_ERR_INVALID, "%s: no target ended with a result", path);
+    char *model_dir = st == SM_OK ? sm_path_join(batch_dir, "model") : NULL;
+    if (st == SM_OK)
+        st = model_dir ? sm_job_model_build_opts(mb, k, opts, model_dir, err)
+                       : sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    if (members)
+        *members = k;
+    for (size_t i = 0; dirs && i < k; i++)
+        free(dirs[i]);
+    free(dirs), free(mb), free(tdir), free(model_dir), free(path);
+    json_decref(doc);
+    return st;
+}

@@ -100,4 +100,11 @@ typedef struct sm_batch_outcome {
 sm_status sm_job_batch_run(const sm_batch_list *list, const sm_batch_opts *opts,
                            const char *out_dir, sm_batch_outcome *out, sm_error *err);
 
+/* Builds BATCH_DIR/model again from the targets BATCH_DIR/summary.json
+ * lists as finished or not_converged (their folders under
+ * BATCH_DIR/targets/), with opts (another alignment, more modes, ...):
+ * `shapematch batch --model-from DIR`.  *members: the targets used. */
+sm_status sm_job_batch_remodel(const char *batch_dir, const sm_model_opts *opts, size_t *members,
+                               sm_error *err);
+
 #endif

@@ -267,6 +267,11 @@ int cmd_batch(int argc, char **argv)
     if (code != 0)
         goto done;
     char msg[ARGS_MSG_LEN];
+    if (ro.landmarks) {
+        code = fail("%s", "--landmarks: a batch takes --template-landmarks T.csv and each "
+                          "target's landmarks from the LIST.csv column 'landmarks'");
+        goto done;
+    }
     if (fs_output_dir(b.outdir, msg, sizeof msg) != 0) {
         fprintf(stderr, "shapematch batch: output directory: %s\n", msg);
         code = CLI_EXIT_OUTPUT;

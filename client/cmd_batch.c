@@ -113,68 +113,71 @@ static int read_list(batch_args *b, const char *path)
     return 0;
 }
 
+/* Option k of parse's with_value table, with its value v. */
+static int take_option(batch_args *b, size_t k, const char *v)
+{
+    sm_error err;
+    sm_error_clear(&err);
+    switch (k) {
+    case 0:
+        return sm_batch_list_add(&b->list, NULL, v, NULL, NULL, NULL, &err) != SM_OK
+                   ? fail("%s", err.msg) : 0;
+    case 1:
+        if (b->pending_mesh)
+            return fail("--target-mesh %s has no --target-sol", b->pending_mesh);
+        b->pending_mesh = v;
+        return 0;
+    case 2:
+        if (!b->pending_mesh)
+            return fail("--target-sol %s follows no --target-mesh", v);
+        if (sm_batch_list_add(&b->list, NULL, NULL, b->pending_mesh, v, NULL, &err) != SM_OK)
+            return fail("%s", err.msg);
+        b->pending_mesh = NULL;
+        return 0;
+    case 3: return read_list(b, v);
+    case 4: b->template_path = v; return 0;
+    case 5: b->template_landmarks = v; return 0;
+    case 6: b->model_align = v; return 0;
+    case 7:
+        return (b->model_modes = atoi(v)) < 1 || b->model_modes > 100000
+                   ? fail("--model-modes: '%s' is not a count from 1", v) : 0;
+    case 8:
+        return (b->jobs = atoi(v)) < 1 || b->jobs > 256
+                   ? fail("--jobs: '%s' is not a count from 1 to 256", v) : 0;
+    case 9: b->model_from = v; return 0;
+    default: b->outdir = v; return 0;
+    }
+}
+
 /* The batch's own options; the rest are kept for run's parser. */
 static int parse(int argc, char **argv, batch_args *b)
 {
+    static const char *const with_value[] = {
+        "--target-surface", "--target-mesh", "--target-sol", "--targets", "--template",
+        "--template-landmarks", "--model-align", "--model-modes", "--jobs", "--model-from", "-o",
+        "--output"};
+    const size_t nwith = sizeof with_value / sizeof *with_value;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-        int known = 1;
-        sm_error err;
         if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0)
             return -1;
         if (!strcmp(a, "--no-model") || !strcmp(a, "-q") || !strcmp(a, "--quiet")) {
             *(a[2] == 'n' ? &b->no_model : &b->quiet) = 1;
             continue;
         }
-        static const char *const with_value[] = {
-            "--target-surface", "--target-mesh", "--target-sol", "--targets", "--template",
-            "--template-landmarks", "--model-align", "--model-modes", "--jobs", "--model-from", "-o",
-            "--output"};
         size_t k = 0;
-        while (k < sizeof with_value / sizeof *with_value && strcmp(a, with_value[k]) != 0)
+        while (k < nwith && strcmp(a, with_value[k]) != 0)
             k++;
-        known = k < sizeof with_value / sizeof *with_value;
-        if (!known) {
+        if (k == nwith) {
             b->rest[b->nrest++] = argv[i];
             continue;
         }
         if (!v)
             return fail("option '%s' needs a value", a);
         i++;
-        sm_error_clear(&err);
-        if (k == 0 && sm_batch_list_add(&b->list, NULL, v, NULL, NULL, NULL, &err) != SM_OK)
-            return fail("%s", err.msg);
-        if (k == 1) {
-            if (b->pending_mesh)
-                return fail("--target-mesh %s has no --target-sol", b->pending_mesh);
-            b->pending_mesh = v;
-        }
-        if (k == 2) {
-            if (!b->pending_mesh)
-                return fail("--target-sol %s follows no --target-mesh", v);
-            if (sm_batch_list_add(&b->list, NULL, NULL, b->pending_mesh, v, NULL, &err) != SM_OK)
-                return fail("%s", err.msg);
-            b->pending_mesh = NULL;
-        }
-        if (k == 3) {
-            int code = read_list(b, v);
-            if (code)
-                return code;
-        }
-        if (k == 4)
-            b->template_path = v;
-        if (k == 5)
-            b->template_landmarks = v;
-        if (k == 6)
-            b->model_align = v;
-        if (k == 7 && ((b->model_modes = atoi(v)) < 1 || b->model_modes > 100000))
-            return fail("--model-modes: '%s' is not a count from 1", v);
-        if (k == 8 && ((b->jobs = atoi(v)) < 1 || b->jobs > 256))
-            return fail("--jobs: '%s' is not a count from 1 to 256", v);
-        if (k == 9)
-            b->model_from = v;
-        if (k >= 10)
-            b->outdir = v;
+        int code = take_option(b, k, v);
+        if (code)
+            return code;
     }
     if (b->model_from)
         return b->nrest || b->list.n || b->template_path || b->outdir

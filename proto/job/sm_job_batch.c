@@ -49,7 +49,7 @@ static int run_child(batch_template *bt, const sm_batch_target *t, const sm_batc
     files.target_surface = t->target_surface;
     files.target_mesh = t->target_mesh;
     files.target_sol = t->target_sol;
-    if (o->jobs > 1)
+    if (o->jobs > 1 || o->single_thread)
         omp_set_num_threads(1);
     sm_error err;
     sm_error_clear(&err);

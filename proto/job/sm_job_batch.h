@@ -40,6 +40,9 @@ typedef struct sm_batch_opts {
     const sm_params *params;         /* checked by the caller */
     unsigned outputs;                /* SM_RESULT_OUT_* of each target */
     int jobs;                        /* children at a time (>= 1) */
+    int single_thread;               /* one thread per child even alone (a
+                                      * host whose OpenMP pool a forked
+                                      * child cannot use) */
     int build_model;                 /* 0: targets only */
     sm_model_opts model;
     /* after each target ends (in the parent; may be NULL) */

@@ -127,6 +127,39 @@ def model(bdir, params):
         gen.append(tot / n)
     if abs(np.array(summ["generalization"]) - gen).max() > 1e-9 * max(gen):
         bad.append("generalization %s vs numpy's %s" % (summ["generalization"], gen))
+    # specificity: the library's generator (xorshift64*, Box-Muller) redone
+    # here, the samples built in R^P and their nearest shape found by brute
+    # force; mode signs taken from the scores
+    sign = np.sign((scores * ref).sum(0))
+    ev = summ["evaluation"]
+    state = [ev["seed"]]
+    mask = (1 << 64) - 1
+
+    def uniform():
+        x = state[0]
+        x ^= x >> 12
+        x ^= (x << 25) & mask
+        x ^= x >> 27
+        state[0] = x
+        return (((x * 0x2545F4914F6CDD1D) & mask) >> 11) * 2.0 ** -53 + 0.5 * 2.0 ** -53
+
+    def normal():
+        u, v = uniform(), uniform()
+        return math.sqrt(-2 * math.log(u)) * math.cos(6.283185307179586 * v)
+
+    e = ev["modes"]
+    modes = (vt[:e].T * sign[:e]).T
+    spec = np.zeros(e)
+    for _ in range(ev["samples"]):
+        bb = [normal() * math.sqrt(mv[k]) for k in range(e)]
+        smp = np.zeros(x.shape[1])
+        for k in range(e):
+            smp += bb[k] * modes[k]
+            near = x[np.argmin(((x - smp) ** 2).sum(1))]
+            spec[k] += np.linalg.norm((smp - near).reshape(-1, 2), axis=1).mean()
+    spec /= ev["samples"]
+    if abs(np.array(summ["specificity"]) - spec).max() > 1e-9 * spec.max():
+        bad.append("specificity %s vs numpy's %s" % (summ["specificity"], spec))
     if comp[1] < 0.95:
         bad.append("the first two modes carry %.4f of the variance (< 0.95)" % comp[1])
     a = np.c_[scores[:, :2], np.ones(n)]

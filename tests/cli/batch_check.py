@@ -18,6 +18,7 @@
 Prints one line per failed check on stdout; exits 1 if any."""
 import json
 import math
+import os
 import sys
 
 import numpy as np
@@ -110,6 +111,19 @@ def model(bdir, params):
     e1 = vt[0] * s[0] / math.sqrt(n - 1)
     if min(abs(m1 - e1).max(), abs(m1 + e1).max()) > 1e-9 * abs(e1).max():
         bad.append("mode_1.sol is not sqrt(lambda_1) u_1")
+    # modes.vtu through the suites' own reader (tests/lib/vtu.py): the mean
+    # as points, mode1.. as mode_K.sol, padded to 3D
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+    import vtu
+    _, arr = vtu.read(bdir + "/model/modes.vtu")
+    pts = np.array(arr["Points"]).reshape(-1, 3)
+    if abs(pts[:, :2] - mm).max() > 0 or abs(pts[:, 2]).max() > 0:
+        bad.append("modes.vtu's points are not mean.mesh's")
+    for kk in range(1, summ["modes_written"] + 1):
+        f = np.array(arr.get("mode%d" % kk, [])).reshape(-1, 3)
+        sol = read_sol(bdir + "/model/mode_%d.sol" % kk)
+        if f.shape != (len(sol), 3) or abs(f[:, :2] - sol).max() > 0 or abs(f[:, 2]).max() > 0:
+            bad.append("modes.vtu's mode%d is not mode_%d.sol" % (kk, kk))
     comp = np.cumsum(var) / var.sum()
     if abs(np.array(summ["compactness"]) - comp[:len(summ["compactness"])]).max() > 1e-12:
         bad.append("compactness differs from numpy's")

@@ -4,6 +4,7 @@
  * applies to every target; what is the CLI's own is the target list,
  * the model's and the batch's options, one line per target and the exit
  * code. */
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -13,6 +14,32 @@
 #include "cli.h"
 #include "fsutil.h"
 #include "job/sm_job_batch.h"
+
+/* Set by SIGINT/SIGTERM: the batch stops (sm_batch_opts.cancel).  A
+ * signal handler has no other way to reach it. */
+static volatile sig_atomic_t batch_cancel;
+_Static_assert(_Generic((sig_atomic_t)0, int: 1, default: 0),
+               "sig_atomic_t must be int to be shared with the batch");
+
+static void on_batch_signal(int sig)
+{
+    (void)sig;
+    batch_cancel = 1;
+}
+
+/* As run's: the first signal asks for a clean stop, a second one ends the
+ * process; no SA_RESTART, so the wait for the targets sees it at once. */
+static void install_cancel_handlers(void)
+{
+    struct sigaction sa, old;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_batch_signal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESETHAND;
+    if (sigaction(SIGINT, NULL, &old) != 0 || old.sa_handler != SIG_IGN)
+        sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+}
 
 void cmd_batch_help(void)
 {
@@ -57,9 +84,13 @@ void cmd_batch_help(void)
            "--background-size, ...) applies to every target; see 'shapematch run\n"
            "--help'.  docs/populations.md describes the files.\n"
            "\n"
+           "Ctrl-C stops the batch: no new target starts, the running ones stop after\n"
+           "their current iteration and write the state reached (status \"cancelled\"),\n"
+           "no model is built; a second Ctrl-C ends it at once.\n"
+           "\n"
            "Exit: 0 every target finished and the model was built; 2 the template or an\n"
-           "option is wrong (nothing run); 4 an output cannot be written; 11 some\n"
-           "targets failed or the model could not be built (see DIR/summary.json).\n");
+           "option is wrong (nothing run); 4 an output cannot be written; 5 cancelled;\n"
+           "11 some targets failed or the model could not be built (DIR/summary.json).\n");
 }
 
 typedef struct batch_args {
@@ -287,10 +318,12 @@ int cmd_batch(int argc, char **argv)
         .outputs = ro.outputs, .jobs = b.jobs ? b.jobs : (int)(cpus > 1 ? cpus : 1),
         .build_model = !b.no_model,
         .model = {.align = (sm_model_align)align, .max_modes = b.model_modes},
-        .target_done = on_target_done, .user = &b};
+        .cancel = (const volatile int *)&batch_cancel, .target_done = on_target_done,
+        .user = &b};
     if ((size_t)o.jobs > b.list.n)
         o.jobs = (int)b.list.n;
     sm_batch_outcome out;
+    install_cancel_handlers();
     sm_status st = sm_job_batch_run(&b.list, &o, b.outdir, &out, &err);
     if (st != SM_OK) {
         fprintf(stderr, "shapematch batch: error: %s\n", err.msg);
@@ -304,8 +337,9 @@ int cmd_batch(int argc, char **argv)
                         "set up once in %.2f s); summary in %s/summary.json\n",
                 out.nok, b.list.n, out.model_built ? ", model built" : "", out.total_seconds,
                 out.template_seconds, b.outdir);
-    code = out.nfailed || (o.build_model && !out.model_built) ? CLI_EXIT_BATCH_PARTIAL
-                                                               : CLI_EXIT_OK;
+    code = out.cancelled ? CLI_EXIT_CANCELLED
+           : out.nfailed || (o.build_model && !out.model_built) ? CLI_EXIT_BATCH_PARTIAL
+                                                                  : CLI_EXIT_OK;
 done:
     sm_batch_list_free(&b.list);
     free(b.rest);

@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "job/sm_job_align.h"
@@ -39,11 +40,35 @@ static void write_error_file(const char *dir, const char *msg)
     }
 }
 
+/* A child's cancel flag: its SIGINT/SIGTERM handler (installed after the
+ * fork, in the child only) sets it and its run polls it between
+ * iterations, so a target stops as a cancelled `run` does, with the
+ * state reached written.  The one piece of global state here: a signal
+ * handler has no other way to reach the run. */
+static volatile sig_atomic_t child_cancel;
+_Static_assert(_Generic((sig_atomic_t)0, int: 1, default: 0),
+               "sig_atomic_t must be int to be polled by the run");
+
+static void on_child_signal(int sig)
+{
+    (void)sig;
+    child_cancel = 1;
+}
+
 /* The child's whole life: its target, the run, the result set.  Returns
  * the exit code (sm_job_runner.h). */
 static int run_child(batch_template *bt, const sm_batch_target *t, const sm_batch_opts *o,
                      const char *dir)
 {
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_child_signal; /* no SA_RESETHAND: the terminal's and
+                                      * the parent's SIGINT may both come */
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    if (o->cancel && *o->cancel)
+        return SM_JOB_EXIT_CANCELLED;
     sm_job_inputs *in = &bt->in;
     sm_job_files files = bt->files;
     files.target_surface = t->target_surface;
@@ -68,7 +93,8 @@ static int run_child(batch_template *bt, const sm_batch_target *t, const sm_batc
         return SM_JOB_EXIT_INPUT;
     }
     sm_job_run run;
-    sm_job_hooks hooks = {.snapshot_dir = dir, .write_flags = SM_ATOMIC_FSYNC};
+    sm_job_hooks hooks = {.snapshot_dir = dir, .write_flags = SM_ATOMIC_FSYNC,
+                          .cancel = (const volatile int *)&child_cancel};
     st = sm_job_run_exec(in, &hooks, &run, &err);
     int code = run.exit_code;
     if (st != SM_OK) {
@@ -148,8 +174,21 @@ static sm_status run_targets(batch_template *bt, const sm_batch_list *l, const s
                              char **dirs, target_state *ts, sm_error *err)
 {
     size_t next = 0, running = 0;
+    int told = 0;
     fflush(NULL); /* no buffered output duplicated in the children */
     while (next < l->n || running > 0) {
+        if (o->cancel && *o->cancel && !told) {
+            /* cancelled: no new target, the running ones told (a Ctrl-C
+             * reached them already; a signal to this process alone did
+             * not) */
+            told = 1;
+            next = l->n;
+            for (size_t i = 0; i < l->n; i++)
+                if (ts[i].pid > 0)
+                    kill(ts[i].pid, SIGINT);
+            if (running == 0)
+                break;
+        }
         while (next < l->n && running < (size_t)o->jobs) {
             size_t i = next++;
             ts[i].started = sm_clock_seconds();
@@ -162,8 +201,14 @@ static sm_status run_targets(batch_template *bt, const sm_batch_list *l, const s
             ts[i].pid = pid;
             running++;
         }
+        /* polled, not blocking: a cancel that lands just before a
+         * blocking wait would not be seen until a target ended */
         int wst;
-        pid_t pid = waitpid(-1, &wst, 0);
+        pid_t pid = waitpid(-1, &wst, WNOHANG);
+        if (pid == 0) {
+            nanosleep(&(struct timespec){.tv_nsec = 20000000}, NULL);
+            continue;
+        }
         if (pid < 0) {
             if (errno == EINTR)
                 continue;
@@ -222,6 +267,7 @@ static json_t *summary_doc(const sm_batch_list *l, const sm_batch_opts *o,
                             out->model_seconds, "total", out->total_seconds);
     if (doc) {
         json_object_set_new(doc, "model", out->model_built ? json_string("model") : json_null());
+        json_object_set_new(doc, "cancelled", json_boolean(out->cancelled));
         if (out->model_error[0])
             json_object_set_new(doc, "model_error", sm_json_string_lossy(out->model_error));
     }
@@ -304,7 +350,10 @@ sm_status sm_job_batch_run(const sm_batch_list *l, const sm_batch_opts *o, const
     for (size_t i = 0; st == SM_OK && i < l->n; i++)
         target_ok(&ts[i]) ? out->nok++ : out->nfailed++;
     double t2 = sm_clock_seconds();
-    if (st == SM_OK && o->build_model)
+    out->cancelled = o->cancel && *o->cancel;
+    if (st == SM_OK && o->build_model && out->cancelled)
+        snprintf(out->model_error, sizeof out->model_error, "the batch was cancelled");
+    else if (st == SM_OK && o->build_model)
         build_model(l, o, dirs, ts, out_dir, out);
     out->model_seconds = sm_clock_seconds() - t2;
     out->total_seconds = sm_clock_seconds() - t0;

@@ -45,6 +45,11 @@ typedef struct sm_batch_opts {
                                       * child cannot use) */
     int build_model;                 /* 0: targets only */
     sm_model_opts model;
+    /* set (by the caller's signal handler) to stop: no new target starts,
+     * the running ones get SIGINT and stop as a cancelled run (the state
+     * reached written, status "cancelled"), no model is built.  Each
+     * child stops on SIGINT/SIGTERM by its own handler.  May be NULL. */
+    const volatile int *cancel;
     /* after each target ends (in the parent; may be NULL) */
     void (*target_done)(size_t index, const char *name, const char *status, int exit_code,
                         double seconds, void *user);
@@ -58,6 +63,7 @@ typedef struct sm_batch_outcome {
                                * with align: per target, as `run`) */
     double targets_seconds, model_seconds, total_seconds;
     int model_built;
+    int cancelled;            /* opts->cancel was set */
     char model_error[SM_ERROR_MSG_LEN];
 } sm_batch_outcome;
 

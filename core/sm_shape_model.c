@@ -23,6 +23,9 @@ void dsyevr_(const char *jobz, const char *range, const char *uplo, const int *n
              double *work, const int *lwork, int *iwork, const int *liwork, int *info,
              size_t ljobz, size_t lrange, size_t luplo);
 
+void dlaed4_(const int *n, const int *i, const double *d, const double *z, double *delta,
+             const double *rho, double *dlam, int *info);
+
 #define MODE_CUTOFF 1e-12 /* g_k kept when above this fraction of g_1 */
 #define GPA_TOL 1e-12
 
@@ -333,6 +336,50 @@ static double point_dist(const double *e, int64_t npoints, int dim)
     return npoints > 0 ? s / (double)npoints : 0;
 }
 
+/* The top E eigenpairs of C = diag(g) - f y y^T (g descending, K
+ * values) through the secular equation (LAPACK dlaed4 on -C =
+ * diag(-g) + rho z z^T, rho = f |y|^2, z = y/|y|): O(E K) instead of
+ * the dense O(K^3).  Eigenvalues into w (descending), unit eigenvectors
+ * into the columns of W (K x E).  Returns -1, leaving the dense solver to
+ * it, where the formula is not safe: g with ties (relative gap below
+ * 1e-12), z with a tiny component, dlaed4 failing, or not needed: K <= 2. */
+static int rank_one_top(int K, int E, const double *g, const double *y, double f, double *dneg,
+                        double *z, double *delta, double *w, double *W)
+{
+    double n2 = 0;
+    for (int a = 0; a < K; a++)
+        n2 += y[a] * y[a];
+    if (K < 3 || !(n2 > 0))
+        return -1; /* for K <= 2 dlaed4 returns the eigenvector itself in
+                    * delta (dlaed5), not D - lambda: dense is as cheap */
+    double rho = f * n2, ny = sqrt(n2);
+    for (int a = 0; a < K; a++) {
+        dneg[a] = -g[a];
+        z[a] = y[a] / ny;
+        if (fabs(z[a]) < 1e-12 || (a > 0 && !(dneg[a] - dneg[a - 1] > 1e-12 * fabs(dneg[0]))))
+            return -1;
+    }
+    for (int k = 0; k < E; k++) {
+        int i = k + 1, info = 0;
+        double lam;
+        dlaed4_(&K, &i, dneg, z, delta, &rho, &lam, &info);
+        if (info != 0)
+            return -1;
+        double *v = W + (size_t)k * K, nv = 0;
+        for (int a = 0; a < K; a++) {
+            v[a] = z[a] / delta[a];
+            nv += v[a] * v[a];
+        }
+        nv = sqrt(nv);
+        if (!(nv > 0) || !isfinite(nv))
+            return -1;
+        for (int a = 0; a < K; a++)
+            v[a] /= nv;
+        w[k] = -lam;
+    }
+    return 0;
+}
+
 /* Leave-one-out in score space (header): for held-out i the others'
  * covariance is diag(g) - N/(N-1) y_i y_i^T, and x_i minus the others'
  * mean is U (N/(N-1)) y_i. */
@@ -340,22 +387,29 @@ static sm_status generalization(sm_shape_model *m, sm_error *err)
 {
     int N = m->nshapes, K = m->nmodes, E = m->neval, P = (int)m->nvalues;
     int held = N < m->eval_shapes ? N : m->eval_shapes;
-    double *C = malloc((size_t)K * K * sizeof *C), *w = malloc((size_t)E * sizeof *w);
+    /* C: the dense K x K matrix, or dlaed4's 3 K numbers */
+    double *C = malloc((size_t)K * (K > 3 ? K : 3) * sizeof *C);
+    double *w = malloc((size_t)E * sizeof *w);
     double *W = malloc((size_t)K * E * sizeof *W), *R = malloc((size_t)K * E * sizeof *R);
     double *D = malloc((size_t)m->nvalues * E * sizeof *D), *d = malloc((size_t)K * sizeof *d);
+    double *g = malloc((size_t)K * sizeof *g);
     sm_status st = SM_OK;
-    if (!C || !w || !W || !R || !D || !d)
+    if (!C || !w || !W || !R || !D || !d || !g)
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the generalization");
     double one = 1, zero = 0, f = (double)N / (N - 1);
     for (int h = 0; st == SM_OK && h < held; h++) {
         int i = (int)((int64_t)h * N / held);
         const double *y = m->scores + (size_t)i * K;
         for (int a = 0; a < K; a++) {
-            for (int b = 0; b < K; b++)
-                C[(size_t)b * K + a] = (a == b ? m->variance[a] * (N - 1) : 0) - f * y[a] * y[b];
+            g[a] = m->variance[a] * (N - 1);
             d[a] = f * y[a];
         }
-        st = sym_eigen_top(K, C, E, w, W, err);
+        if (rank_one_top(K, E, g, y, f, C, C + K, C + 2 * (size_t)K, w, W) != 0) {
+            for (int a = 0; a < K; a++)
+                for (int b = 0; b < K; b++)
+                    C[(size_t)b * K + a] = (a == b ? g[a] : 0) - f * y[a] * y[b];
+            st = sym_eigen_top(K, C, E, w, W, err);
+        }
         for (int M = 1; st == SM_OK && M <= E; M++) { /* residual of d with M modes */
             double *r = R + (size_t)(M - 1) * K;
             memcpy(r, d, (size_t)K * sizeof *r);
@@ -377,7 +431,7 @@ static sm_status generalization(sm_shape_model *m, sm_error *err)
             m->generalization[M - 1] +=
                 point_dist(D + (size_t)(M - 1) * m->nvalues, m->npoints, m->dim) / held;
     }
-    free(C), free(w), free(W), free(R), free(D), free(d);
+    free(C), free(w), free(W), free(R), free(D), free(d), free(g);
     return st;
 }
 

@@ -13,6 +13,9 @@
       predict a and b linearly (numpy lstsq, R^2 >= 0.98).
   batch_check.py move SRC.mesh DST.mesh ANGLE TX TY
       the mesh rotated by ANGLE (radians) about the origin and translated
+  batch_check.py loo LIBSHAPEMATCH.so
+      the leave-one-out eigenproblems on random and degenerate shapes
+      against numpy (see loo())
   batch_check.py same MODEL_A MODEL_B
       the two models' variances and |scores| agree to 1e-9 (relative)
 Prints one line per failed check on stdout; exits 1 if any."""
@@ -209,6 +212,68 @@ def same(a, b):
     return bad
 
 
+def loo(libpath):
+    """The generalization's leave-one-out eigenproblems (the secular
+    equation, LAPACK dlaed4, and the dense fallback for ties, tiny score
+    components and K <= 2) against numpy's SVD of each held-out set, on
+    random shapes, duplicates, shapes on two lines, exact ties and near
+    ties; through the core's sm_shape_model_build (ctypes: the struct
+    layout of shapematch/sm_shape_model.h)."""
+    import ctypes as C
+    global lib
+    lib = C.CDLL(libpath)
+    lib.sm_shape_model_free.argtypes = [C.c_void_p]
+    bad = []
+    class Opts(C.Structure):
+        _fields_ = [("align", C.c_int), ("eval_modes", C.c_int), ("eval_shapes", C.c_int), ("samples", C.c_int), ("seed", C.c_uint64)]
+    class Model(C.Structure):
+        _fields_=[("dim",C.c_int),("nshapes",C.c_int),("nmodes",C.c_int),("npoints",C.c_int64),("nvalues",C.c_size_t),
+                  ("centered",C.POINTER(C.c_double)),("transforms",C.POINTER(C.c_double)),("mean",C.POINTER(C.c_double)),
+                  ("modes",C.POINTER(C.c_double)),("variance",C.POINTER(C.c_double)),("total_variance",C.c_double),
+                  ("scores",C.POINTER(C.c_double)),("gpa_rounds",C.c_int),("neval",C.c_int),("eval_shapes",C.c_int),("samples",C.c_int),
+                  ("seed",C.c_uint64),("compactness",C.POINTER(C.c_double)),("generalization",C.POINTER(C.c_double)),("specificity",C.POINTER(C.c_double))]
+    class Err(C.Structure): _fields_ = [("code", C.c_int), ("msg", C.c_char * 512)]
+    def run(X, n, dup):
+        N = len(X)
+        arrs = [np.ascontiguousarray(x) for x in X]
+        ptrs = (C.POINTER(C.c_double) * N)(*[a.ctypes.data_as(C.POINTER(C.c_double)) for a in arrs])
+        m = C.POINTER(Model)(); e = Err()
+        assert lib.sm_shape_model_build(ptrs, N, C.c_int64(n), 3, C.byref(Opts(0, 8, 100, 10, 0)), C.byref(m), C.byref(e)) == 0
+        M = m.contents
+        g = np.ctypeslib.as_array(M.generalization, (M.neval,)).copy()
+        Xa = np.array(X); Xc = Xa - Xa.mean(0)
+        gen = []
+        for mm in range(1, M.neval + 1):
+            tot = 0
+            for i in range(N):
+                o = np.delete(Xc, i, 0); mo = o.mean(0)
+                _, sv, w = np.linalg.svd(o - mo, full_matrices=False)
+                w = w[:min(mm, int((sv > 1e-9 * sv[0]).sum()))]
+                r = Xc[i] - mo; r = r - w.T @ (w @ r)
+                tot += np.linalg.norm(r.reshape(-1, 3), axis=1).mean()
+            gen.append(tot / N)
+        lib.sm_shape_model_free(m)
+        if np.abs(g - gen).max() > 1e-12 * max(gen):
+            bad.append("leave-one-out generalization, %s: %s vs numpy's %s" % (dup, g, gen))
+    rng = np.random.default_rng(3)
+    n = 200
+    X = [rng.normal(size=n * 3) for _ in range(20)]
+    run(X, n, "generic")
+    X2 = X[:10] + [X[0].copy(), X[1].copy()]  # duplicates
+    run(X2, n, "duplicates")
+    X3 = [X[0] + t * X[1] for t in np.linspace(-1, 1, 7)] + [X[0] + t * X[2] for t in (-0.5, 0.5)]
+    run(X3, n, "mean-centred held-out (z=0 components)")
+    b = [rng.normal(size=n * 3) for _ in range(4)]
+    for v in b[1:]:
+        v *= 1.0 / np.linalg.norm(v)
+    X4 = [b[0] + s * v for v in b[1:] for s in (1, -1)]
+    run(X4, n, "ties and zero components")
+    X5 = [rng.normal(size=n * 3) * (1 + 1e-13 * k) for k in range(2)] + [rng.normal(size=n * 3) for _ in range(5)]
+    run(X5, n, "near ties")
+
+    return bad
+
+
 def main():
     cmd = sys.argv[1]
     if cmd == "ellipse":
@@ -216,6 +281,8 @@ def main():
         return 0
     if cmd == "model":
         bad = model(sys.argv[2], sys.argv[3])
+    elif cmd == "loo":
+        bad = loo(sys.argv[2])
     elif cmd == "move":
         bad = move(sys.argv[2], sys.argv[3], *map(float, sys.argv[4:7]))
     else:

@@ -42,7 +42,9 @@
  *       dist(x_i, reconstruction of x_i by the model of the other N-1
  *       shapes with its first M modes): leave-one-out, each held-out
  *       model a PCA of the others' scores (exact: every shape lies in the
- *       span of the kept modes); at most eval_shapes held-out shapes,
+ *       span of the kept modes), whose covariance diag(g) - N/(N-1) y_i
+ *       y_i^T has its top eigenpairs from the secular equation (LAPACK
+ *       dlaed4; dense dsyevr for ties); at most eval_shapes held-out shapes,
  *       evenly spaced over 0..N-1 (all when N <= eval_shapes);
  *   specificity[M-1]    = mean over `samples` random shapes
  *       s = mean + sum_{k<=M} b_k u_k, b_k ~ Normal(0, lambda_k), of

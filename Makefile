@@ -52,7 +52,7 @@ ASAN_CFLAGS := $(BASE_CFLAGS) -O1 -fno-omit-frame-pointer \
 RELEASE_LDFLAGS := -fopenmp
 ASAN_LDFLAGS := -fopenmp -fsanitize=address,undefined
 
-CORE_LIBS := -fopenmp -lcholmod $(HYPRE_LIBS) -ldeflate -lz -lm
+CORE_LIBS := -fopenmp -lcholmod $(HYPRE_LIBS) -llapack -lblas -ldeflate -lz -lm
 PROTO_LIBS := -ljansson
 HTTP_LIBS := -lmicrohttpd -lgnutls
 # libcurl is opened at run time (client/curl_api.h), not linked

@@ -48,7 +48,9 @@ enum cli_exit_code {
     CLI_EXIT_REFUSED = 7,
     CLI_EXIT_JOB_FAILED = 8,
     CLI_EXIT_SERVER = 9,
-    CLI_EXIT_NOT_CONVERGED = 10
+    CLI_EXIT_NOT_CONVERGED = 10,
+    /* batch: some targets failed or the model could not be built */
+    CLI_EXIT_BATCH_PARTIAL = 11
 };
 
 #ifndef SM_VERSION
@@ -66,6 +68,7 @@ extern const char cli_exit_codes_sdf_help[];
 typedef int (*cli_command_fn)(int argc, char **argv);
 
 int cmd_run(int argc, char **argv);
+int cmd_batch(int argc, char **argv);
 /* `shapematch sdf`: signed distance to a surface on a background mesh. */
 int cmd_sdf(int argc, char **argv);
 void cmd_sdf_help(void);
@@ -76,6 +79,7 @@ int cmd_sdf_write_dir(const char *dir, const sm_mesh *bg, const sm_sol *sol);
 int cmd_sdf_image(int argc, char **argv);
 /* Writes the help page of `shapematch run` to stdout. */
 void cmd_run_help(void);
+void cmd_batch_help(void);
 
 /* Daemon commands (HTTP client of shapematchd). */
 int cmd_submit(int argc, char **argv);

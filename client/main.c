@@ -46,6 +46,8 @@ typedef struct command {
 
 static const command commands[] = {
     {"run", cmd_run, cmd_run_help, "run a matching job locally (no daemon)"},
+    {"batch", cmd_batch, cmd_batch_help,
+     "one template onto many targets locally, then their shape model"},
     {"sdf", cmd_sdf, cmd_sdf_help, "signed distance to a surface (STL, OBJ, ...) on a mesh"},
     {"submit", cmd_submit, cmd_submit_help,
      "send a job to the daemon (--wait: and follow it, fetch its results)"},

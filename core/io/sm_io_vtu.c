@@ -92,8 +92,8 @@ static void write_vector(sm_writer *w, const double *x, int d)
 }
 
 static sm_status write_binary(sm_writer *w, const sm_mesh *m, const double *coords,
-                              const double *displacement, const double *distance, int32_t nf,
-                              sm_error *err);
+                              const sm_vtu_field *vec, int nvec, const double *distance,
+                              int32_t nf, sm_error *err);
 
 sm_status sm_vtu_write(const char *path, const sm_mesh *m, const double *coords,
                        const double *displacement, const double *distance, sm_error *err)
@@ -101,16 +101,14 @@ sm_status sm_vtu_write(const char *path, const sm_mesh *m, const double *coords,
     return sm_vtu_write_as(path, m, coords, displacement, distance, SM_VTU_ZLIB, err);
 }
 
-sm_status sm_vtu_write_as(const char *path, const sm_mesh *m, const double *coords,
-                          const double *displacement, const double *distance,
-                          sm_vtu_encoding encoding, sm_error *err)
+/* The checks every writer makes before it opens the file; the number of
+ * facets written (those of the file, when it lists them). */
+static sm_status check_mesh(const char *path, const sm_mesh *m, int32_t *nf_out, sm_error *err)
 {
     if (!path)
         return sm_error_set(err, SM_ERR_INVALID, "no .vtu file name");
     if (!m || (m->dim != 2 && m->dim != 3) || m->nverts < 0 || m->nelems < 0)
         return sm_error_set(err, SM_ERR_INVALID, "sm_vtu_write: invalid mesh");
-    if (!coords)
-        coords = m->coords;
     int d = m->dim, k = m->dim + 1;
     for (size_t i = 0; i < (size_t)m->nelems * (size_t)k; i++)
         if (m->elems[i] < 0 || m->elems[i] >= m->nverts)
@@ -123,19 +121,59 @@ sm_status sm_vtu_write_as(const char *path, const sm_mesh *m, const double *coor
             return sm_error_set(err, SM_ERR_INVALID,
                                 "sm_vtu_write: facet %zu has vertex index %ld out of range",
                                 i / (size_t)d + 1, (long)m->facets[i]);
+    *nf_out = nf;
+    return SM_OK;
+}
+
+/* Opens, writes the binary file, closes (removing it on failure). */
+static sm_status binary_file(const char *path, const sm_mesh *m, const double *coords,
+                             const sm_vtu_field *vec, int nvec, const double *distance,
+                             sm_error *err)
+{
+    int32_t nf;
+    sm_status st = check_mesh(path, m, &nf, err);
     sm_writer *w;
-    sm_status st = sm__writer_open(&w, path, err);
+    if (st == SM_OK)
+        st = sm__writer_open(&w, path, err);
     if (st != SM_OK)
         return st;
-    if (encoding != SM_VTU_ASCII) {
-        st = write_binary(w, m, coords, displacement, distance, nf, err);
-        if (st != SM_OK) {
-            sm_error e; /* the file is removed; the first error is kept */
-            sm__writer_close(w, &e);
-            return st;
-        }
-        return sm__writer_close(w, err);
+    st = write_binary(w, m, coords ? coords : m->coords, vec, nvec, distance, nf, err);
+    if (st != SM_OK) {
+        sm_error e; /* the file is removed; the first error is kept */
+        sm__writer_close(w, &e);
+        return st;
     }
+    return sm__writer_close(w, err);
+}
+
+sm_status sm_vtu_write_fields(const char *path, const sm_mesh *m, const double *coords,
+                              const sm_vtu_field *fields, int nfields, sm_error *err)
+{
+    for (int i = 0; i < nfields; i++)
+        if (!fields[i].name || !fields[i].values)
+            return sm_error_set(err, SM_ERR_INVALID, "sm_vtu_write_fields: field %d unnamed or "
+                                "empty", i + 1);
+    return binary_file(path, m, coords, fields, nfields > 0 ? nfields : 0, NULL, err);
+}
+
+sm_status sm_vtu_write_as(const char *path, const sm_mesh *m, const double *coords,
+                          const double *displacement, const double *distance,
+                          sm_vtu_encoding encoding, sm_error *err)
+{
+    sm_vtu_field disp = {"displacement", displacement};
+    if (encoding != SM_VTU_ASCII)
+        return binary_file(path, m, coords, &disp, displacement ? 1 : 0, distance, err);
+    int32_t nf;
+    sm_status st = check_mesh(path, m, &nf, err);
+    if (st != SM_OK)
+        return st;
+    if (!coords)
+        coords = m->coords;
+    const int d = m->dim;
+    sm_writer *w;
+    st = sm__writer_open(&w, path, err);
+    if (st != SM_OK)
+        return st;
     sm__writer_printf(w,
                      "<?xml version=\"1.0\"?>\n"
                      "<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" "
@@ -232,21 +270,20 @@ static void *alloc_values(vtu_array *a, const char *type, const char *name, int 
     return a->raw;
 }
 
+/* The vector fields, then the points (no name), then distance. */
 static void point_arrays(vtu_array *a, int *na, const sm_mesh *m, const double *coords,
-                         const double *displacement, const double *distance, int *ok)
+                         const sm_vtu_field *vec, int nvec, const double *distance, int *ok)
 {
     const int d = m->dim;
-    const double *vec[2] = {displacement, coords};
-    for (int k = 0; k < 2; k++) {
-        if (!vec[k])
-            continue;
-        double *x = alloc_values(&a[(*na)++], "Float64", k ? NULL : "displacement", 3, 8,
+    for (int k = 0; k <= nvec; k++) {
+        const double *v = k < nvec ? vec[k].values : coords;
+        double *x = alloc_values(&a[(*na)++], "Float64", k < nvec ? vec[k].name : NULL, 3, 8,
                                  (size_t)m->nverts * 3);
         if (!(*ok = *ok && x))
             return;
         for (int32_t i = 0; i < m->nverts; i++)
             for (int j = 0; j < 3; j++)
-                x[3 * i + j] = j < d ? finite_or_zero(vec[k][(size_t)i * d + j]) : 0.0;
+                x[3 * i + j] = j < d ? finite_or_zero(v[(size_t)i * d + j]) : 0.0;
     }
     if (distance) {
         double *x = alloc_values(&a[(*na)++], "Float64", "distance", 1, 8, (size_t)m->nverts);
@@ -327,13 +364,14 @@ static void array_inline(sm_writer *w, const vtu_array *a)
 }
 
 static sm_status write_binary(sm_writer *w, const sm_mesh *m, const double *coords,
-                              const double *displacement, const double *distance, int32_t nf,
-                              sm_error *err)
+                              const sm_vtu_field *vec, int nvec, const double *distance,
+                              int32_t nf, sm_error *err)
 {
-    vtu_array a[8];
-    int na = 0, ok = 1, npoint;
-    point_arrays(a, &na, m, coords, displacement, distance, &ok);
-    npoint = na; /* displacement?, points, distance? */
+    vtu_array *a = calloc((size_t)nvec + 7, sizeof *a);
+    int na = 0, ok = a != NULL, npoint;
+    if (ok)
+        point_arrays(a, &na, m, coords, vec, nvec, distance, &ok);
+    npoint = na; /* the fields, points, distance? */
     if (ok)
         cell_arrays(a, &na, m, nf, &ok);
     for (int i = 0; ok && i < na; i++) {
@@ -347,16 +385,17 @@ static sm_status write_binary(sm_writer *w, const sm_mesh *m, const double *coor
                              "compressor=\"vtkZLibDataCompressor\">\n  <UnstructuredGrid>\n"
                              "    <Piece NumberOfPoints=\"%ld\" NumberOfCells=\"%ld\">\n",
                           (long)m->nverts, (long)m->nelems + (long)nf);
-        if (displacement || distance) {
-            sm__writer_printf(w, "      <PointData%s%s>\n",
-                              distance ? " Scalars=\"distance\"" : "",
-                              displacement ? " Vectors=\"displacement\"" : "");
+        if (nvec > 0 || distance) {
+            sm__writer_printf(w, "      <PointData%s", distance ? " Scalars=\"distance\"" : "");
+            if (nvec > 0)
+                sm__writer_printf(w, " Vectors=\"%s\"", vec[0].name);
+            sm__writer_printf(w, ">\n");
             for (int i = 0; i < npoint; i++)
                 if (a[i].name)
                     array_inline(w, &a[i]);
             sm__writer_printf(w, "      </PointData>\n");
         }
-        sm__writer_printf(w, "      <CellData Scalars=\"ref\">\n");
+    sm__writer_printf(w, "      <CellData Scalars=\"ref\">\n");
         array_inline(w, &a[npoint]);
         array_inline(w, &a[npoint + 1]);
         sm__writer_printf(w, "      </CellData>\n      <Points>\n");
@@ -369,9 +408,10 @@ static sm_status write_binary(sm_writer *w, const sm_mesh *m, const double *coor
         sm__writer_printf(w, "      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n"
                              "</VTKFile>\n");
     }
-    for (int i = 0; i < na; i++) {
+    for (int i = 0; a && i < na; i++) {
         free(a[i].raw);
         free(a[i].z);
     }
+    free(a);
     return ok ? SM_OK : sm_error_set(err, SM_ERR_NOMEM, "out of memory writing a .vtu");
 }

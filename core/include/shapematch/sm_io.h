@@ -133,5 +133,16 @@ sm_status sm_vtu_write(const char *path, const sm_mesh *m, const double *coords,
 sm_status sm_vtu_write_as(const char *path, const sm_mesh *m, const double *coords,
                           const double *displacement, const double *distance,
                           sm_vtu_encoding encoding, sm_error *err);
+/* The binary (SM_VTU_ZLIB) file of m at coords with any number of named
+ * vector point fields (nverts*dim values each, written with 3
+ * components; the first is the file's Vectors), e.g. a shape model's
+ * modes (sm_shape_model.h).  Names are written as given (plain
+ * identifiers: no XML escaping). */
+typedef struct sm_vtu_field {
+    const char *name;
+    const double *values;
+} sm_vtu_field;
+sm_status sm_vtu_write_fields(const char *path, const sm_mesh *m, const double *coords,
+                              const sm_vtu_field *fields, int nfields, sm_error *err);
 
 #endif

@@ -1,0 +1,347 @@
+/* `shapematch batch`: one template matched onto many targets locally,
+ * the template side built once (proto/job/sm_job_batch.h), then the
+ * shape model of the results (sm_job_model.h).  Every option of `run`
+ * applies to every target; what is the CLI's own is the target list,
+ * the model's and the batch's options, one line per target and the exit
+ * code. */
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "args.h"
+#include "cli.h"
+#include "fsutil.h"
+#include "job/sm_job_batch.h"
+
+/* Set by SIGINT/SIGTERM: the batch stops (sm_batch_opts.cancel).  A
+ * signal handler has no other way to reach it. */
+static volatile sig_atomic_t batch_cancel;
+_Static_assert(_Generic((sig_atomic_t)0, int: 1, default: 0),
+               "sig_atomic_t must be int to be shared with the batch");
+
+static void on_batch_signal(int sig)
+{
+    (void)sig;
+    batch_cancel = 1;
+}
+
+/* As run's: the first signal asks for a clean stop, a second one ends the
+ * process; no SA_RESTART, so the wait for the targets sees it at once. */
+static void install_cancel_handlers(void)
+{
+    struct sigaction sa, old;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_batch_signal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESETHAND;
+    if (sigaction(SIGINT, NULL, &old) != 0 || old.sa_handler != SIG_IGN)
+        sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+}
+
+void cmd_batch_help(void)
+{
+    printf("Usage: shapematch batch --template T.mesh TARGETS CLAMP [PARAMETERS]\n"
+           "                        [--model-align none|rigid|similarity] [--no-model]\n"
+           "                        [--jobs N] [--format LIST] [--quiet] -o DIR\n"
+           "\n"
+           "Matches one template onto many targets, setting the template up once (its\n"
+           "topology, clamp set, elastic operator and factorization are shared by every\n"
+           "target), and builds the statistical shape model of the results: mean shape,\n"
+           "principal modes, scores, compactness, generalization and specificity.\n"
+           "Each target's result set (the files of 'shapematch run') goes to\n"
+           "DIR/targets/NAME/ (NAME: the target file's stem, made unique), the model to\n"
+           "DIR/model/, the batch's summary to DIR/summary.json.  A target that fails\n"
+           "is reported and left out of the model.\n"
+           "\n"
+           "Targets (any number of each, mixed):\n"
+           "  --target-surface FILE   a target surface (as in run); repeat the option\n"
+           "  --target-mesh B --target-sol D\n"
+           "                          a target given as a distance on a mesh (in pairs)\n"
+           "  --targets LIST.csv      a list: header of columns among name,\n"
+           "                          target_surface, target_mesh, target_sol, landmarks,\n"
+           "                          then one target per line (paths relative to the\n"
+           "                          list's folder; '#' lines skipped)\n"
+           "  --template-landmarks T.csv\n"
+           "                          the template's landmarks, for the targets' own in\n"
+           "                          LIST.csv (with --align)\n"
+           "\n"
+           "Batch and model:\n"
+           "  --jobs N                targets run side by side, each in its own process\n"
+           "                          (default: the online CPUs, at most the targets)\n"
+           "  --model-align MODE      Procrustes alignment of the results before the\n"
+           "                          model: none, rigid (default) or similarity\n"
+           "  --model-modes K         mode files written (mode_K.sol; default 20)\n"
+           "  --no-model              the targets only\n"
+           "  --model-from DIR        no matching: build DIR/model again from the targets\n"
+           "                          of an earlier batch's DIR (e.g. another alignment)\n"
+           "  -o, --output DIR        output folder (created if missing)\n"
+           "  -q, --quiet             no line per target\n"
+           "\n"
+           "Every option of 'shapematch run' (clamp, parameters, --align, --format,\n"
+           "--background-size, ...) applies to every target; see 'shapematch run\n"
+           "--help'.  docs/populations.md describes the files.\n"
+           "\n"
+           "Ctrl-C stops the batch: no new target starts, the running ones stop after\n"
+           "their current iteration and write the state reached (status \"cancelled\"),\n"
+           "no model is built; a second Ctrl-C ends it at once.\n"
+           "\n"
+           "Exit: 0 every target finished and the model was built; 2 the template or an\n"
+           "option is wrong (nothing run); 4 an output cannot be written; 5 cancelled;\n"
+           "11 some targets failed or the model could not be built (DIR/summary.json).\n");
+}
+
+typedef struct batch_args {
+    sm_batch_list list;
+    const char *outdir, *template_path, *template_landmarks, *model_align, *model_from;
+    int jobs, model_modes, no_model, quiet;
+    const char *pending_mesh;  /* a --target-mesh waiting for its --target-sol */
+    char **rest;               /* the options passed to run's parser */
+    int nrest;
+} batch_args;
+
+static int fail(const char *fmt, const char *a)
+{
+    fprintf(stderr, "shapematch batch: ");
+    fprintf(stderr, fmt, a);
+    fprintf(stderr, "\nTry 'shapematch batch --help' for more information.\n");
+    return CLI_EXIT_USAGE;
+}
+
+static int read_list(batch_args *b, const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return fail("cannot open the target list %s", path);
+    size_t cap = 1 << 16, n = 0;
+    char *text = malloc(cap);
+    for (size_t got; text && (got = fread(text + n, 1, cap - n, f)) > 0;) {
+        n += got;
+        if (n == cap) {
+            char *t = cap < ((size_t)64 << 20) ? realloc(text, cap *= 2) : NULL;
+            if (!t)
+                free(text);
+            text = t;
+        }
+    }
+    fclose(f);
+    if (!text)
+        return fail("the target list %s is too large", path);
+    char *dir = strdup(path), *slash = dir ? strrchr(dir, '/') : NULL;
+    if (slash)
+        *slash = '\0';
+    sm_error err;
+    sm_error_clear(&err);
+    sm_status st = sm_batch_list_parse(&b->list, text, n, slash ? dir : NULL, &err);
+    free(text);
+    free(dir);
+    if (st != SM_OK) {
+        fprintf(stderr, "shapematch batch: %s: %s\n", path, err.msg);
+        return CLI_EXIT_INPUT;
+    }
+    return 0;
+}
+
+/* Option k of parse's with_value table, with its value v. */
+static int take_option(batch_args *b, size_t k, const char *v)
+{
+    sm_error err;
+    sm_error_clear(&err);
+    switch (k) {
+    case 0:
+        return sm_batch_list_add(&b->list, NULL, v, NULL, NULL, NULL, &err) != SM_OK
+                   ? fail("%s", err.msg) : 0;
+    case 1:
+        if (b->pending_mesh)
+            return fail("--target-mesh %s has no --target-sol", b->pending_mesh);
+        b->pending_mesh = v;
+        return 0;
+    case 2:
+        if (!b->pending_mesh)
+            return fail("--target-sol %s follows no --target-mesh", v);
+        if (sm_batch_list_add(&b->list, NULL, NULL, b->pending_mesh, v, NULL, &err) != SM_OK)
+            return fail("%s", err.msg);
+        b->pending_mesh = NULL;
+        return 0;
+    case 3: return read_list(b, v);
+    case 4: b->template_path = v; return 0;
+    case 5: b->template_landmarks = v; return 0;
+    case 6: b->model_align = v; return 0;
+    case 7:
+        return (b->model_modes = atoi(v)) < 1 || b->model_modes > 100000
+                   ? fail("--model-modes: '%s' is not a count from 1", v) : 0;
+    case 8:
+        return (b->jobs = atoi(v)) < 1 || b->jobs > 256
+                   ? fail("--jobs: '%s' is not a count from 1 to 256", v) : 0;
+    case 9: b->model_from = v; return 0;
+    default: b->outdir = v; return 0;
+    }
+}
+
+/* The batch's own options; the rest are kept for run's parser. */
+static int parse(int argc, char **argv, batch_args *b)
+{
+    static const char *const with_value[] = {
+        "--target-surface", "--target-mesh", "--target-sol", "--targets", "--template",
+        "--template-landmarks", "--model-align", "--model-modes", "--jobs", "--model-from", "-o",
+        "--output"};
+    const size_t nwith = sizeof with_value / sizeof *with_value;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0)
+            return -1;
+        if (!strcmp(a, "--no-model") || !strcmp(a, "-q") || !strcmp(a, "--quiet")) {
+            *(a[2] == 'n' ? &b->no_model : &b->quiet) = 1;
+            continue;
+        }
+        size_t k = 0;
+        while (k < nwith && strcmp(a, with_value[k]) != 0)
+            k++;
+        if (k == nwith) {
+            b->rest[b->nrest++] = argv[i];
+            continue;
+        }
+        if (!v)
+            return fail("option '%s' needs a value", a);
+        i++;
+        int code = take_option(b, k, v);
+        if (code)
+            return code;
+    }
+    if (b->model_from)
+        return b->nrest || b->list.n || b->template_path || b->outdir
+                   ? fail("%s", "--model-from takes the model's options only") : 0;
+    if (b->pending_mesh)
+        return fail("--target-mesh %s has no --target-sol", b->pending_mesh);
+    if (!b->template_path)
+        return fail("%s", "--template is required");
+    if (!b->outdir)
+        return fail("%s", "-o DIR is required");
+    if (b->list.n == 0)
+        return fail("%s", "no target (--target-surface, --target-mesh/--target-sol, --targets)");
+    return 0;
+}
+
+static void on_target_done(size_t index, const char *name, const char *status, int exit_code,
+                           double seconds, void *user)
+{
+    const batch_args *b = user;
+    if (!b->quiet || exit_code != 0)
+        fprintf(stderr, "shapematch batch: target %zu/%zu %s: %s (exit %d) in %.2f s\n",
+                index + 1, b->list.n, name, status, exit_code, seconds);
+}
+
+/* run's parser over the shared options, with the first target, so that
+ * the parameters and their combinations are checked as run checks them. */
+static int parse_run_options(batch_args *b, run_options *ro)
+{
+    char **av = calloc((size_t)b->nrest + 12, sizeof *av);
+    if (!av)
+        return fail("%s", "out of memory");
+    int n = 0;
+    const sm_batch_target *t = &b->list.t[0];
+    av[n++] = "run";
+    for (int i = 0; i < b->nrest; i++)
+        av[n++] = b->rest[i];
+    av[n++] = "--template";
+    av[n++] = (char *)b->template_path;
+    if (t->target_surface)
+        av[n++] = "--target-surface", av[n++] = t->target_surface;
+    if (t->target_mesh)
+        av[n++] = "--target-mesh", av[n++] = t->target_mesh;
+    if (t->target_sol)
+        av[n++] = "--target-sol", av[n++] = t->target_sol;
+    av[n++] = "-o";
+    av[n++] = (char *)b->outdir;
+    char msg[ARGS_MSG_LEN];
+    args_result r = args_parse_run(n, av, ro, msg, sizeof msg);
+    free(av);
+    if (r != ARGS_OK)
+        return fail("%s", r == ARGS_HELP ? "unexpected --help" : msg);
+    return 0;
+}
+
+int cmd_batch(int argc, char **argv)
+{
+    batch_args b;
+    memset(&b, 0, sizeof b);
+    b.rest = calloc((size_t)argc + 1, sizeof *b.rest);
+    long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    b.jobs = 0;
+    int code = b.rest ? parse(argc, argv, &b) : CLI_EXIT_NUMERIC;
+    run_options ro;
+    sm_error err;
+    sm_error_clear(&err);
+    sm_shape_align align = SM_SHAPE_ALIGN_RIGID;
+    if (code == -1) {
+        cmd_batch_help();
+        code = CLI_EXIT_OK;
+        goto done;
+    }
+    if (code == 0 && b.model_align && sm_shape_align_parse(b.model_align, &align) != 0)
+        code = fail("--model-align: '%s' is not none, rigid or similarity", b.model_align);
+    if (code == 0 && b.model_from) {
+        sm_model_opts mo = {.align = (sm_model_align)align, .max_modes = b.model_modes};
+        size_t used = 0;
+        if (sm_job_batch_remodel(b.model_from, &mo, &used, &err) != SM_OK) {
+            fprintf(stderr, "shapematch batch: error: %s\n", err.msg);
+            code = CLI_EXIT_INPUT;
+        } else if (!b.quiet) {
+            fprintf(stderr, "shapematch batch: model of %zu targets in %s/model\n", used,
+                    b.model_from);
+        }
+        goto done;
+    }
+    if (code == 0 && sm_batch_list_finish(&b.list, &err) != SM_OK)
+        code = fail("%s", err.msg);
+    if (code == 0)
+        code = parse_run_options(&b, &ro);
+    if (code != 0)
+        goto done;
+    char msg[ARGS_MSG_LEN];
+    if (ro.landmarks) {
+        code = fail("%s", "--landmarks: a batch takes --template-landmarks T.csv and each "
+                          "target's landmarks from the LIST.csv column 'landmarks'");
+        goto done;
+    }
+    if (fs_output_dir(b.outdir, msg, sizeof msg) != 0) {
+        fprintf(stderr, "shapematch batch: output directory: %s\n", msg);
+        code = CLI_EXIT_OUTPUT;
+        goto done;
+    }
+    sm_batch_opts o = {
+        .template_mesh = b.template_path, .template_landmarks = b.template_landmarks,
+        .background_size = ro.job.background.size,
+        .background_padding = ro.job.background.padding, .params = &ro.job.params,
+        .outputs = ro.outputs, .jobs = b.jobs ? b.jobs : (int)(cpus > 1 ? cpus : 1),
+        .build_model = !b.no_model,
+        .model = {.align = (sm_model_align)align, .max_modes = b.model_modes},
+        .cancel = (const volatile int *)&batch_cancel, .target_done = on_target_done,
+        .user = &b};
+    if ((size_t)o.jobs > b.list.n)
+        o.jobs = (int)b.list.n;
+    sm_batch_outcome out;
+    install_cancel_handlers();
+    sm_status st = sm_job_batch_run(&b.list, &o, b.outdir, &out, &err);
+    if (st != SM_OK) {
+        fprintf(stderr, "shapematch batch: error: %s\n", err.msg);
+        code = st == SM_ERR_IO ? CLI_EXIT_OUTPUT : CLI_EXIT_INPUT;
+        goto done;
+    }
+    if (out.model_error[0])
+        fprintf(stderr, "shapematch batch: model: %s\n", out.model_error);
+    if (!b.quiet || out.nfailed)
+        fprintf(stderr, "shapematch batch: %zu of %zu targets matched%s in %.2f s (template "
+                        "set up once in %.2f s); summary in %s/summary.json\n",
+                out.nok, b.list.n, out.model_built ? ", model built" : "", out.total_seconds,
+                out.template_seconds, b.outdir);
+    code = out.cancelled ? CLI_EXIT_CANCELLED
+           : out.nfailed || (o.build_model && !out.model_built) ? CLI_EXIT_BATCH_PARTIAL
+                                                                  : CLI_EXIT_OK;
+done:
+    sm_batch_list_free(&b.list);
+    free(b.rest);
+    return code;
+}

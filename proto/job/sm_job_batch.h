@@ -1,0 +1,83 @@
+/* A batch: one template matched onto many targets in one process group,
+ * the template side built once, then the shape model of the results
+ * (sm_job_model.h).  `shapematch batch` runs it (client/cmd_batch.c).
+ *
+ * Reuse: the parent reads and checks the template, applies the
+ * parameters and sets up the run's template side (sm_match_new: the
+ * topology, the clamp set, the elastic operator and its first
+ * factorization or AMG hierarchy) once; each target then runs in a child
+ * process forked from it, which inherits all of that copy-on-write
+ * (shared read-only until the run moves its own copy), reads its target,
+ * runs sm_job_run_exec and writes the result set of `shapematch run`
+ * into DIR/targets/NAME/.  The computation is the one of `shapematch
+ * run` (the same template side, built by the same call on the same
+ * inputs), so the result files are identical bit for bit.  With
+ * params.align the template moves before the run, and its side is set up
+ * on the moved copy in the child, as `run` does.
+ *
+ * Children run side by side, at most `jobs` at a time; with more than
+ * one, each gets one OpenMP/BLAS thread (the machine's cores go to the
+ * processes), with one the thread policy of sm_job_threads.h applies.
+ * The parent never opens a parallel region of more than one thread
+ * before forking (a forked child cannot use a parent's OpenMP pool).
+ *
+ * A target that fails (unreadable, no valid step, crash) is reported
+ * and left out of the model; it does not stop the others. */
+#ifndef SM_JOB_BATCH_H
+#define SM_JOB_BATCH_H
+
+#include <stddef.h>
+
+#include "job/sm_job_batch_list.h"
+#include "job/sm_job_inputs.h"
+#include "job/sm_job_model.h"
+#include "shapematch/sm_error.h"
+
+typedef struct sm_batch_opts {
+    const char *template_mesh;
+    const char *template_landmarks;  /* with per-target landmarks */
+    double background_size, background_padding;
+    const sm_params *params;         /* checked by the caller */
+    unsigned outputs;                /* SM_RESULT_OUT_* of each target */
+    int jobs;                        /* children at a time (>= 1) */
+    int single_thread;               /* one thread per child even alone (a
+                                      * host whose OpenMP pool a forked
+                                      * child cannot use) */
+    int build_model;                 /* 0: targets only */
+    sm_model_opts model;
+    /* set (by the caller's signal handler) to stop: no new target starts,
+     * the running ones get SIGINT and stop as a cancelled run (the state
+     * reached written, status "cancelled"), no model is built.  Each
+     * child stops on SIGINT/SIGTERM by its own handler.  May be NULL. */
+    const volatile int *cancel;
+    /* after each target ends (in the parent; may be NULL) */
+    void (*target_done)(size_t index, const char *name, const char *status, int exit_code,
+                        double seconds, void *user);
+    void *user;
+} sm_batch_opts;
+
+typedef struct sm_batch_outcome {
+    size_t nok, nfailed;
+    double template_seconds;  /* the template side, once */
+    int template_setups;      /* sm_match_new calls in the parent (1, or 0
+                               * with align: per target, as `run`) */
+    double targets_seconds, model_seconds, total_seconds;
+    int model_built;
+    int cancelled;            /* opts->cancel was set */
+    char model_error[SM_ERROR_MSG_LEN];
+} sm_batch_outcome;
+
+/* Runs the batch into out_dir (targets/, model/, summary.json).  Errors
+ * are the template's or the parameters' (nothing run), or writing
+ * out_dir; a failed target or model is in the outcome and summary. */
+sm_status sm_job_batch_run(const sm_batch_list *list, const sm_batch_opts *opts,
+                           const char *out_dir, sm_batch_outcome *out, sm_error *err);
+
+/* Builds BATCH_DIR/model again from the targets BATCH_DIR/summary.json
+ * lists as finished or not_converged (their folders under
+ * BATCH_DIR/targets/), with opts (another alignment, more modes, ...):
+ * `shapematch batch --model-from DIR`.  *members: the targets used. */
+sm_status sm_job_batch_remodel(const char *batch_dir, const sm_model_opts *opts, size_t *members,
+                               sm_error *err);
+
+#endif

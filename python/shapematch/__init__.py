@@ -513,7 +513,7 @@ def batch(template, targets, out_dir, *, clamp_ball=None, clamp_elements=None,
     template, the parameters or the list raise ShapematchError."""
     doc = dict(params)
     doc["clamp"] = _clamp(clamp_ball, clamp_elements, clamp_vertices, no_clamp, doc)
-    params_json = json.dumps(doc, default=_json_default).encode()
+    params_json = _json(doc).encode()
     rows = ["name,target_surface,target_mesh,target_sol,landmarks"]
     rows += [_target_row(t) for t in targets]
     text = ("\n".join(rows) + "\n").encode()
@@ -523,6 +523,7 @@ def batch(template, targets, out_dir, *, clamp_ball=None, clamp_elements=None,
                                  int(jobs or 0), os.fsencode(out_dir), ctypes.byref(err))
     if st:
         _raise(err, st)
+    import json  # here only: its import is a cost match() does not pay
     with open(os.path.join(out_dir, "summary.json")) as f:
         summary = json.load(f)
     if summary.get("model"):

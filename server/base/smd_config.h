@@ -70,6 +70,7 @@ typedef struct smd_config {
     unsigned submit_rate;         /* --submit-rate: submissions per window per tenant/address, 0 = none */
     double submit_window;         /* --submit-window: its window, seconds */
     unsigned max_queued;          /* --max-queued: unfinished jobs per tenant/address, 0 = none */
+    unsigned max_batch_targets;   /* --max-batch-targets: members of one batch (1..1000) */
     double header_timeout;        /* --header-timeout: request line + headers, absolute */
     uint64_t min_upload_rate;     /* --min-upload-rate: bytes/s of a body after --header-timeout */
     unsigned reserved_connections; /* --reserved-connections: kept for short requests (0 given: max/10) */

@@ -531,8 +531,8 @@ enum MHD_Result smd_route_batch_delete(struct MHD_Connection *conn, smd_request 
 static int model_file_name(const char *name, const char **media)
 {
     static const struct { const char *name, *media; } fixed[] = {
-        {"mean.mesh", "model/x-medit"}, {"mean.vtu", "model/vnd.vtu+xml"},
-        {"modes.vtu", "model/vnd.vtu+xml"}, {"scores.csv", "text/csv"},
+        {"mean.mesh", "application/x-medit-mesh"}, {"mean.vtu", "application/vnd.vtk.vtu+xml"},
+        {"modes.vtu", "application/vnd.vtk.vtu+xml"}, {"scores.csv", "text/csv"},
         {"summary.json", "application/json"}};
     for (size_t i = 0; i < sizeof fixed / sizeof fixed[0]; i++)
         if (strcmp(name, fixed[i].name) == 0) {
@@ -547,7 +547,7 @@ static int model_file_name(const char *name, const char **media)
     for (size_t i = 5; i < n - 4; i++)
         if (name[i] < '0' || name[i] > '9')
             return 0;
-    *media = "model/x-medit-sol";
+    *media = "application/x-medit-sol";
     return 1;
 }
 

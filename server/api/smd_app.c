@@ -16,6 +16,7 @@ EMBEDDED(smd_app_index)
 EMBEDDED(smd_app_js)
 EMBEDDED(smd_app_view)
 EMBEDDED(smd_app_target)
+EMBEDDED(smd_app_batch)
 EMBEDDED(smd_app_css)
 EMBEDDED(smd_app_favicon)
 EMBEDDED(smd_app_three)
@@ -36,6 +37,7 @@ static const asset assets[] = {
     {"app.js", smd_app_js, &smd_app_js_len, JS},
     {"view.js", smd_app_view, &smd_app_view_len, JS},
     {"target.js", smd_app_target, &smd_app_target_len, JS},
+    {"batch.js", smd_app_batch, &smd_app_batch_len, JS},
     {"app.css", smd_app_css, &smd_app_css_len, "text/css; charset=utf-8"},
     {"favicon.svg", smd_app_favicon, &smd_app_favicon_len, "image/svg+xml"},
     {"three.js", smd_app_three, &smd_app_three_len, JS},

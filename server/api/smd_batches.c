@@ -215,6 +215,31 @@ void smd_batches_body_free(void *body)
     free(b);
 }
 
+/* targets[i] into m[i], unique among m[0..i-1]: 0, or 422 with msg. */
+static unsigned parse_target(const json_t *t, size_t i, member *m, char *msg, size_t cap)
+{
+    const char *id = json_string_value(json_object_get(t, "job"));
+    const char *name = json_object_get(t, "name") ? json_string_value(json_object_get(t, "name"))
+                                                  : id;
+    if (!id || !smd_id_valid(id)) {
+        snprintf(msg, cap, "targets[%zu].job: expected a job id", i);
+        return 422;
+    }
+    if (!name || !smd_batch_name_valid(name)) {
+        snprintf(msg, cap, "targets[%zu].name: 1 to %d printable ASCII characters without "
+                 "'/', '\\', ',', '\"' or spaces, not . or ..", i, SMD_BATCH_NAME_MAX);
+        return 422;
+    }
+    for (size_t k = 0; k < i; k++)
+        if (strcmp(m[k].id, id) == 0 || strcmp(m[k].name, name) == 0) {
+            snprintf(msg, cap, "targets[%zu]: job or name given twice", i);
+            return 422;
+        }
+    snprintf(m[i].id, sizeof m[i].id, "%s", id);
+    snprintf(m[i].name, sizeof m[i].name, "%s", name);
+    return 0;
+}
+
 /* The members of the request into m (n of them) and the alignment: 0, or
  * the status of the problem written into msg. */
 static unsigned parse_request(smd_server *srv, const batch_body *b, member **out, size_t *nout,
@@ -248,30 +273,8 @@ static unsigned parse_request(smd_server *srv, const batch_body *b, member **out
         status = 503;
     }
     snprintf(align, 16, "%s", a ? json_string_value(a) : "rigid");
-    for (size_t i = 0; !status && i < n; i++) {
-        json_t *t = json_array_get(targets, i);
-        const char *id = json_string_value(json_object_get(t, "job"));
-        const char *name = json_object_get(t, "name") ? json_string_value(json_object_get(t, "name"))
-                                                      : id;
-        if (!id || !smd_id_valid(id)) {
-            snprintf(msg, cap, "targets[%zu].job: expected a job id", i);
-            status = 422;
-        } else if (!name || !name[0] || strlen(name) > SMD_BATCH_NAME_MAX ||
-                   strcspn(name, "/\\,\" ") != strlen(name)) {
-            snprintf(msg, cap, "targets[%zu].name: 1 to %d printable characters without '/', "
-                     "'\\', ',', '\"' or spaces", i, SMD_BATCH_NAME_MAX);
-            status = 422;
-        }
-        for (size_t k = 0; !status && k < i; k++)
-            if (strcmp(m[k].id, id) == 0 || strcmp(m[k].name, name) == 0) {
-                snprintf(msg, cap, "targets[%zu]: job or name given twice", i);
-                status = 422;
-            }
-        if (!status) {
-            snprintf(m[i].id, sizeof m[i].id, "%s", id);
-            snprintf(m[i].name, sizeof m[i].name, "%s", name);
-        }
-    }
+    for (size_t i = 0; !status && i < n; i++)
+        status = parse_target(json_array_get(targets, i), i, m, msg, cap);
     json_decref(doc);
     if (status) {
         free(m);

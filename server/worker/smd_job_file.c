@@ -47,9 +47,7 @@ int smd_job_file_write(const char *dir, const smd_job_file *f)
     return rc;
 }
 
-/* A member's name: 1..SMD_BATCH_NAME_MAX printable ASCII, no '/' or
- * '\\' (it names a folder of the model's inputs and a row of scores.csv). */
-static int batch_name_ok(const char *s)
+int smd_batch_name_valid(const char *s)
 {
     size_t n = strlen(s);
     if (n == 0 || n > SMD_BATCH_NAME_MAX || strcmp(s, ".") == 0 || strcmp(s, "..") == 0)
@@ -78,7 +76,7 @@ static const char *batch_problem(const json_t *b)
     json_array_foreach(m, i, v) {
         const char *id = json_string_value(json_object_get(v, "job"));
         const char *name = json_string_value(json_object_get(v, "name"));
-        if (!id || !smd_id_valid(id) || !name || !batch_name_ok(name))
+        if (!id || !smd_id_valid(id) || !name || !smd_batch_name_valid(name))
             return "batch.members";
     }
     return NULL;

@@ -33,6 +33,11 @@ typedef struct smd_job_file {
 #define SMD_BATCH_MEMBERS_MAX 1000
 #define SMD_BATCH_NAME_MAX 64
 
+/* A member's name: 1..SMD_BATCH_NAME_MAX printable ASCII characters
+ * without '/', '\\', ',' or '"', not "." or ".." (it names a row of the
+ * model's scores.csv).  1 when valid. */
+int smd_batch_name_valid(const char *s);
+
 /* The description as text (members in part order, then params), with
  * proto's sm_json_dumps: indent 0 compact (the database's copy), 2 the
  * file's layout.  NULL out of memory. */

@@ -186,10 +186,11 @@ c4=$(post_batch "$(batch_body rigid "$B")")
 c5=$(post_batch '{"targets": [{"job": "'"${L[0]}"'"}], "model_align": "affine"}')
 c6=$(post_batch 'not json')
 c7=$(hcurl -o /dev/null -w '%{http_code}' -F "x=1" "$BASE/v1/batches")
-if [ "$c1 $c2 $c3 $c4 $c5 $c6 $c7" = "422 422 422 422 422 400 415" ]; then
-    ok "refused: no targets, a job twice, an unknown job, a batch as a target, a bad alignment (422), not JSON (400), not application/json (415)"
+c8=$(post_batch '{"targets": [{"job": "'"${L[0]}"'", "name": "a/b"}]}')
+if [ "$c1 $c2 $c3 $c4 $c5 $c6 $c7 $c8" = "422 422 422 422 422 400 415 422" ]; then
+    ok "refused: no targets, a job twice, an unknown job, a batch as a target, a bad alignment, a name with '/' (422), not JSON (400), not application/json (415)"
 else
-    not_ok "the refusals" "$c1 $c2 $c3 $c4 $c5 $c6 $c7"
+    not_ok "the refusals" "$c1 $c2 $c3 $c4 $c5 $c6 $c7 $c8"
 fi
 codes=$(for u in "/v1/batches/$B/model/result.mesh" "/v1/batches/$B/model/mode_0.sol" \
     "/v1/batches/${IDS[0]}" "/v1/batches/0123456789abcdef0123456789abcdef"; do

@@ -6,10 +6,13 @@
 #                         surface distance, the readers and writers, the
 #                         daemon under wrk, the cluster), the soak, the
 #                         scaling benchmark, the large background; the
-#                         label map to a distance (bench/image_sdf.sh)
+#                         label map to a distance (bench/image_sdf.sh); the
+#                         populations (bench/batch.sh)
 #   make bench-soak       bench/soak.sh alone (SOAK_SECONDS, default 600)
 #   make bench-scale      bench/scale.sh alone (SCALE_SIZES, SCALE_SOLVERS)
 #   make bench-bigfield   bench/bigfield.sh alone (BIGFIELD_TETS, default 5M)
+#   make bench-batch      bench/batch.sh alone (populations: batch against
+#                         separate runs, the model's build time)
 #
 # The C benchmarks are built in the release variant only (figures from a
 # sanitized build mean nothing), each one C file linked against the core.
@@ -25,15 +28,16 @@ $(addprefix build/release/,$(BENCH_PROGS)):
 RELEASE_ONLY_TARGETS += $(BENCH_PROGS)
 
 # each: the prerequisite check, the release build, then the script(s)
-.PHONY: bench bench-soak bench-scale bench-bigfield
+.PHONY: bench bench-soak bench-scale bench-bigfield bench-batch
 bench: check-deps
 	$(MAKE) -j$$(nproc) release
 	bench/run.sh
 	bench/image_sdf.sh
+	bench/batch.sh
 	bench/soak.sh
 	bench/scale.sh
 	bench/bigfield.sh
 
-bench-soak bench-scale bench-bigfield: bench-%: check-deps
+bench-soak bench-scale bench-bigfield bench-batch: bench-%: check-deps
 	$(MAKE) -j$$(nproc) release
 	bench/$*.sh

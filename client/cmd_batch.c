@@ -4,6 +4,7 @@
  * applies to every target; what is the CLI's own is the target list,
  * the model's and the batch's options, one line per target and the exit
  * code. */
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -13,6 +14,32 @@
 #include "cli.h"
 #include "fsutil.h"
 #include "job/sm_job_batch.h"
+
+/* Set by SIGINT/SIGTERM: the batch stops (sm_batch_opts.cancel).  A
+ * signal handler has no other way to reach it. */
+static volatile sig_atomic_t batch_cancel;
+_Static_assert(_Generic((sig_atomic_t)0, int: 1, default: 0),
+               "sig_atomic_t must be int to be shared with the batch");
+
+static void on_batch_signal(int sig)
+{
+    (void)sig;
+    batch_cancel = 1;
+}
+
+/* As run's: the first signal asks for a clean stop, a second one ends the
+ * process; no SA_RESTART, so the wait for the targets sees it at once. */
+static void install_cancel_handlers(void)
+{
+    struct sigaction sa, old;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_batch_signal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESETHAND;
+    if (sigaction(SIGINT, NULL, &old) != 0 || old.sa_handler != SIG_IGN)
+        sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+}
 
 void cmd_batch_help(void)
 {
@@ -57,9 +84,13 @@ void cmd_batch_help(void)
            "--background-size, ...) applies to every target; see 'shapematch run\n"
            "--help'.  docs/populations.md describes the files.\n"
            "\n"
+           "Ctrl-C stops the batch: no new target starts, the running ones stop after\n"
+           "their current iteration and write the state reached (status \"cancelled\"),\n"
+           "no model is built; a second Ctrl-C ends it at once.\n"
+           "\n"
            "Exit: 0 every target finished and the model was built; 2 the template or an\n"
-           "option is wrong (nothing run); 4 an output cannot be written; 11 some\n"
-           "targets failed or the model could not be built (see DIR/summary.json).\n");
+           "option is wrong (nothing run); 4 an output cannot be written; 5 cancelled;\n"
+           "11 some targets failed or the model could not be built (DIR/summary.json).\n");
 }
 
 typedef struct batch_args {
@@ -113,68 +144,71 @@ static int read_list(batch_args *b, const char *path)
     return 0;
 }
 
+/* Option k of parse's with_value table, with its value v. */
+static int take_option(batch_args *b, size_t k, const char *v)
+{
+    sm_error err;
+    sm_error_clear(&err);
+    switch (k) {
+    case 0:
+        return sm_batch_list_add(&b->list, NULL, v, NULL, NULL, NULL, &err) != SM_OK
+                   ? fail("%s", err.msg) : 0;
+    case 1:
+        if (b->pending_mesh)
+            return fail("--target-mesh %s has no --target-sol", b->pending_mesh);
+        b->pending_mesh = v;
+        return 0;
+    case 2:
+        if (!b->pending_mesh)
+            return fail("--target-sol %s follows no --target-mesh", v);
+        if (sm_batch_list_add(&b->list, NULL, NULL, b->pending_mesh, v, NULL, &err) != SM_OK)
+            return fail("%s", err.msg);
+        b->pending_mesh = NULL;
+        return 0;
+    case 3: return read_list(b, v);
+    case 4: b->template_path = v; return 0;
+    case 5: b->template_landmarks = v; return 0;
+    case 6: b->model_align = v; return 0;
+    case 7:
+        return (b->model_modes = atoi(v)) < 1 || b->model_modes > 100000
+                   ? fail("--model-modes: '%s' is not a count from 1", v) : 0;
+    case 8:
+        return (b->jobs = atoi(v)) < 1 || b->jobs > 256
+                   ? fail("--jobs: '%s' is not a count from 1 to 256", v) : 0;
+    case 9: b->model_from = v; return 0;
+    default: b->outdir = v; return 0;
+    }
+}
+
 /* The batch's own options; the rest are kept for run's parser. */
 static int parse(int argc, char **argv, batch_args *b)
 {
+    static const char *const with_value[] = {
+        "--target-surface", "--target-mesh", "--target-sol", "--targets", "--template",
+        "--template-landmarks", "--model-align", "--model-modes", "--jobs", "--model-from", "-o",
+        "--output"};
+    const size_t nwith = sizeof with_value / sizeof *with_value;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-        int known = 1;
-        sm_error err;
         if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0)
             return -1;
         if (!strcmp(a, "--no-model") || !strcmp(a, "-q") || !strcmp(a, "--quiet")) {
             *(a[2] == 'n' ? &b->no_model : &b->quiet) = 1;
             continue;
         }
-        static const char *const with_value[] = {
-            "--target-surface", "--target-mesh", "--target-sol", "--targets", "--template",
-            "--template-landmarks", "--model-align", "--model-modes", "--jobs", "--model-from", "-o",
-            "--output"};
         size_t k = 0;
-        while (k < sizeof with_value / sizeof *with_value && strcmp(a, with_value[k]) != 0)
+        while (k < nwith && strcmp(a, with_value[k]) != 0)
             k++;
-        known = k < sizeof with_value / sizeof *with_value;
-        if (!known) {
+        if (k == nwith) {
             b->rest[b->nrest++] = argv[i];
             continue;
         }
         if (!v)
             return fail("option '%s' needs a value", a);
         i++;
-        sm_error_clear(&err);
-        if (k == 0 && sm_batch_list_add(&b->list, NULL, v, NULL, NULL, NULL, &err) != SM_OK)
-            return fail("%s", err.msg);
-        if (k == 1) {
-            if (b->pending_mesh)
-                return fail("--target-mesh %s has no --target-sol", b->pending_mesh);
-            b->pending_mesh = v;
-        }
-        if (k == 2) {
-            if (!b->pending_mesh)
-                return fail("--target-sol %s follows no --target-mesh", v);
-            if (sm_batch_list_add(&b->list, NULL, NULL, b->pending_mesh, v, NULL, &err) != SM_OK)
-                return fail("%s", err.msg);
-            b->pending_mesh = NULL;
-        }
-        if (k == 3) {
-            int code = read_list(b, v);
-            if (code)
-                return code;
-        }
-        if (k == 4)
-            b->template_path = v;
-        if (k == 5)
-            b->template_landmarks = v;
-        if (k == 6)
-            b->model_align = v;
-        if (k == 7 && ((b->model_modes = atoi(v)) < 1 || b->model_modes > 100000))
-            return fail("--model-modes: '%s' is not a count from 1", v);
-        if (k == 8 && ((b->jobs = atoi(v)) < 1 || b->jobs > 256))
-            return fail("--jobs: '%s' is not a count from 1 to 256", v);
-        if (k == 9)
-            b->model_from = v;
-        if (k >= 10)
-            b->outdir = v;
+        int code = take_option(b, k, v);
+        if (code)
+            return code;
     }
     if (b->model_from)
         return b->nrest || b->list.n || b->template_path || b->outdir
@@ -267,6 +301,11 @@ int cmd_batch(int argc, char **argv)
     if (code != 0)
         goto done;
     char msg[ARGS_MSG_LEN];
+    if (ro.landmarks) {
+        code = fail("%s", "--landmarks: a batch takes --template-landmarks T.csv and each "
+                          "target's landmarks from the LIST.csv column 'landmarks'");
+        goto done;
+    }
     if (fs_output_dir(b.outdir, msg, sizeof msg) != 0) {
         fprintf(stderr, "shapematch batch: output directory: %s\n", msg);
         code = CLI_EXIT_OUTPUT;
@@ -279,10 +318,12 @@ int cmd_batch(int argc, char **argv)
         .outputs = ro.outputs, .jobs = b.jobs ? b.jobs : (int)(cpus > 1 ? cpus : 1),
         .build_model = !b.no_model,
         .model = {.align = (sm_model_align)align, .max_modes = b.model_modes},
-        .target_done = on_target_done, .user = &b};
+        .cancel = (const volatile int *)&batch_cancel, .target_done = on_target_done,
+        .user = &b};
     if ((size_t)o.jobs > b.list.n)
         o.jobs = (int)b.list.n;
     sm_batch_outcome out;
+    install_cancel_handlers();
     sm_status st = sm_job_batch_run(&b.list, &o, b.outdir, &out, &err);
     if (st != SM_OK) {
         fprintf(stderr, "shapematch batch: error: %s\n", err.msg);
@@ -296,8 +337,9 @@ int cmd_batch(int argc, char **argv)
                         "set up once in %.2f s); summary in %s/summary.json\n",
                 out.nok, b.list.n, out.model_built ? ", model built" : "", out.total_seconds,
                 out.template_seconds, b.outdir);
-    code = out.nfailed || (o.build_model && !out.model_built) ? CLI_EXIT_BATCH_PARTIAL
-                                                               : CLI_EXIT_OK;
+    code = out.cancelled ? CLI_EXIT_CANCELLED
+           : out.nfailed || (o.build_model && !out.model_built) ? CLI_EXIT_BATCH_PARTIAL
+                                                                  : CLI_EXIT_OK;
 done:
     sm_batch_list_free(&b.list);
     free(b.rest);

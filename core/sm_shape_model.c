@@ -397,43 +397,65 @@ static double normal01(uint64_t *s)
     return sqrt(-2 * log(u)) * cos(6.283185307179586 * v);
 }
 
-/* Random shapes of the first M modes against the nearest training
- * shape (header); the samples for M = 1, 2, ... in turn from one
- * generator. */
+/* dist() of the header between a and b (P values each). */
+static double point_dist_ab(const double *a, const double *b, int64_t npoints, int dim)
+{
+    double s = 0;
+    for (int64_t p = 0; p < npoints; p++) {
+        double q = 0;
+        for (int j = 0; j < dim; j++)
+            q += (a[p * dim + j] - b[p * dim + j]) * (a[p * dim + j] - b[p * dim + j]);
+        s += sqrt(q);
+    }
+    return npoints > 0 ? s / (double)npoints : 0;
+}
+
+/* Random shapes against the nearest training shape (header).  Each
+ * sample draws neval normal scores b_1..b_neval once; its shape with M
+ * modes uses the first M, so the curves for M = 1, 2, ... share their
+ * draws and each sample is built up one mode at a time (a sample costs
+ * O(neval (P + N)) after O(N K) for its squared distances in score
+ * space, not O(neval^2 P)). */
 static sm_status specificity(sm_shape_model *m, sm_error *err)
 {
-    int N = m->nshapes, K = m->nmodes;
+    int N = m->nshapes, K = m->nmodes, E = m->neval;
     size_t P = m->nvalues;
-    double *b = malloc((size_t)K * sizeof *b), *e = malloc(P * sizeof *e);
-    if (!b || !e) {
-        free(b), free(e);
+    double *b = malloc((size_t)E * sizeof *b), *smp = malloc(P * sizeof *smp);
+    double *q = malloc((size_t)N * sizeof *q), *sum = calloc((size_t)E, sizeof *sum);
+    if (!b || !smp || !q || !sum) {
+        free(b), free(smp), free(q), free(sum);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the specificity");
     }
     uint64_t state = m->seed;
-    for (int M = 1; M <= m->neval; M++) {
-        double sum = 0;
-        for (int s = 0; s < m->samples; s++) {
+    for (int s = 0; s < m->samples; s++) {
+        for (int k = 0; k < E; k++)
+            b[k] = normal01(&state) * sqrt(m->variance[k]);
+        /* q_i = |b restricted to M modes - y_i|^2, from M = 0 */
+        for (int i = 0; i < N; i++) {
+            double t = 0;
             for (int k = 0; k < K; k++)
-                b[k] = k < M ? normal01(&state) * sqrt(m->variance[k]) : 0;
-            int best = 0;
-            double bd = INFINITY;
-            for (int i = 0; i < N; i++) {
-                double q = dist2(b, m->scores + (size_t)i * K, (size_t)K);
-                if (q < bd)
-                    bd = q, best = i;
-            }
-            /* sample - x_best = U_M b - X_best */
-            const double *x = m->centered + (size_t)best * P;
-            for (size_t v = 0; v < P; v++)
-                e[v] = -x[v];
-            for (int k = 0; k < M; k++)
-                for (size_t v = 0; v < P; v++)
-                    e[v] += b[k] * m->modes[(size_t)k * P + v];
-            sum += point_dist(e, m->npoints, m->dim);
+                t += m->scores[(size_t)i * K + k] * m->scores[(size_t)i * K + k];
+            q[i] = t;
         }
-        m->specificity[M - 1] = sum / m->samples;
+        memset(smp, 0, P * sizeof *smp); /* the sample minus the mean */
+        for (int M = 1; M <= E; M++) {
+            int k = M - 1, best = 0;
+            const double *u = m->modes + (size_t)k * P;
+            for (size_t v = 0; v < P; v++)
+                smp[v] += b[k] * u[v];
+            for (int i = 0; i < N; i++) {
+                double y = m->scores[(size_t)i * K + k];
+                q[i] += (b[k] - y) * (b[k] - y) - y * y;
+                if (q[i] < q[best])
+                    best = i;
+            }
+            /* sample - x_best = (sample - mean) - X_best */
+            sum[k] += point_dist_ab(smp, m->centered + (size_t)best * P, m->npoints, m->dim);
+        }
     }
-    free(b), free(e);
+    for (int k = 0; k < E; k++)
+        m->specificity[k] = sum[k] / m->samples;
+    free(b), free(smp), free(q), free(sum);
     return SM_OK;
 }
 

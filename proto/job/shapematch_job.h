@@ -97,6 +97,22 @@ const sm_progress *sm_run_history(const sm_run *r, size_t *n);
  * list, SM_ERR_IO, SM_ERR_NOMEM. */
 sm_status sm_run_write(const sm_run *r, const char *dir, const char *formats, sm_error *err);
 
+/* A batch (docs/populations.md, `shapematch batch`) in one call: the
+ * template at template_path matched onto the targets of list_csv (a
+ * LIST.csv text of list_len bytes, relative paths from the current
+ * folder), with params_json (a params document, as sm_run_job's), then
+ * the shape model (model_align "none", "rigid" or "similarity"; NULL:
+ * rigid), jobs targets at a time (0: the online CPUs), into out_dir.
+ * Each target runs in a forked process with one thread (the caller may
+ * hold an OpenMP pool, which a forked child cannot use).  SM_OK when the
+ * batch ran: out_dir/summary.json says how each target ended and whether
+ * the model was built.  Errors: the list's (SM_ERR_FORMAT, "line N:"),
+ * the parameters' or the template's (SM_ERR_INVALID, SM_ERR_FORMAT,
+ * SM_ERR_IO), writing out_dir. */
+sm_status sm_run_batch(const char *template_path, const char *list_csv, size_t list_len,
+                       const char *params_json, const char *model_align, int jobs,
+                       const char *out_dir, sm_error *err);
+
 #ifdef __cplusplus
 }
 #endif

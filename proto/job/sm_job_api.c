@@ -7,9 +7,11 @@
 
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <jansson.h>
 
+#include "job/sm_job_batch.h"
 #include "job/sm_job_inputs.h"
 #include "job/sm_job_results.h"
 #include "job/sm_job_runner.h"
@@ -234,4 +236,54 @@ sm_status sm_run_write(const sm_run *r, const char *dir, const char *formats, sm
     if (st != SM_OK)
         return st;
     return sm_job_write_selected(&r->in, &r->run, &r->names, dir, outputs, SM_ATOMIC_FSYNC, err);
+}
+
+/* ------------------------------------------------------------ a batch */
+
+sm_status sm_run_batch(const char *template_path, const char *list_csv, size_t list_len,
+                       const char *params_json, const char *model_align, int jobs,
+                       const char *out_dir, sm_error *err)
+{
+    if (!template_path || !list_csv || !out_dir)
+        return sm_error_set(err, SM_ERR_INVALID, "a batch needs a template, targets and a folder");
+    sm_shape_align align = SM_SHAPE_ALIGN_RIGID;
+    if (model_align && sm_shape_align_parse(model_align, &align) != 0)
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "model_align: '%.64s' is not none, rigid or similarity", model_align);
+    sm_batch_list list = {0};
+    sm_status st = sm_batch_list_parse(&list, list_csv, list_len, NULL, err);
+    if (st == SM_OK && list.n == 0)
+        st = sm_error_set(err, SM_ERR_INVALID, "no target");
+    if (st == SM_OK)
+        st = sm_batch_list_finish(&list, err);
+    /* the parameters need the template's dimension */
+    sm_mesh *t = NULL;
+    if (st == SM_OK)
+        st = sm_mesh_read(template_path, &t, err);
+    sm_params params;
+    sm_background_params bg = {0};
+    if (st == SM_OK)
+        st = sm_job_params_from_json(params_json ? params_json : "{}",
+                                     params_json ? strlen(params_json) : 2, t->dim, &params, &bg,
+                                     err);
+    sm_mesh_free(t);
+    unsigned outputs = 0;
+    char msg[256];
+    if (st == SM_OK && sm_result_outputs_parse(API_DEFAULT_FORMATS, &outputs, msg, sizeof msg))
+        st = sm_error_set(err, SM_ERR_INVALID, "%s", msg);
+    if (st == SM_OK)
+        st = sm_mkdir_p(out_dir, err);
+    if (st == SM_OK) {
+        long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+        sm_batch_opts o = {.template_mesh = template_path, .params = &params,
+                           .background_size = bg.size, .background_padding = bg.padding,
+                           .outputs = outputs,
+                           .jobs = jobs > 0 ? jobs : (int)(cpus > 1 ? cpus : 1),
+                           .single_thread = 1, .build_model = 1,
+                           .model = {.align = (sm_model_align)align}};
+        sm_batch_outcome out;
+        st = sm_job_batch_run(&list, &o, out_dir, &out, err);
+    }
+    sm_batch_list_free(&list);
+    return st;
 }

@@ -28,46 +28,10 @@
 
 #include <stddef.h>
 
+#include "job/sm_job_batch_list.h"
 #include "job/sm_job_inputs.h"
 #include "job/sm_job_model.h"
 #include "shapematch/sm_error.h"
-
-/* One target.  Paths owned (malloc'd); name unique in its list. */
-typedef struct sm_batch_target {
-    char *name;
-    char *target_surface, *target_mesh, *target_sol;
-    char *landmarks;        /* this target's landmark CSV, or NULL */
-} sm_batch_target;
-
-typedef struct sm_batch_list {
-    sm_batch_target *t;
-    size_t n, cap;
-} sm_batch_list;
-
-/* Adds a target (paths copied; name NULL: the stem of the surface or
- * mesh file).  Names are made unique at sm_batch_list_finish. */
-sm_status sm_batch_list_add(sm_batch_list *l, const char *name, const char *surface,
-                            const char *mesh, const char *sol, const char *landmarks,
-                            sm_error *err);
-
-/* Parses a target list (text, len bytes; need not be NUL-terminated).
- * Format: a header line naming the columns, comma-separated, among
- * name, target_surface, target_mesh, target_sol, landmarks (each at most
- * once; target_surface or target_mesh required); then one target per
- * line with as many fields.  Blank lines and lines starting with '#' are
- * skipped; fields are trimmed of spaces and tabs; no quoting (a path with
- * a comma cannot be listed).  A row needs target_surface, or target_mesh
- * with target_sol; target_sol needs target_mesh.  Relative paths are
- * taken relative to base_dir (NULL: as they are).  Errors:
- * SM_ERR_FORMAT "LINE N: ..." (N from 1), the list left with the rows
- * before. */
-sm_status sm_batch_list_parse(sm_batch_list *l, const char *text, size_t len,
-                              const char *base_dir, sm_error *err);
-/* Makes the names unique and usable as folder names: characters other
- * than letters, digits, '.', '-', '_' become '_', a leading '.' too;
- * the second "x" becomes "x-2", and so on. */
-sm_status sm_batch_list_finish(sm_batch_list *l, sm_error *err);
-void sm_batch_list_free(sm_batch_list *l);
 
 typedef struct sm_batch_opts {
     const char *template_mesh;
@@ -76,8 +40,16 @@ typedef struct sm_batch_opts {
     const sm_params *params;         /* checked by the caller */
     unsigned outputs;                /* SM_RESULT_OUT_* of each target */
     int jobs;                        /* children at a time (>= 1) */
+    int single_thread;               /* one thread per child even alone (a
+                                      * host whose OpenMP pool a forked
+                                      * child cannot use) */
     int build_model;                 /* 0: targets only */
     sm_model_opts model;
+    /* set (by the caller's signal handler) to stop: no new target starts,
+     * the running ones get SIGINT and stop as a cancelled run (the state
+     * reached written, status "cancelled"), no model is built.  Each
+     * child stops on SIGINT/SIGTERM by its own handler.  May be NULL. */
+    const volatile int *cancel;
     /* after each target ends (in the parent; may be NULL) */
     void (*target_done)(size_t index, const char *name, const char *status, int exit_code,
                         double seconds, void *user);
@@ -91,6 +63,7 @@ typedef struct sm_batch_outcome {
                                * with align: per target, as `run`) */
     double targets_seconds, model_seconds, total_seconds;
     int model_built;
+    int cancelled;            /* opts->cancel was set */
     char model_error[SM_ERROR_MSG_LEN];
 } sm_batch_outcome;
 

@@ -18,7 +18,7 @@ import os
 
 from . import _arrays, _lib
 
-__all__ = ["match", "sdf", "parameters", "Result", "ShapematchError", "Client", "Job",
+__all__ = ["match", "batch", "sdf", "parameters", "Result", "ShapematchError", "Client", "Job",
            "HTTPError"]
 
 
@@ -407,6 +407,64 @@ def _run(files, params_json, progress, names):
     if result.status == "failed":
         raise ShapematchError(job.sm_run_message(handle.value).decode(), "failed", result)
     return result
+
+
+# ------------------------------------------------------------ batch
+
+def _target_row(t):
+    """One LIST.csv row (name, surface, mesh, sol, landmarks) of a target:
+    a path (a surface), a (mesh, sol) pair, or a dict with the keys
+    name, target_surface, target_mesh, target_sol, landmarks."""
+    if _is_path(t):
+        t = {"target_surface": t}
+    elif isinstance(t, (tuple, list)) and len(t) == 2:
+        t = {"target_mesh": t[0], "target_sol": t[1]}
+    elif not isinstance(t, dict):
+        raise TypeError("a target is a path, a (mesh, sol) pair or a dict: %r" % (t,))
+    row = []
+    for key in ("name", "target_surface", "target_mesh", "target_sol", "landmarks"):
+        v = t.get(key)
+        v = "" if v is None else os.fsdecode(v)
+        if key != "name" and v:
+            v = os.path.abspath(v)
+        if any(c in v for c in ",\r\n"):
+            raise ValueError("%s: a comma or line break cannot be listed: %r" % (key, v))
+        row.append(v)
+    return ",".join(row)
+
+
+def batch(template, targets, out_dir, *, clamp_ball=None, clamp_elements=None,
+          clamp_vertices=None, no_clamp=False, model_align="rigid", jobs=None, **params):
+    """Matches template onto every target, the template side set up once,
+    then builds their shape model (docs/populations.md); returns the
+    batch's summary (out_dir/summary.json) as a dict, with the model's
+    summary under "model_summary" when it was built.
+
+    template: a path; targets: a list of paths (surfaces), (mesh, sol)
+    pairs or dicts (name, target_surface, target_mesh, target_sol,
+    landmarks); out_dir: the folder (targets/NAME/, model/, summary.json).
+    The clamp and params as in match(); model_align: "none", "rigid" or
+    "similarity"; jobs: targets at a time (None: the CPUs).  A target that
+    fails is listed in "failed" and left out of the model; errors of the
+    template, the parameters or the list raise ShapematchError."""
+    doc = dict(params)
+    doc["clamp"] = _clamp(clamp_ball, clamp_elements, clamp_vertices, no_clamp, doc)
+    params_json = json.dumps(doc, default=_json_default).encode()
+    rows = ["name,target_surface,target_mesh,target_sol,landmarks"]
+    rows += [_target_row(t) for t in targets]
+    text = ("\n".join(rows) + "\n").encode()
+    err = _lib.Error()
+    st = _lib.job().sm_run_batch(os.fsencode(template), text, len(text), params_json,
+                                 model_align.encode() if model_align else None,
+                                 int(jobs or 0), os.fsencode(out_dir), ctypes.byref(err))
+    if st:
+        _raise(err, st)
+    with open(os.path.join(out_dir, "summary.json")) as f:
+        summary = json.load(f)
+    if summary.get("model"):
+        with open(os.path.join(out_dir, "model", "summary.json")) as f:
+            summary["model_summary"] = json.load(f)
+    return summary
 
 
 # ------------------------------------------------------------ sdf

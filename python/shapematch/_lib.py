@@ -158,5 +158,7 @@ def job():
             _declare(lib, name, _P(_c.c_int32), _c.c_void_p)
         _declare(lib, "sm_run_history", _P(Progress), _c.c_void_p, _P(_c.c_size_t))
         _declare(lib, "sm_run_write", _c.c_int, _c.c_void_p, _c.c_char_p, _c.c_char_p, _P(Error))
+        _declare(lib, "sm_run_batch", _c.c_int, _c.c_char_p, _c.c_char_p, _c.c_size_t,
+                 _c.c_char_p, _c.c_char_p, _c.c_int, _c.c_char_p, _P(Error))
         _job = lib
     return _job

@@ -128,6 +128,47 @@ else
         "$(head -c 1500 err.txt)"
 fi
 
+# ---- SIGINT: the running targets stop and write their state, no new one
+# starts, no model, exit 5 (job control on, so the background job does not
+# start with SIGINT ignored) ----
+set -m
+env --default-signal=INT "$BIN" batch --template "$T" --target-surface e22x30.mesh \
+    --target-surface e30x22.mesh --target-surface e26x26.mesh --target-surface e23x24.mesh \
+    "${CLAMP[@]}" --jobs 2 --max-iter 100000000 --tol-stall 0 --tol-step 1e-15 \
+    --tol-boundary 0 --save-every 1 -q -o b6 >/dev/null 2>err.txt &
+pid=$!
+set +m
+for _ in $(seq 1 400); do # both running targets into their runs (a snapshot)
+    [ "$(ls b6/targets/*/iter-00001.mesh 2>/dev/null | wc -l)" -ge 2 ] && break
+    kill -0 "$pid" 2>/dev/null || break
+    sleep 0.05
+done
+kill -INT "$pid" 2>/dev/null
+(
+    for _ in $(seq 1 600); do
+        kill -0 "$pid" 2>/dev/null || exit 0
+        sleep 0.05
+    done
+    kill -KILL "$pid" 2>/dev/null
+) >/dev/null 2>&1 &
+wait "$pid"
+rc=$?
+if [ $rc = 5 ] && $PY - b6 <<'PY'; then
+import json, os, sys
+s = json.load(open(sys.argv[1] + "/summary.json"))
+st = {t["name"]: t["status"] for t in s["targets"]}
+assert s["cancelled"] is True and s["model"] is None, s
+assert list(st.values()).count("cancelled") == 2 and list(st.values()).count("not_run") == 2, st
+for name, status in st.items():
+    if status == "cancelled":
+        assert os.path.exists("%s/targets/%s/result.mesh" % (sys.argv[1], name)), name
+PY
+    ok "SIGINT: the two running targets cancelled with their state written, two not run, exit 5"
+else
+    not_ok "SIGINT: the two running targets cancelled with their state written, two not run, exit 5" \
+        "exit $rc" "$(head -c 1500 err.txt)"
+fi
+
 # ---- LIST.csv errors name their line ----
 printf 'name,target_surface\n# a comment\na,e22x30.mesh\nb,e26x26.mesh,extra\n' >bad1.csv
 printf 'target_surface,colour\n' >bad2.csv

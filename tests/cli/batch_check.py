@@ -18,6 +18,7 @@
 Prints one line per failed check on stdout; exits 1 if any."""
 import json
 import math
+import os
 import sys
 
 import numpy as np
@@ -110,6 +111,19 @@ def model(bdir, params):
     e1 = vt[0] * s[0] / math.sqrt(n - 1)
     if min(abs(m1 - e1).max(), abs(m1 + e1).max()) > 1e-9 * abs(e1).max():
         bad.append("mode_1.sol is not sqrt(lambda_1) u_1")
+    # modes.vtu through the suites' own reader (tests/lib/vtu.py): the mean
+    # as points, mode1.. as mode_K.sol, padded to 3D
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+    import vtu
+    _, arr = vtu.read(bdir + "/model/modes.vtu")
+    pts = np.array(arr["Points"]).reshape(-1, 3)
+    if abs(pts[:, :2] - mm).max() > 0 or abs(pts[:, 2]).max() > 0:
+        bad.append("modes.vtu's points are not mean.mesh's")
+    for kk in range(1, summ["modes_written"] + 1):
+        f = np.array(arr.get("mode%d" % kk, [])).reshape(-1, 3)
+        sol = read_sol(bdir + "/model/mode_%d.sol" % kk)
+        if f.shape != (len(sol), 3) or abs(f[:, :2] - sol).max() > 0 or abs(f[:, 2]).max() > 0:
+            bad.append("modes.vtu's mode%d is not mode_%d.sol" % (kk, kk))
     comp = np.cumsum(var) / var.sum()
     if abs(np.array(summ["compactness"]) - comp[:len(summ["compactness"])]).max() > 1e-12:
         bad.append("compactness differs from numpy's")
@@ -127,6 +141,39 @@ def model(bdir, params):
         gen.append(tot / n)
     if abs(np.array(summ["generalization"]) - gen).max() > 1e-9 * max(gen):
         bad.append("generalization %s vs numpy's %s" % (summ["generalization"], gen))
+    # specificity: the library's generator (xorshift64*, Box-Muller) redone
+    # here, the samples built in R^P and their nearest shape found by brute
+    # force; mode signs taken from the scores
+    sign = np.sign((scores * ref).sum(0))
+    ev = summ["evaluation"]
+    state = [ev["seed"]]
+    mask = (1 << 64) - 1
+
+    def uniform():
+        x = state[0]
+        x ^= x >> 12
+        x ^= (x << 25) & mask
+        x ^= x >> 27
+        state[0] = x
+        return (((x * 0x2545F4914F6CDD1D) & mask) >> 11) * 2.0 ** -53 + 0.5 * 2.0 ** -53
+
+    def normal():
+        u, v = uniform(), uniform()
+        return math.sqrt(-2 * math.log(u)) * math.cos(6.283185307179586 * v)
+
+    e = ev["modes"]
+    modes = (vt[:e].T * sign[:e]).T
+    spec = np.zeros(e)
+    for _ in range(ev["samples"]):
+        bb = [normal() * math.sqrt(mv[k]) for k in range(e)]
+        smp = np.zeros(x.shape[1])
+        for k in range(e):
+            smp += bb[k] * modes[k]
+            near = x[np.argmin(((x - smp) ** 2).sum(1))]
+            spec[k] += np.linalg.norm((smp - near).reshape(-1, 2), axis=1).mean()
+    spec /= ev["samples"]
+    if abs(np.array(summ["specificity"]) - spec).max() > 1e-9 * spec.max():
+        bad.append("specificity %s vs numpy's %s" % (summ["specificity"], spec))
     if comp[1] < 0.95:
         bad.append("the first two modes carry %.4f of the variance (< 0.95)" % comp[1])
     a = np.c_[scores[:, :2], np.ones(n)]

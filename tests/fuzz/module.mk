@@ -20,7 +20,8 @@ FUZZ_CFLAGS := -std=c11 -D_DEFAULT_SOURCE -D_GNU_SOURCE -Wall -Wextra -Werror \
 FUZZ_LDFLAGS := -fopenmp -fsanitize=fuzzer,address,undefined
 FUZZ_LIB_SRCS := $(CORE_SRCS) $(PROTO_SRCS) client/sse.c tests/fuzz/fuzz_input.c \
   server/http/smd_negotiate.c server/http/smd_cors.c server/base/smd_util.c
-FUZZ_LIB_SRCS += server/api/smd_parts.c tests/fuzz/fuzz_parts_check.c server/worker/smd_job_file.c
+FUZZ_LIB_SRCS += server/api/smd_parts.c tests/fuzz/fuzz_parts_check.c server/worker/smd_job_file.c \
+  proto/job/sm_job_batch_list.c
 FUZZ_TARGETS := $(patsubst tests/fuzz/%.c,%,$(wildcard tests/fuzz/fuzz_*.c))
 FUZZ_TARGETS := $(filter-out fuzz_input fuzz_parts_check,$(FUZZ_TARGETS))
 FUZZ_TARGET_SRCS := $(FUZZ_TARGETS:%=tests/fuzz/%.c)
@@ -33,7 +34,7 @@ $(FUZZ_DIR)/libfuzzdeps.a: $(FUZZ_LIB_SRCS:%.c=$(FUZZ_DIR)/obj/%.o)
 	rm -f $@ && ar rcs $@ $^
 
 $(FUZZ_TARGETS:%=$(FUZZ_DIR)/%): $(FUZZ_DIR)/%: $(FUZZ_DIR)/obj/tests/fuzz/%.o $(FUZZ_DIR)/libfuzzdeps.a
-	$(FUZZ_CC) $(FUZZ_LDFLAGS) -o $@ $^ $(PROTO_LIBS) -lcholmod $(HYPRE_LIBS) -ldeflate -lz -lm $(HTTP_LIBS)
+	$(FUZZ_CC) $(FUZZ_LDFLAGS) -o $@ $^ $(PROTO_LIBS) -lcholmod $(HYPRE_LIBS) -llapack -lblas -ldeflate -lz -lm $(HTTP_LIBS)
 
 .PHONY: fuzz fuzz-build
 fuzz-build: $(FUZZ_TARGETS:%=$(FUZZ_DIR)/%)

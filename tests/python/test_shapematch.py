@@ -198,6 +198,66 @@ class Match2D(unittest.TestCase):
         self.assertTrue(np.array_equal(r2.vertices, r.vertices))
 
 
+def write_ellipse(path, a, b, n=200):
+    """A closed polyline on the ellipse of semi-axes a, b about (0.5, 0.5)
+    (Medit Edges: a 2D target surface)."""
+    import math
+    with open(path, "w") as f:
+        f.write("MeshVersionFormatted 2\nDimension 2\nVertices\n%d\n" % n)
+        for i in range(n):
+            t = 2 * math.pi * i / n
+            f.write("%.17g %.17g 0\n" % (0.5 + a * math.cos(t), 0.5 + b * math.sin(t)))
+        f.write("Edges\n%d\n" % n)
+        f.writelines("%d %d 1\n" % (i + 1, (i + 1) % n + 1) for i in range(n))
+        f.write("End\n")
+
+
+class Batch2D(unittest.TestCase):
+    """shapematch.batch: the CLI's batch, file for file; a failed target
+    listed and left out; a bad option raises."""
+
+    def setUp(self):
+        self.tmp = tempfile.mkdtemp(prefix="sm-py-batch-")
+        self.targets = []
+        for a, b in ((0.22, 0.30), (0.30, 0.22), (0.26, 0.26)):
+            path = os.path.join(self.tmp, "e%gx%g.mesh" % (a, b))
+            write_ellipse(path, a, b)
+            self.targets.append(path)
+
+    def tearDown(self):
+        shutil.rmtree(self.tmp, ignore_errors=True)
+
+    def test_same_files_as_the_cli_and_a_failed_target(self):
+        out = os.path.join(self.tmp, "py")
+        missing = os.path.join(self.tmp, "missing.stl")
+        s = shapematch.batch(TEMPLATE2, self.targets + [{"name": "gone", "target_surface": missing}],
+                             out, clamp_ball=(0.5, 0.5, 0.04), max_iter=40, jobs=2)
+        self.assertEqual(s["targets_ok"], 3)
+        self.assertEqual(s["failed"], ["gone"])
+        self.assertEqual(s["template_setup"]["count"], 1)
+        self.assertEqual(len(s["model_summary"]["targets"]), 3)
+        cli = os.path.join(self.tmp, "cli")
+        args = [os.path.join(BIN, "shapematch"), "batch", "--template", TEMPLATE2,
+                "--clamp-ball", "0.5,0.5,0.04", "--max-iter", "40", "-q", "-o", cli]
+        for t in self.targets:
+            args += ["--target-surface", t]
+        subprocess.run(args, check=True)
+        for t in self.targets:
+            name = os.path.basename(t)[:-len(".mesh")]
+            for f in ("result.mesh", "displacement.sol"):
+                with open(os.path.join(out, "targets", name, f), "rb") as x, \
+                        open(os.path.join(cli, "targets", name, f), "rb") as y:
+                    self.assertEqual(x.read(), y.read(), name + "/" + f)
+        with open(os.path.join(out, "model", "scores.csv")) as x, \
+                open(os.path.join(cli, "model", "scores.csv")) as y:
+            self.assertEqual(x.read(), y.read())
+
+    def test_bad_model_align_raises(self):
+        with self.assertRaises(shapematch.ShapematchError):
+            shapematch.batch(TEMPLATE2, self.targets, os.path.join(self.tmp, "x"),
+                             clamp_ball=(0.5, 0.5, 0.04), model_align="affine")
+
+
 class Match3D(unittest.TestCase):
     @unittest.skipIf(os.environ.get("SM_VARIANT") == "asan",
                      "the 2D case runs the same code under ASan; the 3D read takes ~10 s there")

@@ -47,8 +47,10 @@
  *   specificity[M-1]    = mean over `samples` random shapes
  *       s = mean + sum_{k<=M} b_k u_k, b_k ~ Normal(0, lambda_k), of
  *       dist(s, the training shape nearest to s in the Euclidean norm of
- *       R^P); the normal numbers come from a xorshift64* generator seeded
- *       with `seed` and Box-Muller, so a model's figures are repeatable.
+ *       R^P); each sample draws its neval scores once and its shape with
+ *       M modes takes the first M (the curves share their draws); the
+ *       normal numbers come from a xorshift64* generator seeded with
+ *       `seed` and Box-Muller, so a model's figures are repeatable.
  * Generalization and specificity need N >= 3 and N >= 2 (else 0). */
 #ifndef SM_SHAPE_MODEL_H
 #define SM_SHAPE_MODEL_H

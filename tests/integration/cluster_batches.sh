@@ -11,7 +11,8 @@
 # (members/<id>/), and its model has all 4 members with mode 1 carrying
 # >= 95% of the variance (the family has one parameter).  The batch
 # document is the same on a second API node (a replica of the database:
-# the members' job.json and records mirrored).
+# the members' job.json and records mirrored).  A live batch cancelled on
+# the other API node: its model job and targets dismissed in the database.
 source "$(dirname "$0")/lib.sh"
 source "$(dirname "$0")/../lib/cluster.sh"
 
@@ -115,6 +116,28 @@ if poll 10 same; then
     ok "the batch document is the same on the other API node (its replica of the database)"
 else
     not_ok "the batch on both nodes" "$(cat "$WORK/same.txt")"
+fi
+# cancel across nodes: two endless targets (one runs on w1), DELETE on
+# the other API node: the model job and both targets dismissed everywhere
+on api
+c1=$(submit "$FINE" "$BOX" "$WORK/case/box-0.60.sol" "$(endless_params)")
+c2=$(submit "$FINE" "$BOX" "$WORK/case/box-0.70.sol" "$(endless_params)")
+CB=$(hcurl -H 'Content-Type: application/json' --data-binary \
+    "{\"targets\": [{\"job\": \"$c1\"}, {\"job\": \"$c2\"}]}" "$BASE/v1/batches" | jq -r '.batchID // empty')
+poll 20 state_is "$c1" running
+on api2
+poll 10 state_in "$CB" accepted
+code=$(hcurl -o /dev/null -w '%{http_code}' -X DELETE "$BASE/v1/batches/$CB")
+dismissed() {
+    local id
+    for id in "$CB" "$c1" "$c2"; do
+        [ "$(psql_val "SELECT state FROM smd_jobs WHERE id = '$id'")" = dismissed ] || return 1
+    done
+}
+if [ "$code" = 200 ] && poll 20 dismissed; then
+    ok "DELETE of a live batch on the other API node: the model job and both targets dismissed in the database"
+else
+    not_ok "cancel across nodes" "$code $(psql_val "SELECT string_agg(state, ' ') FROM smd_jobs WHERE id IN ('$CB', '$c1', '$c2')")"
 fi
 if reports_clean; then ok "no sanitizer reports"; else not_ok "sanitizer reports"; fi
 echo "1..$n"

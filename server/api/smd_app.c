@@ -18,6 +18,7 @@ EMBEDDED(smd_app_view)
 EMBEDDED(smd_app_target)
 EMBEDDED(smd_app_align)
 EMBEDDED(smd_app_warp)
+EMBEDDED(smd_app_batch)
 EMBEDDED(smd_app_css)
 EMBEDDED(smd_app_favicon)
 EMBEDDED(smd_app_three)
@@ -40,6 +41,7 @@ static const asset assets[] = {
     {"target.js", smd_app_target, &smd_app_target_len, JS},
     {"align.js", smd_app_align, &smd_app_align_len, JS},
     {"warp.js", smd_app_warp, &smd_app_warp_len, JS},
+    {"batch.js", smd_app_batch, &smd_app_batch_len, JS},
     {"app.css", smd_app_css, &smd_app_css_len, "text/css; charset=utf-8"},
     {"favicon.svg", smd_app_favicon, &smd_app_favicon_len, "image/svg+xml"},
     {"three.js", smd_app_three, &smd_app_three_len, JS},

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "api/smd_app.h"
+#include "api/smd_batches.h"
 #include "api/smd_live.h"
 #include "api/smd_ogc.h"
 #include "api/smd_results.h"
@@ -16,6 +17,7 @@
 
 #define JOB "/v1/jobs/{id}"
 #define RESULTS JOB "/results"
+#define BATCH "/v1/batches/{id}"
 
 const smd_route smd_route_table[] = {
     /* public for the web app's page; the JSON landing checks the token itself */
@@ -52,6 +54,13 @@ const smd_route smd_route_table[] = {
     /* snapshots have no label of their own: counted under /results */
     {SMD_METHOD_READ, RESULTS "/snapshots", smd_route_snapshots, RESULTS, 0},
     {SMD_METHOD_READ, RESULTS "/snapshots/{iteration}", smd_route_snapshot, RESULTS, 0},
+    /* batches (smd_batches.h): a model job over target jobs */
+    {SMD_METHOD_POST, "/v1/batches", smd_route_batch_create, "/v1/batches", 0},
+    {SMD_METHOD_READ, BATCH, smd_route_batch_get, BATCH, 0},
+    {SMD_METHOD_DELETE, BATCH, smd_route_batch_delete, BATCH, 0},
+    {SMD_METHOD_READ, BATCH "/model", smd_route_batch_model, BATCH "/model", 0},
+    /* {file} is at most 16 characters (the matcher's bound): mode_9999.sol fits */
+    {SMD_METHOD_READ, BATCH "/model/{file}", smd_route_batch_model_file, BATCH "/model", 0},
 };
 const size_t smd_route_table_len = sizeof smd_route_table / sizeof smd_route_table[0];
 
@@ -176,11 +185,20 @@ static enum MHD_Result handle(struct MHD_Connection *conn, smd_request *req)
     return req->route->handler(conn, req);
 }
 
+/* The route whose reader owns req->body_state: a batch description
+ * (POST /v1/batches), or the warp route's. */
+static int batch_body(const smd_request *req)
+{
+    return req->route && req->route->handler == smd_route_batch_create;
+}
+
 /* A body goes to the upload (POST /v1/jobs, the OGC execute) or to the
- * reader a route attached (req->body_state: the warp route's). */
+ * reader a route attached (req->body_state: the warp or batch route's). */
 static enum MHD_Result body(struct MHD_Connection *conn, smd_request *req, const char *data,
                             size_t *size)
 {
+    if (req->body_state && batch_body(req))
+        return smd_batches_continue(conn, req, data, size);
     if (req->body_state)
         return smd_warp_continue(conn, req, data, size);
     return smd_upload_continue(conn, req, data, size);
@@ -190,7 +208,10 @@ static void body_free(smd_request *req)
 {
     smd_upload_free(req->upload);
     req->upload = NULL;
-    smd_warp_body_free(req->body_state);
+    if (batch_body(req))
+        smd_batches_body_free(req->body_state);
+    else
+        smd_warp_body_free(req->body_state);
     req->body_state = NULL;
 }
 

@@ -7,8 +7,9 @@
  * Patterns are literal segments and variables: {id} (a job id: any
  * segment, checked with smd_id_valid, a malformed one answers 404 before
  * any handler runs, so nothing of it reaches the disk), {pid} (a process
- * id) and {iteration} (at most 16 characters: longer is no route, so
- * smd_request.path, which truncates, always holds it whole).  Rows with
+ * id) and any other variable, {iteration} or {file} (at most 16
+ * characters: longer is no route, so smd_request.arg always holds it
+ * whole; the handler checks it against what it serves).  Rows with
  * the same pattern share a path and differ by method; rows may share a
  * label (every /results path is counted under one). */
 #ifndef SMD_ROUTE_TABLE_H

@@ -163,6 +163,9 @@ static const opt options[] = {
     {"--max-queued", "SHAPEMATCH_MAX_QUEUED", "N", OPT_UINT, OFF(max_queued), 0, 1000000,
      "unfinished jobs (accepted, queued or running) one tenant (one client address without "
      "--tokens-file) may have; more submissions get 429 with Retry-After (0 = no limit)", "1000"},
+    {"--max-batch-targets", "SHAPEMATCH_MAX_BATCH_TARGETS", "N", OPT_UINT, OFF(max_batch_targets),
+     1, 1000, "target jobs one batch (POST /v1/batches) may group; more get 413 (each target "
+     "is an upload of its own, within --max-upload)", "100"},
     {"--header-timeout", "SHAPEMATCH_HEADER_TIMEOUT", "SECONDS", OPT_DURATION, OFF(header_timeout),
      0.5, 3600, "a request's line and headers must arrive within this time of the connection's "
      "start (or of its previous request), however steadily they trickle; idle keep-alive "
@@ -249,6 +252,7 @@ static void set_defaults(smd_config *c)
     c->submit_window = 60;
     c->submit_ipv4_prefix = 32;
     c->max_queued = 1000;
+    c->max_batch_targets = 100;
     c->header_timeout = 10;
     c->min_upload_rate = 1024;
     c->check_threads = 2;

@@ -72,6 +72,7 @@ typedef struct smd_config {
     double submit_window;         /* --submit-window: its window, seconds */
     unsigned submit_ipv4_prefix;  /* --submit-ipv4-prefix: IPv4 clients' limit key, bits */
     unsigned max_queued;          /* --max-queued: unfinished jobs per tenant/address, 0 = none */
+    unsigned max_batch_targets;   /* --max-batch-targets: members of one batch (1..1000) */
     double header_timeout;        /* --header-timeout: request line + headers, absolute */
     uint64_t min_upload_rate;     /* --min-upload-rate: bytes/s of a body after --header-timeout */
     unsigned reserved_connections; /* --reserved-connections: kept for short requests (0 given: max/10) */

@@ -34,7 +34,21 @@ void smd_job_free(smd_job *job)
         json_decref(job->ending->log_fields);
     free(job->ending);
     free(job->event_end);
+    free(job->members);
     free(job);
+}
+
+int smd_job_set_members(smd_job *job, const char (*ids)[SMD_ID_LEN + 1], size_t n)
+{
+    char (*m)[SMD_ID_LEN + 1] = n ? malloc(n * sizeof *m) : NULL;
+    if (n && !m)
+        return -1;
+    if (n)
+        memcpy(m, ids, n * sizeof *m);
+    free(job->members);
+    job->members = m;
+    job->nmembers = n;
+    return 0;
 }
 
 void smd_job_ref(smd_job *job)
@@ -75,7 +89,7 @@ json_t *smd_job_status_fields(const smd_job *job)
     if (!o)
         return NULL;
     json_object_set_new(o, "jobID", json_string(job->id));
-    json_object_set_new(o, "processID", json_string("match"));
+    json_object_set_new(o, "processID", json_string(job->batch_model ? "shape-model" : "match"));
     json_object_set_new(o, "type", json_string("process"));
     json_object_set_new(o, "status", json_string(sm_job_state_name(job->state)));
     if (job->state == SM_JOB_SUCCESSFUL)

@@ -20,6 +20,10 @@
 #define SMD_IDEMPOTENCY_KEY_MAX SM_IDEMPOTENCY_KEY_MAX /* proto/sm_proto_vocab.h */
 #define SMD_OWNER_MAX 64 /* = SMD_TENANT_MAX (smd_auth.h) */
 
+/* At most this many members in a batch (= SMD_BATCH_MEMBERS_MAX of
+ * worker/smd_job_file.h; api/smd_batches.c asserts it). */
+#define SMD_JOB_MEMBERS_MAX 1000
+
 /* Bounds of the numbers of a record (status.json is outside input: a
  * restored backup, a hand edit).  A record whose "order" or "attempt" is
  * outside them is damaged: logged ("job_skipped") and left alone on disk.
@@ -62,6 +66,11 @@ typedef struct smd_job {
     int not_converged;        /* a successful job whose run did not converge
                                * (its result's converged false): the status
                                * document says "converged": false */
+    int batch_model;          /* the model job of a batch (api/smd_batches.h):
+                               * it waits until every member job is final */
+    char (*members)[SMD_ID_LEN + 1]; /* owned: its members (the spool's gate;
+                               * PostgreSQL gates in its claim: none here) */
+    size_t nmembers;
     int64_t final_event_at;   /* final records: where the final event starts in
                                * events.ndjson (written after the record);
                                * 0 unknown */
@@ -87,6 +96,9 @@ typedef struct smd_job {
     smd_job_ending *ending;   /* owned: an end waiting for the spool, or NULL */
     struct smd_job *hash_next;
 } smd_job;
+
+/* Sets job's members (a copy); -1 out of memory. */
+int smd_job_set_members(smd_job *job, const char (*ids)[SMD_ID_LEN + 1], size_t n);
 
 int smd_job_visible(const smd_job *job, const char *tenant, int admin);
 

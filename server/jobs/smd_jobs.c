@@ -372,6 +372,12 @@ sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **
     if (sub->owner)
         snprintf(job->owner, sizeof job->owner, "%s", sub->owner);
     job->request_hash = sub->request_hash;
+    job->batch_model = sub->batch_model;
+    if (smd_job_set_members(job, sub->members, sub->nmembers) != 0) {
+        smd_job_free(job);
+        smd_backend_submitted(srv->backend, sub->id);
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    }
     sm_event ev;
     sm_event_init(&ev, SM_EVENT_ACCEPTED);
     ev.time = job->created;
@@ -498,7 +504,11 @@ sm_status smd_jobs_finish(smd_server *srv, smd_job *job, const sm_event *finishe
         return refuse(job, "finish", &err);
     }
     char message[SM_EVENT_MESSAGE_MAX];
-    finished_message(&finished->result, finished->message, message, sizeof message);
+    if (job->batch_model) /* a model has no iterations: the worker says what it built */
+        snprintf(message, sizeof message, "finished: %.*s", (int)sizeof message - 16,
+                 finished->message);
+    else
+        finished_message(&finished->result, finished->message, message, sizeof message);
     end_job(srv, job,
             ending_of(SM_JOB_SUCCESSFUL, message, finished, SMD_LOG_INFO, "job_finished", extra),
             after);

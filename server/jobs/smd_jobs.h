@@ -91,6 +91,11 @@ typedef struct smd_submission {
     double tol_boundary;          /* params.tol_boundary, for the status */
     int32_t nverts, nelems;       /* for the log */
     uint64_t bytes;               /* upload size, for the log */
+    /* a batch's model job (api/smd_batches.h): it runs once every member
+     * is final; members are the ids job.json's batch lists */
+    int batch_model;
+    const char (*members)[SMD_ID_LEN + 1];
+    size_t nmembers;
     /* set by smd_jobs_publish (zeroed: not published, the spool's case) */
     double created;               /* the time the shared store gave it, or 0 */
     char existing[SMD_ID_LEN + 1]; /* the job the key names there, or "" */

@@ -28,6 +28,7 @@
 #include "shapematch/sm_field.h"
 #include "shapematch/sm_io.h"
 #include "job/sm_job_inputs.h"
+#include "job/sm_job_model.h"
 #include "job/sm_job_results.h"
 #include "sm_json.h"
 #include "sm_payload.h"
@@ -362,6 +363,109 @@ done:
     return code;
 }
 
+/* ------------------------------------------------------ a batch's model */
+
+/* A member's published results: JOB_DIR/members/<id>/ (copied in by a
+ * PostgreSQL node when it claimed the model job), else the member's own
+ * folder next to this one (the spool: SPOOL/jobs/<id>/results/).  A
+ * member has results only when it succeeded (results/ is published
+ * whole, summary.json included).  0 and the folder, or -1. */
+static int member_results(const worker *w, const char *id, char *dir, size_t cap)
+{
+    char summary[PATH_MAX];
+    struct stat st;
+    if (smd_pathf(dir, cap, "%s/members/%s", w->job_dir, id) == 0 && stat(dir, &st) == 0 &&
+        S_ISDIR(st.st_mode))
+        return 0;
+    if (smd_pathf(dir, cap, "%s/../%s/" SMD_RESULTS_DIR, w->job_dir, id) != 0 ||
+        smd_pathf(summary, sizeof summary, "%s/summary.json", dir) != 0)
+        return -1;
+    return stat(summary, &st) == 0 && S_ISREG(st.st_mode) ? 0 : -1;
+}
+
+static sm_model_align align_of(const char *name)
+{
+    return strcmp(name, "none") == 0         ? SM_MODEL_ALIGN_NONE
+           : strcmp(name, "similarity") == 0 ? SM_MODEL_ALIGN_SIMILARITY
+                                             : SM_MODEL_ALIGN_RIGID;
+}
+
+/* The model job: the members that succeeded into the shape model
+ * (proto/job/sm_job_model.h), written to results.tmp/ and published as
+ * results/.  Members without results are left out and named in the
+ * "finished" message; none left is a failed job (exit 2). */
+static int run_model(worker *w, const json_t *batch)
+{
+    const json_t *list = json_object_get(batch, "members");
+    size_t n = json_array_size(list), used = 0;
+    sm_model_member *m = calloc(n ? n : 1, sizeof *m);
+    char (*dirs)[PATH_MAX] = calloc(n ? n : 1, sizeof *dirs);
+    char left[SM_EVENT_MESSAGE_MAX] = "", msg[512];
+    size_t nleft = 0, at = 0;
+    int code = SMD_WORKER_EXIT_OK;
+    if (!m || !dirs) {
+        code = fail(w, SMD_WORKER_EXIT_NOMEM, "out of memory");
+        goto done;
+    }
+    for (size_t i = 0; i < n; i++) {
+        const json_t *v = json_array_get(list, i);
+        const char *id = json_string_value(json_object_get(v, "job"));
+        const char *name = json_string_value(json_object_get(v, "name"));
+        if (member_results(w, id, dirs[used], sizeof dirs[used]) != 0) {
+            nleft++;
+            if (at < sizeof left) {
+                int k = snprintf(left + at, sizeof left - at, "%s%s", at ? ", " : "", name);
+                at += k > 0 ? (size_t)k : 0;
+            }
+            continue;
+        }
+        m[used].name = name;
+        m[used].result_dir = dirs[used];
+        used++;
+    }
+    if (used == 0) {
+        code = fail(w, SMD_WORKER_EXIT_INPUT, "no target of the batch succeeded: no model to "
+                                              "build (%zu left out: %s)", nleft, left);
+        goto done;
+    }
+    char dir[PATH_MAX], final_dir[PATH_MAX];
+    if (prepare_results(w, msg, sizeof msg) != 0 ||
+        smd_pathf(dir, sizeof dir, "%s/" SMD_RESULTS_TMP_DIR, w->job_dir) != 0 ||
+        smd_pathf(final_dir, sizeof final_dir, "%s/" SMD_RESULTS_DIR, w->job_dir) != 0) {
+        code = fail(w, SMD_WORKER_EXIT_OUTPUT, "%s", msg[0] ? msg : "job folder path too long");
+        goto done;
+    }
+    sm_model_opts opts = {.align = align_of(json_string_value(json_object_get(batch, "align"))),
+                          .write_flags = SM_ATOMIC_FSYNC};
+    sm_error err;
+    sm_error_clear(&err);
+    sm_status st = sm_job_model_build_opts(m, used, &opts, dir, &err);
+    if (st != SM_OK) {
+        code = fail(w, st == SM_ERR_NOMEM   ? SMD_WORKER_EXIT_NOMEM
+                       : st == SM_ERR_IO    ? SMD_WORKER_EXIT_OUTPUT
+                                            : SMD_WORKER_EXIT_INPUT,
+                    "the shape model failed (%s): %s", sm_status_name(st), err.msg);
+        goto done;
+    }
+    if (smd_fsync_dir(dir) != 0 || rename(dir, final_dir) != 0 || smd_fsync_dir(w->job_dir) != 0) {
+        code = fail(w, SMD_WORKER_EXIT_OUTPUT, "cannot publish the model: %s", strerror(errno));
+        goto done;
+    }
+    sm_event ev;
+    sm_event_init(&ev, SM_EVENT_FINISHED);
+    ev.result.converged = 1;
+    if (nleft)
+        smd_textf(ev.message, sizeof ev.message, "model of %zu of %zu targets (left out, without "
+                  "a result: %s)", used, n, left);
+    else
+        snprintf(ev.message, sizeof ev.message, "model of %zu targets", used);
+    emit(w, &ev);
+done:
+    free(m);
+    free(dirs);
+    return code;
+}
+
 #ifndef SM_VERSION
 #define SM_VERSION "unknown"
 #endif
@@ -398,6 +502,13 @@ int main(int argc, char **argv)
 
     smd_job_file jf;
     sm_job_inputs in;
+    sm_error err;
+    if (smd_job_file_read(w.job_dir, &jf, &err) == SM_OK && jf.batch) {
+        int code = run_model(&w, jf.batch);
+        smd_job_file_free(&jf);
+        return code;
+    }
+    smd_job_file_free(&jf);
     int code = load_job(&w, &jf, &in);
     if (code == 0) {
         code = run_job(&w, &in, &jf);

@@ -21,6 +21,8 @@ char *smd_job_file_encode(const smd_job_file *f, int indent)
             bad = json_object_set_new(doc, sm_part_name((sm_part)i), json_string(f->part[i])) != 0;
     if (!bad)
         bad = json_object_set(doc, sm_part_name(SM_PART_PARAMS), f->params) != 0;
+    if (!bad && f->batch)
+        bad = json_object_set(doc, "batch", f->batch) != 0;
     char *text = bad ? NULL : sm_json_dumps(doc, indent);
     json_decref(doc);
     return text;
@@ -43,6 +45,41 @@ int smd_job_file_write(const char *dir, const smd_job_file *f)
     free(text);
     errno = saved;
     return rc;
+}
+
+int smd_batch_name_valid(const char *s)
+{
+    size_t n = strlen(s);
+    if (n == 0 || n > SMD_BATCH_NAME_MAX || strcmp(s, ".") == 0 || strcmp(s, "..") == 0)
+        return 0;
+    for (size_t i = 0; i < n; i++)
+        if ((unsigned char)s[i] < 0x21 || (unsigned char)s[i] > 0x7e || s[i] == '/' ||
+            s[i] == '\\' || s[i] == ',' || s[i] == '"')
+            return 0;
+    return 1;
+}
+
+/* The batch object of a model job: NULL when valid, else what is wrong. */
+static const char *batch_problem(const json_t *b)
+{
+    if (!json_is_object(b))
+        return "batch";
+    const char *align = json_string_value(json_object_get(b, "align"));
+    if (!align || (strcmp(align, "none") != 0 && strcmp(align, "rigid") != 0 &&
+                   strcmp(align, "similarity") != 0))
+        return "batch.align";
+    json_t *m = json_object_get(b, "members");
+    if (!json_is_array(m) || json_array_size(m) == 0 || json_array_size(m) > SMD_BATCH_MEMBERS_MAX)
+        return "batch.members";
+    size_t i;
+    json_t *v;
+    json_array_foreach(m, i, v) {
+        const char *id = json_string_value(json_object_get(v, "job"));
+        const char *name = json_string_value(json_object_get(v, "name"));
+        if (!id || !smd_id_valid(id) || !name || !smd_batch_name_valid(name))
+            return "batch.members";
+    }
+    return NULL;
 }
 
 /* A path of the description: relative, inside the job folder. */
@@ -72,7 +109,10 @@ sm_status smd_job_file_parse(const char *text, size_t len, smd_job_file *f, sm_e
             snprintf(f->part[i], sizeof f->part[i], "%s", json_string_value(v));
     }
     json_t *params = json_object_get(doc, sm_part_name(SM_PART_PARAMS));
-    if (!why && !f->part[SM_PART_TEMPLATE][0])
+    json_t *batch = json_object_get(doc, "batch");
+    if (!why && batch)
+        why = batch_problem(batch);
+    if (!why && !batch && !f->part[SM_PART_TEMPLATE][0])
         why = "template missing";
     if (!why && !json_is_object(params))
         why = "params";
@@ -83,6 +123,7 @@ sm_status smd_job_file_parse(const char *text, size_t len, smd_job_file *f, sm_e
                             why);
     }
     f->params = json_incref(params);
+    f->batch = batch ? json_incref(batch) : NULL;
     json_decref(doc);
     return SM_OK;
 }
@@ -104,5 +145,7 @@ sm_status smd_job_file_read(const char *dir, smd_job_file *f, sm_error *err)
 void smd_job_file_free(smd_job_file *f)
 {
     json_decref(f->params);
+    json_decref(f->batch);
     f->params = NULL;
+    f->batch = NULL;
 }

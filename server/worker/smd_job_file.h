@@ -4,7 +4,12 @@
  *   {"template": "inputs/template.mesh", "target_mesh": ..., "target_sol"
  *    | "target_surface": ..., "template_landmarks", "target_landmarks": ...
  *    (optional), "params": {<sm_job_params_to_jansson>}}
- * Paths are relative to JOB_DIR and stay inside it. */
+ * Paths are relative to JOB_DIR and stay inside it.
+ *
+ * A batch's model job (server/api/smd_batches.h) has no file part; its
+ * description is {"params": {}, "batch": {"align": "none|rigid|similarity",
+ * "members": [{"job": ID, "name": NAME}, ...]}}: the target jobs whose
+ * results the worker puts into the shape model (sm_job_model_build). */
 #ifndef SMD_JOB_FILE_H
 #define SMD_JOB_FILE_H
 
@@ -20,7 +25,18 @@ typedef struct smd_job_file {
     /* each file part's path relative to the job folder, "" when absent */
     char part[SM_PART_PARAMS][PATH_MAX];
     json_t *params; /* the canonical params object (owned) */
+    json_t *batch;  /* a model job's batch object (owned), NULL for a match */
 } smd_job_file;
+
+/* Bounds of a batch description (also the daemon's hard ceiling on
+ * --max-batch-targets): member names are printable ASCII without '/'. */
+#define SMD_BATCH_MEMBERS_MAX 1000
+#define SMD_BATCH_NAME_MAX 64
+
+/* A member's name: 1..SMD_BATCH_NAME_MAX printable ASCII characters
+ * without '/', '\\', ',' or '"', not "." or ".." (it names a row of the
+ * model's scores.csv).  1 when valid. */
+int smd_batch_name_valid(const char *s);
 
 /* The description as text (members in part order, then params), with
  * proto's sm_json_dumps: indent 0 compact (the database's copy), 2 the

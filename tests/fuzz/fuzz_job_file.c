@@ -1,7 +1,8 @@
 /* job.json's reader (server/smd_job_file.c): any bytes are refused or
  * give a description whose paths stay inside the job folder and whose
- * params are an object; an accepted one encodes and reads back the same,
- * compact and indented. */
+ * params are an object, with a template or (a batch's model job) a batch
+ * whose member names are valid; an accepted one encodes and reads back
+ * the same, compact and indented. */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -22,7 +23,8 @@ static void same_again(const smd_job_file *f, int indent)
     for (int i = 0; i < SM_PART_PARAMS; i++)
         if (strcmp(f->part[i], g.part[i]) != 0)
             abort();
-    if (!json_equal(f->params, g.params))
+    if (!json_equal(f->params, g.params) || !f->batch != !g.batch ||
+        (f->batch && !json_equal(f->batch, g.batch)))
         abort();
     smd_job_file_free(&g);
     free(text);
@@ -33,12 +35,17 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     static smd_job_file f; /* 16 KiB of paths: kept off the fuzzer's stack */
     sm_error err;
     if (smd_job_file_parse((const char *)data, size, &f, &err) != SM_OK) {
-        if (f.params || f.part[SM_PART_TEMPLATE][0])
+        if (f.params || f.batch || f.part[SM_PART_TEMPLATE][0])
             abort();
         return 0;
     }
-    if (!json_is_object(f.params) || !f.part[SM_PART_TEMPLATE][0])
+    if (!json_is_object(f.params) || (!f.part[SM_PART_TEMPLATE][0] && !f.batch))
         abort();
+    size_t i;
+    json_t *m;
+    json_array_foreach(json_object_get(f.batch, "members"), i, m)
+        if (!smd_batch_name_valid(json_string_value(json_object_get(m, "name"))))
+            abort();
     for (int i = 0; i < SM_PART_PARAMS; i++)
         if (f.part[i][0] == '/' || strstr(f.part[i], ".."))
             abort();

@@ -28,8 +28,8 @@ started=1
 for nr in api1:api api2:api w1:worker w2:worker w3:worker; do
     node "${nr%%:*}" "${nr#*:}" --workers 1 --lease 3 || started=0
 done
-if [ "$started" = 1 ] && [ "$(psql_val 'SELECT max(version) FROM smd_schema')" = 1 ]; then
-    ok "2 API and 3 worker nodes start together; the schema is migrated once (version 1)"
+if [ "$started" = 1 ] && [ "$(psql_val 'SELECT max(version) FROM smd_schema')" = 2 ]; then
+    ok "2 API and 3 worker nodes start together; the schema is migrated once (version 2: batches' members)"
 else
     not_ok "the nodes start" "$(tail -n 3 "$WORK"/*.log)"
     exit 1

@@ -214,9 +214,44 @@ probe "3D points, 2D map" POST "$tmpl" 422 "/v1/jobs/$J/warp" '.detail | contain
 head -c 400000 /dev/zero | tr '\0' '\n' >"$WORK/warp413.csv"
 probe "over --max-upload" POST "$tmpl" 413 "/v1/jobs/$J/warp" '' "${AUTH[@]}" "${CSV[@]}" \
     --data-binary "@$WORK/warp413.csv"
+# batches (docs/api.md "Batches"; the behaviour in daemon_batches.sh)
+JSON=(-H 'Content-Type: application/json')
+noauth_probe "no token" POST /v1/batches /v1/batches "${JSON[@]}" --data-binary "{\"targets\": [{\"job\": \"$J\"}]}"
+probe "not JSON" POST /v1/batches 415 /v1/batches '' "${AUTH[@]}" -F "x=1"
+probe "a body that is not JSON" POST /v1/batches 400 /v1/batches '' "${AUTH[@]}" "${JSON[@]}" --data-binary 'x'
+probe "no targets" POST /v1/batches 422 /v1/batches '' "${AUTH[@]}" "${JSON[@]}" --data-binary '{"targets": []}'
+seq 101 | awk '{ printf "%s{\"job\": \"%032x\"}", (NR > 1 ? "," : "{\"targets\": ["), $1 } END { print "]}" }' >"$WORK/b101.json"
+probe "over --max-batch-targets" POST /v1/batches 413 /v1/batches '.detail | contains("--max-batch-targets")' \
+    "${AUTH[@]}" "${JSON[@]}" --data-binary "@$WORK/b101.json"
+probe "a batch of one finished job" POST /v1/batches 201 /v1/batches '.counts.total == 1 and .model.processID == "shape-model"' \
+    "${AUTH[@]}" "${JSON[@]}" --data-binary "{\"targets\": [{\"job\": \"$J\", \"name\": \"disk\"}]}"
+BJ=$(jq -r .batchID "$WORK/body")
+wait_state "$BJ" successful 30
+tmpl='/v1/batches/{batchID}'
+noauth_probe "no token" GET "$tmpl" "/v1/batches/$BJ"
+probe "the batch" GET "$tmpl" 200 "/v1/batches/$BJ" '.status == "successful" and .targets[0].name == "disk"' "${AUTH[@]}"
+probe "a job that is not a batch" GET "$tmpl" 404 "/v1/batches/$J" '' "${AUTH[@]}"
+tmpl='/v1/batches/{batchID}/model'
+noauth_probe "no token" GET "$tmpl" "/v1/batches/$BJ/model"
+probe "the model" GET "$tmpl" 200 "/v1/batches/$BJ/model" '.summary.members == 1' "${AUTH[@]}"
+probe "unknown batch" GET "$tmpl" 404 /v1/batches/0123456789abcdef0123456789abcdef/model '' "${AUTH[@]}"
+tmpl='/v1/batches/{batchID}/model/{file}'
+noauth_probe "no token" GET "$tmpl" "/v1/batches/$BJ/model/mean.mesh"
+probe "the mean shape" GET "$tmpl" 200 "/v1/batches/$BJ/model/mean.mesh" '' "${AUTH[@]}"
+probe "not a file of the model" GET "$tmpl" 404 "/v1/batches/$BJ/model/job.json" '' "${AUTH[@]}"
 # a queued job has no results yet; DELETE cancels it
 E=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
 Q=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
+# a batch whose target is queued: no model yet; DELETE cancels it
+BQ=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
+probe "a batch of a queued job" POST /v1/batches 201 /v1/batches '.status == "accepted"' \
+    "${AUTH[@]}" "${JSON[@]}" --data-binary "{\"targets\": [{\"job\": \"$BQ\"}]}"
+BB=$(jq -r .batchID "$WORK/body")
+probe "no model yet" GET '/v1/batches/{batchID}/model' 409 "/v1/batches/$BB/model" '' "${AUTH[@]}"
+probe "no model file yet" GET '/v1/batches/{batchID}/model/{file}' 409 "/v1/batches/$BB/model/scores.csv" '' "${AUTH[@]}"
+noauth_probe "no token" DELETE '/v1/batches/{batchID}' "/v1/batches/$BB"
+probe "cancel the batch" DELETE '/v1/batches/{batchID}' 200 "/v1/batches/$BB" '.status == "dismissed"' "${AUTH[@]}"
+probe "unknown batch" DELETE '/v1/batches/{batchID}' 404 /v1/batches/0123456789abcdef0123456789abcdef '' "${AUTH[@]}"
 probe "queued: no result yet" GET '/v1/jobs/{jobID}/results' 404 "/v1/jobs/$Q/results" '.type | endswith("result-not-ready")' "${AUTH[@]}"
 probe "queued: no map to warp through" POST '/v1/jobs/{jobID}/warp' 409 "/v1/jobs/$Q/warp" \
     '.detail | contains("is queued")' "${AUTH[@]}" -H 'Content-Type: text/csv' --data-binary $'0,0\n'
@@ -302,6 +337,8 @@ readyz_is() { [ "$(curl -sS -o /dev/null -w '%{http_code}' "$BASE/readyz")" = "$
 poll 5 readyz_is 503
 probe "shutting down" GET /readyz 503 /readyz ''
 probe "shutting down" POST /v1/jobs 503 /v1/jobs '' "${AUTH[@]}" "${F[@]}" -F "params=$(quick_params 5)"
+probe "shutting down" POST /v1/batches 503 /v1/batches '' "${AUTH[@]}" -H 'Content-Type: application/json' \
+    --data-binary "{\"targets\": [{\"job\": \"$J\"}]}"
 probe "shutting down" POST /v1/processes/{processID}/execution 503 /v1/processes/match/execution '' \
     "${AUTH[@]}" "${XJ[@]}" --data-binary "@$WORK/exec.json"
 curl -sS -o /dev/null "${AUTH[@]}" -X DELETE "$BASE/v1/jobs/$E"

@@ -101,11 +101,56 @@ static void test_refused(void **state)
     smd_job_file_free(&f);
 }
 
+/* A batch's model job: no template, a batch object; encoded and read
+ * back whole; a malformed batch (bad alignment, no members, a bad id, a
+ * name with '/' or a control character, "..") refused. */
+static void test_batch(void **state)
+{
+    (void)state;
+    const char *id = "0123456789abcdef0123456789abcdef";
+    smd_job_file f = {0}, g;
+    sm_error err;
+    f.params = json_object();
+    f.batch = json_pack("{s:s,s:[{s:s,s:s}]}", "align", "similarity", "members", "job", id, "name",
+                        "r1");
+    char *text = smd_job_file_encode(&f, 0);
+    assert_non_null(text);
+    assert_int_equal(smd_job_file_parse(text, strlen(text), &g, &err), SM_OK);
+    assert_non_null(g.batch);
+    assert_true(json_equal(g.batch, f.batch));
+    assert_string_equal(g.part[SM_PART_TEMPLATE], "");
+    smd_job_file_free(&g);
+    free(text);
+    smd_job_file_free(&f);
+    static const char *const bad[] = {
+        "{\"params\": {}, \"batch\": {\"align\": \"affine\", \"members\": [{\"job\": \"%s\", \"name\": \"a\"}]}}",
+        "{\"params\": {}, \"batch\": {\"align\": \"rigid\", \"members\": []}}",
+        "{\"params\": {}, \"batch\": {\"align\": \"rigid\", \"members\": [{\"job\": \"%.31s\", \"name\": \"a\"}]}}",
+        "{\"params\": {}, \"batch\": {\"align\": \"rigid\", \"members\": [{\"job\": \"%s\", \"name\": \"a/b\"}]}}",
+        "{\"params\": {}, \"batch\": {\"align\": \"rigid\", \"members\": [{\"job\": \"%s\", \"name\": \"a\\u0001\"}]}}",
+        "{\"params\": {}, \"batch\": {\"align\": \"rigid\", \"members\": [{\"job\": \"%s\", \"name\": \"..\"}]}}",
+        "{\"params\": {}, \"batch\": []}",
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        char doc[512];
+        snprintf(doc, sizeof doc, bad[i], id);
+        assert_int_equal(smd_job_file_parse(doc, strlen(doc), &g, &err), SM_ERR_FORMAT);
+        assert_null(g.batch);
+        assert_non_null(strstr(err.msg, "batch"));
+        smd_job_file_free(&g);
+    }
+    assert_true(smd_batch_name_valid("r-1_a.b"));
+    assert_false(smd_batch_name_valid("a b"));
+    assert_false(smd_batch_name_valid("a,b"));
+    assert_false(smd_batch_name_valid(""));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_round_trip),
         cmocka_unit_test(test_refused),
+        cmocka_unit_test(test_batch),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -11,7 +11,9 @@
  *   smd_jobs    id, ord (FIFO), owner, idempotency_key (unique per owner),
  *               request_hash, state, message, params, attempt, progress,
  *               nevents, lease_owner, lease_expires, lease_token,
- *               cancel_requested, created, started, finished, updated
+ *               cancel_requested, created, started, finished, updated,
+ *               members (2: a batch's model job, the ids of its target
+ *               jobs; NULL for every other job)
  *   smd_events  (job, seq) unique, payload: the event's JSON line
  *   smd_blobs   (job, name, chunk) bytea chunks of inputs and results
  *
@@ -21,7 +23,9 @@
  * blobs, the final state) names the token and is refused once the lease
  * is lost (fencing): a node that was cut off does not publish results
  * over a later attempt's.  Any node requeues expired leases with
- * attempt + 1, or fails the job past --max-attempts. */
+ * attempt + 1, or fails the job past --max-attempts.  A batch's model job
+ * (members not NULL) is claimed only once none of its members is queued
+ * or running. */
 #ifndef SMD_PG_H
 #define SMD_PG_H
 
@@ -33,7 +37,7 @@
 #include "sm_proto_vocab.h"
 #include "base/smd_util.h"
 
-#define SMD_PG_SCHEMA_VERSION 1
+#define SMD_PG_SCHEMA_VERSION 2
 /* Bytes of one smd_blobs row: uploads and results move in pieces this
  * large, never whole. */
 #define SMD_PG_CHUNK (256 * 1024)
@@ -93,6 +97,8 @@ typedef struct smd_pg_job {
     double tol_boundary;
     const char *dir;              /* NULL, or a folder whose job.json and
                                    * inputs/ become blobs (same transaction) */
+    const char *members;          /* a model job's members as a text[] literal
+                                   * ("{id,id}"), NULL for every other job */
 } smd_pg_job;
 
 /* Inserts an accepted job and its first event in one transaction, or,
@@ -192,7 +198,14 @@ typedef struct smd_pg_info {
     double tol_boundary;
     int64_t nevents;
     int64_t lease_token;          /* 0 when not running */
+    int batch_model;              /* members is not NULL */
 } smd_pg_info;
+
+/* The members of model job id that ended successful (their results are
+ * blobs): fn(user, member id) for each; fn returns 0 to go on. */
+sm_status smd_pg_batch_done(smd_pg *db, const char *id,
+                            int (*fn)(void *user, const char *member), void *user,
+                            sm_error *err);
 
 sm_status smd_pg_job_info(smd_pg *db, const char *id, smd_pg_info *out, int *found,
                           sm_error *err);

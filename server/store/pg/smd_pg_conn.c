@@ -47,6 +47,8 @@ static const char *const migrations[SMD_PG_SCHEMA_VERSION] = {
     " chunk integer NOT NULL CHECK (chunk >= 0),"
     " data bytea NOT NULL,"
     " PRIMARY KEY (job, name, chunk));",
+    /* 2: batches (server/api/smd_batches.h): a model job lists its members */
+    "ALTER TABLE smd_jobs ADD COLUMN members text[];",
 };
 
 static const char *const state_names[] = {"accepted", "running", "successful", "failed",

@@ -103,6 +103,7 @@ static smd_job *new_local(const smd_pg_info *info, const sm_event *first)
     snprintf(job->owner, sizeof job->owner, "%s", info->owner);
     snprintf(job->idempotency_key, sizeof job->idempotency_key, "%s", info->idempotency_key);
     job->request_hash = info->request_hash;
+    job->batch_model = info->batch_model;
     return job;
 }
 
@@ -143,6 +144,39 @@ static sm_status commit_import(smd_pg_node *n, const smd_pg_info *info, const ch
     return SM_OK;
 }
 
+/* A batch's model job about to run here: the results of its successful
+ * members into members/<id>/ of its folder (the worker reads them there;
+ * this node's replica of them may lag behind the database). */
+typedef struct members_fetch {
+    smd_pg *db;
+    const char *dir;
+    sm_status st;
+    sm_error *err;
+} members_fetch;
+
+static int fetch_member(void *user, const char *member)
+{
+    members_fetch *f = user;
+    char path[PATH_MAX];
+    size_t count;
+    if (!smd_id_valid(member) || smd_pathf(path, sizeof path, "%s/members/%s", f->dir, member) != 0) {
+        f->st = sm_error_set(f->err, SM_ERR_IO, "member %.40s: bad id or path too long", member);
+        return 1;
+    }
+    f->st = smd_pg_blob_get_tree(f->db, member, "results/", path, &count, f->err);
+    return f->st != SM_OK;
+}
+
+static sm_status fetch_members(smd_pg *db, const char *id, const char *tmp, sm_error *err)
+{
+    char dir[PATH_MAX];
+    if (smd_pathf(dir, sizeof dir, "%s/members", tmp) != 0 || mkdir(dir, 0755) != 0)
+        return sm_error_set(err, SM_ERR_IO, "%s/members: cannot create it", tmp);
+    members_fetch f = {db, tmp, SM_OK, err};
+    sm_status st = smd_pg_batch_done(db, id, fetch_member, &f, err);
+    return st != SM_OK ? st : f.st;
+}
+
 /* The folder the store commits: job.json, inputs/ (a run) or results/
  * (a successful job mirrored). */
 static sm_status fetch_folder(smd_pg *db, const smd_pg_info *info, const char *tmp, int run,
@@ -158,6 +192,8 @@ static sm_status fetch_folder(smd_pg *db, const smd_pg_info *info, const char *t
     if (st == SM_OK && smd_pathf(path, sizeof path, "%s/inputs", tmp) == 0)
         st = run ? smd_pg_blob_get_tree(db, info->id, "inputs/", path, &count, err)
                  : (mkdir(path, 0755), SM_OK);
+    if (st == SM_OK && run && info->batch_model)
+        st = fetch_members(db, info->id, tmp, err);
     if (st == SM_OK && !run && info->state == SM_JOB_SUCCESSFUL &&
         smd_pathf(path, sizeof path, "%s/results", tmp) == 0)
         st = smd_pg_blob_get_tree(db, info->id, "results/", path, &count, err);

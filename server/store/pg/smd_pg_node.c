@@ -187,9 +187,28 @@ static sm_status submit_db(smd_pg_node *n, const smd_submission *sub, double whe
     char *event, *params;
     if (submission_texts(sub, when, &event, &params, err) != SM_OK)
         return SM_ERR_IO;
+    char *members = NULL; /* a model job's members: a text[] literal (ids need no quoting) */
+    if (sub->batch_model) {
+        members = malloc(sub->nmembers * (SMD_ID_LEN + 1) + 3);
+        if (!members) {
+            free(event);
+            free(params);
+            return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+        }
+        size_t at = 0;
+        members[at++] = '{';
+        for (size_t i = 0; i < sub->nmembers; i++) {
+            if (i)
+                members[at++] = ',';
+            memcpy(members + at, sub->members[i], strlen(sub->members[i]));
+            at += strlen(sub->members[i]);
+        }
+        members[at++] = '}';
+        members[at] = '\0';
+    }
     smd_pg_job job = {sub->id, sub->owner ? sub->owner : "", sub->idempotency_key ? sub->idempotency_key : "",
                       sub->request_hash, params, event, sub->dim, sub->max_iter, sub->tol_boundary,
-                      sub->dir};
+                      sub->dir, members};
     pthread_mutex_lock(&n->api_lock);
     sm_status st = node_connected(n, n->api_db, err);
     if (st == SM_OK)
@@ -208,6 +227,7 @@ static sm_status submit_db(smd_pg_node *n, const smd_submission *sub, double whe
     pthread_mutex_unlock(&n->api_lock);
     free(event);
     free(params);
+    free(members);
     return st;
 }
 

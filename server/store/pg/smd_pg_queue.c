@@ -105,13 +105,13 @@ static sm_status insert_job(smd_pg *db, const smd_pg_job *job, int *inserted, sm
     snprintf(tol, sizeof tol, "%.17g", job->tol_boundary);
     const char *key = job->idempotency_key && job->idempotency_key[0] ? job->idempotency_key : NULL;
     const char *vals[] = {job->id, job->owner ? job->owner : "", key, hash, job->params,
-                          dim, max_iter, tol};
+                          dim, max_iter, tol, job->members};
     PGresult *r = smd_pg_exec(
         db, "submit",
         "INSERT INTO smd_jobs (id, owner, idempotency_key, request_hash, state, params, dim,"
-        " max_iter, tol_boundary) VALUES ($1, $2, $3, $4::numeric, 'accepted', $5::jsonb,"
-        " $6::integer, $7::integer, $8::float8) ON CONFLICT DO NOTHING RETURNING 1",
-        8, vals, err);
+        " max_iter, tol_boundary, members) VALUES ($1, $2, $3, $4::numeric, 'accepted', $5::jsonb,"
+        " $6::integer, $7::integer, $8::float8, $9::text[]) ON CONFLICT DO NOTHING RETURNING 1",
+        9, vals, err);
     if (!r)
         return SM_ERR_IO;
     *inserted = PQntuples(r) == 1;
@@ -166,8 +166,11 @@ sm_status smd_pg_claim(smd_pg *db, const char *node, double lease, smd_pg_lease 
     const char *vals[] = {node, secs};
     PGresult *r = smd_pg_exec(
         db, "claim",
-        "WITH c AS (SELECT id FROM smd_jobs WHERE state = 'accepted' ORDER BY ord LIMIT 1"
-        " FOR UPDATE SKIP LOCKED)"
+        /* a batch's model job waits for its members (none queued or running) */
+        "WITH c AS (SELECT id FROM smd_jobs s WHERE state = 'accepted' AND (s.members IS NULL"
+        " OR NOT EXISTS (SELECT 1 FROM smd_jobs m WHERE m.id = ANY (s.members)"
+        " AND m.state IN ('accepted', 'running'))) ORDER BY ord LIMIT 1"
+        " FOR UPDATE OF s SKIP LOCKED)"
         " UPDATE smd_jobs j SET state = 'running', attempt = j.attempt + 1, lease_owner = $1,"
         " lease_expires = now() + $2::float8 * interval '1 second',"
         " lease_token = nextval('smd_lease_tokens'), started = now(), updated = now()"
@@ -385,7 +388,8 @@ sm_status smd_pg_state(smd_pg *db, const char *id, sm_job_state *state, int *att
 }
 
 #define INFO_COLS "id, owner, coalesce(idempotency_key, ''), request_hash, state, message," \
-                  " attempt, dim, max_iter, tol_boundary, nevents, coalesce(lease_token, 0)"
+                  " attempt, dim, max_iter, tol_boundary, nevents, coalesce(lease_token, 0)," \
+                  " members IS NOT NULL"
 
 static void info_row(const PGresult *r, int i, smd_pg_info *o)
 {
@@ -403,6 +407,25 @@ static void info_row(const PGresult *r, int i, smd_pg_info *o)
     o->tol_boundary = strtod(PQgetvalue(r, i, 9), NULL);
     o->nevents = strtoll(PQgetvalue(r, i, 10), NULL, 10);
     o->lease_token = strtoll(PQgetvalue(r, i, 11), NULL, 10);
+    o->batch_model = strcmp(PQgetvalue(r, i, 12), "t") == 0;
+}
+
+sm_status smd_pg_batch_done(smd_pg *db, const char *id,
+                            int (*fn)(void *user, const char *member), void *user,
+                            sm_error *err)
+{
+    const char *vals[] = {id};
+    PGresult *r = smd_pg_exec(db, "batch members",
+                              "SELECT m.id FROM smd_jobs s JOIN smd_jobs m ON m.id = ANY (s.members)"
+                              " WHERE s.id = $1 AND m.state = 'successful'",
+                              1, vals, err);
+    if (!r)
+        return SM_ERR_IO;
+    for (int i = 0; i < PQntuples(r); i++)
+        if (fn(user, PQgetvalue(r, i, 0)) != 0)
+            break;
+    PQclear(r);
+    return SM_OK;
 }
 
 sm_status smd_pg_job_info(smd_pg *db, const char *id, smd_pg_info *out, int *found,

@@ -4,6 +4,7 @@
  * the queue of accepted jobs) lives in the ops that PostgreSQL replaces. */
 #include "store/spool/smd_spool_backend.h"
 
+#include <string.h>
 #include <unistd.h>
 
 smd_job *smd_spool_get(smd_backend *b, const char *id)
@@ -100,8 +101,25 @@ static int spool_final_event_missing(smd_backend *b, const smd_job *job)
     return smd_store_final_event_missing(b->spool, job);
 }
 
+/* A batch's model job runs once none of its members is queued or running
+ * (api/smd_batches.h); a deleted member counts as ended.  It stays out of
+ * the FIFO until then: queued by the last member's end (spool_event), or
+ * here when that came first (a restart, a batch of ended jobs). */
+static int members_live(smd_backend *b, const smd_job *model)
+{
+    for (size_t i = 0; i < model->nmembers; i++) {
+        const smd_job *m = smd_store_get(b->spool, model->members[i]);
+        if (m && !smd_job_state_final(m->state))
+            return 1;
+    }
+    return 0;
+}
+
 static int spool_enqueue(smd_backend *b, const char *id)
 {
+    const smd_job *job = smd_store_get(b->spool, id);
+    if (job && job->batch_model && members_live(b, job))
+        return 1; /* waits: queued here later */
     return smd_queue_push(b->fifo, id) == 0 ? 1 : -1;
 }
 
@@ -119,9 +137,27 @@ static void spool_submitted(smd_backend *b, const char *id)
     (void)b, (void)id;
 }
 
+/* The final event of a job: the model jobs waiting for it (a scan of the
+ * table, as the list and the metrics do) are queued when it was their
+ * last live member. */
 static void spool_event(smd_backend *b, const smd_job *job, const sm_event *ev)
 {
-    (void)b, (void)job, (void)ev;
+    if (!smd_job_state_final(job->state) || job->batch_model ||
+        (ev->type != SM_EVENT_FINISHED && ev->type != SM_EVENT_FAILED &&
+         ev->type != SM_EVENT_CANCELLED))
+        return;
+    size_t count = smd_store_count(b->spool);
+    for (size_t i = 0; i < count; i++) {
+        smd_job *model = smd_store_at(b->spool, i);
+        if (!model->batch_model || model->state != SM_JOB_ACCEPTED ||
+            smd_queue_position(b->fifo, model->id) >= 0)
+            continue;
+        int member = 0;
+        for (size_t k = 0; k < model->nmembers && !member; k++)
+            member = strcmp(model->members[k], job->id) == 0;
+        if (member && !members_live(b, model))
+            smd_queue_push(b->fifo, model->id); /* out of memory: runs after a restart */
+    }
 }
 
 static void spool_requeued(smd_backend *b, const smd_job *job)

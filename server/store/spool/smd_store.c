@@ -188,6 +188,13 @@ static json_t *record_to_json(const smd_job *job)
         json_object_set_new(o, "idempotencyKey", json_string(job->idempotency_key));
     if (job->owner[0])
         json_object_set_new(o, "owner", json_string(job->owner));
+    if (job->batch_model) {
+        json_object_set_new(o, "batchModel", json_true());
+        json_t *m = json_array();
+        for (size_t i = 0; m && i < job->nmembers; i++)
+            json_array_append_new(m, json_string(job->members[i]));
+        json_object_set_new(o, "members", m);
+    }
     if (job->final_event_at > 0)
         json_object_set_new(o, "finalEventAt", json_integer(job->final_event_at));
     if (job->request_hash) {
@@ -222,6 +229,28 @@ static int get_int(json_t *o, const char *key, long long lo, long long hi, long 
 }
 
 /* Reads a record; -1 with why filled when it is not one of ours. */
+/* A model job's members (ids), within SMD_BATCH_MEMBERS_MAX. */
+static int record_members(json_t *o, smd_job *job, char *why, size_t cap)
+{
+    json_t *m = json_object_get(o, "members"), *v;
+    size_t n = json_array_size(m), i;
+    char (*ids)[SMD_ID_LEN + 1] = n ? calloc(n, sizeof *ids) : NULL;
+    int bad = !json_is_array(m) || n > SMD_JOB_MEMBERS_MAX || (n && !ids);
+    json_array_foreach(m, i, v) {
+        if (bad || !json_is_string(v) || !smd_id_valid(json_string_value(v))) {
+            bad = 1;
+            break;
+        }
+        memcpy(ids[i], json_string_value(v), SMD_ID_LEN + 1);
+    }
+    if (!bad)
+        bad = smd_job_set_members(job, (const char (*)[SMD_ID_LEN + 1])ids, n);
+    free(ids);
+    if (bad)
+        snprintf(why, cap, "bad members");
+    return bad ? -1 : 0;
+}
+
 static int record_from_json(json_t *o, const char *id, smd_job *job, char *why, size_t cap)
 {
     json_t *v = json_object_get(o, "jobID");
@@ -286,6 +315,9 @@ static int record_from_json(json_t *o, const char *id, smd_job *job, char *why, 
         }
         job->final_event_at = x;
     }
+    job->batch_model = json_is_true(json_object_get(o, "batchModel"));
+    if (job->batch_model && record_members(o, job, why, cap) != 0)
+        return -1;
     v = json_object_get(o, "requestHash");
     if (json_is_string(v) && strlen(json_string_value(v)) == 16)
         job->request_hash = strtoull(json_string_value(v), NULL, 16);

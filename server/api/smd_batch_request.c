@@ -1,0 +1,80 @@
+/* The body of POST /v1/batches (see smd_batch_request.h). */
+#include "api/smd_batch_request.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <jansson.h>
+
+#include "base/smd_util.h"
+
+/* targets[i] into m[i], unique among m[0..i-1]: 0, or 422 with msg. */
+static unsigned parse_target(const json_t *t, size_t i, smd_batch_member *m, char *msg, size_t cap)
+{
+    const char *id = json_string_value(json_object_get(t, "job"));
+    const char *name = json_object_get(t, "name") ? json_string_value(json_object_get(t, "name"))
+                                                  : id;
+    if (!id || !smd_id_valid(id)) {
+        snprintf(msg, cap, "targets[%zu].job: expected a job id", i);
+        return 422;
+    }
+    if (!name || !smd_batch_name_valid(name)) {
+        snprintf(msg, cap, "targets[%zu].name: 1 to %d printable ASCII characters without "
+                 "'/', '\\', ',', '\"' or spaces, not . or ..", i, SMD_BATCH_NAME_MAX);
+        return 422;
+    }
+    for (size_t k = 0; k < i; k++)
+        if (strcmp(m[k].id, id) == 0 || strcmp(m[k].name, name) == 0) {
+            snprintf(msg, cap, "targets[%zu]: job or name given twice", i);
+            return 422;
+        }
+    snprintf(m[i].id, sizeof m[i].id, "%s", id);
+    snprintf(m[i].name, sizeof m[i].name, "%s", name);
+    return 0;
+}
+
+unsigned smd_batch_request_parse(const char *buf, size_t len, unsigned max_targets,
+                                 smd_batch_member **out, size_t *nout, char align[16], char *msg,
+                                 size_t cap)
+{
+    json_error_t jerr;
+    json_t *doc = json_loadb(buf, len, JSON_REJECT_DUPLICATES, &jerr);
+    unsigned status = 0;
+    json_t *targets = json_object_get(doc, "targets"), *a = json_object_get(doc, "model_align");
+    size_t n = json_array_size(targets);
+    if (!json_is_object(doc)) {
+        snprintf(msg, cap, "the body is not a JSON object (%s)", doc ? "not an object" : jerr.text);
+        status = 400;
+    } else if (!json_is_array(targets) || n == 0) {
+        snprintf(msg, cap, "targets: expected a non-empty array of {\"job\": ID, \"name\": NAME}");
+        status = 422;
+    } else if (n > max_targets) {
+        snprintf(msg, cap, "targets: %zu targets exceed the limit of %u (the daemon's "
+                 "--max-batch-targets; its operator can raise it, up to %d)", n,
+                 max_targets, SMD_BATCH_MEMBERS_MAX);
+        status = 413;
+    } else if (a && (!json_is_string(a) || (strcmp(json_string_value(a), "none") != 0 &&
+                                             strcmp(json_string_value(a), "rigid") != 0 &&
+                                             strcmp(json_string_value(a), "similarity") != 0))) {
+        snprintf(msg, cap, "model_align: expected none, rigid or similarity");
+        status = 422;
+    }
+    smd_batch_member *m = status ? NULL : calloc(n, sizeof *m);
+    if (!status && !m) {
+        snprintf(msg, cap, "out of memory");
+        status = 503;
+    }
+    snprintf(align, 16, "%s", a ? json_string_value(a) : "rigid");
+    for (size_t i = 0; !status && i < n; i++)
+        status = parse_target(json_array_get(targets, i), i, m, msg, cap);
+    json_decref(doc);
+    if (status) {
+        free(m);
+        return status;
+    }
+    *out = m;
+    *nout = n;
+    return 0;
+}
+

@@ -1,0 +1,74 @@
+// The web app's batch view (web/batch.js) in real Chromium (Debian's
+// chromium, npm playwright-core): the batch of web_batch.sh (disks matched
+// onto circles of the given radii) opened by #batch=ID while it runs; the
+// per-target table follows it to the end; then the model: one slider per
+// written mode (at most 5), the variance plot drawn, and mode 1 at +-3
+// standard deviations moves the boundary's mean radius by 6 sigma, where
+// sigma is the spread of the generating radii (their sample standard
+// deviation, within 25%: the matches are not exact circles) -- a figure
+// from the radii alone, not from the model's files.  No console error.
+// Prints one JSON line per check: {desc, ok, detail}.
+import { chromium } from 'playwright-core';
+
+const [base, id, radiiText, logDir] = process.argv.slice(2);
+const radii = radiiText.split(' ').map(Number);
+const report = (desc, ok, detail = '') => console.log(JSON.stringify({ desc, ok: !!ok, detail: String(detail).slice(0, 2000) }));
+
+const browser = await chromium.launch({
+  executablePath: '/usr/bin/chromium',
+  headless: true,
+  args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--disable-dev-shm-usage'],
+});
+try {
+  const page = await browser.newPage({ viewport: { width: 1100, height: 1400 } });
+  const errors = [];
+  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+  page.on('pageerror', (e) => errors.push(String(e)));
+  await page.goto(`${base}/#batch=${id}`);
+  await page.waitForSelector('#batch-panel:not([hidden])', { timeout: 10000 });
+  await page.waitForFunction((n) => document.querySelectorAll('#batch-targets tr').length === n, radii.length, { timeout: 10000 });
+  report('#batch=ID opens the batch: one row per target', true);
+  await page.waitForSelector('#batch-model:not([hidden])', { timeout: 60000 });
+  const rows = await page.$$eval('#batch-targets tr', (trs) => trs.map((tr) => tr.dataset.status));
+  const status = await page.textContent('#batch-status');
+  const summary = await page.textContent('#batch-summary');
+  report('the table follows the batch to its end: every target successful, the batch too',
+    status === 'successful' && rows.every((s) => s === 'successful') && summary.includes(`${radii.length} of ${radii.length}`), `${status} ${rows} ${summary}`);
+  const sliders = await page.$$eval('#batch-modes input[type=range]', (s) => s.map((x) => [x.min, x.max]));
+  const written = await page.evaluate(() => window.shapematchBatch.current.model.modes.length);
+  report('one slider per written mode (at most 5), each from -3 to +3 sigma',
+    sliders.length === Math.min(5, radii.length - 1) && sliders.length === written && sliders.every(([a, b]) => a === '-3' && b === '3'), JSON.stringify(sliders));
+  const plotted = await page.$eval('#batch-variance', (el) => el.querySelector('canvas') !== null && el.textContent.includes('cumulative'));
+  const ve = await page.evaluate(() => window.shapematchBatch.current.model.summary.variance_explained);
+  report('the variance plot is drawn (per mode and cumulative)', plotted && ve.length >= 1, JSON.stringify(ve));
+
+  // the mean radius of the boundary shown (2D: the vertices farthest out
+  // are the boundary of a disk; their mean distance from the centroid)
+  const radius = () => page.evaluate(() => {
+    const m = window.shapematchBatch.current.model, xyz = m.shown, n = xyz.length / 2;
+    let cx = 0, cy = 0;
+    for (let v = 0; v < n; v++) { cx += xyz[2 * v] / n; cy += xyz[2 * v + 1] / n; }
+    const r = [];
+    for (let v = 0; v < n; v++) r.push(Math.hypot(xyz[2 * v] - cx, xyz[2 * v + 1] - cy));
+    r.sort((a, b) => b - a);
+    const k = Math.max(1, Math.round(n * 0.15));
+    return r.slice(0, k).reduce((a, b) => a + b, 0) / k;
+  });
+  const canvasData = () => page.$eval('#batch-view2d', (c) => c.toDataURL());
+  const r0 = await radius(), img0 = await canvasData();
+  await page.fill('#batch-mode-1', '3');
+  await page.dispatchEvent('#batch-mode-1', 'input');
+  const rPlus = await radius(), imgPlus = await canvasData();
+  await page.fill('#batch-mode-1', '-3');
+  await page.dispatchEvent('#batch-mode-1', 'input');
+  const rMinus = await radius();
+  const mean = radii.reduce((a, b) => a + b, 0) / radii.length;
+  const sd = Math.sqrt(radii.reduce((a, r) => a + (r - mean) ** 2, 0) / (radii.length - 1));
+  const sigma = Math.abs(rPlus - rMinus) / 6;
+  report(`mode 1 at +-3 sigma: the radius moves by 6 sigma, sigma ${sigma.toFixed(4)} against the radii's ${sd.toFixed(4)}; the mean's radius ${r0.toFixed(3)} near their mean ${mean.toFixed(3)}`,
+    Math.abs(sigma / sd - 1) < 0.25 && Math.abs(r0 - mean) < 0.05 && img0 !== imgPlus, `r0 ${r0} r+ ${rPlus} r- ${rMinus}`);
+  await page.screenshot({ path: `${logDir}/web_batch.png`, fullPage: true });
+  report('no console or page error', errors.length === 0, errors.join('\n'));
+} finally {
+  await browser.close();
+}

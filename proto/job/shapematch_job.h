@@ -36,10 +36,17 @@ typedef struct sm_run sm_run;
 typedef int (*sm_run_progress_fn)(const sm_progress *p, void *user);
 
 /* The job's files (NULL when not given): template_mesh, and either
- * target_mesh + target_sol, or target_surface with an optional
+ * target_mesh + target_sol, or target_surface or target_image (a label
+ * map: NIfTI, NRRD, MetaImage; the params' label, level and image_space
+ * select its voxels and frame, as `run --target-image`) with an optional
  * target_mesh (sm_job_inputs.h).  The *_name members (NULL: the path) are
  * what the summary's "inputs" calls them (a binding that wrote arrays to
- * temporary files names them otherwise). */
+ * temporary files names them otherwise).
+ *
+ * The struct only grows at its end (members appended, none moved), so a
+ * program that zero-initialises it (designated initialisers, memset)
+ * keeps its meaning when rebuilt against a newer header; the SONAME's
+ * major version changes if a member ever moves. */
 typedef struct sm_run_files {
     const char *template_mesh;
     const char *target_mesh;
@@ -49,6 +56,9 @@ typedef struct sm_run_files {
     const char *target_mesh_name;
     const char *target_sol_name;
     const char *target_surface_name;
+    /* appended (image targets): excludes target_sol and target_surface */
+    const char *target_image;
+    const char *target_image_name;
 } sm_run_files;
 
 /* Reads and checks the inputs, runs the job under the runner's thread

@@ -47,20 +47,25 @@ static char *dup_or_null(const char *s)
     return s ? strdup(s) : NULL;
 }
 
+#define API_NFILES 5
+
 static int copy_names(const sm_run_files *f, sm_job_files *names)
 {
-    const char *src[4] = {f->template_name ? f->template_name : f->template_mesh,
-                          f->target_mesh_name ? f->target_mesh_name : f->target_mesh,
-                          f->target_sol_name ? f->target_sol_name : f->target_sol,
-                          f->target_surface_name ? f->target_surface_name : f->target_surface};
-    char *dst[4];
+    const char *src[API_NFILES] = {
+        f->template_name ? f->template_name : f->template_mesh,
+        f->target_mesh_name ? f->target_mesh_name : f->target_mesh,
+        f->target_sol_name ? f->target_sol_name : f->target_sol,
+        f->target_surface_name ? f->target_surface_name : f->target_surface,
+        f->target_image_name ? f->target_image_name : f->target_image};
+    char *dst[API_NFILES];
     int bad = 0;
-    for (int i = 0; i < 4; i++)
+    for (int i = 0; i < API_NFILES; i++)
         bad |= (dst[i] = dup_or_null(src[i])) == NULL && src[i] != NULL;
     names->template_mesh = dst[0];
     names->target_mesh = dst[1];
     names->target_sol = dst[2];
     names->target_surface = dst[3];
+    names->target_image = dst[4];
     return bad ? -1 : 0;
 }
 
@@ -70,6 +75,7 @@ static void free_names(sm_job_files *names)
     free((char *)names->target_mesh);
     free((char *)names->target_sol);
     free((char *)names->target_surface);
+    free((char *)names->target_image);
 }
 
 void sm_run_free(sm_run *r)
@@ -97,7 +103,7 @@ static sm_status load_inputs(const sm_run_files *f, const char *params_json, sm_
         return st;
     sm_job_files files = {.template_mesh = f->template_mesh, .target_mesh = f->target_mesh,
                           .target_sol = f->target_sol, .target_surface = f->target_surface,
-                          .background_size = bg.size, .background_padding = bg.padding};
+                          .target_image = f->target_image, .background_size = bg.size, .background_padding = bg.padding};
     if ((st = sm_job_inputs_read_template(&files, SM_JOB_NAME_PATHS, in, err)) != SM_OK)
         return st;
     if ((st = sm_job_params_from_json_for(params_json, len, in->template_mesh, &params, &bg,
@@ -125,9 +131,10 @@ sm_status sm_run_job(const sm_run_files *files, const char *params_json,
         return sm_error_set(err, SM_ERR_INVALID, "template: no file given");
     /* the combinations the CLI's options and the daemon's parts allow (the
      * inputs reader takes them for granted) */
-    if (!files->target_surface && !(files->target_mesh && files->target_sol))
-        return sm_error_set(err, SM_ERR_INVALID,
-                            "no target: give target_mesh and target_sol, or target_surface");
+    if (!files->target_surface && !files->target_image &&
+        !(files->target_mesh && files->target_sol))
+        return sm_error_set(err, SM_ERR_INVALID, "no target: give target_mesh and target_sol, "
+                                                 "target_surface or target_image");
     if (!params_json || !*params_json)
         return sm_error_set(err, SM_ERR_INVALID,
                             "params: a params document is required (at least the clamp)");

@@ -365,14 +365,18 @@ def _json(x):
 
 
 def match(template, *, target_mesh=None, target_sol=None, target_surface=None,
-          clamp_ball=None, clamp_elements=None, clamp_vertices=None, no_clamp=False,
+          target_image=None, clamp_ball=None, clamp_elements=None, clamp_vertices=None, no_clamp=False,
           progress=None, **params):
     """Deforms template onto the target; returns a Result.
 
     template, target_mesh: a path (Medit .mesh/.meshb, Gmsh .msh, .gz) or
     arrays (vertices, elements[, element_refs]) (or a dict, or a Result);
     target_sol: a path or the distance at the target_mesh vertices (1-D);
-    target_surface: a path (STL, OBJ, Medit, Gmsh).  Exactly one clamp:
+    target_surface: a path (STL, OBJ, Medit, Gmsh); target_image: a path
+    to a label map (NIfTI .nii/.nii.gz, NRRD .nrrd/.nhdr, MetaImage
+    .mha/.mhd) whose voxels the params label=N, level=L and
+    image_space="lps"|"ras" select and place, as `shapematch run
+    --target-image` (docs/images.md).  Exactly one clamp:
     clamp_ball=(x, y[, z], r), clamp_elements=REFS, clamp_vertices=REFS or
     no_clamp=True (then alpha=...).  params: the params document's members
     (max_iter=200, young=..., free_boundary=[...]; shapematch.parameters()).
@@ -390,14 +394,17 @@ def match(template, *, target_mesh=None, target_sol=None, target_surface=None,
         for part, value, ext in (("template", template, ".meshb"),
                                  ("target_mesh", target_mesh, ".meshb"),
                                  ("target_sol", target_sol, ".solb"),
-                                 ("target_surface", target_surface, None)):
+                                 ("target_surface", target_surface, None),
+                                 ("target_image", target_image, None)):
             if value is None:
                 continue
             if _is_path(value):
                 files[part] = (os.fsencode(value), None)
                 continue
-            if ext is None:
+            if part == "target_surface":
                 raise TypeError("target_surface: give a path (STL, OBJ, Medit, Gmsh)")
+            if part == "target_image":
+                raise TypeError("target_image: give a path (NIfTI, NRRD, MetaImage)")
             if tmp is None:
                 import tempfile  # only for arrays: random, hashlib, ... cost an import
                 tmp = tempfile.mkdtemp(prefix="shapematch-")
@@ -436,7 +443,7 @@ def _sol_dim(dims, target_mesh):
 def _run(files, params_json, progress, names):
     job = _lib.job()
     rf = _lib.RunFiles()
-    for part in ("template", "target_mesh", "target_sol", "target_surface"):
+    for part in ("template", "target_mesh", "target_sol", "target_surface", "target_image"):
         if part in files:
             field = "template_mesh" if part == "template" else part
             setattr(rf, field, files[part][0])
@@ -475,18 +482,28 @@ def _run(files, params_json, progress, names):
 
 # ------------------------------------------------------------ batch
 
-def _target_row(t):
-    """One LIST.csv row (name, surface, mesh, sol, landmarks) of a target:
-    a path (a surface), a (mesh, sol) pair, or a dict with the keys
-    name, target_surface, target_mesh, target_sol, landmarks."""
+_LIST_COLUMNS = ("name", "target_surface", "target_mesh", "target_sol", "landmarks")
+
+
+def _target_dict(t):
     if _is_path(t):
-        t = {"target_surface": t}
-    elif isinstance(t, (tuple, list)) and len(t) == 2:
-        t = {"target_mesh": t[0], "target_sol": t[1]}
-    elif not isinstance(t, dict):
+        return {"target_surface": t}
+    if isinstance(t, (tuple, list)) and len(t) == 2:
+        return {"target_mesh": t[0], "target_sol": t[1]}
+    if not isinstance(t, dict):
         raise TypeError("a target is a path, a (mesh, sol) pair or a dict: %r" % (t,))
+    unknown = set(t) - set(_LIST_COLUMNS) - {"target_image"}
+    if unknown:
+        raise TypeError("a target's keys are %s, target_image (got %s)"
+                        % (", ".join(_LIST_COLUMNS), ", ".join(sorted(unknown))))
+    return t
+
+
+def _target_row(t, columns):
+    """One LIST.csv row of a target (a dict, _target_dict's), its values
+    in the order of columns."""
     row = []
-    for key in ("name", "target_surface", "target_mesh", "target_sol", "landmarks"):
+    for key in columns:
         v = t.get(key)
         v = "" if v is None else os.fsdecode(v)
         if key != "name" and v:
@@ -506,7 +523,9 @@ def batch(template, targets, out_dir, *, clamp_ball=None, clamp_elements=None,
 
     template: a path; targets: a list of paths (surfaces), (mesh, sol)
     pairs or dicts (name, target_surface, target_mesh, target_sol,
-    landmarks); out_dir: the folder (targets/NAME/, model/, summary.json).
+    landmarks, target_image: a label map, selected by the params label,
+    level, image_space as in match(); its list column needs a library
+    whose LIST.csv reader knows target_image); out_dir: the folder (targets/NAME/, model/, summary.json).
     The clamp and params as in match(); model_align: "none", "rigid" or
     "similarity"; jobs: targets at a time (None: the CPUs).  A target that
     fails is listed in "failed" and left out of the model; errors of the
@@ -514,8 +533,13 @@ def batch(template, targets, out_dir, *, clamp_ball=None, clamp_elements=None,
     doc = dict(params)
     doc["clamp"] = _clamp(clamp_ball, clamp_elements, clamp_vertices, no_clamp, doc)
     params_json = _json(doc).encode()
-    rows = ["name,target_surface,target_mesh,target_sol,landmarks"]
-    rows += [_target_row(t) for t in targets]
+    targets = [_target_dict(t) for t in targets]
+    columns = _LIST_COLUMNS
+    # the target_image column only when a target has one: a list without
+    # it is read by every version of the library
+    if any(t.get("target_image") is not None for t in targets):
+        columns += ("target_image",)
+    rows = [",".join(columns)] + [_target_row(t, columns) for t in targets]
     text = ("\n".join(rows) + "\n").encode()
     err = _lib.Error()
     st = _lib.job().sm_run_batch(os.fsencode(template), text, len(text), params_json,

@@ -145,7 +145,7 @@ class Client:
             return json.loads(r.read().decode())
 
     def submit(self, template, *, target_mesh=None, target_sol=None, target_surface=None,
-               clamp_ball=None, clamp_elements=None, clamp_vertices=None, no_clamp=False,
+               target_image=None, clamp_ball=None, clamp_elements=None, clamp_vertices=None, no_clamp=False,
                idempotency_key=None, **params):
         """Sends a job (files by path; the keywords of shapematch.match);
         returns its Job.  An idempotency_key makes a retried submission
@@ -155,7 +155,8 @@ class Client:
         doc["clamp"] = _clamp(clamp_ball, clamp_elements, clamp_vertices, no_clamp, doc)
         parts = []
         for name, path in (("template", template), ("target_mesh", target_mesh),
-                           ("target_sol", target_sol), ("target_surface", target_surface)):
+                           ("target_sol", target_sol), ("target_surface", target_surface),
+                           ("target_image", target_image)):
             if path is None:
                 continue
             if not isinstance(path, (str, bytes, os.PathLike)):

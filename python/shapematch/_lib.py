@@ -64,10 +64,12 @@ class SurfaceHealth(ctypes.Structure):
 
 
 class RunFiles(ctypes.Structure):
-    """sm_run_files (shapematch_job.h)."""
+    """sm_run_files (shapematch_job.h), its members in the header's order
+    (the image pair was appended: the struct only grows at its end)."""
     _fields_ = [(n, ctypes.c_char_p) for n in (
         "template_mesh", "target_mesh", "target_sol", "target_surface", "template_name",
-        "target_mesh_name", "target_sol_name", "target_surface_name")]
+        "target_mesh_name", "target_sol_name", "target_surface_name", "target_image",
+        "target_image_name")]
 
 
 PROGRESS_FN = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.POINTER(Progress), ctypes.c_void_p)

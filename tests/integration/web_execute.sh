@@ -7,7 +7,9 @@
 # without Prefer, and with Prefer: wait, unapplied); the job runs to
 # successful; bad requests get 400/413/415/422 problem+json (href, bad
 # base64, unknown inputs or members, params as for multipart, a missing
-# part); /v1/conformance lists core.
+# part); an image target inline (target_image: the job runs on its
+# label; an empty label and a second target are 422s); /v1/conformance
+# lists core.
 source "$(dirname "$0")/lib.sh"
 
 if ! make_case; then
@@ -118,6 +120,43 @@ c=$(curl -sS -o "$WORK/b" -w '%{http_code}' -H 'Content-Type: application/json' 
 check "an unknown process: 404" [ "$c" = 404 ] && grep -q no-such-process "$WORK/b"
 c=$(curl -sS -o /dev/null -w '%{http_code}' "$EXEC")
 check "GET on the execution route: 405" [ "$c" = 405 ]
+
+# ---------------------------------------------------------- an image target
+# the sphere label map of tests/cli/image_shapes.py (NIfTI-1), a gmsh ball
+# inside it as the template: target_image inline is the image part of the
+# multipart upload (its label read, its refusals, the job's summary)
+PY=/usr/bin/python3
+[ -x "$PY" ] || PY=python3
+mkdir -p "$WORK/img" && "$PY" "$ROOT/tests/cli/image_shapes.py" write "$WORK/img" sphere >/dev/null &&
+    printf 'SetFactory("OpenCASCADE");\nSphere(1) = {4, 39, 9, 8.5};\nMesh.MeshSizeFromPoints = 0;\n' \
+        >"$WORK/img/ball.geo" &&
+    gmsh "$WORK/img/ball.geo" -3 -format msh41 -clmax 4 -nt 1 -v 1 -o "$WORK/img/ball.msh" \
+        >/dev/null 2>&1
+check "the sphere image and the ball template are made" [ -s "$WORK/img/ball.msh" ]
+# image_request PARAMS_JSON [EXTRA_INPUTS_JSON]
+image_request() {
+    jq -n --rawfile t <(base64 -w0 "$WORK/img/ball.msh") --rawfile i <(base64 -w0 "$WORK/img/s1.nii") \
+        --argjson p "$1" --argjson x "${2:-{\}}" \
+        '{inputs: ({template: {value: $t}, target_image: {value: $i}, params: $p} + $x)}' \
+        >"$WORK/img.json"
+}
+IMG_CLAMP='"clamp": {"kind": "ball", "center": [4, 39, 9], "radius": 4.5}, "max_iter": 1'
+image_request "{$IMG_CLAMP, \"label\": 1}"
+c=$(post "$WORK/img.json")
+id=$(jq -r '.jobID // empty' "$WORK/b" 2>/dev/null)
+if [ "$c" = 201 ] && [ -n "$id" ] && wait_final "$id" $((60 * SLOW)) && state_is "$id" successful &&
+    hcurl "$BASE/v1/jobs/$id/results" >"$WORK/img_summary.json" &&
+    jq -e '.target_image.voxels == 1921 and .target_image.label == 1 and
+           .inputs.target_image == "inputs/target_image.image"' "$WORK/img_summary.json" >/dev/null; then
+    ok "execute with target_image: the job runs on the image's label (1921 voxels in the summary)"
+else
+    not_ok "execute with target_image" "code $c" "$(head -c 600 "$WORK/b")" \
+        "$(head -c 600 "$WORK/img_summary.json" 2>/dev/null)"
+fi
+image_request "{$IMG_CLAMP, \"label\": 2}"
+refused "target_image with a label that selects nothing" 422 "label-empty" "$WORK/img.json"
+image_request "{$IMG_CLAMP}" "{\"target_sol\": {\"value\": \"$(base64 -w0 "$BOXSOL")\"}}"
+refused "target_image with target_sol" 422 "excludes target_sol" "$WORK/img.json"
 stop_daemon
 SPOOL=
 start_daemon small --workers 1 --max-upload 4096 || { not_ok "the small daemon starts"; exit 1; }

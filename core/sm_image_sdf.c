@@ -41,14 +41,22 @@ struct sm_image_target {
 
 /* ---- the field on the crop ---- */
 
+/* One line; the same sums in the same order everywhere, only the bounds
+ * test is left out where the whole window is inside. */
 static void gauss1d(float *line, float *tmp, int64_t len, const double *w, int r)
 {
     for (int64_t q = 0; q < len; q++) {
         double s = 0;
-        for (int t = -r; t <= r; t++) {
-            int64_t p = q + t;
-            if (p >= 0 && p < len)
-                s += w[t + r] * line[p];
+        if (q >= r && q + r < len) {
+            const float *x = line + q - r;
+            for (int t = 0; t <= 2 * r; t++)
+                s += w[t] * x[t];
+        } else {
+            for (int t = -r; t <= r; t++) {
+                int64_t p = q + t;
+                if (p >= 0 && p < len)
+                    s += w[t + r] * line[p];
+            }
         }
         tmp[q] = (float)s;
     }
@@ -83,8 +91,11 @@ static sm_status blur(float *f, const int64_t n[3], double sigma, sm_error *err)
                 if (!line)
                     continue;
                 int64_t base = (l % n[b]) * strides[b] + (l / n[b]) * strides[c];
+                int nonzero = 0;
                 for (int64_t q = 0; q < n[a]; q++)
-                    line[q] = f[base + q * strides[a]];
+                    nonzero |= (line[q] = f[base + q * strides[a]]) != 0.0f;
+                if (!nonzero) /* zero beyond too: it stays zero */
+                    continue;
                 gauss1d(line, line + len, n[a], w, r);
                 for (int64_t q = 0; q < n[a]; q++)
                     f[base + q * strides[a]] = line[q];

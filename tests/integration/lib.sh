@@ -244,3 +244,38 @@ make_case() {
 # it is stopped (fine mesh, huge iteration cap)
 quick_params() { echo "$BALL_PARAMS, \"max_iter\": ${1:-50}}"; }
 endless_params() { echo "$BALL_PARAMS, \"max_iter\": 100000000, \"tol_step\": 1e-15, \"tol_stall\": 0}"; }
+
+# browser_only WHY: a browser suite runs in the release variant only (the
+# page is the same in both; WHY names what covers the daemon under the
+# sanitizers) and needs Chromium and playwright-core (make deps).
+browser_only() {
+    if [ "$VARIANT" != release ]; then
+        skip "browser tests run in the release variant only ($1)"
+        echo "1..$n"
+        exit 0
+    fi
+    if [ ! -x /usr/bin/chromium ] || [ ! -d "$ROOT/node_modules/playwright-core" ]; then
+        not_ok "chromium and playwright-core are installed (make deps)" "$(ls -l /usr/bin/chromium 2>&1)"
+        echo "1..$n"
+        exit 1
+    fi
+}
+
+# node_checks DESC SCRIPT ARGS...: runs a node driver that prints one JSON
+# line {"ok", "desc", "detail"} per check and turns them into TAP lines;
+# a driver that exits non-zero is the failed check DESC.
+node_checks() {
+    local desc=$1 line rc
+    shift
+    command node "$@" >"$WORK/node.out" 2>"$WORK/node.err"
+    rc=$?
+    while IFS= read -r line; do
+        jq -e 'has("desc")' <<<"$line" >/dev/null 2>&1 || continue
+        if [ "$(jq -r .ok <<<"$line")" = true ]; then
+            ok "$(jq -r .desc <<<"$line")"
+        else
+            not_ok "$(jq -r .desc <<<"$line")" "$(jq -r .detail <<<"$line")"
+        fi
+    done <"$WORK/node.out"
+    [ "$rc" = 0 ] || not_ok "$desc" "exit $rc" "$(tail -20 "$WORK/node.err")"
+}

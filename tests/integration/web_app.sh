@@ -22,16 +22,7 @@
 # and the sanitizer build's daemon is exercised by web_cors/web_execute.
 source "$(dirname "$0")/lib.sh"
 
-if [ "$VARIANT" != release ]; then
-    skip "browser tests run in the release variant only (the daemon side is covered by web_cors and web_execute in every variant)"
-    echo "1..$n"
-    exit 0
-fi
-if [ ! -x /usr/bin/chromium ] || [ ! -d "$ROOT/node_modules/playwright-core" ]; then
-    not_ok "chromium and playwright-core are installed (make deps)" "$(ls -l /usr/bin/chromium 2>&1)"
-    echo "1..$n"
-    exit 1
-fi
+browser_only "the daemon side is covered by web_cors and web_execute in every variant"
 if ! make_case; then
     not_ok "gmsh builds the test meshes" "$(tail -5 "$WORK/case/gmsh.log")"
     exit 1
@@ -66,20 +57,8 @@ ok "two daemons start (one open, one with a token), both listing $ORIGIN"
 LOGS=$ROOT/build/test-logs
 mkdir -p "$LOGS"
 rm -f "$LOGS"/web-app-*.png
-node "$ROOT/tests/integration/web_app.mjs" "$OPEN" "$BASE" web-app-token-77c1 "$PORT" \
-    "$ROOT/examples" "$LOGS" "$CUBE" "$CUBESOL" "$WORK/case/small.mesh" "$BIN/shapematch" >"$WORK/node.out" 2>"$WORK/node.err"
-rc=$?
-while IFS= read -r line; do
-    desc=$(jq -r .desc <<<"$line" 2>/dev/null) || continue
-    if [ "$(jq -r .ok <<<"$line")" = true ]; then
-        ok "$desc"
-    else
-        not_ok "$desc" "$(jq -r .detail <<<"$line")"
-    fi
-done <"$WORK/node.out"
-if [ "$rc" != 0 ]; then
-    not_ok "the browser driver runs" "exit $rc" "$(tail -20 "$WORK/node.err")"
-fi
+node_checks "the browser driver runs" "$ROOT/tests/integration/web_app.mjs" "$OPEN" "$BASE" web-app-token-77c1 "$PORT" \
+    "$ROOT/examples" "$LOGS" "$CUBE" "$CUBESOL" "$WORK/case/small.mesh" "$BIN/shapematch"
 # the unlisted origin's POST reached the daemon and was refused
 if jq -e --arg o "http://127.0.0.1:$PORT" 'select(.event == "request" and .method == "POST" and .path == "/v1/jobs" and .status == 403)' \
     "$OPENLOG" >/dev/null 2>&1; then

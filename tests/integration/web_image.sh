@@ -6,16 +6,7 @@
 # daemon_image's, in both variants.
 source "$(dirname "$0")/lib.sh"
 
-if [ "$VARIANT" != release ]; then
-    skip "browser tests run in the release variant only (daemon_image covers the daemon in both)"
-    echo "1..$n"
-    exit 0
-fi
-if [ ! -x /usr/bin/chromium ] || [ ! -d "$ROOT/node_modules/playwright-core" ]; then
-    not_ok "chromium and playwright-core are installed (make deps)"
-    echo "1..$n"
-    exit 1
-fi
+browser_only "daemon_image covers the daemon in both"
 PY=/usr/bin/python3
 [ -x "$PY" ] || PY=python3
 "$PY" "$ROOT/tests/cli/image_shapes.py" write "$WORK" sphere >/dev/null
@@ -26,16 +17,6 @@ Mesh.MeshSizeFromPoints = 0;
 GEO
 gmsh "$WORK/ball.geo" -3 -format msh41 -clmax 3 -nt 1 -v 1 -o "$WORK/ball.msh" >/dev/null 2>&1
 start_daemon web --workers 1 || { not_ok "the daemon starts"; exit 1; }
-node "$ROOT/tests/integration/web_image.mjs" "$BASE" "$WORK/ball.msh" "$WORK/s1.nii" \
-    >"$WORK/node.out" 2>"$WORK/node.err"
-rc=$?
-while IFS= read -r line; do
-    desc=$(jq -r .desc <<<"$line" 2>/dev/null) || continue
-    if [ "$(jq -r .ok <<<"$line")" = true ]; then
-        ok "$desc"
-    else
-        not_ok "$desc" "$(jq -r .detail <<<"$line")"
-    fi
-done <"$WORK/node.out"
-[ "$rc" = 0 ] || not_ok "the browser driver runs" "exit $rc" "$(tail -20 "$WORK/node.err")"
+node_checks "the browser driver runs" "$ROOT/tests/integration/web_image.mjs" "$BASE" "$WORK/ball.msh" "$WORK/s1.nii" \
+   
 echo "1..$n"

@@ -11,15 +11,5 @@ if [ "$VARIANT" != release ]; then
     echo "1..$n"
     exit 0
 fi
-node "$ROOT/tests/integration/web_target.mjs" >"$WORK/node.out" 2>"$WORK/node.err"
-rc=$?
-while IFS= read -r line; do
-    desc=$(jq -r .desc <<<"$line" 2>/dev/null) || continue
-    if [ "$(jq -r .ok <<<"$line")" = true ]; then
-        ok "$desc"
-    else
-        not_ok "$desc" "$(jq -r .detail <<<"$line")"
-    fi
-done <"$WORK/node.out"
-[ "$rc" = 0 ] || not_ok "the node driver runs" "exit $rc" "$(tail -20 "$WORK/node.err")"
+node_checks "the node driver runs" "$ROOT/tests/integration/web_target.mjs"
 echo "1..$n"

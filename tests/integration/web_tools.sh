@@ -19,16 +19,7 @@
 # and physical_names, every variant).
 source "$(dirname "$0")/lib.sh"
 
-if [ "$VARIANT" != release ]; then
-    skip "browser tests run in the release variant only (the daemon side is covered by daemon_align, daemon_warp and physical_names in every variant)"
-    echo "1..$n"
-    exit 0
-fi
-if [ ! -x /usr/bin/chromium ] || [ ! -d "$ROOT/node_modules/playwright-core" ]; then
-    not_ok "chromium and playwright-core are installed (make deps)" "$(ls -l /usr/bin/chromium 2>&1)"
-    echo "1..$n"
-    exit 1
-fi
+browser_only "the daemon side is covered by daemon_align, daemon_warp and physical_names in every variant"
 EX=$ROOT/examples/2d
 if ! python3 "$ROOT/tests/cli/align_inputs.py" "$EX" "$WORK"; then
     not_ok "align inputs"
@@ -62,19 +53,7 @@ ok "the daemon starts"
 LOGS=$ROOT/build/test-logs
 mkdir -p "$LOGS"
 rm -f "$LOGS"/web-tools-*.png
-node "$ROOT/tests/integration/web_tools.mjs" "$BASE" "$EX" "$WORK" "$LOGS" >"$WORK/node.out" 2>"$WORK/node.err"
-rc=$?
-while IFS= read -r line; do
-    desc=$(jq -r .desc <<<"$line" 2>/dev/null) || continue
-    if [ "$(jq -r .ok <<<"$line")" = true ]; then
-        ok "$desc"
-    else
-        not_ok "$desc" "$(jq -r .detail <<<"$line")"
-    fi
-done <"$WORK/node.out"
-if [ "$rc" != 0 ]; then
-    not_ok "the browser driver runs" "exit $rc" "$(tail -20 "$WORK/node.err")"
-fi
+node_checks "the browser driver runs" "$ROOT/tests/integration/web_tools.mjs" "$BASE" "$EX" "$WORK" "$LOGS"
 check "screenshot web-tools-warp.png saved" [ -s "$LOGS/web-tools-warp.png" ]
 check "no sanitizer reports" reports_clean
 stop_daemon

@@ -274,23 +274,6 @@ static json_t *summary_doc(const sm_batch_list *l, const sm_batch_opts *o,
     return doc;
 }
 
-static sm_status write_batch_summary(const char *out_dir, json_t *doc, sm_error *err)
-{
-    char *text = doc ? sm_json_dumps(doc, 2) : NULL;
-    char *path = sm_path_join(out_dir, "summary.json");
-    sm_status st;
-    if (!text || !path) {
-        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory writing the batch summary");
-    } else {
-        size_t n = strlen(text);
-        text[n] = '\n';
-        st = sm_atomic_write_file(path, text, n + 1, SM_ATOMIC_FSYNC, err);
-    }
-    free(text);
-    free(path);
-    return st;
-}
-
 /* The model of the targets that ended with a result. */
 static void build_model(const sm_batch_list *l, const sm_batch_opts *o, char **dirs,
                         const target_state *ts, const char *out_dir, sm_batch_outcome *out)
@@ -359,7 +342,7 @@ sm_status sm_job_batch_run(const sm_batch_list *l, const sm_batch_opts *o, const
     out->total_seconds = sm_clock_seconds() - t0;
     if (st == SM_OK) {
         json_t *doc = summary_doc(l, o, ts, out);
-        st = write_batch_summary(out_dir, doc, err);
+        st = sm_job_write_json(out_dir, "summary.json", doc, SM_ATOMIC_FSYNC, err);
         json_decref(doc);
     }
     for (size_t i = 0; dirs && i < l->n; i++)

@@ -8,6 +8,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "job/sm_job_results.h"
 #include "shapematch/sm_atomic.h"
 #include "shapematch/sm_clock.h"
 #include "shapematch/sm_io.h"
@@ -239,19 +240,8 @@ static sm_status write_summary(const char *dir, const out_ctx *c, const sm_model
                                json_t *files, const double t[3], sm_error *err)
 {
     json_t *doc = summary_doc(c, o, files, t);
-    char *text = doc ? sm_json_dumps(doc, 2) : NULL;
-    char *path = sm_path_join(dir, SM_MODEL_SUMMARY_FILE);
+    sm_status st = sm_job_write_json(dir, SM_MODEL_SUMMARY_FILE, doc, o->write_flags, err);
     json_decref(doc);
-    sm_status st;
-    if (!text || !path) {
-        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory writing the model summary");
-    } else {
-        size_t len = strlen(text);
-        text[len] = '\n';
-        st = sm_atomic_write_file(path, text, len + 1, o->write_flags, err);
-    }
-    free(text);
-    free(path);
     return st;
 }
 

@@ -394,17 +394,14 @@ static sm_status write_formats(const char *dir, const result_data *d, unsigned o
     return SM_OK;
 }
 
-static sm_status write_summary(const sm_job_inputs *in, const sm_job_run *run,
-                               const sm_job_files *names, const char *dir, unsigned outputs,
-                               unsigned flags, sm_error *err)
+sm_status sm_job_write_json(const char *dir, const char *name, const json_t *doc, unsigned flags,
+                            sm_error *err)
 {
-    json_t *doc = sm_job_summary_outputs(in, run, names, outputs);
     char *text = doc ? sm_json_dumps(doc, 2) : NULL;
-    char *path = sm_path_join(dir, SM_RESULT_SUMMARY_FILE);
-    json_decref(doc);
+    char *path = sm_path_join(dir, name);
     sm_status st;
     if (!text || !path) {
-        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory writing the summary");
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory writing %s", name);
     } else {
         size_t n = strlen(text);
         text[n] = '\n'; /* replaces the NUL: written with its length */
@@ -412,6 +409,16 @@ static sm_status write_summary(const sm_job_inputs *in, const sm_job_run *run,
     }
     free(text);
     free(path);
+    return st;
+}
+
+static sm_status write_summary(const sm_job_inputs *in, const sm_job_run *run,
+                               const sm_job_files *names, const char *dir, unsigned outputs,
+                               unsigned flags, sm_error *err)
+{
+    json_t *doc = sm_job_summary_outputs(in, run, names, outputs);
+    sm_status st = sm_job_write_json(dir, SM_RESULT_SUMMARY_FILE, doc, flags, err);
+    json_decref(doc);
     return st;
 }
 

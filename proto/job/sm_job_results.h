@@ -46,6 +46,11 @@ sm_status sm_job_write_selected(const sm_job_inputs *in, const sm_job_run *run,
 /* The summary document (a new reference; NULL when out of memory), its
  * "outputs" limited to outputs (SM_RESULT_OUT_ALL: every file).  names: what
  * "inputs" reports for each file. */
+/* doc as indented JSON and a newline in dir/name, atomically (flags: the
+ * SM_ATOMIC_* of sm_atomic_write_file); a NULL doc is out of memory. */
+sm_status sm_job_write_json(const char *dir, const char *name, const json_t *doc, unsigned flags,
+                            sm_error *err);
+
 json_t *sm_job_summary_outputs(const sm_job_inputs *in, const sm_job_run *run,
                                const sm_job_files *names, unsigned outputs);
 

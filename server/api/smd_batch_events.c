@@ -125,13 +125,17 @@ static int batch_refill(void *state, smd_server *srv, smd_job *model, int sse, i
     int64_t version = job_events(srv, model->id);
     for (size_t i = 0; i < b->n; i++)
         version += job_events(srv, b->ids[i]);
-    /* final once its end is on disk (as a job's stream: its last event
-     * may still be coming), or deleted */
-    int final = model->removed ||
-                (smd_job_state_final(model->state) && !model->worker_active && !model->ending);
     json_t *doc = smd_batch_document(srv, model, b->batch);
     if (!doc)
         return -1;
+    /* the end: the model job's is on disk (as a job's stream: its last
+     * event may still be coming) and no target is live any more (a cancel
+     * ends the model job first, then its targets), or the batch is gone */
+    json_t *counts = json_object_get(doc, "counts");
+    int live = (int)json_integer_value(json_object_get(counts, "accepted")) +
+               (int)json_integer_value(json_object_get(counts, "running"));
+    int final = model->removed || (smd_job_state_final(model->state) && !model->worker_active &&
+                                   !model->ending && live == 0);
     int rc = 0;
     if (!b->sent && b->resume >= 0 && b->resume == version) {
         /* resumed where it left: the client has this state already */

@@ -10,7 +10,9 @@
  *             changed (its entry of the document's "targets");
  *   "batch"   the whole batch's status, progress, ETA and counts, after
  *             every change, with the event id;
- *   "status"  last: the batch document, once the model job ended.
+ *   "status"  last: the batch document, once the model job ended and no
+ *             target is queued or running (a cancel ends the model job
+ *             first, then the targets), or at once when it was deleted.
  *
  * The events are states, not a log: an event id is the batch's version,
  * the number of events in the logs of the model job and its members

@@ -58,10 +58,13 @@ void cmd_batch_help(void)
            "\n"
            "Targets (any number of each, mixed):\n"
            "  --target-surface FILE   a target surface (as in run); repeat the option\n"
+           "  --target-image FILE     a label-map image (as in run: NIfTI, NRRD, MetaImage;\n"
+           "                          --label, --level, --image-space apply to each)\n"
            "  --target-mesh B --target-sol D\n"
            "                          a target given as a distance on a mesh (in pairs)\n"
            "  --targets LIST.csv      a list: header of columns among name,\n"
-           "                          target_surface, target_mesh, target_sol, landmarks,\n"
+           "                          target_surface, target_image, target_mesh,\n"
+           "                          target_sol, landmarks,\n"
            "                          then one target per line (paths relative to the\n"
            "                          list's folder; '#' lines skipped)\n"
            "  --template-landmarks T.csv\n"
@@ -151,7 +154,9 @@ static int take_option(batch_args *b, size_t k, const char *v)
     sm_error_clear(&err);
     switch (k) {
     case 0:
-        return sm_batch_list_add(&b->list, NULL, v, NULL, NULL, NULL, &err) != SM_OK
+    case 12:
+        return sm_batch_list_add(&b->list, NULL, k == 0 ? v : NULL, k == 12 ? v : NULL, NULL,
+                                 NULL, NULL, &err) != SM_OK
                    ? fail("%s", err.msg) : 0;
     case 1:
         if (b->pending_mesh)
@@ -161,7 +166,8 @@ static int take_option(batch_args *b, size_t k, const char *v)
     case 2:
         if (!b->pending_mesh)
             return fail("--target-sol %s follows no --target-mesh", v);
-        if (sm_batch_list_add(&b->list, NULL, NULL, b->pending_mesh, v, NULL, &err) != SM_OK)
+        if (sm_batch_list_add(&b->list, NULL, NULL, NULL, b->pending_mesh, v, NULL, &err) !=
+            SM_OK)
             return fail("%s", err.msg);
         b->pending_mesh = NULL;
         return 0;
@@ -176,7 +182,9 @@ static int take_option(batch_args *b, size_t k, const char *v)
         return (b->jobs = atoi(v)) < 1 || b->jobs > 256
                    ? fail("--jobs: '%s' is not a count from 1 to 256", v) : 0;
     case 9: b->model_from = v; return 0;
-    default: b->outdir = v; return 0;
+    case 10:
+    case 11: b->outdir = v; return 0;
+    default: return fail("%s", "internal: an option without a case");
     }
 }
 
@@ -186,7 +194,7 @@ static int parse(int argc, char **argv, batch_args *b)
     static const char *const with_value[] = {
         "--target-surface", "--target-mesh", "--target-sol", "--targets", "--template",
         "--template-landmarks", "--model-align", "--model-modes", "--jobs", "--model-from", "-o",
-        "--output"};
+        "--output", "--target-image"};
     const size_t nwith = sizeof with_value / sizeof *with_value;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -220,7 +228,8 @@ static int parse(int argc, char **argv, batch_args *b)
     if (!b->outdir)
         return fail("%s", "-o DIR is required");
     if (b->list.n == 0)
-        return fail("%s", "no target (--target-surface, --target-mesh/--target-sol, --targets)");
+        return fail("%s", "no target (--target-surface, --target-image, --target-mesh/--target-sol, "
+                          "--targets)");
     return 0;
 }
 
@@ -249,6 +258,8 @@ static int parse_run_options(batch_args *b, run_options *ro)
     av[n++] = (char *)b->template_path;
     if (t->target_surface)
         av[n++] = "--target-surface", av[n++] = t->target_surface;
+    if (t->target_image)
+        av[n++] = "--target-image", av[n++] = t->target_image;
     if (t->target_mesh)
         av[n++] = "--target-mesh", av[n++] = t->target_mesh;
     if (t->target_sol)

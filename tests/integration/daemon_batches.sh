@@ -8,7 +8,8 @@
 # the first mode carries >= 95% of the variance and its scores are linear
 # in R (|correlation| > 0.99, computed here with awk); the per-target
 # status, counts, progress and ETA of GET /v1/batches/{id}, and its
-# event stream (NDJSON followed live, SSE resumed); the model's files.  Then: a failing target (its worker exits 3: a wrapper worker
+# event stream (NDJSON followed live, SSE resumed); the model's files;
+# the CLI's `shapematch batch --server` (submit, group, follow, fetch).  Then: a failing target (its worker exits 3: a wrapper worker
 # fails the jobs whose params hold the marker max_iter 7) is reported and
 # left out of the model, not fatal; DELETE of a live batch cancels the
 # model job and every live member; DELETE of a final one deletes them
@@ -139,6 +140,36 @@ if [ "$(hcurl -o /dev/null -w '%{http_code}' "$BASE/v1/jobs/${IDS[0]}/results/me
     ok "a member's own results are served as any job's"
 else
     not_ok "a member's results"
+fi
+
+# ----------------------------------------- the CLI: shapematch batch --server
+# three circles from a LIST.csv: submitted, grouped, followed, fetched
+printf 'name,target_mesh,target_sol\n' >"$WORK/list.csv"
+for k in 1 2 3; do R=$(echo "0.6 0.7 0.8" | cut -d' ' -f$k); echo "r$k,$BOX,$WORK/case/box-$R.sol"; done >>"$WORK/list.csv"
+"$BIN/shapematch" batch --server "$BASE" --template "$DISK" --targets "$WORK/list.csv" \
+    --clamp-ball 0,0,0.1 --max-iter 30 -o "$WORK/cli" >"$WORK/cli.out" 2>"$WORK/cli.log"
+rc=$?
+CB_ID=$(jq -r '.batchID // empty' "$WORK/cli/batch.json" 2>/dev/null)
+r=$(awk -F, -v radii="0.6 0.7 0.8" 'BEGIN { split(radii, R, " ") }
+    NR > 1 { k = substr($1, 2) + 0; x = R[k]; y = $2; n++; sx += x; sy += y; sxx += x * x; syy += y * y; sxy += x * y }
+    END { if (n < 3) { print 0; exit } c = (n * sxy - sx * sy) / sqrt((n * sxx - sx * sx) * (n * syy - sy * sy)); printf "%.4f", c < 0 ? -c : c }' \
+    "$WORK/cli/model/scores.csv" 2>/dev/null)
+if [ "$rc" = 0 ] && [ -n "$CB_ID" ] && jq -e '.status == "successful" and .counts.successful == 3' "$WORK/cli/batch.json" >/dev/null &&
+    for k in 1 2 3; do [ -s "$WORK/cli/targets/r$k/result.mesh" ] || exit 1; done &&
+    hcurl "$BASE/v1/batches/$CB_ID/model/scores.csv" | cmp -s - "$WORK/cli/model/scores.csv" &&
+    grep -q Vertices "$WORK/cli/model/mean.mesh" && awk -v r="$r" 'BEGIN { exit !(r > 0.99) }' &&
+    grep -q "batch $CB_ID of 3 targets" "$WORK/cli.log"; then
+    ok "shapematch batch --server: 3 targets submitted and fetched into targets/r1..r3, the model's files (scores.csv = the daemon's; mode 1 linear in R, |r| = $r)"
+else
+    not_ok "shapematch batch --server" "rc $rc: $(tail -5 "$WORK/cli.log")"
+fi
+"$BIN/shapematch" batch --server "$BASE" --template "$DISK" --target-mesh "$BOX" --target-sol "$WORK/case/box-0.6.sol" \
+    --clamp-ball 0,0,0.1 --jobs 2 -o "$WORK/cli2" 2>"$WORK/cli2.log"
+rc=$?
+if [ "$rc" = 1 ] && grep -q -- "--jobs is for a local batch" "$WORK/cli2.log"; then
+    ok "shapematch batch --server refuses a local-only option (--jobs: exit 1)"
+else
+    not_ok "batch --server with --jobs" "rc $rc: $(cat "$WORK/cli2.log")"
 fi
 
 # ------------------------------------------------------ a failing target

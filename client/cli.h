@@ -69,6 +69,12 @@ typedef int (*cli_command_fn)(int argc, char **argv);
 
 int cmd_run(int argc, char **argv);
 int cmd_batch(int argc, char **argv);
+/* `shapematch batch --server URL ...` (cmd_batch_remote.c) */
+int cmd_batch_remote(int argc, char **argv);
+/* A batch's LIST.csv (sm_job_batch_list.h) appended to *l, paths
+ * relative to its folder (cmd_batch.c).  0, or -1 with msg. */
+struct sm_batch_list;
+int batch_read_list(struct sm_batch_list *l, const char *path, char *msg, size_t cap);
 /* `shapematch sdf`: signed distance to a surface on a background mesh. */
 int cmd_sdf(int argc, char **argv);
 void cmd_sdf_help(void);

@@ -46,6 +46,8 @@ void cmd_batch_help(void)
     printf("Usage: shapematch batch --template T.mesh TARGETS CLAMP [PARAMETERS]\n"
            "                        [--model-align none|rigid|similarity] [--no-model]\n"
            "                        [--jobs N] [--format LIST] [--quiet] -o DIR\n"
+           "       shapematch batch --server URL [--token T] --template T.mesh TARGETS\n"
+           "                        CLAMP [PARAMETERS] [--model-align MODE] -o DIR\n"
            "\n"
            "Matches one template onto many targets, setting the template up once (its\n"
            "topology, clamp set, elastic operator and factorization are shared by every\n"
@@ -58,10 +60,13 @@ void cmd_batch_help(void)
            "\n"
            "Targets (any number of each, mixed):\n"
            "  --target-surface FILE   a target surface (as in run); repeat the option\n"
+           "  --target-image FILE     a label-map image (as in run: NIfTI, NRRD, MetaImage;\n"
+           "                          --label, --level, --image-space apply to each)\n"
            "  --target-mesh B --target-sol D\n"
            "                          a target given as a distance on a mesh (in pairs)\n"
            "  --targets LIST.csv      a list: header of columns among name,\n"
-           "                          target_surface, target_mesh, target_sol, landmarks,\n"
+           "                          target_surface, target_image, target_mesh,\n"
+           "                          target_sol, landmarks,\n"
            "                          then one target per line (paths relative to the\n"
            "                          list's folder; '#' lines skipped)\n"
            "  --template-landmarks T.csv\n"
@@ -83,6 +88,14 @@ void cmd_batch_help(void)
            "Every option of 'shapematch run' (clamp, parameters, --align, --format,\n"
            "--background-size, ...) applies to every target; see 'shapematch run\n"
            "--help'.  docs/populations.md describes the files.\n"
+           "\n"
+           "With --server URL (and --token, as for 'shapematch submit'), the daemon runs\n"
+           "the batch: each target is submitted as a job, the jobs are grouped into a\n"
+           "batch (POST /v1/batches, --model-align), followed with a line whenever its\n"
+           "progress changes, then each target's results (--format, as for 'shapematch\n"
+           "fetch') and the model's files are fetched into DIR/targets/NAME/ and\n"
+           "DIR/model/, the batch's last document into DIR/batch.json.  --jobs,\n"
+           "--no-model, --model-modes, --model-from and per-target landmarks are local.\n"
            "\n"
            "Ctrl-C stops the batch: no new target starts, the running ones stop after\n"
            "their current iteration and write the state reached (status \"cancelled\"),\n"
@@ -110,38 +123,51 @@ static int fail(const char *fmt, const char *a)
     return CLI_EXIT_USAGE;
 }
 
-static int read_list(batch_args *b, const char *path)
+int batch_read_list(sm_batch_list *l, const char *path, char *msg, size_t cap)
 {
     FILE *f = fopen(path, "rb");
-    if (!f)
-        return fail("cannot open the target list %s", path);
-    size_t cap = 1 << 16, n = 0;
-    char *text = malloc(cap);
-    for (size_t got; text && (got = fread(text + n, 1, cap - n, f)) > 0;) {
+    if (!f) {
+        snprintf(msg, cap, "cannot open the target list %s", path);
+        return -1;
+    }
+    size_t cap_text = 1 << 16, n = 0;
+    char *text = malloc(cap_text);
+    for (size_t got; text && (got = fread(text + n, 1, cap_text - n, f)) > 0;) {
         n += got;
-        if (n == cap) {
-            char *t = cap < ((size_t)64 << 20) ? realloc(text, cap *= 2) : NULL;
+        if (n == cap_text) {
+            char *t = cap_text < ((size_t)64 << 20) ? realloc(text, cap_text *= 2) : NULL;
             if (!t)
                 free(text);
             text = t;
         }
     }
     fclose(f);
-    if (!text)
-        return fail("the target list %s is too large", path);
+    if (!text) {
+        snprintf(msg, cap, "the target list %s is too large", path);
+        return -1;
+    }
     char *dir = strdup(path), *slash = dir ? strrchr(dir, '/') : NULL;
     if (slash)
         *slash = '\0';
     sm_error err;
     sm_error_clear(&err);
-    sm_status st = sm_batch_list_parse(&b->list, text, n, slash ? dir : NULL, &err);
+    sm_status st = sm_batch_list_parse(l, text, n, slash ? dir : NULL, &err);
     free(text);
     free(dir);
-    if (st != SM_OK) {
-        fprintf(stderr, "shapematch batch: %s: %s\n", path, err.msg);
-        return CLI_EXIT_INPUT;
-    }
-    return 0;
+    if (st != SM_OK)
+        snprintf(msg, cap, "%s: %s", path, err.msg);
+    return st == SM_OK ? 0 : -1;
+}
+
+static int read_list(batch_args *b, const char *path)
+{
+    char msg[512];
+    if (batch_read_list(&b->list, path, msg, sizeof msg) == 0)
+        return 0;
+    if (strncmp(msg, "cannot open", 11) == 0 || strstr(msg, "too large"))
+        return fail("%s", msg);
+    fprintf(stderr, "shapematch batch: %s\n", msg);
+    return CLI_EXIT_INPUT;
 }
 
 /* Option k of parse's with_value table, with its value v. */
@@ -151,7 +177,9 @@ static int take_option(batch_args *b, size_t k, const char *v)
     sm_error_clear(&err);
     switch (k) {
     case 0:
-        return sm_batch_list_add(&b->list, NULL, v, NULL, NULL, NULL, &err) != SM_OK
+    case 12:
+        return sm_batch_list_add(&b->list, NULL, k == 0 ? v : NULL, k == 12 ? v : NULL, NULL,
+                                 NULL, NULL, &err) != SM_OK
                    ? fail("%s", err.msg) : 0;
     case 1:
         if (b->pending_mesh)
@@ -161,7 +189,8 @@ static int take_option(batch_args *b, size_t k, const char *v)
     case 2:
         if (!b->pending_mesh)
             return fail("--target-sol %s follows no --target-mesh", v);
-        if (sm_batch_list_add(&b->list, NULL, NULL, b->pending_mesh, v, NULL, &err) != SM_OK)
+        if (sm_batch_list_add(&b->list, NULL, NULL, NULL, b->pending_mesh, v, NULL, &err) !=
+            SM_OK)
             return fail("%s", err.msg);
         b->pending_mesh = NULL;
         return 0;
@@ -176,7 +205,9 @@ static int take_option(batch_args *b, size_t k, const char *v)
         return (b->jobs = atoi(v)) < 1 || b->jobs > 256
                    ? fail("--jobs: '%s' is not a count from 1 to 256", v) : 0;
     case 9: b->model_from = v; return 0;
-    default: b->outdir = v; return 0;
+    case 10:
+    case 11: b->outdir = v; return 0;
+    default: return fail("%s", "internal: an option without a case");
     }
 }
 
@@ -186,7 +217,7 @@ static int parse(int argc, char **argv, batch_args *b)
     static const char *const with_value[] = {
         "--target-surface", "--target-mesh", "--target-sol", "--targets", "--template",
         "--template-landmarks", "--model-align", "--model-modes", "--jobs", "--model-from", "-o",
-        "--output"};
+        "--output", "--target-image"};
     const size_t nwith = sizeof with_value / sizeof *with_value;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -220,7 +251,8 @@ static int parse(int argc, char **argv, batch_args *b)
     if (!b->outdir)
         return fail("%s", "-o DIR is required");
     if (b->list.n == 0)
-        return fail("%s", "no target (--target-surface, --target-mesh/--target-sol, --targets)");
+        return fail("%s", "no target (--target-surface, --target-image, --target-mesh/--target-sol, "
+                          "--targets)");
     return 0;
 }
 
@@ -249,6 +281,8 @@ static int parse_run_options(batch_args *b, run_options *ro)
     av[n++] = (char *)b->template_path;
     if (t->target_surface)
         av[n++] = "--target-surface", av[n++] = t->target_surface;
+    if (t->target_image)
+        av[n++] = "--target-image", av[n++] = t->target_image;
     if (t->target_mesh)
         av[n++] = "--target-mesh", av[n++] = t->target_mesh;
     if (t->target_sol)
@@ -263,8 +297,20 @@ static int parse_run_options(batch_args *b, run_options *ro)
     return 0;
 }
 
+/* --server (before a "--"): the daemon runs the batch (cmd_batch_remote.c);
+ * $SHAPEMATCH_SERVER alone does not make a local batch remote. */
+static int wants_server(int argc, char **argv)
+{
+    for (int i = 1; i < argc && strcmp(argv[i], "--") != 0; i++)
+        if (strcmp(argv[i], "--server") == 0 || strncmp(argv[i], "--server=", 9) == 0)
+            return 1;
+    return 0;
+}
+
 int cmd_batch(int argc, char **argv)
 {
+    if (wants_server(argc, argv))
+        return cmd_batch_remote(argc, argv);
     batch_args b;
     memset(&b, 0, sizeof b);
     b.rest = calloc((size_t)argc + 1, sizeof *b.rest);

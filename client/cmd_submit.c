@@ -20,6 +20,7 @@
 #include "curl_api.h"
 #include "daemon_ops.h"
 #include "remote.h"
+#include "submit_job.h"
 #include "sm_proto_events.h"
 #include "sm_proto_params.h"
 #include "sm_proto_vocab.h"
@@ -386,12 +387,10 @@ static const char *submit_usage_problem(submit_args *a, char *msg, size_t cap)
 }
 
 /* What one submission holds between its steps; released by
- * submission_release whatever step failed. */
+ * submission_release_files whatever step failed. */
 typedef struct submission {
     upload up[SM_PART_PARAMS]; /* the file parts by sm_part; part NULL when not sent */
-    char *params;     /* the params JSON part */
     curl_mime *mime;
-    char id[SM_JOB_ID_MAX + 1];
 } submission;
 
 static void submission_release_files(submission *s)
@@ -401,27 +400,24 @@ static void submission_release_files(submission *s)
     if (s->mime)
         curl_api.mime_free(s->mime);
     s->mime = NULL;
-    free(s->params);
-    s->params = NULL;
 }
 
 /* Opens the files given (a bad path is an input error, exit 2, before any
- * connection is made). */
-static int submission_open_files(submission *s, const submit_args *a)
+ * request is made). */
+static int submission_open_files(submission *s, const char *cmd, const submit_job *j)
 {
     const char *paths[SM_PART_PARAMS] = {
-        [SM_PART_TEMPLATE] = a->template_path, [SM_PART_TARGET_MESH] = a->target_mesh_path,
-        [SM_PART_TARGET_SOL] = a->target_sol_path, [SM_PART_TARGET_SURFACE] = a->target_surface_path,
-        [SM_PART_TEMPLATE_LANDMARKS] = a->landmarks[0][0] ? a->landmarks[0] : NULL,
-        [SM_PART_TARGET_LANDMARKS] = a->landmarks[1][0] ? a->landmarks[1] : NULL,
-        [SM_PART_TARGET_IMAGE] = a->target_image_path};
+        [SM_PART_TEMPLATE] = j->template_path, [SM_PART_TARGET_MESH] = j->target_mesh,
+        [SM_PART_TARGET_SOL] = j->target_sol, [SM_PART_TARGET_SURFACE] = j->target_surface,
+        [SM_PART_TEMPLATE_LANDMARKS] = j->landmarks[0],
+        [SM_PART_TARGET_LANDMARKS] = j->landmarks[1], [SM_PART_TARGET_IMAGE] = j->target_image};
     char msg[ARGS_MSG_LEN];
     for (int i = 0; i < SM_PART_PARAMS; i++) {
         /* the daemon reads landmark CSV as plain text: never compressed */
-        int compress = !a->no_compress && i != SM_PART_TEMPLATE_LANDMARKS && i != SM_PART_TARGET_LANDMARKS;
+        int compress = !j->no_compress && i != SM_PART_TEMPLATE_LANDMARKS && i != SM_PART_TARGET_LANDMARKS;
         if (paths[i] && upload_open(&s->up[i], sm_part_names[i], paths[i], compress, msg,
                         sizeof msg) != 0) {
-            fprintf(stderr, "shapematch submit: error: %s\n", msg);
+            fprintf(stderr, "shapematch %s: error: %s\n", cmd, msg);
             return CLI_EXIT_INPUT;
         }
     }
@@ -429,7 +425,8 @@ static int submission_open_files(submission *s, const submit_args *a)
 }
 
 /* The multipart body: the file parts (streamed) and params. */
-static int submission_build_form(submission *s, http_client *c)
+static int submission_build_form(submission *s, http_client *c, const char *cmd,
+                                 const char *params)
 {
     s->mime = curl_api.mime_init(c->curl);
     int bad = !s->mime;
@@ -438,91 +435,99 @@ static int submission_build_form(submission *s, http_client *c)
     if (!bad) {
         curl_mimepart *pp = curl_api.mime_addpart(s->mime);
         bad = !pp || curl_api.mime_name(pp, sm_part_name(SM_PART_PARAMS)) != CURLE_OK ||
-              curl_api.mime_data(pp, s->params, CURL_ZERO_TERMINATED) != CURLE_OK ||
+              curl_api.mime_data(pp, params, CURL_ZERO_TERMINATED) != CURLE_OK ||
               curl_api.mime_type(pp, "application/json") != CURLE_OK;
     }
     if (bad) {
-        fprintf(stderr, "shapematch submit: error: out of memory\n");
+        fprintf(stderr, "shapematch %s: error: out of memory\n", cmd);
         return CLI_EXIT_INPUT;
     }
     return 0;
 }
 
-/* Reads the job id from a 201/200 answer and prints it (or the status
- * document with --json). */
-static int submission_take_answer(submission *s, const submit_args *a, const http_client *c,
-                                  http_response *rs)
-{
-    char msg[ARGS_MSG_LEN];
-    json_t *doc = remote_json_object(rs);
-    const char *jid = doc ? json_string_value(json_object_get(doc, "jobID")) : NULL;
-    if (!jid || remote_check_id(jid, msg, sizeof msg) != 0) {
-        fprintf(stderr, "shapematch submit: error: bad response from %s: no valid jobID "
-                        "in the job's status document\n",
-                c->base);
-        json_decref(doc);
-        return CLI_EXIT_SERVER;
-    }
-    snprintf(s->id, sizeof s->id, "%s", jid);
-    json_decref(doc);
-    if (rs->status == 200 && !a->quiet)
-        fprintf(stderr, "shapematch: the daemon already has a job for this "
-                        "Idempotency-Key: %s (not submitted again)\n",
-                s->id);
-    if (a->json && !a->wait)
-        remote_print_body(rs);
-    else if (!a->json) {
-        printf("%s\n", s->id);
-        fflush(stdout);
-    }
-    return 0;
-}
-
-/* POST /v1/jobs and its answer. */
-static int submission_post(submission *s, const submit_args *a, http_client *c,
-                           const remote_options *conn)
+/* POST /v1/jobs and its answer's job id. */
+static int submission_post(submission *s, http_client *c, const char *cmd, int token_given,
+                           const char *key, http_response *rs, char *id, size_t cap)
 {
     char key_header[IDEMPOTENCY_KEY_MAX + 32];
     http_request rq = {.method = "POST", .path = "/v1/jobs", .accept = "application/json",
                        .mime = s->mime, .gzip = 1};
-    if (a->idempotency_key) {
-        snprintf(key_header, sizeof key_header, "Idempotency-Key: %s", a->idempotency_key);
+    if (key) {
+        snprintf(key_header, sizeof key_header, "Idempotency-Key: %s", key);
         rq.headers[0] = key_header;
     }
-    http_response rs;
-    http_outcome out = http_perform(c, &rq, &rs);
-    int code = 0;
+    http_outcome out = http_perform(c, &rq, rs);
     const upload *failed = NULL;
     for (int i = 0; i < SM_PART_PARAMS && !failed; i++)
         if (s->up[i].part && s->up[i].err)
             failed = &s->up[i];
     if (failed) {
-        fprintf(stderr, "shapematch submit: error: %s: cannot read '%s': %s\n", failed->part,
+        fprintf(stderr, "shapematch %s: error: %s: cannot read '%s': %s\n", cmd, failed->part,
                 failed->path, strerror(failed->err));
-        code = CLI_EXIT_INPUT;
-    } else if (out != HTTP_DONE || (rs.status != 201 && rs.status != 200)) {
-        code = remote_report("submit", c, conn->token != NULL, out, &rs, "submitting the job");
-    } else {
-        code = submission_take_answer(s, a, c, &rs);
+        return CLI_EXIT_INPUT;
     }
-    http_response_free(&rs);
+    if (out != HTTP_DONE || (rs->status != 201 && rs->status != 200))
+        return remote_report(cmd, c, token_given, out, rs, "submitting the job");
+    char msg[ARGS_MSG_LEN];
+    json_t *doc = remote_json_object(rs);
+    const char *jid = doc ? json_string_value(json_object_get(doc, "jobID")) : NULL;
+    int ok = jid && remote_check_id(jid, msg, sizeof msg) == 0;
+    if (ok)
+        snprintf(id, cap, "%s", jid);
+    json_decref(doc);
+    if (!ok) {
+        fprintf(stderr, "shapematch %s: error: bad response from %s: no valid jobID in the "
+                        "job's status document\n", cmd, c->base);
+        return CLI_EXIT_SERVER;
+    }
+    return 0;
+}
+
+int remote_submit_job(http_client *c, const char *cmd, int token_given, const submit_job *j,
+                      http_response *rs, char *id, size_t cap)
+{
+    submission s;
+    memset(&s, 0, sizeof s);
+    memset(rs, 0, sizeof *rs);
+    int code = submission_open_files(&s, cmd, j);
+    if (code == 0)
+        code = submission_build_form(&s, c, cmd, j->params_json);
+    if (code == 0)
+        code = submission_post(&s, c, cmd, token_given, j->idempotency_key, rs, id, cap);
+    submission_release_files(&s);
+    if (code != 0)
+        http_response_free(rs);
     return code;
 }
 
+/* Prints the job's id (or the status document with --json). */
+static void submission_print(const char *id, const submit_args *a, const http_response *rs)
+{
+    if (rs->status == 200 && !a->quiet)
+        fprintf(stderr, "shapematch: the daemon already has a job for this "
+                        "Idempotency-Key: %s (not submitted again)\n", id);
+    if (a->json && !a->wait)
+        remote_print_body(rs);
+    else if (!a->json) {
+        printf("%s\n", id);
+        fflush(stdout);
+    }
+}
+
 /* --wait: follow the job to its end like watch, then download like fetch. */
-static int submission_wait(const submission *s, const submit_args *a, http_client *c,
+static int submission_wait(const char *id, const submit_args *a, http_client *c,
                            const remote_options *conn)
 {
     watch_options wo = {.quiet = a->quiet, .json = a->json,
                         .reconnect_timeout = a->reconnect_timeout};
-    int code = remote_watch(c, "submit", conn->token != NULL, s->id, &wo);
+    int code = remote_watch(c, "submit", conn->token != NULL, id, &wo);
     if (code != CLI_EXIT_OK && code != CLI_EXIT_NOT_CONVERGED)
         return code;
     /* not converged: every output is still there to look at, as `run`
      * writes them; the exit code stays 10 unless the download fails */
     fetch_options fo = {.outdir = a->outdir, .formats = a->formats, .quiet = a->quiet,
                         .show_result = 0};
-    int fetched = remote_fetch(c, "submit", conn->token != NULL, s->id, &fo);
+    int fetched = remote_fetch(c, "submit", conn->token != NULL, id, &fo);
     return fetched != CLI_EXIT_OK ? fetched : code;
 }
 
@@ -584,29 +589,34 @@ int cmd_submit(int argc, char **argv)
             return remote_usage_error("submit", msg);
     }
 
-    submission s;
-    memset(&s, 0, sizeof s);
     /* the daemon learns the dimension from the template; a ball clamp
      * already says how many coordinates it has */
     int dim = a.job.params.clamp == SM_CLAMP_BALL ? a.job.clamp_ball_dim : 0;
-    s.params = sm_job_params_to_json(&a.job.params, &a.job.background, dim);
-    if (!s.params)
+    char *params = sm_job_params_to_json(&a.job.params, &a.job.background, dim);
+    if (!params)
         return remote_usage_error("submit", "the parameters cannot be encoded as JSON");
-
+    submit_job j = {.template_path = a.template_path, .target_mesh = a.target_mesh_path,
+                    .target_sol = a.target_sol_path, .target_surface = a.target_surface_path,
+                    .target_image = a.target_image_path,
+                    .landmarks = {a.landmarks[0][0] ? a.landmarks[0] : NULL,
+                                  a.landmarks[1][0] ? a.landmarks[1] : NULL},
+                    .params_json = params, .idempotency_key = a.idempotency_key,
+                    .no_compress = a.no_compress};
     http_client c;
-    int client_open = 0;
-    int code = submission_open_files(&s, &a);
-    if (code == 0) {
-        code = remote_open("submit", &conn, &c);
-        client_open = code == 0;
+    /* opening the client makes no connection: an unreadable file is still
+     * refused (exit 2) before any request */
+    int code = remote_open("submit", &conn, &c);
+    int client_open = code == 0;
+    char id[SM_JOB_ID_MAX + 1];
+    http_response rs;
+    if (code == 0 && (code = remote_submit_job(&c, "submit", conn.token != NULL, &j, &rs, id,
+                                               sizeof id)) == 0) {
+        submission_print(id, &a, &rs);
+        http_response_free(&rs);
     }
-    if (code == 0)
-        code = submission_build_form(&s, &c);
-    if (code == 0)
-        code = submission_post(&s, &a, &c, &conn);
-    submission_release_files(&s); /* the files are sent: release them before a long wait */
+    free(params);
     if (code == 0 && a.wait)
-        code = submission_wait(&s, &a, &c, &conn);
+        code = submission_wait(id, &a, &c, &conn);
     if (client_open)
         remote_close(&c);
     return code;

@@ -495,11 +495,17 @@ static int write_to_file(void *user, const char *data, size_t len)
 static int download(http_client *c, const char *cmd, int token_given, const char *outdir,
                     const char *id, const sm_result_format *f)
 {
-    char what[160], path[192];
-    const char *name = f->file, *media = f->media;
-    snprintf(what, sizeof what, "downloading %s", name);
+    char path[192];
     snprintf(path, sizeof path, "/v1/jobs/%s/results/%s?format=%s", id,
              sm_result_kind_name(f->kind), f->name);
+    return remote_download(c, cmd, token_given, path, outdir, f->file, f->media);
+}
+
+int remote_download(http_client *c, const char *cmd, int token_given, const char *path,
+                    const char *outdir, const char *name, const char *media)
+{
+    char what[160];
+    snprintf(what, sizeof what, "downloading %s", name);
     char *final = sm_path_join(outdir, name);
     if (!final) {
         fprintf(stderr, "shapematch %s: error: out of memory\n", cmd);
@@ -613,8 +619,13 @@ static int get_summary(http_client *c, const char *cmd, int token_given, const c
 
 static int write_summary(const char *cmd, const char *outdir, const json_t *doc)
 {
+    return remote_write_json(cmd, outdir, SM_RESULT_SUMMARY_FILE, doc);
+}
+
+int remote_write_json(const char *cmd, const char *outdir, const char *name, const json_t *doc)
+{
     char *text = sm_json_dumps(doc, 2);
-    char *path = sm_path_join(outdir, SM_RESULT_SUMMARY_FILE);
+    char *path = sm_path_join(outdir, name);
     int code = 0;
     sm_error err;
     if (!text || !path) {

@@ -50,6 +50,15 @@ typedef struct fetch_options {
     int show_result;           /* also print the result's one-line summary */
 } fetch_options;
 
+/* GET path into outdir/name (atomically: complete or absent), its
+ * Content-Type checked against media.  0, or an exit code (reported). */
+int remote_download(http_client *c, const char *cmd, int token_given, const char *path,
+                    const char *outdir, const char *name, const char *media);
+
+/* doc as indented JSON into outdir/name (atomically).  0, or
+ * CLI_EXIT_OUTPUT (reported). */
+int remote_write_json(const char *cmd, const char *outdir, const char *name, const json_t *doc);
+
 /* Downloads the results of a successful job into outdir (see
  * daemon_ops.c).  Returns 0, or an exit code (reported). */
 int remote_fetch(http_client *c, const char *cmd, int token_given, const char *id,

@@ -300,9 +300,12 @@ http_outcome http_perform(http_client *c, const http_request *rq, http_response 
     curl_api.easy_setopt(curl, CURLOPT_WRITEDATA, &t);
     if (headers)
         curl_api.easy_setopt(curl, CURLOPT_HTTPHEADER, headers);
-    if (rq->mime)
+    if (rq->mime) {
         curl_api.easy_setopt(curl, CURLOPT_MIMEPOST, rq->mime);
-    else if (rq->method && strcmp(rq->method, "GET") != 0)
+    } else if (rq->body) {
+        curl_api.easy_setopt(curl, CURLOPT_POSTFIELDSIZE_LARGE, (curl_off_t)rq->body_len);
+        curl_api.easy_setopt(curl, CURLOPT_POSTFIELDS, rq->body);
+    } else if (rq->method && strcmp(rq->method, "GET") != 0)
         curl_api.easy_setopt(curl, CURLOPT_CUSTOMREQUEST, rq->method);
     if (rq->gzip)
         curl_api.easy_setopt(curl, CURLOPT_ACCEPT_ENCODING, ""); /* all curl decodes */
@@ -359,6 +362,7 @@ done:
     /* the handle must not keep pointers to what is freed here */
     curl_api.easy_setopt(curl, CURLOPT_HTTPHEADER, NULL);
     curl_api.easy_setopt(curl, CURLOPT_MIMEPOST, NULL);
+    curl_api.easy_setopt(curl, CURLOPT_POSTFIELDS, NULL);
     curl_api.easy_setopt(curl, CURLOPT_ERRORBUFFER, NULL);
     curl_api.slist_free_all(headers);
     free(url);

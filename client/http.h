@@ -68,6 +68,9 @@ typedef struct http_request {
     const char *accept;          /* Accept header, or NULL */
     const char *headers[4];      /* extra "Name: value" lines, NULL ends */
     curl_mime *mime;             /* multipart POST body, or NULL */
+    const char *body;            /* else a POST body of body_len bytes (its
+                                  * Content-Type among headers), or NULL */
+    size_t body_len;
     int gzip;                    /* advertise compression, decode it */
     int stream;                  /* an event stream: no time limit */
     long connect_timeout_ms;     /* 0: the client's */

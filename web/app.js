@@ -14,6 +14,7 @@ import { View2d, View3d, parsePayload, heatCss, fmtNum, tickLabel } from './view
 import { loadTarget } from './target.js';
 import { setupLandmarks, landmarkProblems, appendLandmarks, showAlignment } from './align.js';
 import { warpPanel } from './warp.js';
+import { openBatch } from './batch.js';
 
 const $ = (id) => document.getElementById(id);
 const token = () => $('token').value.trim();
@@ -492,6 +493,13 @@ function follow(id) {
 
 // ------------------------------------------------------------ job list
 
+// The batch view of a model job (web/batch.js), by its #batch=ID address
+// (a reload keeps it); the same address again opens it anew.
+function showBatch(id) {
+  if (location.hash === `#batch=${id}`) openBatch(id);
+  else location.hash = `batch=${id}`;
+}
+
 async function refreshJobs() {
   if (needsToken()) return;
   const r = await fetch('v1/jobs?limit=20', { headers: authHeaders() });
@@ -499,8 +507,11 @@ async function refreshJobs() {
   const list = await r.json();
   $('jobs').replaceChildren(...(list.jobs || []).map((j) => {
     const td = (t) => el('td', { textContent: t });
-    const view = el('button', { type: 'button', textContent: 'view' });
-    view.onclick = () => { follow(j.jobID); };
+    // a batch's model job has no match result to show: its batch view instead
+    const model = j.processID === 'shape-model';
+    const view = el('button', { type: 'button', textContent: model ? 'batch' : 'view' });
+    view.dataset.action = model ? 'batch' : 'view';
+    view.onclick = model ? () => showBatch(j.jobID) : () => { follow(j.jobID); };
     const actions = el('td', {}, view);
     if (j.status === 'accepted' || j.status === 'running') {
       const cancel = el('button', { type: 'button', textContent: 'cancel' });

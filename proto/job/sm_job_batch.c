@@ -72,6 +72,7 @@ static int run_child(batch_template *bt, const sm_batch_target *t, const sm_batc
     sm_job_inputs *in = &bt->in;
     sm_job_files files = bt->files;
     files.target_surface = t->target_surface;
+    files.target_image = t->target_image;
     files.target_mesh = t->target_mesh;
     files.target_sol = t->target_sol;
     if (o->jobs > 1 || o->single_thread)
@@ -249,6 +250,7 @@ static json_t *summary_doc(const sm_batch_list *l, const sm_batch_opts *o,
                                 "status", ts[i].status, "exit_code", ts[i].exit_code,
                                 "seconds", ts[i].seconds, "target",
                                 sm_json_string_lossy(t->target_surface ? t->target_surface
+                                                     : t->target_image ? t->target_image
                                                                        : t->target_mesh));
         if (row && ts[i].message[0])
             json_object_set_new(row, "message", sm_json_string_lossy(ts[i].message));

@@ -31,8 +31,8 @@ static char *stem_of(const char *path)
 }
 
 sm_status sm_batch_list_add(sm_batch_list *l, const char *name, const char *surface,
-                            const char *mesh, const char *sol, const char *landmarks,
-                            sm_error *err)
+                            const char *image, const char *mesh, const char *sol,
+                            const char *landmarks, sm_error *err)
 {
     if (l->n == l->cap) {
         size_t cap = l->cap ? 2 * l->cap : 16;
@@ -44,22 +44,27 @@ sm_status sm_batch_list_add(sm_batch_list *l, const char *name, const char *surf
     }
     sm_batch_target *t = &l->t[l->n];
     memset(t, 0, sizeof *t);
-    t->name = name && *name ? strdup(name) : stem_of(surface && *surface ? surface : mesh);
+    t->name = name && *name             ? strdup(name)
+              : surface && *surface ? stem_of(surface)
+              : image && *image     ? stem_of(image)
+                                    : stem_of(mesh ? mesh : "");
     t->target_surface = dup_or_null(surface);
+    t->target_image = dup_or_null(image);
     t->target_mesh = dup_or_null(mesh);
     t->target_sol = dup_or_null(sol);
     t->landmarks = dup_or_null(landmarks);
     l->n++;
     if (!t->name || (surface && *surface && !t->target_surface) ||
+        (image && *image && !t->target_image) ||
         (mesh && *mesh && !t->target_mesh) || (sol && *sol && !t->target_sol) ||
         (landmarks && *landmarks && !t->landmarks))
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     return SM_OK;
 }
 
-enum { COL_NAME, COL_SURFACE, COL_MESH, COL_SOL, COL_LANDMARKS, NCOLS };
-static const char *const col_names[NCOLS] = {"name", "target_surface", "target_mesh",
-                                              "target_sol", "landmarks"};
+enum { COL_NAME, COL_SURFACE, COL_IMAGE, COL_MESH, COL_SOL, COL_LANDMARKS, NCOLS };
+static const char *const col_names[NCOLS] = {"name",        "target_surface", "target_image",
+                                              "target_mesh", "target_sol",     "landmarks"};
 
 /* Splits line (modified) at commas into at most cap trimmed fields;
  * returns the count, or cap + 1 when there are more. */
@@ -109,16 +114,16 @@ static sm_status parse_header(char *line, int *col, int *ncol, size_t lineno, sm
         if (c == NCOLS)
             return sm_error_set(err, SM_ERR_FORMAT,
                                 "line %zu: unknown column '%.64s' (name, target_surface, "
-                                "target_mesh, target_sol, landmarks)", lineno, f[i]);
+                                "target_image, target_mesh, target_sol, landmarks)", lineno, f[i]);
         if (col[c] >= 0)
             return sm_error_set(err, SM_ERR_FORMAT, "line %zu: column %s given twice", lineno,
                                 col_names[c]);
         col[c] = i;
     }
-    if (col[COL_SURFACE] < 0 && col[COL_MESH] < 0)
+    if (col[COL_SURFACE] < 0 && col[COL_IMAGE] < 0 && col[COL_MESH] < 0)
         return sm_error_set(err, SM_ERR_FORMAT,
-                            "line %zu: the header names neither target_surface nor target_mesh",
-                            lineno);
+                            "line %zu: the header names none of target_surface, target_image, "
+                            "target_mesh", lineno);
     *ncol = n;
     return SM_OK;
 }
@@ -134,21 +139,22 @@ static sm_status parse_row(sm_batch_list *l, char *line, const int *col, int nco
     const char *v[NCOLS];
     for (int c = 0; c < NCOLS; c++)
         v[c] = col[c] >= 0 && *f[col[c]] ? f[col[c]] : NULL;
-    if (!v[COL_SURFACE] && !(v[COL_MESH] && v[COL_SOL]))
+    if (!v[COL_SURFACE] && !v[COL_IMAGE] && !(v[COL_MESH] && v[COL_SOL]))
         return sm_error_set(err, SM_ERR_FORMAT,
-                            "line %zu: a target needs target_surface, or target_mesh and "
-                            "target_sol", lineno);
-    if (v[COL_SURFACE] && v[COL_SOL])
+                            "line %zu: a target needs target_surface, target_image, or "
+                            "target_mesh and target_sol", lineno);
+    if (!!v[COL_SURFACE] + !!v[COL_IMAGE] + !!v[COL_SOL] > 1)
         return sm_error_set(err, SM_ERR_FORMAT,
-                            "line %zu: target_surface and target_sol exclude each other", lineno);
+                            "line %zu: target_surface, target_image and target_sol exclude "
+                            "each other", lineno);
     char *p[NCOLS] = {NULL};
     sm_status st = SM_OK;
     for (int c = COL_SURFACE; c < NCOLS; c++)
         if (v[c] && !(p[c] = resolve(base, v[c])))
             st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     if (st == SM_OK)
-        st = sm_batch_list_add(l, v[COL_NAME], p[COL_SURFACE], p[COL_MESH], p[COL_SOL],
-                               p[COL_LANDMARKS], err);
+        st = sm_batch_list_add(l, v[COL_NAME], p[COL_SURFACE], p[COL_IMAGE], p[COL_MESH],
+                               p[COL_SOL], p[COL_LANDMARKS], err);
     for (int c = 0; c < NCOLS; c++)
         free(p[c]);
     return st;
@@ -231,6 +237,7 @@ void sm_batch_list_free(sm_batch_list *l)
     for (size_t i = 0; l && i < l->n; i++) {
         free(l->t[i].name);
         free(l->t[i].target_surface);
+        free(l->t[i].target_image);
         free(l->t[i].target_mesh);
         free(l->t[i].target_sol);
         free(l->t[i].landmarks);

@@ -42,9 +42,7 @@ static enum MHD_Result no_such_batch(struct MHD_Connection *conn, smd_request *r
 
 /* ------------------------------------------------------ the document */
 
-/* The model job's description (its batch object, owned) from its
- * folder, read without the lock; NULL when it cannot be read (deleted). */
-static json_t *read_batch(smd_server *srv, const char *id)
+json_t *smd_batch_read(smd_server *srv, const char *id)
 {
     char dir[PATH_MAX];
     if (smd_store_path(srv->store, id, "", dir, sizeof dir) != 0)
@@ -86,6 +84,8 @@ static json_t *member_entry(smd_server *srv, const char *id, const char *name, t
                           job->message, "href", href);
     if (job->state == SM_JOB_SUCCESSFUL)
         json_object_set_new(e, "converged", json_boolean(!job->not_converged));
+    if (job->have_progress && job->state != SM_JOB_ACCEPTED)
+        json_object_set_new(e, "iteration", json_integer(job->last_progress.iteration));
     return e;
 }
 
@@ -101,11 +101,10 @@ static const char *batch_status(const smd_job *model, const tally *t)
                : "accepted";
 }
 
-/* Lock held: the batch document (new reference, NULL out of memory).
- * Progress counts each member and the model step alike; the ETA is the
+/* Progress counts each member and the model step alike; the ETA is the
  * time since the first member started, scaled by what is left (null
  * before any progress; 0 when final). */
-static json_t *batch_document(smd_server *srv, const smd_job *model, const json_t *batch)
+json_t *smd_batch_document(smd_server *srv, const smd_job *model, const json_t *batch)
 {
     tally t = {.first_start = -1};
     json_t *targets = json_array();
@@ -153,7 +152,7 @@ static int find_batch(struct MHD_Connection *conn, smd_request *req, json_t **ba
     const smd_job *model = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
     int found = model && model->batch_model;
     pthread_mutex_unlock(&srv->lock);
-    *batch = found ? read_batch(srv, req->id) : NULL;
+    *batch = found ? smd_batch_read(srv, req->id) : NULL;
     if (!*batch)
         *r = no_such_batch(conn, req);
     return *batch != NULL;
@@ -168,7 +167,7 @@ enum MHD_Result smd_route_batch_get(struct MHD_Connection *conn, smd_request *re
         return r;
     pthread_mutex_lock(&srv->lock);
     const smd_job *model = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-    json_t *doc = model ? batch_document(srv, model, batch) : NULL;
+    json_t *doc = model ? smd_batch_document(srv, model, batch) : NULL;
     pthread_mutex_unlock(&srv->lock);
     json_decref(batch);
     if (!model)
@@ -298,7 +297,7 @@ static enum MHD_Result create_batch(struct MHD_Connection *conn, smd_request *re
         for (size_t i = 0; batch && i < n; i++)
             json_array_append_new(json_object_get(batch, "members"),
                                   json_pack("{s:s,s:s}", "job", m[i].id, "name", m[i].name));
-        doc = batch ? batch_document(srv, job, batch) : NULL;
+        doc = batch ? smd_batch_document(srv, job, batch) : NULL;
     }
     pthread_mutex_unlock(&srv->lock);
     free(ids);
@@ -423,7 +422,7 @@ enum MHD_Result smd_route_batch_delete(struct MHD_Connection *conn, smd_request 
     pthread_mutex_lock(&srv->lock);
     const smd_job *model = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
     int remove = model && smd_job_state_final(model->state);
-    json_t *doc = model && remove ? batch_document(srv, model, batch) : NULL;
+    json_t *doc = model && remove ? smd_batch_document(srv, model, batch) : NULL;
     pthread_mutex_unlock(&srv->lock);
     smd_jobs_after after = {0};
     int failed = model ? withdraw_one(srv, req, req->id, remove, &after) != 0 : 0;
@@ -435,7 +434,7 @@ enum MHD_Result smd_route_batch_delete(struct MHD_Connection *conn, smd_request 
     if (!remove) {
         pthread_mutex_lock(&srv->lock);
         model = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-        doc = model ? batch_document(srv, model, batch) : NULL;
+        doc = model ? smd_batch_document(srv, model, batch) : NULL;
         pthread_mutex_unlock(&srv->lock);
     }
     json_decref(batch);

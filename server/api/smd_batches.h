@@ -17,6 +17,8 @@
  *   POST   /v1/batches                 {"targets": [{"job": ID, "name": N}...],
  *                                       "model_align": "none|rigid|similarity"}
  *   GET    /v1/batches/{id}            per-target status, progress, ETA
+ *   GET    /v1/batches/{id}/events     the same as a stream of changes
+ *                                      (api/smd_batch_events.h)
  *   DELETE /v1/batches/{id}            cancels the live members and the
  *                                      model job; on a final batch deletes
  *                                      them all
@@ -31,13 +33,25 @@
 
 #include <stddef.h>
 
+#include <jansson.h>
+
+#include "base/smd_server.h"
 #include "http/smd_reply.h"
+#include "jobs/smd_job.h"
 
 enum MHD_Result smd_route_batch_create(struct MHD_Connection *conn, smd_request *req);
 /* The JSON body of POST /v1/batches (req->body_state), then the answer. */
 enum MHD_Result smd_batches_continue(struct MHD_Connection *conn, smd_request *req,
                                      const char *data, size_t *size);
 void smd_batches_body_free(void *body);
+
+/* The model job's description (its batch object: "align", "members"
+ * [{"job", "name"}...]; new reference) from its folder, read without the
+ * lock; NULL when it cannot be read (deleted, or no batch). */
+json_t *smd_batch_read(smd_server *srv, const char *id);
+/* Lock held: the batch document of GET /v1/batches/{id} (new reference,
+ * NULL out of memory). */
+json_t *smd_batch_document(smd_server *srv, const smd_job *model, const json_t *batch);
 
 enum MHD_Result smd_route_batch_get(struct MHD_Connection *conn, smd_request *req);
 enum MHD_Result smd_route_batch_delete(struct MHD_Connection *conn, smd_request *req);

@@ -6,6 +6,7 @@
 
 #include "api/smd_app.h"
 #include "api/smd_batches.h"
+#include "api/smd_batch_events.h"
 #include "api/smd_live.h"
 #include "api/smd_ogc.h"
 #include "api/smd_results.h"
@@ -58,6 +59,7 @@ const smd_route smd_route_table[] = {
     {SMD_METHOD_POST, "/v1/batches", smd_route_batch_create, "/v1/batches", 0},
     {SMD_METHOD_READ, BATCH, smd_route_batch_get, BATCH, 0},
     {SMD_METHOD_DELETE, BATCH, smd_route_batch_delete, BATCH, 0},
+    {SMD_METHOD_READ, BATCH "/events", smd_route_batch_events, BATCH "/events", 0},
     {SMD_METHOD_READ, BATCH "/model", smd_route_batch_model, BATCH "/model", 0},
     /* {file} is at most 16 characters (the matcher's bound): mode_9999.sol fits */
     {SMD_METHOD_READ, BATCH "/model/{file}", smd_route_batch_model_file, BATCH "/model", 0},

@@ -443,52 +443,75 @@ enum MHD_Result smd_route_job_delete(struct MHD_Connection *conn, smd_request *r
 
 /* --------------------------------------------------------------- events */
 
-enum MHD_Result smd_route_events(struct MHD_Connection *conn, smd_request *req)
+int smd_stream_request_open(struct MHD_Connection *conn, smd_request *req, smd_stream_request *sr,
+                            enum MHD_Result *r)
 {
     smd_server *srv = req->srv;
     static const char *const offered[] = {"application/x-ndjson", "text/event-stream"};
     const char *accept = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_ACCEPT);
     int choice = smd_accept_choose(accept, offered, 2);
-    if (choice < 0)
-        return smd_reply_problem(conn, req, 406, SMD_PROBLEM_NOT_ACCEPTABLE,
-                                 "events are served as text/event-stream or application/x-ndjson");
+    *r = MHD_NO;
+    if (choice < 0) {
+        *r = smd_reply_problem(conn, req, 406, SMD_PROBLEM_NOT_ACCEPTABLE,
+                               "events are served as text/event-stream or application/x-ndjson");
+        return 0;
+    }
     /* a sequence number beyond the log is fine (nothing to replay: the
      * stream waits for the job's end); one beyond 2^53 - 1 is refused */
     uint64_t after = 0;
     const char *last = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, "Last-Event-ID");
     const char *after_q = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "after");
-    if (last && *last && smd_parse_uint(last, 0, SMD_REQUEST_INT_MAX, &after) != SMD_NUM_OK)
-        return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
-                                 "Last-Event-ID: expected an event sequence number in [0, %lld]",
-                                 SMD_REQUEST_INT_MAX);
+    if (last && *last && smd_parse_uint(last, 0, SMD_REQUEST_INT_MAX, &after) != SMD_NUM_OK) {
+        *r = smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
+                               "Last-Event-ID: expected an event sequence number in [0, %lld]",
+                               SMD_REQUEST_INT_MAX);
+        return 0;
+    }
     if (!(last && *last) && after_q &&
-        smd_parse_uint(after_q, 0, SMD_REQUEST_INT_MAX, &after) != SMD_NUM_OK)
-        return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
-                                 "after: expected an event sequence number in [0, %lld]",
-                                 SMD_REQUEST_INT_MAX);
+        smd_parse_uint(after_q, 0, SMD_REQUEST_INT_MAX, &after) != SMD_NUM_OK) {
+        *r = smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
+                               "after: expected an event sequence number in [0, %lld]",
+                               SMD_REQUEST_INT_MAX);
+        return 0;
+    }
+    sr->resumed = (last && *last) || after_q;
     struct MHD_Connection *evict = NULL;
     int full = smd_conns_stream(conn, &evict);
     if (evict)
         smd_stream_evict(srv, evict);
-    if (full != 0)
-        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
-                                 "too many event streams and request bodies in progress (from "
-                                 "your address: --max-streams-per-ip; in all: --max-connections "
-                                 "minus --reserved-connections): try again shortly");
-    char msg[256];
-    /* the credential authenticate() checked, kept for smd_stream_revoke */
-    smd_stream_credential cred = {0};
-    if (srv->tokens && !req->public_path) {
-        cred.authorization = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
-                                                         MHD_HTTP_HEADER_AUTHORIZATION);
-        if (!cred.authorization)
-            cred.token = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "access_token");
+    if (full != 0) {
+        *r = smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
+                               "too many event streams and request bodies in progress (from "
+                               "your address: --max-streams-per-ip; in all: --max-connections "
+                               "minus --reserved-connections): try again shortly");
+        return 0;
     }
+    sr->sse = choice == 1;
+    sr->after = (int64_t)after;
+    /* the credential authenticate() checked, kept for smd_stream_revoke */
+    sr->cred = (smd_stream_credential){0};
+    if (srv->tokens && !req->public_path) {
+        sr->cred.authorization = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
+                                                             MHD_HTTP_HEADER_AUTHORIZATION);
+        if (!sr->cred.authorization)
+            sr->cred.token = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "access_token");
+    }
+    return 1;
+}
+
+enum MHD_Result smd_route_events(struct MHD_Connection *conn, smd_request *req)
+{
+    smd_server *srv = req->srv;
+    smd_stream_request sr;
+    enum MHD_Result r;
+    if (!smd_stream_request_open(conn, req, &sr, &r))
+        return r;
+    char msg[256];
     pthread_mutex_lock(&srv->lock);
     smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
     struct MHD_Response *resp =
-        job ? smd_stream_response(srv, job, conn, choice == 1, (int64_t)after, &req->bytes_out,
-                                  &cred, msg, sizeof msg)
+        job ? smd_stream_response(srv, job, conn, sr.sse, sr.after, &req->bytes_out, &sr.cred,
+                                  msg, sizeof msg)
             : NULL;
     pthread_mutex_unlock(&srv->lock);
     if (!job)

@@ -6,6 +6,7 @@
 #define SMD_ROUTES_H
 
 #include "http/smd_reply.h"
+#include "api/smd_stream.h"
 #include "jobs/smd_job.h"
 
 enum MHD_Result smd_route_landing(struct MHD_Connection *conn, smd_request *req);
@@ -20,6 +21,21 @@ enum MHD_Result smd_route_jobs_list(struct MHD_Connection *conn, smd_request *re
 enum MHD_Result smd_route_job_get(struct MHD_Connection *conn, smd_request *req);
 enum MHD_Result smd_route_job_delete(struct MHD_Connection *conn, smd_request *req);
 enum MHD_Result smd_route_events(struct MHD_Connection *conn, smd_request *req);
+
+/* What an event stream's request asks for (GET .../events). */
+typedef struct smd_stream_request {
+    int sse;                   /* text/event-stream, else NDJSON */
+    int64_t after;             /* Last-Event-ID, else ?after=, else 0 */
+    int resumed;               /* one of the two was given */
+    smd_stream_credential cred; /* for smd_stream_revoke (the request's strings) */
+} smd_stream_request;
+/* The common part of every event stream's request: the encoding by
+ * Accept (406), the resume point (400 when malformed) and the
+ * connection's place among the streams (503 when full, evicting the
+ * oldest of its address as smd_conns_stream says).  1 to go on, or 0
+ * with the refusal answered into *r. */
+int smd_stream_request_open(struct MHD_Connection *conn, smd_request *req, smd_stream_request *sr,
+                            enum MHD_Result *r);
 
 /* Status document of a job (OGC statusInfo with links).  Lock held. */
 json_t *smd_status_document(const smd_job *job);

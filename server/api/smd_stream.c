@@ -49,10 +49,13 @@ typedef struct smd_follower {
     char *authorization, *token;  /* the credential it was opened with (copies) */
     _Atomic double last_send;     /* monotonic; written by the reader, read by the tick */
     uint64_t *bytes_out;
+    const smd_stream_source *src; /* NULL: the job's log; else its events' maker */
+    void *src_state;              /* owned, freed by src->free */
     char *buf;                    /* formatted bytes not yet handed to MHD */
     size_t len, off, cap;
     struct smd_follower *job_next, *job_prev; /* same bucket of the table by job id */
     struct smd_follower *all_next, *all_prev;
+    struct smd_follower *src_next, *src_prev; /* the streams with a source */
 } smd_follower;
 
 /* The streams, by srv->lock: every one in a list (keepalives, shutdown)
@@ -61,6 +64,7 @@ typedef struct smd_follower {
 typedef struct smd_events {
     smd_follower *all;
     size_t n;
+    smd_follower *sourced; /* woken by any job their source follows */
     smd_follower **bucket;
     size_t nbucket; /* a power of two */
 } smd_events;
@@ -234,24 +238,32 @@ static ssize_t end_evicted(smd_follower *f, char *out, size_t max)
     return copy_out(f, out, max);
 }
 
-static ssize_t follower_read(void *cls, uint64_t pos, char *out, size_t max)
+/* Lock held (released here): nothing new to send: the keepalive when due,
+ * else sleep until someone collects and resumes us. */
+static ssize_t idle(smd_follower *f, char *out, size_t max)
 {
-    smd_follower *f = cls;
     smd_server *srv = f->srv;
-    (void)pos;
-    if (f->off < f->len)
-        return copy_out(f, out, max);
-    if (f->done)
-        return MHD_CONTENT_READER_END_OF_STREAM;
-
-    pthread_mutex_lock(&srv->lock);
-    smd_job *job = f->job;
-    if (atomic_load(&srv->stopping) || f->revoked) {
+    if (f->keepalive_due) {
+        f->keepalive_due = 0;
         pthread_mutex_unlock(&srv->lock);
-        return MHD_CONTENT_READER_END_OF_STREAM;
+        const char *ka = f->sse ? ": keepalive\n\n" : "\n";
+        if (smd_buf_append(&f->buf, &f->len, &f->cap, ka, strlen(ka)) != 0)
+            return MHD_CONTENT_READER_END_WITH_ERROR;
+        return copy_out(f, out, max);
     }
-    if (f->evicted)
-        return end_evicted(f, out, max);
+    /* nothing to send: sleep until someone collects and resumes us */
+    f->suspended = 1;
+    MHD_suspend_connection(f->conn);
+    pthread_mutex_unlock(&srv->lock);
+    return 0;
+}
+
+/* Lock held (released here): the job's log from f->next_seq, then its
+ * final status. */
+static ssize_t log_read(smd_follower *f, char *out, size_t max)
+{
+    smd_server *srv = f->srv;
+    smd_job *job = f->job;
     if (job->removed) /* deleted: its log is gone, its final status is not */
         return end_with_status(f, out, max);
     if (f->next_seq <= job->nevents) {
@@ -271,19 +283,43 @@ static ssize_t follower_read(void *cls, uint64_t pos, char *out, size_t max)
     }
     if (smd_job_state_final(job->state) && !job->worker_active && !job->ending)
         return end_with_status(f, out, max); /* ending: its last event is still to come */
-    if (f->keepalive_due) {
-        f->keepalive_due = 0;
-        pthread_mutex_unlock(&srv->lock);
-        const char *ka = f->sse ? ": keepalive\n\n" : "\n";
-        if (smd_buf_append(&f->buf, &f->len, &f->cap, ka, strlen(ka)) != 0)
+    return idle(f, out, max);
+}
+
+/* Lock held (released here), for a stream with a source: what its source
+ * made, else the keepalive or the wait. */
+static ssize_t source_read(smd_follower *f, char *out, size_t max)
+{
+    int rc = f->src->refill(f->src_state, f->srv, f->job, f->sse, &f->next_seq, &f->buf, &f->len,
+                            &f->cap);
+    if (rc < 0 || rc == 1 || f->len) {
+        pthread_mutex_unlock(&f->srv->lock);
+        if (rc < 0)
             return MHD_CONTENT_READER_END_WITH_ERROR;
-        return copy_out(f, out, max);
+        f->done = rc == 1;
+        return f->len ? copy_out(f, out, max) : MHD_CONTENT_READER_END_OF_STREAM;
     }
-    /* nothing to send: sleep until someone collects and resumes us */
-    f->suspended = 1;
-    MHD_suspend_connection(f->conn);
-    pthread_mutex_unlock(&srv->lock);
-    return 0;
+    return idle(f, out, max);
+}
+
+static ssize_t follower_read(void *cls, uint64_t pos, char *out, size_t max)
+{
+    smd_follower *f = cls;
+    smd_server *srv = f->srv;
+    (void)pos;
+    if (f->off < f->len)
+        return copy_out(f, out, max);
+    if (f->done)
+        return MHD_CONTENT_READER_END_OF_STREAM;
+
+    pthread_mutex_lock(&srv->lock);
+    if (atomic_load(&srv->stopping) || f->revoked) {
+        pthread_mutex_unlock(&srv->lock);
+        return MHD_CONTENT_READER_END_OF_STREAM;
+    }
+    if (f->evicted)
+        return end_evicted(f, out, max);
+    return f->src ? source_read(f, out, max) : log_read(f, out, max);
 }
 
 /* ---------------------------------------------------- the table by job */
@@ -347,6 +383,13 @@ static void link_follower(smd_events *ev, smd_follower *f)
     ev->n++;
     bucket_push(ev, f);
     maybe_grow(ev);
+    if (f->src) {
+        f->src_prev = NULL;
+        f->src_next = ev->sourced;
+        if (ev->sourced)
+            ev->sourced->src_prev = f;
+        ev->sourced = f;
+    }
 }
 
 static void unlink_follower(smd_events *ev, smd_follower *f)
@@ -364,6 +407,14 @@ static void unlink_follower(smd_events *ev, smd_follower *f)
     if (f->all_next)
         f->all_next->all_prev = f->all_prev;
     ev->n--;
+    if (f->src) {
+        if (f->src_prev)
+            f->src_prev->src_next = f->src_next;
+        else
+            ev->sourced = f->src_next;
+        if (f->src_next)
+            f->src_next->src_prev = f->src_prev;
+    }
 }
 
 size_t smd_stream_count(const smd_server *srv)
@@ -380,6 +431,19 @@ void smd_stream_free_all(smd_server *srv)
     }
 }
 
+/* What a follower owns, and itself (not linked, or unlinked). */
+static void follower_discard(smd_follower *f)
+{
+    if (f->fd >= 0)
+        close(f->fd);
+    if (f->src)
+        f->src->free(f->src_state);
+    free(f->buf);
+    free(f->authorization);
+    free(f->token);
+    free(f);
+}
+
 static void follower_free(void *cls)
 {
     smd_follower *f = cls;
@@ -388,12 +452,43 @@ static void follower_free(void *cls)
     unlink_follower(srv->events, f);
     smd_job_unref(f->job);
     pthread_mutex_unlock(&srv->lock);
-    if (f->fd >= 0)
-        close(f->fd);
-    free(f->buf);
-    free(f->authorization);
-    free(f->token);
-    free(f);
+    follower_discard(f);
+}
+
+/* The follower's credential copies and the response around it, linked: NULL
+ * (f discarded, msg says why) out of memory.  Lock held. */
+static struct MHD_Response *follower_start(smd_follower *f, smd_server *srv, smd_job *job,
+                                           struct MHD_Connection *conn, int sse, int64_t after_seq,
+                                           uint64_t *bytes_out, const smd_stream_credential *cred,
+                                           char *msg, size_t cap)
+{
+    f->srv = srv;
+    f->job = job;
+    f->conn = conn;
+    f->sse = sse;
+    /* after_seq is bounded by the caller (<= SMD_REQUEST_INT_MAX); the
+     * saturation only keeps this line free of overflow whatever it gets */
+    f->next_seq = after_seq < 0 ? 1 : after_seq < INT64_MAX ? after_seq + 1 : INT64_MAX;
+    atomic_store(&f->last_send, sm_clock_seconds());
+    f->bytes_out = bytes_out;
+    struct MHD_Response *resp = NULL;
+    if ((!cred->authorization || (f->authorization = strdup(cred->authorization))) &&
+        (!cred->token || (f->token = strdup(cred->token))))
+        resp = MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 16 * 1024, follower_read, f,
+                                                 follower_free);
+    if (!resp) {
+        follower_discard(f);
+        snprintf(msg, cap, "out of memory");
+        return NULL;
+    }
+    /* linked only now: from here follower_free undoes it */
+    smd_job_ref(job);
+    link_follower(srv->events, f);
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE,
+                            sse ? "text/event-stream; charset=utf-8" : "application/x-ndjson");
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CACHE_CONTROL, "no-cache");
+    MHD_add_response_header(resp, "X-Accel-Buffering", "no");
+    return resp;
 }
 
 struct MHD_Response *smd_stream_response(smd_server *srv, smd_job *job,
@@ -411,9 +506,10 @@ struct MHD_Response *smd_stream_response(smd_server *srv, smd_job *job,
         snprintf(msg, cap, "out of memory");
         return NULL;
     }
+    f->fd = -1;
     if (smd_store_path(srv->store, job->id, "events.ndjson", f->path, sizeof f->path) != 0) {
         snprintf(msg, cap, "path too long");
-        free(f);
+        follower_discard(f);
         return NULL;
     }
     /* opened now so that a deletion of the job cannot pull the log away
@@ -421,46 +517,29 @@ struct MHD_Response *smd_stream_response(smd_server *srv, smd_job *job,
     f->fd = open(f->path, O_RDONLY | O_CLOEXEC);
     if (f->fd < 0 && errno != ENOENT) {
         snprintf(msg, cap, "events.ndjson: %s", strerror(errno));
-        free(f);
+        follower_discard(f);
         return NULL;
     }
-    if ((cred->authorization && !(f->authorization = strdup(cred->authorization))) ||
-        (cred->token && !(f->token = strdup(cred->token)))) {
-        snprintf(msg, cap, "out of memory");
-        if (f->fd >= 0)
-            close(f->fd);
-        free(f->authorization);
-        free(f);
-        return NULL;
-    }
-    f->srv = srv;
-    f->job = job;
-    f->conn = conn;
-    f->sse = sse;
-    /* after_seq is bounded by the caller (<= SMD_REQUEST_INT_MAX); the
-     * saturation only keeps this line free of overflow whatever it gets */
-    f->next_seq = after_seq < 0 ? 1 : after_seq < INT64_MAX ? after_seq + 1 : INT64_MAX;
-    atomic_store(&f->last_send, sm_clock_seconds());
-    f->bytes_out = bytes_out;
-    struct MHD_Response *resp =
-        MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 16 * 1024, follower_read, f, follower_free);
-    if (!resp) {
-        if (f->fd >= 0)
-            close(f->fd);
-        free(f->authorization);
-        free(f->token);
-        free(f);
+    return follower_start(f, srv, job, conn, sse, after_seq, bytes_out, cred, msg, cap);
+}
+
+struct MHD_Response *smd_stream_source_response(smd_server *srv, smd_job *job,
+                                                struct MHD_Connection *conn, int sse,
+                                                int64_t after_seq, const smd_stream_source *src,
+                                                void *state, uint64_t *bytes_out,
+                                                const smd_stream_credential *cred, char *msg,
+                                                size_t cap)
+{
+    smd_follower *f = events_of(srv) ? calloc(1, sizeof *f) : NULL;
+    if (!f) {
+        src->free(state);
         snprintf(msg, cap, "out of memory");
         return NULL;
     }
-    /* linked only now: from here follower_free undoes it */
-    smd_job_ref(job);
-    link_follower(srv->events, f);
-    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE,
-                            sse ? "text/event-stream; charset=utf-8" : "application/x-ndjson");
-    MHD_add_response_header(resp, MHD_HTTP_HEADER_CACHE_CONTROL, "no-cache");
-    MHD_add_response_header(resp, "X-Accel-Buffering", "no");
-    return resp;
+    f->fd = -1;
+    f->src = src;
+    f->src_state = state;
+    return follower_start(f, srv, job, conn, sse, after_seq, bytes_out, cred, msg, cap);
 }
 
 /* ------------------------------------------------------------- wake-ups */
@@ -504,6 +583,11 @@ void smd_stream_jobs_changed(smd_server *srv, const char (*ids)[SMD_ID_LEN + 1],
         for (smd_follower *f = ev->bucket[bucket_of(ev, ids[i])]; f; f = f->job_next)
             if (strcmp(f->job->id, ids[i]) == 0)
                 collect(f, &w);
+    /* a stream with a source follows other jobs too (a batch: its members) */
+    for (smd_follower *f = ev ? ev->sourced : NULL; f; f = f->src_next)
+        for (size_t i = 0; f->suspended && i < n; i++)
+            if (f->src->follows(f->src_state, ids[i]))
+                collect(f, &w); /* clears f->suspended: the loop ends */
     if (ev && keepalive) {
         double now = sm_clock_seconds();
         for (smd_follower *f = ev->all; f; f = f->all_next)

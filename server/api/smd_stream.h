@@ -43,6 +43,33 @@ struct MHD_Response *smd_stream_response(smd_server *srv, smd_job *job,
                                          struct MHD_Connection *conn, int sse,
                                          int64_t after_seq, uint64_t *bytes_out,
                                          const smd_stream_credential *cred, char *msg, size_t cap);
+/* A stream whose events its source makes instead of a job's log
+ * (GET /v1/batches/{id}/events, api/smd_batch_events.h).  The follower
+ * does the rest as for a log: suspend and resume, keepalives, revocation,
+ * eviction, shutdown.  It is woken by changes of its job and of every job
+ * the source follows. */
+typedef struct smd_stream_source {
+    /* Lock held: appends to *buf (SSE when sse, else NDJSON lines) the
+     * events of what changed since the last call, and sets *next_seq to
+     * one past the last event id it sent (what an evicted SSE client is
+     * told to resume from).  0 (with or without events), 1 when what it
+     * appended ends the stream, -1 out of memory. */
+    int (*refill)(void *state, smd_server *srv, smd_job *job, int sse, int64_t *next_seq,
+                  char **buf, size_t *len, size_t *cap);
+    /* Lock held: 1 when a change of job id concerns the stream. */
+    int (*follows)(const void *state, const char *id);
+    void (*free)(void *state);
+} smd_stream_source;
+
+/* As smd_stream_response, for a stream with a source (state: owned from
+ * here, freed with src->free, also on failure).  Lock held. */
+struct MHD_Response *smd_stream_source_response(smd_server *srv, smd_job *job,
+                                                struct MHD_Connection *conn, int sse,
+                                                int64_t after_seq, const smd_stream_source *src,
+                                                void *state, uint64_t *bytes_out,
+                                                const smd_stream_credential *cred, char *msg,
+                                                size_t cap);
+
 /* Lock NOT held (takes srv->lock, then tokens_lock): after SIGHUP
  * replaced the tokens, ends every stream opened with a token the new set
  * no longer has (it ends at once, without the final status). */

@@ -1,7 +1,7 @@
 /* The target list of `shapematch batch --targets LIST.csv`
  * (proto/job/sm_job_batch_list.c): any input is parsed or refused with a
- * message naming its line; every accepted target has a surface, or a
- * mesh and its distance; after sm_batch_list_finish the names are
+ * message naming its line; every accepted target has one of a surface,
+ * an image, or a mesh and its distance; after sm_batch_list_finish the names are
  * non-empty, unique and made of [A-Za-z0-9._-] without a leading dot. */
 #include <stdint.h>
 #include <stdlib.h>
@@ -38,8 +38,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     for (size_t i = 0; i < l.n; i++) {
         const sm_batch_target *t = &l.t[i];
-        if (!t->name || !(t->target_surface || (t->target_mesh && t->target_sol)) ||
-            (t->target_surface && t->target_sol))
+        if (!t->name ||
+            !(t->target_surface || t->target_image || (t->target_mesh && t->target_sol)) ||
+            !!t->target_surface + !!t->target_image + !!t->target_sol > 1)
             abort();
     }
     if (sm_batch_list_finish(&l, &err) != SM_OK)

@@ -231,6 +231,13 @@ tmpl='/v1/batches/{batchID}'
 noauth_probe "no token" GET "$tmpl" "/v1/batches/$BJ"
 probe "the batch" GET "$tmpl" 200 "/v1/batches/$BJ" '.status == "successful" and .targets[0].name == "disk"' "${AUTH[@]}"
 probe "a job that is not a batch" GET "$tmpl" 404 "/v1/batches/$J" '' "${AUTH[@]}"
+tmpl='/v1/batches/{batchID}/events'
+noauth_probe "no token" GET "$tmpl" "/v1/batches/$BJ/events"
+probe "batch events as SSE" GET "$tmpl" 200 "/v1/batches/$BJ/events" '' "${AUTH[@]}" -H 'Accept: text/event-stream'
+probe "batch events as NDJSON" GET "$tmpl" 200 "/v1/batches/$BJ/events" '' "${AUTH[@]}"
+probe "nothing acceptable" GET "$tmpl" 406 "/v1/batches/$BJ/events" '' "${AUTH[@]}" -H 'Accept: image/png'
+probe "bad Last-Event-ID" GET "$tmpl" 400 "/v1/batches/$BJ/events" '' "${AUTH[@]}" -H 'Last-Event-ID: x'
+probe "a job that is not a batch" GET "$tmpl" 404 "/v1/batches/$J/events" '' "${AUTH[@]}"
 tmpl='/v1/batches/{batchID}/model'
 noauth_probe "no token" GET "$tmpl" "/v1/batches/$BJ/model"
 probe "the model" GET "$tmpl" 200 "/v1/batches/$BJ/model" '.summary.members == 1' "${AUTH[@]}"

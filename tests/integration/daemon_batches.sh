@@ -7,8 +7,9 @@
 # the code: the family has one parameter (R), so after rigid Procrustes
 # the first mode carries >= 95% of the variance and its scores are linear
 # in R (|correlation| > 0.99, computed here with awk); the per-target
-# status, counts, progress and ETA of GET /v1/batches/{id}; the model's
-# files.  Then: a failing target (its worker exits 3: a wrapper worker
+# status, counts, progress and ETA of GET /v1/batches/{id}, and its
+# event stream (NDJSON followed live, SSE resumed); the model's files;
+# the CLI's `shapematch batch --server` (submit, group, follow, fetch).  Then: a failing target (its worker exits 3: a wrapper worker
 # fails the jobs whose params hold the marker max_iter 7) is reported and
 # left out of the model, not fatal; DELETE of a live batch cancels the
 # model job and every live member; DELETE of a final one deletes them
@@ -88,6 +89,30 @@ if jq -e '.status == "successful" and .counts.successful == 6 and .progress == 1
 else
     not_ok "the batch ends successful" "$doc"
 fi
+# SSE on the final batch: the current state of every target, one batch
+# event with id: = its seq, the status; resuming with that id sends the
+# status only (nothing changed), with an older one every target again
+sse() { hcurl -N --max-time $((10 * SLOW)) -H 'Accept: text/event-stream' "$@" "$BASE/v1/batches/$B/events"; }
+sse >"$WORK/sse0.txt"
+V=$(sed -n 's/^id: //p' "$WORK/sse0.txt" | tail -1)
+sse -H "Last-Event-ID: $V" >"$WORK/sse1.txt"
+sse -H "Last-Event-ID: $((V - 1))" >"$WORK/sse2.txt"
+if [ "$(grep -c '^event: target' "$WORK/sse0.txt")" = 6 ] && grep -q "^data: .*\"seq\":$V," "$WORK/sse0.txt" &&
+    [ "$(grep -c '^event: ' "$WORK/sse1.txt")" = 1 ] && grep -q '^event: status' "$WORK/sse1.txt" &&
+    [ "$(grep -c '^event: target' "$WORK/sse2.txt")" = 6 ]; then
+    ok "SSE: 6 targets, id $V, status; Last-Event-ID $V: the status only; $((V - 1)): every target again"
+else
+    not_ok "the batch's SSE stream and its resumption" "$(head -c 400 "$WORK/sse0.txt") / $(cat "$WORK/sse1.txt")"
+fi
+codes=$(for u in "/v1/batches/${IDS[0]}/events" "/v1/batches/0123456789abcdef0123456789abcdef/events"; do
+    hcurl -o /dev/null -w '%{http_code} ' "$BASE$u"
+done; hcurl -o /dev/null -w '%{http_code} ' -H 'Accept: text/html' "$BASE/v1/batches/$B/events"
+hcurl -o /dev/null -w '%{http_code}' -H 'Last-Event-ID: x' "$BASE/v1/batches/$B/events")
+if [ "$codes" = "404 404 406 400" ]; then
+    ok "batch events: 404 for a member or an unknown id, 406 for text/html, 400 for a bad Last-Event-ID"
+else
+    not_ok "batch events refusals" "$codes"
+fi
 hcurl "$BASE/v1/batches/$B/model" >"$WORK/model.json"
 hcurl -o "$WORK/scores.csv" "$BASE/v1/batches/$B/model/scores.csv"
 hcurl -o "$WORK/mean.mesh" "$BASE/v1/batches/$B/model/mean.mesh"
@@ -115,6 +140,36 @@ if [ "$(hcurl -o /dev/null -w '%{http_code}' "$BASE/v1/jobs/${IDS[0]}/results/me
     ok "a member's own results are served as any job's"
 else
     not_ok "a member's results"
+fi
+
+# ----------------------------------------- the CLI: shapematch batch --server
+# three circles from a LIST.csv: submitted, grouped, followed, fetched
+printf 'name,target_mesh,target_sol\n' >"$WORK/list.csv"
+for k in 1 2 3; do R=$(echo "0.6 0.7 0.8" | cut -d' ' -f$k); echo "r$k,$BOX,$WORK/case/box-$R.sol"; done >>"$WORK/list.csv"
+"$BIN/shapematch" batch --server "$BASE" --template "$DISK" --targets "$WORK/list.csv" \
+    --clamp-ball 0,0,0.1 --max-iter 30 -o "$WORK/cli" >"$WORK/cli.out" 2>"$WORK/cli.log"
+rc=$?
+CB_ID=$(jq -r '.batchID // empty' "$WORK/cli/batch.json" 2>/dev/null)
+r=$(awk -F, -v radii="0.6 0.7 0.8" 'BEGIN { split(radii, R, " ") }
+    NR > 1 { k = substr($1, 2) + 0; x = R[k]; y = $2; n++; sx += x; sy += y; sxx += x * x; syy += y * y; sxy += x * y }
+    END { if (n < 3) { print 0; exit } c = (n * sxy - sx * sy) / sqrt((n * sxx - sx * sx) * (n * syy - sy * sy)); printf "%.4f", c < 0 ? -c : c }' \
+    "$WORK/cli/model/scores.csv" 2>/dev/null)
+if [ "$rc" = 0 ] && [ -n "$CB_ID" ] && jq -e '.status == "successful" and .counts.successful == 3' "$WORK/cli/batch.json" >/dev/null &&
+    for k in 1 2 3; do [ -s "$WORK/cli/targets/r$k/result.mesh" ] || exit 1; done &&
+    hcurl "$BASE/v1/batches/$CB_ID/model/scores.csv" | cmp -s - "$WORK/cli/model/scores.csv" &&
+    grep -q Vertices "$WORK/cli/model/mean.mesh" && awk -v r="$r" 'BEGIN { exit !(r > 0.99) }' &&
+    grep -q "batch $CB_ID of 3 targets" "$WORK/cli.log"; then
+    ok "shapematch batch --server: 3 targets submitted and fetched into targets/r1..r3, the model's files (scores.csv = the daemon's; mode 1 linear in R, |r| = $r)"
+else
+    not_ok "shapematch batch --server" "rc $rc: $(tail -5 "$WORK/cli.log")"
+fi
+"$BIN/shapematch" batch --server "$BASE" --template "$DISK" --target-mesh "$BOX" --target-sol "$WORK/case/box-0.6.sol" \
+    --clamp-ball 0,0,0.1 --jobs 2 -o "$WORK/cli2" 2>"$WORK/cli2.log"
+rc=$?
+if [ "$rc" = 1 ] && grep -q -- "--jobs is for a local batch" "$WORK/cli2.log"; then
+    ok "shapematch batch --server refuses a local-only option (--jobs: exit 1)"
+else
+    not_ok "batch --server with --jobs" "rc $rc: $(cat "$WORK/cli2.log")"
 fi
 
 # ------------------------------------------------------ a failing target
@@ -150,8 +205,28 @@ mapfile -t C < <(for R in 0.6 0.7 0.8; do
 done)
 post_batch "$(batch_body rigid "${C[@]}")" >/dev/null
 CB=$(jq -r '.batchID // empty' "$WORK/batch.out")
+# its event stream (NDJSON), followed live until the daemon closes it
+hcurl -N -H 'Accept: application/x-ndjson' "$BASE/v1/batches/$CB/events" \
+    >"$WORK/batch-events.ndjson" 2>"$WORK/batch-events.err" &
+EVPID=$!
 poll 20 state_is "${C[0]}" running
+iterating() { grep -q '"type":"target".*"status":"running".*"iteration":[1-9]' "$WORK/batch-events.ndjson"; }
+poll 20 iterating
 doc=$(hcurl -X DELETE "$BASE/v1/batches/$CB")
+# the stream: every target (r1..r3), one running with its iteration, batch
+# events whose seq grows, then (the cancel) the dismissed targets and last
+# the status with the final document; closed by the daemon
+if wait "$EVPID" && jq -e -s '
+      ([.[] | select(.type == "target") | .name] | unique) == ["r1","r2","r3"]
+      and any(.[]; .type == "target" and .status == "running" and .iteration >= 1)
+      and any(.[]; .type == "target" and .status == "dismissed")
+      and ([.[] | select(.type == "batch") | .seq] | . == sort and length >= 2)
+      and (last | .type == "status" and .status == "dismissed" and .counts.dismissed == 3)
+      and ([.[] | select(.type == "status")] | length) == 1' "$WORK/batch-events.ndjson" >/dev/null; then
+    ok "GET /v1/batches/{id}/events (NDJSON) live: $(grep -c '"target"' "$WORK/batch-events.ndjson") target and $(grep -c '"batch"' "$WORK/batch-events.ndjson") batch events, the cancel, the final status; closed at the end"
+else
+    not_ok "the batch's event stream" "$(tail -c 800 "$WORK/batch-events.ndjson") $(cat "$WORK/batch-events.err")"
+fi
 poll 20 batch_final "$CB"
 all_dismissed() {
     local id

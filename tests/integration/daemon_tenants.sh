@@ -3,7 +3,7 @@
 # belongs to the submitting token's tenant; another tenant gets 404 on
 # every route of it (walked from the route table: status, events, live
 # mesh, results, snapshots, cancel and delete) and does not see it in the
-# list; an admin sees every job; an Idempotency-Key is scoped to its
+# list, nor a batch of it (the batch routes, walked alike); an admin sees every job; an Idempotency-Key is scoped to its
 # tenant; SIGHUP reloads the tokens (logged), a broken file keeps the old
 # ones.
 source "$(dirname "$0")/lib.sh"
@@ -21,7 +21,7 @@ ok "the daemon starts with a tenants file"
 as() { AUTH=(-H "Authorization: Bearer tok-$1"); }
 code_as() { # TENANT METHOD URL: the HTTP status
     curl -sS --max-time $((10 * SLOW)) -o "$WORK/reply.json" -w '%{http_code}' \
-        -H "Authorization: Bearer tok-$1" -X "$2" "$3"
+        -H "Authorization: Bearer tok-$1" -X "$2" "$3" "${@:4}"
 }
 as alice
 A=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
@@ -138,6 +138,33 @@ if poll 10 broken && [ "$(code_as carol GET "$BASE/v1/jobs")" = 200 ]; then
     ok "a broken tokens file on SIGHUP is refused (logged), the tokens in use stay"
 else
     not_ok "a broken tokens file keeps the old tokens" "$(grep reload "$DLOG" | tail -2)"
+fi
+
+# the batch routes alike (GET, events, model, DELETE): alice's batch of
+# her job is 404 to carol (bob's token is gone by now), not to her
+code_as alice POST "$BASE/v1/batches" -H 'Content-Type: application/json' \
+    --data-binary "{\"targets\": [{\"job\": \"$A\", \"name\": \"a\"}]}" >/dev/null
+AB=$(jq -r '.batchID // empty' "$WORK/reply.json")
+batch_final() { code_as alice GET "$BASE/v1/batches/$AB" >/dev/null; jq -e '.status | test("successful|failed|dismissed")' "$WORK/reply.json" >/dev/null; }
+poll 30 batch_final
+routes=$(sed -n 's/^ *{SMD_METHOD_\([A-Z]*\), *BATCH\( "[^"]*"\)\{0,1\},.*/\1\2/p' \
+    "$ROOT/server/api/smd_route_table.c" | tr -d '"' | sort -k1,1r)
+walked=0 bad=""
+while read -r method suffix; do
+    case $method in READ) method=GET ;; esac
+    path=/v1/batches/$AB${suffix//\{file\}/mean.mesh}
+    c=$(code_as carol "$method" "$BASE$path")
+    [ "$c" = 404 ] || bad="$bad [carol $method $path: $c]"
+    if [ "$method" != DELETE ]; then
+        c=$(code_as alice "$method" "$BASE$path")
+        [ "$c" != 404 ] || bad="$bad [alice $method $path: 404]"
+    fi
+    walked=$((walked + 1))
+done <<<"$routes"
+if [ -n "$AB" ] && [ "$walked" -ge 5 ] && [ -z "$bad" ]; then
+    ok "carol gets 404 on each of the $walked batch routes of the route table for alice's batch"
+else
+    not_ok "every batch route hides another tenant's batch" "batch $AB, walked $walked:$bad"
 fi
 
 if stop_daemon && reports_clean; then

@@ -6,7 +6,8 @@
 // standard deviations moves the boundary's mean radius by 6 sigma, where
 // sigma is the spread of the generating radii (their sample standard
 // deviation, within 25%: the matches are not exact circles) -- a figure
-// from the radii alone, not from the model's files.  No console error.
+// from the radii alone, not from the model's files.  The jobs list offers
+// the model job its batch view (not the match view).  No console error.
 // Prints one JSON line per check: {desc, ok, detail}.
 import { chromium } from 'playwright-core';
 
@@ -68,6 +69,26 @@ try {
   report(`mode 1 at +-3 sigma: the radius moves by 6 sigma, sigma ${sigma.toFixed(4)} against the radii's ${sd.toFixed(4)}; the mean's radius ${r0.toFixed(3)} near their mean ${mean.toFixed(3)}`,
     Math.abs(sigma / sd - 1) < 0.25 && Math.abs(r0 - mean) < 0.05 && img0 !== imgPlus, `r0 ${r0} r+ ${rPlus} r- ${rMinus}`);
   await page.screenshot({ path: `${logDir}/web_batch.png`, fullPage: true });
+
+  // the jobs list: the model job (processID shape-model) offers its batch
+  // view, not the match view it has no result for; a target keeps 'view'
+  await page.goto(`${base}/`);
+  await page.waitForSelector('#batch-panel', { state: 'attached' });
+  const rowOf = (jid) => page.waitForFunction((j) => [...document.querySelectorAll('#jobs tr')]
+    .find((tr) => tr.querySelector('.job-id')?.textContent === j), jid, { timeout: 10000 });
+  await rowOf(id);
+  const actions = await page.$$eval('#jobs tr', (trs) => Object.fromEntries(trs.map((tr) =>
+    [tr.querySelector('.job-id').textContent, tr.querySelector('button')?.dataset.action])));
+  const hiddenBefore = await page.$eval('#batch-panel', (p) => p.hidden);
+  await page.click(`#jobs tr:has(code.job-id:text-is("${id}")) button[data-action=batch]`);
+  await page.waitForSelector('#batch-panel:not([hidden])', { timeout: 10000 });
+  await page.waitForFunction((n) => document.querySelectorAll('#batch-targets tr').length === n, radii.length, { timeout: 10000 });
+  const shown = await page.textContent('#batch-id');
+  const hash = await page.evaluate(() => location.hash);
+  const targetsView = Object.entries(actions).filter(([k]) => k !== id).every(([, a]) => a === 'view');
+  report("the jobs list offers the model job's batch view ('batch', not 'view'), and it opens it",
+    actions[id] === 'batch' && targetsView && hiddenBefore && shown === id && hash === `#batch=${id}`,
+    `${JSON.stringify(actions)} hidden ${hiddenBefore} shown ${shown} hash ${hash}`);
   report('no console or page error', errors.length === 0, errors.join('\n'));
 } finally {
   await browser.close();

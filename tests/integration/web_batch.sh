@@ -2,7 +2,8 @@
 # The web app's batch view (web/batch.js) in real Chromium (web_batch.mjs:
 # the checks): a daemon, the disk template matched onto 4 circles of
 # radius 0.60, 0.70, 0.80, 0.85 (4 ordinary jobs grouped by POST
-# /v1/batches), opened in the app by #batch=ID while it runs.  Release
+# /v1/batches), opened in the app by #batch=ID while it runs, then from
+# the jobs list (the model job offers its batch view).  Release
 # variant only (the page is the same in both; the daemon side is
 # daemon_batches.sh's in every variant).  Screenshot in build/test-logs/.
 source "$(dirname "$0")/lib.sh"

@@ -484,12 +484,18 @@ static void test_route_table(void **state)
     snprintf(path, sizeof path, "/v1/batches/%s", id);
     smd_route_find(path, 0, &req, &allowed, &route);
     assert_int_equal(allowed, SMD_METHOD_READ | SMD_METHOD_DELETE);
+    /* a batch's event stream: its own label, read only */
+    snprintf(path, sizeof path, "/v1/batches/%s/events", id);
+    first = smd_route_find(path, SMD_METHOD_GET, &req, &allowed, &route);
+    assert_true(route && strcmp(route->label, "/v1/batches/{id}/events") == 0);
+    assert_int_equal(allowed, SMD_METHOD_READ);
+    assert_string_equal(req.id, id);
 
     /* the labels: "other" first, each once */
     const char *labels[64];
     size_t n = smd_route_labels(labels, 64);
     assert_string_equal(labels[0], "other");
-    assert_int_equal(n, 27); /* with mesh/latest, the two schemas, /v1/conformance, the app files and the OGC execute route (issue 11), the job's inputs and one input (issue 27), the warp route (issue 24), the batches, a batch and its model (issue 25) */
+    assert_int_equal(n, 28); /* with mesh/latest, the two schemas, /v1/conformance, the app files and the OGC execute route (issue 11), the job's inputs and one input (issue 27), the warp route (issue 24), the batches, a batch, its events and its model (issue 25) */
     for (size_t i = 0; i < n; i++)
         for (size_t k = i + 1; k < n; k++)
             assert_true(strcmp(labels[i], labels[k]) != 0);

@@ -1,0 +1,404 @@
+/* `shapematch batch --server URL`: the batch run by a daemon
+ * (docs/api.md "Batches"): each target submitted as an ordinary job
+ * (submit_job.h, as `shapematch submit` sends one), the jobs grouped by
+ * POST /v1/batches, the batch followed to its end (GET /v1/batches/{id},
+ * a line whenever its progress changes), then every target's results
+ * fetched into DIR/targets/NAME/ (as `shapematch fetch`) and the model's
+ * files into DIR/model/; DIR/batch.json is the batch's final document.
+ * The targets and the run options are the local batch's; what runs
+ * where is the daemon's business (its workers, on any node). */
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "cli.h"
+#include "daemon_ops.h"
+#include "fsutil.h"
+#include "job/sm_job_batch_list.h"
+#include "remote.h"
+#include "sm_json.h"
+#include "sm_proto_events.h"
+#include "sm_proto_params.h"
+#include "sm_proto_vocab.h"
+#include "submit_job.h"
+
+#define POLL_SECONDS 0.5
+
+enum { RB_TEMPLATE, RB_SURFACE, RB_IMAGE, RB_MESH, RB_SOL, RB_TARGETS, RB_ALIGN, RB_OUTPUT,
+       RB_FORMAT, RB_QUIET, RB_LOCAL_ONLY };
+
+typedef struct remote_batch {
+    sm_batch_list list;
+    const char *template_path, *model_align, *outdir, *pending_mesh;
+    unsigned formats;
+    int quiet;
+    job_options job;
+    char (*ids)[SM_JOB_ID_MAX + 1]; /* the targets' jobs, by list index */
+    char batch_id[SM_JOB_ID_MAX + 1];
+} remote_batch;
+
+static int rb_flag(void *user, int id, const char *flag, const char *value, char *msg, size_t cap)
+{
+    remote_batch *b = user;
+    sm_error err;
+    sm_error_clear(&err);
+    sm_status st = SM_OK;
+    switch (id) {
+    case CLI_ARG_POSITIONAL:
+        snprintf(msg, cap, "unexpected argument '%.80s'", value);
+        return -1;
+    case CLI_ARG_JOB: return job_option_apply(&b->job, flag, value, msg, cap);
+    case RB_TEMPLATE: b->template_path = value; return 0;
+    case RB_SURFACE: st = sm_batch_list_add(&b->list, NULL, value, NULL, NULL, NULL, NULL, &err); break;
+    case RB_IMAGE: st = sm_batch_list_add(&b->list, NULL, NULL, value, NULL, NULL, NULL, &err); break;
+    case RB_MESH:
+        if (b->pending_mesh) {
+            snprintf(msg, cap, "--target-mesh %.200s has no --target-sol", b->pending_mesh);
+            return -1;
+        }
+        b->pending_mesh = value;
+        return 0;
+    case RB_SOL:
+        if (!b->pending_mesh) {
+            snprintf(msg, cap, "--target-sol %.200s follows no --target-mesh", value);
+            return -1;
+        }
+        st = sm_batch_list_add(&b->list, NULL, NULL, NULL, b->pending_mesh, value, NULL, &err);
+        b->pending_mesh = NULL;
+        break;
+    case RB_TARGETS: return batch_read_list(&b->list, value, msg, cap);
+    case RB_ALIGN: b->model_align = value; return 0;
+    case RB_OUTPUT: b->outdir = value; return 0;
+    case RB_FORMAT: return fetch_parse_formats(flag, value, &b->formats, msg, cap);
+    case RB_QUIET: b->quiet = 1; return 0;
+    default:
+        snprintf(msg, cap, "%s is for a local batch (without --server)", flag);
+        return -1;
+    }
+    if (st != SM_OK)
+        snprintf(msg, cap, "%s", err.msg);
+    return st == SM_OK ? 0 : -1;
+}
+
+/* The rules beyond each flag's own; NULL when fine. */
+static const char *rb_problem(remote_batch *b, char *msg, size_t cap)
+{
+    sm_error err;
+    sm_error_clear(&err);
+    if (b->pending_mesh)
+        return "--target-mesh has no --target-sol";
+    if (!b->template_path)
+        return "--template is required";
+    if (!b->outdir)
+        return "-o DIR is required";
+    if (b->list.n == 0)
+        return "no target (--target-surface, --target-image, --target-mesh/--target-sol, --targets)";
+    if (sm_batch_list_finish(&b->list, &err) != SM_OK) {
+        snprintf(msg, cap, "%s", err.msg);
+        return msg;
+    }
+    for (size_t i = 0; i < b->list.n; i++)
+        if (b->list.t[i].landmarks)
+            return "per-target landmarks are for a local batch (without --server)";
+    const sm_batch_target *t = &b->list.t[0];
+    const char *own = t->target_surface ? t->target_surface : t->target_image;
+    if (job_options_finish(&b->job, msg, cap) != 0 ||
+        job_options_check_background(&b->job, own, t->target_mesh, msg, cap) != 0)
+        return msg;
+    return NULL;
+}
+
+static void sleep_seconds(double s)
+{
+    struct timespec ts = {.tv_sec = (time_t)s, .tv_nsec = (long)((s - (double)(time_t)s) * 1e9)};
+    nanosleep(&ts, NULL);
+}
+
+/* Cancels the jobs submitted so far (a later submission failed). */
+static void withdraw(http_client *c, const remote_batch *b, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        char path[96];
+        snprintf(path, sizeof path, "/v1/jobs/%s", b->ids[i]);
+        http_request rq = {.method = "DELETE", .path = path, .accept = "application/json"};
+        http_response rs;
+        http_perform(c, &rq, &rs);
+        http_response_free(&rs);
+    }
+}
+
+/* Every target as a job. */
+static int submit_targets(http_client *c, remote_batch *b, int token_given, const char *params)
+{
+    for (size_t i = 0; i < b->list.n; i++) {
+        const sm_batch_target *t = &b->list.t[i];
+        submit_job j = {.template_path = b->template_path, .target_mesh = t->target_mesh,
+                        .target_sol = t->target_sol, .target_surface = t->target_surface,
+                        .target_image = t->target_image, .params_json = params};
+        http_response rs;
+        int code = remote_submit_job(c, "batch", token_given, &j, &rs, b->ids[i], sizeof b->ids[i]);
+        if (code != 0) {
+            fprintf(stderr, "shapematch batch: target %s not submitted; the %zu submitted before "
+                            "are cancelled\n", t->name, i);
+            withdraw(c, b, i);
+            return code;
+        }
+        http_response_free(&rs);
+        if (!b->quiet)
+            fprintf(stderr, "shapematch batch: target %zu/%zu %s: job %s\n", i + 1, b->list.n,
+                    t->name, b->ids[i]);
+    }
+    return 0;
+}
+
+/* POST /v1/batches: the batch's id into b->batch_id. */
+static int post_batch(http_client *c, remote_batch *b, int token_given)
+{
+    json_t *targets = json_array();
+    for (size_t i = 0; targets && i < b->list.n; i++)
+        json_array_append_new(targets, json_pack("{s:s,s:s}", "job", b->ids[i], "name",
+                                                 b->list.t[i].name));
+    json_t *doc = json_pack("{s:o,s:s}", "targets", targets, "model_align",
+                            b->model_align ? b->model_align : "rigid");
+    char *body = doc ? sm_json_dumps(doc, 0) : NULL;
+    json_decref(doc);
+    if (!body) {
+        fprintf(stderr, "shapematch batch: error: out of memory\n");
+        return CLI_EXIT_INPUT;
+    }
+    http_request rq = {.method = "POST", .path = "/v1/batches", .accept = "application/json",
+                       .headers = {"Content-Type: application/json"}, .body = body,
+                       .body_len = strlen(body)};
+    http_response rs;
+    http_outcome out = http_perform(c, &rq, &rs);
+    free(body);
+    int code = 0;
+    if (out != HTTP_DONE || rs.status != 201) {
+        code = remote_report("batch", c, token_given, out, &rs, "creating the batch");
+        withdraw(c, b, b->list.n);
+    } else {
+        json_t *answer = remote_json_object(&rs);
+        const char *id = answer ? json_string_value(json_object_get(answer, "batchID")) : NULL;
+        char msg[128];
+        if (id && remote_check_id(id, msg, sizeof msg) == 0) {
+            snprintf(b->batch_id, sizeof b->batch_id, "%s", id);
+        } else {
+            fprintf(stderr, "shapematch batch: error: bad response from %s: no batchID\n", c->base);
+            code = CLI_EXIT_SERVER;
+        }
+        json_decref(answer);
+    }
+    http_response_free(&rs);
+    if (code == 0 && !b->quiet)
+        fprintf(stderr, "shapematch batch: batch %s of %zu targets\n", b->batch_id, b->list.n);
+    return code;
+}
+
+/* GET /v1/batches/{id}: the document into *doc (new reference). */
+static int get_batch(http_client *c, const remote_batch *b, int token_given, json_t **doc)
+{
+    char path[96];
+    snprintf(path, sizeof path, "/v1/batches/%s", b->batch_id);
+    http_request rq = {.path = path, .accept = "application/json", .gzip = 1};
+    http_response rs;
+    http_outcome out = http_perform(c, &rq, &rs);
+    int code = 0;
+    *doc = NULL;
+    if (out != HTTP_DONE || rs.status != 200)
+        code = remote_report("batch", c, token_given, out, &rs, "following the batch");
+    else if (!(*doc = remote_json_object(&rs)))
+        code = CLI_EXIT_SERVER;
+    http_response_free(&rs);
+    return code;
+}
+
+static int is_final(const char *status)
+{
+    return !strcmp(status, "successful") || !strcmp(status, "failed") ||
+           !strcmp(status, "dismissed");
+}
+
+/* Polls the batch to its end, a line whenever its progress changes; the
+ * final document into *final. */
+static int follow(http_client *c, const remote_batch *b, int token_given, json_t **final)
+{
+    char last[160] = "";
+    for (;;) {
+        json_t *doc;
+        int code = get_batch(c, b, token_given, &doc);
+        if (code != 0)
+            return code;
+        const char *status = json_string_value(json_object_get(doc, "status"));
+        json_t *counts = json_object_get(doc, "counts"), *eta = json_object_get(doc, "eta");
+        char line[160];
+        snprintf(line, sizeof line, "%s, %d%%: %d of %d targets ended, %d running",
+                 status ? status : "?", (int)json_integer_value(json_object_get(doc, "progress")),
+                 (int)(json_integer_value(json_object_get(counts, "successful")) +
+                       json_integer_value(json_object_get(counts, "failed")) +
+                       json_integer_value(json_object_get(counts, "dismissed"))),
+                 (int)json_integer_value(json_object_get(counts, "total")),
+                 (int)json_integer_value(json_object_get(counts, "running")));
+        if (!b->quiet && strcmp(line, last) != 0) {
+            fprintf(stderr, "shapematch batch: %s", line);
+            if (json_is_number(eta) && json_number_value(eta) > 0)
+                fprintf(stderr, ", about %.0f s left", json_number_value(eta));
+            fprintf(stderr, "\n");
+            snprintf(last, sizeof last, "%s", line);
+        }
+        if (!status || is_final(status)) {
+            *final = doc;
+            return status ? 0 : CLI_EXIT_SERVER;
+        }
+        json_decref(doc);
+        sleep_seconds(POLL_SECONDS);
+    }
+}
+
+/* Every successful target's results, the model's files, batch.json. */
+static int fetch_all(http_client *c, const remote_batch *b, int token_given, const json_t *doc)
+{
+    int code = 0;
+    json_t *t;
+    size_t i;
+    json_array_foreach(json_object_get(doc, "targets"), i, t) {
+        const char *status = json_string_value(json_object_get(t, "status"));
+        if (code != 0 || i >= b->list.n || !status || strcmp(status, "successful") != 0)
+            continue;
+        char dir[PATH_MAX];
+        snprintf(dir, sizeof dir, "%s/targets/%s", b->outdir, b->list.t[i].name);
+        fetch_options fo = {.outdir = dir, .formats = b->formats, .quiet = 1};
+        code = remote_fetch(c, "batch", token_given, b->ids[i], &fo);
+    }
+    if (code == 0 && !strcmp(json_string_value(json_object_get(doc, "status")), "successful")) {
+        static const struct { const char *name, *media; } files[] = {
+            {"mean.mesh", "application/x-medit-mesh"}, {"mean.vtu", "application/vnd.vtk.vtu+xml"},
+            {"modes.vtu", "application/vnd.vtk.vtu+xml"}, {"scores.csv", "text/csv"},
+            {"summary.json", "application/json"}};
+        char dir[PATH_MAX], msg[256];
+        snprintf(dir, sizeof dir, "%s/model", b->outdir);
+        if (fs_output_dir(dir, msg, sizeof msg) != 0) {
+            fprintf(stderr, "shapematch batch: error: %s\n", msg);
+            return CLI_EXIT_OUTPUT;
+        }
+        for (size_t k = 0; code == 0 && k < sizeof files / sizeof files[0]; k++) {
+            char path[160];
+            snprintf(path, sizeof path, "/v1/batches/%s/model/%s", b->batch_id, files[k].name);
+            code = remote_download(c, "batch", token_given, path, dir, files[k].name, files[k].media);
+        }
+    }
+    return code == 0 ? remote_write_json("batch", b->outdir, "batch.json", doc) : code;
+}
+
+/* The exit code of the batch's end: 0 every target and the model, 5
+ * cancelled, 11 a target failed or no model. */
+static int outcome(const remote_batch *b, const json_t *doc)
+{
+    const char *status = json_string_value(json_object_get(doc, "status"));
+    json_t *counts = json_object_get(doc, "counts");
+    long ok = (long)json_integer_value(json_object_get(counts, "successful"));
+    if (!b->quiet || strcmp(status, "successful") != 0)
+        fprintf(stderr, "shapematch batch: batch %s %s: %ld of %zu targets matched%s; results "
+                        "in %s\n", b->batch_id, status, ok, b->list.n,
+                !strcmp(status, "successful") ? ", model built" : "", b->outdir);
+    if (!strcmp(status, "dismissed"))
+        return CLI_EXIT_CANCELLED;
+    return !strcmp(status, "successful") && ok == (long)b->list.n ? CLI_EXIT_OK
+                                                                   : CLI_EXIT_BATCH_PARTIAL;
+}
+
+static int rb_run(remote_batch *b, const remote_options *conn)
+{
+    if (b->job.clamp_names || b->job.free_names) {
+        /* physical names: the daemon takes numbers, the template has the names */
+        sm_mesh *m = NULL;
+        sm_error err;
+        char msg[ARGS_MSG_LEN];
+        sm_error_clear(&err);
+        if (sm_mesh_read(b->template_path, &m, &err) != SM_OK) {
+            fprintf(stderr, "shapematch batch: %s\n", err.msg);
+            return CLI_EXIT_INPUT;
+        }
+        int bad = job_options_resolve_names(&b->job, m, msg, sizeof msg);
+        sm_mesh_free(m);
+        if (bad)
+            return remote_usage_error("batch", msg);
+    }
+    int dim = b->job.params.clamp == SM_CLAMP_BALL ? b->job.clamp_ball_dim : 0;
+    char *params = sm_job_params_to_json(&b->job.params, &b->job.background, dim);
+    char msg[256];
+    if (!params)
+        return remote_usage_error("batch", "the parameters cannot be encoded as JSON");
+    if (fs_output_dir(b->outdir, msg, sizeof msg) != 0) {
+        free(params);
+        fprintf(stderr, "shapematch batch: output directory: %s\n", msg);
+        return CLI_EXIT_OUTPUT;
+    }
+    http_client c;
+    int code = remote_open("batch", conn, &c);
+    if (code != 0) {
+        free(params);
+        return code;
+    }
+    int token = conn->token != NULL;
+    json_t *doc = NULL;
+    code = submit_targets(&c, b, token, params);
+    free(params);
+    if (code == 0)
+        code = post_batch(&c, b, token);
+    if (code == 0)
+        code = follow(&c, b, token, &doc);
+    if (code == 0)
+        code = fetch_all(&c, b, token, doc);
+    if (code == 0)
+        code = outcome(b, doc);
+    json_decref(doc);
+    remote_close(&c);
+    return code;
+}
+
+int cmd_batch_remote(int argc, char **argv)
+{
+    static const cli_flag flags[] = {
+        {"--template", 1, RB_TEMPLATE}, {"--target-surface", 1, RB_SURFACE},
+        {"--target-image", 1, RB_IMAGE}, {"--target-mesh", 1, RB_MESH},
+        {"--target-sol", 1, RB_SOL}, {"--targets", 1, RB_TARGETS},
+        {"--model-align", 1, RB_ALIGN}, {"-o", 1, RB_OUTPUT}, {"--output", 1, RB_OUTPUT},
+        {"--format", 1, RB_FORMAT}, {"-q", 0, RB_QUIET}, {"--quiet", 0, RB_QUIET},
+        {"--jobs", 1, RB_LOCAL_ONLY}, {"--no-model", 0, RB_LOCAL_ONLY},
+        {"--model-from", 1, RB_LOCAL_ONLY}, {"--model-modes", 1, RB_LOCAL_ONLY},
+        {"--template-landmarks", 1, RB_LOCAL_ONLY}};
+    remote_batch b;
+    memset(&b, 0, sizeof b);
+    job_options_init(&b.job);
+    b.formats = FETCH_DEFAULT_FORMATS;
+    remote_options conn;
+    char msg[ARGS_MSG_LEN];
+    int code = 0;
+    switch (remote_parse(argc, argv, flags, sizeof flags / sizeof flags[0], 1, &conn, rb_flag, &b,
+                         msg, sizeof msg)) {
+    case ARGS_HELP:
+        cmd_batch_help();
+        goto done;
+    case ARGS_ERROR:
+        code = remote_usage_error("batch", msg);
+        goto done;
+    case ARGS_OK:
+        break;
+    }
+    const char *problem = rb_problem(&b, msg, sizeof msg);
+    if (problem) {
+        code = remote_usage_error("batch", problem);
+        goto done;
+    }
+    if (!(b.ids = calloc(b.list.n, sizeof *b.ids))) {
+        code = remote_usage_error("batch", "out of memory");
+        goto done;
+    }
+    code = rb_run(&b, &conn);
+done:
+    free(b.ids);
+    sm_batch_list_free(&b.list);
+    return code;
+}

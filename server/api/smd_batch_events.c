@@ -185,6 +185,12 @@ static batch_events *batch_events_new(const char *id, json_t *batch, int64_t res
 enum MHD_Result smd_route_batch_events(struct MHD_Connection *conn, smd_request *req)
 {
     smd_server *srv = req->srv;
+    /* the request's own values first, as the job events route does: a
+     * bad Last-Event-ID is a 400 whether or not the batch exists */
+    smd_stream_request sr;
+    enum MHD_Result r;
+    if (!smd_stream_request_open(conn, req, &sr, &r))
+        return r;
     pthread_mutex_lock(&srv->lock);
     const smd_job *seen = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
     int found = seen && seen->batch_model;
@@ -192,12 +198,6 @@ enum MHD_Result smd_route_batch_events(struct MHD_Connection *conn, smd_request 
     json_t *batch = found ? smd_batch_read(srv, req->id) : NULL;
     if (!batch)
         return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NOT_FOUND, "no batch %s", req->id);
-    smd_stream_request sr;
-    enum MHD_Result r;
-    if (!smd_stream_request_open(conn, req, &sr, &r)) {
-        json_decref(batch);
-        return r;
-    }
     batch_events *b = batch_events_new(req->id, batch, sr.resumed ? sr.after : -1);
     json_decref(batch);
     if (!b)

@@ -33,7 +33,7 @@ problem() {
 
 # ----------------------------------------- query and header parameters
 python3 - "$(dirname "$0")/../../proto/openapi.yaml" >"$WORK/qrows.txt" <<'PY'
-import sys, yaml
+import re, sys, yaml
 d = yaml.safe_load(open(sys.argv[1]))
 comp = d.get("components", {}).get("parameters", {})
 for path, ops in d["paths"].items():
@@ -46,7 +46,9 @@ for path, ops in d["paths"].items():
                 p = comp[p["$ref"].split("/")[-1]]
             s = p.get("schema", {})
             if s.get("type") == "integer" and p["in"] in ("query", "header"):
-                print(path.replace("{jobID}", "0" * 32), p["in"], p["name"],
+                # any id (jobID, batchID): one that names nothing, the
+                # values are checked before the lookup
+                print(re.sub(r"\{[A-Za-z]*ID\}", "0" * 32, path), p["in"], p["name"],
                       s.get("maximum", 2**53 - 1) + 1)
 PY
 rows=0 bad=""

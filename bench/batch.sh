@@ -62,11 +62,11 @@ def tree(root):
             except OSError:
                 continue
             kids.setdefault(ppid, []).append(int(p))
-    out, todo = [], [root]
-    while todo:
-        p = todo.pop()
+    out, stack = [], [root]  # depth-first over the process tree
+    while stack:
+        p = stack.pop()
         out.append(p)
-        todo += kids.get(p, [])
+        stack += kids.get(p, [])
     return out
 def pss(pid):
     try:

@@ -2,6 +2,8 @@
  * a segmentation (NIfTI, NRRD, MetaImage; sm_image.h), on a generated
  * background graded toward it — the target a matching run needs.
  *   shapematch sdf --image F [--label N] [--level L] [--image-space S] -o DIR
+ * -o OUT.nii[.gz], .nrrd or .mha writes the distance on the image's own
+ * grid instead (sm_job_image_grid_distance).
  * The label summary (voxels, components, world box) and its warnings go
  * to stderr.  The image, its selection and the background are
  * sm_job_image.h's, the job runner's own (run --target-image).  Background: the generated graded one (sm_background.c), not
@@ -80,6 +82,9 @@ static int parse(int argc, char **argv, image_options *o, int *done)
     }
     if (!o->image || !o->out)
         return usage_error("--image and -o are required");
+    if (o->edt_out && sm_image_write_format(o->out))
+        return usage_error("--edt-out goes with -o DIR (-o an image holds the accurate distance "
+                           "on the image's grid)");
     if (o->space && strcmp(o->space, "lps") != 0 && strcmp(o->space, "ras") != 0)
         return usage_error("--image-space is lps or ras");
     *done = 0;
@@ -172,6 +177,39 @@ static int distance(const image_options *o, sm_image_target *t, sm_job_image_inf
     return rc;
 }
 
+/* -o OUT.nii.gz (or .nii, .nrrd, .mha): the accurate signed distance
+ * at every voxel centre of the image, with the image's geometry. */
+static int grid_distance(const image_options *o, sm_image_space space)
+{
+    sm_error err;
+    sm_error_clear(&err);
+    sm_job_image_info info;
+    sm_image *d = NULL;
+    double t0 = sm_clock_seconds();
+    if (sm_job_image_grid_distance(o->image, NULL, &o->sel, space, o->smooth, &d, &info, &err) !=
+        SM_OK) {
+        if (info.stats.voxels > 0 || strstr(err.msg, "label-empty"))
+            summary(o, &info);
+        fprintf(stderr, "shapematch sdf: %s\n", err.msg);
+        return CLI_EXIT_INPUT;
+    }
+    summary(o, &info);
+    double t1 = sm_clock_seconds();
+    int rc = CLI_EXIT_OK;
+    if (sm_image_write(o->out, d, &err) != SM_OK) {
+        fprintf(stderr, "shapematch sdf: %s\n", err.msg);
+        rc = CLI_EXIT_OUTPUT;
+    } else {
+        fprintf(stderr, "distance at the %lld voxel centres of the image (exact within 3 "
+                        "voxels of the label's surface of %d triangles) written to %s\n"
+                        "  seconds: distance %.2f, writing %.2f\n",
+                (long long)(d->dims[0] * d->dims[1] * d->dims[2]), info.surface_triangles,
+                o->out, t1 - t0, sm_clock_seconds() - t1);
+    }
+    sm_image_free(d);
+    return rc;
+}
+
 int cmd_sdf_image(int argc, char **argv)
 {
     image_options o = {NULL, NULL, NULL, NULL, {0, 0, 0.5}, 0, -1, 1.0};
@@ -185,6 +223,8 @@ int cmd_sdf_image(int argc, char **argv)
     sm_image_target *t = NULL;
     sm_image_space space =
         o.space && strcmp(o.space, "ras") == 0 ? SM_IMAGE_SPACE_RAS : SM_IMAGE_SPACE_LPS;
+    if (sm_image_write_format(o.out))
+        return grid_distance(&o, space);
     if (sm_job_image_target(o.image, NULL, &o.sel, space, o.smooth, o.padding, &t, &info, &err) !=
         SM_OK) {
         if (info.stats.voxels > 0 || strstr(err.msg, "label-empty"))

@@ -24,7 +24,7 @@ CORE_IO_SRCS := core/io/sm_io.c core/io/sm_io_surface.c \
   core/io/sm_io_msh.c core/io/sm_io_sol.c core/io/sm_io_stl.c core/io/sm_io_obj.c \
   core/io/sm_io_vtu.c core/io/sm_io_surface_write.c \
   core/io/sm_io_cells.c core/io/sm_io_ply.c core/io/sm_io_off.c core/io/sm_io_vtk.c core/io/sm_io_vtkxml.c \
-  core/io/sm_image_io.c core/io/sm_image_text.c core/io/sm_io_nifti.c core/io/sm_io_nrrd.c \
+  core/io/sm_image_io.c core/io/sm_image_write.c core/io/sm_image_text.c core/io/sm_io_nifti.c core/io/sm_io_nrrd.c \
   core/io/sm_io_mha.c \
   core/io/sm_reader.c core/io/sm_writer.c core/io/sm_stream.c core/io/sm_inflate.c \
   core/io/sm_number.c

@@ -80,38 +80,49 @@ sm_status sm_image_mask(const sm_image *im, const sm_image_select *sel, uint8_t 
     for (int c = 0; c < 3; c++) {
         stats->lo[c] = INFINITY;
         stats->hi[c] = -INFINITY;
+        stats->index_lo[c] = n[c];
+        stats->index_hi[c] = -1;
     }
-    int64_t lo[3] = {n[0], n[1], n[2]}, hi[3] = {-1, -1, -1};
-    for (int64_t v = 0; v < total; v++) {
-        if (!mask[v])
+    /* The world box of the selected voxel centres: along a row of the
+     * image (j, k fixed) the world map is affine in i, so its extremes
+     * over the row's selected voxels are at the row's first and last
+     * selected i.  (The box of the index box's corners is wider on an
+     * oblique grid: by the grid's rotation times its extent.) */
+    const double *m = im->ijk_to_lps;
+    for (int64_t row = 0; row < n[1] * n[2]; row++) {
+        const uint8_t *line = mask + row * n[0];
+        int64_t first = -1, last = -1;
+        for (int64_t i = 0; i < n[0]; i++) {
+            if (!line[i])
+                continue;
+            if (first < 0)
+                first = i;
+            last = i;
+            stats->voxels++;
+        }
+        if (first < 0)
             continue;
-        int64_t idx[3] = {v % n[0], (v / n[0]) % n[1], v / (n[0] * n[1])};
-        stats->voxels++;
+        int64_t j = row % n[1], k = row / n[1], at[3][2] = {{first, last}, {j, j}, {k, k}};
         for (int c = 0; c < 3; c++) {
-            if (idx[c] < lo[c])
-                lo[c] = idx[c];
-            if (idx[c] > hi[c])
-                hi[c] = idx[c];
+            if (at[c][0] < stats->index_lo[c])
+                stats->index_lo[c] = at[c][0];
+            if (at[c][1] > stats->index_hi[c])
+                stats->index_hi[c] = at[c][1];
+        }
+        if (first == 0 || last == n[0] - 1 || j == 0 || j == n[1] - 1 || k == 0 || k == n[2] - 1)
+            stats->touches_border = 1;
+        for (int end = 0; end < 2; end++) {
+            double ijk[3] = {(double)(end ? last : first), (double)j, (double)k};
+            for (int r = 0; r < 3; r++) {
+                double w = m[4 * r + 3];
+                for (int c = 0; c < 3; c++)
+                    w += m[4 * r + c] * ijk[c];
+                stats->lo[r] = fmin(stats->lo[r], w);
+                stats->hi[r] = fmax(stats->hi[r], w);
+            }
         }
     }
     if (stats->voxels == 0)
         return SM_OK;
-    for (int c = 0; c < 3; c++)
-        if (lo[c] == 0 || hi[c] == n[c] - 1)
-            stats->touches_border = 1;
-    /* the world box of the index box's corners bounds the voxel centres */
-    const double *m = im->ijk_to_lps;
-    for (int corner = 0; corner < 8; corner++) {
-        double ijk[3];
-        for (int c = 0; c < 3; c++)
-            ijk[c] = (double)((corner >> c) & 1 ? hi[c] : lo[c]);
-        for (int row = 0; row < 3; row++) {
-            double w = m[4 * row + 3];
-            for (int c = 0; c < 3; c++)
-                w += m[4 * row + c] * ijk[c];
-            stats->lo[row] = fmin(stats->lo[row], w);
-            stats->hi[row] = fmax(stats->hi[row], w);
-        }
-    }
     return count_components(n, mask, &stats->components, err);
 }

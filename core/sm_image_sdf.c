@@ -370,6 +370,10 @@ static sm_status crop_field(const sm_image *im, const uint8_t *mask, const sm_im
     for (int c = 0; c < 3; c++) {
         lo[c] -= pad;
         hi[c] += pad;
+        if (o->whole_image) {
+            lo[c] = lo[c] < 0 ? lo[c] : 0;
+            hi[c] = hi[c] > n[c] - 1 ? hi[c] : n[c] - 1;
+        }
         t->n[c] = hi[c] - lo[c] + 1;
         total *= t->n[c];
     }

@@ -24,7 +24,7 @@ static double axis_length(const double *m, int col)
 
 /* The voxels selected, summarised; the target built on them. */
 static sm_status build(const sm_image *im, const char *path, const sm_image_select *sel,
-                       double smooth, double padding, sm_image_target **out,
+                       double smooth, double padding, int whole_image, sm_image_target **out,
                        sm_job_image_info *info, sm_error *err)
 {
     size_t total = (size_t)(im->dims[0] * im->dims[1] * im->dims[2]);
@@ -49,12 +49,25 @@ static sm_status build(const sm_image *im, const char *path, const sm_image_sele
     }
     if (st == SM_OK) {
         double hmin = fmin(info->spacing[0], fmin(info->spacing[1], info->spacing[2]));
-        double diag = hypot(hypot(info->stats.hi[0] - info->stats.lo[0],
-                                  info->stats.hi[1] - info->stats.lo[1]),
-                            info->stats.hi[2] - info->stats.lo[2]);
+        /* the diagonal of the world box of the index box's corners: the
+         * background's world-aligned box around the label, rotated into
+         * an oblique grid's index space, reaches that far */
+        const int64_t *ilo = info->stats.index_lo, *ihi = info->stats.index_hi;
+        const double *m = im->ijk_to_lps;
+        double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (int corner = 0; corner < 8; corner++)
+            for (int row = 0; row < 3; row++) {
+                double w = m[4 * row + 3];
+                for (int c = 0; c < 3; c++)
+                    w += m[4 * row + c] * (double)((corner >> c) & 1 ? ihi[c] : ilo[c]);
+                lo[row] = fmin(lo[row], w);
+                hi[row] = fmax(hi[row], w);
+            }
+        double diag = hypot(hypot(hi[0] - lo[0], hi[1] - lo[1]), hi[2] - lo[2]);
         /* the crop covers the background's margin, so that the EDT (not
          * the positive extension) gives the far field there */
-        sm_image_target_opts to = {smooth, 3.0, fmin(64, padding * diag / hmin + 1)};
+        sm_image_target_opts to = {smooth, 3.0, fmin(64, padding * diag / hmin + 1), 0,
+                                   whole_image};
         st = sm_image_target_new(im, mask, sel, &to, out, err);
         if (st != SM_OK && st != SM_ERR_NOMEM)
             sm_error_prefix(err, "%s", path);
@@ -63,9 +76,11 @@ static sm_status build(const sm_image *im, const char *path, const sm_image_sele
     return st;
 }
 
-sm_status sm_job_image_target(const char *path, sm_image_limits *limits, const sm_image_select *sel,
-                              sm_image_space space, double smooth, double padding,
-                              sm_image_target **out, sm_job_image_info *info, sm_error *err)
+/* Steps 1-3; *keep (when not NULL) receives the image read. */
+static sm_status load(const char *path, sm_image_limits *limits, const sm_image_select *sel,
+                      sm_image_space space, double smooth, double padding, int whole_image,
+                      sm_image_target **out, sm_job_image_info *info, sm_image **keep,
+                      sm_error *err)
 {
     *out = NULL;
     memset(info, 0, sizeof *info);
@@ -85,12 +100,78 @@ sm_status sm_job_image_target(const char *path, sm_image_limits *limits, const s
         info->spacing[c] = axis_length(im->ijk_to_lps, c);
     info->sel = *sel;
     info->space = space;
-    st = build(im, path, sel, smooth, padding, out, info, err);
-    sm_image_free(im);
+    st = build(im, path, sel, smooth, padding, whole_image, out, info, err);
+    if (st == SM_OK && keep)
+        *keep = im;
+    else
+        sm_image_free(im);
     if (st == SM_OK)
         info->surface_triangles = sm_image_target_surface(*out)->nfacets;
     info->seconds = sm_clock_seconds() - t0;
     return st;
+}
+
+sm_status sm_job_image_target(const char *path, sm_image_limits *limits, const sm_image_select *sel,
+                              sm_image_space space, double smooth, double padding,
+                              sm_image_target **out, sm_job_image_info *info, sm_error *err)
+{
+    return load(path, limits, sel, space, smooth, padding, 0, out, info, NULL, err);
+}
+
+sm_status sm_job_image_grid_distance(const char *path, sm_image_limits *limits,
+                                     const sm_image_select *sel, sm_image_space space,
+                                     double smooth, sm_image **out, sm_job_image_info *info,
+                                     sm_error *err)
+{
+    *out = NULL;
+    sm_image_target *t = NULL;
+    sm_image *im = NULL;
+    sm_status st = load(path, limits, sel, space, smooth, 0, 1, &t, info, &im, err);
+    if (st != SM_OK)
+        return st;
+    const int64_t *n = im->dims;
+    int64_t total = n[0] * n[1] * n[2];
+    /* the voxel centres a block of image rows at a time (the signed
+     * distance's threads share a block's points) */
+    int64_t lines = n[1] * n[2], per = 65536 / n[0] + 1;
+    size_t block = (size_t)(per * n[0]);
+    double *pts = malloc(block * 3 * sizeof *pts);
+    double *row = malloc(block * sizeof *row);
+    float *d = malloc((size_t)total * sizeof *d);
+    if (!pts || !row || !d)
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance on %lld voxels",
+                          (long long)total);
+    const double *m = im->ijk_to_lps;
+    for (int64_t first = 0; st == SM_OK && first < lines; first += per) {
+        int64_t last = first + per < lines ? first + per : lines, count = 0;
+        for (int64_t line = first; line < last; line++) {
+            double j = (double)(line % n[1]), k = (double)(line / n[1]);
+            for (int64_t i = 0; i < n[0]; i++, count++)
+                for (int r = 0; r < 3; r++)
+                    pts[3 * count + r] = m[4 * r] * (double)i + m[4 * r + 1] * j +
+                                         m[4 * r + 2] * k + m[4 * r + 3];
+        }
+        st = sm_image_target_signed(t, count, pts, row, NULL, err);
+        for (int64_t v = 0; st == SM_OK && v < count; v++)
+            d[first * n[0] + v] = (float)row[v];
+    }
+    free(pts);
+    free(row);
+    sm_image_target_free(t);
+    if (st != SM_OK) {
+        free(d);
+        sm_image_free(im);
+        return st;
+    }
+    if (space == SM_IMAGE_SPACE_RAS)
+        sm_image_flip_ras(im); /* back to the file's own frame */
+    free(im->voxels);
+    im->voxels = d;
+    im->type = SM_VOXEL_F32;
+    im->slope = 1;
+    im->inter = 0;
+    *out = im;
+    return SM_OK;
 }
 
 sm_status sm_job_image_background(const sm_image_target *t, const sm_job_image_info *info,

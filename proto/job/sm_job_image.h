@@ -53,6 +53,17 @@ sm_status sm_job_image_target(const char *path, sm_image_limits *limits, const s
                               sm_image_space space, double smooth, double padding,
                               sm_image_target **out, sm_job_image_info *info, sm_error *err);
 
+/* The accurate signed distance on the image's own grid, for `sdf
+ * --image -o dist.nii.gz`: steps 1-3 with the crop covering the whole
+ * image, then sm_image_target_signed at every voxel centre (exact within
+ * the band, the EDT beyond).  *out is a float32 image with the file's
+ * geometry (LPS, whatever space is: the values are lengths, the frame
+ * only places the label), for sm_image_write; free with sm_image_free. */
+sm_status sm_job_image_grid_distance(const char *path, sm_image_limits *limits,
+                                     const sm_image_select *sel, sm_image_space space,
+                                     double smooth, sm_image **out, sm_job_image_info *info,
+                                     sm_error *err);
+
 /* Step 4: the background (size > 0: its near-surface cells, else the
  * default; padding >= 0, else 0.1) around the label's surface and, when
  * template is not NULL, the template's box; *size_used the size. */

@@ -19,10 +19,10 @@ PY=/usr/bin/python3
 "$PY" "$SHAPES" write "$WORK" sphere >/dev/null
 check_rc $? "image_shapes.py wrote the sphere in every format"
 
-sdf() { # name [options...]: sdf of WORK/name into WORK/out-name
+sdf() { # name [options...]: sdf of WORK/name into WORK/out-name.d (a directory: -o x.nii would be an image)
     local f=$1
     shift
-    "$BIN" sdf --image "$WORK/$f" -o "$WORK/out-$f" "$@" >/dev/null 2>"$WORK/$f.err"
+    "$BIN" sdf --image "$WORK/$f" -o "$WORK/out-$f.d" "$@" >/dev/null 2>"$WORK/$f.err"
 }
 
 sdf s1.nii --edt-out "$WORK/edt-lps.nrrd"
@@ -32,24 +32,24 @@ check_rc $? "the summary names the voxels, components and world box" "$(cat "$WO
 
 # every other encoding of the same array in the same place: same bits
 for f in s1.nii.gz s2.nii raw.nrrd gz.nrrd ras.nrrd be16.nrrd det.nhdr raw.mha z.mha det.mhd; do
-    sdf "$f" && cmp -s "$WORK/out-$f/background.sol" "$WORK/out-s1.nii/background.sol" &&
-        cmp -s "$WORK/out-$f/background.mesh" "$WORK/out-s1.nii/background.mesh"
+    sdf "$f" && cmp -s "$WORK/out-$f.d/background.sol" "$WORK/out-s1.nii.d/background.sol" &&
+        cmp -s "$WORK/out-$f.d/background.mesh" "$WORK/out-s1.nii.d/background.mesh"
     check_rc $? "$f gives the same background and distances as s1.nii" "$(head -c 300 "$WORK/$f.err")"
 done
 # the qform's rotation comes from a float32 quaternion: equal to rounding
-sdf q1.nii && "$PY" "$SHAPES" solcmp "$WORK/out-q1.nii/background.sol" \
-    "$WORK/out-s1.nii/background.sol" 1e-3 >"$WORK/q1.cmp" 2>&1
+sdf q1.nii && "$PY" "$SHAPES" solcmp "$WORK/out-q1.nii.d/background.sol" \
+    "$WORK/out-s1.nii.d/background.sol" 1e-3 >"$WORK/q1.cmp" 2>&1
 check_rc $? "NIfTI qform agrees with the sform" "$(cat "$WORK/q1.cmp" "$WORK/q1.nii.err")"
 # a float image is a level set of its values (no smoothing): as --smooth 0
 sdf f32.mha && "$BIN" sdf --image "$WORK/s1.nii" --smooth 0 -o "$WORK/s0" 2>/dev/null &&
-    cmp -s "$WORK/out-f32.mha/background.sol" "$WORK/s0/background.sol"
+    cmp -s "$WORK/out-f32.mha.d/background.sol" "$WORK/s0/background.sol"
 check_rc $? "float32 MetaImage at level 0.5 equals the mask unsmoothed"
 
 # accuracy near the boundary (|d| < 2 voxels) against the exact sphere,
 # and the voxel-centre EDT's on the same band: at most half of it
 edt_rms=$("$PY" "$SHAPES" edt "$WORK/edt-lps.nrrd" sphere | tail -1)
-"$PY" "$SHAPES" check "$WORK" sphere lps "$WORK/out-s1.nii/background.mesh" \
-    "$WORK/out-s1.nii/background.sol" "$("$PY" -c "print($edt_rms / 2)")" >"$WORK/acc" 2>&1
+"$PY" "$SHAPES" check "$WORK" sphere lps "$WORK/out-s1.nii.d/background.mesh" \
+    "$WORK/out-s1.nii.d/background.sol" "$("$PY" -c "print($edt_rms / 2)")" >"$WORK/acc" 2>&1
 check_rc $? "distance near the sphere: rms at most half the voxel-centre EDT's ($edt_rms)" \
     "$(cat "$WORK/acc")"
 echo "# $(cat "$WORK/acc"); voxel-centre EDT rms $edt_rms"
@@ -63,8 +63,8 @@ Sphere(1) = {4, 39, 9, 8.5};
 Mesh.MeshSizeFromPoints = 0;
 GEO
 gmsh "$WORK/ball.geo" -3 -format msh41 -clmax 2.5 -nt 1 -v 1 -o "$WORK/ball.msh" >/dev/null 2>&1
-"$BIN" run --template "$WORK/ball.msh" --target-mesh "$WORK/out-s1.nii/background.mesh" \
-    --target-sol "$WORK/out-s1.nii/background.sol" --clamp-ball 4,39,9,4.5 --max-iter 100 --quiet \
+"$BIN" run --template "$WORK/ball.msh" --target-mesh "$WORK/out-s1.nii.d/background.mesh" \
+    --target-sol "$WORK/out-s1.nii.d/background.sol" --clamp-ball 4,39,9,4.5 --max-iter 100 --quiet \
     -o "$WORK/run" >/dev/null 2>"$WORK/run.err"
 rc=$?
 [ $rc = 10 ] && rc=0 # not converged still writes the result
@@ -86,11 +86,11 @@ echo "# end to end: $(cat "$WORK/e2e")"
 
 # --image-space ras: the same distances in the mirrored frame
 sdf s1.nii --image-space ras --edt-out "$WORK/edt-ras.nrrd"
-"$PY" "$SHAPES" check "$WORK" sphere ras "$WORK/out-s1.nii/background.mesh" \
-    "$WORK/out-s1.nii/background.sol" 0.3 >"$WORK/ras" 2>&1
+"$PY" "$SHAPES" check "$WORK" sphere ras "$WORK/out-s1.nii.d/background.mesh" \
+    "$WORK/out-s1.nii.d/background.sol" 0.3 >"$WORK/ras" 2>&1
 check_rc $? "--image-space ras: the distance of the sphere mirrored in x and y" "$(cat "$WORK/ras")"
-"$PY" "$SHAPES" check "$WORK" sphere lps "$WORK/out-s1.nii/background.mesh" \
-    "$WORK/out-s1.nii/background.sol" 0.3 >/dev/null 2>&1
+"$PY" "$SHAPES" check "$WORK" sphere lps "$WORK/out-s1.nii.d/background.mesh" \
+    "$WORK/out-s1.nii.d/background.sol" 0.3 >/dev/null 2>&1
 check_rc $((!$?)) "--image-space ras output is not the LPS sphere (the flip matters)"
 "$PY" - "$WORK/edt-lps.nrrd" "$WORK/edt-ras.nrrd" >"$WORK/flip" 2>&1 <<'PY'
 import sys

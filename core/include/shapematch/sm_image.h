@@ -84,6 +84,17 @@ sm_status sm_image_read_memory(const char *name, const void *data, size_t size,
                                sm_image_limits *limits, sm_image **out, sm_error *err);
 void sm_image_free(sm_image *im);
 
+/* Writes a float32 image (an sm_image of type SM_VOXEL_F32 whose map is
+ * LPS) on its own grid with its geometry, the format by path's name:
+ * NIfTI-1 (.nii, .nii.gz: the map as sform, and as qform too when the
+ * axes are orthogonal; RAS as the format defines it), NRRD (.nrrd,
+ * attached raw, space left-posterior-superior) or MetaImage (.mha,
+ * ElementDataFile LOCAL).  Written to a temporary name and renamed.
+ * SM_ERR_INVALID for another name or type, SM_ERR_IO when writing fails.
+ * sm_image_write_format: 1, 2, 3 for those names, 0 for any other. */
+sm_status sm_image_write(const char *path, const sm_image *im, sm_error *err);
+int sm_image_write_format(const char *path);
+
 /* Turns the voxel-to-world map from LPS into RAS (x and y negated). */
 void sm_image_flip_ras(sm_image *im);
 
@@ -107,6 +118,7 @@ typedef struct sm_label_stats {
     int64_t components;
     int touches_border;
     double lo[3], hi[3];
+    int64_t index_lo[3], index_hi[3]; /* the selected voxels' index box */
 } sm_label_stats;
 
 /* mask (dims product bytes): 1 where selected, 0 elsewhere; stats may be
@@ -154,6 +166,9 @@ typedef struct sm_image_target_opts {
     double pad_voxels;  /* extra crop margin */
     int hierarchy;      /* 1: also build the surface's sm_sdf (winding
                          * numbers; sm_image_target_sdf), else NULL */
+    int whole_image;    /* 1: the crop also covers the whole image, so
+                         * that every voxel centre has the EDT's value
+                         * (not the bound beyond the crop) */
 } sm_image_target_opts;
 typedef struct sm_image_target sm_image_target;
 

@@ -1,5 +1,6 @@
 /* Command-line parsing of the shapematch client (see args.h). */
 #include "args.h"
+#include "cli.h"
 #include "msg.h"
 #include "job/sm_job_inputs.h"
 #include "sm_proto_vocab.h"
@@ -212,6 +213,23 @@ int job_options_resolve_names(job_options *j, const sm_mesh *m, char *msg, size_
         return -1;
     j->clamp_names = j->free_names = NULL;
     return 0;
+}
+
+int job_options_resolve_names_at(job_options *j, const char *template_path, char *msg,
+                                 size_t cap)
+{
+    if (!j->clamp_names && !j->free_names)
+        return 0;
+    sm_mesh *m = NULL;
+    sm_error err;
+    sm_error_clear(&err);
+    if (sm_mesh_read(template_path, &m, &err) != SM_OK) {
+        cli_fail(msg, cap, "%s", err.msg);
+        return CLI_EXIT_INPUT;
+    }
+    int bad = job_options_resolve_names(j, m, msg, cap);
+    sm_mesh_free(m);
+    return bad ? CLI_EXIT_USAGE : 0;
 }
 
 /* The job parameters' options are the rows of the parameter table

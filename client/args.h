@@ -86,6 +86,12 @@ int job_option_apply(job_options *j, const char *flag, const char *value,
  * Returns 0 (also when no name was given), or -1 with msg listing the
  * names the template has. */
 int job_options_resolve_names(job_options *j, const sm_mesh *m, char *msg, size_t cap);
+/* The same for a client that has the template's path only (submit,
+ * batch, batch --server): reads it when a name was given.  0, or a CLI
+ * exit code (input: the template unreadable; usage: a name it lacks)
+ * with msg set. */
+int job_options_resolve_names_at(job_options *j, const char *template_path, char *msg,
+                                 size_t cap);
 /* Checks that involve several flags: exactly one clamp option, --alpha
  * only with --no-clamp, --step-initial <= --step-max. */
 int job_options_finish(job_options *j, char *msg, size_t cap);

@@ -347,6 +347,11 @@ int cmd_batch(int argc, char **argv)
     if (code != 0)
         goto done;
     char msg[ARGS_MSG_LEN];
+    /* physical names (--clamp-elements core): the template has them */
+    if ((code = job_options_resolve_names_at(&ro.job, b.template_path, msg, sizeof msg)) != 0) {
+        fprintf(stderr, "shapematch batch: %s\n", msg);
+        goto done;
+    }
     if (ro.landmarks) {
         code = fail("%s", "--landmarks: a batch takes --template-landmarks T.csv and each "
                           "target's landmarks from the LIST.csv column 'landmarks'");

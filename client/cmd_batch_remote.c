@@ -310,20 +310,14 @@ static int outcome(const remote_batch *b, const json_t *doc)
 
 static int rb_run(remote_batch *b, const remote_options *conn)
 {
-    if (b->job.clamp_names || b->job.free_names) {
+    {
         /* physical names: the daemon takes numbers, the template has the names */
-        sm_mesh *m = NULL;
-        sm_error err;
         char msg[ARGS_MSG_LEN];
-        sm_error_clear(&err);
-        if (sm_mesh_read(b->template_path, &m, &err) != SM_OK) {
-            fprintf(stderr, "shapematch batch: %s\n", err.msg);
-            return CLI_EXIT_INPUT;
-        }
-        int bad = job_options_resolve_names(&b->job, m, msg, sizeof msg);
-        sm_mesh_free(m);
-        if (bad)
-            return remote_usage_error("batch", msg);
+        int named = job_options_resolve_names_at(&b->job, b->template_path, msg, sizeof msg);
+        if (named == CLI_EXIT_INPUT)
+            fprintf(stderr, "shapematch batch: %s\n", msg);
+        if (named)
+            return named == CLI_EXIT_INPUT ? named : remote_usage_error("batch", msg);
     }
     int dim = b->job.params.clamp == SM_CLAMP_BALL ? b->job.clamp_ball_dim : 0;
     char *params = sm_job_params_to_json(&b->job.params, &b->job.background, dim);

@@ -574,20 +574,12 @@ int cmd_submit(int argc, char **argv)
     if (a.job.params.save_every > 0 && !a.quiet)
         fprintf(stderr, "shapematch submit: warning: --save-every: the daemon does not serve "
                         "intermediate meshes\n");
-    if (a.job.clamp_names || a.job.free_names) {
-        /* physical names: the daemon takes numbers, the template has the names */
-        sm_mesh *m = NULL;
-        sm_error err;
-        sm_error_clear(&err);
-        if (sm_mesh_read(a.template_path, &m, &err) != SM_OK) {
-            fprintf(stderr, "shapematch submit: %s\n", err.msg);
-            return CLI_EXIT_INPUT;
-        }
-        int bad = job_options_resolve_names(&a.job, m, msg, sizeof msg);
-        sm_mesh_free(m);
-        if (bad)
-            return remote_usage_error("submit", msg);
-    }
+    /* physical names: the daemon takes numbers, the template has the names */
+    int named = job_options_resolve_names_at(&a.job, a.template_path, msg, sizeof msg);
+    if (named == CLI_EXIT_INPUT)
+        fprintf(stderr, "shapematch submit: %s\n", msg);
+    if (named)
+        return named == CLI_EXIT_INPUT ? named : remote_usage_error("submit", msg);
 
     /* the daemon learns the dimension from the template; a ball clamp
      * already says how many coordinates it has */

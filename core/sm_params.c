@@ -123,6 +123,11 @@ static const sm_param_info table[] = {
     /* 0.5: the midpoint of a 0/1 mask or a probability map */
     {"level", REAL(level), RANGE(NO_MIN, NO_MAX), 0.5, NULL, 0, "--level", "L",
      "with a float target image and no label: the voxels of value >= L are the target"},
+    /* 1 voxel: a label's staircase rounded off without thinning a
+     * structure a few voxels thick (docs/user-guide.md, --smooth) */
+    {"smooth", REAL(smooth), RANGE(0, CLOSED, 16, CLOSED), 1.0, NULL, 0, "--smooth", "S",
+     "with a target image: the Gaussian (in voxels) that smooths the label's mask before its "
+     "boundary is taken (0: none; float images without a label are never smoothed)"},
     /* LPS: the frame of ITK, Slicer and NRRD's left-posterior-superior,
      * the tools that make most templates */
     {"image_space", SM_PARAM_SPACE, offsetof(sm_params, image_space), 0,

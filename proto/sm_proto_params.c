@@ -607,7 +607,7 @@ static json_t *row_to_jansson(const sm_param_info *f, const sm_params *p, int di
     return NULL;
 }
 
-/* The label-map rows (label, level, image_space) are written only when
+/* The label-map rows (label, level, smooth, image_space) are written only when
  * they differ from their defaults: they mean something only with a target
  * image, and a job without one keeps the params document it had. */
 static int image_row_default(const sm_param_info *f, const sm_params *p)
@@ -616,6 +616,8 @@ static int image_row_default(const sm_param_info *f, const sm_params *p)
         return p->label == (int)f->def;
     if (strcmp(f->name, "level") == 0)
         return p->level == f->def;
+    if (strcmp(f->name, "smooth") == 0)
+        return p->smooth == f->def;
     if (strcmp(f->name, "image_space") == 0)
         return (int)p->image_space == (int)f->def;
     return 0;

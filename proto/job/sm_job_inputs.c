@@ -320,7 +320,7 @@ static sm_status read_image_target(const sm_job_files *files, sm_job_naming nami
                                                    : SM_BACKGROUND_PADDING_DEFAULT;
     double t0 = sm_clock_seconds();
     sm_status st = sm_job_image_target(files->target_image, &lim, &sel, out->params.image_space,
-                                       1.0, padding, &t, &out->image, err);
+                                       out->params.smooth, padding, &t, &out->image, err);
     if (st != SM_OK) {
         if (files->limits && (lim.hit == SM_IMAGE_LIMIT_INFLATED || lim.hit == SM_IMAGE_LIMIT_VOXELS))
             files->limits->hit = SM_LIMIT_INFLATED;

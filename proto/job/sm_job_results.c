@@ -118,6 +118,7 @@ static json_t *image_object(const sm_job_inputs *in)
     else
         json_object_set_new(o, "label", json_null()); /* every nonzero voxel, or >= level */
     json_object_set_new(o, "level", json_real(im->sel.level));
+    json_object_set_new(o, "smooth", json_real(in->params.smooth));
     json_object_set_new(o, "voxels", json_integer(st->voxels));
     json_object_set_new(o, "components", json_integer(st->components));
     json_object_set_new(o, "touches_border", json_boolean(st->touches_border));

@@ -205,10 +205,11 @@ static void check_image(const sm_job_inputs *in, sm_job_warnings *out)
     if (!in->has_image) { /* label, level, image_space select an image's
                            * voxels: without one they change nothing */
         const sm_params *p = &in->params;
-        int given = (p->label != 0) + (p->level != 0.5) + (p->image_space != SM_IMAGE_SPACE_LPS);
+        int given = (p->label != 0) + (p->level != 0.5) + (p->smooth != 1.0) +
+                    (p->image_space != SM_IMAGE_SPACE_LPS);
         if (given)
             add(out, "image-params-unused", (double)given,
-                "label, level and image_space are for a target image (--target-image, the part "
+                "label, level, smooth and image_space are for a target image (--target-image, the part "
                 "target_image): this job's target is not one, and %d of them given change "
                 "nothing", given);
         return;

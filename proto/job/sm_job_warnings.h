@@ -39,7 +39,7 @@
  *                       border (figure: the label's voxels)
  *   label-components    the label has several 26-connected components
  *                       (figure: their number)
- *   image-params-unused label, level or image_space given for a target
+ *   image-params-unused label, level, smooth or image_space given for a target
  *                       that is not an image (figure: how many)
  *   alpha-small         no clamp and alpha far below the scale E / L^2
  *                       where the descent converges (figure: alpha L^2/E) */

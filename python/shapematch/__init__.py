@@ -309,7 +309,8 @@ def _clamp(clamp_ball, clamp_elements, clamp_vertices, no_clamp, params):
                 clamp[row["name"]] = params.pop(row["name"])
         return clamp
     refs = clamp_elements if clamp_elements is not None else clamp_vertices
-    refs = list(refs) if hasattr(refs, "__iter__") else [refs]  # a list, or one (numpy) int
+    # a list, or one reference: a (numpy) int or a physical name ("core")
+    refs = [refs] if isinstance(refs, (str, bytes)) or not hasattr(refs, "__iter__") else list(refs)
     return {"kind": "elements" if clamp_elements is not None else "vertices", "refs": refs}
 
 

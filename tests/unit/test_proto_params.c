@@ -669,8 +669,9 @@ static void test_schema_matches_decoder(void **state)
     sm_background_params bg = {0.5, SM_BACKGROUND_PADDING_DEFAULT};
     json_t *encoded = sm_job_params_to_jansson(&d, &bg, 2);
     assert_non_null(encoded);
-    /* and the label-map rows only when not at their defaults */
-    assert_int_equal(json_object_size(encoded) + 3, json_object_size(props));
+    /* and the label-map rows (label, level, smooth, image_space) only
+     * when not at their defaults */
+    assert_int_equal(json_object_size(encoded) + 4, json_object_size(props));
     const char *key;
     json_t *prop;
     int bounds_checked = 0;
@@ -678,7 +679,8 @@ static void test_schema_matches_decoder(void **state)
         json_t *mine = json_object_get(encoded, key), *unwritten = NULL;
         const sm_param_info *row = sm_params_lookup(key);
         if (!mine && row &&
-            (!strcmp(key, "label") || !strcmp(key, "level") || !strcmp(key, "image_space")))
+            (!strcmp(key, "label") || !strcmp(key, "level") || !strcmp(key, "smooth") ||
+             !strcmp(key, "image_space")))
             mine = unwritten = sm_param_is_named(row)
                                    ? json_string(sm_param_value_name(row, (int)row->def))
                                : row->type == SM_PARAM_INT ? json_integer((json_int_t)row->def)

@@ -120,6 +120,7 @@ typedef struct sm_params {
     int label;               /* the label's value; 0: every nonzero voxel */
     double level;            /* float images without a label: voxels >= level */
     sm_image_space image_space; /* the template's frame */
+    double smooth;           /* the mask's Gaussian, in voxels (0: none) */
 } sm_params;
 
 /* Fills p with the defaults of the parameter table (below); clamp NONE. */

@@ -760,8 +760,8 @@ args_result args_parse_run(int argc, char **argv, run_options *o,
         if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0)
             return ARGS_HELP;
         if (arg[0] != '-' || arg[1] == '\0' || strcmp(arg, "--") == 0) {
-            cli_fail(msg, cap, "unexpected argument '%s' (run takes options only)",
-                 shorten(arg, q, sizeof q));
+            cli_fail(msg, cap, "unexpected argument '%s' (%s takes options only)",
+                     shorten(arg, q, sizeof q), argv[0]);
             return ARGS_ERROR;
         }
         char flag[40];

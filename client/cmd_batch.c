@@ -59,8 +59,11 @@ void cmd_batch_help(void)
            "is reported and left out of the model.\n"
            "\n"
            "Targets (any number of each, mixed):\n"
-           "  --target-surface FILE   a target surface (as in run); repeat the option\n"
-           "  --target-image FILE     a label-map image (as in run: NIfTI, NRRD, MetaImage;\n"
+           "  --target-surface FILE...\n"
+           "                          target surfaces (as in run): several files after\n"
+           "                          one option (a shell glob, *.stl), or the option\n"
+           "                          repeated\n"
+           "  --target-image FILE...  label-map images (as in run: NIfTI, NRRD, MetaImage;\n"
            "                          --label, --level, --image-space apply to each)\n"
            "  --target-mesh B --target-sol D\n"
            "                          a target given as a distance on a mesh (in pairs)\n"
@@ -240,6 +243,11 @@ static int parse(int argc, char **argv, batch_args *b)
         int code = take_option(b, k, v);
         if (code)
             return code;
+        /* --target-surface *.stl: the shell's list, one target each (the
+         * batch has no positional argument of its own) */
+        while ((k == 0 || k == 12) && i + 1 < argc && argv[i + 1][0] != '-')
+            if ((code = take_option(b, k, argv[++i])) != 0)
+                return code;
     }
     if (b->model_from)
         return b->nrest || b->list.n || b->template_path || b->outdir
@@ -274,7 +282,7 @@ static int parse_run_options(batch_args *b, run_options *ro)
         return fail("%s", "out of memory");
     int n = 0;
     const sm_batch_target *t = &b->list.t[0];
-    av[n++] = "run";
+    av[n++] = "batch"; /* the command its messages name */
     for (int i = 0; i < b->nrest; i++)
         av[n++] = b->rest[i];
     av[n++] = "--template";

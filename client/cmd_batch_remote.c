@@ -35,6 +35,8 @@ typedef struct remote_batch {
     unsigned formats;
     int quiet;
     job_options job;
+    int listing;                    /* RB_SURFACE or RB_IMAGE: the words after
+                                     * it are more of them (a shell glob) */
     char (*ids)[SM_JOB_ID_MAX + 1]; /* the targets' jobs, by list index */
     char batch_id[SM_JOB_ID_MAX + 1];
 } remote_batch;
@@ -45,9 +47,13 @@ static int rb_flag(void *user, int id, const char *flag, const char *value, char
     sm_error err;
     sm_error_clear(&err);
     sm_status st = SM_OK;
+    if (id == CLI_ARG_POSITIONAL && b->listing)
+        id = b->listing; /* --target-surface a.stl b.stl ... */
+    b->listing = id == RB_SURFACE || id == RB_IMAGE ? id : 0;
     switch (id) {
     case CLI_ARG_POSITIONAL:
-        snprintf(msg, cap, "unexpected argument '%.80s'", value);
+        snprintf(msg, cap, "unexpected argument '%.80s' (batch takes options only; several "
+                           "targets follow one --target-surface or --target-image)", value);
         return -1;
     case CLI_ARG_JOB: return job_option_apply(&b->job, flag, value, msg, cap);
     case RB_TEMPLATE: b->template_path = value; return 0;

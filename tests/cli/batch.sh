@@ -204,5 +204,19 @@ done
 [ -f b5/targets/e22x30/result.mesh ] && [ -f b5/targets/e22x30-2/result.mesh ] &&
     ok "the same stem twice: NAME and NAME-2" || not_ok "the same stem twice: NAME and NAME-2"
 
+# several files after one option (a shell glob), as after repeated options
+"$BIN" batch --template "$T" --target-surface e22x30.mesh e26x26.mesh "${CLAMP[@]}" --no-model \
+    --jobs 1 -q -o b6 >/dev/null 2>b6.err
+[ -f b6/targets/e22x30/result.mesh ] && [ -f b6/targets/e26x26/result.mesh ] &&
+    ok "--target-surface A B: two targets (a shell glob)" ||
+    not_ok "--target-surface A B: two targets (a shell glob)" "$(cat b6.err)"
+# a stray word elsewhere names batch, not run
+"$BIN" batch --template "$T" "${CLAMP[@]}" stray --target-surface e22x30.mesh -o b7 \
+    >/dev/null 2>b7.err
+rc=$?
+[ $rc = 1 ] && grep -q "unexpected argument 'stray' (batch takes options only)" b7.err &&
+    ok "a stray argument: usage error naming batch" ||
+    not_ok "a stray argument: usage error naming batch" "exit $rc" "$(cat b7.err)"
+
 echo "1..$n"
 [ "$failed" -eq 0 ]

@@ -42,9 +42,12 @@ void cmd_warp_help(void)
            "  --job ID                a successful job of the daemon at --server\n"
            "  --inverse               target -> template (located in the deformed mesh)\n"
            "  --points FILE           CSV, one point per line (x,y or x,y,z), an optional\n"
-           "                          header line; OUT keeps the order and adds an\n"
+           "                          header line ('#' lines skipped; a header naming\n"
+           "                          x,y[,z] among other columns, e.g. label: those pass\n"
+           "                          through), or Slicer markups (.fcsv, .mrk.json: put\n"
+           "                          in LPS); OUT keeps the order and columns and adds an\n"
            "                          'inside' column (0: outside the mesh, mapped by the\n"
-           "                          nearest element's affine map)\n"
+           "                          nearest element's affine map), so it reads back\n"
            "  --mesh FILE             a mesh (Medit, Gmsh, VTK) or surface (STL, OBJ, PLY,\n"
            "                          OFF, VTK, Medit, Gmsh): vertices moved, topology\n"
            "                          kept; OUT by its extension: .mesh/.meshb[.gz], .vtu,\n"
@@ -189,6 +192,7 @@ static int warp_points(const warp_args *a, const sm_warp *w, sm_warp_direction d
                 err.code == SM_ERR_IO ? "" : ": ", err.msg);
         goto done;
     }
+    sm_points_to_frame(&p, SM_POINTS_FRAME_LPS); /* Slicer's RAS markups */
     if (p.dim != sm_warp_dim(w)) {
         fprintf(stderr, "shapematch warp: %s has %dD points and the map is %dD\n", a->points,
                 p.dim, sm_warp_dim(w));

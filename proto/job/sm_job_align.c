@@ -7,7 +7,9 @@
 #include <string.h>
 
 #include "shapematch/sm_clamp.h"
+#include "sm_points_csv.h"
 #include "sm_proto_json.h"
+#include "sm_proto_vocab.h"
 
 sm_status sm_job_read_landmarks(const sm_job_files *files, sm_job_inputs *in, sm_error *err)
 {
@@ -19,8 +21,23 @@ sm_status sm_job_read_landmarks(const sm_job_files *files, sm_job_inputs *in, sm
         return sm_error_set(err, SM_ERR_INVALID,
                             "landmarks: give both files, the template's and the target's");
     int32_t n[2] = {0, 0};
+    /* Slicer's markups state their frame: put them in the template's */
+    sm_points_frame frame =
+        in->params.image_space == SM_IMAGE_SPACE_RAS ? SM_POINTS_FRAME_RAS : SM_POINTS_FRAME_LPS;
     for (int k = 0; k < 2; k++) {
-        sm_status st = sm_landmarks_read(paths[k], in->dim, &in->landmarks[k], &n[k], err);
+        sm_points p;
+        sm_status st = sm_points_read_file(paths[k], (size_t)16 << 20,
+                                           SM_LANDMARKS_MAX, &p, err);
+        if (st == SM_OK && p.dim != in->dim)
+            st = sm_error_set(err, SM_ERR_FORMAT, "%s: %dD points (x,y%s), the template is %dD",
+                              paths[k], p.dim, p.dim == 3 ? ",z" : "", in->dim);
+        if (st == SM_OK) {
+            sm_points_to_frame(&p, frame);
+            in->landmarks[k] = p.xyz;
+            n[k] = (int32_t)p.n;
+            p.xyz = NULL;
+        }
+        sm_points_release(&p);
         if (st != SM_OK) {
             in->failed = k ? SM_PART_TARGET_LANDMARKS : SM_PART_TEMPLATE_LANDMARKS;
             sm_error_prefix(err, "landmarks (%s)", roles[k]);

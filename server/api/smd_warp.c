@@ -326,6 +326,7 @@ static enum MHD_Result warp_answer(struct MHD_Connection *conn, smd_request *req
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST, "%s",
                                  b->json ? msg : err.msg);
     }
+    sm_points_to_frame(&p, SM_POINTS_FRAME_LPS); /* Slicer's RAS markups */
     sm_mesh *m = NULL;
     double *deformed = NULL, *out = NULL;
     uint8_t *inside = NULL;

@@ -111,7 +111,7 @@ bad() { # NAME EXPECTED-EXIT PATTERN ARGS...
 LM="$WORK/lm_template.csv"
 bad lm_none 1 "--landmarks needs an alignment: add --align" --landmarks "$LM,$WORK/lm_target.csv"
 bad lm_one 1 "--landmarks: give TEMPLATE.csv,TARGET.csv" --align rigid --landmarks "$LM"
-bad lm_bad 2 "lm_bad.csv: line 2: field 2 ('zero') is not a number" --align rigid --landmarks "$LM,$WORK/lm_bad.csv"
+bad lm_bad 2 "lm_bad.csv: line 2, field 2: 'zero' is not a finite decimal number" --align rigid --landmarks "$LM,$WORK/lm_bad.csv"
 bad lm_count 2 "4 template point(s) and 3 target point(s)" --align rigid --landmarks "$LM,$WORK/lm_three.csv"
 bad lm_same 2 "the target points are all at one place" --align rigid --landmarks "$LM,$WORK/lm_same.csv"
 bad align_bad 1 "--align: 'shear' is not none, rigid, similarity or affine" --align shear

@@ -183,55 +183,6 @@ static void test_landmarks_refused(void **state)
     assert_int_equal(sm_align_landmarks(2, 2, ok2, ok2, SM_ALIGN_SIMILARITY, &t, &err), SM_OK);
 }
 
-static void test_landmarks_csv(void **state)
-{
-    (void)state;
-    double *p;
-    int32_t n;
-    sm_error err;
-    const char *ok = "# points\r\nx, y, z\r\n1, 2, 3\r\n\n 4.5 ,5e-1,-6\n7,8,9";
-    assert_int_equal(sm_landmarks_parse(ok, strlen(ok), 3, &p, &n, &err), SM_OK);
-    assert_int_equal(n, 3);
-    assert_true(p[0] == 1 && p[3] == 4.5 && p[4] == 0.5 && p[5] == -6 && p[8] == 9);
-    free(p);
-    static const struct {
-        const char *text;
-        const char *message;
-    } bad[] = {
-        {"1,2\n", "line 1: 2 field(s), expected 3"},
-        {"1,2,3,4\n", "line 1: more than 3 fields"},
-        {"1,2,3\n1,x,3\n", "line 2: field 2 ('x') is not a number"},
-        {"1,2,inf\n", "line 1: field 3 ('inf') is not a finite number"},
-        {"1,2,1e999\n", "line 1: field 3 ('1e999') is not a finite number"},
-        {"1,,3\n", "line 1: field 2 is empty"},
-        {"x,y,z\n# only a header\n", "no landmark"},
-        {"", "no landmark"},
-        {"1,2,3\nx,y,z\n", "line 2: field 1 ('x') is not a number"},
-    };
-    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        assert_int_equal(sm_landmarks_parse(bad[i].text, strlen(bad[i].text), 3, &p, &n, &err),
-                         SM_ERR_FORMAT);
-        if (!strstr(err.msg, bad[i].message))
-            fail_msg("case %zu: '%s' lacks '%s'", i, err.msg, bad[i].message);
-        assert_null(p);
-    }
-    /* one row past the limit: refused, naming the line */
-    size_t cap = (size_t)(SM_LANDMARKS_MAX + 1) * 6 + 1, used = 0;
-    char *big = malloc(cap);
-    assert_non_null(big);
-    for (int i = 0; i <= SM_LANDMARKS_MAX; i++)
-        used += (size_t)snprintf(big + used, cap - used, "1,2,3\n");
-    assert_int_equal(sm_landmarks_parse(big, used, 3, &p, &n, &err), SM_ERR_FORMAT);
-    assert_non_null(strstr(err.msg, "more than 100000 landmarks"));
-    assert_int_equal(sm_landmarks_parse(big, used - 6, 3, &p, &n, &err), SM_OK);
-    assert_int_equal(n, SM_LANDMARKS_MAX);
-    free(p);
-    free(big);
-    const char nul[] = "1,2,3\n1,\0,3\n";
-    assert_int_equal(sm_landmarks_parse(nul, sizeof nul - 1, 3, &p, &n, &err), SM_ERR_FORMAT);
-    assert_int_equal(sm_landmarks_read("/nonexistent/l.csv", 3, &p, &n, &err), SM_ERR_IO);
-}
-
 /* ------------------------------------------------------------- shapes */
 
 /* Asymmetric shapes (no rotation maps them onto themselves, so the truth
@@ -557,7 +508,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_eigen_svd),       cmocka_unit_test(test_landmarks_exact), cmocka_unit_test(test_landmarks_extreme),
-        cmocka_unit_test(test_landmarks_refused), cmocka_unit_test(test_landmarks_csv),
+        cmocka_unit_test(test_landmarks_refused),
         cmocka_unit_test(test_known_3d),        cmocka_unit_test(test_known_2d),
         cmocka_unit_test(test_landmark_start),  cmocka_unit_test(test_refusals),
         cmocka_unit_test(test_cancel),

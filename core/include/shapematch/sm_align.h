@@ -106,17 +106,4 @@ sm_status sm_align_run(const sm_align_opts *opts, sm_align_result *out, sm_error
 sm_status sm_align_landmarks(int dim, int32_t n, const double *src, const double *dst,
                              sm_align_mode mode, sm_transform *out, sm_error *err);
 
-/* Landmark CSV: one point a row, dim numbers separated by commas (spaces
- * around them allowed); blank lines and lines starting with '#' skipped;
- * a first row that does not start with a number is a header.  *pts
- * (malloc'ed, n*dim) and *n on SM_OK; SM_ERR_FORMAT naming the line
- * otherwise (a wrong number of fields, a non-finite or malformed number,
- * more than SM_LANDMARKS_MAX rows, no row).  text need not be
- * NUL-terminated. */
-sm_status sm_landmarks_parse(const char *text, size_t len, int dim, double **pts, int32_t *n,
-                             sm_error *err);
-/* sm_landmarks_parse on a file (at most 16 MiB); messages prefixed with
- * the path. */
-sm_status sm_landmarks_read(const char *path, int dim, double **pts, int32_t *n, sm_error *err);
-
 #endif

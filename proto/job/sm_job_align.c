@@ -21,9 +21,8 @@ sm_status sm_job_read_landmarks(const sm_job_files *files, sm_job_inputs *in, sm
         return sm_error_set(err, SM_ERR_INVALID,
                             "landmarks: give both files, the template's and the target's");
     int32_t n[2] = {0, 0};
-    /* Slicer's markups state their frame: put them in the template's */
-    sm_points_frame frame =
-        in->params.image_space == SM_IMAGE_SPACE_RAS ? SM_POINTS_FRAME_RAS : SM_POINTS_FRAME_LPS;
+    /* Slicer's markups state their frame: kept as read, put in the
+     * template's by sm_job_landmarks_to_frame once the params say it */
     for (int k = 0; k < 2; k++) {
         sm_points p;
         sm_status st = sm_points_read_file(paths[k], (size_t)16 << 20,
@@ -32,7 +31,7 @@ sm_status sm_job_read_landmarks(const sm_job_files *files, sm_job_inputs *in, sm
             st = sm_error_set(err, SM_ERR_FORMAT, "%s: %dD points (x,y%s), the template is %dD",
                               paths[k], p.dim, p.dim == 3 ? ",z" : "", in->dim);
         if (st == SM_OK) {
-            sm_points_to_frame(&p, frame);
+            in->landmarks_frame[k] = (int)p.frame;
             in->landmarks[k] = p.xyz;
             n[k] = (int32_t)p.n;
             p.xyz = NULL;
@@ -53,6 +52,21 @@ sm_status sm_job_read_landmarks(const sm_job_files *files, sm_job_inputs *in, sm
     in->failed = SM_NPARTS;
     in->nlandmarks = n[0];
     return SM_OK;
+}
+
+void sm_job_landmarks_to_frame(sm_job_inputs *in, sm_image_space space)
+{
+    int want = space == SM_IMAGE_SPACE_RAS ? SM_POINTS_FRAME_RAS : SM_POINTS_FRAME_LPS;
+    for (int k = 0; k < 2 && in->dim == 3; k++) {
+        if (!in->landmarks[k] || in->landmarks_frame[k] == SM_POINTS_FRAME_UNSTATED ||
+            in->landmarks_frame[k] == want)
+            continue;
+        for (int32_t i = 0; i < in->nlandmarks; i++) { /* LPS <-> RAS: x and y negated */
+            in->landmarks[k][3 * i] = -in->landmarks[k][3 * i];
+            in->landmarks[k][3 * i + 1] = -in->landmarks[k][3 * i + 1];
+        }
+        in->landmarks_frame[k] = want;
+    }
 }
 
 void sm_job_alignment_free(sm_job_alignment *a)

@@ -35,6 +35,10 @@ typedef struct sm_job_alignment {
  * Messages start with the file's role ("landmarks (template): ..."); on
  * failure in->failed is the landmark part the message is about. */
 sm_status sm_job_read_landmarks(const sm_job_files *files, sm_job_inputs *in, sm_error *err);
+/* The landmark sets whose files stated a frame (Slicer's markups) put in
+ * the template's, params image_space (x and y negated between LPS and
+ * RAS); sm_job_inputs_set_params calls it. */
+void sm_job_landmarks_to_frame(sm_job_inputs *in, sm_image_space space);
 
 /* Aligns when in->params.align is not none (a->done 0 otherwise, or
  * SM_ERR_INVALID when landmarks were given without an alignment).  The

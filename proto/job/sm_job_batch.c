@@ -86,6 +86,7 @@ static int run_child(batch_template *bt, const sm_batch_target *t, const sm_batc
         in->landmarks[0] = in->landmarks[1] = NULL;
         in->nlandmarks = 0;
         st = sm_job_read_landmarks(&files, in, &err);
+        sm_job_landmarks_to_frame(in, in->params.image_space); /* params set already */
     }
     if (st == SM_OK)
         st = sm_job_inputs_read_target(&files, SM_JOB_NAME_PATHS, 0, in, &err);

@@ -548,6 +548,7 @@ sm_status sm_job_inputs_set_params(sm_job_inputs *in, const sm_params *params, s
     in->failed = SM_NPARTS;
     in->params = *params;
     in->nclamped = nclamped;
+    sm_job_landmarks_to_frame(in, params->image_space);
     /* a template side set up with other parameters is stale */
     sm_match_free(in->match);
     in->match = NULL;
@@ -583,6 +584,7 @@ sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
      * depend on the dimension), in place before the target is read */
     out->params.label = params.label;
     out->params.level = params.level;
+    out->params.smooth = params.smooth;
     out->params.image_space = params.image_space;
     if (!files->prepare_run &&
         (st = sm_job_inputs_read_target(&with_bg, SM_JOB_NAME_PARTS, 0, out, err)) != SM_OK)

@@ -127,6 +127,10 @@ typedef struct sm_job_inputs {
      * with the template (sm_job_read_landmarks); NULL and 0 when none */
     double *landmarks[2];
     int32_t nlandmarks;
+    /* the frame each set is in, when its file stated one (Slicer's
+     * markups; sm_points_frame: 0 unstated, 1 LPS, 2 RAS): set_params
+     * puts them in params image_space's */
+    int landmarks_frame[2];
 } sm_job_inputs;
 
 /* background_size and background_padding (> 0: given) are for a

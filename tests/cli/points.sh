@@ -47,9 +47,14 @@ $WARP points "$T3" lt.csv 6 11 && "$BIN" warp --result map --points lt.csv -o lt
     cut -d, -f1-3 lt.out >ltarget.csv && $PTS write lt.csv . && cp slicer.fcsv lt.fcsv &&
     $PTS write ltarget.csv . && cp slicer.mrk.json ltarget.mrk.json
 check_rc $? "landmark pairs under the known map"
+# a coarse ball for the runs: the alignment's refinement costs by its
+# boundary points
+printf 'SetFactory("OpenCASCADE");\nSphere(1) = {0.5, 0.5, 0.5, 0.3};\n' >ball.geo
+gmsh -3 ball.geo -clmax 0.08 -format msh41 -o ball.msh -v 0 >/dev/null 2>&1
+check_rc $? "gmsh makes a coarse ball"
 run_lm() { # NAME TEMPLATE.csv TARGET.csv
-    "$BIN" run --template "$T3" --target-mesh "$ROOT/examples/3d/background.mesh.gz" \
-        --target-sol "$ROOT/examples/3d/background.sol.gz" --clamp-ball 0.5,0.5,0.5,0.05 \
+    "$BIN" run --template ball.msh --target-mesh "$ROOT/examples/3d/background.mesh.gz" \
+        --target-sol "$ROOT/examples/3d/background.sol.gz" --clamp-ball 0.5,0.5,0.5,0.12 \
         --align similarity --landmarks "$2,$3" --max-iter 1 -q -o "$1" >/dev/null 2>"$1.err"
     local rc=$?
     [ $rc = 0 ] || [ $rc = 10 ]
@@ -59,5 +64,24 @@ run_lm lm-csv lt.csv ltarget.csv && run_lm lm-slicer lt.fcsv ltarget.mrk.json &&
         .alignment.landmarks == $b[0].alignment.landmarks and .alignment.landmarks >= 6' lm-csv/summary.json >/dev/null
 check_rc $? "--landmarks T.fcsv,S.mrk.json: the plain CSVs' alignment matrix" \
     "$(cat lm-csv.err lm-slicer.err; jq -c .alignment lm-csv/summary.json lm-slicer/summary.json 2>&1)"
+# --image-space ras: the template's frame is RAS, Slicer's points go there
+# (the LPS .fcsv negated in x and y, the RAS .mrk.json as written): the
+# plain CSVs of those RAS points give the same matrix
+neg() { awk -F, 'NR == 1 { print; next } { printf "%.17g,%.17g,%s\n", -$1, -$2, $3 }' "$1"; }
+neg lt.csv >lt-ras.csv && neg ltarget.csv >ltarget-ras.csv
+RAS=(--image-space ras)
+run_lm_ras() { # NAME TEMPLATE TARGET
+    "$BIN" run --template ball.msh --target-mesh "$ROOT/examples/3d/background.mesh.gz" \
+        --target-sol "$ROOT/examples/3d/background.sol.gz" --clamp-ball 0.5,0.5,0.5,0.12 \
+        --align similarity --landmarks "$2,$3" "${RAS[@]}" --max-iter 1 -q -o "$1" \
+        >/dev/null 2>"$1.err"
+    local rc=$?
+    [ $rc = 0 ] || [ $rc = 10 ]
+}
+run_lm_ras ras-csv lt-ras.csv ltarget-ras.csv && run_lm_ras ras-slicer lt.fcsv ltarget.mrk.json &&
+    jq -e --slurpfile b ras-slicer/summary.json '.alignment.matrix == $b[0].alignment.matrix' \
+        ras-csv/summary.json >/dev/null
+check_rc $? "--image-space ras: Slicer's markups in the RAS frame (the RAS CSVs' matrix)" \
+    "$(cat ras-csv.err ras-slicer.err; jq -c .alignment.matrix ras-csv/summary.json ras-slicer/summary.json 2>&1)"
 echo "1..$n"
 exit $((failed > 0))

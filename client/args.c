@@ -440,13 +440,11 @@ int job_option_apply(job_options *j, const char *flag, const char *value,
 
 int job_options_finish(job_options *j, char *msg, size_t cap)
 {
-    if (!j->clamp_flag)
-        return cli_fail(msg, cap,
-                    "missing clamp option: give exactly one of --clamp-ball, "
-                    "--clamp-elements, --clamp-vertices, --no-clamp");
+    /* no clamp option: the default ball (params kind auto), chosen and
+     * reported once the template is read */
     if (j->alpha_given && j->params.clamp != SM_CLAMP_NONE)
         return cli_fail(msg, cap, "--alpha is only valid with --no-clamp (got %s)",
-                    j->clamp_flag);
+                    j->clamp_flag ? j->clamp_flag : "the default clamp");
     if (j->params.step_initial > j->params.step_max)
         return cli_fail(msg, cap, "--step-initial (%g) must not exceed --step-max (%g)",
                     j->params.step_initial, j->params.step_max);

@@ -229,7 +229,8 @@ static int apply_params(run_options *o, sm_job_inputs *in)
     if (sm_params_validate(&o->job.params, in->dim, &err) != SM_OK)
         return run_error(o, CLI_EXIT_USAGE, "invalid parameters: %s", err.msg);
     if (sm_job_inputs_set_params(in, &o->job.params, &err) != SM_OK)
-        return run_error(o, CLI_EXIT_USAGE, "%s: %s", o->job.clamp_flag, err.msg);
+        return run_error(o, CLI_EXIT_USAGE, "%s: %s",
+                         o->job.clamp_flag ? o->job.clamp_flag : "the default clamp", err.msg);
     return 0;
 }
 

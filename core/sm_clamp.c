@@ -1,8 +1,12 @@
 #include "shapematch/sm_clamp.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#include "shapematch/sm_sdf.h"
+#include "shapematch/sm_surface.h"
 
 static int ref_listed(int32_t ref, const int32_t *refs, int n)
 {
@@ -40,6 +44,7 @@ int32_t sm_clamp_mark(const sm_mesh *m, const sm_params *p, uint8_t *clamped)
             clamped[v] = (uint8_t)ref_listed(m->vert_refs[v], p->clamp_refs, p->n_clamp_refs);
         break;
     case SM_CLAMP_NONE:
+    case SM_CLAMP_AUTO: /* resolved into a ball first (sm_clamp_resolve) */
         break;
     }
     int32_t count = 0;
@@ -156,6 +161,9 @@ sm_status sm_clamp_check(const sm_mesh *m, const sm_params *p, int32_t *nclamped
         *nclamped = 0;
     if (p->clamp == SM_CLAMP_NONE)
         return SM_OK;
+    if (p->clamp == SM_CLAMP_AUTO)
+        return sm_error_set(err, SM_ERR_INVALID, "the default clamp (kind auto) is chosen on the "
+                            "template first (sm_clamp_resolve)");
     uint8_t *clamped = malloc((size_t)m->nverts + 1);
     if (!clamped)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
@@ -181,5 +189,102 @@ sm_status sm_clamp_check(const sm_mesh *m, const sm_params *p, int32_t *nclamped
                             "elasticity system is singular); clamp at least %d %s vertices",
                             count == 1 ? "only" : "collinear", (long)count, count == 1 ? "ex" : "ices",
                             m->dim, m->dim == 2 ? "distinct" : "non-collinear");
+    return SM_OK;
+}
+
+/* The distance to the boundary of m (its facets as a surface) at each
+ * vertex and element centroid: the deepest of them in *where. */
+static sm_status deepest_point(const sm_mesh *m, double *where, double *depth, sm_error *err)
+{
+    const int dim = m->dim, nv = dim + 1;
+    sm_surface *s = NULL;
+    sm_sdf *d = NULL;
+    int64_t n = (int64_t)m->nverts + m->nelems;
+    double *pts = malloc((size_t)n * (size_t)dim * sizeof *pts);
+    double *dist = malloc((size_t)n * sizeof *dist);
+    sm_status st = pts && dist ? sm_surface_alloc(&s, dim, m->nverts, m->nbfacets, err)
+                               : sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    if (st == SM_OK) {
+        memcpy(s->coords, m->coords, (size_t)m->nverts * (size_t)dim * sizeof *s->coords);
+        memcpy(s->facets, m->bfacets, (size_t)m->nbfacets * (size_t)dim * sizeof *s->facets);
+        st = sm_sdf_new(s, &d, err);
+    }
+    if (st == SM_OK) {
+        memcpy(pts, m->coords, (size_t)m->nverts * (size_t)dim * sizeof *pts);
+        for (int32_t e = 0; e < m->nelems; e++)
+            for (int c = 0; c < dim; c++) {
+                double x = 0;
+                for (int i = 0; i < nv; i++)
+                    x += m->coords[(size_t)m->elems[(size_t)e * nv + i] * dim + c];
+                pts[((size_t)m->nverts + e) * dim + c] = x / nv;
+            }
+        sm_sdf_distance(d, n, pts, dist, NULL);
+        int64_t best = 0;
+        for (int64_t i = 1; i < n; i++)
+            if (dist[i] > dist[best])
+                best = i;
+        memcpy(where, pts + (size_t)best * dim, (size_t)dim * sizeof *where);
+        *depth = dist[best];
+    }
+    sm_sdf_free(d);
+    sm_surface_free(s);
+    free(pts);
+    free(dist);
+    return st;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+sm_status sm_clamp_default_ball(const sm_mesh *m, double center[3], double *radius,
+                                double *inradius, sm_error *err)
+{
+    const int dim = m->dim;
+    if (!m->bfacets || m->nbfacets < 1 || m->nverts < dim + 2)
+        return sm_error_set(err, SM_ERR_INVALID, "the default clamp needs the template's "
+                            "boundary and at least %d vertices", dim + 2);
+    center[0] = center[1] = center[2] = 0;
+    sm_status st = deepest_point(m, center, inradius, err);
+    if (st != SM_OK)
+        return st;
+    /* a quarter of the inradius, or the (dim+2)-th nearest vertex's
+     * distance when that is farther: a clamp of a few vertices that are
+     * not coplanar leaves no rotation free */
+    double *d2 = malloc((size_t)m->nverts * sizeof *d2);
+    if (!d2)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    for (int32_t v = 0; v < m->nverts; v++) {
+        double s = 0;
+        for (int c = 0; c < dim; c++) {
+            double x = m->coords[(size_t)v * dim + c] - center[c];
+            s += x * x;
+        }
+        d2[v] = s;
+    }
+    qsort(d2, (size_t)m->nverts, sizeof *d2, cmp_double);
+    *radius = fmax(0.25 * *inradius, sqrt(d2[dim + 1]) * (1 + 1e-6));
+    free(d2);
+    return SM_OK;
+}
+
+sm_status sm_clamp_resolve(const sm_mesh *m, sm_params *p, double *inradius, sm_error *err)
+{
+    if (p->clamp != SM_CLAMP_AUTO)
+        return SM_OK;
+    double r, depth;
+    sm_status st = sm_clamp_default_ball(m, p->clamp_center, &r, &depth, err);
+    if (st != SM_OK)
+        return st;
+    p->clamp = SM_CLAMP_BALL;
+    p->clamp_radius = r;
+    /* the deepest point may hold too few vertices in a coarse, flat
+     * mesh: grow the ball until the check holds */
+    for (int k = 0; k < 8 && sm_clamp_check(m, p, NULL, NULL) != SM_OK; k++)
+        p->clamp_radius *= 1.5;
+    if (inradius)
+        *inradius = depth;
     return SM_OK;
 }

@@ -24,11 +24,14 @@
  * writes them in this order).  Why a default is what it is stays beside
  * its row. */
 static const sm_param_info table[] = {
+    /* auto: a new user's first run needs no clamp option; a ball at the
+     * deepest point holds the template without touching its boundary */
     {"clamp", SM_PARAM_CLAMP, offsetof(sm_params, clamp), 0, RANGE(0, CLOSED, 0, CLOSED),
-     SM_CLAMP_NONE, "required", 0, NULL, NULL,
-     "the clamp set where the displacement is 0 (the paper's omega), one option exactly; "
-     "with --no-clamp nothing is fixed and the term alpha*int u.v makes the problem well "
-     "posed (paper, Remark 1)"},
+     SM_CLAMP_AUTO, "a ball at the deepest point", 0, NULL, NULL,
+     "the clamp set where the displacement is 0 (the paper's omega), at most one option; "
+     "without one, a ball at the template's deepest interior point, of a quarter of its "
+     "inradius (at least dim+2 vertices); with --no-clamp nothing is fixed and the term "
+     "alpha*int u.v makes the problem well posed (paper, Remark 1)"},
     /* 0 = from the problem's scale: E / diameter^2 (sm_match.c), which
      * converges with --no-clamp on both examples (2D: relative boundary
      * error 1e-3 after 19 iterations, 3D: after 21), where the former
@@ -209,7 +212,7 @@ void sm_params_default(sm_params *p)
 /* The clamp kind and the members it requires: not one field each. */
 static sm_status check_clamp(const sm_params *p, int dim, sm_error *err)
 {
-    if (p->clamp < SM_CLAMP_BALL || p->clamp > SM_CLAMP_NONE)
+    if (p->clamp < SM_CLAMP_BALL || p->clamp > SM_CLAMP_AUTO)
         return sm_error_set(err, SM_ERR_INVALID, "clamp: unknown kind %d", (int)p->clamp);
     if (p->clamp == SM_CLAMP_BALL) {
         for (int c = 0; c < (dim ? dim : 3); c++)

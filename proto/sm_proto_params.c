@@ -34,7 +34,7 @@ const sm_param_info *sm_background_params_table(size_t *count)
     return background_rows;
 }
 
-static const char *const kind_names[] = {"ball", "elements", "vertices", "none"};
+static const char *const kind_names[] = {"ball", "elements", "vertices", "none", "auto"};
 
 const char *sm_clamp_kind_name(sm_clamp_kind kind)
 {
@@ -347,7 +347,6 @@ sm_status sm_job_params_from_jansson(const json_t *root, int dim, const char *pa
 
     sm_params p;
     params_reset(&p);
-    int seen_clamp = 0;
     const char *key;
     json_t *value;
     json_object_foreach((json_t *)root, key, value) {
@@ -355,16 +354,8 @@ sm_status sm_job_params_from_jansson(const json_t *root, int dim, const char *pa
         sm_status st = decode_field(key, value, sub, dim, &p, &b, err);
         if (st != SM_OK)
             return st;
-        if (strcmp(key, "clamp") == 0)
-            seen_clamp = 1;
     }
-    if (!seen_clamp) {
-        smp_path_join(sub, path, "clamp");
-        return sm_error_set(err, SM_ERR_INVALID,
-                            "%s: required (e.g. {\"kind\": \"ball\", \"center\": [0.5, 0.5], "
-                            "\"radius\": 0.04} or {\"kind\": \"none\"})",
-                            sub);
-    }
+    /* no clamp: the default ball (kind auto, from sm_params_default) */
     if (p.step_initial > p.step_max) {
         smp_path_join(sub, path, "step_initial");
         return sm_error_set(err, SM_ERR_INVALID, "%s: must be <= step_max (%.17g > %.17g)", sub,
@@ -581,6 +572,8 @@ static json_t *clamp_to_jansson(const sm_params *p, int dim)
         break;
     case SM_CLAMP_NONE:
         bad = bad || smp_set(clamp, sm_params_lookup("alpha")->name, json_real(p->alpha));
+        break;
+    case SM_CLAMP_AUTO:
         break;
     }
     if (bad) {

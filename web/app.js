@@ -64,8 +64,9 @@ function kindOf(name, p) {
 // The clamp as fields: its kind, the ball's centre and radius, the
 // references of the elements or vertices, alpha of kind none.
 function clampFields(p) {
-  const kinds = (p.properties && p.properties.kind && p.properties.kind.enum) || ['ball', 'elements', 'vertices', 'none'];
-  const kind = el('select', { id: 'p-clamp', name: 'params.clamp' }, ...kinds.map((k) => el('option', { value: k, textContent: k })));
+  const kinds = (p.properties && p.properties.kind && p.properties.kind.enum) || ['ball', 'elements', 'vertices', 'none', 'auto'];
+  const kind = el('select', { id: 'p-clamp', name: 'params.clamp' }, ...kinds.map((k) => el('option', { value: k, textContent: k === 'auto' ? 'auto (a ball at the deepest point)' : k })));
+  if (p.default && kinds.includes(p.default.kind)) kind.value = p.default.kind; // the schema's: auto
   const num = (id, label, ph) => el('label', { className: 'small' }, label, el('input', { id, type: 'text', inputMode: 'decimal', placeholder: ph }));
   const ball = el('div', { className: 'clamp-ball' }, num('p-clamp-x', 'centre x', '0'), num('p-clamp-y', 'y', '0'),
     num('p-clamp-z', 'z (3D)', '2D: empty'), num('p-clamp-radius', 'radius', 'e.g. 0.1'));
@@ -75,7 +76,7 @@ function clampFields(p) {
   const show = () => { ball.hidden = kind.value !== 'ball'; refs.hidden = !['elements', 'vertices'].includes(kind.value); none.hidden = kind.value !== 'none'; };
   kind.addEventListener('change', show);
   show();
-  return el('div', { className: 'row wide clamp' }, el('label', { title: p.description || '' }, 'clamp (required)', kind), ball, refs, none);
+  return el('div', { className: 'row wide clamp' }, el('label', { title: p.description || '' }, 'clamp', kind), ball, refs, none);
 }
 
 function paramRow(name, prop) {

@@ -541,13 +541,20 @@ sm_status sm_job_inputs_set_params(sm_job_inputs *in, const sm_params *params, s
     sm_status st;
     int32_t nclamped = 0;
     in->failed = SM_PART_PARAMS;
-    if ((st = sm_params_validate(params, in->dim, err)) != SM_OK ||
-        (st = sm_clamp_check(in->template_mesh, params, &nclamped, err)) != SM_OK ||
-        (st = sm_clamp_check_parts(in->template_mesh, params, err)) != SM_OK)
+    /* no clamp given: the default ball, chosen on the template's own
+     * boundary (the prepared copy has it) */
+    sm_params p = *params;
+    double inradius = 0;
+    if ((st = sm_params_validate(&p, in->dim, err)) != SM_OK ||
+        (st = sm_clamp_resolve(in->prepared, &p, &inradius, err)) != SM_OK ||
+        (st = sm_clamp_check(in->template_mesh, &p, &nclamped, err)) != SM_OK ||
+        (st = sm_clamp_check_parts(in->template_mesh, &p, err)) != SM_OK)
         return st;
     in->failed = SM_NPARTS;
-    in->params = *params;
+    in->params = p;
     in->nclamped = nclamped;
+    in->clamp_default = params->clamp == SM_CLAMP_AUTO;
+    in->clamp_inradius = inradius;
     sm_job_landmarks_to_frame(in, params->image_space);
     /* a template side set up with other parameters is stale */
     sm_match_free(in->match);

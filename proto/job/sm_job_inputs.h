@@ -94,6 +94,9 @@ typedef struct sm_job_inputs {
     sm_params params;         /* defaults until parameters are set */
     int dim;
     int32_t nclamped;         /* template vertices in the clamp set */
+    int clamp_default;        /* 1: no clamp was given, params.clamp is the
+                               * default ball (sm_clamp_resolve) */
+    double clamp_inradius;    /* then: the depth of its centre */
     int field_builds;         /* sm_field_new calls for this job (1) */
     double read_seconds;      /* reading and checking the files, the
                                * field included */

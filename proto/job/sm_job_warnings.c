@@ -291,6 +291,19 @@ sm_status sm_job_check_sign(const sm_job_inputs *in, sm_job_warnings *out, sm_er
             "clamped vertices do not move, so the template cannot reach the target; put the "
             "clamp inside the target",
             (long)nclamp, clamp_dmin);
+    if (in->clamp_default) {
+        const double *c = in->params.clamp_center;
+        char at[96];
+        if (m->dim == 3)
+            snprintf(at, sizeof at, "(%.6g, %.6g, %.6g)", c[0], c[1], c[2]);
+        else
+            snprintf(at, sizeof at, "(%.6g, %.6g)", c[0], c[1]);
+        add(out, "clamp-default", in->params.clamp_radius,
+            "no clamp given: the ball of radius %.4g at %s, the template's deepest point "
+            "(%.4g from its boundary), holds %ld vertices fixed; give --clamp-ball, "
+            "--clamp-elements, --clamp-vertices or --no-clamp to choose",
+            in->params.clamp_radius, at, in->clamp_inradius, (long)in->nclamped);
+    }
     check_surface(in, out);
     check_image(in, out);
     return SM_OK;

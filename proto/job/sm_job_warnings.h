@@ -42,7 +42,9 @@
  *   image-params-unused label, level, smooth or image_space given for a target
  *                       that is not an image (figure: how many)
  *   alpha-small         no clamp and alpha far below the scale E / L^2
- *                       where the descent converges (figure: alpha L^2/E) */
+ *                       where the descent converges (figure: alpha L^2/E)
+ *   clamp-default       no clamp given: the default ball chosen, named so
+ *                       that the choice is on record (figure: its radius) */
 #ifndef SM_JOB_WARNINGS_H
 #define SM_JOB_WARNINGS_H
 

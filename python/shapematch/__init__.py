@@ -293,9 +293,11 @@ def _clamp(clamp_ball, clamp_elements, clamp_vertices, no_clamp, params):
                             ("clamp_vertices", clamp_vertices)) if v is not None]
     if no_clamp:
         given.append("no_clamp")
+    if not given:
+        return {"kind": "auto"}  # the default ball at the template's deepest point
     if len(given) != 1:
-        raise TypeError("shapematch.match: give exactly one of clamp_ball, clamp_elements, "
-                        "clamp_vertices, no_clamp=True (got %s)" % (", ".join(given) or "none"))
+        raise TypeError("shapematch.match: give at most one of clamp_ball, clamp_elements, "
+                        "clamp_vertices, no_clamp=True (got %s)" % ", ".join(given))
     if clamp_ball is not None:
         b = [float(x) for x in clamp_ball]
         if len(b) not in (3, 4):
@@ -377,7 +379,8 @@ def match(template, *, target_mesh=None, target_sol=None, target_surface=None,
     to a label map (NIfTI .nii/.nii.gz, NRRD .nrrd/.nhdr, MetaImage
     .mha/.mhd) whose voxels the params label=N, level=L and
     image_space="lps"|"ras" select and place, as `shapematch run
-    --target-image` (docs/images.md).  Exactly one clamp:
+    --target-image` (docs/images.md).  At most one clamp (none: a ball at
+    the template's deepest point, reported by the clamp-default warning):
     clamp_ball=(x, y[, z], r), clamp_elements=REFS, clamp_vertices=REFS or
     no_clamp=True (then alpha=...).  params: the params document's members
     (max_iter=200, young=..., free_boundary=[...]; shapematch.parameters()).

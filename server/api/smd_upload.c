@@ -319,7 +319,12 @@ enum MHD_Result smd_upload_begin_decoded(struct MHD_Connection *conn, smd_reques
 static int write_job_file(smd_upload *u, const sm_job_inputs *in)
 {
     smd_job_file *f = calloc(1, sizeof *f); /* 16 KiB of paths */
-    if (!f || !(f->params = sm_job_params_to_jansson(&in->params, &in->background_asked, in->dim))) {
+    /* no clamp asked: the worker chooses the same default ball again,
+     * and says so in the job's warnings */
+    sm_params asked = in->params;
+    if (in->clamp_default)
+        asked.clamp = SM_CLAMP_AUTO;
+    if (!f || !(f->params = sm_job_params_to_jansson(&asked, &in->background_asked, in->dim))) {
         free(f);
         errno = ENOMEM;
         return -1;

@@ -340,8 +340,8 @@ expect p422file 7 "a sol file given as the template: 422, exit 7, the detail nam
 
 sm nofile submit --template "$WORK/nonexistent.mesh" --target-mesh "$M" --target-sol "$S" "${CLAMP[@]}"
 expect nofile 2 "an unreadable input file: exit 2, named" "template: cannot read '.*nonexistent.mesh'"
-sm u1 submit "${INPUTS[@]}" --max-iter 5
-expect u1 1 "submit without a clamp option: usage error, exit 1" "missing clamp option"
+sm u1 submit "${INPUTS[@]}" --max-iter 5 --wait -o "$WORK/u1"
+expect u1 10 "submit without a clamp option: the default clamp, reported (5 iterations: not converged)" "clamp-default: no clamp given"
 sm u2 submit "${INPUTS[@]}" "${CLAMP[@]}" --wait
 expect u2 1 "submit --wait without -o: exit 1" "needs -o"
 sm u3 watch ../../etc/passwd

@@ -366,7 +366,10 @@ static void test_huge_and_odd_inputs(void **state)
     assert_int_equal(sm_params_from_json(NULL, 0, 2, &p, &err), SM_ERR_FORMAT);
     assert_int_equal(sm_params_from_json(doc, strlen(doc), 4, &p, &err), SM_ERR_INVALID);
     assert_non_null(strstr(err.msg, "dimension 4"));
-    assert_int_equal(sm_params_from_json("{}", 2, 2, &p, NULL), SM_ERR_INVALID);
+    assert_int_equal(sm_params_from_json("{\"young\":-1}", 12, 2, &p, NULL), SM_ERR_INVALID);
+    /* no clamp: the default ball, chosen on the template (kind auto) */
+    assert_int_equal(sm_params_from_json("{}", 2, 2, &p, &err), SM_OK);
+    assert_int_equal(p.clamp, SM_CLAMP_AUTO);
 
     /* invalid UTF-8 in a key is a parse error, not a crash */
     const char bad_utf8[] = "{\"clamp\":{\"kind\":\"none\"},\"\xff\xfe\":1}";
@@ -442,7 +445,7 @@ static double uniform(uint64_t *s) { return (double)(next_u64(s) >> 11) / 900719
 static void random_params(sm_params *p, int dim, uint64_t *s)
 {
     defaults(p);
-    p->clamp = (sm_clamp_kind)(next_u64(s) % 4);
+    p->clamp = (sm_clamp_kind)(next_u64(s) % 5);
     switch (p->clamp) {
     case SM_CLAMP_BALL:
         for (int i = 0; i < dim; i++)
@@ -457,6 +460,8 @@ static void random_params(sm_params *p, int dim, uint64_t *s)
         break;
     case SM_CLAMP_NONE:
         p->alpha = uniform(s) * 10 + 1e-12;
+        break;
+    case SM_CLAMP_AUTO:
         break;
     }
     p->n_free_refs = (int)(next_u64(s) % (SM_MAX_REFS + 1));
@@ -747,8 +752,8 @@ static void test_schema_matches_decoder(void **state)
                                         "properties"),
                         "kind"),
         "enum");
-    assert_int_equal(json_array_size(kinds), 4);
-    for (size_t i = 0; i < 4; i++)
+    assert_int_equal(json_array_size(kinds), 5);
+    for (size_t i = 0; i < 5; i++)
         assert_string_equal(json_string_value(json_array_get(kinds, i)),
                             sm_clamp_kind_name((sm_clamp_kind)i));
 

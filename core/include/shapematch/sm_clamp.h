@@ -38,4 +38,17 @@ sm_status sm_clamp_check(const sm_mesh *m, const sm_params *p, int32_t *nclamped
  * elements). */
 sm_status sm_clamp_check_parts(const sm_mesh *m, const sm_params *p, sm_error *err);
 
+/* The default clamp (params kind auto): a ball centred at the template's
+ * deepest interior point (of its vertices and element centroids, the
+ * farthest from its boundary facets: sm_sdf's exact distance), of radius
+ * a quarter of that depth (the inradius), or of the distance to the
+ * (dim+2)-th nearest vertex when that is larger.  m needs its boundary
+ * (sm_mesh_build_boundary).  center has 3 entries (the third 0 in 2D). */
+sm_status sm_clamp_default_ball(const sm_mesh *m, double center[3], double *radius,
+                                double *inradius, sm_error *err);
+/* p's clamp of kind auto made the default ball on m (grown by half until
+ * sm_clamp_check holds, at most 8 times); *inradius (may be NULL) the
+ * depth of its centre.  Any other kind: nothing. */
+sm_status sm_clamp_resolve(const sm_mesh *m, sm_params *p, double *inradius, sm_error *err);
+
 #endif

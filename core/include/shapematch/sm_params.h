@@ -16,7 +16,10 @@ typedef enum sm_clamp_kind {
     SM_CLAMP_BALL = 0,     /* vertices inside a disk/ball */
     SM_CLAMP_ELEMENTS = 1, /* vertices of elements with given references */
     SM_CLAMP_VERTICES = 2, /* vertices with given references */
-    SM_CLAMP_NONE = 3      /* no clamp: 0th-order term alpha int u.v */
+    SM_CLAMP_NONE = 3,     /* no clamp: 0th-order term alpha int u.v */
+    SM_CLAMP_AUTO = 4      /* the default: a ball at the template's deepest
+                            * point (sm_clamp_default_ball), chosen when
+                            * the template is read */
 } sm_clamp_kind;
 
 /* How the elastic system is solved (params "solver").  AUTO picks by the

@@ -104,10 +104,11 @@ static const opt options[] = {
      "(https://host/prefix): its origin counts as the daemon's own", "none: the Host header"},
     {"--allowed-host", "SHAPEMATCH_ALLOWED_HOSTS", "HOST", OPT_HOSTS, OFF(allowed_hosts), 0, 0,
      "a name the daemon is reached by (maps.example.org, or with :PORT); repeatable (the "
-     "variable: comma-separated).  Given, a request whose Host header is neither one of them, "
-     "an IP address, localhost nor --public-url's host gets 421 (DNS rebinding); its origins "
-     "count as the daemon's own for POST and DELETE", "none: any Host; the daemon's own "
-     "origins are its listen address, localhost and --public-url"},
+     "variable: comma-separated).  A request whose Host header is neither one of them, an IP "
+     "address, localhost (or a name under it), the --listen host nor --public-url's host gets "
+     "421 on every route but /healthz, /readyz and the web app's page (DNS rebinding); its "
+     "origins count as the daemon's own for POST and DELETE", "none: the listen address, IP "
+     "addresses, localhost and --public-url's host"},
     {"--database", "SHAPEMATCH_DATABASE_URL", "URL", OPT_TEXT, OFF(database), 0, SMD_DATABASE_URL_MAX,
      "PostgreSQL job store and queue shared by several nodes (libpq connection string or "
      "postgresql:// URI; sslmode, PGPASSWORD and ~/.pgpass are honoured); --spool is then "

@@ -36,6 +36,7 @@
 #define SMD_PROBLEM_NOT_ACCEPTABLE "about:blank"
 #define SMD_PROBLEM_UNAUTHORIZED "about:blank"
 #define SMD_PROBLEM_FORBIDDEN "about:blank"
+#define SMD_PROBLEM_MISDIRECTED "about:blank"
 #define SMD_PROBLEM_NOT_FOUND "about:blank"
 #define SMD_PROBLEM_METHOD "about:blank"
 #define SMD_PROBLEM_UNAVAILABLE "about:blank"

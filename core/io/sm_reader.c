@@ -131,13 +131,21 @@ static sm_status open_stream(sm_reader *r, int fd, const struct stat *st, sm_err
 
 sm_status sm__reader_open(sm_reader *r, const char *path, sm_error *err)
 {
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0) {
+        memset(r, 0, sizeof *r);
+        r->fd = -1;
+        return sm_error_set(err, SM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    }
+    return sm__reader_open_fd(r, path, fd, err);
+}
+
+sm_status sm__reader_open_fd(sm_reader *r, const char *path, int fd, sm_error *err)
+{
     memset(r, 0, sizeof *r);
     r->path = path;
     r->line = 1;
     r->fd = -1;
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (fd < 0)
-        return sm_error_set(err, SM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
     struct stat st;
     if (fstat(fd, &st) != 0) {
         int e = errno;

@@ -11,6 +11,7 @@
 #include <sys/socket.h>
 #include <time.h>
 
+#include "http/smd_ratelimit.h"
 #include "shapematch/sm_clock.h"
 
 typedef enum phase { PHASE_HEADERS, PHASE_REQUEST } phase;
@@ -28,6 +29,7 @@ typedef struct conn_ctx {
                            * SMD_CONNS_BUSY_HEADERS (its final comment never leaves) */
     struct MHD_Connection *conn;
     char addr[64];        /* the client's address (smd_conn_address) */
+    char key[SMD_RATELIMIT_KEY_MAX + 1]; /* what the per-address caps count it by */
     uint64_t body_bytes;
     double progress;      /* the body's last new byte (monotonic) */
     int closing;          /* shut down by us: wait for the close */
@@ -205,6 +207,8 @@ static void opened(smd_conns *c, struct MHD_Connection *conn, void **socket_cont
     x->fd = ci->connect_fd;
     x->conn = conn;
     smd_conn_address(conn, x->addr, sizeof x->addr);
+    smd_ratelimit_address_key(x->addr, c->limits.ipv4_prefix ? c->limits.ipv4_prefix : 32, x->key,
+                              sizeof x->key);
     x->owner = c;
     x->phase = PHASE_HEADERS;
     x->since = sm_clock_seconds();
@@ -250,19 +254,30 @@ static conn_ctx *ctx_of(struct MHD_Connection *conn)
     return ci ? ci->socket_context : NULL;
 }
 
+/* 1 when y holds a long-lived request (a body, a stream) that counts. */
+static int long_lived(const conn_ctx *y)
+{
+    return !y->closing && !y->evicted && (y->receiving || y->stream);
+}
+
+/* The long-lived requests of key, x aside.  Mutex held. */
+static size_t long_of(const smd_conns *c, const conn_ctx *x, const char *key)
+{
+    size_t n = 0;
+    for (const conn_ctx *y = c->head; y; y = y->next)
+        n += y != x && long_lived(y) && strcmp(y->key, key) == 0;
+    return n;
+}
+
 /* 1 when x may not become long-lived (a body, a stream): its address
  * holds max_long_per_ip of them, or all hold max_connections - reserved.
  * Mutex held. */
 static int long_full(const smd_conns *c, const conn_ctx *x)
 {
-    size_t all = 0, mine = 0;
-    for (const conn_ctx *y = c->head; y; y = y->next) {
-        if (y == x || y->closing || y->evicted || !(y->receiving || y->stream))
-            continue;
-        all++;
-        mine += strcmp(y->addr, x->addr) == 0;
-    }
-    return (c->limits.max_long_per_ip && mine >= c->limits.max_long_per_ip) ||
+    size_t all = 0;
+    for (const conn_ctx *y = c->head; y; y = y->next)
+        all += y != x && long_lived(y);
+    return (c->limits.max_long_per_ip && long_of(c, x, x->key) >= c->limits.max_long_per_ip) ||
            all >= c->limits.max_connections - c->limits.reserved;
 }
 
@@ -284,22 +299,57 @@ int smd_conns_request(struct MHD_Connection *conn, int receiving)
     return refused ? -1 : 0;
 }
 
-/* The oldest stream whose end makes room for x: of x's address when
- * that address is at its cap, else of any.  NULL when none would (the
- * cap is full of bodies).  Mutex held. */
-static conn_ctx *oldest_stream(const smd_conns *c, const conn_ctx *x)
+/* The oldest stream of key, x aside; NULL when it has none. */
+static conn_ctx *oldest_of(const smd_conns *c, const conn_ctx *x, const char *key)
 {
-    size_t mine = 0;
-    for (const conn_ctx *y = c->head; y; y = y->next)
-        mine += y != x && !y->closing && !y->evicted && (y->receiving || y->stream) &&
-                strcmp(y->addr, x->addr) == 0;
-    int same_addr = c->limits.max_long_per_ip && mine >= c->limits.max_long_per_ip;
     conn_ctx *best = NULL;
     for (conn_ctx *y = c->head; y; y = y->next)
-        if (y != x && y->stream && !y->closing && !y->evicted &&
-            (!same_addr || strcmp(y->addr, x->addr) == 0) &&
+        if (y != x && y->stream && long_lived(y) && strcmp(y->key, key) == 0 &&
             (!best || y->stream_since < best->stream_since))
             best = y;
+    return best;
+}
+
+/* An address's fair share of the total cap: the cap over the addresses
+ * holding a long-lived request, x's counted (at least 1).  Mutex held. */
+static size_t fair_share(const smd_conns *c, const conn_ctx *x)
+{
+    size_t keys = 1; /* x's */
+    for (const conn_ctx *y = c->head; y; y = y->next) {
+        if (y == x || !long_lived(y) || strcmp(y->key, x->key) == 0)
+            continue;
+        const conn_ctx *z = c->head; /* counted once: at its first connection */
+        while (z != y && !(z != x && long_lived(z) && strcmp(z->key, y->key) == 0))
+            z = z->next;
+        keys += z == y;
+    }
+    size_t share = (c->limits.max_connections - c->limits.reserved) / keys;
+    return share ? share : 1;
+}
+
+/* The stream whose end makes room for x: at its address's cap, that
+ * address's oldest; else the oldest of the address most over its fair
+ * share, x counted with its own (ties: the older stream).  NULL when none
+ * would (no address over its share, or only bodies).  Mutex held;
+ * quadratic in the connections, and run only at a cap. */
+static conn_ctx *stream_to_evict(const smd_conns *c, const conn_ctx *x)
+{
+    if (c->limits.max_long_per_ip && long_of(c, x, x->key) >= c->limits.max_long_per_ip)
+        return oldest_of(c, x, x->key);
+    size_t share = fair_share(c, x), most = 0;
+    conn_ctx *best = NULL;
+    for (const conn_ctx *y = c->head; y; y = y->next) {
+        if (y == x || !long_lived(y))
+            continue;
+        size_t n = long_of(c, x, y->key) + (strcmp(y->key, x->key) == 0);
+        if (n <= share)
+            continue; /* within its share: never evicted for another */
+        conn_ctx *old = oldest_of(c, x, y->key);
+        if (old && (!best || n > most || (n == most && old->stream_since < best->stream_since))) {
+            best = old;
+            most = n;
+        }
+    }
     return best;
 }
 
@@ -314,7 +364,7 @@ int smd_conns_stream(struct MHD_Connection *conn, struct MHD_Connection **evict)
     if (refused) {
         /* the newest client is served: the oldest stream is told to end
          * (it reconnects with Last-Event-ID and loses nothing) */
-        conn_ctx *old = oldest_stream(x->owner, x);
+        conn_ctx *old = stream_to_evict(x->owner, x);
         if (old) {
             old->evicted = 1;
             old->evicted_at = sm_clock_seconds();

@@ -374,7 +374,8 @@ sm_status smd_http_start(smd_server *srv, const smd_http_app *app, sm_error *err
                                 .body_stall = cfg->body_stall_timeout,
                                 .max_long_per_ip = cfg->max_streams_per_ip,
                                 .max_connections = cfg->max_connections,
-                                .reserved = cfg->reserved_connections};
+                                .reserved = cfg->reserved_connections,
+                                .ipv4_prefix = cfg->submit_ipv4_prefix};
     if (!srv->ratelimit)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     srv->conns = smd_conns_new(&climits, err);

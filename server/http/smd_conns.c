@@ -310,47 +310,64 @@ static conn_ctx *oldest_of(const smd_conns *c, const conn_ctx *x, const char *ke
     return best;
 }
 
-/* An address's fair share of the total cap: the cap over the addresses
- * holding a long-lived request, x's counted (at least 1).  Mutex held. */
-static size_t fair_share(const smd_conns *c, const conn_ctx *x)
+/* One address's long-lived requests (x counted with its own) and its
+ * oldest stream. */
+typedef struct tally {
+    const char *key;
+    size_t n;
+    conn_ctx *oldest;
+} tally;
+
+/* The tallies of the addresses holding long-lived requests, x's among
+ * them, into t (room for every open connection + 1); how many.  Mutex
+ * held; linear in the connections times the addresses. */
+static size_t tally_addresses(const smd_conns *c, const conn_ctx *x, tally *t)
 {
-    size_t keys = 1; /* x's */
-    for (const conn_ctx *y = c->head; y; y = y->next) {
-        if (y == x || !long_lived(y) || strcmp(y->key, x->key) == 0)
+    size_t k = 1;
+    t[0] = (tally){x->key, 1, NULL};
+    for (conn_ctx *y = c->head; y; y = y->next) {
+        if (y == x || !long_lived(y))
             continue;
-        const conn_ctx *z = c->head; /* counted once: at its first connection */
-        while (z != y && !(z != x && long_lived(z) && strcmp(z->key, y->key) == 0))
-            z = z->next;
-        keys += z == y;
+        size_t i = 0;
+        while (i < k && strcmp(t[i].key, y->key) != 0)
+            i++;
+        if (i == k)
+            t[k++] = (tally){y->key, 0, NULL};
+        t[i].n++;
+        if (y->stream && (!t[i].oldest || y->stream_since < t[i].oldest->stream_since))
+            t[i].oldest = y;
     }
-    size_t share = (c->limits.max_connections - c->limits.reserved) / keys;
-    return share ? share : 1;
+    return k;
 }
 
 /* The stream whose end makes room for x: at its address's cap, that
  * address's oldest; else the oldest of the address most over its fair
- * share, x counted with its own (ties: the older stream).  NULL when none
- * would (no address over its share, or only bodies).  Mutex held;
- * quadratic in the connections, and run only at a cap. */
+ * share (the total cap over the addresses holding long-lived requests,
+ * x's counted; at least 1), x counted with its own; ties: the older
+ * stream.  NULL when none would (no address over its share, or it holds
+ * only bodies).  Mutex held. */
 static conn_ctx *stream_to_evict(const smd_conns *c, const conn_ctx *x)
 {
     if (c->limits.max_long_per_ip && long_of(c, x, x->key) >= c->limits.max_long_per_ip)
         return oldest_of(c, x, x->key);
-    size_t share = fair_share(c, x), most = 0;
-    conn_ctx *best = NULL;
-    for (const conn_ctx *y = c->head; y; y = y->next) {
-        if (y == x || !long_lived(y))
-            continue;
-        size_t n = long_of(c, x, y->key) + (strcmp(y->key, x->key) == 0);
-        if (n <= share)
+    tally *t = malloc((c->open + 1) * sizeof *t);
+    if (!t)
+        return NULL;
+    size_t k = tally_addresses(c, x, t);
+    size_t share = (c->limits.max_connections - c->limits.reserved) / k;
+    if (share == 0)
+        share = 1;
+    const tally *best = NULL;
+    for (size_t i = 0; i < k; i++) {
+        if (t[i].n <= share || !t[i].oldest)
             continue; /* within its share: never evicted for another */
-        conn_ctx *old = oldest_of(c, x, y->key);
-        if (old && (!best || n > most || (n == most && old->stream_since < best->stream_since))) {
-            best = old;
-            most = n;
-        }
+        if (!best || t[i].n > best->n ||
+            (t[i].n == best->n && t[i].oldest->stream_since < best->oldest->stream_since))
+            best = &t[i];
     }
-    return best;
+    conn_ctx *old = best ? best->oldest : NULL;
+    free(t);
+    return old;
 }
 
 int smd_conns_stream(struct MHD_Connection *conn, struct MHD_Connection **evict)

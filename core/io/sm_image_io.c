@@ -15,10 +15,8 @@
 #include <unistd.h>
 #include <zlib.h>
 
+#include "io/sm_inflate.h"
 #include "shapematch/sm_path.h"
-
-/* Deflate expands data by at most about 1032:1 (as the reader's bound). */
-#define DEFLATE_MAX_RATIO 1032u
 
 int sm_voxel_size(sm_voxel_type t)
 {
@@ -218,14 +216,15 @@ sm_status sm__image_read_voxels(sm_reader *r, const sm_image_src *src, const sm_
         left -= skip;
     }
     if (d->compressed) {
-        /* deflate expands at most DEFLATE_MAX_RATIO:1: a stream too short
+        /* deflate expands at most SM_DEFLATE_MAX_RATIO:1: a stream too short
          * to hold the voxels fails here, before they are allocated */
-        uint64_t most = left > UINT64_MAX / (2 * DEFLATE_MAX_RATIO) ? UINT64_MAX / 2
-                                                                    : left * DEFLATE_MAX_RATIO;
+        uint64_t most = left > UINT64_MAX / (2 * SM_DEFLATE_MAX_RATIO) ? UINT64_MAX / 2
+                                                                    : left * SM_DEFLATE_MAX_RATIO;
         if (most < bytes)
             return sm__reader_fail_byte(r, err, SM_ERR_FORMAT, sm__reader_offset(r),
                                         "%" PRIu64 " bytes of compressed voxel data left inflate "
-                                        "to at most %" PRIu64 " bytes, the header's voxels need %zu",
+                                        "to at most %" PRIu64 " bytes, the header's voxels need "
+                                        "%zu",
                                         left, most, bytes);
         sm_status st = alloc_voxels(src, im, bytes, err);
         return st != SM_OK ? st : inflate_voxels(r, src, im->voxels, bytes, err);

@@ -246,7 +246,8 @@ static long pick(const smd_check_pool *p)
     return best;
 }
 
-/* The waiting check that has waited longest past max_wait, -1 none. */
+/* The earliest waiting check that has waited longer than the timeout,
+ * -1 none. */
 static long expired(const smd_check_pool *p, double now)
 {
     long old = -1;
@@ -386,12 +387,14 @@ int smd_check_submit_from(smd_check_pool *p, const char *key, smd_check_fn fn, v
     int rc;
     if (p->stop || p->count >= SMD_CHECK_QUEUE_MAX) {
         rc = -1;
-    } else if (waiting_of(p, key ? key : "") >= SMD_CHECK_WAITING_PER_CLIENT) {
+    } else if (waiting_of(p, key && key[0] ? key : "-") >= SMD_CHECK_WAITING_PER_CLIENT) {
         rc = -2;
     } else {
         task *t = &p->queue[p->count++];
         *t = (task){fn, arg, out, done, user, "", p->seq++, sm_clock_seconds()};
-        snprintf(t->key, sizeof t->key, "%s", key ? key : "");
+        /* "-": the shared key (a client key starts "a:" or "t:"); an empty
+         * running_key marks an idle thread */
+        snprintf(t->key, sizeof t->key, "%s", key && key[0] ? key : "-");
         atomic_fetch_add(&p->outstanding, 1);
         pthread_cond_broadcast(&p->wake);
         rc = 0;

@@ -443,7 +443,9 @@ static enum MHD_Result check_refused(struct MHD_Connection *conn, smd_request *r
                                  r->signal);
     if (r->busy) {
         /* a slot frees within one --check-timeout at most */
-        double wait = cfg->check_timeout < 1 ? 1 : cfg->check_timeout > 60 ? 60 : cfg->check_timeout;
+        double wait = cfg->check_timeout < 1    ? 1
+                      : cfg->check_timeout > 60 ? 60
+                                                : cfg->check_timeout;
         req->retry_after = (unsigned)wait;
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "%s", r->msg);
     }

@@ -28,19 +28,22 @@ typedef struct sm_image_src {
 
 /* A new image with dims and type checked (positive, each at most
  * SM_IMAGE_MAX_DIM, product and bytes without overflow and within the
- * limits) before its voxels are allocated.  where: the header place to
- * name in errors ("byte 40", "line 3"). */
+ * limits); its voxels are NULL until sm__image_read_voxels allocates them.
+ * where: the header place to name in errors ("byte 40", "line 3"). */
 sm_status sm__image_new(const sm_image_src *src, const char *where, const int64_t dims[3],
                         sm_voxel_type type, sm_image **out, sm_error *err);
 
-/* Fills im->voxels from r at its position as d says; errors name the
+/* Allocates and fills im->voxels from r at its position as d says, the
+ * allocation only once r is known to be able to hold them (raw: its bytes
+ * left; compressed: SM_DEFLATE_MAX_RATIO times them); errors name the
  * byte where the data ran short or went bad. */
 sm_status sm__image_read_voxels(sm_reader *r, const sm_image_src *src, const sm_image_data *d,
                                 sm_image *im, sm_error *err);
 
 /* Opens the data file name given by the header at src->path (relative,
- * no "..", beside the header); refused for memory inputs and when the
- * limits say no_detached.  where: the header line, for messages. */
+ * no "..", in the header's folder through no symbolic link, a regular
+ * file: no FIFO, device or folder); refused for memory inputs and when
+ * the limits say no_detached.  where: the header line, for messages. */
 sm_status sm__image_open_detached(const sm_image_src *src, const char *where, const char *name,
                                   sm_reader *r, char **data_path, sm_error *err);
 

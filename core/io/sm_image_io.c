@@ -5,13 +5,17 @@
 #include "io/sm_image_formats.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <inttypes.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <zlib.h>
 
+#include "io/sm_inflate.h"
 #include "shapematch/sm_path.h"
 
 int sm_voxel_size(sm_voxel_type t)
@@ -98,11 +102,8 @@ sm_status sm__image_new(const sm_image_src *src, const char *where, const int64_
                             "limit of %" PRIu64 " bytes", src->path, bytes, lim->max_inflated);
     }
     sm_image *im = calloc(1, sizeof *im);
-    if (!im || !(im->voxels = malloc((size_t)bytes))) {
-        free(im);
-        return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory for %" PRIu64 " bytes of voxels",
-                            src->path, bytes);
-    }
+    if (!im)
+        return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", src->path);
     memcpy(im->dims, dims, sizeof im->dims);
     im->type = type;
     im->slope = 1;
@@ -176,6 +177,17 @@ static sm_status inflate_voxels(sm_reader *r, const sm_image_src *src, unsigned 
     return st;
 }
 
+/* The voxel array, once the data is known to be able to fill it. */
+static sm_status alloc_voxels(const sm_image_src *src, sm_image *im, size_t bytes, sm_error *err)
+{
+    free(im->voxels);
+    im->voxels = malloc(bytes);
+    if (!im->voxels)
+        return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory for %zu bytes of voxels",
+                            src->path, bytes);
+    return SM_OK;
+}
+
 sm_status sm__image_read_voxels(sm_reader *r, const sm_image_src *src, const sm_image_data *d,
                                 sm_image *im, sm_error *err)
 {
@@ -203,14 +215,29 @@ sm_status sm__image_read_voxels(sm_reader *r, const sm_image_src *src, const sm_
             return sm__reader_fail_byte(r, err, st, sm__reader_offset(r), "%s", r->why);
         left -= skip;
     }
-    if (d->compressed)
-        return inflate_voxels(r, src, im->voxels, bytes, err);
+    if (d->compressed) {
+        /* deflate expands at most SM_DEFLATE_MAX_RATIO:1: a stream too short
+         * to hold the voxels fails here, before they are allocated */
+        uint64_t most = left > UINT64_MAX / (2 * SM_DEFLATE_MAX_RATIO) ? UINT64_MAX / 2
+                                                                    : left * SM_DEFLATE_MAX_RATIO;
+        if (most < bytes)
+            return sm__reader_fail_byte(r, err, SM_ERR_FORMAT, sm__reader_offset(r),
+                                        "%" PRIu64 " bytes of compressed voxel data left inflate "
+                                        "to at most %" PRIu64 " bytes, the header's voxels need "
+                                        "%zu",
+                                        left, most, bytes);
+        sm_status st = alloc_voxels(src, im, bytes, err);
+        return st != SM_OK ? st : inflate_voxels(r, src, im->voxels, bytes, err);
+    }
     if (left < bytes)
         return sm__reader_fail_byte(r, err, SM_ERR_FORMAT, sm__reader_offset(r),
                                     "%" PRIu64 " bytes of voxel data left, the header's %" PRId64
                                     " x %" PRId64 " x %" PRId64 " %s voxels need %zu (truncated?)",
                                     left, im->dims[0], im->dims[1], im->dims[2],
                                     sm_voxel_type_name(im->type), bytes);
+    sm_status ast = alloc_voxels(src, im, bytes, err);
+    if (ast != SM_OK)
+        return ast;
     uint64_t at = sm__reader_offset(r);
     sm_status st = sm__reader_bytes(r, im->voxels, bytes);
     if (st != SM_OK)
@@ -219,6 +246,62 @@ sm_status sm__image_read_voxels(sm_reader *r, const sm_image_src *src, const sm_
     if (d->swap)
         swap_voxels(im);
     return SM_OK;
+}
+
+/* Opens name (relative, without "..") in the folder of the header at
+ * header_path one component at a time, each with O_NOFOLLOW: a symbolic
+ * link anywhere in name (one beside the header pointing elsewhere) is
+ * refused, so nothing outside the folder is reached.  The file must be a
+ * regular one: it is opened without blocking (a FIFO would wait for a
+ * writer forever, a device never end) and checked with fstat.  Returns
+ * the descriptor, or -1 with errno set, or with *why saying what was
+ * refused. */
+static int open_beside(const char *header_path, const char *name, const char **why)
+{
+    const char *slash = strrchr(header_path, '/');
+    char *dir = slash ? strndup(header_path, (size_t)(slash - header_path) + 1) : strdup(".");
+    char *rest = strdup(name);
+    int dfd = dir && rest ? open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC) : -1;
+    if (!dir || !rest)
+        errno = ENOMEM;
+    free(dir);
+    char *comp = rest, *next;
+    while (dfd >= 0 && (next = strchr(comp, '/')) != NULL) {
+        *next = '\0';
+        if (comp[0] != '\0' && strcmp(comp, ".") != 0) {
+            int sub = openat(dfd, comp, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+            int e = errno;
+            struct stat ls;
+            if (sub < 0 && (e == ELOOP || e == ENOTDIR) &&
+                fstatat(dfd, comp, &ls, AT_SYMLINK_NOFOLLOW) == 0 && S_ISLNK(ls.st_mode))
+                *why = "passes through a symbolic link (refused: the data file must lie in the "
+                       "header's folder)";
+            close(dfd);
+            dfd = sub;
+            errno = e;
+        }
+        comp = next + 1;
+    }
+    int fd = -1;
+    if (dfd >= 0) {
+        fd = openat(dfd, comp, O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+        int e = errno;
+        close(dfd);
+        errno = e;
+        if (fd < 0 && e == ELOOP)
+            *why = "is a symbolic link (refused: the data file must be a regular file in the "
+                   "header's folder)";
+    }
+    free(rest);
+    struct stat st;
+    if (fd >= 0 && (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode))) {
+        *why = "is not a regular file (a FIFO, a device or a folder is refused)";
+        close(fd);
+        return -1;
+    }
+    if (fd >= 0)
+        fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+    return fd;
 }
 
 sm_status sm__image_open_detached(const sm_image_src *src, const char *where, const char *name,
@@ -240,13 +323,23 @@ sm_status sm__image_open_detached(const sm_image_src *src, const char *where, co
     if (name[0] == '/' || up || name[0] == '\0')
         return sm_error_set(err, SM_ERR_FORMAT, "%s: %s: data file '%.200s' must be a relative "
                             "name beside the header, without '..'", src->path, where, name);
+    const char *why = NULL;
+    int fd = open_beside(src->path, name, &why);
+    if (fd < 0 && why)
+        return sm_error_set(err, SM_ERR_FORMAT, "%s: %s: data file '%.200s' %s", src->path, where,
+                            name, why);
+    if (fd < 0)
+        return sm_error_set(err, SM_ERR_IO, "%s: %s: data file '%.200s': cannot open: %s",
+                            src->path, where, name, strerror(errno));
     const char *slash = strrchr(src->path, '/');
     char *dir = slash ? strndup(src->path, (size_t)(slash - src->path) + 1) : strdup("");
     char *full = dir ? (slash ? sm_path_join(dir, name) : strdup(name)) : NULL;
     free(dir);
-    if (!full)
+    if (!full) {
+        close(fd);
         return sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", src->path);
-    sm_status st = sm__reader_open(r, full, err);
+    }
+    sm_status st = sm__reader_open_fd(r, full, fd, err);
     if (st != SM_OK) {
         sm_error_prefix(err, "%s: %s: data file", src->path, where);
         free(full);

@@ -28,6 +28,10 @@
  * bounded buffers instead. */
 #define SM_INFLATE_WHOLE_MAX ((size_t)64 << 20)
 
+/* Deflate cannot expand data by more than about 1032:1: the compressed
+ * size bounds the inflated one before anything is inflated. */
+#define SM_DEFLATE_MAX_RATIO 1032u
+
 /* The gzip regular file fd of size bytes inflated whole, read from its
  * start (with pread: fd's offset is left alone) into a new buffer of
  * *bytes bytes (free with sm__free_large(p, *bytes), sm_alloc.h) holding

@@ -19,9 +19,6 @@
 
 #define READ_BUF_SIZE (1u << 16)
 #define READ_BUF_MIN 4096u
-/* Deflate cannot expand data by more than about 1032:1, which bounds the
- * decompressed size of a gzip file by its compressed size. */
-#define DEFLATE_MAX_RATIO 1032u
 
 static void why(sm_reader *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void why(sm_reader *r, const char *fmt, ...)
@@ -131,13 +128,21 @@ static sm_status open_stream(sm_reader *r, int fd, const struct stat *st, sm_err
 
 sm_status sm__reader_open(sm_reader *r, const char *path, sm_error *err)
 {
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0) {
+        memset(r, 0, sizeof *r);
+        r->fd = -1;
+        return sm_error_set(err, SM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    }
+    return sm__reader_open_fd(r, path, fd, err);
+}
+
+sm_status sm__reader_open_fd(sm_reader *r, const char *path, int fd, sm_error *err)
+{
     memset(r, 0, sizeof *r);
     r->path = path;
     r->line = 1;
     r->fd = -1;
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (fd < 0)
-        return sm_error_set(err, SM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
     struct stat st;
     if (fstat(fd, &st) != 0) {
         int e = errno;
@@ -214,11 +219,12 @@ uint64_t sm__reader_max_remaining(const sm_reader *r)
         return r->len - r->pos;
     if (!r->compressed)
         return r->file_size > off ? r->file_size - off : 0;
-    if (r->file_size > UINT64_MAX / (2 * DEFLATE_MAX_RATIO))
+    if (r->file_size > UINT64_MAX / (2 * SM_DEFLATE_MAX_RATIO))
         return UINT64_MAX / 2;
     /* The whole decompressed size bounds what is left; the slack covers
      * gzip headers and zlib's internal buffering. */
-    uint64_t most = r->file_size * DEFLATE_MAX_RATIO + 2 * SM_STREAM_ZLIB_BUF_SIZE + READ_BUF_SIZE;
+    uint64_t most =
+        r->file_size * SM_DEFLATE_MAX_RATIO + 2 * SM_STREAM_ZLIB_BUF_SIZE + READ_BUF_SIZE;
     if (r->limits && r->limits->max_inflated) {
         uint64_t cap = r->limits->max_inflated > off ? r->limits->max_inflated - off : 0;
         if (cap < most)

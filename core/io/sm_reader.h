@@ -67,6 +67,10 @@ typedef struct sm_reader {
  * be closed. */
 sm_status sm__reader_open(sm_reader *r, const char *path, sm_error *err);
 
+/* The same over fd, an open file the reader then owns (closed by
+ * sm__reader_close, or here on failure); path names it in messages. */
+sm_status sm__reader_open_fd(sm_reader *r, const char *path, int fd, sm_error *err);
+
 /* Opens a reader over size bytes at data, named name in messages: read
  * in place (no copy; data must outlive the reader) exactly as a plain
  * regular file of that content would be.  Gzip data (its magic) is

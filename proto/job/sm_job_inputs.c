@@ -290,13 +290,21 @@ done:
 }
 
 /* The image's bounds from the daemon's: its voxel bytes and inflated
- * size under --max-inflated (a refusal counts as that limit's), and one
- * file only (an upload is one part: a detached header is refused). */
+ * size under --max-inflated (a refusal counts as that limit's), its voxel
+ * count under SM_JOB_VOXELS_PER_VERTEX x --max-vertices (that limit's),
+ * and one file only (an upload is one part: a detached header is
+ * refused).  The voxel count is the cost of the check (inflating, the
+ * distance transform, the level set: 32 s and 2 GiB for the 10^9 voxels
+ * a 1 MB NRRD may declare), refused from the header before any of it. */
 static sm_image_limits image_limits(const sm_job_files *files, sm_job_naming naming)
 {
     sm_image_limits l = {0, 0, naming == SM_JOB_NAME_PARTS, 0};
-    if (files->limits)
+    if (files->limits) {
         l.max_inflated = files->limits->max_inflated;
+        if (files->limits->max_vertices > 0 &&
+            files->limits->max_vertices <= INT64_MAX / SM_JOB_VOXELS_PER_VERTEX)
+            l.max_voxels = files->limits->max_vertices * SM_JOB_VOXELS_PER_VERTEX;
+    }
     return l;
 }
 
@@ -322,8 +330,10 @@ static sm_status read_image_target(const sm_job_files *files, sm_job_naming nami
     sm_status st = sm_job_image_target(files->target_image, &lim, &sel, out->params.image_space,
                                        out->params.smooth, padding, &t, &out->image, err);
     if (st != SM_OK) {
-        if (files->limits && (lim.hit == SM_IMAGE_LIMIT_INFLATED || lim.hit == SM_IMAGE_LIMIT_VOXELS))
+        if (files->limits && lim.hit == SM_IMAGE_LIMIT_INFLATED)
             files->limits->hit = SM_LIMIT_INFLATED;
+        if (files->limits && lim.hit == SM_IMAGE_LIMIT_VOXELS)
+            files->limits->hit = SM_LIMIT_VERTICES;
         if (st != SM_ERR_NOMEM || lim.hit)
             file_error(err, naming, SM_PART_TARGET_IMAGE, files->target_image, out);
         goto done;

@@ -49,6 +49,11 @@
  * of the template's and the surface's mean edge lengths; background_size
  * and background_padding change both, and only make sense then:
  * sm_job_files_check_background).  target_surface excludes target_sol. */
+/* Voxels a target image may declare per vertex a mesh may (the daemon's
+ * --max-vertices, 1M for a 4 GiB --memory-limit: 256M voxels, 512 x 512 x
+ * 1024; a check of one costs about 2 bytes and 30 ns per voxel). */
+#define SM_JOB_VOXELS_PER_VERTEX 256
+
 typedef struct sm_job_files {
     const char *template_mesh;
     const char *target_mesh;
@@ -67,9 +72,11 @@ typedef struct sm_job_files {
      * with target_surface and no target_mesh.  sm_job_inputs_load takes
      * them from the params when they are 0 here */
     double background_size, background_padding;
-    /* bounds of the readers (sm_io.h) for untrusted files, NULL: none.
-     * After a refusal limits->hit names the bound and `failed` the part
-     * (the daemon answers 413 naming its flag). */
+    /* bounds of the readers (sm_io.h) for untrusted files, NULL: none;
+     * an image's voxels count against SM_JOB_VOXELS_PER_VERTEX times
+     * max_vertices (as SM_LIMIT_VERTICES).  After a refusal limits->hit
+     * names the bound and `failed` the part (the daemon answers 413
+     * naming its flag). */
     sm_read_limits *limits;
     /* sm_job_inputs_load: set up the run's template side while the
      * target is read (sm_job_inputs_read_target's prepare); for a caller

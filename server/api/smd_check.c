@@ -14,6 +14,7 @@
 #include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "shapematch/sm_clock.h"
@@ -24,13 +25,18 @@ typedef struct task {
     smd_check_result *out;
     smd_check_done_fn done;
     void *user;
+    char key[SMD_CHECK_KEY_MAX + 1]; /* the client's: its share is counted by it */
+    uint64_t seq;                    /* arrival order */
+    double queued_at;
 } task;
 
 struct smd_check_pool {
     pthread_mutex_t mutex;
     pthread_cond_t wake;
-    task queue[SMD_CHECK_QUEUE_MAX]; /* ring */
-    size_t head, count;
+    task queue[SMD_CHECK_QUEUE_MAX]; /* the waiting checks, [0, count), any order */
+    size_t count;
+    uint64_t seq;
+    char (*running_key)[SMD_CHECK_KEY_MAX + 1]; /* per thread: its check's client */
     int running;
     int stop;
     double timeout;
@@ -191,6 +197,100 @@ typedef struct thread_arg {
     int slot;
 } thread_arg;
 
+/* ------------------------------------------------------ scheduling
+ * Fair shares of the check slots: a client (smd_check_submit_from's key:
+ * an address, an IPv6 /64, an IPv4 network, a tenant) runs at most
+ * share() checks at once, so with two or more threads one slot is always
+ * left to other clients however many checks one sends; among waiting
+ * checks, the client with the fewest running goes first, then arrival
+ * order.  A check that waited a whole --check-timeout is answered busy
+ * (503, Retry-After) rather than after minutes.  Mutex held in all. */
+
+static int share(const smd_check_pool *p)
+{
+    return p->nthreads > 1 ? p->nthreads - 1 : 1;
+}
+
+static int running_of(const smd_check_pool *p, const char *key)
+{
+    int n = 0;
+    for (int i = 0; i < p->nthreads; i++)
+        n += p->running_key[i][0] != '\0' && strcmp(p->running_key[i], key) == 0;
+    return n;
+}
+
+static size_t waiting_of(const smd_check_pool *p, const char *key)
+{
+    size_t n = 0;
+    for (size_t i = 0; i < p->count; i++)
+        n += strcmp(p->queue[i].key, key) == 0;
+    return n;
+}
+
+/* The waiting check to start next, -1 when every waiting client is at its
+ * share (while stopping: any, they are answered, not run). */
+static long pick(const smd_check_pool *p)
+{
+    long best = -1;
+    int best_running = 0;
+    for (size_t i = 0; i < p->count; i++) {
+        int r = p->stop ? 0 : running_of(p, p->queue[i].key);
+        if (r >= share(p))
+            continue;
+        if (best < 0 || r < best_running ||
+            (r == best_running && p->queue[i].seq < p->queue[best].seq)) {
+            best = (long)i;
+            best_running = r;
+        }
+    }
+    return best;
+}
+
+/* The earliest waiting check that has waited longer than the timeout,
+ * -1 none. */
+static long expired(const smd_check_pool *p, double now)
+{
+    long old = -1;
+    for (size_t i = 0; i < p->count; i++)
+        if (now - p->queue[i].queued_at > p->timeout &&
+            (old < 0 || p->queue[i].seq < p->queue[old].seq))
+            old = (long)i;
+    return old;
+}
+
+static task take(smd_check_pool *p, long i)
+{
+    task t = p->queue[i];
+    p->queue[i] = p->queue[--p->count];
+    return t;
+}
+
+/* Sleeps until a check may start, one expires or the pool stops. */
+static void wait_for_work(smd_check_pool *p)
+{
+    if (p->count == 0) {
+        pthread_cond_wait(&p->wake, &p->mutex);
+        return;
+    }
+    double first = p->queue[0].queued_at;
+    for (size_t i = 1; i < p->count; i++)
+        if (p->queue[i].queued_at < first)
+            first = p->queue[i].queued_at;
+    double at = first + p->timeout + 0.01; /* the wake condition's clock is monotonic */
+    struct timespec ts = {(time_t)at, (long)((at - (double)(time_t)at) * 1e9)};
+    pthread_cond_timedwait(&p->wake, &p->mutex, &ts);
+}
+
+static void answer_busy(const smd_check_pool *p, const task *t)
+{
+    memset(t->out, 0, sizeof *t->out);
+    t->out->status = SM_ERR_NOMEM;
+    t->out->busy = 1;
+    snprintf(t->out->msg, sizeof t->out->msg,
+             "this upload waited %g s for an acceptance check (the daemon's --check-timeout) "
+             "behind other checks: retry later", p->timeout);
+}
+
 static void *thread_main(void *arg)
 {
     thread_arg a = *(thread_arg *)arg;
@@ -198,14 +298,25 @@ static void *thread_main(void *arg)
     smd_check_pool *p = a.p;
     pthread_mutex_lock(&p->mutex);
     for (;;) {
-        while (!p->stop && p->count == 0)
-            pthread_cond_wait(&p->wake, &p->mutex);
-        if (p->count == 0)
+        long i = -1, old = -1;
+        while ((old = expired(p, sm_clock_seconds())) < 0 && (i = pick(p)) < 0) {
+            if (p->stop && p->count == 0)
+                break;
+            wait_for_work(p);
+        }
+        if (old < 0 && i < 0)
             break; /* stopping, nothing left */
-        task t = p->queue[p->head];
-        p->head = (p->head + 1) % SMD_CHECK_QUEUE_MAX;
-        p->count--;
+        if (old >= 0) {
+            task t = take(p, old);
+            pthread_mutex_unlock(&p->mutex);
+            answer_busy(p, &t);
+            t.done(t.user);
+            pthread_mutex_lock(&p->mutex);
+            continue;
+        }
+        task t = take(p, i);
         p->running++;
+        memcpy(p->running_key[a.slot], t.key, sizeof t.key);
         int stopping = p->stop;
         pthread_mutex_unlock(&p->mutex);
         if (stopping) {
@@ -218,6 +329,8 @@ static void *thread_main(void *arg)
         t.done(t.user);
         pthread_mutex_lock(&p->mutex);
         p->running--;
+        p->running_key[a.slot][0] = '\0';
+        pthread_cond_broadcast(&p->wake); /* a client under its share again */
     }
     pthread_mutex_unlock(&p->mutex);
     return NULL;
@@ -230,18 +343,24 @@ smd_check_pool *smd_check_pool_new(int threads, double timeout, uint64_t memory_
     if (p) {
         p->threads = calloc((size_t)threads, sizeof *p->threads);
         p->children = calloc((size_t)threads, sizeof *p->children);
+        p->running_key = calloc((size_t)threads, sizeof *p->running_key);
     }
-    if (!p || !p->threads || !p->children) {
+    if (!p || !p->threads || !p->children || !p->running_key) {
         if (p) {
             free(p->threads);
             free(p->children);
+            free(p->running_key);
         }
         free(p);
         sm_error_set(err, SM_ERR_NOMEM, "out of memory");
         return NULL;
     }
     pthread_mutex_init(&p->mutex, NULL);
-    pthread_cond_init(&p->wake, NULL);
+    pthread_condattr_t ca;
+    pthread_condattr_init(&ca);
+    pthread_condattr_setclock(&ca, CLOCK_MONOTONIC); /* as sm_clock_seconds */
+    pthread_cond_init(&p->wake, &ca);
+    pthread_condattr_destroy(&ca);
     p->timeout = timeout;
     p->memory_limit = memory_limit;
     for (int i = 0; i < threads; i++) {
@@ -261,21 +380,33 @@ smd_check_pool *smd_check_pool_new(int threads, double timeout, uint64_t memory_
     return p;
 }
 
-int smd_check_submit(smd_check_pool *p, smd_check_fn fn, void *arg, smd_check_result *out,
-                     smd_check_done_fn done, void *user)
+int smd_check_submit_from(smd_check_pool *p, const char *key, smd_check_fn fn, void *arg,
+                          smd_check_result *out, smd_check_done_fn done, void *user)
 {
     pthread_mutex_lock(&p->mutex);
-    int rc = -1;
-    if (!p->stop && p->count < SMD_CHECK_QUEUE_MAX) {
-        task *t = &p->queue[(p->head + p->count) % SMD_CHECK_QUEUE_MAX];
-        *t = (task){fn, arg, out, done, user};
-        p->count++;
+    int rc;
+    if (p->stop || p->count >= SMD_CHECK_QUEUE_MAX) {
+        rc = -1;
+    } else if (waiting_of(p, key && key[0] ? key : "-") >= SMD_CHECK_WAITING_PER_CLIENT) {
+        rc = -2;
+    } else {
+        task *t = &p->queue[p->count++];
+        *t = (task){fn, arg, out, done, user, "", p->seq++, sm_clock_seconds()};
+        /* "-": the shared key (a client key starts "a:" or "t:"); an empty
+         * running_key marks an idle thread */
+        snprintf(t->key, sizeof t->key, "%s", key && key[0] ? key : "-");
         atomic_fetch_add(&p->outstanding, 1);
-        pthread_cond_signal(&p->wake);
+        pthread_cond_broadcast(&p->wake);
         rc = 0;
     }
     pthread_mutex_unlock(&p->mutex);
     return rc;
+}
+
+int smd_check_submit(smd_check_pool *p, smd_check_fn fn, void *arg, smd_check_result *out,
+                     smd_check_done_fn done, void *user)
+{
+    return smd_check_submit_from(p, "", fn, arg, out, done, user);
 }
 
 void smd_check_counts(smd_check_pool *p, uint64_t *running, uint64_t *waiting)
@@ -323,5 +454,6 @@ void smd_check_pool_free(smd_check_pool *p)
     pthread_mutex_destroy(&p->mutex);
     free(p->threads);
     free(p->children);
+    free(p->running_key);
     free(p);
 }

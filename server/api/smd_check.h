@@ -16,9 +16,18 @@
  * The child runs with one OpenMP thread and leaves by _exit (no atexit
  * handlers of the daemon run in it).
  *
- * At most SMD_CHECK_QUEUE_MAX checks wait; beyond, submission fails (the
- * caller answers 503 with Retry-After).  The pool has its own mutex; no
- * server lock is taken here. */
+ * Fair shares (issue 37): each check belongs to a client (its address, an
+ * IPv6 /64, an IPv4 network of --submit-ipv4-prefix, or its tenant with
+ * tokens), which runs at most --check-threads - 1 checks at once (1 with
+ * one thread): however many checks one client sends, a slot stays free
+ * for another's.  Waiting checks start fewest-running client first, then
+ * in arrival order.  A check still waiting after a whole --check-timeout
+ * is answered busy (the caller answers 503 with Retry-After) instead of
+ * after minutes.
+ *
+ * At most SMD_CHECK_QUEUE_MAX checks wait, SMD_CHECK_WAITING_PER_CLIENT of
+ * one client; beyond, submission fails (503 with Retry-After).  The pool
+ * has its own mutex; no server lock is taken here. */
 #ifndef SMD_CHECK_H
 #define SMD_CHECK_H
 
@@ -28,6 +37,11 @@
 #include "shapematch/sm_error.h"
 
 #define SMD_CHECK_QUEUE_MAX 256
+/* Checks one client may have waiting; beyond, its uploads get 503 at once
+ * and leave the rest of the queue to others. */
+#define SMD_CHECK_WAITING_PER_CLIENT 64
+/* Longest client key (smd_ratelimit_address_key's, or "t:" + a tenant). */
+#define SMD_CHECK_KEY_MAX 80
 
 /* What a check sends back (a plain struct: it crosses the pipe). */
 typedef struct smd_check_result {
@@ -37,6 +51,7 @@ typedef struct smd_check_result {
     int crashed;             /* the child died (signal, or no result) */
     int signal;              /* its signal when it did */
     int shutdown;            /* not checked: the daemon stops */
+    int busy;                /* not checked: it waited a --check-timeout for a slot */
     int storage;             /* the check passed, storing it failed */
     char msg[512];           /* why, when status != SM_OK */
     int dim, max_iter;
@@ -63,6 +78,11 @@ smd_check_pool *smd_check_pool_new(int threads, double timeout, uint64_t memory_
  * follows, in a check thread. */
 int smd_check_submit(smd_check_pool *p, smd_check_fn fn, void *arg, smd_check_result *out,
                      smd_check_done_fn done, void *user);
+/* The same for a client, key (its share, above; "" or NULL: the shared
+ * one); -2 when that client already has SMD_CHECK_WAITING_PER_CLIENT
+ * checks waiting. */
+int smd_check_submit_from(smd_check_pool *p, const char *key, smd_check_fn fn, void *arg,
+                          smd_check_result *out, smd_check_done_fn done, void *user);
 /* The caller is done with a submitted check's request (answered, or the
  * request is gone): smd_check_pool_stop waits for every one. */
 void smd_check_settled(smd_check_pool *p);

@@ -32,7 +32,7 @@ typedef struct smd_stream_request {
 /* The common part of every event stream's request: the encoding by
  * Accept (406), the resume point (400 when malformed) and the
  * connection's place among the streams (503 when full, evicting the
- * oldest of its address as smd_conns_stream says).  1 to go on, or 0
+ * oldest of an address over its share as smd_conns_stream says).  1 to go on, or 0
  * with the refusal answered into *r. */
 int smd_stream_request_open(struct MHD_Connection *conn, smd_request *req, smd_stream_request *sr,
                             enum MHD_Result *r);

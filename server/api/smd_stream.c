@@ -231,8 +231,8 @@ static ssize_t end_evicted(smd_follower *f, char *out, size_t max)
         return MHD_CONTENT_READER_END_OF_STREAM;
     char text[256];
     int n = snprintf(text, sizeof text,
-                     ": evicted: the daemon holds too many event streams and serves the newest; "
-                     "reconnect with Last-Event-ID: %lld\n\n", last);
+                     ": evicted: this client holds more than its share of the daemon's event "
+                     "streams; reconnect with Last-Event-ID: %lld\n\n", last);
     if (smd_buf_append(&f->buf, &f->len, &f->cap, text, (size_t)n) != 0)
         return MHD_CONTENT_READER_END_WITH_ERROR;
     return copy_out(f, out, max);

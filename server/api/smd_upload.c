@@ -412,15 +412,21 @@ static enum MHD_Result start_check(struct MHD_Connection *conn, smd_request *req
     u->conn = conn;
     atomic_store(&u->check_state, CHECK_RUNNING);
     MHD_suspend_connection(conn);
-    if (smd_check_submit(req->srv->checks, check_in_child, u, &u->check, check_done, u) == 0) {
+    int rc = smd_check_submit_from(req->srv->checks, u->limit_key, check_in_child, u, &u->check,
+                                   check_done, u);
+    if (rc == 0) {
         u->checks = req->srv->checks;
     } else {
         memset(&u->check, 0, sizeof u->check);
         u->check.status = SM_ERR_NOMEM;
-        u->check.shutdown = 1;
-        snprintf(u->check.msg, sizeof u->check.msg,
-                 "%d uploads are waiting for their acceptance check: retry in a few seconds",
-                 SMD_CHECK_QUEUE_MAX);
+        u->check.busy = 1;
+        if (rc == -2)
+            snprintf(u->check.msg, sizeof u->check.msg, "%d uploads of this client are waiting "
+                     "for their acceptance check: retry when they are answered",
+                     SMD_CHECK_WAITING_PER_CLIENT);
+        else
+            snprintf(u->check.msg, sizeof u->check.msg, "%d uploads are waiting for their "
+                     "acceptance check: retry in a few seconds", SMD_CHECK_QUEUE_MAX);
         check_done(u);
     }
     return MHD_YES;
@@ -440,6 +446,14 @@ static enum MHD_Result check_refused(struct MHD_Connection *conn, smd_request *r
         return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL,
                                  "the acceptance check of this upload stopped (signal %d)",
                                  r->signal);
+    if (r->busy) {
+        /* a slot frees within one --check-timeout at most */
+        double wait = cfg->check_timeout < 1    ? 1
+                      : cfg->check_timeout > 60 ? 60
+                                                : cfg->check_timeout;
+        req->retry_after = (unsigned)wait;
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "%s", r->msg);
+    }
     if (r->shutdown)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "%s", r->msg);
     if (r->storage)

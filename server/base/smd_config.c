@@ -53,8 +53,9 @@ static const opt options[] = {
      "largest decompressed size of one gzip-compressed part; larger ones get 413 "
      "(0 = 4 x --max-upload)", "4 x --max-upload"},
     {"--max-vertices", "SHAPEMATCH_MAX_VERTICES", "N", OPT_SIZE, OFF(max_vertices), 0, 2e8,
-     "most vertices a mesh or solution part may declare; more get 413 before anything is "
-     "allocated (0 = --memory-limit / 4096, 1M for 4G; 200M without a memory limit)",
+     "most vertices a mesh or solution part may declare, and 256 times that the voxels of a "
+     "target image; more get 413 before anything is allocated (0 = --memory-limit / 4096, 1M "
+     "for 4G; 200M without a memory limit)",
      "--memory-limit / 4096"},
     {"--max-elements", "SHAPEMATCH_MAX_ELEMENTS", "N", OPT_SIZE, OFF(max_elements), 0, 2e8,
      "most elements (or facets) a mesh part may declare; more get 413 "
@@ -104,10 +105,11 @@ static const opt options[] = {
      "(https://host/prefix): its origin counts as the daemon's own", "none: the Host header"},
     {"--allowed-host", "SHAPEMATCH_ALLOWED_HOSTS", "HOST", OPT_HOSTS, OFF(allowed_hosts), 0, 0,
      "a name the daemon is reached by (maps.example.org, or with :PORT); repeatable (the "
-     "variable: comma-separated).  Given, a request whose Host header is neither one of them, "
-     "an IP address, localhost nor --public-url's host gets 421 (DNS rebinding); its origins "
-     "count as the daemon's own for POST and DELETE", "none: any Host; the daemon's own "
-     "origins are its listen address, localhost and --public-url"},
+     "variable: comma-separated).  A request whose Host header is neither one of them, an IP "
+     "address, localhost (or a name under it), the --listen host nor --public-url's host gets "
+     "421 on every route but /healthz, /readyz and the web app's page (DNS rebinding); its "
+     "origins count as the daemon's own for POST and DELETE", "none: the listen address, IP "
+     "addresses, localhost and --public-url's host"},
     {"--database", "SHAPEMATCH_DATABASE_URL", "URL", OPT_TEXT, OFF(database), 0, SMD_DATABASE_URL_MAX,
      "PostgreSQL job store and queue shared by several nodes (libpq connection string or "
      "postgresql:// URI; sslmode, PGPASSWORD and ~/.pgpass are honoured); --spool is then "
@@ -147,8 +149,11 @@ static const opt options[] = {
      "this long is cut, however much it sent before", "10s"},
     {"--max-streams-per-ip", "SHAPEMATCH_MAX_STREAMS_PER_IP", "N", OPT_UINT,
      OFF(max_streams_per_ip), 0, 100000, "event streams and request bodies in progress (uploads) "
-     "from one client address; more get 503 (all addresses together: --max-connections "
-     "minus --reserved-connections; 0 = only that)", "150"},
+     "from one client address (an IPv6 client per /64, an IPv4 one per --submit-ipv4-prefix "
+     "network); a new stream then ends that address's oldest, a body gets 503 (all addresses "
+     "together: --max-connections minus --reserved-connections, where a new stream ends the "
+     "oldest of the address most over its fair share, never one within it; 0 = only that)",
+     "150"},
     {"--submit-rate", "SHAPEMATCH_SUBMIT_RATE", "N", OPT_UINT, OFF(submit_rate), 0, 1000000,
      "job submissions one tenant (one client address without --tokens-file) may make per "
      "--submit-window; more get 429 with Retry-After (0 = no limit)", "600"},
@@ -180,10 +185,13 @@ static const opt options[] = {
      "--max-connections / 10)", "--max-connections / 10"},
     {"--check-threads", "SHAPEMATCH_CHECK_THREADS", "N", OPT_INT, OFF(check_threads), 1, 64,
      "uploads whose acceptance check (parsing, limits, mesh checks) runs at the same time, "
-     "each in a child process off the HTTP threads; more wait their turn", "2"},
+     "each in a child process off the HTTP threads; one tenant (one client address without "
+     "--tokens-file) runs at most N - 1 of them (1 when N is 1), the others wait, the client "
+     "with the fewest running first", "2"},
     {"--check-timeout", "SHAPEMATCH_CHECK_TIMEOUT", "SECONDS", OPT_DURATION, OFF(check_timeout), 0.1,
      86400, "wall time the acceptance check of one upload may take; longer ones are stopped and "
-     "refused with 422", "1m"},
+     "refused with 422; an upload still waiting for a check after this long gets 503 with "
+     "Retry-After", "1m"},
 };
 
 #define NOPTIONS (sizeof options / sizeof options[0])

@@ -11,6 +11,7 @@
 #include <sys/socket.h>
 #include <time.h>
 
+#include "http/smd_ratelimit.h"
 #include "shapematch/sm_clock.h"
 
 typedef enum phase { PHASE_HEADERS, PHASE_REQUEST } phase;
@@ -28,6 +29,7 @@ typedef struct conn_ctx {
                            * SMD_CONNS_BUSY_HEADERS (its final comment never leaves) */
     struct MHD_Connection *conn;
     char addr[64];        /* the client's address (smd_conn_address) */
+    char key[SMD_RATELIMIT_KEY_MAX + 1]; /* what the per-address caps count it by */
     uint64_t body_bytes;
     double progress;      /* the body's last new byte (monotonic) */
     int closing;          /* shut down by us: wait for the close */
@@ -205,6 +207,8 @@ static void opened(smd_conns *c, struct MHD_Connection *conn, void **socket_cont
     x->fd = ci->connect_fd;
     x->conn = conn;
     smd_conn_address(conn, x->addr, sizeof x->addr);
+    smd_ratelimit_address_key(x->addr, c->limits.ipv4_prefix ? c->limits.ipv4_prefix : 32, x->key,
+                              sizeof x->key);
     x->owner = c;
     x->phase = PHASE_HEADERS;
     x->since = sm_clock_seconds();
@@ -250,19 +254,30 @@ static conn_ctx *ctx_of(struct MHD_Connection *conn)
     return ci ? ci->socket_context : NULL;
 }
 
+/* 1 when y holds a long-lived request (a body, a stream) that counts. */
+static int long_lived(const conn_ctx *y)
+{
+    return !y->closing && !y->evicted && (y->receiving || y->stream);
+}
+
+/* The long-lived requests of key, x aside.  Mutex held. */
+static size_t long_of(const smd_conns *c, const conn_ctx *x, const char *key)
+{
+    size_t n = 0;
+    for (const conn_ctx *y = c->head; y; y = y->next)
+        n += y != x && long_lived(y) && strcmp(y->key, key) == 0;
+    return n;
+}
+
 /* 1 when x may not become long-lived (a body, a stream): its address
  * holds max_long_per_ip of them, or all hold max_connections - reserved.
  * Mutex held. */
 static int long_full(const smd_conns *c, const conn_ctx *x)
 {
-    size_t all = 0, mine = 0;
-    for (const conn_ctx *y = c->head; y; y = y->next) {
-        if (y == x || y->closing || y->evicted || !(y->receiving || y->stream))
-            continue;
-        all++;
-        mine += strcmp(y->addr, x->addr) == 0;
-    }
-    return (c->limits.max_long_per_ip && mine >= c->limits.max_long_per_ip) ||
+    size_t all = 0;
+    for (const conn_ctx *y = c->head; y; y = y->next)
+        all += y != x && long_lived(y);
+    return (c->limits.max_long_per_ip && long_of(c, x, x->key) >= c->limits.max_long_per_ip) ||
            all >= c->limits.max_connections - c->limits.reserved;
 }
 
@@ -284,23 +299,75 @@ int smd_conns_request(struct MHD_Connection *conn, int receiving)
     return refused ? -1 : 0;
 }
 
-/* The oldest stream whose end makes room for x: of x's address when
- * that address is at its cap, else of any.  NULL when none would (the
- * cap is full of bodies).  Mutex held. */
-static conn_ctx *oldest_stream(const smd_conns *c, const conn_ctx *x)
+/* The oldest stream of key, x aside; NULL when it has none. */
+static conn_ctx *oldest_of(const smd_conns *c, const conn_ctx *x, const char *key)
 {
-    size_t mine = 0;
-    for (const conn_ctx *y = c->head; y; y = y->next)
-        mine += y != x && !y->closing && !y->evicted && (y->receiving || y->stream) &&
-                strcmp(y->addr, x->addr) == 0;
-    int same_addr = c->limits.max_long_per_ip && mine >= c->limits.max_long_per_ip;
     conn_ctx *best = NULL;
     for (conn_ctx *y = c->head; y; y = y->next)
-        if (y != x && y->stream && !y->closing && !y->evicted &&
-            (!same_addr || strcmp(y->addr, x->addr) == 0) &&
+        if (y != x && y->stream && long_lived(y) && strcmp(y->key, key) == 0 &&
             (!best || y->stream_since < best->stream_since))
             best = y;
     return best;
+}
+
+/* One address's long-lived requests (x counted with its own) and its
+ * oldest stream. */
+typedef struct tally {
+    const char *key;
+    size_t n;
+    conn_ctx *oldest;
+} tally;
+
+/* The tallies of the addresses holding long-lived requests, x's among
+ * them, into t (room for every open connection + 1); how many.  Mutex
+ * held; linear in the connections times the addresses. */
+static size_t tally_addresses(const smd_conns *c, const conn_ctx *x, tally *t)
+{
+    size_t k = 1;
+    t[0] = (tally){x->key, 1, NULL};
+    for (conn_ctx *y = c->head; y; y = y->next) {
+        if (y == x || !long_lived(y))
+            continue;
+        size_t i = 0;
+        while (i < k && strcmp(t[i].key, y->key) != 0)
+            i++;
+        if (i == k)
+            t[k++] = (tally){y->key, 0, NULL};
+        t[i].n++;
+        if (y->stream && (!t[i].oldest || y->stream_since < t[i].oldest->stream_since))
+            t[i].oldest = y;
+    }
+    return k;
+}
+
+/* The stream whose end makes room for x: at its address's cap, that
+ * address's oldest; else the oldest of the address most over its fair
+ * share (the total cap over the addresses holding long-lived requests,
+ * x's counted; at least 1), x counted with its own; ties: the older
+ * stream.  NULL when none would (no address over its share, or it holds
+ * only bodies).  Mutex held. */
+static conn_ctx *stream_to_evict(const smd_conns *c, const conn_ctx *x)
+{
+    if (c->limits.max_long_per_ip && long_of(c, x, x->key) >= c->limits.max_long_per_ip)
+        return oldest_of(c, x, x->key);
+    tally *t = malloc((c->open + 1) * sizeof *t);
+    if (!t)
+        return NULL;
+    size_t k = tally_addresses(c, x, t);
+    size_t share = (c->limits.max_connections - c->limits.reserved) / k;
+    if (share == 0)
+        share = 1;
+    const tally *best = NULL;
+    for (size_t i = 0; i < k; i++) {
+        if (t[i].n <= share || !t[i].oldest)
+            continue; /* within its share: never evicted for another */
+        if (!best || t[i].n > best->n ||
+            (t[i].n == best->n && t[i].oldest->stream_since < best->oldest->stream_since))
+            best = &t[i];
+    }
+    conn_ctx *old = best ? best->oldest : NULL;
+    free(t);
+    return old;
 }
 
 int smd_conns_stream(struct MHD_Connection *conn, struct MHD_Connection **evict)
@@ -314,7 +381,7 @@ int smd_conns_stream(struct MHD_Connection *conn, struct MHD_Connection **evict)
     if (refused) {
         /* the newest client is served: the oldest stream is told to end
          * (it reconnects with Last-Event-ID and loses nothing) */
-        conn_ctx *old = oldest_stream(x->owner, x);
+        conn_ctx *old = stream_to_evict(x->owner, x);
         if (old) {
             old->evicted = 1;
             old->evicted_at = sm_clock_seconds();

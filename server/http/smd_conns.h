@@ -23,9 +23,14 @@
  * - when the reserve is still short, the uploads with the lowest average
  *   rate (sending for more than SMD_CONNS_BUSY_HEADERS).
  * Long-lived requests (bodies being received, event streams) are capped
- * per address (--max-streams-per-ip) and together (--max-connections
- * minus the reserve), so that floods of streams or slow uploads always
- * leave the reserve to /healthz and status requests (issue 28).
+ * per address (--max-streams-per-ip; an IPv6 client per /64) and together
+ * (--max-connections minus the reserve), so that floods of streams or
+ * slow uploads always leave the reserve to /healthz and status requests
+ * (issue 28).  At the total cap every address has a fair share, the cap
+ * over the addresses holding any: a new stream ends the oldest stream of
+ * the address most over its share, never one of an address within it
+ * (issue 37: from four addresses an attacker evicted a victim's one
+ * stream 14 times in 20 s); when none is over, the new stream is refused.
  * Suspended connections (event streams, uploads being checked) and
  * replies being sent are exempt from the deadlines;
  * --max-connections-per-ip still bounds what one address holds.
@@ -56,6 +61,9 @@ typedef struct smd_conns_limits {
     unsigned max_connections;
     unsigned reserved;         /* < max_connections */
     unsigned max_long_per_ip;  /* bodies and streams of one address, 0 = no cap */
+    unsigned ipv4_prefix;      /* an address is its key (smd_ratelimit_address_key):
+                                  an IPv6 one its /64, an IPv4 one its network of
+                                  these bits (--submit-ipv4-prefix; 0: 32) */
 } smd_conns_limits;
 
 typedef struct smd_conns_counts {
@@ -84,10 +92,12 @@ void smd_conns_notify(void *cls, struct MHD_Connection *conn, void **socket_cont
  * --max-connections minus the reserve (answer 503 without reading it). */
 int smd_conns_request(struct MHD_Connection *conn, int receiving);
 /* The request becomes an event stream, under the same caps: 0, or -1
- * when refused (answer 503).  At a cap the oldest stream (of the same
- * address when that address is at --max-streams-per-ip) makes room:
- * *evict is its connection, no longer counted, which the caller must
- * end (smd_stream_evict); only a cap full of request bodies refuses. */
+ * when refused (answer 503).  At a cap a stream makes room: the oldest of
+ * the same address when that address is at --max-streams-per-ip, else
+ * the oldest of the address most over its fair share of the total (its
+ * own included): *evict is its connection, no longer counted, which the
+ * caller must end (smd_stream_evict).  Refused when no address is over
+ * its share, or the cap is full of request bodies. */
 int smd_conns_stream(struct MHD_Connection *conn, struct MHD_Connection **evict);
 /* Body bytes received so far by the request. */
 void smd_conns_body(struct MHD_Connection *conn, uint64_t bytes);

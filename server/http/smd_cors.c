@@ -41,22 +41,46 @@ int smd_cors_listed(const smd_config *cfg, const char *origin)
 }
 
 /* The host part of an authority "host[:port]" or "[v6][:port]" into buf
- * (brackets kept off); its length, 0 when it does not fit or is empty. */
+ * (brackets kept off); its length, 0 when it does not fit, is empty, or
+ * what follows it is anything but nothing or ":" and 1 to 5 digits. */
 static size_t host_part(const char *authority, char *buf, size_t cap)
 {
-    const char *h = authority;
+    const char *h = authority, *rest;
     size_t n;
     if (h[0] == '[') {
         h++;
         n = strcspn(h, "]");
+        rest = h[n] == ']' ? h + n + 1 : NULL;
     } else {
         n = strcspn(h, ":");
+        rest = h + n;
     }
-    if (n == 0 || n >= cap)
+    if (n == 0 || n >= cap || !rest)
         return 0;
+    if (*rest == ':') {
+        size_t digits = strspn(rest + 1, "0123456789");
+        if (digits == 0 || digits > 5 || rest[1 + digits] != '\0')
+            return 0;
+    } else if (*rest != '\0') {
+        return 0;
+    }
     memcpy(buf, h, n);
     buf[n] = '\0';
     return n;
+}
+
+/* 1 for localhost and the names under it (RFC 6761: they resolve to the
+ * loopback address and nowhere else), with or without a final dot. */
+static int localhost_name(const char *host)
+{
+    size_t n = strlen(host);
+    if (n > 0 && host[n - 1] == '.')
+        n--;
+    static const char name[] = "localhost";
+    size_t k = sizeof name - 1;
+    if (n < k || strncasecmp(host + n - k, name, k) != 0)
+        return 0;
+    return n == k || host[n - k - 1] == '.';
 }
 
 int smd_cors_trusted_host(const smd_config *cfg, const char *authority)
@@ -64,11 +88,12 @@ int smd_cors_trusted_host(const smd_config *cfg, const char *authority)
     char host[SMD_ORIGIN_MAX], other[SMD_ORIGIN_MAX];
     if (!authority || !host_part(authority, host, sizeof host))
         return 0;
-    /* a rebinding attack needs a name it controls: an address is no name */
+    /* a rebinding attack needs a name it controls: an address is no name
+     * (a v6 one only in brackets) */
     unsigned char a[16];
-    if (inet_pton(AF_INET, host, a) == 1 || inet_pton(AF_INET6, host, a) == 1)
+    if (authority[0] == '[' ? inet_pton(AF_INET6, host, a) == 1 : inet_pton(AF_INET, host, a) == 1)
         return 1;
-    if (strcasecmp(host, "localhost") == 0 || strcasecmp(host, cfg->listen_host) == 0)
+    if (localhost_name(host) || strcasecmp(host, cfg->listen_host) == 0)
         return 1;
     size_t p = origin_prefix(cfg->public_url);
     if (p > 0) {

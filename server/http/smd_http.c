@@ -123,6 +123,17 @@ static smd_auth_result authenticate(struct MHD_Connection *conn, smd_request *re
     return a;
 }
 
+/* DNS rebinding: a page of a name the attacker controls, resolved to this
+ * daemon's address, reads with the victim's browser.  Every route but the
+ * public ones (health checks, the web app's static page: no job data)
+ * answers only a Host that names this daemon (smd_cors_trusted_host).  A
+ * request without Host (HTTP/1.0; browsers always send one) is no browser's. */
+static int foreign_host(struct MHD_Connection *conn, const smd_request *req)
+{
+    const char *host = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_HOST);
+    return host && !req->public_path && !smd_cors_trusted_host(&req->srv->cfg, host);
+}
+
 /* Cross-site safety, authentication, then the route's handler. */
 static enum MHD_Result handle(struct MHD_Connection *conn, smd_request *req)
 {
@@ -130,13 +141,14 @@ static enum MHD_Result handle(struct MHD_Connection *conn, smd_request *req)
     req->dispatched = 1;
     if (strcmp(req->method, MHD_HTTP_METHOD_OPTIONS) == 0)
         return preflight(conn, req);
-    const char *host = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_HOST);
-    if (srv->cfg.nallowed_hosts && host && !smd_cors_trusted_host(&srv->cfg, host)) {
+    if (foreign_host(conn, req)) {
         char shown[64];
-        snprintf(shown, sizeof shown, "%s", host);
+        snprintf(shown, sizeof shown, "%s",
+                 MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_HOST));
         sm_text_make_printable(shown, NULL);
-        return smd_reply_problem(conn, req, 421, SMD_PROBLEM_FORBIDDEN,
-                                 "Host %s is not a name of this daemon (--allowed-host)", shown);
+        return smd_reply_problem(conn, req, 421, SMD_PROBLEM_MISDIRECTED,
+                                 "Host %s is not a name of this daemon (list it with "
+                                 "--allowed-host, or --public-url behind a proxy)", shown);
     }
     unsigned m = smd_method_bit(req->method);
     if (smd_cors_cross_site(&srv->cfg, conn, (m & (SMD_METHOD_POST | SMD_METHOD_DELETE)) != 0))
@@ -362,7 +374,8 @@ sm_status smd_http_start(smd_server *srv, const smd_http_app *app, sm_error *err
                                 .body_stall = cfg->body_stall_timeout,
                                 .max_long_per_ip = cfg->max_streams_per_ip,
                                 .max_connections = cfg->max_connections,
-                                .reserved = cfg->reserved_connections};
+                                .reserved = cfg->reserved_connections,
+                                .ipv4_prefix = cfg->submit_ipv4_prefix};
     if (!srv->ratelimit)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     srv->conns = smd_conns_new(&climits, err);

@@ -182,11 +182,10 @@ enum MHD_Result smd_reply_problem(struct MHD_Connection *conn, smd_request *req,
                                 auth ? "Bearer realm=\"shapematch\", error=\"invalid_token\""
                                      : "Bearer realm=\"shapematch\"");
     }
-    if (status == 503)
-        MHD_add_response_header(resp, MHD_HTTP_HEADER_RETRY_AFTER, "5");
-    if (status == 429) {
+    if (status == 503 || status == 429) {
         char wait[16];
-        snprintf(wait, sizeof wait, "%u", req->retry_after ? req->retry_after : 1);
+        unsigned seconds = req->retry_after ? req->retry_after : status == 503 ? 5 : 1;
+        snprintf(wait, sizeof wait, "%u", seconds);
         MHD_add_response_header(resp, MHD_HTTP_HEADER_RETRY_AFTER, wait);
     }
     return smd_reply(conn, req, status, resp);

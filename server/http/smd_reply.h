@@ -36,6 +36,7 @@
 #define SMD_PROBLEM_NOT_ACCEPTABLE "about:blank"
 #define SMD_PROBLEM_UNAUTHORIZED "about:blank"
 #define SMD_PROBLEM_FORBIDDEN "about:blank"
+#define SMD_PROBLEM_MISDIRECTED "about:blank"
 #define SMD_PROBLEM_NOT_FOUND "about:blank"
 #define SMD_PROBLEM_METHOD "about:blank"
 #define SMD_PROBLEM_UNAVAILABLE "about:blank"
@@ -64,7 +65,7 @@ typedef struct smd_request {
     char pid[64];                /* process id in the path ({pid}) */
     char arg[24];                /* last variable segment, e.g. {iteration} */
     unsigned status;             /* what was queued */
-    unsigned retry_after;        /* seconds for the Retry-After of a 429 */
+    unsigned retry_after;        /* seconds for the Retry-After of a 429 or 503 (503: 5 when 0) */
     uint64_t bytes_in, bytes_out;
     struct smd_upload *upload;   /* POST /v1/jobs in progress */
     /* Another route's body reader (api/: POST /v1/jobs/{id}/warp), when

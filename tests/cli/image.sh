@@ -187,3 +187,50 @@ rc=$?
 [ $rc = 2 ] && grep -q "cut.nii: byte" "$WORK/e3"
 check_rc $? "a truncated NIfTI names the byte (exit 2)" "rc $rc: $(cat "$WORK/e3")"
 
+
+# detached data files (issue 37): only a regular file in the header's
+# folder, reached through no symbolic link; the voxels allocated only
+# once the data is known to hold them.  Before: the FIFO hung forever, the
+# symbolic links were followed (the image outside was read), the 32 GiB
+# declarations reached malloc (release: "out of memory", ASan: abort).
+mkdir -p "$WORK/det" "$WORK/det2" "$WORK/outside"
+"$PY" -c 'import sys; v = bytearray(512); v[292] = 1; sys.stdout.buffer.write(v)' >"$WORK/outside/x.raw"
+mhd() { # FILE DATA-NAME: an 8 x 8 x 8 uint8 MetaImage header naming DATA-NAME
+    printf 'ObjectType = Image\nNDims = 3\nDimSize = 8 8 8\nElementType = MET_UCHAR\nElementDataFile = %s\n' "$2" >"$1"
+}
+refused() { # DESC MESSAGE HEADER: sdf fails with exit 2 and MESSAGE, within 20 s
+    local rc
+    timeout 20 "$BIN" sdf --image "$3" --smooth 0 -o "$WORK/no" >/dev/null 2>"$WORK/e5"
+    rc=$?
+    [ $rc = 2 ] && grep -q "$2" "$WORK/e5"
+    check_rc $? "$1 (exit 2, '$2')" "rc $rc: $(head -c 400 "$WORK/e5")"
+}
+cp "$WORK/outside/x.raw" "$WORK/det/plain.raw"
+mhd "$WORK/det/plain.mhd" plain.raw
+"$BIN" sdf --image "$WORK/det/plain.mhd" --smooth 0 -o "$WORK/det-out" >/dev/null 2>"$WORK/e5"
+check_rc $? "a detached data file beside its header is read" "$(cat "$WORK/e5")"
+mkfifo "$WORK/det/fifo.raw"
+mhd "$WORK/det/fifo.mhd" fifo.raw
+refused "a FIFO named as the data file is refused at once" "is not a regular file" "$WORK/det/fifo.mhd"
+ln -s ../outside/x.raw "$WORK/det/link.raw"
+mhd "$WORK/det/link.mhd" link.raw
+refused "a symbolic link beside the header to a file outside is refused" "is a symbolic link" "$WORK/det/link.mhd"
+ln -s /dev/zero "$WORK/det/zero.raw"
+mhd "$WORK/det/zero.mhd" zero.raw
+refused "a symbolic link to a device is refused" "is a symbolic link" "$WORK/det/zero.mhd"
+ln -s ../outside "$WORK/det2/sub"
+mhd "$WORK/det2/sub.mhd" sub/x.raw
+refused "a data file under a symbolic link to a folder outside is refused" "passes through a symbolic link" "$WORK/det2/sub.mhd"
+mkdir "$WORK/det/dir.raw"
+mhd "$WORK/det/dir.mhd" dir.raw
+refused "a folder named as the data file is refused" "is not a regular file" "$WORK/det/dir.mhd"
+# 2048 x 2048 x 1024 float64 = 32 GiB declared over 10 bytes: refused from
+# the file's size, nothing allocated (raw, gzip, attached and detached)
+hdr32() { printf 'NRRD0004\ntype: double\ndimension: 3\nsizes: 2048 2048 1024\nencoding: %s\n%s\n' "$1" "$2"; }
+{ hdr32 raw ""; printf 0123456789; } >"$WORK/big.nrrd"
+{ hdr32 gzip ""; printf 0123456789; } >"$WORK/bigz.nrrd"
+hdr32 raw "data file: big.raw" >"$WORK/det/big.nhdr"
+printf 0123456789 >"$WORK/det/big.raw"
+refused "a 32 GiB raw declaration over 10 bytes" "voxels need 34359738368 (truncated?)" "$WORK/big.nrrd"
+refused "a 32 GiB gzip declaration over 10 bytes" "inflate to at most 10320 bytes" "$WORK/bigz.nrrd"
+refused "a 32 GiB declaration over a 10-byte data file" "voxels need 34359738368 (truncated?)" "$WORK/det/big.nhdr"

@@ -108,7 +108,7 @@ fi
 # a client that vanishes in the middle of its upload
 port=${BASE##*:}
 exec {sock}<>"/dev/tcp/127.0.0.1/$port"
-printf 'POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: multipart/form-data; boundary=XyZ\r\nContent-Length: 200000\r\n\r\n' >&$sock
+printf 'POST /v1/jobs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: multipart/form-data; boundary=XyZ\r\nContent-Length: 200000\r\n\r\n' >&$sock
 head -c 3000 "$WORK/truncated.body" >&$sock
 sleep 0.3
 exec {sock}>&-
@@ -123,7 +123,7 @@ fi
 fds=()
 for i in 1 2 3 4 5 6; do
     exec {s}<>"/dev/tcp/127.0.0.1/$port"
-    printf 'GET /healthz HTTP/1.1\r\nHost: x\r\nX-Slow: ' >&$s
+    printf 'GET /healthz HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: ' >&$s
     fds+=("$s")
 done
 t0=$(date +%s.%N)

@@ -47,21 +47,21 @@ expect_400() {
     fi
 }
 expect_400 "Content-Length twice (equal)" \
-    'GET /healthz HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\nContent-Length: 0\r\n\r\n' '^Content-Length:'
+    'GET /healthz HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 0\r\nContent-Length: 0\r\n\r\n' '^Content-Length:'
 expect_400 "Content-Length twice (different)" \
-    'POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 1\r\nContent-Length: 0\r\n\r\nx' '^Content-Length:'
+    'POST /v1/jobs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 1\r\nContent-Length: 0\r\n\r\nx' '^Content-Length:'
 expect_400 "HTTP/1.1 without Host" 'GET /healthz HTTP/1.1\r\n\r\n' '^Host:'
 expect_400 "Authorization twice (identical)" \
-    'GET /v1/jobs HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer a\r\nAuthorization: Bearer a\r\n\r\n' '^Authorization:'
+    'GET /v1/jobs HTTP/1.1\r\nHost: 127.0.0.1\r\nAuthorization: Bearer a\r\nAuthorization: Bearer a\r\n\r\n' '^Authorization:'
 # a transfer coding other than chunked got no answer at all (issue 28)
-out=$(raw 'GET /healthz HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: gzip, chunked\r\n\r\n')
+out=$(raw 'GET /healthz HTTP/1.1\r\nHost: 127.0.0.1\r\nTransfer-Encoding: gzip, chunked\r\n\r\n')
 if grep -q '^HTTP/1.1 501' <<<"$out" && grep -q 'only chunked' <<<"$out"; then
     ok "Transfer-Encoding: gzip, chunked: 501 naming the coding"
 else
     not_ok "Transfer-Encoding other than chunked: 501" "$(head -c 400 <<<"$out")"
 fi
 if grep -q '^HTTP/1.1 200' <<<"$(raw 'GET /healthz HTTP/1.0\r\n\r\n')" &&
-    grep -q '^HTTP/1.1 200' <<<"$(raw 'GET /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n')"; then
+    grep -q '^HTTP/1.1 200' <<<"$(raw 'GET /healthz HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n')"; then
     ok "HTTP/1.0 without Host and HTTP/1.1 with one are served"
 else
     not_ok "well-formed requests are served"

@@ -42,16 +42,16 @@ def start(addr):
 
 def first_bytes():
     if mode == "stream":
-        return (b"GET " + status_path.encode() + b"/events HTTP/1.1\r\nHost: x\r\n"
+        return (b"GET " + status_path.encode() + b"/events HTTP/1.1\r\nHost: 127.0.0.1\r\n"
                 b"Accept: application/x-ndjson\r\n\r\n")
     if mode == "bulk":
-        return (b"POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 10000000\r\n"
+        return (b"POST /v1/jobs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 10000000\r\n"
                 b"Content-Type: multipart/form-data; boundary=b\r\n\r\n--b\r\nContent-Disposition:"
                 b" form-data; name=\"template\"; filename=\"t.mesh\"\r\n\r\n" + b"x" * 200000)
     if mode == "body":
-        return (b"POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 10000000\r\n"
+        return (b"POST /v1/jobs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 10000000\r\n"
                 b"Content-Type: multipart/form-data; boundary=b\r\n\r\n--b\r\n")
-    return b"GET /healthz HTTP/1.1\r\nHost: x\r\n"
+    return b"GET /healthz HTTP/1.1\r\nHost: 127.0.0.1\r\n"
 
 
 def drop(s, by_server):
@@ -90,7 +90,7 @@ def probe(path):
     try:
         c = socket.create_connection(("127.0.0.1", port), timeout=2)
         c.settimeout(max(0.01, 2 - (time.monotonic() - t0)))
-        c.sendall(b"GET " + path.encode() + b" HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
+        c.sendall(b"GET " + path.encode() + b" HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n")
         data = b""
         while b"\r\n\r\n" not in data:
             chunk = c.recv(4096)

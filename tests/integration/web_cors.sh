@@ -114,7 +114,7 @@ check "POST from the daemon's own origin (Origin matches Host $own): 201" [ "$c"
 port=${BASE##*:}
 c=$(req POST "$BASE/v1/jobs" -H "Host: attacker.example.test:$port" \
     -H "Origin: http://attacker.example.test:$port" "${form[@]}")
-check "DNS rebinding: POST whose Host and Origin name the attacker: 403" [ "$c" = 403 ]
+check "DNS rebinding: POST whose Host and Origin name the attacker: 421 (the Host check, before the Origin's 403)" [ "$c" = 421 ]
 c=$(req POST "$BASE/v1/jobs" "${form[@]}")
 B=$(jq -r '.jobID // empty' "$WORK/b")
 check "POST without Origin (curl, the client): 201" [ "$c" = 201 ]
@@ -143,8 +143,12 @@ stop_daemon
 # ------------------------------------------------ behind a reverse proxy
 PUB=https://shapematch.example.test
 start_daemon proxy --workers 1 --public-url "$PUB/prefix" || { not_ok "the daemon starts with --public-url"; exit 1; }
-c=$(req POST "$BASE/v1/jobs" -H "Origin: $PUB" -H 'Host: internal:8080' "${form[@]}")
-check "--public-url: POST from its origin (Host elsewhere) is the daemon's own: 201" [ "$c" = 201 ]
+c=$(req POST "$BASE/v1/jobs" -H "Origin: $PUB" -H 'Host: 10.0.0.5:8080' "${form[@]}")
+check "--public-url: POST from its origin (the proxy's Host an address) is the daemon's own: 201" [ "$c" = 201 ]
+c=$(req POST "$BASE/v1/jobs" -H "Origin: $PUB" -H 'Host: shapematch.example.test' "${form[@]}")
+c2=$(req POST "$BASE/v1/jobs" -H "Origin: $PUB" -H 'Host: internal:8080' "${form[@]}")
+check "--public-url: the proxy passing the public Host 201, an upstream name not listed with --allowed-host 421 ($c $c2)" \
+    test "$c" = 201 -a "$c2" = 421
 c=$(req POST "$BASE/v1/jobs" -H "Origin: https://else.example.test" "${form[@]}")
 check "--public-url: POST from another origin: 403" [ "$c" = 403 ]
 stop_daemon

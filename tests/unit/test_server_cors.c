@@ -78,11 +78,40 @@ static void test_same_origin(void **state)
     assert_true(smd_cors_same_origin(&c, "http://10.0.0.5:8080", "10.0.0.5:8080"));
 }
 
+/* The Host check against DNS rebinding (issue 37): the daemon's names
+ * only, whatever --allowed-host holds, and nothing that merely starts or
+ * ends like one. */
+static void test_trusted_host(void **state)
+{
+    (void)state;
+    smd_config c;
+    config(&c, NULL, NULL);
+    strcpy(c.listen_host, "0.0.0.0");
+    const char *yes[] = {"127.0.0.1", "127.0.0.1:8080", "10.1.2.3:80", "[::1]", "[::1]:8080",
+                         "[2001:db8::5]:443", "localhost", "LOCALHOST:8080", "localhost.:8080",
+                         "app.localhost:3000", "0.0.0.0:8080"};
+    for (size_t i = 0; i < sizeof yes / sizeof *yes; i++)
+        assert_true(smd_cors_trusted_host(&c, yes[i]));
+    const char *no[] = {"attacker.example", "attacker.example:8080", "localhost.attacker.example",
+                        "evillocalhost", "127.0.0.1.attacker.example", "::1", "[::1",
+                        "[::1]x", "127.0.0.1:", "127.0.0.1:80x", "127.0.0.1:123456",
+                        "localhost:8080:1", "[attacker.example]", "", ":8080"};
+    for (size_t i = 0; i < sizeof no / sizeof *no; i++)
+        assert_false(smd_cors_trusted_host(&c, no[i]));
+    /* the listen host by name, --public-url's host */
+    strcpy(c.listen_host, "daemon.internal");
+    assert_true(smd_cors_trusted_host(&c, "daemon.internal:8080"));
+    config(&c, NULL, "https://maps.example.test:8443/shapematch/");
+    assert_true(smd_cors_trusted_host(&c, "maps.example.test"));
+    assert_false(smd_cors_trusted_host(&c, "example.test"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_listed),
         cmocka_unit_test(test_same_origin),
+        cmocka_unit_test(test_trusted_host),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

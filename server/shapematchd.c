@@ -331,6 +331,7 @@ int main(int argc, char **argv)
     /* the engine names the jobs that changed; the event streams wake
      * their followers (before any thread runs the engine) */
     srv->jobs_changed = smd_stream_jobs_changed;
+    srv->work_queued = smd_pool_work_queued; /* the supervisor starts what was queued */
     sigset_t signals;
     take_signals(&signals);
     raise_fd_limit(srv);

@@ -69,6 +69,10 @@ typedef struct smd_server {
      * the engine wakes no connection itself; NULL: nobody follows. */
     void (*jobs_changed)(struct smd_server *srv, const char (*ids)[SMD_ID_LEN + 1], size_t n,
                          int keepalive);
+    /* Lock NOT held: a job was queued here or a worker must be stopped,
+     * from smd_jobs_after_run.  Installed by main beside jobs_changed
+     * (the supervisor's wake-up: smd_pool_wake); NULL: no pool. */
+    void (*work_queued)(struct smd_server *srv);
 
     struct MHD_Daemon *httpd;
     const struct smd_http_app *app; /* what it serves (http/smd_http.h), by smd_http_start */

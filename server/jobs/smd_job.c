@@ -38,6 +38,19 @@ void smd_job_free(smd_job *job)
     free(job);
 }
 
+void smd_job_view(const smd_job *job, smd_job *view)
+{
+    *view = *job;
+    view->members = NULL;
+    view->nmembers = 0;
+    view->events_loaded = 0;
+    view->event_end = NULL;
+    view->event_cap = 0;
+    view->log_fd = -1;
+    view->ending = NULL;
+    view->hash_next = NULL;
+}
+
 int smd_job_set_members(smd_job *job, const char (*ids)[SMD_ID_LEN + 1], size_t n)
 {
     char (*m)[SMD_ID_LEN + 1] = n ? malloc(n * sizeof *m) : NULL;

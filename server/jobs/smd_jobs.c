@@ -303,13 +303,22 @@ void smd_jobs_after_tick(smd_server *srv, smd_jobs_after *a)
     a->keepalive = 1;
 }
 
+void smd_jobs_after_wake(smd_server *srv, smd_jobs_after *a)
+{
+    a->srv = srv;
+    a->wake_pool = 1;
+}
+
 void smd_jobs_after_run(smd_jobs_after *a)
 {
     if (a->srv && a->srv->jobs_changed && (a->nchanged > 0 || a->keepalive))
         a->srv->jobs_changed(a->srv, (const char(*)[SMD_ID_LEN + 1])a->changed, a->nchanged,
                              a->keepalive);
+    if (a->srv && a->srv->work_queued && a->wake_pool)
+        a->srv->work_queued(a->srv);
     a->nchanged = 0;
     a->keepalive = 0;
+    a->wake_pool = 0;
     for (size_t i = 0; i < a->ntrash; i++) {
         smd_rmtree(a->trash[i]);
         free(a->trash[i]);
@@ -393,7 +402,7 @@ sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **
                                "vertices", (int)sub->nverts, "elements", (int)sub->nelems, "bytes",
                                (json_int_t)sub->bytes);
     smd_log(&srv->log, SMD_LOG_INFO, "job_accepted", fields);
-    after->wake_pool = 1;
+    smd_jobs_after_wake(srv, after);
     *out = job;
     *created = 1;
     return SM_OK;
@@ -605,7 +614,7 @@ sm_status smd_jobs_stop(smd_server *srv, smd_job *job, const char *message, smd_
     job->state = SM_JOB_DISMISSED;
     job->updated = sm_time_now();
     job->cancel_requested = 1;
-    after->wake_pool = 1;
+    smd_jobs_after_wake(srv, after);
     save_or_log(srv, job);
     smd_log(&srv->log, SMD_LOG_INFO, "job_cancel_requested", log_fields(job, NULL));
     smd_jobs_after_changed(srv, after, job);

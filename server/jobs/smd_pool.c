@@ -77,6 +77,12 @@ void smd_pool_wake(smd_pool *p)
     (void)n; /* a full counter still wakes the poll */
 }
 
+void smd_pool_work_queued(smd_server *srv)
+{
+    if (srv->pool)
+        smd_pool_wake(srv->pool);
+}
+
 size_t smd_pool_busy(const smd_pool *p)
 {
     return p->busy;
@@ -612,9 +618,9 @@ static void *supervise(void *arg)
                start_next(p, &after)) {
         }
         periodic(p, now, &after);
+        after.wake_pool = 0; /* the pool is awake: no wake-up needed */
         pthread_mutex_unlock(&srv->lock);
-        smd_jobs_after_run(&after); /* the pool wakes itself: no wake_pool needed */
-        after.wake_pool = 0;
+        smd_jobs_after_run(&after);
     }
     smd_jobs_after_free(&after);
     free(ps.fds);

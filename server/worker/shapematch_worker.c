@@ -365,29 +365,19 @@ done:
 
 /* ------------------------------------------------------ a batch's model */
 
-/* A member's published results: JOB_DIR/members/<id>/ (copied in by a
- * PostgreSQL node when it claimed the model job), else the member's own
- * folder next to this one (the spool: SPOOL/jobs/<id>/results/).  A
- * member has results only when it succeeded (results/ is published
- * whole, summary.json included).  0 and the folder, or -1. */
+/* A member's published results: JOB_DIR/members/<id>/, put there when the
+ * model job was queued (the spool links the member's results/, a
+ * PostgreSQL node copies them from the database): the worker reads only
+ * its own folder.  A member has results only when it succeeded (results/
+ * is published whole, summary.json included).  0 and the folder, or -1. */
 static int member_results(const worker *w, const char *id, char *dir, size_t cap)
 {
     char summary[PATH_MAX];
     struct stat st;
-    if (smd_pathf(dir, cap, "%s/members/%s", w->job_dir, id) == 0 && stat(dir, &st) == 0 &&
-        S_ISDIR(st.st_mode))
-        return 0;
-    if (smd_pathf(dir, cap, "%s/../%s/" SMD_RESULTS_DIR, w->job_dir, id) != 0 ||
+    if (smd_pathf(dir, cap, "%s/members/%s", w->job_dir, id) != 0 ||
         smd_pathf(summary, sizeof summary, "%s/summary.json", dir) != 0)
         return -1;
     return stat(summary, &st) == 0 && S_ISREG(st.st_mode) ? 0 : -1;
-}
-
-static sm_model_align align_of(const char *name)
-{
-    return strcmp(name, "none") == 0         ? SM_MODEL_ALIGN_NONE
-           : strcmp(name, "similarity") == 0 ? SM_MODEL_ALIGN_SIMILARITY
-                                             : SM_MODEL_ALIGN_RIGID;
 }
 
 /* The model job: the members that succeeded into the shape model
@@ -435,8 +425,12 @@ static int run_model(worker *w, const json_t *batch)
         code = fail(w, SMD_WORKER_EXIT_OUTPUT, "%s", msg[0] ? msg : "job folder path too long");
         goto done;
     }
-    sm_model_opts opts = {.align = align_of(json_string_value(json_object_get(batch, "align"))),
-                          .write_flags = SM_ATOMIC_FSYNC};
+    sm_model_opts opts = {.write_flags = SM_ATOMIC_FSYNC};
+    const char *align = json_string_value(json_object_get(batch, "align"));
+    if (!align || sm_shape_align_parse(align, &opts.align) != 0) { /* job.json was checked */
+        code = fail(w, SMD_WORKER_EXIT_INPUT, "batch.align: expected none, rigid or similarity");
+        goto done;
+    }
     sm_error err;
     sm_error_clear(&err);
     sm_status st = sm_job_model_build_opts(m, used, &opts, dir, &err);

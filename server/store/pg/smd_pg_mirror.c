@@ -140,7 +140,7 @@ static sm_status commit_import(smd_pg_node *n, const smd_pg_info *info, const ch
     smd_jobs_mirror_state(srv, job, SM_JOB_ACCEPTED, msg, lease->lease.attempt - 1, after);
     if (smd_queue_push(srv->queue, job->id) != 0)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
-    after->wake_pool = 1;
+    smd_jobs_after_wake(srv, after);
     return SM_OK;
 }
 
@@ -226,8 +226,6 @@ sm_status node_import(smd_pg_node *n, smd_pg *db, const char *id, node_lease *le
         pthread_mutex_unlock(&srv->lock);
     }
     smd_jobs_after_free(&after);
-    if (after.wake_pool)
-        smd_pool_wake(srv->pool);
     if (found)
         smd_rmtree(tmp); /* gone when committed */
     free(evs.v);
@@ -402,8 +400,6 @@ static void cancel_here(smd_pg_node *n, const char *id, const char *why)
         smd_jobs_stop(srv, job, why, &after);
     pthread_mutex_unlock(&srv->lock);
     smd_jobs_after_free(&after);
-    if (after.wake_pool)
-        smd_pool_wake(srv->pool);
 }
 
 void node_cancel_here(smd_pg_node *n, const char *id, const char *why);

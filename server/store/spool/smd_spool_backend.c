@@ -4,8 +4,14 @@
  * the queue of accepted jobs) lives in the ops that PostgreSQL replaces. */
 #include "store/spool/smd_spool_backend.h"
 
+#include <errno.h>
+#include <limits.h>
+#include <sys/stat.h>
+
 #include <string.h>
 #include <unistd.h>
+
+#include "worker/smd_worker.h"
 
 smd_job *smd_spool_get(smd_backend *b, const char *id)
 {
@@ -115,11 +121,44 @@ static int members_live(smd_backend *b, const smd_job *model)
     return 0;
 }
 
+/* The model job's members, in its own folder: members/<id> links to the
+ * published results of each member that has them (../../<id>/results),
+ * so that the worker reads only its JOB_DIR, as on PostgreSQL, where the
+ * node copies them in.  A member deleted later leaves a dangling link:
+ * left out of the model, as a member without results is.  One symlink
+ * per member (at most SMD_JOB_MEMBERS_MAX) under the lock. */
+static void link_members(smd_backend *b, const smd_job *model)
+{
+    char dir[PATH_MAX], link[PATH_MAX], target[PATH_MAX], summary[PATH_MAX];
+    if (smd_store_path(b->spool, model->id, "members", dir, sizeof dir) != 0 ||
+        (mkdir(dir, 0750) != 0 && errno != EEXIST))
+        return; /* the worker finds no member: the model job fails, saying so */
+    for (size_t i = 0; i < model->nmembers; i++) {
+        const char *id = model->members[i];
+        if (smd_store_path(b->spool, id, SMD_RESULTS_DIR "/summary.json", summary,
+                           sizeof summary) != 0 ||
+            access(summary, F_OK) != 0 ||
+            smd_pathf(link, sizeof link, "%s/%s", dir, id) != 0 ||
+            smd_pathf(target, sizeof target, "../../%s/" SMD_RESULTS_DIR, id) != 0)
+            continue;
+        if (symlink(target, link) != 0 && errno != EEXIST)
+            continue;
+    }
+}
+
+static int queue_model(smd_backend *b, const smd_job *model)
+{
+    link_members(b, model);
+    return smd_queue_push(b->fifo, model->id);
+}
+
 static int spool_enqueue(smd_backend *b, const char *id)
 {
     const smd_job *job = smd_store_get(b->spool, id);
     if (job && job->batch_model && members_live(b, job))
         return 1; /* waits: queued here later */
+    if (job && job->batch_model)
+        return queue_model(b, job) == 0 ? 1 : -1;
     return smd_queue_push(b->fifo, id) == 0 ? 1 : -1;
 }
 
@@ -156,7 +195,7 @@ static void spool_event(smd_backend *b, const smd_job *job, const sm_event *ev)
         for (size_t k = 0; k < model->nmembers && !member; k++)
             member = strcmp(model->members[k], job->id) == 0;
         if (member && !members_live(b, model))
-            smd_queue_push(b->fifo, model->id); /* out of memory: runs after a restart */
+            queue_model(b, model); /* out of memory: runs after a restart */
     }
 }
 

@@ -25,7 +25,7 @@
 #include "http/smd_http.h"
 #include "jobs/smd_jobs.h"
 #include "store/pg/smd_pg_node.h"
-#include "store/spool/smd_spool_backend.h"
+#include "jobs/smd_spool_backend.h"
 #include "jobs/smd_pool.h"
 #include "api/smd_route_table.h"
 #include "base/smd_server.h"

@@ -9,7 +9,7 @@
  * ordinary job too (listed, owned, cancelled and deleted like any), with
  * no upload: its job.json names the members (worker/smd_job_file.h).  It
  * waits, queued, until no member is queued or running (the spool: kept
- * out of its FIFO, store/spool/smd_spool_backend.c; PostgreSQL: its claim
+ * out of its FIFO, jobs/smd_spool_backend.c; PostgreSQL: its claim
  * skips it, store/pg/smd_pg_queue.c), then a worker builds the model from
  * the members that succeeded (proto/job/sm_job_model.h); a member that
  * failed or was dismissed is reported and left out, not fatal.
@@ -37,7 +37,7 @@
 
 #include "base/smd_server.h"
 #include "http/smd_reply.h"
-#include "jobs/smd_job.h"
+#include "store/spool/smd_job.h"
 
 enum MHD_Result smd_route_batch_create(struct MHD_Connection *conn, smd_request *req);
 /* The JSON body of POST /v1/batches (req->body_state), then the answer. */

@@ -469,7 +469,7 @@ static enum MHD_Result submit_checked(struct MHD_Connection *conn, smd_request *
     int refused;
     enum MHD_Result qr = queued_refusal(conn, req, u->limit_key, &refused);
     const char *key = sub.idempotency_key && sub.idempotency_key[0] ? sub.idempotency_key : NULL;
-    smd_job *known = refused || !key ? NULL : smd_backend_find_key(srv->backend, sub.owner, key);
+    smd_job *known = refused || !key ? NULL : smd_store_find_key(srv->store, sub.owner, key);
     if (known)
         smd_job_view(known, &view);
     pthread_mutex_unlock(&srv->lock);

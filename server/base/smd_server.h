@@ -55,9 +55,9 @@ typedef struct smd_server {
     double start_time;          /* Unix seconds */
 
     pthread_mutex_t lock;
-    struct smd_backend *backend; /* where jobs live (jobs/smd_backend.h): the engine's only way */
-    struct smd_store *store;    /* the local spool, both backends' replica: the handlers
-                                 * read job files through it (store/spool/smd_store.h) */
+    struct smd_backend *backend; /* what the backends do differently (jobs/smd_backend.h) */
+    struct smd_store *store;    /* the local spool, both backends' replica, used by name
+                                 * by the engine and the handlers (store/spool/smd_store.h) */
     struct smd_queue *queue;    /* the spool's FIFO of jobs to run here */
     struct smd_pool *pool;
     struct smd_pg_node *cluster; /* --database: PostgreSQL's node (store/pg/smd_pg_node.h), or

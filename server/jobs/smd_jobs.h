@@ -52,6 +52,8 @@
 #include "shapematch/sm_error.h"
 #include "base/smd_server.h"
 #include "jobs/smd_backend.h"
+#include "store/spool/smd_fifo.h"  /* the local queue, by name */
+#include "store/spool/smd_store.h" /* the local replica, by name */
 
 /* Work for after the lock.  Starts zeroed ({0}); reusable after a run. */
 typedef struct smd_jobs_after {

@@ -108,8 +108,8 @@ static int spawn(smd_pool *p, slot *s, char *msg, size_t cap)
     smd_server *srv = p->srv;
     const smd_config *cfg = &srv->cfg;
     char job_dir[PATH_MAX], log_path[PATH_MAX];
-    if (smd_backend_path(srv->backend, s->job->id, "", job_dir, sizeof job_dir) != 0 ||
-        smd_backend_path(srv->backend, s->job->id, SMD_WORKER_LOG, log_path, sizeof log_path) != 0) {
+    if (smd_store_path(srv->store, s->job->id, "", job_dir, sizeof job_dir) != 0 ||
+        smd_store_path(srv->store, s->job->id, SMD_WORKER_LOG, log_path, sizeof log_path) != 0) {
         snprintf(msg, cap, "job folder path too long");
         return -1;
     }
@@ -435,8 +435,8 @@ static void sweep_retention(smd_pool *p, smd_jobs_after *after)
     if (srv->cfg.retention <= 0)
         return;
     double now = sm_time_now();
-    for (size_t i = 0; i < smd_backend_count(srv->backend);) {
-        smd_job *job = smd_backend_at(srv->backend, i);
+    for (size_t i = 0; i < smd_store_count(srv->store);) {
+        smd_job *job = smd_store_at(srv->store, i);
         if (!smd_job_state_final(job->state) || job->worker_active || job->finished < 0 ||
             now - job->finished < srv->cfg.retention) {
             i++;

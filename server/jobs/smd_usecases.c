@@ -24,7 +24,7 @@ sm_status smd_jobs_create(smd_server *srv, smd_submission *sub, smd_job *view, i
 int smd_jobs_find(smd_server *srv, const char *id, const char *tenant, int admin, smd_job *view)
 {
     pthread_mutex_lock(&srv->lock);
-    smd_job *job = smd_backend_get(srv->backend, id);
+    smd_job *job = smd_store_get(srv->store, id);
     int found = job && smd_job_visible(job, tenant, admin);
     if (found && view)
         smd_job_view(job, view);
@@ -35,7 +35,7 @@ int smd_jobs_find(smd_server *srv, const char *id, const char *tenant, int admin
 int smd_jobs_find_key(smd_server *srv, const char *owner, const char *key, smd_job *view)
 {
     pthread_mutex_lock(&srv->lock);
-    smd_job *job = smd_backend_find_key(srv->backend, owner, key);
+    smd_job *job = smd_store_find_key(srv->store, owner, key);
     if (job)
         smd_job_view(job, view);
     pthread_mutex_unlock(&srv->lock);
@@ -74,7 +74,7 @@ smd_withdrawn smd_jobs_withdraw(smd_server *srv, const char *tenant, int admin, 
                                 unsigned what, smd_job *view, sm_error *err)
 {
     pthread_mutex_lock(&srv->lock);
-    smd_job *job = smd_backend_get(srv->backend, id);
+    smd_job *job = smd_store_get(srv->store, id);
     if (job && !smd_job_visible(job, tenant, admin))
         job = NULL;
     int final = job && smd_job_state_final(job->state);
@@ -91,7 +91,7 @@ smd_withdrawn smd_jobs_withdraw(smd_server *srv, const char *tenant, int admin, 
     smd_jobs_after after = {0};
     smd_withdrawn out = SMD_WITHDRAWN_NONE;
     pthread_mutex_lock(&srv->lock);
-    job = smd_backend_get(srv->backend, id);
+    job = smd_store_get(srv->store, id);
     if (job && smd_job_visible(job, tenant, admin)) /* else deleted meanwhile */
         out = withdraw_locked(srv, job, what, view, &after, err);
     pthread_mutex_unlock(&srv->lock);
@@ -103,9 +103,9 @@ int smd_jobs_shared(smd_server *srv, const char *batch, const char *id)
 {
     int shared = 0;
     pthread_mutex_lock(&srv->lock);
-    size_t n = smd_backend_count(srv->backend);
+    size_t n = smd_store_count(srv->store);
     for (size_t i = 0; i < n && !shared; i++) {
-        const smd_job *b = smd_backend_at(srv->backend, i);
+        const smd_job *b = smd_store_at(srv->store, i);
         if (!b->batch_model || strcmp(b->id, batch) == 0)
             continue;
         for (size_t k = 0; k < b->nmembers && !shared; k++)

@@ -573,6 +573,11 @@ int smd_store_trash(smd_store *s, const char *id, char *trash_path, size_t cap)
     return 0;
 }
 
+int smd_store_writable(const smd_store *s)
+{
+    return access(s->root, W_OK) == 0;
+}
+
 int smd_store_can_trash(const smd_store *s)
 {
     return access(s->jobs_dir, W_OK) == 0 && access(s->trash_dir, W_OK) == 0;

@@ -1,5 +1,5 @@
 /* The job record's memory, references and status fields (see smd_job.h). */
-#include "jobs/smd_job.h"
+#include "store/spool/smd_job.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -1,100 +1,16 @@
-/* The embedded backend: the spool and its FIFO behind jobs/smd_backend.h
- * (see smd_spool_backend.h).  Every op is a thin call into smd_store.c or
- * smd_fifo.c; what is the spool's alone (summaries, final-event repair,
- * the queue of accepted jobs) lives in the ops that PostgreSQL replaces. */
-#include "store/spool/smd_spool_backend.h"
+/* The embedded backend (see smd_spool_backend.h): what the spool does
+ * where PostgreSQL does something else: recovery from the local
+ * summaries, final-event repair, the local queue with its model-job gate,
+ * and nothing to publish or tell. */
+#include "jobs/smd_spool_backend.h"
 
 #include <errno.h>
 #include <limits.h>
-#include <sys/stat.h>
-
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "worker/smd_worker.h"
-
-smd_job *smd_spool_get(smd_backend *b, const char *id)
-{
-    return smd_store_get(b->spool, id);
-}
-
-smd_job *smd_spool_find_key(smd_backend *b, const char *owner, const char *key)
-{
-    return smd_store_find_key(b->spool, owner, key);
-}
-
-size_t smd_spool_count(smd_backend *b)
-{
-    return smd_store_count(b->spool);
-}
-
-smd_job *smd_spool_at(smd_backend *b, size_t i)
-{
-    return smd_store_at(b->spool, i);
-}
-
-int smd_spool_path(smd_backend *b, const char *id, const char *name, char *buf, size_t cap)
-{
-    return smd_store_path(b->spool, id, name, buf, cap);
-}
-
-sm_status smd_spool_commit(smd_backend *b, const char *dir, smd_job *job, sm_event *first,
-                           sm_error *err)
-{
-    return smd_store_commit(b->spool, dir, job, first, err);
-}
-
-sm_status smd_spool_save(smd_backend *b, smd_job *job, sm_error *err)
-{
-    return smd_store_save(b->spool, job, err);
-}
-
-sm_status smd_spool_load_events(smd_backend *b, smd_job *job, sm_error *err)
-{
-    return smd_store_load_events(b->spool, job, err);
-}
-
-sm_status smd_spool_append(smd_backend *b, smd_job *job, sm_event *ev, sm_error *err)
-{
-    return smd_store_append_event(b->spool, job, ev, err);
-}
-
-void smd_spool_unlink(smd_backend *b, smd_job *job)
-{
-    smd_store_unlink(b->spool, job);
-}
-
-int smd_spool_trash(smd_backend *b, const char *id, char *path, size_t cap)
-{
-    return smd_store_trash(b->spool, id, path, cap);
-}
-
-int smd_spool_can_trash(smd_backend *b)
-{
-    return smd_store_can_trash(b->spool);
-}
-
-int smd_spool_writable(smd_backend *b)
-{
-    return access(smd_store_root(b->spool), W_OK) == 0;
-}
-
-void smd_spool_remove_results(smd_backend *b, const smd_job *job, int partial_only)
-{
-    smd_store_remove_results(b->spool, job, partial_only);
-}
-
-int smd_spool_next(smd_backend *b, char id[SMD_ID_LEN + 1])
-{
-    return smd_queue_pop(b->fifo, id);
-}
-
-void smd_spool_dequeue(smd_backend *b, const char *id)
-{
-    smd_queue_remove(b->fifo, id);
-}
-
-/* ------------------------------------------- what only the spool does */
 
 static sm_status spool_read_summary(smd_backend *b, const smd_job *job, sm_event *finished,
                                     double *when, sm_error *err)
@@ -234,25 +150,9 @@ static void spool_metrics(smd_backend *b, char **text, size_t *len)
 
 const smd_backend_ops smd_spool_backend_ops = {
     .name = "spool",
-    .get = smd_spool_get,
-    .find_key = smd_spool_find_key,
-    .count = smd_spool_count,
-    .at = smd_spool_at,
-    .path = smd_spool_path,
-    .commit = smd_spool_commit,
-    .save = smd_spool_save,
-    .load_events = smd_spool_load_events,
-    .append = smd_spool_append,
-    .unlink = smd_spool_unlink,
-    .trash = smd_spool_trash,
-    .can_trash = smd_spool_can_trash,
-    .writable = smd_spool_writable,
-    .remove_results = smd_spool_remove_results,
     .read_summary = spool_read_summary,
     .final_event_missing = spool_final_event_missing,
     .enqueue = spool_enqueue,
-    .next = smd_spool_next,
-    .dequeue = smd_spool_dequeue,
     .publish = spool_publish,
     .submitted = spool_submitted,
     .event = spool_event,

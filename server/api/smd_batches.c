@@ -220,24 +220,24 @@ void smd_batches_body_free(void *body)
     free(b);
 }
 
-/* Lock held: every member is a job of the requester's, not a batch, and
+/* Every member is a job of the requester's, not a batch, and
  * all of one dimension (*dim: the model job's, kept in its record). */
 static unsigned check_members(smd_server *srv, const smd_request *req, const member *m, size_t n,
                               int *dim, char *msg, size_t cap)
 {
+    smd_job job;
     for (size_t i = 0; i < n; i++) {
-        const smd_job *job = smd_store_get_visible(srv->store, m[i].id, req->who.tenant, req->who.admin);
-        if (!job || job->batch_model ||
-            (job->owner[0] && strcmp(job->owner, req->who.tenant) != 0)) {
+        if (!smd_jobs_find(srv, m[i].id, req->who.tenant, req->who.admin, &job) ||
+            job.batch_model || (job.owner[0] && strcmp(job.owner, req->who.tenant) != 0)) {
             snprintf(msg, cap, "targets[%zu].job: no job %s of yours (on this node) to put in a "
                      "batch", i, m[i].id);
             return 422;
         }
         if (i == 0)
-            *dim = job->dim;
-        else if (job->dim != *dim) {
+            *dim = job.dim;
+        else if (job.dim != *dim) {
             snprintf(msg, cap, "targets[%zu].job: job %s is %dD and targets[0] is %dD: a batch's "
-                     "targets share the template", i, m[i].id, job->dim, *dim);
+                     "targets share the template", i, m[i].id, job.dim, *dim);
             return 422;
         }
     }
@@ -276,9 +276,7 @@ static enum MHD_Result create_batch(struct MHD_Connection *conn, smd_request *re
     smd_server *srv = req->srv;
     char msg[256], dir[PATH_MAX], id[SMD_ID_LEN + 1];
     int dim = 0;
-    pthread_mutex_lock(&srv->lock);
     unsigned status = check_members(srv, req, m, n, &dim, msg, sizeof msg);
-    pthread_mutex_unlock(&srv->lock);
     if (status)
         return smd_reply_problem(conn, req, status, SMD_PROBLEM_INVALID_INPUT, "%s", msg);
     if (smd_random_id(id) != 0)
@@ -479,29 +477,20 @@ static int model_file_name(const char *name, const char **media)
 static int open_model_file(struct MHD_Connection *conn, smd_request *req, const char *name,
                            int *fd, enum MHD_Result *r)
 {
-    smd_server *srv = req->srv;
     json_t *batch;
     if (!find_batch(conn, req, &batch, r))
         return 0;
     json_decref(batch);
-    char path[PATH_MAX], rel[64];
-    snprintf(rel, sizeof rel, SMD_RESULTS_DIR "/%s", name);
-    pthread_mutex_lock(&srv->lock);
-    const smd_job *model = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-    sm_job_state state = model ? model->state : SM_JOB_FAILED;
-    int pathok = smd_store_path(srv->store, req->id, rel, path, sizeof path) == 0;
-    /* opened under the lock: a concurrent delete renames the folder away
-     * whole, an open descriptor keeps the file */
-    *fd = model && state == SM_JOB_SUCCESSFUL && pathok ? open(path, O_RDONLY | O_CLOEXEC) : -1;
-    pthread_mutex_unlock(&srv->lock);
-    if (!model) {
+    smd_job model;
+    if (!smd_jobs_open_result(req->srv, req->id, req->who.tenant, req->who.admin, name, &model,
+                              fd)) {
         *r = no_such_batch(conn, req);
         return 0;
     }
-    if (state != SM_JOB_SUCCESSFUL) {
+    if (model.state != SM_JOB_SUCCESSFUL) {
         *r = smd_reply_problem(conn, req, 409, SMD_PROBLEM_RESULT_NOT_READY,
                                "batch %s has no model (its model job is %s)", req->id,
-                               sm_job_state_name(state));
+                               sm_job_state_name(model.state));
         return 0;
     }
     if (*fd < 0) {

@@ -117,10 +117,8 @@ enum MHD_Result smd_route_readyz(struct MHD_Connection *conn, smd_request *req)
         access(jobs_dir, W_OK) != 0)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "the spool is not writable: %s", strerror(errno));
-    pthread_mutex_lock(&srv->lock);
-    size_t depth = smd_queue_depth(srv->queue), busy = smd_pool_busy(srv->pool),
-           slots = smd_pool_slots(srv->pool);
-    pthread_mutex_unlock(&srv->lock);
+    size_t depth, busy, slots;
+    smd_jobs_workload(srv, &depth, &busy, &slots);
     return smd_reply_json(conn, req, 200,
                           json_pack("{s:s,s:I,s:I,s:I}", "status", "ready", "queued",
                                     (json_int_t)depth, "workers_busy", (json_int_t)busy, "workers",

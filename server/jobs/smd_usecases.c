@@ -1,7 +1,11 @@
 /* The engine's use cases for the handlers (see smd_usecases.h). */
 #include "jobs/smd_usecases.h"
+#include "jobs/smd_pool.h"
+#include "worker/smd_worker.h"
 
 #include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
 #include <string.h>
 
 sm_status smd_jobs_create(smd_server *srv, smd_submission *sub, smd_job *view, int *created,
@@ -40,6 +44,34 @@ int smd_jobs_find_key(smd_server *srv, const char *owner, const char *key, smd_j
         smd_job_view(job, view);
     pthread_mutex_unlock(&srv->lock);
     return job != NULL;
+}
+
+int smd_jobs_open_result(smd_server *srv, const char *id, const char *tenant, int admin,
+                         const char *name, smd_job *view, int *fd)
+{
+    char rel[PATH_MAX], path[PATH_MAX];
+    int pathok = smd_pathf(rel, sizeof rel, SMD_RESULTS_DIR "/%s", name) == 0 &&
+                 smd_store_path(srv->store, id, rel, path, sizeof path) == 0;
+    *fd = -1;
+    pthread_mutex_lock(&srv->lock);
+    smd_job *job = smd_store_get(srv->store, id);
+    int found = job && smd_job_visible(job, tenant, admin);
+    if (found) {
+        smd_job_view(job, view);
+        if (job->state == SM_JOB_SUCCESSFUL && pathok)
+            *fd = open(path, O_RDONLY | O_CLOEXEC);
+    }
+    pthread_mutex_unlock(&srv->lock);
+    return found;
+}
+
+void smd_jobs_workload(smd_server *srv, size_t *queued, size_t *busy, size_t *slots)
+{
+    pthread_mutex_lock(&srv->lock);
+    *queued = smd_queue_depth(srv->queue);
+    *busy = smd_pool_busy(srv->pool);
+    *slots = smd_pool_slots(srv->pool);
+    pthread_mutex_unlock(&srv->lock);
 }
 
 /* Lock held: what `what` does to job now. */

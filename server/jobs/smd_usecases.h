@@ -27,6 +27,18 @@ int smd_jobs_find(smd_server *srv, const char *id, const char *tenant, int admin
  * when there is none. */
 int smd_jobs_find_key(smd_server *srv, const char *owner, const char *key, smd_job *view);
 
+/* Lock NOT held: a result file (name, under results/) of a successful
+ * job, opened under the lock (a concurrent delete renames the folder away
+ * whole; an open descriptor keeps the file).  1 when the job is there
+ * (*view; *fd the file, or -1 when the job is not successful or has no
+ * such file), 0 when there is none. */
+int smd_jobs_open_result(smd_server *srv, const char *id, const char *tenant, int admin,
+                         const char *name, smd_job *view, int *fd);
+
+/* Lock NOT held: the jobs queued here, the workers busy and their number
+ * (/readyz). */
+void smd_jobs_workload(smd_server *srv, size_t *queued, size_t *busy, size_t *slots);
+
 /* What a DELETE does to a job (smd_jobs_withdraw's what): */
 #define SMD_WITHDRAW_CANCEL 1u    /* a live job is cancelled (dismissed) */
 #define SMD_WITHDRAW_DELETE 2u    /* a final job is deleted */

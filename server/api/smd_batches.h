@@ -7,7 +7,8 @@
  * runs; POST /v1/batches groups them, by id, and adds the parent: the
  * batch's *model job*, whose id is the batch's id.  The model job is an
  * ordinary job too (listed, owned, cancelled and deleted like any), with
- * no upload: its job.json names the members (worker/smd_job_file.h).  It
+ * no upload: its job.json names the members (worker/smd_job_file.h), its
+ * record their ids and their dimension (so it survives a restart).  It
  * waits, queued, until no member is queued or running (the spool: kept
  * out of its FIFO, jobs/smd_spool_backend.c; PostgreSQL: its claim
  * skips it, store/pg/smd_pg_queue.c), then a worker builds the model from
@@ -19,9 +20,12 @@
  *   GET    /v1/batches/{id}            per-target status, progress, ETA
  *   GET    /v1/batches/{id}/events     the same as a stream of changes
  *                                      (api/smd_batch_events.h)
- *   DELETE /v1/batches/{id}            cancels the live members and the
- *                                      model job; on a final batch deletes
- *                                      them all
+ *   DELETE /v1/batches/{id}            cancels the model job and the live
+ *                                      members it owns alone; on a final
+ *                                      batch deletes the model job and the
+ *                                      members it dismissed (shared and
+ *                                      finished ones stay; ?members=all:
+ *                                      every member goes with it)
  *   GET    /v1/batches/{id}/model      the model's summary and file links
  *   GET    /v1/batches/{id}/model/{file}  mean.mesh, mean.vtu, modes.vtu,
  *                                      mode_K.sol, scores.csv, summary.json

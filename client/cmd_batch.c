@@ -337,7 +337,7 @@ int cmd_batch(int argc, char **argv)
     if (code == 0 && b.model_align && sm_shape_align_parse(b.model_align, &align) != 0)
         code = fail("--model-align: '%s' is not none, rigid or similarity", b.model_align);
     if (code == 0 && b.model_from) {
-        sm_model_opts mo = {.align = (sm_model_align)align, .max_modes = b.model_modes};
+        sm_model_opts mo = {.align = align, .max_modes = b.model_modes};
         size_t used = 0;
         if (sm_job_batch_remodel(b.model_from, &mo, &used, &err) != SM_OK) {
             fprintf(stderr, "shapematch batch: error: %s\n", err.msg);
@@ -376,7 +376,7 @@ int cmd_batch(int argc, char **argv)
         .background_padding = ro.job.background.padding, .params = &ro.job.params,
         .outputs = ro.outputs, .jobs = b.jobs ? b.jobs : (int)(cpus > 1 ? cpus : 1),
         .build_model = !b.no_model,
-        .model = {.align = (sm_model_align)align, .max_modes = b.model_modes},
+        .model = {.align = align, .max_modes = b.model_modes},
         .cancel = (const volatile int *)&batch_cancel, .target_done = on_target_done,
         .user = &b};
     if ((size_t)o.jobs > b.list.n)

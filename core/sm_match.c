@@ -65,6 +65,17 @@ const char *sm_stop_reason_name(sm_stop_reason r)
     return "unknown";
 }
 
+int sm_stop_reason_from_name(const char *name, sm_stop_reason *out)
+{
+    /* every value the name function knows, so the two cannot drift */
+    for (int r = 0; name && strcmp(sm_stop_reason_name((sm_stop_reason)r), "unknown") != 0; r++)
+        if (strcmp(name, sm_stop_reason_name((sm_stop_reason)r)) == 0) {
+            *out = (sm_stop_reason)r;
+            return 0;
+        }
+    return -1;
+}
+
 /* Everything one run owns or tracks; freed in one place.  The set-up,
  * the direction and the line search below read and update it.  An
  * sm_match (sm_match_new) is one whose template side is set up. */

@@ -288,6 +288,26 @@ int sm_solver_kind_from_name(const char *name, sm_solver_kind *out)
     return -1;
 }
 
+static const char *const clamp_names[] = {"ball", "elements", "vertices", "none", "auto"};
+
+const char *sm_clamp_kind_name(sm_clamp_kind kind)
+{
+    if ((int)kind < 0 || (size_t)kind >= sizeof clamp_names / sizeof clamp_names[0])
+        return NULL;
+    return clamp_names[kind];
+}
+
+int sm_clamp_kind_from_name(const char *name, sm_clamp_kind *out)
+{
+    for (size_t i = 0; name && i < sizeof clamp_names / sizeof clamp_names[0]; i++) {
+        if (strcmp(name, clamp_names[i]) == 0) {
+            *out = (sm_clamp_kind)i;
+            return 0;
+        }
+    }
+    return -1;
+}
+
 static const char *const mode_names[] = {"none", "rigid", "similarity", "affine"};
 
 const char *sm_align_mode_name(sm_align_mode mode)

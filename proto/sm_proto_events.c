@@ -63,21 +63,6 @@ int sm_job_state_from_name(const char *name, sm_job_state *out)
     return -1;
 }
 
-int sm_stop_reason_from_name(const char *name, sm_stop_reason *out)
-{
-    /* Inverse of the core's own naming, so the two never drift apart. */
-    static const sm_stop_reason all[] = {SM_STOP_STEP, SM_STOP_BOUNDARY, SM_STOP_MAX_ITER,
-                                         SM_STOP_CANCELLED, SM_STOP_STALLED, SM_STOP_QUALITY};
-    for (size_t i = 0; name && i < COUNT(all); i++) {
-        const char *n = sm_stop_reason_name(all[i]);
-        if (n && strcmp(name, n) == 0) {
-            *out = all[i];
-            return 0;
-        }
-    }
-    return -1;
-}
-
 /* ------------------------------------------------------------------- time */
 
 /* Days since 1970-01-01 of a proleptic Gregorian date (H. Hinnant's

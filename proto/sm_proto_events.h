@@ -122,9 +122,6 @@ int sm_event_type_from_name(const char *name, sm_event_type *out);
 /* "accepted", "running", "successful", "failed", "dismissed". */
 const char *sm_job_state_name(sm_job_state state);
 int sm_job_state_from_name(const char *name, sm_job_state *out);
-/* Inverse of core's sm_stop_reason_name: "step_tolerance",
- * "boundary_tolerance", "max_iterations", "cancelled", "stalled". */
-int sm_stop_reason_from_name(const char *name, sm_stop_reason *out);
 
 /* Encodes one event as compact single-line JSON without the trailing
  * newline (NDJSON writers add "\n").  Returns a malloc'd string (caller

@@ -34,27 +34,6 @@ const sm_param_info *sm_background_params_table(size_t *count)
     return background_rows;
 }
 
-static const char *const kind_names[] = {"ball", "elements", "vertices", "none", "auto"};
-
-const char *sm_clamp_kind_name(sm_clamp_kind kind)
-{
-    if ((int)kind < 0 || (size_t)kind >= sizeof kind_names / sizeof kind_names[0])
-        return NULL;
-    return kind_names[kind];
-}
-
-int sm_clamp_kind_from_name(const char *name, sm_clamp_kind *out)
-{
-    if (!name)
-        return -1;
-    for (size_t i = 0; i < sizeof kind_names / sizeof kind_names[0]; i++)
-        if (strcmp(name, kind_names[i]) == 0) {
-            *out = (sm_clamp_kind)i;
-            return 0;
-        }
-    return -1;
-}
-
 /* ---------------------------------------------------------------- decode */
 
 /* A number within bounds written as in sm_param_info (an infinite bound
@@ -508,6 +487,24 @@ sm_status sm_job_params_from_json_for(const char *text, size_t len, const sm_mes
     if (st == SM_OK)
         st = sm_job_params_from_jansson(root, m->dim, "params", out, bg, err);
     json_decref(root);
+    return st;
+}
+
+sm_status sm_job_params_from_jansson_for(const json_t *root, const sm_mesh *m, sm_params *out,
+                                         sm_background_params *bg, sm_error *err)
+{
+    params_reset(out);
+    if (bg)
+        bg->size = bg->padding = 0;
+    if (!json_is_object(root))
+        return sm_job_params_from_jansson(root, m->dim, "params", out, bg, err);
+    json_t *copy = json_deep_copy(root);
+    if (!copy)
+        return sm_error_set(err, SM_ERR_NOMEM, "params: out of memory");
+    sm_status st = sm_params_resolve_names(copy, m, "params", err);
+    if (st == SM_OK)
+        st = sm_job_params_from_jansson(copy, m->dim, "params", out, bg, err);
+    json_decref(copy);
     return st;
 }
 

@@ -62,12 +62,6 @@ typedef struct sm_background_params {
  * means (a row's def_text when it depends on the meshes). */
 const sm_param_info *sm_background_params_table(size_t *count);
 
-/* Wire names of the clamp kinds: "ball", "elements", "vertices", "none".
- * sm_clamp_kind_name returns NULL for a value outside the enum. */
-const char *sm_clamp_kind_name(sm_clamp_kind kind);
-/* Returns 0 and sets *out when name is one of the wire names, -1 otherwise. */
-int sm_clamp_kind_from_name(const char *name, sm_clamp_kind *out);
-
 /* Decodes a params document (text need not be NUL-terminated; len bytes
  * are read).  dim is the mesh dimension (2 or 3) when known; with dim = 0
  * ("not known yet") clamp.center may have 2 or 3 entries (missing ones are
@@ -126,6 +120,10 @@ sm_status sm_params_resolve_names(json_t *root, const sm_mesh *m, const char *pa
  * decoded and validated for m's dimension. */
 sm_status sm_job_params_from_json_for(const char *text, size_t len, const sm_mesh *m,
                                       sm_params *out, sm_background_params *bg, sm_error *err);
+/* The same on a parsed params object (root is left as it is: the names
+ * are resolved in a copy). */
+sm_status sm_job_params_from_jansson_for(const json_t *root, const sm_mesh *m, sm_params *out,
+                                         sm_background_params *bg, sm_error *err);
 
 /* Encodes every field (defaults included), compact, one line, keys in a
  * stable order; fields that do not apply to the clamp kind are left out

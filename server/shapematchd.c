@@ -25,7 +25,7 @@
 #include "http/smd_http.h"
 #include "jobs/smd_jobs.h"
 #include "store/pg/smd_pg_node.h"
-#include "store/spool/smd_spool_backend.h"
+#include "jobs/smd_spool_backend.h"
 #include "jobs/smd_pool.h"
 #include "api/smd_route_table.h"
 #include "base/smd_server.h"
@@ -331,6 +331,7 @@ int main(int argc, char **argv)
     /* the engine names the jobs that changed; the event streams wake
      * their followers (before any thread runs the engine) */
     srv->jobs_changed = smd_stream_jobs_changed;
+    srv->work_queued = smd_pool_work_queued; /* the supervisor starts what was queued */
     sigset_t signals;
     take_signals(&signals);
     raise_fd_limit(srv);

@@ -288,7 +288,7 @@ sm_status sm_run_batch(const char *template_path, const char *list_csv, size_t l
                            .outputs = outputs,
                            .jobs = jobs > 0 ? jobs : (int)(cpus > 1 ? cpus : 1),
                            .single_thread = 1, .build_model = 1,
-                           .model = {.align = (sm_model_align)align}};
+                           .model = {.align = align}};
         sm_batch_outcome out;
         st = sm_job_batch_run(&list, &o, out_dir, &out, err);
     }

@@ -17,6 +17,7 @@
 #include "shapematch/sm_sdf.h"
 #include "job/sm_job_image.h"
 #include "sm_job_warnings.h"
+#include "sm_proto_json.h"
 #include "sm_proto_params.h"
 
 void sm_job_inputs_free(sm_job_inputs *in)
@@ -576,11 +577,28 @@ sm_status sm_job_inputs_set_params(sm_job_inputs *in, const sm_params *params, s
 sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
                              size_t params_len, sm_job_inputs *out, sm_error *err)
 {
+    json_t *root;
+    /* cheap syntax check first: no mesh parsing for a garbled params */
+    sm_status st = smp_load(params_text, params_len, SM_PARAMS_JSON_MAX_BYTES, "params", &root, err);
+    if (st != SM_OK) {
+        memset(out, 0, sizeof *out);
+        out->failed = SM_PART_PARAMS;
+        return st;
+    }
+    st = sm_job_inputs_load_json(files, root, out, err);
+    json_decref(root);
+    return st;
+}
+
+sm_status sm_job_inputs_load_json(const sm_job_files *files, const json_t *params_doc,
+                                  sm_job_inputs *out, sm_error *err)
+{
     sm_params params;
     sm_background_params bg;
     sm_status st;
-    /* cheap syntax check first: no mesh parsing for a garbled params */
-    if ((st = sm_job_params_from_json(params_text, params_len, 0, &params, &bg, err)) != SM_OK) {
+    /* the values that do not need the template first: no mesh parsing
+     * for a params object that is wrong anyway */
+    if ((st = sm_job_params_from_jansson(params_doc, 0, "params", &params, &bg, err)) != SM_OK) {
         memset(out, 0, sizeof *out);
         out->failed = SM_PART_PARAMS;
         return st;
@@ -606,8 +624,8 @@ sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
     if (!files->prepare_run &&
         (st = sm_job_inputs_read_target(&with_bg, SM_JOB_NAME_PARTS, 0, out, err)) != SM_OK)
         return st;
-    if ((st = sm_job_params_from_json_for(params_text, params_len, out->template_mesh, &params,
-                                           NULL, err)) != SM_OK)
+    if ((st = sm_job_params_from_jansson_for(params_doc, out->template_mesh, &params, NULL,
+                                             err)) != SM_OK)
         goto fail;
     if ((st = sm_job_inputs_set_params(out, &params, err)) != SM_OK) {
         sm_error_prefix(err, "%s", params.clamp == SM_CLAMP_BALL ? "params.clamp" : "params.clamp.refs");

@@ -28,6 +28,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include <jansson.h>
+
 #include "shapematch/sm_error.h"
 #include "shapematch/sm_field.h"
 #include "shapematch/sm_io.h"
@@ -195,6 +197,11 @@ sm_status sm_job_inputs_set_params(sm_job_inputs *in, const sm_params *params,
 sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
                              size_t params_len, sm_job_inputs *out,
                              sm_error *err);
+
+/* The same on params already parsed (the worker: job.json's params
+ * object), decoded from the object itself: no text in between. */
+sm_status sm_job_inputs_load_json(const sm_job_files *files, const json_t *params,
+                                  sm_job_inputs *out, sm_error *err);
 
 void sm_job_inputs_free(sm_job_inputs *in);
 

@@ -222,7 +222,7 @@ static json_t *summary_doc(const out_ctx *c, const sm_model_opts *o, json_t *fil
     return json_pack("{s:i, s:i, s:I, s:s, s:i, s:i, s:i, s:f, s:o, s:o, s:o, s:o, s:o, "
                      "s:{s:i, s:i, s:i, s:I}, s:o, s:O, s:{s:f, s:f, s:f}}",
                      "members", m->nshapes, "dimension", m->dim, "vertices", (json_int_t)m->npoints,
-                     "align", sm_shape_align_name((sm_shape_align)o->align),
+                     "align", sm_shape_align_name(o->align),
                      "procrustes_rounds", m->gpa_rounds, "modes", m->nmodes,
                      "modes_written", c->nwrite, "total_variance", m->total_variance,
                      "variance", reals(m->variance, m->nmodes, 1), "variance_explained", ve,
@@ -278,7 +278,7 @@ sm_status sm_job_model_build_opts(const sm_model_member *members, size_t n,
                                   const sm_model_opts *opts, const char *out_dir,
                                   sm_error *err)
 {
-    sm_model_opts o = opts ? *opts : (sm_model_opts){.align = SM_MODEL_ALIGN_RIGID};
+    sm_model_opts o = opts ? *opts : (sm_model_opts){.align = SM_SHAPE_ALIGN_RIGID};
     if (!members || n < 1 || n > (size_t)INT32_MAX / 2 || !out_dir)
         return sm_error_set(err, SM_ERR_INVALID, "a shape model needs at least one target");
     double t[3], t0 = sm_clock_seconds();
@@ -292,7 +292,7 @@ sm_status sm_job_model_build_opts(const sm_model_member *members, size_t n,
         st = read_members(members, n, &topo, coords, err);
     t[0] = sm_clock_seconds() - t0;
     if (st == SM_OK) {
-        sm_shape_model_opts so = {.align = (sm_shape_align)o.align, .eval_modes = o.eval_modes,
+        sm_shape_model_opts so = {.align = o.align, .eval_modes = o.eval_modes,
                                   .eval_shapes = o.eval_shapes, .samples = o.samples,
                                   .seed = o.seed};
         st = sm_shape_model_build((const double *const *)coords, (int)n, topo->nverts, topo->dim,
@@ -321,7 +321,7 @@ sm_status sm_job_model_build_opts(const sm_model_member *members, size_t n,
     return st;
 }
 
-sm_status sm_job_model_build(const sm_model_member *members, size_t n, sm_model_align align,
+sm_status sm_job_model_build(const sm_model_member *members, size_t n, sm_shape_align align,
                              const char *out_dir, sm_error *err)
 {
     sm_model_opts o = {.align = align};

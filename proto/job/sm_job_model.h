@@ -49,14 +49,8 @@ typedef struct {
     const char *result_dir; /* a folder written by run / a job's results */
 } sm_model_member;
 
-typedef enum {
-    SM_MODEL_ALIGN_NONE = SM_SHAPE_ALIGN_NONE,
-    SM_MODEL_ALIGN_RIGID = SM_SHAPE_ALIGN_RIGID,
-    SM_MODEL_ALIGN_SIMILARITY = SM_SHAPE_ALIGN_SIMILARITY
-} sm_model_align;
-
 typedef struct sm_model_opts {
-    sm_model_align align;
+    sm_shape_align align;   /* the core's enum and names (sm_shape_align_parse) */
     int max_modes;          /* mode files written; 0: SM_JOB_MODEL_MAX_MODES */
     int eval_modes, eval_shapes, samples; /* sm_shape_model_opts; 0: defaults */
     unsigned long long seed;
@@ -67,7 +61,7 @@ typedef struct sm_model_opts {
  * missing).  Errors: SM_ERR_IO / SM_ERR_FORMAT for a member that cannot
  * be read or a file that cannot be written, SM_ERR_INVALID for a member
  * of another topology, the core's (sm_shape_model_build). */
-sm_status sm_job_model_build(const sm_model_member *members, size_t n, sm_model_align align,
+sm_status sm_job_model_build(const sm_model_member *members, size_t n, sm_shape_align align,
                              const char *out_dir, sm_error *err);
 /* The same with every option (opts NULL: rigid and the defaults). */
 sm_status sm_job_model_build_opts(const sm_model_member *members, size_t n,

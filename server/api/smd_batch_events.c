@@ -1,5 +1,6 @@
 /* GET /v1/batches/{id}/events (see smd_batch_events.h). */
 #include "api/smd_batch_events.h"
+#include "jobs/smd_usecases.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -191,10 +192,9 @@ enum MHD_Result smd_route_batch_events(struct MHD_Connection *conn, smd_request 
     enum MHD_Result r;
     if (!smd_stream_request_open(conn, req, &sr, &r))
         return r;
-    pthread_mutex_lock(&srv->lock);
-    const smd_job *seen = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-    int found = seen && seen->batch_model;
-    pthread_mutex_unlock(&srv->lock);
+    smd_job seen;
+    int found = smd_jobs_find(srv, req->id, req->who.tenant, req->who.admin, &seen) &&
+                seen.batch_model;
     json_t *batch = found ? smd_batch_read(srv, req->id) : NULL;
     if (!batch)
         return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NOT_FOUND, "no batch %s", req->id);

@@ -7,6 +7,7 @@
 
 #include <jansson.h>
 
+#include "shapematch/sm_shape_model.h"
 #include "base/smd_util.h"
 
 /* targets[i] into m[i], unique among m[0..i-1]: 0, or 422 with msg. */
@@ -42,6 +43,7 @@ unsigned smd_batch_request_parse(const char *buf, size_t len, unsigned max_targe
     json_t *doc = json_loadb(buf, len, JSON_REJECT_DUPLICATES, &jerr);
     unsigned status = 0;
     json_t *targets = json_object_get(doc, "targets"), *a = json_object_get(doc, "model_align");
+    sm_shape_align kind;
     size_t n = json_array_size(targets);
     if (!json_is_object(doc)) {
         snprintf(msg, cap, "the body is not a JSON object (%s)", doc ? "not an object" : jerr.text);
@@ -54,9 +56,7 @@ unsigned smd_batch_request_parse(const char *buf, size_t len, unsigned max_targe
                  "--max-batch-targets; its operator can raise it, up to %d)", n,
                  max_targets, SMD_BATCH_MEMBERS_MAX);
         status = 413;
-    } else if (a && (!json_is_string(a) || (strcmp(json_string_value(a), "none") != 0 &&
-                                             strcmp(json_string_value(a), "rigid") != 0 &&
-                                             strcmp(json_string_value(a), "similarity") != 0))) {
+    } else if (a && (!json_is_string(a) || sm_shape_align_parse(json_string_value(a), &kind) != 0)) {
         snprintf(msg, cap, "model_align: expected none, rigid or similarity");
         status = 422;
     }

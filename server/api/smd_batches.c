@@ -16,7 +16,7 @@
 #include "api/smd_batch_request.h"
 #include "api/smd_routes.h"
 #include "jobs/smd_jobs.h"
-#include "jobs/smd_pool.h"
+#include "jobs/smd_usecases.h"
 #include "store/spool/smd_store.h"
 #include "worker/smd_job_file.h"
 #include "worker/smd_worker.h"
@@ -147,30 +147,39 @@ json_t *smd_batch_document(smd_server *srv, const smd_job *model, const json_t *
 static int find_batch(struct MHD_Connection *conn, smd_request *req, json_t **batch,
                       enum MHD_Result *r)
 {
-    smd_server *srv = req->srv;
-    pthread_mutex_lock(&srv->lock);
-    const smd_job *model = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-    int found = model && model->batch_model;
-    pthread_mutex_unlock(&srv->lock);
-    *batch = found ? smd_batch_read(srv, req->id) : NULL;
+    smd_job model;
+    int found = smd_jobs_find(req->srv, req->id, req->who.tenant, req->who.admin, &model) &&
+                model.batch_model;
+    *batch = found ? smd_batch_read(req->srv, req->id) : NULL;
     if (!*batch)
         *r = no_such_batch(conn, req);
     return *batch != NULL;
 }
 
-enum MHD_Result smd_route_batch_get(struct MHD_Connection *conn, smd_request *req)
+/* The batch document as it is now (its members' records are read under
+ * the lock), or NULL when the model job is gone (or out of memory:
+ * *gone 0). */
+static json_t *document_now(smd_request *req, const json_t *batch, int *gone)
 {
     smd_server *srv = req->srv;
-    json_t *batch;
-    enum MHD_Result r;
-    if (!find_batch(conn, req, &batch, &r))
-        return r;
     pthread_mutex_lock(&srv->lock);
     const smd_job *model = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
     json_t *doc = model ? smd_batch_document(srv, model, batch) : NULL;
     pthread_mutex_unlock(&srv->lock);
+    *gone = !model;
+    return doc;
+}
+
+enum MHD_Result smd_route_batch_get(struct MHD_Connection *conn, smd_request *req)
+{
+    json_t *batch;
+    enum MHD_Result r;
+    if (!find_batch(conn, req, &batch, &r))
+        return r;
+    int gone;
+    json_t *doc = document_now(req, batch, &gone);
     json_decref(batch);
-    if (!model)
+    if (gone)
         return no_such_batch(conn, req);
     return doc ? smd_reply_json(conn, req, 200, doc)
                : smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
@@ -211,16 +220,24 @@ void smd_batches_body_free(void *body)
     free(b);
 }
 
-/* Lock held: every member is a job of the requester's, not a batch. */
+/* Every member is a job of the requester's, not a batch, and
+ * all of one dimension (*dim: the model job's, kept in its record). */
 static unsigned check_members(smd_server *srv, const smd_request *req, const member *m, size_t n,
-                              char *msg, size_t cap)
+                              int *dim, char *msg, size_t cap)
 {
+    smd_job job;
     for (size_t i = 0; i < n; i++) {
-        const smd_job *job = smd_store_get_visible(srv->store, m[i].id, req->who.tenant, req->who.admin);
-        if (!job || job->batch_model ||
-            (job->owner[0] && strcmp(job->owner, req->who.tenant) != 0)) {
+        if (!smd_jobs_find(srv, m[i].id, req->who.tenant, req->who.admin, &job) ||
+            job.batch_model || (job.owner[0] && strcmp(job.owner, req->who.tenant) != 0)) {
             snprintf(msg, cap, "targets[%zu].job: no job %s of yours (on this node) to put in a "
                      "batch", i, m[i].id);
+            return 422;
+        }
+        if (i == 0)
+            *dim = job.dim;
+        else if (job.dim != *dim) {
+            snprintf(msg, cap, "targets[%zu].job: job %s is %dD and targets[0] is %dD: a batch's "
+                     "targets share the template", i, m[i].id, job.dim, *dim);
             return 422;
         }
     }
@@ -258,9 +275,8 @@ static enum MHD_Result create_batch(struct MHD_Connection *conn, smd_request *re
 {
     smd_server *srv = req->srv;
     char msg[256], dir[PATH_MAX], id[SMD_ID_LEN + 1];
-    pthread_mutex_lock(&srv->lock);
-    unsigned status = check_members(srv, req, m, n, msg, sizeof msg);
-    pthread_mutex_unlock(&srv->lock);
+    int dim = 0;
+    unsigned status = check_members(srv, req, m, n, &dim, msg, sizeof msg);
     if (status)
         return smd_reply_problem(conn, req, status, SMD_PROBLEM_INVALID_INPUT, "%s", msg);
     if (smd_random_id(id) != 0)
@@ -280,31 +296,26 @@ static enum MHD_Result create_batch(struct MHD_Connection *conn, smd_request *re
         return smd_reply_problem(conn, req, 507, SMD_PROBLEM_STORAGE,
                                  "cannot write the batch's model job: %s", strerror(why));
     }
-    smd_submission sub = {.dir = dir, .id = id, .owner = req->who.tenant, .batch_model = 1,
+    smd_submission sub = {.dir = dir, .id = id, .owner = req->who.tenant, .dim = dim, .max_iter = 1,
+                          .batch_model = 1,
                           .members = (const char (*)[SMD_ID_LEN + 1])ids, .nmembers = n};
     sm_error err;
     sm_error_clear(&err);
-    smd_jobs_after after = {0};
-    smd_job *job = NULL;
+    smd_job model;
     int created = 0;
-    sm_status st = smd_jobs_publish(srv, &sub, &err); /* without the lock */
-    pthread_mutex_lock(&srv->lock);
-    if (st == SM_OK)
-        st = smd_jobs_submit(srv, &sub, &job, &created, &after, &err);
+    sm_status st = smd_jobs_create(srv, &sub, &model, &created, &err);
+    free(ids);
     json_t *batch = NULL, *doc = NULL;
     if (st == SM_OK) {
         batch = json_pack("{s:s,s:[]}", "align", align, "members");
         for (size_t i = 0; batch && i < n; i++)
             json_array_append_new(json_object_get(batch, "members"),
                                   json_pack("{s:s,s:s}", "job", m[i].id, "name", m[i].name));
-        doc = batch ? smd_batch_document(srv, job, batch) : NULL;
+        snprintf(req->id, sizeof req->id, "%s", model.id);
+        int gone;
+        doc = batch ? document_now(req, batch, &gone) : NULL;
     }
-    pthread_mutex_unlock(&srv->lock);
-    free(ids);
     json_decref(batch);
-    smd_jobs_after_free(&after);
-    if (after.wake_pool)
-        smd_pool_wake(srv->pool);
     if (st != SM_OK) {
         smd_rmtree(dir);
         smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
@@ -379,74 +390,54 @@ enum MHD_Result smd_batches_continue(struct MHD_Connection *conn, smd_request *r
 
 /* ----------------------------------------------------------- delete */
 
-/* One job of the batch, as DELETE /v1/jobs/{id} treats it: the shared
- * store's part without the lock, then a live job is cancelled, a final
- * one (when remove) deleted.  0, or -1 when the store refused (errno). */
-static int withdraw_one(smd_server *srv, const smd_request *req, const char *id, int remove,
-                        smd_jobs_after *after)
-{
-    pthread_mutex_lock(&srv->lock);
-    smd_job *job = smd_store_get_visible(srv->store, id, req->who.tenant, req->who.admin);
-    int final = job && smd_job_state_final(job->state);
-    int64_t known = job ? job->nevents : 0;
-    pthread_mutex_unlock(&srv->lock);
-    if (!job || (final && !remove))
-        return 0;
-    sm_error err;
-    if (smd_backend_withdraw(srv->backend, id, final, known, &err) != SM_OK) {
-        errno = EAGAIN;
-        return -1;
-    }
-    pthread_mutex_lock(&srv->lock);
-    job = smd_store_get_visible(srv->store, id, req->who.tenant, req->who.admin);
-    int rc = 0;
-    if (job && !smd_job_state_final(job->state))
-        rc = smd_jobs_cancel(srv, job, after) == SM_ERR_IO ? -1 : 0;
-    else if (job && remove)
-        rc = smd_jobs_delete(srv, job, after) != SM_OK ? -1 : 0;
-    pthread_mutex_unlock(&srv->lock);
-    return rc;
-}
-
-/* DELETE: a live batch is cancelled (the model job first, so that the
- * members' ends do not start it, then every live member); a final one
- * is deleted with its members.  The reply is the batch document after
- * the cancel, or the last one before the deletion. */
+/* DELETE: a live batch is cancelled: the model job first (so that the
+ * members' ends do not start it), then its live members; a final batch
+ * is deleted: the model job, then the members it dismissed.  A member
+ * another batch also groups, and one that ran to its end (successful or
+ * failed), stays unless ?members=all (then every member is cancelled or
+ * deleted with the batch).  The reply is the batch document after the
+ * cancel, or the last one before the deletion. */
 enum MHD_Result smd_route_batch_delete(struct MHD_Connection *conn, smd_request *req)
 {
     smd_server *srv = req->srv;
+    const char *which = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "members");
+    if (which && strcmp(which, "all") != 0)
+        return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST,
+                                 "members: expected \"all\" (every member goes with the batch) "
+                                 "or nothing (only those it owns alone and that did not finish)");
+    int all = which != NULL;
     json_t *batch;
     enum MHD_Result r;
     if (!find_batch(conn, req, &batch, &r))
         return r;
-    pthread_mutex_lock(&srv->lock);
-    const smd_job *model = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-    int remove = model && smd_job_state_final(model->state);
-    json_t *doc = model && remove ? smd_batch_document(srv, model, batch) : NULL;
-    pthread_mutex_unlock(&srv->lock);
-    smd_jobs_after after = {0};
-    int failed = model ? withdraw_one(srv, req, req->id, remove, &after) != 0 : 0;
+    smd_job model;
+    int gone;
+    int remove = smd_jobs_find(srv, req->id, req->who.tenant, req->who.admin, &model) &&
+                 smd_job_state_final(model.state);
+    json_t *doc = remove ? document_now(req, batch, &gone) : NULL;
+    sm_error err;
+    unsigned what = remove ? SMD_WITHDRAW_DELETE : SMD_WITHDRAW_CANCEL;
+    smd_withdrawn w = smd_jobs_withdraw(srv, req->who.tenant, req->who.admin, req->id, what, NULL, &err);
+    int failed = w == SMD_WITHDRAWN_REFUSED || w == SMD_WITHDRAWN_UNWRITABLE;
     json_t *v;
     size_t i;
-    json_array_foreach(json_object_get(batch, "members"), i, v)
-        failed |= withdraw_one(srv, req, json_string_value(json_object_get(v, "job")), remove,
-                               &after) != 0;
-    if (!remove) {
-        pthread_mutex_lock(&srv->lock);
-        model = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-        doc = model ? smd_batch_document(srv, model, batch) : NULL;
-        pthread_mutex_unlock(&srv->lock);
+    json_array_foreach(json_object_get(batch, "members"), i, v) {
+        const char *id = json_string_value(json_object_get(v, "job"));
+        if (!all && smd_jobs_shared(srv, req->id, id))
+            continue;
+        unsigned member_what = all ? what : remove ? SMD_WITHDRAW_DELETE | SMD_WITHDRAW_DISMISSED
+                                                   : SMD_WITHDRAW_CANCEL;
+        w = smd_jobs_withdraw(srv, req->who.tenant, req->who.admin, id, member_what, NULL, &err);
+        failed |= w == SMD_WITHDRAWN_REFUSED || w == SMD_WITHDRAWN_UNWRITABLE;
     }
+    if (!remove)
+        doc = document_now(req, batch, &gone);
     json_decref(batch);
-    smd_jobs_after_run(&after);
-    smd_jobs_after_free(&after);
-    if (after.wake_pool)
-        smd_pool_wake(srv->pool);
     if (failed) {
         json_decref(doc);
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
-                                 "batch %s: some of its jobs could not be %s now (the store "
-                                 "refused); try again", req->id, remove ? "deleted" : "cancelled");
+                                 "batch %s: some of its jobs could not be %s now (%s); try again",
+                                 req->id, remove ? "deleted" : "cancelled", err.msg);
     }
     if (!doc)
         return no_such_batch(conn, req);
@@ -486,29 +477,20 @@ static int model_file_name(const char *name, const char **media)
 static int open_model_file(struct MHD_Connection *conn, smd_request *req, const char *name,
                            int *fd, enum MHD_Result *r)
 {
-    smd_server *srv = req->srv;
     json_t *batch;
     if (!find_batch(conn, req, &batch, r))
         return 0;
     json_decref(batch);
-    char path[PATH_MAX], rel[64];
-    snprintf(rel, sizeof rel, SMD_RESULTS_DIR "/%s", name);
-    pthread_mutex_lock(&srv->lock);
-    const smd_job *model = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-    sm_job_state state = model ? model->state : SM_JOB_FAILED;
-    int pathok = smd_store_path(srv->store, req->id, rel, path, sizeof path) == 0;
-    /* opened under the lock: a concurrent delete renames the folder away
-     * whole, an open descriptor keeps the file */
-    *fd = model && state == SM_JOB_SUCCESSFUL && pathok ? open(path, O_RDONLY | O_CLOEXEC) : -1;
-    pthread_mutex_unlock(&srv->lock);
-    if (!model) {
+    smd_job model;
+    if (!smd_jobs_open_result(req->srv, req->id, req->who.tenant, req->who.admin, name, &model,
+                              fd)) {
         *r = no_such_batch(conn, req);
         return 0;
     }
-    if (state != SM_JOB_SUCCESSFUL) {
+    if (model.state != SM_JOB_SUCCESSFUL) {
         *r = smd_reply_problem(conn, req, 409, SMD_PROBLEM_RESULT_NOT_READY,
                                "batch %s has no model (its model job is %s)", req->id,
-                               sm_job_state_name(state));
+                               sm_job_state_name(model.state));
         return 0;
     }
     if (*fd < 0) {

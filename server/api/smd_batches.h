@@ -7,9 +7,10 @@
  * runs; POST /v1/batches groups them, by id, and adds the parent: the
  * batch's *model job*, whose id is the batch's id.  The model job is an
  * ordinary job too (listed, owned, cancelled and deleted like any), with
- * no upload: its job.json names the members (worker/smd_job_file.h).  It
+ * no upload: its job.json names the members (worker/smd_job_file.h), its
+ * record their ids and their dimension (so it survives a restart).  It
  * waits, queued, until no member is queued or running (the spool: kept
- * out of its FIFO, store/spool/smd_spool_backend.c; PostgreSQL: its claim
+ * out of its FIFO, jobs/smd_spool_backend.c; PostgreSQL: its claim
  * skips it, store/pg/smd_pg_queue.c), then a worker builds the model from
  * the members that succeeded (proto/job/sm_job_model.h); a member that
  * failed or was dismissed is reported and left out, not fatal.
@@ -19,9 +20,12 @@
  *   GET    /v1/batches/{id}            per-target status, progress, ETA
  *   GET    /v1/batches/{id}/events     the same as a stream of changes
  *                                      (api/smd_batch_events.h)
- *   DELETE /v1/batches/{id}            cancels the live members and the
- *                                      model job; on a final batch deletes
- *                                      them all
+ *   DELETE /v1/batches/{id}            cancels the model job and the live
+ *                                      members it owns alone; on a final
+ *                                      batch deletes the model job and the
+ *                                      members it dismissed (shared and
+ *                                      finished ones stay; ?members=all:
+ *                                      every member goes with it)
  *   GET    /v1/batches/{id}/model      the model's summary and file links
  *   GET    /v1/batches/{id}/model/{file}  mean.mesh, mean.vtu, modes.vtu,
  *                                      mode_K.sol, scores.csv, summary.json
@@ -37,7 +41,7 @@
 
 #include "base/smd_server.h"
 #include "http/smd_reply.h"
-#include "jobs/smd_job.h"
+#include "store/spool/smd_job.h"
 
 enum MHD_Result smd_route_batch_create(struct MHD_Connection *conn, smd_request *req);
 /* The JSON body of POST /v1/batches (req->body_state), then the answer. */

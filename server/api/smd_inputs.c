@@ -6,6 +6,7 @@
  * never from the request path.  Sent as it is stored (a gzip upload stays
  * gzip: the client decompresses it), with sendfile. */
 #include "api/smd_inputs.h"
+#include "jobs/smd_usecases.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -55,10 +56,7 @@ static int open_part(smd_server *srv, const char *id, int part, char *name, size
 /* 1 when the job is visible to the caller; else the 404 is sent. */
 static int visible(struct MHD_Connection *conn, smd_request *req, enum MHD_Result *r)
 {
-    smd_server *srv = req->srv;
-    pthread_mutex_lock(&srv->lock);
-    int exists = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin) != NULL;
-    pthread_mutex_unlock(&srv->lock);
+    int exists = smd_jobs_find(req->srv, req->id, req->who.tenant, req->who.admin, NULL);
     if (!exists)
         *r = smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
     return exists;

@@ -1,5 +1,6 @@
 /* The live mesh route (see smd_live.h). */
 #include "api/smd_live.h"
+#include "jobs/smd_usecases.h"
 #include "store/spool/smd_store.h"
 
 #include <errno.h>
@@ -29,10 +30,8 @@ static int open_live(struct MHD_Connection *conn, smd_request *req, const live_f
 {
     smd_server *srv = req->srv;
     char path[PATH_MAX];
-    pthread_mutex_lock(&srv->lock);
     /* another tenant's job does not exist for this one (as on every route) */
-    int exists = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin) != NULL;
-    pthread_mutex_unlock(&srv->lock);
+    int exists = smd_jobs_find(srv, req->id, req->who.tenant, req->who.admin, NULL);
     if (!exists) {
         *replied = smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
         return -1;

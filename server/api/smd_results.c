@@ -29,6 +29,7 @@
 #include "http/smd_negotiate.h"
 #include "store/spool/smd_store.h"
 #include "api/smd_results.h"
+#include "jobs/smd_usecases.h"
 #include "worker/smd_worker.h"
 
 /* proto's table of result formats (sm_proto_vocab.h), by kind: the
@@ -142,10 +143,7 @@ static enum MHD_Result send_file(struct MHD_Connection *conn, smd_request *req,
         int missing = errno == ENOENT;
         if (fd >= 0)
             close(fd);
-        pthread_mutex_lock(&srv->lock);
-        int exists =
-            smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin) != NULL;
-        pthread_mutex_unlock(&srv->lock);
+        int exists = smd_jobs_find(srv, req->id, req->who.tenant, req->who.admin, NULL);
         if (missing && !exists) /* deleted since its state was read */
             return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
         if (missing && missing_detail)
@@ -368,10 +366,7 @@ static enum MHD_Result summary(struct MHD_Connection *conn, smd_request *req)
     size_t len;
     if (smd_read_file(path, 1 << 20, &text, &len) != 0) {
         int saved = errno;
-        pthread_mutex_lock(&req->srv->lock);
-        int exists = smd_store_get_visible(req->srv->store, req->id, req->who.tenant,
-                                           req->who.admin) != NULL;
-        pthread_mutex_unlock(&req->srv->lock);
+        int exists = smd_jobs_find(req->srv, req->id, req->who.tenant, req->who.admin, NULL);
         if (saved == ENOENT && !exists) /* deleted since its state was read */
             return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
         return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL,
@@ -418,26 +413,19 @@ static enum MHD_Result summary(struct MHD_Connection *conn, smd_request *req)
  * result-not-ready with its state and message) is sent and *r set. */
 static int results_ready(struct MHD_Connection *conn, smd_request *req, enum MHD_Result *r)
 {
-    smd_server *srv = req->srv;
-    pthread_mutex_lock(&srv->lock);
-    smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-    sm_job_state state = job ? job->state : SM_JOB_ACCEPTED;
-    char message[SM_EVENT_MESSAGE_MAX] = "";
-    if (job)
-        snprintf(message, sizeof message, "%s", job->message);
-    pthread_mutex_unlock(&srv->lock);
-    if (!job) {
+    smd_job job;
+    if (!smd_jobs_find(req->srv, req->id, req->who.tenant, req->who.admin, &job)) {
         *r = smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
         return 0;
     }
-    if (state != SM_JOB_SUCCESSFUL) {
-        const char *what = state == SM_JOB_ACCEPTED ? "is queued"
-                           : state == SM_JOB_RUNNING ? "is running"
-                           : state == SM_JOB_FAILED  ? "failed"
+    if (job.state != SM_JOB_SUCCESSFUL) {
+        const char *what = job.state == SM_JOB_ACCEPTED ? "is queued"
+                           : job.state == SM_JOB_RUNNING ? "is running"
+                           : job.state == SM_JOB_FAILED  ? "failed"
                                                      : "was dismissed";
         *r = smd_reply_problem(conn, req, 404, SMD_PROBLEM_RESULT_NOT_READY,
                                "job %s %s%s%s%s: it has no results", req->id, what,
-                               message[0] ? " (" : "", message, message[0] ? ")" : "");
+                               job.message[0] ? " (" : "", job.message, job.message[0] ? ")" : "");
         return 0;
     }
     return 1;

@@ -17,6 +17,7 @@
 #include "api/smd_check.h"
 #include "http/smd_conns.h"
 #include "jobs/smd_jobs.h"
+#include "jobs/smd_usecases.h"
 #include "http/smd_negotiate.h"
 #include "jobs/smd_pool.h"
 #include "api/smd_stream.h"
@@ -116,10 +117,8 @@ enum MHD_Result smd_route_readyz(struct MHD_Connection *conn, smd_request *req)
         access(jobs_dir, W_OK) != 0)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "the spool is not writable: %s", strerror(errno));
-    pthread_mutex_lock(&srv->lock);
-    size_t depth = smd_queue_depth(srv->queue), busy = smd_pool_busy(srv->pool),
-           slots = smd_pool_slots(srv->pool);
-    pthread_mutex_unlock(&srv->lock);
+    size_t depth, busy, slots;
+    smd_jobs_workload(srv, &depth, &busy, &slots);
     return smd_reply_json(conn, req, 200,
                           json_pack("{s:s,s:I,s:I,s:I}", "status", "ready", "queued",
                                     (json_int_t)depth, "workers_busy", (json_int_t)busy, "workers",
@@ -373,72 +372,39 @@ static enum MHD_Result no_such_job(struct MHD_Connection *conn, smd_request *req
 
 enum MHD_Result smd_route_job_get(struct MHD_Connection *conn, smd_request *req)
 {
-    smd_server *srv = req->srv;
-    pthread_mutex_lock(&srv->lock);
-    smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-    json_t *doc = job ? smd_status_document(job) : NULL;
-    pthread_mutex_unlock(&srv->lock);
-    if (!job)
+    smd_job view;
+    if (!smd_jobs_find(req->srv, req->id, req->who.tenant, req->who.admin, &view))
         return no_such_job(conn, req);
-    return smd_reply_json(conn, req, 200, doc);
-}
-
-/* Lock held: the spool refused the delete; the job is kept as it was. */
-static enum MHD_Result delete_refused(struct MHD_Connection *conn, smd_request *req,
-                                      smd_jobs_after *after, json_t *doc, int why)
-{
-    pthread_mutex_unlock(&req->srv->lock);
-    smd_jobs_after_free(after);
-    json_decref(doc);
-    return smd_reply_problem(conn, req, 503, SMD_PROBLEM_STORAGE,
-                             "cannot delete job %s: the spool cannot be written (%s); the job is "
-                             "kept, try again when the spool is writable",
-                             req->id, strerror(why));
+    return smd_reply_json(conn, req, 200, smd_status_document(&view));
 }
 
 enum MHD_Result smd_route_job_delete(struct MHD_Connection *conn, smd_request *req)
 {
-    smd_server *srv = req->srv;
-    smd_jobs_after after = {0};
-    json_t *doc = NULL;
-    pthread_mutex_lock(&srv->lock);
-    smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-    int final = job && smd_job_state_final(job->state);
-    int64_t known = job ? job->nevents : 0;
-    pthread_mutex_unlock(&srv->lock);
-    if (!job)
-        return no_such_job(conn, req);
-    /* a shared store's part first, without the lock: a database that
-     * waits on a frozen peer's row lock does not stall this daemon */
+    smd_job view;
     sm_error err;
-    if (smd_backend_withdraw(srv->backend, req->id, final, known, &err) != SM_OK)
+    switch (smd_jobs_withdraw(req->srv, req->who.tenant, req->who.admin, req->id,
+                              SMD_WITHDRAW_CANCEL | SMD_WITHDRAW_DELETE, &view, &err)) {
+    case SMD_WITHDRAWN_NONE:
+    case SMD_WITHDRAWN_KEPT: /* not asked of a visible job: deleted meanwhile */
+        return no_such_job(conn, req);
+    case SMD_WITHDRAWN_REFUSED:
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "cannot delete job %s now: %s; the job is kept, try again",
                                  req->id, err.msg);
-    pthread_mutex_lock(&srv->lock);
-    job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-    if (!job) { /* deleted meanwhile */
-        pthread_mutex_unlock(&srv->lock);
-        return no_such_job(conn, req);
-    }
-    if (!smd_job_state_final(job->state)) {
-        /* cancel: dismissed at once (a running worker is stopped) */
-        if (smd_jobs_cancel(srv, job, &after) == SM_ERR_IO) /* nothing changed */
-            return delete_refused(conn, req, &after, NULL, errno);
-        doc = smd_status_document(job);
-    } else {
-        /* final: the job and its files go; the reply is its last status */
-        doc = smd_status_document(job);
+    case SMD_WITHDRAWN_UNWRITABLE:
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_STORAGE,
+                                 "cannot delete job %s: %s; the job is kept, try again when the "
+                                 "spool is writable", req->id, err.msg);
+    case SMD_WITHDRAWN_CANCELLED: /* dismissed at once (a running worker is stopped) */
+        return smd_reply_json(conn, req, 200, smd_status_document(&view));
+    case SMD_WITHDRAWN_DELETED: { /* the job and its files went: its last status */
+        json_t *doc = smd_status_document(&view);
         json_object_set_new(doc, "message", json_string("deleted"));
         json_object_del(doc, "links");
-        if (smd_jobs_delete(srv, job, &after) != SM_OK)
-            return delete_refused(conn, req, &after, doc, errno);
+        return smd_reply_json(conn, req, 200, doc);
     }
-    pthread_mutex_unlock(&srv->lock);
-    smd_jobs_after_free(&after);
-    if (after.wake_pool)
-        smd_pool_wake(srv->pool);
-    return smd_reply_json(conn, req, 200, doc);
+    }
+    return no_such_job(conn, req);
 }
 
 /* --------------------------------------------------------------- events */

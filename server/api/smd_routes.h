@@ -7,7 +7,7 @@
 
 #include "http/smd_reply.h"
 #include "api/smd_stream.h"
-#include "jobs/smd_job.h"
+#include "store/spool/smd_job.h"
 
 enum MHD_Result smd_route_landing(struct MHD_Connection *conn, smd_request *req);
 enum MHD_Result smd_route_openapi(struct MHD_Connection *conn, smd_request *req);

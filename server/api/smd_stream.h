@@ -21,7 +21,7 @@
 #include <stdint.h>
 
 #include "base/smd_server.h"
-#include "jobs/smd_job.h"
+#include "store/spool/smd_job.h"
 
 struct MHD_Connection;
 struct MHD_Response;

@@ -28,7 +28,7 @@
 #include "http/smd_conns.h"
 #include "worker/smd_job_file.h"
 #include "api/smd_parts.h"
-#include "jobs/smd_pool.h"
+#include "jobs/smd_usecases.h"
 #include "http/smd_ratelimit.h"
 #include "api/smd_routes.h"
 #include "worker/smd_worker.h"
@@ -482,36 +482,24 @@ static enum MHD_Result submit_checked(struct MHD_Connection *conn, smd_request *
                           .owner = req->who.tenant, .request_hash = hash,
                           .dim = r->dim, .max_iter = r->max_iter, .tol_boundary = r->tol_boundary,
                           .nverts = r->nverts, .nelems = r->nelems, .bytes = u->received};
-    smd_jobs_after after = {0};
-    smd_job *job;
+    smd_job view;
     int created;
     pthread_mutex_lock(&srv->lock);
     int refused;
     enum MHD_Result qr = queued_refusal(conn, req, u->limit_key, &refused);
-    if (refused) { /* concurrent uploads of the same key got there first */
-        pthread_mutex_unlock(&srv->lock);
-        return qr;
-    }
     const char *key = sub.idempotency_key && sub.idempotency_key[0] ? sub.idempotency_key : NULL;
-    if (key && (job = smd_backend_find_key(srv->backend, sub.owner, key)) != NULL) {
-        enum MHD_Result replayed = reply_keyed(conn, req, job, hash); /* a retry */
-        pthread_mutex_unlock(&srv->lock);
-        return replayed;
-    }
+    smd_job *known = refused || !key ? NULL : smd_store_find_key(srv->store, sub.owner, key);
+    if (known)
+        smd_job_view(known, &view);
     pthread_mutex_unlock(&srv->lock);
-    /* a shared store first, without the lock (the spool: nothing) */
-    sm_status st = smd_jobs_publish(srv, &sub, &err);
-    pthread_mutex_lock(&srv->lock);
-    if (st == SM_OK)
-        st = smd_jobs_submit(srv, &sub, &job, &created, &after, &err);
-    if (st == SM_OK && !created) {
-        /* a concurrent retry with the same key won the race */
-        enum MHD_Result replayed = reply_keyed(conn, req, job, hash);
-        pthread_mutex_unlock(&srv->lock);
-        return replayed;
-    }
+    if (refused) /* concurrent uploads of the same key got there first */
+        return qr;
+    if (known)
+        return reply_keyed(conn, req, &view, hash); /* a retry */
+    sm_status st = smd_jobs_create(srv, &sub, &view, &created, &err);
+    if (st == SM_OK && !created) /* a concurrent retry with the same key won the race */
+        return reply_keyed(conn, req, &view, hash);
     if (st != SM_OK) {
-        pthread_mutex_unlock(&srv->lock);
         smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "%s", err.msg);
         char why[256];
         if (!smd_backend_ready(srv->backend, why, sizeof why)) {
@@ -525,15 +513,10 @@ static enum MHD_Result submit_checked(struct MHD_Connection *conn, smd_request *
     }
     u->committed = 1;
     if (!srv->tokens)
-        smd_ratelimit_track(srv->ratelimit, u->limit_key, job->id);
-    memcpy(req->id, job->id, sizeof req->id);
-    json_t *doc = smd_status_document(job);
-    pthread_mutex_unlock(&srv->lock);
-    smd_jobs_after_free(&after);
-    if (after.wake_pool)
-        smd_pool_wake(srv->pool);
-    return reply_status(conn, req, MHD_HTTP_CREATED, id, doc, u->created_header[0],
-                        u->created_header[1]);
+        smd_ratelimit_track(srv->ratelimit, u->limit_key, view.id);
+    memcpy(req->id, view.id, sizeof req->id);
+    return reply_status(conn, req, MHD_HTTP_CREATED, id, smd_status_document(&view),
+                        u->created_header[0], u->created_header[1]);
 }
 
 static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *req, smd_upload *u)
@@ -561,14 +544,10 @@ static enum MHD_Result finish_upload(struct MHD_Connection *conn, smd_request *r
         return reply_error(conn, req, u);
 
     uint64_t hash = smd_parts_hash(&u->parts);
-    if (u->idempotency_key[0]) {
-        pthread_mutex_lock(&srv->lock);
-        smd_job *known = smd_store_find_key(srv->store, req->who.tenant, u->idempotency_key);
-        enum MHD_Result r = known ? reply_keyed(conn, req, known, hash) : MHD_YES;
-        pthread_mutex_unlock(&srv->lock);
-        if (known)
-            return r;
-    }
+    smd_job known;
+    if (u->idempotency_key[0] &&
+        smd_jobs_find_key(srv, req->who.tenant, u->idempotency_key, &known))
+        return reply_keyed(conn, req, &known, hash);
     return start_check(conn, req, u);
 }
 

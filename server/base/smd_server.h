@@ -55,9 +55,9 @@ typedef struct smd_server {
     double start_time;          /* Unix seconds */
 
     pthread_mutex_t lock;
-    struct smd_backend *backend; /* where jobs live (jobs/smd_backend.h): the engine's only way */
-    struct smd_store *store;    /* the local spool, both backends' replica: the handlers
-                                 * read job files through it (store/spool/smd_store.h) */
+    struct smd_backend *backend; /* what the backends do differently (jobs/smd_backend.h) */
+    struct smd_store *store;    /* the local spool, both backends' replica, used by name
+                                 * by the engine and the handlers (store/spool/smd_store.h) */
     struct smd_queue *queue;    /* the spool's FIFO of jobs to run here */
     struct smd_pool *pool;
     struct smd_pg_node *cluster; /* --database: PostgreSQL's node (store/pg/smd_pg_node.h), or
@@ -69,6 +69,10 @@ typedef struct smd_server {
      * the engine wakes no connection itself; NULL: nobody follows. */
     void (*jobs_changed)(struct smd_server *srv, const char (*ids)[SMD_ID_LEN + 1], size_t n,
                          int keepalive);
+    /* Lock NOT held: a job was queued here or a worker must be stopped,
+     * from smd_jobs_after_run.  Installed by main beside jobs_changed
+     * (the supervisor's wake-up: smd_pool_wake); NULL: no pool. */
+    void (*work_queued)(struct smd_server *srv);
 
     struct MHD_Daemon *httpd;
     const struct smd_http_app *app; /* what it serves (http/smd_http.h), by smd_http_start */

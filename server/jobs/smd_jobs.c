@@ -37,7 +37,7 @@ static void spool_refused(smd_server *srv, const char *msg)
 static void save_or_log(smd_server *srv, smd_job *job)
 {
     sm_error err;
-    job->unsaved = smd_backend_save(srv->backend, job, &err) != SM_OK;
+    job->unsaved = smd_store_save(srv->store, job, &err) != SM_OK;
     if (job->unsaved)
         spool_refused(srv, err.msg);
 }
@@ -58,7 +58,7 @@ static sm_status save_ahead(smd_server *srv, const smd_job *job, sm_job_state st
     }
     snprintf(next.message, sizeof next.message, "%s", message);
     sm_error err;
-    if (smd_backend_save(srv->backend, &next, &err) == SM_OK)
+    if (smd_store_save(srv->store, &next, &err) == SM_OK)
         return SM_OK;
     int saved = errno;
     spool_refused(srv, err.msg);
@@ -71,7 +71,7 @@ static sm_status save_ahead(smd_server *srv, const smd_job *job, sm_job_state st
 static int append_event(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_after *after,
                         sm_error *err)
 {
-    if (smd_backend_append(srv->backend, job, ev, err) != SM_OK)
+    if (smd_store_append_event(srv->store, job, ev, err) != SM_OK)
         return -1;
     smd_metrics_add(&srv->metrics, &srv->metrics.events_appended, 1);
     smd_jobs_after_changed(srv, after, job);
@@ -146,7 +146,7 @@ static void publish_ending(smd_server *srv, smd_job *job, smd_job_ending *e, smd
 static int write_ending(smd_server *srv, smd_job *job, smd_job_ending *e, smd_jobs_after *after,
                         sm_error *err)
 {
-    if (smd_backend_load_events(srv->backend, job, err) != SM_OK)
+    if (smd_store_load_events(srv->store, job, err) != SM_OK)
         return -1;
     if (!e->record_written) {
         smd_job rec = *job; /* plain data: the store only reads it */
@@ -160,7 +160,7 @@ static int write_ending(smd_server *srv, smd_job *job, smd_job_ending *e, smd_jo
         /* where the final event will start: a restart before it is
          * written finds it missing (restore_final_event) */
         rec.final_event_at = (int64_t)smd_job_event_offset(job, job->nevents + 1);
-        if (smd_backend_save(srv->backend, &rec, err) != SM_OK)
+        if (smd_store_save(srv->store, &rec, err) != SM_OK)
             return -1;
         e->record_written = 1;
         job->final_event_at = rec.final_event_at;
@@ -169,7 +169,7 @@ static int write_ending(smd_server *srv, smd_job *job, smd_job_ending *e, smd_jo
     e->ev.seq = 0;
     e->ev.time = e->finished;
     snprintf(e->ev.message, sizeof e->ev.message, "%s", e->message);
-    if (smd_backend_append(srv->backend, job, &e->ev, err) != SM_OK)
+    if (smd_store_append_event(srv->store, job, &e->ev, err) != SM_OK)
         return -1;
     smd_metrics_add(&srv->metrics, &srv->metrics.events_appended, 1);
     publish_ending(srv, job, e, after);
@@ -225,16 +225,16 @@ void smd_jobs_retry_saves(smd_server *srv, smd_jobs_after *after)
         return;
     sm_error err;
     size_t left = 0;
-    for (size_t i = 0; i < smd_backend_count(srv->backend); i++) {
-        smd_job *job = smd_backend_at(srv->backend, i);
+    for (size_t i = 0; i < smd_store_count(srv->store); i++) {
+        smd_job *job = smd_store_at(srv->store, i);
         if (job->ending) {
             left += write_held(srv, job, after, &err) != 0;
             continue; /* its final record supersedes job->unsaved */
         }
-        if (job->unsaved && (job->unsaved = smd_backend_save(srv->backend, job, &err) != SM_OK) != 0)
+        if (job->unsaved && (job->unsaved = smd_store_save(srv->store, job, &err) != SM_OK) != 0)
             left++;
     }
-    if (left == 0 && smd_backend_writable(srv->backend)) {
+    if (left == 0 && smd_store_writable(srv->store)) {
         atomic_store(&srv->unwritable, 0);
         smd_logf(&srv->log, SMD_LOG_INFO, "spool_writable", "every record is written again: jobs are accepted");
     }
@@ -245,7 +245,7 @@ void smd_jobs_retry_saves(smd_server *srv, smd_jobs_after *after)
 static int trash_job(smd_server *srv, const smd_job *job, smd_jobs_after *after)
 {
     char path[PATH_MAX];
-    if (smd_backend_trash(srv->backend, job->id, path, sizeof path) != 0) {
+    if (smd_store_trash(srv->store, job->id, path, sizeof path) != 0) {
         int saved = errno;
         smd_logf(&srv->log, SMD_LOG_ERROR, "store_error", "job %s: cannot delete: %s", job->id,
                  strerror(saved));
@@ -268,7 +268,7 @@ static int trash_job(smd_server *srv, const smd_job *job, smd_jobs_after *after)
 static sm_status remove_job(smd_server *srv, smd_job *job, smd_jobs_after *after, sm_error *err)
 {
     if (job->worker_active) {
-        if (!smd_backend_can_trash(srv->backend))
+        if (!smd_store_can_trash(srv->store))
             return sm_error_set(err, SM_ERR_IO, "the spool cannot be written (%s): job %s kept",
                                 strerror(errno), job->id);
         job->delete_requested = 1;
@@ -277,7 +277,7 @@ static sm_status remove_job(smd_server *srv, smd_job *job, smd_jobs_after *after
                             strerror(errno), job->id);
     }
     smd_jobs_after_changed(srv, after, job);
-    smd_backend_unlink(srv->backend, job);
+    smd_store_unlink(srv->store, job);
     return SM_OK;
 }
 
@@ -303,13 +303,22 @@ void smd_jobs_after_tick(smd_server *srv, smd_jobs_after *a)
     a->keepalive = 1;
 }
 
+void smd_jobs_after_wake(smd_server *srv, smd_jobs_after *a)
+{
+    a->srv = srv;
+    a->wake_pool = 1;
+}
+
 void smd_jobs_after_run(smd_jobs_after *a)
 {
     if (a->srv && a->srv->jobs_changed && (a->nchanged > 0 || a->keepalive))
         a->srv->jobs_changed(a->srv, (const char(*)[SMD_ID_LEN + 1])a->changed, a->nchanged,
                              a->keepalive);
+    if (a->srv && a->srv->work_queued && a->wake_pool)
+        a->srv->work_queued(a->srv);
     a->nchanged = 0;
     a->keepalive = 0;
+    a->wake_pool = 0;
     for (size_t i = 0; i < a->ntrash; i++) {
         smd_rmtree(a->trash[i]);
         free(a->trash[i]);
@@ -344,8 +353,8 @@ sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **
     const char *key = sub->idempotency_key && sub->idempotency_key[0] ? sub->idempotency_key : NULL;
     int published = sub->created > 0 || sub->existing[0]; /* smd_jobs_publish ran */
     *created = 0;
-    *out = key ? smd_backend_find_key(srv->backend, sub->owner, key) : NULL;
-    if (!*out && sub->existing[0] && !(*out = smd_backend_get(srv->backend, sub->existing)))
+    *out = key ? smd_store_find_key(srv->store, sub->owner, key) : NULL;
+    if (!*out && sub->existing[0] && !(*out = smd_store_get(srv->store, sub->existing)))
         return sm_error_set(err, SM_ERR_IO,
                             "job %s of the Idempotency-Key was deleted meanwhile", sub->existing);
     if (*out) {
@@ -381,7 +390,7 @@ sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **
     sm_event ev;
     sm_event_init(&ev, SM_EVENT_ACCEPTED);
     ev.time = job->created;
-    sm_status st = smd_backend_commit(srv->backend, sub->dir, job, &ev, err);
+    sm_status st = smd_store_commit(srv->store, sub->dir, job, &ev, err);
     smd_backend_submitted(srv->backend, sub->id);
     if (st != SM_OK)
         return st;
@@ -393,7 +402,7 @@ sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **
                                "vertices", (int)sub->nverts, "elements", (int)sub->nelems, "bytes",
                                (json_int_t)sub->bytes);
     smd_log(&srv->log, SMD_LOG_INFO, "job_accepted", fields);
-    after->wake_pool = 1;
+    smd_jobs_after_wake(srv, after);
     *out = job;
     *created = 1;
     return SM_OK;
@@ -406,9 +415,9 @@ smd_job *smd_jobs_take_next(smd_server *srv)
     char id[SMD_ID_LEN + 1];
     smd_job *job = NULL;
     while (!job) {
-        if (!smd_backend_next(srv->backend, id))
+        if (!smd_queue_pop(srv->queue, id))
             return NULL;
-        job = smd_backend_get(srv->backend, id);
+        job = smd_store_get(srv->store, id);
         if (job && job->state != SM_JOB_ACCEPTED)
             job = NULL; /* cancelled or deleted while queued */
     }
@@ -587,7 +596,7 @@ sm_status smd_jobs_stop(smd_server *srv, smd_job *job, const char *message, smd_
     snprintf(job->message, sizeof job->message, "%s", message);
     if (!running) {
         /* the final record is on disk: dismissed now, the event follows */
-        smd_backend_dequeue(srv->backend, job->id);
+        smd_queue_remove(srv->queue, job->id);
         job->state = SM_JOB_DISMISSED;
         job->finished = job->updated = now;
         job->final_event_at = (int64_t)smd_job_event_offset(job, job->nevents + 1);
@@ -605,7 +614,7 @@ sm_status smd_jobs_stop(smd_server *srv, smd_job *job, const char *message, smd_
     job->state = SM_JOB_DISMISSED;
     job->updated = sm_time_now();
     job->cancel_requested = 1;
-    after->wake_pool = 1;
+    smd_jobs_after_wake(srv, after);
     save_or_log(srv, job);
     smd_log(&srv->log, SMD_LOG_INFO, "job_cancel_requested", log_fields(job, NULL));
     smd_jobs_after_changed(srv, after, job);
@@ -693,7 +702,7 @@ static void mirror_run_fields(smd_job *job, const sm_event *ev)
 sm_status smd_jobs_mirror_event(smd_server *srv, smd_job *job, sm_event *ev, smd_jobs_after *after)
 {
     sm_error err;
-    if (smd_backend_load_events(srv->backend, job, &err) != SM_OK)
+    if (smd_store_load_events(srv->store, job, &err) != SM_OK)
         return SM_ERR_IO;
     if (ev->seq != job->nevents + 1)
         return sm_error_set(&err, SM_ERR_INVALID, "out of order");
@@ -782,8 +791,8 @@ static int recover_job(smd_server *srv, smd_job *job, smd_jobs_after *after)
     double when = 0;
     /* how its run ended, when the backend knows it from here */
     int ended = smd_backend_read_summary(srv->backend, job, &finished, &when, &err) == SM_OK;
-    smd_backend_remove_results(srv->backend, job, ended || job->state != SM_JOB_RUNNING);
-    if (smd_backend_load_events(srv->backend, job, &err) != SM_OK) {
+    smd_store_remove_results(srv->store, job, ended || job->state != SM_JOB_RUNNING);
+    if (smd_store_load_events(srv->store, job, &err) != SM_OK) {
         smd_logf(&srv->log, SMD_LOG_ERROR, "job_recovery_failed", "%s", err.msg);
         return -1;
     }
@@ -799,7 +808,7 @@ static int recover_job(smd_server *srv, smd_job *job, smd_jobs_after *after)
                  "re-queued after a daemon restart (run %d was interrupted)", job->attempt);
         /* a full spool: kept queued in memory and retried; the daemon is
          * unready and starts nothing until the record is written */
-        job->unsaved = smd_backend_save(srv->backend, job, &err) != SM_OK;
+        job->unsaved = smd_store_save(srv->store, job, &err) != SM_OK;
         if (job->unsaved)
             spool_refused(srv, err.msg);
         smd_logf(&srv->log, SMD_LOG_INFO, "job_requeued", "job %s was running: queued again",
@@ -826,8 +835,8 @@ static void restore_final_event(smd_server *srv, smd_job *job)
     if (st == SM_OK) {
         ev.time = job->finished;
         snprintf(ev.message, sizeof ev.message, "%s", job->message);
-        if ((st = smd_backend_load_events(srv->backend, job, &err)) == SM_OK)
-            st = smd_backend_append(srv->backend, job, &ev, &err);
+        if ((st = smd_store_load_events(srv->store, job, &err)) == SM_OK)
+            st = smd_store_append_event(srv->store, job, &ev, &err);
         smd_job_close_log(job);
     }
     if (st != SM_OK)
@@ -845,12 +854,12 @@ sm_status smd_jobs_recover(smd_server *srv, size_t *queued, sm_error *err)
     *queued = 0;
     smd_jobs_after after = {0}; /* no follower yet: nothing to wake */
     sm_status st = SM_OK;
-    for (size_t i = 0; i < smd_backend_count(srv->backend);) {
-        smd_job *job = smd_backend_at(srv->backend, i);
+    for (size_t i = 0; i < smd_store_count(srv->store);) {
+        smd_job *job = smd_store_at(srv->store, i);
         if (smd_job_state_final(job->state) && smd_backend_final_event_missing(srv->backend, job))
             restore_final_event(srv, job);
         if (!smd_job_state_final(job->state) && recover_job(srv, job, &after) != 0) {
-            smd_backend_unlink(srv->backend, job); /* shifts the list: do not advance i */
+            smd_store_unlink(srv->store, job); /* shifts the list: do not advance i */
             continue;
         }
         if (job->state == SM_JOB_ACCEPTED) { /* a shared backend: its own queue has it */

@@ -52,6 +52,8 @@
 #include "shapematch/sm_error.h"
 #include "base/smd_server.h"
 #include "jobs/smd_backend.h"
+#include "store/spool/smd_fifo.h"  /* the local queue, by name */
+#include "store/spool/smd_store.h" /* the local replica, by name */
 
 /* Work for after the lock.  Starts zeroed ({0}); reusable after a run. */
 typedef struct smd_jobs_after {
@@ -62,7 +64,8 @@ typedef struct smd_jobs_after {
                            * a keepalive (smd_jobs_after_tick) */
     char **trash;         /* folders moved to trash/, to remove */
     size_t ntrash;
-    int wake_pool;        /* a job was queued or must be stopped */
+    int wake_pool;        /* a job was queued or must be stopped: the
+                           * supervisor is woken (srv->work_queued) */
 } smd_jobs_after;
 
 /* Lock held: job's log or state changed (its followers have news).  A
@@ -73,9 +76,12 @@ void smd_jobs_after_changed(smd_server *srv, smd_jobs_after *a, const smd_job *j
 /* The supervisor's once-a-second tick (for keepalives). */
 void smd_jobs_after_tick(smd_server *srv, smd_jobs_after *a);
 
+/* Lock held: a job was queued here or a worker must be stopped. */
+void smd_jobs_after_wake(smd_server *srv, smd_jobs_after *a);
+
 /* Lock NOT held: hands the changed jobs and the tick to srv->jobs_changed
- * (when installed), removes the trashed folders and empties a (the
- * caller wakes the pool when a->wake_pool; a stays usable). */
+ * and a wake-up to srv->work_queued (when installed), removes the trashed
+ * folders and empties a (a stays usable). */
 void smd_jobs_after_run(smd_jobs_after *a);
 void smd_jobs_after_free(smd_jobs_after *a);
 

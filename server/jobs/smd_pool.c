@@ -77,6 +77,12 @@ void smd_pool_wake(smd_pool *p)
     (void)n; /* a full counter still wakes the poll */
 }
 
+void smd_pool_work_queued(smd_server *srv)
+{
+    if (srv->pool)
+        smd_pool_wake(srv->pool);
+}
+
 size_t smd_pool_busy(const smd_pool *p)
 {
     return p->busy;
@@ -102,8 +108,8 @@ static int spawn(smd_pool *p, slot *s, char *msg, size_t cap)
     smd_server *srv = p->srv;
     const smd_config *cfg = &srv->cfg;
     char job_dir[PATH_MAX], log_path[PATH_MAX];
-    if (smd_backend_path(srv->backend, s->job->id, "", job_dir, sizeof job_dir) != 0 ||
-        smd_backend_path(srv->backend, s->job->id, SMD_WORKER_LOG, log_path, sizeof log_path) != 0) {
+    if (smd_store_path(srv->store, s->job->id, "", job_dir, sizeof job_dir) != 0 ||
+        smd_store_path(srv->store, s->job->id, SMD_WORKER_LOG, log_path, sizeof log_path) != 0) {
         snprintf(msg, cap, "job folder path too long");
         return -1;
     }
@@ -429,8 +435,8 @@ static void sweep_retention(smd_pool *p, smd_jobs_after *after)
     if (srv->cfg.retention <= 0)
         return;
     double now = sm_time_now();
-    for (size_t i = 0; i < smd_backend_count(srv->backend);) {
-        smd_job *job = smd_backend_at(srv->backend, i);
+    for (size_t i = 0; i < smd_store_count(srv->store);) {
+        smd_job *job = smd_store_at(srv->store, i);
         if (!smd_job_state_final(job->state) || job->worker_active || job->finished < 0 ||
             now - job->finished < srv->cfg.retention) {
             i++;
@@ -612,9 +618,9 @@ static void *supervise(void *arg)
                start_next(p, &after)) {
         }
         periodic(p, now, &after);
+        after.wake_pool = 0; /* the pool is awake: no wake-up needed */
         pthread_mutex_unlock(&srv->lock);
-        smd_jobs_after_run(&after); /* the pool wakes itself: no wake_pool needed */
-        after.wake_pool = 0;
+        smd_jobs_after_run(&after);
     }
     smd_jobs_after_free(&after);
     free(ps.fds);

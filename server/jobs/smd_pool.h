@@ -34,6 +34,8 @@ sm_status smd_pool_start(smd_server *srv, sm_error *err);
 /* Wakes the supervisor (new job queued, cancel requested).  Any thread,
  * lock held or not. */
 void smd_pool_wake(smd_pool *p);
+/* srv->work_queued, installed by main: wakes srv->pool (when started). */
+void smd_pool_work_queued(smd_server *srv);
 
 /* Lock held: worker processes running. */
 size_t smd_pool_busy(const smd_pool *p);

@@ -30,7 +30,6 @@
 #include "job/sm_job_inputs.h"
 #include "job/sm_job_model.h"
 #include "job/sm_job_results.h"
-#include "sm_json.h"
 #include "sm_payload.h"
 #include "sm_proto_events.h"
 #include "sm_proto_vocab.h"
@@ -256,14 +255,13 @@ static int write_outputs(worker *w, const sm_job_inputs *in, const sm_job_run *r
 
 /* ---------------------------------------------------------------- main */
 
-/* Reads job.json (smd_job_file.h) and the inputs it names into in: 0,
- * or the exit code (the failure emitted). */
-static int load_job(worker *w, smd_job_file *jf, sm_job_inputs *in)
+/* Reads the inputs job.json (read once, jf) names into in, its params
+ * decoded from the object itself: 0, or the exit code (the failure
+ * emitted). */
+static int load_job(worker *w, const smd_job_file *jf, sm_job_inputs *in)
 {
     sm_error err;
     sm_error_clear(&err);
-    if (smd_job_file_read(w->job_dir, jf, &err) != SM_OK)
-        return fail(w, SMD_WORKER_EXIT_USAGE, "%s", err.msg);
     char full[SM_PART_PARAMS][PATH_MAX];
     const char *given[SM_PART_PARAMS] = {0};
     for (int i = 0; i < SM_PART_PARAMS; i++) {
@@ -273,11 +271,8 @@ static int load_job(worker *w, smd_job_file *jf, sm_job_inputs *in)
             return fail(w, SMD_WORKER_EXIT_USAGE, "%s: path too long", jf->part[i]);
         given[i] = full[i];
     }
-    char *params = sm_json_dumps(jf->params, 0);
-    if (!params)
-        return fail(w, SMD_WORKER_EXIT_NOMEM, "out of memory");
     /* a generated background's size and padding come from the params
-     * (sm_job_inputs_load), as in the upload's check */
+     * (sm_job_inputs_load_json), as in the upload's check */
     sm_job_files files = {.template_mesh = given[SM_PART_TEMPLATE],
                           .target_mesh = given[SM_PART_TARGET_MESH],
                           .target_sol = given[SM_PART_TARGET_SOL],
@@ -286,8 +281,7 @@ static int load_job(worker *w, smd_job_file *jf, sm_job_inputs *in)
                           .landmarks_template = given[SM_PART_TEMPLATE_LANDMARKS],
                           .landmarks_target = given[SM_PART_TARGET_LANDMARKS],
                           .prepare_run = 1};
-    sm_status st = sm_job_inputs_load(&files, params, strlen(params), in, &err);
-    free(params);
+    sm_status st = sm_job_inputs_load_json(&files, jf->params, in, &err);
     if (st != SM_OK)
         return fail(w, st == SM_ERR_NOMEM ? SMD_WORKER_EXIT_NOMEM : SMD_WORKER_EXIT_INPUT, "%s",
                     err.msg);
@@ -365,29 +359,19 @@ done:
 
 /* ------------------------------------------------------ a batch's model */
 
-/* A member's published results: JOB_DIR/members/<id>/ (copied in by a
- * PostgreSQL node when it claimed the model job), else the member's own
- * folder next to this one (the spool: SPOOL/jobs/<id>/results/).  A
- * member has results only when it succeeded (results/ is published
- * whole, summary.json included).  0 and the folder, or -1. */
+/* A member's published results: JOB_DIR/members/<id>/, put there when the
+ * model job was queued (the spool links the member's results/, a
+ * PostgreSQL node copies them from the database): the worker reads only
+ * its own folder.  A member has results only when it succeeded (results/
+ * is published whole, summary.json included).  0 and the folder, or -1. */
 static int member_results(const worker *w, const char *id, char *dir, size_t cap)
 {
     char summary[PATH_MAX];
     struct stat st;
-    if (smd_pathf(dir, cap, "%s/members/%s", w->job_dir, id) == 0 && stat(dir, &st) == 0 &&
-        S_ISDIR(st.st_mode))
-        return 0;
-    if (smd_pathf(dir, cap, "%s/../%s/" SMD_RESULTS_DIR, w->job_dir, id) != 0 ||
+    if (smd_pathf(dir, cap, "%s/members/%s", w->job_dir, id) != 0 ||
         smd_pathf(summary, sizeof summary, "%s/summary.json", dir) != 0)
         return -1;
     return stat(summary, &st) == 0 && S_ISREG(st.st_mode) ? 0 : -1;
-}
-
-static sm_model_align align_of(const char *name)
-{
-    return strcmp(name, "none") == 0         ? SM_MODEL_ALIGN_NONE
-           : strcmp(name, "similarity") == 0 ? SM_MODEL_ALIGN_SIMILARITY
-                                             : SM_MODEL_ALIGN_RIGID;
 }
 
 /* The model job: the members that succeeded into the shape model
@@ -435,8 +419,12 @@ static int run_model(worker *w, const json_t *batch)
         code = fail(w, SMD_WORKER_EXIT_OUTPUT, "%s", msg[0] ? msg : "job folder path too long");
         goto done;
     }
-    sm_model_opts opts = {.align = align_of(json_string_value(json_object_get(batch, "align"))),
-                          .write_flags = SM_ATOMIC_FSYNC};
+    sm_model_opts opts = {.write_flags = SM_ATOMIC_FSYNC};
+    const char *align = json_string_value(json_object_get(batch, "align"));
+    if (!align || sm_shape_align_parse(align, &opts.align) != 0) { /* job.json was checked */
+        code = fail(w, SMD_WORKER_EXIT_INPUT, "batch.align: expected none, rigid or similarity");
+        goto done;
+    }
     sm_error err;
     sm_error_clear(&err);
     sm_status st = sm_job_model_build_opts(m, used, &opts, dir, &err);
@@ -503,12 +491,16 @@ int main(int argc, char **argv)
     smd_job_file jf;
     sm_job_inputs in;
     sm_error err;
-    if (smd_job_file_read(w.job_dir, &jf, &err) == SM_OK && jf.batch) {
+    if (smd_job_file_read(w.job_dir, &jf, &err) != SM_OK) {
+        int code = fail(&w, SMD_WORKER_EXIT_USAGE, "%s", err.msg);
+        smd_job_file_free(&jf);
+        return code;
+    }
+    if (jf.batch) {
         int code = run_model(&w, jf.batch);
         smd_job_file_free(&jf);
         return code;
     }
-    smd_job_file_free(&jf);
     int code = load_job(&w, &jf, &in);
     if (code == 0) {
         code = run_job(&w, &in, &jf);

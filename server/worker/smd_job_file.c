@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "sm_json.h"
+#include "shapematch/sm_shape_model.h"
 #include "base/smd_util.h"
 #include "worker/smd_worker.h"
 
@@ -65,8 +66,8 @@ static const char *batch_problem(const json_t *b)
     if (!json_is_object(b))
         return "batch";
     const char *align = json_string_value(json_object_get(b, "align"));
-    if (!align || (strcmp(align, "none") != 0 && strcmp(align, "rigid") != 0 &&
-                   strcmp(align, "similarity") != 0))
+    sm_shape_align kind;
+    if (!align || sm_shape_align_parse(align, &kind) != 0)
         return "batch.align";
     json_t *m = json_object_get(b, "members");
     if (!json_is_array(m) || json_array_size(m) == 0 || json_array_size(m) > SMD_BATCH_MEMBERS_MAX)

@@ -259,6 +259,8 @@ probe "no model file yet" GET '/v1/batches/{batchID}/model/{file}' 409 "/v1/batc
 noauth_probe "no token" DELETE '/v1/batches/{batchID}' "/v1/batches/$BB"
 probe "cancel the batch" DELETE '/v1/batches/{batchID}' 200 "/v1/batches/$BB" '.status == "dismissed"' "${AUTH[@]}"
 probe "unknown batch" DELETE '/v1/batches/{batchID}' 404 /v1/batches/0123456789abcdef0123456789abcdef '' "${AUTH[@]}"
+probe "members neither all nor absent" DELETE '/v1/batches/{batchID}' 400 "/v1/batches/$BB?members=some" \
+    '.detail | contains("members")' "${AUTH[@]}"
 probe "queued: no result yet" GET '/v1/jobs/{jobID}/results' 404 "/v1/jobs/$Q/results" '.type | endswith("result-not-ready")' "${AUTH[@]}"
 probe "queued: no map to warp through" POST '/v1/jobs/{jobID}/warp' 409 "/v1/jobs/$Q/warp" \
     '.detail | contains("is queued")' "${AUTH[@]}" -H 'Content-Type: text/csv' --data-binary $'0,0\n'

@@ -12,8 +12,9 @@
 # the CLI's `shapematch batch --server` (submit, group, follow, fetch).  Then: a failing target (its worker exits 3: a wrapper worker
 # fails the jobs whose params hold the marker max_iter 7) is reported and
 # left out of the model, not fatal; DELETE of a live batch cancels the
-# model job and every live member; DELETE of a final one deletes them
-# all; the limits (--max-batch-targets: 413; unknown, foreign, duplicate
+# model job and every live member it owns alone; DELETE of a final one
+# deletes it and the members it dismissed, while a member another batch
+# shares and one that finished stay (unless ?members=all); the limits (--max-batch-targets: 413; unknown, foreign, duplicate
 # or model jobs: 422; a body that is not JSON: 415/400).
 source "$(dirname "$0")/lib.sh"
 
@@ -243,6 +244,46 @@ if [ "$code" = 200 ] && [ "$(job_state "${C[1]}")" = 404 ] && [ "$(job_state "$C
     ok "DELETE of a final batch deletes it and its members"
 else
     not_ok "delete of a final batch" "$code $(cat "$WORK/del.out")"
+fi
+
+# ------------------------------ deletion keeps shared and finished members
+# X = {done (finished), shared (running, also in batch Y), own (running)}
+mapfile -t D1 < <(targets 5 0.6)
+wait_final "${D1[0]}" 60
+mapfile -t D2 < <(for R in 0.7 0.8; do submit "$FINE" "$BOX" "$WORK/case/box-$R.sol" "$(endless_params)"; done)
+DONE=${D1[0]} SHARED=${D2[0]} OWN=${D2[1]}
+post_batch "$(batch_body rigid "$DONE" "$SHARED" "$OWN")" >/dev/null
+XB=$(jq -r '.batchID // empty' "$WORK/batch.out")
+post_batch "$(batch_body rigid "$SHARED")" >/dev/null
+YB=$(jq -r '.batchID // empty' "$WORK/batch.out")
+poll 20 state_is "$SHARED" running
+poll 20 state_is "$OWN" running
+bad=$(hcurl -o /dev/null -w '%{http_code}' -X DELETE "$BASE/v1/batches/$XB?members=some")
+c1=$(hcurl -o /dev/null -w '%{http_code}' -X DELETE "$BASE/v1/batches/$XB")
+poll 20 state_is "$OWN" dismissed
+s1="$(job_state "$XB") $(job_state "$DONE") $(job_state "$SHARED") $(job_state "$OWN")"
+c2=$(hcurl -o /dev/null -w '%{http_code}' -X DELETE "$BASE/v1/batches/$XB")
+s2="$(job_state "$XB") $(job_state "$DONE") $(job_state "$SHARED") $(job_state "$OWN")"
+if [ "$bad" = 400 ] && [ "$c1" = 200 ] && [ "$s1" = "dismissed successful running dismissed" ] &&
+    [ "$c2" = 200 ] && [ "$s2" = "404 successful running 404" ]; then
+    ok "DELETE of a batch twice: the members it owns alone go (cancelled, then deleted); a shared running member and a finished one stay"
+else
+    not_ok "batch deletion keeps shared and finished members" "?members=some $bad; first $c1: $s1; second $c2: $s2"
+fi
+# ?members=all: every member goes with the batch, shared ones too
+c1=$(hcurl -o /dev/null -w '%{http_code}' -X DELETE "$BASE/v1/batches/$YB?members=all")
+poll 20 state_is "$SHARED" dismissed
+c2=$(hcurl -o /dev/null -w '%{http_code}' -X DELETE "$BASE/v1/batches/$YB?members=all")
+# DONE belongs to no batch any more: ?members=all on a batch of it deletes it
+post_batch "$(batch_body rigid "$DONE")" >/dev/null
+ZB=$(jq -r '.batchID // empty' "$WORK/batch.out")
+poll 30 batch_final "$ZB"
+c3=$(hcurl -o /dev/null -w '%{http_code}' -X DELETE "$BASE/v1/batches/$ZB?members=all")
+s3="$(job_state "$YB") $(job_state "$SHARED") $(job_state "$ZB") $(job_state "$DONE")"
+if [ "$c1 $c2 $c3" = "200 200 200" ] && [ "$s3" = "404 404 404 404" ]; then
+    ok "DELETE ?members=all: shared and finished members are cancelled, then deleted, with the batch"
+else
+    not_ok "DELETE ?members=all" "$c1 $c2 $c3: $s3"
 fi
 
 # ---------------------------------------------------------------- limits

@@ -14,7 +14,7 @@
 #include <cmocka.h>
 
 #include "jobs/smd_jobs.h"
-#include "store/spool/smd_spool_backend.h"
+#include "jobs/smd_spool_backend.h"
 
 typedef struct fixture {
     char spool[256];

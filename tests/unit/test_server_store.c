@@ -16,7 +16,7 @@
 #include <cmocka.h>
 
 #include "jobs/smd_jobs.h"
-#include "store/spool/smd_spool_backend.h"
+#include "jobs/smd_spool_backend.h"
 
 typedef struct fixture {
     char spool[256];
@@ -388,6 +388,57 @@ static void test_summary_and_final_event(void **state)
     smd_store_close(s);
 }
 
+/* A batch's model job: its record (members, and the dimension of its
+ * targets) survives a reopen, successful as it was; so does a record
+ * written before a model job carried a dimension (0, maxIter 0), while
+ * an ordinary job with dimension 0 is still a damaged record. */
+static void test_model_job_reopen(void **state)
+{
+    fixture *f = *state;
+    smd_store *s;
+    sm_error err;
+    assert_int_equal(smd_store_open(f->spool, &f->log, &s, &err), SM_OK);
+    const char *target = "11111111111111111111111111111111", *model = "22222222222222222222222222222222",
+               *old = "33333333333333333333333333333333", *plain = "44444444444444444444444444444444";
+    commit(f, s, target, NULL);
+    const char ids[1][SMD_ID_LEN + 1] = {"11111111111111111111111111111111"};
+    smd_job *m = commit(f, s, model, NULL);
+    m->batch_model = 1;
+    m->max_iter = 1;
+    assert_int_equal(smd_job_set_members(m, ids, 1), 0);
+    m->state = SM_JOB_SUCCESSFUL;
+    m->progress = 100;
+    m->finished = 1700000002;
+    assert_int_equal(smd_store_save(s, m, &err), SM_OK);
+    smd_job *o = commit(f, s, old, NULL);
+    o->batch_model = 1;
+    o->dim = 0;
+    o->max_iter = 0;
+    assert_int_equal(smd_job_set_members(o, ids, 1), 0);
+    o->state = SM_JOB_SUCCESSFUL;
+    o->finished = 1700000002;
+    assert_int_equal(smd_store_save(s, o, &err), SM_OK);
+    smd_job *p = commit(f, s, plain, NULL);
+    p->dim = 0;
+    assert_int_equal(smd_store_save(s, p, &err), SM_OK);
+    smd_store_close(s);
+
+    assert_int_equal(smd_store_open(f->spool, &f->log, &s, &err), SM_OK);
+    assert_int_equal(smd_store_quarantined(s), 1); /* the plain job only */
+    assert_int_equal(smd_store_get(s, plain)->state, SM_JOB_FAILED);
+    const char *both[] = {model, old};
+    for (int k = 0; k < 2; k++) {
+        smd_job *j = smd_store_get(s, both[k]);
+        assert_non_null(j);
+        assert_int_equal(j->state, SM_JOB_SUCCESSFUL);
+        assert_true(j->batch_model);
+        assert_int_equal(j->nmembers, 1);
+        assert_string_equal(j->members[0], target);
+        assert_int_equal(j->dim, k == 0 ? 2 : 0);
+    }
+    smd_store_close(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -395,6 +446,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_crash_leftovers, setup, teardown),
         cmocka_unit_test_setup_teardown(test_unlink_and_trash, setup, teardown),
         cmocka_unit_test_setup_teardown(test_summary_and_final_event, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_model_job_reopen, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

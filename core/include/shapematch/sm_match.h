@@ -40,6 +40,9 @@ typedef enum sm_stop_reason {
                               * without degrading the mesh */
 } sm_stop_reason;
 const char *sm_stop_reason_name(sm_stop_reason r);
+/* Its inverse ("step_tolerance" ... "quality_blocked"): 0 and *out set
+ * for a known name, -1 otherwise (NULL included). */
+int sm_stop_reason_from_name(const char *name, sm_stop_reason *out);
 
 typedef struct sm_timings {
     double setup;            /* wall time before the first iteration: topology,

@@ -22,6 +22,12 @@ typedef enum sm_clamp_kind {
                             * the template is read */
 } sm_clamp_kind;
 
+/* "ball", "elements", "vertices", "none" (the params' clamp.kind); NULL
+ * for a value outside the enum. */
+const char *sm_clamp_kind_name(sm_clamp_kind kind);
+/* 0 and *out set for a known name, -1 otherwise (NULL included). */
+int sm_clamp_kind_from_name(const char *name, sm_clamp_kind *out);
+
 /* How the elastic system is solved (params "solver").  AUTO picks by the
  * template's size (sm_solver_resolve): CHOLMOD's sparse Cholesky below the
  * crossover measured by bench/scale.sh, PCG + BoomerAMG (hypre) above, where

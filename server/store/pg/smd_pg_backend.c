@@ -1,6 +1,7 @@
-/* The PostgreSQL backend (jobs/smd_backend.h), stacked on the spool: the
- * records, logs and the queue of the jobs this node runs are the spool's
- * (its local replica, store/spool/smd_spool_backend.h); the database is
+/* The PostgreSQL backend (jobs/smd_backend.h): the records, logs and the
+ * queue of the jobs this node runs are the spool's, as with the embedded
+ * backend (the local replica, store/spool/smd_store.h, which the engine
+ * uses by name); the ops here are what differs: the database is
  * the shared store and queue, reached through the node (smd_pg_node.h).
  * The sync and work threads feed the engine from the database
  * (smd_pg_mirror.c, smd_pg_work.c), as the pool does from its workers. */
@@ -8,7 +9,7 @@
 
 #include <stdio.h>
 
-#include "store/spool/smd_spool_backend.h"
+#include "jobs/smd_backend.h"
 
 static smd_pg_node *node_of(smd_backend *b)
 {
@@ -95,25 +96,9 @@ static void pg_metrics(smd_backend *b, char **text, size_t *len)
 
 static const smd_backend_ops pg_ops = {
     .name = "postgresql",
-    .get = smd_spool_get,
-    .find_key = smd_spool_find_key,
-    .count = smd_spool_count,
-    .at = smd_spool_at,
-    .path = smd_spool_path,
-    .commit = smd_spool_commit,
-    .save = smd_spool_save,
-    .load_events = smd_spool_load_events,
-    .append = smd_spool_append,
-    .unlink = smd_spool_unlink,
-    .trash = smd_spool_trash,
-    .can_trash = smd_spool_can_trash,
-    .writable = smd_spool_writable,
-    .remove_results = smd_spool_remove_results,
     .read_summary = pg_read_summary,
     .final_event_missing = pg_final_event_missing,
     .enqueue = pg_enqueue,
-    .next = smd_spool_next,
-    .dequeue = smd_spool_dequeue,
     .publish = pg_publish,
     .submitted = pg_submitted,
     .event = pg_event,

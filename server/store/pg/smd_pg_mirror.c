@@ -15,7 +15,7 @@
 #include "jobs/smd_jobs.h"
 #include "store/pg/smd_pg_node.h"
 #include "store/pg/smd_pg_node_int.h"
-#include "jobs/smd_pool.h"
+#include "worker/smd_job_file.h"
 
 /* ------------------------------------------------------------ events */
 
@@ -107,8 +107,35 @@ static smd_job *new_local(const smd_pg_info *info, const sm_event *first)
     return job;
 }
 
+/* Lock NOT held: a model job's members, from the job.json fetched into
+ * tmp, so that the local record names them as the submitting node's does
+ * (which batches share a job: DELETE /v1/batches/{id}).  *ids NULL and
+ * *n 0 when there are none; SM_ERR_NOMEM out of memory. */
+static sm_status read_members(const char *tmp, char (**ids)[SMD_ID_LEN + 1], size_t *n,
+                              sm_error *err)
+{
+    smd_job_file f;
+    sm_error ignored;
+    *ids = NULL;
+    *n = 0;
+    if (smd_job_file_read(tmp, &f, &ignored) == SM_OK && f.batch) {
+        json_t *list = json_object_get(f.batch, "members"), *v;
+        size_t count = json_array_size(list), i;
+        if (count && !(*ids = calloc(count, sizeof **ids))) {
+            smd_job_file_free(&f);
+            return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+        }
+        json_array_foreach(list, i, v)
+            snprintf((*ids)[i], sizeof (*ids)[i], "%s", json_string_value(json_object_get(v, "job")));
+        *n = count;
+    }
+    smd_job_file_free(&f);
+    return SM_OK;
+}
+
 /* srv->lock held. */
 static sm_status commit_import(smd_pg_node *n, const smd_pg_info *info, const char *tmp,
+                               const char (*members)[SMD_ID_LEN + 1], size_t nmembers,
                                ev_list *evs, node_lease *lease, smd_jobs_after *after, sm_error *err)
 {
     smd_server *srv = n->srv;
@@ -120,6 +147,10 @@ static sm_status commit_import(smd_pg_node *n, const smd_pg_info *info, const ch
     if (old)
         smd_jobs_mirror_drop(srv, old, after);
     smd_job *job = new_local(info, &evs->v[0]);
+    if (job && smd_job_set_members(job, members, nmembers) != 0) {
+        smd_job_free(job);
+        job = NULL;
+    }
     if (!job)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     sm_event first = evs->v[0];
@@ -140,7 +171,7 @@ static sm_status commit_import(smd_pg_node *n, const smd_pg_info *info, const ch
     smd_jobs_mirror_state(srv, job, SM_JOB_ACCEPTED, msg, lease->lease.attempt - 1, after);
     if (smd_queue_push(srv->queue, job->id) != 0)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
-    after->wake_pool = 1;
+    smd_jobs_after_wake(srv, after);
     return SM_OK;
 }
 
@@ -219,15 +250,19 @@ sm_status node_import(smd_pg_node *n, smd_pg *db, const char *id, node_lease *le
         st = fetch_events(db, id, 0, &evs, err);
     if (st == SM_OK && (evs.n == 0 || evs.v[0].type != SM_EVENT_ACCEPTED))
         st = sm_error_set(err, SM_ERR_FORMAT, "job %s: its first event is not 'accepted'", id);
+    char (*members)[SMD_ID_LEN + 1] = NULL;
+    size_t nmembers = 0;
+    if (st == SM_OK && info.batch_model)
+        st = read_members(tmp, &members, &nmembers, err);
     smd_jobs_after after = {0};
     if (st == SM_OK) {
         pthread_mutex_lock(&srv->lock);
-        st = commit_import(n, &info, tmp, &evs, lease, &after, err);
+        st = commit_import(n, &info, tmp, (const char (*)[SMD_ID_LEN + 1])members, nmembers, &evs,
+                           lease, &after, err);
         pthread_mutex_unlock(&srv->lock);
     }
+    free(members);
     smd_jobs_after_free(&after);
-    if (after.wake_pool)
-        smd_pool_wake(srv->pool);
     if (found)
         smd_rmtree(tmp); /* gone when committed */
     free(evs.v);
@@ -402,8 +437,6 @@ static void cancel_here(smd_pg_node *n, const char *id, const char *why)
         smd_jobs_stop(srv, job, why, &after);
     pthread_mutex_unlock(&srv->lock);
     smd_jobs_after_free(&after);
-    if (after.wake_pool)
-        smd_pool_wake(srv->pool);
 }
 
 void node_cancel_here(smd_pg_node *n, const char *id, const char *why);

@@ -284,12 +284,15 @@ static int record_from_json(json_t *o, const char *id, smd_job *job, char *why, 
         return -1;
     }
     job->order = x;
-    if (get_int(o, "dimension", 2, 3, &x) != 0) {
+    /* a model job written before it carried its targets' dimension and
+     * one step had 0 for both: still a valid record */
+    int model = json_is_true(json_object_get(o, "batchModel"));
+    if (get_int(o, "dimension", model ? 0 : 2, 3, &x) != 0 || x == 1) {
         snprintf(why, cap, "bad dimension");
         return -1;
     }
     job->dim = (int)x;
-    if (get_int(o, "maxIter", 1, INT_MAX, &x) != 0) {
+    if (get_int(o, "maxIter", model ? 0 : 1, INT_MAX, &x) != 0) {
         snprintf(why, cap, "bad maxIter");
         return -1;
     }
@@ -315,7 +318,7 @@ static int record_from_json(json_t *o, const char *id, smd_job *job, char *why, 
         }
         job->final_event_at = x;
     }
-    job->batch_model = json_is_true(json_object_get(o, "batchModel"));
+    job->batch_model = model;
     if (job->batch_model && record_members(o, job, why, cap) != 0)
         return -1;
     v = json_object_get(o, "requestHash");
@@ -568,6 +571,11 @@ int smd_store_trash(smd_store *s, const char *id, char *trash_path, size_t cap)
     (void)smd_fsync_dir(s->jobs_dir);
     (void)smd_fsync_dir(s->trash_dir);
     return 0;
+}
+
+int smd_store_writable(const smd_store *s)
+{
+    return access(s->root, W_OK) == 0;
 }
 
 int smd_store_can_trash(const smd_store *s)

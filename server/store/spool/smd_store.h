@@ -36,7 +36,7 @@
 #include "base/smd_log.h"
 #include "base/smd_util.h"
 
-#include "jobs/smd_job.h"
+#include "store/spool/smd_job.h"
 
 typedef struct smd_store smd_store;
 
@@ -105,6 +105,9 @@ int smd_store_trash(smd_store *s, const char *id, char *trash_path,
  * read-only or unwritable spool refuses): the check of a delete that
  * must wait for its worker to be gone. */
 int smd_store_can_trash(const smd_store *s);
+/* 1 when the spool's root accepts writes again (the engine's retry of
+ * unwritten records clears the daemon's unready state on it). */
+int smd_store_writable(const smd_store *s);
 
 /* Records found damaged at open (unreadable or invalid status.json): each
  * job folder was moved to SPOOL/quarantine/<id>-<8 hex>, logged

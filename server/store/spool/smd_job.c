@@ -1,5 +1,5 @@
 /* The job record's memory, references and status fields (see smd_job.h). */
-#include "jobs/smd_job.h"
+#include "store/spool/smd_job.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -36,6 +36,19 @@ void smd_job_free(smd_job *job)
     free(job->event_end);
     free(job->members);
     free(job);
+}
+
+void smd_job_view(const smd_job *job, smd_job *view)
+{
+    *view = *job;
+    view->members = NULL;
+    view->nmembers = 0;
+    view->events_loaded = 0;
+    view->event_end = NULL;
+    view->event_cap = 0;
+    view->log_fd = -1;
+    view->ending = NULL;
+    view->hash_next = NULL;
 }
 
 int smd_job_set_members(smd_job *job, const char (*ids)[SMD_ID_LEN + 1], size_t n)

@@ -1,94 +1,16 @@
-/* The embedded backend: the spool and its FIFO behind jobs/smd_backend.h
- * (see smd_spool_backend.h).  Every op is a thin call into smd_store.c or
- * smd_fifo.c; what is the spool's alone (summaries, final-event repair,
- * the queue of accepted jobs) lives in the ops that PostgreSQL replaces. */
-#include "store/spool/smd_spool_backend.h"
+/* The embedded backend (see smd_spool_backend.h): what the spool does
+ * where PostgreSQL does something else: recovery from the local
+ * summaries, final-event repair, the local queue with its model-job gate,
+ * and nothing to publish or tell. */
+#include "jobs/smd_spool_backend.h"
 
+#include <errno.h>
+#include <limits.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
-smd_job *smd_spool_get(smd_backend *b, const char *id)
-{
-    return smd_store_get(b->spool, id);
-}
-
-smd_job *smd_spool_find_key(smd_backend *b, const char *owner, const char *key)
-{
-    return smd_store_find_key(b->spool, owner, key);
-}
-
-size_t smd_spool_count(smd_backend *b)
-{
-    return smd_store_count(b->spool);
-}
-
-smd_job *smd_spool_at(smd_backend *b, size_t i)
-{
-    return smd_store_at(b->spool, i);
-}
-
-int smd_spool_path(smd_backend *b, const char *id, const char *name, char *buf, size_t cap)
-{
-    return smd_store_path(b->spool, id, name, buf, cap);
-}
-
-sm_status smd_spool_commit(smd_backend *b, const char *dir, smd_job *job, sm_event *first,
-                           sm_error *err)
-{
-    return smd_store_commit(b->spool, dir, job, first, err);
-}
-
-sm_status smd_spool_save(smd_backend *b, smd_job *job, sm_error *err)
-{
-    return smd_store_save(b->spool, job, err);
-}
-
-sm_status smd_spool_load_events(smd_backend *b, smd_job *job, sm_error *err)
-{
-    return smd_store_load_events(b->spool, job, err);
-}
-
-sm_status smd_spool_append(smd_backend *b, smd_job *job, sm_event *ev, sm_error *err)
-{
-    return smd_store_append_event(b->spool, job, ev, err);
-}
-
-void smd_spool_unlink(smd_backend *b, smd_job *job)
-{
-    smd_store_unlink(b->spool, job);
-}
-
-int smd_spool_trash(smd_backend *b, const char *id, char *path, size_t cap)
-{
-    return smd_store_trash(b->spool, id, path, cap);
-}
-
-int smd_spool_can_trash(smd_backend *b)
-{
-    return smd_store_can_trash(b->spool);
-}
-
-int smd_spool_writable(smd_backend *b)
-{
-    return access(smd_store_root(b->spool), W_OK) == 0;
-}
-
-void smd_spool_remove_results(smd_backend *b, const smd_job *job, int partial_only)
-{
-    smd_store_remove_results(b->spool, job, partial_only);
-}
-
-int smd_spool_next(smd_backend *b, char id[SMD_ID_LEN + 1])
-{
-    return smd_queue_pop(b->fifo, id);
-}
-
-void smd_spool_dequeue(smd_backend *b, const char *id)
-{
-    smd_queue_remove(b->fifo, id);
-}
-
-/* ------------------------------------------- what only the spool does */
+#include "worker/smd_worker.h"
 
 static sm_status spool_read_summary(smd_backend *b, const smd_job *job, sm_event *finished,
                                     double *when, sm_error *err)
@@ -115,11 +37,44 @@ static int members_live(smd_backend *b, const smd_job *model)
     return 0;
 }
 
+/* The model job's members, in its own folder: members/<id> links to the
+ * published results of each member that has them (../../<id>/results),
+ * so that the worker reads only its JOB_DIR, as on PostgreSQL, where the
+ * node copies them in.  A member deleted later leaves a dangling link:
+ * left out of the model, as a member without results is.  One symlink
+ * per member (at most SMD_JOB_MEMBERS_MAX) under the lock. */
+static void link_members(smd_backend *b, const smd_job *model)
+{
+    char dir[PATH_MAX], link[PATH_MAX], target[PATH_MAX], summary[PATH_MAX];
+    if (smd_store_path(b->spool, model->id, "members", dir, sizeof dir) != 0 ||
+        (mkdir(dir, 0750) != 0 && errno != EEXIST))
+        return; /* the worker finds no member: the model job fails, saying so */
+    for (size_t i = 0; i < model->nmembers; i++) {
+        const char *id = model->members[i];
+        if (smd_store_path(b->spool, id, SMD_RESULTS_DIR "/summary.json", summary,
+                           sizeof summary) != 0 ||
+            access(summary, F_OK) != 0 ||
+            smd_pathf(link, sizeof link, "%s/%s", dir, id) != 0 ||
+            smd_pathf(target, sizeof target, "../../%s/" SMD_RESULTS_DIR, id) != 0)
+            continue;
+        if (symlink(target, link) != 0 && errno != EEXIST)
+            continue;
+    }
+}
+
+static int queue_model(smd_backend *b, const smd_job *model)
+{
+    link_members(b, model);
+    return smd_queue_push(b->fifo, model->id);
+}
+
 static int spool_enqueue(smd_backend *b, const char *id)
 {
     const smd_job *job = smd_store_get(b->spool, id);
     if (job && job->batch_model && members_live(b, job))
         return 1; /* waits: queued here later */
+    if (job && job->batch_model)
+        return queue_model(b, job) == 0 ? 1 : -1;
     return smd_queue_push(b->fifo, id) == 0 ? 1 : -1;
 }
 
@@ -156,7 +111,7 @@ static void spool_event(smd_backend *b, const smd_job *job, const sm_event *ev)
         for (size_t k = 0; k < model->nmembers && !member; k++)
             member = strcmp(model->members[k], job->id) == 0;
         if (member && !members_live(b, model))
-            smd_queue_push(b->fifo, model->id); /* out of memory: runs after a restart */
+            queue_model(b, model); /* out of memory: runs after a restart */
     }
 }
 
@@ -195,25 +150,9 @@ static void spool_metrics(smd_backend *b, char **text, size_t *len)
 
 const smd_backend_ops smd_spool_backend_ops = {
     .name = "spool",
-    .get = smd_spool_get,
-    .find_key = smd_spool_find_key,
-    .count = smd_spool_count,
-    .at = smd_spool_at,
-    .path = smd_spool_path,
-    .commit = smd_spool_commit,
-    .save = smd_spool_save,
-    .load_events = smd_spool_load_events,
-    .append = smd_spool_append,
-    .unlink = smd_spool_unlink,
-    .trash = smd_spool_trash,
-    .can_trash = smd_spool_can_trash,
-    .writable = smd_spool_writable,
-    .remove_results = smd_spool_remove_results,
     .read_summary = spool_read_summary,
     .final_event_missing = spool_final_event_missing,
     .enqueue = spool_enqueue,
-    .next = smd_spool_next,
-    .dequeue = smd_spool_dequeue,
     .publish = spool_publish,
     .submitted = spool_submitted,
     .event = spool_event,

@@ -97,6 +97,11 @@ typedef struct smd_job {
     struct smd_job *hash_next;
 } smd_job;
 
+/* A copy of job's plain fields, for use after srv->lock is released (the
+ * status document, the replies): no log index, descriptor, members or
+ * held end (those stay the table's). */
+void smd_job_view(const smd_job *job, smd_job *view);
+
 /* Sets job's members (a copy); -1 out of memory. */
 int smd_job_set_members(smd_job *job, const char (*ids)[SMD_ID_LEN + 1], size_t n);
 

@@ -63,9 +63,7 @@ static sm_status moved_copy(const sm_mesh *m, const sm_transform *t, sm_mesh **o
  * one (a surface target's, an image's level set), else the field. */
 static void target_of(const sm_job_inputs *in, sm_align_opts *o)
 {
-    o->surface = in->target_sdf ? in->target_sdf
-                 : in->image_target ? sm_image_target_sdf(in->image_target)
-                                    : NULL;
+    o->surface = in->target_sdf;
     if (!o->surface) {
         o->target = in->field;
         o->background = in->background;

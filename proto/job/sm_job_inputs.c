@@ -383,10 +383,9 @@ static sm_status image_background(const sm_job_background_plan *plan, const sm_m
  * -y about the world origin): the RMS distance of its boundary vertices
  * to the surface, both ways, for the image-frame warning.  Left at 0
  * (no figure) when out of memory. */
-static void image_frame_fit(sm_job_inputs *out, const sm_image_target *t)
+static void image_frame_fit(sm_job_inputs *out, const sm_sdf *d)
 {
     const sm_mesh *m = out->prepared;
-    const sm_sdf *d = sm_image_target_sdf(t);
     int64_t n = 0;
     uint8_t *on = calloc((size_t)m->nverts + 1, 1);
     double *p = malloc(((size_t)m->nverts + 1) * 3 * sizeof *p);
@@ -424,6 +423,7 @@ static sm_status read_image_target(const sm_job_files *files, sm_job_naming nami
                                    sm_job_inputs *out, sm_error *err)
 {
     sm_image_target *t = NULL;
+    sm_sdf *d = NULL;
     sm_image_limits lim = image_limits(files, naming);
     sm_image_select sel = sm_job_image_select(&out->params);
     out->has_image = 1;
@@ -444,7 +444,11 @@ static sm_status read_image_target(const sm_job_files *files, sm_job_naming nami
             file_error(err, naming, SM_PART_TARGET_IMAGE, files->target_image, out);
         goto done;
     }
-    image_frame_fit(out, t);
+    /* the label's surface and its hierarchy: the frame's figures, and
+     * with an alignment its exact target */
+    sm_error local;
+    if (sm_sdf_new(sm_image_target_surface(t), &d, &local) == SM_OK)
+        image_frame_fit(out, d);
     if (files->target_mesh) {
         if ((st = sm_mesh_read_limited(files->target_mesh, files->limits, &out->background,
                                        err)) != SM_OK) {
@@ -469,10 +473,12 @@ static sm_status read_image_target(const sm_job_files *files, sm_job_naming nami
     st = sm_job_image_distance(t, out->background, &out->distance, &out->image, err);
 done:
     out->sdf_seconds = sm_clock_seconds() - t0;
-    if (st == SM_OK && out->params.align != SM_ALIGN_NONE) {
+    if (st == SM_OK && out->params.align != SM_ALIGN_NONE && d) {
         out->image_target = t; /* the alignment's exact target */
+        out->target_sdf = d;
         return st;
     }
+    sm_sdf_free(d);
     sm_image_target_free(t);
     return st;
 }
@@ -634,6 +640,10 @@ sm_status sm_job_inputs_finish_target(sm_job_inputs *in, const sm_mesh *template
     if (st != SM_OK && st != SM_ERR_NOMEM && in->failed == SM_NPARTS)
         file_error(err, plan->naming, part, plan->target_path, in);
     in->target_deferred = 0;
+    if (in->image_target) { /* the label's hierarchy borrows its surface */
+        sm_sdf_free(in->target_sdf);
+        in->target_sdf = NULL;
+    }
     sm_image_target_free(in->image_target);
     in->image_target = NULL;
     in->plan.target_path = NULL;

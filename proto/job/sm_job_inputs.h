@@ -139,7 +139,8 @@ typedef struct sm_job_inputs {
     int32_t nlandmarks;
     /* With an alignment (params align set before the target is read):
      * the target's exact surface and distance kept for it (a surface
-     * target's, or an image's level-set surface through image_target),
+     * target's; for an image, target_sdf over image_target's level-set
+     * surface),
      * so that it aligns onto the exact surface; and when the background
      * is to be generated, it is not built yet (target_deferred): the
      * alignment runs without one, then sm_job_inputs_finish_target

@@ -213,15 +213,12 @@ static void check_image_frame(const sm_job_inputs *in, sm_job_warnings *out)
         return;
     int ras = in->image.space == SM_IMAGE_SPACE_RAS;
     add(out, "image-frame", rms[1] > 0 ? rms[0] / rms[1] : INFINITY,
-        "the template fits the label far better in the other image space (boundary RMS "
-        "distance %.4g as read in %s, %.4g in %s, x and y mirrored): give --image-space %s "
-        "(params image_space) if the image's coordinates are %s (%s)%s",
-        rms[0], ras ? "RAS" : "LPS", rms[1], ras ? "LPS" : "RAS", ras ? "lps" : "ras",
-        ras ? "LPS" : "RAS",
-        ras ? "DICOM, ITK, 3D Slicer" : "NIfTI written by nibabel, FreeSurfer, FSL",
-        in->params.align != SM_ALIGN_NONE ? "; --align would otherwise align the template onto "
-                                            "the mirrored label"
-                                          : "");
+        "the template fits the label far better in the other image space (boundary RMS %.4g "
+        "in %s as read, %.4g in %s): if the image's coordinates are %s (%s), give "
+        "--image-space %s (params image_space)%s",
+        rms[0], ras ? "RAS" : "LPS", rms[1], ras ? "LPS" : "RAS", ras ? "LPS" : "RAS",
+        ras ? "DICOM, ITK, Slicer" : "nibabel, FreeSurfer, FSL", ras ? "lps" : "ras",
+        in->params.align != SM_ALIGN_NONE ? "; --align aligns onto the mirrored label" : "");
 }
 
 /* The label of an image target: cut by the image's border, or in

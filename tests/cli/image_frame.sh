@@ -43,7 +43,7 @@ grep -q "^shapematch: warning: image-frame: .*give --image-space ras" "$WORK/lps
 check_rc $? "read as LPS: image-frame, naming --image-space ras" "$(head -c 600 "$WORK/lps.err")"
 
 run lps_align --align rigid
-grep -q "image-frame: .*--align would otherwise align the template onto the mirrored label" "$WORK/lps_align.err"
+grep -q "image-frame: .*give --image-space ras (params image_space); --align aligns onto the mirrored label$" "$WORK/lps_align.err"
 check_rc $? "with --align: the warning says the alignment would mirror it" \
     "$(head -c 600 "$WORK/lps_align.err")"
 

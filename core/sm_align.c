@@ -16,12 +16,16 @@
  * template), and at most this many on the final passes: enough to
  * average a sampled field's interpolation error, and an exact surface
  * is matched to rounding by any sample. */
-#define SCREEN_POINTS 1000
-#define FULL_POINTS 10000
+#define SCREEN_POINTS 500
+#define FULL_POINTS 2000
 /* Candidates (by screening cost) refined before the best is kept: the
  * true one is among the first few whenever the axes are distinct, and
  * near-symmetric shapes are nearly as good from any of them. */
 #define CANDIDATES_REFINED 3
+/* Iterations on the full sample, from the coarse level's answer: an
+ * exact fit converges in a few (Gauss-Newton on zero residuals), an
+ * inexact one only polishes. */
+#define FULL_ITER 8
 #define CANDIDATE_ITER 20
 #define DEFAULT_MAX_ITER 100
 /* Huber's threshold in units of the residuals' robust spread, and its
@@ -56,6 +60,8 @@ typedef enum stage { STAGE_RIGID, STAGE_SIMILARITY, STAGE_AFFINE } stage;
  * template's boundary). */
 typedef struct level {
     sm__align_pts tpl, tgt;
+    int cloud; /* the coarse level: both sides as point samples with
+                * their normals, nearest neighbours by brute force */
 } level;
 
 typedef struct ctx {
@@ -256,6 +262,78 @@ static void eval_target(ctx *c, sm__align_pts *p, const sm_transform *t)
     }
 }
 
+/* The index of the point of pts (n of them) nearest to x. */
+static int64_t nearest_point(int dim, const double *pts, int64_t n, const double *x)
+{
+    int64_t best = 0;
+    double best2 = INFINITY;
+    for (int64_t j = 0; j < n; j++) {
+        double d2 = 0;
+        for (int k = 0; k < dim; k++)
+            d2 += (pts[j * dim + k] - x[k]) * (pts[j * dim + k] - x[k]);
+        if (d2 < best2)
+            best2 = d2, best = j;
+    }
+    return best;
+}
+
+/* The coarse level at t: symmetric point-to-plane residuals between the
+ * two samples, each point against its nearest neighbour on the other
+ * side and that one's normal (the target's as given, the template's
+ * moved: a^-T n).  Cheap at any distance, where an exact nearest-facet
+ * search from a far start visits most of a surface: the candidates are
+ * screened and refined here, the exact residuals take over near the
+ * answer. */
+static void eval_cloud(ctx *c, level *lv, const sm_transform *t)
+{
+    const int dim = c->dim;
+    sm__align_pts *p = &lv->tpl, *q = &lv->tgt;
+    sm_transform inv;
+    invert(t, &inv);
+    sm_transform_apply(t, p->n, p->x, p->y);
+    for (int64_t i = 0; i < p->n; i++) { /* moved normals, into u */
+        double *m = p->u + i * dim;
+        for (int k = 0; k < dim; k++) {
+            m[k] = 0;
+            for (int j = 0; j < dim; j++)
+                m[k] += inv.a[j][k] * p->nrm[i * dim + j];
+        }
+        normalize(dim, m);
+    }
+#pragma omp parallel for schedule(static) if (p->n * q->n > (int64_t)100 * PARALLEL_MIN)
+    for (int64_t i = 0; i < p->n; i++) {
+        int64_t j = nearest_point(dim, q->x, q->n, p->y + i * dim);
+        double r = 0;
+        for (int k = 0; k < dim; k++) {
+            p->g[i * dim + k] = q->nrm[j * dim + k];
+            r += q->nrm[j * dim + k] * (p->y[i * dim + k] - q->x[j * dim + k]);
+        }
+        p->r[i] = r;
+    }
+    for (int64_t j = 0; j < q->n; j++) {
+        int64_t i = nearest_point(dim, p->y, p->n, q->x + j * dim);
+        double r = 0;
+        for (int k = 0; k < dim; k++) {
+            q->y[j * dim + k] = p->y[i * dim + k];
+            q->g[j * dim + k] = p->u[i * dim + k];
+            r += p->u[i * dim + k] * (q->x[j * dim + k] - p->y[i * dim + k]);
+        }
+        q->r[j] = r;
+    }
+}
+
+/* Both sides at t (the template side's gradients only with grad: the
+ * cost alone needs none). */
+static void eval_level(ctx *c, level *lv, const sm_transform *t, int grad)
+{
+    if (lv->cloud) {
+        eval_cloud(c, lv, t);
+        return;
+    }
+    eval_template(c, &lv->tpl, t, grad);
+    eval_target(c, &lv->tgt, t);
+}
+
 /* sum w rho(r) / sum w over a side (rho Huber's with threshold k, or
  * r^2 for k infinite); infinite for a failed query. */
 static double side_cost(const sm__align_pts *p, double k)
@@ -272,8 +350,7 @@ static double side_cost(const sm__align_pts *p, double k)
  * target, plus the target's surface to the moved template. */
 static double mean_square(ctx *c, level *lv, const sm_transform *t)
 {
-    eval_template(c, &lv->tpl, t, 0);
-    eval_target(c, &lv->tgt, t);
+    eval_level(c, lv, t, 0);
     return side_cost(&lv->tpl, INFINITY) + side_cost(&lv->tgt, INFINITY);
 }
 
@@ -422,8 +499,7 @@ static double accumulate(const sm__align_pts *p, int sgn, stage s, double k, con
 /* The Huber cost of t with the thresholds k (values only). */
 static double huber_cost(ctx *c, level *lv, const sm_transform *t, const double k[2])
 {
-    eval_template(c, &lv->tpl, t, 0);
-    eval_target(c, &lv->tgt, t);
+    eval_level(c, lv, t, 0);
     return side_cost(&lv->tpl, k[0]) + side_cost(&lv->tgt, k[1]);
 }
 
@@ -437,8 +513,7 @@ static int refine(ctx *c, level *lv, stage s, int max_iter, sm_transform *t)
     double lambda = 1e-3;
     int it;
     for (it = 0; it < max_iter && !cancelled(c); it++) {
-        eval_template(c, &lv->tpl, t, 1);
-        eval_target(c, &lv->tgt, t);
+        eval_level(c, lv, t, 1);
         /* the increments' pivot: the moved template's centre */
         double cc[3] = {0, 0, 0};
         for (int64_t i = 0; i < lv->tpl.n; i++)
@@ -623,6 +698,7 @@ static sm_status build_levels(const sm_align_opts *o, level *full, level *screen
     if (st == SM_OK)
         st = sm__align_pts_sample(&all, SCREEN_POINTS, &screen->tgt, err);
     sm__align_pts_free(&all);
+    screen->cloud = 1;
     return st;
 }
 
@@ -655,10 +731,10 @@ static int refine_stages(const sm_align_opts *o, ctx *c, level *full, level *scr
     reset_hints(screen);
     reset_hints(full);
     iters += refine(c, screen, s, max_iter, t);
-    iters += refine(c, full, s, max_iter, t);
+    iters += refine(c, full, s, max_iter < FULL_ITER ? max_iter : FULL_ITER, t);
     if (o->mode == SM_ALIGN_AFFINE) {
         iters += refine(c, screen, STAGE_AFFINE, max_iter, t);
-        iters += refine(c, full, STAGE_AFFINE, max_iter, t);
+        iters += refine(c, full, STAGE_AFFINE, max_iter < FULL_ITER ? max_iter : FULL_ITER, t);
     }
     return iters;
 }

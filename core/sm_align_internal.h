@@ -43,6 +43,7 @@ typedef struct sm__align_pts {
     double *x, *w;
     double wsum;
     double *y, *u, *r, *g;
+    double *nrm; /* the unit outward normal at each point */
     int32_t *hints, *nearest;
 } sm__align_pts;
 

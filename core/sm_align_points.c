@@ -17,6 +17,7 @@ void sm__align_pts_free(sm__align_pts *p)
     free(p->u);
     free(p->r);
     free(p->g);
+    free(p->nrm);
     free(p->hints);
     free(p->nearest);
     memset(p, 0, sizeof *p);
@@ -34,9 +35,10 @@ sm_status sm__align_pts_alloc(sm__align_pts *p, int dim, int64_t n, sm_error *er
     p->u = malloc(m * dim * sizeof *p->u);
     p->r = malloc(m * sizeof *p->r);
     p->g = malloc(m * dim * sizeof *p->g);
+    p->nrm = malloc(m * dim * sizeof *p->nrm);
     p->hints = malloc(m * sizeof *p->hints);
     p->nearest = malloc(m * sizeof *p->nearest);
-    if (!p->x || !p->w || !p->y || !p->u || !p->r || !p->g || !p->hints || !p->nearest) {
+    if (!p->x || !p->w || !p->y || !p->u || !p->r || !p->g || !p->nrm || !p->hints || !p->nearest) {
         sm__align_pts_free(p);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the alignment's points");
     }
@@ -63,6 +65,7 @@ sm_status sm__align_pts_sample(const sm__align_pts *from, int64_t cap, sm__align
     const int dim = from->dim;
     for (int64_t i = 0; i < n; i++) {
         memcpy(to->x + i * dim, from->x + i * step * dim, dim * sizeof *to->x);
+        memcpy(to->nrm + i * dim, from->nrm + i * step * dim, dim * sizeof *to->nrm);
         to->w[i] = from->w[i * step];
     }
     sm__align_pts_done(to);
@@ -71,8 +74,8 @@ sm_status sm__align_pts_sample(const sm__align_pts *from, int64_t cap, sm__align
 
 /* The rule's points of the facet with vertices v (dim of them, each dim
  * coordinates), weight measure / points each, at p->x + k * dim. */
-static void facet_points(int dim, const double *v[3], double measure, sm__align_pts *p,
-                         int64_t k)
+static void facet_points(int dim, const double *v[3], double measure, const double *normal,
+                         sm__align_pts *p, int64_t k)
 {
     /* 2D: 2 Gauss points per edge; 3D: the 3-point rule per triangle
      * (barycentric 2/3, 1/6, 1/6): exact for quadratics, so the misfit of
@@ -95,6 +98,7 @@ static void facet_points(int dim, const double *v[3], double measure, sm__align_
                 x[c] += lam[i] * v[i][c];
         }
         p->w[k + q] = measure / per;
+        memcpy(p->nrm + (k + q) * dim, normal, dim * sizeof *normal);
     }
 }
 
@@ -111,7 +115,7 @@ sm_status sm__align_mesh_boundary_pts(const sm_mesh *m, sm__align_pts *p, sm_err
         const double *v[3];
         for (int i = 0; i < dim; i++)
             v[i] = m->coords + (size_t)fv[i] * dim;
-        facet_points(dim, v, area, p, (int64_t)f * per);
+        facet_points(dim, v, area, normal, p, (int64_t)f * per);
     }
     sm__align_pts_done(p);
     return SM_OK;
@@ -130,8 +134,10 @@ sm_status sm__align_surface_pts(const sm_surface *s, sm__align_pts *p, sm_error 
         const double *v[3];
         for (int i = 0; i < dim; i++)
             v[i] = s->coords + (size_t)fv[i] * dim;
-        facet_points(dim, v, sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]), p,
-                     (int64_t)f * per);
+        double a = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        for (int c2 = 0; c2 < 3 && a > 0; c2++)
+            n[c2] /= a;
+        facet_points(dim, v, a, n, p, (int64_t)f * per);
     }
     sm__align_pts_done(p);
     return SM_OK;
@@ -146,23 +152,33 @@ static void crossing(int dim, const double *a, const double *b, double da, doubl
 }
 
 /* Appends the centroid of the cut piece q[0..np) (a segment, a triangle)
- * weighted by its measure. */
-static void add_piece(int dim, double q[][3], int np, sm__align_pts *p)
+ * weighted by its measure, its normal turned along out (from the inside
+ * to the outside). */
+static void add_piece(int dim, double q[][3], int np, const double *out, sm__align_pts *p)
 {
-    double meas;
+    double meas, n[3] = {0, 0, 0};
     if (dim == 2) {
-        meas = hypot(q[1][0] - q[0][0], q[1][1] - q[0][1]);
+        n[0] = q[1][1] - q[0][1];
+        n[1] = q[0][0] - q[1][0];
+        meas = hypot(n[0], n[1]);
     } else {
         double u[3], v[3];
         for (int c = 0; c < 3; c++) {
             u[c] = q[1][c] - q[0][c];
             v[c] = q[2][c] - q[0][c];
         }
-        meas = 0.5 * sqrt(pow(u[1] * v[2] - u[2] * v[1], 2) + pow(u[2] * v[0] - u[0] * v[2], 2) +
-                          pow(u[0] * v[1] - u[1] * v[0], 2));
+        n[0] = u[1] * v[2] - u[2] * v[1];
+        n[1] = u[2] * v[0] - u[0] * v[2];
+        n[2] = u[0] * v[1] - u[1] * v[0];
+        meas = 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     }
     if (!(meas > 0))
         return;
+    double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]), side = 0;
+    for (int c = 0; c < dim; c++)
+        side += n[c] * out[c];
+    for (int c = 0; c < dim; c++)
+        p->nrm[p->n * dim + c] = (side < 0 ? -n[c] : n[c]) / len;
     double *x = p->x + p->n * dim;
     for (int c = 0; c < dim; c++) {
         x[c] = 0;
@@ -199,8 +215,15 @@ sm_status sm__align_level_set_pts(const sm_mesh *bg, const double *values, sm__a
         }
         if (ni == 0 || no == 0)
             continue;
-        double q[4][3] = {{0}};
+        double q[4][3] = {{0}}, out[3] = {0, 0, 0};
         int np = 0;
+        /* inside to outside: the vertex means' difference */
+        for (int c = 0; c < dim; c++) {
+            for (int i = 0; i < no; i++)
+                out[c] += bg->coords[(size_t)outside[i] * dim + c] / no;
+            for (int i = 0; i < ni; i++)
+                out[c] -= bg->coords[(size_t)inside[i] * dim + c] / ni;
+        }
         /* the crossings in cyclic order: for a 2-2 cut, edges (i0,o0),
          * (i0,o1), (i1,o1), (i1,o0) go round the quadrilateral */
         static const int quad[4][2] = {{0, 0}, {0, 1}, {1, 1}, {1, 0}};
@@ -214,8 +237,8 @@ sm_status sm__align_level_set_pts(const sm_mesh *bg, const double *values, sm__a
             memcpy(t2[0], q[0], sizeof t2[0]);
             memcpy(t2[1], q[2], sizeof t2[1]);
             memcpy(t2[2], q[3], sizeof t2[2]);
-            add_piece(dim, q, 3, p);
-            add_piece(dim, t2, 3, p);
+            add_piece(dim, q, 3, out, p);
+            add_piece(dim, t2, 3, out, p);
             continue;
         }
         for (int i = 0; i < ni; i++)
@@ -224,7 +247,7 @@ sm_status sm__align_level_set_pts(const sm_mesh *bg, const double *values, sm__a
                 crossing(dim, bg->coords + (size_t)a * dim, bg->coords + (size_t)b * dim,
                          values[a], values[b], q[np]);
             }
-        add_piece(dim, q, np, p);
+        add_piece(dim, q, np, out, p);
     }
     sm__align_pts_done(p);
     return SM_OK;

@@ -33,13 +33,18 @@
  *      similarity, the volume ratio.  The principal axes fix the rotation
  *      only up to a signed permutation, so every proper one is tried (24
  *      in 3D, 4 in 2D) and the few with the smallest two-sided mean square
- *      (on a sample of 1000 points a side) are refined: a 180-degree flip
- *      or a near-symmetric shape does not trap the start.  Or, with
- *      landmarks, Kabsch/Umeyama (below).
+ *      (on the coarse level below) are refined: a 180-degree flip
+ *      or a near-symmetric shape does not trap the start.  This coarse
+ *      level is point clouds: 500 points a side with their normals,
+ *      symmetric point-to-plane residuals to the nearest point of the
+ *      other side (brute force: cheap at any distance, where an exact
+ *      nearest-facet search from a far start visits most of a surface).
+ *      Or, with landmarks, Kabsch/Umeyama (below).
  *   2. refinement: Levenberg-Marquardt (Gauss-Newton rows: the gradient
  *      of d at the moved point; -grad D at the target point, the nearest
- *      template point held) on the sample, then on at most 10000 points a
- *      side.  Rigid: translation + rotation (increments by the
+ *      template point held) on the coarse level, then with the exact
+ *      residuals on at most 2000 points a side (at most 8 iterations: an
+ *      exact fit converges in a few, an inexact one only polishes).  Rigid: translation + rotation (increments by the
  *      exponential map); similarity: + one scale; affine: the similarity
  *      result, then the full matrix, each step refused when it would
  *      leave det A <= 0 or a condition number above

@@ -248,8 +248,9 @@ static sm_status generate_background(const sm_job_background_plan *plan, const s
         return sm_error_set(err, SM_ERR_INVALID,
                             "target_surface%s%s%s: %s A background generated for both would be "
                             "sized in the wrong unit for one of them: scale one onto the other's "
-                            "unit, or %s to generate it anyway",
+                            "unit (%s similarity does it first), or %s to generate it anyway",
                             what[0] ? " '" : "", what, what[0] ? "'" : "", text,
+                            plan->naming == SM_JOB_NAME_PARTS ? "params align" : "--align",
                             plan->naming == SM_JOB_NAME_PARTS
                                 ? "set params.background_size"
                                 : "give --background-size");

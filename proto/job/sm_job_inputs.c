@@ -461,7 +461,7 @@ static sm_status read_image_target(const sm_job_files *files, sm_job_naming nami
                               "the target mesh is %dD", out->background->dim);
             goto done;
         }
-    } else if (out->params.align != SM_ALIGN_NONE) {
+    } else if (out->params.align != SM_ALIGN_NONE && d) {
         /* the background waits for the alignment, which aligns onto the
          * label's surface (sm_job_inputs_finish_target) */
         st = defer_background(files, naming, files->target_image, out, err);

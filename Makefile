@@ -26,7 +26,8 @@ DEB_PACKAGES := gcc make pkg-config libc6-dev \
   libhypre-dev mpi-default-dev python3-numpy man-db groff-base python3-meshio
 # the label-map tests and bench: scipy's distance transform as an independent oracle
 DEB_PACKAGES += python3-scipy
-# tests/cli/image_out.sh: nibabel reads the NIfTI images `sdf --image` writes
+# tests/cli/image_out.sh (nibabel reads the NIfTI images `sdf --image` writes)
+# and tests/cli/image_frame.sh (a NIfTI written by nibabel itself, RAS)
 DEB_PACKAGES += python3-nibabel
 
 # The part of them `make release` and `make install` need (the Dockerfile's

@@ -5,7 +5,8 @@
 # the example's own (hand-aligned) run: the alignment's time against the
 # match it precedes (goal: <= 10%), where it puts the template's centre
 # (the ball's rotation is free: only the centre is determined), and the
-# final boundary RMS of both.  Figures, not verdicts.
+# final boundary RMS of both; then mixed units (below).  Figures, not
+# verdicts.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN=build/release/shapematch
@@ -54,3 +55,33 @@ for mode in rigid similarity; do
         "RMS \(.alignment.rms_before) -> \(.alignment.rms_after), final \(.boundary_rms) " +
         "(hand-aligned \($hand): \(.boundary_rms / $hand * 100 | floor / 100)x)"' "$W/$mode/summary.json"
 done
+
+# Units: the 3D template (metres) onto an ellipsoid STL in metres and the
+# same STL in millimetres, --align similarity, no --background-size: the
+# alignment runs on the exact surface before any background is built (the
+# background then goes around the moved template), so mixed units cost
+# what one unit costs.  Figures: the whole command's wall time of each,
+# their ratio, and the alignment's share of the whole command.
+cat >"$W/ell.geo" <<'GEO'
+SetFactory("OpenCASCADE");
+Sphere(1) = {0.5, 0.5, 0.5, 0.3};
+Dilate {{0.5, 0.5, 0.5}, {1.15, 0.9, 0.8}} { Volume{1}; }
+Mesh.MeshSizeFromPoints = 0;
+GEO
+gmsh "$W/ell.geo" -2 -format stl -clmax 0.015 -nt 1 -v 1 -o "$W/ell_m.stl" >/dev/null 2>&1
+awk '$1 == "vertex" { printf "vertex %.17g %.17g %.17g\n", $2 * 1000, $3 * 1000, $4 * 1000; next } { print }' \
+    "$W/ell_m.stl" >"$W/ell_mm.stl"
+for unit in m mm; do
+    /usr/bin/time -f "%e" -o "$W/units_$unit.wall" $BIN run --template examples/3d/template.mesh \
+        --target-surface "$W/ell_$unit.stl" --clamp-ball "$(cat examples/3d/clamp)" \
+        --align similarity --quiet -o "$W/units_$unit" 2>/dev/null || true
+done
+jq -rn --slurpfile m "$W/units_m/summary.json" --slurpfile mm "$W/units_mm/summary.json" \
+    --argjson wm "$(cat "$W/units_m.wall")" --argjson wmm "$(cat "$W/units_mm.wall")" '
+    ($m[0].alignment.seconds) as $am | ($mm[0].alignment.seconds) as $amm |
+    "align units (template in m, target STL in m / in mm, --align similarity): whole command " +
+    "\($wm) s / \($wmm) s, mixed / same = \($wmm / $wm * 100 | floor / 100) (goal ~1); " +
+    "alignment \($am * 1000 | floor) / \($amm * 1000 | floor) ms = " +
+    "\($am / $wm * 100 | floor)% / \($amm / $wmm * 100 | floor)% of the command (goal <= 10%); " +
+    "scale \($m[0].alignment.scale) / \($mm[0].alignment.scale), final boundary RMS " +
+    "\($m[0].boundary_rms) m / \($mm[0].boundary_rms) mm"'

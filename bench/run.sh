@@ -141,7 +141,7 @@ echo
 bench/python.sh
 
 echo
-echo "== alignment: examples/3d moved 40 degrees and ~10 diameters (goal: <= 10% of the match) =="
+echo "== alignment: examples/3d moved 40 degrees and ~10 diameters, and mixed units (goal: <= 10% of the match; mixed / same ~1) =="
 bench/align.sh
 
 if [ -x bench/server_bench.sh ] && [ -x "$BIN/shapematchd" ]; then

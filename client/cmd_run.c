@@ -181,14 +181,17 @@ static void print_surface_health(const run_options *o, const sm_job_inputs *in)
     fprintf(stderr,
             "shapematch: target surface %s: %lld component(s) (%lld open), open edges (holes) "
             "%lld, non-manifold edges %lld, reoriented %lld (%lld within a piece, %lld "
-            "piece(s) turned over), duplicate %lld, degenerate %lld; distance on %s (%d "
-            "vertices) in %.3f s\n",
+            "piece(s) turned over), duplicate %lld, degenerate %lld; ",
             o->target_surface_path, (long long)h->components, (long long)h->open_components,
             (long long)h->open_edges, (long long)h->nonmanifold_edges, (long long)h->reoriented,
             (long long)h->reoriented_within, (long long)h->pieces_turned,
-            (long long)h->duplicates, (long long)h->degenerate,
-            in->background_generated ? "a generated background" :
-            o->target_mesh_path, in->background->nverts, in->sdf_seconds);
+            (long long)h->duplicates, (long long)h->degenerate);
+    if (in->target_deferred)
+        fprintf(stderr, "its background after the alignment\n");
+    else
+        fprintf(stderr, "distance on %s (%d vertices) in %.3f s\n",
+                in->background_generated ? "a generated background" : o->target_mesh_path,
+                in->background->nverts, in->sdf_seconds);
 }
 
 /* The target image's label summary, on stderr (also with --quiet: it
@@ -206,15 +209,18 @@ static void print_image_summary(const run_options *o, const sm_job_inputs *in)
         snprintf(what, sizeof what, "every nonzero voxel");
     fprintf(stderr,
             "shapematch: target image %s: %s, %lld x %lld x %lld %s, spacing %g x %g x %g; %s: "
-            "%lld voxels, %lld component(s), world box (%s) [%g, %g] x [%g, %g] x [%g, %g]; "
-            "distance on %s (%d vertices, %lld exact) in %.3f s\n",
+            "%lld voxels, %lld component(s), world box (%s) [%g, %g] x [%g, %g] x [%g, %g]; ",
             o->target_image_path, im->format, (long long)im->dims[0], (long long)im->dims[1],
             (long long)im->dims[2], sm_voxel_type_name(im->type), im->spacing[0], im->spacing[1],
             im->spacing[2], what, (long long)s->voxels, (long long)s->components,
             im->space == SM_IMAGE_SPACE_RAS ? "RAS" : "LPS", s->lo[0], s->hi[0], s->lo[1],
-            s->hi[1], s->lo[2], s->hi[2],
-            in->background_generated ? "a generated background" : o->target_mesh_path,
-            in->background->nverts, (long long)im->exact_vertices, in->sdf_seconds);
+            s->hi[1], s->lo[2], s->hi[2]);
+    if (in->target_deferred)
+        fprintf(stderr, "its background after the alignment\n");
+    else
+        fprintf(stderr, "distance on %s (%d vertices, %lld exact) in %.3f s\n",
+                in->background_generated ? "a generated background" : o->target_mesh_path,
+                in->background->nverts, (long long)im->exact_vertices, in->sdf_seconds);
 }
 
 static int apply_params(run_options *o, sm_job_inputs *in)
@@ -258,11 +264,16 @@ static void on_alignment(const sm_job_alignment *a, void *user)
     char start[48] = "moments";
     if (a->landmarks > 0)
         snprintf(start, sizeof start, "%ld landmarks", (long)a->landmarks);
+    char after[128] = "";
+    if (a->background_after)
+        snprintf(after, sizeof after, "; background generated around the moved template in %.2f s",
+                 a->background_seconds);
     progress_message(&c->display,
-                     "shapematch: aligned (%s, from %s): scale %.6g, boundary RMS %.3e -> %.3e, "
-                     "%d iterations, %.2f s",
-                     sm_align_mode_name(a->mode), start, r->scale, r->rms_before, r->rms_after,
-                     r->iterations, r->seconds);
+                     "shapematch: aligned (%s, from %s): onto the target's %s, scale %.6g, "
+                     "boundary RMS %.3e -> %.3e, target to template %.3e, %d iterations, %.2f s%s",
+                     sm_align_mode_name(a->mode), start, a->exact ? "surface" : "field",
+                     r->scale, r->rms_before, r->rms_after, r->target_rms_after, r->iterations,
+                     r->seconds, after);
 }
 
 static int exit_code_of_run_status(sm_status st)

@@ -1,6 +1,6 @@
-/* Pre-alignment of the template onto the target's distance field: the
- * moments' start with its signed-permutation candidates, then
- * Levenberg-Marquardt on the robust boundary misfit (see sm_align.h). */
+/* Pre-alignment of the template onto the target: the moments' start with
+ * its signed-permutation candidates, then Levenberg-Marquardt on the
+ * robust two-sided misfit (see sm_align.h). */
 #include "shapematch/sm_align.h"
 
 #include <math.h>
@@ -9,14 +9,23 @@
 
 #include "shapematch/sm_clock.h"
 #include "sm_align_internal.h"
+#include "sm_bvh.h"
 
-/* Points for screening and refining the candidates: every k-th
- * quadrature point, so that a start costs the same for any template. */
-#define SCREEN_POINTS 1000
+/* Points of each side for screening and refining the candidates (every
+ * k-th quadrature point, so that a start costs the same for any
+ * template), and at most this many on the final passes: enough to
+ * average a sampled field's interpolation error, and an exact surface
+ * is matched to rounding by any sample. */
+#define SCREEN_POINTS 500
+#define FULL_POINTS 2000
 /* Candidates (by screening cost) refined before the best is kept: the
  * true one is among the first few whenever the axes are distinct, and
  * near-symmetric shapes are nearly as good from any of them. */
 #define CANDIDATES_REFINED 3
+/* Iterations on the full sample, from the coarse level's answer: an
+ * exact fit converges in a few (Gauss-Newton on zero residuals), an
+ * inexact one only polishes. */
+#define FULL_ITER 8
 #define CANDIDATE_ITER 20
 #define DEFAULT_MAX_ITER 100
 /* Huber's threshold in units of the residuals' robust spread, and its
@@ -28,200 +37,65 @@
  * linearisation is meaningless for larger rotations or scalings. */
 #define MAX_ROTATION_STEP 0.5
 #define MAX_LOG_SCALE_STEP 0.5
-#define STEP_TOL 1e-7
+/* A step that moves the points by less than this (times the target's
+ * size) ends a refinement: on a sampled field the map is then known to
+ * ~1e-7, far below the field's own accuracy; on an exact surface, whose
+ * residuals vanish at the answer, to ~1e-10. */
+#define STEP_TOL_FIELD 1e-7
+#define STEP_TOL_EXACT 1e-10
+/* ... or one that lowers the misfit by less than this fraction (a
+ * sampled field's noise floor; an exact fit's misfit falls by orders of
+ * magnitude a step until the step test ends it). */
+#define COST_TOL 1e-6
 /* Loops over fewer points stay on one thread, like the descent's below
- * 100k elements (docs/performance.md): the 3D example's 27k points take
- * ~0.01 s a pass, and on a loaded machine a fork and join waits for a
- * descheduled thread (examples/3d moved: 5 s of wall time for the
- * alignment with 2 threads at load 13, 1.2 s of CPU for the whole
- * command). */
+ * 100k elements (docs/performance.md): on a loaded machine a fork and
+ * join waits for a descheduled thread. */
 #define PARALLEL_MIN 100000
 
 typedef enum stage { STAGE_RIGID, STAGE_SIMILARITY, STAGE_AFFINE } stage;
 
-/* Boundary quadrature points of the template and their weights. */
-typedef struct quad {
+/* The two sides at one sampling: the template's boundary points (moved
+ * onto the target, residual the target's signed distance there) and the
+ * target's surface points (residual their signed distance to the moved
+ * template's boundary). */
+typedef struct level {
+    sm__align_pts tpl, tgt;
+    int cloud; /* the coarse level: both sides as point samples with
+                * their normals, nearest neighbours by brute force */
+} level;
+
+typedef struct ctx {
     int dim;
-    int64_t n;
-    double *x, *w;
-    /* per point work: moved point, residual, gradient, hint */
-    double *y, *r, *g;
-    int32_t *hints;
-    double length;  /* the target's size (for floors and step tests) */
+    const sm_field *field;      /* the target's sampled distance, or */
+    const sm_sdf *sdf;          /* its exact one */
+    const sm_surface *surface;  /* sdf's facets */
+    sm_surface *tsurf;          /* the template's boundary as a surface */
+    sm_sdf *tsdf;               /* its hierarchy: the target side's nearest points */
+    double length;              /* the target's size (floors, step tests) */
     const volatile int *cancel; /* sm_align_opts' */
-} quad;
+    double *scratch;            /* |r| for the medians */
+    int nomem;                  /* a distance query ran out of memory */
+} ctx;
 
 /* The caller asked to stop (polled before each pass over the points). */
-static int cancelled(const quad *q)
+static int cancelled(const ctx *c)
 {
-    return q->cancel && *q->cancel;
+    return c->cancel && *c->cancel;
 }
 
-static void quad_free(quad *q)
+static void level_free(level *lv)
 {
-    free(q->x);
-    free(q->w);
-    free(q->y);
-    free(q->r);
-    free(q->g);
-    free(q->hints);
+    sm__align_pts_free(&lv->tpl);
+    sm__align_pts_free(&lv->tgt);
 }
 
-static sm_status quad_build(const sm_mesh *m, quad *q, sm_error *err)
+/* A new start: the hints of the last one are no help. */
+static void reset_hints(level *lv)
 {
-    const int dim = m->dim;
-    /* 2D: 2 Gauss points per edge; 3D: the 3-point rule per triangle
-     * (barycentric 2/3, 1/6, 1/6): exact for quadratics, so the misfit of
-     * an exactly aligned P1 field is its interpolation error only */
-    const int per = dim == 2 ? 2 : 3;
-    static const double g2[2] = {0.21132486540518713, 0.78867513459481287};
-    memset(q, 0, sizeof *q);
-    q->dim = dim;
-    q->n = (int64_t)m->nbfacets * per;
-    size_t n = (size_t)q->n + 1;
-    q->x = malloc(n * dim * sizeof *q->x);
-    q->w = malloc(n * sizeof *q->w);
-    q->y = malloc(n * dim * sizeof *q->y);
-    q->r = malloc(n * sizeof *q->r);
-    q->g = malloc(n * dim * sizeof *q->g);
-    q->hints = malloc(n * sizeof *q->hints);
-    if (!q->x || !q->w || !q->y || !q->r || !q->g || !q->hints) {
-        quad_free(q);
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the alignment's points");
-    }
-    for (int32_t f = 0; f < m->nbfacets; f++) {
-        double normal[3];
-        double area = sm_bfacet_normal(m, m->coords, f, normal);
-        const int32_t *v = m->bfacets + (size_t)f * dim;
-        for (int k = 0; k < per; k++) {
-            double lam[3];
-            if (dim == 2) {
-                lam[0] = g2[k];
-                lam[1] = 1 - g2[k];
-            } else {
-                lam[0] = lam[1] = lam[2] = 1.0 / 6;
-                lam[k] = 2.0 / 3;
-            }
-            double *x = q->x + ((size_t)f * per + k) * dim;
-            for (int c = 0; c < dim; c++) {
-                x[c] = 0;
-                for (int i = 0; i < dim; i++)
-                    x[c] += lam[i] * m->coords[(size_t)v[i] * dim + c];
-            }
-            q->w[(size_t)f * per + k] = area / per;
-        }
-    }
-    return SM_OK;
-}
-
-/* ------------------------------------------------------------- moments */
-
-typedef struct moments {
-    double volume;
-    double centroid[3];
-    double cov[3][3];     /* second central moment / volume */
-} moments;
-
-/* Accumulates a simplex of weight frac (vertices relative to ref):
- * int x x^T over a simplex = V/((d+1)(d+2)) (sum v v^T + s s^T), s the
- * vertex sum. */
-static void add_simplex(int dim, const double *v[4], const double *ref, double vol, double frac,
-                        double *mass, double first[3], double second[3][3])
-{
-    double p[4][3], s[3] = {0, 0, 0};
-    for (int i = 0; i <= dim; i++)
-        for (int c = 0; c < dim; c++) {
-            p[i][c] = v[i][c] - ref[c];
-            s[c] += p[i][c];
-        }
-    double m = vol * frac, k = m / ((dim + 1) * (dim + 2));
-    *mass += m;
-    for (int r = 0; r < dim; r++) {
-        first[r] += m * s[r] / (dim + 1);
-        for (int c = 0; c < dim; c++) {
-            double acc = s[r] * s[c];
-            for (int i = 0; i <= dim; i++)
-                acc += p[i][r] * p[i][c];
-            second[r][c] += k * acc;
-        }
-    }
-}
-
-static void finish_moments(int dim, const double *ref, double mass, const double first[3],
-                           const double second[3][3], moments *out)
-{
-    memset(out, 0, sizeof *out);
-    out->volume = mass;
-    double c[3] = {0, 0, 0};
-    for (int r = 0; r < dim; r++)
-        c[r] = first[r] / mass;
-    for (int r = 0; r < dim; r++) {
-        out->centroid[r] = ref[r] + c[r];
-        for (int k = 0; k < dim; k++)
-            out->cov[r][k] = second[r][k] / mass - c[r] * c[k];
-    }
-}
-
-/* The volume of the elements (values NULL), or of the region values < 0
- * (an element partly inside counts by the fraction sum(d-)/sum|d| of its
- * vertex values, the linear estimate of the cut; its error is an
- * O(h) layer at the boundary, which the refinement removes). */
-static int mesh_moments(const sm_mesh *m, const double *values, moments *out)
-{
-    const int dim = m->dim;
-    double mass = 0, first[3] = {0, 0, 0}, second[3][3] = {{0}};
-    const double *ref = m->coords;
-    for (int32_t e = 0; e < m->nelems; e++) {
-        const int32_t *ev = m->elems + (size_t)e * (dim + 1);
-        double frac = 1;
-        if (values) {
-            double neg = 0, abs_sum = 0;
-            for (int i = 0; i <= dim; i++) {
-                neg += fmax(-values[ev[i]], 0);
-                abs_sum += fabs(values[ev[i]]);
-            }
-            if (!(neg > 0))
-                continue;
-            frac = neg / abs_sum;
-        }
-        const double *v[4];
-        for (int i = 0; i <= dim; i++)
-            v[i] = m->coords + (size_t)ev[i] * dim;
-        add_simplex(dim, v, ref, fabs(sm_elem_volume(m, m->coords, e)), frac, &mass, first,
-                    second);
-    }
-    if (!(mass > 0) || !isfinite(mass))
-        return -1;
-    finish_moments(dim, ref, mass, first, second, out);
-    return 0;
-}
-
-/* ---------------------------------------------------------- the misfit */
-
-/* y = t(x) for points from, from + step, ... (n_used of them). */
-static void move_points(const quad *q, const sm_transform *t, int64_t step)
-{
-    const int dim = q->dim;
-#pragma omp parallel for schedule(static) if (q->n / step > PARALLEL_MIN)
-    for (int64_t i = 0; i < q->n; i += step)
-        sm_transform_apply(t, 1, q->x + i * dim, q->y + i * dim);
-}
-
-/* sum w d(t x)^2 / sum w over every step-th point (no hints: a
- * candidate lies anywhere). */
-static double mean_square(const quad *q, const sm_field *f, const sm_transform *t, int64_t step)
-{
-    move_points(q, t, step);
-    double num = 0, den = 0;
-    const int dim = q->dim;
-#pragma omp parallel for schedule(static) reduction(+ : num, den) if (q->n / step > PARALLEL_MIN)
-    for (int64_t i = 0; i < q->n; i += step) {
-        int32_t hint = q->hints[i];
-        double d = sm_field_eval(f, q->y + i * dim, &hint);
-        num += q->w[i] * d * d;
-        den += q->w[i];
-    }
-    return den > 0 ? num / den : INFINITY;
+    for (int64_t i = 0; i < lv->tpl.n; i++)
+        lv->tpl.hints[i] = -1;
+    for (int64_t i = 0; i < lv->tgt.n; i++)
+        lv->tgt.nearest[i] = -1;
 }
 
 static int compare_double(const void *a, const void *b)
@@ -230,36 +104,254 @@ static int compare_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* Huber's threshold from the residuals' median absolute value. */
-static double huber_threshold(const quad *q, int64_t step, double *scratch)
-{
-    int64_t k = 0;
-    for (int64_t i = 0; i < q->n; i += step)
-        scratch[k++] = fabs(q->r[i]);
-    qsort(scratch, (size_t)k, sizeof *scratch, compare_double);
-    double med = k ? scratch[k / 2] : 0;
-    return fmax(HUBER_K * 1.4826 * med, HUBER_FLOOR * q->length);
-}
-
 static double huber(double r, double k)
 {
     double a = fabs(r);
     return a <= k ? 0.5 * r * r : k * (a - 0.5 * k);
 }
 
-/* The Huber cost of t with threshold k (values only; hints kept). */
-static double huber_cost(const quad *q, const sm_field *f, const sm_transform *t, int64_t step,
-                         double k)
+/* Huber's threshold from a side's median absolute residual. */
+static double huber_threshold(const ctx *c, const sm__align_pts *p)
 {
-    move_points(q, t, step);
-    const int dim = q->dim;
-    double sum = 0;
-#pragma omp parallel for schedule(static) reduction(+ : sum) if (q->n / step > PARALLEL_MIN)
-    for (int64_t i = 0; i < q->n; i += step) {
-        int32_t hint = q->hints[i];
-        sum += q->w[i] * huber(sm_field_eval(f, q->y + i * dim, &hint), k);
+    for (int64_t i = 0; i < p->n; i++)
+        c->scratch[i] = fabs(p->r[i]);
+    qsort(c->scratch, (size_t)p->n, sizeof *c->scratch, compare_double);
+    double med = p->n ? c->scratch[p->n / 2] : 0;
+    return fmax(HUBER_K * 1.4826 * med, HUBER_FLOOR * c->length);
+}
+
+static void normalize(int dim, double *v)
+{
+    double n = 0;
+    for (int k = 0; k < dim; k++)
+        n += v[k] * v[k];
+    n = sqrt(n);
+    for (int k = 0; n > 0 && k < dim; k++)
+        v[k] /= n;
+}
+
+/* The closest point q of facet f of s to x, and the facet's unit outward
+ * normal. */
+static void facet_closest(const sm_surface *s, int32_t f, const double *x, double *q,
+                          double *normal)
+{
+    const int dim = s->dim;
+    const int32_t *v = s->facets + (size_t)f * dim;
+    const double *a = s->coords + (size_t)v[0] * dim, *b = s->coords + (size_t)v[1] * dim;
+    if (dim == 2)
+        sm__closest_on_segment(x, a, b, q);
+    else
+        sm__closest_on_triangle(x, a, b, s->coords + (size_t)v[2] * dim, q);
+    double centre[3];
+    sm__bvh_facet_moments(s, f, normal, centre);
+    normalize(dim, normal);
+}
+
+/* The direction of a signed distance r at x whose closest surface point
+ * is q: (x - q) / |x - q| times r's sign, the facet's normal n when x is
+ * on the surface (a zero residual has no direction of its own). */
+static void direction(int dim, const double *x, const double *q, const double *n, double r,
+                      double tiny, double *g)
+{
+    double e[3] = {0, 0, 0}, len = 0;
+    for (int k = 0; k < dim; k++) {
+        e[k] = x[k] - q[k];
+        len += e[k] * e[k];
     }
-    return sum;
+    len = sqrt(len);
+    for (int k = 0; k < dim; k++)
+        g[k] = len > tiny ? (r < 0 ? -e[k] : e[k]) / len : n[k];
+}
+
+/* ---------------------------------------------------------- the misfit */
+
+/* The template side at t: y = t(x), r = d(y) and, with grad, its
+ * gradient (the field's, or the exact distance's direction). */
+static void eval_template(ctx *c, sm__align_pts *p, const sm_transform *t, int grad)
+{
+    const int dim = c->dim;
+    sm_transform_apply(t, p->n, p->x, p->y);
+    if (c->field) {
+#pragma omp parallel for schedule(static) if (p->n > PARALLEL_MIN)
+        for (int64_t i = 0; i < p->n; i++) {
+            if (grad) {
+                p->r[i] = sm_field_eval_grad(c->field, p->y + i * dim, &p->hints[i], p->g + i * dim);
+            } else {
+                int32_t hint = p->hints[i];
+                p->r[i] = sm_field_eval(c->field, p->y + i * dim, &hint);
+            }
+        }
+        return;
+    }
+    sm_error err;
+    if (sm__sdf_signed_nearest(c->sdf, p->n, p->y, p->r, p->nearest, &err) != SM_OK) {
+        c->nomem = 1;
+        for (int64_t i = 0; i < p->n; i++)
+            p->r[i] = NAN;
+        return;
+    }
+    for (int64_t i = 0; grad && i < p->n; i++) {
+        double q[3], n[3];
+        facet_closest(c->surface, p->nearest[i], p->y + i * dim, q, n);
+        direction(dim, p->y + i * dim, q, n, p->r[i], 1e-12 * c->length, p->g + i * dim);
+    }
+}
+
+/* The inverse of t (det a > 0 for every transform the alignment makes). */
+static void invert(const sm_transform *t, sm_transform *inv)
+{
+    const int dim = t->dim;
+    double a[3][3] = {{0}}, det = sm__det(dim, (const double(*)[3])t->a);
+    sm_transform_identity(inv, dim);
+    if (dim == 2) {
+        a[0][0] = t->a[1][1] / det, a[0][1] = -t->a[0][1] / det;
+        a[1][0] = -t->a[1][0] / det, a[1][1] = t->a[0][0] / det;
+    } else {
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) {
+                int i1 = (j + 1) % 3, i2 = (j + 2) % 3, j1 = (i + 1) % 3, j2 = (i + 2) % 3;
+                a[i][j] = (t->a[i1][j1] * t->a[i2][j2] - t->a[i1][j2] * t->a[i2][j1]) / det;
+            }
+    }
+    for (int i = 0; i < dim; i++) {
+        inv->b[i] = 0;
+        for (int j = 0; j < dim; j++) {
+            inv->a[i][j] = a[i][j];
+            inv->b[i] -= a[i][j] * t->b[j];
+        }
+    }
+}
+
+/* The target side at t: each target point z pulled back (u = t^-1 z),
+ * its closest point x on the template's boundary, y = t(x) that point
+ * moved, and r = +-|z - y| (negative inside the moved template: the
+ * signed distance of z to it, exact for rigid and similarity maps),
+ * g its direction. */
+static void eval_target(ctx *c, sm__align_pts *p, const sm_transform *t)
+{
+    const int dim = c->dim;
+    sm_transform inv;
+    invert(t, &inv);
+    sm_transform_apply(&inv, p->n, p->x, p->u);
+    sm__sdf_nearest_hinted(c->tsdf, p->n, p->u, p->r, p->nearest);
+    for (int64_t i = 0; i < p->n; i++) {
+        double q[3], n[3], side = 0, m[3] = {0, 0, 0};
+        const double *u = p->u + i * dim;
+        if (p->nearest[i] < 0 || !isfinite(p->r[i])) {
+            c->nomem = 1;
+            p->r[i] = NAN;
+            continue;
+        }
+        facet_closest(c->tsurf, p->nearest[i], u, q, n);
+        for (int k = 0; k < dim; k++)
+            side += n[k] * (u[k] - q[k]);
+        sm_transform_apply(t, 1, q, p->y + i * dim);
+        double e2 = 0;
+        for (int k = 0; k < dim; k++) {
+            double e = p->x[i * dim + k] - p->y[i * dim + k];
+            e2 += e * e;
+        }
+        p->r[i] = side < 0 ? -sqrt(e2) : sqrt(e2);
+        /* the moved facet's normal: a^-T n */
+        for (int k = 0; k < dim; k++)
+            for (int j = 0; j < dim; j++)
+                m[k] += inv.a[j][k] * n[j];
+        normalize(dim, m);
+        direction(dim, p->x + i * dim, p->y + i * dim, m, p->r[i], 1e-12 * c->length,
+                  p->g + i * dim);
+    }
+}
+
+/* The index of the point of pts (n of them) nearest to x. */
+static int64_t nearest_point(int dim, const double *pts, int64_t n, const double *x)
+{
+    int64_t best = 0;
+    double best2 = INFINITY;
+    for (int64_t j = 0; j < n; j++) {
+        double d2 = 0;
+        for (int k = 0; k < dim; k++)
+            d2 += (pts[j * dim + k] - x[k]) * (pts[j * dim + k] - x[k]);
+        if (d2 < best2)
+            best2 = d2, best = j;
+    }
+    return best;
+}
+
+/* The coarse level at t: symmetric point-to-plane residuals between the
+ * two samples, each point against its nearest neighbour on the other
+ * side and that one's normal (the target's as given, the template's
+ * moved: a^-T n).  Cheap at any distance, where an exact nearest-facet
+ * search from a far start visits most of a surface: the candidates are
+ * screened and refined here, the exact residuals take over near the
+ * answer. */
+static void eval_cloud(ctx *c, level *lv, const sm_transform *t)
+{
+    const int dim = c->dim;
+    sm__align_pts *p = &lv->tpl, *q = &lv->tgt;
+    sm_transform inv;
+    invert(t, &inv);
+    sm_transform_apply(t, p->n, p->x, p->y);
+    for (int64_t i = 0; i < p->n; i++) { /* moved normals, into u */
+        double *m = p->u + i * dim;
+        for (int k = 0; k < dim; k++) {
+            m[k] = 0;
+            for (int j = 0; j < dim; j++)
+                m[k] += inv.a[j][k] * p->nrm[i * dim + j];
+        }
+        normalize(dim, m);
+    }
+#pragma omp parallel for schedule(static) if (p->n * q->n > (int64_t)100 * PARALLEL_MIN)
+    for (int64_t i = 0; i < p->n; i++) {
+        int64_t j = nearest_point(dim, q->x, q->n, p->y + i * dim);
+        double r = 0;
+        for (int k = 0; k < dim; k++) {
+            p->g[i * dim + k] = q->nrm[j * dim + k];
+            r += q->nrm[j * dim + k] * (p->y[i * dim + k] - q->x[j * dim + k]);
+        }
+        p->r[i] = r;
+    }
+    for (int64_t j = 0; j < q->n; j++) {
+        int64_t i = nearest_point(dim, p->y, p->n, q->x + j * dim);
+        double r = 0;
+        for (int k = 0; k < dim; k++) {
+            q->y[j * dim + k] = p->y[i * dim + k];
+            q->g[j * dim + k] = p->u[i * dim + k];
+            r += p->u[i * dim + k] * (q->x[j * dim + k] - p->y[i * dim + k]);
+        }
+        q->r[j] = r;
+    }
+}
+
+/* Both sides at t (the template side's gradients only with grad: the
+ * cost alone needs none). */
+static void eval_level(ctx *c, level *lv, const sm_transform *t, int grad)
+{
+    if (lv->cloud) {
+        eval_cloud(c, lv, t);
+        return;
+    }
+    eval_template(c, &lv->tpl, t, grad);
+    eval_target(c, &lv->tgt, t);
+}
+
+/* sum w rho(r) / sum w over a side (rho Huber's with threshold k, or
+ * r^2 for k infinite); infinite for a failed query. */
+static double side_cost(const sm__align_pts *p, double k)
+{
+    if (!(p->wsum > 0))
+        return 0;
+    double sum = 0;
+    for (int64_t i = 0; i < p->n; i++)
+        sum += p->w[i] * (isinf(k) ? p->r[i] * p->r[i] : huber(p->r[i], k));
+    return isfinite(sum) ? sum / p->wsum : INFINITY;
+}
+
+/* The two-sided mean square at t: the template's boundary to the
+ * target, plus the target's surface to the moved template. */
+static double mean_square(ctx *c, level *lv, const sm_transform *t)
+{
+    eval_level(c, lv, t, 0);
+    return side_cost(&lv->tpl, INFINITY) + side_cost(&lv->tgt, INFINITY);
 }
 
 /* ------------------------------------------------------ the refinement */
@@ -361,27 +453,6 @@ static int apply_increment(int dim, stage s, const double *delta, const double c
     return 0;
 }
 
-/* Residuals and gradients at t for every step-th point; returns the
- * centre of the moved points (the increments' pivot). */
-static void eval_with_gradient(const quad *q, const sm_field *f, const sm_transform *t,
-                               int64_t step, double c[3])
-{
-    const int dim = q->dim;
-    move_points(q, t, step);
-#pragma omp parallel for schedule(static) if (q->n / step > PARALLEL_MIN)
-    for (int64_t i = 0; i < q->n; i += step)
-        q->r[i] = sm_field_eval_grad(f, q->y + i * dim, &q->hints[i], q->g + i * dim);
-    double wsum = 0;
-    c[0] = c[1] = c[2] = 0;
-    for (int64_t i = 0; i < q->n; i += step) {
-        wsum += q->w[i];
-        for (int k = 0; k < dim; k++)
-            c[k] += q->w[i] * q->y[i * dim + k];
-    }
-    for (int k = 0; k < dim; k++)
-        c[k] /= wsum;
-}
-
 /* How far an increment moves the points at most, about: the
  * translation plus the matrix change times the points' radius. */
 static double increment_size(int dim, stage s, const double *delta, double radius)
@@ -394,46 +465,74 @@ static double increment_size(int dim, stage s, const double *delta, double radiu
     return sqrt(t) + sqrt(m) * radius;
 }
 
-/* Levenberg-Marquardt on the Huber misfit; t updated in place.  Stops
- * when a step moves the points by less than STEP_TOL times the target's
- * size (the matrix is then known to ~1e-7, far below the field's own
- * accuracy), when no damping gives a decrease, or after max_iter.
- * Returns the iterations taken. */
-static int refine(quad *q, const sm_field *f, stage s, int64_t step, int max_iter,
-                  sm_transform *t, double *scratch)
+/* Adds a side's rows to the normal equations (sgn: +1 when the residual
+ * grows as its points move along g, the template side; -1 when it
+ * shrinks, the target side), with the IRLS weights of Huber's rho;
+ * returns the side's cost. */
+static double accumulate(const sm__align_pts *p, int sgn, stage s, double k, const double cc[3],
+                         double *jtj, double *jtr, double *radius)
 {
-    const int dim = q->dim, np = stage_params(dim, s);
+    if (!(p->wsum > 0))
+        return 0;
+    const int dim = p->dim, np = stage_params(dim, s);
+    double cost = 0, row[12];
+    for (int64_t i = 0; i < p->n; i++) {
+        double v[3] = {0, 0, 0}, r = p->r[i], v2 = 0, w = p->w[i] / p->wsum;
+        for (int j = 0; j < dim; j++) {
+            v[j] = p->y[i * dim + j] - cc[j];
+            v2 += v[j] * v[j];
+        }
+        *radius = fmax(*radius, v2);
+        jacobian_row(dim, s, v, p->g + i * dim, row);
+        /* IRLS weight of Huber's rho: psi(r)/r */
+        double wr = w * (fabs(r) <= k ? 1 : k / fabs(r));
+        cost += w * huber(r, k);
+        for (int a = 0; a < np; a++) {
+            jtr[a] += wr * sgn * row[a] * r;
+            for (int b = 0; b <= a; b++)
+                jtj[a * np + b] += wr * row[a] * row[b];
+        }
+    }
+    return cost;
+}
+
+/* The Huber cost of t with the thresholds k (values only). */
+static double huber_cost(ctx *c, level *lv, const sm_transform *t, const double k[2])
+{
+    eval_level(c, lv, t, 0);
+    return side_cost(&lv->tpl, k[0]) + side_cost(&lv->tgt, k[1]);
+}
+
+/* Levenberg-Marquardt on the two-sided Huber misfit; t updated in place.
+ * Stops at the step and cost tests above, when no damping gives a
+ * decrease, or after max_iter.
+ * Returns the iterations taken. */
+static int refine(ctx *c, level *lv, stage s, int max_iter, sm_transform *t)
+{
+    const int dim = c->dim, np = stage_params(dim, s);
     double lambda = 1e-3;
     int it;
-    for (it = 0; it < max_iter && !cancelled(q); it++) {
-        double c[3];
-        eval_with_gradient(q, f, t, step, c);
-        double k = huber_threshold(q, step, scratch);
-        double jtj[144] = {0}, jtr[12] = {0}, cost = 0, row[12], radius = 0;
-        for (int64_t i = 0; i < q->n; i += step) {
-            double v[3] = {0, 0, 0}, r = q->r[i], v2 = 0;
-            for (int j = 0; j < dim; j++) {
-                v[j] = q->y[i * dim + j] - c[j];
-                v2 += v[j] * v[j];
-            }
-            radius = fmax(radius, v2);
-            jacobian_row(dim, s, v, q->g + i * dim, row);
-            /* IRLS weight of Huber's rho: psi(r)/r */
-            double wr = q->w[i] * (fabs(r) <= k ? 1 : k / fabs(r));
-            cost += q->w[i] * huber(r, k);
-            for (int a = 0; a < np; a++) {
-                jtr[a] += wr * row[a] * r;
-                for (int b = 0; b <= a; b++)
-                    jtj[a * np + b] += wr * row[a] * row[b];
-            }
-        }
+    for (it = 0; it < max_iter && !cancelled(c); it++) {
+        eval_level(c, lv, t, 1);
+        /* the increments' pivot: the moved template's centre */
+        double cc[3] = {0, 0, 0};
+        for (int64_t i = 0; i < lv->tpl.n; i++)
+            for (int k = 0; k < dim; k++)
+                cc[k] += lv->tpl.w[i] * lv->tpl.y[i * dim + k] / lv->tpl.wsum;
+        double k[2] = {huber_threshold(c, &lv->tpl), huber_threshold(c, &lv->tgt)};
+        double jtj[144] = {0}, jtr[12] = {0}, radius = 0;
+        double cost = accumulate(&lv->tpl, 1, s, k[0], cc, jtj, jtr, &radius);
+        double ignored = 0;
+        cost += accumulate(&lv->tgt, -1, s, k[1], cc, jtj, jtr, &ignored);
+        if (!isfinite(cost))
+            return it;
         for (int a = 0; a < np; a++)
             for (int b = a + 1; b < np; b++)
                 jtj[a * np + b] = jtj[b * np + a];
         radius = sqrt(radius);
         int accepted = 0;
         double new_cost = cost, moved = 0;
-        for (int trial = 0; trial < 12 && !accepted && !cancelled(q); trial++) {
+        for (int trial = 0; trial < 12 && !accepted && !cancelled(c); trial++) {
             double m[144], rhs[12], delta[12];
             memcpy(m, jtj, sizeof m);
             for (int a = 0; a < np; a++) {
@@ -442,8 +541,8 @@ static int refine(quad *q, const sm_field *f, stage s, int64_t step, int max_ite
             }
             sm_transform next;
             if (sm__solve_dense(np, m, rhs, delta) == 0 &&
-                apply_increment(dim, s, delta, c, t, &next) == 0) {
-                new_cost = huber_cost(q, f, &next, step, k);
+                apply_increment(dim, s, delta, cc, t, &next) == 0) {
+                new_cost = huber_cost(c, lv, &next, k);
                 if (new_cost < cost) {
                     *t = next;
                     moved = increment_size(dim, s, delta, radius);
@@ -454,7 +553,8 @@ static int refine(quad *q, const sm_field *f, stage s, int64_t step, int max_ite
             }
             lambda *= 4;
         }
-        if (!accepted || moved <= STEP_TOL * q->length || cost - new_cost <= 1e-14 * cost)
+        double tol = c->sdf ? STEP_TOL_EXACT : STEP_TOL_FIELD;
+        if (!accepted || moved <= tol * c->length || cost - new_cost <= COST_TOL * cost)
             return it + accepted;
     }
     return it;
@@ -474,7 +574,7 @@ static int by_cost(const void *a, const void *b)
 
 /* The signed permutations q of the principal axes that make
  * r = Rg q Rt^T a rotation, each as s r with the centroids matched. */
-static int moment_candidates(int dim, const moments *mt, const moments *mg, double scale,
+static int moment_candidates(int dim, const sm__moments *mt, const sm__moments *mg, double scale,
                              candidate *out)
 {
     double vt[3], rt[3][3], vg[3], rg[3][3];
@@ -511,38 +611,52 @@ static int moment_candidates(int dim, const moments *mt, const moments *mg, doub
     return n;
 }
 
-/* The moments' start: the best of the refined candidates. */
-static sm_status moment_start(const sm_align_opts *o, quad *q, stage s, int64_t step,
-                              double *scratch, sm_transform *best, int *ncand, int *iters,
-                              sm_error *err)
+/* The target's volume moments: of the volume its surface encloses, or of
+ * the region d < 0 of its sampled distance. */
+static sm_status target_moments(const sm_align_opts *o, sm__moments *mg, sm_error *err)
 {
-    const int dim = o->template_mesh->dim;
-    moments mt, mg;
-    if (mesh_moments(o->template_mesh, NULL, &mt) != 0)
-        return sm_error_set(err, SM_ERR_INVALID, "alignment: the template has no volume");
-    if (mesh_moments(o->background, o->distance, &mg) != 0)
+    if (o->surface) {
+        if (sm__align_surface_moments(sm__sdf_surface(o->surface), mg) != 0)
+            return sm_error_set(err, SM_ERR_INVALID,
+                                "alignment: the target surface encloses no volume, nothing to "
+                                "align onto");
+        return SM_OK;
+    }
+    if (sm__align_mesh_moments(o->background, o->distance, mg) != 0)
         return sm_error_set(err, SM_ERR_INVALID,
                             "alignment: the target has no inside (d >= 0 at every vertex of the "
                             "background), nothing to align onto");
+    return SM_OK;
+}
+
+/* The moments' start: the best of the refined candidates. */
+static sm_status moment_start(const sm_align_opts *o, ctx *c, level *screen, stage s,
+                              sm_transform *best, int *ncand, int *iters, sm_error *err)
+{
+    const int dim = o->template_mesh->dim;
+    sm__moments mt, mg;
+    if (sm__align_mesh_moments(o->template_mesh, NULL, &mt) != 0)
+        return sm_error_set(err, SM_ERR_INVALID, "alignment: the template has no volume");
+    sm_status st = target_moments(o, &mg, err);
+    if (st != SM_OK)
+        return st;
     double scale = s == STAGE_RIGID ? 1 : pow(mg.volume / mt.volume, 1.0 / dim);
     double trace = 0;
-    for (int c = 0; c < dim; c++)
-        trace += mg.cov[c][c];
-    q->length = sqrt(fmax(trace, 0)) > 0 ? sqrt(trace) : 1;
+    for (int k = 0; k < dim; k++)
+        trace += mg.cov[k][k];
+    c->length = sqrt(fmax(trace, 0)) > 0 ? sqrt(trace) : 1;
     candidate cand[24];
     int n = moment_candidates(dim, &mt, &mg, scale, cand);
     for (int i = 0; i < n; i++) {
-        for (int64_t k = 0; k < q->n; k++)
-            q->hints[k] = -1;
-        cand[i].cost = cancelled(q) ? 0 : mean_square(q, o->target, &cand[i].t, step);
+        reset_hints(screen);
+        cand[i].cost = cancelled(c) ? 0 : mean_square(c, screen, &cand[i].t);
     }
     qsort(cand, (size_t)n, sizeof *cand, by_cost);
     int keep = n < CANDIDATES_REFINED ? n : CANDIDATES_REFINED;
-    for (int i = 0; i < keep && !cancelled(q); i++) {
-        for (int64_t k = 0; k < q->n; k++)
-            q->hints[k] = -1;
-        *iters += refine(q, o->target, s, step, CANDIDATE_ITER, &cand[i].t, scratch);
-        cand[i].cost = mean_square(q, o->target, &cand[i].t, step);
+    for (int i = 0; i < keep && !cancelled(c); i++) {
+        reset_hints(screen);
+        *iters += refine(c, screen, s, CANDIDATE_ITER, &cand[i].t);
+        cand[i].cost = mean_square(c, screen, &cand[i].t);
     }
     qsort(cand, (size_t)keep, sizeof *cand, by_cost);
     *best = cand[0].t;
@@ -550,69 +664,139 @@ static sm_status moment_start(const sm_align_opts *o, quad *q, stage s, int64_t 
     return SM_OK;
 }
 
-sm_status sm_align_run(const sm_align_opts *o, sm_align_result *out, sm_error *err)
+/* The template's boundary as a surface (its coordinates and outward
+ * facets) and its hierarchy. */
+static sm_status template_surface(const sm_mesh *m, ctx *c, sm_error *err)
 {
-    double t0 = sm_clock_seconds();
-    memset(out, 0, sizeof *out);
+    sm_status st = sm_surface_alloc(&c->tsurf, m->dim, m->nverts, m->nbfacets, err);
+    if (st != SM_OK)
+        return st;
+    memcpy(c->tsurf->coords, m->coords, (size_t)m->nverts * m->dim * sizeof *m->coords);
+    memcpy(c->tsurf->facets, m->bfacets, (size_t)m->nbfacets * m->dim * sizeof *m->bfacets);
+    return sm_sdf_new(c->tsurf, &c->tsdf, err);
+}
+
+/* Both sides' points: every sampled (at most FULL_POINTS each) and the
+ * screening sample (SCREEN_POINTS each). */
+static sm_status build_levels(const sm_align_opts *o, level *full, level *screen, sm_error *err)
+{
+    sm__align_pts all;
+    sm_status st = sm__align_mesh_boundary_pts(o->template_mesh, &all, err);
+    if (st != SM_OK)
+        return st;
+    st = sm__align_pts_sample(&all, FULL_POINTS, &full->tpl, err);
+    if (st == SM_OK)
+        st = sm__align_pts_sample(&all, SCREEN_POINTS, &screen->tpl, err);
+    sm__align_pts_free(&all);
+    if (st != SM_OK)
+        return st;
+    st = o->surface ? sm__align_surface_pts(sm__sdf_surface(o->surface), &all, err)
+                    : sm__align_level_set_pts(o->background, o->distance, &all, err);
+    if (st != SM_OK)
+        return st;
+    st = sm__align_pts_sample(&all, FULL_POINTS, &full->tgt, err);
+    if (st == SM_OK)
+        st = sm__align_pts_sample(&all, SCREEN_POINTS, &screen->tgt, err);
+    sm__align_pts_free(&all);
+    screen->cloud = 1;
+    return st;
+}
+
+static sm_status check_opts(const sm_align_opts *o, sm_error *err)
+{
     const sm_mesh *m = o->template_mesh;
     if (!sm_align_mode_name(o->mode) || o->mode == SM_ALIGN_NONE)
         return sm_error_set(err, SM_ERR_INVALID, "alignment: mode %d is not an alignment",
                             (int)o->mode);
-    if (!m || !o->target || !o->background || !o->distance || m->nbfacets <= 0 ||
-        sm_field_dim(o->target) != m->dim || o->background->dim != m->dim)
+    int field_ok = o->target && o->background && o->distance &&
+                   (m && sm_field_dim(o->target) == m->dim && o->background->dim == m->dim);
+    int surface_ok = o->surface && m && sm__sdf_surface(o->surface)->dim == m->dim;
+    if (!m || m->nbfacets <= 0 || (!field_ok && !surface_ok))
         return sm_error_set(err, SM_ERR_INVALID,
-                            "alignment: needs a template with its boundary and a target field of "
-                            "the same dimension");
+                            "alignment: needs a template with its boundary and a target field or "
+                            "surface of the same dimension");
     if (o->start && o->start->dim != m->dim)
         return sm_error_set(err, SM_ERR_INVALID, "alignment: the start is %dD, the template %dD",
                             o->start->dim, m->dim);
-    quad q;
-    sm_status st = quad_build(m, &q, err);
+    return SM_OK;
+}
+
+/* The stages after the start: each on the screening sample to
+ * convergence, then on the full one from there (a few iterations: the
+ * sample's optimum is close). */
+static int refine_stages(const sm_align_opts *o, ctx *c, level *full, level *screen, stage s,
+                         sm_transform *t)
+{
+    int max_iter = o->max_iter > 0 ? o->max_iter : DEFAULT_MAX_ITER, iters = 0;
+    reset_hints(screen);
+    reset_hints(full);
+    iters += refine(c, screen, s, max_iter, t);
+    iters += refine(c, full, s, max_iter < FULL_ITER ? max_iter : FULL_ITER, t);
+    if (o->mode == SM_ALIGN_AFFINE) {
+        iters += refine(c, screen, STAGE_AFFINE, max_iter, t);
+        iters += refine(c, full, STAGE_AFFINE, max_iter < FULL_ITER ? max_iter : FULL_ITER, t);
+    }
+    return iters;
+}
+
+sm_status sm_align_run(const sm_align_opts *o, sm_align_result *out, sm_error *err)
+{
+    double t0 = sm_clock_seconds();
+    memset(out, 0, sizeof *out);
+    sm_status st = check_opts(o, err);
     if (st != SM_OK)
         return st;
-    double *scratch = malloc(((size_t)q.n + 1) * sizeof *scratch);
-    if (!scratch) {
-        quad_free(&q);
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the alignment");
-    }
+    const sm_mesh *m = o->template_mesh;
     const int dim = m->dim;
-    q.cancel = o->cancel;
-    int64_t step = q.n > SCREEN_POINTS ? q.n / SCREEN_POINTS : 1;
-    int max_iter = o->max_iter > 0 ? o->max_iter : DEFAULT_MAX_ITER;
+    ctx c = {.dim = dim, .cancel = o->cancel};
+    if (o->surface) {
+        c.sdf = o->surface;
+        c.surface = sm__sdf_surface(o->surface);
+    } else {
+        c.field = o->target;
+    }
+    level full = {0}, screen = {0};
+    if ((st = build_levels(o, &full, &screen, err)) != SM_OK ||
+        (st = template_surface(m, &c, err)) != SM_OK)
+        goto done;
+    int64_t most = full.tpl.n > full.tgt.n ? full.tpl.n : full.tgt.n;
+    if (!(c.scratch = malloc(((size_t)most + 1) * sizeof *c.scratch))) {
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the alignment");
+        goto done;
+    }
     stage s = o->mode == SM_ALIGN_RIGID ? STAGE_RIGID : STAGE_SIMILARITY;
-    for (int64_t k = 0; k < q.n; k++)
-        q.hints[k] = -1;
     sm_transform t;
     sm_transform_identity(&t, dim);
-    out->rms_before = sqrt(mean_square(&q, o->target, &t, 1));
-    q.length = sm_mesh_diameter(m, m->coords);
+    eval_template(&c, &full.tpl, &t, 0);
+    out->rms_before = sqrt(side_cost(&full.tpl, INFINITY));
+    c.length = sm_mesh_diameter(m, m->coords);
     if (o->start) {
         t = *o->start;
-        q.length *= sm_transform_scale(&t);
+        c.length *= sm_transform_scale(&t);
         out->candidates = 1;
-    } else {
-        st = moment_start(o, &q, s, step, scratch, &t, &out->candidates, &out->iterations, err);
+    } else if ((st = moment_start(o, &c, &screen, s, &t, &out->candidates, &out->iterations,
+                                  err)) != SM_OK) {
+        goto done;
     }
-    if (st == SM_OK) {
-        for (int64_t k = 0; k < q.n; k++)
-            q.hints[k] = -1;
-        /* on the subsample to convergence, then on every point from
-         * there (a few iterations: the subsample's optimum is close) */
-        out->iterations += refine(&q, o->target, s, step, max_iter, &t, scratch);
-        if (step > 1)
-            out->iterations += refine(&q, o->target, s, 1, max_iter, &t, scratch);
-        if (o->mode == SM_ALIGN_AFFINE) {
-            out->iterations += refine(&q, o->target, STAGE_AFFINE, step, max_iter, &t, scratch);
-            if (step > 1)
-                out->iterations += refine(&q, o->target, STAGE_AFFINE, 1, max_iter, &t, scratch);
-        }
-        out->transform = t;
-        out->scale = sm_transform_scale(&t);
-        out->cancelled = cancelled(&q);
-        out->rms_after = out->cancelled ? NAN : sqrt(mean_square(&q, o->target, &t, 1));
+    out->iterations += refine_stages(o, &c, &full, &screen, s, &t);
+    out->transform = t;
+    out->scale = sm_transform_scale(&t);
+    out->cancelled = cancelled(&c);
+    out->rms_after = out->target_rms_after = NAN;
+    if (!out->cancelled) {
+        eval_template(&c, &full.tpl, &t, 0);
+        eval_target(&c, &full.tgt, &t);
+        out->rms_after = sqrt(side_cost(&full.tpl, INFINITY));
+        out->target_rms_after = sqrt(side_cost(&full.tgt, INFINITY));
     }
-    free(scratch);
-    quad_free(&q);
+    if (c.nomem)
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory in the alignment's distance queries");
+done:
+    free(c.scratch);
+    sm_sdf_free(c.tsdf);
+    sm_surface_free(c.tsurf);
+    level_free(&full);
+    level_free(&screen);
     out->seconds = sm_clock_seconds() - t0;
     return st;
 }

@@ -45,6 +45,35 @@ double sm__bvh_facet_dist2(const sm_bvh *t, int32_t f, const double *p);
 void sm__bvh_facet_moments(const sm_surface *s, int32_t f, double *n, double *c);
 double sm__sdf_point_segment3_2(const double *p, const double *a, const double *b);
 
+/* The closest point p of triangle abc (3D) or segment ab (2D) to x: the
+ * nearest field's outside extension and the alignment's point-to-surface
+ * residuals. */
+void sm__closest_on_triangle(const double *x, const double *a, const double *b, const double *c,
+                             double *p);
+void sm__closest_on_segment(const double *x, const double *a, const double *b, double *p);
+
+/* The surface an sm_sdf was built on (sm_sdf.c). */
+const sm_surface *sm__sdf_surface(const sm_sdf *d);
+
+/* Signed distances of n points with their nearest facets: nearest[i]
+ * seeds the search (a facet id, or -1: the previous point's answer) and
+ * receives the nearest facet.  The sign is the nearest facet's side when
+ * the closest point lies inside the facet (the direction to it is the
+ * facet's normal), else the winding number's as in sm_sdf_signed: the
+ * same sign on an oriented surface, at a fraction of the cost for points
+ * near it.  Without sm_sdf_signed's refusals: a surface that no point is
+ * inside is no error here (the alignment's points may all lie outside
+ * the target).  SM_ERR_NOMEM only. */
+sm_status sm__sdf_signed_nearest(const sm_sdf *d, int64_t n, const double *pts, double *out,
+                                 int32_t *nearest, sm_error *err);
+
+/* Unsigned distances of n points, each search seeded by nearest[i] (a
+ * facet id, or -1: the previous point's answer), which receives the
+ * nearest facet: for points that moved little since the last call (the
+ * alignment's iterations), a search that starts at the answer. */
+void sm__sdf_nearest_hinted(const sm_sdf *d, int64_t n, const double *pts, double *dist,
+                            int32_t *nearest);
+
 /* Generalized winding number at p (sm_winding.c). */
 double sm__winding_at(const sm_bvh *t, const double *p, int32_t *stack);
 

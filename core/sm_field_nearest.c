@@ -4,85 +4,10 @@
  * the overview, sm_field_internal.h the structure). */
 #include "sm_field_internal.h"
 
+#include "sm_bvh.h"
+
 #include <math.h>
 #include <string.h>
-
-static void closest_on_segment(const double *x, const double *a, const double *b,
-                               double *p)
-{
-    double ab[2] = {b[0] - a[0], b[1] - a[1]};
-    double ax[2] = {x[0] - a[0], x[1] - a[1]};
-    double l2 = ab[0] * ab[0] + ab[1] * ab[1];
-    double t = l2 > 0.0 ? (ax[0] * ab[0] + ax[1] * ab[1]) / l2 : 0.0;
-    if (!(t > 0.0))
-        t = 0.0;
-    else if (t > 1.0)
-        t = 1.0;
-    p[0] = a[0] + t * ab[0];
-    p[1] = a[1] + t * ab[1];
-}
-
-static double dot3(const double *u, const double *v)
-{
-    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
-}
-
-/* Closest point of triangle abc to x, by the Voronoi regions of the
- * vertices, edges and face (no division by a vanishing quantity: the
- * face case divides by the sum of three positive terms). */
-static void closest_on_triangle(const double *x, const double *a, const double *b,
-                                const double *c, double *p)
-{
-    double ab[3], ac[3], ax[3], bx[3], cx[3];
-    for (int i = 0; i < 3; i++) {
-        ab[i] = b[i] - a[i];
-        ac[i] = c[i] - a[i];
-        ax[i] = x[i] - a[i];
-        bx[i] = x[i] - b[i];
-        cx[i] = x[i] - c[i];
-    }
-    double d1 = dot3(ab, ax), d2 = dot3(ac, ax);
-    if (d1 <= 0.0 && d2 <= 0.0) {
-        memcpy(p, a, 3 * sizeof *p);
-        return;
-    }
-    double d3 = dot3(ab, bx), d4 = dot3(ac, bx);
-    if (d3 >= 0.0 && d4 <= d3) {
-        memcpy(p, b, 3 * sizeof *p);
-        return;
-    }
-    double vc = d1 * d4 - d3 * d2;
-    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
-        double t = d1 - d3 > 0.0 ? d1 / (d1 - d3) : 0.0;
-        for (int i = 0; i < 3; i++)
-            p[i] = a[i] + t * ab[i];
-        return;
-    }
-    double d5 = dot3(ab, cx), d6 = dot3(ac, cx);
-    if (d6 >= 0.0 && d5 <= d6) {
-        memcpy(p, c, 3 * sizeof *p);
-        return;
-    }
-    double vb = d5 * d2 - d1 * d6;
-    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
-        double t = d2 - d6 > 0.0 ? d2 / (d2 - d6) : 0.0;
-        for (int i = 0; i < 3; i++)
-            p[i] = a[i] + t * ac[i];
-        return;
-    }
-    double va = d3 * d6 - d5 * d4;
-    if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0) {
-        double den = (d4 - d3) + (d5 - d6);
-        double t = den > 0.0 ? (d4 - d3) / den : 0.0;
-        for (int i = 0; i < 3; i++)
-            p[i] = b[i] + t * (c[i] - b[i]);
-        return;
-    }
-    double sum = va + vb + vc;
-    double v = sum > 0.0 ? vb / sum : 0.0, w = sum > 0.0 ? vc / sum : 0.0;
-    for (int i = 0; i < 3; i++)
-        p[i] = a[i] + v * ab[i] + w * ac[i];
-}
 
 /* Squared distance from x to grid cell c. */
 static double cell_dist2(const grid *g, const int32_t *c, const double *x)
@@ -112,9 +37,9 @@ static void try_facet(const sm_field *f, int32_t b, const double *x, nearest_sta
     int32_t id = f->bfacet_id[b];
     double p[3];
     if (D == 2)
-        closest_on_segment(x, v, v + 2, p);
+        sm__closest_on_segment(x, v, v + 2, p);
     else
-        closest_on_triangle(x, v, v + 3, v + 6, p);
+        sm__closest_on_triangle(x, v, v + 3, v + 6, p);
     double d2 = 0.0;
     for (int i = 0; i < D; i++)
         d2 += (x[i] - p[i]) * (x[i] - p[i]);

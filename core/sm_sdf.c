@@ -129,7 +129,7 @@ typedef struct sign_count {
  * closed surface a point in the same region as the previous one takes
  * its sign, the others get their winding number. */
 static void signed_range(const sm_sdf *d, const double *pts, const int64_t *order, int64_t lo,
-                         int64_t hi, double *out, sign_count *c)
+                         int64_t hi, double *out, int32_t *nearest, sign_count *c)
 {
     const sm_bvh *t = &d->t;
     int dim = t->s->dim;
@@ -149,6 +149,8 @@ static void signed_range(const sm_sdf *d, const double *pts, const int64_t *orde
             continue;
         }
         double dist = sm__bvh_nearest(t, p, &hint, stack);
+        if (nearest)
+            nearest[i] = hint;
         int in;
         if (d->closed && prev && isfinite(dist) && same_region(prev, x, dim, prevd, dist)) {
             in = prev_in;
@@ -178,7 +180,7 @@ void sm_sdf_distance(const sm_sdf *d, int64_t n, const double *pts, double *dist
     const sm_bvh *t = &d->t;
     int dim = t->s->dim;
     int64_t *order = sm__morton_order(dim, n, pts);
-#pragma omp parallel
+#pragma omp parallel if (n > 4096)
     {
         sm_bvh_entry *stack = malloc((2 * (size_t)t->depth + 4) * sizeof *stack);
 #pragma omp for schedule(dynamic, 1)
@@ -219,6 +221,127 @@ sm_status sm_sdf_signed(const sm_sdf *d, int64_t n, const double *pts, double *o
     return sm_sdf_signed_stats(d, n, pts, out, NULL, err);
 }
 
+/* The signed distances (and nearest facets, when nearest is not NULL)
+ * of n points in Morton order; *inside counts the points inside. */
+static sm_status signed_points(const sm_sdf *d, int64_t n, const double *pts, double *out,
+                               int32_t *nearest, int64_t *wound, int64_t *inside, sm_error *err)
+{
+    const sm_surface *s = d->t.s;
+    *inside = 0;
+    if (wound)
+        *wound = 0;
+    if (n <= 0)
+        return SM_OK;
+    int64_t *order = sm__morton_order(s->dim, n, pts);
+    if (!order)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for %lld points", (long long)n);
+    sign_count total = {0, 0, 0};
+#pragma omp parallel if (n > 4096)
+    {
+        /* blocks of 4096 consecutive points of the order, handed out
+         * dynamically so that the threads stay balanced */
+        sign_count c = {0, 0, 0};
+#pragma omp for schedule(dynamic, 1) nowait
+        for (int64_t b = 0; b < (n + 4095) / 4096; b++)
+            signed_range(d, pts, order, b * 4096, b * 4096 + 4096 < n ? b * 4096 + 4096 : n, out,
+                         nearest, &c);
+#pragma omp critical
+        {
+            total.inside += c.inside;
+            total.bad += c.bad;
+            total.wound += c.wound;
+        }
+    }
+    free(order);
+    if (wound)
+        *wound = total.wound;
+    if (total.bad)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory in %lld distance queries",
+                            (long long)total.bad);
+    *inside = total.inside;
+    return SM_OK;
+}
+
+void sm__sdf_nearest_hinted(const sm_sdf *d, int64_t n, const double *pts, double *dist,
+                            int32_t *nearest)
+{
+    const sm_bvh *t = &d->t;
+    int dim = t->s->dim;
+#pragma omp parallel if (n > 4096)
+    {
+        sm_bvh_entry *stack = malloc((2 * (size_t)t->depth + 4) * sizeof *stack);
+        int32_t prev = -1;
+#pragma omp for schedule(static)
+        for (int64_t i = 0; i < n; i++) {
+            if (!stack) {
+                dist[i] = NAN;
+                continue;
+            }
+            double p[3] = {pts[dim * i], pts[dim * i + 1], dim == 3 ? pts[dim * i + 2] : 0};
+            int32_t hint = nearest[i] >= 0 ? nearest[i] : prev;
+            dist[i] = sm__bvh_nearest(t, p, &hint, stack);
+            nearest[i] = prev = hint;
+        }
+        free(stack);
+    }
+}
+
+const sm_surface *sm__sdf_surface(const sm_sdf *d)
+{
+    return d->t.s;
+}
+
+sm_status sm__sdf_signed_nearest(const sm_sdf *d, int64_t n, const double *pts, double *out,
+                                 int32_t *nearest, sm_error *err)
+{
+    const sm_bvh *t = &d->t;
+    const sm_surface *s = t->s;
+    const int dim = s->dim;
+    int64_t bad = 0;
+#pragma omp parallel if (n > 4096) reduction(+ : bad)
+    {
+        sm_bvh_entry *stack = malloc((2 * (size_t)t->depth + 4) * sizeof *stack);
+        int32_t *wstack = malloc((2 * (size_t)t->depth + 4) * sizeof *wstack);
+        int32_t prev = -1;
+#pragma omp for schedule(static)
+        for (int64_t i = 0; i < n; i++) {
+            if (!stack || !wstack) {
+                out[i] = NAN;
+                bad++;
+                continue;
+            }
+            const double *x = pts + i * dim;
+            double p[3] = {x[0], x[1], dim == 3 ? x[2] : 0}, q[3] = {0, 0, 0}, nrm[3], c[3];
+            int32_t hint = nearest[i] >= 0 ? nearest[i] : prev;
+            double dist = sm__bvh_nearest(t, p, &hint, stack);
+            nearest[i] = prev = hint;
+            const int32_t *fv = s->facets + (size_t)hint * dim;
+            const double *a = s->coords + (size_t)fv[0] * dim, *b = s->coords + (size_t)fv[1] * dim;
+            if (dim == 2)
+                sm__closest_on_segment(p, a, b, q);
+            else
+                sm__closest_on_triangle(p, a, b, s->coords + (size_t)fv[2] * dim, q);
+            sm__bvh_facet_moments(s, hint, nrm, c);
+            double proj = 0, len = 0;
+            for (int k = 0; k < dim; k++) {
+                proj += nrm[k] * (p[k] - q[k]);
+                len += nrm[k] * nrm[k];
+            }
+            proj /= sqrt(len);
+            /* a closest point inside the facet: the facet's side is the
+             * sign; near an edge or a vertex, the winding number */
+            int in = fabs(proj) >= 0.999 * dist ? proj < 0 : sm__winding_at(t, p, wstack) > 0.5;
+            out[i] = in ? -dist : dist;
+        }
+        free(stack);
+        free(wstack);
+    }
+    if (bad)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory in %lld distance queries",
+                            (long long)bad);
+    return SM_OK;
+}
+
 sm_status sm_sdf_signed_stats(const sm_sdf *d, int64_t n, const double *pts, double *out,
                               int64_t *wound, sm_error *err)
 {
@@ -233,32 +356,11 @@ sm_status sm_sdf_signed_stats(const sm_sdf *d, int64_t n, const double *pts, dou
                             "the surface encloses nothing (enclosed %s %g for a bounding box "
                             "of %g): the sign of the distance cannot be decided",
                             s->dim == 3 ? "volume" : "area", vol, box);
-    int64_t *order = sm__morton_order(s->dim, n, pts);
-    if (!order)
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for %lld points", (long long)n);
-    sign_count total = {0, 0, 0};
-#pragma omp parallel
-    {
-        /* blocks of 4096 consecutive points of the order, handed out
-         * dynamically so that the threads stay balanced */
-        sign_count c = {0, 0, 0};
-#pragma omp for schedule(dynamic, 1) nowait
-        for (int64_t b = 0; b < (n + 4095) / 4096; b++)
-            signed_range(d, pts, order, b * 4096, b * 4096 + 4096 < n ? b * 4096 + 4096 : n, out, &c);
-#pragma omp critical
-        {
-            total.inside += c.inside;
-            total.bad += c.bad;
-            total.wound += c.wound;
-        }
-    }
-    free(order);
-    if (wound)
-        *wound = total.wound;
-    if (total.bad)
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory in %lld distance queries",
-                            (long long)total.bad);
-    if (n > 0 && total.inside == 0)
+    int64_t inside = 0;
+    sm_status st = signed_points(d, n, pts, out, NULL, wound, &inside, err);
+    if (st != SM_OK)
+        return st;
+    if (n > 0 && inside == 0)
         return sm_error_set(err, SM_ERR_INVALID,
                             "no point is inside the surface (winding number > 1/2 nowhere): "
                             "it encloses nothing the points can see, or it is oriented "

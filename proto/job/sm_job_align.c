@@ -8,6 +8,7 @@
 
 #include "shapematch/sm_clamp.h"
 #include "sm_points_csv.h"
+#include "shapematch/sm_clock.h"
 #include "sm_proto_json.h"
 #include "sm_proto_vocab.h"
 
@@ -89,7 +90,33 @@ static sm_status moved_copy(const sm_mesh *m, const sm_transform *t, sm_mesh **o
     return st;
 }
 
-sm_status sm_job_align(const sm_job_inputs *in, const volatile int *cancel, sm_job_alignment *a,
+/* The target the alignment sees: the exact surface when the inputs kept
+ * one (a surface target's, an image's level set), else the field. */
+static void target_of(const sm_job_inputs *in, sm_align_opts *o)
+{
+    o->surface = in->target_sdf;
+    if (!o->surface) {
+        o->target = in->field;
+        o->background = in->background;
+        o->distance = in->distance ? in->distance->values : NULL;
+    }
+}
+
+/* A background deferred by the inputs, built around the template where
+ * the match starts (moved, or as read when nothing moved). */
+static sm_status finish_target(sm_job_inputs *in, sm_job_alignment *a, const sm_mesh *where,
+                               sm_error *err)
+{
+    if (!in->target_deferred)
+        return SM_OK;
+    double t0 = sm_clock_seconds();
+    sm_status st = sm_job_inputs_finish_target(in, where, err);
+    a->background_after = st == SM_OK;
+    a->background_seconds = sm_clock_seconds() - t0;
+    return st;
+}
+
+sm_status sm_job_align(sm_job_inputs *in, const volatile int *cancel, sm_job_alignment *a,
                        sm_error *err)
 {
     memset(a, 0, sizeof *a);
@@ -100,7 +127,7 @@ sm_status sm_job_align(const sm_job_inputs *in, const volatile int *cancel, sm_j
             return sm_error_set(err, SM_ERR_INVALID,
                                 "landmarks need an alignment: give --align (params align) rigid, "
                                 "similarity or affine");
-        return SM_OK;
+        return finish_target(in, a, in->template_mesh, err);
     }
     sm_transform start;
     sm_status st = SM_OK;
@@ -109,18 +136,21 @@ sm_status sm_job_align(const sm_job_inputs *in, const volatile int *cancel, sm_j
                                  a->mode, &start, err)) != SM_OK)
         return st;
     a->landmarks = in->nlandmarks;
-    sm_align_opts o = {.mode = a->mode, .template_mesh = in->prepared, .target = in->field,
-                       .background = in->background, .distance = in->distance->values,
+    sm_align_opts o = {.mode = a->mode, .template_mesh = in->prepared,
                        .start = in->nlandmarks > 0 ? &start : NULL, .cancel = cancel};
+    target_of(in, &o);
+    a->exact = o.surface != NULL;
     if ((st = sm_align_run(&o, &a->result, err)) != SM_OK)
         return st;
     if (a->result.cancelled) {
         a->cancelled = 1;
-        return SM_OK;
+        /* the result set of a cancelled run needs its target too */
+        return finish_target(in, a, in->template_mesh, err);
     }
     const sm_transform *t = &a->result.transform;
     if ((st = moved_copy(in->template_mesh, t, &a->template_mesh, err)) != SM_OK ||
-        (st = moved_copy(in->prepared, t, &a->prepared, err)) != SM_OK) {
+        (st = moved_copy(in->prepared, t, &a->prepared, err)) != SM_OK ||
+        (st = finish_target(in, a, a->template_mesh, err)) != SM_OK) {
         sm_job_alignment_free(a);
         return st;
     }
@@ -165,6 +195,8 @@ json_t *sm_job_alignment_json(const sm_job_alignment *a, int dim)
           smp_set(o, "scale", smp_real_or_null(a->result.scale)) ||
           smp_set(o, "rms_before", smp_real_or_null(a->result.rms_before)) ||
           smp_set(o, "rms_after", smp_real_or_null(a->result.rms_after)) ||
+          smp_set(o, "target_rms_after", smp_real_or_null(a->result.target_rms_after)) ||
+          smp_set(o, "exact", json_boolean(a->exact)) ||
           smp_set(o, "iterations", json_integer(a->result.iterations)) ||
           smp_set(o, "candidates", json_integer(a->result.candidates)) ||
           smp_set(o, "landmarks", json_integer(a->landmarks)) ||

@@ -28,6 +28,12 @@ typedef struct sm_job_alignment {
     sm_mesh *template_mesh;   /* the moved copies (owned) */
     sm_mesh *prepared;
     sm_params params;         /* the job's, the clamp ball moved */
+    int exact;                /* 1: aligned onto the target's exact surface
+                               * (a surface or an image's level set), 0:
+                               * onto its sampled field */
+    int background_after;     /* 1: the background was generated after the
+                               * alignment, around the moved template */
+    double background_seconds; /* building it, its distance and field */
 } sm_job_alignment;
 
 /* Reads the landmark files of files (both or none; SM_ERR_INVALID for
@@ -41,7 +47,12 @@ sm_status sm_job_read_landmarks(const sm_job_files *files, sm_job_inputs *in, sm
 void sm_job_landmarks_to_frame(sm_job_inputs *in, sm_image_space space);
 
 /* Aligns when in->params.align is not none (a->done 0 otherwise, or
- * SM_ERR_INVALID when landmarks were given without an alignment).  The
+ * SM_ERR_INVALID when landmarks were given without an alignment), onto
+ * the target's exact surface when the inputs kept one, else onto its
+ * field.  Then a background the inputs deferred is built
+ * (sm_job_inputs_finish_target) around the moved template, or the
+ * template as read when nothing moved (no alignment, a cancel): every
+ * run leaves here with its target's field.  The
  * clamp ball's centre moves by the transform and its radius scales by
  * its scale (exact for rigid and similarity; affine: the mean scale
  * |det A|^(1/d), an ellipsoid's ball of equal volume); the moved clamp
@@ -49,12 +60,13 @@ void sm_job_landmarks_to_frame(sm_job_inputs *in, sm_image_space space);
  * (may be NULL) is the run's flag, polled by the alignment as by the
  * descent: set, the alignment stops within one pass over its points and
  * a->cancelled is set (SM_OK). */
-sm_status sm_job_align(const sm_job_inputs *in, const volatile int *cancel, sm_job_alignment *a,
+sm_status sm_job_align(sm_job_inputs *in, const volatile int *cancel, sm_job_alignment *a,
                        sm_error *err);
 void sm_job_alignment_free(sm_job_alignment *a);
 
 /* summary.json's "alignment": {mode, matrix (row-major (d+1)x(d+1),
  * homogeneous, template -> target), scale, rms_before, rms_after,
+ * target_rms_after (the target's surface to the moved template), exact,
  * iterations, candidates, landmarks, seconds}; NULL when out of memory. */
 json_t *sm_job_alignment_json(const sm_job_alignment *a, int dim);
 

@@ -35,6 +35,15 @@ void sm_job_inputs_free(sm_job_inputs *in)
     free(in->landmarks[1]);
     in->landmarks[0] = in->landmarks[1] = NULL;
     in->nlandmarks = 0;
+    sm_sdf_free(in->target_sdf);
+    sm_surface_free(in->target_surface);
+    sm_image_target_free(in->image_target);
+    free(in->plan_path);
+    in->target_sdf = NULL;
+    in->target_surface = NULL;
+    in->image_target = NULL;
+    in->plan_path = NULL;
+    in->target_deferred = 0;
     in->field = NULL;
     in->distance = NULL;
     in->background = NULL;
@@ -171,32 +180,59 @@ static sm_status check_background_limits(sm_read_limits *limits, const sm_mesh *
                         verts ? (long long)limits->max_vertices : (long long)limits->max_elements);
 }
 
+/* The files' values a generated background needs, the files' own limits
+ * and path borrowed. */
+static sm_job_background_plan plan_of(const sm_job_files *files, sm_job_naming naming,
+                                      const char *target_path)
+{
+    sm_job_background_plan p = {.naming = naming, .size = files->background_size,
+                                .padding = files->background_padding, .limits = files->limits,
+                                .target_path = target_path};
+    return p;
+}
+
+/* The plan kept in out for a background built after the alignment: the
+ * limits and the path copied (the files need not outlive the read). */
+static sm_status defer_background(const sm_job_files *files, sm_job_naming naming,
+                                  const char *target_path, sm_job_inputs *out, sm_error *err)
+{
+    out->plan = plan_of(files, naming, NULL);
+    if (files->limits) {
+        out->plan_limits = *files->limits;
+        out->plan.limits = &out->plan_limits;
+    }
+    if (!(out->plan_path = strdup(target_path)))
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    out->plan.target_path = out->plan_path;
+    out->target_deferred = 1;
+    return SM_OK;
+}
+
 /* The padded box of template and surface, graded toward the surface,
  * near-surface cells of the smaller of the template's and the surface's
  * mean edge lengths (not below a quarter of the size that would give a
  * uniform grid of 250k vertices). */
-static sm_status generate_background(const sm_job_files *files, sm_job_naming naming,
+static sm_status generate_background(const sm_job_background_plan *plan, const sm_mesh *tpl,
                                      sm_job_inputs *out, const sm_surface *s, const sm_sdf *d,
                                      sm_error *err)
 {
     int dim = out->dim;
     double lo[3], hi[3], tlo[3], thi[3], diag = 0, cells = 1;
-    sm_mesh_bbox(out->template_mesh, out->template_mesh->coords, tlo, thi);
+    sm_mesh_bbox(tpl, tpl->coords, tlo, thi);
     for (int k = 0; k < dim; k++) {
         lo[k] = fmin(tlo[k], out->health.lo[k]);
         hi[k] = fmax(thi[k], out->health.hi[k]);
         diag += (hi[k] - lo[k]) * (hi[k] - lo[k]);
     }
     diag = sqrt(diag);
-    out->background_padding =
-        files->background_padding > 0 ? files->background_padding : SM_BACKGROUND_PADDING_DEFAULT;
+    out->background_padding = plan->padding > 0 ? plan->padding : SM_BACKGROUND_PADDING_DEFAULT;
     double pad = out->background_padding * diag;
     for (int k = 0; k < dim; k++) {
         lo[k] -= pad;
         hi[k] += pad;
         cells *= hi[k] - lo[k];
     }
-    double h = fmin(mean_edge(out->template_mesh), sm_surface_mean_edge(s));
+    double h = fmin(mean_edge(tpl), sm_surface_mean_edge(s));
     /* template and surface in units a power of ten apart (the criterion
      * of the "units" warning): a size from either would be one of the
      * wrong unit for the other (a target in millimetres and a template in
@@ -204,32 +240,33 @@ static sm_status generate_background(const sm_job_files *files, sm_job_naming na
      * them means nothing: refused before anything is built, unless the
      * user sized the background */
     sm_job_sizes sz = sm_job_compare_sizes(dim, tlo, thi, out->health.lo, out->health.hi);
-    if (sz.units_differ && !(files->background_size > 0)) {
+    if (sz.units_differ && !(plan->size > 0)) {
         char text[256];
         sm_job_units_text(&sz, text, sizeof text);
         out->failed = SM_PART_TARGET_SURFACE;
         /* the part, then the field that would override the refusal */
-        const char *what = naming == SM_JOB_NAME_PARTS ? "" : files->target_surface;
+        const char *what = plan->naming == SM_JOB_NAME_PARTS ? "" : plan->target_path;
         return sm_error_set(err, SM_ERR_INVALID,
                             "target_surface%s%s%s: %s A background generated for both would be "
                             "sized in the wrong unit for one of them: scale one onto the other's "
-                            "unit, or %s to generate it anyway",
+                            "unit (%s similarity does it first), or %s to generate it anyway",
                             what[0] ? " '" : "", what, what[0] ? "'" : "", text,
-                            naming == SM_JOB_NAME_PARTS
+                            plan->naming == SM_JOB_NAME_PARTS ? "params align" : "--align",
+                            plan->naming == SM_JOB_NAME_PARTS
                                 ? "set params.background_size"
                                 : "give --background-size");
     }
     double hmin = pow(cells / 250000.0, 1.0 / dim) / 4;
     if (!(h >= hmin))
         h = hmin;
-    if (files->background_size > 0)
-        h = files->background_size;
+    if (plan->size > 0)
+        h = plan->size;
     out->background_generated = 1;
     out->background_size = h;
     sm_status st = sm_background_graded_new(dim, lo, hi, h, d, &out->background, err);
     if (st == SM_OK)
-        st = check_background_limits(files->limits, out->background, err);
-    if (st != SM_OK && st != SM_ERR_NOMEM && naming == SM_JOB_NAME_PARTS) {
+        st = check_background_limits(plan->limits, out->background, err);
+    if (st != SM_OK && st != SM_ERR_NOMEM && plan->naming == SM_JOB_NAME_PARTS) {
         /* the core's advice names the CLI's flag: name the param */
         out->failed = SM_PART_PARAMS;
         part_error(err, "params.background_size", "--background-size");
@@ -244,6 +281,8 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
 {
     sm_surface *s = NULL;
     sm_sdf *d = NULL;
+    /* with an alignment the surface and its distance are kept for it */
+    const int align = out->params.align != SM_ALIGN_NONE;
     sm_status st = sm_surface_read_limited(files->target_surface, files->limits, &s, err);
     if (st == SM_OK)
         st = sm_surface_repair(s, &out->health, err);
@@ -269,8 +308,21 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
             file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
             goto done;
         }
-    } else if ((st = generate_background(files, naming, out, s, d, err)) != SM_OK) {
+    } else if (align) {
+        /* the background waits for the alignment (sm_job_inputs_finish_
+         * target); the surface is checked now as its distance would check
+         * it (n = 0: the enclosed volume only) */
+        if ((st = sm_sdf_signed(d, 0, NULL, NULL, err)) != SM_OK) {
+            file_error(err, naming, SM_PART_TARGET_SURFACE, files->target_surface, out);
+            goto done;
+        }
+        st = defer_background(files, naming, files->target_surface, out, err);
+        out->sdf_seconds = sm_clock_seconds() - t0;
         goto done;
+    } else {
+        sm_job_background_plan plan = plan_of(files, naming, files->target_surface);
+        if ((st = generate_background(&plan, out->template_mesh, out, s, d, err)) != SM_OK)
+            goto done;
     }
     if (out->background->dim != out->dim) {
         st = sm_error_set(err, SM_ERR_INVALID,
@@ -285,6 +337,11 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
     if (st != SM_OK && st != SM_ERR_NOMEM)
         file_error(err, naming, SM_PART_TARGET_SURFACE, files->target_surface, out);
 done:
+    if (st == SM_OK && align) { /* the alignment's exact target */
+        out->target_surface = s;
+        out->target_sdf = d;
+        return st;
+    }
     sm_sdf_free(d);
     sm_surface_free(s);
     return st;
@@ -309,6 +366,65 @@ static sm_image_limits image_limits(const sm_job_files *files, sm_job_naming nam
     return l;
 }
 
+/* The generated background of an image target: around its label's
+ * surface and the template tpl. */
+static sm_status image_background(const sm_job_background_plan *plan, const sm_mesh *tpl,
+                                  sm_job_inputs *out, const sm_image_target *t, sm_error *err)
+{
+    double padding = plan->padding > 0 ? plan->padding : SM_BACKGROUND_PADDING_DEFAULT;
+    sm_status st = sm_job_image_background(t, &out->image, tpl, plan->size, padding,
+                                           &out->background, &out->background_size, err);
+    if (st == SM_OK)
+        st = check_background_limits(plan->limits, out->background, err);
+    if (st != SM_OK) {
+        if (st != SM_ERR_NOMEM && plan->naming == SM_JOB_NAME_PARTS) {
+            out->failed = SM_PART_PARAMS;
+            part_error(err, "params.background_size", "--background-size");
+        }
+        return st;
+    }
+    out->background_generated = 1;
+    out->background_padding = padding;
+    return SM_OK;
+}
+
+/* How the template as given fits the label's surface in the image space
+ * it was read in and in the other one (LPS and RAS differ by x, y -> -x,
+ * -y about the world origin): the RMS distance of its boundary vertices
+ * to the surface, both ways, for the image-frame warning.  Left at 0
+ * (no figure) when out of memory. */
+static void image_frame_fit(sm_job_inputs *out, const sm_sdf *d)
+{
+    const sm_mesh *m = out->prepared;
+    int64_t n = 0;
+    uint8_t *on = calloc((size_t)m->nverts + 1, 1);
+    double *p = malloc(((size_t)m->nverts + 1) * 3 * sizeof *p);
+    double *dist = malloc(((size_t)m->nverts + 1) * sizeof *dist);
+    out->frame_rms[0] = out->frame_rms[1] = 0;
+    if (!on || !p || !dist || !d) {
+        free(on), free(p), free(dist);
+        return;
+    }
+    for (int64_t f = 0; f < (int64_t)m->nbfacets * 3; f++)
+        on[m->bfacets[f]] = 1;
+    for (int32_t v = 0; v < m->nverts; v++)
+        if (on[v])
+            memcpy(p + 3 * n++, m->coords + 3 * (size_t)v, 3 * sizeof *p);
+    for (int frame = 0; frame < 2 && n > 0; frame++) {
+        if (frame == 1)
+            for (int64_t i = 0; i < n; i++)
+                p[3 * i] = -p[3 * i], p[3 * i + 1] = -p[3 * i + 1];
+        sm_sdf_distance(d, n, p, dist, NULL);
+        double sum = 0;
+        for (int64_t i = 0; i < n; i++)
+            sum += dist[i] * dist[i];
+        out->frame_rms[frame] = sqrt(sum / (double)n);
+    }
+    free(on);
+    free(p);
+    free(dist);
+}
+
 /* The target from a label-map image: its selection by the params (set
  * before the target is read), the level-set surface, a background given
  * or generated around it and the template, the distance at its
@@ -317,6 +433,7 @@ static sm_status read_image_target(const sm_job_files *files, sm_job_naming nami
                                    sm_job_inputs *out, sm_error *err)
 {
     sm_image_target *t = NULL;
+    sm_sdf *d = NULL;
     sm_image_limits lim = image_limits(files, naming);
     sm_image_select sel = sm_job_image_select(&out->params);
     out->has_image = 1;
@@ -339,6 +456,11 @@ static sm_status read_image_target(const sm_job_files *files, sm_job_naming nami
             file_error(err, naming, SM_PART_TARGET_IMAGE, files->target_image, out);
         goto done;
     }
+    /* the label's surface and its hierarchy: the frame's figures, and
+     * with an alignment its exact target */
+    sm_error local;
+    if (sm_sdf_new(sm_image_target_surface(t), &d, &local) == SM_OK)
+        image_frame_fit(out, d);
     if (files->target_mesh) {
         if ((st = sm_mesh_read_limited(files->target_mesh, files->limits, &out->background,
                                        err)) != SM_OK) {
@@ -350,24 +472,25 @@ static sm_status read_image_target(const sm_job_files *files, sm_job_naming nami
                               "the target mesh is %dD", out->background->dim);
             goto done;
         }
+    } else if (out->params.align != SM_ALIGN_NONE && d) {
+        /* the background waits for the alignment, which aligns onto the
+         * label's surface (sm_job_inputs_finish_target) */
+        st = defer_background(files, naming, files->target_image, out, err);
+        goto done;
     } else {
-        st = sm_job_image_background(t, &out->image, out->template_mesh, files->background_size,
-                                     padding, &out->background, &out->background_size, err);
-        if (st == SM_OK)
-            st = check_background_limits(files->limits, out->background, err);
-        if (st != SM_OK) {
-            if (st != SM_ERR_NOMEM && naming == SM_JOB_NAME_PARTS) {
-                out->failed = SM_PART_PARAMS;
-                part_error(err, "params.background_size", "--background-size");
-            }
+        sm_job_background_plan plan = plan_of(files, naming, files->target_image);
+        if ((st = image_background(&plan, out->template_mesh, out, t, err)) != SM_OK)
             goto done;
-        }
-        out->background_generated = 1;
-        out->background_padding = padding;
     }
     st = sm_job_image_distance(t, out->background, &out->distance, &out->image, err);
 done:
     out->sdf_seconds = sm_clock_seconds() - t0;
+    if (st == SM_OK && out->params.align != SM_ALIGN_NONE && d) {
+        out->image_target = t; /* the alignment's exact target */
+        out->target_sdf = d;
+        return st;
+    }
+    sm_sdf_free(d);
     sm_image_target_free(t);
     return st;
 }
@@ -486,6 +609,8 @@ static sm_status read_target(const sm_job_files *files, sm_job_naming naming, sm
         if ((st = check_distance(files, naming, out, err)) != SM_OK)
             return st;
     }
+    if (out->target_deferred)
+        return SM_OK;
     double tf = sm_clock_seconds();
     st = sm_field_new(out->background, out->distance->values, &out->field, err);
     out->field_builds++;
@@ -493,6 +618,51 @@ static sm_status read_target(const sm_job_files *files, sm_job_naming naming, sm
     if (st != SM_OK)
         return file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
     return SM_OK;
+}
+
+sm_status sm_job_inputs_finish_target(sm_job_inputs *in, const sm_mesh *template_mesh,
+                                      sm_error *err)
+{
+    if (!in->target_deferred)
+        return SM_OK;
+    const sm_job_background_plan *plan = &in->plan;
+    sm_part part = in->image_target ? SM_PART_TARGET_IMAGE : SM_PART_TARGET_SURFACE;
+    double t0 = sm_clock_seconds();
+    sm_status st;
+    if (in->image_target) {
+        st = image_background(plan, template_mesh, in, in->image_target, err);
+        if (st == SM_OK)
+            st = sm_job_image_distance(in->image_target, in->background, &in->distance,
+                                       &in->image, err);
+    } else {
+        st = generate_background(plan, template_mesh, in, in->target_surface, in->target_sdf,
+                                 err);
+        if (st == SM_OK &&
+            (st = sm_sol_alloc(&in->distance, in->dim, in->background->nverts, 1, err)) == SM_OK)
+            st = sm_sdf_signed(in->target_sdf, in->background->nverts, in->background->coords,
+                               in->distance->values, err);
+    }
+    in->sdf_seconds += sm_clock_seconds() - t0;
+    if (st == SM_OK) {
+        double tf = sm_clock_seconds();
+        st = sm_field_new(in->background, in->distance->values, &in->field, err);
+        in->field_builds++;
+        in->field_build_seconds = sm_clock_seconds() - tf;
+    }
+    if (st != SM_OK && st != SM_ERR_NOMEM && in->failed == SM_NPARTS)
+        file_error(err, plan->naming, part, plan->target_path, in);
+    in->target_deferred = 0;
+    if (in->image_target) { /* the label's hierarchy borrows its surface */
+        sm_sdf_free(in->target_sdf);
+        in->target_sdf = NULL;
+    }
+    sm_image_target_free(in->image_target);
+    in->image_target = NULL;
+    in->plan.target_path = NULL;
+    in->plan.limits = NULL;
+    free(in->plan_path);
+    in->plan_path = NULL;
+    return st;
 }
 
 /* The run's template side, set up beside read_target: only its own
@@ -621,6 +791,9 @@ sm_status sm_job_inputs_load_json(const sm_job_files *files, const json_t *param
     out->params.level = params.level;
     out->params.smooth = params.smooth;
     out->params.image_space = params.image_space;
+    /* and with an alignment a generated background waits for it (the
+     * check builds none: the run builds it around the moved template) */
+    out->params.align = params.align;
     if (!files->prepare_run &&
         (st = sm_job_inputs_read_target(&with_bg, SM_JOB_NAME_PARTS, 0, out, err)) != SM_OK)
         return st;

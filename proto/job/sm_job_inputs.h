@@ -36,6 +36,7 @@
 #include "shapematch/sm_match.h"
 #include "shapematch/sm_mesh.h"
 #include "shapematch/sm_params.h"
+#include "shapematch/sm_sdf.h"
 #include "shapematch/sm_surface.h"
 #include "job/sm_job_image.h"
 #include "sm_proto_params.h"
@@ -94,6 +95,15 @@ typedef enum sm_job_naming {
     SM_JOB_NAME_PATHS = 1
 } sm_job_naming;
 
+/* What building a generated background later needs (the files' values,
+ * copied: the files need not outlive the read). */
+typedef struct sm_job_background_plan {
+    sm_job_naming naming;
+    double size, padding;      /* as given (0: the default) */
+    sm_read_limits *limits;    /* the files' bounds (NULL: none) */
+    const char *target_path;   /* the target file, for messages */
+} sm_job_background_plan;
+
 typedef struct sm_job_inputs {
     sm_mesh *template_mesh;   /* as read (outputs keep its connectivity) */
     sm_mesh *prepared;        /* copy with its boundary built (the run's) */
@@ -143,6 +153,27 @@ typedef struct sm_job_inputs {
      * markups; sm_points_frame: 0 unstated, 1 LPS, 2 RAS): set_params
      * puts them in params image_space's */
     int landmarks_frame[2];
+    /* With an alignment (params align set before the target is read):
+     * the target's exact surface and distance kept for it (a surface
+     * target's; for an image, target_sdf over image_target's level-set
+     * surface),
+     * so that it aligns onto the exact surface; and when the background
+     * is to be generated, it is not built yet (target_deferred): the
+     * alignment runs without one, then sm_job_inputs_finish_target
+     * builds it around the moved template and the target, where the
+     * match happens.  NULL and 0 otherwise. */
+    sm_surface *target_surface;
+    sm_sdf *target_sdf;
+    sm_image_target *image_target;
+    int target_deferred;
+    sm_job_background_plan plan;
+    sm_read_limits plan_limits; /* the plan's copies */
+    char *plan_path;
+    /* an image target: the template as given against the label's
+     * surface, RMS distance of its boundary vertices in the image space
+     * read ([0]) and in the other ([1]): the image-frame warning's
+     * figures (0: not measured) */
+    double frame_rms[2];
 } sm_job_inputs;
 
 /* background_size and background_padding (> 0: given) are for a
@@ -202,6 +233,14 @@ sm_status sm_job_inputs_load(const sm_job_files *files, const char *params_text,
  * object), decoded from the object itself: no text in between. */
 sm_status sm_job_inputs_load_json(const sm_job_files *files, const json_t *params,
                                   sm_job_inputs *out, sm_error *err);
+/* A deferred target (in->target_deferred) finished: its background
+ * generated around template_mesh (the moved template; the box of both,
+ * sized as for any generated background, the units refusal included),
+ * the distance at its vertices, the field; the image target and the
+ * plan are released, the surface and its distance kept.  SM_OK doing
+ * nothing when nothing is deferred.  Messages as the read's. */
+sm_status sm_job_inputs_finish_target(sm_job_inputs *in, const sm_mesh *template_mesh,
+                                      sm_error *err);
 
 void sm_job_inputs_free(sm_job_inputs *in);
 

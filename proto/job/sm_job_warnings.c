@@ -197,6 +197,30 @@ static void check_surface(const sm_job_inputs *in, sm_job_warnings *out)
             (long long)closed);
 }
 
+/* image-frame: a NIfTI written by nibabel (RAS world coordinates) read
+ * as LPS, or the reverse, puts the label mirrored in x and y: a template
+ * given in the image's world then fits the other frame, and --align
+ * would silently align it there (a half turn about z). */
+static void check_image_frame(const sm_job_inputs *in, sm_job_warnings *out)
+{
+    const double *rms = in->frame_rms;
+    if (!(rms[0] > 0) || !(rms[1] >= 0))
+        return;
+    double lo[3], hi[3];
+    sm_mesh_bbox(in->template_mesh, in->template_mesh->coords, lo, hi);
+    double diag = box_diagonal(in->dim, lo, hi);
+    if (!(rms[1] < SM_JOB_FRAME_RATIO * rms[0] && rms[1] < SM_JOB_FRAME_FIT * diag))
+        return;
+    int ras = in->image.space == SM_IMAGE_SPACE_RAS;
+    add(out, "image-frame", rms[1] > 0 ? rms[0] / rms[1] : INFINITY,
+        "the template fits the label far better in the other image space (boundary RMS %.4g "
+        "in %s as read, %.4g in %s): if the image's coordinates are %s (%s), give "
+        "--image-space %s (params image_space)%s",
+        rms[0], ras ? "RAS" : "LPS", rms[1], ras ? "LPS" : "RAS", ras ? "LPS" : "RAS",
+        ras ? "DICOM, ITK, Slicer" : "nibabel, FreeSurfer, FSL", ras ? "lps" : "ras",
+        in->params.align != SM_ALIGN_NONE ? "; --align aligns onto the mirrored label" : "");
+}
+
 /* The label of an image target: cut by the image's border, or in
  * several pieces (a stray voxel of the label, two organs of one value). */
 static void check_image(const sm_job_inputs *in, sm_job_warnings *out)
@@ -214,6 +238,7 @@ static void check_image(const sm_job_inputs *in, sm_job_warnings *out)
                 "nothing", given);
         return;
     }
+    check_image_frame(in, out);
     if (s->touches_border)
         add(out, "label-touches-border", (double)s->voxels,
             "the label reaches the image's border: it is closed there, so the target may be cut "

@@ -41,6 +41,13 @@
  *                       (figure: their number)
  *   image-params-unused label, level, smooth or image_space given for a target
  *                       that is not an image (figure: how many)
+ *   image-frame         the template as given fits an image target's label
+ *                       far better in the other image space (LPS against
+ *                       RAS: x, y mirrored): its boundary's RMS distance
+ *                       there under SM_JOB_FRAME_RATIO times the one in the
+ *                       space read, and under SM_JOB_FRAME_FIT of its box
+ *                       diagonal; names --image-space (figure: the ratio
+ *                       of the two RMS, read over other)
  *   alpha-small         no clamp and alpha far below the scale E / L^2
  *                       where the descent converges (figure: alpha L^2/E)
  *   clamp-default       no clamp given: the default ball chosen, named so
@@ -62,6 +69,10 @@
  * shrunk x0.5 inside a Gmsh unit ball holds 12% of its vertices, and the
  * boxes overlap fully) */
 #define SM_JOB_INSIDE_MIN 0.05
+/* image-frame: the other image space fits by this factor better, and
+ * within this fraction of the template's box diagonal */
+#define SM_JOB_FRAME_RATIO 0.25
+#define SM_JOB_FRAME_FIT 0.1
 #define SM_JOB_OVERLAP_MIN 0.5
 /* misaligned also when the template's box centre lies outside the
  * target's box and under this fraction of its vertices inside the target

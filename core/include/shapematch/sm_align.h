@@ -3,24 +3,51 @@
  * signed distance d alone (no point correspondences), or started from
  * landmark pairs.
  *
+ * The misfit is two-sided, a symmetric chamfer: the mean of rho(d(A x +
+ * b)) over the template's boundary quadrature points x (the template's
+ * boundary to the target), plus the mean of rho(D(z)) over the target
+ * surface's quadrature points z, D the signed distance to the moved
+ * template's boundary (the target to the template).  The first side
+ * alone is won by any template small enough to fit inside the target (a
+ * capsule squeezed into one arm of a bent target); the second is large
+ * for it, so similarity and affine scales follow the target's extent.
+ * Each mean is weighted by measure (two Gauss points per edge in 2D, the
+ * 3-point rule per triangle in 3D), rho is Huber's (its threshold 1.345
+ * times each side's robust spread, 1.4826 median |r|, at each iteration),
+ * so a part far from the other shape (partial overlap) pulls linearly,
+ * not quadratically.
+ *
+ * The target is a surface (opts.surface: its exact signed distance and
+ * hierarchy, sm_sdf.h) or a sampled field (opts.target on a background:
+ * its zero level set, by marching simplices, gives the target's points).
+ * With a surface every residual is exact: d(y) is the distance to the
+ * nearest facet with the winding number's sign, and the refinement is
+ * point-to-plane ICP on both sides, so a known map is recovered to
+ * rounding, not to the field's interpolation error.  D is exact for
+ * rigid and similarity maps (the nearest template point of t^-1 z, moved);
+ * for an affine map it is the distance to that point.
+ *
  *   1. start: the moments of the template's volume against the target's
- *      inside region (d < 0 on the background): centroids, principal axes
- *      and, for similarity, the volume ratio.  The principal axes fix the
- *      rotation only up to a signed permutation, so every proper one is
- *      tried (24 in 3D, 4 in 2D) and the few with the smallest
- *      sum w d(A x + b)^2 over the template's boundary quadrature points
- *      are refined: a 180-degree flip or a near-symmetric shape does not
- *      trap the start.  Or, with landmarks, Kabsch/Umeyama (below).
- *   2. refinement: Levenberg-Marquardt on sum w rho(d(A x + b)) over the
- *      boundary quadrature points (two Gauss points per edge in 2D, three
- *      per triangle in 3D, w the facet's measure in the template), with
- *      the field's gradient and Huber's rho (its threshold 1.345 times the
- *      residuals' robust spread, 1.4826 median |d|, at each iteration), so
- *      a part of the boundary far from the target (partial overlap) pulls
- *      linearly, not quadratically.  Rigid: translation + rotation
- *      (increments by the exponential map); similarity: + one scale;
- *      affine: the similarity result, then the full matrix, each step
- *      refused when it would leave det A <= 0 or a condition number above
+ *      (the volume the surface encloses, by the divergence theorem; or
+ *      the region d < 0 of the field): centroids, principal axes and, for
+ *      similarity, the volume ratio.  The principal axes fix the rotation
+ *      only up to a signed permutation, so every proper one is tried (24
+ *      in 3D, 4 in 2D) and the few with the smallest two-sided mean square
+ *      (on the coarse level below) are refined: a 180-degree flip
+ *      or a near-symmetric shape does not trap the start.  This coarse
+ *      level is point clouds: 500 points a side with their normals,
+ *      symmetric point-to-plane residuals to the nearest point of the
+ *      other side (brute force: cheap at any distance, where an exact
+ *      nearest-facet search from a far start visits most of a surface).
+ *      Or, with landmarks, Kabsch/Umeyama (below).
+ *   2. refinement: Levenberg-Marquardt (Gauss-Newton rows: the gradient
+ *      of d at the moved point; -grad D at the target point, the nearest
+ *      template point held) on the coarse level, then with the exact
+ *      residuals on at most 2000 points a side (at most 8 iterations: an
+ *      exact fit converges in a few, an inexact one only polishes).  Rigid: translation + rotation (increments by the
+ *      exponential map); similarity: + one scale; affine: the similarity
+ *      result, then the full matrix, each step refused when it would
+ *      leave det A <= 0 or a condition number above
  *      SM_ALIGN_AFFINE_COND_MAX.
  *
  * The 3x3 eigen problems (cyclic Jacobi) and the SVD of Kabsch
@@ -37,6 +64,7 @@
 #include "sm_field.h"
 #include "sm_mesh.h"
 #include "sm_params.h"
+#include "sm_sdf.h"
 
 /* sm_align_mode and its names: sm_params.h (the parameter "align"). */
 
@@ -63,9 +91,14 @@ void sm_transform_homogeneous(const sm_transform *t, double *m);
 typedef struct sm_align_opts {
     sm_align_mode mode;               /* not NONE */
     const sm_mesh *template_mesh;     /* boundary built (sm_mesh_build_boundary) */
+    const sm_sdf *surface;            /* the target as a surface (its exact
+                                       * distance; the surface outlives the
+                                       * call), or NULL and: */
     const sm_field *target;           /* d of the target */
     const sm_mesh *background;        /* the field's mesh and its values: */
-    const double *distance;           /* the inside region d < 0 for the moments */
+    const double *distance;           /* the inside region d < 0 for the
+                                       * moments, its zero level set for the
+                                       * target's points */
     const sm_transform *start;        /* NULL: the moments' candidates; else
                                        * this start (landmarks) refined */
     int max_iter;                     /* refinement iterations; 0: 100 */
@@ -82,6 +115,9 @@ typedef struct sm_align_result {
     double rms_before, rms_after;     /* weighted RMS of d over the boundary
                                        * quadrature points: template as given,
                                        * and moved by transform */
+    double target_rms_after;          /* the other side: weighted RMS over
+                                       * the target's surface points of their
+                                       * distance to the moved template */
     int iterations;                   /* refinement iterations (all stages) */
     int candidates;                   /* starts tried (1 with a given start) */
     double seconds;
@@ -92,7 +128,8 @@ typedef struct sm_align_result {
 
 /* Computes the alignment.  SM_ERR_INVALID for mode NONE, a template with
  * no boundary or volume, a target with no inside region (d >= 0 at every
- * background vertex) without a start, a dimension mismatch; SM_ERR_NOMEM.
+ * background vertex, or a surface that encloses no volume) without a
+ * start, a dimension mismatch; SM_ERR_NOMEM.
  * Deterministic (its parallel loops are per point).  A cancel is not an
  * error: SM_OK with out->cancelled set (like a cancelled descent). */
 sm_status sm_align_run(const sm_align_opts *opts, sm_align_result *out, sm_error *err);

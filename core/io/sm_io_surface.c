@@ -5,6 +5,7 @@
 #include "io/sm_io_formats.h"
 
 #include <ctype.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
@@ -106,10 +107,21 @@ sm_status sm__msh_surface(const char *path, const sm_msh_data *d, sm_surface **o
         planar = planar && d->coords[3 * i + 2] == 0.0;
     int dim = d->triangles.count > 0 && !planar ? 3 : 2;
     const sm_msh_block *b = dim == 3 ? &d->triangles : &d->lines;
-    if (b->count == 0 || d->nnodes > SM_MAX_ENTITIES)
+    if (b->count == 0 || d->nnodes > SM_MAX_ENTITIES) {
+        long long z = -1; /* the first vertex off the plane z = 0 */
+        for (int64_t i = 0; i < d->nnodes && z < 0; i++)
+            if (d->coords[3 * i + 2] != 0.0)
+                z = i;
+        char plane[64] = "all at z = 0";
+        if (z >= 0)
+            snprintf(plane, sizeof plane, "vertex %lld at z = %g", z + 1, d->coords[3 * z + 2]);
         return sm_error_set(err, SM_ERR_FORMAT,
-                            "%s: no surface: triangles in 3D, or lines with all z = 0 in 2D "
-                            "are needed", path);
+                            "%s: no surface: found %lld triangles, %lld line segments and %lld "
+                            "tetrahedra on %lld vertices (%s); triangles in 3D, or lines with "
+                            "all z = 0 in 2D are needed", path, (long long)d->triangles.count,
+                            (long long)d->lines.count, (long long)d->tetrahedra.count,
+                            (long long)d->nnodes, plane);
+    }
     sm_surface *s;
     sm_status st = sm_surface_alloc(&s, dim, (int32_t)d->nnodes, (int32_t)b->count, err);
     if (st != SM_OK)

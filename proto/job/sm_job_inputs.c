@@ -41,6 +41,41 @@ void sm_job_inputs_free(sm_job_inputs *in)
     in->template_mesh = NULL;
 }
 
+/* A part's contents: the copy of what the caller holds in memory, or its
+ * file read. */
+static sm_status take_mesh(const char *path, const sm_mesh *given, sm_read_limits *limits,
+                           sm_mesh **out, sm_error *err)
+{
+    return given ? sm_mesh_clone(given, out, err) : sm_mesh_read_limited(path, limits, out, err);
+}
+
+static sm_status take_sol(const char *path, const sm_sol *given, sm_read_limits *limits,
+                          sm_sol **out, sm_error *err)
+{
+    if (!given)
+        return sm_sol_read_limited(path, limits, out, err);
+    sm_status st = sm_sol_alloc(out, given->dim, given->nverts, given->ncomp, err);
+    if (st == SM_OK)
+        memcpy((*out)->values, given->values,
+               (size_t)given->nverts * (size_t)given->ncomp * sizeof(double));
+    return st;
+}
+
+static sm_status take_surface(const char *path, const sm_surface *given, sm_read_limits *limits,
+                              sm_surface **out, sm_error *err)
+{
+    if (!given)
+        return sm_surface_read_limited(path, limits, out, err);
+    sm_status st = sm_surface_alloc(out, given->dim, given->nverts, given->nfacets, err);
+    if (st == SM_OK) {
+        sm_surface *s = *out;
+        memcpy(s->coords, given->coords, (size_t)given->nverts * (size_t)given->dim * sizeof(double));
+        memcpy(s->facets, given->facets, (size_t)given->nfacets * (size_t)given->dim * sizeof(int32_t));
+        memcpy(s->facet_refs, given->facet_refs, (size_t)given->nfacets * sizeof(int32_t));
+    }
+    return st;
+}
+
 /* "PART: message" with every occurrence of path replaced by PART. */
 static sm_status part_error(sm_error *err, const char *part, const char *path)
 {
@@ -110,6 +145,8 @@ static sm_status check_distance(const sm_job_files *files, sm_job_naming naming,
 {
     char sol[512], bg[512];
     label(sol, sizeof sol, naming, SM_PART_TARGET_SOL, files->target_sol);
+    if (files->target_sol_given) /* named already: "target_sol (array)" */
+        snprintf(sol, sizeof sol, "%s", files->target_sol);
     out->failed = SM_PART_TARGET_SOL;
     if (out->distance->ncomp != 1)
         return sm_error_set(err, SM_ERR_INVALID,
@@ -117,7 +154,7 @@ static sm_status check_distance(const sm_job_files *files, sm_job_naming naming,
                             "components",
                             sol, out->distance->ncomp);
     if (out->distance->nverts != out->background->nverts) {
-        if (naming == SM_JOB_NAME_PARTS)
+        if (naming == SM_JOB_NAME_PARTS || files->target_mesh_given)
             snprintf(bg, sizeof bg, "the target mesh");
         else
             snprintf(bg, sizeof bg, "the target mesh '%s'", files->target_mesh);
@@ -243,7 +280,8 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
 {
     sm_surface *s = NULL;
     sm_sdf *d = NULL;
-    sm_status st = sm_surface_read_limited(files->target_surface, files->limits, &s, err);
+    sm_status st = take_surface(files->target_surface, files->target_surface_given,
+                                files->limits, &s, err);
     if (st == SM_OK)
         st = sm_surface_repair(s, &out->health, err);
     if (st != SM_OK) {
@@ -263,7 +301,7 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
         goto done;
     }
     if (files->target_mesh) {
-        if ((st = sm_mesh_read_limited(files->target_mesh, files->limits, &out->background,
+        if ((st = take_mesh(files->target_mesh, files->target_mesh_given, files->limits, &out->background,
                                        err)) != SM_OK) {
             file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
             goto done;
@@ -329,7 +367,7 @@ static sm_status read_image_target(const sm_job_files *files, sm_job_naming nami
         goto done;
     }
     if (files->target_mesh) {
-        if ((st = sm_mesh_read_limited(files->target_mesh, files->limits, &out->background,
+        if ((st = take_mesh(files->target_mesh, files->target_mesh_given, files->limits, &out->background,
                                        err)) != SM_OK) {
             file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
             goto done;
@@ -409,7 +447,8 @@ sm_status sm_job_inputs_read_template(const sm_job_files *files, sm_job_naming n
     }
     out->background_asked.size = files->background_size > 0 ? files->background_size : 0;
     out->background_asked.padding = files->background_padding > 0 ? files->background_padding : 0;
-    if ((st = sm_mesh_read_limited(files->template_mesh, files->limits, &out->template_mesh, err)) !=
+    if ((st = take_mesh(files->template_mesh, files->template_given, files->limits,
+                        &out->template_mesh, err)) !=
         SM_OK) {
         file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
         goto fail;
@@ -462,14 +501,15 @@ static sm_status read_target(const sm_job_files *files, sm_job_naming naming, sm
         if ((st = read_surface_target(files, naming, out, err)) != SM_OK)
             return st;
     } else {
-        if ((st = sm_mesh_read_limited(files->target_mesh, files->limits, &out->background,
+        if ((st = take_mesh(files->target_mesh, files->target_mesh_given, files->limits, &out->background,
                                        err)) != SM_OK)
             return file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
         if (out->background->dim != out->dim)
             return sm_error_set(err, SM_ERR_INVALID,
                                 "dimension mismatch: the template is %dD but the target mesh is %dD",
                                 out->dim, out->background->dim);
-        if ((st = sm_sol_read_limited(files->target_sol, files->limits, &out->distance, err)) !=
+        if ((st = take_sol(files->target_sol, files->target_sol_given, files->limits, &out->distance,
+                           err)) !=
             SM_OK)
             return file_error(err, naming, SM_PART_TARGET_SOL, files->target_sol, out);
         if ((st = check_distance(files, naming, out, err)) != SM_OK)

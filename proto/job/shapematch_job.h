@@ -166,6 +166,11 @@ sm_status sm_run_batch(const char *template_path, const char *list_csv, size_t l
                        const char *params_json, const char *model_align, int jobs,
                        const char *out_dir, sm_error *err);
 
+/* The release the library was built as ("0.1.0": the Makefile's
+ * VERSION, the one place it is written); the Python package's
+ * __version__. */
+const char *sm_run_version(void);
+
 #ifdef __cplusplus
 }
 #endif

@@ -262,6 +262,11 @@ sm_status sm_run_job(const sm_run_files *files, const char *params_json,
     return SM_OK;
 }
 
+const char *sm_run_version(void)
+{
+    return SM_VERSION;
+}
+
 const char *sm_run_outcome(const sm_run *r)
 {
     return sm_job_outcome_name(r->run.outcome);

@@ -10,7 +10,10 @@ one job runner of `shapematch run`: the same checks, the same run, the
 same vertices bit for bit); the keyword parameters are the params
 document's members (docs/user-guide.md's table, `shapematch.parameters()`),
 checked by the library's one parameter table.  Client talks to a daemon
-(standard library only).  docs/python.md has the whole story.
+(standard library only; Client.submit, Client.batch, Client.warp, and the
+Job, Batch and RemoteResult they give: help(shapematch.Client)).
+shapematch.__version__ is the library's release.  docs/python.md has the
+whole story.
 """
 import ctypes
 import math
@@ -19,14 +22,17 @@ import os
 from . import _arrays, _lib
 
 __all__ = ["match", "batch", "sdf", "warp", "parameters", "Result", "ShapematchError", "Client", "Job",
-           "HTTPError"]
+           "Batch", "RemoteResult", "HTTPError", "__version__"]
 
 
 def __getattr__(name):
     # the client (urllib, http.client: ~0.1 s to import) only when used
-    if name in ("Client", "Job", "HTTPError"):
+    if name in ("Client", "Job", "Batch", "RemoteResult", "HTTPError"):
         from . import _client
         return getattr(_client, name)
+    if name == "__version__":
+        # the library's (the Makefile's VERSION, written once): loaded now
+        return _lib.job().sm_run_version().decode()
     raise AttributeError("module 'shapematch' has no attribute %r" % name)
 
 
@@ -250,6 +256,12 @@ class Result:
                                      formats.encode() if formats else None, ctypes.byref(err))
         if st:
             _raise(err, st)
+
+    def warp(self, **kw):
+        """shapematch.warp(self, **kw): points, a mesh or a field through
+        this result's map (points=, mesh=, field=, inverse=, strict=,
+        normalize=, output=; see help(shapematch.warp))."""
+        return warp(self, **kw)
 
     def to_meshio(self):
         """The deformed mesh as a meshio.Mesh (needs python3-meshio), with the
@@ -587,7 +599,9 @@ def warp(result, *, points=None, mesh=None, field=None, inverse=False, strict=Fa
     match, forward (template -> target) or back with inverse=True, as
     `shapematch warp` does (docs/warp.md: the conventions).  result: a
     result folder (result.mesh + displacement.sol, as run, fetch and
-    Result.write leave them) or a Result.  Exactly one of:
+    Result.write leave them), a Result, or a Client's result (a
+    RemoteResult, from Job.wait(): its map is downloaded once and warped
+    here; Client.warp asks the daemon instead).  Exactly one of:
       points  an (n, dim) array: returns (mapped (n, dim), inside (n,)
               0/1: 0 for a point outside the source mesh, mapped by its
               nearest element); strict=True raises ShapematchError for the
@@ -603,5 +617,7 @@ def warp(result, *, points=None, mesh=None, field=None, inverse=False, strict=Fa
               symmetric tensors (xx, xy, yy[, xz, yz, zz]) as F T F^T;
               returns the carried values; output=PATH writes a .sol/.solb."""
     from . import _warp
+    if hasattr(result, "_map_folder"):  # a Client's result: its files, downloaded once
+        result = result._map_folder()
     return _warp.warp(result, _raise, points=points, mesh=mesh, field=field, inverse=inverse,
                       strict=strict, normalize=normalize, output=output)

@@ -185,6 +185,7 @@ def job():
         _declare(lib, "sm_run_job", _c.c_int, _P(RunFiles), _c.c_char_p, PROGRESS_FN,
                  _c.c_void_p, _P(_c.c_int), _P(_c.c_void_p), _P(Error))
         _declare(lib, "sm_run_free", None, _c.c_void_p)
+        _declare(lib, "sm_run_version", _c.c_char_p)
         for name in ("sm_run_outcome", "sm_run_message", "sm_run_summary"):
             _declare(lib, name, _c.c_char_p, _c.c_void_p)
         for name in ("sm_run_exit_code", "sm_run_dim"):

@@ -175,5 +175,39 @@ class Layout(unittest.TestCase):
         self.assertEqual(got, want)
 
 
+class VersionAndHelp(unittest.TestCase):
+    def test_version_is_the_makefiles(self):
+        """shapematch.__version__: the VERSION line of the Makefile"""
+        with open(os.path.join(ROOT, "Makefile")) as f:
+            line = [x for x in f if x.startswith("VERSION :=")][0]
+        self.assertEqual(shapematch.__version__, line.split(":=")[1].strip())
+
+    def test_help_documents_every_public_name(self):
+        """help(shapematch): every name of __all__ and every public method
+        has a docstring"""
+        import inspect
+        import pydoc
+        text = pydoc.render_doc(shapematch, renderer=pydoc.plaintext)
+        # the client is imported when first used (its json import is a cost
+        # match() does not pay): the package's page names it
+        for name in ("match(", "batch(", "warp(", "help(shapematch.Client)", "__version__"):
+            self.assertIn(name, text)
+        text = pydoc.render_doc(shapematch.Client, renderer=pydoc.plaintext)
+        for name in ("warp(self, job", "batch(self, template", "submit("):
+            self.assertIn(name, text)
+        missing = []
+        for name in shapematch.__all__:
+            obj = getattr(shapematch, name)
+            if isinstance(obj, str):
+                continue
+            if not (obj.__doc__ or "").strip():
+                missing.append(name)
+            if inspect.isclass(obj):
+                for m, f in vars(obj).items():
+                    if not m.startswith("_") and callable(f) and not (f.__doc__ or "").strip():
+                        missing.append("%s.%s" % (name, m))
+        self.assertEqual(missing, [])
+
+
 if __name__ == "__main__":
     unittest.main()

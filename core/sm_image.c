@@ -96,7 +96,8 @@ sm_status sm_image_mask(const sm_image *im, const sm_image_select *sel, uint8_t 
     }
     if (stats->voxels == 0)
         return SM_OK;
-    for (int c = 0; c < 3; c++)
+    /* a 2D image's one slice is no border */
+    for (int c = 0; c < (n[2] == 1 ? 2 : 3); c++)
         if (lo[c] == 0 || hi[c] == n[c] - 1)
             stats->touches_border = 1;
     /* the world box of the index box's corners bounds the voxel centres */

@@ -342,6 +342,39 @@ static sm_image_limits image_limits(const sm_job_files *files, sm_job_naming nam
  * before the target is read), the level-set surface, a background given
  * or generated around it and the template, the distance at its
  * vertices. */
+/* A 2D template's image target: the label's boundary as a closed curve
+ * (sm_job_image_contour), then exactly the surface target's way, the
+ * curve in memory in place of a surface file (its health report kept,
+ * the summary's target is the image). */
+static sm_status read_image_curve(const sm_job_files *files, sm_job_naming naming,
+                                  sm_image_limits *lim, const sm_image_select *sel,
+                                  sm_job_inputs *out, sm_error *err)
+{
+    sm_surface *curve = NULL;
+    double t0 = sm_clock_seconds();
+    sm_status st = sm_job_image_contour(files->target_image, lim, sel, out->params.image_space,
+                                        1.0, &curve, &out->image, err);
+    if (st != SM_OK) {
+        if (files->limits && (lim->hit == SM_IMAGE_LIMIT_INFLATED || lim->hit == SM_IMAGE_LIMIT_VOXELS))
+            files->limits->hit = SM_LIMIT_INFLATED;
+        if (st != SM_ERR_NOMEM || lim->hit)
+            file_error(err, naming, SM_PART_TARGET_IMAGE, files->target_image, out);
+        return st;
+    }
+    sm_job_files as_surface = *files;
+    as_surface.target_surface = files->target_image; /* names it in messages */
+    as_surface.target_surface_given = curve;
+    st = read_surface_target(&as_surface, naming, out, err);
+    sm_surface_free(curve);
+    out->has_surface = 0;
+    if (out->failed == SM_PART_TARGET_SURFACE)
+        out->failed = SM_PART_TARGET_IMAGE;
+    if (st == SM_OK)
+        out->image.exact_vertices = out->background->nverts; /* the curve's exact distance */
+    out->sdf_seconds += sm_clock_seconds() - t0 - out->sdf_seconds;
+    return st;
+}
+
 static sm_status read_image_target(const sm_job_files *files, sm_job_naming naming,
                                    sm_job_inputs *out, sm_error *err)
 {
@@ -349,11 +382,8 @@ static sm_status read_image_target(const sm_job_files *files, sm_job_naming nami
     sm_image_limits lim = image_limits(files, naming);
     sm_image_select sel = sm_job_image_select(&out->params);
     out->has_image = 1;
-    if (out->dim != 3) {
-        out->failed = SM_PART_TARGET_IMAGE;
-        return sm_error_set(err, SM_ERR_INVALID, "dimension mismatch: the template is %dD but a "
-                            "target image is 3D", out->dim);
-    }
+    if (out->dim == 2)
+        return read_image_curve(files, naming, &lim, &sel, out, err);
     double padding = files->background_padding > 0 ? files->background_padding
                                                    : SM_BACKGROUND_PADDING_DEFAULT;
     double t0 = sm_clock_seconds();

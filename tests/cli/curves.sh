@@ -8,7 +8,8 @@
 # vertices within 1e-3 of radius 0.32); the four files give the same
 # result bit for bit; a curve off the plane z = 0 and an OBJ with
 # nothing joining its vertices are refused with a message naming what
-# the file holds.
+# the file holds; so are an STL given as the template, an image as a
+# surface and a surface as an image (core/io/sm_io.c's format table).
 source "$(dirname "$0")/../lib/cli.sh"
 check_rc() { if [ "$1" = 0 ]; then ok "$2"; else not_ok "$2" "${3:-}"; fi; }
 PY=/usr/bin/python3
@@ -52,6 +53,22 @@ sed -e 's/element edge 512/element edge 0/' -e '/^[0-9]* [0-9]*$/d' "$WORK/circl
 "$BIN" sdf --surface "$WORK/noedge.ply" -o "$WORK/noedge" >/dev/null 2>"$WORK/err"
 grep -q "PLY without faces or edges (512 vertices and nothing joining them)" "$WORK/err"
 check_rc $? "a PLY of bare vertices says what it holds" "$(cat "$WORK/err")"
+
+# a file of another kind than the option asks for is named for what it is
+printf 'solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n' >"$WORK/t.stl"
+"$BIN" run --template "$WORK/t.stl" --target-surface "$WORK/circle.obj" --clamp-ball 0,0,1 \
+    -o "$WORK/no" >/dev/null 2>"$WORK/err"
+rc=$?
+grep -q "t.stl: a surface (STL), not a volume mesh (meshes are read as .*): a surface is a target (--target-surface, target_surface)" "$WORK/err"
+check_rc $(( rc == 2 && $? == 0 ? 0 : 1 )) "an STL given as the template is named a surface (rc $rc)" "$(cat "$WORK/err")"
+"$PY" "$ROOT/tests/cli/image2d.py" write "$WORK" >/dev/null
+"$BIN" sdf --surface "$WORK/disk.nrrd" -o "$WORK/no" >/dev/null 2>"$WORK/err"
+grep -q "disk.nrrd: an image (NRRD), not a surface (.*): a label map is a target image (--target-image, target_image)" "$WORK/err"
+check_rc $? "an image given as a surface is named an image" "$(cat "$WORK/err")"
+"$BIN" run --template "$ROOT/examples/2d/template.mesh" --target-image "$WORK/circle.ply" \
+    --clamp-ball 0.5,0.5,0.04 -o "$WORK/no" >/dev/null 2>"$WORK/err"
+grep -q "circle.ply: a surface (PLY), not an image" "$WORK/err"
+check_rc $? "a surface given as the target image is named a surface" "$(cat "$WORK/err")"
 
 echo "1..$n"
 [ "$failed" = 0 ]

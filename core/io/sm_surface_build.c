@@ -1,18 +1,15 @@
-/* Target surfaces read from a file: the dispatch by content (Gmsh, Medit,
- * PLY, OFF/PLY2, VTK legacy and XML, STL, OBJ; never by the file name), vertex welding for the formats that
- * repeat vertices per facet, and the surface of a Gmsh .msh file.  The
- * surface model itself (allocation, measures) is core/sm_surface.c. */
+/* What the surface readers share (sm_io_formats.h): vertex welding for the
+ * formats that repeat vertices per facet (STL, OBJ, PLY, OFF), and the
+ * surface of a set of simplices (Gmsh, VTK, PLY).  The readers call these;
+ * the dispatch by content is sm_io.c's table, the surface model itself
+ * (allocation, measures) core/sm_surface.c. */
 #include "io/sm_io_formats.h"
 
-#include <ctype.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 
 #include "io/sm_io_msh.h"
-#include "io/sm_medit_common.h"
-#include "io/sm_read_input.h"
 #include "shapematch/sm_mesh.h"
 
 /* ---- welding ---- */
@@ -133,100 +130,4 @@ sm_status sm__msh_surface(const char *path, const sm_msh_data *d, sm_surface **o
     memcpy(s->facet_refs, b->refs, (size_t)b->count * sizeof(int32_t));
     *out = s;
     return SM_OK;
-}
-
-/* ---- dispatch ---- */
-
-static int medit_ascii_start(sm_reader *r)
-{
-    char head[256];
-    size_t got = 0;
-    if (sm__reader_peek(r, head, sizeof head - 1, &got) != SM_OK)
-        return 0;
-    head[got] = '\0';
-    const char *p = head;
-    for (;;) {
-        while (*p && isspace((unsigned char)*p))
-            p++;
-        if (*p != '#')
-            break;
-        while (*p && *p != '\n')
-            p++;
-    }
-    return strncasecmp(p, "MeshVersionFormatted", 20) == 0 || strncasecmp(p, "Dimension", 9) == 0;
-}
-
-/* Text (a format we do not read) rather than binary data (perhaps a
- * binary STL whose size does not match its count). */
-static int looks_text(const unsigned char *p, size_t n)
-{
-    for (size_t k = 0; k < n; k++)
-        if (p[k] >= 127 || (p[k] < 32 && p[k] != '\n' && p[k] != '\r' && p[k] != '\t'))
-            return 0;
-    return 1;
-}
-
-sm_status sm_surface_read(const char *path, sm_surface **out, sm_error *err)
-{
-    return sm_surface_read_limited(path, NULL, out, err);
-}
-
-sm_status sm_surface_read_limited(const char *path, sm_read_limits *limits, sm_surface **out,
-                                  sm_error *err)
-{
-    *out = NULL;
-    if (!path)
-        return sm_error_set(err, SM_ERR_INVALID, "no surface file name");
-    return sm__surface_read_input(&(sm_reader_input){.path = path}, limits, out, err);
-}
-
-sm_status sm__surface_read_input(const sm_reader_input *in, sm_read_limits *limits,
-                                 sm_surface **out, sm_error *err)
-{
-    const char *path = in->path;
-    *out = NULL;
-    sm_reader r;
-    sm_status st = sm__reader_open_input(&r, in, err);
-    if (st != SM_OK)
-        return st;
-    r.limits = limits;
-    int binary = 0;
-    unsigned char head[512];
-    size_t got = 0;
-    if ((st = sm__reader_peek(&r, head, sizeof head, &got)) != SM_OK)
-        st = sm__reader_fail_byte(&r, err, st, 0, "%s", r.why);
-    if (st != SM_OK || (st = sm__medit_detect(&r, &binary, err)) != SM_OK) {
-        sm__reader_close(&r);
-        return st;
-    }
-    int ply2 = 0;
-    sm_msh_data d;
-    sm_status (*cells)(sm_reader *, sm_msh_data *, sm_error *) =
-        sm__msh_detect(&r) ? sm__msh_parse : sm__vtk_detect(&r) ? sm__vtk_parse
-                                           : sm__vtkxml_detect(&r) ? sm__vtkxml_parse : NULL;
-    if (cells) {
-        st = cells(&r, &d, err);
-        if (st == SM_OK)
-            st = sm__msh_surface(path, &d, out, err);
-        sm__msh_data_free(&d);
-    } else if (medit_ascii_start(&r) || (binary && !sm__stl_detect(&r))) {
-        st = sm__medit_surface_read(&r, out, err);
-    } else if (sm__ply_detect(&r)) {
-        st = sm__ply_read(&r, out, err);
-    } else if (sm__stl_detect(&r)) {
-        st = sm__stl_read(&r, out, err);
-    } else if (sm__obj_detect(&r)) {
-        st = sm__obj_read(&r, out, err);
-    } else if (sm__off_detect(&r, &ply2)) {
-        st = sm__off_read(&r, out, err);
-    } else if (got >= 84 && !looks_text(head, got)) {
-        /* binary content of no other format is taken for a binary STL,
-         * whose reader says precisely what does not fit */
-        st = sm__stl_read(&r, out, err);
-    } else {
-        st = sm_error_set(err, SM_ERR_FORMAT, "%s: unknown surface format; surfaces are read "
-                          "as " SM_SURFACE_FORMATS, path);
-    }
-    sm__reader_close(&r);
-    return st;
 }

@@ -388,7 +388,7 @@ def match(template, *, target_mesh=None, target_sol=None, target_surface=None,
     to a label map (NIfTI .nii/.nii.gz, NRRD .nrrd/.nhdr, MetaImage
     .mha/.mhd) whose voxels the params label=N, level=L and
     image_space="lps"|"ras" select and place, as `shapematch run
-    --target-image` (docs/images.md).  Exactly one clamp:
+    --target-image` (docs/user-guide.md, "Targets from label maps").  Exactly one clamp:
     clamp_ball=(x, y[, z], r), clamp_elements=REFS, clamp_vertices=REFS or
     no_clamp=True (then alpha=...).  params: the params document's members
     (max_iter=200, young=..., free_boundary=[...]; shapematch.parameters()).

@@ -152,6 +152,7 @@ async function follow() {
   }
   const doc = await r.json();
   batch.doc = doc;
+  batch.firstStatus = doc.status;
   showTargets(doc);
   if (FINAL.has(doc.status)) {
     finished(id, doc);

@@ -367,8 +367,16 @@ static sm_status read_image_curve(const sm_job_files *files, sm_job_naming namin
     st = read_surface_target(&as_surface, naming, out, err);
     sm_surface_free(curve);
     out->has_surface = 0;
-    if (out->failed == SM_PART_TARGET_SURFACE)
+    if (out->failed == SM_PART_TARGET_SURFACE) {
+        /* the part is the image: "target_surface: ..." is its message */
+        size_t n = strlen(SM_PART_NAME_TARGET_SURFACE);
         out->failed = SM_PART_TARGET_IMAGE;
+        if (strncmp(err->msg, SM_PART_NAME_TARGET_SURFACE, n) == 0) {
+            char rest[SM_ERROR_MSG_LEN];
+            snprintf(rest, sizeof rest, "%s", err->msg + n);
+            sm_error_set(err, err->code, "%s%s", SM_PART_NAME_TARGET_IMAGE, rest);
+        }
+    }
     if (st == SM_OK)
         out->image.exact_vertices = out->background->nverts; /* the curve's exact distance */
     out->sdf_seconds += sm_clock_seconds() - t0 - out->sdf_seconds;

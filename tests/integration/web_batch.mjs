@@ -40,8 +40,9 @@ try {
     status === 'successful' && rows.every((s) => s === 'successful') && summary.includes(`${radii.length} of ${radii.length}`), `${status} ${rows} ${summary}`);
   const docs = asked.filter((p) => p === `/v1/batches/${id}`).length;
   const streams = asked.filter((p) => p === `/v1/batches/${id}/events`).length;
-  report('the view follows the batch by its event stream: one GET of the document, then /events (no polling)',
-    docs === 1 && streams >= 1, `document ${docs}, events ${streams}`);
+  const first = await page.evaluate(() => window.shapematchBatch.current.firstStatus);
+  report(`the view follows the batch by its event stream: one GET of the document (${first}), then /events (no polling)`,
+    docs === 1 && streams >= 1 && first !== 'successful', `document ${docs}, events ${streams}, first status ${first}`);
   const sliders = await page.$$eval('#batch-modes input[type=range]', (s) => s.map((x) => [x.min, x.max]));
   const written = await page.evaluate(() => window.shapematchBatch.current.model.modes.length);
   report('one slider per written mode (at most 5), each from -3 to +3 sigma',

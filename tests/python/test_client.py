@@ -217,6 +217,27 @@ class Daemon(unittest.TestCase):
                 open(os.path.join(local, "model", "mean.mesh"), "rb") as b:
             self.assertEqual(a.read(), b.read())
 
+    def test_a_2d_image_target_on_the_daemon_is_match(self):
+        """a 2D label map (tests/cli/image2d.py's disk, NRRD dimension 2) as
+        the target of the 2D example: the daemon's result is match()'s, on
+        the circle within half a pixel"""
+        import math
+        import subprocess
+        import sys
+        subprocess.run([sys.executable, os.path.join(base.ROOT, "tests", "cli", "image2d.py"),
+                        "write", self.tmp], check=True, capture_output=True)
+        kw = dict(target_image=os.path.join(self.tmp, "disk.nrrd"), clamp_ball=(0.5, 0.5, 0.04),
+                  max_iter=40)
+        remote = self.client.submit(base.TEMPLATE2, **kw).wait()
+        local = shapematch.match(base.TEMPLATE2, **kw)
+        self.assertEqual(remote.vertices.tolist(), local.vertices.tolist())
+        self.assertEqual(remote.summary["target_image"]["dims"], [66, 52, 1])
+        edges = base.read_medit_block(base.TEMPLATE2, "Edges", 2)
+        boundary = {a - 1 for a, b, ref in edges if ref == 1}
+        v = local.vertices.tolist()
+        worst = max(abs(math.dist(v[i], (0.5, 0.5)) - 0.32) for i in boundary)
+        self.assertLess(worst, 0.0234375 / 2)
+
     def test_invalid_job_is_a_422_with_the_detail(self):
         with self.assertRaises(shapematch.HTTPError) as e:
             self.client.submit(self.template, max_iter=0, **self.kw)

@@ -42,22 +42,24 @@ int sm__obj_detect(sm_reader *r)
     if (sm__reader_peek(r, head, sizeof head - 1, &got) != SM_OK || !got)
         return 0;
     head[got] = '\0';
-    /* '#' comments first: a file of comments alone is no OBJ, a header
-     * of comments longer than the peek may be one */
+    /* '#' comments first: a file of comments alone is no OBJ; comments
+     * (and blank lines) that run past the peek may be an OBJ's header */
     const char *p = head;
+    int comment = 0;
     for (;;) {
         while (*p && isspace((unsigned char)*p))
             p++;
         if (*p != '#')
             break;
+        comment = 1;
         const char *nl = strchr(p, '\n');
         if (!nl)
             return got == sizeof head - 1;
         p = nl + 1;
     }
+    if (!*p)
+        return comment && got == sizeof head - 1;
     size_t n = strcspn(p, " \t\r\n");
-    if (n == 0)
-        return 0;
     return (n == 1 && (*p == 'v' || *p == 'f' || *p == 'l')) || is_skipped(p, n);
 }
 

@@ -150,13 +150,6 @@ static sm_status field(sm_reader *r, const char *path, const char *key, const ch
                        sm_error *err)
 {
     int n;
-    /* the fields sized by the dimension come after it, as the format
-     * requires */
-    if (!h->dimension && (strcmp(key, "sizes") == 0 || strcmp(key, "spacings") == 0 ||
-                          (strncmp(key, "space ", 6) == 0 &&
-                           strcmp(key, "space dimension") != 0)))
-        return bad(r, path, err, "the 'dimension' field must come before the fields sized by "
-                   "it", key);
     if (strcmp(key, "dimension") == 0) {
         int64_t d;
         if (!sm__image_ints(v, 1, 16, &d, 1, &n) || n != 1 || (d != 3 && d != 2))
@@ -204,6 +197,12 @@ static sm_status field(sm_reader *r, const char *path, const char *key, const ch
     return SM_OK;
 }
 
+static int sized_by_dimension(const char *key)
+{
+    return strcmp(key, "sizes") == 0 || strcmp(key, "spacings") == 0 ||
+           (strncmp(key, "space ", 6) == 0 && strcmp(key, "space dimension") != 0);
+}
+
 static sm_status parse_header(sm_reader *r, const char *path, nrrd_hdr *h, sm_error *err)
 {
     char line[SM_IMAGE_LINE_LEN];
@@ -227,6 +226,11 @@ static sm_status parse_header(sm_reader *r, const char *path, nrrd_hdr *h, sm_er
         const char *v = colon + 2;
         while (*v == ' ')
             v++;
+        /* the fields sized by the dimension come after it, as the format
+         * requires */
+        if (!h->dimension && sized_by_dimension(line))
+            return bad(r, path, err, "the 'dimension' field must come before the fields sized "
+                       "by it", line);
         if ((st = field(r, path, line, v, h, err)) != SM_OK)
             return st;
     }

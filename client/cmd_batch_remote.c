@@ -1,8 +1,9 @@
 /* `shapematch batch --server URL`: the batch run by a daemon
  * (docs/api.md "Batches"): each target submitted as an ordinary job
  * (submit_job.h, as `shapematch submit` sends one), the jobs grouped by
- * POST /v1/batches, the batch followed to its end (GET /v1/batches/{id},
- * a line whenever its progress changes), then every target's results
+ * POST /v1/batches, the batch followed to its end (its event stream,
+ * GET /v1/batches/{id}/events: a line whenever its progress changes),
+ * then every target's results
  * fetched into DIR/targets/NAME/ (as `shapematch fetch`) and the model's
  * files into DIR/model/; DIR/batch.json is the batch's final document.
  * The targets and the run options are the local batch's; what runs
@@ -18,13 +19,12 @@
 #include "fsutil.h"
 #include "job/sm_job_batch_list.h"
 #include "remote.h"
+#include "sse.h"
 #include "sm_json.h"
 #include "sm_proto_events.h"
 #include "sm_proto_params.h"
 #include "sm_proto_vocab.h"
 #include "submit_job.h"
-
-#define POLL_SECONDS 0.5
 
 enum { RB_TEMPLATE, RB_SURFACE, RB_IMAGE, RB_MESH, RB_SOL, RB_TARGETS, RB_ALIGN, RB_OUTPUT,
        RB_FORMAT, RB_QUIET, RB_LOCAL_ONLY };
@@ -202,64 +202,143 @@ static int post_batch(http_client *c, remote_batch *b, int token_given)
     return code;
 }
 
-/* GET /v1/batches/{id}: the document into *doc (new reference). */
-static int get_batch(http_client *c, const remote_batch *b, int token_given, json_t **doc)
+/* Following the batch: GET /v1/batches/{id}/events as Server-Sent
+ * Events, a line whenever its "batch" event (status, progress, counts,
+ * eta) changes, until the last "status" event carries the final batch
+ * document.  A stream that ends or breaks off before it is resumed from
+ * the last "batch" event's id (Last-Event-ID), a few times in a row at
+ * most without news. */
+#define BATCH_STREAM_RETRIES 5
+#define BATCH_EVENT_MAX ((size_t)8 << 20) /* a status event: the whole document */
+
+typedef struct batch_follow {
+    const remote_batch *b;
+    sse_parser sse;
+    char last[160];       /* the progress line shown last */
+    long long seq;        /* the last "batch" event's id */
+    json_t *final;        /* the "status" event: the batch document */
+    int news;             /* events on this connection */
+    char error[200];
+} batch_follow;
+
+static void show_progress(batch_follow *f, const json_t *doc)
 {
-    char path[96];
-    snprintf(path, sizeof path, "/v1/batches/%s", b->batch_id);
-    http_request rq = {.path = path, .accept = "application/json", .gzip = 1};
-    http_response rs;
-    http_outcome out = http_perform(c, &rq, &rs);
-    int code = 0;
-    *doc = NULL;
-    if (out != HTTP_DONE || rs.status != 200)
-        code = remote_report("batch", c, token_given, out, &rs, "following the batch");
-    else if (!(*doc = remote_json_object(&rs)))
-        code = CLI_EXIT_SERVER;
-    http_response_free(&rs);
-    return code;
+    const char *status = json_string_value(json_object_get(doc, "status"));
+    json_t *counts = json_object_get(doc, "counts"), *eta = json_object_get(doc, "eta");
+    char line[160];
+    snprintf(line, sizeof line, "%s, %d%%: %d of %d targets ended, %d running",
+             status ? status : "?", (int)json_integer_value(json_object_get(doc, "progress")),
+             (int)(json_integer_value(json_object_get(counts, "successful")) +
+                   json_integer_value(json_object_get(counts, "failed")) +
+                   json_integer_value(json_object_get(counts, "dismissed"))),
+             (int)json_integer_value(json_object_get(counts, "total")),
+             (int)json_integer_value(json_object_get(counts, "running")));
+    if (f->b->quiet || strcmp(line, f->last) == 0)
+        return;
+    fprintf(stderr, "shapematch batch: %s", line);
+    if (json_is_number(eta) && json_number_value(eta) > 0)
+        fprintf(stderr, ", about %.0f s left", json_number_value(eta));
+    fprintf(stderr, "\n");
+    snprintf(f->last, sizeof f->last, "%s", line);
 }
 
-static int is_final(const char *status)
+static int on_batch_event(void *user, const sse_event *e)
 {
-    return !strcmp(status, "successful") || !strcmp(status, "failed") ||
-           !strcmp(status, "dismissed");
+    batch_follow *f = user;
+    json_error_t je;
+    json_t *ev = json_loadb(e->data, e->data_len, 0, &je);
+    if (!json_is_object(ev)) {
+        json_decref(ev);
+        snprintf(f->error, sizeof f->error, "a '%.40s' event is not a JSON object (%.100s)",
+                 e->type, je.text);
+        return -1;
+    }
+    f->news++;
+    if (e->has_id) {
+        char *end;
+        long long seq = strtoll(e->id, &end, 10);
+        if (*end || seq < 0) {
+            json_decref(ev);
+            snprintf(f->error, sizeof f->error, "event id '%.40s' is not a version", e->id);
+            return -1;
+        }
+        f->seq = seq;
+    }
+    if (strcmp(e->type, "batch") == 0) {
+        show_progress(f, ev);
+    } else if (strcmp(e->type, "status") == 0) {
+        const char *status = json_string_value(json_object_get(ev, "status"));
+        if (!status || !json_is_array(json_object_get(ev, "targets"))) {
+            json_decref(ev);
+            snprintf(f->error, sizeof f->error, "the final status event has no batch document");
+            return -1;
+        }
+        show_progress(f, ev);
+        f->final = ev;
+        return 1; /* the daemon closes the stream after it */
+    }
+    json_decref(ev); /* "target": one target's entry, not shown */
+    return 0;
 }
 
-/* Polls the batch to its end, a line whenever its progress changes; the
- * final document into *final. */
+static int on_batch_data(void *user, const char *data, size_t len)
+{
+    batch_follow *f = user;
+    return sse_feed(&f->sse, data, len) == 0 ? 0 : 1;
+}
+
+/* The batch followed to its end; the final document into *final. */
 static int follow(http_client *c, const remote_batch *b, int token_given, json_t **final)
 {
-    char last[160] = "";
+    batch_follow f;
+    memset(&f, 0, sizeof f);
+    f.b = b;
+    sse_init(&f.sse, BATCH_EVENT_MAX, on_batch_event, &f);
+    char path[128], last_header[64];
+    snprintf(path, sizeof path, "/v1/batches/%s/events", b->batch_id);
+    int code = 0, quiet_tries = 0;
     for (;;) {
-        json_t *doc;
-        int code = get_batch(c, b, token_given, &doc);
-        if (code != 0)
-            return code;
-        const char *status = json_string_value(json_object_get(doc, "status"));
-        json_t *counts = json_object_get(doc, "counts"), *eta = json_object_get(doc, "eta");
-        char line[160];
-        snprintf(line, sizeof line, "%s, %d%%: %d of %d targets ended, %d running",
-                 status ? status : "?", (int)json_integer_value(json_object_get(doc, "progress")),
-                 (int)(json_integer_value(json_object_get(counts, "successful")) +
-                       json_integer_value(json_object_get(counts, "failed")) +
-                       json_integer_value(json_object_get(counts, "dismissed"))),
-                 (int)json_integer_value(json_object_get(counts, "total")),
-                 (int)json_integer_value(json_object_get(counts, "running")));
-        if (!b->quiet && strcmp(line, last) != 0) {
-            fprintf(stderr, "shapematch batch: %s", line);
-            if (json_is_number(eta) && json_number_value(eta) > 0)
-                fprintf(stderr, ", about %.0f s left", json_number_value(eta));
-            fprintf(stderr, "\n");
-            snprintf(last, sizeof last, "%s", line);
+        http_request rq = {.path = path, .accept = "text/event-stream", .stream = 1,
+                           .sink = on_batch_data, .sink_user = &f};
+        if (f.seq > 0) {
+            snprintf(last_header, sizeof last_header, "Last-Event-ID: %lld", f.seq);
+            rq.headers[0] = last_header;
         }
-        if (!status || is_final(status)) {
-            *final = doc;
-            return status ? 0 : CLI_EXIT_SERVER;
+        sse_restart(&f.sse);
+        f.news = 0;
+        http_response rs;
+        http_outcome out = http_perform(c, &rq, &rs);
+        if (f.final) {
+            http_response_free(&rs);
+            *final = f.final;
+            break;
         }
-        json_decref(doc);
-        sleep_seconds(POLL_SECONDS);
+        if (f.error[0] || (f.sse.error[0] && !f.sse.stopped)) {
+            fprintf(stderr, "shapematch batch: error: bad event stream from %s: %s\n", c->base,
+                    f.error[0] ? f.error : f.sse.error);
+            http_response_free(&rs);
+            code = CLI_EXIT_SERVER;
+            break;
+        }
+        /* a stream that ended or broke off before the end: resumed */
+        if (!(out == HTTP_DONE && rs.status == 200) && out != HTTP_DROPPED) {
+            code = remote_report("batch", c, token_given, out, &rs, "following the batch");
+            http_response_free(&rs);
+            break;
+        }
+        http_response_free(&rs);
+        quiet_tries = f.news ? 0 : quiet_tries + 1;
+        if (quiet_tries > BATCH_STREAM_RETRIES) {
+            fprintf(stderr, "shapematch batch: error: the batch's event stream at %s ended %d "
+                            "times in a row without news; 'shapematch status %s' shows the "
+                            "batch\n", c->base, quiet_tries, b->batch_id);
+            code = CLI_EXIT_CONNECT;
+            break;
+        }
+        sleep_seconds(0.25 * quiet_tries);
     }
+    sse_free(&f.sse);
+    return code;
 }
 
 /* Every successful target's results, the model's files, batch.json. */

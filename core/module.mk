@@ -3,8 +3,8 @@
 #   core/      the model (mesh, surface, parameters, clamp, errors, memory),
 #              the target field, the surface distance, elasticity, the
 #              functional and the descent, the pre-alignment
-#   core/io/   every file format and the streams under them (sm_io.c and
-#              sm_io_surface.c dispatch by content)
+#   core/io/   every file format and the streams under them (sm_io.c: the
+#              format table, the dispatch by content)
 # Core files include their own folder's private headers by path from core/
 # ("sm_alloc.h", "io/sm_reader.h"); programs see core/include only.
 CORE_BASE_SRCS := core/sm_alloc.c core/sm_atomic.c core/sm_clamp.c core/sm_clock.c \
@@ -14,18 +14,18 @@ CORE_FIELD_SRCS := core/sm_field.c core/sm_field_adjacency.c core/sm_field_grid.
   core/sm_field_locate.c core/sm_field_nearest.c core/sm_warp.c
 CORE_SDF_SRCS := core/sm_background.c core/sm_bvh.c core/sm_sdf.c core/sm_surface_repair.c \
   core/sm_surface_orient.c core/sm_winding.c core/sm_image.c core/sm_edt.c \
-  core/sm_image_sdf.c
+  core/sm_image_sdf.c core/sm_image_contour.c
 CORE_SOLVE_SRCS := core/sm_elasticity.c core/sm_elasticity_pattern.c core/sm_element.c \
   core/sm_solver_amg.c core/sm_shape.c core/sm_match.c
 CORE_ALIGN_SRCS := core/sm_align.c core/sm_align_points.c core/sm_align_landmarks.c \
   core/sm_align_linalg.c \
   core/sm_shape_model.c
-CORE_IO_SRCS := core/io/sm_io.c core/io/sm_io_surface.c \
+CORE_IO_SRCS := core/io/sm_io.c core/io/sm_surface_build.c \
   core/io/sm_io_medit.c core/io/sm_io_medit_write.c core/io/sm_medit_common.c \
   core/io/sm_io_msh.c core/io/sm_io_sol.c core/io/sm_io_stl.c core/io/sm_io_obj.c \
   core/io/sm_io_vtu.c core/io/sm_io_surface_write.c \
   core/io/sm_io_cells.c core/io/sm_io_ply.c core/io/sm_io_off.c core/io/sm_io_vtk.c core/io/sm_io_vtkxml.c \
-  core/io/sm_image_io.c core/io/sm_image_write.c core/io/sm_image_text.c core/io/sm_io_nifti.c core/io/sm_io_nrrd.c \
+  core/io/sm_image_build.c core/io/sm_image_write.c core/io/sm_image_text.c core/io/sm_io_nifti.c core/io/sm_io_nrrd.c \
   core/io/sm_io_mha.c \
   core/io/sm_reader.c core/io/sm_writer.c core/io/sm_stream.c core/io/sm_inflate.c \
   core/io/sm_number.c

@@ -109,7 +109,9 @@ sm_status sm_image_mask(const sm_image *im, const sm_image_select *sel, uint8_t 
             if (at[c][1] > stats->index_hi[c])
                 stats->index_hi[c] = at[c][1];
         }
-        if (first == 0 || last == n[0] - 1 || j == 0 || j == n[1] - 1 || k == 0 || k == n[2] - 1)
+        /* a 2D image's one slice is no border */
+        if (first == 0 || last == n[0] - 1 || j == 0 || j == n[1] - 1 ||
+            (n[2] > 1 && (k == 0 || k == n[2] - 1)))
             stats->touches_border = 1;
         for (int end = 0; end < 2; end++) {
             double ijk[3] = {(double)(end ? last : first), (double)j, (double)k};

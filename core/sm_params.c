@@ -68,8 +68,8 @@ static const sm_param_info table[] = {
      * by less than the background's resolution).  Measured with 500
      * iterations as the reference, "needed" = first iteration within 10%
      * of the best error of those 500: 2D example needs 163, stops at 210;
-     * 3D example needs 266, stops at 281 (README.md, "Stop rules", has the
-     * Gmsh cases).  Shorter windows or larger fractions stop too early on
+     * 3D example needs 266, stops at 281 (docs/user-guide.md, "Stop rules",
+     * has the Gmsh cases).  Shorter windows or larger fractions stop too early on
      * the 3D case's plateaus (K 10 / 2%: 109 < 266). */
     {"tol_stall", REAL(tol_stall), RANGE(0, CLOSED, 1, OPEN), 0.01, NULL, 0, "--tol-stall", "F",
      "stop (stalled) when the best boundary error improved by < F over the stall window "

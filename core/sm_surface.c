@@ -1,5 +1,5 @@
 /* Target surfaces, the model: allocation and measures.  Reading them is
- * core/io/sm_io_surface.c (the dispatch by content) and the format
+ * core/io/sm_io.c (the dispatch by content) and the format
  * readers beside it. */
 #include "shapematch/sm_surface.h"
 

@@ -23,7 +23,7 @@
  * "converged": false.  "status" is the last event of a stream: the job's final OGC
  * status (accepted|running|successful|failed|dismissed); the daemon may
  * add further statusInfo members to it.  "warning" is one of the run's
- * warnings (proto/sm_job_warnings.h) as the job runner raises it, before
+ * warnings (proto/job/sm_job_warnings.h) as the job runner raises it, before
  * "finished" (which still lists them all in its message); code, message
  * and figure are required.  "message" is allowed on every event
  * (required on "failed" and "warning").

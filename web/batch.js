@@ -1,7 +1,7 @@
 // The batch view of the web app (docs/api.md "Batches"): open a batch by
 // id (or #batch=ID in the address), follow its targets' status and the
-// whole batch's progress and ETA (GET /v1/batches/{id}, polled each
-// second until the batch is final), then show its shape model: the mean
+// whole batch's progress and ETA (GET /v1/batches/{id}, then its event
+// stream until the batch is final), then show its shape model: the mean
 // shape (view.js: the 2D canvas or the three.js view) with one slider
 // per mode, from -3 to +3 standard deviations (shape = mean + sum of t_k
 // times mode_K.sol, which holds one standard deviation of mode K), and
@@ -15,10 +15,12 @@ import { parseMeditAscii } from './target.js';
 const $ = (id) => document.getElementById(id);
 const token = () => $('token').value.trim();
 const authHeaders = () => (token() ? { Authorization: `Bearer ${token()}` } : {});
+// EventSource sends no header: the token as the access_token parameter
+const withToken = (path) => (token() ? `${path}${path.includes('?') ? '&' : '?'}access_token=${encodeURIComponent(token())}` : path);
 const SLIDERS = 5; // the first modes get a slider
 const FINAL = new Set(['successful', 'failed', 'dismissed']);
 
-let batch = null; // {id, timer, doc, model: {mean, modes, view, t}, plot}
+let batch = null; // {id, es, doc, model: {mean, modes, view, t}, plot}
 // for the browser tests
 window.shapematchBatch = { get current() { return batch; } };
 
@@ -135,7 +137,12 @@ async function loadModel(id) {
   $('batch-model').hidden = false;
 }
 
-async function poll() {
+// The first document (GET /v1/batches/{id}: its targets and their order),
+// then the batch's event stream: "target" events update one row, "batch"
+// events the whole batch's progress, the last "status" event carries the
+// final document (the stream then closes). EventSource resumes a broken
+// stream by itself, with the last "batch" event's id.
+async function follow() {
   const id = batch.id;
   const r = await fetch(`v1/batches/${id}`, { headers: authHeaders() });
   if (batch.id !== id) return;
@@ -145,22 +152,57 @@ async function poll() {
   }
   const doc = await r.json();
   batch.doc = doc;
+  batch.firstStatus = doc.status;
   showTargets(doc);
-  if (!FINAL.has(doc.status)) {
-    batch.timer = setTimeout(poll, 1000);
-  } else if (doc.status === 'successful') {
+  if (FINAL.has(doc.status)) {
+    finished(id, doc);
+    return;
+  }
+  const es = new EventSource(withToken(`v1/batches/${id}/events`));
+  batch.es = es;
+  const data = (e) => JSON.parse(e.data);
+  es.addEventListener('target', (e) => {
+    const t = data(e);
+    const k = batch.doc.targets.findIndex((x) => x.jobID === t.jobID);
+    if (k >= 0) {
+      const { type, batchID, ...entry } = t; // eslint-disable-line no-unused-vars
+      batch.doc.targets[k] = entry;
+    }
+  });
+  es.addEventListener('batch', (e) => {
+    const { status, progress, counts, eta } = data(e);
+    Object.assign(batch.doc, { status, progress, counts, eta });
+    showTargets(batch.doc);
+  });
+  es.addEventListener('status', (e) => {
+    es.close();
+    if (batch.id !== id) return;
+    const { type, ...final } = data(e); // eslint-disable-line no-unused-vars
+    batch.doc = final;
+    showTargets(final);
+    finished(id, final);
+  });
+  es.onerror = () => {
+    if (es.readyState === EventSource.CLOSED && batch.id === id && !FINAL.has(batch.doc.status)) {
+      $('batch-error').textContent = 'the batch\'s event stream was refused or lost; open the batch again';
+    }
+  };
+}
+
+async function finished(id, doc) {
+  if (doc.status === 'successful') {
     await loadModel(id).catch((e) => { $('batch-error').textContent = String(e.message || e); });
   }
 }
 
 export function openBatch(id) {
-  if (batch) clearTimeout(batch.timer);
-  batch = { id, timer: null, doc: null, model: null, plot: null };
+  if (batch && batch.es) batch.es.close();
+  batch = { id, es: null, doc: null, model: null, plot: null };
   $('batch-panel').hidden = false;
   $('batch-id').textContent = id;
   $('batch-error').textContent = '';
   $('batch-model').hidden = true;
-  poll();
+  follow();
 }
 
 function fromHash() {

@@ -1,6 +1,6 @@
 /* The image readers behind sm_image_read (internal, not part of the
- * public API): sm_image_io.c dispatches by content and holds what the
- * three formats share — the checked allocation, the voxel bytes read raw
+ * public API), rows of the format table in sm_io.c (the dispatch by
+ * content); sm_image_build.c holds what the three formats share — the checked allocation, the voxel bytes read raw
  * or inflated (zlib or gzip stream inside the file), byte swapping, the
  * detached data file, the geometry check; sm_io_nifti.c, sm_io_nrrd.c
  * and sm_io_mha.c parse their headers.  NRRD and MetaImage share the

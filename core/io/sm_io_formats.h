@@ -1,10 +1,10 @@
-/* The format readers behind the two dispatchers by content (internal,
- * not part of the public API): sm_io.c reads meshes (Gmsh .msh or Medit),
- * sm_io_surface.c reads surfaces (Gmsh, Medit, STL, OBJ).  Each reader
- * takes a reader the dispatcher opened, positioned at the start of the
- * file (sm_reader.h: bounded reads, gzip, positions in messages; only
- * peeked at so far), and fills a new mesh or surface; the dispatcher
- * closes the reader.  Gmsh has its own header (sm_io_msh.h). */
+/* The mesh and surface readers (internal, not part of the public API),
+ * each a row of the format table in sm_io.c, which detects the format
+ * by content, opens the reader (sm_reader.h: bounded reads, gzip,
+ * positions in messages; only peeked at so far) and closes it; a reader
+ * fills a new mesh, a new surface, or the simplices of an sm_msh_data.
+ * What several surface readers share is sm_surface_build.c's; Gmsh has
+ * its own header (sm_io_msh.h), the image readers sm_image_formats.h. */
 #ifndef SM_IO_FORMATS_H
 #define SM_IO_FORMATS_H
 
@@ -45,13 +45,14 @@ sm_status sm__vtk_parse(sm_reader *r, sm_msh_data *d, sm_error *err);
 int sm__vtkxml_detect(sm_reader *r);
 sm_status sm__vtkxml_parse(sm_reader *r, sm_msh_data *d, sm_error *err);
 
-/* The surface of a .msh (or VTK) file's simplices: triangles in 3D, or
- * lines when all z = 0 (sm_io_surface.c). */
+/* The surface of a .msh (or VTK, PLY) file's simplices: triangles in 3D,
+ * or lines when all z = 0 (sm_surface_build.c); otherwise an error naming
+ * what the file holds. */
 sm_status sm__msh_surface(const char *path, const sm_msh_data *d, sm_surface **out,
                           sm_error *err);
 
 /* Merges vertices with exactly equal coordinates (STL repeats them per
- * facet; sm_io_surface.c); the merged vertices keep the order of their
+ * facet; sm_surface_build.c); the merged vertices keep the order of their
  * first appearance and facets are renumbered. */
 sm_status sm__surface_weld(sm_surface *s, sm_error *err);
 

@@ -1,6 +1,6 @@
 /* Medit meshes: .mesh (ASCII) and .meshb (libMeshb binary, versions 1-4),
  * plain or gzip; reading (sm_io_medit_write.c has the writer), as a
- * volume mesh (sm_io.c) or as a surface (sm_io_surface.c), from a
+ * volume mesh or as a surface (sm_io.c's format table), from a
  * reader the dispatcher opened.  The reader collects the sections it needs (Dimension,
  * Vertices, Edges, Triangles, Tetrahedra) into temporary arrays, since
  * whether Triangles are elements or facets is only known at the end
@@ -31,7 +31,7 @@ typedef struct idx_block {
 } idx_block;
 
 typedef struct medit_in {
-    sm_reader *r;        /* opened by the dispatcher (sm_io.c, sm_io_surface.c) */
+    sm_reader *r;        /* opened by the dispatcher (sm_io.c) */
     sm_error *err;
     int binary;
     sm_meshb_layout lay;

@@ -1,7 +1,8 @@
 /* MetaImage (ITK's MetaIO): "Key = Value" lines, ElementDataFile last;
  * its value LOCAL means the data follows in the same file (.mha), a name
- * a data file beside the header (.mhd + .raw/.zraw).  Read: NDims 3,
- * DimSize, ElementType MET_(U)CHAR/(U)SHORT/(U)INT/(U)LONG (32-bit)/
+ * a data file beside the header (.mhd + .raw/.zraw).  Read: NDims 3, or
+ * 2 (a 2D image: one slice along a unit z axis; its DimSize,
+ * ElementSpacing, Offset have two values, TransformMatrix four), DimSize, ElementType MET_(U)CHAR/(U)SHORT/(U)INT/(U)LONG (32-bit)/
  * FLOAT/DOUBLE, ElementNumberOfChannels 1, BinaryData True,
  * BinaryDataByteOrderMSB (ElementByteOrderMSB), CompressedData (zlib),
  * HeaderSize (-1: data at the end), ElementSpacing, Offset (Position,
@@ -94,17 +95,60 @@ static sm_status reals3(sm_reader *r, const char *path, const char *v, double *o
     return SM_OK;
 }
 
+/* The keys whose counts NDims gives (2 or 3 values, 4 or 9 for the
+ * matrix), after NDims (MetaIO writes it first).  *done 0: not one of
+ * them. */
+static sm_status sized_field(sm_reader *r, const char *path, const char *key, const char *v,
+                             mha_hdr *h, int *done, sm_error *err)
+{
+    int n, nd = (int)h->ndims;
+    *done = 1;
+    if (key_is(key, "DimSize", NULL, NULL)) {
+        if (nd && (!sm__image_ints(v, 1, SM_IMAGE_MAX_DIM, h->dims, nd, &n) || n != nd))
+            return bad(r, path, err, nd == 3 ? "DimSize: three sizes in [1, 2^20] expected"
+                                             : "DimSize: two sizes in [1, 2^20] expected (NDims 2)", v);
+        h->have_dims = 1;
+    } else if (key_is(key, "ElementSpacing", NULL, NULL)) {
+        if (nd)
+            return reals3(r, path, v, h->spacing, nd, nd == 3 ? "ElementSpacing: three finite "
+                          "numbers expected" : "ElementSpacing: two finite numbers expected "
+                          "(NDims 2)", err);
+    } else if (key_is(key, "Offset", "Position", "Origin")) {
+        if (nd)
+            return reals3(r, path, v, h->offset, nd, nd == 3 ? "Offset: three finite numbers "
+                          "expected" : "Offset: two finite numbers expected (NDims 2)", err);
+    } else if (key_is(key, "TransformMatrix", "Rotation", "Orientation")) {
+        if (nd == 3)
+            return reals3(r, path, v, h->tm, 9, "TransformMatrix: nine finite numbers expected",
+                          err);
+        if (nd == 2) { /* the 2 x 2 matrix into the upper left of the 3 x 3 */
+            double t[4];
+            sm_status st = reals3(r, path, v, t, 4, "TransformMatrix: four finite numbers "
+                                  "expected (NDims 2)", err);
+            h->tm[0] = t[0], h->tm[1] = t[1], h->tm[3] = t[2], h->tm[4] = t[3];
+            return st;
+        }
+    } else {
+        *done = 0;
+        return SM_OK;
+    }
+    if (!nd)
+        return bad(r, path, err, "NDims must come before the keys sized by it (DimSize, "
+                   "ElementSpacing, Offset, TransformMatrix)", key);
+    return SM_OK;
+}
+
 static sm_status field(sm_reader *r, const char *path, const char *key, const char *v, mha_hdr *h,
                        sm_error *err)
 {
-    int n, b;
+    int n, b, done;
+    sm_status st = sized_field(r, path, key, v, h, &done, err);
+    if (done)
+        return st;
     if (key_is(key, "NDims", NULL, NULL)) {
-        if (!sm__image_ints(v, 1, 16, &h->ndims, 1, &n) || n != 1 || h->ndims != 3)
-            return bad(r, path, err, "NDims 3 is read", v);
-    } else if (key_is(key, "DimSize", NULL, NULL)) {
-        if (!sm__image_ints(v, 1, SM_IMAGE_MAX_DIM, h->dims, 3, &n) || n != 3)
-            return bad(r, path, err, "DimSize: three sizes in [1, 2^20] expected", v);
-        h->have_dims = 1;
+        if (!sm__image_ints(v, 1, 16, &h->ndims, 1, &n) || n != 1 ||
+            (h->ndims != 2 && h->ndims != 3))
+            return bad(r, path, err, "NDims 2 or 3 is read", v);
     } else if (key_is(key, "ElementType", NULL, NULL)) {
         for (size_t k = 0; k < sizeof mha_types / sizeof *mha_types; k++)
             if (strcmp(v, mha_types[k].name) == 0)
@@ -128,13 +172,6 @@ static sm_status field(sm_reader *r, const char *path, const char *key, const ch
     } else if (key_is(key, "HeaderSize", NULL, NULL)) {
         if (!sm__image_ints(v, -1, INT64_MAX / 2, &h->header_size, 1, &n) || n != 1)
             return bad(r, path, err, "HeaderSize: an integer >= -1 expected", v);
-    } else if (key_is(key, "ElementSpacing", NULL, NULL)) {
-        return reals3(r, path, v, h->spacing, 3, "ElementSpacing: three finite numbers expected",
-                      err);
-    } else if (key_is(key, "Offset", "Position", "Origin")) {
-        return reals3(r, path, v, h->offset, 3, "Offset: three finite numbers expected", err);
-    } else if (key_is(key, "TransformMatrix", "Rotation", "Orientation")) {
-        return reals3(r, path, v, h->tm, 9, "TransformMatrix: nine finite numbers expected", err);
     } else if (key_is(key, "ObjectType", NULL, NULL)) {
         if (strcasecmp(v, "Image") != 0)
             return bad(r, path, err, "ObjectType Image expected", v);
@@ -201,6 +238,8 @@ sm_status sm__mha_read(sm_reader *r, const sm_image_src *src, sm_image **out, sm
     }
     sm_image *im = NULL;
     sm_status st = parse_header(r, src->path, h, err);
+    if (st == SM_OK && h->ndims == 2)
+        h->dims[2] = 1; /* a 2D image: one slice, its axis the unit z */
     if (st == SM_OK)
         st = sm__image_new(src, "DimSize", h->dims, h->type, &im, err);
     if (st == SM_OK) {

@@ -1,7 +1,10 @@
 /* NRRD (teem's "nearly raw raster data"): "NRRD000N" then "field: value"
  * lines ('#' comments, "key:=value" pairs skipped) up to a blank line;
  * the data follows (.nrrd) or is in the file "data file" names (.nhdr).
- * Read: dimension 3, the scalar types, encodings raw and gzip (gz),
+ * Read: dimension 3, or 2 (a 2D image: one slice along a unit z axis;
+ * its sizes, spacings and space directions have two entries, and its
+ * vectors two components when `space dimension` is 2, as ITK writes
+ * them), the scalar types, encodings raw and gzip (gz),
  * endian, byte skip (-1: data at the end), space, space directions,
  * space origin, spacings; other fields are ignored (they describe, not
  * place, the samples).  The world is the frame `space` names (LPS, RAS,
@@ -28,6 +31,7 @@ int sm__nrrd_detect(sm_reader *r)
 
 typedef struct nrrd_hdr {
     int dimension;
+    int sdim;         /* space dimension: 3, or 2 given (2D images) */
     int64_t sizes[3];
     sm_voxel_type type;
     int gzip, big, have_sizes, have_dirs, have_origin, have_spacings;
@@ -72,10 +76,11 @@ static sm_status bad(sm_reader *r, const char *path, sm_error *err, const char *
     return sm_error_set(err, SM_ERR_FORMAT, "%s:%ld: %s, found %s", path, r->token_line, what, q);
 }
 
-/* Space directions: three vectors "(x,y,z)". */
-static int parse_dirs(const char *v, double dirs[9])
+/* Space directions: naxes vectors "(x,y[,z])" of ncomp components into
+ * the rows of dirs (3 per axis, missing components 0). */
+static int parse_dirs(const char *v, double dirs[9], int naxes, int ncomp)
 {
-    for (int a = 0; a < 3; a++) {
+    for (int a = 0; a < naxes; a++) {
         while (*v == ' ' || *v == '\t')
             v++;
         if (*v != '(')
@@ -90,7 +95,7 @@ static int parse_dirs(const char *v, double dirs[9])
         memcpy(vec, v, len);
         vec[len] = '\0';
         int n;
-        if (!sm__image_reals(vec, dirs + 3 * a, 3, &n) || n != 3)
+        if (!sm__image_reals(vec, dirs + 3 * a, ncomp, &n) || n != ncomp)
             return 0;
         v = close + 1;
     }
@@ -114,19 +119,28 @@ static sm_status space_field(sm_reader *r, const char *path, const char *key, co
         memcpy(h->flip, nrrd_spaces[k].flip, sizeof h->flip);
     } else if (strcmp(key, "space dimension") == 0) {
         int64_t d;
-        if (!sm__image_ints(v, 1, 16, &d, 1, &n) || n != 1 || d != 3)
-            return bad(r, path, err, "space dimension 3 is read", v);
+        if (!sm__image_ints(v, 1, 16, &d, 1, &n) || n != 1 || (d != 3 && d != 2) ||
+            (d == 2 && h->dimension == 3))
+            return bad(r, path, err, "space dimension 3 (or 2 for a 2D image) is read", v);
+        h->sdim = (int)d;
     } else if (strcmp(key, "space directions") == 0) {
-        if (!parse_dirs(v, h->dirs))
-            return bad(r, path, err, "space directions: three finite vectors (x,y,z) expected", v);
+        int sd = h->sdim ? h->sdim : 3;
+        if (!parse_dirs(v, h->dirs, h->dimension, sd))
+            return bad(r, path, err, h->dimension == 3 ? "space directions: three finite vectors "
+                       "(x,y,z) expected" : sd == 3 ? "space directions: two finite vectors "
+                       "(x,y,z) expected (dimension 2)" : "space directions: two finite vectors "
+                       "(x,y) expected (dimension 2)", v);
         h->have_dirs = 1;
     } else if (strcmp(key, "space origin") == 0) {
-        if (!sm__image_reals(v, h->origin, 3, &n) || n != 3 || !strchr(v, '('))
-            return bad(r, path, err, "space origin: a finite vector (x,y,z) expected", v);
+        int sd = h->sdim ? h->sdim : 3;
+        if (!sm__image_reals(v, h->origin, sd, &n) || n != sd || !strchr(v, '('))
+            return bad(r, path, err, sd == 3 ? "space origin: a finite vector (x,y,z) expected"
+                       : "space origin: a finite vector (x,y) expected (space dimension 2)", v);
         h->have_origin = 1;
     } else if (strcmp(key, "spacings") == 0) {
-        if (!sm__image_reals(v, h->spacings, 3, &n) || n != 3)
-            return bad(r, path, err, "spacings: three finite numbers expected", v);
+        if (!sm__image_reals(v, h->spacings, h->dimension, &n) || n != h->dimension)
+            return bad(r, path, err, h->dimension == 3 ? "spacings: three finite numbers expected"
+                       : "spacings: two finite numbers expected (dimension 2)", v);
         h->have_spacings = 1;
     }
     return SM_OK;
@@ -138,9 +152,9 @@ static sm_status field(sm_reader *r, const char *path, const char *key, const ch
     int n;
     if (strcmp(key, "dimension") == 0) {
         int64_t d;
-        if (!sm__image_ints(v, 1, 16, &d, 1, &n) || n != 1 || d != 3)
-            return bad(r, path, err, "dimension 3 is read", v);
-        h->dimension = 3;
+        if (!sm__image_ints(v, 1, 16, &d, 1, &n) || n != 1 || (d != 3 && d != 2))
+            return bad(r, path, err, "dimension 2 or 3 is read", v);
+        h->dimension = (int)d;
     } else if (strcmp(key, "type") == 0) {
         for (size_t k = 0; k < sizeof nrrd_types / sizeof *nrrd_types; k++)
             if (strcmp(v, nrrd_types[k].name) == 0)
@@ -149,8 +163,10 @@ static sm_status field(sm_reader *r, const char *path, const char *key, const ch
             return bad(r, path, err, "unknown or unsupported type (8/16/32-bit integers, float, "
                        "double)", v);
     } else if (strcmp(key, "sizes") == 0) {
-        if (!sm__image_ints(v, 1, SM_IMAGE_MAX_DIM, h->sizes, 3, &n) || n != 3)
-            return bad(r, path, err, "sizes: three sizes in [1, 2^20] expected", v);
+        if (!sm__image_ints(v, 1, SM_IMAGE_MAX_DIM, h->sizes, h->dimension, &n) ||
+            n != h->dimension)
+            return bad(r, path, err, h->dimension == 3 ? "sizes: three sizes in [1, 2^20] expected"
+                       : "sizes: two sizes in [1, 2^20] expected (dimension 2)", v);
         h->have_sizes = 1;
     } else if (strcmp(key, "encoding") == 0) {
         if (strcmp(v, "raw") == 0)
@@ -181,6 +197,12 @@ static sm_status field(sm_reader *r, const char *path, const char *key, const ch
     return SM_OK;
 }
 
+static int sized_by_dimension(const char *key)
+{
+    return strcmp(key, "sizes") == 0 || strcmp(key, "spacings") == 0 ||
+           (strncmp(key, "space ", 6) == 0 && strcmp(key, "space dimension") != 0);
+}
+
 static sm_status parse_header(sm_reader *r, const char *path, nrrd_hdr *h, sm_error *err)
 {
     char line[SM_IMAGE_LINE_LEN];
@@ -204,6 +226,11 @@ static sm_status parse_header(sm_reader *r, const char *path, nrrd_hdr *h, sm_er
         const char *v = colon + 2;
         while (*v == ' ')
             v++;
+        /* the fields sized by the dimension come after it, as the format
+         * requires */
+        if (!h->dimension && sized_by_dimension(line))
+            return bad(r, path, err, "the 'dimension' field must come before the fields sized "
+                       "by it", line);
         if ((st = field(r, path, line, v, h, err)) != SM_OK)
             return st;
     }
@@ -237,6 +264,12 @@ sm_status sm__nrrd_read(sm_reader *r, const sm_image_src *src, sm_image **out, s
     h->flip[0] = h->flip[1] = h->flip[2] = 1;
     sm_image *im = NULL;
     sm_status st = parse_header(r, src->path, h, err);
+    if (st == SM_OK && h->dimension == 2) {
+        /* a 2D image: one slice along the unit z axis */
+        h->sizes[2] = 1;
+        h->dirs[8] = 1;
+        h->spacings[2] = 1;
+    }
     if (st == SM_OK)
         st = sm__image_new(src, "sizes", h->sizes, h->type, &im, err);
     if (st == SM_OK) {

@@ -1,8 +1,12 @@
 /* Wavefront OBJ surfaces: "v x y z [w]" and "f a b c ..." (a vertex
  * reference is "i", "i/t", "i//n" or "i/t/n"; i < 0 counts back from the
  * last vertex read; a polygon is fan-triangulated from its first vertex).
- * vt, vn, vp, o, g, s, l, p, usemtl, mtllib and '#' comments are skipped;
- * any other statement is an error (it is probably not an OBJ file).
+ * A file without faces whose "l a b c ..." polylines lie in the plane
+ * z = 0 is a 2D curve: its segments are the surface (Inkscape's and
+ * Blender's curve export, a 2D outline); with faces the lines are
+ * dropped.  vt, vn, vp, o, g, s, p, usemtl, mtllib and '#' comments are
+ * skipped; any other statement is an error (it is probably not an OBJ
+ * file).
  * Vertices with equal coordinates are merged (sm__surface_weld), as for
  * STL.  The format is line-based, so this reader reads lines (at most
  * OBJ_LINE_MAX bytes each) rather than the shared tokens. */
@@ -19,7 +23,7 @@
 
 #define OBJ_LINE_MAX 65536
 
-static const char *const skipped[] = {"vt", "vn", "vp", "o", "g", "s", "l", "p",
+static const char *const skipped[] = {"vt", "vn", "vp", "o", "g", "s", "p",
                                       "usemtl", "mtllib", "cstype", "deg", "curv",
                                       "surf", "parm", "end", "mg", "lod"};
 
@@ -38,13 +42,25 @@ int sm__obj_detect(sm_reader *r)
     if (sm__reader_peek(r, head, sizeof head - 1, &got) != SM_OK || !got)
         return 0;
     head[got] = '\0';
+    /* '#' comments first: a file of comments alone is no OBJ; comments
+     * (and blank lines) that run past the peek may be an OBJ's header */
     const char *p = head;
-    while (*p && isspace((unsigned char)*p))
-        p++;
-    if (*p == '#')
-        return 1;
+    int comment = 0;
+    for (;;) {
+        while (*p && isspace((unsigned char)*p))
+            p++;
+        if (*p != '#')
+            break;
+        comment = 1;
+        const char *nl = strchr(p, '\n');
+        if (!nl)
+            return got == sizeof head - 1;
+        p = nl + 1;
+    }
+    if (!*p)
+        return comment && got == sizeof head - 1;
     size_t n = strcspn(p, " \t\r\n");
-    return (n == 1 && (*p == 'v' || *p == 'f')) || is_skipped(p, n);
+    return (n == 1 && (*p == 'v' || *p == 'f' || *p == 'l')) || is_skipped(p, n);
 }
 
 typedef struct obj_in {
@@ -57,6 +73,8 @@ typedef struct obj_in {
     int64_t nv, capv;
     int32_t *f;          /* 3 per triangle */
     int64_t nf, capf;
+    int32_t *l;          /* 2 per segment of the "l" polylines */
+    int64_t nl, capl;
     int64_t *poly;       /* the current face's vertex indices */
 } obj_in;
 
@@ -106,7 +124,8 @@ static sm_status next_line(obj_in *c, int *eof)
 static sm_status grow(obj_in *c, void **a, int64_t *cap, int64_t need, size_t item)
 {
     sm_status st = sm__reader_limit_count(c->r, c->err, need, cap == &c->capv,
-                                         cap == &c->capv ? "vertices" : "facets");
+                                         cap == &c->capv ? "vertices" : cap == &c->capf
+                                                                        ? "facets" : "segments");
     if (st != SM_OK || need <= *cap)
         return st;
     int64_t n = *cap ? *cap * 2 : 64; /* small inputs, small buffers */
@@ -163,23 +182,51 @@ static sm_status face_ref(obj_in *c, char **pp, int64_t *out)
     return SM_OK;
 }
 
-static sm_status face(obj_in *c, char *p)
+/* The vertex references of a face or polyline into c->poly. */
+static sm_status refs(obj_in *c, char *p, int64_t *n)
 {
-    int64_t n = 0;
+    *n = 0;
     for (;;) {
         while (*p && isspace((unsigned char)*p))
             p++;
         if (!*p)
-            break;
-        sm_status st = face_ref(c, &p, &c->poly[n]);
+            return SM_OK;
+        sm_status st = face_ref(c, &p, &c->poly[*n]);
         if (st != SM_OK)
             return st;
-        n++;
+        (*n)++;
     }
+}
+
+/* "l a b c ...": a polyline, kept as its segments. */
+static sm_status polyline(obj_in *c, char *p)
+{
+    int64_t n;
+    sm_status st = refs(c, p, &n);
+    if (st != SM_OK)
+        return st;
+    if (n < 2)
+        return sm_error_set(c->err, SM_ERR_FORMAT, "%s:%ld: a line needs at least 2 vertices, "
+                            "found %lld", c->r->path, c->lineno, (long long)n);
+    st = grow(c, (void **)&c->l, &c->capl, c->nl + n - 1, 2 * sizeof(int32_t));
+    for (int64_t k = 0; st == SM_OK && k + 1 < n; k++) {
+        c->l[2 * c->nl] = (int32_t)c->poly[k];
+        c->l[2 * c->nl + 1] = (int32_t)c->poly[k + 1];
+        c->nl++;
+    }
+    return st;
+}
+
+static sm_status face(obj_in *c, char *p)
+{
+    int64_t n;
+    sm_status st = refs(c, p, &n);
+    if (st != SM_OK)
+        return st;
     if (n < 3)
         return sm_error_set(c->err, SM_ERR_FORMAT, "%s:%ld: a face needs at least 3 vertices, "
                             "found %lld", c->r->path, c->lineno, (long long)n);
-    sm_status st = grow(c, (void **)&c->f, &c->capf, c->nf + n - 2, 3 * sizeof(int32_t));
+    st = grow(c, (void **)&c->f, &c->capf, c->nf + n - 2, 3 * sizeof(int32_t));
     for (int64_t k = 1; st == SM_OK && k + 1 < n; k++) {
         c->f[3 * c->nf] = (int32_t)c->poly[0];
         c->f[3 * c->nf + 1] = (int32_t)c->poly[k];
@@ -201,6 +248,8 @@ static sm_status statement(obj_in *c)
         return vertex(c, p + 1);
     if (n == 1 && *p == 'f')
         return face(c, p + 1);
+    if (n == 1 && *p == 'l')
+        return polyline(c, p + 1);
     if (is_skipped(p, n))
         return SM_OK;
     char w[40];
@@ -209,6 +258,46 @@ static sm_status statement(obj_in *c)
     sm__quote_token(w, q, sizeof q);
     return sm_error_set(c->err, SM_ERR_FORMAT, "%s:%ld: unknown OBJ statement %s", c->r->path,
                         c->lineno, q);
+}
+
+static sm_status triangles(obj_in *c, sm_surface **out)
+{
+    sm_surface *s = NULL;
+    sm_status st = sm_surface_alloc(&s, 3, (int32_t)c->nv, (int32_t)c->nf, c->err);
+    if (st != SM_OK)
+        return st;
+    memcpy(s->coords, c->x, (size_t)c->nv * 3 * sizeof(double));
+    memcpy(s->facets, c->f, (size_t)c->nf * 3 * sizeof(int32_t));
+    if ((st = sm__surface_weld(s, c->err)) == SM_OK)
+        *out = s;
+    else
+        sm_surface_free(s);
+    return st;
+}
+
+/* Lines and no faces: a 2D curve, when every vertex has z = 0. */
+static sm_status curve(obj_in *c, sm_surface **out)
+{
+    for (int64_t v = 0; v < c->nv; v++)
+        if (c->x[3 * v + 2] != 0.0)
+            return sm_error_set(c->err, SM_ERR_FORMAT, "%s: OBJ with %lld line segments and no "
+                                "faces is read as a 2D curve, which needs z = 0 on every vertex "
+                                "(vertex %lld has z = %g); a 3D surface needs faces",
+                                c->r->path, (long long)c->nl, (long long)v + 1, c->x[3 * v + 2]);
+    sm_surface *s = NULL;
+    sm_status st = sm_surface_alloc(&s, 2, (int32_t)c->nv, (int32_t)c->nl, c->err);
+    if (st != SM_OK)
+        return st;
+    for (int64_t v = 0; v < c->nv; v++) {
+        s->coords[2 * v] = c->x[3 * v];
+        s->coords[2 * v + 1] = c->x[3 * v + 1];
+    }
+    memcpy(s->facets, c->l, (size_t)c->nl * 2 * sizeof(int32_t));
+    if ((st = sm__surface_weld(s, c->err)) == SM_OK)
+        *out = s;
+    else
+        sm_surface_free(s);
+    return st;
 }
 
 sm_status sm__obj_read(sm_reader *r, sm_surface **out, sm_error *err)
@@ -232,20 +321,15 @@ sm_status sm__obj_read(sm_reader *r, sm_surface **out, sm_error *err)
         st = statement(&c);
     }
     if (st == SM_OK && c.nf == 0)
-        st = sm_error_set(err, SM_ERR_FORMAT, "%s: OBJ without faces", r->path);
-    sm_surface *s = NULL;
-    if (st == SM_OK &&
-        (st = sm_surface_alloc(&s, 3, (int32_t)c.nv, (int32_t)c.nf, err)) == SM_OK) {
-        memcpy(s->coords, c.x, (size_t)c.nv * 3 * sizeof(double));
-        memcpy(s->facets, c.f, (size_t)c.nf * 3 * sizeof(int32_t));
-        if ((st = sm__surface_weld(s, err)) == SM_OK)
-            *out = s;
-        else
-            sm_surface_free(s);
-    }
+        st = c.nl ? curve(&c, out) : sm_error_set(err, SM_ERR_FORMAT, "%s: OBJ without faces or "
+                                                   "lines (%lld vertices and nothing joining "
+                                                   "them)", r->path, (long long)c.nv);
+    else if (st == SM_OK)
+        st = triangles(&c, out);
     free(c.line);
     free(c.poly);
     free(c.x);
     free(c.f);
+    free(c.l);
     return st;
 }

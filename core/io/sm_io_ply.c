@@ -4,7 +4,9 @@
  * NAME", comment and obj_info lines, "end_header") declares the elements
  * in file order; the "vertex" element's x, y, z properties give the
  * points, the "face" element's vertex_indices (or vertex_index) list the
- * polygons, fan-triangulated; every other element and property is read
+ * polygons, fan-triangulated; a file without faces whose "edge" element
+ * (vertex1, vertex2) joins vertices all at z = 0 is a 2D curve of those
+ * segments (sm__msh_surface); every other element and property is read
  * and dropped.  Hostile input: each element's count is checked against
  * the bytes left before anything is allocated for it (at least two bytes
  * a value in ASCII, the declared sizes in binary), a polygon has at most
@@ -41,6 +43,7 @@ typedef struct ply_elem {
     ply_prop props[PLY_MAX_PROPS];
     int x, y, z;    /* vertex: the properties' positions, -1 if absent */
     int indices;    /* face: the index list's position, -1 if absent */
+    int v1, v2;     /* edge: vertex1's and vertex2's positions, -1 if absent */
 } ply_elem;
 
 typedef struct ply_in {
@@ -138,6 +141,10 @@ static sm_status header_property(ply_in *c, char *save)
             e->y = pos;
         else if (strcmp(name, "z") == 0)
             e->z = pos;
+        else if (strcmp(name, "vertex1") == 0)
+            e->v1 = pos;
+        else if (strcmp(name, "vertex2") == 0)
+            e->v2 = pos;
     } else if (strcmp(name, "vertex_indices") == 0 || strcmp(name, "vertex_index") == 0) {
         if (p->type == T_F32 || p->type == T_F64)
             return sm__reader_fail_line(c->r, c->err, SM_ERR_FORMAT, "PLY: face indices of a "
@@ -154,7 +161,7 @@ static sm_status header_element(ply_in *c, char *save)
                                     PLY_MAX_ELEMS);
     ply_elem *e = &c->elems[c->nelems];
     memset(e, 0, sizeof *e);
-    e->x = e->y = e->z = e->indices = -1;
+    e->x = e->y = e->z = e->indices = e->v1 = e->v2 = -1;
     const char *name = strtok_r(NULL, " \t", &save);
     const char *count = strtok_r(NULL, " \t", &save);
     char *end = NULL;
@@ -294,15 +301,22 @@ static sm_status check_count(ply_in *c, const ply_elem *e)
 }
 
 static sm_status read_record(ply_in *c, const ply_elem *e, int64_t i, int is_vertex,
-                             int is_face)
+                             int is_face, int is_edge)
 {
     double xyz[3] = {0, 0, 0};
+    int64_t ends[2] = {-1, -1};
     int64_t nidx = -1;
     for (int k = 0; k < e->nprops; k++) {
         const ply_prop *p = &e->props[k];
         sm_status st;
         if (p->count_type == T_NONE) {
             double v;
+            if (is_edge && (k == e->v1 || k == e->v2)) {
+                if ((st = integer(c, p->type, INT32_MIN, INT32_MAX, "vertex index",
+                                  &ends[k == e->v2])) != SM_OK)
+                    return st;
+                continue;
+            }
             if ((st = value(c, p->type, &v)) != SM_OK)
                 return st;
             for (int j = 0; j < 3; j++)
@@ -333,6 +347,11 @@ static sm_status read_record(ply_in *c, const ply_elem *e, int64_t i, int is_ver
         if (st != SM_OK)
             return fail(c, st, "%s", c->r->why);
     }
+    if (is_edge) {
+        sm_status st = sm__cells_add_vtk(c->r, c->d, SM_VTK_LINE, 2, ends, i);
+        if (st != SM_OK)
+            return fail(c, st, "edge %" PRId64 ": %s", i + 1, c->r->why);
+    }
     return SM_OK;
 }
 
@@ -340,6 +359,7 @@ static sm_status read_element(ply_in *c, const ply_elem *e)
 {
     int is_vertex = strcmp(e->name, "vertex") == 0;
     int is_face = strcmp(e->name, "face") == 0;
+    int is_edge = strcmp(e->name, "edge") == 0;
     sm_status st = check_count(c, e);
     if (st != SM_OK)
         return st;
@@ -358,10 +378,19 @@ static sm_status read_element(ply_in *c, const ply_elem *e)
         if (!c->have_vertices)
             return fail(c, SM_ERR_FORMAT, "faces before the vertex element");
     }
+    if (is_edge) {
+        if (e->v1 < 0 || e->v2 < 0 || e->props[e->v1].type == T_F32 ||
+            e->props[e->v1].type == T_F64 || e->props[e->v2].type == T_F32 ||
+            e->props[e->v2].type == T_F64)
+            return fail(c, SM_ERR_FORMAT, "the edge element has no integer vertex1 and vertex2 "
+                        "properties");
+        if (!c->have_vertices)
+            return fail(c, SM_ERR_FORMAT, "edges before the vertex element");
+    }
     if (e->nprops == 0)
         return SM_OK;
     for (int64_t i = 0; i < e->count && st == SM_OK; i++)
-        st = read_record(c, e, i, is_vertex, is_face);
+        st = read_record(c, e, i, is_vertex, is_face, is_edge);
     return st;
 }
 
@@ -381,8 +410,9 @@ sm_status sm__ply_read(sm_reader *r, sm_surface **out, sm_error *err)
         st = sm_error_set(err, SM_ERR_NOMEM, "%s: out of memory", r->path);
     for (int k = 0; st == SM_OK && k < c.nelems; k++)
         st = read_element(&c, &c.elems[k]);
-    if (st == SM_OK && d.triangles.count == 0)
-        st = sm_error_set(err, SM_ERR_FORMAT, "%s: PLY without faces", r->path);
+    if (st == SM_OK && d.triangles.count == 0 && d.lines.count == 0)
+        st = sm_error_set(err, SM_ERR_FORMAT, "%s: PLY without faces or edges (%lld vertices "
+                          "and nothing joining them)", r->path, (long long)d.nnodes);
     if (st == SM_OK) {
         sm__cells_finish(&d, NULL, 0);
         st = sm__msh_surface(r->path, &d, out, err);

@@ -3,7 +3,7 @@
 # its summary).  Stands on the wire contract (libsmproto) and the core:
 # users link libsmjob.a before libsmproto.a and libshapematch.a, plus
 # $(PROTO_LIBS) and -lz.  Its headers are included as "job/sm_job_*.h".
-JOB_SRCS := proto/job/sm_job_inputs.c proto/job/sm_job_warnings.c proto/job/sm_job_runner.c \
+JOB_SRCS := proto/job/sm_job_inputs.c proto/job/sm_job_arrays.c proto/job/sm_job_warnings.c proto/job/sm_job_runner.c \
   proto/job/sm_job_threads.c proto/job/sm_job_results.c proto/job/sm_job_api.c \
   proto/job/sm_job_map.c proto/job/sm_job_align.c proto/job/sm_job_image.c \
   proto/job/sm_job_model.c proto/job/sm_job_batch.c proto/job/sm_job_batch_list.c

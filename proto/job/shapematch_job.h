@@ -35,7 +35,8 @@ typedef struct sm_run sm_run;
  * run, which then ends "cancelled" with the state reached. */
 typedef int (*sm_run_progress_fn)(const sm_progress *p, void *user);
 
-/* The job's files (NULL when not given): template_mesh, and either
+/* The job's files (NULL when not given), or their contents in memory
+ * (the members appended last): template_mesh, and either
  * target_mesh + target_sol, or target_surface or target_image (a label
  * map: NIfTI, NRRD, MetaImage; the params' label, level and image_space
  * select its voxels and frame, as `run --target-image`) with an optional
@@ -59,7 +60,49 @@ typedef struct sm_run_files {
     /* appended (image targets): excludes target_sol and target_surface */
     const char *target_image;
     const char *target_image_name;
+    /* appended (inputs in memory, sm_run_mesh, sm_run_surface): each,
+     * when not NULL, is that part instead of its file (give one or the
+     * other), named by its *_name member in messages and in the summary
+     * (NULL: "template (array)", ...).  target_sol_values holds
+     * target_sol_count distances, one per target mesh vertex.  Borrowed:
+     * sm_run_job copies them before it returns. */
+    const struct sm_run_mesh *template_arrays;
+    const struct sm_run_mesh *target_mesh_arrays;
+    const double *target_sol_values;
+    int32_t target_sol_count;
+    const struct sm_run_surface *target_surface_arrays;
 } sm_run_files;
+
+/* A mesh in memory: dim 2 or 3; nverts vertices (coords: nverts*dim
+ * reals, finite); nelems triangles (2D) or tetrahedra (3D) of dim+1
+ * 0-based vertex indices; element and vertex references (NULL: all 0);
+ * nfacets facets of dim indices (edges in 2D, triangles in 3D; facets
+ * NULL when 0) and their references (NULL: 0), as a Medit file's
+ * Edges/Triangles (a clamp's references, for instance).  Checked as a
+ * file's contents are: SM_ERR_FORMAT naming the part and the entry. */
+typedef struct sm_run_mesh {
+    int dim;
+    int32_t nverts;
+    const double *coords;
+    int32_t nelems;
+    const int32_t *elems;
+    const int32_t *elem_refs;
+    const int32_t *vert_refs;
+    int32_t nfacets;
+    const int32_t *facets;
+    const int32_t *facet_refs;
+} sm_run_mesh;
+
+/* A target surface in memory (shapematch/sm_surface.h): dim 3,
+ * triangles; or dim 2, segments; nfacets of dim 0-based indices into
+ * nverts vertices (coords: nverts*dim finite reals). */
+typedef struct sm_run_surface {
+    int dim;
+    int32_t nverts;
+    const double *coords;
+    int32_t nfacets;
+    const int32_t *facets;
+} sm_run_surface;
 
 /* Reads and checks the inputs, runs the job under the runner's thread
  * policy, and keeps everything in *out (free with sm_run_free).  params_json
@@ -122,6 +165,11 @@ sm_status sm_run_write(const sm_run *r, const char *dir, const char *formats, sm
 sm_status sm_run_batch(const char *template_path, const char *list_csv, size_t list_len,
                        const char *params_json, const char *model_align, int jobs,
                        const char *out_dir, sm_error *err);
+
+/* The release the library was built as ("0.1.0": the Makefile's
+ * VERSION, the one place it is written); the Python package's
+ * __version__. */
+const char *sm_run_version(void);
 
 #ifdef __cplusplus
 }

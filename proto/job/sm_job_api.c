@@ -11,6 +11,7 @@
 
 #include <jansson.h>
 
+#include "job/sm_job_arrays.h"
 #include "job/sm_job_batch.h"
 #include "job/sm_job_inputs.h"
 #include "job/sm_job_results.h"
@@ -49,14 +50,31 @@ static char *dup_or_null(const char *s)
 
 #define API_NFILES 5
 
+/* What a part is called: its *_name, else its path, else "PART (array)"
+ * when it is given in memory; NULL when not given. */
+static const char *part_name(const char *name, const char *path, int in_memory,
+                             const char *array_name)
+{
+    return name ? name : path ? path : in_memory ? array_name : NULL;
+}
+
+static void part_names(const sm_run_files *f, const char *out[API_NFILES])
+{
+    out[0] = part_name(f->template_name, f->template_mesh, f->template_arrays != NULL,
+                       "template (array)");
+    out[1] = part_name(f->target_mesh_name, f->target_mesh, f->target_mesh_arrays != NULL,
+                       "target_mesh (array)");
+    out[2] = part_name(f->target_sol_name, f->target_sol, f->target_sol_values != NULL,
+                       "target_sol (array)");
+    out[3] = part_name(f->target_surface_name, f->target_surface,
+                       f->target_surface_arrays != NULL, "target_surface (array)");
+    out[4] = part_name(f->target_image_name, f->target_image, 0, NULL);
+}
+
 static int copy_names(const sm_run_files *f, sm_job_files *names)
 {
-    const char *src[API_NFILES] = {
-        f->template_name ? f->template_name : f->template_mesh,
-        f->target_mesh_name ? f->target_mesh_name : f->target_mesh,
-        f->target_sol_name ? f->target_sol_name : f->target_sol,
-        f->target_surface_name ? f->target_surface_name : f->target_surface,
-        f->target_image_name ? f->target_image_name : f->target_image};
+    const char *src[API_NFILES];
+    part_names(f, src);
     char *dst[API_NFILES];
     int bad = 0;
     for (int i = 0; i < API_NFILES; i++)
@@ -89,9 +107,26 @@ void sm_run_free(sm_run *r)
     free(r);
 }
 
+/* The parts given in memory, as core objects (NULL: read from the file). */
+typedef struct api_given {
+    sm_mesh *template_mesh, *target_mesh;
+    sm_sol *target_sol;
+    sm_surface *target_surface;
+} api_given;
+
+static void given_free(api_given *g)
+{
+    sm_mesh_free(g->template_mesh);
+    sm_mesh_free(g->target_mesh);
+    sm_sol_free(g->target_sol);
+    sm_surface_free(g->target_surface);
+}
+
 /* The inputs as `shapematch run` reads them: the params' syntax and
  * background members first, the template, the params against it, then
- * the target (prepare: the run's template side meanwhile). */
+ * the target (prepare: the run's template side meanwhile).  A part in
+ * memory is checked and copied where its file would be read; the
+ * distance, once the template's dimension is known. */
 static sm_status load_inputs(const sm_run_files *f, const char *params_json, sm_job_inputs *in,
                              sm_error *err)
 {
@@ -101,11 +136,38 @@ static sm_status load_inputs(const sm_run_files *f, const char *params_json, sm_
     sm_status st = sm_job_params_from_json(params_json, len, 0, &params, &bg, err);
     if (st != SM_OK)
         return st;
-    sm_job_files files = {.template_mesh = f->template_mesh, .target_mesh = f->target_mesh,
-                          .target_sol = f->target_sol, .target_surface = f->target_surface,
-                          .target_image = f->target_image, .background_size = bg.size, .background_padding = bg.padding};
-    if ((st = sm_job_inputs_read_template(&files, SM_JOB_NAME_PATHS, in, err)) != SM_OK)
+    const char *names[API_NFILES];
+    part_names(f, names);
+    api_given g = {0};
+    if ((f->template_arrays &&
+         (st = sm_job_mesh_from_arrays(f->template_arrays, names[0], &g.template_mesh, err)) !=
+             SM_OK) ||
+        (f->target_mesh_arrays &&
+         (st = sm_job_mesh_from_arrays(f->target_mesh_arrays, names[1], &g.target_mesh, err)) !=
+             SM_OK) ||
+        (f->target_surface_arrays &&
+         (st = sm_job_surface_from_arrays(f->target_surface_arrays, names[3], &g.target_surface,
+                                          err)) != SM_OK)) {
+        given_free(&g);
         return st;
+    }
+    sm_job_files files = {.template_mesh = names[0], .target_mesh = names[1],
+                          .target_sol = names[2], .target_surface = names[3],
+                          .target_image = f->target_image, .background_size = bg.size,
+                          .background_padding = bg.padding,
+                          .template_given = g.template_mesh, .target_mesh_given = g.target_mesh,
+                          .target_surface_given = g.target_surface};
+    /* a file is read by its path, named (in messages) by its path too */
+    if (!g.template_mesh)
+        files.template_mesh = f->template_mesh;
+    if (!g.target_mesh)
+        files.target_mesh = f->target_mesh;
+    if (!f->target_sol_values)
+        files.target_sol = f->target_sol;
+    if (!g.target_surface)
+        files.target_surface = f->target_surface;
+    if ((st = sm_job_inputs_read_template(&files, SM_JOB_NAME_PATHS, in, err)) != SM_OK)
+        goto done;
     if ((st = sm_job_params_from_json_for(params_json, len, in->template_mesh, &params, &bg,
                                            err)) != SM_OK ||
         (st = sm_job_inputs_set_params(in, &params, err)) != SM_OK) {
@@ -113,9 +175,45 @@ static sm_status load_inputs(const sm_run_files *f, const char *params_json, sm_
             sm_error_prefix(err, "%s", params.clamp == SM_CLAMP_BALL ? "params.clamp"
                                                                      : "params.clamp.refs");
         sm_job_inputs_free(in);
-        return st;
+        goto done;
     }
-    return sm_job_inputs_read_target(&files, SM_JOB_NAME_PATHS, 1, in, err);
+    if (f->target_sol_values &&
+        (st = sm_job_sol_from_values(f->target_sol_values, f->target_sol_count, in->dim, names[2],
+                                     &g.target_sol, err)) != SM_OK) {
+        sm_job_inputs_free(in);
+        goto done;
+    }
+    files.target_sol_given = g.target_sol;
+    st = sm_job_inputs_read_target(&files, SM_JOB_NAME_PATHS, 1, in, err);
+done:
+    given_free(&g);
+    return st;
+}
+
+/* Each part at most once: a file or arrays. */
+static sm_status check_parts(const sm_run_files *f, sm_error *err)
+{
+    static const char *const parts[] = {"template", "target_mesh", "target_sol",
+                                        "target_surface"};
+    const int both[] = {f->template_mesh && f->template_arrays,
+                        f->target_mesh && f->target_mesh_arrays,
+                        f->target_sol && f->target_sol_values,
+                        f->target_surface && f->target_surface_arrays};
+    for (int k = 0; k < 4; k++)
+        if (both[k])
+            return sm_error_set(err, SM_ERR_INVALID, "%s: give a file or arrays, not both",
+                                parts[k]);
+    if (!f->template_mesh && !f->template_arrays)
+        return sm_error_set(err, SM_ERR_INVALID, "template: no file given");
+    int mesh = f->target_mesh || f->target_mesh_arrays;
+    int sol = f->target_sol || f->target_sol_values;
+    int surface = f->target_surface || f->target_surface_arrays;
+    /* the combinations the CLI's options and the daemon's parts allow (the
+     * inputs reader takes them for granted) */
+    if (!surface && !f->target_image && !(mesh && sol))
+        return sm_error_set(err, SM_ERR_INVALID, "no target: give target_mesh and target_sol, "
+                                                 "target_surface or target_image");
+    return SM_OK;
 }
 
 sm_status sm_run_job(const sm_run_files *files, const char *params_json,
@@ -127,14 +225,11 @@ sm_status sm_run_job(const sm_run_files *files, const char *params_json,
         err = &local;
     sm_error_clear(err);
     *out = NULL;
-    if (!files || !files->template_mesh)
+    if (!files)
         return sm_error_set(err, SM_ERR_INVALID, "template: no file given");
-    /* the combinations the CLI's options and the daemon's parts allow (the
-     * inputs reader takes them for granted) */
-    if (!files->target_surface && !files->target_image &&
-        !(files->target_mesh && files->target_sol))
-        return sm_error_set(err, SM_ERR_INVALID, "no target: give target_mesh and target_sol, "
-                                                 "target_surface or target_image");
+    sm_status st = check_parts(files, err);
+    if (st != SM_OK)
+        return st;
     if (!params_json || !*params_json)
         return sm_error_set(err, SM_ERR_INVALID,
                             "params: a params document is required (at least the clamp)");
@@ -145,7 +240,7 @@ sm_status sm_run_job(const sm_run_files *files, const char *params_json,
         free(r);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     }
-    sm_status st = load_inputs(files, params_json, &r->in, err);
+    st = load_inputs(files, params_json, &r->in, err);
     if (st != SM_OK) {
         free_names(&r->names);
         free(r);
@@ -165,6 +260,11 @@ sm_status sm_run_job(const sm_run_files *files, const char *params_json,
     }
     *out = r;
     return SM_OK;
+}
+
+const char *sm_run_version(void)
+{
+    return SM_VERSION;
 }
 
 const char *sm_run_outcome(const sm_run *r)

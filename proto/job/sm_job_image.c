@@ -22,16 +22,11 @@ static double axis_length(const double *m, int col)
     return sqrt(m[col] * m[col] + m[4 + col] * m[4 + col] + m[8 + col] * m[8 + col]);
 }
 
-/* The voxels selected, summarised; the target built on them. */
-static sm_status build(const sm_image *im, const char *path, const sm_image_select *sel,
-                       double smooth, double padding, int whole_image, sm_image_target **out,
-                       sm_job_image_info *info, sm_error *err)
+/* The voxels selected (mask: dims product bytes), summarised; an empty
+ * selection refused naming what was looked for. */
+static sm_status select_voxels(const sm_image *im, const char *path, const sm_image_select *sel,
+                               uint8_t *mask, sm_job_image_info *info, sm_error *err)
 {
-    size_t total = (size_t)(im->dims[0] * im->dims[1] * im->dims[2]);
-    uint8_t *mask = malloc(total ? total : 1);
-    if (!mask)
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's mask (%zu voxels)",
-                            total);
     sm_status st = sm_image_mask(im, sel, mask, &info->stats, err);
     if (st == SM_OK && info->stats.voxels == 0) {
         char what[64];
@@ -47,6 +42,27 @@ static sm_status build(const sm_image *im, const char *path, const sm_image_sele
                           path, what, im->format, (long long)im->dims[0], (long long)im->dims[1],
                           (long long)im->dims[2], sm_voxel_type_name(im->type));
     }
+    return st;
+}
+
+static uint8_t *mask_new(const sm_image *im, sm_error *err)
+{
+    size_t total = (size_t)(im->dims[0] * im->dims[1] * im->dims[2]);
+    uint8_t *mask = malloc(total ? total : 1);
+    if (!mask)
+        sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's mask (%zu voxels)", total);
+    return mask;
+}
+
+/* The voxels selected, summarised; the target built on them. */
+static sm_status build(const sm_image *im, const char *path, const sm_image_select *sel,
+                       double smooth, double padding, int whole_image, sm_image_target **out,
+                       sm_job_image_info *info, sm_error *err)
+{
+    uint8_t *mask = mask_new(im, err);
+    if (!mask)
+        return SM_ERR_NOMEM;
+    sm_status st = select_voxels(im, path, sel, mask, info, err);
     if (st == SM_OK) {
         double hmin = fmin(info->spacing[0], fmin(info->spacing[1], info->spacing[2]));
         /* the diagonal of the world box of the index box's corners: the
@@ -76,46 +92,82 @@ static sm_status build(const sm_image *im, const char *path, const sm_image_sele
     return st;
 }
 
-/* Steps 1-3; *keep (when not NULL) receives the image read. */
-static sm_status load(const char *path, sm_image_limits *limits, const sm_image_select *sel,
-                      sm_image_space space, double smooth, double padding, int whole_image,
-                      sm_image_target **out, sm_job_image_info *info, sm_image **keep,
-                      sm_error *err)
+/* Step 1: the image read, in the template's frame, summarised. */
+static sm_status read_image(const char *path, sm_image_limits *limits, const sm_image_select *sel,
+                            sm_image_space space, sm_image **im, sm_job_image_info *info,
+                            sm_error *err)
 {
-    *out = NULL;
     memset(info, 0, sizeof *info);
-    double t0 = sm_clock_seconds();
-    if (padding < 0)
-        padding = SM_BACKGROUND_PADDING_DEFAULT;
-    sm_image *im = NULL;
-    sm_status st = sm_image_read(path, limits, &im, err);
+    sm_status st = sm_image_read(path, limits, im, err);
     if (st != SM_OK)
         return st;
     if (space == SM_IMAGE_SPACE_RAS)
-        sm_image_flip_ras(im);
-    snprintf(info->format, sizeof info->format, "%s", im->format);
-    memcpy(info->dims, im->dims, sizeof info->dims);
-    info->type = im->type;
+        sm_image_flip_ras(*im);
+    snprintf(info->format, sizeof info->format, "%s", (*im)->format);
+    memcpy(info->dims, (*im)->dims, sizeof info->dims);
+    info->type = (*im)->type;
     for (int c = 0; c < 3; c++)
-        info->spacing[c] = axis_length(im->ijk_to_lps, c);
+        info->spacing[c] = axis_length((*im)->ijk_to_lps, c);
     info->sel = *sel;
     info->space = space;
-    st = build(im, path, sel, smooth, padding, whole_image, out, info, err);
-    if (st == SM_OK && keep)
-        *keep = im;
-    else
-        sm_image_free(im);
-    if (st == SM_OK)
-        info->surface_triangles = sm_image_target_surface(*out)->nfacets;
-    info->seconds = sm_clock_seconds() - t0;
-    return st;
+    return SM_OK;
 }
 
 sm_status sm_job_image_target(const char *path, sm_image_limits *limits, const sm_image_select *sel,
                               sm_image_space space, double smooth, double padding,
                               sm_image_target **out, sm_job_image_info *info, sm_error *err)
 {
-    return load(path, limits, sel, space, smooth, padding, 0, out, info, NULL, err);
+    *out = NULL;
+    double t0 = sm_clock_seconds();
+    if (padding < 0)
+        padding = SM_BACKGROUND_PADDING_DEFAULT;
+    sm_image *im = NULL;
+    sm_status st = read_image(path, limits, sel, space, &im, info, err);
+    if (st != SM_OK)
+        return st;
+    if (im->dims[2] == 1)
+        st = sm_error_set(err, SM_ERR_INVALID, "%s: a 2D %s image (%lld x %lld voxels): it is "
+                          "the target of a 2D template (`run --target-image`); a 3D template "
+                          "and `sdf --image` need a 3D image", path, im->format,
+                          (long long)im->dims[0], (long long)im->dims[1]);
+    else
+        st = build(im, path, sel, smooth, padding, 0, out, info, err);
+    sm_image_free(im);
+    if (st == SM_OK)
+        info->surface_triangles = sm_image_target_surface(*out)->nfacets;
+    info->seconds = sm_clock_seconds() - t0;
+    return st;
+}
+
+sm_status sm_job_image_contour(const char *path, sm_image_limits *limits,
+                               const sm_image_select *sel, sm_image_space space, double smooth,
+                               sm_surface **out, sm_job_image_info *info, sm_error *err)
+{
+    *out = NULL;
+    double t0 = sm_clock_seconds();
+    sm_image *im = NULL;
+    sm_status st = read_image(path, limits, sel, space, &im, info, err);
+    if (st != SM_OK)
+        return st;
+    uint8_t *mask = NULL;
+    if (im->dims[2] != 1) {
+        st = sm_error_set(err, SM_ERR_INVALID, "%s: a 3D %s image (%lld x %lld x %lld voxels): "
+                          "a 2D template needs a 2D image (NIfTI dim[0] = 2, NRRD dimension 2, "
+                          "MetaImage NDims 2, or one slice)", path, im->format,
+                          (long long)im->dims[0], (long long)im->dims[1], (long long)im->dims[2]);
+    } else if (!(mask = mask_new(im, err))) {
+        st = SM_ERR_NOMEM;
+    } else if ((st = select_voxels(im, path, sel, mask, info, err)) == SM_OK &&
+               (st = sm_image_contour_2d(im, mask, smooth, out, err)) != SM_OK &&
+               st != SM_ERR_NOMEM) {
+        sm_error_prefix(err, "%s", path);
+    }
+    free(mask);
+    sm_image_free(im);
+    if (st == SM_OK)
+        info->surface_triangles = (*out)->nfacets;
+    info->seconds = sm_clock_seconds() - t0;
+    return st;
 }
 
 sm_status sm_job_image_grid_distance(const char *path, sm_image_limits *limits,
@@ -126,9 +178,22 @@ sm_status sm_job_image_grid_distance(const char *path, sm_image_limits *limits,
     *out = NULL;
     sm_image_target *t = NULL;
     sm_image *im = NULL;
-    sm_status st = load(path, limits, sel, space, smooth, 0, 1, &t, info, &im, err);
+    double t0 = sm_clock_seconds();
+    sm_status st = read_image(path, limits, sel, space, &im, info, err);
     if (st != SM_OK)
         return st;
+    if (im->dims[2] == 1)
+        st = sm_error_set(err, SM_ERR_INVALID, "%s: a 2D %s image: `sdf --image -o` an image "
+                          "needs a 3D one", path, im->format);
+    else
+        st = build(im, path, sel, smooth, 0, 1, &t, info, err);
+    if (st == SM_OK)
+        info->surface_triangles = sm_image_target_surface(t)->nfacets;
+    info->seconds = sm_clock_seconds() - t0;
+    if (st != SM_OK) {
+        sm_image_free(im);
+        return st;
+    }
     const int64_t *n = im->dims;
     int64_t total = n[0] * n[1] * n[2];
     /* the voxel centres a block of image rows at a time (the signed

@@ -27,6 +27,7 @@
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_mesh.h"
 #include "shapematch/sm_params.h"
+#include "shapematch/sm_surface.h"
 
 /* What the image and its selection hold: summary.json's target_image. */
 typedef struct sm_job_image_info {
@@ -64,6 +65,16 @@ sm_status sm_job_image_grid_distance(const char *path, sm_image_limits *limits,
                                      double smooth, sm_image **out, sm_job_image_info *info,
                                      sm_error *err);
 
+/* For a 2D template: steps 1-2 on a 2D image (NIfTI dim[0] 2, NRRD
+ * dimension 2, MetaImage NDims 2, or one slice), then the selection's
+ * boundary as a closed curve (sm_image_contour_2d, smooth in voxels),
+ * which the job takes as a 2D target surface (its exact distance, on
+ * target_mesh or a generated background: sm_job_inputs.h).  A 3D image
+ * is SM_ERR_INVALID naming its size; info->surface_triangles counts the
+ * curve's segments. */
+sm_status sm_job_image_contour(const char *path, sm_image_limits *limits,
+                               const sm_image_select *sel, sm_image_space space, double smooth,
+                               sm_surface **out, sm_job_image_info *info, sm_error *err);
 /* Step 4: the background (size > 0: its near-surface cells, else the
  * default; padding >= 0, else 0.1) around the label's surface and, when
  * template is not NULL, the template's box; *size_used the size. */

@@ -51,6 +51,41 @@ void sm_job_inputs_free(sm_job_inputs *in)
     in->template_mesh = NULL;
 }
 
+/* A part's contents: the copy of what the caller holds in memory, or its
+ * file read. */
+static sm_status take_mesh(const char *path, const sm_mesh *given, sm_read_limits *limits,
+                           sm_mesh **out, sm_error *err)
+{
+    return given ? sm_mesh_clone(given, out, err) : sm_mesh_read_limited(path, limits, out, err);
+}
+
+static sm_status take_sol(const char *path, const sm_sol *given, sm_read_limits *limits,
+                          sm_sol **out, sm_error *err)
+{
+    if (!given)
+        return sm_sol_read_limited(path, limits, out, err);
+    sm_status st = sm_sol_alloc(out, given->dim, given->nverts, given->ncomp, err);
+    if (st == SM_OK)
+        memcpy((*out)->values, given->values,
+               (size_t)given->nverts * (size_t)given->ncomp * sizeof(double));
+    return st;
+}
+
+static sm_status take_surface(const char *path, const sm_surface *given, sm_read_limits *limits,
+                              sm_surface **out, sm_error *err)
+{
+    if (!given)
+        return sm_surface_read_limited(path, limits, out, err);
+    sm_status st = sm_surface_alloc(out, given->dim, given->nverts, given->nfacets, err);
+    if (st == SM_OK) {
+        sm_surface *s = *out;
+        memcpy(s->coords, given->coords, (size_t)given->nverts * (size_t)given->dim * sizeof(double));
+        memcpy(s->facets, given->facets, (size_t)given->nfacets * (size_t)given->dim * sizeof(int32_t));
+        memcpy(s->facet_refs, given->facet_refs, (size_t)given->nfacets * sizeof(int32_t));
+    }
+    return st;
+}
+
 /* "PART: message" with every occurrence of path replaced by PART. */
 static sm_status part_error(sm_error *err, const char *part, const char *path)
 {
@@ -120,6 +155,8 @@ static sm_status check_distance(const sm_job_files *files, sm_job_naming naming,
 {
     char sol[512], bg[512];
     label(sol, sizeof sol, naming, SM_PART_TARGET_SOL, files->target_sol);
+    if (files->target_sol_given) /* named already: "target_sol (array)" */
+        snprintf(sol, sizeof sol, "%s", files->target_sol);
     out->failed = SM_PART_TARGET_SOL;
     if (out->distance->ncomp != 1)
         return sm_error_set(err, SM_ERR_INVALID,
@@ -127,7 +164,7 @@ static sm_status check_distance(const sm_job_files *files, sm_job_naming naming,
                             "components",
                             sol, out->distance->ncomp);
     if (out->distance->nverts != out->background->nverts) {
-        if (naming == SM_JOB_NAME_PARTS)
+        if (naming == SM_JOB_NAME_PARTS || files->target_mesh_given)
             snprintf(bg, sizeof bg, "the target mesh");
         else
             snprintf(bg, sizeof bg, "the target mesh '%s'", files->target_mesh);
@@ -283,7 +320,8 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
     sm_sdf *d = NULL;
     /* with an alignment the surface and its distance are kept for it */
     const int align = out->params.align != SM_ALIGN_NONE;
-    sm_status st = sm_surface_read_limited(files->target_surface, files->limits, &s, err);
+    sm_status st = take_surface(files->target_surface, files->target_surface_given,
+                                files->limits, &s, err);
     if (st == SM_OK)
         st = sm_surface_repair(s, &out->health, err);
     if (st != SM_OK) {
@@ -303,7 +341,7 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
         goto done;
     }
     if (files->target_mesh) {
-        if ((st = sm_mesh_read_limited(files->target_mesh, files->limits, &out->background,
+        if ((st = take_mesh(files->target_mesh, files->target_mesh_given, files->limits, &out->background,
                                        err)) != SM_OK) {
             file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
             goto done;
@@ -429,6 +467,47 @@ static void image_frame_fit(sm_job_inputs *out, const sm_sdf *d)
  * before the target is read), the level-set surface, a background given
  * or generated around it and the template, the distance at its
  * vertices. */
+/* A 2D template's image target: the label's boundary as a closed curve
+ * (sm_job_image_contour), then exactly the surface target's way, the
+ * curve in memory in place of a surface file (its health report kept,
+ * the summary's target is the image). */
+static sm_status read_image_curve(const sm_job_files *files, sm_job_naming naming,
+                                  sm_image_limits *lim, const sm_image_select *sel,
+                                  sm_job_inputs *out, sm_error *err)
+{
+    sm_surface *curve = NULL;
+    double t0 = sm_clock_seconds();
+    sm_status st = sm_job_image_contour(files->target_image, lim, sel, out->params.image_space,
+                                        out->params.smooth, &curve, &out->image, err);
+    if (st != SM_OK) {
+        if (files->limits && (lim->hit == SM_IMAGE_LIMIT_INFLATED || lim->hit == SM_IMAGE_LIMIT_VOXELS))
+            files->limits->hit = SM_LIMIT_INFLATED;
+        if (st != SM_ERR_NOMEM || lim->hit)
+            file_error(err, naming, SM_PART_TARGET_IMAGE, files->target_image, out);
+        return st;
+    }
+    sm_job_files as_surface = *files;
+    as_surface.target_surface = files->target_image; /* names it in messages */
+    as_surface.target_surface_given = curve;
+    st = read_surface_target(&as_surface, naming, out, err);
+    sm_surface_free(curve);
+    out->has_surface = 0;
+    if (out->failed == SM_PART_TARGET_SURFACE) {
+        /* the part is the image: "target_surface: ..." is its message */
+        size_t n = strlen(SM_PART_NAME_TARGET_SURFACE);
+        out->failed = SM_PART_TARGET_IMAGE;
+        if (strncmp(err->msg, SM_PART_NAME_TARGET_SURFACE, n) == 0) {
+            char rest[SM_ERROR_MSG_LEN];
+            snprintf(rest, sizeof rest, "%s", err->msg + n);
+            sm_error_set(err, err->code, "%s%s", SM_PART_NAME_TARGET_IMAGE, rest);
+        }
+    }
+    if (st == SM_OK)
+        out->image.exact_vertices = out->background->nverts; /* the curve's exact distance */
+    out->sdf_seconds = sm_clock_seconds() - t0; /* the contour and the distance */
+    return st;
+}
+
 static sm_status read_image_target(const sm_job_files *files, sm_job_naming naming,
                                    sm_job_inputs *out, sm_error *err)
 {
@@ -437,11 +516,8 @@ static sm_status read_image_target(const sm_job_files *files, sm_job_naming nami
     sm_image_limits lim = image_limits(files, naming);
     sm_image_select sel = sm_job_image_select(&out->params);
     out->has_image = 1;
-    if (out->dim != 3) {
-        out->failed = SM_PART_TARGET_IMAGE;
-        return sm_error_set(err, SM_ERR_INVALID, "dimension mismatch: the template is %dD but a "
-                            "target image is 3D", out->dim);
-    }
+    if (out->dim == 2)
+        return read_image_curve(files, naming, &lim, &sel, out, err);
     double padding = files->background_padding > 0 ? files->background_padding
                                                    : SM_BACKGROUND_PADDING_DEFAULT;
     double t0 = sm_clock_seconds();
@@ -462,7 +538,7 @@ static sm_status read_image_target(const sm_job_files *files, sm_job_naming nami
     if (sm_sdf_new(sm_image_target_surface(t), &d, &local) == SM_OK)
         image_frame_fit(out, d);
     if (files->target_mesh) {
-        if ((st = sm_mesh_read_limited(files->target_mesh, files->limits, &out->background,
+        if ((st = take_mesh(files->target_mesh, files->target_mesh_given, files->limits, &out->background,
                                        err)) != SM_OK) {
             file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
             goto done;
@@ -543,7 +619,8 @@ sm_status sm_job_inputs_read_template(const sm_job_files *files, sm_job_naming n
     }
     out->background_asked.size = files->background_size > 0 ? files->background_size : 0;
     out->background_asked.padding = files->background_padding > 0 ? files->background_padding : 0;
-    if ((st = sm_mesh_read_limited(files->template_mesh, files->limits, &out->template_mesh, err)) !=
+    if ((st = take_mesh(files->template_mesh, files->template_given, files->limits,
+                        &out->template_mesh, err)) !=
         SM_OK) {
         file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
         goto fail;
@@ -596,14 +673,15 @@ static sm_status read_target(const sm_job_files *files, sm_job_naming naming, sm
         if ((st = read_surface_target(files, naming, out, err)) != SM_OK)
             return st;
     } else {
-        if ((st = sm_mesh_read_limited(files->target_mesh, files->limits, &out->background,
+        if ((st = take_mesh(files->target_mesh, files->target_mesh_given, files->limits, &out->background,
                                        err)) != SM_OK)
             return file_error(err, naming, SM_PART_TARGET_MESH, files->target_mesh, out);
         if (out->background->dim != out->dim)
             return sm_error_set(err, SM_ERR_INVALID,
                                 "dimension mismatch: the template is %dD but the target mesh is %dD",
                                 out->dim, out->background->dim);
-        if ((st = sm_sol_read_limited(files->target_sol, files->limits, &out->distance, err)) !=
+        if ((st = take_sol(files->target_sol, files->target_sol_given, files->limits, &out->distance,
+                           err)) !=
             SM_OK)
             return file_error(err, naming, SM_PART_TARGET_SOL, files->target_sol, out);
         if ((st = check_distance(files, naming, out, err)) != SM_OK)

@@ -88,6 +88,13 @@ typedef struct sm_job_files {
     /* landmark CSV files (sm_job_align.h), both or none: the alignment's
      * start; NULL: none */
     const char *landmarks_template, *landmarks_target;
+    /* inputs already in memory (the binding API's arrays,
+     * shapematch_job.h): each, when set, is copied instead of reading
+     * the file of its part, whose path member then only names it in
+     * messages (it must be set too) */
+    const sm_mesh *template_given, *target_mesh_given;
+    const sm_sol *target_sol_given;
+    const sm_surface *target_surface_given;
 } sm_job_files;
 
 typedef enum sm_job_naming {

@@ -10,7 +10,10 @@ one job runner of `shapematch run`: the same checks, the same run, the
 same vertices bit for bit); the keyword parameters are the params
 document's members (docs/user-guide.md's table, `shapematch.parameters()`),
 checked by the library's one parameter table.  Client talks to a daemon
-(standard library only).  docs/python.md has the whole story.
+(standard library only; Client.submit, Client.batch, Client.warp, and the
+Job, Batch and RemoteResult they give: help(shapematch.Client)).
+shapematch.__version__ is the library's release.  docs/python.md has the
+whole story.
 """
 import ctypes
 import math
@@ -19,14 +22,17 @@ import os
 from . import _arrays, _lib
 
 __all__ = ["match", "batch", "sdf", "warp", "parameters", "Result", "ShapematchError", "Client", "Job",
-           "HTTPError"]
+           "Batch", "RemoteResult", "HTTPError", "__version__"]
 
 
 def __getattr__(name):
     # the client (urllib, http.client: ~0.1 s to import) only when used
-    if name in ("Client", "Job", "HTTPError"):
+    if name in ("Client", "Job", "Batch", "RemoteResult", "HTTPError"):
         from . import _client
         return getattr(_client, name)
+    if name == "__version__":
+        # the library's (the Makefile's VERSION, written once): loaded now
+        return _lib.job().sm_run_version().decode()
     raise AttributeError("module 'shapematch' has no attribute %r" % name)
 
 
@@ -42,10 +48,8 @@ class ShapematchError(RuntimeError):
         self.result = result
 
 
-def _raise(err, status, names=()):
+def _raise(err, status):
     msg = err.msg.decode("utf-8", "replace")
-    for tmp, name in names:
-        msg = msg.replace(tmp, name)
     raise ShapematchError(msg, _lib.STATUS_NAMES.get(status, str(status)))
 
 
@@ -74,7 +78,7 @@ def parameters():
             for r in (rows[i] for i in range(n.value))]
 
 
-# ------------------------------------------------------------ arrays to files
+# ------------------------------------------------------------ arrays in memory
 
 def _mesh_parts(m, what):
     """(vertices, elements, element_refs, vertex_refs, facets, facet_refs) of
@@ -91,64 +95,66 @@ def _mesh_parts(m, what):
                                         "facets", "facet_refs"))
     if isinstance(m, (tuple, list)) and len(m) in (2, 3):
         return (m[0], m[1], m[2] if len(m) == 3 else None, None, None, None)
+    if hasattr(m, "vertices") and hasattr(m, "elements"):  # a Client's result
+        return (m.vertices, m.elements, getattr(m, "element_refs", None), None, None, None)
     raise TypeError("%s: expected a path, a (vertices, elements[, element_refs]) tuple, a dict "
                     "or a Result" % what)
 
 
-def _write_mesh(m, path, what):
-    core = _lib.core()
+def _pointer(a, ctype, keep):
+    """A C pointer into array.array a (None when empty); keep holds the
+    view alive while the library reads it."""
+    if not len(a):
+        return None
+    view = (ctype * len(a)).from_buffer(a)
+    keep.append(view)
+    return ctypes.cast(view, ctypes.POINTER(ctype))
+
+
+def _run_mesh(m, what, keep):
+    """sm_run_mesh over the arrays of m (_mesh_parts' forms); the library
+    checks the values (finite, indices naming a vertex) and copies them."""
     verts, elems, erefs, vrefs, facets, frefs = _mesh_parts(m, what)
     v, nv, dim = _arrays.doubles(verts, what + " vertices", cols=(2, 3))
-    e, ne, k = _arrays.int32s(elems, what + " elements", cols=(dim + 1,))
+    e, ne, _ = _arrays.int32s(elems, what + " elements", cols=(dim + 1,))
     f, nf = (None, 0)
     if facets is not None:
         f, nf, _ = _arrays.int32s(facets, what + " facets", cols=(dim,))
-    mesh = ctypes.POINTER(_lib.Mesh)()
-    err = _lib.Error()
-    st = core.sm_mesh_alloc(ctypes.byref(mesh), dim, nv, ne, nf, ctypes.byref(err))
-    if st:
-        _raise(err, st)
-    try:
-        c = mesh.contents
-        _arrays.copy_into(c.coords, v)
-        for i in range(len(e)):
-            if not 0 <= e[i] < nv:
-                raise ValueError("%s elements: vertex index %d out of range [0, %d) (indices "
-                                 "are 0-based)" % (what, e[i], nv))
-        _arrays.copy_into(c.elems, e)  # 0-based in memory (the writer adds 1)
-        for arr, n, ptr, name in ((erefs, ne, c.elem_refs, "element_refs"),
-                                  (vrefs, nv, c.vert_refs, "vertex_refs"),
-                                  (frefs, nf, c.facet_refs, "facet_refs")):
-            if arr is not None and n:
-                a, rows, _ = _arrays.int32s(arr, "%s %s" % (what, name), cols=(0,))
-                if rows != n:
-                    raise ValueError("%s %s: %d values for %d entries" % (what, name, rows, n))
-                _arrays.copy_into(ptr, a)
-        if nf:
-            _arrays.copy_into(c.facets, f)
-        st = core.sm_mesh_write(path.encode(), mesh, ctypes.byref(err))
-        if st:
-            _raise(err, st)
-    finally:
-        core.sm_mesh_free(mesh)
-    return dim
+    rm = _lib.RunMesh(dim=dim, nverts=nv, nelems=ne, nfacets=nf)
+    rm.coords = _pointer(v, ctypes.c_double, keep)
+    rm.elems = _pointer(e, ctypes.c_int32, keep)
+    if f is not None:
+        rm.facets = _pointer(f, ctypes.c_int32, keep)
+    for arr, n, field, name in ((erefs, ne, "elem_refs", "element_refs"),
+                                (vrefs, nv, "vert_refs", "vertex_refs"),
+                                (frefs, nf, "facet_refs", "facet_refs")):
+        if arr is not None and n:
+            a, rows, _ = _arrays.int32s(arr, "%s %s" % (what, name), cols=(0,))
+            if rows != n:
+                raise ValueError("%s %s: %d values for %d entries" % (what, name, rows, n))
+            setattr(rm, field, _pointer(a, ctypes.c_int32, keep))
+    keep.append(rm)
+    return ctypes.pointer(rm)
 
 
-def _write_sol(values, dim, path, what):
-    core = _lib.core()
-    a, n, _ = _arrays.doubles(values, what, cols=(0,))
-    sol = ctypes.POINTER(_lib.Sol)()
-    err = _lib.Error()
-    st = core.sm_sol_alloc(ctypes.byref(sol), dim, n, 1, ctypes.byref(err))
-    if st:
-        _raise(err, st)
-    try:
-        _arrays.copy_into(sol.contents.values, a)
-        st = core.sm_sol_write(path.encode(), sol, ctypes.byref(err))
-        if st:
-            _raise(err, st)
-    finally:
-        core.sm_sol_free(sol)
+def _run_surface(surface, what, keep):
+    """sm_run_surface over (vertices, faces) arrays (or a dict with those
+    keys): triangles in 3D, segments in 2D, 0-based."""
+    if isinstance(surface, dict):
+        unknown = set(surface) - {"vertices", "faces"}
+        if unknown or "vertices" not in surface or "faces" not in surface:
+            raise TypeError("%s: a dict with the keys vertices and faces is expected" % what)
+        surface = (surface["vertices"], surface["faces"])
+    if not (isinstance(surface, (tuple, list)) and len(surface) == 2):
+        raise TypeError("%s: expected a path (STL, OBJ, PLY, OFF, VTK, Medit, Gmsh) or "
+                        "(vertices, faces) arrays" % what)
+    v, nv, dim = _arrays.doubles(surface[0], what + " vertices", cols=(2, 3))
+    f, nf, _ = _arrays.int32s(surface[1], what + " faces", cols=(dim,))
+    rs = _lib.RunSurface(dim=dim, nverts=nv, nfacets=nf)
+    rs.coords = _pointer(v, ctypes.c_double, keep)
+    rs.facets = _pointer(f, ctypes.c_int32, keep)
+    keep.append(rs)
+    return ctypes.pointer(rs)
 
 
 def _read_mesh(mesh_path, sol_path=None):
@@ -250,6 +256,12 @@ class Result:
                                      formats.encode() if formats else None, ctypes.byref(err))
         if st:
             _raise(err, st)
+
+    def warp(self, **kw):
+        """shapematch.warp(self, **kw): points, a mesh or a field through
+        this result's map (points=, mesh=, field=, inverse=, strict=,
+        normalize=, output=; see help(shapematch.warp))."""
+        return warp(self, **kw)
 
     def to_meshio(self):
         """The deformed mesh as a meshio.Mesh (needs python3-meshio), with the
@@ -379,8 +391,9 @@ def match(template, *, target_mesh=None, target_sol=None, target_surface=None,
     to a label map (NIfTI .nii/.nii.gz, NRRD .nrrd/.nhdr, MetaImage
     .mha/.mhd) whose voxels the params label=N, level=L and
     image_space="lps"|"ras" select and place, as `shapematch run
-    --target-image` (docs/images.md).  At most one clamp (none: a ball at
-    the template's deepest point, reported by the clamp-default warning):
+    --target-image` (docs/user-guide.md, "Targets from label maps").  At most one clamp
+    (none: a ball at the template's deepest point, reported by the
+    clamp-default warning):
     clamp_ball=(x, y[, z], r), clamp_elements=REFS, clamp_vertices=REFS or
     no_clamp=True (then alpha=...).  params: the params document's members
     (max_iter=200, young=..., free_boundary=[...]; shapematch.parameters()).
@@ -390,68 +403,30 @@ def match(template, *, target_mesh=None, target_sol=None, target_surface=None,
     doc = dict(params)
     doc["clamp"] = _clamp(clamp_ball, clamp_elements, clamp_vertices, no_clamp, doc)
     params_json = _json(doc).encode()
-    tmp = None
-    names = []
-    files = {}
-    dims = {}
-    try:
-        for part, value, ext in (("template", template, ".meshb"),
-                                 ("target_mesh", target_mesh, ".meshb"),
-                                 ("target_sol", target_sol, ".solb"),
-                                 ("target_surface", target_surface, None),
-                                 ("target_image", target_image, None)):
-            if value is None:
-                continue
-            if _is_path(value):
-                files[part] = (os.fsencode(value), None)
-                continue
-            if part == "target_surface":
-                raise TypeError("target_surface: give a path (STL, OBJ, Medit, Gmsh)")
-            if part == "target_image":
-                raise TypeError("target_image: give a path (NIfTI, NRRD, MetaImage)")
-            if tmp is None:
-                import tempfile  # only for arrays: random, hashlib, ... cost an import
-                tmp = tempfile.mkdtemp(prefix="shapematch-")
-            path = os.path.join(tmp, part + ext)
-            if part == "target_sol":
-                _write_sol(value, _sol_dim(dims, target_mesh), path, part)
-            else:
-                dims[part] = _write_mesh(value, path, part)
-            files[part] = (path.encode(), ("%s (array)" % part).encode())
-            names.append((path, "%s (array)" % part))
-        return _run(files, params_json, progress, names)
-    finally:
-        if tmp is not None:
-            import shutil
-            shutil.rmtree(tmp, ignore_errors=True)
-
-
-def _sol_dim(dims, target_mesh):
-    """The dimension a distance given as an array is written with: its
-    mesh's (the reader checks they agree)."""
-    if target_mesh is None:
-        raise TypeError("target_sol: needs target_mesh")
-    if "target_mesh" in dims:
-        return dims["target_mesh"]
-    core = _lib.core()
-    mesh = ctypes.POINTER(_lib.Mesh)()
-    err = _lib.Error()
-    st = core.sm_mesh_read(os.fsencode(target_mesh), ctypes.byref(mesh), ctypes.byref(err))
-    if st:
-        _raise(err, st)
-    dim = mesh.contents.dim
-    core.sm_mesh_free(mesh)
-    return dim
-
-
-def _run(files, params_json, progress, names):
-    job = _lib.job()
     rf = _lib.RunFiles()
-    for part in ("template", "target_mesh", "target_sol", "target_surface", "target_image"):
-        if part in files:
-            field = "template_mesh" if part == "template" else part
-            setattr(rf, field, files[part][0])
-            setattr(rf, ("template" if part == "template" else part) + "_name", files[part][1])
+    keep = []  # the arrays rf points into, alive until the library copied them
+    for part, value in (("template", template), ("target_mesh", target_mesh),
+                        ("target_sol", target_sol), ("target_surface", target_surface),
+                        ("target_image", target_image)):
+        if value is None:
+            continue
+        if _is_path(value):
+            setattr(rf, "template_mesh" if part == "template" else part, os.fsencode(value))
+        elif part == "target_image":
+            raise TypeError("target_image: give a path (NIfTI, NRRD, MetaImage)")
+        elif part == "target_sol":
+            a, n, _ = _arrays.doubles(value, part, cols=(0,))
+            rf.target_sol_values = _pointer(a, ctypes.c_double, keep)
+            rf.target_sol_count = n
+        elif part == "target_surface":
+            rf.target_surface_arrays = _run_surface(value, part, keep)
+        else:
+            setattr(rf, part + "_arrays", _run_mesh(value, part, keep))
+    return _run(rf, params_json, progress)
+
+
+def _run(rf, params_json, progress):
+    job = _lib.job()
     caught = []
 
     def on_progress(p, _user):
@@ -474,7 +449,7 @@ def _run(files, params_json, progress, names):
     if st:
         if caught:
             raise caught[0]
-        _raise(err, st, names)
+        _raise(err, st)
     result = Result(handle.value)
     if caught:
         result.close()
@@ -629,7 +604,9 @@ def warp(result, *, points=None, mesh=None, field=None, inverse=False, strict=Fa
     match, forward (template -> target) or back with inverse=True, as
     `shapematch warp` does (docs/warp.md: the conventions).  result: a
     result folder (result.mesh + displacement.sol, as run, fetch and
-    Result.write leave them) or a Result.  Exactly one of:
+    Result.write leave them), a Result, or a Client's result (a
+    RemoteResult, from Job.wait(): its map is downloaded once and warped
+    here; Client.warp asks the daemon instead).  Exactly one of:
       points  an (n, dim) array: returns (mapped (n, dim), inside (n,)
               0/1: 0 for a point outside the source mesh, mapped by its
               nearest element); strict=True raises ShapematchError for the
@@ -645,5 +622,7 @@ def warp(result, *, points=None, mesh=None, field=None, inverse=False, strict=Fa
               symmetric tensors (xx, xy, yy[, xz, yz, zz]) as F T F^T;
               returns the carried values; output=PATH writes a .sol/.solb."""
     from . import _warp
+    if hasattr(result, "_map_folder"):  # a Client's result: its files, downloaded once
+        result = result._map_folder()
     return _warp.warp(result, _raise, points=points, mesh=mesh, field=field, inverse=inverse,
                       strict=strict, normalize=normalize, output=output)

@@ -22,6 +22,13 @@ import urllib.request
 import uuid
 
 FINAL = ("successful", "failed", "dismissed")
+# Client.warp: a body's media type by its file's extension (proto/openapi.yaml)
+_WARP_TYPES = {".mesh": "application/x-medit-mesh", ".msh": "application/x-medit-mesh",
+               ".meshb": "application/x-medit-meshb", ".stl": "model/stl", ".obj": "model/obj",
+               ".ply": "model/x-ply", ".off": "model/x-off", ".vtk": "application/x-vtk",
+               ".vtu": "application/x-vtu", ".vtp": "application/x-vtu",
+               ".sol": "application/x-medit-sol", ".solb": "application/x-medit-solb"}
+
 # run's default --format: the files results() writes by default
 DEFAULT_FORMATS = "mesh,vtu,sol"
 _FILES = {  # format -> (resource, query format, file name); proto/sm_proto_vocab.h
@@ -172,7 +179,103 @@ class Client:
         return Job(self, info["jobID"])
 
     def job(self, job_id):
+        """The Job of that id (no request is made)."""
         return Job(self, job_id)
+
+    def batch(self, template, targets, *, model_align="rigid", names=None, clamp_ball=None,
+              clamp_elements=None, clamp_vertices=None, no_clamp=False, **params):
+        """Matches template onto every target on the daemon, then builds
+        their shape model (docs/api.md, "Batches"; shapematch.batch runs the
+        same here): one job per target (submit(), the same clamp and
+        params), grouped by POST /v1/batches.  targets: paths (surfaces),
+        (mesh, sol) pairs or dicts (target_surface, target_mesh,
+        target_sol, target_image, name); names: one per target (default:
+        a dict's name, else the job id); model_align: "none", "rigid" or
+        "similarity".  Returns the Batch; batch.wait() follows it."""
+        from . import _target_dict
+        jobs, entries = [], []
+        for k, t in enumerate(targets):
+            t = dict(_target_dict(t))
+            name = names[k] if names is not None else t.pop("name", None)
+            t.pop("name", None)
+            if t.pop("landmarks", None) is not None:
+                raise TypeError("Client.batch: landmarks are not sent to a daemon (the job "
+                                "takes template and target landmarks as parts; use submit)")
+            job = self.submit(template, clamp_ball=clamp_ball, clamp_elements=clamp_elements,
+                              clamp_vertices=clamp_vertices, no_clamp=no_clamp,
+                              **dict(params, **t))
+            jobs.append(job)
+            entries.append({"job": job.id} if name is None else {"job": job.id, "name": name})
+        body = json.dumps({"targets": entries, "model_align": model_align or "rigid"}).encode()
+        info = self._json("POST", "/v1/batches", body=body,
+                          headers={"Content-Type": "application/json",
+                                   "Accept": "application/json"})
+        return Batch(self, info["batchID"], jobs)
+
+    def warp(self, job, *, points=None, mesh=None, field=None, inverse=False, strict=False,
+             normalize=False, output=None):
+        """Carries points, a mesh or a field through a successful job's map
+        on the daemon (POST /v1/jobs/{id}/warp; shapematch.warp does it
+        here, on downloaded files).  job: a Job, a RemoteResult or a job id.
+          points  an (n, dim) array: returns (mapped (n, dim), inside (n,));
+                  strict=True raises HTTPError (422) for a point outside;
+          mesh    a path (Medit, Gmsh, VTK, or a surface: STL, OBJ, PLY,
+                  OFF): the answer (vertices moved, topology kept) is
+                  written to output=PATH, its format by the name
+                  (.mesh, .vtu, .stl, .obj, .ply, .off, .vtk); returns PATH;
+          field   a .sol/.solb path at the template's vertices: the carried
+                  field written to output=PATH; returns PATH."""
+        from . import _arrays
+        job_id = getattr(getattr(job, "job", job), "id", job)
+        given = [n for n, v in (("points", points), ("mesh", mesh), ("field", field))
+                 if v is not None]
+        if len(given) != 1:
+            raise TypeError("Client.warp: give exactly one of points, mesh, field (got %s)"
+                            % (", ".join(given) or "none"))
+        query = {"direction": "inverse" if inverse else "forward"}
+        if strict:
+            query["strict"] = "true"
+        if normalize:
+            query["normalize"] = "true"
+        path = "/v1/jobs/%s/warp" % job_id
+        if points is not None:
+            if output is not None:
+                raise ValueError("Client.warp: output= is for a mesh or a field")
+            a, n, dim = _arrays.doubles(points, "points", cols=(2, 3))
+            rows = [list(a[i * dim:(i + 1) * dim]) for i in range(n)]
+            body = json.dumps({"points": rows}).encode()
+            doc = self._json("POST", path + "?" + urllib.parse.urlencode(query), body=body,
+                             headers={"Content-Type": "application/json",
+                                      "Accept": "application/json"})
+            import array
+            flat = array.array("d", (float(x) for p in doc["points"] for x in p))
+            inside = array.array("i", (int(x) for x in doc["inside"]))
+            return (_arrays.wrap((bytearray(flat.tobytes()), "d", n, dim)),
+                    _arrays.wrap((bytearray(inside.tobytes()), "i", n, 0)))
+        src = mesh if mesh is not None else field
+        if output is None:
+            raise ValueError("Client.warp: a mesh or a field needs output=PATH (the answer)")
+        name = os.fsdecode(src)
+        base = name[:-3] if name.endswith(".gz") else name
+        ext = os.path.splitext(base)[1].lower()
+        if ext not in _WARP_TYPES:
+            raise ValueError("Client.warp: %s: send .mesh/.meshb/.msh/.vtk/.vtu, a surface "
+                             "(.stl, .obj, .ply, .off) or a field (.sol, .solb)" % name)
+        if (field is not None) != (ext in (".sol", ".solb")):
+            raise ValueError("Client.warp: %s is not a %s" % (name, "field" if field is not None
+                                                              else "mesh"))
+        out_ext = os.path.splitext(os.fsdecode(output))[1].lstrip(".").lower()
+        if mesh is not None and out_ext in ("mesh", "vtu", "stl", "obj", "ply", "off", "vtk"):
+            query["format"] = out_ext
+        with open(src, "rb") as f:
+            body = f.read()
+        tmp = os.fsdecode(output) + ".part"
+        with self._request("POST", path + "?" + urllib.parse.urlencode(query), body=body,
+                           headers={"Content-Type": _WARP_TYPES[ext]}) as r, \
+                open(tmp, "wb") as f:
+            f.write(r.read())
+        os.replace(tmp, output)
+        return output
 
 
 class Job:
@@ -278,7 +381,10 @@ class RemoteResult:
     """A successful job's results: summary (dict), history, warnings, status,
     converged; vertices, elements and displacement are read from the
     downloaded mesh when first asked for (through the library);
-    write(dir) downloads the result set."""
+    write(dir) downloads the result set; warp(...) carries points, a mesh
+    or a field through its map (shapematch.warp, here on the downloaded
+    files); close() removes the downloaded files (else when the object
+    goes)."""
 
     def __init__(self, job):
         self.job = job
@@ -289,23 +395,147 @@ class RemoteResult:
         with job.client._request("GET", "/v1/jobs/%s/results/history?format=json" % job.id) as r:
             self.history = json.loads(r.read().decode())
         self._mesh = None
+        self._dir = None
+
+    def __repr__(self):
+        return "<shapematch.RemoteResult of job %s>" % self.job.id
 
     def write(self, directory, formats=DEFAULT_FORMATS):
+        """Downloads the result set into directory (Job.results)."""
         return self.job.results(directory, formats)
+
+    def _map_folder(self):
+        """A private folder with result.meshb and displacement.solb, downloaded
+        once: the map shapematch.warp reads."""
+        if self._dir is None:
+            import tempfile
+            d = tempfile.mkdtemp(prefix="shapematch-remote-")
+            try:
+                self.job._download("mesh", "meshb", os.path.join(d, "result.meshb"))
+                self.job._download("displacement", "solb", os.path.join(d, "displacement.solb"))
+            except BaseException:
+                import shutil
+                shutil.rmtree(d, ignore_errors=True)
+                raise
+            self._dir = d
+        return self._dir
 
     def _load(self):
         if self._mesh is None:
-            import tempfile
             from . import _read_mesh
-            with tempfile.TemporaryDirectory(prefix="shapematch-") as d:
-                p = os.path.join(d, "result.meshb")
-                self.job._download("mesh", "meshb", p)
-                q = os.path.join(d, "displacement.solb")
-                self.job._download("displacement", "solb", q)
-                self._mesh = _read_mesh(p, q)
+            d = self._map_folder()
+            self._mesh = _read_mesh(os.path.join(d, "result.meshb"),
+                                    os.path.join(d, "displacement.solb"))
         return self._mesh
 
-    vertices = property(lambda self: self._load()["vertices"])
-    elements = property(lambda self: self._load()["elements"])
-    element_refs = property(lambda self: self._load()["element_refs"])
-    displacement = property(lambda self: self._load()["displacement"])
+    def warp(self, **kw):
+        """shapematch.warp(self, **kw): points, a mesh or a field through
+        this result's map, computed here (see help(shapematch.warp))."""
+        from . import warp
+        return warp(self, **kw)
+
+    def close(self):
+        """Removes the downloaded files (the arrays read stay)."""
+        if self._dir is not None:
+            import shutil
+            shutil.rmtree(self._dir, ignore_errors=True)
+            self._dir = None
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+    vertices = property(lambda self: self._load()["vertices"], doc="final positions")
+    elements = property(lambda self: self._load()["elements"], doc="0-based elements")
+    element_refs = property(lambda self: self._load()["element_refs"], doc="element references")
+    displacement = property(lambda self: self._load()["displacement"],
+                            doc="vertices - the template's")
+
+
+class Batch:
+    """A batch on the daemon: its targets' jobs and the model job (whose id
+    is the batch's).  status() is GET /v1/batches/{id}; events() and
+    wait() follow /v1/batches/{id}/events; model(dir) downloads the
+    model's files."""
+
+    def __init__(self, client, batch_id, jobs=()):
+        self.client = client
+        self.id = batch_id
+        self.jobs = list(jobs)
+
+    def __repr__(self):
+        return "<shapematch.Batch %s of %d targets>" % (self.id, len(self.jobs))
+
+    def status(self):
+        """The batch document (dict: status, progress, eta, counts, targets,
+        model)."""
+        return self.client._json("GET", "/v1/batches/" + self.id)
+
+    def cancel(self):
+        """Cancels a live batch (its model job, then its targets), or
+        deletes a final one; returns the batch document."""
+        return self.client._json("DELETE", "/v1/batches/" + self.id)
+
+    def events(self, after=0):
+        """The batch's events as dicts ("target": one target changed,
+        "batch": the whole batch's progress, "status": the last, with the
+        batch document), followed live until the batch ends; resumes after
+        a lost connection with Last-Event-ID."""
+        last = after
+        while True:
+            headers = {"Accept": "text/event-stream"}
+            if last:
+                headers["Last-Event-ID"] = str(last)
+            try:
+                with self.client._request("GET", "/v1/batches/%s/events" % self.id,
+                                          headers=headers, stream=True) as r:
+                    for ev_id, _type, data in sse_events(r):
+                        event = json.loads(data)
+                        if ev_id is not None:
+                            last = int(ev_id)
+                        yield event
+                        if event.get("type") == "status":
+                            return
+            except (ConnectionError, urllib.error.URLError) as e:
+                if isinstance(e, urllib.error.HTTPError):
+                    raise
+                time.sleep(0.5)
+
+    def wait(self, progress=None):
+        """Follows the batch to its end; returns the final batch document.
+        progress(event) is called with every "batch" event (progress, eta,
+        counts).  Raises shapematch.ShapematchError when the model job did
+        not succeed (its message names the targets left out)."""
+        from . import ShapematchError
+        doc = None
+        for event in self.events():
+            if event.get("type") == "batch" and progress is not None:
+                progress(event)
+            elif event.get("type") == "status":
+                doc = event  # the batch document
+        doc = doc if doc and "status" in doc else self.status()
+        if doc.get("status") != "successful":
+            raise ShapematchError("batch %s %s%s" % (
+                self.id, doc.get("status", "ended"),
+                ": " + doc["message"] if doc.get("message") else ""),
+                "failed" if doc.get("status") == "failed" else "cancelled")
+        return doc
+
+    def model(self, directory):
+        """Downloads the model's files (mean.mesh, mean.vtu, modes.vtu,
+        scores.csv, summary.json, mode_K.sol) into directory (created if
+        missing); returns the model's summary (dict)."""
+        info = self.client._json("GET", "/v1/batches/%s/model" % self.id)
+        os.makedirs(directory, exist_ok=True)
+        for f in info.get("files", []):
+            name = f["name"]
+            if "/" in name or name.startswith("."):
+                raise ValueError("batch model: unexpected file name %r" % name)
+            dest = os.path.join(directory, name)
+            with self.client._request("GET", "/v1/batches/%s/model/%s" % (self.id, name)) as r, \
+                    open(dest + ".part", "wb") as out:
+                out.write(r.read())
+            os.replace(dest + ".part", dest)
+        return info.get("summary")

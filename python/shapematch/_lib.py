@@ -63,13 +63,37 @@ class SurfaceHealth(ctypes.Structure):
         [("lo", ctypes.c_double * 3), ("hi", ctypes.c_double * 3)]
 
 
+class RunMesh(ctypes.Structure):
+    """sm_run_mesh (shapematch_job.h): a mesh as arrays the caller owns."""
+    _fields_ = [("dim", ctypes.c_int), ("nverts", ctypes.c_int32),
+                ("coords", ctypes.POINTER(ctypes.c_double)), ("nelems", ctypes.c_int32),
+                ("elems", ctypes.POINTER(ctypes.c_int32)),
+                ("elem_refs", ctypes.POINTER(ctypes.c_int32)),
+                ("vert_refs", ctypes.POINTER(ctypes.c_int32)), ("nfacets", ctypes.c_int32),
+                ("facets", ctypes.POINTER(ctypes.c_int32)),
+                ("facet_refs", ctypes.POINTER(ctypes.c_int32))]
+
+
+class RunSurface(ctypes.Structure):
+    """sm_run_surface (shapematch_job.h): a target surface as arrays."""
+    _fields_ = [("dim", ctypes.c_int), ("nverts", ctypes.c_int32),
+                ("coords", ctypes.POINTER(ctypes.c_double)), ("nfacets", ctypes.c_int32),
+                ("facets", ctypes.POINTER(ctypes.c_int32))]
+
+
 class RunFiles(ctypes.Structure):
     """sm_run_files (shapematch_job.h), its members in the header's order
-    (the image pair was appended: the struct only grows at its end)."""
+    (the image pair, then the inputs in memory were appended: the struct
+    only grows at its end)."""
     _fields_ = [(n, ctypes.c_char_p) for n in (
         "template_mesh", "target_mesh", "target_sol", "target_surface", "template_name",
         "target_mesh_name", "target_sol_name", "target_surface_name", "target_image",
-        "target_image_name")]
+        "target_image_name")] + [
+        ("template_arrays", ctypes.POINTER(RunMesh)),
+        ("target_mesh_arrays", ctypes.POINTER(RunMesh)),
+        ("target_sol_values", ctypes.POINTER(ctypes.c_double)),
+        ("target_sol_count", ctypes.c_int32),
+        ("target_surface_arrays", ctypes.POINTER(RunSurface))]
 
 
 PROGRESS_FN = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.POINTER(Progress), ctypes.c_void_p)
@@ -161,6 +185,7 @@ def job():
         _declare(lib, "sm_run_job", _c.c_int, _P(RunFiles), _c.c_char_p, PROGRESS_FN,
                  _c.c_void_p, _P(_c.c_int), _P(_c.c_void_p), _P(Error))
         _declare(lib, "sm_run_free", None, _c.c_void_p)
+        _declare(lib, "sm_run_version", _c.c_char_p)
         for name in ("sm_run_outcome", "sm_run_message", "sm_run_summary"):
             _declare(lib, name, _c.c_char_p, _c.c_void_p)
         for name in ("sm_run_exit_code", "sm_run_dim"):

@@ -1,4 +1,4 @@
-/* job.json's reader (server/smd_job_file.c): any bytes are refused or
+/* job.json's reader (server/worker/smd_job_file.c): any bytes are refused or
  * give a description whose paths stay inside the job folder and whose
  * params are an object, with a template or (a batch's model job) a batch
  * whose member names are valid; an accepted one encodes and reads back

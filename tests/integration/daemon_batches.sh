@@ -164,6 +164,14 @@ if [ "$rc" = 0 ] && [ -n "$CB_ID" ] && jq -e '.status == "successful" and .count
 else
     not_ok "shapematch batch --server" "rc $rc: $(tail -5 "$WORK/cli.log")"
 fi
+# it followed the batch by its event stream, not by polling the document
+streams=$(grep -c "\"path\":\"/v1/batches/$CB_ID/events\"" "$DLOG")
+polls=$(grep -c "\"path\":\"/v1/batches/$CB_ID\"" "$DLOG")
+if [ -n "$CB_ID" ] && [ "$streams" -ge 1 ] && [ "$polls" = 0 ] && grep -q "successful, 100%: 3 of 3 targets ended" "$WORK/cli.log"; then
+    ok "batch --server follows GET /v1/batches/{id}/events ($streams stream(s), no GET of the batch document) and shows its progress"
+else
+    not_ok "batch --server follows the event stream" "streams $streams, polls $polls" "$(cat "$WORK/cli.log")"
+fi
 "$BIN/shapematch" batch --server "$BASE" --template "$DISK" --target-mesh "$BOX" --target-sol "$WORK/case/box-0.6.sol" \
     --clamp-ball 0,0,0.1 --jobs 2 -o "$WORK/cli2" 2>"$WORK/cli2.log"
 rc=$?

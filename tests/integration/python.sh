@@ -49,7 +49,7 @@ while IFS= read -r line; do
     "1.."*) ;;
     *) echo "$line" ;;
     esac
-done < <(env "${env[@]}" "$PY" "$ROOT/tests/python/tap.py" test_shapematch test_warp test_image test_client \
+done < <(env "${env[@]}" "$PY" "$ROOT/tests/python/tap.py" test_shapematch test_inputs test_warp test_image test_client \
     2>"$WORK/py.err"; echo "# python exit $?" >"$WORK/py.rc")
 if grep -qx '# python exit 0' "$WORK/py.rc"; then
     ok "the Python tests ran to their end"

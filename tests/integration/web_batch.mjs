@@ -1,7 +1,8 @@
 // The web app's batch view (web/batch.js) in real Chromium (Debian's
 // chromium, npm playwright-core): the batch of web_batch.sh (disks matched
 // onto circles of the given radii) opened by #batch=ID while it runs; the
-// per-target table follows it to the end; then the model: one slider per
+// per-target table follows it to the end, by the batch's event stream
+// (one GET of the document, then /events: no polling); then the model: one slider per
 // written mode (at most 5), the variance plot drawn, and mode 1 at +-3
 // standard deviations moves the boundary's mean radius by 6 sigma, where
 // sigma is the spread of the generating radii (their sample standard
@@ -25,6 +26,8 @@ try {
   const errors = [];
   page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
   page.on('pageerror', (e) => errors.push(String(e)));
+  const asked = [];
+  page.on('request', (q) => asked.push(new URL(q.url()).pathname));
   await page.goto(`${base}/#batch=${id}`);
   await page.waitForSelector('#batch-panel:not([hidden])', { timeout: 10000 });
   await page.waitForFunction((n) => document.querySelectorAll('#batch-targets tr').length === n, radii.length, { timeout: 10000 });
@@ -35,6 +38,11 @@ try {
   const summary = await page.textContent('#batch-summary');
   report('the table follows the batch to its end: every target successful, the batch too',
     status === 'successful' && rows.every((s) => s === 'successful') && summary.includes(`${radii.length} of ${radii.length}`), `${status} ${rows} ${summary}`);
+  const docs = asked.filter((p) => p === `/v1/batches/${id}`).length;
+  const streams = asked.filter((p) => p === `/v1/batches/${id}/events`).length;
+  const first = await page.evaluate(() => window.shapematchBatch.current.firstStatus);
+  report(`the view follows the batch by its event stream: one GET of the document (${first}), then /events (no polling)`,
+    docs === 1 && streams >= 1 && first !== 'successful', `document ${docs}, events ${streams}, first status ${first}`);
   const sliders = await page.$$eval('#batch-modes input[type=range]', (s) => s.map((x) => [x.min, x.max]));
   const written = await page.evaluate(() => window.shapematchBatch.current.model.modes.length);
   report('one slider per written mode (at most 5), each from -3 to +3 sigma',

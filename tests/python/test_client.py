@@ -146,6 +146,98 @@ class Daemon(unittest.TestCase):
             job.wait(progress=lambda it, J, e: it < 3)
         self.assertEqual(job.status()["status"], "dismissed")
 
+    def test_warp_of_remote_and_local_results(self):
+        """warp() on a Client's result, Result.warp, RemoteResult.warp and
+        Client.warp (the daemon's) give the same points; a template vertex
+        goes to its final position"""
+        job = self.client.submit(self.template, max_iter=12, **self.kw)
+        remote = job.wait()
+        local = shapematch.match(self.template, max_iter=12, **self.kw)
+        tv, _ = base.read_medit_vertices(self.template)
+        pts = [list(tv[i]) for i in (0, 5, 17, 40)] + [[0.013, -0.021], [0.3, 0.25]]
+        a, ia = shapematch.warp(remote, points=pts)
+        b, ib = local.warp(points=pts)
+        c, ic = remote.warp(points=pts)
+        d, idd = self.client.warp(job, points=pts)
+        self.assertEqual(a.tolist(), b.tolist())
+        self.assertEqual(a.tolist(), c.tolist())
+        self.assertEqual(a.tolist(), d.tolist())
+        self.assertEqual(list(ia), [1] * len(pts))
+        self.assertEqual(list(idd), [1] * len(pts))
+        final = local.vertices.tolist()
+        for k, i in enumerate((0, 5, 17, 40)):
+            for j in range(2):
+                self.assertAlmostEqual(a[k][j], final[i][j], delta=1e-12)
+        # and back: the inverse of the forward map is the identity
+        back, _ = self.client.warp(remote, points=a, inverse=True)
+        for p, q in zip(back.tolist(), pts):
+            for j in range(2):
+                self.assertAlmostEqual(p[j], q[j], delta=1e-10)
+        # a mesh through the daemon, written where asked: the result's vertices
+        out = os.path.join(self.tmp, "warped.mesh")
+        self.assertEqual(self.client.warp(job.id, mesh=self.template, output=out), out)
+        got, _ = base.read_medit_vertices(out)
+        for p, q in zip(got, final):
+            self.assertAlmostEqual(p[0], q[0], delta=1e-12)
+            self.assertAlmostEqual(p[1], q[1], delta=1e-12)
+        with self.assertRaises(ValueError):
+            self.client.warp(job, mesh=self.template)  # no output
+        remote.close()
+
+    def test_batch_on_the_daemon_is_the_local_batch(self):
+        """Client.batch: two targets, followed by the batch event stream to
+        its end; the model's mean shape is the local batch's, byte for byte"""
+        import math
+        bg = self.kw["target_mesh"]
+        bv, _ = base.read_medit_vertices(bg)
+        sols = []
+        for radius in (0.8, 0.7):
+            p = os.path.join(self.tmp, "r%g.sol" % radius)
+            with open(p, "w") as f:
+                f.write("MeshVersionFormatted 2\nDimension 2\nSolAtVertices\n%d\n1 1\n" % len(bv))
+                f.writelines("%r\n" % (math.hypot(x, y) - radius) for x, y in bv)
+                f.write("End\n")
+            sols.append(p)
+        kw = dict(clamp_ball=self.kw["clamp_ball"], max_iter=10)
+        batch = self.client.batch(self.template, [(bg, s) for s in sols], names=["r80", "r70"],
+                                  model_align="none", **kw)
+        seen = []
+        doc = batch.wait(progress=seen.append)
+        self.assertEqual(doc["status"], "successful")
+        self.assertEqual(doc["counts"]["successful"], 2)
+        self.assertTrue(seen and all(e["type"] == "batch" for e in seen))
+        out = os.path.join(self.tmp, "model-remote")
+        summary = batch.model(out)
+        self.assertEqual(summary["members"], 2)
+        local = os.path.join(self.tmp, "batch-local")
+        shapematch.batch(self.template, [{"name": "r80", "target_mesh": bg, "target_sol": sols[0]},
+                                         {"name": "r70", "target_mesh": bg, "target_sol": sols[1]}],
+                         local, model_align="none", jobs=1, **kw)
+        with open(os.path.join(out, "mean.mesh"), "rb") as a, \
+                open(os.path.join(local, "model", "mean.mesh"), "rb") as b:
+            self.assertEqual(a.read(), b.read())
+
+    def test_a_2d_image_target_on_the_daemon_is_match(self):
+        """a 2D label map (tests/cli/image2d.py's disk, NRRD dimension 2) as
+        the target of the 2D example: the daemon's result is match()'s, on
+        the circle within half a pixel"""
+        import math
+        import subprocess
+        import sys
+        subprocess.run([sys.executable, os.path.join(base.ROOT, "tests", "cli", "image2d.py"),
+                        "write", self.tmp], check=True, capture_output=True)
+        kw = dict(target_image=os.path.join(self.tmp, "disk.nrrd"), clamp_ball=(0.5, 0.5, 0.04),
+                  max_iter=40)
+        remote = self.client.submit(base.TEMPLATE2, **kw).wait()
+        local = shapematch.match(base.TEMPLATE2, **kw)
+        self.assertEqual(remote.vertices.tolist(), local.vertices.tolist())
+        self.assertEqual(remote.summary["target_image"]["dims"], [66, 52, 1])
+        edges = base.read_medit_block(base.TEMPLATE2, "Edges", 2)
+        boundary = {a - 1 for a, b, ref in edges if ref == 1}
+        v = local.vertices.tolist()
+        worst = max(abs(math.dist(v[i], (0.5, 0.5)) - 0.32) for i in boundary)
+        self.assertLess(worst, 0.0234375 / 2)
+
     def test_invalid_job_is_a_422_with_the_detail(self):
         with self.assertRaises(shapematch.HTTPError) as e:
             self.client.submit(self.template, max_iter=0, **self.kw)

@@ -133,7 +133,7 @@ class ImageRefusals(unittest.TestCase):
         with self.assertRaises(shapematch.ShapematchError) as e:
             shapematch.match(base.TEMPLATE2, target_image=CASE["image"],
                              clamp_ball=(0.5, 0.5, 0.04))
-        self.assertIn("a target image is 3D", str(e.exception))
+        self.assertIn("image (34 x 30 x 22 voxels): a 2D template needs a 2D image", str(e.exception))
 
     def test_arrays_are_refused(self):
         with self.assertRaises(TypeError):

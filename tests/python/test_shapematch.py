@@ -363,8 +363,18 @@ class MatchBehaviour(unittest.TestCase):
         with self.assertRaises(shapematch.ShapematchError) as e:  # no target_sol
             shapematch.match(TEMPLATE2, target_mesh=CASE2["target_mesh"], clamp_ball=(0, 0, 1))
         self.assertIn("no target", str(e.exception))
-        with self.assertRaises(ValueError):
+        # arrays are checked by the library, as a file's contents are
+        with self.assertRaises(shapematch.ShapematchError) as e:
             shapematch.match(([[0, 0], [1, 0], [0, 1]], [[0, 1, 3]]), **CASE2)
+        self.assertIn("template (array): element 0: vertex index 3 out of range [0, 3)",
+                      str(e.exception))
+        self.assertEqual(e.exception.status, "format")
+        with self.assertRaises(shapematch.ShapematchError) as e:
+            shapematch.match(([[0, 0], [1, float("nan")], [0, 1]], [[0, 1, 2]]), **CASE2)
+        self.assertIn("template (array): vertex 1: coordinate 2 is not a finite number",
+                      str(e.exception))
+        with self.assertRaises(ValueError):  # the shapes are Python's to check
+            shapematch.match(([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]], [1, 2]), **CASE2)
 
     def test_parameters_come_from_the_table(self):
         names = [p["name"] for p in shapematch.parameters()]

@@ -3,7 +3,8 @@
  * summary (voxels, 26-connected components, border, world box) against
  * hand counts, NIfTI's qform against its sform for the same rotation, the
  * three readers agreeing on one array in memory, and the level-set
- * surface's distance against an exact sphere. */
+ * surface's distance against an exact sphere; a 2D label's contour
+ * against the exact area of its pixel square. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -302,12 +303,80 @@ static void test_binary_sphere_signs(void **state)
     free(m);
 }
 
+/* A 2D label's contour (sm_image_contour_2d) without smoothing: the mask
+ * is 1 and 0 at pixel centres, so the level 0.5 crosses every edge at its
+ * middle.  The square of pixels [10, 29]^2 gives the square [9.5, 29.5]^2
+ * with the two corners cut where the cells' diagonal (a,b)-(a+1,b+1)
+ * meets the square's other diagonal (legs 1/2: area 1/8 each), hence the
+ * area 400 - 1/4 = 399.75 in pixels, times |det| of the map.  Checked:
+ * every vertex starts one segment and ends one (closed, consistently
+ * oriented), the shoelace area has the inside on the left (positive)
+ * for a map that keeps and one that mirrors orientation, and a label of
+ * several slices or a tilted plane is refused. */
+static void test_contour_2d(void **state)
+{
+    (void)state;
+    enum { N = 40 };
+    uint8_t mask[N * N];
+    for (int j = 0; j < N; j++)
+        for (int i = 0; i < N; i++)
+            mask[j * N + i] = i >= 10 && i <= 29 && j >= 10 && j <= 29;
+    const double t = 0.3, hx = 0.5, hy = 2.0;
+    const double maps[2][12] = {
+        {cos(t) * hx, -sin(t) * hy, 0, 3, sin(t) * hx, cos(t) * hy, 0, -1, 0, 0, 1, 0},
+        {-cos(t) * hx, sin(t) * hy, 0, 3, sin(t) * hx, cos(t) * hy, 0, -1, 0, 0, 1, 0}};
+    for (int k = 0; k < 2; k++) {
+        sm_image im = {.dims = {N, N, 1}, .type = SM_VOXEL_U8, .slope = 1, .voxels = mask,
+                       .format = "test"};
+        memcpy(im.ijk_to_lps, maps[k], sizeof im.ijk_to_lps);
+        sm_surface *s = NULL;
+        sm_error err;
+        sm_error_clear(&err);
+        assert_int_equal(sm_image_contour_2d(&im, mask, 0, &s, &err), SM_OK);
+        assert_int_equal(s->dim, 2);
+        int *starts = calloc((size_t)s->nverts, sizeof *starts);
+        int *ends = calloc((size_t)s->nverts, sizeof *ends);
+        double area = 0;
+        for (int32_t f = 0; f < s->nfacets; f++) {
+            const double *a = s->coords + 2 * s->facets[2 * f];
+            const double *b = s->coords + 2 * s->facets[2 * f + 1];
+            starts[s->facets[2 * f]]++;
+            ends[s->facets[2 * f + 1]]++;
+            area += 0.5 * (a[0] * b[1] - a[1] * b[0]);
+        }
+        for (int32_t v = 0; v < s->nverts; v++) {
+            assert_int_equal(starts[v], 1);
+            assert_int_equal(ends[v], 1);
+        }
+        double det = fabs(maps[k][0] * maps[k][5] - maps[k][1] * maps[k][4]);
+        print_message("# contour %d: %d segments, area %.12g (exact %.12g)\n", k, s->nfacets,
+                      area, 399.75 * det);
+        assert_true(fabs(area - 399.75 * det) < 1e-9 * det * 400);
+        free(starts);
+        free(ends);
+        sm_surface_free(s);
+    }
+    sm_image im = {.dims = {N, N / 2, 2}, .type = SM_VOXEL_U8, .slope = 1, .voxels = mask};
+    memcpy(im.ijk_to_lps, maps[0], sizeof im.ijk_to_lps);
+    sm_surface *s = NULL;
+    sm_error err;
+    assert_int_equal(sm_image_contour_2d(&im, mask, 0, &s, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "one slice"));
+    im.dims[1] = N;
+    im.dims[2] = 1;
+    im.ijk_to_lps[8] = 0.1; /* the plane tilted */
+    assert_int_equal(sm_image_contour_2d(&im, mask, 0, &s, &err), SM_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "not z = constant"));
+    assert_null(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_edt_brute_force), cmocka_unit_test(test_nifti_qform_sform),
         cmocka_unit_test(test_text_formats),    cmocka_unit_test(test_mask_stats),
         cmocka_unit_test(test_target_sphere),   cmocka_unit_test(test_binary_sphere_signs),
+        cmocka_unit_test(test_contour_2d),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,4 +1,4 @@
-/* What the daemon checks before accepting a job (sm_job_inputs, proto/sm_job_inputs.h), the clamp
+/* What the daemon checks before accepting a job (sm_job_inputs, proto/job/sm_job_inputs.h), the clamp
  * set rules (shared with the core), format sniffing of uploads, the SSE
  * framing of events and the Prometheus rendering. */
 #include <math.h>

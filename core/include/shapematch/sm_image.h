@@ -1,6 +1,7 @@
 /* Label-map images — the target users have when they have a segmentation
  * rather than a surface: NIfTI-1/-2 (.nii, .nii.gz), NRRD (.nrrd, .nhdr +
- * data file) and MetaImage (.mha, .mhd + data file), 3D, one channel,
+ * data file) and MetaImage (.mha, .mhd + data file), 3D or 2D (dims[2]
+ * 1: NIfTI dim[0] 2, NRRD dimension 2, MetaImage NDims 2), one channel,
  * unsigned/signed 8/16/32-bit integers or float32/float64 voxels.
  *
  * Every image is mapped into one frame, LPS (left-posterior-superior: ITK,
@@ -193,5 +194,20 @@ void sm_image_target_grid(const sm_image_target *t, int64_t n[3], double map[12]
  * NULL) receives how many were computed exactly. */
 sm_status sm_image_target_signed(const sm_image_target *t, int64_t n, const double *pts,
                                  double *out, int64_t *exact, sm_error *err);
+
+/* The boundary of a 2D image's selection (dims[2] == 1: NIfTI dim[0] 2,
+ * NRRD dimension 2, MetaImage NDims 2, or one slice) as a closed curve
+ * for a 2D template: the mask (sm_image_mask's, not empty) smoothed by a
+ * Gaussian of smooth voxels (0: none), its level set 0.5 traced by
+ * marching triangles (each cell of four voxel centres cut along its
+ * diagonal, the smoothed mask linear on each triangle), the crop of the
+ * selection padded by 2 + 3 smooth voxels of background so that a label
+ * touching the image's border still closes; segments with the inside on
+ * their left, in the world x and y of ijk_to_lps.  SM_ERR_INVALID for an
+ * image of several slices, an image whose plane is not z = constant (its
+ * axes with z components), or a selection thinner than the smoothing;
+ * SM_ERR_NOMEM. */
+sm_status sm_image_contour_2d(const sm_image *im, const uint8_t *mask, double smooth,
+                              sm_surface **out, sm_error *err);
 
 #endif

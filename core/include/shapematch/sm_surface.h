@@ -41,9 +41,12 @@ void sm_surface_free(sm_surface *s);
  *   - OBJ (v, f; negative indices count back from the last vertex;
  *     polygons are fan-triangulated; vt, vn, groups, materials and other
  *     statements are skipped); coincident vertices are merged as for STL;
+ *     without faces, its "l" polylines with all z = 0 are a 2D curve;
  *   - PLY ASCII or binary in either byte order (the vertex element's x,
- *     y, z, the face element's vertex_indices; polygons fan-triangulated),
- *     OFF and its variants (COFF, NOFF...), Gmsh's PLY2; merged as STL;
+ *     y, z, the face element's vertex_indices; polygons fan-triangulated;
+ *     without faces, the edge element's vertex1-vertex2 segments with
+ *     all z = 0 are a 2D curve), OFF and its variants (COFF, NOFF...),
+ *     Gmsh's PLY2; merged as STL;
  *   - VTK legacy .vtk (ASCII or binary, versions before 5 and 5.x) and
  *     XML .vtu/.vtp (ASCII, base64, appended raw or base64, optionally
  *     zlib-compressed): triangles, quads, polygons and strips (3D), or

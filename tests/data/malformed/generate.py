@@ -447,7 +447,7 @@ case("msh-gz-truncated", "input.msh.gz", gzip.compress(_full41, mtime=0)[:-30],
 case("msh-surface-only", "input.msh", _full41.replace(b"1.0 1.0 0\n", b"1.0 1.0 0.5\n"),
      "surface mesh is not a volume mesh")
 case("mesh-unknown-format", "input.mesh", b"solid x\nfacet normal 0 0 1\n",
-     "unknown format: the file starts with 'solid'")
+     "a surface (STL), not a volume mesh (meshes are read as Medit")
 
 
 # --------------------------------------------------------------------------

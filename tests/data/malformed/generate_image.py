@@ -102,7 +102,12 @@ case("image-nifti2-huge-dims", "input.nii", nifti2(dims=(1 << 40, 1, 1)),
 case("image-nrrd-bad-magic", "input.nrrd", nrrd(magic="NRRD0009"), "magic NRRD0001 to NRRD0005")
 case("image-nrrd-truncated", "input.nrrd", nrrd()[:-5], "19 bytes of voxel data left")
 case("image-nrrd-missing-sizes", "input.nrrd", nrrd(drop=("sizes",)), "no 'sizes' field")
-case("image-nrrd-dimension-4", "input.nrrd", nrrd({"dimension": "4"}), "dimension 3 is read")
+case("image-nrrd-dimension-4", "input.nrrd", nrrd({"dimension": "4"}), "dimension 2 or 3 is read")
+case("image-nrrd-2d-three-sizes", "input.nrrd", nrrd({"dimension": "2"}),
+     "sizes: two sizes in [1, 2^20] expected (dimension 2)")
+case("image-nrrd-2d-3d-directions", "input.nrrd",
+     nrrd({"dimension": "2", "sizes": "4 6", "space directions": "(1,0) (0,1)"}),
+     "space directions: two finite vectors (x,y,z) expected (dimension 2)")
 case("image-nrrd-bad-type", "input.nrrd", nrrd({"type": "complex"}), "unknown or unsupported type")
 case("image-nrrd-size-zero", "input.nrrd", nrrd({"sizes": "4 0 2"}), "three sizes in [1, 2^20]")
 case("image-nrrd-size-overflow", "input.nrrd", nrrd({"sizes": "4 99999999999999999999 2"}),
@@ -134,7 +139,14 @@ case("image-nrrd-not-field", "input.nrrd", nrrd({"type": "uchar\nwhat is this"})
 case("image-mha-no-data-file", "input.mha", b"ObjectType = Image\nNDims = 3\n",
      "ends without ElementDataFile")
 case("image-mha-truncated", "input.mha", mha()[:-4], "20 bytes of voxel data left")
-case("image-mha-ndims-2", "input.mha", mha({"NDims": "2"}), "NDims 3 is read")
+case("image-mha-ndims-4", "input.mha", mha({"NDims": "4"}), "NDims 2 or 3 is read")
+case("image-mha-2d-three-sizes", "input.mha",
+     mha({"NDims": "2", "TransformMatrix": "1 0 0 1", "Offset": "0 0",
+          "ElementSpacing": "1 1"}),
+     "DimSize: two sizes in [1, 2^20] expected (NDims 2)")
+case("image-mha-dimsize-before-ndims", "input.mha",
+     b"ObjectType = Image\nDimSize = 4 3 2\n" + mha(drop=("DimSize", "ObjectType")),
+     "NDims must come before")
 case("image-mha-bad-type", "input.mha", mha({"ElementType": "MET_FLOAT_ARRAY"}), "ElementType")
 case("image-mha-channels", "input.mha", mha({"ElementNumberOfChannels": "3"}), "one channel")
 case("image-mha-missing-dimsize", "input.mha", mha(drop=("DimSize",)), "no DimSize")

@@ -1,7 +1,8 @@
-/* Label-map images read from a file: the dispatch by content and what the
- * three formats share (sm_image_formats.h) — the checked allocation, the
- * voxel data raw or inflated, the detached data file, the geometry
- * check — and the image model's small functions (free, flip, value). */
+/* What the three image formats share (sm_image_formats.h) — the checked
+ * allocation, the voxel data raw or inflated, the detached data file, the
+ * geometry check — and the image model's small functions (free, flip,
+ * value).  The readers call these; the dispatch by content is sm_io.c's
+ * table. */
 #include "io/sm_image_formats.h"
 
 #include <errno.h>
@@ -382,62 +383,4 @@ sm_status sm__image_check_geometry(const sm_image_src *src, const sm_image *im, 
         return sm_error_set(err, SM_ERR_FORMAT, "%s: the voxel axes are singular (zero spacing "
                             "or parallel directions)", src->path);
     return SM_OK;
-}
-
-static sm_status read_src(const sm_reader_input *in, sm_image_limits *limits, sm_image **out,
-                          sm_error *err)
-{
-    *out = NULL;
-    if (limits)
-        limits->hit = 0;
-    sm_reader r;
-    sm_status st = sm__reader_open_input(&r, in, err);
-    if (st != SM_OK)
-        return st;
-    sm_read_limits rl = {0};
-    if (limits && limits->max_inflated) {
-        /* the header and the voxels: the voxel bytes are checked on
-         * their own before allocation (sm__image_new) */
-        rl.max_inflated = limits->max_inflated + (1u << 20);
-        r.limits = &rl;
-    }
-    sm_image_src src = {in->path, in->data != NULL, limits};
-    if (sm__nifti_detect(&r))
-        st = sm__nifti_read(&r, &src, out, err);
-    else if (sm__nrrd_detect(&r))
-        st = sm__nrrd_read(&r, &src, out, err);
-    else if (sm__mha_detect(&r))
-        st = sm__mha_read(&r, &src, out, err);
-    else if (r.stream_status != SM_OK) /* a corrupt gzip file, a read error */
-        st = sm__reader_fail_byte(&r, err, r.stream_status, sm__reader_offset(&r), "%s", r.why);
-    else
-        st = sm_error_set(err, SM_ERR_FORMAT, "%s: not an image this reads (%s)", in->path,
-                          SM_IMAGE_FORMATS);
-    if (limits && rl.hit == SM_LIMIT_INFLATED)
-        limits->hit = SM_IMAGE_LIMIT_INFLATED;
-    sm__reader_close(&r);
-    if (st == SM_OK)
-        st = sm__image_check_geometry(&src, *out, err);
-    if (st != SM_OK) {
-        sm_image_free(*out);
-        *out = NULL;
-    }
-    return st;
-}
-
-sm_status sm_image_read(const char *path, sm_image_limits *limits, sm_image **out, sm_error *err)
-{
-    *out = NULL;
-    if (!path)
-        return sm_error_set(err, SM_ERR_INVALID, "no image file name");
-    return read_src(&(sm_reader_input){.path = path}, limits, out, err);
-}
-
-sm_status sm_image_read_memory(const char *name, const void *data, size_t size,
-                               sm_image_limits *limits, sm_image **out, sm_error *err)
-{
-    *out = NULL;
-    static const char empty[1] = "";
-    return read_src(&(sm_reader_input){.path = name, .data = data ? data : empty, .size = size},
-                    limits, out, err);
 }

@@ -9,16 +9,7 @@
 source "$(dirname "$0")/../lib/cli.sh"
 B=${SM_BIN:-$ROOT/build/release}/shapematch
 cd "$WORK" || exit 1
-cat >t.geo <<'GEO'
-SetFactory("OpenCASCADE");
-Sphere(1) = {0, 0, 0, 0.8};
-Sphere(2) = {0, 0, 0, 0.3};
-BooleanFragments{ Volume{1}; Delete; }{ Volume{2}; Delete; }
-Physical Volume("core", 1) = {2};
-Physical Volume("shell", 2) = {3};
-Physical Surface("skin", 3) = {3};
-Mesh.MeshSizeMax = 0.3;
-GEO
+cp "$ROOT/tests/lib/case/ball_shell.geo" t.geo
 cat >s.geo <<'GEO'
 SetFactory("OpenCASCADE");
 Sphere(1) = {0, 0, 0, 0.9};

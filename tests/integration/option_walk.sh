@@ -15,15 +15,7 @@ PY=/usr/bin/python3
 [ -x "$PY" ] || PY=python3
 SM=$BIN/shapematch
 cd "$WORK" || exit 1
-cat >t.geo <<'GEO'
-SetFactory("OpenCASCADE");
-Sphere(1) = {0, 0, 0, 0.8};
-Sphere(2) = {0, 0, 0, 0.3};
-BooleanFragments{ Volume{1}; Delete; }{ Volume{2}; Delete; }
-Physical Volume("core", 1) = {2};
-Physical Volume("shell", 2) = {3};
-Mesh.MeshSizeMax = 0.3;
-GEO
+cp "$ROOT/tests/lib/case/ball_shell.geo" t.geo
 cat >s.geo <<'GEO'
 SetFactory("OpenCASCADE");
 Sphere(1) = {0, 0, 0, 0.9};

@@ -180,7 +180,8 @@ SM_LIBS := libshapematch libshapematch_job
 
 install: release
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)/shapematch \
-	  $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(MANDIR)/man8 $(DESTDIR)$(PYTHONDIR)/shapematch
+	  $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(MANDIR)/man8 $(DESTDIR)$(PYTHONDIR)/shapematch \
+	  $(DESTDIR)$(DOCDIR)
 	install -m 755 $(INSTALL_PROGRAMS:%=build/release/%) $(DESTDIR)$(PREFIX)/bin/
 	for l in $(SM_LIBS); do \
 	  install -m 755 build/release/$$l.so.$(SM_SOVERSION) $(DESTDIR)$(LIBDIR)/$$l.so.$(VERSION) && \
@@ -194,6 +195,7 @@ install: release
 	install -m 644 build/release/man/shapematch.1 $(DESTDIR)$(MANDIR)/man1/
 	install -m 644 build/release/man/shapematchd.8 $(DESTDIR)$(MANDIR)/man8/
 	install -m 644 $(PYTHON_FILES) $(DESTDIR)$(PYTHONDIR)/shapematch/
+	install -m 644 LICENSE THIRD-PARTY $(DESTDIR)$(DOCDIR)/
 	@# bytecode now: an installed folder users cannot write would otherwise
 	@# be compiled at every import (~10-20 ms of a 2D match's 0.4 s)
 	@if [ -x /usr/bin/python3 ]; then /usr/bin/python3 -m compileall -q \
@@ -215,9 +217,10 @@ uninstall:
 	  $(DESTDIR)$(INCLUDEDIR)/shapematch.h $(DESTDIR)$(INCLUDEDIR)/shapematch_job.h \
 	  $(CORE_PUBLIC_HEADERS:core/include/%=$(DESTDIR)$(INCLUDEDIR)/%) \
 	  $(DESTDIR)$(MANDIR)/man1/shapematch.1 $(DESTDIR)$(MANDIR)/man8/shapematchd.8 \
-	  $(PYTHON_FILES:python/%=$(DESTDIR)$(PYTHONDIR)/%)
+	  $(PYTHON_FILES:python/%=$(DESTDIR)$(PYTHONDIR)/%) \
+	  $(DESTDIR)$(DOCDIR)/LICENSE $(DESTDIR)$(DOCDIR)/THIRD-PARTY
 	rm -rf $(DESTDIR)$(PYTHONDIR)/shapematch/__pycache__
-	-rmdir $(DESTDIR)$(INCLUDEDIR)/shapematch $(DESTDIR)$(PYTHONDIR)/shapematch 2>/dev/null
+	-rmdir $(DESTDIR)$(INCLUDEDIR)/shapematch $(DESTDIR)$(PYTHONDIR)/shapematch $(DESTDIR)$(DOCDIR) 2>/dev/null
 	$(if $(UNITDIR),rm -f $(DESTDIR)$(UNITDIR)/shapematchd.service)
 
 clean:

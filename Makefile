@@ -71,11 +71,23 @@ asan_LDFLAGS := $(ASAN_LDFLAGS)
 ALL_TARGETS :=
 RELEASE_ONLY_TARGETS :=
 
+# A quiet build: one line per step ("  CC   core/sm_match.c", the variant
+# in brackets when it is not release); `make V=1` prints the commands.
+# A recipe line starts with $(call show,STEP,WHAT,VARIANT) (or $(Q) for a
+# step not worth a line), which expands to the @printf of that line.
+ifeq ($(V),1)
+show =
+Q =
+else
+show = @printf '  %-4s %s%s\n' '$(1)' '$(2)' '$(if $(filter-out release,$(3)), [$(3)])';
+Q = @
+endif
+
 # compile rule for every variant: build/<variant>/obj/<path>.o
 define variant_rules
 build/$(1)/obj/%.o: %.c
 	@mkdir -p $$(dir $$@)
-	$$(CC) $$($(1)_CFLAGS) -MMD -MP -c $$< -o $$@
+	$$(call show,CC,$$<,$(1))$$(CC) $$($(1)_CFLAGS) -MMD -MP -c $$< -o $$@
 endef
 $(foreach v,$(VARIANTS),$(eval $(call variant_rules,$(v))))
 
@@ -158,20 +170,24 @@ test: check-deps
 lint:
 	@tests/lint.sh
 
+# only the three programs the demo runs (not the tests and benchmarks of
+# `make release`): a first demo is built in well under a minute on two cores
 demo: check-deps
-	$(MAKE) -j$$(nproc) release
+	@$(MAKE) --no-print-directory -j$$(nproc) $(INSTALL_PROGRAMS:%=build/release/%)
 	examples/demo.sh
 
 # make install PREFIX=... DESTDIR=...: the programs, the libraries
 # (libshapematch.so.MAJOR with its archive, libshapematch_job.so.MAJOR), the
 # headers (<shapematch.h>, <shapematch/...>, <shapematch_job.h>),
-# shapematch.pc, the man pages and the Python package, all under PREFIX.
+# shapematch.pc, the man pages, the Python package and the license files
+# (LICENSE, THIRD-PARTY in share/doc/shapematch), all under PREFIX.
 # Nothing goes elsewhere unless UNITDIR is given: the systemd unit then goes
 # there with its program path rewritten to $(PREFIX)/bin
 # (UNITDIR=/etc/systemd/system).
 LIBDIR = $(PREFIX)/lib
 INCLUDEDIR = $(PREFIX)/include
 MANDIR = $(PREFIX)/share/man
+DOCDIR = $(PREFIX)/share/doc/shapematch
 # Debian's python3 searches it for PREFIX=/usr; for /usr/local give
 # PYTHONDIR=/usr/local/lib/python3.X/dist-packages (docs/python.md)
 PYTHONDIR = $(PREFIX)/lib/python3/dist-packages

@@ -34,7 +34,7 @@ define core_rules
 build/$(1)/obj/core/%.o: $(1)_CFLAGS += -I core
 build/$(1)/libshapematch.a: $$(CORE_SRCS:%.c=build/$(1)/obj/%.o)
 	@mkdir -p $$(dir $$@)
-	rm -f $$@ && ar rcs $$@ $$^
+	$$(call show,AR,$$@,$(1))rm -f $$@ && ar rcs $$@ $$^
 endef
 $(foreach v,$(VARIANTS),$(eval $(call core_rules,$(v))))
 ALL_TARGETS += libshapematch.a
@@ -54,9 +54,9 @@ build/$(1)/libshapematch.map: $$(CORE_PUBLIC_HEADERS) tests/build/exports.sh
 	  { echo 'SHAPEMATCH_$(SM_SOVERSION) {'; echo '  global:'; \
 	    printf '    %s;\n' $$$$list; echo '  local: *;'; echo '};'; } >$$@.tmp && mv $$@.tmp $$@
 build/$(1)/libshapematch.so.$(SM_SOVERSION): $$(CORE_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/libshapematch.map
-	$$(CC) $$($(1)_LDFLAGS) -shared -Wl,-soname,libshapematch.so.$(SM_SOVERSION) -Wl,-z,defs \
+	$$(call show,LD,$$@,$(1))$$(CC) $$($(1)_LDFLAGS) -shared -Wl,-soname,libshapematch.so.$(SM_SOVERSION) -Wl,-z,defs \
 	  -Wl,--version-script=build/$(1)/libshapematch.map -o $$@ $$(filter %.o,$$^) $$(CORE_LIBS)
-	ln -sf libshapematch.so.$(SM_SOVERSION) build/$(1)/libshapematch.so
+	$$(Q)ln -sf libshapematch.so.$(SM_SOVERSION) build/$(1)/libshapematch.so
 # <shapematch.h>: the umbrella header, every public header (generated: a
 # header added to core/include/shapematch/ is in it by itself), with C
 # linkage for C++ (the core's headers are C only)

@@ -154,28 +154,13 @@ int sm_param_in_range(const sm_param_info *f, double x)
     return above_min && below_max && isfinite(x);
 }
 
-/* The shortest text that reads back as x (0.5, not 0.50000000000000000);
- * whole numbers in full (1000000000, not 1e+09). */
-static void shortest(char *buf, size_t cap, double x)
-{
-    if (x == floor(x) && fabs(x) < 1e15) {
-        snprintf(buf, cap, "%.0f", x);
-        return;
-    }
-    for (int digits = 1; digits <= 17; digits++) {
-        snprintf(buf, cap, "%.*g", digits, x);
-        if (strtod(buf, NULL) == x)
-            return;
-    }
-}
-
 int sm_param_describe_range(const sm_param_info *f, char *buf, size_t cap)
 {
-    char lo[32], hi[32];
+    char lo[SM_NUMBER_TEXT_LEN], hi[SM_NUMBER_TEXT_LEN];
     int int_like = f->type != SM_PARAM_REAL;
     int no_max = isinf(f->max) || (int_like && f->max >= INT_MAX);
-    shortest(lo, sizeof lo, f->min);
-    shortest(hi, sizeof hi, f->max);
+    sm_number_text(lo, f->min);
+    sm_number_text(hi, f->max);
     if (no_max)
         return snprintf(buf, cap, "%s %s", f->min_open ? ">" : ">=", lo);
     if (isinf(f->min))
@@ -210,8 +195,10 @@ static sm_status check_clamp(const sm_params *p, int dim, sm_error *err)
         for (int c = 0; c < (dim ? dim : 3); c++)
             if (!isfinite(p->clamp_center[c]))
                 return sm_error_set(err, SM_ERR_INVALID, "clamp center: coordinate %d is not finite", c + 1);
+        char got[SM_NUMBER_TEXT_LEN];
         if (!(p->clamp_radius > 0) || !isfinite(p->clamp_radius))
-            return sm_error_set(err, SM_ERR_INVALID, "clamp radius must be > 0 (got %g)", p->clamp_radius);
+            return sm_error_set(err, SM_ERR_INVALID, "clamp radius must be > 0 (got %s)",
+                                sm_number_text(got, p->clamp_radius));
     }
     if ((p->clamp == SM_CLAMP_ELEMENTS || p->clamp == SM_CLAMP_VERTICES) &&
         (p->n_clamp_refs < 1 || p->n_clamp_refs > SM_MAX_REFS))
@@ -245,7 +232,9 @@ static sm_status check_row(const sm_param_info *f, const sm_params *p, sm_error 
         sm_param_names_text(f, names, sizeof names);
         return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s (got %d)", f->name, names, (int)x);
     }
-    return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s (got %.17g)", f->name, range, x);
+    char got[SM_NUMBER_TEXT_LEN];
+    return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s (got %s)", f->name, range,
+                        sm_number_text(got, x));
 }
 
 sm_status sm_params_validate(const sm_params *p, int dim, sm_error *err)
@@ -254,9 +243,10 @@ sm_status sm_params_validate(const sm_params *p, int dim, sm_error *err)
     for (size_t i = 0; st == SM_OK && i < N_TABLE; i++)
         if (!table[i].in_clamp || p->clamp == SM_CLAMP_NONE) /* alpha: kind none only */
             st = check_row(&table[i], p, err);
+    char a[SM_NUMBER_TEXT_LEN], b[SM_NUMBER_TEXT_LEN];
     if (st == SM_OK && p->step_initial > p->step_max)
-        st = sm_error_set(err, SM_ERR_INVALID, "step_initial: must be <= step_max (%.17g > %.17g)",
-                          p->step_initial, p->step_max);
+        st = sm_error_set(err, SM_ERR_INVALID, "step_initial: must be <= step_max (%s > %s)",
+                          sm_number_text(a, p->step_initial), sm_number_text(b, p->step_max));
     return st;
 }
 

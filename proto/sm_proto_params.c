@@ -66,12 +66,15 @@ static sm_status get_ranged(const json_t *v, const char *path, double lo, int lo
     sm_status st = smp_get_number(v, path, 0, &x, err);
     if (st != SM_OK)
         return st;
+    char bound[SM_NUMBER_TEXT_LEN], got[SM_NUMBER_TEXT_LEN];
     if (!isinf(lo) && !(lo_open ? x > lo : x >= lo))
-        return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s %g (got %.17g)", path,
-                            lo_open ? ">" : ">=", lo, x);
+        return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s %s (got %s)", path,
+                            lo_open ? ">" : ">=", sm_number_text(bound, lo),
+                            sm_number_text(got, x));
     if (!isinf(hi) && !(hi_open ? x < hi : x <= hi))
-        return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s %g (got %.17g)", path,
-                            hi_open ? "<" : "<=", hi, x);
+        return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s %s (got %s)", path,
+                            hi_open ? "<" : "<=", sm_number_text(bound, hi),
+                            sm_number_text(got, x));
     *out = x;
     return SM_OK;
 }
@@ -367,8 +370,9 @@ sm_status sm_job_params_from_jansson(const json_t *root, int dim, const char *pa
     }
     if (p.step_initial > p.step_max) {
         smp_path_join(sub, path, "step_initial");
-        return sm_error_set(err, SM_ERR_INVALID, "%s: must be <= step_max (%.17g > %.17g)", sub,
-                            p.step_initial, p.step_max);
+        char a[SM_NUMBER_TEXT_LEN], b[SM_NUMBER_TEXT_LEN];
+        return sm_error_set(err, SM_ERR_INVALID, "%s: must be <= step_max (%s > %s)", sub,
+                            sm_number_text(a, p.step_initial), sm_number_text(b, p.step_max));
     }
     if (dim != 0) {
         sm_status st = sm_params_validate(&p, dim, err);

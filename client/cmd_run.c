@@ -283,10 +283,10 @@ static void print_final_line(const run_options *o, const sm_job_run *run)
     const sm_result *r = &run->result;
     if (run->outcome == SM_JOB_OUTCOME_FAILED)
         fprintf(stderr,
-                "shapematch: error: no valid step from the initial mesh (boundary error %.3e); "
-                "the template may already match the target (see --tol-boundary) or the "
-                "parameters prevent any move (--min-quality, --tol-step)\n",
-                r->boundary_l2);
+                "shapematch: error: no valid step from the initial mesh (boundary RMS %.3e, "
+                "L2 %.3e); the template may already match the target (see --tol-boundary) or "
+                "the parameters prevent any move (--min-quality, --tol-step)\n",
+                r->boundary_rms, r->boundary_l2);
     else if (run->outcome == SM_JOB_OUTCOME_CANCELLED && run->message[0])
         fprintf(stderr, "shapematch: %s; outputs in %s\n", run->message, o->outdir);
     else if (!o->quiet || !r->converged)

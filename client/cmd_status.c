@@ -43,9 +43,11 @@ static void print_status(const json_t *doc)
     const json_t *last = json_object_get(doc, "lastProgress");
     if (json_is_object(last)) {
         const json_t *it = json_object_get(last, "iteration");
-        printf("last      iter %lld  J %.6e  boundary %.3e  step %.3e  qmin %.3f\n",
+        printf("last      iter %lld  rms %.3e  max %.3e  L2 %.3e  J %.6e  step %.3e  qmin "
+               "%.3f\n",
                json_is_integer(it) ? (long long)json_integer_value(it) : -1LL,
-               num_member(last, "J"), num_member(last, "boundary_l2"), num_member(last, "step"),
+               num_member(last, "boundary_rms"), num_member(last, "boundary_max"),
+               num_member(last, "boundary_l2"), num_member(last, "J"), num_member(last, "step"),
                num_member(last, "min_quality"));
     }
 }

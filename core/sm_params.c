@@ -79,8 +79,9 @@ static const sm_param_info table[] = {
      "lower)"},
     {"save_every", INT(save_every), RANGE(0, CLOSED, INT_MAX, CLOSED), 0, NULL, 0,
      "--save-every", "K",
-     "also write OUTDIR/iter-NNNNN.mesh and .vtu every K iterations, the .vtu listed in "
-     "snapshots.pvd (0: never)"},
+     "also write OUTDIR/iter-NNNNN.mesh and .vtu (with the displacement and d) of the first "
+     "state, every K iterations and the final state, the .vtu listed in snapshots.pvd (0: "
+     "never)"},
     {"step_initial", REAL(step_initial), RANGE(0, OPEN, 1, CLOSED), 0.01, NULL, 0,
      "--step-initial", "S", "first step length, as a fraction of the template diameter"},
     {"step_max", REAL(step_max), RANGE(0, OPEN, 1, CLOSED), 0.1, NULL, 0, "--step-max", "S",

@@ -8,6 +8,7 @@
 #include "cli.h"
 #include "remote.h"
 #include "sm_proto_events.h"
+#include "sm_proto_vocab.h"
 
 #define LIST_PAGE 100
 #define LIST_MAX_JOBS 1000000L
@@ -24,11 +25,25 @@ static double num_member(const json_t *doc, const char *key)
     return json_is_number(v) ? json_number_value(v) : NAN;
 }
 
+/* The job's name as sent by the daemon, "" when it is none a terminal
+ * should print as it is (sm_job_name_check). */
+static const char *printable_name(const json_t *doc)
+{
+    const json_t *v = json_object_get(doc, "name");
+    char why[96];
+    if (!json_is_string(v) ||
+        sm_job_name_check(json_string_value(v), json_string_length(v), why, sizeof why) != 0)
+        return "";
+    return json_string_value(v);
+}
+
 /* The readable form of one statusInfo. */
 static void print_status(const json_t *doc)
 {
     const char *status = str_member(doc, "status");
     printf("job       %s\n", str_member(doc, "jobID"));
+    if (str_member(doc, "name")[0])
+        printf("name      %s\n", printable_name(doc));
     const json_t *progress = json_object_get(doc, "progress");
     if (json_is_integer(progress) && strcmp(status, "accepted") != 0)
         printf("status    %s (%lld%%)\n", status, (long long)json_integer_value(progress));
@@ -255,8 +270,9 @@ static void print_list_row(const json_t *job)
     char pct[16] = "-";
     if (json_is_integer(progress))
         snprintf(pct, sizeof pct, "%lld%%", (long long)json_integer_value(progress));
-    printf("%-32s  %-10s  %4s  %-24s  %s\n", str_member(job, "jobID"), str_member(job, "status"),
-           pct, str_member(job, "created"), str_member(job, "message"));
+    printf("%-32s  %-10s  %4s  %-24s  %-16s  %s\n", str_member(job, "jobID"),
+           str_member(job, "status"), pct, str_member(job, "created"), printable_name(job),
+           str_member(job, "message"));
 }
 
 int cmd_list(int argc, char **argv)
@@ -328,8 +344,8 @@ int cmd_list(int argc, char **argv)
             printf("no jobs%s%s\n", a.status_filter ? " with status " : "",
                    a.status_filter ? a.status_filter : "");
         } else {
-            printf("%-32s  %-10s  %4s  %-24s  %s\n", "JOB", "STATUS", "DONE", "CREATED",
-                   "MESSAGE");
+            printf("%-32s  %-10s  %4s  %-24s  %-16s  %s\n", "JOB", "STATUS", "DONE", "CREATED",
+                   "NAME", "MESSAGE");
             for (size_t i = 0; i < json_array_size(all); i++)
                 print_list_row(json_array_get(all, i));
             if (matched > (long long)json_array_size(all))

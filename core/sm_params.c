@@ -28,38 +28,38 @@ static const sm_param_info table[] = {
      SM_CLAMP_NONE, "required", 0, NULL, NULL,
      "the clamp set where the displacement is 0 (the paper's omega), one option exactly; "
      "with --no-clamp nothing is fixed and the term alpha*int u.v makes the problem well "
-     "posed (paper, Remark 1)"},
+     "posed (paper, Remark 1)", "clamp"},
     /* 0 = from the problem's scale: E / diameter^2 (sm_match.c), which
      * converges with --no-clamp on both examples (2D: relative boundary
      * error 1e-3 after 19 iterations, 3D: after 21), where the former
      * fixed 0.01 did not (2D: 9.1e-3 after 500 iterations). */
     {"alpha", REAL(alpha), RANGE(0, CLOSED, NO_MAX), 0.0, NULL, 1, "--alpha", "A",
      "0th-order term alpha*int u.v of the unclamped problem (only with --no-clamp; "
-     "0: from the scale, E/diameter^2)"},
+     "0: from the scale, E/diameter^2)", "clamp"},
     {"free_boundary", SM_PARAM_REFS, offsetof(sm_params, free_refs),
      offsetof(sm_params, n_free_refs), RANGE(0, CLOSED, SM_MAX_REFS, CLOSED), 0, NULL, 0,
      "--free-boundary", "REFS",
      "boundary facet references excluded from the load (they count neither in J nor in the "
-     "boundary error)"},
+     "boundary error)", "clamp"},
     {"young", REAL(young), RANGE(0, OPEN, NO_MAX), 1.0, NULL, 0, "--young", "E",
-     "Young's modulus of the elastic model"},
+     "Young's modulus of the elastic model", "advanced"},
     {"poisson", REAL(poisson), RANGE(-1, OPEN, 0.5, OPEN), 0.3, NULL, 0, "--poisson", "NU",
-     "Poisson ratio of the elastic model"},
+     "Poisson ratio of the elastic model", "advanced"},
     /* 1e9: far beyond any run (a default run stops after ~200), and an
      * int on every platform */
     {"max_iter", INT(max_iter), RANGE(1, CLOSED, 1e9, CLOSED), 500, NULL, 0, "--max-iter", "N",
-     "stop after N iterations"},
+     "stop after N iterations", "stop"},
     {"tol_step", REAL(tol_step), RANGE(0, OPEN, 1, OPEN), 1e-6, NULL, 0, "--tol-step", "EPS",
      "stop when the step falls below EPS times the template diameter (the paper's "
-     "criterion)"},
+     "criterion)", "stop"},
     {"tol_boundary", REAL(tol_boundary), RANGE(0, CLOSED, NO_MAX), 0.0, NULL, 0,
      "--tol-boundary", "TOL",
      "stop when the boundary error ||d||_L2 is <= TOL (0: off; absolute: scales like L^1.5 "
-     "in 2D, L^2 in 3D with the template's size L)"},
+     "in 2D, L^2 in 3D with the template's size L)", "stop"},
     {"tol_boundary_rel", REAL(tol_boundary_rel), RANGE(0, CLOSED, NO_MAX), 0.0, NULL, 0,
      "--tol-boundary-rel", "R",
      "stop when the RMS boundary error ||d||_L2/sqrt(|boundary|) is <= R times the template "
-     "diameter (0: off; unit-free)"},
+     "diameter (0: off; unit-free)", "stop"},
     /* The stall rule ends converged runs, which the step rule alone does
      * not (the step stays well above tol_step while the error creeps down
      * by less than the background's resolution).  Measured with 500
@@ -70,22 +70,23 @@ static const sm_param_info table[] = {
      * the 3D case's plateaus (K 10 / 2%: 109 < 266). */
     {"tol_stall", REAL(tol_stall), RANGE(0, CLOSED, 1, OPEN), 0.01, NULL, 0, "--tol-stall", "F",
      "stop (stalled) when the best boundary error improved by < F over the stall window "
-     "(0: off)"},
+     "(0: off)", "stop"},
     {"stall_window", INT(stall_window), RANGE(1, CLOSED, 100000, CLOSED), 15, NULL, 0,
-     "--stall-window", "K", "iterations of the stall rule's window"},
+     "--stall-window", "K", "iterations of the stall rule's window", "stop"},
     {"min_quality", REAL(min_quality), RANGE(0, CLOSED, 1, OPEN), 0.02, NULL, 0, "--min-quality",
      "Q",
      "element quality floor for an accepted step (or the template's own worst quality, if "
-     "lower)"},
+     "lower)", "advanced"},
     {"save_every", INT(save_every), RANGE(0, CLOSED, INT_MAX, CLOSED), 0, NULL, 0,
      "--save-every", "K",
      "also write OUTDIR/iter-NNNNN.mesh and .vtu (with the displacement and d) of the first "
      "state, every K iterations and the final state, the .vtu listed in snapshots.pvd (0: "
-     "never)"},
+     "never)", "advanced"},
     {"step_initial", REAL(step_initial), RANGE(0, OPEN, 1, CLOSED), 0.01, NULL, 0,
-     "--step-initial", "S", "first step length, as a fraction of the template diameter"},
+     "--step-initial", "S", "first step length, as a fraction of the template diameter",
+     "advanced"},
     {"step_max", REAL(step_max), RANGE(0, OPEN, 1, CLOSED), 0.1, NULL, 0, "--step-max", "S",
-     "largest step length, as a fraction of the template diameter"},
+     "largest step length, as a fraction of the template diameter", "advanced"},
     /* Why the elastic operator is not refactorized at every iteration by
      * default: any SPD operator gives a descent direction (the gradient in
      * the elastic metric of a slightly older configuration), the
@@ -97,16 +98,16 @@ static const sm_param_info table[] = {
     {"refactor_every", INT(refactor_every), RANGE(1, CLOSED, INT_MAX, CLOSED), 100, NULL, 0,
      "--refactor-every", "K",
      "refactorize the elasticity matrix every K iterations (1: every iteration, as in the "
-     "paper)"},
+     "paper)", "advanced"},
     {"live_every", INT(live_every), RANGE(0, CLOSED, INT_MAX, CLOSED), 0, NULL, 0,
      NULL, NULL,
      "daemon only: publish the current shape (mesh/latest) every K iterations, and at least "
-     "every 0.5 s (0: by time only)"},
+     "every 0.5 s (0: by time only)", "advanced"},
     {"solver", SM_PARAM_SOLVER, offsetof(sm_params, solver), 0,
      RANGE(SM_SOLVER_AUTO, CLOSED, SM_SOLVER_AMG, CLOSED), SM_SOLVER_AUTO, NULL, 0, "--solver",
      "NAME",
      "elastic solver: cholmod (sparse Cholesky), amg (PCG + BoomerAMG: less memory, for large "
-     "3D templates) or auto (amg from 100000 tetrahedra in 3D)"},
+     "3D templates) or auto (amg from 100000 tetrahedra in 3D)", "advanced"},
     /* none: the paper's assumption (shapes given aligned) and today's
      * runs bit for bit; an alignment costs a second or so (bench/align.sh) */
     {"align", SM_PARAM_ALIGN, offsetof(sm_params, align), 0,
@@ -114,23 +115,25 @@ static const sm_param_info table[] = {
      "MODE",
      "move the template onto the target before the descent: none, rigid (rotation and "
      "translation), similarity (and a uniform scale) or affine, found from the target's distance "
-     "(or started from --landmarks); the result and displacement.sol are then the whole map"},
+     "(or started from --landmarks); the result and displacement.sol are then the whole map",
+     "inputs"},
     /* The label-map target's rows (only with a target image).  0 as "every
      * nonzero voxel": label 0 is a segmentation's background, never the
      * shape; labels are the non-negative values Slicer, ITK-SNAP and
      * nnU-Net write. */
     {"label", INT(label), RANGE(0, CLOSED, INT_MAX, CLOSED), 0, NULL, 0, "--label", "N",
-     "with a target image: the label whose voxels are the target (0: every nonzero voxel)"},
+     "with a target image: the label whose voxels are the target (0: every nonzero voxel)",
+     "inputs"},
     /* 0.5: the midpoint of a 0/1 mask or a probability map */
     {"level", REAL(level), RANGE(NO_MIN, NO_MAX), 0.5, NULL, 0, "--level", "L",
-     "with a float target image and no label: the voxels of value >= L are the target"},
+     "with a float target image and no label: the voxels of value >= L are the target", "inputs"},
     /* LPS: the frame of ITK, Slicer and NRRD's left-posterior-superior,
      * the tools that make most templates */
     {"image_space", SM_PARAM_SPACE, offsetof(sm_params, image_space), 0,
      RANGE(SM_IMAGE_SPACE_LPS, CLOSED, SM_IMAGE_SPACE_RAS, CLOSED), SM_IMAGE_SPACE_LPS, NULL, 0,
      "--image-space", "S",
      "with a target image: the frame of the template's coordinates, lps (ITK, Slicer) or ras "
-     "(NIfTI's world); the image is mapped into it"},
+     "(NIfTI's world); the image is mapped into it", "inputs"},
 };
 #define N_TABLE (sizeof table / sizeof table[0])
 

@@ -15,17 +15,17 @@
 /* The generated background's members (sm_background_params): rows of
  * the same kind as the core's, which does not know them.  Fields in
  * sm_param_info's order: name, type, offset, count_offset, min, max,
- * min_open, max_open, def, def_text, in_clamp, flag, meta, help. */
+ * min_open, max_open, def, def_text, in_clamp, flag, meta, help, group. */
 static const sm_param_info background_rows[] = {
     {"background_size", SM_PARAM_REAL, offsetof(sm_background_params, size), 0, 0, INFINITY, 1,
      1, 0, "the smaller mean edge of template and surface", 0, "--background-size", "H",
      "with --target-surface and no --target-mesh: side of the generated background's cells "
-     "near the surface, a length in the meshes' unit"},
+     "near the surface, a length in the meshes' unit", "inputs"},
     {"background_padding", SM_PARAM_REAL, offsetof(sm_background_params, padding), 0, 0,
      SM_BACKGROUND_PADDING_MAX, 1, 0, SM_BACKGROUND_PADDING_DEFAULT, NULL, 0,
      "--background-padding", "P",
      "the margin of that background around template and surface, a fraction of their box's "
-     "diagonal"},
+     "diagonal", "inputs"},
 };
 
 const sm_param_info *sm_background_params_table(size_t *count)

@@ -94,6 +94,8 @@ json_t *smd_job_status_fields(const smd_job *job)
     if (!o)
         return NULL;
     json_object_set_new(o, "jobID", json_string(job->id));
+    if (job->name[0])
+        json_object_set_new(o, "name", json_string(job->name));
     json_object_set_new(o, "processID", json_string(job->batch_model ? "shape-model" : "match"));
     json_object_set_new(o, "type", json_string("process"));
     json_object_set_new(o, "status", json_string(sm_job_state_name(job->state)));

@@ -371,6 +371,8 @@ sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **
         snprintf(job->idempotency_key, sizeof job->idempotency_key, "%s", key);
     if (sub->owner)
         snprintf(job->owner, sizeof job->owner, "%s", sub->owner);
+    if (sub->name)
+        snprintf(job->name, sizeof job->name, "%s", sub->name);
     job->request_hash = sub->request_hash;
     job->batch_model = sub->batch_model;
     if (smd_job_set_members(job, sub->members, sub->nmembers) != 0) {

@@ -169,6 +169,10 @@ typedef struct sm_param_info {
     const char *flag;      /* option of `shapematch run`/`submit`, or NULL */
     const char *meta;      /* its value's name in --help ("N") */
     const char *help;      /* one sentence, no default (printers add it) */
+    const char *group;     /* the section of a form or a page that shows it:
+                            * "inputs", "clamp", "stop" or "advanced" (the
+                            * web app folds that one), from params.schema.json's
+                            * x-group; NULL reads as "advanced" */
 } sm_param_info;
 
 /* The table, in the order of the params document; *count rows. */

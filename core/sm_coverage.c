@@ -49,6 +49,10 @@ struct sm_coverage {
     int32_t *cfacet;           /* nd: index into afacets; also the hint */
     double *cbary;             /* nd * dim */
     double *cdist;             /* nd */
+    /* the boundary's vertex graph (CSR over the mesh's vertex ids), for
+     * spreading the term's load (sm__coverage_spread) */
+    int32_t *adj_start, *adj;
+    double *spread_tmp;        /* nverts * dim */
     sm_coverage_topology topo;
 };
 
@@ -591,6 +595,47 @@ static int thin_samples(sm_coverage *c)
     return 0;
 }
 
+/* The edges between the active facets' vertices, both ways. */
+static sm_status boundary_graph(sm_coverage *c, sm_error *err)
+{
+    const int dim = c->dim;
+    const int32_t nv = c->m->nverts;
+    int64_t ne = (int64_t)c->nactive * (dim == 3 ? 6 : 2);
+    uint64_t *e = malloc((size_t)(ne ? ne : 1) * sizeof *e);
+    c->adj_start = calloc((size_t)nv + 1, sizeof *c->adj_start);
+    c->spread_tmp = malloc(((size_t)nv * dim + 1) * sizeof *c->spread_tmp);
+    if (!e || !c->adj_start || !c->spread_tmp) {
+        free(e);
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    }
+    int64_t m = 0;
+    for (int32_t f = 0; f < c->nactive; f++) {
+        const int32_t *v = c->afacets + (size_t)f * dim;
+        for (int i = 0; i < dim; i++)
+            for (int j = 0; j < dim; j++)
+                if (i != j)
+                    e[m++] = ((uint64_t)v[i] << 32) | (uint64_t)v[j];
+    }
+    qsort(e, (size_t)m, sizeof *e, cmp_u64);
+    int64_t u = 0;
+    for (int64_t i = 0; i < m; i++)
+        if (i == 0 || e[i] != e[i - 1])
+            e[u++] = e[i];
+    c->adj = malloc((size_t)(u ? u : 1) * sizeof *c->adj);
+    if (!c->adj) {
+        free(e);
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    }
+    for (int64_t i = 0; i < u; i++) {
+        c->adj_start[(e[i] >> 32) + 1]++;
+        c->adj[i] = (int32_t)(e[i] & 0xffffffffu);
+    }
+    for (int32_t v = 0; v < nv; v++)
+        c->adj_start[v + 1] += c->adj_start[v];
+    free(e);
+    return SM_OK;
+}
+
 static sm_status sample_target(sm_coverage *c, sm_error *err)
 {
     const sm_surface *s = c->target;
@@ -641,6 +686,8 @@ sm_status sm_coverage_new(const sm_field *target, const sm_surface *surface, con
         st = sm__bvh_build(c->target, &c->target_bvh, err);
     if (st == SM_OK)
         st = sample_target(c, err);
+    if (st == SM_OK)
+        st = boundary_graph(c, err);
     if (st != SM_OK) {
         sm_coverage_free(c);
         return st;
@@ -660,6 +707,7 @@ void sm_coverage_free(sm_coverage *c)
     free(c->dy), free(c->dw);
     free(c->afacets);
     free(c->cfacet), free(c->cbary), free(c->cdist);
+    free(c->adj_start), free(c->adj), free(c->spread_tmp);
     free(c);
 }
 
@@ -854,6 +902,28 @@ void sm__coverage_add_load(const sm_coverage *c, const double *coords, double we
         for (int j = 0; j < dim; j++)
             for (int k = 0; k < dim; k++)
                 load[(size_t)v[j] * dim + k] += 2 * weight * f * c->dw[i] * b[j] * (y[k] - p[k]);
+    }
+}
+
+void sm__coverage_spread(sm_coverage *c, const double *load, double *out, int passes)
+{
+    const int dim = c->dim;
+    const int32_t nv = c->m->nverts;
+    memcpy(out, load, (size_t)nv * dim * sizeof *out);
+    for (int p = 0; p < passes; p++) {
+        double *src = c->spread_tmp;
+        memcpy(src, out, (size_t)nv * dim * sizeof *src);
+        memset(out, 0, (size_t)nv * dim * sizeof *out);
+        for (int32_t v = 0; v < nv; v++) {
+            int32_t a = c->adj_start[v], b = c->adj_start[v + 1];
+            double share = 1.0 / (double)(b - a + 1);
+            for (int k = 0; k < dim; k++) {
+                double x = src[(size_t)v * dim + k] * share;
+                out[(size_t)v * dim + k] += x;
+                for (int32_t j = a; j < b; j++)
+                    out[(size_t)c->adj[j] * dim + k] += x;
+            }
+        }
     }
 }
 

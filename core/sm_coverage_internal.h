@@ -34,6 +34,15 @@ sm_status sm__coverage_correspond(sm_coverage *c, const double *coords, sm_dista
 void sm__coverage_add_load(const sm_coverage *c, const double *coords, double weight,
                            double *load);
 
+/* out = the load spread over the boundary's vertex graph: passes times,
+ * each vertex's share split equally between itself and its boundary
+ * neighbours (the total force is kept).  The term's gradient is a set
+ * of point loads, which an elastic solve turns into a spike (a point
+ * load's displacement is singular in 2D and 3D); spread over a few rings
+ * of the boundary it acts as a traction, as J's load does.  load and out
+ * have nverts * dim entries and may not overlap. */
+void sm__coverage_spread(sm_coverage *c, const double *load, double *out, int passes);
+
 /* T at coords with the correspondences kept (>= the true T there). */
 double sm__coverage_fixed_term(const sm_coverage *c, const double *coords);
 

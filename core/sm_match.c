@@ -51,6 +51,9 @@
 #define REFACTOR_QUALITY_DROP 0.7
 #define STIFFEN_EXPONENT 1.0
 #define STIFFEN_MAX 1e4
+/* Rings of the boundary the target-side term's point loads are spread
+ * over (sm__coverage_spread): ... */
+#define SPREAD_PASSES 3
 
 
 const char *sm_stop_reason_name(sm_stop_reason r)
@@ -79,6 +82,9 @@ struct sm_match {
     sm_elasticity *elasticity;
     uint8_t *clamped;
     double *x, *trial, *load, *u, *step;
+    double *tload;            /* the target-side term's part of load */
+    double *dirload;          /* the load the direction is solved for:
+                               * load with the term's part spread */
     double *q_template;       /* nelems: each element's quality in the template */
     double *stiffness;        /* nelems: the operator's stiffening factors */
     double q_factor;          /* min quality of the mesh the operator was
@@ -122,6 +128,8 @@ static void run_state_free(run_state *rs)
     free(rs->x);
     free(rs->trial);
     free(rs->load);
+    free(rs->tload);
+    free(rs->dirload);
     free(rs->u);
     free(rs->step);
     free(rs->q_template);
@@ -163,12 +171,15 @@ static sm_status setup_mesh(run_state *rs, const sm_match_opts *opts, sm_error *
     rs->x = sm__alloc_huge(ndof * sizeof(double));
     rs->trial = sm__alloc_huge(ndof * sizeof(double));
     rs->load = sm__alloc_huge(ndof * sizeof(double));
+    rs->tload = malloc((ndof + 1) * sizeof(double));
+    rs->dirload = malloc((ndof + 1) * sizeof(double));
     rs->u = sm__alloc_huge(ndof * sizeof(double));
     rs->step = sm__alloc_huge(ndof * sizeof(double));
     rs->best = malloc(((size_t)params->stall_window + 1) * sizeof(double));
     rs->q_template = malloc(((size_t)rs->mesh->nelems + 1) * sizeof(double));
     rs->stiffness = malloc(((size_t)rs->mesh->nelems + 1) * sizeof(double));
     if (!rs->clamped || !rs->x || !rs->trial || !rs->load || !rs->u || !rs->step || !rs->best ||
+        !rs->tload || !rs->dirload ||
         !rs->q_template || !rs->stiffness)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for a mesh of %ld vertices",
                             (long)rs->mesh->nverts);
@@ -219,8 +230,16 @@ static sm_status add_coverage_load(run_state *rs, sm_error *err)
 {
     double t0 = sm_clock_seconds();
     sm_status st = sm__coverage_correspond(rs->coverage, rs->x, &rs->cover, &rs->T, err);
-    if (st == SM_OK && rs->weight > 0)
-        sm__coverage_add_load(rs->coverage, rs->x, rs->weight, rs->load);
+    memcpy(rs->dirload, rs->load, rs->ndof * sizeof *rs->dirload);
+    if (st == SM_OK && rs->weight > 0 && rs->T > 0) {
+        memset(rs->tload, 0, rs->ndof * sizeof *rs->tload);
+        sm__coverage_add_load(rs->coverage, rs->x, rs->weight, rs->tload);
+        sm__coverage_spread(rs->coverage, rs->tload, rs->step, SPREAD_PASSES);
+        for (size_t i = 0; i < rs->ndof; i++) {
+            rs->load[i] += rs->tload[i];
+            rs->dirload[i] += rs->step[i];
+        }
+    }
     rs->coverage_seconds += sm_clock_seconds() - t0;
     return st;
 }
@@ -342,8 +361,18 @@ static sm_status find_direction(run_state *rs, sm_result *result, int *found, sm
         tm->factor += tf;
     }
     t0 = sm_clock_seconds();
-    if ((st = sm__elasticity_solve(rs->elasticity, rs->load, NULL, rs->u, err)) != SM_OK)
+    if ((st = sm__elasticity_solve(rs->elasticity, rs->dirload, NULL, rs->u, err)) != SM_OK)
         return st;
+    if (rs->weight > 0 && rs->T > 0) {
+        /* the spread load is a preconditioned gradient: the direction must
+         * still descend along the true one, else the true load's */
+        double s = 0;
+        for (size_t i = 0; i < rs->ndof; i++)
+            s += rs->load[i] * rs->u[i];
+        if (!(s > 0) &&
+            (st = sm__elasticity_solve(rs->elasticity, rs->load, NULL, rs->u, err)) != SM_OK)
+            return st;
+    }
     tm->solve += sm_clock_seconds() - t0;
     sm_elasticity_info info;
     sm__elasticity_get_info(rs->elasticity, &info);

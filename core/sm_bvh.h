@@ -44,6 +44,13 @@ double sm__bvh_facet_dist2(const sm_bvh *t, int32_t f, const double *p);
 /* Area vector (outward for an outward facet) and centroid of facet f. */
 void sm__bvh_facet_moments(const sm_surface *s, int32_t f, double *n, double *c);
 double sm__sdf_point_segment3_2(const double *p, const double *a, const double *b);
+/* Closest point of triangle abc (3D) to p: squared distance, and its
+ * barycentric coordinates in bary[3]. */
+double sm__triangle_closest(const double *p, const double *a, const double *b, const double *c,
+                            double *bary);
+/* Closest point of segment ab (dim 2 or 3) to p: squared distance, and
+ * its parameter t in [0, 1] (a + t (b - a)). */
+double sm__segment_closest(const double *p, const double *a, const double *b, int dim, double *t);
 
 /* Generalized winding number at p (sm_winding.c). */
 double sm__winding_at(const sm_bvh *t, const double *p, int32_t *stack);

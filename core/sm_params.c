@@ -73,6 +73,16 @@ static const sm_param_info table[] = {
      "(0: off)", "stop"},
     {"stall_window", INT(stall_window), RANGE(1, CLOSED, 100000, CLOSED), 15, NULL, 0,
      "--stall-window", "K", "iterations of the stall rule's window", "stop"},
+    /* 1: the term's force per unit of the target's area, 2 dist, is then
+     * of the order of J's per unit of boundary, |d| (both are lengths
+     * times measures), so neither side dominates where both act.
+     * docs/method.md has the measures (the protrusion and handle cases,
+     * the examples unchanged within their tolerance). */
+    {"coverage_weight", REAL(coverage_weight), RANGE(0, CLOSED, NO_MAX), 1.0, NULL, 0,
+     "--coverage-weight", "W",
+     "weight of the target-side term sum_y w_y dist(y, boundary)^2 over the target surface's "
+     "samples, which pulls the boundary toward the parts of the target it does not reach "
+     "(0: the paper's J alone)", "advanced"},
     {"min_quality", REAL(min_quality), RANGE(0, CLOSED, 1, OPEN), 0.02, NULL, 0, "--min-quality",
      "Q",
      "element quality floor for an accepted step (or the template's own worst quality, if "

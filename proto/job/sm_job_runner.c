@@ -192,6 +192,7 @@ static sm_status run_match(sm_job_inputs *in, const sm_match_opts *opts,
     int limit = sm_job_threads_apply(opts->template_mesh->nelems);
     sm_status st;
     if (in->match) {
+        sm_match_use_coverage(in->match, opts->coverage);
         st = sm_match_execute(in->match, opts->target, cb, run->coords, &run->result, err);
         sm_match_free(in->match);
         in->match = NULL;
@@ -262,6 +263,16 @@ sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_r
         return st;
     tell_warnings(&c, 0);
     int told = run->warnings.n;
+    /* the target's samples: its own surface when it has one, else the
+     * zero level set of its field (sm_coverage.h) */
+    sm_coverage *cov = NULL;
+    st = sm_coverage_new(in->field, in->surface, view.prepared ? view.prepared : in->prepared,
+                         view.params.free_refs, view.params.n_free_refs, &cov, err);
+    if (st != SM_OK) {
+        sm_error_prefix(err, "target");
+        return st;
+    }
+    opts.coverage = cov;
     st = run_match(run->alignment.done ? &view : in, &opts, &cb, run, err);
     if (c.failed == SM_OK && st == SM_OK)
         c.failed = final_snapshot(&c);
@@ -269,10 +280,13 @@ sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_r
     if (c.failed != SM_OK) {
         if (err)
             *err = c.error;
+        sm_coverage_free(cov);
         return c.failed;
     }
-    if (st != SM_OK)
+    if (st != SM_OK) {
+        sm_coverage_free(cov);
         return st;
+    }
     const sm_result *r = &run->result;
     if (r->stop == SM_STOP_CANCELLED) {
         run->outcome = SM_JOB_OUTCOME_CANCELLED;
@@ -294,8 +308,12 @@ sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_r
     run->inverted = q.ninverted;
     sm_job_check_result(&view, run->coords, r, run->outcome == SM_JOB_OUTCOME_FINISHED,
                         &run->warnings, &run->resolution);
-    if (run->resolution > 0 && r->boundary_rms > SM_JOB_RESOLVED_FACTOR * run->resolution)
+    if (run->resolution > 0 && r->distance.result_to_target.rms > SM_JOB_RESOLVED_FACTOR * run->resolution)
         run->result.converged = 0;
+    if (!sm_job_check_coverage(&view, cov, r, run->resolution,
+                               run->outcome == SM_JOB_OUTCOME_FINISHED, &run->warnings))
+        run->result.converged = 0;
+    sm_coverage_free(cov);
     if (run->outcome != SM_JOB_OUTCOME_FINISHED)
         run->result.converged = 0;
     else if (!run->result.converged)

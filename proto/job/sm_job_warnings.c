@@ -367,6 +367,51 @@ void sm_job_check_result(const sm_job_inputs *in, const double *coords, const sm
     }
 }
 
+/* "(x, y, z)" or "(x, y)". */
+static void point_text(char *buf, size_t cap, int dim, const double *p)
+{
+    if (dim == 3)
+        snprintf(buf, cap, "(%.4g, %.4g, %.4g)", p[0], p[1], p[2]);
+    else
+        snprintf(buf, cap, "(%.4g, %.4g)", p[0], p[1]);
+}
+
+int sm_job_check_coverage(const sm_job_inputs *in, const sm_coverage *cov, const sm_result *r,
+                          double resolution, int finished, sm_job_warnings *out)
+{
+    const sm_distance_side *t = &r->distance.target_to_result;
+    if (!cov || !(resolution > 0) || r->distance.method == SM_DISTANCE_NONE)
+        return 1;
+    double reach = SM_JOB_COVERED_FACTOR * resolution;
+    int covered = t->p99 <= reach;
+    if (covered || !finished)
+        return covered;
+    const int dim = in->dim;
+    sm_coverage_missed missed;
+    sm_coverage_missed_part(cov, reach, &missed);
+    sm_coverage_topology topo;
+    sm_coverage_get_topology(cov, &topo);
+    char lo[64], hi[64], centre[64], cause[160] = "";
+    point_text(lo, sizeof lo, dim, missed.lo);
+    point_text(hi, sizeof hi, dim, missed.hi);
+    point_text(centre, sizeof centre, dim, missed.centre);
+    if (topo.known && dim == 3 && topo.target_genus != topo.template_genus)
+        snprintf(cause, sizeof cause,
+                 "; the target has genus %lld (handles), the template's boundary %lld: no "
+                 "deformation can make or close a handle",
+                 (long long)topo.target_genus, (long long)topo.template_genus);
+    else if (topo.known && topo.target_pieces != topo.template_pieces)
+        snprintf(cause, sizeof cause,
+                 "; the target's surface has %lld closed piece(s), the template's boundary %lld: "
+                 "no deformation can change that",
+                 (long long)topo.target_pieces, (long long)topo.template_pieces);
+    add(out, "target-not-reached", missed.fraction,
+        "%.1f%% of the target is farther than %.3g (twice the resolution) from the result, up "
+        "to %.3g, around %s in the box %s-%s%s",
+        100.0 * missed.fraction, reach, missed.max, centre, lo, hi, cause);
+    return 0;
+}
+
 void sm_job_warnings_text(const sm_job_warnings *ws, char *buf, size_t cap)
 {
     size_t used = 0;

@@ -31,6 +31,13 @@
  *   above-resolution    the final RMS boundary error is above the local
  *                       size of the background elements, the resolution
  *                       d is given at (figure: their ratio)
+ *   target-not-reached  the target is not covered: the 99th percentile of
+ *                       the distance from the target's surface to the
+ *                       result's boundary is above SM_JOB_COVERED_FACTOR
+ *                       times the resolution; says how much of the target
+ *                       is that far, how far at most, its centre and box,
+ *                       and a topology mismatch (genus, pieces) when the
+ *                       surfaces tell one (figure: the fraction missed)
  *   surface-holes       with above-resolution, when the target surface has
  *                       open edges: its sign may be wrong near the holes;
  *                       says to check it with shapematch sdf (figure: the
@@ -115,6 +122,15 @@ sm_status sm_job_check_sign(const sm_job_inputs *in, sm_job_warnings *out, sm_er
  * final boundary's facet centres (0 when none lies inside the background). */
 void sm_job_check_result(const sm_job_inputs *in, const double *coords, const sm_result *r,
                          int finished, sm_job_warnings *out, double *resolution);
+
+/* Converged means covered: the target side of the final distance
+ * (r->distance.target_to_result) has its 99th percentile within
+ * SM_JOB_COVERED_FACTOR times the resolution.  Returns 1 when it is (or
+ * cannot be told: no coverage, no resolution), 0 otherwise, and then for
+ * a finished run adds target-not-reached from cov's last measure. */
+#define SM_JOB_COVERED_FACTOR 2.0
+int sm_job_check_coverage(const sm_job_inputs *in, const sm_coverage *cov, const sm_result *r,
+                          double resolution, int finished, sm_job_warnings *out);
 
 /* "warning: CODE: MESSAGE; warning: ..." into buf (cap bytes, truncated),
  * "" when there is none: the message of the finished event, which the

@@ -104,6 +104,9 @@ typedef struct sm_params {
                               * last stall_window iterations; 0 = off
                               * (the default's measures: sm_params.c) */
     int stall_window;        /* K of the stall rule */
+    double coverage_weight;  /* weight of the target-side term T in
+                              * E = J + weight * T (sm_match.h); 0 = the
+                              * paper's J alone */
     double min_quality;      /* quality floor for accepted steps */
     int save_every;          /* snapshot callback period (0 = never) */
     double step_initial;     /* first step as a fraction of the diameter */

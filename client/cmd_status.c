@@ -57,14 +57,48 @@ static void print_status(const json_t *doc)
     }
     const json_t *last = json_object_get(doc, "lastProgress");
     if (json_is_object(last)) {
+        /* the figures by the progress event's names, as watch shows them */
         const json_t *it = json_object_get(last, "iteration");
-        printf("last      iter %lld  rms %.3e  max %.3e  L2 %.3e  J %.6e  step %.3e  qmin "
-               "%.3f\n",
-               json_is_integer(it) ? (long long)json_integer_value(it) : -1LL,
-               num_member(last, "boundary_rms"), num_member(last, "boundary_max"),
+        const json_t *d = json_object_get(last, "distance");
+        const json_t *rt = json_object_get(d, "result_to_target"),
+                     *tr = json_object_get(d, "target_to_result");
+        char figures[160];
+        if (json_is_object(rt) && json_is_object(tr))
+            snprintf(figures, sizeof figures,
+                     "result->target rms %.3e  max %.3e  target->result rms %.3e  max %.3e  "
+                     "p99 %.3e",
+                     num_member(rt, "rms"), num_member(rt, "max"), num_member(tr, "rms"),
+                     num_member(tr, "max"), num_member(tr, "p99"));
+        else
+            snprintf(figures, sizeof figures, "rms %.3e  max %.3e",
+                     num_member(last, "boundary_rms"), num_member(last, "boundary_max"));
+        printf("last      iter %lld  %s  L2 %.3e  J %.6e  step %.3e  qmin %.3f\n",
+               json_is_integer(it) ? (long long)json_integer_value(it) : -1LL, figures,
                num_member(last, "boundary_l2"), num_member(last, "J"), num_member(last, "step"),
                num_member(last, "min_quality"));
     }
+}
+
+/* A finished job's result figures (its summary, GET .../results), by
+ * their summary names as `run` and `watch` print them; nothing when the
+ * summary cannot be had. */
+static void print_result(http_client *c, const char *id)
+{
+    char path[128];
+    snprintf(path, sizeof path, "/v1/jobs/%s/results", id);
+    http_request rq = {.path = path, .accept = "application/json", .gzip = 1};
+    http_response rs;
+    http_outcome out = http_perform(c, &rq, &rs);
+    json_t *doc = out == HTTP_DONE && rs.status == 200 ? remote_json_object(&rs) : NULL;
+    http_response_free(&rs);
+    sm_result r;
+    sm_error err;
+    if (doc && sm_result_from_jansson(doc, "summary", &r, &err) == SM_OK) {
+        char line[512];
+        remote_format_result(line, sizeof line, &r);
+        printf("result    %s\n", line);
+    }
+    json_decref(doc);
 }
 
 /* ----------------------------------------------------------- commands */
@@ -241,6 +275,8 @@ static int one_job(int argc, char **argv, const char *cmd, const char *method, v
             code = CLI_EXIT_SERVER;
         } else if (!cancel) {
             print_status(doc);
+            if (strcmp(str_member(doc, "status"), "successful") == 0)
+                print_result(&c, a.id);
         } else if (strcmp(str_member(doc, "message"), "deleted") == 0) {
             printf("job %s deleted with its files (it was %s)\n", a.id, str_member(doc, "status"));
         } else {

@@ -100,20 +100,59 @@ static void seg_add(segments *l, int rank, const char *fmt, ...)
     l->s[l->n++].rank = rank;
 }
 
-/* The fields of a state.  The figures are named as in summary.json: the
- * RMS and max of d on the boundary (lengths in the meshes' unit); the L2
- * norm is named L2 and, when --tol-boundary is the goal, shown beside it
- * (that is what the rule compares).  tty: short forms. */
+int progress_has_distance(const sm_distance *d)
+{
+    return d->method != SM_DISTANCE_NONE && isfinite(d->result_to_target.rms) &&
+           isfinite(d->target_to_result.rms);
+}
+
+void progress_format_figures(char *buf, size_t cap, const sm_distance *d, double rms,
+                             double max, double l2)
+{
+    if (progress_has_distance(d)) {
+        char p99[48] = "";
+        if (isfinite(d->target_to_result.p99))
+            snprintf(p99, sizeof p99, ", p99 %.3e", d->target_to_result.p99);
+        snprintf(buf, cap,
+                 "result->target RMS %.3e (max %.3e), target->result RMS %.3e (max %.3e%s); "
+                 "L2 of d on the boundary %.3e",
+                 d->result_to_target.rms, d->result_to_target.max, d->target_to_result.rms,
+                 d->target_to_result.max, p99, l2);
+    } else {
+        snprintf(buf, cap, "boundary RMS %.3e (max %.3e); L2 of d on the boundary %.3e", rms,
+                 max, l2);
+    }
+}
+
+/* The fields of a state.  The figures are named as in the progress event
+ * and summary.json: the two-sided distance's RMS and max (result->target,
+ * target->result; lengths in the meshes' unit), or without it the RMS and
+ * max of d on the boundary; the L2 norm is named L2 and, when
+ * --tol-boundary is the goal, shown beside it (that is what the rule
+ * compares).  tty: short forms, r->t and t->r. */
 static void state_segments(const progress_display *d, const sm_progress *p, int tty,
                            segments *l)
 {
+    const sm_distance *dist = &p->distance;
+    int two_sided = progress_has_distance(dist);
     seg_add(l, 0, "iter %d", p->iteration);
-    seg_add(l, 0, tty ? "rms %.2e" : "rms %.3e", p->boundary_rms);
-    seg_add(l, 2, tty ? "max %.2e" : "max %.3e", p->boundary_max);
+    if (two_sided) {
+        seg_add(l, 0, tty ? "r->t rms %.2e" : "result->target rms %.3e",
+                dist->result_to_target.rms);
+        seg_add(l, 2, tty ? "max %.2e" : "max %.3e", dist->result_to_target.max);
+        seg_add(l, 0, tty ? "t->r rms %.2e" : "target->result rms %.3e",
+                dist->target_to_result.rms);
+        seg_add(l, 2, tty ? "max %.2e" : "max %.3e", dist->target_to_result.max);
+        if (!tty && isfinite(dist->target_to_result.p99))
+            seg_add(l, 3, "p99 %.3e", dist->target_to_result.p99);
+    } else {
+        seg_add(l, 0, tty ? "rms %.2e" : "rms %.3e", p->boundary_rms);
+        seg_add(l, 2, tty ? "max %.2e" : "max %.3e", p->boundary_max);
+    }
     if (!tty)
         seg_add(l, 6, "relative %.2e", p->boundary_relative);
     if (d->tol_l2 > 0)
-        seg_add(l, 1, "L2 %.2e (tol %.1e)", p->boundary_l2, d->tol_l2);
+        seg_add(l, two_sided ? 2 : 1, "L2 %.2e (tol %.1e)", p->boundary_l2, d->tol_l2);
     else
         seg_add(l, 6, tty ? "L2 %.2e" : "L2 %.3e", p->boundary_l2);
     seg_add(l, 5, tty ? "J %.4e" : "J %.6e", p->J);

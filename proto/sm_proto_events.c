@@ -853,3 +853,8 @@ sm_status sm_event_from_json(const char *line, size_t len, sm_event *out, sm_err
     json_decref(root);
     return st;
 }
+
+json_t *sm_progress_distance_to_jansson(const sm_distance *d)
+{
+    return d->method == SM_DISTANCE_NONE ? NULL : distance_to_jansson(d, 0);
+}

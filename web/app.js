@@ -365,8 +365,9 @@ function headline(s) {
     span.dataset.value = String(v);
     parts.push(i ? ', ' : '', `${label} `, span);
   });
-  const unit = s.distance?.unit;
-  parts.push(`${unit ? ` (${unit})` : ''}; ${s.iterations} iterations`);
+  // the meshes carry no unit: the distances are in theirs (unit null)
+  const unit = s.distance ? ` (${s.distance.unit || 'in the meshes\' unit'})` : '';
+  parts.push(`${unit}; ${s.iterations} iterations`);
   return parts;
 }
 

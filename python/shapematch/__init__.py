@@ -223,8 +223,7 @@ class Result:
         self.exit_code = job.sm_run_exit_code(handle)
         n = ctypes.c_size_t()
         rows = job.sm_run_history(handle, ctypes.byref(n))
-        names = [f[0] for f in _lib.Progress._fields_]
-        self.history = [{k: getattr(rows[i], k) for k in names} for i in range(n.value)]
+        self.history = [_lib.progress_row(rows[i]) for i in range(n.value)]
 
     def __getattr__(self, name):
         raw = self.__dict__.get("_raw")

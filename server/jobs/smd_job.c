@@ -119,6 +119,11 @@ json_t *smd_job_status_fields(const smd_job *job)
                                  "boundary_max", real_or_null(p->boundary_max),
                                  "boundary_l2", real_or_null(p->boundary_l2),
                                  "min_quality", real_or_null(p->min_quality));
+        json_t *distance = sm_progress_distance_to_jansson(&p->distance);
+        if (last && distance)
+            json_object_set_new(last, "distance", distance);
+        else
+            json_decref(distance);
         if (last)
             json_object_set_new(o, "lastProgress", last);
     }

@@ -40,10 +40,10 @@ rc=$?
 tr '\r' '\n' <"$WORK/tty.log" | sed 's/\x1b\[K//g' >"$WORK/tty.lines"
 last=$(grep -E '^\[' "$WORK/tty.lines" | tail -1)
 if [ "$rc" = 0 ] && grep -q $'\r' "$WORK/tty.log" &&
-    grep -qE '^\[[#.]{10}\] +[0-9]+%  iter [0-9]+  rms [^ ]+  .*ETA [0-9]+s' "$WORK/tty.lines" &&
+    grep -qE '^\[[#.]{10}\] +[0-9]+%  iter [0-9]+  r->t rms [^ ]+  t->r rms [^ ]+  .*ETA [0-9]+s' "$WORK/tty.lines" &&
     [ -z "$(grep -E '^\[' "$WORK/tty.lines" | awk 'length($0) > 79')" ] &&
     [ "${last#\[##########\] 100%}" != "$last" ]; then
-    ok "watch on an 80-column terminal: the bar with percentage, boundary RMS and ETA within 79 columns, ending at 100% ('$last')"
+    ok "watch on an 80-column terminal: the bar with percentage, both RMS distances and ETA within 79 columns, ending at 100% ('$last')"
 else
     not_ok "watch on a terminal shows the bar" "exit $rc" "$(tail -c 600 "$WORK/tty.lines")"
 fi

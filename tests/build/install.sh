@@ -14,7 +14,8 @@
 #     the headers too;
 #   - the Python package from the tree finds its libraries by itself;
 #   - man -l renders shapematch(1) with every command and every parameter
-#     flag of the table, and shapematchd(8) with every daemon setting;
+#     flag of the table, and shapematchd(8) with every daemon setting, both
+#     with an EXAMPLES section;
 #   - LICENSE and THIRD-PARTY in share/doc/shapematch, and THIRD-PARTY
 #     naming every library the installed ELF files need (and libcurl);
 #   - make uninstall leaves nothing.
@@ -209,6 +210,17 @@ if [ -z "$absent" ] && [ -n "$cmds" ] && [ "$nflags" -gt 10 ]; then
     ok "the pages hold every command ($(echo $cmds | wc -w)), every run flag and every daemon setting ($nflags)"
 else
     not_ok "the pages hold every command and flag" "absent:$absent"
+fi
+
+# the EXAMPLES of both pages: the Examples blocks of the --help texts
+ex1=$(sed -n '/^EXAMPLES/,/^SEE ALSO/p' <<<"$page1")
+ex8=$(sed -n '/^EXAMPLES/,/^SEE ALSO/p' <<<"$page8")
+if grep -q 'shapematch run --template examples/2d/template.mesh' <<<"$ex1" &&
+    grep -q 'shapematch submit --server' <<<"$ex1" && grep -q 'shapematchd --listen' <<<"$ex8" &&
+    [ "$(grep -cE '^[[:space:]]+shapematch ' <<<"$ex1")" -ge 5 ]; then
+    ok "both pages have an EXAMPLES section (shapematch(1): $(grep -cE '^[[:space:]]+shapematch ' <<<"$ex1") commands)"
+else
+    not_ok "EXAMPLES in both pages" "$ex1" "$ex8"
 fi
 
 # ------------------------------------------------------------ uninstall

@@ -23,8 +23,9 @@
     "  8  the job failed on the daemon (the reason is printed)\n"                         \
     "  9  daemon error (HTTP 5xx) or a response the client cannot understand\n"
 #define EXIT_10                                                                           \
-    "  10 run, watch, submit --wait: finished but not converged (quality_blocked, or\n"    \
-    "     the boundary error ends above half the background's element size); every\n"   \
+    "  10 run, watch, submit --wait: finished but not converged (quality_blocked, the\n"  \
+    "     result->target RMS ends above half the background's element size, or the\n"    \
+    "     target->result p99 above twice it: a part of the target not reached); every\n" \
     "     output is written (a daemon's job is successful with \"converged\": false)\n"
 
 /* From the top of the source tree; tests/cli/help.sh runs the local ones
@@ -52,8 +53,9 @@ static const char cli_examples_help[] =
 const char cli_exit_codes_help[] =
     "Exit codes:\n" EXIT_0 EXIT_1 EXIT_2 EXIT_3 EXIT_4 EXIT_5 EXIT_5_DAEMON EXIT_6_9 EXIT_10;
 #define EXIT_10_RUN                                                                    \
-    "  10 finished but not converged (quality_blocked, or the boundary error ends\n"   \
-    "     above half the background's element size); every output is written\n"
+    "  10 finished but not converged (quality_blocked, the result->target RMS ends\n"  \
+    "     above half the background's element size, or the target->result p99 above\n"  \
+    "     twice it: a part of the target not reached); every output is written\n"
 const char cli_exit_codes_run_help[] =
     "Exit codes:\n" EXIT_0 EXIT_1 EXIT_2 EXIT_3 EXIT_4 EXIT_5 EXIT_10_RUN;
 const char cli_exit_codes_sdf_help[] =

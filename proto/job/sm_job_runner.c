@@ -295,10 +295,10 @@ sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_r
         run->outcome = SM_JOB_OUTCOME_FAILED;
         run->exit_code = SM_JOB_EXIT_NUMERIC;
         snprintf(run->message, sizeof run->message,
-                 "no valid step from the initial mesh (boundary error %.3e); the template may "
-                 "already match the target (see tol_boundary) or the parameters prevent any "
+                 "no valid step from the initial mesh (boundary RMS %.3e, L2 %.3e); the template "
+                 "may already match the target (see tol_boundary) or the parameters prevent any "
                  "move (min_quality, tol_step)",
-                 r->boundary_l2);
+                 r->boundary_rms, r->boundary_l2);
     } else {
         run->outcome = SM_JOB_OUTCOME_FINISHED;
         run->exit_code = SM_JOB_EXIT_OK;

@@ -88,7 +88,8 @@ typedef struct segments {
     int n;
 } segments;
 
-static void seg_add(segments *l, int rank, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static void seg_add(segments *l, int rank, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
 static void seg_add(segments *l, int rank, const char *fmt, ...)
 {
     if (l->n == MAX_SEGS)

@@ -29,8 +29,9 @@ typedef enum sm_part {
 } sm_part;
 /* The file parts are the members before SM_PART_PARAMS (loops over the
  * files stop there: params and name stay last).  name is optional: the
- * job's label for people (lists, status, watch), no input of the run.  template and params are always
- * required; the target is either target_mesh + target_sol (a sampled
+ * job's label for people (lists, status, watch), no input of the run.
+ * template and params are always required; the target is either
+ * target_mesh + target_sol (a sampled
  * distance) or target_surface with an optional target_mesh
  * (sm_job_inputs.h); target_surface excludes target_sol.  The landmark
  * CSV files (template_landmarks, target_landmarks: the alignment's start,

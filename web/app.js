@@ -334,36 +334,40 @@ function showWarnings(list) {
   $('warnings-title').textContent = list.length === 1 ? '1 warning' : `${list.length} warnings`;
 }
 
-// The figures of a summary, by their names there: the two-sided distances
-// (distance.result_to_target and .target_to_result: RMS, max, p99, in the
-// meshes' unit) when the summary has them, else the RMS and max of d on
-// the boundary; the L2 norm under its own name.  [name, label, value].
+// The figures of a summary, by their names there, in groups: the
+// two-sided distances (distance.result_to_target and .target_to_result:
+// RMS, max, p99, in the meshes' unit) when the summary has them, else the
+// RMS and max of d on the boundary; the L2 norm under its own name.
+// [[group label, [[name, label, value], ...]], ...].
 function figures(s) {
-  const out = [];
+  const groups = [];
   const d = s.distance;
   if (d && d.result_to_target && d.target_to_result) {
     for (const [side, label] of [['result_to_target', 'result→target'], ['target_to_result', 'target→result']])
-      for (const k of ['rms', 'max', 'p99'])
-        if (d[side][k] != null) out.push([`distance.${side}.${k}`, `${label} ${k === 'rms' ? 'RMS' : k}`, d[side][k]]);
+      groups.push([label, ['rms', 'max', 'p99'].filter((k) => d[side][k] != null)
+        .map((k) => [`distance.${side}.${k}`, k === 'rms' ? 'RMS' : k, d[side][k]])]);
   } else if (s.boundary_rms != null) {
-    out.push(['boundary_rms', 'boundary RMS', s.boundary_rms]);
-    if (s.boundary_max != null) out.push(['boundary_max', 'max', s.boundary_max]);
+    groups.push(['boundary', [['boundary_rms', 'RMS', s.boundary_rms]]
+      .concat(s.boundary_max != null ? [['boundary_max', 'max', s.boundary_max]] : [])]);
   }
-  if (out.length && s.boundary_l2 != null) out.push(['boundary_l2', 'L2 of d on the boundary', s.boundary_l2]);
-  return out;
+  if (groups.length && s.boundary_l2 != null) groups.push(['', [['boundary_l2', 'L2 of d on the boundary', s.boundary_l2]]]);
+  return groups;
 }
 
 // The headline: each figure a span that names its summary member (the
 // browser tests read them back), then the unit and the iterations.
 function headline(s) {
-  const figs = figures(s);
-  if (!figs.length) return [];
+  const groups = figures(s);
+  if (!groups.length) return [];
   const parts = [];
-  figs.forEach(([name, label, v], i) => {
-    const span = el('span', { className: 'figure', textContent: fmtNum(v) });
-    span.dataset.figure = name;
-    span.dataset.value = String(v);
-    parts.push(i ? ', ' : '', `${label} `, span);
+  groups.forEach(([group, figs], g) => {
+    parts.push(g ? '; ' : '', group ? `${group} ` : '');
+    figs.forEach(([name, label, v], i) => {
+      const span = el('span', { className: 'figure', textContent: fmtNum(v) });
+      span.dataset.figure = name;
+      span.dataset.value = String(v);
+      parts.push(i ? ', ' : '', `${label} `, span);
+    });
   });
   // the meshes carry no unit: the distances are in theirs (unit null)
   const unit = s.distance ? ` (${s.distance.unit || 'in the meshes\' unit'})` : '';

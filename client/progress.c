@@ -77,7 +77,7 @@ static int terminal_columns(FILE *out)
 /* One field of the line: its text and how much it matters (0 first).  A
  * terminal line shows the fields that fit by that order, in line order. */
 #define SEG_LEN 48
-#define MAX_SEGS 12
+#define MAX_SEGS 16
 typedef struct segment {
     char text[SEG_LEN];
     int rank;

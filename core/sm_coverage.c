@@ -24,6 +24,9 @@
  * facets in 3D (3D example: 4.3k samples for 8.9k facets, where one per
  * spacing cell, 17k, made the term 72 ms of a 150 ms iteration). */
 #define THIN_CELL 2.0
+/* Iterations between two builds of the descent's boundary hierarchy
+ * (refitted in between: a build was 18% of a 3D example iteration). */
+#define REBUILD_EVERY 20
 
 struct sm_coverage {
     int dim;
@@ -53,6 +56,12 @@ struct sm_coverage {
      * spreading the term's load (sm__coverage_spread) */
     int32_t *adj_start, *adj;
     double *spread_tmp;        /* nverts * dim */
+    /* the descent's hierarchy over the boundary: built once, refitted
+     * to the moved vertices, built again every REBUILD_EVERY iterations
+     * (a refitted tree's boxes grow loose as the mesh deforms) */
+    sm_surface view;
+    sm_bvh bvh;
+    int bvh_age;               /* -1: not built */
     sm_coverage_topology topo;
 };
 
@@ -673,6 +682,7 @@ sm_status sm_coverage_new(const sm_field *target, const sm_surface *surface, con
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     c->dim = m->dim;
     c->m = m;
+    c->bvh_age = -1;
     sm_status st = check_boundary(c, m, free_refs, nfree, err);
     if (st == SM_OK && surface) {
         c->target = surface;
@@ -708,6 +718,7 @@ void sm_coverage_free(sm_coverage *c)
     free(c->afacets);
     free(c->cfacet), free(c->cbary), free(c->cdist);
     free(c->adj_start), free(c->adj), free(c->spread_tmp);
+    sm__bvh_free(&c->bvh);
     free(c);
 }
 
@@ -837,11 +848,19 @@ sm_status sm__coverage_correspond(sm_coverage *c, const double *coords, sm_dista
                                   double *term, sm_error *err)
 {
     const int dim = c->dim;
-    sm_surface view = boundary_view(c, coords);
-    sm_bvh bvh;
-    sm_status st = sm__bvh_build(&view, &bvh, err);
-    if (st != SM_OK)
-        return st;
+    c->view = boundary_view(c, coords);
+    if (c->bvh_age < 0 || c->bvh_age >= REBUILD_EVERY) {
+        sm__bvh_free(&c->bvh);
+        c->bvh_age = -1;
+        sm_status st = sm__bvh_build(&c->view, &c->bvh, err);
+        if (st != SM_OK)
+            return st;
+        c->bvh_age = 0;
+    } else {
+        sm__bvh_refit(&c->bvh);
+        c->bvh_age++;
+    }
+    const sm_bvh bvh = c->bvh;
     int failed = 0;
 #pragma omp parallel reduction(| : failed) if (c->nd > PARALLEL_MIN)
     {
@@ -870,7 +889,6 @@ sm_status sm__coverage_correspond(sm_coverage *c, const double *coords, sm_dista
         }
         free(stack);
     }
-    sm__bvh_free(&bvh);
     if (failed)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance search");
     double t2 = 0;

@@ -41,6 +41,10 @@ struct sm_coverage {
     double *ty, *tw;           /* nt * dim, nt */
     double tmeasure;
     double *tdist;             /* nt: the last sm_coverage_measure's */
+    /* the boundary's samples of the last sm_coverage_measure */
+    int64_t nr;
+    double *rpts, *rw, *rdist; /* nr * dim, nr, nr */
+    double rmeasure;
     /* the boundary measured: the active facets of m */
     int32_t nactive;
     int32_t *afacets;          /* nactive * dim vertex ids */
@@ -714,6 +718,7 @@ void sm_coverage_free(sm_coverage *c)
     sm__bvh_free(&c->target_bvh);
     sm_surface_free(c->own);
     free(c->ty), free(c->tw), free(c->tdist);
+    free(c->rpts), free(c->rw), free(c->rdist);
     free(c->dy), free(c->dw);
     free(c->afacets);
     free(c->cfacet), free(c->cbary), free(c->cdist);
@@ -786,29 +791,40 @@ sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance 
             st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance figures");
     }
     sm__bvh_free(&bvh);
-    free(pts), free(w), free(d), free(hints);
+    free(hints);
+    /* kept for sm_coverage_missed_part (the vertices are not samples) */
+    free(c->rpts), free(c->rw), free(c->rdist);
+    c->rpts = pts, c->rw = w, c->rdist = d, c->nr = st == SM_OK ? nb : 0;
+    c->rmeasure = 0;
+    for (int64_t i = 0; i < c->nr; i++)
+        c->rmeasure += w[i];
     return st;
 }
 
-void sm_coverage_missed_part(const sm_coverage *c, double threshold, sm_coverage_missed *out)
+void sm_coverage_missed_part(const sm_coverage *c, int result_side, double threshold,
+                             sm_coverage_missed *out)
 {
     const int dim = c->dim;
+    const int64_t n = result_side ? c->nr : c->nt;
+    const double *pts = result_side ? c->rpts : c->ty, *w = result_side ? c->rw : c->tw;
+    const double *dist = result_side ? c->rdist : c->tdist;
+    const double total = result_side ? c->rmeasure : c->tmeasure;
     memset(out, 0, sizeof *out);
     for (int k = 0; k < 3; k++) {
         out->lo[k] = k < dim ? DBL_MAX : 0;
         out->hi[k] = k < dim ? -DBL_MAX : 0;
     }
-    for (int64_t i = 0; i < c->nt; i++) {
-        if (!(c->tdist[i] > threshold))
+    for (int64_t i = 0; i < n; i++) {
+        if (!(dist[i] > threshold))
             continue;
-        const double *y = c->ty + i * dim;
+        const double *y = pts + i * dim;
         out->samples++;
-        out->measure += c->tw[i];
-        out->max = fmax(out->max, c->tdist[i]);
+        out->measure += w[i];
+        out->max = fmax(out->max, dist[i]);
         for (int k = 0; k < dim; k++) {
             out->lo[k] = fmin(out->lo[k], y[k]);
             out->hi[k] = fmax(out->hi[k], y[k]);
-            out->centre[k] += c->tw[i] * y[k];
+            out->centre[k] += w[i] * y[k];
         }
     }
     if (out->samples == 0) {
@@ -818,7 +834,7 @@ void sm_coverage_missed_part(const sm_coverage *c, double threshold, sm_coverage
     }
     for (int k = 0; k < dim; k++)
         out->centre[k] = out->measure > 0 ? out->centre[k] / out->measure : out->lo[k];
-    out->fraction = c->tmeasure > 0 ? out->measure / c->tmeasure : 0;
+    out->fraction = total > 0 ? out->measure / total : 0;
 }
 
 /* ---- the descent's target-side term ---- */

@@ -81,8 +81,11 @@ sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance 
                               sm_error *err);
 
 /* The part of the target farther than threshold from the boundary of the
- * last sm_coverage_measure: its share of the target's measure, its
- * largest distance, and its box and centre (weighted by measure). */
+ * last sm_coverage_measure (result_side 0), or the part of that boundary
+ * farther than threshold from the target (result_side 1: what the result
+ * has that the target has not, such as a sheet across a handle's hole):
+ * its share of the side's measure, its largest distance, and its box and
+ * centre (weighted by measure).  All zero before a measure. */
 typedef struct sm_coverage_missed {
     double fraction;           /* 0..1 of the target's measure */
     double measure;            /* area (3D) or length (2D) missed */
@@ -91,7 +94,8 @@ typedef struct sm_coverage_missed {
     double centre[3];
     int64_t samples;
 } sm_coverage_missed;
-void sm_coverage_missed_part(const sm_coverage *c, double threshold, sm_coverage_missed *out);
+void sm_coverage_missed_part(const sm_coverage *c, int result_side, double threshold,
+                             sm_coverage_missed *out);
 
 /* Topology of the target surface and of the template's boundary, when it
  * can be told: the number of connected pieces and, for closed surfaces

@@ -329,6 +329,39 @@ sm_status sm__bvh_build(const sm_surface *s, sm_bvh *t, sm_error *err)
     return SM_OK;
 }
 
+void sm__bvh_refit(sm_bvh *t)
+{
+    const sm_surface *s = t->s;
+    const int dim = s->dim;
+    for (int32_t i = 0; i < s->nfacets; i++)
+        for (int j = 0; j < dim; j++)
+            memcpy(t->pos + ((size_t)i * dim + j) * dim,
+                   s->coords + (size_t)s->facets[(size_t)t->order[i] * dim + j] * dim,
+                   dim * sizeof *t->pos);
+    /* children come after their parent (build): bottom-up in reverse */
+    for (int32_t n = t->nnodes - 1; n >= 0; n--) {
+        sm_bvh_node *nd = &t->nodes[n];
+        if (nd->left >= 0) {
+            const sm_bvh_node *l = &t->nodes[nd->left], *r = &t->nodes[nd->right];
+            for (int k = 0; k < 3; k++) {
+                nd->lo[k] = fmin(l->lo[k], r->lo[k]);
+                nd->hi[k] = fmax(l->hi[k], r->hi[k]);
+            }
+            continue;
+        }
+        for (int k = 0; k < 3; k++) {
+            nd->lo[k] = k < dim ? DBL_MAX : 0;
+            nd->hi[k] = k < dim ? -DBL_MAX : 0;
+        }
+        const double *x = t->pos + (size_t)nd->first * dim * dim;
+        for (int32_t i = 0; i < nd->count * dim; i++)
+            for (int k = 0; k < dim; k++) {
+                nd->lo[k] = fmin(nd->lo[k], x[(size_t)i * dim + k]);
+                nd->hi[k] = fmax(nd->hi[k], x[(size_t)i * dim + k]);
+            }
+    }
+}
+
 void sm__bvh_free(sm_bvh *t)
 {
     free(t->order);

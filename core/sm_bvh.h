@@ -29,6 +29,12 @@ typedef struct sm_bvh {
 
 sm_status sm__bvh_build(const sm_surface *s, sm_bvh *t, sm_error *err);
 void sm__bvh_free(sm_bvh *t);
+/* After the surface's vertices moved (same facets, t->s->coords now the
+ * new positions): the leaves' positions and every box again, the tree
+ * kept (O(facets), where a build sorts).  The boxes stay exact, so the
+ * nearest-facet search stays exact; the far-field moments (n, c, r) are
+ * not updated: a refitted tree is for sm__bvh_nearest only. */
+void sm__bvh_refit(sm_bvh *t);
 
 /* Traversal stack entry of the nearest-facet search: a node and the
  * squared distance from p to its box (computed once, when pushed). */

@@ -20,10 +20,13 @@
  * parallel region costs more than their searches. */
 #define PARALLEL_MIN 20000
 /* The descent's samples: one per cell of THIN_CELL times the spacing
- * (the template boundary's mean edge), about one per two boundary
+ * (so of the template boundary's mean edge), about one per two boundary
  * facets in 3D (3D example: 4.3k samples for 8.9k facets, where one per
  * spacing cell, 17k, made the term 72 ms of a 150 ms iteration). */
-#define THIN_CELL 2.0
+#define THIN_CELL 4.0
+/* Iterations between two builds of the descent's boundary hierarchy
+ * (refitted in between: a build was 18% of a 3D example iteration). */
+#define REBUILD_EVERY 20
 
 struct sm_coverage {
     int dim;
@@ -32,12 +35,18 @@ struct sm_coverage {
     const sm_surface *target;  /* the given surface or own */
     sm_surface *own;           /* the extracted level set */
     sm_bvh target_bvh;
-    double spacing;
+    double spacing;            /* the samples': a quarter of the template
+                                * boundary's mean edge */
+    double dead;               /* the term's dead zone: half that edge */
     /* the target's samples */
     int64_t nt;
     double *ty, *tw;           /* nt * dim, nt */
     double tmeasure;
     double *tdist;             /* nt: the last sm_coverage_measure's */
+    /* the boundary's samples of the last sm_coverage_measure */
+    int64_t nr;
+    double *rpts, *rw, *rdist; /* nr * dim, nr, nr */
+    double rmeasure;
     /* the boundary measured: the active facets of m */
     int32_t nactive;
     int32_t *afacets;          /* nactive * dim vertex ids */
@@ -53,6 +62,12 @@ struct sm_coverage {
      * spreading the term's load (sm__coverage_spread) */
     int32_t *adj_start, *adj;
     double *spread_tmp;        /* nverts * dim */
+    /* the descent's hierarchy over the boundary: built once, refitted
+     * to the moved vertices, built again every REBUILD_EVERY iterations
+     * (a refitted tree's boxes grow loose as the mesh deforms) */
+    sm_surface view;
+    sm_bvh bvh;
+    int bvh_age;               /* -1: not built */
     sm_coverage_topology topo;
 };
 
@@ -270,6 +285,55 @@ static int64_t sample_facets(int dim, const double *coords, const int32_t *facet
 }
 
 /* ---- distances to a hierarchy ---- */
+
+static void nearest_all(const sm_bvh *t, int dim, int64_t n, const double *pts, int32_t *hints,
+                        double *dist);
+
+/* The max of the distance over facets is often inside a facet (a chord's
+ * middle), between samples: the facets whose samples come within
+ * REFINE_NEAR of the largest distance so far are sampled again REFINE
+ * times finer per side, and the max taken over those too.  (An
+ * ellipsoid's target side had its max 7% low at a quarter edge.) */
+#define REFINE_NEAR 0.8
+#define REFINE 4
+
+static double refine_max(int dim, const double *coords, const int32_t *facets, int32_t nfacets,
+                         double spacing, const double *d, double mx, const sm_bvh *t)
+{
+    int64_t at = 0;
+    double *pts = NULL, *w = NULL, *fd = NULL;
+    int64_t cap = 0;
+    for (int32_t f = 0; f < nfacets; f++) {
+        const double *x[3] = {NULL, NULL, NULL};
+        for (int i = 0; i < dim; i++)
+            x[i] = coords + (size_t)facets[(size_t)f * dim + i] * (size_t)dim;
+        int k = splits(dim, x, spacing);
+        int64_t n = dim == 2 ? k : (int64_t)k * k;
+        double fmx = 0;
+        for (int64_t i = 0; i < n; i++)
+            fmx = fmax(fmx, d[at + i]);
+        at += n;
+        if (fmx < REFINE_NEAR * mx)
+            continue;
+        const int32_t *one = facets + (size_t)f * dim;
+        int64_t nf = sample_facets(dim, coords, one, 1, spacing / REFINE, NULL, NULL);
+        if (nf > cap) {
+            free(pts), free(w), free(fd);
+            cap = nf;
+            pts = malloc((size_t)nf * dim * sizeof *pts);
+            w = malloc((size_t)nf * sizeof *w);
+            fd = malloc((size_t)nf * sizeof *fd);
+            if (!pts || !w || !fd)
+                break; /* the samples' max stands */
+        }
+        sample_facets(dim, coords, one, 1, spacing / REFINE, pts, w);
+        nearest_all(t, dim, nf, pts, NULL, fd);
+        for (int64_t i = 0; i < nf; i++)
+            mx = fmax(mx, fd[i]);
+    }
+    free(pts), free(w), free(fd);
+    return mx;
+}
 
 /* Distance from each of n points to the facets of t; hints (may be NULL)
  * seed and receive the nearest facet. */
@@ -509,7 +573,8 @@ static sm_status check_boundary(sm_coverage *c, const sm_mesh *m, const int32_t 
     }
     if (c->nactive == 0)
         return sm_error_set(err, SM_ERR_INVALID, "the template has no boundary facet to measure");
-    c->spacing = 0.5 * len / (double)nedges;
+    c->spacing = 0.25 * len / (double)nedges;
+    c->dead = 2 * c->spacing;
     if (!(c->spacing > 0))
         return sm_error_set(err, SM_ERR_INVALID, "the template's boundary has zero size");
     return SM_OK;
@@ -673,6 +738,7 @@ sm_status sm_coverage_new(const sm_field *target, const sm_surface *surface, con
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     c->dim = m->dim;
     c->m = m;
+    c->bvh_age = -1;
     sm_status st = check_boundary(c, m, free_refs, nfree, err);
     if (st == SM_OK && surface) {
         c->target = surface;
@@ -704,10 +770,12 @@ void sm_coverage_free(sm_coverage *c)
     sm__bvh_free(&c->target_bvh);
     sm_surface_free(c->own);
     free(c->ty), free(c->tw), free(c->tdist);
+    free(c->rpts), free(c->rw), free(c->rdist);
     free(c->dy), free(c->dw);
     free(c->afacets);
     free(c->cfacet), free(c->cbary), free(c->cdist);
     free(c->adj_start), free(c->adj), free(c->spread_tmp);
+    sm__bvh_free(&c->bvh);
     free(c);
 }
 
@@ -754,6 +822,9 @@ sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance 
                    (size_t)dim * sizeof *pts);
         nearest_all(&c->target_bvh, dim, nb + nv, pts, NULL, d);
         side_figures(nb, d, w, nv, d + nb, &out->result_to_target);
+        out->result_to_target.max =
+            refine_max(dim, coords, c->afacets, c->nactive, c->spacing, d,
+                       out->result_to_target.max, &c->target_bvh);
         /* target -> result: a hierarchy over the boundary at coords */
         st = sm__bvh_build(&view, &bvh, err);
     }
@@ -768,6 +839,8 @@ sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance 
             nearest_all(&bvh, dim, s->nverts, s->coords, NULL, vd);
         side_figures(c->nt, c->tdist, c->tw, vd ? s->nverts : 0, vd, &out->target_to_result);
         free(vd);
+        out->target_to_result.max = refine_max(dim, s->coords, s->facets, s->nfacets, c->spacing,
+                                               c->tdist, out->target_to_result.max, &bvh);
         for (int64_t i = 0; i < c->nt && st == SM_OK; i++)
             if (isnan(c->tdist[i]))
                 st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance search");
@@ -775,29 +848,40 @@ sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance 
             st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance figures");
     }
     sm__bvh_free(&bvh);
-    free(pts), free(w), free(d), free(hints);
+    free(hints);
+    /* kept for sm_coverage_missed_part (the vertices are not samples) */
+    free(c->rpts), free(c->rw), free(c->rdist);
+    c->rpts = pts, c->rw = w, c->rdist = d, c->nr = st == SM_OK ? nb : 0;
+    c->rmeasure = 0;
+    for (int64_t i = 0; i < c->nr; i++)
+        c->rmeasure += w[i];
     return st;
 }
 
-void sm_coverage_missed_part(const sm_coverage *c, double threshold, sm_coverage_missed *out)
+void sm_coverage_missed_part(const sm_coverage *c, int result_side, double threshold,
+                             sm_coverage_missed *out)
 {
     const int dim = c->dim;
+    const int64_t n = result_side ? c->nr : c->nt;
+    const double *pts = result_side ? c->rpts : c->ty, *w = result_side ? c->rw : c->tw;
+    const double *dist = result_side ? c->rdist : c->tdist;
+    const double total = result_side ? c->rmeasure : c->tmeasure;
     memset(out, 0, sizeof *out);
     for (int k = 0; k < 3; k++) {
         out->lo[k] = k < dim ? DBL_MAX : 0;
         out->hi[k] = k < dim ? -DBL_MAX : 0;
     }
-    for (int64_t i = 0; i < c->nt; i++) {
-        if (!(c->tdist[i] > threshold))
+    for (int64_t i = 0; i < n; i++) {
+        if (!(dist[i] > threshold))
             continue;
-        const double *y = c->ty + i * dim;
+        const double *y = pts + i * dim;
         out->samples++;
-        out->measure += c->tw[i];
-        out->max = fmax(out->max, c->tdist[i]);
+        out->measure += w[i];
+        out->max = fmax(out->max, dist[i]);
         for (int k = 0; k < dim; k++) {
             out->lo[k] = fmin(out->lo[k], y[k]);
             out->hi[k] = fmax(out->hi[k], y[k]);
-            out->centre[k] += c->tw[i] * y[k];
+            out->centre[k] += w[i] * y[k];
         }
     }
     if (out->samples == 0) {
@@ -807,16 +891,16 @@ void sm_coverage_missed_part(const sm_coverage *c, double threshold, sm_coverage
     }
     for (int k = 0; k < dim; k++)
         out->centre[k] = out->measure > 0 ? out->centre[k] / out->measure : out->lo[k];
-    out->fraction = c->tmeasure > 0 ? out->measure / c->tmeasure : 0;
+    out->fraction = total > 0 ? out->measure / total : 0;
 }
 
 /* ---- the descent's target-side term ---- */
 
-/* How far a distance is beyond the term's dead zone (the spacing): the
+/* How far a distance is beyond the term's dead zone: the
  * term is 0 where the target is already that close to the boundary. */
 static double excess(const sm_coverage *c, double d)
 {
-    return d > c->spacing ? d - c->spacing : 0.0;
+    return d > c->dead ? d - c->dead : 0.0;
 }
 
 /* The closest point of y's facet at coords, from the barycentric
@@ -837,11 +921,19 @@ sm_status sm__coverage_correspond(sm_coverage *c, const double *coords, sm_dista
                                   double *term, sm_error *err)
 {
     const int dim = c->dim;
-    sm_surface view = boundary_view(c, coords);
-    sm_bvh bvh;
-    sm_status st = sm__bvh_build(&view, &bvh, err);
-    if (st != SM_OK)
-        return st;
+    c->view = boundary_view(c, coords);
+    if (c->bvh_age < 0 || c->bvh_age >= REBUILD_EVERY) {
+        sm__bvh_free(&c->bvh);
+        c->bvh_age = -1;
+        sm_status st = sm__bvh_build(&c->view, &c->bvh, err);
+        if (st != SM_OK)
+            return st;
+        c->bvh_age = 0;
+    } else {
+        sm__bvh_refit(&c->bvh);
+        c->bvh_age++;
+    }
+    const sm_bvh bvh = c->bvh;
     int failed = 0;
 #pragma omp parallel reduction(| : failed) if (c->nd > PARALLEL_MIN)
     {
@@ -870,7 +962,6 @@ sm_status sm__coverage_correspond(sm_coverage *c, const double *coords, sm_dista
         }
         free(stack);
     }
-    sm__bvh_free(&bvh);
     if (failed)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance search");
     double t2 = 0;
@@ -891,7 +982,7 @@ void sm__coverage_add_load(const sm_coverage *c, const double *coords, double we
     const int dim = c->dim;
     for (int64_t i = 0; i < c->nd; i++) {
         double p[3];
-        if (!(c->cdist[i] > c->spacing))
+        if (!(c->cdist[i] > c->dead))
             continue;
         corresponding_point(c, coords, i, p);
         /* the gradient of (|y - p| - delta)^2: the factor e / |y - p| */

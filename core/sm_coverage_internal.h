@@ -1,8 +1,7 @@
 /* What the descent (sm_match.c) uses of a coverage (sm_coverage.h): the
  * target-side term T(x) = sum_y w_y (|y - p_y(x)| - delta)_+^2 over the
  * target's samples y, p_y the closest point of the boundary at vertex
- * positions x, delta the sampling's spacing (half the template boundary's
- * mean edge).  The dead zone delta makes T exactly 0 once the whole
+ * positions x, delta half the template boundary's mean edge.  The dead zone delta makes T exactly 0 once the whole
  * target is within a facet's reach of the boundary: there the descent is
  * the paper's, whose J places the boundary on the target more precisely
  * than a fit to samples (a chord of the target's curve), and T only acts

@@ -33,8 +33,10 @@ typedef struct sm_progress {
      * result_to_target's rms and max are boundary_rms and boundary_max
      * (d sampled on the field at the boundary's quadrature points; its
      * mean and p99 are not computed: NAN); target_to_result is exact to
-     * the current boundary over the target's samples (sm_coverage.h), the
-     * ones the target-side term uses. */
+     * the current boundary from the descent's samples of the target (its
+     * samples merged per cell of a grid of the template boundary's mean
+     * edge, each with its cell's area: sm_coverage.c), the ones the
+     * target-side term uses (the events send rms, max, p99). */
     sm_distance distance;
     double energy;           /* E = J + coverage_weight * T */
 } sm_progress;

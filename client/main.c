@@ -25,8 +25,9 @@
 #define EXIT_10                                                                           \
     "  10 run, watch, submit --wait: finished but not converged (quality_blocked, the\n"  \
     "     result->target RMS ends above half the background's element size, or the\n"    \
-    "     target->result p99 above twice it: a part of the target not reached); every\n" \
-    "     output is written (a daemon's job is successful with \"converged\": false)\n"
+    "     target is not covered: a side's p99 above twice it, or a handle or piece the\n" \
+    "     template cannot have; warning target-not-reached); every output is written\n"  \
+    "     (a daemon's job is successful with \"converged\": false)\n"
 
 /* From the top of the source tree; tests/cli/help.sh runs the local ones
  * as written, docs/man/man.sh makes them the pages' EXAMPLES. */
@@ -54,8 +55,9 @@ const char cli_exit_codes_help[] =
     "Exit codes:\n" EXIT_0 EXIT_1 EXIT_2 EXIT_3 EXIT_4 EXIT_5 EXIT_5_DAEMON EXIT_6_9 EXIT_10;
 #define EXIT_10_RUN                                                                    \
     "  10 finished but not converged (quality_blocked, the result->target RMS ends\n"  \
-    "     above half the background's element size, or the target->result p99 above\n"  \
-    "     twice it: a part of the target not reached); every output is written\n"
+    "     above half the background's element size, or the target is not covered: a\n"  \
+    "     side's p99 above twice it, or a handle or piece the template cannot have;\n"   \
+    "     warning target-not-reached); every output is written\n"
 const char cli_exit_codes_run_help[] =
     "Exit codes:\n" EXIT_0 EXIT_1 EXIT_2 EXIT_3 EXIT_4 EXIT_5 EXIT_10_RUN;
 const char cli_exit_codes_sdf_help[] =

@@ -125,9 +125,10 @@ await run('the app: a 2D job', async () => {
     misplaced.length === 0 && every && form.find((g) => g.group === 'advanced').tag === 'DETAILS' && !form.find((g) => g.group === 'advanced').open,
     `${JSON.stringify(form)} misplaced ${misplaced}`);
   await page.screenshot({ path: path.join(logDir, 'web-app-form-1100.png'), fullPage: true });
-  // 400 iterations: with the target-side term the step rule no longer ends
-  // this run early (4000 took minutes with live_every 1 on a loaded machine)
-  await fillJob(page, '2d', clamp2d, { live_every: 1, max_iter: 400, tol_stall: 0, tol_step: 1e-12 });
+  // 1500 iterations: long enough to be seen running, short enough to end
+  // (with the target-side term the step rule no longer ends this run early;
+  // 4000 with live_every 1 outlasted a minute on a loaded machine)
+  await fillJob(page, '2d', clamp2d, { live_every: 1, max_iter: 1500, tol_stall: 0, tol_step: 1e-12 });
   const jobName = 'disk → star, 2D «test»';
   await page.fill('#f-name', jobName);
   await page.click('#submit');
@@ -135,7 +136,7 @@ await run('the app: a 2D job', async () => {
   const live = await status(page);
   await page.screenshot({ path: path.join(logDir, 'web-app-2d-running.png') });
   report('at least 5 plot points arrive from the event stream while the job runs', live === 'running', live);
-  const final = await waitStatus(page, 'successful', 60000);
+  const final = await waitStatus(page, 'successful', 120000);
   report('the job\'s status becomes successful', final === 'successful', final);
   await page.waitForFunction(() => document.querySelector('#view2d').dataset.drawn === 'final', null, { timeout: 15000 });
   const drawn = await page.$eval('#view2d', (c) => {

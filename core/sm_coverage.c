@@ -19,6 +19,9 @@
 /* Fewer points than this are searched on one thread: the start of a
  * parallel region costs more than their searches. */
 #define PARALLEL_MIN 20000
+/* At most this many target samples (once each facet gets one): five
+ * times the 3D example's; the final measure of 1M costs seconds */
+#define MAX_TARGET_SAMPLES 1000000
 /* The descent's samples: one per cell of THIN_CELL times the spacing
  * (so of the template boundary's mean edge), about one per two boundary
  * facets in 3D (3D example: 4.3k samples for 8.9k facets, where one per
@@ -38,6 +41,9 @@ struct sm_coverage {
     double spacing;            /* the samples': a quarter of the template
                                 * boundary's mean edge */
     double dead;               /* the term's dead zone: half that edge */
+    double tspacing;           /* the target's: the same, or a quarter of
+                                * the target's own mean edge when larger,
+                                * or coarser still (MAX_TARGET_SAMPLES) */
     /* the target's samples */
     int64_t nt;
     double *ty, *tw;           /* nt * dim, nt */
@@ -615,7 +621,7 @@ static int thin_samples(sm_coverage *c)
     for (int64_t i = 0; i < n; i++) {
         uint64_t key = 0;
         for (int k = 0; k < dim; k++) {
-            double q = floor((c->ty[i * dim + k] - lo[k]) / (THIN_CELL * c->spacing));
+            double q = floor((c->ty[i * dim + k] - lo[k]) / (THIN_CELL * c->tspacing));
             uint64_t u = q < 0 ? 0 : q > 2097151 ? 2097151 : (uint64_t)q;
             key = (key << 21) | u;
         }
@@ -704,7 +710,16 @@ static sm_status boundary_graph(sm_coverage *c, sm_error *err)
 static sm_status sample_target(sm_coverage *c, sm_error *err)
 {
     const sm_surface *s = c->target;
-    int64_t n = sample_facets(c->dim, s->coords, s->facets, s->nfacets, c->spacing, NULL, NULL);
+    /* no finer than a quarter of its own mean edge either: a target far
+     * larger than the template (other units: the job warns) would get
+     * billions of samples at the template's spacing, each far from every
+     * facet of the template, which the hierarchy then cannot prune */
+    c->tspacing = fmax(c->spacing, 0.25 * sm_surface_mean_edge(s));
+    int64_t n = sample_facets(c->dim, s->coords, s->facets, s->nfacets, c->tspacing, NULL, NULL);
+    while (n > MAX_TARGET_SAMPLES && n > s->nfacets) {
+        c->tspacing *= 2;
+        n = sample_facets(c->dim, s->coords, s->facets, s->nfacets, c->tspacing, NULL, NULL);
+    }
     c->nt = n;
     c->ty = malloc(((size_t)n * c->dim + 1) * sizeof *c->ty);
     c->tw = malloc(((size_t)n + 1) * sizeof *c->tw);
@@ -712,7 +727,7 @@ static sm_status sample_target(sm_coverage *c, sm_error *err)
     if (!c->ty || !c->tw || !c->tdist)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for %lld target samples",
                             (long long)n);
-    sample_facets(c->dim, s->coords, s->facets, s->nfacets, c->spacing, c->ty, c->tw);
+    sample_facets(c->dim, s->coords, s->facets, s->nfacets, c->tspacing, c->ty, c->tw);
     c->tmeasure = 0;
     for (int64_t i = 0; i < n; i++)
         c->tmeasure += c->tw[i];
@@ -839,7 +854,7 @@ sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance 
             nearest_all(&bvh, dim, s->nverts, s->coords, NULL, vd);
         side_figures(c->nt, c->tdist, c->tw, vd ? s->nverts : 0, vd, &out->target_to_result);
         free(vd);
-        out->target_to_result.max = refine_max(dim, s->coords, s->facets, s->nfacets, c->spacing,
+        out->target_to_result.max = refine_max(dim, s->coords, s->facets, s->nfacets, c->tspacing,
                                                c->tdist, out->target_to_result.max, &bvh);
         for (int64_t i = 0; i < c->nt && st == SM_OK; i++)
             if (isnan(c->tdist[i]))

@@ -491,7 +491,8 @@ static void finished_message(const sm_result *r, const char *warnings, char *buf
                            r->iterations,
                            r->stop == SM_STOP_QUALITY
                                ? "the quality floor rejected every step"
-                               : "the boundary error ends above what the background resolves");
+                               : "the match does not lie on, or does not cover, the target "
+                                 "within what the background resolves");
     size_t used = n > 0 ? (size_t)n : 0, room = used < cap ? cap - used : 0;
     if (warnings && warnings[0] && room > 3)
         snprintf(buf + used, room, "; %.*s", (int)(room - 3), warnings);

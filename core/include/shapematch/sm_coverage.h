@@ -15,7 +15,13 @@
  *            quarter of the mean edge of the template's boundary (with
  *            half, an ellipsoid's faceted target side had its max 20%
  *            low against an independent sampling at 16 parts a facet:
- *            the farthest points lie inside the facets).
+ *            the farthest points lie inside the facets); for the
+ *            target's facets, at least a quarter of the target's own mean
+ *            edge (a target in other units would otherwise get billions
+ *            of samples).  A target that
+ *            would get over a million samples (one far larger than the
+ *            template: other units) is sampled at a doubled spacing
+ *            until it does not, its facets' own sample kept.
  *   result_to_target  distance from the samples of the match's boundary
  *            (the facets that carry the load, see free_boundary) to the
  *            target's surface: exact point-facet distance through a

@@ -14,7 +14,8 @@ if ! command -v script >/dev/null; then echo "not ok - script(1) is installed"; 
 # shellcheck disable=SC2086
 EX3=$ROOT/examples/3d
 ARGS3="--template $EX3/template.mesh --target-mesh $EX3/background.mesh.gz --target-sol $EX3/background.sol.gz --clamp-ball $(tr -d ' \n' <"$EX3/clamp")"
-# an 80-column terminal (stty sets the pseudo-terminal's size, which the
+# an 80-column terminal (exit 0 or 10: twenty iterations may not cover the
+# target; stty sets the pseudo-terminal's size, which the
 # client reads with TIOCGWINSZ): every line fits in 79 columns and keeps
 # the bar, the iteration, both RMS distances (result->target,
 # target->result) and the ETA
@@ -25,7 +26,7 @@ bars=$(grep -cE '^\[[#.]{10}\] +[0-9]+%  iter [0-9]+  r->t rms [0-9.e+-]+  t->r 
 mid=$(grep -E '^\[[#.]{10}\] +([1-9]|[1-9][0-9])%  ' "$WORK/tty.lines" | head -1)
 last=$(grep -E '^\[' "$WORK/tty.lines" | tail -1)
 long=$(grep -E '^\[' "$WORK/tty.lines" | awk 'length($0) > 79' | head -1)
-if [ $rc -eq 0 ] && [ "$bars" -ge 2 ] && [ -n "$mid" ] && [ "${last#\[##########\] 100%}" != "$last" ] &&
+if { [ $rc -eq 0 ] || [ $rc -eq 10 ]; } && [ "$bars" -ge 2 ] && [ -n "$mid" ] && [ "${last#\[##########\] 100%}" != "$last" ] &&
     grep -q $'\r' "$WORK/tty.log" && [ -z "$long" ]; then
     echo "ok - an 80-column terminal gets a bar redrawn in place ($bars draws) within 79 columns, e.g. '$mid', ending at 100%"
 else

@@ -74,11 +74,23 @@ asan_LDFLAGS := $(ASAN_LDFLAGS)
 ALL_TARGETS :=
 RELEASE_ONLY_TARGETS :=
 
+# A quiet build: one line per step ("  CC   core/sm_match.c", the variant
+# in brackets when it is not release); `make V=1` prints the commands.
+# A recipe line starts with $(call show,STEP,WHAT,VARIANT) (or $(Q) for a
+# step not worth a line), which expands to the @printf of that line.
+ifeq ($(V),1)
+show =
+Q =
+else
+show = @printf '  %-4s %s%s\n' '$(1)' '$(2)' '$(if $(filter-out release,$(3)), [$(3)])';
+Q = @
+endif
+
 # compile rule for every variant: build/<variant>/obj/<path>.o
 define variant_rules
 build/$(1)/obj/%.o: %.c
 	@mkdir -p $$(dir $$@)
-	$$(CC) $$($(1)_CFLAGS) -MMD -MP -c $$< -o $$@
+	$$(call show,CC,$$<,$(1))$$(CC) $$($(1)_CFLAGS) -MMD -MP -c $$< -o $$@
 endef
 $(foreach v,$(VARIANTS),$(eval $(call variant_rules,$(v))))
 
@@ -161,20 +173,24 @@ test: check-deps
 lint:
 	@tests/lint.sh
 
+# only the three programs the demo runs (not the tests and benchmarks of
+# `make release`): a first demo is built in well under a minute on two cores
 demo: check-deps
-	$(MAKE) -j$$(nproc) release
+	@$(MAKE) --no-print-directory -j$$(nproc) $(INSTALL_PROGRAMS:%=build/release/%)
 	examples/demo.sh
 
 # make install PREFIX=... DESTDIR=...: the programs, the libraries
 # (libshapematch.so.MAJOR with its archive, libshapematch_job.so.MAJOR), the
 # headers (<shapematch.h>, <shapematch/...>, <shapematch_job.h>),
-# shapematch.pc, the man pages and the Python package, all under PREFIX.
+# shapematch.pc, the man pages, the Python package and the license files
+# (LICENSE, THIRD-PARTY in share/doc/shapematch), all under PREFIX.
 # Nothing goes elsewhere unless UNITDIR is given: the systemd unit then goes
 # there with its program path rewritten to $(PREFIX)/bin
 # (UNITDIR=/etc/systemd/system).
 LIBDIR = $(PREFIX)/lib
 INCLUDEDIR = $(PREFIX)/include
 MANDIR = $(PREFIX)/share/man
+DOCDIR = $(PREFIX)/share/doc/shapematch
 # Debian's python3 searches it for PREFIX=/usr; for /usr/local give
 # PYTHONDIR=/usr/local/lib/python3.X/dist-packages (docs/python.md)
 PYTHONDIR = $(PREFIX)/lib/python3/dist-packages
@@ -183,7 +199,8 @@ SM_LIBS := libshapematch libshapematch_job
 
 install: release
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)/shapematch \
-	  $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(MANDIR)/man8 $(DESTDIR)$(PYTHONDIR)/shapematch
+	  $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(MANDIR)/man8 $(DESTDIR)$(PYTHONDIR)/shapematch \
+	  $(DESTDIR)$(DOCDIR)
 	install -m 755 $(INSTALL_PROGRAMS:%=build/release/%) $(DESTDIR)$(PREFIX)/bin/
 	for l in $(SM_LIBS); do \
 	  install -m 755 build/release/$$l.so.$(SM_SOVERSION) $(DESTDIR)$(LIBDIR)/$$l.so.$(VERSION) && \
@@ -197,6 +214,7 @@ install: release
 	install -m 644 build/release/man/shapematch.1 $(DESTDIR)$(MANDIR)/man1/
 	install -m 644 build/release/man/shapematchd.8 $(DESTDIR)$(MANDIR)/man8/
 	install -m 644 $(PYTHON_FILES) $(DESTDIR)$(PYTHONDIR)/shapematch/
+	install -m 644 LICENSE THIRD-PARTY $(DESTDIR)$(DOCDIR)/
 	@# bytecode now: an installed folder users cannot write would otherwise
 	@# be compiled at every import (~10-20 ms of a 2D match's 0.4 s)
 	@if [ -x /usr/bin/python3 ]; then /usr/bin/python3 -m compileall -q \
@@ -218,9 +236,10 @@ uninstall:
 	  $(DESTDIR)$(INCLUDEDIR)/shapematch.h $(DESTDIR)$(INCLUDEDIR)/shapematch_job.h \
 	  $(CORE_PUBLIC_HEADERS:core/include/%=$(DESTDIR)$(INCLUDEDIR)/%) \
 	  $(DESTDIR)$(MANDIR)/man1/shapematch.1 $(DESTDIR)$(MANDIR)/man8/shapematchd.8 \
-	  $(PYTHON_FILES:python/%=$(DESTDIR)$(PYTHONDIR)/%)
+	  $(PYTHON_FILES:python/%=$(DESTDIR)$(PYTHONDIR)/%) \
+	  $(DESTDIR)$(DOCDIR)/LICENSE $(DESTDIR)$(DOCDIR)/THIRD-PARTY
 	rm -rf $(DESTDIR)$(PYTHONDIR)/shapematch/__pycache__
-	-rmdir $(DESTDIR)$(INCLUDEDIR)/shapematch $(DESTDIR)$(PYTHONDIR)/shapematch 2>/dev/null
+	-rmdir $(DESTDIR)$(INCLUDEDIR)/shapematch $(DESTDIR)$(PYTHONDIR)/shapematch $(DESTDIR)$(DOCDIR) 2>/dev/null
 	$(if $(UNITDIR),rm -f $(DESTDIR)$(UNITDIR)/shapematchd.service)
 
 clean:

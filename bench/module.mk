@@ -24,7 +24,7 @@ $(foreach b,$(BENCH_PROGS),$(eval build/release/$(b): build/release/obj/bench/$(
 build/release/obj/bench/write_bench.o: release_CFLAGS += -I core
 $(addprefix build/release/,$(BENCH_PROGS)):
 	@mkdir -p $(dir $@)
-	$(CC) -o $@ $^ $(CORE_LIBS)
+	$(call show,LD,$@)$(CC) -o $@ $^ $(CORE_LIBS)
 RELEASE_ONLY_TARGETS += $(BENCH_PROGS)
 
 # each: the prerequisite check, the release build, then the script(s)

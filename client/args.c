@@ -400,8 +400,10 @@ int job_option_apply(job_options *j, const char *flag, const char *value,
             return cli_fail(msg, cap,
                         "%s: expected x,y,r (2D) or x,y,z,r (3D), got %d value%s",
                         flag, n, n == 1 ? "" : "s");
+        char got[SM_NUMBER_TEXT_LEN];
         if (!(v[n - 1] > 0))
-            return cli_fail(msg, cap, "%s: the radius must be > 0, got %g", flag, v[n - 1]);
+            return cli_fail(msg, cap, "%s: the radius must be > 0, got %s", flag,
+                            sm_number_text(got, v[n - 1]));
         p->clamp = SM_CLAMP_BALL;
         p->clamp_center[0] = v[0];
         p->clamp_center[1] = v[1];
@@ -445,9 +447,11 @@ int job_options_finish(job_options *j, char *msg, size_t cap)
     if (j->alpha_given && j->params.clamp != SM_CLAMP_NONE)
         return cli_fail(msg, cap, "--alpha is only valid with --no-clamp (got %s)",
                     j->clamp_flag ? j->clamp_flag : "the default clamp");
+    char a[SM_NUMBER_TEXT_LEN], b[SM_NUMBER_TEXT_LEN];
     if (j->params.step_initial > j->params.step_max)
-        return cli_fail(msg, cap, "--step-initial (%g) must not exceed --step-max (%g)",
-                    j->params.step_initial, j->params.step_max);
+        return cli_fail(msg, cap, "--step-initial (%s) must not exceed --step-max (%s)",
+                        sm_number_text(a, j->params.step_initial),
+                        sm_number_text(b, j->params.step_max));
     return 0;
 }
 

@@ -25,9 +25,11 @@
  *   8  the job failed on the daemon (the reason is printed)
  *   9  daemon error: HTTP 5xx, or a response the client cannot understand
  *  10  run, watch, submit --wait: finished but not converged
- *      (quality_blocked, or the boundary error ends above what the
- *      background resolves: SM_JOB_RESOLVED_FACTOR in
- *      proto/job/sm_job_runner.h); every output is written (a daemon's job
+ *      (quality_blocked, the result's boundary ends off the target by more
+ *      than the background resolves: SM_JOB_RESOLVED_FACTOR in
+ *      proto/job/sm_job_runner.h, or the target is not covered:
+ *      SM_JOB_COVERED_FACTOR in proto/job/sm_job_warnings.h, warning
+ *      target-not-reached); every output is written (a daemon's job
  *      is successful with "converged": false; submit --wait -o still
  *      downloads its results) (after 6-9 so that no code changes meaning)
  * Interrupting watch (Ctrl-C) leaves the job running on the daemon.

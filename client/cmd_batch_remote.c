@@ -140,9 +140,13 @@ static int submit_targets(http_client *c, remote_batch *b, int token_given, cons
 {
     for (size_t i = 0; i < b->list.n; i++) {
         const sm_batch_target *t = &b->list.t[i];
+        /* each job named after its target, when the name can be one */
+        char why[96];
+        int named = sm_job_name_check(t->name, strlen(t->name), why, sizeof why) == 0;
         submit_job j = {.template_path = b->template_path, .target_mesh = t->target_mesh,
                         .target_sol = t->target_sol, .target_surface = t->target_surface,
-                        .target_image = t->target_image, .params_json = params};
+                        .target_image = t->target_image, .params_json = params,
+                        .name = named ? t->name : NULL};
         http_response rs;
         int code = remote_submit_job(c, "batch", token_given, &j, &rs, b->ids[i], sizeof b->ids[i]);
         if (code != 0) {

@@ -295,21 +295,23 @@ static void print_final_line(const run_options *o, const sm_job_run *run)
     const sm_result *r = &run->result;
     if (run->outcome == SM_JOB_OUTCOME_FAILED)
         fprintf(stderr,
-                "shapematch: error: no valid step from the initial mesh (boundary error %.3e); "
-                "the template may already match the target (see --tol-boundary) or the "
-                "parameters prevent any move (--min-quality, --tol-step)\n",
-                r->boundary_l2);
+                "shapematch: error: no valid step from the initial mesh (boundary RMS %.3e, "
+                "L2 %.3e); the template may already match the target (see --tol-boundary) or "
+                "the parameters prevent any move (--min-quality, --tol-step)\n",
+                r->boundary_rms, r->boundary_l2);
     else if (run->outcome == SM_JOB_OUTCOME_CANCELLED && run->message[0])
         fprintf(stderr, "shapematch: %s; outputs in %s\n", run->message, o->outdir);
-    else if (!o->quiet || !r->converged)
+    else if (!o->quiet || !r->converged) {
+        char figures[256];
+        progress_format_figures(figures, sizeof figures, &r->distance, r->boundary_rms,
+                                r->boundary_max, r->boundary_l2);
         fprintf(stderr,
-                "shapematch: %s after %d iteration%s, %s: boundary RMS %.3e (relative %.3e, "
-                "max %.3e), min quality %.3f, J %.6e -> %.6e%s; outputs in %s\n",
+                "shapematch: %s after %d iteration%s, %s: %s, min quality %.3f, J %.6e -> "
+                "%.6e%s; outputs in %s\n",
                 sm_stop_reason_name(r->stop), r->iterations, r->iterations == 1 ? "" : "s",
-                r->converged ? "converged" : "NOT CONVERGED", r->boundary_rms,
-                r->diameter > 0 ? r->boundary_rms / r->diameter : 0.0, r->boundary_max,
-                r->min_quality, r->J_initial, r->J, run->inverted ? " (INVERTED ELEMENTS)" : "",
-                o->outdir);
+                r->converged ? "converged" : "NOT CONVERGED", figures, r->min_quality,
+                r->J_initial, r->J, run->inverted ? " (INVERTED ELEMENTS)" : "", o->outdir);
+    }
     /* warnings even with --quiet: they are about the result, not progress */
     for (int i = 0; i < run->warnings.n; i++)
         fprintf(stderr, "shapematch: warning: %s: %s\n", run->warnings.w[i].code,

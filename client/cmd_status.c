@@ -8,6 +8,7 @@
 #include "cli.h"
 #include "remote.h"
 #include "sm_proto_events.h"
+#include "sm_proto_vocab.h"
 
 #define LIST_PAGE 100
 #define LIST_MAX_JOBS 1000000L
@@ -24,11 +25,25 @@ static double num_member(const json_t *doc, const char *key)
     return json_is_number(v) ? json_number_value(v) : NAN;
 }
 
+/* The job's name as sent by the daemon, "" when it is none a terminal
+ * should print as it is (sm_job_name_check). */
+static const char *printable_name(const json_t *doc)
+{
+    const json_t *v = json_object_get(doc, "name");
+    char why[96];
+    if (!json_is_string(v) ||
+        sm_job_name_check(json_string_value(v), json_string_length(v), why, sizeof why) != 0)
+        return "";
+    return json_string_value(v);
+}
+
 /* The readable form of one statusInfo. */
 static void print_status(const json_t *doc)
 {
     const char *status = str_member(doc, "status");
     printf("job       %s\n", str_member(doc, "jobID"));
+    if (str_member(doc, "name")[0])
+        printf("name      %s\n", printable_name(doc));
     const json_t *progress = json_object_get(doc, "progress");
     if (json_is_integer(progress) && strcmp(status, "accepted") != 0)
         printf("status    %s (%lld%%)\n", status, (long long)json_integer_value(progress));
@@ -42,12 +57,48 @@ static void print_status(const json_t *doc)
     }
     const json_t *last = json_object_get(doc, "lastProgress");
     if (json_is_object(last)) {
+        /* the figures by the progress event's names, as watch shows them */
         const json_t *it = json_object_get(last, "iteration");
-        printf("last      iter %lld  J %.6e  boundary %.3e  step %.3e  qmin %.3f\n",
-               json_is_integer(it) ? (long long)json_integer_value(it) : -1LL,
-               num_member(last, "J"), num_member(last, "boundary_l2"), num_member(last, "step"),
+        const json_t *d = json_object_get(last, "distance");
+        const json_t *rt = json_object_get(d, "result_to_target"),
+                     *tr = json_object_get(d, "target_to_result");
+        char figures[160];
+        if (json_is_object(rt) && json_is_object(tr))
+            snprintf(figures, sizeof figures,
+                     "result->target rms %.3e  max %.3e  target->result rms %.3e  max %.3e  "
+                     "p99 %.3e",
+                     num_member(rt, "rms"), num_member(rt, "max"), num_member(tr, "rms"),
+                     num_member(tr, "max"), num_member(tr, "p99"));
+        else
+            snprintf(figures, sizeof figures, "rms %.3e  max %.3e",
+                     num_member(last, "boundary_rms"), num_member(last, "boundary_max"));
+        printf("last      iter %lld  %s  L2 %.3e  J %.6e  step %.3e  qmin %.3f\n",
+               json_is_integer(it) ? (long long)json_integer_value(it) : -1LL, figures,
+               num_member(last, "boundary_l2"), num_member(last, "J"), num_member(last, "step"),
                num_member(last, "min_quality"));
     }
+}
+
+/* A finished job's result figures (its summary, GET .../results), by
+ * their summary names as `run` and `watch` print them; nothing when the
+ * summary cannot be had. */
+static void print_result(http_client *c, const char *id)
+{
+    char path[128];
+    snprintf(path, sizeof path, "/v1/jobs/%s/results", id);
+    http_request rq = {.path = path, .accept = "application/json", .gzip = 1};
+    http_response rs;
+    http_outcome out = http_perform(c, &rq, &rs);
+    json_t *doc = out == HTTP_DONE && rs.status == 200 ? remote_json_object(&rs) : NULL;
+    http_response_free(&rs);
+    sm_result r;
+    sm_error err;
+    if (doc && sm_result_from_jansson(doc, "summary", &r, &err) == SM_OK) {
+        char line[512];
+        remote_format_result(line, sizeof line, &r);
+        printf("result    %s\n", line);
+    }
+    json_decref(doc);
 }
 
 /* ----------------------------------------------------------- commands */
@@ -224,6 +275,8 @@ static int one_job(int argc, char **argv, const char *cmd, const char *method, v
             code = CLI_EXIT_SERVER;
         } else if (!cancel) {
             print_status(doc);
+            if (strcmp(str_member(doc, "status"), "successful") == 0)
+                print_result(&c, a.id);
         } else if (strcmp(str_member(doc, "message"), "deleted") == 0) {
             printf("job %s deleted with its files (it was %s)\n", a.id, str_member(doc, "status"));
         } else {
@@ -253,8 +306,9 @@ static void print_list_row(const json_t *job)
     char pct[16] = "-";
     if (json_is_integer(progress))
         snprintf(pct, sizeof pct, "%lld%%", (long long)json_integer_value(progress));
-    printf("%-32s  %-10s  %4s  %-24s  %s\n", str_member(job, "jobID"), str_member(job, "status"),
-           pct, str_member(job, "created"), str_member(job, "message"));
+    printf("%-32s  %-10s  %4s  %-24s  %-16s  %s\n", str_member(job, "jobID"),
+           str_member(job, "status"), pct, str_member(job, "created"), printable_name(job),
+           str_member(job, "message"));
 }
 
 int cmd_list(int argc, char **argv)
@@ -326,8 +380,8 @@ int cmd_list(int argc, char **argv)
             printf("no jobs%s%s\n", a.status_filter ? " with status " : "",
                    a.status_filter ? a.status_filter : "");
         } else {
-            printf("%-32s  %-10s  %4s  %-24s  %s\n", "JOB", "STATUS", "DONE", "CREATED",
-                   "MESSAGE");
+            printf("%-32s  %-10s  %4s  %-24s  %-16s  %s\n", "JOB", "STATUS", "DONE", "CREATED",
+                   "NAME", "MESSAGE");
             for (size_t i = 0; i < json_array_size(all); i++)
                 print_list_row(json_array_get(all, i));
             if (matched > (long long)json_array_size(all))

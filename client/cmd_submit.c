@@ -192,7 +192,8 @@ enum {
     SB_KEY,
     SB_FORMAT,
     SB_RECONNECT,
-    SB_NO_COMPRESS
+    SB_NO_COMPRESS,
+    SB_NAME
 };
 
 typedef struct submit_args {
@@ -201,6 +202,7 @@ typedef struct submit_args {
     char landmarks[2][PATH_MAX]; /* --landmarks A,B: template's, target's ("" when not given) */
     const char *outdir;
     const char *idempotency_key;
+    const char *name;
     int wait, json, quiet, no_compress;
     unsigned formats;
     int formats_given;
@@ -289,6 +291,16 @@ static int submit_flag(void *user, int id, const char *flag, const char *value, 
         }
         a->idempotency_key = value;
         return 0;
+    case SB_NAME: {
+        char why[96];
+        if (sm_job_name_check(value, strlen(value), why, sizeof why) != 0) {
+            snprintf(msg, cap, "%s: %s (a name is 1 to %d bytes of UTF-8 text)", flag, why,
+                     SM_JOB_NAME_MAX);
+            return -1;
+        }
+        a->name = value;
+        return 0;
+    }
     case SB_FORMAT:
         a->formats_given = 1;
         return fetch_parse_formats(flag, value, &a->formats, msg, cap);
@@ -303,7 +315,8 @@ void cmd_submit_help(void)
     printf("Usage: shapematch submit --template T.mesh --target-mesh B.mesh --target-sol B.sol\n"
            "       shapematch submit --template T.mesh --target-surface S.stl [--target-mesh B.mesh]\n"
            "       shapematch submit --template T.mesh --target-image IMG [--label N]\n"
-           "                         CLAMP [PARAMETERS] [--json] [--idempotency-key K]\n"
+           "                         CLAMP [PARAMETERS] [--name NAME] [--json]\n"
+           "                         [--idempotency-key K]\n"
            "       shapematch submit ... --wait -o OUTDIR [--format LIST]\n"
            "\n"
            "Sends a matching job to the daemon and prints its id on stdout.  The inputs\n"
@@ -336,6 +349,8 @@ void cmd_submit_help(void)
     job_options_help(stdout);
     printf("\n"
            "Submission:\n"
+           "  --name NAME             the job's name, shown by 'list', 'status', 'watch' and\n"
+           "                          the web app (1 to 200 bytes of text)\n"
            "  --idempotency-key K     a retried submission with the same key returns the\n"
            "                          job the first one created instead of a new one\n"
            "  --json                  print the job's status document (JSON) instead of its\n"
@@ -424,9 +439,9 @@ static int submission_open_files(submission *s, const char *cmd, const submit_jo
     return 0;
 }
 
-/* The multipart body: the file parts (streamed) and params. */
+/* The multipart body: the file parts (streamed), params and the name. */
 static int submission_build_form(submission *s, http_client *c, const char *cmd,
-                                 const char *params)
+                                 const char *params, const char *name)
 {
     s->mime = curl_api.mime_init(c->curl);
     int bad = !s->mime;
@@ -437,6 +452,12 @@ static int submission_build_form(submission *s, http_client *c, const char *cmd,
         bad = !pp || curl_api.mime_name(pp, sm_part_name(SM_PART_PARAMS)) != CURLE_OK ||
               curl_api.mime_data(pp, params, CURL_ZERO_TERMINATED) != CURLE_OK ||
               curl_api.mime_type(pp, "application/json") != CURLE_OK;
+    }
+    if (!bad && name) {
+        curl_mimepart *np = curl_api.mime_addpart(s->mime);
+        bad = !np || curl_api.mime_name(np, sm_part_name(SM_PART_NAME)) != CURLE_OK ||
+              curl_api.mime_data(np, name, CURL_ZERO_TERMINATED) != CURLE_OK ||
+              curl_api.mime_type(np, "text/plain; charset=utf-8") != CURLE_OK;
     }
     if (bad) {
         fprintf(stderr, "shapematch %s: error: out of memory\n", cmd);
@@ -491,7 +512,7 @@ int remote_submit_job(http_client *c, const char *cmd, int token_given, const su
     memset(rs, 0, sizeof *rs);
     int code = submission_open_files(&s, cmd, j);
     if (code == 0)
-        code = submission_build_form(&s, c, cmd, j->params_json);
+        code = submission_build_form(&s, c, cmd, j->params_json, j->name);
     if (code == 0)
         code = submission_post(&s, c, cmd, token_given, j->idempotency_key, rs, id, cap);
     submission_release_files(&s);
@@ -547,6 +568,7 @@ int cmd_submit(int argc, char **argv)
         {"--quiet", 0, SB_QUIET},
         {"-q", 0, SB_QUIET},
         {"--idempotency-key", 1, SB_KEY},
+        {"--name", 1, SB_NAME},
         {"--format", 1, SB_FORMAT},
         {"--reconnect-timeout", 1, SB_RECONNECT},
         {"--no-compress", 0, SB_NO_COMPRESS},
@@ -592,7 +614,7 @@ int cmd_submit(int argc, char **argv)
                     .target_image = a.target_image_path,
                     .landmarks = {a.landmarks[0][0] ? a.landmarks[0] : NULL,
                                   a.landmarks[1][0] ? a.landmarks[1] : NULL},
-                    .params_json = params, .idempotency_key = a.idempotency_key,
+                    .params_json = params, .idempotency_key = a.idempotency_key, .name = a.name,
                     .no_compress = a.no_compress};
     http_client c;
     /* opening the client makes no connection: an unreadable file is still

@@ -62,6 +62,7 @@
 
 typedef struct watch_ctx {
     const char *id;
+    char label[SM_JOB_ID_MAX + SM_JOB_NAME_MAX + 8]; /* "ID (name)", or "ID" */
     const watch_options *opt;
     progress_display display;
     sse_parser sse;
@@ -119,7 +120,7 @@ static void handle_event(watch_ctx *w, const sm_event *ev)
     switch (ev->type) {
     case SM_EVENT_ACCEPTED:
         if (!quiet(w))
-            progress_message(&w->display, "shapematch: job %s queued", w->id);
+            progress_message(&w->display, "shapematch: job %s queued", w->label);
         break;
     case SM_EVENT_STARTED:
         /* a new run starts its iterations from 0: a fresh display */
@@ -132,9 +133,9 @@ static void handle_event(watch_ctx *w, const sm_event *ev)
             progress_message(&w->display,
                              "shapematch: job %s started again (attempt %d, the daemon re-runs "
                              "an interrupted job from the start)",
-                             w->id, ev->attempt);
+                             w->label, ev->attempt);
         else
-            progress_message(&w->display, "shapematch: job %s started", w->id);
+            progress_message(&w->display, "shapematch: job %s started", w->label);
         break;
     case SM_EVENT_PROGRESS:
         progress_update(&w->display, &ev->progress);
@@ -249,7 +250,7 @@ static int finish(watch_ctx *w, const char *cmd)
             else
                 snprintf(line, sizeof line, "%s", w->final_message);
             if (!w->not_converged)
-                fprintf(stderr, "shapematch: job %s successful%s%s\n", w->id,
+                fprintf(stderr, "shapematch: job %s successful%s%s\n", w->label,
                         line[0] ? ": " : "", line);
         }
         if (w->not_converged) {
@@ -258,25 +259,25 @@ static int finish(watch_ctx *w, const char *cmd)
             const char *cut = strstr(w->final_message, "; warning: ");
             int len = cut ? (int)(cut - w->final_message) : (int)strlen(w->final_message);
             fprintf(stderr, "shapematch %s: job %s successful but NOT CONVERGED: %.*s\n", cmd,
-                    w->id, len ? len : 15, len ? w->final_message : "see its summary");
+                    w->label, len ? len : 15, len ? w->final_message : "see its summary");
             return CLI_EXIT_NOT_CONVERGED;
         }
         return CLI_EXIT_OK;
     case SM_JOB_FAILED:
-        fprintf(stderr, "shapematch %s: job %s failed: %s\n", cmd, w->id,
+        fprintf(stderr, "shapematch %s: job %s failed: %s\n", cmd, w->label,
                 why[0] ? why : "no reason given");
         return CLI_EXIT_JOB_FAILED;
     default:
-        fprintf(stderr, "shapematch %s: job %s was cancelled (dismissed)%s%s\n", cmd, w->id,
+        fprintf(stderr, "shapematch %s: job %s was cancelled (dismissed)%s%s\n", cmd, w->label,
                 why[0] ? ": " : "", why);
         return CLI_EXIT_CANCELLED;
     }
 }
 
-/* The bar's goals, as `run` has them: GET /v1/jobs/ID gives the job's
- * maxIter and tolBoundary.  Best effort: without them (an older daemon, a
- * failed request, which the events request then reports) the bar shows
- * the rate only. */
+/* The job's name and the bar's goals, as `run` has them: GET /v1/jobs/ID
+ * gives its name, maxIter and tolBoundary.  Best effort: without them (an
+ * older daemon, a failed request, which the events request then reports)
+ * the lines name the id alone and the bar shows the rate only. */
 static void get_goal(http_client *c, watch_ctx *w)
 {
     char path[128];
@@ -292,6 +293,11 @@ static void get_goal(http_client *c, watch_ctx *w)
         w->goal_max_iter = (int)json_integer_value(max_iter);
     if (json_is_number(tol) && json_number_value(tol) > 0)
         w->goal_tol = json_number_value(tol);
+    json_t *name = json_object_get(doc, "name");
+    char why[96];
+    if (json_is_string(name) && sm_job_name_check(json_string_value(name), json_string_length(name),
+                                                  why, sizeof why) == 0)
+        snprintf(w->label, sizeof w->label, "%s (%s)", w->id, json_string_value(name));
     json_decref(doc);
     progress_set_goal(&w->display, w->goal_max_iter, w->goal_tol);
 }
@@ -302,9 +308,10 @@ int remote_watch(http_client *c, const char *cmd, int token_given, const char *i
     watch_ctx w;
     memset(&w, 0, sizeof w);
     w.id = id;
+    snprintf(w.label, sizeof w.label, "%s", id);
     w.opt = o;
     progress_init(&w.display, stderr, o->quiet);
-    if (w.display.mode == PROGRESS_TTY && !o->json)
+    if (!o->json && !o->quiet)
         get_goal(c, &w);
     sse_init(&w.sse, SM_EVENT_LINE_MAX + 64, on_sse_event, &w);
 

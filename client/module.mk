@@ -8,7 +8,7 @@ CLIENT_LIBS := $(PROTO_LIBS) $(CURL_LIBS) $(CORE_LIBS)
 define client_rules
 build/$(1)/shapematch: $$(CLIENT_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/libsmjob.a build/$(1)/libsmproto.a build/$(1)/libshapematch.a
 	@mkdir -p $$(dir $$@)
-	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(CLIENT_LIBS)
+	$$(call show,LD,$$@,$(1))$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(CLIENT_LIBS)
 endef
 $(foreach v,$(VARIANTS),$(eval $(call client_rules,$(v))))
 ALL_TARGETS += shapematch

@@ -48,6 +48,16 @@ void progress_set_goal(progress_display *d, int max_iter, double tol_l2);
 void progress_update(progress_display *d, const sm_progress *p);
 /* Shows the final state (if not shown yet) and ends the TTY line. */
 void progress_finish(progress_display *d);
+/* 1 when d holds both sides' figures (progress events and results from
+ * a daemon or library that measures them; older ones do not). */
+int progress_has_distance(const sm_distance *d);
+/* The headline figures of a result, by their names in summary.json:
+ * "result->target RMS a (max b), target->result RMS c (max d, p99 e); L2
+ * of d on the boundary f", or without the distance "boundary RMS a (max
+ * b); L2 of d on the boundary f" (rms, max: boundary_rms, boundary_max). */
+void progress_format_figures(char *buf, size_t cap, const sm_distance *d, double rms,
+                             double max, double l2);
+
 /* Prints a message line without garbling an open TTY line (shown even
  * when quiet: used for warnings). */
 void progress_message(progress_display *d, const char *fmt, ...)

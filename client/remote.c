@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "progress.h"
 
 
 /* ------------------------------------------------------------ parsing */
@@ -244,9 +245,11 @@ void remote_print_body(const http_response *rs)
 
 void remote_format_result(char *buf, size_t cap, const sm_result *r)
 {
+    char figures[256];
+    progress_format_figures(figures, sizeof figures, &r->distance, r->boundary_rms,
+                            r->boundary_max, r->boundary_l2);
     snprintf(buf, cap,
-             "%s after %d iteration%s: J %.6e -> %.6e, boundary error %.3e (max %.3e), "
-             "min quality %.3f",
-             sm_stop_reason_name(r->stop), r->iterations, r->iterations == 1 ? "" : "s",
-             r->J_initial, r->J, r->boundary_l2, r->boundary_max, r->min_quality);
+             "%s after %d iteration%s: %s, min quality %.3f, J %.6e -> %.6e",
+             sm_stop_reason_name(r->stop), r->iterations, r->iterations == 1 ? "" : "s", figures,
+             r->min_quality, r->J_initial, r->J);
 }

@@ -82,8 +82,10 @@ json_t *remote_json_object(const http_response *rs);
 /* Prints body (as received) on stdout with a final newline. */
 void remote_print_body(const http_response *rs);
 
-/* "max_iterations after 20 iterations: J -1.2e-02 -> -1.3e-02, boundary
- * error 2.3e-04 (max 7.9e-04), min quality 0.504" */
+/* "max_iterations after 20 iterations: result->target RMS 2.3e-04 (max
+ * 7.9e-04), target->result RMS ... (max ..., p99 ...); L2 of d on the
+ * boundary 1.1e-04, min quality 0.504, J -1.2e-02 -> -1.3e-02": the
+ * figures of progress_format_figures first, the L2 norm by its name */
 void remote_format_result(char *buf, size_t cap, const sm_result *r);
 
 #endif

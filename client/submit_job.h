@@ -14,6 +14,7 @@ typedef struct submit_job {
     const char *landmarks[2];  /* template's, target's, or NULL */
     const char *params_json;   /* the params part */
     const char *idempotency_key; /* or NULL */
+    const char *name;          /* the job's name (part "name"), or NULL */
     int no_compress;
 } submit_job;
 

@@ -16,7 +16,7 @@ CORE_SDF_SRCS := core/sm_background.c core/sm_bvh.c core/sm_sdf.c core/sm_surfac
   core/sm_surface_orient.c core/sm_winding.c core/sm_image.c core/sm_edt.c \
   core/sm_image_sdf.c core/sm_image_contour.c
 CORE_SOLVE_SRCS := core/sm_elasticity.c core/sm_elasticity_pattern.c core/sm_element.c \
-  core/sm_solver_amg.c core/sm_shape.c core/sm_match.c
+  core/sm_solver_amg.c core/sm_shape.c core/sm_coverage.c core/sm_match.c
 CORE_ALIGN_SRCS := core/sm_align.c core/sm_align_points.c core/sm_align_landmarks.c \
   core/sm_align_linalg.c \
   core/sm_shape_model.c
@@ -35,7 +35,7 @@ define core_rules
 build/$(1)/obj/core/%.o: $(1)_CFLAGS += -I core
 build/$(1)/libshapematch.a: $$(CORE_SRCS:%.c=build/$(1)/obj/%.o)
 	@mkdir -p $$(dir $$@)
-	rm -f $$@ && ar rcs $$@ $$^
+	$$(call show,AR,$$@,$(1))rm -f $$@ && ar rcs $$@ $$^
 endef
 $(foreach v,$(VARIANTS),$(eval $(call core_rules,$(v))))
 ALL_TARGETS += libshapematch.a
@@ -55,9 +55,9 @@ build/$(1)/libshapematch.map: $$(CORE_PUBLIC_HEADERS) tests/build/exports.sh
 	  { echo 'SHAPEMATCH_$(SM_SOVERSION) {'; echo '  global:'; \
 	    printf '    %s;\n' $$$$list; echo '  local: *;'; echo '};'; } >$$@.tmp && mv $$@.tmp $$@
 build/$(1)/libshapematch.so.$(SM_SOVERSION): $$(CORE_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/libshapematch.map
-	$$(CC) $$($(1)_LDFLAGS) -shared -Wl,-soname,libshapematch.so.$(SM_SOVERSION) -Wl,-z,defs \
+	$$(call show,LD,$$@,$(1))$$(CC) $$($(1)_LDFLAGS) -shared -Wl,-soname,libshapematch.so.$(SM_SOVERSION) -Wl,-z,defs \
 	  -Wl,--version-script=build/$(1)/libshapematch.map -o $$@ $$(filter %.o,$$^) $$(CORE_LIBS)
-	ln -sf libshapematch.so.$(SM_SOVERSION) build/$(1)/libshapematch.so
+	$$(Q)ln -sf libshapematch.so.$(SM_SOVERSION) build/$(1)/libshapematch.so
 # <shapematch.h>: the umbrella header, every public header (generated: a
 # header added to core/include/shapematch/ is in it by itself), with C
 # linkage for C++ (the core's headers are C only)

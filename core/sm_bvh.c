@@ -112,9 +112,10 @@ void sm__closest_on_triangle(const double *x, const double *a, const double *b,
 
 /* Closest point by Voronoi region of the triangle: the vertices, then the
  * edges, then the face (barycentric coordinates from the same dot
- * products). */
-double sm_sdf_point_triangle2(const double *p, const double *a, const double *b,
-                              const double *c)
+ * products).  bary receives the closest point's barycentric coordinates
+ * in (a, b, c). */
+double sm__triangle_closest(const double *p, const double *a, const double *b, const double *c,
+                            double *bary)
 {
     double ab[3], ac[3], ap[3], q[3];
     for (int k = 0; k < 3; k++) {
@@ -123,28 +124,36 @@ double sm_sdf_point_triangle2(const double *p, const double *a, const double *b,
         ap[k] = p[k] - a[k];
     }
     double d1 = dot3(ab, ap), d2 = dot3(ac, ap);
-    if (d1 <= 0 && d2 <= 0)
+    if (d1 <= 0 && d2 <= 0) {
+        bary[0] = 1, bary[1] = bary[2] = 0;
         return dist2_to(p, a);
+    }
     double bp[3] = {p[0] - b[0], p[1] - b[1], p[2] - b[2]};
     double d3 = dot3(ab, bp), d4 = dot3(ac, bp);
-    if (d3 >= 0 && d4 <= d3)
+    if (d3 >= 0 && d4 <= d3) {
+        bary[1] = 1, bary[0] = bary[2] = 0;
         return dist2_to(p, b);
+    }
     double vc = d1 * d4 - d3 * d2;
     if (vc <= 0 && d1 >= 0 && d3 <= 0) {
         double t = d1 / (d1 - d3);
         for (int k = 0; k < 3; k++)
             q[k] = a[k] + t * ab[k];
+        bary[0] = 1 - t, bary[1] = t, bary[2] = 0;
         return dist2_to(p, q);
     }
     double cp[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
     double d5 = dot3(ab, cp), d6 = dot3(ac, cp);
-    if (d6 >= 0 && d5 <= d6)
+    if (d6 >= 0 && d5 <= d6) {
+        bary[2] = 1, bary[0] = bary[1] = 0;
         return dist2_to(p, c);
+    }
     double vb = d5 * d2 - d1 * d6;
     if (vb <= 0 && d2 >= 0 && d6 <= 0) {
         double t = d2 / (d2 - d6);
         for (int k = 0; k < 3; k++)
             q[k] = a[k] + t * ac[k];
+        bary[0] = 1 - t, bary[1] = 0, bary[2] = t;
         return dist2_to(p, q);
     }
     double va = d3 * d6 - d5 * d4;
@@ -152,16 +161,55 @@ double sm_sdf_point_triangle2(const double *p, const double *a, const double *b,
         double t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
         for (int k = 0; k < 3; k++)
             q[k] = b[k] + t * (c[k] - b[k]);
+        bary[0] = 0, bary[1] = 1 - t, bary[2] = t;
         return dist2_to(p, q);
     }
     double den = va + vb + vc;
-    if (!(den > 0)) /* degenerate triangle: its edges */
-        return fmin(sm__sdf_point_segment3_2(p, a, b),
-                    fmin(sm__sdf_point_segment3_2(p, b, c), sm__sdf_point_segment3_2(p, a, c)));
+    if (!(den > 0)) { /* degenerate triangle: its nearest edge */
+        const double *e[3][2] = {{a, b}, {b, c}, {a, c}};
+        const int idx[3][2] = {{0, 1}, {1, 2}, {0, 2}};
+        double best = INFINITY;
+        for (int j = 0; j < 3; j++) {
+            double t, d2e = sm__segment_closest(p, e[j][0], e[j][1], 3, &t);
+            if (d2e < best) {
+                best = d2e;
+                bary[0] = bary[1] = bary[2] = 0;
+                bary[idx[j][0]] = 1 - t;
+                bary[idx[j][1]] = t;
+            }
+        }
+        return best;
+    }
     double v = vb / den, w = vc / den;
     for (int k = 0; k < 3; k++)
         q[k] = a[k] + v * ab[k] + w * ac[k];
+    bary[0] = 1 - v - w, bary[1] = v, bary[2] = w;
     return dist2_to(p, q);
+}
+
+double sm_sdf_point_triangle2(const double *p, const double *a, const double *b,
+                              const double *c)
+{
+    double bary[3];
+    return sm__triangle_closest(p, a, b, c, bary);
+}
+
+double sm__segment_closest(const double *p, const double *a, const double *b, int dim, double *t)
+{
+    double l2 = 0, dot = 0;
+    for (int k = 0; k < dim; k++) {
+        l2 += (b[k] - a[k]) * (b[k] - a[k]);
+        dot += (p[k] - a[k]) * (b[k] - a[k]);
+    }
+    double s = l2 > 0 ? dot / l2 : 0;
+    s = s < 0 ? 0 : s > 1 ? 1 : s;
+    double d2 = 0;
+    for (int k = 0; k < dim; k++) {
+        double e = p[k] - (a[k] + s * (b[k] - a[k]));
+        d2 += e * e;
+    }
+    *t = s;
+    return d2;
 }
 
 double sm__sdf_point_segment3_2(const double *p, const double *a, const double *b)
@@ -352,6 +400,39 @@ sm_status sm__bvh_build(const sm_surface *s, sm_bvh *t, sm_error *err)
                    s->coords + (size_t)s->facets[(size_t)t->order[i] * dim + j] * dim,
                    dim * sizeof *t->pos);
     return SM_OK;
+}
+
+void sm__bvh_refit(sm_bvh *t)
+{
+    const sm_surface *s = t->s;
+    const int dim = s->dim;
+    for (int32_t i = 0; i < s->nfacets; i++)
+        for (int j = 0; j < dim; j++)
+            memcpy(t->pos + ((size_t)i * dim + j) * dim,
+                   s->coords + (size_t)s->facets[(size_t)t->order[i] * dim + j] * dim,
+                   dim * sizeof *t->pos);
+    /* children come after their parent (build): bottom-up in reverse */
+    for (int32_t n = t->nnodes - 1; n >= 0; n--) {
+        sm_bvh_node *nd = &t->nodes[n];
+        if (nd->left >= 0) {
+            const sm_bvh_node *l = &t->nodes[nd->left], *r = &t->nodes[nd->right];
+            for (int k = 0; k < 3; k++) {
+                nd->lo[k] = fmin(l->lo[k], r->lo[k]);
+                nd->hi[k] = fmax(l->hi[k], r->hi[k]);
+            }
+            continue;
+        }
+        for (int k = 0; k < 3; k++) {
+            nd->lo[k] = k < dim ? DBL_MAX : 0;
+            nd->hi[k] = k < dim ? -DBL_MAX : 0;
+        }
+        const double *x = t->pos + (size_t)nd->first * dim * dim;
+        for (int32_t i = 0; i < nd->count * dim; i++)
+            for (int k = 0; k < dim; k++) {
+                nd->lo[k] = fmin(nd->lo[k], x[(size_t)i * dim + k]);
+                nd->hi[k] = fmax(nd->hi[k], x[(size_t)i * dim + k]);
+            }
+    }
 }
 
 void sm__bvh_free(sm_bvh *t)

@@ -29,6 +29,12 @@ typedef struct sm_bvh {
 
 sm_status sm__bvh_build(const sm_surface *s, sm_bvh *t, sm_error *err);
 void sm__bvh_free(sm_bvh *t);
+/* After the surface's vertices moved (same facets, t->s->coords now the
+ * new positions): the leaves' positions and every box again, the tree
+ * kept (O(facets), where a build sorts).  The boxes stay exact, so the
+ * nearest-facet search stays exact; the far-field moments (n, c, r) are
+ * not updated: a refitted tree is for sm__bvh_nearest only. */
+void sm__bvh_refit(sm_bvh *t);
 
 /* Traversal stack entry of the nearest-facet search: a node and the
  * squared distance from p to its box (computed once, when pushed). */
@@ -44,6 +50,13 @@ double sm__bvh_facet_dist2(const sm_bvh *t, int32_t f, const double *p);
 /* Area vector (outward for an outward facet) and centroid of facet f. */
 void sm__bvh_facet_moments(const sm_surface *s, int32_t f, double *n, double *c);
 double sm__sdf_point_segment3_2(const double *p, const double *a, const double *b);
+/* Closest point of triangle abc (3D) to p: squared distance, and its
+ * barycentric coordinates in bary[3]. */
+double sm__triangle_closest(const double *p, const double *a, const double *b, const double *c,
+                            double *bary);
+/* Closest point of segment ab (dim 2 or 3) to p: squared distance, and
+ * its parameter t in [0, 1] (a + t (b - a)). */
+double sm__segment_closest(const double *p, const double *a, const double *b, int dim, double *t);
 
 /* The closest point p of triangle abc (3D) or segment ab (2D) to x: the
  * nearest field's outside extension and the alignment's point-to-surface

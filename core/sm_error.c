@@ -1,7 +1,9 @@
 #include "shapematch/sm_error.h"
 
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 sm_status sm_error_set(sm_error *err, sm_status code, const char *fmt, ...)
@@ -60,4 +62,18 @@ const char *sm_status_name(sm_status code)
     case SM_ERR_NUMERIC: return "numeric";
     }
     return "unknown";
+}
+
+const char *sm_number_text(char buf[SM_NUMBER_TEXT_LEN], double x)
+{
+    if (x == floor(x) && fabs(x) < 1e15) {
+        snprintf(buf, SM_NUMBER_TEXT_LEN, "%.0f", x == 0 ? 0.0 : x); /* -0 as 0 */
+        return buf;
+    }
+    for (int digits = 1; digits <= 17; digits++) {
+        snprintf(buf, SM_NUMBER_TEXT_LEN, "%.*g", digits, x);
+        if (!isfinite(x) || strtod(buf, NULL) == x)
+            break;
+    }
+    return buf;
 }

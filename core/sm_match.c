@@ -9,6 +9,7 @@
 #include "shapematch/sm_clock.h"
 #include "shapematch/sm_clamp.h"
 #include "sm_alloc.h"
+#include "sm_coverage_internal.h"
 #include "sm_elasticity.h"
 #include "shapematch/sm_field.h"
 #include "sm_shape.h"
@@ -50,6 +51,9 @@
 #define REFACTOR_QUALITY_DROP 0.7
 #define STIFFEN_EXPONENT 1.0
 #define STIFFEN_MAX 1e4
+/* Rings of the boundary the target-side term's point loads are spread
+ * over (sm__coverage_spread): ... */
+#define SPREAD_PASSES 3
 
 
 const char *sm_stop_reason_name(sm_stop_reason r)
@@ -89,6 +93,9 @@ struct sm_match {
     sm_elasticity *elasticity;
     uint8_t *clamped;
     double *x, *trial, *load, *u, *step;
+    double *tload;            /* the target-side term's part of load */
+    double *dirload;          /* the load the direction is solved for:
+                               * load with the term's part spread */
     double *q_template;       /* nelems: each element's quality in the template */
     double *stiffness;        /* nelems: the operator's stiffening factors */
     double q_factor;          /* min quality of the mesh the operator was
@@ -105,6 +112,14 @@ struct sm_match {
     double alpha;             /* effective 0th-order coefficient (no clamp) */
     double J, qmin;
     sm_boundary_error be;
+    /* the target-side term (sm_coverage_internal.h): T at x, its weight,
+     * and the target side's figures there */
+    sm_coverage *coverage;    /* opts->coverage or own_coverage */
+    sm_coverage *own_coverage;
+    double weight, T;
+    sm_distance_side cover;
+    double coverage_seconds;
+    double last_step;         /* the last accepted step (a length) */
     double tau;               /* current trial step (a length) */
     double slope;             /* -dJ/dtau along the normalized direction */
     int since_factor;         /* accepted iterations since the last factorization */
@@ -124,11 +139,14 @@ static void run_state_free(run_state *rs)
     free(rs->x);
     free(rs->trial);
     free(rs->load);
+    free(rs->tload);
+    free(rs->dirload);
     free(rs->u);
     free(rs->step);
     free(rs->q_template);
     free(rs->stiffness);
     free(rs->best);
+    sm_coverage_free(rs->own_coverage);
 }
 
 /* A trial mesh is valid when no element is inverted and its worst quality
@@ -164,12 +182,15 @@ static sm_status setup_mesh(run_state *rs, const sm_match_opts *opts, sm_error *
     rs->x = sm__alloc_huge(ndof * sizeof(double));
     rs->trial = sm__alloc_huge(ndof * sizeof(double));
     rs->load = sm__alloc_huge(ndof * sizeof(double));
+    rs->tload = malloc((ndof + 1) * sizeof(double));
+    rs->dirload = malloc((ndof + 1) * sizeof(double));
     rs->u = sm__alloc_huge(ndof * sizeof(double));
     rs->step = sm__alloc_huge(ndof * sizeof(double));
     rs->best = malloc(((size_t)params->stall_window + 1) * sizeof(double));
     rs->q_template = malloc(((size_t)rs->mesh->nelems + 1) * sizeof(double));
     rs->stiffness = malloc(((size_t)rs->mesh->nelems + 1) * sizeof(double));
     if (!rs->clamped || !rs->x || !rs->trial || !rs->load || !rs->u || !rs->step || !rs->best ||
+        !rs->tload || !rs->dirload ||
         !rs->q_template || !rs->stiffness)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for a mesh of %ld vertices",
                             (long)rs->mesh->nverts);
@@ -213,6 +234,27 @@ static int one_thread_regions(void)
     return levels;
 }
 
+/* The target-side term at x: the closest points of the target's samples
+ * on the current boundary, T and the figures, and the term's load added
+ * to the load of J. */
+static sm_status add_coverage_load(run_state *rs, sm_error *err)
+{
+    double t0 = sm_clock_seconds();
+    sm_status st = sm__coverage_correspond(rs->coverage, rs->x, &rs->cover, &rs->T, err);
+    memcpy(rs->dirload, rs->load, rs->ndof * sizeof *rs->dirload);
+    if (st == SM_OK && rs->weight > 0 && rs->T > 0) {
+        memset(rs->tload, 0, rs->ndof * sizeof *rs->tload);
+        sm__coverage_add_load(rs->coverage, rs->x, rs->weight, rs->tload);
+        sm__coverage_spread(rs->coverage, rs->tload, rs->step, SPREAD_PASSES);
+        for (size_t i = 0; i < rs->ndof; i++) {
+            rs->load[i] += rs->tload[i];
+            rs->dirload[i] += rs->step[i];
+        }
+    }
+    rs->coverage_seconds += sm_clock_seconds() - t0;
+    return st;
+}
+
 /* The target side of the set-up: the boundary functional on the
  * (prebuilt) target field with the initial samples. */
 static sm_status setup_target(run_state *rs, const sm_field *target, sm_error *err)
@@ -225,9 +267,19 @@ static sm_status setup_target(run_state *rs, const sm_field *target, sm_error *e
                           "no boundary facet carries the load (all are in the free boundary)");
     if (st != SM_OK)
         return st;
+    if (!rs->coverage) {
+        st = sm_coverage_new(target, NULL, rs->mesh, params->free_refs, params->n_free_refs,
+                             &rs->own_coverage, err);
+        if (st != SM_OK) {
+            sm_error_prefix(err, "target");
+            return st;
+        }
+        rs->coverage = rs->own_coverage;
+    }
+    rs->weight = params->coverage_weight;
     sm__shape_load(rs->shape, rs->x, rs->load, &rs->be);
     rs->J = sm__shape_volume_j(rs->shape, rs->x);
-    return SM_OK;
+    return add_coverage_load(rs, err);
 }
 
 /* The elastic side: the operator's symbolic analysis and its first
@@ -320,8 +372,18 @@ static sm_status find_direction(run_state *rs, sm_result *result, int *found, sm
         tm->factor += tf;
     }
     t0 = sm_clock_seconds();
-    if ((st = sm__elasticity_solve(rs->elasticity, rs->load, NULL, rs->u, err)) != SM_OK)
+    if ((st = sm__elasticity_solve(rs->elasticity, rs->dirload, NULL, rs->u, err)) != SM_OK)
         return st;
+    if (rs->weight > 0 && rs->T > 0) {
+        /* the spread load is a preconditioned gradient: the direction must
+         * still descend along the true one, else the true load's */
+        double s = 0;
+        for (size_t i = 0; i < rs->ndof; i++)
+            s += rs->load[i] * rs->u[i];
+        if (!(s > 0) &&
+            (st = sm__elasticity_solve(rs->elasticity, rs->load, NULL, rs->u, err)) != SM_OK)
+            return st;
+    }
     tm->solve += sm_clock_seconds() - t0;
     sm_elasticity_info info;
     sm__elasticity_get_info(rs->elasticity, &info);
@@ -371,12 +433,20 @@ static int line_search(run_state *rs, double *dJ, double *q_trial)
         rs->quality_limited = !ok;
         if (ok) {
             *dJ = sm__shape_delta_j(rs->shape, rs->x, rs->step);
-            if (*dJ <= -ARMIJO_C * tau * slope) {
+            /* the Armijo test on the whole energy: the term with the
+             * correspondences kept bounds the true one from above */
+            double dE = *dJ;
+            if (rs->weight > 0) {
+                double t0 = sm_clock_seconds();
+                dE += rs->weight * (sm__coverage_fixed_term(rs->coverage, rs->trial) - rs->T);
+                rs->coverage_seconds += sm_clock_seconds() - t0;
+            }
+            if (dE <= -ARMIJO_C * tau * slope) {
                 found = 1;
                 rs->accepted++;
                 break;
             }
-            double curvature = *dJ + tau * slope;
+            double curvature = dE + tau * slope;
             double shrink = curvature > 0 ? 0.5 * slope * tau / curvature : STEP_SHRINK_MAX;
             if (shrink > STEP_SHRINK_MAX)
                 shrink = STEP_SHRINK_MAX;
@@ -397,11 +467,19 @@ static double boundary_rms(const sm_boundary_error *be)
     return be->measure > 0 ? be->l2 / sqrt(be->measure) : 0.0;
 }
 
-/* Records the best boundary error up to the current iteration. */
+/* The error the stall rule follows: ||d||_L2 on the boundary, and with
+ * the target-side term on, the target side's sqrt(T) too (the two-sided
+ * L2 distance). */
+static double stall_error(const run_state *rs)
+{
+    return rs->weight > 0 ? sqrt(rs->be.l2 * rs->be.l2 + rs->T) : rs->be.l2;
+}
+
+/* Records the best error up to the current iteration. */
 static void track_best(run_state *rs)
 {
     const size_t slots = (size_t)rs->params->stall_window + 1;
-    double b = rs->be.l2;
+    double b = stall_error(rs);
     if (rs->iteration > 0) {
         double prev = rs->best[(size_t)(rs->iteration - 1) % slots];
         if (prev < b)
@@ -413,11 +491,17 @@ static void track_best(run_state *rs)
 /* The stall rule: over the last stall_window iterations the best error
  * so far improved by less than the fraction tol_stall.  The best so far,
  * not the current error, so that one lucky or unlucky iteration neither
- * triggers nor delays it. */
+ * triggers nor delays it.  A run whose last step was the largest allowed
+ * is moving, not stalled: the Armijo test accepted a full-length step,
+ * so the energy still falls fast (a converged run's steps shrink), even
+ * when the boundary error rises for a while (a template swinging into
+ * place after an alignment: issue 33's ball onto a bent capsule). */
 static int stalled(const run_state *rs)
 {
     const sm_params *p = rs->params;
     if (!(p->tol_stall > 0) || rs->iteration < p->stall_window)
+        return 0;
+    if (rs->last_step >= rs->step_max)
         return 0;
     const size_t slots = (size_t)p->stall_window + 1;
     double then = rs->best[(size_t)(rs->iteration - p->stall_window) % slots];
@@ -442,6 +526,11 @@ static int report(const run_state *rs, const sm_match_callbacks *cb)
     pg.elapsed = sm_clock_seconds() - rs->t_start;
     pg.accepted = rs->accepted;
     pg.rejected = rs->rejected;
+    pg.distance.method = sm_coverage_method(rs->coverage);
+    pg.distance.result_to_target = (sm_distance_side){
+        .rms = pg.boundary_rms, .max = rs->be.max, .mean = NAN, .p99 = NAN};
+    pg.distance.target_to_result = rs->cover;
+    pg.energy = rs->J + rs->weight * rs->T;
     return cb->progress(&pg, rs->x, cb->user);
 }
 
@@ -449,9 +538,15 @@ static int report(const run_state *rs, const sm_match_callbacks *cb)
 static int stop_before_iteration(const run_state *rs, const sm_match_callbacks *cb)
 {
     const sm_params *p = rs->params;
-    if (p->tol_boundary > 0 && rs->be.l2 <= p->tol_boundary)
+    /* with the target-side term on, both sides must be within the
+     * tolerance: a boundary on the target that misses a part of it has
+     * not arrived */
+    int covered_l2 = !(rs->weight > 0) || sqrt(rs->T) <= p->tol_boundary;
+    int covered_rms = !(rs->weight > 0) || rs->cover.rms <= p->tol_boundary_rel * rs->diameter;
+    if (p->tol_boundary > 0 && rs->be.l2 <= p->tol_boundary && covered_l2)
         return SM_STOP_BOUNDARY;
-    if (p->tol_boundary_rel > 0 && boundary_rms(&rs->be) <= p->tol_boundary_rel * rs->diameter)
+    if (p->tol_boundary_rel > 0 && boundary_rms(&rs->be) <= p->tol_boundary_rel * rs->diameter &&
+        covered_rms)
         return SM_STOP_BOUNDARY;
     if (stalled(rs))
         return SM_STOP_STALLED;
@@ -507,6 +602,7 @@ static sm_status descend(run_state *rs, const sm_match_callbacks *cb, sm_result 
         rs->since_factor++;
         rs->J += dJ;
         rs->qmin = q_trial;
+        rs->last_step = rs->tau;
         rs->iteration++;
         if (rs->qmin < REFACTOR_QUALITY_DROP * rs->q_factor &&
             rs->qmin < REFACTOR_QUALITY_NEAR * rs->floor_q)
@@ -514,7 +610,10 @@ static sm_status descend(run_state *rs, const sm_match_callbacks *cb, sm_result 
 
         t0 = sm_clock_seconds();
         sm__shape_load(rs->shape, rs->x, rs->load, &rs->be);
+        st = add_coverage_load(rs, err);
         tm->sample += sm_clock_seconds() - t0;
+        if (st != SM_OK)
+            return st;
         track_best(rs);
 
         if (report(rs, cb)) {
@@ -547,6 +646,7 @@ static sm_status match_alloc(const sm_match_opts *opts, sm_match **out, sm_error
     *out = rs;
     rs->t_start = sm_clock_seconds();
     rs->params = opts->params;
+    rs->coverage = opts->coverage;
     rs->dim = template_mesh->dim;
     rs->ndof = (size_t)template_mesh->nverts * (size_t)rs->dim;
     return setup_mesh(rs, opts, err);
@@ -598,6 +698,7 @@ static sm_status finish_run(run_state *rs, const sm_match_callbacks *cb, double 
     result->factorizations = 1;
     result->time.setup = setup_seconds;
     result->J_initial = rs->J;
+    result->energy_initial = rs->J + rs->weight * rs->T;
     track_best(rs);
 
     if (report(rs, cb))
@@ -606,6 +707,12 @@ static sm_status finish_run(run_state *rs, const sm_match_callbacks *cb, double 
         return st;
 
     memcpy(coords_out, rs->x, rs->ndof * sizeof(double));
+    double t0 = sm_clock_seconds();
+    if ((st = sm_coverage_measure(rs->coverage, rs->x, &result->distance, err)) != SM_OK)
+        return st;
+    rs->coverage_seconds += sm_clock_seconds() - t0;
+    result->coverage_seconds = rs->coverage_seconds;
+    result->energy = rs->J + rs->weight * rs->T;
     result->iterations = rs->iteration;
     result->J = rs->J;
     result->boundary_l2 = rs->be.l2;
@@ -619,6 +726,11 @@ static sm_status finish_run(run_state *rs, const sm_match_callbacks *cb, double 
     result->rejected = rs->rejected;
     result->time.total = sm_clock_seconds() - rs->t_start + rs->elastic_seconds;
     return SM_OK;
+}
+
+void sm_match_use_coverage(sm_match *m, sm_coverage *coverage)
+{
+    m->coverage = coverage;
 }
 
 sm_status sm_match_execute(sm_match *m, const sm_field *target, const sm_match_callbacks *cb,

@@ -31,38 +31,38 @@ static const sm_param_info table[] = {
      "the clamp set where the displacement is 0 (the paper's omega), at most one option; "
      "without one, a ball at the template's deepest interior point, of a quarter of its "
      "inradius (at least dim+2 vertices); with --no-clamp nothing is fixed and the term "
-     "alpha*int u.v makes the problem well posed (paper, Remark 1)"},
+     "alpha*int u.v makes the problem well posed (paper, Remark 1)", "clamp"},
     /* 0 = from the problem's scale: E / diameter^2 (sm_match.c), which
      * converges with --no-clamp on both examples (2D: relative boundary
      * error 1e-3 after 19 iterations, 3D: after 21), where the former
      * fixed 0.01 did not (2D: 9.1e-3 after 500 iterations). */
     {"alpha", REAL(alpha), RANGE(0, CLOSED, NO_MAX), 0.0, NULL, 1, "--alpha", "A",
      "0th-order term alpha*int u.v of the unclamped problem (only with --no-clamp; "
-     "0: from the scale, E/diameter^2)"},
+     "0: from the scale, E/diameter^2)", "clamp"},
     {"free_boundary", SM_PARAM_REFS, offsetof(sm_params, free_refs),
      offsetof(sm_params, n_free_refs), RANGE(0, CLOSED, SM_MAX_REFS, CLOSED), 0, NULL, 0,
      "--free-boundary", "REFS",
      "boundary facet references excluded from the load (they count neither in J nor in the "
-     "boundary error)"},
+     "boundary error)", "clamp"},
     {"young", REAL(young), RANGE(0, OPEN, NO_MAX), 1.0, NULL, 0, "--young", "E",
-     "Young's modulus of the elastic model"},
+     "Young's modulus of the elastic model", "advanced"},
     {"poisson", REAL(poisson), RANGE(-1, OPEN, 0.5, OPEN), 0.3, NULL, 0, "--poisson", "NU",
-     "Poisson ratio of the elastic model"},
+     "Poisson ratio of the elastic model", "advanced"},
     /* 1e9: far beyond any run (a default run stops after ~200), and an
      * int on every platform */
     {"max_iter", INT(max_iter), RANGE(1, CLOSED, 1e9, CLOSED), 500, NULL, 0, "--max-iter", "N",
-     "stop after N iterations"},
+     "stop after N iterations", "stop"},
     {"tol_step", REAL(tol_step), RANGE(0, OPEN, 1, OPEN), 1e-6, NULL, 0, "--tol-step", "EPS",
      "stop when the step falls below EPS times the template diameter (the paper's "
-     "criterion)"},
+     "criterion)", "stop"},
     {"tol_boundary", REAL(tol_boundary), RANGE(0, CLOSED, NO_MAX), 0.0, NULL, 0,
      "--tol-boundary", "TOL",
      "stop when the boundary error ||d||_L2 is <= TOL (0: off; absolute: scales like L^1.5 "
-     "in 2D, L^2 in 3D with the template's size L)"},
+     "in 2D, L^2 in 3D with the template's size L)", "stop"},
     {"tol_boundary_rel", REAL(tol_boundary_rel), RANGE(0, CLOSED, NO_MAX), 0.0, NULL, 0,
      "--tol-boundary-rel", "R",
      "stop when the RMS boundary error ||d||_L2/sqrt(|boundary|) is <= R times the template "
-     "diameter (0: off; unit-free)"},
+     "diameter (0: off; unit-free)", "stop"},
     /* The stall rule ends converged runs, which the step rule alone does
      * not (the step stays well above tol_step while the error creeps down
      * by less than the background's resolution).  Measured with 500
@@ -73,21 +73,33 @@ static const sm_param_info table[] = {
      * the 3D case's plateaus (K 10 / 2%: 109 < 266). */
     {"tol_stall", REAL(tol_stall), RANGE(0, CLOSED, 1, OPEN), 0.01, NULL, 0, "--tol-stall", "F",
      "stop (stalled) when the best boundary error improved by < F over the stall window "
-     "(0: off)"},
+     "(0: off)", "stop"},
     {"stall_window", INT(stall_window), RANGE(1, CLOSED, 100000, CLOSED), 15, NULL, 0,
-     "--stall-window", "K", "iterations of the stall rule's window"},
+     "--stall-window", "K", "iterations of the stall rule's window", "stop"},
+    /* 1: the term's force per unit of the target's area, 2 dist, is then
+     * of the order of J's per unit of boundary, |d| (both are lengths
+     * times measures), so neither side dominates where both act.
+     * docs/method.md has the measures (the protrusion and handle cases,
+     * the examples unchanged within their tolerance). */
+    {"coverage_weight", REAL(coverage_weight), RANGE(0, CLOSED, NO_MAX), 1.0, NULL, 0,
+     "--coverage-weight", "W",
+     "weight of the target-side term sum_y w_y dist(y, boundary)^2 over the target surface's "
+     "samples, which pulls the boundary toward the parts of the target it does not reach "
+     "(0: the paper's J alone)", "advanced"},
     {"min_quality", REAL(min_quality), RANGE(0, CLOSED, 1, OPEN), 0.02, NULL, 0, "--min-quality",
      "Q",
      "element quality floor for an accepted step (or the template's own worst quality, if "
-     "lower)"},
+     "lower)", "advanced"},
     {"save_every", INT(save_every), RANGE(0, CLOSED, INT_MAX, CLOSED), 0, NULL, 0,
      "--save-every", "K",
-     "also write OUTDIR/iter-NNNNN.mesh and .vtu every K iterations, the .vtu listed in "
-     "snapshots.pvd (0: never)"},
+     "also write OUTDIR/iter-NNNNN.mesh and .vtu (with the displacement and d) of the first "
+     "state, every K iterations and the final state, the .vtu listed in snapshots.pvd (0: "
+     "never)", "advanced"},
     {"step_initial", REAL(step_initial), RANGE(0, OPEN, 1, CLOSED), 0.01, NULL, 0,
-     "--step-initial", "S", "first step length, as a fraction of the template diameter"},
+     "--step-initial", "S", "first step length, as a fraction of the template diameter",
+     "advanced"},
     {"step_max", REAL(step_max), RANGE(0, OPEN, 1, CLOSED), 0.1, NULL, 0, "--step-max", "S",
-     "largest step length, as a fraction of the template diameter"},
+     "largest step length, as a fraction of the template diameter", "advanced"},
     /* Why the elastic operator is not refactorized at every iteration by
      * default: any SPD operator gives a descent direction (the gradient in
      * the elastic metric of a slightly older configuration), the
@@ -99,16 +111,16 @@ static const sm_param_info table[] = {
     {"refactor_every", INT(refactor_every), RANGE(1, CLOSED, INT_MAX, CLOSED), 100, NULL, 0,
      "--refactor-every", "K",
      "refactorize the elasticity matrix every K iterations (1: every iteration, as in the "
-     "paper)"},
+     "paper)", "advanced"},
     {"live_every", INT(live_every), RANGE(0, CLOSED, INT_MAX, CLOSED), 0, NULL, 0,
      NULL, NULL,
      "daemon only: publish the current shape (mesh/latest) every K iterations, and at least "
-     "every 0.5 s (0: by time only)"},
+     "every 0.5 s (0: by time only)", "advanced"},
     {"solver", SM_PARAM_SOLVER, offsetof(sm_params, solver), 0,
      RANGE(SM_SOLVER_AUTO, CLOSED, SM_SOLVER_AMG, CLOSED), SM_SOLVER_AUTO, NULL, 0, "--solver",
      "NAME",
      "elastic solver: cholmod (sparse Cholesky), amg (PCG + BoomerAMG: less memory, for large "
-     "3D templates) or auto (amg from 100000 tetrahedra in 3D)"},
+     "3D templates) or auto (amg from 100000 tetrahedra in 3D)", "advanced"},
     /* none: the paper's assumption (shapes given aligned) and today's
      * runs bit for bit; an alignment costs a second or so (bench/align.sh) */
     {"align", SM_PARAM_ALIGN, offsetof(sm_params, align), 0,
@@ -116,28 +128,30 @@ static const sm_param_info table[] = {
      "MODE",
      "move the template onto the target before the descent: none, rigid (rotation and "
      "translation), similarity (and a uniform scale) or affine, found from the target's distance "
-     "(or started from --landmarks); the result and displacement.sol are then the whole map"},
+     "(or started from --landmarks); the result and displacement.sol are then the whole map",
+     "inputs"},
     /* The label-map target's rows (only with a target image).  0 as "every
      * nonzero voxel": label 0 is a segmentation's background, never the
      * shape; labels are the non-negative values Slicer, ITK-SNAP and
      * nnU-Net write. */
     {"label", INT(label), RANGE(0, CLOSED, INT_MAX, CLOSED), 0, NULL, 0, "--label", "N",
-     "with a target image: the label whose voxels are the target (0: every nonzero voxel)"},
+     "with a target image: the label whose voxels are the target (0: every nonzero voxel)",
+     "inputs"},
     /* 0.5: the midpoint of a 0/1 mask or a probability map */
     {"level", REAL(level), RANGE(NO_MIN, NO_MAX), 0.5, NULL, 0, "--level", "L",
-     "with a float target image and no label: the voxels of value >= L are the target"},
+     "with a float target image and no label: the voxels of value >= L are the target", "inputs"},
     /* 1 voxel: a label's staircase rounded off without thinning a
      * structure a few voxels thick (docs/user-guide.md, --smooth) */
     {"smooth", REAL(smooth), RANGE(0, CLOSED, 16, CLOSED), 1.0, NULL, 0, "--smooth", "S",
      "with a target image: the Gaussian (in voxels) that smooths the label's mask before its "
-     "boundary is taken (0: none; float images without a label are never smoothed)"},
+     "boundary is taken (0: none; float images without a label are never smoothed)", "inputs"},
     /* LPS: the frame of ITK, Slicer and NRRD's left-posterior-superior,
      * the tools that make most templates */
     {"image_space", SM_PARAM_SPACE, offsetof(sm_params, image_space), 0,
      RANGE(SM_IMAGE_SPACE_LPS, CLOSED, SM_IMAGE_SPACE_RAS, CLOSED), SM_IMAGE_SPACE_LPS, NULL, 0,
      "--image-space", "S",
      "with a target image: the frame of the template's coordinates, lps (ITK, Slicer) or ras "
-     "(NIfTI's world); the image is mapped into it"},
+     "(NIfTI's world); the image is mapped into it", "inputs"},
 };
 #define N_TABLE (sizeof table / sizeof table[0])
 
@@ -162,28 +176,13 @@ int sm_param_in_range(const sm_param_info *f, double x)
     return above_min && below_max && isfinite(x);
 }
 
-/* The shortest text that reads back as x (0.5, not 0.50000000000000000);
- * whole numbers in full (1000000000, not 1e+09). */
-static void shortest(char *buf, size_t cap, double x)
-{
-    if (x == floor(x) && fabs(x) < 1e15) {
-        snprintf(buf, cap, "%.0f", x);
-        return;
-    }
-    for (int digits = 1; digits <= 17; digits++) {
-        snprintf(buf, cap, "%.*g", digits, x);
-        if (strtod(buf, NULL) == x)
-            return;
-    }
-}
-
 int sm_param_describe_range(const sm_param_info *f, char *buf, size_t cap)
 {
-    char lo[32], hi[32];
+    char lo[SM_NUMBER_TEXT_LEN], hi[SM_NUMBER_TEXT_LEN];
     int int_like = f->type != SM_PARAM_REAL;
     int no_max = isinf(f->max) || (int_like && f->max >= INT_MAX);
-    shortest(lo, sizeof lo, f->min);
-    shortest(hi, sizeof hi, f->max);
+    sm_number_text(lo, f->min);
+    sm_number_text(hi, f->max);
     if (no_max)
         return snprintf(buf, cap, "%s %s", f->min_open ? ">" : ">=", lo);
     if (isinf(f->min))
@@ -218,8 +217,10 @@ static sm_status check_clamp(const sm_params *p, int dim, sm_error *err)
         for (int c = 0; c < (dim ? dim : 3); c++)
             if (!isfinite(p->clamp_center[c]))
                 return sm_error_set(err, SM_ERR_INVALID, "clamp center: coordinate %d is not finite", c + 1);
+        char got[SM_NUMBER_TEXT_LEN];
         if (!(p->clamp_radius > 0) || !isfinite(p->clamp_radius))
-            return sm_error_set(err, SM_ERR_INVALID, "clamp radius must be > 0 (got %g)", p->clamp_radius);
+            return sm_error_set(err, SM_ERR_INVALID, "clamp radius must be > 0 (got %s)",
+                                sm_number_text(got, p->clamp_radius));
     }
     if ((p->clamp == SM_CLAMP_ELEMENTS || p->clamp == SM_CLAMP_VERTICES) &&
         (p->n_clamp_refs < 1 || p->n_clamp_refs > SM_MAX_REFS))
@@ -253,7 +254,9 @@ static sm_status check_row(const sm_param_info *f, const sm_params *p, sm_error 
         sm_param_names_text(f, names, sizeof names);
         return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s (got %d)", f->name, names, (int)x);
     }
-    return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s (got %.17g)", f->name, range, x);
+    char got[SM_NUMBER_TEXT_LEN];
+    return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s (got %s)", f->name, range,
+                        sm_number_text(got, x));
 }
 
 sm_status sm_params_validate(const sm_params *p, int dim, sm_error *err)
@@ -262,9 +265,10 @@ sm_status sm_params_validate(const sm_params *p, int dim, sm_error *err)
     for (size_t i = 0; st == SM_OK && i < N_TABLE; i++)
         if (!table[i].in_clamp || p->clamp == SM_CLAMP_NONE) /* alpha: kind none only */
             st = check_row(&table[i], p, err);
+    char a[SM_NUMBER_TEXT_LEN], b[SM_NUMBER_TEXT_LEN];
     if (st == SM_OK && p->step_initial > p->step_max)
-        st = sm_error_set(err, SM_ERR_INVALID, "step_initial: must be <= step_max (%.17g > %.17g)",
-                          p->step_initial, p->step_max);
+        st = sm_error_set(err, SM_ERR_INVALID, "step_initial: must be <= step_max (%s > %s)",
+                          sm_number_text(a, p->step_initial), sm_number_text(b, p->step_max));
     return st;
 }
 

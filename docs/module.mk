@@ -4,5 +4,5 @@
 # only (`make install` installs them).
 build/release/man/shapematch.1 build/release/man/shapematchd.8 &: docs/man/man.sh \
     build/release/shapematch build/release/shapematchd
-	docs/man/man.sh build/release build/release/man $(VERSION)
+	$(call show,GEN,$@)docs/man/man.sh build/release build/release/man $(VERSION)
 RELEASE_ONLY_TARGETS += man/shapematch.1 man/shapematchd.8

@@ -8,7 +8,7 @@ PROTO_SRCS := proto/sm_payload.c proto/sm_proto_events.c proto/sm_proto_json.c \
 define proto_rules
 build/$(1)/libsmproto.a: $$(PROTO_SRCS:%.c=build/$(1)/obj/%.o)
 	@mkdir -p $$(dir $$@)
-	rm -f $$@ && ar rcs $$@ $$^
+	$$(call show,AR,$$@,$(1))rm -f $$@ && ar rcs $$@ $$^
 endef
 $(foreach v,$(VARIANTS),$(eval $(call proto_rules,$(v))))
 ALL_TARGETS += libsmproto.a

@@ -199,6 +199,93 @@ double sm_time_now(void)
 
 /* --------------------------------------------------------- result summary */
 
+/* The two-sided distance (sm_coverage.h) as summary.json and the
+ * finished event carry it (full: rms, max, mean of both sides, p99 of
+ * the target's, the unit and the method) or as a progress event does
+ * (rms and max, p99 of the target's side).  The meshes carry no unit,
+ * so "unit" is null: the figures are in the meshes' own unit. */
+static json_t *distance_to_jansson(const sm_distance *d, int full)
+{
+    json_t *obj = json_object(), *rt = json_object(), *tr = json_object();
+    int bad = !obj || !rt || !tr;
+    bad = bad || smp_set(rt, "rms", smp_real_or_null(d->result_to_target.rms));
+    bad = bad || smp_set(rt, "max", smp_real_or_null(d->result_to_target.max));
+    if (full)
+        bad = bad || smp_set(rt, "mean", smp_real_or_null(d->result_to_target.mean));
+    bad = bad || smp_set(tr, "rms", smp_real_or_null(d->target_to_result.rms));
+    bad = bad || smp_set(tr, "max", smp_real_or_null(d->target_to_result.max));
+    if (full)
+        bad = bad || smp_set(tr, "mean", smp_real_or_null(d->target_to_result.mean));
+    bad = bad || smp_set(tr, "p99", smp_real_or_null(d->target_to_result.p99));
+    if (bad) {
+        json_decref(obj), json_decref(rt), json_decref(tr);
+        return NULL;
+    }
+    const char *method = sm_distance_method_name(d->method);
+    if (smp_set(obj, "result_to_target", rt) || smp_set(obj, "target_to_result", tr) ||
+        (full && (smp_set(obj, "unit", json_null()) ||
+                  smp_set(obj, "method", method ? json_string(method) : json_null())))) {
+        json_decref(obj);
+        return NULL;
+    }
+    return obj;
+}
+
+static sm_status read_number(const json_t *obj, const char *path, const char *key,
+                             double *out, sm_error *err);
+
+/* distance_to_jansson's object back: optional (documents from before it
+ * was sent read as not measured, every figure NaN); when there, its
+ * figures are numbers or null. */
+static sm_status read_distance(const json_t *parent, const char *path, sm_distance *d, int full,
+                               sm_error *err)
+{
+    char sub[SMP_PATH_MAX], side[SMP_PATH_MAX];
+    const sm_distance_side none = {NAN, NAN, NAN, NAN};
+    d->method = SM_DISTANCE_NONE;
+    d->result_to_target = d->target_to_result = none;
+    const json_t *obj = json_object_get(parent, "distance");
+    if (!obj)
+        return SM_OK;
+    smp_path_join(sub, path, "distance");
+    if (!json_is_object(obj))
+        return sm_error_set(err, SM_ERR_FORMAT, "%s: must be an object (got %s)", sub,
+                            smp_type_name(obj));
+    const char *names[2] = {"result_to_target", "target_to_result"};
+    sm_distance_side *sides[2] = {&d->result_to_target, &d->target_to_result};
+    for (int i = 0; i < 2; i++) {
+        const json_t *o = json_object_get(obj, names[i]);
+        smp_path_join(side, sub, names[i]);
+        sm_status st;
+        if (!o)
+            return sm_error_set(err, SM_ERR_FORMAT, "%s: required member missing", side);
+        if (!json_is_object(o))
+            return sm_error_set(err, SM_ERR_FORMAT, "%s: must be an object (got %s)", side,
+                                smp_type_name(o));
+        if ((st = read_number(o, side, "rms", &sides[i]->rms, err)) ||
+            (st = read_number(o, side, "max", &sides[i]->max, err)) ||
+            (full && (st = read_number(o, side, "mean", &sides[i]->mean, err))) ||
+            (i == 1 && (st = read_number(o, side, "p99", &sides[i]->p99, err))))
+            return st;
+    }
+    const json_t *m = json_object_get(obj, "method");
+    if (m && !json_is_null(m)) {
+        const char *name = json_is_string(m) ? json_string_value(m) : "";
+        if (strcmp(name, sm_distance_method_name(SM_DISTANCE_SURFACE)) == 0)
+            d->method = SM_DISTANCE_SURFACE;
+        else if (strcmp(name, sm_distance_method_name(SM_DISTANCE_LEVEL_SET)) == 0)
+            d->method = SM_DISTANCE_LEVEL_SET;
+        else
+            return sm_error_set(err, SM_ERR_FORMAT, "%s.method: must be \"surface\", "
+                                "\"level-set\" or null", sub);
+    } else if (!full) {
+        /* the progress event does not carry the method: any but none
+         * marks its figures as there */
+        d->method = SM_DISTANCE_LEVEL_SET;
+    }
+    return SM_OK;
+}
+
 json_t *sm_result_to_jansson(const sm_result *r, const sm_params *params, int dim)
 {
     const char *stop = sm_stop_reason_name(r->stop);
@@ -215,6 +302,7 @@ json_t *sm_result_to_jansson(const sm_result *r, const sm_params *params, int di
     bad = bad || smp_set(obj, "boundary_rms", smp_real_or_null(r->boundary_rms));
     bad = bad || smp_set(obj, "boundary_relative",
                          smp_real_or_null(r->diameter > 0 ? r->boundary_rms / r->diameter : 0.0));
+    bad = bad || smp_set(obj, "distance", distance_to_jansson(&r->distance, 1));
     bad = bad || smp_set(obj, "min_quality", smp_real_or_null(r->min_quality));
     bad = bad || smp_set(obj, "accepted", json_integer(r->accepted));
     bad = bad || smp_set(obj, "rejected", json_integer(r->rejected));
@@ -372,6 +460,8 @@ sm_status sm_result_from_jansson(const json_t *obj, const char *path, sm_result 
      * convergence, and passed as converged (its exit code was 0) */
     const json_t *conv = json_object_get(obj, "converged");
     r.converged = json_is_boolean(conv) ? json_is_true(conv) : 1;
+    if ((st = read_distance(obj, path, &r.distance, 1, err)))
+        return st;
     const json_t *t;
     if ((st = member(obj, path, "timings", &t, err)))
         return st;
@@ -491,6 +581,8 @@ json_t *sm_event_to_jansson(const sm_event *ev)
         bad = bad || smp_set(obj, "step", smp_real_or_null(p->step));
         bad = bad || smp_set(obj, "boundary_l2", smp_real_or_null(p->boundary_l2));
         bad = bad || smp_set(obj, "boundary_max", smp_real_or_null(p->boundary_max));
+        if (p->distance.method != SM_DISTANCE_NONE)
+            bad = bad || smp_set(obj, "distance", distance_to_jansson(&p->distance, 0));
         bad = bad || smp_set(obj, "min_quality", smp_real_or_null(p->min_quality));
         bad = bad || smp_set(obj, "elapsed", smp_real_or_null(p->elapsed));
         bad = bad || smp_set(obj, "accepted", json_integer(p->accepted));
@@ -636,6 +728,10 @@ static sm_status read_progress(const json_t *obj, const char *sub, sm_progress *
     const json_t *rel = json_object_get(obj, "boundary_relative");
     p->boundary_rms = json_is_number(rms) ? json_number_value(rms) : 0.0;
     p->boundary_relative = json_is_number(rel) ? json_number_value(rel) : 0.0;
+    if ((st = read_distance(obj, sub, &p->distance, 0, err)))
+        return st;
+    if (p->distance.method != SM_DISTANCE_NONE) /* not on the wire: not a figure */
+        p->distance.result_to_target.mean = p->distance.target_to_result.mean = NAN;
     return SM_OK;
 }
 
@@ -741,4 +837,9 @@ sm_status sm_event_from_json(const char *line, size_t len, sm_event *out, sm_err
     st = sm_event_from_jansson(root, out, err);
     json_decref(root);
     return st;
+}
+
+json_t *sm_progress_distance_to_jansson(const sm_distance *d)
+{
+    return d->method == SM_DISTANCE_NONE ? NULL : distance_to_jansson(d, 0);
 }

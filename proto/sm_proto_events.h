@@ -163,6 +163,11 @@ sm_status sm_result_from_jansson(const json_t *obj, const char *path,
                                  sm_result *out, sm_error *err);
 sm_status sm_result_from_json(const char *text, size_t len, sm_result *out,
                               sm_error *err);
+/* A progress's "distance" object as the progress event carries it
+ * (result_to_target: rms, max; target_to_result: rms, max, p99), for the
+ * other documents that repeat a progress (the status's lastProgress);
+ * NULL when not measured (SM_DISTANCE_NONE) or out of memory. */
+json_t *sm_progress_distance_to_jansson(const sm_distance *d);
 
 /* RFC 3339 UTC with milliseconds, "2024-05-01T12:00:00.123Z".  t is Unix
  * seconds; buf has SM_RFC3339_LEN bytes.  Returns 0, or -1 when t is not

@@ -65,14 +65,15 @@ sm_status smp_get_integer(const json_t *v, const char *path, long long min,
         value = json_integer_value(v);
     } else if (json_is_real(v)) {
         double x = json_real_value(v);
+        char got[SM_NUMBER_TEXT_LEN];
         if (x != floor(x))
-            return sm_error_set(err, SM_ERR_INVALID, "%s: must be an integer (got %.17g)",
-                                path, x);
+            return sm_error_set(err, SM_ERR_INVALID, "%s: must be an integer (got %s)", path,
+                                sm_number_text(got, x));
         /* Range test in double first so the conversion below is defined. */
         if (x < (double)min || x > (double)max)
             return sm_error_set(err, SM_ERR_INVALID,
-                                "%s: must be an integer in [%lld, %lld] (got %.17g)",
-                                path, min, max, x);
+                                "%s: must be an integer in [%lld, %lld] (got %s)", path,
+                                min, max, sm_number_text(got, x));
         value = (long long)x;
     } else {
         return sm_error_set(err, SM_ERR_INVALID, "%s: must be an integer (got %s)", path,

@@ -15,17 +15,17 @@
 /* The generated background's members (sm_background_params): rows of
  * the same kind as the core's, which does not know them.  Fields in
  * sm_param_info's order: name, type, offset, count_offset, min, max,
- * min_open, max_open, def, def_text, in_clamp, flag, meta, help. */
+ * min_open, max_open, def, def_text, in_clamp, flag, meta, help, group. */
 static const sm_param_info background_rows[] = {
     {"background_size", SM_PARAM_REAL, offsetof(sm_background_params, size), 0, 0, INFINITY, 1,
      1, 0, "the smaller mean edge of template and surface", 0, "--background-size", "H",
      "with --target-surface and no --target-mesh: side of the generated background's cells "
-     "near the surface, a length in the meshes' unit"},
+     "near the surface, a length in the meshes' unit", "inputs"},
     {"background_padding", SM_PARAM_REAL, offsetof(sm_background_params, padding), 0, 0,
      SM_BACKGROUND_PADDING_MAX, 1, 0, SM_BACKGROUND_PADDING_DEFAULT, NULL, 0,
      "--background-padding", "P",
      "the margin of that background around template and surface, a fraction of their box's "
-     "diagonal"},
+     "diagonal", "inputs"},
 };
 
 const sm_param_info *sm_background_params_table(size_t *count)
@@ -45,12 +45,15 @@ static sm_status get_ranged(const json_t *v, const char *path, double lo, int lo
     sm_status st = smp_get_number(v, path, 0, &x, err);
     if (st != SM_OK)
         return st;
+    char bound[SM_NUMBER_TEXT_LEN], got[SM_NUMBER_TEXT_LEN];
     if (!isinf(lo) && !(lo_open ? x > lo : x >= lo))
-        return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s %g (got %.17g)", path,
-                            lo_open ? ">" : ">=", lo, x);
+        return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s %s (got %s)", path,
+                            lo_open ? ">" : ">=", sm_number_text(bound, lo),
+                            sm_number_text(got, x));
     if (!isinf(hi) && !(hi_open ? x < hi : x <= hi))
-        return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s %g (got %.17g)", path,
-                            hi_open ? "<" : "<=", hi, x);
+        return sm_error_set(err, SM_ERR_INVALID, "%s: must be %s %s (got %s)", path,
+                            hi_open ? "<" : "<=", sm_number_text(bound, hi),
+                            sm_number_text(got, x));
     *out = x;
     return SM_OK;
 }
@@ -337,8 +340,9 @@ sm_status sm_job_params_from_jansson(const json_t *root, int dim, const char *pa
     /* no clamp: the default ball (kind auto, from sm_params_default) */
     if (p.step_initial > p.step_max) {
         smp_path_join(sub, path, "step_initial");
-        return sm_error_set(err, SM_ERR_INVALID, "%s: must be <= step_max (%.17g > %.17g)", sub,
-                            p.step_initial, p.step_max);
+        char a[SM_NUMBER_TEXT_LEN], b[SM_NUMBER_TEXT_LEN];
+        return sm_error_set(err, SM_ERR_INVALID, "%s: must be <= step_max (%s > %s)", sub,
+                            sm_number_text(a, p.step_initial), sm_number_text(b, p.step_max));
     }
     if (dim != 0) {
         sm_status st = sm_params_validate(&p, dim, err);

@@ -4,12 +4,14 @@
 #include <stdio.h>
 #include <string.h>
 
+#include <jansson.h>
+
 #include "sm_payload.h"
 
 const char *const sm_part_names[SM_NPARTS] = {"template", "target_mesh", "target_sol",
                                                 SM_PART_NAME_TARGET_SURFACE, "template_landmarks",
                                                 "target_landmarks", SM_PART_NAME_TARGET_IMAGE,
-                                                "params"};
+                                                "params", "name"};
 
 const char *sm_part_name(sm_part part)
 {
@@ -115,5 +117,29 @@ int sm_result_outputs_parse(const char *text, unsigned *outputs, char *msg, size
         return -1;
     }
     *outputs = set;
+    return 0;
+}
+
+int sm_job_name_check(const char *s, size_t n, char *why, size_t cap)
+{
+    if (n == 0) {
+        snprintf(why, cap, "empty (leave it out for no name)");
+        return -1;
+    }
+    if (n > SM_JOB_NAME_MAX) {
+        snprintf(why, cap, "longer than %d bytes", SM_JOB_NAME_MAX);
+        return -1;
+    }
+    for (size_t i = 0; i < n; i++)
+        if ((unsigned char)s[i] < 0x20 || s[i] == 0x7f) {
+            snprintf(why, cap, "holds a control character (byte %zu)", i + 1);
+            return -1;
+        }
+    json_t *utf8 = json_stringn(s, n); /* NULL: not UTF-8 (jansson checks) */
+    if (!utf8) {
+        snprintf(why, cap, "not UTF-8 text");
+        return -1;
+    }
+    json_decref(utf8);
     return 0;
 }

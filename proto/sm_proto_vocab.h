@@ -24,11 +24,14 @@ typedef enum sm_part {
     SM_PART_TARGET_LANDMARKS = 5,
     SM_PART_TARGET_IMAGE = 6,
     SM_PART_PARAMS = 7,
-    SM_NPARTS = 8
+    SM_PART_NAME = 8,
+    SM_NPARTS = 9
 } sm_part;
 /* The file parts are the members before SM_PART_PARAMS (loops over the
- * files stop there: params stays last).  template and params are always
- * required; the target is either target_mesh + target_sol (a sampled
+ * files stop there: params and name stay last).  name is optional: the
+ * job's label for people (lists, status, watch), no input of the run.
+ * template and params are always required; the target is either
+ * target_mesh + target_sol (a sampled
  * distance) or target_surface with an optional target_mesh
  * (sm_job_inputs.h); target_surface excludes target_sol.  The landmark
  * CSV files (template_landmarks, target_landmarks: the alignment's start,
@@ -44,10 +47,17 @@ typedef enum sm_part {
 #define SM_LANDMARKS_MAX_BYTES (1 << 20)
 /* "template", "target_mesh", "target_sol", "target_surface",
  * "template_landmarks", "target_landmarks", "target_image", "params",
- * indexed by sm_part. */
+ * "name", indexed by sm_part. */
 extern const char *const sm_part_names[SM_NPARTS];
 /* sm_part_names[part], NULL outside. */
 const char *sm_part_name(sm_part part);
+
+/* A job's name (part "name", `submit --name`): 1 to SM_JOB_NAME_MAX bytes
+ * of UTF-8 without control characters, so that it shows as it is in a
+ * terminal, a log line and a web page.  0 when s (n bytes) is one, else
+ * -1 and why (e.g. "longer than 200 bytes"). */
+#define SM_JOB_NAME_MAX 200
+int sm_job_name_check(const char *s, size_t n, char *why, size_t cap);
 
 /* ---- the result set ---- */
 /* What /results/{what} serves: one resource, several formats. */

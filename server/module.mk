@@ -33,32 +33,32 @@ $$(SERVER_PG_SRCS:%.c=build/$(1)/obj/%.o): $(1)_CFLAGS += $$(PG_CFLAGS)
 build/$(1)/obj/tests/unit/test_server_pg.o: $(1)_CFLAGS += $$(PG_CFLAGS)
 build/$(1)/gen/server/smd_embedded.c: server/embed.sh $$(SERVER_EMBEDDED)
 	@mkdir -p $$(dir $$@)
-	server/embed.sh $$@ smd_params_schema proto/params.schema.json smd_openapi_yaml proto/openapi.yaml \
+	$$(call show,GEN,$$@,$(1))server/embed.sh $$@ smd_params_schema proto/params.schema.json smd_openapi_yaml proto/openapi.yaml \
 	    smd_events_schema proto/events.schema.json
 
 build/$(1)/obj/gen/server/smd_embedded.o: build/$(1)/gen/server/smd_embedded.c
 	@mkdir -p $$(dir $$@)
-	$$(CC) $$($(1)_CFLAGS) -c $$< -o $$@
+	$$(call show,CC,$$<,$(1))$$(CC) $$($(1)_CFLAGS) -c $$< -o $$@
 
 build/$(1)/libsmserver.a: $$(SERVER_LIB_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/obj/gen/server/smd_embedded.o $$(call WEB_APP_OBJ,$(1))
 	@mkdir -p $$(dir $$@)
-	rm -f $$@ && ar rcs $$@ $$^
+	$$(call show,AR,$$@,$(1))rm -f $$@ && ar rcs $$@ $$^
 
 build/$(1)/shapematchd: build/$(1)/obj/server/shapematchd.o build/$(1)/libsmserver.a build/$(1)/libsmjob.a build/$(1)/libsmproto.a build/$(1)/libshapematch.a
 	@mkdir -p $$(dir $$@)
-	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(SERVER_LIBS)
+	$$(call show,LD,$$@,$(1))$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(SERVER_LIBS)
 
 # the worker takes only the spool and input helpers from libsmserver.a: no HTTP
 build/$(1)/shapematch-worker: build/$(1)/obj/server/worker/shapematch_worker.o build/$(1)/libsmserver.a build/$(1)/libsmjob.a build/$(1)/libsmproto.a build/$(1)/libshapematch.a
 	@mkdir -p $$(dir $$@)
-	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(PROTO_LIBS) $$(CORE_LIBS)
+	$$(call show,LD,$$@,$(1))$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(PROTO_LIBS) $$(CORE_LIBS)
 
 # server unit tests see the server headers and also link libsmserver.a
 # (explicit rules win over the generic pattern of tests/module.mk)
 build/$(1)/obj/tests/unit/test_server_%.o: $(1)_CFLAGS += -I server
 $$(SERVER_TEST_NAMES:%=build/$(1)/tests/%): build/$(1)/tests/%: build/$(1)/obj/tests/unit/%.o $$(SERVER_TEST_UTIL_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/libsmserver.a build/$(1)/libsmjob.a build/$(1)/libsmproto.a build/$(1)/libshapematch.a
 	@mkdir -p $$(dir $$@)
-	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(SERVER_LIBS) -lcmocka
+	$$(call show,LD,$$@,$(1))$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(SERVER_LIBS) -lcmocka
 endef
 $(foreach v,$(VARIANTS),$(eval $(call server_rules,$(v))))
 ALL_TARGETS += shapematchd shapematch-worker

@@ -10,7 +10,7 @@ define test_rules
 build/$(1)/obj/tests/unit/%.o: $(1)_CFLAGS += -I core
 build/$(1)/tests/%: build/$(1)/obj/tests/unit/%.o $$(TEST_UTIL_SRCS:%.c=build/$(1)/obj/%.o) build/$(1)/libsmjob.a build/$(1)/libsmproto.a build/$(1)/libshapematch.a
 	@mkdir -p $$(dir $$@)
-	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(PROTO_LIBS) $$(CORE_LIBS) -lcmocka
+	$$(call show,LD,$$@,$(1))$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(PROTO_LIBS) $$(CORE_LIBS) -lcmocka
 endef
 $(foreach v,$(VARIANTS),$(eval $(call test_rules,$(v))))
 ALL_TARGETS += $(TEST_NAMES:%=tests/%)
@@ -21,7 +21,7 @@ define test_params_rules
 build/$(1)/obj/tests/unit/test_params.o: $(1)_CFLAGS += -I client
 build/$(1)/tests/test_params: build/$(1)/obj/tests/unit/test_params.o build/$(1)/obj/client/args.o build/$(1)/obj/client/msg.o build/$(1)/libsmjob.a build/$(1)/libsmproto.a build/$(1)/libshapematch.a
 	@mkdir -p $$(dir $$@)
-	$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(PROTO_LIBS) $$(CORE_LIBS) -lcmocka
+	$$(call show,LD,$$@,$(1))$$(CC) $$($(1)_LDFLAGS) -o $$@ $$^ $$(PROTO_LIBS) $$(CORE_LIBS) -lcmocka
 endef
 $(foreach v,$(VARIANTS),$(eval $(call test_params_rules,$(v))))
 

@@ -1,6 +1,7 @@
 // The shapematch web app (served by shapematchd at /, issue 11): submit a
 // job with the multipart parts of POST /v1/jobs, follow its event stream
-// (uPlot: J and the RMS boundary error against the iteration), draw the
+// (uPlot: J and the RMS distances, result→target and target→result,
+// against the iteration), draw the
 // live and final shape (2D canvas for triangles, three.js for the boundary
 // of tetrahedra, both coloured by |d| with a colour scale, the target's
 // zero level set or surface overlaid), show the outcome (converged or not,
@@ -36,6 +37,9 @@ function showError(name, message) {
   const span = errorSpan(name);
   const input = document.querySelector(`[name="${CSS.escape(name)}"]`);
   if (input) input.classList.add('invalid');
+  // a field of a folded section: unfold it, so that the message is seen
+  const folded = (input || span)?.closest('details');
+  if (folded) folded.open = true;
   if (span) span.textContent = message; else $('form-error').textContent = message;
 }
 const el = (tag, props = {}, ...children) => {
@@ -118,9 +122,27 @@ async function loadSchema() {
   const r = await fetch('v1/params.schema.json', { headers: authHeaders() });
   if (!r.ok) { $('params').innerHTML = `<p class="err">cannot load the parameters schema (${r.status})</p>`; return; }
   schema = await r.json();
-  const fs = $('params');
-  fs.replaceChildren(el('legend', { textContent: 'Parameters' }));
-  for (const [name, prop] of Object.entries(schema.properties)) fs.append(paramRow(name, prop));
+  $('params').replaceChildren(...paramGroups());
+}
+
+// The parameters in the sections of the schema's x-groups (the parameter
+// table's group column, core/sm_params.c), in its order: a fieldset each,
+// a folded one (advanced) closed until opened.
+function paramGroups() {
+  const groups = schema['x-groups'] || [{ name: 'advanced', title: 'Parameters' }];
+  const grids = new Map();
+  const boxes = groups.map((g) => {
+    const grid = el('div', { className: 'param-grid' });
+    grids.set(g.name, grid);
+    const box = g.folded ? el('details', {}, el('summary', { textContent: g.title }), grid)
+      : el('fieldset', {}, el('legend', { textContent: g.title }), grid);
+    box.className = 'param-group';
+    box.dataset.group = g.name;
+    return box;
+  });
+  for (const [name, prop] of Object.entries(schema.properties))
+    (grids.get(prop['x-group']) || grids.get('advanced') || [...grids.values()].pop()).append(paramRow(name, prop));
+  return boxes.filter((b) => b.querySelector('.row'));
 }
 
 // The client-side check of one value against its schema (numbers only;
@@ -228,11 +250,13 @@ async function submit(ev) {
   }
   appendLandmarks(fd);
   fd.append('params', JSON.stringify(params));
+  const name = $('f-name').value.trim();
+  if (name) fd.append('name', name);
   $('submit').disabled = true;
   try {
     const r = await fetch('v1/jobs', { method: 'POST', body: fd, headers: authHeaders() });
     const body = await r.json().catch(() => ({}));
-    if (r.status === 201 || r.status === 200) follow(body.jobID);
+    if (r.status === 201 || r.status === 200) follow(body.jobID, name);
     else showProblem({ status: r.status, ...body });
   } catch (e) {
     $('form-error').textContent = `the request failed: ${e.message}`;
@@ -247,16 +271,17 @@ async function submit(ev) {
 function newPlot() {
   const box = $('plot');
   box.replaceChildren();
-  const data = [[], [], []];
+  const data = [[], [], [], []];
   const width = () => Math.max(240, box.clientWidth || 480);
   const plot = new uPlot({
     width: width(), height: 220,
     scales: { x: { time: false }, y: {}, e: { distr: 3 } }, // J changes sign: linear
     series: [{ label: 'iteration' }, { label: 'J', stroke: '#3d7bd9', scale: 'y', value: (u, v) => (v == null ? '–' : v.toPrecision(6)) },
-      { label: 'boundary RMS', stroke: '#d9503d', scale: 'e', value: (u, v) => tickLabel(v) }],
+      { label: 'result→target RMS', stroke: '#d9503d', scale: 'e', value: (u, v) => (v == null ? '–' : tickLabel(v)) },
+      { label: 'target→result RMS', stroke: '#8a4fd0', dash: [5, 3], scale: 'e', value: (u, v) => (v == null ? '–' : tickLabel(v)) }],
     // iterations are whole numbers: ticks at 1, 2, 5, 10, ... apart
     axes: [{ incrs: [0, 1, 2, 3, 4, 5, 6, 7, 8].flatMap((k) => [1, 2, 5].map((m) => m * 10 ** k)) }, { scale: 'y', label: 'J', size: 70, values: (u, vals) => vals.map((v) => (v === null ? '' : v.toPrecision(4))) },
-      { scale: 'e', side: 1, label: 'boundary RMS', size: 60, grid: { show: false }, values: (u, vals) => vals.map(tickLabel) }],
+      { scale: 'e', side: 1, label: 'distance RMS', size: 60, grid: { show: false }, values: (u, vals) => vals.map(tickLabel) }],
   }, data, box);
   // the plot follows its panel's width (800 px windows, resized windows)
   const ro = new ResizeObserver(() => { if (Math.abs(plot.width - width()) > 2) plot.setSize({ width: width(), height: 220 }); });
@@ -276,8 +301,8 @@ const STOP_TEXT = {
   max_iterations: 'the iteration cap (max_iter) was reached',
   quality_blocked: 'the quality floor (min_quality) rejected every step',
   step_tolerance: 'the step fell below tol_step',
-  stalled: 'the boundary error stalled (tol_stall)',
-  boundary_tolerance: 'the boundary error reached its tolerance',
+  stalled: 'the L2 norm of d on the boundary stopped improving (tol_stall)',
+  boundary_tolerance: 'the L2 norm of d on the boundary reached tol_boundary',
   cancelled: 'cancelled',
 };
 // "not converged: <reason>" from the results summary: the stop reason and
@@ -310,10 +335,45 @@ function showWarnings(list) {
   $('warnings-title').textContent = list.length === 1 ? '1 warning' : `${list.length} warnings`;
 }
 
+// The figures of a summary, by their names there, in groups: the
+// two-sided distances (distance.result_to_target and .target_to_result:
+// RMS, max, p99, in the meshes' unit) when the summary has them, else the
+// RMS and max of d on the boundary; the L2 norm under its own name.
+// [[group label, [[name, label, value], ...]], ...].
+function figures(s) {
+  const groups = [];
+  const d = s.distance;
+  if (d && d.result_to_target && d.target_to_result) {
+    for (const [side, label] of [['result_to_target', 'result→target'], ['target_to_result', 'target→result']])
+      groups.push([label, ['rms', 'max', 'p99'].filter((k) => d[side][k] != null)
+        .map((k) => [`distance.${side}.${k}`, k === 'rms' ? 'RMS' : k, d[side][k]])]);
+  } else if (s.boundary_rms != null) {
+    groups.push(['boundary', [['boundary_rms', 'RMS', s.boundary_rms]]
+      .concat(s.boundary_max != null ? [['boundary_max', 'max', s.boundary_max]] : [])]);
+  }
+  if (groups.length && s.boundary_l2 != null) groups.push(['', [['boundary_l2', 'L2 of d on the boundary', s.boundary_l2]]]);
+  return groups;
+}
+
+// The headline: each figure a span that names its summary member (the
+// browser tests read them back), then the unit and the iterations.
 function headline(s) {
-  const rms = s.boundary_rms, rel = s.boundary_relative;
-  if (rms == null) return '';
-  return `boundary RMS ${fmtNum(rms)}${rel != null ? ` (relative ${fmtNum(rel)})` : ''}, ${s.iterations} iterations`;
+  const groups = figures(s);
+  if (!groups.length) return [];
+  const parts = [];
+  groups.forEach(([group, figs], g) => {
+    parts.push(g ? '; ' : '', group ? `${group} ` : '');
+    figs.forEach(([name, label, v], i) => {
+      const span = el('span', { className: 'figure', textContent: fmtNum(v) });
+      span.dataset.figure = name;
+      span.dataset.value = String(v);
+      parts.push(i ? ', ' : '', `${label} `, span);
+    });
+  });
+  // the meshes carry no unit: the distances are in theirs (unit null)
+  const unit = s.distance ? ` (${s.distance.unit || 'in the meshes\' unit'})` : '';
+  parts.push(`${unit}; ${s.iterations} iterations`);
+  return parts;
 }
 
 // ------------------------------------------------------------ following
@@ -403,6 +463,7 @@ async function finish(id) {
   const job = current;
   const r = await fetch(`v1/jobs/${id}`, { headers: authHeaders() });
   const doc = await r.json().catch(() => ({}));
+  if (job === current && doc.name) $('job-name').textContent = doc.name;
   let reason = doc.message || '';
   // results exist for a finished run: successful, or one whose status
   // document says it did not converge (whatever status that is given)
@@ -411,7 +472,7 @@ async function finish(id) {
     if (job !== current) return;
     job.summary = s;
     if (s.stop_reason) reason = `stop: ${s.stop_reason}`;
-    $('headline').textContent = headline(s);
+    $('headline').replaceChildren(...headline(s));
     if (s.converged === true) showOutcome('converged', 'converged');
     else if (s.converged === false) showOutcome('not-converged', `not converged: ${notConvergedReason(s)}`);
     if (Array.isArray(s.warnings)) showWarnings(s.warnings);
@@ -429,7 +490,7 @@ async function finish(id) {
   refreshJobs();
 }
 
-function follow(id) {
+function follow(id, name) {
   stopFollowing();
   const { plot, data, ro } = newPlot();
   current = { id, plot, data, ro, done: false, view: null, target: null, targetState: null, warnings: [] };
@@ -437,10 +498,11 @@ function follow(id) {
   $('target-note').textContent = '';
   delete $('target-toggle').dataset.state;
   $('job-id').textContent = id;
+  $('job-name').textContent = name || '';
   for (const v of [$('view2d'), $('view3d')]) { delete v.dataset.liveDraws; delete v.dataset.drawn; }
   $('view3d').replaceChildren();
   $('downloads').replaceChildren();
-  $('headline').textContent = '';
+  $('headline').replaceChildren();
   showOutcome('', '');
   showWarnings([]);
   showAlignment($('alignment'), null);
@@ -480,8 +542,12 @@ function follow(id) {
   };
   es.addEventListener('progress', (e) => {
     const p = JSON.parse(e.data);
-    // the RMS boundary error (a length) when the daemon sends it
-    data[0].push(p.iteration); data[1].push(p.J); data[2].push(p.boundary_rms ?? p.boundary_l2);
+    // the RMS distances (lengths): from the result's boundary (today's
+    // boundary_rms) and, when the event has it, from the target's surface
+    const d = p.distance;
+    data[0].push(p.iteration); data[1].push(p.J);
+    data[2].push(d?.result_to_target?.rms ?? p.boundary_rms ?? p.boundary_l2);
+    data[3].push(d?.target_to_result?.rms ?? null);
     if (!job.frame) job.frame = requestAnimationFrame(redraw);
     if ($('status').dataset.status !== 'running') setStatus('running');
     fetchLive();
@@ -512,7 +578,7 @@ async function refreshJobs() {
     const model = j.processID === 'shape-model';
     const view = el('button', { type: 'button', textContent: model ? 'batch' : 'view' });
     view.dataset.action = model ? 'batch' : 'view';
-    view.onclick = model ? () => showBatch(j.jobID) : () => { follow(j.jobID); };
+    view.onclick = model ? () => showBatch(j.jobID) : () => { follow(j.jobID, j.name); };
     const actions = el('td', {}, view);
     if (j.status === 'accepted' || j.status === 'running') {
       const cancel = el('button', { type: 'button', textContent: 'cancel' });
@@ -521,7 +587,9 @@ async function refreshJobs() {
     }
     // the whole id: the one `shapematch status|wait|fetch` takes
     const id = el('td', {}, el('code', { className: 'job-id', textContent: j.jobID }));
-    return el('tr', {}, id, td(j.status), actions);
+    const name = td(j.name || '');
+    name.className = 'job-name';
+    return el('tr', {}, id, name, td(j.status), actions);
   }));
 }
 

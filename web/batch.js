@@ -107,13 +107,20 @@ function variancePlot(ve) {
   const cum = ve.map((v) => (sum += v));
   const box = $('batch-variance');
   box.replaceChildren();
-  return new uPlot({
-    width: Math.max(300, box.clientWidth || 480), height: 200,
-    scales: { x: { time: false }, y: { range: [0, 1] } },
-    series: [{ label: 'mode' }, { label: 'explained', stroke: '#3d7bd9', points: { size: 7 } },
-      { label: 'cumulative', stroke: '#d9503d', dash: [4, 3] }],
-    axes: [{ incrs: [1, 2, 5, 10] }, { label: 'variance fraction', size: 60 }],
+  // the whole width of its column, followed when the window changes
+  const width = () => Math.max(280, box.clientWidth || 480);
+  const plot = new uPlot({
+    width: width(), height: 260,
+    scales: { x: { time: false, range: [0.5, Math.max(1.5, ve.length + 0.5)] }, y: { range: [0, 1] } },
+    series: [{ label: 'mode' }, { label: 'explained', stroke: '#3d7bd9', width: 2, points: { size: 8 } },
+      { label: 'cumulative', stroke: '#d9503d', width: 2, dash: [4, 3], points: { size: 6 } }],
+    axes: [{ label: 'mode', incrs: [1, 2, 5, 10], values: (u, vals) => vals.map((v) => (Number.isInteger(v) ? String(v) : '')) },
+      { label: 'variance fraction', size: 60, values: (u, vals) => vals.map((v) => v.toFixed(1)) }],
   }, [x, ve, cum], box);
+  const ro = new ResizeObserver(() => { if (Math.abs(plot.width - width()) > 2) plot.setSize({ width: width(), height: 260 }); });
+  ro.observe(box);
+  plot.ro = ro;
+  return plot;
 }
 
 async function loadModel(id) {
@@ -196,7 +203,7 @@ async function finished(id, doc) {
 }
 
 export function openBatch(id) {
-  if (batch && batch.es) batch.es.close();
+  if (batch) { if (batch.es) batch.es.close(); batch.plot?.ro?.disconnect(); }
   batch = { id, es: null, doc: null, model: null, plot: null };
   $('batch-panel').hidden = false;
   $('batch-id').textContent = id;

@@ -15,10 +15,10 @@ define web_rules
 # three's module imports ./three.core.min.js: served as app/three-core.js
 build/$(1)/gen/web/smd_app_embedded.c: server/embed.sh $$(APP_EMBEDDED)
 	@mkdir -p $$(dir $$@)
-	if [ -f node_modules/three/build/three.module.min.js ]; then \
+	$$(Q)if [ -f node_modules/three/build/three.module.min.js ]; then \
 	  sed 's#"\./three\.core\.min\.js"#"./three-core.js"#g' node_modules/three/build/three.module.min.js >$$(dir $$@)three.js; \
 	else rm -f $$(dir $$@)three.js; fi
-	server/embed.sh $$@ smd_app_index web/index.html smd_app_js web/app.js smd_app_view web/view.js smd_app_target web/target.js \
+	$$(call show,GEN,$$@,$(1))server/embed.sh $$@ smd_app_index web/index.html smd_app_js web/app.js smd_app_view web/view.js smd_app_target web/target.js \
 	    smd_app_align web/align.js smd_app_warp web/warp.js smd_app_batch web/batch.js \
 	    smd_app_css web/app.css smd_app_favicon web/favicon.svg smd_app_three $$(dir $$@)three.js \
 	    smd_app_three_core node_modules/three/build/three.core.min.js \
@@ -27,6 +27,6 @@ build/$(1)/gen/web/smd_app_embedded.c: server/embed.sh $$(APP_EMBEDDED)
 
 build/$(1)/obj/gen/web/smd_app_embedded.o: build/$(1)/gen/web/smd_app_embedded.c
 	@mkdir -p $$(dir $$@)
-	$$(CC) $$($(1)_CFLAGS) -c $$< -o $$@
+	$$(call show,CC,$$<,$(1))$$(CC) $$($(1)_CFLAGS) -c $$< -o $$@
 endef
 $(foreach v,$(VARIANTS),$(eval $(call web_rules,$(v))))

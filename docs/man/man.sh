@@ -12,7 +12,10 @@
 # ending in ':' at the margin a subsection; a line indented by two spaces
 # a tagged paragraph (its tag is what comes before the first run of two
 # spaces or more, or the whole line for the daemon's "  --flag META"),
-# deeper lines its continuation; other lines filled text.
+# deeper lines its continuation; other lines filled text.  The
+# "Examples:" block that ends `shapematch --help` and `shapematchd --help`
+# becomes the EXAMPLES section: its "# ..." lines the text, the others
+# commands set as they are.
 set -euo pipefail
 BIN=$1
 OUT=$2
@@ -29,6 +32,7 @@ to_roff() {
     function tag(s) { s = esc(s); gsub(/-/, "\\-", s); return s }
     BEGIN { usage = 1 }
     usage && /^(Usage:|      |$)/ { if ($0 == "") usage = 0; next }
+    /^Examples:$/ { exit }
     { usage = 0 }
     /^$/ { print ".PP"; next }
     /^[A-Z][^ ].*:$/ { print ".SS \"" esc(substr($0, 1, length($0) - 1)) "\""; next }
@@ -44,6 +48,19 @@ to_roff() {
     }
     /^   +[^ ]/ { sub(/^ +/, ""); line($0); next }
     { line($0) }
+    '
+}
+
+# EXAMPLES of the "Examples:" block of a help text on stdin
+examples_of() {
+    awk '
+    function esc(s) { gsub(/\\/, "\\e", s); gsub(/-/, "\\-", s); if (s ~ /^[.\047]/) s = "\\&" s; return s }
+    /^Examples:$/ { on = 1; print ".SH EXAMPLES"; next }
+    !on { next }
+    /^  # / { if (nf) { print ".RE"; print ".fi"; nf = 0 } if (!text) print ".PP"; text = 1
+              print esc(substr($0, 5)); next }
+    /^  / { if (!nf) { print ".nf"; print ".RS 4"; nf = 1 } text = 0; print esc(substr($0, 3)); next }
+    END { if (nf) { print ".RE"; print ".fi" } }
     '
 }
 
@@ -75,6 +92,7 @@ usage_of() { # the Usage block of a help text on stdin
         # the command's subsections become tagged headings under it
         "$BIN/shapematch" "$c" --help | to_roff | sed 's/^\.SS "\(.*\)"$/.PP\n.B "\1"/'
     done
+    printf '%s\n' "$main" | examples_of
     echo ".SH SEE ALSO"
     echo ".BR shapematchd (8);"
     echo "the documentation in docs/ of the source tree (docs/user-guide.md, docs/python.md, docs/c-api.md)."
@@ -93,6 +111,7 @@ mv "$OUT/shapematch.1.tmp" "$OUT/shapematch.1"
     echo ".fi"
     echo ".SH DESCRIPTION"
     printf '%s\n' "$help" | to_roff
+    printf '%s\n' "$help" | examples_of
     echo ".SH SEE ALSO"
     echo ".BR shapematch (1),"
     echo ".BR systemd.exec (5);"

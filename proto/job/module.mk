@@ -10,7 +10,7 @@ JOB_SRCS := proto/job/sm_job_inputs.c proto/job/sm_job_arrays.c proto/job/sm_job
 define job_rules
 build/$(1)/libsmjob.a: $$(JOB_SRCS:%.c=build/$(1)/obj/%.o)
 	@mkdir -p $$(dir $$@)
-	rm -f $$@ && ar rcs $$@ $$^
+	$$(call show,AR,$$@,$(1))rm -f $$@ && ar rcs $$@ $$^
 endef
 $(foreach v,$(VARIANTS),$(eval $(call job_rules,$(v))))
 ALL_TARGETS += libsmjob.a
@@ -26,10 +26,10 @@ build/$(1)/libshapematch_job.map: proto/job/module.mk
 	@printf 'SHAPEMATCH_JOB_$(SM_SOVERSION) {\n  global:\n    sm_run_*;\n  local: *;\n};\n' >$$@
 build/$(1)/libshapematch_job.so.$(SM_SOVERSION): $$(JOB_SRCS:%.c=build/$(1)/obj/%.o) $$(PROTO_SRCS:%.c=build/$(1)/obj/%.o) \
     build/$(1)/libshapematch_job.map build/$(1)/libshapematch.so.$(SM_SOVERSION)
-	$$(CC) $$($(1)_LDFLAGS) -shared -Wl,-soname,libshapematch_job.so.$(SM_SOVERSION) -Wl,-z,defs \
+	$$(call show,LD,$$@,$(1))$$(CC) $$($(1)_LDFLAGS) -shared -Wl,-soname,libshapematch_job.so.$(SM_SOVERSION) -Wl,-z,defs \
 	  -Wl,--version-script=build/$(1)/libshapematch_job.map -Wl,-rpath,'$$$$ORIGIN' \
 	  -o $$@ $$(filter %.o,$$^) -Lbuild/$(1) -l:libshapematch.so.$(SM_SOVERSION) $$(PROTO_LIBS) $$(CORE_LIBS)
-	ln -sf libshapematch_job.so.$(SM_SOVERSION) build/$(1)/libshapematch_job.so
+	$$(Q)ln -sf libshapematch_job.so.$(SM_SOVERSION) build/$(1)/libshapematch_job.so
 endef
 $(foreach v,$(VARIANTS),$(eval $(call job_so_rules,$(v))))
 ALL_TARGETS += libshapematch_job.so.$(SM_SOVERSION)

@@ -31,6 +31,8 @@ void sm_job_inputs_free(sm_job_inputs *in)
     sm_mesh_free(in->background);
     sm_mesh_free(in->prepared);
     sm_mesh_free(in->template_mesh);
+    sm_surface_free(in->surface);
+    in->surface = NULL;
     free(in->landmarks[0]);
     free(in->landmarks[1]);
     in->landmarks[0] = in->landmarks[1] = NULL;
@@ -381,7 +383,10 @@ done:
         return st;
     }
     sm_sdf_free(d);
-    sm_surface_free(s);
+    if (st == SM_OK)
+        out->surface = s; /* kept: the run's exact distances (sm_coverage.h) */
+    else
+        sm_surface_free(s);
     return st;
 }
 

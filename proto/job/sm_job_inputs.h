@@ -128,6 +128,8 @@ typedef struct sm_job_inputs {
                                * field included */
     double field_build_seconds;
     int has_surface;          /* the target came from target_surface: */
+    sm_surface *surface;      /* that surface (repaired), for the run's
+                               * exact two-sided distances; NULL otherwise */
     sm_surface_health health; /* its health report (after repair) */
     int background_generated; /* no target_mesh: generated background */
     double background_size;   /* the generated background's near-surface

@@ -31,6 +31,8 @@ typedef struct run_ctx {
     sm_job_run *run;
     sm_status failed;            /* SM_OK, or why the hook stopped the run */
     sm_error error;
+    int *snapshots;              /* the iterations written, in order */
+    int nsnapshots, snapshots_cap;
 } run_ctx;
 
 /* One row per iteration: a repeated report replaces the previous. */
@@ -53,23 +55,29 @@ static int history_push(sm_job_run *run, const sm_progress *p)
 }
 
 /* One file of the snapshot directory, atomically: the template's mesh at
- * coords as .mesh or (vtu set) as .vtu with the displacement. */
+ * coords as .mesh or (vtu set) as .vtu with the displacement from the
+ * template as read and d, the target's signed distance, at each vertex
+ * (the fields of result.vtu). */
 static sm_status snapshot_file(run_ctx *c, const char *name, const double *coords, int vtu)
 {
     const sm_mesh *m = c->in->template_mesh;
     char *path = sm_path_join(c->hooks->snapshot_dir, name);
     double *disp = vtu ? malloc(((size_t)m->nverts * (size_t)m->dim + 1) * sizeof *disp) : NULL;
-    if (!path || (vtu && !disp)) {
+    double *dist = vtu ? malloc(((size_t)m->nverts + 1) * sizeof *dist) : NULL;
+    if (!path || (vtu && (!disp || !dist))) {
         free(path);
         free(disp);
+        free(dist);
         return sm_error_set(&c->error, SM_ERR_NOMEM, "out of memory");
     }
     for (size_t i = 0; disp && i < (size_t)m->nverts * (size_t)m->dim; i++)
         disp[i] = coords[i] - m->coords[i];
+    if (dist)
+        sm_field_eval_points(c->in->field, m->nverts, coords, NULL, dist);
     sm_atomic a;
     sm_status st = sm_atomic_reserve(&a, path, &c->error);
     if (st == SM_OK) {
-        st = vtu ? sm_vtu_write(a.tmp_path, m, coords, disp, NULL, &c->error)
+        st = vtu ? sm_vtu_write(a.tmp_path, m, coords, disp, dist, &c->error)
                  : sm_mesh_write_coords(a.tmp_path, m, coords, &c->error);
         if (st == SM_OK)
             st = sm_atomic_commit(&a, c->hooks->write_flags, &c->error);
@@ -77,13 +85,15 @@ static sm_status snapshot_file(run_ctx *c, const char *name, const double *coord
             sm_atomic_abort(&a);
     }
     free(disp);
+    free(dist);
     free(path);
     return st;
 }
 
-/* SNAPSHOT_DIR/snapshots.pvd: the .vtu snapshots of iterations every,
- * 2 every, ... up to iteration, as a ParaView time series. */
-static sm_status snapshot_collection(run_ctx *c, int every, int iteration)
+/* SNAPSHOT_DIR/snapshots.pvd: the .vtu snapshots written so far (the
+ * first state, every K-th iteration, the final state), as a ParaView
+ * time series whose timestep is the iteration. */
+static sm_status snapshot_collection(run_ctx *c)
 {
     char *path = sm_path_join(c->hooks->snapshot_dir, SM_SNAPSHOT_PVD);
     if (!path)
@@ -93,12 +103,9 @@ static sm_status snapshot_collection(run_ctx *c, int every, int iteration)
     if (st == SM_OK) {
         fprintf(a.f, "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n"
                      "  <Collection>\n");
-        for (int it = every; it <= iteration; it += every) {
+        for (int i = 0; i < c->nsnapshots; i++)
             fprintf(a.f, "    <DataSet timestep=\"%d\" file=\"" SM_SNAPSHOT_VTU_FORMAT "\"/>\n",
-                    it, it);
-            if (it > iteration - every)
-                break; /* no overflow past INT_MAX */
-        }
+                    c->snapshots[i], c->snapshots[i]);
         fprintf(a.f, "  </Collection>\n</VTKFile>\n");
         st = sm_atomic_commit(&a, c->hooks->write_flags, &c->error);
     }
@@ -112,11 +119,21 @@ static sm_status write_snapshot(run_ctx *c, int iteration, const double *coords)
     char name[64], vtu[64];
     snprintf(name, sizeof name, SM_SNAPSHOT_FORMAT, iteration);
     snprintf(vtu, sizeof vtu, SM_SNAPSHOT_VTU_FORMAT, iteration);
+    if (c->nsnapshots == c->snapshots_cap) {
+        int cap = c->snapshots_cap ? 2 * c->snapshots_cap : 64;
+        int *grown = realloc(c->snapshots, (size_t)cap * sizeof *grown);
+        if (!grown)
+            return sm_error_set(&c->error, SM_ERR_NOMEM, "out of memory");
+        c->snapshots = grown;
+        c->snapshots_cap = cap;
+    }
     sm_status st = snapshot_file(c, name, coords, 0);
     if (st == SM_OK)
         st = snapshot_file(c, vtu, coords, 1);
-    if (st == SM_OK)
-        st = snapshot_collection(c, c->in->params.save_every, iteration);
+    if (st == SM_OK) {
+        c->snapshots[c->nsnapshots++] = iteration;
+        st = snapshot_collection(c);
+    }
     if (st != SM_OK)
         sm_error_prefix(&c->error, "cannot write the snapshot of iteration %d", iteration);
     return st;
@@ -130,13 +147,28 @@ static int on_progress(const sm_progress *p, const double *coords, void *user)
         return 1;
     }
     const sm_job_hooks *h = c->hooks;
+    /* the first state (iteration 0) and every K-th; the final one after
+     * the run (final_snapshot) */
     int every = c->in->params.save_every;
-    if (h->snapshot_dir && every > 0 && p->iteration > 0 && p->iteration % every == 0 && coords &&
+    if (h->snapshot_dir && every > 0 && p->iteration % every == 0 && coords &&
         (c->failed = write_snapshot(c, p->iteration, coords)) != SM_OK)
         return 1;
     if (h->shape && coords && h->shape(p, coords, h->user))
         return 1;
     return h->progress ? h->progress(p, h->user) : 0;
+}
+
+/* The final state among the snapshots, unless the last one written is
+ * it (a run whose last iteration is a multiple of K). */
+static sm_status final_snapshot(run_ctx *c)
+{
+    const sm_job_run *run = c->run;
+    if (!c->hooks->snapshot_dir || c->in->params.save_every <= 0 || run->nhistory == 0)
+        return SM_OK;
+    int last = run->history[run->nhistory - 1].iteration;
+    if (c->nsnapshots > 0 && c->snapshots[c->nsnapshots - 1] == last)
+        return SM_OK;
+    return write_snapshot(c, last, run->coords);
 }
 
 /* Hands warnings from index from on to the hook. */
@@ -160,6 +192,7 @@ static sm_status run_match(sm_job_inputs *in, const sm_match_opts *opts,
     int limit = sm_job_threads_apply(opts->template_mesh->nelems);
     sm_status st;
     if (in->match) {
+        sm_match_use_coverage(in->match, opts->coverage);
         st = sm_match_execute(in->match, opts->target, cb, run->coords, &run->result, err);
         sm_match_free(in->match);
         in->match = NULL;
@@ -230,14 +263,30 @@ sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_r
         return st;
     tell_warnings(&c, 0);
     int told = run->warnings.n;
+    /* the target's samples: its own surface when it has one, else the
+     * zero level set of its field (sm_coverage.h) */
+    sm_coverage *cov = NULL;
+    st = sm_coverage_new(in->field, in->surface, view.prepared ? view.prepared : in->prepared,
+                         view.params.free_refs, view.params.n_free_refs, &cov, err);
+    if (st != SM_OK) {
+        sm_error_prefix(err, "target");
+        return st;
+    }
+    opts.coverage = cov;
     st = run_match(run->alignment.done ? &view : in, &opts, &cb, run, err);
+    if (c.failed == SM_OK && st == SM_OK)
+        c.failed = final_snapshot(&c);
+    free(c.snapshots);
     if (c.failed != SM_OK) {
         if (err)
             *err = c.error;
+        sm_coverage_free(cov);
         return c.failed;
     }
-    if (st != SM_OK)
+    if (st != SM_OK) {
+        sm_coverage_free(cov);
         return st;
+    }
     const sm_result *r = &run->result;
     if (r->stop == SM_STOP_CANCELLED) {
         run->outcome = SM_JOB_OUTCOME_CANCELLED;
@@ -246,10 +295,10 @@ sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_r
         run->outcome = SM_JOB_OUTCOME_FAILED;
         run->exit_code = SM_JOB_EXIT_NUMERIC;
         snprintf(run->message, sizeof run->message,
-                 "no valid step from the initial mesh (boundary error %.3e); the template may "
-                 "already match the target (see tol_boundary) or the parameters prevent any "
+                 "no valid step from the initial mesh (boundary RMS %.3e, L2 %.3e); the template "
+                 "may already match the target (see tol_boundary) or the parameters prevent any "
                  "move (min_quality, tol_step)",
-                 r->boundary_l2);
+                 r->boundary_rms, r->boundary_l2);
     } else {
         run->outcome = SM_JOB_OUTCOME_FINISHED;
         run->exit_code = SM_JOB_EXIT_OK;
@@ -259,8 +308,12 @@ sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_r
     run->inverted = q.ninverted;
     sm_job_check_result(&view, run->coords, r, run->outcome == SM_JOB_OUTCOME_FINISHED,
                         &run->warnings, &run->resolution);
-    if (run->resolution > 0 && r->boundary_rms > SM_JOB_RESOLVED_FACTOR * run->resolution)
+    if (run->resolution > 0 && r->distance.result_to_target.rms > SM_JOB_RESOLVED_FACTOR * run->resolution)
         run->result.converged = 0;
+    if (!sm_job_check_coverage(&view, cov, r, run->resolution,
+                               run->outcome == SM_JOB_OUTCOME_FINISHED, &run->warnings))
+        run->result.converged = 0;
+    sm_coverage_free(cov);
     if (run->outcome != SM_JOB_OUTCOME_FINISHED)
         run->result.converged = 0;
     else if (!run->result.converged)

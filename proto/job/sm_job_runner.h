@@ -43,8 +43,10 @@ enum sm_job_exit {
 };
 
 /* When a finished run has converged (sm_result.converged, summary.json
- * "converged"): it did not stop as quality_blocked, and its final RMS
- * boundary error is at most SM_JOB_RESOLVED_FACTOR times the resolution,
+ * "converged"): it did not stop as quality_blocked, it covers the target
+ * (sm_job_check_coverage, sm_job_warnings.h), and its final RMS distance
+ * to the target (distance.result_to_target.rms, exact: sm_coverage.h) is
+ * at most SM_JOB_RESOLVED_FACTOR times the resolution,
  * the mean size of the background elements at the final boundary
  * (summary.json "resolution"): d is known to P1 accuracy on that grid,
  * so a boundary that still lies half an element away from the zero level

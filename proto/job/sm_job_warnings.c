@@ -406,6 +406,67 @@ void sm_job_check_result(const sm_job_inputs *in, const double *coords, const sm
     }
 }
 
+/* "(x, y, z)" or "(x, y)". */
+static void point_text(char *buf, size_t cap, int dim, const double *p)
+{
+    if (dim == 3)
+        snprintf(buf, cap, "(%.4g, %.4g, %.4g)", p[0], p[1], p[2]);
+    else
+        snprintf(buf, cap, "(%.4g, %.4g)", p[0], p[1]);
+}
+
+int sm_job_check_coverage(const sm_job_inputs *in, const sm_coverage *cov, const sm_result *r,
+                          double resolution, int finished, sm_job_warnings *out)
+{
+    const sm_distance *d = &r->distance;
+    if (!cov || !(resolution > 0) || d->method == SM_DISTANCE_NONE)
+        return 1;
+    const int dim = in->dim;
+    double reach = SM_JOB_COVERED_FACTOR * resolution;
+    sm_coverage_topology topo;
+    sm_coverage_get_topology(cov, &topo);
+    int genus = topo.known && dim == 3 && topo.target_genus != topo.template_genus;
+    int pieces = topo.known && topo.target_pieces != topo.template_pieces;
+    int covered = d->target_to_result.p99 <= reach && d->result_to_target.p99 <= reach &&
+                  !genus && !pieces;
+    if (covered || !finished)
+        return covered;
+    char cause[128] = "";
+    if (genus)
+        snprintf(cause, sizeof cause,
+                 "; the target has genus %lld, the template %lld: no deformation makes or closes "
+                 "a handle", (long long)topo.target_genus, (long long)topo.template_genus);
+    else if (pieces)
+        snprintf(cause, sizeof cause,
+                 "; the target has %lld closed surface(s), the template %lld: no deformation "
+                 "changes that", (long long)topo.target_pieces, (long long)topo.template_pieces);
+    /* where: the target's part beyond reach, else the result's part
+     * beyond it (a sheet across a hole), else (a topology the figures
+     * pass) the same at the resolution itself */
+    sm_coverage_missed part;
+    int side = 0;
+    double at = reach;
+    sm_coverage_missed_part(cov, 0, at, &part);
+    if (part.samples == 0)
+        sm_coverage_missed_part(cov, side = 1, at, &part);
+    if (part.samples == 0) {
+        at = resolution;
+        sm_coverage_missed_part(cov, side = 0, at, &part);
+        if (part.samples == 0)
+            sm_coverage_missed_part(cov, side = 1, at, &part);
+    }
+    char lo[64], hi[64], centre[64];
+    point_text(lo, sizeof lo, dim, part.lo);
+    point_text(hi, sizeof hi, dim, part.hi);
+    point_text(centre, sizeof centre, dim, part.centre);
+    add(out, "target-not-reached", part.fraction,
+        "%.1f%% of the %s is farther than %.3g from the %s, up to %.3g, around %s in the box "
+        "%s-%s%s",
+        100.0 * part.fraction, side ? "result's boundary" : "target", at,
+        side ? "target" : "result", part.max, centre, lo, hi, cause);
+    return 0;
+}
+
 void sm_job_warnings_text(const sm_job_warnings *ws, char *buf, size_t cap)
 {
     size_t used = 0;

@@ -31,6 +31,14 @@
  *   above-resolution    the final RMS boundary error is above the local
  *                       size of the background elements, the resolution
  *                       d is given at (figure: their ratio)
+ *   target-not-reached  the match does not cover the target (see
+ *                       sm_job_check_coverage): says how much of the
+ *                       target is farther than SM_JOB_COVERED_FACTOR times
+ *                       the resolution, how far at most, its centre and
+ *                       box (or the same of the result's part that is off
+ *                       the target, a sheet across a hole), and a topology
+ *                       mismatch (genus, pieces) when the surfaces tell
+ *                       one (figure: the fraction of that part)
  *   surface-holes       with above-resolution, when the target surface has
  *                       open edges: its sign may be wrong near the holes;
  *                       says to check it with shapematch sdf (figure: the
@@ -128,6 +136,20 @@ sm_status sm_job_check_sign(const sm_job_inputs *in, sm_job_warnings *out, sm_er
  * final boundary's facet centres (0 when none lies inside the background). */
 void sm_job_check_result(const sm_job_inputs *in, const double *coords, const sm_result *r,
                          int finished, sm_job_warnings *out, double *resolution);
+
+/* Converged means covered: both sides of the final distance
+ * (r->distance) have their 99th percentile within SM_JOB_COVERED_FACTOR
+ * times the resolution (the target side catches a missed protrusion or
+ * handle; the result side a sheet spanning a hole the target has), and
+ * the target's surface and the template's boundary have the same
+ * topology when both are closed (genus, pieces: a deformation keeps
+ * them, so a match across a mismatch cannot be exact).  Returns 1 when
+ * so (or when it cannot be told: no coverage, no resolution), 0
+ * otherwise, and then for a finished run adds target-not-reached from
+ * cov's last measure. */
+#define SM_JOB_COVERED_FACTOR 2.0
+int sm_job_check_coverage(const sm_job_inputs *in, const sm_coverage *cov, const sm_result *r,
+                          double resolution, int finished, sm_job_warnings *out);
 
 /* "warning: CODE: MESSAGE; warning: ..." into buf (cap bytes, truncated),
  * "" when there is none: the message of the finished event, which the

@@ -55,7 +55,9 @@ def _raise(err, status):
 
 def parameters():
     """The parameter table (sm_params_table): one dict per params member,
-    name, flag, default, help, in the order of the params document."""
+    name, flag, default, help and group (the section a form shows it in:
+    inputs, clamp, stop or advanced), in the order of the params
+    document."""
     lib = _lib.core()
 
     class Info(ctypes.Structure):
@@ -65,7 +67,8 @@ def parameters():
                     ("min_open", ctypes.c_int), ("max_open", ctypes.c_int),
                     ("default", ctypes.c_double), ("default_text", ctypes.c_char_p),
                     ("in_clamp", ctypes.c_int), ("flag", ctypes.c_char_p),
-                    ("meta", ctypes.c_char_p), ("help", ctypes.c_char_p)]
+                    ("meta", ctypes.c_char_p), ("help", ctypes.c_char_p),
+                    ("group", ctypes.c_char_p)]
     lib.sm_params_table.restype = ctypes.POINTER(Info)
     lib.sm_params_table.argtypes = [ctypes.POINTER(ctypes.c_size_t)]
     n = ctypes.c_size_t()
@@ -74,7 +77,8 @@ def parameters():
     dec = lambda b: b.decode() if b is not None else None  # noqa: E731
     return [{"name": dec(r.name), "type": types.get(r.type, str(r.type)), "min": r.min,
              "max": r.max, "default": dec(r.default_text) or r.default,
-             "in_clamp": bool(r.in_clamp), "flag": dec(r.flag), "help": dec(r.help)}
+             "in_clamp": bool(r.in_clamp), "flag": dec(r.flag), "help": dec(r.help),
+             "group": dec(r.group) or "advanced"}
             for r in (rows[i] for i in range(n.value))]
 
 
@@ -198,8 +202,11 @@ class Result:
     (0-based, nelems x dim+1), element_refs, vertex_refs, initial_vertices,
     displacement (vertices - initial_vertices), summary (summary.json as a
     dict), history (one dict per iteration), warnings, status ("finished",
-    "cancelled", "failed"), exit_code (`shapematch run`'s), converged;
-    write(dir) writes the result set."""
+    "cancelled", "failed"), exit_code (`shapematch run`'s), converged,
+    distance (summary.json's "distance": {"result_to_target": {"rms",
+    "max", "mean"}, "target_to_result": {"rms", "max", "mean", "p99"},
+    "unit", "method"}, the headline figures in the meshes' unit; None for a
+    summary without them); write(dir) writes the result set."""
 
     def __init__(self, handle):
         job = _lib.job()
@@ -222,8 +229,7 @@ class Result:
         self.exit_code = job.sm_run_exit_code(handle)
         n = ctypes.c_size_t()
         rows = job.sm_run_history(handle, ctypes.byref(n))
-        names = [f[0] for f in _lib.Progress._fields_]
-        self.history = [{k: getattr(rows[i], k) for k in names} for i in range(n.value)]
+        self.history = [_lib.progress_row(rows[i]) for i in range(n.value)]
 
     def __getattr__(self, name):
         raw = self.__dict__.get("_raw")
@@ -240,6 +246,8 @@ class Result:
             value = bool(self.summary.get("converged"))
         elif name == "warnings":
             value = self.summary.get("warnings", [])
+        elif name == "distance":
+            value = self.summary.get("distance")
         else:
             raise AttributeError("'Result' object has no attribute %r" % name)
         self.__dict__[name] = value
@@ -293,9 +301,28 @@ class Result:
 
     def __repr__(self):
         s = self.summary
-        return "<shapematch.Result %s after %s iterations, boundary RMS %.3e%s>" % (
-            self.status, s.get("iterations"), s.get("boundary_rms", float("nan")),
+        return "<shapematch.Result %s after %s iterations, %s%s>" % (
+            self.status, s.get("iterations"), _headline(s),
             "" if self.converged else ", not converged")
+
+
+def _headline(s):
+    """The figures of a summary by their names there: the two-sided
+    distances (RMS, max; p99 from the target) when it has them, else the
+    RMS and max of d on the boundary; the L2 norm under its own name."""
+    def num(x):
+        return "%.3e" % x if isinstance(x, (int, float)) else "n/a"
+    d = s.get("distance")
+    if isinstance(d, dict) and "result_to_target" in d and "target_to_result" in d:
+        a, b = d["result_to_target"], d["target_to_result"]
+        text = "result->target RMS %s, max %s; target->result RMS %s, max %s, p99 %s" % (
+            num(a.get("rms")), num(a.get("max")), num(b.get("rms")), num(b.get("max")),
+            num(b.get("p99")))
+        if d.get("unit"):
+            text += " (%s)" % d["unit"]
+    else:
+        text = "boundary RMS %s, max %s" % (num(s.get("boundary_rms")), num(s.get("boundary_max")))
+    return text + "; L2 of d on the boundary %s" % num(s.get("boundary_l2"))
 
 
 # ------------------------------------------------------------ match

@@ -153,24 +153,28 @@ class Client:
 
     def submit(self, template, *, target_mesh=None, target_sol=None, target_surface=None,
                target_image=None, clamp_ball=None, clamp_elements=None, clamp_vertices=None, no_clamp=False,
-               idempotency_key=None, **params):
+               idempotency_key=None, name=None, **params):
         """Sends a job (files by path; the keywords of shapematch.match);
         returns its Job.  An idempotency_key makes a retried submission
-        return the job the first one created."""
+        return the job the first one created; name (1 to 200 bytes of
+        text) labels the job in the daemon's lists, status and the web
+        app (Job.status()["name"])."""
         from . import _clamp, _json as params_json  # the params document as match builds it
         doc = dict(params)
         doc["clamp"] = _clamp(clamp_ball, clamp_elements, clamp_vertices, no_clamp, doc)
         parts = []
-        for name, path in (("template", template), ("target_mesh", target_mesh),
+        for part, path in (("template", template), ("target_mesh", target_mesh),
                            ("target_sol", target_sol), ("target_surface", target_surface),
                            ("target_image", target_image)):
             if path is None:
                 continue
             if not isinstance(path, (str, bytes, os.PathLike)):
-                raise TypeError("%s: Client.submit takes paths" % name)
+                raise TypeError("%s: Client.submit takes paths" % part)
             with open(path, "rb") as f:
-                parts.append((name, os.path.basename(os.fsdecode(path)), f.read()))
+                parts.append((part, os.path.basename(os.fsdecode(path)), f.read()))
         parts.append(("params", None, params_json(doc).encode()))
+        if name is not None:
+            parts.append(("name", None, str(name).encode()))
         body, ctype = _multipart(parts)
         headers = {"Content-Type": ctype, "Accept": "application/json"}
         # a retried submission must not create a second job
@@ -392,13 +396,16 @@ class RemoteResult:
         self.status = "finished"
         self.converged = bool(self.summary.get("converged"))
         self.warnings = self.summary.get("warnings", [])
+        # the two-sided figures, as Result.distance (None in older summaries)
+        self.distance = self.summary.get("distance")
         with job.client._request("GET", "/v1/jobs/%s/results/history?format=json" % job.id) as r:
             self.history = json.loads(r.read().decode())
         self._mesh = None
         self._dir = None
 
     def __repr__(self):
-        return "<shapematch.RemoteResult of job %s>" % self.job.id
+        from . import _headline
+        return "<shapematch.RemoteResult of job %s: %s>" % (self.job.id, _headline(self.summary))
 
     def write(self, directory, formats=DEFAULT_FORMATS):
         """Downloads the result set into directory (Job.results)."""

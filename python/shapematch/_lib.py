@@ -20,13 +20,39 @@ class Error(ctypes.Structure):
     _fields_ = [("code", ctypes.c_int), ("msg", ctypes.c_char * ERROR_MSG_LEN)]
 
 
+class DistanceSide(ctypes.Structure):
+    """sm_distance_side (shapematch/sm_coverage.h)."""
+    _fields_ = [("rms", ctypes.c_double), ("max", ctypes.c_double), ("mean", ctypes.c_double),
+                ("p99", ctypes.c_double)]
+
+
+class Distance(ctypes.Structure):
+    """sm_distance (shapematch/sm_coverage.h)."""
+    _fields_ = [("method", ctypes.c_int), ("result_to_target", DistanceSide),
+                ("target_to_result", DistanceSide)]
+
+
 class Progress(ctypes.Structure):
     """sm_progress (shapematch/sm_match.h)."""
     _fields_ = [("iteration", ctypes.c_int), ("J", ctypes.c_double), ("step", ctypes.c_double),
                 ("boundary_l2", ctypes.c_double), ("boundary_max", ctypes.c_double),
                 ("boundary_rms", ctypes.c_double), ("boundary_relative", ctypes.c_double),
                 ("min_quality", ctypes.c_double), ("elapsed", ctypes.c_double),
-                ("accepted", ctypes.c_int), ("rejected", ctypes.c_int)]
+                ("accepted", ctypes.c_int), ("rejected", ctypes.c_int),
+                ("distance", Distance), ("energy", ctypes.c_double)]
+
+
+def progress_row(p):
+    """One history row (a dict) of an sm_progress: its numbers, and its
+    distance by the names of the progress event (result_to_target: rms,
+    max; target_to_result: rms, max, p99)."""
+    row = {k: getattr(p, k) for k, _ in Progress._fields_ if k != "distance"}
+    d = p.distance
+    row["distance"] = {
+        "result_to_target": {"rms": d.result_to_target.rms, "max": d.result_to_target.max},
+        "target_to_result": {"rms": d.target_to_result.rms, "max": d.target_to_result.max,
+                             "p99": d.target_to_result.p99}}
+    return row
 
 
 class Mesh(ctypes.Structure):

@@ -157,7 +157,7 @@ enum MHD_Result smd_parts_on_part(void *cls, enum MHD_ValueKind kind, const char
         u->seen[id] = 1;
         u->current = id;
         u->part_hash[id] = FNV_OFFSET;
-        if (id != SM_PART_PARAMS && open_part(u, (sm_part)id) != 0)
+        if (id < SM_PART_PARAMS && open_part(u, (sm_part)id) != 0)
             return MHD_NO;
     }
     if (size == 0)
@@ -170,6 +170,17 @@ enum MHD_Result smd_parts_on_part(void *cls, enum MHD_ValueKind kind, const char
         return MHD_NO;
     }
     u->part_hash[id] = fnv1a(u->part_hash[id], data, size);
+    if (id == SM_PART_NAME) {
+        if (u->name_len + size > SM_JOB_NAME_MAX) {
+            smd_parts_fail(u, 422, SMD_PROBLEM_INVALID_INPUT, "name: longer than %d bytes",
+                           SM_JOB_NAME_MAX);
+            return MHD_NO;
+        }
+        memcpy(u->name + u->name_len, data, size);
+        u->name_len += size;
+        u->name[u->name_len] = '\0';
+        return MHD_YES;
+    }
     if (id == SM_PART_PARAMS) {
         if (u->params_len + size > SM_PARAMS_JSON_MAX_BYTES) {
             smd_parts_fail(u, 422, SMD_PROBLEM_INVALID_INPUT, "params: larger than %d bytes",
@@ -246,6 +257,11 @@ int smd_parts_check(smd_parts *u)
                  sm_part_names[always[i]]);
             return -1;
         }
+    char why[96];
+    if (u->seen[SM_PART_NAME] && sm_job_name_check(u->name, u->name_len, why, sizeof why) != 0) {
+        smd_parts_fail(u, 422, SMD_PROBLEM_INVALID_INPUT, "name: %s", why);
+        return -1;
+    }
     if (u->seen[SM_PART_TARGET_SURFACE] && u->seen[SM_PART_TARGET_SOL]) {
         smd_parts_fail(u, 422, SMD_PROBLEM_INVALID_INPUT,
              "target_surface excludes target_sol: give one target (target_surface with an optional "

@@ -24,7 +24,9 @@
 #include "sm_proto_vocab.h"
 
 /* For messages: every part, optional ones included. */
-#define SMD_UPLOAD_PARTS "template, target_mesh, target_sol, target_surface, template_landmarks, target_landmarks, target_image and params"
+#define SMD_UPLOAD_PARTS                                                                   \
+    "template, target_mesh, target_sol, target_surface, template_landmarks, target_landmarks, " \
+    "target_image, params and name"
 
 typedef struct smd_parts {
     const char *dir;               /* borrowed: the upload folder (with inputs/) */
@@ -35,6 +37,9 @@ typedef struct smd_parts {
     char path[SM_NPARTS][PATH_MAX]; /* files of the file parts */
     char *params;                  /* params text, NUL-terminated */
     size_t params_len;
+    char name[SM_JOB_NAME_MAX + 1]; /* the job's name, "" none (checked by
+                                    * smd_parts_check) */
+    size_t name_len;
     uint64_t part_hash[SM_NPARTS]; /* FNV-1a of each part's bytes */
     /* first error met; replied at the next call */
     unsigned err_status;
@@ -56,8 +61,9 @@ enum MHD_Result smd_parts_on_part(void *cls, enum MHD_ValueKind kind, const char
 /* Closes the part being received (its file). */
 void smd_parts_close(smd_parts *p);
 /* Which parts a job needs: template and params, and a target:
- * target_mesh + target_sol, or target_surface (+ target_mesh).  0, or -1
- * with the error set (400 missing part, 422 conflict). */
+ * target_mesh + target_sol, or target_surface (+ target_mesh); a name
+ * given is valid (sm_job_name_check).  0, or -1 with the error set (400
+ * missing part, 422 conflict or bad name). */
 int smd_parts_check(smd_parts *p);
 /* Gives each file part its final name inputs/<part>.<ext>[.gz], the
  * extension from the content (smd_sniff_medit).  0 or -1 (error set). */

@@ -6,8 +6,9 @@
  * through a streaming gzip encoder when Accept-Encoding allows gzip, so a
  * large result never sits in memory.
  *
- * Snapshots (params.save_every = K > 0): the worker writes the mesh every
- * K iterations to results/snapshots/iter-NNNNN.mesh; /results/snapshots
+ * Snapshots (params.save_every = K > 0): the worker writes the mesh of the
+ * first state (iteration 0), every K iterations and of the final state to
+ * results/snapshots/iter-NNNNN.mesh; /results/snapshots
  * lists them (read from the folder, names parsed strictly), and
  * /results/snapshots/{n} serves one, its file name built from the number
  * parsed out of the path, never from the path itself.  They are results
@@ -249,17 +250,18 @@ static int snapshot_name_iteration(const char *name)
             return -1;
         v = v * 10 + (*p - '0');
     }
-    if (digits < 5 || strcmp(p, ".mesh") != 0 || v < 1)
+    if (digits < 5 || strcmp(p, ".mesh") != 0)
         return -1;
     return (int)v;
 }
 
-/* The {iteration} segment of the path: canonical decimal, 1 or more. */
+/* The {iteration} segment of the path: canonical decimal, 0 (the first
+ * state) or more. */
 static int parse_iteration(const char *seg)
 {
     uint64_t v;
-    if (strlen(seg) > SNAPSHOT_ITERATION_DIGITS || seg[0] == '0' ||
-        smd_parse_uint(seg, 1, INT_MAX, &v) != SMD_NUM_OK)
+    if (strlen(seg) > SNAPSHOT_ITERATION_DIGITS || (seg[0] == '0' && seg[1] != '\0') ||
+        smd_parse_uint(seg, 0, INT_MAX, &v) != SMD_NUM_OK)
         return -1;
     return (int)v;
 }

@@ -479,7 +479,7 @@ static enum MHD_Result submit_checked(struct MHD_Connection *conn, smd_request *
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "no random source for the job id: %s", strerror(errno));
     smd_submission sub = {.dir = u->dir, .id = id, .idempotency_key = u->idempotency_key,
-                          .owner = req->who.tenant, .request_hash = hash,
+                          .owner = req->who.tenant, .name = u->parts.name, .request_hash = hash,
                           .dim = r->dim, .max_iter = r->max_iter, .tol_boundary = r->tol_boundary,
                           .nverts = r->nverts, .nelems = r->nelems, .bytes = u->received};
     smd_job view;

@@ -671,5 +671,15 @@ void smd_config_help(FILE *out)
             "  --version       print the version\n"
             "\n"
             "Signals: SIGTERM/SIGINT stop gracefully (a second one stops at once).\n"
-            "Logs: JSON lines on stderr.\n");
+            "Logs: JSON lines on stderr.\n"
+            "\n"
+            "Examples:\n"
+            "  # on this machine: port 8080, the jobs in ./spool, two workers; the web app\n"
+            "  # at http://127.0.0.1:8080/\n"
+            "  shapematchd --listen 127.0.0.1:8080 --spool spool --workers 2\n"
+            "  # for other machines: tokens and TLS, finished jobs kept a month\n"
+            "  shapematchd --listen 0.0.0.0:8443 --tokens-file tokens --tls-cert cert.pem \\\n"
+            "      --tls-key key.pem --retention 30d\n"
+            "  # one node of several on PostgreSQL (docs/cluster.md)\n"
+            "  shapematchd --database postgresql://shapematch@db/shapematch --role api\n");
 }

@@ -380,6 +380,8 @@ sm_status smd_jobs_submit(smd_server *srv, const smd_submission *sub, smd_job **
         snprintf(job->idempotency_key, sizeof job->idempotency_key, "%s", key);
     if (sub->owner)
         snprintf(job->owner, sizeof job->owner, "%s", sub->owner);
+    if (sub->name)
+        snprintf(job->name, sizeof job->name, "%s", sub->name);
     job->request_hash = sub->request_hash;
     job->batch_model = sub->batch_model;
     if (smd_job_set_members(job, sub->members, sub->nmembers) != 0) {
@@ -498,7 +500,8 @@ static void finished_message(const sm_result *r, const char *warnings, char *buf
                            r->iterations,
                            r->stop == SM_STOP_QUALITY
                                ? "the quality floor rejected every step"
-                               : "the boundary error ends above what the background resolves");
+                               : "the match does not lie on, or does not cover, the target "
+                                 "within what the background resolves");
     size_t used = n > 0 ? (size_t)n : 0, room = used < cap ? cap - used : 0;
     if (warnings && warnings[0] && room > 3)
         snprintf(buf + used, room, "; %.*s", (int)(room - 3), warnings);

@@ -92,6 +92,7 @@ typedef struct smd_submission {
     const char *idempotency_key;  /* NULL or "" for none */
     const char *owner;            /* tenant, NULL or "" for none; the key is
                                    * looked up among its jobs only */
+    const char *name;             /* the job's name (checked), NULL or "" none */
     uint64_t request_hash;        /* of the parts, kept with the key */
     int dim, max_iter;
     double tol_boundary;          /* params.tol_boundary, for the status */

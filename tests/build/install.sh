@@ -14,7 +14,10 @@
 #     the headers too;
 #   - the Python package from the tree finds its libraries by itself;
 #   - man -l renders shapematch(1) with every command and every parameter
-#     flag of the table, and shapematchd(8) with every daemon setting;
+#     flag of the table, and shapematchd(8) with every daemon setting, both
+#     with an EXAMPLES section;
+#   - LICENSE and THIRD-PARTY in share/doc/shapematch, and THIRD-PARTY
+#     naming every library the installed ELF files need (and libcurl);
 #   - make uninstall leaves nothing.
 set -u
 ROOT=${SM_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
@@ -150,6 +153,39 @@ else
     not_ok "the installed Python package loads its libraries" "$out"
 fi
 
+# ------------------------------------------------------------ licenses
+# LICENSE and THIRD-PARTY installed as in the tree; every shared library an
+# installed program or library names as NEEDED is on a "Linked:" line of
+# THIRD-PARTY (or is one of ours), and so is the libcurl the client opens
+L=$T/share/doc/shapematch
+if cmp -s "$ROOT/LICENSE" "$L/LICENSE" && cmp -s "$ROOT/THIRD-PARTY" "$L/THIRD-PARTY" &&
+    grep -q '^MIT License' "$L/LICENSE" && grep -q 'Copyright (c) 2026 shapematch developers' "$L/LICENSE"; then
+    ok "LICENSE (MIT, shapematch developers 2026) and THIRD-PARTY installed in share/doc/shapematch"
+else
+    not_ok "LICENSE and THIRD-PARTY installed" "$(ls -l "$L" 2>&1)"
+fi
+linked=$(grep -E '^  (Linked|Loaded):' "$ROOT/THIRD-PARTY")
+needed=$(for f in "$T"/bin/* "$T"/lib/libshapematch.so.0 "$T"/lib/libshapematch_job.so.0; do
+    readelf -d "$f" | sed -n 's/.*(NEEDED).*\[\(.*\)\]/\1/p'; done | LC_ALL=C sort -u)
+unlisted=
+for so in $needed libcurl.so.4; do
+    case $so in libshapematch*) continue ;; esac
+    grep -qF "$so" <<<"$linked" || unlisted="$unlisted $so"
+done
+# the check can fail: a library no entry names
+grep -qF libfoo.so.1 <<<"$linked" && unlisted="$unlisted (the check matches anything)"
+if [ -z "$unlisted" ] && [ "$(wc -w <<<"$needed")" -ge 10 ]; then
+    ok "THIRD-PARTY names each of the $(wc -w <<<"$needed") libraries the installed programs link, and libcurl"
+else
+    not_ok "THIRD-PARTY names every linked library" "not listed:$unlisted" "needed: $needed"
+fi
+for so in $needed; do
+    case $so in libshapematch*) continue ;; esac
+    lic=$(awk -v so="$so" '/^  License:/ { lic = $0 } index($0, so) && /^  (Linked|Loaded):/ { print lic; exit }' "$ROOT/THIRD-PARTY")
+    [ -n "$lic" ] || unlisted="$unlisted $so(no license line)"
+done
+if [ -z "$unlisted" ]; then ok "... each with its License: line"; else not_ok "each entry has a license" "$unlisted"; fi
+
 # ------------------------------------------------------------ man
 page1=$(MANWIDTH=80 man -l "$T/share/man/man1/shapematch.1" 2>"$W/man1.err" | col -b)
 page8=$(MANWIDTH=80 man -l "$T/share/man/man8/shapematchd.8" 2>"$W/man8.err" | col -b)
@@ -174,6 +210,17 @@ if [ -z "$absent" ] && [ -n "$cmds" ] && [ "$nflags" -gt 10 ]; then
     ok "the pages hold every command ($(echo $cmds | wc -w)), every run flag and every daemon setting ($nflags)"
 else
     not_ok "the pages hold every command and flag" "absent:$absent"
+fi
+
+# the EXAMPLES of both pages: the Examples blocks of the --help texts
+ex1=$(sed -n '/^EXAMPLES/,/^SEE ALSO/p' <<<"$page1")
+ex8=$(sed -n '/^EXAMPLES/,/^SEE ALSO/p' <<<"$page8")
+if grep -q 'shapematch run --template examples/2d/template.mesh' <<<"$ex1" &&
+    grep -q 'shapematch submit --server' <<<"$ex1" && grep -q 'shapematchd --listen' <<<"$ex8" &&
+    [ "$(grep -cE '^[[:space:]]+shapematch ' <<<"$ex1")" -ge 5 ]; then
+    ok "both pages have an EXAMPLES section (shapematch(1): $(grep -cE '^[[:space:]]+shapematch ' <<<"$ex1") commands)"
+else
+    not_ok "EXAMPLES in both pages" "$ex1" "$ex8"
 fi
 
 # ------------------------------------------------------------ uninstall

@@ -60,3 +60,37 @@ check "shapematch-worker --version" sh -c "'$BINDIR/shapematch-worker' --version
 "$BINDIR/shapematchd" --help >daemon.txt 2>&1
 check "shapematchd --help points to the served /v1/openapi.yaml" \
     sh -c "grep -q '/v1/openapi.yaml' daemon.txt && ! grep -q 'proto/openapi.yaml' daemon.txt"
+
+# The examples that end `shapematch --help` and `shapematchd --help` (the
+# man pages' EXAMPLES): the local ones run as written from a folder that
+# has the tree's examples/ (their files made), and every option of the
+# daemon ones is one of the command's own
+"$BIN" --help >main.txt 2>&1
+examples() { # HELP-FILE: each command of its Examples block on one line
+    sed -n '/^Examples:$/,$p' "$1" | tail -n +2 | grep -v '^  #' |
+        sed 's/^  //' | sed -e ':a' -e '/\\$/N; s/\\\n *//; ta'
+}
+examples main.txt >main.examples
+mkdir -p ex && ln -sfn "$ROOT/examples" ex/examples
+ran=0 failed_ex=
+while IFS= read -r cmd; do
+    case $cmd in *--server*) continue ;; esac
+    (cd ex && PATH="$BINDIR:$PATH" bash -c "$cmd") >ex.out 2>&1 || failed_ex="$failed_ex [$cmd: $(tail -1 ex.out)]"
+    ran=$((ran + 1))
+done <main.examples
+check "shapematch --help's local examples run as written ($ran: run, warp, sdf)" \
+    sh -c "[ -z '$failed_ex' ] && [ $ran -ge 4 ] && [ -s ex/out-2d/result.mesh ] && [ -s ex/moved.csv ] && [ -s ex/distance.sol ]"
+[ -z "$failed_ex" ] || echo "# $failed_ex"
+bad_opts=
+while IFS= read -r cmd; do
+    sub=$(awk '{ print $2 }' <<<"$cmd")
+    "$BIN" "$sub" --help >sub.txt 2>&1
+    for o in $(grep -oE -- ' --[a-z-]+' <<<"$cmd"); do grep -q -- "$o\b" sub.txt || bad_opts="$bad_opts $sub$o"; done
+done < <(grep -- '--server' main.examples)
+examples daemon.txt >daemon.examples
+for o in $(grep -oE -- ' --[a-z-]+' daemon.examples | sort -u); do
+    grep -qE -- "^  $o( |$)" daemon.txt || bad_opts="$bad_opts shapematchd$o"
+done
+check "the daemon examples ($(grep -c -- --server main.examples) of shapematch, $(wc -l <daemon.examples) of shapematchd) use only options of their command" \
+    sh -c "[ -z '$bad_opts' ] && [ $(wc -l <daemon.examples) -ge 3 ]"
+[ -z "$bad_opts" ] || echo "# unknown options:$bad_opts"

@@ -122,8 +122,9 @@ if [ "$have_case" = 1 ]; then
     leftovers=$(find out/nested -name '.*' | head -3)
     [ -z "$leftovers" ] && ok "no temporary file left behind" || not_ok "no temporary file left behind" "$leftovers"
     snaps=$(cd out/nested && ls iter-*.mesh 2>/dev/null | tr '\n' ' ')
-    [ "$snaps" = "iter-00010.mesh iter-00020.mesh iter-00030.mesh " ] &&
-        ok "--save-every 10 writes iterations 10, 20, 30" || not_ok "--save-every 10 writes iterations 10, 20, 30" "got: $snaps"
+    [ "$snaps" = "iter-00000.mesh iter-00010.mesh iter-00020.mesh iter-00030.mesh " ] &&
+        ok "--save-every 10 writes the first state and iterations 10, 20, 30" ||
+        not_ok "--save-every 10 writes the first state and iterations 10, 20, 30" "got: $snaps"
     # not a TTY: a plain line every 10 iterations, then the final summary
     plines=$(grep -cE '^iter (0|10|20|30) ' e2e.err)
     grep -q 'max_iterations after 30 iterations' e2e.err && [ "$plines" -eq 4 ] &&

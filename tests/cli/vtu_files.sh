@@ -3,9 +3,11 @@
 # ASCII (--format vtu-ascii) hold the same arrays, decoded by an
 # independent reader (tests/lib/vtu.py: ElementTree, base64, zlib);
 # --format ...,gz never makes a .vtu.gz and vtu-ascii,gz is refused;
-# --save-every writes iter-NNNNN.vtu beside each iter-NNNNN.mesh (the same
-# points, displacement = points - template) and a snapshots.pvd listing
-# them; `sdf -o x.vtu` writes one file (not a directory) and `sdf -o x.sol`
+# --save-every 3 of a 4-iteration run writes iter-NNNNN.vtu beside each
+# iter-NNNNN.mesh for the first state, iteration 3 and the final state 4
+# (the same points, displacement = points - template, distance = d at the
+# points by an independent P1 interpolation of the background's .sol; the
+# last one equal to result.vtu) and a snapshots.pvd listing the three; `sdf -o x.vtu` writes one file (not a directory) and `sdf -o x.sol`
 # without --background is refused.  meshio (python3-meshio) and VTK
 # (python3-vtk9) read result.vtu and the collection when installed.
 source "$(dirname "$0")/../lib/cli.sh"
@@ -18,14 +20,14 @@ run() { # OUT FORMAT [more...]
         --target-sol "$EX/background.sol.gz" --clamp-ball "$CLAMP" --max-iter 4 --quiet \
         --format "$fmt" -o "$WORK/$out" "$@" >"$WORK/$out.err" 2>&1
 }
-run z mesh,vtu,gz --save-every 2
+run z mesh,vtu,gz --save-every 3
 rc=$?
 run a vtu-ascii
 rc_a=$?
 if { [ $rc = 0 ] || [ $rc = 10 ]; } && { [ $rc_a = 0 ] || [ $rc_a = 10 ]; }; then
-    ok "runs with --format mesh,vtu,gz --save-every 2 and --format vtu-ascii"
+    ok "runs with --format mesh,vtu,gz --save-every 3 and --format vtu-ascii"
 else
-    not_ok "runs with --format mesh,vtu,gz --save-every 2 and --format vtu-ascii" \
+    not_ok "runs with --format mesh,vtu,gz --save-every 3 and --format vtu-ascii" \
         "$(cat "$WORK/z.err" "$WORK/a.err")"
 fi
 run g vtu-ascii,gz
@@ -47,8 +49,8 @@ check "sdf -o d.sol without --background is refused (usage, exit 1), nothing cre
 # on the PATH may lack it)
 PY=/usr/bin/python3
 [ -x "$PY" ] || PY=python3
-"$PY" - "$WORK" "$ROOT/tests/lib" "$EX/template.mesh" <<'PY'
-import os, sys, xml.etree.ElementTree as ET
+"$PY" - "$WORK" "$ROOT/tests/lib" "$EX/template.mesh" "$EX" <<'PY'
+import gzip, os, sys, xml.etree.ElementTree as ET
 sys.path.insert(0, sys.argv[2])
 import vtu
 W = sys.argv[1]
@@ -82,8 +84,9 @@ check(s.get("outputs", {}).get("mesh", {}).get("vtu") == "result.vtu",
 try:
     col = ET.parse(os.path.join(W, "z", "snapshots.pvd")).getroot()
     sets = [(int(d.get("timestep")), d.get("file")) for d in col.findall("./Collection/DataSet")]
-    check(col.get("type") == "Collection" and sets == [(2, "iter-00002.vtu"), (4, "iter-00004.vtu")],
-          "snapshots.pvd lists iterations 2 and 4", sets)
+    check(col.get("type") == "Collection" and
+          sets == [(0, "iter-00000.vtu"), (3, "iter-00003.vtu"), (4, "iter-00004.vtu")],
+          "snapshots.pvd lists the first state, iteration 3 and the final state 4", sets)
     x0 = medit_vertices(sys.argv[3])
     worst = 0.0
     for it, f in sets:
@@ -95,8 +98,51 @@ try:
             for c in range(2):
                 worst = max(worst, abs(pts[3 * i + c] - q[c]), abs(d[3 * i + c] - (q[c] - q0[c])))
     check(worst <= 1e-12, "each iter-N.vtu: the points of iter-N.mesh, displacement = points - template (%.1g)" % worst)
+    first = vtu.read(os.path.join(W, "z", "iter-00000.vtu"))[1]
+    check(max(map(abs, first["displacement"])) == 0, "iter-00000.vtu is the template (displacement 0)")
 except Exception as e:
     check(False, "the snapshots decode", repr(e))
+# the distance field of every snapshot against d interpolated here: the
+# background's P1 values at the barycentric coordinates of the triangle
+# holding each point (found among the nearest triangles by centroid)
+try:
+    import numpy as np
+    from scipy.spatial import cKDTree
+    def medit_section(tokens, name, width):
+        k = tokens.index(name)
+        n = int(tokens[k + 1])
+        return np.array(tokens[k + 2:k + 2 + n * width], dtype=float).reshape(n, width)
+    t = gzip.open(os.path.join(sys.argv[4], "background.mesh.gz"), "rt").read().split()
+    xy = medit_section(t, "Vertices", 3)[:, :2]
+    tri = medit_section(t, "Triangles", 4)[:, :3].astype(int) - 1
+    s = gzip.open(os.path.join(sys.argv[4], "background.sol.gz"), "rt").read().split()
+    k = s.index("SolAtVertices")
+    sol = np.array(s[k + 4:k + 4 + int(s[k + 1])], dtype=float)
+    tree = cKDTree(xy[tri].mean(axis=1))
+    def interpolate(pts):
+        out = np.full(len(pts), np.nan)
+        _, near = tree.query(pts, k=24)
+        for i, p in enumerate(pts):
+            for e in near[i]:
+                a, b, c = xy[tri[e]]
+                m = np.array([[b[0] - a[0], c[0] - a[0]], [b[1] - a[1], c[1] - a[1]]])
+                l1, l2 = np.linalg.solve(m, p - a)
+                if min(l1, l2, 1 - l1 - l2) >= -1e-12:
+                    out[i] = (1 - l1 - l2) * sol[tri[e][0]] + l1 * sol[tri[e][1]] + l2 * sol[tri[e][2]]
+                    break
+        return out
+    worst = 0.0
+    for it, f in sets:
+        p = vtu.read(os.path.join(W, "z", f))[1]
+        pts = np.array(p["Points"]).reshape(-1, 3)[:, :2]
+        want = interpolate(pts)
+        worst = max(worst, float(np.max(np.abs(np.array(p["distance"]) - want))))
+    last = vtu.read(os.path.join(W, "z", sets[-1][1]))[1]
+    res = vtu.read(os.path.join(W, "z", "result.vtu"))[1]
+    check(worst <= 1e-12 and last["distance"] == res["distance"] and last["Points"] == res["Points"],
+          "each snapshot's distance is d at its points (independent P1 interpolation, %.1g); the final one is result.vtu's" % worst)
+except Exception as e:
+    check(False, "the snapshots' distance fields", repr(e))
 try:
     d = vtu.read(os.path.join(W, "d.vtu"))[1]
     check(len(d["distance"]) * 3 == len(d["Points"]) and min(d["distance"]) < 0 < max(d["distance"]),

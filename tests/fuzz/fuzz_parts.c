@@ -9,8 +9,9 @@
  *
  * Each call is: a byte [key:3 | encoding:3 | restart:1 | kind:1], a
  * 16-bit little-endian chunk size (cut to what is left), the chunk.  key
- * 0-4 is a part name, 5 none (NULL), 6 the same as the previous call, 7
- * a name taken from the input (a length byte, then the bytes).  encoding
+ * 0-4 is a part name (the next byte modulo the number of parts picks
+ * it), 5 none (NULL), 6 the same as the previous call, 7 a name taken
+ * from the input (a length byte, then the bytes).  encoding
  * 0 is none, 1-4 binary, 7BIT, 8bit, base64, 5 one from the input (a
  * length byte, then the bytes), 6-7 none.  restart gives offset 0; else
  * the offset continues the previous call's part.  The script stops when
@@ -70,8 +71,14 @@ static const char *take_string(script *s, char *buf, size_t cap)
 /* prev: the previous call's key (NULL: none). */
 static const char *take_key(script *s, int sel, const char *prev, char *buf, size_t cap)
 {
-    if (sel < SM_NPARTS)
-        return sm_part_names[sel];
+    if (sel < 5) {
+        unsigned pick = s->left ? s->p[0] : 0; /* one byte: which part */
+        if (s->left) {
+            s->p++;
+            s->left--;
+        }
+        return sm_part_names[pick % SM_NPARTS];
+    }
     if (sel == 5)
         return NULL;
     if (sel == 6)

@@ -2,6 +2,7 @@
 
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -50,6 +51,10 @@ void fuzz_parts_check(const smd_parts *p)
         abort();
     if (p->seen[SM_PART_TEMPLATE_LANDMARKS] != p->seen[SM_PART_TARGET_LANDMARKS])
         abort(); /* the landmark parts come both or not at all */
+    char why[96];
+    if (p->seen[SM_PART_NAME] && (p->name_len != strlen(p->name) ||
+                                  sm_job_name_check(p->name, p->name_len, why, sizeof why) != 0))
+        abort(); /* an accepted name is one: 1-200 bytes of UTF-8, no control character */
     struct stat st;
     for (int i = 0; i < SM_PART_PARAMS; i++)
         if (p->seen[i] && stat(p->path[i], &st) != 0)

@@ -29,13 +29,13 @@ FUZZ_TARGET_SRCS := $(FUZZ_TARGETS:%=tests/fuzz/%.c)
 
 $(FUZZ_DIR)/obj/%.o: %.c
 	@mkdir -p $(dir $@)
-	$(FUZZ_CC) $(FUZZ_CFLAGS) -MMD -MP -c $< -o $@
+	$(call show,CC,$<,fuzz)$(FUZZ_CC) $(FUZZ_CFLAGS) -MMD -MP -c $< -o $@
 
 $(FUZZ_DIR)/libfuzzdeps.a: $(FUZZ_LIB_SRCS:%.c=$(FUZZ_DIR)/obj/%.o)
-	rm -f $@ && ar rcs $@ $^
+	$(call show,AR,$@)rm -f $@ && ar rcs $@ $^
 
 $(FUZZ_TARGETS:%=$(FUZZ_DIR)/%): $(FUZZ_DIR)/%: $(FUZZ_DIR)/obj/tests/fuzz/%.o $(FUZZ_DIR)/libfuzzdeps.a
-	$(FUZZ_CC) $(FUZZ_LDFLAGS) -o $@ $^ $(PROTO_LIBS) -lcholmod $(HYPRE_LIBS) -llapack -lblas -ldeflate -lz -lm $(HTTP_LIBS)
+	$(call show,LD,$@)$(FUZZ_CC) $(FUZZ_LDFLAGS) -o $@ $^ $(PROTO_LIBS) -lcholmod $(HYPRE_LIBS) -llapack -lblas -ldeflate -lz -lm $(HTTP_LIBS)
 
 .PHONY: fuzz fuzz-build
 fuzz-build: $(FUZZ_TARGETS:%=$(FUZZ_DIR)/%)

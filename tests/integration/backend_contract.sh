@@ -10,7 +10,8 @@
 # job; a daemon stop while a job runs (it runs again after the restart,
 # attempt 2); the node killed (-9) while a job runs: it runs again when
 # the node is back (the spool: recovery at start; PostgreSQL: the lease
-# expires); retention (the final job deleted after --retention); a run
+# expires); retention (the final job deleted after --retention); a job's
+# name kept across a restart (the spool's record, PostgreSQL's column); a run
 # that finishes without converging (2 iterations of the disk: its boundary
 # error 2.6 times the background's resolution) is successful with
 # "converged": false in its status, finished event and summary, the 20-
@@ -136,17 +137,25 @@ contract() {
     gc=$(get_code "$id")
     all "$b: DELETE of a final job: gone (404 after)" "$dc|=|200" "$gc|=|404"
 
-    # ---- a stop while a job runs: it runs again after the restart
+    # ---- a stop while a job runs: it runs again after the restart; a
+    # job's name is kept by the backend across it
+    local named
+    named=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 2)" -F "name=$b: «disk» #2")
+    wait_final "$named" 60
     run=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
     poll 30 state_is "$run" running
     stop_daemon
-    local after=""
+    local after="" kept="" listed=""
     if start "$b" "$name"; then
         wait_attempts "$run" "1 2 " 30
         after=$(started_attempts "$run")
+        kept=$(hcurl "$BASE/v1/jobs/$named" | jq -r .name)
+        listed=$(hcurl "$BASE/v1/jobs?limit=1000" | jq -r --arg id "$named" '.jobs[] | select(.jobID == $id) | .name')
     fi
     all "$b: a job running at a daemon stop runs again after the restart (attempt 2)" \
         "$after|=|1 2 "
+    all "$b: a job's name (part name) is in its status and the list after a restart" \
+        "$kept|=|$b: «disk» #2" "$listed|=|$b: «disk» #2"
     delete_code "$run" >/dev/null
     poll 30 state_is "$run" dismissed
 

@@ -121,8 +121,8 @@ fi
 sm watch watch "$ID"
 iters=$(grep -cE '^iter [0-9]+ ' "$WORK/watch.log")
 if [ "$RC" = 0 ] && grep -q "job $ID queued" "$WORK/watch.log" && grep -q "job $ID started" "$WORK/watch.log" &&
-    grep -qE '^iter 0  rms ' "$WORK/watch.log" && grep -qE '^iter 10  rms ' "$WORK/watch.log" &&
-    grep -qE '^iter 30  rms [0-9.e+-]+  relative [0-9.e+-]+  J .* step ' "$WORK/watch.log" && [ "$iters" = 4 ] &&
+    grep -qE '^iter 0  result->target rms ' "$WORK/watch.log" && grep -qE '^iter 10  result->target rms ' "$WORK/watch.log" &&
+    grep -qE '^iter 30  result->target rms [0-9.e+-]+  max [0-9.e+-]+  target->result rms [0-9.e+-]+  .*relative [0-9.e+-]+  L2 [0-9.e+-]+  J .* step ' "$WORK/watch.log" && [ "$iters" = 4 ] &&
     grep -q "job $ID successful: max_iterations after 30 iterations" "$WORK/watch.log" &&
     [ ! -s "$WORK/watch.out" ]; then
     ok "watch (not a terminal): queued, started, a plain line every 10 iterations (4), successful, exit 0"

@@ -40,8 +40,8 @@ node api2 api --workers 1 --lease 2 || started=0
 for w in w1 w2; do
     node "$w" worker --workers 1 --lease 2 --worker "$WORK/slow-worker.sh" || started=0
 done
-if [ "$started" = 1 ] && [ "$(psql_val 'SELECT max(version) FROM smd_schema')" = 2 ]; then
-    ok "two API nodes and two worker nodes start; schema version 2"
+if [ "$started" = 1 ] && [ "$(psql_val 'SELECT max(version) FROM smd_schema')" = 3 ]; then
+    ok "two API nodes and two worker nodes start; schema version 3"
 else
     not_ok "the nodes start" "$(tail -n 3 "$WORK"/*.log)"
     exit 1

@@ -183,7 +183,7 @@ done
 tmpl='/v1/jobs/{jobID}/results/snapshots'
 noauth_probe "no token" GET "$tmpl" "/v1/jobs/$J/results/snapshots"
 probe "snapshot list" GET "$tmpl" 200 "/v1/jobs/$J/results/snapshots" \
-    ".jobID == \"$J\" and .snapshots[0].iteration == 10 and all(.snapshots[]; .iteration % 10 == 0 and .bytes > 0)" "${AUTH[@]}"
+    ".jobID == \"$J\" and .snapshots[0].iteration == 0 and .snapshots[1].iteration == 10 and all(.snapshots[:-1][]; .iteration % 10 == 0) and all(.snapshots[]; .bytes > 0)" "${AUTH[@]}"
 probe "unknown job" GET "$tmpl" 404 /v1/jobs/0123456789abcdef0123456789abcdef/results/snapshots \
     '.type | endswith("no-such-job")' "${AUTH[@]}"
 tmpl='/v1/jobs/{jobID}/results/snapshots/{iteration}'

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Snapshots through the daemon (params.save_every): a job with save_every
 # 10 and max_iter 30 lists exactly the snapshots `shapematch run
-# --save-every 10 --max-iter 30` writes (one BLAS/OpenMP thread on both
-# sides), and each one fetched (plain and gzip) is byte-identical to the
+# --save-every 10 --max-iter 30` writes (the first state 0, then 10, 20,
+# 30; one BLAS/OpenMP thread on both sides), and each one fetched (plain and gzip) is byte-identical to the
 # CLI's iter-NNNNN.mesh; unknown iterations and anything that is not an
 # iteration (leading zeros, signs, letters, traversal attempts) are 404
 # problem+json; a job without save_every lists none; a running job's
@@ -44,7 +44,7 @@ problem() {
 # ------------------------------------------------------------ running
 if wait_state "$E" running 20 && poll 20 test -n "$(ls "$SPOOL/jobs/$E/results.tmp/snapshots/" 2>/dev/null)"; then
     first=$(ls "$SPOOL/jobs/$E/results.tmp/snapshots/" | head -1)
-    if [ "$first" = iter-00001.mesh ]; then
+    if [ "$first" = iter-00000.mesh ]; then
         ok "a running job writes its snapshots into results.tmp/snapshots/ (first: $first)"
     else
         not_ok "snapshots of a running job" "$(ls "$SPOOL/jobs/$E/results.tmp/snapshots/")"
@@ -78,9 +78,9 @@ CLI=$WORK/cli-out
 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 \
     "$BIN/shapematch" run --template "$DISK" --target-mesh "$BOX" --target-sol "$BOXSOL" \
     --clamp-ball 0,0,0.1 --max-iter 30 --save-every 10 -o "$CLI" --quiet >"$WORK/cli.log" 2>&1
-cli_iters=$(cd "$CLI" && ls iter-*.mesh 2>/dev/null | sed 's/^iter-0*//; s/\.mesh$//' | sort -n | tr '\n' ' ')
-if [ "$cli_iters" = "10 20 30 " ]; then
-    ok "shapematch run --save-every 10 --max-iter 30 writes iterations 10 20 30"
+cli_iters=$(cd "$CLI" && ls iter-*.mesh 2>/dev/null | sed 's/^iter-0*\([0-9]\)/\1/; s/\.mesh$//' | sort -n | tr '\n' ' ')
+if [ "$cli_iters" = "0 10 20 30 " ]; then
+    ok "shapematch run --save-every 10 --max-iter 30 writes the first state and iterations 10 20 30"
 else
     not_ok "the CLI's snapshots" "'$cli_iters'" "$(tail -5 "$WORK/cli.log")"
 fi
@@ -127,7 +127,7 @@ fi
 
 # not snapshots: each a 404 problem, none a file
 bad=""
-for seg in 15 40 0 010 00010 +10 -10 1e1 0x14 abc 1234567890 99999999999999999999 '..%2Fsummary.json' \
+for seg in 15 40 00 010 00010 +10 -10 1e1 0x14 abc 1234567890 99999999999999999999 '..%2Fsummary.json' \
     '..%2F..%2Fjob.json' '%2E%2E' iter-00010.mesh '10.mesh' '10%2F'; do
     problem "$S" "snapshots/$seg" 404 about:blank || bad="$bad $seg($(head -c 120 "$WORK/p.json"))"
 done

@@ -69,8 +69,12 @@ fi
 
 "$BIN/shapematch" watch --server "$BASE" --quiet "$part" >"$WORK/watch.out" 2>"$WORK/watch.err"
 rc=$?
-if [ $rc -eq 0 ] && grep -q '^shapematch: warning: outside-background: ' "$WORK/watch.err"; then
-    ok "watch --quiet prints the warning on stderr"
+# exit 10 since issue 33: the part of the result outside the background
+# lies far from the target's zero level set (the target is not covered
+# there), which target-not-reached says too
+if [ $rc -eq 10 ] && grep -q '^shapematch: warning: outside-background: ' "$WORK/watch.err" &&
+    grep -q '^shapematch: warning: target-not-reached: ' "$WORK/watch.err"; then
+    ok "watch --quiet prints the warnings on stderr (exit 10: not covered)"
 else
     not_ok "watch prints the warning (exit $rc)" "$(cat "$WORK/watch.err")"
 fi

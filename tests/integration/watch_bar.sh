@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # `shapematch watch` on a terminal shows the same bar as `run` (issue 10):
 # it reads the job's goals from its status document (maxIter,
-# tolBoundary) and, under a pseudo-terminal (script -qec), draws
-# "[####....]  NN%  R it/s  ETA Ts  iter ..." redrawn in place, ending at
-# 100% when the iteration cap ends the job; not on a terminal, plain
-# lines with no bar.
+# tolBoundary) and, under an 80-column pseudo-terminal (script -qec),
+# draws "[####....]  NN%  iter N  rms ...  ETA Ts" within 79 columns,
+# redrawn in place, ending at 100% when the iteration cap ends the job;
+# not on a terminal, plain lines with no bar.
 source "$(dirname "$0")/lib.sh"
 
 if ! command -v script >/dev/null; then
@@ -35,14 +35,15 @@ doc=$(hcurl "$BASE/v1/jobs/$ID")
     ok "the status document carries maxIter and tolBoundary" ||
     not_ok "the status document carries maxIter and tolBoundary" "$doc"
 
-script -qec "$BIN/shapematch watch --server $BASE $ID" /dev/null >"$WORK/tty.log" 2>&1
+script -qec "stty cols 80; $BIN/shapematch watch --server $BASE $ID" /dev/null >"$WORK/tty.log" 2>&1
 rc=$?
 tr '\r' '\n' <"$WORK/tty.log" | sed 's/\x1b\[K//g' >"$WORK/tty.lines"
 last=$(grep -E '^\[' "$WORK/tty.lines" | tail -1)
 if [ "$rc" = 0 ] && grep -q $'\r' "$WORK/tty.log" &&
-    grep -qE '^\[[#.]{20}\] +[0-9]+%  [0-9.]+ it/s  ETA [0-9]+s  iter [0-9]+ ' "$WORK/tty.lines" &&
-    [ "${last#\[####################\] 100%}" != "$last" ]; then
-    ok "watch on a terminal: the bar with percentage, rate and ETA, ending at 100% ('${last:0:50}')"
+    grep -qE '^\[[#.]{10}\] +[0-9]+%  iter [0-9]+  r->t rms [^ ]+  t->r rms [^ ]+  .*ETA [0-9]+s' "$WORK/tty.lines" &&
+    [ -z "$(grep -E '^\[' "$WORK/tty.lines" | awk 'length($0) > 79')" ] &&
+    [ "${last#\[##########\] 100%}" != "$last" ]; then
+    ok "watch on an 80-column terminal: the bar with percentage, both RMS distances and ETA within 79 columns, ending at 100% ('$last')"
 else
     not_ok "watch on a terminal shows the bar" "exit $rc" "$(tail -c 600 "$WORK/tty.lines")"
 fi

@@ -59,7 +59,11 @@ async function fillJob(page, dir, clamp, extra = {}) {
   await page.setInputFiles('#f-target_sol', files[2]);
   await page.waitForSelector('#p-clamp');
   await fillClamp(page, clamp);
-  for (const [k, v] of Object.entries(extra)) await page.fill(`#p-${k}`, String(v));
+  for (const [k, v] of Object.entries(extra)) {
+    // a field of the folded section (advanced) is filled as a user does: unfolded first
+    if (await page.$eval(`#p-${k}`, (e) => !!e.closest('details:not([open])'))) await page.click(`#p-${k} >> xpath=ancestor::details/summary`);
+    await page.fill(`#p-${k}`, String(v));
+  }
 }
 // The job's results summary, read by the test itself (not through the page).
 const summaryOf = async (base, id) => (await fetch(`${base}/v1/jobs/${id}/results`)).json();
@@ -104,13 +108,35 @@ await run('the app: a 2D job', async () => {
   const page = await newPage();
   const resp = await page.goto(`${openBase}/`);
   report('GET / in a browser is the web app (text/html)', resp.status() === 200 && (resp.headers()['content-type'] || '').startsWith('text/html'), resp.status());
-  await fillJob(page, '2d', clamp2d, { live_every: 1, max_iter: 4000, tol_stall: 0, tol_step: 1e-12 });
+  // the form's sections are the schema's x-groups (the parameter table's
+  // group column), in their order; each field in its row's group; the
+  // advanced one folded until opened
+  await page.waitForSelector('#p-clamp');
+  const schemaDoc = await (await fetch(`${openBase}/v1/params.schema.json`)).json();
+  const form = await page.evaluate(() => [...document.querySelectorAll('#params .param-group')].map((g) => ({
+    group: g.dataset.group, tag: g.tagName, open: g.tagName === 'DETAILS' ? g.open : true,
+    fields: [...g.querySelectorAll('[id^="p-"]')].map((e) => e.id.slice(2)).filter((n) => !n.startsWith('clamp-')),
+  })));
+  const wantGroups = schemaDoc['x-groups'].map((g) => g.name);
+  const misplaced = form.flatMap((g) => g.fields.filter((f) => (schemaDoc.properties[f] || {})['x-group'] !== g.group).map((f) => `${f} in ${g.group}`));
+  const every = form.flatMap((g) => g.fields).sort().join(',') === Object.keys(schemaDoc.properties).sort().join(',');
+  report('the form is grouped: inputs, clamp, stop rules, advanced (folded), from the schema\'s x-groups, each field in its group',
+    JSON.stringify(form.map((g) => g.group)) === JSON.stringify(wantGroups) && wantGroups.join() === 'inputs,clamp,stop,advanced' &&
+    misplaced.length === 0 && every && form.find((g) => g.group === 'advanced').tag === 'DETAILS' && !form.find((g) => g.group === 'advanced').open,
+    `${JSON.stringify(form)} misplaced ${misplaced}`);
+  await page.screenshot({ path: path.join(logDir, 'web-app-form-1100.png'), fullPage: true });
+  // 1500 iterations: long enough to be seen running, short enough to end
+  // (with the target-side term the step rule no longer ends this run early;
+  // 4000 with live_every 1 outlasted a minute on a loaded machine)
+  await fillJob(page, '2d', clamp2d, { live_every: 1, max_iter: 1500, tol_stall: 0, tol_step: 1e-12 });
+  const jobName = 'disk → star, 2D «test»';
+  await page.fill('#f-name', jobName);
   await page.click('#submit');
   await page.waitForFunction(() => Number(document.querySelector('#plot').dataset.points || 0) >= 5, null, { timeout: 30000 });
   const live = await status(page);
   await page.screenshot({ path: path.join(logDir, 'web-app-2d-running.png') });
   report('at least 5 plot points arrive from the event stream while the job runs', live === 'running', live);
-  const final = await waitStatus(page, 'successful', 60000);
+  const final = await waitStatus(page, 'successful', 120000);
   report('the job\'s status becomes successful', final === 'successful', final);
   await page.waitForFunction(() => document.querySelector('#view2d').dataset.drawn === 'final', null, { timeout: 15000 });
   const drawn = await page.$eval('#view2d', (c) => {
@@ -172,6 +198,39 @@ await run('the app: a 2D job', async () => {
   try { cliOut = execFileSync(cli, ['status', '--server', openBase, listed.find((t) => t === id) || 'none'], { encoding: 'utf8' }); } catch (e) { cliOut = `${e.status} ${e.stderr}`; }
   report('the job list shows the full job id, which `shapematch status` accepts', /^[0-9a-f]{32}$/.test(id) && listed.includes(id) && cliOut.includes('successful'),
     `${id} ${JSON.stringify(listed)} ${cliOut}`);
+  // the job's name: given in the form, in the status document, the list,
+  // the job's title and `shapematch status`
+  const doc = await (await fetch(`${openBase}/v1/jobs/${id}`)).json();
+  const rowName = await page.$eval(`#jobs tr:has(code.job-id:text-is("${id}")) td.job-name`, (e) => e.textContent).catch((e) => String(e));
+  const titleName = await page.$eval('#job-name', (e) => e.textContent);
+  report('the job\'s name is in its status document, the job list, the job\'s title and `shapematch status`',
+    doc.name === jobName && rowName === jobName && titleName === jobName && cliOut.includes(`name      ${jobName}\n`),
+    `doc ${doc.name} row ${rowName} title ${titleName} cli ${cliOut}`);
+  // the headline's figures, each read back against the summary's member
+  // of the same name (the distances when the summary has them)
+  const figs = await page.$$eval('#headline [data-figure]', (l) => l.map((e) => ({ name: e.dataset.figure, value: Number(e.dataset.value), text: e.textContent })));
+  const member = (name) => name.split('.').reduce((o, k) => (o == null ? o : o[k]), sum);
+  const figNames = figs.map((f) => f.name);
+  const wantFigs = sum.distance ? ['distance.result_to_target.rms', 'distance.result_to_target.max', 'distance.target_to_result.rms', 'distance.target_to_result.max']
+    : ['boundary_rms', 'boundary_max'];
+  report('the headline shows the summary\'s named figures (RMS and max, the L2 norm by its name), each equal to the summary\'s',
+    figs.length >= 3 && wantFigs.every((n) => figNames.includes(n)) && figNames.includes('boundary_l2') &&
+    figs.every((f) => f.value === member(f.name) && Math.abs(Number(f.text) / f.value - 1) < 0.01),
+    `${JSON.stringify(figs)}`);
+  // 1400 px wide: the form and the job side by side, the batch panel and
+  // the job list across the page, nothing overflowing
+  await page.setViewportSize({ width: 1400, height: 1100 });
+  await sleep(400);
+  const wide = await page.evaluate(() => {
+    const r = (s) => document.querySelector(s).getBoundingClientRect();
+    return { form: r('#submit-panel'), job: r('#job-panel'), batches: r('#batches-panel'), main: r('main') };
+  });
+  const over1400 = await overflow(page);
+  report('at 1400 px the form and the job sit side by side, the batch panel spans the page, nothing overflows',
+    over1400.length === 0 && wide.job.left > wide.form.right && wide.batches.width > 0.9 * wide.main.width,
+    `${over1400.join('; ')} ${JSON.stringify(wide)}`);
+  await page.screenshot({ path: path.join(logDir, 'web-app-1400.png'), fullPage: true });
+  await page.setViewportSize({ width: 1100, height: 1150 });
   const [download] = await Promise.all([page.waitForEvent('download'), page.click('#downloads a[data-file="result.vtu"]')]);
   const file = path.join(logDir, 'web-app-result.vtu');
   await download.saveAs(file);

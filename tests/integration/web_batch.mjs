@@ -77,6 +77,26 @@ try {
   report(`mode 1 at +-3 sigma: the radius moves by 6 sigma, sigma ${sigma.toFixed(4)} against the radii's ${sd.toFixed(4)}; the mean's radius ${r0.toFixed(3)} near their mean ${mean.toFixed(3)}`,
     Math.abs(sigma / sd - 1) < 0.25 && Math.abs(r0 - mean) < 0.05 && img0 !== imgPlus, `r0 ${r0} r+ ${rPlus} r- ${rMinus}`);
   await page.screenshot({ path: `${logDir}/web_batch.png`, fullPage: true });
+  // the batch view across the page (not the form's column), its variance
+  // plot the width of its column, at 1400 px and at 800 px; nothing
+  // sticks out of the panel
+  const layout = async (width) => {
+    await page.setViewportSize({ width, height: 1400 });
+    await new Promise((r) => setTimeout(r, 400));
+    await page.screenshot({ path: `${logDir}/web_batch_${width}.png`, fullPage: true });
+    return page.evaluate(() => {
+      const r = (s) => document.querySelector(s).getBoundingClientRect();
+      const panel = r('#batches-panel'), main = r('main'), plot = r('#batch-variance canvas'), box = r('#batch-variance');
+      const table = r('#batch-targets').width;
+      return { panel: panel.width / main.width, plot: plot.width, box: box.width, table,
+        inside: plot.right <= panel.right + 0.5 && table <= panel.width, page: document.documentElement.scrollWidth <= document.documentElement.clientWidth };
+    });
+  };
+  const wide = await layout(1400), narrow = await layout(800);
+  report('the batch view spans the page at 1400 and 800 px, its variance plot the width of its column (>= 400 px), nothing overflowing',
+    wide.panel > 0.95 && narrow.panel > 0.95 && wide.plot >= 400 && narrow.plot >= 400 && Math.abs(wide.plot - wide.box) < 3 &&
+    wide.inside && narrow.inside && wide.page && narrow.page, JSON.stringify({ wide, narrow }));
+  await page.setViewportSize({ width: 1100, height: 1400 });
 
   // the jobs list: the model job (processID shape-model) offers its batch
   // view, not the match view it has no result for; a target keeps 'view'

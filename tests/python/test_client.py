@@ -238,6 +238,23 @@ class Daemon(unittest.TestCase):
         worst = max(abs(math.dist(v[i], (0.5, 0.5)) - 0.32) for i in boundary)
         self.assertLess(worst, 0.0234375 / 2)
 
+    def test_name_given_at_submit(self):
+        # the job's name: in its status document and the job list; a bad
+        # one (a control character, or too long) is a 422 naming it
+        job = self.client.submit(self.template, max_iter=2, name="ball \u2192 cube #1", **self.kw)
+        r = job.wait()
+        self.assertEqual(job.status()["name"], "ball \u2192 cube #1")
+        listed = self.client._json("GET", "/v1/jobs?limit=1000")["jobs"]
+        self.assertIn("ball \u2192 cube #1", [j.get("name") for j in listed if j["jobID"] == job.id])
+        # the result's figures by the summary's names (None without distance)
+        self.assertEqual(r.distance, r.summary.get("distance"))
+        self.assertIn("L2 of d on the boundary", repr(r))
+        for bad in ("tab\tname", "x" * 201):
+            with self.assertRaises(shapematch.HTTPError) as e:
+                self.client.submit(self.template, max_iter=2, name=bad, **self.kw)
+            self.assertEqual(e.exception.status, 422)
+            self.assertIn("name:", str(e.exception))
+
     def test_invalid_job_is_a_422_with_the_detail(self):
         with self.assertRaises(shapematch.HTTPError) as e:
             self.client.submit(self.template, max_iter=0, **self.kw)

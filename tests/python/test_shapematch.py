@@ -5,6 +5,7 @@ import array
 import ctypes
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -153,6 +154,32 @@ class Match2D(unittest.TestCase):
         self.assertEqual(len(h) - 1, self.result.summary["iterations"])
         self.assertEqual(h[-1]["J"], self.result.summary["J_final"])
         self.assertEqual(self.result.warnings, self.cli_summary["warnings"])
+
+    def test_figures_by_the_summarys_names(self):
+        # Result.distance is summary.json's "distance" (None when absent);
+        # the repr shows the figures by their names, the L2 norm as such
+        r = self.result
+        self.assertEqual(r.distance, r.summary.get("distance"))
+        text = repr(r)
+        self.assertIn("L2 of d on the boundary %.3e" % r.summary["boundary_l2"], text)
+        if r.distance is not None:
+            self.assertIn("result->target RMS %.3e" % r.distance["result_to_target"]["rms"], text)
+            self.assertIn("target->result RMS %.3e" % r.distance["target_to_result"]["rms"], text)
+        else:
+            self.assertIn("boundary RMS %.3e, max %.3e" % (r.summary["boundary_rms"],
+                                                            r.summary["boundary_max"]), text)
+        # a summary with the two-sided figures, and an old one without
+        two = {"boundary_l2": 3.0, "boundary_rms": 1.0, "boundary_max": 2.0,
+               "distance": {"result_to_target": {"rms": 0.25, "max": 0.5, "mean": 0.2},
+                            "target_to_result": {"rms": 0.75, "max": 1.5, "mean": 0.5, "p99": 1.25},
+                            "unit": "mm", "method": "surface"}}
+        self.assertEqual(shapematch._headline(two),
+                         "result->target RMS 2.500e-01, max 5.000e-01; target->result RMS "
+                         "7.500e-01, max 1.500e+00, p99 1.250e+00 (mm); L2 of d on the boundary "
+                         "3.000e+00")
+        del two["distance"]
+        self.assertEqual(shapematch._headline(two), "boundary RMS 1.000e+00, max 2.000e+00; "
+                         "L2 of d on the boundary 3.000e+00")
 
     def test_write_gives_the_cli_files(self):
         d = os.path.join(self.tmp, "py")
@@ -524,5 +551,6 @@ class Docs(unittest.TestCase):
         finally:
             os.chdir(cwd)
             shutil.rmtree(tmp, ignore_errors=True)
-        self.assertTrue(out[0].startswith("<shapematch.Result finished after 210 iterations"),
-                        out[0])
+        # the repr the page shows in its comment, up to its "..."
+        said = re.search(r"# (<shapematch\.Result .*?)\.\.\.>", text).group(1)
+        self.assertTrue(out[0].startswith(said), "%s, the page says %s" % (out[0], said))

@@ -262,6 +262,63 @@ static void test_step_rule(void **state)
     }
 }
 
+/* Numbers in messages are the shortest text that reads back to the value
+ * (issue 38: a 422 said "0.69999999999999996"), checked by strtod; and
+ * the messages of the CLI, the params JSON and the core use it. */
+static void test_number_text(void **state)
+{
+    (void)state;
+    char b[SM_NUMBER_TEXT_LEN];
+    struct { double x; const char *text; } cases[] = {
+        {0.7, "0.7"}, {0.1 + 0.2, "0.30000000000000004"}, {1e9, "1000000000"}, {-0.0, "0"},
+        {-2.5, "-2.5"}, {1e-300, "1e-300"}, {5e-324, "5e-324"},
+        {1e15, "1e+15"}, {INFINITY, "inf"}, {-INFINITY, "-inf"}};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
+        assert_string_equal(sm_number_text(b, cases[i].x), cases[i].text);
+    assert_string_equal(sm_number_text(b, NAN) + (b[0] == '-'), "nan");
+    /* every finite text reads back exactly, and no shorter one would */
+    srand(38);
+    for (int i = 0; i < 100000; i++) {
+        uint64_t bits = ((uint64_t)rand() << 42) ^ ((uint64_t)rand() << 21) ^ (uint64_t)rand();
+        double x;
+        memcpy(&x, &bits, sizeof x);
+        if (!isfinite(x))
+            continue;
+        sm_number_text(b, x);
+        assert_true(strtod(b, NULL) == x);
+        if (fabs(x) < 1e15 && x == floor(x))
+            continue; /* a whole number, in full */
+        /* its significant digits: those of the mantissa past leading zeros */
+        int digits = 0, leading = 1;
+        for (const char *c = b; *c && *c != 'e'; c++) {
+            if (*c >= '1' && *c <= '9')
+                leading = 0;
+            digits += !leading && *c >= '0' && *c <= '9';
+        }
+        if (digits > 1) {
+            char shorter[320];
+            snprintf(shorter, sizeof shorter, "%.*g", digits - 1, x);
+            assert_true(strtod(shorter, NULL) != x);
+        }
+    }
+    char why[ARGS_MSG_LEN];
+    const char *argv[] = {"run", "--template", "t", "--target-mesh", "b", "--target-sol", "s",
+                          "-o", "o", "--no-clamp", "--step-initial", "0.07", "--step-max",
+                          "0.05", NULL};
+    run_options o;
+    assert_int_not_equal(args_parse_run(14, (char **)argv, &o, why, sizeof why), ARGS_OK);
+    assert_non_null(strstr(why, "(0.07) must not exceed --step-max (0.05)"));
+    const char *doc = "{\"clamp\": {\"kind\": \"none\"}, \"poisson\": 0.7}";
+    sm_params p;
+    sm_error err;
+    assert_int_equal(sm_params_from_json(doc, strlen(doc), 2, &p, &err), SM_ERR_INVALID);
+    assert_string_equal(err.msg, "params.poisson: must be < 0.5 (got 0.7)");
+    sm_params_default(&p);
+    p.poisson = 0.7;
+    assert_int_equal(sm_params_validate(&p, 2, &err), SM_ERR_INVALID);
+    assert_string_equal(err.msg, "poisson: must be in (-1, 0.5) (got 0.7)");
+}
+
 /* The named rows (solver, align) by name: every name of the table's
  * range in both; a wrong one refused by both; an enum value past the
  * range refused by core. */
@@ -441,6 +498,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_rows_well_formed),
         cmocka_unit_test(test_bounds_agree),
         cmocka_unit_test(test_step_rule),
+        cmocka_unit_test(test_number_text),
         cmocka_unit_test(test_named_values),
         cmocka_unit_test(test_ref_counts),
         cmocka_unit_test(test_docs_table),

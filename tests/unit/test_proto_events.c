@@ -42,11 +42,32 @@ static sm_result sample_result(void)
     r.time.solve = 0.05;
     r.time.step = 0.06;
     r.time.total = 0.21000000000000002;
+    r.distance.method = SM_DISTANCE_SURFACE;
+    r.distance.result_to_target = (sm_distance_side){.rms = 1.5e-3, .max = 0.1 + 0.2,
+                                                     .mean = 1e-3, .p99 = NAN};
+    r.distance.target_to_result = (sm_distance_side){.rms = 2.5e-3, .max = 0.75,
+                                                     .mean = 1.75e-3, .p99 = 0.5};
     return r;
+}
+
+static void assert_side_equal(const sm_distance_side *a, const sm_distance_side *b, int full,
+                              int p99)
+{
+    assert_true(same_double(a->rms, b->rms));
+    assert_true(same_double(a->max, b->max));
+    if (full)
+        assert_true(same_double(a->mean, b->mean));
+    if (p99)
+        assert_true(same_double(a->p99, b->p99));
 }
 
 static void assert_result_equal(const sm_result *a, const sm_result *b)
 {
+    /* the two-sided distance: every figure but the result side's p99,
+     * which is not on the wire */
+    assert_int_equal(a->distance.method, b->distance.method);
+    assert_side_equal(&a->distance.result_to_target, &b->distance.result_to_target, 1, 0);
+    assert_side_equal(&a->distance.target_to_result, &b->distance.target_to_result, 1, 1);
     assert_int_equal(a->stop, b->stop);
     assert_int_equal(a->converged, b->converged);
     assert_int_equal(a->iterations, b->iterations);
@@ -92,6 +113,13 @@ static void assert_event_equal(const sm_event *a, const sm_event *b)
         assert_true(same_double(p->elapsed, q->elapsed));
         assert_int_equal(p->accepted, q->accepted);
         assert_int_equal(p->rejected, q->rejected);
+        /* the progress event's distance: rms and max, p99 on the target side */
+        assert_int_equal(p->distance.method != SM_DISTANCE_NONE,
+                         q->distance.method != SM_DISTANCE_NONE);
+        if (p->distance.method != SM_DISTANCE_NONE) {
+            assert_side_equal(&p->distance.result_to_target, &q->distance.result_to_target, 0, 0);
+            assert_side_equal(&p->distance.target_to_result, &q->distance.target_to_result, 0, 1);
+        }
     }
     if (a->type == SM_EVENT_FINISHED)
         assert_result_equal(&a->result, &b->result);
@@ -163,6 +191,9 @@ static void test_every_event_type_round_trips(void **state)
             ev.progress.elapsed = 12.75;
             ev.progress.accepted = 17;
             ev.progress.rejected = 3;
+            ev.progress.distance.method = SM_DISTANCE_LEVEL_SET;
+            ev.progress.distance.result_to_target = (sm_distance_side){1.25e-3, 0.3, NAN, NAN};
+            ev.progress.distance.target_to_result = (sm_distance_side){2e-3, 0.5, NAN, 0.25};
             break;
         case SM_EVENT_FINISHED:
             ev.result = sample_result();
@@ -432,6 +463,20 @@ static void test_decode_errors_name_the_member(void **state)
         {"{\"type\":\"progress\",\"iteration\":1,\"J\":1,\"step\":1,\"boundary_l2\":1,"
          "\"boundary_max\":1,\"min_quality\":1,\"elapsed\":1,\"accepted\":1}",
          "event.progress.rejected: required member missing"},
+        {"{\"type\":\"progress\",\"iteration\":1,\"J\":1,\"step\":1,\"boundary_l2\":1,"
+         "\"boundary_max\":1,\"min_quality\":1,\"elapsed\":1,\"accepted\":1,\"rejected\":0,\"distance\":5}",
+         "event.progress.distance: must be an object (got integer)"},
+        {"{\"type\":\"progress\",\"iteration\":1,\"J\":1,\"step\":1,\"boundary_l2\":1,"
+         "\"boundary_max\":1,\"min_quality\":1,\"elapsed\":1,\"accepted\":1,\"rejected\":0,\"distance\":{\"result_to_target\":{\"rms\":1,\"max\":1}}}",
+         "event.progress.distance.target_to_result: required member missing"},
+        {"{\"type\":\"progress\",\"iteration\":1,\"J\":1,\"step\":1,\"boundary_l2\":1,"
+         "\"boundary_max\":1,\"min_quality\":1,\"elapsed\":1,\"accepted\":1,\"rejected\":0,\"distance\":{\"result_to_target\":{\"rms\":1,\"max\":1},"
+         "\"target_to_result\":{\"rms\":1,\"max\":\"far\",\"p99\":1}}}",
+         "event.progress.distance.target_to_result.max: must be a number or null"},
+        {"{\"type\":\"progress\",\"iteration\":1,\"J\":1,\"step\":1,\"boundary_l2\":1,"
+         "\"boundary_max\":1,\"min_quality\":1,\"elapsed\":1,\"accepted\":1,\"rejected\":0,\"distance\":{\"result_to_target\":{\"rms\":1,\"max\":1},"
+         "\"target_to_result\":{\"rms\":1,\"max\":1,\"p99\":1},\"method\":\"guess\"}}",
+         "event.progress.distance.method: must be \"surface\", \"level-set\" or null"},
         {"{\"type\":\"finished\"}", "event.finished.result: required member missing"},
         {"{\"type\":\"finished\",\"result\":3}", "event.finished.result: must be an object"},
         {"{\"type\":\"finished\",\"result\":{\"stop_reason\":\"bored\"}}",

@@ -835,6 +835,21 @@ static void test_schema_matches_table(void **state)
         json_t *m = schema_member(schema, f);
         if (!m)
             fail_msg("%s: in the table, not in the schema", f->name);
+        /* the form's section (the web app groups its fields by it): the
+         * table's, one of the schema's x-groups; alpha goes with the clamp */
+        const char *group = f->group ? f->group : "advanced";
+        const char *shown = json_string_value(
+            json_object_get(f->in_clamp ? json_object_get(props, "clamp") : m, "x-group"));
+        if (!shown || strcmp(shown, group) != 0)
+            fail_msg("%s: x-group %s in the schema, group %s in the table", f->name,
+                     shown ? shown : "missing", group);
+        int listed = 0;
+        size_t g;
+        json_t *entry;
+        json_array_foreach(json_object_get(schema, "x-groups"), g, entry)
+            listed |= strcmp(json_string_value(json_object_get(entry, "name")), group) == 0;
+        if (!listed)
+            fail_msg("%s: group %s is not one of the schema's x-groups", f->name, group);
         if (f->type == SM_PARAM_CLAMP)
             continue; /* its own $defs, checked by test_schema_matches_decoder */
         const char *type = json_string_value(json_object_get(m, "type"));

@@ -35,6 +35,13 @@ void sm_error_prefix(sm_error *err, const char *fmt, ...)
 
 void sm_error_clear(sm_error *err);
 
+/* A number for a message: the shortest text that reads back as x ("0.7",
+ * not %.17g's "0.69999999999999996"), whole numbers in full ("1000000000",
+ * not "1e+09"), "inf", "-inf", "nan".  Fills buf and returns it, so that it
+ * can be an argument: sm_error_set(err, ..., "got %s", sm_number_text(b, x)). */
+#define SM_NUMBER_TEXT_LEN 32
+const char *sm_number_text(char buf[SM_NUMBER_TEXT_LEN], double x);
+
 /* Short stable name of a status, e.g. "format". */
 const char *sm_status_name(sm_status code);
 

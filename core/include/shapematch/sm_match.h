@@ -1,11 +1,17 @@
 /* Elastic shape matching (de Buhan, Dapogny, Frey, Nardoni 2016): deform
  * a template mesh by a sequence of linear-elastic displacements that
- * decrease J(Omega) = int_Omega d, d the target's signed distance. */
+ * decrease E(Omega) = J(Omega) + coverage_weight * T(Omega), where
+ * J(Omega) = int_Omega d (the paper's functional, d the target's signed
+ * distance) and T(Omega) = sum_y w_y dist(y, dOmega)^2 over the samples
+ * y of the target's surface (sm_coverage.h): the target-side term that
+ * pulls the boundary toward the parts of the target it does not reach
+ * (docs/method.md).  coverage_weight 0 is the paper's J alone. */
 #ifndef SM_MATCH_H
 #define SM_MATCH_H
 
 #include <stdint.h>
 
+#include "sm_coverage.h"
 #include "sm_error.h"
 #include "sm_field.h"
 #include "sm_mesh.h"
@@ -23,6 +29,16 @@ typedef struct sm_progress {
     double min_quality;
     double elapsed;          /* seconds since the start of the run */
     int accepted, rejected;  /* trial steps in total */
+    /* Both sides at this iteration, from the descent's own samples:
+     * result_to_target's rms and max are boundary_rms and boundary_max
+     * (d sampled on the field at the boundary's quadrature points; its
+     * mean and p99 are not computed: NAN); target_to_result is exact to
+     * the current boundary from the descent's samples of the target (its
+     * samples merged per cell of a grid of the template boundary's mean
+     * edge, each with its cell's area: sm_coverage.c), the ones the
+     * target-side term uses (the events send rms, max, p99). */
+    sm_distance distance;
+    double energy;           /* E = J + coverage_weight * T */
 } sm_progress;
 
 typedef enum sm_stop_reason {
@@ -77,6 +93,12 @@ typedef struct sm_result {
     int factorizations;      /* numeric factorizations of the elastic operator */
     long solver_iterations;  /* AMG: PCG iterations over all solves (0 with CHOLMOD) */
     sm_timings time;
+    /* Both sides at the end, exact and dense (sm_coverage_measure): what
+     * the summary reports as "distance". */
+    sm_distance distance;
+    double energy_initial, energy; /* E = J + coverage_weight * T */
+    double coverage_seconds;  /* the target-side term and figures, all
+                               * iterations (included in the others) */
 } sm_result;
 
 /* Called after each iteration (and once for the initial state with
@@ -97,6 +119,12 @@ typedef struct sm_match_opts {
     const sm_field *target;       /* the target's signed distance on its
                                    * background mesh */
     const sm_params *params;
+    sm_coverage *coverage;        /* optional: the target's samples for the
+                                   * target-side term and the figures, built
+                                   * on the same template (sm_coverage_new);
+                                   * NULL = the run builds its own from the
+                                   * target field's zero level set.  Borrowed;
+                                   * the run updates its last measure. */
 } sm_match_opts;
 
 /* How a run talks back; every member may be NULL (zeroed struct). */
@@ -136,6 +164,9 @@ typedef struct sm_match sm_match;
 sm_status sm_match_new(const sm_match_opts *opts, sm_match **out, sm_error *err);
 sm_status sm_match_execute(sm_match *m, const sm_field *target, const sm_match_callbacks *cb,
                            double *coords_out, sm_result *result, sm_error *err);
+/* Before sm_match_execute: the coverage to use (as sm_match_opts.coverage,
+ * which sm_match_new does not read); NULL = the run builds its own. */
+void sm_match_use_coverage(sm_match *m, sm_coverage *coverage);
 void sm_match_free(sm_match *m);
 
 #endif

@@ -113,6 +113,9 @@ typedef struct sm_params {
                               * last stall_window iterations; 0 = off
                               * (the default's measures: sm_params.c) */
     int stall_window;        /* K of the stall rule */
+    double coverage_weight;  /* weight of the target-side term T in
+                              * E = J + weight * T (sm_match.h); 0 = the
+                              * paper's J alone */
     double min_quality;      /* quality floor for accepted steps */
     int save_every;          /* snapshot callback period (0 = never) */
     double step_initial;     /* first step as a fraction of the diameter */
@@ -179,6 +182,10 @@ typedef struct sm_param_info {
     const char *flag;      /* option of `shapematch run`/`submit`, or NULL */
     const char *meta;      /* its value's name in --help ("N") */
     const char *help;      /* one sentence, no default (printers add it) */
+    const char *group;     /* the section of a form or a page that shows it:
+                            * "inputs", "clamp", "stop" or "advanced" (the
+                            * web app folds that one), from params.schema.json's
+                            * x-group; NULL reads as "advanced" */
 } sm_param_info;
 
 /* The table, in the order of the params document; *count rows. */

@@ -37,7 +37,7 @@
 #include "sm_proto_vocab.h"
 #include "base/smd_util.h"
 
-#define SMD_PG_SCHEMA_VERSION 2
+#define SMD_PG_SCHEMA_VERSION 3
 /* Bytes of one smd_blobs row: uploads and results move in pieces this
  * large, never whole. */
 #define SMD_PG_CHUNK (256 * 1024)
@@ -99,6 +99,7 @@ typedef struct smd_pg_job {
                                    * inputs/ become blobs (same transaction) */
     const char *members;          /* a model job's members as a text[] literal
                                    * ("{id,id}"), NULL for every other job */
+    const char *name;             /* the job's name, "" none */
 } smd_pg_job;
 
 /* Inserts an accepted job and its first event in one transaction, or,
@@ -199,6 +200,7 @@ typedef struct smd_pg_info {
     int64_t nevents;
     int64_t lease_token;          /* 0 when not running */
     int batch_model;              /* members is not NULL */
+    char name[SM_JOB_NAME_MAX + 1]; /* "" none */
 } smd_pg_info;
 
 /* The members of model job id that ended successful (their results are

@@ -49,6 +49,8 @@ static const char *const migrations[SMD_PG_SCHEMA_VERSION] = {
     " PRIMARY KEY (job, name, chunk));",
     /* 2: batches (server/api/smd_batches.h): a model job lists its members */
     "ALTER TABLE smd_jobs ADD COLUMN members text[];",
+    /* 3: the job's name (part "name"), shown in lists and status */
+    "ALTER TABLE smd_jobs ADD COLUMN name text NOT NULL DEFAULT '';",
 };
 
 static const char *const state_names[] = {"accepted", "running", "successful", "failed",

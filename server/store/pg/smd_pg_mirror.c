@@ -101,6 +101,7 @@ static smd_job *new_local(const smd_pg_info *info, const sm_event *first)
     job->max_iter = info->max_iter;
     job->tol_boundary = info->tol_boundary;
     snprintf(job->owner, sizeof job->owner, "%s", info->owner);
+    snprintf(job->name, sizeof job->name, "%s", info->name);
     snprintf(job->idempotency_key, sizeof job->idempotency_key, "%s", info->idempotency_key);
     job->request_hash = info->request_hash;
     job->batch_model = info->batch_model;

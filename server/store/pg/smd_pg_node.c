@@ -208,7 +208,7 @@ static sm_status submit_db(smd_pg_node *n, const smd_submission *sub, double whe
     }
     smd_pg_job job = {sub->id, sub->owner ? sub->owner : "", sub->idempotency_key ? sub->idempotency_key : "",
                       sub->request_hash, params, event, sub->dim, sub->max_iter, sub->tol_boundary,
-                      sub->dir, members};
+                      sub->dir, members, sub->name ? sub->name : ""};
     pthread_mutex_lock(&n->api_lock);
     sm_status st = node_connected(n, n->api_db, err);
     if (st == SM_OK)

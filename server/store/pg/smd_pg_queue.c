@@ -105,13 +105,14 @@ static sm_status insert_job(smd_pg *db, const smd_pg_job *job, int *inserted, sm
     snprintf(tol, sizeof tol, "%.17g", job->tol_boundary);
     const char *key = job->idempotency_key && job->idempotency_key[0] ? job->idempotency_key : NULL;
     const char *vals[] = {job->id, job->owner ? job->owner : "", key, hash, job->params,
-                          dim, max_iter, tol, job->members};
+                          dim, max_iter, tol, job->members, job->name ? job->name : ""};
     PGresult *r = smd_pg_exec(
         db, "submit",
         "INSERT INTO smd_jobs (id, owner, idempotency_key, request_hash, state, params, dim,"
-        " max_iter, tol_boundary, members) VALUES ($1, $2, $3, $4::numeric, 'accepted', $5::jsonb,"
-        " $6::integer, $7::integer, $8::float8, $9::text[]) ON CONFLICT DO NOTHING RETURNING 1",
-        9, vals, err);
+        " max_iter, tol_boundary, members, name) VALUES ($1, $2, $3, $4::numeric, 'accepted',"
+        " $5::jsonb, $6::integer, $7::integer, $8::float8, $9::text[], $10)"
+        " ON CONFLICT DO NOTHING RETURNING 1",
+        10, vals, err);
     if (!r)
         return SM_ERR_IO;
     *inserted = PQntuples(r) == 1;
@@ -389,7 +390,7 @@ sm_status smd_pg_state(smd_pg *db, const char *id, sm_job_state *state, int *att
 
 #define INFO_COLS "id, owner, coalesce(idempotency_key, ''), request_hash, state, message," \
                   " attempt, dim, max_iter, tol_boundary, nevents, coalesce(lease_token, 0)," \
-                  " members IS NOT NULL"
+                  " members IS NOT NULL, name"
 
 static void info_row(const PGresult *r, int i, smd_pg_info *o)
 {
@@ -408,6 +409,7 @@ static void info_row(const PGresult *r, int i, smd_pg_info *o)
     o->nevents = strtoll(PQgetvalue(r, i, 10), NULL, 10);
     o->lease_token = strtoll(PQgetvalue(r, i, 11), NULL, 10);
     o->batch_model = strcmp(PQgetvalue(r, i, 12), "t") == 0;
+    snprintf(o->name, sizeof o->name, "%s", PQgetvalue(r, i, 13));
 }
 
 sm_status smd_pg_batch_done(smd_pg *db, const char *id,

@@ -96,12 +96,19 @@ static int set_time(json_t *obj, const char *key, double t)
     return json_object_set_new(obj, key, json_string(buf));
 }
 
+static json_t *real_or_null(double x)
+{
+    return isfinite(x) ? json_real(x) : json_null();
+}
+
 json_t *smd_job_status_fields(const smd_job *job)
 {
     json_t *o = json_object();
     if (!o)
         return NULL;
     json_object_set_new(o, "jobID", json_string(job->id));
+    if (job->name[0])
+        json_object_set_new(o, "name", json_string(job->name));
     json_object_set_new(o, "processID", json_string(job->batch_model ? "shape-model" : "match"));
     json_object_set_new(o, "type", json_string("process"));
     json_object_set_new(o, "status", json_string(sm_job_state_name(job->state)));
@@ -118,13 +125,18 @@ json_t *smd_job_status_fields(const smd_job *job)
     json_object_set_new(o, "tolBoundary", json_real(job->tol_boundary));
     if (job->have_progress && job->state != SM_JOB_ACCEPTED) {
         const sm_progress *p = &job->last_progress;
-        json_t *last = json_pack("{s:i,s:o,s:o,s:o,s:o}", "iteration", p->iteration,
-                                 "J", isfinite(p->J) ? json_real(p->J) : json_null(),
-                                 "step", isfinite(p->step) ? json_real(p->step) : json_null(),
-                                 "boundary_l2",
-                                 isfinite(p->boundary_l2) ? json_real(p->boundary_l2) : json_null(),
-                                 "min_quality",
-                                 isfinite(p->min_quality) ? json_real(p->min_quality) : json_null());
+        /* the figures of the progress event, by the same names */
+        json_t *last = json_pack("{s:i,s:o,s:o,s:o,s:o,s:o,s:o}", "iteration", p->iteration,
+                                 "J", real_or_null(p->J), "step", real_or_null(p->step),
+                                 "boundary_rms", real_or_null(p->boundary_rms),
+                                 "boundary_max", real_or_null(p->boundary_max),
+                                 "boundary_l2", real_or_null(p->boundary_l2),
+                                 "min_quality", real_or_null(p->min_quality));
+        json_t *distance = sm_progress_distance_to_jansson(&p->distance);
+        if (last && distance)
+            json_object_set_new(last, "distance", distance);
+        else
+            json_decref(distance);
         if (last)
             json_object_set_new(o, "lastProgress", last);
     }

@@ -62,6 +62,7 @@ typedef struct smd_job {
     double tol_boundary;      /* params.tol_boundary (0 none): watch's bar */
     char idempotency_key[SMD_IDEMPOTENCY_KEY_MAX + 1]; /* "" = none */
     char owner[SMD_OWNER_MAX + 1]; /* tenant of the submitting token, "" = none */
+    char name[SM_JOB_NAME_MAX + 1]; /* given at submission (part "name"), "" = none */
     uint64_t request_hash;    /* of the request that used the key; 0 unknown */
     int not_converged;        /* a successful job whose run did not converge
                                * (its result's converged false): the status

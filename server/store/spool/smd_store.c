@@ -308,6 +308,11 @@ static int record_from_json(json_t *o, const char *id, smd_job *job, char *why, 
     v = json_object_get(o, "owner");
     if (json_is_string(v) && strlen(json_string_value(v)) <= SMD_OWNER_MAX)
         strcpy(job->owner, json_string_value(v));
+    char bad_name[96];
+    v = json_object_get(o, "name"); /* a hand-edited one that is no name: none */
+    if (json_is_string(v) && sm_job_name_check(json_string_value(v), json_string_length(v),
+                                               bad_name, sizeof bad_name) == 0)
+        strcpy(job->name, json_string_value(v));
     v = json_object_get(o, "idempotencyKey");
     if (json_is_string(v) && strlen(json_string_value(v)) <= SMD_IDEMPOTENCY_KEY_MAX)
         strcpy(job->idempotency_key, json_string_value(v));

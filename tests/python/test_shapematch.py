@@ -384,9 +384,10 @@ class MatchBehaviour(unittest.TestCase):
             shapematch.match(TEMPLATE2, target_mesh=CASE2["target_mesh"],
                              target_sol=CASE2["target_sol"], clamp_ball=(5, 5, 0.01))
         self.assertIn("clamp", str(e.exception))
-        with self.assertRaises(TypeError):
+        with self.assertRaises(TypeError):  # two clamps (none: the default ball)
             shapematch.match(TEMPLATE2, target_mesh=CASE2["target_mesh"],
-                             target_sol=CASE2["target_sol"])
+                             target_sol=CASE2["target_sol"], clamp_ball=(0.5, 0.5, 0.1),
+                             no_clamp=True)
         with self.assertRaises(shapematch.ShapematchError) as e:  # no target_sol
             shapematch.match(TEMPLATE2, target_mesh=CASE2["target_mesh"], clamp_ball=(0, 0, 1))
         self.assertIn("no target", str(e.exception))

@@ -263,10 +263,12 @@ sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_r
         return st;
     tell_warnings(&c, 0);
     int told = run->warnings.n;
-    /* the target's samples: its own surface when it has one, else the
-     * zero level set of its field (sm_coverage.h) */
+    /* the target's samples: its own surface when it has one (kept for
+     * the alignment when there was one), else the zero level set of its
+     * field (sm_coverage.h) */
     sm_coverage *cov = NULL;
-    st = sm_coverage_new(in->field, in->surface, view.prepared ? view.prepared : in->prepared,
+    const sm_surface *exact = in->surface ? in->surface : in->has_surface ? in->target_surface : NULL;
+    st = sm_coverage_new(in->field, exact, view.prepared ? view.prepared : in->prepared,
                          view.params.free_refs, view.params.n_free_refs, &cov, err);
     if (st != SM_OK) {
         sm_error_prefix(err, "target");

@@ -114,7 +114,19 @@ sm_status sm_run_write(const sm_run *r, const char *dir, const char *formats, sm
  * the shape model (model_align "none", "rigid" or "similarity"; NULL:
  * rigid), jobs targets at a time (0: the online CPUs), into out_dir.
  * Each target runs in a forked process with one thread (the caller may
- * hold an OpenMP pool, which a forked child cannot use).  SM_OK when the
+ * hold an OpenMP pool, which a forked child cannot use).
+ *
+ * What it does to the calling process, all of it undone before it
+ * returns: the OpenMP limit and OpenBLAS's thread count are 1 while the
+ * targets run (the template is set up on one thread; both are put back
+ * before the model is built); stdio's buffers are flushed (fflush(NULL))
+ * before each fork, so nothing buffered is written twice.  It waits for
+ * its own children only, each by its pid (a pidfd where the kernel has
+ * them): a child the host started keeps its exit status for the host
+ * (but a host that sets SIGCHLD to SIG_IGN makes its children
+ * unwaitable: the batch then fails).  No signal disposition of the host
+ * is changed: the children install their SIGINT/SIGTERM handlers after
+ * the fork.  SM_OK when the
  * batch ran: out_dir/summary.json says how each target ended and whether
  * the model was built.  Errors: the list's (SM_ERR_FORMAT, "line N:"),
  * the parameters' or the template's (SM_ERR_INVALID, SM_ERR_FORMAT,

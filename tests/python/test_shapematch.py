@@ -252,6 +252,19 @@ class Batch2D(unittest.TestCase):
                 open(os.path.join(cli, "model", "scores.csv")) as y:
             self.assertEqual(x.read(), y.read())
 
+    def test_the_hosts_child_keeps_its_exit_status(self):
+        """sm_run_batch waits for its own children only (issue 36): a
+        subprocess the host started ends during the batch, and the host
+        still reads its exit status (a waitpid(-1) in the library took it,
+        and Popen.wait then read 0)."""
+        host = subprocess.Popen(["sh", "-c", "sleep 0.1; exit 7"])
+        out = os.path.join(self.tmp, "host")
+        s = shapematch.batch(TEMPLATE2, self.targets, out, clamp_ball=(0.5, 0.5, 0.04),
+                             max_iter=40, jobs=1)
+        self.assertEqual(s["targets_ok"], 3)
+        self.assertGreater(s["timings"]["targets"], 0.3, "the host's child ended during the batch")
+        self.assertEqual(host.wait(timeout=30), 7)
+
     def test_bad_model_align_raises(self):
         with self.assertRaises(shapematch.ShapematchError):
             shapematch.batch(TEMPLATE2, self.targets, os.path.join(self.tmp, "x"),

@@ -436,8 +436,9 @@ static sm_status check_declared(xml_in *c, const xml_array *a, int64_t n)
                         " bytes", lim->max_inflated);
         }
     } else if (c->declared > most) {
-        return fail(c, SM_ERR_FORMAT, "its compressed arrays declare %" PRIu64 " bytes, more "
-                    "than %u times the file's %zu", c->declared, XML_INFLATE_RATIO, c->len);
+        return fail(c, SM_ERR_NOMEM, "its compressed arrays declare %" PRIu64 " bytes, more "
+                    "than %u times the file's %zu (a bound of the VTK XML reader)", c->declared,
+                    XML_INFLATE_RATIO, c->len);
     }
     return SM_OK;
 }

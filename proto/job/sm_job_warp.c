@@ -382,7 +382,8 @@ sm_status sm_job_warp_mesh_file(sm_job_map *map, const char *in, const char *out
     sm_read_limits none = {0}, *limits = rq->limits ? rq->limits : &none;
     if (sm_mesh_read_limited(in, limits, &m, &merr) != SM_OK) {
         rename_msg(&merr, rq, in);
-        if (merr.code == SM_ERR_IO || limits->hit) {
+        /* a file that is not there, or too large: no other reader */
+        if (merr.code == SM_ERR_IO || merr.code == SM_ERR_NOMEM || limits->hit) {
             *err = merr;
             return stage(rep, SM_JOB_WARP_INPUT, merr.code);
         }

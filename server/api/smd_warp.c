@@ -275,6 +275,8 @@ static void warp_in_child(void *arg, smd_check_result *out)
     out->status = st;
     out->stage = (int)rep.stage;
     out->limit_hit = limits.hit;
+    if (points && rep.stage == SM_JOB_WARP_INPUT && st == SM_ERR_NOMEM)
+        out->limit_hit = SM_LIMIT_VERTICES; /* more points than --max-vertices */
     if (st != SM_OK) {
         /* the body's temporary names are no one's business */
         const char *msg = err.msg;
@@ -386,8 +388,8 @@ static enum MHD_Result warp_refused(struct MHD_Connection *conn, smd_request *re
         return limit_refused(conn, req, r->limit_hit, r->msg);
     switch (r->stage) {
     case SM_JOB_WARP_INPUT:
-        if (r->status == SM_ERR_NOMEM) /* more points than --max-vertices */
-            return limit_refused(conn, req, SM_LIMIT_VERTICES, r->msg);
+        if (r->status == SM_ERR_NOMEM) /* what the body declares is out of bounds */
+            return smd_reply_problem(conn, req, 413, SMD_PROBLEM_TOO_LARGE, "%s", r->msg);
         return smd_reply_problem(conn, req, r->status == SM_ERR_IO ? 500 : 400,
                                  r->status == SM_ERR_IO ? SMD_PROBLEM_INTERNAL
                                                         : SMD_PROBLEM_BAD_REQUEST,

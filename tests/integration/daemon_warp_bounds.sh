@@ -109,7 +109,7 @@ fi
 # --------------------------------------------------------- parked bodies
 rss0=$(rss_kb "$DPID")
 coproc PARK { $FLOOD park "$port" "$J" 32 1500000; }
-read -r -t $((30 * SLOW)) sent <&"${PARK[0]}"
+read -r -t $((90 * SLOW)) sent <&"${PARK[0]}"
 printf 'x,y\n0,0\n' >"$WORK/small.csv"
 warp_small() {
     code=$(curl -sS -o "$WORK/small.out" -w '%{http_code}' --max-time 10 -H 'Content-Type: text/csv' \

@@ -11,8 +11,9 @@ warp_flood.py flood PORT JOB DIR N CLIENTS
 
 warp_flood.py park PORT JOB N BYTES
     N connections POST a CSV warp body declaring 2 x BYTES, send BYTES
-    of it and stall.  Prints "sent" (flushed) once every body is out, then
-    waits for a line on stdin and closes them."""
+    of it and stall.  Prints "sent" (flushed) once every body is out ("sent,
+    K refused" when K connections were closed on it), then waits for a
+    line on stdin and closes them."""
 import glob, http.client, json, os, socket, sys, threading, time
 
 
@@ -80,12 +81,15 @@ def park(port, job, n, nbytes):
             "Content-Length: %d\r\n\r\n" % (job, 2 * nbytes)).encode()
     line = b"0.125,0.25\n"
     body = b"x,y\n" + line * ((nbytes - 4) // len(line))
-    socks = []
+    socks, refused = [], 0
     for _ in range(n):
-        s = socket.create_connection(("127.0.0.1", port), timeout=30)
-        s.sendall(head + body)
-        socks.append(s)
-    print("sent", flush=True)
+        try:
+            s = socket.create_connection(("127.0.0.1", port), timeout=60)
+            socks.append(s)
+            s.sendall(head + body)
+        except OSError:  # answered and closed early: counted, not kept
+            refused += 1
+    print("sent" if not refused else "sent, %d refused" % refused, flush=True)
     sys.stdin.readline()
     for s in socks:
         s.close()

@@ -126,6 +126,11 @@ static int media_is(const char *ctype, const char *type)
 enum MHD_Result smd_route_warp(struct MHD_Connection *conn, smd_request *req)
 {
     smd_server *srv = req->srv;
+    if (atomic_load(&srv->draining)) { /* the check children are about to stop */
+        req->retry_after = 5;
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
+                                 "shutting down: no new warp is computed");
+    }
     pthread_mutex_lock(&srv->lock);
     smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
     sm_job_state state = job ? job->state : SM_JOB_ACCEPTED;

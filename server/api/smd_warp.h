@@ -28,7 +28,7 @@
  * 415 another Content-Type; 422 points, mesh or field of the wrong
  * dimension (or vertex count), outside the mesh with strict, an answer
  * format that cannot hold the body, or past --check-timeout; 503 past
- * --max-body-memory or with the check queue full. */
+ * --max-body-memory, with the check queue full or while shutting down. */
 #ifndef SMD_WARP_H
 #define SMD_WARP_H
 

@@ -3,8 +3,8 @@
  * (docs/warp.md).  The map is read from a result folder (result.mesh +
  * displacement.sol, as `run` and `fetch` write them) or downloaded from
  * a daemon job into a temporary folder with fetch's engine; the work is
- * core's sm_warp.h, the points CSV proto's sm_points_csv.h, and the
- * mesh and surface files warp_io.c's. */
+ * the job layer's warp use case (job/sm_job_warp.h), as the daemon's and
+ * Python's. */
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -13,13 +13,12 @@
 
 #include "cli.h"
 #include "daemon_ops.h"
-#include "job/sm_job_map.h"
+#include "job/sm_job_warp.h"
 #include "remote.h"
 #include "shapematch/sm_atomic.h"
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_path.h"
-#include "shapematch/sm_warp.h"
-#include "sm_points_csv.h"
+#include "shapematch/sm_surface.h"
 #include "sm_proto_vocab.h"
 #include "warp_io.h"
 
@@ -127,17 +126,6 @@ static int warp_check(const warp_args *a, char *msg, size_t cap)
 
 /* ------------------------------------------------------------ the map */
 
-/* Reads the result's map (job/sm_job_map.h); an exit code. */
-static int load_map(const char *cmd, const char *dir, sm_mesh **m, double **deformed)
-{
-    sm_error err;
-    sm_error_clear(&err);
-    if (sm_job_map_read(dir, m, deformed, &err) == SM_OK)
-        return 0;
-    fprintf(stderr, "shapematch %s: %s\n", cmd, err.msg);
-    return err.code == SM_ERR_NOMEM ? CLI_EXIT_NUMERIC : CLI_EXIT_INPUT;
-}
-
 /* Removes the files of a temporary download folder, then the folder. */
 static void remove_download(const char *dir)
 {
@@ -175,45 +163,33 @@ static int download_map(const warp_args *a, const remote_options *conn, char *di
 
 /* ------------------------------------------------------------- inputs */
 
-static int warp_points(const warp_args *a, const sm_warp *w, sm_warp_direction dir)
+/* The exit code of a failed warp (job/sm_job_warp.h), its message
+ * printed. */
+static int failed(const sm_job_warp_report *rep, const sm_error *err)
 {
-    char *text = NULL;
-    size_t len = 0;
+    fprintf(stderr, "shapematch warp: %s\n", err->msg);
+    if (rep->stage == SM_JOB_WARP_FORMAT)
+        return CLI_EXIT_USAGE;
+    if (err->code == SM_ERR_NOMEM && rep->stage != SM_JOB_WARP_INPUT)
+        return CLI_EXIT_NUMERIC;
+    return rep->stage == SM_JOB_WARP_OUTPUT ? CLI_EXIT_OUTPUT : CLI_EXIT_INPUT;
+}
+
+static int warp_points(const warp_args *a, sm_job_map *map, const sm_job_warp_request *rq)
+{
+    char *text = NULL, *csv = NULL;
+    size_t len = 0, n = 0;
     sm_error err;
     sm_error_clear(&err);
-    sm_points p = {0};
-    double *out = NULL;
-    uint8_t *inside = NULL;
-    char *csv = NULL;
-    int rc = CLI_EXIT_INPUT;
-    if (warp_read_file(a->points, WARP_POINTS_MAX_BYTES, &text, &len, &err) != SM_OK ||
-        sm_points_csv_parse(text, len, 0, &p, &err) != SM_OK) {
+    sm_job_warp_report rep;
+    int rc;
+    if (warp_read_file(a->points, WARP_POINTS_MAX_BYTES, &text, &len, &err) != SM_OK) {
         fprintf(stderr, "shapematch warp: %s%s%s\n", err.code == SM_ERR_IO ? "" : a->points,
                 err.code == SM_ERR_IO ? "" : ": ", err.msg);
-        goto done;
+        return CLI_EXIT_INPUT;
     }
-    sm_points_to_frame(&p, SM_POINTS_FRAME_LPS); /* Slicer's RAS markups */
-    if (p.dim != sm_warp_dim(w)) {
-        fprintf(stderr, "shapematch warp: %s has %dD points and the map is %dD\n", a->points,
-                p.dim, sm_warp_dim(w));
-        goto done;
-    }
-    out = malloc((size_t)p.n * (size_t)p.dim * sizeof *out);
-    inside = malloc((size_t)p.n);
-    int64_t nout = 0;
-    if (!out || !inside) {
-        rc = CLI_EXIT_NUMERIC;
-        fprintf(stderr, "shapematch warp: out of memory for %lld points\n", (long long)p.n);
-        goto done;
-    }
-    if (sm_points_warp(w, dir, a->strict, &p, text, len, out, inside, &nout, &err) != SM_OK) {
-        fprintf(stderr, "shapematch warp: %s: %s\n", a->points, err.msg);
-        goto done;
-    }
-    size_t n;
-    if (!(csv = sm_points_csv_format(&p, out, inside, &n))) {
-        rc = CLI_EXIT_NUMERIC;
-        fprintf(stderr, "shapematch warp: out of memory\n");
+    if (sm_job_warp_points_text(map, 0, text, len, rq, &csv, &n, &rep, &err) != SM_OK) {
+        rc = failed(&rep, &err);
         goto done;
     }
     rc = CLI_EXIT_OUTPUT;
@@ -228,80 +204,65 @@ static int warp_points(const warp_args *a, const sm_warp *w, sm_warp_direction d
     }
     if (!a->quiet)
         fprintf(stderr, "shapematch warp: %lld points %s, %lld outside the %s (extrapolated)\n",
-                (long long)p.n, dir == SM_WARP_FORWARD ? "forward" : "back", (long long)nout,
-                dir == SM_WARP_FORWARD ? "template" : "deformed mesh");
+                (long long)rep.n, rep.direction == SM_WARP_FORWARD ? "forward" : "back",
+                (long long)rep.noutside,
+                rep.direction == SM_WARP_FORWARD ? "template" : "deformed mesh");
     rc = 0;
 done:
     free(text);
     free(csv);
-    free(out);
-    free(inside);
-    sm_points_release(&p);
     return rc;
 }
 
-static int warp_field(const warp_args *a, const sm_mesh *m, const sm_warp *w,
-                      sm_warp_direction dir)
+static int warp_mesh(const warp_args *a, sm_job_map *map, const sm_job_warp_request *rq)
 {
     sm_error err;
     sm_error_clear(&err);
-    sm_sol *s = NULL;
-    int rc = CLI_EXIT_INPUT;
-    if (sm_sol_read(a->field, &s, &err) != SM_OK) {
-        fprintf(stderr, "shapematch warp: %s\n", err.msg);
-        goto done;
-    }
-    if (s->nverts != m->nverts || s->dim != m->dim) {
-        fprintf(stderr, "shapematch warp: %s is a %dD field on %ld vertices; the %s has %ld in %dD\n",
-                a->field, s->dim, (long)s->nverts,
-                dir == SM_WARP_FORWARD ? "template" : "result", (long)m->nverts, m->dim);
-        goto done;
-    }
-    if (sm_warp_field(w, dir, s->ncomp, a->normalize, s->values, &err) != SM_OK) {
-        fprintf(stderr, "shapematch warp: %s: %s\n", a->field, err.msg);
-        goto done;
-    }
-    rc = CLI_EXIT_OUTPUT;
-    if (sm_sol_write(a->out, s, &err) != SM_OK) {
-        fprintf(stderr, "shapematch warp: %s\n", err.msg);
-        goto done;
-    }
+    sm_job_warp_report rep;
+    if (sm_job_warp_mesh_file(map, a->mesh, a->out, rq, NULL, &rep, &err) != SM_OK)
+        return failed(&rep, &err);
+    if (!a->quiet)
+        fprintf(stderr, "shapematch warp: %s -> %s: %ld vertices, %lld outside (extrapolated)\n",
+                a->mesh, a->out, (long)rep.n, (long long)rep.noutside);
+    return 0;
+}
+
+static int warp_field(const warp_args *a, sm_job_map *map, const sm_job_warp_request *rq)
+{
+    sm_error err;
+    sm_error_clear(&err);
+    sm_job_warp_report rep;
+    if (sm_job_warp_field_file(map, a->field, a->out, rq, NULL, &rep, &err) != SM_OK)
+        return failed(&rep, &err);
+    int dim = sm_job_map_dim(map);
     if (!a->quiet)
         fprintf(stderr, "shapematch warp: %s field on %ld vertices carried %s\n",
-                s->ncomp == 1 ? "scalar" : s->ncomp == s->dim ? "vector" : "symmetric tensor",
-                (long)s->nverts,
-                dir == SM_WARP_FORWARD ? "forward" : "back");
-    rc = 0;
-done:
-    sm_sol_free(s);
-    return rc;
+                rep.ncomp == 1 ? "scalar" : rep.ncomp == dim ? "vector" : "symmetric tensor",
+                (long)rep.n, rep.direction == SM_WARP_FORWARD ? "forward" : "back");
+    return 0;
 }
 
 static int warp_run(const warp_args *a, const char *dir)
 {
-    sm_mesh *m = NULL;
-    double *deformed = NULL;
-    int rc = load_map("warp", dir, &m, &deformed);
-    if (rc != 0)
-        return rc;
     sm_warp_direction d = a->inverse ? SM_WARP_INVERSE : SM_WARP_FORWARD;
-    unsigned locate = a->field ? 0u : 1u << d;
-    sm_warp *w = NULL;
+    if (a->mesh && !sm_job_warp_output_known(a->out)) { /* before reading anything */
+        fprintf(stderr, "shapematch warp: %s: the output format is chosen by its extension: "
+                "%s\n", a->out, SM_SURFACE_WRITE_FORMATS);
+        return CLI_EXIT_USAGE;
+    }
+    sm_job_map *map = NULL;
     sm_error err;
     sm_error_clear(&err);
-    if (sm_warp_new(m, deformed, locate, &w, &err) != SM_OK) {
-        fprintf(stderr, "shapematch warp: %s: %s\n", dir, err.msg);
-        rc = CLI_EXIT_INPUT;
-    } else if (a->points) {
-        rc = warp_points(a, w, d);
-    } else if (a->mesh) {
-        rc = warp_mesh_file(a->mesh, a->out, w, d, a->strict, a->quiet);
-    } else {
-        rc = warp_field(a, m, w, d);
+    if (sm_job_map_open(dir, a->field ? 0u : 1u << d, &map, &err) != SM_OK) {
+        fprintf(stderr, "shapematch warp: %s\n", err.msg);
+        return err.code == SM_ERR_NOMEM ? CLI_EXIT_NUMERIC : CLI_EXIT_INPUT;
     }
-    sm_warp_free(w);
-    free(deformed);
-    sm_mesh_free(m);
+    sm_job_warp_request rq = {.direction = d, .strict = a->strict, .normalize = a->normalize,
+                              .name = a->points};
+    int rc = a->points ? warp_points(a, map, &rq)
+             : a->mesh ? warp_mesh(a, map, &rq)
+                       : warp_field(a, map, &rq);
+    sm_job_map_free(map);
     return rc;
 }
 

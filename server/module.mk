@@ -4,7 +4,7 @@
 # One list per folder, in layer order (server/README.md): includes name
 # their folder ("jobs/smd_jobs.h") from -I server, and only store/pg/
 # sees libpq's header.
-SERVER_BASE_SRCS := $(addprefix server/base/,smd_config.c smd_log.c smd_metrics.c smd_util.c)
+SERVER_BASE_SRCS := $(addprefix server/base/,smd_body.c smd_config.c smd_log.c smd_metrics.c smd_util.c)
 SERVER_HTTP_SRCS := $(addprefix server/http/,smd_http.c smd_reply.c smd_negotiate.c smd_cors.c \
     smd_auth.c smd_tls.c smd_conns.c smd_ratelimit.c)
 SERVER_API_SRCS := $(addprefix server/api/,smd_route_table.c smd_routes.c smd_results.c smd_warp.c smd_live.c \

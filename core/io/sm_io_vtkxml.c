@@ -29,6 +29,15 @@
 #include "io/sm_io_formats.h"
 
 #define ZLIB_MAX_RATIO 1032u /* deflate's largest expansion on inflating */
+/* What the compressed arrays of a file may declare altogether: at most
+ * this many times the file's bytes (at least XML_INFLATE_FLOOR), and the
+ * reader's limit on inflated bytes.  Meshes VTK, meshio and shapematch
+ * write compress 2 to 5 times overall (coordinates hardly, a types array
+ * of one cell type 600 times, but it is one byte a cell); a file of
+ * compressed zeros declares 1000 times its size, which cost 2 KB of
+ * memory per byte read before the bound (issue 37). */
+#define XML_INFLATE_RATIO 64u
+#define XML_INFLATE_FLOOR ((uint64_t)1 << 20)
 
 enum { K_VERTS, K_LINES, K_POLYS, K_STRIPS, K_CELLS, K_NKINDS };
 
@@ -50,6 +59,7 @@ typedef struct xml_in {
     int64_t npoints, ncells[K_NKINDS];
     xml_array points, conn[K_NKINDS], offsets[K_NKINDS], types, refs;
     const char *what;          /* the array being read, for messages */
+    uint64_t declared;         /* compressed arrays' inflated bytes so far */
 } xml_in;
 
 static const struct {
@@ -219,6 +229,63 @@ static uint64_t get_uint(const xml_in *c, const unsigned char *p, int size)
     return u;
 }
 
+/* A compressed array's header [blocks, block size, last block size,
+ * compressed size of each] checked against want bytes of data and the
+ * bytes there are: *nb blocks of *bs bytes (the last *last, 0 for bs),
+ * their compressed sizes in *cs (malloc'd), *csum of them, the header
+ * *hbytes long.  SM_OK or an error with *cs NULL. */
+static sm_status zlib_header(xml_in *c, const src *s, size_t want, size_t *nb, uint64_t *bs,
+                             uint64_t *last, uint64_t **cs, uint64_t *csum, size_t *hbytes)
+{
+    unsigned char *tmp = NULL;
+    const unsigned char *h;
+    size_t hs = (size_t)c->header_size;
+    sm_status st = SM_OK;
+    *cs = NULL;
+    *csum = 0;
+    if (!(h = src_bytes(c, s, hs, &tmp)))
+        goto bad;
+    uint64_t n0 = get_uint(c, h, (int)hs);
+    if (n0 > (uint64_t)(s->end - s->p) / hs) {
+        st = fail(c, SM_ERR_FORMAT, "%" PRIu64 " compressed blocks do not fit", n0);
+        goto done;
+    }
+    *nb = (size_t)n0;
+    *hbytes = (3 + *nb) * hs;
+    if (!(h = src_bytes(c, s, *hbytes, &tmp)))
+        goto bad;
+    *bs = get_uint(c, h + hs, (int)hs);
+    *last = get_uint(c, h + 2 * hs, (int)hs);
+    uint64_t total = *nb == 0 ? 0 : (uint64_t)(*nb - 1) * *bs + (*last ? *last : *bs);
+    if (!(*cs = malloc((*nb + 1) * sizeof **cs))) {
+        st = fail(c, SM_ERR_NOMEM, "out of memory");
+        goto done;
+    }
+    for (size_t b = 0; b < *nb; b++) {
+        (*cs)[b] = get_uint(c, h + (3 + b) * hs, (int)hs);
+        *csum += (*cs)[b] < (uint64_t)(s->end - s->p) ? (*cs)[b] : (uint64_t)(s->end - s->p) + 1;
+    }
+    /* the compressed blocks are there (base64: 4 characters per 3 bytes) */
+    uint64_t present = (uint64_t)(s->end - s->p);
+    if (s->base64)
+        present = present / 4 * 3 + 3;
+    if ((*nb && *bs == 0) || *last > *bs || (*nb > 1 && *bs > want) || total != want ||
+        *csum > present || *hbytes + *csum > present ||
+        total > (*csum + 64 * *nb) * ZLIB_MAX_RATIO)
+        st = fail(c, SM_ERR_FORMAT, "compressed blocks of %" PRIu64 " bytes, %zu expected, "
+                  "or sizes that do not fit", total, want);
+    goto done;
+bad:
+    st = c->err->code != SM_OK ? c->err->code : SM_ERR_FORMAT;
+done:
+    free(tmp);
+    if (st != SM_OK) {
+        free(*cs);
+        *cs = NULL;
+    }
+    return st;
+}
+
 /* The uncompressed data bytes (exactly want of them) of a binary array
  * into *out (malloc'd). */
 static sm_status binary_data(xml_in *c, const src *s, size_t want, unsigned char **out)
@@ -229,10 +296,10 @@ static sm_status binary_data(xml_in *c, const src *s, size_t want, unsigned char
     uint64_t *cs = NULL;
     sm_status st = SM_OK;
     *out = NULL;
-    if (!(h = src_bytes(c, s, hs, &tmp)))
-        goto bad;
-    uint64_t n0 = get_uint(c, h, (int)hs);
     if (!c->zlib) {
+        if (!(h = src_bytes(c, s, hs, &tmp)))
+            goto bad;
+        uint64_t n0 = get_uint(c, h, (int)hs);
         if (n0 != want) {
             st = fail(c, SM_ERR_FORMAT, "%" PRIu64 " bytes, %zu expected", n0, want);
             goto done;
@@ -246,30 +313,10 @@ static sm_status binary_data(xml_in *c, const src *s, size_t want, unsigned char
         memcpy(*out, h + hs, want);
         goto done;
     }
-    /* [blocks, block size, last block size, compressed size of each] */
-    if (n0 > (uint64_t)(s->end - s->p) / hs) {
-        st = fail(c, SM_ERR_FORMAT, "%" PRIu64 " compressed blocks do not fit", n0);
+    size_t nb, hbytes;
+    uint64_t bs, last, csum;
+    if ((st = zlib_header(c, s, want, &nb, &bs, &last, &cs, &csum, &hbytes)) != SM_OK)
         goto done;
-    }
-    size_t nb = (size_t)n0, hbytes = (3 + nb) * hs;
-    if (!(h = src_bytes(c, s, hbytes, &tmp)))
-        goto bad;
-    uint64_t bs = get_uint(c, h + hs, (int)hs), last = get_uint(c, h + 2 * hs, (int)hs);
-    uint64_t total = nb == 0 ? 0 : (uint64_t)(nb - 1) * bs + (last ? last : bs), csum = 0;
-    if (!(cs = malloc((nb + 1) * sizeof *cs))) {
-        st = fail(c, SM_ERR_NOMEM, "out of memory");
-        goto done;
-    }
-    for (size_t b = 0; b < nb; b++) {
-        cs[b] = get_uint(c, h + (3 + b) * hs, (int)hs);
-        csum += cs[b] < (uint64_t)(s->end - s->p) ? cs[b] : (uint64_t)(s->end - s->p) + 1;
-    }
-    if ((nb && bs == 0) || last > bs || (nb > 1 && bs > want) || total != want ||
-        csum > (uint64_t)(s->end - s->p) || total > (csum + 64 * nb) * ZLIB_MAX_RATIO) {
-        st = fail(c, SM_ERR_FORMAT, "compressed blocks of %" PRIu64 " bytes, %zu expected, "
-                  "or sizes that do not fit", total, want);
-        goto done;
-    }
     if (!(h = src_bytes(c, s, hbytes + (size_t)csum, &tmp)))
         goto bad;
     if (!(*out = malloc(want + 1))) {
@@ -322,42 +369,94 @@ static double typed_value(const xml_in *c, const unsigned char *p, int t)
     return (double)u;
 }
 
+/* Where array a's n values are: *t its type (xml_types), and either
+ * *ascii set (its text) or *s its binary bytes.  Checks the count
+ * against the bytes there are (at zlib's largest ratio: the exact
+ * checks follow, on the array's header). */
+static sm_status array_source(xml_in *c, const xml_array *a, int64_t n, int *t, int *ascii,
+                              src *s)
+{
+    char type[32], format[32];
+    attr(a->tag, a->tag_end, "type", type, sizeof type);
+    attr(a->tag, a->tag_end, "format", format, sizeof format);
+    *t = -1;
+    for (int k = 0; k < (int)(sizeof xml_types / sizeof xml_types[0]); k++)
+        if (strcmp(type, xml_types[k].name) == 0)
+            *t = k;
+    if (*t < 0)
+        return fail(c, SM_ERR_FORMAT, "data type '%s' is not read", type);
+    *ascii = strcmp(format, "ascii") == 0;
+    if (*ascii) {
+        if ((uint64_t)n > (uint64_t)(a->text_end - a->text) / 2 + 1)
+            return fail(c, SM_ERR_FORMAT, "%" PRId64 " values do not fit in the text", n);
+        return SM_OK;
+    }
+    *s = (src){a->text, a->text_end, 1};
+    if (strcmp(format, "appended") == 0) {
+        int64_t off = attr_int(a->tag, a->tag_end, "offset", -1);
+        if (!c->appended || off < 0 || (uint64_t)off > (uint64_t)(c->buf + c->len - c->appended))
+            return fail(c, SM_ERR_FORMAT, "no appended data at its offset");
+        *s = (src){c->appended + off, c->buf + c->len, c->appended_base64};
+    } else if (strcmp(format, "binary") != 0) {
+        return fail(c, SM_ERR_FORMAT, "format '%s' is not read", format);
+    }
+    if ((uint64_t)n > (uint64_t)(c->buf + c->len - s->p) * ZLIB_MAX_RATIO /
+                          (uint64_t)xml_types[*t].size)
+        return fail(c, SM_ERR_FORMAT, "%" PRId64 " values do not fit in the file", n);
+    return SM_OK;
+}
+
+/* Before anything is allocated for array a's n values: a compressed
+ * array's block header is read and checked against the bytes there are,
+ * and what the file's compressed arrays declare altogether is bounded
+ * (XML_INFLATE_RATIO, the reader's limit on inflated bytes). */
+static sm_status check_declared(xml_in *c, const xml_array *a, int64_t n)
+{
+    if (!a->present || n == 0 || !c->zlib)
+        return SM_OK;
+    int t, ascii;
+    src s;
+    sm_status st = array_source(c, a, n, &t, &ascii, &s);
+    if (st != SM_OK || ascii)
+        return st;
+    size_t nb, hbytes;
+    uint64_t bs, last, csum, *cs = NULL;
+    size_t want = (size_t)n * (size_t)xml_types[t].size;
+    if ((st = zlib_header(c, &s, want, &nb, &bs, &last, &cs, &csum, &hbytes)) != SM_OK)
+        return st;
+    free(cs);
+    c->declared += want;
+    uint64_t ratio = (uint64_t)c->len * XML_INFLATE_RATIO;
+    uint64_t most = ratio > XML_INFLATE_FLOOR ? ratio : XML_INFLATE_FLOOR;
+    const sm_read_limits *lim = c->r->limits;
+    if (lim && lim->max_inflated && lim->max_inflated < most) {
+        if (c->declared > lim->max_inflated) {
+            c->r->limits->hit = SM_LIMIT_INFLATED;
+            return fail(c, SM_ERR_NOMEM, "its compressed arrays inflate to more than %" PRIu64
+                        " bytes", lim->max_inflated);
+        }
+    } else if (c->declared > most) {
+        return fail(c, SM_ERR_NOMEM, "its compressed arrays declare %" PRIu64 " bytes, more "
+                    "than %u times the file's %zu (a bound of the VTK XML reader)", c->declared,
+                    XML_INFLATE_RATIO, c->len);
+    }
+    return SM_OK;
+}
+
 /* n values of array a into dbl or (exact integers) into i64. */
 static sm_status read_array(xml_in *c, const xml_array *a, int64_t n, double *dbl, int64_t *i64)
 {
-    char type[32], format[32];
     if (!a->present)
         return n == 0 ? SM_OK : fail(c, SM_ERR_FORMAT, "missing");
-    attr(a->tag, a->tag_end, "type", type, sizeof type);
-    attr(a->tag, a->tag_end, "format", format, sizeof format);
-    int t = -1;
-    for (int k = 0; k < (int)(sizeof xml_types / sizeof xml_types[0]); k++)
-        if (strcmp(type, xml_types[k].name) == 0)
-            t = k;
-    if (t < 0)
-        return fail(c, SM_ERR_FORMAT, "data type '%s' is not read", type);
+    int t, ascii;
+    src s;
+    sm_status st = array_source(c, a, n, &t, &ascii, &s);
+    if (st != SM_OK)
+        return st;
     unsigned char *bytes = NULL;
     const char *p = a->text;
-    sm_status st = SM_OK;
-    if (strcmp(format, "ascii") != 0) {
-        src s = {a->text, a->text_end, 1};
-        if (strcmp(format, "appended") == 0) {
-            int64_t off = attr_int(a->tag, a->tag_end, "offset", -1);
-            if (!c->appended || off < 0 || (uint64_t)off > (uint64_t)(c->buf + c->len -
-                                                                      c->appended))
-                return fail(c, SM_ERR_FORMAT, "no appended data at its offset");
-            s = (src){c->appended + off, c->buf + c->len, c->appended_base64};
-        } else if (strcmp(format, "binary") != 0) {
-            return fail(c, SM_ERR_FORMAT, "format '%s' is not read", format);
-        }
-        if ((uint64_t)n > (uint64_t)(c->buf + c->len - s.p) * ZLIB_MAX_RATIO /
-                              (uint64_t)xml_types[t].size)
-            return fail(c, SM_ERR_FORMAT, "%" PRId64 " values do not fit in the file", n);
-        if ((st = binary_data(c, &s, (size_t)n * (size_t)xml_types[t].size, &bytes)) != SM_OK)
-            return st;
-    } else if ((uint64_t)n > (uint64_t)(a->text_end - a->text) / 2 + 1) {
-        return fail(c, SM_ERR_FORMAT, "%" PRId64 " values do not fit in the text", n);
-    }
+    if (!ascii && (st = binary_data(c, &s, (size_t)n * (size_t)xml_types[t].size, &bytes)) != SM_OK)
+        return st;
     for (int64_t i = 0; i < n && st == SM_OK; i++) {
         double v;
         if (bytes) {
@@ -557,7 +656,11 @@ static sm_status read_kind(xml_in *c, int k, int64_t *cell)
     if (!c->conn[k].present || !c->offsets[k].present || (k == K_CELLS && !c->types.present))
         return fail(c, SM_ERR_FORMAT, "connectivity, offsets%s missing",
                     k == K_CELLS ? " or types" : "");
-    sm_status st = SM_OK;
+    sm_status st = check_declared(c, &c->offsets[k], n);
+    if (st == SM_OK && k == K_CELLS)
+        st = check_declared(c, &c->types, n);
+    if (st != SM_OK)
+        return st;
     if (!(off = malloc(((size_t)n + 1) * sizeof *off)) ||
         (k == K_CELLS && !(types = malloc((size_t)n * sizeof *types))))
         st = fail(c, SM_ERR_NOMEM, "out of memory");
@@ -573,6 +676,8 @@ static sm_status read_kind(xml_in *c, int k, int64_t *cell)
     if (st == SM_OK && (uint64_t)off[n] > bytes_bound(c))
         st = fail(c, SM_ERR_FORMAT, "%" PRId64 " connectivity entries do not fit in the file",
                   off[n]);
+    if (st == SM_OK)
+        st = check_declared(c, &c->conn[k], off[n]);
     if (st == SM_OK && !(conn = malloc(((size_t)off[n] + 1) * sizeof *conn)))
         st = fail(c, SM_ERR_NOMEM, "out of memory");
     if (st == SM_OK)
@@ -603,6 +708,8 @@ static sm_status read_pieces(xml_in *c)
         return fail(c, SM_ERR_FORMAT, "NumberOfComponents is not 3");
     if ((uint64_t)c->npoints > bytes_bound(c) / 3)
         return fail(c, SM_ERR_FORMAT, "%" PRId64 " points do not fit in the file", c->npoints);
+    if ((st = check_declared(c, &c->points, 3 * c->npoints)) != SM_OK)
+        return st;
     if ((st = sm__cells_points(c->r, c->d, c->npoints, c->err)) != SM_OK)
         return fail(c, st, "%s", c->r->why);
     if ((st = read_array(c, &c->points, 3 * c->npoints, c->d->coords, NULL)) != SM_OK)
@@ -614,6 +721,8 @@ static sm_status read_pieces(xml_in *c)
             st = read_kind(c, order[k], &ncells);
     int32_t *refs = NULL;
     c->what = "CellData";
+    if (st == SM_OK && c->refs.present && ncells > 0)
+        st = check_declared(c, &c->refs, ncells);
     if (st == SM_OK && c->refs.present && ncells > 0) {
         int64_t *v = malloc((size_t)ncells * sizeof *v);
         refs = malloc((size_t)ncells * sizeof *refs);

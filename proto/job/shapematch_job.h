@@ -157,7 +157,19 @@ sm_status sm_run_write(const sm_run *r, const char *dir, const char *formats, sm
  * the shape model (model_align "none", "rigid" or "similarity"; NULL:
  * rigid), jobs targets at a time (0: the online CPUs), into out_dir.
  * Each target runs in a forked process with one thread (the caller may
- * hold an OpenMP pool, which a forked child cannot use).  SM_OK when the
+ * hold an OpenMP pool, which a forked child cannot use).
+ *
+ * What it does to the calling process, all of it undone before it
+ * returns: the OpenMP limit and OpenBLAS's thread count are 1 while the
+ * targets run (the template is set up on one thread; both are put back
+ * before the model is built); stdio's buffers are flushed (fflush(NULL))
+ * before each fork, so nothing buffered is written twice.  It waits for
+ * its own children only, each by its pid (a pidfd where the kernel has
+ * them): a child the host started keeps its exit status for the host
+ * (but a host that sets SIGCHLD to SIG_IGN makes its children
+ * unwaitable: the batch then fails).  No signal disposition of the host
+ * is changed: the children install their SIGINT/SIGTERM handlers after
+ * the fork.  SM_OK when the
  * batch ran: out_dir/summary.json says how each target ended and whether
  * the model was built.  Errors: the list's (SM_ERR_FORMAT, "line N:"),
  * the parameters' or the template's (SM_ERR_INVALID, SM_ERR_FORMAT,
@@ -170,6 +182,51 @@ sm_status sm_run_batch(const char *template_path, const char *list_csv, size_t l
  * VERSION, the one place it is written); the Python package's
  * __version__. */
 const char *sm_run_version(void);
+/* Warp (docs/warp.md, `shapematch warp`): points, meshes, surfaces and
+ * fields carried through the map of a finished match, forward (template
+ * -> target) or back (inverse nonzero): the job layer's warp use case
+ * (job/sm_job_warp.h), the same as the CLI's and the daemon's.
+ *
+ * A map: a result folder's (result.mesh or .meshb, possibly .gz, and
+ * displacement.sol or .solb), or one made of arrays: dim (2 or 3), nverts
+ * template and deformed coordinates (nverts * dim each), nelems elements
+ * of dim + 1 vertices (0-based); copied.  SM_ERR_IO naming what a result
+ * folder holds, SM_ERR_FORMAT, SM_ERR_INVALID, SM_ERR_NOMEM. */
+typedef struct sm_run_map sm_run_map;
+sm_status sm_run_map_open(const char *result_dir, sm_run_map **out, sm_error *err);
+sm_status sm_run_map_new(int dim, int32_t nverts, const double *template_coords,
+                         const double *deformed_coords, int32_t nelems, const int32_t *elems,
+                         sm_run_map **out, sm_error *err);
+void sm_run_map_free(sm_run_map *m);
+int sm_run_map_dim(const sm_run_map *m);
+int32_t sm_run_map_nverts(const sm_run_map *m);
+
+/* n points of dim coordinates (xyz, n * dim) into out (n * dim); inside
+ * (n flags, may be NULL): 0 for a point outside the source mesh, mapped
+ * by its nearest element; *noutside (may be NULL) their count.
+ * SM_ERR_INVALID: dim not the map's, or with strict the first point
+ * outside ("point I (1-based) is outside ..."). */
+sm_status sm_run_warp_points(sm_run_map *m, int inverse, int strict, int dim, int64_t n,
+                             const double *xyz, double *out, uint8_t *inside,
+                             int64_t *noutside, sm_error *err);
+/* A field on the source mesh's vertices (nverts * ncomp values, in
+ * place): scalars kept, vectors by the deformation gradient (normalize:
+ * to unit length), symmetric tensors (xx, xy, yy[, xz, yz, zz]) as F T
+ * F^T.  SM_ERR_INVALID when dim or nverts are not the map's, or ncomp
+ * none of 1, dim, dim * (dim + 1) / 2. */
+sm_status sm_run_warp_field(sm_run_map *m, int inverse, int normalize, int dim, int32_t nverts,
+                            int ncomp, double *values, sm_error *err);
+/* A file: a mesh or surface (field 0; any `shapematch warp --mesh`
+ * reads) or a .sol/.solb field (field 1), written to out when not NULL
+ * (the format by its name, as `shapematch warp -o`); the warped
+ * coordinates or field values in *values (malloc'd: free with
+ * sm_run_warp_values_free), *rows by *cols.  The statuses of
+ * job/sm_job_warp.h: SM_ERR_INVALID for a rule, the reader's for the
+ * input, SM_ERR_IO for the output. */
+sm_status sm_run_warp_file(sm_run_map *m, int field, const char *in, const char *out,
+                           int inverse, int strict, int normalize, double **values,
+                           int64_t *rows, int *cols, sm_error *err);
+void sm_run_warp_values_free(double *values);
 
 #ifdef __cplusplus
 }

@@ -8,7 +8,9 @@
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <poll.h>
 #include <string.h>
+#include <sys/syscall.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -142,8 +144,13 @@ static sm_status build_template(const sm_batch_opts *o, batch_template *bt, sm_e
     return st;
 }
 
+/* Running targets watched through their pidfds at most (more: the
+ * sleep), far beyond any --jobs. */
+#define SM_BATCH_JOBS_POLL 256
+
 typedef struct target_state {
     pid_t pid;
+    int pidfd;                  /* -1: none (not running, or no pidfd_open) */
     double started, seconds;
     int exit_code;              /* -1: killed or not run */
     const char *status;
@@ -169,6 +176,71 @@ static void read_error_file(const char *dir, char *msg, size_t cap)
     if (f)
         fclose(f);
     free(path);
+}
+
+/* A target's process ended (wst its status): its state, and the caller's
+ * callback. */
+static void target_ended(const sm_batch_list *l, const sm_batch_opts *o, char **dirs,
+                         target_state *ts, size_t i, int wst)
+{
+    ts[i].pid = 0;
+    if (ts[i].pidfd >= 0)
+        close(ts[i].pidfd);
+    ts[i].pidfd = -1;
+    ts[i].seconds = sm_clock_seconds() - ts[i].started;
+    ts[i].exit_code = WIFEXITED(wst) ? WEXITSTATUS(wst) : -1;
+    ts[i].status = status_of(ts[i].exit_code);
+    read_error_file(dirs[i], ts[i].message, sizeof ts[i].message);
+    if (!WIFEXITED(wst))
+        snprintf(ts[i].message, sizeof ts[i].message, "the target's process ended by "
+                 "signal %d", WIFSIGNALED(wst) ? WTERMSIG(wst) : 0);
+    if (o->target_done)
+        o->target_done(i, l->t[i].name, ts[i].status, ts[i].exit_code, ts[i].seconds, o->user);
+}
+
+/* Waits up to 20 ms for one of the running targets to end (a pidfd per
+ * child where the kernel has them, else a sleep) and reaps those that
+ * did, each by its own pid: the host process (a Python interpreter, a
+ * program linking libshapematch_job) may have children of its own, whose
+ * exit status is not ours to take (libuv's process.c waits the same
+ * way).  The bounded wait keeps a cancel seen within 20 ms.  Returns the
+ * targets that ended, or -1 with err set. */
+static long reap_targets(const sm_batch_list *l, const sm_batch_opts *o, char **dirs,
+                         target_state *ts, sm_error *err)
+{
+    struct pollfd fds[SM_BATCH_JOBS_POLL];
+    nfds_t nfds = 0;
+    int all_pidfds = 1;
+    for (size_t i = 0; i < l->n; i++) {
+        if (ts[i].pid <= 0)
+            continue;
+        if (ts[i].pidfd < 0 || nfds == SM_BATCH_JOBS_POLL)
+            all_pidfds = 0;
+        else
+            fds[nfds++] = (struct pollfd){ts[i].pidfd, POLLIN, 0};
+    }
+    if (all_pidfds && nfds > 0) {
+        if (poll(fds, nfds, 20) < 0 && errno != EINTR)
+            return sm_error_set(err, SM_ERR_IO, "waiting for a target: %s", strerror(errno)),
+                   -1;
+    } else {
+        nanosleep(&(struct timespec){.tv_nsec = 20000000}, NULL);
+    }
+    long ended = 0;
+    for (size_t i = 0; i < l->n; i++) {
+        if (ts[i].pid <= 0)
+            continue;
+        int wst;
+        pid_t pid = waitpid(ts[i].pid, &wst, WNOHANG);
+        if (pid == 0 || (pid < 0 && errno == EINTR))
+            continue;
+        if (pid < 0) /* ECHILD: someone else reaped it (a SIGCHLD set to SIG_IGN) */
+            return sm_error_set(err, SM_ERR_IO, "waiting for target %s: %s", l->t[i].name,
+                                strerror(errno)), -1;
+        target_ended(l, o, dirs, ts, i, wst);
+        ended++;
+    }
+    return ended;
 }
 
 /* Forks the children, at most jobs at a time, and waits for them all. */
@@ -201,37 +273,15 @@ static sm_status run_targets(batch_template *bt, const sm_batch_list *l, const s
             if (pid == 0)
                 _exit(run_child(bt, &l->t[i], o, dirs[i]));
             ts[i].pid = pid;
+#ifdef SYS_pidfd_open
+            ts[i].pidfd = (int)syscall(SYS_pidfd_open, pid, 0);
+#endif
             running++;
         }
-        /* polled, not blocking: a cancel that lands just before a
-         * blocking wait would not be seen until a target ended */
-        int wst;
-        pid_t pid = waitpid(-1, &wst, WNOHANG);
-        if (pid == 0) {
-            nanosleep(&(struct timespec){.tv_nsec = 20000000}, NULL);
-            continue;
-        }
-        if (pid < 0) {
-            if (errno == EINTR)
-                continue;
-            return sm_error_set(err, SM_ERR_IO, "waiting for a target: %s", strerror(errno));
-        }
-        for (size_t i = 0; i < l->n; i++) {
-            if (ts[i].pid != pid)
-                continue;
-            running--;
-            ts[i].pid = 0;
-            ts[i].seconds = sm_clock_seconds() - ts[i].started;
-            ts[i].exit_code = WIFEXITED(wst) ? WEXITSTATUS(wst) : -1;
-            ts[i].status = status_of(ts[i].exit_code);
-            read_error_file(dirs[i], ts[i].message, sizeof ts[i].message);
-            if (!WIFEXITED(wst))
-                snprintf(ts[i].message, sizeof ts[i].message, "the target's process ended by "
-                         "signal %d", WIFSIGNALED(wst) ? WTERMSIG(wst) : 0);
-            if (o->target_done)
-                o->target_done(i, l->t[i].name, ts[i].status, ts[i].exit_code, ts[i].seconds,
-                               o->user);
-        }
+        long ended = reap_targets(l, o, dirs, ts, err);
+        if (ended < 0)
+            return err->code;
+        running -= (size_t)ended;
     }
     return SM_OK;
 }
@@ -309,9 +359,10 @@ sm_status sm_job_batch_run(const sm_batch_list *l, const sm_batch_opts *o, const
     if (l->n == 0)
         return sm_error_set(err, SM_ERR_INVALID, "no target");
     batch_template bt;
-    /* no OpenMP pool before fork(): the parent works on one thread */
-    int limit = omp_get_max_threads();
-    omp_set_num_threads(1);
+    /* no OpenMP or BLAS pool before fork(): the parent works on one
+     * thread, and puts the host's settings back at the end */
+    sm_job_threads_saved threads;
+    sm_job_threads_single(&threads);
     sm_status st = build_template(o, &bt, err);
     out->template_seconds = sm_clock_seconds() - t0;
     out->template_setups = st == SM_OK && bt.in.match ? 1 : 0;
@@ -326,13 +377,17 @@ sm_status sm_job_batch_run(const sm_batch_list *l, const sm_batch_opts *o, const
         else
             st = sm_mkdir_p(dirs[i], err);
         ts[i].exit_code = -1;
+        ts[i].pidfd = -1;
         ts[i].status = "not_run";
     }
     double t1 = sm_clock_seconds();
     if (st == SM_OK)
         st = run_targets(&bt, l, o, dirs, ts, err);
     out->targets_seconds = sm_clock_seconds() - t1;
-    omp_set_num_threads(limit);
+    for (size_t i = 0; ts && i < l->n; i++)
+        if (ts[i].pidfd > 0) /* left by an error */
+            close(ts[i].pidfd);
+    sm_job_threads_put_back(&threads); /* the model is built with them */
     for (size_t i = 0; st == SM_OK && i < l->n; i++)
         target_ok(&ts[i]) ? out->nok++ : out->nfailed++;
     double t2 = sm_clock_seconds();

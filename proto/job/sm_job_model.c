@@ -9,37 +9,30 @@
 #include <unistd.h>
 
 #include "job/sm_job_results.h"
+#include "job/sm_job_warp.h"
 #include "shapematch/sm_atomic.h"
 #include "shapematch/sm_clock.h"
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_path.h"
 #include "sm_json.h"
 
-/* The result mesh of a member folder, in the order run writes them. */
-static const char *const mesh_files[] = {"result.mesh", "result.meshb", "result.mesh.gz",
-                                         "result.meshb.gz"};
-
+/* The result mesh of a member folder: the first of the result files
+ * (job/sm_job_warp.h's list, the order run writes them in). */
 static sm_status read_member(const sm_model_member *mb, sm_mesh **out, sm_error *err)
 {
     *out = NULL;
     if (!mb->result_dir)
         return sm_error_set(err, SM_ERR_INVALID, "target %s: no result folder",
                             mb->name ? mb->name : "?");
-    for (size_t i = 0; i < sizeof mesh_files / sizeof mesh_files[0]; i++) {
-        char *path = sm_path_join(mb->result_dir, mesh_files[i]);
-        if (!path)
-            return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
-        if (access(path, R_OK) == 0) {
-            sm_status st = sm_mesh_read(path, out, err);
-            if (st != SM_OK)
-                sm_error_prefix(err, "target %s", mb->name ? mb->name : mb->result_dir);
-            free(path);
-            return st;
-        }
-        free(path);
-    }
-    return sm_error_set(err, SM_ERR_IO, "target %s: no result.mesh in %s",
-                        mb->name ? mb->name : "?", mb->result_dir);
+    char *path = sm_job_result_find(mb->result_dir, sm_job_result_mesh_files);
+    if (!path)
+        return sm_error_set(err, SM_ERR_IO, "target %s: no result.mesh in %s",
+                            mb->name ? mb->name : "?", mb->result_dir);
+    sm_status st = sm_mesh_read(path, out, err);
+    if (st != SM_OK)
+        sm_error_prefix(err, "target %s", mb->name ? mb->name : mb->result_dir);
+    free(path);
+    return st;
 }
 
 static int same_topology(const sm_mesh *a, const sm_mesh *b)

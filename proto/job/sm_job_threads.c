@@ -98,3 +98,19 @@ void sm_job_threads_restore(int limit)
 {
     set_threads(limit);
 }
+
+void sm_job_threads_single(sm_job_threads_saved *saved)
+{
+    int (*blas_get)(void) = (int (*)(void))dlsym(RTLD_DEFAULT, "openblas_get_num_threads");
+    saved->omp = omp_get_max_threads();
+    saved->blas = blas_get ? blas_get() : -1;
+    set_threads(1);
+}
+
+void sm_job_threads_put_back(const sm_job_threads_saved *saved)
+{
+    omp_set_num_threads(saved->omp);
+    void (*blas_set)(int) = (void (*)(int))dlsym(RTLD_DEFAULT, "openblas_set_num_threads");
+    if (blas_set && saved->blas > 0)
+        blas_set(saved->blas);
+}

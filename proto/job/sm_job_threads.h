@@ -44,4 +44,15 @@ int sm_job_idle_cores(void);
 int sm_job_threads_apply(int64_t elements);
 void sm_job_threads_restore(int limit);
 
+/* A process's OpenMP limit and BLAS threads (OpenBLAS's count; -1 for a
+ * BLAS without threads), as sm_job_threads_single found them. */
+typedef struct sm_job_threads_saved {
+    int omp, blas;
+} sm_job_threads_saved;
+/* One OpenMP and one BLAS thread until sm_job_threads_put_back (the
+ * batch's parent, which forks: a child cannot use a pool its parent
+ * started); what was set before goes into *saved. */
+void sm_job_threads_single(sm_job_threads_saved *saved);
+void sm_job_threads_put_back(const sm_job_threads_saved *saved);
+
 #endif

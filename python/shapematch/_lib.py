@@ -185,19 +185,6 @@ def core():
         _declare(lib, "sm_sdf_free", None, _c.c_void_p)
         _declare(lib, "sm_sdf_signed", _c.c_int, _c.c_void_p, _c.c_int64, _P(_c.c_double),
                  _P(_c.c_double), _P(Error))
-        _declare(lib, "sm_mesh_write_coords", _c.c_int, _c.c_char_p, _P(Mesh), _P(_c.c_double),
-                 _P(Error))
-        _declare(lib, "sm_vtu_write", _c.c_int, _c.c_char_p, _P(Mesh), _P(_c.c_double),
-                 _P(_c.c_double), _P(_c.c_double), _P(Error))
-        _declare(lib, "sm_surface_write", _c.c_int, _c.c_char_p, _P(Surface), _P(_c.c_double),
-                 _P(Error))
-        _declare(lib, "sm_warp_new", _c.c_int, _P(Mesh), _P(_c.c_double), _c.c_uint,
-                 _P(_c.c_void_p), _P(Error))
-        _declare(lib, "sm_warp_free", None, _c.c_void_p)
-        _declare(lib, "sm_warp_points", _c.c_int, _c.c_void_p, _c.c_int, _c.c_int, _c.c_int64,
-                 _P(_c.c_double), _P(_c.c_double), _P(_c.c_uint8), _P(_c.c_int64), _P(Error))
-        _declare(lib, "sm_warp_field", _c.c_int, _c.c_void_p, _c.c_int, _c.c_int, _c.c_int,
-                 _P(_c.c_double), _P(Error))
         _core = lib
     return _core
 
@@ -224,6 +211,21 @@ def job():
             _declare(lib, name, _P(_c.c_int32), _c.c_void_p)
         _declare(lib, "sm_run_history", _P(Progress), _c.c_void_p, _P(_c.c_size_t))
         _declare(lib, "sm_run_write", _c.c_int, _c.c_void_p, _c.c_char_p, _c.c_char_p, _P(Error))
+        _declare(lib, "sm_run_map_open", _c.c_int, _c.c_char_p, _P(_c.c_void_p), _P(Error))
+        _declare(lib, "sm_run_map_new", _c.c_int, _c.c_int, _c.c_int32, _P(_c.c_double),
+                 _P(_c.c_double), _c.c_int32, _P(_c.c_int32), _P(_c.c_void_p), _P(Error))
+        _declare(lib, "sm_run_map_free", None, _c.c_void_p)
+        _declare(lib, "sm_run_map_dim", _c.c_int, _c.c_void_p)
+        _declare(lib, "sm_run_map_nverts", _c.c_int32, _c.c_void_p)
+        _declare(lib, "sm_run_warp_points", _c.c_int, _c.c_void_p, _c.c_int, _c.c_int, _c.c_int,
+                 _c.c_int64, _P(_c.c_double), _P(_c.c_double), _P(_c.c_uint8), _P(_c.c_int64),
+                 _P(Error))
+        _declare(lib, "sm_run_warp_field", _c.c_int, _c.c_void_p, _c.c_int, _c.c_int, _c.c_int,
+                 _c.c_int32, _c.c_int, _P(_c.c_double), _P(Error))
+        _declare(lib, "sm_run_warp_file", _c.c_int, _c.c_void_p, _c.c_int, _c.c_char_p,
+                 _c.c_char_p, _c.c_int, _c.c_int, _c.c_int, _P(_P(_c.c_double)),
+                 _P(_c.c_int64), _P(_c.c_int), _P(Error))
+        _declare(lib, "sm_run_warp_values_free", None, _P(_c.c_double))
         _declare(lib, "sm_run_batch", _c.c_int, _c.c_char_p, _c.c_char_p, _c.c_size_t,
                  _c.c_char_p, _c.c_char_p, _c.c_int, _c.c_char_p, _P(Error))
         _job = lib

@@ -1,220 +1,125 @@
 """shapematch.warp: points, meshes and fields through a result's map, the
-library's sm_warp (core/include/shapematch/sm_warp.h) through ctypes, as
-`shapematch warp` uses it (docs/warp.md has the conventions)."""
+job layer's warp use case (proto/job/sm_job_warp.h) through
+libshapematch_job's sm_run_map_* and sm_run_warp_* (shapematch_job.h), as
+`shapematch warp` and the daemon's warp route use it (docs/warp.md has the
+conventions)."""
 import ctypes
 import os
 
 from . import _arrays, _lib
 
-FORWARD, INVERSE = 0, 1
-_MESHES = ("result.mesh", "result.meshb", "result.mesh.gz", "result.meshb.gz")
-_SOLS = ("displacement.sol", "displacement.solb", "displacement.sol.gz", "displacement.solb.gz")
-
-
-def _first(directory, names):
-    for n in names:
-        p = os.path.join(directory, n)
-        if os.path.exists(p):
-            return p
-    return None
+_P = ctypes.POINTER
 
 
 class _Map:
-    """The template mesh (library-owned) and the deformed coordinates, as
-    sm_job_map_read reads a result folder (template = result -
-    displacement, the same arithmetic), or from a Result."""
+    """A map (sm_run_map): a result folder's, read by the library, or a
+    Result's arrays."""
 
     def __init__(self, result, raise_):
-        core = _lib.core()
-        self.core = core
-        self.mesh = ctypes.POINTER(_lib.Mesh)()
+        self.job = _lib.job()
+        self.ptr = ctypes.c_void_p()
         err = _lib.Error()
         from . import Result  # the package's; imported here against a cycle
         if isinstance(result, Result):
-            self._from_result(result, raise_)
-            return
-        if not isinstance(result, (str, bytes, os.PathLike)):
+            x, nv, dim = _arrays.doubles(result.initial_vertices, "result vertices", cols=(2, 3))
+            y, _, _ = _arrays.doubles(result.vertices, "result vertices", cols=(dim,))
+            e, ne, _ = _arrays.int32s(result.elements, "result elements", cols=(dim + 1,))
+            st = self.job.sm_run_map_new(dim, nv, _doubles_ptr(x), _doubles_ptr(y), ne,
+                                         _int32s_ptr(e), ctypes.byref(self.ptr),
+                                         ctypes.byref(err))
+        elif isinstance(result, (str, bytes, os.PathLike)):
+            st = self.job.sm_run_map_open(os.fsencode(result), ctypes.byref(self.ptr),
+                                          ctypes.byref(err))
+        else:
             raise TypeError("warp: result is a result folder (path) or a Result")
-        directory = os.fsdecode(result)
-        pm, ps = _first(directory, _MESHES), _first(directory, _SOLS)
-        if not pm or not ps:
-            raise _lib_error(raise_, "%s has no %s (a result folder of 'run' or 'fetch')" % (
-                directory, "result.mesh or result.meshb" if not pm else
-                "displacement.sol or displacement.solb"), 1)
-        sol = ctypes.POINTER(_lib.Sol)()
-        try:
-            st = core.sm_mesh_read(os.fsencode(pm), ctypes.byref(self.mesh), ctypes.byref(err))
-            if not st:
-                st = core.sm_sol_read(os.fsencode(ps), ctypes.byref(sol), ctypes.byref(err))
-            if st:
-                raise_(err, st)
-            m, d = self.mesh.contents, sol.contents
-            if d.nverts != m.nverts or d.ncomp != m.dim:
-                raise _lib_error(raise_, "%s has %d values of %d components, %s %d vertices in "
-                                 "%dD" % (ps, d.nverts, d.ncomp, pm, m.nverts, m.dim), 2)
-            n = m.nverts * m.dim
-            self.deformed = (ctypes.c_double * max(n, 1))()
-            ctypes.memmove(self.deformed, m.coords, n * 8)
-            _subtract(m.coords, d.values, n)
-        except BaseException:
-            self.close()
-            raise
-        finally:
-            if sol:
-                core.sm_sol_free(sol)
-
-    def _from_result(self, r, raise_):
-        core = self.core
-        err = _lib.Error()
-        x, nv, dim = _arrays.doubles(r.initial_vertices, "result vertices", cols=(2, 3))
-        y, _, _ = _arrays.doubles(r.vertices, "result vertices", cols=(dim,))
-        e, ne, _ = _arrays.int32s(r.elements, "result elements", cols=(dim + 1,))
-        st = core.sm_mesh_alloc(ctypes.byref(self.mesh), dim, nv, ne, 0, ctypes.byref(err))
         if st:
             raise_(err, st)
-        _arrays.copy_into(self.mesh.contents.coords, x)
-        _arrays.copy_into(self.mesh.contents.elems, e)
-        self.deformed = (ctypes.c_double * max(len(y), 1))()
-        _arrays.copy_into(self.deformed, y)
 
     @property
     def dim(self):
-        return self.mesh.contents.dim
+        return self.job.sm_run_map_dim(self.ptr)
+
+    @property
+    def nverts(self):
+        return self.job.sm_run_map_nverts(self.ptr)
 
     def close(self):
-        if self.mesh:
-            self.core.sm_mesh_free(self.mesh)
-            self.mesh = ctypes.POINTER(_lib.Mesh)()
-
-
-def _subtract(coords, values, n):
-    """coords[i] -= values[i] for n doubles (C arrays), as sm_job_map_read."""
-    np = _arrays._np()
-    if np is not None and n:
-        a = np.ctypeslib.as_array(coords, shape=(n,))
-        a -= np.ctypeslib.as_array(values, shape=(n,))
-        return
-    for i in range(n):
-        coords[i] -= values[i]
-
-
-def _lib_error(raise_, msg, status):
-    err = _lib.Error()
-    err.msg = msg.encode()[:_lib.ERROR_MSG_LEN - 1]
-    try:
-        raise_(err, status)
-    except Exception as e:  # noqa: BLE001 (returned for `raise`)
-        return e
+        if self.ptr:
+            self.job.sm_run_map_free(self.ptr)
+            self.ptr = ctypes.c_void_p()
 
 
 def _doubles_ptr(a):
     return ctypes.cast((ctypes.c_double * max(len(a), 1)).from_buffer(a) if len(a) else
-                       (ctypes.c_double * 1)(), ctypes.POINTER(ctypes.c_double))
+                       (ctypes.c_double * 1)(), _P(ctypes.c_double))
 
 
-def _warp_points(core, w, direction, strict, ptr, n, dim, raise_):
-    """(out C array, inside C array, noutside) of the n points at ptr."""
+def _int32s_ptr(a):
+    return ctypes.cast((ctypes.c_int32 * max(len(a), 1)).from_buffer(a) if len(a) else
+                       (ctypes.c_int32 * 1)(), _P(ctypes.c_int32))
+
+
+def _points(mp, direction, strict, points, what, raise_):
+    """(out C array, inside C array, n, dim) of an (n, dim) array."""
+    xyz, n, dim = _arrays.doubles(points, what, cols=(2, 3))
+    if dim != mp.dim:
+        raise ValueError("warp: %dD %s and the map is %dD" % (dim, what, mp.dim))
     out = (ctypes.c_double * max(n * dim, 1))()
     inside = (ctypes.c_uint8 * max(n, 1))()
     nout = ctypes.c_int64()
     err = _lib.Error()
-    st = core.sm_warp_points(w, direction, 1 if strict else 0, n, ptr, out, inside,
-                             ctypes.byref(nout), ctypes.byref(err))
+    st = mp.job.sm_run_warp_points(mp.ptr, direction, 1 if strict else 0, dim, n,
+                                   _doubles_ptr(xyz), out, inside, ctypes.byref(nout),
+                                   ctypes.byref(err))
     if st:
         raise_(err, st)
-    return out, inside, nout.value
+    return out, inside, n, dim
 
 
-def _read_mesh_or_surface(core, path, raise_):
-    """('mesh', sm_mesh*) or ('surface', sm_surface*) of path, read as
-    `shapematch warp --mesh` does: a volume mesh first, else a surface."""
-    err, serr = _lib.Error(), _lib.Error()
-    m = ctypes.POINTER(_lib.Mesh)()
-    st = core.sm_mesh_read(os.fsencode(path), ctypes.byref(m), ctypes.byref(err))
-    if not st:
-        return "mesh", m
-    if st == 1:  # SM_ERR_IO: no file
-        raise_(err, st)
-    s = ctypes.POINTER(_lib.Surface)()
-    st2 = core.sm_surface_read(os.fsencode(path), ctypes.byref(s), ctypes.byref(serr))
-    if st2:
-        serr.msg = ("%s is neither a mesh (%s) nor a surface (%s)" % (
-            os.fsdecode(path), err.msg.decode("utf-8", "replace"),
-            serr.msg.decode("utf-8", "replace"))).encode()[:_lib.ERROR_MSG_LEN - 1]
-        raise_(serr, st2)
-    return "surface", s
-
-
-def _write_warped(core, kind, obj, out_coords, output, raise_):
+def _file(mp, field, path, output, direction, strict, normalize, raise_):
+    """The warped values of a mesh/surface (field False) or .sol file,
+    written to output when given: an (rows, cols) array."""
+    values = _P(ctypes.c_double)()
+    rows, cols = ctypes.c_int64(), ctypes.c_int()
     err = _lib.Error()
-    path = os.fsencode(output)
-    if kind == "surface":
-        st = core.sm_surface_write(path, obj, out_coords, ctypes.byref(err))
-    elif path.endswith(b".vtu"):
-        st = core.sm_vtu_write(path, obj, out_coords, None, None, ctypes.byref(err))
-    elif path.endswith((b".mesh", b".meshb", b".mesh.gz", b".meshb.gz")):
-        st = core.sm_mesh_write_coords(path, obj, out_coords, ctypes.byref(err))
-    else:
-        raise ValueError("warp: %s: a volume mesh is written as .mesh, .meshb (optionally .gz) "
-                         "or .vtu" % os.fsdecode(output))
+    st = mp.job.sm_run_warp_file(mp.ptr, 1 if field else 0, os.fsencode(path),
+                                 os.fsencode(output) if output is not None else None,
+                                 direction, 1 if strict else 0, 1 if normalize else 0,
+                                 ctypes.byref(values), ctypes.byref(rows), ctypes.byref(cols),
+                                 ctypes.byref(err))
     if st:
         raise_(err, st)
-
-
-def _mesh(core, m, w, direction, strict, mesh, output, raise_):
-    if isinstance(mesh, (str, bytes, os.PathLike)):
-        kind, obj = _read_mesh_or_surface(core, mesh, raise_)
-        try:
-            c = obj.contents
-            if c.dim != m.dim:
-                raise ValueError("warp: %s is %dD and the map is %dD" % (
-                    os.fsdecode(mesh), c.dim, m.dim))
-            out, _, _ = _warp_points(core, w, direction, strict, c.coords, c.nverts, c.dim,
-                                     raise_)
-            if output is not None:
-                _write_warped(core, kind, obj, out, output, raise_)
-            return _arrays.out(out, ctypes.c_double, c.nverts, c.dim)
-        finally:
-            (core.sm_mesh_free if kind == "mesh" else core.sm_surface_free)(obj)
-    if output is not None:
-        raise ValueError("warp: output= is for a mesh given as a file (arrays come back)")
-    verts = mesh[0] if isinstance(mesh, (tuple, list)) else mesh["vertices"]
-    xyz, n, dim = _arrays.doubles(verts, "mesh vertices", cols=(2, 3))
-    if dim != m.dim:
-        raise ValueError("warp: the mesh is %dD and the map is %dD" % (dim, m.dim))
-    out, _, _ = _warp_points(core, w, direction, strict, _doubles_ptr(xyz), n, dim, raise_)
-    return _arrays.out(out, ctypes.c_double, n, dim)
-
-
-def _field(core, m, w, direction, normalize, field, output, raise_):
-    err = _lib.Error()
-    sol = ctypes.POINTER(_lib.Sol)()
     try:
-        if isinstance(field, (str, bytes, os.PathLike)):
-            st = core.sm_sol_read(os.fsencode(field), ctypes.byref(sol), ctypes.byref(err))
-            if st:
-                raise_(err, st)
-        else:
-            a, rows, cols = _arrays.doubles(field, "field", cols=None)
-            st = core.sm_sol_alloc(ctypes.byref(sol), m.dim, rows, cols or 1, ctypes.byref(err))
-            if st:
-                raise_(err, st)
-            _arrays.copy_into(sol.contents.values, a)
-        s = sol.contents
-        if s.nverts != m.nverts or s.dim != m.dim:
-            raise ValueError("warp: the field is %dD on %d vertices; the %s has %d in %dD" % (
-                s.dim, s.nverts, "template" if direction == FORWARD else "result", m.nverts,
-                m.dim))
-        st = core.sm_warp_field(w, direction, s.ncomp, 1 if normalize else 0, s.values,
-                                ctypes.byref(err))
+        n, c = rows.value, cols.value
+        copy = (ctypes.c_double * max(n * c, 1))()
+        ctypes.memmove(copy, values, n * c * 8)
+    finally:
+        mp.job.sm_run_warp_values_free(values)
+    return _arrays.out(copy, ctypes.c_double, n, c if (not field or c > 1) else 0)
+
+
+def _field_array(mp, direction, normalize, field, output, raise_):
+    """An (nverts, ncomp) array carried (and written to output when
+    given): the carried values."""
+    core = _lib.core()
+    a, rows, cols = _arrays.doubles(field, "field", cols=None)
+    ncomp = cols or 1
+    err = _lib.Error()
+    sol = _P(_lib.Sol)()
+    st = core.sm_sol_alloc(ctypes.byref(sol), mp.dim, rows, ncomp, ctypes.byref(err))
+    if st:
+        raise_(err, st)
+    try:
+        _arrays.copy_into(sol.contents.values, a)
+        st = mp.job.sm_run_warp_field(mp.ptr, direction, 1 if normalize else 0, mp.dim, rows,
+                                      ncomp, sol.contents.values, ctypes.byref(err))
         if not st and output is not None:
             st = core.sm_sol_write(os.fsencode(output), sol, ctypes.byref(err))
         if st:
             raise_(err, st)
-        return _arrays.out(s.values, ctypes.c_double, s.nverts, s.ncomp if s.ncomp > 1 else 0)
+        return _arrays.out(sol.contents.values, ctypes.c_double, rows, ncomp if ncomp > 1 else 0)
     finally:
-        if sol:
-            core.sm_sol_free(sol)
+        core.sm_sol_free(sol)
 
 
 def warp(result, raise_, points=None, mesh=None, field=None, inverse=False, strict=False,
@@ -226,30 +131,24 @@ def warp(result, raise_, points=None, mesh=None, field=None, inverse=False, stri
         raise TypeError("warp: normalize= is for field=")
     if output is not None and points is not None:
         raise TypeError("warp: output= is for mesh= and field= (points come back as arrays)")
-    core = _lib.core()
-    direction = INVERSE if inverse else FORWARD
+    direction = 1 if inverse else 0
     mp = _Map(result, raise_)
-    w = ctypes.c_void_p()
     try:
-        err = _lib.Error()
-        locate = 0 if field is not None else 1 << direction
-        st = core.sm_warp_new(mp.mesh, mp.deformed, locate, ctypes.byref(w), ctypes.byref(err))
-        if st:
-            raise_(err, st)
-        m = mp.mesh.contents
         if points is not None:
-            xyz, n, dim = _arrays.doubles(points, "points", cols=(2, 3))
-            if dim != m.dim:
-                raise ValueError("warp: %dD points and the map is %dD" % (dim, m.dim))
-            out, inside, _ = _warp_points(core, w, direction, strict, _doubles_ptr(xyz), n, dim,
-                                          raise_)
+            out, inside, n, dim = _points(mp, direction, strict, points, "points", raise_)
             flags = (ctypes.c_int32 * max(n, 1))(*inside[:n])
             return (_arrays.out(out, ctypes.c_double, n, dim),
                     _arrays.out(flags, ctypes.c_int32, n, 0))
         if mesh is not None:
-            return _mesh(core, m, w, direction, strict, mesh, output, raise_)
-        return _field(core, m, w, direction, normalize, field, output, raise_)
+            if isinstance(mesh, (str, bytes, os.PathLike)):
+                return _file(mp, False, mesh, output, direction, strict, False, raise_)
+            if output is not None:
+                raise ValueError("warp: output= is for a mesh given as a file (arrays come back)")
+            verts = mesh[0] if isinstance(mesh, (tuple, list)) else mesh["vertices"]
+            out, _, n, dim = _points(mp, direction, strict, verts, "mesh vertices", raise_)
+            return _arrays.out(out, ctypes.c_double, n, dim)
+        if isinstance(field, (str, bytes, os.PathLike)):
+            return _file(mp, True, field, output, direction, False, normalize, raise_)
+        return _field_array(mp, direction, normalize, field, output, raise_)
     finally:
-        if w.value:
-            core.sm_warp_free(w)
         mp.close()

@@ -17,6 +17,7 @@
 #include "api/smd_routes.h"
 #include "jobs/smd_jobs.h"
 #include "jobs/smd_usecases.h"
+#include "base/smd_body.h"
 #include "store/spool/smd_store.h"
 #include "worker/smd_job_file.h"
 #include "worker/smd_worker.h"
@@ -28,9 +29,8 @@ _Static_assert(SMD_JOB_MEMBERS_MAX == SMD_BATCH_MEMBERS_MAX, "one bound of a bat
 #define BATCH_BODY_MAX (1u << 20)
 
 typedef struct batch_body {
-    char *buf;
-    size_t len, cap;
-    int too_large;
+    smd_body body; /* counted in --max-body-memory (base/smd_body.h) */
+    int refused;   /* SMD_BODY_*: the rest is read and dropped */
 } batch_body;
 
 typedef smd_batch_member member;
@@ -208,6 +208,8 @@ enum MHD_Result smd_route_batch_create(struct MHD_Connection *conn, smd_request 
     batch_body *b = calloc(1, sizeof *b);
     if (!b)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
+    b->body.max = BATCH_BODY_MAX;
+    b->body.budget = req->srv->cfg.max_body_memory;
     req->body_state = b;
     return MHD_YES;
 }
@@ -216,7 +218,7 @@ void smd_batches_body_free(void *body)
 {
     batch_body *b = body;
     if (b)
-        free(b->buf);
+        smd_body_release(&b->body);
     free(b);
 }
 
@@ -345,14 +347,24 @@ enum MHD_Result smd_batches_continue(struct MHD_Connection *conn, smd_request *r
 {
     batch_body *b = req->body_state;
     if (*size == 0) {
-        if (b->too_large)
+        if (b->refused == SMD_BODY_TOO_LARGE)
             return smd_reply_problem(conn, req, 413, SMD_PROBLEM_TOO_LARGE,
                                      "the batch description exceeds %u bytes", BATCH_BODY_MAX);
+        if (b->refused) {
+            req->retry_after = 5;
+            return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "%s",
+                                     b->refused == SMD_BODY_BUSY
+                                         ? "the daemon holds its --max-body-memory of request "
+                                           "bodies already: try again shortly"
+                                         : "out of memory");
+        }
         member *m = NULL;
         size_t n = 0;
         char align[16], msg[512];
-        unsigned status = smd_batch_request_parse(b->buf ? b->buf : "", b->len, req->srv->cfg.max_batch_targets,
-                                                  &m, &n, align, msg, sizeof msg);
+        unsigned status = smd_batch_request_parse(b->body.buf ? b->body.buf : "", b->body.len,
+                                                  req->srv->cfg.max_batch_targets, &m, &n, align,
+                                                  msg, sizeof msg);
+        smd_body_release(&b->body);
         if (status)
             return smd_reply_problem(conn, req, status,
                                      status == 413   ? SMD_PROBLEM_TOO_LARGE
@@ -367,24 +379,10 @@ enum MHD_Result smd_batches_continue(struct MHD_Connection *conn, smd_request *r
     size_t n = *size;
     *size = 0;
     req->bytes_in += n;
-    if (b->too_large || b->len + n > BATCH_BODY_MAX) {
-        b->too_large = 1; /* read and dropped; 413 at the end */
+    if (!b->refused)
+        b->refused = smd_body_append(&b->body, data, n);
+    if (b->refused) /* read and dropped; answered at the end */
         return req->bytes_in > smd_drain_limit(BATCH_BODY_MAX) ? MHD_NO : MHD_YES;
-    }
-    if (b->len + n > b->cap) {
-        size_t cap = b->cap ? b->cap : 4096;
-        while (cap < b->len + n)
-            cap *= 2;
-        char *grown = realloc(b->buf, cap);
-        if (!grown) {
-            b->too_large = 1;
-            return MHD_YES;
-        }
-        b->buf = grown;
-        b->cap = cap;
-    }
-    memcpy(b->buf + b->len, data, n);
-    b->len += n;
     return MHD_YES;
 }
 

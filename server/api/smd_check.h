@@ -53,6 +53,7 @@ typedef struct smd_check_result {
     int shutdown;            /* not checked: the daemon stops */
     int busy;                /* not checked: it waited a --check-timeout for a slot */
     int storage;             /* the check passed, storing it failed */
+    int stage;               /* a warp: the step that failed (api/smd_warp.c) */
     char msg[512];           /* why, when status != SM_OK */
     int dim, max_iter;
     double tol_boundary;

@@ -3,7 +3,6 @@
 
 #include <stdint.h>
 #include <stdlib.h>
-#include <stdatomic.h>
 #include <string.h>
 #include <strings.h>
 
@@ -12,6 +11,7 @@
 #include "sm_proto_vocab.h"
 #include "api/smd_routes.h"
 #include "api/smd_upload.h"
+#include "base/smd_body.h"
 
 #define CONF "http://www.opengis.net/spec/ogcapi-processes-1/1.0/conf/"
 
@@ -66,68 +66,33 @@ enum MHD_Result smd_route_events_schema(struct MHD_Connection *conn, smd_request
  * most this much, whatever --max-upload allows multipart bodies. */
 #define EXECUTE_MAX ((size_t)64 << 20)
 
-/* Bytes of execute bodies held now, by every connection together:
- * at most --max-body-memory (a flood of parked bodies cannot take the
- * daemon's memory, issue 28). */
-static _Atomic uint64_t execute_held;
-
 typedef struct execute_body {
-    char *text;
-    size_t len, cap;
-    uint64_t budget; /* --max-body-memory */
-    int refused;     /* over a limit: the rest is not kept */
+    smd_body body; /* counted in --max-body-memory (base/smd_body.h) */
+    int refused;   /* over a limit: the rest is not kept */
 } execute_body;
-
-/* The buffer goes and its bytes leave the global count. */
-static void execute_release(execute_body *b)
-{
-    atomic_fetch_sub(&execute_held, (uint64_t)b->cap);
-    free(b->text);
-    b->text = NULL;
-    b->cap = 0;
-}
 
 static void execute_piece(void *cls, smd_upload *u, const char *data, size_t n)
 {
     execute_body *b = cls;
     if (b->refused)
         return;
-    if (b->len + n > EXECUTE_MAX) {
-        b->refused = 1;
-        execute_release(b);
+    int rc = smd_body_append(&b->body, data, n);
+    if (rc == SMD_BODY_OK)
+        return;
+    b->refused = 1;
+    if (rc == SMD_BODY_TOO_LARGE)
         smd_upload_fail(u, 413, SMD_PROBLEM_TOO_LARGE,
                         "the execute request exceeds %zu bytes (its inline inputs are held in "
                         "memory): send larger files as multipart/form-data to POST /v1/jobs",
                         EXECUTE_MAX);
-        return;
-    }
-    if (b->len + n + 1 > b->cap) {
-        size_t cap = b->cap ? b->cap : 65536;
-        while (cap < b->len + n + 1)
-            cap *= 2;
-        uint64_t grow = (uint64_t)(cap - b->cap);
-        if (atomic_fetch_add(&execute_held, grow) + grow > b->budget) {
-            atomic_fetch_sub(&execute_held, grow);
-            b->refused = 1;
-            execute_release(b);
-            smd_upload_fail(u, 503, SMD_PROBLEM_UNAVAILABLE,
-                            "the daemon holds %llu bytes of request bodies already (its "
-                            "--max-body-memory): try again shortly, or send the files as "
-                            "multipart/form-data to POST /v1/jobs",
-                            (unsigned long long)b->budget);
-            return;
-        }
-        char *t = realloc(b->text, cap);
-        if (!t) {
-            atomic_fetch_sub(&execute_held, grow);
-            smd_upload_fail(u, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
-            return;
-        }
-        b->text = t;
-        b->cap = cap;
-    }
-    memcpy(b->text + b->len, data, n);
-    b->len += n;
+    else if (rc == SMD_BODY_BUSY)
+        smd_upload_fail(u, 503, SMD_PROBLEM_UNAVAILABLE,
+                        "the daemon holds %llu bytes of request bodies already (its "
+                        "--max-body-memory): try again shortly, or send the files as "
+                        "multipart/form-data to POST /v1/jobs",
+                        (unsigned long long)b->body.budget);
+    else
+        smd_upload_fail(u, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
 }
 
 static int b64_value(unsigned char c)
@@ -277,8 +242,8 @@ static void execute_end(void *cls, smd_upload *u)
     json_error_t jerr;
     if (b->refused)
         return;
-    json_t *doc = json_loadb(b->text ? b->text : "", b->len, JSON_REJECT_DUPLICATES, &jerr);
-    execute_release(b);
+    json_t *doc = json_loadb(b->body.buf ? b->body.buf : "", b->body.len, JSON_REJECT_DUPLICATES, &jerr);
+    smd_body_release(&b->body);
     json_t *inputs = json_object_get(doc, "inputs");
     if (!doc)
         smd_upload_fail(u, 400, SMD_PROBLEM_BAD_REQUEST, "execute request: not JSON: %s (line %d)",
@@ -297,7 +262,7 @@ static void execute_end(void *cls, smd_upload *u)
 static void execute_free(void *cls)
 {
     execute_body *b = cls;
-    execute_release(b);
+    smd_body_release(&b->body);
     free(b);
 }
 
@@ -324,7 +289,8 @@ enum MHD_Result smd_route_execute(struct MHD_Connection *conn, smd_request *req)
     execute_body *b = calloc(1, sizeof *b);
     if (!b)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
-    b->budget = req->srv->cfg.max_body_memory;
+    b->body.budget = req->srv->cfg.max_body_memory;
+    b->body.max = EXECUTE_MAX;
     enum MHD_Result r = smd_upload_begin_decoded(
         conn, req, "application/json",
         "POST /v1/processes/match/execution takes an application/json execute request "

@@ -1,5 +1,5 @@
 /* POST /v1/jobs/{id}/warp: points, a mesh or a field carried through a
- * successful job's map, answered synchronously (docs/api.md, docs/warp.md).
+ * successful job's map, answered on the request (docs/api.md, docs/warp.md).
  *
  * The body is the points: text/csv (proto/sm_points_csv.h: x,y[,z] per
  * line, an optional header) or application/json ({"points": [[x, y(,
@@ -13,16 +13,22 @@
  * in the spool's tmp/ and comes back as Medit ASCII, the vertices moved
  * or the field carried, as `shapematch warp` writes them.  The body is held in
  * memory, at most --max-upload bytes and 64 MiB (413, before reading it
- * when Content-Length says so); the map is read from the job's results
- * (result.mesh, displacement.sol) and the location structures built for
- * the request, on the HTTP thread.
+ * when Content-Length says so), counted by --max-body-memory (503 past
+ * it).  Once it is in, the connection is suspended and the warp runs in
+ * a check child (api/smd_check.h: forked, --check-timeout, --memory-limit):
+ * the job layer's use case (job/sm_job_warp.h) reads the body within
+ * --max-vertices, --max-elements and --max-inflated, the map from the
+ * job's results, and writes the answer to a temporary file that the
+ * resumed handler sends; no HTTP thread parses or computes.
  *
  * Answers: 200; 400 malformed body (the CSV line, the JSON member, the
  * mesh reader's place named) or query; 404
  * unknown job or another tenant's; 409 the job is not successful (queued,
- * running, failed, dismissed: no map); 413; 415 another Content-Type;
- * 422 points, mesh or field of the wrong dimension (or vertex count),
- * or outside the mesh with strict. */
+ * running, failed, dismissed: no map); 413 (the size, a reader's bound);
+ * 415 another Content-Type; 422 points, mesh or field of the wrong
+ * dimension (or vertex count), outside the mesh with strict, an answer
+ * format that cannot hold the body, or past --check-timeout; 503 past
+ * --max-body-memory, with the check queue full or while shutting down. */
 #ifndef SMD_WARP_H
 #define SMD_WARP_H
 

@@ -143,7 +143,8 @@ static const opt options[] = {
      "memory only, the node unready saying so", "256M"},
     {"--max-body-memory", "SHAPEMATCH_MAX_BODY_MEMORY", "BYTES", OPT_SIZE, OFF(max_body_memory),
      1 << 20, 1e15, "request bodies held in memory at once, all connections together (OGC "
-     "execute requests, each at most 64M); past it a request gets 503", "256M"},
+     "execute requests and warp bodies, each at most 64M, batch descriptions); past it a "
+     "request gets 503", "256M"},
     {"--body-stall-timeout", "SHAPEMATCH_BODY_STALL_TIMEOUT", "SECONDS", OPT_DURATION,
      OFF(body_stall_timeout), 0.5, 3600, "a request body (an upload) that brings no byte for "
      "this long is cut, however much it sent before", "10s"},

@@ -348,6 +348,8 @@ probe "shutting down" GET /readyz 503 /readyz ''
 probe "shutting down" POST /v1/jobs 503 /v1/jobs '' "${AUTH[@]}" "${F[@]}" -F "params=$(quick_params 5)"
 probe "shutting down" POST /v1/batches 503 /v1/batches '' "${AUTH[@]}" -H 'Content-Type: application/json' \
     --data-binary "{\"targets\": [{\"job\": \"$J\"}]}"
+probe "shutting down" POST /v1/jobs/{jobID}/warp 503 "/v1/jobs/$J/warp" '' "${AUTH[@]}" "${CSV[@]}" \
+    --data-binary $'0,0\n'
 probe "shutting down" POST /v1/processes/{processID}/execution 503 /v1/processes/match/execution '' \
     "${AUTH[@]}" "${XJ[@]}" --data-binary "@$WORK/exec.json"
 curl -sS -o /dev/null "${AUTH[@]}" -X DELETE "$BASE/v1/jobs/$E"

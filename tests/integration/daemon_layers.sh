@@ -122,4 +122,22 @@ if [ -z "$bad" ] && ls "$ROOT"/server/jobs/*.c >/dev/null 2>&1; then
 else
     not_ok "the job engine includes no HTTP or API header" "$bad"
 fi
+# no handler parses or computes a warp (issues 36, 37): api/ and http/
+# call the job layer's use case (job/sm_job_warp.h) in a check child, never
+# core's warp or a mesh, surface, field, image or points reader itself.
+# The rule is run on a file that breaks it too, and must fire there.
+computes_warp() { # FILES...: the calls, one per line
+    grep -nE '\b(sm_warp_[a-z_]+|sm_(mesh|surface|sol|image)_read[a-z_]*|sm_points_[a-z_]+)[[:space:]]*\(' "$@" \
+        /dev/null | sed "s|^$ROOT/||"
+}
+calls=$(computes_warp "$ROOT"/server/api/*.c "$ROOT"/server/http/*.c)
+handler=$(mktemp "${TMPDIR:-/tmp}/sm-layers-handler-XXXXXX")
+printf 'static void h(void) { sm_warp_points(w, 0, 0, 1, x, y, 0, 0, 0); }\n' >"$handler"
+fired=$(computes_warp "$handler")
+rm -f "$handler"
+if [ -z "$calls" ] && [ -n "$fired" ]; then
+    ok "no handler computes a warp or reads a mesh (api/, http/ call the job layer in a check child)"
+else
+    not_ok "no handler computes a warp" "calls: $(echo $calls | head -c 300); fires on a bad file: ${fired:-no}"
+fi
 echo "1..$n"

@@ -182,13 +182,13 @@ problem "a malformed CSV line is named" 400 "line 4" "${CSV[@]}" --data-binary "
     "$BASE/v1/jobs/$J/warp"
 problem "a bad direction" 400 "direction" "${CSV[@]}" --data-binary $'0,0\n' \
     "$BASE/v1/jobs/$J/warp?direction=sideways"
-problem "a volume mesh asked as STL" 422 "answered as format=mesh or vtu" \
+problem "a volume mesh asked as STL" 422 "is a volume mesh: write it as .mesh, .meshb or .vtu" \
     -H 'Content-Type: application/x-medit-mesh' --data-binary "@$DISK" \
     "$BASE/v1/jobs/$J/warp?format=stl"
 problem "an unknown format" 400 "format: expected mesh, vtu" \
     -H 'Content-Type: model/stl' --data-binary "@$DISK" "$BASE/v1/jobs/$J/warp?format=step"
 printf 'solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid s\n' >"$WORK/tri.stl"
-problem "a 3D surface on the 2D map" 422 "a 3D mesh, and the map is 2D" \
+problem "a 3D surface on the 2D map" 422 "the body is 3D and the map is 2D" \
     -H 'Content-Type: model/stl' --data-binary "@$WORK/tri.stl" "$BASE/v1/jobs/$J/warp"
 problem "garbage as a surface: both readers' messages" 400 "neither a mesh" \
     -H 'Content-Type: model/obj' --data-binary 'not a surface' "$BASE/v1/jobs/$J/warp"

@@ -279,6 +279,24 @@ class Batch2D(unittest.TestCase):
                 open(os.path.join(cli, "model", "scores.csv")) as y:
             self.assertEqual(x.read(), y.read())
 
+    def test_the_hosts_child_keeps_its_exit_status(self):
+        """sm_run_batch waits for its own children only (issue 36): a
+        subprocess the host started has ended (a zombie) when the batch
+        runs, and the host still reads its exit status after it (a
+        waitpid(-1) in the library took it, and Popen.wait then read 0)."""
+        host = subprocess.Popen(["sh", "-c", "exit 7"])
+        stat = "/proc/%d/stat" % host.pid
+        for _ in range(1000):  # ended, not yet waited for: a zombie the batch could reap
+            with open(stat) as f:
+                if f.read().rsplit(") ", 1)[1][0] == "Z":
+                    break
+            time.sleep(0.01)
+        out = os.path.join(self.tmp, "host")
+        s = shapematch.batch(TEMPLATE2, self.targets, out, clamp_ball=(0.5, 0.5, 0.04),
+                             max_iter=40, jobs=1)
+        self.assertEqual(s["targets_ok"], 3)
+        self.assertEqual(host.wait(timeout=30), 7)
+
     def test_bad_model_align_raises(self):
         with self.assertRaises(shapematch.ShapematchError):
             shapematch.batch(TEMPLATE2, self.targets, os.path.join(self.tmp, "x"),

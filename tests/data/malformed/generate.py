@@ -15,6 +15,7 @@ import os
 import re
 import shutil
 import struct
+import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -588,6 +589,13 @@ case("surface-vtu-appended-short", "input.vtu", _vta[:-300], "no appended data")
 case("surface-vtu-appended-cut", "input.vtu", _vta[:-120], "needed")
 case("surface-vtu-two-pieces", "input.vtu", _vtu.replace(b"</Piece>", b"</Piece><Piece NumberOfPoints=\"0\"/>"),
      "more than one Piece")
+
+
+# 3 MiB of coordinates from 5 KB: refused before the points are allocated
+sys.path.insert(0, os.path.join(HERE, "..", "..", "lib"))
+from zlib_bomb import zlib_bomb_vtu  # noqa: E402
+case("mesh-vtu-zlib-bomb", "input.vtu", zlib_bomb_vtu(1 << 18), "more than 64 times the file",
+     "nomem")
 case("surface-vtu-text-short", "input.vtu", _vtu.replace(b"NumberOfPoints=\"8\"", b"NumberOfPoints=\"9\""),
      "Points")
 case("surface-vtu-no-points", "input.vtu",

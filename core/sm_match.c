@@ -90,6 +90,8 @@ int sm_stop_reason_from_name(const char *name, sm_stop_reason *out)
 typedef struct sm_match run_state;
 struct sm_match {
     const sm_params *params;
+    sm_params own_params;     /* the params with a clamp of kind auto made
+                               * the default ball (sm_clamp_resolve) */
     const sm_mesh *mesh;      /* the template with its boundary built:
                                * opts->prepared, or own_mesh */
     sm_mesh *own_mesh;        /* private copy when nothing was prepared */
@@ -178,6 +180,12 @@ static sm_status setup_mesh(run_state *rs, const sm_match_opts *opts, sm_error *
             return st;
         }
         rs->mesh = rs->own_mesh;
+    }
+    if (params->clamp == SM_CLAMP_AUTO) { /* the default clamp, on the boundary just built */
+        rs->own_params = *params;
+        if ((st = sm_clamp_resolve(rs->mesh, &rs->own_params, NULL, err)) != SM_OK)
+            return st;
+        rs->params = params = &rs->own_params;
     }
     const size_t ndof = rs->ndof;
     rs->clamped = malloc((size_t)rs->mesh->nverts + 1);

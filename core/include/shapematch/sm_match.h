@@ -147,7 +147,9 @@ sm_status sm_match_run(const sm_match_opts *opts, const sm_match_callbacks *cb,
 /* The same run in two steps, for callers that have other work to do
  * while the template side is set up (the job runner reads the target
  * meanwhile):
- *   sm_match_new      the template side: checks, topology, clamp set,
+ *   sm_match_new      the template side: checks, topology, clamp set (a
+ *                     clamp of kind auto made the default ball on the
+ *                     template: sm_clamp_resolve),
  *                     the elastic operator and its first factorization
  *                     (or AMG hierarchy).  opts->target is not used; the
  *                     template meshes and params stay borrowed until

@@ -135,7 +135,9 @@ typedef struct sm_params {
     double smooth;           /* the mask's Gaussian, in voxels (0: none) */
 } sm_params;
 
-/* Fills p with the defaults of the parameter table (below); clamp NONE. */
+/* Fills p with the defaults of the parameter table (below); clamp AUTO
+ * (the default ball, chosen on the template by sm_match_new or the job
+ * layer). */
 void sm_params_default(sm_params *p);
 /* Checks every parameter against the table's bounds, then the rules that
  * join several fields (the clamp kind's members, step_initial <=

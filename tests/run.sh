@@ -13,6 +13,8 @@ only=${SM_TEST_ONLY:-}
 passed=0
 failed=0
 failures=()
+timings=()
+run_start=$SECONDS
 logdir=build/test-logs
 mkdir -p "$logdir"
 rm -f "$logdir"/*.result
@@ -21,9 +23,20 @@ run_suite() { # variant name command...
     local variant=$1 name=$2
     shift 2
     local log="$logdir/$variant-$name.log"
-    local start=$SECONDS
+    local t0=${EPOCHREALTIME/,/.}
     "$@" >"$log" 2>&1
     local rc=$?
+    local t1=${EPOCHREALTIME/,/.}
+    # CPU: this subshell's reaped children (the suite and every process it
+    # waited for, daemons and their workers included), user + system
+    # (`times` must run in this shell, not in a forked pipeline)
+    local cpu
+    times >"$log.times"
+    cpu=$(awk 'NR == 2 { n = split($0, f, " "); s = 0
+        for (i = 1; i <= n; i++) { split(f[i], p, "m"); s += p[1] * 60 + p[2] } printf "%.1f", s }' "$log.times")
+    rm -f "$log.times"
+    local wall
+    wall=$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.1f", b - a }')
     local ok nok
     ok=$(grep -cE '^ok ' "$log")
     # a skipped test is neither (cmocka's TAP writes it "not ok N # SKIP")
@@ -36,13 +49,14 @@ run_suite() { # variant name command...
         nok=1
         echo "not ok - $name reported no test" >>"$log"
     fi
-    echo "$ok $nok" >"$logdir/$variant-$name.result"
+    echo "$ok $nok $wall $cpu" >"$logdir/$variant-$name.result"
     # one write, so that lines of suites running side by side do not mix
     local out
-    out=$(printf '%-8s %-32s %4d passed %3d failed  %4ds' "$variant" "$name" "$ok" "$nok" $((SECONDS - start)))
+    out=$(printf '%-8s %-32s %4d passed %3d failed  %6.1fs wall %6.1fs cpu' "$variant" "$name" "$ok" "$nok" "$wall" "$cpu")
     if [ "$nok" -ne 0 ]; then
         out+=$'\n'$(grep -E '^not ok|ERROR|Sanitizer|runtime error' "$log" | head -20 | sed 's/^/    /')
-        out+=$'\n'"    (full log: $log)"
+        out+=$'\n'"    --- last 20 lines of $log:"
+        out+=$'\n'$(tail -n 20 "$log" | sed 's/^/    /')
     fi
     printf '%s\n' "$out"
 }
@@ -123,12 +137,24 @@ for entry in "${queue[@]}"; do
         failures+=("$variant/$name")
         continue
     fi
-    read -r ok nok <"$res"
+    read -r ok nok wall cpu <"$res"
     passed=$((passed + ok))
     failed=$((failed + nok))
     [ "$nok" -ne 0 ] && failures+=("$variant/$name")
+    timings+=("$wall $cpu $variant/$name")
 done
 
+# Where the time went: the slowest suites (wall, and the CPU they used;
+# a suite far below its wall mostly waits on its daemons) and the totals.
+if [ "${#timings[@]}" -ne 0 ]; then
+    echo "slowest suites (wall s, cpu s):"
+    printf '%s\n' "${timings[@]}" | sort -k1,1 -g -r | head -n "${SM_TEST_SLOWEST:-10}" |
+        awk '{ printf "  %7.1f %7.1f  %s\n", $1, $2, $3 }'
+    # the machine's load says how far the figures can be compared
+    read -r load1 _ load15 _ </proc/loadavg
+    printf '%s\n' "${timings[@]}" | awk -v w=$((SECONDS - run_start)) -v l1="$load1" -v l15="$load15" \
+        '{ c += $2 } END { printf "suites: %.0f s of CPU in %d s of wall; load average %s (1 min), %s (15 min)\n", c, w, l1, l15 }'
+fi
 if [ "${#failures[@]}" -ne 0 ]; then
     echo "failed suites: ${failures[*]}"
 fi

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: weight 0.25 seconds 70
 # The backend contract (server/jobs/smd_backend.h): the same cases, the
 # same expectations, against both backends through the daemon's API:
 #   spool        one daemon on its own spool

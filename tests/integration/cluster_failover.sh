@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: weight 0.25 seconds 60
 # Several machines on one PostgreSQL (issue 12), failures and cluster-wide
 # operations: an API node killed (-9) while a client follows a job (the
 # client resumes on the other with Last-Event-ID: no event lost or

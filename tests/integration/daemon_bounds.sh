@@ -244,9 +244,11 @@ wait "$cpid"
 t1=${EPOCHREALTIME/,/.}
 c=$(cat "$WORK/slow.code")
 secs=$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.1f", b - a }')
-if [ "$paused" = yes ] && [ "$c" = 422 ] && jq -e '.detail | contains("--check-timeout")' "$WORK/slow.json" >/dev/null &&
+# (on a loaded machine the check may outlast the timeout by itself, before
+# it could be paused: the same verdict)
+if [ "$c" = 422 ] && jq -e '.detail | contains("--check-timeout")' "$WORK/slow.json" >/dev/null &&
     awk -v s="$secs" -v b=$((CT + 10 * SLOW)) 'BEGIN { exit !(s < b) }'; then
-    ok "--check-timeout $CT: a check paused past it, 422 in $secs s \"$(jq -r .detail "$WORK/slow.json")\""
+    ok "--check-timeout $CT: a check past it (paused: $paused), 422 in $secs s \"$(jq -r .detail "$WORK/slow.json")\""
 else
     not_ok "--check-timeout: 422 naming it" "check paused: $paused; $c in $secs s" "$(cat "$WORK/slow.json")"
 fi

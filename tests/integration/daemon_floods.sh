@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# run.sh: alone (its verdicts time the daemon against the wall clock)
+# run.sh: weight 0.5 seconds 30
 # Bounded floods on loopback (issue 28), each against a daemon with small
 # limits so that it stays short; the driver is tests/integration/flood.py.
 #

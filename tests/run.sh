@@ -81,11 +81,12 @@ done
 
 # What a suite costs, for the schedule: a shell suite may say it in a
 # line near its top (the first 20 lines),
-#     # run.sh: weight W seconds S
+#     # run.sh: weight W seconds S asan A
 # W, the cores it keeps busy while it runs (default 1: a cmocka program,
 # a suite that computes; a suite that mostly waits on its daemons weighs
 # less, and more of them run side by side); S, its wall seconds on an
-# idle machine in the release variant (default 5; ASan: 3 times that).
+# idle machine in the release variant (default 5), A in the ASan variant
+# (default 3 S).
 # The wall seconds of the last run on this machine, when there was one
 # (build/test-logs/last-times), stand for S.
 # "# run.sh: alone" (a suite whose verdicts would time the daemon against
@@ -114,7 +115,10 @@ cost() {
     [[ $h == *alone* ]] && alone=1
     [[ $h =~ weight\ ([0-9.]+) ]] && w=${BASH_REMATCH[1]}
     [[ $h =~ seconds\ ([0-9.]+) ]] && secs=${BASH_REMATCH[1]}
-    [ "$1" = asan ] && secs=$(awk -v s="$secs" 'BEGIN { print s * 3 }')
+    if [ "$1" = asan ]; then
+        secs=$(awk -v s="$secs" 'BEGIN { print s * 3 }')
+        [[ $h =~ asan\ ([0-9.]+) ]] && secs=${BASH_REMATCH[1]}
+    fi
     [ -n "${last_wall[$1/$2]:-}" ] && secs=${last_wall[$1/$2]}
     awk -v s="$secs" -v w="$w" -v a="$alone" 'BEGIN { printf "%d %d %d\n", s * 10, w * 100, a }'
 }

@@ -16,9 +16,10 @@ const [openBase, tokenBase, token, originPort, examples, logDir, cubeMesh, cubeS
 const report = (desc, ok, detail = '') => console.log(JSON.stringify({ desc, ok: !!ok, detail: String(detail).slice(0, 2000) }));
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 // Every wait below is a deadline, not a verdict (it ends as soon as the
-// page is there): 3 times what an idle machine needs, since a 2D job's
-// 60 s once ran out at load 11-14 while the page was right.
-const WAIT = 3;
+// page is there): 10 times what an idle machine needs.  A 2D job's 60 s
+// ran out at load 11-14 while the page was right, and at load 40 its 4.6
+// CPU seconds took 293 s.
+const WAIT = 10;
 
 // The plain test page of "another origin": nothing but a script hook.
 const server = http.createServer((req, res) => {

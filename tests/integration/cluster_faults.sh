@@ -90,7 +90,7 @@ held=$(psql_val "SELECT count(*) FROM pg_stat_activity WHERE state = 'idle in tr
 
 # a DELETE on the API node waits for the row; meanwhile the node answers
 t0=$(date +%s.%N)
-hcurl --max-time 15 -o "$WORK/del1.json" -w '%{http_code}' -X DELETE "$BASE/v1/jobs/$id" \
+hcurl --max-time $((LOCK_TIMEOUT + 10 * SLOW)) -o "$WORK/del1.json" -w '%{http_code}' -X DELETE "$BASE/v1/jobs/$id" \
     >"$WORK/del1.code" 2>/dev/null &
 DEL=$!
 sleep 0.2

@@ -37,6 +37,7 @@ const context = await browser.newContext({ acceptDownloads: true, viewport: { wi
 
 async function newPage() {
   const page = await context.newPage();
+  page.setDefaultTimeout(30000 * WAIT); // screenshots, clicks: deadlines too
   page.errors = [];
   page.on('console', (m) => { if (m.type() === 'error') page.errors.push(`${m.text()} ${m.location().url || ''}`); });
   page.on('pageerror', (e) => page.errors.push(String(e)));

@@ -317,20 +317,20 @@ v=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
 poll 30 state_is "$v" running
 kill -STOP "${NODE_PID[w1]}"
 expired() { [ "$(psql_val "SELECT attempt || ' ' || (lease_token IS NULL) FROM smd_jobs WHERE id = '$v'")" != "1 false" ]; }
-poll 10 expired
+poll 30 expired # deadlines: a frozen node catches up slowly on a loaded machine
 kill -CONT "${NODE_PID[w1]}"
 lost_line() { grep "\"event\":\"job_cancelled\",\"job\":\"$v\"" "${NODE_LOG[w1]}" | head -n 1; }
 has_lost_line() { [ -n "$(lost_line)" ]; }
-poll 10 has_lost_line
+poll 30 has_lost_line
 line=$(lost_line)
 if [[ "$line" == *"lease was lost"* && "$line" != *DELETE* ]]; then
     ok "a node that lost its lease stops the run saying so (not \"cancelled by request\")"
 else
     not_ok "the lost lease's wording" "${line:-no job_cancelled line on w1}"
 fi
-poll 10 state_is "$v" running
+poll 30 state_is "$v" running
 hcurl -o /dev/null -X DELETE "$BASE/v1/jobs/$v"
-poll 15 state_is "$v" dismissed
+poll 30 state_is "$v" dismissed
 for nd in api1 w1; do kill -TERM "${NODE_PID[$nd]}" 2>/dev/null; done
 for nd in api1 w1; do wait "${NODE_PID[$nd]}" 2>/dev/null; done
 check "no sanitizer report in any node's log" reports_clean

@@ -145,7 +145,7 @@ fi
 
 # the lease expired while the row is locked: the sweep says so
 expired_held() { grep -q '"event":"leases_expired_held"' "${NODE_LOG[api1]}" "${NODE_LOG[w1]}"; }
-if poll 10 expired_held; then
+if poll 30 expired_held; then
     ok "the lease expiry names the expired lease whose row is locked"
 else
     not_ok "leases_expired_held logged"

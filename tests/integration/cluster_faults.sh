@@ -315,6 +315,11 @@ all "failed claims back off (from $t_a to $t_b failed claims in 3 s) and are log
 # the node, woken, stops the run saying so, not as if a client cancelled.
 v=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
 poll 30 state_is "$v" running
+# frozen once its run started on the node (the database says running from
+# the claim on: a node frozen between its claim and the run's start, seen
+# at load 50, starts the run after it has lost the lease and never ends it)
+run_started() { grep -q "\"event\":\"job_started\",\"job\":\"$v\"" "${NODE_LOG[w1]}"; }
+poll 30 run_started
 kill -STOP "${NODE_PID[w1]}"
 expired() { [ "$(psql_val "SELECT attempt || ' ' || (lease_token IS NULL) FROM smd_jobs WHERE id = '$v'")" != "1 false" ]; }
 poll 30 expired # deadlines: a frozen node catches up slowly on a loaded machine

@@ -13,6 +13,8 @@ only=${SM_TEST_ONLY:-}
 passed=0
 failed=0
 failures=()
+timings=()
+run_start=$SECONDS
 logdir=build/test-logs
 mkdir -p "$logdir"
 rm -f "$logdir"/*.result
@@ -21,9 +23,20 @@ run_suite() { # variant name command...
     local variant=$1 name=$2
     shift 2
     local log="$logdir/$variant-$name.log"
-    local start=$SECONDS
+    local t0=${EPOCHREALTIME/,/.}
     "$@" >"$log" 2>&1
     local rc=$?
+    local t1=${EPOCHREALTIME/,/.}
+    # CPU: this subshell's reaped children (the suite and every process it
+    # waited for, daemons and their workers included), user + system
+    # (`times` must run in this shell, not in a forked pipeline)
+    local cpu
+    times >"$log.times"
+    cpu=$(awk 'NR == 2 { n = split($0, f, " "); s = 0
+        for (i = 1; i <= n; i++) { split(f[i], p, "m"); s += p[1] * 60 + p[2] } printf "%.1f", s }' "$log.times")
+    rm -f "$log.times"
+    local wall
+    wall=$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.1f", b - a }')
     local ok nok
     ok=$(grep -cE '^ok ' "$log")
     # a skipped test is neither (cmocka's TAP writes it "not ok N # SKIP")
@@ -36,13 +49,14 @@ run_suite() { # variant name command...
         nok=1
         echo "not ok - $name reported no test" >>"$log"
     fi
-    echo "$ok $nok" >"$logdir/$variant-$name.result"
+    echo "$ok $nok $wall $cpu" >"$logdir/$variant-$name.result"
     # one write, so that lines of suites running side by side do not mix
     local out
-    out=$(printf '%-8s %-32s %4d passed %3d failed  %4ds' "$variant" "$name" "$ok" "$nok" $((SECONDS - start)))
+    out=$(printf '%-8s %-32s %4d passed %3d failed  %6.1fs wall %6.1fs cpu' "$variant" "$name" "$ok" "$nok" "$wall" "$cpu")
     if [ "$nok" -ne 0 ]; then
         out+=$'\n'$(grep -E '^not ok|ERROR|Sanitizer|runtime error' "$log" | head -20 | sed 's/^/    /')
-        out+=$'\n'"    (full log: $log)"
+        out+=$'\n'"    --- last 20 lines of $log:"
+        out+=$'\n'$(tail -n 20 "$log" | sed 's/^/    /')
     fi
     printf '%s\n' "$out"
 }
@@ -65,11 +79,48 @@ for variant in $variants; do
     done
 done
 
-# A suite that measures time against the wall clock it does not own (rate
-# windows, stall deadlines, a fuzzer's time budget) says so with a line
-# "# run.sh: alone" near its top and runs with nothing beside it.
-runs_alone() { # kind path
-    [ "$1" = sh ] && head -20 "$2" | grep -q '^# run.sh: alone'
+# What a suite costs, for the schedule: a shell suite may say it in a
+# line near its top (the first 20 lines),
+#     # run.sh: weight W seconds S asan A
+# W, the cores it keeps busy while it runs (default 1: a cmocka program,
+# a suite that computes; a suite that mostly waits on its daemons weighs
+# less, and more of them run side by side); S, its wall seconds on an
+# idle machine in the release variant (default 5), A in the ASan variant
+# (default 3 S).
+# The wall seconds of the last run on this machine, when there was one
+# (build/test-logs/last-times), stand for S.
+# "# run.sh: alone" (a suite whose verdicts would time the daemon against
+# a wall clock it shares) still runs with nothing beside it, after the
+# others; no suite needs it today.
+# A cmocka program says it in its source, tests/unit/NAME.c, as a comment
+# line "/* run.sh: ... */".  A suite of tests/integration/ weighs 0.5 by
+# default (it mostly waits on its daemons).
+header_of() { # kind path: the suite's "run.sh:" words
+    if [ "$1" = sh ]; then
+        head -20 "$2" | sed -n 's/^# run\.sh: //p'
+    else
+        local src=tests/unit/$(basename "$2").c
+        [ -f "$src" ] && head -30 "$src" | sed -n 's|^/\* run\.sh: \(.*\) \*/$|\1|p'
+    fi
+}
+declare -A last_wall=()
+if [ -f "$logdir/last-times" ]; then
+    while read -r v nm w _; do last_wall[$v/$nm]=$w; done <"$logdir/last-times"
+fi
+# cost VARIANT NAME KIND PATH: prints "SECONDS_TENTHS WEIGHT_HUNDREDTHS ALONE"
+cost() {
+    local h w=1 secs=5 alone=0
+    [[ $4 == */tests/integration/* || $4 == tests/integration/* ]] && w=0.5
+    h=$(header_of "$3" "$4")
+    [[ $h == *alone* ]] && alone=1
+    [[ $h =~ weight\ ([0-9.]+) ]] && w=${BASH_REMATCH[1]}
+    [[ $h =~ seconds\ ([0-9.]+) ]] && secs=${BASH_REMATCH[1]}
+    if [ "$1" = asan ]; then
+        secs=$(awk -v s="$secs" 'BEGIN { print s * 3 }')
+        [[ $h =~ asan\ ([0-9.]+) ]] && secs=${BASH_REMATCH[1]}
+    fi
+    [ -n "${last_wall[$1/$2]:-}" ] && secs=${last_wall[$1/$2]}
+    awk -v s="$secs" -v w="$w" -v a="$alone" 'BEGIN { printf "%d %d %d\n", s * 10, w * 100, a }'
 }
 
 start_suite() { # variant name kind path
@@ -87,24 +138,45 @@ start_suite() { # variant name kind path
     )
 }
 
-# Suites run SM_TEST_JOBS at a time (default: one per core).  Most of a
-# daemon suite's time is spent waiting on its daemon, so two at a time on
-# two cores nearly halve the wall time.
-# The suites that run alone come after the others, one by one.
-jobs_max=${SM_TEST_JOBS:-$(nproc)}
-running=0
+# The schedule: the longest suites first (the critical path), side by side
+# while the weights of those running add up to at most SM_TEST_JOBS cores
+# (default: one per core), and at most 4 suites a core at once (daemons,
+# ports, memory); one always runs, whatever its weight.
+cores=${SM_TEST_JOBS:-$(nproc)}
+cap=$((cores * 100))
+max_running=$((cores * 4))
+order=()
 alone=()
-for entry in "${queue[@]}"; do
-    read -r variant name kind path <<<"$entry"
-    if runs_alone "$kind" "$path"; then
+declare -A weight_of=()
+while IFS='|' read -r _ w a entry; do
+    if [ "$a" = 1 ]; then
         alone+=("$entry")
-        continue
+    else
+        order+=("$entry")
+        weight_of[$entry]=$w
     fi
-    while [ "$running" -ge "$jobs_max" ]; do
-        wait -n
+done < <(for entry in "${queue[@]}"; do
+    read -r variant name kind path <<<"$entry"
+    read -r t w a < <(cost "$variant" "$name" "$kind" "$path")
+    echo "$t|$w|$a|$entry"
+done | sort -t'|' -k1,1 -n -r)
+load=0
+running=0
+declare -A pid_weight=()
+for entry in ${order[@]+"${order[@]}"}; do
+    read -r variant name kind path <<<"$entry"
+    w=${weight_of[$entry]}
+    while [ "$running" -gt 0 ] && { [ $((load + w)) -gt "$cap" ] || [ "$running" -ge "$max_running" ]; }; do
+        done_pid=
+        wait -n -p done_pid || [ -n "$done_pid" ] || break
+        [ -n "${pid_weight[$done_pid]+set}" ] || continue # not a suite
+        load=$((load - ${pid_weight[$done_pid]}))
+        unset "pid_weight[$done_pid]"
         running=$((running - 1))
     done
     start_suite "$variant" "$name" "$kind" "$path" &
+    pid_weight[$!]=$w
+    load=$((load + w))
     running=$((running + 1))
 done
 wait
@@ -123,12 +195,28 @@ for entry in "${queue[@]}"; do
         failures+=("$variant/$name")
         continue
     fi
-    read -r ok nok <"$res"
+    read -r ok nok wall cpu <"$res"
     passed=$((passed + ok))
     failed=$((failed + nok))
     [ "$nok" -ne 0 ] && failures+=("$variant/$name")
+    timings+=("$wall $cpu $variant/$name")
+    echo "$variant $name $wall $cpu" >>"$logdir/last-times.new"
 done
+# the next run's order (only a whole run's: a narrowed one keeps the last)
+[ -z "$only" ] && [ "$variants" = "release asan" ] && mv "$logdir/last-times.new" "$logdir/last-times"
+rm -f "$logdir/last-times.new"
 
+# Where the time went: the slowest suites (wall, and the CPU they used;
+# a suite far below its wall mostly waits on its daemons) and the totals.
+if [ "${#timings[@]}" -ne 0 ]; then
+    echo "slowest suites (wall s, cpu s):"
+    printf '%s\n' "${timings[@]}" | sort -k1,1 -g -r | head -n "${SM_TEST_SLOWEST:-10}" |
+        awk '{ printf "  %7.1f %7.1f  %s\n", $1, $2, $3 }'
+    # the machine's load says how far the figures can be compared
+    read -r load1 _ load15 _ </proc/loadavg
+    printf '%s\n' "${timings[@]}" | awk -v w=$((SECONDS - run_start)) -v l1="$load1" -v l15="$load15" \
+        '{ c += $2 } END { printf "suites: %.0f s of CPU in %d s of wall; load average %s (1 min), %s (15 min)\n", c, w, l1, l15 }'
+fi
 if [ "${#failures[@]}" -ne 0 ]; then
     echo "failed suites: ${failures[*]}"
 fi

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: seconds 8 asan 75
 # The libFuzzer targets of every parser (tests/fuzz/), built by clang with
 # ASan+UBSan into build/fuzz/.  In the release pass each target replays its
 # seed corpus (tests/data and tests/fuzz/seeds: format samples, the whole

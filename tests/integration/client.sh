@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: weight 0.5 seconds 40
 # The shapematch client against a real shapematchd on loopback, with real
 # files (examples/2d): submit / watch / fetch / status / list / cancel,
 # `submit --wait` end to end (the result equals `shapematch run`'s for the

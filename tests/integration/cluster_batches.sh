@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
+# run.sh: weight 0.25 seconds 30
 # A batch across nodes on PostgreSQL (server/api/smd_batches.h): two API
 # nodes and two worker nodes; 4 targets (circles of radius 0.60 .. 0.85,
 # the disk template) submitted to the API node and grouped into a batch
 # there.  Each worker's runs last at least a second (a wrapper worker
 # sleeps first), so that the worker node w2 is killed (-9) while it runs
-# a target: its lease expires and the target runs again on w1 (attempt
-# 2); nothing is lost: every target ends successful, the model job runs
+# a target (its runs there are held until then): its lease expires and
+# the target runs again on w1 (attempt 2); nothing is lost: every target ends successful, the model job runs
 # once they all ended (the claim skips it while a member is queued or
 # running), on w1, from the members' results copied in from the database
 # (members/<id>/), and its model has all 4 members with mode 1 carrying
@@ -33,13 +34,23 @@ cat >"$WORK/slow-worker.sh" <<EOF
 sleep 1
 exec "$BIN/shapematch-worker" "\$@"
 EOF
-chmod +x "$WORK/slow-worker.sh"
+# w2's runs never end by themselves: it is still running its target when
+# it is killed, however slow the machine (a run of a second once ended
+# first on a loaded one); the wrapper ends with its node
+cat >"$WORK/held-worker.sh" <<'EOF'
+#!/bin/sh
+while kill -0 "$PPID" 2>/dev/null; do sleep 0.2; done
+exit 1
+EOF
+chmod +x "$WORK/slow-worker.sh" "$WORK/held-worker.sh"
+# a lease of 4 s, scaled (2 s once: a node starved for more than 1.3 s on a
+# loaded machine lost a lease it held)
+LEASE=$((4 * SLOW))
 started=1
-node api api --workers 1 --lease 2 || started=0
-node api2 api --workers 1 --lease 2 || started=0
-for w in w1 w2; do
-    node "$w" worker --workers 1 --lease 2 --worker "$WORK/slow-worker.sh" || started=0
-done
+node api api --workers 1 --lease "$LEASE" || started=0
+node api2 api --workers 1 --lease "$LEASE" || started=0
+node w1 worker --workers 1 --lease "$LEASE" --worker "$WORK/slow-worker.sh" || started=0
+node w2 worker --workers 1 --lease "$LEASE" --worker "$WORK/held-worker.sh" || started=0
 if [ "$started" = 1 ] && [ "$(psql_val 'SELECT max(version) FROM smd_schema')" = 3 ]; then
     ok "two API nodes and two worker nodes start; schema version 3"
 else

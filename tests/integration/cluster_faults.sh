@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# run.sh: alone (its verdicts time the daemon against the wall clock)
+# run.sh: weight 0.25 seconds 60
 # Database faults of a cluster (issue 28), one PostgreSQL and two nodes
 # (an API node, a worker node) shared by both parts:
 #
@@ -26,6 +26,13 @@
 #    disk (SPOOL/outbox/), replayed in order at the start, its lease
 #    renewed again, so the job still ends once.
 #
+# Windows wait for states, not for time: each fault is switched on once
+# the job is in the state it needs (running, its run ended, its outbox on
+# disk), and the windows that remain (the lock timeout, the leases) scale
+# with the variant's slowdown SLOW (lib.sh), so that an ASan build on a
+# loaded machine meets the same verdicts as a release build on an idle
+# one.
+#
 # SM_TEST_OLD_DAEMON=1 SM_BIN=<older build> runs it on a daemon without
 # the timeout flags, to see the failures the fixes remove.
 source "$(dirname "$0")/lib.sh"
@@ -35,18 +42,43 @@ if ! make_case || ! pg_up; then
     not_ok "gmsh builds the test meshes and PostgreSQL starts"
     exit 1
 fi
-LOCKT=(--database-lock-timeout 1)
+# The lock timeout: the probes of part 1 are made while a DELETE waits
+# this long (1 s once; on a loaded machine a probe alone took 2 s).  A row
+# lock is waited for in two steps, each up to the lock timeout: twice it
+# stays under the sessions' statement timeout (30 s), which 4 x 4 s did
+# not under ASan.  The
+# short lease (parts 1 and 3) expires while its node is frozen, and the
+# frozen session of part 1 outlasts it; it is renewed every third of it,
+# so a running node keeps it unless it stalls for 3 s (2 s once, which a
+# node starved on a loaded machine lost).
+LOCK_TIMEOUT=$((4 + SLOW))
+LEASE=$((5 * SLOW))
+# part 2's lease outlives a kill -9 and a restart of its node (10 s: an
+# ASan node's restart took more than the 6 s once used)
+LEASE_LONG=$((10 * SLOW))
+LOCKT=(--database-lock-timeout "$LOCK_TIMEOUT")
 [ -n "${SM_TEST_OLD_DAEMON:-}" ] && LOCKT=() # a daemon without the flag: the failure before the fix
-if ! node api1 api --workers 1 --lease 2 "${LOCKT[@]}" ||
-    ! node w1 worker --workers 1 --lease 2 "${LOCKT[@]}"; then
+if ! node api1 api --workers 1 --lease "$LEASE" "${LOCKT[@]}" ||
+    ! node w1 worker --workers 1 --lease "$LEASE" "${LOCKT[@]}"; then
     not_ok "the nodes start"
     exit 1
 fi
-ok "PostgreSQL, an API node and a worker node start (--database-lock-timeout 1, --lease 2)"
+ok "PostgreSQL, an API node and a worker node start (--database-lock-timeout $LOCK_TIMEOUT, --lease $LEASE)"
 
 on api1
 id=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
 poll 30 state_is "$id" running || not_ok "the job runs" "$(job_state "$id")"
+# its run paused (the worker process stopped): the job stays running in
+# the database, its node keeps its lease, and no event comes while its row
+# is locked below.  (An endless run sent ~750 events a second: held by
+# the lock, the node wrote them to its outbox, one durable file each, and
+# took a minute to be done with them.)
+on w1
+has_worker() { [ -n "$(worker_pid "$id")" ]; }
+poll 30 has_worker
+WPID=$(worker_pid "$id")
+kill -STOP "$WPID" 2>/dev/null || not_ok "the run is paused" "worker pid '${WPID}'"
+on api1
 
 # ------------------------------------------- 1. a frozen session
 # BEGIN, lock the job's row, then SIGSTOP
@@ -61,29 +93,44 @@ held=$(psql_val "SELECT count(*) FROM pg_stat_activity WHERE state = 'idle in tr
 
 # a DELETE on the API node waits for the row; meanwhile the node answers
 t0=$(date +%s.%N)
-hcurl --max-time 15 -o "$WORK/del1.json" -w '%{http_code}' -X DELETE "$BASE/v1/jobs/$id" \
+hcurl --max-time $((2 * LOCK_TIMEOUT + 10 * SLOW)) -o "$WORK/del1.json" -w '%{http_code}' -X DELETE "$BASE/v1/jobs/$id" \
     >"$WORK/del1.code" 2>/dev/null &
 DEL=$!
 sleep 0.2
-probe() { # URL: the HTTP status within 2 s ("000": no answer)
-    curl -sS -o /dev/null -w '%{http_code}' --max-time 2 "$1" 2>/dev/null
+probe() { # NAME URL: the HTTP status before the lock timeout ("000": no answer) in $WORK/probe-NAME
+    curl -sS -o /dev/null -w '%{http_code}' --max-time $((LOCK_TIMEOUT - 1)) "$2" >"$WORK/probe-$1" 2>/dev/null
 }
-p_health=$(probe "$BASE/healthz")
-p_status=$(probe "$BASE/v1/jobs/$id")
-p_list=$(probe "$BASE/v1/jobs")
-p_ready=$(probe "$BASE/readyz")
+# side by side, so that all four are made while the DELETE waits
+probes=()
+probe health "$BASE/healthz" &
+probes+=($!)
+probe status "$BASE/v1/jobs/$id" &
+probes+=($!)
+probe list "$BASE/v1/jobs" &
+probes+=($!)
+probe ready "$BASE/readyz" &
+probes+=($!)
+wait "${probes[@]}"
+waiting=no
+kill -0 "$DEL" 2>/dev/null && waiting=yes # the probes are over, the DELETE still waits
+p_health=$(cat "$WORK/probe-health")
+p_status=$(cat "$WORK/probe-status")
+p_list=$(cat "$WORK/probe-list")
+p_ready=$(cat "$WORK/probe-ready")
 wait "$DEL"
 t1=$(date +%s.%N)
 del1=$(cat "$WORK/del1.code")
 secs=$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.1f", b - a }')
-if [ "$held" -ge 1 ] && [ "$p_health" = 200 ] && [ "$p_status" = 200 ] && [ "$p_list" = 200 ] &&
-    [ "$p_ready" = 200 ]; then
+if [ "$held" -ge 1 ] && [ "$waiting" = yes ] && [ "$p_health" = 200 ] && [ "$p_status" = 200 ] &&
+    [ "$p_list" = 200 ] && [ "$p_ready" = 200 ]; then
     ok "row lock held by a frozen session: /healthz, status, list and /readyz answer while a DELETE waits"
 else
     not_ok "the API node answers while a DELETE waits on a row lock" \
-        "sessions idle in transaction $held; healthz $p_health status $p_status list $p_list readyz $p_ready"
+        "sessions idle in transaction $held; the DELETE still waiting after the probes: $waiting" \
+        "healthz $p_health status $p_status list $p_list readyz $p_ready"
 fi
-if [ "$del1" = 503 ] && awk -v s="$secs" 'BEGIN { exit !(s < 6) }' &&
+# bounded: twice the lock timeout and 5 s (scaled) for the rest
+if [ "$del1" = 503 ] && awk -v s="$secs" -v b=$((2 * LOCK_TIMEOUT + 5 * SLOW)) 'BEGIN { exit !(s < b) }' &&
     grep -q 'lock timeout' "$WORK/del1.json" && [ "$(job_state "$id")" = running ]; then
     ok "the DELETE answers 503 after the lock timeout (${secs} s), the job is kept"
 else
@@ -98,7 +145,7 @@ fi
 
 # the lease expired while the row is locked: the sweep says so
 expired_held() { grep -q '"event":"leases_expired_held"' "${NODE_LOG[api1]}" "${NODE_LOG[w1]}"; }
-if poll 10 expired_held; then
+if poll 30 expired_held; then
     ok "the lease expiry names the expired lease whose row is locked"
 else
     not_ok "leases_expired_held logged"
@@ -118,12 +165,20 @@ else
     not_ok "DELETE after the lock is freed" "state $(job_state "$id")"
 fi
 # ------------------------------------------- 2. the database refuses writes
-# w1 again with a lease that outlives its own kill -9 and restart below
-# (a lease of 2 s could expire while an ASan build starts), once what it
-# still had to store of part 1 is stored
-poll 20 curl -sf -o /dev/null "${NODE_BASE[w1]}/readyz" || not_ok "w1 ready after part 1"
+# w1 again with a lease that outlives its own kill -9 and restart below,
+# once nothing of part 1 is left on it: its run of that job ended, its
+# outbox empty on disk, ready.  (On a slow node that run ends late, and
+# what of it was still on disk at the kill was replayed at the restart,
+# into the fault below: held, the node claimed nothing, the part failed.)
+spooled() { find "$WORK/w1-spool/outbox" -regex '.*/[0-9a-f]*\.json' | wc -l; }
+part1_left() {
+    grep -q "\"event\":\"job_cancelled\",\"job\":\"$id\"" "${NODE_LOG[w1]}" &&
+        [ "$(spooled)" = 0 ] && curl -sf -o /dev/null "${NODE_BASE[w1]}/readyz"
+}
+poll 20 part1_left || not_ok "w1 done with part 1" "$(spooled) outbox files" \
+    "$(grep -c "\"event\":\"job_cancelled\",\"job\":\"$id\"" "${NODE_LOG[w1]}") job_cancelled lines"
 kill9 w1
-node w1 worker --workers 1 --lease 6 "${LOCKT[@]}" || not_ok "the worker node starts again"
+node w1 worker --workers 1 --lease "$LEASE_LONG" "${LOCKT[@]}" || not_ok "the worker node starts again"
 psql -X -q "$DB" >"$WORK/fault.log" 2>&1 <<'SQL' || not_ok "the fault trigger is installed" "$(cat "$WORK/fault.log")"
 CREATE TABLE fault_full (x int);
 CREATE FUNCTION fault_full_fn() RETURNS trigger LANGUAGE plpgsql AS $$
@@ -151,7 +206,13 @@ id=$(submit "$FINE" "$BOX" "$BOXSOL" "$BALL_PARAMS, \"max_iter\": 60, \"tol_step
 on w1
 ran() { grep -q "\"event\":\"job_finished\",\"job\":\"$id\"" "${NODE_LOG[w1]}"; }
 poll 60 ran || not_ok "the run ends on the worker node" "$(job_state "$id")"
-sleep 3
+# the node tried to store the run and holds it: unready, and its end (the
+# final item, with the results) written to the outbox on disk
+held_on_disk() {
+    grep -qs '"kind":"final"' "$WORK"/w1-spool/outbox/*.json &&
+        curl -sS --max-time 5 "${NODE_BASE[w1]}/readyz" | grep -q "wait to be stored"
+}
+poll 20 held_on_disk
 r_w1=$(curl -sS -o "$WORK/ready.json" -w '%{http_code}' --max-time 5 "${NODE_BASE[w1]}/readyz")
 db_state=$(psql_val "SELECT state || ' ' || attempt FROM smd_jobs WHERE id = '$id'")
 db_events=$(psql_val "SELECT count(*) FROM smd_events WHERE job = '$id'")
@@ -164,22 +225,30 @@ else
 fi
 
 # kill -9 while the results wait, then the same node again on its spool
-spooled() { find "$WORK/w1-spool/outbox" -regex '.*/[0-9a-f]*\.json' | wc -l; }
 nspool=$(spooled)
 token=$(psql_val "SELECT lease_token FROM smd_jobs WHERE id = '$id'")
 nreplay=$(grep -c '"event":"outbox_replay"' "${NODE_LOG[w1]}")
 kill9 w1
-t_kill=$(date +%s.%N)
-node w1 worker --workers 1 --lease 6 "${LOCKT[@]}" || not_ok "the worker node starts again"
+# the database's clock at the kill: no renewal of the killed node can end
+# the lease later than this plus --lease
+t_kill=$(psql_val "SELECT extract(epoch FROM clock_timestamp())")
+node w1 worker --workers 1 --lease "$LEASE_LONG" "${LOCKT[@]}" || not_ok "the worker node starts again"
 replayed() { [ "$(grep -c '"event":"outbox_replay"' "${NODE_LOG[w1]}")" -gt "$nreplay" ]; }
 poll 10 replayed
-# past the lease since the kill: only the restarted node's renewals keep it
-sleep "$(awk -v a="$t_kill" -v b="$(date +%s.%N)" 'BEGIN { s = 7 - (b - a); print (s > 0 ? s : 0) }')"
+# the restarted node renews the same lease: it now ends past the kill +
+# --lease (a state, where a sleep of --lease + 1 s since the kill once
+# stood, which a slow restart could outlast)
+renewed() {
+    [ "$(psql_val "SELECT lease_token = ${token:-0} AND lease_expires > to_timestamp(${t_kill:-0})
+        + $LEASE_LONG * interval '1 second' FROM smd_jobs WHERE id = '$id'")" = t ]
+}
+poll "$LEASE_LONG" renewed
 r_w1=$(curl -sS -o "$WORK/ready.json" -w '%{http_code}' --max-time 5 "${NODE_BASE[w1]}/readyz")
-db_state=$(psql_val "SELECT state || ' ' || attempt || ' ' || (lease_token = $token) FROM smd_jobs WHERE id = '$id'")
-all "killed -9 while $nspool events and the results wait on disk: the restarted node replays them, unready, renews the same lease (7 s > --lease 6)" \
+db_state=$(psql_val "SELECT state || ' ' || attempt || ' ' || (lease_token = ${token:-0}) || ' ' ||
+    (lease_expires > to_timestamp(${t_kill:-0}) + $LEASE_LONG * interval '1 second') FROM smd_jobs WHERE id = '$id'")
+all "killed -9 while $nspool events and the results wait on disk: the restarted node replays them, unready, renews the same lease (past the kill + --lease $LEASE_LONG)" \
     "$nspool|-ge|10" "$(grep -c '"event":"outbox_replay"' "${NODE_LOG[w1]}")|=|$((nreplay + 1))" "$r_w1|=|503" \
-    "$(grep -c 'wait to be stored' "$WORK/ready.json")|=|1" "${db_state// /_}|=|running_1_true"
+    "$(grep -c 'wait to be stored' "$WORK/ready.json")|=|1" "${db_state// /_}|=|running_1_true_true"
 
 psql_val "DELETE FROM fault_full" >/dev/null
 on api1
@@ -209,7 +278,7 @@ outbox_empty() { [ "$(spooled)" = 0 ]; }
 poll 5 outbox_empty
 check "the outbox on disk is empty once stored ($(spooled) files left)" test "$(spooled)" = 0
 kill9 w1
-node w1 worker --workers 1 --lease 2 "${LOCKT[@]}" || not_ok "the worker node starts again"
+node w1 worker --workers 1 --lease "$LEASE" "${LOCKT[@]}" || not_ok "the worker node starts again"
 # ------------------------------------------- 3. a claim that fails, a lost lease
 # The worker node is frozen (SIGSTOP, shorter than the lease) while a job
 # is queued and a file takes the place of that job's folder in the node's
@@ -246,22 +315,27 @@ all "failed claims back off (from $t_a to $t_b failed claims in 3 s) and are log
 # the node, woken, stops the run saying so, not as if a client cancelled.
 v=$(submit "$FINE" "$BOX" "$BOXSOL" "$(endless_params)")
 poll 30 state_is "$v" running
+# frozen once its run started on the node (the database says running from
+# the claim on: a node frozen between its claim and the run's start, seen
+# at load 50, starts the run after it has lost the lease and never ends it)
+run_started() { grep -q "\"event\":\"job_started\",\"job\":\"$v\"" "${NODE_LOG[w1]}"; }
+poll 30 run_started
 kill -STOP "${NODE_PID[w1]}"
 expired() { [ "$(psql_val "SELECT attempt || ' ' || (lease_token IS NULL) FROM smd_jobs WHERE id = '$v'")" != "1 false" ]; }
-poll 10 expired
+poll 30 expired # deadlines: a frozen node catches up slowly on a loaded machine
 kill -CONT "${NODE_PID[w1]}"
 lost_line() { grep "\"event\":\"job_cancelled\",\"job\":\"$v\"" "${NODE_LOG[w1]}" | head -n 1; }
 has_lost_line() { [ -n "$(lost_line)" ]; }
-poll 10 has_lost_line
+poll 30 has_lost_line
 line=$(lost_line)
 if [[ "$line" == *"lease was lost"* && "$line" != *DELETE* ]]; then
     ok "a node that lost its lease stops the run saying so (not \"cancelled by request\")"
 else
     not_ok "the lost lease's wording" "${line:-no job_cancelled line on w1}"
 fi
-poll 10 state_is "$v" running
+poll 30 state_is "$v" running
 hcurl -o /dev/null -X DELETE "$BASE/v1/jobs/$v"
-poll 15 state_is "$v" dismissed
+poll 30 state_is "$v" dismissed
 for nd in api1 w1; do kill -TERM "${NODE_PID[$nd]}" 2>/dev/null; done
 for nd in api1 w1; do wait "${NODE_PID[$nd]}" 2>/dev/null; done
 check "no sanitizer report in any node's log" reports_clean

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: weight 0.5 seconds 30
 # shapematchd against its contract, proto/openapi.yaml: every documented
 # route answers every documented status with a documented media type and
 # the documented body shape, every error is problem+json with the right

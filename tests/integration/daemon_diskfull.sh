@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: weight 0.5 seconds 25
 # State and disk agree when the spool fills up (issue 8): on a small tmpfs
 # spool mounted by the test (root), a cancel whose record cannot be
 # written is refused (503) and changes nothing (durable first); the daemon

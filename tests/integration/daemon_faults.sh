@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: weight 0.5 seconds 30
 # shapematchd under faults and limits: kill -9 of the daemon while one job
 # runs and two wait (restart: all three complete, workers died with the
 # daemon); kill -9 of a worker (job failed with the signal, the next job

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: weight 0.5 seconds 40
 # shapematchd end to end: submit examples/2d with curl -F, follow the
 # events as SSE to the end, fetch the results in every format and compare
 # them with what `shapematch run` writes for the same inputs and

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# run.sh: alone (its verdicts time the daemon against the wall clock)
+# run.sh: weight 0.5 seconds 25
 # Slow clients cannot starve the daemon (issue 8): 400 sockets from four
 # loopback addresses (100 each, under --max-connections-per-ip) trickle
 # one header byte per second for 6 s (twice --header-timeout) and fill

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: weight 1 seconds 40
 # `make demo` as CI runs it: examples/demo.sh with the binaries of the
 # variant, its results and spool in a temporary folder.  Checks the
 # results (files, summary, that the fetched files agree with each other and

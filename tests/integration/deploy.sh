@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: weight 1 seconds 40
 # deploy/: what can be checked without a Docker engine or a running systemd.
 #  - `make install DESTDIR=...` produces the expected tree (programs, unit
 #    with the PREFIX path) and `make uninstall` removes it;

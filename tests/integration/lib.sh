@@ -219,18 +219,36 @@ worker_pid() {
 # (slow jobs), a box background with the signed distance to the circle of
 # radius 0.8, and a 3D cube (for dimension mismatches).  Sets DISK, FINE,
 # BOX, BOXSOL, CUBE, CUBESOL, BALL_PARAMS.
+# The meshes are made once for every suite of a build (in
+# build/test-fixtures/, named by a checksum of their sources; a lock lets
+# one suite make them while the others wait) and each suite works on its
+# own copy.
 make_case() {
-    local d=$WORK/case
-    mkdir -p "$d"
-    # the geometries and the analytic distance: tests/lib/case/
-    cp "$ROOT"/tests/lib/case/{disk,fine,box,cube}.geo "$d/"
-    cp "$ROOT/tests/lib/case/sphere_sdf.awk" "$d/sdf.awk"
-    (cd "$d" && gmsh -2 disk.geo -format mesh -o disk.mesh -v 0 &&
-        gmsh -2 fine.geo -format mesh -o fine.mesh -v 0 &&
-        gmsh -2 box.geo -format mesh -o box.mesh -v 0 &&
-        gmsh -3 cube.geo -format mesh -o cube.mesh -v 0 &&
-        awk -v R=0.8 -f sdf.awk box.mesh >box.sol &&
-        awk -v R=0.8 -f sdf.awk cube.mesh >cube.sol) >"$d/gmsh.log" 2>&1 || return 1
+    local d=$WORK/case src=$ROOT/tests/lib/case
+    mkdir -p "$d" "$ROOT/build/test-fixtures"
+    local sum
+    sum=$(cat "$src"/{disk,fine,box,cube}.geo "$src/sphere_sdf.awk" | md5sum | cut -c1-16)
+    local shared=$ROOT/build/test-fixtures/case-$sum
+    if [ ! -f "$shared/done" ]; then
+        (
+            flock 9
+            [ -f "$shared/done" ] && exit 0
+            local tmp=$shared.tmp.$$
+            rm -rf "$tmp" && mkdir -p "$tmp" || exit 1
+            # the geometries and the analytic distance: tests/lib/case/
+            cp "$src"/{disk,fine,box,cube}.geo "$tmp/"
+            cp "$src/sphere_sdf.awk" "$tmp/sdf.awk"
+            (cd "$tmp" && gmsh -2 disk.geo -format mesh -o disk.mesh -v 0 &&
+                gmsh -2 fine.geo -format mesh -o fine.mesh -v 0 &&
+                gmsh -2 box.geo -format mesh -o box.mesh -v 0 &&
+                gmsh -3 cube.geo -format mesh -o cube.mesh -v 0 &&
+                awk -v R=0.8 -f sdf.awk box.mesh >box.sol &&
+                awk -v R=0.8 -f sdf.awk cube.mesh >cube.sol) >"$tmp/gmsh.log" 2>&1 || exit 1
+            touch "$tmp/done" && rm -rf "$shared" && mv "$tmp" "$shared"
+        ) 9>"$ROOT/build/test-fixtures/case.lock" || { cp "$shared.tmp."*/gmsh.log "$d/" 2>/dev/null; return 1; }
+    fi
+    cp "$shared"/* "$d/" || return 1
+    rm -f "$d/done"
     DISK=$d/disk.mesh
     FINE=$d/fine.mesh
     BOX=$d/box.mesh

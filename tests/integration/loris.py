@@ -11,15 +11,17 @@ one byte per second (a rate that stays above --min-upload-rate for minutes);
 MODE stream opens the NDJSON event stream of STATUS_PATH's job and reads it.  A socket the server closes is reopened on the next
 tick, as a real attacker would.  Meanwhile, every second, /healthz and
 STATUS_PATH are fetched from 127.0.0.1 (a fresh connection each, 2 s
-timeout).  Prints one JSON object: probes, answered, max and median probe
+timeout, or LORIS_PROBE_SECONDS).  Prints one JSON object: probes, answered, max and median probe
 latency, sockets opened, closed by the server, and the longest life of a
 socket the server closed."""
-import json, selectors, socket, sys, time
+import json, os, selectors, socket, sys, time
 
 port, seconds = int(sys.argv[1]), float(sys.argv[2])
 addrs, per = sys.argv[3].split(","), int(sys.argv[4])
 status_path = sys.argv[5]
 mode = sys.argv[6] if len(sys.argv) > 6 else "headers"
+# a probe's time limit (LORIS_PROBE_SECONDS, default 2)
+probe_limit = float(os.environ.get("LORIS_PROBE_SECONDS", "2"))
 sel = selectors.DefaultSelector()
 socks = {}  # sock -> (addr, opened at)
 stats = {"opened": 0, "closed_by_server": 0, "connect_failed": 0, "longest_life": 0.0}
@@ -88,8 +90,8 @@ def tick():
 def probe(path):
     t0 = time.monotonic()
     try:
-        c = socket.create_connection(("127.0.0.1", port), timeout=2)
-        c.settimeout(max(0.01, 2 - (time.monotonic() - t0)))
+        c = socket.create_connection(("127.0.0.1", port), timeout=probe_limit)
+        c.settimeout(max(0.01, probe_limit - (time.monotonic() - t0)))
         c.sendall(b"GET " + path.encode() + b" HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n")
         data = b""
         while b"\r\n\r\n" not in data:
@@ -102,7 +104,7 @@ def probe(path):
     except OSError:
         ok = False
     dt = time.monotonic() - t0
-    return ok and dt <= 2, dt
+    return ok and dt <= probe_limit, dt
 
 
 def poll_reads(until):

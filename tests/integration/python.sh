@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: weight 1 seconds 40
 # The Python package (python/shapematch) with Debian's python3 (stdlib
 # unittest, tests/python/, printed as TAP by tests/python/tap.py): match
 # against `shapematch run` bit for bit, arrays in = files in, progress and

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: weight 1 seconds 60
 # The documentation cannot rot: every fenced command block of README.md
 # and of docs/*.md (read in that order: README first, then the pages in
 # alphabetical order) is either run here verbatim (```sh blocks, in order,

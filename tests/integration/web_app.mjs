@@ -15,6 +15,11 @@ import { chromium } from 'playwright-core';
 const [openBase, tokenBase, token, originPort, examples, logDir, cubeMesh, cubeSol, smallCube, cli] = process.argv.slice(2);
 const report = (desc, ok, detail = '') => console.log(JSON.stringify({ desc, ok: !!ok, detail: String(detail).slice(0, 2000) }));
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+// Every wait below is a deadline, not a verdict (it ends as soon as the
+// page is there): 10 times what an idle machine needs.  A 2D job's 60 s
+// ran out at load 11-14 while the page was right, and at load 40 its 4.6
+// CPU seconds took 293 s.
+const WAIT = 10;
 
 // The plain test page of "another origin": nothing but a script hook.
 const server = http.createServer((req, res) => {
@@ -32,6 +37,7 @@ const context = await browser.newContext({ acceptDownloads: true, viewport: { wi
 
 async function newPage() {
   const page = await context.newPage();
+  page.setDefaultTimeout(30000 * WAIT); // screenshots, clicks: deadlines too
   page.errors = [];
   page.on('console', (m) => { if (m.type() === 'error') page.errors.push(`${m.text()} ${m.location().url || ''}`); });
   page.on('pageerror', (e) => page.errors.push(String(e)));
@@ -92,7 +98,7 @@ const overflow = (page) => page.evaluate(() => {
 });
 const status = (page) => page.$eval('#status', (e) => e.textContent);
 async function waitStatus(page, want, ms) {
-  await page.waitForFunction((w) => ['successful', 'failed', 'dismissed'].includes(document.querySelector('#status').textContent) || document.querySelector('#status').textContent === w, want, { timeout: ms });
+  await page.waitForFunction((w) => ['successful', 'failed', 'dismissed'].includes(document.querySelector('#status').textContent) || document.querySelector('#status').textContent === w, want, { timeout: ms * WAIT });
   return status(page);
 }
 
@@ -132,13 +138,13 @@ await run('the app: a 2D job', async () => {
   const jobName = 'disk → star, 2D «test»';
   await page.fill('#f-name', jobName);
   await page.click('#submit');
-  await page.waitForFunction(() => Number(document.querySelector('#plot').dataset.points || 0) >= 5, null, { timeout: 30000 });
+  await page.waitForFunction(() => Number(document.querySelector('#plot').dataset.points || 0) >= 5, null, { timeout: 30000 * WAIT });
   const live = await status(page);
   await page.screenshot({ path: path.join(logDir, 'web-app-2d-running.png') });
   report('at least 5 plot points arrive from the event stream while the job runs', live === 'running', live);
   const final = await waitStatus(page, 'successful', 120000);
   report('the job\'s status becomes successful', final === 'successful', final);
-  await page.waitForFunction(() => document.querySelector('#view2d').dataset.drawn === 'final', null, { timeout: 15000 });
+  await page.waitForFunction(() => document.querySelector('#view2d').dataset.drawn === 'final', null, { timeout: 15000 * WAIT });
   const drawn = await page.$eval('#view2d', (c) => {
     const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
     let ink = 0;
@@ -166,7 +172,7 @@ await run('the app: a 2D job', async () => {
   // level set of target_sol; at the converged
   // shape's boundary vertices, the distance to it is the |d| the core
   // sampled there (to the background's resolution)
-  await page.waitForFunction(() => ['shown', 'none'].includes(document.querySelector('#target-toggle').dataset.state), null, { timeout: 20000 });
+  await page.waitForFunction(() => ['shown', 'none'].includes(document.querySelector('#target-toggle').dataset.state), null, { timeout: 20000 * WAIT });
   const overlay = await page.evaluate(() => {
     const c = window.shapematch.current;
     const sg = c.target ? c.target.segments : [];
@@ -192,7 +198,7 @@ await run('the app: a 2D job', async () => {
     `${JSON.stringify(overlay)} resolution ${sum.resolution}`);
   await page.locator('#job-panel').screenshot({ path: path.join(logDir, 'web-app-readme.png'), scale: 'css' });
   await page.click('#refresh');
-  await page.waitForFunction((i) => [...document.querySelectorAll('#jobs td')].some((t) => t.textContent === i), id, { timeout: 5000 }).catch(() => {});
+  await page.waitForFunction((i) => [...document.querySelectorAll('#jobs td')].some((t) => t.textContent === i), id, { timeout: 5000 * WAIT }).catch(() => {});
   const listed = await page.$$eval('#jobs td', (t) => t.map((x) => x.textContent));
   let cliOut = '';
   try { cliOut = execFileSync(cli, ['status', '--server', openBase, listed.find((t) => t === id) || 'none'], { encoding: 'utf8' }); } catch (e) { cliOut = `${e.status} ${e.stderr}`; }
@@ -252,13 +258,13 @@ await run('the app: a 3D job', async () => {
   await page.goto(`${openBase}/`);
   await fillJob(page, '3d', clamp3d, { live_every: 1, max_iter: 150, tol_stall: 0, tol_step: 1e-12 });
   await page.click('#submit');
-  await page.waitForFunction(() => document.querySelector('#view3d canvas') && document.querySelector('#view3d').dataset.drawn, null, { timeout: 60000 });
+  await page.waitForFunction(() => document.querySelector('#view3d canvas') && document.querySelector('#view3d').dataset.drawn, null, { timeout: 60000 * WAIT });
   // taken at the first live shape; a screenshot of WebGL (SwiftShader)
   // can take seconds on a loaded machine, so the job may be over by then
   const live3d = await status(page);
   await page.screenshot({ path: path.join(logDir, 'web-app-3d-running.png') });
   const final = await waitStatus(page, 'successful', 90000);
-  await page.waitForFunction(() => document.querySelector('#view3d').dataset.drawn === 'final', null, { timeout: 20000 });
+  await page.waitForFunction(() => document.querySelector('#view3d').dataset.drawn === 'final', null, { timeout: 20000 * WAIT });
   await sleep(200);
   const view = await page.$eval('#view3d', (v) => {
     const c = v.querySelector('canvas');
@@ -275,7 +281,7 @@ await run('the app: a 3D job', async () => {
   await page.screenshot({ path: path.join(logDir, 'web-app-3d-final.png') });
   // the camera: the grown shape (radius 0.95 from the template's 0.69) in
   // view, filling it; a zoom by the user sticks until "Reset view"
-  await page.waitForFunction(() => ['shown', 'none'].includes(document.querySelector('#target-toggle').dataset.state), null, { timeout: 20000 });
+  await page.waitForFunction(() => ['shown', 'none'].includes(document.querySelector('#target-toggle').dataset.state), null, { timeout: 20000 * WAIT });
   const surf = await page.evaluate(() => {
     const t = window.shapematch.current.target;
     const p = t ? t.positions : [];
@@ -315,7 +321,7 @@ await run('the app: invalid parameters', async () => {
   await page.fill('#p-clamp-radius', '-1');
   const [resp] = await Promise.all([page.waitForResponse((r) => r.url().endsWith('/v1/jobs') && r.request().method() === 'POST'), page.click('#submit')]);
   const problem = await resp.json();
-  await page.waitForFunction(() => document.querySelector('.err[data-for="params.clamp"]').textContent, null, { timeout: 5000 });
+  await page.waitForFunction(() => document.querySelector('.err[data-for="params.clamp"]').textContent, null, { timeout: 5000 * WAIT });
   const shown = await page.$eval('.err[data-for="params.clamp"]', (e) => e.textContent);
   report('the server\'s 422 message is shown next to its field', resp.status() === 422 && shown === problem.detail && /radius/.test(shown), `${resp.status()} ${shown} / ${problem.detail}`);
   // the same form, corrected, with 5 iterations: finished, not converged
@@ -323,7 +329,7 @@ await run('the app: invalid parameters', async () => {
   await page.fill('#p-max_iter', '5');
   await page.click('#submit');
   const final = await waitStatus(page, 'successful', 60000);
-  await page.waitForFunction(() => document.querySelector('#view2d').dataset.drawn === 'final', null, { timeout: 15000 });
+  await page.waitForFunction(() => document.querySelector('#view2d').dataset.drawn === 'final', null, { timeout: 15000 * WAIT });
   const sum = await summaryOf(openBase, await jobId(page));
   const outcome = await page.$eval('#outcome', (e) => ({ kind: e.dataset.outcome, text: e.textContent, hidden: e.hidden }));
   report('a job that finished without converging is shown "not converged: <reason>"',

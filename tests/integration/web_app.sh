@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: weight 1 seconds 45 asan 1
 # The web app and cross-origin use in real Chromium (issue 11): Debian's
 # chromium driven by npm playwright-core (web_app.mjs; both installed by
 # `make test`: DEB_PACKAGES and npm ci).  Two real daemons, one open and

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: weight 1 seconds 25 asan 1
 # The web app's batch view (web/batch.js) in real Chromium (web_batch.mjs:
 # the checks): a daemon, the disk template matched onto 4 circles of
 # radius 0.60, 0.70, 0.80, 0.85 (4 ordinary jobs grouped by POST

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: weight 1 seconds 20 asan 1
 # The web form's label-map target in real Chromium (web_image.mjs): the
 # target_image input and the label/level/image_space fields, a job
 # through the form, a dropped image routed to its input, an empty label's

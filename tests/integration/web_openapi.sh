@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: weight 1 seconds 15
 # The served OpenAPI document with a real validator (issue 11): a daemon
 # serves /v1/openapi.yaml and, next to it, the two JSON schemas it refers
 # to; web_openapi.mjs (npm @apidevtools/swagger-parser and ajv, installed

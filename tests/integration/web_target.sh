@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: weight 1 seconds 20
 # The web app's target reader (web/target.js: Medit ASCII, STL, OBJ, gzip;
 # the zero level set by marching triangles and tetrahedra) in Node, against
 # analytic circles and spheres and malformed files (web_target.mjs).  The

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# run.sh: weight 1 seconds 40 asan 1
 # The web app's alignment, landmarks, warp and named clamps in real
 # Chromium (issues 22, 24 and 27; web_tools.mjs, driven by npm
 # playwright-core like web_app).  One daemon.  In the app: the landmark

@@ -1,3 +1,4 @@
+/* run.sh: seconds 15 */
 /* Distance and sign to target surfaces (sm_sdf.h, sm_surface_repair):
  *  - the hierarchy's distance equals brute force (all points x all facets,
  *    with this file's own point-facet formula) to 1e-12, at random points

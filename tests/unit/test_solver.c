@@ -1,3 +1,4 @@
+/* run.sh: seconds 12 */
 /* The iterative elastic solver (PCG + BoomerAMG, SM_SOLVER_AMG) against
  * the direct one (CHOLMOD): the same solutions to the tolerance, every
  * inexact warm-started solve a descent direction (load'u > 0) even at a

@@ -1,3 +1,4 @@
+/* run.sh: seconds 40 */
 /* The AMG solves against the exact ones on the problems the descent
  * solves (issue 21): a Gmsh-made ellipse (2D) or ellipsoid (3D)
  * template, a target with asymmetric bumps that pulls with a net torque

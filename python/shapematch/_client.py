@@ -304,25 +304,7 @@ class Job:
         """The job's events as dicts, replayed then followed live until the
         job is final (the closing "status" event is the last); resumes
         after a lost connection with Last-Event-ID."""
-        last = after
-        while True:
-            headers = {"Accept": "text/event-stream"}
-            if last:
-                headers["Last-Event-ID"] = str(last)
-            try:
-                with self.client._request("GET", "/v1/jobs/%s/events" % self.id,
-                                          headers=headers, stream=True) as r:
-                    for ev_id, _type, data in sse_events(r):
-                        event = json.loads(data)
-                        if ev_id is not None:
-                            last = int(ev_id)
-                        yield event
-                        if event.get("type") == "status":
-                            return
-            except (ConnectionError, urllib.error.URLError) as e:
-                if isinstance(e, urllib.error.HTTPError):
-                    raise
-                time.sleep(0.5)  # the stream broke before the end: resume
+        return _follow(self.client, "/v1/jobs/%s/events" % self.id, after)
 
     def wait(self, progress=None):
         """Follows the job to its end; returns a RemoteResult when it
@@ -490,25 +472,7 @@ class Batch:
         "batch": the whole batch's progress, "status": the last, with the
         batch document), followed live until the batch ends; resumes after
         a lost connection with Last-Event-ID."""
-        last = after
-        while True:
-            headers = {"Accept": "text/event-stream"}
-            if last:
-                headers["Last-Event-ID"] = str(last)
-            try:
-                with self.client._request("GET", "/v1/batches/%s/events" % self.id,
-                                          headers=headers, stream=True) as r:
-                    for ev_id, _type, data in sse_events(r):
-                        event = json.loads(data)
-                        if ev_id is not None:
-                            last = int(ev_id)
-                        yield event
-                        if event.get("type") == "status":
-                            return
-            except (ConnectionError, urllib.error.URLError) as e:
-                if isinstance(e, urllib.error.HTTPError):
-                    raise
-                time.sleep(0.5)
+        return _follow(self.client, "/v1/batches/%s/events" % self.id, after)
 
     def wait(self, progress=None):
         """Follows the batch to its end; returns the final batch document.
@@ -546,3 +510,27 @@ class Batch:
                 out.write(r.read())
             os.replace(dest + ".part", dest)
         return info.get("summary")
+
+
+def _follow(client, path, after):
+    """The events of an SSE route (a job's or a batch's) as dicts, replayed
+    then followed live until the closing "status" event; resumes after a
+    lost connection with Last-Event-ID."""
+    last = after
+    while True:
+        headers = {"Accept": "text/event-stream"}
+        if last:
+            headers["Last-Event-ID"] = str(last)
+        try:
+            with client._request("GET", path, headers=headers, stream=True) as r:
+                for ev_id, _type, data in sse_events(r):
+                    event = json.loads(data)
+                    if ev_id is not None:
+                        last = int(ev_id)
+                    yield event
+                    if event.get("type") == "status":
+                        return
+        except (ConnectionError, urllib.error.URLError) as e:
+            if isinstance(e, urllib.error.HTTPError):
+                raise
+            time.sleep(0.5)  # the stream broke before the end: resume

@@ -578,7 +578,8 @@ static sm_status check_boundary(sm_coverage *c, const sm_mesh *m, const int32_t 
             }
     }
     if (c->nactive == 0)
-        return sm_error_set(err, SM_ERR_INVALID, "the template has no boundary facet to measure");
+        return sm_error_set(err, SM_ERR_INVALID, "no boundary facet carries the load (all are "
+                            "in the free boundary)");
     c->spacing = 0.25 * len / (double)nedges;
     c->dead = 2 * c->spacing;
     if (!(c->spacing > 0))

@@ -10,7 +10,7 @@
 #include <string.h>
 
 #include "shapematch/sm_image.h"
-#include "sm_writer.h"
+#include "io/sm_writer.h"
 
 static int ends_with(const char *s, const char *tail)
 {

@@ -70,7 +70,6 @@ IN=(--template disk.mesh --target-mesh box.mesh --target-sol box.sol)
 expect 1 "--template" "missing --template" -- run --target-mesh box.mesh --target-sol box.sol --no-clamp -o o
 expect 1 "--target-sol" "missing --target-sol" -- run --template disk.mesh --target-mesh box.mesh --no-clamp -o o
 expect 1 "--output" "missing -o" -- run "${IN[@]}" --no-clamp
-expect 1 "--clamp-ball" "no clamp option" -- run "${IN[@]}" -o o
 expect 1 "--no-clamp" "two clamp options" -- run "${IN[@]}" --clamp-ball 0,0,0.1 --no-clamp -o o
 expect 1 "--clamp-elements" "the same clamp option twice" -- run "${IN[@]}" --clamp-elements 1 --clamp-elements 2 -o o
 expect 1 "--young" "bad number '1e'" -- run "${IN[@]}" --no-clamp --young 1e -o o

@@ -30,11 +30,24 @@ ok "PostgreSQL starts in a temporary folder (unix socket only)"
 # machine lost the job it ran: the kill below then saw attempt 3)
 LEASE=$((6 * SLOW))
 started=1
+# The job the kill below interrupts (max_iter 1001) is held by the worker
+# program while it runs on the first node, so that it is still running
+# when that node is killed (1000 iterations of it once took 0.3 s on an
+# idle machine: it ended before the kill); its second attempt runs.
+cat >"$WORK/held-once.sh" <<EOF
+#!/bin/sh
+if grep -q '"max_iter": 1001,' "\$1/job.json" && mkdir "$WORK/held" 2>/dev/null; then
+    while :; do sleep 1; done
+fi
+exec "$BIN/shapematch-worker" "\$@"
+EOF
+chmod +x "$WORK/held-once.sh"
 for nr in api1:api api2:api w1:worker w2:worker w3:worker; do
-    node "${nr%%:*}" "${nr#*:}" --workers 1 --lease "$LEASE" || started=0
+    node "${nr%%:*}" "${nr#*:}" --workers 1 --lease "$LEASE" --worker "$WORK/held-once.sh" ||
+        started=0
 done
-if [ "$started" = 1 ] && [ "$(psql_val 'SELECT max(version) FROM smd_schema')" = 2 ]; then
-    ok "2 API and 3 worker nodes start together; the schema is migrated once (version 2: batches' members)"
+if [ "$started" = 1 ] && [ "$(psql_val 'SELECT max(version) FROM smd_schema')" = 3 ]; then
+    ok "2 API and 3 worker nodes start together; the schema is migrated once (version 3: batches' members, jobs' names)"
 else
     not_ok "the nodes start" "$(tail -n 3 "$WORK"/*.log)"
     exit 1
@@ -134,7 +147,7 @@ else
 fi
 
 # ------------------------------------------- kill -9 a worker node mid-job
-SLOWP=$(echo "$BALL_PARAMS, \"max_iter\": 1000, \"tol_step\": 1e-15, \"tol_stall\": 0}")
+SLOWP=$(echo "$BALL_PARAMS, \"max_iter\": 1001, \"tol_step\": 1e-15, \"tol_stall\": 0}")
 on api1
 kid=$(submit "$FINE" "$BOX" "$BOXSOL" "$SLOWP")
 runner=""

@@ -142,7 +142,9 @@ static void test_inputs_bad(void **state)
     expect_error(f, f->tpl, f->bg3, f->sol3, ball, "dimension mismatch", "2D but the target mesh is 3D");
     expect_error(f, f->tpl, f->bg, f->small_sol, ball, "target_sol: has 49 values", "441 vertices");
     expect_error(f, f->tpl, f->bg, f->sol, "{\"clamp\": ", "params", "");
-    expect_error(f, f->tpl, f->bg, f->sol, "{}", "params", "clamp");
+    /* {}: every parameter's default, the clamp the default ball (kind auto) */
+    expect_error(f, f->tpl, f->bg, f->sol, "{\"clamp\": {\"kind\": \"auto\", \"radius\": 1}}",
+                 "params", "clamp");
     expect_error(f, f->tpl, f->bg, f->sol, "{\"clamp\": {\"kind\": \"ball\", \"center\": [0.5, 0.5, 0.5], \"radius\": 0.1}}",
                  "params.clamp.center", "");
     expect_error(f, f->tpl, f->bg, f->sol, "{\"clamp\": {\"kind\": \"ball\", \"center\": [3, 3], \"radius\": 0.1}}",

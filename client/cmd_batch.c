@@ -14,6 +14,7 @@
 #include "cli.h"
 #include "fsutil.h"
 #include "job/sm_job_batch.h"
+#include "job/sm_job_template_from.h"
 
 /* Set by SIGINT/SIGTERM: the batch stops (sm_batch_opts.cancel).  A
  * signal handler has no other way to reach it. */
@@ -44,6 +45,7 @@ static void install_cancel_handlers(void)
 void cmd_batch_help(void)
 {
     printf("Usage: shapematch batch --template T.mesh TARGETS CLAMP [PARAMETERS]\n"
+           "                        [--template-from medoid|mean [--rounds K]]\n"
            "                        [--model-align none|rigid|similarity] [--no-model]\n"
            "                        [--jobs N] [--format LIST] [--quiet] -o DIR\n"
            "       shapematch batch --server URL [--token T] --template T.mesh TARGETS\n"
@@ -76,6 +78,28 @@ void cmd_batch_help(void)
            "                          the template's landmarks, for the targets' own in\n"
            "                          LIST.csv (with --align)\n"
            "\n"
+           "The population's own template (each round a whole batch in DIR/rounds/K/;\n"
+           "the last round's targets and model moved to DIR/targets and DIR/model, its\n"
+           "template to DIR/template.mesh; the summaries' \"template_from\" says how):\n"
+           "  --template-from FILE    FILE is the template (as --template), named so in the\n"
+           "                          summaries; one round\n"
+           "  --template-from medoid  round 1 on --template; round 2 on the result mesh of\n"
+           "                          the medoid: the target whose matched shape has the\n"
+           "                          smallest sum of two-sided RMS boundary distances to\n"
+           "                          the others (pairs aligned as --model-align); 2 rounds\n"
+           "  --template-from mean    round 1 on --template, then each round on the\n"
+           "                          previous round's model mean (model/mean.mesh, the\n"
+           "                          template's mesh in the first target's frame), until\n"
+           "                          the mean moves less than the tolerance or K rounds\n"
+           "  --rounds K              mean: at most K rounds (2 to %d, default %d)\n"
+           "  --template-tolerance T  mean: stop when the two-sided RMS distance between\n"
+           "                          consecutive means, over their size (bounding-box\n"
+           "                          diagonal), is below T (default %g)\n"
+           "                          A mean with an inverted element stops the rounds on\n"
+           "                          the last valid template.  Cost: each round is a\n"
+           "                          whole batch (medoid 2x; mean up to Kx), plus the\n"
+           "                          medoid's N(N-1)/2 boundary distances\n"
+           "\n"
            "Batch and model:\n"
            "  --jobs N                targets run side by side, each in its own process\n"
            "                          (default: the online CPUs, at most the targets)\n"
@@ -106,12 +130,17 @@ void cmd_batch_help(void)
            "\n"
            "Exit: 0 every target finished and the model was built; 2 the template or an\n"
            "option is wrong (nothing run); 4 an output cannot be written; 5 cancelled;\n"
-           "11 some targets failed or the model could not be built (DIR/summary.json).\n");
+           "11 some targets failed or the model could not be built (DIR/summary.json).\n",
+           SM_TEMPLATE_ROUNDS_MAX, SM_TEMPLATE_ROUNDS_DEFAULT, SM_TEMPLATE_TOLERANCE_DEFAULT);
 }
 
 typedef struct batch_args {
     sm_batch_list list;
     const char *outdir, *template_path, *template_landmarks, *model_align, *model_from;
+    const char *template_from; /* --template-from: medoid, mean or a FILE */
+    int rounds;                /* --rounds (0: not given) */
+    double tolerance;          /* --template-tolerance (0: not given) */
+    sm_template_from from;     /* what --template-from names */
     int jobs, model_modes, no_model, quiet;
     const char *pending_mesh;  /* a --target-mesh waiting for its --target-sol */
     char **rest;               /* the options passed to run's parser */
@@ -210,8 +239,52 @@ static int take_option(batch_args *b, size_t k, const char *v)
     case 9: b->model_from = v; return 0;
     case 10:
     case 11: b->outdir = v; return 0;
+    case 13: b->template_from = v; return 0;
+    case 14:
+        if ((b->rounds = atoi(v)) < 2 || b->rounds > SM_TEMPLATE_ROUNDS_MAX) {
+            char m[160];
+            snprintf(m, sizeof m, "--rounds: '%.32s' is not a count from 2 (the first round "
+                     "matches the given template) to %d", v, SM_TEMPLATE_ROUNDS_MAX);
+            return fail("%s", m);
+        }
+        return 0;
+    case 15: {
+        char *end;
+        b->tolerance = strtod(v, &end);
+        return *end || end == v || !(b->tolerance > 0 && b->tolerance < 1)
+                   ? fail("--template-tolerance: '%s' is not a number in (0, 1)", v) : 0;
+    }
     default: return fail("%s", "internal: an option without a case");
     }
+}
+
+/* --template-from, --rounds and --template-tolerance into b->from: a
+ * FILE is the template itself; medoid and mean start from --template. */
+static int resolve_template_from(batch_args *b)
+{
+    const char *v = b->template_from;
+    if (!v) {
+        if (b->rounds || b->tolerance)
+            return fail("%s", "--rounds and --template-tolerance go with --template-from mean");
+        return 0;
+    }
+    if (sm_template_from_parse(v, &b->from) != 0) {
+        if (access(v, R_OK) != 0)
+            return fail("--template-from: '%s' is not medoid, mean or a readable template file",
+                        v);
+        if (b->template_path)
+            return fail("--template-from %s is the template: no --template beside it", v);
+        b->from = SM_TEMPLATE_FROM_FILE;
+        b->template_path = v;
+    } else if (!b->template_path) {
+        return fail("--template-from %s: --template T.mesh is the first round's template", v);
+    }
+    if ((b->rounds || b->tolerance) && b->from != SM_TEMPLATE_FROM_MEAN)
+        return fail("--rounds and --template-tolerance go with --template-from mean, not %s",
+                    b->from == SM_TEMPLATE_FROM_FILE ? "a file" : v);
+    if (b->from != SM_TEMPLATE_FROM_FILE && b->no_model)
+        return fail("--template-from %s builds the model each round: no --no-model", v);
+    return 0;
 }
 
 /* The batch's own options; the rest are kept for run's parser. */
@@ -220,7 +293,7 @@ static int parse(int argc, char **argv, batch_args *b)
     static const char *const with_value[] = {
         "--target-surface", "--target-mesh", "--target-sol", "--targets", "--template",
         "--template-landmarks", "--model-align", "--model-modes", "--jobs", "--model-from", "-o",
-        "--output", "--target-image"};
+        "--output", "--target-image", "--template-from", "--rounds", "--template-tolerance"};
     const size_t nwith = sizeof with_value / sizeof *with_value;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -254,6 +327,9 @@ static int parse(int argc, char **argv, batch_args *b)
                    ? fail("%s", "--model-from takes the model's options only") : 0;
     if (b->pending_mesh)
         return fail("--target-mesh %s has no --target-sol", b->pending_mesh);
+    int code = resolve_template_from(b);
+    if (code)
+        return code;
     if (!b->template_path)
         return fail("%s", "--template is required");
     if (!b->outdir)
@@ -271,6 +347,20 @@ static void on_target_done(size_t index, const char *name, const char *status, i
     if (!b->quiet || exit_code != 0)
         fprintf(stderr, "shapematch batch: target %zu/%zu %s: %s (exit %d) in %.2f s\n",
                 index + 1, b->list.n, name, status, exit_code, seconds);
+}
+
+static void on_round_done(int round, const char *template_path, double movement,
+                          const char *next_template, void *user)
+{
+    const batch_args *b = user;
+    if (b->quiet)
+        return;
+    fprintf(stderr, "shapematch batch: round %d on %s done", round, template_path);
+    if (movement == movement) /* not NAN */
+        fprintf(stderr, "; the mean moved by %.3g of its size", movement);
+    if (next_template)
+        fprintf(stderr, "; next template %s", next_template);
+    fputc('\n', stderr);
 }
 
 /* run's parser over the shared options, with the first target, so that
@@ -383,7 +473,12 @@ int cmd_batch(int argc, char **argv)
         o.jobs = (int)b.list.n;
     sm_batch_outcome out;
     install_cancel_handlers();
-    sm_status st = sm_job_batch_run(&b.list, &o, b.outdir, &out, &err);
+    sm_rounds_opts r = {.from = b.from, .rounds = b.rounds, .tolerance = b.tolerance,
+                        .round_done = on_round_done};
+    sm_rounds_outcome rounds_out;
+    sm_status st = b.template_from ? sm_job_batch_rounds(&b.list, &o, &r, b.outdir, &out, &rounds_out,
+                                                         &err)
+                                   : sm_job_batch_run(&b.list, &o, b.outdir, &out, &err);
     if (st != SM_OK) {
         fprintf(stderr, "shapematch batch: error: %s\n", err.msg);
         code = st == SM_ERR_IO ? CLI_EXIT_OUTPUT : CLI_EXIT_INPUT;
@@ -391,6 +486,13 @@ int cmd_batch(int argc, char **argv)
     }
     if (out.model_error[0])
         fprintf(stderr, "shapematch batch: model: %s\n", out.model_error);
+    if (b.template_from && rounds_out.message[0])
+        fprintf(stderr, "shapematch batch: %s\n", rounds_out.message);
+    if (b.template_from && b.from != SM_TEMPLATE_FROM_FILE && !b.quiet)
+        fprintf(stderr, "shapematch batch: template from the %s: %d round%s (%s%s%s); the last "
+                "round's template in %s/template.mesh\n", sm_template_from_name(b.from),
+                rounds_out.rounds, rounds_out.rounds == 1 ? "" : "s", rounds_out.stop, rounds_out.medoid[0] ? ": " : "",
+                rounds_out.medoid, b.outdir);
     if (!b.quiet || out.nfailed)
         fprintf(stderr, "shapematch batch: %zu of %zu targets matched%s in %.2f s (template "
                         "set up once in %.2f s); summary in %s/summary.json\n",

@@ -206,15 +206,28 @@ static sm_status find_medoid(rounds *x, const char *dir, char **path, sm_error *
     return st;
 }
 
-/* Round k's model mean: its smallest quality into x->mean_quality[k] and,
- * when the previous round has a mean, the movement between the two.
- * *valid 0 when an element is inverted (the mean is no template). */
-static sm_status check_mean(rounds *x, int k, int *valid, sm_error *err)
+/* Round k's model mean placed as the next template: moved onto round
+ * k's template (same mesh) by the least-squares rigid motion over the
+ * corresponding vertices (none with --model-align none) and written to
+ * *next_path (rounds/K+1/template.mesh).  The model puts its mean in the
+ * first member's frame, whose rotation is only as good as that member's
+ * correspondence (arbitrary on a round target): left there, the
+ * template turns a little each round and the rounds drift.  Placed on
+ * the previous template, every template stays in the given template's
+ * frame, and consecutive means are compared there: the movement is the
+ * distance between this placed mean and round k's template (round
+ * k - 1's placed mean), for k > 1.  Its smallest quality goes into
+ * x->mean_quality[k]; *valid 0 when an element is inverted. */
+static sm_status place_mean(rounds *x, int k, int *valid, char **next_path, sm_error *err)
 {
     char *path = sm_path_join(x->round_dir[k], "model/mean.mesh");
-    sm_mesh *m = NULL, *prev = NULL;
-    sm_status st = path ? sm_mesh_read(path, &m, err)
-                        : sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    char name[32];
+    snprintf(name, sizeof name, "rounds/%d/template.mesh", k + 1);
+    *next_path = sm_path_join(x->out_dir, name);
+    sm_mesh *m = NULL, *tk = NULL;
+    double *placed = NULL;
+    sm_status st = path && *next_path ? sm_mesh_read(path, &m, err)
+                                      : sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     /* the elements as the result meshes hold them, positive on the
      * template; the quality before sm_mesh_build_boundary, which would
      * turn an inverted element over */
@@ -230,23 +243,40 @@ static sm_status check_mean(rounds *x, int k, int *valid, sm_error *err)
                      "template", k, (long)q.ninverted, q.ninverted == 1 ? "" : "s", q.min, k);
         st = sm_mesh_build_boundary(m, err);
     }
-    char *prev_path = st == SM_OK && k > 1 ? sm_path_join(x->round_dir[k - 1], "model/mean.mesh")
-                                           : NULL;
-    if (prev_path && (st = sm_mesh_read(prev_path, &prev, err)) == SM_OK &&
-        prev->nverts != m->nverts)
-        st = sm_error_set(err, SM_ERR_INVALID, "the means of rounds %d and %d differ in size",
-                          k - 1, k);
-    if (st == SM_OK && prev) {
-        double d = sm_job_boundary_rms(m, prev->coords, m->coords);
-        double size = sm_mesh_diameter(m, m->coords);
-        if (d < 0)
-            st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
-        x->ro->movement[k - 2] = size > 0 ? d / size : d;
+    if (st == SM_OK && (st = sm_mesh_read(x->template_of[k], &tk, err)) == SM_OK &&
+        (tk->nverts != m->nverts || tk->dim != m->dim))
+        st = sm_error_set(err, SM_ERR_INVALID, "round %d: the mean is not on the template's "
+                          "mesh (%ld vertices, the template %ld)", k, (long)m->nverts,
+                          (long)tk->nverts);
+    size_t nv = m ? (size_t)m->nverts * (size_t)m->dim : 0;
+    if (st == SM_OK && !(placed = malloc((nv + 1) * sizeof *placed)))
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    if (st == SM_OK) {
+        memcpy(placed, m->coords, nv * sizeof *placed);
+        sm_shape_align_onto(placed, tk->coords, m->nverts, m->dim,
+                            x->opts->model.align == SM_SHAPE_ALIGN_NONE ? SM_SHAPE_ALIGN_NONE
+                                                                        : SM_SHAPE_ALIGN_RIGID,
+                            NULL);
+        if (k > 1) {
+            double d = sm_job_boundary_rms(m, tk->coords, placed);
+            double size = sm_mesh_diameter(m, placed);
+            if (d < 0)
+                st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+            x->ro->movement[k - 2] = size > 0 ? d / size : d;
+        }
     }
+    if (st == SM_OK && *valid && k < x->r->rounds) {
+        char *slash = strrchr(*next_path, '/');
+        *slash = '\0';
+        st = sm_mkdir_p(*next_path, err);
+        *slash = '/';
+        if (st == SM_OK)
+            st = sm_mesh_write_coords(*next_path, m, placed, err);
+    }
+    free(placed);
     sm_mesh_free(m);
-    sm_mesh_free(prev);
+    sm_mesh_free(tk);
     free(path);
-    free(prev_path);
     return st;
 }
 
@@ -404,18 +434,14 @@ static sm_status run_round(rounds *x, int k, sm_batch_outcome *out, int *last, s
         set_stop(x, "model_failed");
         snprintf(x->ro->message, sizeof x->ro->message, "round %d: no model: %.400s", k,
                  out->model_error);
-    } else if ((st = check_mean(x, k, &valid, err)) != SM_OK) {
+    } else if ((st = place_mean(x, k, &valid, &next, err)) != SM_OK) {
+        free(next);
         return st;
-    } else if (!valid) {
-        set_stop(x, "mean_inverted");
-    } else if (k > 1 && x->ro->movement[k - 2] < r->tolerance) {
-        set_stop(x, "converged");
-    } else if (k == r->rounds) {
-        set_stop(x, "rounds");
-    } else {
-        next = sm_path_join(x->round_dir[k], "model/mean.mesh");
-        if (!next)
-            return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    } else if (!valid || (k > 1 && x->ro->movement[k - 2] < r->tolerance) || k == r->rounds) {
+        set_stop(x, !valid ? "mean_inverted" : k == r->rounds && !(k > 1 && x->ro->movement[k - 2]
+                 < r->tolerance) ? "rounds" : "converged");
+        free(next);
+        next = NULL;
     }
     if (next) {
         x->template_of[k + 1] = next;

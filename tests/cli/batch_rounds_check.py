@@ -1,0 +1,93 @@
+"""Inputs and independent checks for tests/cli/batch_rounds.sh (numpy).
+
+  batch_rounds_check.py square OUT.mesh CX CY SIDE N
+      a square of side SIDE centred at (CX, CY), N x N cells each cut into
+      two triangles (diagonals alternating), as a 2D Medit mesh: a
+      template other than the example's disc
+  batch_rounds_check.py rms A.mesh B.mesh
+      prints the two-sided RMS distance between the boundaries of two 2D
+      triangle meshes, brute force: every boundary vertex of each to every
+      boundary segment of the other (the boundary: the edges of one
+      triangle only), the root of the mean of the squares over the
+      vertices of both; then that over B's bounding-box diagonal
+Exits 1 on a malformed input."""
+import sys
+
+import numpy as np
+
+
+def read_mesh(path):
+    """(vertices n x 2, triangles m x 3, 0-based) of a 2D ASCII Medit mesh."""
+    tok = open(path).read().split()
+    v = t = None
+    i = 0
+    while i < len(tok):
+        if tok[i] == "Vertices":
+            n = int(tok[i + 1])
+            v = np.array(tok[i + 2:i + 2 + 3 * n], dtype=float).reshape(n, 3)[:, :2]
+            i += 2 + 3 * n
+        elif tok[i] == "Triangles":
+            n = int(tok[i + 1])
+            t = np.array(tok[i + 2:i + 2 + 4 * n], dtype=int).reshape(n, 4)[:, :3] - 1
+            i += 2 + 4 * n
+        else:
+            i += 1
+    if v is None or t is None:
+        raise SystemExit(path + ": no Vertices or Triangles")
+    return v, t
+
+
+def boundary(t):
+    """The edges that belong to one triangle only (k x 2)."""
+    e = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+    u, count = np.unique(e, axis=0, return_counts=True)
+    return u[count == 1]
+
+
+def point_segments(p, a, b):
+    """Distance of every point p (n x 2) to its nearest segment [a, b] (m)."""
+    ab = b - a
+    ap = p[:, None, :] - a[None, :, :]
+    s = np.clip((ap * ab[None]).sum(2) / np.maximum((ab * ab).sum(1), 1e-300)[None], 0, 1)
+    d = ap - s[:, :, None] * ab[None]
+    return np.sqrt((d * d).sum(2)).min(1)
+
+
+def rms(pa, pb):
+    va, ta = read_mesh(pa)
+    vb, tb = read_mesh(pb)
+    ea, eb = boundary(ta), boundary(tb)
+    da = point_segments(va[np.unique(ea)], vb[eb[:, 0]], vb[eb[:, 1]])
+    db = point_segments(vb[np.unique(eb)], va[ea[:, 0]], va[ea[:, 1]])
+    r = np.sqrt((np.sum(da ** 2) + np.sum(db ** 2)) / (len(da) + len(db)))
+    diag = np.linalg.norm(vb.max(0) - vb.min(0))
+    print("%.17g %.17g" % (r, r / diag))
+
+
+def square(out, cx, cy, side, n):
+    x = np.linspace(cx - side / 2, cx + side / 2, n + 1)
+    y = np.linspace(cy - side / 2, cy + side / 2, n + 1)
+    tris = []
+    for j in range(n):
+        for i in range(n):
+            a, b = j * (n + 1) + i, j * (n + 1) + i + 1
+            c, d = a + n + 1, b + n + 1
+            tris += [(a, b, d), (a, d, c)] if (i + j) % 2 == 0 else [(a, b, c), (b, d, c)]
+    with open(out, "w") as f:
+        f.write("MeshVersionFormatted 2\nDimension 2\nVertices\n%d\n" % ((n + 1) ** 2))
+        for yy in y:
+            for xx in x:
+                f.write("%.17g %.17g 0\n" % (xx, yy))
+        f.write("Triangles\n%d\n" % len(tris))
+        f.writelines("%d %d %d 1\n" % (a + 1, b + 1, c + 1) for a, b, c in tris)
+        f.write("End\n")
+
+
+if __name__ == "__main__":
+    if sys.argv[1] == "square":
+        square(sys.argv[2], float(sys.argv[3]), float(sys.argv[4]), float(sys.argv[5]),
+               int(sys.argv[6]))
+    elif sys.argv[1] == "rms":
+        rms(sys.argv[2], sys.argv[3])
+    else:
+        raise SystemExit("usage: batch_rounds_check.py square|rms ...")

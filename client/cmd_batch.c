@@ -475,10 +475,10 @@ int cmd_batch(int argc, char **argv)
     install_cancel_handlers();
     sm_rounds_opts r = {.from = b.from, .rounds = b.rounds, .tolerance = b.tolerance,
                         .round_done = on_round_done};
-    sm_rounds_outcome rounds_out;
-    sm_status st = b.template_from ? sm_job_batch_rounds(&b.list, &o, &r, b.outdir, &out, &rounds_out,
-                                                         &err)
-                                   : sm_job_batch_run(&b.list, &o, b.outdir, &out, &err);
+    sm_rounds_outcome ends;
+    sm_status st = b.template_from
+                       ? sm_job_batch_rounds(&b.list, &o, &r, b.outdir, &out, &ends, &err)
+                       : sm_job_batch_run(&b.list, &o, b.outdir, &out, &err);
     if (st != SM_OK) {
         fprintf(stderr, "shapematch batch: error: %s\n", err.msg);
         code = st == SM_ERR_IO ? CLI_EXIT_OUTPUT : CLI_EXIT_INPUT;
@@ -486,13 +486,13 @@ int cmd_batch(int argc, char **argv)
     }
     if (out.model_error[0])
         fprintf(stderr, "shapematch batch: model: %s\n", out.model_error);
-    if (b.template_from && rounds_out.message[0])
-        fprintf(stderr, "shapematch batch: %s\n", rounds_out.message);
+    if (b.template_from && ends.message[0])
+        fprintf(stderr, "shapematch batch: %s\n", ends.message);
     if (b.template_from && b.from != SM_TEMPLATE_FROM_FILE && !b.quiet)
         fprintf(stderr, "shapematch batch: template from the %s: %d round%s (%s%s%s); the last "
                 "round's template in %s/template.mesh\n", sm_template_from_name(b.from),
-                rounds_out.rounds, rounds_out.rounds == 1 ? "" : "s", rounds_out.stop, rounds_out.medoid[0] ? ": " : "",
-                rounds_out.medoid, b.outdir);
+                ends.rounds, ends.rounds == 1 ? "" : "s", ends.stop, ends.medoid[0] ? ": " : "",
+                ends.medoid, b.outdir);
     if (!b.quiet || out.nfailed)
         fprintf(stderr, "shapematch batch: %zu of %zu targets matched%s in %.2f s (template "
                         "set up once in %.2f s); summary in %s/summary.json\n",

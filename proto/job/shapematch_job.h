@@ -178,6 +178,22 @@ sm_status sm_run_batch(const char *template_path, const char *list_csv, size_t l
                        const char *params_json, const char *model_align, int jobs,
                        const char *out_dir, sm_error *err);
 
+/* sm_run_batch on the population's own template (`shapematch batch
+ * --template-from`, job/sm_job_template_from.h): template_from "medoid"
+ * or "mean" starts from template_path (rounds: mean's most, 0: default
+ * 3; tolerance: mean's relative movement, 0: default 1e-3), "file" or
+ * NULL is sm_run_batch's one round, named in the summaries.  The last
+ * round's results and model are in out_dir as sm_run_batch's, each
+ * round's batch in out_dir/rounds/K/, and out_dir/summary.json's
+ * "template_from" says how the template was chosen.  Errors:
+ * sm_run_batch's, and SM_ERR_INVALID for another template_from, rounds
+ * or tolerance out of range; SM_ERR_IO when out_dir holds an earlier
+ * batch (targets/, model/ or rounds/). */
+sm_status sm_run_batch_from(const char *template_path, const char *template_from, int rounds,
+                            double tolerance, const char *list_csv, size_t list_len,
+                            const char *params_json, const char *model_align, int jobs,
+                            const char *out_dir, sm_error *err);
+
 /* The release the library was built as ("0.1.0": the Makefile's
  * VERSION, the one place it is written); the Python package's
  * __version__. */

@@ -16,6 +16,7 @@
 #include "job/sm_job_inputs.h"
 #include "job/sm_job_results.h"
 #include "job/sm_job_runner.h"
+#include "job/sm_job_template_from.h"
 #include "shapematch/sm_atomic.h"
 #include "shapematch/sm_path.h"
 #include "sm_json.h"
@@ -352,6 +353,15 @@ sm_status sm_run_batch(const char *template_path, const char *list_csv, size_t l
                        const char *params_json, const char *model_align, int jobs,
                        const char *out_dir, sm_error *err)
 {
+    return sm_run_batch_from(template_path, NULL, 0, 0, list_csv, list_len, params_json,
+                             model_align, jobs, out_dir, err);
+}
+
+sm_status sm_run_batch_from(const char *template_path, const char *template_from, int rounds,
+                            double tolerance, const char *list_csv, size_t list_len,
+                            const char *params_json, const char *model_align, int jobs,
+                            const char *out_dir, sm_error *err)
+{
     if (!template_path || !list_csv || !out_dir)
         return sm_error_set(err, SM_ERR_INVALID, "a batch needs a template, targets and a folder");
     sm_shape_align align = SM_SHAPE_ALIGN_RIGID;
@@ -390,7 +400,18 @@ sm_status sm_run_batch(const char *template_path, const char *list_csv, size_t l
                            .single_thread = 1, .build_model = 1,
                            .model = {.align = align}};
         sm_batch_outcome out;
-        st = sm_job_batch_run(&list, &o, out_dir, &out, err);
+        sm_rounds_opts r = {.rounds = rounds, .tolerance = tolerance};
+        sm_rounds_outcome ro;
+        if (!template_from)
+            st = sm_job_batch_run(&list, &o, out_dir, &out, err);
+        else if (sm_template_from_parse(template_from, &r.from) != 0)
+            st = sm_error_set(err, SM_ERR_INVALID, "template_from: '%.64s' is not file, medoid "
+                              "or mean", template_from);
+        else if (r.from != SM_TEMPLATE_FROM_MEAN && (rounds || tolerance))
+            st = sm_error_set(err, SM_ERR_INVALID, "rounds and tolerance go with template_from "
+                              "mean, not %s", template_from);
+        else
+            st = sm_job_batch_rounds(&list, &o, &r, out_dir, &out, &ro, err);
     }
     sm_batch_list_free(&list);
     return st;

@@ -17,17 +17,22 @@
  *           (a mesh already shaped like that target, on the template's
  *           topology: no re-meshing);
  *   mean    round k+1 runs on round k's model mean (model/mean.mesh, on
- *           the template's topology, in the first member's frame: the
- *           model's convention, sm_shape_model.h), until the mean moves
- *           less than tolerance (the two-sided RMS distance between the
- *           boundaries of consecutive means, divided by the newer mean's
- *           bounding-box diagonal; both in the first member's frame) or
- *           rounds rounds ran.  A mean with an inverted element is no
- *           template: the iteration stops there and keeps that round's
- *           results (on the last valid template), saying so.
+ *           the template's topology) placed on round k's template: moved
+ *           onto it by the least-squares rigid motion over the
+ *           corresponding vertices (none with model.align none), since
+ *           the model leaves its mean in the first member's frame, whose
+ *           rotation is arbitrary on a round member and would make the
+ *           template turn from round to round.  The rounds stop when the
+ *           placed mean moves less than tolerance (the two-sided RMS
+ *           distance between its boundary and round k's template's,
+ *           divided by its bounding-box diagonal) or after rounds rounds.
+ *           A mean with an inverted element is no template: the
+ *           iteration stops there and keeps that round's results (on the
+ *           last valid template), saying so.
  *
  * Files: with medoid and mean each round is a whole batch folder
- * out_dir/rounds/K/ (targets/, model/, summary.json); the last round's
+ * out_dir/rounds/K/ (targets/, model/, summary.json; for the mean,
+ * template.mesh: the placed mean round K > 1 runs on); the last round's
  * targets/ and model/ are then moved to out_dir/targets and
  * out_dir/model, its template copied to out_dir/template.mesh, and
  * out_dir/summary.json and out_dir/model/summary.json get a
@@ -48,10 +53,10 @@ typedef enum sm_template_from {
 
 #define SM_TEMPLATE_ROUNDS_DEFAULT 3   /* mean: at most this many rounds */
 #define SM_TEMPLATE_ROUNDS_MAX 20
-/* mean: relative movement below which the mean has settled.  Measured on
- * the 2D ellipses of tests/cli/batch_rounds.sh the movement falls from
- * about 1e-2 (a disc's mean to the next) to a few 1e-4, the matching's
- * own boundary error; 1e-3 stops there. */
+/* mean: relative movement below which the mean has settled.  On the 2D
+ * ellipses of tests/cli/batch_rounds.sh the movement is about 1e-3
+ * between rounds 1 and 2 and a few 1e-4 after: 1e-3 stops at the second
+ * or third round (docs/populations.md). */
 #define SM_TEMPLATE_TOLERANCE_DEFAULT 1e-3
 
 /* "file", "medoid", "mean"; parse: 0, or -1 for another word. */

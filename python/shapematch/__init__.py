@@ -521,7 +521,8 @@ def _target_row(t, columns):
 
 
 def batch(template, targets, out_dir, *, clamp_ball=None, clamp_elements=None,
-          clamp_vertices=None, no_clamp=False, model_align="rigid", jobs=None, **params):
+          clamp_vertices=None, no_clamp=False, model_align="rigid", jobs=None,
+          template_from=None, rounds=None, template_tolerance=None, **params):
     """Matches template onto every target, the template side set up once,
     then builds their shape model (docs/populations.md); returns the
     batch's summary (out_dir/summary.json) as a dict, with the model's
@@ -535,7 +536,16 @@ def batch(template, targets, out_dir, *, clamp_ball=None, clamp_elements=None,
     The clamp and params as in match(); model_align: "none", "rigid" or
     "similarity"; jobs: targets at a time (None: the CPUs).  A target that
     fails is listed in "failed" and left out of the model; errors of the
-    template, the parameters or the list raise ShapematchError."""
+    template, the parameters or the list raise ShapematchError.
+
+    template_from (`shapematch batch --template-from`): "medoid" or
+    "mean" start from template and choose the next round's template from
+    the population (the medoid's result mesh; the model's mean, at most
+    rounds rounds, default 3, until it moves less than
+    template_tolerance of its size, default 1e-3); "file" is template
+    itself, named in the summaries.  The summary's "template_from" says
+    how it ended (rounds, movement, medoid); each round's batch is in
+    out_dir/rounds/K/."""
     doc = dict(params)
     doc["clamp"] = _clamp(clamp_ball, clamp_elements, clamp_vertices, no_clamp, doc)
     params_json = _json(doc).encode()
@@ -548,9 +558,13 @@ def batch(template, targets, out_dir, *, clamp_ball=None, clamp_elements=None,
     rows = [",".join(columns)] + [_target_row(t, columns) for t in targets]
     text = ("\n".join(rows) + "\n").encode()
     err = _lib.Error()
-    st = _lib.job().sm_run_batch(os.fsencode(template), text, len(text), params_json,
-                                 model_align.encode() if model_align else None,
-                                 int(jobs or 0), os.fsencode(out_dir), ctypes.byref(err))
+    if template_from is None and (rounds is not None or template_tolerance is not None):
+        raise TypeError("batch: rounds and template_tolerance go with template_from=\"mean\"")
+    st = _lib.job().sm_run_batch_from(
+        os.fsencode(template), template_from.encode() if template_from else None,
+        int(rounds or 0), float(template_tolerance or 0), text, len(text), params_json,
+        model_align.encode() if model_align else None, int(jobs or 0), os.fsencode(out_dir),
+        ctypes.byref(err))
     if st:
         _raise(err, st)
     import json  # here only: its import is a cost match() does not pay

@@ -228,5 +228,8 @@ def job():
         _declare(lib, "sm_run_warp_values_free", None, _P(_c.c_double))
         _declare(lib, "sm_run_batch", _c.c_int, _c.c_char_p, _c.c_char_p, _c.c_size_t,
                  _c.c_char_p, _c.c_char_p, _c.c_int, _c.c_char_p, _P(Error))
+        _declare(lib, "sm_run_batch_from", _c.c_int, _c.c_char_p, _c.c_char_p, _c.c_int,
+                 _c.c_double, _c.c_char_p, _c.c_size_t, _c.c_char_p, _c.c_char_p, _c.c_int,
+                 _c.c_char_p, _P(Error))
         _job = lib
     return _job

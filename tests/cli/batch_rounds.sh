@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# run.sh: weight 1 seconds 20 asan 90
+# run.sh: weight 1 seconds 10 asan 25
 # TAP tests of `shapematch batch --template-from FILE|medoid|mean`
 # (docs/populations.md): on 2D ellipses made here,
 # - medoid: on semi-axes 0.2 x 0.2*s, s = 1.0, 1.2, ..., 1.8, the medoid

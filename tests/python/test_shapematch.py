@@ -297,6 +297,34 @@ class Batch2D(unittest.TestCase):
         self.assertEqual(s["targets_ok"], 3)
         self.assertEqual(host.wait(timeout=30), 7)
 
+    def test_template_from_mean_as_the_cli(self):
+        """template_from="mean": the CLI's rounds, file for file."""
+        out = os.path.join(self.tmp, "pymean")
+        s = shapematch.batch(TEMPLATE2, self.targets, out, clamp_ball=(0.5, 0.5, 0.04),
+                             max_iter=40, jobs=2, template_from="mean", rounds=2)
+        cli = os.path.join(self.tmp, "climean")
+        args = [os.path.join(BIN, "shapematch"), "batch", "--template", TEMPLATE2,
+                "--clamp-ball", "0.5,0.5,0.04", "--max-iter", "40", "-q", "-o", cli,
+                "--template-from", "mean", "--rounds", "2", "--target-surface"] + self.targets
+        subprocess.run(args, check=True)
+        with open(os.path.join(cli, "summary.json")) as f:
+            c = json.load(f)["template_from"]
+        t = s["template_from"]
+        self.assertEqual(t["mode"], "mean")
+        self.assertEqual(t["rounds"], 2)
+        self.assertEqual(t["movement"], c["movement"])
+        self.assertEqual(s["model_summary"]["template_from"], t)
+        for f in ("template.mesh", "model/mean.mesh", "model/scores.csv"):
+            with open(os.path.join(out, f), "rb") as x, open(os.path.join(cli, f), "rb") as y:
+                self.assertEqual(x.read(), y.read(), f)
+
+    def test_bad_template_from_raises(self):
+        for kw in ({"template_from": "nonsense"}, {"template_from": "medoid", "rounds": 3},
+                   {"template_from": "mean", "rounds": 1}, {"rounds": 3}):
+            with self.assertRaises((shapematch.ShapematchError, TypeError), msg=str(kw)):
+                shapematch.batch(TEMPLATE2, self.targets, os.path.join(self.tmp, "bad"),
+                                 clamp_ball=(0.5, 0.5, 0.04), **kw)
+
     def test_bad_model_align_raises(self):
         with self.assertRaises(shapematch.ShapematchError):
             shapematch.batch(TEMPLATE2, self.targets, os.path.join(self.tmp, "x"),

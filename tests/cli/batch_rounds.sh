@@ -12,6 +12,9 @@
 #   two modes explain as much as with the fixed disc to within 0.005
 #   (measured: 0.9960 fixed, 0.9951 and 0.9936 from the disc's and the
 #   square's means);
+# - a mean with inverted triangles (counted in numpy: an egg and its copy
+#   turned by 180 degrees, matched with --align rigid, averaged with
+#   --model-align none) stops the rounds on the last valid template;
 # - FILE: the same batch as --template, its summaries saying so;
 # - bad values refused with a clear message (exit 1).
 # Env: SM_BIN (directory of the built binaries), SM_ROOT (repo root).
@@ -153,6 +156,41 @@ PY
     ok "two modes explain as much with the mean template as with the fixed disc (within 0.005)"
 else
     not_ok "two modes explain as much with the mean template as with the fixed disc"
+fi
+
+# ---- a mean that is no template: an egg and its copy turned by 180
+# degrees, the template moved onto each (--align rigid) but the model not
+# aligning them (--model-align none): their vertex mean folds over ----
+for rot in 0 1; do
+    awk -v rot=$rot 'BEGIN { n = 300; pi = atan2(0, -1)
+        print "MeshVersionFormatted 2\nDimension 2\nVertices\n" n
+        for (i = 0; i < n; i++) {
+            t = 2 * pi * i / n; r = 0.2 * (1 + 0.3 * cos(t)); x = r * cos(t); y = 0.8 * r * sin(t)
+            if (rot) { x = -x; y = -y }
+            printf "%.17g %.17g 0\n", 0.5 + x, 0.5 + y }
+        print "Edges\n" n
+        for (i = 0; i < n; i++) print i + 1, (i + 1) % n + 1, 1
+        print "End" }' >"egg$rot.mesh"
+done
+if "$BIN" batch --template "$DISC" --target-surface egg0.mesh egg1.mesh "${CLAMP[@]}" \
+    --align rigid --model-align none --template-from mean --jobs 2 -o folded >out.txt \
+    2>err.txt; then
+    folded=$($CHECK inverted folded/model/mean.mesh)
+    if [ "$folded" -gt 0 ] && grep -q "round 1: the mean shape has $folded inverted elements" \
+        err.txt && $PY - "$folded" <<'PY'; then
+import json, sys
+s = json.load(open("folded/summary.json"))["template_from"]
+assert s["stop"] == "mean_inverted" and s["rounds"] == 1, s
+assert ("has %s inverted elements" % sys.argv[1]) in s["message"], s
+assert s["template_source"].endswith("examples/2d/template.mesh"), s
+assert s["mean_min_quality"][0] < 0, s
+PY
+        ok "a folded mean ($folded triangles inverted, numpy) stops the rounds on the last valid template"
+    else
+        not_ok "a folded mean stops the rounds" "inverted (numpy): $folded" "$(cat err.txt)"
+    fi
+else
+    not_ok "a folded mean stops the rounds, exit 0" "$(cat err.txt)"
 fi
 
 # ---- FILE: --template-from T is --template T, named in the summaries ----

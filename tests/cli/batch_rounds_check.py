@@ -87,7 +87,12 @@ if __name__ == "__main__":
     if sys.argv[1] == "square":
         square(sys.argv[2], float(sys.argv[3]), float(sys.argv[4]), float(sys.argv[5]),
                int(sys.argv[6]))
+    elif sys.argv[1] == "inverted":
+        v, t = read_mesh(sys.argv[2])
+        a, b, c = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
+        area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+        print(int(np.sum(area <= 0)))
     elif sys.argv[1] == "rms":
         rms(sys.argv[2], sys.argv[3])
     else:
-        raise SystemExit("usage: batch_rounds_check.py square|rms ...")
+        raise SystemExit("usage: batch_rounds_check.py square|rms|inverted ...")

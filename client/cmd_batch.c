@@ -122,7 +122,8 @@ void cmd_batch_help(void)
            "progress changes, then each target's results (--format, as for 'shapematch\n"
            "fetch') and the model's files are fetched into DIR/targets/NAME/ and\n"
            "DIR/model/, the batch's last document into DIR/batch.json.  --jobs,\n"
-           "--no-model, --model-modes, --model-from and per-target landmarks are local.\n"
+           "--no-model, --model-modes, --model-from, --template-from (its rounds) and\n"
+           "per-target landmarks are local.\n"
            "\n"
            "Ctrl-C stops the batch: no new target starts, the running ones stop after\n"
            "their current iteration and write the state reached (status \"cancelled\"),\n"
@@ -429,7 +430,8 @@ int cmd_batch(int argc, char **argv)
     if (code == 0 && b.model_from) {
         sm_model_opts mo = {.align = align, .max_modes = b.model_modes};
         size_t used = 0;
-        if (sm_job_batch_remodel(b.model_from, &mo, &used, &err) != SM_OK) {
+        if (sm_job_batch_remodel(b.model_from, &mo, &used, &err) != SM_OK ||
+            sm_job_rounds_keep_template_from(b.model_from, 0, &err) != SM_OK) {
             fprintf(stderr, "shapematch batch: error: %s\n", err.msg);
             code = CLI_EXIT_INPUT;
         } else if (!b.quiet) {

@@ -451,7 +451,8 @@ int cmd_batch_remote(int argc, char **argv)
         {"--format", 1, RB_FORMAT}, {"-q", 0, RB_QUIET}, {"--quiet", 0, RB_QUIET},
         {"--jobs", 1, RB_LOCAL_ONLY}, {"--no-model", 0, RB_LOCAL_ONLY},
         {"--model-from", 1, RB_LOCAL_ONLY}, {"--model-modes", 1, RB_LOCAL_ONLY},
-        {"--template-landmarks", 1, RB_LOCAL_ONLY}};
+        {"--template-landmarks", 1, RB_LOCAL_ONLY}, {"--template-from", 1, RB_LOCAL_ONLY},
+        {"--rounds", 1, RB_LOCAL_ONLY}, {"--template-tolerance", 1, RB_LOCAL_ONLY}};
     remote_batch b;
     memset(&b, 0, sizeof b);
     job_options_init(&b.job);

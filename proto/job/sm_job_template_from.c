@@ -534,3 +534,24 @@ sm_status sm_job_batch_rounds(const sm_batch_list *list, const sm_batch_opts *op
     json_decref(x.medoid_sums);
     return st;
 }
+
+sm_status sm_job_rounds_keep_template_from(const char *batch_dir, unsigned write_flags,
+                                           sm_error *err)
+{
+    char *path = sm_path_join(batch_dir, "summary.json");
+    char *model_dir = sm_path_join(batch_dir, "model");
+    json_error_t je;
+    json_t *doc = path ? json_load_file(path, 0, &je) : NULL;
+    json_t *tf = json_object_get(doc, "template_from");
+    sm_status st = SM_OK;
+    if (!path || !model_dir)
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    else if (!doc)
+        st = sm_error_set(err, SM_ERR_IO, "%s: %s", path, je.text);
+    else if (tf)
+        st = annotate(model_dir, SM_MODEL_SUMMARY_FILE, tf, write_flags, err);
+    json_decref(doc);
+    free(path);
+    free(model_dir);
+    return st;
+}

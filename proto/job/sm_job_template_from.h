@@ -100,6 +100,13 @@ sm_status sm_job_batch_rounds(const sm_batch_list *list, const sm_batch_opts *op
                               const sm_rounds_opts *r, const char *out_dir,
                               sm_batch_outcome *out, sm_rounds_outcome *ro, sm_error *err);
 
+/* After `batch --model-from BATCH_DIR` built BATCH_DIR/model again: its
+ * summary.json gets BATCH_DIR/summary.json's "template_from" back (when
+ * there is one), so the model still says which template it stands on.
+ * SM_ERR_IO / SM_ERR_NOMEM. */
+sm_status sm_job_rounds_keep_template_from(const char *batch_dir, unsigned write_flags,
+                                           sm_error *err);
+
 /* The two-sided RMS distance between the boundaries of one mesh's
  * topology m (sm_mesh_build_boundary done) at coordinates a and b: the
  * root of the mean, over the boundary vertices of both, of the squared

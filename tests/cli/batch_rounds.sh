@@ -62,6 +62,9 @@ bad "--template-tolerance 2 refused" "is not a number in (0, 1)" --template "$DI
     --template-from mean --template-tolerance 2
 bad "mean with --no-model refused" "builds the model each round" --template "$DISC" \
     --template-from mean --no-model
+bad "--template-from with --server refused (local only)" \
+    "--template-from is for a local batch (without --server)" --server http://127.0.0.1:9 \
+    --template "$DISC" --template-from mean
 
 # ---- medoid: 0.2 x 0.2 s, s = 1.0 ... 1.8; the medoid is 1.4 ----
 for s in 1.0 1.2 1.4 1.6 1.8; do
@@ -156,6 +159,19 @@ PY
     ok "two modes explain as much with the mean template as with the fixed disc (within 0.005)"
 else
     not_ok "two modes explain as much with the mean template as with the fixed disc"
+fi
+
+# --model-from on the rounds' folder: the new model still says its template
+if [ -f mean-disc/summary.json ] &&
+    "$BIN" batch --model-from mean-disc --model-align similarity -q 2>err.txt && $PY - <<'PY'; then
+import json
+s = json.load(open("mean-disc/summary.json"))["template_from"]
+m = json.load(open("mean-disc/model/summary.json"))
+assert m["align"] == "similarity" and m["template_from"] == s, m
+PY
+    ok "--model-from on the rounds' folder keeps template_from in the new model"
+else
+    not_ok "--model-from on the rounds' folder keeps template_from" "$(cat err.txt)"
 fi
 
 # ---- a mean that is no template: an egg and its copy turned by 180

@@ -241,14 +241,18 @@ static int take_option(batch_args *b, size_t k, const char *v)
     case 10:
     case 11: b->outdir = v; return 0;
     case 13: b->template_from = v; return 0;
-    case 14:
-        if ((b->rounds = atoi(v)) < 2 || b->rounds > SM_TEMPLATE_ROUNDS_MAX) {
+    case 14: {
+        char *end;
+        long k = strtol(v, &end, 10);
+        b->rounds = k >= 2 && k <= SM_TEMPLATE_ROUNDS_MAX && !*end && end != v ? (int)k : 0;
+        if (!b->rounds) {
             char m[160];
             snprintf(m, sizeof m, "--rounds: '%.32s' is not a count from 2 (the first round "
                      "matches the given template) to %d", v, SM_TEMPLATE_ROUNDS_MAX);
             return fail("%s", m);
         }
         return 0;
+    }
     case 15: {
         char *end;
         b->tolerance = strtod(v, &end);
@@ -348,6 +352,19 @@ static void on_target_done(size_t index, const char *name, const char *status, i
     if (!b->quiet || exit_code != 0)
         fprintf(stderr, "shapematch batch: target %zu/%zu %s: %s (exit %d) in %.2f s\n",
                 index + 1, b->list.n, name, status, exit_code, seconds);
+}
+
+/* How the rounds ended: why they stopped early (always), which template
+ * they chose (unless quiet). */
+static void report_rounds(const batch_args *b, const sm_rounds_outcome *ends)
+{
+    if (ends->message[0])
+        fprintf(stderr, "shapematch batch: %s\n", ends->message);
+    if (b->from != SM_TEMPLATE_FROM_FILE && !b->quiet)
+        fprintf(stderr, "shapematch batch: template from the %s: %d round%s (%s%s%s); the last "
+                "round's template in %s/template.mesh\n", sm_template_from_name(b->from),
+                ends->rounds, ends->rounds == 1 ? "" : "s", ends->stop,
+                ends->medoid[0] ? ": " : "", ends->medoid, b->outdir);
 }
 
 static void on_round_done(int round, const char *template_path, double movement,
@@ -488,13 +505,8 @@ int cmd_batch(int argc, char **argv)
     }
     if (out.model_error[0])
         fprintf(stderr, "shapematch batch: model: %s\n", out.model_error);
-    if (b.template_from && ends.message[0])
-        fprintf(stderr, "shapematch batch: %s\n", ends.message);
-    if (b.template_from && b.from != SM_TEMPLATE_FROM_FILE && !b.quiet)
-        fprintf(stderr, "shapematch batch: template from the %s: %d round%s (%s%s%s); the last "
-                "round's template in %s/template.mesh\n", sm_template_from_name(b.from),
-                ends.rounds, ends.rounds == 1 ? "" : "s", ends.stop, ends.medoid[0] ? ": " : "",
-                ends.medoid, b.outdir);
+    if (b.template_from)
+        report_rounds(&b, &ends);
     if (!b.quiet || out.nfailed)
         fprintf(stderr, "shapematch batch: %zu of %zu targets matched%s in %.2f s (template "
                         "set up once in %.2f s); summary in %s/summary.json\n",

@@ -135,6 +135,56 @@ static char *result_mesh_path(const char *dir, const char *name)
     return path;
 }
 
+/* The result meshes of the targets names of round folder dir: their
+ * coordinates into xs[i], the first one's mesh (its boundary built) into
+ * *topo. */
+static sm_status read_shapes(const char *dir, const json_t *names, sm_mesh **topo, double **xs,
+                             sm_error *err)
+{
+    sm_status st = SM_OK;
+    for (size_t i = 0; st == SM_OK && i < json_array_size(names); i++) {
+        const char *name = json_string_value(json_array_get(names, i));
+        char *p = result_mesh_path(dir, name);
+        sm_mesh *m = NULL;
+        st = p ? sm_mesh_read(p, &m, err)
+               : sm_error_set(err, SM_ERR_IO, "target %s: no result mesh", name);
+        free(p);
+        if (st == SM_OK && !*topo && (st = sm_mesh_build_boundary(m, err)) == SM_OK)
+            *topo = m, m = NULL;
+        if (st == SM_OK && m && (m->nverts != (*topo)->nverts || m->dim != (*topo)->dim))
+            st = sm_error_set(err, SM_ERR_INVALID, "target %s: not on the template's mesh", name);
+        size_t nv = *topo ? (size_t)(*topo)->nverts * (size_t)(*topo)->dim : 0;
+        if (st == SM_OK && !(xs[i] = malloc(nv * sizeof **xs)))
+            st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+        if (st == SM_OK)
+            memcpy(xs[i], (m ? m : *topo)->coords, nv * sizeof **xs);
+        sm_mesh_free(m);
+    }
+    return st;
+}
+
+/* sums[i]: the sum over j != i of the two-sided RMS boundary distance
+ * between shapes i and j, j first moved onto i by align over the
+ * corresponding vertices (so that a pose is not a difference of shape). */
+static sm_status pair_sums(const sm_mesh *topo, double *const *xs, size_t n, sm_shape_align align,
+                           double *sums, sm_error *err)
+{
+    size_t nv = (size_t)topo->nverts * (size_t)topo->dim;
+    double *moved = malloc((nv + 1) * sizeof *moved);
+    sm_status st = moved ? SM_OK : sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    for (size_t i = 0; st == SM_OK && i < n; i++)
+        for (size_t j = i + 1; st == SM_OK && j < n; j++) {
+            memcpy(moved, xs[j], nv * sizeof *moved);
+            sm_shape_align_onto(moved, xs[i], topo->nverts, topo->dim, align, NULL);
+            double d = sm_job_boundary_rms(topo, xs[i], moved);
+            if (d < 0)
+                st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+            sums[i] += d, sums[j] += d;
+        }
+    free(moved);
+    return st;
+}
+
 /* The medoid of round folder dir: the smallest sum of two-sided RMS
  * distances to the others (sm_job_template_from.h), into ro->medoid, its
  * result mesh into *path; the sums into x->medoid_sums. */
@@ -149,41 +199,10 @@ static sm_status find_medoid(rounds *x, const char *dir, char **path, sm_error *
     double **xs = calloc(n + 1, sizeof *xs), *sums = calloc(n + 1, sizeof *sums);
     if (st == SM_OK && (!xs || !sums))
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
-    for (size_t i = 0; st == SM_OK && i < n; i++) {
-        const char *name = json_string_value(json_array_get(names, i));
-        char *p = result_mesh_path(dir, name);
-        sm_mesh *m = NULL;
-        st = p ? sm_mesh_read(p, &m, err)
-               : sm_error_set(err, SM_ERR_IO, "target %s: no result mesh", name);
-        free(p);
-        if (st == SM_OK && !topo && (st = sm_mesh_build_boundary(m, err)) == SM_OK)
-            topo = m, m = NULL;
-        if (st == SM_OK && m && (m->nverts != topo->nverts || m->dim != topo->dim))
-            st = sm_error_set(err, SM_ERR_INVALID, "target %s: not on the template's mesh", name);
-        if (st == SM_OK) {
-            size_t nv = (size_t)topo->nverts * (size_t)topo->dim;
-            if ((xs[i] = malloc(nv * sizeof **xs)) != NULL)
-                memcpy(xs[i], (m ? m : topo)->coords, nv * sizeof **xs);
-            else
-                st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
-        }
-        sm_mesh_free(m);
-    }
-    size_t nv = topo ? (size_t)topo->nverts * (size_t)topo->dim : 0;
-    double *moved = st == SM_OK ? malloc((nv + 1) * sizeof *moved) : NULL;
-    if (st == SM_OK && !moved)
-        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
-    for (size_t i = 0; st == SM_OK && i < n; i++)
-        for (size_t j = i + 1; st == SM_OK && j < n; j++) {
-            /* j onto i by the model's alignment, over the corresponding
-             * vertices, so that a pose is not a difference of shape */
-            memcpy(moved, xs[j], nv * sizeof *moved);
-            sm_shape_align_onto(moved, xs[i], topo->nverts, topo->dim, x->opts->model.align, NULL);
-            double d = sm_job_boundary_rms(topo, xs[i], moved);
-            if (d < 0)
-                st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
-            sums[i] += d, sums[j] += d;
-        }
+    if (st == SM_OK)
+        st = read_shapes(dir, names, &topo, xs, err);
+    if (st == SM_OK)
+        st = pair_sums(topo, xs, n, x->opts->model.align, sums, err);
     size_t best = 0;
     x->medoid_sums = st == SM_OK ? json_object() : NULL;
     for (size_t i = 0; st == SM_OK && i < n; i++) {
@@ -200,7 +219,7 @@ static sm_status find_medoid(rounds *x, const char *dir, char **path, sm_error *
     }
     for (size_t i = 0; xs && i < n; i++)
         free(xs[i]);
-    free(xs), free(sums), free(moved);
+    free(xs), free(sums);
     sm_mesh_free(topo);
     json_decref(names);
     return st;

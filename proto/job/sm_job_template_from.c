@@ -284,7 +284,8 @@ static sm_status place_mean(rounds *x, int k, int *valid, char **next_path, sm_e
             x->ro->movement[k - 2] = size > 0 ? d / size : d;
         }
     }
-    if (st == SM_OK && *valid && k < x->r->rounds) {
+    int settled = k > 1 && x->ro->movement[k - 2] < x->r->tolerance;
+    if (st == SM_OK && *valid && k < x->r->rounds && !settled) {
         char *slash = strrchr(*next_path, '/');
         *slash = '\0';
         st = sm_mkdir_p(*next_path, err);

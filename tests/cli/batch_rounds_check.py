@@ -10,7 +10,22 @@
       boundary segment of the other (the boundary: the edges of one
       triangle only), the root of the mean of the squares over the
       vertices of both; then that over B's bounding-box diagonal
+  batch_rounds_check.py moved TEMPLATE.mesh MEAN.mesh
+      the movement of a mean as the batch defines it: MEAN moved onto
+      TEMPLATE (the same mesh) by the least-squares rigid motion over the
+      corresponding vertices (Kabsch, numpy SVD), then `rms` between
+      TEMPLATE and the moved MEAN, over the moved MEAN's bounding-box
+      diagonal; prints that ratio
+  batch_rounds_check.py medoid ROUND_DIR NAME...
+      each target's sum over the others of the two-sided RMS distance
+      between the matched shapes (ROUND_DIR/targets/NAME/result.mesh),
+      the other first moved onto it by Kabsch over all the vertices, as
+      JSON {name: sum}
+  batch_rounds_check.py inverted MESH
+      prints how many triangles of a 2D mesh have a signed area <= 0, in
+      the order of their vertices in the file
 Exits 1 on a malformed input."""
+import json
 import sys
 
 import numpy as np
@@ -53,15 +68,47 @@ def point_segments(p, a, b):
     return np.sqrt((d * d).sum(2)).min(1)
 
 
-def rms(pa, pb):
-    va, ta = read_mesh(pa)
-    vb, tb = read_mesh(pb)
+def two_sided(va, ta, vb, tb):
     ea, eb = boundary(ta), boundary(tb)
     da = point_segments(va[np.unique(ea)], vb[eb[:, 0]], vb[eb[:, 1]])
     db = point_segments(vb[np.unique(eb)], va[ea[:, 0]], va[ea[:, 1]])
-    r = np.sqrt((np.sum(da ** 2) + np.sum(db ** 2)) / (len(da) + len(db)))
+    return np.sqrt((np.sum(da ** 2) + np.sum(db ** 2)) / (len(da) + len(db)))
+
+
+def rms(pa, pb):
+    va, ta = read_mesh(pa)
+    vb, tb = read_mesh(pb)
+    r = two_sided(va, ta, vb, tb)
     diag = np.linalg.norm(vb.max(0) - vb.min(0))
     print("%.17g %.17g" % (r, r / diag))
+
+
+def kabsch(vm, vt):
+    """vm moved onto vt (corresponding rows) by the least-squares rigid motion."""
+    ct, cm = vt.mean(0), vm.mean(0)
+    u, _, wt = np.linalg.svd((vm - cm).T @ (vt - ct))
+    d = np.sign(np.linalg.det(u @ wt))
+    return (vm - cm) @ (u @ np.diag([1, d]) @ wt) + ct
+
+
+def moved(pt, pm):
+    vt, tt = read_mesh(pt)
+    vm, tm = read_mesh(pm)
+    placed = kabsch(vm, vt)
+    diag = np.linalg.norm(placed.max(0) - placed.min(0))
+    print("%.17g" % (two_sided(vt, tt, placed, tm) / diag))
+
+
+def medoid(d, names):
+    shapes = [read_mesh("%s/targets/%s/result.mesh" % (d, n)) for n in names]
+    sums = dict.fromkeys(names, 0.0)
+    for i, (vi, ti) in enumerate(shapes):
+        for j in range(i + 1, len(shapes)):
+            vj, tj = shapes[j]
+            r = two_sided(vi, ti, kabsch(vj, vi), tj)
+            sums[names[i]] += r
+            sums[names[j]] += r
+    print(json.dumps(sums))
 
 
 def square(out, cx, cy, side, n):
@@ -92,7 +139,11 @@ if __name__ == "__main__":
         a, b, c = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
         area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
         print(int(np.sum(area <= 0)))
+    elif sys.argv[1] == "moved":
+        moved(sys.argv[2], sys.argv[3])
+    elif sys.argv[1] == "medoid":
+        medoid(sys.argv[2], sys.argv[3:])
     elif sys.argv[1] == "rms":
         rms(sys.argv[2], sys.argv[3])
     else:
-        raise SystemExit("usage: batch_rounds_check.py square|rms|inverted ...")
+        raise SystemExit("usage: batch_rounds_check.py square|rms|moved|medoid|inverted ...")

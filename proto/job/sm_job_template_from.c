@@ -457,11 +457,16 @@ static sm_status run_round(rounds *x, int k, sm_batch_outcome *out, int *last, s
     } else if ((st = place_mean(x, k, &valid, &next, err)) != SM_OK) {
         free(next);
         return st;
-    } else if (!valid || (k > 1 && x->ro->movement[k - 2] < r->tolerance) || k == r->rounds) {
-        set_stop(x, !valid ? "mean_inverted" : k == r->rounds && !(k > 1 && x->ro->movement[k - 2]
-                 < r->tolerance) ? "rounds" : "converged");
-        free(next);
-        next = NULL;
+    } else {
+        int settled = k > 1 && x->ro->movement[k - 2] < r->tolerance;
+        const char *stop = !valid    ? "mean_inverted"
+                           : settled ? "converged"
+                           : k == r->rounds ? "rounds" : NULL;
+        if (stop) { /* place_mean wrote no next template */
+            set_stop(x, stop);
+            free(next);
+            next = NULL;
+        }
     }
     if (next) {
         x->template_of[k + 1] = next;

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# run.sh: weight 1 seconds 10 asan 25
+# run.sh: weight 1 seconds 15 asan 40
 # TAP tests of `shapematch batch --template-from FILE|medoid|mean`
 # (docs/populations.md): on 2D ellipses made here,
 # - medoid: on semi-axes 0.2 x 0.2*s, s = 1.0, 1.2, ..., 1.8, the medoid
@@ -16,6 +16,8 @@
 # - a mean with inverted triangles (counted in numpy: an egg and its copy
 #   turned by 180 degrees, matched with --align rigid, averaged with
 #   --model-align none) stops the rounds on the last valid template;
+# - 3D: a Gmsh ball onto four ellipsoids: two modes explain at least as
+#   much on the population's mean as on the fixed ball;
 # - FILE: the same batch as --template, its summaries saying so;
 # - bad values refused with a clear message (exit 1).
 # Env: SM_BIN (directory of the built binaries), SM_ROOT (repo root).
@@ -212,6 +214,43 @@ PY
     fi
 else
     not_ok "a folded mean stops the rounds, exit 0" "$(cat err.txt)"
+fi
+
+# ---- 3D: a ball (Gmsh, about 1200 tetrahedra) onto four ellipsoids
+# (Gmsh STL): the model on the population's mean explains more in two
+# modes than on the fixed ball (measured: 0.9994 against 0.9972) ----
+if command -v gmsh >/dev/null; then
+    printf 'SetFactory("OpenCASCADE");\nSphere(1) = {0.5, 0.5, 0.5, 0.3};\n%s\n' \
+        'Mesh.CharacteristicLengthMax = 0.08;' >ball.geo
+    gmsh -3 ball.geo -o ball.mesh -format mesh >/dev/null 2>&1
+    ells=()
+    for abc in 0.3:0.3:0.36 0.3:0.33:0.39 0.28:0.32:0.42 0.32:0.3:0.33; do
+        IFS=: read -r a b c <<<"$abc"
+        printf 'SetFactory("OpenCASCADE");\nSphere(1) = {0, 0, 0, 1};\n%s\n%s\n%s\n' \
+            "Dilate {{0, 0, 0}, {$a, $b, $c}} { Volume{1}; }" \
+            "Translate {0.5, 0.5, 0.5} { Volume{1}; }" 'Mesh.CharacteristicLengthMax = 0.04;' >e.geo
+        gmsh -2 e.geo -o "e${abc//:/-}.stl" >/dev/null 2>&1
+        ells+=("e${abc//:/-}.stl")
+    done
+    C3=(--clamp-ball 0.5,0.5,0.5,0.12)
+    if "$BIN" batch --template ball.mesh --target-surface "${ells[@]}" "${C3[@]}" --jobs 2 -q \
+        -o ball3 2>err.txt &&
+        "$BIN" batch --template ball.mesh --target-surface "${ells[@]}" "${C3[@]}" --jobs 2 -q \
+            --template-from mean -o mean3 2>>err.txt && $PY - <<'PY'; then
+import json
+def two(d):
+    v = json.load(open(d + "/model/summary.json"))["variance_explained"]
+    return v[0] + v[1]
+t = json.load(open("mean3/summary.json"))["template_from"]
+assert t["rounds"] >= 2 and min(t["mean_min_quality"]) > 0.1, t
+assert two("mean3") >= two("ball3"), (two("mean3"), two("ball3"))
+PY
+        ok "3D: two modes explain at least as much on the mean as on the fixed ball"
+    else
+        not_ok "3D: two modes on the mean >= on the fixed ball" "$(cat err.txt)"
+    fi
+else
+    skip "3D: gmsh not installed"
 fi
 
 # ---- FILE: --template-from T is --template T, named in the summaries ----

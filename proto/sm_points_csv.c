@@ -664,7 +664,7 @@ static int put_columns(text_out *t, const sm_points *p, const char *s, size_t n,
 }
 
 char *sm_points_csv_format(const sm_points *p, const double *out, const uint8_t *inside,
-                           size_t *len)
+                           int skip_outside, size_t *len)
 {
     text_out t = {0};
     int bad = 0;
@@ -677,6 +677,8 @@ char *sm_points_csv_format(const sm_points *p, const double *out, const uint8_t 
         bad = put(&t, p->dim == 3 ? "x,y,z" : "x,y", p->dim == 3 ? 5 : 3);
     bad = bad || put(&t, ",inside\n", 8);
     for (int64_t i = 0; !bad && i < p->n; i++) {
+        if (skip_outside && !inside[i])
+            continue;
         const double *x = out + (size_t)i * (size_t)p->dim;
         if (p->ncols) {
             bad = put_columns(&t, p, p->lines + p->line_at[i],

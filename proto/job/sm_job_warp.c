@@ -301,19 +301,21 @@ done:
 }
 
 /* The JSON answer, written by the one JSON writer: a flagged point (NaN,
- * which JSON has no number for) is null; skipped points are not there. */
+ * which JSON has no number for) is null; skipped points are not in
+ * "points", and "inside" keeps one flag per point given (which ones were
+ * left out). */
 static char *json_answer(sm_warp_direction dir, sm_job_warp_outside outside, const sm_points *p,
                          const double *out, const uint8_t *inside, int64_t noutside)
 {
     json_t *pts = json_array(), *in = json_array();
     for (int64_t i = 0; pts && in && i < p->n; i++) {
+        json_array_append_new(in, json_integer(inside[i]));
         if (outside == SM_JOB_OUTSIDE_SKIP && !inside[i])
             continue;
         const double *x = out + (size_t)i * (size_t)p->dim;
         json_array_append_new(pts, outside == SM_JOB_OUTSIDE_FLAG && !inside[i] ? json_null()
                                    : p->dim == 3 ? json_pack("[fff]", x[0], x[1], x[2])
                                                  : json_pack("[ff]", x[0], x[1]));
-        json_array_append_new(in, json_integer(inside[i]));
     }
     json_t *doc = json_pack("{s:s,s:o*,s:o*,s:I}", "direction",
                             dir == SM_WARP_INVERSE ? "inverse" : "forward", "points", pts,
@@ -363,8 +365,7 @@ sm_status sm_job_warp_points(sm_job_map *map, int dim, int64_t n, const double *
     const sm_warp *w = sm_job_map_warp(map, rq->direction, err);
     if (!w)
         return stage(rep, SM_JOB_WARP_MAP, err->code);
-    sm_points p = {.dim = dim, .n = n, .xyz = (double *)xyz};
-    sm_status st = sm_points_warp(w, rq->direction, rq->strict, &p, NULL, 0, out, inside,
+    sm_status st = sm_warp_points(w, rq->direction, rq->strict, n, xyz, out, inside,
                                   &rep->noutside, err);
     if (st != SM_OK)
         return stage(rep, SM_JOB_WARP_MAP, st);

@@ -133,7 +133,8 @@ sm_job_points_format sm_job_points_format_of(const char *path);
  * map, the outside policy applied: out (n * dim) holds the images, NaN
  * for flagged ones, or with skip only the kept points, in order, *kept
  * of them (n otherwise); inside (n) flags the input points.  A strict
- * point outside is SM_ERR_INVALID naming its 0-based index. */
+ * point outside is the core's SM_ERR_INVALID ("point I (1-based) is
+ * outside ..."). */
 sm_status sm_job_warp_points(sm_job_map *map, int dim, int64_t n, const double *xyz,
                              const sm_job_warp_request *request, double *out, uint8_t *inside,
                              int64_t *kept, sm_job_warp_report *report, sm_error *err);
@@ -152,11 +153,12 @@ sm_status sm_job_warp_points_bytes(sm_job_map *map, sm_job_points_format in_form
 /* Points: len bytes of text, CSV (sm_points_csv.h) or, with json, a
  * {"points": [[x, y[, z]], ...], "direction": "forward"|"inverse",
  * "strict": bool, "outside": "extrapolate"|"flag"|"skip"} document (its
- * members over request's); the answer in
- * *answer (malloc'd, NUL-terminated, *answer_len bytes): the CSV with its
- * inside column, or {"direction", "points", "inside", "outside"[,
- * "skipped"]} written by sm_json_dumps (a flagged point null).  A malformed body is SM_ERR_FORMAT (SM_ERR_NOMEM past
- * max_points), naming its line or JSON path. */
+ * members over request's); the answer in *answer (malloc'd,
+ * NUL-terminated, *answer_len bytes): the CSV with its inside column, or
+ * {"direction", "points", "inside", "outside"[, "skipped"]} written by
+ * sm_json_dumps (a flagged point null, a skipped one not in "points";
+ * "inside" one flag per point given).  A malformed body is SM_ERR_FORMAT
+ * (SM_ERR_NOMEM past max_points), naming its line or JSON path. */
 sm_status sm_job_warp_points_text(sm_job_map *map, int json, const char *text, size_t len,
                                   const sm_job_warp_request *request, char **answer,
                                   size_t *answer_len, sm_job_warp_report *report, sm_error *err);

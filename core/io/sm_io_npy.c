@@ -169,8 +169,17 @@ static sm_status parse_header(const char *h, size_t len, const char *name, npy_h
         return bad(err, name, "the header lacks descr, fortran_order or shape");
     if (out->fortran)
         return bad(err, name, "a Fortran-order array: save np.ascontiguousarray(a)");
-    if (out->ndim != 2 || (out->shape[1] != 2 && out->shape[1] != 3))
-        return bad(err, name, "expected a 2-D array of shape (N, 2) or (N, 3)");
+    if (out->ndim != 2 || (out->shape[1] != 2 && out->shape[1] != 3)) {
+        char got[64];
+        if (out->ndim == 2)
+            snprintf(got, sizeof got, "(%lld, %lld)", (long long)out->shape[0],
+                     (long long)out->shape[1]);
+        else
+            snprintf(got, sizeof got, out->ndim == 1 ? "(%lld,)" : "()",
+                     (long long)out->shape[0]);
+        return sm_error_set(err, SM_ERR_FORMAT, "%s: shape %s: expected a 2-D array of shape "
+                            "(N, 2) or (N, 3), one point a row", name, got);
+    }
     return SM_OK;
 }
 

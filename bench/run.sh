@@ -49,6 +49,8 @@ echo
 echo "== warp: 1M points through that run's map (goal: >= 1M/s forward, >= 300k/s inverse, 2 cores) =="
 # (the last run's result.mesh and displacement.sol; docs/warp.md)
 $BIN/warp_bench build/bench-run 1000000
+echo "-- the same map from the command line (CSV, .npy) against the Python package --"
+bench/warp_cli.sh build/bench-run 1000000
 echo
 echo "== distance to a surface (goal: 57k points in <= 0.3 s, exact) =="
 SD=build/bench-sdf

@@ -28,8 +28,8 @@
 void cmd_warp_help(void)
 {
     printf("Usage: shapematch warp (--result DIR | --job ID [--server URL]) [--inverse]\n"
-           "                       [--strict] [--normalize]\n"
-           "                       (--points IN.csv | --mesh IN | --field IN.sol) -o OUT\n"
+           "                       [--strict | --outside extrapolate|flag|skip] [--normalize]\n"
+           "                       (--points IN.csv|IN.npy | --mesh IN | --field IN.sol) -o OUT\n"
            "\n"
            "Carries points, a mesh or a field through the map of a finished match:\n"
            "forward from the template to the target (the default), or back with\n"
@@ -46,7 +46,11 @@ void cmd_warp_help(void)
            "                          through), or Slicer markups (.fcsv, .mrk.json: put\n"
            "                          in LPS); OUT keeps the order and columns and adds an\n"
            "                          'inside' column (0: outside the mesh, mapped by the\n"
-           "                          nearest element's affine map), so it reads back\n"
+           "                          nearest element's affine map), so it reads back;\n"
+           "                          or a NumPy .npy of shape (N, 2|3), float64 or\n"
+           "                          float32 little-endian, C order.  OUT by its\n"
+           "                          extension: .npy (the images, float64, no inside\n"
+           "                          column), else CSV\n"
            "  --mesh FILE             a mesh (Medit, Gmsh, VTK) or surface (STL, OBJ, PLY,\n"
            "                          OFF, VTK, Medit, Gmsh): vertices moved, topology\n"
            "                          kept; OUT by its extension: .mesh/.meshb[.gz], .vtu,\n"
@@ -56,8 +60,12 @@ void cmd_warp_help(void)
            "                          deformation gradient F, symmetric tensors T (Medit\n"
            "                          type 3) to F T F^T; OUT a .sol/.solb\n"
            "  --strict                refuse points outside the mesh (exit 2, naming the\n"
-           "                          first one's CSV line, the header counted) instead\n"
-           "                          of flagging them\n"
+           "                          first one's CSV line, the header counted, or its\n"
+           "                          0-based .npy row) instead of extrapolating them\n"
+           "  --outside MODE          --points outside the mesh: extrapolate (the\n"
+           "                          default: the nearest element's affine map), flag\n"
+           "                          (NaN coordinates, inside 0), skip (left out of OUT;\n"
+           "                          the summary line says how many)\n"
            "  --normalize             --field: vectors scaled to unit length (directions)\n"
            "  -o, --output FILE       the output ('-': standard output, --points only)\n"
            "  -q, --quiet             no summary line on stderr\n"
@@ -68,10 +76,10 @@ void cmd_warp_help(void)
 }
 
 enum { W_RESULT, W_JOB, W_INVERSE, W_STRICT, W_NORMALIZE, W_POINTS, W_MESH, W_FIELD, W_OUTPUT,
-       W_QUIET };
+       W_QUIET, W_OUTSIDE };
 
 typedef struct warp_args {
-    const char *result, *job, *points, *mesh, *field, *out;
+    const char *result, *job, *points, *mesh, *field, *out, *outside;
     int inverse, strict, normalize, quiet;
 } warp_args;
 
@@ -90,6 +98,7 @@ static int warp_flag(void *user, int id, const char *flag, const char *value, ch
     case W_MESH: slot = &a->mesh; break;
     case W_FIELD: slot = &a->field; break;
     case W_OUTPUT: slot = &a->out; break;
+    case W_OUTSIDE: slot = &a->outside; break;
     case W_INVERSE: a->inverse = 1; return 0;
     case W_STRICT: a->strict = 1; return 0;
     case W_NORMALIZE: a->normalize = 1; return 0;
@@ -115,6 +124,14 @@ static int warp_check(const warp_args *a, char *msg, size_t cap)
         snprintf(msg, cap, "missing required option -o/--output");
     else if (a->normalize && !a->field)
         snprintf(msg, cap, "--normalize is for --field");
+    else if (a->outside && sm_job_warp_outside_from_name(a->outside) < 0)
+        snprintf(msg, cap, "--outside: expected %s, got '%.40s'", SM_JOB_WARP_OUTSIDE_NAMES,
+                 a->outside);
+    else if (a->outside && sm_job_warp_outside_from_name(a->outside) && !a->points)
+        snprintf(msg, cap, "--outside %s is for --points (a mesh's vertices outside are "
+                 "extrapolated, or refused with --strict)", a->outside);
+    else if (a->outside && sm_job_warp_outside_from_name(a->outside) && a->strict)
+        snprintf(msg, cap, "give --strict or --outside %s, not both", a->outside);
     else if (strcmp(a->out, "-") == 0 && !a->points)
         snprintf(msg, cap, "-o -: standard output is for --points only");
     else if (a->job && remote_check_id(a->job, msg, cap) != 0)
@@ -177,7 +194,7 @@ static int failed(const sm_job_warp_report *rep, const sm_error *err)
 
 static int warp_points(const warp_args *a, sm_job_map *map, const sm_job_warp_request *rq)
 {
-    char *text = NULL, *csv = NULL;
+    char *text = NULL, *answer = NULL;
     size_t len = 0, n = 0;
     sm_error err;
     sm_error_clear(&err);
@@ -188,29 +205,35 @@ static int warp_points(const warp_args *a, sm_job_map *map, const sm_job_warp_re
                 err.code == SM_ERR_IO ? "" : ": ", err.msg);
         return CLI_EXIT_INPUT;
     }
-    if (sm_job_warp_points_text(map, 0, text, len, rq, &csv, &n, &rep, &err) != SM_OK) {
+    sm_job_points_format in = sm_job_points_format_of(a->points);
+    sm_job_points_format out = strcmp(a->out, "-") == 0 ? SM_JOB_POINTS_CSV
+                                                         : sm_job_points_format_of(a->out);
+    if (sm_job_warp_points_bytes(map, in, text, len, out, rq, &answer, &n, &rep, &err) != SM_OK) {
         rc = failed(&rep, &err);
         goto done;
     }
     rc = CLI_EXIT_OUTPUT;
     if (strcmp(a->out, "-") == 0) {
-        if (fwrite(csv, 1, n, stdout) != n || fflush(stdout) != 0) {
+        if (fwrite(answer, 1, n, stdout) != n || fflush(stdout) != 0) {
             fprintf(stderr, "shapematch warp: cannot write to standard output\n");
             goto done;
         }
-    } else if (sm_atomic_write_file(a->out, csv, n, 0, &err) != SM_OK) {
+    } else if (sm_atomic_write_file(a->out, answer, n, 0, &err) != SM_OK) {
         fprintf(stderr, "shapematch warp: %s\n", err.msg);
         goto done;
     }
     if (!a->quiet)
-        fprintf(stderr, "shapematch warp: %lld points %s, %lld outside the %s (extrapolated)\n",
+        fprintf(stderr, "shapematch warp: %lld points %s, %lld outside the %s (%s)\n",
                 (long long)rep.n, rep.direction == SM_WARP_FORWARD ? "forward" : "back",
                 (long long)rep.noutside,
-                rep.direction == SM_WARP_FORWARD ? "template" : "deformed mesh");
+                rep.direction == SM_WARP_FORWARD ? "template" : "deformed mesh",
+                rq->outside == SM_JOB_OUTSIDE_FLAG   ? "flagged: NaN"
+                : rq->outside == SM_JOB_OUTSIDE_SKIP ? "skipped: not in the output"
+                                                     : "extrapolated");
     rc = 0;
 done:
     free(text);
-    free(csv);
+    free(answer);
     return rc;
 }
 
@@ -257,8 +280,9 @@ static int warp_run(const warp_args *a, const char *dir)
         fprintf(stderr, "shapematch warp: %s\n", err.msg);
         return err.code == SM_ERR_NOMEM ? CLI_EXIT_NUMERIC : CLI_EXIT_INPUT;
     }
+    int outside = a->outside ? sm_job_warp_outside_from_name(a->outside) : 0;
     sm_job_warp_request rq = {.direction = d, .strict = a->strict, .normalize = a->normalize,
-                              .name = a->points};
+                              .outside = (sm_job_warp_outside)outside, .name = a->points};
     int rc = a->points ? warp_points(a, map, &rq)
              : a->mesh ? warp_mesh(a, map, &rq)
                        : warp_field(a, map, &rq);
@@ -273,6 +297,7 @@ int cmd_warp(int argc, char **argv)
         {"--strict", 0, W_STRICT},       {"--normalize", 0, W_NORMALIZE}, {"--points", 1, W_POINTS},
         {"--mesh", 1, W_MESH},           {"--field", 1, W_FIELD},     {"--output", 1, W_OUTPUT},
         {"-o", 1, W_OUTPUT},             {"--quiet", 0, W_QUIET},     {"-q", 0, W_QUIET},
+        {"--outside", 1, W_OUTSIDE},
     };
     warp_args a;
     memset(&a, 0, sizeof a);

@@ -26,7 +26,7 @@ CORE_IO_SRCS := core/io/sm_io.c core/io/sm_surface_build.c \
   core/io/sm_io_vtu.c core/io/sm_io_surface_write.c \
   core/io/sm_io_cells.c core/io/sm_io_ply.c core/io/sm_io_off.c core/io/sm_io_vtk.c core/io/sm_io_vtkxml.c \
   core/io/sm_image_build.c core/io/sm_image_write.c core/io/sm_image_text.c core/io/sm_io_nifti.c core/io/sm_io_nrrd.c \
-  core/io/sm_io_mha.c \
+  core/io/sm_io_mha.c core/io/sm_io_npy.c \
   core/io/sm_reader.c core/io/sm_writer.c core/io/sm_stream.c core/io/sm_inflate.c \
   core/io/sm_number.c
 CORE_SRCS := $(CORE_BASE_SRCS) $(CORE_FIELD_SRCS) $(CORE_SDF_SRCS) $(CORE_SOLVE_SRCS) \

@@ -194,6 +194,8 @@ void sm_field_free(sm_field *f)
     free(f->facet_list);
     free(f->cfacet_start);
     free(f->cfacet_list);
+    free(f->ftree);
+    free(f->ftree_order);
     free(f);
 }
 
@@ -306,5 +308,6 @@ void sm_field_get_stats(const sm_field *f, sm_field_stats *st)
                 (size_t)f->nbfacets * (sizeof(int32_t) + (size_t)(f->dim * f->dim) * sizeof(double)) +
                 (3 * ((size_t)f->g.ncells + 1) + (size_t)f->cg.ncells + 1) * sizeof(int32_t) +
                 (size_t)(st->facet_entries + st->coarse_facet_entries) * sizeof(int32_t) +
+                (size_t)f->nftree * sizeof *f->ftree + (size_t)f->nbfacets * sizeof(int32_t) +
                 sm__field_lists_bytes(f);
 }

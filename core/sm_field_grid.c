@@ -534,6 +534,8 @@ sm_status sm__field_build_grids(sm_field *f, const double *lo, const double *hi,
         total = grid_fit(&f->cg, GRID_CELLS_PER_BFACET * nb, &facets, 8 * (int64_t)nb + (1 << 16));
         st = bin_boxes(&f->cg, &facets, total, &f->cfacet_start, &f->cfacet_list, err);
     }
+    if (st == SM_OK)
+        st = sm__field_build_facet_tree(f, fboxes, err);
     free(fboxes);
     return st;
 }

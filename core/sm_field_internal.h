@@ -139,7 +139,22 @@ struct sm_field {
     grid cg;
     int32_t *cfacet_start;
     int32_t *cfacet_list;
+    /* And a bounding-box tree over them, for points far from the mesh
+     * where even the coarse rings grow too many (every outside vertex of
+     * a mesh given to warp from elsewhere): log-time, where a plain pass
+     * over every facet was linear (sm_field_nearest.c). */
+    struct facet_node *ftree;
+    int32_t nftree;
+    int32_t *ftree_order; /* facet indices, grouped by leaf */
+    int ftree_depth;
 };
+
+/* A node of the facet tree: its box, and its children (left >= 0) or
+ * its facets ftree_order[first .. first + count). */
+typedef struct facet_node {
+    double lo[3], hi[3];
+    int32_t left, right, first, count;
+} facet_node;
 
 
 /* First index of chunk c of n items split into BUILD_CHUNKS. */
@@ -321,6 +336,9 @@ const int32_t *sm__field_element_lists(const sm_field *f);
 void sm__field_lists_free(sm_field_lists *l);
 /* Bytes held by the lists (0 until built). */
 size_t sm__field_lists_bytes(const sm_field *f);
+/* The facet tree over the nbfacets boundary facets, whose boxes are
+ * boxes (2 * dim a facet: lo then hi); SM_ERR_NOMEM only. */
+sm_status sm__field_build_facet_tree(sm_field *f, const double *boxes, sm_error *err);
 
 /* Value (and gradient, when grad is not NULL) of the extension at a point
  * x outside the mesh: the value at the nearest point plus the distance to

@@ -79,9 +79,12 @@ struct sm_amg {
     HYPRE_Solver amg;
     int have_start;                 /* x holds the previous solution */
     int have_ax;                    /* and ax = A x (b - r of that solve) */
-    double lambda_min;              /* smallest Ritz value of M A seen since
-                                     * the set-up (an upper bound of its
-                                     * smallest eigenvalue), or 1 */
+    double lambda_min;              /* smallest Ritz value of M A seen (an
+                                     * upper bound of its smallest
+                                     * eigenvalue), or 1 */
+    int lambda_known;               /* lambda_min comes from a first solve
+                                     * of FIRST_SOLVE_MIN_ITER steps: kept
+                                     * across set-ups */
     double lanczos_d[PCG_MAX_ITER + 1], lanczos_e[PCG_MAX_ITER + 1];
     sm_amg_stats stats;
 };
@@ -495,7 +498,16 @@ sm_status sm__amg_setup(sm_amg *amg, const double *coords, sm_error *err)
     amg->have_ax = 0;
     memset(&amg->stats, 0, sizeof amg->stats);
     amg->stats.min_descent = 1.0;
-    amg->lambda_min = 1.0;
+    /* A set-up on the same mesh moved (the descent's re-assembly: the
+     * same connectivity, Lame coefficients stiffened where elements lost
+     * quality) keeps the smallest Ritz value of the hierarchies before:
+     * the spectrum of M A moves little, the new solves' Ritz values still
+     * lower it, and the first solve after it no longer pays
+     * FIRST_SOLVE_MIN_ITER steps to learn it again (at 1M tetrahedra two
+     * such solves were a good part of bench/scale.sh's 10-iteration
+     * window). */
+    if (!amg->lambda_known)
+        amg->lambda_min = 1.0;
     if (amg->rigid_modes && coords && (st = set_modes(amg, coords, err)) != SM_OK)
         return st;
     if ((st = build_hierarchy(amg, err)) != SM_OK)
@@ -633,7 +645,7 @@ static int pcg(sm_amg *amg, double rtol, double *est)
         r[i] = b[i] - ax[i];
     double gamma = 0.0, gamma_old = 1.0, bx = dot(b, x, n), bp = 0.0, alpha_old = 1.0;
     double *d = amg->lanczos_d, *e = amg->lanczos_e;
-    const int kmin = amg->stats.solves == 0 ? FIRST_SOLVE_MIN_ITER : 1;
+    const int kmin = amg->stats.solves == 0 && !amg->lambda_known ? FIRST_SOLVE_MIN_ITER : 1;
     for (int k = 0;; k++) {
         precondition(amg);
         gamma = dot(r, z, n);
@@ -700,6 +712,8 @@ sm_status sm__amg_solve(sm_amg *amg, const double *rhs, double *x, sm_error *err
     double xnorm = sqrt(dot(xs, xs, n));
     double descent = bx / (bnorm * xnorm);
     amg->have_start = 1;
+    if (it >= FIRST_SOLVE_MIN_ITER)
+        amg->lambda_known = 1;
     amg->stats.last_iterations = it;
     amg->stats.last_residual = est;
     amg->stats.total_iterations += it;

@@ -9,8 +9,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "shapematch/sm_decimal.h"
+
 /* A number longer than this is no plain decimal anyone writes (%.17g
- * needs 24 characters); refusing it bounds the copy for strtod. */
+ * needs 24 characters): sm_decimal_parse's bound, and its messages'. */
 #define FIELD_MAX 64
 /* Header lines are kept for the output: bounded. */
 #define HEADER_MAX 1024
@@ -24,30 +26,12 @@ static int is_space(char c)
     return c == ' ' || c == '\t';
 }
 
-/* Parses one trimmed field as a plain finite decimal: 1 yes, 0 no. */
+/* Parses one trimmed field as a plain finite decimal: 1 yes, 0 no
+ * (the core's exact conversion: strtod's double, at a tenth of its
+ * cost). */
 static int parse_number(const char *s, size_t n, double *out)
 {
-    if (n == 0 || n > FIELD_MAX)
-        return 0;
-    char buf[FIELD_MAX + 1];
-    int digits = 0;
-    for (size_t i = 0; i < n; i++) {
-        char c = s[i];
-        if (c >= '0' && c <= '9')
-            digits++;
-        else if (c != '+' && c != '-' && c != '.' && c != 'e' && c != 'E')
-            return 0;
-        buf[i] = c;
-    }
-    buf[n] = '\0';
-    if (!digits)
-        return 0;
-    char *end;
-    double v = strtod(buf, &end);
-    if (end != buf + n || !isfinite(v))
-        return 0;
-    *out = v;
-    return 1;
+    return sm_decimal_parse(s, n, out);
 }
 
 /* A field of a line: its text trimmed of blanks, and of its quotes when
@@ -426,7 +410,11 @@ static int append_point(char **t, size_t *len, size_t *cap, const char *label, c
         *w++ = *c == '\n' || *c == '\r' ? ' ' : *c;
     }
     *w++ = '"';
-    w += sprintf(w, ",%.17g,%.17g,%.17g\n", x[0], x[1], x[2]);
+    for (int d = 0; d < 3; d++) {
+        *w++ = ',';
+        w += sm_decimal_format(x[d], w);
+    }
+    *w++ = '\n';
     *len = (size_t)(w - *t);
     return 0;
 }
@@ -667,16 +655,16 @@ static int put_columns(text_out *t, const sm_points *p, const char *s, size_t n,
         int d = 0;
         while (d < p->dim && p->col[d] != c)
             d++;
-        char num[32];
-        int k = x && d < p->dim ? snprintf(num, sizeof num, "%.17g", x[d]) : 0;
-        if ((k ? put(t, num, (size_t)k) : put(t, f[c].raw, f[c].raw_n)) != 0)
+        char num[SM_DECIMAL_LEN];
+        size_t k = x && d < p->dim ? sm_decimal_format(x[d], num) : 0;
+        if ((k ? put(t, num, k) : put(t, f[c].raw, f[c].raw_n)) != 0)
             return -1;
     }
     return 0;
 }
 
 char *sm_points_csv_format(const sm_points *p, const double *out, const uint8_t *inside,
-                           size_t *len)
+                           int skip_outside, size_t *len)
 {
     text_out t = {0};
     int bad = 0;
@@ -689,16 +677,20 @@ char *sm_points_csv_format(const sm_points *p, const double *out, const uint8_t 
         bad = put(&t, p->dim == 3 ? "x,y,z" : "x,y", p->dim == 3 ? 5 : 3);
     bad = bad || put(&t, ",inside\n", 8);
     for (int64_t i = 0; !bad && i < p->n; i++) {
+        if (skip_outside && !inside[i])
+            continue;
         const double *x = out + (size_t)i * (size_t)p->dim;
         if (p->ncols) {
             bad = put_columns(&t, p, p->lines + p->line_at[i],
                               (size_t)(p->line_at[i + 1] - p->line_at[i]), x);
         } else {
-            char num[32];
-            for (int d = 0; !bad && d < p->dim; d++) {
-                int k = snprintf(num, sizeof num, "%s%.17g", d ? "," : "", x[d]);
-                bad = put(&t, num, (size_t)k);
+            char num[3 * (SM_DECIMAL_LEN + 1)], *w = num;
+            for (int d = 0; d < p->dim; d++) {
+                if (d)
+                    *w++ = ',';
+                w += sm_decimal_format(x[d], w);
             }
+            bad = put(&t, num, (size_t)(w - num));
         }
         bad = bad || put(&t, inside[i] ? ",1\n" : ",0\n", 3);
     }

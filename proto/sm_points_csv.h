@@ -85,9 +85,10 @@ sm_status sm_points_read_file(const char *path, size_t max_bytes, int64_t max_po
 
 /* The output text (malloc'd, NUL-terminated, *len without the NUL):
  * header, then one line per point of out (p->n * p->dim coordinates)
- * with inside[i].  NULL when out of memory. */
+ * with inside[i]; with skip_outside, the points whose inside is 0 are
+ * left out.  NULL when out of memory. */
 char *sm_points_csv_format(const sm_points *p, const double *out, const uint8_t *inside,
-                           size_t *len);
+                           int skip_outside, size_t *len);
 
 /* The 1-based line of text (what sm_points_csv_parse read; header: its
  * header_line) holding point index (0-based), counting the header, blank

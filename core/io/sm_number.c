@@ -1,5 +1,10 @@
 #include "io/sm_number.h"
 
+#include <math.h>
+#include <stdlib.h>
+
+#include "shapematch/sm_decimal.h"
+
 #include <float.h>
 #include <stdint.h>
 #include <string.h>
@@ -556,4 +561,48 @@ size_t sm__double_to_decimal(double x, char *out)
 size_t sm__double_to_decimal_exact(double x, char *out)
 {
     return double_to_decimal(x, out, 1);
+}
+
+/* ---- the public face (shapematch/sm_decimal.h) ---- */
+
+/* A field longer than this is no plain decimal anyone writes (%.17g needs
+ * 24 characters); refusing it bounds the copy for strtod. */
+#define DECIMAL_FIELD_MAX 64
+
+int sm_decimal_parse(const char *s, size_t n, double *out)
+{
+    if (n == 0 || n > DECIMAL_FIELD_MAX)
+        return 0;
+    double v;
+    if (sm__decimal_to_double(s, s + n, &v) == n && isfinite(v)) {
+        *out = v;
+        return 1;
+    }
+    /* the rare rest (20 or more significant digits, a rounding the fast
+     * paths cannot decide, forms like "1." or "-.5"): strtod, on the
+     * characters of a plain decimal only */
+    char buf[DECIMAL_FIELD_MAX + 1];
+    int digits = 0;
+    for (size_t i = 0; i < n; i++) {
+        char c = s[i];
+        if (c >= '0' && c <= '9')
+            digits++;
+        else if (c != '+' && c != '-' && c != '.' && c != 'e' && c != 'E')
+            return 0;
+        buf[i] = c;
+    }
+    buf[n] = '\0';
+    if (!digits)
+        return 0;
+    char *end;
+    v = strtod(buf, &end);
+    if (end != buf + n || !isfinite(v))
+        return 0;
+    *out = v;
+    return 1;
+}
+
+size_t sm_decimal_format(double x, char *out)
+{
+    return sm__double_to_decimal(x, out);
 }

@@ -218,13 +218,17 @@ int sm_run_map_dim(const sm_run_map *m);
 int32_t sm_run_map_nverts(const sm_run_map *m);
 
 /* n points of dim coordinates (xyz, n * dim) into out (n * dim); inside
- * (n flags, may be NULL): 0 for a point outside the source mesh, mapped
- * by its nearest element; *noutside (may be NULL) their count.
- * SM_ERR_INVALID: dim not the map's, or with strict the first point
- * outside ("point I (1-based) is outside ..."). */
-sm_status sm_run_warp_points(sm_run_map *m, int inverse, int strict, int dim, int64_t n,
-                             const double *xyz, double *out, uint8_t *inside,
-                             int64_t *noutside, sm_error *err);
+ * (n flags, may be NULL): 0 for a point outside the source mesh; *noutside
+ * (may be NULL) their count.  outside says what becomes of those (without
+ * strict): 0 mapped by the nearest element (extrapolate), 1 NaN
+ * coordinates (flag), 2 left out of out, whose first *kept rows are the
+ * images of the points inside, in order (skip); *kept (may be NULL) is n
+ * otherwise.  SM_ERR_INVALID: dim not the map's, outside not 0 to 2, or
+ * with strict the first point outside ("point I (1-based) is outside
+ * ..."). */
+sm_status sm_run_warp_points(sm_run_map *m, int inverse, int strict, int outside, int dim,
+                             int64_t n, const double *xyz, double *out, uint8_t *inside,
+                             int64_t *noutside, int64_t *kept, sm_error *err);
 /* A field on the source mesh's vertices (nverts * ncomp values, in
  * place): scalars kept, vectors by the deformation gradient (normalize:
  * to unit length), symmetric tensors (xx, xy, yy[, xz, yz, zz]) as F T

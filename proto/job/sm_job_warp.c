@@ -2,9 +2,11 @@
 #include "job/sm_job_warp.h"
 
 #include <jansson.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <unistd.h>
 
 #include "shapematch/sm_path.h"
@@ -199,10 +201,33 @@ int sm_job_warp_output_known(const char *path)
 
 /* ------------------------------------------------------------- points */
 
-/* The members of a JSON request into p, *dir and *strict; SM_ERR_FORMAT
- * naming the member. */
+static const char *const outside_names[] = {"extrapolate", "flag", "skip"};
+
+int sm_job_warp_outside_from_name(const char *name)
+{
+    for (int i = 0; i < 3; i++)
+        if (name && strcmp(name, outside_names[i]) == 0)
+            return i;
+    return -1;
+}
+
+const char *sm_job_warp_outside_name(sm_job_warp_outside outside)
+{
+    return (unsigned)outside < 3 ? outside_names[outside] : "extrapolate";
+}
+
+sm_job_points_format sm_job_points_format_of(const char *path)
+{
+    size_t n = path ? strlen(path) : 0;
+    return n >= 4 && strcasecmp(path + n - 4, ".npy") == 0 ? SM_JOB_POINTS_NPY
+                                                           : SM_JOB_POINTS_CSV;
+}
+
+/* The members of a JSON request into p, *dir, *strict and *outside;
+ * SM_ERR_FORMAT naming the member. */
 static sm_status parse_json(const char *text, size_t len, int64_t max_points, sm_points *p,
-                            sm_warp_direction *dir, int *strict, sm_error *err)
+                            sm_warp_direction *dir, int *strict, sm_job_warp_outside *outside,
+                            sm_error *err)
 {
     json_error_t jerr;
     json_t *doc = json_loadb(text, len, JSON_REJECT_DUPLICATES, &jerr);
@@ -213,6 +238,7 @@ static sm_status parse_json(const char *text, size_t len, int64_t max_points, sm
         goto done;
     }
     json_t *d = json_object_get(doc, "direction"), *s = json_object_get(doc, "strict");
+    json_t *o = json_object_get(doc, "outside");
     json_t *pts = json_object_get(doc, "points");
     if (d && !(json_is_string(d) && (strcmp(json_string_value(d), "forward") == 0 ||
                                      strcmp(json_string_value(d), "inverse") == 0))) {
@@ -223,10 +249,16 @@ static sm_status parse_json(const char *text, size_t len, int64_t max_points, sm
         sm_error_set(err, st, "strict: expected true or false");
         goto done;
     }
+    if (o && sm_job_warp_outside_from_name(json_string_value(o)) < 0) {
+        sm_error_set(err, st, "outside: expected \"extrapolate\", \"flag\" or \"skip\"");
+        goto done;
+    }
     if (d)
         *dir = strcmp(json_string_value(d), "inverse") == 0 ? SM_WARP_INVERSE : SM_WARP_FORWARD;
     if (s)
         *strict = json_is_true(s);
+    if (o)
+        *outside = (sm_job_warp_outside)sm_job_warp_outside_from_name(json_string_value(o));
     size_t n = json_array_size(pts);
     if (!json_is_array(pts) || n == 0) {
         sm_error_set(err, st, "points: expected a non-empty array of [x, y] or [x, y, z]");
@@ -268,28 +300,97 @@ done:
     return st;
 }
 
-/* The JSON answer, written by the one JSON writer. */
-static char *json_answer(sm_warp_direction dir, const sm_points *p, const double *out,
-                         const uint8_t *inside, int64_t noutside)
+/* The JSON answer, written by the one JSON writer: a flagged point (NaN,
+ * which JSON has no number for) is null; skipped points are not in
+ * "points", and "inside" keeps one flag per point given (which ones were
+ * left out). */
+static char *json_answer(sm_warp_direction dir, sm_job_warp_outside outside, const sm_points *p,
+                         const double *out, const uint8_t *inside, int64_t noutside)
 {
     json_t *pts = json_array(), *in = json_array();
     for (int64_t i = 0; pts && in && i < p->n; i++) {
-        const double *x = out + (size_t)i * (size_t)p->dim;
-        json_array_append_new(pts, p->dim == 3 ? json_pack("[fff]", x[0], x[1], x[2])
-                                               : json_pack("[ff]", x[0], x[1]));
         json_array_append_new(in, json_integer(inside[i]));
+        if (outside == SM_JOB_OUTSIDE_SKIP && !inside[i])
+            continue;
+        const double *x = out + (size_t)i * (size_t)p->dim;
+        json_array_append_new(pts, outside == SM_JOB_OUTSIDE_FLAG && !inside[i] ? json_null()
+                                   : p->dim == 3 ? json_pack("[fff]", x[0], x[1], x[2])
+                                                 : json_pack("[ff]", x[0], x[1]));
     }
     json_t *doc = json_pack("{s:s,s:o*,s:o*,s:I}", "direction",
                             dir == SM_WARP_INVERSE ? "inverse" : "forward", "points", pts,
                             "inside", in, "outside", (json_int_t)noutside);
+    if (doc && outside == SM_JOB_OUTSIDE_SKIP)
+        json_object_set_new(doc, "skipped", json_integer((json_int_t)noutside));
     char *text = doc ? sm_json_dumps(doc, 0) : NULL;
     json_decref(doc);
     return text;
 }
 
-sm_status sm_job_warp_points_text(sm_job_map *map, int json, const char *text, size_t len,
-                                  const sm_job_warp_request *rq, char **answer,
-                                  size_t *answer_len, sm_job_warp_report *rep, sm_error *err)
+/* The outside policy on out: NaN rows (flag), or the kept rows moved to
+ * the front (skip); the number of rows in out after it. */
+static int64_t apply_outside(sm_job_warp_outside outside, int dim, int64_t n, double *out,
+                             const uint8_t *inside)
+{
+    if (outside == SM_JOB_OUTSIDE_EXTRAPOLATE)
+        return n;
+    int64_t kept = 0;
+    for (int64_t i = 0; i < n; i++) {
+        double *x = out + (size_t)i * (size_t)dim;
+        if (inside[i]) {
+            if (outside == SM_JOB_OUTSIDE_SKIP && kept != i)
+                memcpy(out + (size_t)kept * (size_t)dim, x, (size_t)dim * sizeof *x);
+            kept++;
+        } else if (outside == SM_JOB_OUTSIDE_FLAG) {
+            for (int k = 0; k < dim; k++)
+                x[k] = NAN;
+        }
+    }
+    return outside == SM_JOB_OUTSIDE_SKIP ? kept : n;
+}
+
+sm_status sm_job_warp_points(sm_job_map *map, int dim, int64_t n, const double *xyz,
+                             const sm_job_warp_request *rq, double *out, uint8_t *inside,
+                             int64_t *kept, sm_job_warp_report *rep, sm_error *err)
+{
+    memset(rep, 0, sizeof *rep);
+    rep->kind = SM_JOB_WARP_POINTS;
+    rep->direction = rq->direction;
+    rep->n = n;
+    *kept = 0;
+    if (dim != sm_job_map_dim(map))
+        return stage(rep, SM_JOB_WARP_MAP,
+                     sm_error_set(err, SM_ERR_INVALID, "%dD points and the map is %dD", dim,
+                                  sm_job_map_dim(map)));
+    const sm_warp *w = sm_job_map_warp(map, rq->direction, err);
+    if (!w)
+        return stage(rep, SM_JOB_WARP_MAP, err->code);
+    sm_status st = sm_warp_points(w, rq->direction, rq->strict, n, xyz, out, inside,
+                                  &rep->noutside, err);
+    if (st != SM_OK)
+        return stage(rep, SM_JOB_WARP_MAP, st);
+    *kept = apply_outside(rq->strict ? SM_JOB_OUTSIDE_EXTRAPOLATE : rq->outside, dim, n, out,
+                          inside);
+    return SM_OK;
+}
+
+/* The points of a .npy file as an sm_points. */
+static sm_status parse_npy(const char *bytes, size_t len, const sm_job_warp_request *rq,
+                           sm_points *p, sm_error *err)
+{
+    int cols;
+    sm_status st = sm_npy_parse(bytes, len, rq->max_points, rq->name ? rq->name : "the .npy",
+                                &p->xyz, &p->n, &cols, err);
+    p->dim = cols;
+    p->kind = ".npy";
+    return st;
+}
+
+sm_status sm_job_warp_points_bytes(sm_job_map *map, sm_job_points_format in_format,
+                                   const char *bytes, size_t len,
+                                   sm_job_points_format out_format,
+                                   const sm_job_warp_request *rq, char **answer,
+                                   size_t *answer_len, sm_job_warp_report *rep, sm_error *err)
 {
     memset(rep, 0, sizeof *rep);
     rep->kind = SM_JOB_WARP_POINTS;
@@ -298,18 +399,24 @@ sm_status sm_job_warp_points_text(sm_job_map *map, int json, const char *text, s
     sm_points p = {0};
     sm_warp_direction dir = rq->direction;
     int strict = rq->strict;
+    sm_job_warp_outside outside = rq->outside;
+    int json = in_format == SM_JOB_POINTS_JSON;
     double *out = NULL;
     uint8_t *inside = NULL;
     const sm_warp *w;
-    sm_status st = json ? parse_json(text, len, rq->max_points, &p, &dir, &strict, err)
-                        : sm_points_csv_parse(text, len, rq->max_points, &p, err);
+    sm_status st = json ? parse_json(bytes, len, rq->max_points, &p, &dir, &strict, &outside, err)
+                   : in_format == SM_JOB_POINTS_NPY
+                       ? parse_npy(bytes, len, rq, &p, err)
+                       : sm_points_csv_parse(bytes, len, rq->max_points, &p, err);
     rep->direction = dir;
     if (st != SM_OK) {
-        if (rq->name)
+        if (rq->name && in_format != SM_JOB_POINTS_NPY)
             sm_error_prefix(err, "%s", rq->name);
         st = stage(rep, SM_JOB_WARP_INPUT, st);
         goto done;
     }
+    if (strict)
+        outside = SM_JOB_OUTSIDE_EXTRAPOLATE; /* none will be */
     sm_points_to_frame(&p, SM_POINTS_FRAME_LPS); /* Slicer's RAS markups */
     rep->n = p.n;
     if (p.dim != sm_job_map_dim(map)) {
@@ -334,27 +441,48 @@ sm_status sm_job_warp_points_text(sm_job_map *map, int json, const char *text, s
         st = stage(rep, SM_JOB_WARP_MAP, err->code);
         goto done;
     }
-    st = sm_points_warp(w, dir, strict, &p, json ? NULL : text, len, out, inside, &rep->noutside,
-                        err);
+    /* CSV: a strict refusal names the point's line; .npy and JSON: its
+     * index */
+    st = sm_points_warp(w, dir, strict, &p, in_format == SM_JOB_POINTS_CSV ? bytes : NULL, len,
+                        out, inside, &rep->noutside, err);
     if (st != SM_OK) {
         if (rq->name)
             sm_error_prefix(err, "%s", rq->name);
         st = stage(rep, SM_JOB_WARP_MAP, st);
         goto done;
     }
-    *answer = json ? json_answer(dir, &p, out, inside, rep->noutside)
-                   : sm_points_csv_format(&p, out, inside, answer_len);
-    if (!*answer) {
-        st = stage(rep, SM_JOB_WARP_OUTPUT, sm_error_set(err, SM_ERR_NOMEM, "out of memory"));
+    if (json) {
+        if (outside == SM_JOB_OUTSIDE_FLAG)
+            apply_outside(outside, p.dim, p.n, out, inside);
+        if ((*answer = json_answer(dir, outside, &p, out, inside, rep->noutside)))
+            *answer_len = strlen(*answer);
+    } else if (out_format == SM_JOB_POINTS_NPY) {
+        int64_t rows = apply_outside(outside, p.dim, p.n, out, inside);
+        st = sm_npy_encode(out, rows, p.dim, answer, answer_len, err);
+        if (st != SM_OK)
+            st = stage(rep, SM_JOB_WARP_OUTPUT, st);
         goto done;
+    } else {
+        if (outside == SM_JOB_OUTSIDE_FLAG)
+            apply_outside(outside, p.dim, p.n, out, inside);
+        *answer = sm_points_csv_format(&p, out, inside, outside == SM_JOB_OUTSIDE_SKIP,
+                                       answer_len);
     }
-    if (json)
-        *answer_len = strlen(*answer);
+    if (!*answer)
+        st = stage(rep, SM_JOB_WARP_OUTPUT, sm_error_set(err, SM_ERR_NOMEM, "out of memory"));
 done:
     free(out);
     free(inside);
     sm_points_release(&p);
     return st;
+}
+
+sm_status sm_job_warp_points_text(sm_job_map *map, int json, const char *text, size_t len,
+                                  const sm_job_warp_request *rq, char **answer,
+                                  size_t *answer_len, sm_job_warp_report *rep, sm_error *err)
+{
+    sm_job_points_format f = json ? SM_JOB_POINTS_JSON : SM_JOB_POINTS_CSV;
+    return sm_job_warp_points_bytes(map, f, text, len, f, rq, answer, answer_len, rep, err);
 }
 
 /* --------------------------------------------------------- mesh files */

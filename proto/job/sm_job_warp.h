@@ -62,10 +62,26 @@ const sm_mesh *sm_job_map_template(const sm_job_map *map);
  * first use); NULL with err set when it cannot be built. */
 const sm_warp *sm_job_map_warp(sm_job_map *map, sm_warp_direction dir, sm_error *err);
 
+/* What becomes of points outside the direction's source mesh (points
+ * only: a mesh's vertices are always extrapolated, or refused by strict). */
+typedef enum sm_job_warp_outside {
+    SM_JOB_OUTSIDE_EXTRAPOLATE = 0, /* the nearest element's affine map, inside 0 */
+    SM_JOB_OUTSIDE_FLAG,            /* NaN coordinates, inside 0 (JSON: null) */
+    SM_JOB_OUTSIDE_SKIP             /* left out of the answer; report->noutside says how many */
+} sm_job_warp_outside;
+
+/* "extrapolate", "flag", "skip" (the CLI's --outside, the daemon's
+ * outside, Python's outside=): the policy, or -1 for another name. */
+int sm_job_warp_outside_from_name(const char *name);
+const char *sm_job_warp_outside_name(sm_job_warp_outside outside);
+/* The names for messages: "extrapolate, flag or skip". */
+#define SM_JOB_WARP_OUTSIDE_NAMES "extrapolate, flag or skip"
+
 /* What a warp is asked. */
 typedef struct sm_job_warp_request {
     sm_warp_direction direction;
     int strict;              /* points and vertices: one outside is an error */
+    sm_job_warp_outside outside; /* points, when not strict */
     int normalize;           /* fields: vectors scaled to unit length */
     sm_read_limits *limits;  /* bounds of the input's reader (NULL: none) */
     int64_t max_points;      /* points: at most this many (0: no bound) */
@@ -92,7 +108,8 @@ typedef struct sm_job_warp_report {
     sm_job_warp_kind kind;
     sm_warp_direction direction;  /* points: as a JSON body may set it */
     int64_t n;                    /* points or vertices */
-    int64_t noutside;             /* of them outside the source mesh */
+    int64_t noutside;             /* of them outside the source mesh (with
+                                   * skip: left out) */
     int ncomp;                    /* fields: 1, dim or dim*(dim+1)/2 */
 } sm_job_warp_report;
 
@@ -100,13 +117,48 @@ typedef struct sm_job_warp_report {
  * written as): 0 when path's extension is none of them. */
 int sm_job_warp_output_known(const char *path);
 
+/* Point files: CSV (sm_points_csv.h, Slicer markups among them), a JSON
+ * request (the daemon's), NumPy .npy (sm_npy_parse: float64 or float32,
+ * (N, dim)). */
+typedef enum sm_job_points_format {
+    SM_JOB_POINTS_CSV,
+    SM_JOB_POINTS_JSON,
+    SM_JOB_POINTS_NPY
+} sm_job_points_format;
+
+/* The format a file's name gives: .npy (any case), else CSV. */
+sm_job_points_format sm_job_points_format_of(const char *path);
+
+/* Points as arrays (Python's): n points of dim coordinates through the
+ * map, the outside policy applied: out (n * dim) holds the images, NaN
+ * for flagged ones, or with skip only the kept points, in order, *kept
+ * of them (n otherwise); inside (n) flags the input points.  A strict
+ * point outside is the core's SM_ERR_INVALID ("point I (1-based) is
+ * outside ..."). */
+sm_status sm_job_warp_points(sm_job_map *map, int dim, int64_t n, const double *xyz,
+                             const sm_job_warp_request *request, double *out, uint8_t *inside,
+                             int64_t *kept, sm_job_warp_report *report, sm_error *err);
+
+/* Points in any format to an answer in any format (a JSON request is
+ * answered in JSON whatever out_format says): bytes of in_format (len of
+ * them), the answer in *answer (malloc'd, NUL-terminated for the text
+ * ones, *answer_len bytes): a CSV with its inside column, a .npy of the
+ * images (N, dim) float64, or the JSON below. */
+sm_status sm_job_warp_points_bytes(sm_job_map *map, sm_job_points_format in_format,
+                                   const char *bytes, size_t len,
+                                   sm_job_points_format out_format,
+                                   const sm_job_warp_request *request, char **answer,
+                                   size_t *answer_len, sm_job_warp_report *report, sm_error *err);
+
 /* Points: len bytes of text, CSV (sm_points_csv.h) or, with json, a
  * {"points": [[x, y[, z]], ...], "direction": "forward"|"inverse",
- * "strict": bool} document (its members over request's); the answer in
- * *answer (malloc'd, NUL-terminated, *answer_len bytes): the CSV with its
- * inside column, or {"direction", "points", "inside", "outside"} written
- * by sm_json_dumps.  A malformed body is SM_ERR_FORMAT (SM_ERR_NOMEM past
- * max_points), naming its line or JSON path. */
+ * "strict": bool, "outside": "extrapolate"|"flag"|"skip"} document (its
+ * members over request's); the answer in *answer (malloc'd,
+ * NUL-terminated, *answer_len bytes): the CSV with its inside column, or
+ * {"direction", "points", "inside", "outside"[, "skipped"]} written by
+ * sm_json_dumps (a flagged point null, a skipped one not in "points";
+ * "inside" one flag per point given).  A malformed body is SM_ERR_FORMAT
+ * (SM_ERR_NOMEM past max_points), naming its line or JSON path. */
 sm_status sm_job_warp_points_text(sm_job_map *map, int json, const char *text, size_t len,
                                   const sm_job_warp_request *request, char **answer,
                                   size_t *answer_len, sm_job_warp_report *report, sm_error *err);

@@ -77,16 +77,28 @@ int32_t sm_run_map_nverts(const sm_run_map *m)
     return sm_job_map_template(m->map)->nverts;
 }
 
-sm_status sm_run_warp_points(sm_run_map *m, int inverse, int strict, int dim, int64_t n,
-                             const double *xyz, double *out, uint8_t *inside,
-                             int64_t *noutside, sm_error *err)
+sm_status sm_run_warp_points(sm_run_map *m, int inverse, int strict, int outside, int dim,
+                             int64_t n, const double *xyz, double *out, uint8_t *inside,
+                             int64_t *noutside, int64_t *kept, sm_error *err)
 {
-    if (dim != sm_job_map_dim(m->map))
-        return sm_error_set(err, SM_ERR_INVALID, "%dD points and the map is %dD", dim,
-                            sm_job_map_dim(m->map));
-    sm_warp_direction d = inverse ? SM_WARP_INVERSE : SM_WARP_FORWARD;
-    const sm_warp *w = sm_job_map_warp(m->map, d, err);
-    return w ? sm_warp_points(w, d, strict, n, xyz, out, inside, noutside, err) : err->code;
+    if (outside < SM_JOB_OUTSIDE_EXTRAPOLATE || outside > SM_JOB_OUTSIDE_SKIP)
+        return sm_error_set(err, SM_ERR_INVALID, "outside: expected 0 (extrapolate), 1 (flag) "
+                            "or 2 (skip), got %d", outside);
+    uint8_t *flags = inside ? inside : malloc((size_t)n + 1);
+    if (!flags)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for %lld points", (long long)n);
+    sm_job_warp_request rq = {.direction = inverse ? SM_WARP_INVERSE : SM_WARP_FORWARD,
+                              .strict = strict, .outside = (sm_job_warp_outside)outside};
+    sm_job_warp_report rep;
+    int64_t rows;
+    sm_status st = sm_job_warp_points(m->map, dim, n, xyz, &rq, out, flags, &rows, &rep, err);
+    if (flags != inside)
+        free(flags);
+    if (noutside)
+        *noutside = st == SM_OK ? rep.noutside : 0;
+    if (kept)
+        *kept = st == SM_OK ? rows : 0;
+    return st;
 }
 
 sm_status sm_run_warp_field(sm_run_map *m, int inverse, int normalize, int dim, int32_t nverts,

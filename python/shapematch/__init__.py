@@ -640,7 +640,7 @@ def sdf(surface, points):
 # ------------------------------------------------------------ warp
 
 def warp(result, *, points=None, mesh=None, field=None, inverse=False, strict=False,
-         normalize=False, output=None):
+         normalize=False, output=None, outside="extrapolate"):
     """Carries points, a mesh or a field through the map of a finished
     match, forward (template -> target) or back with inverse=True, as
     `shapematch warp` does (docs/warp.md: the conventions).  result: a
@@ -652,6 +652,9 @@ def warp(result, *, points=None, mesh=None, field=None, inverse=False, strict=Fa
               0/1: 0 for a point outside the source mesh, mapped by its
               nearest element); strict=True raises ShapematchError for the
               first point outside instead ("point I (1-based) is outside");
+              outside="flag" gives those NaN rows, outside="skip" leaves
+              them out of mapped (inside still has one flag per point
+              given: mapped's rows are the points whose flag is 1);
       mesh    a path (any mesh or surface `warp --mesh` reads) or arrays
               (vertices, elements): returns the moved vertices; with
               output=PATH (a path mesh only) writes it, the format by the
@@ -666,4 +669,4 @@ def warp(result, *, points=None, mesh=None, field=None, inverse=False, strict=Fa
     if hasattr(result, "_map_folder"):  # a Client's result: its files, downloaded once
         result = result._map_folder()
     return _warp.warp(result, _raise, points=points, mesh=mesh, field=field, inverse=inverse,
-                      strict=strict, normalize=normalize, output=output)
+                      strict=strict, normalize=normalize, output=output, outside=outside)

@@ -14,6 +14,7 @@ sends (seconds or an HTTP date), up to `retries` times.
 """
 import email.utils
 import json
+import math
 import os
 import time
 import urllib.error
@@ -217,12 +218,14 @@ class Client:
         return Batch(self, info["batchID"], jobs)
 
     def warp(self, job, *, points=None, mesh=None, field=None, inverse=False, strict=False,
-             normalize=False, output=None):
+             normalize=False, output=None, outside="extrapolate"):
         """Carries points, a mesh or a field through a successful job's map
         on the daemon (POST /v1/jobs/{id}/warp; shapematch.warp does it
         here, on downloaded files).  job: a Job, a RemoteResult or a job id.
           points  an (n, dim) array: returns (mapped (n, dim), inside (n,));
                   strict=True raises HTTPError (422) for a point outside;
+                  outside="flag" gives those NaN rows, "skip" leaves them out
+                  of mapped (inside keeps one flag per point given);
           mesh    a path (Medit, Gmsh, VTK, or a surface: STL, OBJ, PLY,
                   OFF): the answer (vertices moved, topology kept) is
                   written to output=PATH, its format by the name
@@ -241,6 +244,8 @@ class Client:
             query["strict"] = "true"
         if normalize:
             query["normalize"] = "true"
+        if outside != "extrapolate":
+            query["outside"] = outside
         path = "/v1/jobs/%s/warp" % job_id
         if points is not None:
             if output is not None:
@@ -252,10 +257,15 @@ class Client:
                              headers={"Content-Type": "application/json",
                                       "Accept": "application/json"})
             import array
-            flat = array.array("d", (float(x) for p in doc["points"] for x in p))
-            inside = array.array("i", (int(x) for x in doc["inside"]))
-            return (_arrays.wrap((bytearray(flat.tobytes()), "d", n, dim)),
-                    _arrays.wrap((bytearray(inside.tobytes()), "i", n, 0)))
+            # a flagged point is null (JSON has no NaN); skipped ones are
+            # not in the answer, whose inside then has one flag per row
+            flat = array.array("d", (float(x) for p in doc["points"]
+                                     for x in (p if p is not None else [math.nan] * dim)))
+            kept = len(doc["points"])
+            flags = [int(x) for x in doc["inside"]]  # one per point given
+            inside = array.array("i", flags)
+            return (_arrays.wrap((bytearray(flat.tobytes()), "d", kept, dim)),
+                    _arrays.wrap((bytearray(inside.tobytes()), "i", len(flags), 0)))
         src = mesh if mesh is not None else field
         if output is None:
             raise ValueError("Client.warp: a mesh or a field needs output=PATH (the answer)")

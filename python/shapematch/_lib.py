@@ -218,8 +218,8 @@ def job():
         _declare(lib, "sm_run_map_dim", _c.c_int, _c.c_void_p)
         _declare(lib, "sm_run_map_nverts", _c.c_int32, _c.c_void_p)
         _declare(lib, "sm_run_warp_points", _c.c_int, _c.c_void_p, _c.c_int, _c.c_int, _c.c_int,
-                 _c.c_int64, _P(_c.c_double), _P(_c.c_double), _P(_c.c_uint8), _P(_c.c_int64),
-                 _P(Error))
+                 _c.c_int, _c.c_int64, _P(_c.c_double), _P(_c.c_double), _P(_c.c_uint8),
+                 _P(_c.c_int64), _P(_c.c_int64), _P(Error))
         _declare(lib, "sm_run_warp_field", _c.c_int, _c.c_void_p, _c.c_int, _c.c_int, _c.c_int,
                  _c.c_int32, _c.c_int, _P(_c.c_double), _P(Error))
         _declare(lib, "sm_run_warp_file", _c.c_int, _c.c_void_p, _c.c_int, _c.c_char_p,

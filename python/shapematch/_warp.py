@@ -59,21 +59,26 @@ def _int32s_ptr(a):
                        (ctypes.c_int32 * 1)(), _P(ctypes.c_int32))
 
 
-def _points(mp, direction, strict, points, what, raise_):
-    """(out C array, inside C array, n, dim) of an (n, dim) array."""
+_OUTSIDE = {"extrapolate": 0, "flag": 1, "skip": 2}
+
+
+def _points(mp, direction, strict, points, what, raise_, outside="extrapolate"):
+    """(out C array, inside C array, n, dim, rows of out) of an (n, dim)
+    array."""
     xyz, n, dim = _arrays.doubles(points, what, cols=(2, 3))
     if dim != mp.dim:
         raise ValueError("warp: %dD %s and the map is %dD" % (dim, what, mp.dim))
     out = (ctypes.c_double * max(n * dim, 1))()
     inside = (ctypes.c_uint8 * max(n, 1))()
     nout = ctypes.c_int64()
+    kept = ctypes.c_int64()
     err = _lib.Error()
-    st = mp.job.sm_run_warp_points(mp.ptr, direction, 1 if strict else 0, dim, n,
-                                   _doubles_ptr(xyz), out, inside, ctypes.byref(nout),
-                                   ctypes.byref(err))
+    st = mp.job.sm_run_warp_points(mp.ptr, direction, 1 if strict else 0, _OUTSIDE[outside],
+                                   dim, n, _doubles_ptr(xyz), out, inside, ctypes.byref(nout),
+                                   ctypes.byref(kept), ctypes.byref(err))
     if st:
         raise_(err, st)
-    return out, inside, n, dim
+    return out, inside, n, dim, kept.value
 
 
 def _file(mp, field, path, output, direction, strict, normalize, raise_):
@@ -123,10 +128,17 @@ def _field_array(mp, direction, normalize, field, output, raise_):
 
 
 def warp(result, raise_, points=None, mesh=None, field=None, inverse=False, strict=False,
-         normalize=False, output=None):
+         normalize=False, output=None, outside="extrapolate"):
     given = [x is not None for x in (points, mesh, field)]
     if sum(given) != 1:
         raise TypeError("warp: give exactly one of points=, mesh= and field=")
+    if outside not in _OUTSIDE:
+        raise ValueError("warp: outside= is 'extrapolate', 'flag' or 'skip', not %r" % (outside,))
+    if outside != "extrapolate" and points is None:
+        raise TypeError("warp: outside=%r is for points= (a mesh's vertices outside are "
+                        "extrapolated, or refused with strict=True)" % outside)
+    if outside != "extrapolate" and strict:
+        raise TypeError("warp: give strict=True or outside=%r, not both" % outside)
     if normalize and field is None:
         raise TypeError("warp: normalize= is for field=")
     if output is not None and points is not None:
@@ -135,9 +147,10 @@ def warp(result, raise_, points=None, mesh=None, field=None, inverse=False, stri
     mp = _Map(result, raise_)
     try:
         if points is not None:
-            out, inside, n, dim = _points(mp, direction, strict, points, "points", raise_)
+            out, inside, n, dim, rows = _points(mp, direction, strict, points, "points",
+                                                raise_, outside)
             flags = (ctypes.c_int32 * max(n, 1))(*inside[:n])
-            return (_arrays.out(out, ctypes.c_double, n, dim),
+            return (_arrays.out(out, ctypes.c_double, rows, dim),
                     _arrays.out(flags, ctypes.c_int32, n, 0))
         if mesh is not None:
             if isinstance(mesh, (str, bytes, os.PathLike)):
@@ -145,7 +158,7 @@ def warp(result, raise_, points=None, mesh=None, field=None, inverse=False, stri
             if output is not None:
                 raise ValueError("warp: output= is for a mesh given as a file (arrays come back)")
             verts = mesh[0] if isinstance(mesh, (tuple, list)) else mesh["vertices"]
-            out, _, n, dim = _points(mp, direction, strict, verts, "mesh vertices", raise_)
+            out, _, n, dim, _ = _points(mp, direction, strict, verts, "mesh vertices", raise_)
             return _arrays.out(out, ctypes.c_double, n, dim)
         if isinstance(field, (str, bytes, os.PathLike)):
             return _file(mp, True, field, output, direction, False, normalize, raise_)

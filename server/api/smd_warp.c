@@ -50,6 +50,7 @@ struct smd_warp_body {
     int kind;            /* body_kind */
     int direction;       /* from the query; -1 not given */
     int strict;          /* from the query; -1 not given */
+    int outside;         /* from the query (sm_job_warp_outside; points) */
     int normalize;       /* from the query (fields) */
     const char *ext;     /* meshes: the answer's format (MESH_MEDIA_TABLE) */
     smd_body body;       /* counted in --max-body-memory (base/smd_body.h) */
@@ -179,11 +180,19 @@ enum MHD_Result smd_route_warp(struct MHD_Connection *conn, smd_request *req)
     }
     int direction = query_direction(conn), strict = query_bool(conn, "strict");
     int normalize = query_bool(conn, "normalize");
-    if (direction == -2 || strict == -2 || normalize == -2)
+    const char *outside_name = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND,
+                                                           "outside");
+    int outside = outside_name ? sm_job_warp_outside_from_name(outside_name) : 0;
+    if (direction == -2 || strict == -2 || normalize == -2 || outside < 0)
         return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST, "%s",
                                  direction == -2 ? "direction: expected forward or inverse"
                                  : strict == -2  ? "strict: expected true or false"
+                                 : outside < 0   ? "outside: expected " SM_JOB_WARP_OUTSIDE_NAMES
                                                  : "normalize: expected true or false");
+    if (outside > 0 && kind != BODY_CSV && kind != BODY_JSON)
+        return smd_reply_problem(conn, req, 400, SMD_PROBLEM_BAD_REQUEST, "outside: %s is for "
+                                 "points (a mesh's vertices outside are extrapolated, or refused "
+                                 "with strict)", outside_name);
     const char *length =
         MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
     uint64_t n = 0;
@@ -206,6 +215,7 @@ enum MHD_Result smd_route_warp(struct MHD_Connection *conn, smd_request *req)
     b->normalize = normalize > 0;
     b->direction = direction;
     b->strict = strict;
+    b->outside = outside;
     b->ext = ext;
     req->body_state = b;
     return MHD_YES;
@@ -247,6 +257,7 @@ static void warp_in_child(void *arg, smd_check_result *out)
     sm_warp_direction dir = b->direction == SM_WARP_INVERSE ? SM_WARP_INVERSE : SM_WARP_FORWARD;
     sm_read_limits limits = b->limits;
     sm_job_warp_request rq = {.direction = dir, .strict = b->strict > 0,
+                              .outside = (sm_job_warp_outside)b->outside,
                               .normalize = b->normalize, .limits = &limits,
                               .max_points = limits.max_vertices, .name = "the body"};
     sm_job_warp_report rep;

@@ -3,7 +3,9 @@
  * The input as text: sm__decimal_to_double, the readers' in-place
  * parser, either leaves the number to strtod (returns 0) or gives, for
  * the n bytes it says the number has, strtod's double bit for bit, strtod
- * taking the same n bytes.
+ * taking the same n bytes.  The public sm_decimal_parse (the points
+ * CSV's) takes the whole input as one field: accepted exactly when strtod
+ * reads all of a plain decimal's characters to a finite double, its bits.
  *
  * The input as numbers, 8 bytes each: sm__double_to_decimal and its exact
  * twin write printf's "%.17g" byte for byte, in at most SM_DECIMAL_MAX
@@ -17,6 +19,7 @@
 #include <string.h>
 
 #include "io/sm_number.h"
+#include "shapematch/sm_decimal.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
@@ -39,6 +42,37 @@ static void check_parse(const uint8_t *data, size_t size)
     int same = memcmp(&got, &want, sizeof got) == 0 && (size_t)(end - copy) == n;
     free(copy);
     if (!same)
+        abort();
+}
+
+/* The public parse of the whole input as one field: accepted exactly
+ * when strtod reads all of a plain decimal's characters to a finite
+ * double, with its bits. */
+static void check_field(const uint8_t *data, size_t size)
+{
+    const char *text = (const char *)data;
+    double got = 0;
+    int ok = sm_decimal_parse(text, size, &got);
+    char buf[65];
+    int want_ok = size > 0 && size <= 64;
+    int digits = 0;
+    for (size_t i = 0; want_ok && i < size; i++) {
+        char c = text[i];
+        digits += c >= '0' && c <= '9';
+        want_ok = (c >= '0' && c <= '9') || c == '+' || c == '-' || c == '.' || c == 'e' ||
+                  c == 'E';
+        buf[i] = c;
+    }
+    double want = 0;
+    if (want_ok && digits) {
+        buf[size] = '\0';
+        char *end;
+        want = strtod(buf, &end);
+        want_ok = end == buf + size && isfinite(want);
+    } else {
+        want_ok = 0;
+    }
+    if (ok != want_ok || (ok && memcmp(&got, &want, sizeof got) != 0))
         abort();
 }
 
@@ -82,6 +116,7 @@ static void check_format(uint64_t bits)
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     check_parse(data, size);
+    check_field(data, size);
     for (size_t i = 0; i + 8 <= size; i += 8) {
         uint64_t bits;
         memcpy(&bits, data + i, sizeof bits);

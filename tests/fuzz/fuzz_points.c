@@ -96,7 +96,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     for (int64_t i = 0; i < p.n; i++)
         inside[i] = (uint8_t)(i & 1);
     size_t len, len2;
-    char *text = sm_points_csv_format(&p, p.xyz, inside, &len);
+    char *text = sm_points_csv_format(&p, p.xyz, inside, 0, &len);
     if (!text)
         abort();
     /* the output is an input: the same points; and once read back, its
@@ -106,12 +106,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (sm_points_csv_parse(text, len, 0, &q, &err) != SM_OK || q.n != p.n || q.dim != p.dim ||
         memcmp(q.xyz, p.xyz, (size_t)p.n * (size_t)p.dim * sizeof *p.xyz) != 0)
         abort();
-    char *again = sm_points_csv_format(&q, q.xyz, inside, &len2);
+    char *again = sm_points_csv_format(&q, q.xyz, inside, 0, &len2);
     size_t len3;
     char *third = NULL;
     if (!again || sm_points_csv_parse(again, len2, 0, &r, &err) != SM_OK || r.n != p.n ||
         memcmp(r.xyz, p.xyz, (size_t)p.n * (size_t)p.dim * sizeof *p.xyz) != 0 ||
-        !(third = sm_points_csv_format(&r, r.xyz, inside, &len3)) || len3 != len2 ||
+        !(third = sm_points_csv_format(&r, r.xyz, inside, 0, &len3)) || len3 != len2 ||
         memcmp(third, again, len2) != 0)
         abort();
     free(third);

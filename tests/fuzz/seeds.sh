@@ -9,7 +9,7 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=$1
 rm -rf "$out"
-targets="mesh msh stl obj ply off vtk vtkxml sol params events payload sse headers multipart parts decimal job_file points nifti nrrd mha batch_list batch_request"
+targets="mesh msh stl obj ply off vtk vtkxml sol params events payload sse headers multipart parts decimal job_file points nifti nrrd mha batch_list batch_request npy"
 for t in $targets; do
     mkdir -p "$out/$t"
     [ -d tests/fuzz/seeds/$t ] && cp tests/fuzz/seeds/$t/* "$out/$t/" 2>/dev/null || true

@@ -198,6 +198,37 @@ problem "strict: a point outside refused, its CSV line named" 422 \
 problem "strict JSON: the point's index named" 422 "points[1]: point (3, 3) is outside" \
     -H 'Content-Type: application/json' \
     --data-binary '{"points": [[0, 0], [3, 3]], "strict": true}' "$BASE/v1/jobs/$J/warp"
+# --outside: flag (null in JSON, nan in CSV), skip (left out, counted),
+# the names checked; inside keeps one flag per point given
+code=$(hcurl "${AUTH[@]}" -o "$WORK/flag.json" -w '%{http_code}' -H 'Content-Type: application/json' \
+    --data-binary '{"points": [[0, 0], [3, 3]], "outside": "flag"}' "$BASE/v1/jobs/$J/warp")
+if [ "$code" = 200 ] && jq -e '.points[1] == null and (.points[0] | length) == 2 and
+        .inside == [1, 0] and .outside == 1' "$WORK/flag.json" >/dev/null; then
+    ok "outside flag (JSON member): the outside point null, inside [1, 0]"
+else
+    not_ok "outside flag" "$code" "$(head -c 300 "$WORK/flag.json")"
+fi
+code=$(hcurl "${AUTH[@]}" -o "$WORK/skip.json" -w '%{http_code}' -H 'Content-Type: application/json' \
+    --data-binary '{"points": [[3, 3], [0, 0]]}' "$BASE/v1/jobs/$J/warp?outside=skip")
+if [ "$code" = 200 ] && jq -e '(.points | length) == 1 and .inside == [0, 1] and .skipped == 1' \
+        "$WORK/skip.json" >/dev/null; then
+    ok "outside=skip (query): one point answered, skipped 1"
+else
+    not_ok "outside skip" "$code" "$(head -c 300 "$WORK/skip.json")"
+fi
+code=$(hcurl "${AUTH[@]}" -o "$WORK/flag.csv" -w '%{http_code}' "${CSV[@]}" \
+    --data-binary $'x,y\n3,3\n0,0\n' "$BASE/v1/jobs/$J/warp?outside=flag")
+if [ "$code" = 200 ] && [ "$(sed -n 2p "$WORK/flag.csv")" = "nan,nan,0" ]; then
+    ok "outside=flag, CSV: nan,nan,0"
+else
+    not_ok "outside flag CSV" "$code" "$(head -c 300 "$WORK/flag.csv")"
+fi
+problem "a bad outside name" 400 "outside: expected extrapolate, flag or skip" "${CSV[@]}" \
+    --data-binary $'0,0\n' "$BASE/v1/jobs/$J/warp?outside=drop"
+problem "a bad outside member" 400 "outside: expected" -H 'Content-Type: application/json' \
+    --data-binary '{"points": [[0, 0]], "outside": 3}' "$BASE/v1/jobs/$J/warp"
+problem "outside for a mesh" 400 "is for points" -H 'Content-Type: application/x-medit-mesh' \
+    --data-binary "@$DISK" "$BASE/v1/jobs/$J/warp?outside=skip"
 head -c 500000 /dev/zero | tr '\0' '\n' >"$WORK/big.csv"
 problem "a body over --max-upload" 413 "--max-upload" "${CSV[@]}" --data-binary "@$WORK/big.csv" \
     "$BASE/v1/jobs/$J/warp"

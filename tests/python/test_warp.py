@@ -83,6 +83,35 @@ class Warp(unittest.TestCase):
         self.assertIn("point 2 is outside the template", str(e.exception))
         self.assertEqual(e.exception.status, "invalid")
 
+    def test_outside(self):
+        """outside="flag": NaN rows where inside is 0, the rest as
+        extrapolated; "skip": the inside rows only, inside one flag per
+        point given; the CLI's --outside the same numbers."""
+        d, pts = self.dirs[2], self.points[2]
+        ref, inside = shapematch.warp(d, points=pts)
+        ref, inside = rows(ref), list(inside.tolist() if hasattr(inside, "tolist") else inside)
+        self.assertTrue(0 < sum(inside) < len(pts))
+        flagged, fin = shapematch.warp(d, points=pts, outside="flag")
+        for r, f, i in zip(ref, rows(flagged), inside):
+            if i:
+                self.assertEqual(f, r)
+            else:
+                self.assertTrue(all(math.isnan(c) for c in f))
+        kept, kin = shapematch.warp(d, points=pts, outside="skip")
+        self.assertEqual(list(kin.tolist() if hasattr(kin, "tolist") else kin), inside)
+        self.assertEqual(rows(kept), [r for r, i in zip(ref, inside) if i])
+        csv = os.path.join(self.tmp, "skip.csv")
+        with open(csv, "w") as f:
+            f.write("".join(",".join("%.17g" % c for c in p) + "\n" for p in pts))
+        self.cli("--result", d, "--points", csv, "--outside", "skip", "-o", csv + ".out")
+        with open(csv + ".out") as f:
+            cli = [list(map(float, line.split(",")))[:2] for line in f.read().split()[1:]]
+        self.assertEqual(cli, rows(kept))
+        with self.assertRaises(ValueError):
+            shapematch.warp(d, points=pts, outside="nearest")
+        with self.assertRaises(TypeError):
+            shapematch.warp(d, points=pts, outside="skip", strict=True)
+
     def test_mesh_files_as_the_cli(self):
         d, tmpl = self.dirs[2], TEMPLATES[2]
         for ext in ("mesh", "vtu"):

@@ -798,8 +798,9 @@ static void test_gmsh_cube_with_cavity(void **state)
 }
 
 /* Points far from a round background (disk, ball), where the nearest
- * point search has to leave the grid rings for the plain facet pass, and
- * points close to it: extension against brute force. */
+ * point search has to leave the grid rings for the facet tree (the
+ * extension through the coarse rings first, the warp's sm_field_nearest
+ * directly), and points close to it: both against brute force. */
 static void check_far(const sm_mesh *m, double half_width, int n, uint64_t seed)
 {
     double *v = affine_values(m);
@@ -829,9 +830,11 @@ static void test_far_points(void **state)
     const double c[2] = {0, 0};
     sm_mesh *disk = util_disk_mesh(c, 1.0, 20);
     check_far(disk, 5.0, 3000, 31);
+    check_far(disk, 100.0, 1000, 43);
     sm_mesh_free(disk);
     sm_mesh *ball = gmsh_mesh(UTIL_GMSH_UNIT_BALL, 3, 0.25);
     check_far(ball, 5.0, 1500, 37);
+    check_far(ball, 100.0, 600, 41); /* every point far: the tree */
     sm_mesh_free(ball);
 }
 

@@ -30,6 +30,7 @@
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_mesh.h"
 #include "io/sm_number.h"
+#include "shapematch/sm_decimal.h"
 
 /* The random samples under the sanitizers (several times slower per
  * value): an eighth of them, so that make test's sanitized pass stays
@@ -422,6 +423,80 @@ static void test_no_locale(void **state)
     freelocale(comma);
 }
 
+
+/* The public pair (shapematch/sm_decimal.h, proto's point lists):
+ * sm_decimal_parse accepts exactly the fields made of digits, signs, '.'
+ * and exponents that strtod reads whole to a finite double, and gives
+ * strtod's bits; sm_decimal_format writes "%.17g".  The reference is the
+ * C library itself on every text: random doubles at every precision from
+ * 1 to 25 digits in both styles (more than 19 digits: strtod's share of
+ * the path), and the edges (forms strtod reads that the fast path leaves
+ * to it, overflow, underflow to zero and subnormals, words, too long). */
+static int reference_parse(const char *s, size_t n, double *out)
+{
+    if (n == 0 || n > 64 || strspn(s, "0123456789+-.eE") != n || strcspn(s, "0123456789") == n)
+        return 0;
+    char buf[65], *end;
+    memcpy(buf, s, n);
+    buf[n] = '\0';
+    double v = strtod(buf, &end);
+    if (end != buf + n || !isfinite(v))
+        return 0;
+    *out = v;
+    return 1;
+}
+
+static void check_parse_text(const char *s)
+{
+    size_t n = strlen(s);
+    double got = 0, want = 0;
+    int ok = sm_decimal_parse(s, n, &got), ok_want = reference_parse(s, n, &want);
+    if (ok != ok_want || (ok && to_bits(got) != to_bits(want)))
+        fail_msg("sm_decimal_parse(\"%s\"): %s %016llx, strtod: %s %016llx", s,
+                 ok ? "accepted" : "refused", (unsigned long long)to_bits(got),
+                 ok_want ? "accepted" : "refused", (unsigned long long)to_bits(want));
+    checked++;
+}
+
+static void test_public_pair(void **state)
+{
+    (void)state;
+    long before = checked;
+    static const char *const edges[] = {
+        "0", "-0", "+0", "1.", ".5", "-.5", "+.5e1", "1e", "1e+", "e5", ".", "-", "+", "--1",
+        "1.2.3", "1e5e5", "0x1p3", "inf", "-inf", "nan", "infinity", "1,5", " 1", "1 ", "",
+        "1e308", "1.7976931348623157e308", "1.7976931348623159e308", "1e309", "-1e400",
+        "4.9406564584124654e-324", "2.4703282292062327e-324", "2.4703282292062328e-324",
+        "1e-400", "2.2250738585072011e-308", "2.2250738585072014e-308",
+        "9007199254740993", "9007199254740992.5", "123456789012345678901234567890",
+        "0.1000000000000000055511151231257827021181583404541015625",
+        "00000000000000000000000000000000000000000000000000000000000001.5",
+        "000000000000000000000000000000000000000000000000000000000000001.5",
+        "1e0000000000000000000000000000000000000000000000000000000000010"};
+    for (size_t i = 0; i < sizeof edges / sizeof *edges; i++)
+        check_parse_text(edges[i]);
+    uint64_t seed = 0x5eed5eed1234ull;
+    long samples = 200000 / RANDOM_SHARE;
+    char text[64], out[SM_DECIMAL_LEN + 1], want[64];
+    for (long k = 0; k < samples; k++) {
+        double x = from_bits(next(&seed));
+        if (!isfinite(x))
+            continue;
+        int digits = 1 + (int)(k % 25);
+        snprintf(text, sizeof text, k & 1 ? "%.*e" : "%.*g", digits, x);
+        check_parse_text(text);
+        size_t n = sm_decimal_format(x, out);
+        assert_true(n <= SM_DECIMAL_LEN);
+        out[n] = '\0';
+        snprintf(want, sizeof want, "%.17g", x);
+        assert_string_equal(out, want);
+        double back;
+        assert_true(sm_decimal_parse(out, n, &back));
+        assert_true(to_bits(back) == to_bits(x));
+    }
+    report("sm_decimal_parse and sm_decimal_format against strtod and printf", before);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -433,6 +508,7 @@ int main(void)
         cmocka_unit_test(test_example_values),
         cmocka_unit_test(test_integers),
         cmocka_unit_test(test_no_locale),
+        cmocka_unit_test(test_public_pair),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -34,7 +34,7 @@ static char *format(const sm_points *p)
     for (int64_t i = 0; i < p->n; i++)
         inside[i] = (uint8_t)(i % 2);
     size_t len;
-    char *out = sm_points_csv_format(p, p->xyz, inside, &len);
+    char *out = sm_points_csv_format(p, p->xyz, inside, 0, &len);
     assert_non_null(out);
     assert_int_equal(strlen(out), len);
     free(inside);

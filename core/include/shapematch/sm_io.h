@@ -145,4 +145,21 @@ typedef struct sm_vtu_field {
 sm_status sm_vtu_write_fields(const char *path, const sm_mesh *m, const double *coords,
                               const sm_vtu_field *fields, int nfields, sm_error *err);
 
+/* NumPy .npy arrays of points (numpy.save / numpy.load): version 1.0 to
+ * 3.0, a 2-D C-order array of shape (N, 2) or (N, 3), float64 ('<f8') or
+ * float32 ('<f4') little-endian.  sm_npy_parse reads len bytes (a whole
+ * file, in memory): the N * cols values as doubles in *values (malloc'd,
+ * row after row), every one finite; another type, byte order, Fortran
+ * order or shape, a header that is not numpy's dict, data that are not
+ * exactly N rows, is SM_ERR_FORMAT with a message naming name and what to
+ * do; more than max_rows rows (0: no bound) SM_ERR_NOMEM.  On error
+ * *values is NULL.  sm_npy_encode writes rows x cols doubles as a version
+ * 1.0 '<f8' C-order file (numpy's own layout, its header padded to 64
+ * bytes) into *out (malloc'd, *len bytes); NaN values are written as
+ * they are. */
+sm_status sm_npy_parse(const void *bytes, size_t len, int64_t max_rows, const char *name,
+                       double **values, int64_t *rows, int *cols, sm_error *err);
+sm_status sm_npy_encode(const double *values, int64_t rows, int cols, char **out, size_t *len,
+                        sm_error *err);
+
 #endif

@@ -2,7 +2,8 @@
 # docs/performance.md has today's and says how to read them.
 #
 #   make bench            all of them, in this order: bench/run.sh (the
-#                         examples, the paper's size end to end, the
+#                         examples, the paper's size end to end, auto
+#                         against each solver (bench/solvers.sh), the
 #                         surface distance, the readers and writers, the
 #                         daemon under wrk, the cluster), the soak, the
 #                         scaling benchmark, the large background; the

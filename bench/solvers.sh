@@ -53,8 +53,8 @@ template() {
 field() { tr ' ' '\n' <<<"$1" | awk -F= -v k="$2" '$1 == k { print $2 }'; }
 
 echo "load: $(cut -d' ' -f1-3 /proc/loadavg) (1, 5, 15 min); CPU seconds of one thread; horizon $HORIZON solves"
-printf '%-11s %8s %8s %9s | %7s %8s %6s | %7s %8s %4s %6s | %-7s %8s %8s %6s\n' case tets unknowns lnz \
-    chol_set chol_sol chol_M amg_set amg_sol pcg amg_M auto pred_ch pred_amg ratio
+printf '%-11s %8s %8s %9s | %7s %8s %6s | %7s %8s %4s %6s | %8s %8s | %-7s %8s %8s %6s\n' case tets unknowns lnz \
+    chol_set chol_sol chol_M amg_set amg_sol pcg amg_M cost_ch cost_amg auto pred_ch pred_amg ratio
 for c in $CASES; do
     if [ "$c" = example ]; then t=examples/3d/template.mesh; else t=$(template "$c"); fi
     name=${c/:/-}
@@ -80,10 +80,12 @@ for c in $CASES; do
           chol_cost = cs + h * cv
           best = chol_cost < amg_cost ? chol_cost : amg_cost
           ratio = sprintf("%.2f", (choice == "cholmod" ? chol_cost : amg_cost) / best)
-        } else { cs = "-"; cv = "-"; cm = "-"; ratio = "-" }
-        printf "%-11s %8d %8d %9.3g | %7s %8s %6s | %7.3f %8.5f %4.1f %6.0f | %-7s %8.2f %8.2f %6s\n",
+          chol_cost = sprintf("%.2f", chol_cost)
+        } else { cs = "-"; cv = "-"; cm = "-"; ratio = "-"; chol_cost = "-" }
+        printf "%-11s %8d %8d %9.3g | %7s %8s %6s | %7.3f %8.5f %4.1f %6.0f | %8s %8.2f | %-7s %8.2f %8.2f %6s\n",
           name, get(amg, "tets"), get(amg, "unknowns"), get(auto, "lnz"), cs, cv, cm,
-          as, av, get(amg, "pcg"), am, choice, get(auto, "est_chol_s"), get(auto, "est_amg_s"), ratio
+          as, av, get(amg, "pcg"), am, chol_cost, amg_cost, choice, get(auto, "est_chol_s"),
+          get(auto, "est_amg_s"), ratio
       }'
 done
-echo "(chol_set, amg_set: set-up s; chol_sol, amg_sol: s a solve; _M: MiB the solver adds; pred_: auto's model, s over the horizon; ratio: auto's cost / the faster solver's)"
+echo "(chol_set, amg_set: set-up s; chol_sol, amg_sol: s a solve; _M: MiB the solver adds; cost_: set-up + horizon x solve, measured; pred_: auto's model of it; ratio: auto's cost / the faster solver's)"

@@ -293,17 +293,17 @@ static sm_status analyse(sm_elasticity *el, const int32_t *perm, sm_error *err)
  * entries (dearer with the rigid rotations, SM_AMG_MODES_MIN_UNKNOWNS), a
  * solve (~4 PCG steps) a power of them: larger problems leave the
  * caches. */
-#define COST_CHOL_SETUP_PER_FLOP 2.74e-11
-#define COST_CHOL_SETUP_PER_NNZ 3.135e-7
-#define COST_CHOL_SOLVE_COEF 5.065e-9
-#define COST_CHOL_SOLVE_EXP 0.908
-#define COST_AMG_SETUP_PER_NNZ 1.217e-7
-#define COST_AMG_SETUP_PER_NNZ_MODES 2.062e-7
-#define COST_AMG_SOLVE_COEF 3.802e-10
-#define COST_AMG_SOLVE_EXP 1.278
-#define COST_CHOL_BYTES_PER_LNZ 10.3
-#define COST_CHOL_BYTES_PER_NNZ 35.5
-#define COST_AMG_BYTES_PER_NNZ 30.6
+#define COST_CHOL_SETUP_PER_FLOP 2.667e-11
+#define COST_CHOL_SETUP_PER_NNZ 3.15e-7
+#define COST_CHOL_SOLVE_COEF 3.352e-9
+#define COST_CHOL_SOLVE_EXP 0.932
+#define COST_AMG_SETUP_PER_NNZ 1.189e-7
+#define COST_AMG_SETUP_PER_NNZ_MODES 2.309e-7
+#define COST_AMG_SOLVE_COEF 3.302e-10
+#define COST_AMG_SOLVE_EXP 1.288
+#define COST_CHOL_BYTES_PER_LNZ 9.89
+#define COST_CHOL_BYTES_PER_NNZ 38.1
+#define COST_AMG_BYTES_PER_NNZ 30.25
 
 void sm__solver_cost_model(double unknowns, sm_solver_estimate *est)
 {

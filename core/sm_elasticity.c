@@ -431,9 +431,11 @@ sm_status sm__elasticity_new(const sm_mesh *m, const uint8_t *clamped,
     el->alpha = opts->alpha;
     sm__lame(opts->young, opts->poisson, &el->lambda, &el->mu);
 
-    /* auto in 3D: the cost model after CHOLMOD's analysis
-     * (choose_and_setup); 2D and a solver asked for: as named */
-    const int by_model = opts->solver == SM_SOLVER_AUTO && m->dim == 3;
+    /* auto in 3D from SM_SOLVER_AUTO_MODEL_MIN_TETS: the cost model
+     * after CHOLMOD's analysis (choose_and_setup); otherwise
+     * sm_solver_resolve (CHOLMOD for auto: 2D, small 3D) */
+    const int by_model = opts->solver == SM_SOLVER_AUTO && m->dim == 3 &&
+                         m->nelems >= SM_SOLVER_AUTO_MODEL_MIN_TETS;
     el->solver = by_model ? SM_SOLVER_CHOLMOD : sm_solver_resolve(opts->solver, m->dim, m->nelems);
     el->amg_rtol = opts->amg_rtol > 0.0 ? opts->amg_rtol : SM_ELASTICITY_AMG_RTOL;
     el->diag_first = el->solver == SM_SOLVER_AMG;

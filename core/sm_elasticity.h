@@ -154,7 +154,7 @@ void sm__elasticity_get_info(const sm_elasticity *el, sm_elasticity_info *info);
 
 /* `auto`'s choice between the solvers (3D; 2D templates always take
  * CHOLMOD), made by sm__elasticity_new from a cost model instead of a size
- * threshold: CHOLMOD's fill-reducing order and symbolic analysis are
+ * threshold (from SM_SOLVER_AUTO_MODEL_MIN_TETS on): CHOLMOD's fill-reducing order and symbolic analysis are
  * computed first (cheap next to a factorization; they are kept when
  * CHOLMOD is chosen), and with the factor's entries and flops and the
  * matrix's entries the model predicts each solver's time for a set-up and
@@ -164,6 +164,10 @@ void sm__elasticity_get_info(const sm_elasticity *el, sm_elasticity_info *info);
  * memory.max and the machine's memory).  The constants are fitted on
  * measurements (bench/solver_bench.c, docs/solvers.md). */
 #define SM_SOLVER_AUTO_HORIZON 100
+/* Below this many tetrahedra auto takes CHOLMOD without the model: the
+ * model is fitted from 30k up, and there CHOLMOD was 1.2-2x cheaper on
+ * every shape measured (and its solves are exact). */
+#define SM_SOLVER_AUTO_MODEL_MIN_TETS 20000
 #define SM_SOLVER_AUTO_MEMORY_SHARE 0.5
 
 typedef struct sm_solver_estimate {

@@ -2,7 +2,8 @@
 # docs/performance.md has today's and says how to read them.
 #
 #   make bench            all of them, in this order: bench/run.sh (the
-#                         examples, the paper's size end to end, the
+#                         examples, the paper's size end to end, auto
+#                         against each solver (bench/solvers.sh), the
 #                         surface distance, the readers and writers, the
 #                         daemon under wrk, the cluster), the soak, the
 #                         scaling benchmark, the large background; the
@@ -18,12 +19,14 @@
 #
 # The C benchmarks are built in the release variant only (figures from a
 # sanitized build mean nothing), each one C file linked against the core.
-BENCH_PROGS := match_bench field_bench sdf_bench io_bench bg_bench read_bench write_bench warp_bench
+BENCH_PROGS := match_bench field_bench sdf_bench io_bench bg_bench read_bench write_bench warp_bench solver_bench
 BENCH_SRCS := $(BENCH_PROGS:%=bench/%.c)
 
 $(foreach b,$(BENCH_PROGS),$(eval build/release/$(b): build/release/obj/bench/$(b).o build/release/libshapematch.a))
 # write_bench also times the core's own number formatting (sm_number.h)
 build/release/obj/bench/write_bench.o: release_CFLAGS += -I core
+# solver_bench drives the elastic operator (core/sm_elasticity.h) directly
+build/release/obj/bench/solver_bench.o: release_CFLAGS += -I core
 $(addprefix build/release/,$(BENCH_PROGS)):
 	@mkdir -p $(dir $@)
 	$(call show,LD,$@)$(CC) -o $@ $^ $(CORE_LIBS)

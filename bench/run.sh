@@ -32,18 +32,30 @@ echo
 echo "== the paper's size end to end: shapematch run on examples/3d to 2.9e-4 (goal: <= 0.5 s wall, <= 100 MB) =="
 # the whole command: process start, reading, the run, the result files;
 # several runs, as the machine's speed varies from one to the next
+# (and its CPU time, user + sys of all threads: on a shared machine the
+# wall time also counts waiting for a core; the load is printed with it)
 RUNS=${BENCH_RUNS:-9}
+echo "load before: $(cut -d' ' -f1-3 /proc/loadavg) (1, 5, 15 min) on $(nproc) cores"
 for i in $(seq "$RUNS"); do
-    /usr/bin/time -f "%e %M" $BIN/shapematch run --template examples/3d/template.mesh \
+    /usr/bin/time -f "%e %M %U %S" $BIN/shapematch run --template examples/3d/template.mesh \
         --target-mesh examples/3d/background.mesh.gz --target-sol examples/3d/background.sol.gz \
         --clamp-ball "$(cat examples/3d/clamp)" --tol-boundary 2.9e-4 --quiet -o build/bench-run 2>&1 | tail -1
-done | sort -n | awk '
+done >build/bench-paper.txt
+cpu_median=$(awk '{ print $3 + $4 }' build/bench-paper.txt | sort -n | awk '{ c[NR] = $1 } END { printf "%.3f", c[int((NR + 1) / 2)] }')
+sort -n build/bench-paper.txt | awk -v cpu="$cpu_median" '
   { w[NR] = $1; r = $2 / 1024; lo = NR == 1 || r < lo ? r : lo; hi = NR == 1 || r > hi ? r : hi }
-  END { printf("wall: best %.3f s, median %.3f s, worst %.3f s over %d runs; peak RSS %.1f to %.1f MiB\n",
-               w[1], w[int((NR + 1) / 2)], w[NR], NR, lo, hi) }'
+  END { printf("wall: best %.3f s, median %.3f s, worst %.3f s over %d runs (median / goal of 0.5 s: %.2f); CPU (user+sys) median %.3f s; peak RSS %.1f to %.1f MiB\n",
+               w[1], w[int((NR + 1) / 2)], w[NR], NR, w[int((NR + 1) / 2)] / 0.5, cpu, lo, hi) }'
+echo "load after: $(cut -d' ' -f1-3 /proc/loadavg)"
 python3 -c "import json; d = json.load(open('build/bench-run/summary.json')); t = d['timings'];
 print('last run: %d iterations, boundary error %.3g; read (and field) %.3f s, set-up %.3f s, solve %.3f s, step search %.3f s, sampling %.3f s'
       % (d['iterations'], d['boundary_l2'], t['read'], t['setup'], t['solve'], t['step'], t['sample']))"
+
+echo
+echo "== auto against each solver (goal: auto's cost within 1.2x the faster solver's at each size) =="
+# the examples' template and Gmsh balls of 100k and 300k tetrahedra
+# (bench/solvers.sh alone for the other shapes and 1M)
+SOLVERS_CASES=${BENCH_SOLVERS_CASES:-"example ball:100k ball:300k"} bench/solvers.sh
 
 echo
 echo "== warp: 1M points through that run's map (goal: >= 1M/s forward, >= 300k/s inverse, 2 cores) =="

@@ -28,7 +28,9 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <time.h>
+#include <unistd.h>
 
 /* ---------------------------------------------------------------------- */
 /* Setup                                                                   */
@@ -166,8 +168,10 @@ static sm_status validate(const sm_mesh *m, const sm_elasticity_opts *opts, sm_e
  * the 30k-tetrahedron example.  The free DOFs are vertex-major (DOF
  * d * dim + c is component c of free vertex d).  Returns the order of the
  * DOFs (malloc'ed, nfree entries), or NULL when it could not be computed
- * (out of memory), and CHOLMOD then orders the DOF graph itself. */
-static int32_t *vertex_block_order(sm_elasticity *el)
+ * (out of memory), and CHOLMOD then orders the DOF graph itself.
+ * *lnz_v and *flops_v receive the vertex graph's factor entries and
+ * flops (left alone on failure). */
+static int32_t *vertex_block_order(sm_elasticity *el, double *lnz_v, double *flops_v)
 {
     const int dim = el->dim;
     const int32_t nfv = el->nfree / dim;
@@ -206,6 +210,8 @@ static int32_t *vertex_block_order(sm_elasticity *el)
     Lv = cholmod_analyze(&V, &el->cc);
     if (!Lv || el->cc.status < CHOLMOD_OK)
         goto fail;
+    *lnz_v = el->cc.lnz;
+    *flops_v = el->cc.fl;
     const int *vperm = Lv->Perm;
     for (int32_t k = 0; k < nfv; k++)
         for (int c = 0; c < dim; c++)
@@ -224,10 +230,9 @@ fail:
     return NULL;
 }
 
-/* CHOLMOD on the free x free pattern: its common block (factor kind
- * forced or not), the matrix header over el's CSR arrays, and the
- * symbolic analysis. */
-static sm_status setup_solver(sm_elasticity *el, sm_factor_kind kind, sm_error *err)
+/* CHOLMOD's common block (factor kind forced or not) and the matrix
+ * header over el's CSR arrays. */
+static sm_status start_cholmod(sm_elasticity *el, sm_factor_kind kind, sm_error *err)
 {
     /* CHOLMOD: a CSR of a symmetric matrix is its CSC; stype = 1 makes
      * CHOLMOD read only the upper triangle (row <= column). */
@@ -253,21 +258,154 @@ static sm_status setup_solver(sm_elasticity *el, sm_factor_kind kind, sm_error *
     el->A.dtype = CHOLMOD_DOUBLE;
     el->A.sorted = 1;
     el->A.packed = 1;
-    if (el->nfree > 0) {
-        int32_t *perm = vertex_block_order(el);
-        if (perm) {
-            el->cc.nmethods = 1;
-            el->cc.method[0].ordering = CHOLMOD_GIVEN;
-        }
-        el->L = cholmod_analyze_p(&el->A, perm, NULL, 0, &el->cc);
-        free(perm);
-        if (!el->L || el->cc.status < CHOLMOD_OK)
-            return sm_error_set(err, el->cc.status == CHOLMOD_OUT_OF_MEMORY ? SM_ERR_NOMEM : SM_ERR_NUMERIC,
-                                "elasticity: CHOLMOD symbolic analysis failed (status %d: %s) for %ld unknowns",
-                                el->cc.status, cholmod_status_text(el->cc.status), (long)el->nfree);
-        el->lnz = el->cc.lnz;
-        el->flops = el->cc.fl;
+    return SM_OK;
+}
+
+/* CHOLMOD's symbolic analysis in the order perm (vertex_block_order's;
+ * NULL: CHOLMOD orders the DOF graph itself). */
+static sm_status analyse(sm_elasticity *el, const int32_t *perm, sm_error *err)
+{
+    if (el->nfree == 0)
+        return SM_OK;
+    if (perm) {
+        el->cc.nmethods = 1;
+        el->cc.method[0].ordering = CHOLMOD_GIVEN;
     }
+    el->L = cholmod_analyze_p(&el->A, (int32_t *)perm, NULL, 0, &el->cc);
+    if (!el->L || el->cc.status < CHOLMOD_OK)
+        return sm_error_set(err, el->cc.status == CHOLMOD_OUT_OF_MEMORY ? SM_ERR_NOMEM : SM_ERR_NUMERIC,
+                            "elasticity: CHOLMOD symbolic analysis failed (status %d: %s) for %ld unknowns",
+                            el->cc.status, cholmod_status_text(el->cc.status), (long)el->nfree);
+    el->lnz = el->cc.lnz;
+    el->flops = el->cc.fl;
+    return SM_OK;
+}
+
+/* ---------------------------------------------------------------------- */
+/* auto: the cost model                                                    */
+/* ---------------------------------------------------------------------- */
+
+/* The fitted constants (bench/solvers.sh measures, bench/solvers_fit.py
+ * fits; docs/solvers.md has the fit): CPU seconds of one thread on the
+ * 2-core development machine, bytes.  CHOLMOD's set-up is linear in the
+ * factorization's flops and the matrix's entries (its analysis), a solve
+ * a power of the factor's entries; AMG's set-up is linear in the matrix's
+ * entries (dearer with the rigid rotations, SM_AMG_MODES_MIN_UNKNOWNS), a
+ * solve (~4 PCG steps) a power of them: larger problems leave the
+ * caches. */
+#define COST_CHOL_SETUP_PER_FLOP 2.667e-11
+#define COST_CHOL_SETUP_PER_NNZ 3.15e-7
+#define COST_CHOL_SOLVE_COEF 3.352e-9
+#define COST_CHOL_SOLVE_EXP 0.932
+#define COST_AMG_SETUP_PER_NNZ 1.189e-7
+#define COST_AMG_SETUP_PER_NNZ_MODES 2.309e-7
+#define COST_AMG_SOLVE_COEF 3.302e-10
+#define COST_AMG_SOLVE_EXP 1.288
+#define COST_CHOL_BYTES_PER_LNZ 9.89
+#define COST_CHOL_BYTES_PER_NNZ 38.1
+#define COST_AMG_BYTES_PER_NNZ 30.25
+
+void sm__solver_cost_model(double unknowns, sm_solver_estimate *est)
+{
+    const double h = SM_SOLVER_AUTO_HORIZON, nnz = est->nnz;
+    const double amg_setup = unknowns >= SM_AMG_MODES_MIN_UNKNOWNS ? COST_AMG_SETUP_PER_NNZ_MODES
+                                                                   : COST_AMG_SETUP_PER_NNZ;
+    est->amg_seconds = amg_setup * nnz + h * COST_AMG_SOLVE_COEF * pow(nnz, COST_AMG_SOLVE_EXP);
+    est->amg_bytes = COST_AMG_BYTES_PER_NNZ * nnz;
+    if (est->lnz > 0) {
+        est->cholmod_seconds = COST_CHOL_SETUP_PER_FLOP * est->flops + COST_CHOL_SETUP_PER_NNZ * nnz +
+                               h * COST_CHOL_SOLVE_COEF * pow(est->lnz, COST_CHOL_SOLVE_EXP);
+        est->cholmod_bytes = COST_CHOL_BYTES_PER_LNZ * est->lnz + COST_CHOL_BYTES_PER_NNZ * nnz;
+    } else {
+        est->cholmod_seconds = est->cholmod_bytes = 0;
+    }
+}
+
+sm_solver_kind sm__solver_auto_choice(const sm_solver_estimate *est)
+{
+    if (!(est->lnz > 0))
+        return SM_SOLVER_AMG;
+    if (est->memory_limit > 0 &&
+        est->cholmod_bytes > SM_SOLVER_AUTO_MEMORY_SHARE * est->memory_limit)
+        return SM_SOLVER_AMG;
+    return est->cholmod_seconds <= est->amg_seconds ? SM_SOLVER_CHOLMOD : SM_SOLVER_AMG;
+}
+
+/* The cgroup (v2) memory.max of this process, bytes; 0 if none or
+ * unknown. */
+static double cgroup_memory_max(void)
+{
+    char path[512] = "/sys/fs/cgroup/memory.max", line[400];
+    FILE *f = fopen("/proc/self/cgroup", "r");
+    while (f && fgets(line, sizeof line, f)) {
+        if (strncmp(line, "0::", 3) != 0)
+            continue;
+        line[strcspn(line, "\n")] = 0;
+        snprintf(path, sizeof path, "/sys/fs/cgroup%s/memory.max",
+                 strcmp(line + 3, "/") == 0 ? "" : line + 3);
+        break;
+    }
+    if (f)
+        fclose(f);
+    double v = 0;
+    f = fopen(path, "r");
+    if (f && fscanf(f, "%lf", &v) != 1) /* "max": no limit */
+        v = 0;
+    if (f)
+        fclose(f);
+    return v;
+}
+
+/* The memory the process may use: the least of its address-space limit
+ * (the daemon's workers run under --memory-limit's RLIMIT_AS), its
+ * cgroup's memory.max and the machine's memory; 0 if none is known. */
+static double memory_limit_bytes(void)
+{
+    double lim = 0;
+    struct rlimit rl;
+    if (getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY)
+        lim = (double)rl.rlim_cur;
+    double cg = cgroup_memory_max();
+    if (cg > 0 && (lim == 0 || cg < lim))
+        lim = cg;
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    double phys = pages > 0 && page > 0 ? (double)pages * (double)page : 0;
+    if (phys > 0 && (lim == 0 || phys < lim))
+        lim = phys;
+    return lim;
+}
+
+/* The 3D auto path: the pattern is in CHOLMOD's layout; the vertex
+ * graph's order and analysis give the factor's size (a vertex entry of L
+ * is a dim x dim block, a diagonal one its lower triangle; the flops
+ * grow with the cube of the block size), the model decides, and the
+ * solver chosen is set up (the order reused by CHOLMOD's analysis, the
+ * pattern turned into AMG's layout). */
+static sm_status choose_and_setup(sm_elasticity *el, const sm_elasticity_opts *opts, sm_error *err)
+{
+    sm_status st = start_cholmod(el, opts->factor, err);
+    if (st != SM_OK)
+        return st;
+    const double d = el->dim, nfv = (double)el->nfree / d;
+    double lnz_v = 0, flops_v = 0;
+    int32_t *perm = el->nfree > 0 ? vertex_block_order(el, &lnz_v, &flops_v) : NULL;
+    sm_solver_estimate *est = &el->estimate;
+    est->nnz = (double)el->rowptr[el->nfree];
+    est->lnz = lnz_v > 0 ? d * d * (lnz_v - nfv) + d * (d + 1) / 2 * nfv : 0;
+    est->flops = flops_v * d * d * d;
+    est->memory_limit = memory_limit_bytes();
+    sm__solver_cost_model((double)el->nfree, est);
+    el->solver = perm ? sm__solver_auto_choice(est)
+                      : sm_solver_resolve(SM_SOLVER_AUTO, el->dim, el->nelems);
+    if (el->solver == SM_SOLVER_CHOLMOD) {
+        st = analyse(el, perm, err);
+        free(perm);
+        return st;
+    }
+    free(perm);
+    cholmod_finish(&el->cc);
+    el->cc_started = 0;
+    sm__elasticity_pattern_diag_first(el);
     return SM_OK;
 }
 
@@ -293,21 +431,42 @@ sm_status sm__elasticity_new(const sm_mesh *m, const uint8_t *clamped,
     el->alpha = opts->alpha;
     sm__lame(opts->young, opts->poisson, &el->lambda, &el->mu);
 
-    el->solver = sm_solver_resolve(opts->solver, m->dim, m->nelems);
+    /* auto in 3D from SM_SOLVER_AUTO_MODEL_MIN_TETS: the cost model
+     * after CHOLMOD's analysis (choose_and_setup); otherwise
+     * sm_solver_resolve (CHOLMOD for auto: 2D, small 3D) */
+    const int by_model = opts->solver == SM_SOLVER_AUTO && m->dim == 3 &&
+                         m->nelems >= SM_SOLVER_AUTO_MODEL_MIN_TETS;
+    el->solver = by_model ? SM_SOLVER_CHOLMOD : sm_solver_resolve(opts->solver, m->dim, m->nelems);
     el->amg_rtol = opts->amg_rtol > 0.0 ? opts->amg_rtol : SM_ELASTICITY_AMG_RTOL;
     el->diag_first = el->solver == SM_SOLVER_AMG;
     if ((st = sm__elasticity_pattern(el, clamped, err)) != SM_OK) {
         sm__elasticity_free(el);
         return st;
     }
-    if (el->solver == SM_SOLVER_AMG && el->nfree > 0) {
+    el->estimate.nnz = (double)el->rowptr[el->nfree];
+    if (by_model) {
+        st = choose_and_setup(el, opts, err);
+    } else if (el->solver == SM_SOLVER_CHOLMOD) {
+        int32_t *perm = NULL;
+        double lnz_v, flops_v;
+        if ((st = start_cholmod(el, opts->factor, err)) == SM_OK) {
+            perm = el->nfree > 0 ? vertex_block_order(el, &lnz_v, &flops_v) : NULL;
+            st = analyse(el, perm, err);
+        }
+        free(perm);
+    }
+    if (!by_model) { /* the figures of the analysis run, if any */
+        el->estimate.lnz = el->lnz;
+        el->estimate.flops = el->flops;
+        el->estimate.memory_limit = memory_limit_bytes();
+        sm__solver_cost_model((double)el->nfree, &el->estimate);
+    }
+    if (st == SM_OK && el->solver == SM_SOLVER_AMG && el->nfree > 0) {
         int rigid_modes = opts->amg_modes == SM_AMG_MODES_ON ||
                           (opts->amg_modes == SM_AMG_MODES_AUTO &&
                            (el->dim == 2 || el->nfree >= SM_AMG_MODES_MIN_UNKNOWNS));
         st = sm__amg_new(el->dim, el->nfree, el->rowptr, el->colind, el->values, el->amg_rtol,
                         rigid_modes, &el->amg, err);
-    } else if (el->solver == SM_SOLVER_CHOLMOD) {
-        st = setup_solver(el, opts->factor, err);
     }
     if (st != SM_OK) {
         sm__elasticity_free(el);
@@ -556,6 +715,11 @@ void sm__elasticity_timings(const sm_elasticity *el, double *assembly, double *f
         *assembly = el->t_assembly;
     if (factor)
         *factor = el->t_factor;
+}
+
+void sm__elasticity_estimate(const sm_elasticity *el, sm_solver_estimate *out)
+{
+    *out = el->estimate;
 }
 
 void sm__elasticity_get_info(const sm_elasticity *el, sm_elasticity_info *info)

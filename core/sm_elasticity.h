@@ -152,6 +152,46 @@ typedef struct sm_elasticity_info {
 } sm_elasticity_info;
 void sm__elasticity_get_info(const sm_elasticity *el, sm_elasticity_info *info);
 
+/* `auto`'s choice between the solvers (3D; 2D templates always take
+ * CHOLMOD), made by sm__elasticity_new from a cost model instead of a size
+ * threshold (from SM_SOLVER_AUTO_MODEL_MIN_TETS on): CHOLMOD's fill-reducing order and symbolic analysis are
+ * computed first (cheap next to a factorization; they are kept when
+ * CHOLMOD is chosen), and with the factor's entries and flops and the
+ * matrix's entries the model predicts each solver's time for a set-up and
+ * SM_SOLVER_AUTO_HORIZON solves, and its memory.  CHOLMOD is taken when it
+ * is predicted faster and its memory fits SM_SOLVER_AUTO_MEMORY_SHARE of
+ * the memory the process may use (the least of RLIMIT_AS, the cgroup's
+ * memory.max and the machine's memory).  The constants are fitted on
+ * measurements (bench/solver_bench.c, docs/solvers.md). */
+#define SM_SOLVER_AUTO_HORIZON 100
+/* Below this many tetrahedra auto takes CHOLMOD without the model: the
+ * model is fitted from 30k up, and there CHOLMOD was 1.2-2x cheaper on
+ * every shape measured (and its solves are exact). */
+#define SM_SOLVER_AUTO_MODEL_MIN_TETS 20000
+#define SM_SOLVER_AUTO_MEMORY_SHARE 0.5
+
+typedef struct sm_solver_estimate {
+    double nnz;             /* entries of the free x free matrix */
+    double lnz, flops;      /* CHOLMOD's factor from the analysis; 0 if the
+                             * analysis was not run (an AMG run asked for) */
+    double cholmod_seconds; /* predicted: a factorization and the horizon's
+                             * solves (0 without the analysis) */
+    double amg_seconds;     /* predicted: a hierarchy and the horizon's solves */
+    double cholmod_bytes;   /* predicted peak memory of each (0: unknown) */
+    double amg_bytes;
+    double memory_limit;    /* bytes the process may use, 0 = unknown */
+} sm_solver_estimate;
+
+/* The model's figures for el's template (what auto decided on). */
+void sm__elasticity_estimate(const sm_elasticity *el, sm_solver_estimate *out);
+
+/* The model itself, for tests and the benchmark: the estimate's predicted
+ * fields from its nnz, lnz, flops and unknowns. */
+void sm__solver_cost_model(double unknowns, sm_solver_estimate *est);
+
+/* The model's choice: SM_SOLVER_CHOLMOD or SM_SOLVER_AMG. */
+sm_solver_kind sm__solver_auto_choice(const sm_solver_estimate *est);
+
 /* Element matrix of one simplex, for tests and diagnostics: vertex_coords
  * holds the dim+1 vertices (dim doubles each, any orientation); ke
  * receives the ((dim+1)*dim)^2 entries row-major, local DOF i*dim+c for

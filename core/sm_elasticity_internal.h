@@ -55,6 +55,7 @@ struct sm_elasticity {
     int factorized;
 
     double lnz, flops;      /* from the symbolic analysis */
+    sm_solver_estimate estimate; /* auto's cost model (sm_elasticity.h) */
     double rcond;           /* of the last numeric factorization */
     double t_analyze, t_assembly, t_factor, t_solve;
 
@@ -71,5 +72,11 @@ struct sm_elasticity {
  * nverts, nelems, elems, alpha and diag_first set; SM_ERR_INVALID when
  * nothing is clamped and alpha is 0, SM_ERR_NOMEM. */
 sm_status sm__elasticity_pattern(sm_elasticity *el, const uint8_t *clamped, sm_error *err);
+
+/* Turns a pattern built in CHOLMOD's layout (columns ascending) into the
+ * AMG solver's (diag_first), rows and slot map, in place: what
+ * sm__elasticity_pattern builds with diag_first set, without building it
+ * again (auto decides after the pattern is built). */
+void sm__elasticity_pattern_diag_first(sm_elasticity *el);
 
 #endif

@@ -322,3 +322,27 @@ sm_status sm__elasticity_pattern(sm_elasticity *el, const uint8_t *clamped, sm_e
     setup_scratch_free(&sc);
     return st;
 }
+
+void sm__elasticity_pattern_diag_first(sm_elasticity *el)
+{
+    const int dim = el->dim, nv = dim + 1;
+    for (int32_t r = 0; r < el->nfree; r++) {
+        int32_t *cols = el->colind + el->rowptr[r];
+        int32_t at = 0;
+        while (cols[at] != r)
+            at++;
+        memmove(cols + 1, cols, (size_t)at * sizeof *cols);
+        cols[0] = r;
+    }
+    /* a block (a, b) with b before a starts one place later (as
+     * build_slot_map sets it with diag_first) */
+    for (int32_t e = 0; e < el->nelems; e++) {
+        const int32_t *ev = el->elems + (int64_t)e * nv;
+        int32_t *slot = el->slots + (size_t)e * nv * nv;
+        for (int i = 0; i < nv; i++)
+            for (int j = 0; j < nv; j++)
+                if (slot[i * nv + j] >= 0 && ev[j] < ev[i])
+                    slot[i * nv + j]++;
+    }
+    el->diag_first = 1;
+}

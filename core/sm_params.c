@@ -120,7 +120,8 @@ static const sm_param_info table[] = {
      RANGE(SM_SOLVER_AUTO, CLOSED, SM_SOLVER_AMG, CLOSED), SM_SOLVER_AUTO, NULL, 0, "--solver",
      "NAME",
      "elastic solver: cholmod (sparse Cholesky), amg (PCG + BoomerAMG: less memory, for large "
-     "3D templates) or auto (amg from 100000 tetrahedra in 3D)", "advanced"},
+     "3D templates) or auto (3D: the one a cost model predicts faster, within the memory "
+     "limit; 2D: cholmod)", "advanced"},
     /* none: the paper's assumption (shapes given aligned) and today's
      * runs bit for bit; an alignment costs a second or so (bench/align.sh) */
     {"align", SM_PARAM_ALIGN, offsetof(sm_params, align), 0,

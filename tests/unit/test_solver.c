@@ -4,7 +4,10 @@
  * inexact warm-started solve a descent direction (load'u > 0) even at a
  * very loose tolerance, the descent reaching the same boundary error in
  * 2D and 3D and the same map (issue 21), and the solver names, the size rule of "auto" and the
- * checks of the options. */
+ * checks of the options; auto's cost model (issue 35): the factor's size
+ * it predicts from the vertex graph against CHOLMOD's own analysis, its
+ * choice (the faster, within the memory limit), and the AMG layout it
+ * makes from CHOLMOD's pattern against the one built for AMG. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -15,6 +18,7 @@
 #include <cmocka.h>
 
 #include "sm_elasticity.h"
+#include "sm_elasticity_internal.h"
 #include "shapematch/sm_field.h"
 #include "shapematch/sm_match.h"
 #include "util_mesh.h"
@@ -555,6 +559,128 @@ static void test_names_and_auto(void **state)
     free(clamped);
 }
 
+/* ---- auto's cost model (issue 35) ---- */
+
+/* The factor auto predicts from the vertex graph's analysis (each vertex
+ * entry of L a 3 x 3 block, the diagonal ones a triangle) is CHOLMOD's
+ * own analysis of the DOF matrix in the same order, entry for entry, on
+ * a box of 24,576 tetrahedra (the model's range); there CHOLMOD is
+ * predicted cheaper, as measured on every shape of that size, and auto
+ * takes it.  Below SM_SOLVER_AUTO_MODEL_MIN_TETS auto takes CHOLMOD
+ * without the model. */
+static void test_auto_estimate(void **state)
+{
+    (void)state;
+    uint8_t *clamped;
+    sm_mesh *m = clamped_box(3, 16, &clamped);
+    assert_true(m->nelems >= SM_SOLVER_AUTO_MODEL_MIN_TETS);
+    sm_error err;
+    sm_elasticity *ea = NULL, *ec = NULL, *eg = NULL;
+    sm_elasticity_opts o = {.young = 1.0, .poisson = 0.3, .solver = SM_SOLVER_AUTO};
+    assert_int_equal(sm__elasticity_new(m, clamped, &o, &ea, &err), SM_OK);
+    o.solver = SM_SOLVER_CHOLMOD;
+    assert_int_equal(sm__elasticity_new(m, clamped, &o, &ec, &err), SM_OK);
+    sm_solver_estimate est;
+    sm_elasticity_info ic, ia;
+    sm__elasticity_estimate(ea, &est);
+    sm__elasticity_get_info(ec, &ic);
+    sm__elasticity_get_info(ea, &ia);
+    assert_true(ic.nnz_factor > 0);
+    assert_true(est.lnz == ic.nnz_factor);
+    assert_true(est.nnz == (double)ic.nnz);
+    assert_true(est.flops > 0.9 * ic.flops && est.flops < 1.1 * ic.flops);
+    assert_int_equal(ia.solver, SM_SOLVER_CHOLMOD);
+    assert_true(ia.nnz_factor == ic.nnz_factor); /* the order reused */
+    assert_true(est.cholmod_seconds > 0 && est.amg_seconds > est.cholmod_seconds);
+    assert_true(est.cholmod_bytes > 0 && est.amg_bytes > 0);
+    assert_true(est.memory_limit > 0); /* the machine's memory at least */
+    /* the explicit solvers report the model's figures too (AMG: no factor) */
+    o.solver = SM_SOLVER_AMG;
+    assert_int_equal(sm__elasticity_new(m, clamped, &o, &eg, &err), SM_OK);
+    sm__elasticity_estimate(eg, &est);
+    assert_true(est.lnz == 0 && est.cholmod_seconds == 0 && est.amg_seconds > 0);
+    sm__elasticity_free(ea);
+    sm__elasticity_free(ec);
+    sm__elasticity_free(eg);
+    sm_mesh_free(m);
+    free(clamped);
+    /* a small 3D template: CHOLMOD, whatever the model would say */
+    m = clamped_box(3, 4, &clamped);
+    assert_true(m->nelems < SM_SOLVER_AUTO_MODEL_MIN_TETS);
+    o.solver = SM_SOLVER_AUTO;
+    assert_int_equal(sm__elasticity_new(m, clamped, &o, &ea, &err), SM_OK);
+    sm__elasticity_get_info(ea, &ia);
+    assert_int_equal(ia.solver, SM_SOLVER_CHOLMOD);
+    sm__elasticity_free(ea);
+    sm_mesh_free(m);
+    free(clamped);
+}
+
+/* The choice: the faster predicted solver, CHOLMOD only when its memory
+ * fits SM_SOLVER_AUTO_MEMORY_SHARE of the limit, AMG without an analysis;
+ * and the model's times and memory grow with what they are fitted on. */
+static void test_auto_choice(void **state)
+{
+    (void)state;
+    sm_solver_estimate e = {.nnz = 1e6, .lnz = 1e7, .flops = 1e10};
+    sm__solver_cost_model(3e4, &e);
+    sm_solver_estimate big = e;
+    big.lnz *= 10, big.flops *= 100;
+    sm__solver_cost_model(3e4, &big);
+    assert_true(big.cholmod_seconds > e.cholmod_seconds && big.cholmod_bytes > e.cholmod_bytes);
+    assert_true(big.amg_seconds == e.amg_seconds);
+    sm_solver_estimate t = e;
+    t.cholmod_seconds = 1, t.amg_seconds = 2, t.cholmod_bytes = 1e9, t.memory_limit = 0;
+    assert_int_equal(sm__solver_auto_choice(&t), SM_SOLVER_CHOLMOD);
+    t.memory_limit = 1e9 / SM_SOLVER_AUTO_MEMORY_SHARE; /* just fits */
+    assert_int_equal(sm__solver_auto_choice(&t), SM_SOLVER_CHOLMOD);
+    t.memory_limit *= 0.99;
+    assert_int_equal(sm__solver_auto_choice(&t), SM_SOLVER_AMG);
+    t.memory_limit = 0, t.amg_seconds = 0.9;
+    assert_int_equal(sm__solver_auto_choice(&t), SM_SOLVER_AMG);
+    t.amg_seconds = 2, t.lnz = 0; /* no analysis: nothing to predict CHOLMOD by */
+    assert_int_equal(sm__solver_auto_choice(&t), SM_SOLVER_AMG);
+}
+
+/* When auto takes AMG after analysing in CHOLMOD's layout, the pattern is
+ * turned into AMG's in place: rows, columns and slot map the same as an
+ * operator built for AMG from the start (so auto's AMG runs are those of
+ * --solver amg), in 2D and 3D, clamped vertices and all. */
+static void check_diag_first(int dim, int n)
+{
+    uint8_t *clamped;
+    sm_mesh *m = clamped_box(dim, n, &clamped);
+    clamped[m->nverts / 2] = 1; /* a clamped vertex inside too */
+    sm_elasticity *ec = NULL, *eg = NULL;
+    sm_error err;
+    sm_elasticity_opts o = {.young = 1.0, .poisson = 0.3, .solver = SM_SOLVER_CHOLMOD};
+    assert_int_equal(sm__elasticity_new(m, clamped, &o, &ec, &err), SM_OK);
+    o.solver = SM_SOLVER_AMG;
+    assert_int_equal(sm__elasticity_new(m, clamped, &o, &eg, &err), SM_OK);
+    assert_int_equal(ec->nfree, eg->nfree);
+    int same_before = memcmp(ec->colind, eg->colind, (size_t)eg->rowptr[eg->nfree] * sizeof(int32_t)) == 0;
+    assert_false(same_before); /* the layouts differ before */
+    sm__elasticity_pattern_diag_first(ec);
+    assert_int_equal(ec->diag_first, 1);
+    assert_memory_equal(ec->rowptr, eg->rowptr, ((size_t)eg->nfree + 1) * sizeof(int32_t));
+    assert_memory_equal(ec->colind, eg->colind, (size_t)eg->rowptr[eg->nfree] * sizeof(int32_t));
+    assert_memory_equal(ec->slots, eg->slots,
+                        (size_t)m->nelems * (size_t)((dim + 1) * (dim + 1)) * sizeof(int32_t));
+    assert_memory_equal(ec->cpl_colind, eg->cpl_colind,
+                        (size_t)eg->cpl_rowptr[eg->nfree] * sizeof(int32_t));
+    sm__elasticity_free(ec);
+    sm__elasticity_free(eg);
+    sm_mesh_free(m);
+    free(clamped);
+}
+
+static void test_auto_amg_layout(void **state)
+{
+    (void)state;
+    check_diag_first(2, 7);
+    check_diag_first(3, 5);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -569,6 +695,9 @@ int main(void)
         cmocka_unit_test(test_amg_deterministic),
         cmocka_unit_test(test_descent_same_error_2d),
         cmocka_unit_test(test_descent_same_error_3d),
+        cmocka_unit_test(test_auto_estimate),
+        cmocka_unit_test(test_auto_choice),
+        cmocka_unit_test(test_auto_amg_layout),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -28,10 +28,11 @@ const char *sm_clamp_kind_name(sm_clamp_kind kind);
 /* 0 and *out set for a known name, -1 otherwise (NULL included). */
 int sm_clamp_kind_from_name(const char *name, sm_clamp_kind *out);
 
-/* How the elastic system is solved (params "solver").  AUTO picks by the
- * template's size (sm_solver_resolve): CHOLMOD's sparse Cholesky below the
- * crossover measured by bench/scale.sh, PCG + BoomerAMG (hypre) above, where
- * the factor's memory grows like n^1.3 and the AMG hierarchy's like n. */
+/* How the elastic system is solved (params "solver").  AUTO: in 3D the
+ * solver a cost model predicts faster for the template, once CHOLMOD's
+ * analysis has given its factor's size, and CHOLMOD only when that factor
+ * fits the memory limit (the elastic operator decides, core/sm_elasticity.h,
+ * docs/solvers.md); CHOLMOD in 2D. */
 typedef enum sm_solver_kind {
     SM_SOLVER_AUTO = 0,
     SM_SOLVER_CHOLMOD = 1,
@@ -42,16 +43,13 @@ typedef enum sm_solver_kind {
 const char *sm_solver_kind_name(sm_solver_kind kind);
 /* 0 and *out set for a known name, -1 otherwise. */
 int sm_solver_kind_from_name(const char *name, sm_solver_kind *out);
-/* The solver AUTO means for a template of dim and nelems elements:
- * AMG from SM_SOLVER_AMG_MIN_TETS tetrahedra on (3D only: 2D templates of
- * any size this project meets factor fast); kind itself if not AUTO.
- * Measured on the idle 2-core machine (docs/solvers.md): at 30k
- * tetrahedra CHOLMOD's default run is 1.6x faster (6.4 s against 10.2 s;
- * AMG's bounded solves take 3-6 PCG steps); at 100k the two are about
- * even per iteration in wall time (0.078 against 0.103 s, CHOLMOD on two
- * threads; CPU 0.163 against 0.132 s) with a 4x cheaper AMG set-up and
- * 4.6x less memory (118 against 541 MiB); above, AMG wins both, and
- * CHOLMOD's factor stops fitting in 24 GiB at about 2-3M. */
+/* The solver AUTO means when only the size is known: kind itself if not
+ * AUTO; CHOLMOD in 2D (2D templates of any size this project meets factor
+ * fast); in 3D AMG from SM_SOLVER_AMG_MIN_TETS tetrahedra on.  The 3D rule
+ * is the fallback of the cost model (when CHOLMOD's analysis cannot run,
+ * out of memory); the model decides otherwise.  On the uniform Gmsh
+ * templates of bench/solvers.sh the two are about even at 100k (within
+ * 10%), so the fallback errs by little either side. */
 sm_solver_kind sm_solver_resolve(sm_solver_kind kind, int dim, int64_t nelems);
 #define SM_SOLVER_AMG_MIN_TETS 100000
 

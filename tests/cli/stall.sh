@@ -3,7 +3,8 @@
 # example, a default `shapematch run` stops with reason "stalled" no
 # earlier than the first iteration within 10% of the best boundary error
 # that 500 iterations reach (stall rule off), and within twice that.  The
-# summary reports the scale-free errors and the stall parameters.
+# summary reports the scale-free errors and the stall parameters, and the
+# default run's boundary_rms is within issue 33's 1e-4.
 source "$(dirname "$0")/../lib/cli.sh"
 EX=$ROOT/examples/2d
 IN=(--template "$EX/template.mesh" --target-mesh "$EX/background.mesh.gz"
@@ -31,6 +32,12 @@ check(s["stop_reason"] == "stalled", "a default run ends by the stall rule (%s)"
 check(needed <= s["iterations"] <= 2 * needed,
       "stops in [needed, 2 needed]: %d in [%d, %d]" % (s["iterations"], needed, 2 * needed))
 check(s["warnings"] == [] and ref["warnings"] == [], "no warning on the clean example", json.dumps(s["warnings"]))
+# issue 33's accuracy with the defaults, 2D: boundary_rms (J's own figure,
+# at the quadrature points) <= 1e-4; the exact figure is the polygon's
+# chord error, 1.6e-4 (tests/cli/coverage.sh, chord_check.py)
+check(s["boundary_rms"] <= 1e-4 and s["converged"],
+      "2D with the defaults: converged, boundary_rms %.3g <= 1e-4 (exact result->target %.3g)" % (
+          s["boundary_rms"], s["distance"]["result_to_target"]["rms"]))
 p = s["parameters"]
 check(p["tol_stall"] == 0.01 and p["stall_window"] == 15 and p["tol_boundary_rel"] == 0,
       "the summary's parameters carry the stall rule", json.dumps(p))

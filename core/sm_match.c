@@ -62,19 +62,21 @@
 /* Interior relaxation (sm_relax.h) after an accepted step whose worst
  * quality fell below RELAX_NEAR times the floor: the free interior
  * vertices of the elements below RELAX_BELOW times the floor are moved
- * to better quality, which changes neither J nor T.  Measured on issue
- * 33's ball onto a bent capsule (an L; tests/cli/stall.sh), --align
- * affine: quality_blocked after 143 iterations, target side p99 0.178
- * (twice the resolution: 0.143), became covered, p99 0.068 after 500;
- * with --align similarity 0.136 quality_blocked after 127 became 0.025;
- * a ball onto a dumbbell (bars 0.5 wide) 0.086 quality_blocked after
- * 139 became 0.019.  Near 20 x the floor and below 20 x, or 10 sweeps,
- * ended the same to 5%.  The gate keeps every run that stays above
- * 5 x the floor (both examples: 0.49 and 0.30; bench/robust.sh but its
- * torus) bit for bit as it was. */
+ * to better quality (RELAX_SWEEPS passes), which changes neither J nor
+ * T.  Measured on issue 33's ball onto a bent capsule (an L;
+ * tests/cli/stall.sh), --align affine: quality_blocked after 143
+ * iterations, target side p99 0.178 (twice the resolution: 0.143),
+ * became covered, p99 0.068 after 473; --align similarity 0.136
+ * quality_blocked after 127 became 0.025; a ball onto a dumbbell (bar
+ * 0.5 wide) 0.086 quality_blocked after 139 became 0.019.  Below 10 x
+ * the floor and 3 passes ended the same to 5% at twice the CPU time
+ * (the relaxation was then 3/4 of an iteration's); 20 x and 10 passes
+ * too.  The gate keeps every run that stays above 5 x the floor (both
+ * examples: 0.49 and 0.30; bench/robust.sh but its torus) bit for bit
+ * as it was. */
 #define RELAX_NEAR 5.0
-#define RELAX_BELOW 10.0
-#define RELAX_SWEEPS 3
+#define RELAX_BELOW 6.0
+#define RELAX_SWEEPS 1
 
 
 const char *sm_stop_reason_name(sm_stop_reason r)

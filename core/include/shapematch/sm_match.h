@@ -70,7 +70,8 @@ typedef struct sm_timings {
     double assembly;
     double factor;
     double solve;
-    double step;             /* step search (validity, quality, dJ) */
+    double step;             /* step search (validity, quality, dJ) and the
+                              * interior relaxation after it */
     double total;
 } sm_timings;
 

@@ -9,6 +9,7 @@
 #   - base/ includes no other folder
 #   - only http/ includes <microhttpd.h>; only store/pg/ <libpq-fe.h>
 #   - no include circle between folders
+#   - no handler (api/) computes a warp or takes a lock
 # The folder graph is printed as TAP comments.  The rules are also run on
 # a small tree that breaks each of them once, and must fail there: a
 # rule that cannot fail checks nothing.
@@ -139,5 +140,24 @@ if [ -z "$calls" ] && [ -n "$fired" ]; then
     ok "no handler computes a warp or reads a mesh (api/, http/ call the job layer in a check child)"
 else
     not_ok "no handler computes a warp" "calls: $(echo $calls | head -c 300); fires on a bad file: ${fired:-no}"
+fi
+# the handlers take no lock of the engine (issue 36): srv->lock, the
+# tokens' or any other mutex is taken by a use case of jobs/ (or http/'s
+# smd_http_identify), never in api/, so the protocols under a lock are
+# written once, beside the state they guard.  No site is allowed: a
+# new one is a use case to add.  The rule fires on a bad file too.
+takes_lock() { # FILES...: the lock calls, one per line
+    grep -nE '\bpthread_(mutex_(lock|trylock|timedlock)|rwlock_[a-z]*lock|cond_[a-z]*wait)[[:space:]]*\(' \
+        "$@" /dev/null | sed "s|^$ROOT/||"
+}
+locks=$(takes_lock "$ROOT"/server/api/*.c "$ROOT"/server/api/*.h)
+handler=$(mktemp "${TMPDIR:-/tmp}/sm-layers-handler-XXXXXX")
+printf 'static void h(smd_server *srv) { pthread_mutex_lock(&srv->lock); }\n' >"$handler"
+fired=$(takes_lock "$handler")
+rm -f "$handler"
+if [ -z "$locks" ] && [ -n "$fired" ]; then
+    ok "no handler takes a lock (api/ calls the engine's use cases, jobs/smd_usecases.h, jobs/smd_follow.h)"
+else
+    not_ok "no handler takes a lock" "sites: $(echo $locks | head -c 300); fires on a bad file: ${fired:-no}"
 fi
 echo "1..$n"

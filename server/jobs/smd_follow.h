@@ -98,8 +98,9 @@ smd_follower *smd_follow_subscribe(smd_server *srv, const smd_follow_request *rq
 #define SMD_FOLLOW_ERROR (-2) /* it cannot go on (log unreadable, out of memory) */
 
 /* Lock NOT held: up to max bytes of the stream into out: their number,
- * 0 when the connection was put to sleep (nothing to send yet), or
- * SMD_FOLLOW_END / SMD_FOLLOW_ERROR. */
+ * 0 when there is nothing to hand out now (the connection was put to
+ * sleep until a wake-up; or, when a read of the log gave nothing, the
+ * HTTP library asks again), or SMD_FOLLOW_END / SMD_FOLLOW_ERROR. */
 ssize_t smd_follow_next(smd_follower *f, char *out, size_t max);
 
 /* Lock NOT held: unlinks and frees (the connection is gone). */

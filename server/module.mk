@@ -8,9 +8,9 @@ SERVER_BASE_SRCS := $(addprefix server/base/,smd_body.c smd_config.c smd_log.c s
 SERVER_HTTP_SRCS := $(addprefix server/http/,smd_http.c smd_reply.c smd_negotiate.c smd_cors.c \
     smd_auth.c smd_tls.c smd_conns.c smd_ratelimit.c)
 SERVER_API_SRCS := $(addprefix server/api/,smd_route_table.c smd_routes.c smd_results.c smd_warp.c smd_live.c \
-    smd_app.c smd_ogc.c smd_upload.c smd_parts.c smd_check.c smd_stream.c smd_inputs.c smd_batches.c smd_batch_request.c \
+    smd_app.c smd_ogc.c smd_upload.c smd_parts.c smd_stream.c smd_inputs.c smd_batches.c smd_batch_request.c \
     smd_batch_events.c)
-SERVER_JOBS_SRCS := $(addprefix server/jobs/,smd_jobs.c smd_usecases.c smd_pool.c smd_spool_backend.c)
+SERVER_JOBS_SRCS := $(addprefix server/jobs/,smd_jobs.c smd_usecases.c smd_pool.c smd_check.c smd_follow.c smd_spool_backend.c)
 SERVER_SPOOL_SRCS := $(addprefix server/store/spool/,smd_job.c smd_store.c smd_store_summary.c smd_fifo.c)
 SERVER_PG_SRCS := $(addprefix server/store/pg/,smd_pg_conn.c smd_pg_queue.c smd_pg_blob.c \
     smd_pg_node.c smd_pg_mirror.c smd_pg_work.c smd_pg_outbox.c smd_pg_backend.c)

@@ -30,6 +30,7 @@
 #include "api/smd_route_table.h"
 #include "base/smd_server.h"
 #include "api/smd_stream.h"
+#include "jobs/smd_follow.h"
 #include "http/smd_tls.h"
 
 /* The one global: the main thread's id, written once before the handler
@@ -129,9 +130,9 @@ static void shutdown_daemon(smd_server *srv, const sigset_t *signals)
     smd_http_quiesce(srv);
     /* end the event streams: they must all be resumed before MHD stops */
     atomic_store(&srv->stopping, 1);
-    smd_stream_end_all(srv);
+    smd_follow_end_all(srv);
     smd_http_stop(srv);
-    smd_stream_free_all(srv);
+    smd_follow_free_all(srv);
 }
 
 /* Step 1: flags, environment, the worker program, the tokens.  Returns
@@ -330,7 +331,7 @@ int main(int argc, char **argv)
     code = 1;
     /* the engine names the jobs that changed; the event streams wake
      * their followers (before any thread runs the engine) */
-    srv->jobs_changed = smd_stream_jobs_changed;
+    srv->jobs_changed = smd_follow_jobs_changed;
     srv->work_queued = smd_pool_work_queued; /* the supervisor starts what was queued */
     sigset_t signals;
     take_signals(&signals);

@@ -120,54 +120,7 @@ static sm_status peek_start(sm_reader *r, unsigned char *head, size_t cap, size_
     return SM_OK;
 }
 
-/* ---- meshes ---- */
-
-sm_status sm_mesh_read(const char *path, sm_mesh **out, sm_error *err)
-{
-    return sm_mesh_read_limited(path, NULL, out, err);
-}
-
-sm_status sm_mesh_read_limited(const char *path, sm_read_limits *limits, sm_mesh **out,
-                               sm_error *err)
-{
-    *out = NULL;
-    if (!path)
-        return sm_error_set(err, SM_ERR_INVALID, "no mesh file name");
-    return sm__mesh_read_input(&(sm_reader_input){.path = path}, limits, out, err);
-}
-
-sm_status sm__mesh_read_input(const sm_reader_input *in, sm_read_limits *limits, sm_mesh **out,
-                              sm_error *err)
-{
-    *out = NULL;
-    sm_reader r;
-    sm_status st = sm__reader_open_input(&r, in, err);
-    if (st != SM_OK)
-        return st;
-    r.limits = limits;
-    unsigned char head[4];
-    size_t got = 0;
-    if ((st = peek_start(&r, head, sizeof head, &got, err)) != SM_OK) {
-        sm__reader_close(&r);
-        return st;
-    }
-    const sm_format *f = detect(&r);
-    if (f && f->read_cells) {
-        sm_msh_data d;
-        st = f->read_cells(&r, &d, err);
-        if (st == SM_OK)
-            st = sm__msh_to_mesh(in->path, &d, out, err);
-        sm__msh_data_free(&d);
-    } else if (f && !f->read_mesh) {
-        st = other_kind(in->path, f, "a volume mesh", "meshes are read as " SM_MESH_FORMATS, err);
-    } else {
-        st = sm__medit_mesh_read(&r, out, err);
-    }
-    sm__reader_close(&r);
-    return st;
-}
-
-/* ---- surfaces ---- */
+/* ---- meshes and surfaces: one dispatcher ---- */
 
 /* Text (a format we do not read) rather than binary data (perhaps a
  * binary STL whose size does not match its count). */
@@ -179,25 +132,17 @@ static int looks_text(const unsigned char *p, size_t n)
     return 1;
 }
 
-sm_status sm_surface_read(const char *path, sm_surface **out, sm_error *err)
-{
-    return sm_surface_read_limited(path, NULL, out, err);
-}
-
-sm_status sm_surface_read_limited(const char *path, sm_read_limits *limits, sm_surface **out,
-                                  sm_error *err)
-{
-    *out = NULL;
-    if (!path)
-        return sm_error_set(err, SM_ERR_INVALID, "no surface file name");
-    return sm__surface_read_input(&(sm_reader_input){.path = path}, limits, out, err);
-}
-
-sm_status sm__surface_read_input(const sm_reader_input *in, sm_read_limits *limits,
-                                 sm_surface **out, sm_error *err)
+/* Reads a volume mesh (mesh set, surface NULL) or a surface (the other
+ * way round) from in: the row that detects the content reads it
+ * (simplices made into what is asked, or the row's own reader); a row of
+ * another kind is named; content no row recognises falls back to Medit
+ * for a mesh, to a binary STL for binary content asked as a surface. */
+static sm_status read_shape(const sm_reader_input *in, sm_read_limits *limits, sm_mesh **mesh,
+                            sm_surface **surface, sm_error *err)
 {
     const char *path = in->path;
-    *out = NULL;
+    if (!path)
+        return sm_error_set(err, SM_ERR_INVALID, "no %s file name", mesh ? "mesh" : "surface");
     sm_reader r;
     sm_status st = sm__reader_open_input(&r, in, err);
     if (st != SM_OK)
@@ -214,22 +159,67 @@ sm_status sm__surface_read_input(const sm_reader_input *in, sm_read_limits *limi
         sm_msh_data d;
         st = f->read_cells(&r, &d, err);
         if (st == SM_OK)
-            st = sm__msh_surface(path, &d, out, err);
+            st = mesh ? sm__msh_to_mesh(path, &d, mesh, err) : sm__msh_surface(path, &d, surface, err);
         sm__msh_data_free(&d);
-    } else if (f && f->read_surface) {
-        st = f->read_surface(&r, out, err);
+    } else if (f && mesh && f->read_mesh) {
+        st = f->read_mesh(&r, mesh, err);
+    } else if (f && surface && f->read_surface) {
+        st = f->read_surface(&r, surface, err);
     } else if (f) {
-        st = other_kind(path, f, "a surface", "surfaces are read as " SM_SURFACE_FORMATS, err);
+        st = mesh ? other_kind(path, f, "a volume mesh", "meshes are read as " SM_MESH_FORMATS, err)
+                  : other_kind(path, f, "a surface", "surfaces are read as " SM_SURFACE_FORMATS,
+                               err);
+    } else if (mesh) {
+        /* Medit's reader says precisely what does not fit */
+        st = sm__medit_mesh_read(&r, mesh, err);
     } else if (got >= 84 && !looks_text(head, got)) {
         /* binary content of no other format is taken for a binary STL,
          * whose reader says precisely what does not fit */
-        st = sm__stl_read(&r, out, err);
+        st = sm__stl_read(&r, surface, err);
     } else {
         st = sm_error_set(err, SM_ERR_FORMAT, "%s: unknown surface format; surfaces are read "
                           "as " SM_SURFACE_FORMATS, path);
     }
     sm__reader_close(&r);
     return st;
+}
+
+sm_status sm_mesh_read(const char *path, sm_mesh **out, sm_error *err)
+{
+    return sm_mesh_read_limited(path, NULL, out, err);
+}
+
+sm_status sm_mesh_read_limited(const char *path, sm_read_limits *limits, sm_mesh **out,
+                               sm_error *err)
+{
+    *out = NULL;
+    return read_shape(&(sm_reader_input){.path = path}, limits, out, NULL, err);
+}
+
+sm_status sm__mesh_read_input(const sm_reader_input *in, sm_read_limits *limits, sm_mesh **out,
+                              sm_error *err)
+{
+    *out = NULL;
+    return read_shape(in, limits, out, NULL, err);
+}
+
+sm_status sm_surface_read(const char *path, sm_surface **out, sm_error *err)
+{
+    return sm_surface_read_limited(path, NULL, out, err);
+}
+
+sm_status sm_surface_read_limited(const char *path, sm_read_limits *limits, sm_surface **out,
+                                  sm_error *err)
+{
+    *out = NULL;
+    return read_shape(&(sm_reader_input){.path = path}, limits, NULL, out, err);
+}
+
+sm_status sm__surface_read_input(const sm_reader_input *in, sm_read_limits *limits,
+                                 sm_surface **out, sm_error *err)
+{
+    *out = NULL;
+    return read_shape(in, limits, NULL, out, err);
 }
 
 /* ---- images ---- */

@@ -253,7 +253,7 @@ static sm_status defer_background(const sm_job_files *files, sm_job_naming namin
  * uniform grid of 250k vertices). */
 static sm_status generate_background(const sm_job_background_plan *plan, const sm_mesh *tpl,
                                      sm_job_inputs *out, const sm_surface *s, const sm_sdf *d,
-                                     sm_error *err)
+                                     const char *checked, sm_error *err)
 {
     int dim = out->dim;
     double lo[3], hi[3], tlo[3], thi[3], diag = 0, cells = 1;
@@ -302,7 +302,9 @@ static sm_status generate_background(const sm_job_background_plan *plan, const s
         h = plan->size;
     out->background_generated = 1;
     out->background_size = h;
-    sm_status st = sm_background_graded_new(dim, lo, hi, h, d, &out->background, err);
+    /* checked: the same background, built by an earlier read (d NULL) */
+    sm_status st = checked ? sm_mesh_read_limited(checked, plan->limits, &out->background, err)
+                           : sm_background_graded_new(dim, lo, hi, h, d, &out->background, err);
     if (st == SM_OK)
         st = check_background_limits(plan->limits, out->background, err);
     if (st != SM_OK && st != SM_ERR_NOMEM && plan->naming == SM_JOB_NAME_PARTS) {
@@ -337,7 +339,11 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
         goto done;
     }
     double t0 = sm_clock_seconds();
-    if ((st = sm_sdf_new(s, &d, err)) != SM_OK) {
+    /* the background and distance an earlier read built (the upload's
+     * check): read, not built again, so no distance structure either */
+    const int reuse = !files->target_mesh && !align && files->checked_background &&
+                      files->checked_distance;
+    if (!reuse && (st = sm_sdf_new(s, &d, err)) != SM_OK) {
         if (st != SM_ERR_NOMEM)
             file_error(err, naming, SM_PART_TARGET_SURFACE, files->target_surface, out);
         goto done;
@@ -361,7 +367,8 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
         goto done;
     } else {
         sm_job_background_plan plan = plan_of(files, naming, files->target_surface);
-        if ((st = generate_background(&plan, out->template_mesh, out, s, d, err)) != SM_OK)
+        if ((st = generate_background(&plan, out->template_mesh, out, s, d,
+                                      reuse ? files->checked_background : NULL, err)) != SM_OK)
             goto done;
     }
     if (out->background->dim != out->dim) {
@@ -370,9 +377,19 @@ static sm_status read_surface_target(const sm_job_files *files, sm_job_naming na
                           out->dim, out->background->dim);
         goto done;
     }
-    if ((st = sm_sol_alloc(&out->distance, out->dim, out->background->nverts, 1, err)) == SM_OK)
+    if (reuse) {
+        st = sm_sol_read_limited(files->checked_distance, files->limits, &out->distance, err);
+        if (st == SM_OK && (out->distance->nverts != out->background->nverts ||
+                            out->distance->ncomp != 1))
+            st = sm_error_set(err, SM_ERR_INVALID, "%s: %d values for the %d vertices of %s",
+                              files->checked_distance, (int)out->distance->nverts,
+                              (int)out->background->nverts, files->checked_background);
+        out->checked_reused = st == SM_OK;
+    } else if ((st = sm_sol_alloc(&out->distance, out->dim, out->background->nverts, 1, err)) ==
+               SM_OK) {
         st = sm_sdf_signed(d, out->background->nverts, out->background->coords,
                            out->distance->values, err);
+    }
     out->sdf_seconds = sm_clock_seconds() - t0;
     if (st != SM_OK && st != SM_ERR_NOMEM)
         file_error(err, naming, SM_PART_TARGET_SURFACE, files->target_surface, out);
@@ -719,7 +736,7 @@ sm_status sm_job_inputs_finish_target(sm_job_inputs *in, const sm_mesh *template
                                        &in->image, err);
     } else {
         st = generate_background(plan, template_mesh, in, in->target_surface, in->target_sdf,
-                                 err);
+                                 NULL, err);
         if (st == SM_OK &&
             (st = sm_sol_alloc(&in->distance, in->dim, in->background->nverts, 1, err)) == SM_OK)
             st = sm_sdf_signed(in->target_sdf, in->background->nverts, in->background->coords,

@@ -95,6 +95,16 @@ typedef struct sm_job_files {
     const sm_mesh *template_given, *target_mesh_given;
     const sm_sol *target_sol_given;
     const sm_surface *target_surface_given;
+    /* a generated background and the target's distance at its vertices
+     * (files, read with limits) that an earlier read of the same inputs
+     * built: the daemon's upload check keeps them in the job's folder
+     * (server/worker/smd_job_file.h) and the worker names them here when
+     * they are the job's.  With target_surface, no target_mesh and no
+     * alignment they are read instead of being built again (the surface
+     * is still read and repaired: its health, the run's exact
+     * distances), the rest as with a generated background (its size and
+     * padding, the units refusal); otherwise, or NULL, ignored */
+    const char *checked_background, *checked_distance;
 } sm_job_files;
 
 typedef enum sm_job_naming {
@@ -140,6 +150,8 @@ typedef struct sm_job_inputs {
                                * not given): what job.json keeps */
     double sdf_seconds;       /* distance computation (surface and image
                                * targets) */
+    int checked_reused;       /* the background and distance were read
+                               * from files->checked_* (nothing built) */
     int has_image;            /* the target came from target_image: */
     sm_job_image_info image;  /* what the image and its label hold */
     sm_part failed;           /* after a failure: the part the message is

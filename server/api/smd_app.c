@@ -4,7 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "http/smd_auth.h"
+#include "http/smd_http.h"
 #include "http/smd_negotiate.h"
 #include "api/smd_routes.h"
 
@@ -99,9 +99,7 @@ enum MHD_Result smd_route_root(struct MHD_Connection *conn, smd_request *req)
     if (srv->tokens) {
         const char *auth = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
                                                        MHD_HTTP_HEADER_AUTHORIZATION);
-        pthread_mutex_lock(&srv->tokens_lock);
-        smd_auth_result a = smd_tokens_identify(srv->tokens, auth, &req->who);
-        pthread_mutex_unlock(&srv->tokens_lock);
+        smd_auth_result a = smd_http_identify(srv, auth, NULL, &req->who);
         if (a != SMD_AUTH_OK)
             return smd_reply_problem(conn, req, 401, SMD_PROBLEM_UNAUTHORIZED,
                                      a == SMD_AUTH_MISSING ? "this daemon requires a bearer token "

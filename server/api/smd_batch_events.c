@@ -159,7 +159,7 @@ static int batch_refill(void *state, smd_server *srv, smd_job *model, int sse, i
     return rc;
 }
 
-static const smd_stream_source batch_source = {batch_refill, batch_follows, batch_free};
+static const smd_follow_source batch_source = {batch_refill, batch_follows, batch_free};
 
 /* The stream's state for the batch described by batch (reference taken);
  * NULL out of memory. */
@@ -203,17 +203,12 @@ enum MHD_Result smd_route_batch_events(struct MHD_Connection *conn, smd_request 
     if (!b)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
     char msg[256];
-    pthread_mutex_lock(&srv->lock);
-    smd_job *model = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-    struct MHD_Response *resp =
-        model ? smd_stream_source_response(srv, model, conn, sr.sse, sr.after, &batch_source, b,
-                                           &req->bytes_out, &sr.cred, msg, sizeof msg)
-              : NULL;
-    pthread_mutex_unlock(&srv->lock);
-    if (!model) {
-        batch_free(b);
+    smd_follow_request rq = {.id = req->id, .tenant = req->who.tenant, .admin = req->who.admin,
+                             .sse = sr.sse, .after_seq = sr.after, .bytes_out = &req->bytes_out,
+                             .cred = sr.cred, .src = &batch_source, .src_state = b};
+    struct MHD_Response *resp = smd_stream_response(srv, conn, &rq, &found, msg, sizeof msg);
+    if (!found) /* deleted meanwhile */
         return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NOT_FOUND, "no batch %s", req->id);
-    }
     if (!resp)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "%s", msg);
     return smd_reply(conn, req, 200, resp);

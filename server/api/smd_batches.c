@@ -159,15 +159,22 @@ static int find_batch(struct MHD_Connection *conn, smd_request *req, json_t **ba
 /* The batch document as it is now (its members' records are read under
  * the lock), or NULL when the model job is gone (or out of memory:
  * *gone 0). */
+typedef struct document_ask {
+    const json_t *batch;
+    json_t *doc;
+} document_ask;
+
+static void document_of(smd_server *srv, const smd_job *model, void *ctx)
+{
+    document_ask *a = ctx;
+    a->doc = smd_batch_document(srv, model, a->batch);
+}
+
 static json_t *document_now(smd_request *req, const json_t *batch, int *gone)
 {
-    smd_server *srv = req->srv;
-    pthread_mutex_lock(&srv->lock);
-    const smd_job *model = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-    json_t *doc = model ? smd_batch_document(srv, model, batch) : NULL;
-    pthread_mutex_unlock(&srv->lock);
-    *gone = !model;
-    return doc;
+    document_ask a = {batch, NULL};
+    *gone = !smd_jobs_inspect(req->srv, req->id, req->who.tenant, req->who.admin, document_of, &a);
+    return a.doc;
 }
 
 enum MHD_Result smd_route_batch_get(struct MHD_Connection *conn, smd_request *req)

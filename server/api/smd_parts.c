@@ -91,27 +91,17 @@ static int open_part(smd_parts *u, sm_part id)
     return 0;
 }
 
-#define FNV_OFFSET 0xcbf29ce484222325ULL
-
-static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
-{
-    const unsigned char *p = data;
-    for (size_t i = 0; i < n; i++)
-        h = (h ^ p[i]) * 0x100000001b3ULL;
-    return h;
-}
-
 /* What makes two requests "the same" for an Idempotency-Key: the bytes of
  * every part, whatever the multipart boundary and the order of parts. */
 uint64_t smd_parts_hash(const smd_parts *u)
 {
-    uint64_t h = FNV_OFFSET;
+    uint64_t h = SMD_FNV_OFFSET;
     for (int i = 0; i < SM_NPARTS; i++) {
         if (!u->seen[i])
             continue; /* the hashes of requests without target_surface stay as they were */
         if (i == SM_PART_TARGET_SURFACE || i == SM_PART_TARGET_IMAGE)
-            h = fnv1a(h, &i, sizeof i); /* tell it from the same bytes as target_mesh */
-        h = fnv1a(h, &u->part_hash[i], sizeof u->part_hash[i]);
+            h = smd_fnv1a(h, &i, sizeof i); /* tell it from the same bytes as target_mesh */
+        h = smd_fnv1a(h, &u->part_hash[i], sizeof u->part_hash[i]);
     }
     return h ? h : 1; /* 0 = unknown (records from before the hash) */
 }
@@ -156,7 +146,7 @@ enum MHD_Result smd_parts_on_part(void *cls, enum MHD_ValueKind kind, const char
         }
         u->seen[id] = 1;
         u->current = id;
-        u->part_hash[id] = FNV_OFFSET;
+        u->part_hash[id] = SMD_FNV_OFFSET;
         if (id < SM_PART_PARAMS && open_part(u, (sm_part)id) != 0)
             return MHD_NO;
     }
@@ -169,7 +159,7 @@ enum MHD_Result smd_parts_on_part(void *cls, enum MHD_ValueKind kind, const char
                        SM_LANDMARKS_MAX_BYTES);
         return MHD_NO;
     }
-    u->part_hash[id] = fnv1a(u->part_hash[id], data, size);
+    u->part_hash[id] = smd_fnv1a(u->part_hash[id], data, size);
     if (id == SM_PART_NAME) {
         if (u->name_len + size > SM_JOB_NAME_MAX) {
             smd_parts_fail(u, 422, SMD_PROBLEM_INVALID_INPUT, "name: longer than %d bytes",

@@ -11,7 +11,7 @@
 #include "api/smd_ogc.h"
 #include "api/smd_results.h"
 #include "api/smd_routes.h"
-#include "api/smd_check.h"
+#include "jobs/smd_check.h"
 #include "api/smd_inputs.h"
 #include "api/smd_upload.h"
 #include "api/smd_warp.h"

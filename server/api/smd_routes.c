@@ -14,7 +14,7 @@
 #include <unistd.h>
 
 #include "sm_proto_vocab.h"
-#include "api/smd_check.h"
+#include "jobs/smd_check.h"
 #include "http/smd_conns.h"
 #include "jobs/smd_jobs.h"
 #include "jobs/smd_usecases.h"
@@ -130,18 +130,7 @@ enum MHD_Result smd_route_metrics(struct MHD_Connection *conn, smd_request *req)
     smd_server *srv = req->srv;
     smd_gauges g;
     memset(&g, 0, sizeof g);
-    pthread_mutex_lock(&srv->lock);
-    for (size_t i = 0; i < smd_store_count(srv->store); i++) {
-        unsigned s = (unsigned)smd_store_at(srv->store, i)->state;
-        if (s < SMD_JOB_STATES)
-            g.jobs_by_state[s]++;
-    }
-    g.queue_depth = smd_queue_depth(srv->queue);
-    g.workers_busy = smd_pool_busy(srv->pool);
-    g.workers_total = smd_pool_slots(srv->pool);
-    g.followers = smd_stream_count(srv);
-    g.quarantined = smd_store_quarantined(srv->store);
-    pthread_mutex_unlock(&srv->lock);
+    smd_jobs_gauges(srv, &g);
     g.start_time = srv->start_time;
     g.ready = !atomic_load(&srv->draining);
     smd_conns_counts cc;
@@ -321,20 +310,16 @@ enum MHD_Result smd_route_jobs_list(struct MHD_Connection *conn, smd_request *re
                                  "offset: expected an integer in [0, %lld]", SMD_REQUEST_INT_MAX);
     /* both bounded (limit <= 1000, offset < 2^53): every sum below fits */
     int64_t limit = (int64_t)limit_u, offset = (int64_t)offset_u;
+    smd_job *views;
+    size_t nviews;
+    int64_t matched;
+    if (smd_jobs_list(srv, req->who.tenant, req->who.admin, wanted, offset, limit, &views, &nviews,
+                      &matched) != 0)
+        return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "out of memory");
     json_t *jobs = json_array();
-    int64_t matched = 0;
-    pthread_mutex_lock(&srv->lock);
-    size_t n = smd_store_count(srv->store);
-    for (size_t k = 0; k < n; k++) { /* oldest first */
-        smd_job *job = smd_store_at(srv->store, k);
-        if ((wanted && !(wanted & (1u << job->state))) ||
-            !smd_job_visible(job, req->who.tenant, req->who.admin))
-            continue;
-        if (matched >= offset && matched < offset + limit)
-            json_array_append_new(jobs, smd_status_document(job));
-        matched++;
-    }
-    pthread_mutex_unlock(&srv->lock);
+    for (size_t k = 0; k < nviews; k++)
+        json_array_append_new(jobs, smd_status_document(&views[k]));
+    free(views);
     json_t *links = json_array();
     char href[256], filter[160] = "";
     if (wanted) {
@@ -444,7 +429,7 @@ int smd_stream_request_open(struct MHD_Connection *conn, smd_request *req, smd_s
     struct MHD_Connection *evict = NULL;
     int full = smd_conns_stream(conn, &evict);
     if (evict)
-        smd_stream_evict(srv, evict);
+        smd_follow_evict(srv, evict);
     if (full != 0) {
         *r = smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                "too many event streams and request bodies in progress (from "
@@ -455,7 +440,7 @@ int smd_stream_request_open(struct MHD_Connection *conn, smd_request *req, smd_s
     sr->sse = choice == 1;
     sr->after = (int64_t)after;
     /* the credential authenticate() checked, kept for smd_stream_revoke */
-    sr->cred = (smd_stream_credential){0};
+    sr->cred = (smd_follow_credential){0};
     if (srv->tokens && !req->public_path) {
         sr->cred.authorization = MHD_lookup_connection_value(conn, MHD_HEADER_KIND,
                                                              MHD_HTTP_HEADER_AUTHORIZATION);
@@ -473,14 +458,12 @@ enum MHD_Result smd_route_events(struct MHD_Connection *conn, smd_request *req)
     if (!smd_stream_request_open(conn, req, &sr, &r))
         return r;
     char msg[256];
-    pthread_mutex_lock(&srv->lock);
-    smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-    struct MHD_Response *resp =
-        job ? smd_stream_response(srv, job, conn, sr.sse, sr.after, &req->bytes_out, &sr.cred,
-                                  msg, sizeof msg)
-            : NULL;
-    pthread_mutex_unlock(&srv->lock);
-    if (!job)
+    int found;
+    smd_follow_request rq = {.id = req->id, .tenant = req->who.tenant, .admin = req->who.admin,
+                             .sse = sr.sse, .after_seq = sr.after, .bytes_out = &req->bytes_out,
+                             .cred = sr.cred};
+    struct MHD_Response *resp = smd_stream_response(srv, conn, &rq, &found, msg, sizeof msg);
+    if (!found)
         return no_such_job(conn, req);
     if (!resp)
         return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL, "cannot open the event log: %s",

@@ -27,7 +27,7 @@ typedef struct smd_stream_request {
     int sse;                   /* text/event-stream, else NDJSON */
     int64_t after;             /* Last-Event-ID, else ?after=, else 0 */
     int resumed;               /* one of the two was given */
-    smd_stream_credential cred; /* for smd_stream_revoke (the request's strings) */
+    smd_follow_credential cred; /* for smd_stream_revoke (the request's strings) */
 } smd_stream_request;
 /* The common part of every event stream's request: the encoding by
  * Accept (406), the resume point (400 when malformed) and the
@@ -37,7 +37,8 @@ typedef struct smd_stream_request {
 int smd_stream_request_open(struct MHD_Connection *conn, smd_request *req, smd_stream_request *sr,
                             enum MHD_Result *r);
 
-/* Status document of a job (OGC statusInfo with links).  Lock held. */
+/* Status document of a job (OGC statusInfo with links): a record under
+ * the lock, or a copy (smd_job_view). */
 json_t *smd_status_document(const smd_job *job);
 
 /* Embedded documents (generated from proto/ by server/embed.sh). */

@@ -24,7 +24,7 @@
 #include "sm_proto_text.h"
 #include "jobs/smd_jobs.h"
 #include "shapematch/sm_clock.h"
-#include "api/smd_check.h"
+#include "jobs/smd_check.h"
 #include "http/smd_conns.h"
 #include "worker/smd_job_file.h"
 #include "api/smd_parts.h"
@@ -136,7 +136,7 @@ static enum MHD_Result reply_status(struct MHD_Connection *conn, smd_request *re
 
 static enum MHD_Result reply_existing(struct MHD_Connection *conn, smd_request *req, smd_job *job)
 {
-    /* lock held by the caller */
+    /* job: a copy (smd_job_view) */
     return reply_status(conn, req, MHD_HTTP_OK, job->id, smd_status_document(job),
                         "Idempotent-Replayed", "true");
 }
@@ -156,25 +156,24 @@ static void limit_key(struct MHD_Connection *conn, const smd_request *req, char 
     smd_ratelimit_address_key(addr, req->srv->cfg.submit_ipv4_prefix, key, cap);
 }
 
-static int job_unfinished(const char *id, void *user)
+/* The limiter's tracked jobs of a key, counted by live() (smd_jobs_unfinished). */
+typedef struct tracked {
+    smd_ratelimit *rl;
+    const char *key;
+} tracked;
+
+static size_t count_tracked(void *ctx, int (*live)(const char *id, void *arg), void *arg)
 {
-    smd_job *job = smd_store_get(user, id);
-    return job && !smd_job_state_final(job->state);
+    tracked *t = ctx;
+    return smd_ratelimit_live(t->rl, t->key, live, arg);
 }
 
-/* Unfinished jobs of the key (lock held): by owner with tokens, else the
- * jobs the limiter saw the address submit. */
+/* Unfinished jobs of the key: by owner with tokens, else the jobs the
+ * limiter saw the address submit. */
 static size_t unfinished_jobs(smd_server *srv, const smd_request *req, const char *key)
 {
-    if (!srv->tokens)
-        return smd_ratelimit_live(srv->ratelimit, key, job_unfinished, srv->store);
-    size_t n = 0, count = smd_store_count(srv->store);
-    for (size_t i = 0; i < count; i++) {
-        const smd_job *job = smd_store_at(srv->store, i);
-        if (job && strcmp(job->owner, req->who.tenant) == 0 && !smd_job_state_final(job->state))
-            n++;
-    }
-    return n;
+    tracked t = {srv->ratelimit, key};
+    return smd_jobs_unfinished(srv, srv->tokens ? req->who.tenant : NULL, count_tracked, &t);
 }
 
 static const char *limit_subject(const smd_server *srv)
@@ -182,7 +181,7 @@ static const char *limit_subject(const smd_server *srv)
     return srv->tokens ? "tenant" : "client address";
 }
 
-/* 429 when the key holds --max-queued unfinished jobs (lock held). */
+/* 429 when the key holds --max-queued unfinished jobs. */
 static enum MHD_Result queued_refusal(struct MHD_Connection *conn, smd_request *req,
                                       const char *key, int *refused)
 {
@@ -204,9 +203,7 @@ static enum MHD_Result limits_refusal(struct MHD_Connection *conn, smd_request *
                                       const char *key, int *refused)
 {
     smd_server *srv = req->srv;
-    pthread_mutex_lock(&srv->lock);
     enum MHD_Result r = queued_refusal(conn, req, key, refused);
-    pthread_mutex_unlock(&srv->lock);
     if (*refused)
         return r;
     unsigned wait = smd_ratelimit_take(srv->ratelimit, key, sm_clock_seconds());
@@ -316,6 +313,36 @@ enum MHD_Result smd_upload_begin_decoded(struct MHD_Connection *conn, smd_reques
 /* Writes job.json: inputs and canonical params (with the background
  * members the job gave, for the worker's sm_job_inputs_load).  0, or -1
  * with errno set. */
+/* The generated background and distance the check built (a surface
+ * target without target_mesh and without alignment: the worker would
+ * build the same), kept under inputs/ beside the uploads so that they
+ * travel with the job (PostgreSQL stores inputs/ whole) and named in
+ * job.json with the key of what they were built from.  Nothing kept
+ * (the worker builds them) when there are none or they cannot be
+ * written: the check's verdict does not depend on it. */
+static void keep_checked(smd_upload *u, const sm_job_inputs *in, smd_job_file *f)
+{
+    if (!in->background_generated || !in->has_surface || !in->background || !in->distance ||
+        in->target_deferred)
+        return;
+    static const char bg_rel[] = "inputs/checked/background.meshb";
+    static const char d_rel[] = "inputs/checked/distance.solb";
+    char dir[PATH_MAX], bg[PATH_MAX], d[PATH_MAX];
+    sm_error err;
+    if (smd_pathf(dir, sizeof dir, "%s/inputs/checked", u->dir) != 0 ||
+        smd_pathf(bg, sizeof bg, "%s/%s", u->dir, bg_rel) != 0 ||
+        smd_pathf(d, sizeof d, "%s/%s", u->dir, d_rel) != 0 ||
+        (mkdir(dir, 0750) != 0 && errno != EEXIST) ||
+        sm_mesh_write(bg, in->background, &err) != SM_OK ||
+        sm_sol_write(d, in->distance, &err) != SM_OK ||
+        smd_job_file_inputs_key(u->dir, f, f->checked_key) != 0) {
+        f->checked_key[0] = '\0';
+        return;
+    }
+    snprintf(f->checked_background, sizeof f->checked_background, "%s", bg_rel);
+    snprintf(f->checked_distance, sizeof f->checked_distance, "%s", d_rel);
+}
+
 static int write_job_file(smd_upload *u, const sm_job_inputs *in)
 {
     smd_job_file *f = calloc(1, sizeof *f); /* 16 KiB of paths */
@@ -333,6 +360,7 @@ static int write_job_file(smd_upload *u, const sm_job_inputs *in)
     for (int i = 0; i < SM_PART_PARAMS; i++)
         if (u->parts.seen[i])
             snprintf(f->part[i], sizeof f->part[i], "%s", u->parts.path[i] + prefix);
+    keep_checked(u, in, f);
     int rc = smd_job_file_write(u->dir, f);
     int saved = errno;
     smd_job_file_free(f);
@@ -484,14 +512,10 @@ static enum MHD_Result submit_checked(struct MHD_Connection *conn, smd_request *
                           .nverts = r->nverts, .nelems = r->nelems, .bytes = u->received};
     smd_job view;
     int created;
-    pthread_mutex_lock(&srv->lock);
     int refused;
     enum MHD_Result qr = queued_refusal(conn, req, u->limit_key, &refused);
     const char *key = sub.idempotency_key && sub.idempotency_key[0] ? sub.idempotency_key : NULL;
-    smd_job *known = refused || !key ? NULL : smd_store_find_key(srv->store, sub.owner, key);
-    if (known)
-        smd_job_view(known, &view);
-    pthread_mutex_unlock(&srv->lock);
+    int known = !refused && key && smd_jobs_find_key(srv, sub.owner, key, &view);
     if (refused) /* concurrent uploads of the same key got there first */
         return qr;
     if (known)

@@ -12,7 +12,8 @@
 #include <strings.h>
 #include <unistd.h>
 
-#include "api/smd_check.h"
+#include "jobs/smd_check.h"
+#include "jobs/smd_usecases.h"
 #include "base/smd_body.h"
 #include "job/sm_job_warp.h"
 #include "sm_proto_vocab.h"
@@ -55,7 +56,7 @@ struct smd_warp_body {
     const char *ext;     /* meshes: the answer's format (MESH_MEDIA_TABLE) */
     smd_body body;       /* counted in --max-body-memory (base/smd_body.h) */
     int refused;         /* SMD_BODY_*: the rest is read and dropped */
-    /* the warp, in a check child (api/smd_check.h): NONE -> RUNNING ->
+    /* the warp, in a check child (jobs/smd_check.h): NONE -> RUNNING ->
      * DONE while the connection is suspended */
     struct MHD_Connection *conn;
     atomic_int state;
@@ -132,16 +133,13 @@ enum MHD_Result smd_route_warp(struct MHD_Connection *conn, smd_request *req)
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE,
                                  "shutting down: no new warp is computed");
     }
-    pthread_mutex_lock(&srv->lock);
-    smd_job *job = smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-    sm_job_state state = job ? job->state : SM_JOB_ACCEPTED;
-    pthread_mutex_unlock(&srv->lock);
-    if (!job)
+    smd_job view;
+    if (!smd_jobs_find(srv, req->id, req->who.tenant, req->who.admin, &view))
         return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
-    if (state != SM_JOB_SUCCESSFUL) {
-        const char *what = state == SM_JOB_ACCEPTED ? "is queued"
-                           : state == SM_JOB_RUNNING ? "is running"
-                           : state == SM_JOB_FAILED  ? "failed"
+    if (view.state != SM_JOB_SUCCESSFUL) {
+        const char *what = view.state == SM_JOB_ACCEPTED ? "is queued"
+                           : view.state == SM_JOB_RUNNING ? "is running"
+                           : view.state == SM_JOB_FAILED  ? "failed"
                                                      : "was dismissed";
         return smd_reply_problem(conn, req, 409, SMD_PROBLEM_RESULT_NOT_READY,
                                  "job %s %s: it has no map to warp through (only a successful "
@@ -391,10 +389,8 @@ static enum MHD_Result warp_refused(struct MHD_Connection *conn, smd_request *re
         return smd_reply_problem(conn, req, 503, SMD_PROBLEM_UNAVAILABLE, "%s", r->msg);
     }
     if (r->stage == STAGE_MAP_OPEN) {
-        pthread_mutex_lock(&srv->lock);
         int gone = r->status == SM_ERR_IO &&
-                   !smd_store_get_visible(srv->store, req->id, req->who.tenant, req->who.admin);
-        pthread_mutex_unlock(&srv->lock);
+                   !smd_jobs_find(srv, req->id, req->who.tenant, req->who.admin, NULL);
         if (gone)
             return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NO_SUCH_JOB, "no job %s", req->id);
         return smd_reply_problem(conn, req, 500, SMD_PROBLEM_INTERNAL,

@@ -15,7 +15,7 @@
  * memory, at most --max-upload bytes and 64 MiB (413, before reading it
  * when Content-Length says so), counted by --max-body-memory (503 past
  * it).  Once it is in, the connection is suspended and the warp runs in
- * a check child (api/smd_check.h: forked, --check-timeout, --memory-limit):
+ * a check child (jobs/smd_check.h: forked, --check-timeout, --memory-limit):
  * the job layer's use case (job/sm_job_warp.h) reads the body within
  * --max-vertices, --max-elements and --max-inflated, the map from the
  * job's results, and writes the answer to a temporary file that the

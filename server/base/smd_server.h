@@ -62,10 +62,10 @@ typedef struct smd_server {
     struct smd_pool *pool;
     struct smd_pg_node *cluster; /* --database: PostgreSQL's node (store/pg/smd_pg_node.h), or
                                   * NULL; only store/pg and main use it */
-    struct smd_events *events;  /* the event streams' own state (api/smd_stream.c) */
+    struct smd_events *events;  /* the event followers' own state (jobs/smd_follow.c) */
     /* Lock NOT held: the jobs that changed (ids) and the keepalive tick,
      * from smd_jobs_after_run.  Installed by main before any thread
-     * starts (smd_stream_jobs_changed: their followers are resumed), so
+     * starts (smd_follow_jobs_changed: their followers are resumed), so
      * the engine wakes no connection itself; NULL: nobody follows. */
     void (*jobs_changed)(struct smd_server *srv, const char (*ids)[SMD_ID_LEN + 1], size_t n,
                          int keepalive);

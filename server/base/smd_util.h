@@ -68,6 +68,14 @@ int smd_rmtree(const char *path);
  * buffer.  Returns 0, or -1 with errno (EFBIG when larger than max). */
 int smd_read_file(const char *path, size_t max, char **out, size_t *len);
 
+/* FNV-1a (64 bits) over n bytes, from h (SMD_FNV_OFFSET to start): a
+ * cheap fingerprint of the daemon's own files and requests, not a
+ * defence against someone who writes them. */
+#define SMD_FNV_OFFSET 0xcbf29ce484222325ULL
+uint64_t smd_fnv1a(uint64_t h, const void *data, size_t n);
+/* The same over a whole file: 0, or -1 with errno set. */
+int smd_fnv1a_file(uint64_t *h, const char *path);
+
 /* A growable text buffer: *buf (malloc'd, NULL to start) holds *len bytes
  * and a NUL in *cap bytes.  Appends n bytes of data (smd_buf_append) or
  * formatted text (smd_buf_printf), doubling the capacity as needed.  0,

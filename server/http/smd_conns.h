@@ -96,7 +96,7 @@ int smd_conns_request(struct MHD_Connection *conn, int receiving);
  * the same address when that address is at --max-streams-per-ip, else
  * the oldest of the address most over its fair share of the total (its
  * own included): *evict is its connection, no longer counted, which the
- * caller must end (smd_stream_evict).  Refused when no address is over
+ * caller must end (smd_follow_evict).  Refused when no address is over
  * its share, or the cap is full of request bodies. */
 int smd_conns_stream(struct MHD_Connection *conn, struct MHD_Connection **evict);
 /* Body bytes received so far by the request. */

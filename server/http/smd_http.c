@@ -103,6 +103,17 @@ static enum MHD_Result preflight(struct MHD_Connection *conn, smd_request *req)
     return smd_reply(conn, req, 204, resp);
 }
 
+smd_auth_result smd_http_identify(smd_server *srv, const char *authorization, const char *token,
+                                  smd_identity *who)
+{
+    pthread_mutex_lock(&srv->tokens_lock);
+    smd_auth_result a = !srv->tokens ? SMD_AUTH_OK
+                        : token      ? smd_tokens_identify_token(srv->tokens, token, who)
+                                     : smd_tokens_identify(srv->tokens, authorization, who);
+    pthread_mutex_unlock(&srv->tokens_lock);
+    return a;
+}
+
 /* The request's tenant from its credentials: the Authorization header,
  * or on GET and HEAD the access_token query parameter (RFC 6750 2.3: what
  * EventSource and download links can send).  MHD hands the handlers the
@@ -116,11 +127,7 @@ static smd_auth_result authenticate(struct MHD_Connection *conn, smd_request *re
     const char *token = NULL;
     if (!auth && (smd_method_bit(req->method) & SMD_METHOD_READ))
         token = MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, "access_token");
-    pthread_mutex_lock(&srv->tokens_lock);
-    smd_auth_result a = token ? smd_tokens_identify_token(srv->tokens, token, &req->who)
-                              : smd_tokens_identify(srv->tokens, auth, &req->who);
-    pthread_mutex_unlock(&srv->tokens_lock);
-    return a;
+    return smd_http_identify(srv, auth, token, &req->who);
 }
 
 /* DNS rebinding: a page of a name the attacker controls, resolved to this

@@ -21,6 +21,7 @@
 
 #include "shapematch/sm_error.h"
 #include "base/smd_server.h"
+#include "http/smd_auth.h"
 #include "http/smd_reply.h"
 
 /* What the front serves, from above (api/smd_route_table.c: smd_api), so
@@ -45,11 +46,18 @@ typedef struct smd_http_app {
     void (*close)(smd_server *srv);
 } smd_http_app;
 
+/* A credential (the Authorization header, else a bare token; NULL when
+ * absent) against the daemon's current tokens, taking tokens_lock (SIGHUP
+ * replaces them); fills who (may be NULL) as smd_tokens_identify.
+ * SMD_AUTH_OK when the daemon has no tokens.  After srv->lock or alone. */
+smd_auth_result smd_http_identify(smd_server *srv, const char *authorization, const char *token,
+                                  smd_identity *who);
+
 sm_status smd_http_start(smd_server *srv, const smd_http_app *app, sm_error *err);
 /* Stops accepting connections (the listening socket is closed). */
 void smd_http_quiesce(smd_server *srv);
 /* Closes every connection and stops the threads.  Every event stream
- * must have been resumed (smd_stream_end_all) before. */
+ * must have been resumed (smd_follow_end_all) before. */
 void smd_http_stop(smd_server *srv);
 
 #endif

@@ -1,11 +1,13 @@
 /* The engine's use cases for the handlers (see smd_usecases.h). */
 #include "jobs/smd_usecases.h"
+#include "jobs/smd_follow.h"
 #include "jobs/smd_pool.h"
 #include "worker/smd_worker.h"
 
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
+#include <stdlib.h>
 #include <string.h>
 
 sm_status smd_jobs_create(smd_server *srv, smd_submission *sub, smd_job *view, int *created,
@@ -145,4 +147,78 @@ int smd_jobs_shared(smd_server *srv, const char *batch, const char *id)
     }
     pthread_mutex_unlock(&srv->lock);
     return shared;
+}
+
+int smd_jobs_list(smd_server *srv, const char *tenant, int admin, unsigned states, int64_t offset,
+                  int64_t limit, smd_job **views, size_t *nviews, int64_t *matched)
+{
+    *nviews = 0;
+    *matched = 0;
+    pthread_mutex_lock(&srv->lock);
+    size_t n = smd_store_count(srv->store);
+    size_t cap = (size_t)limit < n ? (size_t)limit : n;
+    *views = malloc((cap ? cap : 1) * sizeof **views);
+    for (size_t k = 0; k < n && *views; k++) { /* oldest first */
+        const smd_job *job = smd_store_at(srv->store, k);
+        if ((states && !(states & (1u << job->state))) || !smd_job_visible(job, tenant, admin))
+            continue;
+        if (*matched >= offset && *nviews < cap)
+            smd_job_view(job, &(*views)[(*nviews)++]);
+        ++*matched;
+    }
+    pthread_mutex_unlock(&srv->lock);
+    return *views ? 0 : -1;
+}
+
+void smd_jobs_gauges(smd_server *srv, smd_gauges *g)
+{
+    pthread_mutex_lock(&srv->lock);
+    for (size_t i = 0; i < smd_store_count(srv->store); i++) {
+        unsigned s = (unsigned)smd_store_at(srv->store, i)->state;
+        if (s < SMD_JOB_STATES)
+            g->jobs_by_state[s]++;
+    }
+    g->queue_depth = smd_queue_depth(srv->queue);
+    g->workers_busy = smd_pool_busy(srv->pool);
+    g->workers_total = smd_pool_slots(srv->pool);
+    g->followers = smd_follow_count(srv);
+    g->quarantined = smd_store_quarantined(srv->store);
+    pthread_mutex_unlock(&srv->lock);
+}
+
+static int job_unfinished(const char *id, void *store)
+{
+    smd_job *job = smd_store_get(store, id);
+    return job && !smd_job_state_final(job->state);
+}
+
+size_t smd_jobs_unfinished(smd_server *srv, const char *owner,
+                           size_t (*count)(void *ctx, int (*live)(const char *id, void *arg),
+                                           void *arg),
+                           void *ctx)
+{
+    size_t n = 0;
+    pthread_mutex_lock(&srv->lock);
+    if (!owner) {
+        n = count(ctx, job_unfinished, srv->store);
+    } else {
+        size_t all = smd_store_count(srv->store);
+        for (size_t i = 0; i < all; i++) {
+            const smd_job *job = smd_store_at(srv->store, i);
+            n += strcmp(job->owner, owner) == 0 && !smd_job_state_final(job->state);
+        }
+    }
+    pthread_mutex_unlock(&srv->lock);
+    return n;
+}
+
+int smd_jobs_inspect(smd_server *srv, const char *id, const char *tenant, int admin,
+                     void (*fn)(smd_server *srv, const smd_job *job, void *ctx), void *ctx)
+{
+    pthread_mutex_lock(&srv->lock);
+    const smd_job *job = smd_store_get_visible(srv->store, id, tenant, admin);
+    if (job)
+        fn(srv, job, ctx);
+    pthread_mutex_unlock(&srv->lock);
+    return job != NULL;
 }

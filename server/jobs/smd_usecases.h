@@ -11,6 +11,7 @@
 #define SMD_USECASES_H
 
 #include "jobs/smd_jobs.h"
+#include "base/smd_metrics.h"
 
 /* A submission the handler checked (an upload, a batch's model job):
  * published into the shared store without the lock, then submitted under
@@ -66,5 +67,32 @@ smd_withdrawn smd_jobs_withdraw(smd_server *srv, const char *tenant, int admin, 
 /* Lock NOT held: 1 when a batch's model job other than `batch` lists job
  * id among its members (the batches this node holds). */
 int smd_jobs_shared(smd_server *srv, const char *batch, const char *id);
+
+/* Lock NOT held: copies of the jobs tenant sees (admin: all), oldest
+ * first, whose state is in the mask `states` (bit 1 << state; 0: any),
+ * from the offset-th match, at most limit of them: *views (malloc'd,
+ * *nviews of them; free() it), *matched every match.  -1 out of memory. */
+int smd_jobs_list(smd_server *srv, const char *tenant, int admin, unsigned states, int64_t offset,
+                  int64_t limit, smd_job **views, size_t *nviews, int64_t *matched);
+
+/* Lock NOT held: the engine's gauges of /metrics (jobs by state, queue,
+ * workers, event followers, quarantined records) into g. */
+void smd_jobs_gauges(smd_server *srv, smd_gauges *g);
+
+/* Lock NOT held: the unfinished jobs of owner (a tenant); owner NULL:
+ * those among the ids count() hands to live() (count(ctx, live, arg)
+ * returns how many were live: the rate limiter's per-address list), with
+ * the lock held meanwhile. */
+size_t smd_jobs_unfinished(smd_server *srv, const char *owner,
+                           size_t (*count)(void *ctx, int (*live)(const char *id, void *arg),
+                                           void *arg),
+                           void *ctx);
+
+/* Lock NOT held: fn(srv, job, ctx) with the lock held, for job id as
+ * tenant sees it: a reading of several records at one instant (a batch's
+ * document over its members).  0 when there is no such job (fn not
+ * called). */
+int smd_jobs_inspect(smd_server *srv, const char *id, const char *tenant, int admin,
+                     void (*fn)(smd_server *srv, const smd_job *job, void *ctx), void *ctx);
 
 #endif

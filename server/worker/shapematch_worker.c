@@ -255,6 +255,19 @@ static int write_outputs(worker *w, const sm_job_inputs *in, const sm_job_run *r
 
 /* ---------------------------------------------------------------- main */
 
+/* The background and distance the upload's check kept (smd_job_file.h),
+ * when job.json names them and its key is this job's (the same inputs,
+ * params and daemon version): 1 with their paths, else 0 (built here). */
+static int checked_of(const worker *w, const smd_job_file *jf, char path[2][PATH_MAX])
+{
+    char key[SMD_JOB_KEY_LEN + 1];
+    if (!jf->checked_key[0] || smd_job_file_inputs_key(w->job_dir, jf, key) != 0 ||
+        strcmp(key, jf->checked_key) != 0)
+        return 0;
+    return smd_pathf(path[0], PATH_MAX, "%s/%s", w->job_dir, jf->checked_background) == 0 &&
+           smd_pathf(path[1], PATH_MAX, "%s/%s", w->job_dir, jf->checked_distance) == 0;
+}
+
 /* Reads the inputs job.json (read once, jf) names into in, its params
  * decoded from the object itself: 0, or the exit code (the failure
  * emitted). */
@@ -281,10 +294,26 @@ static int load_job(worker *w, const smd_job_file *jf, sm_job_inputs *in)
                           .landmarks_template = given[SM_PART_TEMPLATE_LANDMARKS],
                           .landmarks_target = given[SM_PART_TARGET_LANDMARKS],
                           .prepare_run = 1};
+    char checked[2][PATH_MAX];
+    if (checked_of(w, jf, checked)) {
+        files.checked_background = checked[0];
+        files.checked_distance = checked[1];
+    }
     sm_status st = sm_job_inputs_load_json(&files, jf->params, in, &err);
+    if (st != SM_OK && st != SM_ERR_NOMEM && files.checked_background) {
+        /* the kept files do not read (a damaged copy): built instead, as
+         * without them; a refusal of the inputs themselves comes again */
+        fprintf(stderr, "shapematch-worker: the checked background is not used: %s\n", err.msg);
+        files.checked_background = files.checked_distance = NULL;
+        sm_error_clear(&err);
+        st = sm_job_inputs_load_json(&files, jf->params, in, &err);
+    }
     if (st != SM_OK)
         return fail(w, st == SM_ERR_NOMEM ? SMD_WORKER_EXIT_NOMEM : SMD_WORKER_EXIT_INPUT, "%s",
                     err.msg);
+    if (in->checked_reused) /* in worker.log: what a test and an operator look for */
+        fprintf(stderr, "shapematch-worker: the background and distance of the upload's check "
+                        "are reused (%s)\n", jf->checked_background);
     return 0;
 }
 

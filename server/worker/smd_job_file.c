@@ -24,6 +24,11 @@ char *smd_job_file_encode(const smd_job_file *f, int indent)
         bad = json_object_set(doc, sm_part_name(SM_PART_PARAMS), f->params) != 0;
     if (!bad && f->batch)
         bad = json_object_set(doc, "batch", f->batch) != 0;
+    if (!bad && f->checked_key[0])
+        bad = json_object_set_new(doc, "checked",
+                                  json_pack("{s:s,s:s,s:s}", "key", f->checked_key, "background",
+                                            f->checked_background, "distance",
+                                            f->checked_distance)) != 0;
     char *text = bad ? NULL : sm_json_dumps(doc, indent);
     json_decref(doc);
     return text;
@@ -89,6 +94,22 @@ static int safe_relative(const char *rel)
     return rel[0] && rel[0] != '/' && !strstr(rel, "..") && strlen(rel) < PATH_MAX;
 }
 
+/* A description's "checked" member into f: NULL, or what is wrong. */
+static const char *checked_problem(const json_t *c, smd_job_file *f)
+{
+    const char *key = json_string_value(json_object_get(c, "key"));
+    const char *bg = json_string_value(json_object_get(c, "background"));
+    const char *d = json_string_value(json_object_get(c, "distance"));
+    if (!json_is_object(c) || json_object_size(c) != 3 || !key || !bg || !d ||
+        strlen(key) != SMD_JOB_KEY_LEN || strspn(key, "0123456789abcdef") != SMD_JOB_KEY_LEN ||
+        !safe_relative(bg) || !safe_relative(d))
+        return "checked";
+    snprintf(f->checked_key, sizeof f->checked_key, "%s", key);
+    snprintf(f->checked_background, sizeof f->checked_background, "%s", bg);
+    snprintf(f->checked_distance, sizeof f->checked_distance, "%s", d);
+    return NULL;
+}
+
 sm_status smd_job_file_parse(const char *text, size_t len, smd_job_file *f, sm_error *err)
 {
     memset(f, 0, sizeof *f);
@@ -111,8 +132,11 @@ sm_status smd_job_file_parse(const char *text, size_t len, smd_job_file *f, sm_e
     }
     json_t *params = json_object_get(doc, sm_part_name(SM_PART_PARAMS));
     json_t *batch = json_object_get(doc, "batch");
+    json_t *checked = json_object_get(doc, "checked");
     if (!why && batch)
         why = batch_problem(batch);
+    if (!why && checked)
+        why = checked_problem(checked, f);
     if (!why && !batch && !f->part[SM_PART_TEMPLATE][0])
         why = "template missing";
     if (!why && !json_is_object(params))
@@ -141,6 +165,33 @@ sm_status smd_job_file_read(const char *dir, smd_job_file *f, sm_error *err)
     sm_status st = smd_job_file_parse(text, len, f, err);
     free(text);
     return st;
+}
+
+int smd_job_file_inputs_key(const char *dir, const smd_job_file *f,
+                            char key[SMD_JOB_KEY_LEN + 1])
+{
+    char *params = f->params ? sm_json_dumps(f->params, 0) : NULL;
+    if (!params) {
+        errno = ENOMEM;
+        return -1;
+    }
+    uint64_t h = smd_fnv1a(SMD_FNV_OFFSET, SM_VERSION, sizeof SM_VERSION);
+    h = smd_fnv1a(h, params, strlen(params) + 1);
+    free(params);
+    char path[PATH_MAX];
+    for (int i = 0; i < SM_PART_PARAMS; i++) {
+        if (!f->part[i][0])
+            continue;
+        h = smd_fnv1a(h, &i, sizeof i);
+        if (smd_pathf(path, sizeof path, "%s/%s", dir, f->part[i]) != 0) {
+            errno = ENAMETOOLONG;
+            return -1;
+        }
+        if (smd_fnv1a_file(&h, path) != 0)
+            return -1;
+    }
+    snprintf(key, SMD_JOB_KEY_LEN + 1, "%016llx", (unsigned long long)h);
+    return 0;
 }
 
 void smd_job_file_free(smd_job_file *f)

@@ -3,8 +3,17 @@
  * sides, so the writer and the reader cannot drift:
  *   {"template": "inputs/template.mesh", "target_mesh": ..., "target_sol"
  *    | "target_surface": ..., "template_landmarks", "target_landmarks": ...
- *    (optional), "params": {<sm_job_params_to_jansson>}}
+ *    (optional), "params": {<sm_job_params_to_jansson>},
+ *    "checked": {"key": HEX, "background": ..., "distance": ...} (optional)}
  * Paths are relative to JOB_DIR and stay inside it.
+ *
+ * "checked" (issue 35 item 5): the generated background and the target's
+ * distance on it that the upload's check built (a surface target without
+ * target_mesh and without alignment), kept in the job's inputs/ (binary
+ * Medit .meshb/.solb: every double as computed), so that the worker
+ * reads them instead of building them again.  key fingerprints what they
+ * were built from (smd_job_file_inputs_key): the worker uses them only
+ * when its own key of the job is the same.
  *
  * A batch's model job (server/api/smd_batches.h) has no file part; its
  * description is {"params": {}, "batch": {"align": "none|rigid|similarity",
@@ -21,11 +30,18 @@
 #include "shapematch/sm_error.h"
 #include "sm_proto_vocab.h"
 
+/* A key of smd_job_file_inputs_key: hexadecimal digits. */
+#define SMD_JOB_KEY_LEN 16
+
 typedef struct smd_job_file {
     /* each file part's path relative to the job folder, "" when absent */
     char part[SM_PART_PARAMS][PATH_MAX];
     json_t *params; /* the canonical params object (owned) */
     json_t *batch;  /* a model job's batch object (owned), NULL for a match */
+    /* the check's background and distance (paths as the parts'), and
+     * their key; "" when none */
+    char checked_background[PATH_MAX], checked_distance[PATH_MAX];
+    char checked_key[SMD_JOB_KEY_LEN + 1];
 } smd_job_file;
 
 /* Bounds of a batch description (also the daemon's hard ceiling on
@@ -54,6 +70,13 @@ sm_status smd_job_file_read(const char *dir, smd_job_file *f, sm_error *err);
 
 /* The same from the text of a description (len bytes, no NUL needed). */
 sm_status smd_job_file_parse(const char *text, size_t len, smd_job_file *f, sm_error *err);
+
+/* The fingerprint of what a checked background is built from: the
+ * daemon's version, f's params (as encoded) and the bytes of each of f's
+ * input files under dir, into key.  0, or -1 with errno set (a file
+ * unreadable). */
+int smd_job_file_inputs_key(const char *dir, const smd_job_file *f,
+                            char key[SMD_JOB_KEY_LEN + 1]);
 
 void smd_job_file_free(smd_job_file *f);
 

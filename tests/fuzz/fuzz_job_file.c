@@ -1,8 +1,9 @@
 /* job.json's reader (server/worker/smd_job_file.c): any bytes are refused or
  * give a description whose paths stay inside the job folder and whose
  * params are an object, with a template or (a batch's model job) a batch
- * whose member names are valid; an accepted one encodes and reads back
- * the same, compact and indented. */
+ * whose member names are valid, and a "checked" background whose paths
+ * stay inside it too; an accepted one encodes and reads back the same,
+ * compact and indented. */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -23,6 +24,10 @@ static void same_again(const smd_job_file *f, int indent)
     for (int i = 0; i < SM_PART_PARAMS; i++)
         if (strcmp(f->part[i], g.part[i]) != 0)
             abort();
+    if (strcmp(f->checked_key, g.checked_key) != 0 ||
+        strcmp(f->checked_background, g.checked_background) != 0 ||
+        strcmp(f->checked_distance, g.checked_distance) != 0)
+        abort();
     if (!json_equal(f->params, g.params) || !f->batch != !g.batch ||
         (f->batch && !json_equal(f->batch, g.batch)))
         abort();
@@ -35,7 +40,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     static smd_job_file f; /* 16 KiB of paths: kept off the fuzzer's stack */
     sm_error err;
     if (smd_job_file_parse((const char *)data, size, &f, &err) != SM_OK) {
-        if (f.params || f.batch || f.part[SM_PART_TEMPLATE][0])
+        if (f.params || f.batch || f.part[SM_PART_TEMPLATE][0] || f.checked_key[0])
             abort();
         return 0;
     }
@@ -49,6 +54,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     for (int i = 0; i < SM_PART_PARAMS; i++)
         if (f.part[i][0] == '/' || strstr(f.part[i], ".."))
             abort();
+    if (f.checked_key[0] && (f.checked_background[0] == '/' || strstr(f.checked_background, "..") ||
+                             f.checked_distance[0] == '/' || strstr(f.checked_distance, "..") ||
+                             strlen(f.checked_key) != SMD_JOB_KEY_LEN))
+        abort();
     same_again(&f, 0);
     same_again(&f, 2);
     smd_job_file_free(&f);

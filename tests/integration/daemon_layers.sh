@@ -9,6 +9,7 @@
 #   - base/ includes no other folder
 #   - only http/ includes <microhttpd.h>; only store/pg/ <libpq-fe.h>
 #   - no include circle between folders
+#   - no handler (api/) computes a warp or takes a lock
 # The folder graph is printed as TAP comments.  The rules are also run on
 # a small tree that breaks each of them once, and must fail there: a
 # rule that cannot fail checks nothing.
@@ -122,22 +123,44 @@ if [ -z "$bad" ] && ls "$ROOT"/server/jobs/*.c >/dev/null 2>&1; then
 else
     not_ok "the job engine includes no HTTP or API header" "$bad"
 fi
+# A rule over the handlers' source (api/, and http/ where said): the
+# calls it forbids, found by FINDER, must be none in the tree, and FINDER
+# must fire on a file that breaks the rule (a rule that cannot fail
+# checks nothing).  api_rule NAME FINDER BAD-LINE FILES...
+api_rule() {
+    local name=$1 finder=$2 line=$3 found fired handler
+    shift 3
+    found=$("$finder" "$@")
+    handler=$(mktemp "${TMPDIR:-/tmp}/sm-layers-handler-XXXXXX")
+    printf '%s\n' "$line" >"$handler"
+    fired=$("$finder" "$handler")
+    rm -f "$handler"
+    if [ -z "$found" ] && [ -n "$fired" ]; then
+        ok "$name"
+    else
+        not_ok "$name" "sites: $(echo $found | head -c 300); fires on a bad file: ${fired:-no}"
+    fi
+}
 # no handler parses or computes a warp (issues 36, 37): api/ and http/
 # call the job layer's use case (job/sm_job_warp.h) in a check child, never
 # core's warp or a mesh, surface, field, image or points reader itself.
-# The rule is run on a file that breaks it too, and must fire there.
 computes_warp() { # FILES...: the calls, one per line
     grep -nE '\b(sm_warp_[a-z_]+|sm_(mesh|surface|sol|image)_read[a-z_]*|sm_points_[a-z_]+)[[:space:]]*\(' "$@" \
         /dev/null | sed "s|^$ROOT/||"
 }
-calls=$(computes_warp "$ROOT"/server/api/*.c "$ROOT"/server/http/*.c)
-handler=$(mktemp "${TMPDIR:-/tmp}/sm-layers-handler-XXXXXX")
-printf 'static void h(void) { sm_warp_points(w, 0, 0, 1, x, y, 0, 0, 0); }\n' >"$handler"
-fired=$(computes_warp "$handler")
-rm -f "$handler"
-if [ -z "$calls" ] && [ -n "$fired" ]; then
-    ok "no handler computes a warp or reads a mesh (api/, http/ call the job layer in a check child)"
-else
-    not_ok "no handler computes a warp" "calls: $(echo $calls | head -c 300); fires on a bad file: ${fired:-no}"
-fi
+api_rule "no handler computes a warp or reads a mesh (api/, http/ call the job layer in a check child)" \
+    computes_warp 'static void h(void) { sm_warp_points(w, 0, 0, 1, x, y, 0, 0, 0); }' \
+    "$ROOT"/server/api/*.c "$ROOT"/server/http/*.c
+# the handlers take no lock of the engine (issue 36): srv->lock, the
+# tokens' or any other mutex is taken by a use case of jobs/ (or http/'s
+# smd_http_identify), never in api/, so the protocols under a lock are
+# written once, beside the state they guard.  No site is allowed: a new
+# one is a use case to add.
+takes_lock() { # FILES...: the lock calls, one per line
+    grep -nE '\bpthread_(mutex_(lock|trylock|timedlock)|rwlock_[a-z]*lock|cond_[a-z]*wait)[[:space:]]*\(' \
+        "$@" /dev/null | sed "s|^$ROOT/||"
+}
+api_rule "no handler takes a lock (api/ calls the engine's use cases: jobs/smd_usecases.h, jobs/smd_follow.h)" \
+    takes_lock 'static void h(smd_server *srv) { pthread_mutex_lock(&srv->lock); }' \
+    "$ROOT"/server/api/*.c "$ROOT"/server/api/*.h
 echo "1..$n"

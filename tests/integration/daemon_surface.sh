@@ -10,6 +10,10 @@
 #   - target_surface with target_sol is a 422 naming the conflict; a
 #     malformed STL a 422 naming the part; no target at all a 400 naming
 #     the missing part;
+#   - the generated background and distance the check built are kept
+#     (inputs/checked, job.json's "checked") and reused by the worker;
+#     the results are byte-identical to the worker's own build (none
+#     kept, a stale key, a damaged file); none kept with target_mesh;
 #   - `shapematch submit --target-surface S --wait` end to end;
 #   - the process description lists target_surface;
 #   - params background_size / background_padding size the generated
@@ -96,6 +100,63 @@ PY
 )
 check "the summary has the health report; $msg" test $? = 0
 
+# ------------------ the check's background and distance, reused (issue 35)
+# the upload's check built the background and the distance: kept in the
+# job's inputs/ and named in job.json with the key of the inputs, and the
+# worker read them instead of building them again
+if jq -e '.checked.background == "inputs/checked/background.meshb" and
+          .checked.distance == "inputs/checked/distance.solb" and (.checked.key | length) == 16' \
+    "$JOB/job.json" >/dev/null && [ -s "$JOB/inputs/checked/background.meshb" ] &&
+    [ -s "$JOB/inputs/checked/distance.solb" ] &&
+    grep -q "are reused (inputs/checked/background.meshb)" "$JOB/worker.log"; then
+    ok "the check's background and distance are kept in inputs/checked and reused by the worker"
+else
+    not_ok "the check's background and distance are kept and reused" \
+        "$(jq -c .checked "$JOB/job.json" 2>&1; ls "$JOB/inputs" "$JOB/inputs/checked" 2>&1; tail -3 "$JOB/worker.log")"
+fi
+# the same job run again by the worker program on copies of its folder:
+# with the kept files (reused), without them (built) and with a key that
+# is not the job's (built): the result files are the same to the byte,
+# and the daemon's too
+# (job.json through sed, not jq: the key covers the params as written)
+worker_copy() { # NAME SED-SCRIPT: runs the worker on a copy whose job.json went through sed
+    local dir=$WORK/again-$1
+    rm -rf "$dir"
+    mkdir -p "$dir"
+    cp -r "$JOB/inputs" "$dir/"
+    sed "$2" "$JOB/job.json" >"$dir/job.json"
+    OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 "$BIN/shapematch-worker" "$dir" 3>/dev/null \
+        2>"$dir/worker.log"
+}
+worker_copy kept '' && worker_copy none 's/"checked"/"unchecked"/' &&
+    worker_copy stale 's/"key": "[0-9a-f]*"/"key": "0000000000000000"/'
+same=1
+for f in result.meshb displacement.solb result.mesh displacement.sol; do
+    for v in kept none stale; do
+        cmp -s "$JOB/results/$f" "$WORK/again-$v/results/$f" || same=0
+    done
+done
+if [ "$same" = 1 ] && grep -q 'are reused' "$WORK/again-kept/worker.log" &&
+    ! grep -q 'are reused' "$WORK/again-none/worker.log" &&
+    ! grep -q 'are reused' "$WORK/again-stale/worker.log"; then
+    ok "results with the reused background and distance are byte-identical to those built again (none kept, a stale key)"
+else
+    not_ok "results with and without the reused distance are byte-identical" \
+        "same $same; $(tail -2 "$WORK"/again-*/worker.log)"
+fi
+# a damaged kept file: the worker builds them instead (same results)
+worker_copy damaged '' >/dev/null 2>&1
+printf 'damaged' >"$WORK/again-damaged/inputs/checked/distance.solb"
+rm -rf "$WORK/again-damaged/results"
+OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 "$BIN/shapematch-worker" "$WORK/again-damaged" 3>/dev/null \
+    2>"$WORK/again-damaged/worker.log"
+if cmp -s "$JOB/results/result.meshb" "$WORK/again-damaged/results/result.meshb" &&
+    grep -q 'is not used' "$WORK/again-damaged/worker.log"; then
+    ok "a damaged kept distance is not used: built again, the same results"
+else
+    not_ok "a damaged kept distance is built again" "$(tail -3 "$WORK/again-damaged/worker.log")"
+fi
+
 # ----------------------------- template + target_surface + target_mesh
 code=$(post bg -F "template=@$TPL" -F "target_surface=@$STL" -F "target_mesh=@$BG" -F "params=$PARAMS")
 ID2=$(jq -r '.jobID // empty' "$WORK/bg.json" 2>/dev/null)
@@ -105,6 +166,8 @@ if [ "$code" = 201 ] && [ -n "$ID2" ] && wait_final "$ID2" 120 && state_is "$ID2
          and (.inputs.target_mesh | startswith("inputs/target_mesh."))' \
         "$SPOOL/jobs/$ID2/results/summary.json" >/dev/null; then
     ok "template + target_surface + target_mesh: successful, the distance on the given background"
+    jq -e 'has("checked") | not' "$SPOOL/jobs/$ID2/job.json" >/dev/null
+    check "with target_mesh the check keeps no background (nothing generated)" test $? = 0
 else
     not_ok "template + target_surface + target_mesh" "code $code, state $(job_state "$ID2")" \
         "$(cat "$WORK/bg.json" "$SPOOL/jobs/$ID2/results/summary.json" 2>/dev/null | head -c 800)"

@@ -17,7 +17,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "api/smd_check.h"
+#include "jobs/smd_check.h"
 #include "shapematch/sm_clock.h"
 
 #define NTASKS (SMD_CHECK_WAITING_PER_CLIENT + 8)

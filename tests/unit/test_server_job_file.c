@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #include <cmocka.h>
 
@@ -101,6 +102,81 @@ static void test_refused(void **state)
     smd_job_file_free(&f);
 }
 
+/* The check's kept background (issue 35): "checked" written and read
+ * back; its key follows the input files' bytes and the params, and is
+ * the same for the same folder; a malformed member is refused. */
+static void test_checked(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/sm-test-jobfile-XXXXXX", sub[64], path[128];
+    assert_non_null(mkdtemp(dir));
+    snprintf(sub, sizeof sub, "%s/inputs", dir);
+    assert_int_equal(mkdir(sub, 0700), 0);
+    const char *names[] = {"template.mesh", "target.stl"};
+    for (int i = 0; i < 2; i++) {
+        snprintf(path, sizeof path, "%s/%s", sub, names[i]);
+        FILE *fp = fopen(path, "w");
+        assert_non_null(fp);
+        fprintf(fp, "bytes of %s\n", names[i]);
+        fclose(fp);
+    }
+    smd_job_file *f = example();
+    char key[SMD_JOB_KEY_LEN + 1], again[SMD_JOB_KEY_LEN + 1];
+    assert_int_equal(smd_job_file_inputs_key(dir, f, key), 0);
+    assert_int_equal(strlen(key), SMD_JOB_KEY_LEN);
+    assert_int_equal(smd_job_file_inputs_key(dir, f, again), 0);
+    assert_string_equal(key, again);
+    snprintf(f->checked_key, sizeof f->checked_key, "%s", key);
+    snprintf(f->checked_background, PATH_MAX, "inputs/checked/background.meshb");
+    snprintf(f->checked_distance, PATH_MAX, "inputs/checked/distance.solb");
+    assert_int_equal(smd_job_file_write(dir, f), 0);
+    smd_job_file g;
+    sm_error err;
+    assert_int_equal(smd_job_file_read(dir, &g, &err), SM_OK);
+    assert_string_equal(g.checked_key, key);
+    assert_string_equal(g.checked_background, "inputs/checked/background.meshb");
+    assert_string_equal(g.checked_distance, "inputs/checked/distance.solb");
+    /* the worker's key of what it read back is the check's */
+    assert_int_equal(smd_job_file_inputs_key(dir, &g, again), 0);
+    assert_string_equal(again, key);
+    smd_job_file_free(&g);
+    /* one byte of an input, or one param, changes it */
+    snprintf(path, sizeof path, "%s/target.stl", sub);
+    FILE *fp = fopen(path, "a");
+    fputc('x', fp);
+    fclose(fp);
+    assert_int_equal(smd_job_file_inputs_key(dir, f, again), 0);
+    assert_string_not_equal(again, key);
+    unlink(path);
+    assert_int_equal(smd_job_file_inputs_key(dir, f, again), -1); /* a file gone */
+    static const char *const bad[] = {
+        "{\"template\": \"t\", \"params\": {}, \"checked\": 1}",
+        "{\"template\": \"t\", \"params\": {}, \"checked\": {\"key\": \"00\", "
+        "\"background\": \"b\", \"distance\": \"d\"}}", /* short key */
+        "{\"template\": \"t\", \"params\": {}, \"checked\": {\"key\": \"000000000000000G\", "
+        "\"background\": \"b\", \"distance\": \"d\"}}", /* not hexadecimal */
+        "{\"template\": \"t\", \"params\": {}, \"checked\": {\"key\": \"0000000000000000\", "
+        "\"background\": \"../b\", \"distance\": \"d\"}}", /* leaves the folder */
+        "{\"template\": \"t\", \"params\": {}, \"checked\": {\"key\": \"0000000000000000\", "
+        "\"background\": \"b\"}}", /* no distance */
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        assert_int_equal(smd_job_file_parse(bad[i], strlen(bad[i]), &g, &err), SM_ERR_FORMAT);
+        assert_string_equal(g.checked_key, "");
+        assert_non_null(strstr(err.msg, "checked"));
+    }
+    smd_job_file_free(f);
+    free(f);
+    for (int i = 0; i < 2; i++) {
+        snprintf(path, sizeof path, "%s/%s", sub, names[i]);
+        unlink(path);
+    }
+    snprintf(path, sizeof path, "%s/job.json", dir);
+    unlink(path);
+    rmdir(sub);
+    rmdir(dir);
+}
+
 /* A batch's model job: no template, a batch object; encoded and read
  * back whole; a malformed batch (bad alignment, no members, a bad id, a
  * name with '/' or a control character, "..") refused. */
@@ -151,6 +227,7 @@ int main(void)
         cmocka_unit_test(test_round_trip),
         cmocka_unit_test(test_refused),
         cmocka_unit_test(test_batch),
+        cmocka_unit_test(test_checked),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

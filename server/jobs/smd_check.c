@@ -1,5 +1,5 @@
 /* Check threads and their child processes (see smd_check.h). */
-#include "api/smd_check.h"
+#include "jobs/smd_check.h"
 
 #include <errno.h>
 #include <fcntl.h>

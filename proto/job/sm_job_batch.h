@@ -64,6 +64,12 @@ typedef struct sm_batch_outcome {
     double targets_seconds, model_seconds, total_seconds;
     int model_built;
     int cancelled;            /* opts->cancel was set */
+    int cores;                /* counted when the batch started */
+    int jobs;                 /* children at a time: opts->jobs, at most
+                               * the targets and the cores */
+    int threads;              /* each child's OpenMP/BLAS limit */
+    int warm_start;           /* params warm_start */
+    int shared_backgrounds;   /* target meshes read once for several targets */
     char model_error[SM_ERROR_MSG_LEN];
 } sm_batch_outcome;
 

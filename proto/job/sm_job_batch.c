@@ -395,8 +395,9 @@ static int target_ok(const target_state *t)
 }
 
 /* A target's start: the target whose map it started from (null: the
- * template), the records measured, both sides' RMS distance of the
- * template and of the start taken, and the time the choice took. */
+ * template), the records measured, the RMS of the target's distance at
+ * the boundary's vertices of the template and of the start taken, and
+ * the time the choice took. */
 static json_t *start_doc(const sm_job_warm *w)
 {
     json_t *d = json_object();

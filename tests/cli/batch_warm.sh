@@ -9,6 +9,8 @@
 #     10%; fewer iterations in total; the targets that started warm name
 #     the target they started from, whose start was nearer than the
 #     template; the warm folder gone after the batch;
+#   - the same with --align similarity (each map carried to the next
+#     target's frame through both alignments);
 #   - cold = the separate `run`s: result.mesh and displacement.sol equal
 #     byte for byte;
 #   - two targets naming one background (mesh + sol) read it once, with
@@ -103,6 +105,19 @@ if out=$($PY warm_check.py w0 w1 axes.txt 2>&1); then
     ok "warm starts: two-sided figures and exact distances within 10% of cold, fewer iterations ($out)"
 else
     not_ok "warm starts: two-sided figures and exact distances within 10% of cold, fewer iterations" "$out"
+fi
+
+# with an alignment: each map carried through both targets' transforms
+for w in 0 1; do
+    "$BIN" batch --template "$T" --targets list.csv "${CLAMP[@]}" --align similarity --jobs 1 \
+        --warm-start $w --no-model -q -o "a$w" >/dev/null 2>"aerr$w.txt" ||
+        echo "batch --align similarity --warm-start $w failed" >>"aerr$w.txt"
+done
+if out=$($PY warm_check.py a0 a1 axes.txt 2>&1); then
+    ok "--align similarity: warm starts carried through the alignments, within 10% of cold, fewer iterations ($out)"
+else
+    not_ok "--align similarity: warm starts within 10% of cold, fewer iterations" \
+        "$out $(cat aerr0.txt aerr1.txt)"
 fi
 
 # cold = separate runs, byte for byte

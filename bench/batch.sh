@@ -1,19 +1,29 @@
 #!/usr/bin/env bash
 # `make bench` (and `make bench-batch`), populations (docs/populations.md):
-# 16 targets on examples/3d's template (its background mesh, with 16
-# ellipsoid-like level sets of semi-axes 0.3 (s1, s2, 1), s1, s2 in
-# [0.85, 1.15], made here), run as 16 separate `shapematch run`s (one
-# after another, and two at a time) and as one `shapematch batch` (--jobs
-# 1 and 2): wall times and their ratios (goal: batch <= 0.6x the separate
-# runs), the peak memory of the batch (the sum of the proportional set
-# sizes, PSS, of its processes, sampled every 20 ms: shared copy-on-write
-# pages counted once) against 16x a single run's peak; then the model's
-# build time for N = 16 (from the batch) and, synthetic, for N = 1000
-# shapes (BATCH_SYNTH_POINTS points, default 10000) and for N = 16 shapes
-# of 1M points (through the core's sm_shape_model_build, ctypes).
-# Each target stops after BATCH_MAX_ITER iterations (default 40; a full
-# run of the example takes ~270) to keep the benchmark short; the
-# set-up's share, and so the batch's gain, is smaller in full runs.
+# BATCH_TARGETS (default 16) targets on examples/3d's template (its
+# background mesh, with ellipsoid-like level sets of semi-axes 0.3 (s1,
+# s2, 1), s1, s2 in [0.85, 1.15], made here), each run to the default
+# stop rules (BATCH_MAX_ITER caps them, default 500 = the parameter's
+# default), five ways in one bench run, one after another:
+#   runs 1x1     the separate `shapematch run`s one after another
+#   runs 2x      the same two at a time (xargs -P 2)
+#   batch j1     `shapematch batch --jobs 1` (warm starts off)
+#   batch j2     `shapematch batch --jobs 2`, warm starts off
+#   batch j2 w   the same with --warm-start 1
+# For each: wall seconds, CPU seconds (user + sys of the whole process
+# tree, from the rusage of the reaped children: the fair figure on a
+# loaded machine), the peak PSS of the tree (sampled every 50 ms, shared
+# copy-on-write pages counted once) and the load average around it (the
+# machine is shared: the load says how far the figures compare).  Then
+# the ratios (goal, issue 35: batch j2 <= 0.5x runs 2x on an idle
+# machine, and never slower than runs 1x1 on a loaded one), whether the
+# warm-off batch's result.mesh equal the separate runs' byte for byte,
+# and the warm starts' effect: total iterations and each target's
+# two-sided RMS distances against the cold batch's.  BATCH_ROUNDS (default
+# 1) repeats the five in rotated order and reports the medians.  Then the
+# model's build time for N targets (from the batch) and, synthetic, for N
+# = 1000 shapes (BATCH_SYNTH_POINTS points, default 10000) and for N = 16
+# shapes of 1M points (through the core's sm_shape_model_build, ctypes).
 # Figures, not verdicts.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -22,12 +32,14 @@ LIB=$PWD/build/release/libshapematch.so
 PY=/usr/bin/python3
 [ -x "$PY" ] || PY=python3
 W=$PWD/build/bench-batch
-ITER=${BATCH_MAX_ITER:-40}
+NT=${BATCH_TARGETS:-16}
+ITER=${BATCH_MAX_ITER:-500}
+ROUNDS=${BATCH_ROUNDS:-1}
 SYNTH=${BATCH_SYNTH_POINTS:-10000}
 rm -rf "$W" && mkdir -p "$W"
 CLAMP=$(tr -d ' \n' <examples/3d/clamp)
 
-"$PY" - "$W" <<'PY'
+"$PY" - "$W" "$NT" <<'PY'
 import gzip, sys
 import numpy as np
 w = sys.argv[1]
@@ -38,7 +50,7 @@ v = np.array(tok[i + 2:i + 2 + 4 * n], dtype=float).reshape(n, 4)[:, :3] - 0.5
 rng = np.random.default_rng(25)
 with open(w + "/list.csv", "w") as lst:
     lst.write("name,target_mesh,target_sol\n")
-    for k in range(16):
+    for k in range(int(sys.argv[2])):
         s1, s2 = rng.uniform(0.85, 1.15, 2)
         a = 0.3 * np.array([s1, s2, 1.0])
         d = (np.sqrt(((v / a) ** 2).sum(1)) - 1) * a.min()
@@ -49,10 +61,11 @@ with open(w + "/list.csv", "w") as lst:
         lst.write("t%02d,%s/examples/3d/background.mesh.gz,t%02d.sol\n" % (k, __import__("os").getcwd(), k))
 PY
 
-# peak.py CMD...: runs CMD, prints "WALL PEAK_PSS_MB" (PSS of the process
-# tree, sampled every 20 ms)
-cat >"$W/peak.py" <<'PY'
-import os, subprocess, sys, time
+# tree.py CMD...: runs CMD, prints "WALL CPU PEAK_PSS_MB LOAD_BEFORE
+# LOAD_AFTER" (CPU: user + sys of every process of the tree, reaped by
+# CMD or its children; PSS of the tree sampled every 50 ms)
+cat >"$W/tree.py" <<'PY'
+import os, resource, subprocess, sys, time
 def tree(root):
     kids = {}
     for p in os.listdir("/proc"):
@@ -76,60 +89,116 @@ def pss(pid):
     except OSError:
         pass
     return 0
+load = lambda: float(open("/proc/loadavg").read().split()[0])
+l0 = load()
+r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
 t0 = time.time()
 proc = subprocess.Popen(sys.argv[1:], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 peak = 0
 while proc.poll() is None:
     peak = max(peak, sum(pss(p) for p in tree(proc.pid)))
-    time.sleep(0.02)
-print("%.2f %.1f" % (time.time() - t0, peak / 1024.0))
+    time.sleep(0.05)
+wall = time.time() - t0
+r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+print("%.2f %.2f %.1f %.2f %.2f" % (wall, cpu, peak / 1024.0, l0, load()))
 sys.exit(proc.returncode)
 PY
 cd "$W"
-OPTS=(--clamp-ball "$CLAMP" --max-iter "$ITER" -q)
 T=$OLDPWD/examples/3d/template.mesh
 BG=$OLDPWD/examples/3d/background.mesh.gz
-read -r single_wall single_pss < <("$PY" peak.py "$BIN" run --template "$T" --target-mesh "$BG" \
-    --target-sol t00.sol "${OPTS[@]}" -o single || true)
-t0=$EPOCHREALTIME
-for k in $(seq -w 0 15); do
-    "$BIN" run --template "$T" --target-mesh "$BG" --target-sol "t$k.sol" "${OPTS[@]}" \
-        -o "sep/t$k" >/dev/null 2>&1 || true
+export BIN T BG CLAMP ITER
+# one separate run: run1 K OUTDIR
+cat >run1.sh <<'SH'
+#!/usr/bin/env bash
+exec "$BIN" run --template "$T" --target-mesh "$BG" --target-sol "t$1.sol" \
+    --clamp-ball "$CLAMP" --max-iter "$ITER" -q -o "$2/t$1" >/dev/null 2>&1
+SH
+chmod +x run1.sh
+names=$(seq -f %02g 0 $((NT - 1)))
+export names
+configs=(seq par b1 b2 b2w)
+cmd_of() { # the command line of a configuration in round $2
+    case $1 in
+    seq) echo "bash -c 'for k in \$names; do ./run1.sh \$k seq$2 || true; done'" ;;
+    par) echo "bash -c 'printf \"%s\\n\" \$names | xargs -P 2 -I{} ./run1.sh {} par$2 || true'" ;;
+    b1) echo "$BIN batch --template $T --targets list.csv --clamp-ball $CLAMP --max-iter $ITER -q --jobs 1 --warm-start 0 -o b1$2" ;;
+    b2) echo "$BIN batch --template $T --targets list.csv --clamp-ball $CLAMP --max-iter $ITER -q --jobs 2 --warm-start 0 -o b2$2" ;;
+    b2w) echo "$BIN batch --template $T --targets list.csv --clamp-ball $CLAMP --max-iter $ITER -q --jobs 2 --warm-start 1 -o b2w$2" ;;
+    esac
+}
+: >times.txt
+for r in $(seq 1 "$ROUNDS"); do
+    for k in $(seq 0 4); do # rotated: each configuration early and late
+        c=${configs[$(((k + r - 1) % 5))]}
+        fig=$(eval "nice $PY tree.py $(cmd_of "$c" "$r")" || true)
+        echo "$c $r $fig" >>times.txt
+    done
 done
-t1=$EPOCHREALTIME
-seq -w 0 15 | xargs -P 2 -I{} "$BIN" run --template "$T" --target-mesh "$BG" \
-    --target-sol "t{}.sol" "${OPTS[@]}" -o "par/t{}" >/dev/null 2>&1 || true
-t2=$EPOCHREALTIME
-read -r b1_wall b1_pss < <("$PY" peak.py "$BIN" batch --template "$T" --targets list.csv \
-    "${OPTS[@]}" --jobs 1 -o batch1 || true)
-read -r b2_wall b2_pss < <("$PY" peak.py "$BIN" batch --template "$T" --targets list.csv \
-    "${OPTS[@]}" --jobs 2 -o batch2 || true)
+# bit for bit: the warm-off batches against separate runs on one thread
+# (a batch's children get one when two run at once; the 3D example's
+# results differ in the last bits between one and two threads, and a
+# separate run takes two when a core is idle), for the first two targets
 same=yes
-for k in $(seq -w 0 15); do
-    cmp -s "sep/t$k/result.mesh" "batch2/targets/t$k/result.mesh" || same=no
+for k in $(echo $names | cut -d' ' -f1-2); do
+    OMP_NUM_THREADS=1 ./run1.sh "$k" one
+    cmp -s "one/t$k/result.mesh" "b21/targets/t$k/result.mesh" || same=no
+    cmp -s "one/t$k/result.mesh" "b11/targets/t$k/result.mesh" || same=no
 done
 
-"$PY" - "$t0" "$t1" "$t2" "$single_wall" "$single_pss" "$b1_wall" "$b1_pss" "$b2_wall" \
-    "$b2_pss" "$same" "$ITER" <<'PY'
-import json, sys
-t0, t1, t2, sw, sp, b1w, b1p, b2w, b2p = map(float, sys.argv[1:10])
-same, it = sys.argv[10], sys.argv[11]
-seq, par = t1 - t0, t2 - t1
-s = json.load(open("batch2/summary.json"))
-m = json.load(open("batch2/model/summary.json"))
-print("batch: 16 targets on examples/3d's template (--max-iter %s), load %s" %
-      (it, open("/proc/loadavg").read().split()[0]))
-print("  16 separate runs, one after another   %7.2f s" % seq)
-print("  16 separate runs, two at a time       %7.2f s" % par)
-print("  batch --jobs 1                        %7.2f s   %.2fx the runs one after another" % (b1w, b1w / seq))
-print("  batch --jobs 2                        %7.2f s   %.2fx the runs two at a time, %.2fx one after another" % (b2w, b2w / par, b2w / seq))
-print("  template set-up (once, in the batch)  %7.2f s   count %d" % (s["template_setup"]["seconds"], s["template_setup"]["count"]))
-print("  result.mesh identical to the separate runs: %s" % same)
-print("  peak PSS: one run %.0f MB, batch --jobs 1 %.0f MB, --jobs 2 %.0f MB (%.2fx one run; 16x = %.0f MB)" %
-      (sp, b1p, b2p, b2p / sp, 16 * sp))
+"$PY" - "$same" "$ITER" "$NT" <<'PY'
+import json, os, statistics, sys
+same, it, nt = sys.argv[1], sys.argv[2], int(sys.argv[3])
+rows = {}
+for line in open("times.txt"):
+    f = line.split()
+    if len(f) == 7:
+        rows.setdefault(f[0], []).append(list(map(float, f[2:])))
+def med(c, k):
+    return statistics.median(r[k] for r in rows[c]) if c in rows else float("nan")
+loads = [x for v in rows.values() for r in v for x in r[3:5]]
+print("batch: %d targets on examples/3d's template (to the stop rules, --max-iter %s), "
+      "load %.1f-%.1f (1-min average, 2 cores, during the five)" % (nt, it, min(loads), max(loads)))
+label = {"seq": "runs one after another", "par": "runs two at a time",
+         "b1": "batch --jobs 1", "b2": "batch --jobs 2", "b2w": "batch --jobs 2 --warm-start 1"}
+for c in ("seq", "par", "b1", "b2", "b2w"):
+    print("  %-32s %7.2f s wall %7.2f s CPU  peak PSS %5.0f MB  load %.1f" %
+          (label[c], med(c, 0), med(c, 1), med(c, 2), med(c, 3)))
+def ratio(a, b):
+    return "%.2fx wall, %.2fx CPU" % (med(a, 0) / med(b, 0), med(a, 1) / med(b, 1))
+print("  batch --jobs 2 / runs two at a time:          %s (goal <= 0.5x idle)" % ratio("b2", "par"))
+print("  batch --jobs 2 / runs one after another:      %s (goal <= 1x loaded)" % ratio("b2", "seq"))
+print("  batch --jobs 1 / runs one after another:      %s" % ratio("b1", "seq"))
+print("  warm on / off (batch --jobs 2):               %s" % ratio("b2w", "b2"))
+print("  warm on / runs two at a time:                 %s" % ratio("b2w", "par"))
+print("  result.mesh of the warm-off batches identical to separate runs on one thread: %s" % same)
+def per_target(d):
+    out = {}
+    for t in json.load(open(d + "/summary.json"))["targets"]:
+        p = "%s/targets/%s/summary.json" % (d, t["name"])
+        if os.path.exists(p):
+            r = json.load(open(p))
+            out[t["name"]] = (r["iterations"], r["distance"]["result_to_target"]["rms"],
+                              r["distance"]["target_to_result"]["rms"], t.get("start") or {})
+    return out
+cold, warm = per_target("b21"), per_target("b2w1")
+common = sorted(set(cold) & set(warm))
+if common:
+    ic = sum(cold[n][0] for n in common)
+    iw = sum(warm[n][0] for n in common)
+    worst = max(max(warm[n][1] / cold[n][1], warm[n][2] / cold[n][2]) for n in common)
+    started = sum(1 for n in common if warm[n][3].get("from"))
+    print("  warm starts: %d of %d targets started from another's map; iterations %d warm, "
+          "%d cold (%.2fx); two-sided RMS warm / cold at most %.3f" %
+          (started, len(common), iw, ic, iw / ic, worst))
+s = json.load(open("b21/summary.json"))
+print("  template set-up once in the batch: %.2f s; shared backgrounds read once: %d; "
+      "cores %d, threads per target %d" % (s["template_setup"]["seconds"],
+      s.get("shared_backgrounds", 0), s.get("cores", 0), s.get("threads_per_target", 0)))
+m = json.load(open("b21/model/summary.json"))
 t = m["timings"]
-print("  model N=16 (%d vertices): read %.3f s, build %.3f s, write %.3f s" %
-      (m["vertices"], t["read"], t["build"], t["write"]))
+print("  model N=%d (%d vertices): read %.3f s, build %.3f s, write %.3f s" %
+      (nt, m["vertices"], t["read"], t["build"], t["write"]))
 PY
 
 "$PY" - "$LIB" "$SYNTH" <<'PY'

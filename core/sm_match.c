@@ -154,6 +154,9 @@ struct sm_match {
                                * i, at best[i % (stall_window + 1)] */
     double elastic_seconds;   /* sm_match_new: its elastic set-up's time */
     int executed;             /* sm_match_execute ran (once only) */
+    int warm;                 /* the descent starts from a given
+                               * displacement (sm_match_set_start), with
+                               * the operator of the template */
 };
 
 static void run_state_free(run_state *rs)
@@ -327,8 +330,8 @@ static sm_status setup_elastic(run_state *rs, sm_error *err)
         .alpha = params->clamp == SM_CLAMP_NONE ? rs->alpha : 0.0,
         .solver = params->solver};
     sm_status st = sm__elasticity_new(rs->mesh, rs->clamped, &eopts, &rs->elasticity, err);
-    if (st == SM_OK)
-        st = sm__elasticity_factorize(rs->elasticity, rs->x, err);
+    if (st == SM_OK) /* on the template, also under a warm start */
+        st = sm__elasticity_factorize(rs->elasticity, rs->mesh->coords, err);
     return st;
 }
 
@@ -612,7 +615,9 @@ static sm_status descend(run_state *rs, const sm_match_callbacks *cb, sm_result 
     sm_timings *tm = &result->time;
     double t0;
     rs->tau = rs->params->step_initial * rs->diameter;
-    rs->since_factor = 0; /* factorized during the set-up */
+    /* factorized during the set-up; on the template, an older mesh than
+     * a warm start's, which a failed step search may then replace */
+    rs->since_factor = rs->warm;
     result->stop = SM_STOP_MAX_ITER;
     for (;;) {
         int why = stop_before_iteration(rs, cb);
@@ -732,6 +737,47 @@ sm_status sm_match_new(const sm_match_opts *opts, sm_match **out, sm_error *err)
     return SM_OK;
 }
 
+sm_status sm_match_set_start(sm_match *m, const double *displacement, sm_error *err)
+{
+    if (!m || !displacement)
+        return sm_error_set(err, SM_ERR_INVALID, "no run or no start displacement");
+    if (m->executed)
+        return sm_error_set(err, SM_ERR_INVALID, "the run was already executed");
+    const sm_mesh *mesh = m->mesh;
+    const int dim = m->dim;
+    for (int32_t v = 0; v < mesh->nverts; v++)
+        for (int c = 0; c < dim; c++) {
+            double u = displacement[(size_t)v * (size_t)dim + (size_t)c];
+            if (!isfinite(u))
+                return sm_error_set(err, SM_ERR_INVALID,
+                                    "start displacement: vertex %ld has a non-finite value",
+                                    (long)v + 1);
+            if (m->clamped[v] && u != 0.0)
+                return sm_error_set(err, SM_ERR_INVALID,
+                                    "start displacement: vertex %ld is in the clamp set but "
+                                    "moves (the clamp holds it at 0)", (long)v + 1);
+        }
+    /* built in trial: x keeps the template until the start is accepted */
+    for (size_t i = 0; i < m->ndof; i++)
+        m->trial[i] = mesh->coords[i] + displacement[i];
+    int32_t worst = -1;
+    double q = sm_mesh_min_quality(mesh, m->trial, &worst);
+    if (!(q > 0.0))
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "start displacement: element %ld is inverted or flat (quality %.3g): "
+                            "a start must keep every element's orientation",
+                            (long)worst + 1, q);
+    if (q < m->floor_q)
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "start displacement: element %ld's quality %.3g is below the "
+                            "quality floor %.3g (min_quality): no step from it could be accepted",
+                            (long)worst + 1, q, m->floor_q);
+    memcpy(m->x, m->trial, m->ndof * sizeof *m->x);
+    m->qmin = q;
+    m->warm = 1;
+    return SM_OK;
+}
+
 void sm_match_free(sm_match *m)
 {
     if (!m)
@@ -812,6 +858,7 @@ sm_status sm_match_run(const sm_match_opts *opts, const sm_match_callbacks *cb,
         (st = check_target(opts->template_mesh->dim, opts->target, err)) != SM_OK)
         return st;
     if ((st = match_alloc(opts, &m, err)) == SM_OK &&
+        (!opts->start || (st = sm_match_set_start(m, opts->start, err)) == SM_OK) &&
         (st = setup_both(m, opts->target, err)) == SM_OK)
         /* set-up is wall time: its parts overlap, so they are not split */
         st = finish_run(m, cb, coords_out, result, sm_clock_seconds() - m->t_start, err);

@@ -116,6 +116,17 @@ static const sm_param_info table[] = {
      NULL, NULL,
      "daemon only: publish the current shape (mesh/latest) every K iterations, and at least "
      "every 0.5 s (0: by time only)", "advanced"},
+    /* 0: warm starts do not pay on the populations measured
+     * (docs/performance.md, bench/batch.sh): a start 3x nearer the
+     * target saves the descent's first ~10 iterations, and the ~130 that
+     * creep to the stall rule remain (3D example onto ellipsoids: 619
+     * iterations warm against 611 cold for 4 targets; 2D ellipses: 288
+     * against 313).  0 is also today's batch, bit for bit separate runs. */
+    {"warm_start", INT(warm_start), RANGE(0, CLOSED, 1, CLOSED), 0, NULL, 0, "--warm-start",
+     "N",
+     "batches, 1: start each target's descent from the finished target's map nearest to it "
+     "(the RMS of its distance at the boundary), when nearer than the template (0: every "
+     "target from the template, as separate runs)", "advanced"},
     {"solver", SM_PARAM_SOLVER, offsetof(sm_params, solver), 0,
      RANGE(SM_SOLVER_AUTO, CLOSED, SM_SOLVER_AMG, CLOSED), SM_SOLVER_AUTO, NULL, 0, "--solver",
      "NAME",

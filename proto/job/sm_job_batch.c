@@ -4,11 +4,13 @@
 
 #include <errno.h>
 #include <jansson.h>
+#include <math.h>
 #include <omp.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <poll.h>
+#include <sched.h>
 #include <string.h>
 #include <sys/syscall.h>
 #include <sys/wait.h>
@@ -16,6 +18,7 @@
 #include <unistd.h>
 
 #include "job/sm_job_align.h"
+#include "job/sm_job_batch_warm.h"
 #include "job/sm_job_results.h"
 #include "job/sm_job_runner.h"
 #include "job/sm_job_threads.h"
@@ -30,6 +33,15 @@
 typedef struct batch_template {
     sm_job_inputs in;
     sm_job_files files;
+    char *warm_dir;             /* params warm_start: DIR/.warm, else NULL */
+    int jobs;                   /* children at a time: opts jobs, at most the cores */
+    int threads;                /* OpenMP/BLAS limit of each child */
+    /* backgrounds (target_mesh) that several targets name, read once here:
+     * shared[i] is target i's (NULL: its child reads its own), freed
+     * through the first target that names it (shared_owner[i] 1) */
+    sm_mesh **shared;
+    uint8_t *shared_owner;
+    size_t nshared;
 } batch_template;
 
 /* error.txt in the target's folder: why it failed, for the summary. */
@@ -59,8 +71,8 @@ static void on_child_signal(int sig)
 
 /* The child's whole life: its target, the run, the result set.  Returns
  * the exit code (sm_job_runner.h). */
-static int run_child(batch_template *bt, const sm_batch_target *t, const sm_batch_opts *o,
-                     const char *dir)
+static int run_child(batch_template *bt, const sm_batch_target *l0, const sm_batch_target *t,
+                     const sm_batch_opts *o, const char *dir)
 {
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
@@ -77,8 +89,8 @@ static int run_child(batch_template *bt, const sm_batch_target *t, const sm_batc
     files.target_image = t->target_image;
     files.target_mesh = t->target_mesh;
     files.target_sol = t->target_sol;
-    if (o->jobs > 1 || o->single_thread)
-        omp_set_num_threads(1);
+    files.target_mesh_given = bt->shared ? bt->shared[t - l0] : NULL;
+    omp_set_num_threads(o->single_thread ? 1 : bt->threads); /* sm_job_threads_apply caps it */
     sm_error err;
     sm_error_clear(&err);
     sm_status st = SM_OK;
@@ -90,6 +102,7 @@ static int run_child(batch_template *bt, const sm_batch_target *t, const sm_batc
         st = sm_job_read_landmarks(&files, in, &err);
         sm_job_landmarks_to_frame(in, in->params.image_space); /* params set already */
     }
+    in->read_started = sm_clock_seconds(); /* this target's read (the template's was the parent's) */
     if (st == SM_OK)
         st = sm_job_inputs_read_target(&files, SM_JOB_NAME_PATHS, 0, in, &err);
     if (st != SM_OK) {
@@ -99,8 +112,19 @@ static int run_child(batch_template *bt, const sm_batch_target *t, const sm_batc
     sm_job_run run;
     sm_job_hooks hooks = {.snapshot_dir = dir, .write_flags = SM_ATOMIC_FSYNC,
                           .cancel = (const volatile int *)&child_cancel};
+    sm_job_warm warm = {.dir = bt->warm_dir, .name = t->name};
+    if (bt->warm_dir) {
+        hooks.start = sm_job_warm_choose;
+        hooks.user = &warm;
+    }
     st = sm_job_run_exec(in, &hooks, &run, &err);
     int code = run.exit_code;
+    /* a start for the targets after this one; without it they start
+     * from the others (or the template) */
+    if (st == SM_OK && bt->warm_dir &&
+        (code == SM_JOB_EXIT_OK || code == SM_JOB_EXIT_NOT_CONVERGED) &&
+        sm_job_warm_record(&warm, in, &run, &err) != SM_OK)
+        fprintf(stderr, "shapematch batch: %s: no warm start kept: %s\n", t->name, err.msg);
     if (st != SM_OK) {
         write_error_file(dir, err.msg);
         code = st == SM_ERR_IO ? SM_JOB_EXIT_OUTPUT : SM_JOB_EXIT_NUMERIC;
@@ -144,6 +168,82 @@ static sm_status build_template(const sm_batch_opts *o, batch_template *bt, sm_e
     return st;
 }
 
+/* The backgrounds that two targets or more name, read here once: each
+ * child then copies its own (sm_mesh_clone, a memcpy) instead of parsing
+ * the file again (the 3D example's 345k-tetrahedron background.mesh.gz:
+ * about 1 s a target).  One that cannot be read is left to the children,
+ * which report it as `run` does. */
+static void read_shared_backgrounds(const sm_batch_list *l, batch_template *bt)
+{
+    bt->shared = calloc(l->n + 1, sizeof *bt->shared);
+    uint8_t *owner = calloc(l->n + 1, 1);
+    for (size_t i = 0; bt->shared && owner && i < l->n; i++) {
+        const char *path = l->t[i].target_mesh;
+        if (!path || bt->shared[i])
+            continue;
+        size_t uses = 0;
+        for (size_t j = i; j < l->n; j++)
+            uses += l->t[j].target_mesh && strcmp(l->t[j].target_mesh, path) == 0;
+        sm_mesh *m = NULL;
+        sm_error err;
+        if (uses < 2 || sm_mesh_read_limited(path, NULL, &m, &err) != SM_OK)
+            continue;
+        owner[i] = 1;
+        bt->nshared++;
+        for (size_t j = i; j < l->n; j++)
+            if (l->t[j].target_mesh && strcmp(l->t[j].target_mesh, path) == 0)
+                bt->shared[j] = m;
+    }
+    bt->shared_owner = owner; /* the entries freed at the end */
+}
+
+static void free_shared_backgrounds(batch_template *bt, size_t n)
+{
+    for (size_t i = 0; bt->shared && bt->shared_owner && i < n; i++)
+        if (bt->shared_owner[i])
+            sm_mesh_free(bt->shared[i]);
+    free(bt->shared);
+    free(bt->shared_owner);
+}
+
+/* Cores this process may run on, counted now (its affinity; the online
+ * processors when unknown). */
+static int cores_now(void)
+{
+    cpu_set_t set;
+    if (sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) > 0)
+        return CPU_COUNT(&set);
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return n > 0 ? (int)n : 1;
+}
+
+/* The thread policy (children x threads <= the cores counted when the
+ * batch starts: no oversubscription) and the warm folder. */
+static sm_status plan_children(const sm_batch_opts *o, size_t ntargets, int host_threads,
+                               const char *out_dir, batch_template *bt, sm_batch_outcome *out,
+                               sm_error *err)
+{
+    int cores = cores_now();
+    int jobs = o->jobs < 1 ? 1 : o->jobs;
+    if ((size_t)jobs > ntargets)
+        jobs = ntargets > 0 ? (int)ntargets : 1;
+    if (jobs > cores)
+        jobs = cores;
+    int threads = cores / jobs;
+    if (host_threads >= 1 && threads > host_threads) /* OMP_NUM_THREADS, the daemon's limit */
+        threads = host_threads;
+    bt->jobs = out->jobs = jobs;
+    bt->threads = out->threads = o->single_thread ? 1 : threads;
+    out->cores = cores;
+    out->warm_start = o->params->warm_start;
+    if (!o->params->warm_start)
+        return SM_OK;
+    if (!(bt->warm_dir = sm_path_join(out_dir, ".warm")))
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
+    sm_job_warm_clear(bt->warm_dir); /* a stale one, of an earlier batch into out_dir */
+    return sm_mkdir_p(bt->warm_dir, err);
+}
+
 /* Running targets watched through their pidfds at most (more: the
  * sleep), far beyond any --jobs. */
 #define SM_BATCH_JOBS_POLL 256
@@ -154,6 +254,7 @@ typedef struct target_state {
     double started, seconds;
     int exit_code;              /* -1: killed or not run */
     const char *status;
+    sm_job_warm warm;           /* its start (warm starts on) */
     char message[SM_ERROR_MSG_LEN];
 } target_state;
 
@@ -191,6 +292,8 @@ static void target_ended(const sm_batch_list *l, const sm_batch_opts *o, char **
     ts[i].exit_code = WIFEXITED(wst) ? WEXITSTATUS(wst) : -1;
     ts[i].status = status_of(ts[i].exit_code);
     read_error_file(dirs[i], ts[i].message, sizeof ts[i].message);
+    if (ts[i].warm.dir)
+        sm_job_warm_read_used(ts[i].warm.dir, l->t[i].name, &ts[i].warm);
     if (!WIFEXITED(wst))
         snprintf(ts[i].message, sizeof ts[i].message, "the target's process ended by "
                  "signal %d", WIFSIGNALED(wst) ? WTERMSIG(wst) : 0);
@@ -263,7 +366,7 @@ static sm_status run_targets(batch_template *bt, const sm_batch_list *l, const s
             if (running == 0)
                 break;
         }
-        while (next < l->n && running < (size_t)o->jobs) {
+        while (next < l->n && running < (size_t)bt->jobs) {
             size_t i = next++;
             ts[i].started = sm_clock_seconds();
             pid_t pid = fork();
@@ -271,7 +374,7 @@ static sm_status run_targets(batch_template *bt, const sm_batch_list *l, const s
                 return sm_error_set(err, SM_ERR_IO, "cannot start a process: %s",
                                     strerror(errno));
             if (pid == 0)
-                _exit(run_child(bt, &l->t[i], o, dirs[i]));
+                _exit(run_child(bt, l->t, &l->t[i], o, dirs[i]));
             ts[i].pid = pid;
 #ifdef SYS_pidfd_open
             ts[i].pidfd = (int)syscall(SYS_pidfd_open, pid, 0);
@@ -291,6 +394,23 @@ static int target_ok(const target_state *t)
     return t->exit_code == SM_JOB_EXIT_OK || t->exit_code == SM_JOB_EXIT_NOT_CONVERGED;
 }
 
+/* A target's start: the target whose map it started from (null: the
+ * template), the records measured, the RMS of the target's distance at
+ * the boundary's vertices of the template and of the start taken, and
+ * the time the choice took. */
+static json_t *start_doc(const sm_job_warm *w)
+{
+    json_t *d = json_object();
+    json_object_set_new(d, "from", w->source[0] ? sm_json_string_lossy(w->source) : json_null());
+    json_object_set_new(d, "candidates", json_integer(w->candidates));
+    json_object_set_new(d, "template_distance",
+                        isfinite(w->score_template) ? json_real(w->score_template) : json_null());
+    json_object_set_new(d, "start_distance",
+                        isfinite(w->score_start) ? json_real(w->score_start) : json_null());
+    json_object_set_new(d, "seconds", isfinite(w->seconds) ? json_real(w->seconds) : json_null());
+    return d;
+}
+
 static json_t *summary_doc(const sm_batch_list *l, const sm_batch_opts *o,
                            const target_state *ts, const sm_batch_outcome *out)
 {
@@ -305,6 +425,8 @@ static json_t *summary_doc(const sm_batch_list *l, const sm_batch_opts *o,
                                                                        : t->target_mesh));
         if (row && ts[i].message[0])
             json_object_set_new(row, "message", sm_json_string_lossy(ts[i].message));
+        if (row && out->warm_start)
+            json_object_set_new(row, "start", start_doc(&ts[i].warm));
         json_array_append_new(targets, row);
         if (!target_ok(&ts[i]))
             json_array_append_new(failed, sm_json_string_lossy(t->name));
@@ -313,7 +435,7 @@ static json_t *summary_doc(const sm_batch_list *l, const sm_batch_opts *o,
                             "s:{s:f, s:f, s:f, s:f}}",
                             "shapematch_version", SM_VERSION, "template",
                             sm_json_string_lossy(o->template_mesh), "targets_total", (int)l->n,
-                            "targets_ok", (int)out->nok, "jobs", o->jobs, "targets", targets,
+                            "targets_ok", (int)out->nok, "jobs", out->jobs, "targets", targets,
                             "failed", failed, "template_setup", "count", out->template_setups,
                             "seconds", out->template_seconds, "timings", "template",
                             out->template_seconds, "targets", out->targets_seconds, "model",
@@ -321,6 +443,10 @@ static json_t *summary_doc(const sm_batch_list *l, const sm_batch_opts *o,
     if (doc) {
         json_object_set_new(doc, "model", out->model_built ? json_string("model") : json_null());
         json_object_set_new(doc, "cancelled", json_boolean(out->cancelled));
+        json_object_set_new(doc, "cores", json_integer(out->cores));
+        json_object_set_new(doc, "shared_backgrounds", json_integer(out->shared_backgrounds));
+        json_object_set_new(doc, "threads_per_target", json_integer(out->threads));
+        json_object_set_new(doc, "warm_start", json_boolean(out->warm_start));
         if (out->model_error[0])
             json_object_set_new(doc, "model_error", sm_json_string_lossy(out->model_error));
     }
@@ -366,6 +492,11 @@ sm_status sm_job_batch_run(const sm_batch_list *l, const sm_batch_opts *o, const
     sm_status st = build_template(o, &bt, err);
     out->template_seconds = sm_clock_seconds() - t0;
     out->template_setups = st == SM_OK && bt.in.match ? 1 : 0;
+    if (st == SM_OK)
+        st = plan_children(o, l->n, threads.omp, out_dir, &bt, out, err);
+    if (st == SM_OK)
+        read_shared_backgrounds(l, &bt);
+    out->shared_backgrounds = (int)bt.nshared;
     char **dirs = calloc(l->n, sizeof *dirs);
     target_state *ts = calloc(l->n, sizeof *ts);
     if (st == SM_OK && (!dirs || !ts))
@@ -379,6 +510,7 @@ sm_status sm_job_batch_run(const sm_batch_list *l, const sm_batch_opts *o, const
         ts[i].exit_code = -1;
         ts[i].pidfd = -1;
         ts[i].status = "not_run";
+        ts[i].warm.dir = bt.warm_dir;
     }
     double t1 = sm_clock_seconds();
     if (st == SM_OK)
@@ -408,6 +540,10 @@ sm_status sm_job_batch_run(const sm_batch_list *l, const sm_batch_opts *o, const
     free(dirs);
     free(ts);
     free(tdir);
+    if (bt.warm_dir)
+        sm_job_warm_clear(bt.warm_dir);
+    free(bt.warm_dir);
+    free_shared_backgrounds(&bt, l->n);
     if (out->template_setups || bt.in.template_mesh)
         sm_job_inputs_free(&bt.in);
     return st;

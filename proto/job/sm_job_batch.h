@@ -15,11 +15,25 @@
  * params.align the template moves before the run, and its side is set up
  * on the moved copy in the child, as `run` does.
  *
- * Children run side by side, at most `jobs` at a time; with more than
- * one, each gets one OpenMP/BLAS thread (the machine's cores go to the
- * processes), with one the thread policy of sm_job_threads.h applies.
- * The parent never opens a parallel region of more than one thread
- * before forking (a forked child cannot use a parent's OpenMP pool).
+ * Thread policy: the cores this process may run on are counted when the
+ * batch starts (its affinity); children run side by side, at most
+ * min(jobs, targets, cores) at a time, and each child's OpenMP and BLAS
+ * limit is cores / children (at most the host's OpenMP limit: the
+ * daemon's --worker-threads, OMP_NUM_THREADS), under which the thread
+ * policy of sm_job_threads.h applies: children x threads <= cores,
+ * never oversubscribed.  The parent sets its own OpenMP and BLAS
+ * threads to 1 before forking (a forked child cannot use a parent's
+ * OpenMP pool) and puts the host's back for the model.
+ *
+ * Shared reads: a background (target_mesh) that several targets name is
+ * read once by the parent and copied by each child (sm_job_files'
+ * target_mesh_given) instead of parsed again; each target's own files
+ * (its distance, surface or image) are its own.
+ *
+ * Warm starts (params warm_start, default 0): each target's descent
+ * starts from the nearest finished target's map when that is nearer
+ * than the template (sm_job_batch_warm.h); with warm_start 0 the results
+ * are the separate runs' bit for bit (at the same thread count).
  *
  * A target that fails (unreadable, no valid step, crash) is reported
  * and left out of the model; it does not stop the others. */
@@ -64,6 +78,12 @@ typedef struct sm_batch_outcome {
     double targets_seconds, model_seconds, total_seconds;
     int model_built;
     int cancelled;            /* opts->cancel was set */
+    int cores;                /* counted when the batch started */
+    int jobs;                 /* children at a time: opts->jobs, at most
+                               * the targets and the cores */
+    int threads;              /* each child's OpenMP/BLAS limit */
+    int warm_start;           /* params warm_start */
+    int shared_backgrounds;   /* target meshes read once for several targets */
     char model_error[SM_ERROR_MSG_LEN];
 } sm_batch_outcome;
 

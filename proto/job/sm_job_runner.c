@@ -193,7 +193,9 @@ static sm_status run_match(sm_job_inputs *in, const sm_match_opts *opts,
     sm_status st;
     if (in->match) {
         sm_match_use_coverage(in->match, opts->coverage);
-        st = sm_match_execute(in->match, opts->target, cb, run->coords, &run->result, err);
+        st = opts->start ? sm_match_set_start(in->match, opts->start, err) : SM_OK;
+        if (st == SM_OK)
+            st = sm_match_execute(in->match, opts->target, cb, run->coords, &run->result, err);
         sm_match_free(in->match);
         in->match = NULL;
     } else {
@@ -275,7 +277,16 @@ sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_r
         return st;
     }
     opts.coverage = cov;
+    double *start = NULL;
+    if (c.hooks->start && (start = malloc((n ? n : 1) * sizeof *start)) &&
+        !c.hooks->start(view.prepared, &view.params, in->field, &run->alignment, start,
+                         c.hooks->user)) {
+        free(start);
+        start = NULL;
+    }
+    opts.start = start;
     st = run_match(run->alignment.done ? &view : in, &opts, &cb, run, err);
+    free(start);
     if (c.failed == SM_OK && st == SM_OK)
         c.failed = final_snapshot(&c);
     free(c.snapshots);

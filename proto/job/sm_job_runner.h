@@ -81,6 +81,16 @@ typedef struct sm_job_hooks {
      * the descent: the CLI's line, the worker's alignment event.  May be
      * NULL. */
     void (*alignment)(const sm_job_alignment *a, void *user);
+    /* Before the descent: a warm start (a batch's, sm_job_batch_warm.h).
+     * It may write the displacement the descent starts from into start
+     * (nverts*dim, from run_mesh: the template the run works on, with its
+     * boundary built; the moved copy with an alignment, whose transform a
+     * holds; params the run's, its clamp resolved and moved) and return
+     * 1; 0 starts from run_mesh itself.  target is the target's field.
+     * The core checks the start (sm_match_set_start): one it refuses
+     * fails the run with its message.  May be NULL. */
+    int (*start)(const sm_mesh *run_mesh, const sm_params *params, const sm_field *target,
+                 const sm_job_alignment *a, double *start, void *user);
     void *user;
     const volatile int *cancel;  /* polled between iterations; may be NULL */
     const char *snapshot_dir;    /* iter-NNNNN.mesh go here (NULL: none) */

@@ -126,6 +126,11 @@ typedef struct sm_match_opts {
                                    * NULL = the run builds its own from the
                                    * target field's zero level set.  Borrowed;
                                    * the run updates its last measure. */
+    const double *start;          /* optional: the displacement the descent
+                                   * starts from (nverts*dim, from
+                                   * template_mesh's coordinates; checked as
+                                   * sm_match_set_start); NULL = the template
+                                   * itself, as the paper */
 } sm_match_opts;
 
 /* How a run talks back; every member may be NULL (zeroed struct). */
@@ -170,6 +175,21 @@ sm_status sm_match_execute(sm_match *m, const sm_field *target, const sm_match_c
 /* Before sm_match_execute: the coverage to use (as sm_match_opts.coverage,
  * which sm_match_new does not read); NULL = the run builds its own. */
 void sm_match_use_coverage(sm_match *m, sm_coverage *coverage);
+/* Before sm_match_execute: a warm start.  The descent's first iteration
+ * starts from the template moved by displacement (nverts*dim, from the
+ * template's coordinates; copied) instead of from the template: its J,
+ * load, boundary error and quality are those of the moved mesh, and the
+ * reported and final coordinates are absolute, so coords_out minus the
+ * template is still the whole displacement.  The elastic operator stays
+ * the template's until the descent re-assembles it (its usual rules, and
+ * after a failed step search).  The step lengths, the quality floor and
+ * the stall and stop rules are those of a cold run.  SM_ERR_INVALID (and
+ * the run unchanged) for a non-finite value, a clamped vertex that moves,
+ * an element inverted or flat, or a worst quality below the run's quality
+ * floor (min_quality, or the template's own if lower: no step could be
+ * accepted from there); the message names the vertex or element (from
+ * 1).  Without it the run is the cold one, bit for bit. */
+sm_status sm_match_set_start(sm_match *m, const double *displacement, sm_error *err);
 void sm_match_free(sm_match *m);
 
 #endif

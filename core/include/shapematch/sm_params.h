@@ -121,6 +121,9 @@ typedef struct sm_params {
     int refactor_every;      /* refactorize the elastic operator on the current
                               * mesh every k iterations (1 = every iteration,
                               * as in the paper) */
+    int warm_start;          /* batches: start a target from the nearest
+                              * finished target's map (sm_job_batch.h);
+                              * 0 = from the template */
     sm_solver_kind solver;   /* elastic solver */
     int live_every;          /* the daemon's live mesh (mesh/latest): published
                               * every k iterations, and at least every 0.5 s

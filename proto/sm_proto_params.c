@@ -26,6 +26,10 @@ static const sm_param_info background_rows[] = {
      "--background-padding", "P",
      "the margin of that background around template and surface, a fraction of their box's "
      "diagonal", "inputs"},
+    {"template_size", SM_PARAM_REAL, offsetof(sm_background_params, template_size), 0, 0,
+     INFINITY, 1, 1, 0, "the template surface's mean edge", 0, "--template-size", "H",
+     "with --template-surface or --template-image: the meshed template's element size (nglib's "
+     "maxh), a length in the surface's unit", "inputs"},
 };
 
 const sm_param_info *sm_background_params_table(size_t *count)

@@ -42,6 +42,10 @@ typedef enum sm_part {
  * target_surface. */
 #define SM_PART_NAME_TARGET_SURFACE "target_surface"
 #define SM_PART_NAME_TARGET_IMAGE "target_image"
+/* The template made from a closed surface or a label map
+ * (sm_job_template.h), in place of a volume mesh. */
+#define SM_PART_NAME_TEMPLATE_SURFACE "template_surface"
+#define SM_PART_NAME_TEMPLATE_IMAGE "template_image"
 /* Largest landmark part (bytes): a landmark file is a few rows; the
  * daemon refuses a larger one (422) while it arrives. */
 #define SM_LANDMARKS_MAX_BYTES (1 << 20)
@@ -89,6 +93,11 @@ const sm_result_format *sm_result_formats_of(sm_result_kind kind, size_t *n);
 
 /* The summary document (job/sm_job_results.h) and its media type. */
 #define SM_RESULT_SUMMARY_FILE "summary.json"
+/* A template meshed from template_surface or template_image
+ * (sm_job_template.h), written beside the results so that the run can be
+ * repeated with --template (the template of the run, before any
+ * alignment). */
+#define SM_RESULT_TEMPLATE_FILE "template.mesh"
 #define SM_RESULT_SUMMARY_MEDIA "application/json"
 /* Snapshots (params.save_every K): iter-NNNNN.mesh after iterations K,
  * 2K, ... (the daemon keeps them in results/snapshots/, `shapematch run`

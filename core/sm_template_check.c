@@ -161,21 +161,45 @@ static double orient2(const double *a, const double *b, const double *c)
     return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
 }
 
-static int sgn(double x)
+/* The sign of an orientation beyond tol (0 within): near-coplanar
+ * facets of a flat region (a label map's surface has many) would
+ * otherwise cross by rounding noise. */
+static int sgn(double x, double tol)
 {
-    return (x > 0) - (x < 0);
+    return (x > tol) - (x < -tol);
 }
 
-/* Segment pq through triangle abc (proper crossings and touching; a
- * segment in the triangle's plane is left to the other edges' tests). */
-static int segment_hits_triangle(const double *p, const double *q, const double *a,
-                                 const double *b, const double *c)
+/* Longest edge of the two facets f and g: the scale of the tolerances. */
+static double pair_scale(const sm_surface *s, int32_t f, int32_t g)
 {
-    int sp = sgn(orient3(a, b, c, p)), sq = sgn(orient3(a, b, c, q));
-    if (sp == sq)
+    int d = s->dim;
+    double L = 0;
+    const int32_t *F[2] = {s->facets + (size_t)d * f, s->facets + (size_t)d * g};
+    for (int q = 0; q < 2; q++)
+        for (int i = 0; i < d; i++)
+            for (int j = i + 1; j < d; j++) {
+                const double *a = s->coords + (size_t)d * F[q][i], *b = s->coords + (size_t)d * F[q][j];
+                double l = 0;
+                for (int c = 0; c < d; c++)
+                    l += (a[c] - b[c]) * (a[c] - b[c]);
+                L = fmax(L, sqrt(l));
+            }
+    return L;
+}
+
+/* Segment pq through the inside of triangle abc: a proper crossing (the
+ * end points strictly on both sides, the line strictly inside the three
+ * edges).  Touching and coplanar overlaps are not reported: a closed
+ * manifold surface that crosses itself does so properly somewhere. */
+static int segment_hits_triangle(const double *p, const double *q, const double *a,
+                                 const double *b, const double *c, double tol)
+{
+    int sp = sgn(orient3(a, b, c, p), tol), sq = sgn(orient3(a, b, c, q), tol);
+    if (sp == 0 || sq == 0 || sp == sq)
         return 0;
-    int s1 = sgn(orient3(p, q, a, b)), s2 = sgn(orient3(p, q, b, c)), s3 = sgn(orient3(p, q, c, a));
-    return (s1 >= 0 && s2 >= 0 && s3 >= 0) || (s1 <= 0 && s2 <= 0 && s3 <= 0);
+    int s1 = sgn(orient3(p, q, a, b), tol), s2 = sgn(orient3(p, q, b, c), tol),
+        s3 = sgn(orient3(p, q, c, a), tol);
+    return s1 != 0 && s1 == s2 && s2 == s3;
 }
 
 static int triangles_cross(const sm_surface *s, int32_t f, int32_t g)
@@ -185,9 +209,10 @@ static int triangles_cross(const sm_surface *s, int32_t f, int32_t g)
         A[k] = s->coords + 3 * (size_t)s->facets[3 * (size_t)f + k];
         B[k] = s->coords + 3 * (size_t)s->facets[3 * (size_t)g + k];
     }
+    double L = pair_scale(s, f, g), tol = 1e-10 * L * L * L;
     for (int k = 0; k < 3; k++)
-        if (segment_hits_triangle(A[k], A[(k + 1) % 3], B[0], B[1], B[2]) ||
-            segment_hits_triangle(B[k], B[(k + 1) % 3], A[0], A[1], A[2]))
+        if (segment_hits_triangle(A[k], A[(k + 1) % 3], B[0], B[1], B[2], tol) ||
+            segment_hits_triangle(B[k], B[(k + 1) % 3], A[0], A[1], A[2], tol))
             return 1;
     return 0;
 }
@@ -198,11 +223,10 @@ static int segments_cross(const sm_surface *s, int32_t f, int32_t g)
     const double *b = s->coords + 2 * (size_t)s->facets[2 * (size_t)f + 1];
     const double *c = s->coords + 2 * (size_t)s->facets[2 * (size_t)g];
     const double *d = s->coords + 2 * (size_t)s->facets[2 * (size_t)g + 1];
-    int s1 = sgn(orient2(a, b, c)), s2 = sgn(orient2(a, b, d));
-    int s3 = sgn(orient2(c, d, a)), s4 = sgn(orient2(c, d, b));
-    if (s1 == 0 && s2 == 0)
-        return 0; /* collinear: an overlap shows as a non-manifold vertex */
-    return s1 != s2 && s3 != s4;
+    double L = pair_scale(s, f, g), tol = 1e-10 * L * L;
+    int s1 = sgn(orient2(a, b, c), tol), s2 = sgn(orient2(a, b, d), tol);
+    int s3 = sgn(orient2(c, d, a), tol), s4 = sgn(orient2(c, d, b), tol);
+    return s1 && s2 && s3 && s4 && s1 != s2 && s3 != s4;
 }
 
 static int share_vertex(const sm_surface *s, int32_t f, int32_t g)

@@ -1,6 +1,7 @@
 /* A template meshed from a surface or a label map (sm_job_template.h). */
 #include "job/sm_job_template.h"
 
+#include <math.h>
 #include <string.h>
 
 #include "job/sm_job_image.h"
@@ -9,7 +10,7 @@
 /* The label's boundary: a closed outward triangle surface of a 3D image,
  * a closed curve of a 2D one (one slice). */
 static sm_status image_surface(const char *path, int64_t label, sm_read_limits *limits,
-                               sm_surface **out, sm_error *err)
+                               sm_surface **out, double *voxel, sm_error *err)
 {
     sm_image_limits lim = {0};
     if (limits) {
@@ -22,6 +23,8 @@ static sm_status image_surface(const char *path, int64_t label, sm_read_limits *
     sm_image_target *t = NULL;
     /* the jobs' smoothing (params smooth's default: 1 voxel) */
     sm_status st = sm_job_image_target(path, &lim, &sel, SM_IMAGE_SPACE_LPS, 1.0, 0.0, &t, &info, err);
+    if (st == SM_OK)
+        *voxel = fmax(info.spacing[0], fmax(info.spacing[1], info.dims[2] == 1 ? 0 : info.spacing[2]));
     if (st == SM_OK && info.dims[2] == 1) {
         sm_image_target_free(t);
         return sm_job_image_contour(path, &lim, &sel, SM_IMAGE_SPACE_LPS, 1.0, out, &info, err);
@@ -47,7 +50,8 @@ sm_status sm_job_template_mesh(const char *path, int is_image, int64_t label, do
     made->source = is_image ? SM_TEMPLATE_IMAGE : SM_TEMPLATE_SURFACE;
     made->label = label;
     sm_surface *s = NULL;
-    sm_status st = is_image ? image_surface(path, label, limits, &s, err)
+    double voxel = 0;
+    sm_status st = is_image ? image_surface(path, label, limits, &s, &voxel, err)
                             : sm_surface_read_limited(path, limits, &s, err);
     if (st != SM_OK)
         return st;
@@ -56,7 +60,9 @@ sm_status sm_job_template_mesh(const char *path, int is_image, int64_t label, do
         sm_surface_free(s);
         return st;
     }
-    sm_template_mesh_opts o = {.size = size};
+    /* a label's surface has triangles finer than its voxels (marching
+     * tetrahedra): its resolution is the voxel's, the default size */
+    sm_template_mesh_opts o = {.size = size > 0 ? size : voxel};
     if (limits && limits->max_vertices > 0)
         o.max_elements = limits->max_vertices * (s->dim == 3 ? 6 : 2);
     st = sm_template_mesh_surface(s, &o, out, &made->mesh, err);

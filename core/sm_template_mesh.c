@@ -94,12 +94,12 @@ static void child_main(int fd, const sm_surface *s, double h, int optsteps)
     }
     reply_head head = {.status = 1};
     sm_nglib_out out = {0};
-    char why[200] = "";
+    char why[120] = "";
     void *shim = open_shim(why, sizeof why);
     if (!shim) {
         snprintf(head.msg, sizeof head.msg,
                  "cannot load the meshing library " SHIM_NAME " (Netgen's nglib, Debian "
-                 "libnglib-6.2): %s",
+                 "libnglib-6.2): %.119s",
                  why);
         write_all(fd, &head, sizeof head);
         _exit(0);

@@ -138,3 +138,5 @@ grep -q "template-label is the label of --template-image" x.err
 check_rc $? "--template-label without --template-image: refused" "$(cat x.err)"
 "$BIN" run --help | grep -q -- "--template-size H"
 check_rc $? "run --help lists --template-surface, --template-image, --template-size"
+echo "1..$n"
+exit $((failed > 0))

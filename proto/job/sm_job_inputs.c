@@ -634,10 +634,10 @@ static sm_status take_template(const sm_job_files *files, sm_job_naming naming,
                             "(template_surface) or a label map (template_image)",
                             part);
     }
-    sm_status st = sm_job_template_mesh(made_from, files->template_image != NULL,
-                                        files->template_label, files->template_size,
-                                        files->limits, &out->template_mesh,
-                                        &out->template_made, err);
+    sm_status st = sm_job_template_mesh(made_from, files->template_surface_given,
+                                        files->template_image != NULL, files->template_label,
+                                        files->template_size, files->limits,
+                                        &out->template_mesh, &out->template_made, err);
     if (st != SM_OK) {
         out->failed = SM_PART_TEMPLATE;
         if (naming == SM_JOB_NAME_PARTS)

@@ -105,6 +105,7 @@ typedef struct sm_job_files {
     const sm_mesh *template_given, *target_mesh_given;
     const sm_sol *target_sol_given;
     const sm_surface *target_surface_given;
+    const sm_surface *template_surface_given;
 } sm_job_files;
 
 typedef enum sm_job_naming {

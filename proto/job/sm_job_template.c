@@ -41,7 +41,8 @@ static sm_status image_surface(const char *path, int64_t label, sm_read_limits *
     return st;
 }
 
-sm_status sm_job_template_mesh(const char *path, int is_image, int64_t label, double size,
+sm_status sm_job_template_mesh(const char *path, const sm_surface *given, int is_image,
+                               int64_t label, double size,
                                sm_read_limits *limits, sm_mesh **out,
                                sm_job_template_made *made, sm_error *err)
 {
@@ -52,7 +53,12 @@ sm_status sm_job_template_mesh(const char *path, int is_image, int64_t label, do
     sm_surface *s = NULL;
     double voxel = 0;
     sm_status st = is_image ? image_surface(path, label, limits, &s, &voxel, err)
+                   : given  ? sm_surface_alloc(&s, given->dim, given->nverts, given->nfacets, err)
                             : sm_surface_read_limited(path, limits, &s, err);
+    if (st == SM_OK && given && !is_image) {
+        memcpy(s->coords, given->coords, sizeof(double) * (size_t)given->dim * (size_t)given->nverts);
+        memcpy(s->facets, given->facets, sizeof(int32_t) * (size_t)given->dim * (size_t)given->nfacets);
+    }
     if (st != SM_OK)
         return st;
     made->surface_facets = s->nfacets;

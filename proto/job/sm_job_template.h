@@ -34,14 +34,16 @@ typedef struct sm_job_template_made {
     int32_t surface_facets;
 } sm_job_template_made;
 
-/* Reads path (an image when is_image, with label) within limits (may be
+/* Reads path (an image when is_image, with label; given: a surface in
+ * memory instead of the file, path naming it) within limits (may be
  * NULL: the mesher's own bounds; else max_vertices bounds the elements,
  * 6 tetrahedra or 2 triangles a vertex), repairs, checks and meshes it at
  * size (0: the surface's mean edge; for an image, its largest voxel
  * spacing, since a label's surface is finer than its voxels).  Messages are the core's ("open: 12
  * edges ...", "nglib: ..."), unprefixed: the caller names the part.
  * *out is the caller's (sm_mesh_free). */
-sm_status sm_job_template_mesh(const char *path, int is_image, int64_t label, double size,
+sm_status sm_job_template_mesh(const char *path, const sm_surface *given, int is_image,
+                               int64_t label, double size,
                                sm_read_limits *limits, sm_mesh **out,
                                sm_job_template_made *made, sm_error *err);
 

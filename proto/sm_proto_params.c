@@ -373,7 +373,7 @@ sm_status sm_job_params_from_json(const char *text, size_t len, int dim, sm_para
     json_t *root;
     params_reset(out);
     if (bg)
-        bg->size = bg->padding = 0;
+        bg->size = bg->padding = bg->template_size = 0;
     sm_status st = smp_load(text, len, SM_PARAMS_JSON_MAX_BYTES, "params", &root, err);
     if (st != SM_OK)
         return st;
@@ -487,7 +487,7 @@ sm_status sm_job_params_from_json_for(const char *text, size_t len, const sm_mes
     json_t *root;
     params_reset(out);
     if (bg)
-        bg->size = bg->padding = 0;
+        bg->size = bg->padding = bg->template_size = 0;
     sm_status st = smp_load(text, len, SM_PARAMS_JSON_MAX_BYTES, "params", &root, err);
     if (st != SM_OK)
         return st;
@@ -503,7 +503,7 @@ sm_status sm_job_params_from_jansson_for(const json_t *root, const sm_mesh *m, s
 {
     params_reset(out);
     if (bg)
-        bg->size = bg->padding = 0;
+        bg->size = bg->padding = bg->template_size = 0;
     if (!json_is_object(root))
         return sm_job_params_from_jansson(root, m->dim, "params", out, bg, err);
     json_t *copy = json_deep_copy(root);

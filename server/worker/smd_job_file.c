@@ -113,7 +113,7 @@ sm_status smd_job_file_parse(const char *text, size_t len, smd_job_file *f, sm_e
     json_t *batch = json_object_get(doc, "batch");
     if (!why && batch)
         why = batch_problem(batch);
-    if (!why && !batch && !f->part[SM_PART_TEMPLATE][0])
+    if (!why && !batch && !f->part[SM_PART_TEMPLATE][0] && !f->part[SM_PART_TEMPLATE_SURFACE][0])
         why = "template missing";
     if (!why && !json_is_object(params))
         why = "params";

@@ -664,6 +664,7 @@ sm_status sm_job_inputs_read_template(const sm_job_files *files, sm_job_naming n
     }
     out->background_asked.size = files->background_size > 0 ? files->background_size : 0;
     out->background_asked.padding = files->background_padding > 0 ? files->background_padding : 0;
+    out->background_asked.template_size = files->template_size > 0 ? files->template_size : 0;
     if ((st = take_template(files, naming, out, err)) != SM_OK)
         goto fail;
     out->dim = out->template_mesh->dim;

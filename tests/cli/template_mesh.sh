@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# run.sh: seconds 40 asan 120
+# run.sh: seconds 20 asan 60
 # Templates meshed from what users have (issue 34 items 1 and 4): a
 # closed STL of a non-convex shape (a dumbbell made by the real gmsh), a
 # closed 2D curve (a five-pointed star) and a label map's label become

@@ -257,8 +257,10 @@ static void facet_box(const sm_surface *s, int32_t f, double *lo, double *hi)
 }
 
 /* Entries of the grid beyond which the test gives up (facets of very
- * uneven sizes, each large one in many cells): a bound on its memory. */
-#define GRID_MAX_ENTRIES (64 * (int64_t)SM_TEMPLATE_MAX_FACETS)
+ * uneven sizes, each large one in many cells): a bound on its memory,
+ * 32 cells a facet on average (a facet of about the mean size covers 1
+ * to 8), plus a constant for small surfaces. */
+#define GRID_MAX_ENTRIES(nf) (32 * (int64_t)(nf) + (1 << 20))
 
 typedef struct grid {
     int d;
@@ -328,12 +330,12 @@ static sm_status check_crossings(const sm_surface *s, sm_error *err)
     for (int32_t f = 0; f < nf; f++) {
         const double *lo = box + (size_t)f * 2 * d;
         entries += box_cells(&G, lo, lo + d);
-        if (entries > GRID_MAX_ENTRIES) {
+        if (entries > GRID_MAX_ENTRIES(nf)) {
             free(box);
             return sm_error_set(err, SM_ERR_INVALID,
                                 "facets of very uneven sizes (over %lld grid entries to test "
                                 "for self-intersection): remesh the surface more uniformly",
-                                (long long)GRID_MAX_ENTRIES);
+                                (long long)GRID_MAX_ENTRIES(nf));
         }
     }
     int64_t *start = calloc((size_t)ncells + 1, sizeof *start);

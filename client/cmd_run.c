@@ -439,6 +439,7 @@ int cmd_run(int argc, char **argv)
                                 .template_image = opt.template_image_path,
                                 .template_label = opt.template_label,
                                 .template_size = opt.job.background.template_size,
+                                .template_min_quality = opt.job.params.min_quality,
                                 .target_mesh = opt.target_mesh_path,
                                 .target_sol = opt.target_sol_path,
                                 .target_surface = opt.target_surface_path,

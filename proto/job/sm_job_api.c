@@ -171,6 +171,7 @@ static sm_status load_inputs(const sm_run_files *f, const char *params_json, sm_
                           .template_surface = names[5], .template_image = f->template_image,
                           .template_label = f->template_label,
                           .template_size = bg.template_size,
+                          .template_min_quality = params.min_quality,
                           .template_surface_given = g.template_surface};
     /* a meshed template stands in for the template mesh */
     if (names[5] || f->template_image)

@@ -636,8 +636,9 @@ static sm_status take_template(const sm_job_files *files, sm_job_naming naming,
     }
     sm_status st = sm_job_template_mesh(made_from, files->template_surface_given,
                                         files->template_image != NULL, files->template_label,
-                                        files->template_size, files->limits,
-                                        &out->template_mesh, &out->template_made, err);
+                                        files->template_size, files->template_min_quality,
+                                        files->limits, &out->template_mesh,
+                                        &out->template_made, err);
     if (st != SM_OK) {
         out->failed = SM_PART_TEMPLATE;
         if (naming == SM_JOB_NAME_PARTS)
@@ -900,6 +901,8 @@ sm_status sm_job_inputs_load_json(const sm_job_files *files, const json_t *param
         with_bg.background_padding = bg.padding;
     if (!(with_bg.template_size > 0))
         with_bg.template_size = bg.template_size;
+    if (!(with_bg.template_min_quality > 0))
+        with_bg.template_min_quality = params.min_quality;
     /* the files, then the params' values (the upload's check: a file's
      * 413 before a param's 422); with prepare_run (the worker, on checked
      * inputs) the params come before the target, whose reading the run's

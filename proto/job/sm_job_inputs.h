@@ -69,6 +69,9 @@ typedef struct sm_job_files {
     const char *template_image;
     int64_t template_label;
     double template_size;
+    /* the quality floor the meshed template must meet: the job's
+     * min_quality (0: the default's) */
+    double template_min_quality;
     const char *target_mesh;
     const char *target_sol;
     const char *target_surface;

@@ -42,7 +42,7 @@ static sm_status image_surface(const char *path, int64_t label, sm_read_limits *
 }
 
 sm_status sm_job_template_mesh(const char *path, const sm_surface *given, int is_image,
-                               int64_t label, double size,
+                               int64_t label, double size, double min_quality,
                                sm_read_limits *limits, sm_mesh **out,
                                sm_job_template_made *made, sm_error *err)
 {
@@ -68,7 +68,7 @@ sm_status sm_job_template_mesh(const char *path, const sm_surface *given, int is
     }
     /* a label's surface has triangles finer than its voxels (marching
      * tetrahedra): its resolution is the voxel's, the default size */
-    sm_template_mesh_opts o = {.size = size > 0 ? size : voxel};
+    sm_template_mesh_opts o = {.size = size > 0 ? size : voxel, .min_quality = min_quality};
     if (limits && limits->max_vertices > 0)
         o.max_elements = limits->max_vertices * (s->dim == 3 ? 6 : 2);
     st = sm_template_mesh_surface(s, &o, out, &made->mesh, err);

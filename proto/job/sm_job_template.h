@@ -39,11 +39,12 @@ typedef struct sm_job_template_made {
  * NULL: the mesher's own bounds; else max_vertices bounds the elements,
  * 6 tetrahedra or 2 triangles a vertex), repairs, checks and meshes it at
  * size (0: the surface's mean edge; for an image, its largest voxel
- * spacing, since a label's surface is finer than its voxels).  Messages are the core's ("open: 12
+ * spacing, since a label's surface is finer than its voxels), every
+ * element at least min_quality (0: the descent's default floor).  Messages are the core's ("open: 12
  * edges ...", "nglib: ..."), unprefixed: the caller names the part.
  * *out is the caller's (sm_mesh_free). */
 sm_status sm_job_template_mesh(const char *path, const sm_surface *given, int is_image,
-                               int64_t label, double size,
+                               int64_t label, double size, double min_quality,
                                sm_read_limits *limits, sm_mesh **out,
                                sm_job_template_made *made, sm_error *err);
 

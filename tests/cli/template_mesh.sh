@@ -13,7 +13,8 @@
 # 1e-9), its element count, inversions and worst quality recomputed
 # from template.mesh.  Malformed surfaces (open, non-manifold,
 # self-intersecting, empty, a huge declared count, a size that would
-# make too many elements) are refused with the defect named and exit 2.
+# make too many elements) are refused with the defect named and exit 2;
+# the quality floor (--min-quality) re-optimises, then refuses, slivers.
 source "$(dirname "$0")/../lib/cli.sh"
 check_rc() { if [ "$1" = 0 ]; then ok "$2"; else not_ok "$2" "${3:-}"; fi; }
 PY=/usr/bin/python3
@@ -88,6 +89,22 @@ sv=$("$PY" "$CHECK" volume star.mesh)
          and .parameters.clamp.kind == "ball" and .boundary_rms < 0.02' o2/summary.json >/dev/null
 check_rc $? "2D: a closed star curve as the template: $ne triangles, area $vol = the curve's $sv, 0 inverted, default clamp" \
     "rc $rc: $(cat o2.err; jq -c '.template, .boundary_rms' o2/summary.json 2>&1)"
+
+# the quality floor is the job's --min-quality: below it nglib optimises
+# again (the star's first mesh has a worst quality of about 0.69, the
+# second about 0.73), and a floor no optimisation reaches is refused
+"$BIN" run --template-surface star.mesh --target-surface star2.mesh --min-quality 0.7 --max-iter 1 \
+    -q -o q7 2>/dev/null >/dev/null
+read -r d nv ne vol inv minq < <("$PY" "$CHECK" mesh q7/template.mesh)
+jq -e --argjson minq "$minq" '.template.meshed.passes == 2 and .template.meshed.min_quality >= 0.7
+    and ((.template.meshed.min_quality - $minq) | fabs) < 1e-9' q7/summary.json >/dev/null
+check_rc $? "2D: --min-quality 0.7 above the first mesh's worst: optimised again, worst $minq >= 0.7" \
+    "$(jq -c '.template.meshed' q7/summary.json 2>&1)"
+"$BIN" run --template-surface star.mesh --target-surface star2.mesh --min-quality 0.95 -q -o q95 \
+    2>bad.err >/dev/null
+rc=$?
+[ $rc = 2 ] && grep -q "slivers: the meshed template's worst element quality is .*below the quality floor 0.95" bad.err
+check_rc $? "2D: a floor of 0.95 no optimisation reaches: refused, exit 2 (slivers)" "rc $rc: $(cat bad.err)"
 
 # ---- a label map's label (and the other label: a different shape)
 "$PY" "$CHECK" label lab.nii.gz && "$PY" "$CHECK" label moved.nii.gz 3

@@ -293,6 +293,103 @@ static int64_t box_cells(const grid *G, const double *lo, const double *hi)
     return (b[0] - a[0] + 1) * (b[1] - a[1] + 1) * (b[2] - a[2] + 1);
 }
 
+/* The facets' boxes (lo then hi, dim each, into box) and a grid over
+ * them: cells about twice the mean facet extent, not more cells than
+ * facets times 8. */
+static void grid_setup(const sm_surface *s, double *box, grid *G)
+{
+    int d = s->dim;
+    int32_t nf = s->nfacets;
+    double hi[3] = {-INFINITY, -INFINITY, -INFINITY}, ext = 0;
+    G->d = d;
+    for (int c = 0; c < 3; c++)
+        G->lo[c] = c < d ? INFINITY : 0;
+    for (int32_t f = 0; f < nf; f++) {
+        double *lo = box + (size_t)f * 2 * d, *h = lo + d;
+        facet_box(s, f, lo, h);
+        for (int c = 0; c < d; c++) {
+            G->lo[c] = fmin(G->lo[c], lo[c]);
+            hi[c] = fmax(hi[c], h[c]);
+            ext += h[c] - lo[c];
+        }
+    }
+    double span = 0;
+    for (int c = 0; c < d; c++)
+        span = fmax(span, hi[c] - G->lo[c]);
+    G->cell = fmax(2 * ext / ((double)nf * d), span * 1e-9);
+    double cells = 1;
+    for (int c = 0; c < d; c++)
+        cells *= floor((hi[c] - G->lo[c]) / G->cell) + 1;
+    if (cells > 8.0 * nf + 64)
+        G->cell *= pow(cells / (8.0 * nf + 64), 1.0 / d) * 1.01;
+    for (int c = 0; c < 3; c++)
+        G->n[c] = c < d ? (int64_t)floor((hi[c] - G->lo[c]) / G->cell) + 1 : 1;
+}
+
+/* Each cell's facets (those whose box meets it), by a counting sort:
+ * list[start[c] .. start[c+1]).  -1: out of memory. */
+static int grid_fill(const grid *G, const double *box, int32_t nf, int64_t entries,
+                     int64_t **start_out, int32_t **list_out)
+{
+    int d = G->d;
+    int64_t ncells = G->n[0] * G->n[1] * G->n[2];
+    int64_t *start = calloc((size_t)ncells + 1, sizeof *start);
+    int64_t *cursor = malloc((size_t)ncells * sizeof *cursor);
+    int32_t *list = malloc((size_t)(entries ? entries : 1) * sizeof *list);
+    if (!start || !cursor || !list) {
+        free(start);
+        free(cursor);
+        free(list);
+        return -1;
+    }
+    for (int pass = 0; pass < 2; pass++) {
+        for (int32_t f = 0; f < nf; f++) {
+            const double *lo = box + (size_t)f * 2 * d;
+            int64_t a[3], b[3];
+            cell_range(G, lo, lo + d, a, b);
+            for (int64_t k = a[2]; k <= b[2]; k++)
+                for (int64_t j = a[1]; j <= b[1]; j++)
+                    for (int64_t i = a[0]; i <= b[0]; i++) {
+                        int64_t c = cell_id(G, i, j, k);
+                        if (pass == 0)
+                            start[c + 1]++;
+                        else
+                            list[cursor[c]++] = f;
+                    }
+        }
+        if (pass == 0) {
+            for (int64_t c = 0; c < ncells; c++)
+                start[c + 1] += start[c];
+            memcpy(cursor, start, (size_t)ncells * sizeof *cursor);
+        }
+    }
+    free(cursor);
+    *start_out = start;
+    *list_out = list;
+    return 0;
+}
+
+/* Facets f and g of cell c cross; a pair is tested in one cell only, the
+ * one holding the low corner of the boxes' intersection. */
+static int pair_crosses(const sm_surface *s, const grid *G, const double *box, int64_t c,
+                        int32_t f, int32_t g)
+{
+    int d = s->dim;
+    const double *fl = box + (size_t)f * 2 * d, *fh = fl + d;
+    const double *gl = box + (size_t)g * 2 * d, *gh = gl + d;
+    double corner[3] = {0, 0, 0};
+    for (int q = 0; q < d; q++) {
+        if (fl[q] > gh[q] || gl[q] > fh[q])
+            return 0;
+        corner[q] = fmax(fl[q], gl[q]);
+    }
+    int64_t a[3], b[3];
+    cell_range(G, corner, corner, a, b);
+    if (cell_id(G, a[0], a[1], a[2]) != c || share_vertex(s, f, g))
+        return 0;
+    return d == 3 ? triangles_cross(s, f, g) : segments_cross(s, f, g);
+}
+
 static sm_status check_crossings(const sm_surface *s, sm_error *err)
 {
     int d = s->dim;
@@ -300,33 +397,9 @@ static sm_status check_crossings(const sm_surface *s, sm_error *err)
     double *box = malloc((size_t)nf * 2 * (size_t)d * sizeof *box);
     if (!box)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory checking self-intersections");
-    grid G = {.d = d};
-    double hi[3] = {-INFINITY, -INFINITY, -INFINITY}, ext = 0;
-    for (int c = 0; c < 3; c++)
-        G.lo[c] = c < d ? INFINITY : 0;
-    for (int32_t f = 0; f < nf; f++) {
-        double *lo = box + (size_t)f * 2 * d, *h = lo + d;
-        facet_box(s, f, lo, h);
-        for (int c = 0; c < d; c++) {
-            G.lo[c] = fmin(G.lo[c], lo[c]);
-            hi[c] = fmax(hi[c], h[c]);
-            ext += h[c] - lo[c];
-        }
-    }
-    /* cells about twice the mean facet extent, and not more cells than
-     * facets times 8 */
-    double span = 0;
-    for (int c = 0; c < d; c++)
-        span = fmax(span, hi[c] - G.lo[c]);
-    G.cell = fmax(2 * ext / ((double)nf * d), span * 1e-9);
-    double cells = 1;
-    for (int c = 0; c < d; c++)
-        cells *= floor((hi[c] - G.lo[c]) / G.cell) + 1;
-    if (cells > 8.0 * nf + 64)
-        G.cell *= pow(cells / (8.0 * nf + 64), 1.0 / d) * 1.01;
-    for (int c = 0; c < 3; c++)
-        G.n[c] = c < d ? (int64_t)floor((hi[c] - G.lo[c]) / G.cell) + 1 : 1;
-    int64_t ncells = G.n[0] * G.n[1] * G.n[2], entries = 0;
+    grid G;
+    grid_setup(s, box, &G);
+    int64_t entries = 0;
     for (int32_t f = 0; f < nf; f++) {
         const double *lo = box + (size_t)f * 2 * d;
         entries += box_cells(&G, lo, lo + d);
@@ -338,85 +411,32 @@ static sm_status check_crossings(const sm_surface *s, sm_error *err)
                                 (long long)GRID_MAX_ENTRIES(nf));
         }
     }
-    int64_t *start = calloc((size_t)ncells + 1, sizeof *start);
-    int32_t *list = malloc((size_t)(entries ? entries : 1) * sizeof *list);
-    if (!start || !list) {
+    int64_t *start;
+    int32_t *list;
+    if (grid_fill(&G, box, nf, entries, &start, &list) != 0) {
         free(box);
-        free(start);
-        free(list);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory checking self-intersections");
     }
-    /* counting sort of (cell, facet) */
-    for (int32_t f = 0; f < nf; f++) {
-        const double *lo = box + (size_t)f * 2 * d;
-        int64_t a[3], b[3];
-        cell_range(&G, lo, lo + d, a, b);
-        for (int64_t k = a[2]; k <= b[2]; k++)
-            for (int64_t j = a[1]; j <= b[1]; j++)
-                for (int64_t i = a[0]; i <= b[0]; i++)
-                    start[cell_id(&G, i, j, k) + 1]++;
-    }
-    for (int64_t c = 0; c < ncells; c++)
-        start[c + 1] += start[c];
-    int64_t *cursor = malloc((size_t)ncells * sizeof *cursor);
-    if (!cursor) {
-        free(box);
-        free(start);
-        free(list);
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory checking self-intersections");
-    }
-    memcpy(cursor, start, (size_t)ncells * sizeof *cursor);
-    for (int32_t f = 0; f < nf; f++) {
-        const double *lo = box + (size_t)f * 2 * d;
-        int64_t a[3], b[3];
-        cell_range(&G, lo, lo + d, a, b);
-        for (int64_t k = a[2]; k <= b[2]; k++)
-            for (int64_t j = a[1]; j <= b[1]; j++)
-                for (int64_t i = a[0]; i <= b[0]; i++)
-                    list[cursor[cell_id(&G, i, j, k)]++] = f;
-    }
-    free(cursor);
-    int64_t crossings = 0;
+    int64_t crossings = 0, ncells = G.n[0] * G.n[1] * G.n[2];
     int32_t first_f = -1, first_g = -1;
     for (int64_t c = 0; c < ncells; c++)
         for (int64_t x = start[c]; x < start[c + 1]; x++)
-            for (int64_t y = x + 1; y < start[c + 1]; y++) {
-                int32_t f = list[x], g = list[y];
-                const double *fl = box + (size_t)f * 2 * d, *fh = fl + d;
-                const double *gl = box + (size_t)g * 2 * d, *gh = gl + d;
-                int overlap = 1;
-                double corner[3] = {0, 0, 0};
-                for (int q = 0; q < d; q++) {
-                    if (fl[q] > gh[q] || gl[q] > fh[q])
-                        overlap = 0;
-                    corner[q] = fmax(fl[q], gl[q]);
+            for (int64_t y = x + 1; y < start[c + 1]; y++)
+                if (pair_crosses(s, &G, box, c, list[x], list[y]) && crossings++ == 0) {
+                    first_f = list[x];
+                    first_g = list[y];
                 }
-                if (!overlap)
-                    continue;
-                /* a pair is tested in one cell only: the one holding the
-                 * low corner of the boxes' intersection */
-                int64_t a[3], b[3];
-                cell_range(&G, corner, corner, a, b);
-                if (cell_id(&G, a[0], a[1], a[2]) != c || share_vertex(s, f, g))
-                    continue;
-                if (d == 3 ? triangles_cross(s, f, g) : segments_cross(s, f, g)) {
-                    if (crossings++ == 0) {
-                        first_f = f;
-                        first_g = g;
-                    }
-                }
-            }
     free(box);
     free(start);
     free(list);
     if (crossings) {
         char a[96];
         vertex_text(s, s->facets[(size_t)d * first_f], a, sizeof a);
+        const char *what = d == 3 ? "triangles" : "segments";
         return sm_error_set(err, SM_ERR_INVALID,
                             "self-intersecting: %lld pairs of %s cross, e.g. %s %d and %d "
                             "(near %s); a template's boundary must not cross itself",
-                            (long long)crossings, d == 3 ? "triangles" : "segments",
-                            d == 3 ? "triangles" : "segments", (int)first_f + 1,
+                            (long long)crossings, what, what, (int)first_f + 1,
                             (int)first_g + 1, a);
     }
     return SM_OK;

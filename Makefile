@@ -24,6 +24,10 @@ DEB_PACKAGES := gcc make pkg-config libc6-dev \
   libmicrohttpd-dev libgnutls28-dev libcurl4-openssl-dev curl gmsh wrk jq systemd python3 python3-yaml strace \
   libdeflate-dev pmccabe clang libclang-rt-14-dev libomp-14-dev nodejs chromium postgresql libpq-dev \
   libhypre-dev mpi-default-dev python3-numpy man-db groff-base python3-meshio
+# templates meshed from a surface or a label map (core/sm_template_mesh.c):
+# Netgen's nglib (LGPL-2.1; its C++ header needs g++ for the shim,
+# core/mesh/sm_nglib.cc; docs/your-data.md)
+DEB_PACKAGES += g++ libnglib-dev
 # the label-map tests and bench: scipy's distance transform as an independent oracle
 DEB_PACKAGES += python3-scipy
 # tests/cli/image_out.sh (nibabel reads the NIfTI images `sdf --image` writes)
@@ -34,7 +38,7 @@ DEB_PACKAGES += python3-nibabel
 # build stage: `make deps-build`); tests/deploy/ checks it is a subset.
 DEB_BUILD_PACKAGES := gcc make pkg-config libc6-dev libsuitesparse-dev libopenblas0-pthread \
   zlib1g-dev libdeflate-dev libcmocka-dev libjansson-dev libmicrohttpd-dev libgnutls28-dev libcurl4-openssl-dev libpq-dev \
-  libhypre-dev mpi-default-dev python3-numpy man-db groff-base
+  libhypre-dev mpi-default-dev python3-numpy man-db groff-base g++ libnglib-dev
 
 CC ?= cc
 # hypre (BoomerAMG, the iterative solver of large templates) is built with
@@ -207,6 +211,8 @@ install: release
 	  ln -sf $$l.so.$(VERSION) $(DESTDIR)$(LIBDIR)/$$l.so.$(SM_SOVERSION) && \
 	  ln -sf $$l.so.$(SM_SOVERSION) $(DESTDIR)$(LIBDIR)/$$l.so || exit 1; done
 	install -m 644 build/release/libshapematch.a $(DESTDIR)$(LIBDIR)/
+	@# the Netgen shim, opened by the template mesher from ../lib of the programs
+	install -m 755 build/release/libshapematch_nglib.so.0 $(DESTDIR)$(LIBDIR)/
 	install -m 644 build/release/include/shapematch.h proto/job/shapematch_job.h $(DESTDIR)$(INCLUDEDIR)/
 	install -m 644 $(CORE_PUBLIC_HEADERS) $(DESTDIR)$(INCLUDEDIR)/shapematch/
 	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|$(VERSION)|' -e 's|@LIBS_PRIVATE@|$(CORE_LIBS)|' \
@@ -233,6 +239,7 @@ uninstall:
 	rm -f $(INSTALL_PROGRAMS:%=$(DESTDIR)$(PREFIX)/bin/%) \
 	  $(foreach l,$(SM_LIBS),$(DESTDIR)$(LIBDIR)/$(l).so.$(VERSION) $(DESTDIR)$(LIBDIR)/$(l).so.$(SM_SOVERSION) $(DESTDIR)$(LIBDIR)/$(l).so) \
 	  $(DESTDIR)$(LIBDIR)/libshapematch.a $(DESTDIR)$(LIBDIR)/pkgconfig/shapematch.pc \
+	  $(DESTDIR)$(LIBDIR)/libshapematch_nglib.so.0 \
 	  $(DESTDIR)$(INCLUDEDIR)/shapematch.h $(DESTDIR)$(INCLUDEDIR)/shapematch_job.h \
 	  $(CORE_PUBLIC_HEADERS:core/include/%=$(DESTDIR)$(INCLUDEDIR)/%) \
 	  $(DESTDIR)$(MANDIR)/man1/shapematch.1 $(DESTDIR)$(MANDIR)/man8/shapematchd.8 \

@@ -194,6 +194,24 @@ static void print_surface_health(const run_options *o, const sm_job_inputs *in)
                 in->background->nverts, in->sdf_seconds);
 }
 
+/* How the template was meshed (from --template-surface or
+ * --template-image), on stderr also with --quiet: the run's template is
+ * one nobody has seen yet. */
+static void print_template_meshed(const run_options *o, const sm_job_inputs *in)
+{
+    const sm_template_mesh_info *i = &in->template_made.mesh;
+    int d = in->template_mesh->dim;
+    fprintf(stderr,
+            "shapematch: template %s meshed by nglib in %.2f s: %d vertices, %d %s at size %g, "
+            "quality min %.3f mean %.3f%s; volume %.6g (the surface encloses %.6g); written "
+            "to %s/" SM_RESULT_TEMPLATE_FILE "\n",
+            o->template_surface_path ? o->template_surface_path : o->template_image_path,
+            i->seconds, (int)i->nverts, (int)i->nelems, d == 3 ? "tetrahedra" : "triangles",
+            i->size, i->min_quality, i->mean_quality,
+            i->passes > 1 ? " (optimised again)" : "", i->mesh_volume, i->surface_volume,
+            o->outdir);
+}
+
 /* The target image's label summary, on stderr (also with --quiet: it
  * says which voxels became the target). */
 static void print_image_summary(const run_options *o, const sm_job_inputs *in)
@@ -330,6 +348,8 @@ void cmd_run_help(void)
            "                      -o OUTDIR\n"           "       shapematch run --template T.mesh --target-image IMG [--label N]\n"
            "                      CLAMP [PARAMETERS] [--format LIST] [--quiet] [--json]\n"
            "                      -o OUTDIR\n"
+           "       shapematch run --template-surface A.stl --target-surface B.stl -o OUTDIR\n"
+           "       shapematch run --template-image IMG [--template-label N] TARGET -o OUTDIR\n"
            "\n"
            "Deforms the template mesh onto the target shape given by its signed distance\n"
            "function (P1 on the background mesh B, negative inside), locally, no daemon.\n"
@@ -342,6 +362,11 @@ void cmd_run_help(void)
            "\n"
            "Inputs and outputs:\n"
            "  --template FILE         template mesh (triangles in 2D, tetrahedra in 3D)\n"
+           "  --template-surface FILE or the template meshed (Netgen's nglib) from a\n"
+           "                          closed surface (the --target-surface formats; a\n"
+           "                          closed curve in 2D), written to OUTDIR/template.mesh\n"
+           "  --template-image FILE   or from the boundary of a label-map image's label\n"
+           "  --template-label N      (--template-label; 0 or none: every nonzero voxel)\n"
            "  --target-mesh FILE      background mesh carrying the target distance\n"
            "  --target-sol FILE       signed distance of the target, one value per\n"
            "                          background vertex (scalar SolAtVertices)\n"
@@ -408,7 +433,13 @@ int cmd_run(int argc, char **argv)
     memset(&run, 0, sizeof run);
     sm_error err;
     sm_error_clear(&err);
-    const sm_job_files files = {.template_mesh = opt.template_path,
+    int meshed = opt.template_surface_path || opt.template_image_path;
+    const sm_job_files files = {.template_mesh = meshed ? NULL : opt.template_path,
+                                .template_surface = opt.template_surface_path,
+                                .template_image = opt.template_image_path,
+                                .template_label = opt.template_label,
+                                .template_size = opt.job.background.template_size,
+                                .template_min_quality = opt.job.params.min_quality,
                                 .target_mesh = opt.target_mesh_path,
                                 .target_sol = opt.target_sol_path,
                                 .target_surface = opt.target_surface_path,
@@ -423,6 +454,8 @@ int cmd_run(int argc, char **argv)
     sm_status st = sm_job_inputs_read_template(&files, SM_JOB_NAME_PATHS, &in, &err);
     if (st != SM_OK)
         return run_error(&opt, st == SM_ERR_NOMEM ? CLI_EXIT_NUMERIC : CLI_EXIT_INPUT, "%s", err.msg);
+    if (meshed)
+        print_template_meshed(&opt, &in);
     if ((code = apply_params(&opt, &in)) != 0)
         goto done;
     st = sm_job_inputs_read_target(&files, SM_JOB_NAME_PATHS, 1, &in, &err);

@@ -180,6 +180,7 @@ static int add_file_part(curl_mime *mime, upload *u)
 
 enum {
     SB_TEMPLATE,
+    SB_TEMPLATE_SURFACE,
     SB_TARGET_MESH,
     SB_TARGET_SOL,
     SB_TARGET_SURFACE,
@@ -198,7 +199,7 @@ enum {
 
 typedef struct submit_args {
     const char *template_path, *target_mesh_path, *target_sol_path, *target_surface_path,
-        *target_image_path;
+        *target_image_path, *template_surface_path;
     char landmarks[2][PATH_MAX]; /* --landmarks A,B: template's, target's ("" when not given) */
     const char *outdir;
     const char *idempotency_key;
@@ -232,6 +233,7 @@ static int submit_flag(void *user, int id, const char *flag, const char *value, 
     case CLI_ARG_JOB:
         return job_option_apply(&a->job, flag, value, msg, cap);
     case SB_TEMPLATE:
+    case SB_TEMPLATE_SURFACE:
     case SB_TARGET_MESH:
     case SB_TARGET_SOL:
     case SB_TARGET_SURFACE:
@@ -243,6 +245,8 @@ static int submit_flag(void *user, int id, const char *flag, const char *value, 
         }
         if (id == SB_TEMPLATE)
             a->template_path = value;
+        else if (id == SB_TEMPLATE_SURFACE)
+            a->template_surface_path = value;
         else if (id == SB_TARGET_MESH)
             a->target_mesh_path = value;
         else if (id == SB_TARGET_SOL)
@@ -315,6 +319,7 @@ void cmd_submit_help(void)
     printf("Usage: shapematch submit --template T.mesh --target-mesh B.mesh --target-sol B.sol\n"
            "       shapematch submit --template T.mesh --target-surface S.stl [--target-mesh B.mesh]\n"
            "       shapematch submit --template T.mesh --target-image IMG [--label N]\n"
+           "       shapematch submit --template-surface A.stl --target-surface B.stl\n"
            "                         CLAMP [PARAMETERS] [--name NAME] [--json]\n"
            "                         [--idempotency-key K]\n"
            "       shapematch submit ... --wait -o OUTDIR [--format LIST]\n"
@@ -329,6 +334,9 @@ void cmd_submit_help(void)
            "  --template FILE         template mesh: Medit .mesh/.meshb, Gmsh .msh, or VTK\n"
            "                          .vtk/.vtu (tetrahedra; planar triangles in 2D),\n"
            "                          optionally .gz\n"
+           "  --template-surface FILE or a closed surface the daemon meshes into the\n"
+           "                          template (nglib; --template-size H), the result's\n"
+           "                          template.mesh\n"
            "  --target-mesh FILE      background mesh carrying the target distance\n"
            "  --target-sol FILE       signed distance, one value per background vertex\n"
            "                          (Medit .sol/.solb, optionally .gz)\n"
@@ -374,8 +382,12 @@ void cmd_submit_help(void)
 /* The usage rules beyond what each flag checks alone; NULL when fine. */
 static const char *submit_usage_problem(submit_args *a, char *msg, size_t cap)
 {
-    if (!a->template_path)
-        return "missing required option --template";
+    if (!a->template_path && !a->template_surface_path)
+        return "missing required option --template (or --template-surface)";
+    if (a->template_path && a->template_surface_path)
+        return "give one template: --template or --template-surface";
+    if (a->job.background.template_size > 0 && !a->template_surface_path)
+        return "--template-size sizes a template meshed from --template-surface";
     if (a->target_surface_path && a->target_sol_path)
         return "--target-surface excludes --target-sol: give one target";
     if (a->target_image_path && (a->target_sol_path || a->target_surface_path))
@@ -425,7 +437,8 @@ static int submission_open_files(submission *s, const char *cmd, const submit_jo
         [SM_PART_TEMPLATE] = j->template_path, [SM_PART_TARGET_MESH] = j->target_mesh,
         [SM_PART_TARGET_SOL] = j->target_sol, [SM_PART_TARGET_SURFACE] = j->target_surface,
         [SM_PART_TEMPLATE_LANDMARKS] = j->landmarks[0],
-        [SM_PART_TARGET_LANDMARKS] = j->landmarks[1], [SM_PART_TARGET_IMAGE] = j->target_image};
+        [SM_PART_TARGET_LANDMARKS] = j->landmarks[1], [SM_PART_TARGET_IMAGE] = j->target_image,
+        [SM_PART_TEMPLATE_SURFACE] = j->template_surface};
     char msg[ARGS_MSG_LEN];
     for (int i = 0; i < SM_PART_PARAMS; i++) {
         /* the daemon reads landmark CSV as plain text: never compressed */
@@ -556,6 +569,7 @@ int cmd_submit(int argc, char **argv)
 {
     static const cli_flag flags[] = {
         {"--template", 1, SB_TEMPLATE},
+        {"--template-surface", 1, SB_TEMPLATE_SURFACE},
         {"--target-mesh", 1, SB_TARGET_MESH},
         {"--target-sol", 1, SB_TARGET_SOL},
         {"--target-surface", 1, SB_TARGET_SURFACE},
@@ -597,7 +611,8 @@ int cmd_submit(int argc, char **argv)
         fprintf(stderr, "shapematch submit: warning: --save-every: the daemon does not serve "
                         "intermediate meshes\n");
     /* physical names: the daemon takes numbers, the template has the names */
-    int named = job_options_resolve_names_at(&a.job, a.template_path, msg, sizeof msg);
+    int named = a.template_path ? job_options_resolve_names_at(&a.job, a.template_path, msg, sizeof msg)
+                                : 0;
     if (named == CLI_EXIT_INPUT)
         fprintf(stderr, "shapematch submit: %s\n", msg);
     if (named)
@@ -612,6 +627,7 @@ int cmd_submit(int argc, char **argv)
     submit_job j = {.template_path = a.template_path, .target_mesh = a.target_mesh_path,
                     .target_sol = a.target_sol_path, .target_surface = a.target_surface_path,
                     .target_image = a.target_image_path,
+                    .template_surface = a.template_surface_path,
                     .landmarks = {a.landmarks[0][0] ? a.landmarks[0] : NULL,
                                   a.landmarks[1][0] ? a.landmarks[1] : NULL},
                     .params_json = params, .idempotency_key = a.idempotency_key, .name = a.name,

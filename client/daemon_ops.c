@@ -29,6 +29,8 @@
  *                      GET /v1/jobs/{id}/results/mesh?format=...
  *   displacement.sol   GET .../results/displacement?format=sol
  *   history.csv        GET .../results/history?format=csv
+ *   template.mesh      GET .../results/template (a template meshed from a
+ *                      template_surface only)
  *   summary.json       GET .../results (the summary document)
  * Transfers ask for compression (libcurl decodes it).  Every file is
  * written under a temporary name and renamed into place; summary.json
@@ -698,6 +700,15 @@ int remote_fetch(http_client *c, const char *cmd, int token_given, const char *i
     const sm_result_format *history = sm_result_format_find(SM_RESULT_HISTORY, "csv");
     if (code == 0)
         code = download(c, cmd, token_given, o->outdir, id, history);
+    /* a template the daemon meshed (template_surface): its mesh too, so
+     * that the set repeats the job as `run` writes it */
+    if (code == 0 && json_object_get(json_object_get(summary, "template"), "meshed")) {
+        char path[128];
+        snprintf(path, sizeof path, "/v1/jobs/%s/results/template", id);
+        code = remote_download(c, cmd, token_given, path, o->outdir, SM_RESULT_TEMPLATE_FILE,
+                               "application/x-medit-mesh");
+        strncat(files, SM_RESULT_TEMPLATE_FILE ", ", sizeof files - strlen(files) - 1);
+    }
     if (code == 0)
         code = write_summary(cmd, o->outdir, summary);
     json_decref(summary);

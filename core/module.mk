@@ -14,7 +14,7 @@ CORE_FIELD_SRCS := core/sm_field.c core/sm_field_adjacency.c core/sm_field_grid.
   core/sm_field_locate.c core/sm_field_nearest.c core/sm_warp.c
 CORE_SDF_SRCS := core/sm_background.c core/sm_bvh.c core/sm_sdf.c core/sm_surface_repair.c \
   core/sm_surface_orient.c core/sm_winding.c core/sm_image.c core/sm_edt.c \
-  core/sm_image_sdf.c core/sm_image_contour.c
+  core/sm_image_sdf.c core/sm_image_contour.c core/sm_template_check.c core/sm_template_mesh.c
 CORE_SOLVE_SRCS := core/sm_elasticity.c core/sm_elasticity_pattern.c core/sm_element.c \
   core/sm_solver_amg.c core/sm_shape.c core/sm_coverage.c core/sm_relax.c core/sm_match.c
 CORE_ALIGN_SRCS := core/sm_align.c core/sm_align_points.c core/sm_align_landmarks.c \
@@ -73,3 +73,24 @@ build/$(1)/include/shapematch.h: $$(CORE_PUBLIC_HEADERS) core/module.mk
 endef
 $(foreach v,$(VARIANTS),$(eval $(call core_so_rules,$(v))))
 ALL_TARGETS += libshapematch.so.$(SM_SOVERSION) include/shapematch.h
+
+# The Netgen shim (core/mesh/sm_nglib.cc, C++: nglib.h is C++), its own
+# shared object linked against Debian's nglib (LGPL-2.1, dynamically
+# linked; its private folder on the rpath).  Nothing links it: the
+# template mesher (core/sm_template_mesh.c) opens it with dlopen in a child
+# process, next to the program or library that holds the core.  Built
+# with the variant's sanitizers, so that the asan build runs it under ASan.
+CXX ?= g++
+NGLIB_DIR := /usr/lib/x86_64-linux-gnu/netgen
+NGLIB_CXXFLAGS := -std=c++17 -Wall -Wextra -Werror -fPIC -g -I core
+release_NGLIB_FLAGS := -O2
+asan_NGLIB_FLAGS := -O1 -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all
+define nglib_rules
+build/$(1)/libshapematch_nglib.so.0: core/mesh/sm_nglib.cc core/mesh/sm_nglib.h
+	@mkdir -p $$(dir $$@)
+	$$(call show,CXX,$$<,$(1))$$(CXX) $$(NGLIB_CXXFLAGS) $$($(1)_NGLIB_FLAGS) -shared \
+	  -Wl,-soname,libshapematch_nglib.so.0 -o $$@ $$< -L$$(NGLIB_DIR) -lnglib -lmesh \
+	  -Wl,-rpath,$$(NGLIB_DIR)
+endef
+$(foreach v,$(VARIANTS),$(eval $(call nglib_rules,$(v))))
+ALL_TARGETS += libshapematch_nglib.so.0

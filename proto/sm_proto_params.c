@@ -26,6 +26,10 @@ static const sm_param_info background_rows[] = {
      "--background-padding", "P",
      "the margin of that background around template and surface, a fraction of their box's "
      "diagonal", "inputs"},
+    {"template_size", SM_PARAM_REAL, offsetof(sm_background_params, template_size), 0, 0,
+     INFINITY, 1, 1, 0, "the template surface's mean edge", 0, "--template-size", "H",
+     "with --template-surface or --template-image: the meshed template's element size (nglib's "
+     "maxh), a length in the surface's unit", "inputs"},
 };
 
 const sm_param_info *sm_background_params_table(size_t *count)
@@ -369,7 +373,7 @@ sm_status sm_job_params_from_json(const char *text, size_t len, int dim, sm_para
     json_t *root;
     params_reset(out);
     if (bg)
-        bg->size = bg->padding = 0;
+        bg->size = bg->padding = bg->template_size = 0;
     sm_status st = smp_load(text, len, SM_PARAMS_JSON_MAX_BYTES, "params", &root, err);
     if (st != SM_OK)
         return st;
@@ -483,7 +487,7 @@ sm_status sm_job_params_from_json_for(const char *text, size_t len, const sm_mes
     json_t *root;
     params_reset(out);
     if (bg)
-        bg->size = bg->padding = 0;
+        bg->size = bg->padding = bg->template_size = 0;
     sm_status st = smp_load(text, len, SM_PARAMS_JSON_MAX_BYTES, "params", &root, err);
     if (st != SM_OK)
         return st;
@@ -499,7 +503,7 @@ sm_status sm_job_params_from_jansson_for(const json_t *root, const sm_mesh *m, s
 {
     params_reset(out);
     if (bg)
-        bg->size = bg->padding = 0;
+        bg->size = bg->padding = bg->template_size = 0;
     if (!json_is_object(root))
         return sm_job_params_from_jansson(root, m->dim, "params", out, bg, err);
     json_t *copy = json_deep_copy(root);

@@ -47,6 +47,8 @@ typedef struct sm_background_params {
     double size;    /* near-surface cell side, a length in the meshes' unit: > 0 */
     double padding; /* margin around template and surface, a fraction of their
                      * box's diagonal: > 0 and <= SM_BACKGROUND_PADDING_MAX */
+    double template_size; /* a meshed template's element size (template_surface,
+                           * template_image: sm_job_template.h), a length: > 0 */
 } sm_background_params;
 
 /* The padding when none is given (the schema's default). */

@@ -11,7 +11,7 @@
 const char *const sm_part_names[SM_NPARTS] = {"template", "target_mesh", "target_sol",
                                                 SM_PART_NAME_TARGET_SURFACE, "template_landmarks",
                                                 "target_landmarks", SM_PART_NAME_TARGET_IMAGE,
-                                                "params", "name"};
+                                                SM_PART_NAME_TEMPLATE_SURFACE, "params", "name"};
 
 const char *sm_part_name(sm_part part)
 {

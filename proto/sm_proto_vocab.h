@@ -23,9 +23,10 @@ typedef enum sm_part {
     SM_PART_TEMPLATE_LANDMARKS = 4,
     SM_PART_TARGET_LANDMARKS = 5,
     SM_PART_TARGET_IMAGE = 6,
-    SM_PART_PARAMS = 7,
-    SM_PART_NAME = 8,
-    SM_NPARTS = 9
+    SM_PART_TEMPLATE_SURFACE = 7,
+    SM_PART_PARAMS = 8,
+    SM_PART_NAME = 9,
+    SM_NPARTS = 10
 } sm_part;
 /* The file parts are the members before SM_PART_PARAMS (loops over the
  * files stop there: params and name stay last).  name is optional: the
@@ -39,15 +40,21 @@ typedef enum sm_part {
  * other than none.  target_image (a label map: NIfTI, NRRD or MetaImage
  * in one file, sm_job_image.h) is a target of its own, with an optional
  * target_mesh like target_surface; it excludes target_sol and
- * target_surface. */
+ * target_surface.  template_surface (a closed surface meshed into the
+ * template by nglib, sm_job_template.h; params template_size) stands in
+ * for template: one of the two. */
 #define SM_PART_NAME_TARGET_SURFACE "target_surface"
 #define SM_PART_NAME_TARGET_IMAGE "target_image"
+/* The template made from a closed surface or a label map
+ * (sm_job_template.h), in place of a volume mesh. */
+#define SM_PART_NAME_TEMPLATE_SURFACE "template_surface"
+#define SM_PART_NAME_TEMPLATE_IMAGE "template_image"
 /* Largest landmark part (bytes): a landmark file is a few rows; the
  * daemon refuses a larger one (422) while it arrives. */
 #define SM_LANDMARKS_MAX_BYTES (1 << 20)
 /* "template", "target_mesh", "target_sol", "target_surface",
- * "template_landmarks", "target_landmarks", "target_image", "params",
- * "name", indexed by sm_part. */
+ * "template_landmarks", "target_landmarks", "target_image",
+ * "template_surface", "params", "name", indexed by sm_part. */
 extern const char *const sm_part_names[SM_NPARTS];
 /* sm_part_names[part], NULL outside. */
 const char *sm_part_name(sm_part part);
@@ -89,6 +96,11 @@ const sm_result_format *sm_result_formats_of(sm_result_kind kind, size_t *n);
 
 /* The summary document (job/sm_job_results.h) and its media type. */
 #define SM_RESULT_SUMMARY_FILE "summary.json"
+/* A template meshed from template_surface or template_image
+ * (sm_job_template.h), written beside the results so that the run can be
+ * repeated with --template (the template of the run, before any
+ * alignment). */
+#define SM_RESULT_TEMPLATE_FILE "template.mesh"
 #define SM_RESULT_SUMMARY_MEDIA "application/json"
 /* Snapshots (params.save_every K): iter-NNNNN.mesh after iterations K,
  * 2K, ... (the daemon keeps them in results/snapshots/, `shapematch run`

@@ -71,6 +71,14 @@ typedef struct sm_run_files {
     const double *target_sol_values;
     int32_t target_sol_count;
     const struct sm_run_surface *target_surface_arrays;
+    /* appended (templates meshed by nglib, sm_job_template.h): a closed
+     * surface (a path, or arrays) or a label map's label (template_label,
+     * 0: every nonzero voxel), in place of template_mesh and
+     * template_arrays; the params' template_size sizes the elements */
+    const char *template_surface;
+    const struct sm_run_surface *template_surface_arrays;
+    const char *template_image;
+    int64_t template_label;
 } sm_run_files;
 
 /* A mesh in memory: dim 2 or 3; nverts vertices (coords: nverts*dim

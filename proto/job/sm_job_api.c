@@ -49,7 +49,7 @@ static char *dup_or_null(const char *s)
     return s ? strdup(s) : NULL;
 }
 
-#define API_NFILES 5
+#define API_NFILES 7
 
 /* What a part is called: its *_name, else its path, else "PART (array)"
  * when it is given in memory; NULL when not given. */
@@ -70,6 +70,9 @@ static void part_names(const sm_run_files *f, const char *out[API_NFILES])
     out[3] = part_name(f->target_surface_name, f->target_surface,
                        f->target_surface_arrays != NULL, "target_surface (array)");
     out[4] = part_name(f->target_image_name, f->target_image, 0, NULL);
+    out[5] = part_name(NULL, f->template_surface, f->template_surface_arrays != NULL,
+                       "template_surface (array)");
+    out[6] = part_name(NULL, f->template_image, 0, NULL);
 }
 
 static int copy_names(const sm_run_files *f, sm_job_files *names)
@@ -85,6 +88,8 @@ static int copy_names(const sm_run_files *f, sm_job_files *names)
     names->target_sol = dst[2];
     names->target_surface = dst[3];
     names->target_image = dst[4];
+    names->template_surface = dst[5];
+    names->template_image = dst[6];
     return bad ? -1 : 0;
 }
 
@@ -95,6 +100,8 @@ static void free_names(sm_job_files *names)
     free((char *)names->target_sol);
     free((char *)names->target_surface);
     free((char *)names->target_image);
+    free((char *)names->template_surface);
+    free((char *)names->template_image);
 }
 
 void sm_run_free(sm_run *r)
@@ -112,7 +119,7 @@ void sm_run_free(sm_run *r)
 typedef struct api_given {
     sm_mesh *template_mesh, *target_mesh;
     sm_sol *target_sol;
-    sm_surface *target_surface;
+    sm_surface *target_surface, *template_surface;
 } api_given;
 
 static void given_free(api_given *g)
@@ -121,6 +128,7 @@ static void given_free(api_given *g)
     sm_mesh_free(g->target_mesh);
     sm_sol_free(g->target_sol);
     sm_surface_free(g->target_surface);
+    sm_surface_free(g->template_surface);
 }
 
 /* The inputs as `shapematch run` reads them: the params' syntax and
@@ -148,7 +156,10 @@ static sm_status load_inputs(const sm_run_files *f, const char *params_json, sm_
              SM_OK) ||
         (f->target_surface_arrays &&
          (st = sm_job_surface_from_arrays(f->target_surface_arrays, names[3], &g.target_surface,
-                                          err)) != SM_OK)) {
+                                          err)) != SM_OK) ||
+        (f->template_surface_arrays &&
+         (st = sm_job_surface_from_arrays(f->template_surface_arrays, names[5],
+                                          &g.template_surface, err)) != SM_OK)) {
         given_free(&g);
         return st;
     }
@@ -157,9 +168,17 @@ static sm_status load_inputs(const sm_run_files *f, const char *params_json, sm_
                           .target_image = f->target_image, .background_size = bg.size,
                           .background_padding = bg.padding,
                           .template_given = g.template_mesh, .target_mesh_given = g.target_mesh,
-                          .target_surface_given = g.target_surface};
+                          .target_surface_given = g.target_surface,
+                          .template_surface = names[5], .template_image = f->template_image,
+                          .template_label = f->template_label,
+                          .template_size = bg.template_size,
+                          .template_min_quality = params.min_quality,
+                          .template_surface_given = g.template_surface};
+    /* a meshed template stands in for the template mesh */
+    if (names[5] || f->template_image)
+        files.template_mesh = NULL;
     /* a file is read by its path, named (in messages) by its path too */
-    if (!g.template_mesh)
+    if (!g.template_mesh && !files.template_surface && !files.template_image)
         files.template_mesh = f->template_mesh;
     if (!g.target_mesh)
         files.target_mesh = f->target_mesh;
@@ -204,8 +223,16 @@ static sm_status check_parts(const sm_run_files *f, sm_error *err)
         if (both[k])
             return sm_error_set(err, SM_ERR_INVALID, "%s: give a file or arrays, not both",
                                 parts[k]);
-    if (!f->template_mesh && !f->template_arrays)
+    int templates = (f->template_mesh || f->template_arrays) +
+                    (f->template_surface || f->template_surface_arrays) + (f->template_image != NULL);
+    if (f->template_surface && f->template_surface_arrays)
+        return sm_error_set(err, SM_ERR_INVALID, "template_surface: give a file or arrays, not both");
+    if (templates == 0)
         return sm_error_set(err, SM_ERR_INVALID, "template: no file given");
+    if (templates > 1)
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "template: give one template: template, template_surface or "
+                            "template_image");
     int mesh = f->target_mesh || f->target_mesh_arrays;
     int sol = f->target_sol || f->target_sol_values;
     int surface = f->target_surface || f->target_surface_arrays;

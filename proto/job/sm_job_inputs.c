@@ -627,6 +627,47 @@ static void landmark_part_error(sm_error *err, const sm_job_files *files, sm_par
     part_error(err, sm_part_name(part), path);
 }
 
+/* The template: given (a volume mesh), or meshed from template_surface
+ * or template_image (sm_job_template.h).  A meshing's message names its
+ * part ("template_surface: open: ..."; the path too for a local run);
+ * the daemon's part is then SM_PART_TEMPLATE, the file part it came in. */
+static sm_status take_template(const sm_job_files *files, sm_job_naming naming,
+                               sm_job_inputs *out, sm_error *err)
+{
+    const char *made_from = files->template_surface ? files->template_surface : files->template_image;
+    if (!made_from) {
+        sm_status st = take_mesh(files->template_mesh, files->template_given, files->limits,
+                                 &out->template_mesh, err);
+        if (st != SM_OK)
+            file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
+        return st;
+    }
+    const char *part = files->template_surface ? SM_PART_NAME_TEMPLATE_SURFACE
+                                               : SM_PART_NAME_TEMPLATE_IMAGE;
+    if (files->template_mesh || (files->template_surface && files->template_image)) {
+        out->failed = SM_PART_TEMPLATE;
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "%s: give one template: a volume mesh (template), a closed surface "
+                            "(template_surface) or a label map (template_image)",
+                            part);
+    }
+    sm_status st = sm_job_template_mesh(made_from, files->template_surface_given,
+                                        files->template_image != NULL, files->template_label,
+                                        files->template_size, files->template_min_quality,
+                                        files->limits, &out->template_mesh,
+                                        &out->template_made, err);
+    if (st != SM_OK) {
+        out->failed = SM_PART_TEMPLATE;
+        if (naming == SM_JOB_NAME_PARTS)
+            part_error(err, part, made_from);
+        else if (strstr(err->msg, made_from))
+            sm_error_prefix(err, "%s", part);
+        else
+            sm_error_prefix(err, "%s: %s", part, made_from);
+    }
+    return st;
+}
+
 sm_status sm_job_inputs_read_template(const sm_job_files *files, sm_job_naming naming,
                                       sm_job_inputs *out, sm_error *err)
 {
@@ -641,12 +682,9 @@ sm_status sm_job_inputs_read_template(const sm_job_files *files, sm_job_naming n
     }
     out->background_asked.size = files->background_size > 0 ? files->background_size : 0;
     out->background_asked.padding = files->background_padding > 0 ? files->background_padding : 0;
-    if ((st = take_mesh(files->template_mesh, files->template_given, files->limits,
-                        &out->template_mesh, err)) !=
-        SM_OK) {
-        file_error(err, naming, SM_PART_TEMPLATE, files->template_mesh, out);
+    out->background_asked.template_size = files->template_size > 0 ? files->template_size : 0;
+    if ((st = take_template(files, naming, out, err)) != SM_OK)
         goto fail;
-    }
     out->dim = out->template_mesh->dim;
     /* topology checks on a copy: building the boundary reorients
      * elements, and the outputs keep the input's connectivity as is; the
@@ -878,6 +916,10 @@ sm_status sm_job_inputs_load_json(const sm_job_files *files, const json_t *param
         with_bg.background_size = bg.size;
     if (!(with_bg.background_padding > 0))
         with_bg.background_padding = bg.padding;
+    if (!(with_bg.template_size > 0))
+        with_bg.template_size = bg.template_size;
+    if (!(with_bg.template_min_quality > 0))
+        with_bg.template_min_quality = params.min_quality;
     /* the files, then the params' values (the upload's check: a file's
      * 413 before a param's 422); with prepare_run (the worker, on checked
      * inputs) the params come before the target, whose reading the run's

@@ -39,6 +39,7 @@
 #include "shapematch/sm_sdf.h"
 #include "shapematch/sm_surface.h"
 #include "job/sm_job_image.h"
+#include "job/sm_job_template.h"
 #include "sm_proto_params.h"
 #include "sm_proto_vocab.h"
 
@@ -59,6 +60,18 @@
 
 typedef struct sm_job_files {
     const char *template_mesh;
+    /* or the template made from a closed surface or a label map's label
+     * (sm_job_template.h: meshed by nglib at template_size, 0: the
+     * surface's mean edge); one of template_mesh, template_surface and
+     * template_image.  Their messages start "template_surface" or
+     * "template_image" (with the path for a local run). */
+    const char *template_surface;
+    const char *template_image;
+    int64_t template_label;
+    double template_size;
+    /* the quality floor the meshed template must meet: the job's
+     * min_quality (0: the default's) */
+    double template_min_quality;
     const char *target_mesh;
     const char *target_sol;
     const char *target_surface;
@@ -105,6 +118,7 @@ typedef struct sm_job_files {
      * distances), the rest as with a generated background (its size and
      * padding, the units refusal); otherwise, or NULL, ignored */
     const char *checked_background, *checked_distance;
+    const sm_surface *template_surface_given;
 } sm_job_files;
 
 typedef enum sm_job_naming {
@@ -123,6 +137,8 @@ typedef struct sm_job_background_plan {
 
 typedef struct sm_job_inputs {
     sm_mesh *template_mesh;   /* as read (outputs keep its connectivity) */
+    sm_job_template_made template_made; /* a meshed template's figures
+                               * (source SM_TEMPLATE_GIVEN: as read) */
     sm_mesh *prepared;        /* copy with its boundary built (the run's) */
     sm_mesh *background;
     sm_sol *distance;

@@ -136,6 +136,35 @@ static json_t *image_object(const sm_job_inputs *in)
     return o;
 }
 
+/* How a template made from a surface or a label map was meshed. */
+static json_t *template_meshed_object(const sm_job_template_made *t)
+{
+    const sm_template_mesh_info *i = &t->mesh;
+    json_t *o = json_object();
+    int bad = !o;
+    bad = bad || smp_set(o, "from", json_string(t->source == SM_TEMPLATE_IMAGE ? "image" : "surface"));
+    if (t->source == SM_TEMPLATE_IMAGE)
+        bad = bad || smp_set(o, "label", json_integer(t->label));
+    bad = bad || smp_set(o, "file", json_string(SM_RESULT_TEMPLATE_FILE)) ||
+          smp_set(o, "mesher", json_string("nglib")) ||
+          smp_set(o, "surface_facets", json_integer(t->surface_facets)) ||
+          smp_set(o, "reoriented", json_integer(t->health.reoriented)) ||
+          smp_set(o, "size", json_real(i->size)) ||
+          smp_set(o, "vertices", json_integer(i->nverts)) ||
+          smp_set(o, "elements", json_integer(i->nelems)) ||
+          smp_set(o, "min_quality", json_real(i->min_quality)) ||
+          smp_set(o, "mean_quality", json_real(i->mean_quality)) ||
+          smp_set(o, "passes", json_integer(i->passes)) ||
+          smp_set(o, "volume", json_real(i->mesh_volume)) ||
+          smp_set(o, "surface_volume", json_real(i->surface_volume)) ||
+          smp_set(o, "seconds", json_real(i->seconds));
+    if (bad) {
+        json_decref(o);
+        return NULL;
+    }
+    return o;
+}
+
 static json_t *warnings_array(const sm_job_warnings *ws)
 {
     json_t *a = json_array();
@@ -219,6 +248,13 @@ json_t *sm_job_summary_outputs(const sm_job_inputs *in, const sm_job_run *run,
           smp_set(tmpl, "facets", json_integer(m->nfacets));
     if (m->nnames > 0) /* a Gmsh template's $PhysicalNames */
         bad = bad || smp_set(tmpl, "physical_names", names_array(m));
+    if (in->template_made.source != SM_TEMPLATE_GIVEN) {
+        int image = in->template_made.source == SM_TEMPLATE_IMAGE;
+        bad = bad || set_string(inputs, image ? SM_PART_NAME_TEMPLATE_IMAGE
+                                              : SM_PART_NAME_TEMPLATE_SURFACE,
+                                image ? names->template_image : names->template_surface) ||
+              smp_set(tmpl, "meshed", template_meshed_object(&in->template_made));
+    }
     if (!bad) {
         bad = smp_set(doc, "inputs", inputs) != 0;
         inputs = NULL;
@@ -468,6 +504,14 @@ sm_status sm_job_write_selected(const sm_job_inputs *in, const sm_job_run *run,
     outputs = sm_result_outputs_fix(outputs);
     if ((st = write_formats(dir, &d, outputs, flags, err)) != SM_OK)
         goto done;
+    if (in->template_made.source != SM_TEMPLATE_GIVEN) {
+        char *path = sm_path_join(dir, SM_RESULT_TEMPLATE_FILE);
+        st = path ? sm_mesh_write(path, m, err)
+                  : sm_error_set(err, SM_ERR_NOMEM, "out of memory writing the template");
+        free(path);
+        if (st != SM_OK)
+            goto done;
+    }
     st = write_summary(in, run, names, dir, outputs, flags, err);
 done:
     free(old_summary);

@@ -406,13 +406,20 @@ def _json(x):
     raise TypeError("not a JSON value: %r" % (x,))
 
 
-def match(template, *, target_mesh=None, target_sol=None, target_surface=None,
+def match(template=None, *, target_mesh=None, target_sol=None, target_surface=None,
           target_image=None, clamp_ball=None, clamp_elements=None, clamp_vertices=None, no_clamp=False,
-          progress=None, **params):
+          progress=None, template_surface=None, template_image=None, template_label=None,
+          **params):
     """Deforms template onto the target; returns a Result.
 
     template, target_mesh: a path (Medit .mesh/.meshb, Gmsh .msh, .gz) or
     arrays (vertices, elements[, element_refs]) (or a dict, or a Result);
+    or, in place of template, template_surface: a closed surface (a path
+    as target_surface, or arrays (vertices, facets)) or template_image: a
+    label map's path with template_label=N, meshed by nglib
+    (template_size=H: the element size; docs/your-data.md): how in
+    result.summary["template"]["meshed"], the mesh written by write() as
+    template.mesh;
     target_sol: a path or the distance at the target_mesh vertices (1-D);
     target_surface: a path (STL, OBJ, Medit, Gmsh); target_image: a path
     to a label map (NIfTI .nii/.nii.gz, NRRD .nrrd/.nhdr, MetaImage
@@ -432,6 +439,20 @@ def match(template, *, target_mesh=None, target_sol=None, target_surface=None,
     params_json = _json(doc).encode()
     rf = _lib.RunFiles()
     keep = []  # the arrays rf points into, alive until the library copied them
+    if sum(x is not None for x in (template, template_surface, template_image)) != 1:
+        raise TypeError("give one template: template, template_surface or template_image")
+    if template_label is not None and template_image is None:
+        raise TypeError("template_label is the label of template_image")
+    if template_image is not None:
+        if not _is_path(template_image):
+            raise TypeError("template_image: give a path (NIfTI, NRRD, MetaImage)")
+        rf.template_image = os.fsencode(template_image)
+        rf.template_label = int(template_label or 0)
+    if template_surface is not None:
+        if _is_path(template_surface):
+            rf.template_surface = os.fsencode(template_surface)
+        else:
+            rf.template_surface_arrays = _run_surface(template_surface, "template_surface", keep)
     for part, value in (("template", template), ("target_mesh", target_mesh),
                         ("target_sol", target_sol), ("target_surface", target_surface),
                         ("target_image", target_image)):

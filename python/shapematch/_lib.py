@@ -119,7 +119,11 @@ class RunFiles(ctypes.Structure):
         ("target_mesh_arrays", ctypes.POINTER(RunMesh)),
         ("target_sol_values", ctypes.POINTER(ctypes.c_double)),
         ("target_sol_count", ctypes.c_int32),
-        ("target_surface_arrays", ctypes.POINTER(RunSurface))]
+        ("target_surface_arrays", ctypes.POINTER(RunSurface)),
+        ("template_surface", ctypes.c_char_p),
+        ("template_surface_arrays", ctypes.POINTER(RunSurface)),
+        ("template_image", ctypes.c_char_p),
+        ("template_label", ctypes.c_int64)]
 
 
 PROGRESS_FN = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.POINTER(Progress), ctypes.c_void_p)

@@ -33,7 +33,8 @@ static const char *const image_ext[] = {"image", NULL};
 static int open_part(smd_server *srv, const char *id, int part, char *name, size_t cap)
 {
     const char *const *ext = part == SM_PART_TARGET_SOL       ? sol_ext
-                             : part == SM_PART_TARGET_SURFACE ? surface_ext
+                             : part == SM_PART_TARGET_SURFACE || part == SM_PART_TEMPLATE_SURFACE
+                                 ? surface_ext
                              : part == SM_PART_TARGET_IMAGE   ? image_ext
                              : part == SM_PART_TEMPLATE_LANDMARKS || part == SM_PART_TARGET_LANDMARKS
                                  ? csv_ext
@@ -104,8 +105,8 @@ enum MHD_Result smd_route_input(struct MHD_Connection *conn, smd_request *req)
     if (part < 0)
         return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NOT_FOUND,
                                  "no such input: the inputs are template, target_mesh, target_sol, "
-                                 "target_surface, template_landmarks, target_landmarks and "
-                                 "target_image (the "
+                                 "target_surface, template_landmarks, target_landmarks, "
+                                 "target_image and template_surface (the "
                                  "parameters are in the job's document)");
     smd_server *srv = req->srv;
     char name[48];

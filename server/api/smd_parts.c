@@ -99,7 +99,8 @@ uint64_t smd_parts_hash(const smd_parts *u)
     for (int i = 0; i < SM_NPARTS; i++) {
         if (!u->seen[i])
             continue; /* the hashes of requests without target_surface stay as they were */
-        if (i == SM_PART_TARGET_SURFACE || i == SM_PART_TARGET_IMAGE)
+        if (i == SM_PART_TARGET_SURFACE || i == SM_PART_TARGET_IMAGE ||
+            i == SM_PART_TEMPLATE_SURFACE)
             h = smd_fnv1a(h, &i, sizeof i); /* tell it from the same bytes as target_mesh */
         h = smd_fnv1a(h, &u->part_hash[i], sizeof u->part_hash[i]);
     }
@@ -221,7 +222,8 @@ static int name_file(smd_parts *u, sm_part id)
     }
     const char *ext = landmarks                      ? "csv"
                       : id == SM_PART_TARGET_SOL       ? (binary ? "solb" : "sol")
-                      : id == SM_PART_TARGET_SURFACE ? "surface" /* any surface format */
+                      : id == SM_PART_TARGET_SURFACE || id == SM_PART_TEMPLATE_SURFACE
+                          ? "surface" /* any surface format */
                       : id == SM_PART_TARGET_IMAGE ? "image" /* NIfTI, NRRD, MetaImage */
                                                      : (binary ? "meshb" : "mesh");
     char final[PATH_MAX];
@@ -242,7 +244,8 @@ int smd_parts_check(smd_parts *u)
 {
     static const sm_part always[] = {SM_PART_TEMPLATE, SM_PART_PARAMS};
     for (size_t i = 0; i < sizeof always / sizeof always[0]; i++)
-        if (!u->seen[always[i]]) {
+        if (!u->seen[always[i]] &&
+            !(always[i] == SM_PART_TEMPLATE && u->seen[SM_PART_TEMPLATE_SURFACE])) {
             smd_parts_fail(u, 400, SMD_PROBLEM_BAD_MULTIPART, "missing part \"%s\": the parts are " SMD_UPLOAD_PARTS,
                  sm_part_names[always[i]]);
             return -1;
@@ -265,6 +268,12 @@ int smd_parts_check(smd_parts *u)
                        "target_mesh)",
                        sm_part_names[u->seen[SM_PART_TARGET_SOL] ? SM_PART_TARGET_SOL
                                                                   : SM_PART_TARGET_SURFACE]);
+        return -1;
+    }
+    if (u->seen[SM_PART_TEMPLATE] && u->seen[SM_PART_TEMPLATE_SURFACE]) {
+        smd_parts_fail(u, 422, SMD_PROBLEM_INVALID_INPUT,
+                       "template_surface excludes template: give one template (a volume mesh, "
+                       "or a closed surface to mesh)");
         return -1;
     }
     if (u->seen[SM_PART_TEMPLATE_LANDMARKS] != u->seen[SM_PART_TARGET_LANDMARKS]) {

@@ -457,6 +457,20 @@ enum MHD_Result smd_route_result_history(struct MHD_Connection *conn, smd_reques
     return results_ready(conn, req, &r) ? serve(conn, req, history_formats, 2) : r;
 }
 
+/* The template a job meshed from its template_surface (sm_job_template.h):
+ * 404 for a job whose template was given as a mesh. */
+enum MHD_Result smd_route_result_template(struct MHD_Connection *conn, smd_request *req)
+{
+    static const result_format f = {SM_RESULT_MESH, "mesh", "application/x-medit-mesh",
+                                    SM_RESULT_TEMPLATE_FILE};
+    enum MHD_Result r;
+    if (!results_ready(conn, req, &r))
+        return r;
+    return send_file(conn, req, &f, f.file, f.file,
+                     "this job's template was given as a mesh (template), not meshed from a "
+                     "template_surface");
+}
+
 enum MHD_Result smd_route_snapshots(struct MHD_Connection *conn, smd_request *req)
 {
     enum MHD_Result r;

@@ -52,6 +52,7 @@ const smd_route smd_route_table[] = {
     {SMD_METHOD_READ, RESULTS "/displacement", smd_route_result_displacement,
      RESULTS "/displacement", 0},
     {SMD_METHOD_READ, RESULTS "/history", smd_route_result_history, RESULTS "/history", 0},
+    {SMD_METHOD_READ, RESULTS "/template", smd_route_result_template, RESULTS "/template", 0},
     /* snapshots have no label of their own: counted under /results */
     {SMD_METHOD_READ, RESULTS "/snapshots", smd_route_snapshots, RESULTS, 0},
     {SMD_METHOD_READ, RESULTS "/snapshots/{iteration}", smd_route_snapshot, RESULTS, 0},

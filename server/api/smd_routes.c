@@ -214,7 +214,16 @@ enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req)
     json_object_set_new(inputs, sm_part_names[SM_PART_TEMPLATE],
                         file_input("Template mesh", "The mesh to deform: Medit .mesh or .meshb "
                                                     "(triangles in 2D, tetrahedra in 3D), optionally "
-                                                    "gzip-compressed.", 1));
+                                                    "gzip-compressed; or template_surface instead.",
+                                   0));
+    json_object_set_new(inputs, sm_part_names[SM_PART_TEMPLATE_SURFACE],
+                        file_input("Template surface",
+                                   "Instead of template: a closed surface (STL, OBJ, PLY, OFF, "
+                                   "VTK, Medit or Gmsh; a closed curve in 2D) meshed into the "
+                                   "template by Netgen's nglib at params template_size (default "
+                                   "its mean edge); open, non-manifold or self-intersecting "
+                                   "surfaces are refused (422).  The meshed template is a result "
+                                   "file, template.mesh.", 0));
     json_object_set_new(inputs, sm_part_names[SM_PART_TARGET_MESH],
                         file_input("Target (background) mesh",
                                    "The mesh carrying the target's signed distance: .mesh or "

@@ -287,6 +287,7 @@ static int load_job(worker *w, const smd_job_file *jf, sm_job_inputs *in)
     /* a generated background's size and padding come from the params
      * (sm_job_inputs_load_json), as in the upload's check */
     sm_job_files files = {.template_mesh = given[SM_PART_TEMPLATE],
+                          .template_surface = given[SM_PART_TEMPLATE_SURFACE],
                           .target_mesh = given[SM_PART_TARGET_MESH],
                           .target_sol = given[SM_PART_TARGET_SOL],
                           .target_surface = given[SM_PART_TARGET_SURFACE],
@@ -324,6 +325,7 @@ static int run_job(worker *w, sm_job_inputs *in, const smd_job_file *jf)
 {
     /* the summary names the inputs as job.json does (relative paths) */
     sm_job_files names = {.template_mesh = given_or_null(jf->part[SM_PART_TEMPLATE]),
+                          .template_surface = given_or_null(jf->part[SM_PART_TEMPLATE_SURFACE]),
                           .target_mesh = given_or_null(jf->part[SM_PART_TARGET_MESH]),
                           .target_sol = given_or_null(jf->part[SM_PART_TARGET_SOL]),
                           .target_surface = given_or_null(jf->part[SM_PART_TARGET_SURFACE]),

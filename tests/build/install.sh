@@ -165,7 +165,8 @@ else
     not_ok "LICENSE and THIRD-PARTY installed" "$(ls -l "$L" 2>&1)"
 fi
 linked=$(grep -E '^  (Linked|Loaded):' "$ROOT/THIRD-PARTY")
-needed=$(for f in "$T"/bin/* "$T"/lib/libshapematch.so.0 "$T"/lib/libshapematch_job.so.0; do
+needed=$(for f in "$T"/bin/* "$T"/lib/libshapematch.so.0 "$T"/lib/libshapematch_job.so.0 \
+    "$T"/lib/libshapematch_nglib.so.0; do
     readelf -d "$f" | sed -n 's/.*(NEEDED).*\[\(.*\)\]/\1/p'; done | LC_ALL=C sort -u)
 unlisted=
 for so in $needed libcurl.so.4; do

@@ -30,7 +30,7 @@ fi
 bad=()
 while read -r expect inputs flag value extra; do
     if [ "$inputs" = surface ]; then
-        in=(--template missing.mesh --target-surface missing.stl)
+        in=(--template-surface missing.stl --target-surface missing.stl)
     else
         in=(--template missing.mesh --target-mesh missing.mesh --target-sol missing.sol)
     fi

@@ -9,7 +9,7 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=$1
 rm -rf "$out"
-targets="mesh msh stl obj ply off vtk vtkxml sol params events payload sse headers multipart parts decimal job_file points nifti nrrd mha batch_list batch_request npy"
+targets="mesh msh stl obj ply off template_surface vtk vtkxml sol params events payload sse headers multipart parts decimal job_file points nifti nrrd mha batch_list batch_request npy"
 for t in $targets; do
     mkdir -p "$out/$t"
     [ -d tests/fuzz/seeds/$t ] && cp tests/fuzz/seeds/$t/* "$out/$t/" 2>/dev/null || true
@@ -56,6 +56,7 @@ done
 # the samples of every PLY, OFF and VTK encoding, without the targets' prefixes
 for f in tests/data/formats/cells/*.ply; do tail -c +5 "$f" >"$out/ply/$(basename "$f")"; done
 for f in tests/data/formats/cells/*.off; do tail -c +5 "$f" >"$out/off/$(basename "$f")"; done
+for f in tests/data/formats/cells/*.off; do tail -c +5 "$f" >"$out/template_surface/$(basename "$f")"; done
 for f in tests/data/formats/cells/*.vtk; do tail -c +24 "$f" >"$out/vtk/$(basename "$f")"; done
 for f in tests/data/formats/cells/*.vt[up]; do add vtkxml "$(basename "$f")" "$f"; done
 for f in tests/data/proto/params/good/*.json tests/data/proto/params/bad/*.json; do

@@ -195,6 +195,24 @@ probe "nothing acceptable" GET "$tmpl" 406 "/v1/jobs/$J/results/snapshots/10" ''
 probe "no snapshot at this iteration" GET "$tmpl" 404 "/v1/jobs/$J/results/snapshots/15" '' "${AUTH[@]}"
 probe "not an iteration" GET "$tmpl" 404 "/v1/jobs/$J/results/snapshots/..%2Fsummary.json" '' "${AUTH[@]}"
 
+# a template meshed from a surface (template_surface, a circle as an OBJ
+# polyline): its results/template; a job given a template mesh has none
+python3 -c 'import math
+print("\n".join("v %r %r 0" % (0.5 * math.cos(2 * math.pi * i / 48), 0.5 * math.sin(2 * math.pi * i / 48)) for i in range(48)))
+print("l " + " ".join(str(i + 1) for i in range(48)) + " 1")' >"$WORK/circle.obj"
+probe "submit a template_surface" POST /v1/jobs 201 /v1/jobs '.status == "accepted"' "${AUTH[@]}" \
+    -F "template_surface=@$WORK/circle.obj" -F "target_mesh=@$BOX" -F "target_sol=@$BOXSOL" \
+    -F "params=$(quick_params 5)"
+T=$(jq -r .jobID "$WORK/body")
+poll 60 state_is "$T" successful
+tmpl='/v1/jobs/{jobID}/results/template'
+noauth_probe "no token" GET "$tmpl" "/v1/jobs/$T/results/template"
+probe "the meshed template" GET "$tmpl" 200 "/v1/jobs/$T/results/template" '' "${AUTH[@]}"
+grep -q '^Triangles' "$WORK/body" && ok "results/template is a Medit triangle mesh" ||
+    not_ok "results/template is a Medit triangle mesh" "$(head -c 300 "$WORK/body")"
+probe "a job given a template mesh" GET "$tmpl" 404 "/v1/jobs/$J/results/template" \
+    '.detail | contains("template_surface")' "${AUTH[@]}"
+
 # the warp route (docs/warp.md; the answers checked in daemon_warp.sh)
 tmpl='/v1/jobs/{jobID}/warp'
 CSV=(-H 'Content-Type: text/csv')

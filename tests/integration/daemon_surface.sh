@@ -311,9 +311,10 @@ check "refused uploads leave nothing in the spool ($left entries)" test "$left" 
 # ------------------------------------------------ the process description
 hcurl "${AUTH[@]}" "$BASE/v1/processes/match" >"$WORK/process.json"
 jq -e '.inputs.target_surface.minOccurs == 0 and .inputs.target_sol.minOccurs == 0 and
-       .inputs.template.minOccurs == 1 and (.inputs.target_surface.description | test("excludes target_sol"; "i"))' \
+       .inputs.template.minOccurs == 0 and .inputs.template_surface.minOccurs == 0 and
+       (.inputs.target_surface.description | test("excludes target_sol"; "i"))' \
     "$WORK/process.json" >/dev/null
-check "the process description lists target_surface (optional, excludes target_sol)" test $? = 0
+check "the process description lists target_surface (optional, excludes target_sol); template or template_surface (each optional)" test $? = 0
 
 # ------------------------------------------- shapematch submit --target-surface
 timeout $((120 * SLOW)) "$BIN/shapematch" submit --server "$BASE" --template "$TPL" \

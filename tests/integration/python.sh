@@ -5,7 +5,8 @@
 # against `shapematch run` bit for bit, arrays in = files in, progress and
 # stop, errors, the GIL, many matches with a flat RSS, sdf, warp (against
 # `shapematch warp` and an exact affine map); image targets against `run
-# --target-image` (test_image: match, batch, the Client); the Client
+# --target-image` (test_image: match, batch, the Client); templates meshed
+# from a surface or a label map (test_template); the Client
 # against two real daemons on loopback (one with tokens, one that accepts a
 # submission per 2 s: 429 retried) and a fake one answering 503.
 # asan: the sanitized libraries under an uninstrumented python3, with the
@@ -50,7 +51,7 @@ while IFS= read -r line; do
     "1.."*) ;;
     *) echo "$line" ;;
     esac
-done < <(env "${env[@]}" "$PY" "$ROOT/tests/python/tap.py" test_shapematch test_inputs test_warp test_image test_client \
+done < <(env "${env[@]}" "$PY" "$ROOT/tests/python/tap.py" test_shapematch test_inputs test_warp test_image test_template test_client \
     2>"$WORK/py.err"; echo "# python exit $?" >"$WORK/py.rc")
 if grep -qx '# python exit 0' "$WORK/py.rc"; then
     ok "the Python tests ran to their end"

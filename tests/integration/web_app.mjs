@@ -404,6 +404,30 @@ async function crossOrigin(page, base, tok, withAuth) {
   }, { base, tok, files: files2d, withAuth });
 }
 
+// ------------------------------------------------ a template from a surface
+await run('a template from a surface', async () => {
+  const page = await newPage();
+  await page.goto(`${openBase}/`);
+  await page.waitForSelector('#p-clamp');
+  // a closed curve (a circle about the 2D example's centre) as an OBJ polyline
+  const obj = path.join(logDir, 'web-app-circle.obj');
+  const n = 48;
+  fs.writeFileSync(obj, [...Array(n).keys()].map((i) => `v ${0.5 + 0.3 * Math.cos((2 * Math.PI * i) / n)} ${0.5 + 0.3 * Math.sin((2 * Math.PI * i) / n)} 0`).join('\n')
+    + `\nl ${[...Array(n).keys()].map((i) => i + 1).join(' ')} 1\n`);
+  await page.setInputFiles('#f-template_surface', obj);
+  await page.setInputFiles('#f-target_mesh', path.join(examples, '2d', 'background.mesh.gz'));
+  await page.setInputFiles('#f-target_sol', path.join(examples, '2d', 'background.sol.gz'));
+  await page.fill('#p-template_size', '0.05');
+  await page.fill('#p-max_iter', '20');
+  await page.click('#submit');
+  const final = await waitStatus(page, 'successful', 120000);
+  const sum = await summaryOf(openBase, await jobId(page));
+  const m = (sum.template || {}).meshed || {};
+  report('the form\'s template_surface file and template_size: the daemon meshes the curve (nglib, size 0.05) and the job ends successful, 0 inverted',
+    final === 'successful' && m.mesher === 'nglib' && m.size === 0.05 && sum.inverted_elements === 0, `${final} ${JSON.stringify(m)}`);
+  await page.close();
+});
+
 await run('another origin', async () => {
   const listed = await newPage();
   await listed.goto(`http://localhost:${originPort}/`);

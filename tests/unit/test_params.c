@@ -67,8 +67,9 @@ static int by_cli(const sm_param_info *f, int background, const char *text, char
     const char *argv[16];
     int argc = 0;
     argv[argc++] = "run";
-    argv[argc++] = "--template";
-    argv[argc++] = "t.mesh";
+    /* the input rows: template_size sizes a meshed template */
+    argv[argc++] = background ? "--template-surface" : "--template";
+    argv[argc++] = background ? "t.stl" : "t.mesh";
     if (background) { /* the background members need a generated background */
         argv[argc++] = "--target-surface";
         argv[argc++] = "s.stl";

@@ -1,0 +1,51 @@
+/* A job's template made from what users have (sm_template_mesh.h): a
+ * closed surface (template_surface: every format sm_surface_read reads,
+ * repaired as a target surface is: sm_surface_repair orients it) or a
+ * label map's boundary (template_image with its label: the label's
+ * level-set surface as for an image target, sm_job_image.h; a 2D image
+ * gives a closed curve), meshed by nglib at template_size.  The one
+ * function `shapematch run`, the worker and the binding call through
+ * sm_job_inputs_read_template, and that `batch --template-from` may call
+ * for a population's mean. */
+#ifndef SM_JOB_TEMPLATE_H
+#define SM_JOB_TEMPLATE_H
+
+#include <stdint.h>
+
+#include "shapematch/sm_error.h"
+#include "shapematch/sm_io.h"
+#include "shapematch/sm_mesh.h"
+#include "shapematch/sm_surface.h"
+#include "shapematch/sm_template_mesh.h"
+
+/* Where the template came from (summary.json's template_meshed). */
+typedef enum sm_job_template_source {
+    SM_TEMPLATE_GIVEN = 0,   /* a volume mesh (template) */
+    SM_TEMPLATE_SURFACE = 1, /* template_surface, meshed */
+    SM_TEMPLATE_IMAGE = 2    /* template_image's label, meshed */
+} sm_job_template_source;
+
+typedef struct sm_job_template_made {
+    sm_job_template_source source;
+    sm_template_mesh_info mesh;   /* what nglib made */
+    sm_surface_health health;     /* the surface's, after repair */
+    int64_t label;                /* template_image's label (0: every
+                                   * nonzero voxel) */
+    int32_t surface_facets;
+} sm_job_template_made;
+
+/* Reads path (an image when is_image, with label; given: a surface in
+ * memory instead of the file, path naming it) within limits (may be
+ * NULL: the mesher's own bounds; else max_vertices bounds the elements,
+ * 6 tetrahedra or 2 triangles a vertex), repairs, checks and meshes it at
+ * size (0: the surface's mean edge; for an image, its largest voxel
+ * spacing, since a label's surface is finer than its voxels), every
+ * element at least min_quality (0: the descent's default floor).  Messages are the core's ("open: 12
+ * edges ...", "nglib: ..."), unprefixed: the caller names the part.
+ * *out is the caller's (sm_mesh_free). */
+sm_status sm_job_template_mesh(const char *path, const sm_surface *given, int is_image,
+                               int64_t label, double size, double min_quality,
+                               sm_read_limits *limits, sm_mesh **out,
+                               sm_job_template_made *made, sm_error *err);
+
+#endif

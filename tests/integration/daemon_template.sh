@@ -1,0 +1,79 @@
+#!/usr/bin/env bash
+# run.sh: weight 0.5 seconds 30 asan 90
+# A template meshed from a surface through the daemon (issue 34): the
+# multipart part template_surface of POST /v1/jobs through real curl (a
+# closed 2D curve, tests/cli/template_mesh_check.py's star), meshed in the
+# upload's check child and again by the worker:
+#   - 201 without a clamp or a template; the job ends successful, its
+#     summary's template.meshed names nglib, 0 inverted, the default clamp
+#     in its warnings; GET results/template serves the mesh, byte for byte
+#     the template.mesh `shapematch run --template-surface` writes on the
+#     same file;
+#   - an open curve: 422 naming template_surface and the defect; template
+#     with template_surface: 422; neither: 400 naming template;
+#   - params template_size reaches the mesher (fewer triangles);
+#   - `shapematch submit --template-surface --wait -o DIR` downloads
+#     template.mesh with the results.
+source "$(dirname "$0")/lib.sh"
+CHECK=$ROOT/tests/cli/template_mesh_check.py
+PY=/usr/bin/python3
+cd "$WORK" || exit 1
+"$PY" "$CHECK" star star.mesh 1 0 0 && "$PY" "$CHECK" star moved.mesh 1.12 0.1 -0.05
+# an open curve: the star without its last segment
+"$PY" - <<'PYEOF'
+lines = open('star.mesh').read().split('\n')
+i = lines.index('Edges')
+n = int(lines[i + 1])
+out = lines[:i + 1] + [str(n - 1)] + lines[i + 2:i + 2 + n - 1] + lines[i + 2 + n:]
+open('open.mesh', 'w').write('\n'.join(out))
+PYEOF
+
+start_daemon tpl --workers 1 || { not_ok "daemon starts"; exit 1; }
+P='{"max_iter": 30}'
+code=$(hcurl -o sub.json -w '%{http_code}' -F template_surface=@star.mesh -F target_surface=@moved.mesh \
+    -F "params=$P" "$BASE/v1/jobs")
+check "POST template_surface + target_surface, no clamp: 201 ($code)" test "$code" = 201
+J=$(jq -r .jobID sub.json)
+wait_state "$J" successful 60
+check "the job ends successful" state_is "$J" successful
+hcurl -o res.json "$BASE/v1/jobs/$J/results"
+jq -e '.template.meshed.mesher == "nglib" and .template.meshed.from == "surface"
+    and .inverted_elements == 0 and (.warnings | map(.code) | index("clamp-default")) != null' \
+    res.json >/dev/null
+check "summary: template.meshed by nglib, 0 inverted, the default clamp reported" test $? = 0
+code=$(hcurl -o tpl.mesh -w '%{http_code}' "$BASE/v1/jobs/$J/results/template")
+"$BIN/shapematch" run --template-surface star.mesh --target-surface moved.mesh --max-iter 1 -q \
+    -o local 2>/dev/null >/dev/null
+[ "$code" = 200 ] && cmp -s tpl.mesh local/template.mesh
+check "GET results/template (200) is the template.mesh of shapematch run, byte for byte" test $? = 0
+
+code=$(hcurl -o bad.json -w '%{http_code}' -F template_surface=@open.mesh -F target_surface=@moved.mesh \
+    -F "params=$P" "$BASE/v1/jobs")
+[ "$code" = 422 ] && jq -e '.detail | startswith("template_surface: open: ")' bad.json >/dev/null
+check "an open curve: 422 naming template_surface and the defect ($code)" test $? = 0 || cat bad.json
+code=$(hcurl -o bad.json -w '%{http_code}' -F template=@local/template.mesh -F template_surface=@star.mesh \
+    -F target_surface=@moved.mesh -F "params=$P" "$BASE/v1/jobs")
+[ "$code" = 422 ] && jq -e '.detail | contains("excludes template")' bad.json >/dev/null
+check "template with template_surface: 422 ($code)" test $? = 0
+code=$(hcurl -o bad.json -w '%{http_code}' -F target_surface=@moved.mesh -F "params=$P" "$BASE/v1/jobs")
+[ "$code" = 400 ] && jq -e '.detail | contains("missing part \"template\"")' bad.json >/dev/null
+check "no template at all: 400 naming template ($code)" test $? = 0
+
+code=$(hcurl -o sub2.json -w '%{http_code}' -F template_surface=@star.mesh -F target_surface=@moved.mesh \
+    -F 'params={"max_iter": 1, "template_size": 0.15}' "$BASE/v1/jobs")
+J2=$(jq -r .jobID sub2.json)
+wait_state "$J2" successful 60
+hcurl -o res2.json "$BASE/v1/jobs/$J2/results"
+jq -e --slurpfile a res.json '.template.meshed.size == 0.15
+    and .template.meshed.elements < $a[0].template.meshed.elements' res2.json >/dev/null
+check "params template_size 0.15 reaches the mesher (fewer triangles)" test $? = 0
+
+"$BIN/shapematch" submit --server "$BASE" --template-surface star.mesh --target-surface moved.mesh \
+    --max-iter 5 --wait -q -o out-sub >sub.out 2>sub.err
+rc=$?
+{ [ $rc = 0 ] || [ $rc = 10 ]; } && cmp -s out-sub/template.mesh local/template.mesh && [ -s out-sub/summary.json ]
+check "submit --template-surface --wait -o: template.mesh downloaded with the results (exit $rc)" test $? = 0
+reports_clean && ok "no sanitizer report" || not_ok "no sanitizer report"
+stop_daemon
+echo "1..$n"
+[ "$failed" -eq 0 ]

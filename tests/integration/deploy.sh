@@ -241,16 +241,24 @@ result(build["image"] == "debian:bookworm" and first_make is not None
        build_cmds[:200])
 install_run = [r for r in build["run"] if "make install" in r]
 m = re.search(r"make install DESTDIR=(\S+) PREFIX=(\S+)", install_run[0]) if install_run else None
-copied = []
+copied, libs = [], []
 for c in runtime["copy"]:
     toks = c.split()
     if any(t.startswith("--from=") for t in toks):
         srcs = [t for t in toks[1:-1] if not t.startswith("--")]
+        if all("/lib/" in t for t in srcs):
+            libs += [(t, toks[-1]) for t in srcs]  # the template mesher's Netgen shim
+            continue
         copied += srcs
         copy_dest = toks[-1]
 expected_srcs = sorted("%s%s/bin/%s" % (m.group(1), m.group(2), p) for p in ("shapematchd", "shapematch-worker", "shapematch")) if m else None
 result(m is not None and sorted(copied) == expected_srcs,
        "Dockerfile runtime stage copies exactly the three installed programs from the build stage", copied)
+# the programs open the shim from ../lib beside them (core/sm_template_mesh.c)
+expected_libs = [("%s%s/lib/libshapematch_nglib.so.0" % (m.group(1), m.group(2)),
+                  os.path.normpath(copy_dest + "/../lib") + "/")] if m and copied else None
+result(libs == expected_libs,
+       "Dockerfile runtime stage copies the installed Netgen shim to the lib folder beside the programs", libs)
 with open(os.path.join(work, "docker-programs"), "w") as f:
     f.write("\n".join(os.path.basename(c) for c in copied) + "\n")
 pkgs = []

@@ -495,7 +495,7 @@ static void test_route_table(void **state)
     const char *labels[64];
     size_t n = smd_route_labels(labels, 64);
     assert_string_equal(labels[0], "other");
-    assert_int_equal(n, 28); /* with mesh/latest, the two schemas, /v1/conformance, the app files and the OGC execute route (issue 11), the job's inputs and one input (issue 27), the warp route (issue 24), the batches, a batch, its events and its model (issue 25) */
+    assert_int_equal(n, 29); /* with mesh/latest, the two schemas, /v1/conformance, the app files and the OGC execute route (issue 11), the job's inputs and one input (issue 27), the warp route (issue 24), the batches, a batch, its events and its model (issue 25), the meshed template (issue 34) */
     for (size_t i = 0; i < n; i++)
         for (size_t k = i + 1; k < n; k++)
             assert_true(strcmp(labels[i], labels[k]) != 0);

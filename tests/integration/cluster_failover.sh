@@ -7,8 +7,9 @@
 # Idempotency-Key retry on the other API node returns the same job;
 # PostgreSQL restarted with jobs queued and running (/readyz 503 during
 # the outage, nodes reconnect, nothing accepted is lost); a worker node
-# stopped while it runs a job gives it back at once; retention with two
-# API nodes deletes each job once.
+# stopped while it runs a job gives it back at once, and so does one
+# stopped while its claim copies a job; retention with two API nodes
+# deletes each job once.
 source "$(dirname "$0")/lib.sh"
 source "$(dirname "$0")/../lib/cluster.sh"
 
@@ -168,6 +169,9 @@ node w2 worker --workers 1 --lease "$LEASE" --shutdown-grace 0 --worker "$WORK/h
 on api1
 sid=$(submit "$FINE" "$BOX" "$BOXSOL" "$BALL_PARAMS, \"max_iter\": 1001, \"tol_step\": 1e-15, \"tol_stall\": 0}")
 poll 20 state_is "$sid" running
+# running in the database means claimed: the worker program may not have
+# started yet (that case, a stop while the claim copies the job, is below)
+poll 20 [ -d "$WORK/held" ]
 held=$([ -d "$WORK/held" ] && echo held)
 t0=$SECONDS
 kill -TERM "${NODE_PID[w2]}"
@@ -180,9 +184,46 @@ all "a worker node stopped while it runs a job gives it back at once ($((SECONDS
     "$held|=|held" "$back|=|accepted 1 true" "$(job_state "$sid")|=|successful" \
     "$(psql_val "SELECT attempt FROM smd_jobs WHERE id = '$sid'")|=|2"
 
+# --------------- a worker node stopped while its claim copies the job
+# The claim is caught between its UPDATE and the copy of the job's inputs:
+# a session holds smd_blobs locked until the node is shutting down.  The
+# node must give the job back at its stop, not keep the lease until it
+# expires (it kept it: no node could run the job for --lease seconds).
+kill -TERM "${NODE_PID[w3]}"
+wait "${NODE_PID[w3]}" 2>/dev/null
+on api1
+uid=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
+on api2
+poll 20 state_is "$uid" accepted # api2 copied it before the lock
+mkfifo "$WORK/lock.sql"
+psql -X -A -t -q "$DB" <"$WORK/lock.sql" >"$WORK/lock.out" 2>&1 &
+LOCKER=$!
+exec 7>"$WORK/lock.sql"
+echo "BEGIN; LOCK TABLE smd_blobs IN ACCESS EXCLUSIVE MODE; SELECT 'locked';" >&7
+poll 20 grep -q '^locked$' "$WORK/lock.out"
+node w4 worker --workers 1 --lease "$LEASE" --database-lock-timeout $((60 * SLOW)) ||
+    not_ok "node w4 starts"
+claimed() { [ "$(psql_val "SELECT state || ' ' || attempt FROM smd_jobs WHERE id = '$uid'")" = "running 1" ]; }
+poll 20 claimed
+kill -TERM "${NODE_PID[w4]}"
+poll 20 grep -q '"event":"shutting_down"' "${NODE_LOG[w4]}"
+echo "COMMIT;" >&7
+exec 7>&-
+wait "$LOCKER"
+t0=$SECONDS
+wait "${NODE_PID[w4]}" 2>/dev/null
+ubk=$(psql_val "SELECT state || ' ' || attempt || ' ' || (lease_token IS NULL) FROM smd_jobs WHERE id = '$uid'")
+released=$(grep -c "\"event\":\"job_released\",\"msg\":\"job $uid:" "${NODE_LOG[w4]}")
+node w5 worker --workers 1 --lease "$LEASE" || not_ok "node w5 starts"
+on api1
+poll 30 state_is "$uid" successful
+all "a worker node stopped while its claim copied the job gives it back at its stop, no attempt used ($((SECONDS - t0)) s to the end)" \
+    "$ubk|=|accepted 0 true" "$released|=|1" "$(job_state "$uid")|=|successful" \
+    "$(psql_val "SELECT attempt FROM smd_jobs WHERE id = '$uid'")|=|1"
+
 # ---------------------------------------------------- retention, once
-for nd in api1 api2 w3; do kill -TERM "${NODE_PID[$nd]}" 2>/dev/null; done
-for nd in api1 api2 w3; do wait "${NODE_PID[$nd]}" 2>/dev/null; done
+for nd in api1 api2 w5; do kill -TERM "${NODE_PID[$nd]}" 2>/dev/null; done
+for nd in api1 api2 w5; do wait "${NODE_PID[$nd]}" 2>/dev/null; done
 for nr in r1:api r2:api rw:worker; do
     node "${nr%%:*}" "${nr#*:}" --workers 1 --lease "$LEASE" --retention 2 || not_ok "node ${nr%%:*} starts"
 done

@@ -7,8 +7,9 @@
 # Idempotency-Key retry on the other API node returns the same job;
 # PostgreSQL restarted with jobs queued and running (/readyz 503 during
 # the outage, nodes reconnect, nothing accepted is lost); a worker node
-# stopped while it runs a job gives it back at once; retention with two
-# API nodes deletes each job once.
+# stopped while it runs a job gives it back at once, and so does one
+# stopped while its claim copies a job; retention with two API nodes
+# deletes each job once.
 source "$(dirname "$0")/lib.sh"
 source "$(dirname "$0")/../lib/cluster.sh"
 
@@ -21,8 +22,21 @@ fi
 # the job it ran, which then ran twice)
 LEASE=$((6 * SLOW))
 started=1
+# The job running across PostgreSQL's restart (max_iter 1002) waits in the
+# worker program until the database is back ($WORK/go), then computes:
+# computed at once, its 1000 iterations took 0.3 s on an idle machine and
+# it ended before the outage.
+cat >"$WORK/gate.sh" <<EOF
+#!/bin/sh
+if grep -q '"max_iter": 1002,' "\$1/job.json"; then
+    touch "$WORK/gated"
+    while [ ! -e "$WORK/go" ]; do sleep 0.1; done
+fi
+exec "$BIN/shapematch-worker" "\$@"
+EOF
+chmod +x "$WORK/gate.sh"
 for nr in api1:api api2:api w1:worker; do
-    node "${nr%%:*}" "${nr#*:}" --workers 1 --lease "$LEASE" || started=0
+    node "${nr%%:*}" "${nr#*:}" --workers 1 --lease "$LEASE" --worker "$WORK/gate.sh" || started=0
 done
 if [ "$started" != 1 ]; then
     not_ok "the nodes start"
@@ -102,10 +116,12 @@ fi
 
 # ------------------------------------------------ PostgreSQL restart
 on api1
-rid=$(submit "$FINE" "$BOX" "$BOXSOL" "$LONG")
+rid=$(submit "$FINE" "$BOX" "$BOXSOL" "$BALL_PARAMS, \"max_iter\": 1002, \"tol_step\": 1e-15, \"tol_stall\": 0}")
 poll 20 state_is "$rid" running
+poll 20 [ -e "$WORK/gated" ] # its worker program started
 qids=()
 for i in 1 2 3; do qids+=("$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 20)")"); done
+rsome=$(psql_val "SELECT state || ' ' || attempt FROM smd_jobs WHERE id = '$rid'")
 pg_kill "$PGDIR"
 ready_is() { [ "$(hcurl -o /dev/null -w '%{http_code}' "$BASE/readyz")" = "$1" ]; }
 poll 10 ready_is 503
@@ -117,15 +133,27 @@ check "an upload during the outage gets 503 with Retry-After (retry later), not 
     [ "$(cat "$WORK/submit.code"):$retry:$lost" = "503:1:" ]
 sleep 1
 pg_start "$PGDIR" >/dev/null
-poll 20 ready_is 200
-check "the nodes reconnect: /readyz 200 again" ready_is 200
+# each node reconnects on its own (backoff 0.1 s doubling to 5 s): api2's
+# copy of the jobs once lagged a second behind api1's
+both_ready() {
+    local nd
+    for nd in api1 api2; do
+        on "$nd"
+        ready_is 200 || return 1
+    done
+}
+poll 20 both_ready
+check "the nodes reconnect: /readyz 200 again on both API nodes" both_ready
+touch "$WORK/go" # the job that ran across the outage computes now
 on api2 # its upload connection was idle during the outage
 qids+=("$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 20)")")
 check "the first upload after the restart is accepted (201)" [ "$(cat "$WORK/submit.code")" = 201 ]
-on api1
-alldone() {
-    local id
-    for id in "$rid" "${qids[@]}"; do state_is "$id" successful || return 1; done
+alldone() { # on both API nodes: each follows the database on its own
+    local id nd
+    for nd in api1 api2; do
+        on "$nd"
+        for id in "$rid" "${qids[@]}"; do state_is "$id" successful || return 1; done
+    done
 }
 poll 60 alldone
 bad=""
@@ -137,7 +165,7 @@ for id in "$rid" "${qids[@]}"; do
     done
 done
 all "the jobs queued and running across the restart all end successful on both API nodes" "-z|$bad" \
-    "${rid:-none}|!=|none" "${#qids[@]}|=|4"
+    "${rid:-none}|!=|none" "${#qids[@]}|=|4" "$rsome|=|running 1"
 [ -n "$bad" ] && echo "# $bad"
 on api1
 depth0() { # the gauges follow the database's queue (refreshed every lease / 3)
@@ -150,25 +178,79 @@ poll 10 depth0
 check "/metrics has the queue depth and leases from the database" depth0
 
 # ------------------------- a worker node stopped (SIGTERM) while it runs
+# The job's first run is held by the worker program (running until the
+# daemon's SIGTERM ends it): computed, its 1000 iterations took 0.3 s on
+# an idle machine and ended before the stop, so w3 never ran it.
+cat >"$WORK/held-once.sh" <<EOF
+#!/bin/sh
+if grep -q '"max_iter": 1001,' "\$1/job.json" && mkdir "$WORK/held" 2>/dev/null; then
+    while :; do sleep 1; done
+fi
+exec "$BIN/shapematch-worker" "\$@"
+EOF
+chmod +x "$WORK/held-once.sh"
 kill -TERM "${NODE_PID[w1]}"
 wait "${NODE_PID[w1]}" 2>/dev/null
-node w2 worker --workers 1 --lease "$LEASE" --shutdown-grace 0 || not_ok "node w2 starts"
+node w2 worker --workers 1 --lease "$LEASE" --shutdown-grace 0 --worker "$WORK/held-once.sh" ||
+    not_ok "node w2 starts"
 on api1
-sid=$(submit "$FINE" "$BOX" "$BOXSOL" "$LONG")
+sid=$(submit "$FINE" "$BOX" "$BOXSOL" "$BALL_PARAMS, \"max_iter\": 1001, \"tol_step\": 1e-15, \"tol_stall\": 0}")
 poll 20 state_is "$sid" running
+# running in the database means claimed: the worker program may not have
+# started yet (that case, a stop while the claim copies the job, is below)
+poll 20 [ -d "$WORK/held" ]
+held=$([ -d "$WORK/held" ] && echo held)
 t0=$SECONDS
 kill -TERM "${NODE_PID[w2]}"
 wait "${NODE_PID[w2]}" 2>/dev/null
 back=$(psql_val "SELECT state || ' ' || attempt || ' ' || (lease_token IS NULL) FROM smd_jobs WHERE id = '$sid'")
 node w3 worker --workers 1 --lease "$LEASE" || not_ok "node w3 starts"
+on api1 # node() pointed BASE at w3, which serves only the jobs it ran
 poll 30 state_is "$sid" successful
 all "a worker node stopped while it runs a job gives it back at once ($((SECONDS - t0)) s to the end), another runs it as attempt 2" \
-    "$back|=|accepted 1 true" "$(job_state "$sid")|=|successful" \
+    "$held|=|held" "$back|=|accepted 1 true" "$(job_state "$sid")|=|successful" \
     "$(psql_val "SELECT attempt FROM smd_jobs WHERE id = '$sid'")|=|2"
 
+# --------------- a worker node stopped while its claim copies the job
+# The claim is caught between its UPDATE and the copy of the job's inputs:
+# a session holds smd_blobs locked until the node is shutting down.  The
+# node must give the job back at its stop, not keep the lease until it
+# expires (it kept it: no node could run the job for --lease seconds).
+kill -TERM "${NODE_PID[w3]}"
+wait "${NODE_PID[w3]}" 2>/dev/null
+on api1
+uid=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 5)")
+on api2
+poll 20 state_is "$uid" accepted # api2 copied it before the lock
+mkfifo "$WORK/lock.sql"
+psql -X -A -t -q "$DB" <"$WORK/lock.sql" >"$WORK/lock.out" 2>&1 &
+LOCKER=$!
+exec 7>"$WORK/lock.sql"
+echo "BEGIN; LOCK TABLE smd_blobs IN ACCESS EXCLUSIVE MODE; SELECT 'locked';" >&7
+poll 20 grep -q '^locked$' "$WORK/lock.out"
+node w4 worker --workers 1 --lease "$LEASE" --database-lock-timeout $((60 * SLOW)) ||
+    not_ok "node w4 starts"
+claimed() { [ "$(psql_val "SELECT state || ' ' || attempt FROM smd_jobs WHERE id = '$uid'")" = "running 1" ]; }
+poll 20 claimed
+kill -TERM "${NODE_PID[w4]}"
+poll 20 grep -q '"event":"shutting_down"' "${NODE_LOG[w4]}"
+echo "COMMIT;" >&7
+exec 7>&-
+wait "$LOCKER"
+t0=$SECONDS
+wait "${NODE_PID[w4]}" 2>/dev/null
+ubk=$(psql_val "SELECT state || ' ' || attempt || ' ' || (lease_token IS NULL) FROM smd_jobs WHERE id = '$uid'")
+released=$(grep -c "\"event\":\"job_released\",\"msg\":\"job $uid:" "${NODE_LOG[w4]}")
+node w5 worker --workers 1 --lease "$LEASE" || not_ok "node w5 starts"
+on api1
+poll 30 state_is "$uid" successful
+all "a worker node stopped while its claim copied the job gives it back at its stop, no attempt used ($((SECONDS - t0)) s to the end)" \
+    "$ubk|=|accepted 0 true" "$released|=|1" "$(job_state "$uid")|=|successful" \
+    "$(psql_val "SELECT attempt FROM smd_jobs WHERE id = '$uid'")|=|1"
+
 # ---------------------------------------------------- retention, once
-for nd in api1 api2 w3; do kill -TERM "${NODE_PID[$nd]}" 2>/dev/null; done
-for nd in api1 api2 w3; do wait "${NODE_PID[$nd]}" 2>/dev/null; done
+for nd in api1 api2 w5; do kill -TERM "${NODE_PID[$nd]}" 2>/dev/null; done
+for nd in api1 api2 w5; do wait "${NODE_PID[$nd]}" 2>/dev/null; done
 for nr in r1:api r2:api rw:worker; do
     node "${nr%%:*}" "${nr#*:}" --workers 1 --lease "$LEASE" --retention 2 || not_ok "node ${nr%%:*} starts"
 done

@@ -388,6 +388,42 @@ static void claim(smd_pg_node *n)
     }
 }
 
+/* At the stop, once the outbox is stored (the pool has stopped: every
+ * run it started ended with its end or release stored, and dropped its
+ * lease): the leases left are of jobs claimed but never started (a claim
+ * that was copying the job when the shutdown began).  They are given back
+ * at once, with no attempt used, not left to expire (--lease seconds
+ * during which no node may run them). */
+static void give_back_unstarted(smd_pg_node *n)
+{
+    for (;;) {
+        smd_pg_lease got = {0};
+        pthread_mutex_lock(&n->lock);
+        for (node_lease *l = n->leases; l && !got.id[0]; l = l->next)
+            if (!l->lost)
+                got = l->lease;
+        pthread_mutex_unlock(&n->lock);
+        if (!got.id[0])
+            return;
+        char msg[SM_EVENT_MESSAGE_MAX];
+        snprintf(msg, sizeof msg, "queued again: node %.100s stopped before it started the job",
+                 n->name);
+        sm_error err;
+        sm_status st = node_connected(n, n->work_db, &err);
+        if (st == SM_OK)
+            st = smd_pg_unclaim(n->work_db, &got, msg, &err);
+        if (st == SM_OK)
+            smd_logf(&n->srv->log, SMD_LOG_INFO, "job_released",
+                     "job %s: given back unstarted at the stop (attempt %d not used)", got.id,
+                     got.attempt);
+        else
+            smd_logf(&n->srv->log, SMD_LOG_WARN, "database_error",
+                     "job %s: not given back at the stop (its lease expires instead): %s", got.id,
+                     err.msg);
+        node_drop_lease(n, got.id);
+    }
+}
+
 /* Waits up to 0.2 s for the outbox; takes it whole. */
 static node_item *wait_items(smd_pg_node *n)
 {
@@ -421,6 +457,8 @@ void *node_work_main(void *arg)
         int empty = !n->out_head;
         pthread_mutex_unlock(&n->lock);
         if (stopping && (empty || sm_clock_seconds() > stop_at)) {
+            if (empty)
+                give_back_unstarted(n);
             node_item *left = wait_items(n); /* on disk for the next start */
             node_outbox_spill(n, left);
             put_back(n, left);

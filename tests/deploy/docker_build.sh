@@ -57,7 +57,8 @@ mkdir -p "$WORK"
 sub=$(python3 - "$ROOT/Makefile" <<'EOF'
 import re, sys
 text = re.sub(r"\\\n", " ", open(sys.argv[1]).read())
-var = lambda name: set(re.search(r"^%s :=(.*)$" % name, text, re.M).group(1).split())
+# the := line and every += after it
+var = lambda name: set(" ".join(re.findall(r"^%s [:+]=(.*)$" % name, text, re.M)).split())
 print(" ".join(sorted(var("DEB_BUILD_PACKAGES") - var("DEB_PACKAGES"))))
 EOF
 )

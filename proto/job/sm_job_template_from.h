@@ -30,6 +30,10 @@
  *           iteration stops there and keeps that round's results (on the
  *           last valid template), saying so.
  *
+ * The rounds run here (sm_job_batch_run) or where r->run sends them (a
+ * daemon: `batch --server`); a target with a result is one whose status
+ * is finished or not_converged (local) or successful (a daemon's).
+ *
  * Files: with medoid and mean each round is a whole batch folder
  * out_dir/rounds/K/ (targets/, model/, summary.json; for the mean,
  * template.mesh: the placed mean round K > 1 runs on); the last round's
@@ -72,6 +76,17 @@ typedef struct sm_rounds_opts {
      * (NULL: the last round) */
     void (*round_done)(int round, const char *template_path, double movement,
                        const char *next_template, void *user);
+    /* one round's batch (NULL: sm_job_batch_run, on this machine): list
+     * on opts (opts->template_mesh: the round's template) into round_dir,
+     * which then holds targets/NAME/ (each result mesh), model/
+     * (mean.mesh, summary.json) and summary_file ("targets": each one's
+     * "name" and "status"); round: its number, 1 first.  `batch --server`
+     * runs each round as a daemon's batch (client/cmd_batch_remote.c);
+     * the choice of the next template stays here, one for both. */
+    sm_status (*run)(const sm_batch_list *list, const sm_batch_opts *opts, int round,
+                     const char *round_dir, sm_batch_outcome *out, void *user, sm_error *err);
+    void *run_user;
+    const char *summary_file; /* the round's summary (NULL: "summary.json") */
 } sm_rounds_opts;
 
 #define SM_ROUNDS_STOP_LEN 32

@@ -12,7 +12,7 @@
 #   template_from (mode, rounds, movement) equal to the local one;
 # - each round's batch document carries "templateFrom" (mode, round,
 #   the previous round's batch id), also after a GET;
-# - medoid: the same medoid as the local run;
+# - medoid: the same medoid as the local run; FILE: one batch, so named;
 # - POST /v1/batches with a malformed template_from (unknown member,
 #   wrong type, round out of range, round 2 without previous, not an
 #   object): 422 problem+json naming it, no batch created.
@@ -102,6 +102,21 @@ if [ $rc = 0 ] && [ -n "$lm" ] && [ "$lm" = "$rm_" ] &&
     ok "medoid on the daemon: $rm_, as locally; round 2 on its result mesh"
 else
     not_ok "medoid on the daemon" "rc $rc local '$lm' remote '$rm_' $(tail -3 remote-med.log)"
+fi
+
+# ---------------------------------------------------------------- FILE
+"$BIN/shapematch" batch --server "$BASE" --template-from "$DISC" --target-surface \
+    "${targets[@]:0:2}" "${OPTS[@]}" -q -o remote-file 2>remote-file.log
+rc=$?
+BF=$(jq -r '.batchID // empty' remote-file/batch.json 2>/dev/null)
+if [ $rc = 0 ] && [ -n "$BF" ] &&
+    jq -e '.template_from.mode == "file" and .template_from.rounds == 1' remote-file/batch.json \
+        remote-file/model/summary.json >/dev/null &&
+    hcurl "$BASE/v1/batches/$BF" | jq -e '.templateFrom == {mode: "file", round: 1}' >/dev/null &&
+    [ ! -e remote-file/rounds ]; then
+    ok "--template-from FILE on the daemon: one batch, template_from file in batch.json, model and document"
+else
+    not_ok "--template-from FILE on the daemon" "rc $rc $(tail -3 remote-file.log)"
 fi
 
 # ------------------------------------------- malformed template_from

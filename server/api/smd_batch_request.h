@@ -8,7 +8,8 @@
  * the batch is round K of `shapematch batch --server --template-from M`
  * (client/cmd_batch_remote.c): M file, medoid or mean; K 1 to
  * SM_TEMPLATE_ROUNDS_MAX, 1 with file; previous the batch of round K - 1
- * (required from round 2 on, absent in round 1); no other member. */
+ * (required from round 2 on, absent in round 1; that it is a batch of the
+ * caller's is smd_batches.c's check); no other member. */
 #ifndef SMD_BATCH_REQUEST_H
 #define SMD_BATCH_REQUEST_H
 

@@ -295,6 +295,15 @@ static enum MHD_Result create_batch(struct MHD_Connection *conn, smd_request *re
     char msg[256], dir[PATH_MAX], id[SMD_ID_LEN + 1];
     int dim = 0;
     unsigned status = check_members(srv, req, m, n, &dim, msg, sizeof msg);
+    /* the round before is a batch the requester sees (here, as the members) */
+    smd_job prev;
+    if (!status && origin->previous[0] &&
+        !(smd_jobs_find(srv, origin->previous, req->who.tenant, req->who.admin, &prev) &&
+          prev.batch_model)) {
+        snprintf(msg, sizeof msg, "template_from.previous: no batch %s of yours (on this node)",
+                 origin->previous);
+        status = 422;
+    }
     if (status)
         return smd_reply_problem(conn, req, status, SMD_PROBLEM_INVALID_INPUT, "%s", msg);
     if (smd_random_id(id) != 0)

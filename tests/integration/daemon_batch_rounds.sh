@@ -14,8 +14,9 @@
 #   the previous round's batch id), also after a GET;
 # - medoid: the same medoid as the local run; FILE: one batch, so named;
 # - POST /v1/batches with a malformed template_from (unknown member,
-#   wrong type, round out of range, round 2 without previous, not an
-#   object): 422 problem+json naming it, no batch created.
+#   wrong type, round out of range, round 2 without previous, a previous
+#   that is a plain job or no batch at all, not an object): 422
+#   problem+json naming it; a valid one is taken (201).
 source "$(dirname "$0")/lib.sh"
 PY=/usr/bin/python3
 [ -x "$PY" ] || PY=python3
@@ -131,6 +132,8 @@ for tf in '{"mode": "mean", "round": 1, "extra": 1}' '{"mode": "mean", "round": 
     '{"mode": "mean", "round": 21}' '{"mode": "file", "round": 2, "previous": "'"$B1"'"}' \
     '{"mode": "mean", "round": 2}' '{"mode": "mean", "round": 1, "previous": "'"$B1"'"}' \
     '{"mode": "median", "round": 1}' '{"mode": "mean", "round": 2, "previous": "../x"}' \
+    '{"mode": "mean", "round": 2, "previous": "'"$id"'"}' \
+    '{"mode": "mean", "round": 2, "previous": "0123456789abcdef0123456789abcdef"}' \
     '"mean"' '[]'; do
     code=$(post "$tf")
     if [ "$code" != 422 ] || ! jq -e '.detail | startswith("template_from")' post.out >/dev/null; then

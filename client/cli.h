@@ -38,7 +38,7 @@
 #define CLI_H
 
 #include "shapematch/sm_io.h" /* sm_mesh, sm_sol */
-#include "job/sm_job_template_from.h" /* sm_template_from */
+#include "sm_proto_vocab.h" /* sm_template_from */
 
 enum cli_exit_code {
     CLI_EXIT_OK = 0,

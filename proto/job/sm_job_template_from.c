@@ -21,23 +21,6 @@
 #include "shapematch/sm_surface.h"
 #include "sm_json.h"
 
-static const char *const from_names[] = {"file", "medoid", "mean"};
-
-const char *sm_template_from_name(sm_template_from f)
-{
-    return (unsigned)f < 3 ? from_names[f] : "?";
-}
-
-int sm_template_from_parse(const char *name, sm_template_from *out)
-{
-    for (int i = 0; name && i < 3; i++)
-        if (strcmp(name, from_names[i]) == 0) {
-            *out = (sm_template_from)i;
-            return 0;
-        }
-    return -1;
-}
-
 /* ---------------------------------------------------- the distances */
 
 /* Squared distances of m's boundary vertices at coordinates q to its

@@ -48,24 +48,17 @@
 #define SM_JOB_TEMPLATE_FROM_H
 
 #include "job/sm_job_batch.h"
+#include "sm_proto_vocab.h"
 
-typedef enum sm_template_from {
-    SM_TEMPLATE_FROM_FILE = 0,
-    SM_TEMPLATE_FROM_MEDOID = 1,
-    SM_TEMPLATE_FROM_MEAN = 2
-} sm_template_from;
-
+/* sm_template_from, its names and SM_TEMPLATE_ROUNDS_MAX: sm_proto_vocab.h
+ * (the daemon's batch request spells them too) */
 #define SM_TEMPLATE_ROUNDS_DEFAULT 3   /* mean: at most this many rounds */
-#define SM_TEMPLATE_ROUNDS_MAX 20
 /* mean: relative movement below which the mean has settled.  On the 2D
  * ellipses of tests/cli/batch_rounds.sh the movement is about 1e-3
  * between rounds 1 and 2 and a few 1e-4 after: 1e-3 stops at the second
  * or third round (docs/populations.md). */
 #define SM_TEMPLATE_TOLERANCE_DEFAULT 1e-3
 
-/* "file", "medoid", "mean"; parse: 0, or -1 for another word. */
-const char *sm_template_from_name(sm_template_from f);
-int sm_template_from_parse(const char *name, sm_template_from *out);
 
 typedef struct sm_rounds_opts {
     sm_template_from from;

@@ -7,7 +7,7 @@
 
 #include <jansson.h>
 
-#include "job/sm_job_template_from.h"
+#include "sm_proto_vocab.h"
 #include "shapematch/sm_shape_model.h"
 #include "base/smd_util.h"
 

@@ -38,6 +38,7 @@
 #define CLI_H
 
 #include "shapematch/sm_io.h" /* sm_mesh, sm_sol */
+#include "sm_proto_vocab.h" /* sm_template_from */
 
 enum cli_exit_code {
     CLI_EXIT_OK = 0,
@@ -77,6 +78,16 @@ int cmd_batch_remote(int argc, char **argv);
  * relative to its folder (cmd_batch.c).  0, or -1 with msg. */
 struct sm_batch_list;
 int batch_read_list(struct sm_batch_list *l, const char *path, char *msg, size_t cap);
+/* The options of a batch's own template (cmd_batch.c; local and
+ * --server alike): --rounds K and --template-tolerance T parsed (0, or
+ * -1 with msg); --template-from V checked against the rest and resolved
+ * into *from (a FILE becomes *template_path; V NULL: none, and no rounds
+ * or tolerance allowed). */
+int batch_parse_rounds(const char *v, int *rounds, char *msg, size_t cap);
+int batch_parse_tolerance(const char *v, double *tolerance, char *msg, size_t cap);
+int batch_resolve_template_from(const char *v, const char **template_path, int rounds,
+                                double tolerance, int no_model, sm_template_from *from, char *msg,
+                                size_t cap);
 /* `shapematch sdf`: signed distance to a surface on a background mesh. */
 int cmd_sdf(int argc, char **argv);
 void cmd_sdf_help(void);

@@ -49,7 +49,8 @@ void cmd_batch_help(void)
            "                        [--model-align none|rigid|similarity] [--no-model]\n"
            "                        [--jobs N] [--format LIST] [--quiet] -o DIR\n"
            "       shapematch batch --server URL [--token T] --template T.mesh TARGETS\n"
-           "                        CLAMP [PARAMETERS] [--model-align MODE] -o DIR\n"
+           "                        CLAMP [PARAMETERS] [--template-from medoid|mean\n"
+           "                        [--rounds K]] [--model-align MODE] -o DIR\n"
            "\n"
            "Matches one template onto many targets, setting the template up once (its\n"
            "topology, clamp set, elastic operator and factorization are shared by every\n"
@@ -122,8 +123,11 @@ void cmd_batch_help(void)
            "batch (POST /v1/batches, --model-align), followed with a line whenever its\n"
            "progress changes, then each target's results (--format, as for 'shapematch\n"
            "fetch') and the model's files are fetched into DIR/targets/NAME/ and\n"
-           "DIR/model/, the batch's last document into DIR/batch.json.  --jobs,\n"
-           "--no-model, --model-modes, --model-from, --template-from (its rounds) and\n"
+           "DIR/model/, the batch's last document into DIR/batch.json.  With\n"
+           "--template-from, each round is a daemon batch into DIR/rounds/K/ (its\n"
+           "request naming the round and the batch before), the next template chosen\n"
+           "here as for a local batch; DIR/batch.json and DIR/model/summary.json get\n"
+           "\"template_from\".  --jobs, --no-model, --model-modes, --model-from and\n"
            "per-target landmarks are local.\n"
            "\n"
            "Ctrl-C stops the batch: no new target starts, the running ones stop after\n"
@@ -242,55 +246,89 @@ static int take_option(batch_args *b, size_t k, const char *v)
     case 10:
     case 11: b->outdir = v; return 0;
     case 13: b->template_from = v; return 0;
-    case 14: {
-        char *end;
-        long k = strtol(v, &end, 10);
-        b->rounds = k >= 2 && k <= SM_TEMPLATE_ROUNDS_MAX && !*end && end != v ? (int)k : 0;
-        if (!b->rounds) {
-            char m[160];
-            snprintf(m, sizeof m, "--rounds: '%.32s' is not a count from 2 (the first round "
-                     "matches the given template) to %d", v, SM_TEMPLATE_ROUNDS_MAX);
-            return fail("%s", m);
-        }
-        return 0;
-    }
+    case 14:
     case 15: {
-        char *end;
-        b->tolerance = strtod(v, &end);
-        return *end || end == v || !(b->tolerance > 0 && b->tolerance < 1)
-                   ? fail("--template-tolerance: '%s' is not a number in (0, 1)", v) : 0;
+        char m[ARGS_MSG_LEN];
+        int bad = k == 14 ? batch_parse_rounds(v, &b->rounds, m, sizeof m)
+                           : batch_parse_tolerance(v, &b->tolerance, m, sizeof m);
+        return bad ? fail("%s", m) : 0;
     }
     default: return fail("%s", "internal: an option without a case");
     }
+}
+
+int batch_parse_rounds(const char *v, int *rounds, char *msg, size_t cap)
+{
+    char *end;
+    long k = strtol(v, &end, 10);
+    *rounds = k >= 2 && k <= SM_TEMPLATE_ROUNDS_MAX && !*end && end != v ? (int)k : 0;
+    if (!*rounds)
+        snprintf(msg, cap, "--rounds: '%.32s' is not a count from 2 (the first round matches "
+                 "the given template) to %d", v, SM_TEMPLATE_ROUNDS_MAX);
+    return *rounds ? 0 : -1;
+}
+
+int batch_parse_tolerance(const char *v, double *tolerance, char *msg, size_t cap)
+{
+    char *end;
+    *tolerance = strtod(v, &end);
+    if (*end || end == v || !(*tolerance > 0 && *tolerance < 1)) {
+        snprintf(msg, cap, "--template-tolerance: '%.32s' is not a number in (0, 1)", v);
+        return -1;
+    }
+    return 0;
+}
+
+int batch_resolve_template_from(const char *v, const char **template_path, int rounds,
+                                double tolerance, int no_model, sm_template_from *from,
+                                char *msg, size_t cap)
+{
+    if (!v) {
+        if (rounds || tolerance) {
+            snprintf(msg, cap, "--rounds and --template-tolerance go with --template-from mean");
+            return -1;
+        }
+        return 0;
+    }
+    if (sm_template_from_parse(v, from) != 0) {
+        if (access(v, R_OK) != 0) {
+            snprintf(msg, cap, "--template-from: '%.200s' is not medoid, mean or a readable "
+                     "template file", v);
+            return -1;
+        }
+        if (*template_path) {
+            snprintf(msg, cap, "--template-from %.200s is the template: no --template beside "
+                     "it", v);
+            return -1;
+        }
+        *from = SM_TEMPLATE_FROM_FILE;
+        *template_path = v;
+    } else if (!*template_path) {
+        snprintf(msg, cap, "--template-from %s: --template T.mesh is the first round's template",
+                 v);
+        return -1;
+    }
+    if ((rounds || tolerance) && *from != SM_TEMPLATE_FROM_MEAN) {
+        snprintf(msg, cap, "--rounds and --template-tolerance go with --template-from mean, "
+                 "not %.200s", *from == SM_TEMPLATE_FROM_FILE ? "a file" : v);
+        return -1;
+    }
+    if (*from != SM_TEMPLATE_FROM_FILE && no_model) {
+        snprintf(msg, cap, "--template-from %s builds the model each round: no --no-model", v);
+        return -1;
+    }
+    return 0;
 }
 
 /* --template-from, --rounds and --template-tolerance into b->from: a
  * FILE is the template itself; medoid and mean start from --template. */
 static int resolve_template_from(batch_args *b)
 {
-    const char *v = b->template_from;
-    if (!v) {
-        if (b->rounds || b->tolerance)
-            return fail("%s", "--rounds and --template-tolerance go with --template-from mean");
-        return 0;
-    }
-    if (sm_template_from_parse(v, &b->from) != 0) {
-        if (access(v, R_OK) != 0)
-            return fail("--template-from: '%s' is not medoid, mean or a readable template file",
-                        v);
-        if (b->template_path)
-            return fail("--template-from %s is the template: no --template beside it", v);
-        b->from = SM_TEMPLATE_FROM_FILE;
-        b->template_path = v;
-    } else if (!b->template_path) {
-        return fail("--template-from %s: --template T.mesh is the first round's template", v);
-    }
-    if ((b->rounds || b->tolerance) && b->from != SM_TEMPLATE_FROM_MEAN)
-        return fail("--rounds and --template-tolerance go with --template-from mean, not %s",
-                    b->from == SM_TEMPLATE_FROM_FILE ? "a file" : v);
-    if (b->from != SM_TEMPLATE_FROM_FILE && b->no_model)
-        return fail("--template-from %s builds the model each round: no --no-model", v);
-    return 0;
+    char m[ARGS_MSG_LEN];
+    return batch_resolve_template_from(b->template_from, &b->template_path, b->rounds,
+                                       b->tolerance, b->no_model, &b->from, m, sizeof m)
+               ? fail("%s", m)
+               : 0;
 }
 
 /* The batch's own options; the rest are kept for run's parser. */

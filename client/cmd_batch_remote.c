@@ -7,7 +7,15 @@
  * fetched into DIR/targets/NAME/ (as `shapematch fetch`) and the model's
  * files into DIR/model/; DIR/batch.json is the batch's final document.
  * The targets and the run options are the local batch's; what runs
- * where is the daemon's business (its workers, on any node). */
+ * where is the daemon's business (its workers, on any node).
+ *
+ * --template-from medoid|mean|FILE: the rounds of the local batch
+ * (sm_job_batch_rounds, proto/job/sm_job_template_from.c: one choice of
+ * the next template for both), each round a daemon's batch as above into
+ * DIR/rounds/K/ (batch.json its summary), the batch request saying which
+ * round of which mode and the batch before ("template_from"), so that
+ * every round stays a durable job on the daemon and says where its
+ * template came from. */
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -18,6 +26,8 @@
 #include "daemon_ops.h"
 #include "fsutil.h"
 #include "job/sm_job_batch_list.h"
+#include "job/sm_job_template_from.h"
+#include "shapematch/sm_shape_model.h"
 #include "remote.h"
 #include "sse.h"
 #include "sm_json.h"
@@ -27,7 +37,7 @@
 #include "submit_job.h"
 
 enum { RB_TEMPLATE, RB_SURFACE, RB_IMAGE, RB_MESH, RB_SOL, RB_TARGETS, RB_ALIGN, RB_OUTPUT,
-       RB_FORMAT, RB_QUIET, RB_LOCAL_ONLY };
+       RB_FORMAT, RB_QUIET, RB_FROM, RB_ROUNDS, RB_TOLERANCE, RB_LOCAL_ONLY };
 
 typedef struct remote_batch {
     sm_batch_list list;
@@ -39,6 +49,15 @@ typedef struct remote_batch {
                                      * it are more of them (a shell glob) */
     char (*ids)[SM_JOB_ID_MAX + 1]; /* the targets' jobs, by list index */
     char batch_id[SM_JOB_ID_MAX + 1];
+    /* --template-from, --rounds, --template-tolerance */
+    const char *template_from;
+    int rounds;
+    double tolerance;
+    sm_template_from from;
+    /* the batch request's template_from (mode NULL: none) */
+    const char *origin_mode;
+    int origin_round;
+    char origin_previous[SM_JOB_ID_MAX + 1];
 } remote_batch;
 
 static int rb_flag(void *user, int id, const char *flag, const char *value, char *msg, size_t cap)
@@ -79,6 +98,9 @@ static int rb_flag(void *user, int id, const char *flag, const char *value, char
     case RB_OUTPUT: b->outdir = value; return 0;
     case RB_FORMAT: return fetch_parse_formats(flag, value, &b->formats, msg, cap);
     case RB_QUIET: b->quiet = 1; return 0;
+    case RB_FROM: b->template_from = value; return 0;
+    case RB_ROUNDS: return batch_parse_rounds(value, &b->rounds, msg, cap);
+    case RB_TOLERANCE: return batch_parse_tolerance(value, &b->tolerance, msg, cap);
     default:
         snprintf(msg, cap, "%s is for a local batch (without --server)", flag);
         return -1;
@@ -95,6 +117,9 @@ static const char *rb_problem(remote_batch *b, char *msg, size_t cap)
     sm_error_clear(&err);
     if (b->pending_mesh)
         return "--target-mesh has no --target-sol";
+    if (batch_resolve_template_from(b->template_from, &b->template_path, b->rounds, b->tolerance,
+                                    0, &b->from, msg, cap) != 0)
+        return msg;
     if (!b->template_path)
         return "--template is required";
     if (!b->outdir)
@@ -172,6 +197,12 @@ static int post_batch(http_client *c, remote_batch *b, int token_given)
                                                  b->list.t[i].name));
     json_t *doc = json_pack("{s:o,s:s}", "targets", targets, "model_align",
                             b->model_align ? b->model_align : "rigid");
+    if (doc && b->origin_mode) {
+        json_t *tf = json_pack("{s:s,s:i}", "mode", b->origin_mode, "round", b->origin_round);
+        if (tf && b->origin_previous[0])
+            json_object_set_new(tf, "previous", json_string(b->origin_previous));
+        json_object_set_new(doc, "template_from", tf);
+    }
     char *body = doc ? sm_json_dumps(doc, 0) : NULL;
     json_decref(doc);
     if (!body) {
@@ -397,6 +428,117 @@ static int outcome(const remote_batch *b, const json_t *doc)
                                                                    : CLI_EXIT_BATCH_PARTIAL;
 }
 
+/* One batch on the daemon, b->template_path and b->outdir set: its exit
+ * code (outcome's, or the failed request's); its final document into
+ * *doc. */
+static int one_batch(http_client *c, remote_batch *b, int token, const char *params,
+                     json_t **doc)
+{
+    int code = submit_targets(c, b, token, params);
+    if (code == 0)
+        code = post_batch(c, b, token);
+    if (code == 0)
+        code = follow(c, b, token, doc);
+    if (code == 0)
+        code = fetch_all(c, b, token, *doc);
+    if (code == 0)
+        code = outcome(b, *doc);
+    return code;
+}
+
+typedef struct remote_rounds {
+    remote_batch *b;
+    http_client *c;
+    int token;
+    const char *params;
+    int code;        /* the last round's exit code */
+} remote_rounds;
+
+static void on_round_done(int round, const char *template_path, double movement,
+                          const char *next_template, void *user)
+{
+    const remote_batch *b = user;
+    if (b->quiet)
+        return;
+    fprintf(stderr, "shapematch batch: round %d (batch %s) on %s done", round, b->batch_id,
+            template_path);
+    if (movement == movement) /* not NAN */
+        fprintf(stderr, "; the mean moved by %.3g of its size", movement);
+    if (next_template)
+        fprintf(stderr, "; next template %s", next_template);
+    fputc('\n', stderr);
+}
+
+/* sm_rounds_opts.run: round k as a daemon's batch into dir (batch.json
+ * its summary), the request naming the round and the batch before. */
+static sm_status remote_round(const sm_batch_list *list, const sm_batch_opts *opts, int k,
+                              const char *dir, sm_batch_outcome *out, void *user, sm_error *err)
+{
+    (void)list; /* b->list, submitted by name */
+    remote_rounds *rr = user;
+    remote_batch *b = rr->b;
+    memset(out, 0, sizeof *out);
+    b->template_path = opts->template_mesh;
+    b->outdir = dir;
+    b->origin_mode = sm_template_from_name(b->from);
+    b->origin_round = k;
+    snprintf(b->origin_previous, sizeof b->origin_previous, "%s", k > 1 ? b->batch_id : "");
+    json_t *doc = NULL;
+    rr->code = one_batch(rr->c, b, rr->token, rr->params, &doc);
+    if (rr->code != 0 && rr->code != CLI_EXIT_BATCH_PARTIAL && rr->code != CLI_EXIT_CANCELLED) {
+        json_decref(doc);
+        return sm_error_set(err, SM_ERR_IO, "round %d: the daemon's batch did not end (see "
+                            "above)", k);
+    }
+    const char *status = json_string_value(json_object_get(doc, "status"));
+    json_t *counts = json_object_get(doc, "counts");
+    out->nok = (size_t)json_integer_value(json_object_get(counts, "successful"));
+    out->nfailed = b->list.n > out->nok ? b->list.n - out->nok : 0;
+    out->model_built = status && strcmp(status, "successful") == 0;
+    out->cancelled = status && strcmp(status, "dismissed") == 0;
+    const char *message = json_string_value(json_object_get(doc, "message"));
+    if (!out->model_built)
+        snprintf(out->model_error, sizeof out->model_error, "batch %s %s: %.300s", b->batch_id,
+                 status ? status : "?", message ? message : "");
+    json_decref(doc);
+    return SM_OK;
+}
+
+/* The rounds of --template-from, each a daemon's batch. */
+static int run_rounds(http_client *c, remote_batch *b, int token, const char *params)
+{
+    remote_rounds rr = {.b = b, .c = c, .token = token, .params = params};
+    const char *outdir = b->outdir;
+    sm_shape_align align = SM_SHAPE_ALIGN_RIGID;
+    if (b->model_align && sm_shape_align_parse(b->model_align, &align) != 0)
+        return remote_usage_error("batch", "--model-align: expected none, rigid or similarity");
+    /* the rounds read each target's result mesh */
+    b->formats |= FETCH_MESH;
+    sm_batch_opts o = {.template_mesh = b->template_path, .build_model = 1,
+                       .model = {.align = align}, .user = b};
+    sm_rounds_opts r = {.from = b->from, .rounds = b->rounds, .tolerance = b->tolerance,
+                        .round_done = on_round_done, .run = remote_round, .run_user = &rr,
+                        .summary_file = "batch.json"};
+    sm_batch_outcome out;
+    sm_rounds_outcome ends;
+    sm_error err;
+    sm_error_clear(&err);
+    sm_status st = sm_job_batch_rounds(&b->list, &o, &r, outdir, &out, &ends, &err);
+    b->outdir = outdir;
+    if (st != SM_OK) {
+        fprintf(stderr, "shapematch batch: error: %s\n", err.msg);
+        return rr.code ? rr.code : st == SM_ERR_IO ? CLI_EXIT_OUTPUT : CLI_EXIT_INPUT;
+    }
+    if (ends.message[0])
+        fprintf(stderr, "shapematch batch: %s\n", ends.message);
+    if (!b->quiet)
+        fprintf(stderr, "shapematch batch: template from the %s: %d round%s (%s%s%s); the last "
+                "round's template in %s/template.mesh, its batch in %s/batch.json\n",
+                sm_template_from_name(b->from), ends.rounds, ends.rounds == 1 ? "" : "s",
+                ends.stop, ends.medoid[0] ? ": " : "", ends.medoid, outdir, outdir);
+    return rr.code;
+}
+
 static int rb_run(remote_batch *b, const remote_options *conn)
 {
     {
@@ -426,16 +568,9 @@ static int rb_run(remote_batch *b, const remote_options *conn)
     }
     int token = conn->token != NULL;
     json_t *doc = NULL;
-    code = submit_targets(&c, b, token, params);
+    code = b->template_from ? run_rounds(&c, b, token, params)
+                            : one_batch(&c, b, token, params, &doc);
     free(params);
-    if (code == 0)
-        code = post_batch(&c, b, token);
-    if (code == 0)
-        code = follow(&c, b, token, &doc);
-    if (code == 0)
-        code = fetch_all(&c, b, token, doc);
-    if (code == 0)
-        code = outcome(b, doc);
     json_decref(doc);
     remote_close(&c);
     return code;
@@ -451,8 +586,8 @@ int cmd_batch_remote(int argc, char **argv)
         {"--format", 1, RB_FORMAT}, {"-q", 0, RB_QUIET}, {"--quiet", 0, RB_QUIET},
         {"--jobs", 1, RB_LOCAL_ONLY}, {"--no-model", 0, RB_LOCAL_ONLY},
         {"--model-from", 1, RB_LOCAL_ONLY}, {"--model-modes", 1, RB_LOCAL_ONLY},
-        {"--template-landmarks", 1, RB_LOCAL_ONLY}, {"--template-from", 1, RB_LOCAL_ONLY},
-        {"--rounds", 1, RB_LOCAL_ONLY}, {"--template-tolerance", 1, RB_LOCAL_ONLY}};
+        {"--template-landmarks", 1, RB_LOCAL_ONLY}, {"--template-from", 1, RB_FROM},
+        {"--rounds", 1, RB_ROUNDS}, {"--template-tolerance", 1, RB_TOLERANCE}};
     remote_batch b;
     memset(&b, 0, sizeof b);
     job_options_init(&b.job);

@@ -143,3 +143,20 @@ int sm_job_name_check(const char *s, size_t n, char *why, size_t cap)
     json_decref(utf8);
     return 0;
 }
+
+static const char *const template_from_names[] = {"file", "medoid", "mean"};
+
+const char *sm_template_from_name(sm_template_from f)
+{
+    return (unsigned)f < 3 ? template_from_names[f] : "?";
+}
+
+int sm_template_from_parse(const char *name, sm_template_from *out)
+{
+    for (int i = 0; name && i < 3; i++)
+        if (strcmp(name, template_from_names[i]) == 0) {
+            *out = (sm_template_from)i;
+            return 0;
+        }
+    return -1;
+}

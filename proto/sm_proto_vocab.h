@@ -5,7 +5,9 @@
  *   - the result set: every file a run writes (job/sm_job_results.h), grouped by
  *     what GET /v1/jobs/{id}/results/{what}?format=F serves, with the
  *     format names, media types and file names;
- *   - the Idempotency-Key length limit.
+ *   - the Idempotency-Key length limit;
+ *   - the ways a batch's template is chosen (`batch --template-from`,
+ *     a batch request's template_from; job/sm_job_template_from.h).
  *
  * The OpenAPI document (proto/openapi.yaml) describes the same names; a
  * change here is a change of the contract. */
@@ -140,5 +142,17 @@ int sm_result_outputs_parse(const char *text, unsigned *outputs, char *msg, size
 /* ---- requests ---- */
 /* Longest Idempotency-Key (visible ASCII characters, at least 1). */
 #define SM_IDEMPOTENCY_KEY_MAX 255
+
+/* ---- a batch's template: given, or from the population ---- */
+typedef enum sm_template_from {
+    SM_TEMPLATE_FROM_FILE = 0,
+    SM_TEMPLATE_FROM_MEDOID = 1,
+    SM_TEMPLATE_FROM_MEAN = 2
+} sm_template_from;
+#define SM_TEMPLATE_ROUNDS_MAX 20 /* rounds of a mean, at most */
+
+/* "file", "medoid", "mean"; parse: 0, or -1 for another word. */
+const char *sm_template_from_name(sm_template_from f);
+int sm_template_from_parse(const char *name, sm_template_from *out);
 
 #endif

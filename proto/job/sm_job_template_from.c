@@ -21,23 +21,6 @@
 #include "shapematch/sm_surface.h"
 #include "sm_json.h"
 
-static const char *const from_names[] = {"file", "medoid", "mean"};
-
-const char *sm_template_from_name(sm_template_from f)
-{
-    return (unsigned)f < 3 ? from_names[f] : "?";
-}
-
-int sm_template_from_parse(const char *name, sm_template_from *out)
-{
-    for (int i = 0; name && i < 3; i++)
-        if (strcmp(name, from_names[i]) == 0) {
-            *out = (sm_template_from)i;
-            return 0;
-        }
-    return -1;
-}
-
 /* ---------------------------------------------------- the distances */
 
 /* Squared distances of m's boundary vertices at coordinates q to its
@@ -99,11 +82,17 @@ typedef struct rounds {
     json_t *medoid_sums;                           /* {name: sum}, medoid only */
 } rounds;
 
-/* The targets of a round that ended with a result: their names and
- * folders, from its summary.json (what sm_job_batch_run wrote). */
-static sm_status round_members(const char *dir, json_t **names, sm_error *err)
+static const char *summary_name(const sm_rounds_opts *r)
 {
-    char *path = sm_path_join(dir, "summary.json");
+    return r->summary_file ? r->summary_file : "summary.json";
+}
+
+/* The targets of a round that ended with a result: their names, from its
+ * summary (what sm_job_batch_run or r->run wrote). */
+static sm_status round_members(const char *dir, const char *summary, json_t **names,
+                               sm_error *err)
+{
+    char *path = sm_path_join(dir, summary);
     json_error_t je;
     json_t *doc = path ? json_load_file(path, 0, &je) : NULL;
     sm_status st = SM_OK;
@@ -116,7 +105,8 @@ static sm_status round_members(const char *dir, json_t **names, sm_error *err)
     json_array_foreach(json_object_get(doc, "targets"), i, row) {
         const char *status = json_string_value(json_object_get(row, "status"));
         if (st == SM_OK && status &&
-            (strcmp(status, "finished") == 0 || strcmp(status, "not_converged") == 0))
+            (strcmp(status, "finished") == 0 || strcmp(status, "not_converged") == 0 ||
+             strcmp(status, "successful") == 0))
             json_array_append(*names, json_object_get(row, "name"));
     }
     json_decref(doc);
@@ -191,7 +181,7 @@ static sm_status pair_sums(const sm_mesh *topo, double *const *xs, size_t n, sm_
 static sm_status find_medoid(rounds *x, const char *dir, char **path, sm_error *err)
 {
     json_t *names;
-    sm_status st = round_members(dir, &names, err);
+    sm_status st = round_members(dir, summary_name(x->r), &names, err);
     size_t n = st == SM_OK ? json_array_size(names) : 0;
     if (st == SM_OK && n == 0)
         st = sm_error_set(err, SM_ERR_INVALID, "no target ended with a result");
@@ -394,13 +384,14 @@ static sm_status finish(rounds *x, sm_batch_outcome *out, sm_error *err)
     json_t *tf = st == SM_OK ? template_from_doc(x) : NULL;
     if (st == SM_OK && !tf)
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory");
-    char *summary = sm_path_join(dir, "summary.json");
-    char *dest = sm_path_join(x->out_dir, "summary.json");
+    const char *sname = summary_name(x->r);
+    char *summary = sm_path_join(dir, sname);
+    char *dest = sm_path_join(x->out_dir, sname);
     if (st == SM_OK && (!summary || !dest || rename(summary, dest) != 0))
-        st = sm_error_set(err, SM_ERR_IO, "cannot move the last round's summary.json: %s",
+        st = sm_error_set(err, SM_ERR_IO, "cannot move the last round's %s: %s", sname,
                           strerror(errno));
     if (st == SM_OK)
-        st = annotate(x->out_dir, "summary.json", tf, SM_ATOMIC_FSYNC, err);
+        st = annotate(x->out_dir, sname, tf, SM_ATOMIC_FSYNC, err);
     char *model_dir = sm_path_join(x->out_dir, "model");
     if (st == SM_OK && out->model_built)
         st = model_dir ? annotate(model_dir, SM_MODEL_SUMMARY_FILE, tf,
@@ -409,6 +400,14 @@ static sm_status finish(rounds *x, sm_batch_outcome *out, sm_error *err)
     free(model_dir), free(summary), free(dest);
     json_decref(tf);
     return st;
+}
+
+static sm_status run_batch(const sm_rounds_opts *r, const sm_batch_list *list,
+                           const sm_batch_opts *o, int k, const char *dir,
+                           sm_batch_outcome *out, sm_error *err)
+{
+    return r->run ? r->run(list, o, k, dir, out, r->run_user, err)
+                  : sm_job_batch_run(list, o, dir, out, err);
 }
 
 static void set_stop(rounds *x, const char *stop)
@@ -431,7 +430,7 @@ static sm_status run_round(rounds *x, int k, sm_batch_outcome *out, int *last, s
     /* medoid: round 1's model is not needed */
     o.build_model = r->from == SM_TEMPLATE_FROM_MEAN || k > 1;
     if (st == SM_OK)
-        st = sm_job_batch_run(x->list, &o, x->round_dir[k], out, err);
+        st = run_batch(x->r, x->list, &o, k, x->round_dir[k], out, err);
     if (st != SM_OK)
         return st;
     x->ro->rounds = k;
@@ -531,12 +530,12 @@ sm_status sm_job_batch_rounds(const sm_batch_list *list, const sm_batch_opts *op
     for (int k = 0; k < SM_TEMPLATE_ROUNDS_MAX; k++)
         ro->movement[k] = NAN;
     if (r.from == SM_TEMPLATE_FROM_FILE) {
-        st = sm_job_batch_run(list, opts, out_dir, out, err);
+        st = run_batch(&r, list, opts, 1, out_dir, out, err);
         ro->rounds = 1;
         set_stop(&x, "file");
         json_t *tf = st == SM_OK ? template_from_doc(&x) : NULL;
         if (st == SM_OK)
-            st = annotate(out_dir, "summary.json", tf, SM_ATOMIC_FSYNC, err);
+            st = annotate(out_dir, summary_name(&r), tf, SM_ATOMIC_FSYNC, err);
         char *model_dir = sm_path_join(out_dir, "model");
         if (st == SM_OK && out->model_built && model_dir)
             st = annotate(model_dir, SM_MODEL_SUMMARY_FILE, tf, opts->model.write_flags, err);

@@ -30,6 +30,10 @@
  *           iteration stops there and keeps that round's results (on the
  *           last valid template), saying so.
  *
+ * The rounds run here (sm_job_batch_run) or where r->run sends them (a
+ * daemon: `batch --server`); a target with a result is one whose status
+ * is finished or not_converged (local) or successful (a daemon's).
+ *
  * Files: with medoid and mean each round is a whole batch folder
  * out_dir/rounds/K/ (targets/, model/, summary.json; for the mean,
  * template.mesh: the placed mean round K > 1 runs on); the last round's
@@ -44,24 +48,17 @@
 #define SM_JOB_TEMPLATE_FROM_H
 
 #include "job/sm_job_batch.h"
+#include "sm_proto_vocab.h"
 
-typedef enum sm_template_from {
-    SM_TEMPLATE_FROM_FILE = 0,
-    SM_TEMPLATE_FROM_MEDOID = 1,
-    SM_TEMPLATE_FROM_MEAN = 2
-} sm_template_from;
-
+/* sm_template_from, its names and SM_TEMPLATE_ROUNDS_MAX: sm_proto_vocab.h
+ * (the daemon's batch request spells them too) */
 #define SM_TEMPLATE_ROUNDS_DEFAULT 3   /* mean: at most this many rounds */
-#define SM_TEMPLATE_ROUNDS_MAX 20
 /* mean: relative movement below which the mean has settled.  On the 2D
  * ellipses of tests/cli/batch_rounds.sh the movement is about 1e-3
  * between rounds 1 and 2 and a few 1e-4 after: 1e-3 stops at the second
  * or third round (docs/populations.md). */
 #define SM_TEMPLATE_TOLERANCE_DEFAULT 1e-3
 
-/* "file", "medoid", "mean"; parse: 0, or -1 for another word. */
-const char *sm_template_from_name(sm_template_from f);
-int sm_template_from_parse(const char *name, sm_template_from *out);
 
 typedef struct sm_rounds_opts {
     sm_template_from from;
@@ -72,6 +69,17 @@ typedef struct sm_rounds_opts {
      * (NULL: the last round) */
     void (*round_done)(int round, const char *template_path, double movement,
                        const char *next_template, void *user);
+    /* one round's batch (NULL: sm_job_batch_run, on this machine): list
+     * on opts (opts->template_mesh: the round's template) into round_dir,
+     * which then holds targets/NAME/ (each result mesh), model/
+     * (mean.mesh, summary.json) and summary_file ("targets": each one's
+     * "name" and "status"); round: its number, 1 first.  `batch --server`
+     * runs each round as a daemon's batch (client/cmd_batch_remote.c);
+     * the choice of the next template stays here, one for both. */
+    sm_status (*run)(const sm_batch_list *list, const sm_batch_opts *opts, int round,
+                     const char *round_dir, sm_batch_outcome *out, void *user, sm_error *err);
+    void *run_user;
+    const char *summary_file; /* the round's summary (NULL: "summary.json") */
 } sm_rounds_opts;
 
 #define SM_ROUNDS_STOP_LEN 32

@@ -7,6 +7,7 @@
 
 #include <jansson.h>
 
+#include "sm_proto_vocab.h"
 #include "shapematch/sm_shape_model.h"
 #include "base/smd_util.h"
 
@@ -35,14 +36,76 @@ static unsigned parse_target(const json_t *t, size_t i, smd_batch_member *m, cha
     return 0;
 }
 
+int smd_batch_origin_parse(const json_t *tf, smd_batch_origin *o, char *msg, size_t cap)
+{
+    static const char *const known[] = {"mode", "round", "previous"};
+    memset(o, 0, sizeof *o);
+    if (!json_is_object(tf)) {
+        snprintf(msg, cap, "template_from: expected an object {\"mode\": \"file|medoid|mean\", "
+                 "\"round\": K, \"previous\": BATCH_ID}");
+        return -1;
+    }
+    const char *key;
+    json_t *v;
+    json_object_foreach((json_t *)tf, key, v) {
+        size_t k = 0;
+        while (k < 3 && strcmp(key, known[k]) != 0)
+            k++;
+        if (k == 3) {
+            snprintf(msg, cap, "template_from: unknown member '%.40s' (mode, round, previous)",
+                     key);
+            return -1;
+        }
+    }
+    const char *mode = json_string_value(json_object_get(tf, "mode"));
+    json_t *round = json_object_get(tf, "round"), *prev = json_object_get(tf, "previous");
+    sm_template_from from;
+    if (!mode || sm_template_from_parse(mode, &from) != 0) {
+        snprintf(msg, cap, "template_from.mode: expected file, medoid or mean");
+        return -1;
+    }
+    json_int_t k = json_is_integer(round) ? json_integer_value(round) : 0;
+    int last = from == SM_TEMPLATE_FROM_FILE ? 1 : SM_TEMPLATE_ROUNDS_MAX;
+    if (k < 1 || k > last) {
+        snprintf(msg, cap, "template_from.round: expected an integer from 1 to %d", last);
+        return -1;
+    }
+    if (prev && (!json_is_string(prev) || !smd_id_valid(json_string_value(prev)))) {
+        snprintf(msg, cap, "template_from.previous: expected a batch id");
+        return -1;
+    }
+    if ((k > 1) != (prev != NULL)) {
+        snprintf(msg, cap, "template_from.previous: %s", k > 1 ? "round 2 on names the batch of "
+                 "the round before" : "round 1 has no batch before it");
+        return -1;
+    }
+    o->has = 1;
+    snprintf(o->mode, sizeof o->mode, "%s", mode);
+    o->round = (int)k;
+    snprintf(o->previous, sizeof o->previous, "%s", prev ? json_string_value(prev) : "");
+    return 0;
+}
+
+json_t *smd_batch_origin_json(const smd_batch_origin *o)
+{
+    if (!o->has)
+        return NULL;
+    json_t *tf = json_pack("{s:s,s:i}", "mode", o->mode, "round", o->round);
+    if (tf && o->previous[0])
+        json_object_set_new(tf, "previous", json_string(o->previous));
+    return tf;
+}
+
 unsigned smd_batch_request_parse(const char *buf, size_t len, unsigned max_targets,
-                                 smd_batch_member **out, size_t *nout, char align[16], char *msg,
-                                 size_t cap)
+                                 smd_batch_member **out, size_t *nout, char align[16],
+                                 smd_batch_origin *origin, char *msg, size_t cap)
 {
     json_error_t jerr;
     json_t *doc = json_loadb(buf, len, JSON_REJECT_DUPLICATES, &jerr);
     unsigned status = 0;
     json_t *targets = json_object_get(doc, "targets"), *a = json_object_get(doc, "model_align");
+    json_t *tf = json_object_get(doc, "template_from");
+    smd_batch_origin o = {0};
     sm_shape_align kind;
     size_t n = json_array_size(targets);
     if (!json_is_object(doc)) {
@@ -58,6 +121,8 @@ unsigned smd_batch_request_parse(const char *buf, size_t len, unsigned max_targe
         status = 413;
     } else if (a && (!json_is_string(a) || sm_shape_align_parse(json_string_value(a), &kind) != 0)) {
         snprintf(msg, cap, "model_align: expected none, rigid or similarity");
+        status = 422;
+    } else if (tf && smd_batch_origin_parse(tf, &o, msg, cap) != 0) {
         status = 422;
     }
     smd_batch_member *m = status ? NULL : calloc(n, sizeof *m);
@@ -75,6 +140,7 @@ unsigned smd_batch_request_parse(const char *buf, size_t len, unsigned max_targe
     }
     *out = m;
     *nout = n;
+    *origin = o;
     return 0;
 }
 

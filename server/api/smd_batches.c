@@ -135,11 +135,16 @@ json_t *smd_batch_document(smd_server *srv, const smd_job *model, const json_t *
         json_array_append_new(links, json_pack("{s:s,s:s,s:s}", "href", model_href, "rel",
                                                "http://www.opengis.net/def/rel/ogc/1.0/results",
                                                "type", "application/json"));
-    return json_pack("{s:s,s:s,s:s,s:i,s:o,s:O,s:o,s:o,s:o,s:o}", "batchID", model->id, "status",
-                     batch_status(model, &t), "message", model->message, "progress",
-                     (int)(progress + 0.5), "eta", eta, "modelAlign",
-                     json_object_get(batch, "align"), "counts", counts, "targets", targets,
-                     "model", smd_status_document(model), "links", links);
+    json_t *doc = json_pack("{s:s,s:s,s:s,s:i,s:o,s:O,s:o,s:o,s:o,s:o}", "batchID", model->id,
+                            "status", batch_status(model, &t), "message", model->message,
+                            "progress", (int)(progress + 0.5), "eta", eta, "modelAlign",
+                            json_object_get(batch, "align"), "counts", counts, "targets", targets,
+                            "model", smd_status_document(model), "links", links);
+    /* round K of a client's --template-from (smd_batch_request.h) */
+    json_t *tf = json_object_get(batch, "template_from");
+    if (doc && tf)
+        json_object_set(doc, "templateFrom", tf);
+    return doc;
 }
 
 /* The model job of batch req->id, visible to the requester, and its
@@ -254,7 +259,8 @@ static unsigned check_members(smd_server *srv, const smd_request *req, const mem
 }
 
 /* The model job's folder: job.json (its batch) and an empty inputs/. */
-static int write_model_folder(const char *dir, const member *m, size_t n, const char *align)
+static int write_model_folder(const char *dir, const member *m, size_t n, const char *align,
+                              const smd_batch_origin *origin)
 {
     char inputs[PATH_MAX];
     if (smd_pathf(inputs, sizeof inputs, "%s/inputs", dir) != 0 || mkdir(inputs, 0750) != 0)
@@ -267,6 +273,8 @@ static int write_model_folder(const char *dir, const member *m, size_t n, const 
         f->params = json_object();
         f->batch = json_pack("{s:s,s:o}", "align", align, "members", list);
         list = NULL;
+        if (f->batch && origin->has)
+            json_object_set_new(f->batch, "template_from", smd_batch_origin_json(origin));
     }
     int rc = f && f->params && f->batch ? smd_job_file_write(dir, f) : (errno = ENOMEM, -1);
     int saved = errno;
@@ -280,12 +288,22 @@ static int write_model_folder(const char *dir, const member *m, size_t n, const 
 
 /* The description is valid: the model job is written and submitted. */
 static enum MHD_Result create_batch(struct MHD_Connection *conn, smd_request *req, member *m,
-                                    size_t n, const char *align)
+                                    size_t n, const char *align,
+                                    const smd_batch_origin *origin)
 {
     smd_server *srv = req->srv;
     char msg[256], dir[PATH_MAX], id[SMD_ID_LEN + 1];
     int dim = 0;
     unsigned status = check_members(srv, req, m, n, &dim, msg, sizeof msg);
+    /* the round before is a batch the requester sees (here, as the members) */
+    smd_job prev;
+    if (!status && origin->previous[0] &&
+        !(smd_jobs_find(srv, origin->previous, req->who.tenant, req->who.admin, &prev) &&
+          prev.batch_model)) {
+        snprintf(msg, sizeof msg, "template_from.previous: no batch %s of yours (on this node)",
+                 origin->previous);
+        status = 422;
+    }
     if (status)
         return smd_reply_problem(conn, req, status, SMD_PROBLEM_INVALID_INPUT, "%s", msg);
     if (smd_random_id(id) != 0)
@@ -298,7 +316,7 @@ static enum MHD_Result create_batch(struct MHD_Connection *conn, smd_request *re
     char (*ids)[SMD_ID_LEN + 1] = calloc(n, sizeof *ids);
     for (size_t i = 0; ids && i < n; i++)
         memcpy(ids[i], m[i].id, sizeof ids[i]);
-    if (!ids || write_model_folder(dir, m, n, align) != 0) {
+    if (!ids || write_model_folder(dir, m, n, align, origin) != 0) {
         int why = ids ? errno : ENOMEM;
         free(ids);
         smd_rmtree(dir);
@@ -317,6 +335,8 @@ static enum MHD_Result create_batch(struct MHD_Connection *conn, smd_request *re
     json_t *batch = NULL, *doc = NULL;
     if (st == SM_OK) {
         batch = json_pack("{s:s,s:[]}", "align", align, "members");
+        if (batch && origin->has)
+            json_object_set_new(batch, "template_from", smd_batch_origin_json(origin));
         for (size_t i = 0; batch && i < n; i++)
             json_array_append_new(json_object_get(batch, "members"),
                                   json_pack("{s:s,s:s}", "job", m[i].id, "name", m[i].name));
@@ -368,9 +388,10 @@ enum MHD_Result smd_batches_continue(struct MHD_Connection *conn, smd_request *r
         member *m = NULL;
         size_t n = 0;
         char align[16], msg[512];
+        smd_batch_origin origin;
         unsigned status = smd_batch_request_parse(b->body.buf ? b->body.buf : "", b->body.len,
                                                   req->srv->cfg.max_batch_targets, &m, &n, align,
-                                                  msg, sizeof msg);
+                                                  &origin, msg, sizeof msg);
         smd_body_release(&b->body);
         if (status)
             return smd_reply_problem(conn, req, status,
@@ -379,7 +400,7 @@ enum MHD_Result smd_batches_continue(struct MHD_Connection *conn, smd_request *r
                                      : status == 503 ? SMD_PROBLEM_UNAVAILABLE
                                                      : SMD_PROBLEM_INVALID_INPUT,
                                      "%s", msg);
-        enum MHD_Result r = create_batch(conn, req, m, n, align);
+        enum MHD_Result r = create_batch(conn, req, m, n, align, &origin);
         free(m);
         return r;
     }

@@ -74,6 +74,10 @@ static const char *batch_problem(const json_t *b)
     sm_shape_align kind;
     if (!align || sm_shape_align_parse(align, &kind) != 0)
         return "batch.align";
+    /* written by the daemon from a checked request (api/smd_batch_request.c) */
+    json_t *tf = json_object_get(b, "template_from");
+    if (tf && !json_is_object(tf))
+        return "batch.template_from";
     json_t *m = json_object_get(b, "members");
     if (!json_is_array(m) || json_array_size(m) == 0 || json_array_size(m) > SMD_BATCH_MEMBERS_MAX)
         return "batch.members";

@@ -65,9 +65,9 @@ bad "--template-tolerance 2 refused" "is not a number in (0, 1)" --template "$DI
     --template-from mean --template-tolerance 2
 bad "mean with --no-model refused" "builds the model each round" --template "$DISC" \
     --template-from mean --no-model
-bad "--template-from with --server refused (local only)" \
-    "--template-from is for a local batch (without --server)" --server http://127.0.0.1:9 \
-    --template "$DISC" --template-from mean
+bad "--server: --rounds 1 refused as locally (before any request)" \
+    "--rounds: '1' is not a count from 2" --server http://127.0.0.1:9 \
+    --template "$DISC" --template-from mean --rounds 1
 
 # ---- medoid: 0.2 x 0.2 s, s = 1.0 ... 1.8; the medoid is 1.4 ----
 for s in 1.0 1.2 1.4 1.6 1.8; do

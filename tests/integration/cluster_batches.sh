@@ -65,7 +65,7 @@ for R in $RADII; do
     [ -n "$id" ] && ids+=("$id")
 done
 body=$(k=0; for id in "${ids[@]}"; do k=$((k + 1)); echo "{\"job\": \"$id\", \"name\": \"r$k\"}"; done |
-    jq -s '{targets: ., model_align: "rigid"}')
+    jq -s '{targets: ., model_align: "rigid", template_from: {mode: "mean", round: 1}}')
 code=$(hcurl -o "$WORK/batch.out" -w '%{http_code}' -H 'Content-Type: application/json' \
     --data-binary "$body" "$BASE/v1/batches")
 B=$(jq -r '.batchID // empty' "$WORK/batch.out")
@@ -117,14 +117,14 @@ fi
 same() {
     on api
     local a b
-    a=$(hcurl "$BASE/v1/batches/$B" | jq -c '[.status, .counts, [.targets[].status]]')
+    a=$(hcurl "$BASE/v1/batches/$B" | jq -c '[.status, .counts, [.targets[].status], .templateFrom]')
     on api2
-    b=$(hcurl "$BASE/v1/batches/$B" | jq -c '[.status, .counts, [.targets[].status]]')
+    b=$(hcurl "$BASE/v1/batches/$B" | jq -c '[.status, .counts, [.targets[].status], .templateFrom]')
     echo "api $a api2 $b" >"$WORK/same.txt"
-    [ -n "$a" ] && [ "$a" = "$b" ]
+    [ -n "$a" ] && [ "$a" = "$b" ] && jq -e '.[3] == {mode: "mean", round: 1}' <<<"$b" >/dev/null
 }
 if poll 10 same; then
-    ok "the batch document is the same on the other API node (its replica of the database)"
+    ok "the batch document is the same on the other API node (its replica of the database), templateFrom included"
 else
     not_ok "the batch on both nodes" "$(cat "$WORK/same.txt")"
 fi

@@ -351,6 +351,11 @@ static sm_status fcsv_header(sm_points *p, const char *text, size_t len, sm_erro
                 return sm_error_set(err, SM_ERR_FORMAT, "line %ld: CoordinateSystem is LPS or "
                                     "RAS (or 1, 0), found '%.*s'", line, (int)(vn > 16 ? 16 : vn), v);
         } else if ((v = comment_value(text + i, end - i, "columns", &vn))) {
+            /* a first name starting with '#' would make the header line
+             * we write a comment (found by fuzz_points) */
+            if (vn > 0 && v[0] == '#')
+                return sm_error_set(err, SM_ERR_FORMAT, "line %ld: the .fcsv's columns start "
+                                    "with '#'", line);
             columns = v;
             ncolumns = vn;
         }

@@ -3,6 +3,7 @@
 
 #include "job/sm_job_align.h"
 
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -683,6 +684,8 @@ sm_status sm_job_inputs_read_template(const sm_job_files *files, sm_job_naming n
     out->background_asked.size = files->background_size > 0 ? files->background_size : 0;
     out->background_asked.padding = files->background_padding > 0 ? files->background_padding : 0;
     out->background_asked.template_size = files->template_size > 0 ? files->template_size : 0;
+    out->background_asked.template_label =
+        files->template_label > 0 && files->template_label <= INT_MAX ? (int)files->template_label : 0;
     if ((st = take_template(files, naming, out, err)) != SM_OK)
         goto fail;
     out->dim = out->template_mesh->dim;
@@ -918,6 +921,15 @@ sm_status sm_job_inputs_load_json(const sm_job_files *files, const json_t *param
         with_bg.background_padding = bg.padding;
     if (!(with_bg.template_size > 0))
         with_bg.template_size = bg.template_size;
+    if (with_bg.template_label == 0)
+        with_bg.template_label = bg.template_label;
+    if (with_bg.template_label != 0 && !with_bg.template_image) {
+        memset(out, 0, sizeof *out);
+        out->failed = SM_PART_PARAMS;
+        return sm_error_set(err, SM_ERR_INVALID,
+                            "params.template_label: the label of a template_image, and the job "
+                            "has none");
+    }
     if (!(with_bg.template_min_quality > 0))
         with_bg.template_min_quality = params.min_quality;
     /* the files, then the params' values (the upload's check: a file's

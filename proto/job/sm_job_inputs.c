@@ -681,6 +681,17 @@ sm_status sm_job_inputs_read_template(const sm_job_files *files, sm_job_naming n
         out->failed = SM_PART_PARAMS;
         return st;
     }
+    /* a label selects a label map's voxels: with any other template it
+     * would be ignored, so it is refused */
+    if (files->template_label != 0 && !files->template_image) {
+        out->failed = SM_PART_PARAMS;
+        return sm_error_set(err, SM_ERR_INVALID, "%s",
+                            naming == SM_JOB_NAME_PARTS
+                                ? "params.template_label: the label of a template_image, and "
+                                  "the job has none"
+                                : "template_label (--template-label) is the label of a template "
+                                  "image (--template-image), and there is none");
+    }
     out->background_asked.size = files->background_size > 0 ? files->background_size : 0;
     out->background_asked.padding = files->background_padding > 0 ? files->background_padding : 0;
     out->background_asked.template_size = files->template_size > 0 ? files->template_size : 0;
@@ -923,13 +934,6 @@ sm_status sm_job_inputs_load_json(const sm_job_files *files, const json_t *param
         with_bg.template_size = bg.template_size;
     if (with_bg.template_label == 0)
         with_bg.template_label = bg.template_label;
-    if (with_bg.template_label != 0 && !with_bg.template_image) {
-        memset(out, 0, sizeof *out);
-        out->failed = SM_PART_PARAMS;
-        return sm_error_set(err, SM_ERR_INVALID,
-                            "params.template_label: the label of a template_image, and the job "
-                            "has none");
-    }
     if (!(with_bg.template_min_quality > 0))
         with_bg.template_min_quality = params.min_quality;
     /* the files, then the params' values (the upload's check: a file's

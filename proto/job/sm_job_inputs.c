@@ -652,12 +652,17 @@ static sm_status take_template(const sm_job_files *files, sm_job_naming naming,
                             "(template_surface) or a label map (template_image)",
                             part);
     }
+    /* a label map is read as the target image is: its bounds, and a
+     * refusal counted as --max-inflated's (413) */
+    sm_image_limits lim = image_limits(files, naming);
     sm_status st = sm_job_template_mesh(made_from, files->template_surface_given,
                                         files->template_image != NULL, files->template_label,
                                         files->template_size, files->template_min_quality,
-                                        files->limits, &out->template_mesh,
+                                        files->limits, &lim, &out->template_mesh,
                                         &out->template_made, err);
     if (st != SM_OK) {
+        if (files->limits && (lim.hit == SM_IMAGE_LIMIT_INFLATED || lim.hit == SM_IMAGE_LIMIT_VOXELS))
+            files->limits->hit = SM_LIMIT_INFLATED;
         out->failed = SM_PART_TEMPLATE;
         if (naming == SM_JOB_NAME_PARTS)
             part_error(err, part, made_from);

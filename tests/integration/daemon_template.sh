@@ -20,7 +20,9 @@
 #     label 3, results/template byte for byte `run --template-image
 #     --template-label 3`'s template.mesh; a label the image lacks: 422
 #     naming template_image and the label; template_label without
-#     template_image, template_image with template: 422; `submit
+#     template_image, template_image with template: 422; a detached NRRD
+#     header 422 and a header over the voxel bound 413, the target
+#     image's bounds; `submit
 #     --template-image --template-label 3 --wait -o DIR` the same mesh.
 source "$(dirname "$0")/lib.sh"
 CHECK=$ROOT/tests/cli/template_mesh_check.py
@@ -36,7 +38,8 @@ out = lines[:i + 1] + [str(n - 1)] + lines[i + 2:i + 2 + n - 1] + lines[i + 2 + 
 open('open.mesh', 'w').write('\n'.join(out))
 PYEOF
 
-start_daemon tpl --workers 1 || { not_ok "daemon starts"; exit 1; }
+# --max-vertices 100000: a template image may declare 25.6M voxels
+start_daemon tpl --workers 1 --max-vertices 100000 || { not_ok "daemon starts"; exit 1; }
 P='{"max_iter": 30}'
 code=$(hcurl -o sub.json -w '%{http_code}' -F template_surface=@star.mesh -F target_surface=@moved.mesh \
     -F "params=$P" "$BASE/v1/jobs")
@@ -101,11 +104,27 @@ code=$(hcurl -o tpli.mesh -w '%{http_code}' "$BASE/v1/jobs/$JI/results/template"
     --label 3 --max-iter 1 -q -o locali 2>/dev/null >/dev/null
 [ "$code" = 200 ] && [ -s locali/template.mesh ] && cmp -s tpli.mesh locali/template.mesh
 check "GET results/template (200) is run --template-image's template.mesh, byte for byte" test $? = 0
-code=$(hcurl -o bad.json -w '%{http_code}' -F template_image=@lab.nii.gz -F target_image=@moved.nii.gz \
-    -F 'params={"template_label": 9, "label": 3}' "$BASE/v1/jobs")
+code=$(hcurl -o bad.json -D bad.hdr -w '%{http_code}' -F template_image=@lab.nii.gz \
+    -F target_image=@moved.nii.gz -F 'params={"template_label": 9, "label": 3}' "$BASE/v1/jobs")
+grep -qi '^content-type: application/problem+json' bad.hdr &&
 [ "$code" = 422 ] && jq -e '(.detail | startswith("template_image: label-empty: no voxel of the image has label 9"))
-    and .status == 422' bad.json >/dev/null
-check "a label the image lacks: 422 naming template_image and label 9 ($code)" test $? = 0 || cat bad.json
+    and .status == 422 and .["invalid-params"][0].name == "template_image"' bad.json >/dev/null
+check "a label the image lacks: 422 problem+json naming template_image and label 9 ($code)" test $? = 0 || cat bad.json
+# the target image's bounds: one file (a detached header would read a
+# file of the daemon's machine), the voxels under 256 x --max-vertices
+printf 'NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\ndata file: /etc/hostname\n\n' >det.nhdr
+code=$(hcurl -o bad.json -w '%{http_code}' -F template_image=@det.nhdr -F target_image=@moved.nii.gz \
+    -F "params=$PI" "$BASE/v1/jobs")
+[ "$code" = 422 ] && jq -e '(.detail | startswith("template_image: ")) and (.detail | contains("detached data file"))' \
+    bad.json >/dev/null
+check "a detached NRRD header as template_image: 422 (one file), as for target_image ($code)" test $? = 0 ||
+    cat bad.json
+printf 'NRRD0004\ntype: uint8\ndimension: 3\nsizes: 512 512 512\nencoding: raw\n\n\001' >huge.nrrd
+code=$(hcurl -o bad.json -w '%{http_code}' -F template_image=@huge.nrrd -F target_image=@moved.nii.gz \
+    -F "params=$PI" "$BASE/v1/jobs")
+[ "$code" = 413 ] && jq -e '.detail | startswith("template_image: ")' bad.json >/dev/null
+check "a template_image declaring 512^3 voxels over 256 x --max-vertices: 413 ($code)" test $? = 0 ||
+    cat bad.json
 code=$(hcurl -o bad.json -w '%{http_code}' -F template_surface=@star.mesh -F target_surface=@moved.mesh \
     -F 'params={"template_label": 3}' "$BASE/v1/jobs")
 [ "$code" = 422 ] && jq -e '.detail | startswith("params.template_label: ")' bad.json >/dev/null

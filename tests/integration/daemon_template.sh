@@ -22,7 +22,8 @@
 #     naming template_image and the label; template_label without
 #     template_image, template_image with template: 422; a detached NRRD
 #     header 422 and a header over the voxel bound 413, the target
-#     image's bounds; `submit
+#     image's bounds; OGC: the process lists template_image, execute
+#     takes it inline (the same template.mesh); `submit
 #     --template-image --template-label 3 --wait -o DIR` the same mesh.
 source "$(dirname "$0")/lib.sh"
 CHECK=$ROOT/tests/cli/template_mesh_check.py
@@ -110,6 +111,20 @@ grep -qi '^content-type: application/problem+json' bad.hdr &&
 [ "$code" = 422 ] && jq -e '(.detail | startswith("template_image: label-empty: no voxel of the image has label 9"))
     and .status == 422 and .["invalid-params"][0].name == "template_image"' bad.json >/dev/null
 check "a label the image lacks: 422 problem+json naming template_image and label 9 ($code)" test $? = 0 || cat bad.json
+# OGC: the process lists template_image (optional); the execute request
+# takes it inline and makes the same template
+hcurl -o proc.json "$BASE/v1/processes/match"
+jq -e '.inputs.template_image.minOccurs == 0 and .inputs.template.minOccurs == 0' proc.json >/dev/null
+check "the OGC process description lists template_image (optional) beside template" test $? = 0
+jq -n --rawfile t <(base64 -w0 lab.nii.gz) --rawfile g <(base64 -w0 moved.nii.gz) --argjson p "$PI" \
+    '{inputs: {template_image: {value: $t}, target_image: {value: $g}, params: $p}}' >exec.json
+JX=$(hcurl -H 'Content-Type: application/json' --data-binary @exec.json \
+    "$BASE/v1/processes/match/execution" | jq -r '.jobID // empty')
+[ -n "$JX" ] && wait_state "$JX" successful 120
+code=$(hcurl -o tplx.mesh -w '%{http_code}' "$BASE/v1/jobs/$JX/results/template")
+[ -n "$JX" ] && [ "$code" = 200 ] && cmp -s tplx.mesh locali/template.mesh
+check "OGC execute with template_image inline: successful, the same template.mesh ($code)" test $? = 0
+
 # the target image's bounds: one file (a detached header would read a
 # file of the daemon's machine), the voxels under 256 x --max-vertices
 printf 'NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\ndata file: /etc/hostname\n\n' >det.nhdr

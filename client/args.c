@@ -616,7 +616,6 @@ typedef enum run_flag_kind {
     RUN_FLAG_TEMPLATE,
     RUN_FLAG_TEMPLATE_SURFACE,
     RUN_FLAG_TEMPLATE_IMAGE,
-    RUN_FLAG_TEMPLATE_LABEL,
     RUN_FLAG_TARGET_MESH,
     RUN_FLAG_TARGET_SOL,
     RUN_FLAG_OUTPUT,
@@ -639,7 +638,6 @@ static run_flag_kind classify_run_flag(const char *flag, int *takes_value)
         {"--template", RUN_FLAG_TEMPLATE, 1},
         {"--template-surface", RUN_FLAG_TEMPLATE_SURFACE, 1},
         {"--template-image", RUN_FLAG_TEMPLATE_IMAGE, 1},
-        {"--template-label", RUN_FLAG_TEMPLATE_LABEL, 1},
         {"--target-mesh", RUN_FLAG_TARGET_MESH, 1},
         {"--target-sol", RUN_FLAG_TARGET_SOL, 1},
         {"--target-surface", RUN_FLAG_TARGET_SURFACE, 1},
@@ -674,9 +672,6 @@ static int apply_run_flag(run_options *o, run_flag_kind kind, const char *flag, 
     case RUN_FLAG_TEMPLATE: path = &o->template_path; break;
     case RUN_FLAG_TEMPLATE_SURFACE: path = &o->template_surface_path; break;
     case RUN_FLAG_TEMPLATE_IMAGE: path = &o->template_image_path; break;
-    case RUN_FLAG_TEMPLATE_LABEL:
-        o->template_label_given = 1;
-        return args_parse_int(flag, value, 0, INT32_MAX, &o->template_label, msg, cap);
     case RUN_FLAG_TARGET_MESH: path = &o->target_mesh_path; break;
     case RUN_FLAG_TARGET_SOL: path = &o->target_sol_path; break;
     case RUN_FLAG_TARGET_SURFACE: path = &o->target_surface_path; break;
@@ -747,7 +742,7 @@ static int finish_run_options(run_options *o, char *msg, size_t cap)
     if (templates > 1)
         return cli_fail(msg, cap,
                         "give one template: --template, --template-surface or --template-image");
-    if (o->template_label_given && !o->template_image_path)
+    if (o->job.background.template_label > 0 && !o->template_image_path)
         return cli_fail(msg, cap, "--template-label is the label of --template-image");
     if (o->job.background.template_size > 0 && !o->template_surface_path && !o->template_image_path)
         return cli_fail(msg, cap,

@@ -44,11 +44,10 @@ typedef struct job_options {
 
 typedef struct run_options {
     const char *template_path;
-    /* or --template-surface / --template-image with --template-label:
-     * the template meshed from them (sm_job_template.h) */
+    /* or --template-surface / --template-image (its --template-label
+     * in job.background, a params row): the template meshed from them
+     * (sm_job_template.h) */
     const char *template_surface_path, *template_image_path;
-    long template_label;
-    int template_label_given;
     const char *target_mesh_path;
     const char *target_sol_path;
     const char *target_surface_path; /* --target-surface (excludes --target-sol) */

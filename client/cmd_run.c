@@ -366,7 +366,7 @@ void cmd_run_help(void)
            "                          closed surface (the --target-surface formats; a\n"
            "                          closed curve in 2D), written to OUTDIR/template.mesh\n"
            "  --template-image FILE   or from the boundary of a label-map image's label\n"
-           "  --template-label N      (--template-label; 0 or none: every nonzero voxel)\n"
+           "                          (--template-label below)\n"
            "  --target-mesh FILE      background mesh carrying the target distance\n"
            "  --target-sol FILE       signed distance of the target, one value per\n"
            "                          background vertex (scalar SolAtVertices)\n"
@@ -437,7 +437,7 @@ int cmd_run(int argc, char **argv)
     const sm_job_files files = {.template_mesh = meshed ? NULL : opt.template_path,
                                 .template_surface = opt.template_surface_path,
                                 .template_image = opt.template_image_path,
-                                .template_label = opt.template_label,
+                                .template_label = opt.job.background.template_label,
                                 .template_size = opt.job.background.template_size,
                                 .template_min_quality = opt.job.params.min_quality,
                                 .target_mesh = opt.target_mesh_path,

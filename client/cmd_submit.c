@@ -181,6 +181,7 @@ static int add_file_part(curl_mime *mime, upload *u)
 enum {
     SB_TEMPLATE,
     SB_TEMPLATE_SURFACE,
+    SB_TEMPLATE_IMAGE,
     SB_TARGET_MESH,
     SB_TARGET_SOL,
     SB_TARGET_SURFACE,
@@ -199,7 +200,7 @@ enum {
 
 typedef struct submit_args {
     const char *template_path, *target_mesh_path, *target_sol_path, *target_surface_path,
-        *target_image_path, *template_surface_path;
+        *target_image_path, *template_surface_path, *template_image_path;
     char landmarks[2][PATH_MAX]; /* --landmarks A,B: template's, target's ("" when not given) */
     const char *outdir;
     const char *idempotency_key;
@@ -234,6 +235,7 @@ static int submit_flag(void *user, int id, const char *flag, const char *value, 
         return job_option_apply(&a->job, flag, value, msg, cap);
     case SB_TEMPLATE:
     case SB_TEMPLATE_SURFACE:
+    case SB_TEMPLATE_IMAGE:
     case SB_TARGET_MESH:
     case SB_TARGET_SOL:
     case SB_TARGET_SURFACE:
@@ -247,6 +249,8 @@ static int submit_flag(void *user, int id, const char *flag, const char *value, 
             a->template_path = value;
         else if (id == SB_TEMPLATE_SURFACE)
             a->template_surface_path = value;
+        else if (id == SB_TEMPLATE_IMAGE)
+            a->template_image_path = value;
         else if (id == SB_TARGET_MESH)
             a->target_mesh_path = value;
         else if (id == SB_TARGET_SOL)
@@ -320,6 +324,7 @@ void cmd_submit_help(void)
            "       shapematch submit --template T.mesh --target-surface S.stl [--target-mesh B.mesh]\n"
            "       shapematch submit --template T.mesh --target-image IMG [--label N]\n"
            "       shapematch submit --template-surface A.stl --target-surface B.stl\n"
+           "       shapematch submit --template-image A.nii.gz [--template-label N] TARGET\n"
            "                         CLAMP [PARAMETERS] [--name NAME] [--json]\n"
            "                         [--idempotency-key K]\n"
            "       shapematch submit ... --wait -o OUTDIR [--format LIST]\n"
@@ -337,6 +342,8 @@ void cmd_submit_help(void)
            "  --template-surface FILE or a closed surface the daemon meshes into the\n"
            "                          template (nglib; --template-size H), the result's\n"
            "                          template.mesh\n"
+           "  --template-image FILE   or a label map (the --target-image formats) whose\n"
+           "                          --template-label the daemon meshes likewise\n"
            "  --target-mesh FILE      background mesh carrying the target distance\n"
            "  --target-sol FILE       signed distance, one value per background vertex\n"
            "                          (Medit .sol/.solb, optionally .gz)\n"
@@ -382,12 +389,16 @@ void cmd_submit_help(void)
 /* The usage rules beyond what each flag checks alone; NULL when fine. */
 static const char *submit_usage_problem(submit_args *a, char *msg, size_t cap)
 {
-    if (!a->template_path && !a->template_surface_path)
-        return "missing required option --template (or --template-surface)";
-    if (a->template_path && a->template_surface_path)
-        return "give one template: --template or --template-surface";
-    if (a->job.background.template_size > 0 && !a->template_surface_path)
-        return "--template-size sizes a template meshed from --template-surface";
+    int templates = !!a->template_path + !!a->template_surface_path + !!a->template_image_path;
+    if (templates == 0)
+        return "missing required option --template (or --template-surface, --template-image)";
+    if (templates > 1)
+        return "give one template: --template, --template-surface or --template-image";
+    if (a->job.background.template_size > 0 && !a->template_surface_path && !a->template_image_path)
+        return "--template-size sizes a template meshed from --template-surface or "
+               "--template-image";
+    if (a->job.background.template_label > 0 && !a->template_image_path)
+        return "--template-label is the label of --template-image";
     if (a->target_surface_path && a->target_sol_path)
         return "--target-surface excludes --target-sol: give one target";
     if (a->target_image_path && (a->target_sol_path || a->target_surface_path))
@@ -438,7 +449,8 @@ static int submission_open_files(submission *s, const char *cmd, const submit_jo
         [SM_PART_TARGET_SOL] = j->target_sol, [SM_PART_TARGET_SURFACE] = j->target_surface,
         [SM_PART_TEMPLATE_LANDMARKS] = j->landmarks[0],
         [SM_PART_TARGET_LANDMARKS] = j->landmarks[1], [SM_PART_TARGET_IMAGE] = j->target_image,
-        [SM_PART_TEMPLATE_SURFACE] = j->template_surface};
+        [SM_PART_TEMPLATE_SURFACE] = j->template_surface,
+        [SM_PART_TEMPLATE_IMAGE] = j->template_image};
     char msg[ARGS_MSG_LEN];
     for (int i = 0; i < SM_PART_PARAMS; i++) {
         /* the daemon reads landmark CSV as plain text: never compressed */
@@ -570,6 +582,7 @@ int cmd_submit(int argc, char **argv)
     static const cli_flag flags[] = {
         {"--template", 1, SB_TEMPLATE},
         {"--template-surface", 1, SB_TEMPLATE_SURFACE},
+        {"--template-image", 1, SB_TEMPLATE_IMAGE},
         {"--target-mesh", 1, SB_TARGET_MESH},
         {"--target-sol", 1, SB_TARGET_SOL},
         {"--target-surface", 1, SB_TARGET_SURFACE},
@@ -628,6 +641,7 @@ int cmd_submit(int argc, char **argv)
                     .target_sol = a.target_sol_path, .target_surface = a.target_surface_path,
                     .target_image = a.target_image_path,
                     .template_surface = a.template_surface_path,
+                    .template_image = a.template_image_path,
                     .landmarks = {a.landmarks[0][0] ? a.landmarks[0] : NULL,
                                   a.landmarks[1][0] ? a.landmarks[1] : NULL},
                     .params_json = params, .idempotency_key = a.idempotency_key, .name = a.name,

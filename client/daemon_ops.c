@@ -30,7 +30,7 @@
  *   displacement.sol   GET .../results/displacement?format=sol
  *   history.csv        GET .../results/history?format=csv
  *   template.mesh      GET .../results/template (a template meshed from a
- *                      template_surface only)
+ *                      template_surface or template_image only)
  *   summary.json       GET .../results (the summary document)
  * Transfers ask for compression (libcurl decodes it).  Every file is
  * written under a temporary name and renamed into place; summary.json
@@ -700,7 +700,7 @@ int remote_fetch(http_client *c, const char *cmd, int token_given, const char *i
     const sm_result_format *history = sm_result_format_find(SM_RESULT_HISTORY, "csv");
     if (code == 0)
         code = download(c, cmd, token_given, o->outdir, id, history);
-    /* a template the daemon meshed (template_surface): its mesh too, so
+    /* a template the daemon meshed (template_surface, template_image): its mesh too, so
      * that the set repeats the job as `run` writes it */
     if (code == 0 && json_object_get(json_object_get(summary, "template"), "meshed")) {
         char path[128];

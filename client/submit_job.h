@@ -12,6 +12,7 @@
 typedef struct submit_job {
     const char *template_path, *target_mesh, *target_sol, *target_surface, *target_image;
     const char *template_surface; /* instead of template_path: meshed by the daemon */
+    const char *template_image;   /* or a label map (params template_label), likewise */
     const char *landmarks[2];  /* template's, target's, or NULL */
     const char *params_json;   /* the params part */
     const char *idempotency_key; /* or NULL */

@@ -5,6 +5,7 @@
  * test_proto_params.c checks it against the tables). */
 #include "sm_proto_params.h"
 
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -30,6 +31,12 @@ static const sm_param_info background_rows[] = {
      INFINITY, 1, 1, 0, "the template surface's mean edge", 0, "--template-size", "H",
      "with --template-surface or --template-image: the meshed template's element size (nglib's "
      "maxh), a length in the surface's unit", "inputs"},
+    /* an integer row as the core's label (the target image's): 0 as
+     * "every nonzero voxel", the run's default, so 0 is also "not given" */
+    {"template_label", SM_PARAM_INT, offsetof(sm_background_params, template_label), 0, 0,
+     INT_MAX, 0, 0, 0, NULL, 0, "--template-label", "N",
+     "with --template-image: the label whose voxels are the template (0: every nonzero voxel)",
+     "inputs"},
 };
 
 const sm_param_info *sm_background_params_table(size_t *count)
@@ -318,7 +325,7 @@ sm_status sm_job_params_from_jansson(const json_t *root, int dim, const char *pa
                                      sm_params *out, sm_background_params *bg, sm_error *err)
 {
     char sub[SMP_PATH_MAX];
-    sm_background_params b = {0, 0};
+    sm_background_params b = {0};
     if (!path)
         path = "params";
     params_reset(out);
@@ -373,7 +380,7 @@ sm_status sm_job_params_from_json(const char *text, size_t len, int dim, sm_para
     json_t *root;
     params_reset(out);
     if (bg)
-        bg->size = bg->padding = bg->template_size = 0;
+        *bg = (sm_background_params){0};
     sm_status st = smp_load(text, len, SM_PARAMS_JSON_MAX_BYTES, "params", &root, err);
     if (st != SM_OK)
         return st;
@@ -487,7 +494,7 @@ sm_status sm_job_params_from_json_for(const char *text, size_t len, const sm_mes
     json_t *root;
     params_reset(out);
     if (bg)
-        bg->size = bg->padding = bg->template_size = 0;
+        *bg = (sm_background_params){0};
     sm_status st = smp_load(text, len, SM_PARAMS_JSON_MAX_BYTES, "params", &root, err);
     if (st != SM_OK)
         return st;
@@ -503,7 +510,7 @@ sm_status sm_job_params_from_jansson_for(const json_t *root, const sm_mesh *m, s
 {
     params_reset(out);
     if (bg)
-        bg->size = bg->padding = bg->template_size = 0;
+        *bg = (sm_background_params){0};
     if (!json_is_object(root))
         return sm_job_params_from_jansson(root, m->dim, "params", out, bg, err);
     json_t *copy = json_deep_copy(root);
@@ -653,11 +660,15 @@ json_t *sm_job_params_to_jansson(const sm_params *p, const sm_background_params 
     size_t n;
     const sm_param_info *rows = sm_background_params_table(&n);
     for (size_t i = 0; root && bg && i < n; i++) {
-        double v = *(const double *)((const char *)bg + rows[i].offset);
+        const char *at = (const char *)bg + rows[i].offset;
+        int integer = rows[i].type == SM_PARAM_INT;
+        double v = integer ? *(const int *)at : *(const double *)at;
         if (v == 0)
             continue; /* not given: left out */
         /* NULL for what the decoder would not take back */
-        if (!sm_param_in_range(&rows[i], v) || smp_set(root, rows[i].name, json_real(v))) {
+        if (!sm_param_in_range(&rows[i], v) ||
+            smp_set(root, rows[i].name,
+                    integer ? json_integer(*(const int *)at) : json_real(v))) {
             json_decref(root);
             return NULL;
         }

@@ -49,6 +49,8 @@ typedef struct sm_background_params {
                      * box's diagonal: > 0 and <= SM_BACKGROUND_PADDING_MAX */
     double template_size; /* a meshed template's element size (template_surface,
                            * template_image: sm_job_template.h), a length: > 0 */
+    int template_label;   /* template_image's label (an integer row, as the
+                           * core's label): >= 0, 0 every nonzero voxel */
 } sm_background_params;
 
 /* The padding when none is given (the schema's default). */
@@ -58,7 +60,8 @@ typedef struct sm_background_params {
 #define SM_BACKGROUND_PADDING_MAX 100.0
 
 /* The rows of the background members (background_size,
- * background_padding), of the same kind as sm_params_table's and after
+ * background_padding, template_size: SM_PARAM_REAL; template_label:
+ * SM_PARAM_INT, an int member), of the same kind as sm_params_table's and after
  * them in a params document; offsets are into sm_background_params.
  * Their default: 0 in the struct means "not given"; def is what that
  * means (a row's def_text when it depends on the meshes). */

@@ -11,7 +11,8 @@
 const char *const sm_part_names[SM_NPARTS] = {"template", "target_mesh", "target_sol",
                                                 SM_PART_NAME_TARGET_SURFACE, "template_landmarks",
                                                 "target_landmarks", SM_PART_NAME_TARGET_IMAGE,
-                                                SM_PART_NAME_TEMPLATE_SURFACE, "params", "name"};
+                                                SM_PART_NAME_TEMPLATE_SURFACE, SM_PART_NAME_TEMPLATE_IMAGE,
+                                                "params", "name"};
 
 const char *sm_part_name(sm_part part)
 {

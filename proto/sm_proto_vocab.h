@@ -26,9 +26,10 @@ typedef enum sm_part {
     SM_PART_TARGET_LANDMARKS = 5,
     SM_PART_TARGET_IMAGE = 6,
     SM_PART_TEMPLATE_SURFACE = 7,
-    SM_PART_PARAMS = 8,
-    SM_PART_NAME = 9,
-    SM_NPARTS = 10
+    SM_PART_TEMPLATE_IMAGE = 8,
+    SM_PART_PARAMS = 9,
+    SM_PART_NAME = 10,
+    SM_NPARTS = 11
 } sm_part;
 /* The file parts are the members before SM_PART_PARAMS (loops over the
  * files stop there: params and name stay last).  name is optional: the
@@ -43,8 +44,10 @@ typedef enum sm_part {
  * in one file, sm_job_image.h) is a target of its own, with an optional
  * target_mesh like target_surface; it excludes target_sol and
  * target_surface.  template_surface (a closed surface meshed into the
- * template by nglib, sm_job_template.h; params template_size) stands in
- * for template: one of the two. */
+ * template by nglib, sm_job_template.h; params template_size) and
+ * template_image (a label map as target_image, its label params
+ * template_label, meshed likewise) stand in for template: one of the
+ * three. */
 #define SM_PART_NAME_TARGET_SURFACE "target_surface"
 #define SM_PART_NAME_TARGET_IMAGE "target_image"
 /* The template made from a closed surface or a label map
@@ -56,7 +59,8 @@ typedef enum sm_part {
 #define SM_LANDMARKS_MAX_BYTES (1 << 20)
 /* "template", "target_mesh", "target_sol", "target_surface",
  * "template_landmarks", "target_landmarks", "target_image",
- * "template_surface", "params", "name", indexed by sm_part. */
+ * "template_surface", "template_image", "params", "name", indexed by
+ * sm_part. */
 extern const char *const sm_part_names[SM_NPARTS];
 /* sm_part_names[part], NULL outside. */
 const char *sm_part_name(sm_part part);

@@ -21,7 +21,7 @@ const $ = (id) => document.getElementById(id);
 const token = () => $('token').value.trim();
 const authHeaders = () => (token() ? { Authorization: `Bearer ${token()}` } : {});
 const withToken = (path) => (token() ? `${path}${path.includes('?') ? '&' : '?'}access_token=${encodeURIComponent(token())}` : path);
-const FILES = ['template', 'template_surface', 'target_mesh', 'target_sol', 'target_surface', 'target_image'];
+const FILES = ['template', 'template_surface', 'template_image', 'target_mesh', 'target_sol', 'target_surface', 'target_image'];
 
 let schema = null;
 let current = null; // the job followed: {id, es, timer, plot, data, view, ...}
@@ -607,7 +607,7 @@ function setupDrop() {
     for (const file of e.dataTransfer.files) {
       const n = file.name.toLowerCase();
       const part = /\.solb?(\.gz)?$/.test(n) ? 'target_sol'
-        : /\.(nii|nrrd|mha)(\.gz)?$/.test(n) ? 'target_image'
+        : /\.(nii|nrrd|mha)(\.gz)?$/.test(n) ? (n.includes('template') ? 'template_image' : 'target_image')
         : /\.(stl|obj|ply|off)(\.gz)?$/.test(n) && n.includes('template') ? 'template_surface'
         : /\.(stl|obj)(\.gz)?$/.test(n) || n.includes('surface') ? 'target_surface'
         : n.includes('template') ? 'template' : 'target_mesh';

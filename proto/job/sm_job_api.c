@@ -170,7 +170,9 @@ static sm_status load_inputs(const sm_run_files *f, const char *params_json, sm_
                           .template_given = g.template_mesh, .target_mesh_given = g.target_mesh,
                           .target_surface_given = g.target_surface,
                           .template_surface = names[5], .template_image = f->template_image,
-                          .template_label = f->template_label,
+                          /* the argument, or the params' row */
+                          .template_label = f->template_label ? f->template_label
+                                                              : bg.template_label,
                           .template_size = bg.template_size,
                           .template_min_quality = params.min_quality,
                           .template_surface_given = g.template_surface};

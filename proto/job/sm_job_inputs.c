@@ -3,6 +3,7 @@
 
 #include "job/sm_job_align.h"
 
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -651,12 +652,17 @@ static sm_status take_template(const sm_job_files *files, sm_job_naming naming,
                             "(template_surface) or a label map (template_image)",
                             part);
     }
+    /* a label map is read as the target image is: its bounds, and a
+     * refusal counted as --max-inflated's (413) */
+    sm_image_limits lim = image_limits(files, naming);
     sm_status st = sm_job_template_mesh(made_from, files->template_surface_given,
                                         files->template_image != NULL, files->template_label,
                                         files->template_size, files->template_min_quality,
-                                        files->limits, &out->template_mesh,
+                                        files->limits, &lim, &out->template_mesh,
                                         &out->template_made, err);
     if (st != SM_OK) {
+        if (files->limits && (lim.hit == SM_IMAGE_LIMIT_INFLATED || lim.hit == SM_IMAGE_LIMIT_VOXELS))
+            files->limits->hit = SM_LIMIT_INFLATED;
         out->failed = SM_PART_TEMPLATE;
         if (naming == SM_JOB_NAME_PARTS)
             part_error(err, part, made_from);
@@ -680,9 +686,22 @@ sm_status sm_job_inputs_read_template(const sm_job_files *files, sm_job_naming n
         out->failed = SM_PART_PARAMS;
         return st;
     }
+    /* a label selects a label map's voxels: with any other template it
+     * would be ignored, so it is refused */
+    if (files->template_label != 0 && !files->template_image) {
+        out->failed = SM_PART_PARAMS;
+        return sm_error_set(err, SM_ERR_INVALID, "%s",
+                            naming == SM_JOB_NAME_PARTS
+                                ? "params.template_label: the label of a template_image, and "
+                                  "the job has none"
+                                : "template_label (--template-label) is the label of a template "
+                                  "image (--template-image), and there is none");
+    }
     out->background_asked.size = files->background_size > 0 ? files->background_size : 0;
     out->background_asked.padding = files->background_padding > 0 ? files->background_padding : 0;
     out->background_asked.template_size = files->template_size > 0 ? files->template_size : 0;
+    out->background_asked.template_label =
+        files->template_label > 0 && files->template_label <= INT_MAX ? (int)files->template_label : 0;
     if ((st = take_template(files, naming, out, err)) != SM_OK)
         goto fail;
     out->dim = out->template_mesh->dim;
@@ -918,6 +937,8 @@ sm_status sm_job_inputs_load_json(const sm_job_files *files, const json_t *param
         with_bg.background_padding = bg.padding;
     if (!(with_bg.template_size > 0))
         with_bg.template_size = bg.template_size;
+    if (with_bg.template_label == 0)
+        with_bg.template_label = bg.template_label;
     if (!(with_bg.template_min_quality > 0))
         with_bg.template_min_quality = params.min_quality;
     /* the files, then the params' values (the upload's check: a file's

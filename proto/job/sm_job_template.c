@@ -9,25 +9,21 @@
 
 /* The label's boundary: a closed outward triangle surface of a 3D image,
  * a closed curve of a 2D one (one slice). */
-static sm_status image_surface(const char *path, int64_t label, sm_read_limits *limits,
+static sm_status image_surface(const char *path, int64_t label, sm_image_limits *limits,
                                sm_surface **out, double *voxel, sm_error *err)
 {
-    sm_image_limits lim = {0};
-    if (limits) {
-        lim.max_inflated = limits->max_inflated;
-        if (limits->max_vertices > 0 && limits->max_vertices <= INT64_MAX / 256)
-            lim.max_voxels = limits->max_vertices * 256;
-    }
+    sm_image_limits none = {0};
+    sm_image_limits *lim = limits ? limits : &none;
     sm_image_select sel = {.has_label = label != 0, .label = label, .level = 0.5};
     sm_job_image_info info;
     sm_image_target *t = NULL;
     /* the jobs' smoothing (params smooth's default: 1 voxel) */
-    sm_status st = sm_job_image_target(path, &lim, &sel, SM_IMAGE_SPACE_LPS, 1.0, 0.0, &t, &info, err);
+    sm_status st = sm_job_image_target(path, lim, &sel, SM_IMAGE_SPACE_LPS, 1.0, 0.0, &t, &info, err);
     if (st == SM_OK)
         *voxel = fmax(info.spacing[0], fmax(info.spacing[1], info.dims[2] == 1 ? 0 : info.spacing[2]));
     if (st == SM_OK && info.dims[2] == 1) {
         sm_image_target_free(t);
-        return sm_job_image_contour(path, &lim, &sel, SM_IMAGE_SPACE_LPS, 1.0, out, &info, err);
+        return sm_job_image_contour(path, lim, &sel, SM_IMAGE_SPACE_LPS, 1.0, out, &info, err);
     }
     if (st != SM_OK)
         return st;
@@ -43,8 +39,8 @@ static sm_status image_surface(const char *path, int64_t label, sm_read_limits *
 
 sm_status sm_job_template_mesh(const char *path, const sm_surface *given, int is_image,
                                int64_t label, double size, double min_quality,
-                               sm_read_limits *limits, sm_mesh **out,
-                               sm_job_template_made *made, sm_error *err)
+                               sm_read_limits *limits, sm_image_limits *image_limits,
+                               sm_mesh **out, sm_job_template_made *made, sm_error *err)
 {
     *out = NULL;
     memset(made, 0, sizeof *made);
@@ -52,7 +48,7 @@ sm_status sm_job_template_mesh(const char *path, const sm_surface *given, int is
     made->label = label;
     sm_surface *s = NULL;
     double voxel = 0;
-    sm_status st = is_image ? image_surface(path, label, limits, &s, &voxel, err)
+    sm_status st = is_image ? image_surface(path, label, image_limits, &s, &voxel, err)
                    : given  ? sm_surface_alloc(&s, given->dim, given->nverts, given->nfacets, err)
                             : sm_surface_read_limited(path, limits, &s, err);
     if (st == SM_OK && given && !is_image) {

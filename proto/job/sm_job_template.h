@@ -14,6 +14,7 @@
 
 #include "shapematch/sm_error.h"
 #include "shapematch/sm_io.h"
+#include "shapematch/sm_image.h"
 #include "shapematch/sm_mesh.h"
 #include "shapematch/sm_surface.h"
 #include "shapematch/sm_template_mesh.h"
@@ -40,12 +41,15 @@ typedef struct sm_job_template_made {
  * 6 tetrahedra or 2 triangles a vertex), repairs, checks and meshes it at
  * size (0: the surface's mean edge; for an image, its largest voxel
  * spacing, since a label's surface is finer than its voxels), every
- * element at least min_quality (0: the descent's default floor).  Messages are the core's ("open: 12
- * edges ...", "nglib: ..."), unprefixed: the caller names the part.
- * *out is the caller's (sm_mesh_free). */
+ * element at least min_quality (0: the descent's default floor).  An
+ * image is read within image_limits (the target image's bounds: voxels,
+ * inflated bytes, a detached data file refused for an upload; its hit
+ * set on a refusal; NULL: the readers' own).  Messages are the core's
+ * ("open: 12 edges ...", "nglib: ..."), unprefixed: the caller names the
+ * part.  *out is the caller's (sm_mesh_free). */
 sm_status sm_job_template_mesh(const char *path, const sm_surface *given, int is_image,
                                int64_t label, double size, double min_quality,
-                               sm_read_limits *limits, sm_mesh **out,
-                               sm_job_template_made *made, sm_error *err);
+                               sm_read_limits *limits, sm_image_limits *image_limits,
+                               sm_mesh **out, sm_job_template_made *made, sm_error *err);
 
 #endif

@@ -35,7 +35,8 @@ static int open_part(smd_server *srv, const char *id, int part, char *name, size
     const char *const *ext = part == SM_PART_TARGET_SOL       ? sol_ext
                              : part == SM_PART_TARGET_SURFACE || part == SM_PART_TEMPLATE_SURFACE
                                  ? surface_ext
-                             : part == SM_PART_TARGET_IMAGE   ? image_ext
+                             : part == SM_PART_TARGET_IMAGE || part == SM_PART_TEMPLATE_IMAGE
+                                 ? image_ext
                              : part == SM_PART_TEMPLATE_LANDMARKS || part == SM_PART_TARGET_LANDMARKS
                                  ? csv_ext
                                  : mesh_ext;
@@ -106,7 +107,7 @@ enum MHD_Result smd_route_input(struct MHD_Connection *conn, smd_request *req)
         return smd_reply_problem(conn, req, 404, SMD_PROBLEM_NOT_FOUND,
                                  "no such input: the inputs are template, target_mesh, target_sol, "
                                  "target_surface, template_landmarks, target_landmarks, "
-                                 "target_image and template_surface (the "
+                                 "target_image, template_surface and template_image (the "
                                  "parameters are in the job's document)");
     smd_server *srv = req->srv;
     char name[48];

@@ -100,7 +100,7 @@ uint64_t smd_parts_hash(const smd_parts *u)
         if (!u->seen[i])
             continue; /* the hashes of requests without target_surface stay as they were */
         if (i == SM_PART_TARGET_SURFACE || i == SM_PART_TARGET_IMAGE ||
-            i == SM_PART_TEMPLATE_SURFACE)
+            i == SM_PART_TEMPLATE_SURFACE || i == SM_PART_TEMPLATE_IMAGE)
             h = smd_fnv1a(h, &i, sizeof i); /* tell it from the same bytes as target_mesh */
         h = smd_fnv1a(h, &u->part_hash[i], sizeof u->part_hash[i]);
     }
@@ -224,7 +224,8 @@ static int name_file(smd_parts *u, sm_part id)
                       : id == SM_PART_TARGET_SOL       ? (binary ? "solb" : "sol")
                       : id == SM_PART_TARGET_SURFACE || id == SM_PART_TEMPLATE_SURFACE
                           ? "surface" /* any surface format */
-                      : id == SM_PART_TARGET_IMAGE ? "image" /* NIfTI, NRRD, MetaImage */
+                      : id == SM_PART_TARGET_IMAGE || id == SM_PART_TEMPLATE_IMAGE
+                          ? "image" /* NIfTI, NRRD, MetaImage */
                                                      : (binary ? "meshb" : "mesh");
     char final[PATH_MAX];
     if (smd_pathf(final, sizeof final, "%s/inputs/%s.%s%s", u->dir, sm_part_names[id], ext,
@@ -245,7 +246,8 @@ int smd_parts_check(smd_parts *u)
     static const sm_part always[] = {SM_PART_TEMPLATE, SM_PART_PARAMS};
     for (size_t i = 0; i < sizeof always / sizeof always[0]; i++)
         if (!u->seen[always[i]] &&
-            !(always[i] == SM_PART_TEMPLATE && u->seen[SM_PART_TEMPLATE_SURFACE])) {
+            !(always[i] == SM_PART_TEMPLATE &&
+              (u->seen[SM_PART_TEMPLATE_SURFACE] || u->seen[SM_PART_TEMPLATE_IMAGE]))) {
             smd_parts_fail(u, 400, SMD_PROBLEM_BAD_MULTIPART, "missing part \"%s\": the parts are " SMD_UPLOAD_PARTS,
                  sm_part_names[always[i]]);
             return -1;
@@ -270,10 +272,16 @@ int smd_parts_check(smd_parts *u)
                                                                   : SM_PART_TARGET_SURFACE]);
         return -1;
     }
-    if (u->seen[SM_PART_TEMPLATE] && u->seen[SM_PART_TEMPLATE_SURFACE]) {
+    if (u->seen[SM_PART_TEMPLATE] + u->seen[SM_PART_TEMPLATE_SURFACE] +
+            u->seen[SM_PART_TEMPLATE_IMAGE] > 1) {
+        sm_part made = u->seen[SM_PART_TEMPLATE_SURFACE] ? SM_PART_TEMPLATE_SURFACE
+                                                         : SM_PART_TEMPLATE_IMAGE;
         smd_parts_fail(u, 422, SMD_PROBLEM_INVALID_INPUT,
-                       "template_surface excludes template: give one template (a volume mesh, "
-                       "or a closed surface to mesh)");
+                       "%s excludes %s: give one template (a volume mesh, a closed surface or "
+                       "a label map to mesh)",
+                       sm_part_names[made],
+                       sm_part_names[u->seen[SM_PART_TEMPLATE] ? SM_PART_TEMPLATE
+                                                               : SM_PART_TEMPLATE_SURFACE]);
         return -1;
     }
     if (u->seen[SM_PART_TEMPLATE_LANDMARKS] != u->seen[SM_PART_TARGET_LANDMARKS]) {

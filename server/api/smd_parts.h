@@ -26,7 +26,7 @@
 /* For messages: every part, optional ones included. */
 #define SMD_UPLOAD_PARTS                                                                   \
     "template, target_mesh, target_sol, target_surface, template_landmarks, target_landmarks, " \
-    "target_image, template_surface, params and name"
+    "target_image, template_surface, template_image, params and name"
 
 typedef struct smd_parts {
     const char *dir;               /* borrowed: the upload folder (with inputs/) */

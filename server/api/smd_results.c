@@ -457,7 +457,8 @@ enum MHD_Result smd_route_result_history(struct MHD_Connection *conn, smd_reques
     return results_ready(conn, req, &r) ? serve(conn, req, history_formats, 2) : r;
 }
 
-/* The template a job meshed from its template_surface (sm_job_template.h):
+/* The template a job meshed from its template_surface or template_image
+ * (sm_job_template.h):
  * 404 for a job whose template was given as a mesh. */
 enum MHD_Result smd_route_result_template(struct MHD_Connection *conn, smd_request *req)
 {
@@ -468,7 +469,7 @@ enum MHD_Result smd_route_result_template(struct MHD_Connection *conn, smd_reque
         return r;
     return send_file(conn, req, &f, f.file, f.file,
                      "this job's template was given as a mesh (template), not meshed from a "
-                     "template_surface");
+                     "template_surface or a template_image");
 }
 
 enum MHD_Result smd_route_snapshots(struct MHD_Connection *conn, smd_request *req)

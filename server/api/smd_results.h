@@ -13,7 +13,7 @@ enum MHD_Result smd_route_result_mesh(struct MHD_Connection *conn, smd_request *
 enum MHD_Result smd_route_result_displacement(struct MHD_Connection *conn, smd_request *req);
 enum MHD_Result smd_route_result_history(struct MHD_Connection *conn, smd_request *req);
 /* GET results/template: the meshed template (template.mesh) of a job
- * given a template_surface; 404 otherwise. */
+ * given a template_surface or a template_image; 404 otherwise. */
 enum MHD_Result smd_route_result_template(struct MHD_Connection *conn, smd_request *req);
 enum MHD_Result smd_route_snapshots(struct MHD_Connection *conn, smd_request *req);
 /* the iteration is req->arg */

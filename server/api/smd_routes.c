@@ -214,7 +214,8 @@ enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req)
     json_object_set_new(inputs, sm_part_names[SM_PART_TEMPLATE],
                         file_input("Template mesh", "The mesh to deform: Medit .mesh or .meshb "
                                                     "(triangles in 2D, tetrahedra in 3D), optionally "
-                                                    "gzip-compressed; or template_surface instead.",
+                                                    "gzip-compressed; or template_surface or template_image "
+                                                    "instead.",
                                    0));
     json_object_set_new(inputs, sm_part_names[SM_PART_TEMPLATE_SURFACE],
                         file_input("Template surface",
@@ -224,6 +225,15 @@ enum MHD_Result smd_route_process(struct MHD_Connection *conn, smd_request *req)
                                    "its mean edge); open, non-manifold or self-intersecting "
                                    "surfaces are refused (422).  The meshed template is a result "
                                    "file, template.mesh.", 0));
+    json_object_set_new(inputs, sm_part_names[SM_PART_TEMPLATE_IMAGE],
+                        file_input("Template image",
+                                   "Instead of template: a label map in the formats of "
+                                   "target_image (NIfTI, NRRD or MetaImage in one file, within "
+                                   "the same limits); the boundary of params template_label (0: "
+                                   "every nonzero voxel) is meshed into the template by Netgen's "
+                                   "nglib at params template_size, as template_surface is.  A "
+                                   "label the image does not hold is refused (422).  The meshed "
+                                   "template is a result file, template.mesh.", 0));
     json_object_set_new(inputs, sm_part_names[SM_PART_TARGET_MESH],
                         file_input("Target (background) mesh",
                                    "The mesh carrying the target's signed distance: .mesh or "

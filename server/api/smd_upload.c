@@ -400,6 +400,7 @@ static void check_in_child(void *arg, smd_check_result *out)
     sm_read_limits limits = u->limits;
     sm_job_files files = {.template_mesh = file_of(u, SM_PART_TEMPLATE),
                           .template_surface = file_of(u, SM_PART_TEMPLATE_SURFACE),
+                          .template_image = file_of(u, SM_PART_TEMPLATE_IMAGE),
                           .target_mesh = file_of(u, SM_PART_TARGET_MESH),
                           .target_sol = file_of(u, SM_PART_TARGET_SOL),
                           .target_surface = file_of(u, SM_PART_TARGET_SURFACE),

@@ -288,6 +288,7 @@ static int load_job(worker *w, const smd_job_file *jf, sm_job_inputs *in)
      * (sm_job_inputs_load_json), as in the upload's check */
     sm_job_files files = {.template_mesh = given[SM_PART_TEMPLATE],
                           .template_surface = given[SM_PART_TEMPLATE_SURFACE],
+                          .template_image = given[SM_PART_TEMPLATE_IMAGE],
                           .target_mesh = given[SM_PART_TARGET_MESH],
                           .target_sol = given[SM_PART_TARGET_SOL],
                           .target_surface = given[SM_PART_TARGET_SURFACE],
@@ -326,6 +327,7 @@ static int run_job(worker *w, sm_job_inputs *in, const smd_job_file *jf)
     /* the summary names the inputs as job.json does (relative paths) */
     sm_job_files names = {.template_mesh = given_or_null(jf->part[SM_PART_TEMPLATE]),
                           .template_surface = given_or_null(jf->part[SM_PART_TEMPLATE_SURFACE]),
+                          .template_image = given_or_null(jf->part[SM_PART_TEMPLATE_IMAGE]),
                           .target_mesh = given_or_null(jf->part[SM_PART_TARGET_MESH]),
                           .target_sol = given_or_null(jf->part[SM_PART_TARGET_SOL]),
                           .target_surface = given_or_null(jf->part[SM_PART_TARGET_SURFACE]),

@@ -141,7 +141,8 @@ sm_status smd_job_file_parse(const char *text, size_t len, smd_job_file *f, sm_e
         why = batch_problem(batch);
     if (!why && checked)
         why = checked_problem(checked, f);
-    if (!why && !batch && !f->part[SM_PART_TEMPLATE][0] && !f->part[SM_PART_TEMPLATE_SURFACE][0])
+    if (!why && !batch && !f->part[SM_PART_TEMPLATE][0] && !f->part[SM_PART_TEMPLATE_SURFACE][0] &&
+        !f->part[SM_PART_TEMPLATE_IMAGE][0])
         why = "template missing";
     if (!why && !json_is_object(params))
         why = "params";

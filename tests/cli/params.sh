@@ -30,7 +30,8 @@ fi
 bad=()
 while read -r expect inputs flag value extra; do
     if [ "$inputs" = surface ]; then
-        in=(--template-surface missing.stl --target-surface missing.stl)
+        # a label map's template: template_size and template_label both apply
+        in=(--template-image missing.nii.gz --target-surface missing.stl)
     else
         in=(--template missing.mesh --target-mesh missing.mesh --target-sol missing.sol)
     fi

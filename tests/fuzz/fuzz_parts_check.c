@@ -47,8 +47,10 @@ void fuzz_parts_check(const smd_parts *p)
         abort();
     if (p->err_status)
         return;
-    /* one template: a mesh, or a closed surface to mesh */
-    if (p->seen[SM_PART_TEMPLATE] == p->seen[SM_PART_TEMPLATE_SURFACE] || !p->seen[SM_PART_PARAMS] ||
+    /* one template: a mesh, or a closed surface or a label map to mesh */
+    if (p->seen[SM_PART_TEMPLATE] + p->seen[SM_PART_TEMPLATE_SURFACE] +
+                p->seen[SM_PART_TEMPLATE_IMAGE] != 1 ||
+        !p->seen[SM_PART_PARAMS] ||
         smd_parts_hash(p) == 0)
         abort();
     if (p->seen[SM_PART_TEMPLATE_LANDMARKS] != p->seen[SM_PART_TARGET_LANDMARKS])

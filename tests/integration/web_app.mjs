@@ -428,6 +428,34 @@ await run('a template from a surface', async () => {
   await page.close();
 });
 
+// ------------------------------------------------ a template from a label map
+await run('a template from a label map', async () => {
+  const page = await newPage();
+  await page.goto(`${openBase}/`);
+  await page.waitForSelector('#p-template_label');
+  const image = path.join(examples, 'image', 'sphere.nii.gz');
+  await page.setInputFiles('#f-template_image', image);
+  await page.setInputFiles('#f-target_image', image);
+  await page.fill('#p-label', '1');
+  await page.fill('#p-max_iter', '3');
+  // a label the image does not hold: the daemon's 422 next to the file
+  await page.fill('#p-template_label', '7');
+  const [resp] = await Promise.all([page.waitForResponse((r) => r.url().endsWith('/v1/jobs') && r.request().method() === 'POST'), page.click('#submit')]);
+  const problem = await resp.json();
+  await page.waitForFunction(() => document.querySelector('.err[data-for="template_image"]').textContent, null, { timeout: 5000 * WAIT });
+  const shown = await page.$eval('.err[data-for="template_image"]', (e) => e.textContent);
+  report('the form\'s template_image with template_label 7 (absent): the 422 next to template_image',
+    resp.status() === 422 && shown === problem.detail && /label-empty: no voxel of the image has label 7/.test(shown), `${resp.status()} ${shown}`);
+  await page.fill('#p-template_label', '1');
+  await page.click('#submit');
+  const final = await waitStatus(page, 'successful', 120000);
+  const sum = await summaryOf(openBase, await jobId(page));
+  const m = (sum.template || {}).meshed || {};
+  report('the form\'s template_image and template_label 1: the daemon meshes the label (nglib) and the job ends successful, 0 inverted',
+    final === 'successful' && m.mesher === 'nglib' && m.from === 'image' && m.label === 1 && sum.inverted_elements === 0, `${final} ${JSON.stringify(m)}`);
+  await page.close();
+});
+
 await run('another origin', async () => {
   const listed = await newPage();
   await listed.goto(`http://localhost:${originPort}/`);

@@ -16,7 +16,10 @@
 # server's 422 next to its field; a job that finishes without converging
 # ("not converged: <reason>" and every warning) and the page at 800 px;
 # a token typed in; a template from a closed curve (the form's
-# template_surface file and template_size field, meshed by the daemon).  From the
+# template_surface file and template_size field, meshed by the daemon); a
+# template from a label map (the form's template_image file and
+# template_label field: a label it lacks shown next to the file, then a
+# successful job).  From the
 # other origin: POST with Authorization, EventSource with access_token,
 # a download; unlisted: the browser blocks reads and the daemon answers the
 # POST with 403 (its log).  Screenshots in build/test-logs/.

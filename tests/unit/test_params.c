@@ -67,9 +67,10 @@ static int by_cli(const sm_param_info *f, int background, const char *text, char
     const char *argv[16];
     int argc = 0;
     argv[argc++] = "run";
-    /* the input rows: template_size sizes a meshed template */
-    argv[argc++] = background ? "--template-surface" : "--template";
-    argv[argc++] = background ? "t.stl" : "t.mesh";
+    /* the input rows: template_size sizes a meshed template, template_label
+     * selects a label map's label: a template_image takes both */
+    argv[argc++] = background ? "--template-image" : "--template";
+    argv[argc++] = background ? "t.nii.gz" : "t.mesh";
     if (background) { /* the background members need a generated background */
         argv[argc++] = "--target-surface";
         argv[argc++] = "s.stl";

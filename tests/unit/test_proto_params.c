@@ -246,6 +246,28 @@ static void test_background_members(void **state)
     assert_int_equal(sm_job_params_from_json(neg, strlen(neg), 2, &p, &bg, &err), SM_ERR_INVALID);
     assert_string_equal(err.msg, "params.background_padding: must be > 0 (got -1)");
     assert_true(bg.size == 0 && bg.padding == 0);
+
+    /* template_label, the integer row: written as a JSON integer when
+     * given, read back exactly; a real number or a value beyond an int is
+     * refused naming it */
+    bg = (sm_background_params){0};
+    bg.template_label = 2147483647;
+    assert_non_null(obj = sm_job_params_to_jansson(&p, &bg, 2));
+    assert_true(json_is_integer(json_object_get(obj, "template_label")));
+    assert_int_equal(json_integer_value(json_object_get(obj, "template_label")), 2147483647);
+    back = (sm_background_params){0};
+    assert_int_equal(sm_job_params_from_jansson(obj, 2, NULL, &p, &back, &err), SM_OK);
+    assert_int_equal(back.template_label, 2147483647);
+    json_decref(obj);
+    bg.template_label = -1;
+    assert_null(sm_job_params_to_json(&p, &bg, 2));
+    const char *badlab[] = {"{\"template_label\": 2.5}", "{\"template_label\": 2147483648}",
+                            "{\"template_label\": -1}", "{\"template_label\": \"3\"}"};
+    for (size_t i = 0; i < sizeof badlab / sizeof badlab[0]; i++) {
+        assert_int_equal(sm_job_params_from_json(badlab[i], strlen(badlab[i]), 2, &p, &back, &err),
+                         SM_ERR_INVALID);
+        assert_non_null(strstr(err.msg, "params.template_label: "));
+    }
 }
 
 /* The one rule of run, submit and the daemon: the background members
@@ -671,12 +693,12 @@ static void test_schema_matches_decoder(void **state)
     d.clamp = SM_CLAMP_NONE;
     /* written only when given: the background members (no default for
      * the size: it comes from the meshes) */
-    sm_background_params bg = {0.5, SM_BACKGROUND_PADDING_DEFAULT, 0.25};
+    sm_background_params bg = {0.5, SM_BACKGROUND_PADDING_DEFAULT, 0.25, 0};
     json_t *encoded = sm_job_params_to_jansson(&d, &bg, 2);
     assert_non_null(encoded);
-    /* and the label-map rows (label, level, smooth, image_space) only
-     * when not at their defaults */
-    assert_int_equal(json_object_size(encoded) + 4, json_object_size(props));
+    /* and the label-map rows (label, level, smooth, image_space, and the
+     * template's template_label) only when not at their defaults */
+    assert_int_equal(json_object_size(encoded) + 5, json_object_size(props));
     const char *key;
     json_t *prop;
     int bounds_checked = 0;
@@ -690,6 +712,8 @@ static void test_schema_matches_decoder(void **state)
                                    ? json_string(sm_param_value_name(row, (int)row->def))
                                : row->type == SM_PARAM_INT ? json_integer((json_int_t)row->def)
                                                            : json_real(row->def);
+        if (!mine && !strcmp(key, "template_label"))
+            mine = unwritten = json_integer(0);
         if (!mine)
             fail_msg("schema field %s is not written by sm_params_to_json", key);
         if (strcmp(key, "clamp") == 0)

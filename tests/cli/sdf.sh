@@ -123,7 +123,7 @@ a, b = (json.load(open(p)) for p in sys.argv[1:3])
 ea, eb = a["boundary_l2"], b["boundary_l2"]
 ok = a["inputs"]["target_surface"].endswith("circle.mesh") and a["target_surface"]["background_generated"] \
      and not b["target_surface"]["background_generated"] and a["target_surface"]["open_edges"] == 0
-print("boundary error %.3e (generated, %d vertices) vs %.3e (hand-made, %d vertices): ratio %.2f"
+print("boundary L2 %.3e (generated, %d vertices) vs %.3e (hand-made, %d vertices): ratio %.2f"
       % (ea, a["target_surface"]["background_vertices"], eb, b["target_surface"]["background_vertices"], ea / eb))
 sys.exit(0 if ok and ea <= 1.25 * eb else 1)
 PY
@@ -144,7 +144,7 @@ msg=$(python3 - "$WORK/gen-run/summary.json" "$WORK/fine-run/summary.json" <<'PY
 import json, sys
 a, b = (json.load(open(p)) for p in sys.argv[1:3])
 va, vb = (x["target_surface"]["background_vertices"] for x in (a, b))
-print("%d vertices by default, %d with size 0.005, boundary error %.3e" % (va, vb, b["boundary_l2"]))
+print("%d vertices by default, %d with size 0.005, boundary L2 %.3e" % (va, vb, b["boundary_l2"]))
 sys.exit(0 if vb > 1.3 * va and b["boundary_l2"] <= 1.25 * a["boundary_l2"] else 1)
 PY
 )
@@ -191,7 +191,7 @@ for name, x in (("1% gaps", g), ("3% gaps, reversed", r)):
         x["boundary_l2"] <= 1.5 * c["boundary_l2"]
     out.append("%s %.3e (%.2fx; %d open pieces, %d turned over)" % (name, x["boundary_l2"],
                x["boundary_l2"] / c["boundary_l2"], t["open_components"], t["pieces_turned"]))
-print("boundary error closed %.3e, %s" % (c["boundary_l2"], ", ".join(out)))
+print("boundary L2 closed %.3e, %s" % (c["boundary_l2"], ", ".join(out)))
 sys.exit(0 if ok else 1)
 PY
 )

@@ -162,7 +162,7 @@ done
 curl -sS --max-time 10 -o "$WORK/summary.json" "$BASE/v1/jobs/$id/results"
 if [ "$code" = 201 ] && [ "$state" = successful ] &&
     [ "$(jq -r '.status' "$WORK/summary.json")" = finished ]; then
-    ok "a 2D job submitted with curl ends successful ($(jq -r '"\(.stop_reason) after \(.iterations) iterations, boundary error \(.boundary_l2)"' "$WORK/summary.json"))"
+    ok "a 2D job submitted with curl ends successful ($(jq -r '"\(.stop_reason) after \(.iterations) iterations, boundary L2 \(.boundary_l2), RMS \(.boundary_rms)"' "$WORK/summary.json"))"
 else
     not_ok "a 2D job ends successful" "POST $code, state '$state'" "$(cat "$WORK/submit.json")" \
         "$(tail -10 "$WORK/daemon.log")"

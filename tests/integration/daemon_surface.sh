@@ -93,7 +93,7 @@ ok = (d["inputs"].get("target_surface") == "inputs/target_surface.surface" and h
       and h.get("components") == 1 and h.get("background_generated") is True
       and h.get("background_vertices") == r["target_surface"]["background_vertices"])
 ed, er = d["boundary_l2"], r["boundary_l2"]
-print("boundary error %.6e (daemon) vs %.6e (run), %d iterations vs %d"
+print("boundary L2 %.6e (daemon) vs %.6e (run), %d iterations vs %d"
       % (ed, er, d["iterations"], r["iterations"]))
 sys.exit(0 if ok and abs(ed - er) <= 1e-9 * er and d["iterations"] == r["iterations"] else 1)
 PY
@@ -324,7 +324,7 @@ rc=$?
 msg=$(python3 - "$WORK/sub/summary.json" "$WORK/run/summary.json" 2>&1 <<'PY'
 import json, sys
 d, r = (json.load(open(p)) for p in sys.argv[1:3])
-print("boundary error %.6e vs %.6e" % (d["boundary_l2"], r["boundary_l2"]))
+print("boundary L2 %.6e vs %.6e" % (d["boundary_l2"], r["boundary_l2"]))
 sys.exit(0 if abs(d["boundary_l2"] - r["boundary_l2"]) <= 1e-9 * r["boundary_l2"]
          and d["target_surface"]["background_generated"] else 1)
 PY

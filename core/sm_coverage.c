@@ -1056,19 +1056,3 @@ void sm__coverage_spread(sm_coverage *c, const double *load, double *out, int pa
         }
     }
 }
-
-double sm__coverage_fixed_term(const sm_coverage *c, const double *coords)
-{
-    const int dim = c->dim;
-    double t2 = 0;
-#pragma omp parallel for reduction(+ : t2) schedule(static) if (c->nd > PARALLEL_MIN)
-    for (int64_t i = 0; i < c->nd; i++) {
-        double p[3], s = 0;
-        corresponding_point(c, coords, i, p);
-        for (int k = 0; k < dim; k++)
-            s += (c->dy[i * dim + k] - p[k]) * (c->dy[i * dim + k] - p[k]);
-        double e = excess(c, sqrt(s));
-        t2 += c->dw[i] * e * e;
-    }
-    return t2;
-}

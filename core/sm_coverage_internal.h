@@ -7,15 +7,17 @@
  * than a fit to samples (a chord of the target's curve), and T only acts
  * where the boundary misses part of the target.
  *
- * The closest points are found once per accepted iteration
- * (sm__coverage_correspond) and then held fixed as a facet and
- * barycentric coordinates: the fixed-correspondence value
- * (sm__coverage_fixed_term) is then a smooth quadratic in x, its
- * gradient is the load (sm__coverage_add_load), and it is never below
- * the true T (the closest point can only be closer), with equality where
- * the correspondences were found.  A step that decreases J + weight *
- * fixed term therefore decreases J + weight * T too: the descent
- * decreases one well-defined energy. */
+ * The closest points are found at every trial of the step search
+ * (sm__coverage_correspond) and kept as a facet and barycentric
+ * coordinates; the load is the gradient of T with them held fixed
+ * (sm__coverage_add_load), which is T's own gradient where each closest
+ * point is unique (it moves smoothly with x and the distance is
+ * stationary along the boundary there).  The step search's Armijo test
+ * takes the true T at each trial, so an accepted step decreases
+ * E = J + weight * T: the descent decreases one well-defined energy.
+ * (T with the correspondences held fixed bounds T from above, but so
+ * loosely once the boundary slides along the target that it shortened
+ * the accepted steps about tenfold: sm_match.c, line_search.) */
 #ifndef SM_COVERAGE_INTERNAL_H
 #define SM_COVERAGE_INTERNAL_H
 
@@ -41,8 +43,5 @@ void sm__coverage_add_load(const sm_coverage *c, const double *coords, double we
  * of the boundary it acts as a traction, as J's load does.  load and out
  * have nverts * dim entries and may not overlap. */
 void sm__coverage_spread(sm_coverage *c, const double *load, double *out, int passes);
-
-/* T at coords with the correspondences kept (>= the true T there). */
-double sm__coverage_fixed_term(const sm_coverage *c, const double *coords);
 
 #endif

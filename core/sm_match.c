@@ -144,6 +144,8 @@ struct sm_match {
     sm_coverage *own_coverage;
     double weight, T;
     sm_distance_side cover;
+    int corresponded;         /* the coverage's correspondences, T and
+                               * cover were found at x by the step search */
     double coverage_seconds;
     double last_step;         /* the last accepted step (a length) */
     double tau;               /* current trial step (a length) */
@@ -278,7 +280,10 @@ static int one_thread_regions(void)
 static sm_status add_coverage_load(run_state *rs, sm_error *err)
 {
     double t0 = sm_clock_seconds();
-    sm_status st = sm__coverage_correspond(rs->coverage, rs->x, &rs->cover, &rs->T, err);
+    sm_status st = SM_OK;
+    if (!rs->corresponded) /* else the step search found them at x */
+        st = sm__coverage_correspond(rs->coverage, rs->x, &rs->cover, &rs->T, err);
+    rs->corresponded = 0;
     memcpy(rs->dirload, rs->load, rs->ndof * sizeof *rs->dirload);
     if (st == SM_OK && rs->weight > 0 && rs->T > 0) {
         memset(rs->tload, 0, rs->ndof * sizeof *rs->tload);
@@ -448,16 +453,30 @@ static sm_status find_direction(run_state *rs, sm_result *result, int *found, sm
     return SM_OK;
 }
 
-/* Step search along u: shrink tau until the trial mesh is valid and J
- * decreases sufficiently (Armijo), the shrink factor from the parabola
- * through J(0), J'(0), J(tau).  On success rs->trial holds the accepted
- * mesh, *dJ and *q_trial its change of J and worst quality; returns 0
- * when tau fell below the step tolerance first. */
-static int line_search(run_state *rs, double *dJ, double *q_trial)
+/* Step search along u: shrink tau until the trial mesh is valid and the
+ * energy E = J + weight * T decreases sufficiently (Armijo), the shrink
+ * factor from the parabola through E(0), E'(0), E(tau).  T is the true
+ * term at the trial: its closest points found again there
+ * (sm__coverage_correspond), and on acceptance kept as the next
+ * iteration's (add_coverage_load does not search again).  The slope's T
+ * part, from the correspondences kept at x, is the true derivative
+ * (where the closest points are unique they move smoothly, and the
+ * term's derivative along them is 0).  The bound with the
+ * correspondences kept instead (never below T) rejected long steps: it
+ * charges every sliding of the boundary along the target as if it moved
+ * away from it, and a sample inside the dead zone leaves it as soon as
+ * its closest point slides by delta.  On examples/3d (tolerance 2.9e-4)
+ * a step of 6.8e-2 the true E accepts (dJ -4.1e-6, dT -5.7e-6) had a
+ * bound's dT of +1.9e-3: the accepted steps were ~5e-3 against ~4e-2,
+ * 41 iterations against 23 (17 with J alone).  On success rs->trial
+ * holds the accepted mesh, *dJ and *q_trial its change of J and worst
+ * quality; *found = 0 when tau fell below the step tolerance first. */
+static sm_status line_search(run_state *rs, double *dJ, double *q_trial, int *found,
+                             sm_error *err)
 {
     const double slope = rs->slope;
     double tau = rs->tau;
-    int found = 0;
+    *found = 0;
     *dJ = 0.0;
     *q_trial = rs->qmin;
     rs->quality_limited = 0;
@@ -471,17 +490,25 @@ static int line_search(run_state *rs, double *dJ, double *q_trial)
         rs->quality_limited = !ok;
         if (ok) {
             *dJ = sm__shape_delta_j(rs->shape, rs->x, rs->step);
-            /* the Armijo test on the whole energy: the term with the
-             * correspondences kept bounds the true one from above */
-            double dE = *dJ;
+            double dE = *dJ, T_trial = 0;
+            sm_distance_side cover_trial = {0};
             if (rs->weight > 0) {
                 double t0 = sm_clock_seconds();
-                dE += rs->weight * (sm__coverage_fixed_term(rs->coverage, rs->trial) - rs->T);
+                sm_status st = sm__coverage_correspond(rs->coverage, rs->trial, &cover_trial,
+                                                       &T_trial, err);
                 rs->coverage_seconds += sm_clock_seconds() - t0;
+                if (st != SM_OK)
+                    return st;
+                dE += rs->weight * (T_trial - rs->T);
             }
             if (dE <= -ARMIJO_C * tau * slope) {
-                found = 1;
+                *found = 1;
                 rs->accepted++;
+                if (rs->weight > 0) {
+                    rs->T = T_trial;
+                    rs->cover = cover_trial;
+                    rs->corresponded = 1;
+                }
                 break;
             }
             double curvature = dE + tau * slope;
@@ -497,7 +524,7 @@ static int line_search(run_state *rs, double *dJ, double *q_trial)
         rs->rejected++;
     }
     rs->tau = tau;
-    return found;
+    return SM_OK;
 }
 
 static double boundary_rms(const sm_boundary_error *be)
@@ -634,8 +661,10 @@ static sm_status descend(run_state *rs, const sm_match_callbacks *cb, sm_result 
         }
         t0 = sm_clock_seconds();
         double dJ, q_trial, tau0 = rs->tau;
-        found = line_search(rs, &dJ, &q_trial);
+        st = line_search(rs, &dJ, &q_trial, &found, err);
         tm->step += sm_clock_seconds() - t0;
+        if (st != SM_OK)
+            return st;
         if (!found && rs->since_factor > 0) {
             /* an operator of an older mesh: try again with one of this
              * mesh before giving up */

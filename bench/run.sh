@@ -146,7 +146,10 @@ echo "== the map against the solver (issue 21) and --no-clamp with AMG on 210k t
 bench/solver_maps.sh maps noclamp
 
 echo "== stop rules: the stall rule on the examples and on Gmsh-made cases (bench/stall_cases.py) =="
-python3 bench/stall_cases.py "$BIN" --examples
+# a case out of its bounds is a figure to read, not a reason to skip the
+# benchmarks after it
+python3 bench/stall_cases.py "$BIN" --examples ||
+    echo "stall cases: a stop fell outside [needed, 2 needed] (the line marked OUT OF BOUNDS above)"
 
 echo
 bench/robust.sh

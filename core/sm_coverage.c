@@ -37,16 +37,20 @@ struct sm_coverage {
     const sm_mesh *m;
     const sm_surface *target;  /* the given surface or own */
     sm_surface *own;           /* the extracted level set */
-    sm_bvh target_bvh;
+    sm_bvh target_bvh;         /* built by the first sm_coverage_measure
+                                * (the descent does not search the target) */
+    int target_bvh_built;
     double spacing;            /* the samples': a quarter of the template
                                 * boundary's mean edge */
     double dead;               /* the term's dead zone: half that edge */
     double tspacing;           /* the target's: the same, or a quarter of
                                 * the target's own mean edge when larger,
                                 * or coarser still (MAX_TARGET_SAMPLES) */
-    /* the target's samples */
+    /* the target's samples: counted and thinned at the set-up, made
+     * again by sm_coverage_measure (the same points: 19 MB of the 3D
+     * example's that the descent does not read) */
     int64_t nt;
-    double *ty, *tw;           /* nt * dim, nt */
+    double *ty, *tw;           /* nt * dim, nt; NULL before the measure */
     double tmeasure;
     double *tdist;             /* nt: the last sm_coverage_measure's */
     /* the boundary's samples of the last sm_coverage_measure */
@@ -737,6 +741,22 @@ static sm_status boundary_graph(sm_coverage *c, sm_error *err)
     return SM_OK;
 }
 
+/* The target's nt samples at tspacing, into ty and tw (and tdist
+ * allocated): the same points every call.  Returns -1 when out of
+ * memory. */
+static int make_target_samples(sm_coverage *c)
+{
+    const sm_surface *s = c->target;
+    if (!c->ty) {
+        c->ty = malloc(((size_t)c->nt * c->dim + 1) * sizeof *c->ty);
+        c->tw = malloc(((size_t)c->nt + 1) * sizeof *c->tw);
+    }
+    if (!c->ty || !c->tw)
+        return -1;
+    sample_facets(c->dim, s->coords, s->facets, s->nfacets, c->tspacing, 0, c->ty, c->tw);
+    return 0;
+}
+
 static sm_status sample_target(sm_coverage *c, sm_error *err)
 {
     const sm_surface *s = c->target;
@@ -751,13 +771,9 @@ static sm_status sample_target(sm_coverage *c, sm_error *err)
         n = sample_facets(c->dim, s->coords, s->facets, s->nfacets, c->tspacing, 0, NULL, NULL);
     }
     c->nt = n;
-    c->ty = malloc(((size_t)n * c->dim + 1) * sizeof *c->ty);
-    c->tw = malloc(((size_t)n + 1) * sizeof *c->tw);
-    c->tdist = malloc(((size_t)n + 1) * sizeof *c->tdist);
-    if (!c->ty || !c->tw || !c->tdist)
+    if (make_target_samples(c) != 0)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for %lld target samples",
                             (long long)n);
-    sample_facets(c->dim, s->coords, s->facets, s->nfacets, c->tspacing, 0, c->ty, c->tw);
     c->tmeasure = 0;
     for (int64_t i = 0; i < n; i++)
         c->tmeasure += c->tw[i];
@@ -766,6 +782,8 @@ static sm_status sample_target(sm_coverage *c, sm_error *err)
                             (long long)n);
     for (int64_t i = 0; i < c->nd; i++)
         c->cfacet[i] = -1;
+    free(c->ty), free(c->tw);
+    c->ty = c->tw = NULL;
     return SM_OK;
 }
 
@@ -793,8 +811,6 @@ sm_status sm_coverage_new(const sm_field *target, const sm_surface *surface, con
         c->target = c->own;
         c->method = SM_DISTANCE_LEVEL_SET;
     }
-    if (st == SM_OK)
-        st = sm__bvh_build(c->target, &c->target_bvh, err);
     if (st == SM_OK)
         st = sample_target(c, err);
     if (st == SM_OK)
@@ -858,8 +874,13 @@ sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance 
     memset(&bvh, 0, sizeof bvh);
     sm_surface view = boundary_view(c, coords);
     sm_status st = SM_OK;
-    if (!pts || !w || !d || !hints)
+    if (!c->tdist)
+        c->tdist = malloc(((size_t)c->nt + 1) * sizeof *c->tdist);
+    if (!pts || !w || !d || !hints || !c->tdist || make_target_samples(c) != 0)
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance samples");
+    if (st == SM_OK && !c->target_bvh_built &&
+        (st = sm__bvh_build(c->target, &c->target_bvh, err)) == SM_OK)
+        c->target_bvh_built = 1;
     if (st == SM_OK) {
         sample_facets(dim, coords, c->afacets, c->nactive, c->spacing, 1, pts, w);
         for (int64_t i = 0; i < nv; i++)
@@ -907,7 +928,7 @@ void sm_coverage_missed_part(const sm_coverage *c, int result_side, double thres
                              sm_coverage_missed *out)
 {
     const int dim = c->dim;
-    const int64_t n = result_side ? c->nr : c->nt;
+    const int64_t n = result_side ? c->nr : c->ty && c->tdist ? c->nt : 0; /* 0 before a measure */
     const double *pts = result_side ? c->rpts : c->ty, *w = result_side ? c->rw : c->tw;
     const double *dist = result_side ? c->rdist : c->tdist;
     const double total = result_side ? c->rmeasure : c->tmeasure;

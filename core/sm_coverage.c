@@ -620,83 +620,168 @@ static sm_status check_boundary(sm_coverage *c, const sm_mesh *m, const int32_t 
     return SM_OK;
 }
 
-typedef struct cell_sample {
-    uint64_t cell;
-    int64_t i;
-} cell_sample;
+/* One cell of the thinning grid: its key, the weight and weighted sum of
+ * its samples, then their centroid and the sample nearest it. */
+typedef struct thin_cell {
+    uint64_t key;
+    double w, g[3], centre[3], best[3], bd;
+    int used;
+} thin_cell;
 
-static int cmp_cell(const void *a, const void *b)
+typedef struct thin_table {
+    thin_cell *cells;
+    int64_t cap, n; /* cap a power of two */
+} thin_table;
+
+/* The cell of key (added when new), or NULL when out of memory. */
+static thin_cell *thin_cell_of(thin_table *t, uint64_t key)
 {
-    const cell_sample *x = a, *y = b;
-    if (x->cell != y->cell)
-        return x->cell < y->cell ? -1 : 1;
-    return x->i < y->i ? -1 : x->i > y->i;
+    if (2 * (t->n + 1) > t->cap) {
+        int64_t cap = t->cap ? 2 * t->cap : 1024;
+        thin_cell *cells = calloc((size_t)cap, sizeof *cells);
+        if (!cells)
+            return NULL;
+        for (int64_t i = 0; i < t->cap; i++) {
+            if (!t->cells[i].used)
+                continue;
+            uint64_t h = (t->cells[i].key * 0x9E3779B97F4A7C15ull) & (uint64_t)(cap - 1);
+            while (cells[h].used)
+                h = (h + 1) & (uint64_t)(cap - 1);
+            cells[h] = t->cells[i];
+        }
+        free(t->cells);
+        t->cells = cells;
+        t->cap = cap;
+    }
+    uint64_t h = (key * 0x9E3779B97F4A7C15ull) & (uint64_t)(t->cap - 1);
+    while (t->cells[h].used && t->cells[h].key != key)
+        h = (h + 1) & (uint64_t)(t->cap - 1);
+    if (!t->cells[h].used) {
+        t->cells[h] = (thin_cell){.key = key, .used = 1, .bd = DBL_MAX};
+        t->n++;
+    }
+    return &t->cells[h];
+}
+
+static int cmp_thin_cell(const void *a, const void *b)
+{
+    const thin_cell *x = a, *y = b;
+    return x->key < y->key ? -1 : x->key > y->key;
+}
+
+/* The target's samples of facet f at tspacing into *pts, *w (grown to
+ * fit, *cap entries): the same points and weights as sample_facets over
+ * all facets gives for f.  Returns their number, -1 when out of memory. */
+static int64_t facet_target_samples(const sm_coverage *c, int32_t f, double **pts, double **w,
+                                    int64_t *cap)
+{
+    const sm_surface *s = c->target;
+    const int32_t *one = s->facets + (size_t)f * c->dim;
+    int64_t n = sample_facets(c->dim, s->coords, one, 1, c->tspacing, 0, NULL, NULL);
+    if (n > *cap) {
+        free(*pts), free(*w);
+        *pts = malloc((size_t)n * c->dim * sizeof **pts);
+        *w = malloc((size_t)n * sizeof **w);
+        *cap = *pts && *w ? n : 0;
+        if (!*cap)
+            return -1;
+    }
+    return sample_facets(c->dim, s->coords, one, 1, c->tspacing, 0, *pts, *w);
 }
 
 /* The descent's samples: the target's samples merged per cell of a grid
  * of the spacing, each cell's the sample nearest the cell's centroid
- * (so it lies on the target) with the cell's whole measure.  A fine
- * target (a level set on a fine background, a dense scan) gets about two
- * descent samples per boundary facet of the template, whatever its own
- * facet count: the term's cost per iteration is then that of a boundary
- * sampling (3D example: 0.34 s an iteration on every sample, ...).
- * Returns -1 when out of memory. */
+ * (so it lies on the target; the first in sample order of equally near
+ * ones) with the cell's whole measure, in the order of the cells' keys.
+ * A fine target (a level set on a fine background, a dense scan) gets
+ * about two descent samples per boundary facet of the template, whatever
+ * its own facet count: the term's cost per iteration is then that of a
+ * boundary sampling (3D example: 0.34 s an iteration on every sample,
+ * ...).  The target's samples are made facet by facet, three times (the
+ * grid's corner, the cells' centroids, the samples nearest them), and
+ * not kept: the 3D example's 470k would take 30 MB with their sort, at
+ * the time the elastic factor is made beside (sm_job_inputs), where one
+ * pass over 4.3k cells takes less time than the sort did.  Also sums
+ * tmeasure.  Returns -1 when out of memory. */
 static int thin_samples(sm_coverage *c)
 {
     const int dim = c->dim;
-    const int64_t n = c->nt;
-    cell_sample *cs = malloc((size_t)(n ? n : 1) * sizeof *cs);
-    if (!cs)
-        return -1;
+    const sm_surface *s = c->target;
+    double *pts = NULL, *w = NULL;
+    int64_t cap = 0;
+    thin_table t = {0};
+    int failed = 0;
     double lo[3] = {DBL_MAX, DBL_MAX, DBL_MAX};
-    for (int64_t i = 0; i < n; i++)
-        for (int k = 0; k < dim; k++)
-            lo[k] = fmin(lo[k], c->ty[i * dim + k]);
-    for (int64_t i = 0; i < n; i++) {
-        uint64_t key = 0;
-        for (int k = 0; k < dim; k++) {
-            double q = floor((c->ty[i * dim + k] - lo[k]) / (THIN_CELL * c->tspacing));
-            uint64_t u = q < 0 ? 0 : q > 2097151 ? 2097151 : (uint64_t)q;
-            key = (key << 21) | u;
+    c->tmeasure = 0;
+    for (int pass = 0; pass < 3 && !failed; pass++) {
+        if (pass == 2) /* the centroids: as the sorted merge computed them */
+            for (int64_t h = 0; h < t.cap; h++)
+                for (int k = 0; k < dim && t.cells[h].used; k++)
+                    t.cells[h].centre[k] =
+                        t.cells[h].w > 0 ? t.cells[h].g[k] / t.cells[h].w : t.cells[h].g[k];
+        for (int32_t f = 0; f < s->nfacets && !failed; f++) {
+            int64_t n = facet_target_samples(c, f, &pts, &w, &cap);
+            if (n < 0) {
+                failed = 1;
+                break;
+            }
+            for (int64_t i = 0; i < n; i++) {
+                const double *y = pts + i * dim;
+                if (pass == 0) {
+                    for (int k = 0; k < dim; k++)
+                        lo[k] = fmin(lo[k], y[k]);
+                    c->tmeasure += w[i];
+                    continue;
+                }
+                uint64_t key = 0;
+                for (int k = 0; k < dim; k++) {
+                    double q = floor((y[k] - lo[k]) / (THIN_CELL * c->tspacing));
+                    uint64_t u = q < 0 ? 0 : q > 2097151 ? 2097151 : (uint64_t)q;
+                    key = (key << 21) | u;
+                }
+                thin_cell *cell = thin_cell_of(&t, key);
+                if (!cell) {
+                    failed = 1;
+                    break;
+                }
+                if (pass == 1) {
+                    cell->w += w[i];
+                    for (int k = 0; k < dim; k++)
+                        cell->g[k] += w[i] * y[k];
+                    continue;
+                }
+                double d2 = 0;
+                for (int k = 0; k < dim; k++) {
+                    double e = y[k] - cell->centre[k];
+                    d2 += e * e;
+                }
+                if (d2 < cell->bd) {
+                    cell->bd = d2;
+                    memcpy(cell->best, y, (size_t)dim * sizeof *y);
+                }
+            }
         }
-        cs[i] = (cell_sample){key, i};
     }
-    qsort(cs, (size_t)n, sizeof *cs, cmp_cell);
+    free(pts), free(w);
     int64_t cells = 0;
-    for (int64_t i = 0; i < n; i++)
-        cells += i == 0 || cs[i].cell != cs[i - 1].cell;
+    for (int64_t h = 0; h < t.cap && !failed; h++)
+        if (t.cells[h].used)
+            t.cells[cells++] = t.cells[h]; /* packed in place: cells <= h */
     c->dy = malloc(((size_t)cells * dim + 1) * sizeof *c->dy);
     c->dw = malloc(((size_t)cells + 1) * sizeof *c->dw);
     c->cfacet = malloc(((size_t)cells + 1) * sizeof *c->cfacet);
     c->cbary = malloc(((size_t)cells * dim + 1) * sizeof *c->cbary);
     c->cdist = malloc(((size_t)cells + 1) * sizeof *c->cdist);
-    if (!c->dy || !c->dw || !c->cfacet || !c->cbary || !c->cdist) {
-        free(cs);
+    if (failed || !c->dy || !c->dw || !c->cfacet || !c->cbary || !c->cdist) {
+        free(t.cells);
         return -1;
     }
-    c->nd = 0;
-    for (int64_t a = 0, b; a < n; a = b) {
-        double w = 0, g[3] = {0, 0, 0};
-        for (b = a; b < n && cs[b].cell == cs[a].cell; b++) {
-            w += c->tw[cs[b].i];
-            for (int k = 0; k < dim; k++)
-                g[k] += c->tw[cs[b].i] * c->ty[cs[b].i * dim + k];
-        }
-        int64_t best = cs[a].i;
-        double bd = DBL_MAX;
-        for (int64_t j = a; j < b; j++) {
-            double d2 = 0;
-            for (int k = 0; k < dim; k++) {
-                double e = c->ty[cs[j].i * dim + k] - (w > 0 ? g[k] / w : g[k]);
-                d2 += e * e;
-            }
-            if (d2 < bd)
-                bd = d2, best = cs[j].i;
-        }
-        memcpy(c->dy + c->nd * dim, c->ty + best * dim, (size_t)dim * sizeof *c->dy);
-        c->dw[c->nd++] = w;
+    qsort(t.cells, (size_t)cells, sizeof *t.cells, cmp_thin_cell);
+    for (c->nd = 0; c->nd < cells; c->nd++) {
+        memcpy(c->dy + c->nd * dim, t.cells[c->nd].best, (size_t)dim * sizeof *c->dy);
+        c->dw[c->nd] = t.cells[c->nd].w;
     }
-    free(cs);
+    free(t.cells);
     return 0;
 }
 
@@ -771,19 +856,11 @@ static sm_status sample_target(sm_coverage *c, sm_error *err)
         n = sample_facets(c->dim, s->coords, s->facets, s->nfacets, c->tspacing, 0, NULL, NULL);
     }
     c->nt = n;
-    if (make_target_samples(c) != 0)
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for %lld target samples",
-                            (long long)n);
-    c->tmeasure = 0;
-    for (int64_t i = 0; i < n; i++)
-        c->tmeasure += c->tw[i];
     if (thin_samples(c) != 0)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for %lld target samples",
                             (long long)n);
     for (int64_t i = 0; i < c->nd; i++)
         c->cfacet[i] = -1;
-    free(c->ty), free(c->tw);
-    c->ty = c->tw = NULL;
     return SM_OK;
 }
 

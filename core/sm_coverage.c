@@ -369,18 +369,13 @@ static double refine_max(int dim, const double *coords, const int32_t *facets, i
 }
 
 /* Distance from each of n points to the facets of t; hints (may be NULL)
- * seed and receive the nearest facet.  A point without a hint is seeded
- * with its thread's previous answer: the samples come facet by facet, so
- * that is the nearest facet or a neighbour, and the search opens half the
- * boxes (the final measure took half the time).  The seed changes only
- * the order of the search, not its minimum. */
+ * seed and receive the nearest facet. */
 static void nearest_all(const sm_bvh *t, int dim, int64_t n, const double *pts, int32_t *hints,
                         double *dist)
 {
 #pragma omp parallel if (n > PARALLEL_MIN)
     {
         sm_bvh_entry *stack = malloc((size_t)(2 * t->depth + 2) * sizeof *stack);
-        int32_t last = -1; /* this thread's previous answer */
 #pragma omp for schedule(dynamic, 512)
         for (int64_t i = 0; i < n; i++) {
             if (!stack) {
@@ -389,9 +384,8 @@ static void nearest_all(const sm_bvh *t, int dim, int64_t n, const double *pts, 
             }
             double p[3] = {0, 0, 0};
             memcpy(p, pts + i * dim, (size_t)dim * sizeof *p);
-            int32_t h = hints && hints[i] >= 0 ? hints[i] : last;
+            int32_t h = hints ? hints[i] : -1;
             dist[i] = sm__bvh_nearest(t, p, &h, stack);
-            last = h;
             if (hints)
                 hints[i] = h;
         }

@@ -152,7 +152,10 @@ typedef struct sm_job_inputs {
     double clamp_inradius;    /* then: the depth of its centre */
     int field_builds;         /* sm_field_new calls for this job (1) */
     double read_seconds;      /* reading and checking the files, the
-                               * field included */
+                               * field included (wall; with prepare also
+                               * the run's measure set-up, and the
+                               * elastic set-up beside, which is often
+                               * the longer) */
     double field_build_seconds;
     int has_surface;          /* the target came from target_surface: */
     sm_surface *surface;      /* that surface (repaired), for the run's

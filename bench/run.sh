@@ -48,8 +48,8 @@ sort -n build/bench-paper.txt | awk -v cpu="$cpu_median" '
                w[1], w[int((NR + 1) / 2)], w[NR], NR, w[int((NR + 1) / 2)] / 0.5, cpu, lo, hi) }'
 echo "load after: $(cut -d' ' -f1-3 /proc/loadavg)"
 python3 -c "import json; d = json.load(open('build/bench-run/summary.json')); t = d['timings'];
-print('last run: %d iterations, boundary error %.3g; read (and field) %.3f s, set-up %.3f s, solve %.3f s, step search %.3f s, sampling %.3f s'
-      % (d['iterations'], d['boundary_l2'], t['read'], t['setup'], t['solve'], t['step'], t['sample']))"
+print('last run: %d iterations, boundary error %.3g; read %.3f s (the target, its field (%.3f s) and the measure\'s set-up, beside the elastic set-up), set-up %.3f s, solve %.3f s, step search %.3f s, sampling %.3f s'
+      % (d['iterations'], d['boundary_l2'], t['read'], t['field_build'], t['setup'], t['solve'], t['step'], t['sample']))"
 
 echo
 echo "== auto against each solver (goal: auto's cost within 1.2x the faster solver's at each size) =="

@@ -37,16 +37,20 @@ struct sm_coverage {
     const sm_mesh *m;
     const sm_surface *target;  /* the given surface or own */
     sm_surface *own;           /* the extracted level set */
-    sm_bvh target_bvh;
+    sm_bvh target_bvh;         /* built by the first sm_coverage_measure
+                                * (the descent does not search the target) */
+    int target_bvh_built;
     double spacing;            /* the samples': a quarter of the template
                                 * boundary's mean edge */
     double dead;               /* the term's dead zone: half that edge */
     double tspacing;           /* the target's: the same, or a quarter of
                                 * the target's own mean edge when larger,
                                 * or coarser still (MAX_TARGET_SAMPLES) */
-    /* the target's samples */
+    /* the target's samples: counted and thinned at the set-up, made
+     * again by sm_coverage_measure (the same points: 19 MB of the 3D
+     * example's that the descent does not read) */
     int64_t nt;
-    double *ty, *tw;           /* nt * dim, nt */
+    double *ty, *tw;           /* nt * dim, nt; NULL before the measure */
     double tmeasure;
     double *tdist;             /* nt: the last sm_coverage_measure's */
     /* the boundary's samples of the last sm_coverage_measure */
@@ -486,6 +490,49 @@ static int cmp_u64(const void *a, const void *b)
 /* Pieces, Euler characteristic and closedness of a surface given by
  * facets over nverts vertex ids (only the ids used count).  Returns 0
  * when out of memory. */
+/* The distinct edges among m edge keys (edge_key: the smaller vertex
+ * id, below nverts, in the high half), and whether each is there exactly
+ * twice (a closed surface): the keys bucketed by their smaller vertex (a
+ * counting sort, where sorting the 250k keys of the 3D example's target
+ * took 0.04 s), each bucket of a few ordered by insertion.  Returns 0
+ * when out of memory. */
+static int count_edges(int32_t nverts, int64_t m, const uint64_t *edges, int64_t *nedges,
+                       int *closed)
+{
+    int64_t *start = calloc((size_t)nverts + 2, sizeof *start);
+    int32_t *other = malloc((size_t)(m ? m : 1) * sizeof *other);
+    if (!start || !other) {
+        free(start), free(other);
+        return 0;
+    }
+    for (int64_t i = 0; i < m; i++)
+        start[(edges[i] >> 32) + 2]++;
+    for (int32_t v = 0; v < nverts; v++)
+        start[v + 2] += start[v + 1];
+    for (int64_t i = 0; i < m; i++) /* start[v + 1]: the next free place of bucket v */
+        other[start[(edges[i] >> 32) + 1]++] = (int32_t)(edges[i] & 0xffffffffu);
+    *nedges = 0;
+    for (int32_t v = 0; v < nverts; v++) {
+        int32_t *b = other + start[v];
+        int64_t n = start[v + 1] - start[v];
+        for (int64_t i = 1; i < n; i++)
+            for (int64_t j = i; j > 0 && b[j - 1] > b[j]; j--) {
+                int32_t t = b[j];
+                b[j] = b[j - 1];
+                b[j - 1] = t;
+            }
+        for (int64_t i = 0, j; i < n; i = j) {
+            for (j = i; j < n && b[j] == b[i]; j++)
+                ;
+            ++*nedges;
+            if (j - i != 2)
+                *closed = 0;
+        }
+    }
+    free(start), free(other);
+    return 1;
+}
+
 static int surface_topology(int dim, int32_t nverts, const int32_t *facets, int32_t nfacets,
                             int64_t *pieces, int64_t *chi, int *closed)
 {
@@ -522,13 +569,9 @@ static int surface_topology(int dim, int32_t nverts, const int32_t *facets, int3
     *closed = 1;
     int64_t nedges = 0;
     if (dim == 3) {
-        qsort(edges, (size_t)m, sizeof *edges, cmp_u64);
-        for (int64_t i = 0, j; i < m; i = j) {
-            for (j = i; j < m && edges[j] == edges[i]; j++)
-                ;
-            nedges++;
-            if (j - i != 2)
-                *closed = 0;
+        if (!count_edges(nverts, m, edges, &nedges, closed)) {
+            free(parent), free(used), free(edges);
+            return 0;
         }
         *chi = nv - nedges + nfacets;
     } else {
@@ -610,83 +653,186 @@ static sm_status check_boundary(sm_coverage *c, const sm_mesh *m, const int32_t 
     return SM_OK;
 }
 
-typedef struct cell_sample {
-    uint64_t cell;
-    int64_t i;
-} cell_sample;
+/* One cell of the thinning grid: its key, the weight and weighted sum of
+ * its samples, then their centroid and the sample nearest it. */
+typedef struct thin_cell {
+    uint64_t key;
+    double w, g[3], centre[3], best[3], bd;
+} thin_cell;
 
-static int cmp_cell(const void *a, const void *b)
+/* The cells in the order met (their indices stay), and an open-addressed
+ * index of them by key (nslots a power of two; -1: empty). */
+typedef struct thin_table {
+    thin_cell *cells;
+    int64_t n, cap;
+    int32_t *slots;
+    int64_t nslots;
+} thin_table;
+
+static uint64_t thin_hash(uint64_t key, int64_t nslots)
 {
-    const cell_sample *x = a, *y = b;
-    if (x->cell != y->cell)
-        return x->cell < y->cell ? -1 : 1;
-    return x->i < y->i ? -1 : x->i > y->i;
+    return (key * 0x9E3779B97F4A7C15ull) >> 20 & (uint64_t)(nslots - 1);
+}
+
+/* The index of the cell of key (added when new), or -1 when out of
+ * memory. */
+static int64_t thin_cell_of(thin_table *t, uint64_t key)
+{
+    if (2 * (t->n + 1) > t->nslots) {
+        int64_t nslots = t->nslots ? 2 * t->nslots : 1024;
+        int32_t *slots = malloc((size_t)nslots * sizeof *slots);
+        if (!slots)
+            return -1;
+        for (int64_t h = 0; h < nslots; h++)
+            slots[h] = -1;
+        for (int64_t i = 0; i < t->n; i++) {
+            uint64_t h = thin_hash(t->cells[i].key, nslots);
+            while (slots[h] >= 0)
+                h = (h + 1) & (uint64_t)(nslots - 1);
+            slots[h] = (int32_t)i;
+        }
+        free(t->slots);
+        t->slots = slots;
+        t->nslots = nslots;
+    }
+    uint64_t h = thin_hash(key, t->nslots);
+    while (t->slots[h] >= 0 && t->cells[t->slots[h]].key != key)
+        h = (h + 1) & (uint64_t)(t->nslots - 1);
+    if (t->slots[h] >= 0)
+        return t->slots[h];
+    if (t->n == t->cap) {
+        int64_t cap = t->cap ? 2 * t->cap : 512;
+        thin_cell *cells = realloc(t->cells, (size_t)cap * sizeof *cells);
+        if (!cells)
+            return -1;
+        t->cells = cells;
+        t->cap = cap;
+    }
+    t->cells[t->n] = (thin_cell){.key = key, .bd = DBL_MAX};
+    t->slots[h] = (int32_t)t->n;
+    return t->n++;
+}
+
+static int cmp_thin_cell(const void *a, const void *b)
+{
+    const thin_cell *x = a, *y = b;
+    return x->key < y->key ? -1 : x->key > y->key;
+}
+
+/* The target's samples of facet f at tspacing into *pts, *w (grown to
+ * fit, *cap entries): the same points and weights as sample_facets over
+ * all facets gives for f.  Returns their number, -1 when out of memory. */
+static int64_t facet_target_samples(const sm_coverage *c, int32_t f, double **pts, double **w,
+                                    int64_t *cap)
+{
+    const sm_surface *s = c->target;
+    const int32_t *one = s->facets + (size_t)f * c->dim;
+    int64_t n = sample_facets(c->dim, s->coords, one, 1, c->tspacing, 0, NULL, NULL);
+    if (n > *cap) {
+        free(*pts), free(*w);
+        *pts = malloc((size_t)n * c->dim * sizeof **pts);
+        *w = malloc((size_t)n * sizeof **w);
+        *cap = *pts && *w ? n : 0;
+        if (!*cap)
+            return -1;
+    }
+    return sample_facets(c->dim, s->coords, one, 1, c->tspacing, 0, *pts, *w);
 }
 
 /* The descent's samples: the target's samples merged per cell of a grid
  * of the spacing, each cell's the sample nearest the cell's centroid
- * (so it lies on the target) with the cell's whole measure.  A fine
- * target (a level set on a fine background, a dense scan) gets about two
- * descent samples per boundary facet of the template, whatever its own
- * facet count: the term's cost per iteration is then that of a boundary
- * sampling (3D example: 0.34 s an iteration on every sample, ...).
- * Returns -1 when out of memory. */
+ * (so it lies on the target; the first in sample order of equally near
+ * ones) with the cell's whole measure, in the order of the cells' keys.
+ * A fine target (a level set on a fine background, a dense scan) gets
+ * about two descent samples per boundary facet of the template, whatever
+ * its own facet count: the term's cost per iteration is then that of a
+ * boundary sampling (3D example: 0.34 s an iteration on every sample,
+ * ...).  The target's samples are made facet by facet, three times (the
+ * grid's corner, the cells' sums, the samples nearest the centroids),
+ * and not kept: the 3D example's 470k took 30 MB with their sort, at the
+ * time the elastic factor is made beside (sm_job_inputs); only each
+ * sample's cell is (4 bytes).  Also sums tmeasure.  Returns -1 when out
+ * of memory. */
 static int thin_samples(sm_coverage *c)
 {
     const int dim = c->dim;
-    const int64_t n = c->nt;
-    cell_sample *cs = malloc((size_t)(n ? n : 1) * sizeof *cs);
-    if (!cs)
-        return -1;
+    const sm_surface *s = c->target;
+    double *pts = NULL, *w = NULL;
+    int64_t cap = 0;
+    thin_table t = {0};
+    /* each sample's cell, from the second pass to the third */
+    int32_t *cell_of = malloc(((size_t)c->nt + 1) * sizeof *cell_of);
+    int failed = !cell_of;
     double lo[3] = {DBL_MAX, DBL_MAX, DBL_MAX};
-    for (int64_t i = 0; i < n; i++)
-        for (int k = 0; k < dim; k++)
-            lo[k] = fmin(lo[k], c->ty[i * dim + k]);
-    for (int64_t i = 0; i < n; i++) {
-        uint64_t key = 0;
-        for (int k = 0; k < dim; k++) {
-            double q = floor((c->ty[i * dim + k] - lo[k]) / (THIN_CELL * c->tspacing));
-            uint64_t u = q < 0 ? 0 : q > 2097151 ? 2097151 : (uint64_t)q;
-            key = (key << 21) | u;
+    c->tmeasure = 0;
+    for (int pass = 0; pass < 3 && !failed; pass++) {
+        if (pass == 2) /* the centroids: as the sorted merge computed them */
+            for (int64_t j = 0; j < t.n; j++)
+                for (int k = 0; k < dim; k++)
+                    t.cells[j].centre[k] = t.cells[j].w > 0 ? t.cells[j].g[k] / t.cells[j].w
+                                                            : t.cells[j].g[k];
+        int64_t at = 0;
+        for (int32_t f = 0; f < s->nfacets && !failed; f++) {
+            int64_t n = facet_target_samples(c, f, &pts, &w, &cap);
+            if (n < 0 || at + n > c->nt) {
+                failed = 1;
+                break;
+            }
+            for (int64_t i = 0; i < n; i++, at++) {
+                const double *y = pts + i * dim;
+                if (pass == 0) {
+                    for (int k = 0; k < dim; k++)
+                        lo[k] = fmin(lo[k], y[k]);
+                    c->tmeasure += w[i];
+                } else if (pass == 1) {
+                    uint64_t key = 0;
+                    for (int k = 0; k < dim; k++) {
+                        double q = floor((y[k] - lo[k]) / (THIN_CELL * c->tspacing));
+                        uint64_t u = q < 0 ? 0 : q > 2097151 ? 2097151 : (uint64_t)q;
+                        key = (key << 21) | u;
+                    }
+                    int64_t j = thin_cell_of(&t, key);
+                    if (j < 0) {
+                        failed = 1;
+                        break;
+                    }
+                    cell_of[at] = (int32_t)j;
+                    t.cells[j].w += w[i];
+                    for (int k = 0; k < dim; k++)
+                        t.cells[j].g[k] += w[i] * y[k];
+                } else {
+                    thin_cell *cell = t.cells + cell_of[at];
+                    double d2 = 0;
+                    for (int k = 0; k < dim; k++) {
+                        double e = y[k] - cell->centre[k];
+                        d2 += e * e;
+                    }
+                    if (d2 < cell->bd) {
+                        cell->bd = d2;
+                        memcpy(cell->best, y, (size_t)dim * sizeof *y);
+                    }
+                }
+            }
         }
-        cs[i] = (cell_sample){key, i};
     }
-    qsort(cs, (size_t)n, sizeof *cs, cmp_cell);
-    int64_t cells = 0;
-    for (int64_t i = 0; i < n; i++)
-        cells += i == 0 || cs[i].cell != cs[i - 1].cell;
+    free(pts), free(w), free(cell_of), free(t.slots);
+    const int64_t cells = t.n;
     c->dy = malloc(((size_t)cells * dim + 1) * sizeof *c->dy);
     c->dw = malloc(((size_t)cells + 1) * sizeof *c->dw);
     c->cfacet = malloc(((size_t)cells + 1) * sizeof *c->cfacet);
     c->cbary = malloc(((size_t)cells * dim + 1) * sizeof *c->cbary);
     c->cdist = malloc(((size_t)cells + 1) * sizeof *c->cdist);
-    if (!c->dy || !c->dw || !c->cfacet || !c->cbary || !c->cdist) {
-        free(cs);
+    if (failed || !c->dy || !c->dw || !c->cfacet || !c->cbary || !c->cdist) {
+        free(t.cells);
         return -1;
     }
-    c->nd = 0;
-    for (int64_t a = 0, b; a < n; a = b) {
-        double w = 0, g[3] = {0, 0, 0};
-        for (b = a; b < n && cs[b].cell == cs[a].cell; b++) {
-            w += c->tw[cs[b].i];
-            for (int k = 0; k < dim; k++)
-                g[k] += c->tw[cs[b].i] * c->ty[cs[b].i * dim + k];
-        }
-        int64_t best = cs[a].i;
-        double bd = DBL_MAX;
-        for (int64_t j = a; j < b; j++) {
-            double d2 = 0;
-            for (int k = 0; k < dim; k++) {
-                double e = c->ty[cs[j].i * dim + k] - (w > 0 ? g[k] / w : g[k]);
-                d2 += e * e;
-            }
-            if (d2 < bd)
-                bd = d2, best = cs[j].i;
-        }
-        memcpy(c->dy + c->nd * dim, c->ty + best * dim, (size_t)dim * sizeof *c->dy);
-        c->dw[c->nd++] = w;
+    if (cells > 0)
+        qsort(t.cells, (size_t)cells, sizeof *t.cells, cmp_thin_cell);
+    for (c->nd = 0; c->nd < cells; c->nd++) {
+        memcpy(c->dy + c->nd * dim, t.cells[c->nd].best, (size_t)dim * sizeof *c->dy);
+        c->dw[c->nd] = t.cells[c->nd].w;
     }
-    free(cs);
+    free(t.cells);
     return 0;
 }
 
@@ -731,6 +877,22 @@ static sm_status boundary_graph(sm_coverage *c, sm_error *err)
     return SM_OK;
 }
 
+/* The target's nt samples at tspacing, into ty and tw (and tdist
+ * allocated): the same points every call.  Returns -1 when out of
+ * memory. */
+static int make_target_samples(sm_coverage *c)
+{
+    const sm_surface *s = c->target;
+    if (!c->ty) {
+        c->ty = malloc(((size_t)c->nt * c->dim + 1) * sizeof *c->ty);
+        c->tw = malloc(((size_t)c->nt + 1) * sizeof *c->tw);
+    }
+    if (!c->ty || !c->tw)
+        return -1;
+    sample_facets(c->dim, s->coords, s->facets, s->nfacets, c->tspacing, 0, c->ty, c->tw);
+    return 0;
+}
+
 static sm_status sample_target(sm_coverage *c, sm_error *err)
 {
     const sm_surface *s = c->target;
@@ -745,16 +907,6 @@ static sm_status sample_target(sm_coverage *c, sm_error *err)
         n = sample_facets(c->dim, s->coords, s->facets, s->nfacets, c->tspacing, 0, NULL, NULL);
     }
     c->nt = n;
-    c->ty = malloc(((size_t)n * c->dim + 1) * sizeof *c->ty);
-    c->tw = malloc(((size_t)n + 1) * sizeof *c->tw);
-    c->tdist = malloc(((size_t)n + 1) * sizeof *c->tdist);
-    if (!c->ty || !c->tw || !c->tdist)
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for %lld target samples",
-                            (long long)n);
-    sample_facets(c->dim, s->coords, s->facets, s->nfacets, c->tspacing, 0, c->ty, c->tw);
-    c->tmeasure = 0;
-    for (int64_t i = 0; i < n; i++)
-        c->tmeasure += c->tw[i];
     if (thin_samples(c) != 0)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for %lld target samples",
                             (long long)n);
@@ -787,8 +939,6 @@ sm_status sm_coverage_new(const sm_field *target, const sm_surface *surface, con
         c->target = c->own;
         c->method = SM_DISTANCE_LEVEL_SET;
     }
-    if (st == SM_OK)
-        st = sm__bvh_build(c->target, &c->target_bvh, err);
     if (st == SM_OK)
         st = sample_target(c, err);
     if (st == SM_OK)
@@ -852,8 +1002,13 @@ sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance 
     memset(&bvh, 0, sizeof bvh);
     sm_surface view = boundary_view(c, coords);
     sm_status st = SM_OK;
-    if (!pts || !w || !d || !hints)
+    if (!c->tdist)
+        c->tdist = malloc(((size_t)c->nt + 1) * sizeof *c->tdist);
+    if (!pts || !w || !d || !hints || !c->tdist || make_target_samples(c) != 0)
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance samples");
+    if (st == SM_OK && !c->target_bvh_built &&
+        (st = sm__bvh_build(c->target, &c->target_bvh, err)) == SM_OK)
+        c->target_bvh_built = 1;
     if (st == SM_OK) {
         sample_facets(dim, coords, c->afacets, c->nactive, c->spacing, 1, pts, w);
         for (int64_t i = 0; i < nv; i++)
@@ -901,7 +1056,7 @@ void sm_coverage_missed_part(const sm_coverage *c, int result_side, double thres
                              sm_coverage_missed *out)
 {
     const int dim = c->dim;
-    const int64_t n = result_side ? c->nr : c->nt;
+    const int64_t n = result_side ? c->nr : c->ty && c->tdist ? c->nt : 0; /* 0 before a measure */
     const double *pts = result_side ? c->rpts : c->ty, *w = result_side ? c->rw : c->tw;
     const double *dist = result_side ? c->rdist : c->tdist;
     const double total = result_side ? c->rmeasure : c->tmeasure;

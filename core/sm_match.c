@@ -832,6 +832,11 @@ static sm_status finish_run(run_state *rs, const sm_match_callbacks *cb, double 
         return st;
 
     memcpy(coords_out, rs->x, rs->ndof * sizeof(double));
+    /* the operator is the descent's only (a run executes once): its
+     * factor, 62 MB of the 3D example's, is not held through the final
+     * measure's samples */
+    sm__elasticity_free(rs->elasticity);
+    rs->elasticity = NULL;
     double t0 = sm_clock_seconds();
     if ((st = sm_coverage_measure(rs->coverage, rs->x, &result->distance, err)) != SM_OK)
         return st;

@@ -17,6 +17,7 @@
 #include "shapematch/sm_clamp.h"
 #include "shapematch/sm_sdf.h"
 #include "job/sm_job_image.h"
+#include "sm_job_threads.h"
 #include "sm_job_warnings.h"
 #include "sm_proto_json.h"
 #include "sm_proto_params.h"
@@ -27,6 +28,8 @@ void sm_job_inputs_free(sm_job_inputs *in)
         return;
     sm_match_free(in->match);
     in->match = NULL;
+    sm_coverage_free(in->coverage); /* before the field and mesh it reads */
+    in->coverage = NULL;
     sm_field_free(in->field);
     sm_sol_free(in->distance);
     sm_mesh_free(in->background);
@@ -822,6 +825,22 @@ sm_status sm_job_inputs_finish_target(sm_job_inputs *in, const sm_mesh *template
     return st;
 }
 
+/* After read_target, on its thread: the run's measure when the run will
+ * use the field as read (no alignment).  A failure leaves it NULL: the
+ * run builds it again and reports. */
+static void prepare_coverage(sm_job_inputs *in)
+{
+    if (in->params.align != SM_ALIGN_NONE || in->target_deferred || !in->field)
+        return;
+    const sm_surface *exact = in->surface ? in->surface
+                              : in->has_surface ? in->target_surface
+                                                : NULL;
+    sm_error ignored;
+    if (sm_coverage_new(in->field, exact, in->prepared, in->params.free_refs,
+                        in->params.n_free_refs, &in->coverage, &ignored) != SM_OK)
+        in->coverage = NULL;
+}
+
 /* The run's template side, set up beside read_target: only its own
  * members of *in are written (the other thread writes the target's). */
 static void prepare_run(sm_job_inputs *in)
@@ -833,7 +852,11 @@ static void prepare_run(sm_job_inputs *in)
                  * moved copy (sm_job_run_exec) */
     sm_match_opts opts = {.template_mesh = in->template_mesh, .prepared = in->prepared,
                           .params = &in->params};
+    int blas = in->template_mesh->nelems < SM_JOB_THREADS_MIN_ELEMENTS ? sm_job_blas_threads_set(1)
+                                                                      : -1;
     in->match_status = sm_match_new(&opts, &in->match, &in->match_error);
+    if (blas > 0)
+        sm_job_blas_threads_set(blas);
     in->match_seconds = sm_clock_seconds() - t0;
 }
 
@@ -848,7 +871,8 @@ sm_status sm_job_inputs_read_target(const sm_job_files *files, sm_job_naming nam
 #pragma omp parallel sections num_threads(omp_get_max_threads() > 1 ? 2 : 1)
         {
 #pragma omp section
-            st = read_target(files, naming, out, err);
+            if ((st = read_target(files, naming, out, err)) == SM_OK)
+                prepare_coverage(out);
 #pragma omp section
             prepare_run(out);
         }
@@ -898,6 +922,8 @@ sm_status sm_job_inputs_set_params(sm_job_inputs *in, const sm_params *params, s
     sm_match_free(in->match);
     in->match = NULL;
     in->match_status = SM_OK;
+    sm_coverage_free(in->coverage); /* its free boundary may change */
+    in->coverage = NULL;
     return SM_OK;
 }
 

@@ -30,6 +30,7 @@
 
 #include <jansson.h>
 
+#include "shapematch/sm_coverage.h"
 #include "shapematch/sm_error.h"
 #include "shapematch/sm_field.h"
 #include "shapematch/sm_io.h"
@@ -151,7 +152,10 @@ typedef struct sm_job_inputs {
     double clamp_inradius;    /* then: the depth of its centre */
     int field_builds;         /* sm_field_new calls for this job (1) */
     double read_seconds;      /* reading and checking the files, the
-                               * field included */
+                               * field included (wall; with prepare also
+                               * the run's measure set-up, and the
+                               * elastic set-up beside, which is often
+                               * the longer) */
     double field_build_seconds;
     int has_surface;          /* the target came from target_surface: */
     sm_surface *surface;      /* that surface (repaired), for the run's
@@ -182,6 +186,12 @@ typedef struct sm_job_inputs {
     sm_status match_status;
     sm_error match_error;
     double match_seconds;
+    /* The run's two-sided measure (sm_coverage_new on the field), built
+     * beside that set-up after the field when there is no alignment (it
+     * would be longer than the set-up's thread otherwise: 3D example
+     * 0.17 s): sm_job_run_exec takes it.  NULL when not built, or when
+     * its build failed (the run builds it again and reports that). */
+    sm_coverage *coverage;
     /* landmark pairs (template's, target's: nlandmarks*dim each), read
      * with the template (sm_job_read_landmarks); NULL and 0 when none */
     double *landmarks[2];

@@ -270,8 +270,14 @@ sm_status sm_job_run_exec(sm_job_inputs *in, const sm_job_hooks *hooks, sm_job_r
      * field (sm_coverage.h) */
     sm_coverage *cov = NULL;
     const sm_surface *exact = in->surface ? in->surface : in->has_surface ? in->target_surface : NULL;
-    st = sm_coverage_new(in->field, exact, view.prepared ? view.prepared : in->prepared,
-                         view.params.free_refs, view.params.n_free_refs, &cov, err);
+    if (in->coverage && !run->alignment.done) { /* built beside the set-up */
+        cov = in->coverage;
+        in->coverage = NULL;
+        st = SM_OK;
+    } else {
+        st = sm_coverage_new(in->field, exact, view.prepared ? view.prepared : in->prepared,
+                             view.params.free_refs, view.params.n_free_refs, &cov, err);
+    }
     if (st != SM_OK) {
         sm_error_prefix(err, "target");
         return st;

@@ -74,12 +74,12 @@ int sm_job_idle_cores(void)
  * openblas_set_num_threads when it is the one loaded (found at run time,
  * so nothing links against OpenBLAS itself); a BLAS without threads
  * needs nothing. */
-static void set_threads(int n)
+static void set_threads(int n, int blas)
 {
     omp_set_num_threads(n);
     void (*blas_threads)(int) = (void (*)(int))dlsym(RTLD_DEFAULT, "openblas_set_num_threads");
     if (blas_threads)
-        blas_threads(n);
+        blas_threads(blas);
 }
 
 int sm_job_threads_apply(int64_t elements)
@@ -90,13 +90,14 @@ int sm_job_threads_apply(int64_t elements)
     int idle = elements >= SM_JOB_THREADS_IDLE_MIN_ELEMENTS && elements < SM_JOB_THREADS_MIN_ELEMENTS
                    ? sm_job_idle_cores()
                    : -1;
-    set_threads(sm_job_threads_for(elements, limit, idle));
+    int n = sm_job_threads_for(elements, limit, idle);
+    set_threads(n, elements < SM_JOB_THREADS_MIN_ELEMENTS ? 1 : n);
     return limit;
 }
 
 void sm_job_threads_restore(int limit)
 {
-    set_threads(limit);
+    set_threads(limit, limit);
 }
 
 void sm_job_threads_single(sm_job_threads_saved *saved)
@@ -104,7 +105,18 @@ void sm_job_threads_single(sm_job_threads_saved *saved)
     int (*blas_get)(void) = (int (*)(void))dlsym(RTLD_DEFAULT, "openblas_get_num_threads");
     saved->omp = omp_get_max_threads();
     saved->blas = blas_get ? blas_get() : -1;
-    set_threads(1);
+    set_threads(1, 1);
+}
+
+int sm_job_blas_threads_set(int n)
+{
+    int (*blas_get)(void) = (int (*)(void))dlsym(RTLD_DEFAULT, "openblas_get_num_threads");
+    void (*blas_set)(int) = (void (*)(int))dlsym(RTLD_DEFAULT, "openblas_set_num_threads");
+    if (!blas_get || !blas_set)
+        return -1;
+    int before = blas_get();
+    blas_set(n);
+    return before;
 }
 
 void sm_job_threads_put_back(const sm_job_threads_saved *saved)

@@ -6,7 +6,7 @@
 
 #include <stdint.h>
 
-/* Thread policy of a run: OpenMP and BLAS threads for a template of
+/* Thread policy of a run: OpenMP threads for a template of
  * `elements` elements when at most max_threads are allowed (the OpenMP
  * limit when the run starts: OMP_NUM_THREADS, which the daemon sets from
  * --worker-threads; else the cores) and idle_cores cores run no other
@@ -22,12 +22,16 @@
  *   - Below, one thread: a region holds a few microseconds of work (a
  *     778-triangle 2D run at 0.07 ms per iteration with one thread, 0.09
  *     with two even on an idle machine, 16 ms on a busy one).
- * The parallel loops write per-item results and take their sums in a
- * fixed order, but the results are not yet independent of the thread
- * count: the 3D example's result files differ in the last bits between
- * one and two threads (boundary_rms 1.86607502976e-4 against
- * ...2826e-4, same 41 iterations), so a comparison bit for bit (a
- * batch against separate runs) is made at the same thread count. */
+ * BLAS threads: one below SM_JOB_THREADS_MIN_ELEMENTS, else as many.  A
+ * factor that small (3D example: 22k unknowns) is no faster with a
+ * second BLAS thread, whose spinning takes the core from the OpenMP
+ * loops; and a factor of two BLAS threads differs from one's in the
+ * last bits (the 3D example's boundary_rms 1.86607502976e-4 against
+ * ...2826e-4), so below that size a run's result files are the same
+ * whatever the thread count (the parallel loops write per-item results
+ * and take their sums in a fixed order; tests/cli/threads_same.sh).
+ * Above it, a comparison bit for bit (a batch against separate runs)
+ * is made at the same thread count. */
 #define SM_JOB_THREADS_MIN_ELEMENTS 100000
 #define SM_JOB_THREADS_IDLE_MIN_ELEMENTS 20000
 int sm_job_threads_for(int64_t elements, int max_threads, int idle_cores);
@@ -56,5 +60,15 @@ typedef struct sm_job_threads_saved {
  * started); what was set before goes into *saved. */
 void sm_job_threads_single(sm_job_threads_saved *saved);
 void sm_job_threads_put_back(const sm_job_threads_saved *saved);
+
+/* BLAS threads to n (OpenBLAS's; nothing for a BLAS without threads);
+ * returns the count before, or -1 when there is no count to restore.
+ * The set-up beside the target's read (sm_job_inputs_read_target) takes
+ * one for a template below SM_JOB_THREADS_MIN_ELEMENTS: its other
+ * thread is busy, so a second BLAS thread only takes the core from it
+ * and spins (3D example: the first factorization 0.85 s instead of 0.16
+ * on a loaded machine), and its factor is then the same whatever the
+ * cores (a factor of two BLAS threads differs in the last bits). */
+int sm_job_blas_threads_set(int n);
 
 #endif

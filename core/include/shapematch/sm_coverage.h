@@ -66,9 +66,14 @@ typedef struct sm_distance {
 
 typedef struct sm_coverage sm_coverage;
 
-/* The target's samples and its hierarchy.  target is the field (its zero
- * level set is used when surface is NULL); surface, when given, is the
- * target's exact surface (borrowed, must outlive the coverage).  m is the
+/* The target side: its surface, the count and measure of its samples
+ * and the descent's thinned samples (the samples themselves and the
+ * target's hierarchy are made by sm_coverage_measure, which alone reads
+ * them).  It opens no parallel region: it may run beside other work
+ * (proto/job builds it beside the elastic set-up).  target is the
+ * field (its zero level set is used when surface is NULL); surface, when
+ * given, is the target's exact surface (borrowed, must outlive the
+ * coverage).  m is the
  * template with its boundary built (sm_mesh_build_boundary): its active
  * facets (boundary references not in free_refs) are the boundary
  * measured, and its boundary's mean edge sets the spacing.  Errors:

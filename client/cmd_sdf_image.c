@@ -124,11 +124,20 @@ static int write_edt(const image_options *o, const sm_image_target *t)
 {
     int64_t n[3];
     double m[12];
-    const float *d;
-    sm_image_target_grid(t, n, m, &d);
+    const float *dist;
+    float *d;
+    sm_error err;
+    sm_error_clear(&err);
+    sm_image_target_grid(t, n, m, &dist);
+    (void)dist; /* the crop's geometry; the file holds the voxel-centre EDT */
+    if (sm_image_target_voxel_edt(t, &d, &err) != SM_OK) {
+        fprintf(stderr, "shapematch sdf: %s\n", err.msg);
+        return CLI_EXIT_INPUT;
+    }
     FILE *f = fopen(o->edt_out, "wb");
     if (!f) {
         perror(o->edt_out);
+        free(d);
         return CLI_EXIT_OUTPUT;
     }
     int ras = o->space && strcmp(o->space, "ras") == 0;
@@ -140,6 +149,7 @@ static int write_edt(const image_options *o, const sm_image_target *t)
             m[10], m[3], m[7], m[11]);
     size_t count = (size_t)(n[0] * n[1] * n[2]);
     int ok = fwrite(d, sizeof *d, count, f) == count;
+    free(d);
     ok = fclose(f) == 0 && ok;
     if (!ok) {
         fprintf(stderr, "shapematch sdf: %s: write error\n", o->edt_out);

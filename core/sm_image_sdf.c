@@ -12,13 +12,20 @@
 #include "shapematch/sm_image.h"
 
 #include <math.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "shapematch/sm_sdf.h"
+#include "sm_bvh.h"
+#include "sm_edt.h"
 
 struct sm_image_target {
     int64_t n[3];      /* the crop, in voxels */
+    int64_t act_lo[3], act_hi[3]; /* the crop's voxels where the field can
+                                   * differ from its value far outside:
+                                   * the selection's box and the blur's
+                                   * reach */
     double map[12];    /* crop index -> world (the image's frame) */
     double inv[12];    /* world -> crop index */
     double h[3];       /* spacing along the crop's axes */
@@ -63,8 +70,13 @@ static void gauss1d(float *line, float *tmp, int64_t len, const double *w, int r
     memcpy(line, tmp, (size_t)len * sizeof *line);
 }
 
-/* Separable Gaussian blur of f (n voxels) with sigma voxels, zero beyond. */
-static sm_status blur(float *f, const int64_t n[3], double sigma, sm_error *err)
+/* Separable Gaussian blur of f (n voxels) with sigma voxels, zero beyond;
+ * f is zero outside the box lo..hi (inclusive) and is blurred there
+ * only: the box reaches the Gaussian's radius beyond every nonzero
+ * voxel, and a segment of a line summed with zero beyond it is the whole
+ * line's sum (the same terms in the same order, zeros left out). */
+static sm_status blur(float *f, const int64_t n[3], double sigma, const int64_t lo[3],
+                      const int64_t hi[3], sm_error *err)
 {
     int r = (int)ceil(3 * sigma);
     double w[64];
@@ -75,13 +87,14 @@ static sm_status blur(float *f, const int64_t n[3], double sigma, sm_error *err)
         sum += w[t + r] = exp(-0.5 * t * t / (sigma * sigma));
     for (int t = 0; t <= 2 * r; t++)
         w[t] /= sum;
-    int64_t len = n[0] > n[1] ? n[0] : n[1];
-    len = len > n[2] ? len : n[2];
+    int64_t m[3] = {hi[0] - lo[0] + 1, hi[1] - lo[1] + 1, hi[2] - lo[2] + 1};
+    int64_t len = m[0] > m[1] ? m[0] : m[1];
+    len = len > m[2] ? len : m[2];
     int64_t strides[3] = {1, n[0], n[0] * n[1]};
     int fail = 0;
     for (int a = 0; a < 3; a++) {
         int b = a == 0 ? 1 : 0, c = a == 2 ? 1 : 2;
-        int64_t lines = n[b] * n[c];
+        int64_t lines = m[b] * m[c];
 #pragma omp parallel reduction(| : fail)
         {
             float *line = malloc((size_t)len * 2 * sizeof *line);
@@ -90,14 +103,15 @@ static sm_status blur(float *f, const int64_t n[3], double sigma, sm_error *err)
             for (int64_t l = 0; l < lines; l++) {
                 if (!line)
                     continue;
-                int64_t base = (l % n[b]) * strides[b] + (l / n[b]) * strides[c];
+                int64_t base = (lo[b] + l % m[b]) * strides[b] + (lo[c] + l / m[b]) * strides[c] +
+                               lo[a] * strides[a];
                 int nonzero = 0;
-                for (int64_t q = 0; q < n[a]; q++)
+                for (int64_t q = 0; q < m[a]; q++)
                     nonzero |= (line[q] = f[base + q * strides[a]]) != 0.0f;
                 if (!nonzero) /* zero beyond too: it stays zero */
                     continue;
-                gauss1d(line, line + len, n[a], w, r);
-                for (int64_t q = 0; q < n[a]; q++)
+                gauss1d(line, line + len, m[a], w, r);
+                for (int64_t q = 0; q < m[a]; q++)
                     f[base + q * strides[a]] = line[q];
             }
             free(line);
@@ -111,6 +125,7 @@ static sm_status blur(float *f, const int64_t n[3], double sigma, sm_error *err)
 typedef struct mt_builder {
     const float *f;
     int64_t n[3];
+    const int64_t *lo, *hi; /* the active box (sm_image_target's) */
     double level;
     const double *map;
     double *coords;   /* 3 per vertex */
@@ -278,10 +293,16 @@ static void tetra(mt_builder *b, const int64_t v[4])
 static sm_status march(mt_builder *b, sm_surface **out, sm_error *err)
 {
     const int64_t *n = b->n;
-    int64_t sx = 1, sy = n[0], sz = n[0] * n[1];
-    for (int64_t k = 0; k + 1 < n[2] && !b->fail; k++)
-        for (int64_t j = 0; j + 1 < n[1]; j++)
-            for (int64_t i = 0; i + 1 < n[0]; i++) {
+    int64_t sx = 1, sy = n[0], sz = n[0] * n[1], c0[3], c1[3];
+    /* the cells with a corner in the active box: the others have every
+     * corner on one side */
+    for (int a = 0; a < 3; a++) {
+        c0[a] = b->lo[a] > 0 ? b->lo[a] - 1 : 0;
+        c1[a] = b->hi[a] < n[a] - 1 ? b->hi[a] : n[a] - 2;
+    }
+    for (int64_t k = c0[2]; k <= c1[2] && !b->fail; k++)
+        for (int64_t j = c0[1]; j <= c1[1]; j++)
+            for (int64_t i = c0[0]; i <= c1[0]; i++) {
                 int64_t c = i + sy * j + sz * k;
                 int any_in = 0, any_out = 0;
                 for (int corner = 0; corner < 8; corner++) {
@@ -366,6 +387,9 @@ static sm_status crop_field(const sm_image *im, const uint8_t *mask, const sm_im
     int raw = !sel->has_label && (im->type == SM_VOXEL_F32 || im->type == SM_VOXEL_F64);
     double smooth = raw ? 0 : o->smooth;
     int64_t pad = (int64_t)ceil(3 * smooth) + 2 + (int64_t)ceil(o->pad_voxels);
+    int64_t reach = smooth > 0 ? (int64_t)fmin(31, ceil(3 * smooth)) : 0, llo[3], lhi[3];
+    memcpy(llo, lo, sizeof llo);
+    memcpy(lhi, hi, sizeof lhi);
     int64_t total = 1;
     for (int c = 0; c < 3; c++) {
         lo[c] -= pad;
@@ -382,19 +406,26 @@ static sm_status crop_field(const sm_image *im, const uint8_t *mask, const sm_im
     float *f = malloc((size_t)total * sizeof *f);
     if (!f)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's field");
-    /* outside the image: background (0, below any level) */
+    for (int c = 0; c < 3; c++) {
+        t->act_lo[c] = llo[c] - reach - lo[c] > 0 ? llo[c] - reach - lo[c] : 0;
+        t->act_hi[c] = lhi[c] + reach - lo[c] < t->n[c] - 1 ? lhi[c] + reach - lo[c] : t->n[c] - 1;
+    }
+    /* a row at a time; outside the image: background (0, below any level) */
+    float outside = raw ? (float)fmin(0, sel->level - 1) : 0.0f;
 #pragma omp parallel for schedule(static)
-    for (int64_t v = 0; v < total; v++) {
-        int64_t idx[3] = {lo[0] + v % t->n[0], lo[1] + (v / t->n[0]) % t->n[1],
-                          lo[2] + v / (t->n[0] * t->n[1])};
-        int in = idx[0] >= 0 && idx[1] >= 0 && idx[2] >= 0 && idx[0] < n[0] && idx[1] < n[1] &&
-                 idx[2] < n[2];
-        int64_t at = in ? idx[0] + n[0] * (idx[1] + n[1] * idx[2]) : 0;
-        f[v] = !in ? (raw ? (float)fmin(0, sel->level - 1) : 0.0f)
-               : raw ? (float)sm_image_value(im, at) : (float)mask[at];
+    for (int64_t r = 0; r < t->n[1] * t->n[2]; r++) {
+        int64_t j = lo[1] + r % t->n[1], k = lo[2] + r / t->n[1];
+        float *row = f + r * t->n[0];
+        int in = j >= 0 && k >= 0 && j < n[1] && k < n[2];
+        for (int64_t v = 0; v < t->n[0]; v++) {
+            int64_t i = lo[0] + v;
+            int64_t at = i + n[0] * (j + n[1] * k);
+            row[v] = !in || i < 0 || i >= n[0] ? outside
+                     : raw ? (float)sm_image_value(im, at) : (float)mask[at];
+        }
     }
     *level = raw ? sel->level : 0.5;
-    sm_status st = smooth > 0 ? blur(f, t->n, smooth, err) : SM_OK;
+    sm_status st = smooth > 0 ? blur(f, t->n, smooth, t->act_lo, t->act_hi, err) : SM_OK;
     if (st != SM_OK) {
         free(f);
         return st;
@@ -512,7 +543,7 @@ static int32_t cell_triangles(const sm_image_target *t, int64_t c, int32_t *coun
  * the crop's box, no farther in index space from any cell than p), ring
  * by ring until the next ring's cells (>= k index steps away, each at
  * least smin long) cannot be nearer than the nearest triangle found. */
-static double surface_distance(const sm_image_target *t, const double *p)
+static double surface_distance(const sm_image_target *t, const double *p, double *closest)
 {
     int64_t c0[3], m[3];
     double qc[3]; /* p's index, clamped into the crop */
@@ -527,6 +558,7 @@ static double surface_distance(const sm_image_target *t, const double *p)
     double s2 = t->smin * t->smin;
     const sm_surface *s = t->surface;
     double best2 = INFINITY;
+    int32_t bestf = -1;
     int64_t kmax = m[0] > m[1] ? m[0] : m[1];
     kmax = kmax > m[2] ? kmax : m[2];
     for (int64_t k = 0; k <= kmax; k++) {
@@ -554,7 +586,10 @@ static double surface_distance(const sm_image_target *t, const double *p)
                             double d2 = sm_sdf_point_triangle2(p, s->coords + 3 * v[0],
                                                                s->coords + 3 * v[1],
                                                                s->coords + 3 * v[2]);
-                            best2 = d2 < best2 ? d2 : best2;
+                            if (d2 < best2) {
+                                best2 = d2;
+                                bestf = f;
+                            }
                         }
                     }
                     if (k == 0)
@@ -565,6 +600,14 @@ static double surface_distance(const sm_image_target *t, const double *p)
         double reach = (double)k * t->smin;
         if (reach * reach >= best2)
             break;
+    }
+    if (closest && bestf >= 0) {
+        const int32_t *v = s->facets + 3 * bestf;
+        const double *a = s->coords + 3 * v[0], *b = s->coords + 3 * v[1], *c = s->coords + 3 * v[2];
+        double w[3];
+        sm__triangle_closest(p, a, b, c, w);
+        for (int row = 0; row < 3; row++)
+            closest[row] = w[0] * a[row] + w[1] * b[row] + w[2] * c[row];
     }
     return sqrt(best2);
 }
@@ -606,6 +649,183 @@ static double field_at(const sm_image_target *t, const double *p)
     return v;
 }
 
+/* One slice k of the distance from the sites (distance_field): each
+ * voxel's own nearest site and its six neighbours' (their sites' surface
+ * points are as near, often nearer: the nearest site by voxel centres is
+ * not always the one with the nearest point), the nearest of those
+ * points; signed by the field.  below/above: slices k - 1 and k + 1 of
+ * sites (NULL beyond the grid). */
+static void slice_distance(const sm_image_target *t, const float *f, double level,
+                           const double *foot, const int32_t *below, const int32_t *slice,
+                           const int32_t *above, int64_t k, float *out)
+{
+    const int64_t *n = t->n;
+    for (int64_t j = 0; j < n[1]; j++) {
+        const int32_t *row = slice + j * n[0];
+        const int32_t *nb[4] = {j > 0 ? row - n[0] : NULL, j + 1 < n[1] ? row + n[0] : NULL,
+                                below ? below + j * n[0] : NULL, above ? above + j * n[0] : NULL};
+        double x[3];
+        for (int r = 0; r < 3; r++)
+            x[r] = t->map[4 * r + 1] * (double)j + t->map[4 * r + 2] * (double)k + t->map[4 * r + 3];
+        for (int64_t i = 0; i < n[0]; i++) {
+            double p[3] = {x[0] + t->map[0] * (double)i, x[1] + t->map[4] * (double)i,
+                           x[2] + t->map[8] * (double)i};
+            /* the neighbours' sites, most often the voxel's own */
+            int32_t own = row[i], cand[6] = {i > 0 ? row[i - 1] : own, i + 1 < n[0] ? row[i + 1] : own,
+                                             nb[0] ? nb[0][i] : own, nb[1] ? nb[1][i] : own,
+                                             nb[2] ? nb[2][i] : own, nb[3] ? nb[3][i] : own};
+            const double *q = foot + 3 * (int64_t)own;
+            double best = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
+                          (p[2] - q[2]) * (p[2] - q[2]);
+            for (int c = 0; c < 6; c++) {
+                if (cand[c] == own)
+                    continue;
+                q = foot + 3 * (int64_t)cand[c];
+                double d2 = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
+                            (p[2] - q[2]) * (p[2] - q[2]);
+                best = d2 < best ? d2 : best;
+            }
+            int64_t v = (k * n[1] + j) * n[0] + i;
+            float d = (float)sqrt(best);
+            out[j * n[0] + i] = f[v] >= level ? -d : d;
+        }
+    }
+}
+
+/* The distances from the sites over the sites themselves (t->edt: each
+ * voxel's site, int32, becomes its distance, float): each thread takes a
+ * slab of slices in order and writes a slice back once the next one is
+ * done (no slice is needed after its neighbours are); the slices next to
+ * a slab, another thread's, are copied before anyone writes. */
+static sm_status site_distances(sm_image_target *t, const float *f, double level,
+                                const double *foot, int32_t *near, sm_error *err)
+{
+    const int64_t *n = t->n;
+    int64_t plane = n[0] * n[1];
+    int threads = omp_get_max_threads();
+    if (threads > n[2])
+        threads = (int)n[2];
+    /* per thread: its first and last slice's sites, two slices of output */
+    int32_t *edges = malloc((size_t)threads * 2 * (size_t)plane * sizeof *edges);
+    float *bufs = malloc((size_t)threads * 2 * (size_t)plane * sizeof *bufs);
+    if (!edges || !bufs) {
+        free(edges);
+        free(bufs);
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's sites");
+    }
+#pragma omp parallel num_threads(threads)
+    {
+        int me = omp_get_thread_num(), nt = omp_get_num_threads();
+        int64_t k0 = n[2] * me / nt, k1 = n[2] * (me + 1) / nt;
+        int32_t *first = edges + (size_t)(2 * me) * (size_t)plane, *last = first + plane;
+        if (k1 > k0) {
+            memcpy(first, near + k0 * plane, (size_t)plane * sizeof *first);
+            memcpy(last, near + (k1 - 1) * plane, (size_t)plane * sizeof *last);
+        }
+#pragma omp barrier
+        float *buf[2] = {bufs + (size_t)(2 * me) * (size_t)plane,
+                         bufs + (size_t)(2 * me + 1) * (size_t)plane};
+        for (int64_t k = k0; k < k1; k++) {
+            const int32_t *below = k == 0 ? NULL
+                                   : k == k0 ? edges + (size_t)(2 * me - 1) * (size_t)plane
+                                             : near + (k - 1) * plane;
+            const int32_t *above = k + 1 == n[2] ? NULL
+                                   : k + 1 == k1 ? edges + (size_t)(2 * me + 2) * (size_t)plane
+                                                 : near + (k + 1) * plane;
+            slice_distance(t, f, level, foot, below, near + k * plane, above, k, buf[k & 1]);
+            if (k > k0) /* slice k - 1 is no one's neighbour any more */
+                memcpy(t->edt + (k - 1) * plane, buf[(k - 1) & 1], (size_t)plane * sizeof(float));
+        }
+        if (k1 > k0)
+            memcpy(t->edt + (k1 - 1) * plane, buf[(k1 - 1) & 1], (size_t)plane * sizeof(float));
+    }
+    free(edges);
+    free(bufs);
+    return SM_OK;
+}
+
+/* The signed distance at every crop voxel centre into t->edt: the sites
+ * are the corners of the cells the surface passes through (every voxel
+ * within a cell of it), each with its exact nearest surface point; every
+ * other voxel takes the nearest site's (sm__edt_nearest, on the grid's
+ * axis lengths) and its distance to that point, a point of the surface:
+ * an upper bound, off by the square of the sites' sideways offset over
+ * twice the distance, so the far field is close to exact where the
+ * voxel-centre EDT is off by up to a voxel.  The sign: the field at the
+ * node against the level (the surface's inside).  t->edt holds the sites
+ * (int32) until each voxel's float replaces its own. */
+static sm_status distance_field(sm_image_target *t, const float *f, double level,
+                                const int64_t *tcell, int64_t nt, sm_error *err)
+{
+    const int64_t *n = t->n;
+    int64_t total = n[0] * n[1] * n[2], sy = n[0], sz = n[0] * n[1];
+    int32_t *near = (int32_t *)t->edt;
+    memset(near, 0xff, (size_t)total * sizeof *near); /* -1: no site */
+    int32_t *ijk = NULL;
+    double *foot = NULL;
+    int64_t nsites = 0, cap = 0;
+    for (int64_t i = 0; i < nt; i++) {
+        if (i > 0 && tcell[i] == tcell[i - 1])
+            continue;
+        int64_t c = tcell[i];
+        for (int corner = 0; corner < 8; corner++) {
+            int64_t v = c + (corner & 1) + (corner & 2 ? sy : 0) + (corner & 4 ? sz : 0);
+            if (near[v] >= 0)
+                continue;
+            if (!grow((void **)&ijk, &cap, nsites + 1, 3 * sizeof *ijk) || nsites >= INT32_MAX) {
+                free(ijk);
+                return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's sites");
+            }
+            near[v] = (int32_t)nsites;
+            ijk[3 * nsites] = (int32_t)(v % n[0]);
+            ijk[3 * nsites + 1] = (int32_t)((v / sy) % n[1]);
+            ijk[3 * nsites + 2] = (int32_t)(v / sz);
+            nsites++;
+        }
+    }
+    foot = malloc((size_t)nsites * 3 * sizeof *foot);
+    if (!foot) {
+        free(ijk);
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's sites");
+    }
+#pragma omp parallel for schedule(dynamic, 256)
+    for (int64_t k = 0; k < nsites; k++) {
+        double x[3];
+        for (int row = 0; row < 3; row++)
+            x[row] = t->map[4 * row] * ijk[3 * k] + t->map[4 * row + 1] * ijk[3 * k + 1] +
+                     t->map[4 * row + 2] * ijk[3 * k + 2] + t->map[4 * row + 3];
+        surface_distance(t, x, foot + 3 * k);
+    }
+    sm_status st = sm__edt_nearest(n, t->h, ijk, near, err);
+    free(ijk);
+    if (st == SM_OK)
+        st = site_distances(t, f, level, foot, near, err);
+    free(foot);
+    return st;
+}
+
+/* The voxel-centre signed EDT of the thresholded field (sm_image.h). */
+sm_status sm_image_target_voxel_edt(const sm_image_target *t, float **edt, sm_error *err)
+{
+    int64_t total = t->n[0] * t->n[1] * t->n[2];
+    uint8_t *mask = malloc((size_t)total);
+    *edt = malloc((size_t)total * sizeof **edt);
+    sm_status st = mask && *edt ? SM_OK
+                   : sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance transform");
+    if (st == SM_OK) {
+#pragma omp parallel for schedule(static)
+        for (int64_t v = 0; v < total; v++)
+            mask[v] = t->field[v] >= t->level;
+        st = sm_edt_signed(t->n, t->h, mask, *edt, err);
+    }
+    free(mask);
+    if (st != SM_OK) {
+        free(*edt);
+        *edt = NULL;
+    }
+    return st;
+}
+
 sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_image_select *sel,
                               const sm_image_target_opts *o, sm_image_target **out, sm_error *err)
 {
@@ -614,28 +834,19 @@ sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_
     if (!t)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     float *f = NULL;
-    double level;
-    uint8_t *cmask = NULL;
+    double level = 0.5;
     sm_status st = crop_field(im, mask, sel, o, t, &f, &level, err);
     if (st != SM_OK)
         goto done;
     invert(t->map, t->inv);
     int64_t total = t->n[0] * t->n[1] * t->n[2];
-    cmask = malloc((size_t)total);
     t->edt = malloc((size_t)total * sizeof *t->edt);
-    if (!cmask || !t->edt) {
+    if (!t->edt) {
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance transform");
         goto done;
     }
-#pragma omp parallel for schedule(static)
-    for (int64_t v = 0; v < total; v++)
-        cmask[v] = f[v] >= level;
-    st = sm_edt_signed(t->n, t->h, cmask, t->edt, err);
-    free(cmask); /* before the surface grows */
-    cmask = NULL;
-    if (st != SM_OK)
-        goto done;
-    mt_builder b = {.f = f, .n = {t->n[0], t->n[1], t->n[2]}, .level = level, .map = t->map};
+    mt_builder b = {.f = f, .n = {t->n[0], t->n[1], t->n[2]}, .lo = t->act_lo, .hi = t->act_hi,
+                    .level = level, .map = t->map};
     st = march(&b, &t->surface, err);
     if (st == SM_ERR_INVALID && o->smooth > 0 && level == 0.5)
         /* a label thinner than about two sigmas is smoothed below 0.5 */
@@ -648,6 +859,10 @@ sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_
     free(b.vals);
     if (st == SM_OK)
         st = index_cells(t, b.tcell, b.nt, err);
+    if (st == SM_OK) {
+        t->smin = smallest_singular(t->map);
+        st = distance_field(t, f, level, b.tcell, b.nt, err);
+    }
     free(b.tcell);
     if (st != SM_OK)
         goto done;
@@ -656,12 +871,10 @@ sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_
     t->field = f; /* the sign near the surface */
     t->level = level;
     f = NULL;
-    t->smin = smallest_singular(t->map);
     if (o->hierarchy)
         st = sm_sdf_new(t->surface, &t->sdf, err);
 done:
     free(f);
-    free(cmask);
     if (st != SM_OK)
         sm_image_target_free(t);
     else
@@ -751,12 +964,12 @@ static double signed_at(const sm_image_target *t, const double *p, int *exact)
         if (up > 2 * t->band)
             return up;
         *exact = 1;
-        return surface_distance(t, p);
+        return surface_distance(t, p, NULL);
     }
     if (fabs(e) > t->band)
         return e;
     *exact = 1;
-    double d = surface_distance(t, p);
+    double d = surface_distance(t, p, NULL);
     return field_at(t, p) >= t->level ? -d : d;
 }
 

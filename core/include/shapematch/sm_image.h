@@ -187,9 +187,15 @@ sm_status sm_image_target_background(const sm_image_target *t, const double lo[3
  * hierarchy (NULL without; both owned by t). */
 const sm_surface *sm_image_target_surface(const sm_image_target *t);
 const struct sm_sdf *sm_image_target_sdf(const sm_image_target *t);
-/* The crop's size, its index-to-world map and the signed EDT on it. */
+/* The crop's size, its index-to-world map and the signed distance at
+ * its voxel centres (the far field's: exact at the voxels of the cells
+ * the surface passes through, elsewhere the distance to the nearest of
+ * those voxels' nearest surface points). */
 void sm_image_target_grid(const sm_image_target *t, int64_t n[3], double map[12],
-                          const float **edt);
+                          const float **dist);
+/* The voxel-centre signed EDT (sm_edt_signed) of the thresholded field
+ * on the same crop, into a new array (*edt, free with free()). */
+sm_status sm_image_target_voxel_edt(const sm_image_target *t, float **edt, sm_error *err);
 /* Signed distance (negative inside) at n world points; *exact (may be
  * NULL) receives how many were computed exactly. */
 sm_status sm_image_target_signed(const sm_image_target *t, int64_t n, const double *pts,

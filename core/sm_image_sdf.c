@@ -300,29 +300,60 @@ static sm_status march(mt_builder *b, sm_surface **out, sm_error *err)
         c0[a] = b->lo[a] > 0 ? b->lo[a] - 1 : 0;
         c1[a] = b->hi[a] < n[a] - 1 ? b->hi[a] : n[a] - 2;
     }
-    for (int64_t k = c0[2]; k <= c1[2] && !b->fail; k++)
-        for (int64_t j = c0[1]; j <= c1[1]; j++)
-            for (int64_t i = c0[0]; i <= c1[0]; i++) {
-                int64_t c = i + sy * j + sz * k;
-                int any_in = 0, any_out = 0;
-                for (int corner = 0; corner < 8; corner++) {
-                    int64_t node = c + (corner & 1 ? sx : 0) + (corner & 2 ? sy : 0) + (corner & 4 ? sz : 0);
-                    if (b->f[node] >= b->level)
-                        any_in = 1;
-                    else
-                        any_out = 1;
+    /* the cells the level crosses, found in parallel a slice at a time
+     * (counted, then listed), then marched in order */
+    int64_t slices = c1[2] - c0[2] + 1, *count = calloc((size_t)slices + 1, sizeof *count);
+    int64_t *cells = NULL;
+    if (!count) {
+        b->fail = 1;
+        slices = 0;
+    }
+    for (int pass = 0; pass < 2 && !b->fail; pass++) {
+#pragma omp parallel for schedule(dynamic, 1)
+        for (int64_t k = c0[2]; k <= c1[2]; k++) {
+            int64_t found = 0, *to = pass ? cells + count[k - c0[2]] : NULL;
+            for (int64_t j = c0[1]; j <= c1[1]; j++)
+                for (int64_t i = c0[0]; i <= c1[0]; i++) {
+                    int64_t c = i + sy * j + sz * k;
+                    const float *f = b->f + c;
+                    int in = 0;
+                    in += f[0] >= b->level;
+                    in += f[sx] >= b->level;
+                    in += f[sy] >= b->level;
+                    in += f[sx + sy] >= b->level;
+                    in += f[sz] >= b->level;
+                    in += f[sx + sz] >= b->level;
+                    in += f[sy + sz] >= b->level;
+                    in += f[sx + sy + sz] >= b->level;
+                    if (in == 0 || in == 8)
+                        continue;
+                    if (to)
+                        to[found] = c;
+                    found++;
                 }
-                if (!any_in || !any_out)
-                    continue;
-                int64_t step[3] = {sx, sy, sz};
-                b->cell = c;
-                for (int t = 0; t < 6; t++) {
-                    int64_t v[4] = {c, 0, 0, 0};
-                    for (int s = 0; s < 3; s++)
-                        v[s + 1] = v[s] + step[kuhn[t][s]];
-                    tetra(b, v);
-                }
-            }
+            if (!pass)
+                count[k - c0[2] + 1] = found;
+        }
+        if (!pass) {
+            for (int64_t k = 0; k < slices; k++)
+                count[k + 1] += count[k];
+            cells = malloc((size_t)(count[slices] > 0 ? count[slices] : 1) * sizeof *cells);
+            b->fail = !cells;
+        }
+    }
+    int64_t step[3] = {sx, sy, sz};
+    for (int64_t m = 0; !b->fail && m < count[slices]; m++) {
+        int64_t c = cells[m];
+        b->cell = c;
+        for (int t = 0; t < 6; t++) {
+            int64_t v[4] = {c, 0, 0, 0};
+            for (int s = 0; s < 3; s++)
+                v[s + 1] = v[s] + step[kuhn[t][s]];
+            tetra(b, v);
+        }
+    }
+    free(cells);
+    free(count);
     if (b->fail)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface");
     if (b->nt == 0)
@@ -372,16 +403,27 @@ static sm_status crop_field(const sm_image *im, const uint8_t *mask, const sm_im
                             double *level, sm_error *err)
 {
     const int64_t *n = im->dims;
-    int64_t lo[3] = {n[0], n[1], n[2]}, hi[3] = {-1, -1, -1};
-    for (int64_t v = 0; v < n[0] * n[1] * n[2]; v++) {
-        if (!mask[v])
+    int64_t lo0 = n[0], lo1 = n[1], lo2 = n[2], hi0 = -1, hi1 = -1, hi2 = -1;
+#pragma omp parallel for schedule(static) reduction(min : lo0, lo1, lo2) reduction(max : hi0, hi1, hi2)
+    for (int64_t r = 0; r < n[1] * n[2]; r++) {
+        const uint8_t *row = mask + r * n[0];
+        int64_t first = -1, last = -1;
+        for (int64_t i = 0; i < n[0]; i++)
+            if (row[i]) {
+                first = first < 0 ? i : first;
+                last = i;
+            }
+        if (first < 0)
             continue;
-        int64_t idx[3] = {v % n[0], (v / n[0]) % n[1], v / (n[0] * n[1])};
-        for (int c = 0; c < 3; c++) {
-            lo[c] = idx[c] < lo[c] ? idx[c] : lo[c];
-            hi[c] = idx[c] > hi[c] ? idx[c] : hi[c];
-        }
+        int64_t j = r % n[1], k = r / n[1];
+        lo0 = first < lo0 ? first : lo0;
+        hi0 = last > hi0 ? last : hi0;
+        lo1 = j < lo1 ? j : lo1;
+        hi1 = j > hi1 ? j : hi1;
+        lo2 = k < lo2 ? k : lo2;
+        hi2 = k > hi2 ? k : hi2;
     }
+    int64_t lo[3] = {lo0, lo1, lo2}, hi[3] = {hi0, hi1, hi2};
     if (hi[0] < 0)
         return sm_error_set(err, SM_ERR_INVALID, "the selected label is empty");
     int raw = !sel->has_label && (im->type == SM_VOXEL_F32 || im->type == SM_VOXEL_F64);
@@ -649,6 +691,47 @@ static double field_at(const sm_image_target *t, const double *p)
     return v;
 }
 
+/* The nearest surface point of the voxel centre at ijk, a corner of a
+ * cell the surface passes through: the triangles of the (up to) 8 cells
+ * around it first; every other cell is at least one index step away,
+ * smin in the world, so a point nearer than that is the nearest; else
+ * the general search. */
+static void site_foot(const sm_image_target *t, const int32_t *ijk, double *foot)
+{
+    double x[3];
+    for (int row = 0; row < 3; row++)
+        x[row] = t->map[4 * row] * ijk[0] + t->map[4 * row + 1] * ijk[1] +
+                 t->map[4 * row + 2] * ijk[2] + t->map[4 * row + 3];
+    const sm_surface *s = t->surface;
+    double best2 = INFINITY, w[3];
+    int32_t bestf = -1;
+    for (int corner = 0; corner < 8; corner++) {
+        int64_t c[3] = {ijk[0] - (corner & 1), ijk[1] - (corner >> 1 & 1), ijk[2] - (corner >> 2 & 1)};
+        if (c[0] < 0 || c[1] < 0 || c[2] < 0 || c[0] >= t->n[0] - 1 || c[1] >= t->n[1] - 1 ||
+            c[2] >= t->n[2] - 1)
+            continue;
+        int32_t count, first = cell_triangles(t, c[0] + t->n[0] * (c[1] + t->n[1] * c[2]), &count);
+        for (int32_t f = first; f < first + count; f++) {
+            const int32_t *v = s->facets + 3 * f;
+            double d2 = sm__triangle_closest(x, s->coords + 3 * v[0], s->coords + 3 * v[1],
+                                             s->coords + 3 * v[2], w);
+            if (d2 < best2) {
+                best2 = d2;
+                bestf = f;
+            }
+        }
+    }
+    if (bestf < 0 || best2 > t->smin * t->smin) {
+        surface_distance(t, x, foot);
+        return;
+    }
+    const int32_t *v = s->facets + 3 * bestf;
+    const double *a = s->coords + 3 * v[0], *b = s->coords + 3 * v[1], *c = s->coords + 3 * v[2];
+    sm__triangle_closest(x, a, b, c, w);
+    for (int row = 0; row < 3; row++)
+        foot[row] = w[0] * a[row] + w[1] * b[row] + w[2] * c[row];
+}
+
 /* One slice k of the distance from the sites (distance_field): each
  * voxel's own nearest site and its six neighbours' (their sites' surface
  * points are as near, often nearer: the nearest site by voxel centres is
@@ -667,6 +750,8 @@ static void slice_distance(const sm_image_target *t, const float *f, double leve
         double x[3];
         for (int r = 0; r < 3; r++)
             x[r] = t->map[4 * r + 1] * (double)j + t->map[4 * r + 2] * (double)k + t->map[4 * r + 3];
+        /* outside the active box the field is below the level */
+        int box = j >= t->act_lo[1] && j <= t->act_hi[1] && k >= t->act_lo[2] && k <= t->act_hi[2];
         for (int64_t i = 0; i < n[0]; i++) {
             double p[3] = {x[0] + t->map[0] * (double)i, x[1] + t->map[4] * (double)i,
                            x[2] + t->map[8] * (double)i};
@@ -687,7 +772,7 @@ static void slice_distance(const sm_image_target *t, const float *f, double leve
             }
             int64_t v = (k * n[1] + j) * n[0] + i;
             float d = (float)sqrt(best);
-            out[j * n[0] + i] = f[v] >= level ? -d : d;
+            out[j * n[0] + i] = box && i >= t->act_lo[0] && i <= t->act_hi[0] && f[v] >= level ? -d : d;
         }
     }
 }
@@ -757,6 +842,7 @@ static sm_status site_distances(sm_image_target *t, const float *f, double level
 static sm_status distance_field(sm_image_target *t, const float *f, double level,
                                 const int64_t *tcell, int64_t nt, sm_error *err)
 {
+
     const int64_t *n = t->n;
     int64_t total = n[0] * n[1] * n[2], sy = n[0], sz = n[0] * n[1];
     int32_t *near = (int32_t *)t->edt;
@@ -789,13 +875,8 @@ static sm_status distance_field(sm_image_target *t, const float *f, double level
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's sites");
     }
 #pragma omp parallel for schedule(dynamic, 256)
-    for (int64_t k = 0; k < nsites; k++) {
-        double x[3];
-        for (int row = 0; row < 3; row++)
-            x[row] = t->map[4 * row] * ijk[3 * k] + t->map[4 * row + 1] * ijk[3 * k + 1] +
-                     t->map[4 * row + 2] * ijk[3 * k + 2] + t->map[4 * row + 3];
-        surface_distance(t, x, foot + 3 * k);
-    }
+    for (int64_t k = 0; k < nsites; k++)
+        site_foot(t, ijk + 3 * k, foot + 3 * k);
     sm_status st = sm__edt_nearest(n, t->h, ijk, near, err);
     free(ijk);
     if (st == SM_OK)

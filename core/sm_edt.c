@@ -255,10 +255,18 @@ static void nearest_tile(const int64_t n[3], const double h[3], int a, int64_t i
 }
 
 sm_status sm__edt_nearest(const int64_t n[3], const double h[3], const int32_t *site_ijk,
-                          int32_t *near, sm_error *err)
+                          int64_t nsites, int32_t *near, sm_error *err)
 {
     int64_t len = n[0] > n[1] ? n[0] : n[1];
     len = len > n[2] ? len : n[2];
+    /* has[k]: slice k holds a site; has[n[2] + j + n[1] k]: row (j, k) */
+    uint8_t *has = calloc((size_t)(n[2] + n[1] * n[2]), 1);
+    if (!has)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance transform");
+    for (int64_t s = 0; s < nsites; s++) {
+        has[site_ijk[3 * s + 2]] = 1;
+        has[n[2] + site_ijk[3 * s + 1] + n[1] * site_ijk[3 * s + 2]] = 1;
+    }
     int fail = 0;
 #pragma omp parallel shared(fail)
     {
@@ -281,16 +289,19 @@ sm_status sm__edt_nearest(const int64_t n[3], const double h[3], const int32_t *
 #pragma omp atomic read
         failed = fail;
         if (!failed) {
+            /* rows and slices without a site stay so until the last pass */
             int64_t rows = n[1] * n[2];
 #pragma omp for schedule(dynamic, 64)
             for (int64_t r = 0; r < rows; r++)
-                nearest_row(near + r * n[0], n[0], s.left);
+                if (has[n[2] + r])
+                    nearest_row(near + r * n[0], n[0], s.left);
             int64_t tiles = (n[0] + TILE - 1) / TILE;
             for (int a = 1; a <= 2; a++) {
                 int64_t others = n[a == 1 ? 2 : 1];
 #pragma omp for schedule(dynamic, 4)
                 for (int64_t w = 0; w < tiles * others; w++)
-                    nearest_tile(n, h, a, (w % tiles) * TILE, w / tiles, site_ijk, near, &s);
+                    if (a == 2 || has[w / tiles])
+                        nearest_tile(n, h, a, (w % tiles) * TILE, w / tiles, site_ijk, near, &s);
             }
         }
         free(s.f);
@@ -302,6 +313,7 @@ sm_status sm__edt_nearest(const int64_t n[3], const double h[3], const int32_t *
         free(s.out);
         free(s.left);
     }
+    free(has);
     return fail ? sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance transform")
                 : SM_OK;
 }

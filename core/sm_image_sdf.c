@@ -771,7 +771,7 @@ static void slice_distance(const sm_image_target *t, const float *f, double leve
                 best = d2 < best ? d2 : best;
             }
             int64_t v = (k * n[1] + j) * n[0] + i;
-            float d = (float)sqrt(best);
+            float d = sqrtf((float)best); /* as near as sqrt then rounding */
             out[j * n[0] + i] = box && i >= t->act_lo[0] && i <= t->act_hi[0] && f[v] >= level ? -d : d;
         }
     }
@@ -877,7 +877,7 @@ static sm_status distance_field(sm_image_target *t, const float *f, double level
 #pragma omp parallel for schedule(dynamic, 256)
     for (int64_t k = 0; k < nsites; k++)
         site_foot(t, ijk + 3 * k, foot + 3 * k);
-    sm_status st = sm__edt_nearest(n, t->h, ijk, near, err);
+    sm_status st = sm__edt_nearest(n, t->h, ijk, nsites, near, err);
     free(ijk);
     if (st == SM_OK)
         st = site_distances(t, f, level, foot, near, err);
@@ -978,6 +978,13 @@ void sm_image_target_grid(const sm_image_target *t, int64_t n[3], double map[12]
     memcpy(n, t->n, 3 * sizeof *n);
     memcpy(map, t->map, 12 * sizeof *map);
     *edt = t->edt;
+}
+
+float *sm_image_target_take_grid(sm_image_target *t)
+{
+    float *d = t->edt;
+    t->edt = NULL;
+    return d;
 }
 
 /* Trilinear EDT at world point x; NAN outside the crop. */

@@ -225,12 +225,14 @@ sm_status sm_job_image_grid_distance(const char *path, sm_image_limits *limits,
     if (off[0] < 0 || off[1] < 0 || off[2] < 0 || off[0] + n[0] > cn[0] || off[1] + n[1] > cn[1] ||
         off[2] + n[2] > cn[2])
         st = sm_error_set(err, SM_ERR_INVALID, "the distance's grid does not cover the image");
-    float *d = st == SM_OK ? malloc((size_t)total * sizeof *d) : NULL;
+    int same = st == SM_OK && cn[0] == n[0] && cn[1] == n[1] && cn[2] == n[2];
+    float *d = same ? sm_image_target_take_grid(t) /* the crop is the image */
+               : st == SM_OK ? malloc((size_t)total * sizeof *d) : NULL;
     if (st == SM_OK && !d)
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance on %lld voxels",
                           (long long)total);
-#pragma omp parallel for schedule(static) if (st == SM_OK)
-    for (int64_t line = 0; line < (st == SM_OK ? n[1] * n[2] : 0); line++) {
+#pragma omp parallel for schedule(static) if (st == SM_OK && !same)
+    for (int64_t line = 0; line < (st == SM_OK && !same ? n[1] * n[2] : 0); line++) {
         int64_t j = line % n[1], k = line / n[1];
         memcpy(d + line * n[0], cd + off[0] + cn[0] * (off[1] + j + cn[1] * (off[2] + k)),
                (size_t)n[0] * sizeof *d);

@@ -193,6 +193,9 @@ const struct sm_sdf *sm_image_target_sdf(const sm_image_target *t);
  * those voxels' nearest surface points). */
 void sm_image_target_grid(const sm_image_target *t, int64_t n[3], double map[12],
                           const float **dist);
+/* The distance array of sm_image_target_grid handed to the caller (who
+ * frees it with free()); t is then only to be freed. */
+float *sm_image_target_take_grid(sm_image_target *t);
 /* The voxel-centre signed EDT (sm_edt_signed) of the thresholded field
  * on the same crop, into a new array (*edt, free with free()). */
 sm_status sm_image_target_voxel_edt(const sm_image_target *t, float **edt, sm_error *err);

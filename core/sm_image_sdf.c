@@ -579,13 +579,30 @@ static int32_t cell_triangles(const sm_image_target *t, int64_t c, int32_t *coun
     return 0;
 }
 
+/* How far index q lies from the cell [c, c + 1] along one axis. */
+static inline double gap(double c, double q)
+{
+    return q < c ? c - q : q > c + 1 ? q - (c + 1) : 0;
+}
+
 /* Distance from world point p to the surface, exactly: the cells in
  * Chebyshev rings around the cell of p's crop index (clamped into the
  * crop: for a point outside it, the clamped index is its projection on
  * the crop's box, no farther in index space from any cell than p), ring
  * by ring until the next ring's cells (>= k index steps away, each at
  * least smin long) cannot be nearer than the nearest triangle found. */
+static double surface_distance_from(const sm_image_target *t, const double *p, double best2,
+                                    int32_t bestf, double *closest);
+
 static double surface_distance(const sm_image_target *t, const double *p, double *closest)
+{
+    return surface_distance_from(t, p, INFINITY, -1, closest);
+}
+
+/* The same, with a triangle bestf at squared distance best2 already
+ * known (-1, INFINITY: none). */
+static double surface_distance_from(const sm_image_target *t, const double *p, double best2,
+                                    int32_t bestf, double *closest)
 {
     int64_t c0[3], m[3];
     double qc[3]; /* p's index, clamped into the crop */
@@ -599,8 +616,6 @@ static double surface_distance(const sm_image_target *t, const double *p, double
     }
     double s2 = t->smin * t->smin;
     const sm_surface *s = t->surface;
-    double best2 = INFINITY;
-    int32_t bestf = -1;
     int64_t kmax = m[0] > m[1] ? m[0] : m[1];
     kmax = kmax > m[2] ? kmax : m[2];
     for (int64_t k = 0; k <= kmax; k++) {
@@ -608,16 +623,16 @@ static double surface_distance(const sm_image_target *t, const double *p, double
             int64_t z = c0[2] + dz;
             if (z < 0 || z >= m[2])
                 continue;
-            double gz = fmax(0, fmax((double)z - qc[2], qc[2] - (double)(z + 1)));
+            double gz = gap((double)z, qc[2]);
             for (int64_t dy = -k; dy <= k; dy++) {
                 int64_t y = c0[1] + dy;
                 if (y < 0 || y >= m[1])
                     continue;
-                double gy = fmax(0, fmax((double)y - qc[1], qc[1] - (double)(y + 1)));
+                double gy = gap((double)y, qc[1]);
                 int face = dz == -k || dz == k || dy == -k || dy == k;
                 for (int64_t dx = -k; dx <= k; dx += face ? 1 : 2 * k) {
                     int64_t x = c0[0] + dx;
-                    double gx = fmax(0, fmax((double)x - qc[0], qc[0] - (double)(x + 1)));
+                    double gx = gap((double)x, qc[0]);
                     /* the cell's box is at least this far (index gaps,
                      * each index unit at least smin long) */
                     if (x >= 0 && x < m[0] && s2 * (gx * gx + gy * gy + gz * gz) < best2) {
@@ -713,8 +728,16 @@ static void site_foot(const sm_image_target *t, const int32_t *ijk, double *foot
         int32_t count, first = cell_triangles(t, c[0] + t->n[0] * (c[1] + t->n[1] * c[2]), &count);
         for (int32_t f = first; f < first + count; f++) {
             const int32_t *v = s->facets + 3 * f;
-            double d2 = sm__triangle_closest(x, s->coords + 3 * v[0], s->coords + 3 * v[1],
-                                             s->coords + 3 * v[2], w);
+            const double *a = s->coords + 3 * v[0], *b = s->coords + 3 * v[1], *c = s->coords + 3 * v[2];
+            double box2 = 0; /* to the triangle's box: no nearer than that */
+            for (int r = 0; r < 3; r++) {
+                double lo = fmin(a[r], fmin(b[r], c[r])), hi = fmax(a[r], fmax(b[r], c[r]));
+                double g = x[r] < lo ? lo - x[r] : x[r] > hi ? x[r] - hi : 0;
+                box2 += g * g;
+            }
+            if (box2 >= best2)
+                continue;
+            double d2 = sm__triangle_closest(x, a, b, c, w);
             if (d2 < best2) {
                 best2 = d2;
                 bestf = f;
@@ -722,7 +745,7 @@ static void site_foot(const sm_image_target *t, const int32_t *ijk, double *foot
         }
     }
     if (bestf < 0 || best2 > t->smin * t->smin) {
-        surface_distance(t, x, foot);
+        surface_distance_from(t, x, best2, bestf, foot);
         return;
     }
     const int32_t *v = s->facets + 3 * bestf;

@@ -755,6 +755,42 @@ static void site_foot(const sm_image_target *t, const int32_t *ijk, double *foot
         foot[row] = w[0] * a[row] + w[1] * b[row] + w[2] * c[row];
 }
 
+/* The crop cell holding world point x (on its border: either). */
+static int64_t foot_cell(const sm_image_target *t, const double *x)
+{
+    int64_t c[3];
+    for (int row = 0; row < 3; row++) {
+        double q = t->inv[4 * row] * x[0] + t->inv[4 * row + 1] * x[1] + t->inv[4 * row + 2] * x[2] +
+                   t->inv[4 * row + 3];
+        double f = floor(q);
+        c[row] = !(f >= 0) ? 0 : f > (double)(t->n[row] - 2) ? t->n[row] - 2 : (int64_t)f;
+    }
+    return c[0] + t->n[0] * (c[1] + t->n[1] * c[2]);
+}
+
+/* best2 lowered to the squared distance from p to cell c's triangles. */
+static double cell_nearest(const sm_image_target *t, int64_t cell, const double *p, double best2)
+{
+    const sm_surface *s = t->surface;
+    int32_t count, first = cell_triangles(t, cell, &count);
+    double w[3];
+    for (int32_t f = first; f < first + count; f++) {
+        const int32_t *v = s->facets + 3 * f;
+        const double *a = s->coords + 3 * v[0], *b = s->coords + 3 * v[1], *c = s->coords + 3 * v[2];
+        double box2 = 0; /* to the triangle's box: no nearer than that */
+        for (int r = 0; r < 3; r++) {
+            double lo = fmin(a[r], fmin(b[r], c[r])), hi = fmax(a[r], fmax(b[r], c[r]));
+            double g = p[r] < lo ? lo - p[r] : p[r] > hi ? p[r] - hi : 0;
+            box2 += g * g;
+        }
+        if (box2 < best2) {
+            double d2 = sm__triangle_closest(p, a, b, c, w);
+            best2 = d2 < best2 ? d2 : best2;
+        }
+    }
+    return best2;
+}
+
 /* One slice k of the distance from the sites (distance_field): each
  * voxel's own nearest site and its six neighbours' (their sites' surface
  * points are as near, often nearer: the nearest site by voxel centres is
@@ -793,6 +829,11 @@ static void slice_distance(const sm_image_target *t, const float *f, double leve
                             (p[2] - q[2]) * (p[2] - q[2]);
                 best = d2 < best ? d2 : best;
             }
+            if (best <= t->band * t->band)
+                /* within the band: the other triangles of the cell holding
+                 * the voxel's own site's point too (the surface around
+                 * that point, where a nearer one most often is) */
+                best = cell_nearest(t, foot_cell(t, foot + 3 * (int64_t)own), p, best);
             int64_t v = (k * n[1] + j) * n[0] + i;
             float d = sqrtf((float)best); /* as near as sqrt then rounding */
             out[j * n[0] + i] = box && i >= t->act_lo[0] && i <= t->act_hi[0] && f[v] >= level ? -d : d;
@@ -964,14 +1005,13 @@ sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_
     if (st == SM_OK)
         st = index_cells(t, b.tcell, b.nt, err);
     if (st == SM_OK) {
+        t->band = o->band_voxels * fmax(t->h[0], fmax(t->h[1], t->h[2]));
         t->smin = smallest_singular(t->map);
         st = distance_field(t, f, level, b.tcell, b.nt, err);
     }
     free(b.tcell);
     if (st != SM_OK)
         goto done;
-    double hmax = fmax(t->h[0], fmax(t->h[1], t->h[2]));
-    t->band = o->band_voxels * hmax;
     t->field = f; /* the sign near the surface */
     t->level = level;
     f = NULL;

@@ -35,6 +35,8 @@ struct sm_image_target {
     float *field;      /* the (smoothed) field the surface is a level of */
     double level;
     double band;       /* world units: exact within */
+    int grid_band;     /* the grid's band refined (whole_image: the grid
+                        * is the output; else points there are exact) */
     sm_surface *surface;
     /* the surface's triangles by the crop cell that made them (marching
      * emits them cell by cell): open addressing, key cell + 1 */
@@ -829,7 +831,7 @@ static void slice_distance(const sm_image_target *t, const float *f, double leve
                             (p[2] - q[2]) * (p[2] - q[2]);
                 best = d2 < best ? d2 : best;
             }
-            if (best <= t->band * t->band)
+            if (t->grid_band && best <= t->band * t->band)
                 /* within the band: the other triangles of the cell holding
                  * the voxel's own site's point too (the surface around
                  * that point, where a nearer one most often is) */
@@ -1006,6 +1008,7 @@ sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_
         st = index_cells(t, b.tcell, b.nt, err);
     if (st == SM_OK) {
         t->band = o->band_voxels * fmax(t->h[0], fmax(t->h[1], t->h[2]));
+        t->grid_band = o->whole_image;
         t->smin = smallest_singular(t->map);
         st = distance_field(t, f, level, b.tcell, b.nt, err);
     }

@@ -119,7 +119,7 @@ static void summary(const image_options *o, const sm_job_image_info *im)
                 (long long)s->components);
 }
 
-/* The crop's signed EDT as NRRD (float32, the image's frame). */
+/* The crop's voxel-centre signed EDT as NRRD (float32, the image's frame). */
 static int write_edt(const image_options *o, const sm_image_target *t)
 {
     int64_t n[3];
@@ -210,8 +210,8 @@ static int grid_distance(const image_options *o, sm_image_space space)
         fprintf(stderr, "shapematch sdf: %s\n", err.msg);
         rc = CLI_EXIT_OUTPUT;
     } else {
-        fprintf(stderr, "distance at the %lld voxel centres of the image (exact within 3 "
-                        "voxels of the label's surface of %d triangles) written to %s\n"
+        fprintf(stderr, "distance at the %lld voxel centres of the image (exact next to the "
+                        "label's surface of %d triangles) written to %s\n"
                         "  seconds: distance %.2f, writing %.2f\n",
                 (long long)(d->dims[0] * d->dims[1] * d->dims[2]), info.surface_triangles,
                 o->out, t1 - t0, sm_clock_seconds() - t1);
@@ -243,7 +243,7 @@ int cmd_sdf_image(int argc, char **argv)
         return CLI_EXIT_INPUT;
     }
     summary(&o, &info);
-    fprintf(stderr, "  seconds: reading, label's surface and EDT %.2f\n", info.seconds);
+    fprintf(stderr, "  seconds: reading, label's surface and distance grid %.2f\n", info.seconds);
     rc = o.edt_out ? write_edt(&o, t) : CLI_EXIT_OK;
     if (rc == CLI_EXIT_OK)
         rc = distance(&o, t, &info);

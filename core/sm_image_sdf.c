@@ -708,6 +708,36 @@ static double field_at(const sm_image_target *t, const double *p)
     return v;
 }
 
+/* *best2 lowered to the squared distance from p to cell's triangles
+ * nearer than it, *bestf to the nearest of them (triangles whose box is
+ * not nearer are skipped). */
+static void cell_nearest(const sm_image_target *t, int64_t cell, const double *p, double *best2,
+                         int32_t *bestf)
+{
+    const sm_surface *s = t->surface;
+    int32_t count, first = cell_triangles(t, cell, &count);
+    double w[3];
+    for (int32_t f = first; f < first + count; f++) {
+        const int32_t *v = s->facets + 3 * f;
+        const double *a = s->coords + 3 * v[0], *b = s->coords + 3 * v[1], *c = s->coords + 3 * v[2];
+        double box2 = 0;
+        for (int r = 0; r < 3; r++) {
+            double lo = a[r] < b[r] ? a[r] : b[r], hi = a[r] < b[r] ? b[r] : a[r];
+            lo = c[r] < lo ? c[r] : lo;
+            hi = c[r] > hi ? c[r] : hi;
+            double g = p[r] < lo ? lo - p[r] : p[r] > hi ? p[r] - hi : 0;
+            box2 += g * g;
+        }
+        if (box2 >= *best2)
+            continue;
+        double d2 = sm__triangle_closest(p, a, b, c, w);
+        if (d2 < *best2) {
+            *best2 = d2;
+            *bestf = f;
+        }
+    }
+}
+
 /* The nearest surface point of the voxel centre at ijk, a corner of a
  * cell the surface passes through: the triangles of the (up to) 8 cells
  * around it first; every other cell is at least one index step away,
@@ -724,27 +754,9 @@ static void site_foot(const sm_image_target *t, const int32_t *ijk, double *foot
     int32_t bestf = -1;
     for (int corner = 0; corner < 8; corner++) {
         int64_t c[3] = {ijk[0] - (corner & 1), ijk[1] - (corner >> 1 & 1), ijk[2] - (corner >> 2 & 1)};
-        if (c[0] < 0 || c[1] < 0 || c[2] < 0 || c[0] >= t->n[0] - 1 || c[1] >= t->n[1] - 1 ||
-            c[2] >= t->n[2] - 1)
-            continue;
-        int32_t count, first = cell_triangles(t, c[0] + t->n[0] * (c[1] + t->n[1] * c[2]), &count);
-        for (int32_t f = first; f < first + count; f++) {
-            const int32_t *v = s->facets + 3 * f;
-            const double *a = s->coords + 3 * v[0], *b = s->coords + 3 * v[1], *c = s->coords + 3 * v[2];
-            double box2 = 0; /* to the triangle's box: no nearer than that */
-            for (int r = 0; r < 3; r++) {
-                double lo = fmin(a[r], fmin(b[r], c[r])), hi = fmax(a[r], fmax(b[r], c[r]));
-                double g = x[r] < lo ? lo - x[r] : x[r] > hi ? x[r] - hi : 0;
-                box2 += g * g;
-            }
-            if (box2 >= best2)
-                continue;
-            double d2 = sm__triangle_closest(x, a, b, c, w);
-            if (d2 < best2) {
-                best2 = d2;
-                bestf = f;
-            }
-        }
+        if (c[0] >= 0 && c[1] >= 0 && c[2] >= 0 && c[0] < t->n[0] - 1 && c[1] < t->n[1] - 1 &&
+            c[2] < t->n[2] - 1)
+            cell_nearest(t, c[0] + t->n[0] * (c[1] + t->n[1] * c[2]), x, &best2, &bestf);
     }
     if (bestf < 0 || best2 > t->smin * t->smin) {
         surface_distance_from(t, x, best2, bestf, foot);
@@ -768,29 +780,6 @@ static int64_t foot_cell(const sm_image_target *t, const double *x)
         c[row] = !(f >= 0) ? 0 : f > (double)(t->n[row] - 2) ? t->n[row] - 2 : (int64_t)f;
     }
     return c[0] + t->n[0] * (c[1] + t->n[1] * c[2]);
-}
-
-/* best2 lowered to the squared distance from p to cell c's triangles. */
-static double cell_nearest(const sm_image_target *t, int64_t cell, const double *p, double best2)
-{
-    const sm_surface *s = t->surface;
-    int32_t count, first = cell_triangles(t, cell, &count);
-    double w[3];
-    for (int32_t f = first; f < first + count; f++) {
-        const int32_t *v = s->facets + 3 * f;
-        const double *a = s->coords + 3 * v[0], *b = s->coords + 3 * v[1], *c = s->coords + 3 * v[2];
-        double box2 = 0; /* to the triangle's box: no nearer than that */
-        for (int r = 0; r < 3; r++) {
-            double lo = fmin(a[r], fmin(b[r], c[r])), hi = fmax(a[r], fmax(b[r], c[r]));
-            double g = p[r] < lo ? lo - p[r] : p[r] > hi ? p[r] - hi : 0;
-            box2 += g * g;
-        }
-        if (box2 < best2) {
-            double d2 = sm__triangle_closest(p, a, b, c, w);
-            best2 = d2 < best2 ? d2 : best2;
-        }
-    }
-    return best2;
 }
 
 /* One slice k of the distance from the sites (distance_field): each
@@ -835,7 +824,7 @@ static void slice_distance(const sm_image_target *t, const float *f, double leve
                 /* within the band: the other triangles of the cell holding
                  * the voxel's own site's point too (the surface around
                  * that point, where a nearer one most often is) */
-                best = cell_nearest(t, foot_cell(t, foot + 3 * (int64_t)own), p, best);
+                cell_nearest(t, foot_cell(t, foot + 3 * (int64_t)own), p, &best, &(int32_t){0});
             int64_t v = (k * n[1] + j) * n[0] + i;
             float d = sqrtf((float)best); /* as near as sqrt then rounding */
             out[j * n[0] + i] = box && i >= t->act_lo[0] && i <= t->act_hi[0] && f[v] >= level ? -d : d;

@@ -80,7 +80,7 @@ static sm_status build(const sm_image *im, const char *path, const sm_image_sele
                 hi[row] = fmax(hi[row], w);
             }
         double diag = hypot(hypot(hi[0] - lo[0], hi[1] - lo[1]), hi[2] - lo[2]);
-        /* the crop covers the background's margin, so that the EDT (not
+        /* the crop covers the background's margin, so that the grid (not
          * the positive extension) gives the far field there */
         sm_image_target_opts to = {smooth, 3.0, fmin(64, padding * diag / hmin + 1), 0,
                                    whole_image};

@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "shapematch/sm_sdf.h"
+#include "sm_alloc.h"
 #include "sm_bvh.h"
 #include "sm_edt.h"
 
@@ -447,7 +448,7 @@ static sm_status crop_field(const sm_image *im, const uint8_t *mask, const sm_im
     }
     if (total > SM_IMAGE_MAX_VOXELS / 4)
         return sm_error_set(err, SM_ERR_INVALID, "the padded label box has too many voxels");
-    float *f = malloc((size_t)total * sizeof *f);
+    float *f = sm__alloc_huge((size_t)total * sizeof *f); /* written at once */
     if (!f)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's field");
     for (int c = 0; c < 3; c++) {
@@ -976,7 +977,7 @@ sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_
         goto done;
     invert(t->map, t->inv);
     int64_t total = t->n[0] * t->n[1] * t->n[2];
-    t->edt = malloc((size_t)total * sizeof *t->edt);
+    t->edt = sm__alloc_huge((size_t)total * sizeof *t->edt); /* written at once */
     if (!t->edt) {
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance transform");
         goto done;

@@ -1,5 +1,6 @@
 /* Label-map images (sm_image.h): the EDT against brute force on random
- * masks of anisotropic grids (unsigned and signed), the selection and its
+ * masks of anisotropic grids (unsigned and signed), the nearest-site
+ * transform against brute force, the selection and its
  * summary (voxels, 26-connected components, border, world box) against
  * hand counts, NIfTI's qform against its sform for the same rotation, the
  * three readers agreeing on one array in memory, the components against
@@ -20,6 +21,7 @@
 
 #include "shapematch/sm_image.h"
 #include "shapematch/sm_sdf.h"
+#include "sm_edt.h"
 
 static uint64_t rng = 88172645463325252ull;
 static double rnd(void)
@@ -74,6 +76,49 @@ static void test_edt_brute_force(void **state)
         free(m);
         free(d);
         free(s);
+    }
+}
+
+/* The nearest-site transform (sm_edt.h) against brute force: on random
+ * anisotropic grids with sparse and dense sites, every voxel's site is
+ * one of the nearest (ties either way). */
+static void test_nearest_site_brute_force(void **state)
+{
+    (void)state;
+    for (int trial = 0; trial < 12; trial++) {
+        int64_t n[3] = {1 + (int64_t)(rnd() * 40), 1 + (int64_t)(rnd() * 12), 1 + (int64_t)(rnd() * 9)};
+        double h[3] = {0.3 + rnd() * 2, 0.3 + rnd() * 2, 0.3 + rnd() * 2};
+        int64_t total = n[0] * n[1] * n[2], nsites = 0;
+        int32_t *near = malloc((size_t)total * sizeof *near), *ijk = malloc((size_t)total * 3 * sizeof *ijk);
+        double density = trial % 3 == 0 ? 0.01 : trial % 3 == 1 ? 0.1 : 0.5;
+        for (int64_t v = 0; v < total; v++) {
+            near[v] = -1;
+            if (rnd() < density || (v == total - 1 && nsites == 0)) {
+                near[v] = (int32_t)nsites;
+                ijk[3 * nsites] = (int32_t)(v % n[0]);
+                ijk[3 * nsites + 1] = (int32_t)((v / n[0]) % n[1]);
+                ijk[3 * nsites + 2] = (int32_t)(v / (n[0] * n[1]));
+                nsites++;
+            }
+        }
+        assert_int_equal(sm__edt_nearest(n, h, ijk, nsites, near, NULL), SM_OK);
+        for (int64_t v = 0; v < total; v++) {
+            double p[3] = {(double)(v % n[0]), (double)((v / n[0]) % n[1]), (double)(v / (n[0] * n[1]))};
+            double best = INFINITY, got;
+            for (int64_t s = 0; s < nsites; s++) {
+                double d2 = 0;
+                for (int a = 0; a < 3; a++)
+                    d2 += (p[a] - ijk[3 * s + a]) * (p[a] - ijk[3 * s + a]) * h[a] * h[a];
+                best = fmin(best, d2);
+            }
+            assert_true(near[v] >= 0 && near[v] < nsites);
+            got = 0;
+            for (int a = 0; a < 3; a++)
+                got += (p[a] - ijk[3 * near[v] + a]) * (p[a] - ijk[3 * near[v] + a]) * h[a] * h[a];
+            assert_true(got <= best * (1 + 1e-12) + 1e-12);
+        }
+        free(near);
+        free(ijk);
     }
 }
 
@@ -539,7 +584,7 @@ int main(void)
         cmocka_unit_test(test_text_formats),    cmocka_unit_test(test_mask_stats),
         cmocka_unit_test(test_target_sphere),   cmocka_unit_test(test_binary_sphere_signs),
         cmocka_unit_test(test_contour_2d),      cmocka_unit_test(test_grid_distance_exact),
-        cmocka_unit_test(test_components_brute_force),
+        cmocka_unit_test(test_components_brute_force), cmocka_unit_test(test_nearest_site_brute_force),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

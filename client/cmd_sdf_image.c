@@ -119,16 +119,25 @@ static void summary(const image_options *o, const sm_job_image_info *im)
                 (long long)s->components);
 }
 
-/* The crop's signed EDT as NRRD (float32, the image's frame). */
+/* The crop's voxel-centre signed EDT as NRRD (float32, the image's frame). */
 static int write_edt(const image_options *o, const sm_image_target *t)
 {
     int64_t n[3];
     double m[12];
-    const float *d;
-    sm_image_target_grid(t, n, m, &d);
+    const float *dist;
+    float *d;
+    sm_error err;
+    sm_error_clear(&err);
+    sm_image_target_grid(t, n, m, &dist);
+    (void)dist; /* the crop's geometry; the file holds the voxel-centre EDT */
+    if (sm_image_target_voxel_edt(t, &d, &err) != SM_OK) {
+        fprintf(stderr, "shapematch sdf: %s\n", err.msg);
+        return CLI_EXIT_INPUT;
+    }
     FILE *f = fopen(o->edt_out, "wb");
     if (!f) {
         perror(o->edt_out);
+        free(d);
         return CLI_EXIT_OUTPUT;
     }
     int ras = o->space && strcmp(o->space, "ras") == 0;
@@ -140,6 +149,7 @@ static int write_edt(const image_options *o, const sm_image_target *t)
             m[10], m[3], m[7], m[11]);
     size_t count = (size_t)(n[0] * n[1] * n[2]);
     int ok = fwrite(d, sizeof *d, count, f) == count;
+    free(d);
     ok = fclose(f) == 0 && ok;
     if (!ok) {
         fprintf(stderr, "shapematch sdf: %s: write error\n", o->edt_out);
@@ -200,8 +210,8 @@ static int grid_distance(const image_options *o, sm_image_space space)
         fprintf(stderr, "shapematch sdf: %s\n", err.msg);
         rc = CLI_EXIT_OUTPUT;
     } else {
-        fprintf(stderr, "distance at the %lld voxel centres of the image (exact within 3 "
-                        "voxels of the label's surface of %d triangles) written to %s\n"
+        fprintf(stderr, "distance at the %lld voxel centres of the image (exact next to the "
+                        "label's surface of %d triangles) written to %s\n"
                         "  seconds: distance %.2f, writing %.2f\n",
                 (long long)(d->dims[0] * d->dims[1] * d->dims[2]), info.surface_triangles,
                 o->out, t1 - t0, sm_clock_seconds() - t1);
@@ -233,7 +243,7 @@ int cmd_sdf_image(int argc, char **argv)
         return CLI_EXIT_INPUT;
     }
     summary(&o, &info);
-    fprintf(stderr, "  seconds: reading, label's surface and EDT %.2f\n", info.seconds);
+    fprintf(stderr, "  seconds: reading, label's surface and distance grid %.2f\n", info.seconds);
     rc = o.edt_out ? write_edt(&o, t) : CLI_EXIT_OK;
     if (rc == CLI_EXIT_OK)
         rc = distance(&o, t, &info);

@@ -13,54 +13,90 @@ static int is_float(sm_voxel_type t)
     return t == SM_VOXEL_F32 || t == SM_VOXEL_F64;
 }
 
-/* Counts 26-connected components of mask (values 1), marking visited
- * voxels 2 and turning them back to 1 at the end; an explicit stack. */
-static sm_status count_components(const int64_t *n, uint8_t *mask, int64_t *components,
+/* The 26-connected components of the mask, by runs: each row's runs of
+ * selected voxels, joined (union-find) with the overlapping or diagonally
+ * touching runs of the rows before it among its 8 neighbouring rows (j
+ * and k within one); the components are the roots left. */
+static int64_t run_root(int64_t *parent, int64_t r)
+{
+    while (parent[r] != r) {
+        parent[r] = parent[parent[r]];
+        r = parent[r];
+    }
+    return r;
+}
+
+static sm_status count_components(const int64_t *n, const uint8_t *mask, int64_t *components,
                                   sm_error *err)
 {
-    int64_t total = n[0] * n[1] * n[2], cap = 1024, top = 0, count = 0;
-    int64_t *stack = malloc((size_t)cap * sizeof *stack);
-    if (!stack)
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's components");
-    sm_status st = SM_OK;
-    for (int64_t s = 0; s < total && st == SM_OK; s++) {
-        if (mask[s] != 1)
-            continue;
-        count++;
-        mask[s] = 2;
-        stack[top++] = s;
-        while (top > 0 && st == SM_OK) {
-            int64_t v = stack[--top];
-            int64_t i = v % n[0], j = (v / n[0]) % n[1], k = v / (n[0] * n[1]);
-            for (int dk = -1; dk <= 1; dk++)
-                for (int dj = -1; dj <= 1; dj++)
-                    for (int di = -1; di <= 1; di++) {
-                        int64_t a = i + di, b = j + dj, c = k + dk;
-                        if (a < 0 || b < 0 || c < 0 || a >= n[0] || b >= n[1] || c >= n[2])
-                            continue;
-                        int64_t w = a + n[0] * (b + n[1] * c);
-                        if (mask[w] != 1)
-                            continue;
-                        mask[w] = 2;
-                        if (top == cap) {
-                            int64_t *grown = realloc(stack, (size_t)cap * 2 * sizeof *stack);
-                            if (!grown) {
-                                st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the "
-                                                  "label's components");
-                                break;
-                            }
-                            stack = grown;
-                            cap *= 2;
-                        }
-                        stack[top++] = w;
-                    }
+    int64_t rows = n[1] * n[2], nruns = 0, cap = 1024;
+    int64_t *first = malloc((size_t)(rows + 1) * sizeof *first);
+    int64_t *run = malloc((size_t)cap * 2 * sizeof *run), *parent = NULL;
+    if (!first || !run)
+        goto nomem;
+    for (int64_t r = 0; r < rows; r++) {
+        const uint8_t *line = mask + r * n[0];
+        first[r] = nruns;
+        const uint8_t *at = memchr(line, 1, (size_t)n[0]);
+        for (int64_t i = at ? at - line : n[0]; i < n[0];) {
+            if (!line[i]) {
+                i++;
+                continue;
+            }
+            int64_t e = i;
+            while (e + 1 < n[0] && line[e + 1])
+                e++;
+            if (nruns == cap) {
+                int64_t *grown = realloc(run, (size_t)cap * 4 * sizeof *run);
+                if (!grown)
+                    goto nomem;
+                run = grown;
+                cap *= 2;
+            }
+            run[2 * nruns] = i;
+            run[2 * nruns + 1] = e;
+            nruns++;
+            i = e + 1;
         }
     }
-    free(stack);
-    for (int64_t s = 0; s < total; s++)
-        mask[s] = mask[s] != 0;
+    first[rows] = nruns;
+    parent = malloc((size_t)(nruns > 0 ? nruns : 1) * sizeof *parent);
+    if (!parent)
+        goto nomem;
+    for (int64_t q = 0; q < nruns; q++)
+        parent[q] = q;
+    static const int before[4][2] = {{-1, -1}, {0, -1}, {1, -1}, {-1, 0}}; /* (dj, dk) */
+    for (int64_t r = 0; r < rows; r++) {
+        int64_t j = r % n[1], k = r / n[1];
+        for (int b = 0; b < 4; b++) {
+            int64_t jj = j + before[b][0], kk = k + before[b][1];
+            if (jj < 0 || jj >= n[1] || kk < 0)
+                continue;
+            int64_t o = jj + n[1] * kk, p = first[o];
+            for (int64_t q = first[r]; q < first[r + 1]; q++) {
+                while (p < first[o + 1] && run[2 * p + 1] < run[2 * q] - 1)
+                    p++; /* ends before q's reach */
+                for (int64_t x = p; x < first[o + 1] && run[2 * x] <= run[2 * q + 1] + 1; x++) {
+                    int64_t ra = run_root(parent, q), rb = run_root(parent, x);
+                    if (ra != rb)
+                        parent[ra > rb ? ra : rb] = ra < rb ? ra : rb;
+                }
+            }
+        }
+    }
+    int64_t count = 0;
+    for (int64_t q = 0; q < nruns; q++)
+        count += run_root(parent, q) == q;
     *components = count;
-    return st;
+    free(first);
+    free(run);
+    free(parent);
+    return SM_OK;
+nomem:
+    free(first);
+    free(run);
+    free(parent);
+    return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's components");
 }
 
 sm_status sm_image_mask(const sm_image *im, const sm_image_select *sel, uint8_t *mask,
@@ -91,17 +127,14 @@ sm_status sm_image_mask(const sm_image *im, const sm_image_select *sel, uint8_t 
     const double *m = im->ijk_to_lps;
     for (int64_t row = 0; row < n[1] * n[2]; row++) {
         const uint8_t *line = mask + row * n[0];
-        int64_t first = -1, last = -1;
-        for (int64_t i = 0; i < n[0]; i++) {
-            if (!line[i])
-                continue;
-            if (first < 0)
-                first = i;
-            last = i;
-            stats->voxels++;
-        }
-        if (first < 0)
+        const uint8_t *at1 = memchr(line, 1, (size_t)n[0]); /* most rows have none */
+        if (!at1)
             continue;
+        int64_t first = at1 - line, last = n[0] - 1;
+        while (!line[last])
+            last--;
+        for (int64_t i = first; i <= last; i++)
+            stats->voxels += line[i]; /* 0 or 1 */
         int64_t j = row % n[1], k = row / n[1], at[3][2] = {{first, last}, {j, j}, {k, k}};
         for (int c = 0; c < 3; c++) {
             if (at[c][0] < stats->index_lo[c])

@@ -4,21 +4,30 @@
  * `smooth` voxels: a binary mask's staircase is what the voxel-centre EDT
  * measures to, the smoothed level set is close to the shape it was
  * sampled from) or a float image's values; its level set at `level` as a
- * triangle surface by marching tetrahedra (Kuhn: 6 per cell of voxel
- * centres, so neighbouring cells agree and the surface is closed); the
- * signed voxel-centre EDT of the thresholded field (sm_edt.c) for the
- * far field, and within `band` voxels of the boundary the exact signed
- * distance to the surface (sm_sdf.h). */
+ * triangle surface by marching tetrahedra (sm_image_march.c); the signed
+ * distance at the crop's voxel centres, exact at the voxels next to the
+ * surface and through the nearest of those (sm_edt.h's nearest-site
+ * transform) beyond, for the far field; within `band` voxels of the
+ * boundary the exact signed distance to the surface at any point. */
 #include "shapematch/sm_image.h"
 
 #include <math.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "shapematch/sm_sdf.h"
+#include "sm_alloc.h"
+#include "sm_bvh.h"
+#include "sm_edt.h"
+#include "sm_image_march.h"
 
 struct sm_image_target {
     int64_t n[3];      /* the crop, in voxels */
+    int64_t act_lo[3], act_hi[3]; /* the crop's voxels where the field can
+                                   * differ from its value far outside:
+                                   * the selection's box and the blur's
+                                   * reach */
     double map[12];    /* crop index -> world (the image's frame) */
     double inv[12];    /* world -> crop index */
     double h[3];       /* spacing along the crop's axes */
@@ -28,6 +37,8 @@ struct sm_image_target {
     float *field;      /* the (smoothed) field the surface is a level of */
     double level;
     double band;       /* world units: exact within */
+    int grid_band;     /* the grid's band refined (whole_image: the grid
+                        * is the output; else points there are exact) */
     sm_surface *surface;
     /* the surface's triangles by the crop cell that made them (marching
      * emits them cell by cell): open addressing, key cell + 1 */
@@ -63,8 +74,13 @@ static void gauss1d(float *line, float *tmp, int64_t len, const double *w, int r
     memcpy(line, tmp, (size_t)len * sizeof *line);
 }
 
-/* Separable Gaussian blur of f (n voxels) with sigma voxels, zero beyond. */
-static sm_status blur(float *f, const int64_t n[3], double sigma, sm_error *err)
+/* Separable Gaussian blur of f (n voxels) with sigma voxels, zero beyond;
+ * f is zero outside the box lo..hi (inclusive) and is blurred there
+ * only: the box reaches the Gaussian's radius beyond every nonzero
+ * voxel, and a segment of a line summed with zero beyond it is the whole
+ * line's sum (the same terms in the same order, zeros left out). */
+static sm_status blur(float *f, const int64_t n[3], double sigma, const int64_t lo[3],
+                      const int64_t hi[3], sm_error *err)
 {
     int r = (int)ceil(3 * sigma);
     double w[64];
@@ -75,13 +91,14 @@ static sm_status blur(float *f, const int64_t n[3], double sigma, sm_error *err)
         sum += w[t + r] = exp(-0.5 * t * t / (sigma * sigma));
     for (int t = 0; t <= 2 * r; t++)
         w[t] /= sum;
-    int64_t len = n[0] > n[1] ? n[0] : n[1];
-    len = len > n[2] ? len : n[2];
+    int64_t m[3] = {hi[0] - lo[0] + 1, hi[1] - lo[1] + 1, hi[2] - lo[2] + 1};
+    int64_t len = m[0] > m[1] ? m[0] : m[1];
+    len = len > m[2] ? len : m[2];
     int64_t strides[3] = {1, n[0], n[0] * n[1]};
     int fail = 0;
     for (int a = 0; a < 3; a++) {
         int b = a == 0 ? 1 : 0, c = a == 2 ? 1 : 2;
-        int64_t lines = n[b] * n[c];
+        int64_t lines = m[b] * m[c];
 #pragma omp parallel reduction(| : fail)
         {
             float *line = malloc((size_t)len * 2 * sizeof *line);
@@ -90,228 +107,21 @@ static sm_status blur(float *f, const int64_t n[3], double sigma, sm_error *err)
             for (int64_t l = 0; l < lines; l++) {
                 if (!line)
                     continue;
-                int64_t base = (l % n[b]) * strides[b] + (l / n[b]) * strides[c];
+                int64_t base = (lo[b] + l % m[b]) * strides[b] + (lo[c] + l / m[b]) * strides[c] +
+                               lo[a] * strides[a];
                 int nonzero = 0;
-                for (int64_t q = 0; q < n[a]; q++)
+                for (int64_t q = 0; q < m[a]; q++)
                     nonzero |= (line[q] = f[base + q * strides[a]]) != 0.0f;
                 if (!nonzero) /* zero beyond too: it stays zero */
                     continue;
-                gauss1d(line, line + len, n[a], w, r);
-                for (int64_t q = 0; q < n[a]; q++)
+                gauss1d(line, line + len, m[a], w, r);
+                for (int64_t q = 0; q < m[a]; q++)
                     f[base + q * strides[a]] = line[q];
             }
             free(line);
         }
     }
     return fail ? sm_error_set(err, SM_ERR_NOMEM, "out of memory for the smoothing") : SM_OK;
-}
-
-/* ---- marching tetrahedra ---- */
-
-typedef struct mt_builder {
-    const float *f;
-    int64_t n[3];
-    double level;
-    const double *map;
-    double *coords;   /* 3 per vertex */
-    int32_t *tris;
-    int64_t nv, capv, nt, capt;
-    int64_t *keys;    /* edge hash: key + 1 (0: empty) */
-    int32_t *vals;
-    int64_t hcap;
-    int64_t cell;     /* the cell being marched, */
-    int64_t *tcell;   /* and each triangle's */
-    int64_t capc;
-    int fail;
-} mt_builder;
-
-static const int kuhn[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
-
-static int grow(void **p, int64_t *cap, int64_t need, size_t size)
-{
-    if (need <= *cap)
-        return 1;
-    int64_t c = *cap ? *cap : 1024;
-    while (c < need)
-        c *= 2;
-    void *q = realloc(*p, (size_t)c * size);
-    if (!q)
-        return 0;
-    *p = q;
-    *cap = c;
-    return 1;
-}
-
-static int rehash(mt_builder *b)
-{
-    int64_t cap = b->hcap ? b->hcap * 2 : 1 << 16;
-    int64_t *keys = calloc((size_t)cap, sizeof *keys);
-    int32_t *vals = malloc((size_t)cap * sizeof *vals);
-    if (!keys || !vals) {
-        free(keys);
-        free(vals);
-        return 0;
-    }
-    for (int64_t s = 0; s < b->hcap; s++) {
-        if (!b->keys[s])
-            continue;
-        uint64_t hsh = (uint64_t)b->keys[s] * 0x9E3779B97F4A7C15ull;
-        int64_t t = (int64_t)(hsh >> 20) & (cap - 1);
-        while (keys[t])
-            t = (t + 1) & (cap - 1);
-        keys[t] = b->keys[s];
-        vals[t] = b->vals[s];
-    }
-    free(b->keys);
-    free(b->vals);
-    b->keys = keys;
-    b->vals = vals;
-    b->hcap = cap;
-    return 1;
-}
-
-/* The surface vertex on the edge of nodes p (inside) and q (outside),
- * shared by every tetrahedron on that edge. */
-static int32_t edge_vertex(mt_builder *b, int64_t p, int64_t q)
-{
-    int64_t lo = p < q ? p : q, hi = p < q ? q : p;
-    int64_t key = lo * 27 + (hi - lo <= 1 ? 0 : hi - lo == b->n[0] ? 1 : hi - lo == b->n[0] + 1 ? 2
-                             : hi - lo == b->n[0] * b->n[1] ? 3 : hi - lo == b->n[0] * b->n[1] + 1 ? 4
-                             : hi - lo == b->n[0] * b->n[1] + b->n[0] ? 5 : 6) + 1;
-    if (2 * (b->nv + 1) > b->hcap && !rehash(b)) {
-        b->fail = 1;
-        return 0;
-    }
-    uint64_t hsh = (uint64_t)key * 0x9E3779B97F4A7C15ull;
-    int64_t t = (int64_t)(hsh >> 20) & (b->hcap - 1);
-    while (b->keys[t]) {
-        if (b->keys[t] == key)
-            return b->vals[t];
-        t = (t + 1) & (b->hcap - 1);
-    }
-    if (!grow((void **)&b->coords, &b->capv, 3 * (b->nv + 1), sizeof(double)) || b->nv >= INT32_MAX) {
-        b->fail = 1;
-        return 0;
-    }
-    /* interpolated from the lower node, so the same on every side */
-    double fl = b->f[lo], fh = b->f[hi], s = (b->level - fl) / (fh - fl);
-    double ijk[3];
-    for (int a = 0; a < 3; a++) {
-        int64_t stride = a == 0 ? 1 : a == 1 ? b->n[0] : b->n[0] * b->n[1];
-        double il = (double)((lo / stride) % b->n[a]), ih = (double)((hi / stride) % b->n[a]);
-        ijk[a] = il + s * (ih - il);
-    }
-    double *x = b->coords + 3 * b->nv;
-    for (int row = 0; row < 3; row++)
-        x[row] = b->map[4 * row] * ijk[0] + b->map[4 * row + 1] * ijk[1] +
-                 b->map[4 * row + 2] * ijk[2] + b->map[4 * row + 3];
-    b->keys[t] = key;
-    b->vals[t] = (int32_t)b->nv;
-    return (int32_t)b->nv++;
-}
-
-/* Triangle (a, b, c) turned so that its normal points away from the
- * inside node pin (world position). */
-static void add_tri(mt_builder *b, int32_t v0, int32_t v1, int32_t v2, const double *pin)
-{
-    if (b->fail || !grow((void **)&b->tris, &b->capt, 3 * (b->nt + 1), sizeof(int32_t)) ||
-        !grow((void **)&b->tcell, &b->capc, b->nt + 1, sizeof(int64_t)) || b->nt >= INT32_MAX) {
-        b->fail = 1;
-        return;
-    }
-    const double *a = b->coords + 3 * v0, *p = b->coords + 3 * v1, *q = b->coords + 3 * v2;
-    double u[3], v[3], nrm[3];
-    for (int k = 0; k < 3; k++) {
-        u[k] = p[k] - a[k];
-        v[k] = q[k] - a[k];
-    }
-    nrm[0] = u[1] * v[2] - u[2] * v[1];
-    nrm[1] = u[2] * v[0] - u[0] * v[2];
-    nrm[2] = u[0] * v[1] - u[1] * v[0];
-    double dot = nrm[0] * (a[0] - pin[0]) + nrm[1] * (a[1] - pin[1]) + nrm[2] * (a[2] - pin[2]);
-    b->tcell[b->nt] = b->cell;
-    int32_t *t = b->tris + 3 * b->nt++;
-    t[0] = v0;
-    t[1] = dot >= 0 ? v1 : v2;
-    t[2] = dot >= 0 ? v2 : v1;
-}
-
-static void world(const mt_builder *b, int64_t node, double *x)
-{
-    double ijk[3] = {(double)(node % b->n[0]), (double)((node / b->n[0]) % b->n[1]),
-                     (double)(node / (b->n[0] * b->n[1]))};
-    for (int row = 0; row < 3; row++)
-        x[row] = b->map[4 * row] * ijk[0] + b->map[4 * row + 1] * ijk[1] +
-                 b->map[4 * row + 2] * ijk[2] + b->map[4 * row + 3];
-}
-
-static void tetra(mt_builder *b, const int64_t v[4])
-{
-    int64_t in[4], out[4];
-    int ni = 0, no = 0;
-    for (int k = 0; k < 4; k++) {
-        if (b->f[v[k]] >= b->level)
-            in[ni++] = v[k];
-        else
-            out[no++] = v[k];
-    }
-    if (ni == 0 || no == 0)
-        return;
-    double pin[3];
-    world(b, in[0], pin);
-    if (ni == 1 || no == 1) {
-        int64_t apex = ni == 1 ? in[0] : out[0];
-        const int64_t *others = ni == 1 ? out : in;
-        int32_t t[3];
-        for (int k = 0; k < 3; k++)
-            t[k] = ni == 1 ? edge_vertex(b, apex, others[k]) : edge_vertex(b, others[k], apex);
-        add_tri(b, t[0], t[1], t[2], pin);
-        return;
-    }
-    /* two in, two out: the quad in0-out0, in0-out1, in1-out1, in1-out0 */
-    int32_t q0 = edge_vertex(b, in[0], out[0]), q1 = edge_vertex(b, in[0], out[1]);
-    int32_t q2 = edge_vertex(b, in[1], out[1]), q3 = edge_vertex(b, in[1], out[0]);
-    add_tri(b, q0, q1, q2, pin);
-    add_tri(b, q0, q2, q3, pin);
-}
-
-static sm_status march(mt_builder *b, sm_surface **out, sm_error *err)
-{
-    const int64_t *n = b->n;
-    int64_t sx = 1, sy = n[0], sz = n[0] * n[1];
-    for (int64_t k = 0; k + 1 < n[2] && !b->fail; k++)
-        for (int64_t j = 0; j + 1 < n[1]; j++)
-            for (int64_t i = 0; i + 1 < n[0]; i++) {
-                int64_t c = i + sy * j + sz * k;
-                int any_in = 0, any_out = 0;
-                for (int corner = 0; corner < 8; corner++) {
-                    int64_t node = c + (corner & 1 ? sx : 0) + (corner & 2 ? sy : 0) + (corner & 4 ? sz : 0);
-                    if (b->f[node] >= b->level)
-                        any_in = 1;
-                    else
-                        any_out = 1;
-                }
-                if (!any_in || !any_out)
-                    continue;
-                int64_t step[3] = {sx, sy, sz};
-                b->cell = c;
-                for (int t = 0; t < 6; t++) {
-                    int64_t v[4] = {c, 0, 0, 0};
-                    for (int s = 0; s < 3; s++)
-                        v[s + 1] = v[s] + step[kuhn[t][s]];
-                    tetra(b, v);
-                }
-            }
-    if (b->fail)
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface");
-    if (b->nt == 0)
-        return sm_error_set(err, SM_ERR_INVALID, "the label has no boundary (empty selection)");
-    sm_status st = sm_surface_alloc(out, 3, (int32_t)b->nv, (int32_t)b->nt, err);
-    if (st != SM_OK)
-        return st;
-    memcpy((*out)->coords, b->coords, (size_t)b->nv * 3 * sizeof(double));
-    memcpy((*out)->facets, b->tris, (size_t)b->nt * 3 * sizeof(int32_t));
-    return SM_OK;
 }
 
 /* ---- the target ---- */
@@ -351,21 +161,35 @@ static sm_status crop_field(const sm_image *im, const uint8_t *mask, const sm_im
                             double *level, sm_error *err)
 {
     const int64_t *n = im->dims;
-    int64_t lo[3] = {n[0], n[1], n[2]}, hi[3] = {-1, -1, -1};
-    for (int64_t v = 0; v < n[0] * n[1] * n[2]; v++) {
-        if (!mask[v])
+    int64_t lo0 = n[0], lo1 = n[1], lo2 = n[2], hi0 = -1, hi1 = -1, hi2 = -1;
+#pragma omp parallel for schedule(static) reduction(min : lo0, lo1, lo2) reduction(max : hi0, hi1, hi2)
+    for (int64_t r = 0; r < n[1] * n[2]; r++) {
+        const uint8_t *row = mask + r * n[0];
+        int64_t first = -1, last = -1;
+        for (int64_t i = 0; i < n[0]; i++)
+            if (row[i]) {
+                first = first < 0 ? i : first;
+                last = i;
+            }
+        if (first < 0)
             continue;
-        int64_t idx[3] = {v % n[0], (v / n[0]) % n[1], v / (n[0] * n[1])};
-        for (int c = 0; c < 3; c++) {
-            lo[c] = idx[c] < lo[c] ? idx[c] : lo[c];
-            hi[c] = idx[c] > hi[c] ? idx[c] : hi[c];
-        }
+        int64_t j = r % n[1], k = r / n[1];
+        lo0 = first < lo0 ? first : lo0;
+        hi0 = last > hi0 ? last : hi0;
+        lo1 = j < lo1 ? j : lo1;
+        hi1 = j > hi1 ? j : hi1;
+        lo2 = k < lo2 ? k : lo2;
+        hi2 = k > hi2 ? k : hi2;
     }
+    int64_t lo[3] = {lo0, lo1, lo2}, hi[3] = {hi0, hi1, hi2};
     if (hi[0] < 0)
         return sm_error_set(err, SM_ERR_INVALID, "the selected label is empty");
     int raw = !sel->has_label && (im->type == SM_VOXEL_F32 || im->type == SM_VOXEL_F64);
     double smooth = raw ? 0 : o->smooth;
     int64_t pad = (int64_t)ceil(3 * smooth) + 2 + (int64_t)ceil(o->pad_voxels);
+    int64_t reach = smooth > 0 ? (int64_t)fmin(31, ceil(3 * smooth)) : 0, llo[3], lhi[3];
+    memcpy(llo, lo, sizeof llo);
+    memcpy(lhi, hi, sizeof lhi);
     int64_t total = 1;
     for (int c = 0; c < 3; c++) {
         lo[c] -= pad;
@@ -379,22 +203,29 @@ static sm_status crop_field(const sm_image *im, const uint8_t *mask, const sm_im
     }
     if (total > SM_IMAGE_MAX_VOXELS / 4)
         return sm_error_set(err, SM_ERR_INVALID, "the padded label box has too many voxels");
-    float *f = malloc((size_t)total * sizeof *f);
+    float *f = sm__alloc_huge((size_t)total * sizeof *f); /* written at once */
     if (!f)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's field");
-    /* outside the image: background (0, below any level) */
+    for (int c = 0; c < 3; c++) {
+        t->act_lo[c] = llo[c] - reach - lo[c] > 0 ? llo[c] - reach - lo[c] : 0;
+        t->act_hi[c] = lhi[c] + reach - lo[c] < t->n[c] - 1 ? lhi[c] + reach - lo[c] : t->n[c] - 1;
+    }
+    /* a row at a time; outside the image: background (0, below any level) */
+    float outside = raw ? (float)fmin(0, sel->level - 1) : 0.0f;
 #pragma omp parallel for schedule(static)
-    for (int64_t v = 0; v < total; v++) {
-        int64_t idx[3] = {lo[0] + v % t->n[0], lo[1] + (v / t->n[0]) % t->n[1],
-                          lo[2] + v / (t->n[0] * t->n[1])};
-        int in = idx[0] >= 0 && idx[1] >= 0 && idx[2] >= 0 && idx[0] < n[0] && idx[1] < n[1] &&
-                 idx[2] < n[2];
-        int64_t at = in ? idx[0] + n[0] * (idx[1] + n[1] * idx[2]) : 0;
-        f[v] = !in ? (raw ? (float)fmin(0, sel->level - 1) : 0.0f)
-               : raw ? (float)sm_image_value(im, at) : (float)mask[at];
+    for (int64_t r = 0; r < t->n[1] * t->n[2]; r++) {
+        int64_t j = lo[1] + r % t->n[1], k = lo[2] + r / t->n[1];
+        float *row = f + r * t->n[0];
+        int in = j >= 0 && k >= 0 && j < n[1] && k < n[2];
+        for (int64_t v = 0; v < t->n[0]; v++) {
+            int64_t i = lo[0] + v;
+            int64_t at = i + n[0] * (j + n[1] * k);
+            row[v] = !in || i < 0 || i >= n[0] ? outside
+                     : raw ? (float)sm_image_value(im, at) : (float)mask[at];
+        }
     }
     *level = raw ? sel->level : 0.5;
-    sm_status st = smooth > 0 ? blur(f, t->n, smooth, err) : SM_OK;
+    sm_status st = smooth > 0 ? blur(f, t->n, smooth, t->act_lo, t->act_hi, err) : SM_OK;
     if (st != SM_OK) {
         free(f);
         return st;
@@ -506,13 +337,30 @@ static int32_t cell_triangles(const sm_image_target *t, int64_t c, int32_t *coun
     return 0;
 }
 
+/* How far index q lies from the cell [c, c + 1] along one axis. */
+static inline double gap(double c, double q)
+{
+    return q < c ? c - q : q > c + 1 ? q - (c + 1) : 0;
+}
+
 /* Distance from world point p to the surface, exactly: the cells in
  * Chebyshev rings around the cell of p's crop index (clamped into the
  * crop: for a point outside it, the clamped index is its projection on
  * the crop's box, no farther in index space from any cell than p), ring
  * by ring until the next ring's cells (>= k index steps away, each at
  * least smin long) cannot be nearer than the nearest triangle found. */
-static double surface_distance(const sm_image_target *t, const double *p)
+static double surface_distance_from(const sm_image_target *t, const double *p, double best2,
+                                    int32_t bestf, double *closest);
+
+static double surface_distance(const sm_image_target *t, const double *p, double *closest)
+{
+    return surface_distance_from(t, p, INFINITY, -1, closest);
+}
+
+/* The same, with a triangle bestf at squared distance best2 already
+ * known (-1, INFINITY: none). */
+static double surface_distance_from(const sm_image_target *t, const double *p, double best2,
+                                    int32_t bestf, double *closest)
 {
     int64_t c0[3], m[3];
     double qc[3]; /* p's index, clamped into the crop */
@@ -526,7 +374,6 @@ static double surface_distance(const sm_image_target *t, const double *p)
     }
     double s2 = t->smin * t->smin;
     const sm_surface *s = t->surface;
-    double best2 = INFINITY;
     int64_t kmax = m[0] > m[1] ? m[0] : m[1];
     kmax = kmax > m[2] ? kmax : m[2];
     for (int64_t k = 0; k <= kmax; k++) {
@@ -534,16 +381,16 @@ static double surface_distance(const sm_image_target *t, const double *p)
             int64_t z = c0[2] + dz;
             if (z < 0 || z >= m[2])
                 continue;
-            double gz = fmax(0, fmax((double)z - qc[2], qc[2] - (double)(z + 1)));
+            double gz = gap((double)z, qc[2]);
             for (int64_t dy = -k; dy <= k; dy++) {
                 int64_t y = c0[1] + dy;
                 if (y < 0 || y >= m[1])
                     continue;
-                double gy = fmax(0, fmax((double)y - qc[1], qc[1] - (double)(y + 1)));
+                double gy = gap((double)y, qc[1]);
                 int face = dz == -k || dz == k || dy == -k || dy == k;
                 for (int64_t dx = -k; dx <= k; dx += face ? 1 : 2 * k) {
                     int64_t x = c0[0] + dx;
-                    double gx = fmax(0, fmax((double)x - qc[0], qc[0] - (double)(x + 1)));
+                    double gx = gap((double)x, qc[0]);
                     /* the cell's box is at least this far (index gaps,
                      * each index unit at least smin long) */
                     if (x >= 0 && x < m[0] && s2 * (gx * gx + gy * gy + gz * gz) < best2) {
@@ -554,7 +401,10 @@ static double surface_distance(const sm_image_target *t, const double *p)
                             double d2 = sm_sdf_point_triangle2(p, s->coords + 3 * v[0],
                                                                s->coords + 3 * v[1],
                                                                s->coords + 3 * v[2]);
-                            best2 = d2 < best2 ? d2 : best2;
+                            if (d2 < best2) {
+                                best2 = d2;
+                                bestf = f;
+                            }
                         }
                     }
                     if (k == 0)
@@ -565,6 +415,14 @@ static double surface_distance(const sm_image_target *t, const double *p)
         double reach = (double)k * t->smin;
         if (reach * reach >= best2)
             break;
+    }
+    if (closest && bestf >= 0) {
+        const int32_t *v = s->facets + 3 * bestf;
+        const double *a = s->coords + 3 * v[0], *b = s->coords + 3 * v[1], *c = s->coords + 3 * v[2];
+        double w[3];
+        sm__triangle_closest(p, a, b, c, w);
+        for (int row = 0; row < 3; row++)
+            closest[row] = w[0] * a[row] + w[1] * b[row] + w[2] * c[row];
     }
     return sqrt(best2);
 }
@@ -606,6 +464,261 @@ static double field_at(const sm_image_target *t, const double *p)
     return v;
 }
 
+/* *best2 lowered to the squared distance from p to cell's triangles
+ * nearer than it, *bestf to the nearest of them (triangles whose box is
+ * not nearer are skipped). */
+static void cell_nearest(const sm_image_target *t, int64_t cell, const double *p, double *best2,
+                         int32_t *bestf)
+{
+    const sm_surface *s = t->surface;
+    int32_t count, first = cell_triangles(t, cell, &count);
+    double w[3];
+    for (int32_t f = first; f < first + count; f++) {
+        const int32_t *v = s->facets + 3 * f;
+        const double *a = s->coords + 3 * v[0], *b = s->coords + 3 * v[1], *c = s->coords + 3 * v[2];
+        double box2 = 0;
+        for (int r = 0; r < 3; r++) {
+            double lo = a[r] < b[r] ? a[r] : b[r], hi = a[r] < b[r] ? b[r] : a[r];
+            lo = c[r] < lo ? c[r] : lo;
+            hi = c[r] > hi ? c[r] : hi;
+            double g = p[r] < lo ? lo - p[r] : p[r] > hi ? p[r] - hi : 0;
+            box2 += g * g;
+        }
+        if (box2 >= *best2)
+            continue;
+        double d2 = sm__triangle_closest(p, a, b, c, w);
+        if (d2 < *best2) {
+            *best2 = d2;
+            *bestf = f;
+        }
+    }
+}
+
+/* The nearest surface point of the voxel centre at ijk, a corner of a
+ * cell the surface passes through: the triangles of the (up to) 8 cells
+ * around it first; every other cell is at least one index step away,
+ * smin in the world, so a point nearer than that is the nearest; else
+ * the general search. */
+static void site_foot(const sm_image_target *t, const int32_t *ijk, double *foot)
+{
+    double x[3];
+    for (int row = 0; row < 3; row++)
+        x[row] = t->map[4 * row] * ijk[0] + t->map[4 * row + 1] * ijk[1] +
+                 t->map[4 * row + 2] * ijk[2] + t->map[4 * row + 3];
+    const sm_surface *s = t->surface;
+    double best2 = INFINITY, w[3];
+    int32_t bestf = -1;
+    for (int corner = 0; corner < 8; corner++) {
+        int64_t c[3] = {ijk[0] - (corner & 1), ijk[1] - (corner >> 1 & 1), ijk[2] - (corner >> 2 & 1)};
+        if (c[0] >= 0 && c[1] >= 0 && c[2] >= 0 && c[0] < t->n[0] - 1 && c[1] < t->n[1] - 1 &&
+            c[2] < t->n[2] - 1)
+            cell_nearest(t, c[0] + t->n[0] * (c[1] + t->n[1] * c[2]), x, &best2, &bestf);
+    }
+    if (bestf < 0 || best2 > t->smin * t->smin) {
+        surface_distance_from(t, x, best2, bestf, foot);
+        return;
+    }
+    const int32_t *v = s->facets + 3 * bestf;
+    const double *a = s->coords + 3 * v[0], *b = s->coords + 3 * v[1], *c = s->coords + 3 * v[2];
+    sm__triangle_closest(x, a, b, c, w);
+    for (int row = 0; row < 3; row++)
+        foot[row] = w[0] * a[row] + w[1] * b[row] + w[2] * c[row];
+}
+
+/* The crop cell holding world point x (on its border: either). */
+static int64_t foot_cell(const sm_image_target *t, const double *x)
+{
+    int64_t c[3];
+    for (int row = 0; row < 3; row++) {
+        double q = t->inv[4 * row] * x[0] + t->inv[4 * row + 1] * x[1] + t->inv[4 * row + 2] * x[2] +
+                   t->inv[4 * row + 3];
+        double f = floor(q);
+        c[row] = !(f >= 0) ? 0 : f > (double)(t->n[row] - 2) ? t->n[row] - 2 : (int64_t)f;
+    }
+    return c[0] + t->n[0] * (c[1] + t->n[1] * c[2]);
+}
+
+/* One slice k of the distance from the sites (distance_field): each
+ * voxel's own nearest site and its six neighbours' (their sites' surface
+ * points are as near, often nearer: the nearest site by voxel centres is
+ * not always the one with the nearest point), the nearest of those
+ * points; signed by the field.  below/above: slices k - 1 and k + 1 of
+ * sites (NULL beyond the grid). */
+static void slice_distance(const sm_image_target *t, const float *f, double level,
+                           const double *foot, const int32_t *below, const int32_t *slice,
+                           const int32_t *above, int64_t k, float *out)
+{
+    const int64_t *n = t->n;
+    for (int64_t j = 0; j < n[1]; j++) {
+        const int32_t *row = slice + j * n[0];
+        const int32_t *nb[4] = {j > 0 ? row - n[0] : NULL, j + 1 < n[1] ? row + n[0] : NULL,
+                                below ? below + j * n[0] : NULL, above ? above + j * n[0] : NULL};
+        double x[3];
+        for (int r = 0; r < 3; r++)
+            x[r] = t->map[4 * r + 1] * (double)j + t->map[4 * r + 2] * (double)k + t->map[4 * r + 3];
+        /* outside the active box the field is below the level */
+        int box = j >= t->act_lo[1] && j <= t->act_hi[1] && k >= t->act_lo[2] && k <= t->act_hi[2];
+        for (int64_t i = 0; i < n[0]; i++) {
+            double p[3] = {x[0] + t->map[0] * (double)i, x[1] + t->map[4] * (double)i,
+                           x[2] + t->map[8] * (double)i};
+            /* the neighbours' sites, most often the voxel's own */
+            int32_t own = row[i], cand[6] = {i > 0 ? row[i - 1] : own, i + 1 < n[0] ? row[i + 1] : own,
+                                             nb[0] ? nb[0][i] : own, nb[1] ? nb[1][i] : own,
+                                             nb[2] ? nb[2][i] : own, nb[3] ? nb[3][i] : own};
+            const double *q = foot + 3 * (int64_t)own;
+            double best = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
+                          (p[2] - q[2]) * (p[2] - q[2]);
+            for (int c = 0; c < 6; c++) {
+                if (cand[c] == own)
+                    continue;
+                q = foot + 3 * (int64_t)cand[c];
+                double d2 = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
+                            (p[2] - q[2]) * (p[2] - q[2]);
+                best = d2 < best ? d2 : best;
+            }
+            if (t->grid_band && best <= t->band * t->band)
+                /* within the band: the other triangles of the cell holding
+                 * the voxel's own site's point too (the surface around
+                 * that point, where a nearer one most often is) */
+                cell_nearest(t, foot_cell(t, foot + 3 * (int64_t)own), p, &best, &(int32_t){0});
+            int64_t v = (k * n[1] + j) * n[0] + i;
+            float d = sqrtf((float)best); /* as near as sqrt then rounding */
+            out[j * n[0] + i] = box && i >= t->act_lo[0] && i <= t->act_hi[0] && f[v] >= level ? -d : d;
+        }
+    }
+}
+
+/* The distances from the sites over the sites themselves (t->edt: each
+ * voxel's site, int32, becomes its distance, float): each thread takes a
+ * slab of slices in order and writes a slice back once the next one is
+ * done (no slice is needed after its neighbours are); the slices next to
+ * a slab, another thread's, are copied before anyone writes. */
+static sm_status site_distances(sm_image_target *t, const float *f, double level,
+                                const double *foot, int32_t *near, sm_error *err)
+{
+    const int64_t *n = t->n;
+    int64_t plane = n[0] * n[1];
+    int threads = omp_get_max_threads();
+    if (threads > n[2])
+        threads = (int)n[2];
+    /* per thread: its first and last slice's sites, two slices of output */
+    int32_t *edges = malloc((size_t)threads * 2 * (size_t)plane * sizeof *edges);
+    float *bufs = malloc((size_t)threads * 2 * (size_t)plane * sizeof *bufs);
+    if (!edges || !bufs) {
+        free(edges);
+        free(bufs);
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's sites");
+    }
+#pragma omp parallel num_threads(threads)
+    {
+        int me = omp_get_thread_num(), nt = omp_get_num_threads();
+        int64_t k0 = n[2] * me / nt, k1 = n[2] * (me + 1) / nt;
+        int32_t *first = edges + (size_t)(2 * me) * (size_t)plane, *last = first + plane;
+        if (k1 > k0) {
+            memcpy(first, near + k0 * plane, (size_t)plane * sizeof *first);
+            memcpy(last, near + (k1 - 1) * plane, (size_t)plane * sizeof *last);
+        }
+#pragma omp barrier
+        float *buf[2] = {bufs + (size_t)(2 * me) * (size_t)plane,
+                         bufs + (size_t)(2 * me + 1) * (size_t)plane};
+        for (int64_t k = k0; k < k1; k++) {
+            const int32_t *below = k == 0 ? NULL
+                                   : k == k0 ? edges + (size_t)(2 * me - 1) * (size_t)plane
+                                             : near + (k - 1) * plane;
+            const int32_t *above = k + 1 == n[2] ? NULL
+                                   : k + 1 == k1 ? edges + (size_t)(2 * me + 2) * (size_t)plane
+                                                 : near + (k + 1) * plane;
+            slice_distance(t, f, level, foot, below, near + k * plane, above, k, buf[k & 1]);
+            if (k > k0) /* slice k - 1 is no one's neighbour any more */
+                memcpy(t->edt + (k - 1) * plane, buf[(k - 1) & 1], (size_t)plane * sizeof(float));
+        }
+        if (k1 > k0)
+            memcpy(t->edt + (k1 - 1) * plane, buf[(k1 - 1) & 1], (size_t)plane * sizeof(float));
+    }
+    free(edges);
+    free(bufs);
+    return SM_OK;
+}
+
+/* The signed distance at every crop voxel centre into t->edt: the sites
+ * are the corners of the cells the surface passes through (every voxel
+ * within a cell of it), each with its exact nearest surface point; every
+ * other voxel takes the nearest site's (sm__edt_nearest, on the grid's
+ * axis lengths) and its distance to that point, a point of the surface:
+ * an upper bound, off by the square of the sites' sideways offset over
+ * twice the distance, so the far field is close to exact where the
+ * voxel-centre EDT is off by up to a voxel.  The sign: the field at the
+ * node against the level (the surface's inside).  t->edt holds the sites
+ * (int32) until each voxel's float replaces its own. */
+static sm_status distance_field(sm_image_target *t, const float *f, double level,
+                                const int64_t *tcell, int64_t nt, sm_error *err)
+{
+
+    const int64_t *n = t->n;
+    int64_t total = n[0] * n[1] * n[2], sy = n[0], sz = n[0] * n[1];
+    int32_t *near = (int32_t *)t->edt;
+    memset(near, 0xff, (size_t)total * sizeof *near); /* -1: no site */
+    int32_t *ijk = NULL;
+    double *foot = NULL;
+    int64_t nsites = 0, cap = 0;
+    for (int64_t i = 0; i < nt; i++) {
+        if (i > 0 && tcell[i] == tcell[i - 1])
+            continue;
+        int64_t c = tcell[i];
+        for (int corner = 0; corner < 8; corner++) {
+            int64_t v = c + (corner & 1) + (corner & 2 ? sy : 0) + (corner & 4 ? sz : 0);
+            if (near[v] >= 0)
+                continue;
+            if (!sm__image_grow((void **)&ijk, &cap, nsites + 1, 3 * sizeof *ijk) ||
+                nsites >= INT32_MAX) {
+                free(ijk);
+                return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's sites");
+            }
+            near[v] = (int32_t)nsites;
+            ijk[3 * nsites] = (int32_t)(v % n[0]);
+            ijk[3 * nsites + 1] = (int32_t)((v / sy) % n[1]);
+            ijk[3 * nsites + 2] = (int32_t)(v / sz);
+            nsites++;
+        }
+    }
+    foot = malloc((size_t)nsites * 3 * sizeof *foot);
+    if (!foot) {
+        free(ijk);
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's sites");
+    }
+#pragma omp parallel for schedule(dynamic, 256)
+    for (int64_t k = 0; k < nsites; k++)
+        site_foot(t, ijk + 3 * k, foot + 3 * k);
+    sm_status st = sm__edt_nearest(n, t->h, ijk, nsites, near, err);
+    free(ijk);
+    if (st == SM_OK)
+        st = site_distances(t, f, level, foot, near, err);
+    free(foot);
+    return st;
+}
+
+/* The voxel-centre signed EDT of the thresholded field (sm_image.h). */
+sm_status sm_image_target_voxel_edt(const sm_image_target *t, float **edt, sm_error *err)
+{
+    int64_t total = t->n[0] * t->n[1] * t->n[2];
+    uint8_t *mask = malloc((size_t)total);
+    *edt = malloc((size_t)total * sizeof **edt);
+    sm_status st = mask && *edt ? SM_OK
+                   : sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance transform");
+    if (st == SM_OK) {
+#pragma omp parallel for schedule(static)
+        for (int64_t v = 0; v < total; v++)
+            mask[v] = t->field[v] >= t->level;
+        st = sm_edt_signed(t->n, t->h, mask, *edt, err);
+    }
+    free(mask);
+    if (st != SM_OK) {
+        free(*edt);
+        *edt = NULL;
+    }
+    return st;
+}
+
 sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_image_select *sel,
                               const sm_image_target_opts *o, sm_image_target **out, sm_error *err)
 {
@@ -614,29 +727,20 @@ sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_
     if (!t)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory");
     float *f = NULL;
-    double level;
-    uint8_t *cmask = NULL;
+    double level = 0.5;
     sm_status st = crop_field(im, mask, sel, o, t, &f, &level, err);
     if (st != SM_OK)
         goto done;
     invert(t->map, t->inv);
     int64_t total = t->n[0] * t->n[1] * t->n[2];
-    cmask = malloc((size_t)total);
-    t->edt = malloc((size_t)total * sizeof *t->edt);
-    if (!cmask || !t->edt) {
+    t->edt = sm__alloc_huge((size_t)total * sizeof *t->edt); /* written at once */
+    if (!t->edt) {
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance transform");
         goto done;
     }
-#pragma omp parallel for schedule(static)
-    for (int64_t v = 0; v < total; v++)
-        cmask[v] = f[v] >= level;
-    st = sm_edt_signed(t->n, t->h, cmask, t->edt, err);
-    free(cmask); /* before the surface grows */
-    cmask = NULL;
-    if (st != SM_OK)
-        goto done;
-    mt_builder b = {.f = f, .n = {t->n[0], t->n[1], t->n[2]}, .level = level, .map = t->map};
-    st = march(&b, &t->surface, err);
+    mt_builder b = {.f = f, .n = {t->n[0], t->n[1], t->n[2]}, .lo = t->act_lo, .hi = t->act_hi,
+                    .level = level, .map = t->map};
+    st = sm__image_march(&b, &t->surface, err);
     if (st == SM_ERR_INVALID && o->smooth > 0 && level == 0.5)
         /* a label thinner than about two sigmas is smoothed below 0.5 */
         st = sm_error_set(err, SM_ERR_INVALID, "the label's boundary vanished under the smoothing "
@@ -648,20 +752,22 @@ sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_
     free(b.vals);
     if (st == SM_OK)
         st = index_cells(t, b.tcell, b.nt, err);
+    if (st == SM_OK) {
+        t->band = o->band_voxels * fmax(t->h[0], fmax(t->h[1], t->h[2]));
+        t->grid_band = o->whole_image;
+        t->smin = smallest_singular(t->map);
+        st = distance_field(t, f, level, b.tcell, b.nt, err);
+    }
     free(b.tcell);
     if (st != SM_OK)
         goto done;
-    double hmax = fmax(t->h[0], fmax(t->h[1], t->h[2]));
-    t->band = o->band_voxels * hmax;
     t->field = f; /* the sign near the surface */
     t->level = level;
     f = NULL;
-    t->smin = smallest_singular(t->map);
     if (o->hierarchy)
         st = sm_sdf_new(t->surface, &t->sdf, err);
 done:
     free(f);
-    free(cmask);
     if (st != SM_OK)
         sm_image_target_free(t);
     else
@@ -684,6 +790,13 @@ void sm_image_target_grid(const sm_image_target *t, int64_t n[3], double map[12]
     memcpy(n, t->n, 3 * sizeof *n);
     memcpy(map, t->map, 12 * sizeof *map);
     *edt = t->edt;
+}
+
+float *sm_image_target_take_grid(sm_image_target *t)
+{
+    float *d = t->edt;
+    t->edt = NULL;
+    return d;
 }
 
 /* Trilinear EDT at world point x; NAN outside the crop. */
@@ -751,12 +864,12 @@ static double signed_at(const sm_image_target *t, const double *p, int *exact)
         if (up > 2 * t->band)
             return up;
         *exact = 1;
-        return surface_distance(t, p);
+        return surface_distance(t, p, NULL);
     }
     if (fabs(e) > t->band)
         return e;
     *exact = 1;
-    double d = surface_distance(t, p);
+    double d = surface_distance(t, p, NULL);
     return field_at(t, p) >= t->level ? -d : d;
 }
 

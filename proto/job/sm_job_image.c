@@ -80,7 +80,7 @@ static sm_status build(const sm_image *im, const char *path, const sm_image_sele
                 hi[row] = fmax(hi[row], w);
             }
         double diag = hypot(hypot(hi[0] - lo[0], hi[1] - lo[1]), hi[2] - lo[2]);
-        /* the crop covers the background's margin, so that the EDT (not
+        /* the crop covers the background's margin, so that the grid (not
          * the positive extension) gives the far field there */
         sm_image_target_opts to = {smooth, 3.0, fmin(64, padding * diag / hmin + 1), 0,
                                    whole_image};
@@ -170,6 +170,22 @@ sm_status sm_job_image_contour(const char *path, sm_image_limits *limits,
     return st;
 }
 
+static double det3(const double *u, const double *v, const double *w)
+{
+    return u[0] * (v[1] * w[2] - v[2] * w[1]) - v[0] * (u[1] * w[2] - u[2] * w[1]) +
+           w[0] * (u[1] * v[2] - u[2] * v[1]);
+}
+
+/* x solving the 3x3 part of the 3x4 map m: m x = r (Cramer's rule). */
+static void solve3(const double *m, const double *r, double *x)
+{
+    double c0[3] = {m[0], m[4], m[8]}, c1[3] = {m[1], m[5], m[9]}, c2[3] = {m[2], m[6], m[10]};
+    double det = det3(c0, c1, c2);
+    x[0] = det3(r, c1, c2) / det;
+    x[1] = det3(c0, r, c2) / det;
+    x[2] = det3(c0, c1, r) / det;
+}
+
 sm_status sm_job_image_grid_distance(const char *path, sm_image_limits *limits,
                                      const sm_image_select *sel, sm_image_space space,
                                      double smooth, sm_image **out, sm_job_image_info *info,
@@ -194,34 +210,33 @@ sm_status sm_job_image_grid_distance(const char *path, sm_image_limits *limits,
         sm_image_free(im);
         return st;
     }
+    /* the crop covers the image: its distance read at the image's voxels
+     * (the crop's index of image voxel 0 from the two maps' origins) */
     const int64_t *n = im->dims;
-    int64_t total = n[0] * n[1] * n[2];
-    /* the voxel centres a block of image rows at a time (the signed
-     * distance's threads share a block's points) */
-    int64_t lines = n[1] * n[2], per = 65536 / n[0] + 1;
-    size_t block = (size_t)(per * n[0]);
-    double *pts = malloc(block * 3 * sizeof *pts);
-    double *row = malloc(block * sizeof *row);
-    float *d = malloc((size_t)total * sizeof *d);
-    if (!pts || !row || !d)
+    int64_t total = n[0] * n[1] * n[2], cn[3], off[3];
+    double cm[12];
+    const float *cd;
+    sm_image_target_grid(t, cn, cm, &cd);
+    const double *m = im->ijk_to_lps;
+    double r[3] = {m[3] - cm[3], m[7] - cm[7], m[11] - cm[11]}, x[3];
+    solve3(cm, r, x);
+    for (int c = 0; c < 3; c++)
+        off[c] = (int64_t)llround(x[c]);
+    if (off[0] < 0 || off[1] < 0 || off[2] < 0 || off[0] + n[0] > cn[0] || off[1] + n[1] > cn[1] ||
+        off[2] + n[2] > cn[2])
+        st = sm_error_set(err, SM_ERR_INVALID, "the distance's grid does not cover the image");
+    int same = st == SM_OK && cn[0] == n[0] && cn[1] == n[1] && cn[2] == n[2];
+    float *d = same ? sm_image_target_take_grid(t) /* the crop is the image */
+               : st == SM_OK ? malloc((size_t)total * sizeof *d) : NULL;
+    if (st == SM_OK && !d)
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance on %lld voxels",
                           (long long)total);
-    const double *m = im->ijk_to_lps;
-    for (int64_t first = 0; st == SM_OK && first < lines; first += per) {
-        int64_t last = first + per < lines ? first + per : lines, count = 0;
-        for (int64_t line = first; line < last; line++) {
-            double j = (double)(line % n[1]), k = (double)(line / n[1]);
-            for (int64_t i = 0; i < n[0]; i++, count++)
-                for (int r = 0; r < 3; r++)
-                    pts[3 * count + r] = m[4 * r] * (double)i + m[4 * r + 1] * j +
-                                         m[4 * r + 2] * k + m[4 * r + 3];
-        }
-        st = sm_image_target_signed(t, count, pts, row, NULL, err);
-        for (int64_t v = 0; st == SM_OK && v < count; v++)
-            d[first * n[0] + v] = (float)row[v];
+#pragma omp parallel for schedule(static) if (st == SM_OK && !same)
+    for (int64_t line = 0; line < (st == SM_OK && !same ? n[1] * n[2] : 0); line++) {
+        int64_t j = line % n[1], k = line / n[1];
+        memcpy(d + line * n[0], cd + off[0] + cn[0] * (off[1] + j + cn[1] * (off[2] + k)),
+               (size_t)n[0] * sizeof *d);
     }
-    free(pts);
-    free(row);
     sm_image_target_free(t);
     if (st != SM_OK) {
         free(d);

@@ -10,8 +10,10 @@
  *      a float image without a label) and summarise them (voxel count,
  *      26-connected components, world box, border contact); an empty
  *      selection is refused;
- *   3. sm_image_target_new: the smoothed level-set surface, the EDT on
- *      the crop, the exact distance near the surface;
+ *   3. sm_image_target_new: the smoothed level-set surface, the signed
+ *      distance at the crop's voxel centres (exact next to the surface,
+ *      through the nearest such voxel's surface point beyond), the exact
+ *      distance near the surface at any point;
  *   4. a background graded toward that surface over the box of the
  *      surface (and of the template, when one is given) padded by
  *      `padding` of its diagonal, near-surface cells of the voxel size
@@ -40,7 +42,7 @@ typedef struct sm_job_image_info {
     sm_label_stats stats;    /* in the template's frame */
     int32_t surface_triangles;
     int64_t exact_vertices;  /* background vertices computed exactly */
-    double seconds;          /* reading, selection, surface and EDT */
+    double seconds;          /* reading, selection, surface and grid */
 } sm_job_image_info;
 
 /* The selection params give: label (0: none), level. */
@@ -56,8 +58,10 @@ sm_status sm_job_image_target(const char *path, sm_image_limits *limits, const s
 
 /* The accurate signed distance on the image's own grid, for `sdf
  * --image -o dist.nii.gz`: steps 1-3 with the crop covering the whole
- * image, then sm_image_target_signed at every voxel centre (exact within
- * the band, the EDT beyond).  *out is a float32 image with the file's
+ * image, whose grid (sm_image_target_grid) is then the image's: exact at
+ * the voxels next to the surface, elsewhere the distance to the nearest
+ * of their surface points (never below the exact distance; within the
+ * band also the triangles around that point).  *out is a float32 image with the file's
  * geometry (LPS, whatever space is: the values are lengths, the frame
  * only places the label), for sm_image_write; free with sm_image_free. */
 sm_status sm_job_image_grid_distance(const char *path, sm_image_limits *limits,

@@ -147,20 +147,26 @@ sm_status sm_edt_signed(const int64_t n[3], const double h[3], const uint8_t *ma
  * (integer images or a --label; a float image without one keeps its
  * values and the selection's level); its level set (0.5, or the level) as
  * a closed, outward triangle surface (marching tetrahedra, 6 Kuhn
- * tetrahedra per cell of voxel centres); the signed voxel-centre EDT of
- * the thresholded field on the crop; sm_image_target_signed gives the
- * exact signed distance to the surface within band_voxels (times the
- * largest spacing) of it, the EDT's trilinear interpolation elsewhere in
- * the crop, and beyond the crop (a background larger than the crop) the
- * distance to the crop plus the EDT at its nearest point (an upper
- * bound, positive; exact when that bound is within twice the band).  The exact distance needs no hierarchy: the surface's
- * triangles are indexed by the crop cell that made them, and a point's
- * nearest one is found in rings of cells around it (the nearest triangle
- * of a point within the band lies a few cells away); its sign is the
- * side of the marching's piecewise-linear field (the Kuhn tetrahedron
- * holding the point), the surface's own inside.  The EDT is exact in the world for
- * orthogonal voxel axes (any rotation, any spacing); sheared axes make it
- * an approximation there, the band is exact either way. */
+ * tetrahedra per cell of voxel centres); the signed distance at every
+ * crop voxel centre: exact at the corners of the cells the surface
+ * passes through (the sites), elsewhere the distance to the nearest
+ * surface point of the nearest site (a separable nearest-site transform)
+ * or of a face neighbour's, whichever is nearer: never below the exact
+ * distance, near it (the grid, sm_image_target_grid);
+ * sm_image_target_signed gives the exact signed distance to the surface
+ * within band_voxels (times the largest spacing) of it, the grid's
+ * trilinear interpolation elsewhere in the crop, and beyond the crop (a
+ * background larger than the crop) the distance to the crop plus the
+ * grid's at its nearest point (an upper bound, positive; exact when that
+ * bound is within twice the band).  The exact distance needs no
+ * hierarchy: the surface's triangles are indexed by the crop cell that
+ * made them, and a point's nearest one is found in rings of cells around
+ * it (the nearest triangle of a point within the band lies a few cells
+ * away); its sign is the side of the marching's piecewise-linear field
+ * (the Kuhn tetrahedron holding the point), the surface's own inside.
+ * The nearest site is chosen with the voxel axes' lengths, right for
+ * orthogonal axes (any rotation, any spacing); on sheared axes it is a
+ * worse choice, the distance still an upper bound. */
 typedef struct sm_image_target_opts {
     double smooth;      /* Gaussian sigma in voxels, 0: none (default 1) */
     double band_voxels; /* exact within (default 3) */
@@ -168,8 +174,11 @@ typedef struct sm_image_target_opts {
     int hierarchy;      /* 1: also build the surface's sm_sdf (winding
                          * numbers; sm_image_target_sdf), else NULL */
     int whole_image;    /* 1: the crop also covers the whole image, so
-                         * that every voxel centre has the EDT's value
-                         * (not the bound beyond the crop) */
+                         * that every voxel centre has the grid's value
+                         * (not the bound beyond the crop), and the grid
+                         * within the band also tries the triangles of
+                         * its site's point's cell (the grid is then the
+                         * output) */
 } sm_image_target_opts;
 typedef struct sm_image_target sm_image_target;
 
@@ -187,9 +196,17 @@ sm_status sm_image_target_background(const sm_image_target *t, const double lo[3
  * hierarchy (NULL without; both owned by t). */
 const sm_surface *sm_image_target_surface(const sm_image_target *t);
 const struct sm_sdf *sm_image_target_sdf(const sm_image_target *t);
-/* The crop's size, its index-to-world map and the signed EDT on it. */
+/* The crop's size, its index-to-world map and the signed distance at
+ * its voxel centres (the grid above: exact at the corners of the cells
+ * the surface passes through, an upper bound near the exact elsewhere). */
 void sm_image_target_grid(const sm_image_target *t, int64_t n[3], double map[12],
-                          const float **edt);
+                          const float **dist);
+/* The distance array of sm_image_target_grid handed to the caller (who
+ * frees it with free()); t is then only to be freed. */
+float *sm_image_target_take_grid(sm_image_target *t);
+/* The voxel-centre signed EDT (sm_edt_signed) of the thresholded field
+ * on the same crop, into a new array (*edt, free with free()). */
+sm_status sm_image_target_voxel_edt(const sm_image_target *t, float **edt, sm_error *err);
 /* Signed distance (negative inside) at n world points; *exact (may be
  * NULL) receives how many were computed exactly. */
 sm_status sm_image_target_signed(const sm_image_target *t, int64_t n, const double *pts,

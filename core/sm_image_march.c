@@ -1,0 +1,234 @@
+/* Marching tetrahedra on the voxel centres (sm_image_march.h): Kuhn's 6
+ * tetrahedra per cell, the vertices on the grid's edges shared through a
+ * hash of the edges, the cells the level crosses found in parallel. */
+#include "sm_image_march.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+static const int kuhn[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+
+int sm__image_grow(void **p, int64_t *cap, int64_t need, size_t size)
+{
+    if (need <= *cap)
+        return 1;
+    int64_t c = *cap ? *cap : 1024;
+    while (c < need)
+        c *= 2;
+    void *q = realloc(*p, (size_t)c * size);
+    if (!q)
+        return 0;
+    *p = q;
+    *cap = c;
+    return 1;
+}
+
+static int rehash(mt_builder *b)
+{
+    int64_t cap = b->hcap ? b->hcap * 2 : 1 << 16;
+    int64_t *keys = calloc((size_t)cap, sizeof *keys);
+    int32_t *vals = malloc((size_t)cap * sizeof *vals);
+    if (!keys || !vals) {
+        free(keys);
+        free(vals);
+        return 0;
+    }
+    for (int64_t s = 0; s < b->hcap; s++) {
+        if (!b->keys[s])
+            continue;
+        uint64_t hsh = (uint64_t)b->keys[s] * 0x9E3779B97F4A7C15ull;
+        int64_t t = (int64_t)(hsh >> 20) & (cap - 1);
+        while (keys[t])
+            t = (t + 1) & (cap - 1);
+        keys[t] = b->keys[s];
+        vals[t] = b->vals[s];
+    }
+    free(b->keys);
+    free(b->vals);
+    b->keys = keys;
+    b->vals = vals;
+    b->hcap = cap;
+    return 1;
+}
+
+/* The surface vertex on the edge of nodes p (inside) and q (outside),
+ * shared by every tetrahedron on that edge. */
+static int32_t edge_vertex(mt_builder *b, int64_t p, int64_t q)
+{
+    int64_t lo = p < q ? p : q, hi = p < q ? q : p;
+    int64_t key = lo * 27 + (hi - lo <= 1 ? 0 : hi - lo == b->n[0] ? 1 : hi - lo == b->n[0] + 1 ? 2
+                             : hi - lo == b->n[0] * b->n[1] ? 3 : hi - lo == b->n[0] * b->n[1] + 1 ? 4
+                             : hi - lo == b->n[0] * b->n[1] + b->n[0] ? 5 : 6) + 1;
+    if (2 * (b->nv + 1) > b->hcap && !rehash(b)) {
+        b->fail = 1;
+        return 0;
+    }
+    uint64_t hsh = (uint64_t)key * 0x9E3779B97F4A7C15ull;
+    int64_t t = (int64_t)(hsh >> 20) & (b->hcap - 1);
+    while (b->keys[t]) {
+        if (b->keys[t] == key)
+            return b->vals[t];
+        t = (t + 1) & (b->hcap - 1);
+    }
+    if (!sm__image_grow((void **)&b->coords, &b->capv, 3 * (b->nv + 1), sizeof(double)) || b->nv >= INT32_MAX) {
+        b->fail = 1;
+        return 0;
+    }
+    /* interpolated from the lower node, so the same on every side */
+    double fl = b->f[lo], fh = b->f[hi], s = (b->level - fl) / (fh - fl);
+    double ijk[3];
+    for (int a = 0; a < 3; a++) {
+        int64_t stride = a == 0 ? 1 : a == 1 ? b->n[0] : b->n[0] * b->n[1];
+        double il = (double)((lo / stride) % b->n[a]), ih = (double)((hi / stride) % b->n[a]);
+        ijk[a] = il + s * (ih - il);
+    }
+    double *x = b->coords + 3 * b->nv;
+    for (int row = 0; row < 3; row++)
+        x[row] = b->map[4 * row] * ijk[0] + b->map[4 * row + 1] * ijk[1] +
+                 b->map[4 * row + 2] * ijk[2] + b->map[4 * row + 3];
+    b->keys[t] = key;
+    b->vals[t] = (int32_t)b->nv;
+    return (int32_t)b->nv++;
+}
+
+/* Triangle (a, b, c) turned so that its normal points away from the
+ * inside node pin (world position). */
+static void add_tri(mt_builder *b, int32_t v0, int32_t v1, int32_t v2, const double *pin)
+{
+    if (b->fail || !sm__image_grow((void **)&b->tris, &b->capt, 3 * (b->nt + 1), sizeof(int32_t)) ||
+        !sm__image_grow((void **)&b->tcell, &b->capc, b->nt + 1, sizeof(int64_t)) || b->nt >= INT32_MAX) {
+        b->fail = 1;
+        return;
+    }
+    const double *a = b->coords + 3 * v0, *p = b->coords + 3 * v1, *q = b->coords + 3 * v2;
+    double u[3], v[3], nrm[3];
+    for (int k = 0; k < 3; k++) {
+        u[k] = p[k] - a[k];
+        v[k] = q[k] - a[k];
+    }
+    nrm[0] = u[1] * v[2] - u[2] * v[1];
+    nrm[1] = u[2] * v[0] - u[0] * v[2];
+    nrm[2] = u[0] * v[1] - u[1] * v[0];
+    double dot = nrm[0] * (a[0] - pin[0]) + nrm[1] * (a[1] - pin[1]) + nrm[2] * (a[2] - pin[2]);
+    b->tcell[b->nt] = b->cell;
+    int32_t *t = b->tris + 3 * b->nt++;
+    t[0] = v0;
+    t[1] = dot >= 0 ? v1 : v2;
+    t[2] = dot >= 0 ? v2 : v1;
+}
+
+static void world(const mt_builder *b, int64_t node, double *x)
+{
+    double ijk[3] = {(double)(node % b->n[0]), (double)((node / b->n[0]) % b->n[1]),
+                     (double)(node / (b->n[0] * b->n[1]))};
+    for (int row = 0; row < 3; row++)
+        x[row] = b->map[4 * row] * ijk[0] + b->map[4 * row + 1] * ijk[1] +
+                 b->map[4 * row + 2] * ijk[2] + b->map[4 * row + 3];
+}
+
+static void tetra(mt_builder *b, const int64_t v[4])
+{
+    int64_t in[4], out[4];
+    int ni = 0, no = 0;
+    for (int k = 0; k < 4; k++) {
+        if (b->f[v[k]] >= b->level)
+            in[ni++] = v[k];
+        else
+            out[no++] = v[k];
+    }
+    if (ni == 0 || no == 0)
+        return;
+    double pin[3];
+    world(b, in[0], pin);
+    if (ni == 1 || no == 1) {
+        int64_t apex = ni == 1 ? in[0] : out[0];
+        const int64_t *others = ni == 1 ? out : in;
+        int32_t t[3];
+        for (int k = 0; k < 3; k++)
+            t[k] = ni == 1 ? edge_vertex(b, apex, others[k]) : edge_vertex(b, others[k], apex);
+        add_tri(b, t[0], t[1], t[2], pin);
+        return;
+    }
+    /* two in, two out: the quad in0-out0, in0-out1, in1-out1, in1-out0 */
+    int32_t q0 = edge_vertex(b, in[0], out[0]), q1 = edge_vertex(b, in[0], out[1]);
+    int32_t q2 = edge_vertex(b, in[1], out[1]), q3 = edge_vertex(b, in[1], out[0]);
+    add_tri(b, q0, q1, q2, pin);
+    add_tri(b, q0, q2, q3, pin);
+}
+
+sm_status sm__image_march(mt_builder *b, sm_surface **out, sm_error *err)
+{
+    const int64_t *n = b->n;
+    int64_t sx = 1, sy = n[0], sz = n[0] * n[1], c0[3], c1[3];
+    /* the cells with a corner in the active box: the others have every
+     * corner on one side */
+    for (int a = 0; a < 3; a++) {
+        c0[a] = b->lo[a] > 0 ? b->lo[a] - 1 : 0;
+        c1[a] = b->hi[a] < n[a] - 1 ? b->hi[a] : n[a] - 2;
+    }
+    /* the cells the level crosses, found in parallel a slice at a time
+     * (counted, then listed), then marched in order */
+    int64_t slices = c1[2] - c0[2] + 1, *count = calloc((size_t)slices + 1, sizeof *count);
+    int64_t *cells = NULL;
+    if (!count) {
+        b->fail = 1;
+        slices = 0;
+    }
+    for (int pass = 0; pass < 2 && !b->fail; pass++) {
+#pragma omp parallel for schedule(dynamic, 1)
+        for (int64_t k = c0[2]; k <= c1[2]; k++) {
+            int64_t found = 0, *to = pass ? cells + count[k - c0[2]] : NULL;
+            for (int64_t j = c0[1]; j <= c1[1]; j++)
+                for (int64_t i = c0[0]; i <= c1[0]; i++) {
+                    int64_t c = i + sy * j + sz * k;
+                    const float *f = b->f + c;
+                    int in = 0;
+                    in += f[0] >= b->level;
+                    in += f[sx] >= b->level;
+                    in += f[sy] >= b->level;
+                    in += f[sx + sy] >= b->level;
+                    in += f[sz] >= b->level;
+                    in += f[sx + sz] >= b->level;
+                    in += f[sy + sz] >= b->level;
+                    in += f[sx + sy + sz] >= b->level;
+                    if (in == 0 || in == 8)
+                        continue;
+                    if (to)
+                        to[found] = c;
+                    found++;
+                }
+            if (!pass)
+                count[k - c0[2] + 1] = found;
+        }
+        if (!pass) {
+            for (int64_t k = 0; k < slices; k++)
+                count[k + 1] += count[k];
+            cells = malloc((size_t)(count[slices] > 0 ? count[slices] : 1) * sizeof *cells);
+            b->fail = !cells;
+        }
+    }
+    int64_t step[3] = {sx, sy, sz};
+    for (int64_t m = 0; !b->fail && m < count[slices]; m++) {
+        int64_t c = cells[m];
+        b->cell = c;
+        for (int t = 0; t < 6; t++) {
+            int64_t v[4] = {c, 0, 0, 0};
+            for (int s = 0; s < 3; s++)
+                v[s + 1] = v[s] + step[kuhn[t][s]];
+            tetra(b, v);
+        }
+    }
+    free(cells);
+    free(count);
+    if (b->fail)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface");
+    if (b->nt == 0)
+        return sm_error_set(err, SM_ERR_INVALID, "the label has no boundary (empty selection)");
+    sm_status st = sm_surface_alloc(out, 3, (int32_t)b->nv, (int32_t)b->nt, err);
+    if (st != SM_OK)
+        return st;
+    memcpy((*out)->coords, b->coords, (size_t)b->nv * 3 * sizeof(double));
+    memcpy((*out)->facets, b->tris, (size_t)b->nt * 3 * sizeof(int32_t));
+    return SM_OK;
+}
+

@@ -20,8 +20,8 @@
  * parallel region costs more than their searches. */
 #define PARALLEL_MIN 20000
 /* The descent's searches start from the last answer but still descend
- * the boundary's hierarchy: about 1.5 us a sample (3D example: 4.3k
- * samples, 6 ms a trial), so a few thousand are worth a second thread.
+ * the boundary's hierarchy: 1.5-4 us a sample (3D example: 4.6k
+ * samples, 3-10 ms a trial), so a few thousand are worth a second thread.
  * Each sample's answer is its own, so the result does not depend on the
  * thread count. */
 #define CORRESPOND_PARALLEL_MIN 2000

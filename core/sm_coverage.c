@@ -19,6 +19,12 @@
 /* Fewer points than this are searched on one thread: the start of a
  * parallel region costs more than their searches. */
 #define PARALLEL_MIN 20000
+/* The descent's searches start from the last answer but still descend
+ * the boundary's hierarchy: 1.5-4 us a sample (3D example: 4.6k
+ * samples, 3-10 ms a trial), so a few thousand are worth a second thread.
+ * Each sample's answer is its own, so the result does not depend on the
+ * thread count. */
+#define CORRESPOND_PARALLEL_MIN 2000
 /* At most this many target samples (once each facet gets one): five
  * times the 3D example's; the final measure of 1M costs seconds */
 #define MAX_TARGET_SAMPLES 1000000
@@ -1129,7 +1135,7 @@ sm_status sm__coverage_correspond(sm_coverage *c, const double *coords, sm_dista
     }
     const sm_bvh bvh = c->bvh;
     int failed = 0;
-#pragma omp parallel reduction(| : failed) if (c->nd > PARALLEL_MIN)
+#pragma omp parallel reduction(| : failed) if (c->nd > CORRESPOND_PARALLEL_MIN)
     {
         sm_bvh_entry *stack = malloc((size_t)(2 * bvh.depth + 2) * sizeof *stack);
         failed |= !stack;

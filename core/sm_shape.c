@@ -247,6 +247,37 @@ static void eval_batch(const sm_shape *s, int64_t n, const double *points, int32
     }
 }
 
+/* The points at half the step (n at half, hints and values at
+ * hints[0..n), values[0..n)) and then at its end (points half + n * dim,
+ * hints and values at [n..2n)), each end walk starting from the element
+ * its half walk found.  Block by block, the end walks follow the half
+ * walks of the same points while their elements are still in cache (two
+ * passes over all the points read most of them from memory twice).
+ * Each walk is its point's alone, from the same element as in two
+ * passes, so the values are the same. */
+#define SWEPT_BLOCK 1024
+static void eval_swept(const sm_shape *s, int64_t n, const double *half, int32_t *hints,
+                       double *values)
+{
+    const int dim = s->mesh->dim;
+    const double *end = half + n * dim;
+#pragma omp parallel
+    {
+#ifdef _OPENMP
+        int nt = omp_get_num_threads(), t = omp_get_thread_num();
+#else
+        int nt = 1, t = 0;
+#endif
+        int64_t lo = n * t / nt, hi = n * (t + 1) / nt;
+        for (int64_t a = lo; a < hi; a += SWEPT_BLOCK) {
+            int64_t b = a + SWEPT_BLOCK < hi ? a + SWEPT_BLOCK : hi;
+            sm_field_eval_many(s->field, b - a, half + a * dim, hints + a, values + a);
+            memcpy(hints + n + a, hints + a, (size_t)(b - a) * sizeof *hints);
+            sm_field_eval_many(s->field, b - a, end + a * dim, hints + n + a, values + n + a);
+        }
+    }
+}
+
 /* The first evaluation of a point without a hint starts from the grid
  * (a few hundred ns each, most of the set-up's sampling: 4 points per
  * element for the volume J, 3 per facet for the load).  So before the
@@ -465,10 +496,7 @@ double sm__shape_delta_j(sm_shape *s, const double *coords, const double *disp)
         memcpy(start_values, s->cur_values, nfp * sizeof *start_values);
     else
         eval_batch(s, (int64_t)nfp, s->points, s->load_hint, start_values);
-    eval_batch(s, (int64_t)nfp, s->points + nfp * (size_t)dim, s->swept_hint, half_values);
-    memcpy(s->swept_hint + nfp, s->swept_hint, nfp * sizeof *s->swept_hint);
-    eval_batch(s, (int64_t)nfp, s->points + 2 * nfp * (size_t)dim, s->swept_hint + nfp,
-               half_values + nfp);
+    eval_swept(s, (int64_t)nfp, s->points + nfp * (size_t)dim, s->swept_hint, half_values);
     /* keep the end: the next load reuses it if this step is taken */
     memcpy(s->end_points, s->points + 2 * nfp * (size_t)dim, nfp * (size_t)dim * sizeof(double));
     memcpy(s->end_values, s->values + 2 * nfp, nfp * sizeof(double));

@@ -105,10 +105,23 @@ sm_status sm_image_mask(const sm_image *im, const sm_image_select *sel, uint8_t 
     const int64_t *n = im->dims;
     int64_t total = n[0] * n[1] * n[2];
     int flt = is_float(im->type);
+    if (im->type == SM_VOXEL_U8) {
+        /* a byte has 256 values: the same test on each, once */
+        uint8_t pick[256];
+        for (int b = 0; b < 256; b++) {
+            double x = im->slope * b + im->inter;
+            pick[b] = sel->has_label ? x == (double)sel->label : x != 0;
+        }
+        const uint8_t *bytes = im->voxels;
 #pragma omp parallel for schedule(static)
-    for (int64_t v = 0; v < total; v++) {
-        double x = sm_image_value(im, v);
-        mask[v] = sel->has_label ? x == (double)sel->label : flt ? x >= sel->level : x != 0;
+        for (int64_t v = 0; v < total; v++)
+            mask[v] = pick[bytes[v]];
+    } else {
+#pragma omp parallel for schedule(static)
+        for (int64_t v = 0; v < total; v++) {
+            double x = sm_image_value(im, v);
+            mask[v] = sel->has_label ? x == (double)sel->label : flt ? x >= sel->level : x != 0;
+        }
     }
     if (!stats)
         return SM_OK;

@@ -217,6 +217,12 @@ static sm_status crop_field(const sm_image *im, const uint8_t *mask, const sm_im
         int64_t j = lo[1] + r % t->n[1], k = lo[2] + r / t->n[1];
         float *row = f + r * t->n[0];
         int in = j >= 0 && k >= 0 && j < n[1] && k < n[2];
+        if (in && !raw && lo[0] >= 0 && lo[0] + t->n[0] <= n[0]) { /* the whole row inside */
+            const uint8_t *from = mask + lo[0] + n[0] * (j + n[1] * k);
+            for (int64_t v = 0; v < t->n[0]; v++)
+                row[v] = (float)from[v];
+            continue;
+        }
         for (int64_t v = 0; v < t->n[0]; v++) {
             int64_t i = lo[0] + v;
             int64_t at = i + n[0] * (j + n[1] * k);
@@ -337,6 +343,57 @@ static int32_t cell_triangles(const sm_image_target *t, int64_t c, int32_t *coun
     return 0;
 }
 
+/* The squared distance from p to the bounding box of triangle abc: a
+ * lower bound of the distance to the triangle. */
+static inline double triangle_box2(const double *p, const double *a, const double *b,
+                                   const double *c)
+{
+    double box2 = 0;
+    for (int r = 0; r < 3; r++) {
+        double lo = a[r] < b[r] ? a[r] : b[r], hi = a[r] < b[r] ? b[r] : a[r];
+        lo = c[r] < lo ? c[r] : lo;
+        hi = c[r] > hi ? c[r] : hi;
+        double g = p[r] < lo ? lo - p[r] : p[r] > hi ? p[r] - hi : 0;
+        box2 += g * g;
+    }
+    return box2;
+}
+
+/* The squared distance from p to the plane of triangle abc, a lower
+ * bound of the distance to the triangle (less a relative 1e-9 for its
+ * rounding; 0 for a degenerate triangle). */
+static inline double triangle_plane2(const double *p, const double *a, const double *b,
+                                     const double *c)
+{
+    double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    double w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    double nrm[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]};
+    double nn = nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2];
+    double h = nrm[0] * (p[0] - a[0]) + nrm[1] * (p[1] - a[1]) + nrm[2] * (p[2] - a[2]);
+    return nn > 0 ? h * h / nn * (1 - 1e-9) : 0;
+}
+
+/* *best2 lowered to the squared distance from p to the triangles first
+ * .. first + count - 1 nearer than it, *bestf to the nearest of them
+ * (triangles whose box is not nearer are skipped). */
+static void range_nearest(const sm_image_target *t, int32_t first, int32_t count, const double *p,
+                          double *best2, int32_t *bestf)
+{
+    const sm_surface *s = t->surface;
+    double w[3];
+    for (int32_t f = first; f < first + count; f++) {
+        const int32_t *v = s->facets + 3 * f;
+        const double *a = s->coords + 3 * v[0], *b = s->coords + 3 * v[1], *c = s->coords + 3 * v[2];
+        if (triangle_box2(p, a, b, c) >= *best2 || triangle_plane2(p, a, b, c) >= *best2)
+            continue;
+        double d2 = sm__triangle_closest(p, a, b, c, w);
+        if (d2 < *best2) {
+            *best2 = d2;
+            *bestf = f;
+        }
+    }
+}
+
 /* How far index q lies from the cell [c, c + 1] along one axis. */
 static inline double gap(double c, double q)
 {
@@ -350,17 +407,18 @@ static inline double gap(double c, double q)
  * by ring until the next ring's cells (>= k index steps away, each at
  * least smin long) cannot be nearer than the nearest triangle found. */
 static double surface_distance_from(const sm_image_target *t, const double *p, double best2,
-                                    int32_t bestf, double *closest);
+                                    int32_t bestf, double *closest, int32_t *nearest);
 
 static double surface_distance(const sm_image_target *t, const double *p, double *closest)
 {
-    return surface_distance_from(t, p, INFINITY, -1, closest);
+    return surface_distance_from(t, p, INFINITY, -1, closest, NULL);
 }
 
 /* The same, with a triangle bestf at squared distance best2 already
- * known (-1, INFINITY: none). */
+ * known (-1, INFINITY: none); *nearest (when not NULL): the nearest
+ * triangle. */
 static double surface_distance_from(const sm_image_target *t, const double *p, double best2,
-                                    int32_t bestf, double *closest)
+                                    int32_t bestf, double *closest, int32_t *nearest)
 {
     int64_t c0[3], m[3];
     double qc[3]; /* p's index, clamped into the crop */
@@ -396,16 +454,7 @@ static double surface_distance_from(const sm_image_target *t, const double *p, d
                     if (x >= 0 && x < m[0] && s2 * (gx * gx + gy * gy + gz * gz) < best2) {
                         int32_t count;
                         int32_t first = cell_triangles(t, x + t->n[0] * (y + t->n[1] * z), &count);
-                        for (int32_t f = first; f < first + count; f++) {
-                            const int32_t *v = s->facets + 3 * f;
-                            double d2 = sm_sdf_point_triangle2(p, s->coords + 3 * v[0],
-                                                               s->coords + 3 * v[1],
-                                                               s->coords + 3 * v[2]);
-                            if (d2 < best2) {
-                                best2 = d2;
-                                bestf = f;
-                            }
-                        }
+                        range_nearest(t, first, count, p, &best2, &bestf);
                     }
                     if (k == 0)
                         break;
@@ -416,6 +465,8 @@ static double surface_distance_from(const sm_image_target *t, const double *p, d
         if (reach * reach >= best2)
             break;
     }
+    if (nearest)
+        *nearest = bestf;
     if (closest && bestf >= 0) {
         const int32_t *v = s->facets + 3 * bestf;
         const double *a = s->coords + 3 * v[0], *b = s->coords + 3 * v[1], *c = s->coords + 3 * v[2];
@@ -464,42 +515,12 @@ static double field_at(const sm_image_target *t, const double *p)
     return v;
 }
 
-/* *best2 lowered to the squared distance from p to cell's triangles
- * nearer than it, *bestf to the nearest of them (triangles whose box is
- * not nearer are skipped). */
-static void cell_nearest(const sm_image_target *t, int64_t cell, const double *p, double *best2,
-                         int32_t *bestf)
-{
-    const sm_surface *s = t->surface;
-    int32_t count, first = cell_triangles(t, cell, &count);
-    double w[3];
-    for (int32_t f = first; f < first + count; f++) {
-        const int32_t *v = s->facets + 3 * f;
-        const double *a = s->coords + 3 * v[0], *b = s->coords + 3 * v[1], *c = s->coords + 3 * v[2];
-        double box2 = 0;
-        for (int r = 0; r < 3; r++) {
-            double lo = a[r] < b[r] ? a[r] : b[r], hi = a[r] < b[r] ? b[r] : a[r];
-            lo = c[r] < lo ? c[r] : lo;
-            hi = c[r] > hi ? c[r] : hi;
-            double g = p[r] < lo ? lo - p[r] : p[r] > hi ? p[r] - hi : 0;
-            box2 += g * g;
-        }
-        if (box2 >= *best2)
-            continue;
-        double d2 = sm__triangle_closest(p, a, b, c, w);
-        if (d2 < *best2) {
-            *best2 = d2;
-            *bestf = f;
-        }
-    }
-}
-
 /* The nearest surface point of the voxel centre at ijk, a corner of a
- * cell the surface passes through: the triangles of the (up to) 8 cells
- * around it first; every other cell is at least one index step away,
- * smin in the world, so a point nearer than that is the nearest; else
- * the general search. */
-static void site_foot(const sm_image_target *t, const int32_t *ijk, double *foot)
+ * cell the surface passes through, and its triangle *tri: the triangles
+ * of the (up to) 8 cells around it first; every other cell is at least one index step
+ * away, smin in the world, so a point nearer than that is the nearest;
+ * else the general search. */
+static void site_foot(const sm_image_target *t, const int32_t *ijk, double *foot, int32_t *tri)
 {
     double x[3];
     for (int row = 0; row < 3; row++)
@@ -510,14 +531,44 @@ static void site_foot(const sm_image_target *t, const int32_t *ijk, double *foot
     int32_t bestf = -1;
     for (int corner = 0; corner < 8; corner++) {
         int64_t c[3] = {ijk[0] - (corner & 1), ijk[1] - (corner >> 1 & 1), ijk[2] - (corner >> 2 & 1)};
-        if (c[0] >= 0 && c[1] >= 0 && c[2] >= 0 && c[0] < t->n[0] - 1 && c[1] < t->n[1] - 1 &&
-            c[2] < t->n[2] - 1)
-            cell_nearest(t, c[0] + t->n[0] * (c[1] + t->n[1] * c[2]), x, &best2, &bestf);
+        if (c[0] < 0 || c[1] < 0 || c[2] < 0 || c[0] >= t->n[0] - 1 || c[1] >= t->n[1] - 1 ||
+            c[2] >= t->n[2] - 1)
+            continue;
+        int32_t count, first = cell_triangles(t, c[0] + t->n[0] * (c[1] + t->n[1] * c[2]), &count);
+        range_nearest(t, first, count, x, &best2, &bestf);
     }
-    if (bestf < 0 || best2 > t->smin * t->smin) {
-        surface_distance_from(t, x, best2, bestf, foot);
+    double s2 = t->smin * t->smin;
+    if (bestf >= 0 && best2 > s2 && best2 <= 9 * s2) {
+        /* the cells g = (gx, gy, gz) index steps beyond those 8 (a gap
+         * of g: at least smin |g| away) where s2 |g|^2 < best2, so |g|
+         * <= 2 per axis; a cell whose gap is not nearer cannot be */
+        for (int gz = -2; gz <= 2; gz++)
+            for (int gy = -2; gy <= 2; gy++)
+                for (int gx = -2; gx <= 2; gx++) {
+                    if (s2 * (gx * gx + gy * gy + gz * gz) >= best2 || (!gx && !gy && !gz))
+                        continue;
+                    /* gap g below the block: cell ijk - 1 + g; above: ijk + g */
+                    int64_t c[3] = {ijk[0] + gx - (gx <= 0), ijk[1] + gy - (gy <= 0),
+                                    ijk[2] + gz - (gz <= 0)};
+                    /* gap 0 on an axis: both cells of the block */
+                    for (int d = 0; d < 8; d++) {
+                        int64_t e[3] = {c[0] + (gx == 0 && (d & 1)), c[1] + (gy == 0 && (d & 2)),
+                                        c[2] + (gz == 0 && (d & 4))};
+                        if (((d & 1) && gx) || ((d & 2) && gy) || ((d & 4) && gz))
+                            continue;
+                        if (e[0] < 0 || e[1] < 0 || e[2] < 0 || e[0] >= t->n[0] - 1 ||
+                            e[1] >= t->n[1] - 1 || e[2] >= t->n[2] - 1)
+                            continue;
+                        int32_t count, first = cell_triangles(t, e[0] + t->n[0] * (e[1] + t->n[1] * e[2]),
+                                                              &count);
+                        range_nearest(t, first, count, x, &best2, &bestf);
+                    }
+                }
+    } else if (bestf < 0 || best2 > s2) {
+        surface_distance_from(t, x, best2, bestf, foot, tri);
         return;
     }
+    *tri = bestf;
     const int32_t *v = s->facets + 3 * bestf;
     const double *a = s->coords + 3 * v[0], *b = s->coords + 3 * v[1], *c = s->coords + 3 * v[2];
     sm__triangle_closest(x, a, b, c, w);
@@ -525,28 +576,16 @@ static void site_foot(const sm_image_target *t, const int32_t *ijk, double *foot
         foot[row] = w[0] * a[row] + w[1] * b[row] + w[2] * c[row];
 }
 
-/* The crop cell holding world point x (on its border: either). */
-static int64_t foot_cell(const sm_image_target *t, const double *x)
-{
-    int64_t c[3];
-    for (int row = 0; row < 3; row++) {
-        double q = t->inv[4 * row] * x[0] + t->inv[4 * row + 1] * x[1] + t->inv[4 * row + 2] * x[2] +
-                   t->inv[4 * row + 3];
-        double f = floor(q);
-        c[row] = !(f >= 0) ? 0 : f > (double)(t->n[row] - 2) ? t->n[row] - 2 : (int64_t)f;
-    }
-    return c[0] + t->n[0] * (c[1] + t->n[1] * c[2]);
-}
-
 /* One slice k of the distance from the sites (distance_field): each
  * voxel's own nearest site and its six neighbours' (their sites' surface
  * points are as near, often nearer: the nearest site by voxel centres is
  * not always the one with the nearest point), the nearest of those
  * points; signed by the field.  below/above: slices k - 1 and k + 1 of
- * sites (NULL beyond the grid). */
+ * sites (NULL beyond the grid); range: each site's foot's cell's
+ * triangles (first, count). */
 static void slice_distance(const sm_image_target *t, const float *f, double level,
-                           const double *foot, const int32_t *below, const int32_t *slice,
-                           const int32_t *above, int64_t k, float *out)
+                           const double *foot, const int32_t *range, const int32_t *below,
+                           const int32_t *slice, const int32_t *above, int64_t k, float *out)
 {
     const int64_t *n = t->n;
     for (int64_t j = 0; j < n[1]; j++) {
@@ -568,7 +607,10 @@ static void slice_distance(const sm_image_target *t, const float *f, double leve
             const double *q = foot + 3 * (int64_t)own;
             double best = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
                           (p[2] - q[2]) * (p[2] - q[2]);
-            for (int c = 0; c < 6; c++) {
+            /* most often (far from the surface) all the same site */
+            int32_t other = (cand[0] ^ own) | (cand[1] ^ own) | (cand[2] ^ own) |
+                            (cand[3] ^ own) | (cand[4] ^ own) | (cand[5] ^ own);
+            for (int c = 0; other && c < 6; c++) {
                 if (cand[c] == own)
                     continue;
                 q = foot + 3 * (int64_t)cand[c];
@@ -580,7 +622,8 @@ static void slice_distance(const sm_image_target *t, const float *f, double leve
                 /* within the band: the other triangles of the cell holding
                  * the voxel's own site's point too (the surface around
                  * that point, where a nearer one most often is) */
-                cell_nearest(t, foot_cell(t, foot + 3 * (int64_t)own), p, &best, &(int32_t){0});
+                range_nearest(t, range[2 * (int64_t)own], range[2 * (int64_t)own + 1], p, &best,
+                              &(int32_t){0});
             int64_t v = (k * n[1] + j) * n[0] + i;
             float d = sqrtf((float)best); /* as near as sqrt then rounding */
             out[j * n[0] + i] = box && i >= t->act_lo[0] && i <= t->act_hi[0] && f[v] >= level ? -d : d;
@@ -594,7 +637,8 @@ static void slice_distance(const sm_image_target *t, const float *f, double leve
  * done (no slice is needed after its neighbours are); the slices next to
  * a slab, another thread's, are copied before anyone writes. */
 static sm_status site_distances(sm_image_target *t, const float *f, double level,
-                                const double *foot, int32_t *near, sm_error *err)
+                                const double *foot, const int32_t *range, int32_t *near,
+                                sm_error *err)
 {
     const int64_t *n = t->n;
     int64_t plane = n[0] * n[1];
@@ -628,7 +672,8 @@ static sm_status site_distances(sm_image_target *t, const float *f, double level
             const int32_t *above = k + 1 == n[2] ? NULL
                                    : k + 1 == k1 ? edges + (size_t)(2 * me + 2) * (size_t)plane
                                                  : near + (k + 1) * plane;
-            slice_distance(t, f, level, foot, below, near + k * plane, above, k, buf[k & 1]);
+            slice_distance(t, f, level, foot, range, below, near + k * plane, above, k,
+                           buf[k & 1]);
             if (k > k0) /* slice k - 1 is no one's neighbour any more */
                 memcpy(t->edt + (k - 1) * plane, buf[(k - 1) & 1], (size_t)plane * sizeof(float));
         }
@@ -682,18 +727,29 @@ static sm_status distance_field(sm_image_target *t, const float *f, double level
         }
     }
     foot = malloc((size_t)nsites * 3 * sizeof *foot);
-    if (!foot) {
+    int32_t *range = malloc((size_t)nsites * 2 * sizeof *range);
+    if (!foot || !range) {
         free(ijk);
+        free(foot);
+        free(range);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's sites");
     }
+    /* each foot's cell (the cell that made its triangle): its triangles,
+     * looked up once here rather than at every voxel of the band */
 #pragma omp parallel for schedule(dynamic, 256)
-    for (int64_t k = 0; k < nsites; k++)
-        site_foot(t, ijk + 3 * k, foot + 3 * k);
+    for (int64_t k = 0; k < nsites; k++) {
+        int32_t tri = -1;
+        site_foot(t, ijk + 3 * k, foot + 3 * k, &tri);
+        range[2 * k] = tri < 0 ? 0 : cell_triangles(t, tcell[tri], &range[2 * k + 1]);
+        if (tri < 0)
+            range[2 * k + 1] = 0;
+    }
     sm_status st = sm__edt_nearest(n, t->h, ijk, nsites, near, err);
     free(ijk);
     if (st == SM_OK)
-        st = site_distances(t, f, level, foot, near, err);
+        st = site_distances(t, f, level, foot, range, near, err);
     free(foot);
+    free(range);
     return st;
 }
 

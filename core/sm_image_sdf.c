@@ -587,23 +587,28 @@ static void slice_distance(const sm_image_target *t, const float *f, double leve
                            const double *foot, const int32_t *range, const int32_t *below,
                            const int32_t *slice, const int32_t *above, int64_t k, float *out)
 {
-    const int64_t *n = t->n;
-    for (int64_t j = 0; j < n[1]; j++) {
-        const int32_t *row = slice + j * n[0];
-        const int32_t *nb[4] = {j > 0 ? row - n[0] : NULL, j + 1 < n[1] ? row + n[0] : NULL,
-                                below ? below + j * n[0] : NULL, above ? above + j * n[0] : NULL};
+    /* the target's fields in locals: the band's calls would make the
+     * compiler load them again at every voxel */
+    const int64_t n0 = t->n[0], n1 = t->n[1], lo0 = t->act_lo[0], hi0 = t->act_hi[0];
+    const double m0 = t->map[0], m4 = t->map[4], m8 = t->map[8];
+    const double band2 = t->grid_band ? t->band * t->band : -1;
+    for (int64_t j = 0; j < n1; j++) {
+        /* a neighbour beyond the grid: the row itself (the voxel's own site) */
+        const int32_t *row = slice + j * n0;
+        const int32_t *nb0 = j > 0 ? row - n0 : row, *nb1 = j + 1 < n1 ? row + n0 : row,
+                      *nb2 = below ? below + j * n0 : row, *nb3 = above ? above + j * n0 : row;
         double x[3];
         for (int r = 0; r < 3; r++)
             x[r] = t->map[4 * r + 1] * (double)j + t->map[4 * r + 2] * (double)k + t->map[4 * r + 3];
         /* outside the active box the field is below the level */
         int box = j >= t->act_lo[1] && j <= t->act_hi[1] && k >= t->act_lo[2] && k <= t->act_hi[2];
-        for (int64_t i = 0; i < n[0]; i++) {
-            double p[3] = {x[0] + t->map[0] * (double)i, x[1] + t->map[4] * (double)i,
-                           x[2] + t->map[8] * (double)i};
+        const float *frow = f + (k * n1 + j) * n0;
+        float *orow = out + j * n0;
+        for (int64_t i = 0; i < n0; i++) {
+            double p[3] = {x[0] + m0 * (double)i, x[1] + m4 * (double)i, x[2] + m8 * (double)i};
             /* the neighbours' sites, most often the voxel's own */
-            int32_t own = row[i], cand[6] = {i > 0 ? row[i - 1] : own, i + 1 < n[0] ? row[i + 1] : own,
-                                             nb[0] ? nb[0][i] : own, nb[1] ? nb[1][i] : own,
-                                             nb[2] ? nb[2][i] : own, nb[3] ? nb[3][i] : own};
+            int32_t own = row[i], cand[6] = {i > 0 ? row[i - 1] : own, i + 1 < n0 ? row[i + 1] : own,
+                                             nb0[i], nb1[i], nb2[i], nb3[i]};
             const double *q = foot + 3 * (int64_t)own;
             double best = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
                           (p[2] - q[2]) * (p[2] - q[2]);
@@ -618,15 +623,14 @@ static void slice_distance(const sm_image_target *t, const float *f, double leve
                             (p[2] - q[2]) * (p[2] - q[2]);
                 best = d2 < best ? d2 : best;
             }
-            if (t->grid_band && best <= t->band * t->band)
+            if (best <= band2)
                 /* within the band: the other triangles of the cell holding
                  * the voxel's own site's point too (the surface around
                  * that point, where a nearer one most often is) */
                 range_nearest(t, range[2 * (int64_t)own], range[2 * (int64_t)own + 1], p, &best,
                               &(int32_t){0});
-            int64_t v = (k * n[1] + j) * n[0] + i;
             float d = sqrtf((float)best); /* as near as sqrt then rounding */
-            out[j * n[0] + i] = box && i >= t->act_lo[0] && i <= t->act_hi[0] && f[v] >= level ? -d : d;
+            orow[i] = box && i >= lo0 && i <= hi0 && frow[i] >= level ? -d : d;
         }
     }
 }

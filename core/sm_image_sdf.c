@@ -33,6 +33,9 @@ struct sm_image_target {
     double h[3];       /* spacing along the crop's axes */
     double smin;       /* a lower bound of the map's smallest singular
                         * value: world length of a unit index step */
+    double step[3];    /* per axis, a lower bound of the world distance
+                        * of index gap 1 (orthogonal axes: the spacing;
+                        * else smin): a gap g is sqrt(sum (g step)^2) */
     float *edt;        /* signed voxel-centre EDT on the crop */
     float *field;      /* the (smoothed) field the surface is a level of */
     double level;
@@ -283,6 +286,22 @@ static double smallest_singular(const double *m)
         for (int col = 0; col < 3; col++)
             fro += inv[4 * row + col] * inv[4 * row + col];
     return fmax(lmin > 0 ? sqrt(lmin) * (1 - 1e-9) : 0, 1 / sqrt(fro));
+}
+
+/* t->step from t->map and t->smin: the spacing (less a relative 1e-9)
+ * on an orthogonal grid, where an index gap g is sqrt(sum (g h)^2) long
+ * in the world; smin on every axis otherwise. */
+static void grid_steps(sm_image_target *t)
+{
+    const double *m = t->map;
+    int orthogonal = 1;
+    for (int a = 0; a < 3; a++)
+        for (int b = a + 1; b < 3; b++) {
+            double dot = m[a] * m[b] + m[4 + a] * m[4 + b] + m[8 + a] * m[8 + b];
+            orthogonal &= fabs(dot) <= 1e-12 * t->h[a] * t->h[b];
+        }
+    for (int a = 0; a < 3; a++)
+        t->step[a] = orthogonal ? fmax(t->h[a] * (1 - 1e-9), t->smin) : t->smin;
 }
 
 /* The triangles of each surface cell (tcell: nondecreasing, as march
@@ -537,15 +556,19 @@ static void site_foot(const sm_image_target *t, const int32_t *ijk, double *foot
         int32_t count, first = cell_triangles(t, c[0] + t->n[0] * (c[1] + t->n[1] * c[2]), &count);
         range_nearest(t, first, count, x, &best2, &bestf);
     }
-    double s2 = t->smin * t->smin;
+    double s2 = t->smin * t->smin, st2[3];
+    for (int a = 0; a < 3; a++)
+        st2[a] = t->step[a] * t->step[a];
     if (bestf >= 0 && best2 > s2 && best2 <= 9 * s2) {
-        /* the cells g = (gx, gy, gz) index steps beyond those 8 (a gap
-         * of g: at least smin |g| away) where s2 |g|^2 < best2, so |g|
-         * <= 2 per axis; a cell whose gap is not nearer cannot be */
+        /* the cells g = (gx, gy, gz) index steps beyond those 8 (at
+         * least sqrt(sum (g step)^2) away, step >= smin) nearer than
+         * best2, so |g| <= 2 per axis; a cell whose gap is not nearer
+         * cannot be */
         for (int gz = -2; gz <= 2; gz++)
             for (int gy = -2; gy <= 2; gy++)
                 for (int gx = -2; gx <= 2; gx++) {
-                    if (s2 * (gx * gx + gy * gy + gz * gz) >= best2 || (!gx && !gy && !gz))
+                    if (st2[0] * gx * gx + st2[1] * gy * gy + st2[2] * gz * gz >= best2 ||
+                        (!gx && !gy && !gz))
                         continue;
                     /* gap g below the block: cell ijk - 1 + g; above: ijk + g */
                     int64_t c[3] = {ijk[0] + gx - (gx <= 0), ijk[1] + gy - (gy <= 0),
@@ -816,6 +839,7 @@ sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_
         t->band = o->band_voxels * fmax(t->h[0], fmax(t->h[1], t->h[2]));
         t->grid_band = o->whole_image;
         t->smin = smallest_singular(t->map);
+        grid_steps(t);
         st = distance_field(t, f, level, b.tcell, b.nt, err);
     }
     free(b.tcell);

@@ -394,7 +394,8 @@ static inline double triangle_plane2(const double *p, const double *a, const dou
 
 /* *best2 lowered to the squared distance from p to the triangles first
  * .. first + count - 1 nearer than it, *bestf to the nearest of them
- * (triangles whose box is not nearer are skipped). */
+ * (triangles whose box or plane is not nearer are skipped: most of them,
+ * the exact test costs several times the two bounds). */
 static void range_nearest(const sm_image_target *t, int32_t first, int32_t count, const double *p,
                           double *best2, int32_t *bestf)
 {
@@ -536,9 +537,10 @@ static double field_at(const sm_image_target *t, const double *p)
 
 /* The nearest surface point of the voxel centre at ijk, a corner of a
  * cell the surface passes through, and its triangle *tri: the triangles
- * of the (up to) 8 cells around it first; every other cell is at least one index step
- * away, smin in the world, so a point nearer than that is the nearest;
- * else the general search. */
+ * of the (up to) 8 cells around it first; every other cell is at least
+ * one index step away, smin in the world, so a point nearer than that is
+ * the nearest; one nearer than 3 smin: the cells within two steps whose
+ * gap (t->step) is nearer; else the general search. */
 static void site_foot(const sm_image_target *t, const int32_t *ijk, double *foot, int32_t *tri)
 {
     double x[3];

@@ -13,7 +13,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <signal.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 #include <cmocka.h>
 #include <sched.h>
@@ -462,6 +464,18 @@ static void test_thread_policy(void **state)
     cpu_set_t set;
     assert_int_equal(sched_getaffinity(0, sizeof set, &set), 0);
     assert_true(idle >= 0 && idle <= CPU_COUNT(&set));
+    /* a process that keeps a core busy is seen, whenever its samples fall
+     * (a spinning child is runnable all along, running or queued) */
+    pid_t busy = fork();
+    assert_true(busy >= 0);
+    if (busy == 0)
+        for (;;)
+            __asm__ volatile("" ::: "memory");
+    usleep(20000);
+    int idle_busy = sm_job_idle_cores();
+    kill(busy, SIGKILL);
+    waitpid(busy, NULL, 0);
+    assert_true(idle_busy >= 0 && idle_busy <= CPU_COUNT(&set) - 1);
     /* a small template runs on one thread, and the limit is back after */
     int saved = omp_get_max_threads();
     omp_set_num_threads(3);

@@ -229,6 +229,20 @@ static inline const double *vtx(const double *coords, int dim, int32_t v)
     return coords + (size_t)v * (size_t)dim;
 }
 
+/* The calling thread's share [*lo, *hi) of n items, in a parallel
+ * region: contiguous, in thread order (each thread's walks follow one
+ * another through neighbouring points). */
+static void thread_share(int64_t n, int64_t *lo, int64_t *hi)
+{
+#ifdef _OPENMP
+    int nt = omp_get_num_threads(), t = omp_get_thread_num();
+#else
+    int nt = 1, t = 0;
+#endif
+    *lo = n * t / nt;
+    *hi = n * (t + 1) / nt;
+}
+
 /* Evaluates d at n gathered points, the threads splitting the batch. */
 static void eval_batch(const sm_shape *s, int64_t n, const double *points, int32_t *hints,
                        double *values)
@@ -236,12 +250,8 @@ static void eval_batch(const sm_shape *s, int64_t n, const double *points, int32
     const int dim = s->mesh->dim;
 #pragma omp parallel
     {
-#ifdef _OPENMP
-        int nt = omp_get_num_threads(), t = omp_get_thread_num();
-#else
-        int nt = 1, t = 0;
-#endif
-        int64_t lo = n * t / nt, hi = n * (t + 1) / nt;
+        int64_t lo, hi;
+        thread_share(n, &lo, &hi);
         if (hi > lo)
             sm_field_eval_many(s->field, hi - lo, points + lo * dim, hints + lo, values + lo);
     }
@@ -263,12 +273,8 @@ static void eval_swept(const sm_shape *s, int64_t n, const double *half, int32_t
     const double *end = half + n * dim;
 #pragma omp parallel
     {
-#ifdef _OPENMP
-        int nt = omp_get_num_threads(), t = omp_get_thread_num();
-#else
-        int nt = 1, t = 0;
-#endif
-        int64_t lo = n * t / nt, hi = n * (t + 1) / nt;
+        int64_t lo, hi;
+        thread_share(n, &lo, &hi);
         for (int64_t a = lo; a < hi; a += SWEPT_BLOCK) {
             int64_t b = a + SWEPT_BLOCK < hi ? a + SWEPT_BLOCK : hi;
             sm_field_eval_many(s->field, b - a, half + a * dim, hints + a, values + a);

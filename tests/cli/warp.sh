@@ -13,24 +13,6 @@ source "$(dirname "$0")/../lib/cli.sh"
 CHECK="python3 $ROOT/tests/cli/warp_check.py"
 T2=$ROOT/examples/2d/template.mesh
 T3=$ROOT/examples/3d/template.mesh
-# expect_ok DESC CMD...: ok when CMD succeeds (its output in the detail)
-expect_ok() {
-    local desc=$1 out
-    shift
-    if out=$("$@" 2>&1); then ok "$desc"; else not_ok "$desc" "$out"; fi
-}
-# expect_fail DESC RC PATTERN CMD...: CMD exits RC with PATTERN on stderr
-expect_fail() {
-    local desc=$1 want=$2 pat=$3 rc=0
-    shift 3
-    "$@" >"$WORK/out.txt" 2>"$WORK/err.txt" || rc=$?
-    if [ "$rc" = "$want" ] && grep -q -- "$pat" "$WORK/err.txt"; then
-        ok "$desc"
-    else
-        not_ok "$desc" "exit $rc (want $want); stderr: $(head -c 400 "$WORK/err.txt")"
-    fi
-}
-
 # the disk and the ball of the examples have radius 0.25 and 0.3
 for case in 2d:bend:$T2: 2d:affine:$T2:0.25 3d:affine:$T3:0.3; do
     IFS=: read -r dim kind tmpl radius <<<"$case"

@@ -21,21 +21,6 @@ if ! "$PY" -c 'import numpy' 2>/dev/null; then
     skip "python3-numpy not installed (make deps installs it)"
     exit 0
 fi
-expect_ok() {
-    local desc=$1 out
-    shift
-    if out=$("$@" 2>&1); then ok "$desc"; else not_ok "$desc" "$out"; fi
-}
-expect_fail() {
-    local desc=$1 want=$2 pat=$3 rc=0
-    shift 3
-    "$@" >"$WORK/out.txt" 2>"$WORK/err.txt" || rc=$?
-    if [ "$rc" = "$want" ] && grep -q -- "$pat" "$WORK/err.txt"; then
-        ok "$desc"
-    else
-        not_ok "$desc" "exit $rc (want $want); stderr: $(head -c 400 "$WORK/err.txt")"
-    fi
-}
 R=$WORK/res
 mkdir -p "$R"
 $CHECK make "$T3" "$R" affine

@@ -15,6 +15,7 @@
 
 #include "sm_proto_vocab.h"
 #include "jobs/smd_check.h"
+#include "base/smd_body.h"
 #include "http/smd_conns.h"
 #include "jobs/smd_jobs.h"
 #include "jobs/smd_usecases.h"
@@ -140,6 +141,8 @@ enum MHD_Result smd_route_metrics(struct MHD_Connection *conn, smd_request *req)
     g.cut_body = cc.slow_body;
     g.cut_reserve = cc.evicted;
     smd_check_counts(srv->checks, &g.checks_running, &g.checks_waiting);
+    g.body_bytes = smd_body_held();
+    g.body_budget = srv->cfg.max_body_memory;
     size_t len;
     char *text = smd_metrics_render(&srv->metrics, &g, &len);
     if (text)

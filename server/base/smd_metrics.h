@@ -47,6 +47,8 @@ typedef struct smd_gauges {
     uint64_t connections;      /* open HTTP connections (smd_conns.h) */
     uint64_t cut_headers, cut_body, cut_reserve; /* closed by the daemon's deadlines */
     uint64_t checks_running, checks_waiting; /* upload checks (smd_check.h) */
+    uint64_t body_bytes;       /* request bodies held in memory (smd_body.h) */
+    uint64_t body_budget;      /* --max-body-memory */
     double start_time;         /* Unix seconds */
     int ready;
 } smd_gauges;

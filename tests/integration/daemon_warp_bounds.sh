@@ -16,7 +16,9 @@
 #   and computed on the HTTP threads, so /healthz waited behind them).
 # - 32 parked warp bodies of 1.5 MB with --max-body-memory 16M: the
 #   daemon grows by less than their 48 MB, a complete warp and a batch
-#   request meanwhile get 503 naming --max-body-memory, and the budget
+#   request meanwhile get 503 naming --max-body-memory (/metrics shows the
+#   budget held: they are parked one at a time, so which keep their memory
+#   does not depend on how their reads interleave), and the budget
 #   comes back once they are closed (or cut by --body-stall-timeout).
 # - More CSV points than --max-vertices: 413 naming it.
 source "$(dirname "$0")/lib.sh"
@@ -138,6 +140,17 @@ if [ "$code" = 503 ] && grep -q -- '--max-body-memory' "$WORK/batch.out"; then
 else
     not_ok "batch bodies counted" "code $code: $(head -c 300 "$WORK/batch.out")"
 fi
+metric() { hcurl "$BASE/metrics" | awk -v n="$1" '$1 == n { print $2 }'; }
+held=$(metric shapematch_request_body_bytes)
+limit=$(metric shapematch_request_body_limit_bytes)
+# parked one at a time, the bodies that keep their memory leave less than
+# the first 64 KiB a new body asks for (why the two requests above got 503)
+if [ -n "$held" ] && [ "$limit" = 16777216 ] && [ "$held" -le "$limit" ] &&
+    [ "$held" -gt $((limit - 65536)) ]; then
+    ok "/metrics: $held bytes of request bodies held, --max-body-memory $limit"
+else
+    not_ok "the held bodies in /metrics" "held '$held', limit '$limit'"
+fi
 echo done >&"${PARK[1]}"
 wait "$PARK_PID" 2>/dev/null
 warp_back() {
@@ -148,6 +161,9 @@ warp_back() {
 # closed by the client, or at the latest cut by --body-stall-timeout
 poll 45 warp_back
 check "the budget is back once they are closed or cut (a warp answers $code)" test "$code" = 200
+none_held() { held=$(metric shapematch_request_body_bytes); [ "$held" = 0 ]; }
+poll 10 none_held
+check "/metrics: no request body held after them ($held bytes)" test "$held" = 0
 stop_daemon
 if reports_clean; then ok "no sanitizer report"; else not_ok "sanitizer reports"; fi
 echo "1..$n"

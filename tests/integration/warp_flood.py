@@ -11,7 +11,7 @@ warp_flood.py flood PORT JOB DIR N CLIENTS
 
 warp_flood.py park PORT JOB N BYTES
     N connections POST a CSV warp body declaring 2 x BYTES, send BYTES
-    of it and stall.  Prints "sent" (flushed) once every body is out ("sent,
+    of it and stall, one after another (each once the daemon has read it).  Prints "sent" (flushed) once every body is out ("sent,
     K refused" when K connections were closed on it), then waits for a
     line on stdin and closes them."""
 import glob, http.client, json, os, socket, sys, threading, time
@@ -76,6 +76,55 @@ def flood(port, job, folder, n, clients):
                       "healthz_failed": probes["failed"]}))
 
 
+def queued(port, peer):
+    """Bytes still on the way from the client port peer to the daemon's port:
+    the client's unsent queue plus the daemon's unread one (/proc/net/tcp*)."""
+    total, seen = 0, False
+    for name in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            with open(name) as f:
+                rows = f.readlines()[1:]
+        except OSError:
+            continue
+        for row in rows:
+            cols = row.split()
+            local, remote = int(cols[1].rsplit(":", 1)[1], 16), int(cols[2].rsplit(":", 1)[1], 16)
+            tx, rx = (int(v, 16) for v in cols[4].split(":"))
+            if (local, remote) == (peer, port):
+                total, seen = total + tx, True
+            elif (local, remote) == (port, peer):
+                total, seen = total + rx, True
+    return total if seen else None
+
+
+def held(port):
+    """The daemon's shapematch_request_body_bytes (GET /metrics)."""
+    c = http.client.HTTPConnection("127.0.0.1", port, timeout=30)
+    c.request("GET", "/metrics")
+    text = c.getresponse().read().decode()
+    c.close()
+    for line in text.splitlines():
+        if line.startswith("shapematch_request_body_bytes "):
+            return int(line.split()[1])
+    raise SystemExit("no shapematch_request_body_bytes in /metrics")
+
+
+def settle(port, sock, deadline=60.0):
+    """Waits until the daemon has read every byte sent on sock and its count
+    of held bodies stands still: bodies parked one at a time fill the budget
+    in a known order (at the same time, which of them keep their memory
+    depends on how their growths interleave)."""
+    peer, t0, last = sock.getsockname()[1], time.monotonic(), None
+    while time.monotonic() - t0 < deadline:
+        if not queued(port, peer):
+            now = held(port)
+            if now == last:
+                return
+            last = now
+        time.sleep(0.02)
+    raise SystemExit("the daemon did not read a parked body within %g s" % deadline)
+
+
 def park(port, job, n, nbytes):
     head = ("POST /v1/jobs/%s/warp HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: text/csv\r\n"
             "Content-Length: %d\r\n\r\n" % (job, 2 * nbytes)).encode()
@@ -87,6 +136,7 @@ def park(port, job, n, nbytes):
             s = socket.create_connection(("127.0.0.1", port), timeout=60)
             socks.append(s)
             s.sendall(head + body)
+            settle(port, s)
         except OSError:  # answered and closed early: counted, not kept
             refused += 1
     print("sent" if not refused else "sent, %d refused" % refused, flush=True)

@@ -51,7 +51,8 @@ static void test_values_on_their_rows(void **state)
     smd_gauges g = {.jobs_by_state = {1, 2, 3, 4, 5}, .queue_depth = 6, .workers_busy = 7,
                     .workers_total = 8, .followers = 9, .quarantined = 10, .connections = 11,
                     .cut_headers = 12, .cut_body = 13, .cut_reserve = 14, .checks_running = 15,
-                    .checks_waiting = 16, .start_time = 1700000000.25, .ready = 1};
+                    .checks_waiting = 16, .body_bytes = 17, .body_budget = 18,
+                    .start_time = 1700000000.25, .ready = 1};
     size_t len = 0;
     char *t = smd_metrics_render(&m, &g, &len);
     assert_non_null(t);
@@ -71,6 +72,8 @@ static void test_values_on_their_rows(void **state)
         "shapematch_connections_cut_total{reason=\"reserve\"} 14",
         "shapematch_upload_checks{state=\"running\"} 15",
         "shapematch_upload_checks{state=\"waiting\"} 16",
+        "shapematch_request_body_bytes 17",
+        "shapematch_request_body_limit_bytes 18",
         "shapematch_ready 1",
         "process_start_time_seconds 1700000000.250",
         "shapematch_jobs_submitted_total 7",
@@ -95,10 +98,10 @@ static void test_values_on_their_rows(void **state)
         if (!has_line(t, want[i]))
             fail_msg("missing line: %s", want[i]);
     }
-    /* each family once, 20 of them (the memory row when /proc is there) */
+    /* each family once, 22 of them (the memory row when /proc is there) */
     size_t helps = count(t, "# HELP "), types = count(t, "# TYPE ");
     assert_int_equal(helps, types);
-    assert_int_equal(helps, 20);
+    assert_int_equal(helps, 22);
     /* the table's order: gauges, process, counters, requests, bytes */
     const char *order[] = {"# HELP shapematch_jobs ", "# HELP shapematch_ready ",
                            "# HELP process_start_time_seconds ",

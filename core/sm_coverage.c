@@ -240,17 +240,19 @@ static double facet_measure(int dim, const double *a, const double *b, const dou
     return 0.5 * sqrt(n0 * n0 + n1 * n1 + n2 * n2);
 }
 
+/* One square root for the longest (the root of the largest square is
+ * the largest root: it rounds monotonically). */
 static double longest_edge(int dim, const double *const x[3])
 {
-    double l = 0;
+    double l2 = 0;
     for (int i = 0; i < dim; i++)
         for (int j = i + 1; j < dim; j++) {
             double s = 0;
             for (int k = 0; k < dim; k++)
                 s += (x[i][k] - x[j][k]) * (x[i][k] - x[j][k]);
-            l = fmax(l, sqrt(s));
+            l2 = s > l2 ? s : l2;
         }
-    return l;
+    return sqrt(l2);
 }
 
 static int splits(int dim, const double *const x[3], double spacing)
@@ -350,7 +352,7 @@ static double refine_max(int dim, const double *coords, const int32_t *facets, i
         int64_t n = (gauss ? dim : 1) * (dim == 2 ? k : (int64_t)k * k);
         double fmx = 0;
         for (int64_t i = 0; i < n; i++)
-            fmx = fmax(fmx, d[at + i]);
+            fmx = d[at + i] > fmx ? d[at + i] : fmx;
         at += n;
         if (fmx < REFINE_NEAR * mx)
             continue;
@@ -368,7 +370,7 @@ static double refine_max(int dim, const double *coords, const int32_t *facets, i
         sample_facets(dim, coords, one, 1, spacing / REFINE, 0, pts, w);
         nearest_all(t, dim, nf, pts, NULL, fd);
         for (int64_t i = 0; i < nf; i++)
-            mx = fmax(mx, fd[i]);
+            mx = fd[i] > mx ? fd[i] : mx;
     }
     free(pts), free(w), free(fd);
     return mx;
@@ -451,10 +453,10 @@ static void side_figures(int64_t n, const double *d, const double *w, int64_t n_
         sw += w[i];
         swd += w[i] * d[i];
         swd2 += w[i] * d[i] * d[i];
-        mx = fmax(mx, d[i]);
+        mx = d[i] > mx ? d[i] : mx; /* not fmax: a library call */
     }
     for (int64_t i = 0; i < n_extra; i++)
-        mx = fmax(mx, extra[i]);
+        mx = extra[i] > mx ? extra[i] : mx;
     out->rms = sw > 0 ? sqrt(swd2 / sw) : 0;
     out->mean = sw > 0 ? swd / sw : 0;
     out->max = mx;
@@ -1013,7 +1015,7 @@ sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance 
     if (!pts || !w || !d || !hints || !c->tdist || make_target_samples(c) != 0)
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance samples");
     if (st == SM_OK && !c->target_bvh_built &&
-        (st = sm__bvh_build(c->target, &c->target_bvh, err)) == SM_OK)
+        (st = sm__bvh_build_boxes(c->target, &c->target_bvh, err)) == SM_OK)
         c->target_bvh_built = 1;
     if (st == SM_OK) {
         sample_facets(dim, coords, c->afacets, c->nactive, c->spacing, 1, pts, w);
@@ -1026,7 +1028,7 @@ sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance 
             refine_max(dim, coords, c->afacets, c->nactive, c->spacing, 1, d,
                        out->result_to_target.max, &c->target_bvh);
         /* target -> result: a hierarchy over the boundary at coords */
-        st = sm__bvh_build(&view, &bvh, err);
+        st = sm__bvh_build_boxes(&view, &bvh, err);
     }
     if (st == SM_OK) {
         for (int64_t i = 0; i < c->nt; i++)
@@ -1125,7 +1127,7 @@ sm_status sm__coverage_correspond(sm_coverage *c, const double *coords, sm_dista
     if (c->bvh_age < 0 || c->bvh_age >= REBUILD_EVERY) {
         sm__bvh_free(&c->bvh);
         c->bvh_age = -1;
-        sm_status st = sm__bvh_build(&c->view, &c->bvh, err);
+        sm_status st = sm__bvh_build_boxes(&c->view, &c->bvh, err);
         if (st != SM_OK)
             return st;
         c->bvh_age = 0;

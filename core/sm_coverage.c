@@ -327,8 +327,39 @@ static int64_t sample_facets(int dim, const double *coords, const int32_t *facet
 
 /* ---- distances to a hierarchy ---- */
 
-static void nearest_all(const sm_bvh *t, int dim, int64_t n, const double *pts, int32_t *hints,
-                        double *dist);
+/* Distance from each of the points pts[from..to) to the facets of t, on
+ * the calling thread; NAN when out of memory for the search's stack. */
+static void nearest_range(const sm_bvh *t, int dim, int64_t from, int64_t to, const double *pts,
+                          double *dist)
+{
+    sm_bvh_entry *stack = malloc((size_t)(2 * t->depth + 2) * sizeof *stack);
+    for (int64_t i = from; i < to; i++) {
+        if (!stack) {
+            dist[i] = NAN;
+            continue;
+        }
+        double p[3] = {0, 0, 0};
+        memcpy(p, pts + i * dim, (size_t)dim * sizeof *p);
+        int32_t hint = -1;
+        dist[i] = sm__bvh_nearest(t, p, &hint, stack);
+    }
+    free(stack);
+}
+
+/* The same for pts[0..n) as tasks of SEARCH_GRAIN points, for the
+ * threads of the enclosing parallel region (each point's answer is its
+ * own: any thread, any order, the same bits).  Returns when all are
+ * done. */
+#define SEARCH_GRAIN 512
+static void nearest_tasks(const sm_bvh *t, int dim, int64_t n, const double *pts, double *dist)
+{
+    const int64_t chunks = (n + SEARCH_GRAIN - 1) / SEARCH_GRAIN;
+#pragma omp taskloop grainsize(1)
+    for (int64_t k = 0; k < chunks; k++) {
+        int64_t to = (k + 1) * SEARCH_GRAIN;
+        nearest_range(t, dim, k * SEARCH_GRAIN, to < n ? to : n, pts, dist);
+    }
+}
 
 /* The max of the distance over facets is often inside a facet (a chord's
  * middle), between samples: the facets whose samples come within
@@ -368,37 +399,12 @@ static double refine_max(int dim, const double *coords, const int32_t *facets, i
                 break; /* the samples' max stands */
         }
         sample_facets(dim, coords, one, 1, spacing / REFINE, 0, pts, w);
-        nearest_all(t, dim, nf, pts, NULL, fd);
+        nearest_range(t, dim, 0, nf, pts, fd);
         for (int64_t i = 0; i < nf; i++)
             mx = fd[i] > mx ? fd[i] : mx;
     }
     free(pts), free(w), free(fd);
     return mx;
-}
-
-/* Distance from each of n points to the facets of t; hints (may be NULL)
- * seed and receive the nearest facet. */
-static void nearest_all(const sm_bvh *t, int dim, int64_t n, const double *pts, int32_t *hints,
-                        double *dist)
-{
-#pragma omp parallel if (n > PARALLEL_MIN)
-    {
-        sm_bvh_entry *stack = malloc((size_t)(2 * t->depth + 2) * sizeof *stack);
-#pragma omp for schedule(dynamic, 512)
-        for (int64_t i = 0; i < n; i++) {
-            if (!stack) {
-                dist[i] = NAN;
-                continue;
-            }
-            double p[3] = {0, 0, 0};
-            memcpy(p, pts + i * dim, (size_t)dim * sizeof *p);
-            int32_t h = hints ? hints[i] : -1;
-            dist[i] = sm__bvh_nearest(t, p, &h, stack);
-            if (hints)
-                hints[i] = h;
-        }
-        free(stack);
-    }
 }
 
 typedef struct wd {
@@ -993,10 +999,27 @@ void sm_coverage_get_topology(const sm_coverage *c, sm_coverage_topology *out)
     *out = c->topo;
 }
 
+/* 1 when any of d[0..n) is NAN (a search out of memory for its stack). */
+static int any_nan(int64_t n, const double *d)
+{
+    for (int64_t i = 0; i < n; i++)
+        if (isnan(d[i]))
+            return 1;
+    return 0;
+}
+
+/* The two sides share the threads: the target's hierarchy (built by the
+ * first measure, 28 ms of the 3D example's) is built as a task while the
+ * other threads sample the boundary and search the target's samples
+ * against the boundary's hierarchy; the target side's figures are then
+ * a task beside the search of the boundary's samples.  Each search's
+ * answer is its own and the figures are made on whole arrays, so they do
+ * not depend on the thread count. */
 sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance *out,
                               sm_error *err)
 {
     const int dim = c->dim;
+    const sm_surface *s = c->target;
     memset(out, 0, sizeof *out);
     out->method = c->method;
     /* result -> target: the boundary's samples and vertices */
@@ -1005,52 +1028,62 @@ sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance 
     double *pts = malloc(((size_t)(nb + nv) * dim + 1) * sizeof *pts);
     double *w = malloc(((size_t)nb + 1) * sizeof *w);
     double *d = malloc(((size_t)(nb + nv) + 1) * sizeof *d);
-    int32_t *hints = malloc(((size_t)c->nt + 1) * sizeof *hints);
+    /* target -> result: its samples, and its vertices toward the max */
+    double *vd = malloc(((size_t)s->nverts + 1) * sizeof *vd);
     sm_bvh bvh;
     memset(&bvh, 0, sizeof bvh);
     sm_surface view = boundary_view(c, coords);
-    sm_status st = SM_OK;
+    sm_status st = SM_OK, st_target = SM_OK;
+    sm_error err_target; /* the task's own: err is the other threads' */
+    sm_error_clear(&err_target);
     if (!c->tdist)
         c->tdist = malloc(((size_t)c->nt + 1) * sizeof *c->tdist);
-    if (!pts || !w || !d || !hints || !c->tdist || make_target_samples(c) != 0)
+    if (!pts || !w || !d || !vd || !c->tdist || make_target_samples(c) != 0)
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance samples");
-    if (st == SM_OK && !c->target_bvh_built &&
-        (st = sm__bvh_build_boxes(c->target, &c->target_bvh, err)) == SM_OK)
-        c->target_bvh_built = 1;
-    if (st == SM_OK) {
-        sample_facets(dim, coords, c->afacets, c->nactive, c->spacing, 1, pts, w);
-        for (int64_t i = 0; i < nv; i++)
-            memcpy(pts + (nb + i) * dim, coords + (size_t)c->afacets[i] * dim,
-                   (size_t)dim * sizeof *pts);
-        nearest_all(&c->target_bvh, dim, nb + nv, pts, NULL, d);
-        side_figures(nb, d, w, nv, d + nb, &out->result_to_target);
-        out->result_to_target.max =
-            refine_max(dim, coords, c->afacets, c->nactive, c->spacing, 1, d,
-                       out->result_to_target.max, &c->target_bvh);
-        /* target -> result: a hierarchy over the boundary at coords */
+    if (st == SM_OK)
         st = sm__bvh_build_boxes(&view, &bvh, err);
-    }
     if (st == SM_OK) {
-        for (int64_t i = 0; i < c->nt; i++)
-            hints[i] = -1;
-        nearest_all(&bvh, dim, c->nt, c->ty, hints, c->tdist);
-        /* the target's vertices count toward the max */
-        const sm_surface *s = c->target;
-        double *vd = malloc(((size_t)s->nverts + 1) * sizeof *vd);
-        if (vd)
-            nearest_all(&bvh, dim, s->nverts, s->coords, NULL, vd);
-        side_figures(c->nt, c->tdist, c->tw, vd ? s->nverts : 0, vd, &out->target_to_result);
-        free(vd);
-        out->target_to_result.max = refine_max(dim, s->coords, s->facets, s->nfacets, c->tspacing, 0,
-                                               c->tdist, out->target_to_result.max, &bvh);
-        for (int64_t i = 0; i < c->nt && st == SM_OK; i++)
-            if (isnan(c->tdist[i]))
-                st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance search");
-        if (isnan(out->target_to_result.p99) || isnan(out->result_to_target.p99))
+        const int64_t work = nb + nv + c->nt + s->nverts;
+#pragma omp parallel if (work > PARALLEL_MIN)
+#pragma omp single
+        {
+            if (!c->target_bvh_built) {
+#pragma omp task
+                st_target = sm__bvh_build_boxes(c->target, &c->target_bvh, &err_target);
+            }
+            sample_facets(dim, coords, c->afacets, c->nactive, c->spacing, 1, pts, w);
+            for (int64_t i = 0; i < nv; i++)
+                memcpy(pts + (nb + i) * dim, coords + (size_t)c->afacets[i] * dim,
+                       (size_t)dim * sizeof *pts);
+            nearest_tasks(&bvh, dim, c->nt, c->ty, c->tdist);
+            nearest_tasks(&bvh, dim, s->nverts, s->coords, vd);
+#pragma omp taskwait
+            if (st_target == SM_OK) {
+                c->target_bvh_built = 1;
+#pragma omp task
+                {
+                    side_figures(c->nt, c->tdist, c->tw, s->nverts, vd, &out->target_to_result);
+                    out->target_to_result.max =
+                        refine_max(dim, s->coords, s->facets, s->nfacets, c->tspacing, 0, c->tdist,
+                                   out->target_to_result.max, &bvh);
+                }
+                nearest_tasks(&c->target_bvh, dim, nb + nv, pts, d);
+                side_figures(nb, d, w, nv, d + nb, &out->result_to_target);
+                out->result_to_target.max =
+                    refine_max(dim, coords, c->afacets, c->nactive, c->spacing, 1, d,
+                               out->result_to_target.max, &c->target_bvh);
+#pragma omp taskwait
+            }
+        }
+        if (st_target != SM_OK)
+            st = sm_error_set(err, st_target, "%s", err_target.msg);
+        else if (any_nan(c->nt, c->tdist) || any_nan(s->nverts, vd) || any_nan(nb + nv, d))
+            st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance search");
+        else if (isnan(out->target_to_result.p99) || isnan(out->result_to_target.p99))
             st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance figures");
     }
     sm__bvh_free(&bvh);
-    free(hints);
+    free(vd);
     /* kept for sm_coverage_missed_part (the vertices are not samples) */
     free(c->rpts), free(c->rw), free(c->rdist);
     c->rpts = pts, c->rw = w, c->rdist = d, c->nr = st == SM_OK ? nb : 0;

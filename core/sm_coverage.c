@@ -346,19 +346,23 @@ static void nearest_range(const sm_bvh *t, int dim, int64_t from, int64_t to, co
     free(stack);
 }
 
-/* The same for pts[0..n) as tasks of SEARCH_GRAIN points, for the
- * threads of the enclosing parallel region (each point's answer is its
- * own: any thread, any order, the same bits).  Returns when all are
- * done. */
+/* The same for pts[0..n) as tasks for the threads of the enclosing
+ * parallel region (each point's answer is its own: any thread, any
+ * order, the same bits), SEARCH_TASKS a thread of at least SEARCH_GRAIN
+ * points: few enough that libgomp queues them (beyond 64 a thread it
+ * runs a taskloop's tasks on the thread that made them, one after the
+ * other), enough to even out.  Returns at once: the caller waits
+ * (taskwait) before reading dist. */
 #define SEARCH_GRAIN 512
+#define SEARCH_TASKS 8
 static void nearest_tasks(const sm_bvh *t, int dim, int64_t n, const double *pts, double *dist)
 {
-    const int64_t chunks = (n + SEARCH_GRAIN - 1) / SEARCH_GRAIN;
-#pragma omp taskloop grainsize(1)
-    for (int64_t k = 0; k < chunks; k++) {
-        int64_t to = (k + 1) * SEARCH_GRAIN;
-        nearest_range(t, dim, k * SEARCH_GRAIN, to < n ? to : n, pts, dist);
-    }
+    int64_t tasks = (n + SEARCH_GRAIN - 1) / SEARCH_GRAIN;
+    if (tasks > SEARCH_TASKS * (int64_t)omp_get_num_threads())
+        tasks = SEARCH_TASKS * (int64_t)omp_get_num_threads();
+#pragma omp taskloop grainsize(1) nogroup
+    for (int64_t k = 0; k < tasks; k++)
+        nearest_range(t, dim, n * k / tasks, n * (k + 1) / tasks, pts, dist);
 }
 
 /* The max of the distance over facets is often inside a facet (a chord's
@@ -1008,13 +1012,14 @@ static int any_nan(int64_t n, const double *d)
     return 0;
 }
 
-/* The two sides share the threads: the target's hierarchy (built by the
- * first measure, 28 ms of the 3D example's) is built as a task while the
- * other threads sample the boundary and search the target's samples
- * against the boundary's hierarchy; the target side's figures are then
- * a task beside the search of the boundary's samples.  Each search's
- * answer is its own and the figures are made on whole arrays, so they do
- * not depend on the thread count. */
+/* The two sides share the threads: the searches and the boundary's
+ * sampling are tasks, which the other threads take while this one builds
+ * the target's hierarchy (its first measure: 28 ms of the 3D example's)
+ * and makes the target side's figures; what is allocated is allocated
+ * here (memory a second thread frees stays in its own arena: the peak
+ * grew 11 MB when the figures were a task).  Each search's answer is its
+ * own and the figures are made on whole arrays, so they do not depend on
+ * the thread count. */
 sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance *out,
                               sm_error *err)
 {
@@ -1034,8 +1039,6 @@ sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance 
     memset(&bvh, 0, sizeof bvh);
     sm_surface view = boundary_view(c, coords);
     sm_status st = SM_OK, st_target = SM_OK;
-    sm_error err_target; /* the task's own: err is the other threads' */
-    sm_error_clear(&err_target);
     if (!c->tdist)
         c->tdist = malloc(((size_t)c->nt + 1) * sizeof *c->tdist);
     if (!pts || !w || !d || !vd || !c->tdist || make_target_samples(c) != 0)
@@ -1044,39 +1047,39 @@ sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance 
         st = sm__bvh_build_boxes(&view, &bvh, err);
     if (st == SM_OK) {
         const int64_t work = nb + nv + c->nt + s->nverts;
+        /* the master: the caller's thread, whose arena the rest of the
+         * run allocates from */
 #pragma omp parallel if (work > PARALLEL_MIN)
-#pragma omp single
+#pragma omp master
         {
-            if (!c->target_bvh_built) {
-#pragma omp task
-                st_target = sm__bvh_build_boxes(c->target, &c->target_bvh, &err_target);
-            }
-            sample_facets(dim, coords, c->afacets, c->nactive, c->spacing, 1, pts, w);
-            for (int64_t i = 0; i < nv; i++)
-                memcpy(pts + (nb + i) * dim, coords + (size_t)c->afacets[i] * dim,
-                       (size_t)dim * sizeof *pts);
             nearest_tasks(&bvh, dim, c->nt, c->ty, c->tdist);
             nearest_tasks(&bvh, dim, s->nverts, s->coords, vd);
+#pragma omp task
+            {
+                sample_facets(dim, coords, c->afacets, c->nactive, c->spacing, 1, pts, w);
+                for (int64_t i = 0; i < nv; i++)
+                    memcpy(pts + (nb + i) * dim, coords + (size_t)c->afacets[i] * dim,
+                           (size_t)dim * sizeof *pts);
+            }
+            if (!c->target_bvh_built &&
+                (st_target = sm__bvh_build_boxes(c->target, &c->target_bvh, err)) == SM_OK)
+                c->target_bvh_built = 1;
 #pragma omp taskwait
             if (st_target == SM_OK) {
-                c->target_bvh_built = 1;
-#pragma omp task
-                {
-                    side_figures(c->nt, c->tdist, c->tw, s->nverts, vd, &out->target_to_result);
-                    out->target_to_result.max =
-                        refine_max(dim, s->coords, s->facets, s->nfacets, c->tspacing, 0, c->tdist,
-                                   out->target_to_result.max, &bvh);
-                }
                 nearest_tasks(&c->target_bvh, dim, nb + nv, pts, d);
+                side_figures(c->nt, c->tdist, c->tw, s->nverts, vd, &out->target_to_result);
+                out->target_to_result.max =
+                    refine_max(dim, s->coords, s->facets, s->nfacets, c->tspacing, 0, c->tdist,
+                               out->target_to_result.max, &bvh);
+#pragma omp taskwait
                 side_figures(nb, d, w, nv, d + nb, &out->result_to_target);
                 out->result_to_target.max =
                     refine_max(dim, coords, c->afacets, c->nactive, c->spacing, 1, d,
                                out->result_to_target.max, &c->target_bvh);
-#pragma omp taskwait
             }
         }
         if (st_target != SM_OK)
-            st = sm_error_set(err, st_target, "%s", err_target.msg);
+            st = st_target;
         else if (any_nan(c->nt, c->tdist) || any_nan(s->nverts, vd) || any_nan(nb + nv, d))
             st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance search");
         else if (isnan(out->target_to_result.p99) || isnan(out->result_to_target.p99))

@@ -4,7 +4,8 @@
  * side of their centroids' box (half by count when that leaves one side
  * empty), leaves hold at most BVH_LEAF facets.  Each node also keeps what
  * the winding number's far field needs (sm_winding.c): the area-weighted
- * normal sum, the centroid and the radius about it. */
+ * normal sum, the centroid and the radius about it (sm__bvh_build; a tree
+ * for the nearest-facet search alone, sm__bvh_build_boxes, skips them). */
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>

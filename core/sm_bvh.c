@@ -417,7 +417,7 @@ static sm_status build_tree(const sm_surface *s, sm_bvh *t, int moments, sm_erro
         return sm_error_set(err, SM_ERR_INVALID, "the surface has no facets");
     build_ctx b = {t, malloc(3 * (size_t)s->nfacets * sizeof(double)), moments};
     t->order = malloc((size_t)s->nfacets * sizeof(int32_t));
-    t->nodes = malloc(2 * (size_t)s->nfacets * sizeof(sm_bvh_node));
+    t->nodes = calloc(2 * (size_t)s->nfacets, sizeof(sm_bvh_node)); /* zero moments without */
     if (!b.cent || !t->order || !t->nodes) {
         free(b.cent);
         sm__bvh_free(t);

@@ -28,7 +28,7 @@ typedef struct sm_bvh {
 } sm_bvh;
 
 sm_status sm__bvh_build(const sm_surface *s, sm_bvh *t, sm_error *err);
-/* The same tree without the far-field moments (n, c, r left unset): for
+/* The same tree without the far-field moments (n, c, r zero): for
  * sm__bvh_nearest only, the same boxes and so the same answers, built
  * in a fraction of the time (the moments were most of a build). */
 sm_status sm__bvh_build_boxes(const sm_surface *s, sm_bvh *t, sm_error *err);

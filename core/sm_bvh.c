@@ -380,10 +380,15 @@ static void build(build_ctx *b, int32_t node, int depth)
 {
     sm_bvh *t = b->t;
     sm_bvh_node *nd = &t->nodes[node];
-    if (b->moments)
+    if (b->moments) {
         node_box(b, nd); /* before the split reorders the range: the sums' order */
-    else if (nd->count <= BVH_LEAF)
-        facets_box(b, nd);
+    } else {
+        memset(nd->n, 0, sizeof nd->n);
+        memset(nd->c, 0, sizeof nd->c);
+        nd->r = 0;
+        if (nd->count <= BVH_LEAF)
+            facets_box(b, nd);
+    }
     if (depth > t->depth)
         t->depth = depth;
     nd->left = nd->right = -1;
@@ -417,7 +422,7 @@ static sm_status build_tree(const sm_surface *s, sm_bvh *t, int moments, sm_erro
         return sm_error_set(err, SM_ERR_INVALID, "the surface has no facets");
     build_ctx b = {t, malloc(3 * (size_t)s->nfacets * sizeof(double)), moments};
     t->order = malloc((size_t)s->nfacets * sizeof(int32_t));
-    t->nodes = calloc(2 * (size_t)s->nfacets, sizeof(sm_bvh_node)); /* zero moments without */
+    t->nodes = malloc(2 * (size_t)s->nfacets * sizeof(sm_bvh_node));
     if (!b.cent || !t->order || !t->nodes) {
         free(b.cent);
         sm__bvh_free(t);

@@ -1072,10 +1072,18 @@ sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance 
                     refine_max(dim, s->coords, s->facets, s->nfacets, c->tspacing, 0, c->tdist,
                                out->target_to_result.max, &bvh);
 #pragma omp taskwait
+                /* the max over the samples and corners, as side_figures
+                 * takes it, starts the refinement, a task beside the
+                 * figures (its buffers are one facet's samples) */
+                double mx = 0, refined = 0;
+                for (int64_t i = 0; i < nb + nv; i++)
+                    mx = d[i] > mx ? d[i] : mx;
+#pragma omp task shared(refined)
+                refined = refine_max(dim, coords, c->afacets, c->nactive, c->spacing, 1, d, mx,
+                                     &c->target_bvh);
                 side_figures(nb, d, w, nv, d + nb, &out->result_to_target);
-                out->result_to_target.max =
-                    refine_max(dim, coords, c->afacets, c->nactive, c->spacing, 1, d,
-                               out->result_to_target.max, &c->target_bvh);
+#pragma omp taskwait
+                out->result_to_target.max = refined;
             }
         }
         if (st_target != SM_OK)

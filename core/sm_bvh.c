@@ -4,7 +4,8 @@
  * side of their centroids' box (half by count when that leaves one side
  * empty), leaves hold at most BVH_LEAF facets.  Each node also keeps what
  * the winding number's far field needs (sm_winding.c): the area-weighted
- * normal sum, the centroid and the radius about it. */
+ * normal sum, the centroid and the radius about it (sm__bvh_build; a tree
+ * for the nearest-facet search alone, sm__bvh_build_boxes, skips them). */
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
@@ -13,6 +14,19 @@
 #include "sm_bvh.h"
 
 #define BVH_LEAF 4
+
+/* The smaller and the larger of a running bound and x: comparisons the
+ * compiler keeps inline, where fmin and fmax are library calls (NaN
+ * rules); a NaN x leaves the bound as fmin and fmax would. */
+static inline double lower(double bound, double x)
+{
+    return x < bound ? x : bound;
+}
+
+static inline double upper(double bound, double x)
+{
+    return x > bound ? x : bound;
+}
 
 /* ---- exact distances ---- */
 
@@ -267,7 +281,30 @@ void sm__bvh_facet_moments(const sm_surface *s, int32_t f, double *n, double *c)
 typedef struct build_ctx {
     sm_bvh *t;
     double *cent; /* 3 per facet */
+    int moments;  /* the winding number's far field too (sm__bvh_build) */
 } build_ctx;
+
+/* A node's box from its facets' corners (a leaf of a tree without the
+ * moments: the boxes above are their children's union, the same
+ * numbers, as a minimum and a maximum do not round). */
+static void facets_box(build_ctx *b, sm_bvh_node *nd)
+{
+    const sm_surface *s = b->t->s;
+    int dim = s->dim;
+    for (int k = 0; k < 3; k++) {
+        nd->lo[k] = k < dim ? DBL_MAX : 0;
+        nd->hi[k] = k < dim ? -DBL_MAX : 0;
+    }
+    for (int32_t i = nd->first; i < nd->first + nd->count; i++) {
+        const int32_t *v = s->facets + (size_t)b->t->order[i] * dim;
+        for (int j = 0; j < dim; j++)
+            for (int k = 0; k < dim; k++) {
+                double x = s->coords[(size_t)v[j] * dim + k];
+                nd->lo[k] = lower(nd->lo[k], x);
+                nd->hi[k] = upper(nd->hi[k], x);
+            }
+    }
+}
 
 static void node_box(build_ctx *b, sm_bvh_node *nd)
 {
@@ -285,8 +322,8 @@ static void node_box(build_ctx *b, sm_bvh_node *nd)
         for (int j = 0; j < dim; j++)
             for (int k = 0; k < dim; k++) {
                 double x = s->coords[(size_t)v[j] * dim + k];
-                nd->lo[k] = fmin(nd->lo[k], x);
-                nd->hi[k] = fmax(nd->hi[k], x);
+                nd->lo[k] = lower(nd->lo[k], x);
+                nd->hi[k] = upper(nd->hi[k], x);
             }
         double n[3], c[3];
         sm__bvh_facet_moments(s, f, n, c);
@@ -316,8 +353,8 @@ static int32_t split(build_ctx *b, const sm_bvh_node *nd)
     int32_t *o = b->t->order;
     for (int32_t i = nd->first; i < nd->first + nd->count; i++)
         for (int k = 0; k < 3; k++) {
-            lo[k] = fmin(lo[k], b->cent[3 * (size_t)o[i] + k]);
-            hi[k] = fmax(hi[k], b->cent[3 * (size_t)o[i] + k]);
+            lo[k] = lower(lo[k], b->cent[3 * (size_t)o[i] + k]);
+            hi[k] = upper(hi[k], b->cent[3 * (size_t)o[i] + k]);
         }
     int axis = 0;
     for (int k = 1; k < 3; k++)
@@ -343,7 +380,15 @@ static void build(build_ctx *b, int32_t node, int depth)
 {
     sm_bvh *t = b->t;
     sm_bvh_node *nd = &t->nodes[node];
-    node_box(b, nd);
+    if (b->moments) {
+        node_box(b, nd); /* before the split reorders the range: the sums' order */
+    } else {
+        memset(nd->n, 0, sizeof nd->n);
+        memset(nd->c, 0, sizeof nd->c);
+        nd->r = 0;
+        if (nd->count <= BVH_LEAF)
+            facets_box(b, nd);
+    }
     if (depth > t->depth)
         t->depth = depth;
     nd->left = nd->right = -1;
@@ -360,15 +405,22 @@ static void build(build_ctx *b, int32_t node, int depth)
     t->nodes[node].right = r;
     build(b, l, depth + 1);
     build(b, r, depth + 1);
+    if (!b->moments) {
+        nd = &t->nodes[node];
+        for (int k = 0; k < 3; k++) {
+            nd->lo[k] = lower(t->nodes[l].lo[k], t->nodes[r].lo[k]);
+            nd->hi[k] = upper(t->nodes[l].hi[k], t->nodes[r].hi[k]);
+        }
+    }
 }
 
-sm_status sm__bvh_build(const sm_surface *s, sm_bvh *t, sm_error *err)
+static sm_status build_tree(const sm_surface *s, sm_bvh *t, int moments, sm_error *err)
 {
     memset(t, 0, sizeof *t);
     t->s = s;
     if (s->nfacets <= 0)
         return sm_error_set(err, SM_ERR_INVALID, "the surface has no facets");
-    build_ctx b = {t, malloc(3 * (size_t)s->nfacets * sizeof(double))};
+    build_ctx b = {t, malloc(3 * (size_t)s->nfacets * sizeof(double)), moments};
     t->order = malloc((size_t)s->nfacets * sizeof(int32_t));
     t->nodes = malloc(2 * (size_t)s->nfacets * sizeof(sm_bvh_node));
     if (!b.cent || !t->order || !t->nodes) {
@@ -402,6 +454,16 @@ sm_status sm__bvh_build(const sm_surface *s, sm_bvh *t, sm_error *err)
     return SM_OK;
 }
 
+sm_status sm__bvh_build(const sm_surface *s, sm_bvh *t, sm_error *err)
+{
+    return build_tree(s, t, 1, err);
+}
+
+sm_status sm__bvh_build_boxes(const sm_surface *s, sm_bvh *t, sm_error *err)
+{
+    return build_tree(s, t, 0, err);
+}
+
 void sm__bvh_refit(sm_bvh *t)
 {
     const sm_surface *s = t->s;
@@ -417,8 +479,8 @@ void sm__bvh_refit(sm_bvh *t)
         if (nd->left >= 0) {
             const sm_bvh_node *l = &t->nodes[nd->left], *r = &t->nodes[nd->right];
             for (int k = 0; k < 3; k++) {
-                nd->lo[k] = fmin(l->lo[k], r->lo[k]);
-                nd->hi[k] = fmax(l->hi[k], r->hi[k]);
+                nd->lo[k] = lower(l->lo[k], r->lo[k]);
+                nd->hi[k] = upper(l->hi[k], r->hi[k]);
             }
             continue;
         }
@@ -429,8 +491,8 @@ void sm__bvh_refit(sm_bvh *t)
         const double *x = t->pos + (size_t)nd->first * dim * dim;
         for (int32_t i = 0; i < nd->count * dim; i++)
             for (int k = 0; k < dim; k++) {
-                nd->lo[k] = fmin(nd->lo[k], x[(size_t)i * dim + k]);
-                nd->hi[k] = fmax(nd->hi[k], x[(size_t)i * dim + k]);
+                nd->lo[k] = lower(nd->lo[k], x[(size_t)i * dim + k]);
+                nd->hi[k] = upper(nd->hi[k], x[(size_t)i * dim + k]);
             }
     }
 }
@@ -447,28 +509,35 @@ void sm__bvh_free(sm_bvh *t)
 
 /* ---- nearest facet ---- */
 
-static double box_dist2(const sm_bvh_node *nd, const double *p, int dim)
+/* Squared distance from p to the box of the triangle at x (its three
+ * corners): in a leaf, a triangle whose box is beyond the best so far is
+ * not tested (half the tests of the final measure's searches). */
+static double triangle_box_dist2(const double *x, const double *p)
 {
     double d2 = 0;
-    for (int k = 0; k < dim; k++) {
-        double e = p[k] < nd->lo[k] ? nd->lo[k] - p[k] : p[k] > nd->hi[k] ? p[k] - nd->hi[k] : 0;
+    for (int k = 0; k < 3; k++) {
+        double lo = x[k], hi = x[k];
+        lo = lower(lower(lo, x[3 + k]), x[6 + k]);
+        hi = upper(upper(hi, x[3 + k]), x[6 + k]);
+        double below = lo - p[k], above = p[k] - hi;
+        double e = below > above ? below : above;
+        e = e > 0 ? e : 0;
         d2 += e * e;
     }
     return d2;
 }
 
-/* Squared distance from p to the facet at position i of the order. */
-static double pos_dist2(const sm_bvh *t, int32_t i, const double *p, int dim)
-{
-    const double *x = t->pos + (size_t)i * dim * dim;
-    return dim == 3 ? sm_sdf_point_triangle2(p, x, x + 3, x + 6) : sm_sdf_point_segment2(p, x, x + 2);
-}
-
-/* Nearest child first; a node is pruned by the box distance stored when
- * it was pushed, so each box is measured once. */
+/* Nearest child first: the nearer child is descended into at once and
+ * the farther pushed with its box distance, so each box is measured
+ * once; a node or a triangle is skipped when its box is farther than the
+ * best so far by more than the rounding of the two distances (BEYOND:
+ * a facet's computed distance may fall an ulp short of its box's), so
+ * the answer is an exhaustive pass's, visited in the same order as ever
+ * (ties keep the first facet found, which the descent's hints rely on). */
+#define BEYOND(d2, best) ((d2) > (best) * (1 + 1e-9))
 double sm__bvh_nearest(const sm_bvh *t, const double *p, int32_t *hint, sm_bvh_entry *stack)
 {
-    int dim = t->s->dim;
+    const int dim = t->s->dim;
     double best = DBL_MAX;
     int32_t bestf = -1;
     if (*hint >= 0) {
@@ -476,32 +545,47 @@ double sm__bvh_nearest(const sm_bvh *t, const double *p, int32_t *hint, sm_bvh_e
         bestf = *hint;
     }
     int top = 0;
-    stack[top++] = (sm_bvh_entry){box_dist2(&t->nodes[0], p, dim), 0};
-    while (top > 0) {
-        sm_bvh_entry e = stack[--top];
-        if (e.d2 >= best && bestf >= 0)
-            continue;
-        const sm_bvh_node *nd = &t->nodes[e.node];
-        if (nd->left < 0) {
-            for (int32_t i = nd->first; i < nd->first + nd->count; i++) {
-                double d2 = pos_dist2(t, i, p, dim);
-                if (d2 < best) {
-                    best = d2;
-                    bestf = t->order[i];
+    int32_t node = 0;
+    double node_d2 = sm__box_dist2(t->nodes[0].lo, t->nodes[0].hi, p, dim);
+    for (;;) {
+        if (bestf < 0 || !BEYOND(node_d2, best)) {
+            const sm_bvh_node *nd = &t->nodes[node];
+            if (nd->left < 0) {
+                for (int32_t i = nd->first; i < nd->first + nd->count; i++) {
+                    const double *x = t->pos + (size_t)i * dim * dim;
+                    if (dim == 3 && bestf >= 0 && BEYOND(triangle_box_dist2(x, p), best))
+                        continue;
+                    double d2 = dim == 3 ? sm_sdf_point_triangle2(p, x, x + 3, x + 6)
+                                         : sm_sdf_point_segment2(p, x, x + 2);
+                    if (d2 < best) {
+                        best = d2;
+                        bestf = t->order[i];
+                    }
+                }
+            } else {
+                const sm_bvh_node *l = &t->nodes[nd->left], *r = &t->nodes[nd->right];
+                double dl = sm__box_dist2(l->lo, l->hi, p, dim);
+                double dr = sm__box_dist2(r->lo, r->hi, p, dim);
+                int left_first = dl < dr;
+                int32_t nearc = left_first ? nd->left : nd->right;
+                int32_t farc = left_first ? nd->right : nd->left;
+                double dn = left_first ? dl : dr, df = left_first ? dr : dl;
+                if (bestf < 0 || !BEYOND(df, best))
+                    stack[top++] = (sm_bvh_entry){df, farc};
+                if (bestf < 0 || !BEYOND(dn, best)) {
+                    node = nearc;
+                    node_d2 = dn;
+                    continue;
                 }
             }
-            continue;
         }
-        double dl = box_dist2(&t->nodes[nd->left], p, dim);
-        double dr = box_dist2(&t->nodes[nd->right], p, dim);
-        /* the nearer child is popped first; a child beyond best is not pushed */
-        int32_t nearc = dl < dr ? nd->left : nd->right, farc = dl < dr ? nd->right : nd->left;
-        double dn = fmin(dl, dr), df = fmax(dl, dr);
-        if (df < best || bestf < 0)
-            stack[top++] = (sm_bvh_entry){df, farc};
-        if (dn < best || bestf < 0)
-            stack[top++] = (sm_bvh_entry){dn, nearc};
+        if (top == 0)
+            break;
+        sm_bvh_entry e = stack[--top];
+        node = e.node;
+        node_d2 = e.d2;
     }
     *hint = bestf;
     return sqrt(best);
 }
+

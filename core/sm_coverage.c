@@ -240,17 +240,19 @@ static double facet_measure(int dim, const double *a, const double *b, const dou
     return 0.5 * sqrt(n0 * n0 + n1 * n1 + n2 * n2);
 }
 
+/* One square root for the longest (the root of the largest square is
+ * the largest root: it rounds monotonically). */
 static double longest_edge(int dim, const double *const x[3])
 {
-    double l = 0;
+    double l2 = 0;
     for (int i = 0; i < dim; i++)
         for (int j = i + 1; j < dim; j++) {
             double s = 0;
             for (int k = 0; k < dim; k++)
                 s += (x[i][k] - x[j][k]) * (x[i][k] - x[j][k]);
-            l = fmax(l, sqrt(s));
+            l2 = s > l2 ? s : l2;
         }
-    return l;
+    return sqrt(l2);
 }
 
 static int splits(int dim, const double *const x[3], double spacing)
@@ -325,8 +327,43 @@ static int64_t sample_facets(int dim, const double *coords, const int32_t *facet
 
 /* ---- distances to a hierarchy ---- */
 
-static void nearest_all(const sm_bvh *t, int dim, int64_t n, const double *pts, int32_t *hints,
-                        double *dist);
+/* Distance from each of the points pts[from..to) to the facets of t, on
+ * the calling thread; NAN when out of memory for the search's stack. */
+static void nearest_range(const sm_bvh *t, int dim, int64_t from, int64_t to, const double *pts,
+                          double *dist)
+{
+    sm_bvh_entry *stack = malloc((size_t)(2 * t->depth + 2) * sizeof *stack);
+    for (int64_t i = from; i < to; i++) {
+        if (!stack) {
+            dist[i] = NAN;
+            continue;
+        }
+        double p[3] = {0, 0, 0};
+        memcpy(p, pts + i * dim, (size_t)dim * sizeof *p);
+        int32_t hint = -1;
+        dist[i] = sm__bvh_nearest(t, p, &hint, stack);
+    }
+    free(stack);
+}
+
+/* The same for pts[0..n) as tasks for the threads of the enclosing
+ * parallel region (each point's answer is its own: any thread, any
+ * order, the same bits), SEARCH_TASKS a thread of at least SEARCH_GRAIN
+ * points: few enough that libgomp queues them (beyond 64 a thread it
+ * runs a taskloop's tasks on the thread that made them, one after the
+ * other), enough to even out.  Returns at once: the caller waits
+ * (taskwait) before reading dist. */
+#define SEARCH_GRAIN 512
+#define SEARCH_TASKS 8
+static void nearest_tasks(const sm_bvh *t, int dim, int64_t n, const double *pts, double *dist)
+{
+    int64_t tasks = (n + SEARCH_GRAIN - 1) / SEARCH_GRAIN;
+    if (tasks > SEARCH_TASKS * (int64_t)omp_get_num_threads())
+        tasks = SEARCH_TASKS * (int64_t)omp_get_num_threads();
+#pragma omp taskloop grainsize(1) nogroup
+    for (int64_t k = 0; k < tasks; k++)
+        nearest_range(t, dim, n * k / tasks, n * (k + 1) / tasks, pts, dist);
+}
 
 /* The max of the distance over facets is often inside a facet (a chord's
  * middle), between samples: the facets whose samples come within
@@ -350,7 +387,7 @@ static double refine_max(int dim, const double *coords, const int32_t *facets, i
         int64_t n = (gauss ? dim : 1) * (dim == 2 ? k : (int64_t)k * k);
         double fmx = 0;
         for (int64_t i = 0; i < n; i++)
-            fmx = fmax(fmx, d[at + i]);
+            fmx = d[at + i] > fmx ? d[at + i] : fmx;
         at += n;
         if (fmx < REFINE_NEAR * mx)
             continue;
@@ -366,37 +403,12 @@ static double refine_max(int dim, const double *coords, const int32_t *facets, i
                 break; /* the samples' max stands */
         }
         sample_facets(dim, coords, one, 1, spacing / REFINE, 0, pts, w);
-        nearest_all(t, dim, nf, pts, NULL, fd);
+        nearest_range(t, dim, 0, nf, pts, fd);
         for (int64_t i = 0; i < nf; i++)
-            mx = fmax(mx, fd[i]);
+            mx = fd[i] > mx ? fd[i] : mx;
     }
     free(pts), free(w), free(fd);
     return mx;
-}
-
-/* Distance from each of n points to the facets of t; hints (may be NULL)
- * seed and receive the nearest facet. */
-static void nearest_all(const sm_bvh *t, int dim, int64_t n, const double *pts, int32_t *hints,
-                        double *dist)
-{
-#pragma omp parallel if (n > PARALLEL_MIN)
-    {
-        sm_bvh_entry *stack = malloc((size_t)(2 * t->depth + 2) * sizeof *stack);
-#pragma omp for schedule(dynamic, 512)
-        for (int64_t i = 0; i < n; i++) {
-            if (!stack) {
-                dist[i] = NAN;
-                continue;
-            }
-            double p[3] = {0, 0, 0};
-            memcpy(p, pts + i * dim, (size_t)dim * sizeof *p);
-            int32_t h = hints ? hints[i] : -1;
-            dist[i] = sm__bvh_nearest(t, p, &h, stack);
-            if (hints)
-                hints[i] = h;
-        }
-        free(stack);
-    }
 }
 
 typedef struct wd {
@@ -451,10 +463,10 @@ static void side_figures(int64_t n, const double *d, const double *w, int64_t n_
         sw += w[i];
         swd += w[i] * d[i];
         swd2 += w[i] * d[i] * d[i];
-        mx = fmax(mx, d[i]);
+        mx = d[i] > mx ? d[i] : mx; /* not fmax: a library call */
     }
     for (int64_t i = 0; i < n_extra; i++)
-        mx = fmax(mx, extra[i]);
+        mx = extra[i] > mx ? extra[i] : mx;
     out->rms = sw > 0 ? sqrt(swd2 / sw) : 0;
     out->mean = sw > 0 ? swd / sw : 0;
     out->max = mx;
@@ -991,10 +1003,28 @@ void sm_coverage_get_topology(const sm_coverage *c, sm_coverage_topology *out)
     *out = c->topo;
 }
 
+/* 1 when any of d[0..n) is NAN (a search out of memory for its stack). */
+static int any_nan(int64_t n, const double *d)
+{
+    for (int64_t i = 0; i < n; i++)
+        if (isnan(d[i]))
+            return 1;
+    return 0;
+}
+
+/* The two sides share the threads: the searches and the boundary's
+ * sampling are tasks, which the other threads take while this one builds
+ * the target's hierarchy (its first measure: 28 ms of the 3D example's)
+ * and makes the target side's figures; what is allocated is allocated
+ * here (memory a second thread frees stays in its own arena: the peak
+ * grew 11 MB when the figures were a task).  Each search's answer is its
+ * own and the figures are made on whole arrays, so they do not depend on
+ * the thread count. */
 sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance *out,
                               sm_error *err)
 {
     const int dim = c->dim;
+    const sm_surface *s = c->target;
     memset(out, 0, sizeof *out);
     out->method = c->method;
     /* result -> target: the boundary's samples and vertices */
@@ -1003,52 +1033,68 @@ sm_status sm_coverage_measure(sm_coverage *c, const double *coords, sm_distance 
     double *pts = malloc(((size_t)(nb + nv) * dim + 1) * sizeof *pts);
     double *w = malloc(((size_t)nb + 1) * sizeof *w);
     double *d = malloc(((size_t)(nb + nv) + 1) * sizeof *d);
-    int32_t *hints = malloc(((size_t)c->nt + 1) * sizeof *hints);
+    /* target -> result: its samples, and its vertices toward the max */
+    double *vd = malloc(((size_t)s->nverts + 1) * sizeof *vd);
     sm_bvh bvh;
     memset(&bvh, 0, sizeof bvh);
     sm_surface view = boundary_view(c, coords);
-    sm_status st = SM_OK;
+    sm_status st = SM_OK, st_target = SM_OK;
     if (!c->tdist)
         c->tdist = malloc(((size_t)c->nt + 1) * sizeof *c->tdist);
-    if (!pts || !w || !d || !hints || !c->tdist || make_target_samples(c) != 0)
+    if (!pts || !w || !d || !vd || !c->tdist || make_target_samples(c) != 0)
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance samples");
-    if (st == SM_OK && !c->target_bvh_built &&
-        (st = sm__bvh_build(c->target, &c->target_bvh, err)) == SM_OK)
-        c->target_bvh_built = 1;
+    if (st == SM_OK)
+        st = sm__bvh_build_boxes(&view, &bvh, err);
     if (st == SM_OK) {
-        sample_facets(dim, coords, c->afacets, c->nactive, c->spacing, 1, pts, w);
-        for (int64_t i = 0; i < nv; i++)
-            memcpy(pts + (nb + i) * dim, coords + (size_t)c->afacets[i] * dim,
-                   (size_t)dim * sizeof *pts);
-        nearest_all(&c->target_bvh, dim, nb + nv, pts, NULL, d);
-        side_figures(nb, d, w, nv, d + nb, &out->result_to_target);
-        out->result_to_target.max =
-            refine_max(dim, coords, c->afacets, c->nactive, c->spacing, 1, d,
-                       out->result_to_target.max, &c->target_bvh);
-        /* target -> result: a hierarchy over the boundary at coords */
-        st = sm__bvh_build(&view, &bvh, err);
-    }
-    if (st == SM_OK) {
-        for (int64_t i = 0; i < c->nt; i++)
-            hints[i] = -1;
-        nearest_all(&bvh, dim, c->nt, c->ty, hints, c->tdist);
-        /* the target's vertices count toward the max */
-        const sm_surface *s = c->target;
-        double *vd = malloc(((size_t)s->nverts + 1) * sizeof *vd);
-        if (vd)
-            nearest_all(&bvh, dim, s->nverts, s->coords, NULL, vd);
-        side_figures(c->nt, c->tdist, c->tw, vd ? s->nverts : 0, vd, &out->target_to_result);
-        free(vd);
-        out->target_to_result.max = refine_max(dim, s->coords, s->facets, s->nfacets, c->tspacing, 0,
-                                               c->tdist, out->target_to_result.max, &bvh);
-        for (int64_t i = 0; i < c->nt && st == SM_OK; i++)
-            if (isnan(c->tdist[i]))
-                st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance search");
-        if (isnan(out->target_to_result.p99) || isnan(out->result_to_target.p99))
+        const int64_t work = nb + nv + c->nt + s->nverts;
+        /* the master: the caller's thread, whose arena the rest of the
+         * run allocates from */
+#pragma omp parallel if (work > PARALLEL_MIN)
+#pragma omp master
+        {
+            nearest_tasks(&bvh, dim, c->nt, c->ty, c->tdist);
+            nearest_tasks(&bvh, dim, s->nverts, s->coords, vd);
+#pragma omp task
+            {
+                sample_facets(dim, coords, c->afacets, c->nactive, c->spacing, 1, pts, w);
+                for (int64_t i = 0; i < nv; i++)
+                    memcpy(pts + (nb + i) * dim, coords + (size_t)c->afacets[i] * dim,
+                           (size_t)dim * sizeof *pts);
+            }
+            if (!c->target_bvh_built &&
+                (st_target = sm__bvh_build_boxes(c->target, &c->target_bvh, err)) == SM_OK)
+                c->target_bvh_built = 1;
+#pragma omp taskwait
+            if (st_target == SM_OK) {
+                nearest_tasks(&c->target_bvh, dim, nb + nv, pts, d);
+                side_figures(c->nt, c->tdist, c->tw, s->nverts, vd, &out->target_to_result);
+                out->target_to_result.max =
+                    refine_max(dim, s->coords, s->facets, s->nfacets, c->tspacing, 0, c->tdist,
+                               out->target_to_result.max, &bvh);
+#pragma omp taskwait
+                /* the max over the samples and corners, as side_figures
+                 * takes it, starts the refinement, a task beside the
+                 * figures (its buffers are one facet's samples) */
+                double mx = 0, refined = 0;
+                for (int64_t i = 0; i < nb + nv; i++)
+                    mx = d[i] > mx ? d[i] : mx;
+#pragma omp task shared(refined)
+                refined = refine_max(dim, coords, c->afacets, c->nactive, c->spacing, 1, d, mx,
+                                     &c->target_bvh);
+                side_figures(nb, d, w, nv, d + nb, &out->result_to_target);
+#pragma omp taskwait
+                out->result_to_target.max = refined;
+            }
+        }
+        if (st_target != SM_OK)
+            st = st_target;
+        else if (any_nan(c->nt, c->tdist) || any_nan(s->nverts, vd) || any_nan(nb + nv, d))
+            st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance search");
+        else if (isnan(out->target_to_result.p99) || isnan(out->result_to_target.p99))
             st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance figures");
     }
     sm__bvh_free(&bvh);
-    free(hints);
+    free(vd);
     /* kept for sm_coverage_missed_part (the vertices are not samples) */
     free(c->rpts), free(c->rw), free(c->rdist);
     c->rpts = pts, c->rw = w, c->rdist = d, c->nr = st == SM_OK ? nb : 0;
@@ -1125,7 +1171,7 @@ sm_status sm__coverage_correspond(sm_coverage *c, const double *coords, sm_dista
     if (c->bvh_age < 0 || c->bvh_age >= REBUILD_EVERY) {
         sm__bvh_free(&c->bvh);
         c->bvh_age = -1;
-        sm_status st = sm__bvh_build(&c->view, &c->bvh, err);
+        sm_status st = sm__bvh_build_boxes(&c->view, &c->bvh, err);
         if (st != SM_OK)
             return st;
         c->bvh_age = 0;

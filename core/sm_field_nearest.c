@@ -14,13 +14,12 @@
 /* Squared distance from x to grid cell c. */
 static double cell_dist2(const grid *g, const int32_t *c, const double *x)
 {
-    double d2 = 0.0;
+    double lo[3], hi[3];
     for (int i = 0; i < g->dim; i++) {
-        double a = g->lo[i] + c[i] * g->cell[i], b = a + g->cell[i];
-        double t = x[i] < a ? a - x[i] : x[i] > b ? x[i] - b : 0.0;
-        d2 += t * t;
+        lo[i] = g->lo[i] + c[i] * g->cell[i];
+        hi[i] = lo[i] + g->cell[i];
     }
-    return d2;
+    return sm__box_dist2(lo, hi, x, g->dim);
 }
 
 typedef struct nearest_state {
@@ -225,17 +224,6 @@ sm_status sm__field_build_facet_tree(sm_field *f, const double *boxes, sm_error 
     return SM_OK;
 }
 
-/* Squared distance from x to a node's box. */
-static double node_dist2(const facet_node *nd, const double *x, int D)
-{
-    double d2 = 0.0;
-    for (int i = 0; i < D; i++) {
-        double t = x[i] < nd->lo[i] ? nd->lo[i] - x[i] : x[i] > nd->hi[i] ? x[i] - nd->hi[i] : 0.0;
-        d2 += t * t;
-    }
-    return d2;
-}
-
 /* Every facet that could be as near as the best so far, through the
  * tree: the answer of a pass over every facet (try_facet's order-free
  * rule, ties to the smallest id), as a box is skipped only when it is
@@ -251,7 +239,7 @@ static void tree_search(const sm_field *f, const double *x, nearest_state *s)
     stack[top++] = 0;
     while (top > 0) {
         const facet_node *nd = &f->ftree[stack[--top]];
-        if (node_dist2(nd, x, D) > s->best2 * (1 + 1e-9))
+        if (sm__box_dist2(nd->lo, nd->hi, x, D) > s->best2 * (1 + 1e-9))
             continue;
         if (nd->left < 0) {
             for (int32_t j = nd->first; j < nd->first + nd->count; j++)
@@ -259,8 +247,8 @@ static void tree_search(const sm_field *f, const double *x, nearest_state *s)
             continue;
         }
         /* the nearer child last: searched first */
-        double dl = node_dist2(&f->ftree[nd->left], x, D);
-        double dr = node_dist2(&f->ftree[nd->right], x, D);
+        double dl = sm__box_dist2(f->ftree[nd->left].lo, f->ftree[nd->left].hi, x, D);
+        double dr = sm__box_dist2(f->ftree[nd->right].lo, f->ftree[nd->right].hi, x, D);
         if (top + 2 > (int)(sizeof stack / sizeof *stack)) {
             /* deeper than a Morton-halved tree of 2^31 facets gets:
              * cannot happen; the plain pass keeps the answer */

@@ -150,8 +150,8 @@ sm_status sm_edt_signed(const int64_t n[3], const double h[3], const uint8_t *ma
 /* 1D with the minimiser: arg[q] = the p minimising (q - p)^2 h^2 + f[p]
  * (f INFINITY: no site), -1 when every f is.  The parabolas scaled by
  * 1/h^2: g[k] = f/h^2 + p^2 of the envelope's k-th. */
-static void envelope(const double *f, int64_t n, double h, int32_t *arg, int32_t *v, double *z,
-                     double *g)
+static void envelope(const double *f, int64_t n, double h, const double *half_inv, int32_t *arg,
+                     int32_t *v, double *z, double *g)
 {
     double ih2 = 1 / (h * h);
     int64_t k = -1;
@@ -160,7 +160,7 @@ static void envelope(const double *f, int64_t n, double h, int32_t *arg, int32_t
             continue;
         double gq = f[q] * ih2 + (double)q * (double)q, s = -INFINITY;
         while (k >= 0) {
-            s = (gq - g[k]) / (2 * ((double)q - (double)v[k]));
+            s = (gq - g[k]) * half_inv[q - v[k]];
             if (s > z[k])
                 break;
             k--;
@@ -212,6 +212,8 @@ enum { TILE = 16 }; /* lines gathered at once across y and z: 64 bytes of
                      * each row of near per read */
 
 typedef struct tile_scratch {
+    double *half_inv; /* 1 / (2 d) at d, 1 <= d < len: the envelope's
+                       * divisions, on its critical path */
     double *f, *z, *g;
     int32_t *v, *arg, *old, *out, *left;
 } tile_scratch;
@@ -245,7 +247,7 @@ static void nearest_tile(const int64_t n[3], const double h[3], int a, int64_t i
             double dx = (x - ijk[0]) * h[0], db = (other - ijk[b]) * h[b];
             s->f[q] = dx * dx + db * db;
         }
-        envelope(s->f, len, h[a], s->arg, s->v, s->z, s->g);
+        envelope(s->f, len, h[a], s->half_inv, s->arg, s->v, s->z, s->g);
         for (int64_t q = 0; q < len; q++)
             s->out[t * len + q] = s->arg[q] < 0 ? -1 : old[s->arg[q]];
     }
@@ -272,12 +274,16 @@ sm_status sm__edt_nearest(const int64_t n[3], const double h[3], const int32_t *
     {
         tile_scratch s = {
             .f = malloc((size_t)len * sizeof(double)), .z = malloc((size_t)(len + 1) * sizeof(double)),
-            .g = malloc((size_t)len * sizeof(double)), .v = malloc((size_t)len * sizeof(int32_t)),
+            .g = malloc((size_t)len * sizeof(double)),
+            .half_inv = malloc((size_t)len * sizeof(double)), .v = malloc((size_t)len * sizeof(int32_t)),
             .arg = malloc((size_t)len * sizeof(int32_t)),
             .old = malloc((size_t)len * TILE * sizeof(int32_t)),
             .out = malloc((size_t)len * TILE * sizeof(int32_t)),
             .left = malloc((size_t)len * sizeof(int32_t))};
-        int mine = !s.f || !s.z || !s.g || !s.v || !s.arg || !s.old || !s.out || !s.left;
+        int mine = !s.f || !s.z || !s.g || !s.half_inv || !s.v || !s.arg || !s.old || !s.out ||
+                   !s.left;
+        for (int64_t d = 1; !mine && d < len; d++)
+            s.half_inv[d] = 1 / (2 * (double)d);
         /* every thread must reach the same barriers: a failed one only
          * stops doing work, and all give up after the first pass */
         if (mine) {
@@ -312,6 +318,7 @@ sm_status sm__edt_nearest(const int64_t n[3], const double h[3], const int32_t *
         free(s.old);
         free(s.out);
         free(s.left);
+        free(s.half_inv);
     }
     free(has);
     return fail ? sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance transform")

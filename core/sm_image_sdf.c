@@ -22,6 +22,13 @@
 #include "sm_edt.h"
 #include "sm_image_march.h"
 
+/* A crossed cell: its triangles and their box (rounded outward to float:
+ * a lower bound of the distance to any of them for one test). */
+typedef struct cell_tris {
+    int32_t cell, first, count;
+    float lo[3], hi[3];
+} cell_tris;
+
 struct sm_image_target {
     int64_t n[3];      /* the crop, in voxels */
     int64_t act_lo[3], act_hi[3]; /* the crop's voxels where the field can
@@ -44,9 +51,12 @@ struct sm_image_target {
                         * is the output; else points there are exact) */
     sm_surface *surface;
     /* the surface's triangles by the crop cell that made them (marching
-     * emits them cell by cell): open addressing, key cell + 1 */
-    int64_t *ckeys;
-    int32_t *cfirst, *ccount;
+     * emits them cell by cell, in order): the crossed cells, and a table
+     * from a cell to its place there (open addressing, key cell + 1) */
+    cell_tris *cells;
+    int64_t ncells;
+    int64_t *slice_cells; /* n[2] + 1: the first crossed cell of each slice */
+    int32_t *ckeys, *crun;
     int64_t ccap;
     uint64_t *cbits;   /* one bit a crop cell: it has triangles (most
                         * cells a search visits have none) */
@@ -149,9 +159,10 @@ void sm_image_target_free(sm_image_target *t)
         return;
     free(t->edt);
     free(t->field);
+    free(t->cells);
+    free(t->slice_cells);
     free(t->ckeys);
-    free(t->cfirst);
-    free(t->ccount);
+    free(t->crun);
     free(t->cbits);
     sm_sdf_free(t->sdf);
     sm_surface_free(t->surface);
@@ -304,11 +315,23 @@ static void grid_steps(sm_image_target *t)
         t->step[a] = orthogonal ? fmax(t->h[a] * (1 - 1e-9), t->smin) : t->smin;
 }
 
-/* The triangles of each surface cell (tcell: nondecreasing, as march
- * emits them) in the open-addressing table ckeys/cfirst/ccount. */
+/* The crossed cells (tcell: nondecreasing, as march emits them), their
+ * triangles' boxes, and the table from a cell to its place. */
 static uint64_t cell_hash(int64_t key, int64_t cap)
 {
     return ((uint64_t)key * 0x9E3779B97F4A7C15ull >> 20) & (uint64_t)(cap - 1);
+}
+
+static float float_below(double x)
+{
+    float f = (float)x;
+    return (double)f > x ? nextafterf(f, -INFINITY) : f;
+}
+
+static float float_above(double x)
+{
+    float f = (float)x;
+    return (double)f < x ? nextafterf(f, INFINITY) : f;
 }
 
 static sm_status index_cells(sm_image_target *t, const int64_t *tcell, int64_t nt, sm_error *err)
@@ -320,46 +343,105 @@ static sm_status index_cells(sm_image_target *t, const int64_t *tcell, int64_t n
     while (cap < 2 * runs)
         cap *= 2;
     t->ccap = cap;
+    t->ncells = runs;
+    t->cells = malloc((size_t)runs * sizeof *t->cells);
+    t->slice_cells = malloc((size_t)(t->n[2] + 1) * sizeof *t->slice_cells);
     t->ckeys = calloc((size_t)cap, sizeof *t->ckeys);
-    t->cfirst = malloc((size_t)cap * sizeof *t->cfirst);
-    t->ccount = malloc((size_t)cap * sizeof *t->ccount);
-    int64_t ncells = t->n[0] * t->n[1] * t->n[2];
+    t->crun = malloc((size_t)cap * sizeof *t->crun);
+    int64_t ncells = t->n[0] * t->n[1] * t->n[2], plane = t->n[0] * t->n[1];
     t->cbits = calloc((size_t)(ncells / 64 + 1), sizeof *t->cbits);
-    if (!t->ckeys || !t->cfirst || !t->ccount || !t->cbits)
+    if (!t->cells || !t->slice_cells || !t->ckeys || !t->crun || !t->cbits)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface");
-    for (int64_t i = 0; i < nt;) {
+    int64_t r = 0, k = 0;
+    for (int64_t i = 0; i < nt; r++) {
         int64_t j = i;
         while (j < nt && tcell[j] == tcell[i])
             j++;
+        while (k <= tcell[i] / plane)
+            t->slice_cells[k++] = r;
+        t->cells[r] = (cell_tris){.cell = (int32_t)tcell[i], .first = (int32_t)i,
+                                  .count = (int32_t)(j - i)};
         uint64_t s = cell_hash(tcell[i] + 1, cap);
         while (t->ckeys[s])
             s = (s + 1) & (uint64_t)(cap - 1);
-        t->ckeys[s] = tcell[i] + 1;
+        t->ckeys[s] = (int32_t)(tcell[i] + 1);
+        t->crun[s] = (int32_t)r;
         t->cbits[tcell[i] >> 6] |= (uint64_t)1 << (tcell[i] & 63);
-        t->cfirst[s] = (int32_t)i;
-        t->ccount[s] = (int32_t)(j - i);
         i = j;
+    }
+    while (k <= t->n[2])
+        t->slice_cells[k++] = runs;
+    const sm_surface *sf = t->surface;
+#pragma omp parallel for schedule(static)
+    for (int64_t q = 0; q < runs; q++) {
+        cell_tris *c = t->cells + q;
+        double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (int32_t f = c->first; f < c->first + c->count; f++)
+            for (int v = 0; v < 3; v++) {
+                const double *x = sf->coords + 3 * sf->facets[3 * f + v];
+                for (int a = 0; a < 3; a++) {
+                    lo[a] = x[a] < lo[a] ? x[a] : lo[a];
+                    hi[a] = x[a] > hi[a] ? x[a] : hi[a];
+                }
+            }
+        for (int a = 0; a < 3; a++) {
+            c->lo[a] = float_below(lo[a]);
+            c->hi[a] = float_above(hi[a]);
+        }
     }
     return SM_OK;
 }
 
-/* The triangles of crop cell c: *count from the returned first. */
-static int32_t cell_triangles(const sm_image_target *t, int64_t c, int32_t *count)
+/* The crossed cell c (crop cell index), NULL when c has no triangles. */
+static const cell_tris *cell_triangles(const sm_image_target *t, int64_t c)
 {
-    if (!(t->cbits[c >> 6] >> (c & 63) & 1)) {
-        *count = 0;
-        return 0;
-    }
+    if (!(t->cbits[c >> 6] >> (c & 63) & 1))
+        return NULL;
     uint64_t s = cell_hash(c + 1, t->ccap);
     while (t->ckeys[s]) {
-        if (t->ckeys[s] == c + 1) {
-            *count = t->ccount[s];
-            return t->cfirst[s];
-        }
+        if (t->ckeys[s] == c + 1)
+            return t->cells + t->crun[s];
         s = (s + 1) & (uint64_t)(t->ccap - 1);
     }
-    *count = 0;
-    return 0;
+    return NULL;
+}
+
+/* The crossed cell whose triangles hold triangle f. */
+static const cell_tris *triangle_cell(const sm_image_target *t, int32_t f)
+{
+    int64_t lo = 0, hi = t->ncells - 1;
+    while (lo < hi) {
+        int64_t mid = (lo + hi + 1) / 2;
+        if (t->cells[mid].first <= f)
+            lo = mid;
+        else
+            hi = mid - 1;
+    }
+    return t->cells + lo;
+}
+
+/* The squared distance from p to cell c's triangles' box (a lower bound
+ * of the distance to each of them). */
+static inline double cell_box2(const cell_tris *c, const double *p)
+{
+    double box2 = 0;
+    for (int r = 0; r < 3; r++) {
+        double g = p[r] < c->lo[r] ? c->lo[r] - p[r] : p[r] > c->hi[r] ? p[r] - c->hi[r] : 0;
+        box2 += g * g;
+    }
+    return box2;
+}
+
+/* *best2, *bestf lowered by cell c's triangles (NULL: none) when its box
+ * is nearer. */
+static void range_nearest(const sm_image_target *t, int32_t first, int32_t count, const double *p,
+                          double *best2, int32_t *bestf);
+
+static inline void cell_nearest(const sm_image_target *t, const cell_tris *c, const double *p,
+                                double *best2, int32_t *bestf)
+{
+    if (c && cell_box2(c, p) < *best2)
+        range_nearest(t, c->first, c->count, p, best2, bestf);
 }
 
 /* The squared distance from p to the bounding box of triangle abc: a
@@ -471,11 +553,9 @@ static double surface_distance_from(const sm_image_target *t, const double *p, d
                     double gx = gap((double)x, qc[0]);
                     /* the cell's box is at least this far (index gaps,
                      * each index unit at least smin long) */
-                    if (x >= 0 && x < m[0] && s2 * (gx * gx + gy * gy + gz * gz) < best2) {
-                        int32_t count;
-                        int32_t first = cell_triangles(t, x + t->n[0] * (y + t->n[1] * z), &count);
-                        range_nearest(t, first, count, p, &best2, &bestf);
-                    }
+                    if (x >= 0 && x < m[0] && s2 * (gx * gx + gy * gy + gz * gz) < best2)
+                        cell_nearest(t, cell_triangles(t, x + t->n[0] * (y + t->n[1] * z)), p,
+                                     &best2, &bestf);
                     if (k == 0)
                         break;
                 }
@@ -535,29 +615,112 @@ static double field_at(const sm_image_target *t, const double *p)
     return v;
 }
 
+/* A triangle's bounds made once for the several corners that test it. */
+typedef struct tri_bounds {
+    const double *a, *b, *c;
+    double lo[3], hi[3], nrm[3];
+    double inn; /* (1 - 1e-9) / |nrm|^2, 0 for a degenerate triangle */
+} tri_bounds;
+
+static void tri_bounds_make(const sm_surface *s, int32_t f, tri_bounds *tb)
+{
+    const int32_t *v = s->facets + 3 * f;
+    const double *a = s->coords + 3 * v[0], *b = s->coords + 3 * v[1], *c = s->coords + 3 * v[2];
+    tb->a = a;
+    tb->b = b;
+    tb->c = c;
+    for (int r = 0; r < 3; r++) {
+        double lo = a[r] < b[r] ? a[r] : b[r], hi = a[r] < b[r] ? b[r] : a[r];
+        tb->lo[r] = c[r] < lo ? c[r] : lo;
+        tb->hi[r] = c[r] > hi ? c[r] : hi;
+    }
+    double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    double w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    tb->nrm[0] = u[1] * w[2] - u[2] * w[1];
+    tb->nrm[1] = u[2] * w[0] - u[0] * w[2];
+    tb->nrm[2] = u[0] * w[1] - u[1] * w[0];
+    double nn = tb->nrm[0] * tb->nrm[0] + tb->nrm[1] * tb->nrm[1] + tb->nrm[2] * tb->nrm[2];
+    tb->inn = nn > 0 ? (1 - 1e-9) / nn : 0;
+}
+
+/* The nearest point of every site among the triangles of the crossed
+ * cells it is a corner of (best2, bestf: INFINITY, -1 on entry), cell
+ * by cell: node plane z takes the four corners in it of the cells of
+ * slices z - 1 and z, planes in parallel (a site is in one plane only),
+ * each triangle's bounds made once for its four corners. */
+static void corner_nearest(const sm_image_target *t, const int32_t *near, double *best2,
+                           int32_t *bestf)
+{
+    const int64_t *n = t->n;
+    const sm_surface *sf = t->surface;
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int64_t z = 0; z < n[2]; z++) {
+        tri_bounds tb[12]; /* a cell's: 6 tetrahedra, at most 2 each */
+        for (int up = 0; up < 2; up++) {
+            int64_t k = z - up;
+            if (k < 0 || k >= n[2] - 1)
+                continue;
+            for (int64_t r = t->slice_cells[k]; r < t->slice_cells[k + 1]; r++) {
+                const cell_tris *ct = t->cells + r;
+                int32_t cnt = ct->count < 12 ? ct->count : 12;
+                for (int32_t q = 0; q < cnt; q++)
+                    tri_bounds_make(sf, ct->first + q, tb + q);
+                int64_t i0 = ct->cell % n[0], j0 = (ct->cell / n[0]) % n[1];
+                for (int corner = 0; corner < 4; corner++) {
+                    int64_t i = i0 + (corner & 1), j = j0 + (corner >> 1);
+                    int32_t site = near[i + n[0] * (j + n[1] * z)];
+                    double p[3], b2 = best2[site];
+                    int32_t bf = bestf[site];
+                    for (int row = 0; row < 3; row++)
+                        p[row] = t->map[4 * row] * (double)i + t->map[4 * row + 1] * (double)j +
+                                 t->map[4 * row + 2] * (double)z + t->map[4 * row + 3];
+                    for (int32_t q = 0; q < cnt; q++) {
+                        const tri_bounds *e = tb + q;
+                        double box2 = 0;
+                        for (int row = 0; row < 3; row++) {
+                            double g = p[row] < e->lo[row] ? e->lo[row] - p[row]
+                                       : p[row] > e->hi[row] ? p[row] - e->hi[row] : 0;
+                            box2 += g * g;
+                        }
+                        if (box2 >= b2)
+                            continue;
+                        double h = e->nrm[0] * (p[0] - e->a[0]) + e->nrm[1] * (p[1] - e->a[1]) +
+                                   e->nrm[2] * (p[2] - e->a[2]);
+                        if (h * h * e->inn >= b2)
+                            continue;
+                        double w[3], d2 = sm__triangle_closest(p, e->a, e->b, e->c, w);
+                        if (d2 < b2) {
+                            b2 = d2;
+                            bf = ct->first + q;
+                        }
+                    }
+                    /* a cell of more triangles than a cell can make: the rest */
+                    if (ct->count > cnt)
+                        range_nearest(t, ct->first + cnt, ct->count - cnt, p, &b2, &bf);
+                    best2[site] = b2;
+                    bestf[site] = bf;
+                }
+            }
+        }
+    }
+}
+
 /* The nearest surface point of the voxel centre at ijk, a corner of a
- * cell the surface passes through, and its triangle *tri: the triangles
- * of the (up to) 8 cells around it first; every other cell is at least
- * one index step away, smin in the world, so a point nearer than that is
- * the nearest; one nearer than 3 smin: the cells within two steps whose
- * gap (t->step) is nearer; else the general search. */
-static void site_foot(const sm_image_target *t, const int32_t *ijk, double *foot, int32_t *tri)
+ * cell the surface passes through, and its triangle *tri, from the
+ * nearest among the (up to) 8 cells around it (best2, bestf:
+ * corner_nearest's): every other cell is at least one index step away,
+ * smin in the world, so a point nearer than that is the nearest; one
+ * nearer than 3 smin: the cells within two steps whose gap (t->step)
+ * and then whose triangles' box is nearer; else the general search. */
+static void site_foot(const sm_image_target *t, const int32_t *ijk, double best2, int32_t bestf,
+                      double *foot, int32_t *tri)
 {
     double x[3];
     for (int row = 0; row < 3; row++)
         x[row] = t->map[4 * row] * ijk[0] + t->map[4 * row + 1] * ijk[1] +
                  t->map[4 * row + 2] * ijk[2] + t->map[4 * row + 3];
     const sm_surface *s = t->surface;
-    double best2 = INFINITY, w[3];
-    int32_t bestf = -1;
-    for (int corner = 0; corner < 8; corner++) {
-        int64_t c[3] = {ijk[0] - (corner & 1), ijk[1] - (corner >> 1 & 1), ijk[2] - (corner >> 2 & 1)};
-        if (c[0] < 0 || c[1] < 0 || c[2] < 0 || c[0] >= t->n[0] - 1 || c[1] >= t->n[1] - 1 ||
-            c[2] >= t->n[2] - 1)
-            continue;
-        int32_t count, first = cell_triangles(t, c[0] + t->n[0] * (c[1] + t->n[1] * c[2]), &count);
-        range_nearest(t, first, count, x, &best2, &bestf);
-    }
+    double w[3];
     double s2 = t->smin * t->smin, st2[3];
     for (int a = 0; a < 3; a++)
         st2[a] = t->step[a] * t->step[a];
@@ -584,9 +747,8 @@ static void site_foot(const sm_image_target *t, const int32_t *ijk, double *foot
                         if (e[0] < 0 || e[1] < 0 || e[2] < 0 || e[0] >= t->n[0] - 1 ||
                             e[1] >= t->n[1] - 1 || e[2] >= t->n[2] - 1)
                             continue;
-                        int32_t count, first = cell_triangles(t, e[0] + t->n[0] * (e[1] + t->n[1] * e[2]),
-                                                              &count);
-                        range_nearest(t, first, count, x, &best2, &bestf);
+                        cell_nearest(t, cell_triangles(t, e[0] + t->n[0] * (e[1] + t->n[1] * e[2])),
+                                     x, &best2, &bestf);
                     }
                 }
     } else if (bestf < 0 || best2 > s2) {
@@ -601,20 +763,33 @@ static void site_foot(const sm_image_target *t, const int32_t *ijk, double *foot
         foot[row] = w[0] * a[row] + w[1] * b[row] + w[2] * c[row];
 }
 
+/* Whether voxel (i, j, k) is a site: a corner of a crossed cell. */
+static int is_site(const sm_image_target *t, int64_t i, int64_t j, int64_t k)
+{
+    for (int64_t c = k > 0 ? k - 1 : 0; c <= k && c < t->n[2] - 1; c++)
+        for (int64_t b = j > 0 ? j - 1 : 0; b <= j && b < t->n[1] - 1; b++)
+            for (int64_t a = i > 0 ? i - 1 : 0; a <= i && a < t->n[0] - 1; a++) {
+                int64_t cell = a + t->n[0] * (b + t->n[1] * c);
+                if (t->cbits[cell >> 6] >> (cell & 63) & 1)
+                    return 1;
+            }
+    return 0;
+}
+
 /* One slice k of the distance from the sites (distance_field): each
  * voxel's own nearest site and its six neighbours' (their sites' surface
  * points are as near, often nearer: the nearest site by voxel centres is
  * not always the one with the nearest point), the nearest of those
- * points; signed by the field.  below/above: slices k - 1 and k + 1 of
- * sites (NULL beyond the grid); range: each site's foot's cell's
- * triangles (first, count). */
-static void slice_distance(const sm_image_target *t, const float *f, double level,
-                           const double *foot, const int32_t *range, const int32_t *below,
-                           const int32_t *slice, const int32_t *above, int64_t k, float *out)
+ * points; signed as its own site (first_inside: the first inside
+ * site).  below/above: slices k - 1 and k + 1 of sites (NULL beyond the
+ * grid); range: each site's foot's cell's triangles (first, count). */
+static void slice_distance(const sm_image_target *t, int32_t first_inside, const double *foot,
+                           const int32_t *range, const int32_t *below, const int32_t *slice,
+                           const int32_t *above, int64_t k, float *out)
 {
     /* the target's fields in locals: the band's calls would make the
      * compiler load them again at every voxel */
-    const int64_t n0 = t->n[0], n1 = t->n[1], lo0 = t->act_lo[0], hi0 = t->act_hi[0];
+    const int64_t n0 = t->n[0], n1 = t->n[1];
     const double m0 = t->map[0], m4 = t->map[4], m8 = t->map[8];
     const double band2 = t->grid_band ? t->band * t->band : -1;
     for (int64_t j = 0; j < n1; j++) {
@@ -625,9 +800,6 @@ static void slice_distance(const sm_image_target *t, const float *f, double leve
         double x[3];
         for (int r = 0; r < 3; r++)
             x[r] = t->map[4 * r + 1] * (double)j + t->map[4 * r + 2] * (double)k + t->map[4 * r + 3];
-        /* outside the active box the field is below the level */
-        int box = j >= t->act_lo[1] && j <= t->act_hi[1] && k >= t->act_lo[2] && k <= t->act_hi[2];
-        const float *frow = f + (k * n1 + j) * n0;
         float *orow = out + j * n0;
         for (int64_t i = 0; i < n0; i++) {
             double p[3] = {x[0] + m0 * (double)i, x[1] + m4 * (double)i, x[2] + m8 * (double)i};
@@ -648,14 +820,15 @@ static void slice_distance(const sm_image_target *t, const float *f, double leve
                             (p[2] - q[2]) * (p[2] - q[2]);
                 best = d2 < best ? d2 : best;
             }
-            if (best <= band2)
+            if (best <= band2 && !is_site(t, i, j, k))
                 /* within the band: the other triangles of the cell holding
                  * the voxel's own site's point too (the surface around
-                 * that point, where a nearer one most often is) */
+                 * that point, where a nearer one most often is); a site's
+                 * own point is its nearest already */
                 range_nearest(t, range[2 * (int64_t)own], range[2 * (int64_t)own + 1], p, &best,
                               &(int32_t){0});
             float d = sqrtf((float)best); /* as near as sqrt then rounding */
-            orow[i] = box && i >= lo0 && i <= hi0 && frow[i] >= level ? -d : d;
+            orow[i] = own >= first_inside ? -d : d;
         }
     }
 }
@@ -665,9 +838,8 @@ static void slice_distance(const sm_image_target *t, const float *f, double leve
  * slab of slices in order and writes a slice back once the next one is
  * done (no slice is needed after its neighbours are); the slices next to
  * a slab, another thread's, are copied before anyone writes. */
-static sm_status site_distances(sm_image_target *t, const float *f, double level,
-                                const double *foot, const int32_t *range, int32_t *near,
-                                sm_error *err)
+static sm_status site_distances(sm_image_target *t, int32_t first_inside, const double *foot,
+                                const int32_t *range, int32_t *near, sm_error *err)
 {
     const int64_t *n = t->n;
     int64_t plane = n[0] * n[1];
@@ -701,7 +873,7 @@ static sm_status site_distances(sm_image_target *t, const float *f, double level
             const int32_t *above = k + 1 == n[2] ? NULL
                                    : k + 1 == k1 ? edges + (size_t)(2 * me + 2) * (size_t)plane
                                                  : near + (k + 1) * plane;
-            slice_distance(t, f, level, foot, range, below, near + k * plane, above, k,
+            slice_distance(t, first_inside, foot, range, below, near + k * plane, above, k,
                            buf[k & 1]);
             if (k > k0) /* slice k - 1 is no one's neighbour any more */
                 memcpy(t->edt + (k - 1) * plane, buf[(k - 1) & 1], (size_t)plane * sizeof(float));
@@ -714,6 +886,42 @@ static sm_status site_distances(sm_image_target *t, const float *f, double level
     return SM_OK;
 }
 
+static int node_inside(const sm_image_target *t, const float *f, double level, const int32_t *ijk)
+{
+    for (int a = 0; a < 3; a++)
+        if (ijk[a] < t->act_lo[a] || ijk[a] > t->act_hi[a])
+            return 0;
+    return f[ijk[0] + t->n[0] * (ijk[1] + t->n[1] * (int64_t)ijk[2])] >= level;
+}
+
+/* The sites (ijk, nsites; near holds each site's number at its voxel)
+ * renumbered in place so that those outside the surface come first; the
+ * number of the first inside.  A node's side is the marching's: the
+ * field against the level within the active box, outside beyond it. */
+static int32_t order_sites(const sm_image_target *t, const float *f, double level, int32_t *ijk,
+                           int64_t nsites, int32_t *near)
+{
+    int64_t lo = 0, hi = nsites - 1;
+    for (;;) {
+        while (lo <= hi && !node_inside(t, f, level, ijk + 3 * lo))
+            lo++;
+        while (lo <= hi && node_inside(t, f, level, ijk + 3 * hi))
+            hi--;
+        if (lo >= hi)
+            break;
+        for (int a = 0; a < 3; a++) {
+            int32_t x = ijk[3 * lo + a];
+            ijk[3 * lo + a] = ijk[3 * hi + a];
+            ijk[3 * hi + a] = x;
+        }
+        lo++;
+        hi--;
+    }
+    for (int64_t s = 0; s < nsites; s++)
+        near[ijk[3 * s] + t->n[0] * (ijk[3 * s + 1] + t->n[1] * ijk[3 * s + 2])] = (int32_t)s;
+    return (int32_t)lo;
+}
+
 /* The signed distance at every crop voxel centre into t->edt: the sites
  * are the corners of the cells the surface passes through (every voxel
  * within a cell of it), each with its exact nearest surface point; every
@@ -721,13 +929,16 @@ static sm_status site_distances(sm_image_target *t, const float *f, double level
  * axis lengths) and its distance to that point, a point of the surface:
  * an upper bound, off by the square of the sites' sideways offset over
  * twice the distance, so the far field is close to exact where the
- * voxel-centre EDT is off by up to a voxel.  The sign: the field at the
- * node against the level (the surface's inside).  t->edt holds the sites
- * (int32) until each voxel's float replaces its own. */
-static sm_status distance_field(sm_image_target *t, const float *f, double level,
-                                const int64_t *tcell, int64_t nt, sm_error *err)
+ * voxel-centre EDT is off by up to a voxel.  The sign: a site's is its
+ * node's side of the level (the marching's); every other voxel's is its
+ * nearest site's.  A lattice path from the voxel to that site, each step
+ * one index towards it, passes only voxels nearer the voxel than the
+ * site, so no other site; two neighbours that are not both sites share
+ * no crossed cell, so are on one side; so the whole path is.  (No field
+ * read at every voxel.)  t->edt holds the sites (int32) until each
+ * voxel's float replaces its own. */
+static sm_status distance_field(sm_image_target *t, const float *f, double level, sm_error *err)
 {
-
     const int64_t *n = t->n;
     int64_t total = n[0] * n[1] * n[2], sy = n[0], sz = n[0] * n[1];
     int32_t *near = (int32_t *)t->edt;
@@ -735,10 +946,8 @@ static sm_status distance_field(sm_image_target *t, const float *f, double level
     int32_t *ijk = NULL;
     double *foot = NULL;
     int64_t nsites = 0, cap = 0;
-    for (int64_t i = 0; i < nt; i++) {
-        if (i > 0 && tcell[i] == tcell[i - 1])
-            continue;
-        int64_t c = tcell[i];
+    for (int64_t r = 0; r < t->ncells; r++) {
+        int64_t c = t->cells[r].cell;
         for (int corner = 0; corner < 8; corner++) {
             int64_t v = c + (corner & 1) + (corner & 2 ? sy : 0) + (corner & 4 ? sz : 0);
             if (near[v] >= 0)
@@ -755,28 +964,42 @@ static sm_status distance_field(sm_image_target *t, const float *f, double level
             nsites++;
         }
     }
+    /* the sites outside the surface first: a voxel's sign is its
+     * nearest site's (see above) */
+    int32_t first_inside = order_sites(t, f, level, ijk, nsites, near);
     foot = malloc((size_t)nsites * 3 * sizeof *foot);
     int32_t *range = malloc((size_t)nsites * 2 * sizeof *range);
-    if (!foot || !range) {
+    double *best2 = malloc((size_t)nsites * sizeof *best2);
+    int32_t *bestf = malloc((size_t)nsites * sizeof *bestf);
+    if (!foot || !range || !best2 || !bestf) {
         free(ijk);
         free(foot);
         free(range);
+        free(best2);
+        free(bestf);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's sites");
     }
+    for (int64_t k = 0; k < nsites; k++) {
+        best2[k] = INFINITY;
+        bestf[k] = -1;
+    }
+    corner_nearest(t, near, best2, bestf);
     /* each foot's cell (the cell that made its triangle): its triangles,
      * looked up once here rather than at every voxel of the band */
 #pragma omp parallel for schedule(dynamic, 256)
     for (int64_t k = 0; k < nsites; k++) {
         int32_t tri = -1;
-        site_foot(t, ijk + 3 * k, foot + 3 * k, &tri);
-        range[2 * k] = tri < 0 ? 0 : cell_triangles(t, tcell[tri], &range[2 * k + 1]);
-        if (tri < 0)
-            range[2 * k + 1] = 0;
+        site_foot(t, ijk + 3 * k, best2[k], bestf[k], foot + 3 * k, &tri);
+        const cell_tris *c = tri < 0 ? NULL : triangle_cell(t, tri);
+        range[2 * k] = c ? c->first : 0;
+        range[2 * k + 1] = c ? c->count : 0;
     }
+    free(best2);
+    free(bestf);
     sm_status st = sm__edt_nearest(n, t->h, ijk, nsites, near, err);
     free(ijk);
     if (st == SM_OK)
-        st = site_distances(t, f, level, foot, range, near, err);
+        st = site_distances(t, first_inside, foot, range, near, err);
     free(foot);
     free(range);
     return st;
@@ -837,14 +1060,14 @@ sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_
     free(b.vals);
     if (st == SM_OK)
         st = index_cells(t, b.tcell, b.nt, err);
+    free(b.tcell);
     if (st == SM_OK) {
         t->band = o->band_voxels * fmax(t->h[0], fmax(t->h[1], t->h[2]));
         t->grid_band = o->whole_image;
         t->smin = smallest_singular(t->map);
         grid_steps(t);
-        st = distance_field(t, f, level, b.tcell, b.nt, err);
+        st = distance_field(t, f, level, err);
     }
-    free(b.tcell);
     if (st != SM_OK)
         goto done;
     t->field = f; /* the sign near the surface */

@@ -643,6 +643,27 @@ static void tri_bounds_make(const sm_surface *s, int32_t f, tri_bounds *tb)
     tb->inn = nn > 0 ? (1 - 1e-9) / nn : 0;
 }
 
+/* *best2, *bestf lowered to triangle f (bounds e) when nearer. */
+static inline void tri_nearest(const tri_bounds *e, int32_t f, const double *p, double *best2,
+                               int32_t *bestf)
+{
+    double box2 = 0;
+    for (int row = 0; row < 3; row++) {
+        double g = p[row] < e->lo[row] ? e->lo[row] - p[row] : p[row] > e->hi[row] ? p[row] - e->hi[row] : 0;
+        box2 += g * g;
+    }
+    if (box2 >= *best2)
+        return;
+    double h = e->nrm[0] * (p[0] - e->a[0]) + e->nrm[1] * (p[1] - e->a[1]) + e->nrm[2] * (p[2] - e->a[2]);
+    if (h * h * e->inn >= *best2)
+        return;
+    double w[3], d2 = sm__triangle_closest(p, e->a, e->b, e->c, w);
+    if (d2 < *best2) {
+        *best2 = d2;
+        *bestf = f;
+    }
+}
+
 /* The nearest point of every site among the triangles of the crossed
  * cells it is a corner of (best2, bestf: INFINITY, -1 on entry), cell
  * by cell: node plane z takes the four corners in it of the cells of
@@ -674,26 +695,8 @@ static void corner_nearest(const sm_image_target *t, const int32_t *near, double
                     for (int row = 0; row < 3; row++)
                         p[row] = t->map[4 * row] * (double)i + t->map[4 * row + 1] * (double)j +
                                  t->map[4 * row + 2] * (double)z + t->map[4 * row + 3];
-                    for (int32_t q = 0; q < cnt; q++) {
-                        const tri_bounds *e = tb + q;
-                        double box2 = 0;
-                        for (int row = 0; row < 3; row++) {
-                            double g = p[row] < e->lo[row] ? e->lo[row] - p[row]
-                                       : p[row] > e->hi[row] ? p[row] - e->hi[row] : 0;
-                            box2 += g * g;
-                        }
-                        if (box2 >= b2)
-                            continue;
-                        double h = e->nrm[0] * (p[0] - e->a[0]) + e->nrm[1] * (p[1] - e->a[1]) +
-                                   e->nrm[2] * (p[2] - e->a[2]);
-                        if (h * h * e->inn >= b2)
-                            continue;
-                        double w[3], d2 = sm__triangle_closest(p, e->a, e->b, e->c, w);
-                        if (d2 < b2) {
-                            b2 = d2;
-                            bf = ct->first + q;
-                        }
-                    }
+                    for (int32_t q = 0; q < cnt; q++)
+                        tri_nearest(tb + q, ct->first + q, p, &b2, &bf);
                     /* a cell of more triangles than a cell can make: the rest */
                     if (ct->count > cnt)
                         range_nearest(t, ct->first + cnt, ct->count - cnt, p, &b2, &bf);
@@ -776,16 +779,40 @@ static int is_site(const sm_image_target *t, int64_t i, int64_t j, int64_t k)
     return 0;
 }
 
+/* The band's voxels to refine: the voxel, its distance squared so far
+ * and the crossed cell of its site's point. */
+typedef struct band_voxel {
+    int64_t v;
+    double best2;
+    int32_t cell;
+} band_voxel;
+
+typedef struct band_list {
+    band_voxel *at;
+    int64_t n, cap;
+    int fail;
+} band_list;
+
+static void band_add(band_list *b, int64_t v, double best2, int32_t cell)
+{
+    if (b->fail || !sm__image_grow((void **)&b->at, &b->cap, b->n + 1, sizeof *b->at)) {
+        b->fail = 1;
+        return;
+    }
+    b->at[b->n++] = (band_voxel){v, best2, cell};
+}
+
 /* One slice k of the distance from the sites (distance_field): each
  * voxel's own nearest site and its six neighbours' (their sites' surface
  * points are as near, often nearer: the nearest site by voxel centres is
  * not always the one with the nearest point), the nearest of those
  * points; signed as its own site (first_inside: the first inside
  * site).  below/above: slices k - 1 and k + 1 of sites (NULL beyond the
- * grid); range: each site's foot's cell's triangles (first, count). */
+ * grid); cellof: each site's point's crossed cell; the voxels within the
+ * band (t->grid_band) added to band for band_refine. */
 static void slice_distance(const sm_image_target *t, int32_t first_inside, const double *foot,
-                           const int32_t *range, const int32_t *below, const int32_t *slice,
-                           const int32_t *above, int64_t k, float *out)
+                           const int32_t *cellof, const int32_t *below, const int32_t *slice,
+                           const int32_t *above, int64_t k, float *out, band_list *band)
 {
     /* the target's fields in locals: the band's calls would make the
      * compiler load them again at every voxel */
@@ -820,13 +847,11 @@ static void slice_distance(const sm_image_target *t, int32_t first_inside, const
                             (p[2] - q[2]) * (p[2] - q[2]);
                 best = d2 < best ? d2 : best;
             }
-            if (best <= band2 && !is_site(t, i, j, k))
+            if (best <= band2 && cellof[own] >= 0 && !is_site(t, i, j, k))
                 /* within the band: the other triangles of the cell holding
-                 * the voxel's own site's point too (the surface around
-                 * that point, where a nearer one most often is); a site's
-                 * own point is its nearest already */
-                range_nearest(t, range[2 * (int64_t)own], range[2 * (int64_t)own + 1], p, &best,
-                              &(int32_t){0});
+                 * the voxel's own site's point too, later (band_refine);
+                 * a site's own point is its nearest already */
+                band_add(band, (k * n1 + j) * n0 + i, best, cellof[own]);
             float d = sqrtf((float)best); /* as near as sqrt then rounding */
             orow[i] = own >= first_inside ? -d : d;
         }
@@ -839,7 +864,8 @@ static void slice_distance(const sm_image_target *t, int32_t first_inside, const
  * done (no slice is needed after its neighbours are); the slices next to
  * a slab, another thread's, are copied before anyone writes. */
 static sm_status site_distances(sm_image_target *t, int32_t first_inside, const double *foot,
-                                const int32_t *range, int32_t *near, sm_error *err)
+                                const int32_t *cellof, int32_t *near, band_list *band,
+                                sm_error *err)
 {
     const int64_t *n = t->n;
     int64_t plane = n[0] * n[1];
@@ -873,8 +899,8 @@ static sm_status site_distances(sm_image_target *t, int32_t first_inside, const 
             const int32_t *above = k + 1 == n[2] ? NULL
                                    : k + 1 == k1 ? edges + (size_t)(2 * me + 2) * (size_t)plane
                                                  : near + (k + 1) * plane;
-            slice_distance(t, first_inside, foot, range, below, near + k * plane, above, k,
-                           buf[k & 1]);
+            slice_distance(t, first_inside, foot, cellof, below, near + k * plane, above, k,
+                           buf[k & 1], band + me);
             if (k > k0) /* slice k - 1 is no one's neighbour any more */
                 memcpy(t->edt + (k - 1) * plane, buf[(k - 1) & 1], (size_t)plane * sizeof(float));
         }
@@ -894,32 +920,142 @@ static int node_inside(const sm_image_target *t, const float *f, double level, c
     return f[ijk[0] + t->n[0] * (ijk[1] + t->n[1] * (int64_t)ijk[2])] >= level;
 }
 
-/* The sites (ijk, nsites; near holds each site's number at its voxel)
- * renumbered in place so that those outside the surface come first; the
- * number of the first inside.  A node's side is the marching's: the
- * field against the level within the active box, outside beyond it. */
-static int32_t order_sites(const sm_image_target *t, const float *f, double level, int32_t *ijk,
-                           int64_t nsites, int32_t *near)
+/* The sites: every corner of a crossed cell, numbered node plane by node
+ * plane (plane z: the corners in it of the cells of slices z - 1 and z),
+ * those outside the surface first (*first_inside: the first inside);
+ * *ijk their voxels; near (the crop's voxels): each site's number at its
+ * voxel, -1 elsewhere.  A node's side is the marching's: the field
+ * against the level within the active box, outside beyond it.  Planes
+ * in parallel: marked and counted, then numbered. */
+static sm_status collect_sites(const sm_image_target *t, const float *f, double level,
+                               int32_t *near, int32_t **ijk, int64_t *nsites,
+                               int32_t *first_inside, sm_error *err)
 {
-    int64_t lo = 0, hi = nsites - 1;
-    for (;;) {
-        while (lo <= hi && !node_inside(t, f, level, ijk + 3 * lo))
-            lo++;
-        while (lo <= hi && node_inside(t, f, level, ijk + 3 * hi))
-            hi--;
-        if (lo >= hi)
-            break;
-        for (int a = 0; a < 3; a++) {
-            int32_t x = ijk[3 * lo + a];
-            ijk[3 * lo + a] = ijk[3 * hi + a];
-            ijk[3 * hi + a] = x;
+    const int64_t *n = t->n;
+    int64_t plane = n[0] * n[1];
+    int64_t *count = calloc((size_t)(2 * n[2] + 1), sizeof *count); /* outside, inside a plane */
+    if (!count)
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's sites");
+    int32_t *at = NULL;
+    for (int pass = 0; pass < 2; pass++) {
+#pragma omp parallel for schedule(dynamic, 1)
+        for (int64_t z = 0; z < n[2]; z++) {
+            if (pass == 0)
+                memset(near + z * plane, 0xff, (size_t)plane * sizeof *near); /* -1: none */
+            int64_t next[2] = {pass ? count[2 * z] : 0, pass ? count[2 * z + 1] : 0};
+            for (int up = 0; up < 2; up++) {
+                int64_t k = z - up;
+                if (k < 0 || k >= n[2] - 1)
+                    continue;
+                for (int64_t r = t->slice_cells[k]; r < t->slice_cells[k + 1]; r++) {
+                    int64_t i0 = t->cells[r].cell % n[0], j0 = (t->cells[r].cell / n[0]) % n[1];
+                    for (int corner = 0; corner < 4; corner++) {
+                        int32_t x[3] = {(int32_t)(i0 + (corner & 1)), (int32_t)(j0 + (corner >> 1)),
+                                        (int32_t)z};
+                        int32_t *v = near + x[0] + n[0] * (x[1] + n[1] * z);
+                        if (*v != (pass ? -2 : -1))
+                            continue;
+                        int in = node_inside(t, f, level, x);
+                        if (pass == 0) {
+                            *v = -2; /* marked */
+                            count[2 * z + in]++;
+                            continue;
+                        }
+                        *v = (int32_t)next[in]++;
+                        memcpy(at + 3 * *v, x, sizeof x);
+                    }
+                }
+            }
         }
-        lo++;
-        hi--;
+        if (pass == 0) {
+            /* each plane's first number outside, and inside after all
+             * those outside */
+            int64_t out = 0, in = 0;
+            for (int64_t z = 0; z < n[2]; z++)
+                in += count[2 * z];
+            *first_inside = (int32_t)(in < INT32_MAX ? in : 0);
+            for (int64_t z = 0; z < n[2]; z++) {
+                int64_t o = count[2 * z], i = count[2 * z + 1];
+                count[2 * z] = out;
+                count[2 * z + 1] = in;
+                out += o;
+                in += i;
+            }
+            *nsites = in;
+            at = in < INT32_MAX ? malloc((size_t)(in > 0 ? in : 1) * 3 * sizeof *at) : NULL;
+            if (!at) {
+                free(count);
+                return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's sites");
+            }
+        }
     }
-    for (int64_t s = 0; s < nsites; s++)
-        near[ijk[3 * s] + t->n[0] * (ijk[3 * s + 1] + t->n[1] * ijk[3 * s + 2])] = (int32_t)s;
-    return (int32_t)lo;
+    free(count);
+    *ijk = at;
+    return SM_OK;
+}
+
+/* The band's voxels (the threads' lists) lowered to the nearest of the
+ * triangles of the cell holding their site's point (the surface around
+ * that point, where a nearer one most often is): cell by cell, in
+ * parallel, each triangle's bounds made once for all the cell's voxels. */
+static sm_status band_refine(sm_image_target *t, const band_list *band, int threads, sm_error *err)
+{
+    int64_t total = 0;
+    int fail = 0;
+    for (int k = 0; k < threads; k++) {
+        total += band[k].n;
+        fail |= band[k].fail;
+    }
+    int64_t *start = calloc((size_t)t->ncells + 1, sizeof *start);
+    band_voxel *by = malloc((size_t)(total > 0 ? total : 1) * sizeof *by);
+    if (fail || !start || !by) {
+        free(start);
+        free(by);
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's band");
+    }
+    /* counting sort by cell */
+    for (int k = 0; k < threads; k++)
+        for (int64_t e = 0; e < band[k].n; e++)
+            start[band[k].at[e].cell + 1]++;
+    for (int64_t c = 0; c < t->ncells; c++)
+        start[c + 1] += start[c];
+    for (int k = 0; k < threads; k++)
+        for (int64_t e = 0; e < band[k].n; e++)
+            by[start[band[k].at[e].cell]++] = band[k].at[e];
+    for (int64_t c = t->ncells; c > 0; c--)
+        start[c] = start[c - 1];
+    start[0] = 0;
+    const int64_t *n = t->n;
+    const sm_surface *sf = t->surface;
+#pragma omp parallel for schedule(dynamic, 64)
+    for (int64_t c = 0; c < t->ncells; c++) {
+        if (start[c] == start[c + 1])
+            continue;
+        const cell_tris *ct = t->cells + c;
+        tri_bounds tb[12];
+        int32_t cnt = ct->count < 12 ? ct->count : 12;
+        for (int32_t q = 0; q < cnt; q++)
+            tri_bounds_make(sf, ct->first + q, tb + q);
+        for (int64_t e = start[c]; e < start[c + 1]; e++) {
+            int64_t v = by[e].v, i = v % n[0], j = (v / n[0]) % n[1], k = v / (n[0] * n[1]);
+            double p[3], b2 = by[e].best2;
+            int32_t bf = -1;
+            for (int row = 0; row < 3; row++)
+                p[row] = t->map[4 * row] * (double)i + t->map[4 * row + 1] * (double)j +
+                         t->map[4 * row + 2] * (double)k + t->map[4 * row + 3];
+            for (int32_t q = 0; q < cnt; q++)
+                tri_nearest(tb + q, ct->first + q, p, &b2, &bf);
+            if (ct->count > cnt)
+                range_nearest(t, ct->first + cnt, ct->count - cnt, p, &b2, &bf);
+            if (bf >= 0) {
+                float d = sqrtf((float)b2);
+                t->edt[v] = t->edt[v] < 0 ? -d : d;
+            }
+        }
+    }
+    free(start);
+    free(by);
+    return SM_OK;
 }
 
 /* The signed distance at every crop voxel centre into t->edt: the sites
@@ -940,41 +1076,23 @@ static int32_t order_sites(const sm_image_target *t, const float *f, double leve
 static sm_status distance_field(sm_image_target *t, const float *f, double level, sm_error *err)
 {
     const int64_t *n = t->n;
-    int64_t total = n[0] * n[1] * n[2], sy = n[0], sz = n[0] * n[1];
     int32_t *near = (int32_t *)t->edt;
-    memset(near, 0xff, (size_t)total * sizeof *near); /* -1: no site */
-    int32_t *ijk = NULL;
+    int32_t *ijk = NULL, first_inside = 0;
     double *foot = NULL;
-    int64_t nsites = 0, cap = 0;
-    for (int64_t r = 0; r < t->ncells; r++) {
-        int64_t c = t->cells[r].cell;
-        for (int corner = 0; corner < 8; corner++) {
-            int64_t v = c + (corner & 1) + (corner & 2 ? sy : 0) + (corner & 4 ? sz : 0);
-            if (near[v] >= 0)
-                continue;
-            if (!sm__image_grow((void **)&ijk, &cap, nsites + 1, 3 * sizeof *ijk) ||
-                nsites >= INT32_MAX) {
-                free(ijk);
-                return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's sites");
-            }
-            near[v] = (int32_t)nsites;
-            ijk[3 * nsites] = (int32_t)(v % n[0]);
-            ijk[3 * nsites + 1] = (int32_t)((v / sy) % n[1]);
-            ijk[3 * nsites + 2] = (int32_t)(v / sz);
-            nsites++;
-        }
-    }
+    int64_t nsites = 0;
     /* the sites outside the surface first: a voxel's sign is its
      * nearest site's (see above) */
-    int32_t first_inside = order_sites(t, f, level, ijk, nsites, near);
+    sm_status st = collect_sites(t, f, level, near, &ijk, &nsites, &first_inside, err);
+    if (st != SM_OK)
+        return st;
     foot = malloc((size_t)nsites * 3 * sizeof *foot);
-    int32_t *range = malloc((size_t)nsites * 2 * sizeof *range);
+    int32_t *cellof = malloc((size_t)nsites * sizeof *cellof);
     double *best2 = malloc((size_t)nsites * sizeof *best2);
     int32_t *bestf = malloc((size_t)nsites * sizeof *bestf);
-    if (!foot || !range || !best2 || !bestf) {
+    if (!foot || !cellof || !best2 || !bestf) {
         free(ijk);
         free(foot);
-        free(range);
+        free(cellof);
         free(best2);
         free(bestf);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's sites");
@@ -984,24 +1102,30 @@ static sm_status distance_field(sm_image_target *t, const float *f, double level
         bestf[k] = -1;
     }
     corner_nearest(t, near, best2, bestf);
-    /* each foot's cell (the cell that made its triangle): its triangles,
-     * looked up once here rather than at every voxel of the band */
+    /* each foot's cell (the cell that made its triangle), for the band */
 #pragma omp parallel for schedule(dynamic, 256)
     for (int64_t k = 0; k < nsites; k++) {
         int32_t tri = -1;
         site_foot(t, ijk + 3 * k, best2[k], bestf[k], foot + 3 * k, &tri);
-        const cell_tris *c = tri < 0 ? NULL : triangle_cell(t, tri);
-        range[2 * k] = c ? c->first : 0;
-        range[2 * k + 1] = c ? c->count : 0;
+        cellof[k] = tri < 0 ? -1 : (int32_t)(triangle_cell(t, tri) - t->cells);
     }
     free(best2);
     free(bestf);
-    sm_status st = sm__edt_nearest(n, t->h, ijk, nsites, near, err);
+    st = sm__edt_nearest(n, t->h, ijk, nsites, near, err);
     free(ijk);
+    int threads = omp_get_max_threads();
+    band_list *band = calloc((size_t)threads, sizeof *band);
+    if (st == SM_OK && !band)
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's band");
     if (st == SM_OK)
-        st = site_distances(t, first_inside, foot, range, near, err);
+        st = site_distances(t, first_inside, foot, cellof, near, band, err);
     free(foot);
-    free(range);
+    free(cellof);
+    if (st == SM_OK)
+        st = band_refine(t, band, threads, err);
+    for (int k = 0; band && k < threads; k++)
+        free(band[k].at);
+    free(band);
     return st;
 }
 

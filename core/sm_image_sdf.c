@@ -87,11 +87,33 @@ static void gauss1d(float *line, float *tmp, int64_t len, const double *w, int r
     memcpy(line, tmp, (size_t)len * sizeof *line);
 }
 
+/* Rows out[x] = sum over the window's rows of w[t] in[t][x] (x < len),
+ * t from t0 to t1 in order, in double: per voxel the sums of gauss1d,
+ * the voxels of a row at once. */
+static void gauss_rows(float *out, const float *const *in, const double *w, int t0, int t1,
+                       int64_t len, double *acc)
+{
+    for (int64_t x = 0; x < len; x++)
+        acc[x] = 0;
+    for (int t = t0; t <= t1; t++) {
+        const float *row = in[t];
+        double wt = w[t];
+#pragma omp simd
+        for (int64_t x = 0; x < len; x++)
+            acc[x] += wt * row[x];
+    }
+    for (int64_t x = 0; x < len; x++)
+        out[x] = (float)acc[x];
+}
+
 /* Separable Gaussian blur of f (n voxels) with sigma voxels, zero beyond;
  * f is zero outside the box lo..hi (inclusive) and is blurred there
  * only: the box reaches the Gaussian's radius beyond every nonzero
  * voxel, and a segment of a line summed with zero beyond it is the whole
- * line's sum (the same terms in the same order, zeros left out). */
+ * line's sum (the same terms in the same order, zeros left out).  Along
+ * x a line at a time; along y and z a plane of rows at a time (a copy
+ * of the box's rows across the other axis), each output row the
+ * weighted sum of its window's rows: the same sums, many voxels at once. */
 static sm_status blur(float *f, const int64_t n[3], double sigma, const int64_t lo[3],
                       const int64_t hi[3], sm_error *err)
 {
@@ -109,29 +131,61 @@ static sm_status blur(float *f, const int64_t n[3], double sigma, const int64_t 
     len = len > m[2] ? len : m[2];
     int64_t strides[3] = {1, n[0], n[0] * n[1]};
     int fail = 0;
-    for (int a = 0; a < 3; a++) {
-        int b = a == 0 ? 1 : 0, c = a == 2 ? 1 : 2;
-        int64_t lines = m[b] * m[c];
+    /* along x: lines */
+#pragma omp parallel reduction(| : fail)
+    {
+        float *line = malloc((size_t)len * 2 * sizeof *line);
+        fail |= !line;
+#pragma omp for schedule(static)
+        for (int64_t l = 0; l < m[1] * m[2]; l++) {
+            if (!line)
+                continue;
+            float *at = f + lo[0] + (lo[1] + l % m[1]) * strides[1] + (lo[2] + l / m[1]) * strides[2];
+            int nonzero = 0;
+            for (int64_t q = 0; q < m[0]; q++)
+                nonzero |= (line[q] = at[q]) != 0.0f;
+            if (!nonzero) /* zero beyond too: it stays zero */
+                continue;
+            gauss1d(line, line + len, m[0], w, r);
+            memcpy(at, line, (size_t)m[0] * sizeof *at);
+        }
+        free(line);
+    }
+    /* along y, then z: for each slice (y) or row of slices (z), the
+     * box's rows along that axis copied, then summed back in place */
+    for (int a = 1; a <= 2 && !fail; a++) {
+        int c = a == 1 ? 2 : 1; /* the axis the planes are taken across */
 #pragma omp parallel reduction(| : fail)
         {
-            float *line = malloc((size_t)len * 2 * sizeof *line);
-            fail |= !line;
+            float *rows = malloc((size_t)(m[a] * m[0]) * sizeof *rows);
+            double *acc = malloc((size_t)m[0] * sizeof *acc);
+            const float **win = malloc((size_t)(2 * r + 1) * sizeof *win);
+            fail |= !rows || !acc || !win;
 #pragma omp for schedule(static)
-            for (int64_t l = 0; l < lines; l++) {
-                if (!line)
+            for (int64_t l = 0; l < m[c]; l++) {
+                if (!rows || !acc || !win)
                     continue;
-                int64_t base = (lo[b] + l % m[b]) * strides[b] + (lo[c] + l / m[b]) * strides[c] +
-                               lo[a] * strides[a];
+                float *base = f + lo[0] + (lo[c] + l) * strides[c] + lo[a] * strides[a];
                 int nonzero = 0;
-                for (int64_t q = 0; q < m[a]; q++)
-                    nonzero |= (line[q] = f[base + q * strides[a]]) != 0.0f;
-                if (!nonzero) /* zero beyond too: it stays zero */
+                for (int64_t q = 0; q < m[a]; q++) {
+                    const float *src = base + q * strides[a];
+                    float *dst = rows + q * m[0];
+                    for (int64_t x = 0; x < m[0]; x++)
+                        nonzero |= (dst[x] = src[x]) != 0.0f;
+                }
+                if (!nonzero)
                     continue;
-                gauss1d(line, line + len, m[a], w, r);
-                for (int64_t q = 0; q < m[a]; q++)
-                    f[base + q * strides[a]] = line[q];
+                for (int64_t q = 0; q < m[a]; q++) {
+                    /* the window's rows inside the box, in order */
+                    int t0 = q >= r ? 0 : (int)(r - q), t1 = q + r < m[a] ? 2 * r : (int)(m[a] - 1 - q + r);
+                    for (int t = t0; t <= t1; t++)
+                        win[t] = rows + (q - r + t) * m[0];
+                    gauss_rows(base + q * strides[a], win, w, t0, t1, m[0], acc);
+                }
             }
-            free(line);
+            free(rows);
+            free(acc);
+            free(win);
         }
     }
     return fail ? sm_error_set(err, SM_ERR_NOMEM, "out of memory for the smoothing") : SM_OK;

@@ -350,6 +350,18 @@ sm_status sm__image_march(mt_builder *b, sm_surface **out, sm_error *err)
             h->hi = b->hi;
             h->level = b->level;
             h->map = b->map;
+            /* sized for the chunk's cells (a crossed cell makes about 2
+             * vertices and 4 triangles): no growing on the way */
+            int64_t m = from[c + 1] - from[c];
+            h->hcap = 1 << 16;
+            while (h->hcap < 6 * m)
+                h->hcap *= 2;
+            h->keys = calloc((size_t)h->hcap, sizeof *h->keys);
+            h->vals = malloc((size_t)h->hcap * sizeof *h->vals);
+            if (!h->keys || !h->vals || !sm__image_grow((void **)&h->coords, &h->capv, 9 * m, sizeof(double)) ||
+                !sm__image_grow((void **)&h->tris, &h->capt, 15 * m, sizeof(int32_t)) ||
+                !sm__image_grow((void **)&h->tcell, &h->capc, 5 * m, sizeof(int64_t)))
+                h->fail = 1;
             march_cells(h, cells + from[c], from[c + 1] - from[c]);
             fail |= h->fail;
         }

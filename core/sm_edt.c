@@ -221,17 +221,25 @@ typedef struct tile_scratch {
 /* Along axis a (1 or 2) for the TILE x-adjacent lines from x = i0 at
  * other coordinate c: each voxel's candidate so far is a site level with
  * it along a, at squared distance f; the envelope picks, per voxel, the
- * line's best candidate. */
+ * line's best candidate.  slice_has (along z): the slices holding a site,
+ * the others none yet (not read). */
 static void nearest_tile(const int64_t n[3], const double h[3], int a, int64_t i0, int64_t c,
-                         const int32_t *site_ijk, int32_t *near, tile_scratch *s)
+                         const int32_t *site_ijk, const uint8_t *slice_has, int32_t *near,
+                         tile_scratch *s)
 {
     int64_t len = n[a], stride = a == 1 ? n[0] : n[0] * n[1];
     int64_t base = i0 + (a == 1 ? c * n[0] * n[1] : c * n[0]);
     int cnt = (int)(n[0] - i0 < TILE ? n[0] - i0 : TILE);
     int any = 0;
-    for (int64_t q = 0; q < len; q++)
+    for (int64_t q = 0; q < len; q++) {
+        if (slice_has && !slice_has[q]) { /* a slice without sites: none yet */
+            for (int t = 0; t < cnt; t++)
+                s->old[t * len + q] = -1;
+            continue;
+        }
         for (int t = 0; t < cnt; t++)
             any |= (s->old[t * len + q] = near[base + q * stride + t]) >= 0;
+    }
     if (!any)
         return;
     int b = a == 1 ? 2 : 1; /* the other axis than x and a */
@@ -307,7 +315,8 @@ sm_status sm__edt_nearest(const int64_t n[3], const double h[3], const int32_t *
 #pragma omp for schedule(dynamic, 4)
                 for (int64_t w = 0; w < tiles * others; w++)
                     if (a == 2 || has[w / tiles])
-                        nearest_tile(n, h, a, (w % tiles) * TILE, w / tiles, site_ijk, near, &s);
+                        nearest_tile(n, h, a, (w % tiles) * TILE, w / tiles, site_ijk,
+                                     a == 2 ? has : NULL, near, &s);
             }
         }
         free(s.f);

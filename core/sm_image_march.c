@@ -1,6 +1,7 @@
 /* Marching tetrahedra on the voxel centres (sm_image_march.h): Kuhn's 6
  * tetrahedra per cell, the vertices on the grid's edges shared through a
- * hash of the edges, the cells the level crosses found in parallel. */
+ * hash of the edges, the cells the level crosses found in parallel and
+ * marched in parallel chunks of whole slices, joined. */
 #include "sm_image_march.h"
 
 #include <omp.h>

@@ -1050,66 +1050,65 @@ static sm_status collect_sites(const sm_image_target *t, const float *f, double 
 
 /* The band's voxels (the threads' lists) lowered to the nearest of the
  * triangles of the cell holding their site's point (the surface around
- * that point, where a nearer one most often is): cell by cell, in
- * parallel, each triangle's bounds made once for all the cell's voxels. */
+ * that point, where a nearer one most often is): each list (a slab's
+ * voxels, so cells mostly its own) sorted by cell in parallel, then cell
+ * by cell, each triangle's bounds made once for all the cell's voxels. */
 static sm_status band_refine(sm_image_target *t, const band_list *band, int threads, sm_error *err)
 {
-    int64_t total = 0;
     int fail = 0;
-    for (int k = 0; k < threads; k++) {
-        total += band[k].n;
+    for (int k = 0; k < threads; k++)
         fail |= band[k].fail;
-    }
-    int64_t *start = calloc((size_t)t->ncells + 1, sizeof *start);
-    band_voxel *by = malloc((size_t)(total > 0 ? total : 1) * sizeof *by);
-    if (fail || !start || !by) {
-        free(start);
-        free(by);
+    if (fail)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's band");
-    }
-    /* counting sort by cell */
-    for (int k = 0; k < threads; k++)
-        for (int64_t e = 0; e < band[k].n; e++)
-            start[band[k].at[e].cell + 1]++;
-    for (int64_t c = 0; c < t->ncells; c++)
-        start[c + 1] += start[c];
-    for (int k = 0; k < threads; k++)
-        for (int64_t e = 0; e < band[k].n; e++)
-            by[start[band[k].at[e].cell]++] = band[k].at[e];
-    for (int64_t c = t->ncells; c > 0; c--)
-        start[c] = start[c - 1];
-    start[0] = 0;
     const int64_t *n = t->n;
     const sm_surface *sf = t->surface;
-#pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t c = 0; c < t->ncells; c++) {
-        if (start[c] == start[c + 1])
+    /* each thread its own list (its slab's voxels), sorted by cell */
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) reduction(| : fail)
+    for (int k = 0; k < threads; k++) {
+        const band_list *b = band + k;
+        int64_t *start = calloc((size_t)t->ncells + 1, sizeof *start);
+        band_voxel *by = malloc((size_t)(b->n > 0 ? b->n : 1) * sizeof *by);
+        if (!start || !by) {
+            fail = 1;
+            free(start);
+            free(by);
             continue;
-        const cell_tris *ct = t->cells + c;
-        tri_bounds tb[12];
-        int32_t cnt = ct->count < 12 ? ct->count : 12;
-        for (int32_t q = 0; q < cnt; q++)
-            tri_bounds_make(sf, ct->first + q, tb + q);
-        for (int64_t e = start[c]; e < start[c + 1]; e++) {
-            int64_t v = by[e].v, i = v % n[0], j = (v / n[0]) % n[1], k = v / (n[0] * n[1]);
-            double p[3], b2 = by[e].best2;
-            int32_t bf = -1;
-            for (int row = 0; row < 3; row++)
-                p[row] = t->map[4 * row] * (double)i + t->map[4 * row + 1] * (double)j +
-                         t->map[4 * row + 2] * (double)k + t->map[4 * row + 3];
+        }
+        for (int64_t e = 0; e < b->n; e++)
+            start[b->at[e].cell + 1]++;
+        for (int64_t c = 0; c < t->ncells; c++)
+            start[c + 1] += start[c];
+        for (int64_t e = 0; e < b->n; e++)
+            by[start[b->at[e].cell]++] = b->at[e];
+        /* start[c] is now cell c's end */
+        for (int64_t e = 0; e < b->n;) {
+            const cell_tris *ct = t->cells + by[e].cell;
+            int64_t end = start[by[e].cell];
+            tri_bounds tb[12];
+            int32_t cnt = ct->count < 12 ? ct->count : 12;
             for (int32_t q = 0; q < cnt; q++)
-                tri_nearest(tb + q, ct->first + q, p, &b2, &bf);
-            if (ct->count > cnt)
-                range_nearest(t, ct->first + cnt, ct->count - cnt, p, &b2, &bf);
-            if (bf >= 0) {
-                float d = sqrtf((float)b2);
-                t->edt[v] = t->edt[v] < 0 ? -d : d;
+                tri_bounds_make(sf, ct->first + q, tb + q);
+            for (; e < end; e++) {
+                int64_t v = by[e].v, i = v % n[0], j = (v / n[0]) % n[1], kz = v / (n[0] * n[1]);
+                double p[3], b2 = by[e].best2;
+                int32_t bf = -1;
+                for (int row = 0; row < 3; row++)
+                    p[row] = t->map[4 * row] * (double)i + t->map[4 * row + 1] * (double)j +
+                             t->map[4 * row + 2] * (double)kz + t->map[4 * row + 3];
+                for (int32_t q = 0; q < cnt; q++)
+                    tri_nearest(tb + q, ct->first + q, p, &b2, &bf);
+                if (ct->count > cnt)
+                    range_nearest(t, ct->first + cnt, ct->count - cnt, p, &b2, &bf);
+                if (bf >= 0) {
+                    float d = sqrtf((float)b2);
+                    t->edt[v] = t->edt[v] < 0 ? -d : d;
+                }
             }
         }
+        free(start);
+        free(by);
     }
-    free(start);
-    free(by);
-    return SM_OK;
+    return fail ? sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's band") : SM_OK;
 }
 
 /* The signed distance at every crop voxel centre into t->edt: the sites

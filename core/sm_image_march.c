@@ -319,10 +319,11 @@ sm_status sm__image_march(mt_builder *b, sm_surface **out, sm_error *err)
         free(count);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface");
     }
-    /* marched in chunks of whole slices, in parallel, then joined: two
-     * chunks a thread, of about as many cells each */
+    /* marched in chunks of whole slices, in parallel, then joined: four
+     * chunks a thread, of about as many cells each (a thread the machine
+     * holds back delays only its chunk) */
     int64_t ncells = count[slices];
-    int want = 2 * omp_get_max_threads(), nch = 0;
+    int want = 4 * omp_get_max_threads(), nch = 0;
     int64_t *from = malloc((size_t)(want + 1) * sizeof *from),
             *first_slice = malloc((size_t)(want + 1) * sizeof *first_slice);
     mt_builder *ch = calloc((size_t)want, sizeof *ch);

@@ -136,7 +136,7 @@ static sm_status blur(float *f, const int64_t n[3], double sigma, const int64_t 
     {
         float *line = malloc((size_t)len * 2 * sizeof *line);
         fail |= !line;
-#pragma omp for schedule(static)
+#pragma omp for schedule(dynamic, 64)
         for (int64_t l = 0; l < m[1] * m[2]; l++) {
             if (!line)
                 continue;
@@ -161,7 +161,7 @@ static sm_status blur(float *f, const int64_t n[3], double sigma, const int64_t 
             double *acc = malloc((size_t)m[0] * sizeof *acc);
             const float **win = malloc((size_t)(2 * r + 1) * sizeof *win);
             fail |= !rows || !acc || !win;
-#pragma omp for schedule(static)
+#pragma omp for schedule(dynamic, 1)
             for (int64_t l = 0; l < m[c]; l++) {
                 if (!rows || !acc || !win)
                     continue;
@@ -913,21 +913,21 @@ static void slice_distance(const sm_image_target *t, int32_t first_inside, const
 }
 
 /* The distances from the sites over the sites themselves (t->edt: each
- * voxel's site, int32, becomes its distance, float): each thread takes a
- * slab of slices in order and writes a slice back once the next one is
- * done (no slice is needed after its neighbours are); the slices next to
- * a slab, another thread's, are copied before anyone writes. */
+ * voxel's site, int32, becomes its distance, float), in slabs of slices
+ * (several a thread, taken in turn, so that a thread the machine holds
+ * back delays only its slab): a slab's slices in order, each written back
+ * once the next one is done (no slice is needed after its neighbours
+ * are); every slab's first and last slices are copied before anyone
+ * writes.  band: one list a slab. */
 static sm_status site_distances(sm_image_target *t, int32_t first_inside, const double *foot,
                                 const int32_t *cellof, int32_t *near, band_list *band,
-                                sm_error *err)
+                                int slabs, sm_error *err)
 {
     const int64_t *n = t->n;
     int64_t plane = n[0] * n[1];
     int threads = omp_get_max_threads();
-    if (threads > n[2])
-        threads = (int)n[2];
-    /* per thread: its first and last slice's sites, two slices of output */
-    int32_t *edges = malloc((size_t)threads * 2 * (size_t)plane * sizeof *edges);
+    /* each slab's first and last slice's sites; two slices of output a thread */
+    int32_t *edges = malloc((size_t)slabs * 2 * (size_t)plane * sizeof *edges);
     float *bufs = malloc((size_t)threads * 2 * (size_t)plane * sizeof *bufs);
     if (!edges || !bufs) {
         free(edges);
@@ -936,30 +936,34 @@ static sm_status site_distances(sm_image_target *t, int32_t first_inside, const 
     }
 #pragma omp parallel num_threads(threads)
     {
-        int me = omp_get_thread_num(), nt = omp_get_num_threads();
-        int64_t k0 = n[2] * me / nt, k1 = n[2] * (me + 1) / nt;
-        int32_t *first = edges + (size_t)(2 * me) * (size_t)plane, *last = first + plane;
-        if (k1 > k0) {
+#pragma omp for schedule(static)
+        for (int sl = 0; sl < slabs; sl++) {
+            int64_t k0 = n[2] * sl / slabs, k1 = n[2] * (sl + 1) / slabs;
+            int32_t *first = edges + (size_t)(2 * sl) * (size_t)plane, *last = first + plane;
             memcpy(first, near + k0 * plane, (size_t)plane * sizeof *first);
             memcpy(last, near + (k1 - 1) * plane, (size_t)plane * sizeof *last);
         }
-#pragma omp barrier
+        int me = omp_get_thread_num();
         float *buf[2] = {bufs + (size_t)(2 * me) * (size_t)plane,
                          bufs + (size_t)(2 * me + 1) * (size_t)plane};
-        for (int64_t k = k0; k < k1; k++) {
-            const int32_t *below = k == 0 ? NULL
-                                   : k == k0 ? edges + (size_t)(2 * me - 1) * (size_t)plane
-                                             : near + (k - 1) * plane;
-            const int32_t *above = k + 1 == n[2] ? NULL
-                                   : k + 1 == k1 ? edges + (size_t)(2 * me + 2) * (size_t)plane
-                                                 : near + (k + 1) * plane;
-            slice_distance(t, first_inside, foot, cellof, below, near + k * plane, above, k,
-                           buf[k & 1], band + me);
-            if (k > k0) /* slice k - 1 is no one's neighbour any more */
-                memcpy(t->edt + (k - 1) * plane, buf[(k - 1) & 1], (size_t)plane * sizeof(float));
-        }
-        if (k1 > k0)
+#pragma omp for schedule(dynamic, 1)
+        for (int sl = 0; sl < slabs; sl++) {
+            int64_t k0 = n[2] * sl / slabs, k1 = n[2] * (sl + 1) / slabs;
+            for (int64_t k = k0; k < k1; k++) {
+                const int32_t *below = k == 0 ? NULL
+                                       : k == k0 ? edges + (size_t)(2 * sl - 1) * (size_t)plane
+                                                 : near + (k - 1) * plane;
+                const int32_t *above = k + 1 == n[2] ? NULL
+                                       : k + 1 == k1 ? edges + (size_t)(2 * sl + 2) * (size_t)plane
+                                                     : near + (k + 1) * plane;
+                slice_distance(t, first_inside, foot, cellof, below, near + k * plane, above, k,
+                               buf[k & 1], band + sl);
+                if (k > k0) /* slice k - 1 is no one's neighbour any more */
+                    memcpy(t->edt + (k - 1) * plane, buf[(k - 1) & 1],
+                           (size_t)plane * sizeof(float));
+            }
             memcpy(t->edt + (k1 - 1) * plane, buf[(k1 - 1) & 1], (size_t)plane * sizeof(float));
+        }
     }
     free(edges);
     free(bufs);
@@ -1051,20 +1055,21 @@ static sm_status collect_sites(const sm_image_target *t, const float *f, double 
 /* The band's voxels (the threads' lists) lowered to the nearest of the
  * triangles of the cell holding their site's point (the surface around
  * that point, where a nearer one most often is): each list (a slab's
- * voxels, so cells mostly its own) sorted by cell in parallel, then cell
- * by cell, each triangle's bounds made once for all the cell's voxels. */
-static sm_status band_refine(sm_image_target *t, const band_list *band, int threads, sm_error *err)
+ * voxels, so cells mostly its own) sorted by cell, lists in parallel,
+ * then cell by cell, each triangle's bounds made once for all the
+ * cell's voxels. */
+static sm_status band_refine(sm_image_target *t, const band_list *band, int lists, sm_error *err)
 {
     int fail = 0;
-    for (int k = 0; k < threads; k++)
+    for (int k = 0; k < lists; k++)
         fail |= band[k].fail;
     if (fail)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's band");
     const int64_t *n = t->n;
     const sm_surface *sf = t->surface;
     /* each thread its own list (its slab's voxels), sorted by cell */
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) reduction(| : fail)
-    for (int k = 0; k < threads; k++) {
+#pragma omp parallel for schedule(dynamic, 1) reduction(| : fail)
+    for (int k = 0; k < lists; k++) {
         const band_list *b = band + k;
         int64_t *start = calloc((size_t)t->ncells + 1, sizeof *start);
         band_voxel *by = malloc((size_t)(b->n > 0 ? b->n : 1) * sizeof *by);
@@ -1166,17 +1171,19 @@ static sm_status distance_field(sm_image_target *t, const float *f, double level
     free(bestf);
     st = sm__edt_nearest(n, t->h, ijk, nsites, near, err);
     free(ijk);
-    int threads = omp_get_max_threads();
-    band_list *band = calloc((size_t)threads, sizeof *band);
+    /* slabs of slices for the distances, four a thread */
+    int slabs = 4 * omp_get_max_threads();
+    slabs = slabs < n[2] ? slabs : (int)n[2];
+    band_list *band = calloc((size_t)slabs, sizeof *band);
     if (st == SM_OK && !band)
         st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's band");
     if (st == SM_OK)
-        st = site_distances(t, first_inside, foot, cellof, near, band, err);
+        st = site_distances(t, first_inside, foot, cellof, near, band, slabs, err);
     free(foot);
     free(cellof);
     if (st == SM_OK)
-        st = band_refine(t, band, threads, err);
-    for (int k = 0; band && k < threads; k++)
+        st = band_refine(t, band, slabs, err);
+    for (int k = 0; band && k < slabs; k++)
         free(band[k].at);
     free(band);
     return st;

@@ -264,6 +264,70 @@ static sm_status join_chunks(mt_builder *b, mt_builder *ch, int nch, const int64
     return st;
 }
 
+/* The crossed cells (ncells, in order) marched in chunks of whole
+ * slices, in parallel, then joined: four chunks a thread, of about as
+ * many cells each (a thread the machine holds back delays only its
+ * chunk). */
+static sm_status march_chunks(mt_builder *b, const int64_t *cells, int64_t ncells,
+                              sm_surface **out, sm_error *err)
+{
+    int64_t sz = b->n[0] * b->n[1];
+    int want = 4 * omp_get_max_threads(), nch = 0;
+    int64_t *from = malloc((size_t)(want + 1) * sizeof *from),
+            *first_slice = malloc((size_t)(want + 1) * sizeof *first_slice);
+    mt_builder *ch = calloc((size_t)want, sizeof *ch);
+    sm_status st = SM_OK;
+    if (!from || !first_slice || !ch) {
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface");
+        want = 0;
+    }
+    for (int64_t m = 0; m < ncells && nch < want; nch++) {
+        from[nch] = m;
+        first_slice[nch] = cells[m] / sz;
+        int64_t end = ncells * (nch + 1) / want;
+        m = end > m + 1 ? end : m + 1;
+        while (m < ncells && cells[m] / sz == cells[m - 1] / sz)
+            m++;
+    }
+    if (st == SM_OK) {
+        from[nch] = ncells;
+        int fail = 0;
+#pragma omp parallel for schedule(dynamic, 1) reduction(| : fail)
+        for (int c = 0; c < nch; c++) {
+            mt_builder *h = ch + c;
+            h->f = b->f;
+            memcpy(h->n, b->n, sizeof h->n);
+            h->lo = b->lo;
+            h->hi = b->hi;
+            h->level = b->level;
+            h->map = b->map;
+            /* sized for the chunk's cells (a crossed cell makes about 2
+             * vertices and 4 triangles): no growing on the way */
+            int64_t m = from[c + 1] - from[c];
+            h->hcap = 1 << 16;
+            while (h->hcap < 6 * m)
+                h->hcap *= 2;
+            h->keys = calloc((size_t)h->hcap, sizeof *h->keys);
+            h->vals = malloc((size_t)h->hcap * sizeof *h->vals);
+            if (!h->keys || !h->vals ||
+                !sm__image_grow((void **)&h->coords, &h->capv, 9 * m, sizeof(double)) ||
+                !sm__image_grow((void **)&h->tris, &h->capt, 15 * m, sizeof(int32_t)) ||
+                !sm__image_grow((void **)&h->tcell, &h->capc, 5 * m, sizeof(int64_t)))
+                h->fail = 1;
+            march_cells(h, cells + from[c], m);
+            fail |= h->fail;
+        }
+        st = fail ? sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface")
+                  : join_chunks(b, ch, nch, first_slice, out, err);
+    }
+    for (int c = 0; ch && c < want; c++)
+        builder_free(ch + c);
+    free(ch);
+    free(from);
+    free(first_slice);
+    return st;
+}
+
 sm_status sm__image_march(mt_builder *b, sm_surface **out, sm_error *err)
 {
     const int64_t *n = b->n;
@@ -319,62 +383,7 @@ sm_status sm__image_march(mt_builder *b, sm_surface **out, sm_error *err)
         free(count);
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface");
     }
-    /* marched in chunks of whole slices, in parallel, then joined: four
-     * chunks a thread, of about as many cells each (a thread the machine
-     * holds back delays only its chunk) */
-    int64_t ncells = count[slices];
-    int want = 4 * omp_get_max_threads(), nch = 0;
-    int64_t *from = malloc((size_t)(want + 1) * sizeof *from),
-            *first_slice = malloc((size_t)(want + 1) * sizeof *first_slice);
-    mt_builder *ch = calloc((size_t)want, sizeof *ch);
-    sm_status st = SM_OK;
-    if (!from || !first_slice || !ch) {
-        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface");
-        want = 0;
-    }
-    for (int64_t m = 0; m < ncells && nch < want; nch++) {
-        from[nch] = m;
-        first_slice[nch] = cells[m] / sz;
-        int64_t end = ncells * (nch + 1) / want;
-        m = end > m + 1 ? end : m + 1;
-        while (m < ncells && cells[m] / sz == cells[m - 1] / sz)
-            m++;
-    }
-    if (st == SM_OK) {
-        from[nch] = ncells;
-        int fail = 0;
-#pragma omp parallel for schedule(dynamic, 1) reduction(| : fail)
-        for (int c = 0; c < nch; c++) {
-            mt_builder *h = ch + c;
-            h->f = b->f;
-            memcpy(h->n, b->n, sizeof h->n);
-            h->lo = b->lo;
-            h->hi = b->hi;
-            h->level = b->level;
-            h->map = b->map;
-            /* sized for the chunk's cells (a crossed cell makes about 2
-             * vertices and 4 triangles): no growing on the way */
-            int64_t m = from[c + 1] - from[c];
-            h->hcap = 1 << 16;
-            while (h->hcap < 6 * m)
-                h->hcap *= 2;
-            h->keys = calloc((size_t)h->hcap, sizeof *h->keys);
-            h->vals = malloc((size_t)h->hcap * sizeof *h->vals);
-            if (!h->keys || !h->vals || !sm__image_grow((void **)&h->coords, &h->capv, 9 * m, sizeof(double)) ||
-                !sm__image_grow((void **)&h->tris, &h->capt, 15 * m, sizeof(int32_t)) ||
-                !sm__image_grow((void **)&h->tcell, &h->capc, 5 * m, sizeof(int64_t)))
-                h->fail = 1;
-            march_cells(h, cells + from[c], from[c + 1] - from[c]);
-            fail |= h->fail;
-        }
-        st = fail ? sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface")
-                  : join_chunks(b, ch, nch, first_slice, out, err);
-    }
-    for (int c = 0; ch && c < want; c++)
-        builder_free(ch + c);
-    free(ch);
-    free(from);
-    free(first_slice);
+    sm_status st = march_chunks(b, cells, count[slices], out, err);
     free(cells);
     free(count);
     return st;

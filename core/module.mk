@@ -14,7 +14,7 @@ CORE_FIELD_SRCS := core/sm_field.c core/sm_field_adjacency.c core/sm_field_grid.
   core/sm_field_locate.c core/sm_field_nearest.c core/sm_warp.c
 CORE_SDF_SRCS := core/sm_background.c core/sm_bvh.c core/sm_sdf.c core/sm_surface_repair.c \
   core/sm_surface_orient.c core/sm_winding.c core/sm_image.c core/sm_edt.c \
-  core/sm_image_sdf.c core/sm_image_march.c core/sm_image_contour.c core/sm_template_check.c core/sm_template_mesh.c
+  core/sm_image_sdf.c core/sm_image_grid.c core/sm_image_march.c core/sm_image_contour.c core/sm_template_check.c core/sm_template_mesh.c
 CORE_SOLVE_SRCS := core/sm_elasticity.c core/sm_elasticity_pattern.c core/sm_element.c \
   core/sm_solver_amg.c core/sm_shape.c core/sm_coverage.c core/sm_relax.c core/sm_match.c
 CORE_ALIGN_SRCS := core/sm_align.c core/sm_align_points.c core/sm_align_landmarks.c \

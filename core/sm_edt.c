@@ -150,8 +150,8 @@ sm_status sm_edt_signed(const int64_t n[3], const double h[3], const uint8_t *ma
 /* 1D with the minimiser: arg[q] = the p minimising (q - p)^2 h^2 + f[p]
  * (f INFINITY: no site), -1 when every f is.  The parabolas scaled by
  * 1/h^2: g[k] = f/h^2 + p^2 of the envelope's k-th. */
-static void envelope(const double *f, int64_t n, double h, int32_t *arg, int32_t *v, double *z,
-                     double *g)
+static void envelope(const double *f, int64_t n, double h, const double *half_inv, int32_t *arg,
+                     int32_t *v, double *z, double *g)
 {
     double ih2 = 1 / (h * h);
     int64_t k = -1;
@@ -160,7 +160,7 @@ static void envelope(const double *f, int64_t n, double h, int32_t *arg, int32_t
             continue;
         double gq = f[q] * ih2 + (double)q * (double)q, s = -INFINITY;
         while (k >= 0) {
-            s = (gq - g[k]) / (2 * ((double)q - (double)v[k]));
+            s = (gq - g[k]) * half_inv[q - v[k]];
             if (s > z[k])
                 break;
             k--;
@@ -212,6 +212,8 @@ enum { TILE = 16 }; /* lines gathered at once across y and z: 64 bytes of
                      * each row of near per read */
 
 typedef struct tile_scratch {
+    double *half_inv; /* 1 / (2 d) at d, 1 <= d < len: the envelope's
+                       * divisions, on its critical path */
     double *f, *z, *g;
     int32_t *v, *arg, *old, *out, *left;
 } tile_scratch;
@@ -219,17 +221,25 @@ typedef struct tile_scratch {
 /* Along axis a (1 or 2) for the TILE x-adjacent lines from x = i0 at
  * other coordinate c: each voxel's candidate so far is a site level with
  * it along a, at squared distance f; the envelope picks, per voxel, the
- * line's best candidate. */
+ * line's best candidate.  slice_has (along z): the slices holding a site,
+ * the others none yet (not read). */
 static void nearest_tile(const int64_t n[3], const double h[3], int a, int64_t i0, int64_t c,
-                         const int32_t *site_ijk, int32_t *near, tile_scratch *s)
+                         const int32_t *site_ijk, const uint8_t *slice_has, int32_t *near,
+                         tile_scratch *s)
 {
     int64_t len = n[a], stride = a == 1 ? n[0] : n[0] * n[1];
     int64_t base = i0 + (a == 1 ? c * n[0] * n[1] : c * n[0]);
     int cnt = (int)(n[0] - i0 < TILE ? n[0] - i0 : TILE);
     int any = 0;
-    for (int64_t q = 0; q < len; q++)
+    for (int64_t q = 0; q < len; q++) {
+        if (slice_has && !slice_has[q]) { /* a slice without sites: none yet */
+            for (int t = 0; t < cnt; t++)
+                s->old[t * len + q] = -1;
+            continue;
+        }
         for (int t = 0; t < cnt; t++)
             any |= (s->old[t * len + q] = near[base + q * stride + t]) >= 0;
+    }
     if (!any)
         return;
     int b = a == 1 ? 2 : 1; /* the other axis than x and a */
@@ -245,7 +255,7 @@ static void nearest_tile(const int64_t n[3], const double h[3], int a, int64_t i
             double dx = (x - ijk[0]) * h[0], db = (other - ijk[b]) * h[b];
             s->f[q] = dx * dx + db * db;
         }
-        envelope(s->f, len, h[a], s->arg, s->v, s->z, s->g);
+        envelope(s->f, len, h[a], s->half_inv, s->arg, s->v, s->z, s->g);
         for (int64_t q = 0; q < len; q++)
             s->out[t * len + q] = s->arg[q] < 0 ? -1 : old[s->arg[q]];
     }
@@ -272,12 +282,16 @@ sm_status sm__edt_nearest(const int64_t n[3], const double h[3], const int32_t *
     {
         tile_scratch s = {
             .f = malloc((size_t)len * sizeof(double)), .z = malloc((size_t)(len + 1) * sizeof(double)),
-            .g = malloc((size_t)len * sizeof(double)), .v = malloc((size_t)len * sizeof(int32_t)),
+            .g = malloc((size_t)len * sizeof(double)),
+            .half_inv = malloc((size_t)len * sizeof(double)), .v = malloc((size_t)len * sizeof(int32_t)),
             .arg = malloc((size_t)len * sizeof(int32_t)),
             .old = malloc((size_t)len * TILE * sizeof(int32_t)),
             .out = malloc((size_t)len * TILE * sizeof(int32_t)),
             .left = malloc((size_t)len * sizeof(int32_t))};
-        int mine = !s.f || !s.z || !s.g || !s.v || !s.arg || !s.old || !s.out || !s.left;
+        int mine = !s.f || !s.z || !s.g || !s.half_inv || !s.v || !s.arg || !s.old || !s.out ||
+                   !s.left;
+        for (int64_t d = 1; !mine && d < len; d++)
+            s.half_inv[d] = 1 / (2 * (double)d);
         /* every thread must reach the same barriers: a failed one only
          * stops doing work, and all give up after the first pass */
         if (mine) {
@@ -301,7 +315,8 @@ sm_status sm__edt_nearest(const int64_t n[3], const double h[3], const int32_t *
 #pragma omp for schedule(dynamic, 4)
                 for (int64_t w = 0; w < tiles * others; w++)
                     if (a == 2 || has[w / tiles])
-                        nearest_tile(n, h, a, (w % tiles) * TILE, w / tiles, site_ijk, near, &s);
+                        nearest_tile(n, h, a, (w % tiles) * TILE, w / tiles, site_ijk,
+                                     a == 2 ? has : NULL, near, &s);
             }
         }
         free(s.f);
@@ -312,6 +327,7 @@ sm_status sm__edt_nearest(const int64_t n[3], const double h[3], const int32_t *
         free(s.old);
         free(s.out);
         free(s.left);
+        free(s.half_inv);
     }
     free(has);
     return fail ? sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance transform")

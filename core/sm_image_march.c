@@ -1,8 +1,10 @@
 /* Marching tetrahedra on the voxel centres (sm_image_march.h): Kuhn's 6
  * tetrahedra per cell, the vertices on the grid's edges shared through a
- * hash of the edges, the cells the level crosses found in parallel. */
+ * hash of the edges, the cells the level crosses found in parallel and
+ * marched in parallel chunks of whole slices, joined. */
 #include "sm_image_march.h"
 
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -156,6 +158,176 @@ static void tetra(mt_builder *b, const int64_t v[4])
     add_tri(b, q0, q2, q3, pin);
 }
 
+/* The value of key in b's edge hash, -1 when absent. */
+static int32_t find_edge(const mt_builder *b, int64_t key)
+{
+    if (!b->hcap)
+        return -1;
+    uint64_t hsh = (uint64_t)key * 0x9E3779B97F4A7C15ull;
+    int64_t t = (int64_t)(hsh >> 20) & (b->hcap - 1);
+    while (b->keys[t]) {
+        if (b->keys[t] == key)
+            return b->vals[t];
+        t = (t + 1) & (b->hcap - 1);
+    }
+    return -1;
+}
+
+static void march_cells(mt_builder *b, const int64_t *cells, int64_t ncells)
+{
+    const int64_t *n = b->n;
+    int64_t step[3] = {1, n[0], n[0] * n[1]};
+    for (int64_t m = 0; !b->fail && m < ncells; m++) {
+        int64_t c = cells[m];
+        b->cell = c;
+        for (int t = 0; t < 6; t++) {
+            int64_t v[4] = {c, 0, 0, 0};
+            for (int s = 0; s < 3; s++)
+                v[s + 1] = v[s] + step[kuhn[t][s]];
+            tetra(b, v);
+        }
+    }
+}
+
+static void builder_free(mt_builder *b)
+{
+    free(b->coords);
+    free(b->tris);
+    free(b->keys);
+    free(b->vals);
+    free(b->tcell);
+}
+
+/* The chunks' surfaces joined into b (tcell) and *out, numbered as one
+ * march over all their cells in order would: chunk c's first slice of
+ * cells, K, shares with chunk c - 1 only the edges in the plane of
+ * nodes z = K (chunk c - 2 ends below K - 1), whose vertices chunk c - 1
+ * made first; every other vertex of chunk c is new, in its own order. */
+static sm_status join_chunks(mt_builder *b, mt_builder *ch, int nch, const int64_t *first_slice,
+                             sm_surface **out, sm_error *err)
+{
+    int64_t sz = b->n[0] * b->n[1], nv = 0, nt = 0;
+    int64_t *voff = malloc((size_t)(nch + 1) * sizeof *voff), *toff = malloc((size_t)(nch + 1) * sizeof *toff);
+    int32_t **id = calloc((size_t)nch, sizeof *id); /* chunk's vertex -> joined */
+    int fail = !voff || !toff || !id;
+    for (int c = 0; !fail && c < nch; c++) {
+        id[c] = malloc((size_t)(ch[c].nv > 0 ? ch[c].nv : 1) * sizeof **id);
+        if (!(fail = !id[c])) {
+            for (int64_t v = 0; v < ch[c].nv; v++)
+                id[c][v] = -1;
+        }
+        /* the shared plane's vertices: chunk c - 1's number */
+        for (int64_t s = 0; !fail && c > 0 && s < ch[c].hcap; s++) {
+            int64_t key = ch[c].keys[s], lo = (key - 1) / 27, type = (key - 1) % 27;
+            if (key && lo / sz == first_slice[c] && type <= 2) {
+                int32_t prev = find_edge(&ch[c - 1], key);
+                if (prev >= 0)
+                    id[c][ch[c].vals[s]] = id[c - 1][prev];
+            }
+        }
+        voff[c] = nv;
+        toff[c] = nt;
+        for (int64_t v = 0; !fail && v < ch[c].nv; v++)
+            if (id[c][v] < 0)
+                id[c][v] = (int32_t)nv++;
+        nt += ch[c].nt;
+        fail |= nv > INT32_MAX || nt > INT32_MAX;
+    }
+    sm_status st = SM_OK;
+    if (fail)
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface");
+    else if (nt == 0)
+        st = sm_error_set(err, SM_ERR_INVALID, "the label has no boundary (empty selection)");
+    else if ((b->tcell = malloc((size_t)nt * sizeof *b->tcell)) == NULL)
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface");
+    else
+        st = sm_surface_alloc(out, 3, (int32_t)nv, (int32_t)nt, err);
+    if (st == SM_OK) {
+        b->nv = nv;
+        b->nt = nt;
+        double *x = (*out)->coords;
+        int32_t *f = (*out)->facets;
+#pragma omp parallel for schedule(dynamic, 1)
+        for (int c = 0; c < nch; c++) {
+            for (int64_t v = 0; v < ch[c].nv; v++)
+                memcpy(x + 3 * (int64_t)id[c][v], ch[c].coords + 3 * v, 3 * sizeof *x);
+            for (int64_t t = 0; t < 3 * ch[c].nt; t++)
+                f[3 * toff[c] + t] = id[c][ch[c].tris[t]];
+            memcpy(b->tcell + toff[c], ch[c].tcell, (size_t)ch[c].nt * sizeof *b->tcell);
+        }
+    }
+    for (int c = 0; id && c < nch; c++)
+        free(id[c]);
+    free(id);
+    free(voff);
+    free(toff);
+    return st;
+}
+
+/* The crossed cells (ncells, in order) marched in chunks of whole
+ * slices, in parallel, then joined: four chunks a thread, of about as
+ * many cells each (a thread the machine holds back delays only its
+ * chunk). */
+static sm_status march_chunks(mt_builder *b, const int64_t *cells, int64_t ncells,
+                              sm_surface **out, sm_error *err)
+{
+    int64_t sz = b->n[0] * b->n[1];
+    int want = 4 * omp_get_max_threads(), nch = 0;
+    int64_t *from = malloc((size_t)(want + 1) * sizeof *from),
+            *first_slice = malloc((size_t)(want + 1) * sizeof *first_slice);
+    mt_builder *ch = calloc((size_t)want, sizeof *ch);
+    sm_status st = SM_OK;
+    if (!from || !first_slice || !ch) {
+        st = sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface");
+        want = 0;
+    }
+    for (int64_t m = 0; m < ncells && nch < want; nch++) {
+        from[nch] = m;
+        first_slice[nch] = cells[m] / sz;
+        int64_t end = ncells * (nch + 1) / want;
+        m = end > m + 1 ? end : m + 1;
+        while (m < ncells && cells[m] / sz == cells[m - 1] / sz)
+            m++;
+    }
+    if (st == SM_OK) {
+        from[nch] = ncells;
+        int fail = 0;
+#pragma omp parallel for schedule(dynamic, 1) reduction(| : fail)
+        for (int c = 0; c < nch; c++) {
+            mt_builder *h = ch + c;
+            h->f = b->f;
+            memcpy(h->n, b->n, sizeof h->n);
+            h->lo = b->lo;
+            h->hi = b->hi;
+            h->level = b->level;
+            h->map = b->map;
+            /* sized for the chunk's cells (a crossed cell makes about 2
+             * vertices and 4 triangles): no growing on the way */
+            int64_t m = from[c + 1] - from[c];
+            h->hcap = 1 << 16;
+            while (h->hcap < 6 * m)
+                h->hcap *= 2;
+            h->keys = calloc((size_t)h->hcap, sizeof *h->keys);
+            h->vals = malloc((size_t)h->hcap * sizeof *h->vals);
+            if (!h->keys || !h->vals ||
+                !sm__image_grow((void **)&h->coords, &h->capv, 9 * m, sizeof(double)) ||
+                !sm__image_grow((void **)&h->tris, &h->capt, 15 * m, sizeof(int32_t)) ||
+                !sm__image_grow((void **)&h->tcell, &h->capc, 5 * m, sizeof(int64_t)))
+                h->fail = 1;
+            march_cells(h, cells + from[c], m);
+            fail |= h->fail;
+        }
+        st = fail ? sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface")
+                  : join_chunks(b, ch, nch, first_slice, out, err);
+    }
+    for (int c = 0; ch && c < want; c++)
+        builder_free(ch + c);
+    free(ch);
+    free(from);
+    free(first_slice);
+    return st;
+}
+
 sm_status sm__image_march(mt_builder *b, sm_surface **out, sm_error *err)
 {
     const int64_t *n = b->n;
@@ -167,7 +339,7 @@ sm_status sm__image_march(mt_builder *b, sm_surface **out, sm_error *err)
         c1[a] = b->hi[a] < n[a] - 1 ? b->hi[a] : n[a] - 2;
     }
     /* the cells the level crosses, found in parallel a slice at a time
-     * (counted, then listed), then marched in order */
+     * (counted, then listed) */
     int64_t slices = c1[2] - c0[2] + 1, *count = calloc((size_t)slices + 1, sizeof *count);
     int64_t *cells = NULL;
     if (!count) {
@@ -207,28 +379,12 @@ sm_status sm__image_march(mt_builder *b, sm_surface **out, sm_error *err)
             b->fail = !cells;
         }
     }
-    int64_t step[3] = {sx, sy, sz};
-    for (int64_t m = 0; !b->fail && m < count[slices]; m++) {
-        int64_t c = cells[m];
-        b->cell = c;
-        for (int t = 0; t < 6; t++) {
-            int64_t v[4] = {c, 0, 0, 0};
-            for (int s = 0; s < 3; s++)
-                v[s + 1] = v[s] + step[kuhn[t][s]];
-            tetra(b, v);
-        }
+    if (b->fail) {
+        free(count);
+        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface");
     }
+    sm_status st = march_chunks(b, cells, count[slices], out, err);
     free(cells);
     free(count);
-    if (b->fail)
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface");
-    if (b->nt == 0)
-        return sm_error_set(err, SM_ERR_INVALID, "the label has no boundary (empty selection)");
-    sm_status st = sm_surface_alloc(out, 3, (int32_t)b->nv, (int32_t)b->nt, err);
-    if (st != SM_OK)
-        return st;
-    memcpy((*out)->coords, b->coords, (size_t)b->nv * 3 * sizeof(double));
-    memcpy((*out)->facets, b->tris, (size_t)b->nt * 3 * sizeof(int32_t));
-    return SM_OK;
+    return st;
 }
-

@@ -32,8 +32,11 @@ typedef struct mt_builder {
  * closed triangle surface in the world of b->map, each triangle turned
  * away from the inside and its cell in b->tcell (nondecreasing: cell by
  * cell, 6 Kuhn tetrahedra each, so neighbouring cells agree).  The
- * caller frees b's arrays (coords, tris, keys, vals, tcell) after.
- * SM_ERR_INVALID when no cell is crossed. */
+ * cells are marched in parallel in chunks of whole slices, each with
+ * its own arrays, and joined numbered as one march in order would (the
+ * same surface on any number of threads).  The caller frees b->tcell
+ * after (b's other arrays are left NULL).  SM_ERR_INVALID when no cell
+ * is crossed. */
 sm_status sm__image_march(mt_builder *b, sm_surface **out, sm_error *err);
 
 /* *p grown (doubling, from 1024) to hold need items of size bytes: 0

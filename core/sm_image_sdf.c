@@ -7,8 +7,9 @@
  * triangle surface by marching tetrahedra (sm_image_march.c); the signed
  * distance at the crop's voxel centres, exact at the voxels next to the
  * surface and through the nearest of those (sm_edt.h's nearest-site
- * transform) beyond, for the far field; within `band` voxels of the
- * boundary the exact signed distance to the surface at any point. */
+ * transform) beyond, for the far field (sm_image_grid.c); within `band`
+ * voxels of the boundary the exact signed distance to the surface at
+ * any point.  The target's fields: sm_image_target.h. */
 #include "shapematch/sm_image.h"
 
 #include <math.h>
@@ -21,37 +22,7 @@
 #include "sm_bvh.h"
 #include "sm_edt.h"
 #include "sm_image_march.h"
-
-struct sm_image_target {
-    int64_t n[3];      /* the crop, in voxels */
-    int64_t act_lo[3], act_hi[3]; /* the crop's voxels where the field can
-                                   * differ from its value far outside:
-                                   * the selection's box and the blur's
-                                   * reach */
-    double map[12];    /* crop index -> world (the image's frame) */
-    double inv[12];    /* world -> crop index */
-    double h[3];       /* spacing along the crop's axes */
-    double smin;       /* a lower bound of the map's smallest singular
-                        * value: world length of a unit index step */
-    double step[3];    /* per axis, a lower bound of the world distance
-                        * of index gap 1 (orthogonal axes: the spacing;
-                        * else smin): a gap g is sqrt(sum (g step)^2) */
-    float *edt;        /* signed voxel-centre EDT on the crop */
-    float *field;      /* the (smoothed) field the surface is a level of */
-    double level;
-    double band;       /* world units: exact within */
-    int grid_band;     /* the grid's band refined (whole_image: the grid
-                        * is the output; else points there are exact) */
-    sm_surface *surface;
-    /* the surface's triangles by the crop cell that made them (marching
-     * emits them cell by cell): open addressing, key cell + 1 */
-    int64_t *ckeys;
-    int32_t *cfirst, *ccount;
-    int64_t ccap;
-    uint64_t *cbits;   /* one bit a crop cell: it has triangles (most
-                        * cells a search visits have none) */
-    sm_sdf *sdf;       /* opts->hierarchy only */
-};
+#include "sm_image_target.h"
 
 /* ---- the field on the crop ---- */
 
@@ -77,11 +48,33 @@ static void gauss1d(float *line, float *tmp, int64_t len, const double *w, int r
     memcpy(line, tmp, (size_t)len * sizeof *line);
 }
 
+/* Rows out[x] = sum over the window's rows of w[t] in[t][x] (x < len),
+ * t from t0 to t1 in order, in double: per voxel the sums of gauss1d,
+ * the voxels of a row at once. */
+static void gauss_rows(float *out, const float *const *in, const double *w, int t0, int t1,
+                       int64_t len, double *acc)
+{
+    for (int64_t x = 0; x < len; x++)
+        acc[x] = 0;
+    for (int t = t0; t <= t1; t++) {
+        const float *row = in[t];
+        double wt = w[t];
+#pragma omp simd
+        for (int64_t x = 0; x < len; x++)
+            acc[x] += wt * row[x];
+    }
+    for (int64_t x = 0; x < len; x++)
+        out[x] = (float)acc[x];
+}
+
 /* Separable Gaussian blur of f (n voxels) with sigma voxels, zero beyond;
  * f is zero outside the box lo..hi (inclusive) and is blurred there
  * only: the box reaches the Gaussian's radius beyond every nonzero
  * voxel, and a segment of a line summed with zero beyond it is the whole
- * line's sum (the same terms in the same order, zeros left out). */
+ * line's sum (the same terms in the same order, zeros left out).  Along
+ * x a line at a time; along y and z a plane of rows at a time (a copy
+ * of the box's rows across the other axis), each output row the
+ * weighted sum of its window's rows: the same sums, many voxels at once. */
 static sm_status blur(float *f, const int64_t n[3], double sigma, const int64_t lo[3],
                       const int64_t hi[3], sm_error *err)
 {
@@ -99,29 +92,61 @@ static sm_status blur(float *f, const int64_t n[3], double sigma, const int64_t 
     len = len > m[2] ? len : m[2];
     int64_t strides[3] = {1, n[0], n[0] * n[1]};
     int fail = 0;
-    for (int a = 0; a < 3; a++) {
-        int b = a == 0 ? 1 : 0, c = a == 2 ? 1 : 2;
-        int64_t lines = m[b] * m[c];
+    /* along x: lines */
+#pragma omp parallel reduction(| : fail)
+    {
+        float *line = malloc((size_t)len * 2 * sizeof *line);
+        fail |= !line;
+#pragma omp for schedule(dynamic, 64)
+        for (int64_t l = 0; l < m[1] * m[2]; l++) {
+            if (!line)
+                continue;
+            float *at = f + lo[0] + (lo[1] + l % m[1]) * strides[1] + (lo[2] + l / m[1]) * strides[2];
+            int nonzero = 0;
+            for (int64_t q = 0; q < m[0]; q++)
+                nonzero |= (line[q] = at[q]) != 0.0f;
+            if (!nonzero) /* zero beyond too: it stays zero */
+                continue;
+            gauss1d(line, line + len, m[0], w, r);
+            memcpy(at, line, (size_t)m[0] * sizeof *at);
+        }
+        free(line);
+    }
+    /* along y, then z: for each slice (y) or row of slices (z), the
+     * box's rows along that axis copied, then summed back in place */
+    for (int a = 1; a <= 2 && !fail; a++) {
+        int c = a == 1 ? 2 : 1; /* the axis the planes are taken across */
 #pragma omp parallel reduction(| : fail)
         {
-            float *line = malloc((size_t)len * 2 * sizeof *line);
-            fail |= !line;
-#pragma omp for schedule(static)
-            for (int64_t l = 0; l < lines; l++) {
-                if (!line)
+            float *rows = malloc((size_t)(m[a] * m[0]) * sizeof *rows);
+            double *acc = malloc((size_t)m[0] * sizeof *acc);
+            const float **win = malloc((size_t)(2 * r + 1) * sizeof *win);
+            fail |= !rows || !acc || !win;
+#pragma omp for schedule(dynamic, 1)
+            for (int64_t l = 0; l < m[c]; l++) {
+                if (!rows || !acc || !win)
                     continue;
-                int64_t base = (lo[b] + l % m[b]) * strides[b] + (lo[c] + l / m[b]) * strides[c] +
-                               lo[a] * strides[a];
+                float *base = f + lo[0] + (lo[c] + l) * strides[c] + lo[a] * strides[a];
                 int nonzero = 0;
-                for (int64_t q = 0; q < m[a]; q++)
-                    nonzero |= (line[q] = f[base + q * strides[a]]) != 0.0f;
-                if (!nonzero) /* zero beyond too: it stays zero */
+                for (int64_t q = 0; q < m[a]; q++) {
+                    const float *src = base + q * strides[a];
+                    float *dst = rows + q * m[0];
+                    for (int64_t x = 0; x < m[0]; x++)
+                        nonzero |= (dst[x] = src[x]) != 0.0f;
+                }
+                if (!nonzero)
                     continue;
-                gauss1d(line, line + len, m[a], w, r);
-                for (int64_t q = 0; q < m[a]; q++)
-                    f[base + q * strides[a]] = line[q];
+                for (int64_t q = 0; q < m[a]; q++) {
+                    /* the window's rows inside the box, in order */
+                    int t0 = q >= r ? 0 : (int)(r - q), t1 = q + r < m[a] ? 2 * r : (int)(m[a] - 1 - q + r);
+                    for (int t = t0; t <= t1; t++)
+                        win[t] = rows + (q - r + t) * m[0];
+                    gauss_rows(base + q * strides[a], win, w, t0, t1, m[0], acc);
+                }
             }
-            free(line);
+            free(rows);
+            free(acc);
+            free(win);
         }
     }
     return fail ? sm_error_set(err, SM_ERR_NOMEM, "out of memory for the smoothing") : SM_OK;
@@ -149,9 +174,10 @@ void sm_image_target_free(sm_image_target *t)
         return;
     free(t->edt);
     free(t->field);
+    free(t->cells);
+    free(t->slice_cells);
     free(t->ckeys);
-    free(t->cfirst);
-    free(t->ccount);
+    free(t->crun);
     free(t->cbits);
     sm_sdf_free(t->sdf);
     sm_surface_free(t->surface);
@@ -304,11 +330,16 @@ static void grid_steps(sm_image_target *t)
         t->step[a] = orthogonal ? fmax(t->h[a] * (1 - 1e-9), t->smin) : t->smin;
 }
 
-/* The triangles of each surface cell (tcell: nondecreasing, as march
- * emits them) in the open-addressing table ckeys/cfirst/ccount. */
-static uint64_t cell_hash(int64_t key, int64_t cap)
+static float float_below(double x)
 {
-    return ((uint64_t)key * 0x9E3779B97F4A7C15ull >> 20) & (uint64_t)(cap - 1);
+    float f = (float)x;
+    return (double)f > x ? nextafterf(f, -INFINITY) : f;
+}
+
+static float float_above(double x)
+{
+    float f = (float)x;
+    return (double)f < x ? nextafterf(f, INFINITY) : f;
 }
 
 static sm_status index_cells(sm_image_target *t, const int64_t *tcell, int64_t nt, sm_error *err)
@@ -320,46 +351,67 @@ static sm_status index_cells(sm_image_target *t, const int64_t *tcell, int64_t n
     while (cap < 2 * runs)
         cap *= 2;
     t->ccap = cap;
+    t->ncells = runs;
+    t->cells = malloc((size_t)runs * sizeof *t->cells);
+    t->slice_cells = malloc((size_t)(t->n[2] + 1) * sizeof *t->slice_cells);
     t->ckeys = calloc((size_t)cap, sizeof *t->ckeys);
-    t->cfirst = malloc((size_t)cap * sizeof *t->cfirst);
-    t->ccount = malloc((size_t)cap * sizeof *t->ccount);
-    int64_t ncells = t->n[0] * t->n[1] * t->n[2];
+    t->crun = malloc((size_t)cap * sizeof *t->crun);
+    int64_t ncells = t->n[0] * t->n[1] * t->n[2], plane = t->n[0] * t->n[1];
     t->cbits = calloc((size_t)(ncells / 64 + 1), sizeof *t->cbits);
-    if (!t->ckeys || !t->cfirst || !t->ccount || !t->cbits)
+    if (!t->cells || !t->slice_cells || !t->ckeys || !t->crun || !t->cbits)
         return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the label's surface");
-    for (int64_t i = 0; i < nt;) {
+    int64_t r = 0, k = 0;
+    for (int64_t i = 0; i < nt; r++) {
         int64_t j = i;
         while (j < nt && tcell[j] == tcell[i])
             j++;
-        uint64_t s = cell_hash(tcell[i] + 1, cap);
+        while (k <= tcell[i] / plane)
+            t->slice_cells[k++] = r;
+        t->cells[r] = (cell_tris){.cell = (int32_t)tcell[i], .first = (int32_t)i,
+                                  .count = (int32_t)(j - i)};
+        uint64_t s = sm__cell_hash(tcell[i] + 1, cap);
         while (t->ckeys[s])
             s = (s + 1) & (uint64_t)(cap - 1);
-        t->ckeys[s] = tcell[i] + 1;
+        t->ckeys[s] = (int32_t)(tcell[i] + 1);
+        t->crun[s] = (int32_t)r;
         t->cbits[tcell[i] >> 6] |= (uint64_t)1 << (tcell[i] & 63);
-        t->cfirst[s] = (int32_t)i;
-        t->ccount[s] = (int32_t)(j - i);
         i = j;
+    }
+    while (k <= t->n[2])
+        t->slice_cells[k++] = runs;
+    const sm_surface *sf = t->surface;
+#pragma omp parallel for schedule(static)
+    for (int64_t q = 0; q < runs; q++) {
+        cell_tris *c = t->cells + q;
+        double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (int32_t f = c->first; f < c->first + c->count; f++)
+            for (int v = 0; v < 3; v++) {
+                const double *x = sf->coords + 3 * sf->facets[3 * f + v];
+                for (int a = 0; a < 3; a++) {
+                    lo[a] = x[a] < lo[a] ? x[a] : lo[a];
+                    hi[a] = x[a] > hi[a] ? x[a] : hi[a];
+                }
+            }
+        for (int a = 0; a < 3; a++) {
+            c->lo[a] = float_below(lo[a]);
+            c->hi[a] = float_above(hi[a]);
+        }
     }
     return SM_OK;
 }
 
-/* The triangles of crop cell c: *count from the returned first. */
-static int32_t cell_triangles(const sm_image_target *t, int64_t c, int32_t *count)
+/* (sm_image_target.h) */
+const cell_tris *sm__image_triangle_cell(const sm_image_target *t, int32_t f)
 {
-    if (!(t->cbits[c >> 6] >> (c & 63) & 1)) {
-        *count = 0;
-        return 0;
+    int64_t lo = 0, hi = t->ncells - 1;
+    while (lo < hi) {
+        int64_t mid = (lo + hi + 1) / 2;
+        if (t->cells[mid].first <= f)
+            lo = mid;
+        else
+            hi = mid - 1;
     }
-    uint64_t s = cell_hash(c + 1, t->ccap);
-    while (t->ckeys[s]) {
-        if (t->ckeys[s] == c + 1) {
-            *count = t->ccount[s];
-            return t->cfirst[s];
-        }
-        s = (s + 1) & (uint64_t)(t->ccap - 1);
-    }
-    *count = 0;
-    return 0;
+    return t->cells + lo;
 }
 
 /* The squared distance from p to the bounding box of triangle abc: a
@@ -392,12 +444,11 @@ static inline double triangle_plane2(const double *p, const double *a, const dou
     return nn > 0 ? h * h / nn * (1 - 1e-9) : 0;
 }
 
-/* *best2 lowered to the squared distance from p to the triangles first
- * .. first + count - 1 nearer than it, *bestf to the nearest of them
- * (triangles whose box or plane is not nearer are skipped: most of them,
- * the exact test costs several times the two bounds). */
-static void range_nearest(const sm_image_target *t, int32_t first, int32_t count, const double *p,
-                          double *best2, int32_t *bestf)
+/* (sm_image_target.h) Triangles whose box or plane is not nearer are
+ * skipped: most of them, the exact test costs several times the two
+ * bounds. */
+void sm__image_range_nearest(const sm_image_target *t, int32_t first, int32_t count,
+                             const double *p, double *best2, int32_t *bestf)
 {
     const sm_surface *s = t->surface;
     double w[3];
@@ -426,19 +477,14 @@ static inline double gap(double c, double q)
  * the crop's box, no farther in index space from any cell than p), ring
  * by ring until the next ring's cells (>= k index steps away, each at
  * least smin long) cannot be nearer than the nearest triangle found. */
-static double surface_distance_from(const sm_image_target *t, const double *p, double best2,
-                                    int32_t bestf, double *closest, int32_t *nearest);
-
 static double surface_distance(const sm_image_target *t, const double *p, double *closest)
 {
-    return surface_distance_from(t, p, INFINITY, -1, closest, NULL);
+    return sm__image_surface_distance_from(t, p, INFINITY, -1, closest, NULL);
 }
 
-/* The same, with a triangle bestf at squared distance best2 already
- * known (-1, INFINITY: none); *nearest (when not NULL): the nearest
- * triangle. */
-static double surface_distance_from(const sm_image_target *t, const double *p, double best2,
-                                    int32_t bestf, double *closest, int32_t *nearest)
+/* (sm_image_target.h) */
+double sm__image_surface_distance_from(const sm_image_target *t, const double *p, double best2,
+                                       int32_t bestf, double *closest, int32_t *nearest)
 {
     int64_t c0[3], m[3];
     double qc[3]; /* p's index, clamped into the crop */
@@ -471,11 +517,9 @@ static double surface_distance_from(const sm_image_target *t, const double *p, d
                     double gx = gap((double)x, qc[0]);
                     /* the cell's box is at least this far (index gaps,
                      * each index unit at least smin long) */
-                    if (x >= 0 && x < m[0] && s2 * (gx * gx + gy * gy + gz * gz) < best2) {
-                        int32_t count;
-                        int32_t first = cell_triangles(t, x + t->n[0] * (y + t->n[1] * z), &count);
-                        range_nearest(t, first, count, p, &best2, &bestf);
-                    }
+                    if (x >= 0 && x < m[0] && s2 * (gx * gx + gy * gy + gz * gz) < best2)
+                        sm__cell_nearest(t, sm__cell_triangles(t, x + t->n[0] * (y + t->n[1] * z)),
+                                         p, &best2, &bestf);
                     if (k == 0)
                         break;
                 }
@@ -535,253 +579,6 @@ static double field_at(const sm_image_target *t, const double *p)
     return v;
 }
 
-/* The nearest surface point of the voxel centre at ijk, a corner of a
- * cell the surface passes through, and its triangle *tri: the triangles
- * of the (up to) 8 cells around it first; every other cell is at least
- * one index step away, smin in the world, so a point nearer than that is
- * the nearest; one nearer than 3 smin: the cells within two steps whose
- * gap (t->step) is nearer; else the general search. */
-static void site_foot(const sm_image_target *t, const int32_t *ijk, double *foot, int32_t *tri)
-{
-    double x[3];
-    for (int row = 0; row < 3; row++)
-        x[row] = t->map[4 * row] * ijk[0] + t->map[4 * row + 1] * ijk[1] +
-                 t->map[4 * row + 2] * ijk[2] + t->map[4 * row + 3];
-    const sm_surface *s = t->surface;
-    double best2 = INFINITY, w[3];
-    int32_t bestf = -1;
-    for (int corner = 0; corner < 8; corner++) {
-        int64_t c[3] = {ijk[0] - (corner & 1), ijk[1] - (corner >> 1 & 1), ijk[2] - (corner >> 2 & 1)};
-        if (c[0] < 0 || c[1] < 0 || c[2] < 0 || c[0] >= t->n[0] - 1 || c[1] >= t->n[1] - 1 ||
-            c[2] >= t->n[2] - 1)
-            continue;
-        int32_t count, first = cell_triangles(t, c[0] + t->n[0] * (c[1] + t->n[1] * c[2]), &count);
-        range_nearest(t, first, count, x, &best2, &bestf);
-    }
-    double s2 = t->smin * t->smin, st2[3];
-    for (int a = 0; a < 3; a++)
-        st2[a] = t->step[a] * t->step[a];
-    if (bestf >= 0 && best2 > s2 && best2 <= 9 * s2) {
-        /* the cells g = (gx, gy, gz) index steps beyond those 8 (at
-         * least sqrt(sum (g step)^2) away, step >= smin) nearer than
-         * best2, so |g| <= 2 per axis; a cell whose gap is not nearer
-         * cannot be */
-        for (int gz = -2; gz <= 2; gz++)
-            for (int gy = -2; gy <= 2; gy++)
-                for (int gx = -2; gx <= 2; gx++) {
-                    if (st2[0] * gx * gx + st2[1] * gy * gy + st2[2] * gz * gz >= best2 ||
-                        (!gx && !gy && !gz))
-                        continue;
-                    /* gap g below the block: cell ijk - 1 + g; above: ijk + g */
-                    int64_t c[3] = {ijk[0] + gx - (gx <= 0), ijk[1] + gy - (gy <= 0),
-                                    ijk[2] + gz - (gz <= 0)};
-                    /* gap 0 on an axis: both cells of the block */
-                    for (int d = 0; d < 8; d++) {
-                        int64_t e[3] = {c[0] + (gx == 0 && (d & 1)), c[1] + (gy == 0 && (d & 2)),
-                                        c[2] + (gz == 0 && (d & 4))};
-                        if (((d & 1) && gx) || ((d & 2) && gy) || ((d & 4) && gz))
-                            continue;
-                        if (e[0] < 0 || e[1] < 0 || e[2] < 0 || e[0] >= t->n[0] - 1 ||
-                            e[1] >= t->n[1] - 1 || e[2] >= t->n[2] - 1)
-                            continue;
-                        int32_t count, first = cell_triangles(t, e[0] + t->n[0] * (e[1] + t->n[1] * e[2]),
-                                                              &count);
-                        range_nearest(t, first, count, x, &best2, &bestf);
-                    }
-                }
-    } else if (bestf < 0 || best2 > s2) {
-        surface_distance_from(t, x, best2, bestf, foot, tri);
-        return;
-    }
-    *tri = bestf;
-    const int32_t *v = s->facets + 3 * bestf;
-    const double *a = s->coords + 3 * v[0], *b = s->coords + 3 * v[1], *c = s->coords + 3 * v[2];
-    sm__triangle_closest(x, a, b, c, w);
-    for (int row = 0; row < 3; row++)
-        foot[row] = w[0] * a[row] + w[1] * b[row] + w[2] * c[row];
-}
-
-/* One slice k of the distance from the sites (distance_field): each
- * voxel's own nearest site and its six neighbours' (their sites' surface
- * points are as near, often nearer: the nearest site by voxel centres is
- * not always the one with the nearest point), the nearest of those
- * points; signed by the field.  below/above: slices k - 1 and k + 1 of
- * sites (NULL beyond the grid); range: each site's foot's cell's
- * triangles (first, count). */
-static void slice_distance(const sm_image_target *t, const float *f, double level,
-                           const double *foot, const int32_t *range, const int32_t *below,
-                           const int32_t *slice, const int32_t *above, int64_t k, float *out)
-{
-    /* the target's fields in locals: the band's calls would make the
-     * compiler load them again at every voxel */
-    const int64_t n0 = t->n[0], n1 = t->n[1], lo0 = t->act_lo[0], hi0 = t->act_hi[0];
-    const double m0 = t->map[0], m4 = t->map[4], m8 = t->map[8];
-    const double band2 = t->grid_band ? t->band * t->band : -1;
-    for (int64_t j = 0; j < n1; j++) {
-        /* a neighbour beyond the grid: the row itself (the voxel's own site) */
-        const int32_t *row = slice + j * n0;
-        const int32_t *nb0 = j > 0 ? row - n0 : row, *nb1 = j + 1 < n1 ? row + n0 : row,
-                      *nb2 = below ? below + j * n0 : row, *nb3 = above ? above + j * n0 : row;
-        double x[3];
-        for (int r = 0; r < 3; r++)
-            x[r] = t->map[4 * r + 1] * (double)j + t->map[4 * r + 2] * (double)k + t->map[4 * r + 3];
-        /* outside the active box the field is below the level */
-        int box = j >= t->act_lo[1] && j <= t->act_hi[1] && k >= t->act_lo[2] && k <= t->act_hi[2];
-        const float *frow = f + (k * n1 + j) * n0;
-        float *orow = out + j * n0;
-        for (int64_t i = 0; i < n0; i++) {
-            double p[3] = {x[0] + m0 * (double)i, x[1] + m4 * (double)i, x[2] + m8 * (double)i};
-            /* the neighbours' sites, most often the voxel's own */
-            int32_t own = row[i], cand[6] = {i > 0 ? row[i - 1] : own, i + 1 < n0 ? row[i + 1] : own,
-                                             nb0[i], nb1[i], nb2[i], nb3[i]};
-            const double *q = foot + 3 * (int64_t)own;
-            double best = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
-                          (p[2] - q[2]) * (p[2] - q[2]);
-            /* most often (far from the surface) all the same site */
-            int32_t other = (cand[0] ^ own) | (cand[1] ^ own) | (cand[2] ^ own) |
-                            (cand[3] ^ own) | (cand[4] ^ own) | (cand[5] ^ own);
-            for (int c = 0; other && c < 6; c++) {
-                if (cand[c] == own)
-                    continue;
-                q = foot + 3 * (int64_t)cand[c];
-                double d2 = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
-                            (p[2] - q[2]) * (p[2] - q[2]);
-                best = d2 < best ? d2 : best;
-            }
-            if (best <= band2)
-                /* within the band: the other triangles of the cell holding
-                 * the voxel's own site's point too (the surface around
-                 * that point, where a nearer one most often is) */
-                range_nearest(t, range[2 * (int64_t)own], range[2 * (int64_t)own + 1], p, &best,
-                              &(int32_t){0});
-            float d = sqrtf((float)best); /* as near as sqrt then rounding */
-            orow[i] = box && i >= lo0 && i <= hi0 && frow[i] >= level ? -d : d;
-        }
-    }
-}
-
-/* The distances from the sites over the sites themselves (t->edt: each
- * voxel's site, int32, becomes its distance, float): each thread takes a
- * slab of slices in order and writes a slice back once the next one is
- * done (no slice is needed after its neighbours are); the slices next to
- * a slab, another thread's, are copied before anyone writes. */
-static sm_status site_distances(sm_image_target *t, const float *f, double level,
-                                const double *foot, const int32_t *range, int32_t *near,
-                                sm_error *err)
-{
-    const int64_t *n = t->n;
-    int64_t plane = n[0] * n[1];
-    int threads = omp_get_max_threads();
-    if (threads > n[2])
-        threads = (int)n[2];
-    /* per thread: its first and last slice's sites, two slices of output */
-    int32_t *edges = malloc((size_t)threads * 2 * (size_t)plane * sizeof *edges);
-    float *bufs = malloc((size_t)threads * 2 * (size_t)plane * sizeof *bufs);
-    if (!edges || !bufs) {
-        free(edges);
-        free(bufs);
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's sites");
-    }
-#pragma omp parallel num_threads(threads)
-    {
-        int me = omp_get_thread_num(), nt = omp_get_num_threads();
-        int64_t k0 = n[2] * me / nt, k1 = n[2] * (me + 1) / nt;
-        int32_t *first = edges + (size_t)(2 * me) * (size_t)plane, *last = first + plane;
-        if (k1 > k0) {
-            memcpy(first, near + k0 * plane, (size_t)plane * sizeof *first);
-            memcpy(last, near + (k1 - 1) * plane, (size_t)plane * sizeof *last);
-        }
-#pragma omp barrier
-        float *buf[2] = {bufs + (size_t)(2 * me) * (size_t)plane,
-                         bufs + (size_t)(2 * me + 1) * (size_t)plane};
-        for (int64_t k = k0; k < k1; k++) {
-            const int32_t *below = k == 0 ? NULL
-                                   : k == k0 ? edges + (size_t)(2 * me - 1) * (size_t)plane
-                                             : near + (k - 1) * plane;
-            const int32_t *above = k + 1 == n[2] ? NULL
-                                   : k + 1 == k1 ? edges + (size_t)(2 * me + 2) * (size_t)plane
-                                                 : near + (k + 1) * plane;
-            slice_distance(t, f, level, foot, range, below, near + k * plane, above, k,
-                           buf[k & 1]);
-            if (k > k0) /* slice k - 1 is no one's neighbour any more */
-                memcpy(t->edt + (k - 1) * plane, buf[(k - 1) & 1], (size_t)plane * sizeof(float));
-        }
-        if (k1 > k0)
-            memcpy(t->edt + (k1 - 1) * plane, buf[(k1 - 1) & 1], (size_t)plane * sizeof(float));
-    }
-    free(edges);
-    free(bufs);
-    return SM_OK;
-}
-
-/* The signed distance at every crop voxel centre into t->edt: the sites
- * are the corners of the cells the surface passes through (every voxel
- * within a cell of it), each with its exact nearest surface point; every
- * other voxel takes the nearest site's (sm__edt_nearest, on the grid's
- * axis lengths) and its distance to that point, a point of the surface:
- * an upper bound, off by the square of the sites' sideways offset over
- * twice the distance, so the far field is close to exact where the
- * voxel-centre EDT is off by up to a voxel.  The sign: the field at the
- * node against the level (the surface's inside).  t->edt holds the sites
- * (int32) until each voxel's float replaces its own. */
-static sm_status distance_field(sm_image_target *t, const float *f, double level,
-                                const int64_t *tcell, int64_t nt, sm_error *err)
-{
-
-    const int64_t *n = t->n;
-    int64_t total = n[0] * n[1] * n[2], sy = n[0], sz = n[0] * n[1];
-    int32_t *near = (int32_t *)t->edt;
-    memset(near, 0xff, (size_t)total * sizeof *near); /* -1: no site */
-    int32_t *ijk = NULL;
-    double *foot = NULL;
-    int64_t nsites = 0, cap = 0;
-    for (int64_t i = 0; i < nt; i++) {
-        if (i > 0 && tcell[i] == tcell[i - 1])
-            continue;
-        int64_t c = tcell[i];
-        for (int corner = 0; corner < 8; corner++) {
-            int64_t v = c + (corner & 1) + (corner & 2 ? sy : 0) + (corner & 4 ? sz : 0);
-            if (near[v] >= 0)
-                continue;
-            if (!sm__image_grow((void **)&ijk, &cap, nsites + 1, 3 * sizeof *ijk) ||
-                nsites >= INT32_MAX) {
-                free(ijk);
-                return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's sites");
-            }
-            near[v] = (int32_t)nsites;
-            ijk[3 * nsites] = (int32_t)(v % n[0]);
-            ijk[3 * nsites + 1] = (int32_t)((v / sy) % n[1]);
-            ijk[3 * nsites + 2] = (int32_t)(v / sz);
-            nsites++;
-        }
-    }
-    foot = malloc((size_t)nsites * 3 * sizeof *foot);
-    int32_t *range = malloc((size_t)nsites * 2 * sizeof *range);
-    if (!foot || !range) {
-        free(ijk);
-        free(foot);
-        free(range);
-        return sm_error_set(err, SM_ERR_NOMEM, "out of memory for the distance's sites");
-    }
-    /* each foot's cell (the cell that made its triangle): its triangles,
-     * looked up once here rather than at every voxel of the band */
-#pragma omp parallel for schedule(dynamic, 256)
-    for (int64_t k = 0; k < nsites; k++) {
-        int32_t tri = -1;
-        site_foot(t, ijk + 3 * k, foot + 3 * k, &tri);
-        range[2 * k] = tri < 0 ? 0 : cell_triangles(t, tcell[tri], &range[2 * k + 1]);
-        if (tri < 0)
-            range[2 * k + 1] = 0;
-    }
-    sm_status st = sm__edt_nearest(n, t->h, ijk, nsites, near, err);
-    free(ijk);
-    if (st == SM_OK)
-        st = site_distances(t, f, level, foot, range, near, err);
-    free(foot);
-    free(range);
-    return st;
-}
-
 /* The voxel-centre signed EDT of the thresholded field (sm_image.h). */
 sm_status sm_image_target_voxel_edt(const sm_image_target *t, float **edt, sm_error *err)
 {
@@ -837,14 +634,14 @@ sm_status sm_image_target_new(const sm_image *im, const uint8_t *mask, const sm_
     free(b.vals);
     if (st == SM_OK)
         st = index_cells(t, b.tcell, b.nt, err);
+    free(b.tcell);
     if (st == SM_OK) {
         t->band = o->band_voxels * fmax(t->h[0], fmax(t->h[1], t->h[2]));
         t->grid_band = o->whole_image;
         t->smin = smallest_singular(t->map);
         grid_steps(t);
-        st = distance_field(t, f, level, b.tcell, b.nt, err);
+        st = sm__image_distance_field(t, f, level, err);
     }
-    free(b.tcell);
     if (st != SM_OK)
         goto done;
     t->field = f; /* the sign near the surface */

@@ -22,6 +22,9 @@
 #include "shapematch/sm_image.h"
 #include "shapematch/sm_sdf.h"
 #include "sm_edt.h"
+#include "sm_image_march.h"
+
+#include <omp.h>
 
 static uint64_t rng = 88172645463325252ull;
 static double rnd(void)
@@ -390,6 +393,179 @@ static void test_grid_distance_exact(void **state)
     free(m);
 }
 
+static int cmp_edge(const void *a, const void *b)
+{
+    const int64_t *x = a, *y = b;
+    return *x < *y ? -1 : *x > *y;
+}
+
+static int cmp_point(const void *a, const void *b)
+{
+    const double *x = a, *y = b;
+    for (int k = 0; k < 3; k++)
+        if (x[k] != y[k])
+            return x[k] < y[k] ? -1 : 1;
+    return 0;
+}
+
+/* The marching on one thread and on three (cells in 2 and 6 chunks,
+ * joined): the same surface, vertex for vertex and triangle for triangle
+ * with the same cells; closed and oriented (every directed edge once, its
+ * reverse once), no vertex twice (a chunk's copy of a shared vertex left
+ * unjoined would be); two blobs on an oblique grid, one of them thin in
+ * z so that chunks start and end at many slices. */
+static void test_march_chunks_joined(void **state)
+{
+    (void)state;
+    int64_t n[3] = {21, 17, 40}, total = n[0] * n[1] * n[2];
+    float *f = malloc((size_t)total * sizeof *f);
+    for (int64_t w = 0; w < total; w++) {
+        double x = (double)(w % n[0]), y = (double)((w / n[0]) % n[1]), z = (double)(w / (n[0] * n[1]));
+        double a = exp(-((x - 9.3) * (x - 9.3) + (y - 8.1) * (y - 8.1)) / 20 - (z - 12.2) * (z - 12.2) / 40);
+        double b = exp(-((x - 11.7) * (x - 11.7) + (y - 7.6) * (y - 7.6)) / 12 - (z - 29.5) * (z - 29.5) / 6);
+        f[w] = (float)(a + b);
+    }
+    int64_t lo[3] = {0, 0, 0}, hi[3] = {n[0] - 1, n[1] - 1, n[2] - 1};
+    double map[12] = {0.9, -0.3, 0.1, 2, 0.3, 1.1, 0, -1, 0, 0.2, 1.4, 5};
+    sm_surface *s[2];
+    int64_t *tcell[2], nt[2];
+    sm_error err;
+    for (int run = 0; run < 2; run++) {
+        int threads = omp_get_max_threads();
+        omp_set_num_threads(run ? 3 : 1);
+        mt_builder b = {.f = f, .n = {n[0], n[1], n[2]}, .lo = lo, .hi = hi, .level = 0.5, .map = map};
+        assert_int_equal(sm__image_march(&b, &s[run], &err), SM_OK);
+        omp_set_num_threads(threads);
+        assert_null(b.coords);
+        tcell[run] = b.tcell;
+        nt[run] = b.nt;
+    }
+    assert_int_equal(s[0]->nverts, s[1]->nverts);
+    assert_int_equal(s[0]->nfacets, s[1]->nfacets);
+    assert_int_equal(nt[0], s[0]->nfacets);
+    assert_memory_equal(s[0]->coords, s[1]->coords, (size_t)s[0]->nverts * 3 * sizeof(double));
+    assert_memory_equal(s[0]->facets, s[1]->facets, (size_t)s[0]->nfacets * 3 * sizeof(int32_t));
+    assert_memory_equal(tcell[0], tcell[1], (size_t)nt[0] * sizeof(int64_t));
+    int64_t m = s[0]->nfacets, nv = s[0]->nverts;
+    int64_t *edges = malloc((size_t)m * 3 * sizeof *edges);
+    for (int64_t t = 0; t < m; t++) {
+        assert_true(t == 0 || tcell[0][t] >= tcell[0][t - 1]);
+        for (int e = 0; e < 3; e++)
+            edges[3 * t + e] = (int64_t)s[0]->facets[3 * t + e] * nv + s[0]->facets[3 * t + (e + 1) % 3];
+    }
+    qsort(edges, (size_t)(3 * m), sizeof *edges, cmp_edge);
+    int64_t unpaired = 0;
+    for (int64_t e = 0; e < 3 * m; e++) {
+        int64_t rev = edges[e] % nv * nv + edges[e] / nv;
+        unpaired += (e > 0 && edges[e] == edges[e - 1]) ||
+                    !bsearch(&rev, edges, (size_t)(3 * m), sizeof *edges, cmp_edge);
+    }
+    double *pts = malloc((size_t)nv * 3 * sizeof *pts);
+    memcpy(pts, s[0]->coords, (size_t)nv * 3 * sizeof *pts);
+    qsort(pts, (size_t)nv, 3 * sizeof *pts, cmp_point);
+    int64_t twice = 0;
+    for (int64_t v = 1; v < nv; v++)
+        twice += cmp_point(pts + 3 * v, pts + 3 * (v - 1)) == 0;
+    print_message("# march in chunks: %lld vertices, %lld triangles, %lld edges unpaired, %lld "
+                  "vertices twice\n", (long long)nv, (long long)m, (long long)unpaired,
+                  (long long)twice);
+    assert_true(m > 1000);
+    assert_int_equal(unpaired, 0);
+    assert_int_equal(twice, 0);
+    for (int run = 0; run < 2; run++) {
+        sm_surface_free(s[run]);
+        free(tcell[run]);
+    }
+    free(edges);
+    free(pts);
+    free(f);
+}
+
+/* The grid's distance on random labels (unions of balls less smaller
+ * ones: several pieces, cavities, thin walls; sharp and smoothed; a
+ * straight and an oblique anisotropic grid) against the exact distance
+ * to the surface over every triangle (the hierarchy): never below it,
+ * equal within the smallest spacing, at most a quarter of the largest
+ * spacing above it within 3 voxels, and every sign the winding
+ * number's (each voxel's sign is its nearest site's). */
+static void test_grid_distance_random(void **state)
+{
+    (void)state;
+    for (int trial = 0; trial < 4; trial++) {
+        int64_t n[3] = {26, 22, 18};
+        double h[3] = {1, 1.2, 0.9}, co = trial & 1 ? cos(0.4) : 1, si = trial & 1 ? sin(0.4) : 0;
+        double map[12] = {co * h[0], 0, -si * h[2], 1, 0, h[1], 0, -2, si * h[0], 0, co * h[2], 3};
+        sm_image im = {.dims = {n[0], n[1], n[2]}, .type = SM_VOXEL_U8, .slope = 1, .inter = 0};
+        memcpy(im.ijk_to_lps, map, sizeof map);
+        int64_t total = n[0] * n[1] * n[2];
+        uint8_t *v = calloc((size_t)total, 1), *m = malloc((size_t)total);
+        for (int ball = 0; ball < 10; ball++) {
+            double c[3] = {3 + rnd() * 20, 3 + rnd() * 16, 3 + rnd() * 12}, r = 1.5 + rnd() * 4;
+            int hole = ball >= 6;
+            for (int64_t w = 0; w < total; w++) {
+                double x = (double)(w % n[0]) - c[0], y = (double)((w / n[0]) % n[1]) - c[1],
+                       z = (double)(w / (n[0] * n[1])) - c[2];
+                if (x * x + y * y + z * z <= (hole ? r * r / 4 : r * r))
+                    v[w] = !hole;
+            }
+        }
+        im.voxels = v;
+        sm_image_select sel = {0, 0, 0.5};
+        assert_int_equal(sm_image_mask(&im, &sel, m, NULL, NULL), SM_OK);
+        sm_image_target_opts o = {trial < 2 ? 0.0 : 1.0, 3.0, 0, 1, 1};
+        sm_image_target *t;
+        sm_error err;
+        assert_int_equal(sm_image_target_new(&im, m, &sel, &o, &t, &err), SM_OK);
+        int64_t cn[3];
+        double cm[12];
+        const float *d;
+        sm_image_target_grid(t, cn, cm, &d);
+        int64_t ct = cn[0] * cn[1] * cn[2];
+        double *pts = malloc((size_t)ct * 3 * sizeof *pts), *u = malloc((size_t)ct * sizeof *u),
+               *wn = malloc((size_t)ct * sizeof *wn);
+        for (int64_t w = 0; w < ct; w++) {
+            double ijk[3] = {(double)(w % cn[0]), (double)((w / cn[0]) % cn[1]),
+                             (double)(w / (cn[0] * cn[1]))};
+            for (int r = 0; r < 3; r++)
+                pts[3 * w + r] = cm[4 * r] * ijk[0] + cm[4 * r + 1] * ijk[1] +
+                                 cm[4 * r + 2] * ijk[2] + cm[4 * r + 3];
+        }
+        sm_sdf_distance(sm_image_target_sdf(t), ct, pts, u, NULL);
+        sm_sdf_winding(sm_image_target_sdf(t), ct, pts, wn);
+        int64_t below = 0, off = 0, near = 0, signs = 0;
+        double excess = 0;
+        for (int64_t w = 0; w < ct; w++) {
+            double a = fabs(d[w]), tol = 2.5e-7 * (1 + u[w]);
+            below += a < u[w] - tol;
+            if (u[w] < 0.9) {
+                near++;
+                off += fabs(a - u[w]) > tol;
+            }
+            if (u[w] <= 3 * 1.2)
+                excess = fmax(excess, a - u[w]);
+            if (u[w] > 1e-6)
+                signs += (d[w] < 0) != (wn[w] > 0.5);
+        }
+        print_message("# random label %d (%s, %s): %lld voxels, %lld below the exact distance, "
+                      "%lld of %lld within a voxel not exact, worst excess within 3 voxels %.3f, "
+                      "%lld signs against the winding number\n", trial,
+                      trial < 2 ? "sharp" : "smoothed", trial & 1 ? "oblique" : "straight",
+                      (long long)ct, (long long)below, (long long)off, (long long)near, excess,
+                      (long long)signs);
+        assert_int_equal(below, 0);
+        assert_true(near > 300);
+        assert_int_equal(off, 0);
+        assert_true(excess <= 0.25 * 1.2);
+        assert_int_equal(signs, 0);
+        free(pts);
+        free(u);
+        free(wn);
+        sm_image_target_free(t);
+        free(v);
+        free(m);
+    }
+}
+
 /* brute force: the 26-connected components by flood fill */
 static int64_t flood_components(const int64_t *n, const uint8_t *mask)
 {
@@ -585,6 +761,7 @@ int main(void)
         cmocka_unit_test(test_target_sphere),   cmocka_unit_test(test_binary_sphere_signs),
         cmocka_unit_test(test_contour_2d),      cmocka_unit_test(test_grid_distance_exact),
         cmocka_unit_test(test_components_brute_force), cmocka_unit_test(test_nearest_site_brute_force),
+        cmocka_unit_test(test_march_chunks_joined), cmocka_unit_test(test_grid_distance_random),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

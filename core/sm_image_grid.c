@@ -65,6 +65,18 @@ static inline void tri_nearest(const tri_bounds *e, int32_t f, const double *p, 
     }
 }
 
+/* *best2, *bestf lowered to crossed cell ct's triangles: its first cnt
+ * by their bounds tb, the rest (a cell of more triangles than a cell can
+ * make) without. */
+static inline void cell_nearest(const sm_image_target *t, const cell_tris *ct, const tri_bounds *tb,
+                                int32_t cnt, const double *p, double *best2, int32_t *bestf)
+{
+    for (int32_t q = 0; q < cnt; q++)
+        tri_nearest(tb + q, ct->first + q, p, best2, bestf);
+    if (ct->count > cnt)
+        sm__image_range_nearest(t, ct->first + cnt, ct->count - cnt, p, best2, bestf);
+}
+
 /* The nearest point of every site among the triangles of the crossed
  * cells it is a corner of (best2, bestf: INFINITY, -1 on entry), cell
  * by cell: node plane z takes the four corners in it of the cells of
@@ -93,14 +105,8 @@ static void corner_nearest(const sm_image_target *t, const int32_t *near, double
                     int32_t site = near[i + n[0] * (j + n[1] * z)];
                     double p[3], b2 = best2[site];
                     int32_t bf = bestf[site];
-                    for (int row = 0; row < 3; row++)
-                        p[row] = t->map[4 * row] * (double)i + t->map[4 * row + 1] * (double)j +
-                                 t->map[4 * row + 2] * (double)z + t->map[4 * row + 3];
-                    for (int32_t q = 0; q < cnt; q++)
-                        tri_nearest(tb + q, ct->first + q, p, &b2, &bf);
-                    /* a cell of more triangles than a cell can make: the rest */
-                    if (ct->count > cnt)
-                        sm__image_range_nearest(t, ct->first + cnt, ct->count - cnt, p, &b2, &bf);
+                    sm__grid_world(t->map, (double)i, (double)j, (double)z, p);
+                    cell_nearest(t, ct, tb, cnt, p, &b2, &bf);
                     best2[site] = b2;
                     bestf[site] = bf;
                 }
@@ -120,9 +126,7 @@ static void site_foot(const sm_image_target *t, const int32_t *ijk, double best2
                       double *foot, int32_t *tri)
 {
     double x[3];
-    for (int row = 0; row < 3; row++)
-        x[row] = t->map[4 * row] * ijk[0] + t->map[4 * row + 1] * ijk[1] +
-                 t->map[4 * row + 2] * ijk[2] + t->map[4 * row + 3];
+    sm__grid_world(t->map, ijk[0], ijk[1], ijk[2], x);
     const sm_surface *s = t->surface;
     double w[3];
     double s2 = t->smin * t->smin, st2[3];
@@ -444,13 +448,8 @@ static sm_status band_refine(sm_image_target *t, const band_list *band, int list
                 int64_t v = by[e].v, i = v % n[0], j = (v / n[0]) % n[1], kz = v / (n[0] * n[1]);
                 double p[3], b2 = by[e].best2;
                 int32_t bf = -1;
-                for (int row = 0; row < 3; row++)
-                    p[row] = t->map[4 * row] * (double)i + t->map[4 * row + 1] * (double)j +
-                             t->map[4 * row + 2] * (double)kz + t->map[4 * row + 3];
-                for (int32_t q = 0; q < cnt; q++)
-                    tri_nearest(tb + q, ct->first + q, p, &b2, &bf);
-                if (ct->count > cnt)
-                    sm__image_range_nearest(t, ct->first + cnt, ct->count - cnt, p, &b2, &bf);
+                sm__grid_world(t->map, (double)i, (double)j, (double)kz, p);
+                cell_nearest(t, ct, tb, cnt, p, &b2, &bf);
                 if (bf >= 0) {
                     float d = sqrtf((float)b2);
                     t->edt[v] = t->edt[v] < 0 ? -d : d;

@@ -25,6 +25,17 @@ int sm__image_grow(void **p, int64_t *cap, int64_t need, size_t size)
     return 1;
 }
 
+/* The slot of key in an edge hash of cap slots (a power of two): where
+ * it is, or the empty slot where it goes (linear probing). */
+static int64_t edge_slot(const int64_t *keys, int64_t cap, int64_t key)
+{
+    uint64_t hsh = (uint64_t)key * 0x9E3779B97F4A7C15ull;
+    int64_t t = (int64_t)(hsh >> 20) & (cap - 1);
+    while (keys[t] && keys[t] != key)
+        t = (t + 1) & (cap - 1);
+    return t;
+}
+
 static int rehash(mt_builder *b)
 {
     int64_t cap = b->hcap ? b->hcap * 2 : 1 << 16;
@@ -38,10 +49,7 @@ static int rehash(mt_builder *b)
     for (int64_t s = 0; s < b->hcap; s++) {
         if (!b->keys[s])
             continue;
-        uint64_t hsh = (uint64_t)b->keys[s] * 0x9E3779B97F4A7C15ull;
-        int64_t t = (int64_t)(hsh >> 20) & (cap - 1);
-        while (keys[t])
-            t = (t + 1) & (cap - 1);
+        int64_t t = edge_slot(keys, cap, b->keys[s]);
         keys[t] = b->keys[s];
         vals[t] = b->vals[s];
     }
@@ -65,13 +73,9 @@ static int32_t edge_vertex(mt_builder *b, int64_t p, int64_t q)
         b->fail = 1;
         return 0;
     }
-    uint64_t hsh = (uint64_t)key * 0x9E3779B97F4A7C15ull;
-    int64_t t = (int64_t)(hsh >> 20) & (b->hcap - 1);
-    while (b->keys[t]) {
-        if (b->keys[t] == key)
-            return b->vals[t];
-        t = (t + 1) & (b->hcap - 1);
-    }
+    int64_t t = edge_slot(b->keys, b->hcap, key);
+    if (b->keys[t])
+        return b->vals[t];
     if (!sm__image_grow((void **)&b->coords, &b->capv, 3 * (b->nv + 1), sizeof(double)) || b->nv >= INT32_MAX) {
         b->fail = 1;
         return 0;
@@ -84,10 +88,7 @@ static int32_t edge_vertex(mt_builder *b, int64_t p, int64_t q)
         double il = (double)((lo / stride) % b->n[a]), ih = (double)((hi / stride) % b->n[a]);
         ijk[a] = il + s * (ih - il);
     }
-    double *x = b->coords + 3 * b->nv;
-    for (int row = 0; row < 3; row++)
-        x[row] = b->map[4 * row] * ijk[0] + b->map[4 * row + 1] * ijk[1] +
-                 b->map[4 * row + 2] * ijk[2] + b->map[4 * row + 3];
+    sm__grid_world(b->map, ijk[0], ijk[1], ijk[2], b->coords + 3 * b->nv);
     b->keys[t] = key;
     b->vals[t] = (int32_t)b->nv;
     return (int32_t)b->nv++;
@@ -123,9 +124,7 @@ static void world(const mt_builder *b, int64_t node, double *x)
 {
     double ijk[3] = {(double)(node % b->n[0]), (double)((node / b->n[0]) % b->n[1]),
                      (double)(node / (b->n[0] * b->n[1]))};
-    for (int row = 0; row < 3; row++)
-        x[row] = b->map[4 * row] * ijk[0] + b->map[4 * row + 1] * ijk[1] +
-                 b->map[4 * row + 2] * ijk[2] + b->map[4 * row + 3];
+    sm__grid_world(b->map, ijk[0], ijk[1], ijk[2], x);
 }
 
 static void tetra(mt_builder *b, const int64_t v[4])
@@ -163,14 +162,8 @@ static int32_t find_edge(const mt_builder *b, int64_t key)
 {
     if (!b->hcap)
         return -1;
-    uint64_t hsh = (uint64_t)key * 0x9E3779B97F4A7C15ull;
-    int64_t t = (int64_t)(hsh >> 20) & (b->hcap - 1);
-    while (b->keys[t]) {
-        if (b->keys[t] == key)
-            return b->vals[t];
-        t = (t + 1) & (b->hcap - 1);
-    }
-    return -1;
+    int64_t t = edge_slot(b->keys, b->hcap, key);
+    return b->keys[t] ? b->vals[t] : -1;
 }
 
 static void march_cells(mt_builder *b, const int64_t *cells, int64_t ncells)

@@ -43,4 +43,12 @@ sm_status sm__image_march(mt_builder *b, sm_surface **out, sm_error *err);
  * when out of memory (*p unchanged then). */
 int sm__image_grow(void **p, int64_t *cap, int64_t need, size_t size);
 
+/* The world point x of grid index (i, j, k) (fractional indices allowed)
+ * under map, row-major 3 x 4 (index -> world). */
+static inline void sm__grid_world(const double *map, double i, double j, double k, double *x)
+{
+    for (int row = 0; row < 3; row++)
+        x[row] = map[4 * row] * i + map[4 * row + 1] * j + map[4 * row + 2] * k + map[4 * row + 3];
+}
+
 #endif

@@ -727,9 +727,7 @@ static void clamp_to_crop(const sm_image_target *t, const double *p, double *q)
         double top = (double)(t->n[row] - 1);
         ijk[row] = !(x >= 0) ? 0 : x > top ? top : x;
     }
-    for (int row = 0; row < 3; row++)
-        q[row] = t->map[4 * row] * ijk[0] + t->map[4 * row + 1] * ijk[1] +
-                 t->map[4 * row + 2] * ijk[2] + t->map[4 * row + 3];
+    sm__grid_world(t->map, ijk[0], ijk[1], ijk[2], q);
 }
 
 /* Signed distance at p; *exact: 1 when computed exactly. */

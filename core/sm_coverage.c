@@ -357,12 +357,15 @@ static void nearest_range(const sm_bvh *t, int dim, int64_t from, int64_t to, co
 #define SEARCH_TASKS 8
 static void nearest_tasks(const sm_bvh *t, int dim, int64_t n, const double *pts, double *dist)
 {
-    int64_t tasks = (n + SEARCH_GRAIN - 1) / SEARCH_GRAIN;
-    if (tasks > SEARCH_TASKS * (int64_t)omp_get_num_threads())
-        tasks = SEARCH_TASKS * (int64_t)omp_get_num_threads();
+    int64_t want = (n + SEARCH_GRAIN - 1) / SEARCH_GRAIN;
+    if (want > SEARCH_TASKS * (int64_t)omp_get_num_threads())
+        want = SEARCH_TASKS * (int64_t)omp_get_num_threads();
+    /* an unsigned counter: clang's expansion of the taskloop compares
+     * the counter with its unsigned grain (-Wsign-compare on a signed one) */
+    uint64_t tasks = (uint64_t)want;
 #pragma omp taskloop grainsize(1) nogroup
-    for (int64_t k = 0; k < tasks; k++)
-        nearest_range(t, dim, n * k / tasks, n * (k + 1) / tasks, pts, dist);
+    for (uint64_t k = 0; k < tasks; k++)
+        nearest_range(t, dim, n * (int64_t)k / want, n * (int64_t)(k + 1) / want, pts, dist);
 }
 
 /* The max of the distance over facets is often inside a facet (a chord's

@@ -50,6 +50,25 @@ static double brute(const int64_t *n, const double *h, const uint8_t *m, int64_t
     return best;
 }
 
+/* The oracle of the grid tests: the world points of the crop's voxel
+ * centres (grid cn, map cm: sm_image_target_grid's), their exact distance
+ * to t's surface over every triangle (its hierarchy) and their winding
+ * number.  The caller frees the three arrays. */
+static void grid_exact(sm_image_target *t, const int64_t cn[3], const double cm[12], double **pts,
+                       double **u, double **wn)
+{
+    int64_t ct = cn[0] * cn[1] * cn[2];
+    *pts = malloc((size_t)ct * 3 * sizeof **pts);
+    *u = malloc((size_t)ct * sizeof **u);
+    *wn = malloc((size_t)ct * sizeof **wn);
+    assert_true(*pts && *u && *wn);
+    for (int64_t w = 0; w < ct; w++)
+        sm__grid_world(cm, (double)(w % cn[0]), (double)((w / cn[0]) % cn[1]),
+                       (double)(w / (cn[0] * cn[1])), *pts + 3 * w);
+    sm_sdf_distance(sm_image_target_sdf(t), ct, *pts, *u, NULL);
+    sm_sdf_winding(sm_image_target_sdf(t), ct, *pts, *wn);
+}
+
 static void test_edt_brute_force(void **state)
 {
     (void)state;
@@ -336,16 +355,8 @@ static void test_grid_distance_exact(void **state)
     sm_image_target_grid(t, cn, cm, &d);
     assert_int_equal(sm_image_target_voxel_edt(t, &edt, &err), SM_OK);
     int64_t ct = cn[0] * cn[1] * cn[2];
-    double *pts = malloc((size_t)ct * 3 * sizeof *pts), *u = malloc((size_t)ct * sizeof *u),
-           *wn = malloc((size_t)ct * sizeof *wn);
-    for (int64_t w = 0; w < ct; w++) {
-        double ijk[3] = {(double)(w % cn[0]), (double)((w / cn[0]) % cn[1]), (double)(w / (cn[0] * cn[1]))};
-        for (int r = 0; r < 3; r++)
-            pts[3 * w + r] = cm[4 * r] * ijk[0] + cm[4 * r + 1] * ijk[1] + cm[4 * r + 2] * ijk[2] +
-                             cm[4 * r + 3];
-    }
-    sm_sdf_distance(sm_image_target_sdf(t), ct, pts, u, NULL);
-    sm_sdf_winding(sm_image_target_sdf(t), ct, pts, wn);
+    double *pts, *u, *wn;
+    grid_exact(t, cn, cm, &pts, &u, &wn);
     int64_t below = 0, site = 0, site_off = 0, band = 0, signs = 0, near = 0;
     double band_worst = 0, se = 0, se_edt = 0, worst = 0, worst_edt = 0;
     for (int64_t w = 0; w < ct; w++) {
@@ -521,17 +532,8 @@ static void test_grid_distance_random(void **state)
         const float *d;
         sm_image_target_grid(t, cn, cm, &d);
         int64_t ct = cn[0] * cn[1] * cn[2];
-        double *pts = malloc((size_t)ct * 3 * sizeof *pts), *u = malloc((size_t)ct * sizeof *u),
-               *wn = malloc((size_t)ct * sizeof *wn);
-        for (int64_t w = 0; w < ct; w++) {
-            double ijk[3] = {(double)(w % cn[0]), (double)((w / cn[0]) % cn[1]),
-                             (double)(w / (cn[0] * cn[1]))};
-            for (int r = 0; r < 3; r++)
-                pts[3 * w + r] = cm[4 * r] * ijk[0] + cm[4 * r + 1] * ijk[1] +
-                                 cm[4 * r + 2] * ijk[2] + cm[4 * r + 3];
-        }
-        sm_sdf_distance(sm_image_target_sdf(t), ct, pts, u, NULL);
-        sm_sdf_winding(sm_image_target_sdf(t), ct, pts, wn);
+        double *pts, *u, *wn;
+        grid_exact(t, cn, cm, &pts, &u, &wn);
         int64_t below = 0, off = 0, near = 0, signs = 0;
         double excess = 0;
         for (int64_t w = 0; w < ct; w++) {

@@ -215,6 +215,10 @@ await run('clamp by name', async () => {
     shown.includes('no physical group named "cor" of elements') && shown.includes('"core" (7)'), `${resp.status()} ${shown}`);
   await p.fill('#p-clamp-refs', 'core');
   const [ok] = await Promise.all([p.waitForResponse((r) => r.url().endsWith('/v1/jobs') && r.request().method() === 'POST'), p.click('#submit')]);
+  // the panel still shows the warp case's finished job until it follows
+  // this one: wait for its id first, or its old status ends the wait
+  const jobID = ok.status() === 201 ? (await ok.json()).jobID : '';
+  await p.waitForFunction((j) => document.querySelector('#job-id').textContent === j, jobID, { timeout: 10000 });
   const final = await waitFinal(p, 30000);
   report('the clamp field takes a physical name (refs "core"): accepted, the job ends successful', ok.status() === 201 && final === 'successful',
     `${ok.status()} ${final}`);

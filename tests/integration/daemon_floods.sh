@@ -3,8 +3,9 @@
 # Bounded floods on loopback (issue 28), each against a daemon with small
 # limits so that it stays short; the driver is tests/integration/flood.py.
 #
-# Parked request bodies: 24 OGC execute requests send 2 MB each at once
-# and stall.  With --max-body-memory 8M the daemon holds at most 8 MiB of
+# Parked request bodies: 24 OGC execute requests send 2 MB each and
+# stall (the four the budget holds first, the others once it is full).
+# With --max-body-memory 8M the daemon holds at most 8 MiB of
 # them (its RSS grows by far less than the 48 MB sent; before, each kept
 # its buffer: +50 MB), a complete execute request meanwhile gets 503
 # naming the flag, and --body-stall-timeout 2 cuts every stalled body
@@ -28,23 +29,18 @@ start_daemon park --workers 1 --max-body-memory 8M --body-stall-timeout 2 ||
     { not_ok "the daemon starts"; exit 1; }
 port=${BASE##*:}
 rss0=$(rss_kb "$DPID")
-coproc PARK { python3 "$(dirname "$0")/flood.py" park "$port" 24 2000000 $((6 * SLOW)); }
+printf '{"inputs": {"template": {"value": "%s"}}}' "$(head -c 60000 /dev/zero | tr '\0' A)" \
+    >"$WORK/small.json"
+# the driver fills the budget, sends the complete execute request
+# (small.json) and only then the rest of the flood (why: flood.py)
+coproc PARK { python3 "$(dirname "$0")/flood.py" park "$port" 24 2000000 $((6 * SLOW)) \
+    "$WORK/small.json" "$WORK/small.out"; }
 # its pid and output kept: bash unsets PARK and PARK_PID once the driver
 # ends, which a loaded machine can make happen before they are read
 park_pid=$PARK_PID
 exec {park_out}<&"${PARK[0]}"
-read -r -t $((20 * SLOW)) sent <&"$park_out"
+read -r -t $((60 * SLOW)) sent code <&"$park_out"
 rss1=$(rss_kb "$DPID")
-printf '{"inputs": {"template": {"value": "%s"}}}' "$(head -c 60000 /dev/zero | tr '\0' A)" \
-    >"$WORK/small.json"
-# the daemon may still be reading the parked bodies (a sanitizer build is
-# slow): ask until their buffers hold the budget, well within the stall
-execute_small() {
-    code=$(curl -sS -o "$WORK/small.out" -w '%{http_code}' --max-time 10 -H 'Content-Type: application/json' \
-        --data-binary "@$WORK/small.json" "$BASE/v1/processes/match/execution")
-    [ "$code" = 503 ]
-}
-poll 1 execute_small
 read -r -t $((20 * SLOW)) result <&"$park_out"
 wait "$park_pid" 2>/dev/null
 exec {park_out}<&-

@@ -16,6 +16,8 @@ warp_flood.py park PORT JOB N BYTES
     line on stdin and closes them."""
 import glob, http.client, json, os, socket, sys, threading, time
 
+from daemon_metrics import gauge
+
 
 def flood(port, job, folder, n, clients):
     bodies = []
@@ -98,15 +100,8 @@ def queued(port, peer):
 
 
 def held(port):
-    """The daemon's shapematch_request_body_bytes (GET /metrics)."""
-    c = http.client.HTTPConnection("127.0.0.1", port, timeout=30)
-    c.request("GET", "/metrics")
-    text = c.getresponse().read().decode()
-    c.close()
-    for line in text.splitlines():
-        if line.startswith("shapematch_request_body_bytes "):
-            return int(line.split()[1])
-    raise SystemExit("no shapematch_request_body_bytes in /metrics")
+    """Request bodies the daemon holds now, in bytes."""
+    return gauge(port, "shapematch_request_body_bytes")
 
 
 def settle(port, sock, deadline=60.0):

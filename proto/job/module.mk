@@ -9,7 +9,7 @@ JOB_SRCS := proto/job/sm_job_inputs.c proto/job/sm_job_arrays.c proto/job/sm_job
   proto/job/sm_job_model.c proto/job/sm_job_batch.c proto/job/sm_job_batch_list.c \
   proto/job/sm_job_template_from.c \
   proto/job/sm_job_batch_warm.c \
-  proto/job/sm_job_template.c
+  proto/job/sm_job_template.c proto/job/sm_job_template_json.c
 define job_rules
 build/$(1)/libsmjob.a: $$(JOB_SRCS:%.c=build/$(1)/obj/%.o)
 	@mkdir -p $$(dir $$@)

@@ -631,6 +631,29 @@ static void landmark_part_error(sm_error *err, const sm_job_files *files, sm_par
     part_error(err, sm_part_name(part), path);
 }
 
+/* The template an earlier read meshed (files->checked_template, with its
+ * figures): read as meshed, after the checks that it is that template. */
+static sm_status reuse_template(const sm_job_files *files, sm_job_naming naming,
+                                sm_job_inputs *out, sm_error *err)
+{
+    const sm_job_template_made *made = files->checked_template_made;
+    sm_job_template_source kind = files->template_image ? SM_TEMPLATE_IMAGE : SM_TEMPLATE_SURFACE;
+    sm_status st = take_mesh(files->checked_template, NULL, files->limits, &out->template_mesh, err);
+    if (st == SM_OK && (made->source != kind || made->mesh.nverts != out->template_mesh->nverts ||
+                        made->mesh.nelems != out->template_mesh->nelems))
+        st = sm_error_set(err, SM_ERR_INVALID, "%s is not the template its figures describe",
+                          files->checked_template);
+    if (st != SM_OK) {
+        sm_mesh_free(out->template_mesh);
+        out->template_mesh = NULL;
+        file_error(err, naming, SM_PART_TEMPLATE, files->checked_template, out);
+        return st;
+    }
+    out->template_made = *made;
+    out->template_reused = 1;
+    return SM_OK;
+}
+
 /* The template: given (a volume mesh), or meshed from template_surface
  * or template_image (sm_job_template.h).  A meshing's message names its
  * part ("template_surface: open: ..."; the path too for a local run);
@@ -655,6 +678,8 @@ static sm_status take_template(const sm_job_files *files, sm_job_naming naming,
                             "(template_surface) or a label map (template_image)",
                             part);
     }
+    if (files->checked_template && files->checked_template_made)
+        return reuse_template(files, naming, out, err);
     /* a label map is read as the target image is: its bounds, and a
      * refusal counted as --max-inflated's (413) */
     sm_image_limits lim = image_limits(files, naming);

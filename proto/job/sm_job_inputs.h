@@ -119,6 +119,15 @@ typedef struct sm_job_files {
      * distances), the rest as with a generated background (its size and
      * padding, the units refusal); otherwise, or NULL, ignored */
     const char *checked_background, *checked_distance;
+    /* the template an earlier read of the same inputs meshed from
+     * template_surface or template_image (a mesh file, read without
+     * copying anything of the meshing) and that meshing's figures: the
+     * upload check's, kept the same way.  Read instead of meshing again
+     * when both are set and the job has a template to mesh (the figures'
+     * source must be its kind, their vertices the file's); otherwise
+     * ignored */
+    const char *checked_template;
+    const sm_job_template_made *checked_template_made;
     const sm_surface *template_surface_given;
 } sm_job_files;
 
@@ -172,6 +181,8 @@ typedef struct sm_job_inputs {
                                * targets) */
     int checked_reused;       /* the background and distance were read
                                * from files->checked_* (nothing built) */
+    int template_reused;      /* the template was read from
+                               * files->checked_template (not meshed) */
     int has_image;            /* the target came from target_image: */
     sm_job_image_info image;  /* what the image and its label hold */
     sm_part failed;           /* after a failure: the part the message is

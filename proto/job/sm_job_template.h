@@ -12,6 +12,8 @@
 
 #include <stdint.h>
 
+#include <jansson.h>
+
 #include "shapematch/sm_error.h"
 #include "shapematch/sm_io.h"
 #include "shapematch/sm_image.h"
@@ -51,5 +53,15 @@ sm_status sm_job_template_mesh(const char *path, const sm_surface *given, int is
                                int64_t label, double size, double min_quality,
                                sm_read_limits *limits, sm_image_limits *image_limits,
                                sm_mesh **out, sm_job_template_made *made, sm_error *err);
+
+/* The figures as a JSON object, every member (reals exact through
+ * sm_json_dumps), and back: the daemon's upload check meshes the template
+ * and keeps the mesh with these figures for the worker, which reads them
+ * instead of meshing again (server/worker/smd_job_file.h).  to_json:
+ * NULL out of memory.  from_json: SM_ERR_FORMAT naming the first member
+ * missing or of the wrong type (a source other than surface or image
+ * too), *m untouched then. */
+json_t *sm_job_template_made_to_json(const sm_job_template_made *m);
+sm_status sm_job_template_made_from_json(const json_t *o, sm_job_template_made *m, sm_error *err);
 
 #endif

@@ -310,39 +310,51 @@ enum MHD_Result smd_upload_begin_decoded(struct MHD_Connection *conn, smd_reques
     return r;
 }
 
-/* Writes job.json: inputs and canonical params (with the background
- * members the job gave, for the worker's sm_job_inputs_load).  0, or -1
- * with errno set. */
-/* The generated background and distance the check built (a surface
- * target without target_mesh and without alignment: the worker would
- * build the same), kept under inputs/ beside the uploads so that they
- * travel with the job (PostgreSQL stores inputs/ whole) and named in
- * job.json with the key of what they were built from.  Nothing kept
- * (the worker builds them) when there are none or they cannot be
- * written: the check's verdict does not depend on it. */
+/* What the check built, kept under inputs/checked/ beside the uploads so
+ * that it travels with the job (PostgreSQL stores inputs/ whole) and
+ * named in job.json with the key of what it was built from: the
+ * generated background and distance (a surface target without
+ * target_mesh and without alignment: the worker would build the same),
+ * and the template meshed from template_surface or template_image with
+ * its figures (nglib's meshing, seconds for a few thousand vertices).
+ * Nothing kept of what cannot be written (the worker builds it): the
+ * check's verdict does not depend on it. */
 static void keep_checked(smd_upload *u, const sm_job_inputs *in, smd_job_file *f)
 {
-    if (!in->background_generated || !in->has_surface || !in->background || !in->distance ||
-        in->target_deferred)
+    const int bg_kept = in->background_generated && in->has_surface && in->background &&
+                        in->distance && !in->target_deferred;
+    const int tmpl_kept = in->template_made.source != SM_TEMPLATE_GIVEN && in->template_mesh;
+    if (!bg_kept && !tmpl_kept)
         return;
     static const char bg_rel[] = "inputs/checked/background.meshb";
     static const char d_rel[] = "inputs/checked/distance.solb";
-    char dir[PATH_MAX], bg[PATH_MAX], d[PATH_MAX];
+    static const char t_rel[] = "inputs/checked/template.meshb";
+    char dir[PATH_MAX], bg[PATH_MAX], d[PATH_MAX], t[PATH_MAX];
     sm_error err;
     if (smd_pathf(dir, sizeof dir, "%s/inputs/checked", u->dir) != 0 ||
         smd_pathf(bg, sizeof bg, "%s/%s", u->dir, bg_rel) != 0 ||
         smd_pathf(d, sizeof d, "%s/%s", u->dir, d_rel) != 0 ||
+        smd_pathf(t, sizeof t, "%s/%s", u->dir, t_rel) != 0 ||
         (mkdir(dir, 0750) != 0 && errno != EEXIST) ||
-        sm_mesh_write(bg, in->background, &err) != SM_OK ||
-        sm_sol_write(d, in->distance, &err) != SM_OK ||
         smd_job_file_inputs_key(u->dir, f, f->checked_key) != 0) {
         f->checked_key[0] = '\0';
         return;
     }
-    snprintf(f->checked_background, sizeof f->checked_background, "%s", bg_rel);
-    snprintf(f->checked_distance, sizeof f->checked_distance, "%s", d_rel);
+    if (bg_kept && sm_mesh_write(bg, in->background, &err) == SM_OK &&
+        sm_sol_write(d, in->distance, &err) == SM_OK) {
+        snprintf(f->checked_background, sizeof f->checked_background, "%s", bg_rel);
+        snprintf(f->checked_distance, sizeof f->checked_distance, "%s", d_rel);
+    }
+    if (tmpl_kept && (f->checked_template_made = sm_job_template_made_to_json(&in->template_made)) &&
+        sm_mesh_write(t, in->template_mesh, &err) == SM_OK)
+        snprintf(f->checked_template, sizeof f->checked_template, "%s", t_rel);
+    if (!f->checked_background[0] && !f->checked_template[0])
+        f->checked_key[0] = '\0';
 }
 
+/* Writes job.json: inputs and canonical params (with the background
+ * members the job gave, for the worker's sm_job_inputs_load).  0, or -1
+ * with errno set. */
 static int write_job_file(smd_upload *u, const sm_job_inputs *in)
 {
     smd_job_file *f = calloc(1, sizeof *f); /* 16 KiB of paths */

@@ -255,17 +255,31 @@ static int write_outputs(worker *w, const sm_job_inputs *in, const sm_job_run *r
 
 /* ---------------------------------------------------------------- main */
 
-/* The background and distance the upload's check kept (smd_job_file.h),
- * when job.json names them and its key is this job's (the same inputs,
- * params and daemon version): 1 with their paths, else 0 (built here). */
-static int checked_of(const worker *w, const smd_job_file *jf, char path[2][PATH_MAX])
+/* What the upload's check kept (smd_job_file.h), when job.json names it
+ * and its key is this job's (the same inputs, params and daemon
+ * version): the background and distance (paths in bg_d, "" when none)
+ * and the meshed template (its path in tmpl and its figures in *made, ""
+ * when none or its figures do not read).  0 when nothing is this job's. */
+static int checked_of(const worker *w, const smd_job_file *jf, char bg_d[2][PATH_MAX],
+                      char tmpl[PATH_MAX], sm_job_template_made *made)
 {
     char key[SMD_JOB_KEY_LEN + 1];
+    bg_d[0][0] = bg_d[1][0] = tmpl[0] = '\0';
     if (!jf->checked_key[0] || smd_job_file_inputs_key(w->job_dir, jf, key) != 0 ||
         strcmp(key, jf->checked_key) != 0)
         return 0;
-    return smd_pathf(path[0], PATH_MAX, "%s/%s", w->job_dir, jf->checked_background) == 0 &&
-           smd_pathf(path[1], PATH_MAX, "%s/%s", w->job_dir, jf->checked_distance) == 0;
+    if (jf->checked_background[0] &&
+        (smd_pathf(bg_d[0], PATH_MAX, "%s/%s", w->job_dir, jf->checked_background) != 0 ||
+         smd_pathf(bg_d[1], PATH_MAX, "%s/%s", w->job_dir, jf->checked_distance) != 0))
+        bg_d[0][0] = bg_d[1][0] = '\0';
+    sm_error err;
+    if (jf->checked_template[0]) {
+        if (sm_job_template_made_from_json(jf->checked_template_made, made, &err) != SM_OK)
+            fprintf(stderr, "shapematch-worker: the checked template is not used: %s\n", err.msg);
+        else if (smd_pathf(tmpl, PATH_MAX, "%s/%s", w->job_dir, jf->checked_template) != 0)
+            tmpl[0] = '\0';
+    }
+    return bg_d[0][0] || tmpl[0];
 }
 
 /* Reads the inputs job.json (read once, jf) names into in, its params
@@ -296,26 +310,35 @@ static int load_job(worker *w, const smd_job_file *jf, sm_job_inputs *in)
                           .landmarks_template = given[SM_PART_TEMPLATE_LANDMARKS],
                           .landmarks_target = given[SM_PART_TARGET_LANDMARKS],
                           .prepare_run = 1};
-    char checked[2][PATH_MAX];
-    if (checked_of(w, jf, checked)) {
-        files.checked_background = checked[0];
-        files.checked_distance = checked[1];
+    char checked[2][PATH_MAX], tmpl[PATH_MAX];
+    sm_job_template_made made;
+    if (checked_of(w, jf, checked, tmpl, &made)) {
+        files.checked_background = checked[0][0] ? checked[0] : NULL;
+        files.checked_distance = checked[1][0] ? checked[1] : NULL;
+        files.checked_template = tmpl[0] ? tmpl : NULL;
+        files.checked_template_made = tmpl[0] ? &made : NULL;
     }
     sm_status st = sm_job_inputs_load_json(&files, jf->params, in, &err);
-    if (st != SM_OK && st != SM_ERR_NOMEM && files.checked_background) {
+    if (st != SM_OK && st != SM_ERR_NOMEM && (files.checked_background || files.checked_template)) {
         /* the kept files do not read (a damaged copy): built instead, as
          * without them; a refusal of the inputs themselves comes again */
-        fprintf(stderr, "shapematch-worker: the checked background is not used: %s\n", err.msg);
-        files.checked_background = files.checked_distance = NULL;
+        fprintf(stderr, "shapematch-worker: what the upload's check built is not used: %s\n",
+                err.msg);
+        files.checked_background = files.checked_distance = files.checked_template = NULL;
+        files.checked_template_made = NULL;
         sm_error_clear(&err);
         st = sm_job_inputs_load_json(&files, jf->params, in, &err);
     }
     if (st != SM_OK)
         return fail(w, st == SM_ERR_NOMEM ? SMD_WORKER_EXIT_NOMEM : SMD_WORKER_EXIT_INPUT, "%s",
                     err.msg);
-    if (in->checked_reused) /* in worker.log: what a test and an operator look for */
+    /* in worker.log: what a test and an operator look for */
+    if (in->checked_reused)
         fprintf(stderr, "shapematch-worker: the background and distance of the upload's check "
                         "are reused (%s)\n", jf->checked_background);
+    if (in->template_reused)
+        fprintf(stderr, "shapematch-worker: the template meshed by the upload's check is reused "
+                        "(%s)\n", jf->checked_template);
     return 0;
 }
 

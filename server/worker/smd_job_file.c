@@ -24,11 +24,16 @@ char *smd_job_file_encode(const smd_job_file *f, int indent)
         bad = json_object_set(doc, sm_part_name(SM_PART_PARAMS), f->params) != 0;
     if (!bad && f->batch)
         bad = json_object_set(doc, "batch", f->batch) != 0;
-    if (!bad && f->checked_key[0])
-        bad = json_object_set_new(doc, "checked",
-                                  json_pack("{s:s,s:s,s:s}", "key", f->checked_key, "background",
-                                            f->checked_background, "distance",
-                                            f->checked_distance)) != 0;
+    if (!bad && f->checked_key[0]) {
+        json_t *c = json_pack("{s:s}", "key", f->checked_key);
+        bad = !c || json_object_set_new(doc, "checked", c) != 0;
+        if (!bad && f->checked_background[0])
+            bad = json_object_set_new(c, "background", json_string(f->checked_background)) != 0 ||
+                  json_object_set_new(c, "distance", json_string(f->checked_distance)) != 0;
+        if (!bad && f->checked_template[0])
+            bad = json_object_set_new(c, "template", json_string(f->checked_template)) != 0 ||
+                  json_object_set(c, "template_meshed", f->checked_template_made) != 0;
+    }
     char *text = bad ? NULL : sm_json_dumps(doc, indent);
     json_decref(doc);
     return text;
@@ -98,19 +103,30 @@ static int safe_relative(const char *rel)
     return rel[0] && rel[0] != '/' && !strstr(rel, "..") && strlen(rel) < PATH_MAX;
 }
 
-/* A description's "checked" member into f: NULL, or what is wrong. */
+/* A description's "checked" member into f: NULL, or what is wrong.  The
+ * key and at least one of the two pairs, nothing else. */
 static const char *checked_problem(const json_t *c, smd_job_file *f)
 {
     const char *key = json_string_value(json_object_get(c, "key"));
-    const char *bg = json_string_value(json_object_get(c, "background"));
-    const char *d = json_string_value(json_object_get(c, "distance"));
-    if (!json_is_object(c) || json_object_size(c) != 3 || !key || !bg || !d ||
-        strlen(key) != SMD_JOB_KEY_LEN || strspn(key, "0123456789abcdef") != SMD_JOB_KEY_LEN ||
-        !safe_relative(bg) || !safe_relative(d))
+    const json_t *bgv = json_object_get(c, "background"), *dv = json_object_get(c, "distance");
+    const json_t *tv = json_object_get(c, "template"), *made = json_object_get(c, "template_meshed");
+    const char *bg = json_string_value(bgv), *d = json_string_value(dv);
+    const char *tmpl = json_string_value(tv);
+    size_t members = 1 + (bgv ? 2 : 0) + (tv ? 2 : 0);
+    if (!json_is_object(c) || !key || strlen(key) != SMD_JOB_KEY_LEN ||
+        strspn(key, "0123456789abcdef") != SMD_JOB_KEY_LEN || json_object_size(c) != members ||
+        members == 1 || (bgv && (!bg || !d || !safe_relative(bg) || !safe_relative(d))) ||
+        (tv && (!tmpl || !json_is_object(made) || !safe_relative(tmpl))))
         return "checked";
     snprintf(f->checked_key, sizeof f->checked_key, "%s", key);
-    snprintf(f->checked_background, sizeof f->checked_background, "%s", bg);
-    snprintf(f->checked_distance, sizeof f->checked_distance, "%s", d);
+    if (bg) {
+        snprintf(f->checked_background, sizeof f->checked_background, "%s", bg);
+        snprintf(f->checked_distance, sizeof f->checked_distance, "%s", d);
+    }
+    if (tmpl) {
+        snprintf(f->checked_template, sizeof f->checked_template, "%s", tmpl);
+        f->checked_template_made = json_incref((json_t *)made);
+    }
     return NULL;
 }
 
@@ -148,6 +164,7 @@ sm_status smd_job_file_parse(const char *text, size_t len, smd_job_file *f, sm_e
         why = "params";
     if (why) {
         json_decref(doc);
+        json_decref(f->checked_template_made);
         memset(f, 0, sizeof *f);
         return sm_error_set(err, SM_ERR_FORMAT, "%s is not a job description (%s)", SMD_JOB_FILE,
                             why);
@@ -203,6 +220,8 @@ void smd_job_file_free(smd_job_file *f)
 {
     json_decref(f->params);
     json_decref(f->batch);
+    json_decref(f->checked_template_made);
     f->params = NULL;
     f->batch = NULL;
+    f->checked_template_made = NULL;
 }

@@ -4,16 +4,20 @@
  *   {"template": "inputs/template.mesh", "target_mesh": ..., "target_sol"
  *    | "target_surface": ..., "template_landmarks", "target_landmarks": ...
  *    (optional), "params": {<sm_job_params_to_jansson>},
- *    "checked": {"key": HEX, "background": ..., "distance": ...} (optional)}
+ *    "checked": {"key": HEX, "background": ..., "distance": ...,
+ *                "template": ..., "template_meshed": {...}} (optional)}
  * Paths are relative to JOB_DIR and stay inside it.
  *
- * "checked" (issue 35 item 5): the generated background and the target's
- * distance on it that the upload's check built (a surface target without
- * target_mesh and without alignment), kept in the job's inputs/ (binary
- * Medit .meshb/.solb: every double as computed), so that the worker
- * reads them instead of building them again.  key fingerprints what they
- * were built from (smd_job_file_inputs_key): the worker uses them only
- * when its own key of the job is the same.
+ * "checked" (issue 35 item 5): what the upload's check built, kept in the
+ * job's inputs/ (binary Medit .meshb/.solb: every double as computed) so
+ * that the worker reads it instead of building it again: the generated
+ * background and the target's distance on it (a surface target without
+ * target_mesh and without alignment), and the template meshed from
+ * template_surface or template_image with its figures
+ * (sm_job_template_made_to_json: the summary's template.meshed), each
+ * pair present or absent together.  key fingerprints what they were
+ * built from (smd_job_file_inputs_key): the worker uses them only when
+ * its own key of the job is the same.
  *
  * A batch's model job (server/api/smd_batches.h) has no file part; its
  * description is {"params": {}, "batch": {"align": "none|rigid|similarity",
@@ -38,9 +42,13 @@ typedef struct smd_job_file {
     char part[SM_PART_PARAMS][PATH_MAX];
     json_t *params; /* the canonical params object (owned) */
     json_t *batch;  /* a model job's batch object (owned), NULL for a match */
-    /* the check's background and distance (paths as the parts'), and
-     * their key; "" when none */
+    /* what the check built (paths as the parts'), and their key; ""
+     * when none: the background and distance (both or neither), the
+     * meshed template and its figures (both or neither; the figures
+     * owned, sm_job_template_made_to_json's object) */
     char checked_background[PATH_MAX], checked_distance[PATH_MAX];
+    char checked_template[PATH_MAX];
+    json_t *checked_template_made;
     char checked_key[SMD_JOB_KEY_LEN + 1];
 } smd_job_file;
 

@@ -23,7 +23,7 @@ FUZZ_LDFLAGS := -fopenmp -fsanitize=fuzzer,address,undefined
 FUZZ_LIB_SRCS := $(CORE_SRCS) $(PROTO_SRCS) client/sse.c tests/fuzz/fuzz_input.c \
   server/http/smd_negotiate.c server/http/smd_cors.c server/base/smd_util.c
 FUZZ_LIB_SRCS += server/api/smd_parts.c tests/fuzz/fuzz_parts_check.c server/worker/smd_job_file.c \
-  proto/job/sm_job_batch_list.c
+  proto/job/sm_job_batch_list.c proto/job/sm_job_template_json.c
 FUZZ_LIB_SRCS += server/api/smd_batch_request.c
 FUZZ_TARGETS := $(patsubst tests/fuzz/%.c,%,$(wildcard tests/fuzz/fuzz_*.c))
 FUZZ_TARGETS := $(filter-out fuzz_input fuzz_parts_check,$(FUZZ_TARGETS))

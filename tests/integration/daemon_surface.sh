@@ -118,18 +118,8 @@ fi
 # with the kept files (reused), without them (built) and with a key that
 # is not the job's (built): the result files are the same to the byte,
 # and the daemon's too
-# (job.json through sed, not jq: the key covers the params as written)
-worker_copy() { # NAME SED-SCRIPT: runs the worker on a copy whose job.json went through sed
-    local dir=$WORK/again-$1
-    rm -rf "$dir"
-    mkdir -p "$dir"
-    cp -r "$JOB/inputs" "$dir/"
-    sed "$2" "$JOB/job.json" >"$dir/job.json"
-    OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 "$BIN/shapematch-worker" "$dir" 3>/dev/null \
-        2>"$dir/worker.log"
-}
-worker_copy kept '' && worker_copy none 's/"checked"/"unchecked"/' &&
-    worker_copy stale 's/"key": "[0-9a-f]*"/"key": "0000000000000000"/'
+worker_copy "$JOB" kept '' && worker_copy "$JOB" none 's/"checked"/"unchecked"/' &&
+    worker_copy "$JOB" stale 's/"key": "[0-9a-f]*"/"key": "0000000000000000"/'
 same=1
 for f in result.meshb displacement.solb result.mesh displacement.sol; do
     for v in kept none stale; do
@@ -145,7 +135,7 @@ else
         "same $same; $(tail -2 "$WORK"/again-*/worker.log)"
 fi
 # a damaged kept file: the worker builds them instead (same results)
-worker_copy damaged '' >/dev/null 2>&1
+worker_copy "$JOB" damaged '' >/dev/null 2>&1
 printf 'damaged' >"$WORK/again-damaged/inputs/checked/distance.solb"
 rm -rf "$WORK/again-damaged/results"
 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 "$BIN/shapematch-worker" "$WORK/again-damaged" 3>/dev/null \

@@ -3,7 +3,7 @@
 # A template meshed from a surface through the daemon (issue 34): the
 # multipart part template_surface of POST /v1/jobs through real curl (a
 # closed 2D curve, tests/cli/template_mesh_check.py's star), meshed in the
-# upload's check child and again by the worker:
+# upload's check child, which keeps the mesh for the worker:
 #   - 201 without a clamp or a template; the job ends successful, its
 #     summary's template.meshed names nglib, 0 inverted, the default clamp
 #     in its warnings; GET results/template serves the mesh, byte for byte
@@ -58,6 +58,50 @@ code=$(hcurl -o tpl.mesh -w '%{http_code}' "$BASE/v1/jobs/$J/results/template")
     -o local 2>/dev/null >/dev/null
 [ "$code" = 200 ] && cmp -s tpl.mesh local/template.mesh
 check "GET results/template (200) is the template.mesh of shapematch run, byte for byte" test $? = 0
+# the check's mesh kept with the job and read by the worker (issue 35
+# item 5's reuse, for the template): job.json names it with its figures,
+# the worker says so, and the job run again by the worker program without
+# it (meshed again) or with a stale key makes the same result files
+JOB=$SPOOL/jobs/$J
+if jq -e '.checked.template == "inputs/checked/template.meshb" and
+          .checked.template_meshed.source == "surface"' \
+    "$JOB/job.json" >/dev/null && [ -s "$JOB/inputs/checked/template.meshb" ] &&
+    grep -q "the template meshed by the upload's check is reused (inputs/checked/template.meshb)" \
+        "$JOB/worker.log"; then
+    ok "the check's meshed template is kept in inputs/checked and reused by the worker"
+else
+    not_ok "the check's meshed template is kept and reused" \
+        "$(jq -c .checked "$JOB/job.json" 2>&1; ls "$JOB/inputs/checked" 2>&1; tail -3 "$JOB/worker.log")"
+fi
+worker_copy "$JOB" kept '' && worker_copy "$JOB" none 's/"checked"/"unchecked"/' &&
+    worker_copy "$JOB" stale 's/"key": "[0-9a-f]*"/"key": "0000000000000000"/'
+same=1
+for f in template.mesh result.mesh displacement.sol; do
+    for v in kept none stale; do
+        cmp -s "$JOB/results/$f" "$WORK/again-$v/results/$f" || same=0
+    done
+done
+if [ "$same" = 1 ] && grep -q 'template meshed by the upload.s check is reused' "$WORK/again-kept/worker.log" &&
+    ! grep -q 'is reused' "$WORK/again-none/worker.log" &&
+    ! grep -q 'is reused' "$WORK/again-stale/worker.log" &&
+    jq -e --slurpfile k "$WORK/again-kept/results/summary.json" \
+        '.template.meshed == $k[0].template.meshed' "$JOB/results/summary.json" >/dev/null; then
+    ok "results with the reused template are byte-identical to those of a template meshed again (none kept, a stale key); template.meshed the check's"
+else
+    not_ok "results with and without the reused template are byte-identical" \
+        "same $same; $(tail -2 "$WORK"/again-*/worker.log)"
+fi
+# a damaged kept mesh: the worker meshes again (the same template)
+worker_copy "$JOB" damaged-tpl '' >/dev/null 2>&1
+printf 'damaged' >"$WORK/again-damaged-tpl/inputs/checked/template.meshb"
+rm -rf "$WORK/again-damaged-tpl/results"
+OMP_NUM_THREADS=1 "$BIN/shapematch-worker" "$WORK/again-damaged-tpl" 3>/dev/null 2>"$WORK/again-damaged-tpl/worker.log"
+if cmp -s "$JOB/results/template.mesh" "$WORK/again-damaged-tpl/results/template.mesh" &&
+    grep -q "what the upload's check built is not used" "$WORK/again-damaged-tpl/worker.log"; then
+    ok "a damaged kept template: meshed again by the worker, the same template.mesh"
+else
+    not_ok "a damaged kept template is meshed again" "$(tail -3 "$WORK/again-damaged-tpl/worker.log")"
+fi
 
 code=$(hcurl -o bad.json -w '%{http_code}' -F template_surface=@open.mesh -F target_surface=@moved.mesh \
     -F "params=$P" "$BASE/v1/jobs")

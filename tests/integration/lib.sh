@@ -165,6 +165,19 @@ job_state() {
 }
 AUTH=()
 state_is() { [ "$(job_state "$1")" = "$2" ]; }
+# worker_copy JOB-DIR NAME SED-SCRIPT: the worker program run again, one
+# thread, on a copy of a job's folder ($WORK/again-NAME: its inputs/, and
+# its job.json through the sed script, not jq: the check's key covers the
+# params as written); its log in $WORK/again-NAME/worker.log
+worker_copy() {
+    local dir=$WORK/again-$2
+    rm -rf "$dir"
+    mkdir -p "$dir"
+    cp -r "$1/inputs" "$dir/"
+    sed "$3" "$1/job.json" >"$dir/job.json"
+    OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 "$BIN/shapematch-worker" "$dir" 3>/dev/null \
+        2>"$dir/worker.log"
+}
 state_in() { # ID STATE... : the state is one of these
     local s
     s=$(job_state "$1")

@@ -3,6 +3,8 @@
  * and params that are not an object are refused; reals keep their
  * shortest form (0.1, not 0.10000000000000001). */
 #include <errno.h>
+#include <limits.h>
+#include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -14,6 +16,8 @@
 #include <unistd.h>
 #include <cmocka.h>
 
+#include "job/sm_job_template.h"
+#include "sm_json.h"
 #include "worker/smd_job_file.h"
 #include "base/smd_util.h"
 
@@ -136,6 +140,8 @@ static void test_checked(void **state)
     assert_string_equal(g.checked_key, key);
     assert_string_equal(g.checked_background, "inputs/checked/background.meshb");
     assert_string_equal(g.checked_distance, "inputs/checked/distance.solb");
+    assert_string_equal(g.checked_template, "");
+    assert_null(g.checked_template_made);
     /* the worker's key of what it read back is the check's */
     assert_int_equal(smd_job_file_inputs_key(dir, &g, again), 0);
     assert_string_equal(again, key);
@@ -159,11 +165,40 @@ static void test_checked(void **state)
         "\"background\": \"../b\", \"distance\": \"d\"}}", /* leaves the folder */
         "{\"template\": \"t\", \"params\": {}, \"checked\": {\"key\": \"0000000000000000\", "
         "\"background\": \"b\"}}", /* no distance */
+        "{\"template\": \"t\", \"params\": {}, \"checked\": {\"key\": \"0000000000000000\"}}",
+        "{\"template\": \"t\", \"params\": {}, \"checked\": {\"key\": \"0000000000000000\", "
+        "\"template\": \"t\"}}", /* no figures */
+        "{\"template\": \"t\", \"params\": {}, \"checked\": {\"key\": \"0000000000000000\", "
+        "\"template\": \"t\", \"template_meshed\": 3}}",
+        "{\"template\": \"t\", \"params\": {}, \"checked\": {\"key\": \"0000000000000000\", "
+        "\"template\": \"/t\", \"template_meshed\": {}}}", /* absolute */
+        "{\"template\": \"t\", \"params\": {}, \"checked\": {\"key\": \"0000000000000000\", "
+        "\"template\": \"t\", \"template_meshed\": {}, \"other\": 1}}",
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         assert_int_equal(smd_job_file_parse(bad[i], strlen(bad[i]), &g, &err), SM_ERR_FORMAT);
         assert_string_equal(g.checked_key, "");
         assert_non_null(strstr(err.msg, "checked"));
+    }
+    /* with the meshed template and its figures too, and with them alone */
+    sm_job_template_made made = {.source = SM_TEMPLATE_IMAGE, .label = 3};
+    made.mesh.nverts = 975;
+    made.mesh.size = 0.1;
+    snprintf(f->checked_template, PATH_MAX, "inputs/checked/template.meshb");
+    f->checked_template_made = sm_job_template_made_to_json(&made);
+    assert_non_null(f->checked_template_made);
+    for (int alone = 0; alone < 2; alone++) {
+        if (alone)
+            f->checked_background[0] = f->checked_distance[0] = '\0';
+        char *text = smd_job_file_encode(f, 0);
+        assert_non_null(text);
+        assert_int_equal(smd_job_file_parse(text, strlen(text), &g, &err), SM_OK);
+        free(text);
+        assert_string_equal(g.checked_key, key);
+        assert_string_equal(g.checked_background, alone ? "" : "inputs/checked/background.meshb");
+        assert_string_equal(g.checked_template, "inputs/checked/template.meshb");
+        assert_true(json_equal(g.checked_template_made, f->checked_template_made));
+        smd_job_file_free(&g);
     }
     smd_job_file_free(f);
     free(f);
@@ -221,6 +256,62 @@ static void test_batch(void **state)
     assert_false(smd_batch_name_valid(""));
 }
 
+/* A meshed template's figures through job.json: every member back to
+ * the same bits (reals of every kind: shortest digits, integral, tiny,
+ * negative), and a member missing or of the wrong type refused by name. */
+static void test_template_made(void **state)
+{
+    (void)state;
+    sm_job_template_made m = {.source = SM_TEMPLATE_SURFACE, .label = -(INT64_C(1) << 40),
+                              .surface_facets = 1280};
+    m.mesh = (sm_template_mesh_info){.size = 0.15072970518891035, .surface_volume = 4.0,
+                                     .mesh_volume = 1e-300, .min_quality = 0.1,
+                                     .mean_quality = -0.0, .nverts = 975, .nelems = INT32_MAX,
+                                     .passes = 2, .seconds = 2.102763793998747,
+                                     .estimated_elements = INT64_MAX};
+    m.health.reoriented = 7;
+    m.health.open_by_volume = INT64_MIN;
+    m.health.lo[0] = -1.2;
+    m.health.hi[2] = 1.0 / 3.0;
+    json_t *o = sm_job_template_made_to_json(&m);
+    assert_non_null(o);
+    char *text = sm_json_dumps(o, 0);
+    json_decref(o);
+    assert_non_null(text);
+    json_error_t jerr;
+    json_t *back = json_loads(text, 0, &jerr);
+    free(text);
+    assert_non_null(back);
+    sm_job_template_made r;
+    memset(&r, 0xff, sizeof r);
+    sm_error err;
+    assert_int_equal(sm_job_template_made_from_json(back, &r, &err), SM_OK);
+    assert_int_equal(r.source, m.source);
+    assert_int_equal(r.label, m.label);
+    assert_int_equal(r.surface_facets, m.surface_facets);
+    /* field by field: the struct has padding */
+    assert_memory_equal(&r.mesh.size, &m.mesh.size, 5 * sizeof(double));
+    assert_int_equal(r.mesh.nverts, m.mesh.nverts);
+    assert_int_equal(r.mesh.nelems, m.mesh.nelems);
+    assert_int_equal(r.mesh.passes, m.mesh.passes);
+    assert_memory_equal(&r.mesh.seconds, &m.mesh.seconds, sizeof(double));
+    assert_true(r.mesh.estimated_elements == m.mesh.estimated_elements);
+    assert_true(signbit(r.mesh.mean_quality));
+    assert_memory_equal(&r.health, &m.health, sizeof m.health);
+    /* refusals name the member */
+    json_object_set_new(back, "mesh.nverts", json_integer(INT64_C(1) << 40));
+    assert_int_equal(sm_job_template_made_from_json(back, &r, &err), SM_ERR_FORMAT);
+    assert_non_null(strstr(err.msg, "mesh.nverts"));
+    json_object_set_new(back, "mesh.nverts", json_integer(975));
+    json_object_del(back, "health.hi");
+    assert_int_equal(sm_job_template_made_from_json(back, &r, &err), SM_ERR_FORMAT);
+    assert_non_null(strstr(err.msg, "health.hi"));
+    json_object_set_new(back, "source", json_string("given"));
+    assert_int_equal(sm_job_template_made_from_json(back, &r, &err), SM_ERR_FORMAT);
+    assert_non_null(strstr(err.msg, "source"));
+    json_decref(back);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -228,6 +319,7 @@ int main(void)
         cmocka_unit_test(test_refused),
         cmocka_unit_test(test_batch),
         cmocka_unit_test(test_checked),
+        cmocka_unit_test(test_template_made),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

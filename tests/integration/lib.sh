@@ -178,6 +178,23 @@ worker_copy() {
     OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 "$BIN/shapematch-worker" "$dir" 3>/dev/null \
         2>"$dir/worker.log"
 }
+# worker_again JOB-DIR FILE...: the worker run again on three copies of a
+# job whose upload check kept what it built (again-kept: as it is;
+# again-none: without job.json's "checked"; again-stale: a key that is not
+# the job's); 0 when each results/FILE of all three is the job's, byte for
+# byte
+worker_again() {
+    local job=$1 f v
+    shift
+    worker_copy "$job" kept ''
+    worker_copy "$job" none 's/"checked"/"unchecked"/'
+    worker_copy "$job" stale 's/"key": "[0-9a-f]*"/"key": "0000000000000000"/'
+    for f; do
+        for v in kept none stale; do
+            cmp -s "$job/results/$f" "$WORK/again-$v/results/$f" || return 1
+        done
+    done
+}
 state_in() { # ID STATE... : the state is one of these
     local s
     s=$(job_state "$1")

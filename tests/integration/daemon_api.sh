@@ -361,7 +361,6 @@ fi
 poll 20 state_is "$E" running
 kill -TERM "$DPID"
 # the signal is handled asynchronously: wait until it has been (bounded)
-readyz_is() { [ "$(curl -sS -o /dev/null -w '%{http_code}' "$BASE/readyz")" = "$1" ]; }
 poll 5 readyz_is 503
 probe "shutting down" GET /readyz 503 /readyz ''
 probe "shutting down" POST /v1/jobs 503 /v1/jobs '' "${AUTH[@]}" "${F[@]}" -F "params=$(quick_params 5)"

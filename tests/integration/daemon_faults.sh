@@ -178,6 +178,9 @@ start_daemon grace --workers 1 --shutdown-grace 60 --worker "$WORK/slow-worker.s
 G=$(submit "$DISK" "$BOX" "$BOXSOL" "$(quick_params 400)")
 poll 20 state_is "$G" running
 kill -TERM "$DPID"
+# the signal is handled a moment later (it once answered /readyz 200
+# first): wait until the daemon says it drains, then ask the rest
+poll 5 readyz_is 503
 ready=$(curl -sS -o "$WORK/ready.json" -w '%{http_code}' "$BASE/readyz")
 post=$(curl -sS -o "$WORK/post.json" -D "$WORK/post.hdr" -w '%{http_code}' -F "template=@$DISK" \
     -F "target_mesh=@$BOX" -F "target_sol=@$BOXSOL" -F "params=$(quick_params 5)" "$BASE/v1/jobs")

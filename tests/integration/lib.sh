@@ -165,6 +165,9 @@ job_state() {
 }
 AUTH=()
 state_is() { [ "$(job_state "$1")" = "$2" ]; }
+# readyz_is CODE: the daemon's /readyz answers CODE (a drain after SIGTERM
+# is seen a moment after the signal: poll it)
+readyz_is() { [ "$(curl -sS -o /dev/null -w '%{http_code}' "$BASE/readyz")" = "$1" ]; }
 # worker_copy JOB-DIR NAME SED-SCRIPT: the worker program run again, one
 # thread, on a copy of a job's folder ($WORK/again-NAME: its inputs/, and
 # its job.json through the sed script, not jq: the check's key covers the

@@ -71,6 +71,24 @@ void *sm__alloc_huge(size_t bytes)
     return p;
 }
 
+void sm__discard(void *p, size_t bytes)
+{
+    long page = sysconf(_SC_PAGESIZE);
+    if (!p || page <= 0)
+        return;
+    uintptr_t mask = (uintptr_t)page - 1;
+    uintptr_t start = ((uintptr_t)p + mask) & ~mask, end = ((uintptr_t)p + bytes) & ~mask;
+    if (end <= start)
+        return;
+#ifdef MADV_HUGEPAGE
+    uintptr_t hstart = (start + SM_HUGE_PAGE_BYTES - 1) / SM_HUGE_PAGE_BYTES * SM_HUGE_PAGE_BYTES;
+    uintptr_t hend = end / SM_HUGE_PAGE_BYTES * SM_HUGE_PAGE_BYTES;
+    if (hend > hstart)
+        (void)madvise((void *)hstart, hend - hstart, MADV_HUGEPAGE);
+#endif
+    (void)madvise((void *)start, end - start, MADV_DONTNEED);
+}
+
 void *sm__alloc_large(size_t bytes)
 {
 #if !defined(SM_ALLOC_ASAN) && defined(MAP_ANONYMOUS)

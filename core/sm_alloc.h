@@ -32,6 +32,14 @@
  * bytes >= SM_HUGE_PAGE_BYTES.  NULL when out of memory. */
 void *sm__alloc_huge(size_t bytes);
 
+/* For an array about to be overwritten whole: its pages inside
+ * [p, p + bytes) are given back (MADV_DONTNEED), so the writes fault in
+ * new zeroed pages instead of copying old ones (the pages a forked
+ * process shares copy-on-write with its parent), in huge pages where
+ * transparent huge pages are enabled for madvise'd memory.  The contents
+ * are undefined until written.  A hint: without it, the writes copy. */
+void sm__discard(void *p, size_t bytes);
+
 /* Memory mapped directly from SM_HUGE_PAGE_BYTES on, aligned to a huge
  * page and advised as huge pages (fewer TLB misses, far fewer page
  * faults when first written), and unmapped when freed, so that scratch

@@ -22,6 +22,7 @@
  * refactorizes numerically, or rebuilds the AMG hierarchy on the same
  * arrays, which hypre reads in place (sm_solver_amg.c). */
 #include "shapematch/sm_clock.h"
+#include "sm_alloc.h"
 #include "sm_elasticity_internal.h"
 #include "sm_element.h"
 
@@ -429,6 +430,7 @@ sm_status sm__elasticity_new(const sm_mesh *m, const uint8_t *clamped,
     el->nelems = m->nelems;
     el->elems = m->elems;
     el->alpha = opts->alpha;
+    el->owner = getpid();
     sm__lame(opts->young, opts->poisson, &el->lambda, &el->mu);
 
     /* auto in 3D from SM_SOLVER_AUTO_MODEL_MIN_TETS: the cost model
@@ -557,11 +559,35 @@ static sm_status amg_setup(sm_elasticity *el, const double *coords, sm_error *er
     return sm__amg_setup(el->amg, el->amg_coords, err);
 }
 
+/* In a process forked after the operator was set up (a batch's target,
+ * proto/job/sm_job_batch.c), the matrix's and the factor's values are the
+ * parent's pages, shared copy-on-write: rewriting them in place copies
+ * each 4 KiB page on its first write, and with the run's other threads
+ * on the other cores each copy interrupts them to flush their TLBs.  A
+ * refactorization overwrites every value (CHOLMOD's supernodal factor
+ * clears each supernode, then assembles it), so this process's first one
+ * gives those pages back and writes into new ones instead (the 3D
+ * example: 17k copies of a batch's target's first refactorization gone,
+ * its new pages huge ones, tests/unit/test_elasticity.c). */
+static void unshare_values(sm_elasticity *el)
+{
+    pid_t self = getpid();
+    if (el->owner == self)
+        return;
+    el->owner = self;
+    sm__discard(el->values, (size_t)el->rowptr[el->nfree] * sizeof(double));
+    sm__discard(el->cpl_values, (size_t)el->cpl_rowptr[el->nfree] * sizeof(double));
+    const cholmod_factor *L = el->L;
+    if (el->solver == SM_SOLVER_CHOLMOD && L && L->is_super && L->xtype == CHOLMOD_REAL && L->x)
+        sm__discard(L->x, L->xsize * sizeof(double));
+}
+
 sm_status sm__elasticity_factorize(sm_elasticity *el, const double *coords, sm_error *err)
 {
     if (!el || !coords)
         return sm_error_set(err, SM_ERR_INVALID, "elasticity: NULL argument to factorize");
     el->factorized = 0;
+    unshare_values(el);
     double t0 = sm_clock_seconds();
     memset(el->values, 0, (size_t)el->rowptr[el->nfree] * sizeof(double));
     memset(el->cpl_values, 0, (size_t)el->cpl_rowptr[el->nfree] * sizeof(double));

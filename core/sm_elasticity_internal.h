@@ -5,6 +5,7 @@
 #define SM_ELASTICITY_INTERNAL_H
 
 #include <stdint.h>
+#include <sys/types.h>
 
 #include <cholmod.h>
 
@@ -53,6 +54,9 @@ struct sm_elasticity {
     cholmod_dense *X, *Y, *E; /* cholmod_solve2 workspaces, reused */
     double *rhs;            /* nfree */
     int factorized;
+
+    pid_t owner;            /* the process whose memory values and L's
+                             * values are (sm__elasticity_factorize) */
 
     double lnz, flops;      /* from the symbolic analysis */
     sm_solver_estimate estimate; /* auto's cost model (sm_elasticity.h) */

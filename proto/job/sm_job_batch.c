@@ -4,6 +4,9 @@
 
 #include <errno.h>
 #include <jansson.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 #include <math.h>
 #include <omp.h>
 #include <signal.h>
@@ -513,6 +516,15 @@ sm_status sm_job_batch_run(const sm_batch_list *l, const sm_batch_opts *o, const
         ts[i].warm.dir = bt.warm_dir;
     }
     double t1 = sm_clock_seconds();
+#ifdef __GLIBC__
+    /* the heap's free pages given back before the first fork: a child's
+     * allocations would reuse them, and its first write to each would
+     * copy the parent's page (a copy-on-write fault, which interrupts
+     * the child's other threads to flush their TLBs) where a fresh page
+     * needs neither (3D example: 4k of a target's 23k copies; the
+     * factor's are sm_elasticity.c's unshare_values) */
+    malloc_trim(0);
+#endif
     if (st == SM_OK)
         st = run_targets(&bt, l, o, dirs, ts, err);
     out->targets_seconds = sm_clock_seconds() - t1;

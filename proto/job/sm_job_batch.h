@@ -7,7 +7,10 @@
  * topology, the clamp set, the elastic operator and its first
  * factorization or AMG hierarchy) once; each target then runs in a child
  * process forked from it, which inherits all of that copy-on-write
- * (shared read-only until the run moves its own copy), reads its target,
+ * (shared read-only until the run moves its own copy; what it overwrites
+ * whole it takes fresh: the parent trims its heap before forking, the
+ * first refactorization gives the shared values back, sm_elasticity.c),
+ * reads its target,
  * runs sm_job_run_exec and writes the result set of `shapematch run`
  * into DIR/targets/NAME/.  The computation is the one of `shapematch
  * run` (the same template side, built by the same call on the same

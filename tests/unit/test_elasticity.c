@@ -2,7 +2,7 @@
  * (affine fields are reproduced exactly), L2 convergence of order 2 on a
  * manufactured solution, symmetry and rigid-motion kernel of the
  * assembled matrix, a brute-force dense comparison of the elimination,
- * and error handling.  Meshes of the unit square/cube come from Gmsh at
+ * refactorization in a forked process, and error handling.  Meshes of the unit square/cube come from Gmsh at
  * test time. */
 #include <math.h>
 #include <setjmp.h>
@@ -12,6 +12,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <omp.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <cmocka.h>
 
 #include "sm_elasticity.h"
@@ -956,6 +959,82 @@ static void test_factor_kinds(void **state)
     sm_mesh_free(m);
 }
 
+/* A process forked after the factorization (a batch's target) gives the
+ * shared pages of the values back before refactorizing
+ * (unshare_values): its solution on moved vertices equals, bit for bit,
+ * the parent's own refactorization on them, and the parent's factor is
+ * untouched by the child's (its solution before and after the child ran
+ * identical). */
+static void test_forked_refactor(void **state)
+{
+    (void)state;
+    sm_mesh *m = unit_mesh(3, 0.15);
+    size_t n = (size_t)m->nverts * 3;
+    double *load = malloc(n * sizeof *load), *moved = malloc(n * sizeof *moved);
+    double *u0 = malloc(n * sizeof *u0), *u = malloc(n * sizeof *u);
+    double *uc = malloc(n * sizeof *uc);
+    assert_true(load && moved && u0 && u && uc);
+    unsigned st = 5;
+    for (size_t i = 0; i < n; i++) {
+        load[i] = frand(&st) - 0.5;
+        moved[i] = m->coords[i] + 0.01 * (frand(&st) - 0.5);
+    }
+    sm_elasticity *el = NULL;
+    sm_error err;
+    assert_int_equal(sm__elasticity_new(m, m->on_boundary,
+                                       &(sm_elasticity_opts){.young = YOUNG, .poisson = POISSON,
+                                                              .alpha = 0, .factor = SM_FACTOR_SUPERNODAL},
+                                       &el, &err), SM_OK);
+    assert_int_equal(sm__elasticity_factorize(el, m->coords, &err), SM_OK);
+    assert_int_equal(sm__elasticity_solve(el, load, NULL, u0, &err), SM_OK);
+    sm_elasticity_info info;
+    sm__elasticity_get_info(el, &info);
+    assert_int_equal(info.supernodal, 1);
+    assert_true(info.nnz_factor * sizeof(double) > 16 * 4096.0); /* whole pages to give back */
+    int fd[2];
+    assert_int_equal(pipe(fd), 0);
+    fflush(NULL);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        /* no OpenMP team here: the earlier tests' threads are the
+         * parent's (a batch's parent starts none, sm_job_threads_single) */
+        omp_set_max_active_levels(0);
+        close(fd[0]);
+        int ok = sm__elasticity_factorize(el, moved, &err) == SM_OK &&
+                 sm__elasticity_solve(el, load, NULL, uc, &err) == SM_OK;
+        size_t bytes = n * sizeof *uc;
+        ok = ok && write(fd[1], uc, bytes) == (ssize_t)bytes;
+        _exit(ok ? 0 : 1);
+    }
+    close(fd[1]);
+    size_t got = 0, bytes = n * sizeof *uc;
+    while (got < bytes) {
+        ssize_t r = read(fd[0], (char *)uc + got, bytes - got);
+        if (r <= 0)
+            break;
+        got += (size_t)r;
+    }
+    close(fd[0]);
+    int wst = 0;
+    assert_int_equal(waitpid(pid, &wst, 0), pid);
+    assert_true(WIFEXITED(wst) && WEXITSTATUS(wst) == 0);
+    assert_int_equal(got, bytes);
+    assert_int_equal(sm__elasticity_solve(el, load, NULL, u, &err), SM_OK);
+    assert_memory_equal(u, u0, bytes);
+    assert_int_equal(sm__elasticity_factorize(el, moved, &err), SM_OK);
+    assert_int_equal(sm__elasticity_solve(el, load, NULL, u, &err), SM_OK);
+    assert_memory_equal(u, uc, bytes);
+    assert_memory_not_equal(u, u0, bytes);
+    sm__elasticity_free(el);
+    free(load);
+    free(moved);
+    free(u0);
+    free(u);
+    free(uc);
+    sm_mesh_free(m);
+}
+
 /* ---------------------------------------------------------------------- */
 /* (d) errors and edge cases                                               */
 /* ---------------------------------------------------------------------- */
@@ -1137,6 +1216,7 @@ int main(void)
         cmocka_unit_test(test_rigid_motions),
         cmocka_unit_test(test_dense_comparison),
         cmocka_unit_test(test_factor_kinds),
+        cmocka_unit_test(test_forked_refactor),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_unused_vertex),
     };

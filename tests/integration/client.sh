@@ -409,9 +409,17 @@ if start_daemon restart --workers 1 --worker-threads 1; then
     RID=$(head -1 "$WORK/rsub.out")
     timeout $((90 * SLOW)) "$SM" watch --server "$RBASE" --json "$RID" >"$WORK/rw.out" 2>"$WORK/rw.log" &
     RW=$!
-    progressed() { [ "$(grep -c '"type":"progress"' "$WORK/rw.out")" -ge 20 ]; }
-    if poll 30 progressed && state_is "$RID" running; then
-        ok "the watched job runs (20 progress events seen)"
+    # its worker paused once progress is seen, so that the daemon is
+    # killed while the job runs (the 3000 iterations once took 1.3 s in
+    # all, and the job had ended before the kill); the kill takes the
+    # worker with it (PR_SET_PDEATHSIG), paused or not
+    progressed() { grep -q '"type":"progress"' "$WORK/rw.out"; }
+    for ((i = 0; i < 3000 * SLOW; i++)); do # every 10 ms: the job is short
+        progressed && break
+        sleep 0.01
+    done
+    if progressed && kill -STOP "$(worker_pid "$RID")" 2>/dev/null && state_is "$RID" running; then
+        ok "the watched job runs (progress seen; its worker paused until the kill)"
     else
         not_ok "the watched job runs" "$(job_state "$RID")" "$(tail -3 "$WORK/rw.log")"
     fi

@@ -284,6 +284,15 @@ typedef struct build_ctx {
     int moments;  /* the winding number's far field too (sm__bvh_build) */
 } build_ctx;
 
+/* An empty box to grow (the axes past dim at 0). */
+static void box_empty(sm_bvh_node *nd, int dim)
+{
+    for (int k = 0; k < 3; k++) {
+        nd->lo[k] = k < dim ? DBL_MAX : 0;
+        nd->hi[k] = k < dim ? -DBL_MAX : 0;
+    }
+}
+
 /* A node's box from its facets' corners (a leaf of a tree without the
  * moments: the boxes above are their children's union, the same
  * numbers, as a minimum and a maximum do not round). */
@@ -291,10 +300,7 @@ static void facets_box(build_ctx *b, sm_bvh_node *nd)
 {
     const sm_surface *s = b->t->s;
     int dim = s->dim;
-    for (int k = 0; k < 3; k++) {
-        nd->lo[k] = k < dim ? DBL_MAX : 0;
-        nd->hi[k] = k < dim ? -DBL_MAX : 0;
-    }
+    box_empty(nd, dim);
     for (int32_t i = nd->first; i < nd->first + nd->count; i++) {
         const int32_t *v = s->facets + (size_t)b->t->order[i] * dim;
         for (int j = 0; j < dim; j++)
@@ -310,10 +316,7 @@ static void node_box(build_ctx *b, sm_bvh_node *nd)
 {
     const sm_surface *s = b->t->s;
     int dim = s->dim;
-    for (int k = 0; k < 3; k++) {
-        nd->lo[k] = k < dim ? DBL_MAX : 0;
-        nd->hi[k] = k < dim ? -DBL_MAX : 0;
-    }
+    box_empty(nd, dim);
     double wsum = 0, csum[3] = {0, 0, 0};
     memset(nd->n, 0, sizeof nd->n);
     for (int32_t i = nd->first; i < nd->first + nd->count; i++) {
